@@ -1,0 +1,50 @@
+"""Parameter declarations: every physical parameter has a name, unit, default and source."""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+__all__ = ["Param", "param_table"]
+
+
+@dataclass(frozen=True, slots=True)
+class Param:
+    """Declaration of one physical parameter of a component.
+
+    Attributes
+    ----------
+    name
+        Identifier used in rig files and overrides (``"cc"``, ``"Dv"``).
+    unit
+        Canonical SI unit (a key of :data:`sim.units.UNITS`).
+    default
+        Default value [unit].
+    source
+        Where the default comes from (paper and equation/table, or "chosen: why").
+    description
+        One line for humans.
+    lower, upper
+        Physical bounds [unit]; a value outside raises :class:`~sim.errors.ParameterError`.
+    lower_inclusive
+        Whether ``lower`` itself is allowed (a clearance of 0 is not, a leakage of 0 is).
+    """
+
+    name: str
+    unit: str
+    default: float
+    source: str
+    description: str
+    lower: float | None = 0.0
+    upper: float | None = None
+    lower_inclusive: bool = False
+
+
+def param_table(params: Iterable[Param]) -> dict[str, Param]:
+    """Index declarations by name, refusing duplicates."""
+    out: dict[str, Param] = {}
+    for p in params:
+        if p.name in out:
+            raise ValueError(f"duplicate parameter {p.name!r}")
+        out[p.name] = p
+    return out

@@ -1,0 +1,222 @@
+"""Rig description files: validation and the in-memory :class:`RigSpec`.
+
+A rig file (YAML or JSON) names the circuit, the fluid and every component with every
+parameter as ``{value, unit, source}``.  Validation is strict, because a rig file is the
+engineer's statement of the machine: a missing parameter, an unknown one, a unit of the
+wrong dimension or a value outside the physical bounds is an error that names the field
+(:class:`~sim.errors.RigFileError`).  Units are converted to SI on reading.
+
+Version 1 knows one circuit, ``pump-valve-cylinder`` (paper 002, Figure 1): a pump with
+a relief valve feeds a 4/2 valve through a supply line; hoses join ports A and B to a
+double-acting cylinder, with a check valve in the A line; throttle valves H (across the
+piston) and I (valve P→T) stand for worn clearances.  Each role takes one component.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from types import ModuleType
+from typing import Any
+
+from sim.components import (
+    check_valve,
+    cylinder,
+    directional_valve,
+    fixed_drop,
+    hose,
+    load,
+    pump,
+    relief_valve,
+    throttle,
+)
+from sim.errors import ParameterError, RigFileError
+from sim.fluid import FLUID_PARAMETERS
+from sim.params import Param
+from sim.units import to_si
+
+__all__ = ["CIRCUIT_ROLES", "COMPONENT_TYPES", "SCHEMA", "RigSpec", "validate_rig_document"]
+
+SCHEMA = "hydrodiag.rig/1"
+CIRCUIT = "pump-valve-cylinder"
+
+#: component type name → module declaring ``PARAMETERS``
+COMPONENT_TYPES: dict[str, ModuleType] = {
+    "fixed_displacement_pump": pump,
+    "relief_valve": relief_valve,
+    "fixed_drop_line": fixed_drop,
+    "directional_valve_4_2": directional_valve,
+    "hose": hose,
+    "check_valve": check_valve,
+    "double_acting_cylinder": cylinder,
+    "throttle_valve": throttle,
+}
+
+#: role in the circuit → required component type
+CIRCUIT_ROLES: dict[str, str] = {
+    "pump": "fixed_displacement_pump",
+    "relief": "relief_valve",
+    "supply_line": "fixed_drop_line",
+    "valve": "directional_valve_4_2",
+    "hose_A": "hose",
+    "hose_B": "hose",
+    "check": "check_valve",
+    "cylinder": "double_acting_cylinder",
+    "throttle_H": "throttle_valve",
+    "throttle_I": "throttle_valve",
+}
+
+#: operating-condition defaults a rig file may state
+CONDITION_PARAMETERS: tuple[Param, ...] = (
+    *load.PARAMETERS,
+    Param("oil_temperature", "degC", 40.0, "ISO VG 46 reference temperature",
+          "oil temperature", lower=-30.0, upper=150.0, lower_inclusive=True),
+)
+
+
+@dataclass
+class Quantity:
+    """A parameter value in SI with the unit it was written in and its source."""
+
+    value: float
+    unit: str
+    source: str = ""
+
+
+@dataclass
+class RigSpec:
+    """A validated rig description (all values SI).
+
+    Attributes
+    ----------
+    name
+        Short identifier (``paper002-reference``).
+    title, description
+        Free text.
+    fluid
+        Fluid parameters by name (see :data:`sim.fluid.FLUID_PARAMETERS`).
+    components
+        Role → (type, parameter name → :class:`Quantity`).
+    condition
+        Default operating condition (load force [N], back-pressure [Pa], oil temperature [°C]).
+    document
+        The document as given (kept for storage and round trips).
+    """
+
+    name: str
+    title: str
+    description: str
+    fluid: dict[str, Quantity]
+    components: dict[str, tuple[str, dict[str, Quantity]]]
+    condition: dict[str, Quantity]
+    document: dict[str, Any] = field(repr=False, default_factory=dict)
+
+    def values(self) -> dict[str, float]:
+        """All component parameters as ``role.name → SI value``."""
+        out = {f"{role}.{k}": q.value for role, (_, ps) in self.components.items()
+               for k, q in ps.items()}
+        return out
+
+    def to_document(self) -> dict[str, Any]:
+        """The rig document (as given, validated)."""
+        return dict(self.document)
+
+
+def _quantity(raw: Any, decl: Param, field_path: str) -> Quantity:
+    if not isinstance(raw, Mapping):
+        raise RigFileError("expected a mapping {value, unit, source}", field=field_path)
+    if "value" not in raw:
+        raise RigFileError("missing 'value'", field=f"{field_path}.value")
+    if "unit" not in raw:
+        raise RigFileError(f"missing 'unit' (expected {decl.unit})", field=f"{field_path}.unit")
+    value = raw["value"]
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise RigFileError(f"value must be a number, got {value!r}", field=f"{field_path}.value")
+    if not math.isfinite(float(value)):
+        raise RigFileError("value must be finite", field=f"{field_path}.value")
+    try:
+        si = to_si(float(value), str(raw["unit"]), decl.unit, field=f"{field_path}.unit")
+    except ParameterError as exc:
+        raise RigFileError(exc.message, field=exc.field) from None
+    check_bounds(si, decl, field_path)
+    return Quantity(si, str(raw["unit"]), str(raw.get("source", "")))
+
+
+def check_bounds(value: float, decl: Param, field_path: str) -> None:
+    """Raise :class:`RigFileError` if ``value`` [SI] is outside ``decl``'s bounds."""
+    lo, hi = decl.lower, decl.upper
+    if lo is not None and (value < lo or (value == lo and not decl.lower_inclusive)):
+        rel = "≥" if decl.lower_inclusive else ">"
+        raise RigFileError(f"{decl.description} must be {rel} {lo} {decl.unit}, got {value:g}",
+                           field=field_path)
+    if hi is not None and value > hi:
+        raise RigFileError(f"{decl.description} must be ≤ {hi} {decl.unit}, got {value:g}",
+                           field=field_path)
+
+
+def _parameter_block(raw: Any, decls: tuple[Param, ...], path: str, *, partial: bool
+                     ) -> dict[str, Quantity]:
+    if not isinstance(raw, Mapping):
+        raise RigFileError("expected a mapping of parameters", field=path)
+    known = {d.name: d for d in decls}
+    for key in raw:
+        if key not in known:
+            raise RigFileError(f"unknown parameter {key!r} (known: {', '.join(known)})",
+                               field=f"{path}.{key}")
+    out: dict[str, Quantity] = {}
+    for d in decls:
+        if d.name not in raw:
+            if partial:
+                continue
+            raise RigFileError(f"missing parameter {d.name!r} ({d.description}, {d.unit})",
+                               field=f"{path}.{d.name}")
+        out[d.name] = _quantity(raw[d.name], d, f"{path}.{d.name}")
+    return out
+
+
+def validate_rig_document(doc: Mapping[str, Any]) -> RigSpec:
+    """Validate a rig document and convert it to SI.
+
+    Raises
+    ------
+    RigFileError
+        Naming the field and the reason.
+    """
+    if not isinstance(doc, Mapping):
+        raise RigFileError("a rig document must be a mapping", field="")
+    if doc.get("schema") != SCHEMA:
+        raise RigFileError(f"expected schema {SCHEMA!r}, got {doc.get('schema')!r}",
+                           field="schema")
+    name = doc.get("name")
+    if not isinstance(name, str) or not name.strip():
+        raise RigFileError("a non-empty name is required", field="name")
+    if doc.get("circuit", CIRCUIT) != CIRCUIT:
+        raise RigFileError(f"unknown circuit {doc.get('circuit')!r} (known: {CIRCUIT})",
+                           field="circuit")
+    fluid = _parameter_block(doc.get("fluid", {}), FLUID_PARAMETERS, "fluid", partial=False)
+    comps_raw = doc.get("components")
+    if not isinstance(comps_raw, Mapping):
+        raise RigFileError("a mapping of components is required", field="components")
+    for role in comps_raw:
+        if role not in CIRCUIT_ROLES:
+            raise RigFileError(f"unknown role {role!r} in circuit {CIRCUIT} "
+                               f"(roles: {', '.join(CIRCUIT_ROLES)})", field=f"components.{role}")
+    components: dict[str, tuple[str, dict[str, Quantity]]] = {}
+    for role, ctype in CIRCUIT_ROLES.items():
+        path = f"components.{role}"
+        raw = comps_raw.get(role)
+        if raw is None:
+            raise RigFileError(f"missing component for role {role!r} ({ctype})", field=path)
+        if not isinstance(raw, Mapping):
+            raise RigFileError("expected a mapping {type, parameters}", field=path)
+        if raw.get("type") != ctype:
+            raise RigFileError(f"role {role!r} takes a {ctype!r}, got {raw.get('type')!r}",
+                               field=f"{path}.type")
+        params = _parameter_block(raw.get("parameters", {}), COMPONENT_TYPES[ctype].PARAMETERS,
+                                  f"{path}.parameters", partial=False)
+        components[role] = (ctype, params)
+    condition = _parameter_block(doc.get("condition", {}), CONDITION_PARAMETERS, "condition",
+                                 partial=True)
+    return RigSpec(name.strip(), str(doc.get("title", "")), str(doc.get("description", "")),
+                   fluid, components, condition, document=dict(doc))

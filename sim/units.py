@@ -1,0 +1,87 @@
+"""Units accepted in rig files and condition records, and their conversion to SI.
+
+Inside hydrodiag every quantity is SI.  A rig file may state a parameter in any unit of
+the same dimension listed here; :func:`to_si` converts it and refuses a unit of another
+dimension with a clear message.  The table is deliberately small: it covers the units a
+fluid-power engineer writes on a data sheet (bar, L/min, rpm, cm³/rev, µm, cSt, °C).
+"""
+
+from __future__ import annotations
+
+import math
+
+from sim.errors import ParameterError
+
+__all__ = ["UNITS", "from_si", "to_si"]
+
+_RPM = 2.0 * math.pi / 60.0
+
+#: canonical SI unit -> {accepted spelling: factor to the canonical unit}
+UNITS: dict[str, dict[str, float]] = {
+    "1": {"1": 1.0, "-": 1.0, "%": 0.01},
+    "m": {"m": 1.0, "mm": 1e-3, "um": 1e-6, "µm": 1e-6, "cm": 1e-2},
+    "m^2": {"m^2": 1.0, "mm^2": 1e-6, "cm^2": 1e-4},
+    "m^3": {"m^3": 1.0, "L": 1e-3, "l": 1e-3, "cm^3": 1e-6, "mm^3": 1e-9},
+    "s": {"s": 1.0, "ms": 1e-3, "min": 60.0, "h": 3600.0},
+    "Pa": {"Pa": 1.0, "kPa": 1e3, "bar": 1e5, "MPa": 1e6},
+    "m^3/s": {"m^3/s": 1.0, "L/min": 1e-3 / 60.0, "l/min": 1e-3 / 60.0, "cm^3/s": 1e-6},
+    "m^3/rad": {"m^3/rad": 1.0, "m^3/rev": 1.0 / (2 * math.pi), "cm^3/rev": 1e-6 / (2 * math.pi)},
+    "rad/s": {"rad/s": 1.0, "rpm": _RPM, "rev/s": 2.0 * math.pi, "Hz": 2.0 * math.pi},
+    "m/s": {"m/s": 1.0, "mm/s": 1e-3},
+    "N": {"N": 1.0, "kN": 1e3},
+    "kg": {"kg": 1.0, "g": 1e-3},
+    "N*s/m": {"N*s/m": 1.0, "N s/m": 1.0},
+    "Pa*s": {"Pa*s": 1.0, "Pa s": 1.0, "cP": 1e-3, "mPa*s": 1e-3},
+    "m^2/s": {"m^2/s": 1.0, "cSt": 1e-6, "mm^2/s": 1e-6},
+    "kg/m^3": {"kg/m^3": 1.0},
+    "Pa*s/m^3": {"Pa*s/m^3": 1.0, "bar*min/L": 1e5 * 60.0 / 1e-3},
+    "m^3/(s*Pa)": {"m^3/(s*Pa)": 1.0},
+    "m^3/Pa": {"m^3/Pa": 1.0, "m^5/N": 1.0},
+    "m^3/(s*Pa^0.5)": {"m^3/(s*Pa^0.5)": 1.0},
+    "1/K": {"1/K": 1.0},
+    "degC": {"degC": 1.0, "°C": 1.0, "C": 1.0},
+    "N/m": {"N/m": 1.0, "N/mm": 1e3},
+    "m/s^2": {"m/s^2": 1.0},
+}
+
+
+def to_si(value: float, unit: str, expected: str, *, field: str | None = None) -> float:
+    """Convert ``value`` given in ``unit`` to the canonical SI unit ``expected``.
+
+    Parameters
+    ----------
+    value
+        Number in the stated unit.
+    unit
+        The unit as written (``"bar"``, ``"L/min"``, ``"µm"`` ...).
+    expected
+        Canonical unit of the quantity (a key of :data:`UNITS`).
+    field
+        Name of the field, for the error message.
+
+    Returns
+    -------
+    float
+        The value in ``expected`` [SI].
+
+    Raises
+    ------
+    ParameterError
+        If ``unit`` is not a spelling of a unit of the same dimension as ``expected``.
+    """
+    table = UNITS.get(expected)
+    if table is None:
+        raise ParameterError(f"unknown canonical unit {expected!r}", field=field)
+    factor = table.get(unit.strip())
+    if factor is None:
+        accepted = ", ".join(sorted(table))
+        raise ParameterError(
+            f"unit {unit!r} is not a unit of this quantity (expected {expected}; accepted: {accepted})",
+            field=field,
+        )
+    return float(value) * factor
+
+
+def from_si(value: float, unit: str, canonical: str) -> float:
+    """Convert an SI ``value`` of canonical unit ``canonical`` into ``unit``."""
+    return float(value) / UNITS[canonical][unit]
