@@ -136,7 +136,7 @@ def _averages(rig: Rig, t: Arr, y: Arr, p: Arr) -> dict[str, float]:
 
 
 def run_cycle(rig: Rig, overrides: Mapping[str, float] | None = None,
-              condition: Condition | None = None, *, rtol: float = 1e-4,
+              condition: Condition | None = None, *, rtol: float = 1e-3,
               t_max: float | None = None, timeseries: bool = True) -> CycleResult:
     """Simulate one working + return cycle.
 
@@ -149,7 +149,9 @@ def run_cycle(rig: Rig, overrides: Mapping[str, float] | None = None,
     condition
         Operating condition (defaults: the rig file's).
     rtol
-        Relative tolerance of the integrator.
+        Relative tolerance of the integrator.  1e-3 resolves the start-up and switching
+        transients well enough that phase speeds agree with 1e-5 to those at 1e-5
+        (``make bench`` prints the comparison).
     t_max
         Longest phase [s]; default 20× the stroke time at the pump's geometric flow.
     timeseries
@@ -200,7 +202,7 @@ def run_cycle(rig: Rig, overrides: Mapping[str, float] | None = None,
                                             zip(m.output_names, m.output_units, strict=True)])
             df.insert(0, "t [s]", res.t)
             df.insert(1, "phase", phase)
-            frames.append(df)
+            frames.append(df if not frames else df.iloc[1:])  # first row = previous last
         y = res.y[-1].copy()
         t0 = float(res.t[-1])
     w, r = phases

@@ -98,14 +98,18 @@ def generate_source(system: EquationSystem, *, jit: bool = True) -> str:
     out += [f"    out[{i}] = {code}" for i, (_, code, _) in enumerate(system.outputs)]
     if not system.outputs:
         out.append("    return")
+    nb = len(system.graph.bonds)
+    bonds = ["@_jit", "def bond_values(t, y, p, e, f):", *body]
+    bonds += [f"    e[{i}] = e_{i}\n    f[{i}] = f_{i}" for i in range(nb)]
     batch = [
         "@_jit",
         "def outputs_batch(ts, ys, p, out):",
         "    for k in range(ts.size):",
         "        outputs(ts[k], ys[k], p, out[k])",
     ]
-    return "\n".join(head) + "\n\n\n" + "\n".join(rhs) + "\n\n\n" + "\n".join(out) + \
-        "\n\n\n" + "\n".join(batch) + "\n\n\n" + _solver_source() + "\n"
+    blocks = ["\n".join(head), "\n".join(rhs), "\n".join(out), "\n".join(bonds),
+              "\n".join(batch), _solver_source()]
+    return "\n\n\n".join(blocks) + "\n"
 
 
 def load_module(source: str) -> ModuleType:

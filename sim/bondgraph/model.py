@@ -107,6 +107,13 @@ class CompiledModel:
         self.module.rhs(t, y, p, dy)
         return dy
 
+    def bond_values(self, y: Arr, p: Arr, t: float = 0.0) -> tuple[Arr, Arr]:
+        """(efforts, flows) of every bond at ``(t, y)``, indexed like ``graph.bonds``."""
+        nb = len(self.system.graph.bonds)
+        e, f = np.empty(nb), np.empty(nb)
+        self.module.bond_values(t, np.ascontiguousarray(y, dtype=float), p, e, f)
+        return e, f
+
     def outputs(self, t: Arr, y: Arr, p: Arr) -> Arr:
         """Outputs at the rows of ``y`` (shape ``(len(t), n_outputs)``)."""
         out = np.empty((t.size, len(self.output_names)))

@@ -60,14 +60,15 @@ PARAMETERS: tuple[Param, ...] = (
           "dead volume of chamber 2 (incl. its hose)"),
     Param("cc", "m", 83e-6, "paper 002 Table 2 closed row / §2.6 ('8 μm' → 83 µm)",
           "radial clearance piston-bore (equivalent clearance)"),
-    Param("Lc", "m", 0.0138, "chosen: calibrated so the nominal rig leaks 1.8e-5 m³/s past the "
+    Param("Lc", "m", 0.01231, "chosen: calibrated so the nominal rig leaks 1.8e-5 m³/s past the "
           "piston at 2.1 kN (seeds README); paper 002 '0 mm' is illegible",
           "piston seal (land) length Lc"),
     Param("mass", "kg", 7.2, "paper 002 §2.6 mc = 7.2 kg (legible)", "mass of moving parts mc"),
     Param("Fu", "N", 136.2, "chosen: paper 002 §2.6 reads '6.2 N' with lost digits; 136.2 N is a "
           "plausible seal friction for a 60 mm bore", "Coulomb friction force Fu"),
-    Param("Kf", "N*s/m", 1.49e3, "paper 002 §2.6 '.49 e' read as 1.49e3 N·s/m (digit and "
-          "exponent lost)", "viscous friction coefficient Kf"),
+    Param("Kf", "N*s/m", 149.0, "paper 002 §2.6 '.49 e' read as 1.49e2 N·s/m (digit and "
+          "exponent lost; 1.49e3 would make the working pressure depend on the speed more "
+          "than Table 3 allows)", "viscous friction coefficient Kf"),
     Param("v_s", "m/s", 1e-4, "chosen: regularisation speed of sgn(ẋ) (≈ 1/1600 of the "
           "working speed)", "Coulomb friction switching speed"),
     Param("k_stop", "N/m", 1e9, "chosen: stiff steel end stop", "end-stop stiffness"),

@@ -26,7 +26,7 @@ from sim.params import Param
 __all__ = ["PARAMETERS", "build", "hose_coefficients"]
 
 PARAMETERS: tuple[Param, ...] = (
-    Param("d", "m", 0.008, "chosen: 8 mm bore hose (paper 002 gives no hose data)",
+    Param("d", "m", 0.0127, "chosen: ½-inch (12.7 mm) bore hose; paper 002 gives no hose data",
           "inner diameter"),
     Param("L", "m", 0.5, "chosen: 0.5 m between valve and cylinder", "length"),
 )

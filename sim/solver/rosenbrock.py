@@ -10,9 +10,12 @@ Integrator: ROS2, the two-stage L-stable Rosenbrock method of Verwer et al. (199
 ``γ = 1 + 1/√2``::
 
     W = I − γ·h·J
-    W·k1 = f(t, y)
-    W·k2 = f(t + h, y + h·k1) − 2·k1
+    W·k1 = f(t, y) + γ·h·∂f/∂t
+    W·k2 = f(t + h, y + h·k1) − 2·k1 − γ·h·∂f/∂t
     y⁺ = y + 3/2·h·k1 + 1/2·h·k2
+
+(the ∂f/∂t terms follow from applying the autonomous method to the system augmented
+with ``t' = 1``; they vanish for the rig's phases, whose sources are constant).
 
 It is second order for *any* matrix J (a W-method), so a finite-difference Jacobian is
 enough, and L-stability damps the stiff hydraulic modes (chamber compliance against the
@@ -159,6 +162,7 @@ def integrate(rhs: RHS, t0: float, t_end: float, y0: Arr, p: Arr, scale: Arr, rt
     piv = np.zeros(n, dtype=np.int64)
     ywork = np.empty(n)
     fwork = np.empty(n)
+    ft = np.zeros(n)
     t = t0
     h = h0
     rhs(t, y, p, f0)
@@ -175,6 +179,10 @@ def integrate(rhs: RHS, t0: float, t_end: float, y0: Arr, p: Arr, scale: Arr, rt
             h = t_end - t
         if not have_jac:
             fd_jacobian(rhs, t, y, p, f0, scale, jac, ywork, fwork)
+            dt = 1.5e-8 * max(abs(t), 1.0)
+            rhs(t + dt, y, p, fwork)
+            for i in range(n):
+                ft[i] = (fwork[i] - f0[i]) / dt
             have_jac = True
         for i in range(n):
             for j in range(n):
@@ -184,13 +192,13 @@ def integrate(rhs: RHS, t0: float, t_end: float, y0: Arr, p: Arr, scale: Arr, rt
         err = math.inf
         if ok:
             for i in range(n):
-                k1[i] = f0[i]
+                k1[i] = f0[i] + gamma * h * ft[i]
             lu_solve(w, piv, k1)
             for i in range(n):
                 ytmp[i] = y[i] + h * k1[i]
             rhs(t + h, ytmp, p, f1)
             for i in range(n):
-                k2[i] = f1[i] - 2.0 * k1[i]
+                k2[i] = f1[i] - 2.0 * k1[i] - gamma * h * ft[i]
             lu_solve(w, piv, k2)
             acc = 0.0
             for i in range(n):

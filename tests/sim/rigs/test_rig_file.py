@@ -1,0 +1,74 @@
+"""Rig description files: the reference preset validates; bad files get named errors."""
+
+from __future__ import annotations
+
+import copy
+import json
+
+import pytest
+
+from sim.errors import RigFileError
+from sim.rigs import load_rig, load_rig_document, reference_rig_document, validate_rig_document
+from sim.rigs.schema import CIRCUIT_ROLES
+
+
+def test_reference_document_validates_and_converts_units():
+    spec = validate_rig_document(reference_rig_document())
+    assert spec.name == "paper002-reference"
+    assert set(spec.components) == set(CIRCUIT_ROLES)
+    pump = spec.components["pump"][1]
+    assert pump["speed"].value == pytest.approx(1600 * 2 * 3.141592653589793 / 60)
+    assert pump["speed"].unit == "rpm"
+    assert pump["Vp"].value == pytest.approx(1.75e-5 / (2 * 3.141592653589793))
+    for _, params in spec.components.values():
+        for q in params.values():
+            assert q.source, "every parameter states its source"
+
+
+@pytest.mark.parametrize(
+    ("mutate", "field", "words"),
+    [
+        (lambda d: d["components"]["cylinder"]["parameters"].pop("cc"),
+         "components.cylinder.parameters.cc", "missing"),
+        (lambda d: d["components"]["cylinder"]["parameters"]["cc"].update(value=-5e-6),
+         "components.cylinder.parameters.cc", "must be >"),
+        (lambda d: d["components"]["cylinder"]["parameters"]["cc"].update(unit="bar"),
+         "components.cylinder.parameters.cc.unit", "not a unit"),
+        (lambda d: d["components"]["valve"]["parameters"].update(foo={"value": 1, "unit": "m"}),
+         "components.valve.parameters.foo", "unknown parameter"),
+        (lambda d: d["components"].pop("valve"), "components.valve", "missing component"),
+        (lambda d: d["components"]["pump"].update(type="hose"), "components.pump.type", "takes"),
+        (lambda d: d.update(schema="x"), "schema", "expected schema"),
+        (lambda d: d["fluid"]["beta"].update(value="big"), "fluid.beta.value", "number"),
+        (lambda d: d["fluid"]["beta"].update(value=float("nan")), "fluid.beta.value", "finite"),
+    ],
+)
+def test_invalid_documents_name_the_field(mutate, field, words):
+    doc = copy.deepcopy(reference_rig_document())
+    mutate(doc)
+    with pytest.raises(RigFileError) as exc:
+        validate_rig_document(doc)
+    assert exc.value.field == field
+    assert words in exc.value.message
+
+
+def test_units_of_the_same_dimension_are_accepted(tmp_path):
+    doc = reference_rig_document()
+    doc["components"]["cylinder"]["parameters"]["cc"] = {"value": 83, "unit": "µm", "source": "x"}
+    doc["components"]["relief"]["parameters"]["Pset"] = {"value": 70, "unit": "bar", "source": "x"}
+    path = tmp_path / "rig.json"
+    path.write_text(json.dumps(doc))
+    spec = validate_rig_document(load_rig_document(path))
+    assert spec.components["cylinder"][1]["cc"].value == pytest.approx(83e-6)
+    assert spec.components["relief"][1]["Pset"].value == pytest.approx(7.0e6)
+    rig = load_rig(path)
+    assert rig.base["cylinder.cc"] == pytest.approx(83e-6)
+
+
+def test_unreadable_file_is_a_rig_file_error(tmp_path):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("components: [unclosed")
+    with pytest.raises(RigFileError):
+        load_rig_document(bad)
+    with pytest.raises(RigFileError):
+        load_rig_document(tmp_path / "absent.yaml")

@@ -1,0 +1,94 @@
+"""Cycle runner: transient working + return phases, fault scenarios, and the steady fast path."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+
+from sim.cycle import SUMMARY_UNITS, run_cycle
+from sim.errors import InputError, ParameterError
+from sim.rigs import Condition, reference_rig
+from sim.scenarios import FAULTS, fault_overrides
+from sim.steady import steady_cycle
+
+LOADS = (2.1e3, 4.2e3, 6.3e3)
+
+
+@pytest.fixture(scope="module")
+def rig():
+    return reference_rig()
+
+
+def test_cycle_time_series_and_summary(rig):
+    res = run_cycle(rig)
+    ts = res.timeseries
+    assert ts is not None
+    assert {"t [s]", "x [m]", "v [m/s]", "P1 [Pa]", "Q_meter_B [m^3/s]"} <= set(ts.columns)
+    assert list(ts["phase"].unique()) == ["working", "return"]
+    assert np.all(np.diff(ts["t [s]"].to_numpy()) > 0)
+    x = ts["x [m]"].to_numpy()
+    # the piston stops at the stroke end (momentum carries it a few µm into the stop)
+    assert x[0] == 0.0 and 0.5 <= x.max() < 0.5 + 1e-4 and abs(x[-1]) < 1e-9
+    s = res.summary()
+    assert s["working.duration [s]"] > 0 and s["return.duration [s]"] > 0
+    assert s["velocity_ratio [-]"] == pytest.approx(
+        s["working.speed [m/s]"] / s["return.speed [m/s]"])
+    assert set(res.working.values) <= set(SUMMARY_UNITS)
+    assert res.working.completed and res.return_.completed
+
+
+def _close(a: float, b: float, rel: float, floor: float = 0.0) -> bool:
+    return abs(a - b) <= rel * abs(b) + floor
+
+
+@pytest.mark.parametrize(("fault", "load"), list(itertools.product(FAULTS, LOADS)))
+def test_steady_path_agrees_with_transient_phase_averages(rig, fault, load):
+    ov = fault_overrides(rig, fault)
+    cond = Condition(load=load)
+    tr = run_cycle(rig, ov, cond, timeseries=False)
+    st = steady_cycle(rig, ov, cond)
+    for phase_t, phase_s in ((tr.working, st.working), (tr.return_, st.return_)):
+        assert _close(phase_s["speed"], phase_t["speed"], 0.005), (fault, load, phase_t.phase)
+        for q in ("Q_meter_B", "Q_meter_C", "Q_valve_leak", "Q_pump_leak", "Q_relief"):
+            assert _close(phase_s[q], phase_t[q], 0.005, 1e-9), (q, phase_t.phase)
+        # the return-phase piston leakage is the difference of two near-equal terms
+        # (Poiseuille vs Couette): compared against the working-phase leakage's size
+        assert _close(phase_s["Q_cyl_leak"], phase_t["Q_cyl_leak"], 0.005,
+                      0.005 * abs(tr.working["Q_cyl_leak"])), (fault, load, phase_t.phase)
+    assert _close(st.velocity_ratio, tr.velocity_ratio, 0.005)
+
+
+def test_faults_move_the_rig_the_expected_way(rig):
+    base = steady_cycle(rig)
+    seal = steady_cycle(rig, fault_overrides(rig, "worn_piston"))
+    spool = steady_cycle(rig, fault_overrides(rig, "worn_spool"))
+    pump = steady_cycle(rig, fault_overrides(rig, "worn_pump"))
+    assert seal.working["Q_cyl_leak"] > 2 * base.working["Q_cyl_leak"]
+    assert spool.working["Q_valve_leak"] > 4 * base.working["Q_valve_leak"]
+    assert pump.working["Q_pump_leak"] == pytest.approx(3 * base.working["Q_pump_leak"], rel=0.02)
+    for faulty in (seal, spool, pump):
+        assert faulty.working["speed"] < base.working["speed"]
+        assert faulty.velocity_ratio < base.velocity_ratio
+
+
+def test_bad_overrides_and_conditions_are_refused(rig):
+    with pytest.raises(ParameterError) as exc:
+        run_cycle(rig, {"cylinder.cc": -1e-6})
+    assert exc.value.field == "overrides.cylinder.cc"
+    with pytest.raises(ParameterError) as exc:
+        run_cycle(rig, {"cylinder.nope": 1.0})
+    assert exc.value.field == "overrides.cylinder.nope"
+    with pytest.raises(ParameterError) as exc:
+        steady_cycle(rig, None, Condition(oil_temperature=400.0))
+    assert exc.value.field == "condition.oil_temperature"
+    with pytest.raises(InputError):
+        fault_overrides(rig, "broken_everything")
+
+
+def test_temperature_changes_leakage_through_viscosity(rig):
+    cold = steady_cycle(rig, None, Condition(oil_temperature=25.0))
+    hot = steady_cycle(rig, None, Condition(oil_temperature=60.0))
+    assert hot.working["Q_valve_leak"] > 1.5 * cold.working["Q_valve_leak"]
+    assert hot.velocity_ratio < cold.velocity_ratio
