@@ -61,9 +61,8 @@ class EquationSystem:
         """The equations as text, in evaluation order, for checking against a drawing."""
         lines = [f"# bond graph {self.graph.name!r}: {len(self.states)} states, "
                  f"{len(self.graph.bonds)} bonds"]
-        lines.append("# bonds: " + "; ".join(
-            f"b{b.index}={b.src}→{b.dst}{f' ({b.label})' if b.label else ''}"
-            f" [effort from {self.setter[b.index]}]" for b in self.graph.bonds))
+        lines += [f"# b{b.index}: {b.src} → {b.dst}{f' ({b.label})' if b.label else ''}, "
+                  f"effort set by {self.setter[b.index]}" for b in self.graph.bonds]
         lines += [f"{eq.text}    # {eq.element}" for eq in self.equations]
         for (name, code), st in zip(self.derivatives, self.states, strict=True):
             lines.append(f"d{name}/dt = {_pretty(code, self)}    # {st.element}")
@@ -280,7 +279,7 @@ class _Builder:
                 cyc = stack_path[stack_path.index(v):]
                 elements = tuple(dict.fromkeys(self.eqs[x].element for x in cyc))
                 raise AlgebraicLoopError(
-                    "algebraic loop through " + " → ".join(cyc + [v])
+                    "algebraic loop through " + " → ".join([*cyc, v])
                     + f" (elements {', '.join(elements)}); add a storage element (C or I) on "
                     "the loop or give one resistance the other causality", elements=elements)
             eq = self.eqs.get(v)

@@ -30,7 +30,7 @@ F = TypeVar("F", bound=Callable[..., Any])
 
 def law(func: F) -> F:
     """Compile ``func`` as a nopython scalar law (cached on disk)."""
-    compiled: F = njit(cache=True)(func)
+    compiled: F = njit(cache=True)(func)  # type: ignore[assignment]
     return compiled
 
 

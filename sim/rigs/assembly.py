@@ -181,7 +181,7 @@ def _graph_cached() -> tuple[BondGraph, list[Derivation]]:
         _CACHE["graph"] = build_graph("pump-valve-cylinder")
     g = _CACHE["graph"]
     assert isinstance(g, tuple)
-    return g  # type: ignore[return-value]
+    return g
 
 
 def _model_cached() -> CompiledModel:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import itertools
+
 import pytest
 
 from sim.errors import ParameterError
@@ -14,7 +16,7 @@ def test_walther_passes_through_reference_points_and_falls_with_temperature():
     assert f.kinematic_viscosity(100.0) == pytest.approx(6.8e-6, rel=1e-12)
     temps = [0.0, 22.0, 40.0, 60.0, 80.0, 100.0]
     nus = [f.kinematic_viscosity(t) for t in temps]
-    assert all(a > b for a, b in zip(nus, nus[1:], strict=False))
+    assert all(a > b for a, b in itertools.pairwise(nus))
     # ISO VG 46 data sheets give ≈ 20-22 cSt at 60 °C
     assert 19e-6 < f.kinematic_viscosity(60.0) < 23e-6
 

@@ -29,7 +29,7 @@ def test_flow_and_effort_balance_at_every_junction_at_random_states(rig):
     p = rig.params(graph_values={"valve.N": 1.0})
     for _ in range(25):
         y = m.initial_state(p)
-        for i, name in enumerate(m.state_names):
+        for i, _name in enumerate(m.state_names):
             y[i] = rng.uniform(0, 5e6) if m.scale[i] == 1e5 else rng.normal() * 1e3 * m.scale[i]
         y[m.state_index("cylinder.x")] = rng.uniform(0, 0.5)
         e, f = m.bond_values(y, p)
@@ -106,7 +106,7 @@ def test_valve_leakage_follows_table_3(rig):
 
 
 def test_cylinder_leakage_is_monotone_and_roughly_cubic(rig):
-    cc = np.array(TABLE2_CC + [160]) * 1e-6
+    cc = np.array([*TABLE2_CC, 160]) * 1e-6
     q = np.array([steady_phase(rig, "working", {"cylinder.cc": c}).outputs["Q_cyl_leak"]
                   for c in cc])
     assert np.all(np.diff(q) > 0)
