@@ -28,3 +28,9 @@ bench: $(STAMP)
 
 clean:
 	rm -rf $(VENV) .hydrodiag-cache .pytest_cache .mypy_cache .ruff_cache
+
+accuracy: $(STAMP)
+	$(PY) -m benchmarks.accuracy
+
+pump-study: $(STAMP)
+	$(PY) -m benchmarks.pump_study

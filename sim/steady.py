@@ -29,7 +29,7 @@ from sim.cycle import PHASES, SUMMARY_UNITS, CycleResult, PhaseSummary, phase_pa
 from sim.errors import SimulationError
 from sim.rigs.assembly import Condition, Rig
 
-__all__ = ["SteadyPoint", "steady_cycle", "steady_phase"]
+__all__ = ["OBSERVABLES", "SteadyEvaluator", "SteadyPoint", "steady_cycle", "steady_phase"]
 
 Arr = npt.NDArray[np.float64]
 
@@ -110,3 +110,109 @@ def steady_cycle(rig: Rig, overrides: Mapping[str, float] | None = None,
     w, r = summaries
     ratio = w["speed"] / r["speed"] if r["speed"] > 0 else float("nan")
     return CycleResult(w, r, ratio, None, {})
+
+
+#: observable name → (phase, output name); the observables a diagnosis compares
+OBSERVABLES: dict[str, tuple[str, str]] = {
+    "pump_pressure": ("working", "P_pump"),
+    "p1": ("working", "P1"),
+    "p2": ("working", "P2"),
+    "flow_B": ("working", "Q_meter_B"),
+    "flow_C": ("working", "Q_meter_C"),
+    "pump_leak": ("working", "Q_pump_leak"),
+    "relief_flow": ("working", "Q_relief"),
+    "cyl_leak": ("working", "Q_cyl_leak"),
+    "valve_leak": ("working", "Q_valve_leak"),
+}
+
+
+class SteadyEvaluator:
+    """Repeated steady-cycle evaluations of one rig at one condition, fast.
+
+    The two phases' parameter vectors are built once; each call patches the named graph
+    parameters (``"cylinder.cc"``, ``"pump.Rlp"`` ...) and solves both operating points by
+    Newton from the last solution (continuation), falling back to the nominal point and
+    then to a start-up transient.  This is what a diagnosis calls hundreds of times.
+
+    Parameters
+    ----------
+    rig
+        The rig.
+    condition
+        Operating condition.
+    names
+        Graph parameters that calls will set, in order.  They must not feed derived
+        parameters (clearances, leak resistances and relief settings do not).
+    """
+
+    def __init__(self, rig: Rig, condition: Condition | None, names: tuple[str, ...]) -> None:
+        self.rig = rig
+        self.condition = condition if condition is not None else rig.default_condition()
+        m = rig.model
+        self._m = m
+        self.names = names
+        self._idx = np.array([m.param_index(n) for n in names], dtype=np.int64)
+        self._p = {ph: phase_params(rig, ph, None, self.condition) for ph in PHASES}
+        self._nominal = {ph: steady_phase(rig, ph, None, self.condition).state for ph in PHASES}
+        self._last = {ph: y.copy() for ph, y in self._nominal.items()}
+        self._mask = np.ones(len(m.state_names), dtype=np.int64)
+        self._mask[m.state_index("cylinder.x")] = 0
+        self._out = np.empty((1, len(m.output_names)))
+        self._oidx = {n: i for i, n in enumerate(m.output_names)}
+        self.stroke = rig.base["cylinder.stroke"]
+        self.calls = 0
+
+    def nominal(self) -> dict[str, float]:
+        """Observables at the rig's own parameter values."""
+        return self(np.array([self._p["working"][i] for i in self._idx]))
+
+    def _solve(self, phase: str, p: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+        mod = self._m.module
+        y = np.empty_like(self._last[phase])
+        for guess in (self._last[phase], self._nominal[phase]):
+            status, _, _ = mod.steady(guess, p, self._mask, self._m.scale, 1e-10, 60, y)
+            if status == 0:
+                self._last[phase] = y.copy()
+                return y
+        start = _transient_start(self.rig, p)
+        start[self._m.state_index("cylinder.x")] = 0.5 * self.stroke
+        status, its, res = mod.steady(start, p, self._mask, self._m.scale, 1e-10, 60, y)
+        if status != 0:
+            raise SimulationError(f"{phase}: steady state not found ({its} iterations, "
+                                  f"residual {res:.3g})")
+        self._last[phase] = y.copy()
+        return y
+
+    def __call__(self, values: npt.ArrayLike) -> dict[str, float]:
+        """Observables (see :data:`OBSERVABLES`, plus speeds, ratio, durations, pump flow)
+        for the parameter ``values`` (SI, in the order of ``names``).
+
+        Speeds are signed, positive in each phase's direction of travel, so the maps stay
+        smooth through a stall.
+        """
+        vals = np.asarray(values, dtype=float)
+        self.calls += 1
+        res: dict[str, float] = {}
+        speeds = {}
+        for ph in PHASES:
+            p = self._p[ph].copy()
+            p[self._idx] = vals
+            y = self._solve(ph, p)
+            self._m.module.outputs_batch(np.zeros(1), y[None, :], p, self._out)
+            o = self._out[0]
+            # signed: positive in the phase's own direction (a piston that cannot hold its
+            # load in the working phase moves backwards and reads negative)
+            speeds[ph] = float(o[self._oidx["v"]]) * (1.0 if ph == "working" else -1.0)
+            if ph == "working":
+                for key, (_, name) in OBSERVABLES.items():
+                    res[key] = float(o[self._oidx[name]])
+        res["pump_flow"] = res["flow_B"] + res["relief_flow"]
+        res["speed_work"] = speeds["working"]
+        res["speed_return"] = speeds["return"]
+        res["velocity_ratio"] = speeds["working"] / speeds["return"] if speeds["return"] > 0 \
+            else float("nan")
+        res["duration_work"] = self.stroke / speeds["working"] if speeds["working"] > 0 \
+            else float("inf")
+        res["duration_return"] = self.stroke / speeds["return"] if speeds["return"] > 0 \
+            else float("inf")
+        return res

@@ -1,0 +1,128 @@
+"""Checks of a measurement record against the limits of its rig.
+
+A record can be impossible on one rig and plausible on another: the pump of paper 002
+delivers at most ``Qp = ω·Vp`` (eq. 2), so the piston cannot move faster than
+``ω·Vp / A1`` in the working phase (flow into chamber 1) or ``ω·Vp / A2`` in the return
+phase (flow into chamber 2).  These limits come from the rig, so they arrive as an explicit
+:class:`RigLimits` argument; :func:`check_against_rig` raises
+:class:`sim.errors.MeasurementError` when a reading exceeds them by more than
+:data:`~diagnostics.measurement.CONSISTENCY_K` standard uncertainties.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Literal
+
+from diagnostics.measurement import MeasurementRecord
+from diagnostics.quantity import CONSISTENCY_K, Quantity, agree
+from sim.errors import MeasurementError, ParameterError
+
+__all__ = ["RigLimits", "check_against_rig"]
+
+
+@dataclass(frozen=True, slots=True)
+class RigLimits:
+    """What the rig allows a record to contain.
+
+    Parameters
+    ----------
+    Vp
+        Pump geometric displacement [m³/rad] (paper 002 eq. 2).
+    speed
+        Nominal pump speed ω [rad/s], used when the record states none.
+    A1, A2
+        Effective piston areas of chambers 1 and 2 [m²].
+    stroke
+        Cylinder stroke [m]; ``None`` skips the stroke check.
+    """
+
+    Vp: float
+    speed: float
+    A1: float
+    A2: float
+    stroke: float | None = None
+
+    def __post_init__(self) -> None:
+        for name in ("Vp", "speed", "A1", "A2"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0.0):
+                raise ParameterError(f"must be finite and > 0, got {value}", field=name)
+        if self.stroke is not None and not (math.isfinite(self.stroke) and self.stroke > 0.0):
+            raise ParameterError(f"must be finite and > 0, got {self.stroke}", field="stroke")
+
+    def max_pump_flow(self, record: MeasurementRecord) -> float:
+        """Geometric pump flow ω·Vp [m³/s] at the record's speed (+k·u), else the nominal."""
+        w = record.condition.pump_speed
+        omega = self.speed if w is None else w.value + CONSISTENCY_K * w.u
+        return omega * self.Vp
+
+
+def _exceeds(q: Quantity, limit: float) -> bool:
+    return q.value - CONSISTENCY_K * q.u > limit
+
+
+def check_against_rig(record: MeasurementRecord, limits: RigLimits) -> None:
+    """Raise :class:`MeasurementError` if ``record`` is impossible on the rig ``limits``.
+
+    Checks, each beyond ``CONSISTENCY_K`` standard uncertainties:
+
+    * piston speeds (stated or from stroke/duration) above ``ω·Vp/A1`` (working phase) or
+      ``ω·Vp/A2`` (return phase);
+    * flows at meter B and at the pump outlet above ``ω·Vp``;
+    * meter C above what meter B feeds: in the working phase
+      ``Q_C = Q_B − Q_lv − (A1 − A2)·ẋ`` with ``Q_lv ≥ 0`` (paper 002 eqs. 10, 25-26);
+    * the record's stroke against the rig's;
+    * load force against back-pressure: ``F = p_back·A2`` (paper 002 §2.7: 10 bar ↔ 2.1 kN).
+    """
+    q_max = limits.max_pump_flow(record)
+    rig_stroke = None if limits.stroke is None else Quantity(limits.stroke)
+    phases: tuple[tuple[Literal["work", "return"], float], ...] = (("work", limits.A1),
+                                                                  ("return", limits.A2))
+    for phase, area in phases:
+        v = record.speed(phase, stroke=rig_stroke)
+        if v is not None and _exceeds(v, q_max / area):
+            stated = getattr(record, f"speed_{phase}") is not None
+            raise MeasurementError(
+                f"piston speed {v.value:.4g} m/s exceeds the pump's theoretical maximum "
+                f"{q_max / area:.4g} m/s (ω·Vp/A)",
+                field=f"speed_{phase}" if stated else f"duration_{phase}")
+    for name in ("flow_B", "pump_flow"):
+        q = getattr(record, name)
+        if q is not None and _exceeds(q, q_max):
+            raise MeasurementError(
+                f"flow {q.value:.4g} m³/s exceeds the pump's geometric flow {q_max:.4g} m³/s",
+                field=name)
+    _check_meter_c(record, limits)
+    if record.stroke is not None and rig_stroke is not None and not agree(record.stroke,
+                                                                          rig_stroke):
+        raise MeasurementError(
+            f"stroke {record.stroke.value:.4g} m differs from the rig's {rig_stroke.value:.4g} m",
+            field="stroke")
+    cond = record.condition
+    if cond.load_force is not None and cond.back_pressure is not None:
+        implied = Quantity(cond.back_pressure.value * limits.A2, cond.back_pressure.u * limits.A2)
+        if not agree(cond.load_force, implied):
+            raise MeasurementError(
+                f"load {cond.load_force.value:.4g} N contradicts back-pressure × A2 = "
+                f"{implied.value:.4g} N", field="condition.load_force")
+
+
+def _check_meter_c(record: MeasurementRecord, limits: RigLimits) -> None:
+    """Meter C cannot exceed meter B less the area-difference flow (working phase)."""
+    qb, qc = record.flow_B, record.flow_C
+    if qb is None or qc is None:
+        return
+    area_term, u_area = 0.0, 0.0
+    if limits.A1 != limits.A2:
+        v = record.speed("work")
+        if v is None:
+            return
+        area_term, u_area = (limits.A1 - limits.A2) * v.value, abs(limits.A1 - limits.A2) * v.u
+    excess = qc.value - (qb.value - area_term)
+    if excess > CONSISTENCY_K * math.sqrt(qb.u**2 + qc.u**2 + u_area**2):
+        raise MeasurementError(
+            f"meter C ({qc.value:.4g} m³/s) exceeds the flow meter B feeds to the cylinder "
+            f"({qb.value - area_term:.4g} m³/s): the valve leakage would be negative",
+            field="flow_C")

@@ -1,0 +1,175 @@
+"""Diagnose a rig from one or several measurement records: the library's front door.
+
+``diagnose(rig, records)`` validates the records against the rig, ranks the fault
+hypotheses (:mod:`diagnostics.ranking`), states what the sensors cannot separate
+(:mod:`diagnostics.isolability`), adds the closed-form equivalent clearances of paper 002
+§2.7 where the record carries the flows (:mod:`diagnostics.inversion`) and, when the
+record has a velocity ratio but not both speeds, the ratio index
+(:mod:`diagnostics.ratio_index`).  The result converts to plain JSON with units.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+from diagnostics.inversion import LeakageGeometry, cylinder_clearance, valve_clearance
+from diagnostics.isolability import Isolability, isolability
+from diagnostics.measurement import MeasurementRecord
+from diagnostics.observations import OBSERVABLE_UNITS, observe
+from diagnostics.ranking import HypothesisFit, Ranker
+from diagnostics.ratio_index import RatioIndex, ratio_index
+from diagnostics.uncertainty import Estimate
+from sim.errors import MeasurementError
+from sim.rigs import Rig
+
+__all__ = ["Diagnosis", "diagnose", "leakage_geometry"]
+
+
+def leakage_geometry(rig: Rig) -> LeakageGeometry:
+    """The leakage-path geometry of ``rig`` for the closed-form inversions."""
+    v = rig.values()
+    return LeakageGeometry(bore=v["cylinder.bore"], Lc=v["cylinder.Lc"], A1=v["cylinder.A1"],
+                           A2=v["cylinder.A2"], Dv=v["valve.Dv"], Ls=v["valve.Ls"],
+                           stroke=v["cylinder.stroke"], Vp=v["pump.Vp"], speed=v["pump.speed"],
+                           PRpv=v["supply_line.dp"], PRvt=v["valve.PRvt"])
+
+
+@dataclass
+class Diagnosis:
+    """Result of :func:`diagnose`.
+
+    Attributes
+    ----------
+    rig
+        Rig name.
+    hypotheses
+        All hypotheses, most probable first (unobservable ones last, probability 0).
+    isolability
+        What the sensors cannot separate and what would.
+    direct
+        Closed-form equivalent clearances (``"cc"``, ``"cv"``) of the first record that
+        allows them (paper 002 §2.7), with intervals.
+    ratio
+        Ratio index, when a record has a velocity ratio but not both speeds.
+    pump_slip
+        Laminar slip coefficient Cs [-] equivalent to the pump hypothesis's leakage
+        (paper 000 eq. 6: Q_slip = Cs·D·Δp/μ, D per radian) at the first record's oil
+        temperature, with its interval.
+    notes
+        Anything a reader must know (inversions that could not run, and why).
+    """
+
+    rig: str
+    hypotheses: list[HypothesisFit]
+    isolability: Isolability
+    direct: dict[str, Estimate] = field(default_factory=dict)
+    ratio: RatioIndex | None = None
+    pump_slip: tuple[float, float, float] | None = None
+    n_records: int = 1
+    n_observations: int = 0
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def top(self) -> HypothesisFit:
+        """The most probable hypothesis."""
+        return self.hypotheses[0]
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain JSON-able form (SI units, stated per field)."""
+        def fit(f: HypothesisFit) -> dict[str, Any]:
+            return {
+                "name": f.name, "components": list(f.hypothesis.components),
+                "description": f.hypothesis.description,
+                "probability": f.probability, "observable": f.observable,
+                "chi2": f.chi2, "log_evidence": f.log_evidence,
+                "parameters": [asdict(p) for p in f.parameters],
+                "predicted": f.predicted,
+            }
+        iso = self.isolability
+        return {
+            "rig": self.rig,
+            "top": self.top.name,
+            "hypotheses": [fit(f) for f in self.hypotheses],
+            "isolability": {
+                "ambiguity_set": iso.ambiguity_set, "credible_set": iso.credible_set,
+                "not_observable": iso.not_observable,
+                "parallel_signatures": [list(p) for p in iso.parallel],
+                "separations": [asdict(s) for s in iso.separations],
+                "statements": iso.statements,
+            },
+            "direct_inversions": {k: {key: val for key, val in asdict(e).items()
+                                      if key not in ("sensitivities", "contributions")}
+                                  for k, e in self.direct.items()},
+            "ratio_index": asdict(self.ratio) if self.ratio is not None else None,
+            "pump_slip_Cs": (None if self.pump_slip is None else
+                             dict(zip(("value", "low", "high"), self.pump_slip, strict=True))),
+            "n_records": self.n_records,
+            "n_observations": self.n_observations,
+            "observable_units": OBSERVABLE_UNITS,
+            "notes": self.notes,
+        }
+
+
+def _direct(rig: Rig, records: Sequence[MeasurementRecord], notes: list[str]
+            ) -> dict[str, Estimate]:
+    geom = leakage_geometry(rig)
+    out: dict[str, Estimate] = {}
+    for rec in records:
+        for key, needs, fn in (("cc", ("flow_C", "p1", "p2"), cylinder_clearance),
+                               ("cv", ("flow_B", "flow_C", "pump_pressure"), valve_clearance)):
+            if key in out or any(getattr(rec, n) is None for n in needs):
+                continue
+            try:
+                out[key] = fn(rec, geom, method="delta")
+            except MeasurementError as exc:
+                notes.append(f"direct inversion of {key} not possible: {exc}")
+    return out
+
+
+def diagnose(rig: Rig, records: Sequence[MeasurementRecord], *, model_rel: float = 0.002
+             ) -> Diagnosis:
+    """Diagnose ``rig`` from ``records`` (jointly).
+
+    Raises
+    ------
+    MeasurementError
+        A record is impossible on this rig, or carries nothing usable.
+    """
+    if not records:
+        raise MeasurementError("at least one record is needed", field="records")
+    obs = []
+    for i, rec in enumerate(records):
+        try:
+            obs.append(observe(rec, rig))
+        except MeasurementError as exc:
+            prefix = f"records[{i}]" if len(records) > 1 else ""
+            field_path = ".".join(x for x in (prefix, exc.field or "") if x)
+            raise MeasurementError(exc.message, field=field_path or None) from None
+    ranker = Ranker(rig, obs, model_rel)
+    fits = ranker.rank()
+    iso = isolability(ranker, fits, model_rel)
+    notes: list[str] = []
+    direct = _direct(rig, records, notes)
+    ratio = None
+    for o in obs:
+        if "velocity_ratio" in o.names:
+            q = o.record.ratio()
+            if q is not None:
+                ratio = ratio_index(rig, o.condition, q)
+                break
+    slip = None
+    pump = next(f for f in fits if f.name == "pump")
+    if pump.observable:
+        mu = rig.fluid.dynamic_viscosity(obs[0].condition.oil_temperature)
+        vp, rlp = rig.base["pump.Vp"], rig.base["pump.Rlp"]
+        (est,) = pump.parameters
+        slip = tuple(mu * k / (vp * rlp) for k in (est.value, est.low, est.high))
+    n = sum(len(o.names) for o in obs)
+    if not math.isfinite(fits[0].log_evidence):
+        notes.append("no hypothesis explains the records")
+    return Diagnosis(rig.spec.name, fits, iso, direct, ratio,
+                     slip if slip is None else (slip[0], slip[1], slip[2]), len(records), n,
+                     notes)

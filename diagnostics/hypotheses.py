@@ -1,0 +1,132 @@
+"""Fault hypotheses of the pump-valve-cylinder rig and their parameters.
+
+Each hypothesis names the components it blames and the parameters it frees; everything
+else stays at the rig's nominal values.  Parameters are fitted in a transformed
+coordinate ``z`` in which their prior is uniform (log-uniform for clearances and
+leakage factors, which wear multiplies rather than adds to):
+
+===============  ====================  =====================  ==================================
+parameter        graph parameter       prior range            physical meaning
+===============  ====================  =====================  ==================================
+``cc``           ``cylinder.cc``       c0 … 4·c0, log         piston clearance (seal wear)
+``cv``           ``valve.cv``          c0 … 4·c0, log         spool clearance (spool wear)
+``pump_leak``    ``pump.Rlp`` = R0/k   k = 1 … 20, log        internal leakage factor of the pump
+``Pset``         ``relief.Pset``       0.5 … 1.0 × P0, lin    relief setting drift
+``seat_leak``    ``relief.Gseat``      s = 0.01 … 20, log     seat leak, in units of the nominal
+                                                              pump leakage conductance 1/R0
+===============  ====================  =====================  ==================================
+
+The lower end of each wear range is the nominal value: a component is either as built
+(the ``healthy`` hypothesis for it) or worn.  Four-times clearance means 64 times the
+laminar leakage, past any rig that still moves.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from sim.rigs import Rig
+
+__all__ = ["HYPOTHESES", "PARAMETERS", "FaultParameter", "Hypothesis"]
+
+
+@dataclass(frozen=True)
+class FaultParameter:
+    """A fault parameter: how it maps to the rig, its prior range and its unit.
+
+    Attributes
+    ----------
+    name
+        Identifier (``"cc"``).
+    component
+        Component it belongs to (``"cylinder"``).
+    graph_param
+        Rig graph parameter it sets.
+    unit
+        Unit of the reported value.
+    low, high
+        Prior range as multiples of the nominal value (``nominal_value``); for
+        ``seat_leak``, in units of 1/R0.
+    log
+        Whether the prior is log-uniform.
+    """
+
+    name: str
+    component: str
+    graph_param: str
+    unit: str
+    low: float
+    high: float
+    log: bool
+    description: str
+
+    def nominal_value(self, rig: Rig) -> float:
+        """The reported value of this parameter on the healthy rig [unit]."""
+        if self.name == "pump_leak":
+            return 1.0
+        if self.name == "seat_leak":
+            return 0.0
+        return rig.base[self.graph_param]
+
+    def bounds(self, rig: Rig) -> tuple[float, float]:
+        """Prior range of the reported value [unit]."""
+        if self.name == "seat_leak":
+            return self.low, self.high
+        nom = self.nominal_value(rig)
+        return self.low * nom, self.high * nom
+
+    def to_z(self, value: float) -> float:
+        """Reported value → fitting coordinate."""
+        return math.log(value) if self.log else value
+
+    def from_z(self, z: float) -> float:
+        """Fitting coordinate → reported value."""
+        return math.exp(z) if self.log else z
+
+    def graph_value(self, rig: Rig, value: float) -> float:
+        """Reported value → value of the graph parameter [SI]."""
+        if self.name == "pump_leak":
+            return rig.base["pump.Rlp"] / value
+        if self.name == "seat_leak":
+            return value / rig.base["pump.Rlp"]
+        return value
+
+
+PARAMETERS: dict[str, FaultParameter] = {
+    p.name: p for p in (
+        FaultParameter("cc", "cylinder", "cylinder.cc", "m", 1.0, 4.0, True,
+                       "radial clearance piston-bore"),
+        FaultParameter("cv", "valve", "valve.cv", "m", 1.0, 4.0, True,
+                       "radial clearance spool-body"),
+        FaultParameter("pump_leak", "pump", "pump.Rlp", "1", 1.0, 20.0, True,
+                       "internal leakage of the pump, multiple of nominal"),
+        FaultParameter("Pset", "relief", "relief.Pset", "Pa", 0.5, 1.0, False,
+                       "relief valve opening pressure"),
+        FaultParameter("seat_leak", "relief", "relief.Gseat", "1", 0.01, 20.0, True,
+                       "relief seat leakage, multiple of the nominal pump leakage"),
+    )
+}
+
+
+@dataclass(frozen=True)
+class Hypothesis:
+    """A fault hypothesis: a name, the components blamed, the parameters freed."""
+
+    name: str
+    components: tuple[str, ...]
+    parameters: tuple[str, ...]
+    description: str
+
+
+HYPOTHESES: tuple[Hypothesis, ...] = (
+    Hypothesis("healthy", (), (), "every component as built"),
+    Hypothesis("cylinder", ("cylinder",), ("cc",), "piston seal wear"),
+    Hypothesis("valve", ("valve",), ("cv",), "directional valve spool wear"),
+    Hypothesis("pump", ("pump",), ("pump_leak",), "pump wear: internal leakage up"),
+    Hypothesis("relief_setting", ("relief",), ("Pset",), "relief valve setting drifted down"),
+    Hypothesis("relief_seat", ("relief",), ("seat_leak",), "relief valve seat leaks"),
+    Hypothesis("cylinder+valve", ("cylinder", "valve"), ("cc", "cv"), "seal and spool wear"),
+    Hypothesis("cylinder+pump", ("cylinder", "pump"), ("cc", "pump_leak"), "seal and pump wear"),
+    Hypothesis("valve+pump", ("valve", "pump"), ("cv", "pump_leak"), "spool and pump wear"),
+)

@@ -1,0 +1,371 @@
+"""Equivalent internal clearances of cylinder and valve from measured bypass flows.
+
+Paper 002 §2.7 defines the *equivalent clearance* of a component as the clearance that,
+alone, would let pass the flow that bypasses it.  The bypass flows are measured in the
+working phase:
+
+* **cylinder** — meter C (flow out of chamber 2) minus the displacement flow:
+  ``Q_lc = Q_C − A2·ẋ``;  then the leakage law (paper 002 eq. 36, with the Couette sign of
+  :mod:`sim.components.cylinder`: relative to the piston the Couette term opposes motion)
+
+  .. math:: Q_{lc} = \\underbrace{\\frac{\\pi D_c (P_1 - P_2)}{12 \\mu L_c}}_{a} c_c^3
+                     - \\underbrace{\\frac{\\pi D_c \\dot x}{2}}_{b} c_c
+
+  is solved for ``cc`` (:func:`leakage_root`);
+* **valve** — meter B (valve inlet) minus meter C, less the area-difference flow of an
+  unequal-area cylinder: ``Q_lv = Q_B − Q_C − (A1 − A2)·ẋ`` (paper 002 eqs. 10, 25-26);
+  then the spool law (paper 002 eq. 23, :func:`sim.components.directional_valve.spool_leakage_flow`)
+  ``Q_lv = π·Dv·cv³·ΔP/(12·μ·Ls)`` gives ``cv = (12·μ·Ls·Q_lv/(π·Dv·ΔP))^(1/3)``, with
+  ``ΔP = P_pump − PRpv − PRvt`` (paper 002 eqs. 8, 24).
+
+The coefficients ``a`` and ``b`` are read off the forward laws of :mod:`sim.components`
+themselves (evaluated at unit clearance, unit pressure, unit speed and unit viscosity; the
+laws are linear in ΔP, ẋ and 1/μ), so the inversion cannot drift from the simulator.
+Viscosity comes from :meth:`sim.fluid.Fluid.dynamic_viscosity` at the oil temperature.
+
+Every estimate carries an uncertainty propagated from the record's uncertainties by
+:mod:`diagnostics.uncertainty` (delta method or Monte Carlo).  With ``method="auto"`` Monte
+Carlo is used when the result is nonlinear (relative u > 5 %) *or* the bypass lies within
+``CONSISTENCY_K`` standard uncertainties of the least the law allows: there the point
+estimate sits on the clipped bound, whose first-order sensitivity to the flow is zero, and a
+delta interval would be falsely narrow.  The geometry is taken as exact.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from diagnostics.consistency import RigLimits
+from diagnostics.measurement import MeasurementRecord
+from diagnostics.quantity import CONSISTENCY_K, Quantity
+from diagnostics.uncertainty import Estimate, Method, propagate
+from sim.components.cylinder import piston_leakage_flow
+from sim.components.directional_valve import spool_leakage_flow
+from sim.components.gear_pump import dynamic_viscosity
+from sim.errors import InputError, MeasurementError, ParameterError
+from sim.fluid import Fluid
+
+__all__ = [
+    "LeakageGeometry",
+    "cylinder_clearance",
+    "leakage_root",
+    "piston_clearance",
+    "piston_law_coefficients",
+    "spool_clearance",
+    "spool_law_coefficient",
+    "valve_clearance",
+]
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True, slots=True)
+class LeakageGeometry:
+    """Geometry of the leakage paths and of the pump, SI units (names as in the rig file).
+
+    Parameters
+    ----------
+    bore
+        Piston (bore) diameter Dc [m].
+    Lc
+        Piston seal (land) length [m].
+    A1, A2
+        Effective piston areas of chambers 1 and 2 [m²].
+    Dv
+        Spool diameter [m].
+    Ls
+        Effective sealing length of the spool leakage path [m].
+    stroke
+        Cylinder stroke [m].
+    Vp
+        Pump geometric displacement [m³/rad].
+    speed
+        Nominal pump speed ω [rad/s].
+    PRpv
+        Pressure drop from pump outlet to valve inlet [Pa] (paper 002 eq. 8).
+    PRvt
+        Pressure of the valve T port above tank [Pa] (paper 002 eq. 24).
+    """
+
+    bore: float
+    Lc: float
+    A1: float
+    A2: float
+    Dv: float
+    Ls: float
+    stroke: float
+    Vp: float
+    speed: float
+    PRpv: float = 0.0
+    PRvt: float = 0.0
+
+    def __post_init__(self) -> None:
+        for name in ("bore", "Lc", "A1", "A2", "Dv", "Ls", "stroke", "Vp", "speed"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0.0):
+                raise ParameterError(f"must be finite and > 0, got {value}", field=name)
+        for name in ("PRpv", "PRvt"):
+            if not math.isfinite(getattr(self, name)):
+                raise ParameterError("must be finite", field=name)
+
+    def limits(self) -> RigLimits:
+        """The rig limits that a record is checked against (:mod:`diagnostics.consistency`)."""
+        return RigLimits(Vp=self.Vp, speed=self.speed, A1=self.A1, A2=self.A2,
+                         stroke=self.stroke)
+
+
+def leakage_root(a: ArrayLike, b: ArrayLike, q: ArrayLike) -> FloatArray:
+    """Physical root ``c ≥ 0`` of ``a·c³ − b·c = q`` (vectorised), for ``a > 0``.
+
+    Parameters
+    ----------
+    a
+        Poiseuille coefficient [m³/s per m³], must be > 0 (``nan`` is returned otherwise).
+    b
+        Couette coefficient [m³/s per m], any sign.
+    q
+        Leakage flow [m³/s].
+
+    Returns
+    -------
+    ndarray
+        Clearance [m].
+
+    Notes
+    -----
+    Let ``f(c) = a·c³ − b·c`` on ``c ≥ 0``.
+
+    * ``b ≤ 0``: ``f' = 3ac² − b > 0`` for ``c > 0`` and ``f(0) = 0``, so ``f`` is a
+      bijection of ``[0, ∞)`` onto itself: for ``q ≥ 0`` there is exactly one root,
+      ``c = 2√(|b|/3a)·sinh(⅓·asinh(w))``, ``w = (3q/2|b|)·√(3a/|b|)`` (``∛(q/a)`` for
+      ``b = 0``).  For ``q < 0`` no clearance explains the flow; 0 is returned.
+    * ``b > 0`` (motion against the Poiseuille flow): ``f`` falls from 0 to its minimum
+      ``f_min = −(2/3)·b·c*`` at ``c* = √(b/3a)``, then rises monotonically to ∞.  For
+      ``q > 0`` the root is **unique**: on ``(0, √(b/a)]`` ``f ≤ 0 < q``, and on
+      ``(√(b/a), ∞)`` ``f' > 3b − b > 0`` with ``f`` running from 0 to ∞.  For
+      ``f_min ≤ q ≤ 0`` there is a second root below ``c*``, on the branch where a larger
+      clearance would leak *less*; the physical root is the one on the rising branch
+      (``c ≥ c*``), where leakage grows with clearance as paper 002 §3 observes (3rd-degree
+      rising curves) — it is also the largest real root.  With ``z = q/|f_min|``:
+      ``c = 2c*·cosh(⅓·acosh z)`` for ``z ≥ 1``, ``2c*·cos(⅓·acos z)`` for ``|z| < 1``.
+      For ``q < f_min`` no clearance explains the flow; the least-residual clearance
+      ``c*`` is returned.
+
+    One Newton step on the rising branch polishes the closed form to round-off.
+    """
+    a_, b_, q_ = (np.asarray(x, dtype=np.float64) for x in np.broadcast_arrays(a, b, q))
+    c = np.full(a_.shape, np.nan)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        ok = a_ > 0.0
+        cs = np.sqrt(np.abs(b_) / (3.0 * a_))
+        fmin = (2.0 / 3.0) * np.abs(b_) * cs
+        z = q_ / fmin
+        use_cbrt = ok & ~np.isfinite(z)
+        c = np.where(use_cbrt, np.cbrt(np.maximum(q_, 0.0) / a_), c)
+        neg = ok & np.isfinite(z) & (b_ < 0.0)
+        c = np.where(neg, 2.0 * cs * np.sinh(np.arcsinh(np.maximum(z, 0.0)) / 3.0), c)
+        pos = ok & np.isfinite(z) & (b_ > 0.0)
+        hi = pos & (z >= 1.0)
+        c = np.where(hi, 2.0 * cs * np.cosh(np.arccosh(np.maximum(z, 1.0)) / 3.0), c)
+        mid = pos & (z < 1.0) & (z >= -1.0)
+        c = np.where(mid, 2.0 * cs * np.cos(np.arccos(np.clip(z, -1.0, 1.0)) / 3.0), c)
+        c = np.where(pos & (z < -1.0), cs, c)
+        # Newton polish where the rising branch is well conditioned
+        slope = 3.0 * a_ * c**2 - b_
+        good = ok & (c > 0.0) & (slope > 1e-3 * (3.0 * a_ * c**2 + np.abs(b_)))
+        c = np.where(good, c - (a_ * c**3 - b_ * c - q_) / slope, c)
+    return np.asarray(c, dtype=np.float64)
+
+
+def piston_law_coefficients(D: float, L: float) -> tuple[float, float]:
+    """``(a·μ/ΔP, b/ẋ)`` of the piston law, read off :func:`piston_leakage_flow`.
+
+    Parameters
+    ----------
+    D, L
+        Bore diameter and seal length [m].
+
+    Returns
+    -------
+    tuple of float
+        ``π·D/(12·L)`` [-] and ``π·D/2`` [m]: the law is ``(a·μ/ΔP)·ΔP/μ·c³ − (b/ẋ)·ẋ·c``.
+    """
+    a_unit = piston_leakage_flow(1.0, 0.0, 1.0, D, L, 1.0)
+    b_unit = -piston_leakage_flow(0.0, 1.0, 1.0, D, L, 1.0)
+    return float(a_unit), float(b_unit)
+
+
+def spool_law_coefficient(Dv: float, Ls: float) -> float:
+    """``Q·μ/(ΔP·cv³) = π·Dv/(12·Ls)`` [-] of the spool law, read off
+    :func:`spool_leakage_flow` (``Dv``, ``Ls`` [m])."""
+    return float(spool_leakage_flow(1.0, 1.0, Dv, Ls, 1.0))
+
+
+def piston_clearance(q: float, dp: float, v: float, D: float, L: float, mu: float) -> float:
+    """Clearance [m] that makes :func:`piston_leakage_flow` equal ``q`` (exact inverse).
+
+    Parameters
+    ----------
+    q
+        Leakage chamber 1 → 2, relative to the piston [m³/s].
+    dp
+        P1 − P2 [Pa], non-zero.
+    v
+        Piston velocity [m/s], positive towards chamber 2.
+    D, L
+        Bore diameter and seal length [m].
+    mu
+        Dynamic viscosity [Pa·s].
+
+    Raises
+    ------
+    InputError
+        When no positive clearance gives ``q`` (see :func:`leakage_root`).
+    """
+    if dp == 0.0:
+        raise InputError("the clearance is undetermined without a pressure difference",
+                         field="dp")
+    s = 1.0 if dp > 0.0 else -1.0  # the law is odd in (q, dp, v): flip to dp > 0
+    a_unit, b_unit = piston_law_coefficients(D, L)
+    a, b = a_unit * s * dp / mu, b_unit * s * v
+    c = float(leakage_root(a, b, s * q)[()])
+    residual = a * c**3 - b * c - s * q
+    if abs(residual) > 1e-9 * max(abs(q), abs(b) * c, a * c**3):
+        raise InputError(f"no clearance gives a leakage of {q:.4g} m³/s", field="q")
+    return c
+
+
+def spool_clearance(q: float, dp: float, Dv: float, Ls: float, mu: float) -> float:
+    """Clearance [m] that makes :func:`spool_leakage_flow` equal ``q`` (``q``, ``dp`` > 0)."""
+    if not (q >= 0.0 and dp > 0.0):
+        raise InputError("the spool law needs q ≥ 0 and ΔP > 0", field="q" if dp > 0 else "dp")
+    return float(np.cbrt(q * mu / (spool_law_coefficient(Dv, Ls) * dp)))
+
+
+def _require(record: MeasurementRecord, name: str) -> Quantity:
+    q = getattr(record, name)
+    if q is None:
+        raise MeasurementError("needed for this inversion but not in the record", field=name)
+    return q
+
+
+def _speed(record: MeasurementRecord, geometry: LeakageGeometry) -> Quantity:
+    v = record.speed("work", stroke=Quantity(geometry.stroke))
+    if v is None:
+        raise MeasurementError("the working-phase speed (or its duration) is needed",
+                               field="speed_work")
+    return v
+
+
+def cylinder_clearance(record: MeasurementRecord, geometry: LeakageGeometry, *,
+                       fluid: Fluid | None = None, method: Method = "auto",
+                       n: int = 20_000, rng: np.random.Generator | None = None) -> Estimate:
+    """Equivalent piston clearance ``cc`` [m] from a working-phase record (paper 002 §2.7).
+
+    Needs ``flow_C``, ``p1``, ``p2``, the working speed (stated, or stroke/duration) and the
+    oil temperature.  ``derived`` holds the bypass flow ``Q_lc`` [m³/s], ``dp`` [Pa], ``mu``
+    [Pa·s] and the least-leakage clearance ``c_star`` [m] (see :func:`leakage_root`).
+
+    Raises
+    ------
+    MeasurementError
+        A needed field is missing; P1 ≤ P2; or the bypass lies below the law's minimum by
+        more than ``CONSISTENCY_K`` standard uncertainties.
+    """
+    fl = Fluid() if fluid is None else fluid
+    inputs = {"flow_C": _require(record, "flow_C"), "speed_work": _speed(record, geometry),
+              "p1": _require(record, "p1"), "p2": _require(record, "p2"),
+              "oil_temperature": record.condition.oil_temperature}
+    a_unit, b_unit = piston_law_coefficients(geometry.bore, geometry.Lc)
+
+    def model(x: Mapping[str, FloatArray]) -> FloatArray:
+        mu = dynamic_viscosity(fl, x["oil_temperature"])
+        q = x["flow_C"] - geometry.A2 * x["speed_work"]
+        return leakage_root(a_unit * (x["p1"] - x["p2"]) / mu, b_unit * x["speed_work"], q)
+
+    v, dp = inputs["speed_work"], inputs["p1"].value - inputs["p2"].value
+    if dp <= 0.0:
+        raise MeasurementError("P1 must exceed P2 in the working phase", field="p1")
+    mu = fl.dynamic_viscosity(inputs["oil_temperature"].value)
+    q = inputs["flow_C"].value - geometry.A2 * v.value
+    u_q = math.hypot(inputs["flow_C"].u, geometry.A2 * v.u)
+    a, b = a_unit * dp / mu, b_unit * v.value
+    c_star = math.sqrt(b / (3.0 * a)) if b > 0.0 else 0.0
+    q_min = -(2.0 / 3.0) * b * c_star
+    if q < q_min - CONSISTENCY_K * u_q:
+        raise MeasurementError(
+            f"bypass flow Q_C − A2·ẋ = {q:.4g} m³/s is below the least the leakage law allows "
+            f"({q_min:.4g} m³/s) by more than {CONSISTENCY_K:g} standard uncertainties",
+            field="flow_C")
+    notes: list[str] = []
+    if q < q_min:
+        notes.append("bypass below the law's minimum: the least-residual clearance is reported")
+    elif q <= 0.0:
+        notes.append("bypass ≤ 0: a second, smaller root exists on the falling branch; the "
+                     "rising-branch root is reported")
+    if q - q_min < 2.0 * u_q:
+        notes.append("the bypass flow is within 2 standard uncertainties of the smallest the law "
+                     "allows: the lower bound is the physical limit, not a measurement")
+    near_bound = q - q_min < CONSISTENCY_K * u_q  # first-order sensitivities mislead there
+    est = propagate(model, inputs, quantity="cc", unit="m", method=method, lower=0.0, n=n,
+                    rng=rng, nonlinear=near_bound)
+    derived = {"Q_lc": q, "u_Q_lc": u_q, "dp": dp, "mu": mu, "c_star": c_star}
+    return replace(est, derived=derived, notes=est.notes + tuple(notes))
+
+
+def valve_clearance(record: MeasurementRecord, geometry: LeakageGeometry, *,
+                    fluid: Fluid | None = None, method: Method = "auto",
+                    n: int = 20_000, rng: np.random.Generator | None = None) -> Estimate:
+    """Equivalent spool clearance ``cv`` [m] from a working-phase record (paper 002 §2.7).
+
+    Needs ``flow_B``, ``flow_C``, ``pump_pressure``, the oil temperature and, for an
+    unequal-area cylinder, the working speed.  ``derived`` holds the bypass ``Q_lv``
+    [m³/s], ``dp`` = P_pump − PRpv − PRvt [Pa] and ``mu`` [Pa·s].  A bypass below zero
+    within its uncertainty gives ``cv = 0`` (no detectable leak).
+    """
+    fl = Fluid() if fluid is None else fluid
+    inputs = {"flow_B": _require(record, "flow_B"), "flow_C": _require(record, "flow_C"),
+              "pump_pressure": _require(record, "pump_pressure"),
+              "oil_temperature": record.condition.oil_temperature}
+    area = geometry.A1 - geometry.A2
+    if area != 0.0:
+        inputs["speed_work"] = _speed(record, geometry)
+    k_unit = spool_law_coefficient(geometry.Dv, geometry.Ls)
+    drop = geometry.PRpv + geometry.PRvt
+
+    def bypass(x: Mapping[str, FloatArray]) -> FloatArray:
+        v = x["speed_work"] if area != 0.0 else 0.0
+        return np.asarray(x["flow_B"] - x["flow_C"] - area * v, dtype=np.float64)
+
+    def model(x: Mapping[str, FloatArray]) -> FloatArray:
+        mu = dynamic_viscosity(fl, x["oil_temperature"])
+        dp = x["pump_pressure"] - drop
+        with np.errstate(divide="ignore", invalid="ignore"):
+            c = np.cbrt(np.maximum(bypass(x), 0.0) * mu / (k_unit * dp))
+        return np.where(dp > 0.0, c, np.nan)
+
+    q = float(bypass({k: np.array([x.value]) for k, x in inputs.items()})[0])
+    u_v = inputs["speed_work"].u if area != 0.0 else 0.0
+    u_q = math.sqrt(inputs["flow_B"].u ** 2 + inputs["flow_C"].u ** 2 + (area * u_v) ** 2)
+    dp = inputs["pump_pressure"].value - drop
+    if dp <= 0.0:
+        raise MeasurementError(f"pump pressure leaves no pressure across the valve "
+                               f"(ΔP = {dp:.4g} Pa)", field="pump_pressure")
+    if q < -CONSISTENCY_K * u_q:
+        raise MeasurementError(f"valve bypass Q_B − Q_C = {q:.4g} m³/s is negative beyond "
+                               f"{CONSISTENCY_K:g} standard uncertainties", field="flow_C")
+    notes: list[str] = []
+    if q < 2.0 * u_q:
+        notes.append("the valve bypass is within 2 standard uncertainties of zero: the lower "
+                     "bound is the physical limit, not a measurement")
+    near_bound = q < CONSISTENCY_K * u_q  # first-order sensitivities mislead there
+    est = propagate(model, inputs, quantity="cv", unit="m", method=method, lower=0.0, n=n,
+                    rng=rng, nonlinear=near_bound)
+    mu = fl.dynamic_viscosity(inputs["oil_temperature"].value)
+    derived = {"Q_lv": q, "u_Q_lv": u_q, "dp": dp, "mu": mu}
+    return replace(est, derived=derived, notes=est.notes + tuple(notes))

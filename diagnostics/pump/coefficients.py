@@ -1,0 +1,326 @@
+"""Loss coefficients Cs, Cst, Cv, Cf of paper 000 from ISO 4409 data at two temperatures.
+
+Pairs of set points (same pressure and speed levels) at the coldest oil θ₁ (viscosity μ₁)
+and the hottest θ₂ (μ₂) give, with the derived capacity D [m³/rad]:
+
+* flow loss ``L = D·ω − q`` [m³/s] at each temperature;
+* **Cs** (eq. 7): ``Cs = (L₂ − L₁) / (D·(Δp₂/μ₂ − Δp₁/μ₁))``.  With equal readings at both
+  temperatures this is the paper's ``(q₁ − q₂)/(Δp·D·(1/μ₂ − 1/μ₁))``; written with the
+  loss, a small difference of the actual speeds of the two runs (drive slip under a
+  different load) does not enter as slip;
+* **Cst** (eqs. 8-9): ``Qst = L − Cs·Δp·D/μ − Δp·D·ω/β_ef`` at each temperature, then
+  ``Cst = Qst / √(2Δp·D^(4/3)/ρ)`` with eq. 9's exponent (eq. 5 of the copy prints D⁴,
+  which is not dimensionless; see :mod:`sim.components.gear_pump`); mean of θ₁ and θ₂;
+* torque loss ``TL = T − Δp·D`` [N·m];
+* **Cv** (eq. 17): ``Cv = (TL₁ − TL₂) / (D·(μ₁ω₁ − μ₂ω₂))``, equal to the paper's
+  ``(T₁ − T₂)/((μ₁ − μ₂)·ω·D)`` at equal readings;
+* **Cf** (eqs. 18-19): ``Tf = T − Δp·D − Cv·μ·ω·D`` and ``Cf = Tf/(Δp·D)``; mean of θ₁ and
+  θ₂.  The copy's eq. 18 reads ``Tf = T − Tv``; the ideal torque Δp·D (eq. 13) must also be
+  removed, or Cf would be 1 + the friction coefficient.
+
+β_ef and ρ are inputs: steady flow data cannot separate compressibility (Δp·ω) from a
+speed-dependent slip (DISCREPANCY.md: identical columns on steady data), so β_ef is taken
+from the oil, as paper 000 does.
+
+Standard errors of the point estimates follow from the instrument accuracies
+(:class:`diagnostics.pump.bench.InstrumentNoise`) by first-order propagation through the
+formulas above (numerical derivatives), including the temperature readings through μ(θ).
+A stated uncertainty of D adds, after the surface fit, a fully correlated term (the fit is
+repeated with D ± its standard error).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from diagnostics.pump.bench import InstrumentNoise
+from diagnostics.pump.capacity import THETA_GAP, CapacityEstimate, derived_capacity_toet
+from diagnostics.pump.data import BenchData
+from diagnostics.pump.levels import cluster_levels, group_keys
+from diagnostics.pump.surfaces import SurfaceFit, fit_surface
+from sim.components.gear_pump import GearPump, dynamic_viscosity
+from sim.errors import InputError
+from sim.fluid import Fluid
+
+__all__ = ["PairedPoints", "PointEstimates", "PumpParameterisation", "pair_set_points",
+           "parameterise", "point_coefficients"]
+
+FloatArray = npt.NDArray[np.float64]
+
+_INPUTS = ("dp1", "dp2", "w1", "w2", "q1", "q2", "t1", "t2", "th1", "th2")
+
+
+@dataclass(frozen=True, eq=False)
+class PairedPoints:
+    """Set-point means at the cold (1) and hot (2) temperature, one row per set point.
+
+    Attributes
+    ----------
+    values
+        ``{"dp1", "dp2" [Pa], "w1", "w2" [rad/s], "q1", "q2" [m³/s], "t1", "t2" [N·m],
+        "th1", "th2" [°C]}``; torque NaN when not measured.
+    variances
+        Variances of these means from the instrument accuracies (same keys, units²).
+    """
+
+    values: dict[str, FloatArray]
+    variances: dict[str, FloatArray]
+    has_torque: bool
+
+    def __len__(self) -> int:
+        return int(self.values["dp1"].size)
+
+
+@dataclass(frozen=True, eq=False)
+class PointEstimates:
+    """Point estimates of the loss coefficients at each set point.
+
+    Attributes
+    ----------
+    dp, omega
+        Where they hold: mean pressure rise [Pa] and speed [rad/s] of the pair.
+    values, std
+        ``{"Cs", "Cst", "Cv", "Cf"}`` → estimates and standard errors [-].
+    """
+
+    dp: FloatArray
+    omega: FloatArray
+    values: dict[str, FloatArray]
+    std: dict[str, FloatArray]
+
+
+def pair_set_points(data: BenchData, noise: InstrumentNoise | None = None) -> PairedPoints:
+    """Group readings into set points and pair the coldest and hottest temperature levels.
+
+    Parameters
+    ----------
+    data
+        Steady points of a grid plan run at ≥ 2 oil temperatures (levels ≥ 3 K apart).
+    noise
+        Instrument accuracies for the variances (default :class:`InstrumentNoise`).
+
+    Raises
+    ------
+    InputError
+        Fewer than two temperature levels (field ``theta``), or no set point present at both
+        (field ``p_out``).
+    """
+    nz = noise if noise is not None else InstrumentNoise()
+    t_idx, t_lev = cluster_levels(data.theta, rel_gap=0.0, abs_gap=THETA_GAP, field="theta")
+    if t_lev.size < 2:
+        raise InputError("eq. 7 and 17 need data at two oil temperatures (paper 000: 22 and "
+                         "60 °C); found one level", field="theta")
+    p_idx, _ = cluster_levels(data.dp, field="p_out")
+    w_idx, _ = cluster_levels(data.omega, field="n")
+    key = group_keys(p_idx, w_idx)
+    cold, hot = 0, int(t_lev.size - 1)
+    torque = data.torque
+    vals: dict[str, list[float]] = {k: [] for k in _INPUTS}
+    var: dict[str, list[float]] = {k: [] for k in _INPUTS}
+    for k in np.unique(key):
+        rows = [np.flatnonzero((key == k) & (t_idx == lev)) for lev in (cold, hot)]
+        if rows[0].size == 0 or rows[1].size == 0:
+            continue
+        for tag, r in zip(("1", "2"), rows, strict=True):
+            n = r.size
+            dp = float(np.mean(data.dp[r]))
+            w = float(np.mean(data.omega[r]))
+            q = float(np.mean(data.q[r]))
+            t = float(np.mean(torque[r])) if torque is not None else math.nan
+            p_sq = float(np.mean(data.p_out[r] ** 2 + data.p_in[r] ** 2))
+            vals["dp" + tag].append(dp)
+            var["dp" + tag].append(nz.sigma("pressure") ** 2 * p_sq / n)
+            vals["w" + tag].append(w)
+            var["w" + tag].append((nz.sigma("speed") * w) ** 2 / n)
+            vals["q" + tag].append(q)
+            var["q" + tag].append(float(np.mean(nz.flow_sigma(data.q[r]) ** 2)) / n)
+            vals["t" + tag].append(t)
+            var["t" + tag].append((nz.sigma("torque") * t) ** 2 / n)
+            vals["th" + tag].append(float(np.mean(data.theta[r])))
+            var["th" + tag].append(nz.sigma("temperature") ** 2 / n)
+    if not vals["dp1"]:
+        raise InputError("no set point was run at both temperatures", field="p_out")
+    return PairedPoints({k: np.asarray(v) for k, v in vals.items()},
+                        {k: np.asarray(v) for k, v in var.items()}, torque is not None)
+
+
+def _coefficients(x: Mapping[str, FloatArray], D: float, fluid: Fluid, rho: float,
+                  beta_ef: float) -> dict[str, FloatArray]:
+    """Eqs. 7-9 and 17-19 (module doc) on set-point means ``x`` (keys of ``_INPUTS``)."""
+    mu1 = dynamic_viscosity(fluid, x["th1"])
+    mu2 = dynamic_viscosity(fluid, x["th2"])
+    out: dict[str, FloatArray] = {}
+    loss1 = D * x["w1"] - x["q1"]
+    loss2 = D * x["w2"] - x["q2"]
+    cs = (loss2 - loss1) / (D * (x["dp2"] / mu2 - x["dp1"] / mu1))
+    cst = []
+    for loss, dp, w, mu in ((loss1, x["dp1"], x["w1"], mu1), (loss2, x["dp2"], x["w2"], mu2)):
+        q_st = loss - cs * dp * D / mu - dp * D * w / beta_ef                 # eq. 8
+        cst.append(q_st / np.sqrt(2.0 * dp * D ** (4.0 / 3.0) / rho))       # eq. 9
+    out["Cs"] = cs
+    out["Cst"] = 0.5 * (cst[0] + cst[1])
+    tl1 = x["t1"] - x["dp1"] * D
+    tl2 = x["t2"] - x["dp2"] * D
+    cv = (tl1 - tl2) / (D * (mu1 * x["w1"] - mu2 * x["w2"]))                # eq. 17
+    cf1 = (tl1 - cv * mu1 * x["w1"] * D) / (x["dp1"] * D)                   # eqs. 18-19
+    cf2 = (tl2 - cv * mu2 * x["w2"] * D) / (x["dp2"] * D)
+    out["Cv"] = cv
+    out["Cf"] = 0.5 * (cf1 + cf2)
+    return out
+
+
+def point_coefficients(pairs: PairedPoints, D: float, *, fluid: Fluid | None = None,
+                       rho: float = 865.0, beta_ef: float = 1.5e9) -> PointEstimates:
+    """Point estimates of Cs, Cst (and Cv, Cf with torque) with standard errors.
+
+    Parameters
+    ----------
+    pairs
+        From :func:`pair_set_points`.
+    D
+        Derived capacity [m³/rad].
+    fluid
+        Oil for μ(θ) (default :class:`sim.fluid.Fluid`, ISO VG 46).
+    rho
+        Density in eq. 9 [kg/m³].
+    beta_ef
+        Effective bulk modulus in eq. 8 [Pa].
+
+    Returns
+    -------
+    PointEstimates
+        At the mean pressure rise and speed of each pair.
+    """
+    if not (D > 0 and rho > 0 and beta_ef > 0):
+        raise InputError("D, rho and beta_ef must be positive", field="D")
+    fl = fluid if fluid is not None else Fluid()
+    x = pairs.values
+    base = _coefficients(x, D, fl, rho, beta_ef)
+    var = {k: np.zeros_like(v) for k, v in base.items()}
+    for name in _INPUTS:
+        sd = np.sqrt(pairs.variances[name])
+        if name.startswith("t") and not name.startswith("th") and not pairs.has_torque:
+            continue
+        h = np.where(sd > 0, sd, 1e-9 * np.maximum(np.abs(x[name]), 1.0))
+        shifted = dict(x)
+        shifted[name] = x[name] + h
+        up = _coefficients(shifted, D, fl, rho, beta_ef)
+        for k in base:
+            var[k] += ((up[k] - base[k]) / h) ** 2 * pairs.variances[name]
+    names = ("Cs", "Cst", "Cv", "Cf") if pairs.has_torque else ("Cs", "Cst")
+    return PointEstimates(
+        dp=0.5 * (x["dp1"] + x["dp2"]), omega=0.5 * (x["w1"] + x["w2"]),
+        values={k: base[k] for k in names}, std={k: np.sqrt(var[k]) for k in names},
+    )
+
+
+@dataclass(frozen=True, eq=False)
+class PumpParameterisation:
+    """The result of :func:`parameterise`.
+
+    Attributes
+    ----------
+    D, D_std
+        Derived capacity used and its standard error [m³/rad].
+    capacity
+        The capacity estimate when it came from the data (Toet), else ``None``.
+    points
+        Point estimates of the coefficients.
+    fits
+        ``{"Cs", "Cst", "Cv", "Cf"}`` → surface fits (Cv, Cf only with torque).
+    rho, beta_ef
+        Density [kg/m³] and bulk modulus [Pa] assumed.
+    fluid
+        The oil assumed for μ(θ).
+    """
+
+    D: float
+    D_std: float
+    capacity: CapacityEstimate | None
+    points: PointEstimates
+    fits: dict[str, SurfaceFit]
+    rho: float
+    beta_ef: float
+    fluid: Fluid
+
+    def pump(self) -> GearPump:
+        """A :class:`GearPump` with the fitted surfaces (needs Cv and Cf, i.e. torque data)."""
+        if "Cv" not in self.fits:
+            raise InputError("no torque data: Cv and Cf were not parameterised", field="T")
+        dp, w = self.points.dp, self.points.omega
+        return GearPump(Cs=self.fits["Cs"].surface, Cst=self.fits["Cst"].surface,
+                        Cv=self.fits["Cv"].surface, Cf=self.fits["Cf"].surface, D=self.D,
+                        rho=self.rho, beta_ef=self.beta_ef, fluid=self.fluid,
+                        p_range=(float(dp.min()), float(dp.max())),
+                        omega_range=(float(w.min()), float(w.max())),
+                        note="parameterised from bench data (paper 000 eqs. 7-9, 17-19)")
+
+
+def _fit_all(points: PointEstimates, degrees: Mapping[str, tuple[int, int]]
+             ) -> dict[str, SurfaceFit]:
+    out: dict[str, SurfaceFit] = {}
+    for k, v in points.values.items():
+        sd = points.std[k]
+        out[k] = fit_surface(k, points.dp, points.omega, v, sd if np.any(sd > 0) else None,
+                             degrees=degrees.get(k, (3, 3)))
+    return out
+
+
+def parameterise(data: BenchData, *, D: float | None = None, D_std: float = 0.0,
+                 fluid: Fluid | None = None, rho: float = 865.0, beta_ef: float = 1.5e9,
+                 degrees: Mapping[str, tuple[int, int]] | None = None,
+                 noise: InstrumentNoise | None = None) -> PumpParameterisation:
+    """Parameterise paper 000's loss model from ISO 4409 data at two temperatures.
+
+    Parameters
+    ----------
+    data
+        A grid plan (set points repeated at ≥ 2 oil temperatures), with torque for Cv, Cf.
+    D
+        Derived capacity [m³/rad]; ``None``: Toet method at the coldest oil
+        (:func:`~diagnostics.pump.capacity.derived_capacity_toet`), with its standard error.
+    D_std
+        Standard error of a given ``D`` [m³/rad] (propagated as a systematic error).
+    fluid
+        Oil for μ(θ) (default ISO VG 46, :class:`sim.fluid.Fluid`).
+    rho, beta_ef
+        Density [kg/m³] and effective bulk modulus [Pa] (defaults as
+        :data:`sim.components.gear_pump.PARAMETERS`).
+    degrees
+        Surface degrees (pressure, speed) per coefficient; default (3, 3) for each, the cubic
+        surface of paper 000 §6.
+    noise
+        Instrument accuracies for the standard errors (default :class:`InstrumentNoise`).
+
+    Returns
+    -------
+    PumpParameterisation
+    """
+    fl = fluid if fluid is not None else Fluid()
+    capacity: CapacityEstimate | None = None
+    if D is None:
+        capacity = derived_capacity_toet(data)
+        D, D_std = capacity.D, capacity.std if math.isfinite(capacity.std) else 0.0
+    if not (D > 0 and D_std >= 0):
+        raise InputError("D must be > 0 and D_std ≥ 0", field="D")
+    deg = dict(degrees) if degrees is not None else {}
+    pairs = pair_set_points(data, noise)
+    points = point_coefficients(pairs, D, fluid=fl, rho=rho, beta_ef=beta_ef)
+    fits = _fit_all(points, deg)
+    if D_std > 0:
+        hi = _fit_all(point_coefficients(pairs, D + D_std, fluid=fl, rho=rho,
+                                         beta_ef=beta_ef), deg)
+        lo = _fit_all(point_coefficients(pairs, D - D_std, fluid=fl, rho=rho,
+                                         beta_ef=beta_ef), deg)
+        for k, f in fits.items():
+            g = 0.5 * (hi[k].surface.coef - lo[k].surface.coef).ravel()
+            fits[k] = SurfaceFit(f.name, f.surface, f.cov + np.outer(g, g), f.dp, f.omega,
+                                 f.values, f.std, f.residual_rms, f.residual_max, f.r2,
+                                 f.chi2_red)
+    return PumpParameterisation(D=D, D_std=D_std, capacity=capacity, points=points, fits=fits,
+                                rho=rho, beta_ef=beta_ef, fluid=fl)

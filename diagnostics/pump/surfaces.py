@@ -1,0 +1,147 @@
+"""Weighted polynomial fits of a loss coefficient over pressure and speed.
+
+Paper 000 fits each loss coefficient against pressure (§4, "polynomial adjustments of the
+values versus pressure") and recommends surfaces in pressure *and* speed (§6).  Here a
+coefficient's point estimates ``c_k`` at ``(Δp_k, ω_k)`` with standard errors ``s_k`` are
+fitted by weighted least squares (weights 1/s_k²) with
+:class:`sim.components.gear_pump.CoefficientSurface`'s basis ``xⁱ·yʲ``.
+
+The covariance of the polynomial coefficients is ``(XᵀWX)⁻¹`` scaled by the reduced χ² when
+that exceeds 1 (the usual guard when the stated instrument errors are optimistic; with a
+correct noise model χ²_red ≈ 1).  Pointwise estimates of different coefficients come from
+the same readings and are correlated; each surface's covariance ignores that.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+from numpy.polynomial import polynomial as npoly
+
+from sim.components.gear_pump import OMEGA_REF, P_REF, CoefficientSurface
+from sim.errors import InputError
+
+__all__ = ["SurfaceFit", "fit_surface"]
+
+FloatArray = npt.NDArray[np.float64]
+
+
+@dataclass(frozen=True, eq=False)
+class SurfaceFit:
+    """A fitted coefficient surface with its uncertainty and residuals.
+
+    Attributes
+    ----------
+    name
+        Coefficient name (``"Cs"``, ``"Cst"``, ``"Cv"``, ``"Cf"``).
+    surface
+        The fitted surface [-].
+    cov
+        Covariance of ``surface.coef.ravel()`` [-²].
+    dp, omega, values, std
+        The point estimates that were fitted: pressure rise [Pa], speed [rad/s], value and
+        standard error [-].
+    residual_rms, residual_max
+        RMS and largest absolute residual of the point estimates [-].
+    r2
+        Weighted coefficient of determination [-].
+    chi2_red
+        Reduced χ² of the weighted residuals [-] (≈ 1 when the noise model is right).
+    """
+
+    name: str
+    surface: CoefficientSurface
+    cov: FloatArray
+    dp: FloatArray
+    omega: FloatArray
+    values: FloatArray
+    std: FloatArray
+    residual_rms: float
+    residual_max: float
+    r2: float
+    chi2_red: float
+
+    def _basis(self, dp: npt.ArrayLike, omega: npt.ArrayLike) -> FloatArray:
+        s = self.surface
+        x, y = np.broadcast_arrays(np.asarray(dp, dtype=np.float64) / s.p_ref,
+                                   np.asarray(omega, dtype=np.float64) / s.omega_ref)
+        return np.asarray(npoly.polyvander2d(x.ravel(), y.ravel(), list(s.degrees)))
+
+    def std_at(self, dp: npt.ArrayLike, omega: npt.ArrayLike) -> FloatArray:
+        """Standard error of the fitted surface [-] at ``dp`` [Pa], ``omega`` [rad/s]."""
+        shape = np.broadcast_shapes(np.shape(dp), np.shape(omega))
+        V = self._basis(dp, omega)
+        var = np.einsum("ij,jk,ik->i", V, self.cov, V)
+        return np.sqrt(np.maximum(var, 0.0)).reshape(shape)
+
+
+def fit_surface(name: str, dp: npt.ArrayLike, omega: npt.ArrayLike, values: npt.ArrayLike,
+                std: npt.ArrayLike | None = None, *, degrees: tuple[int, int] = (3, 3),
+                p_ref: float = P_REF, omega_ref: float = OMEGA_REF) -> SurfaceFit:
+    """Weighted least-squares polynomial surface through point estimates of a coefficient.
+
+    Parameters
+    ----------
+    name
+        Coefficient name, for messages.
+    dp, omega
+        Where the estimates hold: pressure rise [Pa], speed [rad/s].
+    values
+        Point estimates [-].
+    std
+        Their standard errors [-] (``None``: equal weights, covariance from the residuals).
+    degrees
+        Degrees (in pressure, in speed) [-].
+    p_ref, omega_ref
+        Scales of the surface variables [Pa], [rad/s].
+
+    Returns
+    -------
+    SurfaceFit
+
+    Raises
+    ------
+    InputError
+        Too few points for the degrees (field ``name``), non-finite values or errors.
+    """
+    x = np.asarray(dp, dtype=np.float64).ravel() / p_ref
+    y = np.asarray(omega, dtype=np.float64).ravel() / omega_ref
+    v = np.asarray(values, dtype=np.float64).ravel()
+    s = np.ones_like(v) if std is None else np.asarray(std, dtype=np.float64).ravel()
+    dp_deg, n_deg = degrees
+    m = (dp_deg + 1) * (n_deg + 1)
+    if not (x.size == y.size == v.size == s.size):
+        raise InputError("dp, omega, values and std differ in length", field=name)
+    if not (np.all(np.isfinite(v)) and np.all(np.isfinite(s)) and np.all(s > 0)):
+        raise InputError("point estimates and errors must be finite, errors > 0", field=name)
+    if v.size <= m:
+        raise InputError(f"{v.size} point estimates cannot fit {m} polynomial coefficients "
+                         f"(degrees {degrees}); more set points or lower degrees", field=name)
+    if np.unique(np.round(x, 3)).size <= dp_deg or np.unique(np.round(y, 3)).size <= n_deg:
+        raise InputError(f"need more than {dp_deg} pressure and {n_deg} speed levels",
+                         field=name)
+    V = np.asarray(npoly.polyvander2d(x, y, [dp_deg, n_deg]))
+    w = 1.0 / s
+    A = V * w[:, None]
+    sol, *_ = np.linalg.lstsq(A, v * w, rcond=None)
+    coef = np.asarray(sol, dtype=np.float64)
+    fitted = V @ coef
+    res = v - fitted
+    chi2_red = float(np.sum((res * w) ** 2) / (v.size - m))
+    cov = np.asarray(np.linalg.inv(A.T @ A), dtype=np.float64)
+    if std is None:
+        cov *= chi2_red
+    else:
+        cov *= max(1.0, chi2_red)
+    wmean = float(np.sum(v * w**2) / np.sum(w**2))
+    ss_tot = float(np.sum(((v - wmean) * w) ** 2))
+    r2 = 1.0 - float(np.sum((res * w) ** 2)) / ss_tot if ss_tot > 0 else math.nan
+    surface = CoefficientSurface(coef.reshape(dp_deg + 1, n_deg + 1), p_ref, omega_ref)
+    return SurfaceFit(
+        name=name, surface=surface, cov=cov, dp=x * p_ref, omega=y * omega_ref, values=v,
+        std=s, residual_rms=float(np.sqrt(np.mean(res**2))),
+        residual_max=float(np.max(np.abs(res))), r2=r2, chi2_red=chi2_red,
+    )

@@ -1,0 +1,223 @@
+"""Throttle-valve equivalence: calibration tables → equivalent clearances (paper 002 §2.7).
+
+Paper 002 opens throttle valves H (across the piston) and I (valve P → T) by half turns to
+mimic worn internal clearances, and calibrates each opening by the clearance that would
+let the same bypass flow pass (Tables 2 and 3).  Both leakage laws have the form
+
+.. math:: Q = a\\,c^3 - b\\,c
+
+with ``a = π·D·ΔP/(12·μ·L)`` and ``b = π·D·ẋ/2`` for the piston (paper 002 eq. 36, Couette
+sign of :mod:`sim.components.cylinder`) and ``b = 0`` for the spool (eq. 23).  Two ways to
+get the clearance column:
+
+* :func:`clearances_from_law` — ``a`` and ``b`` from geometry, viscosity and the pressure
+  difference across the leak path (given by the caller: the table's back-pressure is not
+  that difference);
+* :func:`clearances_calibrated` — the clearance of one row (the closed row: the existing
+  clearance) is known; the unknown factor ``a`` is fitted there,
+  ``a = (Q_ref + b·c_ref)/c_ref³``, and the other rows follow at equal ΔP.  With ``b = 0``
+  this is the cube rule ``c = c_ref·(Q/Q_ref)^(1/3)``, the paper's ``Q ∝ c³``.
+
+Each row's clearance is the physical root of :func:`diagnostics.inversion.leakage_root`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+
+from diagnostics.inversion import leakage_root, piston_law_coefficients, spool_law_coefficient
+from sim.errors import InputError
+
+__all__ = [
+    "CalibrationRow",
+    "CalibrationTable",
+    "Component",
+    "EquivalenceTable",
+    "clearances_calibrated",
+    "clearances_from_law",
+    "table_from_columns",
+]
+
+Component = Literal["cylinder", "valve"]
+
+
+@dataclass(frozen=True, slots=True)
+class CalibrationRow:
+    """One throttle opening and the bypass flow it gave.
+
+    Parameters
+    ----------
+    opening
+        Label as in the source (``"closed"``, ``"1/2 turn"``).
+    turns
+        Throttle opening [turns] (0 = closed).
+    bypass_flow
+        Equivalent leakage measured at that opening [m³/s], > 0.
+    """
+
+    opening: str
+    turns: float
+    bypass_flow: float
+
+
+@dataclass(frozen=True, slots=True)
+class CalibrationTable:
+    """A throttle-valve calibration table.
+
+    Parameters
+    ----------
+    component
+        ``"cylinder"`` (throttle H) or ``"valve"`` (throttle I).
+    rows
+        The openings, in any order.
+    back_pressure
+        Back-pressure of the load control valve during the calibration [Pa].
+    temperature
+        Oil temperature during the calibration [°C], if known.
+    source
+        Where the table comes from.
+    """
+
+    component: Component
+    rows: tuple[CalibrationRow, ...]
+    back_pressure: float
+    temperature: float | None = None
+    source: str = ""
+
+    def __post_init__(self) -> None:
+        if self.component not in ("cylinder", "valve"):
+            raise InputError(f"unknown component {self.component!r}", field="component")
+        if not self.rows:
+            raise InputError("a calibration table needs at least one row", field="rows")
+        for i, row in enumerate(self.rows):
+            if not (math.isfinite(row.bypass_flow) and row.bypass_flow > 0.0):
+                raise InputError(f"bypass flow must be finite and > 0, got {row.bypass_flow}",
+                                 field=f"rows[{i}].bypass_flow")
+            if not (math.isfinite(row.turns) and row.turns >= 0.0):
+                raise InputError(f"opening must be finite and ≥ 0, got {row.turns}",
+                                 field=f"rows[{i}].turns")
+        if not math.isfinite(self.back_pressure):
+            raise InputError("back-pressure must be finite", field="back_pressure")
+
+    @property
+    def flows(self) -> np.ndarray:
+        """Bypass flows of the rows [m³/s]."""
+        return np.array([r.bypass_flow for r in self.rows], dtype=np.float64)
+
+
+@dataclass(frozen=True, slots=True)
+class EquivalenceTable:
+    """A calibration table with its equivalent-clearance column.
+
+    Attributes
+    ----------
+    table
+        The calibration table.
+    clearances
+        Equivalent clearance of each row [m], in the order of ``table.rows``.
+    a
+        Poiseuille factor of the law ``Q = a·c³ − b·c`` [m³/s per m³].
+    b
+        Couette factor [m³/s per m].
+    method
+        ``"law"`` or ``"calibrated"`` (then ``reference_row`` names the row).
+    reference_row
+        Index of the calibration row (``None`` for ``"law"``).
+    """
+
+    table: CalibrationTable
+    clearances: tuple[float, ...]
+    a: float
+    b: float
+    method: Literal["law", "calibrated"]
+    reference_row: int | None = None
+
+    def clearance_for(self, turns: float) -> float:
+        """Equivalent clearance [m] at an opening [turns], linear between table rows."""
+        t = np.array([r.turns for r in self.table.rows])
+        order = np.argsort(t)
+        if not (t[order][0] <= turns <= t[order][-1]):
+            raise InputError(f"opening {turns} turns is outside the table "
+                             f"({t[order][0]}..{t[order][-1]})", field="turns")
+        return float(np.interp(turns, t[order], np.asarray(self.clearances)[order]))
+
+
+def _solve(table: CalibrationTable, a: float, b: float) -> tuple[float, ...]:
+    """Rising-branch roots; with ``a > 0`` and every flow > 0 each row has exactly one."""
+    return tuple(float(x) for x in leakage_root(a, b, table.flows))
+
+
+def clearances_from_law(table: CalibrationTable, *, dp: float, mu: float, D: float, L: float,
+                        velocity: float = 0.0) -> EquivalenceTable:
+    """Equivalent clearances from the physical law and known geometry.
+
+    Parameters
+    ----------
+    table
+        Calibration table.
+    dp
+        Pressure difference across the leak path [Pa], > 0: P1 − P2 for the cylinder,
+        P_P − P_T for the valve, at the calibration condition.
+    mu
+        Dynamic viscosity at the calibration temperature [Pa·s].
+    D, L
+        Bore and piston seal length (cylinder) or spool diameter and sealing length
+        (valve) [m].
+    velocity
+        Piston speed of the working phase [m/s] (cylinder only; Couette term).
+    """
+    if not (dp > 0.0 and mu > 0.0 and D > 0.0 and L > 0.0):
+        raise InputError("dp, mu, D and L must be > 0", field="dp")
+    if table.component == "valve" and velocity != 0.0:
+        raise InputError("the spool law has no Couette term", field="velocity")
+    if table.component == "valve":
+        a, b = spool_law_coefficient(D, L) * dp / mu, 0.0  # paper 002 eq. 23
+    else:
+        a_unit, b_unit = piston_law_coefficients(D, L)  # paper 002 eq. 36
+        a, b = a_unit * dp / mu, b_unit * velocity
+    return EquivalenceTable(table, _solve(table, a, b), a, b, "law")
+
+
+def clearances_calibrated(table: CalibrationTable, reference_clearance: float, *,
+                          reference_row: int = 0, couette: float = 0.0) -> EquivalenceTable:
+    """Equivalent clearances calibrated at one row of known clearance.
+
+    Parameters
+    ----------
+    table
+        Calibration table.
+    reference_clearance
+        Known clearance of ``reference_row`` [m] (the closed row: the existing clearance).
+    reference_row
+        Index of the reference row in ``table.rows``.
+    couette
+        Couette factor ``b = π·D·ẋ/2`` [m²/s] of the piston law at the calibration speed
+        (0 for the valve, or to use the paper's plain cube rule).
+    """
+    if not (0 <= reference_row < len(table.rows)):
+        raise InputError(f"no row {reference_row}", field="reference_row")
+    if not (math.isfinite(reference_clearance) and reference_clearance > 0.0):
+        raise InputError("the reference clearance must be > 0", field="reference_clearance")
+    if table.component == "valve" and couette != 0.0:
+        raise InputError("the spool law has no Couette term", field="couette")
+    c0, q0 = reference_clearance, table.rows[reference_row].bypass_flow
+    # Q_ref > 0 puts c_ref above √(b/a), on the rising branch: every row has a unique root
+    a = (q0 + couette * c0) / c0**3
+    return EquivalenceTable(table, _solve(table, a, couette), a, couette, "calibrated",
+                            reference_row)
+
+
+def table_from_columns(component: Component, openings: Sequence[str], turns: Sequence[float],
+                       flows: Sequence[float], *, back_pressure: float,
+                       temperature: float | None = None, source: str = "") -> CalibrationTable:
+    """Build a :class:`CalibrationTable` from parallel columns (e.g. a stored table)."""
+    if not (len(openings) == len(turns) == len(flows)):
+        raise InputError("the columns must have equal lengths", field="rows")
+    rows = tuple(CalibrationRow(o, float(t), float(q)) for o, t, q in
+                 zip(openings, turns, flows, strict=True))
+    return CalibrationTable(component, rows, back_pressure, temperature, source)

@@ -1,0 +1,280 @@
+"""Trends of a diagnosed parameter over visits, and the time left to a threshold.
+
+A :class:`TrendSeries` is one rig's history of one component's parameter (``cc``, ``cv``,
+``Cs``): times [s] (any common origin, e.g. Unix time), estimates and their standard
+uncertainties.
+
+Slope (:func:`fit_trend`)
+    Theil–Sen (Sen 1968): the median of the pairwise slopes, robust to a wrong visit; its
+    confidence interval from Kendall's τ (:func:`scipy.stats.theilslopes`).  With few
+    points that happen to line up, that rank interval can be narrower than the stated
+    uncertainties of the points allow, so when every point has ``u > 0`` the interval is
+    widened to cover also ``slope ± z·σ_b``, where ``σ_b = 1/√Σ wᵢ(tᵢ − t̄_w)²``
+    (``wᵢ = 1/uᵢ²``) is the standard error of a weighted least-squares slope due to the
+    stated uncertainties alone.  The line passes through the *pivot* (median time,
+    median value), as scipy's "separate" intercept does.
+
+Time left (:func:`forecast_threshold`)
+    The fitted line and the lines through the pivot with the slope's interval bounds give
+    the crossing time and its interval: the steepest worsening slope gives the earliest
+    crossing, the shallowest the latest (infinite when the interval reaches "not
+    worsening").  Never an exception for a short or improving series: the result's
+    ``status`` says which case applies —
+
+    ``"worsening"``          slope worsening: ``time_left`` finite, interval given;
+    ``"not_worsening"``      slope ≤ 0 in the worsening direction: ``time_left = inf``;
+                             ``time_left_low`` is still the earliest crossing the slope
+                             interval allows (inf if none);
+    ``"crossed"``            the fitted value at ``now`` is already past the threshold;
+    ``"insufficient_data"``  fewer than :data:`MIN_POINTS` distinct times.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+from scipy import stats
+
+from diagnostics.uncertainty import Estimate
+from sim.errors import InputError
+
+__all__ = [
+    "MIN_POINTS",
+    "ThresholdForecast",
+    "TrendFit",
+    "TrendSeries",
+    "fit_trend",
+    "forecast_threshold",
+]
+
+#: Fewest distinct visit times for a trend (two points give a slope but no interval).
+MIN_POINTS = 3
+
+Direction = Literal["increasing", "decreasing"]
+Status = Literal["worsening", "not_worsening", "crossed", "insufficient_data"]
+
+
+@dataclass(frozen=True, slots=True)
+class TrendSeries:
+    """History of one parameter of one component of one rig.
+
+    Parameters
+    ----------
+    rig_id, component, quantity, unit
+        What the series is (``"rig-7"``, ``"cylinder"``, ``"cc"``, ``"m"``).
+    times
+        Visit times [s].
+    values
+        Estimates [unit].
+    uncertainties
+        Standard uncertainties of the estimates [unit], or ``None``.
+    """
+
+    rig_id: str
+    component: str
+    quantity: str
+    unit: str
+    times: tuple[float, ...]
+    values: tuple[float, ...]
+    uncertainties: tuple[float, ...] | None = None
+
+    def __post_init__(self) -> None:
+        if len(self.times) != len(self.values):
+            raise InputError("times and values differ in length", field="values")
+        if self.uncertainties is not None and len(self.uncertainties) != len(self.values):
+            raise InputError("uncertainties and values differ in length", field="uncertainties")
+        for name in ("times", "values", "uncertainties"):
+            seq = getattr(self, name)
+            for i, x in enumerate(seq or ()):
+                if not math.isfinite(x) or (name == "uncertainties" and x < 0.0):
+                    raise InputError(f"invalid entry {x}", field=f"{name}[{i}]")
+
+    @classmethod
+    def from_estimates(cls, rig_id: str, component: str, times: Sequence[float],
+                       estimates: Sequence[Estimate]) -> TrendSeries:
+        """Series from inversion results (their ``value``, ``u``, ``quantity`` and ``unit``)."""
+        if not estimates:
+            raise InputError("no estimates", field="estimates")
+        first = estimates[0]
+        for i, e in enumerate(estimates):
+            if (e.quantity, e.unit) != (first.quantity, first.unit):
+                raise InputError("estimates of different quantities", field=f"estimates[{i}]")
+        return cls(rig_id, component, first.quantity, first.unit, tuple(map(float, times)),
+                   tuple(e.value for e in estimates), tuple(e.u for e in estimates))
+
+    @property
+    def n_distinct(self) -> int:
+        """Number of distinct visit times."""
+        return len(set(self.times))
+
+
+@dataclass(frozen=True, slots=True)
+class TrendFit:
+    """Robust straight line through a series.
+
+    Attributes
+    ----------
+    slope, slope_low, slope_high
+        Theil–Sen slope and its interval [unit/s] (widened by the stated uncertainties,
+        module docstring).
+    rank_low, rank_high
+        Theil–Sen interval from the ranks alone [unit/s].
+    slope_u_measurement
+        Standard error of the slope implied by the stated uncertainties [unit/s] (nan
+        when not every point has ``u > 0``).
+    pivot_time, pivot_value
+        Median time [s] and median value [unit]; the line passes through them.
+    confidence
+        Confidence level of the intervals [-].
+    n
+        Number of points.
+    """
+
+    slope: float
+    slope_low: float
+    slope_high: float
+    rank_low: float
+    rank_high: float
+    slope_u_measurement: float
+    pivot_time: float
+    pivot_value: float
+    confidence: float
+    n: int
+
+    def value_at(self, t: float, slope: float | None = None) -> float:
+        """Fitted value [unit] at time ``t`` [s] (with another slope through the pivot)."""
+        s = self.slope if slope is None else slope
+        return self.pivot_value + s * (t - self.pivot_time)
+
+
+def fit_trend(series: TrendSeries, *, confidence: float = 0.95) -> TrendFit:
+    """Theil–Sen slope with its confidence interval (module docstring).
+
+    Raises
+    ------
+    InputError
+        Fewer than :data:`MIN_POINTS` distinct times, or a confidence outside (0, 1).
+    """
+    if not (0.0 < confidence < 1.0):
+        raise InputError("confidence must lie in (0, 1)", field="confidence")
+    if series.n_distinct < MIN_POINTS:
+        raise InputError(f"a trend needs {MIN_POINTS} distinct visit times, got "
+                         f"{series.n_distinct}", field="times")
+    t = np.asarray(series.times, dtype=np.float64)
+    y = np.asarray(series.values, dtype=np.float64)
+    res = stats.theilslopes(y, t, alpha=confidence, method="separate")
+    slope, low, high = float(res.slope), float(res.low_slope), float(res.high_slope)
+    u_meas = math.nan
+    if series.uncertainties is not None and min(series.uncertainties) > 0.0:
+        w = 1.0 / np.asarray(series.uncertainties, dtype=np.float64) ** 2
+        t_bar = float(np.sum(w * t) / np.sum(w))
+        u_meas = 1.0 / math.sqrt(float(np.sum(w * (t - t_bar) ** 2)))
+        z = float(stats.norm.ppf(0.5 + confidence / 2.0))
+        low, high = min(low, slope - z * u_meas), max(high, slope + z * u_meas)
+    return TrendFit(slope, low, high, float(res.low_slope), float(res.high_slope), u_meas,
+                    float(np.median(t)), float(np.median(y)), confidence, len(t))
+
+
+@dataclass(frozen=True, slots=True)
+class ThresholdForecast:
+    """When a parameter will cross a threshold.
+
+    Attributes
+    ----------
+    status
+        ``"worsening"``, ``"not_worsening"``, ``"crossed"`` or ``"insufficient_data"``
+        (module docstring).
+    threshold
+        The threshold [unit].
+    direction
+        ``"increasing"`` if larger values are worse (clearances, Cs), else
+        ``"decreasing"``.
+    now
+        Reference time [s] (default: the last visit).
+    time_left
+        Time from ``now`` to the crossing on the fitted line [s] (inf if never; 0 if
+        crossed; nan if insufficient data).
+    time_left_low, time_left_high
+        Earliest and latest crossing the slope interval allows, from ``now`` [s].
+    fit
+        The trend, or ``None`` with insufficient data.
+    message
+        One sentence for the report.
+    """
+
+    status: Status
+    threshold: float
+    direction: Direction
+    now: float
+    time_left: float
+    time_left_low: float
+    time_left_high: float
+    fit: TrendFit | None
+    message: str
+
+
+def _time_to(fit: TrendFit, threshold: float, slope: float, now: float) -> float:
+    """Time from ``now`` until the line through the pivot with ``slope`` reaches it [s]."""
+    if slope <= 0.0:
+        return math.inf
+    return max(fit.pivot_time + (threshold - fit.pivot_value) / slope - now, 0.0)
+
+
+def forecast_threshold(series: TrendSeries, threshold: float, *,
+                       direction: Direction = "increasing", now: float | None = None,
+                       confidence: float = 0.95) -> ThresholdForecast:
+    """Time left until ``threshold`` is crossed, with its interval (module docstring).
+
+    Parameters
+    ----------
+    series
+        The history.
+    threshold
+        Limit of the parameter [unit] (e.g. a clearance at which the rig is too slow).
+    direction
+        Whether larger (``"increasing"``) or smaller values are worse.
+    now
+        Reference time [s]; default the last visit.
+    confidence
+        Confidence level of the slope interval [-].
+    """
+    if direction not in ("increasing", "decreasing"):
+        raise InputError(f"unknown direction {direction!r}", field="direction")
+    if not math.isfinite(threshold):
+        raise InputError("threshold must be finite", field="threshold")
+    t_ref = max(series.times, default=math.nan) if now is None else float(now)
+    if series.n_distinct < MIN_POINTS:
+        return ThresholdForecast(
+            "insufficient_data", threshold, direction, t_ref, math.nan, math.nan, math.nan,
+            None, f"{series.n_distinct} distinct visit(s): a trend needs {MIN_POINTS}")
+    fit = fit_trend(series, confidence=confidence)
+    d = 1.0 if direction == "increasing" else -1.0
+    # work in the "worse = larger" frame: values, threshold and slopes times d
+    lo, hi = sorted((d * fit.slope_low, d * fit.slope_high))
+    rank_lo, rank_hi = sorted((d * fit.rank_low, d * fit.rank_high))
+    f = TrendFit(d * fit.slope, lo, hi, rank_lo, rank_hi, fit.slope_u_measurement,
+                 fit.pivot_time, d * fit.pivot_value, confidence, fit.n)
+    thr = d * threshold
+    earliest = _time_to(f, thr, f.slope_high, t_ref)
+    latest = _time_to(f, thr, f.slope_low, t_ref)
+    unit = series.unit
+    if f.value_at(t_ref) >= thr:
+        return ThresholdForecast("crossed", threshold, direction, t_ref, 0.0, 0.0, 0.0, fit,
+                                 f"{series.quantity} is past {threshold:.4g} {unit} on the "
+                                 "fitted trend")
+    if f.slope <= 0.0:
+        return ThresholdForecast("not_worsening", threshold, direction, t_ref, math.inf,
+                                 earliest, math.inf, fit,
+                                 f"{series.quantity} is not worsening (slope "
+                                 f"{fit.slope:.3g} {unit}/s); at the steepest slope the data "
+                                 f"allow, {threshold:.4g} {unit} would be reached in "
+                                 f"{earliest:.3g} s")
+    left = _time_to(f, thr, f.slope, t_ref)
+    return ThresholdForecast("worsening", threshold, direction, t_ref, left, earliest, latest,
+                             fit, f"{series.quantity} reaches {threshold:.4g} {unit} in "
+                             f"{left:.3g} s ({100 * confidence:.0f} % interval "
+                             f"{earliest:.3g} s to {latest:.3g} s)")

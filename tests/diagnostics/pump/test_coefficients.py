@@ -1,0 +1,133 @@
+"""Paper 000 eqs. 7-9 and 17-19: generate bench data from known coefficients, get them back."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from diagnostics.pump import (
+    BenchData,
+    InstrumentNoise,
+    default_levels,
+    fit_surface,
+    iso4409_grid,
+    parameterise,
+    read_bench_csv,
+    run_virtual_bench,
+    write_bench_csv,
+)
+from sim.components.gear_pump import GearPump
+from sim.components.gear_pump_map import MAP_OMEGA_RANGE, MAP_P_RANGE
+from sim.errors import InputError
+
+COEFS = ("Cs", "Cst", "Cv", "Cf")
+#: Recovery tolerance: every point of a 10 x 10 check grid within 4 standard errors of the
+#: fitted surface (100 correlated points; 4 SE is exceeded by chance in ~1 run in 50).
+Z_TOL = 4.0
+
+
+def _check_grid() -> tuple[np.ndarray, np.ndarray]:
+    P, W = np.meshgrid(np.linspace(*MAP_P_RANGE, 10), np.linspace(*MAP_OMEGA_RANGE, 10))
+    return P, W
+
+
+def test_noise_free_bench_gives_the_coefficients_back_exactly(pump: GearPump) -> None:
+    dp, w = iso4409_grid(*default_levels())
+    b = run_virtual_bench(pump, dp, w, (22.0, 60.0), noise=InstrumentNoise.none())
+    r = parameterise(b, D=pump.D)
+    P, W = _check_grid()
+    for k in COEFS:
+        true = getattr(pump, k)(P, W)
+        np.testing.assert_allclose(r.fits[k].surface(P, W), true, rtol=1e-9,
+                                   atol=1e-9 * np.abs(true).max())
+    np.testing.assert_allclose(r.pump().flow(P, W, 40.0), pump.flow(P, W, 40.0), rtol=1e-12)
+
+
+def test_noisy_bench_recovers_coefficients_within_the_noise(pump: GearPump,
+                                                            grid_bench: BenchData) -> None:
+    r = parameterise(grid_bench, D=pump.D)
+    P, W = _check_grid()
+    for k in COEFS:
+        f = r.fits[k]
+        z = (f.surface(P, W) - getattr(pump, k)(P, W)) / f.std_at(P, W)
+        assert np.abs(z).max() < Z_TOL, k
+        assert 0.5 < f.chi2_red < 2.0, k          # the propagated instrument noise is right
+    # the better determined coefficients are also close in absolute terms
+    assert float(r.fits["Cf"].surface(1e7, 157.0)) == pytest.approx(
+        float(pump.Cf(1e7, 157.0)), rel=0.05)
+    assert float(r.fits["Cv"].surface(1e7, 157.0)) == pytest.approx(
+        float(pump.Cv(1e7, 157.0)), rel=0.10)
+
+
+def test_a_wrong_bulk_modulus_is_caught_by_the_tolerance(pump: GearPump) -> None:
+    dp, w = iso4409_grid(*default_levels())
+    b = run_virtual_bench(pump, dp, w, (22.0, 60.0), replicates=2, seed=11)
+    r = parameterise(b, D=pump.D, beta_ef=0.75e9)      # truth: 1.5e9
+    P, W = _check_grid()
+    f = r.fits["Cst"]
+    z = (f.surface(P, W) - pump.Cst(P, W)) / f.std_at(P, W)
+    assert np.abs(z).max() > Z_TOL
+
+
+def test_capacity_from_toet_and_its_error_widen_the_bands(pump: GearPump,
+                                                          grid_bench: BenchData) -> None:
+    known = parameterise(grid_bench, D=pump.D)
+    toet = parameterise(grid_bench)
+    assert toet.capacity is not None and toet.capacity.method == "toet"
+    assert toet.D_std > 0 and abs(toet.D / pump.D - 1) < 0.005
+    # Cs and Cv are differences between the two temperatures: an error of D cancels; Cst and
+    # Cf are what is left after subtracting D·ω and Δp·D: an error of D goes straight in
+    ratio = {k: float(toet.fits[k].std_at(1e7, 157.0) / known.fits[k].std_at(1e7, 157.0))
+             for k in COEFS}
+    assert ratio["Cs"] == pytest.approx(1.0, abs=0.05)
+    assert ratio["Cv"] == pytest.approx(1.0, abs=0.05)
+    assert ratio["Cst"] > 1.2 and ratio["Cf"] > 1.2
+
+
+def test_csv_round_trip_gives_the_same_parameterisation(grid_bench: BenchData,
+                                                        tmp_path: Path) -> None:
+    path = tmp_path / "b.csv"
+    write_bench_csv(grid_bench, path)
+    a = parameterise(grid_bench, D=2.34e-6)
+    b = parameterise(read_bench_csv(path), D=2.34e-6)
+    for k in COEFS:
+        np.testing.assert_allclose(b.fits[k].surface.coef, a.fits[k].surface.coef, rtol=1e-10)
+
+
+def test_one_temperature_is_refused(pump: GearPump) -> None:
+    dp, w = iso4409_grid(*default_levels())
+    b = run_virtual_bench(pump, dp, w, (22.0,), seed=1)
+    with pytest.raises(InputError) as e:
+        parameterise(b, D=pump.D)
+    assert e.value.field == "theta"
+
+
+def test_without_torque_only_slip_coefficients(pump: GearPump) -> None:
+    dp, w = iso4409_grid(*default_levels())
+    b = run_virtual_bench(pump, dp, w, (22.0, 60.0), seed=1, with_torque=False)
+    r = parameterise(b, D=pump.D)
+    assert set(r.fits) == {"Cs", "Cst"}
+    with pytest.raises(InputError) as e:
+        r.pump()
+    assert e.value.field == "T"
+
+
+def test_surface_fit_refuses_too_few_points() -> None:
+    with pytest.raises(InputError) as e:
+        fit_surface("Cs", [1e6, 2e6, 3e6], [100.0, 150.0, 200.0], [1.0, 2.0, 3.0])
+    assert e.value.field == "Cs"
+
+
+def test_surface_fit_standard_error_matches_monte_carlo() -> None:
+    rng = np.random.default_rng(5)
+    P, W = np.meshgrid(np.linspace(2e6, 2.5e7, 8), np.linspace(60.0, 250.0, 7))
+    truth = 1.0 + 0.3 * P / 1e7 - 0.1 * (W / 100.0) ** 2
+    sd = 0.02 * np.ones(P.size)
+    fits = [fit_surface("C", P, W, truth.ravel() + sd * rng.standard_normal(P.size), sd,
+                        degrees=(2, 2)).surface(1e7, 150.0) for _ in range(400)]
+    predicted = fit_surface("C", P, W, truth.ravel(), sd, degrees=(2, 2)).std_at(1e7, 150.0)
+    assert float(np.std(fits)) == pytest.approx(float(predicted), rel=0.1)
+    assert math.isfinite(float(predicted))

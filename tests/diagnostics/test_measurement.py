@@ -1,0 +1,219 @@
+"""Measurement records: uncertainty conventions, validation, consistency with the rig."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from diagnostics.consistency import RigLimits, check_against_rig
+from diagnostics.measurement import (
+    CONSISTENCY_K,
+    DEFAULT_INSTRUMENTS,
+    MeasurementRecord,
+    OperatingCondition,
+    Quantity,
+)
+from sim.components import cylinder, pump
+from sim.errors import MeasurementError
+
+PUMP = {p.name: p.default for p in pump.PARAMETERS}
+CYL = {p.name: p.default for p in cylinder.PARAMETERS}
+AREA = cylinder.annulus_area(CYL["bore"], CYL["rod1"])
+LIMITS = RigLimits(Vp=PUMP["Vp"], speed=PUMP["speed"], A1=AREA, A2=AREA, stroke=CYL["stroke"])
+V_MAX = PUMP["Vp"] * PUMP["speed"] / AREA  # ≈ 0.22 m/s on paper 002's rig
+
+
+def cond(**kw: float | Quantity) -> OperatingCondition:
+    return OperatingCondition.from_readings({"oil_temperature": 40.0, "back_pressure": 10e5, **kw})
+
+
+def record(**readings: float | Quantity) -> MeasurementRecord:
+    return MeasurementRecord.from_readings("rig-1", cond(), readings)
+
+
+# --- uncertainty conventions -------------------------------------------------------------
+
+def test_bound_is_rectangular_with_u_a_over_sqrt3() -> None:
+    q = Quantity.from_bound(10.0, 0.3)
+    assert q.u == pytest.approx(0.3 / math.sqrt(3.0))
+    assert q.distribution == "rectangular"
+    e = Quantity.from_expanded(10.0, 0.3, k=2.0)
+    assert (e.u, e.distribution) == (pytest.approx(0.15), "normal")
+
+
+def test_instrument_classes_of_paper_000() -> None:
+    flow = DEFAULT_INSTRUMENTS["flow_C"].reading(4.0e-4)
+    assert flow.u == pytest.approx(0.01 * 4.0e-4 / math.sqrt(3.0))
+    p = DEFAULT_INSTRUMENTS["p1"].reading(-2.0e5)  # relative to |reading|
+    assert p.u == pytest.approx(0.0025 * 2.0e5 / math.sqrt(3.0))
+    t = DEFAULT_INSTRUMENTS["condition.oil_temperature"].reading(40.0)
+    assert t.u == pytest.approx(1.0 / math.sqrt(3.0))
+
+
+def test_from_readings_uses_default_class_and_keeps_stated_u() -> None:
+    rec = record(flow_C=4.0e-4, p1=Quantity(12e5, 1e3))
+    assert rec.flow_C is not None and rec.flow_C.distribution == "rectangular"
+    assert rec.p1 == Quantity(12e5, 1e3)
+    assert rec.flow_B is None
+
+
+def test_unknown_field_is_named() -> None:
+    with pytest.raises(MeasurementError) as err:
+        record(flow_D=1.0)
+    assert err.value.field == "flow_D"
+
+
+# --- field validation -----------------------------------------------------------------------
+
+@pytest.mark.parametrize("name", ["pump_pressure", "p1", "p2", "flow_B", "flow_C", "pump_flow",
+                                  "speed_work", "speed_return", "duration_work", "stroke",
+                                  "velocity_ratio"])
+@pytest.mark.parametrize("bad", [math.nan, math.inf, -math.inf])
+def test_non_finite_values_are_refused_with_their_path(name: str, bad: float) -> None:
+    with pytest.raises(MeasurementError) as err:
+        record(**{name: Quantity(bad, 0.0)})
+    assert err.value.field == name
+
+
+@pytest.mark.parametrize("u", [math.nan, -1e-6, math.inf])
+def test_bad_uncertainty_points_at_u(u: float) -> None:
+    with pytest.raises(MeasurementError) as err:
+        record(flow_B=Quantity(4e-4, u))
+    assert err.value.field == "flow_B.u"
+
+
+@pytest.mark.parametrize(("name", "value"), [("flow_B", -1e-7), ("flow_C", -1e-6),
+                                             ("p1", -1.01e5), ("pump_pressure", -2e5),
+                                             ("duration_work", -1.0), ("duration_return", 0.0),
+                                             ("speed_work", -0.1), ("stroke", 0.0),
+                                             ("velocity_ratio", 0.0)])
+def test_impossible_values(name: str, value: float) -> None:
+    with pytest.raises(MeasurementError) as err:
+        record(**{name: value})
+    assert err.value.field == name
+
+
+def test_vacuum_down_to_minus_one_bar_is_accepted() -> None:
+    assert record(p2=-0.9e5).p2 is not None
+
+
+def test_condition_validation() -> None:
+    with pytest.raises(MeasurementError) as err:
+        OperatingCondition.from_readings({"oil_temperature": 40.0})
+    assert err.value.field == "condition.load_force"
+    with pytest.raises(MeasurementError) as err:
+        OperatingCondition.from_readings({"oil_temperature": math.nan, "load_force": 2.1e3})
+    assert err.value.field == "condition.oil_temperature"
+    with pytest.raises(MeasurementError) as err:
+        OperatingCondition.from_readings({"oil_temperature": 400.0, "load_force": 2.1e3})
+    assert err.value.field == "condition.oil_temperature"
+    with pytest.raises(MeasurementError) as err:
+        OperatingCondition.from_readings({"back_pressure": 1e6})
+    assert err.value.field == "condition.oil_temperature"
+    with pytest.raises(MeasurementError) as err:
+        OperatingCondition.from_readings({"oil_temperature": 40.0, "load_force": 2.1e3,
+                                          "pump_speed": -1.0})
+    assert err.value.field == "condition.pump_speed"
+
+
+def test_missing_rig_is_refused() -> None:
+    with pytest.raises(MeasurementError) as err:
+        MeasurementRecord(rig_id=" ", condition=cond())
+    assert err.value.field == "rig_id"
+
+
+# --- internal contradictions ----------------------------------------------------------------
+
+def test_ratio_contradicting_speeds_is_refused() -> None:
+    vw, vr = Quantity(0.20, 0.001), Quantity(0.25, 0.001)  # ratio 0.800 ± 0.005
+    with pytest.raises(MeasurementError) as err:
+        record(speed_work=vw, speed_return=vr, velocity_ratio=Quantity(0.9, 0.005))
+    assert err.value.field == "velocity_ratio"
+    # within CONSISTENCY_K combined standard uncertainties it is accepted
+    u = math.hypot(0.005, 0.8 * math.hypot(0.001 / 0.2, 0.001 / 0.25))
+    ok = record(speed_work=vw, speed_return=vr,
+                velocity_ratio=Quantity(0.8 + 0.95 * CONSISTENCY_K * u, 0.005))
+    assert ok.ratio() is not None and ok.ratio().value == pytest.approx(0.8)  # type: ignore[union-attr]
+
+
+def test_durations_contradicting_speeds_are_refused() -> None:
+    with pytest.raises(MeasurementError) as err:  # 0.5 m in 2.0 s is 0.25 m/s, not 0.20
+        record(speed_work=0.20, duration_work=2.0, stroke=0.5)
+    assert err.value.field == "speed_work"
+    with pytest.raises(MeasurementError) as err:  # ratio from durations 2.0/2.5 vs speeds 1.0
+        record(speed_work=0.2, speed_return=0.2, duration_work=2.5, duration_return=2.0)
+    assert err.value.field == "duration_return"
+
+
+def test_speed_from_durations_and_inverse_variance_combination() -> None:
+    rec = record(duration_work=Quantity(2.5, 0.01), stroke=Quantity(0.5, 0.0))
+    v = rec.speed("work")
+    assert v is not None
+    assert v.value == pytest.approx(0.2)
+    assert v.u == pytest.approx(0.2 * 0.01 / 2.5)
+    both = record(duration_work=Quantity(2.5, 0.01), stroke=Quantity(0.5, 0.0),
+                  speed_work=Quantity(0.201, 0.0008))
+    c = both.speed("work")
+    assert c is not None
+    w1, w2 = 1 / 0.0008**2, 1 / 0.0008**2
+    assert c.value == pytest.approx((0.2 * w1 + 0.201 * w2) / (w1 + w2))
+    assert c.u == pytest.approx(0.0008 / math.sqrt(2.0))
+    # the stroke can come from the rig when the record has none
+    no_stroke = record(duration_work=2.5)
+    assert no_stroke.speed("work") is None
+    assert no_stroke.speed("work", stroke=Quantity(0.5)) is not None
+
+
+def test_ratio_from_durations_needs_no_stroke() -> None:
+    rec = record(duration_work=2.5, duration_return=2.0)
+    r = rec.ratio()
+    assert r is not None and r.value == pytest.approx(0.8)
+
+
+# --- limits of the rig ----------------------------------------------------------------------
+
+def test_speed_above_pump_maximum_is_refused() -> None:
+    check_against_rig(record(speed_work=0.98 * V_MAX), LIMITS)
+    with pytest.raises(MeasurementError) as err:
+        check_against_rig(record(speed_work=1.2 * V_MAX), LIMITS)
+    assert err.value.field == "speed_work"
+    with pytest.raises(MeasurementError) as err:  # too short a stroke time, rig's stroke
+        check_against_rig(record(duration_return=0.5 * CYL["stroke"] / V_MAX), LIMITS)
+    assert err.value.field == "duration_return"
+
+
+def test_speed_limit_follows_the_measured_pump_speed() -> None:
+    slow = OperatingCondition.from_readings({"oil_temperature": 40.0, "back_pressure": 10e5,
+                                             "pump_speed": 0.5 * PUMP["speed"]})
+    rec = MeasurementRecord.from_readings("rig-1", slow, {"speed_work": 0.8 * V_MAX})
+    with pytest.raises(MeasurementError):
+        check_against_rig(rec, LIMITS)
+
+
+def test_flows_against_the_pump_and_each_other() -> None:
+    q_max = PUMP["Vp"] * PUMP["speed"]
+    with pytest.raises(MeasurementError) as err:
+        check_against_rig(record(flow_B=1.1 * q_max), LIMITS)
+    assert err.value.field == "flow_B"
+    with pytest.raises(MeasurementError) as err:  # meter C cannot exceed meter B (A1 = A2)
+        check_against_rig(record(flow_B=3.0e-4, flow_C=3.2e-4), LIMITS)
+    assert err.value.field == "flow_C"
+    check_against_rig(record(flow_B=3.0e-4, flow_C=3.01e-4), LIMITS)  # within noise
+
+
+def test_load_and_back_pressure_must_agree() -> None:
+    both = OperatingCondition.from_readings({"oil_temperature": 40.0, "back_pressure": 10e5,
+                                             "load_force": 10e5 * AREA})
+    check_against_rig(MeasurementRecord("rig-1", both), LIMITS)
+    wrong = OperatingCondition.from_readings({"oil_temperature": 40.0, "back_pressure": 10e5,
+                                              "load_force": 4.2e3})
+    with pytest.raises(MeasurementError) as err:
+        check_against_rig(MeasurementRecord("rig-1", wrong), LIMITS)
+    assert err.value.field == "condition.load_force"
+
+
+def test_stroke_against_rig() -> None:
+    with pytest.raises(MeasurementError) as err:
+        check_against_rig(record(stroke=0.4), LIMITS)
+    assert err.value.field == "stroke"

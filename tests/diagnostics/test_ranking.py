@@ -1,0 +1,132 @@
+"""Ranking of faulty components: single faults rank first, healthy ranks healthy."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from diagnostics.diagnose import diagnose
+from diagnostics.measurement import MeasurementRecord, OperatingCondition
+from sim.errors import MeasurementError
+from sim.rigs import reference_rig
+from tests.diagnostics.synth import FULL, NO_FLOW, RATIO, record
+
+LOADS = (2.1e3, 4.2e3, 6.3e3)
+FAULTS = {
+    "cylinder": ({"cylinder.cc": 120e-6}, "cc", 120e-6),
+    "valve": ({"valve.cv": 60e-6}, "cv", 60e-6),
+    "pump": ({"pump.Rlp": 6.0e11 / 3}, "pump_leak", 3.0),
+}
+
+
+@pytest.fixture(scope="module")
+def rig():
+    return reference_rig()
+
+
+@pytest.mark.parametrize("load", LOADS)
+def test_healthy_rig_ranks_healthy(rig, load):
+    d = diagnose(rig, [record(rig, {}, load=load)])
+    assert d.top.name == "healthy"
+
+
+@pytest.mark.parametrize("load", LOADS)
+@pytest.mark.parametrize("fault", sorted(FAULTS))
+def test_each_single_fault_ranks_first_and_is_recovered(rig, fault, load):
+    overrides, pname, truth = FAULTS[fault]
+    d = diagnose(rig, [record(rig, overrides, load=load)])
+    assert d.top.name == fault
+    (est,) = d.top.parameters
+    assert est.name == pname
+    assert est.low <= truth <= est.high
+    assert est.value == pytest.approx(truth, rel=0.01)
+    assert est.severity in ("mild", "moderate", "severe")
+
+
+def test_pair_of_faults_ranks_the_pair(rig):
+    d = diagnose(rig, [record(rig, {"cylinder.cc": 110e-6, "valve.cv": 50e-6})])
+    assert d.top.name == "cylinder+valve"
+    got = {p.name: p.value for p in d.top.parameters}
+    assert got["cc"] == pytest.approx(110e-6, rel=0.01)
+    assert got["cv"] == pytest.approx(50e-6, rel=0.01)
+
+
+def test_records_at_three_loads_are_diagnosed_jointly(rig):
+    rng = np.random.default_rng(3)
+    recs = [record(rig, {"cylinder.cc": 105e-6}, load=f, fields=NO_FLOW, rng=rng) for f in LOADS]
+    joint = diagnose(rig, recs)
+    single = diagnose(rig, recs[:1])
+    assert joint.top.name == "cylinder"
+    assert joint.n_records == 3
+    (j,) = joint.top.parameters
+    assert j.low <= 105e-6 <= j.high
+    width_single = single.hypotheses[[f.name for f in single.hypotheses].index("cylinder")]
+    (s,) = width_single.parameters
+    assert (j.high - j.low) < (s.high - s.low)
+
+
+def test_probabilities_are_a_distribution(rig):
+    d = diagnose(rig, [record(rig, {"valve.cv": 45e-6}, fields=NO_FLOW)])
+    probs = [f.probability for f in d.hypotheses if f.observable]
+    assert sum(probs) == pytest.approx(1.0)
+    assert all(0.0 <= p <= 1.0 for p in probs)
+    assert d.hypotheses == sorted(d.hypotheses, key=lambda f: (not f.observable, -f.probability,
+                                                               len(f.hypothesis.parameters)))
+
+
+def test_ratio_alone_is_honest_about_what_it_cannot_tell(rig):
+    d = diagnose(rig, [record(rig, {"cylinder.cc": 120e-6}, fields=RATIO)])
+    amb = set(d.isolability.ambiguity_set)
+    assert {"cylinder", "valve"} <= amb
+    assert "healthy" not in amb
+    assert d.ratio is not None
+    inv = {i.component: i for i in d.ratio.inversions}
+    assert inv["cylinder"].value == pytest.approx(120e-6, rel=0.005)
+    assert inv["cylinder"].sensitivity < 0 and inv["valve"].sensitivity < 0
+    assert "cannot name the component" in d.ratio.statement
+    assert any("flow_C" in s or "flow_B" in s for s in d.isolability.statements)
+
+
+def test_relief_setting_is_reported_unobservable_at_these_loads(rig):
+    d = diagnose(rig, [record(rig, {"relief.Pset": 0.9 * 7.0e6})])
+    assert "relief_setting" in d.isolability.not_observable
+    assert d.top.name == "healthy"
+    assert any("end stop" in s for s in d.isolability.statements)
+
+
+def test_pump_and_relief_seat_leak_are_flagged_inseparable_without_pump_flow(rig):
+    d = diagnose(rig, [record(rig, {"relief.Gseat": 2.0 / 6.0e11})])
+    assert {"pump", "relief_seat"} <= set(d.isolability.ambiguity_set)
+    assert any({a, b} == {"pump", "relief_seat"} for a, b, _ in d.isolability.parallel)
+    with_pump_flow = diagnose(rig, [record(rig, {"relief.Gseat": 2.0 / 6.0e11},
+                                           fields=(*FULL, "pump_flow"))])
+    assert with_pump_flow.top.name == "relief_seat"
+
+
+def test_impossible_records_are_refused_with_the_field(rig):
+    cond = OperatingCondition.from_readings({"oil_temperature": 40.0, "load_force": 2100.0})
+    too_fast = MeasurementRecord.from_readings("r", cond, {"speed_work": 0.5})
+    with pytest.raises(MeasurementError) as exc:
+        diagnose(rig, [too_fast])
+    assert exc.value.field == "speed_work"
+    with pytest.raises(MeasurementError) as exc:
+        MeasurementRecord.from_readings("r", cond, {"flow_B": -1e-4})
+    assert exc.value.field == "flow_B"
+    with pytest.raises(MeasurementError) as exc:
+        MeasurementRecord.from_readings("r", cond, {"flow_B": float("nan")})
+    assert exc.value.field == "flow_B"
+    ok = MeasurementRecord.from_readings("r", cond, {"speed_work": 0.2})
+    with pytest.raises(MeasurementError) as exc:
+        diagnose(rig, [ok, too_fast])
+    assert exc.value.field == "records[1].speed_work"
+
+
+def test_result_serialises_with_units(rig):
+    import json
+
+    d = diagnose(rig, [record(rig, {"valve.cv": 50e-6})])
+    doc = json.loads(json.dumps(d.to_dict()))
+    assert doc["top"] == "valve"
+    assert doc["observable_units"]["flow_B"] == "m^3/s"
+    assert doc["direct_inversions"]["cv"]["unit"] == "m"
+    assert doc["hypotheses"][0]["parameters"][0]["unit"] == "m"

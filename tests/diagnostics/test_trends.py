@@ -1,0 +1,142 @@
+"""Trends: Theil–Sen slope with interval, time left to a threshold."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from diagnostics.trends import (
+    MIN_POINTS,
+    TrendSeries,
+    fit_trend,
+    forecast_threshold,
+)
+from diagnostics.uncertainty import Estimate
+from sim.errors import InputError
+
+DAY = 86_400.0
+
+
+def series(t_days, values, u=None, quantity="cc") -> TrendSeries:
+    return TrendSeries("rig-1", "cylinder", quantity, "m", tuple(d * DAY for d in t_days),
+                       tuple(values), None if u is None else tuple(u))
+
+
+def test_exact_line_gives_exact_slope_and_time_left() -> None:
+    # 83 µm growing 1 µm per 30 days; threshold 120 µm
+    t = [0, 30, 60, 90, 120]
+    s = series(t, [83e-6 + 1e-6 * d / 30 for d in t])
+    fit = fit_trend(s)
+    assert fit.slope == pytest.approx(1e-6 / (30 * DAY), rel=1e-12)
+    assert fit.value_at(120 * DAY) == pytest.approx(87e-6, rel=1e-12)
+    fc = forecast_threshold(s, 120e-6)
+    assert fc.status == "worsening"
+    assert fc.time_left == pytest.approx((120e-6 - 87e-6) / fit.slope, rel=1e-9)  # 990 days
+    # no scatter and no stated u: the interval collapses onto the estimate
+    assert fc.time_left_low == pytest.approx(fc.time_left, rel=1e-12)
+    assert fc.time_left_high == pytest.approx(fc.time_left, rel=1e-12)
+
+
+def test_slope_interval_covers_the_true_slope() -> None:
+    rng = np.random.default_rng(11)
+    true_slope = 2e-6 / (365 * DAY)
+    hits, n = 0, 300
+    for _ in range(n):
+        t = np.sort(rng.uniform(0, 3 * 365, 10))
+        y = 80e-6 + true_slope * t * DAY + rng.normal(0, 0.5e-6, t.size)
+        fit = fit_trend(series(t, y))
+        hits += fit.slope_low <= true_slope <= fit.slope_high
+    assert 0.90 <= hits / n <= 0.99
+
+
+def test_one_wrong_visit_barely_moves_the_robust_slope() -> None:
+    t = np.arange(12.0) * 30
+    y = 90e-6 + 0.05e-6 * t
+    y_bad = y.copy()
+    y_bad[6] += 40e-6  # a gross error in one visit
+    robust = fit_trend(series(t, y_bad)).slope * DAY
+    ols = np.polyfit(t, y_bad, 1)[0]
+    assert robust == pytest.approx(0.05e-6, rel=0.05)
+    assert abs(ols - 0.05e-6) > 5 * abs(robust - 0.05e-6)
+
+
+def test_stated_uncertainties_widen_a_too_tidy_interval() -> None:
+    t = [0, 100, 200]
+    y = [80e-6, 81e-6, 82e-6]  # three points on a line: the rank interval has zero width
+    u = [2e-6, 2e-6, 2e-6]
+    fit = fit_trend(series(t, y, u))
+    assert fit.rank_low == fit.rank_high == pytest.approx(fit.slope)
+    tt = np.array(t) * DAY
+    sigma_b = 1 / math.sqrt(np.sum((tt - tt.mean()) ** 2) / 2e-6**2)
+    z = stats.norm.ppf(0.975)
+    assert fit.slope_u_measurement == pytest.approx(sigma_b, rel=1e-12)
+    assert fit.slope_low == pytest.approx(fit.slope - z * sigma_b, rel=1e-12)
+    assert fit.slope_high == pytest.approx(fit.slope + z * sigma_b, rel=1e-12)
+    fc = forecast_threshold(series(t, y, u), 100e-6)
+    # the slope interval reaches "not worsening": the latest crossing is unbounded
+    assert fc.status == "worsening" and fc.time_left_high == math.inf
+    assert fc.time_left_low < fc.time_left < fc.time_left_high
+
+
+def test_improving_or_flat_series_is_not_worsening_and_raises_nothing() -> None:
+    s = series([0, 30, 60, 90], [90e-6, 89e-6, 89.5e-6, 88e-6])
+    fc = forecast_threshold(s, 120e-6)
+    assert fc.status == "not_worsening"
+    assert fc.time_left == math.inf and fc.time_left_high == math.inf
+    assert fc.time_left_low > 0  # earliest crossing the steepest allowed slope would give
+    flat = forecast_threshold(series([0, 30, 60], [90e-6] * 3), 120e-6)
+    assert flat.status == "not_worsening" and flat.time_left_low == math.inf
+
+
+def test_short_series_is_insufficient_not_an_error() -> None:
+    fc = forecast_threshold(series([0, 30], [80e-6, 85e-6]), 120e-6)
+    assert fc.status == "insufficient_data" and fc.fit is None
+    assert math.isnan(fc.time_left)
+    repeated = forecast_threshold(series([0, 0, 30, 30], [80e-6, 81e-6, 85e-6, 84e-6]),
+                                  120e-6)
+    assert repeated.status == "insufficient_data"  # two distinct visit times
+    with pytest.raises(InputError):
+        fit_trend(series([0, 30], [80e-6, 85e-6]))
+    assert MIN_POINTS == 3
+
+
+def test_already_crossed() -> None:
+    fc = forecast_threshold(series([0, 30, 60], [100e-6, 115e-6, 130e-6]), 120e-6)
+    assert fc.status == "crossed" and fc.time_left == 0.0
+
+
+def test_decreasing_direction_mirrors_increasing() -> None:
+    t = [0, 40, 90, 150, 200]
+    y = [0.97, 0.965, 0.962, 0.955, 0.951]  # volumetric efficiency falling
+    down = forecast_threshold(series(t, y, quantity="eta_v"), 0.90, direction="decreasing")
+    up = forecast_threshold(series(t, [-v for v in y], quantity="eta_v"), -0.90)
+    assert down.status == up.status == "worsening"
+    assert down.time_left == pytest.approx(up.time_left, rel=1e-12)
+    assert down.time_left_low == pytest.approx(up.time_left_low, rel=1e-12)
+    assert down.time_left_high == pytest.approx(up.time_left_high, rel=1e-12)
+    assert down.fit is not None and down.fit.slope < 0  # reported in the original frame
+
+
+def test_reference_time_moves_the_time_left() -> None:
+    s = series([0, 30, 60, 90], [80e-6, 81e-6, 82e-6, 83e-6])
+    later = forecast_threshold(s, 90e-6, now=120 * DAY)
+    assert forecast_threshold(s, 90e-6).time_left - later.time_left == pytest.approx(30 * DAY)
+
+
+def test_series_from_estimates_and_validation() -> None:
+    est = [Estimate("cv", "m", v, 1e-6, v - 2e-6, v + 2e-6, "delta") for v in (34e-6, 36e-6,
+                                                                                 39e-6)]
+    s = TrendSeries.from_estimates("rig-1", "valve", [0.0, DAY, 2 * DAY], est)
+    assert (s.quantity, s.unit, s.uncertainties) == ("cv", "m", (1e-6,) * 3)
+    with pytest.raises(InputError) as err:
+        series([0, 1, 2], [1.0, math.nan, 2.0])
+    assert err.value.field == "values[1]"
+    with pytest.raises(InputError) as err:
+        series([0, 1], [1.0, 2.0, 3.0])
+    assert err.value.field == "values"
+    with pytest.raises(InputError):
+        TrendSeries.from_estimates("rig-1", "valve", [0.0, 1.0], [
+            est[0], Estimate("cc", "m", 1e-4, 1e-6, 0, 1, "delta")])
