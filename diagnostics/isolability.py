@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 from scipy.stats import chi2 as chi2_dist
@@ -71,13 +72,18 @@ class Isolability:
     statements: list[str]
 
 
+@lru_cache(maxsize=256)
+def _chi2_limit(dof: int, alpha: float) -> float:
+    return float(chi2_dist.ppf(1.0 - alpha, dof))
+
+
 def _consistent_set(fits: list[HypothesisFit], n_obs: int, alpha: float = 0.01) -> list[str]:
     out = []
     for f in fits:
         if not f.observable:
             continue
         dof = max(n_obs - len(f.hypothesis.parameters), 1)
-        if f.chi2 <= float(chi2_dist.ppf(1.0 - alpha, dof)):
+        if f.chi2 <= _chi2_limit(dof, alpha):
             out.append(f.name)
     if not out:  # nothing fits: the model misses something; keep the best as the answer
         out = [next(f.name for f in fits if f.observable)]

@@ -35,7 +35,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 import numpy.typing as npt
-from scipy.special import logsumexp, ndtr
+from scipy.special import ndtr
 
 from diagnostics.hypotheses import HYPOTHESES, PARAMETERS, FaultParameter, Hypothesis
 from diagnostics.observations import RecordObservations, condition_sigma
@@ -223,7 +223,8 @@ class Ranker:
             detect += np.sum(d * d, axis=-1)
         z = self.models[0].maps.maps[hyp.name].axes[0]
         logl = -0.5 * chi2
-        log_ev = float(logsumexp(logl) - math.log(z.size))
+        top = float(logl.max())
+        log_ev = top + math.log(float(np.mean(np.exp(logl - top))))
         k = int(np.argmax(logl))
         zk = float(z[k])
         if 0 < k < z.size - 1:  # parabola through the three best points
@@ -304,11 +305,68 @@ class Ranker:
         occam = math.log(2 * math.pi) + 0.5 * logdet + math.log(max(mass, 1e-300)) \
             - float(np.sum(np.log(span)))
         occam = min(occam, 0.0)  # a flat likelihood cannot beat its prior
+        log_ev = -0.5 * cost + occam
+        weak = int(np.argmax(sd / span))
+        best_single = max(f.log_evidence for f in singles.values())
+        # the capped Laplace value only overstates a ridge's evidence: refine it only when
+        # the pair could matter (within a factor 1000 of the best single fault)
+        if sd[weak] > span[weak] / 8.0 and log_ev > best_single - math.log(1000.0):
+            # a ridge or a flat direction: the Laplace approximation overstates the evidence;
+            # integrate along the weak axis, Laplace across it
+            log_ev = self._profile_evidence(params, z, cov, zl, zu, weak)
         ests = [self._estimate(p, float(z[i]), max(float(z[i] - 1.96 * sd[i]), float(zl[i])),
                                min(float(z[i] + 1.96 * sd[i]), float(zu[i])), float(zl[i]),
                                float(zu[i])) for i, p in enumerate(params)]
         preds = [m.as_dict(f) for m, f in zip(self.models, fulls, strict=True)]
-        return HypothesisFit(hyp, cost, -0.5 * cost + occam, ests, preds)
+        return HypothesisFit(hyp, cost, log_ev, ests, preds)
+
+    def _profile_evidence(self, params: tuple[FaultParameter, ...], z_hat: Arr, cov: Arr,
+                          zl: Arr, zu: Arr, weak: int, n: int = 7) -> float:
+        """ln Z of a pair: trapezoid over ``n`` points of the weak axis, and at each the
+        strong parameter profiled by Gauss-Newton with a bound-truncated Laplace width."""
+        strong = 1 - weak
+        span = zu - zl
+        grid = np.linspace(zl[weak], zu[weak], n)
+        slope = cov[strong, weak] / cov[weak, weak] if cov[weak, weak] > 0 else 0.0
+        logs = np.empty(n)
+        z = z_hat.copy()
+        for k, zw in enumerate(grid):
+            z[weak] = zw
+            z[strong] = float(np.clip(z_hat[strong] + slope * (zw - z_hat[weak]), zl[strong],
+                                      zu[strong]))
+            r, _ = self._residuals(params, z)
+            h_ss = 0.0
+            for _ in range(4):
+                dz = 1e-6 * span[strong]
+                zp = z.copy()
+                zp[strong] = zp[strong] + dz if zp[strong] + dz <= zu[strong] else zp[strong] - dz
+                rp, _ = self._residuals(params, zp)
+                j = (rp - r) / (zp[strong] - z[strong])
+                h_ss = float(j @ j)
+                if h_ss <= 0:
+                    break
+                zn = z.copy()
+                zn[strong] = float(np.clip(z[strong] - float(j @ r) / h_ss, zl[strong],
+                                           zu[strong]))
+                rn, _ = self._residuals(params, zn)
+                if float(rn @ rn) >= float(r @ r):
+                    break
+                step = abs(zn[strong] - z[strong])
+                z, r = zn, rn
+                if step < 1e-6 * span[strong]:
+                    break
+            chi2 = float(r @ r)
+            if h_ss > 0:
+                sd = 1.0 / math.sqrt(h_ss)
+                mass = float(ndtr((zu[strong] - z[strong]) / sd) - ndtr((zl[strong] - z[strong]) / sd))
+                across = math.log(math.sqrt(2 * math.pi) * sd * max(mass, 1e-300) / span[strong])
+            else:
+                across = 0.0
+            logs[k] = -0.5 * chi2 + min(across, 0.0)
+        top = float(logs.max())
+        w = np.exp(logs - top)
+        integral = float(np.sum(0.5 * (w[1:] + w[:-1]) * np.diff(grid))) / span[weak]
+        return top + math.log(max(integral, 1e-300))
 
     def rank(self, hypotheses: tuple[Hypothesis, ...] = HYPOTHESES) -> list[HypothesisFit]:
         """All hypotheses fitted; probabilities over the observable ones; most probable first."""
