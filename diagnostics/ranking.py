@@ -295,7 +295,8 @@ class Ranker:
             if not improved or moved < 1e-7:
                 break
         h = jac.T @ jac
-        cov = np.linalg.pinv(h + 1e-12 * max(float(np.trace(h)), 1e-30) * np.eye(2))
+        cov: Arr = np.asarray(np.linalg.pinv(h + 1e-12 * max(float(np.trace(h)), 1e-30) * np.eye(2)),
+                              dtype=np.float64)
         sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
         sd = np.where(sd > 0, sd, span)
         mass = float(np.prod(ndtr((zu - z) / sd) - ndtr((zl - z) / sd)))

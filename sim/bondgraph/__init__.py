@@ -23,7 +23,7 @@ from sim.bondgraph.elements import (
 from sim.bondgraph.equations import EquationSystem, derive_equations
 from sim.bondgraph.export import to_dict, to_dot, to_json
 from sim.bondgraph.graph import BondGraph
-from sim.bondgraph.model import CompiledModel, IntegrationResult, compile_graph
+from sim.bondgraph.model import CompiledModel, IntegrationResult, compile_graph, fit_table
 
 __all__ = [
     "GY",
@@ -50,6 +50,7 @@ __all__ = [
     "call",
     "compile_graph",
     "derive_equations",
+    "fit_table",
     "to_dict",
     "to_dot",
     "to_json",

@@ -13,6 +13,8 @@ reference           meaning
 ``"flow:J"``        the common flow of 1-junction ``J``
 ``"e:B"``, ``"f:B"``  effort / flow of the bond labelled ``B``
 ``"x:NAME"``        the auxiliary state ``NAME`` (an integrated signal, e.g. piston position)
+``"tbl:NAME"``      the tabulated signal ``NAME`` (:meth:`BondGraph.table`); law arguments
+                    only: expands to the three arguments ``p, OFFSET, SIZE``
 ``"t"``             time [s]
 ``"1.5"``           a numeric literal
 ==================  =====================================================================

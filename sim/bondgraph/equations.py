@@ -56,6 +56,8 @@ class EquationSystem:
     derivatives: list[tuple[str, str]]  # (state name, code)
     outputs: list[tuple[str, str, str]]  # (name, code, unit)
     laws: dict[str, Callable[..., Any]] = field(default_factory=dict)
+    #: table name → (offset of its block in the parameter vector, number of points)
+    tables: dict[str, tuple[int, int]] = field(default_factory=dict)
 
     def describe(self) -> str:
         """The equations as text, in evaluation order, for checking against a drawing."""
@@ -84,6 +86,11 @@ class _Builder:
         self.setter = assign_causality(graph)
         self.params = list(graph.parameters)
         self.pindex = {p: i for i, p in enumerate(self.params)}
+        self.tables: dict[str, tuple[int, int]] = {}
+        offset = len(self.params)
+        for tbl in graph.tables.values():  # blocks after the named parameters
+            self.tables[tbl.name] = (offset, tbl.size)
+            offset += 2 * tbl.size
         self.states: list[State] = []
         self.sindex: dict[str, int] = {}
         self.laws: dict[str, Callable[..., Any]] = {}
@@ -103,6 +110,11 @@ class _Builder:
                 raise ModelStructureError(f"{element!r} refers to unknown parameter {name!r}",
                                           elements=(element,))
             return f"p[{self.pindex[name]}]", set()
+        if kind == "tbl":
+            raise ModelStructureError(
+                f"{element!r}: the table reference {token!r} is a law argument (it expands "
+                "to p, OFFSET, SIZE); read the table with a law such as table_lookup",
+                elements=(element,))
         if kind == "x":
             if name not in self.sindex:
                 raise ModelStructureError(f"{element!r} refers to unknown state {name!r}",
@@ -146,6 +158,14 @@ class _Builder:
         self.laws[lname] = law.func
         args, deps = [], set()
         for a in law.args:
+            kind, _, name = a.strip().partition(":")
+            if kind == "tbl":
+                if name not in self.tables:
+                    raise ModelStructureError(f"{element!r} refers to unknown table {name!r}",
+                                              elements=(element,))
+                offset, size = self.tables[name]
+                args.append(f"p, {offset}, {size}")
+                continue
             code, d = self.ref(a, own, element)
             args.append(code)
             deps |= d
@@ -184,7 +204,7 @@ class _Builder:
         dmap = dict(derivs)
         derivatives = [(s.name, dmap[s.name]) for s in self.states]
         return EquationSystem(g, self.setter, self.states, self.params, order, derivatives,
-                              outputs, self.laws)
+                              outputs, self.laws, self.tables)
 
     def element_equations(self, el: Element, derivs: list[tuple[str, str]]) -> None:
         g, n = self.g, el.name

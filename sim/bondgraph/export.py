@@ -17,7 +17,7 @@ def _law(law: LawCall | None) -> str | None:
 
 
 def to_dict(graph: BondGraph) -> dict[str, Any]:
-    """Elements, bonds (with the element that sets each effort), parameters, outputs."""
+    """Elements, bonds (with the element that sets each effort), parameters, tables, outputs."""
     setter = assign_causality(graph)
     return {
         "name": graph.name,
@@ -35,6 +35,10 @@ def to_dict(graph: BondGraph) -> dict[str, Any]:
         "parameters": [
             {"name": p.name, "value": p.value, "unit": p.unit, "source": p.source}
             for p in graph.parameters.values()
+        ],
+        "tables": [
+            {"name": t.name, "size": t.size, "unit": t.unit, "source": t.source}
+            for t in graph.tables.values()
         ],
         "auxiliary_states": [
             {"name": a.name, "derivative": a.signal, "unit": a.unit}

@@ -9,7 +9,7 @@ from dataclasses import dataclass
 from sim.bondgraph.elements import Element, Kind, LawCall
 from sim.errors import ModelStructureError, ParameterError
 
-__all__ = ["Bond", "BondGraph", "Integrator", "Output", "ParamValue"]
+__all__ = ["Bond", "BondGraph", "Integrator", "Output", "ParamValue", "Table"]
 
 _NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.]*$")
 
@@ -54,6 +54,22 @@ class Integrator:
 
 
 @dataclass(frozen=True)
+class Table:
+    """A tabulated input signal: a block of ``2·size`` entries of the parameter vector.
+
+    Layout of the block: ``size`` sample times [s], non-decreasing, then the ``size``
+    values [unit] (see :func:`sim.bondgraph.laws.table_lookup` for the interpolation and
+    :meth:`sim.bondgraph.CompiledModel.params` for how a series fills the block).
+    """
+
+    name: str
+    size: int
+    value: float
+    unit: str
+    source: str
+
+
+@dataclass(frozen=True)
 class Output:
     """A named output signal: a reference or a law call, with its unit."""
 
@@ -78,6 +94,7 @@ class BondGraph:
         self.parameters: dict[str, ParamValue] = {}
         self.integrators: dict[str, Integrator] = {}
         self.outputs: dict[str, Output] = {}
+        self.tables: dict[str, Table] = {}
 
     # -- construction -------------------------------------------------------------
     def add(self, element: Element) -> str:
@@ -110,6 +127,36 @@ class BondGraph:
             raise ParameterError(f"invalid parameter name {name!r}", field=name)
         self.parameters[name] = ParamValue(name, float(value), unit, source)
         return f"p:{name}"
+
+    def table(self, name: str, size: int, *, value: float = 0.0, unit: str = "",
+              source: str = "") -> str:
+        """Reserve a tabulated input signal of ``size`` points; returns ``"tbl:name"``.
+
+        The reference is a *law argument*: the equation builder expands it into the three
+        arguments ``p, OFFSET, SIZE`` (parameter vector, start of the block, number of
+        points) that :func:`sim.bondgraph.laws.table_lookup` takes.  The block sits after
+        the named parameters, in the order the tables are declared.
+
+        Parameters
+        ----------
+        name
+            Table name (same rules as element names).
+        size
+            Number of points ≥ 1 (fixed in the compiled code; a longer or shorter series
+            is fitted to it when the parameter vector is filled).
+        value
+            Default signal: the constant ``value`` [unit].
+        unit, source
+            Unit of the values and where the signal comes from.
+        """
+        if not _NAME.match(name):
+            raise ParameterError(f"invalid table name {name!r}", field=name)
+        if name in self.tables:
+            raise ModelStructureError(f"duplicate table {name!r}", elements=(name,))
+        if isinstance(size, bool) or not isinstance(size, int) or size < 1:
+            raise ParameterError(f"table {name!r}: size must be an integer ≥ 1", field=name)
+        self.tables[name] = Table(name, size, float(value), unit, source)
+        return f"tbl:{name}"
 
     def integrate(self, name: str, signal: str, *, initial: str = "0.0", scale: float = 1.0,
                   unit: str = "") -> str:

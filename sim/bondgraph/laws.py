@@ -12,6 +12,8 @@ import math
 from collections.abc import Callable
 from typing import Any, TypeVar
 
+import numpy as np
+import numpy.typing as npt
 from numba import njit
 
 __all__ = [
@@ -23,6 +25,7 @@ __all__ = [
     "product",
     "quotient",
     "smooth_sign",
+    "table_lookup",
 ]
 
 F = TypeVar("F", bound=Callable[..., Any])
@@ -79,3 +82,39 @@ def smooth_sign(v: float, v_s: float) -> float:
 def negated(value: float) -> float:
     """−value (an effort source that represents a pressure *drop* along a 1-junction)."""
     return -value
+
+
+@law
+def table_lookup(t: float, p: npt.NDArray[np.float64], offset: int, n: int) -> float:
+    """Value of a tabulated signal at time ``t`` [s]: linear interpolation, clamped at the ends.
+
+    The table is the block ``p[offset : offset + 2n]`` of the parameter vector: ``n``
+    non-decreasing times, then ``n`` values (:meth:`sim.bondgraph.BondGraph.table`; the
+    reference ``"tbl:NAME"`` passes ``p, offset, n``).  With times ``t_0 ≤ … ≤ t_{n−1}``
+    and values ``v_i``:
+
+    * ``t ≤ t_0`` → ``v_0``; ``t ≥ t_{n−1}`` → ``v_{n−1}`` (held, no extrapolation);
+    * otherwise, on the segment ``t_i ≤ t < t_{i+1}``,
+      ``v_i + (t − t_i)·(v_{i+1} − v_i)/(t_{i+1} − t_i)``.
+
+    A repeated time ``t_i = t_{i+1}`` is a jump; the signal is right-continuous there (the
+    later value holds from ``t_i`` on).  Binary search: ``O(log n)`` per call.
+    """
+    t_first = p[offset]
+    if t <= t_first:
+        return p[offset + n]
+    if t >= p[offset + n - 1]:
+        return p[offset + 2 * n - 1]
+    lo = 0
+    hi = n - 1  # invariant: times[lo] <= t < times[hi]
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if p[offset + mid] <= t:
+            lo = mid
+        else:
+            hi = mid
+    t0 = p[offset + lo]
+    t1 = p[offset + hi]
+    v0 = p[offset + n + lo]
+    v1 = p[offset + n + hi]
+    return v0 + (t - t0) * (v1 - v0) / (t1 - t0)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import ModuleType
 from typing import Any
@@ -14,9 +15,68 @@ from sim.bondgraph.equations import EquationSystem, derive_equations
 from sim.bondgraph.graph import BondGraph
 from sim.errors import ParameterError, SimulationError
 
-__all__ = ["CompiledModel", "IntegrationResult", "compile_graph"]
+__all__ = ["CompiledModel", "IntegrationResult", "compile_graph", "fit_table"]
 
 Arr = npt.NDArray[np.float64]
+
+
+def fit_table(times: npt.ArrayLike, values: npt.ArrayLike, size: int) -> tuple[Arr, Arr]:
+    """Fit a sampled series to a table block of ``size`` points.
+
+    * ``len == size``: the series as it is;
+    * ``len < size``: the last point is repeated until the block is full.  A repeated final
+      point changes nothing: :func:`~sim.bondgraph.laws.table_lookup` holds the last value
+      from the last time on, so the interpolated signal is exactly the series';
+    * ``len > size``: the series is resampled by linear interpolation at ``size`` equally
+      spaced times from its first to its last time.  The ends are kept; features shorter
+      than the new spacing ``(t_last − t_first)/(size − 1)`` are smoothed (a jump becomes
+      a ramp of one spacing), and between the new points the signal is the chord of the
+      series, off by at most ``spacing²/8 · max|v''|``.  Declare a larger table to avoid it.
+
+    Parameters
+    ----------
+    times
+        Sample times [s], finite and non-decreasing (a repeated time is a jump).
+    values
+        Values at those times [unit], finite.
+    size
+        Points of the block.
+
+    Returns
+    -------
+    tuple of ndarray
+        ``(times, values)`` of length ``size``.
+
+    Raises
+    ------
+    ParameterError
+        Empty, unequal lengths, non-finite entries or decreasing times.
+    """
+    t = np.asarray(times, dtype=np.float64).ravel()
+    v = np.asarray(values, dtype=np.float64).ravel()
+    if t.size == 0 or t.size != v.size:
+        raise ParameterError("a table needs times and values of the same, non-zero length",
+                             field="times")
+    if not (np.all(np.isfinite(t)) and np.all(np.isfinite(v))):
+        raise ParameterError("table times and values must be finite", field="values")
+    if np.any(np.diff(t) < 0.0):
+        raise ParameterError("table times must be non-decreasing", field="times")
+    if t.size == size:
+        return t.copy(), v.copy()
+    if t.size < size:
+        pad = size - t.size
+        return np.concatenate([t, np.full(pad, t[-1])]), np.concatenate([v, np.full(pad, v[-1])])
+    tu = np.linspace(t[0], t[-1], size)
+    return tu, _interp_right(tu, t, v)
+
+
+def _interp_right(x: Arr, t: Arr, v: Arr) -> Arr:
+    """Linear interpolation that, like ``table_lookup``, is right-continuous at a jump."""
+    i = np.clip(np.searchsorted(t, x, side="right") - 1, 0, t.size - 1)
+    j = np.minimum(i + 1, t.size - 1)
+    width = t[j] - t[i]
+    w = np.divide(x - t[i], width, out=np.zeros_like(x), where=width > 0.0)
+    return np.asarray(v[i] + np.clip(w, 0.0, 1.0) * (v[j] - v[i]), dtype=np.float64)
 
 
 @dataclass
@@ -50,8 +110,10 @@ class IntegrationResult:
 class CompiledModel:
     """State equations of a bond graph compiled to machine code.
 
-    Use :meth:`params` to build a parameter vector (defaults overridden by name),
-    :meth:`initial_state`, :meth:`integrate` and :meth:`steady`.
+    Use :meth:`params` to build a parameter vector (defaults overridden by name, tabulated
+    inputs filled), :meth:`initial_state`, :meth:`integrate` and :meth:`steady`.
+    The vector holds the named parameters (:attr:`param_names`, in declaration order),
+    then one block per table (:meth:`table_block`).
     """
 
     system: EquationSystem
@@ -73,14 +135,46 @@ class CompiledModel:
         self._sidx = {n: i for i, n in enumerate(self.state_names)}
 
     # -- vectors ----------------------------------------------------------------------
-    def params(self, overrides: dict[str, float] | None = None) -> Arr:
-        """Parameter vector: graph defaults, then ``overrides`` by name."""
-        p = np.array([self.system.graph.parameters[n].value for n in self.param_names])
+    def params(self, overrides: Mapping[str, float] | None = None,
+               tables: Mapping[str, tuple[npt.ArrayLike, npt.ArrayLike]] | None = None) -> Arr:
+        """Parameter vector: graph defaults, then ``overrides`` by name, then ``tables``.
+
+        Parameters
+        ----------
+        overrides
+            Parameter name → value.
+        tables
+            Table name → ``(times [s], values)``; each series fills its block as
+            :func:`fit_table` describes (copied, padded with its last point, or resampled
+            to the declared size).  Tables not given hold their declared constant.
+        """
+        named = [self.system.graph.parameters[n].value for n in self.param_names]
+        size = len(named) + sum(2 * n for _, n in self.system.tables.values())
+        p = np.empty(size)
+        p[: len(named)] = named
+        for name, (offset, n) in self.system.tables.items():
+            p[offset: offset + n] = 0.0
+            p[offset + n: offset + 2 * n] = self.system.graph.tables[name].value
         for name, value in (overrides or {}).items():
             if name not in self._pidx:
                 raise ParameterError(f"unknown parameter {name!r}", field=name)
             p[self._pidx[name]] = float(value)
+        for name, (times, values) in (tables or {}).items():
+            self.set_table(p, name, times, values)
         return p
+
+    def table_block(self, name: str) -> tuple[int, int]:
+        """``(offset, size)`` of table ``name``: times at ``p[offset:offset+size]``, values next."""
+        if name not in self.system.tables:
+            raise ParameterError(f"unknown table {name!r}", field=name)
+        return self.system.tables[name]
+
+    def set_table(self, p: Arr, name: str, times: npt.ArrayLike, values: npt.ArrayLike) -> None:
+        """Fill table ``name`` of the parameter vector ``p`` in place (see :func:`fit_table`)."""
+        offset, n = self.table_block(name)
+        t, v = fit_table(times, values, n)
+        p[offset: offset + n] = t
+        p[offset + n: offset + 2 * n] = v
 
     def param_index(self, name: str) -> int:
         """Index of parameter ``name`` in the vector."""
