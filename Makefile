@@ -34,3 +34,6 @@ accuracy: $(STAMP)
 
 pump-study: $(STAMP)
 	$(PY) -m benchmarks.pump_study
+
+load-bench: $(STAMP)
+	$(PY) -m benchmarks.load_bench
