@@ -9,7 +9,12 @@
 * :mod:`~diagnostics.pump.terms`, :mod:`~diagnostics.pump.selection` — paper 001 Table 1 term
   library, best subsets by AIC with VIF, R² and S;
 * :mod:`~diagnostics.pump.plans`, :mod:`~diagnostics.pump.psr` — Latin hypercube and
-  orthogonal test plans, progressively sequenced regression.
+  orthogonal test plans, progressively sequenced regression;
+* :mod:`~diagnostics.pump.field_record`, :mod:`~diagnostics.pump.field`,
+  :mod:`~diagnostics.pump.field_slip` — generated field records (simulated), the duty-cycle
+  validation of paper 000 §4-5 with residual tests for the documented model gaps, and Cs
+  from field records (eq. 7) with its trend over a campaign.  Import them from their
+  modules (they pull in the compiled duty-cycle circuit and statsmodels).
 """
 
 from diagnostics.pump.bench import InstrumentNoise, default_levels, iso4409_grid, run_virtual_bench

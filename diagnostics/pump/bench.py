@@ -7,9 +7,13 @@ What the virtual bench does at each set point (Δp, ω) and oil temperature θ:
 
 1. The rig holds the set point exactly (true Δp, ω, θ = set values); the pump model gives
    the true flow and torque there.
-2. Each instrument reads its quantity with an independent Gaussian error, relative to the
-   reading (temperature: absolute).  An accuracy "±a %" is read as an expanded uncertainty
-   with coverage factor k = 2, i.e. σ = a/2 (the class limits of ISO 4409 are such bounds).
+2. Each instrument reads its quantity with an independent error, relative to the reading
+   (temperature: absolute).  An accuracy "±a" is a bound (maximum permissible error) and is
+   read as the project reads every instrument class (:mod:`diagnostics.quantity`, GUM
+   §4.3.7): a rectangular distribution of half-width a, standard uncertainty u = a/√3.  The
+   virtual bench draws each error uniformly within ±a, so its readings never leave the
+   stated bound and their scatter is the u that the parameterisation propagates
+   (:mod:`diagnostics.pump.coefficients`).
 
 Default accuracies and where they come from:
 
@@ -38,6 +42,7 @@ import numpy as np
 import numpy.typing as npt
 
 from diagnostics.pump.data import BenchData
+from diagnostics.quantity import InstrumentClass, Quantity
 from sim.components.gear_pump import PumpModel
 from sim.errors import InputError
 
@@ -47,22 +52,32 @@ FloatArray = npt.NDArray[np.float64]
 
 _RPM = 2.0 * math.pi / 60.0
 
+#: Standard uncertainty of a unit bound: 1/√3 (rectangular, :meth:`Quantity.from_bound`).
+_U_PER_BOUND = Quantity.from_bound(0.0, 1.0).u
+
+_NAMES = {"flow": "flowmeter", "pressure": "pressure transducer", "torque": "torque transducer",
+          "speed": "speed sensor", "temperature": "thermometer"}
+
 
 @dataclass(frozen=True, slots=True)
 class InstrumentNoise:
-    """Instrument accuracies of a (virtual) test bench.
+    """Instrument accuracies of a (virtual) test bench, stated as bounds.
 
     Parameters
     ----------
     flow, pressure, torque, speed
-        Accuracy as a fraction of the reading [-] (±, expanded, k = ``coverage``).
+        Bound ±a as a fraction of the reading [-].
     temperature
-        Accuracy of the temperature sensor [K] (±, expanded).
-    coverage
-        Coverage factor k of the stated accuracies [-]; σ = accuracy / k.
+        Bound ±a of the temperature sensor [K].
     flow_full_scale
-        ``None``: the flow error is a fraction of the reading; a flow [m³/s]: the flow error
+        ``None``: the flow bound is a fraction of the reading; a flow [m³/s]: the flow bound
         is ``flow`` × this full scale, the same at every reading.
+
+    Notes
+    -----
+    Each bound is read as a rectangular distribution (u = a/√3, GUM §4.3.7), exactly as
+    :class:`diagnostics.quantity.InstrumentClass` reads the field instruments;
+    :meth:`instrument` returns that class.
     """
 
     flow: float = 0.01
@@ -70,28 +85,43 @@ class InstrumentNoise:
     torque: float = 0.005
     speed: float = 0.001
     temperature: float = 1.0
-    coverage: float = 2.0
     flow_full_scale: float | None = None
 
     def __post_init__(self) -> None:
-        for name in ("flow", "pressure", "torque", "speed", "temperature"):
+        for name in _NAMES:
             if not getattr(self, name) >= 0:
                 raise InputError("accuracy must be ≥ 0", field=name)
-        if not self.coverage > 0:
-            raise InputError("coverage factor must be > 0", field="coverage")
         if self.flow_full_scale is not None and not self.flow_full_scale > 0:
             raise InputError("full scale must be > 0", field="flow_full_scale")
 
+    def instrument(self, name: str) -> InstrumentClass:
+        """The instrument class of ``name`` (``"flow"``, ``"pressure"``, ``"torque"``,
+        ``"speed"``, ``"temperature"``) in :mod:`diagnostics.quantity`'s terms."""
+        a = float(getattr(self, name))
+        if name == "temperature":
+            return InstrumentClass(_NAMES[name], 0.0, a, "virtual bench (absolute bound, K)")
+        if name == "flow" and self.flow_full_scale is not None:
+            return InstrumentClass(_NAMES[name], 0.0, a * self.flow_full_scale,
+                                   "virtual bench (fraction of full scale)")
+        return InstrumentClass(_NAMES[name], a, 0.0, "virtual bench (fraction of reading)")
+
     def sigma(self, name: str) -> float:
-        """Standard uncertainty of instrument ``name`` (relative [-], temperature [K])."""
-        return float(getattr(self, name)) / self.coverage
+        """Standard uncertainty of instrument ``name`` [-] (relative; temperature [K]): a/√3."""
+        return self.instrument(name).reading(1.0).u
 
     def flow_sigma(self, q: npt.ArrayLike) -> FloatArray:
-        """Standard uncertainty of flow readings ``q`` [m³/s]."""
-        qa = np.abs(np.asarray(q, dtype=np.float64))
-        if self.flow_full_scale is None:
-            return self.sigma("flow") * qa
-        return np.full_like(qa, self.sigma("flow") * self.flow_full_scale)
+        """Standard uncertainty of flow readings ``q`` [m³/s] (bound/√3)."""
+        return self._bound("flow", q) * _U_PER_BOUND
+
+    def _bound(self, name: str, x: npt.ArrayLike) -> FloatArray:
+        inst = self.instrument(name)
+        return np.asarray(inst.relative_bound * np.abs(np.asarray(x, dtype=np.float64))
+                          + inst.absolute_bound, dtype=np.float64)
+
+    def read(self, name: str, x: FloatArray, rng: np.random.Generator) -> FloatArray:
+        """Readings of true values ``x``: each error uniform within the bound (rectangular)."""
+        return np.asarray(x + self._bound(name, x) * rng.uniform(-1.0, 1.0, x.size),
+                          dtype=np.float64)
 
     @classmethod
     def none(cls) -> InstrumentNoise:
@@ -192,26 +222,24 @@ def run_virtual_bench(
     wt = np.tile(w_s, temps.size * replicates)
     rep = np.repeat(np.arange(replicates, dtype=np.int64), temps.size * n_pts)
     q_true = np.asarray(model.flow(dpt, wt, th), dtype=np.float64)
-    size = dpt.size
 
-    def rel(x: FloatArray, name: str) -> FloatArray:
-        return x * (1.0 + nz.sigma(name) * rng.standard_normal(size))
-
-    p_in_true = np.full(size, p_in)
-    p_in_m = rel(p_in_true, "pressure")
-    p_out_m = rel(p_in_true + dpt, "pressure")
-    w_m = rel(wt, "speed")
-    th_m = th + nz.sigma("temperature") * rng.standard_normal(size)
-    q_m = q_true + nz.flow_sigma(q_true) * rng.standard_normal(size)
+    p_in_true = np.full(dpt.size, p_in)
+    p_in_m = nz.read("pressure", p_in_true, rng)
+    p_out_m = nz.read("pressure", p_in_true + dpt, rng)
+    w_m = nz.read("speed", wt, rng)
+    th_m = nz.read("temperature", th, rng)
+    q_m = nz.read("flow", q_true, rng)
     torque_m = None
     if with_torque:
-        torque_m = rel(np.asarray(model.torque(dpt, wt, th), dtype=np.float64), "torque")
+        torque_m = nz.read("torque", np.asarray(model.torque(dpt, wt, th), dtype=np.float64),
+                           rng)
     note = (f"virtual ISO 4409 bench: {n_pts} set points x {temps.size} temperatures x "
-            f"{replicates} replicates; accuracies flow {nz.flow:g}"
+            f"{replicates} replicates; accuracy bounds flow +-{nz.flow:g}"
             f"{'' if nz.flow_full_scale is None else f' of {nz.flow_full_scale:g} m^3/s'}, "
-            f"pressure {nz.pressure:g}, "
-            f"torque {nz.torque:g}, speed {nz.speed:g} (fraction of reading, k={nz.coverage:g}),"
-            f" temperature {nz.temperature:g} K")
+            f"pressure +-{nz.pressure:g}, "
+            f"torque +-{nz.torque:g}, speed +-{nz.speed:g} (fraction of reading), "
+            f"temperature +-{nz.temperature:g} K; errors uniform within the bounds "
+            f"(rectangular, u = a/sqrt(3), GUM 4.3.7)")
     if label:
         note += f"; {label}"
     return BenchData(p_in=p_in_m, p_out=p_out_m, omega=w_m, theta=th_m, q=q_m,
