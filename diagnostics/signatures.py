@@ -18,6 +18,7 @@ direct solves instead (:mod:`diagnostics.ranking`).
 
 from __future__ import annotations
 
+import threading
 from collections import OrderedDict
 from dataclasses import dataclass
 from typing import Any
@@ -47,6 +48,8 @@ COARSE_1D, FINE_1D = 25, 241
 
 _EVALUATORS: OrderedDict[tuple[int, Condition], Any] = OrderedDict()
 _MAPS: OrderedDict[tuple[int, Condition], Any] = OrderedDict()
+#: guards the caches; a cached evaluator keeps per-call buffers, so sharing it is safe
+_LOCK = threading.RLock()
 
 
 def _lru_get(cache: OrderedDict[tuple[int, Condition], Any], key: tuple[int, Condition]
@@ -67,10 +70,11 @@ def _lru_put(cache: OrderedDict[tuple[int, Condition], Any], key: tuple[int, Con
 def evaluator(rig: Rig, condition: Condition) -> SteadyEvaluator:
     """A cached :class:`SteadyEvaluator` of ``rig`` at ``condition`` (64 most recent)."""
     key = (id(rig), condition)
-    ev = _lru_get(_EVALUATORS, key)
-    if ev is None:
-        ev = SteadyEvaluator(rig, condition, GRAPH_PARAMETERS)
-        _lru_put(_EVALUATORS, key, ev, 64)
+    with _LOCK:
+        ev = _lru_get(_EVALUATORS, key)
+        if ev is None:
+            ev = SteadyEvaluator(rig, condition, GRAPH_PARAMETERS)
+            _lru_put(_EVALUATORS, key, ev, 64)
     assert isinstance(ev, SteadyEvaluator)
     return ev
 
@@ -124,7 +128,7 @@ class SignatureMaps:
 
     def predict(self, params: tuple[FaultParameter, ...], values: Arr) -> Arr:
         """Observables for ``params`` at ``values``, solved directly (no interpolation)."""
-        return _vector(self.ev(self.graph_values(params, values)))
+        return self.ev.vector(self.graph_values(params, values), OBSERVABLES)
 
     def _axis(self, p: FaultParameter, n: int) -> Arr:
         lo, hi = p.bounds(self.rig)
@@ -145,9 +149,10 @@ class SignatureMaps:
 def signature_maps(rig: Rig, condition: Condition) -> SignatureMaps:
     """Cached :class:`SignatureMaps` of ``rig`` at ``condition`` (32 most recent)."""
     key = (id(rig), condition)
-    maps = _lru_get(_MAPS, key)
-    if maps is None:
-        maps = SignatureMaps(rig, condition)
-        _lru_put(_MAPS, key, maps, 32)
+    with _LOCK:
+        maps = _lru_get(_MAPS, key)
+        if maps is None:
+            maps = SignatureMaps(rig, condition)
+            _lru_put(_MAPS, key, maps, 32)
     assert isinstance(maps, SignatureMaps)
     return maps

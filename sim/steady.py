@@ -19,6 +19,7 @@ against phases of seconds.
 
 from __future__ import annotations
 
+from collections import OrderedDict
 from collections.abc import Mapping
 from dataclasses import dataclass
 
@@ -33,7 +34,10 @@ __all__ = ["OBSERVABLES", "SteadyEvaluator", "SteadyPoint", "steady_cycle", "ste
 
 Arr = npt.NDArray[np.float64]
 
-_GUESS: dict[tuple[int, str], Arr] = {}
+#: nominal operating point per (rig, phase), the first guess of later solves (bounded)
+_GUESS: OrderedDict[tuple[int, str], Arr] = OrderedDict()
+_GUESS_SIZE = 128
+_T0 = np.zeros(1)
 
 
 @dataclass
@@ -89,6 +93,8 @@ def steady_phase(rig: Rig, phase: str, overrides: Mapping[str, float] | None = N
         y = m.steady(start, p, frozen=("cylinder.x",), tol=tol)
         if guess is None:
             _GUESS[key] = y.copy()
+            while len(_GUESS) > _GUESS_SIZE:
+                _GUESS.popitem(last=False)
     out = m.outputs(np.zeros(1), y[None, :], p)[0]
     return SteadyPoint(phase, y, dict(zip(m.output_names, map(float, out), strict=True)))
 
@@ -157,7 +163,7 @@ class SteadyEvaluator:
         self._last = {ph: y.copy() for ph, y in self._nominal.items()}
         self._mask = np.ones(len(m.state_names), dtype=np.int64)
         self._mask[m.state_index("cylinder.x")] = 0
-        self._out = np.empty((1, len(m.output_names)))
+        self._nout = len(m.output_names)
         self._oidx = {n: i for i, n in enumerate(m.output_names)}
         self.stroke = rig.base["cylinder.stroke"]
         self.calls = 0
@@ -183,6 +189,44 @@ class SteadyEvaluator:
         self._last[phase] = y.copy()
         return y
 
+    def phase_outputs(self, values: npt.ArrayLike
+                      ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+        """Model outputs (``rig.model.output_names``) of the working and return operating
+        points for the parameter ``values`` (SI, in the order of ``names``)."""
+        vals = np.asarray(values, dtype=float)
+        self.calls += 1
+        outs = []
+        for ph in PHASES:
+            p = self._p[ph].copy()
+            p[self._idx] = vals
+            y = self._solve(ph, p)
+            out = np.empty((1, self._nout))  # per call: evaluators may be shared by threads
+            self._m.module.outputs_batch(_T0, y[None, :], p, out)
+            outs.append(out[0])
+        return outs[0], outs[1]
+
+    def _value(self, key: str, w: npt.NDArray[np.float64], r: npt.NDArray[np.float64]) -> float:
+        iv = self._oidx["v"]
+        # signed speeds: positive in each phase's own direction (a piston that cannot hold
+        # its load in the working phase moves backwards and reads negative)
+        if key == "speed_work":
+            return float(w[iv])
+        if key == "speed_return":
+            return float(-r[iv])
+        if key == "velocity_ratio":
+            return float(w[iv] / -r[iv]) if r[iv] < 0 else float("nan")
+        if key == "pump_flow":
+            return float(w[self._oidx["Q_meter_B"]] + w[self._oidx["Q_relief"]])
+        if key in ("duration_work", "duration_return"):
+            v = float(w[iv]) if key == "duration_work" else float(-r[iv])
+            return self.stroke / v if v > 0 else float("inf")
+        return float(w[self._oidx[OBSERVABLES[key][1]]])
+
+    def vector(self, values: npt.ArrayLike, keys: tuple[str, ...]) -> npt.NDArray[np.float64]:
+        """The observables ``keys`` (names of :meth:`__call__`'s mapping) as an array."""
+        w, r = self.phase_outputs(values)
+        return np.array([self._value(k, w, r) for k in keys])
+
     def __call__(self, values: npt.ArrayLike) -> dict[str, float]:
         """Observables (see :data:`OBSERVABLES`, plus speeds, ratio, durations, pump flow)
         for the parameter ``values`` (SI, in the order of ``names``).
@@ -190,29 +234,7 @@ class SteadyEvaluator:
         Speeds are signed, positive in each phase's direction of travel, so the maps stay
         smooth through a stall.
         """
-        vals = np.asarray(values, dtype=float)
-        self.calls += 1
-        res: dict[str, float] = {}
-        speeds = {}
-        for ph in PHASES:
-            p = self._p[ph].copy()
-            p[self._idx] = vals
-            y = self._solve(ph, p)
-            self._m.module.outputs_batch(np.zeros(1), y[None, :], p, self._out)
-            o = self._out[0]
-            # signed: positive in the phase's own direction (a piston that cannot hold its
-            # load in the working phase moves backwards and reads negative)
-            speeds[ph] = float(o[self._oidx["v"]]) * (1.0 if ph == "working" else -1.0)
-            if ph == "working":
-                for key, (_, name) in OBSERVABLES.items():
-                    res[key] = float(o[self._oidx[name]])
-        res["pump_flow"] = res["flow_B"] + res["relief_flow"]
-        res["speed_work"] = speeds["working"]
-        res["speed_return"] = speeds["return"]
-        res["velocity_ratio"] = speeds["working"] / speeds["return"] if speeds["return"] > 0 \
-            else float("nan")
-        res["duration_work"] = self.stroke / speeds["working"] if speeds["working"] > 0 \
-            else float("inf")
-        res["duration_return"] = self.stroke / speeds["return"] if speeds["return"] > 0 \
-            else float("inf")
-        return res
+        w, r = self.phase_outputs(values)
+        keys = (*OBSERVABLES, "pump_flow", "speed_work", "speed_return", "velocity_ratio",
+                "duration_work", "duration_return")
+        return {k: self._value(k, w, r) for k in keys}

@@ -24,10 +24,12 @@ from sim.params import Param
 __all__ = ["PARAMETERS", "build"]
 
 PARAMETERS: tuple[Param, ...] = (
-    Param("force", "N", 2.1e3, "paper 002 §3: 2.1/4.2/6.3 kN", "load force resisting extension",
-          lower=None),
+    Param("force", "N", 2.1e3, "paper 002 §3: 2.1/4.2/6.3 kN",
+          "load force resisting extension (negative: an overrunning load)",
+          lower=-1.0e6, upper=1.0e6, lower_inclusive=True),
     Param("back_pressure", "Pa", 0.0, "paper 002 §3: 10/20/30 bar via the load control valve",
-          "back-pressure in the cylinder's outlet line", lower=None),
+          "back-pressure in the cylinder's outlet line", lower=-1.0e5, upper=5.0e7,
+          lower_inclusive=True),
 )
 
 

@@ -1,0 +1,1 @@
+"""HTTP layer: dependencies, routers, one module of routes per resource."""

@@ -1,0 +1,136 @@
+"""Dependencies of the routes, as ``Annotated`` aliases.
+
+``SessionDep`` gives a session per request (closed, and rolled back if uncommitted, when
+the request ends); ``WriteKeyDep`` demands a valid API key; ``ReadAccess`` demands one only
+when reads are closed (``HYDRODIAG_OPEN_READS=false``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import dataclass
+from typing import Annotated
+
+from fastapi import Depends, Query, Request, Security
+from fastapi.security import APIKeyHeader
+from sqlalchemy.orm import Session
+
+from app.db.models import ApiKey
+from app.services.clearance import ClearanceEstimator
+from app.services.executors import SweepExecutors
+from app.services.keys import API_KEY_HEADER, authenticate
+from app.services.rig_cache import RigCache
+from app.settings import Settings
+
+__all__ = [
+    "EstimatorDep",
+    "ExecutorsDep",
+    "KeyHeaderDep",
+    "PageDep",
+    "PageParams",
+    "ReadAccess",
+    "RigsDep",
+    "SessionDep",
+    "SettingsDep",
+    "WriteKeyDep",
+    "get_db",
+    "read_access",
+    "require_key",
+]
+
+
+def get_settings(request: Request) -> Settings:
+    """Return the settings the application was created with."""
+    settings: Settings = request.app.state.settings
+    return settings
+
+
+def get_db(request: Request) -> Iterator[Session]:
+    """Yield a session of the application's store for one request."""
+    with request.app.state.sessions() as session:
+        yield session
+
+
+def get_estimator(request: Request) -> ClearanceEstimator | None:
+    """Return the clearance estimator the application was given, if any."""
+    estimator: ClearanceEstimator | None = request.app.state.clearance_estimator
+    return estimator
+
+
+def get_rigs(request: Request) -> RigCache:
+    """Return the application's cache of compiled rigs."""
+    rigs: RigCache = request.app.state.rigs
+    return rigs
+
+
+def get_executors(request: Request) -> SweepExecutors:
+    """Return the executors the application's sweeps run on."""
+    executors: SweepExecutors = request.app.state.sweep_executors
+    return executors
+
+
+SettingsDep = Annotated[Settings, Depends(get_settings)]
+RigsDep = Annotated[RigCache, Depends(get_rigs)]
+ExecutorsDep = Annotated[SweepExecutors, Depends(get_executors)]
+SessionDep = Annotated[Session, Depends(get_db)]
+EstimatorDep = Annotated[ClearanceEstimator | None, Depends(get_estimator)]
+
+_api_key_header = APIKeyHeader(
+    name=API_KEY_HEADER,
+    auto_error=False,
+    description="API key made by `hydrodiag keys create` (or printed at first start)",
+)
+
+
+def require_key(
+    request: Request,
+    session: SessionDep,
+    key: Annotated[str | None, Security(_api_key_header)],
+) -> ApiKey:
+    """Authenticate the request's API key (once per request)."""
+    cached: ApiKey | None = getattr(request.state, "api_key", None)
+    if cached is None:
+        cached = authenticate(session, key)
+        request.state.api_key = cached
+    return cached
+
+
+def read_access(
+    request: Request,
+    settings: SettingsDep,
+    session: SessionDep,
+    key: Annotated[str | None, Security(_api_key_header)],
+) -> None:
+    """Let the request read when reads are open, else demand a valid key."""
+    if not settings.open_reads:
+        require_key(request, session, key)
+
+
+WriteKeyDep = Annotated[ApiKey, Depends(require_key)]
+#: The API key header as sent (``None`` when absent), for routes that write only on request.
+KeyHeaderDep = Annotated[str | None, Security(_api_key_header)]
+ReadAccess = Depends(read_access)
+
+
+@dataclass(frozen=True, slots=True)
+class PageParams:
+    """Which page of a list to return."""
+
+    limit: int
+    offset: int
+
+
+def page_params(
+    limit: Annotated[
+        int, Query(ge=1, le=500, description="Largest number of items to return [-]",
+                   examples=[50])
+    ] = 50,
+    offset: Annotated[
+        int, Query(ge=0, description="Number of items to skip [-]", examples=[0])
+    ] = 0,
+) -> PageParams:
+    """Read ``limit`` and ``offset`` from the query string."""
+    return PageParams(limit=limit, offset=offset)
+
+
+PageDep = Annotated[PageParams, Depends(page_params)]

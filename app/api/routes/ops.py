@@ -1,0 +1,76 @@
+"""Operations: liveness, readiness, Prometheus metrics."""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from fastapi import APIRouter, Request, Response
+from prometheus_client import CONTENT_TYPE_LATEST, generate_latest
+from pydantic import BaseModel, Field
+from sqlalchemy.exc import SQLAlchemyError
+
+from app import __version__
+from app.api.deps import ReadAccess
+from app.db import migrate
+from app.db.engine import ping
+from app.errors import ServiceUnavailableError
+from app.schemas.common import error_doc
+
+__all__ = ["Health", "Readiness", "router"]
+
+router = APIRouter(tags=["operations"])
+
+
+class Health(BaseModel):
+    """The process is up."""
+
+    status: Literal["ok"] = Field(description="Always 'ok' when the process answers [-]",
+                                  examples=["ok"])
+    version: str = Field(description="hydrodiag version [-]", examples=["0.1.0"])
+
+
+class Readiness(BaseModel):
+    """The store is reachable and migrated."""
+
+    status: Literal["ready"] = Field(description="'ready' when requests can be served [-]",
+                                     examples=["ready"])
+    database: str = Field(description="Database backend [-]", examples=["sqlite"])
+    revision: str = Field(description="Schema revision of the store [-]", examples=["0001"])
+
+
+@router.get("/health", summary="Liveness: the process answers")
+def health() -> Health:
+    """Answer as long as the process runs; touches nothing else (container HEALTHCHECK)."""
+    return Health(status="ok", version=__version__)
+
+
+@router.get(
+    "/ready",
+    summary="Readiness: the database is reachable and migrated",
+    responses={503: error_doc("Database unreachable or not migrated")},
+)
+def ready(request: Request) -> Readiness:
+    """Query the database and compare its schema revision with the package's newest."""
+    engine = request.app.state.engine
+    try:
+        ping(engine)
+        revision = migrate.current_revision(engine)
+    except SQLAlchemyError as exc:
+        raise ServiceUnavailableError(f"database unreachable: {type(exc).__name__}") from exc
+    head = migrate.head_revision()
+    if revision != head:
+        raise ServiceUnavailableError(f"database at revision {revision}, service needs {head}")
+    return Readiness(status="ready", database=engine.dialect.name, revision=revision)
+
+
+@router.get(
+    "/metrics",
+    summary="Prometheus metrics: requests and latency per route",
+    response_class=Response,
+    dependencies=[ReadAccess],
+    responses={200: {"content": {CONTENT_TYPE_LATEST: {}}, "description": "Prometheus text"}},
+)
+def metrics(request: Request) -> Response:
+    """Expose the counters in the Prometheus text format."""
+    data = generate_latest(request.app.state.metrics.registry)
+    return Response(content=data, media_type=CONTENT_TYPE_LATEST)

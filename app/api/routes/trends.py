@@ -1,0 +1,58 @@
+"""Trends of a rig's components: ``GET /rigs/{rig_id}/trends``."""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+from fastapi import APIRouter, Query
+from pydantic import AwareDatetime
+
+from app.api.deps import ReadAccess, RigsDep, SessionDep
+from app.api.routes.rigs import RigId
+from app.schemas.common import ERROR_RESPONSES
+from app.schemas.trends import ComponentTrend, TrendComponent, TrendPoint, TrendsPublic
+from app.services.trends import ComponentTrendOut, component_trends
+
+__all__ = ["router"]
+
+router = APIRouter(tags=["trends"], dependencies=[ReadAccess], responses=ERROR_RESPONSES)
+
+
+def _public(trend: ComponentTrendOut) -> ComponentTrend:
+    return ComponentTrend(
+        component=trend.component,  # type: ignore[arg-type]
+        quantity=trend.quantity, unit=trend.unit,
+        points=[TrendPoint(diagnosis_id=p.diagnosis_id, measured_at=p.measured_at,
+                           rig_version=p.rig_version, value=p.value, low=p.low, high=p.high,
+                           probability=p.probability) for p in trend.points],
+        slope=trend.slope, slope_low=trend.slope_low, slope_high=trend.slope_high,
+        threshold=trend.threshold, threshold_source=trend.threshold_source,
+        status=trend.status,  # type: ignore[arg-type]
+        time_left_s=trend.time_left_s, time_left_low_s=trend.time_left_low_s,
+        time_left_high_s=trend.time_left_high_s, crossing_at=trend.crossing_at,
+        message=trend.message,
+    )
+
+
+@router.get("/rigs/{rig_id}/trends", summary="Trends of a rig's components from its history")
+def trends(
+    rig_id: RigId,
+    session: SessionDep,
+    rigs: RigsDep,
+    component: Annotated[TrendComponent | None, Query(
+        description="Only this component [-]", examples=["valve"])] = None,
+    threshold: Annotated[float | None, Query(
+        description="Threshold for `component`, in its unit; a default derived from the rig "
+        "when left out [m or 1]", examples=[6.0e-5])] = None,
+    since: Annotated[AwareDatetime | None, Query(
+        description="Only diagnoses of records taken at or after this time [UTC]",
+        examples=["2026-01-01T00:00:00Z"])] = None,
+    until: Annotated[AwareDatetime | None, Query(
+        description="Only diagnoses of records taken at or before this time [UTC]",
+        examples=["2026-12-31T23:59:59Z"])] = None,
+) -> TrendsPublic:
+    """Per component: the series of estimates, the Theil-Sen slope with its interval, and
+    the time left until the threshold with its interval (``diagnostics.trends``)."""
+    found = component_trends(session, rigs, rig_id, component=component, threshold=threshold,
+                             since=since, until=until)
+    return TrendsPublic(rig_id=rig_id, components=[_public(t) for t in found])

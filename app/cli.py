@@ -1,0 +1,179 @@
+"""Command line of the service: ``hydrodiag serve | keys ... | db ...`` and the work commands
+``simulate | diagnose | sweep | calibrate`` (:mod:`app.cli_runs`).
+
+``serve`` migrates the store, preloads the paper-002 reference rig and its throttle tables
+(missing clearances computed by :class:`~app.services.throttle_estimator.
+ThrottleClearanceEstimator`), creates an API key on the first start (printed once), then
+runs the HTTP server.
+"""
+
+from __future__ import annotations
+
+import sys
+from typing import Annotated
+
+import typer
+from rich.console import Console
+from rich.progress import Progress
+from rich.table import Table
+from sqlalchemy import Engine
+
+from app.cli_runs import register
+from app.cli_support import console, migrated_engine, settings_from_env, steps
+from app.db.engine import make_engine, make_session_factory
+from app.settings import Settings
+from sim.errors import HydrodiagError
+
+__all__ = ["cli", "main"]
+
+cli = typer.Typer(
+    name="hydrodiag", help="Fault diagnosis of hydraulic rigs: service and store.",
+    no_args_is_help=True, add_completion=False,
+)
+keys_cli = typer.Typer(help="API keys (only salted hashes are stored).", no_args_is_help=True)
+db_cli = typer.Typer(help="The store's schema.", no_args_is_help=True)
+cli.add_typer(keys_cli, name="keys")
+cli.add_typer(db_cli, name="db")
+
+def _settings(**overrides: object) -> Settings:
+    return settings_from_env(**overrides)
+
+
+def _engine(settings: Settings) -> Engine:
+    return make_engine(settings.url)
+
+
+def _migrated_engine() -> Engine:
+    return migrated_engine()
+
+
+def _steps() -> Progress:
+    return steps()
+
+
+@cli.command()
+def serve(
+    host: Annotated[str | None, typer.Option(help="Interface to bind [HYDRODIAG_HOST].")] = None,
+    port: Annotated[int | None, typer.Option(help="TCP port [HYDRODIAG_PORT].")] = None,
+) -> None:
+    """Migrate, preload the reference rig, make the first key, then serve HTTP."""
+    import uvicorn
+
+    from app.main import create_app
+    from app.services.bootstrap import ensure_first_key, ensure_reference_data, upgrade_database
+    from app.services.throttle_estimator import ThrottleClearanceEstimator
+
+    settings = _settings(host=host, port=port)
+    estimator = ThrottleClearanceEstimator()
+    engine = _engine(settings)
+    sessions = make_session_factory(engine)
+    with _steps() as progress:
+        task = progress.add_task("migrating the store", total=3)
+        revision = upgrade_database(engine)
+        progress.update(task, advance=1, description="preloading the reference rig")
+        with sessions() as session:
+            preloaded = ensure_reference_data(session, estimator=estimator)
+        progress.update(task, advance=1, description="checking API keys")
+        with sessions() as session:
+            first_key = ensure_first_key(session)
+        progress.update(task, advance=1, description="store ready")
+    engine.dispose()
+    console.print(f"store at revision {revision}: {settings.url.render_as_string()}")
+    if preloaded.rig_created or preloaded.calibrations_created:
+        console.print(f"preloaded the reference rig and {preloaded.calibrations_created} "
+                      "throttle tables")
+    if first_key is not None:
+        console.print("[bold]First start: an API key was created. It is shown only now; "
+                      "send it in the X-API-Key header.[/bold]")
+        typer.echo(f"API key: {first_key}")
+    if settings.workers > 1:  # each worker builds the app from the environment
+        uvicorn.run("app.main:create_service_app", factory=True, workers=settings.workers,
+                    host=settings.host, port=settings.port, log_level=settings.log_level,
+                    access_log=settings.access_log)
+    else:
+        uvicorn.run(create_app(settings, clearance_estimator=estimator, prepare_store=False),
+                    host=settings.host, port=settings.port, log_level=settings.log_level,
+                    access_log=settings.access_log)
+
+
+@keys_cli.command("create")
+def keys_create(
+    name: Annotated[str, typer.Option(help="Unique name of the key (who or what uses it).")],
+) -> None:
+    """Create an API key and print it (only now: the store keeps its hash)."""
+    from app.services.keys import create_api_key
+
+    engine = _migrated_engine()
+    with make_session_factory(engine)() as session:
+        _, plaintext = create_api_key(session, name)
+    engine.dispose()
+    typer.echo(plaintext)
+
+
+@keys_cli.command("list")
+def keys_list() -> None:
+    """List the keys (names and prefixes; the keys themselves are not stored)."""
+    from app.services.keys import list_api_keys
+
+    engine = _migrated_engine()
+    table = Table("id", "name", "prefix", "created", "revoked")
+    with make_session_factory(engine)() as session:
+        for row in list_api_keys(session):
+            table.add_row(str(row.id), row.name, row.prefix, f"{row.created_at:%Y-%m-%d %H:%M}",
+                          f"{row.revoked_at:%Y-%m-%d %H:%M}" if row.revoked_at else "")
+    engine.dispose()
+    Console().print(table)
+
+
+@keys_cli.command("revoke")
+def keys_revoke(key_id: Annotated[int, typer.Argument(help="Id shown by `keys list`.")]) -> None:
+    """Revoke a key: it stops working at once."""
+    from app.services.keys import revoke_api_key
+
+    engine = _migrated_engine()
+    with make_session_factory(engine)() as session:
+        row = revoke_api_key(session, key_id)
+    engine.dispose()
+    console.print(f"key {row.id} ({row.name}) revoked")
+
+
+@db_cli.command("upgrade")
+def db_upgrade(
+    revision: Annotated[str, typer.Option(help="Target revision.")] = "head",
+) -> None:
+    """Migrate the store (default: to the newest revision)."""
+    from app.db import migrate
+
+    engine = _engine(_settings())
+    with _steps() as progress:
+        task = progress.add_task(f"migrating to {revision}", total=1)
+        migrate.upgrade(engine, revision)
+        progress.update(task, advance=1)
+    console.print(f"store at revision {migrate.current_revision(engine)}")
+    engine.dispose()
+
+
+@db_cli.command("current")
+def db_current() -> None:
+    """Print the store's schema revision (empty for an unmigrated store)."""
+    from app.db import migrate
+
+    engine = _engine(_settings())
+    typer.echo(migrate.current_revision(engine) or "")
+    engine.dispose()
+
+
+register(cli)
+
+
+def main() -> None:
+    """Entry point of the ``hydrodiag`` command."""
+    try:
+        cli()
+    except HydrodiagError as exc:
+        console.print(f"[red]{type(exc).__name__}:[/red] {exc}")
+        sys.exit(1)
+
+
+if __name__ == "__main__":
+    main()

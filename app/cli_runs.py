@@ -1,0 +1,257 @@
+"""The work commands: ``simulate``, ``diagnose FILE``, ``sweep FILE``, ``calibrate ...``.
+
+Each calls the same service function as its route, on the store the service uses
+(``HYDRODIAG_DATA_DIR`` / ``HYDRODIAG_DATABASE_URL``), and takes the same JSON (or YAML)
+documents as the API bodies: ``diagnose`` a record, a list of records or a whole
+``/diagnose`` body; ``sweep`` a ``/scenarios`` body; ``calibrate throttle`` a
+``/rigs/{id}/calibrations`` body.  ``--json`` prints the API's answer.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+from pydantic import ValidationError
+from rich.console import Console
+from rich.table import Table
+
+from app.cli_support import console, load_document, settings_from_env, steps, store_session
+from sim.errors import InputError
+from sim.scenarios import FAULTS
+
+__all__ = ["register"]
+
+_out = Console()
+
+
+def _validated(model: Any, document: Any) -> Any:
+    try:
+        return model.model_validate(document)
+    except ValidationError as exc:
+        from app.cli_support import validation_error
+
+        raise validation_error(exc) from None
+
+
+def _print_json(payload: Any) -> None:
+    typer.echo(json.dumps(payload, indent=2, default=str))
+
+
+def _overrides(items: list[str]) -> dict[str, float]:
+    out: dict[str, float] = {}
+    for item in items:
+        name, _, value = item.partition("=")
+        try:
+            out[name.strip()] = float(value)
+        except ValueError:
+            raise InputError(f"expected role.name=value, got {item!r}", field="--set") from None
+    return out
+
+
+def simulate(
+    rig_id: Annotated[int, typer.Option("--rig", help="Rig id in the store.")] = 1,
+    fault: Annotated[str | None, typer.Option(help=f"Named fault: {', '.join(FAULTS)}.")] = None,
+    set_: Annotated[list[str] | None, typer.Option(
+        "--set", help="Override role.name=value in SI units (repeat), e.g. valve.cv=60e-6.")
+    ] = None,
+    load: Annotated[float | None, typer.Option(help="Load force [N].")] = None,
+    back_pressure: Annotated[float | None, typer.Option(help="Back-pressure [Pa].")] = None,
+    oil_temperature: Annotated[float | None, typer.Option(help="Oil temperature [°C].")] = None,
+    pump_speed: Annotated[float | None, typer.Option(help="Pump speed [rad/s].")] = None,
+    steady: Annotated[bool, typer.Option(help="Steady operating points only (fast).")] = False,
+    output: Annotated[Path | None, typer.Option(
+        help="Write the time series here: .csv, .parquet or .json.")] = None,
+    as_json: Annotated[bool, typer.Option("--json", help="Print the API's JSON answer.")] = False,
+) -> None:
+    """Simulate a fault scenario on a stored rig and print the phase summary."""
+    from app.schemas.simulate import SimulateRequest
+    from app.services.rig_cache import RigCache
+    from app.services.simulation import (
+        public_of,
+        timeseries_csv,
+        timeseries_parquet,
+    )
+    from app.services.simulation import (
+        simulate as run,
+    )
+
+    formats = {".csv": "csv", ".parquet": "parquet", ".json": "json"}
+    if output is not None and output.suffix.lower() not in formats:
+        raise InputError("the output must end in .csv, .parquet or .json", field="--output")
+    request = _validated(SimulateRequest, {
+        "rig_id": rig_id, "fault": fault, "overrides": _overrides(set_ or []),
+        "condition": {"load": load, "back_pressure": back_pressure,
+                      "oil_temperature": oil_temperature, "pump_speed": pump_speed},
+        "method": "steady" if steady else "transient",
+        "timeseries": formats[output.suffix.lower()] if output is not None else None,
+    })
+    with store_session() as session, steps() as progress:
+        progress.add_task("simulating", total=None)
+        outcome = run(session, RigCache(1), request)
+    if output is not None:
+        kind = formats[output.suffix.lower()]
+        if kind == "csv":
+            output.write_bytes(timeseries_csv(outcome))
+        elif kind == "parquet":
+            output.write_bytes(timeseries_parquet(outcome))
+        else:
+            output.write_text(public_of(outcome, table=True).model_dump_json(indent=2))
+        console.print(f"time series written to {output}")
+    public = public_of(outcome)
+    if as_json:
+        _print_json(public.model_dump(mode="json"))
+        return
+    table = Table("quantity", "value", title=f"rig {public.rig_id} v{public.rig_version}, "
+                  f"{public.fault or 'overrides only'}, {public.method}")
+    for key, value in public.summary.items():
+        table.add_row(key, "—" if value is None else f"{value:.6g}")
+    _out.print(table)
+
+
+def _diagnose_body(document: Any, *, joint: bool, store: bool) -> dict[str, Any]:
+    if isinstance(document, list):
+        return {"records": document, "joint": joint, "store": store}
+    if isinstance(document, dict) and ("record" in document or "records" in document):
+        return {**document, "store": store and document.get("store", True),
+                "joint": joint or document.get("joint", False)}
+    return {"record": document, "store": store}
+
+
+def diagnose(
+    file: Annotated[str, typer.Argument(help="Record(s): JSON or YAML.")],
+    joint: Annotated[bool, typer.Option(help="Diagnose all records together.")] = False,
+    store: Annotated[bool, typer.Option(help="Keep records and results in the history.")
+                     ] = True,
+    as_json: Annotated[bool, typer.Option("--json", help="Print the API's JSON answer.")] = False,
+) -> None:
+    """Diagnose the record(s) of FILE against their stored rig, as POST /diagnose does."""
+    from app.schemas.diagnose import DiagnoseRequest
+    from app.services.diagnosis import diagnose_request, response_of
+    from app.services.rig_cache import RigCache
+
+    request = _validated(DiagnoseRequest,
+                         _diagnose_body(load_document(file), joint=joint, store=store))
+    with store_session() as session, steps() as progress:
+        task = progress.add_task("diagnosing", total=None)
+        response = response_of(request, diagnose_request(session, RigCache(4), request))
+        progress.update(task, description="done")
+    if as_json:
+        _print_json(response.model_dump(mode="json"))
+        return
+    for item in response.diagnoses:
+        table = Table("hypothesis", "probability", "parameters",
+                      title=f"{', '.join(item.records)}: {item.top} "
+                      f"(p = {item.probability:.3f}), diagnosis {item.id or 'not stored'}")
+        for fit in item.result["hypotheses"]:
+            params = ", ".join(f"{p['name']} = {p['value']:.4g} {p['unit']}"
+                               for p in fit["parameters"])
+            probability = "not observable" if not fit["observable"] else \
+                f"{fit['probability']:.4f}"
+            table.add_row(fit["name"], probability, params)
+        _out.print(table)
+
+
+def sweep(
+    file: Annotated[str, typer.Argument(help="Sweep: the body of POST /scenarios, JSON or YAML.")],
+    output: Annotated[Path, typer.Option(help="Results: .csv or .json.")] = Path("sweep.csv"),
+) -> None:
+    """Run a sweep over fault scenarios with a progress bar; write the results table."""
+    from app.schemas.sweeps import SweepRequest
+    from app.services.executors import SweepExecutors
+    from app.services.rig_cache import RigCache
+    from app.services.sweeps import plan_sweep, run_sweep
+
+    if output.suffix.lower() not in (".csv", ".json"):
+        raise InputError("the output must end in .csv or .json", field="--output")
+    request = _validated(SweepRequest, load_document(file))
+    settings = settings_from_env()
+    with store_session() as session:
+        plan = plan_sweep(session, RigCache(1), request)
+    executors = SweepExecutors(workers=settings.sweep_workers,
+                               dask_scheduler=settings.dask_scheduler)
+    try:
+        with steps() as progress:
+            task = progress.add_task(f"{len(plan.points)} scenarios on {executors.kind}",
+                                     total=1.0)
+            result = run_sweep(plan, executors.get(),
+                               lambda done, note: progress.update(task, completed=done))
+    finally:
+        executors.shutdown()
+    if output.suffix.lower() == ".json":
+        output.write_text(json.dumps(result, indent=1))
+    else:
+        import pandas as pd
+
+        pd.DataFrame(result["rows"], columns=result["columns"]).to_csv(output, index=False)
+    console.print(f"{result['n_points']} scenarios, {result['n_failed']} failed: {output}")
+
+
+calibrate_cli = typer.Typer(help="Pump parameterisation and throttle equivalence tables.",
+                            no_args_is_help=True)
+
+
+@calibrate_cli.command("pump")
+def calibrate_pump(
+    file: Annotated[Path, typer.Argument(help="Bench CSV, units in the column names.")],
+    name: Annotated[str, typer.Option(help="Unique name of the pump set.")],
+    pump: Annotated[str, typer.Option(help="Pump model and size.")],
+    rig_id: Annotated[int | None, typer.Option("--rig", help="Rig of the pump.")] = None,
+    displacement: Annotated[float | None, typer.Option(
+        help="Derived capacity D [m³/rad]; from the data when left out.")] = None,
+) -> None:
+    """Parameterise a pump from a bench CSV and store it, as POST /pump-sets/bench does."""
+    from app.schemas.pumps import PumpBenchForm
+    from app.services.pump_bench import store_bench_parameters
+
+    form = _validated(PumpBenchForm, {"name": name, "pump": pump, "rig_id": rig_id,
+                                      "displacement_m3_rad": displacement})
+    try:
+        content = file.read_bytes()
+    except OSError as exc:
+        raise InputError(f"cannot read {file}: {exc.strerror}", field="FILE") from None
+    with store_session() as session, steps() as progress:
+        progress.add_task("parameterising", total=None)
+        pump_set = store_bench_parameters(session, form, content)
+    table = Table("quantity", "value", "unit", title=f"pump set {pump_set.id}: {pump_set.name}")
+    for key, quantity in pump_set.quantities.items():
+        value = quantity["value"]
+        shown = f"{value:.6g}" if isinstance(value, float) else f"array {len(value)} rows"
+        table.add_row(key, shown, quantity["unit"])
+    _out.print(table)
+
+
+@calibrate_cli.command("throttle")
+def calibrate_throttle(
+    file: Annotated[str, typer.Argument(help="Table: the body of POST /rigs/{id}/calibrations.")],
+    rig_id: Annotated[int, typer.Option("--rig", help="Rig id in the store.")] = 1,
+) -> None:
+    """Store a throttle equivalence table; clearances not given are computed from the flows."""
+    from app.schemas.calibrations import CalibrationCreate
+    from app.services.calibrations import create_calibration
+    from app.services.throttle_estimator import ThrottleClearanceEstimator
+
+    data = _validated(CalibrationCreate, load_document(file))
+    with store_session() as session, steps() as progress:
+        progress.add_task("computing clearances", total=None)
+        calibration = create_calibration(session, rig_id, data,
+                                         estimator=ThrottleClearanceEstimator())
+        rows = [(p.opening_turns, p.bypass_flow_m3s, p.clearance_m, p.clearance_origin)
+                for p in calibration.points]
+    table = Table("opening [turn]", "bypass flow [m³/s]", "clearance [m]", "origin",
+                  title=f"calibration {calibration.id}: throttle {calibration.throttle}, "
+                  f"{calibration.component}")
+    for opening, flow, clearance, origin in rows:
+        table.add_row(f"{opening:g}", f"{flow:.4g}",
+                      "—" if clearance is None else f"{clearance:.4g}", origin or "")
+    _out.print(table)
+
+
+def register(cli: typer.Typer) -> None:
+    """Add the work commands to the ``hydrodiag`` command."""
+    cli.command()(simulate)
+    cli.command()(diagnose)
+    cli.command()(sweep)
+    cli.add_typer(calibrate_cli, name="calibrate")

@@ -1,0 +1,92 @@
+"""Helpers shared by the command-line modules: console, settings, store, progress."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from contextlib import contextmanager
+from typing import Any
+
+import typer
+from pydantic import ValidationError
+from rich.console import Console
+from rich.progress import BarColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
+from sqlalchemy import Engine
+from sqlalchemy.orm import Session
+
+from app.db.engine import make_engine, make_session_factory
+from app.settings import Settings
+from sim.errors import InputError
+
+__all__ = ["console", "load_document", "migrated_engine", "settings_from_env", "steps",
+           "store_session", "validation_error"]
+
+console = Console(stderr=True)
+
+
+def settings_from_env(**overrides: object) -> Settings:
+    """The service settings from the environment, with non-``None`` overrides applied."""
+    try:
+        settings = Settings()
+        changes = {k: v for k, v in overrides.items() if v is not None}
+        return Settings.model_validate(settings.model_dump() | changes) if changes else settings
+    except ValidationError as exc:
+        console.print(f"[red]invalid configuration (HYDRODIAG_* variables):[/red]\n{exc}")
+        raise typer.Exit(code=2) from exc
+
+
+def migrated_engine() -> Engine:
+    """Engine of the configured store, migrated to the newest revision first."""
+    from app.services.bootstrap import upgrade_database
+
+    engine = make_engine(settings_from_env().url)
+    upgrade_database(engine)
+    return engine
+
+
+@contextmanager
+def store_session() -> Iterator[Session]:
+    """A session of the configured store, migrated and with the reference rig and tables
+    preloaded as ``serve`` does; the engine is disposed after."""
+    from app.services.bootstrap import ensure_reference_data
+    from app.services.throttle_estimator import ThrottleClearanceEstimator
+
+    engine = migrated_engine()
+    try:
+        with make_session_factory(engine)() as session:
+            ensure_reference_data(session, estimator=ThrottleClearanceEstimator())
+            yield session
+    finally:
+        engine.dispose()
+
+
+def steps() -> Progress:
+    """A rich progress display with a bar and the elapsed time."""
+    return Progress(SpinnerColumn(), TextColumn("{task.description}"), BarColumn(),
+                    TimeElapsedColumn(), console=console)
+
+
+def load_document(path: str) -> Any:
+    """Read a JSON or YAML file (by its suffix; YAML otherwise)."""
+    import json
+    from pathlib import Path
+
+    import yaml
+
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise InputError(f"cannot read {p}: {exc.strerror}", field="FILE") from None
+    try:
+        return json.loads(text) if p.suffix.lower() == ".json" else yaml.safe_load(text)
+    except (json.JSONDecodeError, yaml.YAMLError) as exc:
+        raise InputError(f"{p.name} is not valid JSON or YAML: {exc}", field="FILE") from None
+
+
+def validation_error(exc: ValidationError) -> InputError:
+    """The first problem of a pydantic validation error as an :class:`InputError`."""
+    from app.errors import format_location
+
+    first = exc.errors()[0]
+    return InputError(str(first.get("msg", "invalid")),
+                      field=format_location(tuple(first.get("loc", ()))))

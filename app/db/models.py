@@ -1,0 +1,242 @@
+"""Tables of the store (SQLAlchemy 2 declarative mapping).
+
+The migrations in ``app/migrations/versions`` create exactly these tables; a test compares
+the migrated schema with this module, so the two cannot drift apart.
+"""
+
+from __future__ import annotations
+
+from datetime import datetime
+from typing import Any
+
+from sqlalchemy import (
+    CheckConstraint,
+    Float,
+    ForeignKey,
+    Index,
+    Integer,
+    String,
+    Text,
+    UniqueConstraint,
+)
+from sqlalchemy.orm import Mapped, mapped_column, relationship
+
+from app.db.base import Base, JSONDocument, UTCDateTime, utcnow
+
+__all__ = [
+    "JOB_STATUSES",
+    "PUMP_SET_KINDS",
+    "ApiKey",
+    "CalibrationPoint",
+    "Diagnosis",
+    "DiagnosisEstimate",
+    "Job",
+    "Measurement",
+    "PumpSet",
+    "Rig",
+    "RigVersion",
+    "ThrottleCalibration",
+]
+
+JOB_STATUSES = ("queued", "running", "succeeded", "failed")
+PUMP_SET_KINDS = ("parameters", "loss_map")
+
+
+class Rig(Base):
+    """A hydraulic rig; its description lives in versions (:class:`RigVersion`)."""
+
+    __tablename__ = "rigs"
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    name: Mapped[str] = mapped_column(String(100), unique=True)
+    title: Mapped[str] = mapped_column(String(200))
+    latest_version: Mapped[int] = mapped_column(Integer)
+    created_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=utcnow)
+    updated_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=utcnow, onupdate=utcnow)
+
+    versions: Mapped[list[RigVersion]] = relationship(
+        back_populates="rig", cascade="all, delete-orphan", passive_deletes=True,
+        order_by="RigVersion.version",
+    )
+
+
+class RigVersion(Base):
+    """One immutable version of a rig description document."""
+
+    __tablename__ = "rig_versions"
+    __table_args__ = (UniqueConstraint("rig_id", "version"),)
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    rig_id: Mapped[int] = mapped_column(ForeignKey("rigs.id", ondelete="CASCADE"))
+    version: Mapped[int] = mapped_column(Integer)
+    document: Mapped[dict[str, Any]] = mapped_column(JSONDocument)
+    comment: Mapped[str | None] = mapped_column(String(500))
+    created_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=utcnow)
+
+    rig: Mapped[Rig] = relationship(back_populates="versions")
+
+
+class ThrottleCalibration(Base):
+    """Equivalence table of one leakage-simulating throttle valve (paper 002, §2.7)."""
+
+    __tablename__ = "throttle_calibrations"
+    __table_args__ = (
+        UniqueConstraint(
+            "rig_id", "throttle", "back_pressure_pa", "temperature_c",
+            name="uq_throttle_calibrations_condition",
+        ),
+    )
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    rig_id: Mapped[int] = mapped_column(ForeignKey("rigs.id", ondelete="CASCADE"), index=True)
+    throttle: Mapped[str] = mapped_column(String(16))
+    component: Mapped[str] = mapped_column(String(64))
+    back_pressure_pa: Mapped[float] = mapped_column(Float)
+    temperature_c: Mapped[float] = mapped_column(Float)
+    source: Mapped[str | None] = mapped_column(Text)
+    created_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=utcnow)
+    updated_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=utcnow, onupdate=utcnow)
+
+    points: Mapped[list[CalibrationPoint]] = relationship(
+        back_populates="calibration", cascade="all, delete-orphan", passive_deletes=True,
+        order_by="CalibrationPoint.opening_turns",
+    )
+
+
+class CalibrationPoint(Base):
+    """One row of a throttle equivalence table: opening → bypass flow → clearance."""
+
+    __tablename__ = "calibration_points"
+    __table_args__ = (
+        UniqueConstraint("calibration_id", "opening_turns"),
+        CheckConstraint("clearance_origin IN ('given', 'computed')", name="clearance_origin"),
+    )
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    calibration_id: Mapped[int] = mapped_column(
+        ForeignKey("throttle_calibrations.id", ondelete="CASCADE")
+    )
+    opening_turns: Mapped[float] = mapped_column(Float)
+    bypass_flow_m3s: Mapped[float] = mapped_column(Float)
+    clearance_m: Mapped[float | None] = mapped_column(Float)
+    clearance_origin: Mapped[str | None] = mapped_column(String(16))
+
+    calibration: Mapped[ThrottleCalibration] = relationship(back_populates="points")
+
+
+class PumpSet(Base):
+    """A pump parameter set or loss map: named quantities, each with its unit."""
+
+    __tablename__ = "pump_sets"
+    __table_args__ = (CheckConstraint("kind IN ('parameters', 'loss_map')", name="kind"),)
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    name: Mapped[str] = mapped_column(String(100), unique=True)
+    kind: Mapped[str] = mapped_column(String(16))
+    rig_id: Mapped[int | None] = mapped_column(
+        ForeignKey("rigs.id", ondelete="SET NULL"), index=True
+    )
+    pump: Mapped[str] = mapped_column(String(200))
+    source: Mapped[str | None] = mapped_column(Text)
+    quantities: Mapped[dict[str, Any]] = mapped_column(JSONDocument)
+    created_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=utcnow)
+    updated_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=utcnow, onupdate=utcnow)
+
+
+class Measurement(Base):
+    """A measurement record posted for a rig (the input of a diagnosis)."""
+
+    __tablename__ = "measurements"
+    __table_args__ = (Index(None, "rig_id", "measured_at"),)
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    rig_id: Mapped[int] = mapped_column(ForeignKey("rigs.id", ondelete="RESTRICT"))
+    measured_at: Mapped[datetime] = mapped_column(UTCDateTime())
+    record: Mapped[dict[str, Any]] = mapped_column(JSONDocument)
+    created_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=utcnow)
+
+    diagnoses: Mapped[list[Diagnosis]] = relationship(
+        back_populates="measurement", cascade="all, delete-orphan", passive_deletes=True
+    )
+
+
+class Diagnosis(Base):
+    """The result of diagnosing one measurement against one rig version."""
+
+    __tablename__ = "diagnoses"
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    measurement_id: Mapped[int] = mapped_column(
+        ForeignKey("measurements.id", ondelete="CASCADE"), index=True
+    )
+    rig_version_id: Mapped[int] = mapped_column(
+        ForeignKey("rig_versions.id", ondelete="RESTRICT"), index=True
+    )
+    component: Mapped[str | None] = mapped_column(String(64))
+    probability: Mapped[float | None] = mapped_column(Float)
+    result: Mapped[dict[str, Any]] = mapped_column(JSONDocument)
+    created_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=utcnow)
+
+    measurement: Mapped[Measurement] = relationship(back_populates="diagnoses")
+    rig_version: Mapped[RigVersion] = relationship()
+    estimates: Mapped[list[DiagnosisEstimate]] = relationship(
+        back_populates="diagnosis", cascade="all, delete-orphan", passive_deletes=True
+    )
+
+
+class DiagnosisEstimate(Base):
+    """Estimated clearance or slip coefficient of one suspect component (the trend series)."""
+
+    __tablename__ = "diagnosis_estimates"
+    __table_args__ = (
+        UniqueConstraint("diagnosis_id", "component"),
+        Index(None, "component"),
+    )
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    diagnosis_id: Mapped[int] = mapped_column(ForeignKey("diagnoses.id", ondelete="CASCADE"))
+    component: Mapped[str] = mapped_column(String(64))
+    probability: Mapped[float | None] = mapped_column(Float)
+    clearance_m: Mapped[float | None] = mapped_column(Float)
+    slip_coefficient: Mapped[float | None] = mapped_column(Float)
+
+    diagnosis: Mapped[Diagnosis] = relationship(back_populates="estimates")
+
+
+class Job(Base):
+    """A long piece of work (sweep, map, discrepancy run) with its progress and outcome."""
+
+    __tablename__ = "jobs"
+    __table_args__ = (
+        CheckConstraint(
+            "status IN ('queued', 'running', 'succeeded', 'failed')", name="status"
+        ),
+        CheckConstraint("progress >= 0 AND progress <= 1", name="progress"),
+        Index(None, "status"),
+    )
+
+    id: Mapped[str] = mapped_column(String(36), primary_key=True)
+    kind: Mapped[str] = mapped_column(String(64))
+    status: Mapped[str] = mapped_column(String(16))
+    progress: Mapped[float] = mapped_column(Float)
+    message: Mapped[str | None] = mapped_column(String(500))
+    params: Mapped[dict[str, Any]] = mapped_column(JSONDocument)
+    result: Mapped[dict[str, Any] | None] = mapped_column(JSONDocument)
+    error: Mapped[dict[str, Any] | None] = mapped_column(JSONDocument)
+    created_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=utcnow)
+    started_at: Mapped[datetime | None] = mapped_column(UTCDateTime())
+    finished_at: Mapped[datetime | None] = mapped_column(UTCDateTime())
+    updated_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=utcnow, onupdate=utcnow)
+
+
+class ApiKey(Base):
+    """An API key: only a salted scrypt hash of the secret is kept."""
+
+    __tablename__ = "api_keys"
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    name: Mapped[str] = mapped_column(String(100), unique=True)
+    prefix: Mapped[str] = mapped_column(String(16), unique=True)
+    key_hash: Mapped[str] = mapped_column(String(255))
+    created_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=utcnow)
+    revoked_at: Mapped[datetime | None] = mapped_column(UTCDateTime())

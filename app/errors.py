@@ -1,0 +1,148 @@
+"""The one place where hydrodiag's exception tree becomes HTTP.
+
+The tree is :mod:`sim.errors`; the service adds only :class:`ServiceUnavailableError`,
+a subclass of its root.  Every error response has the same body::
+
+    {"error": {"type": "InputError", "message": "must be > 0", "field": "points[2].bypass_flow_m3s"}}
+
+=============================  ======  =======================================
+class                          status  when
+=============================  ======  =======================================
+``AuthError``                  401     missing or wrong ``X-API-Key``
+``NotFoundError``              404     unknown id (in the path or the body)
+``ConflictError``              409     duplicate name, deleting what is in use
+``InputError`` and subclasses  422     invalid input, names the field
+``SimulationError``            500     the solver failed
+``ServiceUnavailableError``    503     the database is unreachable or not migrated
+=============================  ======  =======================================
+
+Request validation by pydantic is reported as ``InputError`` with the same body; the first
+problem is in ``field``/``message`` and all of them are listed in ``details``.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+from fastapi import FastAPI, Request
+from fastapi.exceptions import RequestValidationError
+from fastapi.responses import JSONResponse
+from starlette.exceptions import HTTPException as StarletteHTTPException
+
+from sim.errors import (
+    AuthError,
+    ConflictError,
+    HydrodiagError,
+    InputError,
+    NotFoundError,
+    SimulationError,
+)
+
+__all__ = [
+    "ServiceUnavailableError",
+    "error_response",
+    "format_location",
+    "install_error_handlers",
+    "status_for",
+]
+
+logger = logging.getLogger("hydrodiag.app")
+
+
+class ServiceUnavailableError(HydrodiagError):
+    """The service cannot answer now: the database is unreachable or not migrated."""
+
+
+_STATUS: dict[type[HydrodiagError], int] = {
+    AuthError: 401,
+    NotFoundError: 404,
+    ConflictError: 409,
+    InputError: 422,
+    SimulationError: 500,
+    ServiceUnavailableError: 503,
+}
+
+_LOCATION_ROOTS = frozenset({"body", "query", "path", "header", "cookie"})
+
+
+def status_for(exc: HydrodiagError) -> int:
+    """Return the HTTP status of ``exc``: that of its nearest mapped ancestor class."""
+    for cls in type(exc).__mro__:
+        if cls in _STATUS:
+            return _STATUS[cls]
+    return 500
+
+
+def format_location(loc: Sequence[int | str]) -> str | None:
+    """Turn a pydantic error location into a dotted field path.
+
+    ``("body", "points", 2, "opening_turns")`` becomes ``"points[2].opening_turns"``; the
+    leading ``body``/``query``/... is dropped unless it is all there is.
+    """
+    parts = list(loc)
+    if len(parts) > 1 and parts[0] in _LOCATION_ROOTS:
+        parts = parts[1:]
+    path = ""
+    for part in parts:
+        if part == "[key]":  # pydantic's marker for a bad mapping key: the key is the field
+            continue
+        if isinstance(part, int):
+            path += f"[{part}]"
+        else:
+            path += f".{part}" if path else str(part)
+    return path or None
+
+
+def error_response(
+    status: int,
+    type_: str,
+    message: str,
+    field: str | None = None,
+    *,
+    details: list[dict[str, Any]] | None = None,
+    headers: Mapping[str, str] | None = None,
+) -> JSONResponse:
+    """Build the JSON error response every handler returns."""
+    error: dict[str, Any] = {"type": type_, "message": message, "field": field}
+    if details is not None:
+        error["details"] = details
+    return JSONResponse({"error": error}, status_code=status, headers=headers)
+
+
+async def _hydrodiag_error(_request: Request, exc: Exception) -> JSONResponse:
+    assert isinstance(exc, HydrodiagError)
+    status = status_for(exc)
+    if status >= 500:
+        logger.error("%s: %s", type(exc).__name__, exc)
+    headers = {"WWW-Authenticate": "APIKey"} if status == 401 else None
+    return error_response(status, type(exc).__name__, exc.message, exc.field, headers=headers)
+
+
+async def _validation_error(_request: Request, exc: Exception) -> JSONResponse:
+    assert isinstance(exc, RequestValidationError)
+    problems = [(format_location(err.get("loc", ())), str(err.get("msg", "")))
+                for err in exc.errors()]
+    field, message = problems[0] if problems else (None, "invalid request")
+    details: list[dict[str, Any]] = [{"field": f, "message": m} for f, m in problems]
+    return error_response(422, InputError.__name__, message, field, details=details)
+
+
+async def _http_error(_request: Request, exc: Exception) -> JSONResponse:
+    assert isinstance(exc, StarletteHTTPException)
+    type_ = NotFoundError.__name__ if exc.status_code == 404 else "HTTPError"
+    return error_response(exc.status_code, type_, str(exc.detail), headers=exc.headers)
+
+
+async def _unexpected_error(_request: Request, exc: Exception) -> JSONResponse:
+    logger.exception("unexpected error", exc_info=exc)
+    return error_response(500, "InternalError", "internal error; see the service log")
+
+
+def install_error_handlers(app: FastAPI) -> None:
+    """Register the handlers that map every error to the common JSON body."""
+    app.add_exception_handler(HydrodiagError, _hydrodiag_error)
+    app.add_exception_handler(RequestValidationError, _validation_error)
+    app.add_exception_handler(StarletteHTTPException, _http_error)
+    app.add_exception_handler(Exception, _unexpected_error)

@@ -1,0 +1,69 @@
+"""Prometheus metrics of the service: request count and latency per route.
+
+The route label is the path *template* (``/rigs/{rig_id}``), so the number of series stays
+bounded whatever ids clients use; requests that match no route count as ``<unmatched>``.
+Each application has its own registry, so several can live in one process (tests).
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+from prometheus_client import CollectorRegistry, Counter, Histogram
+from starlette.types import ASGIApp, Message, Receive, Scope, Send
+
+__all__ = ["HttpMetrics", "MetricsMiddleware"]
+
+
+class HttpMetrics:
+    """The collectors of one application, in their own registry."""
+
+    def __init__(self) -> None:
+        self.registry = CollectorRegistry()
+        self.requests = Counter(
+            "hydrodiag_http_requests",
+            "HTTP requests answered, by method, route template and status",
+            ["method", "route", "status"],
+            registry=self.registry,
+        )
+        self.latency = Histogram(
+            "hydrodiag_http_request_duration_seconds",
+            "Time to answer an HTTP request [s], by method and route template",
+            ["method", "route"],
+            registry=self.registry,
+        )
+
+
+def _route_of(scope: Scope) -> str:
+    route: Any = scope.get("route")
+    path = getattr(route, "path", None)
+    return str(path) if path else "<unmatched>"
+
+
+class MetricsMiddleware:
+    """ASGI middleware that counts and times every HTTP request."""
+
+    def __init__(self, app: ASGIApp, metrics: HttpMetrics) -> None:
+        self.app = app
+        self.metrics = metrics
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] != "http":
+            await self.app(scope, receive, send)
+            return
+        status = 500
+        start = time.perf_counter()
+
+        async def send_and_watch(message: Message) -> None:
+            nonlocal status
+            if message["type"] == "http.response.start":
+                status = int(message["status"])
+            await send(message)
+
+        try:
+            await self.app(scope, receive, send_and_watch)
+        finally:
+            route, method = _route_of(scope), str(scope.get("method", ""))
+            self.metrics.latency.labels(method, route).observe(time.perf_counter() - start)
+            self.metrics.requests.labels(method, route, str(status)).inc()

@@ -1,0 +1,267 @@
+"""Measurement records and their diagnosis.
+
+A record names its rig (and optionally the version of its document) and carries any subset
+of the quantities of :class:`diagnostics.measurement.MeasurementRecord`, under the same
+names.  Each reading is a bare number — a reading of the field's default instrument class
+(:data:`diagnostics.quantity.DEFAULT_INSTRUMENTS`) — or an object with its standard
+uncertainty ``u`` or its instrument bound ``bound`` (read as rectangular, u = bound/√3).
+"""
+
+from __future__ import annotations
+
+from functools import partial
+from typing import Annotated, Any, Literal
+
+from pydantic import AwareDatetime, BaseModel, BeforeValidator, Field, model_validator
+
+from app.schemas.common import FiniteFloat
+from sim.errors import InputError
+
+__all__ = [
+    "MEASURED_FIELDS",
+    "ConditionIn",
+    "DiagnoseRequest",
+    "DiagnoseResponse",
+    "DiagnosisPublic",
+    "EstimatePublic",
+    "MeasurementIn",
+    "ReadingIn",
+]
+
+#: Measured quantities of a record: name → (unit, meaning); names as in diagnostics.
+MEASURED_FIELDS: dict[str, tuple[str, str]] = {
+    "pump_pressure": ("Pa", "Pump outlet pressure, gauge"),
+    "p1": ("Pa", "Chamber 1 pressure in the working phase, gauge"),
+    "p2": ("Pa", "Chamber 2 pressure in the working phase, gauge"),
+    "flow_B": ("m³/s", "Flow into the directional valve's P port (meter B)"),
+    "flow_C": ("m³/s", "Flow out of the cylinder in the working phase (meter C)"),
+    "pump_flow": ("m³/s", "Flow at the pump outlet"),
+    "speed_work": ("m/s", "Average piston speed in the working phase"),
+    "speed_return": ("m/s", "Average piston speed in the return phase"),
+    "duration_work": ("s", "Duration of the working stroke"),
+    "duration_return": ("s", "Duration of the return stroke"),
+    "stroke": ("m", "Distance travelled in each phase"),
+    "velocity_ratio": ("1", "Working over return average speed"),
+}
+
+_EXAMPLE_RECORD: dict[str, Any] = {
+    "rig_id": 1,
+    "measured_at": "2026-11-22T08:30:00Z",
+    "condition": {"oil_temperature": 40.0, "load_force": 2100.0},
+    "pump_pressure": 14.6e5,
+    "p1": 11.9e5,
+    "p2": 1.2e5,
+    "flow_B": {"value": 4.44e-4, "u": 2.6e-6},
+    "flow_C": 3.97e-4,
+    "speed_work": 0.180,
+    "speed_return": 0.215,
+}
+
+
+class ReadingIn(BaseModel):
+    """A reading with its uncertainty; give ``u`` or ``bound``, or neither for the default.
+
+    A bare number in place of this object is a reading of the field's default instrument
+    class (:data:`diagnostics.quantity.DEFAULT_INSTRUMENTS`).
+    """
+
+    value: FiniteFloat = Field(
+        description="Reading, in the SI unit of the field it stands in [unit of the field]",
+        examples=[4.44e-4],
+    )
+    u: FiniteFloat | None = Field(
+        default=None, ge=0,
+        description="Standard uncertainty (one standard deviation) [unit of the field]",
+        examples=[2.6e-6],
+    )
+    bound: FiniteFloat | None = Field(
+        default=None, ge=0,
+        description="Instrument bound ±a, read as rectangular with u = a/√3 "
+        "[unit of the field]",
+        examples=[4.4e-6],
+    )
+
+    @model_validator(mode="after")
+    def _one_uncertainty(self) -> ReadingIn:
+        if self.u is not None and self.bound is not None:
+            raise ValueError("give u or bound, not both")
+        return self
+
+
+def _number_to_reading(value: Any) -> Any:
+    """A bare number is a reading of the field's default instrument class."""
+    if isinstance(value, int | float) and not isinstance(value, bool):
+        return {"value": value}
+    return value
+
+
+#: A reading: ``12.5`` is short for ``{"value": 12.5}`` (default instrument class).
+Reading = Annotated[ReadingIn, BeforeValidator(_number_to_reading)]
+
+
+def _reading(unit: str, meaning: str, example: float, *, required: bool = False) -> Any:
+    return Field(
+        ... if required else None,
+        description=f"{meaning}: a number (default instrument class) or {{value, u | bound}} "
+        f"[{unit}]",
+        examples=[example],
+    )
+
+
+class ConditionIn(BaseModel):
+    """Operating condition of a record; state the load force or the back-pressure."""
+
+    oil_temperature: Reading = _reading("°C", "Oil temperature", 40.0, required=True)
+    load_force: Reading | None = _reading("N", "Load on the piston, working phase", 2100.0)
+    back_pressure: Reading | None = _reading("Pa", "Back-pressure of the load valve", 1.0e6)
+    pump_speed: Reading | None = _reading("rad/s", "Pump shaft speed", 150.0)
+
+
+_rig_id = partial(Field, ge=1, description="Rig identifier [-]", examples=[1])
+_rig_version = partial(
+    Field, ge=1, description="Version of the rig document to use; the latest when null [-]",
+    examples=[None],
+)
+
+
+class MeasurementIn(BaseModel):
+    """One visit's measurements on one rig (any subset of the quantities)."""
+
+    rig_id: int = _rig_id()
+    rig_version: int | None = _rig_version(default=None)
+    measured_at: AwareDatetime | None = Field(
+        default=None,
+        description="When the readings were taken, ISO 8601 with zone; the time of the "
+        "request when null [UTC]",
+        examples=["2026-11-22T08:30:00Z"],
+    )
+    condition: ConditionIn = Field(
+        description="Operating condition [-]",
+        examples=[{"oil_temperature": 40.0, "load_force": 2100.0}],
+    )
+    pump_pressure: Reading | None = _reading("Pa", MEASURED_FIELDS["pump_pressure"][1], 14.6e5)
+    p1: Reading | None = _reading("Pa", MEASURED_FIELDS["p1"][1], 11.9e5)
+    p2: Reading | None = _reading("Pa", MEASURED_FIELDS["p2"][1], 1.2e5)
+    flow_B: Reading | None = _reading("m³/s", MEASURED_FIELDS["flow_B"][1], 4.44e-4)
+    flow_C: Reading | None = _reading("m³/s", MEASURED_FIELDS["flow_C"][1], 3.97e-4)
+    pump_flow: Reading | None = _reading("m³/s", MEASURED_FIELDS["pump_flow"][1], 4.5e-4)
+    speed_work: Reading | None = _reading("m/s", MEASURED_FIELDS["speed_work"][1], 0.180)
+    speed_return: Reading | None = _reading("m/s", MEASURED_FIELDS["speed_return"][1], 0.215)
+    duration_work: Reading | None = _reading("s", MEASURED_FIELDS["duration_work"][1], 2.78)
+    duration_return: Reading | None = _reading("s", MEASURED_FIELDS["duration_return"][1],
+                                               2.33)
+    stroke: Reading | None = _reading("m", MEASURED_FIELDS["stroke"][1], 0.5)
+    velocity_ratio: Reading | None = _reading("1", MEASURED_FIELDS["velocity_ratio"][1], 0.84)
+
+    model_config = {"json_schema_extra": {"examples": [_EXAMPLE_RECORD]}}
+
+
+class DiagnoseRequest(BaseModel):
+    """One record (``record``) or a batch (``records``) to diagnose."""
+
+    record: MeasurementIn | None = Field(
+        default=None, description="A single record; give this or `records` [-]",
+        examples=[_EXAMPLE_RECORD],
+    )
+    records: list[MeasurementIn] | None = Field(
+        default=None, min_length=1, max_length=100,
+        description="Several records; each is diagnosed on its own unless `joint` [-]",
+        examples=[[_EXAMPLE_RECORD]],
+    )
+    joint: bool = Field(
+        default=False,
+        description="Diagnose all `records` together (one rig and version, e.g. one visit at "
+        "several loads): one result for the batch [-]",
+        examples=[False],
+    )
+    store: bool = Field(
+        default=True,
+        description="Store the records and results in the history (needs the API key) [-]",
+        examples=[True],
+    )
+
+    def items(self) -> list[tuple[str, MeasurementIn]]:
+        """The records with their paths in the request (``record``, ``records[2]``).
+
+        Raises
+        ------
+        InputError
+            Both or neither of ``record`` and ``records`` given, or ``joint`` with one
+            record.
+        """
+        if (self.record is None) == (self.records is None):
+            raise InputError("give either `record` or `records`", field="records")
+        if self.record is not None:
+            if self.joint:
+                raise InputError("`joint` needs `records`", field="joint")
+            return [("record", self.record)]
+        return [(f"records[{i}]", r) for i, r in enumerate(self.records or [])]
+
+
+class EstimatePublic(BaseModel):
+    """What a diagnosis estimated for one suspect component."""
+
+    component: str = Field(description="Component [-]", examples=["valve"])
+    quantity: str = Field(
+        description="'cc' or 'cv' (equivalent clearance), 'Cs' (pump slip coefficient) [-]",
+        examples=["cv"],
+    )
+    unit: str = Field(description="Unit of value, low and high [-]", examples=["m"])
+    value: float = Field(description="Estimate [unit]", examples=[5.9e-5])
+    low: float = Field(description="Lower end of the 95 % interval [unit]", examples=[5.6e-5])
+    high: float = Field(description="Upper end of the 95 % interval [unit]", examples=[6.2e-5])
+    probability: float = Field(
+        ge=0, le=1, description="Probability that this component alone is at fault [1]",
+        examples=[0.75],
+    )
+    source: Literal["direct", "hypothesis"] = Field(
+        description="'direct': closed-form inversion of the flows (paper 002 §2.7); "
+        "'hypothesis': fit of the component's single-fault hypothesis [-]",
+        examples=["direct"],
+    )
+
+
+class DiagnosisPublic(BaseModel):
+    """The diagnosis of one record, or of several records jointly."""
+
+    id: int | None = Field(description="Stored diagnosis id; null when not stored [-]",
+                           examples=[12])
+    measurement_ids: list[int] = Field(
+        description="Stored measurement ids of the records, in request order; empty when "
+        "not stored [-]", examples=[[31]],
+    )
+    records: list[str] = Field(description="Paths of the records in the request [-]",
+                               examples=[["records[0]"]])
+    rig_id: int = _rig_id()
+    rig_version: int = Field(ge=1, description="Version of the rig document used [-]",
+                             examples=[1])
+    measured_at: AwareDatetime = Field(
+        description="Time of the (latest) record [UTC]", examples=["2026-11-22T08:30:00Z"])
+    top: str = Field(description="Most probable hypothesis [-]", examples=["valve"])
+    component: str = Field(
+        description="Component(s) the top hypothesis blames, '+'-joined; 'healthy' [-]",
+        examples=["valve"],
+    )
+    probability: float = Field(ge=0, le=1, description="Probability of the top hypothesis [1]",
+                               examples=[0.75])
+    estimates: list[EstimatePublic] = Field(
+        description="Per-component estimates kept for the trends: closed-form where the "
+        "flows allow, else the fit of a single-fault hypothesis the readings do not reject [-]",
+        examples=[[]],
+    )
+    result: dict[str, Any] = Field(
+        description="The full diagnosis: every hypothesis with its fitted parameters and "
+        "predictions, isolability, direct inversions; SI units stated per field [-]",
+        examples=[{"top": "valve", "hypotheses": []}],
+    )
+
+
+class DiagnoseResponse(BaseModel):
+    """Diagnoses of a request: one per record, or one for a joint batch."""
+
+    mode: Literal["single", "each", "joint"] = Field(
+        description="How the records were diagnosed [-]", examples=["single"])
+    stored: bool = Field(description="Whether records and results were stored [-]",
+                         examples=[True])
+    diagnoses: list[DiagnosisPublic] = Field(description="The diagnoses, in request order [-]",
+                                             examples=[[]])

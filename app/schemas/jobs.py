@@ -1,0 +1,53 @@
+"""Jobs: long work (sweeps, maps, discrepancy runs) with id, status and progress."""
+
+from __future__ import annotations
+
+from datetime import datetime
+from typing import Any, Literal
+
+from pydantic import Field
+
+from app.schemas.common import Page, PublicModel, Timestamp
+
+__all__ = ["JobList", "JobPublic", "JobStatus"]
+
+JobStatus = Literal["queued", "running", "succeeded", "failed"]
+
+
+class JobPublic(PublicModel):
+    """A job's state; ``result`` is filled when it succeeded, ``error`` when it failed."""
+
+    id: str = Field(
+        description="Job identifier (UUID) [-]", examples=["1b4e28ba-2fa1-11d2-883f-0016d3cca427"]
+    )
+    kind: str = Field(description="What the job does [-]", examples=["sweep"])
+    status: JobStatus = Field(description="Where the job is [-]", examples=["running"])
+    progress: float = Field(
+        ge=0, le=1, description="Fraction of the work done [1]", examples=[0.35]
+    )
+    message: str | None = Field(
+        description="Latest progress note [-]", examples=["case 35 of 100"]
+    )
+    params: dict[str, Any] = Field(
+        description="Parameters the job was started with, units as in its request [-]",
+        examples=[{"rig_id": 1, "clearances_m": [4e-5, 8e-5]}],
+    )
+    result: dict[str, Any] | None = Field(
+        description="Outcome of a succeeded job, units as documented by its kind [-]",
+        examples=[None],
+    )
+    error: dict[str, Any] | None = Field(
+        description="Why a failed job failed, as {type, message, field} [-]",
+        examples=[{"type": "SimulationError", "message": "step size underflow", "field": None}],
+    )
+    created_at: Timestamp
+    started_at: datetime | None = Field(
+        description="When a worker took the job [UTC]", examples=["2026-11-22T08:30:01Z"]
+    )
+    finished_at: datetime | None = Field(
+        description="When the job succeeded or failed [UTC]", examples=[None]
+    )
+
+
+class JobList(Page[JobPublic]):
+    """A page of jobs, newest first."""

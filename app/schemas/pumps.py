@@ -1,0 +1,156 @@
+"""Pump parameter sets and loss maps: named quantities, each with its unit.
+
+A *parameter set* holds scalar coefficients (displacement, slip coefficient Cs, ...; paper
+000 eqs. 6-19); a *loss map* holds axes and gridded values (flow loss over pressure and
+speed, ...).  The store keeps them as given; ``diagnostics`` interprets them.
+"""
+
+from __future__ import annotations
+
+from functools import partial
+from typing import Annotated, Literal
+
+from pydantic import AfterValidator, BaseModel, Field, StringConstraints, field_validator
+
+from app.schemas.common import FiniteFloat, Page, PublicModel, Timestamp, reject_null
+
+__all__ = [
+    "PumpBenchForm",
+    "PumpSetCreate",
+    "PumpSetKind",
+    "PumpSetList",
+    "PumpSetPublic",
+    "PumpSetUpdate",
+    "Quantity",
+]
+
+PumpSetKind = Literal["parameters", "loss_map"]
+Name = Annotated[
+    str, StringConstraints(min_length=1, max_length=100, pattern=r"^[A-Za-z0-9][A-Za-z0-9._-]*$")
+]
+QuantityName = Annotated[
+    str, StringConstraints(min_length=1, max_length=64, pattern=r"^[A-Za-z][A-Za-z0-9_]*$")
+]
+Value = FiniteFloat | list[FiniteFloat] | list[list[FiniteFloat]]
+
+
+def _rectangular(value: Value) -> Value:
+    if isinstance(value, list) and value and isinstance(value[0], list):
+        widths = {len(row) for row in value if isinstance(row, list)}
+        if len(widths) != 1:
+            raise ValueError("a 2-D value must be rectangular (rows of equal length)")
+    return value
+
+
+class Quantity(BaseModel):
+    """A value (scalar, 1-D or 2-D array) with its unit."""
+
+    value: Annotated[Value, AfterValidator(_rectangular)] = Field(
+        description="Number, list or list of rows (a map), in the stated unit [unit]",
+        examples=[1.47e-5, [0.0, 5.0e6, 1.0e7]],
+    )
+    unit: Annotated[str, StringConstraints(min_length=1, max_length=32)] = Field(
+        description="Unit of the value, SI with '1' for dimensionless [-]",
+        examples=["m^3/rev", "Pa", "1"],
+    )
+    description: Annotated[str, StringConstraints(max_length=500)] | None = Field(
+        default=None,
+        description="What the quantity is [-]",
+        examples=["slip coefficient Cs, paper 000 eq. 6"],
+    )
+
+
+_QUANTITIES_EXAMPLE = {
+    "displacement": {"value": 1.47e-5, "unit": "m^3/rev", "description": "derived capacity"},
+    "Cs": {"value": 2.1e-9, "unit": "1", "description": "slip coefficient, eq. 6"},
+}
+
+_name = partial(
+    Field, description="Unique name of the set [-]", examples=["gear-14.7cc-tellus46"]
+)
+_kind = partial(
+    Field, description="'parameters' (coefficients) or 'loss_map' (gridded values) [-]",
+    examples=["parameters"],
+)
+_rig_id = partial(
+    Field, description="Rig the pump belongs to; null for a pump on its own [-]", examples=[1]
+)
+_pump = partial(
+    Field, description="Pump model and size [-]",
+    examples=["external gear pump, 14.7 cm³/rev"],
+)
+_source = partial(
+    Field, description="Where the numbers come from [-]",
+    examples=["paper 000, ISO 4409 bench test at 22 and 60 °C"],
+)
+_quantities = partial(
+    Field, min_length=1, max_length=500,
+    description="Named quantities, each {value, unit, description} [-]",
+    examples=[_QUANTITIES_EXAMPLE],
+)
+PumpLabel = Annotated[str, StringConstraints(min_length=1, max_length=200)]
+SourceNote = Annotated[str, StringConstraints(max_length=2000)]
+
+
+class PumpSetCreate(BaseModel):
+    """A new pump parameter set or loss map."""
+
+    name: Name = _name()
+    kind: PumpSetKind = _kind()
+    rig_id: int | None = _rig_id(default=None)
+    pump: PumpLabel = _pump()
+    source: SourceNote | None = _source(default=None)
+    quantities: dict[QuantityName, Quantity] = _quantities()
+
+
+class PumpSetUpdate(BaseModel):
+    """Changes to a pump set; fields left out stay; ``quantities`` replace all of them.
+
+    ``rig_id`` and ``source`` may be set to null (detach from the rig, drop the note).
+    """
+
+    name: Name | None = _name(default=None)
+    kind: PumpSetKind | None = _kind(default=None)
+    rig_id: int | None = _rig_id(default=None)
+    pump: PumpLabel | None = _pump(default=None)
+    source: SourceNote | None = _source(default=None)
+    quantities: dict[QuantityName, Quantity] | None = _quantities(default=None)
+
+    _not_null = field_validator("name", "kind", "pump", "quantities")(reject_null)
+
+
+class PumpSetPublic(PublicModel):
+    """A stored pump set."""
+
+    id: int = Field(description="Pump set identifier [-]", examples=[1])
+    name: str = _name()
+    kind: PumpSetKind = _kind()
+    rig_id: int | None = _rig_id()
+    pump: str = _pump()
+    source: str | None = _source()
+    quantities: dict[str, Quantity] = _quantities()
+    created_at: Timestamp
+    updated_at: Timestamp
+
+
+class PumpSetList(Page[PumpSetPublic]):
+    """A page of pump sets."""
+
+
+class PumpBenchForm(BaseModel):
+    """Form fields sent with a bench CSV (``POST /pump-sets/bench``)."""
+
+    name: Name = _name()
+    pump: PumpLabel = _pump()
+    rig_id: int | None = Field(default=None, ge=1, description="Rig the pump belongs to [-]",
+                               examples=[1])
+    source: SourceNote | None = _source(default=None)
+    displacement_m3_rad: FiniteFloat | None = Field(
+        default=None, gt=0,
+        description="Derived capacity D when known; from the data (Toet method) when "
+        "left out [m³/rad]",
+        examples=[2.34e-6],
+    )
+    displacement_std_m3_rad: FiniteFloat = Field(
+        default=0.0, ge=0, description="Standard error of a given D [m³/rad]", examples=[0.0],
+    )

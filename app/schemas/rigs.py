@@ -1,0 +1,85 @@
+"""Rig resource: the rig description document, versioned."""
+
+from __future__ import annotations
+
+from functools import partial
+from typing import Any
+
+from pydantic import BaseModel, Field
+
+from app.schemas.common import Page, PublicModel, Timestamp
+
+__all__ = ["RigCreate", "RigList", "RigPublic", "RigUpdate", "RigVersionList", "RigVersionPublic"]
+
+_DOCUMENT_EXAMPLE: dict[str, Any] = {
+    "schema": "hydrodiag.rig/1",
+    "name": "lab-rig-2",
+    "title": "Vane pump, 4/2 valve and double-acting cylinder",
+    "components": {"cylinder": {"cc": {"value": 83e-6, "unit": "m"}}},
+}
+
+_document = partial(
+    Field,
+    description=(
+        "Rig description document (schema hydrodiag.rig/1): components and parameters, each "
+        "value with its SI unit inside the document [-]; validated by sim.rigs"
+    ),
+    examples=[_DOCUMENT_EXAMPLE],
+)
+_comment = partial(
+    Field,
+    default=None,
+    max_length=500,
+    description="What this version changes and why [-]",
+    examples=["valve spool clearance measured after overhaul"],
+)
+
+
+class RigCreate(BaseModel):
+    """A new rig: its first description document."""
+
+    document: dict[str, Any] = _document()
+    comment: str | None = _comment()
+
+
+class RigUpdate(BaseModel):
+    """A new version of a rig's description document (the name must stay the same)."""
+
+    document: dict[str, Any] = _document()
+    comment: str | None = _comment()
+
+
+class RigVersionPublic(PublicModel):
+    """One stored version of a rig's description."""
+
+    rig_id: int = Field(description="Rig identifier [-]", examples=[1])
+    version: int = Field(ge=1, description="Version number, 1 for the first [-]", examples=[3])
+    document: dict[str, Any] = _document()
+    comment: str | None = _comment()
+    created_at: Timestamp
+
+
+class RigPublic(PublicModel):
+    """A rig with its latest description document."""
+
+    id: int = Field(description="Rig identifier [-]", examples=[1])
+    name: str = Field(
+        description="Unique rig name, from the document [-]", examples=["paper002-reference"]
+    )
+    title: str = Field(
+        description="Human-readable title, from the document [-]",
+        examples=["Paper 002 test platform"],
+    )
+    latest_version: int = Field(ge=1, description="Number of the newest version [-]",
+                                examples=[1])
+    document: dict[str, Any] = _document()
+    created_at: Timestamp
+    updated_at: Timestamp
+
+
+class RigList(Page[RigPublic]):
+    """A page of rigs."""
+
+
+class RigVersionList(Page[RigVersionPublic]):
+    """A page of a rig's versions, newest first."""

@@ -1,0 +1,145 @@
+"""Fault scenarios: a stored rig, parameter overrides or a named fault, a condition."""
+
+from __future__ import annotations
+
+from functools import partial
+from typing import Any, Literal
+
+from pydantic import BaseModel, Field, field_validator
+
+from app.schemas.common import FiniteFloat
+from sim.scenarios import FAULTS
+
+__all__ = [
+    "ConditionSpec",
+    "SimulateRequest",
+    "SimulationPublic",
+    "TimeseriesFormat",
+    "TimeseriesTable",
+]
+
+#: How the time series of a transient run comes back.
+TimeseriesFormat = Literal["json", "csv", "parquet"]
+
+_rig_id = partial(Field, ge=1, description="Rig identifier [-]", examples=[1])
+_rig_version = partial(
+    Field, ge=1, description="Version of the rig document; the latest when null [-]",
+    examples=[None],
+)
+_fault = partial(
+    Field,
+    description=f"Named fault scenario of sim.scenarios ({', '.join(FAULTS)}); its overrides "
+    "come first, `overrides` are applied over them [-]",
+    examples=["worn_spool"],
+)
+_overrides = partial(
+    Field,
+    description="Parameter overrides 'role.name' → value in the parameter's SI unit, e.g. "
+    "valve.cv [m], cylinder.cc [m], pump.Rlp [Pa·s/m³], relief.Pset [Pa] [SI unit of each]",
+    examples=[{"valve.cv": 60e-6}],
+)
+
+
+def check_fault(value: str | None) -> str | None:
+    """Refuse a fault name that :mod:`sim.scenarios` does not know."""
+    if value is not None and value not in FAULTS:
+        raise ValueError(f"unknown fault {value!r} (known: {', '.join(FAULTS)})")
+    return value
+
+
+class ConditionSpec(BaseModel):
+    """Operating condition; a field left out takes the rig document's default."""
+
+    load: FiniteFloat | None = Field(
+        default=None, description="Load force resisting extension, working phase [N]",
+        examples=[4200.0],
+    )
+    back_pressure: FiniteFloat | None = Field(
+        default=None, description="Back-pressure of the load valve in the outlet line [Pa]",
+        examples=[0.0],
+    )
+    oil_temperature: FiniteFloat | None = Field(
+        default=None, description="Oil temperature [°C]", examples=[40.0],
+    )
+    pump_speed: FiniteFloat | None = Field(
+        default=None, gt=0, description="Pump shaft speed; the rig's when null [rad/s]",
+        examples=[None],
+    )
+
+
+class SimulateRequest(BaseModel):
+    """One run of a fault scenario."""
+
+    rig_id: int = _rig_id()
+    rig_version: int | None = _rig_version(default=None)
+    fault: str | None = _fault(default=None)
+    overrides: dict[str, FiniteFloat] = _overrides(default_factory=dict)
+    condition: ConditionSpec = Field(
+        default_factory=ConditionSpec, description="Operating condition [-]",
+        examples=[{"load": 4200.0, "oil_temperature": 40.0}],
+    )
+    method: Literal["transient", "steady"] = Field(
+        default="transient",
+        description="'transient': integrate a working + return cycle (ROS2); 'steady': the "
+        "algebraic operating points of both phases, ~1000× faster, no time series [-]",
+        examples=["transient"],
+    )
+    timeseries: TimeseriesFormat | None = Field(
+        default=None,
+        description="Return the transient time series: 'json' inside the answer, 'csv' or "
+        "'parquet' as the answer's body with the summary in its header/metadata [-]",
+        examples=[None],
+    )
+    rtol: float = Field(
+        default=1e-3, gt=1e-8, le=1e-1,
+        description="Relative tolerance of the transient integrator [1]", examples=[1e-3],
+    )
+
+    _fault_known = field_validator("fault")(check_fault)
+
+
+class TimeseriesTable(BaseModel):
+    """A time series as columns and rows; units in the column names."""
+
+    columns: list[str] = Field(
+        description="Column names with units in brackets, 't [s]' first [-]",
+        examples=[["t [s]", "phase", "P_pump [Pa]"]],
+    )
+    data: list[list[Any]] = Field(
+        description="Rows, one per accepted solver step, in column order [unit of each column]",
+        examples=[[[0.0, "working", 0.0]]],
+    )
+
+
+class SimulationPublic(BaseModel):
+    """Result of a run: the phase summaries, optionally the time series."""
+
+    rig_id: int = _rig_id()
+    rig_version: int = Field(ge=1, description="Version of the rig document used [-]",
+                             examples=[1])
+    fault: str | None = _fault(default=None)
+    overrides: dict[str, float] = _overrides()
+    condition: dict[str, float | None] = Field(
+        description="Condition used: load [N], back_pressure [Pa], oil_temperature [°C], "
+        "pump_speed [rad/s] (null: the rig's) [-]",
+        examples=[{"load": 4200.0, "back_pressure": 0.0, "oil_temperature": 40.0,
+                   "pump_speed": None}],
+    )
+    method: str = Field(description="'transient' or 'steady' [-]", examples=["transient"])
+    summary: dict[str, float | None] = Field(
+        description="Phase averages 'phase.quantity [unit]' and 'velocity_ratio [-]'; null "
+        "where undefined (a stalled phase) [unit in each key]",
+        examples=[{"working.speed [m/s]": 0.170, "velocity_ratio [-]": 0.80}],
+    )
+    completed: dict[str, bool] = Field(
+        description="Whether each phase reached its end of stroke [-]",
+        examples=[{"working": True, "return": True}],
+    )
+    steps: dict[str, int] = Field(
+        description="Accepted solver steps per phase (empty for 'steady') [-]",
+        examples=[{"working": 1800, "return": 1750}],
+    )
+    timeseries: TimeseriesTable | None = Field(
+        default=None, description="The time series when asked for as 'json' [-]",
+        examples=[None],
+    )

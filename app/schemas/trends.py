@@ -1,0 +1,77 @@
+"""Trends of a rig's components over its diagnosis history."""
+
+from __future__ import annotations
+
+from datetime import datetime
+from typing import Literal
+
+from pydantic import BaseModel, Field
+
+__all__ = ["ComponentTrend", "TrendComponent", "TrendPoint", "TrendsPublic"]
+
+#: Components with a trend: clearance of cylinder and valve [m], slip coefficient of the pump.
+TrendComponent = Literal["cylinder", "valve", "pump"]
+
+
+class TrendPoint(BaseModel):
+    """One diagnosis in a component's series."""
+
+    diagnosis_id: int = Field(description="Diagnosis identifier [-]", examples=[12])
+    measured_at: datetime = Field(description="When the record was taken [UTC]",
+                                  examples=["2026-11-22T08:30:00Z"])
+    rig_version: int = Field(description="Version of the rig document used [-]", examples=[1])
+    value: float = Field(description="Estimate [unit of the series]", examples=[5.9e-5])
+    low: float | None = Field(description="Lower end of its 95 % interval [unit of the series]",
+                              examples=[5.6e-5])
+    high: float | None = Field(description="Upper end of its 95 % interval [unit of the series]",
+                               examples=[6.2e-5])
+    probability: float | None = Field(
+        description="Probability that this component alone was at fault [1]", examples=[0.75])
+
+
+class ComponentTrend(BaseModel):
+    """A component's series, its robust slope and the time left to a threshold."""
+
+    component: TrendComponent = Field(description="Component [-]", examples=["valve"])
+    quantity: str = Field(description="'cc', 'cv' (clearance) or 'Cs' (pump slip) [-]",
+                          examples=["cv"])
+    unit: str = Field(description="Unit of the series [-]", examples=["m"])
+    points: list[TrendPoint] = Field(description="The series, oldest first [-]", examples=[[]])
+    slope: float | None = Field(
+        description="Theil-Sen slope; null with fewer than 3 visit times [unit/s]",
+        examples=[1.2e-12])
+    slope_low: float | None = Field(description="Lower end of the slope's 95 % interval [unit/s]",
+                                    examples=[4e-13])
+    slope_high: float | None = Field(
+        description="Upper end of the slope's 95 % interval [unit/s]", examples=[2e-12])
+    threshold: float = Field(description="Threshold of the forecast [unit of the series]",
+                             examples=[5.44e-5])
+    threshold_source: str = Field(
+        description="'given', or how the default was derived from the rig [-]",
+        examples=["default: 1.6 × nominal clearance (leakage ×4.1, 'severe')"])
+    status: Literal["worsening", "not_worsening", "crossed", "insufficient_data"] = Field(
+        description="Which case of diagnostics.trends.forecast_threshold applies [-]",
+        examples=["worsening"])
+    time_left_s: float | None = Field(
+        description="Time from the last visit to the crossing on the fitted line; null when "
+        "never or unknown [s]", examples=[3.1e7])
+    time_left_low_s: float | None = Field(
+        description="Earliest crossing the slope interval allows, from the last visit; null "
+        "when never or unknown [s]", examples=[1.9e7])
+    time_left_high_s: float | None = Field(
+        description="Latest crossing the slope interval allows; null when never or unknown [s]",
+        examples=[9.3e7])
+    crossing_at: datetime | None = Field(
+        description="Date of the crossing on the fitted line [UTC]",
+        examples=["2027-11-22T08:30:00Z"])
+    message: str = Field(description="One sentence for the report [-]",
+                         examples=["cv reaches 5.44e-05 m in 3.1e+07 s"])
+
+
+class TrendsPublic(BaseModel):
+    """Trends of a rig's components."""
+
+    rig_id: int = Field(description="Rig identifier [-]", examples=[1])
+    components: list[ComponentTrend] = Field(
+        description="One trend per component with history (or the one asked for) [-]",
+        examples=[[]])

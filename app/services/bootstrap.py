@@ -1,0 +1,111 @@
+"""What ``hydrodiag serve`` does before it listens: migrate, preload, first key."""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+from sqlalchemy import Engine, select
+from sqlalchemy.orm import Session
+
+from app.db import migrate
+from app.db.models import ThrottleCalibration
+from app.reference_data import REFERENCE_CALIBRATIONS, REFERENCE_RIG_NAME
+from app.schemas.calibrations import CalibrationCreate, CalibrationPointIn
+from app.services.calibrations import create_calibration
+from app.services.clearance import ClearanceEstimator
+from app.services.keys import count_active_keys, create_api_key, list_api_keys
+from app.services.rigs import create_rig, find_rig
+from sim.errors import InputError
+from sim.rigs import reference_rig_document
+
+__all__ = ["LOCAL_KEY_NAME", "Preloaded", "ensure_first_key", "ensure_reference_data",
+           "upgrade_database"]
+
+logger = logging.getLogger("hydrodiag.app")
+
+#: Name of the key created on first start.
+LOCAL_KEY_NAME = "local"
+
+
+@dataclass(frozen=True, slots=True)
+class Preloaded:
+    """What :func:`ensure_reference_data` added (zero on every start after the first)."""
+
+    rig_created: bool
+    calibrations_created: int
+
+
+def upgrade_database(engine: Engine) -> str:
+    """Migrate the store to the newest revision; return that revision."""
+    migrate.upgrade(engine)
+    return migrate.head_revision()
+
+
+def ensure_reference_data(
+    session: Session, *, estimator: ClearanceEstimator | None = None
+) -> Preloaded:
+    """Add the paper-002 reference rig and its throttle tables where they are missing.
+
+    Existing rows are left as they are: a lab that edited the reference tables keeps its
+    edits.  Missing clearances are computed by ``estimator`` when given; if the computed
+    values contradict the published rows, the table is stored as published.
+    """
+    rig = find_rig(session, REFERENCE_RIG_NAME)
+    rig_created = rig is None
+    if rig is None:
+        rig, _ = create_rig(session, reference_rig_document(),
+                            comment="reference rig of paper 002, preloaded")
+    created = 0
+    for table in REFERENCE_CALIBRATIONS:
+        exists = session.scalar(
+            select(ThrottleCalibration.id).where(
+                ThrottleCalibration.rig_id == rig.id,
+                ThrottleCalibration.throttle == table.throttle,
+                ThrottleCalibration.back_pressure_pa == table.back_pressure_pa,
+                ThrottleCalibration.temperature_c == table.temperature_c,
+            )
+        )
+        if exists is not None:
+            continue
+        data = CalibrationCreate(
+            throttle=table.throttle,
+            component=table.component,
+            back_pressure_pa=table.back_pressure_pa,
+            temperature_c=table.temperature_c,
+            source=table.source,
+            points=[
+                CalibrationPointIn(opening_turns=x, bypass_flow_m3s=q, clearance_m=c)
+                for x, q, c in zip(table.openings_turns, table.bypass_flows_m3s,
+                                   table.clearances_m, strict=True)
+            ],
+        )
+        try:
+            create_calibration(session, rig.id, data, estimator=estimator)
+        except InputError as exc:
+            # the estimator contradicts the published rows: keep the table as published
+            session.rollback()
+            logger.warning("reference table %s: computed clearances not used (%s)",
+                           table.throttle, exc)
+            create_calibration(session, rig.id, data, estimator=None)
+        created += 1
+    return Preloaded(rig_created=rig_created, calibrations_created=created)
+
+
+def ensure_first_key(session: Session) -> str | None:
+    """Create the ``local`` key when the store has no active key.
+
+    Returns
+    -------
+    str or None
+        The new key (to be shown once), or ``None`` when keys exist already.
+    """
+    if count_active_keys(session):
+        return None
+    taken = {row.name for row in list_api_keys(session)}  # revoked keys keep their names
+    name, suffix = LOCAL_KEY_NAME, 1
+    while name in taken:
+        suffix += 1
+        name = f"{LOCAL_KEY_NAME}-{suffix}"
+    _, plaintext = create_api_key(session, name)
+    return plaintext

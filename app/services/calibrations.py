@@ -1,0 +1,232 @@
+"""Throttle-valve equivalence tables of a rig (paper 002, §2.7, Tables 2-3).
+
+Rows arrive in any order and are stored in order of opening.  A row without a clearance
+gets one from the :class:`~app.services.clearance.ClearanceEstimator` when the service has
+one (marked ``computed``); otherwise it stays empty until a later update.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import cast
+
+from sqlalchemy import func, select
+from sqlalchemy.orm import Session, selectinload
+
+from app.db.models import CalibrationPoint, ThrottleCalibration
+from app.schemas.calibrations import (
+    MAX_CLEARANCE_M,
+    CalibrationCreate,
+    CalibrationPointIn,
+    CalibrationUpdate,
+    ClearanceOrigin,
+)
+from app.services.clearance import ClearanceCurveFit, ClearanceEstimator, TablePoint, check_table
+from app.services.common import commit, paginate
+from app.services.rigs import get_rig, latest_version
+from sim.errors import ConflictError, InputError, NotFoundError
+
+__all__ = [
+    "create_calibration",
+    "curve_of",
+    "delete_calibration",
+    "get_calibration",
+    "list_calibrations",
+    "update_calibration",
+]
+
+
+def get_calibration(session: Session, rig_id: int, calibration_id: int) -> ThrottleCalibration:
+    """Return calibration ``calibration_id`` of rig ``rig_id``."""
+    get_rig(session, rig_id)
+    calibration = session.get(ThrottleCalibration, calibration_id)
+    if calibration is None or calibration.rig_id != rig_id:
+        raise NotFoundError(
+            f"rig {rig_id} has no calibration {calibration_id}", field="calibration_id"
+        )
+    return calibration
+
+
+def list_calibrations(
+    session: Session, rig_id: int, *, limit: int, offset: int, throttle: str | None = None
+) -> tuple[Sequence[ThrottleCalibration], int]:
+    """Return a page of the calibrations of rig ``rig_id`` and their total count."""
+    get_rig(session, rig_id)
+    statement = (
+        select(ThrottleCalibration)
+        .where(ThrottleCalibration.rig_id == rig_id)
+        .options(selectinload(ThrottleCalibration.points))
+    )
+    if throttle is not None:
+        statement = statement.where(ThrottleCalibration.throttle == throttle)
+    return paginate(session, statement.order_by(ThrottleCalibration.id), limit=limit,
+                    offset=offset)
+
+
+def curve_of(calibration: ThrottleCalibration) -> ClearanceCurveFit | None:
+    """Return the monotone opening → clearance curve of a stored table, if it has one."""
+    return ClearanceCurveFit.of([_table_point(p) for p in calibration.points])
+
+
+def _table_point(point: CalibrationPoint | CalibrationPointIn) -> TablePoint:
+    origin: ClearanceOrigin | None
+    if isinstance(point, CalibrationPointIn):
+        origin = "given" if point.clearance_m is not None else None
+    else:
+        origin = cast(ClearanceOrigin | None, point.clearance_origin)  # CHECKed in the store
+    return TablePoint(point.opening_turns, point.bypass_flow_m3s, point.clearance_m, origin)
+
+
+def _estimate(
+    session: Session,
+    calibration: ThrottleCalibration,
+    points: Sequence[TablePoint],
+    estimator: ClearanceEstimator,
+) -> list[TablePoint]:
+    """Return ``points`` with each missing clearance computed by ``estimator``."""
+    document = latest_version(session, get_rig(session, calibration.rig_id)).document
+    filled = list(points)
+    for index, point in enumerate(points):
+        if point.clearance_m is not None:
+            continue
+        clearance = estimator(
+            rig_document=document,
+            component=calibration.component,
+            bypass_flow_m3s=point.bypass_flow_m3s,
+            back_pressure_pa=calibration.back_pressure_pa,
+            temperature_c=calibration.temperature_c,
+        )
+        if not (math.isfinite(clearance) and 0 < clearance < MAX_CLEARANCE_M):
+            raise InputError(
+                f"the computed clearance {clearance:g} m is not a plausible clearance",
+                field=f"points[{index}].clearance_m",
+            )
+        filled[index] = TablePoint(point.opening_turns, point.bypass_flow_m3s, clearance,
+                                   "computed")
+    return filled
+
+
+def _rows(
+    session: Session,
+    calibration: ThrottleCalibration,
+    points: Sequence[TablePoint],
+    estimator: ClearanceEstimator | None,
+) -> list[CalibrationPoint]:
+    """Check ``points``, fill missing clearances, return the rows in order of opening."""
+    order = check_table(points)
+    if estimator is not None and any(p.clearance_m is None for p in points):
+        points = _estimate(session, calibration, points, estimator)
+        check_table(points)
+    return [
+        CalibrationPoint(
+            opening_turns=points[i].opening_turns,
+            bypass_flow_m3s=points[i].bypass_flow_m3s,
+            clearance_m=points[i].clearance_m,
+            clearance_origin=points[i].clearance_origin,
+        )
+        for i in order
+    ]
+
+
+def _check_condition_free(
+    session: Session, calibration: ThrottleCalibration, *, exclude_id: int | None = None
+) -> None:
+    statement = select(func.count()).select_from(ThrottleCalibration).where(
+        ThrottleCalibration.rig_id == calibration.rig_id,
+        ThrottleCalibration.throttle == calibration.throttle,
+        ThrottleCalibration.back_pressure_pa == calibration.back_pressure_pa,
+        ThrottleCalibration.temperature_c == calibration.temperature_c,
+    )
+    if exclude_id is not None:
+        statement = statement.where(ThrottleCalibration.id != exclude_id)
+    if session.scalar(statement):
+        raise ConflictError(
+            f"rig {calibration.rig_id} already has a table for throttle "
+            f"{calibration.throttle!r} at {calibration.back_pressure_pa:g} Pa and "
+            f"{calibration.temperature_c:g} °C; update that one",
+            field="throttle",
+        )
+
+
+def create_calibration(
+    session: Session,
+    rig_id: int,
+    data: CalibrationCreate,
+    *,
+    estimator: ClearanceEstimator | None = None,
+) -> ThrottleCalibration:
+    """Store a new equivalence table for rig ``rig_id``.
+
+    Raises
+    ------
+    NotFoundError
+        No such rig.
+    InputError
+        The rows break a rule of :func:`~app.services.clearance.check_table`.
+    ConflictError
+        The rig has a table for this throttle at this back-pressure and temperature.
+    """
+    get_rig(session, rig_id)
+    calibration = ThrottleCalibration(
+        rig_id=rig_id,
+        throttle=data.throttle,
+        component=data.component,
+        back_pressure_pa=data.back_pressure_pa,
+        temperature_c=data.temperature_c,
+        source=data.source,
+    )
+    with session.no_autoflush:
+        _check_condition_free(session, calibration)
+        calibration.points = _rows(
+            session, calibration, [_table_point(p) for p in data.points], estimator
+        )
+    session.add(calibration)
+    commit(session, conflict="a table for this throttle and condition exists", field="throttle")
+    return calibration
+
+
+def update_calibration(
+    session: Session,
+    rig_id: int,
+    calibration_id: int,
+    data: CalibrationUpdate,
+    *,
+    estimator: ClearanceEstimator | None = None,
+) -> ThrottleCalibration:
+    """Change a table; given ``points`` replace all rows.
+
+    Without ``points``, the stored rows stay; if the component, back-pressure or
+    temperature changed, their computed clearances are computed again.  Missing clearances
+    are computed whenever the service has an estimator, so an empty update fills in what
+    it can.
+    """
+    calibration = get_calibration(session, rig_id, calibration_id)
+    changes = data.model_dump(exclude_unset=True, exclude={"points"})
+    condition = (calibration.component, calibration.back_pressure_pa, calibration.temperature_c)
+    with session.no_autoflush:
+        for key, value in changes.items():
+            setattr(calibration, key, value)
+        _check_condition_free(session, calibration, exclude_id=calibration.id)
+        if data.points is not None:
+            points = [_table_point(p) for p in data.points]
+        else:
+            points = [_table_point(p) for p in calibration.points]
+            recompute = condition != (calibration.component, calibration.back_pressure_pa,
+                                      calibration.temperature_c)
+            if recompute:  # computed clearances belong to the old condition
+                points = [p if p.clearance_origin != "computed" else
+                          TablePoint(p.opening_turns, p.bypass_flow_m3s, None)
+                          for p in points]
+        rows = _rows(session, calibration, points, estimator)
+    calibration.points.clear()
+    session.flush()  # delete the old rows before inserting rows with the same openings
+    calibration.points.extend(rows)
+    commit(session, conflict="a table for this throttle and condition exists", field="throttle")
+    return calibration
+
+
+def delete_calibration(session: Session, rig_id: int, calibration_id: int) -> None:
+    """Delete a table with its rows."""
+    session.delete(get_calibration(session, rig_id, calibration_id))
+    commit(session, conflict=f"calibration {calibration_id} is in use")

@@ -1,0 +1,67 @@
+"""Helpers shared by the services: look-ups that raise, pagination, safe commits."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any, TypeVar
+
+from sqlalchemy import Select, func, select
+from sqlalchemy.exc import IntegrityError
+from sqlalchemy.orm import Session
+
+from sim.errors import ConflictError, NotFoundError
+
+__all__ = ["commit", "get_or_raise", "paginate", "prefixed"]
+
+T = TypeVar("T")
+
+
+def get_or_raise(
+    session: Session, model: type[T], ident: Any, *, what: str, field: str | None = None
+) -> T:
+    """Return the row of ``model`` with primary key ``ident``.
+
+    Raises
+    ------
+    NotFoundError
+        No such row; the message says ``what`` was looked for.
+    """
+    row = session.get(model, ident)
+    if row is None:
+        raise NotFoundError(f"no {what} with id {ident}", field=field)
+    return row
+
+
+def paginate(
+    session: Session, statement: Select[T], *, limit: int, offset: int
+) -> tuple[Sequence[T], int]:
+    """Run ``statement`` for one page and count the whole result.
+
+    Returns
+    -------
+    items, total
+        The rows of the page and the number of rows without limit/offset.
+    """
+    total = session.scalar(select(func.count()).select_from(statement.order_by(None).subquery()))
+    items = session.scalars(statement.limit(limit).offset(offset)).all()
+    return items, int(total or 0)
+
+
+def commit(session: Session, *, conflict: str, field: str | None = None) -> None:
+    """Commit, turning a constraint violation into :class:`ConflictError`.
+
+    The explicit checks in the services catch the usual conflicts with a precise message;
+    this is the backstop for two writers racing past those checks.
+    """
+    try:
+        session.commit()
+    except IntegrityError as exc:
+        session.rollback()
+        raise ConflictError(conflict, field=field) from exc
+
+
+def prefixed(prefix: str, field: str | None) -> str:
+    """Return ``field`` as a path under ``prefix`` (``document`` + ``a.b`` → ``document.a.b``)."""
+    if not field:
+        return prefix
+    return f"{prefix}{field}" if field.startswith("[") else f"{prefix}.{field}"

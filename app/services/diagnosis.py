@@ -1,0 +1,280 @@
+"""Diagnose measurement records against their rig and keep them in the history.
+
+Used by ``POST /diagnose`` and ``hydrodiag diagnose``.  Every record of a request is
+validated and diagnosed before anything is written; then all records and results are
+stored in one transaction, so a request that fails stores nothing.
+
+``diagnostics`` keeps its signature maps and steady-state evaluators in process-wide
+caches whose evaluators reuse work buffers; they are not safe to call from two threads
+at once.  :data:`DIAGNOSIS_LOCK` serialises the calls (the interpreter lock serialises
+that work anyway: nothing is lost).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import threading
+from collections.abc import Mapping, Sequence
+from dataclasses import asdict, dataclass, field
+from datetime import datetime
+from typing import Any
+
+from sqlalchemy.orm import Session
+
+from app.db.base import utcnow
+from app.schemas.diagnose import (
+    DiagnoseRequest,
+    DiagnoseResponse,
+    DiagnosisPublic,
+    EstimatePublic,
+    MeasurementIn,
+)
+from app.services.common import commit, prefixed
+from app.services.history import ComponentEstimate, add_diagnosis, add_measurement
+from app.services.measurements import stored_record, to_record
+from app.services.rig_cache import ResolvedRig, RigCache
+from diagnostics.diagnose import Diagnosis, diagnose
+from sim.errors import InputError
+
+__all__ = ["DIAGNOSIS_LOCK", "DiagnosisOutcome", "EstimateOut", "diagnose_request",
+           "estimates_of", "json_ready", "response_of"]
+
+#: Serialises calls into ``diagnostics`` within one process (module docstring).
+DIAGNOSIS_LOCK = threading.Lock()
+
+#: Single-fault hypotheses whose parameter is a component's equivalent clearance [m].
+_CLEARANCE_HYPOTHESES = {"cylinder": "cc", "valve": "cv"}
+
+
+@dataclass(frozen=True, slots=True)
+class EstimateOut:
+    """One component's estimate: value and 95 % interval [unit], probability [1], and its
+    source: ``"direct"`` (closed-form inversion) or ``"hypothesis"`` (single-fault fit)."""
+
+    component: str
+    quantity: str
+    unit: str
+    value: float
+    low: float
+    high: float
+    probability: float
+    source: str
+
+    def history(self) -> ComponentEstimate:
+        """The estimate as the history keeps it (one trend point)."""
+        if self.quantity == "Cs":
+            return ComponentEstimate(self.component, self.probability,
+                                     slip_coefficient=self.value)
+        return ComponentEstimate(self.component, self.probability, clearance_m=self.value)
+
+
+@dataclass
+class DiagnosisOutcome:
+    """The diagnosis of one record or of a joint batch, and where it was stored."""
+
+    paths: list[str]
+    resolved: ResolvedRig
+    measured_at: datetime
+    top: str
+    component: str
+    probability: float
+    estimates: list[EstimateOut]
+    result: dict[str, Any]
+    diagnosis_id: int | None = None
+    measurement_ids: list[int] = field(default_factory=list)
+
+
+def json_ready(value: Any) -> Any:
+    """``value`` with every non-finite float as ``None`` and numpy scalars as Python ones.
+
+    JSON has no NaN or infinity; a diagnosis uses them for "no value" (an unobservable
+    hypothesis's evidence, an infinite duration).
+    """
+    if isinstance(value, Mapping):
+        return {str(k): json_ready(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [json_ready(v) for v in value]
+    if isinstance(value, bool) or value is None or isinstance(value, str | int):
+        return value
+    if hasattr(value, "item"):  # numpy scalar
+        return json_ready(value.item())
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    return value
+
+
+def estimates_of(diagnosis: Diagnosis) -> list[EstimateOut]:
+    """Per-component estimates: what the history keeps for the trends.
+
+    Cylinder and valve: the equivalent clearance [m] of the closed-form inversion of paper
+    002 §2.7 when the record carries the flows it needs (it does not depend on which
+    hypothesis wins), else the fitted clearance of the component's single-fault hypothesis
+    when the readings cannot reject that hypothesis (its ambiguity set).  Pump: the laminar
+    slip coefficient Cs [-] of paper 000 eq. 6 under the pump hypothesis, when that is not
+    rejected.  A rejected hypothesis's fit explains the readings by the wrong component
+    and estimates nothing, so it is left out.  ``probability`` is always that of the
+    component's single-fault hypothesis.
+    """
+    fits = {f.name: f for f in diagnosis.hypotheses}
+    plausible = set(diagnosis.isolability.ambiguity_set)
+    out: list[EstimateOut] = []
+    for component, quantity in _CLEARANCE_HYPOTHESES.items():
+        fit = fits.get(component)
+        probability = fit.probability if fit is not None else 0.0
+        direct = diagnosis.direct.get(quantity)
+        if direct is not None:
+            out.append(EstimateOut(component, quantity, direct.unit, direct.value, direct.low,
+                                   direct.high, probability, "direct"))
+        elif fit is not None and fit.observable and component in plausible:
+            (p,) = fit.parameters
+            out.append(EstimateOut(component, quantity, p.unit, p.value, p.low, p.high,
+                                   probability, "hypothesis"))
+    pump = fits.get("pump")
+    if pump is not None and "pump" in plausible and diagnosis.pump_slip is not None:
+        value, low, high = diagnosis.pump_slip
+        out.append(EstimateOut("pump", "Cs", "1", value, min(low, high), max(low, high),
+                               pump.probability, "hypothesis"))
+    return [e for e in out if all(math.isfinite(x) for x in (e.value, e.low, e.high))]
+
+
+def _request_field(field: str | None, group: list[tuple[str, MeasurementIn]]) -> str | None:
+    """Path in the request of a field that ``diagnose`` named within its records."""
+    if field is None:
+        return None
+    match = re.match(r"^records\[(\d+)\]\.?(.*)$", field)
+    if match is not None and len(group) > 1:
+        return prefixed(group[int(match.group(1))][0], match.group(2) or None)
+    if field == "records":
+        return group[0][0] if len(group) == 1 else "records"
+    return prefixed(group[0][0], field)
+
+
+def _groups(request: DiagnoseRequest) -> list[list[tuple[str, MeasurementIn]]]:
+    items = request.items()
+    if not request.joint:
+        return [[item] for item in items]
+    first = items[0][1]
+    for path, record in items[1:]:
+        if record.rig_id != first.rig_id:
+            raise InputError("a joint diagnosis needs records of one rig", field=f"{path}.rig_id")
+        if record.rig_version != first.rig_version:
+            raise InputError("a joint diagnosis needs one version of the rig document",
+                             field=f"{path}.rig_version")
+    return [items]
+
+
+def _diagnose_group(session: Session, rigs: RigCache, group: list[tuple[str, MeasurementIn]],
+                    now: datetime) -> DiagnosisOutcome:
+    path0, first = group[0]
+    resolved = rigs.get(session, first.rig_id, first.rig_version,
+                        rig_field=f"{path0}.rig_id", version_field=f"{path0}.rig_version")
+    times = [record.measured_at or now for _, record in group]
+    records = [to_record(record, path=path, rig_name=resolved.name, measured_at=t)
+               for (path, record), t in zip(group, times, strict=True)]
+    try:
+        with DIAGNOSIS_LOCK:
+            diagnosis = diagnose(resolved.rig, records)
+    except InputError as exc:
+        raise type(exc)(exc.message, field=_request_field(exc.field, group)) from None
+    top = diagnosis.top
+    estimates = estimates_of(diagnosis)
+    result = json_ready(diagnosis.to_dict())
+    result["estimates"] = {e.component: {"quantity": e.quantity, "unit": e.unit,
+                                         "value": e.value, "low": e.low, "high": e.high,
+                                         "probability": e.probability, "source": e.source}
+                           for e in estimates}
+    result["rig_version"] = resolved.version
+    return DiagnosisOutcome(
+        paths=[path for path, _ in group], resolved=resolved, measured_at=max(times),
+        top=top.name, component="+".join(top.hypothesis.components) or "healthy",
+        probability=top.probability, estimates=estimates, result=result,
+    )
+
+
+def _store(session: Session, request: DiagnoseRequest, outcomes: Sequence[DiagnosisOutcome],
+           now: datetime) -> None:
+    records = dict(request.items())
+    for outcome in outcomes:
+        # a joint result belongs to the latest record; the others are kept beside it
+        times = [records[p].measured_at or now for p in outcome.paths]
+        latest = max(range(len(times)), key=lambda i: (times[i], i))
+        rows: list[Any] = []
+        for i, path in enumerate(outcome.paths):
+            record = stored_record(records[path], times[i])
+            if i == latest:
+                diagnosis = add_diagnosis(
+                    session, rig_id=outcome.resolved.rig_id, measured_at=times[i],
+                    record=record, result=outcome.result, component=outcome.component,
+                    probability=outcome.probability,
+                    estimates=[e.history() for e in outcome.estimates],
+                    rig_version_id=outcome.resolved.version_id,
+                )
+                rows.append(diagnosis.measurement)
+            else:
+                rows.append(add_measurement(session, rig_id=outcome.resolved.rig_id,
+                                            measured_at=times[i], record=record))
+        session.flush()
+        outcome.diagnosis_id = diagnosis.id
+        outcome.measurement_ids = [row.id for row in rows]
+    commit(session, conflict="the diagnosis could not be stored")
+
+
+def diagnose_request(session: Session, rigs: RigCache, request: DiagnoseRequest
+                     ) -> list[DiagnosisOutcome]:
+    """Diagnose the records of ``request`` and store them unless ``request.store`` is false.
+
+    Parameters
+    ----------
+    session
+        Session of the store.
+    rigs
+        The compiled rigs of the service (or of the command line).
+    request
+        One record or a batch, each diagnosed alone or all jointly.
+
+    Returns
+    -------
+    list of DiagnosisOutcome
+        One per record, or one for a joint batch, in request order.
+
+    Raises
+    ------
+    NotFoundError
+        A record names an unknown rig or version (``field`` is its path).
+    MeasurementError
+        A record is invalid or impossible on its rig (``field`` is its path).
+    """
+    now = utcnow()
+    outcomes = [_diagnose_group(session, rigs, group, now) for group in _groups(request)]
+    if request.store:
+        try:
+            _store(session, request, outcomes, now)
+        except Exception:
+            session.rollback()
+            raise
+    return outcomes
+
+
+def _public(outcome: DiagnosisOutcome) -> DiagnosisPublic:
+    return DiagnosisPublic(
+        id=outcome.diagnosis_id,
+        measurement_ids=outcome.measurement_ids,
+        records=outcome.paths,
+        rig_id=outcome.resolved.rig_id,
+        rig_version=outcome.resolved.version,
+        measured_at=outcome.measured_at,
+        top=outcome.top,
+        component=outcome.component,
+        probability=outcome.probability,
+        estimates=[EstimatePublic.model_validate(asdict(e)) for e in outcome.estimates],
+        result=outcome.result,
+    )
+
+
+def response_of(request: DiagnoseRequest, outcomes: Sequence[DiagnosisOutcome]
+                ) -> DiagnoseResponse:
+    """The answer to ``request`` (the body of ``POST /diagnose``)."""
+    mode = "single" if request.record is not None else "joint" if request.joint else "each"
+    return DiagnoseResponse.model_validate({
+        "mode": mode, "stored": request.store, "diagnoses": [_public(o) for o in outcomes]})

@@ -1,0 +1,196 @@
+"""Measurement and diagnosis history: the source of trends.
+
+``/diagnose`` stores each measurement with its diagnosis in one transaction through
+:func:`record_diagnosis`; ``/rigs/{id}/trends`` reads a component's series through
+:func:`component_history`.  Each diagnosis keeps the rig version it was made with.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from datetime import datetime
+from typing import Any
+
+from sqlalchemy import select
+from sqlalchemy.orm import Session
+
+from app.db.models import Diagnosis, DiagnosisEstimate, Measurement, RigVersion
+from app.services.common import commit
+from app.services.rigs import get_rig, get_version
+from sim.errors import InputError
+
+__all__ = ["ComponentEstimate", "HistoryPoint", "add_diagnosis", "add_measurement",
+           "component_history", "record_diagnosis"]
+
+
+@dataclass(frozen=True, slots=True)
+class ComponentEstimate:
+    """What a diagnosis estimated for one suspect component.
+
+    Attributes
+    ----------
+    component
+        Component name in the rig document (``"cylinder"``, ``"valve"``, ``"pump"``).
+    probability
+        Probability that this component is the faulty one [1], if ranked.
+    clearance_m
+        Equivalent internal clearance [m] (cylinder cc, valve cv).
+    slip_coefficient
+        Pump slip coefficient Cs [1] (paper 000, eq. 6).
+    """
+
+    component: str
+    probability: float | None = None
+    clearance_m: float | None = None
+    slip_coefficient: float | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class HistoryPoint:
+    """One point of a component's series: when, with which rig version, what estimate."""
+
+    diagnosis_id: int
+    measured_at: datetime
+    rig_version: int
+    probability: float | None
+    clearance_m: float | None
+    slip_coefficient: float | None
+
+
+def add_measurement(
+    session: Session, *, rig_id: int, measured_at: datetime, record: Mapping[str, Any]
+) -> Measurement:
+    """Add a measurement without a diagnosis of its own (not committed).
+
+    A joint diagnosis of several records attaches its result to one of them; the others
+    are stored with this, in the same transaction.
+    """
+    if measured_at.tzinfo is None:
+        raise InputError("give the time with its zone (ISO 8601, e.g. ...Z)",
+                         field="measured_at")
+    measurement = Measurement(rig_id=rig_id, measured_at=measured_at, record=dict(record))
+    session.add(measurement)
+    return measurement
+
+
+def add_diagnosis(
+    session: Session,
+    *,
+    rig_id: int,
+    measured_at: datetime,
+    record: Mapping[str, Any],
+    result: Mapping[str, Any],
+    component: str | None,
+    probability: float | None,
+    estimates: Sequence[ComponentEstimate] = (),
+    rig_version: int | None = None,
+    rig_version_id: int | None = None,
+) -> Diagnosis:
+    """Add a measurement and its diagnosis to the session without committing.
+
+    Parameters are those of :func:`record_diagnosis`; the caller commits (several
+    diagnoses of one request go in one transaction, so that a failure stores none).
+    ``rig_version_id``, the row id of the rig version, spares the look-ups of a caller
+    that has just resolved it (``rig_version`` is then ignored).
+    """
+    if rig_version_id is None:
+        rig = get_rig(session, rig_id, field="rig_id")
+        version: RigVersion = get_version(session, rig_id, rig_version or rig.latest_version)
+        rig_version_id = version.id
+    names = [e.component for e in estimates]
+    if len(set(names)) != len(names):
+        raise InputError("one estimate per component", field="estimates")
+    measurement = add_measurement(session, rig_id=rig_id, measured_at=measured_at,
+                                  record=record)
+    diagnosis = Diagnosis(
+        measurement=measurement,
+        rig_version_id=rig_version_id,
+        component=component,
+        probability=probability,
+        result=dict(result),
+        estimates=[
+            DiagnosisEstimate(
+                component=e.component,
+                probability=e.probability,
+                clearance_m=e.clearance_m,
+                slip_coefficient=e.slip_coefficient,
+            )
+            for e in estimates
+        ],
+    )
+    session.add(diagnosis)
+    return diagnosis
+
+
+def record_diagnosis(
+    session: Session,
+    *,
+    rig_id: int,
+    measured_at: datetime,
+    record: Mapping[str, Any],
+    result: Mapping[str, Any],
+    component: str | None,
+    probability: float | None,
+    estimates: Sequence[ComponentEstimate] = (),
+    rig_version: int | None = None,
+) -> Diagnosis:
+    """Store a measurement and its diagnosis together.
+
+    Parameters
+    ----------
+    rig_id
+        The rig measured.
+    measured_at
+        When it was measured (timezone-aware).
+    record, result
+        The measurement record and the diagnosis result, as JSON-ready mappings.
+    component, probability
+        The most likely faulty component and its probability [1] (``None``: undecided).
+    estimates
+        Per-suspect estimates, one per component.
+    rig_version
+        Version of the rig description used; the latest when ``None``.
+    """
+    diagnosis = add_diagnosis(
+        session, rig_id=rig_id, measured_at=measured_at, record=record, result=result,
+        component=component, probability=probability, estimates=estimates,
+        rig_version=rig_version,
+    )
+    commit(session, conflict="the diagnosis could not be stored")
+    return diagnosis
+
+
+def component_history(
+    session: Session,
+    rig_id: int,
+    component: str,
+    *,
+    since: datetime | None = None,
+    until: datetime | None = None,
+) -> list[HistoryPoint]:
+    """Return the estimates for ``component`` of rig ``rig_id`` in order of measurement."""
+    get_rig(session, rig_id)
+    statement = (
+        select(DiagnosisEstimate, Diagnosis.id, Measurement.measured_at, RigVersion.version)
+        .join(Diagnosis, DiagnosisEstimate.diagnosis_id == Diagnosis.id)
+        .join(Measurement, Diagnosis.measurement_id == Measurement.id)
+        .join(RigVersion, Diagnosis.rig_version_id == RigVersion.id)
+        .where(Measurement.rig_id == rig_id, DiagnosisEstimate.component == component)
+        .order_by(Measurement.measured_at, Diagnosis.id)
+    )
+    if since is not None:
+        statement = statement.where(Measurement.measured_at >= since)
+    if until is not None:
+        statement = statement.where(Measurement.measured_at <= until)
+    return [
+        HistoryPoint(
+            diagnosis_id=diagnosis_id,
+            measured_at=measured_at,
+            rig_version=version,
+            probability=estimate.probability,
+            clearance_m=estimate.clearance_m,
+            slip_coefficient=estimate.slip_coefficient,
+        )
+        for estimate, diagnosis_id, measured_at, version in session.execute(statement)
+    ]

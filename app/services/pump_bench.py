@@ -1,0 +1,142 @@
+"""Pump parameterisation from a bench CSV, stored as a pump parameter set.
+
+Used by ``POST /pump-sets/bench`` and ``hydrodiag calibrate pump``.  The CSV is read by
+:func:`diagnostics.pump.read_bench_csv` (units in the column names; see its module) and
+parameterised by :func:`diagnostics.pump.parameterise` (paper 000 eqs. 7-9 and 17-19: the
+derived capacity D, the loss coefficients Cs, Cst and, with torque, Cv and Cf as
+polynomial surfaces in pressure and speed).  The set keeps every number needed to use or
+judge the result: D and its standard error, each surface's coefficient matrix, its
+covariance, R², reduced χ² and residuals, the reference scales and the range of the data.
+Data from the virtual bench say so in the set's ``source``.
+"""
+
+from __future__ import annotations
+
+import math
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from sqlalchemy.orm import Session
+
+from app.db.models import PumpSet
+from app.schemas.pumps import PumpBenchForm, PumpSetCreate
+from app.services.common import prefixed
+from app.services.pumps import create_pump_set
+from app.services.rigs import get_rig
+from diagnostics.pump import BenchData, PumpParameterisation, parameterise, read_bench_csv
+from sim.errors import InputError
+
+__all__ = ["MAX_CSV_BYTES", "parameterise_csv", "read_bench_bytes", "store_bench_parameters"]
+
+#: Largest bench CSV accepted [byte].
+MAX_CSV_BYTES = 5 * 1024 * 1024
+
+_SIMULATED = "SIMULATED virtual-bench data, not measured"
+
+
+def read_bench_bytes(content: bytes, *, field: str = "file") -> BenchData:
+    """Read a bench CSV given as bytes (errors name ``field`` and the column)."""
+    if len(content) > MAX_CSV_BYTES:
+        raise InputError(f"the file has {len(content)} bytes; at most {MAX_CSV_BYTES}",
+                         field=field)
+    if not content.strip():
+        raise InputError("the file is empty", field=field)
+    try:
+        content.decode("utf-8")
+    except UnicodeDecodeError:
+        raise InputError("the file is not UTF-8 text", field=field) from None
+    with tempfile.TemporaryDirectory(prefix="hydrodiag-bench-") as folder:
+        path = Path(folder) / "bench.csv"
+        path.write_bytes(content)
+        try:
+            return read_bench_csv(path)
+        except InputError as exc:
+            name = None if exc.field == "path" else exc.field
+            raise type(exc)(exc.message, field=prefixed(field, name)) from None
+
+
+def parameterise_csv(content: bytes, *, displacement: float | None = None,
+                     displacement_std: float = 0.0) -> tuple[BenchData, PumpParameterisation]:
+    """Read and parameterise a bench CSV.
+
+    Parameters
+    ----------
+    content
+        The CSV file.
+    displacement
+        Derived capacity D [m³/rad] when known; from the data (Toet) when ``None``.
+    displacement_std
+        Standard error of a given D [m³/rad].
+    """
+    data = read_bench_bytes(content)
+    try:
+        result = parameterise(data, D=displacement, D_std=displacement_std)
+    except InputError as exc:
+        raise type(exc)(exc.message, field=prefixed("file", exc.field)) from None
+    return data, result
+
+
+def _quantity(value: Any, unit: str, description: str) -> dict[str, Any] | None:
+    array = np.asarray(value, dtype=float)
+    if not np.all(np.isfinite(array)):
+        return None
+    return {"value": array.tolist() if array.ndim else float(array), "unit": unit,
+            "description": description}
+
+
+def _quantities(data: BenchData, result: PumpParameterisation) -> dict[str, dict[str, Any]]:
+    origin = ("derived capacity, Toet method at the coldest oil" if result.capacity is not None
+              else "derived capacity, given")
+    entries: dict[str, dict[str, Any] | None] = {
+        "D": _quantity(result.D, "m^3/rad", origin),
+        "D_std": _quantity(result.D_std, "m^3/rad", "standard error of D"),
+        "D_per_rev": _quantity(result.D * 2.0 * math.pi, "m^3/rev", "derived capacity"),
+        "rho": _quantity(result.rho, "kg/m^3", "oil density assumed in eq. 9"),
+        "beta_ef": _quantity(result.beta_ef, "Pa", "effective bulk modulus assumed in eq. 8"),
+        "n_points": _quantity(len(data), "1", "test points read"),
+        "dp_range": _quantity([float(data.dp.min()), float(data.dp.max())], "Pa",
+                              "pressure rise covered by the data"),
+        "omega_range": _quantity([float(data.omega.min()), float(data.omega.max())], "rad/s",
+                                 "shaft speed covered by the data"),
+    }
+    for name, fit in result.fits.items():
+        surface = fit.surface
+        basis = f"{name}(Δp, ω) = Σ c[i][j]·(Δp/p_ref)^i·(ω/ω_ref)^j, paper 000"
+        entries[f"{name}_coef"] = _quantity(surface.coef, "1", basis)
+        entries[f"{name}_cov"] = _quantity(fit.cov, "1", f"covariance of {name}_coef, row-major")
+        entries[f"{name}_p_ref"] = _quantity(surface.p_ref, "Pa", f"pressure scale of {name}")
+        entries[f"{name}_omega_ref"] = _quantity(surface.omega_ref, "rad/s",
+                                                 f"speed scale of {name}")
+        entries[f"{name}_r2"] = _quantity(fit.r2, "1", f"weighted R² of the {name} surface")
+        entries[f"{name}_chi2_red"] = _quantity(fit.chi2_red, "1",
+                                                f"reduced χ² of the {name} surface")
+        entries[f"{name}_residual_rms"] = _quantity(fit.residual_rms, "1",
+                                                    f"RMS residual of {name}")
+    return {k: v for k, v in entries.items() if v is not None}
+
+
+def store_bench_parameters(session: Session, form: PumpBenchForm, content: bytes) -> PumpSet:
+    """Parameterise a bench CSV and store the result as a pump set of kind ``parameters``.
+
+    Raises
+    ------
+    NotFoundError
+        ``rig_id`` names no rig.
+    InputError
+        The file cannot be read or parameterised (``field`` starts with ``file``).
+    ConflictError
+        The name is taken.
+    """
+    if form.rig_id is not None:
+        get_rig(session, form.rig_id, field="rig_id")
+    data, result = parameterise_csv(content, displacement=form.displacement_m3_rad,
+                                    displacement_std=form.displacement_std_m3_rad)
+    notes = [n for n in (_SIMULATED if data.simulated else None, form.source,
+                         data.provenance or None) if n]
+    create = PumpSetCreate.model_validate({
+        "name": form.name, "kind": "parameters", "rig_id": form.rig_id, "pump": form.pump,
+        "source": "; ".join(notes)[:2000] or None, "quantities": _quantities(data, result),
+    })
+    return create_pump_set(session, create)

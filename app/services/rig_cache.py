@@ -1,0 +1,174 @@
+"""Compiled rigs, cached per stored rig version.
+
+``diagnostics`` caches its signature maps and steady-state evaluators by the identity of
+the :class:`sim.rigs.Rig` object, so the service must hand it the same object for the
+same rig version on every request: compiling a new one per request would rebuild those
+maps each time.  :class:`RigCache` keeps the compiled rig of each (rig id, version,
+creation time of the version) — the creation time guards against an id that SQLite
+reuses after a rig without history was deleted.  Versions never change once stored, so
+an entry never goes stale; the least recently used ones are dropped past ``size``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import threading
+from collections import OrderedDict
+from collections.abc import Mapping
+from dataclasses import dataclass
+from datetime import datetime
+from typing import Any
+
+from sqlalchemy import select
+from sqlalchemy.orm import Session
+
+from app.db.models import RigVersion
+from app.services.rigs import get_rig
+from sim.errors import NotFoundError
+from sim.rigs import Rig, load_rig
+
+__all__ = ["DocumentRigs", "ResolvedRig", "RigCache", "document_digest"]
+
+
+@dataclass(frozen=True, slots=True)
+class ResolvedRig:
+    """A stored rig version and its compiled model.
+
+    Attributes
+    ----------
+    rig_id, version
+        Which rig and which version of its document.
+    version_id
+        Row id of that version in the store.
+    name
+        The rig's name.
+    document
+        The version's rig document (SI values with units inside).
+    rig
+        The compiled rig, the same object for every request on this version.
+    """
+
+    rig_id: int
+    version: int
+    version_id: int
+    name: str
+    document: Mapping[str, Any]
+    rig: Rig
+
+
+def document_digest(document: Mapping[str, Any]) -> str:
+    """Return a digest of a rig document (canonical JSON), to key compiled rigs by."""
+    text = json.dumps(document, sort_keys=True, separators=(",", ":"), default=str)
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+class _Lru:
+    """A small thread-safe least-recently-used map."""
+
+    def __init__(self, size: int) -> None:
+        if size < 1:
+            raise ValueError("the cache must hold at least one rig")
+        self._size = size
+        self._items: OrderedDict[Any, Any] = OrderedDict()
+        self._lock = threading.Lock()
+
+    def get(self, key: Any) -> Any:
+        with self._lock:
+            item = self._items.get(key)
+            if item is not None:
+                self._items.move_to_end(key)
+            return item
+
+    def put(self, key: Any, item: Any) -> Any:
+        """Store ``item`` unless another thread stored one first; return the kept one."""
+        with self._lock:
+            kept = self._items.setdefault(key, item)
+            self._items.move_to_end(key)
+            while len(self._items) > self._size:
+                self._items.popitem(last=False)
+            return kept
+
+    def __len__(self) -> int:
+        with self._lock:
+            return len(self._items)
+
+
+class RigCache:
+    """Compiled rigs per stored (rig id, version); thread-safe.
+
+    Parameters
+    ----------
+    size
+        Number of compiled rigs kept [-].
+    """
+
+    def __init__(self, size: int = 16) -> None:
+        self._rigs = _Lru(size)
+
+    def __len__(self) -> int:
+        return len(self._rigs)
+
+    def get(
+        self,
+        session: Session,
+        rig_id: int,
+        version: int | None = None,
+        *,
+        rig_field: str = "rig_id",
+        version_field: str = "rig_version",
+    ) -> ResolvedRig:
+        """Return rig ``rig_id`` at ``version`` (the latest when ``None``), compiled.
+
+        Parameters
+        ----------
+        session
+            Session of the store.
+        rig_id, version
+            The rig and the version of its document.
+        rig_field, version_field
+            Names of the two in the request, for the ``field`` of a 404.
+
+        Raises
+        ------
+        NotFoundError
+            No such rig, or the rig has no such version.
+        """
+        row = get_rig(session, rig_id, field=rig_field)
+        number = row.latest_version if version is None else version
+        found = session.execute(
+            select(RigVersion.id, RigVersion.created_at)
+            .where(RigVersion.rig_id == rig_id, RigVersion.version == number)
+        ).first()
+        if found is None:
+            raise NotFoundError(f"rig {rig_id} has no version {number}", field=version_field)
+        version_id, created_at = found
+        key: tuple[int, int, datetime] = (rig_id, number, created_at)
+        cached: tuple[Rig, Mapping[str, Any]] | None = self._rigs.get(key)
+        if cached is None:  # the document is read only when the rig is compiled
+            stored = session.get(RigVersion, version_id)
+            assert stored is not None
+            cached = self._rigs.put(key, (load_rig(stored.document), stored.document))
+        rig, document = cached
+        return ResolvedRig(rig_id, number, version_id, row.name, document, rig)
+
+
+class DocumentRigs:
+    """Compiled rigs keyed by their document's digest (for callers holding only a document).
+
+    Parameters
+    ----------
+    size
+        Number of compiled rigs kept [-].
+    """
+
+    def __init__(self, size: int = 8) -> None:
+        self._rigs = _Lru(size)
+
+    def get(self, document: Mapping[str, Any]) -> Rig:
+        """Return the compiled rig of ``document`` (validated and compiled once)."""
+        key = document_digest(document)
+        rig = self._rigs.get(key)
+        if rig is None:
+            rig = self._rigs.put(key, load_rig(document))
+        return rig

@@ -1,0 +1,167 @@
+"""Rigs: create, read, version, delete.
+
+Every document is validated by :func:`sim.rigs.validate_rig_document` and stored in the
+canonical form that ``sim`` writes back (``RigSpec.to_document()``), so that a stored
+version always loads.  An update never overwrites: it adds a version.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+from sqlalchemy import exists, func, select, true
+from sqlalchemy.orm import Session
+
+from app.db.models import Measurement, Rig, RigVersion
+from app.services.common import commit, get_or_raise, paginate, prefixed
+from sim.errors import ConflictError, NotFoundError, ParameterError
+from sim.rigs import validate_rig_document
+
+__all__ = [
+    "create_rig",
+    "delete_rig",
+    "find_rig",
+    "get_rig",
+    "get_version",
+    "latest_version",
+    "list_rigs",
+    "list_versions",
+    "update_rig",
+]
+
+
+def _canonical(document: Mapping[str, Any]) -> tuple[str, str, dict[str, Any]]:
+    """Validate ``document``; return (name, title, canonical document)."""
+    try:
+        spec = validate_rig_document(document)
+    except ParameterError as exc:  # RigFileError and its parents: the field is in `document`
+        raise type(exc)(exc.message, field=prefixed("document", exc.field)) from exc
+    canonical = spec.to_document()
+    title = canonical.get("title")
+    return spec.name, str(title) if title else spec.name, canonical
+
+
+def get_rig(session: Session, rig_id: int, *, field: str | None = None) -> Rig:
+    """Return the rig ``rig_id`` or raise :class:`NotFoundError`."""
+    return get_or_raise(session, Rig, rig_id, what="rig", field=field)
+
+
+def find_rig(session: Session, name: str) -> Rig | None:
+    """Return the rig called ``name``, if there is one."""
+    return session.scalar(select(Rig).where(Rig.name == name))
+
+
+def get_version(session: Session, rig_id: int, version: int) -> RigVersion:
+    """Return version ``version`` of rig ``rig_id``."""
+    get_rig(session, rig_id)
+    row = session.scalar(
+        select(RigVersion).where(RigVersion.rig_id == rig_id, RigVersion.version == version)
+    )
+    if row is None:
+        raise NotFoundError(f"rig {rig_id} has no version {version}", field="version")
+    return row
+
+
+def latest_version(session: Session, rig: Rig) -> RigVersion:
+    """Return the newest version of ``rig``."""
+    return get_version(session, rig.id, rig.latest_version)
+
+
+def list_rigs(
+    session: Session, *, limit: int, offset: int, name: str | None = None
+) -> tuple[list[tuple[Rig, RigVersion]], int]:
+    """Return a page of rigs, each with its latest version, and the total count."""
+    condition = Rig.name == name if name is not None else true()
+    statement = (
+        select(Rig, RigVersion)
+        .join(RigVersion, (RigVersion.rig_id == Rig.id)
+              & (RigVersion.version == Rig.latest_version))
+        .where(condition)
+        .order_by(Rig.id)
+    )
+    total = session.scalar(select(func.count()).select_from(Rig).where(condition)) or 0
+    rows = session.execute(statement.limit(limit).offset(offset)).all()
+    return [(rig, version) for rig, version in rows], total
+
+
+def list_versions(
+    session: Session, rig_id: int, *, limit: int, offset: int
+) -> tuple[Sequence[RigVersion], int]:
+    """Return a page of the versions of rig ``rig_id``, newest first."""
+    get_rig(session, rig_id)
+    statement = (
+        select(RigVersion).where(RigVersion.rig_id == rig_id).order_by(RigVersion.version.desc())
+    )
+    return paginate(session, statement, limit=limit, offset=offset)
+
+
+def create_rig(
+    session: Session, document: Mapping[str, Any], *, comment: str | None = None
+) -> tuple[Rig, RigVersion]:
+    """Store a new rig with ``document`` as its version 1.
+
+    Raises
+    ------
+    RigFileError
+        The document does not validate (``field`` is under ``document``).
+    ConflictError
+        A rig with the document's name exists.
+    """
+    name, title, canonical = _canonical(document)
+    if find_rig(session, name) is not None:
+        raise ConflictError(f"a rig named {name!r} exists; update it instead",
+                            field="document.name")
+    rig = Rig(name=name, title=title, latest_version=1)
+    version = RigVersion(rig=rig, version=1, document=canonical, comment=comment)
+    session.add_all([rig, version])
+    commit(session, conflict=f"a rig named {name!r} exists", field="document.name")
+    return rig, version
+
+
+def update_rig(
+    session: Session, rig_id: int, document: Mapping[str, Any], *, comment: str | None = None
+) -> tuple[Rig, RigVersion]:
+    """Add a new version of rig ``rig_id`` with ``document``.
+
+    Raises
+    ------
+    NotFoundError
+        No such rig.
+    RigFileError
+        The document does not validate.
+    ConflictError
+        The document names another rig (create a new rig for that).
+    """
+    rig = get_rig(session, rig_id)
+    name, title, canonical = _canonical(document)
+    if name != rig.name:
+        raise ConflictError(
+            f"the document names rig {name!r} but rig {rig_id} is {rig.name!r}; "
+            "a rig keeps its name (create a new rig instead)",
+            field="document.name",
+        )
+    rig.latest_version += 1
+    rig.title = title
+    version = RigVersion(rig=rig, version=rig.latest_version, document=canonical,
+                         comment=comment)
+    session.add(version)
+    commit(session, conflict=f"rig {rig_id} was updated concurrently; retry")
+    return rig, version
+
+
+def delete_rig(session: Session, rig_id: int) -> None:
+    """Delete rig ``rig_id`` with its versions and calibrations.
+
+    Raises
+    ------
+    ConflictError
+        The rig has measurement history, which is kept.
+    """
+    rig = get_rig(session, rig_id)
+    if session.scalar(select(exists().where(Measurement.rig_id == rig_id))):
+        raise ConflictError(
+            f"rig {rig_id} has measurement history; it cannot be deleted", field="rig_id"
+        )
+    session.delete(rig)
+    commit(session, conflict=f"rig {rig_id} is in use")

@@ -1,0 +1,189 @@
+"""One run of a fault scenario on a stored rig, and its time series as JSON, CSV or Parquet.
+
+Used by ``POST /simulate`` and ``hydrodiag simulate``.  A scenario is the rig, the
+overrides of a named fault (:func:`sim.scenarios.fault_overrides`) with the caller's
+overrides over them, and an operating condition whose missing fields take the rig
+document's defaults.
+
+CSV: the summary comes first as ``# key = value`` lines (``pandas.read_csv(...,
+comment="#")`` skips them), then the table with units in the column names.  Parquet: the
+same table; the summary, rig and scenario are JSON in the file's key-value metadata under
+``hydrodiag``.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import pandas as pd
+from sqlalchemy.orm import Session
+
+from app.schemas.simulate import ConditionSpec, SimulateRequest, SimulationPublic
+from app.services.rig_cache import ResolvedRig, RigCache
+from sim.cycle import CycleResult, run_cycle
+from sim.errors import InputError, ParameterError
+from sim.rigs import Condition, Rig
+from sim.scenarios import fault_overrides
+from sim.steady import steady_cycle
+
+__all__ = [
+    "PARQUET_METADATA_KEY",
+    "SimulationOutcome",
+    "condition_of",
+    "public_of",
+    "run_scenario",
+    "simulate",
+    "summary_of",
+    "timeseries_csv",
+    "timeseries_parquet",
+    "timeseries_table",
+]
+
+#: Key of the JSON metadata in a Parquet answer.
+PARQUET_METADATA_KEY = "hydrodiag"
+
+#: sim's name of each condition field in error paths → the request's.
+_CONDITION_FIELDS = {"condition.force": "condition.load"}
+
+
+@dataclass
+class SimulationOutcome:
+    """A run and what it was run with."""
+
+    resolved: ResolvedRig
+    fault: str | None
+    overrides: dict[str, float]
+    condition: Condition
+    method: str
+    result: CycleResult
+
+    def header(self) -> dict[str, Any]:
+        """Rig, scenario and summary, JSON-ready (the CSV header, the Parquet metadata)."""
+        return {
+            "rig_id": self.resolved.rig_id, "rig_version": self.resolved.version,
+            "rig": self.resolved.name, "fault": self.fault, "overrides": self.overrides,
+            "condition": condition_dict(self.condition), "method": self.method,
+            "summary": summary_of(self.result),
+        }
+
+
+def condition_of(rig: Rig, spec: ConditionSpec) -> Condition:
+    """The condition of ``spec``, with the rig document's defaults where it has none."""
+    base = rig.default_condition()
+    return Condition(
+        load=base.load if spec.load is None else spec.load,
+        back_pressure=base.back_pressure if spec.back_pressure is None else spec.back_pressure,
+        oil_temperature=(base.oil_temperature if spec.oil_temperature is None
+                         else spec.oil_temperature),
+        pump_speed=spec.pump_speed,
+    )
+
+
+def condition_dict(condition: Condition) -> dict[str, float | None]:
+    """A condition as JSON: load [N], back_pressure [Pa], oil_temperature [°C],
+    pump_speed [rad/s]."""
+    return {"load": condition.load, "back_pressure": condition.back_pressure,
+            "oil_temperature": condition.oil_temperature, "pump_speed": condition.pump_speed}
+
+
+def summary_of(result: CycleResult) -> dict[str, float | None]:
+    """The flat summary with ``None`` where a value is not finite (a stalled phase)."""
+    return {k: (float(v) if math.isfinite(v) else None) for k, v in result.summary().items()}
+
+
+def run_scenario(rig: Rig, overrides: dict[str, float], condition: Condition, *,
+                 method: str, timeseries: bool = False, rtol: float = 1e-3) -> CycleResult:
+    """Run one scenario by the transient or the steady path.
+
+    Raises
+    ------
+    ParameterError
+        An override or the condition is out of bounds (``field`` as in the request).
+    SimulationError
+        The solver failed.
+    """
+    try:
+        if method == "steady":
+            return steady_cycle(rig, overrides, condition)
+        return run_cycle(rig, overrides, condition, rtol=rtol, timeseries=timeseries)
+    except ParameterError as exc:
+        field = _CONDITION_FIELDS.get(exc.field or "", exc.field)
+        raise ParameterError(exc.message, field=field) from None
+
+
+def simulate(session: Session, rigs: RigCache, request: SimulateRequest) -> SimulationOutcome:
+    """Run the scenario of ``request`` on its stored rig.
+
+    Raises
+    ------
+    NotFoundError
+        Unknown rig or version.
+    InputError
+        A time series asked of the steady path, an unknown parameter, a value out of bounds.
+    SimulationError
+        The solver failed.
+    """
+    if request.timeseries is not None and request.method == "steady":
+        raise InputError("the steady path has no time series; use method 'transient'",
+                         field="timeseries")
+    resolved = rigs.get(session, request.rig_id, request.rig_version)
+    rig = resolved.rig
+    overrides = fault_overrides(rig, request.fault) if request.fault else {}
+    overrides.update(request.overrides)
+    condition = condition_of(rig, request.condition)
+    result = run_scenario(rig, overrides, condition, method=request.method,
+                          timeseries=request.timeseries is not None, rtol=request.rtol)
+    return SimulationOutcome(resolved, request.fault, overrides, condition, request.method,
+                             result)
+
+
+def _frame(outcome: SimulationOutcome) -> pd.DataFrame:
+    frame = outcome.result.timeseries
+    if frame is None:
+        raise InputError("this run has no time series", field="timeseries")
+    return frame
+
+
+def timeseries_table(outcome: SimulationOutcome) -> dict[str, Any]:
+    """The time series as ``{"columns": [...], "data": [[...], ...]}``."""
+    frame = _frame(outcome)
+    rows = frame.astype(object).where(frame.notna(), None).to_numpy().tolist()
+    return {"columns": [str(c) for c in frame.columns], "data": rows}
+
+
+def timeseries_csv(outcome: SimulationOutcome) -> bytes:
+    """The time series as CSV, the header's entries first as ``# key = value`` lines."""
+    lines = [f"# {key} = {json.dumps(value)}" for key, value in outcome.header().items()]
+    body = _frame(outcome).to_csv(index=False, float_format="%.17g", lineterminator="\n")
+    return ("\n".join(lines) + "\n" + body).encode("utf-8")
+
+
+def timeseries_parquet(outcome: SimulationOutcome) -> bytes:
+    """The time series as Parquet, the header as JSON metadata under ``hydrodiag``."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    table = pa.Table.from_pandas(_frame(outcome), preserve_index=False)
+    metadata = dict(table.schema.metadata or {})
+    metadata[PARQUET_METADATA_KEY.encode()] = json.dumps(outcome.header()).encode("utf-8")
+    buffer = io.BytesIO()
+    pq.write_table(table.replace_schema_metadata(metadata), buffer)
+    return buffer.getvalue()
+
+
+def public_of(outcome: SimulationOutcome, *, table: bool = False) -> SimulationPublic:
+    """The JSON answer of a run (the time series inside when ``table``)."""
+    result = outcome.result
+    return SimulationPublic.model_validate({
+        "rig_id": outcome.resolved.rig_id, "rig_version": outcome.resolved.version,
+        "fault": outcome.fault, "overrides": outcome.overrides,
+        "condition": condition_dict(outcome.condition), "method": outcome.method,
+        "summary": summary_of(result),
+        "completed": {"working": result.working.completed, "return": result.return_.completed},
+        "steps": dict(result.steps),
+        "timeseries": timeseries_table(outcome) if table else None,
+    })

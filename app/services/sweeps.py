@@ -1,0 +1,187 @@
+"""Sweeps: many scenarios of one rig, fanned out to an executor, with progress.
+
+Used by ``POST /scenarios`` (as a job) and ``hydrodiag sweep``.  :func:`plan_sweep` checks
+the request and lays out the points before anything runs, so a bad request is a 422 and
+not a failed job; :func:`run_sweep` sends chunks of points to the executor
+(:mod:`app.services.executors`) and reports progress as chunks come back.
+
+Designs: ``grid`` — every combination of each factor's levels (linear or log spacing);
+``lhs`` — a Latin hypercube of ``samples`` points over the factors' ranges
+(:class:`scipy.stats.qmc.LatinHypercube`, seeded).  Every design point runs once for each
+named fault, the fault's overrides first and the swept ones over them.
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Callable, Mapping, Sequence
+from concurrent.futures import Executor, Future, as_completed
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from sqlalchemy.orm import Session
+
+from app.schemas.sweeps import RangeSpec, SweepRequest
+from app.services.rig_cache import ResolvedRig, RigCache
+from app.services.simulation import condition_dict, condition_of
+from app.services.sweep_worker import SUMMARY_COLUMNS, evaluate_chunk
+from sim.errors import InputError, ParameterError
+from sim.scenarios import fault_overrides
+
+__all__ = ["MAX_POINTS", "SweepPlan", "plan_sweep", "run_sweep"]
+
+#: Most scenarios one sweep may run, per method [-].
+MAX_POINTS = {"steady": 5000, "transient": 200}
+#: Scenarios per task sent to the executor, per method [-].
+CHUNK = {"steady": 50, "transient": 2}
+
+ProgressFn = Callable[[float, str], None]
+
+
+@dataclass(frozen=True)
+class SweepPlan:
+    """The points of a sweep and what they run on."""
+
+    resolved: ResolvedRig
+    request: SweepRequest
+    factors: tuple[str, ...]
+    points: tuple[dict[str, Any], ...]
+
+    def columns(self) -> list[str]:
+        """Columns of the result rows: fault, the factors, then the summary."""
+        return ["fault", *self.factors, *SUMMARY_COLUMNS]
+
+
+def _levels(spec: RangeSpec) -> np.ndarray:
+    if spec.levels == 1:
+        return np.array([spec.low])
+    if spec.log:
+        return np.geomspace(spec.low, spec.high, spec.levels)
+    return np.linspace(spec.low, spec.high, spec.levels)
+
+
+def _design(request: SweepRequest) -> np.ndarray:
+    """Design points, one row per point, one column per factor (parameters, conditions)."""
+    specs = [*request.parameters, *request.conditions]
+    if not specs:
+        return np.zeros((1, 0))
+    if request.design == "grid":
+        return np.array(list(itertools.product(*(_levels(s) for s in specs))), dtype=float)
+    from scipy.stats import qmc
+
+    unit = qmc.LatinHypercube(d=len(specs), seed=request.seed).random(request.samples)
+    columns = []
+    for j, s in enumerate(specs):
+        if s.log:
+            columns.append(np.exp(np.log(s.low) + unit[:, j] * (np.log(s.high) - np.log(s.low))))
+        else:
+            columns.append(s.low + unit[:, j] * (s.high - s.low))
+    return np.column_stack(columns)
+
+
+def _check_ranges(resolved: ResolvedRig, request: SweepRequest) -> None:
+    """Both ends of every range must be valid on the rig (422 before the job starts)."""
+    rig = resolved.rig
+    base = condition_of(rig, request.base_condition)
+    for group in ("parameters", "conditions"):
+        for i, spec in enumerate(getattr(request, group)):
+            for end in ("low", "high"):
+                value = getattr(spec, end)
+                try:
+                    if group == "parameters":
+                        rig.values({spec.name: value}, base)
+                    else:
+                        rig.values(None, condition_of(rig, request.base_condition.model_copy(
+                            update={spec.name: value})))
+                except ParameterError as exc:
+                    unknown = exc.message.startswith("unknown parameter")
+                    where = "name" if unknown else end
+                    raise ParameterError(exc.message, field=f"{group}[{i}].{where}") from None
+
+
+def plan_sweep(session: Session, rigs: RigCache, request: SweepRequest) -> SweepPlan:
+    """Check ``request`` and lay out its points.
+
+    Raises
+    ------
+    NotFoundError
+        Unknown rig or version.
+    InputError
+        Too many points for the method, an unknown parameter, a range end out of bounds.
+    """
+    limit = MAX_POINTS[request.method]
+    if request.n_points() > limit:
+        raise InputError(f"{request.n_points()} points; a {request.method} sweep runs at most "
+                         f"{limit}", field="design")
+    resolved = rigs.get(session, request.rig_id, request.rig_version)
+    _check_ranges(resolved, request)
+    rig = resolved.rig
+    names = [s.name for s in request.parameters]
+    conditions = [s.name for s in request.conditions]
+    design = _design(request)
+    points = []
+    for fault in request.faults:
+        base = fault_overrides(rig, fault)
+        for row in design:
+            overrides = dict(base) | {n: float(v) for n, v in zip(names, row, strict=False)}
+            changes = {n: float(v) for n, v in zip(conditions, row[len(names):], strict=True)}
+            spec = request.base_condition.model_copy(update=changes)
+            points.append({"fault": fault, "factors": [float(v) for v in row],
+                           "overrides": overrides,
+                           "condition": condition_dict(condition_of(rig, spec))})
+    factors = (*names, *(f"condition.{n}" for n in conditions))
+    return SweepPlan(resolved, request, factors, tuple(points))
+
+
+def run_sweep(plan: SweepPlan, executor: Executor,
+              progress: ProgressFn | None = None) -> dict[str, Any]:
+    """Run every point of ``plan`` on ``executor``; return the table of results.
+
+    Parameters
+    ----------
+    plan
+        From :func:`plan_sweep`.
+    executor
+        Any ``concurrent.futures``-shaped executor (process pool, Dask client executor).
+    progress
+        Called with the fraction done [1] and a note after each chunk.
+
+    Returns
+    -------
+    dict
+        ``columns`` (fault, factors, summary keys with units), ``rows`` in plan order
+        (summary values null for a failed point), ``errors`` ``[{"point", "message"}]`` and
+        the counts; JSON-ready.
+    """
+    method = plan.request.method
+    size = CHUNK[method]
+    document = dict(plan.resolved.document)
+    points = plan.points
+    futures: dict[Future[list[dict[str, Any]]], int] = {}
+    for start in range(0, len(points), size):
+        chunk = [{"overrides": p["overrides"], "condition": p["condition"]}
+                 for p in points[start:start + size]]
+        futures[executor.submit(evaluate_chunk, document, method, chunk)] = start
+    outcomes: list[Mapping[str, Any] | None] = [None] * len(points)
+    done = 0
+    for future in as_completed(futures):
+        start = futures[future]
+        chunk_result: Sequence[Mapping[str, Any]] = future.result()
+        for offset, outcome in enumerate(chunk_result):
+            outcomes[start + offset] = outcome
+        done += len(chunk_result)
+        if progress is not None:
+            progress(done / len(points), f"point {done} of {len(points)}")
+    rows, errors = [], []
+    blank: list[float | None] = [None] * len(SUMMARY_COLUMNS)
+    for i, (point, maybe) in enumerate(zip(points, outcomes, strict=True)):
+        outcome = maybe if maybe is not None else {"error": "no answer from the executor"}
+        if "error" in outcome:
+            errors.append({"point": i, "message": str(outcome["error"])})
+        rows.append([point["fault"], *point["factors"], *outcome.get("values", blank)])
+    return {
+        "rig_id": plan.resolved.rig_id, "rig_version": plan.resolved.version,
+        "method": method, "design": plan.request.design, "n_points": len(points),
+        "n_failed": len(errors), "columns": plan.columns(), "rows": rows, "errors": errors,
+    }

@@ -1,0 +1,190 @@
+"""Trends of a rig's components from its diagnosis history (:mod:`diagnostics.trends`).
+
+For each component the history gives a series of estimates — equivalent clearance of the
+cylinder (cc) and valve (cv) [m], slip coefficient Cs of the pump [-] — with the 95 %
+interval each diagnosis stated (turned into a standard uncertainty, u = width / 3.92).
+The slope is Theil-Sen, widened by those uncertainties; the time left to a threshold comes
+with the interval the slope's interval implies.
+
+Default thresholds, when the caller gives none: 1.6 × the rig's nominal clearance for
+cylinder and valve (laminar leakage × 4.1, the boundary of "severe" in
+:func:`diagnostics.ranking.severity`), and 4.1 × the slip coefficient of the healthy pump
+at the rig's default oil temperature.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from datetime import UTC, datetime, timedelta
+from typing import Any
+
+from sqlalchemy import select
+from sqlalchemy.orm import Session
+
+from app.db.models import Diagnosis, DiagnosisEstimate, Measurement
+from app.services.history import HistoryPoint, component_history
+from app.services.rig_cache import RigCache
+from diagnostics.trends import TrendSeries, forecast_threshold
+from sim.errors import InputError
+from sim.rigs import Rig
+
+__all__ = ["COMPONENTS", "ComponentTrendOut", "TrendPointOut", "component_trends",
+           "default_threshold"]
+
+#: Components with a trend → (quantity, unit).
+COMPONENTS: dict[str, tuple[str, str]] = {"cylinder": ("cc", "m"), "valve": ("cv", "m"),
+                                          "pump": ("Cs", "1")}
+#: Clearance multiple of the default threshold: leakage (c/c0)³ = 4.1, "severe" [-].
+CLEARANCE_MULTIPLE = 4.1 ** (1.0 / 3.0)
+#: Slip multiple of the default pump threshold [-].
+SLIP_MULTIPLE = 4.1
+_Z95 = 1.959963984540054
+
+
+@dataclass(frozen=True, slots=True)
+class TrendPointOut:
+    """One point: diagnosis, time, rig version, estimate and its interval."""
+
+    diagnosis_id: int
+    measured_at: datetime
+    rig_version: int
+    value: float
+    low: float | None
+    high: float | None
+    probability: float | None
+
+
+@dataclass(frozen=True, slots=True)
+class ComponentTrendOut:
+    """A component's trend; times in seconds, values in ``unit`` (``None``: not defined)."""
+
+    component: str
+    quantity: str
+    unit: str
+    points: list[TrendPointOut]
+    slope: float | None
+    slope_low: float | None
+    slope_high: float | None
+    threshold: float
+    threshold_source: str
+    status: str
+    time_left_s: float | None
+    time_left_low_s: float | None
+    time_left_high_s: float | None
+    crossing_at: datetime | None
+    message: str
+
+
+def default_threshold(rig: Rig, component: str) -> tuple[float, str]:
+    """The default threshold of ``component`` on ``rig`` and how it was derived."""
+    if component in ("cylinder", "valve"):
+        nominal = rig.base["cylinder.cc" if component == "cylinder" else "valve.cv"]
+        return (CLEARANCE_MULTIPLE * nominal,
+                "default: 1.6 × nominal clearance (leakage ×4.1, 'severe')")
+    mu = rig.fluid.dynamic_viscosity(rig.default_condition().oil_temperature)
+    healthy = mu / (rig.base["pump.Vp"] * rig.base["pump.Rlp"])
+    return SLIP_MULTIPLE * healthy, "default: 4.1 × the healthy pump's Cs"
+
+
+def _finite(x: float) -> float | None:
+    return x if math.isfinite(x) else None
+
+
+def _intervals(session: Session, component: str, ids: list[int]) -> dict[int, Any]:
+    """The 95 % interval each diagnosis stated for ``component``, by diagnosis id."""
+    if not ids:
+        return {}
+    path = Diagnosis.result[("estimates", component)]
+    rows = session.execute(select(Diagnosis.id, path).where(Diagnosis.id.in_(ids)))
+    return {int(i): e for i, e in rows if isinstance(e, dict)}
+
+
+def _points(session: Session, component: str, history: list[HistoryPoint]
+            ) -> list[TrendPointOut]:
+    intervals = _intervals(session, component, [h.diagnosis_id for h in history])
+    out = []
+    for h in history:
+        value = h.slip_coefficient if component == "pump" else h.clearance_m
+        if value is None or not math.isfinite(value):
+            continue
+        stated = intervals.get(h.diagnosis_id, {})
+        out.append(TrendPointOut(h.diagnosis_id, h.measured_at, h.rig_version, value,
+                                 stated.get("low"), stated.get("high"), h.probability))
+    return out
+
+
+def _trend(component: str, rig_id: int, points: list[TrendPointOut], threshold: float,
+           source: str) -> ComponentTrendOut:
+    quantity, unit = COMPONENTS[component]
+    uncertainties: tuple[float, ...] | None = None
+    if points and all(p.low is not None and p.high is not None for p in points):
+        uncertainties = tuple(max((p.high or 0.0) - (p.low or 0.0), 0.0) / (2 * _Z95)
+                              for p in points)
+    series = TrendSeries(str(rig_id), component, quantity, unit,
+                         tuple(p.measured_at.timestamp() for p in points),
+                         tuple(p.value for p in points), uncertainties)
+    forecast = forecast_threshold(series, threshold, direction="increasing")
+    fit = forecast.fit
+    crossing = None
+    if fit is not None and math.isfinite(forecast.time_left):
+        try:
+            crossing = datetime.fromtimestamp(forecast.now, UTC) + timedelta(
+                seconds=forecast.time_left)
+        except OverflowError:  # beyond the calendar: time_left_s says how far
+            crossing = None
+    return ComponentTrendOut(
+        component, quantity, unit, points,
+        slope=None if fit is None else fit.slope,
+        slope_low=None if fit is None else fit.slope_low,
+        slope_high=None if fit is None else fit.slope_high,
+        threshold=threshold, threshold_source=source, status=forecast.status,
+        time_left_s=_finite(forecast.time_left), time_left_low_s=_finite(forecast.time_left_low),
+        time_left_high_s=_finite(forecast.time_left_high), crossing_at=crossing,
+        message=forecast.message,
+    )
+
+
+def component_trends(
+    session: Session,
+    rigs: RigCache,
+    rig_id: int,
+    *,
+    component: str | None = None,
+    threshold: float | None = None,
+    since: datetime | None = None,
+    until: datetime | None = None,
+) -> list[ComponentTrendOut]:
+    """Trends of rig ``rig_id``: of ``component``, or of every component with history.
+
+    Raises
+    ------
+    NotFoundError
+        No such rig.
+    InputError
+        A threshold without a component, or a threshold that is not positive.
+    """
+    if threshold is not None and component is None:
+        raise InputError("a threshold belongs to one component; name it", field="threshold")
+    if threshold is not None and not (math.isfinite(threshold) and threshold > 0):
+        raise InputError("the threshold must be finite and > 0", field="threshold")
+    resolved = rigs.get(session, rig_id, rig_field="rig_id")
+    if component is not None:
+        names = [component]
+    else:
+        present = session.scalars(
+            select(DiagnosisEstimate.component).distinct()
+            .join(Diagnosis, DiagnosisEstimate.diagnosis_id == Diagnosis.id)
+            .join(Measurement, Diagnosis.measurement_id == Measurement.id)
+            .where(Measurement.rig_id == rig_id)
+        ).all()
+        names = [c for c in COMPONENTS if c in set(present)]
+    out = []
+    for name in names:
+        history = component_history(session, rig_id, name, since=since, until=until)
+        if threshold is not None:
+            limit, source = threshold, "given"
+        else:
+            limit, source = default_threshold(resolved.rig, name)
+        out.append(_trend(name, rig_id, _points(session, name, history), limit, source))
+    return out

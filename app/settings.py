@@ -1,0 +1,113 @@
+"""Service settings, read from the environment (prefix ``HYDRODIAG_``).
+
+Every setting has a safe default for a single engineer's machine: an SQLite file under
+``./data``, reads open, writes behind an API key.  :class:`Settings` refuses configurations
+that are obviously insecure or cannot work (a database password from a tutorial, an
+in-memory SQLite database that would lose every write).
+"""
+
+from __future__ import annotations
+
+from functools import cached_property
+from pathlib import Path
+from typing import Literal
+
+from pydantic import Field, field_validator, model_validator
+from pydantic_settings import BaseSettings, SettingsConfigDict
+from sqlalchemy.engine import URL, make_url
+from sqlalchemy.exc import ArgumentError
+
+__all__ = ["WEAK_PASSWORDS", "Settings"]
+
+#: Passwords that appear in tutorials and default images; refused in a database URL.
+WEAK_PASSWORDS = frozenset(
+    {"", "admin", "changeme", "changethis", "hydrodiag", "password", "postgres", "secret", "root"}
+)
+
+
+class Settings(BaseSettings):
+    """Configuration of the hydrodiag service.
+
+    Every attribute can be set by an environment variable named ``HYDRODIAG_`` plus the
+    attribute name in capitals, e.g. ``HYDRODIAG_DATABASE_URL``.
+
+    Attributes
+    ----------
+    data_dir
+        Folder for the embedded SQLite database and other local state.
+    database_url
+        SQLAlchemy URL of the store; default ``sqlite:///<data_dir>/hydrodiag.db``.
+        A PostgreSQL URL (``postgresql+psycopg://user:pw@host/db``) selects PostgreSQL.
+    open_reads
+        Whether GET endpoints answer without an API key.
+    host, port
+        Where ``hydrodiag serve`` listens.
+    job_workers
+        Threads that run long jobs (sweeps, maps) in the service process.
+    sweep_workers
+        Processes of the local pool that sweeps fan out to; one per core when unset.
+    dask_scheduler
+        Address of a Dask scheduler (``tcp://host:8786``); when set and
+        ``dask.distributed`` is installed, sweeps run there instead of the local pool.
+    rig_cache_size
+        Compiled rigs (rig, version) kept in memory.
+    access_log
+        Whether ``serve`` logs every request (uvicorn's access log).
+    workers
+        Server processes of ``serve`` (uvicorn workers); each has its own caches.
+    log_level
+        Level of the service's log.
+    """
+
+    model_config = SettingsConfigDict(env_prefix="HYDRODIAG_", extra="ignore")
+
+    data_dir: Path = Field(default=Path("data"), description="Folder for local state.")
+    database_url: str | None = Field(default=None, description="SQLAlchemy database URL.")
+    open_reads: bool = Field(default=True, description="Reads need no API key when true.")
+    host: str = Field(default="127.0.0.1", description="Interface `serve` binds.")
+    port: int = Field(default=8000, ge=1, le=65535, description="TCP port `serve` binds.")
+    job_workers: int = Field(default=2, ge=1, le=64, description="Job worker threads.")
+    sweep_workers: int | None = Field(default=None, ge=1, le=256,
+                                      description="Sweep worker processes.")
+    dask_scheduler: str | None = Field(default=None, description="Dask scheduler address.")
+    rig_cache_size: int = Field(default=16, ge=1, le=1024, description="Compiled rigs kept.")
+    access_log: bool = Field(default=True, description="Log every request.")
+    workers: int = Field(default=1, ge=1, le=64, description="Server processes.")
+    log_level: Literal["debug", "info", "warning", "error"] = Field(default="info")
+
+    @field_validator("database_url")
+    @classmethod
+    def _check_url(cls, value: str | None) -> str | None:
+        if value is None or value.strip() == "":
+            return None
+        try:
+            url = make_url(value)
+        except ArgumentError as exc:
+            raise ValueError(f"not a database URL: {exc}") from exc
+        backend = url.get_backend_name()
+        if backend not in {"sqlite", "postgresql"}:
+            raise ValueError(f"unsupported database {backend!r}; use sqlite or postgresql")
+        if backend == "sqlite" and url.database in (None, "", ":memory:"):
+            raise ValueError("an in-memory SQLite database would lose every write; give a file")
+        if url.password is not None and url.password.lower() in WEAK_PASSWORDS:
+            raise ValueError("the database password is a well-known default; set a real one")
+        return value
+
+    @model_validator(mode="after")
+    def _check_paths(self) -> Settings:
+        if self.data_dir.exists() and not self.data_dir.is_dir():
+            raise ValueError(f"data_dir {self.data_dir} exists and is not a folder")
+        return self
+
+    @cached_property
+    def url(self) -> URL:
+        """The effective database URL (the SQLite default filled in)."""
+        if self.database_url is not None:
+            return make_url(self.database_url)
+        path = (self.data_dir / "hydrodiag.db").resolve()
+        return URL.create("sqlite", database=str(path))
+
+    @property
+    def is_sqlite(self) -> bool:
+        """Whether the store is an SQLite file."""
+        return self.url.get_backend_name() == "sqlite"

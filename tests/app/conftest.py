@@ -1,0 +1,58 @@
+"""Fixtures: live servers on SQLite files in temporary folders."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from typing import Any
+
+import pytest
+
+from sim.rigs import reference_rig_document
+from tests.app.live import LiveServer, live_server, sqlite_settings
+
+
+@pytest.fixture(scope="module")
+def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[LiveServer]:
+    """A server with open reads, shared by the tests of one module."""
+    with live_server(sqlite_settings(tmp_path_factory.mktemp("store"))) as live:
+        yield live
+
+
+@pytest.fixture
+def rig_document() -> Any:
+    """A fresh copy of the reference rig document, to rename and modify."""
+    return reference_rig_document()
+
+
+def new_rig(server: LiveServer, name: str, **changes: Any) -> dict[str, Any]:
+    """Create a rig named ``name`` from the reference document; return its JSON."""
+    document = reference_rig_document() | {"name": name} | changes
+    response = server.client.post("/rigs", json={"document": document}, headers=server.auth)
+    assert response.status_code == 201, response.text
+    return dict(response.json())
+
+
+def simulated_record(server: LiveServer, overrides: dict[str, float] | None = None, *,
+                     rig_id: int = 1, load: float = 2100.0,
+                     measured_at: str | None = None) -> dict[str, Any]:
+    """A measurement record of what the rig would read with ``overrides`` (steady path).
+
+    The readings carry their default instrument classes; the rig is simulated through
+    ``POST /simulate``.
+    """
+    response = server.client.post("/simulate", json={
+        "rig_id": rig_id, "overrides": overrides or {}, "method": "steady",
+        "condition": {"load": load, "oil_temperature": 40.0}})
+    assert response.status_code == 200, response.text
+    s = response.json()["summary"]
+    record: dict[str, Any] = {
+        "rig_id": rig_id,
+        "condition": {"oil_temperature": 40.0, "load_force": load},
+        "pump_pressure": s["working.P_pump [Pa]"], "p1": s["working.P1 [Pa]"],
+        "p2": s["working.P2 [Pa]"], "flow_B": s["working.Q_meter_B [m^3/s]"],
+        "flow_C": s["working.Q_meter_C [m^3/s]"], "speed_work": s["working.speed [m/s]"],
+        "speed_return": s["return.speed [m/s]"],
+    }
+    if measured_at is not None:
+        record["measured_at"] = measured_at
+    return record

@@ -1,0 +1,98 @@
+"""A real hydrodiag server on a free local port, for tests that go through HTTP."""
+
+from __future__ import annotations
+
+import socket
+import threading
+import time
+import uuid
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import httpx
+import uvicorn
+from sqlalchemy import Engine, func, select
+from sqlalchemy.orm import Session
+
+from app.db.base import Base
+from app.db.engine import SessionFactory, make_engine, make_session_factory
+from app.main import create_app
+from app.services.bootstrap import ensure_first_key
+from app.services.clearance import ClearanceEstimator
+from app.services.keys import create_api_key
+from app.settings import Settings
+
+STARTUP_TIMEOUT_S = 60.0
+
+
+@dataclass
+class LiveServer:
+    """A running server, a client for it and a separate engine on the same store."""
+
+    base_url: str
+    settings: Settings
+    app: Any
+    key: str
+    client: httpx.Client
+    engine: Engine
+    sessions: SessionFactory
+
+    @property
+    def auth(self) -> dict[str, str]:
+        """Headers that carry the server's API key."""
+        return {"X-API-Key": self.key}
+
+    def session(self) -> Session:
+        """A session of the store, independent of the server's."""
+        return self.sessions()
+
+    def row_counts(self) -> dict[str, int]:
+        """Number of rows in every table of the store."""
+        with self.sessions() as session:
+            return {
+                table.name: int(session.scalar(select(func.count()).select_from(table)) or 0)
+                for table in Base.metadata.sorted_tables
+            }
+
+
+def sqlite_settings(data_dir: Path, **overrides: Any) -> Settings:
+    """Settings for an SQLite store in ``data_dir``."""
+    return Settings(data_dir=data_dir, **overrides)
+
+
+@contextmanager
+def live_server(
+    settings: Settings, *, estimator: ClearanceEstimator | None = None
+) -> Iterator[LiveServer]:
+    """Run the application with uvicorn in a thread on a free port until the block ends."""
+    app = create_app(settings, clearance_estimator=estimator)
+    sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    sock.bind(("127.0.0.1", 0))
+    port = sock.getsockname()[1]
+    server = uvicorn.Server(uvicorn.Config(app, log_level="warning", lifespan="on"))
+    thread = threading.Thread(target=server.run, kwargs={"sockets": [sock]}, daemon=True)
+    thread.start()
+    deadline = time.monotonic() + STARTUP_TIMEOUT_S
+    while not server.started:
+        if not thread.is_alive():
+            raise RuntimeError("the server thread stopped during start-up")
+        if time.monotonic() > deadline:
+            raise RuntimeError("the server did not start in time")
+        time.sleep(0.02)
+    engine = make_engine(settings.url)
+    sessions = make_session_factory(engine)
+    with sessions() as session:  # as `serve` does; a restarted store gets one more key
+        key = ensure_first_key(session) or create_api_key(session, f"test-{uuid.uuid4()}")[1]
+    base_url = f"http://127.0.0.1:{port}"
+    try:
+        with httpx.Client(base_url=base_url, timeout=30.0) as client:
+            yield LiveServer(base_url, settings, app, key, client, engine, sessions)
+    finally:
+        server.should_exit = True
+        thread.join(timeout=30)
+        engine.dispose()
+        sock.close()

@@ -1,0 +1,125 @@
+"""The work commands of the CLI: simulate, diagnose FILE, sweep FILE, calibrate."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+import pyarrow.parquet as pq
+import pytest
+import yaml
+from sqlalchemy import func, select
+from typer.testing import CliRunner
+
+from app.cli import cli
+from app.db.engine import make_engine, make_session_factory
+from app.db.models import Diagnosis, PumpSet, ThrottleCalibration
+from app.settings import Settings
+from diagnostics.pump import (
+    InstrumentNoise,
+    default_levels,
+    iso4409_grid,
+    run_virtual_bench,
+    write_bench_csv,
+)
+from sim.components.gear_pump_map import stand_in_pump
+
+
+@pytest.fixture
+def runner(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> CliRunner:
+    monkeypatch.setenv("HYDRODIAG_DATA_DIR", str(tmp_path / "store"))
+    monkeypatch.delenv("HYDRODIAG_DATABASE_URL", raising=False)
+    monkeypatch.delenv("HYDRODIAG_DASK_SCHEDULER", raising=False)
+    return CliRunner()
+
+
+def _count(model: Any) -> int:
+    engine = make_engine(Settings().url)
+    try:
+        with make_session_factory(engine)() as session:
+            return int(session.scalar(select(func.count()).select_from(model)) or 0)
+    finally:
+        engine.dispose()
+
+
+def _simulated_summary(runner: CliRunner, *options: str) -> dict[str, Any]:
+    result = runner.invoke(cli, ["simulate", "--steady", "--json", *options])
+    assert result.exit_code == 0, result.output
+    return dict(json.loads(result.stdout)["summary"])
+
+
+def test_simulate_prints_the_summary_and_writes_the_series(runner: CliRunner,
+                                                            tmp_path: Path) -> None:
+    table = runner.invoke(cli, ["simulate", "--fault", "worn_spool", "--load", "4200",
+                                "--output", str(tmp_path / "run.parquet")])
+    assert table.exit_code == 0, table.output
+    assert "velocity_ratio [-]" in table.stdout
+    frame = pq.read_table(tmp_path / "run.parquet").to_pandas()
+    assert list(frame.columns[:2]) == ["t [s]", "phase"] and len(frame) > 100
+    worn = _simulated_summary(runner, "--set", "valve.cv=60e-6")
+    nominal = _simulated_summary(runner)
+    assert worn["working.Q_valve_leak [m^3/s]"] > 3 * nominal["working.Q_valve_leak [m^3/s]"]
+    bad = runner.invoke(cli, ["simulate", "--set", "valve.cv=-1"])
+    assert bad.exit_code != 0 and "overrides.valve.cv" in str(bad.exception)
+
+
+def test_diagnose_a_yaml_file_of_records(runner: CliRunner, tmp_path: Path) -> None:
+    s = _simulated_summary(runner, "--set", "valve.cv=60e-6")
+    record = {"rig_id": 1, "measured_at": "2026-05-01T10:00:00Z",
+              "condition": {"oil_temperature": 40.0, "load_force": 2100.0},
+              "pump_pressure": s["working.P_pump [Pa]"], "p1": s["working.P1 [Pa]"],
+              "p2": s["working.P2 [Pa]"], "flow_B": s["working.Q_meter_B [m^3/s]"],
+              "flow_C": s["working.Q_meter_C [m^3/s]"], "speed_work": s["working.speed [m/s]"],
+              "speed_return": s["return.speed [m/s]"]}
+    path = tmp_path / "records.yaml"
+    path.write_text(yaml.safe_dump([record, record]))
+    result = runner.invoke(cli, ["diagnose", str(path), "--json"])
+    assert result.exit_code == 0, result.output
+    body = json.loads(result.stdout)
+    assert body["mode"] == "each" and [d["top"] for d in body["diagnoses"]] == ["valve"] * 2
+    assert _count(Diagnosis) == 2
+    table = runner.invoke(cli, ["diagnose", str(path), "--joint", "--no-store"])
+    assert table.exit_code == 0, table.output
+    assert "valve" in table.stdout and "not stored" in table.stdout
+    assert _count(Diagnosis) == 2
+    path.write_text(yaml.safe_dump(record | {"flow_C": -1.0}))
+    bad = runner.invoke(cli, ["diagnose", str(path)])
+    assert bad.exit_code != 0 and getattr(bad.exception, "field", None) == "record.flow_C"
+
+
+def test_sweep_writes_the_results_table(runner: CliRunner, tmp_path: Path) -> None:
+    spec = tmp_path / "sweep.json"
+    spec.write_text(json.dumps({
+        "rig_id": 1, "faults": ["healthy", "worn_piston"],
+        "conditions": [{"name": "load", "low": 2100.0, "high": 6300.0, "levels": 3}]}))
+    result = runner.invoke(cli, ["sweep", str(spec), "--output", str(tmp_path / "out.csv")])
+    assert result.exit_code == 0, result.output
+    frame = pd.read_csv(tmp_path / "out.csv")
+    assert len(frame) == 6
+    assert list(frame.columns[:2]) == ["fault", "condition.load"]
+    worn = frame[frame["fault"] == "worn_piston"]["working.Q_cyl_leak [m^3/s]"].to_numpy()
+    healthy = frame[frame["fault"] == "healthy"]["working.Q_cyl_leak [m^3/s]"].to_numpy()
+    assert (worn > 2 * healthy).all()
+
+
+def test_calibrate_pump_and_throttle(runner: CliRunner, tmp_path: Path) -> None:
+    dp, w = iso4409_grid(*default_levels())
+    data = run_virtual_bench(stand_in_pump(), dp, w, (22.0, 60.0), noise=InstrumentNoise.none())
+    write_bench_csv(data, tmp_path / "bench.csv")
+    pump = runner.invoke(cli, ["calibrate", "pump", str(tmp_path / "bench.csv"),
+                               "--name", "cli-pump", "--pump", "stand-in gear pump"])
+    assert pump.exit_code == 0, pump.output
+    assert "Cs_coef" in pump.stdout and _count(PumpSet) == 1
+    table = tmp_path / "table.yaml"
+    table.write_text(yaml.safe_dump({
+        "throttle": "I", "component": "valve", "back_pressure_pa": 3.0e6,
+        "temperature_c": 40.0,
+        "points": [{"opening_turns": 0.0, "bypass_flow_m3s": 1.0e-5},
+                   {"opening_turns": 1.0, "bypass_flow_m3s": 8.0e-5}]}))
+    before = _count(ThrottleCalibration)
+    throttle = runner.invoke(cli, ["calibrate", "throttle", str(table)])
+    assert throttle.exit_code == 0, throttle.output
+    assert "computed" in throttle.stdout
+    assert _count(ThrottleCalibration) == before + 1

@@ -1,0 +1,168 @@
+"""POST /diagnose through HTTP: ranking of simulated faults, storage, batches, errors."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import pytest
+
+from tests.app.conftest import new_rig, simulated_record
+from tests.app.live import LiveServer
+
+WORN_VALVE = {"valve.cv": 60e-6}
+
+
+def test_a_worn_valve_record_ranks_the_valve_first_and_is_stored(server: LiveServer) -> None:
+    record = simulated_record(server, WORN_VALVE, measured_at="2026-03-01T08:00:00Z")
+    before = server.row_counts()
+    response = server.client.post("/diagnose", json={"record": record}, headers=server.auth)
+    assert response.status_code == 200, response.text
+    body = response.json()
+    assert body["mode"] == "single" and body["stored"] is True
+    (diagnosis,) = body["diagnoses"]
+    assert diagnosis["top"] == "valve" and diagnosis["component"] == "valve"
+    assert diagnosis["probability"] > 0.5
+    assert diagnosis["result"]["hypotheses"][0]["name"] == "valve"
+    valve = next(e for e in diagnosis["estimates"] if e["component"] == "valve")
+    assert valve["quantity"] == "cv" and valve["unit"] == "m"
+    assert valve["low"] <= 60e-6 <= valve["high"]
+    assert valve["value"] == pytest.approx(60e-6, rel=0.03)
+    # the cylinder is healthy: its closed-form clearance stays nominal
+    cylinder = next(e for e in diagnosis["estimates"] if e["component"] == "cylinder")
+    assert cylinder["source"] == "direct"
+    assert cylinder["value"] == pytest.approx(83e-6, rel=0.05)
+    after = server.row_counts()
+    assert after["measurements"] == before["measurements"] + 1
+    assert after["diagnoses"] == before["diagnoses"] + 1
+    assert after["diagnosis_estimates"] == before["diagnosis_estimates"] + len(
+        diagnosis["estimates"])
+    assert diagnosis["id"] is not None and len(diagnosis["measurement_ids"]) == 1
+    assert diagnosis["measured_at"] == "2026-03-01T08:00:00Z"
+
+
+def test_a_healthy_record_is_healthy(server: LiveServer) -> None:
+    record = simulated_record(server)
+    body = server.client.post("/diagnose", json={"record": record, "store": False}).json()
+    assert body["diagnoses"][0]["top"] == "healthy"
+
+
+def test_not_storing_needs_no_key_and_leaves_the_store_alone(server: LiveServer) -> None:
+    record = simulated_record(server, {"cylinder.cc": 120e-6})
+    before = server.row_counts()
+    response = server.client.post("/diagnose", json={"record": record, "store": False})
+    assert response.status_code == 200, response.text
+    (diagnosis,) = response.json()["diagnoses"]
+    assert diagnosis["top"] == "cylinder"
+    assert diagnosis["id"] is None and diagnosis["measurement_ids"] == []
+    assert server.row_counts() == before
+
+
+def test_storing_needs_the_key(server: LiveServer) -> None:
+    record = simulated_record(server, WORN_VALVE)
+    before = server.row_counts()
+    response = server.client.post("/diagnose", json={"record": record})
+    assert response.status_code == 401
+    assert response.json()["error"]["type"] == "AuthError"
+    wrong = server.client.post("/diagnose", json={"record": record},
+                               headers={"X-API-Key": "hd_000000000000_nope"})
+    assert wrong.status_code == 401
+    assert server.row_counts() == before
+
+
+def test_a_batch_is_diagnosed_record_by_record(server: LiveServer) -> None:
+    records = [simulated_record(server, WORN_VALVE),
+               simulated_record(server, {"cylinder.cc": 120e-6})]
+    before = server.row_counts()
+    response = server.client.post("/diagnose", json={"records": records}, headers=server.auth)
+    assert response.status_code == 200, response.text
+    body = response.json()
+    assert body["mode"] == "each"
+    assert [d["top"] for d in body["diagnoses"]] == ["valve", "cylinder"]
+    assert [d["records"] for d in body["diagnoses"]] == [["records[0]"], ["records[1]"]]
+    assert server.row_counts()["diagnoses"] == before["diagnoses"] + 2
+
+
+def test_a_joint_diagnosis_keeps_every_record_and_one_result(server: LiveServer) -> None:
+    records = [simulated_record(server, WORN_VALVE, load=load,
+                                measured_at=f"2026-04-01T08:0{i}:00Z")
+               for i, load in enumerate((2100.0, 4200.0))]
+    before = server.row_counts()
+    response = server.client.post("/diagnose", json={"records": records, "joint": True},
+                                  headers=server.auth)
+    assert response.status_code == 200, response.text
+    (diagnosis,) = response.json()["diagnoses"]
+    assert diagnosis["top"] == "valve"
+    assert diagnosis["result"]["n_records"] == 2
+    assert diagnosis["measured_at"] == "2026-04-01T08:01:00Z"
+    after = server.row_counts()
+    assert after["measurements"] == before["measurements"] + 2
+    assert after["diagnoses"] == before["diagnoses"] + 1
+    assert len(diagnosis["measurement_ids"]) == 2
+
+
+def test_a_joint_diagnosis_needs_one_rig(server: LiveServer) -> None:
+    other = new_rig(server, "diagnose-other")
+    records = [simulated_record(server), simulated_record(server) | {"rig_id": other["id"]}]
+    response = server.client.post("/diagnose", json={"records": records, "joint": True},
+                                  headers=server.auth)
+    assert response.status_code == 422
+    assert response.json()["error"]["field"] == "records[1].rig_id"
+
+
+@pytest.mark.parametrize(
+    ("change", "field"),
+    [
+        ({"flow_C": -1.0}, "records[1].flow_C"),
+        ({"flow_B": {"value": 4e-4, "u": 1e-6, "bound": 1e-6}}, "records[1].flow_B"),
+        ({"flow_B": {"value": 4e-4, "u": -1.0}}, "records[1].flow_B.u"),
+        ({"measured_at": "2026-03-01T08:00:00"}, "records[1].measured_at"),
+        ({"condition": {"load_force": 2100.0}}, "records[1].condition.oil_temperature"),
+        ({"condition": {"oil_temperature": 40.0}}, "records[1].condition.load_force"),
+        ({"speed_work": 0.18, "speed_return": 0.215, "velocity_ratio": 0.5},
+         "records[1].velocity_ratio"),
+        ({"rig_version": 0}, "records[1].rig_version"),
+    ],
+)
+def test_a_bad_record_is_422_naming_the_field_and_stores_nothing(
+    server: LiveServer, change: dict[str, Any], field: str
+) -> None:
+    good = simulated_record(server, WORN_VALVE)
+    before = server.row_counts()
+    response = server.client.post("/diagnose", json={"records": [good, good | change]},
+                                  headers=server.auth)
+    assert response.status_code == 422, response.text
+    assert response.json()["error"]["field"] == field
+    assert server.row_counts() == before
+
+
+@pytest.mark.parametrize(
+    ("body", "field"),
+    [({}, "records"), ({"records": []}, "records"), ({"record": {"rig_id": 1}}, "record.condition"),
+     ({"record": {"rig_id": 1, "condition": {"oil_temperature": 40.0, "load_force": 1.0}},
+       "joint": True}, "joint")],
+)
+def test_malformed_bodies_are_422(server: LiveServer, body: dict[str, Any], field: str) -> None:
+    response = server.client.post("/diagnose", json=body, headers=server.auth)
+    assert response.status_code == 422
+    assert response.json()["error"]["field"] == field
+
+
+def test_unknown_rig_and_version_are_404(server: LiveServer) -> None:
+    record = simulated_record(server)
+    before = server.row_counts()
+    unknown_rig = server.client.post("/diagnose", json={"record": record | {"rig_id": 9999}},
+                                     headers=server.auth)
+    assert unknown_rig.status_code == 404
+    assert unknown_rig.json()["error"]["field"] == "record.rig_id"
+    unknown_version = server.client.post(
+        "/diagnose", json={"records": [record | {"rig_version": 7}]}, headers=server.auth)
+    assert unknown_version.status_code == 404
+    assert unknown_version.json()["error"]["field"] == "records[0].rig_version"
+    assert server.row_counts() == before
+
+
+def test_a_record_impossible_on_its_rig_is_422(server: LiveServer) -> None:
+    record = simulated_record(server) | {"speed_work": 5.0, "speed_return": 6.0}
+    response = server.client.post("/diagnose", json={"record": record, "store": False})
+    assert response.status_code == 422, response.text
+    assert response.json()["error"]["field"].startswith("record.")

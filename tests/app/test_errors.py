@@ -1,0 +1,65 @@
+"""The one mapping from the exception tree to HTTP (app.errors)."""
+
+from __future__ import annotations
+
+import asyncio
+
+import httpx
+import pytest
+from fastapi import FastAPI
+
+import sim.errors as tree
+from app.errors import ServiceUnavailableError, format_location, install_error_handlers, status_for
+
+EXPECTED = {
+    "HydrodiagError": 500, "InputError": 422, "ParameterError": 422, "RigFileError": 422,
+    "MeasurementError": 422, "ModelStructureError": 422, "CausalityError": 422,
+    "DerivativeCausalityError": 422, "AlgebraicLoopError": 422, "NotFoundError": 404,
+    "ConflictError": 409, "AuthError": 401, "SimulationError": 500,
+}
+
+
+def test_every_class_of_the_tree_has_its_status() -> None:
+    for name, status in EXPECTED.items():
+        assert status_for(getattr(tree, name)("x")) == status, name
+    for name in tree.__all__:  # classes added later map through their parents
+        assert status_for(getattr(tree, name)("x")) in {401, 404, 409, 422, 500}, name
+    assert status_for(ServiceUnavailableError("x")) == 503
+
+
+@pytest.mark.parametrize(("loc", "path"), [
+    (("body", "points", 2, "opening_turns"), "points[2].opening_turns"),
+    (("query", "limit"), "limit"),
+    (("body",), "body"),
+    (("body", "quantities", "2bad", "[key]"), "quantities.2bad"),
+    ((), None),
+])
+def test_locations_become_dotted_paths(loc: tuple[int | str, ...], path: str | None) -> None:
+    assert format_location(loc) == path
+
+
+def test_server_side_errors_keep_the_body_and_hide_internals() -> None:
+    app = FastAPI()
+    install_error_handlers(app)
+
+    @app.get("/solver")
+    def solver() -> None:
+        raise tree.SimulationError("step size underflow", field="dt")
+
+    @app.get("/bug")
+    def bug() -> None:
+        raise RuntimeError("secret internals")
+
+    async def ask(path: str) -> httpx.Response:
+        transport = httpx.ASGITransport(app=app, raise_app_exceptions=False)
+        async with httpx.AsyncClient(transport=transport, base_url="http://t") as client:
+            return await client.get(path)
+
+    solver_response = asyncio.run(ask("/solver"))
+    assert solver_response.status_code == 500
+    assert solver_response.json() == {"error": {"type": "SimulationError", "field": "dt",
+                                                "message": "step size underflow"}}
+    bug_response = asyncio.run(ask("/bug"))
+    assert bug_response.status_code == 500
+    assert bug_response.json()["error"]["type"] == "InternalError"
+    assert "secret" not in bug_response.text

@@ -1,0 +1,63 @@
+"""/health, /ready, /metrics, and the common error body for unknown routes."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from app import __version__
+from app.db import migrate
+from tests.app.live import LiveServer, live_server, sqlite_settings
+
+
+def test_health(server: LiveServer) -> None:
+    response = server.client.get("/health")
+    assert response.status_code == 200
+    assert response.json() == {"status": "ok", "version": __version__}
+
+
+def test_ready_reports_the_migrated_store(server: LiveServer) -> None:
+    response = server.client.get("/ready")
+    assert response.status_code == 200
+    assert response.json() == {"status": "ready", "database": "sqlite", "revision": "0001"}
+
+
+def test_ready_is_503_while_the_store_is_behind(tmp_path: Path) -> None:
+    with live_server(sqlite_settings(tmp_path)) as live:
+        migrate.downgrade(live.engine, "base")
+        behind = live.client.get("/ready")
+        assert behind.status_code == 503
+        assert behind.json()["error"]["type"] == "ServiceUnavailableError"
+        assert behind.json()["error"]["message"] == "database at revision None, service needs 0001"
+        assert live.client.get("/health").status_code == 200  # liveness does not touch the store
+        migrate.upgrade(live.engine)
+        assert live.client.get("/ready").status_code == 200
+
+
+def test_metrics_count_requests_per_route_template(server: LiveServer) -> None:
+    for rig_id in (1, 2, 999999):
+        server.client.get(f"/rigs/{rig_id}")
+    server.client.get("/no/such/route")
+    text = server.client.get("/metrics").text
+    assert 'hydrodiag_http_requests_total{method="GET",route="/rigs/{rig_id}",status="404"}' \
+        in text
+    assert 'route="/rigs/999999"' not in text
+    assert 'route="<unmatched>",status="404"' in text
+    assert 'hydrodiag_http_request_duration_seconds_count{method="GET",route="/rigs/{rig_id}"}' \
+        in text
+    count_line = next(line for line in text.splitlines() if line.startswith(
+        'hydrodiag_http_request_duration_seconds_count{method="GET",route="/rigs/{rig_id}"}'))
+    assert float(count_line.split()[-1]) >= 3
+
+
+@pytest.mark.parametrize(("method", "path", "status"), [
+    ("GET", "/no/such/route", 404),
+    ("DELETE", "/health", 405),
+])
+def test_routing_errors_have_the_common_body(
+    server: LiveServer, method: str, path: str, status: int
+) -> None:
+    response = server.client.request(method, path)
+    assert response.status_code == status
+    assert set(response.json()["error"]) == {"type", "message", "field"}

@@ -1,0 +1,118 @@
+"""POST /pump-sets/bench: pump parameterisation from a bench CSV, stored as a pump set."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from diagnostics.pump import (
+    InstrumentNoise,
+    default_levels,
+    iso4409_grid,
+    run_virtual_bench,
+    write_bench_csv,
+)
+from sim.components.gear_pump_map import stand_in_pump
+from tests.app.conftest import new_rig
+from tests.app.live import LiveServer
+
+FORM: dict[str, Any] = {"name": "bench-gear", "pump": "external gear pump (stand-in map)"}
+
+
+@pytest.fixture(scope="module")
+def bench_csv(tmp_path_factory: pytest.TempPathFactory) -> bytes:
+    """A noise-free virtual ISO 4409 run at 22 and 60 °C (SIMULATED data)."""
+    dp, w = iso4409_grid(*default_levels())
+    data = run_virtual_bench(stand_in_pump(), dp, w, (22.0, 60.0), noise=InstrumentNoise.none())
+    path = Path(tmp_path_factory.mktemp("bench")) / "bench.csv"
+    write_bench_csv(data, path)
+    return path.read_bytes()
+
+
+def _upload(server: LiveServer, content: bytes, form: dict[str, Any],
+            headers: dict[str, str] | None = None) -> Any:
+    return server.client.post("/pump-sets/bench", data=form,
+                              files={"file": ("bench.csv", content, "text/csv")},
+                              headers=server.auth if headers is None else headers)
+
+
+def test_a_bench_csv_becomes_a_parameter_set(server: LiveServer, bench_csv: bytes) -> None:
+    pump = stand_in_pump()
+    rig = new_rig(server, "bench-rig")
+    response = _upload(server, bench_csv, FORM | {"rig_id": str(rig["id"]),
+                                                  "displacement_m3_rad": str(pump.D)})
+    assert response.status_code == 201, response.text
+    body = response.json()
+    assert response.headers["location"] == f"/pump-sets/{body['id']}"
+    assert body["kind"] == "parameters" and body["rig_id"] == rig["id"]
+    assert body["source"].startswith("SIMULATED")
+    q = body["quantities"]
+    assert q["D"] == {"value": pump.D, "unit": "m^3/rad", "description": "derived capacity, given"}
+    assert q["D_per_rev"]["value"] == pytest.approx(2 * math.pi * pump.D)
+    for name in ("Cs", "Cst", "Cv", "Cf"):
+        assert q[f"{name}_coef"]["unit"] == "1"
+        assert q[f"{name}_r2"]["value"] > 0.99
+    # noise-free data give the stand-in pump's slip surface back
+    coef = np.asarray(q["Cs_coef"]["value"])
+    p_ref, w_ref = q["Cs_p_ref"]["value"], q["Cs_omega_ref"]["value"]
+    x, y = 1.2e7 / p_ref, 160.0 / w_ref
+    fitted = sum(coef[i, j] * x**i * y**j for i in range(coef.shape[0])
+                 for j in range(coef.shape[1]))
+    assert fitted == pytest.approx(float(pump.Cs(1.2e7, 160.0)), rel=1e-6)
+    assert server.client.get(f"/pump-sets/{body['id']}").json() == body
+
+
+def test_the_capacity_comes_from_the_data_when_not_given(server: LiveServer,
+                                                         bench_csv: bytes) -> None:
+    body = _upload(server, bench_csv, FORM | {"name": "bench-toet"}).json()
+    d = body["quantities"]["D"]
+    assert d["description"].startswith("derived capacity, Toet")
+    assert d["value"] == pytest.approx(stand_in_pump().D, rel=0.01)
+
+
+@pytest.mark.parametrize(
+    ("content", "form", "field"),
+    [
+        (b"", {}, "file"),
+        (b"p_in [Pa],p_out [Pa]\n0,1e7\n", {}, "file.n"),
+        (b"p_in [Pa],p_out [psi],n [rev/s],theta [degC],q [m^3/s]\n0,1,20,40,1e-4\n", {},
+         "file.p_out [psi]"),
+        (None, {"name": "bad name!"}, "name"),
+        (None, {"displacement_m3_rad": "-1"}, "displacement_m3_rad"),
+    ],
+)
+def test_bad_uploads_are_422_and_store_nothing(server: LiveServer, bench_csv: bytes,
+                                               content: bytes | None, form: dict[str, Any],
+                                               field: str) -> None:
+    before = server.row_counts()
+    response = _upload(server, bench_csv if content is None else content,
+                       FORM | {"name": "rejected"} | form)
+    assert response.status_code == 422, response.text
+    assert response.json()["error"]["field"] == field
+    assert server.row_counts() == before
+
+
+def test_one_temperature_is_not_enough(server: LiveServer, tmp_path: Path) -> None:
+    dp, w = iso4409_grid(*default_levels())
+    data = run_virtual_bench(stand_in_pump(), dp, w, (40.0,), noise=InstrumentNoise.none())
+    write_bench_csv(data, tmp_path / "one.csv")
+    response = _upload(server, (tmp_path / "one.csv").read_bytes(), FORM | {"name": "one-t"})
+    assert response.status_code == 422
+    assert response.json()["error"]["field"] == "file.theta"
+
+
+def test_key_unknown_rig_and_taken_name(server: LiveServer, bench_csv: bytes) -> None:
+    before = server.row_counts()
+    assert _upload(server, bench_csv, FORM | {"name": "nokey"}, headers={}).status_code == 401
+    unknown = _upload(server, bench_csv, FORM | {"name": "orphan", "rig_id": "9999"})
+    assert unknown.status_code == 404 and unknown.json()["error"]["field"] == "rig_id"
+    assert server.row_counts() == before
+    assert _upload(server, bench_csv, FORM | {"name": "twice"}).status_code == 201
+    before = server.row_counts()
+    taken = _upload(server, bench_csv, FORM | {"name": "twice"})
+    assert taken.status_code == 409 and taken.json()["error"]["field"] == "name"
+    assert server.row_counts() == before

@@ -1,0 +1,187 @@
+"""Rigs through HTTP: create, read, version, list, delete, and every way to fail."""
+
+from __future__ import annotations
+
+from datetime import UTC, datetime
+
+from app.services.history import ComponentEstimate, record_diagnosis
+from tests.app.conftest import new_rig
+from tests.app.live import LiveServer
+
+
+def test_reference_rig_is_preloaded(server: LiveServer) -> None:
+    response = server.client.get("/rigs", params={"name": "paper002-reference"})
+    assert response.status_code == 200
+    body = response.json()
+    assert body["total"] == 1
+    rig = body["items"][0]
+    assert rig["latest_version"] == 1
+    assert rig["document"]["schema"] == "hydrodiag.rig/1"
+    assert rig["title"] == rig["document"]["title"]
+
+
+def test_create_get_and_location(server: LiveServer, rig_document: dict) -> None:
+    rig_document["name"] = "create-get"
+    response = server.client.post("/rigs", json={"document": rig_document, "comment": "first"},
+                                  headers=server.auth)
+    assert response.status_code == 201, response.text
+    created = response.json()
+    assert response.headers["location"] == f"/rigs/{created['id']}"
+    fetched = server.client.get(f"/rigs/{created['id']}").json()
+    assert fetched == created
+    assert fetched["name"] == "create-get"
+    assert fetched["document"]["components"]["cylinder"]["parameters"]["bore"]["value"] == 0.06
+
+
+def test_update_adds_versions_and_keeps_old_ones(server: LiveServer, rig_document: dict) -> None:
+    rig = new_rig(server, "versioned")
+    rig_document["name"] = "versioned"
+    rig_document["components"]["cylinder"]["parameters"]["cc"]["value"] = 1.2e-4
+    response = server.client.put(f"/rigs/{rig['id']}",
+                                 json={"document": rig_document, "comment": "worn piston"},
+                                 headers=server.auth)
+    assert response.status_code == 200, response.text
+    assert response.json()["latest_version"] == 2
+    versions = server.client.get(f"/rigs/{rig['id']}/versions").json()
+    assert versions["total"] == 2
+    assert [v["version"] for v in versions["items"]] == [2, 1]
+    assert versions["items"][0]["comment"] == "worn piston"
+    first = server.client.get(f"/rigs/{rig['id']}/versions/1").json()
+    cc = first["document"]["components"]["cylinder"]["parameters"]["cc"]["value"]
+    assert cc == 8.3e-5
+    latest = server.client.get(f"/rigs/{rig['id']}").json()
+    assert latest["document"]["components"]["cylinder"]["parameters"]["cc"]["value"] == 1.2e-4
+
+
+def test_invalid_document_is_422_naming_the_field_and_stores_nothing(
+    server: LiveServer, rig_document: dict
+) -> None:
+    before = server.row_counts()
+    rig_document["name"] = "broken"
+    rig_document["components"]["cylinder"]["parameters"]["bore"]["value"] = -1.0
+    response = server.client.post("/rigs", json={"document": rig_document}, headers=server.auth)
+    assert response.status_code == 422
+    error = response.json()["error"]
+    assert error["type"] == "RigFileError"
+    assert error["field"] == "document.components.cylinder.parameters.bore"
+    assert "> 0" in error["message"]
+    assert server.row_counts() == before
+
+
+def test_failed_update_leaves_the_rig_unchanged(server: LiveServer, rig_document: dict) -> None:
+    rig = new_rig(server, "stays-put")
+    before = server.row_counts()
+    rig_document["name"] = "stays-put"
+    rig_document["components"]["valve"] = "not a component"
+    response = server.client.put(f"/rigs/{rig['id']}", json={"document": rig_document},
+                                 headers=server.auth)
+    assert response.status_code == 422
+    assert response.json()["error"]["field"].startswith("document.components.valve")
+    assert server.row_counts() == before
+    assert server.client.get(f"/rigs/{rig['id']}").json()["latest_version"] == 1
+
+
+def test_request_shape_errors_name_the_field(server: LiveServer) -> None:
+    response = server.client.post("/rigs", json={"document": "a string"}, headers=server.auth)
+    assert response.status_code == 422
+    error = response.json()["error"]
+    assert error == {
+        "type": "InputError",
+        "message": error["message"],
+        "field": "document",
+        "details": [{"field": "document", "message": error["message"]}],
+    }
+    bad_json = server.client.post("/rigs", content=b"{not json",
+                                  headers=server.auth | {"content-type": "application/json"})
+    assert bad_json.status_code == 422
+    assert bad_json.json()["error"]["type"] == "InputError"
+
+
+def test_writes_need_a_valid_key(server: LiveServer, rig_document: dict) -> None:
+    rig_document["name"] = "no-key"
+    before = server.row_counts()
+    missing = server.client.post("/rigs", json={"document": rig_document})
+    assert missing.status_code == 401
+    assert missing.json()["error"]["type"] == "AuthError"
+    assert missing.json()["error"]["field"] == "X-API-Key"
+    assert missing.headers["www-authenticate"] == "APIKey"
+    wrong_secret = server.key[:-4] + ("aaaa" if not server.key.endswith("aaaa") else "bbbb")
+    for key in (wrong_secret, "hd_000000000000_nothing", "not-a-key"):
+        response = server.client.post("/rigs", json={"document": rig_document},
+                                      headers={"X-API-Key": key})
+        assert response.status_code == 401, key
+        assert response.json()["error"]["message"] == "the API key is not valid"
+    # authentication comes before validation: no hint about the body without a key
+    assert server.client.post("/rigs", json={}).status_code == 401
+    assert server.client.put("/rigs/1", json={}).status_code == 401
+    assert server.client.delete("/rigs/1").status_code == 401
+    assert server.row_counts() == before
+
+
+def test_unknown_ids_are_404(server: LiveServer, rig_document: dict) -> None:
+    for path in ("/rigs/999999", "/rigs/999999/versions", "/rigs/1/versions/999"):
+        response = server.client.get(path)
+        assert response.status_code == 404, path
+        assert response.json()["error"]["type"] == "NotFoundError"
+    rig_document["name"] = "paper002-reference"
+    response = server.client.put("/rigs/999999", json={"document": rig_document},
+                                 headers=server.auth)
+    assert response.status_code == 404
+    assert server.client.delete("/rigs/999999", headers=server.auth).status_code == 404
+    assert server.client.get("/rigs/0").status_code == 422  # ids start at 1
+
+
+def test_duplicate_name_and_renaming_are_409(server: LiveServer, rig_document: dict) -> None:
+    rig = new_rig(server, "unique-name")
+    before = server.row_counts()
+    rig_document["name"] = "unique-name"
+    duplicate = server.client.post("/rigs", json={"document": rig_document},
+                                   headers=server.auth)
+    assert duplicate.status_code == 409
+    assert duplicate.json()["error"]["field"] == "document.name"
+    rig_document["name"] = "another-name"
+    rename = server.client.put(f"/rigs/{rig['id']}", json={"document": rig_document},
+                               headers=server.auth)
+    assert rename.status_code == 409
+    assert server.row_counts() == before
+
+
+def test_list_pages(server: LiveServer) -> None:
+    for i in range(3):
+        new_rig(server, f"paged-{i}")
+    everything = server.client.get("/rigs", params={"limit": 500}).json()
+    total = everything["total"]
+    assert total == len(everything["items"]) >= 4
+    ids = [r["id"] for r in everything["items"]]
+    assert ids == sorted(ids)
+    page = server.client.get("/rigs", params={"limit": 2, "offset": 1}).json()
+    assert page["total"] == total
+    assert (page["limit"], page["offset"]) == (2, 1)
+    assert [r["id"] for r in page["items"]] == ids[1:3]
+    past_end = server.client.get("/rigs", params={"offset": total}).json()
+    assert past_end["items"] == [] and past_end["total"] == total
+    too_big = server.client.get("/rigs", params={"limit": 501})
+    assert too_big.status_code == 422
+    assert too_big.json()["error"]["field"] == "limit"
+    assert server.client.get("/rigs", params={"offset": -1}).json()["error"]["field"] == "offset"
+
+
+def test_delete_rig_with_and_without_history(server: LiveServer) -> None:
+    plain = new_rig(server, "to-delete")
+    response = server.client.delete(f"/rigs/{plain['id']}", headers=server.auth)
+    assert response.status_code == 204
+    assert server.client.get(f"/rigs/{plain['id']}").status_code == 404
+    assert server.client.get(f"/rigs/{plain['id']}/versions/1").status_code == 404
+
+    kept = new_rig(server, "has-history")
+    with server.session() as session:
+        record_diagnosis(
+            session, rig_id=kept["id"], measured_at=datetime(2026, 1, 5, tzinfo=UTC),
+            record={"p_A_pa": 7.0e6}, result={"ranking": []}, component="valve",
+            probability=0.8, estimates=[ComponentEstimate("valve", 0.8, clearance_m=5e-5)],
+        )
+    before = server.row_counts()
+    refused = server.client.delete(f"/rigs/{kept['id']}", headers=server.auth)
+    assert refused.status_code == 409
+    assert refused.json()["error"]["type"] == "ConflictError"
+    assert server.row_counts() == before

@@ -1,0 +1,45 @@
+"""Settings from the environment, and the configurations they refuse."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from pydantic import ValidationError
+
+from app.settings import Settings
+
+
+def test_defaults_and_environment(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    for name in ("HYDRODIAG_DATA_DIR", "HYDRODIAG_DATABASE_URL", "HYDRODIAG_OPEN_READS"):
+        monkeypatch.delenv(name, raising=False)
+    defaults = Settings()
+    assert defaults.data_dir == Path("data") and defaults.open_reads is True
+    assert defaults.url.database == str((Path("data") / "hydrodiag.db").resolve())
+    assert defaults.is_sqlite
+    monkeypatch.setenv("HYDRODIAG_DATA_DIR", str(tmp_path))
+    monkeypatch.setenv("HYDRODIAG_OPEN_READS", "false")
+    monkeypatch.setenv("HYDRODIAG_DATABASE_URL", "postgresql+psycopg://svc:Xk2f9Lq@db/hd")
+    configured = Settings()
+    assert configured.open_reads is False
+    assert configured.url.get_backend_name() == "postgresql" and not configured.is_sqlite
+
+
+@pytest.mark.parametrize(("url", "reason"), [
+    ("postgresql://app:postgres@db.example/hd", "well-known default"),
+    ("postgresql://app:changethis@db.example/hd", "well-known default"),
+    ("sqlite://", "in-memory"),
+    ("sqlite:///:memory:", "in-memory"),
+    ("mysql://app:Xk2f9Lq@db/hd", "unsupported database"),
+    ("not a url", "not a database URL"),
+])
+def test_insecure_or_unworkable_databases_are_refused(url: str, reason: str) -> None:
+    with pytest.raises(ValidationError, match=reason):
+        Settings(database_url=url)
+
+
+def test_a_file_as_data_dir_is_refused(tmp_path: Path) -> None:
+    path = tmp_path / "file"
+    path.write_text("")
+    with pytest.raises(ValidationError, match="not a folder"):
+        Settings(data_dir=path)

@@ -1,0 +1,110 @@
+"""POST /simulate through HTTP: summaries, time series as JSON, CSV and Parquet, errors."""
+
+from __future__ import annotations
+
+import io
+import json
+from typing import Any
+
+import pandas as pd
+import pyarrow.parquet as pq
+import pytest
+
+from tests.app.live import LiveServer
+
+WORN_VALVE: dict[str, Any] = {"rig_id": 1, "fault": "worn_spool",
+                              "condition": {"load": 4200.0, "oil_temperature": 40.0}}
+
+
+@pytest.fixture(scope="module")
+def as_json(server: LiveServer) -> dict[str, Any]:
+    response = server.client.post("/simulate", json=WORN_VALVE | {"timeseries": "json"})
+    assert response.status_code == 200, response.text
+    return dict(response.json())
+
+
+def test_a_worn_valve_runs_slower_than_a_healthy_one(server: LiveServer,
+                                                     as_json: dict[str, Any]) -> None:
+    assert as_json["overrides"] == {"valve.cv": 60e-6}
+    assert as_json["condition"]["load"] == 4200.0 and as_json["method"] == "transient"
+    assert as_json["completed"] == {"working": True, "return": True}
+    healthy = server.client.post("/simulate", json=WORN_VALVE | {"fault": "healthy"}).json()
+    worn, nominal = as_json["summary"], healthy["summary"]
+    assert worn["working.Q_valve_leak [m^3/s]"] > 3 * nominal["working.Q_valve_leak [m^3/s]"]
+    assert worn["working.speed [m/s]"] < nominal["working.speed [m/s]"]
+    assert worn["velocity_ratio [-]"] < nominal["velocity_ratio [-]"]
+    assert healthy["timeseries"] is None
+
+
+def test_overrides_apply_over_the_named_fault(server: LiveServer) -> None:
+    body = server.client.post("/simulate", json=WORN_VALVE | {
+        "overrides": {"valve.cv": 45e-6, "cylinder.cc": 100e-6}, "method": "steady"}).json()
+    assert body["overrides"] == {"valve.cv": 45e-6, "cylinder.cc": 100e-6}
+    assert body["steps"] == {}
+
+
+def test_the_steady_path_agrees_with_the_transient_one(server: LiveServer,
+                                                       as_json: dict[str, Any]) -> None:
+    steady = server.client.post("/simulate", json=WORN_VALVE | {"method": "steady"}).json()
+    for key in ("working.speed [m/s]", "working.P_pump [Pa]", "working.Q_meter_C [m^3/s]"):
+        assert steady["summary"][key] == pytest.approx(as_json["summary"][key], rel=5e-3)
+
+
+def test_csv_round_trip(server: LiveServer, as_json: dict[str, Any]) -> None:
+    response = server.client.post("/simulate", json=WORN_VALVE | {"timeseries": "csv"})
+    assert response.status_code == 200, response.text
+    assert response.headers["content-type"].startswith("text/csv")
+    text = response.text
+    header = dict(line[2:].split(" = ", 1) for line in text.splitlines()
+                  if line.startswith("# "))
+    assert json.loads(header["summary"]) == as_json["summary"]
+    assert json.loads(header["fault"]) == "worn_spool"
+    frame = pd.read_csv(io.StringIO(text), comment="#")
+    table = as_json["timeseries"]
+    assert list(frame.columns) == table["columns"]
+    assert len(frame) == len(table["data"]) > 100
+    expected = pd.DataFrame(table["data"], columns=table["columns"])
+    pd.testing.assert_frame_equal(frame, expected, check_dtype=False, rtol=1e-15)
+
+
+def test_parquet_round_trip(server: LiveServer, as_json: dict[str, Any]) -> None:
+    response = server.client.post("/simulate", json=WORN_VALVE | {"timeseries": "parquet"})
+    assert response.status_code == 200, response.text
+    assert response.headers["content-type"] == "application/vnd.apache.parquet"
+    table = pq.read_table(io.BytesIO(response.content))
+    metadata = json.loads(table.schema.metadata[b"hydrodiag"])
+    assert metadata["summary"] == as_json["summary"]
+    assert metadata["overrides"] == {"valve.cv": 60e-6}
+    frame = table.to_pandas()
+    expected = pd.DataFrame(as_json["timeseries"]["data"],
+                            columns=as_json["timeseries"]["columns"])
+    pd.testing.assert_frame_equal(frame, expected, check_dtype=False, rtol=0)
+
+
+@pytest.mark.parametrize(
+    ("change", "field"),
+    [
+        ({"overrides": {"valve.cv": -1.0}}, "overrides.valve.cv"),
+        ({"overrides": {"valve.nope": 1.0}}, "overrides.valve.nope"),
+        ({"fault": "broken_everything"}, "fault"),
+        ({"method": "steady", "timeseries": "csv"}, "timeseries"),
+        ({"timeseries": "xlsx"}, "timeseries"),
+        ({"condition": {"oil_temperature": 900.0}}, "condition.oil_temperature"),
+        ({"condition": {"pump_speed": -3.0}}, "condition.pump_speed"),
+        ({"rig_id": 0}, "rig_id"),
+    ],
+)
+def test_bad_scenarios_are_422_naming_the_field(server: LiveServer, change: dict[str, Any],
+                                                field: str) -> None:
+    before = server.row_counts()
+    response = server.client.post("/simulate", json=WORN_VALVE | change)
+    assert response.status_code == 422, response.text
+    assert response.json()["error"]["field"] == field
+    assert server.row_counts() == before
+
+
+def test_unknown_rig_or_version_is_404(server: LiveServer) -> None:
+    unknown = server.client.post("/simulate", json=WORN_VALVE | {"rig_id": 4242})
+    assert unknown.status_code == 404 and unknown.json()["error"]["field"] == "rig_id"
+    version = server.client.post("/simulate", json=WORN_VALVE | {"rig_version": 9})
+    assert version.status_code == 404 and version.json()["error"]["field"] == "rig_version"

@@ -1,0 +1,177 @@
+"""The store itself: migrations from empty, SQLite settings, history, preloading."""
+
+from __future__ import annotations
+
+from datetime import UTC, datetime, timedelta
+from pathlib import Path
+from typing import Any
+
+import pytest
+from alembic.autogenerate import compare_metadata
+from alembic.migration import MigrationContext
+from sqlalchemy import Engine, inspect, text
+from sqlalchemy.engine import make_url
+from sqlalchemy.exc import IntegrityError
+
+from app.db import migrate
+from app.db.base import Base
+from app.db.engine import make_engine, make_session_factory
+from app.db.models import Rig, RigVersion
+from app.reference_data import REFERENCE_CALIBRATIONS
+from app.services.bootstrap import ensure_first_key, ensure_reference_data
+from app.services.calibrations import list_calibrations
+from app.services.history import ComponentEstimate, component_history, record_diagnosis
+from app.services.rigs import find_rig, update_rig
+from sim.errors import InputError, NotFoundError
+from sim.rigs import reference_rig_document
+from tests.app import postgres
+
+
+def _schema_differences(engine: Engine) -> list[Any]:
+    with engine.connect() as connection:
+        context = MigrationContext.configure(connection, opts={"compare_type": True})
+        return list(compare_metadata(context, Base.metadata))
+
+
+def _check_migrations(engine: Engine) -> None:
+    assert migrate.current_revision(engine) is None
+    migrate.upgrade(engine)
+    assert migrate.current_revision(engine) == migrate.head_revision()
+    assert _schema_differences(engine) == []
+    migrate.downgrade(engine, "base")
+    assert set(inspect(engine).get_table_names()) == {"alembic_version"}
+    migrate.upgrade(engine)
+    assert _schema_differences(engine) == []
+
+
+def test_migrations_from_an_empty_sqlite_file(tmp_path: Path) -> None:
+    engine = make_engine(make_url(f"sqlite:///{tmp_path / 'sub' / 'fresh.db'}"))
+    _check_migrations(engine)
+    assert {t.name for t in Base.metadata.sorted_tables} <= set(inspect(engine).get_table_names())
+
+
+def test_sqlite_connections_use_wal_and_foreign_keys(tmp_path: Path) -> None:
+    engine = make_engine(make_url(f"sqlite:///{tmp_path / 'pragmas.db'}"))
+    migrate.upgrade(engine)
+    with engine.connect() as connection:
+        assert connection.execute(text("PRAGMA journal_mode")).scalar() == "wal"
+        assert connection.execute(text("PRAGMA foreign_keys")).scalar() == 1
+    with pytest.raises(IntegrityError), engine.begin() as connection:
+        connection.execute(text("INSERT INTO rig_versions (rig_id, version, document, "
+                                "created_at) VALUES (4242, 1, '{}', '2026-01-01')"))
+
+
+@pytest.fixture
+def sessions(tmp_path: Path) -> Any:
+    engine = make_engine(make_url(f"sqlite:///{tmp_path / 'store.db'}"))
+    migrate.upgrade(engine)
+    yield make_session_factory(engine)
+    engine.dispose()
+
+
+def test_preloading_is_idempotent_and_keeps_edits(sessions: Any) -> None:
+    with sessions() as session:
+        first = ensure_reference_data(session)
+        assert (first.rig_created, first.calibrations_created) == (True, 2)
+        rig = find_rig(session, "paper002-reference")
+        assert rig is not None
+        again = ensure_reference_data(session)
+        assert (again.rig_created, again.calibrations_created) == (False, 0)
+        _, total = list_calibrations(session, rig.id, limit=10, offset=0)
+        assert total == len(REFERENCE_CALIBRATIONS)
+        assert session.query(RigVersion).count() == 1
+
+
+def test_preloading_keeps_published_rows_when_the_estimator_contradicts_them(
+    sessions: Any,
+) -> None:
+    def too_small(**_: Any) -> float:
+        return 1e-6  # below every published clearance
+
+    with sessions() as session:
+        ensure_reference_data(session, estimator=too_small)
+        rig = find_rig(session, "paper002-reference")
+        assert rig is not None
+        tables, _ = list_calibrations(session, rig.id, limit=10, offset=0, throttle="H")
+        assert [p.clearance_m for p in tables[0].points][-1] is None
+
+
+def test_first_key_only_once(sessions: Any) -> None:
+    with sessions() as session:
+        key = ensure_first_key(session)
+        assert key is not None and key.startswith("hd_")
+        assert ensure_first_key(session) is None
+
+
+def test_history_keeps_the_rig_version_and_orders_by_time(sessions: Any) -> None:
+    with sessions() as session:
+        ensure_reference_data(session)
+        rig = find_rig(session, "paper002-reference")
+        assert rig is not None
+        start = datetime(2026, 3, 1, 8, 0, tzinfo=UTC)
+        for days, clearance in ((30, 41e-6), (0, 35e-6)):  # stored out of order
+            record_diagnosis(
+                session, rig_id=rig.id, measured_at=start + timedelta(days=days),
+                record={"p_pump_pa": 7.0e6}, result={"ranked": ["valve"]},
+                component="valve", probability=0.7,
+                estimates=[ComponentEstimate("valve", 0.7, clearance_m=clearance),
+                           ComponentEstimate("cylinder", 0.2, clearance_m=85e-6)],
+            )
+        document = reference_rig_document()
+        document["components"]["valve"]["parameters"]["cv"]["value"] = 4.5e-5
+        update_rig(session, rig.id, document, comment="valve reworked")
+        record_diagnosis(session, rig_id=rig.id, measured_at=start + timedelta(days=60),
+                         record={}, result={}, component="valve", probability=0.6,
+                         estimates=[ComponentEstimate("valve", 0.6, clearance_m=46e-6)])
+        series = component_history(session, rig.id, "valve")
+        assert [p.clearance_m for p in series] == [35e-6, 41e-6, 46e-6]
+        assert [p.rig_version for p in series] == [1, 1, 2]
+        assert series[0].measured_at == start and series[0].measured_at.tzinfo is not None
+        later = component_history(session, rig.id, "valve", since=start + timedelta(days=1))
+        assert len(later) == 2
+        assert [p.clearance_m for p in component_history(session, rig.id, "cylinder")] == [
+            85e-6, 85e-6]
+        with pytest.raises(InputError):
+            record_diagnosis(session, rig_id=rig.id, measured_at=start, record={}, result={},
+                             component=None, probability=None,
+                             estimates=[ComponentEstimate("valve"), ComponentEstimate("valve")])
+        with pytest.raises(NotFoundError):
+            record_diagnosis(session, rig_id=rig.id, measured_at=start, record={}, result={},
+                             component=None, probability=None, rig_version=9)
+        with pytest.raises(InputError, match="zone"):
+            record_diagnosis(session, rig_id=rig.id, measured_at=datetime(2026, 1, 1),
+                             record={}, result={}, component=None, probability=None)
+        session.rollback()
+        assert len(component_history(session, rig.id, "valve")) == 3
+        assert session.get(Rig, rig.id) is not None
+
+
+@pytest.mark.skipif(postgres.unavailable_reason() is not None,
+                    reason=str(postgres.unavailable_reason()))
+def test_postgresql_migrations_and_a_live_server(tmp_path: Path) -> None:
+    from app.settings import Settings
+    from tests.app.live import live_server
+
+    with postgres.postgres_url() as url:
+        engine = make_engine(make_url(url))
+        try:
+            _check_migrations(engine)
+            migrate.downgrade(engine, "base")
+        finally:
+            engine.dispose()
+        settings = Settings(data_dir=tmp_path / "data", database_url=url)
+        with live_server(settings) as server:
+            assert server.client.get("/ready").json()["database"] == "postgresql"
+            rigs = server.client.get("/rigs").json()
+            assert rigs["items"][0]["name"] == "paper002-reference"
+            rig_id = rigs["items"][0]["id"]
+            before = server.row_counts()
+            duplicate = server.client.post(
+                f"/rigs/{rig_id}/calibrations", headers=server.auth,
+                json={"throttle": "I", "component": "valve", "back_pressure_pa": 1.0e6,
+                      "temperature_c": 40.0,
+                      "points": [{"opening_turns": 0, "bypass_flow_m3s": 1e-5},
+                                 {"opening_turns": 1, "bypass_flow_m3s": 2e-5}]},
+            )
+            assert duplicate.status_code == 409
+            assert server.row_counts() == before

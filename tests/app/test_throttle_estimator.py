@@ -1,0 +1,92 @@
+"""The throttle-table clearance estimator wired into the service (diagnostics.throttle)."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from typing import Any
+
+import pytest
+
+from app.services.throttle_estimator import ThrottleClearanceEstimator
+from sim.rigs import Condition, reference_rig, reference_rig_document
+from sim.steady import steady_cycle
+from tests.app.live import LiveServer, live_server, sqlite_settings
+
+
+@pytest.fixture(scope="module")
+def estimating_server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[LiveServer]:
+    with live_server(sqlite_settings(tmp_path_factory.mktemp("estimating")),
+                     estimator=ThrottleClearanceEstimator()) as live:
+        yield live
+
+
+def test_the_nominal_leakage_gives_the_nominal_clearance() -> None:
+    """Round trip through the forward model: the rig's own leak → the rig's own clearance."""
+    rig = reference_rig()
+    estimator = ThrottleClearanceEstimator()
+    for back_pressure, temperature in ((1.0e6, 40.0), (2.0e6, 55.0)):
+        condition = Condition(load=back_pressure * rig.values()["cylinder.A2"],
+                              oil_temperature=temperature)
+        working = steady_cycle(rig, None, condition).working
+        for component, flow, clearance in (
+            ("cylinder", working["Q_cyl_leak"], rig.base["cylinder.cc"]),
+            ("valve", working["Q_valve_leak"], rig.base["valve.cv"]),
+        ):
+            found = estimator(rig_document=reference_rig_document(), component=component,
+                              bypass_flow_m3s=flow, back_pressure_pa=back_pressure,
+                              temperature_c=temperature)
+            assert found == pytest.approx(clearance, rel=1e-6), (component, back_pressure)
+
+
+def test_an_unknown_component_is_refused() -> None:
+    with pytest.raises(Exception, match="no leakage law") as info:
+        ThrottleClearanceEstimator()(rig_document=reference_rig_document(), component="hose",
+                                     bypass_flow_m3s=1e-5, back_pressure_pa=1e6,
+                                     temperature_c=40.0)
+    assert getattr(info.value, "field", None) == "component"
+
+
+def test_the_preloaded_tables_get_their_missing_clearance(estimating_server: LiveServer) -> None:
+    tables = estimating_server.client.get("/rigs/1/calibrations").json()["items"]
+    by_throttle = {t["throttle"]: t for t in tables}
+    valve, cylinder = by_throttle["I"], by_throttle["H"]
+    # published values stay as published
+    assert [p["clearance_m"] for p in valve["points"]] == [34e-6, 37e-6, 49e-6, 62e-6, 73e-6]
+    assert [p["clearance_origin"] for p in cylinder["points"]] == ["given"] * 4 + ["computed"]
+    last = cylinder["points"][-1]["clearance_m"]
+    # Q ∝ c³ from the closed row (83 µm at 1.8e-5 m³/s), within the Couette correction
+    assert 139e-6 < last == pytest.approx(83e-6 * (1.05e-4 / 1.8e-5) ** (1 / 3), rel=0.03)
+    assert cylinder["curve"]["opening_turns"] == [0.0, 0.5, 1.0, 1.5, 2.0]
+
+
+def test_a_new_table_gets_its_clearance_column(estimating_server: LiveServer) -> None:
+    table: dict[str, Any] = {
+        "throttle": "I", "component": "valve", "back_pressure_pa": 2.0e6,
+        "temperature_c": 50.0,
+        "points": [{"opening_turns": t, "bypass_flow_m3s": q}
+                   for t, q in ((0.0, 1.2e-5), (1.0, 3.0e-5), (2.0, 9.0e-5))],
+    }
+    response = estimating_server.client.post("/rigs/1/calibrations", json=table,
+                                             headers=estimating_server.auth)
+    assert response.status_code == 201, response.text
+    points = response.json()["points"]
+    assert [p["clearance_origin"] for p in points] == ["computed"] * 3
+    clearances = [p["clearance_m"] for p in points]
+    # the spool law has no Couette term: exactly the cube rule between rows
+    assert clearances[1] / clearances[0] == pytest.approx((3.0e-5 / 1.2e-5) ** (1 / 3))
+    assert clearances[2] / clearances[0] == pytest.approx((9.0e-5 / 1.2e-5) ** (1 / 3))
+
+
+def test_a_table_for_a_component_without_a_law_stores_nothing(
+    estimating_server: LiveServer,
+) -> None:
+    before = estimating_server.row_counts()
+    response = estimating_server.client.post("/rigs/1/calibrations", headers=estimating_server.auth,
+                                             json={"throttle": "Z", "component": "hose",
+                                                   "back_pressure_pa": 1e6, "temperature_c": 40.0,
+                                                   "points": [
+                                                       {"opening_turns": 0, "bypass_flow_m3s": 1e-5},
+                                                       {"opening_turns": 1, "bypass_flow_m3s": 2e-5}]})
+    assert response.status_code == 422
+    assert response.json()["error"]["field"] == "component"
+    assert estimating_server.row_counts() == before

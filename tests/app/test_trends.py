@@ -1,0 +1,96 @@
+"""GET /rigs/{rig_id}/trends over stored diagnoses."""
+
+from __future__ import annotations
+
+from datetime import datetime
+
+import pytest
+
+from tests.app.conftest import new_rig, simulated_record
+from tests.app.live import LiveServer
+
+#: A valve wearing from 36 to 44 µm over three visits a month apart.
+VISITS = (("2026-01-05T09:00:00Z", 36e-6), ("2026-02-05T09:00:00Z", 40e-6),
+          ("2026-03-05T09:00:00Z", 44e-6))
+
+
+@pytest.fixture(scope="module")
+def wearing_rig(server: LiveServer) -> int:
+    rig_id = int(new_rig(server, "trend-rig")["id"])
+    for when, cv in VISITS:
+        record = simulated_record(server, {"valve.cv": cv}, rig_id=rig_id, measured_at=when)
+        response = server.client.post("/diagnose", json={"record": record},
+                                      headers=server.auth)
+        assert response.status_code == 200, response.text
+    return rig_id
+
+
+def test_three_diagnoses_of_a_wearing_valve_give_a_positive_slope(
+    server: LiveServer, wearing_rig: int
+) -> None:
+    response = server.client.get(f"/rigs/{wearing_rig}/trends")
+    assert response.status_code == 200, response.text
+    trends = {t["component"]: t for t in response.json()["components"]}
+    valve = trends["valve"]
+    assert valve["quantity"] == "cv" and valve["unit"] == "m"
+    assert [p["measured_at"] for p in valve["points"]] == [when for when, _ in VISITS]
+    assert [p["value"] for p in valve["points"]] == pytest.approx([cv for _, cv in VISITS],
+                                                                  rel=0.03)
+    assert valve["slope"] > 0 and valve["slope_low"] <= valve["slope"] <= valve["slope_high"]
+    # 4 µm a month, in m/s
+    assert valve["slope"] == pytest.approx(4e-6 / (29.5 * 86400), rel=0.15)
+    # the default threshold: 1.6 × the nominal 34 µm
+    assert valve["threshold"] == pytest.approx(34e-6 * 4.1 ** (1 / 3))
+    assert valve["status"] == "worsening"
+    assert valve["time_left_low_s"] <= valve["time_left_s"]
+    # three visits leave "not worsening" inside the slope's interval: no latest crossing
+    high = valve["time_left_high_s"]
+    assert high is None or high >= valve["time_left_s"]
+    # 10 µm more at 4 µm a month: about two and a half months
+    assert valve["time_left_s"] == pytest.approx(10.4e-6 / valve["slope"], rel=0.1)
+    crossing = datetime.fromisoformat(valve["crossing_at"])
+    assert crossing > datetime.fromisoformat(VISITS[-1][0])
+    # the cylinder did not wear: its closed-form clearance stays nominal
+    cylinder = trends["cylinder"]
+    assert all(p["value"] == pytest.approx(83e-6, rel=0.05) for p in cylinder["points"])
+    assert cylinder["status"] != "crossed"
+
+
+def test_one_component_with_a_given_threshold(server: LiveServer, wearing_rig: int) -> None:
+    body = server.client.get(f"/rigs/{wearing_rig}/trends",
+                             params={"component": "valve", "threshold": 42e-6}).json()
+    (valve,) = body["components"]
+    assert valve["threshold"] == 42e-6 and valve["threshold_source"] == "given"
+    assert valve["status"] == "crossed" and valve["time_left_s"] == 0.0
+
+
+def test_a_window_with_too_few_visits_says_so(server: LiveServer, wearing_rig: int) -> None:
+    body = server.client.get(f"/rigs/{wearing_rig}/trends", params={
+        "component": "valve", "since": "2026-02-01T00:00:00Z"}).json()
+    (valve,) = body["components"]
+    assert len(valve["points"]) == 2
+    assert valve["status"] == "insufficient_data" and valve["slope"] is None
+
+
+def test_a_rig_without_history_has_no_trends(server: LiveServer) -> None:
+    rig_id = new_rig(server, "trend-empty")["id"]
+    assert server.client.get(f"/rigs/{rig_id}/trends").json() == {"rig_id": rig_id,
+                                                                  "components": []}
+
+
+@pytest.mark.parametrize(
+    ("params", "field"),
+    [({"threshold": 5e-5}, "threshold"), ({"component": "hose"}, "component"),
+     ({"component": "valve", "threshold": -1.0}, "threshold"),
+     ({"since": "2026-01-01T00:00:00"}, "since")],
+)
+def test_bad_queries_are_422(server: LiveServer, wearing_rig: int, params: dict[str, object],
+                             field: str) -> None:
+    response = server.client.get(f"/rigs/{wearing_rig}/trends", params=params)
+    assert response.status_code == 422
+    assert response.json()["error"]["field"] == field
+
+
+def test_unknown_rig_is_404(server: LiveServer) -> None:
+    response = server.client.get("/rigs/31337/trends")
+    assert response.status_code == 404
