@@ -4,10 +4,11 @@ Used by ``POST /diagnose`` and ``hydrodiag diagnose``.  Every record of a reques
 validated and diagnosed before anything is written; then all records and results are
 stored in one transaction, so a request that fails stores nothing.
 
-``diagnostics`` keeps its signature maps and steady-state evaluators in process-wide
-caches whose evaluators reuse work buffers; they are not safe to call from two threads
-at once.  :data:`DIAGNOSIS_LOCK` serialises the calls (the interpreter lock serialises
-that work anyway: nothing is lost).
+``diagnostics`` keeps its signature maps and steady-state evaluators in process-wide,
+locked caches; an evaluator also keeps the last operating point it solved as the next
+Newton start.  :data:`DIAGNOSIS_LOCK` serialises the calls so that two requests do not
+interleave those starting points (the interpreter lock serialises the numerical work
+anyway, so nothing is lost).
 """
 
 from __future__ import annotations
