@@ -79,10 +79,6 @@ def evaluator(rig: Rig, condition: Condition) -> SteadyEvaluator:
     return ev
 
 
-def _vector(pred: dict[str, float]) -> Arr:
-    return np.array([pred[n] for n in OBSERVABLES])
-
-
 @dataclass
 class HypothesisMap:
     """Fine-grid predictions of one hypothesis.
@@ -113,7 +109,7 @@ class SignatureMaps:
         self.condition = condition
         self.ev = evaluator(rig, condition)
         self._base = np.array([rig.base[n] for n in GRAPH_PARAMETERS])
-        self.nominal = _vector(self.ev.nominal())
+        self.nominal = self.ev.vector(self._base, OBSERVABLES)
         self.maps: dict[str, HypothesisMap] = {}
         for hyp in HYPOTHESES:
             if len(hyp.parameters) == 1:

@@ -94,7 +94,7 @@ class CycleResult:
         return out
 
 
-def _phase_settings(rig: Rig, phase: str, cond: Condition) -> dict[str, float]:
+def _phase_settings(rig: Rig, phase: str) -> dict[str, float]:
     stroke = rig.base["cylinder.stroke"]
     if phase == "working":
         return {"valve.N": 1.0, "cylinder.x_init": 0.0}
@@ -107,7 +107,7 @@ def phase_params(rig: Rig, phase: str, overrides: Mapping[str, float] | None,
     """Parameter vector of one phase."""
     if phase not in PHASES:
         raise ValueError(f"unknown phase {phase!r}")
-    return rig.params(overrides, condition, _phase_settings(rig, phase, condition))
+    return rig.params(overrides, condition, _phase_settings(rig, phase))
 
 
 def _averages(rig: Rig, t: Arr, y: Arr, p: Arr) -> dict[str, float]:

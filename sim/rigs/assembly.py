@@ -102,14 +102,13 @@ class Rig:
     @classmethod
     def from_spec(cls, spec: RigSpec) -> Rig:
         """Compile the circuit and keep the rig's parameter values."""
-        graph, derivations = _graph_cached()
+        _, derivations = _graph_cached()
         model = _model_cached()
         fl = Fluid(**{k: q.value for k, q in spec.fluid.items()})
         base = spec.values()
         unknown = set(base) - set(model.param_names)
         if unknown:
             raise ParameterError(f"parameters not in the circuit: {sorted(unknown)}")
-        del graph
         return cls(spec, model, derivations, fl, base)
 
     def default_condition(self) -> Condition:
