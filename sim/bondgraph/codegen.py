@@ -19,6 +19,7 @@ import os
 import sys
 import tempfile
 import textwrap
+import threading
 from pathlib import Path
 from types import ModuleType
 from typing import Any
@@ -112,21 +113,38 @@ def generate_source(system: EquationSystem, *, jit: bool = True) -> str:
     return "\n\n\n".join(blocks) + "\n"
 
 
+#: Serialises :func:`load_module`: a module becomes visible to other threads only once it
+#: has finished executing (a concurrent first caller must never see a half-loaded module).
+_LOAD_LOCK = threading.Lock()
+
+
 def load_module(source: str) -> ModuleType:
-    """Write ``source`` to the cache folder (once) and import it."""
+    """Write ``source`` to the cache folder (once) and import it, once per process.
+
+    Thread-safe: concurrent first callers wait for the one that loads the module and then
+    get the fully executed module.  ``sys.modules`` holds the module while it executes (as
+    :mod:`importlib` does, so that code which looks itself up there works) but the lock is
+    held until execution has finished, and a module whose execution fails is removed again.
+    """
     digest = hashlib.sha1(source.encode()).hexdigest()[:20]
     modname = f"hydrodiag_bg_{digest}"
-    if modname in sys.modules:
-        return sys.modules[modname]
-    path = cache_dir() / f"{modname}.py"
-    if not path.exists() or path.read_text() != source:
-        fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
-        with os.fdopen(fd, "w") as fh:
-            fh.write(source)
-        os.replace(tmp, path)
-    spec = importlib.util.spec_from_file_location(modname, path)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[modname] = module
-    spec.loader.exec_module(module)
-    return module
+    with _LOAD_LOCK:
+        loaded = sys.modules.get(modname)
+        if loaded is not None:
+            return loaded
+        path = cache_dir() / f"{modname}.py"
+        if not path.exists() or path.read_text() != source:
+            fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
+            with os.fdopen(fd, "w") as fh:
+                fh.write(source)
+            os.replace(tmp, path)
+        spec = importlib.util.spec_from_file_location(modname, path)
+        assert spec is not None and spec.loader is not None
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[modname] = module
+        try:
+            spec.loader.exec_module(module)
+        except BaseException:
+            del sys.modules[modname]
+            raise
+        return module

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
@@ -173,19 +174,24 @@ class Rig:
 
 
 _CACHE: dict[str, object] = {}
+#: the circuit is built and compiled once per process, even under concurrent first calls
+_CACHE_LOCK = threading.Lock()
 
 
 def _graph_cached() -> tuple[BondGraph, list[Derivation]]:
-    if "graph" not in _CACHE:
-        _CACHE["graph"] = build_graph("pump-valve-cylinder")
-    g = _CACHE["graph"]
+    with _CACHE_LOCK:
+        if "graph" not in _CACHE:
+            _CACHE["graph"] = build_graph("pump-valve-cylinder")
+        g = _CACHE["graph"]
     assert isinstance(g, tuple)
     return g
 
 
 def _model_cached() -> CompiledModel:
-    if "model" not in _CACHE:
-        _CACHE["model"] = compile_graph(_graph_cached()[0])
-    m = _CACHE["model"]
+    graph = _graph_cached()[0]
+    with _CACHE_LOCK:
+        if "model" not in _CACHE:
+            _CACHE["model"] = compile_graph(graph)
+        m = _CACHE["model"]
     assert isinstance(m, CompiledModel)
     return m
