@@ -32,7 +32,7 @@ def _demo(args: argparse.Namespace) -> int:
 def _graph(args: argparse.Namespace) -> int:
     from sim.rigs import build_graph
 
-    g, _ = build_graph("pump-valve-cylinder")
+    g, _ = build_graph()
     if args.format == "dot":
         print(to_dot(g), end="")
     elif args.format == "json":

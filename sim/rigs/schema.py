@@ -6,10 +6,9 @@ engineer's statement of the machine: a missing parameter, an unknown one, a unit
 wrong dimension or a value outside the physical bounds is an error that names the field
 (:class:`~sim.errors.RigFileError`).  Units are converted to SI on reading.
 
-Version 1 knows one circuit, ``pump-valve-cylinder`` (paper 002, Figure 1): a pump with
-a relief valve feeds a 4/2 valve through a supply line; hoses join ports A and B to a
-double-acting cylinder, with a check valve in the A line; throttle valves H (across the
-piston) and I (valve P→T) stand for worn clearances.  Each role takes one component.
+The file names its circuit (``circuit:``, default ``pump-valve-cylinder``, paper 002
+Figure 1); the circuit (:mod:`sim.rigs.circuits`) fixes the roles the file must fill and
+the component type of each.  Each role takes one component.
 """
 
 from __future__ import annotations
@@ -17,62 +16,17 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from types import ModuleType
 from typing import Any
 
-from sim.components import (
-    check_valve,
-    cylinder,
-    directional_valve,
-    fixed_drop,
-    hose,
-    load,
-    pump,
-    relief_valve,
-    throttle,
-)
 from sim.errors import ParameterError, RigFileError
 from sim.fluid import FLUID_PARAMETERS
 from sim.params import Param
+from sim.rigs.circuits import CIRCUITS, COMPONENT_TYPES, DEFAULT_CIRCUIT, Circuit, get_circuit
 from sim.units import to_si
 
-__all__ = ["CIRCUIT_ROLES", "COMPONENT_TYPES", "SCHEMA", "RigSpec", "validate_rig_document"]
+__all__ = ["CIRCUITS", "COMPONENT_TYPES", "SCHEMA", "RigSpec", "validate_rig_document"]
 
 SCHEMA = "hydrodiag.rig/1"
-CIRCUIT = "pump-valve-cylinder"
-
-#: component type name → module declaring ``PARAMETERS``
-COMPONENT_TYPES: dict[str, ModuleType] = {
-    "fixed_displacement_pump": pump,
-    "relief_valve": relief_valve,
-    "fixed_drop_line": fixed_drop,
-    "directional_valve_4_2": directional_valve,
-    "hose": hose,
-    "check_valve": check_valve,
-    "double_acting_cylinder": cylinder,
-    "throttle_valve": throttle,
-}
-
-#: role in the circuit → required component type
-CIRCUIT_ROLES: dict[str, str] = {
-    "pump": "fixed_displacement_pump",
-    "relief": "relief_valve",
-    "supply_line": "fixed_drop_line",
-    "valve": "directional_valve_4_2",
-    "hose_A": "hose",
-    "hose_B": "hose",
-    "check": "check_valve",
-    "cylinder": "double_acting_cylinder",
-    "throttle_H": "throttle_valve",
-    "throttle_I": "throttle_valve",
-}
-
-#: operating-condition defaults a rig file may state
-CONDITION_PARAMETERS: tuple[Param, ...] = (
-    *load.PARAMETERS,
-    Param("oil_temperature", "degC", 40.0, "ISO VG 46 reference temperature",
-          "oil temperature", lower=-30.0, upper=150.0, lower_inclusive=True),
-)
 
 
 @dataclass
@@ -100,6 +54,8 @@ class RigSpec:
         Role → (type, parameter name → :class:`Quantity`).
     condition
         Default operating condition (load force [N], back-pressure [Pa], oil temperature [°C]).
+    circuit
+        The circuit the file names (:mod:`sim.rigs.circuits`); default ``pump-valve-cylinder``.
     document
         The document as given (kept for storage and round trips).
     """
@@ -111,6 +67,7 @@ class RigSpec:
     components: dict[str, tuple[str, dict[str, Quantity]]]
     condition: dict[str, Quantity]
     document: dict[str, Any] = field(repr=False, default_factory=dict)
+    circuit: Circuit = field(default_factory=lambda: CIRCUITS[DEFAULT_CIRCUIT])
 
     def values(self) -> dict[str, float]:
         """All component parameters as ``role.name → SI value``."""
@@ -191,19 +148,17 @@ def validate_rig_document(doc: Mapping[str, Any]) -> RigSpec:
     name = doc.get("name")
     if not isinstance(name, str) or not name.strip():
         raise RigFileError("a non-empty name is required", field="name")
-    if doc.get("circuit", CIRCUIT) != CIRCUIT:
-        raise RigFileError(f"unknown circuit {doc.get('circuit')!r} (known: {CIRCUIT})",
-                           field="circuit")
+    circuit = get_circuit(doc.get("circuit", DEFAULT_CIRCUIT))
     fluid = _parameter_block(doc.get("fluid", {}), FLUID_PARAMETERS, "fluid", partial=False)
     comps_raw = doc.get("components")
     if not isinstance(comps_raw, Mapping):
         raise RigFileError("a mapping of components is required", field="components")
     for role in comps_raw:
-        if role not in CIRCUIT_ROLES:
-            raise RigFileError(f"unknown role {role!r} in circuit {CIRCUIT} "
-                               f"(roles: {', '.join(CIRCUIT_ROLES)})", field=f"components.{role}")
+        if role not in circuit.roles:
+            raise RigFileError(f"unknown role {role!r} in circuit {circuit.name} "
+                               f"(roles: {', '.join(circuit.roles)})", field=f"components.{role}")
     components: dict[str, tuple[str, dict[str, Quantity]]] = {}
-    for role, ctype in CIRCUIT_ROLES.items():
+    for role, ctype in circuit.roles.items():
         path = f"components.{role}"
         raw = comps_raw.get(role)
         if raw is None:
@@ -216,7 +171,7 @@ def validate_rig_document(doc: Mapping[str, Any]) -> RigSpec:
         params = _parameter_block(raw.get("parameters", {}), COMPONENT_TYPES[ctype].PARAMETERS,
                                   f"{path}.parameters", partial=False)
         components[role] = (ctype, params)
-    condition = _parameter_block(doc.get("condition", {}), CONDITION_PARAMETERS, "condition",
+    condition = _parameter_block(doc.get("condition", {}), circuit.condition, "condition",
                                  partial=True)
     return RigSpec(name.strip(), str(doc.get("title", "")), str(doc.get("description", "")),
-                   fluid, components, condition, document=dict(doc))
+                   fluid, components, condition, document=dict(doc), circuit=circuit)

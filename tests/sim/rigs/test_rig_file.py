@@ -9,13 +9,14 @@ import pytest
 
 from sim.errors import RigFileError
 from sim.rigs import load_rig, load_rig_document, reference_rig_document, validate_rig_document
-from sim.rigs.schema import CIRCUIT_ROLES
+from sim.rigs.circuits import CIRCUITS
 
 
 def test_reference_document_validates_and_converts_units():
     spec = validate_rig_document(reference_rig_document())
     assert spec.name == "paper002-reference"
-    assert set(spec.components) == set(CIRCUIT_ROLES)
+    assert spec.circuit is CIRCUITS["pump-valve-cylinder"]
+    assert set(spec.components) == set(spec.circuit.roles)
     pump = spec.components["pump"][1]
     assert pump["speed"].value == pytest.approx(1600 * 2 * 3.141592653589793 / 60)
     assert pump["speed"].unit == "rpm"
@@ -72,3 +73,12 @@ def test_unreadable_file_is_a_rig_file_error(tmp_path):
         load_rig_document(bad)
     with pytest.raises(RigFileError):
         load_rig_document(tmp_path / "absent.yaml")
+
+
+def test_an_unknown_circuit_is_named():
+    doc = copy.deepcopy(reference_rig_document())
+    doc["circuit"] = "pump-only"
+    with pytest.raises(RigFileError) as exc:
+        validate_rig_document(doc)
+    assert exc.value.field == "circuit"
+    assert "pump-valve-cylinder" in exc.value.message
