@@ -1,0 +1,252 @@
+"""hydrodiag's one plotting module: charts as data, rendered to SVG (pages) or PNG (files).
+
+The console's pages, the CLI's reports and the discrepancy workflow's report all draw
+through this module, so a trend looks the same everywhere.  A chart is a plain value —
+:class:`Chart` holding :class:`Series` (lines, points, steps, each optionally with a band),
+reference lines and labelled bars — built by :func:`line_chart` or :func:`bar_chart` and
+rendered by :func:`render_svg` or :func:`render_png` (matplotlib, Agg backend, imported
+only when a chart is rendered).
+
+SVG output is safe under a strict Content-Security-Policy (``style-src 'self'``): text is
+kept as text, and every inline ``style="..."`` of matplotlib's output is rewritten into SVG
+presentation attributes (``fill="..."``, ``stroke-width="..."``), which a policy does not
+block, and the ``<style>`` element is dropped.  The root ``<svg>`` carries
+``class="hd-plot"``, ``role="img"``, an ``aria-label`` (the title) and ``data-points`` (the
+number of data points drawn), so a browser test can check that a plot holds data.
+"""
+
+from __future__ import annotations
+
+import io
+import re
+import threading
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+import numpy as np
+import numpy.typing as npt
+
+__all__ = ["Bar", "Chart", "Series", "bar_chart", "line_chart", "render_png", "render_svg"]
+
+Arr = npt.NDArray[np.float64]
+
+#: colours of successive series (colour-blind safe, Okabe-Ito)
+PALETTE = ("#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#000000",
+           "#F0E442")
+
+_STYLE = re.compile(r'\sstyle="([^"]*)"')
+_STYLE_ELEMENT = re.compile(r"<style[^>]*>.*?</style>", re.S)
+_SVG_OPEN = re.compile(r"<svg\b")
+#: matplotlib's global state is not thread-safe: one render at a time per process
+_RENDER_LOCK = threading.Lock()
+
+
+@dataclass(frozen=True)
+class Series:
+    """One data series.
+
+    Attributes
+    ----------
+    x, y
+        Coordinates [units of the axes].
+    label
+        Legend entry ("" for none).
+    kind
+        ``"line"``, ``"points"`` (markers), ``"step"`` (held until the next x) or
+        ``"errorbars"`` (points with ``low``/``high`` as vertical bars).
+    low, high
+        Optional band (a shaded interval around a line) or error bars [y units].
+    dashed
+        Draw the line dashed (a model or a reference next to measurements).
+    color
+        A colour; by default the next of :data:`PALETTE`.
+    """
+
+    x: Sequence[float] | Arr
+    y: Sequence[float] | Arr
+    label: str = ""
+    kind: Literal["line", "points", "step", "errorbars"] = "line"
+    low: Sequence[float] | Arr | None = None
+    high: Sequence[float] | Arr | None = None
+    dashed: bool = False
+    color: str | None = None
+
+
+@dataclass(frozen=True)
+class Bar:
+    """One labelled bar, optionally with an interval [value units]."""
+
+    label: str
+    value: float
+    low: float | None = None
+    high: float | None = None
+    color: str | None = None
+
+
+@dataclass(frozen=True)
+class Chart:
+    """What to draw: series or bars, axes labels with units, reference lines.
+
+    Attributes
+    ----------
+    title
+        Title (also the SVG's accessible name).
+    xlabel, ylabel
+        Axis labels, units in brackets (``"t [s]"``).
+    series
+        Series of an x-y chart.
+    bars
+        Bars of a bar chart (horizontal when ``horizontal``).
+    hlines, vlines
+        Reference lines ``(position, label)`` (a threshold, a nominal value, a phase switch).
+    logy
+        Logarithmic y axis.
+    size
+        Figure size [inch] (at 100 dpi in SVG px).
+    """
+
+    title: str
+    xlabel: str = ""
+    ylabel: str = ""
+    series: tuple[Series, ...] = ()
+    bars: tuple[Bar, ...] = ()
+    horizontal: bool = False
+    hlines: tuple[tuple[float, str], ...] = ()
+    vlines: tuple[tuple[float, str], ...] = ()
+    logy: bool = False
+    size: tuple[float, float] = (7.0, 3.2)
+    notes: tuple[str, ...] = field(default=())
+
+    @property
+    def points(self) -> int:
+        """Number of data points the chart draws."""
+        return sum(len(np.asarray(s.x)) for s in self.series) + len(self.bars)
+
+
+def line_chart(title: str, xlabel: str, ylabel: str, series: Sequence[Series], *,
+               hlines: Sequence[tuple[float, str]] = (), vlines: Sequence[tuple[float, str]] = (),
+               logy: bool = False, size: tuple[float, float] = (7.0, 3.2)) -> Chart:
+    """An x-y chart of ``series`` (see :class:`Chart`)."""
+    return Chart(title, xlabel, ylabel, tuple(series), (), False, tuple(hlines), tuple(vlines),
+                 logy, size)
+
+
+def bar_chart(title: str, label: str, bars: Sequence[Bar], *, horizontal: bool = True,
+              reference: Sequence[tuple[float, str]] = (),
+              size: tuple[float, float] | None = None) -> Chart:
+    """A bar chart; ``label`` names the value axis with its unit; ``reference`` lines on it."""
+    height = max(1.6, 0.35 * len(bars) + 0.9) if horizontal else 3.2
+    dims = size if size is not None else (7.0, height)
+    if horizontal:
+        return Chart(title, label, "", (), tuple(bars), True, (), tuple(reference), False, dims)
+    return Chart(title, "", label, (), tuple(bars), False, tuple(reference), (), False, dims)
+
+
+def _color(i: int, given: str | None) -> str:
+    return given if given is not None else PALETTE[i % len(PALETTE)]
+
+
+def _figure(chart: Chart) -> Any:
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    plt.rcParams["svg.fonttype"] = "none"
+    fig, ax = plt.subplots(figsize=chart.size, dpi=100)
+    if chart.bars:
+        labels = [b.label for b in chart.bars]
+        values = np.array([b.value for b in chart.bars], dtype=float)
+        pos = np.arange(len(labels))
+        colors = [_color(0, b.color) for b in chart.bars]
+        lows = np.array([b.value - b.low if b.low is not None else 0.0 for b in chart.bars])
+        highs = np.array([b.high - b.value if b.high is not None else 0.0 for b in chart.bars])
+        err = np.vstack([lows, highs]) if (lows.any() or highs.any()) else None
+        if chart.horizontal:
+            ax.barh(pos, values, color=colors, xerr=err, capsize=3)
+            ax.set_yticks(pos, labels)
+            ax.invert_yaxis()
+        else:
+            ax.bar(pos, values, color=colors, yerr=err, capsize=3)
+            ax.set_xticks(pos, labels)
+    for i, s in enumerate(chart.series):
+        x = np.asarray(s.x, dtype=float)
+        y = np.asarray(s.y, dtype=float)
+        c = _color(i, s.color)
+        ls = "--" if s.dashed else "-"
+        if s.kind == "points":
+            ax.plot(x, y, "o", ms=3.5, color=c, label=s.label or None)
+        elif s.kind == "step":
+            ax.step(x, y, where="post", color=c, ls=ls, lw=1.4, label=s.label or None)
+        elif s.kind == "errorbars":
+            lo = y - np.asarray(s.low, dtype=float) if s.low is not None else None
+            hi = np.asarray(s.high, dtype=float) - y if s.high is not None else None
+            yerr = np.vstack([lo, hi]) if lo is not None and hi is not None else None
+            ax.errorbar(x, y, yerr=yerr, fmt="o", ms=3.5, color=c, capsize=2,
+                        label=s.label or None)
+        else:
+            ax.plot(x, y, color=c, ls=ls, lw=1.4, label=s.label or None)
+        if s.low is not None and s.high is not None and s.kind != "errorbars":
+            ax.fill_between(x, np.asarray(s.low, dtype=float), np.asarray(s.high, dtype=float),
+                            color=c, alpha=0.18, lw=0)
+    for pos_y, text in chart.hlines:
+        ax.axhline(pos_y, color="#555555", ls=":", lw=1.1, label=text or None)
+    for pos_x, text in chart.vlines:
+        ax.axvline(pos_x, color="#555555", ls=":", lw=1.1, label=text or None)
+    if chart.logy:
+        ax.set_yscale("log")
+    ax.set_title(chart.title, fontsize=11)
+    ax.set_xlabel(chart.xlabel)
+    ax.set_ylabel(chart.ylabel)
+    ax.grid(True, color="#e5e5e5", lw=0.6)
+    ax.set_axisbelow(True)
+    handles, _ = ax.get_legend_handles_labels()
+    if handles:
+        ax.legend(fontsize=8, frameon=False, loc="best")
+    fig.tight_layout()
+    return fig
+
+
+def _css_to_attributes(match: re.Match[str]) -> str:
+    attrs = []
+    for decl in match.group(1).split(";"):
+        if ":" not in decl:
+            continue
+        key, value = (part.strip() for part in decl.split(":", 1))
+        if key == "font":  # shorthand "10px 'DejaVu Sans'" → size and family
+            size, _, family = value.partition(" ")
+            attrs += [f'font-size="{size}"', f'font-family="{family}"']
+        elif key and value:
+            attrs.append(f'{key}="{value}"')
+    return " " + " ".join(attrs) if attrs else ""
+
+
+def render_svg(chart: Chart) -> str:
+    """The chart as an SVG document (module docstring: CSP-safe, marked for tests)."""
+    import matplotlib.pyplot as plt
+
+    with _RENDER_LOCK:
+        fig = _figure(chart)
+        buf = io.StringIO()
+        fig.savefig(buf, format="svg")
+        plt.close(fig)
+    svg = buf.getvalue()
+    svg = svg[svg.index("<svg"):]  # drop the XML prolog and doctype: the SVG is embedded
+    svg = _STYLE_ELEMENT.sub("", svg)
+    svg = _STYLE.sub(_css_to_attributes, svg)
+    title = (chart.title.replace("&", "&amp;").replace('"', "&quot;").replace("<", "&lt;"))
+    return _SVG_OPEN.sub(f'<svg class="hd-plot" role="img" aria-label="{title}" '
+                         f'data-points="{chart.points}"', svg, count=1)
+
+
+def render_png(chart: Chart, *, dpi: int = 110) -> bytes:
+    """The chart as a PNG image (for files: CLI reports, work orders)."""
+    import matplotlib.pyplot as plt
+
+    with _RENDER_LOCK:
+        fig = _figure(chart)
+        buf = io.BytesIO()
+        fig.savefig(buf, format="png", dpi=dpi)
+        plt.close(fig)
+    return buf.getvalue()

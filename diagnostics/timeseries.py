@@ -1,0 +1,374 @@
+"""Measured time series as users have them: tables with units in the column names.
+
+This is hydrodiag's one import path for measured (or simulated) time series.  The format
+is exactly what ``POST /simulate`` exports (:mod:`app.services.simulation`): one row per
+sample, a time column ``t [s]``, one column per channel named ``name [unit]``, optionally a
+``phase`` column (``working``/``return``) and a ``record`` column that separates several
+records (cycles, runs at different loads or temperatures) in one file.  CSV files may
+start with ``# key = <json>`` lines (the export's header: rig, condition, summary);
+Parquet files carry the same header as JSON in their key-value metadata under
+``hydrodiag``.
+
+Every value is converted to SI on reading (:mod:`sim.units`; temperatures stay in °C, the
+project's unit for oil temperature, and kelvin is converted to it).  Validation names the
+column: an unknown or wrong unit, a missing required channel, a NaN or infinite value, a
+time that does not increase within a record, a record with fewer than two samples.
+
+Condition channels — ``load [N]``, ``back_pressure [Pa]``, ``oil_temperature [degC]``,
+``pump_speed [rad/s]`` — that are constant within a record become the record's
+:attr:`SeriesRecord.condition`; the export's ``# condition = {...}`` header line does the
+same for a single-record file.  A varying temperature stays a channel as well.
+
+A *column map* adapts other tables (a data logger's, a public data set's): raw column →
+``(channel, unit)``, e.g. ``{"PS1": ("P_pump", "bar")}``; mapped columns need no unit in
+their names.  :func:`read_series` is the entry point; :meth:`SeriesRecord.frame` writes a
+record back in the same format.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import math
+import re
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+import pandas as pd
+
+from sim.errors import InputError
+from sim.units import UNITS
+
+__all__ = [
+    "CONDITION_CHANNELS",
+    "PARQUET_METADATA_KEY",
+    "SeriesRecord",
+    "read_series",
+    "series_from_frame",
+    "si_factor",
+]
+
+Arr = npt.NDArray[np.float64]
+
+#: Key of the JSON header in a Parquet file's metadata (as ``/simulate`` writes it).
+PARQUET_METADATA_KEY = "hydrodiag"
+
+#: Condition channels and their SI unit (°C for temperature, as everywhere in hydrodiag).
+CONDITION_CHANNELS: dict[str, str] = {
+    "load": "N", "back_pressure": "Pa", "oil_temperature": "degC", "pump_speed": "rad/s",
+}
+
+_COLUMN = re.compile(r"^\s*(.+?)\s*\[(.*)\]\s*$")
+_META = re.compile(r"^#\s*([A-Za-z_][A-Za-z0-9_]*)\s*=\s*(.*)$")
+#: columns that are labels, not channels
+_LABELS = ("phase", "record")
+
+
+def si_factor(unit: str, *, column: str, expected: str | None = None) -> tuple[str, float, float]:
+    """``(canonical unit, scale, offset)`` taking a value in ``unit`` to SI.
+
+    ``si = value·scale + offset``.  With ``expected`` the unit must be of that dimension.
+
+    Raises
+    ------
+    InputError
+        ``unit`` is unknown, or not of the ``expected`` dimension (``field=column``).
+    """
+    u = unit.strip()
+    if u == "K" and expected in (None, "degC"):
+        return "degC", 1.0, -273.15
+    candidates = [expected] if expected is not None else list(UNITS)
+    for canonical in candidates:
+        table = UNITS.get(canonical, {})
+        if u in table:
+            return canonical, table[u], 0.0
+    if expected is not None:
+        accepted = ", ".join(sorted(UNITS.get(expected, {expected: 1.0})))
+        raise InputError(f"unit {u!r} is not a unit of this channel (expected {expected}; "
+                         f"accepted: {accepted})", field=column)
+    raise InputError(f"unknown unit {u!r}; write the unit in brackets, e.g. 'P1 [bar]', "
+                     f"in one of: {', '.join(sorted({k for t in UNITS.values() for k in t}))}",
+                     field=column)
+
+
+@dataclass(frozen=True, eq=False)
+class SeriesRecord:
+    """One measured record: channels sampled at increasing times.
+
+    Attributes
+    ----------
+    name
+        Record identifier (the ``record`` column's value, or the source's name).
+    t
+        Sample times [s], strictly increasing.
+    channels
+        Channel name → values [SI unit of :attr:`units`].
+    units
+        Channel name → SI unit (``"Pa"``, ``"m^3/s"``, ``"degC"`` ...).
+    phase
+        Phase label per sample (``"working"``, ``"return"``), or ``None``.
+    condition
+        Operating condition constant over the record: ``load`` [N], ``back_pressure`` [Pa],
+        ``oil_temperature`` [°C], ``pump_speed`` [rad/s] — those that are known.
+    metadata
+        The file's header entries (rig, fault, summary ...) as parsed JSON.
+    measured
+        True for data read from a file (the default); generated data sets it False.
+    """
+
+    name: str
+    t: Arr
+    channels: dict[str, Arr]
+    units: dict[str, str]
+    phase: npt.NDArray[np.str_] | None = None
+    condition: dict[str, float] = field(default_factory=dict)
+    metadata: dict[str, Any] = field(default_factory=dict)
+    measured: bool = True
+
+    def __len__(self) -> int:
+        return int(self.t.size)
+
+    @property
+    def sample_rate(self) -> float | None:
+        """Samples per second [Hz] when the sampling is uniform (steps within 1 %), else None."""
+        dt = np.diff(self.t)
+        if dt.size == 0:
+            return None
+        med = float(np.median(dt))
+        if med <= 0 or float(np.max(np.abs(dt - med))) > 0.01 * med:
+            return None
+        return 1.0 / med
+
+    @property
+    def duration(self) -> float:
+        """Time from the first to the last sample [s]."""
+        return float(self.t[-1] - self.t[0])
+
+    def channel(self, name: str) -> Arr:
+        """Values of channel ``name`` [SI]; :class:`InputError` naming it when absent."""
+        if name not in self.channels:
+            raise InputError(f"record {self.name!r} has no channel {name!r} (has: "
+                             f"{', '.join(self.channels) or 'none'})", field=name)
+        return self.channels[name]
+
+    def window(self, start: float, stop: float) -> SeriesRecord:
+        """The samples with ``start ≤ t ≤ stop`` [s], as a new record."""
+        sel = (self.t >= start) & (self.t <= stop)
+        return SeriesRecord(self.name, self.t[sel], {k: v[sel] for k, v in self.channels.items()},
+                            dict(self.units), None if self.phase is None else self.phase[sel],
+                            dict(self.condition), dict(self.metadata), self.measured)
+
+    def frame(self) -> pd.DataFrame:
+        """The record as a table in the import format (units in the column names)."""
+        data: dict[str, Any] = {"t [s]": self.t}
+        if self.phase is not None:
+            data["phase"] = self.phase
+        for k, v in self.channels.items():
+            data[f"{k} [{self.units[k]}]"] = v
+        return pd.DataFrame(data)
+
+
+def _header_lines(text: str) -> tuple[dict[str, Any], int]:
+    meta: dict[str, Any] = {}
+    skipped = 0
+    for line in text.splitlines():
+        if not line.startswith("#"):
+            break
+        skipped += 1
+        m = _META.match(line)
+        if m is not None:
+            try:
+                meta[m.group(1)] = json.loads(m.group(2))
+            except json.JSONDecodeError:
+                meta[m.group(1)] = m.group(2).strip()
+    return meta, skipped
+
+
+def _read_frame(source: str | Path | bytes | pd.DataFrame, fmt: str | None
+                ) -> tuple[pd.DataFrame, dict[str, Any], str]:
+    if isinstance(source, pd.DataFrame):
+        return source, {}, "table"
+    name = "upload"
+    if isinstance(source, str | Path):
+        path = Path(source)
+        name = path.name
+        fmt = fmt or ("parquet" if path.suffix.lower() in (".parquet", ".pq") else "csv")
+        try:
+            raw = path.read_bytes()
+        except OSError as exc:
+            raise InputError(f"cannot read {path}: {exc.strerror}", field="file") from None
+    else:
+        raw = bytes(source)
+        fmt = fmt or ("parquet" if raw[:4] == b"PAR1" else "csv")
+    if fmt == "parquet":
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+
+        try:
+            table = pq.read_table(io.BytesIO(raw))
+        except (pa.ArrowException, OSError) as exc:
+            raise InputError(f"not a readable Parquet file: {exc}", field="file") from None
+        meta: dict[str, Any] = {}
+        blob = (table.schema.metadata or {}).get(PARQUET_METADATA_KEY.encode())
+        if blob is not None:
+            try:
+                meta = dict(json.loads(blob.decode("utf-8")))
+            except (ValueError, UnicodeDecodeError):
+                meta = {}
+        return table.to_pandas(), meta, name
+    if fmt != "csv":
+        raise InputError(f"unknown format {fmt!r} (csv or parquet)", field="format")
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        raise InputError("the CSV file is not UTF-8 text", field="file") from None
+    meta, skip = _header_lines(text)
+    try:
+        frame = pd.read_csv(io.StringIO(text), skiprows=skip, comment=None)
+    except (pd.errors.ParserError, pd.errors.EmptyDataError) as exc:
+        raise InputError(f"not a readable CSV table: {exc}", field="file") from None
+    return frame, meta, name
+
+
+def _record_groups(frame: pd.DataFrame) -> list[tuple[str, pd.DataFrame]]:
+    if "record" not in frame.columns:
+        return [("", frame)]
+    if frame["record"].isna().any():
+        raise InputError("the record column has empty cells", field="record")
+    return [(str(k), g) for k, g in frame.groupby("record", sort=False)]
+
+
+def series_from_frame(frame: pd.DataFrame, *, name: str = "table",
+                      column_map: Mapping[str, tuple[str, str]] | None = None,
+                      expected: Mapping[str, str] | None = None,
+                      required: Sequence[str] = (), metadata: Mapping[str, Any] | None = None,
+                      measured: bool = True) -> list[SeriesRecord]:
+    """Records of a table in the import format (module docstring).
+
+    Parameters
+    ----------
+    frame
+        The table.
+    name
+        Name of the source, used for a single record without a ``record`` column.
+    column_map
+        Raw column → ``(channel, unit)`` for columns without units in their names.
+    expected
+        Channel → SI unit it must have (a rig's outputs); other channels take the SI unit
+        of whatever unit they are written in.
+    required
+        Channels every record must have.
+    metadata
+        Header entries of the source; ``condition`` there fills the records' conditions.
+    measured
+        Whether the data are measured (True) or generated.
+
+    Raises
+    ------
+    InputError
+        Naming the column: no time column, unknown or wrong unit, NaN or infinity,
+        non-increasing time, a required channel missing, a record of < 2 samples.
+    """
+    cmap = dict(column_map or {})
+    exp = dict(CONDITION_CHANNELS, **(expected or {}))
+    meta = dict(metadata or {})
+    columns: dict[str, tuple[str, str, float, float]] = {}  # raw → (channel, unit, scale, offset)
+    for col in frame.columns:
+        raw = str(col)
+        if raw in _LABELS:
+            continue
+        if raw in cmap:
+            chan, unit = cmap[raw]
+        else:
+            m = _COLUMN.match(raw)
+            if m is None:
+                raise InputError("a column needs its unit in brackets ('P1 [bar]') or an "
+                                 "entry in the column map", field=raw)
+            chan, unit = m.group(1), m.group(2)
+        canonical, scale, offset = si_factor(unit, column=raw, expected=exp.get(chan))
+        if chan in (c[0] for c in columns.values()):
+            raise InputError(f"channel {chan!r} appears twice", field=raw)
+        columns[raw] = (chan, canonical, scale, offset)
+    time_col = next((raw for raw, c in columns.items() if c[0] == "t"), None)
+    if time_col is None:
+        raise InputError("no time column: name it 't [s]' (or map one to 't')", field="t")
+    if columns[time_col][1] != "s":
+        raise InputError("the time column must be in a unit of time (s, ms, min, h)",
+                         field=time_col)
+    for chan in required:
+        if chan not in (c[0] for c in columns.values()):
+            raise InputError(f"required channel {chan!r} is missing", field=chan)
+    found = meta.get("condition")
+    header_condition: dict[str, Any] = dict(found) if isinstance(found, dict) else {}
+    records: list[SeriesRecord] = []
+    groups = _record_groups(frame)
+    for key, group in groups:
+        label = key or name
+        values: dict[str, Arr] = {}
+        for raw, (chan, _, scale, offset) in columns.items():
+            try:
+                data = pd.to_numeric(group[raw], errors="raise").to_numpy(dtype=float)
+            except (ValueError, TypeError):
+                raise InputError("a value is not a number", field=raw) from None
+            bad = ~np.isfinite(data)
+            if bad.any():
+                row = int(np.argmax(bad))
+                raise InputError(f"NaN or infinite value in record {label!r} at row {row}",
+                                 field=raw)
+            values[chan] = data * scale + offset
+        t = values.pop("t")
+        if t.size < 2:
+            raise InputError(f"record {label!r} has fewer than two samples", field=time_col)
+        steps = np.diff(t)
+        if np.any(steps <= 0):
+            row = int(np.argmax(steps <= 0)) + 1
+            raise InputError(f"time does not increase in record {label!r} at row {row} "
+                             "(separate records with a 'record' column)", field=time_col)
+        phase: npt.NDArray[np.str_] | None = None
+        if "phase" in group.columns:
+            if group["phase"].isna().any():
+                raise InputError(f"empty phase label in record {label!r}", field="phase")
+            phase = group["phase"].astype(str).to_numpy().astype(np.str_)
+        condition: dict[str, float] = {}
+        if len(groups) == 1:
+            condition.update({k: float(v) for k, v in header_condition.items()
+                              if k in CONDITION_CHANNELS and isinstance(v, int | float)
+                              and math.isfinite(float(v))})
+        units = {columns_chan: columns_unit for columns_chan, columns_unit, _, _
+                 in columns.values() if columns_chan != "t"}
+        for chan in CONDITION_CHANNELS:
+            if chan in values:
+                v = values[chan]
+                if float(np.ptp(v)) <= 1e-9 * max(1.0, float(np.max(np.abs(v)))):
+                    condition[chan] = float(v[0])
+                    if chan != "oil_temperature":
+                        del values[chan]
+                        del units[chan]
+        records.append(SeriesRecord(label, t, values, units, phase, condition, meta, measured))
+    return records
+
+
+def read_series(source: str | Path | bytes | pd.DataFrame, *, format: str | None = None,
+                column_map: Mapping[str, tuple[str, str]] | None = None,
+                expected: Mapping[str, str] | None = None, required: Sequence[str] = (),
+                measured: bool = True) -> list[SeriesRecord]:
+    """Read measured time series from a CSV or Parquet file (path or bytes) or a table.
+
+    See the module docstring for the format and :func:`series_from_frame` for the options.
+    ``format`` (``"csv"``/``"parquet"``) is taken from the file suffix or the bytes when
+    not given.
+
+    Raises
+    ------
+    InputError
+        The file cannot be read, or a column is invalid (the error names it).
+    """
+    frame, meta, name = _read_frame(source, format)
+    if frame.empty:
+        raise InputError("the table has no rows", field="file")
+    return series_from_frame(frame, name=name, column_map=column_map, expected=expected,
+                             required=required, metadata=meta, measured=measured)

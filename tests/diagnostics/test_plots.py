@@ -1,0 +1,43 @@
+"""The plotting module: charts render to CSP-safe SVG that carries its data, and to PNG."""
+
+from __future__ import annotations
+
+import re
+import xml.etree.ElementTree as ET
+
+import numpy as np
+
+from diagnostics.plots import Bar, Series, bar_chart, line_chart, render_png, render_svg
+
+
+def _chart():
+    t = np.linspace(0.0, 2.0, 200)
+    v = 0.18 * (1 - np.exp(-t / 0.05))
+    return line_chart("Piston speed", "t [s]", "v [m/s]", [
+        Series(t, v, "measured", kind="points"),
+        Series(t, v * 1.01, "model", dashed=True, low=v * 0.99, high=v * 1.03),
+    ], hlines=[(0.18, "nominal")])
+
+
+def test_svg_is_csp_safe_and_carries_the_data():
+    svg = render_svg(_chart())
+    root = ET.fromstring(svg)  # well-formed XML
+    assert root.attrib["class"] == "hd-plot"
+    assert root.attrib["data-points"] == "400"
+    assert root.attrib["aria-label"] == "Piston speed"
+    assert " style=" not in svg and "<style" not in svg  # nothing a strict CSP would block
+    assert "<script" not in svg
+    # the line is a path through all 200 points, its colour an attribute
+    paths = [e for e in root.iter() if e.tag.endswith("path") and len(e.attrib.get("d", "")) > 1000]
+    assert paths, "the data series is drawn"
+    assert re.search(r'stroke="#d55e00"', svg, re.I)
+    assert "t [s]" in svg and "v [m/s]" in svg  # axis labels stay text
+
+
+def test_bars_and_png():
+    chart = bar_chart("Hypotheses", "probability [-]", [
+        Bar("valve", 0.81, 0.7, 0.9), Bar("pump", 0.12), Bar("healthy", 0.07)])
+    svg = render_svg(chart)
+    assert 'data-points="3"' in svg and "valve" in svg
+    png = render_png(chart)
+    assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 2000
