@@ -117,6 +117,8 @@ class Chart:
     logy: bool = False
     size: tuple[float, float] = (7.0, 3.2)
     notes: tuple[str, ...] = field(default=())
+    #: labels of the x positions 0, 1, 2, ... (categories on an x-y chart)
+    xticks: tuple[str, ...] = ()
 
     @property
     def points(self) -> int:
@@ -126,10 +128,11 @@ class Chart:
 
 def line_chart(title: str, xlabel: str, ylabel: str, series: Sequence[Series], *,
                hlines: Sequence[tuple[float, str]] = (), vlines: Sequence[tuple[float, str]] = (),
-               logy: bool = False, size: tuple[float, float] = (7.0, 3.2)) -> Chart:
-    """An x-y chart of ``series`` (see :class:`Chart`)."""
+               logy: bool = False, size: tuple[float, float] = (7.0, 3.2),
+               xticks: Sequence[str] = ()) -> Chart:
+    """An x-y chart of ``series`` (see :class:`Chart`); ``xticks`` name x = 0, 1, 2, ..."""
     return Chart(title, xlabel, ylabel, tuple(series), (), False, tuple(hlines), tuple(vlines),
-                 logy, size)
+                 logy, size, xticks=tuple(xticks))
 
 
 def bar_chart(title: str, label: str, bars: Sequence[Bar], *, horizontal: bool = True,
@@ -194,6 +197,8 @@ def _figure(chart: Chart) -> Any:
         ax.axhline(pos_y, color="#555555", ls=":", lw=1.1, label=text or None)
     for pos_x, text in chart.vlines:
         ax.axvline(pos_x, color="#555555", ls=":", lw=1.1, label=text or None)
+    if chart.xticks:
+        ax.set_xticks(np.arange(len(chart.xticks)), chart.xticks, rotation=20, fontsize=8)
     if chart.logy:
         ax.set_yscale("log")
     ax.set_title(chart.title, fontsize=11)
