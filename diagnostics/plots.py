@@ -27,7 +27,8 @@ from typing import Any, Literal
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["Bar", "Chart", "Series", "bar_chart", "line_chart", "render_png", "render_svg"]
+__all__ = ["Bar", "Chart", "Series", "bar_chart", "line_chart", "render_png", "render_png_stack",
+           "render_svg"]
 
 Arr = npt.NDArray[np.float64]
 
@@ -254,4 +255,19 @@ def render_png(chart: Chart, *, dpi: int = 110) -> bytes:
         buf = io.BytesIO()
         fig.savefig(buf, format="png", dpi=dpi)
         plt.close(fig)
+    return buf.getvalue()
+
+
+def render_png_stack(charts: Sequence[Chart], *, dpi: int = 110) -> bytes:
+    """Several charts as one PNG image, one below the other (a report as a single file)."""
+    if not charts:
+        raise ValueError("no chart to render")
+    import matplotlib.image as mpimg
+
+    images = [mpimg.imread(io.BytesIO(render_png(c, dpi=dpi)), format="png") for c in charts]
+    width = max(im.shape[1] for im in images)
+    padded = [np.pad(im, ((0, 0), (0, width - im.shape[1]), (0, 0)), constant_values=1.0)
+              for im in images]
+    buf = io.BytesIO()
+    mpimg.imsave(buf, np.vstack(padded), format="png")
     return buf.getvalue()

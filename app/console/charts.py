@@ -88,31 +88,35 @@ def reading_chart(result: Mapping[str, Any], measured: Mapping[str, tuple[float,
 
 
 def estimate_charts(result: Mapping[str, Any]) -> list[Chart]:
-    """Each component estimate with its 95 % interval against nominal and severity bands.
+    """Component estimates with their 95 % intervals against nominal and severity bands.
 
-    One bar chart per estimated quantity, in multiples of the nominal value [1] (a clearance
-    c/c₀, the leakage growing as its cube), the severity bands of
-    :data:`diagnostics.ranking.SEVERITY_BANDS` as reference lines.
+    Clearances in multiples of their nominal value [1] in one chart (c/c₀; the laminar
+    leakage grows as its cube), the severity bands of :data:`SEVERITY_BANDS` as dotted
+    lines; a quantity without a nominal value (the pump's slip coefficient) in its own unit.
     """
-    charts = []
     nominal = _nominals(result)
+    relative: list[Bar] = []
+    charts = []
     for component, e in (result.get("estimates") or {}).items():
         value, low, high = e.get("value"), e.get("low"), e.get("high")
-        c0 = nominal.get(e.get("quantity"))
         if value is None or low is None or high is None:
             continue
+        c0 = nominal.get(e.get("quantity"))
+        label = f"{component} {e['quantity']}"
         if c0:
-            bars = [Bar(f"{component} {e['quantity']}", value / c0, low / c0, high / c0,
-                        color=_SEVERITY_COLOURS.get(_band(value / c0), "#0072B2"))]
-            reference = [(1.0, "nominal")] + [(m, f"{name} from ×{m:.2f}")
-                                              for name, m in SEVERITY_BANDS]
-            charts.append(bar_chart(f"{component}: {e['quantity']} / nominal (95 % interval)",
-                                    f"{e['quantity']} / nominal [1]", bars,
-                                    reference=reference))
+            relative.append(Bar(label, value / c0, low / c0, high / c0,
+                                color=_SEVERITY_COLOURS.get(_band(value / c0), "#0072B2")))
         else:
-            bars = [Bar(f"{component} {e['quantity']}", value, low, high)]
             charts.append(bar_chart(f"{component}: {e['quantity']} (95 % interval)",
-                                    f"{e['quantity']} [{e.get('unit', '')}]", bars))
+                                    f"{e['quantity']} [{e.get('unit', '')}]",
+                                    [Bar(label, value, low, high)]))
+    if relative:
+        bands = ", ".join(f"{name} ×{m:.2f}" for name, m in SEVERITY_BANDS)
+        chart = bar_chart("Estimates / nominal (95 % intervals)",
+                          f"estimate / nominal [1]   (dotted: nominal ×1, {bands})", relative,
+                          reference=[(1.0, "")] + [(m, "") for _, m in SEVERITY_BANDS],
+                          size=(7.0, 1.4 + 0.45 * len(relative)))
+        charts.insert(0, chart)
     return charts
 
 
