@@ -148,13 +148,19 @@ def trend_chart(trend: ComponentTrendOut) -> Chart:
     high = np.array([p.high if p.high is not None else p.value for p in pts])
     series = [Series(days, y, "estimate (95 %)", kind="errorbars", low=low, high=high)]
     if trend.slope is not None and len(pts) >= 2:
-        # the line through the median point with the Theil-Sen slope, band by the slope's
-        xm, ym = float(np.median(days)), float(np.median(y))
-        span = np.linspace(0.0, float(days.max()), 50)
+        # Theil-Sen line: the slope with the intercept median(y - slope·t); its band pivots
+        # on the middle of the data with the slope's 95 % interval
         per_day = 86400.0
-        line = ym + trend.slope * per_day * (span - xm)
-        lo = ym + (trend.slope_low or trend.slope) * per_day * (span - xm)
-        hi = ym + (trend.slope_high or trend.slope) * per_day * (span - xm)
+        slope = trend.slope * per_day
+        intercept = float(np.median(y - slope * days))
+        xm = float(np.median(days))
+        span = np.linspace(0.0, float(days.max()), 50)
+        line = intercept + slope * span
+        at_xm = intercept + slope * xm
+        lo = at_xm + (trend.slope_low if trend.slope_low is not None else trend.slope) \
+            * per_day * (span - xm)
+        hi = at_xm + (trend.slope_high if trend.slope_high is not None else trend.slope) \
+            * per_day * (span - xm)
         series.append(Series(span, line, "Theil–Sen", low=np.minimum(lo, hi),
                              high=np.maximum(lo, hi), dashed=True))
     return line_chart(f"{trend.component}: {trend.quantity} over time",
