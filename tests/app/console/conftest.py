@@ -5,8 +5,19 @@ from __future__ import annotations
 from collections.abc import Iterator
 from typing import Any
 
+from pathlib import Path
+
 import httpx
 import pytest
+
+from diagnostics.pump import (
+    InstrumentNoise,
+    default_levels,
+    iso4409_grid,
+    run_virtual_bench,
+    write_bench_csv,
+)
+from sim.components.gear_pump_map import stand_in_pump
 
 from tests.app.conftest import simulated_record
 from tests.app.live import LiveServer, live_server, sqlite_settings
@@ -28,6 +39,19 @@ def seed_history(server: LiveServer) -> list[dict[str, Any]]:
     return stored
 
 
+def seed_pump_set(server: LiveServer, folder: Path) -> dict[str, Any]:
+    """Parameterise a pump from a virtual ISO 4409 bench run (SIMULATED data) via the API."""
+    dp, w = iso4409_grid(*default_levels())
+    data = run_virtual_bench(stand_in_pump(), dp, w, (22.0, 60.0), noise=InstrumentNoise.none())
+    write_bench_csv(data, folder / "bench.csv")
+    response = server.client.post(
+        "/pump-sets/bench", data={"name": "bench-gear", "pump": "external gear pump"},
+        files={"file": ("bench.csv", (folder / "bench.csv").read_bytes(), "text/csv")},
+        headers=server.auth)
+    assert response.status_code == 201, response.text
+    return dict(response.json())
+
+
 def login(server: LiveServer, client: httpx.Client | None = None) -> httpx.Client:
     """A client of ``server`` logged in to the console through its form."""
     client = client or httpx.Client(base_url=server.base_url, timeout=60.0)
@@ -42,6 +66,7 @@ def console_server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[LiveSer
     """A live service on a fresh store with :data:`WEAR_SERIES_M` diagnosed."""
     with live_server(sqlite_settings(tmp_path_factory.mktemp("console-store"))) as live:
         live.seeded = seed_history(live)  # type: ignore[attr-defined]
+        seed_pump_set(live, tmp_path_factory.mktemp("bench"))
         yield live
 
 

@@ -45,7 +45,7 @@ PAGES = {
     "/console/history": ("history", 0),
     "/console/trends?rig=1": ("trends", 2),
     "/console/simulate?run=true&fault=worn_spool&load=2100": ("simulate", 4),
-    "/console/pumps": ("pumps", 0),
+    "/console/pumps": ("pumps", 2),
 }
 
 

@@ -88,7 +88,8 @@ def test_a_forged_or_revoked_login_is_refused(console_server: LiveServer) -> Non
 def test_every_page_renders_with_its_plots_and_the_policy(
         console_server: LiveServer, browser_client: httpx.Client) -> None:
     expect_plots = {"/console/rigs/1": 1, "/console/trends?rig=1": 2,
-                    "/console/simulate?run=true&fault=worn_spool&load=2100": 4}
+                    "/console/simulate?run=true&fault=worn_spool&load=2100": 4,
+                    "/console/pumps": 2}
     for url in PAGES:
         response = browser_client.get(url)
         assert response.status_code == 200, (url, response.text[-500:])
