@@ -3,9 +3,8 @@
 from __future__ import annotations
 
 from collections.abc import Iterator
-from typing import Any
-
 from pathlib import Path
+from typing import Any
 
 import httpx
 import pytest
@@ -18,7 +17,6 @@ from diagnostics.pump import (
     write_bench_csv,
 )
 from sim.components.gear_pump_map import stand_in_pump
-
 from tests.app.conftest import simulated_record
 from tests.app.live import LiveServer, live_server, sqlite_settings
 
