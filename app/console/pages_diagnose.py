@@ -11,7 +11,7 @@ from typing import Annotated, Any
 import pandas as pd
 import yaml
 from fastapi import File, Form, Path, Query, Request, Response, UploadFile
-from pydantic import AwareDatetime, ValidationError
+from pydantic import AwareDatetime, TypeAdapter, ValidationError
 
 from app.api.deps import RigsDep, SessionDep
 from app.console.routing import ConsoleKeyDep, new_router
@@ -139,34 +139,59 @@ def diagnose(request: Request, session: SessionDep, rigs: RigsDep, _key: Console
 def diagnosis(request: Request, session: SessionDep, _key: ConsoleKeyDep,
               diagnosis_id: Annotated[int, Path(ge=1)]) -> Response:
     """One stored diagnosis: probabilities, readings, estimates, what cannot be separated."""
-    return page(request, "diagnosis.html", view=diagnosis_view(session, diagnosis_id),
-                standalone=False)
+    return page(request, "diagnosis.html", view=diagnosis_view(session, diagnosis_id))
 
 
 def _stamp(value: datetime | None) -> str:
     return "" if value is None else value.isoformat()
 
 
+_TIME = TypeAdapter(AwareDatetime)
+
+
+def _time(text: str, field: str) -> datetime | None:
+    """A filter's time: blank for none, else ISO 8601 with its zone."""
+    if not text.strip():
+        return None
+    try:
+        return _TIME.validate_python(text.strip())
+    except ValidationError:
+        raise InputError("give the time as ISO 8601 with its zone, e.g. 2026-01-01T00:00:00Z",
+                         field=field) from None
+
+
+def _rig(text: str) -> int | None:
+    """A filter's rig id: blank for all."""
+    if not text.strip():
+        return None
+    if not text.strip().isdigit() or int(text) < 1:
+        raise InputError("the rig id must be a whole number ≥ 1", field="rig")
+    return int(text)
+
+
 @router.get("/history")
 def history(request: Request, session: SessionDep, _key: ConsoleKeyDep,
-            rig: Annotated[int | None, Query(ge=1)] = None,
-            since: Annotated[AwareDatetime | None, Query()] = None,
-            until: Annotated[AwareDatetime | None, Query()] = None,
+            rig: Annotated[str, Query(max_length=20)] = "",
+            since: Annotated[str, Query(max_length=64)] = "",
+            until: Annotated[str, Query(max_length=64)] = "",
             page_number: Annotated[int, Query(alias="page", ge=1)] = 1) -> Response:
-    """Every stored diagnosis, newest first, filtered by rig and time, paginated."""
-    found = history_page(session, rig_id=rig, since=since, until=until, page=page_number)
+    """Every stored diagnosis, newest first, filtered by rig and time (blank: any), paginated."""
+    rig_id, start, end = _rig(rig), _time(since, "since"), _time(until, "until")
+    found = history_page(session, rig_id=rig_id, since=start, until=end, page=page_number)
     rows, _ = rig_service.list_rigs(session, limit=500, offset=0)
-    query = {"rig": "" if rig is None else rig, "since": _stamp(since), "until": _stamp(until)}
+    query = {"rig": "" if rig_id is None else rig_id, "since": _stamp(start),
+             "until": _stamp(end)}
     return page(request, "history.html", found=found, rigs=rows, query=query)
 
 
 @router.get("/trends")
 def trends(request: Request, session: SessionDep, rigs: RigsDep, _key: ConsoleKeyDep,
            rig: Annotated[int, Query(ge=1)] = 1,
-           since: Annotated[AwareDatetime | None, Query()] = None,
-           until: Annotated[AwareDatetime | None, Query()] = None) -> Response:
+           since: Annotated[str, Query(max_length=64)] = "",
+           until: Annotated[str, Query(max_length=64)] = "") -> Response:
     """Per component: estimates over time, Theil–Sen line and band, threshold, time left."""
-    views = trend_views(session, rigs, rig, since=since, until=until)
+    start, end = _time(since, "since"), _time(until, "until")
+    views = trend_views(session, rigs, rig, since=start, until=end)
     rows, _ = rig_service.list_rigs(session, limit=500, offset=0)
     return page(request, "trends.html", views=views, rigs=rows, rig_id=rig,
-                query={"since": _stamp(since), "until": _stamp(until)}, standalone=False)
+                query={"since": _stamp(start), "until": _stamp(end)})

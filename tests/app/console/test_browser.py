@@ -134,7 +134,10 @@ def test_a_diagnosis_from_the_form_reaches_history_and_trends(
     assert len(_plots(page)) >= 3 and min(_plots(page)) > 0
     assert page.problems == [], page.problems
     page.screenshot(path=str(shots / "console-diagnosis.png"), full_page=True)
-    page.goto(f"{console_server.base_url}/console/history?rig=1")
+    page.goto(f"{console_server.base_url}/console/history")
+    page.select_option("#rig", "1")  # the filter form, its time fields left blank
+    page.click("form.filters button[type=submit]")
+    page.wait_for_url("**/console/history?rig=1*")
     page.click(f"a[href='/console/diagnoses/{diagnosis_id}']")
     page.wait_for_url(f"**/console/diagnoses/{diagnosis_id}")
     assert _trend_points(console_server, page) == trend_points_before + 1

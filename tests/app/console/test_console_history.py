@@ -75,6 +75,9 @@ def test_the_history_filters_by_time_and_rig(full: tuple[LiveServer, httpx.Clien
     assert "(37 diagnoses)" in html
     assert 'value="2025-01-01T06:00:00+00:00"' in html  # the filter is kept on the page
     assert "(0 diagnoses)" in client.get("/console/history?rig=2").text
+    # the filter form sends blank fields for "any": the whole history
+    assert f"({N} diagnoses)" in client.get("/console/history?rig=&since=&until=").text
+    assert client.get("/console/trends?rig=1&since=&until=").status_code == 200
     bad = client.get("/console/history?since=yesterday")
     assert bad.status_code == 422 and 'data-field="since"' in bad.text
     reversed_ = client.get("/console/history?since=2025-02-01T00:00:00Z"
