@@ -124,24 +124,27 @@ def run() -> dict[str, Any]:
             baseline = _median_ms(client, "/health")
             pages = {name: _median_ms(client, url.format(last=last, last_page=last_page))
                      for name, url in PAGES.items()}
-    worst = max(pages, key=lambda k: pages[k])
+    console = {k: v for k, v in pages.items() if not k.startswith("(")}
+    worst = max(console, key=lambda k: console[k])
     return {
         "benchmark": "console_render", "light": LIGHT, "diagnoses": N_DIAGNOSES,
         "repeats": REPEATS, "fill_s": round(fill_s, 2), "baseline_health_ms": round(baseline, 2),
         "pages_ms": {k: round(v, 1) for k, v in pages.items()},
         "pages_ratio_to_health": {k: round(v / baseline, 1) for k, v in pages.items()},
         "worst_page": worst, "worst_ms": round(pages[worst], 1), "target_ms": TARGET_MS,
-        "all_within_target": all(v <= TARGET_MS for v in pages.values()),
+        "all_within_target": all(v <= TARGET_MS for v in console.values()),
+        "pages_over_target": sorted(k for k, v in console.items() if v > TARGET_MS),
     }
 
 
 def _table(result: dict[str, Any]) -> str:
     lines = [f"console render time, {result['diagnoses']} diagnoses of rig 1, median of "
              f"{result['repeats']} (baseline GET /health {result['baseline_health_ms']} ms)",
-             f"{'page':<20}{'ms':>10}{'× /health':>12}{'≤ 300 ms':>10}"]
+             f"{'page':<22}{'ms':>10}{'× /health':>12}{'≤ 300 ms':>10}"]
     for name, ms in result["pages_ms"].items():
         ratio = result["pages_ratio_to_health"][name]
-        lines.append(f"{name:<20}{ms:>10.1f}{ratio:>12.1f}{'yes' if ms <= TARGET_MS else 'NO':>10}")
+        verdict = "" if name.startswith("(") else "yes" if ms <= TARGET_MS else "NO"
+        lines.append(f"{name:<22}{ms:>10.1f}{ratio:>12.1f}{verdict:>10}")
     return "\n".join(lines)
 
 
