@@ -62,6 +62,9 @@ def test_pages_need_a_login_and_send_the_key_nowhere_but_the_form(
         evil = anonymous.post("/console/login", data={"api_key": console_server.key,
                                                       "next": "//evil.example/x"})
         assert evil.headers["location"] == "/console/rigs"
+        out = anonymous.post("/console/logout")
+        assert out.status_code == 303 and COOKIE not in anonymous.cookies
+        assert anonymous.get("/console/rigs").status_code == 303
 
 
 def test_a_forged_or_revoked_login_is_refused(console_server: LiveServer) -> None:
