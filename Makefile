@@ -5,7 +5,7 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed-stamp
 export HYDRODIAG_CACHE_DIR ?= $(CURDIR)/.hydrodiag-cache
 
-.PHONY: run test lint bench accuracy pump-study load-bench clean
+.PHONY: run test lint bench accuracy pump-study load-bench console-bench screenshots clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -37,3 +37,10 @@ pump-study: $(STAMP)
 
 load-bench: $(STAMP)
 	$(PY) -m benchmarks.load_bench
+
+console-bench: $(STAMP)
+	$(PY) -m benchmarks.console_bench
+
+# screenshots of every console page, taken by the browser tests in a real Chromium
+screenshots: $(STAMP)
+	HYDRODIAG_SCREENSHOTS=$(CURDIR)/docs/img $(PY) -m pytest -q -rs tests/app/console/test_browser.py

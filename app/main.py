@@ -15,6 +15,7 @@ from fastapi import FastAPI
 
 from app import __version__
 from app.api.router import api_router
+from app.console import router as console_router
 from app.db.engine import make_engine, make_session_factory
 from app.errors import install_error_handlers
 from app.metrics import HttpMetrics, MetricsMiddleware
@@ -102,6 +103,7 @@ def create_app(
     app.add_middleware(MetricsMiddleware, metrics=app.state.metrics)
     install_error_handlers(app)
     app.include_router(api_router)
+    app.include_router(console_router)
     return app
 
 

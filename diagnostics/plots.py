@@ -27,7 +27,8 @@ from typing import Any, Literal
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["Bar", "Chart", "Series", "bar_chart", "line_chart", "render_png", "render_svg"]
+__all__ = ["Bar", "Chart", "Series", "bar_chart", "line_chart", "render_png", "render_png_stack",
+           "render_svg"]
 
 Arr = npt.NDArray[np.float64]
 
@@ -117,6 +118,8 @@ class Chart:
     logy: bool = False
     size: tuple[float, float] = (7.0, 3.2)
     notes: tuple[str, ...] = field(default=())
+    #: labels of the x positions 0, 1, 2, ... (categories on an x-y chart)
+    xticks: tuple[str, ...] = ()
 
     @property
     def points(self) -> int:
@@ -126,10 +129,11 @@ class Chart:
 
 def line_chart(title: str, xlabel: str, ylabel: str, series: Sequence[Series], *,
                hlines: Sequence[tuple[float, str]] = (), vlines: Sequence[tuple[float, str]] = (),
-               logy: bool = False, size: tuple[float, float] = (7.0, 3.2)) -> Chart:
-    """An x-y chart of ``series`` (see :class:`Chart`)."""
+               logy: bool = False, size: tuple[float, float] = (7.0, 3.2),
+               xticks: Sequence[str] = ()) -> Chart:
+    """An x-y chart of ``series`` (see :class:`Chart`); ``xticks`` name x = 0, 1, 2, ..."""
     return Chart(title, xlabel, ylabel, tuple(series), (), False, tuple(hlines), tuple(vlines),
-                 logy, size)
+                 logy, size, xticks=tuple(xticks))
 
 
 def bar_chart(title: str, label: str, bars: Sequence[Bar], *, horizontal: bool = True,
@@ -194,6 +198,8 @@ def _figure(chart: Chart) -> Any:
         ax.axhline(pos_y, color="#555555", ls=":", lw=1.1, label=text or None)
     for pos_x, text in chart.vlines:
         ax.axvline(pos_x, color="#555555", ls=":", lw=1.1, label=text or None)
+    if chart.xticks:
+        ax.set_xticks(np.arange(len(chart.xticks)), chart.xticks, rotation=20, fontsize=8)
     if chart.logy:
         ax.set_yscale("log")
     ax.set_title(chart.title, fontsize=11)
@@ -249,4 +255,19 @@ def render_png(chart: Chart, *, dpi: int = 110) -> bytes:
         buf = io.BytesIO()
         fig.savefig(buf, format="png", dpi=dpi)
         plt.close(fig)
+    return buf.getvalue()
+
+
+def render_png_stack(charts: Sequence[Chart], *, dpi: int = 110) -> bytes:
+    """Several charts as one PNG image, one below the other (a report as a single file)."""
+    if not charts:
+        raise ValueError("no chart to render")
+    import matplotlib.image as mpimg
+
+    images = [mpimg.imread(io.BytesIO(render_png(c, dpi=dpi)), format="png") for c in charts]
+    width = max(im.shape[1] for im in images)
+    padded = [np.pad(im, ((0, 0), (0, width - im.shape[1]), (0, 0)), constant_values=1.0)
+              for im in images]
+    buf = io.BytesIO()
+    mpimg.imsave(buf, np.vstack(padded), format="png")
     return buf.getvalue()

@@ -1,0 +1,88 @@
+"""``hydrodiag report``: a stored diagnosis or a rig's trends as an HTML page or a PNG.
+
+The HTML file is the console's page body (same templates, same charts from
+:mod:`app.console.views`) with the stylesheet inlined, so it opens anywhere and can be
+attached to a work order; the PNG is the page's charts one below the other.
+"""
+
+from __future__ import annotations
+
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+
+from app.cli_support import console, store_session
+from sim.errors import InputError
+
+__all__ = ["render_report", "report_cli"]
+
+report_cli = typer.Typer(help="Reports with plots: HTML (as the console shows) or PNG.",
+                         no_args_is_help=True)
+
+_CSS = Path(__file__).parent / "console" / "static" / "console.css"
+
+
+def _suffix(output: Path) -> str:
+    suffix = output.suffix.lower()
+    if suffix not in (".html", ".png"):
+        raise InputError(f"the output must end in .html or .png, not {suffix or 'nothing'!r}",
+                         field="output")
+    return suffix
+
+
+def render_report(title: str, charts: list[Any], suffix: str, **context: Any) -> bytes:
+    """The report as HTML (console templates, stylesheet inlined) or as one PNG of its charts.
+
+    Raises
+    ------
+    InputError
+        A PNG asked of a report without a chart.
+    """
+    from diagnostics.plots import render_png_stack
+
+    if suffix == ".png":
+        if not charts:
+            raise InputError("nothing to plot: the report has no chart", field="output")
+        return render_png_stack(charts)
+    from app.console.web import templates
+
+    html = templates.get_template("report.html").render(
+        title=title, css=_CSS.read_text(), made_at=datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC"),
+        **context)
+    return html.encode("utf-8")
+
+
+@report_cli.command("diagnosis")
+def report_diagnosis(
+    diagnosis_id: Annotated[int, typer.Argument(min=1, help="Stored diagnosis id.")],
+    output: Annotated[Path, typer.Option(help="report.html or report.png")] = Path("report.html"),
+) -> None:
+    """A stored diagnosis: probabilities, measured vs predicted, estimates, isolability."""
+    from app.console.views import diagnosis_view
+
+    suffix = _suffix(output)
+    with store_session() as session:
+        view = diagnosis_view(session, diagnosis_id)
+        content = render_report(f"Diagnosis {view.id}", view.charts, suffix, view=view)
+    output.write_bytes(content)
+    console.print(f"wrote {output} ({len(content)} bytes)")
+
+
+@report_cli.command("trends")
+def report_trends(
+    rig: Annotated[int, typer.Option(min=1, help="Rig id.")] = 1,
+    output: Annotated[Path, typer.Option(help="trends.html or trends.png")] = Path("trends.html"),
+) -> None:
+    """A rig's component trends: estimates over time, Theil–Sen line, threshold, time left."""
+    from app.console.views import trend_views
+    from app.services.rig_cache import RigCache
+
+    suffix = _suffix(output)
+    with store_session() as session:
+        views = trend_views(session, RigCache(1), rig)
+        content = render_report(f"Trends of rig {rig}", [v.chart for v in views], suffix,
+                                views=views, rig_id=rig)
+    output.write_bytes(content)
+    console.print(f"wrote {output} ({len(content)} bytes)")

@@ -1,0 +1,233 @@
+"""Charts of the console's pages and the CLI's reports, built from stored results.
+
+Every function returns :class:`diagnostics.plots.Chart` values (or ``None`` where there is
+nothing to draw); pages render them with :func:`diagnostics.plots.render_svg`, reports with
+the same function or :func:`diagnostics.plots.render_png`, so both show the same plots.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from app.services.trends import ComponentTrendOut
+from diagnostics.plots import Bar, Chart, Series, bar_chart, line_chart
+
+__all__ = [
+    "SEVERITY_BANDS",
+    "calibration_chart",
+    "estimate_charts",
+    "probability_chart",
+    "reading_chart",
+    "simulation_charts",
+    "surface_chart",
+    "trend_chart",
+]
+
+#: Severity bands of a clearance, :func:`diagnostics.ranking.severity`: laminar leakage
+#: multiples 1.33, 2.2 and 4.1 (leakage ∝ c³), as clearance multiples c/c₀ [1].
+SEVERITY_BANDS = (("mild", 1.33 ** (1 / 3)), ("moderate", 2.2 ** (1 / 3)),
+                  ("severe", 4.1 ** (1 / 3)))
+
+#: Colour of each severity band of :func:`diagnostics.ranking.severity`.
+_SEVERITY_COLOURS = {"nominal": "#009E73", "mild": "#56B4E9", "moderate": "#E69F00",
+                     "severe": "#D55E00"}
+
+
+def probability_chart(result: Mapping[str, Any], *, top: int = 8) -> Chart:
+    """Posterior probability [1] of each hypothesis of a diagnosis, largest first."""
+    fits = sorted(result.get("hypotheses", []), key=lambda f: -(f.get("probability") or 0.0))
+    bars = [Bar(f["name"], float(f.get("probability") or 0.0),
+                color="#0072B2" if f.get("observable", True) else "#999999")
+            for f in fits[:top]]
+    return bar_chart("Hypothesis probabilities", "probability [1]", bars)
+
+
+def reading_chart(result: Mapping[str, Any], measured: Mapping[str, tuple[float, float]],
+                  *, leading: int = 3) -> Chart | None:
+    """Measured readings with their 95 % interval against each leading hypothesis' prediction.
+
+    Each reading is drawn relative to its measured value, ``(y / measured − 1)`` [1], so
+    pressures, flows and speeds share one axis: the measurement sits at 0 with its
+    interval ±1.96·u/|measured|, each hypothesis' prediction beside it.
+
+    Parameters
+    ----------
+    result
+        The stored diagnosis result (``hypotheses`` with ``predicted``).
+    measured
+        Reading name → (value, standard uncertainty u) [SI unit of the reading].
+    leading
+        Number of most probable hypotheses drawn.
+    """
+    names = [n for n, (v, _) in measured.items() if v != 0.0 and math.isfinite(v)]
+    if not names:
+        return None
+    x = np.arange(len(names), dtype=float)
+    half = np.array([1.959963984540054 * measured[n][1] / abs(measured[n][0]) for n in names])
+    series = [Series(x, np.zeros_like(x), "measured (95 %)", kind="errorbars", low=-half,
+                     high=half, color="#000000")]
+    fits = sorted(result.get("hypotheses", []), key=lambda f: -(f.get("probability") or 0.0))
+    for i, fit in enumerate(fits[:leading]):
+        predicted = (fit.get("predicted") or [{}])[0]
+        y = np.array([(predicted.get(n) if predicted.get(n) is not None else np.nan)
+                      for n in names], dtype=float)
+        rel = y / np.array([measured[n][0] for n in names]) - 1.0
+        keep = np.isfinite(rel)
+        if keep.any():
+            series.append(Series(x[keep] + 0.12 * (i + 1), rel[keep],
+                                 f"{fit['name']} (p = {fit.get('probability') or 0:.2f})",
+                                 kind="points"))
+    return line_chart("Measured vs predicted, relative to the measurement", "reading",
+                      "predicted / measured − 1 [1]", series, hlines=[(0.0, "")],
+                      xticks=names)
+
+
+def estimate_charts(result: Mapping[str, Any]) -> list[Chart]:
+    """Component estimates with their 95 % intervals against nominal and severity bands.
+
+    Clearances in multiples of their nominal value [1] in one chart (c/c₀; the laminar
+    leakage grows as its cube), the severity bands of :data:`SEVERITY_BANDS` as dotted
+    lines; a quantity without a nominal value (the pump's slip coefficient) in its own unit.
+    """
+    nominal = _nominals(result)
+    relative: list[Bar] = []
+    charts = []
+    for component, e in (result.get("estimates") or {}).items():
+        value, low, high = e.get("value"), e.get("low"), e.get("high")
+        if value is None or low is None or high is None:
+            continue
+        c0 = nominal.get(e.get("quantity"))
+        label = f"{component} {e['quantity']}"
+        if c0:
+            relative.append(Bar(label, value / c0, low / c0, high / c0,
+                                color=_SEVERITY_COLOURS.get(_band(value / c0), "#0072B2")))
+        else:
+            charts.append(bar_chart(f"{component}: {e['quantity']} (95 % interval)",
+                                    f"{e['quantity']} [{e.get('unit', '')}]",
+                                    [Bar(label, value, low, high)]))
+    if relative:
+        bands = ", ".join(f"{name} ×{m:.2f}" for name, m in SEVERITY_BANDS)
+        chart = bar_chart("Estimates / nominal (95 % intervals)",
+                          f"estimate / nominal [1]   (dotted: nominal ×1, {bands})", relative,
+                          reference=[(1.0, "")] + [(m, "") for _, m in SEVERITY_BANDS],
+                          size=(7.0, 1.4 + 0.45 * len(relative)))
+        charts.insert(0, chart)
+    return charts
+
+
+def _band(multiple: float) -> str:
+    name = "nominal"
+    for band, start in SEVERITY_BANDS:
+        if multiple >= start:
+            name = band
+    return name
+
+
+def _nominals(result: Mapping[str, Any]) -> dict[str, float]:
+    """Nominal value of each fitted quantity, from the hypotheses' parameters."""
+    out: dict[str, float] = {}
+    for fit in result.get("hypotheses", []):
+        for p in fit.get("parameters", []):
+            if p.get("nominal"):
+                out.setdefault(p["name"], float(p["nominal"]))
+    return out
+
+
+def trend_chart(trend: ComponentTrendOut) -> Chart:
+    """A component's estimates over time [day] with intervals, Theil–Sen line, threshold."""
+    pts = trend.points
+    t0 = pts[0].measured_at.timestamp() if pts else 0.0
+    days = np.array([(p.measured_at.timestamp() - t0) / 86400.0 for p in pts])
+    y = np.array([p.value for p in pts])
+    low = np.array([p.low if p.low is not None else p.value for p in pts])
+    high = np.array([p.high if p.high is not None else p.value for p in pts])
+    series = [Series(days, y, "estimate (95 %)", kind="errorbars", low=low, high=high)]
+    if trend.slope is not None and len(pts) >= 2:
+        # Theil-Sen line: the slope with the intercept median(y - slope·t); its band pivots
+        # on the middle of the data with the slope's 95 % interval
+        per_day = 86400.0
+        slope = trend.slope * per_day
+        intercept = float(np.median(y - slope * days))
+        xm = float(np.median(days))
+        span = np.linspace(0.0, float(days.max()), 50)
+        line = intercept + slope * span
+        at_xm = intercept + slope * xm
+        lo = at_xm + (trend.slope_low if trend.slope_low is not None else trend.slope) \
+            * per_day * (span - xm)
+        hi = at_xm + (trend.slope_high if trend.slope_high is not None else trend.slope) \
+            * per_day * (span - xm)
+        series.append(Series(span, line, "Theil–Sen", low=np.minimum(lo, hi),
+                             high=np.maximum(lo, hi), dashed=True))
+    return line_chart(f"{trend.component}: {trend.quantity} over time",
+                      "days since the first diagnosis [day]",
+                      f"{trend.quantity} [{trend.unit}]", series,
+                      hlines=[(trend.threshold, "threshold")])
+
+
+def calibration_chart(title: str, opening: Sequence[float], clearance: Sequence[float | None],
+                      curve: tuple[Sequence[float], Sequence[float]] | None) -> Chart:
+    """A throttle table's rows and its PCHIP curve: opening [turn] → clearance [µm]."""
+    known = [(x, c) for x, c in zip(opening, clearance, strict=True) if c is not None]
+    series = [Series([x for x, _ in known], [c * 1e6 for _, c in known], "table rows",
+                     kind="points")]
+    if curve is not None:
+        series.append(Series(curve[0], [c * 1e6 for c in curve[1]], "PCHIP curve"))
+    return line_chart(title, "throttle opening [turn]", "equivalent clearance [µm]", series)
+
+
+#: Panels of a simulated cycle: title, y label, columns and the factor to the shown unit.
+_PANELS = (
+    ("Pressures", "pressure [bar]", ("P_pump [Pa]", "P1 [Pa]", "P2 [Pa]"), 1e-5),
+    ("Piston position", "x [mm]", ("x [m]",), 1e3),
+    ("Piston speed", "v [m/s]", ("v [m/s]",), 1.0),
+    ("Meter flows", "flow [L/min]", ("Q_meter_B [m^3/s]", "Q_meter_C [m^3/s]"), 6e4),
+)
+
+
+def simulation_charts(run: pd.DataFrame, nominal: pd.DataFrame | None,
+                      label: str) -> list[Chart]:
+    """A simulated cycle's pressures, position, speed and meter flows, nominal dashed."""
+    charts = []
+    for title, ylabel, columns, factor in _PANELS:
+        series = []
+        for col in columns:
+            name = col.split(" ")[0]
+            series.append(Series(_thin(run["t [s]"]), _thin(run[col] * factor),
+                                 f"{name} ({label})"))
+            if nominal is not None:
+                series.append(Series(_thin(nominal["t [s]"]), _thin(nominal[col] * factor),
+                                     f"{name} (nominal)", dashed=True))
+        charts.append(line_chart(title, "t [s]", ylabel, series))
+    return charts
+
+
+def _thin(values: pd.Series, most: int = 600) -> Any:
+    """At most ``most`` points of a long series (a page does not need every solver step)."""
+    array = values.to_numpy(dtype=float)
+    step = max(1, len(array) // most)
+    return array[::step]
+
+
+def surface_chart(name: str, coef: Sequence[Sequence[float]], p_ref: float, omega_ref: float,
+                  dp_range: Sequence[float], omega_range: Sequence[float]) -> Chart:
+    """A fitted loss-coefficient surface of paper 000 over pressure rise at three speeds.
+
+    ``name(Δp, ω) = Σ c[i][j]·(Δp/p_ref)^i·(ω/ω_ref)^j`` drawn over the data's range.
+    """
+    c = np.asarray(coef, dtype=float)
+    if c.ndim == 1:
+        c = c[:, None]
+    dp = np.linspace(float(dp_range[0]), float(dp_range[-1]), 40)
+    series = []
+    for omega in np.linspace(float(omega_range[0]), float(omega_range[-1]), 3):
+        i = np.arange(c.shape[0])[:, None, None]
+        j = np.arange(c.shape[1])[None, :, None]
+        value = (c[:, :, None] * (dp / p_ref)[None, None, :] ** i
+                 * (omega / omega_ref) ** j).sum(axis=(0, 1))
+        series.append(Series(dp * 1e-5, value, f"ω = {omega:.0f} rad/s"))
+    return line_chart(f"{name} over pressure rise", "Δp [bar]", f"{name} [1]", series)

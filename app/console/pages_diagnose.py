@@ -1,0 +1,197 @@
+"""Console pages: diagnose (paste a record or upload a CSV), a diagnosis, history, trends."""
+
+from __future__ import annotations
+
+import io
+import json
+import re
+from datetime import datetime
+from typing import Annotated, Any
+
+import pandas as pd
+import yaml
+from fastapi import File, Form, Path, Query, Request, Response, UploadFile
+from pydantic import AwareDatetime, TypeAdapter, ValidationError
+
+from app.api.deps import RigsDep, SessionDep
+from app.console.routing import ConsoleKeyDep, new_router
+from app.console.views import diagnosis_view, history_page, trend_views
+from app.console.web import page, redirect
+from app.errors import format_location
+from app.schemas.diagnose import DiagnoseRequest
+from app.services import rigs as rig_service
+from app.services.diagnosis import diagnose_request
+from sim.errors import HydrodiagError, InputError
+
+__all__ = ["parse_records", "router"]
+
+router = new_router()
+
+
+class _Loader(yaml.SafeLoader):
+    """YAML with the floats of YAML 1.2 and JSON (``1.4e6`` is a number, not text)."""
+
+
+_Loader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"""^(?:[-+]?(?:[0-9][0-9_]*)\.[0-9_]*(?:[eE][-+]?[0-9]+)?
+               |[-+]?(?:[0-9][0-9_]*)(?:[eE][-+]?[0-9]+)
+               |\.[0-9_]+(?:[eE][-+]?[0-9]+)?
+               |[-+]?\.(?:inf|Inf|INF)
+               |\.(?:nan|NaN|NAN))$""", re.X),
+    list("-+0123456789."))
+
+#: Largest pasted text or uploaded CSV [byte].
+MAX_INPUT_BYTES = 1024 * 1024
+
+
+def _csv_records(content: bytes) -> list[dict[str, Any]]:
+    """Records from a CSV: one per row; ``condition.load_force`` style names nest."""
+    if len(content) > MAX_INPUT_BYTES:
+        raise InputError(f"the file has {len(content)} bytes; at most {MAX_INPUT_BYTES}",
+                         field="file")
+    try:
+        frame = pd.read_csv(io.BytesIO(content), comment="#")
+    except (ValueError, UnicodeDecodeError, pd.errors.ParserError) as exc:
+        raise InputError(f"not a readable CSV: {exc}", field="file") from None
+    if frame.empty:
+        raise InputError("the CSV has no rows", field="file")
+    records = []
+    for _, row in frame.iterrows():
+        record: dict[str, Any] = {}
+        for column, value in row.items():
+            if pd.isna(value):
+                continue
+            target = record
+            *parents, leaf = str(column).strip().split(".")
+            for part in parents:
+                target = target.setdefault(part, {})
+            target[leaf] = value.item() if hasattr(value, "item") else value
+        records.append(record)
+    return records
+
+
+def parse_records(text: str, content: bytes | None) -> DiagnoseRequest:
+    """The diagnose request of a pasted JSON/YAML document or an uploaded CSV.
+
+    A pasted document is a record, or a request body of ``POST /diagnose`` (``record`` or
+    ``records``, ``joint``); a CSV is a batch of records diagnosed each alone.
+
+    Raises
+    ------
+    InputError
+        Nothing given, unreadable text, or a record the API would refuse (``field`` as
+        the API names it).
+    """
+    if content:
+        document: Any = {"records": _csv_records(content)}
+    elif text.strip():
+        if len(text) > MAX_INPUT_BYTES:
+            raise InputError(f"at most {MAX_INPUT_BYTES} characters", field="document")
+        try:
+            document = yaml.load(text, Loader=_Loader)
+        except yaml.YAMLError as exc:
+            raise InputError(f"neither JSON nor YAML: {exc}", field="document") from None
+        if not isinstance(document, dict):
+            raise InputError("give a record (a mapping) or a request body", field="document")
+        if not {"record", "records"} & set(document):
+            document = {"record": document}
+    else:
+        raise InputError("paste a record or choose a CSV file", field="document")
+    try:
+        return DiagnoseRequest.model_validate(json.loads(json.dumps(document, default=str)))
+    except ValidationError as exc:
+        first = exc.errors()[0]
+        raise InputError(str(first.get("msg", "invalid")),
+                         field=format_location(first.get("loc", ()))) from None
+
+
+def _form(request: Request, session: Any, *, status_code: int = 200, text: str = "",
+          error: dict[str, Any] | None = None) -> Response:
+    rows, _ = rig_service.list_rigs(session, limit=500, offset=0)
+    return page(request, "diagnose.html", status_code=status_code, rigs=rows, text=text,
+                error=error)
+
+
+@router.get("/diagnose")
+def diagnose_form(request: Request, session: SessionDep, _key: ConsoleKeyDep) -> Response:
+    """The form: paste a record (JSON or YAML) or upload a CSV of records."""
+    return _form(request, session)
+
+
+@router.post("/diagnose")
+def diagnose(request: Request, session: SessionDep, rigs: RigsDep, _key: ConsoleKeyDep,
+             document: Annotated[str, Form()] = "",
+             file: Annotated[UploadFile | None, File()] = None) -> Response:
+    """Diagnose and store; show the result, or the form again with the error."""
+    content = file.file.read(MAX_INPUT_BYTES + 1) if file is not None and file.filename else None
+    try:
+        outcomes = diagnose_request(session, rigs, parse_records(document, content))
+    except HydrodiagError as exc:
+        error = {"type": type(exc).__name__, "message": exc.message, "field": exc.field}
+        return _form(request, session, status_code=422, text=document, error=error)
+    if len(outcomes) == 1:
+        return redirect(f"/console/diagnoses/{outcomes[0].diagnosis_id}")
+    return redirect(f"/console/history?rig={outcomes[0].resolved.rig_id}")
+
+
+@router.get("/diagnoses/{diagnosis_id}")
+def diagnosis(request: Request, session: SessionDep, _key: ConsoleKeyDep,
+              diagnosis_id: Annotated[int, Path(ge=1)]) -> Response:
+    """One stored diagnosis: probabilities, readings, estimates, what cannot be separated."""
+    return page(request, "diagnosis.html", view=diagnosis_view(session, diagnosis_id))
+
+
+def _stamp(value: datetime | None) -> str:
+    return "" if value is None else value.isoformat()
+
+
+_TIME = TypeAdapter(AwareDatetime)
+
+
+def _time(text: str, field: str) -> datetime | None:
+    """A filter's time: blank for none, else ISO 8601 with its zone."""
+    if not text.strip():
+        return None
+    try:
+        return _TIME.validate_python(text.strip())
+    except ValidationError:
+        raise InputError("give the time as ISO 8601 with its zone, e.g. 2026-01-01T00:00:00Z",
+                         field=field) from None
+
+
+def _rig(text: str) -> int | None:
+    """A filter's rig id: blank for all."""
+    if not text.strip():
+        return None
+    if not text.strip().isdigit() or int(text) < 1:
+        raise InputError("the rig id must be a whole number ≥ 1", field="rig")
+    return int(text)
+
+
+@router.get("/history")
+def history(request: Request, session: SessionDep, _key: ConsoleKeyDep,
+            rig: Annotated[str, Query(max_length=20)] = "",
+            since: Annotated[str, Query(max_length=64)] = "",
+            until: Annotated[str, Query(max_length=64)] = "",
+            page_number: Annotated[int, Query(alias="page", ge=1)] = 1) -> Response:
+    """Every stored diagnosis, newest first, filtered by rig and time (blank: any), paginated."""
+    rig_id, start, end = _rig(rig), _time(since, "since"), _time(until, "until")
+    found = history_page(session, rig_id=rig_id, since=start, until=end, page=page_number)
+    rows, _ = rig_service.list_rigs(session, limit=500, offset=0)
+    query = {"rig": "" if rig_id is None else rig_id, "since": _stamp(start),
+             "until": _stamp(end)}
+    return page(request, "history.html", found=found, rigs=rows, query=query)
+
+
+@router.get("/trends")
+def trends(request: Request, session: SessionDep, rigs: RigsDep, _key: ConsoleKeyDep,
+           rig: Annotated[int, Query(ge=1)] = 1,
+           since: Annotated[str, Query(max_length=64)] = "",
+           until: Annotated[str, Query(max_length=64)] = "") -> Response:
+    """Per component: estimates over time, Theil–Sen line and band, threshold, time left."""
+    start, end = _time(since, "since"), _time(until, "until")
+    views = trend_views(session, rigs, rig, since=start, until=end)
+    rows, _ = rig_service.list_rigs(session, limit=500, offset=0)
+    return page(request, "trends.html", views=views, rigs=rows, rig_id=rig,
+                query={"since": _stamp(start), "until": _stamp(end)})

@@ -1,0 +1,165 @@
+"""Console pages: login, rigs, one rig (parameters, versions, calibrations, bond graph), pumps."""
+
+from __future__ import annotations
+
+import pathlib
+import shutil
+import subprocess
+from typing import Annotated, Any
+
+import numpy as np
+from fastapi import Form, Path, Query, Request, Response
+from fastapi.responses import FileResponse
+
+from app.api.deps import SessionDep
+from app.console.charts import calibration_chart, surface_chart
+from app.console.routing import ConsoleKeyDep, new_router
+from app.console.web import COOKIE, SECURITY_HEADERS, issue_cookie, page, redirect
+from app.services import calibrations as calibration_service
+from app.services import pumps as pump_service
+from app.services import rigs as rig_service
+from app.services.keys import authenticate
+from diagnostics.plots import Chart
+from sim.bondgraph.equations import derive_equations
+from sim.bondgraph.export import to_dot
+from sim.errors import AuthError
+from sim.rigs import build_graph
+
+__all__ = ["router"]
+
+router = new_router()
+_CSS = pathlib.Path(__file__).parent / "static" / "console.css"
+
+
+@router.get("/static/console.css")
+def stylesheet() -> FileResponse:
+    """The console's one stylesheet."""
+    return FileResponse(_CSS, media_type="text/css", headers=SECURITY_HEADERS)
+
+
+def _safe_next(target: str | None) -> str:
+    """Only a path inside the console (no open redirect)."""
+    if target and target.startswith("/console") and "//" not in target and "\\" not in target:
+        return target
+    return "/console/rigs"
+
+
+@router.get("/login")
+def login_form(request: Request, next: str | None = None) -> Response:
+    """The login form: the API key, asked once per browser session."""
+    return page(request, "login.html", next=_safe_next(next), error=None)
+
+
+@router.post("/login")
+def login(request: Request, session: SessionDep,
+          api_key: Annotated[str, Form(max_length=200)] = "",
+          next: Annotated[str, Form(max_length=2000)] = "") -> Response:
+    """Check the key; on success set the session cookie and go on."""
+    try:
+        key = authenticate(session, api_key.strip() or None)
+    except AuthError as exc:
+        error = {"type": "AuthError", "message": exc.message, "field": "api_key"}
+        return page(request, "login.html", status_code=401, next=_safe_next(next), error=error)
+    response = redirect(_safe_next(next))
+    issue_cookie(response, request, key)
+    return response
+
+
+@router.post("/logout")
+def logout() -> Response:
+    """Forget the login."""
+    response = redirect("/console/login")
+    response.delete_cookie(COOKIE, path="/console")
+    return response
+
+
+@router.get("")
+def home(_key: ConsoleKeyDep) -> Response:
+    """The console starts at the rigs."""
+    return redirect("/console/rigs")
+
+
+@router.get("/rigs")
+def rigs(request: Request, session: SessionDep, _key: ConsoleKeyDep) -> Response:
+    """Every rig with its latest version."""
+    rows, total = rig_service.list_rigs(session, limit=500, offset=0)
+    return page(request, "rigs.html", rows=rows, total=total)
+
+
+def _parameters(document: dict[str, Any]) -> list[dict[str, Any]]:
+    """Rows of a rig document's parameters: component, name, value, unit, source, chosen."""
+    rows = []
+    groups = [("fluid", document.get("fluid", {}))] + [
+        (name, c.get("parameters", {})) for name, c in document.get("components", {}).items()]
+    for component, params in groups:
+        for name, p in params.items():
+            if isinstance(p, dict) and "value" in p:
+                source = str(p.get("source", ""))
+                rows.append({"component": component, "name": name, "value": p["value"],
+                             "unit": p.get("unit", ""), "source": source,
+                             "chosen": "chosen" in source.lower()})
+    return rows
+
+
+def _calibration_chart(calibration: Any) -> Chart:
+    curve = calibration_service.curve_of(calibration)
+    points = list(calibration.points)
+    smooth = None
+    if curve is not None:
+        xs = np.linspace(min(curve.opening_turns), max(curve.opening_turns), 60)
+        smooth = (xs.tolist(), [float(c) for c in curve(xs.tolist(), field="opening_turns")])
+    return calibration_chart(
+        f"Throttle {calibration.throttle} ({calibration.component}): opening → clearance",
+        [p.opening_turns for p in points], [p.clearance_m for p in points], smooth)
+
+
+def _dot_svg(dot: str) -> str | None:
+    """The DOT graph as SVG where graphviz' ``dot`` is installed, else ``None``."""
+    exe = shutil.which("dot")
+    if exe is None:
+        return None
+    done = subprocess.run([exe, "-Tsvg"], input=dot.encode(), capture_output=True,
+                          timeout=20, check=False)
+    if done.returncode != 0:
+        return None
+    svg = done.stdout.decode("utf-8", "replace")
+    return svg[svg.index("<svg"):] if "<svg" in svg else None
+
+
+@router.get("/rigs/{rig_id}")
+def rig(request: Request, session: SessionDep, _key: ConsoleKeyDep,
+        rig_id: Annotated[int, Path(ge=1)]) -> Response:
+    """One rig: parameters, versions, throttle tables with their curves, bond graph."""
+    row = rig_service.get_rig(session, rig_id)
+    version = rig_service.latest_version(session, row)
+    versions, _ = rig_service.list_versions(session, rig_id, limit=500, offset=0)
+    calibrations, _ = calibration_service.list_calibrations(session, rig_id, limit=100,
+                                                            offset=0)
+    graph, _derivations = build_graph(str(version.document.get("circuit",
+                                                               "pump-valve-cylinder")))
+    dot = to_dot(graph)
+    return page(request, "rig.html", rig=row, version=version, versions=versions,
+                parameters=_parameters(version.document),
+                calibrations=[(c, _calibration_chart(c)) for c in calibrations],
+                equations=derive_equations(graph).describe(), dot=dot, dot_svg=_dot_svg(dot))
+
+
+@router.get("/pumps")
+def pumps(request: Request, session: SessionDep, _key: ConsoleKeyDep,
+          set_id: Annotated[int | None, Query(ge=1)] = None) -> Response:
+    """Pump sets; the chosen one with its quantities and fitted loss surfaces."""
+    rows, total = pump_service.list_pump_sets(session, limit=500, offset=0)
+    chosen = pump_service.get_pump_set(session, set_id) if set_id is not None else (
+        rows[0] if rows else None)
+    charts: list[Chart] = []
+    if chosen is not None:
+        q = chosen.quantities
+        for name in sorted(k[:-5] for k in q if k.endswith("_coef")):
+            try:
+                charts.append(surface_chart(
+                    name, q[f"{name}_coef"]["value"], q[f"{name}_p_ref"]["value"],
+                    q[f"{name}_omega_ref"]["value"], q["dp_range"]["value"],
+                    q["omega_range"]["value"]))
+            except (KeyError, TypeError, ValueError):
+                continue  # a hand-made set without the surface's scales: table only
+    return page(request, "pumps.html", rows=rows, total=total, chosen=chosen, charts=charts)

@@ -1,0 +1,97 @@
+"""Console page: simulate a fault scenario, nominal overlaid; download CSV or Parquet.
+
+The form is sent with GET (it stores nothing, and the page can be bookmarked); its fields
+are those of ``POST /simulate`` and are checked by the same request model, so a bad value
+gets the API's field-naming error on the page.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Any, Literal
+
+from fastapi import Query, Request, Response
+from pydantic import ValidationError
+
+from app.api.deps import RigsDep, SessionDep
+from app.console.charts import simulation_charts
+from app.console.routing import ConsoleKeyDep, new_router
+from app.console.web import SECURITY_HEADERS, page
+from app.errors import format_location
+from app.schemas.simulate import SimulateRequest
+from app.services import rigs as rig_service
+from app.services.simulation import simulate, summary_of, timeseries_csv, timeseries_parquet
+from sim.errors import HydrodiagError, InputError
+from sim.scenarios import FAULTS
+
+__all__ = ["router"]
+
+router = new_router()
+
+
+def _request(rig: int, fault: str, load: str, oil_temperature: str, back_pressure: str,
+             timeseries: str) -> SimulateRequest:
+    """The ``POST /simulate`` request of the form's fields (blank: the rig's default)."""
+    condition: dict[str, Any] = {}
+    for name, text in (("load", load), ("oil_temperature", oil_temperature),
+                       ("back_pressure", back_pressure)):
+        if text.strip():
+            condition[name] = text.strip()
+    try:
+        return SimulateRequest.model_validate({
+            "rig_id": rig, "fault": None if fault in ("", "healthy") else fault,
+            "condition": condition, "method": "transient", "timeseries": timeseries})
+    except ValidationError as exc:
+        first = exc.errors()[0]
+        raise InputError(str(first.get("msg", "invalid")),
+                         field=format_location(first.get("loc", ()))) from None
+
+
+@router.get("/simulate")
+def simulate_page(request: Request, session: SessionDep, rigs: RigsDep, _key: ConsoleKeyDep,
+                  rig: Annotated[int, Query(ge=1)] = 1,
+                  fault: Annotated[str, Query(max_length=40)] = "",
+                  load: Annotated[str, Query(max_length=40)] = "",
+                  oil_temperature: Annotated[str, Query(max_length=40)] = "",
+                  back_pressure: Annotated[str, Query(max_length=40)] = "",
+                  run: Annotated[bool, Query()] = False) -> Response:
+    """The form; with ``run``, the cycle of the scenario against the healthy rig."""
+    rows, _ = rig_service.list_rigs(session, limit=500, offset=0)
+    form = {"rig": rig, "fault": fault, "load": load, "oil_temperature": oil_temperature,
+            "back_pressure": back_pressure}
+    context: dict[str, Any] = {"rigs": rows, "faults": FAULTS, "form": form, "charts": [],
+                               "summary": None, "error": None, "query": ""}
+    if run:
+        try:
+            body = _request(rig, fault, load, oil_temperature, back_pressure, "json")
+            outcome = simulate(session, rigs, body)
+            nominal = simulate(session, rigs, body.model_copy(update={"fault": None}))
+        except HydrodiagError as exc:
+            context["error"] = {"type": type(exc).__name__, "message": exc.message,
+                                "field": exc.field}
+            return page(request, "simulate.html", status_code=422, **context)
+        label = fault if fault not in ("", "healthy") else "healthy"
+        frame = outcome.result.timeseries
+        context["charts"] = [] if frame is None else simulation_charts(
+            frame, nominal.result.timeseries, label)
+        context["summary"] = summary_of(outcome.result)
+        context["query"] = str(request.url.query)
+    return page(request, "simulate.html", **context)
+
+
+@router.get("/simulate/download")
+def download(session: SessionDep, rigs: RigsDep, _key: ConsoleKeyDep,
+             format: Annotated[Literal["csv", "parquet"], Query()],
+             rig: Annotated[int, Query(ge=1)] = 1,
+             fault: Annotated[str, Query(max_length=40)] = "",
+             load: Annotated[str, Query(max_length=40)] = "",
+             oil_temperature: Annotated[str, Query(max_length=40)] = "",
+             back_pressure: Annotated[str, Query(max_length=40)] = "") -> Response:
+    """The scenario's time series as CSV or Parquet (as ``POST /simulate`` gives it)."""
+    body = _request(rig, fault, load, oil_temperature, back_pressure, format)
+    outcome = simulate(session, rigs, body)
+    headers = dict(SECURITY_HEADERS)
+    headers["Content-Disposition"] = f'attachment; filename="simulation.{format}"'
+    if format == "csv":
+        return Response(timeseries_csv(outcome), media_type="text/csv", headers=headers)
+    return Response(timeseries_parquet(outcome), media_type="application/vnd.apache.parquet",
+                    headers=headers)

@@ -1,0 +1,70 @@
+"""The console's router: every route logged in, every answer with the security headers.
+
+:class:`ConsoleRoute` wraps each console handler: a request without a valid login cookie
+is sent to the login page, an error of :mod:`sim.errors` (or of request validation)
+becomes an error page with the API's status, type, field and message, and every answer
+gets :data:`app.console.web.SECURITY_HEADERS`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Coroutine
+from typing import Annotated, Any
+
+from fastapi import APIRouter, Depends, Request, Response
+from fastapi.exceptions import RequestValidationError
+from fastapi.routing import APIRoute
+
+from app.api.deps import SessionDep
+from app.console.web import SECURITY_HEADERS, console_key, login_url, page, redirect
+from app.db.models import ApiKey
+from app.errors import format_location, status_for
+from sim.errors import AuthError, HydrodiagError, InputError
+
+__all__ = ["ConsoleKeyDep", "ConsoleRoute", "error_of", "new_router"]
+
+
+def error_of(exc: Exception) -> dict[str, Any]:
+    """The API's error body (type, message, field) of ``exc``, for a page."""
+    if isinstance(exc, RequestValidationError):
+        problems = exc.errors()
+        first = problems[0] if problems else {}
+        return {"type": InputError.__name__, "message": str(first.get("msg", "invalid input")),
+                "field": format_location(first.get("loc", ()))}
+    assert isinstance(exc, HydrodiagError)
+    return {"type": type(exc).__name__, "message": exc.message, "field": exc.field}
+
+
+class ConsoleRoute(APIRoute):
+    """A console route (module docstring)."""
+
+    def get_route_handler(self) -> Callable[[Request], Coroutine[Any, Any, Response]]:
+        """Wrap the handler: login redirect, error pages, security headers."""
+        handler = super().get_route_handler()
+
+        async def wrapped(request: Request) -> Response:
+            try:
+                response = await handler(request)
+            except AuthError:
+                return redirect(login_url(request))
+            except (HydrodiagError, RequestValidationError) as exc:
+                status = 422 if isinstance(exc, RequestValidationError) else status_for(exc)
+                return page(request, "error.html", status_code=status, error=error_of(exc))
+            for name, value in SECURITY_HEADERS.items():
+                response.headers.setdefault(name, value)
+            return response
+
+        return wrapped
+
+
+def _key(request: Request, session: SessionDep) -> ApiKey:
+    return console_key(request, session)
+
+
+#: The API key of the logged-in browser (redirects to the login page without one).
+ConsoleKeyDep = Annotated[ApiKey, Depends(_key)]
+
+
+def new_router() -> APIRouter:
+    """A router for console pages (``/console``, hidden from the OpenAPI document)."""
+    return APIRouter(prefix="/console", route_class=ConsoleRoute, include_in_schema=False)

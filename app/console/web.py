@@ -1,0 +1,153 @@
+"""What every console page shares: templates, the security headers, the login cookie.
+
+Login: the API key is posted once per browser session to ``/console/login``; the answer
+sets a cookie ``hd_console = <key id>.<issued at>.<HMAC-SHA256>`` (HttpOnly,
+SameSite=Strict, Secure when served over HTTPS; no Max-Age, so it ends with the browser
+session, and refused after :data:`SESSION_LIFETIME_S`).  The key itself is never stored in
+the cookie or put in a URL; each request checks that the key still exists and is not
+revoked.  The signing secret is ``HYDRODIAG_CONSOLE_SECRET`` or, without it, a random one
+kept in ``<data_dir>/console-secret`` (so every worker process of one service shares it).
+
+Every console response carries :data:`SECURITY_HEADERS`: a Content-Security-Policy that
+allows only the service's own origin (no inline script or style), no framing, no sniffing.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import hmac
+import math
+import os
+import secrets
+import threading
+import time
+from pathlib import Path
+from typing import Any
+from urllib.parse import quote
+
+from fastapi import Request
+from fastapi.responses import HTMLResponse, RedirectResponse, Response
+from jinja2 import Environment, FileSystemLoader, select_autoescape
+from markupsafe import Markup
+from sqlalchemy.orm import Session
+
+from app.db.models import ApiKey
+from app.settings import Settings
+from diagnostics.plots import Chart
+from diagnostics.plots_svg import render_svg_native
+from sim.errors import AuthError
+
+__all__ = ["COOKIE", "SECURITY_HEADERS", "SESSION_LIFETIME_S", "console_key", "issue_cookie",
+           "page", "redirect", "templates"]
+
+COOKIE = "hd_console"
+#: Longest a login lasts, even in a browser session that stays open [s].
+SESSION_LIFETIME_S = 12 * 3600
+SECURITY_HEADERS = {
+    "Content-Security-Policy": "default-src 'self'; script-src 'self'; style-src 'self'; "
+    "img-src 'self' data:; form-action 'self'; frame-ancestors 'none'; base-uri 'self'; "
+    "object-src 'none'",
+    "X-Content-Type-Options": "nosniff",
+    "X-Frame-Options": "DENY",
+    "Referrer-Policy": "same-origin",
+    "Cache-Control": "no-store",
+}
+_HERE = Path(__file__).parent
+_SECRET_LOCK = threading.Lock()
+
+
+def _si(value: Any, digits: int = 4) -> str:
+    """A number with ``digits`` significant digits ("—" for none)."""
+    if value is None:
+        return "—"
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        return str(value)
+    if not math.isfinite(value):
+        return "—"
+    return f"{value:.{digits}g}"
+
+
+def _svg(chart: Chart | None) -> Markup:
+    """A chart as inline SVG (CSP-safe, written directly: :mod:`diagnostics.plots_svg`)."""
+    return Markup("") if chart is None else Markup(render_svg_native(chart))
+
+
+templates = Environment(loader=FileSystemLoader(_HERE / "templates"),
+                        autoescape=select_autoescape(["html"]), trim_blocks=True,
+                        lstrip_blocks=True)
+templates.filters["si"] = _si
+templates.filters["svg"] = _svg
+
+
+def page(request: Request, template: str, status_code: int = 200, **context: Any
+         ) -> HTMLResponse:
+    """Render ``template`` as a console page with the security headers."""
+    html = templates.get_template(template).render(request=request, **context)
+    return HTMLResponse(html, status_code=status_code, headers=SECURITY_HEADERS)
+
+
+def redirect(url: str) -> RedirectResponse:
+    """A 303 redirect (after a form) with the security headers."""
+    return RedirectResponse(url, status_code=303, headers=SECURITY_HEADERS)
+
+
+def _secret(settings: Settings) -> bytes:
+    given = os.environ.get("HYDRODIAG_CONSOLE_SECRET")
+    if given:
+        return given.encode()
+    path = Path(settings.data_dir) / "console-secret"
+    with _SECRET_LOCK:
+        if not path.exists():
+            path.parent.mkdir(parents=True, exist_ok=True)
+            try:
+                fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
+            except FileExistsError:  # another worker made it first
+                pass
+            else:
+                with os.fdopen(fd, "w") as f:
+                    f.write(secrets.token_hex(32))
+        return path.read_text().strip().encode()
+
+
+def _signature(secret: bytes, key_id: int, issued: int, prefix: str) -> str:
+    message = f"{key_id}.{issued}.{prefix}".encode()
+    return hmac.new(secret, message, hashlib.sha256).hexdigest()
+
+
+def issue_cookie(response: Response, request: Request, key: ApiKey) -> None:
+    """Set the login cookie for ``key`` on ``response``."""
+    issued = int(time.time())
+    value = f"{key.id}.{issued}.{_signature(_secret(request.app.state.settings), key.id, issued, key.prefix)}"
+    response.set_cookie(COOKIE, value, httponly=True, samesite="strict", path="/console",
+                        secure=request.url.scheme == "https")
+
+
+def console_key(request: Request, session: Session) -> ApiKey:
+    """The API key the browser logged in with.
+
+    Raises
+    ------
+    AuthError
+        No cookie, a forged or expired one, or a key revoked since.
+    """
+    value = request.cookies.get(COOKIE, "")
+    parts = value.split(".")
+    if len(parts) != 3 or not parts[0].isdigit() or not parts[1].isdigit():
+        raise AuthError("log in with an API key", field="api_key")
+    key_id, issued = int(parts[0]), int(parts[1])
+    if time.time() - issued > SESSION_LIFETIME_S:
+        raise AuthError("the console session has expired; log in again", field="api_key")
+    key = session.get(ApiKey, key_id)
+    secret = _secret(request.app.state.settings)
+    if key is None or not hmac.compare_digest(
+            parts[2], _signature(secret, key_id, issued, key.prefix)):
+        raise AuthError("log in with an API key", field="api_key")
+    if key.revoked_at is not None:
+        raise AuthError("this API key has been revoked", field="api_key")
+    return key
+
+
+def login_url(request: Request) -> str:
+    """The login page, returning to the page asked for."""
+    target = request.url.path + (f"?{request.url.query}" if request.url.query else "")
+    return f"/console/login?next={quote(target, safe='')}"

@@ -1,0 +1,75 @@
+"""Fixtures of the console tests: a live service whose history holds a wearing valve."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import httpx
+import pytest
+
+from diagnostics.pump import (
+    InstrumentNoise,
+    default_levels,
+    iso4409_grid,
+    run_virtual_bench,
+    write_bench_csv,
+)
+from sim.components.gear_pump_map import stand_in_pump
+from tests.app.conftest import simulated_record
+from tests.app.live import LiveServer, live_server, sqlite_settings
+
+#: The valve's clearance on successive days of the seeded history [m] (nominal 34 µm).
+WEAR_SERIES_M = (34e-6, 38e-6, 42e-6, 46e-6)
+
+
+def seed_history(server: LiveServer) -> list[dict[str, Any]]:
+    """Diagnose, through the API, the readings of a valve wearing over four days."""
+    stored = []
+    for day, cv in enumerate(WEAR_SERIES_M):
+        record = simulated_record(server, {"valve.cv": cv},
+                                  measured_at=f"2026-03-0{day + 1}T08:00:00Z")
+        response = server.client.post("/diagnose", json={"record": record},
+                                      headers=server.auth)
+        assert response.status_code == 200, response.text
+        stored.append(response.json()["diagnoses"][0])
+    return stored
+
+
+def seed_pump_set(server: LiveServer, folder: Path) -> dict[str, Any]:
+    """Parameterise a pump from a virtual ISO 4409 bench run (SIMULATED data) via the API."""
+    dp, w = iso4409_grid(*default_levels())
+    data = run_virtual_bench(stand_in_pump(), dp, w, (22.0, 60.0), noise=InstrumentNoise.none())
+    write_bench_csv(data, folder / "bench.csv")
+    response = server.client.post(
+        "/pump-sets/bench", data={"name": "bench-gear", "pump": "external gear pump"},
+        files={"file": ("bench.csv", (folder / "bench.csv").read_bytes(), "text/csv")},
+        headers=server.auth)
+    assert response.status_code == 201, response.text
+    return dict(response.json())
+
+
+def login(server: LiveServer, client: httpx.Client | None = None) -> httpx.Client:
+    """A client of ``server`` logged in to the console through its form."""
+    client = client or httpx.Client(base_url=server.base_url, timeout=60.0)
+    response = client.post("/console/login", data={"api_key": server.key,
+                                                    "next": "/console/rigs"})
+    assert response.status_code == 303, response.text
+    return client
+
+
+@pytest.fixture(scope="module")
+def console_server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[LiveServer]:
+    """A live service on a fresh store with :data:`WEAR_SERIES_M` diagnosed."""
+    with live_server(sqlite_settings(tmp_path_factory.mktemp("console-store"))) as live:
+        live.seeded = seed_history(live)  # type: ignore[attr-defined]
+        seed_pump_set(live, tmp_path_factory.mktemp("bench"))
+        yield live
+
+
+@pytest.fixture(scope="module")
+def browser_client(console_server: LiveServer) -> Iterator[httpx.Client]:
+    """An HTTP client logged in to the console (cookie kept)."""
+    with httpx.Client(base_url=console_server.base_url, timeout=60.0) as client:
+        yield login(console_server, client)

@@ -1,0 +1,168 @@
+"""The console in a real Chromium (Debian's ``chromium`` driven by Playwright).
+
+Every page is opened against a live service on a fresh store: no console error, no failed
+request, every plot drawn with data; a diagnosis is submitted through the form and found
+in the history and the trends; each page is screenshotted (into ``HYDRODIAG_SCREENSHOTS``
+when set, as ``make screenshots`` does, else into the test's temporary folder).
+Skipped, with the reason, where Chromium or Playwright is missing.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from tests.app.conftest import simulated_record
+from tests.app.live import LiveServer
+
+CHROMIUM = os.environ.get("HYDRODIAG_CHROMIUM") or shutil.which("chromium") or "/usr/bin/chromium"
+FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+         "--disable-background-networking", "--disable-component-update", "--disable-sync",
+         "--disable-dev-shm-usage"]
+
+try:
+    from playwright.sync_api import Page, sync_playwright
+except ImportError:  # pragma: no cover - the dev extras install it
+    sync_playwright = None
+
+pytestmark = [
+    pytest.mark.skipif(sync_playwright is None, reason="playwright is not installed "
+                       "(pip install -e '.[dev]')"),
+    pytest.mark.skipif(not Path(CHROMIUM).exists(), reason=f"no Chromium at {CHROMIUM} "
+                       "(apt-get install -y chromium; .ci/run does it)"),
+]
+
+#: Page → (file name of its screenshot, least number of plots it draws).
+PAGES = {
+    "/console/rigs": ("rigs", 0),
+    "/console/rigs/1": ("rig", 1),
+    "/console/diagnose": ("diagnose", 0),
+    "/console/history": ("history", 0),
+    "/console/trends?rig=1": ("trends", 2),
+    "/console/simulate?run=true&fault=worn_spool&load=2100": ("simulate", 4),
+    "/console/pumps": ("pumps", 2),
+}
+
+
+@pytest.fixture(scope="module")
+def shots(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Where the screenshots go."""
+    target = os.environ.get("HYDRODIAG_SCREENSHOTS")
+    folder = Path(target) if target else tmp_path_factory.mktemp("screenshots")
+    folder.mkdir(parents=True, exist_ok=True)
+    return folder
+
+
+@pytest.fixture(scope="module")
+def page(console_server: LiveServer) -> Iterator[Any]:
+    """A logged-in Chromium page recording console errors and failed requests.
+
+    Playwright starts the browser on a fresh temporary profile of its own.
+    """
+    assert sync_playwright is not None
+    with sync_playwright() as pw:
+        browser = pw.chromium.launch(executable_path=CHROMIUM, args=FLAGS)
+        context = browser.new_context(viewport={"width": 1200, "height": 900})
+        tab = context.new_page()
+        problems: list[str] = []
+        tab.on("console", lambda m: problems.append(f"console {m.type}: {m.text}")
+               if m.type in ("error", "warning") else None)
+        tab.on("pageerror", lambda e: problems.append(f"page error: {e}"))
+        tab.on("requestfailed", lambda r: problems.append(f"failed: {r.url} {r.failure}"))
+        tab.on("response", lambda r: problems.append(f"HTTP {r.status}: {r.url}")
+               if r.status >= 400 else None)
+        tab.problems = problems  # type: ignore[attr-defined]
+        tab.goto(f"{console_server.base_url}/console/rigs")
+        assert "/console/login" in tab.url  # not logged in yet
+        tab.fill("#api_key", console_server.key)
+        tab.click("button[type=submit]")
+        tab.wait_for_url("**/console/rigs")
+        yield tab
+        context.close()
+        browser.close()
+
+
+def _plots(tab: Page) -> list[int]:
+    return [int(n) for n in tab.eval_on_selector_all(
+        "svg.hd-plot", "els => els.map(e => e.getAttribute('data-points'))")]
+
+
+def _visible_plots(tab: Page) -> int:
+    """Plots the browser actually laid out with a size (drawn, not just present)."""
+    return int(tab.eval_on_selector_all(
+        "svg.hd-plot", "els => els.filter(e => { const r = e.getBoundingClientRect(); "
+        "return r.width > 100 && r.height > 50; }).length"))
+
+
+def test_every_page_opens_cleanly_with_its_plots(console_server: LiveServer, page: Any,
+                                                 shots: Path) -> None:
+    for url, (name, least) in PAGES.items():
+        page.problems.clear()
+        response = page.goto(f"{console_server.base_url}{url}")
+        assert response is not None and response.status == 200, url
+        page.wait_for_load_state("networkidle")
+        points = _plots(page)
+        assert len(points) >= least and all(n > 0 for n in points), (url, points)
+        assert _visible_plots(page) >= least, url
+        # the stylesheet applied: the header bar is dark, not the browser's default
+        assert page.eval_on_selector("header.top", "e => getComputedStyle(e).backgroundColor") \
+            == "rgb(29, 36, 48)", url
+        assert page.problems == [], (url, page.problems)
+        page.screenshot(path=str(shots / f"console-{name}.png"), full_page=True)
+
+
+def test_a_diagnosis_from_the_form_reaches_history_and_trends(
+        console_server: LiveServer, page: Any, shots: Path) -> None:
+    record = simulated_record(console_server, {"valve.cv": 50e-6},
+                              measured_at="2026-03-06T08:00:00Z")
+    yaml_text = "\n".join(f"{k}: {v}" for k, v in record.items() if k != "condition")
+    yaml_text += (f"\ncondition: {{oil_temperature: {record['condition']['oil_temperature']}, "
+                  f"load_force: {record['condition']['load_force']}}}")
+    trend_points_before = _trend_points(console_server, page)
+    page.problems.clear()
+    page.goto(f"{console_server.base_url}/console/diagnose")
+    page.fill("#document", yaml_text)
+    page.click("#diagnose-form button[type=submit]")
+    page.wait_for_url("**/console/diagnoses/*")
+    diagnosis_id = page.url.rsplit("/", 1)[1]
+    assert page.inner_text("h1").startswith(f"Diagnosis {diagnosis_id}: valve")
+    assert len(_plots(page)) >= 3 and min(_plots(page)) > 0
+    assert page.problems == [], page.problems
+    page.screenshot(path=str(shots / "console-diagnosis.png"), full_page=True)
+    page.goto(f"{console_server.base_url}/console/history")
+    page.select_option("#rig", "1")  # the filter form, its time fields left blank
+    page.click("form.filters button[type=submit]")
+    page.wait_for_url("**/console/history?rig=1*")
+    page.click(f"a[href='/console/diagnoses/{diagnosis_id}']")
+    page.wait_for_url(f"**/console/diagnoses/{diagnosis_id}")
+    assert _trend_points(console_server, page) == trend_points_before + 1
+    page.screenshot(path=str(shots / "console-trends.png"), full_page=True)
+    assert page.problems == [], page.problems
+
+
+def _trend_points(server: LiveServer, tab: Page) -> int:
+    """Diagnoses in the valve's trend, as its section states."""
+    tab.goto(f"{server.base_url}/console/trends?rig=1")
+    heading = tab.inner_text("section.trend:has(code:text-is('cv')) h2")
+    return int(heading.rsplit(",", 1)[1].split()[0])
+
+
+def test_a_bad_record_shows_the_field_on_the_page(console_server: LiveServer, page: Any) -> None:
+    before = console_server.row_counts()
+    page.problems.clear()
+    page.goto(f"{console_server.base_url}/console/diagnose")
+    page.fill("#document", "rig_id: 1\ncondition: {oil_temperature: 40, load_force: 2100}\n"
+                           "p1: -5.0e5")
+    page.click("#diagnose-form button[type=submit]")
+    error = page.locator("div.error")
+    assert error.get_attribute("data-field") == "record.p1"
+    assert "Nothing was stored" in error.inner_text()
+    assert console_server.row_counts() == before
+    # the one expected problem: the form's answer is a 422 page
+    assert [p for p in page.problems if "422" not in p] == []
+    assert any("HTTP 422" in p for p in page.problems)

@@ -1,0 +1,104 @@
+"""The console's charts and the direct SVG writer: geometry, contract, hand-checked values."""
+
+from __future__ import annotations
+
+import io
+import re
+from datetime import UTC, datetime, timedelta
+
+import matplotlib.image as mpimg
+import numpy as np
+import pytest
+
+from app.console.charts import SEVERITY_BANDS, estimate_charts, reading_chart, trend_chart
+from app.services.trends import ComponentTrendOut, TrendPointOut
+from diagnostics.plots import Bar, Series, bar_chart, line_chart, render_png, render_png_stack
+from diagnostics.plots_svg import nice_ticks, render_svg_native
+
+
+def test_nice_ticks_are_round_and_cover_the_range() -> None:
+    assert nice_ticks(0.0, 1.0) == pytest.approx([0.0, 0.2, 0.4, 0.6, 0.8, 1.0])
+    assert nice_ticks(3.4e-5, 5.6e-5) == pytest.approx([3.5e-5, 4.0e-5, 4.5e-5, 5.0e-5,
+                                                        5.5e-5])
+    assert nice_ticks(-3.0, 7.0) == pytest.approx([-2.0, 0.0, 2.0, 4.0, 6.0])
+
+
+def test_svg_obeys_the_plot_contract_and_places_points_linearly() -> None:
+    chart = line_chart("A <b> & c", "x [s]", "y [m]", [
+        Series([0.0, 1.0, 2.0], [0.0, 10.0, 20.0], "line"),
+        Series([0.0, 2.0], [5.0, 15.0], "pts", kind="errorbars", low=[4.0, 14.0],
+               high=[6.0, 16.0]),
+    ], hlines=[(12.0, "limit")])
+    svg = render_svg_native(chart)
+    assert svg.startswith('<svg class="hd-plot" role="img" aria-label="A &lt;b&gt; &amp; c" '
+                          'data-points="5"')
+    assert "style" not in svg and "<script" not in svg
+    # the line's three vertices are equally spaced in x and in y (a straight line)
+    points = re.search(r'<polyline points="([^"]+)"', svg)
+    assert points is not None
+    xy = np.array([[float(v) for v in p.split(",")] for p in points.group(1).split()])
+    assert np.diff(xy[:, 0]) == pytest.approx([np.diff(xy[:, 0])[0]] * 2, abs=0.11)
+    assert np.diff(xy[:, 1]) == pytest.approx([np.diff(xy[:, 1])[0]] * 2, abs=0.11)
+    assert np.diff(xy[:, 1])[0] < 0  # larger y is higher on the page
+    assert svg.count("<circle") == 2 and "limit" in svg
+
+
+def test_bars_are_as_long_as_their_values() -> None:
+    svg = render_svg_native(bar_chart("p", "probability [1]",
+                                      [Bar("a", 0.75), Bar("b", 0.25)]))
+    widths = [float(w) for w in re.findall(r'<rect x="[^"]+" y="[^"]+" width="([^"]+)" '
+                                           r'height="[^"]+" fill="#0072B2"', svg)]
+    assert len(widths) == 2 and widths[0] / widths[1] == pytest.approx(3.0, rel=0.01)
+
+
+def test_png_stack_is_the_charts_one_below_the_other() -> None:
+    charts = [line_chart("a", "x", "y", [Series([0, 1], [0, 1])]),
+              bar_chart("b", "v", [Bar("x", 1.0)])]
+    heights = [mpimg.imread(io.BytesIO(render_png(c)), format="png").shape[0] for c in charts]
+    stacked = mpimg.imread(io.BytesIO(render_png_stack(charts)), format="png")
+    assert stacked.shape[0] == sum(heights)
+
+
+def _trend(values: list[float]) -> ComponentTrendOut:
+    start = datetime(2026, 1, 1, tzinfo=UTC)
+    points = [TrendPointOut(i + 1, start + timedelta(days=i), 1, v, v - 1e-6, v + 1e-6, 0.9)
+              for i, v in enumerate(values)]
+    slope = 2e-6 / 86400.0  # [m/s]
+    return ComponentTrendOut("valve", "cv", "m", points, slope, slope * 0.5, slope * 1.5,
+                             54e-6, "given", "worsening", None, None, None, None, "")
+
+
+def test_the_theil_sen_line_passes_through_exact_linear_data() -> None:
+    values = [34e-6 + 2e-6 * day for day in range(5)]
+    chart = trend_chart(_trend(values))
+    line = chart.series[1]
+    # the line at day 0 and at the last day is the data there: intercept median(y − s·t)
+    assert line.y[0] == pytest.approx(values[0], rel=1e-9)
+    assert line.y[-1] == pytest.approx(values[-1], rel=1e-9)
+    assert chart.hlines == ((54e-6, "threshold"),)
+    assert chart.points == 5 + 50
+
+
+def test_estimates_are_drawn_as_multiples_of_nominal_with_the_severity_bands() -> None:
+    result = {
+        "hypotheses": [{"name": "valve", "probability": 0.7, "parameters": [
+            {"name": "cv", "nominal": 34e-6}]}],
+        "estimates": {"valve": {"quantity": "cv", "unit": "m", "value": 51e-6, "low": 49e-6,
+                                "high": 53e-6}},
+    }
+    (chart,) = estimate_charts(result)
+    (bar,) = chart.bars
+    assert (bar.value, bar.low, bar.high) == pytest.approx((1.5, 49 / 34, 53 / 34))
+    # 1.5 × nominal: leakage × 3.4, "moderate" (2.2 ≤ (c/c0)³ < 4.1)
+    assert SEVERITY_BANDS[1][1] ** 3 == pytest.approx(2.2)
+    assert bar.color == "#E69F00"
+
+
+def test_readings_are_drawn_relative_to_the_measurement() -> None:
+    result = {"hypotheses": [{"name": "valve", "probability": 0.9,
+                              "predicted": [{"p1": 1.01e6, "flow_B": 4.9e-4}]}]}
+    chart = reading_chart(result, {"p1": (1.0e6, 5e3), "flow_B": (5.0e-4, 2.5e-6)})
+    assert chart is not None and chart.xticks == ("p1", "flow_B")
+    measured, valve = chart.series
+    assert measured.high == pytest.approx([1.96 * 5e3 / 1e6, 1.96 * 2.5e-6 / 5e-4], rel=1e-3)
+    assert valve.y == pytest.approx([0.01, -0.02])

@@ -1,0 +1,58 @@
+"""``hydrodiag report``: the console's pages as files, from the store the CLI uses."""
+
+from __future__ import annotations
+
+import io
+import json
+from pathlib import Path
+
+import matplotlib.image as mpimg
+import pytest
+from typer.testing import CliRunner
+
+from app.cli import cli
+from sim.errors import InputError, NotFoundError
+
+RECORD = {"rig_id": 1, "condition": {"oil_temperature": 40.0, "load_force": 2100.0},
+          "pump_pressure": 1453085.96, "p1": 1189895.92, "p2": 121490.42,
+          "flow_B": 4.642448567e-4, "flow_C": 4.369589056e-4, "speed_work": 0.197543918,
+          "speed_return": 0.218641119, "measured_at": "2026-05-01T08:00:00Z"}
+
+
+@pytest.fixture
+def store(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    """A CLI store with one diagnosis (id 1) of a worn valve's readings."""
+    monkeypatch.setenv("HYDRODIAG_DATA_DIR", str(tmp_path / "data"))
+    path = tmp_path / "record.json"
+    path.write_text(json.dumps({"record": RECORD}))
+    result = CliRunner().invoke(cli, ["diagnose", str(path)])
+    assert result.exit_code == 0, result.output
+    return tmp_path
+
+
+def test_diagnosis_report_as_html_and_png(store: Path) -> None:
+    runner = CliRunner()
+    html_path = store / "report.html"
+    result = runner.invoke(cli, ["report", "diagnosis", "1", "--output", str(html_path)])
+    assert result.exit_code == 0, result.output
+    html = html_path.read_text()
+    assert "Diagnosis 1: valve" in html and 'class="hd-plot"' in html
+    assert "<style>" in html and "/console/static" not in html  # stands alone
+    png_path = store / "report.png"
+    assert runner.invoke(cli, ["report", "diagnosis", "1", "--output",
+                               str(png_path)]).exit_code == 0
+    image = mpimg.imread(io.BytesIO(png_path.read_bytes()), format="png")
+    assert image.shape[0] > 3 * 250  # three charts one below the other
+
+
+def test_trends_report_and_refusals(store: Path) -> None:
+    runner = CliRunner()
+    out = store / "trends.html"
+    assert runner.invoke(cli, ["report", "trends", "--rig", "1", "--output",
+                               str(out)]).exit_code == 0
+    assert "Trends of rig 1" in out.read_text() and "valve" in out.read_text()
+    wrong = runner.invoke(cli, ["report", "diagnosis", "1", "--output", str(store / "r.pdf")])
+    assert isinstance(wrong.exception, InputError) and wrong.exception.field == "output"
+    missing = runner.invoke(cli, ["report", "diagnosis", "7", "--output", str(store / "r.html")])
+    assert isinstance(missing.exception, NotFoundError)
+    assert not (store / "r.pdf").exists() and not (store / "r.html").exists()
