@@ -33,8 +33,7 @@ from sqlalchemy.orm import Session
 
 from app.db.models import ApiKey
 from app.settings import Settings
-from diagnostics.plots import Chart
-from diagnostics.plots_svg import render_svg_native
+from diagnostics.plots import Chart, render_svg
 from sim.errors import AuthError
 
 __all__ = ["COOKIE", "SECURITY_HEADERS", "SESSION_LIFETIME_S", "console_key", "issue_cookie",
@@ -68,8 +67,8 @@ def _si(value: Any, digits: int = 4) -> str:
 
 
 def _svg(chart: Chart | None) -> Markup:
-    """A chart as inline SVG (CSP-safe, written directly: :mod:`diagnostics.plots_svg`)."""
-    return Markup("") if chart is None else Markup(render_svg_native(chart))
+    """A chart as inline SVG (CSP-safe, written directly: :func:`diagnostics.plots.render_svg`)."""
+    return Markup("") if chart is None else Markup(render_svg(chart))
 
 
 templates = Environment(loader=FileSystemLoader(_HERE / "templates"),

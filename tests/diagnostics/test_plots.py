@@ -27,9 +27,11 @@ def test_svg_is_csp_safe_and_carries_the_data():
     assert root.attrib["aria-label"] == "Piston speed"
     assert " style=" not in svg and "<style" not in svg  # nothing a strict CSP would block
     assert "<script" not in svg
-    # the line is a path through all 200 points, its colour an attribute
-    paths = [e for e in root.iter() if e.tag.endswith("path") and len(e.attrib.get("d", "")) > 1000]
-    assert paths, "the data series is drawn"
+    # the model line is a polyline through all 200 points, the measurements 200 markers
+    lines = [e for e in root.iter() if e.tag.endswith("polyline")
+             and len(e.attrib.get("points", "").split()) == 200]
+    assert lines, "the data series is drawn"
+    assert sum(1 for e in root.iter() if e.tag.endswith("circle")) >= 200
     assert re.search(r'stroke="#d55e00"', svg, re.I)
     assert "t [s]" in svg and "v [m/s]" in svg  # axis labels stay text
 
