@@ -19,6 +19,7 @@ from pydantic import ValidationError
 from rich.console import Console
 from rich.table import Table
 
+from app.cli_import import import_cli
 from app.cli_support import console, load_document, settings_from_env, steps, store_session
 from sim.errors import InputError
 from sim.scenarios import FAULTS
@@ -273,3 +274,4 @@ def register(cli: typer.Typer) -> None:
     cli.command()(diagnose)
     cli.command()(sweep)
     cli.add_typer(calibrate_cli, name="calibrate")
+    cli.add_typer(import_cli, name="import")

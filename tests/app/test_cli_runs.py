@@ -153,3 +153,23 @@ def test_calibrate_pump_on_a_real_single_temperature_map(runner: CliRunner, tmp_
     for unit in ("[m³/rad]", "[cm³/rev]", "[Pa, kPa, bar, MPa]"):
         assert unit in help_text
     assert "[rad/s]" in runner.invoke(cli, ["simulate", "--help"]).stdout
+
+
+def test_import_zema_cycles_and_a_series_file(runner: CliRunner, tmp_path: Path) -> None:
+    from app.db.models import MeasuredSeries
+
+    root = Path(__file__).resolve().parents[1] / "data" / "real" / "zema"
+    result = runner.invoke(cli, ["import", "zema", "--rig", "1", "--root", str(root),
+                                 "--first", "2", "--last", "5"])
+    assert result.exit_code == 0, result.output
+    assert "4 ZeMA cycles stored" in result.stdout and _count(MeasuredSeries) == 4
+    csv = tmp_path / "s.csv"
+    csv.write_text("record,t [s],p_pump [bar],q_work [l/min]\na,0,150,7.9\na,1,151,7.8\n"
+                   "b,0,160,7.7\nb,0.5,161,7.6\n")
+    result = runner.invoke(cli, ["import", "series", str(csv), "--rig", "1", "--name", "s"])
+    assert result.exit_code == 0, result.output
+    assert _count(MeasuredSeries) == 6 and "p_pump [Pa]" in result.stdout
+    csv.write_text("t [s],p_pump [psi]\n0,1\n1,2\n")
+    bad = runner.invoke(cli, ["import", "series", str(csv), "--rig", "1", "--name", "bad"])
+    assert bad.exit_code != 0 and _count(MeasuredSeries) == 6
+    assert "[Hz]" in runner.invoke(cli, ["import", "series", "--help"]).stdout
