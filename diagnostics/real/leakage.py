@@ -18,9 +18,10 @@ so ``G_est`` is the *extra* leakage conductance, without a viscosity law (an exp
 ``1/μ(θ)`` normalisation over-corrects on this rig: oil temperature changes with the cooler
 state, and more than the pump's slip changes with it).
 
-1. **Plateaus** (:func:`record_plateaus`): samples where the pressure changes by less than
-   ``max_rate`` [Pa/s] per second *at the record's own rate*, after dropping ``settle``
-   seconds of each steady run; plateaus without flow (the relief valve's, all flow to tank)
+1. **Plateaus** (:func:`record_plateaus`): samples where the pressure, averaged over
+   ``span`` seconds, changes by less than ``max_rate`` [Pa/s]; every setting is in seconds
+   and turned into samples at the record's own rate; ``settle`` seconds of each steady run
+   are dropped; plateaus without flow (the relief valve's, all flow to tank)
    are left out.
 2. **Cycle means** (:func:`cycle_point`): flow, pressure and temperature pooled over the
    plateaus of one cycle, sample-weighted.
@@ -39,6 +40,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
+from scipy.ndimage import uniform_filter1d
 from scipy.stats import mannwhitneyu, rankdata, spearmanr
 
 from diagnostics.timeseries import SeriesRecord
@@ -63,7 +65,7 @@ class CyclePoint:
 
 def record_plateaus(record: SeriesRecord, *, pressure: str = "p_pump",
                     max_rate: float = 2.0e5, settle: float = 1.0,
-                    min_duration: float = 3.0) -> list[tuple[int, int]]:
+                    min_duration: float = 3.0, span: float = 1.0) -> list[tuple[int, int]]:
     """Index ranges ``[a, b)`` of the steady pressure plateaus of ``record``.
 
     Parameters
@@ -78,6 +80,10 @@ def record_plateaus(record: SeriesRecord, *, pressure: str = "p_pump",
         Time dropped at the start of each steady run [s].
     min_duration
         Shortest plateau kept after settling [s].
+    span
+        Time over which the pressure is averaged before its derivative is taken [s]: the
+        same span at every rate (one sample at 1 Hz, 100 samples at 100 Hz), so sensor
+        noise at a high rate does not break a plateau.
 
     Raises
     ------
@@ -91,7 +97,9 @@ def record_plateaus(record: SeriesRecord, *, pressure: str = "p_pump",
     if record.duration < min_duration:
         raise InputError(f"record {record.name!r} is shorter than a plateau "
                          f"({record.duration:.3g} s < {min_duration} s)", field="t")
-    dpdt = np.gradient(p, 1.0 / rate)
+    width = max(1, round(span * rate))
+    smooth = uniform_filter1d(p, width, mode="nearest") if width > 1 else p
+    dpdt = np.gradient(smooth, 1.0 / rate)
     steady = np.abs(dpdt) < max_rate
     edges = np.flatnonzero(np.diff(np.concatenate([[0], steady.astype(np.int8), [0]])))
     skip = math.ceil(settle * rate - 1e-9)

@@ -10,7 +10,8 @@ This adapter turns them into the project's one import format
 (:mod:`diagnostics.timeseries`): a long table with a ``record`` column (``cycle-<n>``, 1-based
 cycle number as in ``profile.txt``), channels named by role with their units given by the
 column map :data:`COLUMN_MAP`, and the sample rate of the files (1 Hz for the 1-second block
-means of ``data_compressed_1hz/`` and the raw ``TS*.txt``).  The records come back as
+means of ``data_compressed_1hz/`` and the raw ``TS*.txt``; 100 Hz for the few raw cycles
+of ``fullres_samples/``, :func:`read_fullres`).  The records come back as
 :class:`~diagnostics.timeseries.SeriesRecord` marked measured.  The labels (``profile.txt``)
 are returned separately as :class:`ZemaLabels`; they are for scoring only.
 
@@ -41,8 +42,9 @@ import pandas as pd
 from diagnostics.timeseries import SeriesRecord, series_from_frame
 from sim.errors import InputError
 
-__all__ = ["COLUMN_MAP", "SENSOR_FILES", "ZemaCycles", "ZemaLabels", "cycles_frame",
-           "find_shared", "load_1hz", "read_records", "zema_root"]
+__all__ = ["COLUMN_MAP", "FULLRES_CYCLES", "NATIVE_RATES", "SENSOR_FILES", "ZemaCycles",
+           "ZemaLabels", "cycles_frame", "find_shared", "load_1hz", "read_fullres",
+           "read_records", "zema_root"]
 
 Arr = npt.NDArray[np.float64]
 
@@ -203,7 +205,64 @@ def read_records(data: ZemaCycles,
                           {k: v[a:a + block] for k, v in data.sensors.items()}, data.sample_rate)
         out.extend(series_from_frame(cycles_frame(part), name="zema", column_map=cmap,
                                      sample_rate=data.sample_rate, measured=True,
-                                     metadata={"source": "ZeMA hydraulic rig (UCI), 1 Hz"}))
+                                     metadata={"source": "ZeMA hydraulic rig (UCI), "
+                                                         f"{data.sample_rate:g} Hz"}))
         if progress is not None:
             progress(min(a + block, total), total)
     return out
+
+
+#: Native sampling rates of the raw UCI files [Hz] (``description.txt``).
+NATIVE_RATES: dict[str, float] = {"PS1": 100.0, "PS2": 100.0, "EPS1": 100.0, "FS1": 10.0,
+                                  "TS1": 1.0}
+
+#: Cycle numbers (1-based) of the rows of ``fullres_samples/jeremiafourie/testing_sample.csv``
+#: (identified by exact match against the 1 Hz files, ``SOURCE.md``).
+FULLRES_CYCLES: tuple[int, ...] = (1967, 1092, 1469, 439, 1791, 1954, 753, 409, 1478, 2038)
+
+
+def read_fullres(path: Path, cycles: Sequence[int],
+                 sensors: Sequence[str] = ("PS1", "FS1", "TS1"),
+                 duration: float = 60.0) -> list[SeriesRecord]:
+    """Records at the native rate from the wide full-resolution layout (``<SENSOR>_<k>`` columns).
+
+    The record's time base is that of the fastest sensor given (100 Hz with PS1); slower
+    sensors are held between their samples (zero-order hold: a 10 Hz flowmeter reading is
+    the value for the next 0.1 s), so every channel has one value per sample.
+
+    Parameters
+    ----------
+    path
+        CSV with a header ``PS1_0 … PS1_5999, …`` and one row per cycle.
+    cycles
+        Cycle number (1-based) of each row, for the record names.
+    sensors
+        Sensors to read (keys of :data:`NATIVE_RATES`).
+    duration
+        Seconds of each cycle to read from its start [s] (60: the whole cycle).
+
+    Raises
+    ------
+    InputError
+        Missing columns (the error names the first), a row count that differs from
+        ``cycles``, or a sensor whose samples do not span ``duration``.
+    """
+    try:
+        frame = pd.read_csv(path)
+    except (OSError, ValueError) as exc:
+        raise InputError(f"cannot read {Path(path).name}: {exc}", field="file") from None
+    if len(frame) != len(cycles):
+        raise InputError(f"{len(frame)} rows but {len(cycles)} cycle numbers", field="cycles")
+    rate = max(NATIVE_RATES[s] for s in sensors)
+    n = round(duration * rate)
+    wide: dict[str, Arr] = {}
+    for s in sensors:
+        k = round(duration * NATIVE_RATES[s])
+        cols = [f"{s}_{i}" for i in range(k)]
+        missing = [c for c in cols if c not in frame.columns]
+        if missing:
+            raise InputError(f"column missing ({len(missing)} of {k} for {s})", field=missing[0])
+        arr = frame[cols].to_numpy(dtype=np.float64)
+        wide[s] = np.repeat(arr, n // k, axis=1)
+    data = ZemaCycles(np.asarray(cycles, dtype=np.int64), wide, rate)
+    return read_records(data)

@@ -109,3 +109,31 @@ def test_change_points_find_a_step_and_not_noise() -> None:
 def test_spearman_ceiling_by_hand() -> None:
     # ranks with ties [1.5, 1.5, 3.5, 3.5] against [1, 2, 3, 4]: 4 / (2·√5)
     assert spearman_ceiling([0, 0, 1, 1]) == pytest.approx(4.0 / (2.0 * np.sqrt(5.0)))
+
+
+def test_native_rate_record_gives_the_same_cycle_point_as_its_1hz_means() -> None:
+    from diagnostics.real.zema import ZemaCycles, read_fullres
+
+    (rec,) = read_fullres(SLICE / "fullres_cycle1092.csv", [1092], duration=30.0)
+    assert rec.name == "cycle-1092" and rec.measured
+    assert rec.sample_rate == pytest.approx(100.0) and len(rec) == 3000
+    # the 10 Hz flowmeter is held between its readings
+    q = rec.channel("q_work")
+    assert np.all(q.reshape(300, 10) == q.reshape(300, 10)[:, :1])
+    fast = cycle_point(rec)
+    # the same cycle as 1-second block means, through the 1 Hz path
+    blocks = {s: rec.channels[c].reshape(30, 100).mean(axis=1)[None, :] for s, c in
+              (("PS1", "p_pump"), ("FS1", "q_work"), ("TS1", "oil_temperature"))}
+    unit_back = {"PS1": 1e-5, "FS1": 6e4, "TS1": 1.0}
+    slow_data = ZemaCycles(np.array([1092]), {k: v * unit_back[k] for k, v in blocks.items()},
+                           1.0)
+    (slow_rec,) = read_records(slow_data)
+    slow = cycle_point(slow_rec)
+    assert fast.pressure == pytest.approx(slow.pressure, rel=5e-3)
+    assert fast.flow == pytest.approx(slow.flow, rel=5e-3)
+    # the field-record detector picks a window for 100 Hz itself and does not warn
+    fr = FieldRecord(rec.t, rec.channel("p_pump"), rec.channel("oil_temperature"),
+                     np.abs(q) + 1e-6, 150.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert len(plateaus(fr)) >= 2
