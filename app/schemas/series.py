@@ -48,21 +48,24 @@ class SeriesPublic(PublicModel):
     sample_rate: float | None = Field(description="Uniform sampling rate, null when not "
                                       "uniform [Hz]", examples=[1.0])
     n_samples: int = Field(description="Number of samples [-]", examples=[60])
-    measured: bool = Field(description="True for measured data, false for generated [-]")
+    measured: bool = Field(description="True for measured data, false for generated [-]",
+                           examples=[True])
     units: dict[str, str] = Field(description="SI unit of every channel [-]",
                                   examples=[{"p_pump": "Pa", "q_work": "m^3/s"}])
     condition: dict[str, float] = Field(
         description="Constant operating condition: load [N], back_pressure [Pa], "
-        "oil_temperature [°C], pump_speed [rad/s] — those known [SI]")
+        "oil_temperature [°C], pump_speed [rad/s] — those known [SI]",
+        examples=[{"oil_temperature": 45.2}])
     created_at: Timestamp
 
 
 class SeriesData(SeriesPublic):
     """A stored record with its samples, in SI units."""
 
-    t: list[float] = Field(description="Sample times [s]")
+    t: list[float] = Field(description="Sample times [s]", examples=[[0.0, 1.0, 2.0]])
     channels: dict[str, list[float]] = Field(
-        description="Channel → values, in the unit of ``units`` [SI]")
+        description="Channel → values, in the unit of ``units`` [SI]",
+        examples=[{"p_pump": [1.91e7, 1.91e7, 1.47e7]}])
 
     @classmethod
     def of(cls, row: Any) -> SeriesData:

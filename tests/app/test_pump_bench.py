@@ -147,3 +147,13 @@ def test_key_unknown_rig_and_taken_name(server: LiveServer, bench_csv: bytes) ->
     taken = _upload(server, bench_csv, FORM | {"name": "twice"})
     assert taken.status_code == 409 and taken.json()["error"]["field"] == "name"
     assert server.row_counts() == before
+
+
+def test_the_documented_sample_file_is_accepted(server: LiveServer) -> None:
+    sample = Path(__file__).resolve().parents[2] / "docs" / "samples" / "bench_sample.csv"
+    response = _upload(server, sample.read_bytes(), FORM | {"name": "docs-sample"})
+    assert response.status_code == 201, response.text
+    body = response.json()
+    assert body["source"].startswith("SIMULATED")
+    assert body["quantities"]["D"]["value"] == pytest.approx(stand_in_pump().D, rel=0.02)
+    assert body["quantities"]["Cs_r2"]["value"] > 0.5
