@@ -157,3 +157,14 @@ def test_the_documented_sample_file_is_accepted(server: LiveServer) -> None:
     assert body["source"].startswith("SIMULATED")
     assert body["quantities"]["D"]["value"] == pytest.approx(stand_in_pump().D, rel=0.02)
     assert body["quantities"]["Cs_r2"]["value"] > 0.5
+
+
+def test_the_openapi_example_of_the_upload_is_accepted(server: LiveServer) -> None:
+    spec = server.client.get("/openapi.json").json()
+    ref = spec["paths"]["/pump-sets/bench"]["post"]["requestBody"]["content"][
+        "multipart/form-data"]["schema"]["$ref"].split("/")[-1]
+    example = spec["components"]["schemas"][ref]["properties"]["file"]["examples"][0]
+    response = _upload(server, example.encode(), FORM | {"name": "openapi-example"})
+    assert response.status_code == 201, response.text
+    # q = D·ω − 1e-12·Δp was used to write it: the Toet capacity gives D back
+    assert response.json()["quantities"]["D"]["value"] == pytest.approx(2.34e-6, rel=1e-3)
