@@ -5,7 +5,7 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed-stamp
 export HYDRODIAG_CACHE_DIR ?= $(CURDIR)/.hydrodiag-cache
 
-.PHONY: run test lint bench accuracy pump-study load-bench console-bench screenshots clean
+.PHONY: run test lint bench accuracy pump-study load-bench console-bench screenshots real-data clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -34,6 +34,9 @@ accuracy: $(STAMP)
 
 pump-study: $(STAMP)
 	$(PY) -m benchmarks.pump_study
+
+real-data: $(STAMP)
+	$(PY) -m benchmarks.real_data
 
 load-bench: $(STAMP)
 	$(PY) -m benchmarks.load_bench

@@ -10,6 +10,7 @@ documents as the API bodies: ``diagnose`` a record, a list of records or a whole
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -18,6 +19,7 @@ from pydantic import ValidationError
 from rich.console import Console
 from rich.table import Table
 
+from app.cli_import import import_cli
 from app.cli_support import console, load_document, settings_from_env, steps, store_session
 from sim.errors import InputError
 from sim.scenarios import FAULTS
@@ -57,10 +59,10 @@ def simulate(
     set_: Annotated[list[str] | None, typer.Option(
         "--set", help="Override role.name=value in SI units (repeat), e.g. valve.cv=60e-6.")
     ] = None,
-    load: Annotated[float | None, typer.Option(help="Load force [N].")] = None,
-    back_pressure: Annotated[float | None, typer.Option(help="Back-pressure [Pa].")] = None,
-    oil_temperature: Annotated[float | None, typer.Option(help="Oil temperature [°C].")] = None,
-    pump_speed: Annotated[float | None, typer.Option(help="Pump speed [rad/s].")] = None,
+    load: Annotated[float | None, typer.Option(help="Load force \\[N].")] = None,
+    back_pressure: Annotated[float | None, typer.Option(help="Back-pressure \\[Pa].")] = None,
+    oil_temperature: Annotated[float | None, typer.Option(help="Oil temperature \\[°C].")] = None,
+    pump_speed: Annotated[float | None, typer.Option(help="Pump speed \\[rad/s].")] = None,
     steady: Annotated[bool, typer.Option(help="Steady operating points only (fast).")] = False,
     output: Annotated[Path | None, typer.Option(
         help="Write the time series here: .csv, .parquet or .json.")] = None,
@@ -200,12 +202,27 @@ def calibrate_pump(
     pump: Annotated[str, typer.Option(help="Pump model and size.")],
     rig_id: Annotated[int | None, typer.Option("--rig", help="Rig of the pump.")] = None,
     displacement: Annotated[float | None, typer.Option(
-        help="Derived capacity D [m³/rad]; from the data when left out.")] = None,
+        help="Derived capacity D \\[m³/rad]; from the data when left out.")] = None,
+    displacement_cm3_rev: Annotated[float | None, typer.Option(
+        "--displacement-cm3-rev",
+        help="Derived capacity as displacement per revolution \\[cm³/rev] (instead of "
+             "--displacement).")] = None,
 ) -> None:
-    """Parameterise a pump from a bench CSV and store it, as POST /pump-sets/bench does."""
+    """Parameterise a pump from a bench CSV and store it, as POST /pump-sets/bench does.
+
+    The CSV has one row per steady point with the unit in every column name: p_in, p_out
+    \\[Pa, kPa, bar, MPa], n \\[rev/s, rpm, rad/s], theta \\[degC, K], q \\[m^3/s, l/min],
+    optional T \\[N*m].  Data at one oil temperature give the derived capacity only (the loss
+    coefficients of paper 000 eqs. 7-9, 17-19 need two temperatures).
+    """
     from app.schemas.pumps import PumpBenchForm
     from app.services.pump_bench import store_bench_parameters
 
+    if displacement is not None and displacement_cm3_rev is not None:
+        raise InputError("give --displacement or --displacement-cm3-rev, not both",
+                         field="--displacement-cm3-rev")
+    if displacement_cm3_rev is not None:
+        displacement = displacement_cm3_rev * 1e-6 / (2.0 * math.pi)
     form = _validated(PumpBenchForm, {"name": name, "pump": pump, "rig_id": rig_id,
                                       "displacement_m3_rad": displacement})
     try:
@@ -221,6 +238,8 @@ def calibrate_pump(
         shown = f"{value:.6g}" if isinstance(value, float) else f"array {len(value)} rows"
         table.add_row(key, shown, quantity["unit"])
     _out.print(table)
+    if pump_set.source:
+        _out.print(pump_set.source, markup=False)
 
 
 @calibrate_cli.command("throttle")
@@ -255,3 +274,4 @@ def register(cli: typer.Typer) -> None:
     cli.command()(diagnose)
     cli.command()(sweep)
     cli.add_typer(calibrate_cli, name="calibrate")
+    cli.add_typer(import_cli, name="import")

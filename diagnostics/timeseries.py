@@ -21,7 +21,8 @@ same for a single-record file.  A varying temperature stays a channel as well.
 
 A *column map* adapts other tables (a data logger's, a public data set's): raw column →
 ``(channel, unit)``, e.g. ``{"PS1": ("P_pump", "bar")}``; mapped columns need no unit in
-their names.  :func:`read_series` is the entry point; :meth:`SeriesRecord.frame` writes a
+their names.  A table without a time column needs its ``sample_rate`` [Hz].
+:func:`read_series` is the entry point; :meth:`SeriesRecord.frame` writes a
 record back in the same format.
 """
 
@@ -246,7 +247,8 @@ def series_from_frame(frame: pd.DataFrame, *, name: str = "table",
                       column_map: Mapping[str, tuple[str, str]] | None = None,
                       expected: Mapping[str, str] | None = None,
                       required: Sequence[str] = (), metadata: Mapping[str, Any] | None = None,
-                      measured: bool = True) -> list[SeriesRecord]:
+                      measured: bool = True,
+                      sample_rate: float | None = None) -> list[SeriesRecord]:
     """Records of a table in the import format (module docstring).
 
     Parameters
@@ -266,11 +268,14 @@ def series_from_frame(frame: pd.DataFrame, *, name: str = "table",
         Header entries of the source; ``condition`` there fills the records' conditions.
     measured
         Whether the data are measured (True) or generated.
+    sample_rate
+        Samples per second [Hz] for a table without a time column: each record's times
+        are then ``0, 1/rate, 2/rate, ...`` [s].  Ignored when the table has a time column.
 
     Raises
     ------
     InputError
-        Naming the column: no time column, unknown or wrong unit, NaN or infinity,
+        Naming the column: no time column (and no ``sample_rate``), unknown or wrong unit, NaN or infinity,
         non-increasing time, a required channel missing, a record of < 2 samples.
     """
     cmap = dict(column_map or {})
@@ -294,9 +299,14 @@ def series_from_frame(frame: pd.DataFrame, *, name: str = "table",
             raise InputError(f"channel {chan!r} appears twice", field=raw)
         columns[raw] = (chan, canonical, scale, offset)
     time_col = next((raw for raw, c in columns.items() if c[0] == "t"), None)
-    if time_col is None:
-        raise InputError("no time column: name it 't [s]' (or map one to 't')", field="t")
-    if columns[time_col][1] != "s":
+    if time_col is None and sample_rate is not None:
+        if not (math.isfinite(sample_rate) and sample_rate > 0.0):
+            raise InputError("the sample rate must be a positive number [Hz]",
+                             field="sample_rate")
+    elif time_col is None:
+        raise InputError("no time column: name it 't [s]' (or map one to 't'), or give the "
+                         "sample rate", field="t")
+    elif columns[time_col][1] != "s":
         raise InputError("the time column must be in a unit of time (s, ms, min, h)",
                          field=time_col)
     for chan in required:
@@ -320,14 +330,19 @@ def series_from_frame(frame: pd.DataFrame, *, name: str = "table",
                 raise InputError(f"NaN or infinite value in record {label!r} at row {row}",
                                  field=raw)
             values[chan] = data * scale + offset
-        t = values.pop("t")
+        if time_col is None:
+            assert sample_rate is not None
+            t = np.arange(len(group), dtype=float) / sample_rate
+        else:
+            t = values.pop("t")
         if t.size < 2:
-            raise InputError(f"record {label!r} has fewer than two samples", field=time_col)
+            raise InputError(f"record {label!r} has fewer than two samples",
+                             field=time_col or "t")
         steps = np.diff(t)
         if np.any(steps <= 0):
             row = int(np.argmax(steps <= 0)) + 1
             raise InputError(f"time does not increase in record {label!r} at row {row} "
-                             "(separate records with a 'record' column)", field=time_col)
+                             "(separate records with a 'record' column)", field=time_col or "t")
         phase: npt.NDArray[np.str_] | None = None
         if "phase" in group.columns:
             if group["phase"].isna().any():
@@ -355,7 +370,7 @@ def series_from_frame(frame: pd.DataFrame, *, name: str = "table",
 def read_series(source: str | Path | bytes | pd.DataFrame, *, format: str | None = None,
                 column_map: Mapping[str, tuple[str, str]] | None = None,
                 expected: Mapping[str, str] | None = None, required: Sequence[str] = (),
-                measured: bool = True) -> list[SeriesRecord]:
+                measured: bool = True, sample_rate: float | None = None) -> list[SeriesRecord]:
     """Read measured time series from a CSV or Parquet file (path or bytes) or a table.
 
     See the module docstring for the format and :func:`series_from_frame` for the options.
@@ -371,4 +386,5 @@ def read_series(source: str | Path | bytes | pd.DataFrame, *, format: str | None
     if frame.empty:
         raise InputError("the table has no rows", field="file")
     return series_from_frame(frame, name=name, column_map=column_map, expected=expected,
-                             required=required, metadata=meta, measured=measured)
+                             required=required, metadata=meta, measured=measured,
+                             sample_rate=sample_rate)

@@ -6,6 +6,7 @@
 * ``diagnose`` — ``POST /diagnose`` over :mod:`app.services.diagnosis`;
 * ``simulate`` — ``POST /simulate`` over :mod:`app.services.simulation`;
 * ``scenarios`` — ``POST /scenarios``: sweeps as jobs (:mod:`app.services.sweeps`);
+* ``series`` — measured time series of a rig (:mod:`app.services.series`);
 * ``trends`` — ``GET /rigs/{rig_id}/trends`` over :mod:`app.services.trends`;
 * ``jobs`` — status, progress and results of long work.
 """
@@ -22,6 +23,7 @@ from app.api.routes import (
     pumps,
     rigs,
     scenarios,
+    series,
     simulate,
     trends,
 )
@@ -29,5 +31,6 @@ from app.api.routes import (
 __all__ = ["api_router"]
 
 api_router = APIRouter()
-for _module in (ops, rigs, calibrations, trends, pumps, diagnose, simulate, scenarios, jobs):
+for _module in (ops, rigs, calibrations, trends, pumps, series, diagnose, simulate, scenarios,
+                jobs):
     api_router.include_router(_module.router)

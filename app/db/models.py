@@ -10,6 +10,7 @@ from datetime import datetime
 from typing import Any
 
 from sqlalchemy import (
+    Boolean,
     CheckConstraint,
     Float,
     ForeignKey,
@@ -31,6 +32,7 @@ __all__ = [
     "Diagnosis",
     "DiagnosisEstimate",
     "Job",
+    "MeasuredSeries",
     "Measurement",
     "PumpSet",
     "Rig",
@@ -158,6 +160,28 @@ class Measurement(Base):
     diagnoses: Mapped[list[Diagnosis]] = relationship(
         back_populates="measurement", cascade="all, delete-orphan", passive_deletes=True
     )
+
+
+class MeasuredSeries(Base):
+    """One imported time-series record of a rig (:mod:`diagnostics.timeseries`), in SI units.
+
+    ``data`` holds ``{"t": [...] [s], "channels": {name: [...]}}``; ``units`` the SI unit of
+    every channel; ``condition`` the record's constant operating condition.
+    """
+
+    __tablename__ = "measured_series"
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    rig_id: Mapped[int] = mapped_column(ForeignKey("rigs.id", ondelete="RESTRICT"), index=True)
+    name: Mapped[str] = mapped_column(String(200))
+    record: Mapped[str] = mapped_column(String(200))
+    sample_rate: Mapped[float | None] = mapped_column(Float)
+    n_samples: Mapped[int] = mapped_column(Integer)
+    measured: Mapped[bool] = mapped_column(Boolean)
+    units: Mapped[dict[str, Any]] = mapped_column(JSONDocument)
+    condition: Mapped[dict[str, Any]] = mapped_column(JSONDocument)
+    data: Mapped[dict[str, Any]] = mapped_column(JSONDocument)
+    created_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=utcnow)
 
 
 class Diagnosis(Base):

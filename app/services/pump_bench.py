@@ -134,7 +134,7 @@ def store_bench_parameters(session: Session, form: PumpBenchForm, content: bytes
     data, result = parameterise_csv(content, displacement=form.displacement_m3_rad,
                                     displacement_std=form.displacement_std_m3_rad)
     notes = [n for n in (_SIMULATED if data.simulated else None, form.source,
-                         data.provenance or None) if n]
+                         data.provenance or None, result.not_identifiable or None) if n]
     create = PumpSetCreate.model_validate({
         "name": form.name, "kind": "parameters", "rig_id": form.rig_id, "pump": form.pump,
         "source": "; ".join(notes)[:2000] or None, "quantities": _quantities(data, result),

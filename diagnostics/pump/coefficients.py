@@ -230,9 +230,10 @@ class PumpParameterisation:
     capacity
         The capacity estimate when it came from the data (Toet), else ``None``.
     points
-        Point estimates of the coefficients.
+        Point estimates of the coefficients; ``None`` in single-temperature mode.
     fits
-        ``{"Cs", "Cst", "Cv", "Cf"}`` → surface fits (Cv, Cf only with torque).
+        ``{"Cs", "Cst", "Cv", "Cf"}`` → surface fits (Cv, Cf only with torque); empty in
+        single-temperature mode.
     rho, beta_ef
         Density [kg/m³] and bulk modulus [Pa] assumed.
     fluid
@@ -242,14 +243,17 @@ class PumpParameterisation:
     D: float
     D_std: float
     capacity: CapacityEstimate | None
-    points: PointEstimates
+    points: PointEstimates | None
     fits: dict[str, SurfaceFit]
     rho: float
     beta_ef: float
     fluid: Fluid
+    not_identifiable: str = ""
 
     def pump(self) -> GearPump:
         """A :class:`GearPump` with the fitted surfaces (needs Cv and Cf, i.e. torque data)."""
+        if self.points is None:
+            raise InputError(self.not_identifiable, field="theta")
         if "Cv" not in self.fits:
             raise InputError("no torque data: Cv and Cf were not parameterised", field="T")
         dp, w = self.points.dp, self.points.omega
@@ -259,6 +263,18 @@ class PumpParameterisation:
                         p_range=(float(dp.min()), float(dp.max())),
                         omega_range=(float(w.min()), float(w.max())),
                         note="parameterised from bench data (paper 000 eqs. 7-9, 17-19)")
+
+
+def _refuse_identical(pairs: PairedPoints) -> None:
+    """Refuse pairs whose readings do not change with temperature at all (degenerate)."""
+    x = pairs.values
+    same_q = np.allclose(x["q1"], x["q2"], rtol=1e-9, atol=0.0)
+    same_t = (not pairs.has_torque) or np.allclose(x["t1"], x["t2"], rtol=1e-9, atol=0.0)
+    if same_q and same_t:
+        raise InputError("the readings at the two oil temperatures are identical: eqs. 7 and "
+                         "17 need flow and torque measured at each temperature (is one data "
+                         "set labelled with two temperatures?); nothing was fitted",
+                         field="theta")
 
 
 def _fit_all(points: PointEstimates, degrees: Mapping[str, tuple[int, int]]
@@ -300,16 +316,34 @@ def parameterise(data: BenchData, *, D: float | None = None, D_std: float = 0.0,
     Returns
     -------
     PumpParameterisation
+        With one oil-temperature level (most manufacturer maps) the *single-temperature
+        mode*: the derived capacity only, ``fits`` empty and ``not_identifiable`` saying
+        why eqs. 7-9 and 17-19 cannot be used (they need the flow and torque to change
+        with viscosity at fixed Δp and ω).
+
+    Raises
+    ------
+    InputError
+        Degenerate data: the readings at the two temperatures are identical (one data
+        set labelled twice, ``field="theta"``), or too few levels for the capacity.
     """
     fl = fluid if fluid is not None else Fluid()
+    _, t_lev = cluster_levels(data.theta, rel_gap=0.0, abs_gap=THETA_GAP, field="theta")
     capacity: CapacityEstimate | None = None
     if D is None:
         capacity = derived_capacity_toet(data)
         D, D_std = capacity.D, capacity.std if math.isfinite(capacity.std) else 0.0
     if not (D > 0 and D_std >= 0):
         raise InputError("D must be > 0 and D_std ≥ 0", field="D")
+    if t_lev.size < 2:
+        reason = (f"Cs, Cst (eq. 7, 17) and Cv, Cf need data at two oil temperatures; the data "
+                  f"have one level ({float(t_lev[0]):.1f} °C): not identifiable, only the "
+                  "derived capacity is given")
+        return PumpParameterisation(D=D, D_std=D_std, capacity=capacity, points=None, fits={},
+                                    rho=rho, beta_ef=beta_ef, fluid=fl, not_identifiable=reason)
     deg = dict(degrees) if degrees is not None else {}
     pairs = pair_set_points(data, noise)
+    _refuse_identical(pairs)
     points = point_coefficients(pairs, D, fluid=fl, rho=rho, beta_ef=beta_ef)
     fits = _fit_all(points, deg)
     if D_std > 0:

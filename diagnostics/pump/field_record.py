@@ -117,7 +117,8 @@ class FieldRecord:
     speed
         Engine (pump) speed [rad/s], one value for the record.
     simulated
-        True for generated records.
+        True for generated records; False (the default) for a record built from
+        measurements.
     effects
         Hidden effects the generator put in (empty: none).
     provenance
@@ -132,7 +133,7 @@ class FieldRecord:
     theta: FloatArray
     flow: FloatArray
     speed: float
-    simulated: bool = True
+    simulated: bool = False
     effects: tuple[str, ...] = ()
     provenance: str = ""
     truth: dict[str, FloatArray] = field(default_factory=dict)

@@ -28,6 +28,7 @@ speed's absolute value (:func:`diagnostics.slip.slip_coefficient_two_temperature
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -48,6 +49,11 @@ __all__ = ["CampaignTrend", "LevelSlip", "Plateau", "campaign_trend", "plateaus"
            "visit_slip"]
 
 
+#: Time span of the derivative window of :func:`plateaus` [s]: 11 samples at paper 000's
+#: 30 ms sampling (§3.2.2), the setting the defaults were tuned with.
+DERIVATIVE_SPAN = 0.33
+
+
 @dataclass(frozen=True, slots=True)
 class Plateau:
     """A steady stretch of a record: times [s], samples, means (pressure [Pa], flow [m³/s], θ [°C])."""
@@ -61,7 +67,7 @@ class Plateau:
 
 
 def plateaus(record: FieldRecord, *, max_rate: float = 2.0e6, min_duration: float = 1.0,
-             settle: float = 0.5, window: int = 11) -> list[Plateau]:
+             settle: float = 0.5, window: int | None = None) -> list[Plateau]:
     """Steady stretches of ``record`` (module docstring, step 1).
 
     Parameters
@@ -76,9 +82,27 @@ def plateaus(record: FieldRecord, *, max_rate: float = 2.0e6, min_duration: floa
     settle
         Time dropped at the start of each steady run [s].
     window
-        Savitzky-Golay window of the derivative [samples].
+        Savitzky-Golay window of the derivative [samples]; default: the odd number of
+        samples spanning :data:`DERIVATIVE_SPAN` at the record's own rate (11 at paper
+        000's 30 ms), at least 5.
+
+    Warns
+    -----
+    UserWarning
+        When the derivative window spans more than ``min_duration``: the record is
+        sampled too coarsely for these settings (a 1 Hz record would merge a whole cycle
+        into one plateau) — pass settings scaled to its rate.
     """
-    dpdt = savgol_filter(record.pressure, window, 2, deriv=1, delta=record.interval)
+    dt = record.interval
+    if window is None:
+        window = max(5, 2 * round(DERIVATIVE_SPAN / dt / 2) + 1)
+    if window * dt > min_duration:
+        warnings.warn(f"plateaus(): the derivative window ({window} samples = {window * dt:.3g} "
+                      f"s at {1.0 / dt:.3g} Hz) is longer than min_duration ({min_duration} "
+                      "s); the record is too coarse for these settings", stacklevel=2)
+    if record.pressure.size < window:
+        return []
+    dpdt = savgol_filter(record.pressure, window, 2, deriv=1, delta=dt)
     steady = np.abs(dpdt) < max_rate
     edges = np.flatnonzero(np.diff(np.concatenate([[0], steady.astype(np.int8), [0]])))
     out = []

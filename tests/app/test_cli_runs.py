@@ -123,3 +123,53 @@ def test_calibrate_pump_and_throttle(runner: CliRunner, tmp_path: Path) -> None:
     assert throttle.exit_code == 0, throttle.output
     assert "computed" in throttle.stdout
     assert _count(ThrottleCalibration) == before + 1
+
+
+def test_calibrate_pump_on_a_real_single_temperature_map(runner: CliRunner, tmp_path: Path,
+                                                         monkeypatch: pytest.MonkeyPatch) -> None:
+    import math
+
+    from diagnostics.pump.levels import cluster_levels
+    from diagnostics.pump.piston import bench_frame, read_efficiency_map
+
+    slice_ = Path(__file__).resolve().parents[1] / "data" / "real" / "v32hl56" / "V32HL56-slice.csv"
+    data = read_efficiency_map(slice_)
+    idx, lev = cluster_levels(data.D, field="D")
+    big = data.subset(idx == int(lev.argmax()))
+    bench_frame(big, 50.0).to_csv(tmp_path / "map.csv", index=False)
+    cm3 = float(lev.max()) * 2e6 * math.pi
+    result = runner.invoke(cli, ["calibrate", "pump", str(tmp_path / "map.csv"), "--name",
+                                 "v32", "--pump", "V32HL56 piston pump",
+                                 "--displacement-cm3-rev", f"{cm3:.6f}"])
+    assert result.exit_code == 0, result.output
+    assert "not identifiable" in result.stdout and "Cs_coef" not in result.stdout
+    assert _count(PumpSet) == 1
+    both = runner.invoke(cli, ["calibrate", "pump", str(tmp_path / "map.csv"), "--name", "v33",
+                               "--pump", "x", "--displacement", "1e-6",
+                               "--displacement-cm3-rev", "57"])
+    assert both.exit_code != 0 and _count(PumpSet) == 1
+    monkeypatch.setenv("COLUMNS", "200")
+    help_text = runner.invoke(cli, ["calibrate", "pump", "--help"]).stdout
+    for unit in ("[m³/rad]", "[cm³/rev]", "[Pa, kPa, bar, MPa]"):
+        assert unit in help_text
+    assert "[rad/s]" in runner.invoke(cli, ["simulate", "--help"]).stdout
+
+
+def test_import_zema_cycles_and_a_series_file(runner: CliRunner, tmp_path: Path) -> None:
+    from app.db.models import MeasuredSeries
+
+    root = Path(__file__).resolve().parents[1] / "data" / "real" / "zema"
+    result = runner.invoke(cli, ["import", "zema", "--rig", "1", "--root", str(root),
+                                 "--first", "2", "--last", "5"])
+    assert result.exit_code == 0, result.output
+    assert "4 ZeMA cycles stored" in result.stdout and _count(MeasuredSeries) == 4
+    csv = tmp_path / "s.csv"
+    csv.write_text("record,t [s],p_pump [bar],q_work [l/min]\na,0,150,7.9\na,1,151,7.8\n"
+                   "b,0,160,7.7\nb,0.5,161,7.6\n")
+    result = runner.invoke(cli, ["import", "series", str(csv), "--rig", "1", "--name", "s"])
+    assert result.exit_code == 0, result.output
+    assert _count(MeasuredSeries) == 6 and "p_pump [Pa]" in result.stdout
+    csv.write_text("t [s],p_pump [psi]\n0,1\n1,2\n")
+    bad = runner.invoke(cli, ["import", "series", str(csv), "--rig", "1", "--name", "bad"])
+    assert bad.exit_code != 0 and _count(MeasuredSeries) == 6
+    assert "[Hz]" in runner.invoke(cli, ["import", "series", "--help"]).stdout

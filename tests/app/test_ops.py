@@ -20,7 +20,10 @@ def test_health(server: LiveServer) -> None:
 def test_ready_reports_the_migrated_store(server: LiveServer) -> None:
     response = server.client.get("/ready")
     assert response.status_code == 200
-    assert response.json() == {"status": "ready", "database": "sqlite", "revision": "0001"}
+    from app.db.migrate import head_revision
+
+    assert response.json() == {"status": "ready", "database": "sqlite",
+                               "revision": head_revision()}
 
 
 def test_ready_is_503_while_the_store_is_behind(tmp_path: Path) -> None:
@@ -29,7 +32,10 @@ def test_ready_is_503_while_the_store_is_behind(tmp_path: Path) -> None:
         behind = live.client.get("/ready")
         assert behind.status_code == 503
         assert behind.json()["error"]["type"] == "ServiceUnavailableError"
-        assert behind.json()["error"]["message"] == "database at revision None, service needs 0001"
+        from app.db.migrate import head_revision
+
+        assert behind.json()["error"]["message"] == (
+            f"database at revision None, service needs {head_revision()}")
         assert live.client.get("/health").status_code == 200  # liveness does not touch the store
         migrate.upgrade(live.engine)
         assert live.client.get("/ready").status_code == 200

@@ -96,13 +96,44 @@ def test_bad_uploads_are_422_and_store_nothing(server: LiveServer, bench_csv: by
     assert server.row_counts() == before
 
 
-def test_one_temperature_is_not_enough(server: LiveServer, tmp_path: Path) -> None:
+def test_one_temperature_gives_the_capacity_and_says_what_is_not_identifiable(
+        server: LiveServer, tmp_path: Path) -> None:
     dp, w = iso4409_grid(*default_levels())
     data = run_virtual_bench(stand_in_pump(), dp, w, (40.0,), noise=InstrumentNoise.none())
     write_bench_csv(data, tmp_path / "one.csv")
     response = _upload(server, (tmp_path / "one.csv").read_bytes(), FORM | {"name": "one-t"})
-    assert response.status_code == 422
+    assert response.status_code == 201, response.text
+    body = response.json()
+    assert "not identifiable" in body["source"]
+    q = body["quantities"]
+    assert q["D"]["value"] == pytest.approx(stand_in_pump().D, rel=0.01)
+    assert not any(k.startswith(("Cs", "Cst", "Cv", "Cf")) for k in q)
+    assert server.client.get(f"/pump-sets/{body['id']}").json() == body
+
+
+def test_one_data_set_labelled_at_two_temperatures_is_refused(server: LiveServer,
+                                                              tmp_path: Path) -> None:
+    dp, w = iso4409_grid(*default_levels())
+    data = run_virtual_bench(stand_in_pump(), dp, w, (40.0,), noise=InstrumentNoise.none())
+    write_bench_csv(data, tmp_path / "one.csv")
+    text = (tmp_path / "one.csv").read_text().splitlines()
+    head = [ln for ln in text if ln.startswith("#")]
+    rows = [ln for ln in text if not ln.startswith("#")]
+    col = rows[0].split(",").index("theta [degC]")
+
+    def relabel(line: str, theta: str) -> str:
+        cells = line.split(",")
+        cells[col] = theta
+        return ",".join(cells)
+
+    twice = head + rows[:1] + [relabel(r, "40") for r in rows[1:]] + [
+        relabel(r, "60") for r in rows[1:]]
+    before = server.row_counts()
+    response = _upload(server, ("\n".join(twice) + "\n").encode(), FORM | {"name": "twice-t"})
+    assert response.status_code == 422, response.text
     assert response.json()["error"]["field"] == "file.theta"
+    assert "identical" in response.json()["error"]["message"]
+    assert server.row_counts() == before
 
 
 def test_key_unknown_rig_and_taken_name(server: LiveServer, bench_csv: bytes) -> None:
@@ -116,3 +147,24 @@ def test_key_unknown_rig_and_taken_name(server: LiveServer, bench_csv: bytes) ->
     taken = _upload(server, bench_csv, FORM | {"name": "twice"})
     assert taken.status_code == 409 and taken.json()["error"]["field"] == "name"
     assert server.row_counts() == before
+
+
+def test_the_documented_sample_file_is_accepted(server: LiveServer) -> None:
+    sample = Path(__file__).resolve().parents[2] / "docs" / "samples" / "bench_sample.csv"
+    response = _upload(server, sample.read_bytes(), FORM | {"name": "docs-sample"})
+    assert response.status_code == 201, response.text
+    body = response.json()
+    assert body["source"].startswith("SIMULATED")
+    assert body["quantities"]["D"]["value"] == pytest.approx(stand_in_pump().D, rel=0.02)
+    assert body["quantities"]["Cs_r2"]["value"] > 0.5
+
+
+def test_the_openapi_example_of_the_upload_is_accepted(server: LiveServer) -> None:
+    spec = server.client.get("/openapi.json").json()
+    ref = spec["paths"]["/pump-sets/bench"]["post"]["requestBody"]["content"][
+        "multipart/form-data"]["schema"]["$ref"].split("/")[-1]
+    example = spec["components"]["schemas"][ref]["properties"]["file"]["examples"][0]
+    response = _upload(server, example.encode(), FORM | {"name": "openapi-example"})
+    assert response.status_code == 201, response.text
+    # q = D·ω − 1e-12·Δp was used to write it: the Toet capacity gives D back
+    assert response.json()["quantities"]["D"]["value"] == pytest.approx(2.34e-6, rel=1e-3)

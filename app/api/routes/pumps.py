@@ -24,6 +24,17 @@ __all__ = ["router"]
 router = APIRouter(prefix="/pump-sets", tags=["pump sets"], dependencies=[ReadAccess],
                    responses=ERROR_RESPONSES)
 
+#: A bench CSV the upload accepts: one oil temperature, 3 pressures × 3 speeds (enough for
+#: the Toet capacity; the loss coefficients need a second temperature).
+BENCH_EXAMPLE = (
+    "p_in [Pa],p_out [Pa],n [rev/s],theta [degC],q [m^3/s],T [N*m]\n"
+    "0,2000000,10,40,1.4503e-04,5.220\n0,2000000,20,40,2.9205e-04,5.220\n"
+    "0,2000000,30,40,4.3908e-04,5.220\n0,10000000,10,40,1.3703e-04,24.502\n"
+    "0,10000000,20,40,2.8405e-04,24.502\n0,10000000,30,40,4.3108e-04,24.502\n"
+    "0,20000000,10,40,1.2703e-04,48.604\n0,20000000,20,40,2.7405e-04,48.604\n"
+    "0,20000000,30,40,4.2108e-04,48.604\n"
+)
+
 PumpSetId = Annotated[int, Path(ge=1, description="Pump set identifier [-]", examples=[1])]
 
 
@@ -79,8 +90,7 @@ def create_from_bench(
     file: Annotated[UploadFile, File(
         description="Bench CSV, one row per steady test point, units in the column names "
         "(diagnostics.pump.csvio) [-]",
-        examples=["p_in [Pa],p_out [Pa],n [rev/s],theta [degC],q [m^3/s],T [N*m]\n"
-                  "0,2e6,10,22,2.3e-5,8.1\n"])],
+        examples=[BENCH_EXAMPLE])],
     session: SessionDep,
     _key: WriteKeyDep,
     response: Response,

@@ -8,7 +8,8 @@ the store then handle it like the paper-002 circuit.
 
 Registered here:
 
-* ``pump-valve-cylinder`` — paper 002, Figure 1 (:mod:`sim.rigs.circuits.pump_valve_cylinder`).
+* ``pump-valve-cylinder`` — paper 002, Figure 1 (:mod:`sim.rigs.circuits.pump_valve_cylinder`);
+* ``pump-relief-orifice`` — the ZeMA rig at its data's level (:mod:`sim.rigs.circuits.pump_relief_orifice`).
 """
 
 from __future__ import annotations
@@ -124,4 +125,7 @@ def get_circuit(name: object) -> Circuit:
 DEFAULT_CIRCUIT = "pump-valve-cylinder"
 
 # the circuits shipped with hydrodiag register themselves on import
-from sim.rigs.circuits import pump_valve_cylinder  # noqa: E402, F401
+from sim.rigs.circuits import (  # noqa: E402
+    pump_relief_orifice,  # noqa: F401
+    pump_valve_cylinder,  # noqa: F401
+)

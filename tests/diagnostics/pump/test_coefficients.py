@@ -14,6 +14,7 @@ from diagnostics.pump import (
     default_levels,
     fit_surface,
     iso4409_grid,
+    pair_set_points,
     parameterise,
     read_bench_csv,
     run_virtual_bench,
@@ -97,11 +98,13 @@ def test_csv_round_trip_gives_the_same_parameterisation(grid_bench: BenchData,
         np.testing.assert_allclose(b.fits[k].surface.coef, a.fits[k].surface.coef, rtol=1e-10)
 
 
-def test_one_temperature_is_refused(pump: GearPump) -> None:
+def test_one_temperature_gives_no_coefficients_and_says_why(pump: GearPump) -> None:
     dp, w = iso4409_grid(*default_levels())
     b = run_virtual_bench(pump, dp, w, (22.0,), seed=1)
+    r = parameterise(b, D=pump.D)
+    assert r.fits == {} and r.points is None and "not identifiable" in r.not_identifiable
     with pytest.raises(InputError) as e:
-        parameterise(b, D=pump.D)
+        pair_set_points(b)
     assert e.value.field == "theta"
 
 

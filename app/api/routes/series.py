@@ -1,0 +1,58 @@
+"""Measured time series of a rig: import a file, list and read back the records."""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+from fastapi import APIRouter, File, Form, Path, Response, UploadFile, status
+
+from app.api.deps import PageDep, ReadAccess, SessionDep, WriteKeyDep
+from app.schemas.common import ERROR_RESPONSES
+from app.schemas.series import SeriesData, SeriesImportForm, SeriesList, SeriesPublic
+from app.services import series as service
+
+__all__ = ["router"]
+
+router = APIRouter(tags=["measured series"], dependencies=[ReadAccess],
+                   responses=ERROR_RESPONSES)
+
+RigId = Annotated[int, Path(ge=1, description="Rig identifier [-]", examples=[1])]
+SeriesId = Annotated[int, Path(ge=1, description="Series identifier [-]", examples=[1])]
+
+
+@router.post("/rigs/{rig_id}/series", status_code=status.HTTP_201_CREATED,
+             summary="Import measured time series as measurements of a rig")
+def import_series(
+    rig_id: RigId,
+    form: Annotated[SeriesImportForm, Form()],
+    file: Annotated[UploadFile, File(
+        description="CSV or Parquet, one row per sample: 't [s]' (or a sample rate), "
+        "channels 'name [unit]' (or a column map), optional 'record' and 'phase' [-]",
+        examples=["record,t [s],p_pump [bar],q_work [l/min]\nc1,0,150,7.9\nc1,1,151,7.9\n"])],
+    session: SessionDep,
+    _key: WriteKeyDep,
+    response: Response,
+) -> SeriesList:
+    """Read every record of the file (diagnostics.timeseries) and store each one; a bad
+    column refuses the whole file (422 naming it) and stores nothing."""
+    content = file.file.read(service.MAX_SERIES_BYTES + 1)
+    rows = service.import_series(session, rig_id, form.name, content,
+                                 column_map=service.parse_column_map(form.column_map),
+                                 sample_rate=form.sample_rate)
+    response.headers["Location"] = f"/rigs/{rig_id}/series"
+    return SeriesList(items=[SeriesPublic.model_validate(r) for r in rows], total=len(rows),
+                      limit=max(1, len(rows)), offset=0)
+
+
+@router.get("/rigs/{rig_id}/series", summary="List the rig's measured records")
+def list_series(rig_id: RigId, session: SessionDep, page: PageDep) -> SeriesList:
+    """Return a page of the rig's records (without samples), in order of import."""
+    rows, total = service.list_series(session, rig_id, limit=page.limit, offset=page.offset)
+    return SeriesList(items=[SeriesPublic.model_validate(r) for r in rows], total=total,
+                      limit=page.limit, offset=page.offset)
+
+
+@router.get("/series/{series_id}", summary="Get a measured record with its samples")
+def get_series(series_id: SeriesId, session: SessionDep) -> SeriesData:
+    """Return the record with its samples in SI units."""
+    return SeriesData.of(service.get_series(session, series_id))

@@ -1,0 +1,103 @@
+"""``hydrodiag import series FILE`` and ``hydrodiag import zema``: measured time series into the store.
+
+Both call the services of ``POST /rigs/{rig_id}/series`` (:mod:`app.services.series`) on the
+configured store and show a progress bar; ``zema`` reads the ZeMA rig's 1 Hz files through
+the documented adapter (:mod:`diagnostics.real.zema`).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.console import Console
+from rich.table import Table
+
+from app.cli_support import steps, store_session
+from sim.errors import InputError
+
+__all__ = ["import_cli"]
+
+_out = Console()
+
+import_cli = typer.Typer(help="Import measured time series as measurements of a rig.",
+                         no_args_is_help=True)
+
+RigOption = Annotated[int, typer.Option("--rig", help="Rig id in the store.")]
+NameOption = Annotated[str, typer.Option(help="Name of the import (file or campaign).")]
+
+
+def _summary(rows: list[object], title: str) -> None:
+    from app.db.models import MeasuredSeries
+
+    table = Table("id", "record", "samples", "rate \\[Hz]", "channels \\[SI unit]",
+                  title=title)
+    for row in rows:
+        assert isinstance(row, MeasuredSeries)
+        rate = "-" if row.sample_rate is None else f"{row.sample_rate:.6g}"
+        units = ", ".join(f"{k} [{u}]" for k, u in row.units.items())
+        table.add_row(str(row.id), row.record, str(row.n_samples), rate, units.replace("[", "\\["))
+    _out.print(table)
+
+
+@import_cli.command("series")
+def import_series(
+    file: Annotated[Path, typer.Argument(help="CSV or Parquet: 't \\[s]' and 'name \\[unit]' "
+                                              "columns, optional 'record' and 'phase'.")],
+    rig_id: RigOption,
+    name: NameOption,
+    column_map: Annotated[str | None, typer.Option(
+        help='JSON raw column → \\[channel, unit], e.g. \'{"PS1": \\["p_pump", "bar"]}\'.')
+    ] = None,
+    sample_rate: Annotated[float | None, typer.Option(
+        help="Samples per second for a file without a time column \\[Hz].")] = None,
+) -> None:
+    """Read a time-series file and store each record, as POST /rigs/{id}/series does."""
+    from app.services.series import parse_column_map, store_records
+    from diagnostics.timeseries import read_series
+
+    cmap = parse_column_map(column_map, field="--column-map")
+    if sample_rate is not None and not sample_rate > 0:
+        raise InputError("the sample rate must be > 0 [Hz]", field="--sample-rate")
+    try:
+        content = file.read_bytes()
+    except OSError as exc:
+        raise InputError(f"cannot read {file}: {exc.strerror}", field="FILE") from None
+    with store_session() as session, steps() as progress:
+        task = progress.add_task(f"reading {file.name}", total=None)
+        records = read_series(content, format="parquet" if file.suffix.lower() in (
+            ".parquet", ".pq") else None, column_map=cmap, sample_rate=sample_rate)
+        progress.update(task, description=f"storing {len(records)} records",
+                        total=len(records), completed=0)
+        rows = store_records(session, rig_id, name, records,
+                             lambda done, total: progress.update(task, completed=done))
+    _summary(list(rows), f"{len(rows)} records of {file.name} stored for rig {rig_id}")
+
+
+@import_cli.command("zema")
+def import_zema(
+    rig_id: RigOption,
+    name: NameOption = "zema",
+    first: Annotated[int, typer.Option(help="First cycle (1-based).")] = 1,
+    last: Annotated[int, typer.Option(help="Last cycle (1-based, included).")] = 2205,
+    root: Annotated[Path | None, typer.Option(
+        help="Folder of the ZeMA data set; default: data/real/uci-hydraulic-zema of "
+             "HYDRODIAG_SHARED, ../shared or /work/shared.")] = None,
+) -> None:
+    """Import ZeMA load cycles (1 Hz: PS1, PS2, FS1, EPS1, TS1) through the adapter."""
+    from app.services.series import store_records
+    from diagnostics.real.zema import load_1hz, read_records
+
+    if last < first:
+        raise InputError("last must not be before first", field="--last")
+    data, _ = load_1hz(root, cycles=list(range(first, last + 1)))
+    with store_session() as session, steps() as progress:
+        task = progress.add_task("reading cycles", total=data.cycles.size)
+        records = read_records(data, lambda done, total: progress.update(task,
+                                                                          completed=done))
+        store = progress.add_task("storing", total=len(records))
+        rows = store_records(session, rig_id, name, records,
+                             lambda done, total: progress.update(store, completed=done))
+    _out.print(f"{len(rows)} ZeMA cycles stored for rig {rig_id} as {name!r} "
+               f"(series {rows[0].id}..{rows[-1].id})", markup=False)

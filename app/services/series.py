@@ -1,0 +1,114 @@
+"""Import measured time series as measurements of a rig, and read them back (issue 12).
+
+Used by ``POST /rigs/{rig_id}/series``, ``GET /rigs/{rig_id}/series``, ``GET /series/{id}``
+and ``hydrodiag import``.  Files are read by the one import path,
+:func:`diagnostics.timeseries.read_series` (units in the column names or a column map with
+units, a ``record`` column for several records, a sample rate for files without time); each
+record becomes one row of ``measured_series`` in SI units.  A file with any bad column is
+refused whole: nothing is stored.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable, Sequence
+
+from sqlalchemy import select
+from sqlalchemy.orm import Session
+
+from app.db.models import MeasuredSeries
+from app.services.common import commit, get_or_raise, paginate
+from app.services.rigs import get_rig
+from diagnostics.timeseries import SeriesRecord, read_series
+from sim.errors import InputError
+
+__all__ = ["MAX_SERIES_BYTES", "get_series", "import_series", "list_series", "parse_column_map",
+           "store_records"]
+
+#: Largest time-series file accepted [byte].
+MAX_SERIES_BYTES = 20 * 1024 * 1024
+
+
+def parse_column_map(text: str | None, *, field: str = "column_map"
+                     ) -> dict[str, tuple[str, str]] | None:
+    """The column map given as JSON ``{"raw": ["channel", "unit"]}``; None when absent."""
+    if text is None or not text.strip():
+        return None
+    try:
+        raw = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise InputError(f"not valid JSON: {exc.msg}", field=field) from None
+    if not isinstance(raw, dict):
+        raise InputError("must be a JSON object raw column → [channel, unit]", field=field)
+    out: dict[str, tuple[str, str]] = {}
+    for key, value in raw.items():
+        if (not isinstance(value, list) or len(value) != 2
+                or not all(isinstance(v, str) and v for v in value)):
+            raise InputError("each entry must be [channel, unit]", field=f"{field}.{key}")
+        out[str(key)] = (value[0], value[1])
+    return out
+
+
+def store_records(session: Session, rig_id: int, name: str, records: Sequence[SeriesRecord],
+                  progress: Callable[[int, int], None] | None = None) -> list[MeasuredSeries]:
+    """Store ``records`` as measurements of rig ``rig_id`` (one transaction).
+
+    Raises
+    ------
+    NotFoundError
+        No rig ``rig_id``.
+    InputError
+        No records.
+    """
+    get_rig(session, rig_id, field="rig_id")
+    if not records:
+        raise InputError("the file holds no record", field="file")
+    rows = []
+    for k, r in enumerate(records):
+        rate = r.sample_rate
+        rows.append(MeasuredSeries(
+            rig_id=rig_id, name=name, record=r.name[:200], sample_rate=rate,
+            n_samples=len(r), measured=r.measured, units=dict(r.units),
+            condition=dict(r.condition),
+            data={"t": r.t.tolist(), "channels": {c: v.tolist() for c, v in r.channels.items()}},
+        ))
+        if progress is not None:
+            progress(k + 1, len(records))
+    session.add_all(rows)
+    commit(session, conflict="the series could not be stored")
+    return rows
+
+
+def import_series(session: Session, rig_id: int, name: str, content: bytes, *,
+                  column_map: dict[str, tuple[str, str]] | None = None,
+                  sample_rate: float | None = None, fmt: str | None = None
+                  ) -> list[MeasuredSeries]:
+    """Read a CSV/Parquet file and store its records (errors name ``file.<column>``)."""
+    get_rig(session, rig_id, field="rig_id")
+    if len(content) > MAX_SERIES_BYTES:
+        raise InputError(f"the file has {len(content)} bytes; at most {MAX_SERIES_BYTES}",
+                         field="file")
+    if not content.strip():
+        raise InputError("the file is empty", field="file")
+    try:
+        records = read_series(content, format=fmt, column_map=column_map,
+                              sample_rate=sample_rate)
+    except InputError as exc:
+        where = exc.field if exc.field in ("column_map", "sample_rate") else (
+            f"file.{exc.field}" if exc.field and exc.field != "file" else "file")
+        raise type(exc)(exc.message, field=where) from None
+    return store_records(session, rig_id, name, records)
+
+
+def list_series(session: Session, rig_id: int, *, limit: int, offset: int
+                ) -> tuple[Sequence[MeasuredSeries], int]:
+    """A page of the rig's stored records, in order of import."""
+    get_rig(session, rig_id, field="rig_id")
+    statement = (select(MeasuredSeries).where(MeasuredSeries.rig_id == rig_id)
+                 .order_by(MeasuredSeries.id))
+    return paginate(session, statement, limit=limit, offset=offset)
+
+
+def get_series(session: Session, series_id: int) -> MeasuredSeries:
+    """The stored record ``series_id`` (:class:`NotFoundError` when absent)."""
+    return get_or_raise(session, MeasuredSeries, series_id, what="series", field="series_id")

@@ -1,0 +1,78 @@
+"""POST /rigs/{id}/series: measured time series stored as measurements of a rig, read back."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from diagnostics.real.zema import COLUMN_MAP, cycles_frame, load_1hz
+from tests.app.live import LiveServer
+
+SLICE = Path(__file__).resolve().parents[1] / "data" / "real" / "zema"
+CMAP = json.dumps({k: list(v) for k, v in COLUMN_MAP.items()})
+
+
+@pytest.fixture(scope="module")
+def zema_csv() -> tuple[bytes, Any]:
+    """Three ZeMA cycles as a long CSV without a time column (1 Hz)."""
+    data, _ = load_1hz(SLICE, cycles=[1, 7, 13])
+    return cycles_frame(data).to_csv(index=False).encode(), data
+
+
+def _upload(server: LiveServer, content: bytes, form: dict[str, Any], rig: int = 1) -> Any:
+    return server.client.post(f"/rigs/{rig}/series", data=form,
+                              files={"file": ("zema.csv", content, "text/csv")},
+                              headers=server.auth)
+
+
+def test_zema_cycles_are_stored_and_read_back(server: LiveServer, zema_csv: Any) -> None:
+    content, data = zema_csv
+    response = _upload(server, content, {"name": "zema-slice", "column_map": CMAP,
+                                         "sample_rate": "1"})
+    assert response.status_code == 201, response.text
+    items = response.json()["items"]
+    assert [i["record"] for i in items] == ["cycle-1", "cycle-7", "cycle-13"]
+    first = items[0]
+    assert first["measured"] is True and first["sample_rate"] == pytest.approx(1.0)
+    assert first["n_samples"] == 60
+    assert first["units"] == {"p_pump": "Pa", "p_work": "Pa", "q_work": "m^3/s",
+                              "motor_power": "W", "oil_temperature": "degC"}
+    listed = server.client.get("/rigs/1/series").json()
+    assert listed["total"] == 3 and listed["items"] == items
+    full = server.client.get(f"/series/{first['id']}").json()
+    assert full["t"][:3] == [0.0, 1.0, 2.0]
+    assert full["channels"]["p_pump"][5] == pytest.approx(data.sensors["PS1"][0, 5] * 1e5)
+    assert full["channels"]["q_work"][20] == pytest.approx(data.sensors["FS1"][0, 20] / 6e4)
+
+
+@pytest.mark.parametrize(
+    ("content", "form", "field"),
+    [
+        (b"record,PS1\nc,1\nc,2\n", {"column_map": '{"PS1": ["p_pump", "psi"]}',
+                                     "sample_rate": "1"}, "file.PS1"),
+        (b"record,PS1\nc,1\nc,nan\n", {"column_map": '{"PS1": ["p_pump", "bar"]}',
+                                       "sample_rate": "1"}, "file.PS1"),
+        (b"record,PS1\nc,1\nc,2\n", {"column_map": '{"PS1": ["p_pump", "bar"]}'}, "file.t"),
+        (b"t [s],p [bar]\n0,1\n1,2\n", {"column_map": "{not json"}, "column_map"),
+        (b"t [s],p [bar]\n0,1\n1,2\n", {"sample_rate": "-1"}, "sample_rate"),
+        (b"t [s],p [bar]\n0,1\n1,2\n", {"extra": "x"}, "extra"),
+    ],
+)
+def test_bad_files_are_422_naming_the_column_and_store_nothing(
+        server: LiveServer, content: bytes, form: dict[str, Any], field: str) -> None:
+    before = server.row_counts()
+    response = _upload(server, content, {"name": "bad"} | form)
+    assert response.status_code == 422, response.text
+    assert response.json()["error"]["field"] == field
+    assert server.row_counts() == before
+
+
+def test_unknown_rig_and_series(server: LiveServer) -> None:
+    before = server.row_counts()
+    response = _upload(server, b"t [s],p [bar]\n0,1\n1,2\n", {"name": "x"}, rig=999)
+    assert response.status_code == 404 and response.json()["error"]["field"] == "rig_id"
+    assert server.row_counts() == before
+    assert server.client.get("/series/99999").status_code == 404

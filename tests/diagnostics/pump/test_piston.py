@@ -1,0 +1,99 @@
+"""Piston-pump loss models and the single-temperature mode on a slice of the V32HL56 map."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from diagnostics.pump import bench_from_frame, derived_capacity_toet, parameterise
+from diagnostics.pump.levels import cluster_levels
+from diagnostics.pump.piston import (
+    PistonMap,
+    bench_frame,
+    fit_losses,
+    held_out_speed,
+    read_efficiency_map,
+)
+from sim.errors import InputError
+
+SLICE = (Path(__file__).resolve().parents[2] / "data" / "real" / "v32hl56"
+         / "V32HL56-slice.csv")
+
+
+@pytest.fixture(scope="module")
+def big() -> tuple[PistonMap, float]:
+    """The 57 cm³/rev setting (9 speeds × 12 pressures) and its displacement [m³/rad]."""
+    m = read_efficiency_map(SLICE)
+    idx, lev = cluster_levels(m.D, field="D")
+    k = int(np.argmax(lev))
+    return m.subset(idx == k), float(lev[k])
+
+
+def test_units_follow_the_files_own_identities() -> None:
+    m = read_efficiency_map(SLICE)
+    raw = pd.read_csv(SLICE)
+    # PowerIn [kW] = ω·T and PowerOut [kW] = Δp·q, in SI
+    assert np.allclose(m.omega * m.torque, raw["PowerIn"] * 1e3, rtol=1e-9)
+    assert np.allclose(m.dp * m.q, raw["PowerOut"] * 1e3, rtol=1e-9)
+    # Etav [%] = q/(D·ω)
+    assert np.allclose(m.q / (m.D * m.omega), raw["Etav"] / 100.0, rtol=1e-9)
+    assert m.q_drain is not None and np.all(m.q_drain > 0)
+
+
+def test_single_temperature_gives_the_capacity_not_a_refusal(big) -> None:  # type: ignore[no-untyped-def]
+    data, D = big
+    bench = bench_from_frame(bench_frame(data, theta=50.0))
+    result = parameterise(bench)
+    assert result.fits == {} and result.points is None
+    assert "not identifiable" in result.not_identifiable
+    # the Toet capacity lies just above the set displacement (leakage-free flow per radian)
+    assert 1.0 < result.D / D < 1.015
+    assert derived_capacity_toet(bench).D == result.D
+    with pytest.raises(InputError) as err:
+        result.pump()
+    assert err.value.field == "theta"
+
+
+def test_one_map_labelled_at_two_temperatures_is_refused(big) -> None:  # type: ignore[no-untyped-def]
+    data, _ = big
+    twice = pd.concat([bench_frame(data, 40.0), bench_frame(data, 60.0)], ignore_index=True)
+    with pytest.raises(InputError) as err:
+        parameterise(bench_from_frame(twice))
+    assert err.value.field == "theta" and "identical" in err.value.message
+
+
+def test_loss_models_have_physical_signs_and_explain_the_data(big) -> None:  # type: ignore[no-untyped-def]
+    data, D = big
+    flow, torque = fit_losses(data, D)
+    signs = {"dp": 1, "dp*omega": 1, "omega": 0, "1": 0}
+    for name, c in zip(flow.terms, flow.coef, strict=True):
+        assert signs[name] == 0 or c >= 0
+    assert all(c >= 0 for c in torque.coef)
+    # the speed-dependent leakage term is chosen: the drain flow of a piston pump grows with ω
+    assert "dp*omega" in flow.terms
+    res = data.q - (D * data.omega - flow.loss(data.dp, data.omega))
+    assert math.sqrt(float(np.mean(res**2))) < 0.01 * float(np.max(data.q))
+
+
+def test_held_out_speed_scores_both_models(big) -> None:  # type: ignore[no-untyped-def]
+    data, D = big
+    h = held_out_speed(data, D)
+    assert h.speeds == 9
+    assert 0 < h.flow_S < 1.0 and 0 < h.flow_S_quadratic < 1.0
+    assert h.flow_R2 > 0.999 and h.torque_R2 > 0.999
+
+
+def test_degenerate_maps_are_refused(big) -> None:  # type: ignore[no-untyped-def]
+    data, D = big
+    one_speed = data.subset(np.isclose(data.omega, data.omega[0], rtol=0.02))
+    with pytest.raises(InputError) as err:
+        fit_losses(one_speed, D)
+    assert err.value.field == "Speed"
+    with pytest.raises(InputError) as err:
+        fit_losses(PistonMap(data.dp, data.omega, data.q, data.torque, data.D), D,
+                   target="drain")
+    assert err.value.field == "QDr"
