@@ -25,6 +25,7 @@ from diagnostics.pump import (
     write_bench_csv,
 )
 from sim.components.gear_pump_map import stand_in_pump
+from tests.real_slices import v32hl56_slice, zema_slice
 
 
 @pytest.fixture
@@ -132,7 +133,7 @@ def test_calibrate_pump_on_a_real_single_temperature_map(runner: CliRunner, tmp_
     from diagnostics.pump.levels import cluster_levels
     from diagnostics.pump.piston import bench_frame, read_efficiency_map
 
-    slice_ = Path(__file__).resolve().parents[1] / "data" / "real" / "v32hl56" / "V32HL56-slice.csv"
+    slice_ = v32hl56_slice()
     data = read_efficiency_map(slice_)
     idx, lev = cluster_levels(data.D, field="D")
     big = data.subset(idx == int(lev.argmax()))
@@ -158,7 +159,7 @@ def test_calibrate_pump_on_a_real_single_temperature_map(runner: CliRunner, tmp_
 def test_import_zema_cycles_and_a_series_file(runner: CliRunner, tmp_path: Path) -> None:
     from app.db.models import MeasuredSeries
 
-    root = Path(__file__).resolve().parents[1] / "data" / "real" / "zema"
+    root = zema_slice()
     result = runner.invoke(cli, ["import", "zema", "--rig", "1", "--root", str(root),
                                  "--first", "2", "--last", "5"])
     assert result.exit_code == 0, result.output

@@ -3,15 +3,15 @@
 from __future__ import annotations
 
 import json
-from pathlib import Path
 from typing import Any
 
 import pytest
 
 from diagnostics.real.zema import COLUMN_MAP, cycles_frame, load_1hz
 from tests.app.live import LiveServer
+from tests.real_slices import zema_slice
 
-SLICE = Path(__file__).resolve().parents[1] / "data" / "real" / "zema"
+SLICE = zema_slice()
 CMAP = json.dumps({k: list(v) for k, v in COLUMN_MAP.items()})
 
 

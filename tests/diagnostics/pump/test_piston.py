@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -19,9 +18,9 @@ from diagnostics.pump.piston import (
     read_efficiency_map,
 )
 from sim.errors import InputError
+from tests.real_slices import v32hl56_slice
 
-SLICE = (Path(__file__).resolve().parents[2] / "data" / "real" / "v32hl56"
-         / "V32HL56-slice.csv")
+SLICE = v32hl56_slice()
 
 
 @pytest.fixture(scope="module")

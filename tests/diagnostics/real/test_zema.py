@@ -1,9 +1,8 @@
-"""The ZeMA adapter and the leakage estimate on a slice of the real data (tests/data/real/zema)."""
+"""The ZeMA adapter and the leakage estimate on a slice of the real data (tests/real_slices.py)."""
 
 from __future__ import annotations
 
 import warnings
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -22,8 +21,9 @@ from diagnostics.real.leakage import (
 from diagnostics.real.zema import cycles_frame, load_1hz, read_records
 from diagnostics.timeseries import read_series
 from sim.errors import InputError
+from tests.real_slices import zema_slice
 
-SLICE = Path(__file__).resolve().parents[2] / "data" / "real" / "zema"
+SLICE = zema_slice()
 
 
 @pytest.fixture(scope="module")

@@ -1,0 +1,101 @@
+"""Small slices of the real data sets, cut at test time from ``../shared/data/real``.
+
+Nothing of the real data is copied into the repository: the V32HL56 map has no licence
+("internal testing only, do not redistribute", its ``SOURCE.md``), so every slice is cut
+from the shared files when the tests run (CI has ``../shared`` beside the clone) into a
+temporary folder, once per process.  Where the shared data are absent the tests that need
+a slice are skipped with the reason.
+
+Slices (chosen without looking at any estimate):
+
+* ZeMA 1 Hz: 18 cycles — valve 100 %, stable flag 0, three cycles each for leakage class
+  0/1/2 × cooler 100 %/20 % — rows renumbered 1..18 (``cycles.txt`` gives each row's
+  original cycle); ``profile.txt``, ``TS1.txt`` and ``data_compressed_1hz/{PS1,PS2,FS1,
+  EPS1}_normalized.csv``.  ``fullres_cycle1092.csv``: the first 30 s of cycle 1092 at the
+  native rates (PS1 100 Hz, FS1 10 Hz, TS1 1 Hz) from row 2 of
+  ``fullres_samples/jeremiafourie/testing_sample.csv``.
+* V32HL56: the header and every row whose displacement rounds to 23 or 57 cm³/rev.
+"""
+
+from __future__ import annotations
+
+import csv
+import tempfile
+import threading
+from pathlib import Path
+
+import pytest
+
+from diagnostics.real.zema import find_shared
+
+__all__ = ["ZEMA_CYCLES", "v32hl56_slice", "zema_slice"]
+
+#: original 1-based cycle numbers of the ZeMA slice, in row order
+ZEMA_CYCLES = (974, 1015, 1056, 1110, 1151, 1192, 1246, 1287, 1328, 1706, 1747, 1788, 1842,
+               1883, 1927, 1978, 2019, 2189)
+_ZEMA_FILES = ("profile.txt", "TS1.txt", "data_compressed_1hz/PS1_normalized.csv",
+               "data_compressed_1hz/PS2_normalized.csv", "data_compressed_1hz/FS1_normalized.csv",
+               "data_compressed_1hz/EPS1_normalized.csv")
+_LOCK = threading.Lock()
+_MADE: dict[str, Path] = {}
+
+
+def _shared_real() -> Path:
+    try:
+        return find_shared() / "data" / "real"
+    except Exception as exc:
+        pytest.skip(f"the shared real data are not here: {exc}", allow_module_level=True)
+        raise  # unreachable: skip raises
+
+
+def _workdir() -> Path:
+    if "root" not in _MADE:
+        _MADE["root"] = Path(tempfile.mkdtemp(prefix="hydrodiag-real-slices-"))
+    return _MADE["root"]
+
+
+def zema_slice() -> Path:
+    """Folder with the ZeMA slice (module docstring), in the layout of the shared folder."""
+    with _LOCK:
+        if "zema" in _MADE:
+            return _MADE["zema"]
+        src = _shared_real() / "uci-hydraulic-zema"
+        dst = _workdir() / "zema"
+        (dst / "data_compressed_1hz").mkdir(parents=True)
+        for name in _ZEMA_FILES:
+            lines = (src / name).read_text(encoding="utf-8").splitlines()
+            (dst / name).write_text("\n".join(lines[c - 1] for c in ZEMA_CYCLES) + "\n",
+                                    encoding="utf-8")
+        (dst / "cycles.txt").write_text("\n".join(map(str, ZEMA_CYCLES)) + "\n")
+        with (src / "fullres_samples" / "jeremiafourie" / "testing_sample.csv").open(
+                newline="") as fh:
+            reader = csv.reader(fh)
+            header = next(reader)
+            next(reader)
+            row = next(reader)
+        keep = [i for i, col in enumerate(header)
+                if (col.startswith("PS1_") and int(col[4:]) < 3000)
+                or (col.startswith("FS1_") and int(col[4:]) < 300)
+                or (col.startswith("TS1_") and int(col[4:]) < 30)]
+        with (dst / "fullres_cycle1092.csv").open("w", newline="") as fh:
+            writer = csv.writer(fh)
+            writer.writerow([header[i] for i in keep])
+            writer.writerow([row[i] for i in keep])
+        _MADE["zema"] = dst
+        return dst
+
+
+def v32hl56_slice() -> Path:
+    """CSV file with the V32HL56 slice (module docstring)."""
+    with _LOCK:
+        if "v32" in _MADE:
+            return _MADE["v32"]
+        src = _shared_real() / "pump-efficiency-V32HL56" / "V32HL56-efficiency.csv"
+        lines = src.read_text(encoding="utf-8").splitlines()
+        col = lines[0].split(",").index("Displacement")
+        rows = [ln for ln in lines[1:] if ln.strip()
+                and round(float(ln.split(",")[col])) in (23, 57)]
+        dst = _workdir() / "V32HL56-slice.csv"
+        dst.write_text("\n".join([lines[0], *rows]) + "\n", encoding="utf-8")
+        _MADE["v32"] = dst
+        return dst
