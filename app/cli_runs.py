@@ -152,6 +152,10 @@ def diagnose(
                 f"{fit['probability']:.4f}"
             table.add_row(fit["name"], probability, params)
         _out.print(table)
+        if item.misfit:
+            _out.print(f"[bold red]not explained:[/] {item.misfit}")
+        for note in item.regime_notes:
+            _out.print(f"note: {note}")
 
 
 def sweep(

@@ -11,14 +11,18 @@ parameter        graph parameter       prior range            physical meaning
 ``cc``           ``cylinder.cc``       c0 … 4·c0, log         piston clearance (seal wear)
 ``cv``           ``valve.cv``          c0 … 4·c0, log         spool clearance (spool wear)
 ``pump_leak``    ``pump.Rlp`` = R0/k   k = 1 … 20, log        internal leakage factor of the pump
-``Pset``         ``relief.Pset``       0.5 … 1.0 × P0, lin    relief setting drift
+``Pset``         ``relief.Pset``       0.3 … 1.0 × P0, lin    relief setting drift
 ``seat_leak``    ``relief.Gseat``      s = 0.01 … 20, log     seat leak, in units of the nominal
                                                               pump leakage conductance 1/R0
 ===============  ====================  =====================  ==================================
 
 The lower end of each wear range is the nominal value: a component is either as built
 (the ``healthy`` hypothesis for it) or worn.  Four-times clearance means 64 times the
-laminar leakage, past any rig that still moves.
+laminar leakage, past any rig that still moves.  The relief setting reaches down to
+0.3 × nominal: a setting that low is a real failure (a broken spring, a wrong
+adjustment); below it, or beyond any other range, the goodness-of-fit test of
+:mod:`diagnostics.goodness` reports the readings as not explained rather than naming the
+nearest hypothesis.
 """
 
 from __future__ import annotations
@@ -101,7 +105,7 @@ PARAMETERS: dict[str, FaultParameter] = {
                        "radial clearance spool-body"),
         FaultParameter("pump_leak", "pump", "pump.Rlp", "1", 1.0, 20.0, True,
                        "internal leakage of the pump, multiple of nominal"),
-        FaultParameter("Pset", "relief", "relief.Pset", "Pa", 0.5, 1.0, False,
+        FaultParameter("Pset", "relief", "relief.Pset", "Pa", 0.3, 1.0, False,
                        "relief valve opening pressure"),
         FaultParameter("seat_leak", "relief", "relief.Gseat", "1", 0.01, 20.0, True,
                        "relief seat leakage, multiple of the nominal pump leakage"),
