@@ -17,10 +17,12 @@ parameter        graph parameter       prior range            physical meaning
 ===============  ====================  =====================  ==================================
 
 The lower end of each wear range is the nominal value: a component is either as built
-(the ``healthy`` hypothesis for it) or worn.  Four-times clearance means 64 times the
-laminar leakage, past any rig that still moves.  The relief setting reaches down to
-0.3 × nominal: a setting that low is a real failure (a broken spring, a wrong
-adjustment); below it, or beyond any other range, the goodness-of-fit test of
+(the ``healthy`` hypothesis for it) or worn.  In a two-fault hypothesis both components
+are worn: each parameter starts at the ``none`` severity limit (``WORN``), so that pairs
+and singles are exclusive explanations (see :meth:`FaultParameter.worn_bounds`).
+Four-times clearance means 64 times the laminar leakage, past any rig that still moves.
+The relief setting reaches down to 0.3 × nominal: a setting that low is a real failure
+(a broken spring, a wrong adjustment); below it, or beyond any other range, the goodness-of-fit test of
 :mod:`diagnostics.goodness` reports the readings as not explained rather than naming the
 nearest hypothesis.
 """
@@ -32,7 +34,7 @@ from dataclasses import dataclass
 
 from sim.rigs import Rig
 
-__all__ = ["HYPOTHESES", "PARAMETERS", "FaultParameter", "Hypothesis"]
+__all__ = ["HYPOTHESES", "PARAMETERS", "WORN", "FaultParameter", "Hypothesis"]
 
 
 @dataclass(frozen=True)
@@ -80,6 +82,20 @@ class FaultParameter:
         nom = self.nominal_value(rig)
         return self.low * nom, self.high * nom
 
+    def worn_bounds(self, rig: Rig) -> tuple[float, float]:
+        """Prior range of the reported value when the component is *worn* [unit]: the
+        part of :meth:`bounds` past the ``none`` severity of
+        :func:`diagnostics.ranking.severity` (leakage × 1.33, i.e. clearance × 1.1; a
+        setting 5 % down).  A two-fault hypothesis blames both components, so each of
+        its parameters takes this range: the pair then no longer contains its single
+        faults (both at nominal but one), and does not share their probability."""
+        lo, hi = self.bounds(rig)
+        if self.name == "Pset":
+            return lo, WORN["Pset"] * hi
+        if self.name == "seat_leak":
+            return WORN["seat_leak"], hi
+        return WORN[self.name] * lo, hi
+
     def to_z(self, value: float) -> float:
         """Reported value → fitting coordinate."""
         return math.log(value) if self.log else value
@@ -96,6 +112,10 @@ class FaultParameter:
             return value / rig.base["pump.Rlp"]
         return value
 
+
+#: start of the *worn* range, in the units of ``low``/``high`` (leakage multiple 1.33)
+WORN: dict[str, float] = {"cc": 1.33 ** (1 / 3), "cv": 1.33 ** (1 / 3), "pump_leak": 1.33,
+                          "seat_leak": 0.33, "Pset": 0.95}
 
 PARAMETERS: dict[str, FaultParameter] = {
     p.name: p for p in (

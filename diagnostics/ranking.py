@@ -289,7 +289,7 @@ class Ranker:
     def fit_pair(self, hyp: Hypothesis, singles: dict[str, HypothesisFit]) -> HypothesisFit:
         """Two-parameter hypothesis: Gauss-Newton on direct solves, Laplace evidence."""
         params = tuple(PARAMETERS[n] for n in hyp.parameters)
-        bounds = [p.bounds(self.rig) for p in params]
+        bounds = [p.worn_bounds(self.rig) for p in params]
         zl = np.array([p.to_z(b[0]) for p, b in zip(params, bounds, strict=True)])
         zu = np.array([p.to_z(b[1]) for p, b in zip(params, bounds, strict=True)])
         span = zu - zl
@@ -299,7 +299,7 @@ class Ranker:
             single = next(f for f in singles.values() if f.hypothesis.parameters == (p.name,))
             z0 = zl.copy()
             z0[i] = p.to_z(single.parameters[0].value)
-            starts.append((single.chi2, z0))
+            starts.append((single.chi2, np.clip(z0, zl, zu)))
         z = min(starts, key=lambda s: s[0])[1]
         r, fulls = self._residuals(params, z)
         cost = float(r @ r)
