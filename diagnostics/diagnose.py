@@ -108,7 +108,8 @@ class Diagnosis:
         iso = self.isolability
         return {
             "rig": self.rig,
-            "top": self.top.name,
+            "top": self.top.name if self.explained else "unexplained",
+            "best_fit": self.top.name,
             "hypotheses": [fit(f) for f in self.hypotheses],
             "isolability": {
                 "ambiguity_set": iso.ambiguity_set, "credible_set": iso.credible_set,

@@ -82,4 +82,7 @@ def test_an_unexplained_record_names_no_fault_and_is_stored_with_its_statement(
     worst = d["goodness_of_fit"]["disagreements"][0]
     assert worst["reading"] == "p1" and abs(worst["deviation"]) > 5
     assert d["result"]["misfit"] == d["misfit"]
+    assert d["result"]["top"] == "unexplained"
+    assert d["result"]["best_fit"] == d["goodness_of_fit"]["hypothesis"] or d["result"][
+        "best_fit"] in {h["name"] for h in d["result"]["hypotheses"]}
     assert server.row_counts()["diagnoses"] == before["diagnoses"] + 1
