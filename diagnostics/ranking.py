@@ -49,6 +49,8 @@ Arr = npt.NDArray[np.float64]
 
 #: normalised residual [σ] given to a reading whose prediction is masked in a direct solve
 _MASKED = 1.0e3
+#: cap of a condition sensitivity [unit of the reading per K or N] (its square stays finite)
+_HUGE = 1.0e100
 
 
 def severity(param: FaultParameter, value: float, nominal: float) -> tuple[float, str]:
@@ -178,10 +180,15 @@ class _RecordModel:
         difference (the other side where the first has no steady point; 0 where neither)."""
         for cond, step in moved:
             try:
-                d = (self._vec(evaluator(rig, cond).nominal()) - pred) / step
+                moved_pred = self._vec(evaluator(rig, cond).nominal())
             except SimulationError:
                 continue
-            return np.asarray(np.nan_to_num(d, nan=0.0, posinf=0.0, neginf=0.0) ** 2)
+            with np.errstate(over="ignore", invalid="ignore"):
+                d = (moved_pred - pred) / step
+            # near a stall a reading (the velocity ratio) may react without bound: cap the
+            # sensitivity so its σ stays finite, huge, and the reading weighs nothing
+            d = np.clip(np.nan_to_num(d, nan=0.0, posinf=_HUGE, neginf=-_HUGE), -_HUGE, _HUGE)
+            return np.asarray(d**2)
         return np.zeros_like(pred)
 
     def _vec(self, pred: dict[str, float]) -> Arr:
@@ -259,7 +266,7 @@ class Ranker:
         if 0 < k < z.size - 1:  # parabola through the three best points
             y0, y1, y2 = logl[k - 1], logl[k], logl[k + 1]
             den = y0 - 2 * y1 + y2
-            if den < 0:
+            if den < 0 and math.isfinite(den):  # not beside a masked (stalled) point
                 zk += 0.5 * (y0 - y2) / den * (z[1] - z[0])
         post = np.exp(logl - logl.max())
         cdf = np.cumsum(post)
