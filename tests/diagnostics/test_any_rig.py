@@ -75,7 +75,7 @@ cylinders = st.one_of(
 )
 
 
-@settings(max_examples=60, deadline=None, derandomize=True,
+@settings(max_examples=60, deadline=None, derandomize=True, database=None,
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
 @given(cyl=cylinders, Lc=seals, temperature=st.floats(20.0, 80.0), load_share=st.floats(0.0, 1.2),
        cc=st.floats(1.0, 4.0), cv=st.floats(1.0, 4.0), sensors=st.sampled_from(
