@@ -16,10 +16,11 @@ parameter        graph parameter       prior range            physical meaning
                                                               pump leakage conductance 1/R0
 ===============  ====================  =====================  ==================================
 
-The lower end of each wear range is the nominal value: a component is either as built
-(the ``healthy`` hypothesis for it) or worn.  In a two-fault hypothesis both components
-are worn: each parameter starts at the ``none`` severity limit (``WORN``), so that pairs
-and singles are exclusive explanations (see :meth:`FaultParameter.worn_bounds`).
+The table gives the whole range of each parameter; a hypothesis blames *worn*
+components, so its parameters start at the ``none`` severity limit (``WORN``: leakage
+× 1.33, a setting 5 % down) — the healthy end belongs to ``healthy``.  Healthy, single
+and pair hypotheses are then exclusive explanations and do not share one another's
+probability (see :meth:`FaultParameter.worn_bounds`).
 Four-times clearance means 64 times the laminar leakage, past any rig that still moves.
 The relief setting reaches down to 0.3 × nominal: a setting that low is a real failure
 (a broken spring, a wrong adjustment); below it, or beyond any other range, the goodness-of-fit test of
@@ -88,7 +89,8 @@ class FaultParameter:
         :func:`diagnostics.ranking.severity` (leakage × 1.33, i.e. clearance × 1.1; a
         setting 5 % down).  A two-fault hypothesis blames both components, so each of
         its parameters takes this range: the pair then no longer contains its single
-        faults (both at nominal but one), and does not share their probability."""
+        faults (both at nominal but one), and does not share their probability; a
+        single-fault hypothesis likewise leaves the nominal end to ``healthy``."""
         lo, hi = self.bounds(rig)
         if self.name == "Pset":
             return lo, WORN["Pset"] * hi

@@ -94,7 +94,8 @@ class ParameterEstimate:
     severity
         ``none``, ``mild``, ``moderate`` or ``severe``.
     at_bound
-        The estimate sits on the nominal end of its range (no wear seen).
+        The estimate sits on the healthy end of its (worn) range: no more wear than the
+        hypothesis must assume.
     """
 
     name: str

@@ -1,4 +1,4 @@
-"""Signature maps: every hypothesis's predicted readings over its whole prior range.
+"""Signature maps: every hypothesis's predicted readings over its whole (worn) prior range.
 
 For one rig at one operating condition, each single-parameter hypothesis's parameter is
 laid on a coarse grid in its fitting coordinate (:mod:`diagnostics.hypotheses`), every
@@ -170,7 +170,7 @@ class SignatureMaps:
         return [(z_lo, z_hi, COARSE_1D)]
 
     def _axis(self, p: FaultParameter, n: int) -> Arr:
-        lo, hi = p.bounds(self.rig)
+        lo, hi = p.worn_bounds(self.rig)
         return np.linspace(p.to_z(lo), p.to_z(hi), n)
 
     def _build(self, hyp: Hypothesis) -> HypothesisMap:
