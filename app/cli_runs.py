@@ -154,6 +154,49 @@ def diagnose(
                 f"{fit['probability']:.4f}"
             table.add_row(fit["name"], probability, params)
         _out.print(table)
+        if item.misfit:
+            _out.print(f"[bold red]not explained:[/] {item.misfit}")
+        for note in item.regime_notes:
+            _out.print(f"note: {note}")
+
+
+def commission(
+    file: Annotated[str, typer.Argument(help="Healthy records: a list, or {records: [...]}, "
+                                        "JSON or YAML.")],
+    rig: Annotated[int, typer.Option(help="Rig to commission (its latest version).")],
+    parameter: Annotated[list[str] | None, typer.Option(
+        help="A parameter to fit (repeat); all six by default.")] = None,
+    as_json: Annotated[bool, typer.Option("--json", help="Print the API's JSON answer.")] = False,
+) -> None:
+    """Fit rig RIG's uncertain parameters to FILE's healthy records and store the result as
+    a new rig version, as POST /rigs/{id}/commission does."""
+    from app.schemas.commission import CommissionRequest
+    from app.services.commissioning import commission_rig
+    from app.services.rig_cache import RigCache
+
+    document = load_document(file)
+    body = dict(document) if isinstance(document, dict) and "records" in document else \
+        {"records": document}
+    if parameter:
+        body["parameters"] = parameter
+    request = _validated(CommissionRequest, body)
+    with store_session() as session, steps() as progress:
+        task = progress.add_task("commissioning", total=None)
+        response = commission_rig(session, RigCache(4), rig, request)
+        progress.update(task, description="done")
+    if as_json:
+        _print_json(response.model_dump(mode="json"))
+        return
+    table = Table("parameter", "before", "fitted", "95 % interval", "pinned down",
+                  title=f"rig {response.rig_id}: version {response.from_version} → "
+                  f"{response.version} (χ² = {response.chi2:.3g} on {response.n_observations} "
+                  "readings)")
+    for p in response.parameters:
+        table.add_row(p.name, f"{p.before:.4g} {p.unit}", f"{p.value:.4g}",
+                      f"{p.low:.4g} … {p.high:.4g}", "yes" if p.identifiable else "no")
+    _out.print(table)
+    for s in response.statements:
+        _out.print(f"note: {s}")
 
 
 def sweep(
@@ -272,6 +315,7 @@ def register(cli: typer.Typer) -> None:
     """Add the work commands to the ``hydrodiag`` command."""
     cli.command()(simulate)
     cli.command()(diagnose)
+    cli.command()(commission)
     cli.command()(sweep)
     cli.add_typer(calibrate_cli, name="calibrate")
     cli.add_typer(import_cli, name="import")

@@ -15,17 +15,21 @@ from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
+import numpy as np
+
+from diagnostics.goodness import GoodnessOfFit, goodness_of_fit
 from diagnostics.inversion import LeakageGeometry, cylinder_clearance, valve_clearance
 from diagnostics.isolability import Isolability, isolability
 from diagnostics.measurement import MeasurementRecord
 from diagnostics.observations import OBSERVABLE_UNITS, observe
 from diagnostics.ranking import HypothesisFit, Ranker
 from diagnostics.ratio_index import RatioIndex, ratio_index
+from diagnostics.signatures import OBSERVABLES
 from diagnostics.uncertainty import Estimate
-from sim.errors import MeasurementError
+from sim.errors import MeasurementError, SimulationError
 from sim.rigs import Rig
 
-__all__ = ["Diagnosis", "diagnose", "leakage_geometry"]
+__all__ = ["Diagnosis", "diagnose", "leakage_geometry", "regime_notes"]
 
 
 def leakage_geometry(rig: Rig) -> LeakageGeometry:
@@ -60,6 +64,12 @@ class Diagnosis:
         temperature, with its interval.
     notes
         Anything a reader must know (inversions that could not run, and why).
+    fit
+        Goodness of fit of the best hypothesis (:mod:`diagnostics.goodness`); when it
+        fails, no fault is named.
+    regime_notes
+        Stall, creep and end-stop states met by the maps: which hypothesis values were
+        masked because the piston stalls there, and whether the healthy rig does.
     """
 
     rig: str
@@ -71,11 +81,18 @@ class Diagnosis:
     n_records: int = 1
     n_observations: int = 0
     notes: list[str] = field(default_factory=list)
+    fit: GoodnessOfFit | None = None
+    regime_notes: list[str] = field(default_factory=list)
 
     @property
     def top(self) -> HypothesisFit:
         """The most probable hypothesis."""
         return self.hypotheses[0]
+
+    @property
+    def explained(self) -> bool:
+        """Whether some hypothesis of the library explains the readings (χ² test)."""
+        return self.fit is None or self.fit.explained
 
     def to_dict(self) -> dict[str, Any]:
         """Plain JSON-able form (SI units, stated per field)."""
@@ -91,7 +108,8 @@ class Diagnosis:
         iso = self.isolability
         return {
             "rig": self.rig,
-            "top": self.top.name,
+            "top": self.top.name if self.explained else "unexplained",
+            "best_fit": self.top.name,
             "hypotheses": [fit(f) for f in self.hypotheses],
             "isolability": {
                 "ambiguity_set": iso.ambiguity_set, "credible_set": iso.credible_set,
@@ -110,6 +128,10 @@ class Diagnosis:
             "n_observations": self.n_observations,
             "observable_units": OBSERVABLE_UNITS,
             "notes": self.notes,
+            "explained": self.explained,
+            "goodness_of_fit": None if self.fit is None else asdict(self.fit),
+            "misfit": None if self.explained or self.fit is None else self.fit.statement,
+            "regime_notes": self.regime_notes,
         }
 
 
@@ -148,9 +170,16 @@ def diagnose(rig: Rig, records: Sequence[MeasurementRecord], *, model_rel: float
             prefix = f"records[{i}]" if len(records) > 1 else ""
             field_path = ".".join(x for x in (prefix, exc.field or "") if x)
             raise MeasurementError(exc.message, field=field_path or None) from None
-    ranker = Ranker(rig, obs, model_rel)
+    try:
+        ranker = Ranker(rig, obs, model_rel)
+    except SimulationError as exc:
+        raise MeasurementError(
+            "the rig has no steady operating point at this condition even when healthy (the "
+            f"piston stalls or sits on its end stop): {exc}; check the load and oil "
+            "temperature against the rig", field="condition") from None
     fits = ranker.rank()
     iso = isolability(ranker, fits, model_rel)
+    gof = goodness_of_fit(ranker, fits)
     notes: list[str] = []
     direct = _direct(rig, records, notes)
     ratio = None
@@ -170,6 +199,34 @@ def diagnose(rig: Rig, records: Sequence[MeasurementRecord], *, model_rel: float
     n = sum(len(o.names) for o in obs)
     if not math.isfinite(fits[0].log_evidence):
         notes.append("no hypothesis explains the records")
+    if not gof.explained:
+        notes.append(gof.statement)
     return Diagnosis(rig.spec.name, fits, iso, direct, ratio,
                      slip if slip is None else (slip[0], slip[1], slip[2]), len(records), n,
-                     notes)
+                     notes, gof, regime_notes(ranker))
+
+
+def regime_notes(ranker: Ranker) -> list[str]:
+    """Statements of the stall / no-operating-point states the maps met (masked values)."""
+    out: list[str] = []
+    for i, m in enumerate(ranker.models):
+        where = f"record {i}: " if len(ranker.models) > 1 else ""
+        nominal = m.maps.nominal
+        if not np.isfinite(nominal).all():
+            out.append(f"{where}the healthy rig's return stroke stalls at this condition "
+                       "(no velocity ratio); a record's ratio is compared as impossible")
+        elif nominal[OBSERVABLES.index("speed_work")] <= 0.0:
+            out.append(f"{where}the healthy rig's piston does not advance in the working "
+                       "phase at this condition (load at or above stall)")
+        for name, hm in m.maps.maps.items():
+            bad = np.isnan(hm.pred[:, m.idx]).any(axis=1)
+            if not bad.any():
+                continue
+            (p,) = hm.params
+            vals = np.array([p.from_z(float(z)) for z in hm.axes[0][bad]])
+            out.append(
+                f"{where}{name}: for {p.name} from {vals.min():.4g} to {vals.max():.4g} "
+                f"{p.unit} ({bad.mean():.0%} of its prior range) the piston stalls or has no "
+                "steady operating point, so these readings have no prediction there; those "
+                "values are masked (excluded) in the fit")
+    return out

@@ -11,14 +11,21 @@ parameter        graph parameter       prior range            physical meaning
 ``cc``           ``cylinder.cc``       c0 … 4·c0, log         piston clearance (seal wear)
 ``cv``           ``valve.cv``          c0 … 4·c0, log         spool clearance (spool wear)
 ``pump_leak``    ``pump.Rlp`` = R0/k   k = 1 … 20, log        internal leakage factor of the pump
-``Pset``         ``relief.Pset``       0.5 … 1.0 × P0, lin    relief setting drift
+``Pset``         ``relief.Pset``       0.3 … 1.0 × P0, lin    relief setting drift
 ``seat_leak``    ``relief.Gseat``      s = 0.01 … 20, log     seat leak, in units of the nominal
                                                               pump leakage conductance 1/R0
 ===============  ====================  =====================  ==================================
 
-The lower end of each wear range is the nominal value: a component is either as built
-(the ``healthy`` hypothesis for it) or worn.  Four-times clearance means 64 times the
-laminar leakage, past any rig that still moves.
+The table gives the whole range of each parameter; a hypothesis blames *worn*
+components, so its parameters start at the ``none`` severity limit (``WORN``: leakage
+× 1.33, a setting 5 % down) — the healthy end belongs to ``healthy``.  Healthy, single
+and pair hypotheses are then exclusive explanations and do not share one another's
+probability (see :meth:`FaultParameter.worn_bounds`).
+Four-times clearance means 64 times the laminar leakage, past any rig that still moves.
+The relief setting reaches down to 0.3 × nominal: a setting that low is a real failure
+(a broken spring, a wrong adjustment); below it, or beyond any other range, the goodness-of-fit test of
+:mod:`diagnostics.goodness` reports the readings as not explained rather than naming the
+nearest hypothesis.
 """
 
 from __future__ import annotations
@@ -28,7 +35,7 @@ from dataclasses import dataclass
 
 from sim.rigs import Rig
 
-__all__ = ["HYPOTHESES", "PARAMETERS", "FaultParameter", "Hypothesis"]
+__all__ = ["HYPOTHESES", "PARAMETERS", "WORN", "FaultParameter", "Hypothesis"]
 
 
 @dataclass(frozen=True)
@@ -76,6 +83,21 @@ class FaultParameter:
         nom = self.nominal_value(rig)
         return self.low * nom, self.high * nom
 
+    def worn_bounds(self, rig: Rig) -> tuple[float, float]:
+        """Prior range of the reported value when the component is *worn* [unit]: the
+        part of :meth:`bounds` past the ``none`` severity of
+        :func:`diagnostics.ranking.severity` (leakage × 1.33, i.e. clearance × 1.1; a
+        setting 5 % down).  A two-fault hypothesis blames both components, so each of
+        its parameters takes this range: the pair then no longer contains its single
+        faults (both at nominal but one), and does not share their probability; a
+        single-fault hypothesis likewise leaves the nominal end to ``healthy``."""
+        lo, hi = self.bounds(rig)
+        if self.name == "Pset":
+            return lo, WORN["Pset"] * hi
+        if self.name == "seat_leak":
+            return WORN["seat_leak"], hi
+        return WORN[self.name] * lo, hi
+
     def to_z(self, value: float) -> float:
         """Reported value → fitting coordinate."""
         return math.log(value) if self.log else value
@@ -93,6 +115,10 @@ class FaultParameter:
         return value
 
 
+#: start of the *worn* range, in the units of ``low``/``high`` (leakage multiple 1.33)
+WORN: dict[str, float] = {"cc": 1.33 ** (1 / 3), "cv": 1.33 ** (1 / 3), "pump_leak": 1.33,
+                          "seat_leak": 0.33, "Pset": 0.95}
+
 PARAMETERS: dict[str, FaultParameter] = {
     p.name: p for p in (
         FaultParameter("cc", "cylinder", "cylinder.cc", "m", 1.0, 4.0, True,
@@ -101,7 +127,7 @@ PARAMETERS: dict[str, FaultParameter] = {
                        "radial clearance spool-body"),
         FaultParameter("pump_leak", "pump", "pump.Rlp", "1", 1.0, 20.0, True,
                        "internal leakage of the pump, multiple of nominal"),
-        FaultParameter("Pset", "relief", "relief.Pset", "Pa", 0.5, 1.0, False,
+        FaultParameter("Pset", "relief", "relief.Pset", "Pa", 0.3, 1.0, False,
                        "relief valve opening pressure"),
         FaultParameter("seat_leak", "relief", "relief.Gseat", "1", 0.01, 20.0, True,
                        "relief seat leakage, multiple of the nominal pump leakage"),

@@ -4,7 +4,8 @@ Three statements accompany every ranking:
 
 * the **ambiguity set**: every observable hypothesis the data cannot reject — its best
   fit passes a χ² goodness-of-fit test at the 1 % level (χ² ≤ χ²₀.₉₉ with
-  ``max(n − k, 1)`` degrees of freedom, n readings, k fitted parameters).  These are the
+  ``max(n − k, 1)`` degrees of freedom, n readings, k fitted parameters).  It is empty
+  when nothing fits (:mod:`diagnostics.goodness`).  These are the
   hypotheses the present sensors cannot separate; the **credible set** (the most probable
   hypotheses adding up to 95 %) is the sharper, prior-dependent answer to "which first";
 * **parallel signatures**: pairs of single-fault hypotheses whose effect on the present
@@ -85,9 +86,7 @@ def _consistent_set(fits: list[HypothesisFit], n_obs: int, alpha: float = 0.01) 
         dof = max(n_obs - len(f.hypothesis.parameters), 1)
         if f.chi2 <= _chi2_limit(dof, alpha):
             out.append(f.name)
-    if not out:  # nothing fits: the model misses something; keep the best as the answer
-        out = [next(f.name for f in fits if f.observable)]
-    return out
+    return out  # empty: nothing fits (diagnostics.goodness states it)
 
 
 def _credible_set(fits: list[HypothesisFit], level: float = 0.95) -> list[str]:
@@ -150,9 +149,11 @@ def isolability(ranker: Ranker, fits: list[HypothesisFit], model_rel: float = 0.
         if f.name == "relief_setting":
             p_max = max(pred["pump_pressure"] for pred in f.predicted)
             pset = PARAMETERS["Pset"].nominal_value(ranker.rig)
+            lo = PARAMETERS["Pset"].low
             statements.append(
                 f"relief_setting: not observable here — the pump pressure ({p_max / 1e5:.1f} bar)"
-                f" stays below even a setting drifted to half its {pset / 1e5:.0f} bar; check the "
+                f" stays below even a setting drifted to {lo:.0%} of its {pset / 1e5:.0f} bar; "
+                "check the "
                 "setting by reading the pump pressure with the piston held on its end stop, or "
                 "at a load that brings the pressure near the setting")
         else:

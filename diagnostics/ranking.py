@@ -41,11 +41,16 @@ from diagnostics.hypotheses import HYPOTHESES, PARAMETERS, FaultParameter, Hypot
 from diagnostics.observations import RecordObservations, condition_sigma
 from diagnostics.signatures import OBSERVABLES, SignatureMaps, evaluator, signature_maps
 from sim.errors import SimulationError
-from sim.rigs import Rig
+from sim.rigs import Condition, Rig
 
 __all__ = ["HypothesisFit", "ParameterEstimate", "Ranker", "severity"]
 
 Arr = npt.NDArray[np.float64]
+
+#: normalised residual [σ] given to a reading whose prediction is masked in a direct solve
+_MASKED = 1.0e3
+#: cap of a condition sensitivity [unit of the reading per K or N] (its square stays finite)
+_HUGE = 1.0e100
 
 
 def severity(param: FaultParameter, value: float, nominal: float) -> tuple[float, str]:
@@ -89,7 +94,8 @@ class ParameterEstimate:
     severity
         ``none``, ``mild``, ``moderate`` or ``severe``.
     at_bound
-        The estimate sits on the nominal end of its range (no wear seen).
+        The estimate sits on the healthy end of its (worn) range: no more wear than the
+        hypothesis must assume.
     """
 
     name: str
@@ -149,21 +155,42 @@ class _RecordModel:
         self.maps: SignatureMaps = signature_maps(rig, obs.condition)
         self.idx = np.array([OBSERVABLES.index(n) for n in obs.names], dtype=np.int64)
         pred = self.maps.nominal[self.idx]
-        var = obs.u**2 + (model_rel * pred) ** 2
+        # a reading the healthy rig cannot produce (a stalled return stroke has no velocity
+        # ratio) gets no model or condition term: its σ is the measurement's own
+        var = obs.u**2 + np.nan_to_num(model_rel * pred) ** 2
         u_t, u_f = condition_sigma(obs.record)
         cond = obs.condition
         if u_t > 0:
-            hot = evaluator(rig, replace(cond, oil_temperature=cond.oil_temperature + 1.0))
-            var += ((self._vec(hot.nominal()) - pred) * u_t) ** 2
+            var += self._condition_term(
+                rig, pred, [(replace(cond, oil_temperature=cond.oil_temperature + s), s)
+                            for s in (1.0, -1.0)]) * u_t**2
         if u_f > 0:
             if cond.load > 0:
                 step = 0.01 * cond.load
-                heavy = evaluator(rig, replace(cond, load=cond.load + step))
+                moved = [(replace(cond, load=cond.load + s), s) for s in (step, -step)]
             else:
                 step = 0.01 * max(cond.back_pressure, 1e5)
-                heavy = evaluator(rig, replace(cond, back_pressure=cond.back_pressure + step))
-            var += ((self._vec(heavy.nominal()) - pred) / step * u_f) ** 2
+                moved = [(replace(cond, back_pressure=cond.back_pressure + s), s)
+                         for s in (step, -step)]
+            var += self._condition_term(rig, pred, moved) * u_f**2
         self.sigma = np.sqrt(var)
+
+    def _condition_term(self, rig: Rig, pred: Arr, moved: list[tuple[Condition, float]]
+                        ) -> Arr:
+        """Squared sensitivity of the healthy readings to a condition, by a one-sided
+        difference (the other side where the first has no steady point; 0 where neither)."""
+        for cond, step in moved:
+            try:
+                moved_pred = self._vec(evaluator(rig, cond).nominal())
+            except SimulationError:
+                continue
+            with np.errstate(over="ignore", invalid="ignore"):
+                d = (moved_pred - pred) / step
+            # near a stall a reading (the velocity ratio) may react without bound: cap the
+            # sensitivity so its σ stays finite, huge, and the reading weighs nothing
+            d = np.clip(np.nan_to_num(d, nan=0.0, posinf=_HUGE, neginf=-_HUGE), -_HUGE, _HUGE)
+            return np.asarray(d**2)
+        return np.zeros_like(pred)
 
     def _vec(self, pred: dict[str, float]) -> Arr:
         return np.array([pred[n] for n in self.obs.names])
@@ -171,7 +198,9 @@ class _RecordModel:
     def chi2_grid(self, pred: Arr) -> Arr:
         """χ² of this record at every point of a map (``pred[..., observables]``)."""
         r = (self.obs.values - pred[..., self.idx]) / self.sigma
-        return np.asarray(np.sum(r * r, axis=-1))
+        chi2 = np.sum(r * r, axis=-1)
+        # a masked prediction (stall, no operating point) cannot produce the reading
+        return np.asarray(np.where(np.isnan(chi2), np.inf, chi2))
 
     def as_dict(self, full: Arr) -> dict[str, float]:
         return {n: float(v) for n, v in zip(OBSERVABLES, full, strict=True)}
@@ -207,7 +236,7 @@ class Ranker:
                                  p.from_z(hi_z), nominal, mult, label, bool(at_bound))
 
     def _healthy(self) -> tuple[float, list[dict[str, float]]]:
-        chi2 = sum(float(m.chi2_grid(m.maps.nominal)) for m in self.models)
+        chi2 = float(sum(float(m.chi2_grid(m.maps.nominal)) for m in self.models))
         return chi2, [m.as_dict(m.maps.nominal) for m in self.models]
 
     # -- fits ------------------------------------------------------------------------------
@@ -222,15 +251,23 @@ class Ranker:
             d = (hm.pred[..., m.idx] - m.maps.nominal[m.idx]) / m.sigma
             detect += np.sum(d * d, axis=-1)
         z = self.models[0].maps.maps[hyp.name].axes[0]
+        detect = np.nan_to_num(detect, nan=0.0, posinf=0.0)
         logl = -0.5 * chi2
         top = float(logl.max())
+        if not math.isfinite(top):  # no parameter value gives these readings a prediction
+            est = self._estimate(p, float(z[0]), float(z[0]), float(z[-1]), float(z[0]),
+                                 float(z[-1]))
+            preds = [m.as_dict(m.maps.maps[hyp.name].pred[0]) for m in self.models]
+            detectability = float(np.sqrt(detect.max()))
+            return HypothesisFit(hyp, math.inf, -math.inf, [est], preds,
+                                 observable=detectability >= 1.0, detectability=detectability)
         log_ev = top + math.log(float(np.mean(np.exp(logl - top))))
         k = int(np.argmax(logl))
         zk = float(z[k])
         if 0 < k < z.size - 1:  # parabola through the three best points
             y0, y1, y2 = logl[k - 1], logl[k], logl[k + 1]
             den = y0 - 2 * y1 + y2
-            if den < 0:
+            if den < 0 and math.isfinite(den):  # not beside a masked (stalled) point
                 zk += 0.5 * (y0 - y2) / den * (z[1] - z[0])
         post = np.exp(logl - logl.max())
         cdf = np.cumsum(post)
@@ -247,15 +284,20 @@ class Ranker:
         vals = np.array([p.from_z(float(zz)) for p, zz in zip(params, z, strict=True)])
         rs, fulls = [], []
         for m in self.models:
-            full = m.maps.predict(params, vals)
+            try:
+                full = m.maps.predict(params, vals)
+            except SimulationError:  # no steady operating point: masked
+                full = np.full(len(OBSERVABLES), np.nan)
             fulls.append(full)
-            rs.append((m.obs.values - full[m.idx]) / m.sigma)
+            r = (m.obs.values - full[m.idx]) / m.sigma
+            # a masked reading counts as a miss of _MASKED σ: the fit steps away from it
+            rs.append(np.where(np.isfinite(r), r, _MASKED))
         return np.concatenate(rs), fulls
 
     def fit_pair(self, hyp: Hypothesis, singles: dict[str, HypothesisFit]) -> HypothesisFit:
         """Two-parameter hypothesis: Gauss-Newton on direct solves, Laplace evidence."""
         params = tuple(PARAMETERS[n] for n in hyp.parameters)
-        bounds = [p.bounds(self.rig) for p in params]
+        bounds = [p.worn_bounds(self.rig) for p in params]
         zl = np.array([p.to_z(b[0]) for p, b in zip(params, bounds, strict=True)])
         zu = np.array([p.to_z(b[1]) for p, b in zip(params, bounds, strict=True)])
         span = zu - zl
@@ -265,7 +307,7 @@ class Ranker:
             single = next(f for f in singles.values() if f.hypothesis.parameters == (p.name,))
             z0 = zl.copy()
             z0[i] = p.to_z(single.parameters[0].value)
-            starts.append((single.chi2, z0))
+            starts.append((single.chi2, np.clip(z0, zl, zu)))
         z = min(starts, key=lambda s: s[0])[1]
         r, fulls = self._residuals(params, z)
         cost = float(r @ r)
@@ -394,8 +436,11 @@ class Ranker:
                     continue  # no steady operating point anywhere near: not a candidate
         obs = [f for f in fits if f.observable]
         logz = np.array([f.log_evidence for f in obs])
-        w = np.exp(logz - logz.max())
-        w /= w.sum()
+        if logz.size == 0 or not np.isfinite(logz.max()):
+            w = np.zeros(logz.size)  # no hypothesis has a prediction for these readings
+        else:
+            w = np.exp(logz - logz.max())
+            w /= w.sum()
         for f, pr in zip(obs, w, strict=True):
             f.probability = float(pr)
         return sorted(fits, key=lambda f: (not f.observable, -f.probability,

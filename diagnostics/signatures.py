@@ -1,4 +1,4 @@
-"""Signature maps: every hypothesis's predicted readings over its whole prior range.
+"""Signature maps: every hypothesis's predicted readings over its whole (worn) prior range.
 
 For one rig at one operating condition, each single-parameter hypothesis's parameter is
 laid on a coarse grid in its fitting coordinate (:mod:`diagnostics.hypotheses`), every
@@ -11,13 +11,24 @@ the fine grid.
 
 Grid: 25 coarse → 241 fine points.  The interpolation error is below 4e-4 of the
 readings wherever the piston still moves (tested against direct solves), far under the
-instruments' 0.25-1 %.  Two-parameter hypotheses are not mapped: tensor-product splines
+instruments' 0.25-1 %.
+
+Stall, creep and end stops: on some rigs (a hot differential cylinder at the worn end of
+the clearance range, a heavy load) the piston stops or runs backwards in a phase.  The
+signed speeds stay smooth through that, but the velocity ratio is undefined where the
+return stroke stalls, and a grid point may have no steady operating point at all.  Such
+points are *masked*: their predictions are NaN, the interpolation runs over the valid
+points only, and a fine point is valid only when both coarse points around it are.  The
+likelihood treats a masked prediction as impossible for a record that reads it
+(:mod:`diagnostics.ranking`), and :attr:`HypothesisMap.masked` states which share of the
+prior range was masked.  Two-parameter hypotheses are not mapped: tensor-product splines
 over 11 × 11 points erred by up to 2.5 % near the stall ridge, so pairs are fitted by
 direct solves instead (:mod:`diagnostics.ranking`).
 """
 
 from __future__ import annotations
 
+import math
 import threading
 from collections import OrderedDict
 from dataclasses import dataclass
@@ -28,11 +39,12 @@ import numpy.typing as npt
 from scipy.interpolate import PchipInterpolator
 
 from diagnostics.hypotheses import HYPOTHESES, PARAMETERS, FaultParameter, Hypothesis
+from sim.errors import SimulationError
 from sim.rigs import Condition, Rig
 from sim.steady import SteadyEvaluator
 
 __all__ = ["GRAPH_PARAMETERS", "OBSERVABLES", "HypothesisMap", "SignatureMaps",
-           "evaluator", "signature_maps"]
+           "evaluator", "masked_pchip", "signature_maps"]
 
 Arr = npt.NDArray[np.float64]
 
@@ -100,6 +112,12 @@ class HypothesisMap:
     axes: list[Arr]
     pred: Arr
 
+    @property
+    def masked(self) -> Arr:
+        """Per observable, the share of the fine grid with no prediction (stall or no
+        steady operating point) [-]."""
+        return np.asarray(np.mean(np.isnan(self.pred), axis=0), dtype=np.float64)
+
 
 class SignatureMaps:
     """Signature maps of every hypothesis for one rig at one condition."""
@@ -109,7 +127,10 @@ class SignatureMaps:
         self.condition = condition
         self.ev = evaluator(rig, condition)
         self._base = np.array([rig.base[n] for n in GRAPH_PARAMETERS])
-        self.nominal = self.ev.vector(self._base, OBSERVABLES)
+        try:
+            self.nominal = self.ev.vector(self._base, OBSERVABLES)
+        except SimulationError:
+            self.nominal = np.full(len(OBSERVABLES), np.nan)
         self.maps: dict[str, HypothesisMap] = {}
         for hyp in HYPOTHESES:
             if len(hyp.parameters) == 1:
@@ -126,20 +147,81 @@ class SignatureMaps:
         """Observables for ``params`` at ``values``, solved directly (no interpolation)."""
         return self.ev.vector(self.graph_values(params, values), OBSERVABLES)
 
+    def _solve_or_nan(self, params: tuple[FaultParameter, ...], value: float) -> Arr:
+        """Direct prediction, NaN everywhere where no steady operating point exists."""
+        try:
+            return self.predict(params, np.array([value]))
+        except SimulationError:
+            return np.full(len(OBSERVABLES), np.nan)
+
+    def _pieces(self, p: FaultParameter, z_lo: float, z_hi: float
+                ) -> list[tuple[float, float, int]]:
+        """Coarse-grid segments (start, end, nodes) of a parameter's axis.
+
+        The relief valve opens where its setting meets the healthy pump pressure
+        (paper 002 eq. 6: ``Qrv = (Pp − Pset)/Rrv`` above ``Pset``, 0 below), a kink no
+        spline through it follows; the ``Pset`` axis is split there, each side mapped on
+        its own (above the kink the valve stays shut and the readings do not change).
+        """
+        if p.name == "Pset":
+            kink = float(self.nominal[OBSERVABLES.index("pump_pressure")])
+            if math.isfinite(kink) and z_lo < kink < z_hi:
+                return [(z_lo, kink, COARSE_1D), (kink, z_hi, 5)]
+        return [(z_lo, z_hi, COARSE_1D)]
+
     def _axis(self, p: FaultParameter, n: int) -> Arr:
-        lo, hi = p.bounds(self.rig)
+        lo, hi = p.worn_bounds(self.rig)
         return np.linspace(p.to_z(lo), p.to_z(hi), n)
 
     def _build(self, hyp: Hypothesis) -> HypothesisMap:
         params = tuple(PARAMETERS[n] for n in hyp.parameters)
         if len(params) == 1:
             (p,) = params
-            zc = self._axis(p, COARSE_1D)
-            coarse = np.array([self.predict(params, np.array([p.from_z(z)])) for z in zc])
             zf = self._axis(p, FINE_1D)
-            fine = PchipInterpolator(zc, coarse, axis=0)(zf)
+            pieces = []
+            for lo, hi, n in self._pieces(p, float(zf[0]), float(zf[-1])):
+                zc = np.linspace(lo, hi, n)
+                coarse = np.array([self._solve_or_nan(params, p.from_z(z)) for z in zc])
+                pieces.append((zc, coarse))
+            fine = np.empty((zf.size, len(OBSERVABLES)))
+            for k, (zc, coarse) in enumerate(pieces):
+                sel = (zf >= zc[0]) & ((zf <= zc[-1]) if k == len(pieces) - 1 else (zf < zc[-1]))
+                fine[sel] = masked_pchip(zc, coarse, zf[sel])
             return HypothesisMap(hyp, params, [zf], fine)
         raise ValueError("maps are built for one parameter; pairs are fitted directly")
+
+
+def masked_pchip(zc: Arr, coarse: Arr, zf: Arr) -> Arr:
+    """PCHIP of ``coarse[k, j]`` (nodes ``zc``) onto ``zf``, column by column, over the
+    finite nodes only; a fine point is NaN unless both nodes around it are finite.
+
+    Parameters
+    ----------
+    zc
+        Coarse nodes, increasing [fitting coordinate].
+    coarse
+        Values at the nodes, shape ``(len(zc), m)``; NaN where masked [SI].
+    zf
+        Fine points within ``[zc[0], zc[-1]]`` [fitting coordinate].
+
+    Returns
+    -------
+    ndarray
+        Shape ``(len(zf), m)`` [SI].
+    """
+    ok = np.isfinite(coarse)
+    if ok.all():
+        return np.asarray(PchipInterpolator(zc, coarse, axis=0)(zf), dtype=np.float64)
+    fine = np.full((zf.size, coarse.shape[1]), np.nan)
+    right = np.clip(np.searchsorted(zc, zf, side="left"), 1, zc.size - 1)
+    for j in range(coarse.shape[1]):
+        good = ok[:, j]
+        if good.sum() < 2:
+            continue
+        col = PchipInterpolator(zc[good], coarse[good, j])(zf)
+        valid = good[right] & good[right - 1]
+        fine[valid, j] = col[valid]
+    return fine
 
 
 def signature_maps(rig: Rig, condition: Condition) -> SignatureMaps:

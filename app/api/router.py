@@ -2,6 +2,7 @@
 
 * ``ops`` — ``/health``, ``/ready``, ``/metrics``;
 * ``rigs``, ``calibrations`` — rig documents and their throttle equivalence tables;
+* ``commission`` — ``POST /rigs/{rig_id}/commission``: fit a rig to healthy records;
 * ``pumps`` — pump parameter sets, loss maps and parameterisation from a bench CSV;
 * ``diagnose`` — ``POST /diagnose`` over :mod:`app.services.diagnosis`;
 * ``simulate`` — ``POST /simulate`` over :mod:`app.services.simulation`;
@@ -17,6 +18,7 @@ from fastapi import APIRouter
 
 from app.api.routes import (
     calibrations,
+    commission,
     diagnose,
     jobs,
     ops,
@@ -31,6 +33,6 @@ from app.api.routes import (
 __all__ = ["api_router"]
 
 api_router = APIRouter()
-for _module in (ops, rigs, calibrations, trends, pumps, series, diagnose, simulate, scenarios,
-                jobs):
+for _module in (ops, rigs, commission, calibrations, trends, pumps, series, diagnose, simulate,
+                scenarios, jobs):
     api_router.include_router(_module.router)

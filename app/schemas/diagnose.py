@@ -23,7 +23,9 @@ __all__ = [
     "DiagnoseRequest",
     "DiagnoseResponse",
     "DiagnosisPublic",
+    "DisagreementPublic",
     "EstimatePublic",
+    "GoodnessOfFitPublic",
     "MeasurementIn",
     "ReadingIn",
 ]
@@ -221,6 +223,44 @@ class EstimatePublic(BaseModel):
     )
 
 
+class DisagreementPublic(BaseModel):
+    """One reading against the best fit of the goodness-of-fit test."""
+
+    record: int = Field(ge=0, description="Index of the record in the diagnosis [-]",
+                        examples=[0])
+    reading: str = Field(description="Reading (a record field name) [-]",
+                         examples=["pump_pressure"])
+    measured: float = Field(description="Reading [SI unit of the reading]", examples=[2.6e6])
+    predicted: float | None = Field(
+        description="Best fit's prediction; null where the model has none (the piston "
+        "stalls) [SI unit of the reading]", examples=[3.4e6])
+    sigma: float = Field(description="Standard uncertainty used in the fit [SI unit of the "
+                         "reading]", examples=[8.6e3])
+    deviation: float | None = Field(
+        description="(measured − predicted)/σ; null where there is no prediction [σ]",
+        examples=[-97.0])
+
+
+class GoodnessOfFitPublic(BaseModel):
+    """χ² goodness-of-fit test of the best-fitting hypothesis."""
+
+    hypothesis: str = Field(description="Hypothesis tested (best p-value) [-]",
+                            examples=["valve"])
+    chi2: float | None = Field(description="χ² at its estimate; null if infinite [-]",
+                               examples=[4.1])
+    dof: int = Field(ge=1, description="Degrees of freedom max(n − k, 1) [-]", examples=[6])
+    level: float = Field(gt=0, lt=1, description="Test level α [1]", examples=[0.01])
+    limit: float = Field(description="χ² limit at the test level [-]", examples=[16.8])
+    p_value: float = Field(ge=0, le=1, description="P(χ²_ν ≥ χ²) [1]", examples=[0.66])
+    explained: bool = Field(description="Whether a hypothesis of the library passes [-]",
+                            examples=[True])
+    disagreements: list[DisagreementPublic] = Field(
+        description="Readings beyond 3 σ of the tested fit, worst first (the worst three "
+        "when none is) [-]", examples=[[]])
+    statement: str = Field(description="The test's result in one statement [-]",
+                           examples=["the readings are consistent with valve"])
+
+
 class DiagnosisPublic(BaseModel):
     """The diagnosis of one record, or of several records jointly."""
 
@@ -237,13 +277,30 @@ class DiagnosisPublic(BaseModel):
                              examples=[1])
     measured_at: AwareDatetime = Field(
         description="Time of the (latest) record [UTC]", examples=["2026-11-22T08:30:00Z"])
-    top: str = Field(description="Most probable hypothesis [-]", examples=["valve"])
+    top: str = Field(description="Most probable hypothesis; 'unexplained' when no hypothesis "
+                     "passes the goodness-of-fit test (see `misfit`) [-]", examples=["valve"])
     component: str = Field(
-        description="Component(s) the top hypothesis blames, '+'-joined; 'healthy' [-]",
+        description="Component(s) the top hypothesis blames, '+'-joined; 'healthy'; "
+        "'unexplained' when nothing fits [-]",
         examples=["valve"],
     )
-    probability: float = Field(ge=0, le=1, description="Probability of the top hypothesis [1]",
-                               examples=[0.75])
+    probability: float = Field(ge=0, le=1, description="Probability of the top hypothesis; 0 "
+                               "when unexplained [1]", examples=[0.75])
+    explained: bool = Field(
+        default=True, description="Whether a hypothesis of the rig's fault library explains "
+        "the readings (χ² test at `goodness_of_fit.level`) [-]", examples=[True])
+    goodness_of_fit: GoodnessOfFitPublic | None = Field(
+        default=None, description="χ² goodness-of-fit test of the best hypothesis [-]",
+        examples=[{"hypothesis": "valve", "chi2": 4.1, "dof": 6, "level": 0.01, "limit": 16.8,
+                   "p_value": 0.66, "explained": True, "disagreements": [],
+                   "statement": "the readings are consistent with valve"}])
+    misfit: str | None = Field(
+        default=None, description="When unexplained: which readings disagree by how many σ, "
+        "and where to go next (discrepancy workflow, commissioning); null otherwise [-]",
+        examples=[None])
+    regime_notes: list[str] = Field(
+        default_factory=list, description="Stall / no-operating-point states met: hypothesis "
+        "values masked because the piston stalls there [-]", examples=[[]])
     estimates: list[EstimatePublic] = Field(
         description="Per-component estimates kept for the trends: closed-form where the "
         "flows allow, else the fit of a single-fault hypothesis the readings do not reject [-]",

@@ -38,11 +38,14 @@ from app.services.rig_cache import ResolvedRig, RigCache
 from diagnostics.diagnose import Diagnosis, diagnose
 from sim.errors import InputError
 
-__all__ = ["DIAGNOSIS_LOCK", "DiagnosisOutcome", "EstimateOut", "diagnose_request",
+__all__ = ["DIAGNOSIS_LOCK", "UNEXPLAINED", "DiagnosisOutcome", "EstimateOut", "diagnose_request",
            "estimates_of", "json_ready", "response_of"]
 
 #: Serialises calls into ``diagnostics`` within one process (module docstring).
 DIAGNOSIS_LOCK = threading.Lock()
+
+#: ``top`` and ``component`` of a diagnosis whose readings no hypothesis explains.
+UNEXPLAINED = "unexplained"
 
 #: Single-fault hypotheses whose parameter is a component's equivalent clearance [m].
 _CLEARANCE_HYPOTHESES = {"cylinder": "cc", "valve": "cv"}
@@ -179,6 +182,7 @@ def _diagnose_group(session: Session, rigs: RigCache, group: list[tuple[str, Mea
     except InputError as exc:
         raise type(exc)(exc.message, field=_request_field(exc.field, group)) from None
     top = diagnosis.top
+    explained = diagnosis.explained
     estimates = estimates_of(diagnosis)
     result = json_ready(diagnosis.to_dict())
     result["estimates"] = {e.component: {"quantity": e.quantity, "unit": e.unit,
@@ -188,8 +192,10 @@ def _diagnose_group(session: Session, rigs: RigCache, group: list[tuple[str, Mea
     result["rig_version"] = resolved.version
     return DiagnosisOutcome(
         paths=[path for path, _ in group], resolved=resolved, measured_at=max(times),
-        top=top.name, component="+".join(top.hypothesis.components) or "healthy",
-        probability=top.probability, estimates=estimates, result=result,
+        top=top.name if explained else UNEXPLAINED,
+        component=("+".join(top.hypothesis.components) or "healthy") if explained
+        else UNEXPLAINED,
+        probability=top.probability if explained else 0.0, estimates=estimates, result=result,
     )
 
 
@@ -270,6 +276,10 @@ def _public(outcome: DiagnosisOutcome) -> DiagnosisPublic:
         probability=outcome.probability,
         estimates=[EstimatePublic.model_validate(asdict(e)) for e in outcome.estimates],
         result=outcome.result,
+        explained=outcome.result.get("explained", True),
+        goodness_of_fit=outcome.result.get("goodness_of_fit"),
+        misfit=outcome.result.get("misfit"),
+        regime_notes=outcome.result.get("regime_notes", []),
     )
 
 

@@ -1,0 +1,25 @@
+"""Commissioning a rig from healthy records: ``POST /rigs/{rig_id}/commission``."""
+
+from __future__ import annotations
+
+from fastapi import APIRouter, status
+
+from app.api.deps import ReadAccess, RigsDep, SessionDep, WriteKeyDep
+from app.api.routes.rigs import RigId
+from app.schemas.commission import CommissionRequest, CommissionResponse
+from app.schemas.common import ERROR_RESPONSES
+from app.services.commissioning import commission_rig
+
+__all__ = ["router"]
+
+router = APIRouter(tags=["rigs"], dependencies=[ReadAccess], responses=ERROR_RESPONSES)
+
+
+@router.post("/rigs/{rig_id}/commission", status_code=status.HTTP_201_CREATED,
+             summary="Fit a rig's uncertain parameters to healthy records; store a version")
+def commission(rig_id: RigId, body: CommissionRequest, session: SessionDep, rigs: RigsDep,
+               _key: WriteKeyDep) -> CommissionResponse:
+    """Fit seal and land lengths, valve coefficient, friction and pump leakage to records
+    of the healthy rig, with 95 % intervals and what the records could not pin down; the
+    pinned-down values are stored as the rig's next version."""
+    return commission_rig(session, rigs, rig_id, body)

@@ -1,0 +1,84 @@
+"""Commission a stored rig from healthy records and store the fit as a new version.
+
+Used by ``POST /rigs/{rig_id}/commission`` and ``hydrodiag commission``.  The fit is
+:func:`diagnostics.commissioning.commission` on the rig's latest version; the parameters
+the records pin down are written into a copy of that version's document (value in SI, with
+a source naming the fit and its interval), stored through :func:`app.services.rigs.update_rig`.
+Nothing is stored when any record is invalid or the fit fails.
+"""
+
+from __future__ import annotations
+
+import copy
+from dataclasses import asdict
+from typing import Any
+
+from sqlalchemy.orm import Session
+
+from app.db.base import utcnow
+from app.schemas.commission import CommissionRequest, CommissionResponse
+from app.services import rigs as rig_service
+from app.services.diagnosis import DIAGNOSIS_LOCK
+from app.services.measurements import to_record
+from app.services.rig_cache import RigCache
+from diagnostics.commissioning import Commissioning, commission
+from sim.errors import InputError
+
+__all__ = ["commission_rig", "commissioned_document"]
+
+
+def commissioned_document(document: dict[str, Any], fit: Commissioning, units: dict[str, str]
+                          ) -> dict[str, Any]:
+    """A copy of ``document`` with the pinned-down parameters of ``fit`` [SI, with units]."""
+    out = copy.deepcopy(document)
+    for p in fit.parameters:
+        if not p.identifiable:
+            continue
+        role, name = p.name.split(".")
+        out["components"][role]["parameters"][name] = {
+            "value": p.value, "unit": units[p.name],
+            "source": f"commissioned from {fit.n_records} healthy records: {p.value:.6g} "
+                      f"(95 % interval {p.low:.6g} … {p.high:.6g}), was {p.before:.6g}"}
+    return out
+
+
+def commission_rig(session: Session, rigs: RigCache, rig_id: int, request: CommissionRequest
+                   ) -> CommissionResponse:
+    """Fit rig ``rig_id``'s uncertain parameters to ``request.records``; store a version.
+
+    Raises
+    ------
+    NotFoundError
+        No such rig.
+    InputError
+        A record names another rig, or is invalid (``field`` is its path).
+    """
+    resolved = rigs.get(session, rig_id)
+    now = utcnow()
+    records = []
+    for i, data in enumerate(request.records):
+        if data.rig_id != rig_id:
+            raise InputError(f"the record names rig {data.rig_id}, not {rig_id}",
+                             field=f"records[{i}].rig_id")
+        records.append(to_record(data, path=f"records[{i}]", rig_name=resolved.name,
+                                 measured_at=data.measured_at or now))
+    try:
+        with DIAGNOSIS_LOCK:
+            fit = commission(resolved.rig, records, request.parameters)
+    except InputError as exc:
+        raise type(exc)(exc.message, field=exc.field) from None
+    circuit = resolved.rig.circuit
+    units = {}
+    for p in fit.parameters:
+        role, name = p.name.split(".")
+        decl = circuit.parameter(role, name)
+        units[p.name] = decl.unit if decl is not None else ""
+    document = commissioned_document(dict(resolved.document), fit, units)
+    comment = request.comment or (f"commissioned from {fit.n_records} healthy records "
+                                  f"(version {resolved.version})")
+    rig, version = rig_service.update_rig(session, rig_id, document, comment=comment)
+    return CommissionResponse.model_validate({
+        "rig_id": rig.id, "from_version": resolved.version, "version": version.version,
+        "parameters": [asdict(p) | {"unit": units[p.name]} for p in fit.parameters],
+        "chi2": fit.chi2, "n_observations": fit.n_observations, "n_records": fit.n_records,
+        "statements": fit.statements})

@@ -1,0 +1,115 @@
+"""POST /rigs/{id}/commission and ``hydrodiag commission``: healthy records of the rig as
+built give its uncertain parameters, stored as a new rig version that later diagnoses use."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+import yaml
+from typer.testing import CliRunner
+
+from app.cli import cli
+from sim.rigs import reference_rig
+from tests.app.conftest import new_rig
+from tests.app.live import LiveServer
+from tests.diagnostics.synth import FULL, readings
+from tests.diagnostics.test_commissioning import TRUTH, true_rig
+
+FIELDS = (*FULL, "pump_flow")
+
+
+def healthy_bodies(rig_id: int, seed: int = 3) -> list[dict[str, Any]]:
+    """Records of the as-built rig (parameters off the document's by TRUTH), with the
+    instrument noise of the default classes (uniform within ±1 % flow, ±0.25 % pressure,
+    ±0.5 % speed)."""
+    actual = true_rig()
+    rng = np.random.default_rng(seed)
+    bounds = {"pump_pressure": 0.0025, "p1": 0.0025, "p2": 0.0025, "flow_B": 0.01,
+              "flow_C": 0.01, "pump_flow": 0.01, "speed_work": 0.005, "speed_return": 0.005}
+    out = []
+    for load in (2100.0, 4200.0, 6300.0):
+        for temperature in (35.0, 55.0):
+            vals = readings(actual, {}, load, temperature)
+            body: dict[str, Any] = {
+                "rig_id": rig_id,
+                "condition": {"oil_temperature": temperature, "load_force": load}}
+            for f in FIELDS:
+                body[f] = vals[f] * (1.0 + rng.uniform(-0.5, 0.5) * bounds[f])
+            out.append(body)
+    return out
+
+
+def test_commissioning_stores_a_version_that_explains_the_rig(server: LiveServer) -> None:
+    rig = new_rig(server, "to-commission")
+    rig_id = rig["id"]
+    records = healthy_bodies(rig_id)
+    # before: the document does not describe the rig; a healthy record is not explained
+    probe = dict(records[1], condition={"oil_temperature": 45.0, "load_force": 3000.0})
+    probe.update({f: readings(true_rig(), {}, 3000.0, 45.0)[f] for f in FIELDS})
+    before = server.client.post("/diagnose", json={"record": probe, "store": False}).json()
+    assert before["diagnoses"][0]["explained"] is False
+
+    no_key = server.client.post(f"/rigs/{rig_id}/commission", json={"records": records})
+    assert no_key.status_code == 401
+    response = server.client.post(f"/rigs/{rig_id}/commission",
+                                  json={"records": records}, headers=server.auth)
+    assert response.status_code == 201, response.text
+    body = response.json()
+    assert body["from_version"] == 1 and body["version"] == 2
+    base = reference_rig().base
+    fitted = {p["name"]: p for p in body["parameters"]}
+    for name, factor in TRUTH.items():
+        p = fitted[name]
+        assert p["low"] <= base[name] * factor <= p["high"], p
+    stored = server.client.get(f"/rigs/{rig_id}/versions/2").json()
+    lc = stored["document"]["components"]["cylinder"]["parameters"]["Lc"]
+    assert lc["value"] == pytest.approx(fitted["cylinder.Lc"]["value"])
+    assert "commissioned" in lc["source"]
+    after = server.client.post("/diagnose", json={"record": probe, "store": False}).json()
+    (d,) = after["diagnoses"]
+    assert d["rig_version"] == 2 and d["explained"] is True and d["top"] == "healthy"
+
+
+def test_bad_commissioning_requests_are_422_and_store_nothing(server: LiveServer) -> None:
+    rig = new_rig(server, "commission-errors")
+    rig_id = rig["id"]
+    records = healthy_bodies(rig_id)[:2]
+    cases = [({"records": records, "parameters": ["cylinder.cc"]}, "parameters[0]"),
+             ({"records": [dict(records[0], rig_id=1)]}, "records[0].rig_id"),
+             ({"records": [dict(records[0], speed_work=5.0)]}, "records[0].speed_work")]
+    for body, field in cases:
+        response = server.client.post(f"/rigs/{rig_id}/commission", json=body,
+                                      headers=server.auth)
+        assert response.status_code == 422, response.text
+        assert response.json()["error"]["field"] == field
+    versions = server.client.get(f"/rigs/{rig_id}/versions").json()
+    assert versions["total"] == 1
+    missing = server.client.post("/rigs/9999/commission", json={"records": records},
+                                 headers=server.auth)
+    assert missing.status_code == 404
+
+
+def test_cli_commission(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("HYDRODIAG_DATA_DIR", str(tmp_path / "store"))
+    monkeypatch.delenv("HYDRODIAG_DATABASE_URL", raising=False)
+    runner = CliRunner()
+    path = tmp_path / "records.yaml"
+    path.write_text(yaml.safe_dump(healthy_bodies(1)))
+    result = runner.invoke(cli, ["commission", str(path), "--rig", "1", "--json"])
+    assert result.exit_code == 0, result.output
+    body = json.loads(result.stdout)
+    assert body["version"] == body["from_version"] + 1
+    assert {p["name"] for p in body["parameters"] if p["identifiable"]} >= {
+        "cylinder.Lc", "valve.K"}
+    table = runner.invoke(cli, ["commission", str(path), "--rig", "1", "--parameter",
+                                "valve.K"])
+    assert table.exit_code == 0, table.output
+    assert "valve.K" in table.output
+    bad = runner.invoke(cli, ["commission", str(path), "--rig", "1", "--parameter", "x.y"])
+    # main() prints the error and exits 1; the runner keeps the exception
+    assert bad.exit_code != 0 and getattr(bad.exception, "field", None) == "parameters[0]"
+    assert "x.y" in str(bad.exception)

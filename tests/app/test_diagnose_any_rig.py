@@ -1,0 +1,88 @@
+"""POST /diagnose on rigs registered through POST /rigs (issue 11): 200 or a clear 422,
+never a 500 from physics; an unexplained record says so instead of naming a fault."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import pytest
+
+from tests.app.live import LiveServer
+from tests.diagnostics.test_any_rig import rig_document
+
+#: (bore, rod1, rod2, Lc) [m]: the issue's differential cylinder, one with a short seal
+#: (stalls hot), a small through-rod one
+RIGS = [(0.06, 0.0, 0.03, 0.01231), (0.06, 0.0, 0.03, 0.003), (0.04, 0.025, 0.025, 0.006)]
+
+
+def register(server: LiveServer, cyl: tuple[float, float, float, float], tag: str) -> int:
+    document = rig_document(*cyl)
+    document["name"] = f"{document['name']}-{tag}"
+    response = server.client.post("/rigs", json={"document": document}, headers=server.auth)
+    assert response.status_code == 201, response.text
+    return int(response.json()["id"])
+
+
+def steady_record(server: LiveServer, rig_id: int, overrides: dict[str, float], load: float,
+                  temperature: float) -> dict[str, Any] | None:
+    response = server.client.post("/simulate", json={
+        "rig_id": rig_id, "overrides": overrides, "method": "steady",
+        "condition": {"load": load, "oil_temperature": temperature}})
+    if response.status_code != 200:
+        return None
+    s = response.json()["summary"]
+    return {"rig_id": rig_id,
+            "condition": {"oil_temperature": temperature, "load_force": load},
+            "pump_pressure": s["working.P_pump [Pa]"], "p1": s["working.P1 [Pa]"],
+            "p2": s["working.P2 [Pa]"], "flow_B": s["working.Q_meter_B [m^3/s]"],
+            "flow_C": s["working.Q_meter_C [m^3/s]"], "speed_work": s["working.speed [m/s]"],
+            "speed_return": s["return.speed [m/s]"]}
+
+
+@pytest.mark.parametrize("cyl", RIGS)
+def test_registered_rigs_answer_200_or_422_at_any_temperature(server: LiveServer,
+                                                              cyl: tuple) -> None:
+    rig_id = register(server, cyl, "any")
+    answered = 0
+    for temperature in (20.0, 52.0, 70.0, 80.0):
+        for factor in (1.0, 1.5, 3.9):
+            record = steady_record(server, rig_id, {"cylinder.cc": factor * 83e-6}, 2100.0,
+                                   temperature)
+            if record is None:
+                continue
+            ratio_only = {"rig_id": rig_id, "condition": record["condition"],
+                          "velocity_ratio": record["speed_work"] / record["speed_return"]}
+            for rec in (record, ratio_only):
+                response = server.client.post("/diagnose", json={"record": rec, "store": False})
+                assert response.status_code in (200, 422), response.text
+                if response.status_code == 422:
+                    error = response.json()["error"]
+                    assert error["field"] and error["message"], response.text
+                    continue
+                answered += 1
+                (d,) = response.json()["diagnoses"]
+                assert d["goodness_of_fit"]["dof"] >= 1
+                assert d["explained"] is (d["top"] != "unexplained")
+    assert answered > 0
+
+
+def test_an_unexplained_record_names_no_fault_and_is_stored_with_its_statement(
+        server: LiveServer) -> None:
+    rig_id = register(server, (0.06, 0.0, 0.03, 0.01231), "misfit")
+    record = steady_record(server, rig_id, {"valve.cv": 45e-6}, 4200.0, 40.0)
+    assert record is not None
+    record["p1"] = record["p1"] * 1.06  # a gauge 6 % off: no fault of the library does this
+    before = server.row_counts()
+    response = server.client.post("/diagnose", json={"record": record}, headers=server.auth)
+    assert response.status_code == 200, response.text
+    (d,) = response.json()["diagnoses"]
+    assert d["top"] == "unexplained" and d["component"] == "unexplained"
+    assert d["probability"] == 0.0 and d["explained"] is False
+    assert "p1" in d["misfit"] and "POST /discrepancy" in d["misfit"]
+    worst = d["goodness_of_fit"]["disagreements"][0]
+    assert worst["reading"] == "p1" and abs(worst["deviation"]) > 5
+    assert d["result"]["misfit"] == d["misfit"]
+    assert d["result"]["top"] == "unexplained"
+    assert d["result"]["best_fit"] == d["goodness_of_fit"]["hypothesis"] or d["result"][
+        "best_fit"] in {h["name"] for h in d["result"]["hypotheses"]}
+    assert server.row_counts()["diagnoses"] == before["diagnoses"] + 1

@@ -1,0 +1,80 @@
+"""Commissioning recovers a rig's uncertain parameters from healthy records (issue 11)."""
+
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+import pytest
+
+from diagnostics.commissioning import COMMISSIONED, commission
+from sim.errors import MeasurementError
+from sim.rigs import load_rig, reference_rig, reference_rig_document
+from tests.diagnostics.synth import FULL, record
+
+#: the true rig's parameters as multiples of the document's
+TRUTH = {"cylinder.Lc": 1.3, "valve.Ls": 0.85, "valve.K": 0.7, "cylinder.Fu": 1.25,
+         "cylinder.Kf": 1.5, "pump.Rlp": 0.7}
+
+
+def true_rig():
+    doc = copy.deepcopy(reference_rig_document())
+    doc["name"] = "as-built"
+    for key, factor in TRUTH.items():
+        role, name = key.split(".")
+        doc["components"][role]["parameters"][name]["value"] *= factor
+    return load_rig(doc)
+
+
+def healthy_records(rig, seed: int):
+    rng = np.random.default_rng(seed)
+    return [record(rig, {}, load=load, temperature=t, rng=rng, fields=(*FULL, "pump_flow"))
+            for load in (2100.0, 4200.0, 6300.0) for t in (35.0, 55.0)]
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_identifiable_parameters_are_recovered_within_their_intervals(seed: int) -> None:
+    documented, actual = reference_rig(), true_rig()
+    c = commission(documented, healthy_records(actual, seed))
+    assert [p.name for p in c.parameters] == list(COMMISSIONED)
+    for p in c.parameters:
+        truth = documented.base[p.name] * TRUTH[p.name]
+        assert p.low <= truth <= p.high, p
+        assert p.low <= p.value <= p.high
+    pinned = {p.name for p in c.parameters if p.identifiable}
+    # leakage paths and the valve's coefficient are pinned by the flows and pressures
+    assert {"cylinder.Lc", "valve.Ls", "valve.K", "pump.Rlp"} <= pinned
+    # the χ² of the readings is that of their noise: about one per reading
+    assert c.chi2 < 2.0 * c.n_observations
+    # what is not pinned down is said, with the parameter it trades off against
+    for p in c.parameters:
+        if not p.identifiable:
+            assert any(p.name in s for s in c.statements)
+    assert set(c.values()) == pinned
+
+
+def test_commissioned_rig_explains_records_that_the_document_does_not() -> None:
+    from diagnostics.diagnose import diagnose
+
+    documented, actual = reference_rig(), true_rig()
+    c = commission(documented, healthy_records(actual, 5))
+    doc = copy.deepcopy(reference_rig_document())
+    doc["name"] = "commissioned"
+    for key, value in c.values().items():
+        role, name = key.split(".")
+        doc["components"][role]["parameters"][name]["value"] = value
+    fitted = load_rig(doc)
+    rec = record(actual, {}, load=3000.0, temperature=45.0, rng=np.random.default_rng(9))
+    assert not diagnose(documented, [rec]).explained
+    d = diagnose(fitted, [rec])
+    assert d.explained and d.top.name == "healthy"
+
+
+def test_bad_requests_name_the_field() -> None:
+    rig = reference_rig()
+    with pytest.raises(MeasurementError) as exc:
+        commission(rig, [])
+    assert exc.value.field == "records"
+    with pytest.raises(MeasurementError) as exc:
+        commission(rig, healthy_records(rig, 0)[:1], ["cylinder.cc"])
+    assert exc.value.field == "parameters[0]"

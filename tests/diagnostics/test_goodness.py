@@ -1,0 +1,70 @@
+"""'None of these fits' is an answer: the χ² goodness-of-fit test of the best hypothesis."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.stats import chi2 as chi2_dist
+
+from diagnostics.diagnose import diagnose
+from diagnostics.goodness import TEST_LEVEL
+from sim.rigs import load_rig, reference_rig, reference_rig_document
+from tests.diagnostics.synth import FULL, readings, record
+
+
+@pytest.fixture(scope="module")
+def rig():
+    return reference_rig()
+
+
+def test_in_library_faults_with_noise_are_explained(rig):
+    rng = np.random.default_rng(11)
+    cases = [{}, {"cylinder.cc": 110e-6}, {"valve.cv": 50e-6}, {"pump.Rlp": 6e11 / 4},
+             {"relief.Gseat": 3.0 / 6e11}]
+    for ov in cases:
+        d = diagnose(rig, [record(rig, ov, load=4200.0, temperature=45.0, rng=rng)])
+        assert d.explained, (ov, d.fit)
+        assert d.fit is not None and d.fit.chi2 <= d.fit.limit
+        # the limit is the χ² quantile of the stated level
+        assert d.fit.limit == pytest.approx(chi2_dist.ppf(1 - TEST_LEVEL, d.fit.dof))
+        assert d.to_dict()["misfit"] is None
+
+
+def test_a_biased_sensor_is_not_explained_and_named_with_its_sigma(rig):
+    vals = readings(rig, {"valve.cv": 45e-6}, 2100.0, 40.0)
+    biased = dict(vals, p1=vals["p1"] * 1.05)  # 5 % on a 0.25 % class gauge
+    d = diagnose(rig, [record(rig, {}, values=biased)])
+    assert not d.explained
+    assert d.isolability.ambiguity_set == []
+    assert d.fit is not None
+    worst = d.fit.disagreements[0]
+    assert worst.reading == "p1" and abs(worst.deviation) > 5.0
+    assert d.fit.chi2 > d.fit.limit
+    text = d.to_dict()["misfit"]
+    assert "not explained by the rig model" in text and "p1" in text
+    assert "hydrodiag discover" in text and "commission" in text
+
+
+def test_readings_of_another_rig_are_not_explained(rig):
+    """A mis-specified model: the readings come from a rig whose valve passes a quarter of
+    the flow coefficient the document states (not a fault in the library)."""
+    doc = reference_rig_document()
+    doc["name"] = "narrow-valve"
+    doc["components"]["valve"]["parameters"]["K"]["value"] = 0.2e-6
+    other = load_rig(doc)
+    vals = readings(other, {}, 4200.0, 40.0)
+    d = diagnose(rig, [record(rig, {}, load=4200.0, values=vals)])
+    assert not d.explained
+    assert d.top.probability <= 1.0
+    assert d.to_dict()["explained"] is False
+
+
+def test_a_relief_setting_at_0_38_of_nominal_is_inside_the_prior_and_found(rig):
+    """Issue 11's relief case: 0.38 × nominal was outside the old 0.5-1.0 prior."""
+    pset = 0.38 * rig.base["relief.Pset"]
+    d = diagnose(rig, [record(rig, {"relief.Pset": pset}, load=6300.0, temperature=40.0,
+                              fields=(*FULL, "pump_flow"))])
+    assert d.explained
+    assert d.top.name == "relief_setting"
+    (est,) = d.top.parameters
+    assert est.low <= pset <= est.high
