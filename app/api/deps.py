@@ -1,8 +1,9 @@
 """Dependencies of the routes, as ``Annotated`` aliases.
 
 ``SessionDep`` gives a session per request (closed, and rolled back if uncommitted, when
-the request ends); ``WriteKeyDep`` demands a valid API key; ``ReadAccess`` demands one only
-when reads are closed (``HYDRODIAG_OPEN_READS=false``).
+the request ends); ``WriteKeyDep`` demands a valid API key; ``ReadAccess`` demands one too
+unless the service runs with open reads (``HYDRODIAG_OPEN_READS=true``, default false):
+then the reads, ``/simulate`` and ``/diagnose`` without ``store`` answer without a key.
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ from fastapi.security import APIKeyHeader
 from sqlalchemy.orm import Session
 
 from app.db.models import ApiKey
+from app.schemas.common import MAX_OFFSET
 from app.services.clearance import ClearanceEstimator
 from app.services.executors import SweepExecutors
 from app.services.keys import API_KEY_HEADER, authenticate
@@ -101,7 +103,7 @@ def read_access(
     session: SessionDep,
     key: Annotated[str | None, Security(_api_key_header)],
 ) -> None:
-    """Let the request read when reads are open, else demand a valid key."""
+    """Let the request through when reads are open, else demand a valid key."""
     if not settings.open_reads:
         require_key(request, session, key)
 
@@ -126,7 +128,8 @@ def page_params(
                    examples=[50])
     ] = 50,
     offset: Annotated[
-        int, Query(ge=0, description="Number of items to skip [-]", examples=[0])
+        int, Query(ge=0, le=MAX_OFFSET, description="Number of items to skip [-]",
+                   examples=[0])
     ] = 0,
 ) -> PageParams:
     """Read ``limit`` and ``offset`` from the query string."""

@@ -5,9 +5,9 @@ from __future__ import annotations
 from functools import partial
 from typing import Any
 
-from pydantic import BaseModel, Field
+from pydantic import Field
 
-from app.schemas.common import Page, PublicModel, Timestamp
+from app.schemas.common import Page, PublicModel, RequestModel, Timestamp
 
 __all__ = ["RigCreate", "RigList", "RigPublic", "RigUpdate", "RigVersionList", "RigVersionPublic"]
 
@@ -35,14 +35,14 @@ _comment = partial(
 )
 
 
-class RigCreate(BaseModel):
+class RigCreate(RequestModel):
     """A new rig: its first description document."""
 
     document: dict[str, Any] = _document()
     comment: str | None = _comment()
 
 
-class RigUpdate(BaseModel):
+class RigUpdate(RequestModel):
     """A new version of a rig's description document (the name must stay the same)."""
 
     document: dict[str, Any] = _document()

@@ -7,7 +7,7 @@ from typing import Annotated
 from fastapi import APIRouter, File, Form, Path, Query, Response, UploadFile, status
 
 from app.api.deps import PageDep, ReadAccess, SessionDep, WriteKeyDep
-from app.schemas.common import ERROR_RESPONSES
+from app.schemas.common import ERROR_RESPONSES, MAX_ID
 from app.schemas.pumps import (
     PumpBenchForm,
     PumpSetCreate,
@@ -21,17 +21,21 @@ from app.services.pump_bench import MAX_CSV_BYTES, store_bench_parameters
 
 __all__ = ["router"]
 
+# ``{pump_set_id:int}``: only digits reach the id routes, so ``/pump-sets/bench`` is never
+# taken for an id whatever the method (a 405 naming POST, not a 422 on the id).
 router = APIRouter(prefix="/pump-sets", tags=["pump sets"], dependencies=[ReadAccess],
                    responses=ERROR_RESPONSES)
 
-PumpSetId = Annotated[int, Path(ge=1, description="Pump set identifier [-]", examples=[1])]
+PumpSetId = Annotated[int, Path(ge=1, le=MAX_ID, description="Pump set identifier [-]",
+                                examples=[1])]
 
 
 @router.get("", summary="List pump parameter sets and loss maps")
 def list_pump_sets(
     session: SessionDep,
     page: PageDep,
-    rig_id: Annotated[int | None, Query(ge=1, description="Only sets of this rig [-]",
+    rig_id: Annotated[int | None, Query(ge=1, le=MAX_ID,
+                                        description="Only sets of this rig [-]",
                                         examples=[1])] = None,
     kind: Annotated[PumpSetKind | None, Query(description="Only sets of this kind [-]",
                                               examples=["loss_map"])] = None,
@@ -50,26 +54,6 @@ def create_pump_set(body: PumpSetCreate, session: SessionDep, _key: WriteKeyDep,
     pump_set = service.create_pump_set(session, body)
     response.headers["Location"] = f"/pump-sets/{pump_set.id}"
     return PumpSetPublic.model_validate(pump_set)
-
-
-@router.get("/{pump_set_id}", summary="Get a pump set")
-def get_pump_set(pump_set_id: PumpSetId, session: SessionDep) -> PumpSetPublic:
-    """Return the pump set."""
-    return PumpSetPublic.model_validate(service.get_pump_set(session, pump_set_id))
-
-
-@router.patch("/{pump_set_id}", summary="Change a pump set")
-def update_pump_set(pump_set_id: PumpSetId, body: PumpSetUpdate, session: SessionDep,
-                    _key: WriteKeyDep) -> PumpSetPublic:
-    """Change the given fields; ``quantities`` replace all of them."""
-    return PumpSetPublic.model_validate(service.update_pump_set(session, pump_set_id, body))
-
-
-@router.delete("/{pump_set_id}", status_code=status.HTTP_204_NO_CONTENT,
-               response_class=Response, summary="Delete a pump set")
-def delete_pump_set(pump_set_id: PumpSetId, session: SessionDep, _key: WriteKeyDep) -> None:
-    """Delete the pump set."""
-    service.delete_pump_set(session, pump_set_id)
 
 
 @router.post("/bench", status_code=status.HTTP_201_CREATED,
@@ -91,3 +75,23 @@ def create_from_bench(
     pump_set = store_bench_parameters(session, form, content)
     response.headers["Location"] = f"/pump-sets/{pump_set.id}"
     return PumpSetPublic.model_validate(pump_set)
+
+
+@router.get("/{pump_set_id:int}", summary="Get a pump set")
+def get_pump_set(pump_set_id: PumpSetId, session: SessionDep) -> PumpSetPublic:
+    """Return the pump set."""
+    return PumpSetPublic.model_validate(service.get_pump_set(session, pump_set_id))
+
+
+@router.patch("/{pump_set_id:int}", summary="Change a pump set")
+def update_pump_set(pump_set_id: PumpSetId, body: PumpSetUpdate, session: SessionDep,
+                    _key: WriteKeyDep) -> PumpSetPublic:
+    """Change the given fields; ``quantities`` replace all of them."""
+    return PumpSetPublic.model_validate(service.update_pump_set(session, pump_set_id, body))
+
+
+@router.delete("/{pump_set_id:int}", status_code=status.HTTP_204_NO_CONTENT,
+               response_class=Response, summary="Delete a pump set")
+def delete_pump_set(pump_set_id: PumpSetId, session: SessionDep, _key: WriteKeyDep) -> None:
+    """Delete the pump set."""
+    service.delete_pump_set(session, pump_set_id)
