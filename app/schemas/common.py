@@ -6,7 +6,7 @@ from __future__ import annotations
 import difflib
 from collections.abc import Callable
 from datetime import datetime
-from typing import Annotated, Any, Generic, TypeVar
+from typing import Annotated, Any, ClassVar, Generic, TypeVar
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 from pydantic_core import PydanticCustomError
@@ -63,11 +63,10 @@ def reject_null(value: T | None) -> T:
 def _unknown_field_message(unknown: list[str], known: list[str]) -> str:
     parts = []
     for name in unknown[:10]:
-        close = difflib.get_close_matches(name, known, n=1, cutoff=0.6)
-        if not close:  # case slips ("flow_b" for "flow_B") score low on plain ratios
-            by_case = {k.lower(): k for k in known}
-            close = difflib.get_close_matches(name.lower(), list(by_case), n=1, cutoff=0.6)
-            close = [by_case[c] for c in close]
+        by_case = {k.lower(): k for k in known}
+        # a case slip ("flow_b" for "flow_B") first: plain ratios would tie it with "flow_C"
+        close = [by_case[c] for c in difflib.get_close_matches(name.lower(), list(by_case),
+                                                               n=1, cutoff=0.6)]
         hint = f" (did you mean {close[0]!r}?)" if close else ""
         parts.append(f"{name[:100]!r}{hint}")
     if len(unknown) > 10:
@@ -86,6 +85,10 @@ class RequestModel(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
 
+    #: Keys that arrive with the model but belong to the operation's other parameters
+    #: (the file part of a multipart form beside its form model); not reported as unknown.
+    form_siblings: ClassVar[frozenset[str]] = frozenset()
+
     @model_validator(mode="before")
     @classmethod
     def _refuse_unknown_fields(cls, data: Any) -> Any:
@@ -93,6 +96,7 @@ class RequestModel(BaseModel):
             return data
         known = list(cls.model_fields)
         allowed = set(known) | {f.alias for f in cls.model_fields.values() if f.alias}
+        allowed |= cls.form_siblings
         unknown = [str(k) for k in data if k not in allowed]
         if unknown:
             raise PydanticCustomError(
@@ -184,5 +188,7 @@ ERROR_RESPONSES: dict[int | str, dict[str, Any]] = {
     401: error_doc("Missing or wrong API key (header X-API-Key)"),
     404: error_doc("Unknown id"),
     409: error_doc("Conflicts with stored state"),
-    422: error_doc("Invalid input; `field` names it"),
+    413: error_doc("Request body over the size limit (HYDRODIAG_MAX_BODY_BYTES)"),
+    422: error_doc("Invalid input (also an undecodable body or unknown field); `field` "
+                   "names it"),
 }

@@ -160,6 +160,8 @@ class MeasurementIn(RequestModel):
 class DiagnoseRequest(RequestModel):
     """One record (``record``) or a batch (``records``) to diagnose."""
 
+    model_config = ConfigDict(json_schema_extra={"examples": [{"record": _EXAMPLE_RECORD}]})
+
     record: MeasurementIn | None = Field(
         default=None, description="A single record; give this or `records` [-]",
         examples=[_EXAMPLE_RECORD],

@@ -10,7 +10,7 @@ from __future__ import annotations
 from functools import partial
 from typing import Annotated, Literal
 
-from pydantic import AfterValidator, BaseModel, ConfigDict, Field, StringConstraints, field_validator
+from pydantic import AfterValidator, ConfigDict, Field, StringConstraints, field_validator
 
 from app.schemas.common import (
     MAX_ID,
@@ -152,8 +152,16 @@ class PumpSetList(Page[PumpSetPublic]):
     """A page of pump sets."""
 
 
-class PumpBenchForm(BaseModel):
-    """Form fields sent with a bench CSV (``POST /pump-sets/bench``)."""
+class PumpBenchForm(RequestModel):
+    """Form fields sent with a bench CSV (``POST /pump-sets/bench``).
+
+    FastAPI hands the whole form, the ``file`` part included, to this model: ``file`` is
+    let through (and the schema stays open, as the operation's body adds ``file`` beside
+    these fields); any other unknown field is refused by the strict base's check.
+    """
+
+    model_config = ConfigDict(extra="ignore")
+    form_siblings = frozenset({"file"})
 
     name: Name = _name()
     pump: PumpLabel = _pump()

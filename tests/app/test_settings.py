@@ -21,7 +21,7 @@ def test_defaults_and_environment(monkeypatch: pytest.MonkeyPatch, tmp_path: Pat
     monkeypatch.setenv("HYDRODIAG_OPEN_READS", "true")
     monkeypatch.setenv("HYDRODIAG_DATABASE_URL", "postgresql+psycopg://svc:Xk2f9Lq@db/hd")
     configured = Settings()
-    assert configured.open_reads is False
+    assert configured.open_reads is True
     assert configured.url.get_backend_name() == "postgresql" and not configured.is_sqlite
 
 

@@ -113,7 +113,7 @@ def clearance_at(
         list[float],
         Query(min_length=1, max_length=1000,
               description="Throttle openings, repeat the parameter for several [turn]",
-              examples=[[1.25]]),
+              examples=[[0.25]]),
     ],
 ) -> ClearanceSamples:
     """Interpolate the table's monotone curve (PCHIP) at each opening; no extrapolation."""
