@@ -7,7 +7,8 @@
 * ``simulate`` — ``POST /simulate`` over :mod:`app.services.simulation`;
 * ``scenarios`` — ``POST /scenarios``: sweeps as jobs (:mod:`app.services.sweeps`);
 * ``trends`` — ``GET /rigs/{rig_id}/trends`` over :mod:`app.services.trends`;
-* ``jobs`` — status, progress and results of long work.
+* ``jobs`` — status, progress and results of long work;
+* ``history`` — stored measurements and diagnoses read back.
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ from fastapi import APIRouter
 from app.api.routes import (
     calibrations,
     diagnose,
+    history,
     jobs,
     ops,
     pumps,
@@ -29,5 +31,6 @@ from app.api.routes import (
 __all__ = ["api_router"]
 
 api_router = APIRouter()
-for _module in (ops, rigs, calibrations, trends, pumps, diagnose, simulate, scenarios, jobs):
+for _module in (ops, rigs, calibrations, trends, pumps, diagnose, simulate, scenarios, jobs,
+                history):
     api_router.include_router(_module.router)
