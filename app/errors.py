@@ -135,8 +135,8 @@ async def _hydrodiag_error(_request: Request, exc: Exception) -> JSONResponse:
 def _location(err: Mapping[str, Any]) -> str | None:
     loc = tuple(err.get("loc", ()))
     ctx = err.get("ctx") or {}
-    if err.get("type") == "extra_forbidden" and "unknown_field" in ctx:
-        loc = (*loc, ctx["unknown_field"])  # the strict base reports on the model
+    if "unknown_field" in ctx:  # the strict base reports on the model: add the field
+        loc = (*loc, ctx["unknown_field"])
     return format_location(loc)
 
 

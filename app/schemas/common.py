@@ -3,12 +3,16 @@ pages of a list, timestamps."""
 
 from __future__ import annotations
 
+import datetime as dt
 import difflib
+import re
+import types
+import typing
 from collections.abc import Callable
 from datetime import datetime
 from typing import Annotated, Any, ClassVar, Generic, TypeVar
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import AwareDatetime, BaseModel, BeforeValidator, ConfigDict, Field, model_validator
 from pydantic_core import PydanticCustomError
 
 __all__ = [
@@ -19,6 +23,7 @@ __all__ = [
     "ErrorDetail",
     "FiniteFloat",
     "IdInt",
+    "IsoDatetime",
     "Page",
     "PublicModel",
     "RequestModel",
@@ -40,6 +45,75 @@ MAX_OFFSET = 2**31 - 1
 
 #: An identifier: a positive integer the store can hold.
 IdInt = Annotated[int, Field(ge=1, le=MAX_ID)]
+
+_ISO_DATE = re.compile(r"^\d{4}-\d{2}-\d{2}")
+
+
+def iso_only(value: Any) -> Any:
+    """Before-validator of a time: a datetime or an ISO 8601 string, never a number.
+
+    pydantic would read ``0.5`` (or ``"0.5"``) as seconds since 1970; the API documents
+    ISO 8601 (``format: date-time``), so anything else is refused.
+    """
+    if isinstance(value, dt.datetime):
+        return value
+    if isinstance(value, str) and _ISO_DATE.match(value):
+        return value
+    raise ValueError("give the time as ISO 8601 with its zone, e.g. 2026-11-22T08:30:00Z")
+
+
+#: A time with its zone, as ISO 8601 only (query parameters and body fields).
+IsoDatetime = Annotated[AwareDatetime, BeforeValidator(iso_only)]
+
+
+def _json_type_problem(annotation: Any, value: Any) -> str | None:
+    """Why ``value`` (decoded JSON) is not of the JSON type ``annotation`` documents.
+
+    pydantic's lax mode turns ``true`` into 1, ``"1.5"`` into 1.5 and ``0.5`` into a date;
+    the OpenAPI document says integer, number, date-time, so such values are refused.
+    Only the JSON kinds are compared (booleans, numbers, strings; lists and maps item by
+    item); ranges and formats stay pydantic's.
+    """
+    origin = typing.get_origin(annotation)
+    if origin is Annotated:
+        return _json_type_problem(typing.get_args(annotation)[0], value)
+    if origin in (typing.Union, types.UnionType):
+        options = [a for a in typing.get_args(annotation) if a is not type(None)]
+        if value is None:
+            return None
+        problems = [_json_type_problem(a, value) for a in options]
+        return None if any(p is None for p in problems) else problems[0]
+    if origin in (list, tuple, set, frozenset) and isinstance(value, list):
+        args = typing.get_args(annotation)
+        for item in value:
+            problem = _json_type_problem(args[0], item) if args else None
+            if problem:
+                return problem
+        return None
+    if origin is dict and isinstance(value, dict):
+        args = typing.get_args(annotation)
+        for item in value.values():
+            problem = _json_type_problem(args[1], item) if len(args) == 2 else None
+            if problem:
+                return problem
+        return None
+    if annotation in (int, float):
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            return f"must be a JSON number, not {type(value).__name__}"
+        if annotation is int and isinstance(value, float) and not value.is_integer():
+            return None  # pydantic's own message for a fraction
+    elif annotation is bool:
+        if not isinstance(value, bool):
+            return f"must be true or false, not {type(value).__name__}"
+    elif annotation is str:
+        if not isinstance(value, str):
+            return f"must be a JSON string, not {type(value).__name__}"
+    elif annotation is dt.datetime:
+        try:
+            iso_only(value)
+        except ValueError as exc:
+            return str(exc)
+    return None
 
 #: A float that must be finite (no NaN, no infinity).
 FiniteFloat = Annotated[float, Field(allow_inf_nan=False)]
@@ -88,6 +162,9 @@ class RequestModel(BaseModel):
     #: Keys that arrive with the model but belong to the operation's other parameters
     #: (the file part of a multipart form beside its form model); not reported as unknown.
     form_siblings: ClassVar[frozenset[str]] = frozenset()
+    #: Compare the values' JSON kinds with the documented ones (off for form models, whose
+    #: values all arrive as text).
+    json_kinds: ClassVar[bool] = True
 
     @model_validator(mode="before")
     @classmethod
@@ -103,6 +180,15 @@ class RequestModel(BaseModel):
                 "extra_forbidden", _unknown_field_message(unknown, known),
                 {"unknown_field": unknown[0][:100]},
             )
+        if cls.json_kinds:
+            for name, info in cls.model_fields.items():
+                key = info.alias if info.alias in data else name
+                if key not in data:
+                    continue
+                problem = _json_type_problem(info.annotation, data[key])
+                if problem:
+                    raise PydanticCustomError("json_type", f"{key}: {problem}",
+                                              {"unknown_field": key})
         return data
 
 

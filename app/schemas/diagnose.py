@@ -14,7 +14,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import AwareDatetime, BaseModel, BeforeValidator, ConfigDict, Field, model_validator
 
-from app.schemas.common import MAX_ID, FiniteFloat, RequestModel
+from app.schemas.common import MAX_ID, FiniteFloat, IsoDatetime, RequestModel
 from sim.errors import InputError
 
 __all__ = [
@@ -130,7 +130,7 @@ class MeasurementIn(RequestModel):
 
     rig_id: int = _rig_id()
     rig_version: int | None = _rig_version(default=None)
-    measured_at: AwareDatetime | None = Field(
+    measured_at: IsoDatetime | None = Field(
         default=None,
         description="When the readings were taken, ISO 8601 with zone; the time of the "
         "request when null [UTC]",

@@ -162,6 +162,7 @@ class PumpBenchForm(RequestModel):
 
     model_config = ConfigDict(extra="ignore")
     form_siblings = frozenset({"file"})
+    json_kinds = False
 
     name: Name = _name()
     pump: PumpLabel = _pump()

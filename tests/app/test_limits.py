@@ -177,3 +177,33 @@ def test_health_runs_on_the_event_loop_and_touches_nothing(server: LiveServer) -
     assert inspect.iscoroutinefunction(health)
     assert list(inspect.signature(health).parameters) == []
     assert server.anon.get("/health").json()["status"] == "ok"
+
+
+@pytest.mark.parametrize(("path", "body", "field"), [
+    ("/scenarios", {"rig_id": 1, "seed": False}, "seed"),
+    ("/scenarios", {"rig_id": True}, "rig_id"),
+    ("/simulate", {"rig_id": 1, "condition": {"oil_temperature": False}},
+     "condition.oil_temperature"),
+    ("/simulate", {"rig_id": 1, "overrides": {"valve.cv": "6e-5"}}, "overrides"),
+    ("/pump-sets", {"name": "kinds", "kind": "parameters", "pump": "p", "quantities": {
+        "A": {"value": [[False]], "unit": "1"}}}, "quantities.A.value"),
+    ("/diagnose", {"record": {"rig_id": 1, "measured_at": 0.5,
+                              "condition": {"oil_temperature": 40.0}}}, "record.measured_at"),
+])
+def test_json_kinds_are_not_coerced(server: LiveServer, path: str, body: dict[str, Any],
+                                    field: str) -> None:
+    """Found by Schemathesis: ``false`` read as 0, ``"6e-5"`` as a number, ``0.5`` as a
+    date were accepted although the document says number or date-time."""
+    before = server.row_counts()
+    response = server.client.post(path, json=body)
+    assert response.status_code == 422, response.text
+    assert response.json()["error"]["field"] == field
+    assert server.row_counts() == before
+
+
+@pytest.mark.parametrize("path", ["/diagnoses", "/measurements", "/rigs/1/trends"])
+def test_times_in_queries_are_iso_8601_only(server: LiveServer, path: str) -> None:
+    response = server.client.get(path, params={"until": "0.5"})
+    assert response.status_code == 422
+    assert response.json()["error"]["field"] == "until"
+    assert server.client.get(path, params={"until": "2026-01-01T00:00:00Z"}).status_code == 200

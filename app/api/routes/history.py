@@ -8,11 +8,10 @@ from __future__ import annotations
 from typing import Annotated
 
 from fastapi import APIRouter, Path, Query
-from pydantic import AwareDatetime
 
 from app.api.deps import PageDep, ReadAccess, SessionDep
 from app.db.models import Diagnosis, Measurement
-from app.schemas.common import ERROR_RESPONSES, MAX_ID
+from app.schemas.common import ERROR_RESPONSES, MAX_ID, IsoDatetime
 from app.schemas.history import (
     StoredDiagnosisList,
     StoredDiagnosisPublic,
@@ -28,10 +27,10 @@ router = APIRouter(tags=["history"], dependencies=[ReadAccess], responses=ERROR_
 
 RigFilter = Annotated[int | None, Query(ge=1, le=MAX_ID, description="Only this rig [-]",
                                         examples=[1])]
-Since = Annotated[AwareDatetime | None, Query(
+Since = Annotated[IsoDatetime | None, Query(
     description="Only records taken at or after this time, ISO 8601 with zone [UTC]",
     examples=["2026-01-01T00:00:00Z"])]
-Until = Annotated[AwareDatetime | None, Query(
+Until = Annotated[IsoDatetime | None, Query(
     description="Only records taken at or before this time, ISO 8601 with zone [UTC]",
     examples=["2026-12-31T23:59:59Z"])]
 
