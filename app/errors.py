@@ -134,15 +134,25 @@ async def _hydrodiag_error(_request: Request, exc: Exception) -> JSONResponse:
 
 def _location(err: Mapping[str, Any]) -> str | None:
     loc = tuple(err.get("loc", ()))
+    if err.get("type") == "json_invalid":  # loc ends with the character's position
+        return "body"
     ctx = err.get("ctx") or {}
     if "unknown_field" in ctx:  # the strict base reports on the model: add the field
         loc = (*loc, ctx["unknown_field"])
     return format_location(loc)
 
 
+def _message(err: Mapping[str, Any]) -> str:
+    message = str(err.get("msg", ""))
+    loc = tuple(err.get("loc", ()))
+    if err.get("type") == "json_invalid" and loc and isinstance(loc[-1], int):
+        message = f"{message} at character {loc[-1]}"
+    return message
+
+
 async def _validation_error(_request: Request, exc: Exception) -> JSONResponse:
     assert isinstance(exc, RequestValidationError)
-    problems = [(_location(err), str(err.get("msg", ""))) for err in exc.errors()]
+    problems = [(_location(err), _message(err)) for err in exc.errors()]
     field, message = problems[0] if problems else (None, "invalid request")
     details: list[dict[str, Any]] = [{"field": f, "message": m} for f, m in problems]
     return error_response(422, InputError.__name__, message, field, details=details)

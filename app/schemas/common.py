@@ -83,14 +83,18 @@ def _json_type_problem(annotation: Any, value: Any) -> str | None:
             return None
         problems = [_json_type_problem(a, value) for a in options]
         return None if any(p is None for p in problems) else problems[0]
-    if origin in (list, tuple, set, frozenset) and isinstance(value, list):
+    if origin in (list, tuple, set, frozenset):
+        if not isinstance(value, list):
+            return f"must be a JSON array, not {type(value).__name__}"
         args = typing.get_args(annotation)
         for item in value:
             problem = _json_type_problem(args[0], item) if args else None
             if problem:
                 return problem
         return None
-    if origin is dict and isinstance(value, dict):
+    if origin is dict:
+        if not isinstance(value, dict):
+            return f"must be a JSON object, not {type(value).__name__}"
         args = typing.get_args(annotation)
         for item in value.values():
             problem = _json_type_problem(args[1], item) if len(args) == 2 else None

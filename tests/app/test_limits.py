@@ -187,6 +187,8 @@ def test_health_runs_on_the_event_loop_and_touches_nothing(server: LiveServer) -
     ("/simulate", {"rig_id": 1, "overrides": {"valve.cv": "6e-5"}}, "overrides"),
     ("/pump-sets", {"name": "kinds", "kind": "parameters", "pump": "p", "quantities": {
         "A": {"value": [[False]], "unit": "1"}}}, "quantities.A.value"),
+    ("/pump-sets", {"name": "kinds", "kind": "parameters", "pump": "p", "quantities": {
+        "A": {"value": [False], "unit": "1"}}}, "quantities.A.value"),
     ("/diagnose", {"record": {"rig_id": 1, "measured_at": 0.5,
                               "condition": {"oil_temperature": 40.0}}}, "record.measured_at"),
 ])
@@ -207,3 +209,11 @@ def test_times_in_queries_are_iso_8601_only(server: LiveServer, path: str) -> No
     assert response.status_code == 422
     assert response.json()["error"]["field"] == "until"
     assert server.client.get(path, params={"until": "2026-01-01T00:00:00Z"}).status_code == 200
+
+
+def test_malformed_json_names_the_body_and_the_position(server: LiveServer) -> None:
+    response = server.client.post("/pump-sets", content=b'{"name": ',
+                                  headers={"Content-Type": "application/json"})
+    assert response.status_code == 422
+    error = response.json()["error"]
+    assert error["field"] == "body" and "at character 9" in error["message"]
