@@ -12,6 +12,7 @@ class                          status  when
 ``NotFoundError``              404     unknown id (in the path or the body)
 ``ConflictError``              409     duplicate name, deleting what is in use
 ``PayloadTooLargeError``        413     the body is over ``max_body_bytes``
+``RateLimitError``             429     the key's requests per minute are spent
 ``InputError`` and subclasses  422     invalid input, names the field
 ``SimulationError``            500     the solver failed
 ``ServiceUnavailableError``    503     the database is unreachable or not migrated
@@ -48,6 +49,7 @@ from sim.errors import (
 
 __all__ = [
     "PayloadTooLargeError",
+    "RateLimitError",
     "ServiceUnavailableError",
     "error_response",
     "format_location",
@@ -66,11 +68,20 @@ class PayloadTooLargeError(HydrodiagError):
     """The request body is larger than the service accepts (``max_body_bytes``)."""
 
 
+class RateLimitError(HydrodiagError):
+    """The API key has sent more requests than ``rate_limit_per_minute`` allows."""
+
+    def __init__(self, message: str, *, retry_after: int, field: str | None = None) -> None:
+        super().__init__(message, field=field)
+        self.retry_after = retry_after
+
+
 _STATUS: dict[type[HydrodiagError], int] = {
     AuthError: 401,
     NotFoundError: 404,
     ConflictError: 409,
     PayloadTooLargeError: 413,
+    RateLimitError: 429,
     InputError: 422,
     SimulationError: 500,
     ServiceUnavailableError: 503,
@@ -129,6 +140,8 @@ async def _hydrodiag_error(_request: Request, exc: Exception) -> JSONResponse:
     if status >= 500:
         logger.error("%s: %s", type(exc).__name__, exc)
     headers = {"WWW-Authenticate": "APIKey"} if status == 401 else None
+    if isinstance(exc, RateLimitError):
+        headers = {"Retry-After": str(exc.retry_after)}
     return error_response(status, type(exc).__name__, exc.message, exc.field, headers=headers)
 
 

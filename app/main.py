@@ -26,6 +26,7 @@ from app.db.engine import make_engine, make_session_factory
 from app.errors import install_error_handlers
 from app.limits import BodyLimitMiddleware
 from app.metrics import HttpMetrics, MetricsMiddleware
+from app.ratelimit import KeyRateLimiter
 from app.services.bootstrap import ensure_reference_data, upgrade_database
 from app.services.clearance import ClearanceEstimator
 from app.services.executors import SweepExecutors
@@ -166,6 +167,8 @@ def create_app(
     app.state.sweep_executors = SweepExecutors(workers=settings.sweep_workers,
                                                dask_scheduler=settings.dask_scheduler)
     app.state.metrics = HttpMetrics()
+    app.state.rate_limiter = (KeyRateLimiter(settings.rate_limit_per_minute)
+                              if settings.rate_limit_per_minute else None)
     app.add_middleware(BodyLimitMiddleware, limit=settings.max_body_bytes)
     app.add_middleware(MetricsMiddleware, metrics=app.state.metrics)
     install_error_handlers(app)

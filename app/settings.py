@@ -46,6 +46,9 @@ class Settings(BaseSettings):
     max_body_bytes
         Largest request body accepted [byte]; a larger one is answered 413 before it is
         read in full.
+    rate_limit_per_minute
+        Requests each API key may send per minute (and in a burst), per server process;
+        over it, 429 with ``Retry-After``.  0 (default) sets no limit.
     host, port
         Where ``hydrodiag serve`` listens.
     job_workers
@@ -73,6 +76,8 @@ class Settings(BaseSettings):
                              "/diagnose need no API key when true.")
     max_body_bytes: int = Field(default=8 * 1024 * 1024, ge=1024, le=1024**3,
                                 description="Largest request body [byte].")
+    rate_limit_per_minute: int = Field(default=0, ge=0, le=10**6,
+                                       description="Requests per API key and minute; 0: none.")
     host: str = Field(default="127.0.0.1", description="Interface `serve` binds.")
     port: int = Field(default=8000, ge=1, le=65535, description="TCP port `serve` binds.")
     job_workers: int = Field(default=2, ge=1, le=64, description="Job worker threads.")

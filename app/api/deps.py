@@ -17,6 +17,8 @@ from fastapi.security import APIKeyHeader
 from sqlalchemy.orm import Session
 
 from app.db.models import ApiKey
+from app.errors import RateLimitError
+from app.ratelimit import KeyRateLimiter
 from app.schemas.common import MAX_OFFSET
 from app.services.clearance import ClearanceEstimator
 from app.services.executors import SweepExecutors
@@ -89,10 +91,19 @@ def require_key(
     session: SessionDep,
     key: Annotated[str | None, Security(_api_key_header)],
 ) -> ApiKey:
-    """Authenticate the request's API key (once per request)."""
+    """Authenticate the request's API key and count it against the key's rate (once per
+    request)."""
     cached: ApiKey | None = getattr(request.state, "api_key", None)
     if cached is None:
         cached = authenticate(session, key)
+        limiter: KeyRateLimiter | None = request.app.state.rate_limiter
+        if limiter is not None:
+            wait = limiter.acquire(cached.prefix)
+            if wait > 0:
+                raise RateLimitError(
+                    f"this API key is over its {int(limiter.capacity)} requests per minute; "
+                    f"retry in {limiter.retry_after(wait)} s", retry_after=limiter.retry_after(wait),
+                    field=API_KEY_HEADER)
         request.state.api_key = cached
     return cached
 

@@ -281,4 +281,6 @@ ERROR_RESPONSES: dict[int | str, dict[str, Any]] = {
     413: error_doc("Request body over the size limit (HYDRODIAG_MAX_BODY_BYTES)"),
     422: error_doc("Invalid input (also an undecodable body or unknown field); `field` "
                    "names it"),
+    429: error_doc("Too many requests for this API key (HYDRODIAG_RATE_LIMIT_PER_MINUTE); "
+                   "see Retry-After"),
 }

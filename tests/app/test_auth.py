@@ -136,3 +136,12 @@ def test_verified_keys_skip_scrypt_only_for_the_same_key_and_hash() -> None:
     assert verified.verify(1, second.plaintext, second.key_hash)
     assert verified.verify(2, first.plaintext, first.key_hash)  # size 1: row 1 forgotten
     assert not verified.verify(2, second.plaintext, first.key_hash)
+
+
+def test_cors_is_closed_by_default(closed: LiveServer) -> None:
+    origin = {"Origin": "http://elsewhere.example"}
+    preflight = closed.anon.options("/rigs", headers=origin | {
+        "Access-Control-Request-Method": "GET"})
+    assert "access-control-allow-origin" not in preflight.headers
+    read = closed.client.get("/rigs", headers=origin)
+    assert read.status_code == 200 and "access-control-allow-origin" not in read.headers
