@@ -48,7 +48,7 @@ from typing import Any
 import httpx
 
 LIGHT = os.environ.get("HYDRODIAG_LIGHT") == "1"
-FUZZ_EXAMPLES = 3 if LIGHT else 40
+FUZZ_EXAMPLES = 3 if LIGHT else 100
 ROUNDS = 2 if LIGHT else 10
 RSS_BOUND_MB = 200.0
 STARTUP_TIMEOUT_S = 120.0
