@@ -157,7 +157,8 @@ def fuzz(work: Path) -> dict[str, Any]:
             "--report", "json", "--report-json-path", str(report),
         ]
         started = time.perf_counter()
-        run = subprocess.run(command, capture_output=True, text=True, check=False)
+        run = subprocess.run(command, capture_output=True, text=True, check=False,
+                             cwd=work)  # its cache folder goes with the temporary files
         seconds = time.perf_counter() - started
         alive = httpx.get(f"{server.base_url}/health", timeout=10).status_code == 200
     (work / "schemathesis.out").write_text(run.stdout + run.stderr)
