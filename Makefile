@@ -5,7 +5,7 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed-stamp
 export HYDRODIAG_CACHE_DIR ?= $(CURDIR)/.hydrodiag-cache
 
-.PHONY: run test lint bench accuracy pump-study load-bench console-bench screenshots real-data clean
+.PHONY: run test lint bench accuracy pump-study load-bench console-bench screenshots real-data chaos clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -47,3 +47,6 @@ console-bench: $(STAMP)
 # screenshots of every console page, taken by the browser tests in a real Chromium
 screenshots: $(STAMP)
 	HYDRODIAG_SCREENSHOTS=$(CURDIR)/docs/img $(PY) -m pytest -q -rs tests/app/console/test_browser.py
+
+chaos: $(STAMP)
+	$(PY) -m benchmarks.chaos

@@ -11,13 +11,18 @@ class                          status  when
 ``AuthError``                  401     missing or wrong ``X-API-Key``
 ``NotFoundError``              404     unknown id (in the path or the body)
 ``ConflictError``              409     duplicate name, deleting what is in use
+``PayloadTooLargeError``        413     the body is over ``max_body_bytes``
+``RateLimitError``             429     the key's requests per minute are spent
 ``InputError`` and subclasses  422     invalid input, names the field
 ``SimulationError``            500     the solver failed
 ``ServiceUnavailableError``    503     the database is unreachable or not migrated
 =============================  ======  =======================================
 
 Request validation by pydantic is reported as ``InputError`` with the same body; the first
-problem is in ``field``/``message`` and all of them are listed in ``details``.
+problem is in ``field``/``message`` and all of them are listed in ``details``.  A body that
+cannot be decoded (not UTF-8, not JSON, a broken multipart form) is a 422 on ``body``; an
+integer too large for the store is a 422; a 405 lists in ``Allow`` every method the path
+has.
 """
 
 from __future__ import annotations
@@ -29,7 +34,9 @@ from typing import Any
 from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
+from fastapi.routing import iter_route_contexts
 from starlette.exceptions import HTTPException as StarletteHTTPException
+from starlette.routing import Match
 
 from sim.errors import (
     AuthError,
@@ -41,6 +48,8 @@ from sim.errors import (
 )
 
 __all__ = [
+    "PayloadTooLargeError",
+    "RateLimitError",
     "ServiceUnavailableError",
     "error_response",
     "format_location",
@@ -55,10 +64,24 @@ class ServiceUnavailableError(HydrodiagError):
     """The service cannot answer now: the database is unreachable or not migrated."""
 
 
+class PayloadTooLargeError(HydrodiagError):
+    """The request body is larger than the service accepts (``max_body_bytes``)."""
+
+
+class RateLimitError(HydrodiagError):
+    """The API key has sent more requests than ``rate_limit_per_minute`` allows."""
+
+    def __init__(self, message: str, *, retry_after: int, field: str | None = None) -> None:
+        super().__init__(message, field=field)
+        self.retry_after = retry_after
+
+
 _STATUS: dict[type[HydrodiagError], int] = {
     AuthError: 401,
     NotFoundError: 404,
     ConflictError: 409,
+    PayloadTooLargeError: 413,
+    RateLimitError: 429,
     InputError: 422,
     SimulationError: 500,
     ServiceUnavailableError: 503,
@@ -117,22 +140,65 @@ async def _hydrodiag_error(_request: Request, exc: Exception) -> JSONResponse:
     if status >= 500:
         logger.error("%s: %s", type(exc).__name__, exc)
     headers = {"WWW-Authenticate": "APIKey"} if status == 401 else None
+    if isinstance(exc, RateLimitError):
+        headers = {"Retry-After": str(exc.retry_after)}
     return error_response(status, type(exc).__name__, exc.message, exc.field, headers=headers)
+
+
+def _location(err: Mapping[str, Any]) -> str | None:
+    loc = tuple(err.get("loc", ()))
+    if err.get("type") == "json_invalid":  # loc ends with the character's position
+        return "body"
+    ctx = err.get("ctx") or {}
+    if "unknown_field" in ctx:  # the strict base reports on the model: add the field
+        loc = (*loc, ctx["unknown_field"])
+    return format_location(loc)
+
+
+def _message(err: Mapping[str, Any]) -> str:
+    message = str(err.get("msg", ""))
+    loc = tuple(err.get("loc", ()))
+    if err.get("type") == "json_invalid" and loc and isinstance(loc[-1], int):
+        message = f"{message} at character {loc[-1]}"
+    return message
 
 
 async def _validation_error(_request: Request, exc: Exception) -> JSONResponse:
     assert isinstance(exc, RequestValidationError)
-    problems = [(format_location(err.get("loc", ())), str(err.get("msg", "")))
-                for err in exc.errors()]
+    problems = [(_location(err), _message(err)) for err in exc.errors()]
     field, message = problems[0] if problems else (None, "invalid request")
     details: list[dict[str, Any]] = [{"field": f, "message": m} for f, m in problems]
     return error_response(422, InputError.__name__, message, field, details=details)
 
 
-async def _http_error(_request: Request, exc: Exception) -> JSONResponse:
+def allowed_methods(request: Request) -> list[str]:
+    """Every method some route of the application answers on the request's path."""
+    methods: set[str] = set()
+    for context in iter_route_contexts(request.app.router.routes):
+        match, _ = context.route.matches(request.scope)
+        if match != Match.NONE:
+            methods |= set(context.methods or ())
+    return sorted(methods)
+
+
+async def _http_error(request: Request, exc: Exception) -> JSONResponse:
     assert isinstance(exc, StarletteHTTPException)
+    if exc.status_code == 400:  # FastAPI could not decode the body (not UTF-8, bad form)
+        return error_response(422, InputError.__name__,
+                              f"the body could not be read: {exc.detail}", "body")
+    headers = dict(exc.headers or {})
+    if exc.status_code == 405:
+        headers["Allow"] = ", ".join(allowed_methods(request))
     type_ = NotFoundError.__name__ if exc.status_code == 404 else "HTTPError"
-    return error_response(exc.status_code, type_, str(exc.detail), headers=exc.headers)
+    return error_response(exc.status_code, type_, str(exc.detail), headers=headers or None)
+
+
+async def _overflow_error(_request: Request, exc: Exception) -> JSONResponse:
+    # a bound missed in some schema: the database driver refuses an integer; still the
+    # caller's input, never a 500
+    logger.warning("integer out of range reached the store: %s", exc)
+    return error_response(422, InputError.__name__,
+                          f"an integer is out of range (at most {2**31 - 1}): {exc}")
 
 
 async def _unexpected_error(_request: Request, exc: Exception) -> JSONResponse:
@@ -145,4 +211,5 @@ def install_error_handlers(app: FastAPI) -> None:
     app.add_exception_handler(HydrodiagError, _hydrodiag_error)
     app.add_exception_handler(RequestValidationError, _validation_error)
     app.add_exception_handler(StarletteHTTPException, _http_error)
+    app.add_exception_handler(OverflowError, _overflow_error)
     app.add_exception_handler(Exception, _unexpected_error)

@@ -1,8 +1,10 @@
 """The FastAPI application: :func:`create_app` wires settings, store, jobs and routes.
 
-``uvicorn app.main:create_service_app --factory`` serves it as ``hydrodiag serve`` does,
-minus the migration, the preloading and the first-start API key (``hydrodiag db upgrade``,
-``hydrodiag keys create``); ``serve`` uses that factory itself for several workers.
+``uvicorn app.main:create_service_app --factory`` serves it as ``hydrodiag serve`` does:
+it migrates the store and preloads the reference rig at start-up (a no-op on a store that
+is up to date), minus the first-start API key (``hydrodiag keys create``); ``serve`` uses
+that factory itself for several workers.  Every process warms the stored rigs at start-up
+(:class:`app.services.warmup.Warmup`) and reports ready only once they are loaded.
 """
 
 from __future__ import annotations
@@ -10,20 +12,28 @@ from __future__ import annotations
 import logging
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
+from typing import Any
 
 from fastapi import FastAPI
+from fastapi.dependencies.models import Dependant
+from fastapi.openapi.utils import get_openapi
+from fastapi.routing import APIRoute, iter_route_contexts
 
 from app import __version__
+from app.api.deps import read_access, require_key
 from app.api.router import api_router
 from app.console import router as console_router
 from app.db.engine import make_engine, make_session_factory
 from app.errors import install_error_handlers
+from app.limits import BodyLimitMiddleware
 from app.metrics import HttpMetrics, MetricsMiddleware
+from app.ratelimit import KeyRateLimiter
 from app.services.bootstrap import ensure_reference_data, upgrade_database
 from app.services.clearance import ClearanceEstimator
 from app.services.executors import SweepExecutors
 from app.services.jobs import JobRunner, fail_interrupted_jobs
 from app.services.rig_cache import RigCache
+from app.services.warmup import Warmup
 from app.settings import Settings
 
 __all__ = ["create_app", "create_service_app"]
@@ -33,11 +43,67 @@ logger = logging.getLogger("hydrodiag.app")
 _DESCRIPTION = """\
 Fault diagnosis of hydraulic rigs from bond-graph models.
 
-Every quantity is in SI units, named in brackets in each field's description.  Reads are
-open unless the service runs with `HYDRODIAG_OPEN_READS=false`; anything that stores or
-changes data needs an API key in the `X-API-Key` header.  Errors have one body:
-`{"error": {"type": ..., "message": ..., "field": ...}}`.
+Every quantity is in SI units, named in brackets in each field's description.  Errors have
+one body: `{"error": {"type": ..., "message": ..., "field": ...}}`; request bodies over
+the size limit are answered 413, unknown fields in a body 422.
+
+**Access.** Every operation needs an API key in the `X-API-Key` header except `/health`,
+`/ready`, `/metrics` and the documentation (`/docs`, `/redoc`, `/openapi.json`).  A
+service started with `HYDRODIAG_OPEN_READS=true` also answers the operations marked
+`x-hydrodiag-access: open-reads` without a key (the reads, `/simulate`, and `/diagnose`
+with `"store": false`); anything that stores or changes data always needs the key.
 """
+
+#: Value of ``x-hydrodiag-access`` on each operation, by how it is guarded.
+ACCESS_OPEN, ACCESS_OPEN_READS, ACCESS_KEY = "open", "open-reads", "key"
+
+
+def _calls(dependant: Dependant) -> set[Any]:
+    found = {dependant.call}
+    for child in dependant.dependencies:
+        found |= _calls(child)
+    return found
+
+
+def _access_of(route: APIRoute) -> str:
+    calls = _calls(route.dependant)
+    if require_key in calls:
+        return ACCESS_KEY
+    if read_access in calls:
+        return ACCESS_OPEN_READS
+    return ACCESS_OPEN
+
+
+def _documented_openapi(app: FastAPI, open_reads: bool) -> dict[str, Any]:
+    """The OpenAPI document with each operation's access stated under this setting.
+
+    ``x-hydrodiag-access`` is ``open``, ``open-reads`` or ``key``; ``security`` lists the
+    API key on every operation that needs it under the running settings, and for the
+    ``open-reads`` ones when reads are open offers the empty requirement too (key
+    optional).
+    """
+    if app.openapi_schema is None:
+        schema = get_openapi(title=app.title, version=app.version,
+                             description=app.description, routes=app.routes)
+        for context in iter_route_contexts(app.routes):
+            route = context.route
+            if not isinstance(route, APIRoute) or not route.include_in_schema:
+                continue
+            access = _access_of(route)
+            for method in context.methods or ():
+                operation = schema["paths"].get(context.path_format, {}).get(method.lower())
+                if operation is None:
+                    continue
+                operation["x-hydrodiag-access"] = access
+                if access == ACCESS_OPEN:
+                    operation.pop("security", None)
+                    for status in ("401", "403"):
+                        operation.get("responses", {}).pop(status, None)
+                elif access == ACCESS_OPEN_READS and open_reads:
+                    operation["security"] = [{}, {"APIKeyHeader": []}]
+        app.openapi_schema = schema
+    return app.openapi_schema
+
 
 
 def create_app(
@@ -79,6 +145,8 @@ def create_app(
         if interrupted:
             logger.warning("%d job(s) of an earlier run marked failed", interrupted)
         app.state.jobs = JobRunner(sessions, workers=settings.job_workers)
+        app.state.warmup = Warmup(sessions, app.state.rigs, settings.rig_cache_size)
+        app.state.warmup.start()
         try:
             yield
         finally:
@@ -100,21 +168,26 @@ def create_app(
     app.state.sweep_executors = SweepExecutors(workers=settings.sweep_workers,
                                                dask_scheduler=settings.dask_scheduler)
     app.state.metrics = HttpMetrics()
+    app.state.rate_limiter = (KeyRateLimiter(settings.rate_limit_per_minute)
+                              if settings.rate_limit_per_minute else None)
+    app.add_middleware(BodyLimitMiddleware, limit=settings.max_body_bytes)
     app.add_middleware(MetricsMiddleware, metrics=app.state.metrics)
     install_error_handlers(app)
     app.include_router(api_router)
     app.include_router(console_router)
+    app.openapi = lambda: _documented_openapi(app, settings.open_reads)  # type: ignore[method-assign]
     return app
 
 
 def create_service_app() -> FastAPI:
     """The application as ``hydrodiag serve`` runs it, configured from the environment.
 
-    The store is expected migrated and preloaded (``serve`` does it once before its
-    workers start); table rows without a clearance get one from
+    It migrates the store and preloads the reference data at start-up as ``serve`` does
+    (nothing to do when ``serve`` has done it before starting its workers), so
+    ``uvicorn app.main:create_service_app --factory`` works on a fresh data folder; table
+    rows without a clearance get one from
     :class:`~app.services.throttle_estimator.ThrottleClearanceEstimator`.
     """
     from app.services.throttle_estimator import ThrottleClearanceEstimator
 
-    return create_app(Settings(), clearance_estimator=ThrottleClearanceEstimator(),
-                      prepare_store=False)
+    return create_app(Settings(), clearance_estimator=ThrottleClearanceEstimator())

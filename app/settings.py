@@ -1,7 +1,8 @@
 """Service settings, read from the environment (prefix ``HYDRODIAG_``).
 
 Every setting has a safe default for a single engineer's machine: an SQLite file under
-``./data``, reads open, writes behind an API key.  :class:`Settings` refuses configurations
+``./data``, every operation but ``/health``, ``/ready``, ``/metrics`` and the docs behind
+an API key.  :class:`Settings` refuses configurations
 that are obviously insecure or cannot work (a database password from a tutorial, an
 in-memory SQLite database that would lose every write).
 """
@@ -39,7 +40,15 @@ class Settings(BaseSettings):
         SQLAlchemy URL of the store; default ``sqlite:///<data_dir>/hydrodiag.db``.
         A PostgreSQL URL (``postgresql+psycopg://user:pw@host/db``) selects PostgreSQL.
     open_reads
-        Whether GET endpoints answer without an API key.
+        Whether the reads (GET), ``/simulate`` and ``/diagnose`` with ``"store": false``
+        answer without an API key (default false: every operation but ``/health``,
+        ``/ready``, ``/metrics`` and the docs needs one).
+    max_body_bytes
+        Largest request body accepted [byte]; a larger one is answered 413 before it is
+        read in full.
+    rate_limit_per_minute
+        Requests each API key may send per minute (and in a burst), per server process;
+        over it, 429 with ``Retry-After``.  0 (default) sets no limit.
     host, port
         Where ``hydrodiag serve`` listens.
     job_workers
@@ -63,7 +72,12 @@ class Settings(BaseSettings):
 
     data_dir: Path = Field(default=Path("data"), description="Folder for local state.")
     database_url: str | None = Field(default=None, description="SQLAlchemy database URL.")
-    open_reads: bool = Field(default=True, description="Reads need no API key when true.")
+    open_reads: bool = Field(default=False, description="Reads, /simulate and unstored "
+                             "/diagnose need no API key when true.")
+    max_body_bytes: int = Field(default=8 * 1024 * 1024, ge=1024, le=1024**3,
+                                description="Largest request body [byte].")
+    rate_limit_per_minute: int = Field(default=0, ge=0, le=10**6,
+                                       description="Requests per API key and minute; 0: none.")
     host: str = Field(default="127.0.0.1", description="Interface `serve` binds.")
     port: int = Field(default=8000, ge=1, le=65535, description="TCP port `serve` binds.")
     job_workers: int = Field(default=2, ge=1, le=64, description="Job worker threads.")

@@ -118,7 +118,8 @@ def _base_records(service: Service) -> list[dict[str, Any]]:
     """One simulated record per wear level of the valve (readings as the rig gives them)."""
     records = []
     for cv in WEAR_LEVELS_M:
-        response = httpx.post(f"{service.base_url}/simulate", timeout=60, json={
+        response = httpx.post(f"{service.base_url}/simulate", timeout=60,
+                              headers={"X-API-Key": service.key}, json={
             "rig_id": 1, "overrides": {"valve.cv": cv}, "method": "steady",
             "condition": {"load": 2100.0, "oil_temperature": 40.0}})
         response.raise_for_status()

@@ -1,8 +1,9 @@
 """Dependencies of the routes, as ``Annotated`` aliases.
 
 ``SessionDep`` gives a session per request (closed, and rolled back if uncommitted, when
-the request ends); ``WriteKeyDep`` demands a valid API key; ``ReadAccess`` demands one only
-when reads are closed (``HYDRODIAG_OPEN_READS=false``).
+the request ends); ``WriteKeyDep`` demands a valid API key; ``ReadAccess`` demands one too
+unless the service runs with open reads (``HYDRODIAG_OPEN_READS=true``, default false):
+then the reads, ``/simulate`` and ``/diagnose`` without ``store`` answer without a key.
 """
 
 from __future__ import annotations
@@ -16,6 +17,9 @@ from fastapi.security import APIKeyHeader
 from sqlalchemy.orm import Session
 
 from app.db.models import ApiKey
+from app.errors import RateLimitError
+from app.ratelimit import KeyRateLimiter
+from app.schemas.common import MAX_OFFSET
 from app.services.clearance import ClearanceEstimator
 from app.services.executors import SweepExecutors
 from app.services.keys import API_KEY_HEADER, authenticate
@@ -87,10 +91,19 @@ def require_key(
     session: SessionDep,
     key: Annotated[str | None, Security(_api_key_header)],
 ) -> ApiKey:
-    """Authenticate the request's API key (once per request)."""
+    """Authenticate the request's API key and count it against the key's rate (once per
+    request)."""
     cached: ApiKey | None = getattr(request.state, "api_key", None)
     if cached is None:
         cached = authenticate(session, key)
+        limiter: KeyRateLimiter | None = request.app.state.rate_limiter
+        if limiter is not None:
+            wait = limiter.acquire(cached.prefix)
+            if wait > 0:
+                raise RateLimitError(
+                    f"this API key is over its {int(limiter.capacity)} requests per minute; "
+                    f"retry in {limiter.retry_after(wait)} s", retry_after=limiter.retry_after(wait),
+                    field=API_KEY_HEADER)
         request.state.api_key = cached
     return cached
 
@@ -101,7 +114,7 @@ def read_access(
     session: SessionDep,
     key: Annotated[str | None, Security(_api_key_header)],
 ) -> None:
-    """Let the request read when reads are open, else demand a valid key."""
+    """Let the request through when reads are open, else demand a valid key."""
     if not settings.open_reads:
         require_key(request, session, key)
 
@@ -126,7 +139,8 @@ def page_params(
                    examples=[50])
     ] = 50,
     offset: Annotated[
-        int, Query(ge=0, description="Number of items to skip [-]", examples=[0])
+        int, Query(ge=0, le=MAX_OFFSET, description="Number of items to skip [-]",
+                   examples=[0])
     ] = 0,
 ) -> PageParams:
     """Read ``limit`` and ``offset`` from the query string."""

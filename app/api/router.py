@@ -9,7 +9,8 @@
 * ``scenarios`` — ``POST /scenarios``: sweeps as jobs (:mod:`app.services.sweeps`);
 * ``series`` — measured time series of a rig (:mod:`app.services.series`);
 * ``trends`` — ``GET /rigs/{rig_id}/trends`` over :mod:`app.services.trends`;
-* ``jobs`` — status, progress and results of long work.
+* ``jobs`` — status, progress and results of long work;
+* ``history`` — stored measurements and diagnoses read back.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ from app.api.routes import (
     calibrations,
     commission,
     diagnose,
+    history,
     jobs,
     ops,
     pumps,
@@ -34,5 +36,5 @@ __all__ = ["api_router"]
 
 api_router = APIRouter()
 for _module in (ops, rigs, commission, calibrations, trends, pumps, series, diagnose, simulate,
-                scenarios, jobs):
+                scenarios, jobs, history):
     api_router.include_router(_module.router)

@@ -35,7 +35,11 @@ def _request(rig: int, fault: str, load: str, oil_temperature: str, back_pressur
     for name, text in (("load", load), ("oil_temperature", oil_temperature),
                        ("back_pressure", back_pressure)):
         if text.strip():
-            condition[name] = text.strip()
+            try:
+                condition[name] = float(text.strip())
+            except ValueError:
+                raise InputError(f"not a number: {text.strip()!r}",
+                                 field=f"condition.{name}") from None
     try:
         return SimulateRequest.model_validate({
             "rig_id": rig, "fault": None if fault in ("", "healthy") else fault,

@@ -10,9 +10,17 @@ from __future__ import annotations
 from functools import partial
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, Field, StringConstraints, field_validator
+from pydantic import BaseModel, ConfigDict, Field, StringConstraints, field_validator
 
-from app.schemas.common import FiniteFloat, Page, PublicModel, Timestamp, reject_null
+from app.schemas.common import (
+    FiniteFloat,
+    Page,
+    PublicModel,
+    RequestModel,
+    Timestamp,
+    not_nullable,
+    reject_null,
+)
 
 __all__ = [
     "MAX_CLEARANCE_M",
@@ -87,7 +95,7 @@ _points = partial(
 )
 
 
-class CalibrationPointIn(BaseModel):
+class CalibrationPointIn(RequestModel):
     """One row of an equivalence table, as given."""
 
     opening_turns: Opening = _opening()
@@ -108,7 +116,7 @@ class CalibrationPointPublic(PublicModel):
     )
 
 
-class CalibrationCreate(BaseModel):
+class CalibrationCreate(RequestModel):
     """A new equivalence table for one throttle of a rig."""
 
     throttle: ThrottleLabel = _throttle()
@@ -119,7 +127,10 @@ class CalibrationCreate(BaseModel):
     points: list[CalibrationPointIn] = _points()
 
 
-class CalibrationUpdate(BaseModel):
+_NOT_NULL = ("throttle", "component", "back_pressure_pa", "temperature_c", "points")
+
+
+class CalibrationUpdate(RequestModel):
     """Changes to an equivalence table; fields left out stay; ``points`` replace all rows.
 
     ``source`` may be set to null (drop the note).
@@ -132,9 +143,9 @@ class CalibrationUpdate(BaseModel):
     source: SourceNote | None = _source(default=None)
     points: list[CalibrationPointIn] | None = _points(default=None)
 
-    _not_null = field_validator(
-        "throttle", "component", "back_pressure_pa", "temperature_c", "points"
-    )(reject_null)
+    model_config = ConfigDict(json_schema_extra=not_nullable(*_NOT_NULL))
+
+    _not_null = field_validator(*_NOT_NULL)(reject_null)
 
 
 class ClearanceCurve(BaseModel):

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pydantic import BaseModel, Field
 
+from app.schemas.common import RequestModel
 from app.schemas.diagnose import _EXAMPLE_RECORD, MeasurementIn
 
 __all__ = ["CommissionRequest", "CommissionResponse", "CommissionedParameterPublic"]
@@ -11,7 +12,7 @@ __all__ = ["CommissionRequest", "CommissionResponse", "CommissionedParameterPubl
 _PARAMETERS = ["cylinder.Lc", "valve.Ls", "valve.K", "cylinder.Fu", "cylinder.Kf", "pump.Rlp"]
 
 
-class CommissionRequest(BaseModel):
+class CommissionRequest(RequestModel):
     """Healthy records of the rig as built, at several loads and oil temperatures."""
 
     records: list[MeasurementIn] = Field(

@@ -1,25 +1,123 @@
-"""Shapes shared by every resource: error body, pages of a list, timestamps."""
+"""Shapes shared by every resource: the strict request base, bounded ids, error body,
+pages of a list, timestamps."""
 
 from __future__ import annotations
 
+import datetime as dt
+import difflib
+import re
+import types
+import typing
+from collections.abc import Callable
 from datetime import datetime
-from typing import Annotated, Any, Generic, TypeVar
+from typing import Annotated, Any, ClassVar, Generic, TypeVar
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import AwareDatetime, BaseModel, BeforeValidator, ConfigDict, Field, model_validator
+from pydantic_core import PydanticCustomError
 
 __all__ = [
     "ERROR_RESPONSES",
+    "MAX_ID",
+    "MAX_OFFSET",
     "ErrorBody",
     "ErrorDetail",
     "FiniteFloat",
+    "IdInt",
+    "IsoDatetime",
     "Page",
     "PublicModel",
+    "RequestModel",
     "Timestamp",
     "error_doc",
+    "not_nullable",
     "reject_null",
 ]
 
 T = TypeVar("T")
+
+#: Largest identifier the store can hold: a 32-bit signed integer column (PostgreSQL
+#: ``integer``; SQLite's 64-bit integers hold it too).  Ids past it are a 422, never a
+#: database overflow.
+MAX_ID = 2**31 - 1
+
+#: Largest ``offset`` of a page [-]: any stored list is far shorter.
+MAX_OFFSET = 2**31 - 1
+
+#: An identifier: a positive integer the store can hold.
+IdInt = Annotated[int, Field(ge=1, le=MAX_ID)]
+
+_ISO_DATE = re.compile(r"^\d{4}-\d{2}-\d{2}")
+
+
+def iso_only(value: Any) -> Any:
+    """Before-validator of a time: a datetime or an ISO 8601 string, never a number.
+
+    pydantic would read ``0.5`` (or ``"0.5"``) as seconds since 1970; the API documents
+    ISO 8601 (``format: date-time``), so anything else is refused.
+    """
+    if isinstance(value, dt.datetime):
+        return value
+    if isinstance(value, str) and _ISO_DATE.match(value):
+        return value
+    raise ValueError("give the time as ISO 8601 with its zone, e.g. 2026-11-22T08:30:00Z")
+
+
+#: A time with its zone, as ISO 8601 only (query parameters and body fields).
+IsoDatetime = Annotated[AwareDatetime, BeforeValidator(iso_only)]
+
+
+def _json_type_problem(annotation: Any, value: Any) -> str | None:
+    """Why ``value`` (decoded JSON) is not of the JSON type ``annotation`` documents.
+
+    pydantic's lax mode turns ``true`` into 1, ``"1.5"`` into 1.5 and ``0.5`` into a date;
+    the OpenAPI document says integer, number, date-time, so such values are refused.
+    Only the JSON kinds are compared (booleans, numbers, strings; lists and maps item by
+    item); ranges and formats stay pydantic's.
+    """
+    origin = typing.get_origin(annotation)
+    if origin is Annotated:
+        return _json_type_problem(typing.get_args(annotation)[0], value)
+    if origin in (typing.Union, types.UnionType):
+        options = [a for a in typing.get_args(annotation) if a is not type(None)]
+        if value is None:
+            return None
+        problems = [_json_type_problem(a, value) for a in options]
+        return None if any(p is None for p in problems) else problems[0]
+    if origin in (list, tuple, set, frozenset):
+        if not isinstance(value, list):
+            return f"must be a JSON array, not {type(value).__name__}"
+        args = typing.get_args(annotation)
+        for item in value:
+            problem = _json_type_problem(args[0], item) if args else None
+            if problem:
+                return problem
+        return None
+    if origin is dict:
+        if not isinstance(value, dict):
+            return f"must be a JSON object, not {type(value).__name__}"
+        args = typing.get_args(annotation)
+        for item in value.values():
+            problem = _json_type_problem(args[1], item) if len(args) == 2 else None
+            if problem:
+                return problem
+        return None
+    if annotation in (int, float):
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            return f"must be a JSON number, not {type(value).__name__}"
+        if annotation is int and isinstance(value, float) and not value.is_integer():
+            return None  # pydantic's own message for a fraction
+    elif annotation is bool:
+        if not isinstance(value, bool):
+            return f"must be true or false, not {type(value).__name__}"
+    elif annotation is str:
+        if not isinstance(value, str):
+            return f"must be a JSON string, not {type(value).__name__}"
+    elif annotation is dt.datetime:
+        try:
+            iso_only(value)
+        except ValueError as exc:
+            return str(exc)
+    return None
 
 #: A float that must be finite (no NaN, no infinity).
 FiniteFloat = Annotated[float, Field(allow_inf_nan=False)]
@@ -38,6 +136,87 @@ def reject_null(value: T | None) -> T:
     if value is None:
         raise ValueError("may be left out, but not set to null")
     return value
+
+
+def _unknown_field_message(unknown: list[str], known: list[str]) -> str:
+    parts = []
+    for name in unknown[:10]:
+        by_case = {k.lower(): k for k in known}
+        # a case slip ("flow_b" for "flow_B") first: plain ratios would tie it with "flow_C"
+        close = [by_case[c] for c in difflib.get_close_matches(name.lower(), list(by_case),
+                                                               n=1, cutoff=0.6)]
+        hint = f" (did you mean {close[0]!r}?)" if close else ""
+        parts.append(f"{name[:100]!r}{hint}")
+    if len(unknown) > 10:
+        parts.append(f"and {len(unknown) - 10} more")
+    noun = "unknown field" if len(unknown) == 1 else "unknown fields"
+    return f"{noun} {', '.join(parts)}; known fields: {', '.join(known)}"
+
+
+class RequestModel(BaseModel):
+    """Base of every request model: unknown fields are refused, never silently ignored.
+
+    A misspelt key (``"flow_b"`` for ``flow_B``) would otherwise be dropped and the request
+    answered as if the quantity had not been sent.  The 422 names every unknown field and
+    suggests the closest known name (:func:`difflib.get_close_matches`).
+    """
+
+    model_config = ConfigDict(extra="forbid")
+
+    #: Keys that arrive with the model but belong to the operation's other parameters
+    #: (the file part of a multipart form beside its form model); not reported as unknown.
+    form_siblings: ClassVar[frozenset[str]] = frozenset()
+    #: Compare the values' JSON kinds with the documented ones (off for form models, whose
+    #: values all arrive as text).
+    json_kinds: ClassVar[bool] = True
+
+    @model_validator(mode="before")
+    @classmethod
+    def _refuse_unknown_fields(cls, data: Any) -> Any:
+        if not isinstance(data, dict):
+            return data
+        known = list(cls.model_fields)
+        allowed = set(known) | {f.alias for f in cls.model_fields.values() if f.alias}
+        allowed |= cls.form_siblings
+        unknown = [str(k) for k in data if k not in allowed]
+        if unknown:
+            raise PydanticCustomError(
+                "extra_forbidden", _unknown_field_message(unknown, known),
+                {"unknown_field": unknown[0][:100]},
+            )
+        if cls.json_kinds:
+            for name, info in cls.model_fields.items():
+                key = info.alias if info.alias in data else name
+                if key not in data:
+                    continue
+                problem = _json_type_problem(info.annotation, data[key])
+                if problem:
+                    raise PydanticCustomError("json_type", f"{key}: {problem}",
+                                              {"unknown_field": key})
+        return data
+
+
+def not_nullable(*names: str) -> Callable[[dict[str, Any]], None]:
+    """``json_schema_extra`` of an update model whose ``names`` may be left out, not nulled.
+
+    Such fields are ``X | None = None`` in Python (absent means "unchanged") and refuse an
+    explicit null (:func:`reject_null`); their schema must then not offer null either.
+    """
+
+    def strip(schema: dict[str, Any]) -> None:
+        for name in names:
+            prop = schema.get("properties", {}).get(name)
+            if prop is None:
+                continue
+            options = [o for o in prop.pop("anyOf", []) if o.get("type") != "null"]
+            if len(options) == 1:
+                prop.update(options[0])
+            elif options:
+                prop["anyOf"] = options
+            if prop.get("default", "") is None:
+                del prop["default"]
+
+    return strip
 
 
 class PublicModel(BaseModel):
@@ -99,5 +278,9 @@ ERROR_RESPONSES: dict[int | str, dict[str, Any]] = {
     401: error_doc("Missing or wrong API key (header X-API-Key)"),
     404: error_doc("Unknown id"),
     409: error_doc("Conflicts with stored state"),
-    422: error_doc("Invalid input; `field` names it"),
+    413: error_doc("Request body over the size limit (HYDRODIAG_MAX_BODY_BYTES)"),
+    422: error_doc("Invalid input (also an undecodable body or unknown field); `field` "
+                   "names it"),
+    429: error_doc("Too many requests for this API key (HYDRODIAG_RATE_LIMIT_PER_MINUTE); "
+                   "see Retry-After"),
 }

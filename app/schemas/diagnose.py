@@ -12,9 +12,9 @@ from __future__ import annotations
 from functools import partial
 from typing import Annotated, Any, Literal
 
-from pydantic import AwareDatetime, BaseModel, BeforeValidator, Field, model_validator
+from pydantic import AwareDatetime, BaseModel, BeforeValidator, ConfigDict, Field, model_validator
 
-from app.schemas.common import FiniteFloat
+from app.schemas.common import MAX_ID, FiniteFloat, IsoDatetime, RequestModel
 from sim.errors import InputError
 
 __all__ = [
@@ -60,7 +60,7 @@ _EXAMPLE_RECORD: dict[str, Any] = {
 }
 
 
-class ReadingIn(BaseModel):
+class ReadingIn(RequestModel):
     """A reading with its uncertainty; give ``u`` or ``bound``, or neither for the default.
 
     A bare number in place of this object is a reading of the field's default instrument
@@ -110,7 +110,7 @@ def _reading(unit: str, meaning: str, example: float, *, required: bool = False)
     )
 
 
-class ConditionIn(BaseModel):
+class ConditionIn(RequestModel):
     """Operating condition of a record; state the load force or the back-pressure."""
 
     oil_temperature: Reading = _reading("°C", "Oil temperature", 40.0, required=True)
@@ -119,19 +119,20 @@ class ConditionIn(BaseModel):
     pump_speed: Reading | None = _reading("rad/s", "Pump shaft speed", 150.0)
 
 
-_rig_id = partial(Field, ge=1, description="Rig identifier [-]", examples=[1])
+_rig_id = partial(Field, ge=1, le=MAX_ID, description="Rig identifier [-]", examples=[1])
 _rig_version = partial(
-    Field, ge=1, description="Version of the rig document to use; the latest when null [-]",
+    Field, ge=1, le=MAX_ID,
+    description="Version of the rig document to use; the latest when null [-]",
     examples=[None],
 )
 
 
-class MeasurementIn(BaseModel):
+class MeasurementIn(RequestModel):
     """One visit's measurements on one rig (any subset of the quantities)."""
 
     rig_id: int = _rig_id()
     rig_version: int | None = _rig_version(default=None)
-    measured_at: AwareDatetime | None = Field(
+    measured_at: IsoDatetime | None = Field(
         default=None,
         description="When the readings were taken, ISO 8601 with zone; the time of the "
         "request when null [UTC]",
@@ -155,11 +156,13 @@ class MeasurementIn(BaseModel):
     stroke: Reading | None = _reading("m", MEASURED_FIELDS["stroke"][1], 0.5)
     velocity_ratio: Reading | None = _reading("1", MEASURED_FIELDS["velocity_ratio"][1], 0.84)
 
-    model_config = {"json_schema_extra": {"examples": [_EXAMPLE_RECORD]}}
+    model_config = ConfigDict(json_schema_extra={"examples": [_EXAMPLE_RECORD]})
 
 
-class DiagnoseRequest(BaseModel):
+class DiagnoseRequest(RequestModel):
     """One record (``record``) or a batch (``records``) to diagnose."""
+
+    model_config = ConfigDict(json_schema_extra={"examples": [{"record": _EXAMPLE_RECORD}]})
 
     record: MeasurementIn | None = Field(
         default=None, description="A single record; give this or `records` [-]",

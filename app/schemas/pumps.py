@@ -10,9 +10,18 @@ from __future__ import annotations
 from functools import partial
 from typing import Annotated, Literal
 
-from pydantic import AfterValidator, BaseModel, Field, StringConstraints, field_validator
+from pydantic import AfterValidator, ConfigDict, Field, StringConstraints, field_validator
 
-from app.schemas.common import FiniteFloat, Page, PublicModel, Timestamp, reject_null
+from app.schemas.common import (
+    MAX_ID,
+    FiniteFloat,
+    Page,
+    PublicModel,
+    RequestModel,
+    Timestamp,
+    not_nullable,
+    reject_null,
+)
 
 __all__ = [
     "PumpBenchForm",
@@ -42,7 +51,7 @@ def _rectangular(value: Value) -> Value:
     return value
 
 
-class Quantity(BaseModel):
+class Quantity(RequestModel):
     """A value (scalar, 1-D or 2-D array) with its unit."""
 
     value: Annotated[Value, AfterValidator(_rectangular)] = Field(
@@ -73,7 +82,8 @@ _kind = partial(
     examples=["parameters"],
 )
 _rig_id = partial(
-    Field, description="Rig the pump belongs to; null for a pump on its own [-]", examples=[1]
+    Field, ge=1, le=MAX_ID, description="Rig the pump belongs to; null for a pump on its own [-]",
+    examples=[1],
 )
 _pump = partial(
     Field, description="Pump model and size [-]",
@@ -92,7 +102,7 @@ PumpLabel = Annotated[str, StringConstraints(min_length=1, max_length=200)]
 SourceNote = Annotated[str, StringConstraints(max_length=2000)]
 
 
-class PumpSetCreate(BaseModel):
+class PumpSetCreate(RequestModel):
     """A new pump parameter set or loss map."""
 
     name: Name = _name()
@@ -103,7 +113,10 @@ class PumpSetCreate(BaseModel):
     quantities: dict[QuantityName, Quantity] = _quantities()
 
 
-class PumpSetUpdate(BaseModel):
+_NOT_NULL = ("name", "kind", "pump", "quantities")
+
+
+class PumpSetUpdate(RequestModel):
     """Changes to a pump set; fields left out stay; ``quantities`` replace all of them.
 
     ``rig_id`` and ``source`` may be set to null (detach from the rig, drop the note).
@@ -116,7 +129,9 @@ class PumpSetUpdate(BaseModel):
     source: SourceNote | None = _source(default=None)
     quantities: dict[QuantityName, Quantity] | None = _quantities(default=None)
 
-    _not_null = field_validator("name", "kind", "pump", "quantities")(reject_null)
+    model_config = ConfigDict(json_schema_extra=not_nullable(*_NOT_NULL))
+
+    _not_null = field_validator(*_NOT_NULL)(reject_null)
 
 
 class PumpSetPublic(PublicModel):
@@ -137,12 +152,22 @@ class PumpSetList(Page[PumpSetPublic]):
     """A page of pump sets."""
 
 
-class PumpBenchForm(BaseModel):
-    """Form fields sent with a bench CSV (``POST /pump-sets/bench``)."""
+class PumpBenchForm(RequestModel):
+    """Form fields sent with a bench CSV (``POST /pump-sets/bench``).
+
+    FastAPI hands the whole form, the ``file`` part included, to this model: ``file`` is
+    let through (and the schema stays open, as the operation's body adds ``file`` beside
+    these fields); any other unknown field is refused by the strict base's check.
+    """
+
+    model_config = ConfigDict(extra="ignore")
+    form_siblings = frozenset({"file"})
+    json_kinds = False
 
     name: Name = _name()
     pump: PumpLabel = _pump()
-    rig_id: int | None = Field(default=None, ge=1, description="Rig the pump belongs to [-]",
+    rig_id: int | None = Field(default=None, ge=1, le=MAX_ID,
+                               description="Rig the pump belongs to [-]",
                                examples=[1])
     source: SourceNote | None = _source(default=None)
     displacement_m3_rad: FiniteFloat | None = Field(

@@ -5,18 +5,18 @@ from __future__ import annotations
 from functools import partial
 from typing import Any
 
-from pydantic import BaseModel, Field
+from pydantic import Field
 
-from app.schemas.common import Page, PublicModel, Timestamp
+from app.schemas.common import Page, PublicModel, RequestModel, Timestamp
+from sim.rigs import reference_rig_document
 
 __all__ = ["RigCreate", "RigList", "RigPublic", "RigUpdate", "RigVersionList", "RigVersionPublic"]
 
-_DOCUMENT_EXAMPLE: dict[str, Any] = {
-    "schema": "hydrodiag.rig/1",
-    "name": "lab-rig-2",
-    "title": "Vane pump, 4/2 valve and double-acting cylinder",
-    "components": {"cylinder": {"cc": {"value": 83e-6, "unit": "m"}}},
-}
+#: Examples that pass their operations: a complete document (the paper-002 reference rig),
+#: as a new rig under another name, and as a new version of the preloaded rig 1.
+_UPDATE_EXAMPLE: dict[str, Any] = reference_rig_document()
+_CREATE_EXAMPLE: dict[str, Any] = reference_rig_document() | {
+    "name": "lab-rig-2", "title": "Second rig of the lab, built like paper 002's"}
 
 _document = partial(
     Field,
@@ -24,7 +24,6 @@ _document = partial(
         "Rig description document (schema hydrodiag.rig/1): components and parameters, each "
         "value with its SI unit inside the document [-]; validated by sim.rigs"
     ),
-    examples=[_DOCUMENT_EXAMPLE],
 )
 _comment = partial(
     Field,
@@ -35,17 +34,17 @@ _comment = partial(
 )
 
 
-class RigCreate(BaseModel):
+class RigCreate(RequestModel):
     """A new rig: its first description document."""
 
-    document: dict[str, Any] = _document()
+    document: dict[str, Any] = _document(examples=[_CREATE_EXAMPLE])
     comment: str | None = _comment()
 
 
-class RigUpdate(BaseModel):
+class RigUpdate(RequestModel):
     """A new version of a rig's description document (the name must stay the same)."""
 
-    document: dict[str, Any] = _document()
+    document: dict[str, Any] = _document(examples=[_UPDATE_EXAMPLE])
     comment: str | None = _comment()
 
 
@@ -54,7 +53,7 @@ class RigVersionPublic(PublicModel):
 
     rig_id: int = Field(description="Rig identifier [-]", examples=[1])
     version: int = Field(ge=1, description="Version number, 1 for the first [-]", examples=[3])
-    document: dict[str, Any] = _document()
+    document: dict[str, Any] = _document(examples=[_UPDATE_EXAMPLE])
     comment: str | None = _comment()
     created_at: Timestamp
 
@@ -72,7 +71,7 @@ class RigPublic(PublicModel):
     )
     latest_version: int = Field(ge=1, description="Number of the newest version [-]",
                                 examples=[1])
-    document: dict[str, Any] = _document()
+    document: dict[str, Any] = _document(examples=[_UPDATE_EXAMPLE])
     created_at: Timestamp
     updated_at: Timestamp
 

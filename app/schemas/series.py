@@ -2,28 +2,26 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 from typing import Any
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import ConfigDict, Field
 
-from app.schemas.common import FiniteFloat, Page, PublicModel, Timestamp
+from app.schemas.common import FiniteFloat, Page, PublicModel, RequestModel, Timestamp
 
 __all__ = ["SeriesData", "SeriesImportForm", "SeriesList", "SeriesPublic"]
 
 
-class SeriesImportForm(BaseModel):
-    """Form fields sent with a time-series file (``POST /rigs/{rig_id}/series``)."""
+class SeriesImportForm(RequestModel):
+    """Form fields sent with a time-series file (``POST /rigs/{rig_id}/series``).
 
-    model_config = ConfigDict(extra="forbid")
+    The multipart body also carries the ``file`` part, let through like the bench upload's
+    (:class:`app.schemas.pumps.PumpBenchForm`); any other unknown field is refused by the
+    strict base's check, with the close name suggested.
+    """
 
-    @model_validator(mode="before")
-    @classmethod
-    def _without_the_file(cls, data: Any) -> Any:
-        """The multipart body also carries the ``file`` part; every other field is checked."""
-        if isinstance(data, Mapping) and "file" in data:
-            return {k: v for k, v in data.items() if k != "file"}
-        return data
+    model_config = ConfigDict(extra="ignore")
+    form_siblings = frozenset({"file"})
+    json_kinds = False
 
     name: str = Field(min_length=1, max_length=200, pattern=r"^[A-Za-z0-9_.:-]+$",
                       description="Name of the import (the file or campaign) [-]",

@@ -7,7 +7,7 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, Field, field_validator
 
-from app.schemas.common import FiniteFloat
+from app.schemas.common import FiniteFloat, RequestModel
 from sim.scenarios import FAULTS
 
 __all__ = [
@@ -47,7 +47,7 @@ def check_fault(value: str | None) -> str | None:
     return value
 
 
-class ConditionSpec(BaseModel):
+class ConditionSpec(RequestModel):
     """Operating condition; a field left out takes the rig document's default."""
 
     load: FiniteFloat | None = Field(
@@ -67,7 +67,7 @@ class ConditionSpec(BaseModel):
     )
 
 
-class SimulateRequest(BaseModel):
+class SimulateRequest(RequestModel):
     """One run of a fault scenario."""
 
     rig_id: int = _rig_id()

@@ -7,7 +7,7 @@ from typing import Literal
 
 from pydantic import BaseModel, Field, field_validator, model_validator
 
-from app.schemas.common import FiniteFloat
+from app.schemas.common import MAX_ID, FiniteFloat, RequestModel
 from app.schemas.simulate import ConditionSpec, check_fault
 
 __all__ = ["CONDITION_NAMES", "RangeSpec", "SweepAccepted", "SweepRequest"]
@@ -18,7 +18,7 @@ CONDITION_NAMES: dict[str, str] = {
 }
 
 
-class RangeSpec(BaseModel):
+class RangeSpec(RequestModel):
     """One swept factor: a parameter override or a condition field, between two values."""
 
     name: str = Field(
@@ -50,12 +50,13 @@ class RangeSpec(BaseModel):
         return self
 
 
-class SweepRequest(BaseModel):
+class SweepRequest(RequestModel):
     """A set of scenarios: named faults × (grid or Latin hypercube over the factors)."""
 
-    rig_id: int = Field(ge=1, description="Rig identifier [-]", examples=[1])
+    rig_id: int = Field(ge=1, le=MAX_ID, description="Rig identifier [-]", examples=[1])
     rig_version: int | None = Field(
-        default=None, ge=1, description="Version of the rig document; latest when null [-]",
+        default=None, ge=1, le=MAX_ID,
+        description="Version of the rig document; latest when null [-]",
         examples=[None],
     )
     faults: list[str] = Field(

@@ -30,13 +30,18 @@ STARTUP_TIMEOUT_S = 60.0
 
 @dataclass
 class LiveServer:
-    """A running server, a client for it and a separate engine on the same store."""
+    """A running server, clients for it and a separate engine on the same store.
+
+    ``client`` sends the server's API key on every request (every operation but
+    ``/health``, ``/ready`` and ``/metrics`` needs one by default); ``anon`` sends none.
+    """
 
     base_url: str
     settings: Settings
     app: Any
     key: str
     client: httpx.Client
+    anon: httpx.Client
     engine: Engine
     sessions: SessionFactory
 
@@ -89,8 +94,9 @@ def live_server(
         key = ensure_first_key(session) or create_api_key(session, f"test-{uuid.uuid4()}")[1]
     base_url = f"http://127.0.0.1:{port}"
     try:
-        with httpx.Client(base_url=base_url, timeout=30.0) as client:
-            yield LiveServer(base_url, settings, app, key, client, engine, sessions)
+        with httpx.Client(base_url=base_url, timeout=30.0, headers={"X-API-Key": key}) as client, \
+                httpx.Client(base_url=base_url, timeout=30.0) as anon:
+            yield LiveServer(base_url, settings, app, key, client, anon, engine, sessions)
     finally:
         server.should_exit = True
         thread.join(timeout=30)

@@ -195,7 +195,7 @@ def test_delete_calibration_and_with_its_rig(server: LiveServer) -> None:
     first = server.client.post(url, json=TABLE, headers=server.auth).json()
     server.client.post(url, json=TABLE | {"throttle": "H", "component": "cylinder"},
                        headers=server.auth)
-    assert server.client.delete(f"{url}/{first['id']}").status_code == 401
+    assert server.anon.delete(f"{url}/{first['id']}").status_code == 401
     assert server.client.delete(f"{url}/{first['id']}", headers=server.auth).status_code == 204
     assert server.client.get(f"{url}/{first['id']}").status_code == 404
     assert server.client.get(url).json()["total"] == 1

@@ -8,6 +8,7 @@ import subprocess
 import sys
 import time
 from collections.abc import Iterator
+from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -16,6 +17,7 @@ import pytest
 from typer.testing import CliRunner
 
 from app.cli import cli
+from app.db.migrate import head_revision
 
 STARTUP_TIMEOUT_S = 60.0
 
@@ -54,6 +56,15 @@ def _serve(data_dir: Path) -> Iterator[tuple[str, subprocess.Popen[str]]]:
         process.wait(timeout=30)
 
 
+def _wait_ready(base_url: str) -> None:
+    """Poll ``/ready`` until it answers 200 (rigs warmed), or fail after the timeout."""
+    deadline = time.monotonic() + STARTUP_TIMEOUT_S
+    while httpx.get(f"{base_url}/ready", timeout=5).status_code != 200:
+        if time.monotonic() > deadline:
+            raise AssertionError("the service did not become ready in time")
+        time.sleep(0.1)
+
+
 def _keys_printed(process: subprocess.Popen[str]) -> list[str]:
     assert process.stdout is not None
     return [line.split(": ", 1)[1].strip() for line in process.stdout.read().splitlines()
@@ -62,17 +73,19 @@ def _keys_printed(process: subprocess.Popen[str]) -> list[str]:
 
 def test_serve_migrates_preloads_and_prints_the_first_key_once(tmp_path: Path) -> None:
     with _serve(tmp_path) as (base_url, process):
-        rigs = httpx.get(f"{base_url}/rigs").json()
-        assert [r["name"] for r in rigs["items"]] == ["paper002-reference"]
-        assert httpx.get(f"{base_url}/ready").status_code == 200
+        assert httpx.get(f"{base_url}/rigs").status_code == 401  # a key by default
+        _wait_ready(base_url)
     keys = _keys_printed(process)
     assert len(keys) == 1
-    document = rigs["items"][0]["document"] | {"name": "cli-rig"}
     with _serve(tmp_path) as (base_url, process):
+        rigs = httpx.get(f"{base_url}/rigs", headers={"X-API-Key": keys[0]}).json()
+        assert [r["name"] for r in rigs["items"]] == ["paper002-reference"]
+        document = rigs["items"][0]["document"] | {"name": "cli-rig"}
         created = httpx.post(f"{base_url}/rigs", json={"document": document},
                              headers={"X-API-Key": keys[0]})
         assert created.status_code == 201, created.text
-        assert httpx.get(f"{base_url}/rigs").json()["total"] == 2
+        assert httpx.get(f"{base_url}/rigs", headers={"X-API-Key": keys[0]}
+                         ).json()["total"] == 2
     assert _keys_printed(process) == []
     assert (tmp_path / "hydrodiag.db").exists()
 
@@ -121,3 +134,65 @@ def test_main_reports_hydrodiag_errors_without_a_traceback(tmp_path: Path) -> No
                             env=env, capture_output=True, text=True, check=False)
     assert result.returncode == 1
     assert "NotFoundError" in result.stderr and "Traceback" not in result.stderr
+
+
+def _diagnose_burst(base_url: str, key: str, n: int) -> list[httpx.Response]:
+    record = {"rig_id": 1, "condition": {"oil_temperature": 40.0, "load_force": 2100.0},
+              "pump_pressure": 14.6e5, "p1": 11.9e5, "p2": 1.2e5, "flow_B": 4.44e-4,
+              "flow_C": 3.97e-4, "speed_work": 0.180, "speed_return": 0.215}
+
+    def one(_: int) -> httpx.Response:
+        return httpx.post(f"{base_url}/diagnose", json={"record": record},
+                          headers={"X-API-Key": key}, timeout=120)
+
+    with ThreadPoolExecutor(max_workers=n) as pool:
+        return list(pool.map(one, range(n)))
+
+
+def test_a_restarted_service_answers_its_first_burst(tmp_path: Path) -> None:
+    """Issue 16 item 1: 8 concurrent first /diagnose after a restart, none may fail.
+
+    The store and the compiled-code cache have served once; each restart is a fresh
+    process that loads the compiled rig modules from the cache while the burst arrives
+    (the burst starts as soon as /health answers, before /ready).
+    """
+    with _serve(tmp_path) as (base_url, process):
+        _wait_ready(base_url)
+    key = _keys_printed(process)[0]
+    for _restart in range(2):
+        with _serve(tmp_path) as (base_url, process):
+            responses = _diagnose_burst(base_url, key, 8)
+            assert [r.status_code for r in responses] == [200] * 8, [
+                r.text for r in responses if r.status_code != 200]
+            assert len({r.json()["diagnoses"][0]["id"] for r in responses}) == 8
+            _wait_ready(base_url)
+            ready = httpx.get(f"{base_url}/ready").json()
+            assert ready["status"] == "ready"
+
+
+def test_the_uvicorn_factory_starts_on_a_fresh_folder(tmp_path: Path) -> None:
+    """Issue 14: `uvicorn app.main:create_service_app --factory` migrates as serve does."""
+    port = _free_port()
+    env = os.environ | {"HYDRODIAG_DATA_DIR": str(tmp_path / "fresh")}
+    process = subprocess.Popen(
+        [sys.executable, "-m", "uvicorn", "app.main:create_service_app", "--factory",
+         "--host", "127.0.0.1", "--port", str(port)],
+        env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    base_url = f"http://127.0.0.1:{port}"
+    try:
+        deadline = time.monotonic() + STARTUP_TIMEOUT_S
+        while True:
+            assert process.poll() is None, "the factory exited at start-up"
+            try:
+                if httpx.get(f"{base_url}/health", timeout=1).status_code == 200:
+                    break
+            except httpx.TransportError:
+                pass
+            assert time.monotonic() < deadline, "no answer in time"
+            time.sleep(0.1)
+        _wait_ready(base_url)
+        assert httpx.get(f"{base_url}/ready").json()["revision"] == head_revision()
+    finally:
+        process.terminate()
+        _, stderr = process.communicate(timeout=30)
+    assert "Traceback" not in stderr, stderr

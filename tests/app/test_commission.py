@@ -53,7 +53,7 @@ def test_commissioning_stores_a_version_that_explains_the_rig(server: LiveServer
     before = server.client.post("/diagnose", json={"record": probe, "store": False}).json()
     assert before["diagnoses"][0]["explained"] is False
 
-    no_key = server.client.post(f"/rigs/{rig_id}/commission", json={"records": records})
+    no_key = server.anon.post(f"/rigs/{rig_id}/commission", json={"records": records})
     assert no_key.status_code == 401
     response = server.client.post(f"/rigs/{rig_id}/commission",
                                   json={"records": records}, headers=server.auth)

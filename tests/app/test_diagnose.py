@@ -60,7 +60,7 @@ def test_not_storing_needs_no_key_and_leaves_the_store_alone(server: LiveServer)
 def test_storing_needs_the_key(server: LiveServer) -> None:
     record = simulated_record(server, WORN_VALVE)
     before = server.row_counts()
-    response = server.client.post("/diagnose", json={"record": record})
+    response = server.anon.post("/diagnose", json={"record": record})
     assert response.status_code == 401
     assert response.json()["error"]["type"] == "AuthError"
     wrong = server.client.post("/diagnose", json={"record": record},

@@ -81,7 +81,7 @@ def test_unknown_rig_name_conflict_and_missing_key(server: LiveServer) -> None:
                                      headers=server.auth)
     assert unknown_rig.status_code == 404
     assert unknown_rig.json()["error"]["field"] == "rig_id"
-    assert server.client.post("/pump-sets", json=PARAMETERS | {"name": "nokey"}).status_code == 401
+    assert server.anon.post("/pump-sets", json=PARAMETERS | {"name": "nokey"}).status_code == 401
     assert server.row_counts() == before
     server.client.post("/pump-sets", json=PARAMETERS | {"name": "taken"}, headers=server.auth)
     before = server.row_counts()
@@ -106,7 +106,7 @@ def test_patch_and_delete(server: LiveServer) -> None:
         "error"]["field"] == "pump"
     assert server.client.patch(url, json={"rig_id": 999999},
                                headers=server.auth).status_code == 404
-    assert server.client.patch(url, json={"name": "x"}).status_code == 401
+    assert server.anon.patch(url, json={"name": "x"}).status_code == 401
     assert server.client.get(url).json() == renamed
     assert server.client.delete(url, headers=server.auth).status_code == 204
     for response in (server.client.get(url), server.client.delete(url, headers=server.auth),

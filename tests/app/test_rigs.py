@@ -100,7 +100,7 @@ def test_request_shape_errors_name_the_field(server: LiveServer) -> None:
 def test_writes_need_a_valid_key(server: LiveServer, rig_document: dict) -> None:
     rig_document["name"] = "no-key"
     before = server.row_counts()
-    missing = server.client.post("/rigs", json={"document": rig_document})
+    missing = server.anon.post("/rigs", json={"document": rig_document})
     assert missing.status_code == 401
     assert missing.json()["error"]["type"] == "AuthError"
     assert missing.json()["error"]["field"] == "X-API-Key"
@@ -112,9 +112,9 @@ def test_writes_need_a_valid_key(server: LiveServer, rig_document: dict) -> None
         assert response.status_code == 401, key
         assert response.json()["error"]["message"] == "the API key is not valid"
     # authentication comes before validation: no hint about the body without a key
-    assert server.client.post("/rigs", json={}).status_code == 401
-    assert server.client.put("/rigs/1", json={}).status_code == 401
-    assert server.client.delete("/rigs/1").status_code == 401
+    assert server.anon.post("/rigs", json={}).status_code == 401
+    assert server.anon.put("/rigs/1", json={}).status_code == 401
+    assert server.anon.delete("/rigs/1").status_code == 401
     assert server.row_counts() == before
 
 

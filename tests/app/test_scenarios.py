@@ -109,7 +109,7 @@ def test_bad_sweeps_are_422_and_start_nothing(server: LiveServer, change: dict[s
 
 def test_a_sweep_needs_the_key_and_a_known_rig(server: LiveServer) -> None:
     before = server.row_counts()
-    assert server.client.post("/scenarios", json=SWEEP).status_code == 401
+    assert server.anon.post("/scenarios", json=SWEEP).status_code == 401
     unknown = server.client.post("/scenarios", json=SWEEP | {"rig_id": 777},
                                  headers=server.auth)
     assert unknown.status_code == 404 and unknown.json()["error"]["field"] == "rig_id"

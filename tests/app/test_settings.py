@@ -14,14 +14,14 @@ def test_defaults_and_environment(monkeypatch: pytest.MonkeyPatch, tmp_path: Pat
     for name in ("HYDRODIAG_DATA_DIR", "HYDRODIAG_DATABASE_URL", "HYDRODIAG_OPEN_READS"):
         monkeypatch.delenv(name, raising=False)
     defaults = Settings()
-    assert defaults.data_dir == Path("data") and defaults.open_reads is True
+    assert defaults.data_dir == Path("data") and defaults.open_reads is False
     assert defaults.url.database == str((Path("data") / "hydrodiag.db").resolve())
     assert defaults.is_sqlite
     monkeypatch.setenv("HYDRODIAG_DATA_DIR", str(tmp_path))
-    monkeypatch.setenv("HYDRODIAG_OPEN_READS", "false")
+    monkeypatch.setenv("HYDRODIAG_OPEN_READS", "true")
     monkeypatch.setenv("HYDRODIAG_DATABASE_URL", "postgresql+psycopg://svc:Xk2f9Lq@db/hd")
     configured = Settings()
-    assert configured.open_reads is False
+    assert configured.open_reads is True
     assert configured.url.get_backend_name() == "postgresql" and not configured.is_sqlite
 
 

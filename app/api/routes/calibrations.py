@@ -19,7 +19,7 @@ from app.schemas.calibrations import (
     ClearanceCurve,
     ClearanceSamples,
 )
-from app.schemas.common import ERROR_RESPONSES
+from app.schemas.common import ERROR_RESPONSES, MAX_ID
 from app.services import calibrations as service
 from sim.errors import InputError
 
@@ -28,7 +28,8 @@ __all__ = ["router"]
 router = APIRouter(prefix="/rigs/{rig_id}/calibrations", tags=["calibrations"],
                    dependencies=[ReadAccess], responses=ERROR_RESPONSES)
 
-CalibrationId = Annotated[int, Path(ge=1, description="Calibration identifier [-]",
+CalibrationId = Annotated[int, Path(ge=1, le=MAX_ID,
+                                    description="Calibration identifier [-]",
                                     examples=[1])]
 
 
@@ -112,7 +113,7 @@ def clearance_at(
         list[float],
         Query(min_length=1, max_length=1000,
               description="Throttle openings, repeat the parameter for several [turn]",
-              examples=[[1.25]]),
+              examples=[[0.25]]),
     ],
 ) -> ClearanceSamples:
     """Interpolate the table's monotone curve (PCHIP) at each opening; no extrapolation."""

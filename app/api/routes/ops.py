@@ -1,4 +1,8 @@
-"""Operations: liveness, readiness, Prometheus metrics."""
+"""Operations: liveness, readiness, Prometheus metrics; all three open (no API key).
+
+``/health`` is an ``async`` route that touches nothing: it runs on the event loop, so it
+answers while every worker thread is busy with diagnoses (it never queues behind them).
+"""
 
 from __future__ import annotations
 
@@ -10,7 +14,6 @@ from pydantic import BaseModel, Field
 from sqlalchemy.exc import SQLAlchemyError
 
 from app import __version__
-from app.api.deps import ReadAccess
 from app.db import migrate
 from app.db.engine import ping
 from app.errors import ServiceUnavailableError
@@ -30,7 +33,7 @@ class Health(BaseModel):
 
 
 class Readiness(BaseModel):
-    """The store is reachable and migrated."""
+    """The store is reachable and migrated, and the stored rigs are loaded."""
 
     status: Literal["ready"] = Field(description="'ready' when requests can be served [-]",
                                      examples=["ready"])
@@ -39,18 +42,19 @@ class Readiness(BaseModel):
 
 
 @router.get("/health", summary="Liveness: the process answers")
-def health() -> Health:
+async def health() -> Health:
     """Answer as long as the process runs; touches nothing else (container HEALTHCHECK)."""
     return Health(status="ok", version=__version__)
 
 
 @router.get(
     "/ready",
-    summary="Readiness: the database is reachable and migrated",
-    responses={503: error_doc("Database unreachable or not migrated")},
+    summary="Readiness: the database is reachable and migrated, the rigs are loaded",
+    responses={503: error_doc("Database unreachable or not migrated, or rigs still loading")},
 )
 def ready(request: Request) -> Readiness:
-    """Query the database and compare its schema revision with the package's newest."""
+    """Query the database, compare its schema revision with the package's newest, and
+    check that the start-up warming of the stored rigs has finished."""
     engine = request.app.state.engine
     try:
         ping(engine)
@@ -60,6 +64,9 @@ def ready(request: Request) -> Readiness:
     head = migrate.head_revision()
     if revision != head:
         raise ServiceUnavailableError(f"database at revision {revision}, service needs {head}")
+    warmup = getattr(request.app.state, "warmup", None)
+    if warmup is None or not warmup.done:
+        raise ServiceUnavailableError("the stored rigs are still loading")
     return Readiness(status="ready", database=engine.dialect.name, revision=revision)
 
 
@@ -67,7 +74,6 @@ def ready(request: Request) -> Readiness:
     "/metrics",
     summary="Prometheus metrics: requests and latency per route",
     response_class=Response,
-    dependencies=[ReadAccess],
     responses={200: {"content": {CONTENT_TYPE_LATEST: {}}, "description": "Prometheus text"}},
 )
 def metrics(request: Request) -> Response:

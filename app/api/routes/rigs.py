@@ -8,7 +8,7 @@ from fastapi import APIRouter, Path, Query, Response, status
 
 from app.api.deps import PageDep, ReadAccess, SessionDep, WriteKeyDep
 from app.db.models import Rig, RigVersion
-from app.schemas.common import ERROR_RESPONSES
+from app.schemas.common import ERROR_RESPONSES, MAX_ID
 from app.schemas.rigs import RigCreate, RigList, RigPublic, RigUpdate, RigVersionList, RigVersionPublic
 from app.services import rigs as service
 
@@ -17,7 +17,8 @@ __all__ = ["RigId", "router"]
 router = APIRouter(prefix="/rigs", tags=["rigs"], dependencies=[ReadAccess],
                    responses=ERROR_RESPONSES)
 
-RigId = Annotated[int, Path(ge=1, description="Rig identifier [-]", examples=[1])]
+RigId = Annotated[int, Path(ge=1, le=MAX_ID, description="Rig identifier [-]",
+                            examples=[1])]
 
 
 def _public(rig: Rig, version: RigVersion) -> RigPublic:
@@ -82,7 +83,8 @@ def list_versions(rig_id: RigId, session: SessionDep, page: PageDep) -> RigVersi
 @router.get("/{rig_id}/versions/{version}", summary="Get one version of a rig's document")
 def get_version(
     rig_id: RigId,
-    version: Annotated[int, Path(ge=1, description="Version number [-]", examples=[1])],
+    version: Annotated[int, Path(ge=1, le=MAX_ID, description="Version number [-]",
+                                 examples=[1])],
     session: SessionDep,
 ) -> RigVersionPublic:
     """Return one stored version of the rig's document."""

@@ -5,11 +5,10 @@ from __future__ import annotations
 from typing import Annotated
 
 from fastapi import APIRouter, Query
-from pydantic import AwareDatetime
 
 from app.api.deps import ReadAccess, RigsDep, SessionDep
 from app.api.routes.rigs import RigId
-from app.schemas.common import ERROR_RESPONSES
+from app.schemas.common import ERROR_RESPONSES, IsoDatetime
 from app.schemas.trends import ComponentTrend, TrendComponent, TrendPoint, TrendsPublic
 from app.services.trends import ComponentTrendOut, component_trends
 
@@ -44,10 +43,10 @@ def trends(
     threshold: Annotated[float | None, Query(
         description="Threshold for `component`, in its unit; a default derived from the rig "
         "when left out [m or 1]", examples=[6.0e-5])] = None,
-    since: Annotated[AwareDatetime | None, Query(
+    since: Annotated[IsoDatetime | None, Query(
         description="Only diagnoses of records taken at or after this time [UTC]",
         examples=["2026-01-01T00:00:00Z"])] = None,
-    until: Annotated[AwareDatetime | None, Query(
+    until: Annotated[IsoDatetime | None, Query(
         description="Only diagnoses of records taken at or before this time [UTC]",
         examples=["2026-12-31T23:59:59Z"])] = None,
 ) -> TrendsPublic:

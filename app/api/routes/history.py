@@ -1,0 +1,97 @@
+"""The stored history read back: ``/measurements`` and ``/diagnoses``.
+
+A client that lost an answer (a timeout, a crash) checks here what was stored.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+from fastapi import APIRouter, Path, Query
+
+from app.api.deps import PageDep, ReadAccess, SessionDep
+from app.db.models import Diagnosis, Measurement
+from app.schemas.common import ERROR_RESPONSES, MAX_ID, IsoDatetime
+from app.schemas.history import (
+    StoredDiagnosisList,
+    StoredDiagnosisPublic,
+    StoredEstimatePublic,
+    StoredMeasurementList,
+    StoredMeasurementPublic,
+)
+from app.services import readback as service
+
+__all__ = ["router"]
+
+router = APIRouter(tags=["history"], dependencies=[ReadAccess], responses=ERROR_RESPONSES)
+
+RigFilter = Annotated[int | None, Query(ge=1, le=MAX_ID, description="Only this rig [-]",
+                                        examples=[1])]
+Since = Annotated[IsoDatetime | None, Query(
+    description="Only records taken at or after this time, ISO 8601 with zone [UTC]",
+    examples=["2026-01-01T00:00:00Z"])]
+Until = Annotated[IsoDatetime | None, Query(
+    description="Only records taken at or before this time, ISO 8601 with zone [UTC]",
+    examples=["2026-12-31T23:59:59Z"])]
+
+
+def _measurement(row: Measurement) -> StoredMeasurementPublic:
+    return StoredMeasurementPublic(
+        id=row.id, rig_id=row.rig_id, measured_at=row.measured_at, record=row.record,
+        diagnosis_ids=sorted(d.id for d in row.diagnoses), created_at=row.created_at)
+
+
+def _diagnosis(row: Diagnosis) -> StoredDiagnosisPublic:
+    return StoredDiagnosisPublic(
+        id=row.id, measurement_id=row.measurement_id, rig_id=row.measurement.rig_id,
+        rig_version=row.rig_version.version, measured_at=row.measurement.measured_at,
+        component=row.component, probability=row.probability,
+        estimates=[StoredEstimatePublic.model_validate(e) for e in row.estimates],
+        result=row.result, created_at=row.created_at)
+
+
+@router.get("/measurements", summary="List stored measurement records")
+def list_measurements(session: SessionDep, page: PageDep, rig_id: RigFilter = None,
+                      since: Since = None, until: Until = None) -> StoredMeasurementList:
+    """Return a page of the records stored by ``/diagnose``, newest measurement first."""
+    rows, total = service.list_measurements(session, limit=page.limit, offset=page.offset,
+                                            rig_id=rig_id, since=since, until=until)
+    return StoredMeasurementList(items=[_measurement(r) for r in rows], total=total,
+                                 limit=page.limit, offset=page.offset)
+
+
+@router.get("/measurements/{measurement_id}", summary="Get a stored measurement record")
+def get_measurement(
+    measurement_id: Annotated[int, Path(ge=1, le=MAX_ID, description="Measurement "
+                                        "identifier [-]", examples=[1])],
+    session: SessionDep,
+) -> StoredMeasurementPublic:
+    """Return the record as posted, with the ids of its diagnoses."""
+    return _measurement(service.get_measurement(session, measurement_id))
+
+
+@router.get("/diagnoses", summary="List stored diagnoses")
+def list_diagnoses(
+    session: SessionDep, page: PageDep, rig_id: RigFilter = None, since: Since = None,
+    until: Until = None,
+    component: Annotated[str | None, Query(
+        max_length=64, description="Only diagnoses whose top hypothesis blames this "
+        "component ('valve', 'cylinder', 'pump', 'healthy', ...) [-]",
+        examples=["valve"])] = None,
+) -> StoredDiagnosisList:
+    """Return a page of stored diagnoses, newest record first."""
+    rows, total = service.list_diagnoses(session, limit=page.limit, offset=page.offset,
+                                         rig_id=rig_id, since=since, until=until,
+                                         component=component)
+    return StoredDiagnosisList(items=[_diagnosis(r) for r in rows], total=total,
+                               limit=page.limit, offset=page.offset)
+
+
+@router.get("/diagnoses/{diagnosis_id}", summary="Get a stored diagnosis")
+def get_diagnosis(
+    diagnosis_id: Annotated[int, Path(ge=1, le=MAX_ID, description="Diagnosis identifier [-]",
+                                      examples=[1])],
+    session: SessionDep,
+) -> StoredDiagnosisPublic:
+    """Return the diagnosis with its estimates and full result."""
+    return _diagnosis(service.get_diagnosis(session, diagnosis_id))

@@ -1,0 +1,94 @@
+"""Request body size limit, checked before anything parses the body.
+
+:class:`BodyLimitMiddleware` answers 413 (``PayloadTooLargeError``, naming the limit) when
+the ``Content-Length`` header is over ``max_body_bytes``, and otherwise reads the body as it
+arrives, stopping at the limit, before the application sees it: a 50 MB body (or one sent
+in chunks without a length) costs at most the limit in memory, and no JSON parser runs on
+it.
+"""
+
+from __future__ import annotations
+
+import json
+
+from starlette.types import ASGIApp, Message, Receive, Scope, Send
+
+from app.errors import PayloadTooLargeError
+
+__all__ = ["BodyLimitMiddleware"]
+
+
+class BodyLimitMiddleware:
+    """ASGI middleware refusing request bodies over ``limit`` bytes with a 413.
+
+    Parameters
+    ----------
+    app
+        The application it wraps.
+    limit
+        Largest body accepted [byte].
+    """
+
+    def __init__(self, app: ASGIApp, limit: int) -> None:
+        self.app = app
+        self.limit = limit
+
+    async def _refuse(self, send: Send) -> None:
+        body = json.dumps({"error": {
+            "type": PayloadTooLargeError.__name__,
+            "message": f"the request body is larger than the limit of {self.limit} bytes "
+                       "(setting HYDRODIAG_MAX_BODY_BYTES)",
+            "field": "body",
+        }}).encode("utf-8")
+        await send({"type": "http.response.start", "status": 413, "headers": [
+            (b"content-type", b"application/json"),
+            (b"content-length", str(len(body)).encode("ascii")),
+            (b"connection", b"close"),
+        ]})
+        await send({"type": "http.response.body", "body": body})
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] != "http":
+            await self.app(scope, receive, send)
+            return
+        declared = dict(scope.get("headers") or []).get(b"content-length")
+        if declared is not None:
+            try:
+                too_large = int(declared) > self.limit
+            except ValueError:
+                too_large = False  # the server refuses a malformed length itself
+            if too_large:
+                await self._refuse(send)
+                return
+        if scope.get("method") in {"GET", "HEAD", "OPTIONS"} and declared is None:
+            await self.app(scope, receive, send)
+            return
+        chunks: list[bytes] = []
+        size = 0
+        while True:
+            message = await receive()
+            if message["type"] != "http.request":  # the client went away
+                await self.app(scope, _replay([message], receive), send)
+                return
+            chunk = message.get("body", b"")
+            size += len(chunk)
+            if size > self.limit:
+                await self._refuse(send)
+                return
+            chunks.append(chunk)
+            if not message.get("more_body", False):
+                break
+        whole: Message = {"type": "http.request", "body": b"".join(chunks), "more_body": False}
+        await self.app(scope, _replay([whole], receive), send)
+
+
+def _replay(messages: list[Message], receive: Receive) -> Receive:
+    """A ``receive`` that first returns ``messages``, then waits on the real one."""
+    pending = list(messages)
+
+    async def replay() -> Message:
+        if pending:
+            return pending.pop(0)
+        return await receive()
+
+    return replay

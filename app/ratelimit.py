@@ -1,0 +1,58 @@
+"""Requests per API key and minute: a token bucket per key, in each server process.
+
+With ``HYDRODIAG_RATE_LIMIT_PER_MINUTE=N`` (default 0: no limit) each key may send ``N``
+requests in a burst and then ``N`` per minute; a request over that is answered 429 with
+``Retry-After`` (whole seconds until a request would be accepted).  Each worker process
+keeps its own buckets, so with ``W`` workers a key gets up to ``W × N``.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+from collections import OrderedDict
+
+__all__ = ["KeyRateLimiter"]
+
+
+class KeyRateLimiter:
+    """Token buckets per key.
+
+    Parameters
+    ----------
+    per_minute
+        Requests a key may send per minute, and the size of its burst [1/min].
+    max_keys
+        Buckets kept [-]; the least recently used are dropped (a dropped key starts full).
+    """
+
+    def __init__(self, per_minute: int, max_keys: int = 10_000) -> None:
+        if per_minute < 1:
+            raise ValueError("per_minute must be at least 1")
+        self.capacity = float(per_minute)
+        self.rate = per_minute / 60.0  # tokens per second
+        self._buckets: OrderedDict[str, tuple[float, float]] = OrderedDict()
+        self._max_keys = max_keys
+        self._lock = threading.Lock()
+
+    def acquire(self, key: str, now: float | None = None) -> float:
+        """Take one token for ``key``; return 0 if granted, else the wait [s] for one."""
+        now = time.monotonic() if now is None else now
+        with self._lock:
+            tokens, stamp = self._buckets.pop(key, (self.capacity, now))
+            tokens = min(self.capacity, tokens + (now - stamp) * self.rate)
+            wait = 0.0
+            if tokens >= 1.0:
+                tokens -= 1.0
+            else:
+                wait = (1.0 - tokens) / self.rate
+            self._buckets[key] = (tokens, now)
+            while len(self._buckets) > self._max_keys:
+                self._buckets.popitem(last=False)
+            return wait
+
+    @staticmethod
+    def retry_after(wait: float) -> int:
+        """``Retry-After`` in whole seconds (at least 1) for a wait of ``wait`` [s]."""
+        return max(1, math.ceil(wait))

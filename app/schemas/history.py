@@ -1,0 +1,88 @@
+"""Stored history read back: measurement records and their diagnoses."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from pydantic import AwareDatetime, Field
+
+from app.schemas.common import Page, PublicModel
+
+__all__ = [
+    "StoredDiagnosisList",
+    "StoredDiagnosisPublic",
+    "StoredEstimatePublic",
+    "StoredMeasurementList",
+    "StoredMeasurementPublic",
+]
+
+_RECORD_EXAMPLE: dict[str, Any] = {
+    "rig_id": 1, "measured_at": "2026-11-22T08:30:00+00:00",
+    "condition": {"oil_temperature": {"value": 40.0}, "load_force": {"value": 2100.0}},
+    "p1": {"value": 1190000.0}, "flow_B": {"value": 4.44e-4, "u": 2.6e-6},
+}
+
+
+class StoredMeasurementPublic(PublicModel):
+    """A stored measurement record, as it was posted to ``/diagnose``."""
+
+    id: int = Field(description="Measurement identifier [-]", examples=[31])
+    rig_id: int = Field(description="Rig identifier [-]", examples=[1])
+    measured_at: AwareDatetime = Field(description="When the readings were taken [UTC]",
+                                       examples=["2026-11-22T08:30:00Z"])
+    record: dict[str, Any] = Field(
+        description="The record as posted (readings in SI units: pressures [Pa], flows "
+        "[m³/s], speeds [m/s], durations [s], temperature [°C], force [N]), its time "
+        "filled in [-]", examples=[_RECORD_EXAMPLE])
+    diagnosis_ids: list[int] = Field(
+        description="Stored diagnoses of this record; empty for a record of a joint batch "
+        "whose diagnosis is kept with another record [-]", examples=[[12]])
+    created_at: AwareDatetime = Field(description="When it was stored [UTC]",
+                                      examples=["2026-11-22T08:31:02Z"])
+
+
+class StoredMeasurementList(Page[StoredMeasurementPublic]):
+    """A page of stored measurement records."""
+
+
+class StoredEstimatePublic(PublicModel):
+    """A stored per-component estimate of a diagnosis (the trend series)."""
+
+    component: str = Field(description="Component [-]", examples=["valve"])
+    probability: float | None = Field(
+        description="Probability that this component alone is at fault [1]",
+        examples=[0.75])
+    clearance_m: float | None = Field(
+        description="Estimated equivalent clearance; null for the pump [m]", examples=[5.9e-5])
+    slip_coefficient: float | None = Field(
+        description="Estimated pump slip coefficient Cs; null for the others [1]",
+        examples=[None])
+
+
+class StoredDiagnosisPublic(PublicModel):
+    """A stored diagnosis with the record it was made from."""
+
+    id: int = Field(description="Diagnosis identifier [-]", examples=[12])
+    measurement_id: int = Field(description="Measurement the result is kept with [-]",
+                                examples=[31])
+    rig_id: int = Field(description="Rig identifier [-]", examples=[1])
+    rig_version: int = Field(description="Version of the rig document used [-]",
+                             examples=[1])
+    measured_at: AwareDatetime = Field(description="Time of the record [UTC]",
+                                       examples=["2026-11-22T08:30:00Z"])
+    component: str | None = Field(
+        description="Component(s) the top hypothesis blames, '+'-joined; 'healthy' [-]",
+        examples=["valve"])
+    probability: float | None = Field(description="Probability of the top hypothesis [1]",
+                                      examples=[0.75])
+    estimates: list[StoredEstimatePublic] = Field(
+        description="Per-component estimates kept for the trends [-]", examples=[[]])
+    result: dict[str, Any] = Field(
+        description="The full diagnosis as answered by POST /diagnose; SI units stated per "
+        "field [-]", examples=[{"top": "valve", "hypotheses": []}])
+    created_at: AwareDatetime = Field(description="When it was stored [UTC]",
+                                      examples=["2026-11-22T08:31:02Z"])
+
+
+class StoredDiagnosisList(Page[StoredDiagnosisPublic]):
+    """A page of stored diagnoses."""

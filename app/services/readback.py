@@ -1,0 +1,78 @@
+"""Reading the stored history back: measurements and diagnoses, filtered and paged."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from datetime import datetime
+from typing import Any
+
+from sqlalchemy import Select, func, select
+from sqlalchemy.orm import Session, selectinload
+
+from app.db.models import Diagnosis, Measurement, RigVersion
+from app.services.common import get_or_raise
+from sim.errors import InputError
+
+__all__ = ["get_diagnosis", "get_measurement", "list_diagnoses", "list_measurements"]
+
+
+def _window(since: datetime | None, until: datetime | None) -> None:
+    if since is not None and until is not None and until < since:
+        raise InputError("`until` is before `since`", field="until")
+
+
+def _page(session: Session, statement: Select[Any], *, limit: int, offset: int,
+          order: Sequence[Any]) -> tuple[list[Any], int]:
+    total = session.scalar(select(func.count()).select_from(statement.subquery()))
+    rows = session.scalars(statement.order_by(*order).limit(limit).offset(offset)).all()
+    return list(rows), int(total or 0)
+
+
+def list_measurements(session: Session, *, limit: int, offset: int, rig_id: int | None = None,
+                      since: datetime | None = None, until: datetime | None = None,
+                      ) -> tuple[list[Measurement], int]:
+    """Return a page of stored records, newest measurement first, and their total."""
+    _window(since, until)
+    statement = select(Measurement).options(selectinload(Measurement.diagnoses))
+    if rig_id is not None:
+        statement = statement.where(Measurement.rig_id == rig_id)
+    if since is not None:
+        statement = statement.where(Measurement.measured_at >= since)
+    if until is not None:
+        statement = statement.where(Measurement.measured_at <= until)
+    return _page(session, statement, limit=limit, offset=offset,
+                 order=(Measurement.measured_at.desc(), Measurement.id.desc()))
+
+
+def get_measurement(session: Session, measurement_id: int) -> Measurement:
+    """Return stored record ``measurement_id`` (404 when unknown)."""
+    measurement: Measurement = get_or_raise(session, Measurement, measurement_id,
+                                            what="measurement")
+    return measurement
+
+
+def list_diagnoses(session: Session, *, limit: int, offset: int, rig_id: int | None = None,
+                   since: datetime | None = None, until: datetime | None = None,
+                   component: str | None = None) -> tuple[list[Diagnosis], int]:
+    """Return a page of stored diagnoses, newest record first, and their total."""
+    _window(since, until)
+    statement = (select(Diagnosis).join(Diagnosis.measurement)
+                 .options(selectinload(Diagnosis.estimates),
+                          selectinload(Diagnosis.measurement),
+                          selectinload(Diagnosis.rig_version).load_only(RigVersion.version)))
+    if rig_id is not None:
+        statement = statement.where(Measurement.rig_id == rig_id)
+    if since is not None:
+        statement = statement.where(Measurement.measured_at >= since)
+    if until is not None:
+        statement = statement.where(Measurement.measured_at <= until)
+    if component is not None:
+        statement = statement.where(Diagnosis.component == component)
+    return _page(session, statement, limit=limit, offset=offset,
+                 order=(Measurement.measured_at.desc(), Diagnosis.id.desc()))
+
+
+def get_diagnosis(session: Session, diagnosis_id: int) -> Diagnosis:
+    """Return stored diagnosis ``diagnosis_id`` (404 when unknown)."""
+    diagnosis: Diagnosis = get_or_raise(session, Diagnosis, diagnosis_id, what="diagnosis")
+    return diagnosis

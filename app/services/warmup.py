@@ -1,0 +1,88 @@
+"""Start-up warming: compile the stored rigs before the service reports ready.
+
+A fresh process compiles (or loads from the code cache) each rig's model on its first
+request.  :class:`Warmup` does that once at start-up for the rigs the service serves — the
+latest version of each stored rig, newest first, as many as the rig cache holds — and runs
+one steady operating point on each so that every compiled function has been called once.
+``/ready`` answers 503 until it has finished, so a load balancer sends no traffic to a
+worker that is still loading.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+
+from sqlalchemy import select
+
+from app.db.engine import SessionFactory
+from app.db.models import Rig as RigRow
+from app.services.rig_cache import RigCache
+from sim.errors import HydrodiagError
+from sim.steady import steady_cycle
+
+__all__ = ["Warmup"]
+
+logger = logging.getLogger("hydrodiag.app")
+
+
+class Warmup:
+    """Loads the stored rigs in a background thread; ``done`` once all are loaded.
+
+    Parameters
+    ----------
+    sessions
+        Session factory of the store.
+    rigs
+        The application's cache of compiled rigs, filled here.
+    limit
+        Largest number of rigs loaded [-] (the cache's size: more would be evicted).
+    """
+
+    def __init__(self, sessions: SessionFactory, rigs: RigCache, limit: int) -> None:
+        self._sessions = sessions
+        self._rigs = rigs
+        self._limit = limit
+        self._done = threading.Event()
+        self.loaded: list[int] = []
+        self.failed: dict[int, str] = {}
+        self.seconds = 0.0
+        self._thread = threading.Thread(target=self._run, name="hydrodiag-warmup",
+                                        daemon=True)
+
+    @property
+    def done(self) -> bool:
+        """Whether every rig has been loaded (or has failed to load, logged)."""
+        return self._done.is_set()
+
+    def start(self) -> None:
+        """Start loading in the background."""
+        self._thread.start()
+
+    def wait(self, timeout: float | None = None) -> bool:
+        """Block until loading has finished or ``timeout`` [s] passed; return ``done``."""
+        return self._done.wait(timeout)
+
+    def _run(self) -> None:
+        started = time.perf_counter()
+        try:
+            with self._sessions() as session:
+                ids = list(session.scalars(
+                    select(RigRow.id).order_by(RigRow.updated_at.desc(), RigRow.id.desc())
+                    .limit(self._limit)))
+                for rig_id in ids:
+                    try:
+                        resolved = self._rigs.get(session, rig_id)
+                        steady_cycle(resolved.rig)
+                    except HydrodiagError as exc:  # a rig that cannot run still serves 422s
+                        self.failed[rig_id] = str(exc)
+                        logger.warning("rig %d not warmed: %s", rig_id, exc)
+                    else:
+                        self.loaded.append(rig_id)
+        except Exception:  # never leave the service unready for ever
+            logger.exception("warming the rigs failed")
+        finally:
+            self.seconds = time.perf_counter() - started
+            logger.info("rigs loaded: %d in %.1f s", len(self.loaded), self.seconds)
+            self._done.set()

@@ -1,0 +1,423 @@
+"""Chaos study of the service: fuzzing, kill -9 under concurrent writers, bad input.
+
+Each part runs ``hydrodiag serve`` (embedded SQLite in a temporary folder) on a free
+loopback port:
+
+1. **Fuzz** — Schemathesis (``st run``, every phase, ``--checks all``) over the live
+   OpenAPI document with the API key, every operation; ``FUZZ_EXAMPLES`` examples per
+   operation.  Figures: test cases sent, failures per check (server errors and schema
+   violations must be 0).  Schemathesis's ``positive_data_acceptance`` check is told that
+   422 is a valid answer to a schema-valid request (``benchmarks/schemathesis.toml``): the
+   API refuses with 422 what only the physics or another field can rule out (a rig
+   document that does not validate, ``until`` before ``since``, a steady run asked for a
+   time series), which JSON Schema cannot express.  That every documented example is
+   accepted is checked by ``tests/app/test_examples.py``.
+2. **Kill -9** — ``ROUNDS`` rounds: three writer threads (``POST /diagnose`` with
+   ``store``, ``POST /rigs/1/calibrations``, ``POST /pump-sets``) write as fast as the
+   service answers; after a random 1-3 s the server gets SIGKILL mid-load, is restarted on
+   the same folder, and every acknowledged write (a 2xx with its id) is read back over HTTP
+   and counted; ``PRAGMA integrity_check`` must say ``ok``.
+3. **Bad input** — issue 14's catalogue (NaN, Infinity, negative and absurd values, a
+   10⁵-record batch, a 50 MB body, 5,000-deep nesting, wrong content type, malformed and
+   binary uploads, non-UTF-8, injection strings in paths), each must be a 4xx whose body
+   names the field or the limit; afterwards the server answers ``/health``, its RSS has
+   grown by less than ``RSS_BOUND_MB``, and no table has changed.
+
+``HYDRODIAG_LIGHT=1`` (CI): 3 examples per operation, 2 kill rounds.  Run with
+``make chaos``.  The last line printed is one JSON object with every figure.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import random
+import signal
+import sqlite3
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import httpx
+
+LIGHT = os.environ.get("HYDRODIAG_LIGHT") == "1"
+FUZZ_EXAMPLES = 3 if LIGHT else 100
+ROUNDS = 2 if LIGHT else 10
+RSS_BOUND_MB = 200.0
+STARTUP_TIMEOUT_S = 120.0
+CONFIG = Path(__file__).with_name("schemathesis.toml")
+
+
+@dataclass
+class Server:
+    """A running ``hydrodiag serve`` on ``data_dir``."""
+
+    base_url: str
+    data_dir: Path
+    process: subprocess.Popen[str]
+    key: str = ""
+
+    @property
+    def auth(self) -> dict[str, str]:
+        return {"X-API-Key": self.key}
+
+    def rss_mb(self) -> float:
+        """Resident memory of the server process [MiB]."""
+        for line in Path(f"/proc/{self.process.pid}/status").read_text().splitlines():
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1]) / 1024
+        return float("nan")
+
+
+def _free_port() -> int:
+    import socket
+
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        return int(sock.getsockname()[1])
+
+
+def start(data_dir: Path, key: str = "") -> Server:
+    """Start the service on ``data_dir``; read the first-start key when there is one."""
+    port = _free_port()
+    env = os.environ | {"HYDRODIAG_DATA_DIR": str(data_dir), "HYDRODIAG_ACCESS_LOG": "false",
+                        "HYDRODIAG_LOG_LEVEL": "warning"}
+    log = (data_dir / "service.log").open("a")
+    process = subprocess.Popen(
+        [sys.executable, "-m", "app.cli", "serve", "--host", "127.0.0.1", "--port", str(port)],
+        env=env, stdout=subprocess.PIPE, stderr=log, text=True)
+    server = Server(f"http://127.0.0.1:{port}", data_dir, process, key)
+    assert process.stdout is not None
+    if not key:
+        for line in process.stdout:
+            if line.startswith("API key: "):
+                server.key = line.split(": ", 1)[1].strip()
+                break
+    deadline = time.monotonic() + STARTUP_TIMEOUT_S
+    while True:
+        try:
+            if httpx.get(f"{server.base_url}/health", timeout=1).status_code == 200:
+                return server
+        except httpx.TransportError:
+            pass
+        if process.poll() is not None or time.monotonic() > deadline:
+            raise RuntimeError(f"the service did not start (see {data_dir}/service.log)")
+        time.sleep(0.1)
+
+
+def stop(server: Server) -> None:
+    """Stop the server gracefully (SIGTERM), or kill it if it does not go."""
+    server.process.terminate()
+    try:
+        server.process.wait(timeout=30)
+    except subprocess.TimeoutExpired:
+        server.process.kill()
+        server.process.wait(timeout=30)
+
+
+def wait_ready(server: Server) -> None:
+    """Wait until ``/ready`` answers 200 (store migrated, rigs loaded)."""
+    deadline = time.monotonic() + STARTUP_TIMEOUT_S
+    while httpx.get(f"{server.base_url}/ready", timeout=10).status_code != 200:
+        if time.monotonic() > deadline:
+            raise RuntimeError("the service did not become ready")
+        time.sleep(0.2)
+
+
+@contextmanager
+def running(data_dir: Path) -> Iterator[Server]:
+    server = start(data_dir)
+    try:
+        wait_ready(server)
+        yield server
+    finally:
+        stop(server)
+
+
+# --- 1. fuzzing ------------------------------------------------------------------------
+
+def fuzz(work: Path) -> dict[str, Any]:
+    """Run Schemathesis over the live document; return its counts."""
+    data_dir = work / "fuzz"
+    data_dir.mkdir()
+    report = work / "schemathesis.json"
+    with running(data_dir) as server:
+        command = [
+            str(Path(sys.executable).with_name("schemathesis")), "--config-file", str(CONFIG),
+            "run", f"{server.base_url}/openapi.json", "--checks", "all",
+            "-H", f"X-API-Key: {server.key}", "--max-examples", str(FUZZ_EXAMPLES),
+            "--workers", "2", "--request-timeout", "120", "--seed", "14",
+            "--report", "json", "--report-json-path", str(report),
+        ]
+        started = time.perf_counter()
+        run = subprocess.run(command, capture_output=True, text=True, check=False,
+                             cwd=work)  # its cache folder goes with the temporary files
+        seconds = time.perf_counter() - started
+        alive = httpx.get(f"{server.base_url}/health", timeout=10).status_code == 200
+    (work / "schemathesis.out").write_text(run.stdout + run.stderr)
+    if not report.exists():
+        raise RuntimeError(f"schemathesis wrote no report:\n{run.stdout[-3000:]}")
+    data = json.loads(report.read_text())
+    failures = {f["code"] + " " + f["title"]: int(f["count"]) for f in data["failures"]}
+    server_errors = sum(n for k, n in failures.items() if "Server error" in k)
+    schema_violations = sum(n for k, n in failures.items()
+                            if "schema" in k.lower() and "request" not in k.lower())
+    if failures:
+        print(run.stdout[-6000:])
+    return {
+        "examples_per_operation": FUZZ_EXAMPLES,
+        "operations": data["operations"]["tested"],
+        "requests": data["test_cases"]["generated"],
+        "failures": failures,
+        "failures_total": sum(failures.values()),
+        "server_errors": server_errors,
+        "schema_violations": schema_violations,
+        "errors": len(data["errors"]),
+        "seconds": round(seconds, 1),
+        "server_up_after": alive,
+    }
+
+
+# --- 2. kill -9 ------------------------------------------------------------------------
+
+TABLE = {"throttle": "I", "component": "valve", "back_pressure_pa": 1.0e6,
+         "temperature_c": 40.0, "source": "chaos", "points": [
+             {"opening_turns": 0.0, "bypass_flow_m3s": 1.0e-5, "clearance_m": 40e-6},
+             {"opening_turns": 1.0, "bypass_flow_m3s": 3.0e-5, "clearance_m": 60e-6}]}
+RECORD = {"rig_id": 1, "condition": {"oil_temperature": 40.0, "load_force": 2100.0},
+          "pump_pressure": 14.6e5, "p1": 11.9e5, "p2": 1.2e5, "flow_B": 4.44e-4,
+          "flow_C": 3.97e-4, "speed_work": 0.180, "speed_return": 0.215}
+
+
+@dataclass
+class Acked:
+    """Writes the service acknowledged (2xx with an id), by kind."""
+
+    ids: dict[str, list[int]] = field(default_factory=lambda: {
+        "diagnoses": [], "calibrations": [], "pump_sets": []})
+    lock: threading.Lock = field(default_factory=threading.Lock)
+
+    def add(self, kind: str, ident: int) -> None:
+        with self.lock:
+            self.ids[kind].append(ident)
+
+
+def _writer(server: Server, kind: str, acked: Acked, stop_event: threading.Event,
+            seq: list[int]) -> None:
+    with httpx.Client(base_url=server.base_url, headers=server.auth, timeout=30) as client:
+        while not stop_event.is_set():
+            try:
+                if kind == "diagnoses":
+                    response = client.post("/diagnose", json={"record": RECORD})
+                    ident = response.json()["diagnoses"][0]["id"] if response.is_success \
+                        else None
+                elif kind == "calibrations":  # one table per condition: vary it
+                    response = client.post("/rigs/1/calibrations", json=TABLE | {
+                        "back_pressure_pa": random.uniform(1e5, 5e6),
+                        "temperature_c": random.uniform(10.0, 80.0)})
+                    ident = response.json()["id"] if response.is_success else None
+                else:
+                    seq[0] += 1
+                    response = client.post("/pump-sets", json={
+                        "name": f"chaos-{os.getpid()}-{seq[0]}-{random.getrandbits(32)}",
+                        "kind": "parameters", "pump": "gear",
+                        "quantities": {"Cs": {"value": 2.1e-9, "unit": "1"}}})
+                    ident = response.json()["id"] if response.is_success else None
+            except (httpx.TransportError, ValueError):
+                continue  # the server was killed: this write was never acknowledged
+            if ident is not None:
+                acked.add(kind, int(ident))
+
+
+def _present(server: Server, kind: str, ident: int) -> bool:
+    path = {"diagnoses": f"/diagnoses/{ident}", "calibrations": f"/rigs/1/calibrations/{ident}",
+            "pump_sets": f"/pump-sets/{ident}"}[kind]
+    return httpx.get(server.base_url + path, headers=server.auth, timeout=30).status_code == 200
+
+
+def kill_rounds(work: Path) -> dict[str, Any]:
+    """SIGKILL the server under concurrent writers; count lost acknowledged writes."""
+    data_dir = work / "kill"
+    data_dir.mkdir()
+    server = start(data_dir)
+    wait_ready(server)
+    key = server.key
+    acked = Acked()
+    rounds, integrity, restarts = [], [], []
+    rng = random.Random(14)
+    try:
+        for _ in range(ROUNDS):
+            stop_event = threading.Event()
+            seq = [0]
+            threads = [threading.Thread(target=_writer, args=(server, kind, acked, stop_event,
+                                                              seq))
+                       for kind in ("diagnoses", "calibrations", "pump_sets")]
+            before = {k: len(v) for k, v in acked.ids.items()}
+            for thread in threads:
+                thread.start()
+            time.sleep(rng.uniform(1.0, 3.0))
+            os.kill(server.process.pid, signal.SIGKILL)
+            server.process.wait(timeout=30)
+            stop_event.set()
+            for thread in threads:
+                thread.join(timeout=60)
+            started = time.perf_counter()
+            server = start(data_dir, key)
+            restarts.append(time.perf_counter() - started)
+            with sqlite3.connect(data_dir / "hydrodiag.db") as db:
+                integrity.append(db.execute("PRAGMA integrity_check").fetchone()[0])
+            rounds.append({k: len(v) - before[k] for k, v in acked.ids.items()})
+        lost = {kind: sum(not _present(server, kind, i) for i in ids)
+                for kind, ids in acked.ids.items()}
+    finally:
+        stop(server)
+    return {
+        "rounds": ROUNDS,
+        "acknowledged": {k: len(v) for k, v in acked.ids.items()},
+        "acknowledged_total": sum(len(v) for v in acked.ids.values()),
+        "lost": lost,
+        "lost_total": sum(lost.values()),
+        "integrity_ok": sum(i == "ok" for i in integrity),
+        "restart_s_max": round(max(restarts), 2),
+        "per_round": rounds,
+    }
+
+
+# --- 3. bad input ----------------------------------------------------------------------
+
+def _deep(depth: int) -> bytes:
+    return b'{"record": ' + b"[" * depth + b"]" * depth + b"}"
+
+
+def catalogue() -> list[tuple[str, str, str, dict[str, Any]]]:
+    """(name, method, path, httpx arguments) of each bad request."""
+    json_h = {"Content-Type": "application/json"}
+    batch = {"records": [RECORD] * 100_000, "store": True}
+    return [
+        ("NaN", "POST", "/simulate",
+         {"content": b'{"rig_id": 1, "overrides": {"valve.cv": NaN}}', "headers": json_h}),
+        ("Infinity", "POST", "/diagnose", {"content": json.dumps(
+            {"record": RECORD | {"p1": float("inf")}}).encode(), "headers": json_h}),
+        ("negative value", "POST", "/rigs/1/calibrations",
+         {"json": TABLE | {"back_pressure_pa": -1.0}}),
+        ("absurd temperature", "POST", "/diagnose",
+         {"json": {"record": RECORD | {"condition": {"oil_temperature": 1.0e6}}}}),
+        ("absurd clearance", "POST", "/simulate",
+         {"json": {"rig_id": 1, "overrides": {"valve.cv": 1.0e9}}}),
+        ("1e5-record batch", "POST", "/diagnose", {"json": batch}),
+        ("50 MB body", "POST", "/rigs",
+         {"content": b'{"document": "' + b"x" * 50_000_000 + b'"}', "headers": json_h}),
+        ("5000-deep nesting", "POST", "/diagnose", {"content": _deep(5000), "headers": json_h}),
+        ("wrong content type", "POST", "/rigs",
+         {"content": b"document=1", "headers": {"Content-Type": "text/plain"}}),
+        ("malformed JSON", "POST", "/pump-sets", {"content": b'{"name": ', "headers": json_h}),
+        ("not UTF-8", "POST", "/rigs", {"content": b'{"document": "\xff\xfe"}',
+                                        "headers": json_h}),
+        ("malformed upload", "POST", "/pump-sets/bench", {
+            "data": {"name": "bad-csv", "pump": "gear"},
+            "files": {"file": ("b.csv", b"p_in [Pa],p_out\n1,2,3\n", "text/csv")}}),
+        ("binary upload", "POST", "/pump-sets/bench", {
+            "data": {"name": "bin-csv", "pump": "gear"},
+            "files": {"file": ("b.csv", bytes(range(256)) * 64, "application/octet-stream")}}),
+        ("unknown field", "POST", "/diagnose",
+         {"json": {"record": RECORD | {"flow_b": 1e-4}}}),
+        ("SQL in path", "GET", "/rigs/1%3B%20DROP%20TABLE%20rigs", {}),
+        ("SQL in job id", "GET", "/jobs/'%20OR%201=1%20--", {}),
+        ("path traversal", "GET", "/pump-sets/..%2F..%2Fetc%2Fpasswd", {}),
+        ("SQL in path segment", "GET", "/rigs/1'%20OR%20'1'='1/versions", {}),
+        ("huge id", "GET", "/rigs/99999999999999999999999", {}),
+    ]
+
+
+def _counts(data_dir: Path) -> dict[str, int]:
+    with sqlite3.connect(data_dir / "hydrodiag.db") as db:
+        tables = [r[0] for r in db.execute(
+            "SELECT name FROM sqlite_master WHERE type='table' AND name NOT LIKE 'sqlite_%'")]
+        return {t: db.execute(f'SELECT count(*) FROM "{t}"').fetchone()[0] for t in tables}
+
+
+def bad_input(work: Path) -> dict[str, Any]:
+    """Send the catalogue; every answer must be a 4xx naming the field or the limit."""
+    data_dir = work / "bad"
+    data_dir.mkdir()
+    rows = []
+    with running(data_dir) as server:
+        rss_before = server.rss_mb()
+        counts_before = _counts(data_dir)
+        with httpx.Client(base_url=server.base_url, headers=server.auth, timeout=120) as client:
+            for name, method, path, kwargs in catalogue():
+                response = client.request(method, path, **kwargs)
+                try:
+                    error = response.json().get("error", {})
+                except ValueError:
+                    error = {}
+                named = error.get("field") or ""
+                ok = 400 <= response.status_code < 500 and bool(named or error.get("message"))
+                named_ok = bool(named) or response.status_code == 404
+                rows.append({"name": name, "status": response.status_code, "field": named,
+                             "message": str(error.get("message", ""))[:70],
+                             "ok": ok and named_ok})
+            query = client.get("/rigs", params={"name": "x' OR '1'='1"})
+            harmless = query.status_code == 200 and query.json()["total"] == 0
+        alive = httpx.get(f"{server.base_url}/health", timeout=10).status_code == 200
+        rss_after = server.rss_mb()
+        unchanged = _counts(data_dir) == counts_before
+    return {"cases": rows, "all_4xx_named": all(r["ok"] for r in rows),
+            "sql_in_query_matches_nothing": harmless,
+            "server_up_after": alive, "rss_before_mb": round(rss_before, 1),
+            "rss_after_mb": round(rss_after, 1),
+            "rss_bounded": rss_after - rss_before < RSS_BOUND_MB, "store_unchanged": unchanged}
+
+
+def main() -> None:
+    """Run the three parts, print the tables and the JSON line."""
+    with tempfile.TemporaryDirectory(prefix="hydrodiag-chaos-") as tmp:
+        work = Path(tmp)
+        bad = bad_input(work)
+        print(f"Bad-input catalogue (light={LIGHT})")
+        print(f"{'case':<22} {'status':>6}  {'field':<28} message")
+        for row in bad["cases"]:
+            print(f"{row['name']:<22} {row['status']:>6}  {row['field'] or '-':<28} "
+                  f"{row['message']}{'' if row['ok'] else '   <-- MISS'}")
+        print(f"SQL in a query filter answers an empty page: "
+              f"{bad['sql_in_query_matches_nothing']}")
+        print(f"server up after: {bad['server_up_after']}, RSS {bad['rss_before_mb']} -> "
+              f"{bad['rss_after_mb']} MiB, store unchanged: {bad['store_unchanged']}\n")
+        killed = kill_rounds(work)
+        print(f"kill -9 rounds: {killed['rounds']}, acknowledged writes "
+              f"{killed['acknowledged']}, lost {killed['lost']}, integrity ok "
+              f"{killed['integrity_ok']}/{killed['rounds']}, restart <= "
+              f"{killed['restart_s_max']} s\n")
+        fuzzed = fuzz(work)
+        print(f"Schemathesis: {fuzzed['requests']} test cases over {fuzzed['operations']} "
+              f"operations ({fuzzed['examples_per_operation']} examples each, every phase, "
+              f"--checks all) in {fuzzed['seconds']} s; failures {fuzzed['failures'] or 0}; "
+              f"server errors {fuzzed['server_errors']}")
+    summary = {
+        "light": LIGHT,
+        "fuzz_requests": fuzzed["requests"], "fuzz_failures": fuzzed["failures_total"],
+        "fuzz_server_errors": fuzzed["server_errors"],
+        "fuzz_schema_violations": fuzzed["schema_violations"],
+        "kill_rounds": killed["rounds"], "acknowledged_writes": killed["acknowledged_total"],
+        "lost_writes": killed["lost_total"], "integrity_ok": killed["integrity_ok"],
+        "restart_s_max": killed["restart_s_max"],
+        "bad_input_cases": len(bad["cases"]), "bad_input_all_4xx_named": bad["all_4xx_named"],
+        "bad_input_server_up": bad["server_up_after"],
+        "sql_in_query_matches_nothing": bad["sql_in_query_matches_nothing"],
+        "rss_bounded": bad["rss_bounded"],
+        "rss_growth_mb": round(bad["rss_after_mb"] - bad["rss_before_mb"], 1),
+        "store_unchanged": bad["store_unchanged"],
+        "fuzz": fuzzed, "kill": {k: v for k, v in killed.items() if k != "per_round"},
+    }
+    print(json.dumps(summary))
+
+
+if __name__ == "__main__":
+    main()

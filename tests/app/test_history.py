@@ -1,0 +1,80 @@
+"""Read-back of the stored history: /measurements and /diagnoses (issue 14)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import pytest
+
+from tests.app.conftest import simulated_record
+from tests.app.live import LiveServer
+
+WORN_VALVE = {"valve.cv": 80e-6}
+
+
+@pytest.fixture(scope="module")
+def stored(server: LiveServer) -> dict[str, Any]:
+    """Three stored diagnoses on rig 1 at known times, and one joint batch."""
+    answers = []
+    for day, overrides in (("01", WORN_VALVE), ("02", {}), ("03", WORN_VALVE)):
+        record = simulated_record(server, overrides, measured_at=f"2026-03-{day}T10:00:00Z")
+        response = server.client.post("/diagnose", json={"record": record})
+        assert response.status_code == 200, response.text
+        answers.append((record, response.json()["diagnoses"][0]))
+    joint = [simulated_record(server, WORN_VALVE, load=load,
+                              measured_at=f"2026-04-01T1{i}:00:00Z")
+             for i, load in enumerate((2100.0, 4200.0))]
+    response = server.client.post("/diagnose", json={"records": joint, "joint": True})
+    assert response.status_code == 200, response.text
+    return {"single": answers, "joint": response.json()["diagnoses"][0]}
+
+
+def test_a_stored_diagnosis_reads_back_as_answered(server: LiveServer,
+                                                   stored: dict[str, Any]) -> None:
+    record, answer = stored["single"][0]
+    got = server.client.get(f"/diagnoses/{answer['id']}")
+    assert got.status_code == 200
+    body = got.json()
+    assert body["result"] == answer["result"]
+    assert body["component"] == answer["component"]
+    assert body["probability"] == pytest.approx(answer["probability"])
+    assert body["measurement_id"] == answer["measurement_ids"][0]
+    assert body["rig_id"] == 1 and body["rig_version"] == answer["rig_version"]
+    assert {e["component"] for e in body["estimates"]} == {
+        e["component"] for e in answer["estimates"]}
+    measurement = server.client.get(f"/measurements/{body['measurement_id']}").json()
+    assert measurement["diagnosis_ids"] == [answer["id"]]
+    assert measurement["record"]["p1"] == {"value": record["p1"]}
+    assert measurement["measured_at"].startswith("2026-03-01T10:00:00")
+
+
+def test_lists_filter_by_rig_and_time_newest_first(server: LiveServer,
+                                                   stored: dict[str, Any]) -> None:
+    ids = [answer["id"] for _, answer in stored["single"]]
+    march = server.client.get("/diagnoses", params={
+        "rig_id": 1, "since": "2026-03-01T00:00:00Z", "until": "2026-03-31T00:00:00Z"}).json()
+    assert [d["id"] for d in march["items"]] == ids[::-1] and march["total"] == 3
+    second = server.client.get("/diagnoses", params={
+        "since": "2026-03-02T00:00:00Z", "until": "2026-03-02T23:59:59Z"}).json()
+    assert [d["id"] for d in second["items"]] == [ids[1]]
+    paged = server.client.get("/diagnoses", params={"limit": 1, "offset": 1,
+                                                    "until": "2026-03-31T00:00:00Z"}).json()
+    assert [d["id"] for d in paged["items"]] == [ids[1]] and paged["total"] == 3
+    assert server.client.get("/diagnoses", params={"rig_id": 999}).json()["total"] == 0
+    april = server.client.get("/measurements", params={"since": "2026-04-01T00:00:00Z"}).json()
+    assert april["total"] == 2  # both records of the joint batch are stored
+    assert sorted(len(m["diagnosis_ids"]) for m in april["items"]) == [0, 1]
+    assert stored["joint"]["id"] in {i for m in april["items"] for i in m["diagnosis_ids"]}
+
+
+def test_read_back_errors(server: LiveServer, stored: dict[str, Any]) -> None:
+    assert server.client.get("/diagnoses/999999").status_code == 404
+    assert server.client.get("/measurements/999999").json()["error"]["type"] == "NotFoundError"
+    bad = server.client.get("/measurements", params={"since": "2026-05-01T00:00:00Z",
+                                                     "until": "2026-04-01T00:00:00Z"})
+    assert bad.status_code == 422 and bad.json()["error"]["field"] == "until"
+    naive = server.client.get("/diagnoses", params={"since": "2026-05-01T00:00:00"})
+    assert naive.status_code == 422 and naive.json()["error"]["field"] == "since"
+    assert server.anon.get("/diagnoses").status_code == 401
+    assert server.anon.get(f"/measurements/{stored['single'][0][1]['measurement_ids'][0]}"
+                           ).status_code == 401

@@ -1,0 +1,48 @@
+"""Rate limiting per API key (issue 14): 429 with Retry-After, other keys unaffected."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+import pytest
+
+from app.ratelimit import KeyRateLimiter
+from app.services.keys import create_api_key
+from tests.app.live import LiveServer, live_server, sqlite_settings
+
+
+def test_the_bucket_refills_at_the_rate() -> None:
+    limiter = KeyRateLimiter(per_minute=6)  # one token per 10 s, burst of 6
+    assert [limiter.acquire("a", now=0.0) for _ in range(6)] == [0.0] * 6
+    assert limiter.acquire("a", now=0.0) == pytest.approx(10.0)
+    assert limiter.acquire("b", now=0.0) == 0.0  # another key has its own bucket
+    assert limiter.acquire("a", now=5.0) == pytest.approx(5.0)  # half a token back
+    assert limiter.acquire("a", now=10.0) == 0.0
+    assert limiter.retry_after(0.2) == 1 and limiter.retry_after(9.1) == 10
+
+
+@pytest.fixture(scope="module")
+def limited(tmp_path_factory: pytest.TempPathFactory) -> Iterator[LiveServer]:
+    settings = sqlite_settings(tmp_path_factory.mktemp("limited"), rate_limit_per_minute=3)
+    with live_server(settings) as live:
+        yield live
+
+
+def test_a_key_over_its_rate_gets_429_with_retry_after(limited: LiveServer) -> None:
+    assert [limited.client.get("/rigs").status_code for _ in range(3)] == [200] * 3
+    refused = limited.client.get("/rigs")
+    assert refused.status_code == 429
+    assert refused.json()["error"]["type"] == "RateLimitError"
+    assert "3 requests per minute" in refused.json()["error"]["message"]
+    assert 1 <= int(refused.headers["Retry-After"]) <= 20
+    with limited.session() as session:
+        _, other = create_api_key(session, "second-key")
+    assert limited.anon.get("/rigs", headers={"X-API-Key": other}).status_code == 200
+    assert limited.anon.get("/health").status_code == 200  # open operations are not counted
+    spec = limited.anon.get("/openapi.json").json()
+    assert "429" in spec["paths"]["/rigs"]["get"]["responses"]
+
+
+def test_no_limit_by_default(server: LiveServer) -> None:
+    assert server.settings.rate_limit_per_minute == 0
+    assert all(server.client.get("/jobs").status_code == 200 for _ in range(20))
