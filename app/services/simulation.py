@@ -24,16 +24,20 @@ from sqlalchemy.orm import Session
 
 from app.schemas.simulate import ConditionSpec, SimulateRequest, SimulationPublic
 from app.services.rig_cache import ResolvedRig, RigCache
+from app.settings import Settings
 from sim.cycle import CycleResult, run_cycle
 from sim.errors import InputError, ParameterError
 from sim.rigs import Condition, Rig
 from sim.scenarios import fault_overrides
+from sim.solver.limits import SolverLimits
+from sim.solver.noise import NoiseAccuracy
 from sim.steady import steady_cycle
 
 __all__ = [
     "PARQUET_METADATA_KEY",
     "SimulationOutcome",
     "condition_of",
+    "limits_of",
     "public_of",
     "run_scenario",
     "simulate",
@@ -96,34 +100,54 @@ def summary_of(result: CycleResult) -> dict[str, float | None]:
 
 
 def run_scenario(rig: Rig, overrides: dict[str, float], condition: Condition, *,
-                 method: str, timeseries: bool = False, rtol: float = 1e-3) -> CycleResult:
+                 method: str, timeseries: bool = False, rtol: float | None = None,
+                 solver: str = "rodas4", sample_rate: float | None = None,
+                 accuracy: NoiseAccuracy | None = None,
+                 limits: SolverLimits | None = None) -> CycleResult:
     """Run one scenario by the transient or the steady path.
+
+    The transient is noise-accurate unless ``rtol`` is given (see
+    :func:`sim.cycle.run_cycle`); ``limits`` bound its work.
 
     Raises
     ------
     ParameterError
         An override or the condition is out of bounds (``field`` as in the request).
+    SolverLimitError
+        The transient needs more than ``limits`` allow.
     SimulationError
         The solver failed.
     """
     try:
         if method == "steady":
             return steady_cycle(rig, overrides, condition)
-        return run_cycle(rig, overrides, condition, rtol=rtol, timeseries=timeseries)
+        return run_cycle(rig, overrides, condition, rtol=rtol, method=solver,
+                         accuracy=accuracy, sample_rate=sample_rate, timeseries=timeseries,
+                         limits=limits)
     except ParameterError as exc:
         field = _CONDITION_FIELDS.get(exc.field or "", exc.field)
         raise ParameterError(exc.message, field=field) from None
 
 
-def simulate(session: Session, rigs: RigCache, request: SimulateRequest) -> SimulationOutcome:
-    """Run the scenario of ``request`` on its stored rig.
+def limits_of(settings: Settings) -> SolverLimits:
+    """The solver limits of ``settings`` (``sim_max_steps``, ``sim_max_time``,
+    ``sim_wall_clock``)."""
+    return SolverLimits(max_steps=settings.sim_max_steps, max_sim_time=settings.sim_max_time,
+                        wall_clock=settings.sim_wall_clock)
+
+
+def simulate(session: Session, rigs: RigCache, request: SimulateRequest,
+             limits: SolverLimits | None = None) -> SimulationOutcome:
+    """Run the scenario of ``request`` on its stored rig, within ``limits``.
 
     Raises
     ------
     NotFoundError
         Unknown rig or version.
     InputError
-        A time series asked of the steady path, an unknown parameter, a value out of bounds.
+        A time series asked of the steady path, an unknown parameter, a value out of bounds,
+        sampling asked of ROS2; :class:`~sim.errors.SolverLimitError` when the run needs
+        more than ``limits`` allow.
     SimulationError
         The solver failed.
     """
@@ -135,8 +159,17 @@ def simulate(session: Session, rigs: RigCache, request: SimulateRequest) -> Simu
     overrides = fault_overrides(rig, request.fault) if request.fault else {}
     overrides.update(request.overrides)
     condition = condition_of(rig, request.condition)
+    if request.solver == "ros2" and request.sample_rate is not None:
+        raise InputError("sampling on a grid needs the dense output of 'rodas4'",
+                         field="sample_rate")
+    accuracy = None
+    if request.noise or request.noise_fraction:
+        accuracy = NoiseAccuracy(sigma=dict(request.noise),
+                                 fraction=dict(request.noise_fraction))
     result = run_scenario(rig, overrides, condition, method=request.method,
-                          timeseries=request.timeseries is not None, rtol=request.rtol)
+                          timeseries=request.timeseries is not None, rtol=request.rtol,
+                          solver=request.solver, sample_rate=request.sample_rate,
+                          accuracy=accuracy, limits=limits)
     return SimulationOutcome(resolved, request.fault, overrides, condition, request.method,
                              result)
 
@@ -175,6 +208,16 @@ def timeseries_parquet(outcome: SimulationOutcome) -> bytes:
     return buffer.getvalue()
 
 
+def _solver_public(result: CycleResult) -> dict[str, Any] | None:
+    rep = result.solver
+    if rep is None:
+        return None
+    return {"method": rep.method, "rtol": rep.rtol, "rejected": rep.rejected,
+            "rhs_evaluations": rep.nfev, "error_sigma": rep.error_sigma,
+            "target_sigma": rep.target_sigma, "sigma": rep.sigma,
+            "switch_time_error": rep.switch_time_error}
+
+
 def public_of(outcome: SimulationOutcome, *, table: bool = False) -> SimulationPublic:
     """The JSON answer of a run (the time series inside when ``table``)."""
     result = outcome.result
@@ -185,5 +228,6 @@ def public_of(outcome: SimulationOutcome, *, table: bool = False) -> SimulationP
         "summary": summary_of(result),
         "completed": {"working": result.working.completed, "return": result.return_.completed},
         "steps": dict(result.steps),
+        "solver": _solver_public(result),
         "timeseries": timeseries_table(outcome) if table else None,
     })
