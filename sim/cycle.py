@@ -26,8 +26,9 @@ from sim.rigs.assembly import Condition, Rig
 from sim.solver.limits import SolverLimits
 from sim.solver.noise import NoiseAccuracy, error_estimate
 
-__all__ = ["METHODS", "PHASES", "SUMMARY_UNITS", "CycleResult", "PhaseSummary", "SolverReport",
-           "run_cycle"]
+__all__ = ["METHODS", "PHASES", "SUMMARY_UNITS", "CycleResult", "PhaseRun", "PhaseSummary",
+           "SolverReport", "integrate_phases", "phase_params", "run_cycle",
+           "sampled_outputs"]
 
 #: integration methods of :func:`run_cycle`
 METHODS = ("rodas4", "ros2")
@@ -204,7 +205,9 @@ def _phase_limit(rig: Rig, p: Arr, t_max: float | None) -> float:
 
 
 @dataclass
-class _PhaseRun:
+class PhaseRun:
+    """One phase of :func:`integrate_phases`: parameters, start time and state, result."""
+
     phase: str
     p: Arr
     t0: float
@@ -212,13 +215,20 @@ class _PhaseRun:
     res: IntegrationResult
 
 
-def _integrate(rig: Rig, params: list[Arr], *, method: str, rtol: float, grid: Arr | None,
-               times: list[Arr] | None, t_max: float | None, limits: SolverLimits,
-               deadline: float | None) -> list[_PhaseRun]:
-    """Both phases, one after the other, each from the state the previous ended in."""
+def integrate_phases(rig: Rig, params: list[Arr], *, method: str, rtol: float,
+                     grid: Arr | None = None, times: list[Arr] | None = None,
+                     t_max: float | None = None, limits: SolverLimits | None = None,
+                     deadline: float | None = None) -> list[PhaseRun]:
+    """Both phases, one after the other, each from the state the previous ended in.
+
+    ``params`` holds the phases' parameter vectors (:func:`phase_params`); ``grid`` is
+    one sampling grid for both phases, ``times`` one array of output times per phase
+    (RODAS4 only; ``None``: every accepted step).
+    """
+    limits = limits if limits is not None else SolverLimits()
     m = rig.model
     stroke = rig.base["cylinder.stroke"]
-    runs: list[_PhaseRun] = []
+    runs: list[PhaseRun] = []
     y: Arr | None = None
     t0 = 0.0
     for k, (phase, p) in enumerate(zip(PHASES, params, strict=True)):
@@ -236,20 +246,20 @@ def _integrate(rig: Rig, params: list[Arr], *, method: str, rtol: float, grid: A
                 f"{phase} phase: the step size fell below round-off at t = "
                 f"{res.t_final:.6g} s with rtol {rtol:.3g}; loosen the tolerance",
                 field="rtol")
-        runs.append(_PhaseRun(phase, p, t0, y, res))
+        runs.append(PhaseRun(phase, p, t0, y, res))
         y = res.y_final.copy()
         t0 = float(res.t_final)
     return runs
 
 
-def _sampled(runs: list[_PhaseRun], rig: Rig) -> list[tuple[Arr, Arr]]:
-    """Per phase ``(times, outputs)`` of the recorded rows."""
+def sampled_outputs(runs: list[PhaseRun], rig: Rig) -> list[tuple[Arr, Arr]]:
+    """Per phase ``(times [s], outputs)`` of the recorded rows of ``runs``."""
     return [(r.res.t, rig.model.outputs(r.res.t, r.res.y, r.p)) for r in runs]
 
 
 def _noise_run(rig: Rig, params: list[Arr], accuracy: NoiseAccuracy, rtol: float | None,
                grid: Arr | None, t_max: float | None, limits: SolverLimits,
-               deadline: float | None) -> tuple[list[_PhaseRun], SolverReport]:
+               deadline: float | None) -> tuple[list[PhaseRun], SolverReport]:
     """RODAS4 at a tolerance whose estimated error meets ``accuracy`` (see module notes).
 
     With ``rtol`` given the run is at that tolerance and only estimated; without, the
@@ -262,12 +272,12 @@ def _noise_run(rig: Rig, params: list[Arr], accuracy: NoiseAccuracy, rtol: float
     tries = 0
     while True:
         tries += 1
-        main = _integrate(rig, params, method="rodas4", rtol=r, grid=grid, times=None,
+        main = integrate_phases(rig, params, method="rodas4", rtol=r, grid=grid, times=None,
                           t_max=t_max, limits=limits, deadline=deadline)
-        comp = _integrate(rig, params, method="rodas4", rtol=COMPANION_RATIO * r, grid=None,
+        comp = integrate_phases(rig, params, method="rodas4", rtol=COMPANION_RATIO * r, grid=None,
                           times=[run.res.t for run in main], t_max=t_max, limits=limits,
                           deadline=deadline)
-        est = error_estimate(_sampled(main, rig), _sampled(comp, rig), COMPANION_RATIO,
+        est = error_estimate(sampled_outputs(main, rig), sampled_outputs(comp, rig), COMPANION_RATIO,
                              m.output_names, targets)
         worst = max((est[n] / targets[n][1] for n in est), default=0.0)
         if rtol is not None or worst <= 1.0:
@@ -287,7 +297,7 @@ def _noise_run(rig: Rig, params: list[Arr], accuracy: NoiseAccuracy, rtol: float
 
 def run_cycle(rig: Rig, overrides: Mapping[str, float] | None = None,
               condition: Condition | None = None, *, rtol: float | None = None,
-              method: str = "rodas4", accuracy: NoiseAccuracy | None = None,
+              method: str = "ros2", accuracy: NoiseAccuracy | None = None,
               sample_rate: float | None = None, t_max: float | None = None,
               timeseries: bool = True, limits: SolverLimits | None = None) -> CycleResult:
     """Simulate one working + return cycle.
@@ -307,7 +317,9 @@ def run_cycle(rig: Rig, overrides: Mapping[str, float] | None = None,
         0.1σ); ``None`` with ROS2: 1e-3.
     method
         ``"rodas4"`` (fourth order, dense output) or ``"ros2"`` (second order; one row per
-        step, no sampling, no error estimate).
+        step, no sampling, no error estimate).  The library default stays ROS2 at 1e-3 so
+        that existing studies (``make accuracy``, sweeps) keep their figures; ``/simulate``
+        and ``hydrodiag simulate`` default to noise-accurate RODAS4.
     accuracy
         Error targets in units of sensor noise; with ``rtol`` given, the run is only
         estimated against them (a companion run at 10·rtol).
@@ -353,11 +365,11 @@ def run_cycle(rig: Rig, overrides: Mapping[str, float] | None = None,
         grid = np.arange(0.0, span, 1.0 / sample_rate)
     if method == "ros2":
         r = 1e-3 if rtol is None else rtol
-        runs = _integrate(rig, params, method="ros2", rtol=r, grid=None, times=None,
+        runs = integrate_phases(rig, params, method="ros2", rtol=r, grid=None, times=None,
                           t_max=t_max, limits=lim, deadline=deadline)
         report = SolverReport("ros2", r, sum(x.res.rejected for x in runs))
     elif rtol is not None and accuracy is None:
-        runs = _integrate(rig, params, method="rodas4", rtol=rtol, grid=grid, times=None,
+        runs = integrate_phases(rig, params, method="rodas4", rtol=rtol, grid=grid, times=None,
                           t_max=t_max, limits=lim, deadline=deadline)
         report = SolverReport("rodas4", rtol, sum(x.res.rejected for x in runs),
                               sum(x.res.nfev for x in runs))

@@ -189,10 +189,22 @@ def timeseries_table(outcome: SimulationOutcome) -> dict[str, Any]:
 
 
 def timeseries_csv(outcome: SimulationOutcome) -> bytes:
-    """The time series as CSV, the header's entries first as ``# key = value`` lines."""
+    """The time series as CSV, the header's entries first as ``# key = value`` lines.
+
+    Numbers are written as the shortest text that reads back to the same double.
+    """
+    import pyarrow as pa
+    import pyarrow.csv as pcsv
+
+    frame = _frame(outcome)
     lines = [f"# {key} = {json.dumps(value)}" for key, value in outcome.header().items()]
-    body = _frame(outcome).to_csv(index=False, float_format="%.17g", lineterminator="\n")
-    return ("\n".join(lines) + "\n" + body).encode("utf-8")
+    lines.append(",".join(str(c) for c in frame.columns))
+    buffer = io.BytesIO()
+    buffer.write(("\n".join(lines) + "\n").encode("utf-8"))
+    # Arrow's C++ writer: shortest round-trip float text, ~10x faster than pandas'
+    pcsv.write_csv(pa.Table.from_pandas(frame, preserve_index=False), buffer,
+                   pcsv.WriteOptions(include_header=False, quoting_style="none"))
+    return buffer.getvalue()
 
 
 def timeseries_parquet(outcome: SimulationOutcome) -> bytes:
