@@ -194,6 +194,9 @@ class SimulationPublic(BaseModel):
     )
     solver: SolverPublic | None = Field(
         default=None, description="Integration of the transient; null for 'steady' [-]",
+        examples=[{"method": "rodas4", "rtol": 3e-5, "rejected": 12, "rhs_evaluations": 27000,
+                   "error_sigma": {"v": 0.15}, "target_sigma": {"v": 0.3},
+                   "sigma": {"v": 3.2e-4}, "switch_time_error": 1e-9}],
     )
     timeseries: TimeseriesTable | None = Field(
         default=None, description="The time series when asked for as 'json' [-]",

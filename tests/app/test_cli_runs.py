@@ -123,3 +123,15 @@ def test_calibrate_pump_and_throttle(runner: CliRunner, tmp_path: Path) -> None:
     assert throttle.exit_code == 0, throttle.output
     assert "computed" in throttle.stdout
     assert _count(ThrottleCalibration) == before + 1
+
+
+def test_simulate_samples_at_a_rate_and_reports_its_error(runner: CliRunner,
+                                                          tmp_path: Path) -> None:
+    out = tmp_path / "run.csv"
+    result = runner.invoke(cli, ["simulate", "--sample-rate", "1000", "--output", str(out)])
+    assert result.exit_code == 0, result.output
+    assert "error estimate v [σ]" in result.stdout
+    frame = pd.read_csv(out, comment="#")
+    assert frame["t [s]"].diff().dropna().round(12).eq(1e-3).all()
+    ros2 = runner.invoke(cli, ["simulate", "--solver", "ros2", "--sample-rate", "1000"])
+    assert ros2.exit_code != 0 and "sample_rate" in str(ros2.exception)
