@@ -58,8 +58,8 @@ class Settings(BaseSettings):
     log_level
         Level of the service's log.
     sim_max_steps
-        Most solver steps of one integration of ``/simulate`` (enforced inside the compiled
-        step loop); default 2,000,000 (RODAS4 needs ~4,700 for a noise-accurate cycle of the
+        Most solver steps of one integration of ``/simulate`` (one phase of one run;
+        enforced inside the compiled step loop); default 2,000,000 (RODAS4 needs ~4,700 for a noise-accurate cycle of the
         reference rig, ~15,000 at rtol 1e-8).
     sim_max_time
         Longest simulated span of one ``/simulate`` phase or sampling grid [s]; default 600.

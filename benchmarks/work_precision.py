@@ -9,8 +9,9 @@ outputs of each kind of ``|y − y_ref|``, on a 1 kHz grid (RODAS4 and scipy: th
 output; ROS2, which has none: its own step times), times between the two runs' phase
 switches left out.
 
-Reference: RODAS4 at rtol 1e-9; its convergence is shown by RODAS4 at 1e-8 and, as an
-independent check, scipy Radau at 1e-9 against it.
+Reference: RODAS4 at rtol 1e-9; its convergence is shown by RODAS4 at 1e-8 and, as
+independent checks, scipy Radau at 1e-9 (whole cycle) and SUNDIALS CVODE (BDF, through
+scikit-sundae, rtol 1e-8; working phase to 2 s, before its end-of-stroke event) against it.
 
 Two rigs: the reference rig and the same rig with Stribeck friction (static friction
 twice the Coulomb force, Stribeck speed 5 mm/s), a stiff nonlinear element at start-up.
@@ -158,6 +159,26 @@ def _scipy_cycle(rig: Rig, method: str, rtol: float) -> list[tuple[Arr, Arr]]:
     return out
 
 
+def _cvode_check(rig: Rig) -> dict[str, float]:
+    """SUNDIALS CVODE (BDF, rtol 1e-8) against RODAS4 at 1e-9, working phase to 2.0 s [σ]."""
+    from sksundae.cvode import CVODE
+
+    m = rig.model
+    p = phase_params(rig, "working", None, rig.default_condition())
+    y0 = m.initial_state(p)
+    grid = np.arange(0.0, 2.0 + 1e-12, 1e-3)
+
+    def f(t: float, y: Arr, yp: Arr) -> None:
+        m.module.rhs(t, y, p, yp)
+
+    sol = CVODE(f, method="BDF", rtol=1e-8, atol=1e-8 * m.scale).solve(grid, y0)
+    if not sol.success:
+        raise RuntimeError(f"CVODE: {sol.message}")
+    ours = m.integrate(y0, p, 2.0, rtol=REF_RTOL, method="rodas4", times=grid)
+    return _errors(rig, [(grid, m.outputs(grid, np.ascontiguousarray(sol.y), p))],
+                   [(ours.t, m.outputs(ours.t, ours.y, p))])
+
+
 def _best_of(fn: Callable[[], Any], repeats: int) -> float:
     best = math.inf
     for _ in range(repeats):
@@ -171,7 +192,8 @@ def study(rig: Rig, light: bool) -> dict[str, Any]:
     """Work-precision rows of ``rig`` and the reference's convergence."""
     ref = _reference(rig, REF_RTOL)
     conv = {"RODAS4 1e-8": _errors(rig, _reference(rig, 1e-8), ref),
-            "scipy Radau 1e-9": _errors(rig, _scipy_cycle(rig, "Radau", 1e-9), ref)}
+            "scipy Radau 1e-9": _errors(rig, _scipy_cycle(rig, "Radau", 1e-9), ref),
+            "SUNDIALS CVODE BDF 1e-8 (working phase to 2 s)": _cvode_check(rig)}
     params = [phase_params(rig, ph, None, rig.default_condition()) for ph in PHASES]
     rows: list[dict[str, Any]] = []
     reps = 2 if light else 5

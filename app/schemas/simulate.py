@@ -81,7 +81,7 @@ class SimulateRequest(BaseModel):
     )
     method: Literal["transient", "steady"] = Field(
         default="transient",
-        description="'transient': integrate a working + return cycle (ROS2); 'steady': the "
+        description="'transient': integrate a working + return cycle (see `solver`); 'steady': the "
         "algebraic operating points of both phases, ~1000× faster, no time series [-]",
         examples=["transient"],
     )
@@ -101,7 +101,8 @@ class SimulateRequest(BaseModel):
         default=None, gt=1e-8, le=1e-1,
         description="Relative tolerance of the transient integrator; null (default): "
         "noise-accurate, the tolerance is chosen so that the estimated error meets "
-        "`noise_fraction` of `noise` (ros2: 1e-3) [-]",
+        "`noise_fraction` of `noise` (ros2: 1e-3); given, the run is at this tolerance and "
+        "its error is only estimated (rodas4) [-]",
         examples=[None],
     )
     sample_rate: float | None = Field(

@@ -289,6 +289,10 @@ class CompiledModel:
                 field="t_max")
         if deadline is None:
             deadline = lim.deadline()
+        elif time.perf_counter() > deadline:
+            raise SolverLimitError(
+                f"wall-clock budget spent before the integration from t = {t0:.6g} s with "
+                f"rtol {rtol:.3g}; loosen the tolerance or shorten the run", field="rtol")
         ev_i, ev_level, ev_dir = -1, 0.0, 1.0
         if event is not None:
             ev_i, ev_level, ev_dir = self._sidx[event[0]], float(event[1]), float(event[2])
