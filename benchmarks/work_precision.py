@@ -42,7 +42,7 @@ Arr = npt.NDArray[np.float64]
 #: tolerances of each method (full form, light form)
 TOLERANCES: dict[str, tuple[tuple[float, ...], tuple[float, ...]]] = {
     "RODAS4 (engine)": ((1e-3, 1e-4, 3e-5, 1e-5, 1e-6, 1e-7), (1e-4, 3e-5, 1e-6)),
-    "ROS2 (engine)": ((1e-3, 1e-4, 3e-5, 1e-5), (1e-3, 1e-4)),
+    "ROS2 (engine)": ((1e-3, 1e-4, 1e-5, 3e-6, 1e-6), (1e-4, 1e-6)),
     "scipy Radau": ((1e-4, 1e-5, 1e-6, 1e-7), (1e-5,)),
     "scipy BDF": ((1e-4, 1e-5, 1e-6, 1e-7), (1e-5,)),
     "scipy LSODA": ((1e-4, 1e-5, 1e-6, 1e-7), (1e-5,)),
@@ -218,8 +218,8 @@ def study(rig: Rig, light: bool) -> dict[str, Any]:
                 err = _errors(rig, _scipy_cycle(rig, name, rtol), ref)
                 fn = lambda r=rtol, n=name: _scipy_cycle(rig, n, r)  # noqa: E731
                 steps = -1
-            fn()
-            t = _best_of(fn, reps if "engine" in method else 1)
+            first = _best_of(fn, 1)
+            t = min(first, _best_of(fn, reps)) if "engine" in method and first < 0.3 else first
             ok = all(err[k] <= TARGET[k] for k in TARGET)
             rows.append({"method": method, "rtol": rtol, "time_s": t, "steps": steps,
                          "err_sigma": err, "meets_target": ok})
