@@ -59,8 +59,8 @@ class Settings(BaseSettings):
         Level of the service's log.
     sim_max_steps
         Most solver steps of one integration of ``/simulate`` (one phase of one run;
-        enforced inside the compiled step loop); default 2,000,000 (RODAS4 needs ~4,700 for a noise-accurate cycle of the
-        reference rig, ~15,000 at rtol 1e-8).
+        enforced inside the compiled step loop); default 2,000,000 (RODAS4 needs ~1,000 a
+        phase for a noise-accurate cycle of the reference rig, ~7,500 at rtol 1e-8).
     sim_max_time
         Longest simulated span of one ``/simulate`` phase or sampling grid [s]; default 600.
     sim_wall_clock

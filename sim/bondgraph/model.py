@@ -317,8 +317,12 @@ class CompiledModel:
             steps += int(counters[0])
             rejected += int(counters[1])
             nfev += int(counters[2])
-            # a resumed call records its start point again: keep it once
-            skip = 1 if (t_parts and times is None) else 0
+            # a resumed call records its start point (or a grid point on it) again: keep
+            # each time once
+            skip = 0
+            if t_parts and any(part.size for part in t_parts):
+                last = next(part[-1] for part in reversed(t_parts) if part.size)
+                skip = int(np.searchsorted(ts[:count], last, side="right"))
             t_parts.append(ts[skip:count])
             y_parts.append(ys[skip:count])
             if status != STATUS_PAUSED:
