@@ -361,7 +361,7 @@ def run_cycle(rig: Rig, overrides: Mapping[str, float] | None = None,
         span = sum(_phase_limit(rig, p, t_max) for p in params)
         if span > lim.max_sim_time:
             raise SolverLimitError(f"simulated time {span:.4g} s exceeds the limit "
-                                   f"{lim.max_sim_time:.4g} s", field="t_max")
+                                   f"{lim.max_sim_time:.4g} s", field="sample_rate")
         grid = np.arange(0.0, span, 1.0 / sample_rate)
     if method == "ros2":
         r = 1e-3 if rtol is None else rtol

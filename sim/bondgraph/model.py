@@ -285,8 +285,7 @@ class CompiledModel:
         lim = limits if limits is not None else SolverLimits()
         if t_end - t0 > lim.max_sim_time:
             raise SolverLimitError(
-                f"simulated time {t_end - t0:.4g} s exceeds the limit {lim.max_sim_time:.4g} s",
-                field="t_max")
+                f"simulated time {t_end - t0:.4g} s exceeds the limit {lim.max_sim_time:.4g} s")
         if deadline is None:
             deadline = lim.deadline()
         elif time.perf_counter() > deadline:

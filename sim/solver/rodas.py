@@ -23,9 +23,9 @@ after accepted steps.  Events: after each accepted step the event function
 ``s·(y_k − level)`` is checked for a sign change and the crossing is located on the dense
 output by the Illinois (modified regula falsi) method to 1e-12 of the step.
 
-Output: either every accepted step (buffers double when full: no fixed limit) or the
-points of a sampling grid, evaluated from the dense output (the buffers are then the grid's
-size).  Work is bounded by ``max_steps`` accepted + rejected steps per call; the call
+Output: either every accepted step or the points of a sampling grid within the run,
+evaluated from the dense output; the buffers start at 1024 rows and double when full (no
+fixed limit, and memory in proportion to what is written, not to the grid's length).  Work is bounded by ``max_steps`` accepted + rejected steps per call; the call
 returns with status :data:`STATUS_PAUSED` and its step size so a caller can check a
 wall-clock budget and go on.
 
@@ -129,7 +129,7 @@ def integrate_rodas(rhs: RHS, t0: float, t_end: float, y0: Arr, p: Arr, atol: Ar
     e34, e35 = 0.2476722511418386e+02, -0.6594389125716872e+01
 
     gridded = grid.size > 0
-    cap = grid.size if gridded else 1024
+    cap = 1024
     ts = np.empty(cap)
     ys = np.empty((cap, n))
     count = 0
@@ -164,6 +164,14 @@ def integrate_rodas(rhs: RHS, t0: float, t_end: float, y0: Arr, p: Arr, atol: Ar
     counters[2] += 1
     if gridded:
         while gi < grid.size and grid[gi] <= t0:
+            if count >= cap:
+                cap *= 2
+                ts2 = np.empty(cap)
+                ys2 = np.empty((cap, n))
+                ts2[:count] = ts[:count]
+                ys2[:count] = ys[:count]
+                ts = ts2
+                ys = ys2
             ts[count] = grid[gi]
             for i in range(n):
                 ys[count, i] = y[i]
@@ -300,6 +308,14 @@ def integrate_rodas(rhs: RHS, t0: float, t_end: float, y0: Arr, p: Arr, atol: Ar
             t_stop = t + theta_end * h
             if gridded:
                 while gi < grid.size and grid[gi] <= t_stop:
+                    if count >= cap:
+                        cap *= 2
+                        ts2 = np.empty(cap)
+                        ys2 = np.empty((cap, n))
+                        ts2[:count] = ts[:count]
+                        ys2[:count] = ys[:count]
+                        ts = ts2
+                        ys = ys2
                     dense_eval((grid[gi] - t) / h, y, ynew, q1, q2, yd)
                     ts[count] = grid[gi]
                     for i in range(n):
