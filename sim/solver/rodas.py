@@ -25,9 +25,10 @@ output by the Illinois (modified regula falsi) method to 1e-12 of the step.
 
 Output: either every accepted step or the points of a sampling grid within the run,
 evaluated from the dense output; the buffers start at 1024 rows and double when full (no
-fixed limit, and memory in proportion to what is written, not to the grid's length).  Work is bounded by ``max_steps`` accepted + rejected steps per call; the call
-returns with status :data:`STATUS_PAUSED` and its step size so a caller can check a
-wall-clock budget and go on.
+fixed limit, and memory in proportion to what is written, not to the grid's length).
+Work is bounded by ``max_steps`` accepted + rejected steps per call; the call returns
+with status :data:`STATUS_PAUSED` and its step size so a caller can check a wall-clock
+budget and go on.
 
 References
 ----------
