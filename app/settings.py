@@ -66,6 +66,16 @@ class Settings(BaseSettings):
         Server processes of ``serve`` (uvicorn workers); each has its own caches.
     log_level
         Level of the service's log.
+    sim_max_steps
+        Most solver steps of one integration of ``/simulate`` (one phase of one run;
+        enforced inside the compiled step loop); default 2,000,000 (RODAS4 needs ~1,000 a
+        phase for a noise-accurate cycle of the reference rig, ~7,500 at rtol 1e-8).
+    sim_max_time
+        Longest simulated span of one ``/simulate`` phase or sampling grid [s]; default 600.
+    sim_wall_clock
+        Wall-clock budget of one ``/simulate`` run, companion runs included [s]; default
+        10.  Checked between chunks of 5,000 compiled steps, so a run overshoots it by at
+        most one chunk (a few tens of ms).
     """
 
     model_config = SettingsConfigDict(env_prefix="HYDRODIAG_", extra="ignore")
@@ -88,6 +98,12 @@ class Settings(BaseSettings):
     access_log: bool = Field(default=True, description="Log every request.")
     workers: int = Field(default=1, ge=1, le=64, description="Server processes.")
     log_level: Literal["debug", "info", "warning", "error"] = Field(default="info")
+    sim_max_steps: int = Field(default=2_000_000, ge=100, le=100_000_000,
+                               description="Most solver steps of one /simulate integration.")
+    sim_max_time: float = Field(default=600.0, gt=0, le=1e6,
+                                description="Longest simulated span of /simulate [s].")
+    sim_wall_clock: float = Field(default=10.0, gt=0, le=3600,
+                                  description="Wall-clock budget of one /simulate run [s].")
 
     @field_validator("database_url")
     @classmethod

@@ -20,10 +20,28 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
-from sim.errors import SimulationError
+from sim.bondgraph.model import IntegrationResult
+from sim.errors import ParameterError, SolverLimitError
 from sim.rigs.assembly import Condition, Rig
+from sim.solver.limits import SolverLimits
+from sim.solver.noise import NoiseAccuracy, error_estimate
 
-__all__ = ["PHASES", "SUMMARY_UNITS", "CycleResult", "PhaseSummary", "run_cycle"]
+__all__ = ["METHODS", "PHASES", "SUMMARY_UNITS", "CycleResult", "PhaseRun", "PhaseSummary",
+           "SolverReport", "integrate_phases", "phase_params", "run_cycle",
+           "sampled_outputs"]
+
+#: integration methods of :func:`run_cycle`
+METHODS = ("rodas4", "ros2")
+
+#: first tolerance of the noise-accurate mode: on the reference rig RODAS4 at 3e-5 meets
+#: the default targets (velocity 0.3σ, pressure and flow 0.1σ) with a margin (``make bench``)
+NOISE_START_RTOL = 3e-5
+
+#: companion tolerance / run tolerance of the error estimate
+COMPANION_RATIO = 10.0
+
+#: tightest tolerance the noise-accurate mode tries before giving up
+NOISE_MIN_RTOL = 1e-10
 
 Arr = npt.NDArray[np.float64]
 
@@ -62,6 +80,44 @@ class PhaseSummary:
 
 
 @dataclass
+class SolverReport:
+    """Integration of a cycle: method, tolerance, work and the error reached.
+
+    Attributes
+    ----------
+    method
+        ``"rodas4"`` or ``"ros2"``.
+    rtol
+        Relative tolerance of the run whose result is returned [-].
+    rejected
+        Rejected steps, both phases [-].
+    nfev
+        Right-hand-side evaluations, both phases, Jacobians included (RODAS4) [-].
+    error_sigma
+        Estimated error per controlled output in units of its σ (maximum over the output
+        times, :func:`sim.solver.noise.error_estimate`) [-]; ``None`` without estimate.
+    target_sigma
+        Error target per controlled output in units of its σ [-]; ``None`` without one.
+    sigma
+        σ of each controlled output [output unit].
+    switch_time_error
+        Estimated error of the working → return switch time [s].
+    tries
+        Tolerances tried by the noise-accurate mode before one met the targets [-].
+    """
+
+    method: str
+    rtol: float
+    rejected: int = 0
+    nfev: int = 0
+    error_sigma: dict[str, float] | None = None
+    target_sigma: dict[str, float] | None = None
+    sigma: dict[str, float] | None = None
+    switch_time_error: float | None = None
+    tries: int = 1
+
+
+@dataclass
 class CycleResult:
     """Result of :func:`run_cycle`.
 
@@ -72,10 +128,12 @@ class CycleResult:
     velocity_ratio
         Working-phase speed / return-phase speed [-] (paper 002 §3).
     timeseries
-        Table with one row per accepted solver step and units in the column names
-        (``None`` when not requested).
+        Table with one row per accepted solver step, or per point of the sampling grid,
+        and units in the column names (``None`` when not requested).
     steps
         Accepted solver steps of each phase.
+    solver
+        How the run was integrated and the error it reached.
     """
 
     working: PhaseSummary
@@ -83,6 +141,7 @@ class CycleResult:
     velocity_ratio: float
     timeseries: pd.DataFrame | None = None
     steps: dict[str, int] = field(default_factory=dict)
+    solver: SolverReport | None = None
 
     def summary(self) -> dict[str, float]:
         """Flat summary, keys ``phase.quantity [unit]`` plus ``velocity_ratio [-]``."""
@@ -135,9 +194,112 @@ def _averages(rig: Rig, t: Arr, y: Arr, p: Arr) -> dict[str, float]:
     return res
 
 
+def _phase_limit(rig: Rig, p: Arr, t_max: float | None) -> float:
+    m = rig.model
+    if t_max is not None:
+        return t_max
+    stroke = rig.base["cylinder.stroke"]
+    qp = p[m.param_index("pump.speed")] * p[m.param_index("pump.Vp")]
+    area = min(p[m.param_index("cylinder.A1")], p[m.param_index("cylinder.A2")])
+    return float(20.0 * stroke * area / qp)
+
+
+@dataclass
+class PhaseRun:
+    """One phase of :func:`integrate_phases`: parameters, start time and state, result."""
+
+    phase: str
+    p: Arr
+    t0: float
+    y0: Arr
+    res: IntegrationResult
+
+
+def integrate_phases(rig: Rig, params: list[Arr], *, method: str, rtol: float,
+                     grid: Arr | None = None, times: list[Arr] | None = None,
+                     t_max: float | None = None, limits: SolverLimits | None = None,
+                     deadline: float | None = None) -> list[PhaseRun]:
+    """Both phases, one after the other, each from the state the previous ended in.
+
+    ``params`` holds the phases' parameter vectors (:func:`phase_params`); ``grid`` is
+    one sampling grid for both phases, ``times`` one array of output times per phase
+    (RODAS4 only; ``None``: every accepted step).
+    """
+    limits = limits if limits is not None else SolverLimits()
+    m = rig.model
+    stroke = rig.base["cylinder.stroke"]
+    runs: list[PhaseRun] = []
+    y: Arr | None = None
+    t0 = 0.0
+    for k, (phase, p) in enumerate(zip(PHASES, params, strict=True)):
+        if y is None:
+            y = m.initial_state(p)
+        t_lim = _phase_limit(rig, p, t_max)
+        direction = 1.0 if phase == "working" else -1.0
+        level = stroke if phase == "working" else 0.0
+        sample = times[k] if times is not None else grid
+        res = m.integrate(y, p, t0 + t_lim, t0=t0, rtol=rtol, method=method, times=sample,
+                          event=("cylinder.x", level, direction), limits=limits,
+                          deadline=deadline)
+        if not res.success:
+            raise SolverLimitError(
+                f"{phase} phase: the step size fell below round-off at t = "
+                f"{res.t_final:.6g} s with rtol {rtol:.3g}; loosen the tolerance",
+                field="rtol")
+        runs.append(PhaseRun(phase, p, t0, y, res))
+        y = res.y_final.copy()
+        t0 = float(res.t_final)
+    return runs
+
+
+def sampled_outputs(runs: list[PhaseRun], rig: Rig) -> list[tuple[Arr, Arr]]:
+    """Per phase ``(times [s], outputs)`` of the recorded rows of ``runs``."""
+    return [(r.res.t, rig.model.outputs(r.res.t, r.res.y, r.p)) for r in runs]
+
+
+def _noise_run(rig: Rig, params: list[Arr], accuracy: NoiseAccuracy, rtol: float | None,
+               grid: Arr | None, t_max: float | None, limits: SolverLimits,
+               deadline: float | None) -> tuple[list[PhaseRun], SolverReport]:
+    """RODAS4 at a tolerance whose estimated error meets ``accuracy`` (see module notes).
+
+    With ``rtol`` given the run is at that tolerance and only estimated; without, the
+    tolerance is tightened (from :data:`NOISE_START_RTOL`, in proportion to the worst
+    ratio of estimate to target) until the targets are met.
+    """
+    m = rig.model
+    targets = accuracy.targets(m.output_names, m.output_units)
+    r = rtol if rtol is not None else NOISE_START_RTOL
+    tries = 0
+    while True:
+        tries += 1
+        main = integrate_phases(rig, params, method="rodas4", rtol=r, grid=grid, times=None,
+                          t_max=t_max, limits=limits, deadline=deadline)
+        comp = integrate_phases(rig, params, method="rodas4", rtol=COMPANION_RATIO * r, grid=None,
+                          times=[run.res.t for run in main], t_max=t_max, limits=limits,
+                          deadline=deadline)
+        est = error_estimate(sampled_outputs(main, rig), sampled_outputs(comp, rig), COMPANION_RATIO,
+                             m.output_names, targets)
+        worst = max((est[n] / targets[n][1] for n in est), default=0.0)
+        if rtol is not None or worst <= 1.0:
+            break
+        if r <= NOISE_MIN_RTOL or tries >= 4:
+            raise SolverLimitError(
+                f"accuracy target not reached: at rtol {r:.3g} the estimated error is "
+                f"{worst:.3g}× the target", field="accuracy")
+        r = max(NOISE_MIN_RTOL, r * min(1.0 / 3.0, 0.7 / worst))
+    switch = abs(main[0].res.t_final - comp[0].res.t_final) / (COMPANION_RATIO - 1.0)
+    report = SolverReport(
+        "rodas4", r, sum(x.res.rejected for x in main), sum(x.res.nfev for x in main),
+        error_sigma=est, target_sigma={n: f for n, (_, f) in targets.items()},
+        sigma={n: s for n, (s, _) in targets.items()}, switch_time_error=switch, tries=tries)
+    return main, report
+
+
 def run_cycle(rig: Rig, overrides: Mapping[str, float] | None = None,
-              condition: Condition | None = None, *, rtol: float = 1e-3,
-              t_max: float | None = None, timeseries: bool = True) -> CycleResult:
+              condition: Condition | None = None, *, rtol: float | None = None,
+              method: str = "ros2", accuracy: NoiseAccuracy | None = None,
+              sample_rate: float | None = None, t_max: float | None = None,
+              timeseries: bool = True, limits: SolverLimits | None = None) -> CycleResult:
     """Simulate one working + return cycle.
 
     Parameters
@@ -149,63 +311,102 @@ def run_cycle(rig: Rig, overrides: Mapping[str, float] | None = None,
     condition
         Operating condition (defaults: the rig file's).
     rtol
-        Relative tolerance of the integrator.  1e-3 resolves the start-up and switching
-        transients well enough that phase speeds agree with 1e-5 to those at 1e-5
-        (``make bench`` prints the comparison).
+        Relative tolerance [-].  ``None`` with RODAS4: noise-accurate (the tolerance is
+        chosen so that the estimated error meets ``accuracy``, by default
+        :class:`~sim.solver.noise.NoiseAccuracy`'s: velocity 0.3σ, pressure and flow
+        0.1σ); ``None`` with ROS2: 1e-3.
+    method
+        ``"rodas4"`` (fourth order, dense output) or ``"ros2"`` (second order; one row per
+        step, no sampling, no error estimate).  The library default stays ROS2 at 1e-3 so
+        that existing studies (``make accuracy``, sweeps) keep their figures; ``/simulate``
+        and ``hydrodiag simulate`` default to noise-accurate RODAS4.
+    accuracy
+        Error targets in units of sensor noise; with ``rtol`` given, the run is only
+        estimated against them (a companion run at 10·rtol).
+    sample_rate
+        Output on a grid of this rate from t = 0 [Hz] (RODAS4's dense output); ``None``:
+        one row per accepted step.
     t_max
         Longest phase [s]; default 20× the stroke time at the pump's geometric flow.
     timeseries
         Whether to return the time series table.
+    limits
+        Step, simulated-time and wall-clock bounds of the run (one wall-clock budget for
+        the whole cycle, companion runs included).
 
     Raises
     ------
+    ParameterError
+        Unknown method, sampling asked of ROS2, a non-positive sample rate.
+    SolverLimitError
+        A limit of ``limits`` was reached, or the tolerance is below round-off.
     SimulationError
-        If the solver fails.
+        The solver failed.
     """
+    if method not in METHODS:
+        raise ParameterError(f"unknown method {method!r} (known: {', '.join(METHODS)})",
+                             field="method")
+    if method == "ros2" and sample_rate is not None:
+        raise ParameterError("sampling on a grid needs the dense output of 'rodas4'",
+                             field="sample_rate")
+    if sample_rate is not None and not (sample_rate > 0 and np.isfinite(sample_rate)):
+        raise ParameterError("the sample rate must be positive and finite", field="sample_rate")
+    lim = limits if limits is not None else SolverLimits()
+    deadline = lim.deadline()
     cond = condition if condition is not None else rig.default_condition()
     m = rig.model
-    stroke = rig.base["cylinder.stroke"]
-    y = None
+    params = [phase_params(rig, phase, overrides, cond) for phase in PHASES]
+    grid = None
+    if sample_rate is not None:
+        span = sum(_phase_limit(rig, p, t_max) for p in params)
+        if span > lim.max_sim_time:
+            raise SolverLimitError(f"simulated time {span:.4g} s exceeds the limit "
+                                   f"{lim.max_sim_time:.4g} s", field="sample_rate")
+        grid = np.arange(0.0, span, 1.0 / sample_rate)
+    if method == "ros2":
+        r = 1e-3 if rtol is None else rtol
+        runs = integrate_phases(rig, params, method="ros2", rtol=r, grid=None, times=None,
+                          t_max=t_max, limits=lim, deadline=deadline)
+        report = SolverReport("ros2", r, sum(x.res.rejected for x in runs))
+    elif rtol is not None and accuracy is None:
+        runs = integrate_phases(rig, params, method="rodas4", rtol=rtol, grid=grid, times=None,
+                          t_max=t_max, limits=lim, deadline=deadline)
+        report = SolverReport("rodas4", rtol, sum(x.res.rejected for x in runs),
+                              sum(x.res.nfev for x in runs))
+    else:
+        runs, report = _noise_run(rig, params, accuracy or NoiseAccuracy(), rtol, grid, t_max,
+                                  lim, deadline)
+    ix = m.state_index("cylinder.x")
     frames: list[pd.DataFrame] = []
     phases: list[PhaseSummary] = []
     steps: dict[str, int] = {}
-    t0 = 0.0
-    for phase in PHASES:
-        p = phase_params(rig, phase, overrides, cond)
-        if t_max is None:
-            qp = p[m.param_index("pump.speed")] * p[m.param_index("pump.Vp")]
-            area = min(p[m.param_index("cylinder.A1")], p[m.param_index("cylinder.A2")])
-            t_lim = 20.0 * stroke * area / qp
-        else:
-            t_lim = t_max
-        if y is None:
-            y = m.initial_state(p)
-        direction = 1.0 if phase == "working" else -1.0
-        level = stroke if phase == "working" else 0.0
-        res = m.integrate(y, p, t0 + t_lim, t0=t0, rtol=rtol,
-                          event=("cylinder.x", level, direction))
-        if not res.success:
-            raise SimulationError(f"{phase} phase: integration failed (status {res.status}) "
-                                  f"at t = {res.t[-1]:.4g} s")
-        completed = res.status == 1
-        values = _averages(rig, res.t, res.y, p)
-        duration = float(res.t[-1] - res.t[0])
-        travelled = abs(float(res.y[-1, m.state_index("cylinder.x")]
-                              - res.y[0, m.state_index("cylinder.x")]))
+    for run in runs:
+        res = run.res
+        # the averages see the phase's start and end points with the recorded rows
+        t_all, y_all = res.t, res.y
+        if grid is not None:
+            t_all = np.concatenate([[run.t0], res.t, [res.t_final]])
+            y_all = np.vstack([run.y0[None, :], res.y, res.y_final[None, :]])
+        values = _averages(rig, t_all, y_all, run.p)
+        duration = float(res.t_final - run.t0)
+        travelled = abs(float(res.y_final[ix] - run.y0[ix]))
         values["duration"] = duration
         values["speed"] = travelled / duration if duration > 0 else 0.0
-        phases.append(PhaseSummary(phase, values, completed))
-        steps[phase] = int(res.t.size)
+        phases.append(PhaseSummary(run.phase, values, res.status == 1))
+        steps[run.phase] = int(res.steps)
         if timeseries:
-            out = m.outputs(res.t, res.y, p)
+            out = m.outputs(res.t, res.y, run.p)
             df = pd.DataFrame(out, columns=[f"{n} [{u}]" for n, u in
                                             zip(m.output_names, m.output_units, strict=True)])
             df.insert(0, "t [s]", res.t)
-            df.insert(1, "phase", phase)
-            frames.append(df if not frames else df.iloc[1:])  # first row = previous last
-        y = res.y[-1].copy()
-        t0 = float(res.t[-1])
-    w, r = phases
-    ratio = w["speed"] / r["speed"] if r["speed"] > 0 else float("nan")
+            df.insert(1, "phase", run.phase)
+            if frames and not df.empty:
+                # step output: the first row is the previous phase's last; a grid point
+                # on the switch time is kept once
+                df = df[df["t [s]"] > frames[-1]["t [s]"].iloc[-1]] if not frames[-1].empty \
+                    else df
+            frames.append(df)
+    w, r_ = phases
+    ratio = w["speed"] / r_["speed"] if r_["speed"] > 0 else float("nan")
     ts = pd.concat(frames, ignore_index=True) if timeseries else None
-    return CycleResult(w, r, ratio, ts, steps)
+    return CycleResult(w, r_, ratio, ts, steps, report)

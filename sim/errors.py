@@ -11,6 +11,7 @@ class                          HTTP     meaning
 ``InputError``                 422      a value given by the caller is invalid
 ``ParameterError``             422      a rig / component parameter is invalid
 ``RigFileError``               422      a rig description file is invalid
+``SolverLimitError``           422      the run needs more than the solver limits allow
 ``MeasurementError``           422      a measurement record is invalid or contradictory
 ``ModelStructureError``        422      a bond graph cannot be turned into equations
 ``CausalityError``             422      causality conflict (names the elements)
@@ -39,6 +40,7 @@ __all__ = [
     "ParameterError",
     "RigFileError",
     "SimulationError",
+    "SolverLimitError",
 ]
 
 
@@ -65,6 +67,17 @@ class HydrodiagError(Exception):
 
 class InputError(HydrodiagError):
     """A value supplied by the caller is invalid."""
+
+
+class SolverLimitError(InputError):
+    """The solver stopped at a limit before the run was done.
+
+    An input error because the caller asked for more than the limits allow: a tolerance
+    or accuracy so tight, or a simulated time so long, that the run needs more steps, more
+    simulated time or more wall-clock time than the configured maximum (or a step size
+    below round-off).  The message names the limit, its value, the tolerance and the
+    simulated time reached; a looser tolerance or a shorter run is the remedy.
+    """
 
 
 class ParameterError(InputError):

@@ -5,7 +5,7 @@ from __future__ import annotations
 from functools import partial
 from typing import Any, Literal
 
-from pydantic import BaseModel, Field, field_validator
+from pydantic import BaseModel, Field, PositiveFloat, field_validator
 
 from app.schemas.common import FiniteFloat, RequestModel
 from sim.scenarios import FAULTS
@@ -14,6 +14,7 @@ __all__ = [
     "ConditionSpec",
     "SimulateRequest",
     "SimulationPublic",
+    "SolverPublic",
     "TimeseriesFormat",
     "TimeseriesTable",
 ]
@@ -80,7 +81,7 @@ class SimulateRequest(RequestModel):
     )
     method: Literal["transient", "steady"] = Field(
         default="transient",
-        description="'transient': integrate a working + return cycle (ROS2); 'steady': the "
+        description="'transient': integrate a working + return cycle (see `solver`); 'steady': the "
         "algebraic operating points of both phases, ~1000× faster, no time series [-]",
         examples=["transient"],
     )
@@ -90,9 +91,38 @@ class SimulateRequest(RequestModel):
         "'parquet' as the answer's body with the summary in its header/metadata [-]",
         examples=[None],
     )
-    rtol: float = Field(
-        default=1e-3, gt=1e-8, le=1e-1,
-        description="Relative tolerance of the transient integrator [1]", examples=[1e-3],
+    solver: Literal["rodas4", "ros2"] = Field(
+        default="rodas4",
+        description="Integrator of the transient: 'rodas4' (fourth order, dense output, "
+        "sampling, error estimate) or 'ros2' (second order, one row per step) [-]",
+        examples=["rodas4"],
+    )
+    rtol: float | None = Field(
+        default=None, gt=1e-8, le=1e-1,
+        description="Relative tolerance of the transient integrator; null (default): "
+        "noise-accurate, the tolerance is chosen so that the estimated error meets "
+        "`noise_fraction` of `noise` (ros2: 1e-3); given, the run is at this tolerance and "
+        "its error is only estimated (rodas4) [-]",
+        examples=[None],
+    )
+    sample_rate: float | None = Field(
+        default=None, gt=0, le=100_000,
+        description="Time series on a grid of this rate from t = 0, from the dense output "
+        "(rodas4 only); null: one row per accepted solver step [Hz]",
+        examples=[1000.0],
+    )
+    noise: dict[str, PositiveFloat] = Field(
+        default_factory=dict,
+        description="Sensor noise σ per output name, in the output's unit; outputs not named "
+        "take the default of their unit: velocity 3.2e-4 m/s, pressure 25e3 Pa, flow "
+        "2.33e-6 m³/s, position 1e-5 m [output unit]",
+        examples=[{"v": 3.2e-4, "P_pump": 25e3}],
+    )
+    noise_fraction: dict[str, PositiveFloat] = Field(
+        default_factory=dict,
+        description="Error target per output name as a fraction of its σ; default 0.3 for "
+        "velocities, 0.1 otherwise [-]",
+        examples=[{"v": 0.3}],
     )
 
     _fault_known = field_validator("fault")(check_fault)
@@ -109,6 +139,30 @@ class TimeseriesTable(BaseModel):
         description="Rows, one per accepted solver step, in column order [unit of each column]",
         examples=[[[0.0, "working", 0.0]]],
     )
+
+
+class SolverPublic(BaseModel):
+    """How a transient was integrated and the error it reached."""
+
+    method: str = Field(description="'rodas4' or 'ros2' [-]", examples=["rodas4"])
+    rtol: float = Field(description="Relative tolerance of the returned run [-]",
+                        examples=[3e-5])
+    rejected: int = Field(description="Rejected steps, both phases [-]", examples=[12])
+    rhs_evaluations: int = Field(
+        description="Right-hand-side evaluations, Jacobians included (0: not counted) [-]",
+        examples=[27000])
+    error_sigma: dict[str, float] | None = Field(
+        description="Estimated error per output in units of its noise σ (maximum over the "
+        "output times, from a companion run at 10·rtol); null without estimate [-]",
+        examples=[{"v": 0.15, "P_pump": 0.01}])
+    target_sigma: dict[str, float] | None = Field(
+        description="Error target per output in units of its σ [-]", examples=[{"v": 0.3}])
+    sigma: dict[str, float] | None = Field(
+        description="Noise σ of each controlled output [output unit]",
+        examples=[{"v": 3.2e-4}])
+    switch_time_error: float | None = Field(
+        description="Estimated error of the working → return switch time [s]",
+        examples=[1e-9])
 
 
 class SimulationPublic(BaseModel):
@@ -138,6 +192,12 @@ class SimulationPublic(BaseModel):
     steps: dict[str, int] = Field(
         description="Accepted solver steps per phase (empty for 'steady') [-]",
         examples=[{"working": 1800, "return": 1750}],
+    )
+    solver: SolverPublic | None = Field(
+        default=None, description="Integration of the transient; null for 'steady' [-]",
+        examples=[{"method": "rodas4", "rtol": 3e-5, "rejected": 12, "rhs_evaluations": 27000,
+                   "error_sigma": {"v": 0.15}, "target_sigma": {"v": 0.3},
+                   "sigma": {"v": 3.2e-4}, "switch_time_error": 1e-9}],
     )
     timeseries: TimeseriesTable | None = Field(
         default=None, description="The time series when asked for as 'json' [-]",

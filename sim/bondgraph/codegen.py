@@ -1,8 +1,8 @@
 """Code generation: a bond graph's sorted equations become a compiled Python module.
 
 The module holds straight-line scalar code for the right-hand side ``rhs(t, y, p, dy)``
-and for the outputs, plus the integrator and the steady-state solver of
-:mod:`sim.solver.rosenbrock` specialised to this right-hand side.  Everything is
+and for the outputs, plus the integrators (:mod:`sim.solver.rosenbrock`'s ROS2, :mod:`sim.solver.rodas`'s
+RODAS4) and the steady-state solver specialised to this right-hand side.  Everything is
 compiled by numba with ``cache=True``; the module is written to a cache folder under a
 name that hashes its source, so a second process loads the machine code instead of
 compiling it again.  With ``jit=False`` the same source runs as plain Python (the
@@ -25,11 +25,17 @@ from types import ModuleType
 from typing import Any
 
 from sim.bondgraph.equations import EquationSystem
-from sim.solver import rosenbrock
+from sim.solver import rodas, rosenbrock
 
 __all__ = ["cache_dir", "generate_source", "load_module"]
 
-_SOLVER_FUNCS = ("lu_factor", "lu_solve", "fd_jacobian", "integrate", "steady")
+#: (module, function) copied into every generated module, in dependency order
+_SOLVER_SOURCES = (
+    (rosenbrock, "lu_factor"), (rosenbrock, "lu_solve"), (rosenbrock, "fd_jacobian"),
+    (rosenbrock, "integrate"), (rosenbrock, "steady"),
+    (rodas, "dense_eval"), (rodas, "integrate_rodas"),
+)
+_SOLVER_FUNCS = tuple(name for _, name in _SOLVER_SOURCES)
 
 
 def cache_dir() -> Path:
@@ -63,12 +69,12 @@ class _DropRhs(ast.NodeTransformer):
 
 def _solver_source() -> str:
     parts = []
-    for name in _SOLVER_FUNCS:
-        src = textwrap.dedent(inspect.getsource(getattr(rosenbrock, name)))
+    for mod, name in _SOLVER_SOURCES:
+        src = textwrap.dedent(inspect.getsource(getattr(mod, name)))
         tree = _DropRhs().visit(ast.parse(src))
         parts.append(ast.unparse(ast.fix_missing_locations(tree)))
-    consts = "\n".join(f"{k} = {getattr(rosenbrock, k)!r}" for k in dir(rosenbrock)
-                       if k.startswith("STATUS_"))
+    consts = "\n".join(f"{k} = {getattr(mod, k)!r}" for mod in (rosenbrock, rodas)
+                       for k in dir(mod) if k.startswith(("STATUS_", "R4_")))
     return consts + "\n\n" + "\n\n\n".join(parts)
 
 

@@ -174,3 +174,15 @@ def test_import_zema_cycles_and_a_series_file(runner: CliRunner, tmp_path: Path)
     bad = runner.invoke(cli, ["import", "series", str(csv), "--rig", "1", "--name", "bad"])
     assert bad.exit_code != 0 and _count(MeasuredSeries) == 6
     assert "[Hz]" in runner.invoke(cli, ["import", "series", "--help"]).stdout
+
+
+def test_simulate_samples_at_a_rate_and_reports_its_error(runner: CliRunner,
+                                                          tmp_path: Path) -> None:
+    out = tmp_path / "run.csv"
+    result = runner.invoke(cli, ["simulate", "--sample-rate", "1000", "--output", str(out)])
+    assert result.exit_code == 0, result.output
+    assert "error estimate v [σ]" in result.stdout
+    frame = pd.read_csv(out, comment="#")
+    assert frame["t [s]"].diff().dropna().round(12).eq(1e-3).all()
+    ros2 = runner.invoke(cli, ["simulate", "--solver", "ros2", "--sample-rate", "1000"])
+    assert ros2.exit_code != 0 and "sample_rate" in str(ros2.exception)

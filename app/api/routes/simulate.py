@@ -6,10 +6,16 @@ from typing import Any
 
 from fastapi import APIRouter, Response
 
-from app.api.deps import ReadAccess, RigsDep, SessionDep
+from app.api.deps import ReadAccess, RigsDep, SessionDep, SettingsDep
 from app.schemas.common import ERROR_RESPONSES
 from app.schemas.simulate import SimulateRequest, SimulationPublic
-from app.services.simulation import public_of, simulate, timeseries_csv, timeseries_parquet
+from app.services.simulation import (
+    limits_of,
+    public_of,
+    simulate,
+    timeseries_csv,
+    timeseries_parquet,
+)
 
 __all__ = ["router"]
 
@@ -28,9 +34,14 @@ _FILE_RESPONSES: dict[int | str, dict[str, Any]] = {
 
 @router.post("/simulate", summary="Simulate a fault scenario on a stored rig",
              response_model=SimulationPublic, responses=_FILE_RESPONSES)
-def simulate_scenario(body: SimulateRequest, session: SessionDep, rigs: RigsDep) -> Any:
-    """Run one working + return cycle (or the steady operating points) of the scenario."""
-    outcome = simulate(session, rigs, body)
+def simulate_scenario(body: SimulateRequest, session: SessionDep, rigs: RigsDep,
+                      settings: SettingsDep) -> Any:
+    """Run one working + return cycle (or the steady operating points) of the scenario.
+
+    A transient that needs more than the configured solver limits (steps, simulated time,
+    wall clock) is answered 422 with the reason.
+    """
+    outcome = simulate(session, rigs, body, limits_of(settings))
     if body.timeseries == "csv":
         return Response(timeseries_csv(outcome), media_type="text/csv",
                         headers={"Content-Disposition": 'attachment; filename="simulation.csv"'})

@@ -1,0 +1,95 @@
+"""POST /simulate's solver over HTTP: noise-accurate default, sampling grid, every accepted
+tolerance runs (issue 16 item 3), solver limits answered 422 with the reason (issue 17)."""
+
+from __future__ import annotations
+
+import io
+import json
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from tests.app.live import LiveServer, live_server, sqlite_settings
+
+SCENARIO: dict[str, Any] = {"rig_id": 1, "condition": {"load": 6300.0, "oil_temperature": 40.0}}
+
+
+def test_default_is_noise_accurate_and_reports_its_error(server: LiveServer) -> None:
+    body = server.client.post("/simulate", json=SCENARIO).json()
+    solver = body["solver"]
+    assert solver["method"] == "rodas4"
+    assert solver["sigma"]["v"] == 3.2e-4 and solver["sigma"]["P_pump"] == 25e3
+    assert solver["sigma"]["Q_meter_B"] == 2.33e-6
+    assert solver["target_sigma"]["v"] == 0.3 and solver["target_sigma"]["Q_meter_B"] == 0.1
+    for name, err in solver["error_sigma"].items():
+        assert 0.0 <= err <= solver["target_sigma"][name]
+    assert body["completed"] == {"working": True, "return": True}
+
+
+def test_csv_on_a_1khz_grid(server: LiveServer) -> None:
+    response = server.client.post("/simulate", json=SCENARIO | {"timeseries": "csv",
+                                                                "sample_rate": 1000.0})
+    assert response.status_code == 200, response.text
+    header = dict(line[2:].split(" = ", 1) for line in response.text.splitlines()
+                  if line.startswith("# "))
+    assert json.loads(header["solver"])["method"] == "rodas4"
+    frame = pd.read_csv(io.StringIO(response.text), comment="#")
+    t = frame["t [s]"].to_numpy()
+    np.testing.assert_allclose(np.diff(t), 1e-3, rtol=0, atol=1e-12)
+    assert t[0] == 0.0
+    assert list(frame["phase"].unique()) == ["working", "return"]
+    # the cycle's end: the return phase's last sample lies before the reported duration
+    summary = json.loads(header["summary"])
+    total = summary["working.duration [s]"] + summary["return.duration [s]"]
+    assert total - 1e-3 <= t[-1] <= total
+
+
+@pytest.mark.parametrize("rtol", [1e-7, 3e-7, 5e-8])
+def test_every_accepted_tolerance_runs(server: LiveServer, rtol: float) -> None:
+    response = server.client.post("/simulate", json=SCENARIO | {"rtol": rtol})
+    assert response.status_code == 200, response.text
+    assert response.json()["solver"]["rtol"] == rtol
+
+
+def test_sampling_asked_of_ros2_is_422(server: LiveServer) -> None:
+    response = server.client.post("/simulate", json=SCENARIO | {"solver": "ros2",
+                                                                "sample_rate": 1000.0})
+    assert response.status_code == 422
+    assert response.json()["error"]["field"] == "sample_rate"
+
+
+def test_noise_fields_are_validated(server: LiveServer) -> None:
+    response = server.client.post("/simulate", json=SCENARIO | {"noise": {"v": -1.0}})
+    assert response.status_code == 422
+
+
+@pytest.fixture(scope="module")
+def limited(tmp_path_factory: pytest.TempPathFactory) -> Iterator[LiveServer]:
+    settings = sqlite_settings(Path(tmp_path_factory.mktemp("limited")), sim_max_steps=3000,
+                               sim_wall_clock=5.0)
+    with live_server(settings) as live:
+        yield live
+
+
+def test_a_run_past_the_step_limit_is_422_with_the_reason(limited: LiveServer) -> None:
+    before = limited.row_counts()
+    response = limited.client.post("/simulate", json=SCENARIO | {"solver": "ros2",
+                                                                 "rtol": 1e-7})
+    assert response.status_code == 422, response.text
+    error = response.json()["error"]
+    assert error["field"] == "rtol"
+    assert "step limit of 3000 steps" in error["message"] and "t = " in error["message"]
+    assert limited.row_counts() == before
+    # the noise-accurate default fits (a few hundred steps a phase on the summary's grid)
+    ok = limited.client.post("/simulate", json=SCENARIO)
+    assert ok.status_code == 200, ok.text
+
+
+def test_the_settings_document_their_solver_limits() -> None:
+    settings = sqlite_settings(Path("unused"))
+    assert settings.sim_max_steps == 2_000_000
+    assert settings.sim_max_time == 600.0 and settings.sim_wall_clock == 10.0
