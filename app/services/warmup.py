@@ -3,7 +3,9 @@
 A fresh process compiles (or loads from the code cache) each rig's model on its first
 request.  :class:`Warmup` does that once at start-up for the rigs the service serves — the
 latest version of each stored rig, newest first, as many as the rig cache holds — and runs
-one steady operating point on each so that every compiled function has been called once.
+one steady operating point and a millisecond of each transient solver (RODAS4, ROS2) on
+each, so that every compiled function has been called once (loaded from the code cache,
+or compiled on a machine's first start).
 ``/ready`` answers 503 until it has finished, so a load balancer sends no traffic to a
 worker that is still loading.
 """
@@ -19,10 +21,20 @@ from sqlalchemy import select
 from app.db.engine import SessionFactory
 from app.db.models import Rig as RigRow
 from app.services.rig_cache import RigCache
+from sim.cycle import phase_params
 from sim.errors import HydrodiagError
+from sim.rigs import Rig
 from sim.steady import steady_cycle
 
 __all__ = ["Warmup"]
+
+
+def _touch_transient_solvers(rig: Rig) -> None:
+    """Call each compiled transient solver once on ``rig`` (a millisecond from rest)."""
+    p = phase_params(rig, "working", None, rig.default_condition())
+    y0 = rig.model.initial_state(p)
+    for method in ("rodas4", "ros2"):
+        rig.model.integrate(y0, p, 1e-3, method=method)
 
 logger = logging.getLogger("hydrodiag.app")
 
@@ -75,6 +87,7 @@ class Warmup:
                     try:
                         resolved = self._rigs.get(session, rig_id)
                         steady_cycle(resolved.rig)
+                        _touch_transient_solvers(resolved.rig)
                     except HydrodiagError as exc:  # a rig that cannot run still serves 422s
                         self.failed[rig_id] = str(exc)
                         logger.warning("rig %d not warmed: %s", rig_id, exc)
