@@ -7,6 +7,7 @@
 * ``simulate`` — ``POST /simulate`` over :mod:`app.services.simulation`;
 * ``scenarios`` — ``POST /scenarios``: sweeps as jobs (:mod:`app.services.sweeps`);
 * ``trends`` — ``GET /rigs/{rig_id}/trends`` over :mod:`app.services.trends`;
+* ``discrepancy`` — ``POST /discrepancy``: the discrepancy workflow as a job;
 * ``jobs`` — status, progress and results of long work.
 """
 
@@ -17,6 +18,7 @@ from fastapi import APIRouter
 from app.api.routes import (
     calibrations,
     diagnose,
+    discrepancy,
     jobs,
     ops,
     pumps,
@@ -29,5 +31,6 @@ from app.api.routes import (
 __all__ = ["api_router"]
 
 api_router = APIRouter()
-for _module in (ops, rigs, calibrations, trends, pumps, diagnose, simulate, scenarios, jobs):
+for _module in (ops, rigs, calibrations, trends, pumps, diagnose, simulate, scenarios,
+                discrepancy, jobs):
     api_router.include_router(_module.router)

@@ -80,6 +80,7 @@ class BalanceData:
     candidates: dict[str, Arr]
     mask: npt.NDArray[np.bool_]
     full_scale: float
+    base_signs: dict[str, float]
 
 
 def _inside(s: Signals, v: dict[str, float]) -> npt.NDArray[np.bool_]:
@@ -131,6 +132,13 @@ def _pump(s: Signals, v: dict[str, float]) -> tuple[Arr, dict[str, Arr]]:
     return y, base
 
 
+#: base columns whose re-fitted coefficient must stay ≥ 0 (friction, conductances,
+#: displacement): a subset that drives one negative trades off against the base model
+BASE_SIGNS: dict[str, float] = {
+    "cylinder.Fu": 1.0, "cylinder.Kf": 1.0, "cylinder.cc (laminar)": 1.0,
+    "valve.cv (laminar)": 1.0, "pump.Rlp": 1.0, "pump.Vp": 1.0,
+}
+
 BALANCES: tuple[Balance, ...] = (
     Balance("piston_force", "N", ("P1", "P2", "v"),
             lambda v: v["cylinder.A1"] * v["relief.Pset"], _piston),
@@ -166,5 +174,6 @@ def balance_data(s: Signals, values: dict[str, float]) -> list[BalanceData]:
         sub = s.subset(mask)
         y, base = b.build(sub, values)
         cands = {e.name: e.entry.regressor(sub.values) for e in effects_of(b.name)}
-        out.append(BalanceData(b, y, base, cands, mask, b.full_scale(values)))
+        out.append(BalanceData(b, y, base, cands, mask, b.full_scale(values),
+                               {k: v for k, v in BASE_SIGNS.items() if k in base}))
     return out

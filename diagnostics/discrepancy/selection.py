@@ -1,16 +1,16 @@
-"""Selection of named effects in one balance (DISCREPANCY.md §4-5).
-
-Every subset of at most two candidate columns is fitted together with the base columns
-(always in, unpenalised) by least squares on unit-RMS columns.  A subset is *admissible*
-when each added term passes a Bonferroni-corrected two-sided t-test (α = 0.01 over the
-candidates of the balance) with HAC (Newey-West) standard errors, has the expected sign,
-lies within 10× the top of its plausible range, and its contribution is larger than the
-practical size (0.1 % of the balance's full scale, RMS).  The admissible subset with the
-lowest BIC is chosen if it improves on the base fit by at least 10; admissible subsets
-within ΔBIC < 2 of it are competing explanations.  Candidates whose columns are linearly
-dependent on the base columns or on each other on this test design (relative residual
-norm < 1e-3 after projection) form *ambiguity groups*, reported together.  A moving-block
-bootstrap gives each chosen term's inclusion frequency.
+"""Selection of named effects in one balance (DISCREPANCY.md §4-5). Every subset of at most
+two candidate columns is fitted together with the base columns (always in, unpenalised) by
+least squares on unit-RMS columns. A subset is *admissible* when each added term passes a
+Bonferroni-corrected two-sided t-test (α = 0.01 over the candidates of the balance) with
+HAC (Newey-West) standard errors, has the expected sign, lies within 10× the top of its
+plausible range, leaves the re-fitted base parameters with their physical signs (friction,
+conductances, displacement ≥ 0), and its contribution is larger than the practical size
+(0.1 % of the balance's full scale, RMS). The admissible subset with the lowest BIC is
+chosen if it improves on the base fit by at least 10; admissible subsets within ΔBIC < 2
+of it are competing explanations. Candidates whose columns are linearly dependent on the
+base columns or on each other on this test design (relative residual norm < 1e-3 after
+projection) form *ambiguity groups*, reported together. A moving-block bootstrap gives
+each chosen term's inclusion frequency.
 """
 
 from __future__ import annotations
@@ -144,7 +144,7 @@ def _dependent(B: Arr, c: Arr) -> bool:
 
 
 def _fit(y: Arr, Xb: Arr, Xc: Arr, names: list[str], scale: Arr, data: BalanceData,
-         m: int, ys: float) -> tuple[Fit, Arr, Arr]:
+         m: int, ys: float, bnames: list[str]) -> tuple[Fit, Arr, Arr]:
     X = np.hstack([Xb, Xc])
     coef, *_ = np.linalg.lstsq(X, y, rcond=None)
     resid = y - X @ coef
@@ -176,6 +176,11 @@ def _fit(y: Arr, Xb: Arr, Xc: Arr, names: list[str], scale: Arr, data: BalanceDa
         if contrib < PRACTICAL * data.full_scale:
             reasons.append(f"{name}: below the practical size ({contrib:.3g} < "
                            f"{PRACTICAL * data.full_scale:.3g} {data.balance.unit} RMS)")
+    for j, bname in enumerate(bnames):
+        sign = data.base_signs.get(bname)
+        if sign is not None and sign * coef[j] < 0:
+            reasons.append(f"base parameter {bname} re-fitted to an unphysical sign: the "
+                           "terms trade off against the base model")
     fit = Fit(terms, _bic(rss, n, X.shape[1]), rss, not reasons, reasons)
     return fit, np.asarray(coef, dtype=float), resid
 
@@ -214,7 +219,8 @@ def select(data: BalanceData, *, bootstrap: int = 30, seed: int = 0) -> Selectio
             if size == 2 and [subset[0], subset[1]] in groups:
                 continue
             idx = [cnames.index(c) for c in subset]
-            fit, _, _ = _fit(y, Xb, Xc_all[:, idx], list(subset), cscale[idx] / ys, data, m, ys)
+            fit, _, _ = _fit(y, Xb, Xc_all[:, idx], list(subset), cscale[idx] / ys, data, m,
+                             ys, bnames)
             fits[subset] = fit
             if size == 1:
                 singles[subset[0]] = fit.terms[0]

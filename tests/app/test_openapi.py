@@ -72,5 +72,5 @@ def test_the_routes_of_the_service_are_there(spec: dict[str, Any]) -> None:
         "/rigs/{rig_id}/calibrations/{calibration_id}",
         "/rigs/{rig_id}/calibrations/{calibration_id}/clearance", "/pump-sets",
         "/pump-sets/{pump_set_id}", "/jobs", "/jobs/{job_id}", "/rigs/{rig_id}/trends",
-        "/pump-sets/bench", "/diagnose", "/simulate", "/scenarios",
+        "/pump-sets/bench", "/diagnose", "/simulate", "/scenarios", "/discrepancy",
     }
