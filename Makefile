@@ -5,7 +5,7 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed-stamp
 export HYDRODIAG_CACHE_DIR ?= $(CURDIR)/.hydrodiag-cache
 
-.PHONY: run test lint bench accuracy pump-study load-bench clean
+.PHONY: run test lint bench accuracy pump-study load-bench discrepancy-study clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -37,3 +37,6 @@ pump-study: $(STAMP)
 
 load-bench: $(STAMP)
 	$(PY) -m benchmarks.load_bench
+
+discrepancy-study: $(STAMP)
+	$(PY) -m benchmarks.discrepancy_study
