@@ -165,7 +165,7 @@ def main() -> None:
                   f"{fd}/{n_null} false discoveries")
     # outside the library: narrowed hoses
     n_out = max(1, round(SEEDS * 5 / 3)) if not LIGHT else 1
-    flagged = misnamed = 0
+    flagged = misnamed = unexplained = 0
     out_names: dict[str, int] = {}
     for k in range(n_out):
         try:
@@ -177,10 +177,12 @@ def main() -> None:
             misnamed += 1
         else:
             flagged += 1
+            unexplained += d.verdict in ("unexplained", "partially explained")
         for n in _named(d):
             out_names[n] = out_names.get(n, 0) + 1
     print(f"outside the library (hoses at half bore): {flagged}/{n_out} not confidently "
-          f"named, {misnamed}/{n_out} named as {out_names or '—'}")
+          f"named ({unexplained} reported as unexplained), {misnamed}/{n_out} named as "
+          f"{out_names or '—'}")
     total_null = sum(r["n"] for r in null_rows)
     fd_total = sum(r["false_discoveries"] for r in null_rows)
 
@@ -199,7 +201,7 @@ def main() -> None:
         "no_effect_cases": total_null, "false_discoveries": fd_total,
         "false_discovery_rate_dynamic": fd_total / total_null if total_null else None,
         "out_of_library_cases": n_out, "out_of_library_flagged": flagged,
-        "out_of_library_misnamed": misnamed,
+        "out_of_library_misnamed": misnamed, "out_of_library_unexplained": unexplained,
         "rows": rows, "no_effect": null_rows,
         "solver": "run_cycle ROS2 rtol=1e-5", "elapsed_s": time.perf_counter() - t_start,
     }

@@ -52,6 +52,9 @@ Progress = Callable[[float, str], None]
 #: measured channels compared in output-error form, when present
 #: held-out excess-gap ratio an added effect must reach to be kept
 CONFIRM_RATIO = 1.5
+#: held-out steady RMSE, in units of the channel's noise σ, above which an unnamed gap is
+#: reported as unexplained rather than "no effect"
+OUTPUT_GAP = 3.0
 
 OUTPUTS = ("P1", "P2", "v", "P_pump", "P_valve_P", "Q_meter_B", "Q_meter_C")
 
@@ -357,7 +360,7 @@ def discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], *
         traces["after"] = after_tables[0]
     else:
         gap_after, white_after = [], {}
-    verdict, message = _verdict(named, selections, gap_before, gap_after, white_after)
+    verdict, message = _verdict(named, selections, gap_before, gap_after, white_after, sig)
     if rejected:
         message += ("; not confirmed by re-simulation (output-error coefficient not "
                     f"significant or held-out gap not shrinking): {', '.join(rejected)}")
@@ -428,8 +431,12 @@ def _structured(s: Selection) -> bool:
 
 
 def _verdict(named: list[NamedEffect], selections: list[Selection], before: list[GapRow],
-             after: list[GapRow], white_after: dict[str, float]) -> tuple[str, str]:
+             after: list[GapRow], white_after: dict[str, float],
+             sigma: Mapping[str, float]) -> tuple[str, str]:
     structured = [s.balance for s in selections if _structured(s)]
+    # output-error gap on the held-out record, steady motion, in units of the noise
+    off = [f"{r.channel} ({r.rmse / sigma[r.channel]:.1f} σ)" for r in before
+           if r.region == "steady" and r.rmse > OUTPUT_GAP * sigma[r.channel]]
     if named:
         names = ", ".join(n.name for n in named)
         if len(named) > 1 or structured:
@@ -438,8 +445,10 @@ def _verdict(named: list[NamedEffect], selections: list[Selection], before: list
                     f"(residual still above the practical size in: "
                     f"{', '.join(structured) or 'none'}; two or more terms)")
         return "named", f"named {names}"
-    if structured:
+    if structured or off:
+        where = ", ".join([f"balance {b}" for b in structured] + off)
         return ("unexplained",
-                f"the residual of {', '.join(structured)} exceeds the practical size but no "
-                "library effect explains it: possibly outside the library")
+                f"model and data differ ({where}, held-out steady RMSE) but no library "
+                "effect explains it: possibly outside the library, or a drift of base "
+                "parameters that the stored rig does not have")
     return "no effect", "no effect found: the gap is within the noise and the practical size"

@@ -82,3 +82,13 @@ def test_no_effect_data_give_no_effect():
     assert d.rig_document.get("effects") in (None, {})
     # every candidate has a finite minimum detectable size or is marked undetectable
     assert all(v > 0 for bal in d.detectable.values() for v in bal.values())
+
+
+def test_a_gap_outside_the_library_is_unexplained_not_misnamed():
+    """Hoses at half bore: a line loss ∝ Q² that no library entry describes."""
+    recs = _records(reference_rig_document(), 4,
+                    overrides={"hose_A.d": 0.0127 / 2, "hose_B.d": 0.0127 / 2})
+    d = discover(reference_rig_document(), recs, bootstrap=10)
+    assert d.named == []
+    assert d.verdict == "unexplained"
+    assert "P_pump" in d.message
