@@ -5,7 +5,7 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed-stamp
 export HYDRODIAG_CACHE_DIR ?= $(CURDIR)/.hydrodiag-cache
 
-.PHONY: run test lint bench accuracy pump-study load-bench console-bench screenshots real-data chaos clean
+.PHONY: run test lint bench accuracy pump-study load-bench console-bench screenshots real-data chaos discrepancy-study clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -50,3 +50,6 @@ screenshots: $(STAMP)
 
 chaos: $(STAMP)
 	$(PY) -m benchmarks.chaos
+
+discrepancy-study: $(STAMP)
+	$(PY) -m benchmarks.discrepancy_study

@@ -18,6 +18,7 @@ from rich.progress import Progress
 from rich.table import Table
 from sqlalchemy import Engine
 
+from app.cli_discover import register as register_discover
 from app.cli_report import report_cli
 from app.cli_runs import register
 from app.cli_support import console, migrated_engine, settings_from_env, steps
@@ -166,6 +167,7 @@ def db_current() -> None:
 
 register(cli)
 cli.add_typer(report_cli, name="report")
+register_discover(cli)
 
 
 def main() -> None:

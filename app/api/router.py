@@ -9,6 +9,7 @@
 * ``scenarios`` — ``POST /scenarios``: sweeps as jobs (:mod:`app.services.sweeps`);
 * ``series`` — measured time series of a rig (:mod:`app.services.series`);
 * ``trends`` — ``GET /rigs/{rig_id}/trends`` over :mod:`app.services.trends`;
+* ``discrepancy`` — ``POST /discrepancy``: the discrepancy workflow as a job;
 * ``jobs`` — status, progress and results of long work;
 * ``history`` — stored measurements and diagnoses read back.
 """
@@ -21,6 +22,7 @@ from app.api.routes import (
     calibrations,
     commission,
     diagnose,
+    discrepancy,
     history,
     jobs,
     ops,
@@ -36,5 +38,5 @@ __all__ = ["api_router"]
 
 api_router = APIRouter()
 for _module in (ops, rigs, commission, calibrations, trends, pumps, series, diagnose, simulate,
-                scenarios, jobs, history):
+                scenarios, discrepancy, jobs, history):
     api_router.include_router(_module.router)

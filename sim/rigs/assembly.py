@@ -11,12 +11,13 @@ import numpy.typing as npt
 
 from sim.bondgraph import BondGraph, CompiledModel, compile_graph
 from sim.components.base import Derivation
+from sim.components.effects import get_effect
 from sim.errors import ParameterError
 from sim.fluid import Fluid
 from sim.rigs.circuits import DEFAULT_CIRCUIT, Circuit, get_circuit
 from sim.rigs.schema import RigSpec, check_bounds
 
-__all__ = ["Condition", "Rig", "build_graph"]
+__all__ = ["Condition", "Rig", "build_graph", "build_graph_with_effects"]
 
 Arr = npt.NDArray[np.float64]
 
@@ -70,8 +71,8 @@ class Rig:
     @classmethod
     def from_spec(cls, spec: RigSpec) -> Rig:
         """Compile the circuit and keep the rig's parameter values."""
-        _, derivations = _graph_cached(spec.circuit)
-        model = _model_cached(spec.circuit)
+        _, derivations = _graph_cached(spec.circuit, spec.effect_types)
+        model = _model_cached(spec.circuit, spec.effect_types)
         fl = Fluid(**{k: q.value for k, q in spec.fluid.items()})
         base = spec.values()
         unknown = set(base) - set(model.param_names)
@@ -97,6 +98,8 @@ class Rig:
         for key, value in (overrides or {}).items():
             role, _, pname = key.partition(".")
             decl = circuit.parameter(role, pname)
+            if decl is None and role in self.spec.effects:
+                decl = get_effect(role).parameter(pname)
             if decl is None:
                 raise ParameterError(f"unknown parameter {key!r} (use role.name, e.g. "
                                      "'cylinder.cc')", field=f"overrides.{key}")
@@ -138,22 +141,37 @@ class Rig:
         return self.model.params(v)
 
 
-_GRAPHS: dict[str, tuple[BondGraph, list[Derivation]]] = {}
-_MODELS: dict[str, CompiledModel] = {}
-#: each circuit is built and compiled once per process, even under concurrent first calls
+#: cache key: (circuit name, sorted effect names)
+_Key = tuple[str, tuple[str, ...]]
+_GRAPHS: dict[_Key, tuple[BondGraph, list[Derivation]]] = {}
+_MODELS: dict[_Key, CompiledModel] = {}
+#: each (circuit, effects) is built and compiled once per process, even under concurrent
+#: first calls
 _CACHE_LOCK = threading.Lock()
 
 
-def _graph_cached(circuit: Circuit) -> tuple[BondGraph, list[Derivation]]:
-    with _CACHE_LOCK:
-        if circuit.name not in _GRAPHS:
-            _GRAPHS[circuit.name] = circuit.build(circuit.name)
-        return _GRAPHS[circuit.name]
+def build_graph_with_effects(circuit: Circuit, effects: tuple[str, ...] = ()
+                             ) -> tuple[BondGraph, list[Derivation]]:
+    """The circuit's bond graph with the library ``effects`` added (default parameters)."""
+    graph, derivations = circuit.build(circuit.name)
+    for name in effects:
+        get_effect(name, circuit.name).build(graph)
+    return graph, derivations
 
 
-def _model_cached(circuit: Circuit) -> CompiledModel:
-    graph = _graph_cached(circuit)[0]
+def _graph_cached(circuit: Circuit, effects: tuple[str, ...] = ()
+                  ) -> tuple[BondGraph, list[Derivation]]:
+    key = (circuit.name, effects)
     with _CACHE_LOCK:
-        if circuit.name not in _MODELS:
-            _MODELS[circuit.name] = compile_graph(graph)
-        return _MODELS[circuit.name]
+        if key not in _GRAPHS:
+            _GRAPHS[key] = build_graph_with_effects(circuit, effects)
+        return _GRAPHS[key]
+
+
+def _model_cached(circuit: Circuit, effects: tuple[str, ...] = ()) -> CompiledModel:
+    graph = _graph_cached(circuit, effects)[0]
+    key = (circuit.name, effects)
+    with _CACHE_LOCK:
+        if key not in _MODELS:
+            _MODELS[key] = compile_graph(graph)
+        return _MODELS[key]

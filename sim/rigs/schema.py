@@ -9,6 +9,11 @@ wrong dimension or a value outside the physical bounds is an error that names th
 The file names its circuit (``circuit:``, default ``pump-valve-cylinder``, paper 002
 Figure 1); the circuit (:mod:`sim.rigs.circuits`) fixes the roles the file must fill and
 the component type of each.  Each role takes one component.
+
+An optional ``effects:`` section adds named effects of the library
+(:mod:`sim.components.effects`) to the circuit's bond graph: effect name →
+``{parameters: {name: {value, unit, source}}}``; parameters left out keep their defaults
+(a strength of 0 is the base rig).  The discrepancy workflow writes this section.
 """
 
 from __future__ import annotations
@@ -56,6 +61,9 @@ class RigSpec:
         Default operating condition (load force [N], back-pressure [Pa], oil temperature [°C]).
     circuit
         The circuit the file names (:mod:`sim.rigs.circuits`); default ``pump-valve-cylinder``.
+    effects
+        Library effect name → parameter name → :class:`Quantity` (the ``effects:`` section;
+        parameters not given keep their declared defaults).
     document
         The document as given (kept for storage and round trips).
     """
@@ -68,12 +76,20 @@ class RigSpec:
     condition: dict[str, Quantity]
     document: dict[str, Any] = field(repr=False, default_factory=dict)
     circuit: Circuit = field(default_factory=lambda: CIRCUITS[DEFAULT_CIRCUIT])
+    effects: dict[str, dict[str, Quantity]] = field(default_factory=dict)
 
     def values(self) -> dict[str, float]:
-        """All component parameters as ``role.name → SI value``."""
+        """All component and effect parameters as ``role.name`` / ``effect.name → SI value``."""
         out = {f"{role}.{k}": q.value for role, (_, ps) in self.components.items()
                for k, q in ps.items()}
+        out.update({f"{eff}.{k}": q.value for eff, ps in self.effects.items()
+                    for k, q in ps.items()})
         return out
+
+    @property
+    def effect_types(self) -> tuple[str, ...]:
+        """Names of the effects of the ``effects:`` section, sorted (the model cache key)."""
+        return tuple(sorted(self.effects))
 
     def to_document(self) -> dict[str, Any]:
         """The rig document (as given, validated)."""
@@ -173,5 +189,30 @@ def validate_rig_document(doc: Mapping[str, Any]) -> RigSpec:
         components[role] = (ctype, params)
     condition = _parameter_block(doc.get("condition", {}), circuit.condition, "condition",
                                  partial=True)
+    effects = _effects_block(doc.get("effects", {}), circuit)
     return RigSpec(name.strip(), str(doc.get("title", "")), str(doc.get("description", "")),
-                   fluid, components, condition, document=dict(doc), circuit=circuit)
+                   fluid, components, condition, document=dict(doc), circuit=circuit,
+                   effects=effects)
+
+
+def _effects_block(raw: Any, circuit: Circuit) -> dict[str, dict[str, Quantity]]:
+    """Validate the optional ``effects:`` section (module docstring)."""
+    from sim.components.effects import get_effect
+
+    if raw is None:
+        return {}
+    if not isinstance(raw, Mapping):
+        raise RigFileError("expected a mapping effect name → {parameters}", field="effects")
+    out: dict[str, dict[str, Quantity]] = {}
+    for name, body in raw.items():
+        path = f"effects.{name}"
+        effect = get_effect(name, circuit.name, field=path)
+        if not isinstance(body, Mapping):
+            raise RigFileError("expected a mapping {parameters}", field=path)
+        for key in body:
+            if key != "parameters":
+                raise RigFileError(f"unknown key {key!r} (expected 'parameters')",
+                                   field=f"{path}.{key}")
+        out[str(name)] = _parameter_block(body.get("parameters", {}), effect.parameters,
+                                          f"{path}.parameters", partial=True)
+    return out

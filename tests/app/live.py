@@ -96,6 +96,11 @@ def live_server(
     try:
         with httpx.Client(base_url=base_url, timeout=30.0, headers={"X-API-Key": key}) as client, \
                 httpx.Client(base_url=base_url, timeout=30.0) as anon:
+            # as a load balancer would: no request before the service says it is ready
+            while anon.get("/ready").status_code != 200:
+                if time.monotonic() > deadline:
+                    raise RuntimeError("the server did not become ready in time")
+                time.sleep(0.05)
             yield LiveServer(base_url, settings, app, key, client, anon, engine, sessions)
     finally:
         server.should_exit = True

@@ -76,4 +76,5 @@ def test_the_routes_of_the_service_are_there(spec: dict[str, Any]) -> None:
         "/rigs/{rig_id}/series", "/series/{series_id}",
         "/measurements",
         "/measurements/{measurement_id}", "/diagnoses", "/diagnoses/{diagnosis_id}",
+        "/discrepancy",
     }

@@ -2,14 +2,16 @@
 
 from __future__ import annotations
 
-from typing import Annotated
+from typing import Annotated, Any, Literal
 
 from fastapi import APIRouter, Path, Query
+from fastapi.responses import HTMLResponse
 
 from app.api.deps import PageDep, ReadAccess, SessionDep
 from app.schemas.common import ERROR_RESPONSES
 from app.schemas.jobs import JobList, JobPublic, JobStatus
 from app.services import jobs as service
+from sim.errors import InputError
 
 __all__ = ["router"]
 
@@ -33,11 +35,25 @@ def list_jobs(
                    limit=page.limit, offset=page.offset)
 
 
-@router.get("/{job_id}", summary="Get a job's status, progress and outcome")
+@router.get("/{job_id}", summary="Get a job's status, progress and outcome",
+            response_model=JobPublic,
+            responses={200: {"content": {"text/html": {}},
+                             "description": "The job as JSON, or with format=html the page "
+                             "of a job whose result has one (discrepancy reports)"}})
 def get_job(
     job_id: Annotated[str, Path(max_length=36, description="Job identifier (UUID) [-]",
                                 examples=["1b4e28ba-2fa1-11d2-883f-0016d3cca427"])],
     session: SessionDep,
-) -> JobPublic:
+    format: Annotated[Literal["json", "html"], Query(
+        description="'html': the self-contained report page of a finished job that has one "
+        "[-]", examples=["json"])] = "json",
+) -> Any:
     """Return the job; poll until ``status`` is ``succeeded`` or ``failed``."""
-    return JobPublic.model_validate(service.get_job(session, job_id))
+    job = service.get_job(session, job_id)
+    if format == "html":
+        page = (job.result or {}).get("html") if job.status == "succeeded" else None
+        if not isinstance(page, str):
+            raise InputError(f"job {job_id} has no HTML report (status {job.status!r}, kind "
+                             f"{job.kind!r})", field="format")
+        return HTMLResponse(page)
+    return JobPublic.model_validate(job)

@@ -1,0 +1,64 @@
+"""The discrepancy workflow as a job: ``POST /discrepancy``."""
+
+from __future__ import annotations
+
+from typing import Annotated, Any
+
+from fastapi import APIRouter, File, Form, Request, Response, UploadFile, status
+from starlette.concurrency import run_in_threadpool
+
+from app.api.deps import ReadAccess, RigsDep, SessionDep, WriteKeyDep
+from app.schemas.common import ERROR_RESPONSES
+from app.schemas.discrepancy import DiscrepancyAccepted, DiscrepancyForm
+from app.services.discrepancy import (
+    MAX_SERIES_BYTES,
+    DiscrepancyPlan,
+    plan_discrepancy,
+    run_discrepancy,
+)
+from app.services.jobs import JobRunner, Progress
+
+__all__ = ["router"]
+
+router = APIRouter(tags=["discrepancy"], dependencies=[ReadAccess], responses=ERROR_RESPONSES)
+
+
+def _job(plan: DiscrepancyPlan, request: Request) -> Any:
+    sessions = request.app.state.sessions
+
+    def run(_params: dict[str, Any], progress: Progress) -> dict[str, Any]:
+        return run_discrepancy(plan, sessions, progress)
+
+    return run
+
+
+@router.post("/discrepancy", status_code=status.HTTP_202_ACCEPTED,
+             summary="Find what the rig model misses in measured data (a job)")
+async def start_discrepancy(
+    form: Annotated[DiscrepancyForm, Form()],
+    file: Annotated[UploadFile, File(
+        description="Measured time series in the /simulate export format (CSV or Parquet, "
+        "units in the column names, 'phase' and optional 'record' columns) [-]",
+        examples=["record,t [s],phase,P1 [Pa],P2 [Pa],v [m/s],load [N]\n"
+                  "load-2100,0.100,working,1.20e6,1.0e5,0.210,2100\n"
+                  "load-2100,0.101,working,1.21e6,1.0e5,0.211,2100\n"
+                  "load-2100,0.102,working,1.20e6,1.0e5,0.210,2100\n"])],
+    request: Request, session: SessionDep, rigs: RigsDep, _key: WriteKeyDep,
+    response: Response,
+) -> DiscrepancyAccepted:
+    """Read the file (a bad column is a 422 naming it), then start the workflow as a job.
+
+    Unknown form fields are refused (422 naming the field).
+
+    Follow it at ``/jobs/{job_id}``: the result is the report (named effects, evidence,
+    fitted parameters with intervals, held-out gap before/after, whiteness, competing
+    explanations) and ``new_rig_version``; ``/jobs/{job_id}?format=html`` gives the page.
+    """
+    content = await file.read(MAX_SERIES_BYTES + 1)
+    plan = await run_in_threadpool(plan_discrepancy, session, rigs, form, content)
+    runner: JobRunner = request.app.state.jobs
+    job = runner.submit("discrepancy", form.model_dump(mode="json"), _job(plan, request))
+    response.headers["Location"] = f"/jobs/{job.id}"
+    return DiscrepancyAccepted(job_id=job.id, status=job.status,
+                               records=[r.name for r in plan.records],
+                               channels=sorted(plan.records[0].channels))

@@ -1,0 +1,85 @@
+"""``hydrodiag discover DATA --rig ID --report out.html``: the discrepancy workflow from the
+command line, on the store the service uses, with a progress bar.
+
+Reads DATA (CSV or Parquet in the ``/simulate`` export format), runs
+:func:`diagnostics.discrepancy.discover` against the stored rig, stores the augmented rig
+as a new version when an effect is named (``--no-store`` to keep the store unchanged),
+prints the verdict and named effects, and writes the report (HTML page, and the charts as
+PNG and SVG beside it).  Exit code 0 on any verdict; a bad file is exit code 1 with a
+message naming the column.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.table import Table
+
+from app.cli_support import console, steps, store_session
+from sim.errors import InputError
+
+__all__ = ["discover", "register"]
+
+
+def discover(
+    data: Annotated[Path, typer.Argument(help="Measured cycles: CSV or Parquet in the "
+                                         "/simulate export format.")],
+    rig_id: Annotated[int, typer.Option("--rig", help="Rig id in the store.")] = 1,
+    version: Annotated[int | None, typer.Option(help="Rig version (default: latest).")] = None,
+    report: Annotated[Path | None, typer.Option(help="Write the HTML report here "
+                                                "(charts as PNG/SVG beside it).")] = None,
+    refit: Annotated[bool, typer.Option(help="Output-error re-fit by re-simulation.")] = True,
+    store: Annotated[bool, typer.Option(help="Store the augmented rig as a new version.")
+                     ] = True,
+    as_json: Annotated[bool, typer.Option("--json", help="Print the JSON report.")] = False,
+) -> None:
+    """Find what the rig model misses in DATA, name it, add it to the rig, show the gap."""
+    from app.services.rig_cache import RigCache
+    from app.services.rigs import update_rig
+    from diagnostics.discrepancy import discover as run
+    from diagnostics.discrepancy.report import write_report
+    from diagnostics.timeseries import read_series
+
+    if not data.is_file():
+        raise InputError(f"no such file: {data}", field="data")
+    records = read_series(data)
+    with store_session() as session:
+        resolved = RigCache(1).get(session, rig_id, version)
+        with steps() as progress:
+            task = progress.add_task("discrepancy workflow", total=1.0)
+
+            def tick(fraction: float, what: str) -> None:
+                progress.update(task, completed=fraction, description=what)
+
+            d = run(dict(resolved.document), records, progress=tick, refit=refit)
+        new_version = None
+        if d.named and store:
+            _, row = update_rig(session, rig_id, d.rig_document, comment="hydrodiag discover: "
+                                f"added {', '.join(n.name for n in d.named)}")
+            new_version = row.version
+    if report is not None:
+        written = write_report(d, report)
+        console.print(f"report written to {written['html']} (+ {len(written['png'])} PNG, "
+                      f"{len(written['svg'])} SVG)")
+    if as_json:
+        typer.echo(json.dumps(d.to_dict() | {"new_rig_version": new_version}, indent=2,
+                              default=str))
+        return
+    console.print(f"[bold]{d.verdict}[/bold]: {d.message}")
+    if d.named:
+        table = Table("effect", "parameter", "value", "95 % interval", "plausible",
+                      title=f"rig {rig_id}: new version {new_version}" if new_version
+                      else f"rig {rig_id} (not stored)")
+        for n in d.named:
+            table.add_row(n.name, f"{n.parameter} [{n.unit}]", f"{n.value:.4g}",
+                          f"{n.interval[0]:.3g} … {n.interval[1]:.3g}",
+                          "yes" if n.plausible else "NO")
+        console.print(table)
+
+
+def register(cli: typer.Typer) -> None:
+    """Add ``discover`` to the ``hydrodiag`` command."""
+    cli.command()(discover)

@@ -1,0 +1,83 @@
+"""Discrepancy runs as jobs: read the measured file, run the workflow, store the augmented rig.
+
+``POST /discrepancy`` and ``hydrodiag discover`` share this module.  The file is read by
+:func:`diagnostics.timeseries.read_series` before the job starts, so a bad column is a 422
+naming it and nothing is stored; the job runs :func:`diagnostics.discrepancy.discover`
+and, when an effect is named, stores the augmented rig document as a new version of the
+rig (:func:`app.services.rigs.update_rig`).  The job's result is the JSON report with
+``new_rig_version`` and the self-contained HTML page under ``html``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+from sqlalchemy.orm import Session
+
+from app.db.engine import SessionFactory
+from app.schemas.discrepancy import DiscrepancyForm
+from app.services.rig_cache import RigCache
+from app.services.rigs import update_rig
+from diagnostics.discrepancy import discover
+from diagnostics.discrepancy.report import html_page
+from diagnostics.timeseries import SeriesRecord, read_series
+from sim.errors import InputError
+
+__all__ = ["MAX_SERIES_BYTES", "DiscrepancyPlan", "plan_discrepancy", "run_discrepancy"]
+
+#: Largest measured file accepted [byte].
+MAX_SERIES_BYTES = 50 * 1024 * 1024
+
+
+@dataclass
+class DiscrepancyPlan:
+    """What a run needs: the rig version's document and the validated records."""
+
+    rig_id: int
+    version: int
+    document: dict[str, Any]
+    records: list[SeriesRecord]
+    refit: bool
+    store: bool
+
+
+def read_records(content: bytes, *, field: str = "file") -> list[SeriesRecord]:
+    """Read a measured CSV/Parquet file given as bytes (errors name the column)."""
+    if len(content) > MAX_SERIES_BYTES:
+        raise InputError(f"the file has {len(content)} bytes; at most {MAX_SERIES_BYTES}",
+                         field=field)
+    if not content.strip():
+        raise InputError("the file is empty", field=field)
+    return read_series(content)
+
+
+def plan_discrepancy(session: Session, rigs: RigCache, form: DiscrepancyForm,
+                     content: bytes) -> DiscrepancyPlan:
+    """Resolve the rig version and read the file; raises before anything is stored."""
+    resolved = rigs.get(session, form.rig_id, form.rig_version)
+    records = read_records(content)
+    return DiscrepancyPlan(resolved.rig_id, resolved.version, dict(resolved.document), records,
+                           form.refit, form.store)
+
+
+def run_discrepancy(plan: DiscrepancyPlan, sessions: SessionFactory | None,
+                    progress: Callable[..., None]) -> dict[str, Any]:
+    """Run the workflow; store the augmented rig when an effect is named (``sessions``)."""
+    def report(fraction: float, what: str) -> None:
+        progress(min(0.95, fraction), what)
+
+    d = discover(plan.document, plan.records, progress=report, refit=plan.refit)
+    result = d.to_dict()
+    result["rig_id"] = plan.rig_id
+    result["rig_version"] = plan.version
+    result["new_rig_version"] = None
+    if d.named and plan.store and sessions is not None:
+        names = ", ".join(n.name for n in d.named)
+        with sessions() as session:
+            _, version = update_rig(session, plan.rig_id, d.rig_document,
+                                    comment=f"hydrodiag discover: added {names}")
+            result["new_rig_version"] = version.version
+    result["html"] = html_page(d)
+    return result

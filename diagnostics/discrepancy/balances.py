@@ -1,0 +1,179 @@
+"""Equation-error residuals: the rig's bond-graph constraints evaluated with measured signals.
+
+Each balance is one junction equation of the paper-002 circuit written with measured
+signals (DISCREPANCY.md §1; Samantaray, Medjaher, Ould Bouamama et al., *Simulation
+Modelling Practice and Theory* 14, 2006, analytical redundancy relations), split into
+
+* a *target* ``y`` computed from measured signals and known geometry,
+* *base columns* whose coefficients are the base model's own parameters, re-fitted
+  unpenalised so that a drifted parameter is not blamed on new physics,
+* the *candidate columns* of the library effects that enter this balance
+  (:attr:`sim.components.effects.EffectEntry.balance`).
+
+==================  =====================================================================
+balance             equation (residual = Σ candidate coefficient × regressor)
+==================  =====================================================================
+``piston_force``    A1·P1 − A2·P2 − F_load = Fu·tanh(ẋ/v_s) + Kf·ẋ + m·ẍ + …   [N]
+                    (1-junction of the piston, paper 002 eqs. 35-38)
+``chamber_flow``    Q_C − A2·ẋ = a·(P1 − P2)/μ + b·ẋ − V2(x)/β·Ṗ2 − c·Ṗ2 + …   [m³/s]
+                    (0-junction of chamber 2, eqs. 34, 36, 50)
+``valve_flow``      working: Q_B − Q_C − (A1 − A2)·ẋ, return: Q_B + Q_C
+                    = compressibility of the sides + a·P_P/μ + …   [m³/s]
+                    (0-junctions of port P and the chambers, eq. 23; the piston leakage
+                    cancels)
+``pump_flow``       ω·Vp − Q_B = P/Rlp + Cp·Ṗ + b·ω + …   [m³/s]
+                    (0-junction of the pump outlet, eqs. 1-5; relief closed)
+==================  =====================================================================
+
+End-stop contact (x within 6 mm of either end: the stop plus the smoothing window at the
+working speed) is left out, where the stop force is
+unmeasured; the force balance also leaves out the piston at rest (|ẋ| < 5 mm/s, where
+friction is whatever holds it); the first 50 ms after each valve switch are left out
+(the derivative window and the hoses' wave transient); the pump balance uses the samples
+below 80 % of the relief setting.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from diagnostics.discrepancy.signals import Signals
+from sim.components.effects import EFFECTS, Effect
+
+__all__ = ["BALANCES", "Balance", "BalanceData", "balance_data"]
+
+Arr = npt.NDArray[np.float64]
+
+#: distance from either end stop left out [m] (contact plus the smoothing window)
+END_MARGIN = 6e-3
+#: piston speed below which the force balance is not used [m/s]
+MOVING = 5e-3
+#: time after each valve switch left out [s]: the Savitzky-Golay window and the
+#: switching transient (hose waves) that the lumped balances do not describe
+SETTLE = 0.05
+#: fraction of the relief setting below which the relief valve counts as closed
+RELIEF_MARGIN = 0.8
+
+
+@dataclass(frozen=True)
+class Balance:
+    """One junction equation of the circuit (module docstring)."""
+
+    name: str
+    unit: str
+    channels: tuple[str, ...]
+    full_scale: Callable[[dict[str, float]], float]
+    build: Callable[[Signals, dict[str, float]], tuple[Arr, dict[str, Arr]]]
+
+
+@dataclass
+class BalanceData:
+    """A balance evaluated on the data: target, base and candidate columns, kept samples."""
+
+    balance: Balance
+    y: Arr
+    base: dict[str, Arr]
+    candidates: dict[str, Arr]
+    mask: npt.NDArray[np.bool_]
+    full_scale: float
+    base_signs: dict[str, float]
+
+
+def _inside(s: Signals, v: dict[str, float]) -> npt.NDArray[np.bool_]:
+    if "x" not in s.values:
+        return np.ones(s.t.size, dtype=bool)
+    x = s.values["x"]
+    return np.asarray((x > END_MARGIN) & (x < v["cylinder.stroke"] - END_MARGIN), dtype=bool)
+
+
+def _piston(s: Signals, v: dict[str, float]) -> tuple[Arr, dict[str, Arr]]:
+    c = s.values
+    y = v["cylinder.A1"] * c["P1"] - v["cylinder.A2"] * c["P2"] - c["load"]
+    base = {"cylinder.Fu": np.tanh(c["v"] / v["cylinder.v_s"]), "cylinder.Kf": c["v"],
+            "cylinder.mass": c["dv"]}
+    return y, base
+
+
+def _chamber(s: Signals, v: dict[str, float]) -> tuple[Arr, dict[str, Arr]]:
+    c = s.values
+    y = c["Q_meter_C"] - v["cylinder.A2"] * c["v"]
+    vol2 = v["cylinder.V02"] + v["cylinder.A2"] * (v["cylinder.stroke"] - c.get("x", 0.0 * c["v"]))
+    base = {"cylinder.cc (laminar)": (c["P1"] - c["P2"]) / c["mu"], "cylinder.cc (Couette)": c["v"],
+            "fluid.beta (chamber 2)": vol2 * c["dP2"], "hose_B compliance": c["dP2"]}
+    return y, base
+
+
+def _valve(s: Signals, v: dict[str, float]) -> tuple[Arr, dict[str, Arr]]:
+    c = s.values
+    work = (s.phase != "return").astype(float)
+    ret = 1.0 - work
+    # working: Q_B feeds chamber 1 (and hose A), Q_C leaves chamber 2;
+    # return: Q_B feeds hose B and chamber 2, so Q_C (out of chamber 2) is −(inflow)
+    y = work * (c["Q_meter_B"] - c["Q_meter_C"]
+                - (v["cylinder.A1"] - v["cylinder.A2"]) * c["v"]) \
+        + ret * (c["Q_meter_B"] + c["Q_meter_C"])
+    x = c.get("x", 0.0 * c["v"])
+    vol1 = v["cylinder.V01"] + v["cylinder.A1"] * x
+    vol2 = v["cylinder.V02"] + v["cylinder.A2"] * (v["cylinder.stroke"] - x)
+    base = {"valve.cv (laminar)": c["P_valve_P"] / c["mu"],
+            "fluid.beta (chamber 1)": work * vol1 * c["dP1"], "hose_A compliance": work * c["dP1"],
+            "fluid.beta (chamber 2)": work * vol2 * c["dP2"], "hose_B compliance": ret * c["dP2"]}
+    return y, base
+
+
+def _pump(s: Signals, v: dict[str, float]) -> tuple[Arr, dict[str, Arr]]:
+    c = s.values
+    y = c["speed"] * c["Vp"] - c["Q_meter_B"]
+    base = {"pump.Rlp": c["P_pump"], "pump.Cp": c["dP_pump"], "pump.Vp": c["speed"]}
+    return y, base
+
+
+#: base columns whose re-fitted coefficient must stay ≥ 0 (friction, conductances,
+#: displacement): a subset that drives one negative trades off against the base model
+BASE_SIGNS: dict[str, float] = {
+    "cylinder.Fu": 1.0, "cylinder.Kf": 1.0, "cylinder.cc (laminar)": 1.0,
+    "valve.cv (laminar)": 1.0, "pump.Rlp": 1.0, "pump.Vp": 1.0,
+}
+
+BALANCES: tuple[Balance, ...] = (
+    Balance("piston_force", "N", ("P1", "P2", "v"),
+            lambda v: v["cylinder.A1"] * v["relief.Pset"], _piston),
+    Balance("chamber_flow", "m^3/s", ("P1", "P2", "v", "Q_meter_C"),
+            lambda v: v["pump.speed"] * v["pump.Vp"], _chamber),
+    Balance("valve_flow", "m^3/s", ("P1", "P2", "v", "Q_meter_B", "Q_meter_C", "P_valve_P"),
+            lambda v: v["pump.speed"] * v["pump.Vp"], _valve),
+    Balance("pump_flow", "m^3/s", ("Q_meter_B", "P_pump"),
+            lambda v: v["pump.speed"] * v["pump.Vp"], _pump),
+)
+
+
+def effects_of(balance: str) -> list[Effect]:
+    """The library effects that enter ``balance``."""
+    return [e for e in EFFECTS.values() if e.entry.balance == balance]
+
+
+def balance_data(s: Signals, values: dict[str, float]) -> list[BalanceData]:
+    """Every balance the measured channels allow, evaluated on the kept samples.
+
+    ``values`` are the rig's parameter values (:meth:`sim.rigs.assembly.Rig.values`).
+    """
+    out: list[BalanceData] = []
+    for b in BALANCES:
+        if not s.has(*b.channels):
+            continue
+        mask = _inside(s, values) & (s.since_phase_start() >= SETTLE)
+        if b.name == "pump_flow":
+            mask &= s.values["P_pump"] < RELIEF_MARGIN * values["relief.Pset"]
+        if b.name == "piston_force":
+            # at rest the friction is whatever holds the piston (stiction): unmeasured
+            mask &= np.abs(s.values["v"]) > MOVING
+        sub = s.subset(mask)
+        y, base = b.build(sub, values)
+        cands = {e.name: e.entry.regressor(sub.values) for e in effects_of(b.name)}
+        out.append(BalanceData(b, y, base, cands, mask, b.full_scale(values),
+                               {k: v for k, v in BASE_SIGNS.items() if k in base}))
+    return out

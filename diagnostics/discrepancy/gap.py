@@ -1,0 +1,102 @@
+"""Gap between model and measurement, per output and region, and whiteness of residuals.
+
+Model and measurement are compared phase by phase on the time since the phase start (a
+different stroke time must not count as a huge error at the phase switch), over the
+shorter of the two phase durations, in two regions: ``after step`` (the first 10 % of the
+phase, after the valve switched) and ``steady`` (10-90 %).  Whiteness is the Ljung-Box
+test (statsmodels ``acorr_ljungbox``) on the residual sampled every 20 ms.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+import pandas as pd
+from statsmodels.stats.diagnostic import acorr_ljungbox
+
+from diagnostics.discrepancy.simulate import on_grid
+from diagnostics.timeseries import SeriesRecord
+
+__all__ = ["GapRow", "aligned_residuals", "gap_table", "ljung_box_p", "noise_sigma"]
+
+Arr = npt.NDArray[np.float64]
+
+REGIONS = ("after step", "steady")
+
+
+@dataclass
+class GapRow:
+    """RMSE and max |error| of one channel in one region [SI unit of the channel]."""
+
+    channel: str
+    unit: str
+    region: str
+    rmse: float
+    max_abs: float
+
+
+def noise_sigma(x: Arr) -> float:
+    """Noise σ of a smooth signal plus white noise, from the MAD of second differences."""
+    d2 = np.diff(np.asarray(x, dtype=float), 2)
+    if d2.size == 0:
+        return 0.0
+    return float(np.median(np.abs(d2 - np.median(d2))) / 0.6745 / math.sqrt(6.0))
+
+
+def aligned_residuals(record: SeriesRecord, table: pd.DataFrame, channels: Sequence[str]
+                      ) -> dict[str, dict[str, tuple[Arr, Arr, Arr]]]:
+    """Residual model − measurement by phase: channel → phase → (t since start, residual, measured).
+
+    Only the part of each phase both cover; ``t`` [s].
+    """
+    out: dict[str, dict[str, tuple[Arr, Arr, Arr]]] = {c: {} for c in channels}
+    phases = record.phase if record.phase is not None else np.full(record.t.size, "working")
+    for ph in ("working", "return"):
+        sel = phases == ph
+        tab = table[table["phase"] == ph]
+        if sel.sum() < 3 or len(tab) < 3:
+            continue
+        tm = record.t[sel] - record.t[sel][0]
+        ts = tab["t [s]"].to_numpy(dtype=float)
+        tab = tab.assign(**{"t [s]": ts - ts[0]})
+        keep = tm <= ts[-1] - ts[0]
+        model = on_grid(tab, tm[keep], list(channels))
+        for c in channels:
+            meas = record.channels[c][sel][keep]
+            out[c][ph] = (tm[keep], model[c] - meas, meas)
+    return out
+
+
+def gap_table(record: SeriesRecord, table: pd.DataFrame, channels: Sequence[str]) -> list[GapRow]:
+    """RMSE and max error per channel and region (module docstring)."""
+    res = aligned_residuals(record, table, channels)
+    rows: list[GapRow] = []
+    for c in channels:
+        parts: dict[str, list[Arr]] = {r: [] for r in REGIONS}
+        for t, r, _ in res[c].values():
+            if t.size == 0:
+                continue
+            edge = 0.1 * t[-1]
+            parts["after step"].append(r[t < edge])
+            parts["steady"].append(r[(t >= edge) & (t <= 0.9 * t[-1])])
+        for region, arrs in parts.items():
+            e = np.concatenate(arrs) if arrs else np.zeros(0)
+            if e.size == 0:
+                continue
+            rows.append(GapRow(c, record.units[c], region, float(np.sqrt(np.mean(e * e))),
+                               float(np.max(np.abs(e)))))
+    return rows
+
+
+def ljung_box_p(residual: Arr, *, rate: float, every: float = 0.02, lags: int = 10) -> float:
+    """Ljung-Box p-value of ``residual`` sampled every ``every`` seconds (white: p large)."""
+    step = max(1, round(every * rate))
+    r = np.asarray(residual, dtype=float)[::step]
+    if r.size < lags + 5 or float(np.std(r)) == 0.0:
+        return float("nan")
+    res = acorr_ljungbox(r - r.mean(), lags=[lags])
+    return float(res["lb_pvalue"].iloc[0])

@@ -1,0 +1,179 @@
+"""The discrepancy report: charts (via :mod:`diagnostics.plots`) and a self-contained page.
+
+Charts: the equation-error residual of the balance with the named effect (or the largest
+residual) against time and against chamber/pump pressure, before and after the effect;
+model vs measurement on the held-out record before and after.  The HTML page inlines the
+SVGs (no scripts, no CDN, CSP-safe), so it opens offline.
+"""
+
+from __future__ import annotations
+
+import html
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from diagnostics.discrepancy.gap import aligned_residuals
+from diagnostics.discrepancy.workflow import Discovery
+from diagnostics.plots import Chart, Series, line_chart, render_png, render_svg
+
+__all__ = ["charts", "html_page", "write_report"]
+
+_PRESSURE = {"piston_force": "P1", "chamber_flow": "P1", "valve_flow": "P_valve_P",
+             "pump_flow": "P_pump"}
+
+
+def _thin(x: np.ndarray, n: int = 400) -> np.ndarray:
+    step = max(1, x.size // n)
+    return x[::step]
+
+
+def charts(d: Discovery) -> dict[str, Chart]:
+    """The report's charts by file stem."""
+    out: dict[str, Chart] = {}
+    sels = d.traces.get("selections", [])
+    data = d.traces.get("data", [])
+    signals = d.traces.get("signals")
+    if sels and signals is not None:
+        named_balances = {n.balance for n in d.named}
+        pick = next((i for i, s in enumerate(sels) if s.balance in named_balances), None)
+        if pick is None:
+            pick = int(np.argmax([np.sqrt(np.mean(s.base_residual ** 2)) / s.full_scale
+                                  for s in sels]))
+        s, bd = sels[pick], data[pick]
+        sub = signals.subset(bd.mask)
+        t = np.arange(s.base_residual.size) / 1000.0
+        series = [Series(_thin(t), _thin(s.base_residual), "base model (re-fitted)")]
+        if s.chosen is not None:
+            series.append(Series(_thin(t), _thin(s.residual), "with the named effect"))
+        out["residual_vs_time"] = line_chart(
+            f"Equation-error residual, {s.balance}", "sample time, records stacked [s]",
+            f"residual [{s.unit}]", series)
+        pname = _PRESSURE.get(s.balance, "P1")
+        if pname in sub.values:
+            p = sub.values[pname] / 1e5
+            pts = [Series(_thin(p), _thin(s.base_residual), "base model", kind="points")]
+            if s.chosen is not None:
+                pts.append(Series(_thin(p), _thin(s.residual), "with the named effect",
+                                  kind="points"))
+            out["residual_vs_pressure"] = line_chart(
+                f"Residual vs {pname}, {s.balance}", f"{pname} [bar]", f"residual [{s.unit}]",
+                pts)
+    held = d.traces.get("held")
+    before = d.traces.get("before")
+    if held is not None and before is not None:
+        chans = d.traces["channels"]
+        after_rows = {(r.channel, r.region): r.rmse for r in d.gap_after}
+
+        def gain(r: Any) -> float:
+            if r.region != "steady":
+                return -1.0
+            if after_rows:
+                return r.rmse / max(after_rows.get((r.channel, r.region), r.rmse), 1e-30)
+            return r.rmse / max(float(np.std(held.channels[r.channel])), 1e-30)
+
+        worst = max(d.gap_before, key=gain).channel if d.gap_before else chans[0]
+        unit = held.units[worst]
+        res_b = aligned_residuals(held, before, [worst])[worst]
+        series = []
+
+        def steady(tt: np.ndarray) -> np.ndarray:
+            return (tt >= 0.1 * tt[-1]) & (tt <= 0.9 * tt[-1])
+
+        for ph, (tt, e, meas) in res_b.items():
+            k = steady(tt)
+            series.append(Series(_thin(tt[k]), _thin(meas[k]), f"measured ({ph})",
+                                 kind="points"))
+            series.append(Series(_thin(tt[k]), _thin(meas[k] + e[k]), f"base model ({ph})",
+                                 dashed=True))
+        after = d.traces.get("after")
+        if after is not None:
+            for ph, (tt, e, meas) in aligned_residuals(held, after, [worst])[worst].items():
+                k = steady(tt)
+                series.append(Series(_thin(tt[k]), _thin(meas[k] + e[k]),
+                                     f"with effect ({ph})"))
+        out["model_vs_measurement"] = line_chart(
+            f"Held-out record {held.name}: {worst} (steady part)", "time since phase start [s]",
+            f"{worst} [{unit}]", series)
+    return out
+
+
+def _fmt(x: float) -> str:
+    return "—" if x is None or (isinstance(x, float) and not math.isfinite(x)) else f"{x:.4g}"
+
+
+def html_page(d: Discovery, title: str = "hydrodiag discrepancy report") -> str:
+    """A self-contained HTML page of the report (inline SVG, no scripts, no external links)."""
+    e = html.escape
+    rep = d.to_dict()
+    parts = [f"<!doctype html><html lang='en'><head><meta charset='utf-8'><title>{e(title)}"
+             "</title></head><body>", f"<h1>{e(title)}</h1>",
+             f"<p><strong>Verdict: {e(d.verdict)}</strong> — {e(d.message)}</p>",
+             f"<p>Training records: {e(', '.join(d.training))}; held out (edge of the operating "
+             f"range): {e(', '.join(d.held_out) or 'none')}. Solver: {e(d.solver)}.</p>"]
+    if d.named:
+        parts.append("<h2>Named effects</h2><table><tr><th>effect</th><th>physics</th>"
+                     "<th>reference</th><th>signature</th><th>parameter</th><th>value</th>"
+                     "<th>95 % interval</th><th>plausible range</th><th>t</th>"
+                     "<th>bootstrap inclusion</th><th>competing</th><th>ambiguity group</th></tr>")
+        for n in d.named:
+            parts.append(
+                f"<tr><td>{e(n.name)}</td><td>{e(n.explanation)}</td><td>{e(n.reference)}</td>"
+                f"<td>{e(n.signature)}</td><td>{e(n.parameter)} [{e(n.unit)}]</td>"
+                f"<td>{_fmt(n.value)}</td><td>{_fmt(n.interval[0])} … {_fmt(n.interval[1])}</td>"
+                f"<td>{_fmt(n.plausible_range[0])} … {_fmt(n.plausible_range[1])}"
+                f" ({'plausible' if n.plausible else 'NOT plausible'})</td>"
+                f"<td>{_fmt(n.t)}</td><td>{_fmt(n.inclusion)}</td>"
+                f"<td>{e(str(n.competing))}</td><td>{e(str(n.ambiguity))}</td></tr>")
+        parts.append("</table>")
+    parts.append("<h2>Balances (equation error, base parameters re-fitted)</h2><table><tr>"
+                 "<th>balance</th><th>chosen</th><th>ΔBIC</th><th>residual RMS</th>"
+                 "<th>practical size</th><th>ambiguity groups</th>"
+                 "<th>minimum detectable RMS per candidate</th></tr>")
+    for b in rep["balances"]:
+        mds = ", ".join(f"{k}: {_fmt(v) if v is not None else 'not identifiable'}"
+                        for k, v in b["minimum_detectable_rms"].items())
+        parts.append(f"<tr><td>{e(b['balance'])}</td><td>{e(', '.join(b['chosen']) or '—')}</td>"
+                     f"<td>{_fmt(b['bic_gain'])}</td><td>{_fmt(b['residual_rms'])} "
+                     f"[{e(b['unit'])}]</td><td>{_fmt(b['practical_size'])}</td>"
+                     f"<td>{e(str(b['ambiguity']))}</td><td>{e(mds)}</td></tr>")
+    parts.append("</table>")
+    parts.append("<h2>Held-out gap (model − measurement)</h2><table><tr><th>output</th>"
+                 "<th>region</th><th>RMSE before</th><th>RMSE after</th><th>max before</th>"
+                 "<th>max after</th></tr>")
+    after = {(r.channel, r.region): r for r in d.gap_after}
+    for r in d.gap_before:
+        a = after.get((r.channel, r.region))
+        parts.append(f"<tr><td>{e(r.channel)} [{e(r.unit)}]</td><td>{e(r.region)}</td>"
+                     f"<td>{_fmt(r.rmse)}</td><td>{_fmt(a.rmse) if a else '—'}</td>"
+                     f"<td>{_fmt(r.max_abs)}</td><td>{_fmt(a.max_abs) if a else '—'}</td></tr>")
+    parts.append("</table><h2>Whiteness (Ljung-Box p, held-out, steady part)</h2><table>"
+                 "<tr><th>output</th><th>before</th><th>after</th></tr>")
+    for c, p in d.whiteness_before.items():
+        parts.append(f"<tr><td>{e(c)}</td><td>{_fmt(p)}</td>"
+                     f"<td>{_fmt(d.whiteness_after.get(c, float('nan')))}</td></tr>")
+    parts.append("</table><h2>Plots</h2>")
+    for chart in charts(d).values():
+        parts.append(f"<figure>{render_svg(chart)}</figure>")
+    parts.append("</body></html>")
+    return "\n".join(parts)
+
+
+def write_report(d: Discovery, path: str | Path) -> dict[str, Any]:
+    """Write the HTML page to ``path`` and each chart as PNG and SVG beside it.
+
+    Returns the written paths by kind.
+    """
+    p = Path(path)
+    p.write_text(html_page(d), encoding="utf-8")
+    written: dict[str, Any] = {"html": str(p), "png": [], "svg": []}
+    for stem, chart in charts(d).items():
+        png = p.with_name(f"{p.stem}_{stem}.png")
+        svg = p.with_name(f"{p.stem}_{stem}.svg")
+        png.write_bytes(render_png(chart))
+        svg.write_text(render_svg(chart), encoding="utf-8")
+        written["png"].append(str(png))
+        written["svg"].append(str(svg))
+    return written

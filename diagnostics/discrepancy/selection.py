@@ -1,0 +1,286 @@
+"""Selection of named effects in one balance (DISCREPANCY.md §4-5). Every subset of at most
+two candidate columns is fitted together with the base columns (always in, unpenalised) by
+least squares on unit-RMS columns. A subset is *admissible* when each added term passes a
+Bonferroni-corrected two-sided t-test (α = 0.01 over the candidates of the balance) with
+HAC (Newey-West) standard errors, has the expected sign, lies within 10× the top of its
+plausible range, leaves the re-fitted base parameters with their physical signs (friction,
+conductances, displacement ≥ 0), and its contribution is larger than the practical size
+(0.1 % of the balance's full scale, RMS). The admissible subset with the lowest BIC is
+chosen if it improves on the base fit by at least 10; admissible subsets within ΔBIC < 2
+of it are competing explanations. Candidates whose columns are linearly dependent on the
+base columns or on each other on this test design (relative residual norm < 1e-3 after
+projection) form *ambiguity groups*, reported together. A moving-block bootstrap gives
+each chosen term's inclusion frequency.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import numpy.typing as npt
+from scipy import stats
+
+from diagnostics.discrepancy.balances import BalanceData
+from sim.components.effects import EFFECTS
+
+__all__ = ["ALPHA", "BIC_MARGIN", "PRACTICAL", "Selection", "Term", "select"]
+
+Arr = npt.NDArray[np.float64]
+
+ALPHA = 0.01
+BIC_MARGIN = 10.0
+#: practical size: RMS contribution ≥ this fraction of the balance's full scale
+PRACTICAL = 0.001
+#: Newey-West lag [samples at the analysis rate] (≥ the Savitzky-Golay window)
+HAC_LAGS = 60
+DEPENDENT = 1e-3
+
+
+@dataclass
+class Term:
+    """One candidate term in a fitted subset."""
+
+    effect: str
+    coefficient: float
+    stderr: float
+    t: float
+    p: float
+    rms_contribution: float
+    plausible: bool
+
+
+@dataclass
+class Fit:
+    """A fitted subset."""
+
+    terms: list[Term]
+    bic: float
+    rss: float
+    admissible: bool
+    reasons: list[str] = field(default_factory=list)
+
+
+@dataclass
+class Selection:
+    """Outcome of the selection in one balance.
+
+    Attributes
+    ----------
+    balance
+        Balance name.
+    chosen
+        The chosen subset, or ``None`` (no effect / no admissible explanation).
+    base_bic, bic_gain
+        BIC of the re-fitted base model and the chosen subset's improvement on it.
+    competing
+        Other admissible subsets within ΔBIC < 2 (effect names).
+    ambiguity
+        Groups of candidates that this test design cannot tell apart (each group includes
+        ``"base"`` when the column lies in the base columns' span).
+    inclusion
+        Bootstrap inclusion frequency of each chosen effect.
+    detectable
+        Minimum detectable RMS contribution of each candidate [balance unit].
+    singles
+        The single-term fits by effect (t, p, coefficient) for the report.
+    base_coefficients
+        Re-fitted base coefficients by column name [SI].
+    residual
+        Residual of the chosen (or base) fit at the kept samples [balance unit].
+    """
+
+    balance: str
+    unit: str
+    chosen: Fit | None
+    base_bic: float
+    bic_gain: float
+    competing: list[list[str]]
+    ambiguity: list[list[str]]
+    inclusion: dict[str, float]
+    detectable: dict[str, float]
+    singles: dict[str, Term]
+    base_coefficients: dict[str, float]
+    residual: Arr
+    base_residual: Arr
+    full_scale: float
+
+
+def _scaled(cols: dict[str, Arr]) -> tuple[list[str], Arr, Arr]:
+    names = list(cols)
+    if not names:
+        return [], np.zeros((0, 0)), np.zeros(0)
+    X = np.column_stack([cols[n] for n in names])
+    scale = np.sqrt(np.mean(X * X, axis=0))
+    scale[scale == 0] = 1.0
+    return names, X / scale, scale
+
+
+def _hac_cov(X: Arr, resid: Arr, lags: int) -> Arr:
+    """Newey-West covariance of OLS coefficients (Bartlett kernel)."""
+    n = X.shape[0]
+    xtx_inv = np.linalg.pinv(X.T @ X)
+    u = X * resid[:, None]
+    S = u.T @ u
+    for lag in range(1, min(lags, n - 1) + 1):
+        w = 1.0 - lag / (lags + 1.0)
+        G = u[lag:].T @ u[:-lag]
+        S += w * (G + G.T)
+    return np.asarray(xtx_inv @ S @ xtx_inv, dtype=float)
+
+
+def _bic(rss: float, n: int, k: int) -> float:
+    return n * math.log(max(rss, 1e-300) / n) + k * math.log(n)
+
+
+def _dependent(B: Arr, c: Arr) -> bool:
+    """Whether column ``c`` lies (to :data:`DEPENDENT`) in the span of ``B``'s columns."""
+    if B.shape[1] == 0:
+        return bool(np.linalg.norm(c) == 0)
+    coef, *_ = np.linalg.lstsq(B, c, rcond=None)
+    return bool(np.linalg.norm(c - B @ coef) < DEPENDENT * np.linalg.norm(c))
+
+
+def _fit(y: Arr, Xb: Arr, Xc: Arr, names: list[str], scale: Arr, data: BalanceData,
+         m: int, ys: float, bnames: list[str]) -> tuple[Fit, Arr, Arr]:
+    X = np.hstack([Xb, Xc])
+    coef, *_ = np.linalg.lstsq(X, y, rcond=None)
+    resid = y - X @ coef
+    rss = float(resid @ resid)
+    n = y.size
+    cov = _hac_cov(X, resid, HAC_LAGS)
+    nb = Xb.shape[1]
+    t_crit = stats.norm.ppf(1 - ALPHA / (2 * max(m, 1)))
+    terms: list[Term] = []
+    reasons: list[str] = []
+    for j, name in enumerate(names):
+        k = nb + j
+        se = math.sqrt(max(cov[k, k], 1e-300))
+        tval = coef[k] / se
+        p = float(2 * stats.norm.sf(abs(tval)))
+        entry = EFFECTS[name].entry
+        c_si = coef[k] / scale[j]
+        se_si = se / scale[j]
+        contrib = float(np.sqrt(np.mean((Xc[:, j] * coef[k]) ** 2))) * ys
+        lo, hi = entry.plausible
+        span = hi - lo
+        plausible = (lo - 10 * span) <= c_si <= (hi + 10 * span) if entry.sign == 0 else \
+            0.0 <= entry.sign * c_si <= 10 * max(abs(lo), abs(hi))
+        terms.append(Term(name, c_si, se_si, float(tval), p, contrib, bool(plausible)))
+        if abs(tval) < t_crit:
+            reasons.append(f"{name}: not significant (|t| = {abs(tval):.2g} < {t_crit:.2g})")
+        if not plausible:
+            reasons.append(f"{name}: coefficient {c_si:.3g} outside the sign/plausible range")
+        if contrib < PRACTICAL * data.full_scale:
+            reasons.append(f"{name}: below the practical size ({contrib:.3g} < "
+                           f"{PRACTICAL * data.full_scale:.3g} {data.balance.unit} RMS)")
+    for j, bname in enumerate(bnames):
+        sign = data.base_signs.get(bname)
+        if sign is not None and sign * coef[j] < 0:
+            reasons.append(f"base parameter {bname} re-fitted to an unphysical sign: the "
+                           "terms trade off against the base model")
+    fit = Fit(terms, _bic(rss, n, X.shape[1]), rss, not reasons, reasons)
+    return fit, np.asarray(coef, dtype=float), resid
+
+
+def _blocks(n: int, size: int, rng: np.random.Generator) -> npt.NDArray[np.int64]:
+    starts = rng.integers(0, max(n - size, 1), size=math.ceil(n / size))
+    return np.concatenate([np.arange(s, min(s + size, n)) for s in starts])[:n]
+
+
+def select(data: BalanceData, *, bootstrap: int = 30, seed: int = 0) -> Selection:
+    """Select the effect(s) of one balance (module docstring)."""
+    y_si = data.y
+    ys = float(np.sqrt(np.mean(y_si * y_si))) or 1.0
+    y = y_si / ys
+    bnames, Xb, bscale = _scaled(data.base)
+    cnames, Xc_all, cscale = _scaled(data.candidates)
+    m = len(cnames)
+    n = y.size
+    base_coef, *_ = np.linalg.lstsq(Xb, y, rcond=None)
+    base_resid = y - Xb @ base_coef
+    base_bic = _bic(float(base_resid @ base_resid), n, Xb.shape[1])
+    # ambiguity groups on this design
+    dep_base = [c for j, c in enumerate(cnames) if _dependent(Xb, Xc_all[:, j])]
+    groups: list[list[str]] = [["base", c] for c in dep_base]
+    free = [c for c in cnames if c not in dep_base]
+    for a, b in itertools.combinations(free, 2):
+        ja, jb = cnames.index(a), cnames.index(b)
+        if _dependent(np.hstack([Xb, Xc_all[:, [ja]]]), Xc_all[:, jb]):
+            groups.append([a, b])
+    fits: dict[tuple[str, ...], Fit] = {}
+    singles: dict[str, Term] = {}
+    detectable: dict[str, float] = {}
+    t_crit = stats.norm.ppf(1 - ALPHA / (2 * max(m, 1)))
+    for size in (1, 2):
+        for subset in itertools.combinations(free, size):
+            if size == 2 and [subset[0], subset[1]] in groups:
+                continue
+            idx = [cnames.index(c) for c in subset]
+            fit, _, _ = _fit(y, Xb, Xc_all[:, idx], list(subset), cscale[idx] / ys, data, m,
+                             ys, bnames)
+            fits[subset] = fit
+            if size == 1:
+                singles[subset[0]] = fit.terms[0]
+                # smallest RMS contribution detected at 80 % power
+                se_scaled = fit.terms[0].stderr * cscale[idx[0]] / ys
+                detectable[subset[0]] = float(max(
+                    (t_crit + stats.norm.ppf(0.8)) * se_scaled * ys,
+                    PRACTICAL * data.full_scale))
+    for c in dep_base:
+        detectable[c] = math.inf
+    admissible = {k: f for k, f in fits.items() if f.admissible and base_bic - f.bic >= BIC_MARGIN}
+    chosen_key: tuple[str, ...] | None = None
+    competing: list[list[str]] = []
+    if admissible:
+        chosen_key = min(admissible, key=lambda k: admissible[k].bic)
+        best = admissible[chosen_key].bic
+        competing = [list(k) for k, f in sorted(admissible.items(), key=lambda kv: kv[1].bic)
+                     if k != chosen_key and f.bic - best < 2.0]
+    chosen = fits[chosen_key] if chosen_key is not None else None
+    inclusion: dict[str, float] = {}
+    resid_si = base_resid * ys
+    base_named = {bn: float(c * ys / s) for bn, c, s in zip(bnames, base_coef, bscale, strict=True)}
+    if chosen_key is not None:
+        idx = [cnames.index(c) for c in chosen_key]
+        X = np.hstack([Xb, Xc_all[:, idx]])
+        coef, *_ = np.linalg.lstsq(X, y, rcond=None)
+        resid_si = (y - X @ coef) * ys
+        base_named = {bn: float(c * ys / s) for bn, c, s in
+                      zip(bnames, coef[: len(bnames)], bscale, strict=True)}
+        inclusion = _bootstrap(y, Xb, Xc_all, cnames, free, groups, chosen_key, bootstrap, seed)
+    return Selection(data.balance.name, data.balance.unit, chosen, base_bic,
+                     base_bic - chosen.bic if chosen else 0.0, competing, groups, inclusion,
+                     detectable, singles, base_named, resid_si, base_resid * ys,
+                     data.full_scale)
+
+
+def _bootstrap(y: Arr, Xb: Arr, Xc: Arr, cnames: list[str], free: list[str],
+               groups: list[list[str]], chosen: tuple[str, ...], reps: int, seed: int
+               ) -> dict[str, float]:
+    """Inclusion frequency of each chosen term under a moving-block bootstrap (BIC choice)."""
+    rng = np.random.default_rng(seed)
+    n = y.size
+    counts = dict.fromkeys(chosen, 0)
+    subsets = [s for size in (1, 2) for s in itertools.combinations(free, size)
+               if not (size == 2 and list(s) in groups)]
+    for _ in range(reps):
+        rows = _blocks(n, 500, rng)
+        yb, Xbb = y[rows], Xb[rows]
+        c0, *_ = np.linalg.lstsq(Xbb, yb, rcond=None)
+        r0 = yb - Xbb @ c0
+        best_key: tuple[str, ...] = ()
+        best = _bic(float(r0 @ r0), n, Xb.shape[1]) - BIC_MARGIN
+        for s in subsets:
+            idx = [cnames.index(c) for c in s]
+            X = np.hstack([Xbb, Xc[rows][:, idx]])
+            c, *_ = np.linalg.lstsq(X, yb, rcond=None)
+            r = yb - X @ c
+            b = _bic(float(r @ r), n, X.shape[1])
+            if b < best:
+                best, best_key = b, s
+        for name in chosen:
+            counts[name] += name in best_key
+    return {k: v / max(reps, 1) for k, v in counts.items()}

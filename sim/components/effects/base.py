@@ -1,0 +1,94 @@
+"""What every candidate effect shares: its catalogue entry and the shared laws.
+
+An *effect* is a physical mechanism a rig model may miss (the discrepancy workflow's
+library, issue 8).  Each effect module declares
+
+* ``ENTRY`` (:class:`EffectEntry`): name, one-line physics, reference, the regressor it
+  leaves in the equation-error residual of the balance it enters, the sign and plausible
+  range of its coefficient;
+* ``PARAMETERS``: its :class:`~sim.params.Param` declarations (the strength defaults to 0,
+  i.e. "off", so a rig with the effect at zero is the base rig exactly);
+* ``build(g, name)``: the bond-graph change that adds it at named junctions of a circuit.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from sim.bondgraph.graph import BondGraph
+from sim.bondgraph.laws import law
+
+__all__ = ["EffectEntry", "Regressor", "signed_sqrt", "signed_sqrt_array"]
+
+Arr = npt.NDArray[np.float64]
+
+#: builds the regressor column [unit of the balance per unit of the coefficient] from
+#: measured signals in SI (``P1``, ``P2``, ``v``, ``mu`` ...)
+Regressor = Callable[[Mapping[str, Arr]], Arr]
+
+
+@dataclass(frozen=True)
+class EffectEntry:
+    """Catalogue entry of one candidate effect.
+
+    Attributes
+    ----------
+    name
+        Identifier (rig files' ``effects:`` keys, reports).
+    explanation
+        One line of physics.
+    reference
+        Where the law comes from.
+    circuit
+        The circuit whose junctions the bond-graph change uses.
+    balance
+        The bond-graph constraint whose equation-error residual the effect enters:
+        ``"piston_force"`` (1-junction of the piston, [N]), ``"chamber_flow"`` (flow from
+        chamber 1 to chamber 2 through the piston, [m³/s]) or ``"pump_flow"`` (flow out of
+        the pump outlet 0-junction, [m³/s]).
+    coefficient
+        Name of the parameter the regressor multiplies (its strength).
+    signature
+        The regressor, in words (``"(P1 + P2)·sgn(ẋ)"``).
+    regressor
+        Computes the regressor column from measured signals.
+    sign
+        Expected sign of the coefficient (+1: the effect adds to the loss).
+    plausible
+        Plausible range of the coefficient [its unit].
+    """
+
+    name: str
+    explanation: str
+    reference: str
+    circuit: str
+    balance: str
+    coefficient: str
+    signature: str
+    regressor: Regressor
+    sign: float
+    plausible: tuple[float, float]
+
+
+BuildEffect = Callable[[BondGraph, str], None]
+
+
+@law
+def signed_sqrt(dp: float, p_t: float) -> float:
+    """sgn(Δp)·√|Δp| regularised below the transition pressure ``p_t`` [Pa^0.5].
+
+    ``Δp / (Δp² + p_t²)^(1/4)``: equal to sgn·√|Δp| for |Δp| ≫ p_t and linear (laminar)
+    for |Δp| ≪ p_t, so the Jacobian stays finite at Δp = 0 (orifice flow, Merritt,
+    *Hydraulic Control Systems*, 1967, eq. 3-5 with a laminar core).
+    """
+    return dp / math.sqrt(math.sqrt(dp * dp + p_t * p_t))
+
+
+def signed_sqrt_array(dp: Arr, p_t: float) -> Arr:
+    """:func:`signed_sqrt` over an array (regressor columns)."""
+    return np.asarray(dp / np.sqrt(np.sqrt(dp * dp + p_t * p_t)), dtype=float)

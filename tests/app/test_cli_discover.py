@@ -1,0 +1,63 @@
+"""``hydrodiag discover``: the workflow from the command line, with the report files."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from typer.testing import CliRunner
+
+from app.cli import cli
+from diagnostics.discrepancy.synthetic import synthesize
+from sim.rigs import load_rig, reference_rig_document
+from sim.rigs.assembly import Condition
+
+
+@pytest.fixture
+def runner(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> CliRunner:
+    monkeypatch.setenv("HYDRODIAG_DATA_DIR", str(tmp_path / "store"))
+    monkeypatch.delenv("HYDRODIAG_DATABASE_URL", raising=False)
+    monkeypatch.delenv("HYDRODIAG_DASK_SCHEDULER", raising=False)
+    return CliRunner()
+
+
+def _data(path: Path) -> Path:
+    doc = reference_rig_document()
+    doc["effects"] = {"seal_friction_pressure": {"parameters": {
+        "k_p": {"value": 1.5e-5, "unit": "m^2"}}}}
+    rig = load_rig(doc)
+    rng = np.random.default_rng(5)
+    frames = []
+    for load, temp in ((2100.0, 40.0), (4200.0, 50.0), (6300.0, 60.0)):
+        rec = synthesize(rig, Condition(load=load, oil_temperature=temp), rng=rng)
+        f = rec.frame()
+        f.insert(0, "record", f"load-{load:.0f}")
+        f["load [N]"] = load
+        f["oil_temperature [degC]"] = temp
+        frames.append(f)
+    pd.concat(frames).to_csv(path, index=False)
+    return path
+
+
+def test_discover_names_the_effect_stores_a_version_and_writes_the_report(
+        runner: CliRunner, tmp_path: Path) -> None:
+    data = _data(tmp_path / "cycles.csv")
+    out = tmp_path / "report.html"
+    result = runner.invoke(cli, ["discover", str(data), "--rig", "1", "--report", str(out),
+                                 "--json"])
+    assert result.exit_code == 0, result.output
+    body = json.loads(result.output[result.output.index("{"):])
+    assert [n["name"] for n in body["named"]] == ["seal_friction_pressure"]
+    assert body["new_rig_version"] == 2
+    page = out.read_text()
+    assert "seal_friction_pressure" in page and "<svg" in page
+    assert (tmp_path / "report_residual_vs_time.png").read_bytes()[:4] == b"\x89PNG"
+    assert (tmp_path / "report_model_vs_measurement.svg").exists()
+    bad = tmp_path / "bad.csv"
+    pd.read_csv(data).rename(columns={"P2 [Pa]": "P2 [parsec]"}).to_csv(bad, index=False)
+    failed = runner.invoke(cli, ["discover", str(bad), "--rig", "1"])
+    assert failed.exit_code != 0
+    assert "P2 [parsec]" in str(failed.exception) + failed.output

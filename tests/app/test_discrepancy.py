@@ -1,0 +1,142 @@
+"""POST /discrepancy: a /simulate export of a rig with a hidden friction effect, end to end."""
+
+from __future__ import annotations
+
+import io
+import time
+from typing import Any
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from diagnostics.discrepancy.gap import gap_table
+from diagnostics.timeseries import read_series
+from sim.rigs import reference_rig_document
+from tests.app.live import LiveServer
+
+POLL_TIMEOUT_S = 300.0
+#: the hidden effect: pressure-dependent seal friction, k_p [m²]
+HIDDEN_KP = 1.5e-5
+CONDITIONS = ((2100.0, 40.0), (4200.0, 50.0), (6300.0, 60.0))
+#: sensor noise added to the export, σ [SI]: 0.05 bar, 1 mm/s, 0.05 L/min
+SIGMA = {"P1": 5e3, "P2": 5e3, "P_pump": 5e3, "P_valve_P": 5e3, "v": 1e-3, "x": 1e-4,
+         "Q_meter_B": 8.3e-7, "Q_meter_C": 8.3e-7}
+UNITS = {"P1": "Pa", "P2": "Pa", "P_pump": "Pa", "P_valve_P": "Pa", "v": "m/s", "x": "m",
+         "Q_meter_B": "m^3/s", "Q_meter_C": "m^3/s"}
+
+
+def _create(server: LiveServer, name: str, effects: dict[str, Any] | None = None) -> int:
+    doc = reference_rig_document() | {"name": name}
+    if effects:
+        doc["effects"] = effects
+    r = server.client.post("/rigs", json={"document": doc}, headers=server.auth)
+    assert r.status_code == 201, r.text
+    return int(r.json()["id"])
+
+
+def _export(server: LiveServer, rig_id: int, load: float, temp: float,
+            version: int | None = None) -> bytes:
+    r = server.client.post("/simulate", json={
+        "rig_id": rig_id, "rig_version": version, "timeseries": "parquet", "rtol": 1e-5,
+        "condition": {"load": load, "oil_temperature": temp}})
+    assert r.status_code == 200, r.text
+    return r.content
+
+
+def _measured(exports: list[bytes], rng: np.random.Generator) -> bytes:
+    """What a logger would record: 1 kHz samples of the export plus sensor noise."""
+    frames = []
+    for (load, temp), content in zip(CONDITIONS, exports, strict=True):
+        (rec,) = read_series(content)
+        t = np.arange(0.0, rec.t[-1], 1e-3)
+        idx = np.clip(np.searchsorted(rec.t, t, side="right") - 1, 0, rec.t.size - 1)
+        assert rec.phase is not None
+        data: dict[str, Any] = {"record": f"load-{load:.0f}", "t [s]": t, "phase": rec.phase[idx]}
+        for c, s in SIGMA.items():
+            data[f"{c} [{UNITS[c]}]"] = np.interp(t, rec.t, rec.channels[c]) + rng.normal(
+                0.0, s, t.size)
+        data["load [N]"] = load
+        data["oil_temperature [degC]"] = temp
+        frames.append(pd.DataFrame(data))
+    return pd.concat(frames).to_csv(index=False).encode()
+
+
+def _follow(server: LiveServer, job_id: str) -> dict[str, Any]:
+    deadline = time.monotonic() + POLL_TIMEOUT_S
+    while True:
+        body = server.client.get(f"/jobs/{job_id}").json()
+        if body["status"] in ("succeeded", "failed"):
+            return dict(body)
+        if time.monotonic() > deadline:
+            raise AssertionError(f"discrepancy job {job_id} stuck at {body['progress']}")
+        time.sleep(0.2)
+
+
+@pytest.fixture(scope="module")
+def measured(server: LiveServer) -> bytes:
+    hidden = _create(server, "hidden-seal-friction", {"seal_friction_pressure": {
+        "parameters": {"k_p": {"value": HIDDEN_KP, "unit": "m^2", "source": "hidden"}}}})
+    exports = [_export(server, hidden, load, temp) for load, temp in CONDITIONS]
+    return _measured(exports, np.random.default_rng(11))
+
+
+def test_hidden_friction_is_named_stored_and_the_new_version_matches_the_data(
+        server: LiveServer, measured: bytes) -> None:
+    rig_id = _create(server, "rig-under-test")
+    r = server.client.post("/discrepancy", data={"rig_id": str(rig_id)},
+                           files={"file": ("cycles.csv", measured, "text/csv")},
+                           headers=server.auth)
+    assert r.status_code == 202, r.text
+    accepted = r.json()
+    assert accepted["records"] == ["load-2100", "load-4200", "load-6300"]
+    assert r.headers["location"] == f"/jobs/{accepted['job_id']}"
+    job = _follow(server, accepted["job_id"])
+    assert job["status"] == "succeeded", job["error"]
+    result = job["result"]
+    assert result["verdict"] == "named"
+    assert [n["name"] for n in result["named"]] == ["seal_friction_pressure"]
+    named = result["named"][0]
+    assert named["interval"][0] <= HIDDEN_KP <= named["interval"][1]
+    assert result["held_out_records"] == ["load-6300"]
+    assert result["new_rig_version"] == 2
+    # the stored version has the element with its fitted parameter
+    versions = server.client.get(f"/rigs/{rig_id}/versions").json()["items"]
+    doc = next(v for v in versions if v["version"] == 2)["document"]
+    kp = doc["effects"]["seal_friction_pressure"]["parameters"]["k_p"]["value"]
+    assert kp == pytest.approx(named["value"])
+    # /simulate of the new version matches the held-out data within the noise
+    (held,) = [rec for rec in read_series(measured) if rec.name == "load-6300"]
+    new = read_series(_export(server, rig_id, 6300.0, 60.0, version=2))[0].frame()
+    old = read_series(_export(server, rig_id, 6300.0, 60.0, version=1))[0].frame()
+    after = {(g.channel, g.region): g.rmse for g in gap_table(held, new, list(SIGMA)[:4])}
+    before = {(g.channel, g.region): g.rmse for g in gap_table(held, old, list(SIGMA)[:4])}
+    for c in ("P1", "P_pump"):
+        assert after[(c, "steady")] < 1.3 * SIGMA[c]
+        assert before[(c, "steady")] > 2.0 * SIGMA[c]
+    page = server.client.get(f"/jobs/{accepted['job_id']}", params={"format": "html"})
+    assert page.status_code == 200
+    assert page.headers["content-type"].startswith("text/html")
+    assert "seal_friction_pressure" in page.text and "<svg" in page.text
+    # self-contained: nothing loaded from elsewhere (no scripts, links, remote sources)
+    for forbidden in ("<script", "<link", 'src="http', "href=\"http", "url(http"):
+        assert forbidden not in page.text
+
+
+def test_bad_files_are_422_naming_the_column_and_start_nothing(server: LiveServer,
+                                                               measured: bytes) -> None:
+    before = server.row_counts()
+    frame = pd.read_csv(io.BytesIO(measured)).rename(columns={"P1 [Pa]": "P1 [furlong]"})
+    r = server.client.post("/discrepancy", data={"rig_id": "1"},
+                           files={"file": ("x.csv", frame.to_csv(index=False).encode())},
+                           headers=server.auth)
+    assert r.status_code == 422, r.text
+    assert "P1 [furlong]" in r.text
+    r = server.client.post("/discrepancy", data={"rig_id": "1", "colour": "red"},
+                           files={"file": ("x.csv", measured)}, headers=server.auth)
+    assert r.status_code == 422, r.text
+    r = server.client.post("/discrepancy", data={"rig_id": "999"},
+                           files={"file": ("x.csv", measured)}, headers=server.auth)
+    assert r.status_code == 404, r.text
+    assert server.row_counts() == before
+

@@ -1,0 +1,169 @@
+"""The effect library: each element's balances, its law, and 'zero strength = base rig'."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from sim.bondgraph.elements import Kind
+from sim.components.effects import EFFECTS, get_effect
+from sim.cycle import run_cycle
+from sim.errors import ParameterError, RigFileError
+from sim.rigs import load_rig, reference_rig, reference_rig_document
+from sim.rigs.schema import validate_rig_document
+from sim.steady import steady_phase
+
+#: a clearly non-zero, plausible strength per effect [SI]
+STRENGTHS = {
+    "stribeck_friction": ("F_s", 300.0),
+    "seal_friction_pressure": ("k_p", 2e-5),
+    "couette_drag": ("k_c", 2e4),
+    "turbulent_piston_leakage": ("K_t", 1e-8),
+    "piston_clearance_pressure": ("k_c", 5e-19),
+    "turbulent_spool_leakage": ("K_t", 5e-9),
+    "turbulent_pump_slip": ("K_t", 5e-9),
+    "pump_clearance_pressure": ("k_c", 5e-19),
+    "speed_offset": ("d_speed", 5.0),
+}
+
+
+def _doc(effects: dict[str, float | None]) -> dict:
+    doc = reference_rig_document()
+    doc["effects"] = {}
+    for name, value in effects.items():
+        pname, unit = STRENGTHS[name][0], get_effect(name).parameter(STRENGTHS[name][0]).unit
+        body = {} if value is None else {"parameters": {pname: {"value": value, "unit": unit}}}
+        doc["effects"][name] = body
+    return doc
+
+
+@pytest.fixture(scope="module")
+def full_rig():
+    return load_rig(_doc({n: v for n, (_, v) in STRENGTHS.items()}))
+
+
+def test_library_covers_the_issue_minimum():
+    balances = [e.entry.balance for e in EFFECTS.values()]
+    assert set(STRENGTHS) == set(EFFECTS)
+    assert sum(b in ("piston_force", "chamber_flow", "valve_flow") for b in balances) >= 4
+    assert sum(b == "pump_flow" for b in balances) >= 3
+    for e in EFFECTS.values():
+        assert e.entry.explanation and e.entry.reference and e.entry.signature
+        strength = e.parameter(e.entry.coefficient)
+        assert strength is not None and strength.default == 0.0
+
+
+def test_junction_balances_and_effect_dissipation_at_random_states(full_rig):
+    m = full_rig.model
+    g = m.system.graph
+    rng = np.random.default_rng(3)
+    p = full_rig.params(graph_values={"valve.N": 1.0})
+    effect_rs = [el for el in g.elements.values()
+                 if el.kind is Kind.R and el.name.split(".")[0] in EFFECTS]
+    assert len(effect_rs) == 8  # every effect but the speed offset is an R
+    for _ in range(25):
+        y = m.initial_state(p)
+        for i in range(len(m.state_names)):
+            y[i] = rng.uniform(0, 5e6) if m.scale[i] == 1e5 else rng.normal() * 1e3 * m.scale[i]
+        y[m.state_index("cylinder.x")] = rng.uniform(0, 0.5)
+        e, f = m.bond_values(y, p)
+        for el in g.elements.values():
+            bonds = g.bonds_of(el.name)
+            s = np.array([b.sign_at(el.name) for b in bonds], dtype=float)
+            idx = [b.index for b in bonds]
+            if el.kind is Kind.ZERO:
+                assert abs(s @ f[idx]) <= 1e-12 * np.abs(f[idx]).max() + 1e-20, el.name
+            elif el.kind is Kind.ONE:
+                assert abs(s @ e[idx]) <= 1e-12 * np.abs(e[idx]).max() + 1e-9, el.name
+        for el in effect_rs:
+            (b,) = g.bonds_of(el.name)
+            # power into every effect resistance is ≥ 0: it only dissipates
+            assert b.sign_at(el.name) * e[b.index] * f[b.index] >= -1e-9, el.name
+
+
+def test_effect_laws_match_hand_calculations_at_a_state(full_rig):
+    m = full_rig.model
+    g = m.system.graph
+    p = full_rig.params(graph_values={"valve.N": 1.0})
+    y = m.initial_state(p)
+    P1, P2, v = 6.0e6, 1.5e6, 0.05
+    for name, value in (("cylinder.C1", P1), ("cylinder.C2", P2), ("cylinder.mass", v)):
+        y[m.state_names.index(name)] = value
+    y[m.state_index("cylinder.x")] = 0.2
+    e, f = m.bond_values(y, p)
+    vals = full_rig.values()
+    mu = vals["fluid.mu"]
+
+    def port(el: str) -> tuple[float, float]:
+        (b,) = g.bonds_of(el)
+        return e[b.index], f[b.index]
+
+    assert port("stribeck_friction.R")[0] == pytest.approx(
+        300.0 * math.exp(-(v / 0.02) ** 2) * math.tanh(v / vals["cylinder.v_s"]), rel=1e-12)
+    assert port("seal_friction_pressure.R")[0] == pytest.approx(2e-5 * (P1 + P2), rel=1e-9)
+    assert port("couette_drag.R")[0] == pytest.approx(2e4 * mu * v, rel=1e-12)
+    dp = P1 - P2
+    assert port("turbulent_piston_leakage.R")[1] == pytest.approx(
+        1e-8 * dp / (dp * dp + 1e8) ** 0.25, rel=1e-12)
+    assert port("piston_clearance_pressure.R")[1] == pytest.approx(5e-19 * dp * dp / mu,
+                                                                    rel=1e-12)
+
+
+def test_zero_strength_gives_the_base_rig_exactly():
+    base = run_cycle(reference_rig(), rtol=1e-3).timeseries
+    zero = run_cycle(load_rig(_doc({n: None for n in STRENGTHS})), rtol=1e-3).timeseries
+    assert base is not None and zero is not None
+    assert list(zero.columns) == list(base.columns)
+    np.testing.assert_array_equal(zero.iloc[:, 2:].to_numpy(), base.iloc[:, 2:].to_numpy())
+
+
+def test_seal_friction_raises_the_working_pressure_by_the_hand_computed_force():
+    rig = load_rig(_doc({"seal_friction_pressure": 2e-5}))
+    base = steady_phase(reference_rig(), "working").outputs
+    out = steady_phase(rig, "working").outputs
+    # force balance at the piston: A1·ΔP1 − A2·ΔP2 = k_p·(P1 + P2) at the new point
+    a1 = rig.values()["cylinder.A1"]
+    extra = a1 * ((out["P1"] - base["P1"]) - (out["P2"] - base["P2"]))
+    assert extra == pytest.approx(2e-5 * (out["P1"] + out["P2"]), rel=0.02)
+
+
+def test_speed_offset_adds_vp_times_domega_to_the_delivered_flow():
+    rig = load_rig(_doc({"speed_offset": 5.0}))
+    base = steady_phase(reference_rig(), "working").outputs
+    out = steady_phase(rig, "working").outputs
+    vp = rig.values()["pump.Vp"]
+    assert out["Q_meter_B"] - base["Q_meter_B"] == pytest.approx(vp * 5.0, rel=0.02)
+
+
+def test_effects_section_errors_name_the_field():
+    doc = reference_rig_document()
+    doc["effects"] = {"magic_friction": {}}
+    with pytest.raises(RigFileError) as exc:
+        validate_rig_document(doc)
+    assert exc.value.field == "effects.magic_friction"
+    doc["effects"] = {"couette_drag": {"parameters": {"k_c": {"value": 1.0, "unit": "N"}}}}
+    with pytest.raises(RigFileError) as exc:
+        validate_rig_document(doc)
+    assert exc.value.field == "effects.couette_drag.parameters.k_c.unit"
+    doc["effects"] = {"couette_drag": {"parameters": {"k_c": {"value": -1.0, "unit": "m"}}}}
+    with pytest.raises(RigFileError) as exc:
+        validate_rig_document(doc)
+    assert exc.value.field == "effects.couette_drag.parameters.k_c"
+    doc["effects"] = {"couette_drag": {"params": {}}}
+    with pytest.raises(RigFileError) as exc:
+        validate_rig_document(doc)
+    assert exc.value.field == "effects.couette_drag.params"
+
+
+def test_effect_parameters_take_overrides_and_the_model_is_cached_per_effect_set():
+    a = load_rig(_doc({"couette_drag": None}))
+    b = load_rig(_doc({"couette_drag": 1e3}))
+    assert a.model is b.model
+    assert a.model is not reference_rig().model
+    assert a.values({"couette_drag.k_c": 7.0})["couette_drag.k_c"] == 7.0
+    with pytest.raises(ParameterError):
+        a.values({"couette_drag.k_c": -1.0})
+    with pytest.raises(ParameterError):
+        reference_rig().values({"couette_drag.k_c": 7.0})
