@@ -56,9 +56,11 @@ def _fill(app: Any, client: Any, key: str) -> int:
     real = []
     for i in range(N_REAL):
         cv = 34e-6 + 26e-6 * i / (N_REAL - 1)
-        s = client.post("/simulate", json={
+        answer = client.post("/simulate", json={
             "rig_id": 1, "overrides": {"valve.cv": cv}, "method": "steady",
-            "condition": {"load": 2100.0, "oil_temperature": 40.0}}).json()["summary"]
+            "condition": {"load": 2100.0, "oil_temperature": 40.0}})
+        assert answer.status_code == 200, answer.text
+        s = answer.json()["summary"]
         record = {"rig_id": 1, "condition": {"oil_temperature": 40.0, "load_force": 2100.0},
                   "pump_pressure": s["working.P_pump [Pa]"], "p1": s["working.P1 [Pa]"],
                   "p2": s["working.P2 [Pa]"], "flow_B": s["working.Q_meter_B [m^3/s]"],
@@ -113,6 +115,7 @@ def run() -> dict[str, Any]:
         with TestClient(app) as client:
             with app.state.sessions() as session:
                 key = create_api_key(session, "console-bench")[1]
+            client.headers["X-API-Key"] = key  # every API operation needs the key
             t0 = time.perf_counter()
             last = _fill(app, client, key)
             fill_s = time.perf_counter() - t0
