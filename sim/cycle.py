@@ -45,6 +45,10 @@ NOISE_MIN_RTOL = 1e-10
 
 Arr = npt.NDArray[np.float64]
 
+#: slowest sampling grid of a cycle [Hz]: slower grids leave a phase of a few seconds
+#: without the samples the error estimate compares
+MIN_SAMPLE_RATE = 1.0
+
 PHASES = ("working", "return")
 
 #: unit of each phase-summary field
@@ -324,7 +328,8 @@ def run_cycle(rig: Rig, overrides: Mapping[str, float] | None = None,
         Error targets in units of sensor noise; with ``rtol`` given, the run is only
         estimated against them (a companion run at 10·rtol).
     sample_rate
-        Output on a grid of this rate from t = 0 [Hz] (RODAS4's dense output); ``None``:
+        Output on a grid of this rate from t = 0 [Hz], at least :data:`MIN_SAMPLE_RATE`
+        (RODAS4's dense output); ``None``:
         one row per accepted step.
     t_max
         Longest phase [s]; default 20× the stroke time at the pump's geometric flow.
@@ -349,8 +354,11 @@ def run_cycle(rig: Rig, overrides: Mapping[str, float] | None = None,
     if method == "ros2" and sample_rate is not None:
         raise ParameterError("sampling on a grid needs the dense output of 'rodas4'",
                              field="sample_rate")
-    if sample_rate is not None and not (sample_rate > 0 and np.isfinite(sample_rate)):
-        raise ParameterError("the sample rate must be positive and finite", field="sample_rate")
+    if sample_rate is not None and not (sample_rate >= MIN_SAMPLE_RATE
+                                        and np.isfinite(sample_rate)):
+        raise ParameterError(f"the sample rate must be finite and at least {MIN_SAMPLE_RATE:g} "
+                             "Hz (a slower grid leaves a phase without samples to compare)",
+                             field="sample_rate")
     lim = limits if limits is not None else SolverLimits()
     deadline = lim.deadline()
     cond = condition if condition is not None else rig.default_condition()

@@ -106,9 +106,9 @@ class SimulateRequest(RequestModel):
         examples=[None],
     )
     sample_rate: float | None = Field(
-        default=None, gt=0, le=100_000,
+        default=None, ge=1.0, le=100_000,
         description="Time series on a grid of this rate from t = 0, from the dense output "
-        "(rodas4 only); null: one row per accepted solver step [Hz]",
+        "(rodas4 only; 1 Hz to 100 kHz); null: one row per accepted solver step [Hz]",
         examples=[1000.0],
     )
     noise: dict[str, PositiveFloat] = Field(

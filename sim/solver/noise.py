@@ -85,7 +85,7 @@ def error_estimate(main: list[tuple[Arr, Arr]], companion: list[tuple[Arr, Arr]]
     """
     worst = np.zeros(len(names))
     for (tm, om), (tc, oc) in zip(main, companion, strict=True):
-        if tc.size == 0:
+        if tc.size == 0 or tm.size == 0:  # a phase with no sample on the grid
             continue
         idx = np.searchsorted(tm, tc)
         ok = (idx < tm.size) & (tm[np.minimum(idx, tm.size - 1)] == tc)

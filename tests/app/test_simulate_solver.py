@@ -13,6 +13,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from sim.cycle import run_cycle
+from sim.errors import ParameterError
+from sim.rigs import reference_rig
 from tests.app.live import LiveServer, live_server, sqlite_settings
 
 SCENARIO: dict[str, Any] = {"rig_id": 1, "condition": {"load": 6300.0, "oil_temperature": 40.0}}
@@ -93,3 +96,14 @@ def test_the_settings_document_their_solver_limits() -> None:
     settings = sqlite_settings(Path("unused"))
     assert settings.sim_max_steps == 2_000_000
     assert settings.sim_max_time == 600.0 and settings.sim_wall_clock == 10.0
+
+
+def test_a_sample_rate_below_one_hertz_is_refused_naming_it(server: LiveServer) -> None:
+    # found by the fuzzer: 5e-324 Hz left the phases without samples and answered 500
+    for rate in (5e-324, 0.5):
+        r = server.client.post("/simulate", json={"rig_id": 1, "sample_rate": rate})
+        assert r.status_code == 422, r.text
+        assert r.json()["error"]["field"] == "sample_rate"
+    with pytest.raises(ParameterError) as exc:
+        run_cycle(reference_rig(), method="rodas4", sample_rate=0.5)
+    assert exc.value.field == "sample_rate"
