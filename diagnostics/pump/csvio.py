@@ -157,7 +157,7 @@ def read_bench_csv(path: str | Path) -> BenchData:
     Raises
     ------
     InputError
-        If the file is missing or empty, or as :func:`bench_from_frame`.
+        If the file is missing, empty or not a CSV table, or as :func:`bench_from_frame`.
     """
     p = Path(path)
     if not p.is_file():
@@ -169,7 +169,10 @@ def read_bench_csv(path: str | Path) -> BenchData:
         header.append(lines.pop(0).lstrip()[1:].strip())
     if not lines:
         raise InputError("file has no table", field="path")
-    frame = pd.read_csv(io.StringIO("\n".join(lines)))
+    try:
+        frame = pd.read_csv(io.StringIO("\n".join(lines)))
+    except (pd.errors.ParserError, pd.errors.EmptyDataError) as exc:
+        raise InputError(f"not a readable CSV table: {exc}", field="path") from None
     simulated = any("SIMULATED" in h for h in header)
     provenance = "\n".join(h for h in header if "SIMULATED" not in h)
     return bench_from_frame(frame, simulated=simulated, provenance=provenance)

@@ -95,3 +95,12 @@ def test_missing_file_is_an_input_error(tmp_path: Path) -> None:
     with pytest.raises(InputError) as e:
         read_bench_csv(tmp_path / "nope.csv")
     assert e.value.field == "path"
+
+
+@pytest.mark.parametrize("text", ['"', 'p_in [Pa],p_out [Pa]\n"1,2\n', "# only provenance\n\n"])
+def test_a_file_that_is_not_a_csv_table_is_an_input_error(tmp_path, text):
+    # found by the fuzzer: a file holding one double quote answered 500 through the upload
+    path = tmp_path / "bench.csv"
+    path.write_text(text)
+    with pytest.raises(InputError):
+        read_bench_csv(path)
