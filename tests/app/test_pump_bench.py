@@ -79,6 +79,7 @@ def test_the_capacity_comes_from_the_data_when_not_given(server: LiveServer,
     ("content", "form", "field"),
     [
         (b"", {}, "file"),
+        (b'"', {}, "file"),  # found by the fuzzer: answered 500 before
         (b"p_in [Pa],p_out [Pa]\n0,1e7\n", {}, "file.n"),
         (b"p_in [Pa],p_out [psi],n [rev/s],theta [degC],q [m^3/s]\n0,1,20,40,1e-4\n", {},
          "file.p_out [psi]"),
