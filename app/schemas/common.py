@@ -28,6 +28,7 @@ __all__ = [
     "PublicModel",
     "RequestModel",
     "Timestamp",
+    "UploadForm",
     "error_doc",
     "not_nullable",
     "reject_null",
@@ -194,6 +195,21 @@ class RequestModel(BaseModel):
                     raise PydanticCustomError("json_type", f"{key}: {problem}",
                                               {"unknown_field": key})
         return data
+
+
+class UploadForm(RequestModel):
+    """Base of the form models sent beside a file part (multipart uploads).
+
+    FastAPI hands the whole form, the ``file`` part included, to the model: ``file`` is let
+    through (the operation's body schema adds it beside these fields, so the model's own
+    schema stays open), every other unknown field is refused by :class:`RequestModel`'s check
+    with the close name suggested, and values are not compared as JSON kinds (a form sends
+    text).
+    """
+
+    model_config = ConfigDict(extra="ignore")
+    form_siblings = frozenset({"file"})
+    json_kinds = False
 
 
 def not_nullable(*names: str) -> Callable[[dict[str, Any]], None]:

@@ -2,24 +2,19 @@
 
 from __future__ import annotations
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, Field
 
-from app.schemas.common import MAX_ID, RequestModel
+from app.schemas.common import MAX_ID, UploadForm
 
 __all__ = ["DiscrepancyAccepted", "DiscrepancyForm"]
 
 
-class DiscrepancyForm(RequestModel):
+class DiscrepancyForm(UploadForm):
     """Form fields sent with the measured time series.
 
-    The multipart body also carries the ``file`` part, let through like the bench upload's
-    (:class:`app.schemas.pumps.PumpBenchForm`); any other unknown field is refused by the
-    strict base's check, with the close name suggested.
+    The file part is let through and other unknown fields refused
+    (:class:`~app.schemas.common.UploadForm`).
     """
-
-    model_config = ConfigDict(extra="ignore")
-    form_siblings = frozenset({"file"})
-    json_kinds = False
 
     rig_id: int = Field(ge=1, le=MAX_ID, description="Stored rig whose model is checked [-]",
                         examples=[1])

@@ -19,6 +19,7 @@ from app.schemas.common import (
     PublicModel,
     RequestModel,
     Timestamp,
+    UploadForm,
     not_nullable,
     reject_null,
 )
@@ -152,17 +153,12 @@ class PumpSetList(Page[PumpSetPublic]):
     """A page of pump sets."""
 
 
-class PumpBenchForm(RequestModel):
+class PumpBenchForm(UploadForm):
     """Form fields sent with a bench CSV (``POST /pump-sets/bench``).
 
-    FastAPI hands the whole form, the ``file`` part included, to this model: ``file`` is
-    let through (and the schema stays open, as the operation's body adds ``file`` beside
-    these fields); any other unknown field is refused by the strict base's check.
+    The file part is let through and other unknown fields refused
+    (:class:`~app.schemas.common.UploadForm`).
     """
-
-    model_config = ConfigDict(extra="ignore")
-    form_siblings = frozenset({"file"})
-    json_kinds = False
 
     name: Name = _name()
     pump: PumpLabel = _pump()

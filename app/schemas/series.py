@@ -4,24 +4,19 @@ from __future__ import annotations
 
 from typing import Any
 
-from pydantic import ConfigDict, Field
+from pydantic import Field
 
-from app.schemas.common import FiniteFloat, Page, PublicModel, RequestModel, Timestamp
+from app.schemas.common import FiniteFloat, Page, PublicModel, Timestamp, UploadForm
 
 __all__ = ["SeriesData", "SeriesImportForm", "SeriesList", "SeriesPublic"]
 
 
-class SeriesImportForm(RequestModel):
+class SeriesImportForm(UploadForm):
     """Form fields sent with a time-series file (``POST /rigs/{rig_id}/series``).
 
-    The multipart body also carries the ``file`` part, let through like the bench upload's
-    (:class:`app.schemas.pumps.PumpBenchForm`); any other unknown field is refused by the
-    strict base's check, with the close name suggested.
+    The file part is let through and other unknown fields refused
+    (:class:`~app.schemas.common.UploadForm`).
     """
-
-    model_config = ConfigDict(extra="ignore")
-    form_siblings = frozenset({"file"})
-    json_kinds = False
 
     name: str = Field(min_length=1, max_length=200, pattern=r"^[A-Za-z0-9_.:-]+$",
                       description="Name of the import (the file or campaign) [-]",
