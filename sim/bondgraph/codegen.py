@@ -33,7 +33,7 @@ __all__ = ["cache_dir", "generate_source", "load_module"]
 _SOLVER_SOURCES = (
     (rosenbrock, "lu_factor"), (rosenbrock, "lu_solve"), (rosenbrock, "fd_jacobian"),
     (rosenbrock, "integrate"), (rosenbrock, "steady"),
-    (rodas, "dense_eval"), (rodas, "integrate_rodas"),
+    (rodas, "grow_rows"), (rodas, "dense_eval"), (rodas, "integrate_rodas"),
 )
 _SOLVER_FUNCS = tuple(name for _, name in _SOLVER_SOURCES)
 

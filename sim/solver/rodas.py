@@ -47,7 +47,7 @@ import numpy.typing as npt
 
 from sim.solver.rosenbrock import fd_jacobian, lu_factor, lu_solve
 
-__all__ = ["dense_eval", "integrate_rodas"]
+__all__ = ["dense_eval", "grow_rows", "integrate_rodas"]
 
 Arr = npt.NDArray[np.float64]
 IArr = npt.NDArray[np.int64]
@@ -62,6 +62,16 @@ R4_NONFINITE = 5
 #: exported with the ROS2 statuses' names for the model layer
 STATUS_PAUSED = R4_PAUSED
 STATUS_NONFINITE = R4_NONFINITE
+
+
+def grow_rows(ts: Arr, ys: Arr, count: int) -> tuple[Arr, Arr]:
+    """Output buffers of twice the rows, holding the first ``count`` rows of ``ts``/``ys``."""
+    cap = 2 * ts.shape[0]
+    ts2 = np.empty(cap)
+    ys2 = np.empty((cap, ys.shape[1]))
+    ts2[:count] = ts[:count]
+    ys2[:count] = ys[:count]
+    return ts2, ys2
 
 
 def dense_eval(theta: float, y: Arr, ynew: Arr, q1: Arr, q2: Arr, out: Arr) -> None:
@@ -165,14 +175,8 @@ def integrate_rodas(rhs: RHS, t0: float, t_end: float, y0: Arr, p: Arr, atol: Ar
     counters[2] += 1
     if gridded:
         while gi < grid.size and grid[gi] <= t0:
-            if count >= cap:
-                cap *= 2
-                ts2 = np.empty(cap)
-                ys2 = np.empty((cap, n))
-                ts2[:count] = ts[:count]
-                ys2[:count] = ys[:count]
-                ts = ts2
-                ys = ys2
+            if count >= ts.shape[0]:
+                ts, ys = grow_rows(ts, ys, count)
             ts[count] = grid[gi]
             for i in range(n):
                 ys[count, i] = y[i]
@@ -309,14 +313,8 @@ def integrate_rodas(rhs: RHS, t0: float, t_end: float, y0: Arr, p: Arr, atol: Ar
             t_stop = t + theta_end * h
             if gridded:
                 while gi < grid.size and grid[gi] <= t_stop:
-                    if count >= cap:
-                        cap *= 2
-                        ts2 = np.empty(cap)
-                        ys2 = np.empty((cap, n))
-                        ts2[:count] = ts[:count]
-                        ys2[:count] = ys[:count]
-                        ts = ts2
-                        ys = ys2
+                    if count >= ts.shape[0]:
+                        ts, ys = grow_rows(ts, ys, count)
                     dense_eval((grid[gi] - t) / h, y, ynew, q1, q2, yd)
                     ts[count] = grid[gi]
                     for i in range(n):
@@ -331,14 +329,8 @@ def integrate_rodas(rhs: RHS, t0: float, t_end: float, y0: Arr, p: Arr, atol: Ar
             for i in range(n):
                 y[i] = ynew[i]
             if not gridded:
-                if count >= cap:
-                    cap *= 2
-                    ts2 = np.empty(cap)
-                    ys2 = np.empty((cap, n))
-                    ts2[:count] = ts[:count]
-                    ys2[:count] = ys[:count]
-                    ts = ts2
-                    ys = ys2
+                if count >= ts.shape[0]:
+                    ts, ys = grow_rows(ts, ys, count)
                 ts[count] = t
                 for i in range(n):
                     ys[count, i] = y[i]
