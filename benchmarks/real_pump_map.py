@@ -8,6 +8,9 @@ Reads ``data/real/pump-efficiency-V32HL56/V32HL56-efficiency.csv`` of the shared
 * the sign-checked piston loss family (:mod:`diagnostics.pump.piston`) with one speed left
   out at a time, next to a plain quadratic in (Δp, n) on the same split, with the flow loss
   fitted to Qth − QOut and to the measured case-drain flow;
+* where the held-out error comes from: S over the interior speeds only (no extrapolation
+  to the lowest or highest speed), and the scatter floor (rms residual of a cubic in Δp
+  fitted to each speed on its own, in-sample), below which no model of (Δp, n) can go;
 * paper 001's best subset (Table 1 terms, AIC, VIF ≤ 10, sign checks;
   :mod:`diagnostics.pump.map_subset`): in-sample S and R² as paper 001 reports them, and
   with one speed left out.
@@ -33,6 +36,7 @@ from diagnostics.pump import (
 from diagnostics.pump.levels import cluster_levels
 from diagnostics.pump.map_subset import subset_held_out
 from diagnostics.pump.piston import (
+    HeldOut,
     PistonMap,
     bench_frame,
     held_out_speed,
@@ -56,6 +60,27 @@ def _capacities(sub: PistonMap, D: float) -> dict[str, float]:
             caps[name] = float("nan")
             print(f"  {name} capacity refused at {D * 2e6 * np.pi:.1f} cm³/rev: {exc}")
     return caps
+
+
+def _inner_and_floor(sub: PistonMap, h: HeldOut) -> tuple[float, float, float, float]:
+    """Held-out S over the interior speeds only, and the scatter floor (rms residual of a
+    cubic in Δp fitted to each speed alone), flow and torque [% of the setting's max]."""
+    w_idx, w_lev = cluster_levels(sub.omega, field="Speed")
+    inner = (w_idx > 0) & (w_idx < w_lev.size - 1)
+    fi = 100.0 * float(np.sqrt(np.mean((sub.q - h.flow_pred)[inner] ** 2))) / h.flow_full
+    ti = 100.0 * float(np.sqrt(np.mean((sub.torque - h.torque_pred)[inner] ** 2))) / h.torque_full
+    sse = np.zeros(2)  # flow, torque
+    dof = 0
+    for j in range(w_lev.size):
+        m = w_idx == j
+        x = np.vander(sub.dp[m] / 1e7, 4)  # cubic in Δp [10 MPa]
+        for i, y in enumerate((sub.q[m], sub.torque[m])):
+            r = y - x @ np.linalg.lstsq(x, y, rcond=None)[0]
+            sse[i] += float(r @ r)
+        dof += int(m.sum()) - 4
+    sq, st = float(sse[0]), float(sse[1])
+    return (fi, ti, 100.0 * float(np.sqrt(sq / dof)) / h.flow_full,
+            100.0 * float(np.sqrt(st / dof)) / h.torque_full)
 
 
 def pump_map() -> dict[str, object]:
@@ -88,6 +113,9 @@ def pump_map() -> dict[str, object]:
               f"{h.flow_S_quadratic:6.3f} [{h.flow_S_quadratic * fq:6.3f}] {hd.flow_S:8.3f} "
               f"{h.torque_S:6.3f} [{h.torque_S * ft:6.3f}] "
               f"{h.torque_S_quadratic:6.3f} [{h.torque_S_quadratic * ft:6.3f}]")
+        fi, ti, ff, tf = _inner_and_floor(sub, h)
+        print(f"{'':11s} interior speeds only: flow S {fi:.3f} %, torque S {ti:.3f} %; "
+              f"scatter floor: flow {ff:.3f} %, torque {tf:.3f} %")
         print(f"{'':11s} flow loss: {' + '.join(h.flow_terms)};  torque loss: "
               f"{' + '.join(h.torque_terms)}")
         sf = subset_held_out(sub, D, response="flow", theta=THETA)
@@ -102,6 +130,8 @@ def pump_map() -> dict[str, object]:
             "torque_R2": h.torque_R2, "torque_S_quadratic_pct": h.torque_S_quadratic,
             "torque_S_quadratic_pct_of_full_torque": h.torque_S_quadratic * ft,
             "flow_terms": list(h.flow_terms), "torque_terms": list(h.torque_terms),
+            "flow_S_interior_speeds_pct": fi, "torque_S_interior_speeds_pct": ti,
+            "flow_scatter_floor_pct": ff, "torque_scatter_floor_pct": tf,
             "paper001_subset": {
                 r.response: {"terms": list(r.model.terms),
                              "coef": [float(c) for c in r.model.coef],
