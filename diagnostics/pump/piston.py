@@ -31,7 +31,7 @@ torque loss ``T_L = T − D·Δp`` [N·m]::
                          film, Stribeck; either sign)
 
 The terms beyond paper 000's (a₅-a₇, b₅-b₆) are what the V32HL56 map showed the
-constant-coefficient model misses: its loss at 4,500 rpm is 2-3× that at 1,000 rpm at
+constant-coefficient model misses: its flow loss at 4,500 rpm is about 3× that at 1,000 rpm at
 the same Δp, and grows faster than linearly in Δp at high speed (``make real-data``).
 
 Where the map has a case-drain flow, it *is* the measured leakage; :func:`fit_losses` can

@@ -80,6 +80,25 @@ def test_loss_models_have_physical_signs_and_explain_the_data(big) -> None:  # t
     assert math.sqrt(float(np.mean(res**2))) < 0.01 * float(np.max(data.q))
 
 
+@pytest.mark.parametrize("setting", [0, 1])
+def test_every_setting_of_the_slice_gets_physical_signs(setting: int) -> None:
+    m = read_efficiency_map(SLICE)
+    idx, lev = cluster_levels(m.D, field="D")
+    sub, D = m.subset(idx == setting), float(lev[setting])
+    h = held_out_speed(sub, D)
+    for fit, library in ((h.flow, FLOW_LOSS_TERMS), (h.torque, TORQUE_LOSS_TERMS)):
+        signs = {t.name: t.sign for t in library}
+        assert all(signs[n] == 0 or c >= 0 for n, c in zip(fit.terms, fit.coef, strict=True))
+    # the losses the model predicts are losses: less flow than D·ω, more torque than D·Δp
+    assert np.all(h.flow.loss(sub.dp, sub.omega) > 0)
+    assert np.all(h.torque.loss(sub.dp, sub.omega) > 0)
+    # the flow loss at 4,500 rpm is about 3× that at 1,000 rpm at 200 bar (eq. 6 has no ω)
+    dp = np.array([2e7])
+    ratio = h.flow.loss(dp, np.array([4500 * np.pi / 30]))[0] / h.flow.loss(
+        dp, np.array([1000 * np.pi / 30]))[0]
+    assert 2.5 < ratio < 3.6
+
+
 def test_held_out_speed_scores_both_models(big) -> None:  # type: ignore[no-untyped-def]
     data, D = big
     h = held_out_speed(data, D)
