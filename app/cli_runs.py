@@ -268,7 +268,10 @@ def calibrate_pump(
     The CSV has one row per steady point with the unit in every column name: p_in, p_out
     \\[Pa, kPa, bar, MPa], n \\[rev/s, rpm, rad/s], theta \\[degC, K], q \\[m^3/s, l/min],
     optional T \\[N*m].  Data at one oil temperature give the derived capacity only (the loss
-    coefficients of paper 000 eqs. 7-9, 17-19 need two temperatures).
+    coefficients of paper 000 eqs. 7-9, 17-19 need two temperatures).  With torque and three
+    speeds or more, the sign-checked loss model is fitted at each oil temperature and checked
+    with one speed left out; the set keeps it, its test points and its held-out error
+    (check_flow_S, check_torque_S \\[%]).
     """
     from app.schemas.pumps import PumpBenchForm
     from app.services.pump_bench import store_bench_parameters

@@ -13,6 +13,7 @@ from fastapi.responses import FileResponse
 
 from app.api.deps import SessionDep
 from app.console.charts import calibration_chart, surface_chart
+from app.console.pump_charts import pump_check_charts
 from app.console.routing import ConsoleKeyDep, new_router
 from app.console.web import COOKIE, SECURITY_HEADERS, issue_cookie, page, redirect
 from app.services import calibrations as calibration_service
@@ -147,7 +148,8 @@ def rig(request: Request, session: SessionDep, _key: ConsoleKeyDep,
 @router.get("/pumps")
 def pumps(request: Request, session: SessionDep, _key: ConsoleKeyDep,
           set_id: Annotated[int | None, Query(ge=1)] = None) -> Response:
-    """Pump sets; the chosen one with its quantities and fitted loss surfaces."""
+    """Pump sets; the chosen one with its quantities, measured vs model from its checked
+    points, and its fitted loss surfaces."""
     rows, total = pump_service.list_pump_sets(session, limit=500, offset=0)
     chosen = pump_service.get_pump_set(session, set_id) if set_id is not None else (
         rows[0] if rows else None)
@@ -162,4 +164,5 @@ def pumps(request: Request, session: SessionDep, _key: ConsoleKeyDep,
                     q["omega_range"]["value"]))
             except (KeyError, TypeError, ValueError):
                 continue  # a hand-made set without the surface's scales: table only
+        charts = pump_check_charts(q) + charts
     return page(request, "pumps.html", rows=rows, total=total, chosen=chosen, charts=charts)

@@ -172,7 +172,9 @@ def component_history(
     """Return the estimates for ``component`` of rig ``rig_id`` in order of measurement."""
     get_rig(session, rig_id)
     statement = (
-        select(DiagnosisEstimate, Diagnosis.id, Measurement.measured_at, RigVersion.version)
+        select(Diagnosis.id, Measurement.measured_at, RigVersion.version,
+               DiagnosisEstimate.probability, DiagnosisEstimate.clearance_m,
+               DiagnosisEstimate.slip_coefficient)
         .join(Diagnosis, DiagnosisEstimate.diagnosis_id == Diagnosis.id)
         .join(Measurement, Diagnosis.measurement_id == Measurement.id)
         .join(RigVersion, Diagnosis.rig_version_id == RigVersion.id)
@@ -183,14 +185,6 @@ def component_history(
         statement = statement.where(Measurement.measured_at >= since)
     if until is not None:
         statement = statement.where(Measurement.measured_at <= until)
-    return [
-        HistoryPoint(
-            diagnosis_id=diagnosis_id,
-            measured_at=measured_at,
-            rig_version=version,
-            probability=estimate.probability,
-            clearance_m=estimate.clearance_m,
-            slip_coefficient=estimate.slip_coefficient,
-        )
-        for estimate, diagnosis_id, measured_at, version in session.execute(statement)
-    ]
+    # plain columns, not ORM objects: a long history is read without building an entity
+    # per row (the trends page reads every component's history)
+    return [HistoryPoint(*row) for row in session.execute(statement)]

@@ -7,7 +7,9 @@ derived capacity D, the loss coefficients Cs, Cst and, with torque, Cv and Cf as
 polynomial surfaces in pressure and speed).  The set keeps every number needed to use or
 judge the result: D and its standard error, each surface's coefficient matrix, its
 covariance, R², reduced χ² and residuals, the reference scales and the range of the data.
-Data from the virtual bench say so in the set's ``source``.
+Data from the virtual bench say so in the set's ``source``.  The set also keeps the
+sign-checked loss model of :mod:`diagnostics.pump.piston` with the test points it was checked
+on and its error with one speed left out (:mod:`app.services.pump_check`).
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ from sqlalchemy.orm import Session
 from app.db.models import PumpSet
 from app.schemas.pumps import PumpBenchForm, PumpSetCreate
 from app.services.common import prefixed
+from app.services.pump_check import check_quantities
 from app.services.pumps import create_pump_set
 from app.services.rigs import get_rig
 from diagnostics.pump import BenchData, PumpParameterisation, parameterise, read_bench_csv
@@ -133,10 +136,13 @@ def store_bench_parameters(session: Session, form: PumpBenchForm, content: bytes
         get_rig(session, form.rig_id, field="rig_id")
     data, result = parameterise_csv(content, displacement=form.displacement_m3_rad,
                                     displacement_std=form.displacement_std_m3_rad)
+    checked, check_note = check_quantities(data, result.D)
     notes = [n for n in (_SIMULATED if data.simulated else None, form.source,
-                         data.provenance or None, result.not_identifiable or None) if n]
+                         data.provenance or None, result.not_identifiable or None,
+                         check_note) if n]
     create = PumpSetCreate.model_validate({
         "name": form.name, "kind": "parameters", "rig_id": form.rig_id, "pump": form.pump,
-        "source": "; ".join(notes)[:2000] or None, "quantities": _quantities(data, result),
+        "source": "; ".join(notes)[:2000] or None,
+        "quantities": _quantities(data, result) | checked,
     })
     return create_pump_set(session, create)

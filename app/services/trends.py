@@ -17,7 +17,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from datetime import UTC, datetime, timedelta
-from typing import Any
 
 from sqlalchemy import select
 from sqlalchemy.orm import Session
@@ -91,26 +90,34 @@ def _finite(x: float) -> float | None:
     return x if math.isfinite(x) else None
 
 
-def _intervals(session: Session, component: str, ids: list[int]) -> dict[int, Any]:
-    """The 95 % interval each diagnosis stated for ``component``, by diagnosis id."""
+def _intervals(session: Session, ids: list[int]
+               ) -> dict[int, dict[str, tuple[float | None, float | None]]]:
+    """The 95 % interval (low, high) each diagnosis stated, by diagnosis id then component.
+
+    One query for every component, reading only the six numbers from each stored result
+    (not its ``estimates`` documents, one query per component, as it once did).
+    """
     if not ids:
         return {}
-    path = Diagnosis.result[("estimates", component)]
-    rows = session.execute(select(Diagnosis.id, path).where(Diagnosis.id.in_(ids)))
-    return {int(i): e for i, e in rows if isinstance(e, dict)}
+    columns = [Diagnosis.result[("estimates", c, bound)].as_float()
+               for c in COMPONENTS for bound in ("low", "high")]
+    rows = session.execute(select(Diagnosis.id, *columns).where(Diagnosis.id.in_(ids)))
+    names = list(COMPONENTS)
+    return {int(row[0]): {c: (row[1 + 2 * k], row[2 + 2 * k]) for k, c in enumerate(names)}
+            for row in rows}
 
 
-def _points(session: Session, component: str, history: list[HistoryPoint]
+def _points(component: str, history: list[HistoryPoint],
+            intervals: dict[int, dict[str, tuple[float | None, float | None]]]
             ) -> list[TrendPointOut]:
-    intervals = _intervals(session, component, [h.diagnosis_id for h in history])
     out = []
     for h in history:
         value = h.slip_coefficient if component == "pump" else h.clearance_m
         if value is None or not math.isfinite(value):
             continue
-        stated = intervals.get(h.diagnosis_id, {})
+        low, high = intervals.get(h.diagnosis_id, {}).get(component, (None, None))
         out.append(TrendPointOut(h.diagnosis_id, h.measured_at, h.rig_version, value,
-                                 stated.get("low"), stated.get("high"), h.probability))
+                                 low, high, h.probability))
     return out
 
 
@@ -179,12 +186,15 @@ def component_trends(
             .where(Measurement.rig_id == rig_id)
         ).all()
         names = [c for c in COMPONENTS if c in set(present)]
+    histories = {name: component_history(session, rig_id, name, since=since, until=until)
+                 for name in names}
+    intervals = _intervals(session, sorted({h.diagnosis_id for hs in histories.values()
+                                            for h in hs}))
     out = []
-    for name in names:
-        history = component_history(session, rig_id, name, since=since, until=until)
+    for name, history in histories.items():
         if threshold is not None:
             limit, source = threshold, "given"
         else:
             limit, source = default_threshold(resolved.rig, name)
-        out.append(_trend(name, rig_id, _points(session, name, history), limit, source))
+        out.append(_trend(name, rig_id, _points(name, history, intervals), limit, source))
     return out

@@ -8,17 +8,31 @@ sign physics gives, per displacement setting ``D`` [m³/rad]:
 
 flow loss  ``q_L = D·ω − q`` [m³/s]::
 
-    q_L = a₁·Δp          laminar leakage (paper 000 eq. 6, Cs·D/μ at fixed μ)   a₁ ≥ 0
-        + a₂·Δp·ω        compression of the cylinder volume, D·ω·Δp/β_ef (eq. 8)  a₂ ≥ 0
-        + a₃·ω           displacement error / filling (either sign)
+    q_L = a₁·Δp          laminar leakage (paper 000 eq. 6, Cs·D/μ at fixed μ)     a₁ ≥ 0
+        + a₂·Δp·ω        compression of the cylinder dead volume, D·ω·Δp/β_ef      a₂ ≥ 0
+                         (paper 000 eq. 8; paper 001 Table 1, Zarotti and Nevegna)
+        + a₃·ω           displacement error of the set swash angle (either sign)
         + a₄             offset (either sign)
+        + a₅·Δp²         leakage through a gap that opens or closes with pressure
+                         (paper 001 Table 1, Manring 2016; either sign)
+        + a₆·Δp²·ω       leakage growing with speed (paper 001 Table 1, Dorey 1988
+                         B-part; either sign)
+        + a₇·ω²          incomplete filling of the cylinders at speed              a₇ ≥ 0
 
 torque loss ``T_L = T − D·Δp`` [N·m]::
 
-    T_L = b₁·Δp          Coulomb friction ∝ load (paper 000 eq. 18, Cf)           b₁ ≥ 0
-        + b₂·ω           viscous friction (eq. 17, Cv)                            b₂ ≥ 0
-        + b₃·ω²          churning                                                 b₃ ≥ 0
-        + b₄             constant friction                                        b₄ ≥ 0
+    T_L = b₁·Δp          Coulomb friction ∝ load (paper 000 eq. 18, Cf)             b₁ ≥ 0
+        + b₂·ω           viscous friction (eq. 17, Cv)                              b₂ ≥ 0
+        + b₃·ω²          churning (paper 001 Table 1, Ivantysyn)                    b₃ ≥ 0
+        + b₄             constant friction (paper 000 eq. 10, Te)                   b₄ ≥ 0
+        + b₅·Δp²         load-dependent friction (paper 001 Table 1, Jeong 2007;
+                         either sign)
+        + b₆·Δp·ω        Coulomb friction that changes with speed (mixed to fluid
+                         film, Stribeck; either sign)
+
+The terms beyond paper 000's (a₅-a₇, b₅-b₆) are what the V32HL56 map showed the
+constant-coefficient model misses: its flow loss at 4,500 rpm is about 3× that at 1,000 rpm at
+the same Δp, and grows faster than linearly in Δp at high speed (``make real-data``).
 
 Where the map has a case-drain flow, it *is* the measured leakage; :func:`fit_losses` can
 fit the flow loss to it (``target="drain"``) and predicts ``q = D·ω − q_L`` either way.
@@ -151,12 +165,17 @@ FLOW_LOSS_TERMS: tuple[LossTerm, ...] = (
     LossTerm("dp*omega", lambda p, w: p * w, +1),
     LossTerm("omega", lambda p, w: w, 0),
     LossTerm("1", lambda p, w: np.ones_like(p), 0),
+    LossTerm("dp^2", lambda p, w: p * p, 0),
+    LossTerm("dp^2*omega", lambda p, w: p * p * w, 0),
+    LossTerm("omega^2", lambda p, w: w * w, +1),
 )
 TORQUE_LOSS_TERMS: tuple[LossTerm, ...] = (
     LossTerm("dp", lambda p, w: p, +1),
     LossTerm("omega", lambda p, w: w, +1),
     LossTerm("omega^2", lambda p, w: w * w, +1),
     LossTerm("1", lambda p, w: np.ones_like(p), +1),
+    LossTerm("dp^2", lambda p, w: p * p, 0),
+    LossTerm("dp*omega", lambda p, w: p * w, 0),
 )
 
 
@@ -237,7 +256,13 @@ def _quadratic(dp: Arr, w: Arr) -> Arr:
 
 @dataclass(frozen=True)
 class HeldOut:
-    """Held-out-speed errors of one setting: S [% of max] and R² [-], model and quadratic."""
+    """Held-out-speed errors of one setting: S [% of max] and R² [-], model and quadratic.
+
+    ``flow_pred`` [m³/s] and ``torque_pred`` [N·m] are the held-out predictions at every
+    point (each from the fit without its speed); ``flow_full`` [m³/s] and ``torque_full``
+    [N·m] are the setting's largest measured flow and torque, the scales of S; ``flow`` and
+    ``torque`` are the models fitted on all the setting's points.
+    """
 
     D: float
     speeds: int
@@ -251,6 +276,12 @@ class HeldOut:
     torque_R2_quadratic: float
     flow_terms: tuple[str, ...]
     torque_terms: tuple[str, ...]
+    flow_pred: Arr
+    torque_pred: Arr
+    flow_full: float
+    torque_full: float
+    flow: LossFit
+    torque: LossFit
 
 
 def _s_r2(y: Arr, pred: Arr, full: float) -> tuple[float, float]:
@@ -288,7 +319,7 @@ def held_out_speed(data: PistonMap, D: float, *,
     tsq, trq = _s_r2(data.torque, qt, t_full)
     flow, torque = fit_losses(data, D, target=target)
     return HeldOut(D, int(w_lev.size), fs, fr, fsq, frq, ts, tr, tsq, trq, flow.terms,
-                   torque.terms)
+                   torque.terms, pq, pt, q_full, t_full, flow, torque)
 
 
 def bench_frame(data: PistonMap, theta: float) -> pd.DataFrame:

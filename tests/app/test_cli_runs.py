@@ -144,6 +144,9 @@ def test_calibrate_pump_on_a_real_single_temperature_map(runner: CliRunner, tmp_
                                  "--displacement-cm3-rev", f"{cm3:.6f}"])
     assert result.exit_code == 0, result.output
     assert "not identifiable" in result.stdout and "Cs_coef" not in result.stdout
+    # the sign-checked loss model is stored with its held-out error and its points
+    assert "check_flow_S" in result.stdout and "points_q_held_out" in result.stdout
+    assert "checked one speed out" in result.stdout
     assert _count(PumpSet) == 1
     both = runner.invoke(cli, ["calibrate", "pump", str(tmp_path / "map.csv"), "--name", "v33",
                                "--pump", "x", "--displacement", "1e-6",

@@ -170,3 +170,53 @@ def test_the_openapi_example_of_the_upload_is_accepted(server: LiveServer) -> No
     assert response.status_code == 201, response.text
     # q = D·ω − 1e-12·Δp was used to write it: the Toet capacity gives D back
     assert response.json()["quantities"]["D"]["value"] == pytest.approx(2.34e-6, rel=1e-3)
+
+
+def _v32_full_stroke_csv(tmp_path: Path, speeds: int | None = None) -> tuple[bytes, float]:
+    """The 57 cm³/rev setting of the real V32HL56 slice as a bench CSV (θ assumed 50 °C)."""
+    from diagnostics.pump.levels import cluster_levels
+    from diagnostics.pump.piston import bench_frame, read_efficiency_map
+    from tests.real_slices import v32hl56_slice
+
+    data = read_efficiency_map(v32hl56_slice())
+    idx, lev = cluster_levels(data.D, field="D")
+    big = data.subset(idx == int(lev.argmax()))
+    if speeds is not None:
+        w_idx, _ = cluster_levels(big.omega, field="Speed")
+        big = big.subset(w_idx < speeds)
+    bench_frame(big, 50.0).to_csv(tmp_path / "map.csv", index=False)
+    return (tmp_path / "map.csv").read_bytes(), float(lev.max())
+
+
+def test_a_real_map_is_stored_with_its_checked_loss_model(server: LiveServer,
+                                                         tmp_path: Path) -> None:
+    content, D = _v32_full_stroke_csv(tmp_path)
+    response = _upload(server, content, FORM | {"name": "v32-checked",
+                                                "displacement_m3_rad": str(D)})
+    assert response.status_code == 201, response.text
+    body = response.json()
+    q = body["quantities"]
+    n = len(q["points_q"]["value"])
+    assert n == 108 and len(q["points_q_held_out"]["value"]) == n
+    assert q["points_dp"]["unit"] == "Pa" and q["points_T_held_out"]["unit"] == "N*m"
+    # the stored S is the rms of the stored held-out residuals over the largest flow
+    meas, pred = np.asarray(q["points_q"]["value"]), np.asarray(q["points_q_held_out"]["value"])
+    s = 100 * math.sqrt(float(np.mean((meas - pred) ** 2))) / float(meas.max())
+    assert q["check_flow_S"]["value"] == pytest.approx(s) and 0 < s < 0.3
+    assert q["loss0_flow_S"]["value"] <= q["loss0_flow_S_quadratic"]["value"]
+    assert "dp*omega" in q["loss0_flow_coef"]["description"]
+    assert "checked one speed out" in body["source"]
+    assert server.client.get(f"/pump-sets/{body['id']}").json() == body
+
+
+def test_a_map_with_two_speeds_is_stored_unchecked_and_says_why(server: LiveServer,
+                                                                 tmp_path: Path) -> None:
+    content, D = _v32_full_stroke_csv(tmp_path, speeds=2)
+    response = _upload(server, content, FORM | {"name": "v32-two-speeds",
+                                                "displacement_m3_rad": str(D)})
+    assert response.status_code == 201, response.text
+    body = response.json()
+    assert "loss model not checked" in body["source"] and "≥ 3" in body["source"]
+    q = body["quantities"]
+    assert len(q["points_q"]["value"]) == 24
+    assert not any(k.endswith("held_out") or k.startswith(("check_", "loss0")) for k in q)

@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import math
 from datetime import datetime
 
+import numpy as np
 import pytest
+from scipy import stats
 
 from tests.app.conftest import new_rig, simulated_record
 from tests.app.live import LiveServer
@@ -94,3 +97,33 @@ def test_bad_queries_are_422(server: LiveServer, wearing_rig: int, params: dict[
 def test_unknown_rig_is_404(server: LiveServer) -> None:
     response = server.client.get("/rigs/31337/trends")
     assert response.status_code == 404
+
+
+def test_trend_answer_matches_the_reference_computation(server: LiveServer,
+                                                        wearing_rig: int) -> None:
+    """The answer equals the unbatched one: each point's interval as its stored diagnosis
+    states it, and the slope and interval of scipy's Theil–Sen widened by the stated
+    uncertainties (the implementation before the trends page was made faster)."""
+    body = server.client.get(f"/rigs/{wearing_rig}/trends").json()
+    assert {t["component"] for t in body["components"]} >= {"cylinder", "valve"}
+    for trend in body["components"]:
+        pts = trend["points"]
+        for p in pts:
+            stored = server.client.get(f"/diagnoses/{p['diagnosis_id']}").json()
+            stated = stored["result"]["estimates"][trend["component"]]
+            assert (p["low"], p["high"]) == (stated.get("low"), stated.get("high"))
+        t = np.array([datetime.fromisoformat(p["measured_at"]).timestamp() for p in pts])
+        y = np.array([p["value"] for p in pts])
+        ref = stats.theilslopes(y, t, alpha=0.95, method="separate")
+        low, high = float(ref.low_slope), float(ref.high_slope)
+        u = np.array([(p["high"] - p["low"]) / (2 * 1.959963984540054) for p in pts])
+        if np.all(u > 0):
+            w = 1.0 / u**2
+            t_bar = float(np.sum(w * t) / np.sum(w))
+            u_b = 1.0 / math.sqrt(float(np.sum(w * (t - t_bar) ** 2)))
+            z = float(stats.norm.ppf(0.975))
+            low = min(low, float(ref.slope) - z * u_b)
+            high = max(high, float(ref.slope) + z * u_b)
+        assert trend["slope"] == pytest.approx(float(ref.slope), rel=1e-12, abs=0.0)
+        assert trend["slope_low"] == pytest.approx(low, rel=1e-12, abs=0.0)
+        assert trend["slope_high"] == pytest.approx(high, rel=1e-12, abs=0.0)

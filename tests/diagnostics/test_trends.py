@@ -13,6 +13,7 @@ from diagnostics.trends import (
     TrendSeries,
     fit_trend,
     forecast_threshold,
+    theil_sen,
 )
 from diagnostics.uncertainty import Estimate
 from sim.errors import InputError
@@ -140,3 +141,35 @@ def test_series_from_estimates_and_validation() -> None:
     with pytest.raises(InputError):
         TrendSeries.from_estimates("rig-1", "valve", [0.0, 1.0], [
             est[0], Estimate("cc", "m", 1e-4, 1e-6, 0, 1, "delta")])
+
+
+@pytest.mark.parametrize("case", ["random", "ties_in_t", "ties_in_y", "unsorted", "three",
+                                  "one_outlier", "even_pairs", "long"])
+def test_theil_sen_gives_scipys_numbers_exactly(case: str) -> None:
+    """The partition-based Theil–Sen returns the very numbers of scipy's full-sort one."""
+    rng = np.random.default_rng(sum(map(ord, case)))
+    n = {"three": 3, "even_pairs": 5, "long": 1000}.get(case, 40)
+    t = np.sort(rng.uniform(0.0, 1e7, n))
+    y = 3e-12 * t + rng.normal(0.0, 1e-6, n)
+    if case == "ties_in_t":
+        t = np.round(t / 2e6) * 2e6  # visits on the same day
+    if case == "ties_in_y":
+        y = np.round(y * 1e5) / 1e5
+    if case == "unsorted":
+        p = rng.permutation(n)
+        t, y = t[p], y[p]
+    if case == "one_outlier":
+        y[n // 2] += 1e-3
+    for confidence in (0.95, 0.8):
+        ref = stats.theilslopes(y, t, alpha=confidence, method="separate")
+        got = theil_sen(t, y, confidence=confidence)
+        assert got == (float(ref.slope), float(ref.low_slope), float(ref.high_slope))
+        fit = fit_trend(TrendSeries("r", "valve", "cv", "m", tuple(t), tuple(y)),
+                        confidence=confidence)
+        assert (fit.slope, fit.rank_low, fit.rank_high) == got
+
+
+def test_theil_sen_needs_two_distinct_times() -> None:
+    with pytest.raises(InputError) as err:
+        theil_sen([1.0, 1.0, 1.0], [0.0, 1.0, 2.0])
+    assert err.value.field == "times"

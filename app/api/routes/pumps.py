@@ -115,7 +115,10 @@ def create_from_bench(
     response: Response,
 ) -> PumpSetPublic:
     """Read the ISO 4409 test points, fit paper 000's loss model (D, Cs, Cst; Cv, Cf with
-    torque) and store it as a pump parameter set."""
+    torque) and store it as a pump parameter set.  With torque and three speeds or more, the
+    set also keeps the sign-checked loss model checked with one speed left out: the test
+    points (``points_*``), each point's held-out prediction and the error (``check_flow_S``,
+    ``check_torque_S`` [%])."""
     content = file.file.read(MAX_CSV_BYTES + 1)
     pump_set = store_bench_parameters(session, form, content)
     response.headers["Location"] = f"/pump-sets/{pump_set.id}"

@@ -166,3 +166,26 @@ def test_a_bad_record_shows_the_field_on_the_page(console_server: LiveServer, pa
     # the one expected problem: the form's answer is a 422 page
     assert [p for p in page.problems if "422" not in p] == []
     assert any("HTTP 422" in p for p in page.problems)
+
+
+def test_pumps_page_draws_measured_against_model(console_server: LiveServer, page: Any,
+                                                 shots: Path) -> None:
+    sets = console_server.client.get("/pump-sets").json()["items"]
+    chosen = next(s for s in sets if "points_q_held_out" in s["quantities"])
+    n = len(chosen["quantities"]["points_q"]["value"])
+    page.problems.clear()
+    page.goto(f"{console_server.base_url}/console/pumps?set_id={chosen['id']}")
+    page.wait_for_load_state("networkidle")
+    drawn = page.eval_on_selector_all(
+        "svg.hd-plot", "els => els.map(e => { const r = e.getBoundingClientRect(); return "
+        "[e.getAttribute('aria-label'), e.getAttribute('data-points'), r.width, r.height,"
+        " e.querySelectorAll('circle, path, polyline').length]; })")
+    by_title = {title.split(" (")[0]: (int(pts), w, h, marks)
+                for title, pts, w, h, marks in drawn}
+    for title in ("Flow: measured and model", "Torque: measured and model",
+                  "Held-out flow residual, measured − model"):
+        pts, w, h, marks = by_title[title]
+        # laid out with a size, and with a mark per measured point at least
+        assert pts >= n and w > 100 and h > 50 and marks >= 1, (title, pts, w, h, marks)
+    assert page.problems == [], page.problems
+    page.screenshot(path=str(shots / "console-pumps-check.png"), full_page=True)

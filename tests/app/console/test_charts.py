@@ -102,3 +102,34 @@ def test_readings_are_drawn_relative_to_the_measurement() -> None:
     measured, valve = chart.series
     assert measured.high == pytest.approx([1.96 * 5e3 / 1e6, 1.96 * 2.5e-6 / 5e-4], rel=1e-3)
     assert valve.y == pytest.approx([0.01, -0.02])
+
+
+def test_pump_check_charts_draw_measured_model_and_residuals_by_speed() -> None:
+    from app.console.pump_charts import pump_check_charts
+
+    # two speeds × three pressures at one temperature; model = measured − 0.1 l/min, − 2 N·m
+    dp = np.array([1e7, 2e7, 3e7] * 2)
+    w = np.array([100.0] * 3 + [300.0] * 3)
+    q = 1e-5 * w / 100.0 - 1e-13 * dp
+    torque = 2e-6 * dp + 5.0
+    quantities = {
+        "points_dp": {"value": dp.tolist()}, "points_omega": {"value": w.tolist()},
+        "points_theta": {"value": [50.0] * 6}, "points_q": {"value": q.tolist()},
+        "points_T": {"value": torque.tolist()},
+        "points_q_held_out": {"value": (q - 0.1 / 60e3).tolist()},
+        "points_T_held_out": {"value": (torque - 2.0).tolist()},
+    }
+    flow, torque_chart, flow_res, torque_res, eff = pump_check_charts(quantities)
+    assert flow.points == 12 and flow.ylabel == "q [l/min]" and flow.xlabel == "Δp [bar]"
+    # per speed: measured points, then the model's dashed line in the same colour
+    first, line = flow.series[0], flow.series[1]
+    assert first.label == "955 rpm" and first.kind == "points" and line.dashed
+    assert first.color == line.color
+    assert np.allclose(first.x, [100.0, 200.0, 300.0])
+    assert np.allclose(flow_res.series[0].y, 0.1) and np.allclose(torque_res.series[1].y, 2.0)
+    # efficiency Δp·q/(T·ω) [%], by hand at the first point
+    assert eff.series[0].y[0] == pytest.approx(100 * 1e7 * q[0] / (torque[0] * 100.0))
+    assert torque_chart.points == 12
+    # a set without checked points (hand-made, or not checkable) draws none of them
+    assert pump_check_charts({"D": {"value": 1e-6}}) == []
+    assert pump_check_charts(quantities | {"points_T": {"value": [1.0]}}) == []

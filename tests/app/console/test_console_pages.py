@@ -205,3 +205,19 @@ def test_simulation_downloads_are_the_apis_files(browser_client: httpx.Client) -
     assert table.num_rows == len(frame)
     bad = browser_client.get("/console/simulate/download?format=xlsx")
     assert bad.status_code == 422 and error_box(bad.text)[0] == "format"
+
+
+def test_pumps_page_shows_measured_against_model_from_the_stored_points(
+        console_server: LiveServer, browser_client: httpx.Client) -> None:
+    sets = console_server.client.get("/pump-sets").json()["items"]
+    chosen = next(s for s in sets if "points_q_held_out" in s["quantities"])
+    n = len(chosen["quantities"]["points_q"]["value"])
+    html = browser_client.get(f"/console/pumps?set_id={chosen['id']}").text
+    plots = dict(re.findall(r'<svg class="hd-plot" role="img" aria-label="([^"]*)" '
+                            r'data-points="(\d+)"', html))
+    flow = next(k for k in plots if k.startswith("Flow: measured and model"))
+    torque = next(k for k in plots if k.startswith("Torque: measured and model"))
+    # every stored point, measured and modelled
+    assert int(plots[flow]) == 2 * n and int(plots[torque]) == 2 * n
+    assert int(plots["Held-out flow residual, measured − model"]) == n
+    assert "check_flow_S" in html

@@ -11,6 +11,8 @@ import pytest
 from diagnostics.pump import bench_from_frame, derived_capacity_toet, parameterise
 from diagnostics.pump.levels import cluster_levels
 from diagnostics.pump.piston import (
+    FLOW_LOSS_TERMS,
+    TORQUE_LOSS_TERMS,
     PistonMap,
     bench_frame,
     fit_losses,
@@ -68,14 +70,33 @@ def test_one_map_labelled_at_two_temperatures_is_refused(big) -> None:  # type: 
 def test_loss_models_have_physical_signs_and_explain_the_data(big) -> None:  # type: ignore[no-untyped-def]
     data, D = big
     flow, torque = fit_losses(data, D)
-    signs = {"dp": 1, "dp*omega": 1, "omega": 0, "1": 0}
-    for name, c in zip(flow.terms, flow.coef, strict=True):
-        assert signs[name] == 0 or c >= 0
-    assert all(c >= 0 for c in torque.coef)
+    for fit, library in ((flow, FLOW_LOSS_TERMS), (torque, TORQUE_LOSS_TERMS)):
+        signs = {t.name: t.sign for t in library}
+        for name, c in zip(fit.terms, fit.coef, strict=True):
+            assert signs[name] == 0 or c >= 0, (fit.kind, name, c)
     # the speed-dependent leakage term is chosen: the drain flow of a piston pump grows with ω
     assert "dp*omega" in flow.terms
     res = data.q - (D * data.omega - flow.loss(data.dp, data.omega))
     assert math.sqrt(float(np.mean(res**2))) < 0.01 * float(np.max(data.q))
+
+
+@pytest.mark.parametrize("setting", [0, 1])
+def test_every_setting_of_the_slice_gets_physical_signs(setting: int) -> None:
+    m = read_efficiency_map(SLICE)
+    idx, lev = cluster_levels(m.D, field="D")
+    sub, D = m.subset(idx == setting), float(lev[setting])
+    h = held_out_speed(sub, D)
+    for fit, library in ((h.flow, FLOW_LOSS_TERMS), (h.torque, TORQUE_LOSS_TERMS)):
+        signs = {t.name: t.sign for t in library}
+        assert all(signs[n] == 0 or c >= 0 for n, c in zip(fit.terms, fit.coef, strict=True))
+    # the losses the model predicts are losses: less flow than D·ω, more torque than D·Δp
+    assert np.all(h.flow.loss(sub.dp, sub.omega) > 0)
+    assert np.all(h.torque.loss(sub.dp, sub.omega) > 0)
+    # the flow loss at 4,500 rpm is about 3× that at 1,000 rpm at 200 bar (eq. 6 has no ω)
+    dp = np.array([2e7])
+    ratio = h.flow.loss(dp, np.array([4500 * np.pi / 30]))[0] / h.flow.loss(
+        dp, np.array([1000 * np.pi / 30]))[0]
+    assert 2.5 < ratio < 3.6
 
 
 def test_held_out_speed_scores_both_models(big) -> None:  # type: ignore[no-untyped-def]
@@ -84,6 +105,13 @@ def test_held_out_speed_scores_both_models(big) -> None:  # type: ignore[no-unty
     assert h.speeds == 9
     assert 0 < h.flow_S < 1.0 and 0 < h.flow_S_quadratic < 1.0
     assert h.flow_R2 > 0.999 and h.torque_R2 > 0.999
+    # the speed-dependent family predicts an unseen speed of the full-stroke setting within
+    # 0.3 % of its largest flow, and better than a quadratic in (Δp, n) on the same split
+    assert h.flow_S < 0.3 and h.flow_S < h.flow_S_quadratic
+    # the held-out predictions are kept, and S is their rms error over the setting's max flow
+    res = data.q - h.flow_pred
+    assert math.isclose(100 * math.sqrt(float(np.mean(res**2))) / h.flow_full, h.flow_S)
+    assert h.flow_full == float(np.max(data.q)) and h.torque_pred.shape == data.torque.shape
 
 
 def test_degenerate_maps_are_refused(big) -> None:  # type: ignore[no-untyped-def]
