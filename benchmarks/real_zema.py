@@ -6,7 +6,8 @@ Every estimate is computed from the measured cycles without any label; the label
 map's, and as its last line one JSON object with every figure.
 
 1. Pump leakage (:mod:`diagnostics.real.leakage`), its score and change points.
-2. The cooler confound: what was tried, each *without* labels (labels only score): the
+2. The cooler confound: the orifice + laminar-shunt leak size (:mod:`diagnostics.real.shunt`),
+   and what else was tried, each *without* labels (labels only score): the
    temperature sensor of the envelope (TS1-TS4), the pressure law of the leak (G = Δq/Δp^a,
    a = 0, ½, 1), a viscosity exponent b (G·μ^b) fitted label-free inside change-point
    segments, and, as a sensitivity table only (never used to choose), G·μ^b on a grid.
@@ -35,6 +36,7 @@ from diagnostics.real.leakage import (
     score_leakage,
 )
 from diagnostics.real.scoring import ClassScore, score_classes
+from diagnostics.real.shunt import shunt_estimates
 from diagnostics.real.switching import switching_lags, switching_times
 from diagnostics.real.zema import (
     FULLRES_CYCLES,
@@ -93,6 +95,46 @@ def _within_segment_exponent(est: Arr, mu: Arr, cps: list[int]) -> tuple[float, 
     return float(np.sum(x * y) / np.sum(x * x)), float(x.std()), int(x.size)
 
 
+def _shunt(records: list[SeriesRecord], points: list, mu: Arr, labels: ZemaLabels,
+           full: npt.NDArray[np.bool_]) -> dict[str, object]:
+    """The orifice + laminar-shunt leak size (:mod:`diagnostics.real.shunt`), scored."""
+    est = shunt_estimates(records, points, mu, fit_on=full)
+    sc = score_leakage(est.size, labels.leakage, labels.cooler, labels.accumulator)
+    pr = score_leakage(est.size[full], labels.leakage[full], labels.cooler[full],
+                       labels.accumulator[full])
+    print()
+    print("leak size K = (q_ref(θ,p) − q − λ·Δp/μ·[leaking])/√Δp: orifice + laminar shunt "
+          "(paper 000 eq. 6 form); no label used")
+    print(f"  label-free nuisance values: leak threshold {est.threshold * 6e4:.3f} l/min "
+          f"({int(est.leaking.sum())} cycles leaking), healthy dq/dp "
+          f"{est.slope * 6e4 * 1e5:+.4f} l/min/bar, shunt λ = {est.shunt:.3e} m³ "
+          f"(fitted on the leaking cycles that ran the whole load program)")
+    print(_row("K (all cycles)", sc))
+    print(_row("K (cycles on the load program)", pr))
+    med = {}
+    for c in (3.0, 20.0, 100.0):
+        m = full & (labels.stable == 0) & (labels.cooler == c)
+        vals = [float(np.median(est.size[m & (labels.leakage == k)])) for k in (0.0, 1.0, 2.0)]
+        med[f"{c:g}"] = vals
+        print(f"  cooler {c:5.0f} %: median K [1e-9 m³/(s·Pa^½)] by leakage class "
+              + "  ".join(f"{v * 1e9:7.4f}" for v in vals))
+
+    def fig(x: LeakageScore) -> dict[str, object]:
+        return {"spearman": x.spearman, "fraction_of_ceiling": x.fraction,
+                "auroc_0_1": x.auroc_01, "auroc_1_2": x.auroc_12,
+                "cooler_within": list(x.cooler_within),
+                "accumulator_within": list(x.accumulator_within),
+                "worst_confound": x.worst_confound}
+
+    return {"all_cycles": fig(sc), "load_program_only": fig(pr),
+            "threshold_l_min": est.threshold * 6e4, "leaking_cycles": int(est.leaking.sum()),
+            "healthy_slope_l_min_bar": est.slope * 6e4 * 1e5, "shunt_lambda_m3": est.shunt,
+            "median_K_by_cooler_1e9": {k: [v * 1e9 for v in vs] for k, vs in med.items()},
+            "targets": {"fraction_of_ceiling_ge_0.95": sc.fraction >= 0.95,
+                        "auroc_ge_0.95": min(sc.auroc_01, sc.auroc_12) >= 0.95,
+                        "confound_lt_0.1": sc.worst_confound < 0.1}}
+
+
 def _leakage(points: list, labels: ZemaLabels, light: bool,
              full: npt.NDArray[np.bool_]) -> dict[str, object]:
     est = leakage_estimates(points)
@@ -136,9 +178,13 @@ def _leakage(points: list, labels: ZemaLabels, light: bool,
             deficit[f"{c:g}/{k:g}"] = {"deficit_l_min": dq, "pressure_bar": pk}
             cells.append(f"{dq:6.3f} l/min @ {pk:6.1f} bar")
         th = float(np.median(theta[labels.cooler == c]))
-        print(f"  cooler {c:5.0f} %  θ={th:5.1f} °C  " + "   ".join(cells))
-    print("  (a viscosity law μ^-b moves the deficit monotonically with θ; the data do not: "
-          "the 55 and 46 °C deficits agree, the 36 °C one is lower)")
+        two_one = (deficit[f"{c:g}/2"]["deficit_l_min"]
+                   - deficit[f"{c:g}/1"]["deficit_l_min"])
+        deficit[f"{c:g}/2-1"] = {"deficit_l_min": two_one, "pressure_bar": math.nan}
+        print(f"  cooler {c:5.0f} %  θ={th:5.1f} °C  " + "   ".join(cells)
+              + f"   2−1: {two_one:.3f} l/min")
+    print("  (classes 1 and 2 move by the same flow with θ, their difference stays: an additive "
+          "shunt, not a viscosity factor on the whole leak)")
     variants: dict[str, dict[str, float]] = {}
     print(f"{'variant (no label used in fitting)':44s} {'rho':>6s} {'%ceil':>6s} {'AUC01':>6s} "
           f"{'AUC12':>6s} {'worst|ρ|':>8s}")
@@ -259,6 +305,8 @@ def zema(light: bool) -> dict[str, object]:
     full = np.array([len(step_volumes(r)) == 4 for r in records])
     print(f"cycles that ran the whole load program (five working plateaus): {int(full.sum())}")
     lk = _leakage(points, labels, light, full)
+    mu = dynamic_viscosity(Fluid(), np.array([p.theta for p in points]))
+    shunt = _shunt(records, points, mu, labels, full)
     acc = _accumulator(records, labels)
     valve = _valve(records, labels)
     sc: LeakageScore = lk["score"]  # type: ignore[assignment]
@@ -285,7 +333,7 @@ def zema(light: bool) -> dict[str, object]:
         "cooler_confound": {"deficit_by_cooler_and_class": lk["deficit_by_cooler_and_class"],
                             "variants": lk["variants"],
                             "within_segment_b": lk["within_segment_b"]},
-        "accumulator": acc, "valve": valve,
+        "shunt_model": shunt, "accumulator": acc, "valve": valve,
         "targets": {"fraction_of_ceiling_ge_0.95": sc.fraction >= 0.95,
                     "auroc_ge_0.95": min(sc.auroc_01, sc.auroc_12) >= 0.95,
                     "confound_lt_0.1": sc.worst_confound < 0.1},
