@@ -180,7 +180,7 @@ def _leakage(points: list, labels: ZemaLabels, light: bool,
         th = float(np.median(theta[labels.cooler == c]))
         two_one = (deficit[f"{c:g}/2"]["deficit_l_min"]
                    - deficit[f"{c:g}/1"]["deficit_l_min"])
-        deficit[f"{c:g}/2-1"] = {"deficit_l_min": two_one, "pressure_bar": math.nan}
+        deficit[f"{c:g}/2-1"] = {"deficit_l_min": two_one}
         print(f"  cooler {c:5.0f} %  θ={th:5.1f} °C  " + "   ".join(cells)
               + f"   2−1: {two_one:.3f} l/min")
     print("  (classes 1 and 2 move by the same flow with θ, their difference stays: an additive "
@@ -253,12 +253,13 @@ def _accumulator(records: list[SeriesRecord], labels: ZemaLabels) -> dict[str, o
 def _valve(records: list[SeriesRecord], labels: ZemaLabels) -> dict[str, object]:
     print()
     print("valve: equivalent switching time t* of the relief→load pressure step (s 9-11), "
-          "lag behind the campaign's 1 % quantile; scored against −valve condition")
+          "lag behind the campaign's 1 % quantile; scored against the valve condition "
+          "(the lag grows as it falls)")
     t = switching_times(records)
     lag = switching_lags(t)
     others = {"leakage": labels.leakage, "cooler": labels.cooler,
               "accumulator": labels.accumulator}
-    s = score_classes(lag, -labels.valve, others)
+    s = score_classes(lag, labels.valve, others, decreasing=True)
     print(_class_row("lag (1 Hz block means)", s))
     med = {f"{v:g}": float(np.nanmedian(lag[labels.valve == v])) * 1e3
            for v in (100.0, 90.0, 80.0, 73.0)}
@@ -271,9 +272,9 @@ def _valve(records: list[SeriesRecord], labels: ZemaLabels) -> dict[str, object]
     data, lab = load_1hz(zema_root(), list(FULLRES_CYCLES), sensors=("PS1",))
     t_1hz = switching_times(read_records(data))
     diff = float(np.max(np.abs(t_raw - t_1hz)))
-    s_raw = score_classes(t_raw, -lab.valve, {})
+    s_raw = score_classes(t_raw, lab.valve, {}, decreasing=True)
     print(f"  raw 100 Hz cycles {list(FULLRES_CYCLES)}: t* raw vs 1 Hz differ by at most "
-          f"{diff * 1e3:.3g} ms; ρ(t*, −valve) on these {len(raw)} cycles = "
+          f"{diff * 1e3:.3g} ms; ρ(t*, valve, decreasing) on these {len(raw)} cycles = "
           f"{s_raw.spearman:+.3f} (ceiling {s_raw.ceiling:.3f})")
     for c, tr, v in zip(FULLRES_CYCLES, t_raw, lab.valve, strict=True):
         print(f"    cycle {c:5d}  valve {v:4.0f} %  t* = {tr:.3f} s")

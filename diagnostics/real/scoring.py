@@ -7,8 +7,7 @@ the label's classes and how much it moves with the *other* labels.
 * Spearman ρ with the label and its tie ceiling (:func:`~diagnostics.real.leakage.spearman_ceiling`):
   a label with few classes has ties, so no tie-free estimate reaches 1;
 * AUROC of every pair of neighbouring classes, ``P(est_b > est_a)`` for classes
-  ``a < b`` of the label as given (pass ``-label`` where the estimate grows as the label
-  falls);
+  ``a < b`` of the label (``decreasing=True`` where the estimate grows as the label falls);
 * within every class of the label, Spearman ρ with each other label (a confound: the
   estimate should not follow a label it does not describe).
 """
@@ -91,8 +90,12 @@ class ClassScore:
 
 
 def score_classes(estimate: npt.ArrayLike, label: npt.ArrayLike,
-                  others: Mapping[str, npt.ArrayLike]) -> ClassScore:
+                  others: Mapping[str, npt.ArrayLike], *, decreasing: bool = False) -> ClassScore:
     """Score ``estimate`` against ``label`` (module docstring); non-finite estimates are left out.
+
+    With ``decreasing`` the estimate is expected to grow as the label *falls* (a valve
+    condition of 73 % lags more than one of 100 %): ρ is taken with ``−label`` and the
+    AUROC keys read ``"100>90"``.
 
     Raises
     ------
@@ -107,12 +110,13 @@ def score_classes(estimate: npt.ArrayLike, label: npt.ArrayLike,
     ok = np.isfinite(est)
     if int(ok.sum()) < 3:
         raise InputError("fewer than 3 finite estimates to score", field="estimate")
-    est, lab = est[ok], lab[ok]
+    est, lab = est[ok], (-lab[ok] if decreasing else lab[ok])
     oth = {k: v[ok] for k, v in oth.items()}
     rho = _rho(est, lab)
     ceil = spearman_ceiling(lab)
     classes = np.unique(lab)
-    pairs = {f"{a:g}<{b:g}": auroc(est, lab, float(a), float(b))
+    pairs = {(f"{-a:g}>{-b:g}" if decreasing else f"{a:g}<{b:g}"):
+             auroc(est, lab, float(a), float(b))
              for a, b in itertools.pairwise(classes)}
     within = {}
     for name, v in oth.items():

@@ -85,8 +85,9 @@ def test_switching_lag_orders_the_valve_classes_on_the_slice(program) -> None:  
            for v in (100, 90, 80, 73)]
     assert med[0] < med[1] < med[2] < med[3]
     sel = labels.accumulator == 130
-    s = score_classes(lag[sel], -labels.valve[sel], {})
+    s = score_classes(lag[sel], labels.valve[sel], {}, decreasing=True)
     assert s.worst_auroc == 1.0 and s.fraction == pytest.approx(1.0)
+    assert set(s.auroc) == {"100>90", "90>80", "80>73"}
 
 
 def test_switching_lags_refuse_bad_input() -> None:
