@@ -37,7 +37,7 @@ from diagnostics.real.leakage import (
 )
 from diagnostics.real.scoring import ClassScore, score_classes
 from diagnostics.real.shunt import shunt_estimates
-from diagnostics.real.switching import switching_lags, switching_times
+from diagnostics.real.switching import crossing_time, switching_lags, switching_times
 from diagnostics.real.zema import (
     FULLRES_CYCLES,
     ZemaLabels,
@@ -267,7 +267,7 @@ def _valve(records: list[SeriesRecord], labels: ZemaLabels) -> dict[str, object]
           + ", ".join(f"{k} %: {v:.0f}" for k, v in med.items()))
     # the raw 100 Hz cycles: same t* from the raw samples as from their 1 s means?
     path = zema_root() / "fullres_samples" / "jeremiafourie" / "testing_sample.csv"
-    raw = read_fullres(path, FULLRES_CYCLES, sensors=("PS1",))
+    raw = read_fullres(path, FULLRES_CYCLES, sensors=("PS1", "PS2"))
     t_raw = switching_times(raw)
     data, lab = load_1hz(zema_root(), list(FULLRES_CYCLES), sensors=("PS1",))
     t_1hz = switching_times(read_records(data))
@@ -276,9 +276,26 @@ def _valve(records: list[SeriesRecord], labels: ZemaLabels) -> dict[str, object]
     print(f"  raw 100 Hz cycles {list(FULLRES_CYCLES)}: t* raw vs 1 Hz differ by at most "
           f"{diff * 1e3:.3g} ms; ρ(t*, valve, decreasing) on these {len(raw)} cycles = "
           f"{s_raw.spearman:+.3f} (ceiling {s_raw.ceiling:.3f})")
-    for c, tr, v in zip(FULLRES_CYCLES, t_raw, lab.valve, strict=True):
-        print(f"    cycle {c:5d}  valve {v:4.0f} %  t* = {tr:.3f} s")
-    return {"lag": s.as_dict(), "median_lag_ms": med, "fullres_max_diff_ms": diff * 1e3,
+    rows = []
+    for r, c, tr, v in zip(raw, FULLRES_CYCLES, t_raw, lab.valve, strict=True):
+        p = r.channel("p_pump")
+        hi, lo = float(p[200:900].mean()), float(p[1200:1900].mean())
+        opening = crossing_time(r, 5.0e5)
+        p90 = crossing_time(r, lo + 0.9 * (hi - lo), channel="p_pump", rising=False)
+        p10 = crossing_time(r, lo + 0.1 * (hi - lo), channel="p_pump", rising=False)
+        rows.append({"cycle": c, "valve": float(v), "t_star_s": float(tr),
+                     "ps2_opening_s": opening, "ps1_fall_10_90_ms": (p10 - p90) * 1e3})
+        print(f"    cycle {c:5d}  valve {v:4.0f} %  t* = {tr:.3f} s   PS2 through 5 bar at "
+              f"{opening:.3f} s   PS1 fall 90→10 % {1e3 * (p10 - p90):4.0f} ms")
+    s_open = score_classes(np.array([r["ps2_opening_s"] for r in rows]), lab.valve, {},
+                           decreasing=True)
+    by_valve = {f"{v:g}": float(np.median([r["ps2_opening_s"] for r in rows
+                                           if r["valve"] == v])) for v in (100.0, 90.0, 80.0)}
+    print(f"  PS2 opening at native rate: ρ = {s_open.spearman:+.3f} (ceiling "
+          f"{s_open.ceiling:.3f}), AUROC {s_open.auroc}; median opening by valve "
+          + ", ".join(f"{k} %: {v:.3f} s" for k, v in by_valve.items()))
+    return {"fullres": rows, "fullres_opening": s_open.as_dict(),
+            "fullres_opening_median_s": by_valve,"lag": s.as_dict(), "median_lag_ms": med, "fullres_max_diff_ms": diff * 1e3,
             "fullres_spearman": s_raw.spearman, "fullres_ceiling": s_raw.ceiling,
             "fullres_cycles": len(raw)}
 

@@ -12,7 +12,7 @@ Slices (chosen without looking at any estimate):
   0/1/2 × cooler 100 %/20 % — rows renumbered 1..18 (``cycles.txt`` gives each row's
   original cycle); ``profile.txt``, ``TS1.txt`` and ``data_compressed_1hz/{PS1,PS2,FS1,
   EPS1}_normalized.csv``.  ``fullres_cycle1092.csv``: the first 30 s of cycle 1092 at the
-  native rates (PS1 100 Hz, FS1 10 Hz, TS1 1 Hz) from row 2 of
+  native rates (PS1, PS2 100 Hz, FS1 10 Hz, TS1 1 Hz) from row 2 of
   ``fullres_samples/jeremiafourie/testing_sample.csv``.
 * ZeMA load program (``zema_program_slice``): 21 cycles of cooler 100 %, leakage 0, stable
   flag 0 — three each of valve 73/80/90 % (accumulator 130 bar) and of accumulator
@@ -82,7 +82,7 @@ def zema_slice() -> Path:
             next(reader)
             row = next(reader)
         keep = [i for i, col in enumerate(header)
-                if (col.startswith("PS1_") and int(col[4:]) < 3000)
+                if (col.startswith(("PS1_", "PS2_")) and int(col[4:]) < 3000)
                 or (col.startswith("FS1_") and int(col[4:]) < 300)
                 or (col.startswith("TS1_") and int(col[4:]) < 30)]
         with (dst / "fullres_cycle1092.csv").open("w", newline="") as fh:

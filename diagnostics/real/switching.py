@@ -19,6 +19,11 @@ so the *lag* is ``t*`` less a campaign reference taken without labels (a low qua
 ``t*``: the fastest switching seen) — :func:`switching_lags`.  Helwig et al. (I2MTC 2015)
 degrade the valve by delaying its switching (valve condition 100/90/80/73 %); a slower
 valve gives a later ``t*``.
+
+At the native rate the response can also be timed where it starts: :func:`crossing_time`
+gives the first crossing of a level (the working pressure PS2 behind the valve rising
+through 5 bar: the valve opening; the pump pressure's 90 % and 10 % points: its fall).
+At 1 Hz a crossing is only known to the second, so only ``t*`` serves there.
 """
 
 from __future__ import annotations
@@ -31,7 +36,7 @@ import numpy.typing as npt
 from diagnostics.timeseries import SeriesRecord
 from sim.errors import InputError, MeasurementError
 
-__all__ = ["step_time", "switching_lags", "switching_times"]
+__all__ = ["crossing_time", "step_time", "switching_lags", "switching_times"]
 
 Arr = npt.NDArray[np.float64]
 
@@ -90,6 +95,33 @@ def step_time(record: SeriesRecord, *, channel: str = "p_pump",
     frac = (p[sel] - lo) / (hi - lo)
     t0 = float(record.t[sel][0] - record.t[0])
     return t0 + float(frac.sum()) / rate
+
+
+def crossing_time(record: SeriesRecord, level: float, *, channel: str = "p_work",
+                  during: tuple[float, float] = (9.0, 11.0), rising: bool = True) -> float:
+    """First time [s from the record's start] in ``during`` at which ``channel`` crosses ``level``.
+
+    Linear interpolation between the two samples around the crossing; ``rising`` False for a
+    fall through ``level`` [channel unit].
+
+    Raises
+    ------
+    MeasurementError
+        No crossing inside the window, or already past ``level`` at its first sample
+        (``field=channel``).
+    """
+    x = record.channel(channel)
+    sel = np.flatnonzero(_select(record, during, "during"))
+    t = record.t - record.t[0]
+    above = x[sel] > level if rising else x[sel] < level
+    hit = np.flatnonzero(above)
+    if hit.size == 0 or hit[0] == 0:
+        raise MeasurementError(f"record {record.name!r}: {channel} does not cross "
+                               f"{level:g} in [{during[0]:g}, {during[1]:g}) s", field=channel)
+    k = int(sel[hit[0]])
+    x0, x1 = float(x[k - 1]), float(x[k])
+    frac = (level - x0) / (x1 - x0) if x1 != x0 else 1.0
+    return float(t[k - 1] + frac * (t[k] - t[k - 1]))
 
 
 def switching_times(records: Sequence[SeriesRecord], **options: object) -> Arr:

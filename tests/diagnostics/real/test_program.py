@@ -9,7 +9,12 @@ import pytest
 
 from diagnostics.real.accumulator import LoadStep, gas_volume, gas_volumes, step_volumes
 from diagnostics.real.scoring import score_classes
-from diagnostics.real.switching import step_time, switching_lags, switching_times
+from diagnostics.real.switching import (
+    crossing_time,
+    step_time,
+    switching_lags,
+    switching_times,
+)
 from diagnostics.real.zema import ZemaCycles, load_1hz, read_fullres, read_records
 from diagnostics.timeseries import SeriesRecord
 from sim.errors import InputError, MeasurementError
@@ -75,6 +80,23 @@ def test_raw_100hz_cycle_and_its_block_means_give_the_same_switching_time() -> N
     assert step_time(slow) == pytest.approx(fast, abs=1e-9)
     # cycle 1092 has valve condition 80 %: it switches well after a second into the window
     assert 9.5 < fast < 10.5
+
+
+def test_crossing_time_by_hand_and_on_a_raw_cycle() -> None:
+    t = np.arange(3000) / 100.0
+    ramp = np.interp(t, [9.2, 9.6], [0.0, 100.0]) * BAR
+    rec = SeriesRecord("ramp", t, {"p_work": ramp}, {"p_work": "Pa"})
+    assert crossing_time(rec, 5.0 * BAR) == pytest.approx(9.22, abs=1e-9)
+    assert crossing_time(rec, 50.0 * BAR) == pytest.approx(9.4, abs=1e-9)
+    with pytest.raises(MeasurementError):
+        crossing_time(rec, 500.0 * BAR)
+    with pytest.raises(MeasurementError):  # already above at the window's start
+        crossing_time(rec, 5.0 * BAR, during=(9.5, 11.0))
+    (raw,) = read_fullres(zema_slice() / "fullres_cycle1092.csv", [1092],
+                          sensors=("PS1", "PS2"), duration=30.0)
+    # the valve opens (PS2 rises through 5 bar) before the pump pressure has half fallen
+    opening = crossing_time(raw, 5.0 * BAR)
+    assert 9.0 < opening < step_time(raw) < 10.5
 
 
 def test_switching_lag_orders_the_valve_classes_on_the_slice(program) -> None:  # type: ignore[no-untyped-def]
