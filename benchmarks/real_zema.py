@@ -295,7 +295,8 @@ def _valve(records: list[SeriesRecord], labels: ZemaLabels) -> dict[str, object]
           f"{s_open.ceiling:.3f}), AUROC {s_open.auroc}; median opening by valve "
           + ", ".join(f"{k} %: {v:.3f} s" for k, v in by_valve.items()))
     return {"fullres": rows, "fullres_opening": s_open.as_dict(),
-            "fullres_opening_median_s": by_valve,"lag": s.as_dict(), "median_lag_ms": med, "fullres_max_diff_ms": diff * 1e3,
+            "fullres_opening_median_s": by_valve, "lag": s.as_dict(), "median_lag_ms": med,
+            "fullres_max_diff_ms": diff * 1e3,
             "fullres_spearman": s_raw.spearman, "fullres_ceiling": s_raw.ceiling,
             "fullres_cycles": len(raw)}
 
