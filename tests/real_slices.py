@@ -12,8 +12,12 @@ Slices (chosen without looking at any estimate):
   0/1/2 × cooler 100 %/20 % — rows renumbered 1..18 (``cycles.txt`` gives each row's
   original cycle); ``profile.txt``, ``TS1.txt`` and ``data_compressed_1hz/{PS1,PS2,FS1,
   EPS1}_normalized.csv``.  ``fullres_cycle1092.csv``: the first 30 s of cycle 1092 at the
-  native rates (PS1 100 Hz, FS1 10 Hz, TS1 1 Hz) from row 2 of
+  native rates (PS1, PS2 100 Hz, FS1 10 Hz, TS1 1 Hz) from row 2 of
   ``fullres_samples/jeremiafourie/testing_sample.csv``.
+* ZeMA load program (``zema_program_slice``): 21 cycles of cooler 100 %, leakage 0, stable
+  flag 0 — three each of valve 73/80/90 % (accumulator 130 bar) and of accumulator
+  130/115/100/90 bar (valve 100 %) — in the same layout, for the valve-lag and accumulator
+  estimates.
 * V32HL56: the header and every row whose displacement rounds to 23 or 57 cm³/rev.
 """
 
@@ -28,11 +32,15 @@ import pytest
 
 from diagnostics.real.zema import find_shared
 
-__all__ = ["ZEMA_CYCLES", "v32hl56_slice", "zema_slice"]
+__all__ = ["ZEMA_CYCLES", "ZEMA_PROGRAM_CYCLES", "v32hl56_slice", "zema_program_slice",
+           "zema_slice"]
 
 #: original 1-based cycle numbers of the ZeMA slice, in row order
 ZEMA_CYCLES = (974, 1015, 1056, 1110, 1151, 1192, 1246, 1287, 1328, 1706, 1747, 1788, 1842,
                1883, 1927, 1978, 2019, 2189)
+#: original cycle numbers of the load-program slice, in row order
+ZEMA_PROGRAM_CYCLES = (1760, 1763, 1766, 1770, 1773, 1776, 1780, 1783, 1786, 1790, 1793, 1796,
+                       1922, 1925, 1928, 2055, 2058, 2061, 2188, 2191, 2194)
 _ZEMA_FILES = ("profile.txt", "TS1.txt", "data_compressed_1hz/PS1_normalized.csv",
                "data_compressed_1hz/PS2_normalized.csv", "data_compressed_1hz/FS1_normalized.csv",
                "data_compressed_1hz/EPS1_normalized.csv")
@@ -74,7 +82,7 @@ def zema_slice() -> Path:
             next(reader)
             row = next(reader)
         keep = [i for i, col in enumerate(header)
-                if (col.startswith("PS1_") and int(col[4:]) < 3000)
+                if (col.startswith(("PS1_", "PS2_")) and int(col[4:]) < 3000)
                 or (col.startswith("FS1_") and int(col[4:]) < 300)
                 or (col.startswith("TS1_") and int(col[4:]) < 30)]
         with (dst / "fullres_cycle1092.csv").open("w", newline="") as fh:
@@ -82,6 +90,23 @@ def zema_slice() -> Path:
             writer.writerow([header[i] for i in keep])
             writer.writerow([row[i] for i in keep])
         _MADE["zema"] = dst
+        return dst
+
+
+def zema_program_slice() -> Path:
+    """Folder with the load-program slice (module docstring), in the shared folder's layout."""
+    with _LOCK:
+        if "program" in _MADE:
+            return _MADE["program"]
+        src = _shared_real() / "uci-hydraulic-zema"
+        dst = _workdir() / "zema-program"
+        (dst / "data_compressed_1hz").mkdir(parents=True)
+        for name in _ZEMA_FILES:
+            lines = (src / name).read_text(encoding="utf-8").splitlines()
+            (dst / name).write_text("\n".join(lines[c - 1] for c in ZEMA_PROGRAM_CYCLES)
+                                    + "\n", encoding="utf-8")
+        (dst / "cycles.txt").write_text("\n".join(map(str, ZEMA_PROGRAM_CYCLES)) + "\n")
+        _MADE["program"] = dst
         return dst
 
 

@@ -2,5 +2,11 @@
 
 * :mod:`~diagnostics.real.zema` — the ZeMA condition-monitoring rig (UCI data set);
 * :mod:`~diagnostics.real.leakage` — pump leakage per load cycle from pressure and flow
-  plateaus, change detection over cycles, and scores against labels (scoring only).
+  plateaus, change detection over cycles, and scores against labels (scoring only);
+* :mod:`~diagnostics.real.accumulator` — accumulator gas volume per cycle from the oil
+  stored at the load steps (polytropic gas, pre-charge referred to one temperature);
+* :mod:`~diagnostics.real.switching` — valve switching time and lag from the pressure step,
+  the same from block means as from raw samples;
+* :mod:`~diagnostics.real.scoring` — scores of an estimate against an ordered label and its
+  confounds with the other labels (labels enter only here).
 """

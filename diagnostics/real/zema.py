@@ -25,6 +25,7 @@ PS2      ``p_work``           bar      working-circuit pressure behind the valve
 FS1      ``q_work``           l/min    working-circuit volume flow
 EPS1     ``motor_power``      W        electric power of the pump's motor
 TS1      ``oil_temperature``  °C       oil temperature (varies within a cycle: a channel)
+TS2-4    ``temperature_ts2``  °C       the rig's other oil temperatures (``_ts3``, ``_ts4``)
 =======  ===================  =======  ==========================================
 """
 
@@ -42,7 +43,8 @@ import pandas as pd
 from diagnostics.timeseries import SeriesRecord, series_from_frame
 from sim.errors import InputError
 
-__all__ = ["COLUMN_MAP", "FULLRES_CYCLES", "NATIVE_RATES", "SENSOR_FILES", "ZemaCycles",
+__all__ = ["COLUMN_MAP", "DEFAULT_SENSORS", "FULLRES_CYCLES", "NATIVE_RATES",
+           "OTHER_TEMPERATURES", "SENSOR_FILES", "ZemaCycles",
            "ZemaLabels", "cycles_frame", "find_shared", "load_1hz", "read_fullres",
            "read_records", "zema_root"]
 
@@ -57,6 +59,13 @@ COLUMN_MAP: dict[str, tuple[str, str]] = {
     "TS1": ("oil_temperature", "degC"),
 }
 
+#: The rig's other oil temperatures (read on request, e.g. to compare sensors).
+OTHER_TEMPERATURES: dict[str, tuple[str, str]] = {
+    "TS2": ("temperature_ts2", "degC"),
+    "TS3": ("temperature_ts3", "degC"),
+    "TS4": ("temperature_ts4", "degC"),
+}
+
 #: Sensor → file of the 1 Hz set, relative to the data set's folder.
 SENSOR_FILES: dict[str, str] = {
     "PS1": "data_compressed_1hz/PS1_normalized.csv",
@@ -64,7 +73,13 @@ SENSOR_FILES: dict[str, str] = {
     "FS1": "data_compressed_1hz/FS1_normalized.csv",
     "EPS1": "data_compressed_1hz/EPS1_normalized.csv",
     "TS1": "TS1.txt",
+    "TS2": "TS2.txt",
+    "TS3": "TS3.txt",
+    "TS4": "TS4.txt",
 }
+
+#: Sensors read by default: the working circuit's pressures, flow, motor power, TS1.
+DEFAULT_SENSORS: tuple[str, ...] = ("PS1", "PS2", "FS1", "EPS1", "TS1")
 
 #: Samples per cycle in the 1 Hz files [-] (60 s cycles at 1 Hz).
 SAMPLES_1HZ = 60
@@ -146,8 +161,8 @@ def _read_wide(path: Path, rows: npt.NDArray[np.int64] | None) -> Arr:
 
 
 def load_1hz(root: Path | None = None, cycles: Sequence[int] | None = None,
-             sensors: Sequence[str] = tuple(SENSOR_FILES)) -> tuple[ZemaCycles, ZemaLabels]:
-    """The 1 Hz files and labels of ``cycles`` (1-based; all when None).
+             sensors: Sequence[str] = DEFAULT_SENSORS) -> tuple[ZemaCycles, ZemaLabels]:
+    """The 1 Hz files and labels of ``cycles`` (1-based; all when None) for ``sensors``.
 
     Raises
     ------
@@ -196,7 +211,8 @@ def read_records(data: ZemaCycles,
 
     ``progress(done, total)`` is called after each block of cycles (for a progress bar).
     """
-    cmap = {s: COLUMN_MAP[s] for s in data.sensors}
+    known = {**COLUMN_MAP, **OTHER_TEMPERATURES}
+    cmap = {s: known[s] for s in data.sensors}
     out: list[SeriesRecord] = []
     total = data.cycles.size
     block = 100
