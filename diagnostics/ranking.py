@@ -24,8 +24,8 @@ the data do not need costs the share of its prior range that the data rule out.
   as such and left out of the probabilities (its evidence would equal the healthy one's
   and say nothing).
 
-Probabilities are the evidences normalised over the observable hypotheses, with equal
-prior probabilities.
+Probabilities are the evidences times the fleet prior, normalised over the observable
+hypotheses (:func:`diagnostics.evidence.posterior`).
 """
 
 from __future__ import annotations
@@ -37,6 +37,7 @@ import numpy as np
 import numpy.typing as npt
 from scipy.special import ndtr
 
+from diagnostics.evidence import posterior
 from diagnostics.hypotheses import HYPOTHESES, PARAMETERS, FaultParameter, Hypothesis
 from diagnostics.observations import RecordObservations, condition_sigma
 from diagnostics.signatures import OBSERVABLES, SignatureMaps, evaluator, signature_maps
@@ -434,14 +435,6 @@ class Ranker:
                     fits.append(self.fit_pair(h, singles))
                 except SimulationError:
                     continue  # no steady operating point anywhere near: not a candidate
-        obs = [f for f in fits if f.observable]
-        logz = np.array([f.log_evidence for f in obs])
-        if logz.size == 0 or not np.isfinite(logz.max()):
-            w = np.zeros(logz.size)  # no hypothesis has a prediction for these readings
-        else:
-            w = np.exp(logz - logz.max())
-            w /= w.sum()
-        for f, pr in zip(obs, w, strict=True):
-            f.probability = float(pr)
+        posterior(fits)  # fleet prior × evidence, over the observable ones (evidence.py)
         return sorted(fits, key=lambda f: (not f.observable, -f.probability,
                                            len(f.hypothesis.parameters)))

@@ -1,0 +1,80 @@
+"""Posterior probabilities of the fault hypotheses: evidences combined with a fleet prior.
+
+:mod:`diagnostics.ranking` fits every hypothesis of :data:`diagnostics.hypotheses.HYPOTHESES`
+and returns its log-evidence ln Z_h (the likelihood ``exp(−χ²/2)`` integrated over the
+hypothesis's uniform prior in its fitting coordinates, MacKay 2003 ch. 28 eq. 28.8):
+
+* healthy: no parameter, ln Z = −χ²/2;
+* single faults: quadrature of the likelihood over the 241-point signature map of the
+  worn range (exact to the grid, also where the likelihood is flat or sits on a bound);
+* pairs: Laplace approximation at the Gauss-Newton optimum with the Gaussian mass
+  truncated at the bounds, replaced by a profile integral (quadrature along the weak axis,
+  Laplace across it) where the likelihood is a ridge that the Laplace value overstates.
+
+Singles and pairs integrate over *worn* ranges only (each parameter past the ``none``
+severity, :meth:`diagnostics.hypotheses.FaultParameter.worn_bounds`): a pair does not
+contain its single faults nor a single the healthy rig, so the hypotheses are exclusive
+and the Occam factor of each is the share of its own prior volume the data allow.
+
+This module turns those evidences into probabilities, once per diagnosis:
+
+.. math:: P(h \\mid y) = \\frac{π_h Z_h}{\\sum_{g \\in O} π_g Z_g}, \\qquad h \\in O
+
+over the set O of hypotheses observable with the present sensors at the present
+conditions (an unobservable one has the healthy evidence and says nothing; it gets
+probability 0 and is reported as not observable).  The prior π is the **fleet prior**
+:data:`FLEET_PRIOR`: with no fleet statistics for this rig type, every hypothesis of the
+library is equally likely before the readings (1/9 each: healthy, five single faults,
+three pairs).  The accuracy study (``make accuracy``) draws its cases' truths with exactly
+these frequencies, so its reliability table tests the evidences, not a prior mismatch.  A
+user with fleet statistics passes their own prior to :func:`posterior`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from diagnostics.hypotheses import HYPOTHESES
+
+if TYPE_CHECKING:
+    from diagnostics.ranking import HypothesisFit
+
+__all__ = ["FLEET_PRIOR", "posterior"]
+
+#: prior probability of each hypothesis before the readings [-] (sums to 1); source: no
+#: fleet statistics, every hypothesis of the library equally likely
+FLEET_PRIOR: Mapping[str, float] = {h.name: 1.0 / len(HYPOTHESES) for h in HYPOTHESES}
+
+
+def posterior(fits: Sequence[HypothesisFit], prior: Mapping[str, float] = FLEET_PRIOR
+              ) -> None:
+    """Set ``probability`` of every fit: π_h Z_h normalised over the observable ones.
+
+    Parameters
+    ----------
+    fits
+        Fitted hypotheses with their ``log_evidence`` [-] and ``observable`` flag.
+    prior
+        Prior probability of each hypothesis name [-]; a name it lacks has prior 0.
+
+    Notes
+    -----
+    When no observable hypothesis has a finite evidence (no parameter value of any
+    hypothesis gives these readings a prediction), every probability is 0: the goodness
+    of fit of :mod:`diagnostics.goodness` then reports the readings as not explained.
+    """
+    obs = [f for f in fits if f.observable]
+    for f in fits:
+        f.probability = 0.0
+    logp = np.array([f.log_evidence + (math.log(prior[f.name]) if prior.get(f.name, 0.0) > 0
+                                       else -math.inf) for f in obs], dtype=np.float64)
+    if logp.size == 0 or not np.isfinite(logp.max()):
+        return
+    w = np.exp(logp - logp.max())
+    w /= w.sum()
+    for f, p in zip(obs, w, strict=True):
+        f.probability = float(p)

@@ -1,0 +1,61 @@
+"""Posterior probabilities from evidences and the fleet prior (diagnostics.evidence)."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from diagnostics.diagnose import diagnose
+from diagnostics.evidence import FLEET_PRIOR, posterior
+from diagnostics.hypotheses import HYPOTHESES
+from diagnostics.ranking import HypothesisFit
+from sim.rigs import reference_rig
+from tests.diagnostics.synth import FULL, record
+
+BY_NAME = {h.name: h for h in HYPOTHESES}
+
+
+def _fit(name: str, log_z: float, observable: bool = True) -> HypothesisFit:
+    return HypothesisFit(BY_NAME[name], chi2=0.0, log_evidence=log_z, parameters=[],
+                         predicted=[], observable=observable)
+
+
+def test_the_fleet_prior_is_a_distribution_over_the_library() -> None:
+    assert set(FLEET_PRIOR) == set(BY_NAME)
+    assert math.isclose(sum(FLEET_PRIOR.values()), 1.0)
+
+
+def test_equal_priors_give_the_evidence_ratio_by_hand() -> None:
+    # Z_valve / Z_healthy = e² : P(valve) = e² / (1 + e²)
+    fits = [_fit("healthy", -3.0), _fit("valve", -1.0), _fit("pump", -1.0, observable=False)]
+    posterior(fits)
+    assert fits[1].probability == pytest.approx(math.exp(2) / (1 + math.exp(2)), rel=1e-12)
+    assert fits[0].probability == pytest.approx(1 / (1 + math.exp(2)), rel=1e-12)
+    assert fits[2].probability == 0.0  # not observable: no share
+
+
+def test_a_stated_prior_multiplies_the_evidence() -> None:
+    fits = [_fit("healthy", 0.0), _fit("valve", 0.0)]
+    posterior(fits, {"healthy": 0.75, "valve": 0.25})
+    assert fits[0].probability == pytest.approx(0.75)
+    # a hypothesis the prior leaves out gets nothing
+    fits = [_fit("healthy", 0.0), _fit("valve", 5.0)]
+    posterior(fits, {"healthy": 1.0})
+    assert (fits[0].probability, fits[1].probability) == (1.0, 0.0)
+
+
+def test_no_finite_evidence_gives_no_probability() -> None:
+    fits = [_fit("healthy", -math.inf), _fit("valve", -math.inf)]
+    posterior(fits)
+    assert all(f.probability == 0.0 for f in fits)
+
+
+def test_a_diagnosis_uses_the_fleet_prior_over_its_evidences() -> None:
+    rig = reference_rig()
+    d = diagnose(rig, [record(rig, {"valve.cv": 55e-6}, load=4.2e3, fields=FULL)])
+    obs = [f for f in d.hypotheses if f.observable]
+    top = max(f.log_evidence for f in obs)
+    total = sum(math.exp(f.log_evidence - top) for f in obs)
+    for f in obs:
+        assert f.probability == pytest.approx(math.exp(f.log_evidence - top) / total, rel=1e-9)
