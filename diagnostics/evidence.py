@@ -37,17 +37,63 @@ from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
+import numpy.typing as npt
 
 from diagnostics.hypotheses import HYPOTHESES
 
 if TYPE_CHECKING:
     from diagnostics.ranking import HypothesisFit
 
-__all__ = ["FLEET_PRIOR", "posterior"]
+__all__ = ["FLEET_PRIOR", "posterior", "whitening"]
 
 #: prior probability of each hypothesis before the readings [-] (sums to 1); source: no
 #: fleet statistics, every hypothesis of the library equally likely
 FLEET_PRIOR: Mapping[str, float] = {h.name: 1.0 / len(HYPOTHESES) for h in HYPOTHESES}
+
+
+def whitening(diag: npt.NDArray[np.float64], terms: Sequence[npt.NDArray[np.float64]]
+              ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """(marginal σ, whitening matrix W) of the covariance ``diag(d) + Σ_k t_k t_kᵀ``.
+
+    The likelihood of a record is ``exp(−|W (y − ŷ)|²/2)`` with ``Wᵀ W = C⁻¹``, ``W =
+    L⁻¹`` for the Cholesky factor ``C = L Lᵀ`` (GUM Supplement 2 §3.21: a common input,
+    the oil temperature or the load of the record, correlates every reading it moves).
+    A rank-one term ``t_k`` is the sensitivity of the readings to one condition times that
+    condition's standard uncertainty [SI unit of each reading].  Where a term is too large
+    to factor (a reading near a stall, whose sensitivity is capped at 1e100), its readings
+    keep their marginal σ and no correlation (``W = diag(1/σ)``).
+
+    Parameters
+    ----------
+    diag
+        Independent variances of the readings (instrument and model) [SI²].
+    terms
+        Correlated terms, one vector per common input [SI].
+
+    Returns
+    -------
+    sigma
+        Marginal standard uncertainty of each reading [SI].
+    white
+        Whitening matrix W [1/SI].
+    """
+    cov = np.diag(diag)
+    for t in terms:
+        cov = cov + np.outer(t, t)
+    sigma = np.sqrt(np.diag(cov))
+    fallback = np.diag(1.0 / sigma)
+    if not np.isfinite(cov).all() or np.max(sigma) > 1e50:
+        return sigma, fallback
+    # factor the correlation matrix (scale-free: readings in Pa and m³/s side by side)
+    corr = cov / np.outer(sigma, sigma)
+    try:
+        chol = np.linalg.cholesky(corr)
+    except np.linalg.LinAlgError:
+        return sigma, fallback
+    white = np.linalg.solve(chol, np.diag(1.0 / sigma))
+    if not np.isfinite(white).all():
+        return sigma, fallback
+    return sigma, np.asarray(white, dtype=np.float64)
 
 
 def posterior(fits: Sequence[HypothesisFit], prior: Mapping[str, float] = FLEET_PRIOR

@@ -4,14 +4,16 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 
 from diagnostics.diagnose import diagnose
-from diagnostics.evidence import FLEET_PRIOR, posterior
+from diagnostics.evidence import FLEET_PRIOR, posterior, whitening
 from diagnostics.hypotheses import HYPOTHESES
-from diagnostics.ranking import HypothesisFit
+from diagnostics.observations import observe
+from diagnostics.ranking import HypothesisFit, Ranker
 from sim.rigs import reference_rig
-from tests.diagnostics.synth import FULL, record
+from tests.diagnostics.synth import FULL, readings, record
 
 BY_NAME = {h.name: h for h in HYPOTHESES}
 
@@ -59,3 +61,33 @@ def test_a_diagnosis_uses_the_fleet_prior_over_its_evidences() -> None:
     total = sum(math.exp(f.log_evidence - top) for f in obs)
     for f in obs:
         assert f.probability == pytest.approx(math.exp(f.log_evidence - top) / total, rel=1e-9)
+
+
+def test_whitening_inverts_the_covariance_by_hand() -> None:
+    diag = np.array([4.0, 9.0, 1.0])
+    t = np.array([1.0, -2.0, 0.5])
+    sigma, w = whitening(diag, [t])
+    cov = np.diag(diag) + np.outer(t, t)
+    assert np.allclose(sigma, np.sqrt(np.diag(cov)))
+    assert np.allclose(w.T @ w, np.linalg.inv(cov))
+
+
+def test_a_term_too_large_to_factor_keeps_the_marginal_sigma() -> None:
+    sigma, w = whitening(np.array([1.0, 1.0]), [np.array([1e100, 1.0])])
+    assert np.allclose(w, np.diag(1.0 / sigma))
+
+
+def test_a_thermometer_error_counts_once_not_once_per_reading() -> None:
+    # readings of the healthy rig at 41 °C, stated as 40 °C ± 1 °C (class bound, σ_T = 1/√3
+    # K): with r = s·δ along the temperature sensitivity s, χ² = δ² a / (1 + a σ_T²),
+    # a = sᵀD⁻¹s, which stays below δ²/σ_T² = 3 however many readings the error moves;
+    # independent σ per reading count the one error once per reading
+    rig = reference_rig()
+    stated = record(rig, {}, load=4.2e3, temperature=40.0, fields=FULL,
+                    values=readings(rig, {}, 4.2e3, 41.0))
+    ranker = Ranker(rig, [observe(stated, rig)])
+    chi2, _ = ranker._healthy()
+    assert 1.0 < chi2 < 3.0 * 1.02  # linearised sensitivity: 2 % margin
+    m = ranker.models[0]
+    naive = float(np.sum(((m.obs.values - m.maps.nominal[m.idx]) / m.sigma) ** 2))
+    assert naive > 1.3 * chi2
