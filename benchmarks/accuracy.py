@@ -48,6 +48,7 @@ from benchmarks.accuracy_cases import (
     stated_condition,
     transient_readings,
 )
+from benchmarks.accuracy_report import confusions, hypothesis_calibration, moving_figures
 from diagnostics.commissioning import commission
 from diagnostics.diagnose import Diagnosis, diagnose
 from diagnostics.measurement import MeasurementRecord, OperatingCondition
@@ -92,7 +93,7 @@ def score(case: Case, d: Diagnosis) -> dict[str, Any]:
         else d.top.probability
     return {"top": top, "top1": hit, "top1_grouped": hit_g, "explained": float(explained),
             "in_set": float(case.truth in d.isolability.ambiguity_set), "brier": brier,
-            "brier_grouped": brier_g, "p_top": p_top if explained else 0.0}
+            "brier_grouped": brier_g, "p_top": p_top if explained else 0.0, "probs": probs}
 
 
 def run_case(rig_model: Rig, rig_true: Rig, case: Case, rng: np.random.Generator,
@@ -248,6 +249,25 @@ def report(rows: dict[str, list[dict[str, Any]]]) -> dict[str, Any]:
                   + " ".join(f"{s.get(k, float('nan')):6.3f}" for k in (
                       "top1", "top1_grouped", "truth_in_ambiguity_set", "brier",
                       "brier_grouped", "not_explained")))
+            if sel and sel[0]["in_library"]:
+                figures[suite][sname]["without_stalled"] = moving_figures(sel)
+            figures[suite][sname]["misses"] = confusions(sel)
+            figures[suite][sname]["per_hypothesis_stated_vs_true"] = \
+                hypothesis_calibration(sel)
+        for sname in rows:
+            f = figures[suite][sname]
+            mv = f.get("without_stalled")
+            if mv:
+                print(f"  {sname}: without the {f['n'] - mv['n'] - f['input_errors']} stalled "
+                      f"cases: top-1* {mv['top1_grouped']:.3f}, Brier* "
+                      f"{mv['brier_grouped']:.3f}, misfit {mv['not_explained']:.3f}")
+            if f["misses"]:
+                print(f"  {sname} misses (truth → answer ×n): " + ", ".join(
+                    f"{t} → {a} ×{n}" for t, a, n in f["misses"]))
+            if sel and sel[0]["in_library"]:
+                print(f"  {sname} stated Σp / true cases: " + ", ".join(
+                    f"{h} {a:.0f}/{b}" for h, (a, b) in
+                    f["per_hypothesis_stated_vs_true"].items()))
         full = figures[suite]["full"]["per_fault"]
         print("  full sensors per fault (n, top-1*, misfit): " + "; ".join(
             f"{t} {f['n']} {f.get('top1_grouped', float('nan')):.2f} "
