@@ -1,7 +1,11 @@
 """Accuracy study of the diagnosis (issues 5 and 11): ``make accuracy``.
 
 Suites (cases in :mod:`benchmarks.accuracy_cases`; readings from the transient model with
-instrument noise, oil 20-70 °C, load 2.1-6.3 kN):
+instrument noise, oil 20-70 °C, load 2.1-6.3 kN; each record states its oil temperature
+and load with the error of its thermometer and load cell, as a rig's records do; a stroke
+that stalls or creeps is read in its settled state and diagnosed, not skipped; the truths
+are drawn with the equal frequencies of the diagnosis's fleet prior, a relief-setting case
+drawing another condition where its setting could not act):
 
 * ``preset`` — the paper-002 rig, faults of the library drawn uniformly (healthy, five
   single faults, three pairs) across their prior ranges;
@@ -20,8 +24,11 @@ velocity ratio alone.  Figures per suite and sensor set: server errors (anything
 input error), input errors (a clear 422), top-1 (strict; and grouped, where pump and
 relief-seat leakage count as one *only* when the diagnosis states that their signatures
 are parallel), truth in the ambiguity set, Brier (strict and grouped), share not explained
-(misfit), per fault; a reliability table (stated top probability vs observed top-1
-frequency, by decile) over the in-library suites.  Nothing here tunes anything.
+(misfit), per fault and per rig, the same without the stalled cases, the misses (truth →
+answer) and, per hypothesis, the sum of its stated probabilities against the cases where
+it was the truth (:mod:`benchmarks.accuracy_report`); a reliability table (stated top
+probability vs observed top-1 frequency, by decile) over the in-library suites.  Nothing
+here tunes anything.
 
 Prints tables and, as the last line, a JSON object.  ``HYDRODIAG_LIGHT=1`` runs a light form
 (CI).

@@ -42,13 +42,70 @@ import numpy.typing as npt
 from diagnostics.hypotheses import HYPOTHESES
 
 if TYPE_CHECKING:
-    from diagnostics.ranking import HypothesisFit
+    from diagnostics.ranking import HypothesisFit, Ranker
 
-__all__ = ["FLEET_PRIOR", "posterior", "whitening"]
+__all__ = ["FLEET_PRIOR", "acting_relief_setting", "opening_pressure", "posterior",
+           "whitening"]
 
 #: prior probability of each hypothesis before the readings [-] (sums to 1); source: no
 #: fleet statistics, every hypothesis of the library equally likely
 FLEET_PRIOR: Mapping[str, float] = {h.name: 1.0 / len(HYPOTHESES) for h in HYPOTHESES}
+
+
+def opening_pressure(ranker: Ranker) -> float:
+    """Highest pump pressure of the healthy rig over the records' conditions [Pa]: a relief
+    setting below it opens in some record, one above it in none (NaN if not predicted)."""
+    from diagnostics.signatures import OBSERVABLES
+
+    k = OBSERVABLES.index("pump_pressure")
+    vals = [float(m.maps.nominal[k]) for m in ranker.models]
+    return max(vals) if vals and all(math.isfinite(v) for v in vals) else math.nan
+
+
+def acting_relief_setting(ranker: Ranker, fits: Sequence[HypothesisFit]) -> float | None:
+    """Restrict ``relief_setting`` to the settings that act; returns the opening limit [Pa].
+
+    A relief valve set above the pressure the rig reaches at a record's conditions never
+    opens: every reading is the healthy rig's, exactly, so no reading can tell that drift
+    from healthy nor blame it.  The hypothesis ``relief_setting`` is therefore *a setting
+    that acts at these conditions*: its prior is uniform over the part of its worn range
+    below the highest healthy pump pressure of the records, and its log-evidence is the
+    quadrature of the likelihood over the signature-map points there (the same
+    quadrature as every single fault, :mod:`diagnostics.ranking`).  A drift above that
+    pressure is what the isolability statement reports as not observable here, with how to
+    check it (:mod:`diagnostics.isolability`).  Without this, the inactive part of the
+    range would share the healthy rig's evidence and take up to half of a healthy
+    record's probability.
+
+    Parameters
+    ----------
+    ranker
+        The ranker of the records (its signature maps and likelihood).
+    fits
+        The fits; the ``relief_setting`` one has its ``log_evidence`` replaced.
+
+    Returns
+    -------
+    float or None
+        The highest healthy pump pressure of the records [Pa] (settings below it act), or
+        ``None`` when there is no relief-setting fit or no setting of its range acts.
+    """
+    fit = next((f for f in fits if f.name == "relief_setting"), None)
+    if fit is None or not math.isfinite(fit.log_evidence):
+        return None
+    p_open = opening_pressure(ranker)
+    z = ranker.models[0].maps.maps["relief_setting"].axes[0]
+    acting = z < p_open  # Pset is fitted linearly: z is the setting [Pa]
+    if not math.isfinite(p_open) or not acting.any():
+        return None
+    chi2 = np.zeros(z.size)
+    for m in ranker.models:
+        chi2 += m.chi2_grid(m.maps.maps["relief_setting"].pred)
+    logl = -0.5 * chi2[acting]
+    top = float(logl.max())
+    fit.log_evidence = top + math.log(float(np.mean(np.exp(logl - top)))) \
+        if math.isfinite(top) else -math.inf
+    return p_open
 
 
 def whitening(diag: npt.NDArray[np.float64], terms: Sequence[npt.NDArray[np.float64]]

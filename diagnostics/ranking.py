@@ -37,7 +37,7 @@ import numpy as np
 import numpy.typing as npt
 from scipy.special import ndtr
 
-from diagnostics.evidence import posterior, whitening
+from diagnostics.evidence import acting_relief_setting, posterior, whitening
 from diagnostics.hypotheses import HYPOTHESES, PARAMETERS, FaultParameter, Hypothesis
 from diagnostics.observations import RecordObservations, condition_sigma
 from diagnostics.signatures import OBSERVABLES, SignatureMaps, evaluator, signature_maps
@@ -451,6 +451,7 @@ class Ranker:
                     fits.append(self.fit_pair(h, singles))
                 except SimulationError:
                     continue  # no steady operating point anywhere near: not a candidate
+        acting_relief_setting(self, fits)  # a setting that never opens is not a cause
         posterior(fits)  # fleet prior × evidence, over the observable ones (evidence.py)
         return sorted(fits, key=lambda f: (not f.observable, -f.probability,
                                            len(f.hypothesis.parameters)))

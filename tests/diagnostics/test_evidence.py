@@ -91,3 +91,27 @@ def test_a_thermometer_error_counts_once_not_once_per_reading() -> None:
     m = ranker.models[0]
     naive = float(np.sum(((m.obs.values - m.maps.nominal[m.idx]) / m.sigma) ** 2))
     assert naive > 1.3 * chi2
+
+
+def test_a_relief_setting_that_would_not_open_takes_no_share_of_a_healthy_record() -> None:
+    # at 6.3 kN the healthy pump pressure (≈ 31 bar) lies inside the worn range of the
+    # setting (21-66.5 bar): settings above it never open and leave the healthy readings
+    # exactly; they cannot be blamed, and the statement says so
+    rig = reference_rig()
+    d = diagnose(rig, [record(rig, {}, load=6.3e3, temperature=30.0, fields=FULL,
+                              rng=np.random.default_rng(3))])
+    setting = next(f for f in d.hypotheses if f.name == "relief_setting")
+    assert setting.observable
+    assert setting.probability < 0.05
+    assert d.top.name == "healthy"
+    assert any("does not open at these conditions" in s for s in d.isolability.statements)
+
+
+def test_a_setting_that_opens_is_still_found_with_its_evidence_over_the_acting_range() -> None:
+    rig = reference_rig()
+    pset = 0.40 * rig.base["relief.Pset"]  # 28 bar, below the ≈ 31 bar the load needs
+    d = diagnose(rig, [record(rig, {"relief.Pset": pset}, load=6.3e3, temperature=30.0,
+                              fields=FULL, rng=np.random.default_rng(4))])
+    assert d.top.name == "relief_setting"
+    (est,) = d.top.parameters
+    assert est.low <= pset <= est.high
