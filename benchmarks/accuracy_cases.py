@@ -26,14 +26,15 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+import pandas as pd
 
 from diagnostics.commissioning import PRIOR_SD
 from diagnostics.quantity import DEFAULT_INSTRUMENTS
 from sim.cycle import run_cycle
 from sim.rigs import Condition, Rig, load_rig, reference_rig_document
 
-__all__ = ["IN_LIBRARY", "Case", "differential_document", "draw_fault", "misspecified_rig",
-           "noisy", "transient_readings"]
+__all__ = ["IN_LIBRARY", "Case", "TransientReadings", "differential_document", "draw_fault",
+           "misspecified_rig", "noisy", "stated_condition", "transient_readings"]
 
 IN_LIBRARY = ("healthy", "cylinder", "valve", "pump", "relief_seat", "relief_setting",
               "cylinder+valve", "cylinder+pump", "valve+pump")
@@ -108,25 +109,100 @@ def draw_fault(rig: Rig, truth: str, rng: np.random.Generator, *, beyond: bool,
     return ov, params
 
 
+@dataclass
+class TransientReadings:
+    """Phase averages of one transient cycle, as a rig's instruments would read them.
+
+    Attributes
+    ----------
+    values
+        Readings [SI] (keys of :data:`diagnostics.observations.OBSERVABLE_UNITS`); a speed
+        of a stroke that did not complete is the creep speed the encoder saw (travel over
+        the phase's time limit), and a reading that does not exist (the velocity ratio of
+        a return stroke that did not move) is absent.
+    stalled
+        Phases that did not reach their end of stroke (``"working"``, ``"return"``).
+    """
+
+    values: dict[str, float]
+    stalled: tuple[str, ...]
+
+
+#: share of a stalled phase, at its end, over which its readings are averaged [-]
+SETTLED_SHARE = 0.5
+
+
+def _settled(ts: pd.DataFrame, phase: str) -> dict[str, float]:
+    """Time averages over the last :data:`SETTLED_SHARE` of a phase that did not complete:
+    the settled stall or creep state a meter reads (the start-up transient, in which the
+    hoses fill and a flow may reverse, left out), and the creep speed over that span."""
+    rows = ts[ts["phase"] == phase]
+    t = rows["t [s]"].to_numpy()
+    sel = t >= t[0] + (1.0 - SETTLED_SHARE) * (t[-1] - t[0])
+    if sel.sum() < 2:
+        sel = np.ones(t.size, dtype=bool)
+    ts_, span = t[sel], t[sel][-1] - t[sel][0]
+    out = {}
+    for name in ("P_pump", "P1", "P2", "Q_meter_B", "Q_meter_C", "Q_relief"):
+        col = rows[next(c for c in rows.columns if c.startswith(f"{name} ["))].to_numpy()[sel]
+        out[name] = float(np.trapezoid(col, ts_) / span) if span > 0 else float(col[0])
+    x = rows["x [m]"].to_numpy()[sel]
+    out["speed"] = float(abs(x[-1] - x[0]) / span) if span > 0 else 0.0
+    return out
+
+
 def transient_readings(rig: Rig, ov: dict[str, float], load: float, temp: float
-                       ) -> dict[str, float] | None:
-    """Phase averages of the transient cycle; ``None`` if a phase does not complete."""
-    res = run_cycle(rig, ov, Condition(load=load, oil_temperature=temp), timeseries=False)
-    if not (res.working.completed and res.return_.completed):
-        return None
-    w, r = res.working, res.return_
-    return {"pump_pressure": w["P_pump"], "p1": w["P1"], "p2": w["P2"],
-            "flow_B": w["Q_meter_B"], "flow_C": w["Q_meter_C"],
-            "pump_flow": w["Q_meter_B"] + w["Q_relief"], "speed_work": w["speed"],
-            "speed_return": r["speed"], "velocity_ratio": res.velocity_ratio}
+                       ) -> TransientReadings:
+    """Phase averages of the transient cycle, stalled or creeping strokes included.
+
+    A stroke that does not reach its end within the phase's time limit (the piston stalls
+    or creeps: a clearance beyond the prior range, a relief setting near the load
+    pressure, a hot differential cylinder on its return) is read as a rig reads it: its
+    pressures, flows and speed are those of the settled stall or creep state (the last
+    half of the phase, :func:`_settled`); a return stroke after a stalled working stroke
+    is not a stroke (it starts where the piston stalled) and gives no speed; the velocity
+    ratio is given only when both strokes moved and the working one completed.
+    """
+    res = run_cycle(rig, ov, Condition(load=load, oil_temperature=temp),
+                    timeseries=True)
+    assert res.timeseries is not None
+    w = res.working.values if res.working.completed else _settled(res.timeseries, "working")
+    r = res.return_.values if res.return_.completed else _settled(res.timeseries, "return")
+    values = {"pump_pressure": w["P_pump"], "p1": w["P1"], "p2": w["P2"],
+              "flow_B": w["Q_meter_B"], "flow_C": w["Q_meter_C"],
+              "pump_flow": w["Q_meter_B"] + w["Q_relief"], "speed_work": w["speed"],
+              "speed_return": r["speed"]}
+    if not res.working.completed:
+        del values["speed_return"]
+    elif values["speed_work"] > 0.0 and values["speed_return"] > 0.0:
+        values["velocity_ratio"] = values["speed_work"] / values["speed_return"]
+    values = {k: float(v) for k, v in values.items() if np.isfinite(v)}
+    stalled = tuple(ph.phase for ph in (res.working, res.return_) if not ph.completed)
+    return TransientReadings(values, stalled)
 
 
 def noisy(values: dict[str, float], fields: tuple[str, ...], rng: np.random.Generator
           ) -> dict[str, float]:
-    """``fields`` of ``values`` with noise uniform within each instrument's class bound."""
+    """``fields`` of ``values`` with noise uniform within each instrument's class bound
+    (a field the readings lack, a speed of a stroke that did not move, is left out)."""
     out = {}
     for f in fields:
+        if f not in values or (f.startswith("speed") and values[f] <= 0.0):
+            continue
         inst = DEFAULT_INSTRUMENTS[f]
         half = inst.relative_bound * abs(values[f]) + inst.absolute_bound
         out[f] = values[f] + rng.uniform(-half, half)
     return out
+
+
+def stated_condition(load: float, temp: float, rng: np.random.Generator
+                     ) -> tuple[float, float]:
+    """(load [N], oil temperature [°C]) as a record states them: the true values with the
+    error of the default load cell (±1 %) and thermometer (±1 °C), uniform within the class
+    bound, the σ the diagnosis assumes for a stated condition
+    (:data:`diagnostics.quantity.DEFAULT_INSTRUMENTS`)."""
+    ui = DEFAULT_INSTRUMENTS["condition.load_force"]
+    ti = DEFAULT_INSTRUMENTS["condition.oil_temperature"]
+    half_l = ui.relative_bound * abs(load) + ui.absolute_bound
+    half_t = ti.relative_bound * abs(temp) + ti.absolute_bound
+    return load + float(rng.uniform(-half_l, half_l)), temp + float(rng.uniform(-half_t, half_t))

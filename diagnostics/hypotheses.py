@@ -21,6 +21,11 @@ components, so its parameters start at the ``none`` severity limit (``WORN``: le
 × 1.33, a setting 5 % down) — the healthy end belongs to ``healthy``.  Healthy, single
 and pair hypotheses are then exclusive explanations and do not share one another's
 probability (see :meth:`FaultParameter.worn_bounds`).
+A relief setting counts only where it opens: at a record's conditions the part of its
+range above the healthy pump pressure leaves every reading exactly healthy, so
+``relief_setting`` means a setting that acts there (its evidence is taken over that part,
+:func:`diagnostics.evidence.acting_relief_setting`; the rest is stated as not observable).
+Prior probabilities of the hypotheses: :data:`diagnostics.evidence.FLEET_PRIOR`.
 Four-times clearance means 64 times the laminar leakage, past any rig that still moves.
 The relief setting reaches down to 0.3 × nominal: a setting that low is a real failure
 (a broken spring, a wrong adjustment); below it, or beyond any other range, the goodness-of-fit test of

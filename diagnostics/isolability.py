@@ -28,6 +28,7 @@ from functools import lru_cache
 import numpy as np
 from scipy.stats import chi2 as chi2_dist
 
+from diagnostics.evidence import opening_pressure
 from diagnostics.hypotheses import PARAMETERS
 from diagnostics.quantity import DEFAULT_INSTRUMENTS
 from diagnostics.ranking import HypothesisFit, Ranker
@@ -159,6 +160,16 @@ def isolability(ranker: Ranker, fits: list[HypothesisFit], model_rel: float = 0.
         else:
             statements.append(f"{f.name}: not observable with these sensors at these conditions "
                               f"(its largest effect is {f.detectability:.2f} σ)")
+    setting = next((f for f in fits if f.name == "relief_setting" and f.observable), None)
+    p_open = opening_pressure(ranker)
+    pset_hi = PARAMETERS["Pset"].worn_bounds(ranker.rig)[1]
+    if setting is not None and math.isfinite(p_open) and p_open < pset_hi:
+        statements.append(
+            f"relief_setting: a setting drifted to between {p_open / 1e5:.1f} and "
+            f"{pset_hi / 1e5:.1f} bar does not open at these conditions and leaves the "
+            "readings as the healthy rig's: these readings cannot see it (the probability "
+            "of relief_setting is that of a setting that opens); check the setting with the "
+            "piston held on its end stop")
     singles = [f.name for f in fits if len(f.hypothesis.parameters) == 1 and f.observable]
     sigs = {n: _signature(ranker, n) for n in singles}
     parallel: list[tuple[str, str, float]] = []

@@ -24,8 +24,8 @@ the data do not need costs the share of its prior range that the data rule out.
   as such and left out of the probabilities (its evidence would equal the healthy one's
   and say nothing).
 
-Probabilities are the evidences normalised over the observable hypotheses, with equal
-prior probabilities.
+Probabilities are the evidences times the fleet prior, normalised over the observable
+hypotheses (:func:`diagnostics.evidence.posterior`).
 """
 
 from __future__ import annotations
@@ -37,6 +37,7 @@ import numpy as np
 import numpy.typing as npt
 from scipy.special import ndtr
 
+from diagnostics.evidence import acting_relief_setting, posterior, whitening
 from diagnostics.hypotheses import HYPOTHESES, PARAMETERS, FaultParameter, Hypothesis
 from diagnostics.observations import RecordObservations, condition_sigma
 from diagnostics.signatures import OBSERVABLES, SignatureMaps, evaluator, signature_maps
@@ -148,7 +149,15 @@ class HypothesisFit:
 
 
 class _RecordModel:
-    """One record's observations, σ, and its condition's signature maps."""
+    """One record's observations, their covariance, and its condition's signature maps.
+
+    The covariance is ``diag(u² + (model_rel·ŷ)²) + Σ_k s_k s_kᵀ u_k²`` with ``s_k`` the
+    healthy readings' sensitivity to the record's oil temperature and load and ``u_k``
+    their standard uncertainties: one thermometer or load-cell error moves every reading
+    of the record at once, so it is a correlated term, not one independent σ per reading
+    (:func:`diagnostics.evidence.whitening`).  ``sigma`` is the marginal standard
+    uncertainty of each reading (its diagonal), used to state disagreements in σ.
+    """
 
     def __init__(self, rig: Rig, obs: RecordObservations, model_rel: float) -> None:
         self.obs = obs
@@ -157,13 +166,14 @@ class _RecordModel:
         pred = self.maps.nominal[self.idx]
         # a reading the healthy rig cannot produce (a stalled return stroke has no velocity
         # ratio) gets no model or condition term: its σ is the measurement's own
-        var = obs.u**2 + np.nan_to_num(model_rel * pred) ** 2
+        diag = obs.u**2 + np.nan_to_num(model_rel * pred) ** 2
         u_t, u_f = condition_sigma(obs.record)
         cond = obs.condition
+        terms: list[Arr] = []
         if u_t > 0:
-            var += self._condition_term(
+            terms.append(self._condition_term(
                 rig, pred, [(replace(cond, oil_temperature=cond.oil_temperature + s), s)
-                            for s in (1.0, -1.0)]) * u_t**2
+                            for s in (1.0, -1.0)]) * u_t)
         if u_f > 0:
             if cond.load > 0:
                 step = 0.01 * cond.load
@@ -172,13 +182,13 @@ class _RecordModel:
                 step = 0.01 * max(cond.back_pressure, 1e5)
                 moved = [(replace(cond, back_pressure=cond.back_pressure + s), s)
                          for s in (step, -step)]
-            var += self._condition_term(rig, pred, moved) * u_f**2
-        self.sigma = np.sqrt(var)
+            terms.append(self._condition_term(rig, pred, moved) * u_f)
+        self.sigma, self.white = whitening(diag, terms)
 
     def _condition_term(self, rig: Rig, pred: Arr, moved: list[tuple[Condition, float]]
                         ) -> Arr:
-        """Squared sensitivity of the healthy readings to a condition, by a one-sided
-        difference (the other side where the first has no steady point; 0 where neither)."""
+        """Sensitivity of the healthy readings to a condition, by a one-sided difference
+        (the other side where the first has no steady point; 0 where neither)."""
         for cond, step in moved:
             try:
                 moved_pred = self._vec(evaluator(rig, cond).nominal())
@@ -189,15 +199,19 @@ class _RecordModel:
             # near a stall a reading (the velocity ratio) may react without bound: cap the
             # sensitivity so its σ stays finite, huge, and the reading weighs nothing
             d = np.clip(np.nan_to_num(d, nan=0.0, posinf=_HUGE, neginf=-_HUGE), -_HUGE, _HUGE)
-            return np.asarray(d**2)
+            return np.asarray(d)
         return np.zeros_like(pred)
 
     def _vec(self, pred: dict[str, float]) -> Arr:
         return np.array([pred[n] for n in self.obs.names])
 
+    def whitened(self, resid: Arr) -> Arr:
+        """Residuals ``y − ŷ`` [SI] (last axis: the readings) → independent unit normals."""
+        return np.asarray(resid @ self.white.T)
+
     def chi2_grid(self, pred: Arr) -> Arr:
         """χ² of this record at every point of a map (``pred[..., observables]``)."""
-        r = (self.obs.values - pred[..., self.idx]) / self.sigma
+        r = self.whitened(self.obs.values - pred[..., self.idx])
         chi2 = np.sum(r * r, axis=-1)
         # a masked prediction (stall, no operating point) cannot produce the reading
         return np.asarray(np.where(np.isnan(chi2), np.inf, chi2))
@@ -289,9 +303,12 @@ class Ranker:
             except SimulationError:  # no steady operating point: masked
                 full = np.full(len(OBSERVABLES), np.nan)
             fulls.append(full)
-            r = (m.obs.values - full[m.idx]) / m.sigma
-            # a masked reading counts as a miss of _MASKED σ: the fit steps away from it
-            rs.append(np.where(np.isfinite(r), r, _MASKED))
+            resid = m.obs.values - full[m.idx]
+            if np.isfinite(resid).all():
+                rs.append(m.whitened(resid))
+            else:  # a masked reading counts as a miss of _MASKED σ: the fit steps away
+                r = resid / m.sigma
+                rs.append(np.where(np.isfinite(r), r, _MASKED))
         return np.concatenate(rs), fulls
 
     def fit_pair(self, hyp: Hypothesis, singles: dict[str, HypothesisFit]) -> HypothesisFit:
@@ -434,14 +451,7 @@ class Ranker:
                     fits.append(self.fit_pair(h, singles))
                 except SimulationError:
                     continue  # no steady operating point anywhere near: not a candidate
-        obs = [f for f in fits if f.observable]
-        logz = np.array([f.log_evidence for f in obs])
-        if logz.size == 0 or not np.isfinite(logz.max()):
-            w = np.zeros(logz.size)  # no hypothesis has a prediction for these readings
-        else:
-            w = np.exp(logz - logz.max())
-            w /= w.sum()
-        for f, pr in zip(obs, w, strict=True):
-            f.probability = float(pr)
+        acting_relief_setting(self, fits)  # a setting that never opens is not a cause
+        posterior(fits)  # fleet prior × evidence, over the observable ones (evidence.py)
         return sorted(fits, key=lambda f: (not f.observable, -f.probability,
                                            len(f.hypothesis.parameters)))

@@ -1,0 +1,51 @@
+"""Breakdowns of the accuracy study (:mod:`benchmarks.accuracy`): where the misses go.
+
+* :func:`confusions` — which truths are lost to which answers (grouped top-1 misses, an
+  unexplained answer counted as ``"unexplained"``);
+* :func:`hypothesis_calibration` — calibration in the large per hypothesis: the sum of the
+  probabilities the diagnosis stated for a hypothesis over all cases against the number of
+  cases in which it was the truth (equal when the stated probabilities are calibrated);
+* :func:`moving_figures` — the in-library figures without the cases whose piston stalled
+  or crept (a state the steady model of the fault library does not have, so "not
+  explained" is the right answer there).
+"""
+
+from __future__ import annotations
+
+from collections import Counter, defaultdict
+from typing import Any
+
+import numpy as np
+
+__all__ = ["confusions", "hypothesis_calibration", "moving_figures"]
+
+
+def confusions(rows: list[dict[str, Any]], top: int = 6) -> list[tuple[str, str, int]]:
+    """The ``top`` most frequent (truth, answer, count) among grouped top-1 misses."""
+    c: Counter[tuple[str, str]] = Counter(
+        (r["truth"], r["top"]) for r in rows if r["error"] is None and not r["top1_grouped"])
+    return [(t, a, n) for (t, a), n in c.most_common(top)]
+
+
+def hypothesis_calibration(rows: list[dict[str, Any]]) -> dict[str, list[float]]:
+    """Per hypothesis: [sum of stated probabilities, cases where it was the truth]."""
+    stated: dict[str, float] = defaultdict(float)
+    truths: Counter[str] = Counter()
+    for r in rows:
+        if r["error"] is not None:
+            continue
+        for h, p in r["probs"].items():
+            stated[h] += p
+        truths[r["truth"]] += 1
+    return {h: [round(stated[h], 1), truths[h]] for h in sorted(set(stated) | set(truths))}
+
+
+def moving_figures(rows: list[dict[str, Any]]) -> dict[str, float]:
+    """Grouped top-1, Brier and share not explained over the cases that did not stall."""
+    ok = [r for r in rows if r["error"] is None and not r["stalled"]]
+    if not ok:
+        return {}
+    return {"n": len(ok),
+            "top1_grouped": float(np.mean([r["top1_grouped"] for r in ok])),
+            "brier_grouped": float(np.mean([r["brier_grouped"] for r in ok])),
+            "not_explained": 1.0 - float(np.mean([r["explained"] for r in ok]))}
