@@ -56,7 +56,7 @@ class EffectEntry:
         chamber 1 to chamber 2 through the piston, [m³/s]), ``"pump_flow"`` (flow out of
         the pump outlet 0-junction, [m³/s]) or, on :data:`FIELD_CIRCUIT`, ``"field_flow"``
         (relative flow residual ``q_meas/q_model − 1`` of a field record, [-]; signals
-        ``P``, ``dP``, ``Q``, ``Q_s``, ``Q_st``, ``direction``, see
+        ``t``, ``P``, ``dP``, ``Q``, ``Q_s``, ``Q_st``, ``direction``, see
         :func:`diagnostics.pump.field.field_signals`).
     coefficient
         Name of the parameter the regressor multiplies (its strength).
