@@ -42,6 +42,7 @@ ramps, benchmarks/pump_study.py) stays below 0.1 % once smoothed over 5 samples.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -100,8 +101,9 @@ class FieldPrediction:
 
 
 def predict(record: FieldRecord, pump: GearPump | None = None, *, rtol: float = 1e-4,
-            upsample: int = 2) -> FieldPrediction:
-    """Simulate the duty cycle of ``record`` with the base model (module docstring).
+            upsample: int = 2, effects: Mapping[str, float] | None = None) -> FieldPrediction:
+    """Simulate the duty cycle of ``record`` with the base model (module docstring), or with
+    library effects added.
 
     Parameters
     ----------
@@ -114,6 +116,10 @@ def predict(record: FieldRecord, pump: GearPump | None = None, *, rtol: float = 
         0.02 % rms on the records of :mod:`diagnostics.pump.field_record`).
     upsample
         Input points per sample interval (1: the samples, linear in between).
+    effects
+        Library effects of the field circuit and their parameters, by full name
+        (``{"side_plate_lag.tau": 0.3}``): the model with those effects added
+        (:func:`sim.duty_cycle.duty_cycle_model`); default none (the base model).
     """
     if upsample < 1:
         raise InputError("upsample must be ≥ 1", field="upsample")
@@ -125,8 +131,10 @@ def predict(record: FieldRecord, pump: GearPump | None = None, *, rtol: float = 
         th = np.interp(tt, t, record.theta)
     else:
         tt, pp, th = t, record.pressure, record.theta
-    run = duty_cycle_model(False).simulate(tt, pp, th, record.speed, pm, rtol=rtol,
-                                           sample_every=upsample)
+    ov = dict(effects or {})
+    library = tuple(sorted({k.split(".", 1)[0] for k in ov}))
+    run = duty_cycle_model(False, library).simulate(tt, pp, th, record.speed, pm, rtol=rtol,
+                                                    sample_every=upsample, overrides=ov)
     q_model = run.q_meter
     q_pump = run.outputs["pump.Q"]
     slip = (run.outputs["pump.Q_s"] + run.outputs["pump.Q_st"]) / q_pump
