@@ -302,7 +302,7 @@ def discover_field(train: Sequence[FieldRecord], held_out: FieldRecord,
         gaps = _gaps(held_out, before, before, sigma)
         return FieldDiscovery("no effect", "no library effect explains the residual "
                               "(selection: nothing admissible)", [], sel, {}, {}, {}, gaps,
-                              white_before, white_before, sigma, 0,
+                              white_before, white_before, sigma, 0, 0.0,
                               {"before": before, "after": before, "held_out": held_out})
     fitted, errors, calls = _output_error(train, pm, start, max_nfev, rtol)
     after = predict(held_out, pm, rtol=rtol, effects=fitted)
