@@ -82,20 +82,19 @@ def _values(prefix: str) -> dict[str, float]:
             if p.name.startswith(prefix + ".")}
 
 
-def build_graph(*, effects: bool = False, points: int | None = None,
+def build_graph(*, points: int | None = None,
                 library: tuple[str, ...] = ()) -> tuple[BondGraph, list[Derivation]]:
     """The duty-cycle circuit (module docstring) and its parameter derivations.
 
     Parameters
     ----------
-    effects
-        Give the pump the documented gaps (side-plate lag, hysteresis), for generating
-        records; they are off until their parameters are set.
     points
         Size of the pressure and viscosity tables (default :data:`TABLE_POINTS`).
     library
         Library effects of circuit :data:`CIRCUIT` to add (``("side_plate_lag",)``,
-        :mod:`sim.components.effects`); off until their strength is set (parameters
+        :mod:`sim.components.effects`): the documented gaps of paper 000 §5 (side-plate lag,
+        slip hysteresis), for generating records the base model does not explain and for
+        the discrepancy workflow; off until their strength is set (parameters
         ``side_plate_lag.tau`` …).
 
     Raises
@@ -106,11 +105,11 @@ def build_graph(*, effects: bool = False, points: int | None = None,
     n = TABLE_POINTS if points is None else points
     lib = tuple(library)
     tag = "".join(f"_{e}" for e in lib)
-    g = BondGraph(("duty_cycle_effects" if effects else "duty_cycle") + tag)
+    g = BondGraph("duty_cycle" + tag)
     for k, unit in (("mu", "Pa*s"), ("rho", "kg/m^3"), ("beta", "Pa")):
         g.parameter(f"fluid.{k}", {"mu": 0.04, "rho": 865.0, "beta": 1.5e9}[k], unit,
                     "hoses: from the oil at the record's mean temperature")
-    pump = gear_pump_fragment.build(g, "pump", viscosity_points=n, effects=effects)
+    pump = gear_pump_fragment.build(g, "pump", viscosity_points=n)
     h2 = hose.build(g, "hose2", pump.ports["out"], _values("hose2"))
     g.add(Zero("meter", description="instrumentation point: flowmeter, transducer"))
     g.connect(h2.ports["line"], "meter")
@@ -161,7 +160,6 @@ class DutyCycleModel:
 
     model: CompiledModel
     derivations: list[Derivation]
-    effects: bool
     library: tuple[str, ...] = ()
 
     def params(self, t: Arr, pressure: Arr, theta: Arr, speed: float, pump: GearPump,
@@ -182,7 +180,7 @@ class DutyCycleModel:
         pump
             D, ρ, β_ef, the four coefficient surfaces and the oil.
         overrides
-            Graph parameters by full name (``{"pump.a_lag": 1.0}``), applied before the
+            Graph parameters by full name (``{"side_plate_lag.tau": 0.3}``), applied before the
             derived parameters are computed and again after them (so a derived value can
             be overridden too).
         """
@@ -215,12 +213,11 @@ class DutyCycleModel:
 
     @property
     def frozen(self) -> tuple[str, ...]:
-        """States held in a steady solution: the meter volume and, with the documented
-        gaps, the hysteresis memory (every value within its band is an equilibrium; it
-        starts at the pressure, i.e. with no remembered direction), and the states the
-        library effects hold (:attr:`sim.components.effects.Effect.frozen`)."""
-        lib = tuple(s for e in self.library for s in get_effect(e).frozen)
-        return ("meter.V", "pump.hy.C", *lib) if self.effects else ("meter.V", *lib)
+        """States held in a steady solution: the meter volume and the states the library
+        effects hold (:attr:`sim.components.effects.Effect.frozen`: the hysteresis memory,
+        every value within its band being an equilibrium; it starts at the pressure, i.e.
+        with no remembered direction)."""
+        return ("meter.V", *(s for e in self.library for s in get_effect(e).frozen))
 
     def simulate(self, t: npt.ArrayLike, pressure: npt.ArrayLike, theta: npt.ArrayLike,
                  speed: float, pump: GearPump | None = None, *,
@@ -334,16 +331,16 @@ class DutyCycleModel:
         return q
 
 
-def duty_cycle_model(effects: bool = False, library: tuple[str, ...] = ()) -> DutyCycleModel:
+def duty_cycle_model(library: tuple[str, ...] = ()) -> DutyCycleModel:
     """The compiled duty-cycle circuit (once per process and effect set; the machine code is
     cached on disk); ``library`` as in :func:`build_graph`, in any order."""
-    return _model(effects, tuple(sorted(set(library))))
+    return _model(tuple(sorted(set(library))))
 
 
 @lru_cache(maxsize=8)
-def _model(effects: bool, library: tuple[str, ...]) -> DutyCycleModel:
-    g, derivations = build_graph(effects=effects, library=library)
-    return DutyCycleModel(compile_graph(g), derivations, effects, library)
+def _model(library: tuple[str, ...]) -> DutyCycleModel:
+    g, derivations = build_graph(library=library)
+    return DutyCycleModel(compile_graph(g), derivations, library)
 
 
 def rpm(n: float) -> float:

@@ -133,7 +133,7 @@ def predict(record: FieldRecord, pump: GearPump | None = None, *, rtol: float = 
         tt, pp, th = t, record.pressure, record.theta
     ov = dict(effects or {})
     library = tuple(sorted({k.split(".", 1)[0] for k in ov}))
-    run = duty_cycle_model(False, library).simulate(tt, pp, th, record.speed, pm, rtol=rtol,
+    run = duty_cycle_model(library).simulate(tt, pp, th, record.speed, pm, rtol=rtol,
                                                     sample_every=upsample, overrides=ov)
     q_model = run.q_meter
     q_pump = run.outputs["pump.Q"]

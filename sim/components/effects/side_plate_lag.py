@@ -118,6 +118,8 @@ def build(g: BondGraph, name: str = NAME, values: Mapping[str, float] | None = N
     g.connect(f"{name}.lam", f"{pump}.core", label=f"{name}.lam")
     g.connect(f"{name}.turb", f"{pump}.core", label=f"{name}.turb")
     g.output(f"{name}.p_sp", state, "Pa", "side-plate balance pressure")
+    g.output(f"{name}.dQ_s", f"f:{name}.lam", "m^3/s", "laminar slip held back by the lag")
+    g.output(f"{name}.dQ_st", f"f:{name}.turb", "m^3/s", "turbulent slip held back by the lag")
 
 
 def lagged_rate(t: Arr, rate: Arr, tau: float = TAU_REF) -> Arr:

@@ -96,6 +96,7 @@ def build(g: BondGraph, name: str = NAME, values: Mapping[str, float] | None = N
               "t", f"tbl:{pump}.mu", f"{P}D", f"{P}rho", f"{P}dp_s", *_surface(pump, "Cs"),
               *_surface(pump, "Cst"), description="ΔQ = −h·s·(Q_s + Q_st)"))
     g.connect(f"{name}.Sf", f"{pump}.core", label=f"{name}.Sf")
+    g.output(f"{name}.dQ", f"f:{name}.Sf", "m^3/s", "flow returned to the core, −h·s·Q_slip")
     g.output(f"{name}.direction", call(direction, core, m, w), "1",
              "direction of the last pressure change (+1 rising, −1 falling)")
 
