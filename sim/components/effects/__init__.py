@@ -21,6 +21,7 @@ effect                          balance          bond-graph change
 ``turbulent_pump_slip``         pump flow        R on ``pump.out``
 ``pump_clearance_pressure``     pump flow        R on ``pump.out``
 ``speed_offset``                pump flow        Sf on ``pump.out``
+``pump_compressibility_loss``   pump flow        R on ``pump.out`` reading Vp, ω
 ==============================  ===============  =========================================
 
 circuit ``gear-pump-field`` (paper 000 Figure 7 duty cycle, :mod:`sim.duty_cycle`):
@@ -45,6 +46,7 @@ from types import MappingProxyType
 
 from sim.bondgraph import BondGraph
 from sim.components.effects import (
+    compressibility_loss,
     couette_drag,
     pressure_clearance,
     seal_friction_pressure,
@@ -108,7 +110,7 @@ def _paths(module: object) -> dict[str, Effect]:
 
 _REGISTRY: dict[str, Effect] = {}
 for _m in (stribeck_friction, seal_friction_pressure, couette_drag, speed_offset,
-           side_plate_lag, slip_hysteresis):
+           compressibility_loss, side_plate_lag, slip_hysteresis):
     _e = _single(_m)
     _REGISTRY[_e.name] = _e
 for _m in (turbulent_leakage, pressure_clearance):
