@@ -70,7 +70,7 @@ def study_duty_cycle(pump: GearPump, seeds: int) -> dict[str, Any]:
 def study_duty_timing(pump: GearPump, repeats: int) -> dict[str, Any]:
     _section("Timing of one 60 s duty cycle (2001 samples at 30 ms; same run, same compiled model)")
     rec = generate_field_record(60.0, seed=7000)
-    m = duty_cycle_model(False)
+    m = duty_cycle_model()
     predict(rec, pump)
     m.quasi_static(rec.t, rec.pressure, rec.theta, rec.speed, pump)
     t_dyn, t_qs, pred, q_qs = math.inf, math.inf, None, np.empty(0)

@@ -43,15 +43,20 @@ from sim.bondgraph import BondGraph, CompiledModel, MSe, Zero, compile_graph
 from sim.bondgraph.laws import table_lookup
 from sim.components import gear_pump_fragment, hose, relief_valve
 from sim.components.base import Derivation
+from sim.components.effects import get_effect
+from sim.components.effects.base import FIELD_CIRCUIT
 from sim.components.gear_pump import GearPump, dynamic_viscosity
 from sim.components.gear_pump_map import stand_in_pump
 from sim.errors import InputError, SimulationError
 from sim.params import Param
 
-__all__ = ["CIRCUIT_VALUES", "TABLE_POINTS", "DutyCycleModel", "DutyCycleRun", "build_graph",
+__all__ = ["CIRCUIT", "CIRCUIT_VALUES", "TABLE_POINTS", "DutyCycleModel", "DutyCycleRun", "build_graph",
            "duty_cycle_model", "rpm"]
 
 Arr = npt.NDArray[np.float64]
+
+#: name of this circuit in the effect library (:mod:`sim.components.effects`)
+CIRCUIT = FIELD_CIRCUIT
 
 #: Table size of the compiled circuits [points]: 81 s of input at 10 ms, 122 s at 15 ms (a
 #: 30 ms record upsampled twice), 245 s at 30 ms.  A longer series is resampled
@@ -77,24 +82,34 @@ def _values(prefix: str) -> dict[str, float]:
             if p.name.startswith(prefix + ".")}
 
 
-def build_graph(*, effects: bool = False, points: int | None = None) -> tuple[BondGraph,
-                                                                               list[Derivation]]:
+def build_graph(*, points: int | None = None,
+                library: tuple[str, ...] = ()) -> tuple[BondGraph, list[Derivation]]:
     """The duty-cycle circuit (module docstring) and its parameter derivations.
 
     Parameters
     ----------
-    effects
-        Give the pump the documented gaps (side-plate lag, hysteresis), for generating
-        records; they are off until their parameters are set.
     points
         Size of the pressure and viscosity tables (default :data:`TABLE_POINTS`).
+    library
+        Library effects of circuit :data:`CIRCUIT` to add (``("side_plate_lag",)``,
+        :mod:`sim.components.effects`): the documented gaps of paper 000 §5 (side-plate lag,
+        slip hysteresis), for generating records the base model does not explain and for
+        the discrepancy workflow; off until their strength is set (parameters
+        ``side_plate_lag.tau`` …).
+
+    Raises
+    ------
+    RigFileError
+        An unknown effect, or one of another circuit.
     """
     n = TABLE_POINTS if points is None else points
-    g = BondGraph("duty_cycle_effects" if effects else "duty_cycle")
+    lib = tuple(library)
+    tag = "".join(f"_{e}" for e in lib)
+    g = BondGraph("duty_cycle" + tag)
     for k, unit in (("mu", "Pa*s"), ("rho", "kg/m^3"), ("beta", "Pa")):
         g.parameter(f"fluid.{k}", {"mu": 0.04, "rho": 865.0, "beta": 1.5e9}[k], unit,
                     "hoses: from the oil at the record's mean temperature")
-    pump = gear_pump_fragment.build(g, "pump", viscosity_points=n, effects=effects)
+    pump = gear_pump_fragment.build(g, "pump", viscosity_points=n)
     h2 = hose.build(g, "hose2", pump.ports["out"], _values("hose2"))
     g.add(Zero("meter", description="instrumentation point: flowmeter, transducer"))
     g.connect(h2.ports["line"], "meter")
@@ -108,6 +123,8 @@ def build_graph(*, effects: bool = False, points: int | None = None) -> tuple[Bo
     g.integrate("meter.V", "flow:hose2.line", scale=1e-4, unit="m^3")
     g.output("Q_meter", "flow:hose2.line", "m^3/s", "flow at the instrumentation point")
     g.output("p_meter", "effort:meter", "Pa", "pressure at the instrumentation point")
+    for name in lib:
+        get_effect(name, CIRCUIT, field="library").build(g)
     return g, [d for d in (pump.derive, h2.derive, h3.derive) if d is not None]
 
 
@@ -143,7 +160,7 @@ class DutyCycleModel:
 
     model: CompiledModel
     derivations: list[Derivation]
-    effects: bool
+    library: tuple[str, ...] = ()
 
     def params(self, t: Arr, pressure: Arr, theta: Arr, speed: float, pump: GearPump,
                overrides: Mapping[str, float] | None = None) -> Arr:
@@ -163,7 +180,7 @@ class DutyCycleModel:
         pump
             D, ρ, β_ef, the four coefficient surfaces and the oil.
         overrides
-            Graph parameters by full name (``{"pump.a_lag": 1.0}``), applied before the
+            Graph parameters by full name (``{"side_plate_lag.tau": 0.3}``), applied before the
             derived parameters are computed and again after them (so a derived value can
             be overridden too).
         """
@@ -184,20 +201,23 @@ class DutyCycleModel:
     def initial_state(self, p: Arr, pressure0: float, flow0: float) -> Arr:
         """Steady state of the circuit at ``t = 0`` [SI per state].
 
-        Newton's method from a guess: every C state (pressures) at ``pressure0`` [Pa], every
-        I state (flows) at ``flow0`` [m³/s], auxiliary states at 0; :attr:`frozen` states
+        Newton's method from a guess: every C state and auxiliary pressure state (library
+        effects' memories) at ``pressure0`` [Pa], every I state (flows) at ``flow0``
+        [m³/s], other auxiliary states at 0; :attr:`frozen` states
         keep their guess.
         """
-        guess = np.array([pressure0 if s.kind == "C" else flow0 if s.kind == "I" else 0.0
+        guess = np.array([pressure0 if s.kind == "C" or (s.kind == "aux" and s.unit == "Pa")
+                          else flow0 if s.kind == "I" else 0.0
                           for s in self.model.system.states])
         return self.model.steady(guess, p, frozen=self.frozen)
 
     @property
     def frozen(self) -> tuple[str, ...]:
-        """States held in a steady solution: the meter volume and, with the documented
-        gaps, the hysteresis memory (every value within its band is an equilibrium; it
-        starts at the pressure, i.e. with no remembered direction)."""
-        return ("meter.V", "pump.hy.C") if self.effects else ("meter.V",)
+        """States held in a steady solution: the meter volume and the states the library
+        effects hold (:attr:`sim.components.effects.Effect.frozen`: the hysteresis memory,
+        every value within its band being an equilibrium; it starts at the pressure, i.e.
+        with no remembered direction)."""
+        return ("meter.V", *(s for e in self.library for s in get_effect(e).frozen))
 
     def simulate(self, t: npt.ArrayLike, pressure: npt.ArrayLike, theta: npt.ArrayLike,
                  speed: float, pump: GearPump | None = None, *,
@@ -311,11 +331,16 @@ class DutyCycleModel:
         return q
 
 
-@lru_cache(maxsize=2)
-def duty_cycle_model(effects: bool = False) -> DutyCycleModel:
-    """The compiled duty-cycle circuit (once per process; the machine code is cached on disk)."""
-    g, derivations = build_graph(effects=effects)
-    return DutyCycleModel(compile_graph(g), derivations, effects)
+def duty_cycle_model(library: tuple[str, ...] = ()) -> DutyCycleModel:
+    """The compiled duty-cycle circuit (once per process and effect set; the machine code is
+    cached on disk); ``library`` as in :func:`build_graph`, in any order."""
+    return _model(tuple(sorted(set(library))))
+
+
+@lru_cache(maxsize=8)
+def _model(library: tuple[str, ...]) -> DutyCycleModel:
+    g, derivations = build_graph(library=library)
+    return DutyCycleModel(compile_graph(g), derivations, library)
 
 
 def rpm(n: float) -> float:

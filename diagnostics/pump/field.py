@@ -20,11 +20,16 @@ flowmeter's noise (DISCREPANCY.md, steps 2-4):
 * the practical size of the structure: the RMS of the 5-sample moving average of what is
   left, less the part the flowmeter's white noise explains (its standard uncertainty is
   the ±1 % bound read as rectangular, a/√3, :mod:`diagnostics.quantity`);
-* named candidates, each scaled to unit RMS and tested by OLS with HAC (Newey-West)
-  errors, Bonferroni-corrected: **dp/dt** (Savitzky-Golay derivative of the measured
-  pressure; raw differences give false discoveries, DISCREPANCY.md) for a response lag,
-  and **direction × slip** (the sign of the last pressure change, from a play of half-width
-  ``band`` on the measured pressure, times the model's slip fraction) for hysteresis.
+* named candidates: the entries of the effect library on the field circuit
+  (:func:`sim.components.effects.effects_for` of ``gear-pump-field``, balance
+  ``field_flow``), each regressor built from :func:`field_signals` — the **side-plate lag**
+  ``(Q_s + Q_st/2)/P·ṗ/Q`` (ṗ the Savitzky-Golay derivative of the measured pressure; raw
+  differences give false discoveries, DISCREPANCY.md) and the **slip hysteresis**
+  ``−s·(Q_s + Q_st)/Q`` (s the direction of the last pressure change, from a play of
+  half-width ``band`` on the measured pressure) — scaled to unit RMS and tested by OLS with
+  HAC (Newey-West) errors, Bonferroni-corrected.  Each term also gives the entry's
+  coefficient in SI (τ [s], h [-]): the equation-error estimate that starts an
+  output-error fit (:mod:`diagnostics.discrepancy.field_case`).
 
 The record is called *structured* when Ljung-Box rejects whiteness (p < α) **and** the
 structure exceeds the practical size.  Default 0.1 % of the flow: DISCREPANCY.md's 0.2 % of
@@ -37,6 +42,7 @@ ramps, benchmarks/pump_study.py) stays below 0.1 % once smoothed over 5 samples.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -48,18 +54,19 @@ from statsmodels.stats.diagnostic import acorr_ljungbox
 
 from diagnostics.pump.field_record import FieldRecord
 from diagnostics.quantity import DEFAULT_INSTRUMENTS, InstrumentClass
+from sim.components.effects import effects_for
 from sim.components.gear_pump import GearPump
 from sim.components.gear_pump_map import stand_in_pump
-from sim.duty_cycle import DutyCycleRun, duty_cycle_model
+from sim.duty_cycle import CIRCUIT, DutyCycleRun, duty_cycle_model
 from sim.errors import InputError
 
 __all__ = ["CANDIDATES", "FieldPrediction", "ResidualTests", "TermTest", "direction_memory",
-           "predict", "residual_tests"]
+           "field_signals", "predict", "residual_tests"]
 
 FloatArray = npt.NDArray[np.float64]
 
-#: Named candidate effects and the regressor that carries each.
-CANDIDATES = {"response lag": "dp/dt", "hysteresis": "direction x slip"}
+#: Named candidate effects and the library entry (:mod:`sim.components.effects`) of each.
+CANDIDATES = {"response lag": "side_plate_lag", "hysteresis": "slip_hysteresis"}
 
 
 @dataclass(frozen=True, eq=False)
@@ -94,8 +101,9 @@ class FieldPrediction:
 
 
 def predict(record: FieldRecord, pump: GearPump | None = None, *, rtol: float = 1e-4,
-            upsample: int = 2) -> FieldPrediction:
-    """Simulate the duty cycle of ``record`` with the base model (module docstring).
+            upsample: int = 2, effects: Mapping[str, float] | None = None) -> FieldPrediction:
+    """Simulate the duty cycle of ``record`` with the base model (module docstring), or with
+    library effects added.
 
     Parameters
     ----------
@@ -108,6 +116,10 @@ def predict(record: FieldRecord, pump: GearPump | None = None, *, rtol: float = 
         0.02 % rms on the records of :mod:`diagnostics.pump.field_record`).
     upsample
         Input points per sample interval (1: the samples, linear in between).
+    effects
+        Library effects of the field circuit and their parameters, by full name
+        (``{"side_plate_lag.tau": 0.3}``): the model with those effects added
+        (:func:`sim.duty_cycle.duty_cycle_model`); default none (the base model).
     """
     if upsample < 1:
         raise InputError("upsample must be ≥ 1", field="upsample")
@@ -119,8 +131,10 @@ def predict(record: FieldRecord, pump: GearPump | None = None, *, rtol: float = 
         th = np.interp(tt, t, record.theta)
     else:
         tt, pp, th = t, record.pressure, record.theta
-    run = duty_cycle_model(False).simulate(tt, pp, th, record.speed, pm, rtol=rtol,
-                                           sample_every=upsample)
+    ov = dict(effects or {})
+    library = tuple(sorted({k.split(".", 1)[0] for k in ov}))
+    run = duty_cycle_model(library).simulate(tt, pp, th, record.speed, pm, rtol=rtol,
+                                                    sample_every=upsample, overrides=ov)
     q_model = run.q_meter
     q_pump = run.outputs["pump.Q"]
     slip = (run.outputs["pump.Q_s"] + run.outputs["pump.Q_st"]) / q_pump
@@ -146,15 +160,38 @@ def direction_memory(pressure: npt.ArrayLike, band: float) -> FloatArray:
     return out
 
 
+def field_signals(prediction: FieldPrediction, record: FieldRecord, *, band: float = 3.0e5,
+                  window: int = 11) -> dict[str, FloatArray]:
+    """Signals of the ``field_flow`` balance at the record's samples, SI.
+
+    ``t`` sample times [s], ``P`` measured pressure [Pa], ``dP`` its Savitzky-Golay
+    derivative [Pa/s] (quadratic, ``window`` samples), ``Q`` the model's pump flow
+    [m³/s], ``Q_s`` and ``Q_st`` its laminar and turbulent slip [m³/s], ``direction``
+    the direction of the last pressure change [-] (:func:`direction_memory` of half-width
+    ``band`` [Pa]), ``r`` the residual ``q_meas/q_model − 1`` [-] and
+    ``laminar_fraction`` ``Q_s/Q`` [-].
+    """
+    out = prediction.run.outputs
+    return {"t": np.asarray(record.t, dtype=np.float64),
+            "P": np.asarray(record.pressure, dtype=np.float64),
+            "dP": np.asarray(savgol_filter(record.pressure, window, 2, deriv=1,
+                                           delta=record.interval), dtype=np.float64),
+            "Q": out["pump.Q"], "Q_s": out["pump.Q_s"], "Q_st": out["pump.Q_st"],
+            "direction": direction_memory(record.pressure, band),
+            "r": prediction.residual, "laminar_fraction": prediction.laminar_fraction}
+
+
 @dataclass(frozen=True, slots=True)
 class TermTest:
-    """A candidate regressor's test: coefficient on the unit-RMS column [-], HAC t and p."""
+    """A candidate's test: library entry, coefficient on the unit-RMS column [-], HAC t and p,
+    and the entry's coefficient in SI (``value``: τ [s] of the lag, h [-] of the hysteresis)."""
 
     name: str
     coef: float
     t: float
     p: float
     significant: bool
+    value: float = math.nan
 
 
 @dataclass(frozen=True, eq=False)
@@ -216,7 +253,8 @@ def _unit_rms(x: FloatArray) -> FloatArray:
 def residual_tests(prediction: FieldPrediction, record: FieldRecord, *,
                    flowmeter: InstrumentClass = DEFAULT_INSTRUMENTS["pump_flow"],
                    lags: int = 20, alpha: float = 0.01, practical: float = 0.001,
-                   band: float = 2.0e5, window: int = 11, smooth: int = 5) -> ResidualTests:
+                   band: float | None = None, window: int = 11,
+                   smooth: int = 5) -> ResidualTests:
     """Whiteness, size and named candidates of the residual (module docstring).
 
     Parameters
@@ -232,7 +270,8 @@ def residual_tests(prediction: FieldPrediction, record: FieldRecord, *,
     practical
         Smallest structure worth naming [-] (module docstring).
     band
-        Half-width of the direction memory [Pa].
+        Half-width of the direction memory [Pa] (default: the hysteresis entry's ``w_h``,
+        3 bar).
     window
         Savitzky-Golay window [samples] of dp/dt (quadratic; 11 samples = 0.33 s).
     smooth
@@ -252,10 +291,13 @@ def residual_tests(prediction: FieldPrediction, record: FieldRecord, *,
     ma = np.convolve(left, np.ones(smooth) / smooth, mode="valid")
     excess = float(np.mean(ma * ma)) - noise_u**2 / smooth
     structure = math.sqrt(max(excess, 0.0))
-    dpdt = savgol_filter(record.pressure, window, 2, deriv=1, delta=record.interval)
-    cand = {"dp/dt": _unit_rms(dpdt),
-            "direction x slip": _unit_rms(direction_memory(record.pressure, band)
-                                          * prediction.slip_fraction)}
+    library = effects_for(CIRCUIT)
+    if band is None:
+        decl = library["slip_hysteresis"].parameter("w_h")
+        band = decl.default if decl is not None else 3.0e5
+    sig = field_signals(prediction, record, band=band, window=window)
+    raw = {name: library[name].entry.regressor(sig) for name in CANDIDATES.values()}
+    cand = {name: _unit_rms(col) for name, col in raw.items()}
     X = np.column_stack([base, *cand.values()])
     fit = sm.OLS(r, X).fit(cov_type="HAC", cov_kwds={"maxlags": lags})
     explained = X[:, 2:] @ fit.params[2:]
@@ -264,9 +306,12 @@ def residual_tests(prediction: FieldPrediction, record: FieldRecord, *,
     terms = {}
     for i, name in enumerate(cand, start=2):
         p = float(fit.pvalues[i])
-        terms[name] = TermTest(name, float(fit.params[i]), float(fit.tvalues[i]), p, p < level)
+        scale = float(np.sqrt(np.mean(raw[name] ** 2))) or 1.0
+        terms[name] = TermTest(name, float(fit.params[i]), float(fit.tvalues[i]), p, p < level,
+                               float(fit.params[i]) / scale)
     structured = lb_p < alpha and structure >= practical
-    named = tuple(eff for eff, reg in CANDIDATES.items() if structured and terms[reg].significant)
+    named = tuple(eff for eff, entry in CANDIDATES.items()
+                  if structured and terms[entry].significant)
     if not structured:
         msg = (f"residual consistent with flowmeter noise (Ljung-Box p = {lb_p:.3g}, "
                f"structure {structure * 100:.3f} % < {practical * 100:g} % or not significant)")

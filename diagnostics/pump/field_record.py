@@ -14,8 +14,9 @@ How a record is made:
    reached both from below and from above.  Knots every 10 ms.
 2. **Temperature**: a linear drift between two values [°C].
 3. **Truth**: the duty-cycle circuit of :mod:`sim.duty_cycle` *with* the documented gaps
-   (:class:`HiddenEffects`: side-plate lag, hysteresis; off unless asked) driven by the
-   10 ms pressure, read by a counting flowmeter every 30 ms.
+   (:class:`HiddenEffects`: the library entries ``side_plate_lag`` and ``slip_hysteresis``
+   of :mod:`sim.components.effects`; off unless asked) driven by the 10 ms pressure, read
+   by a counting flowmeter every 30 ms.
 4. **Instruments** (bounds read as rectangular distributions, GUM §4.3.7, as
    :mod:`diagnostics.quantity` does): the flowmeter's ±1 % of reading (paper 000 §3.2.1) is
    drawn independently for every sample — the flowmeter noise.  The transducer's ±0.25 % is
@@ -41,7 +42,7 @@ from sim.components.gear_pump_map import stand_in_pump
 from sim.duty_cycle import duty_cycle_model, rpm
 from sim.errors import InputError
 
-__all__ = ["SAMPLE_INTERVAL", "FieldRecord", "HiddenEffects", "duty_profile",
+__all__ = ["LIBRARY", "SAMPLE_INTERVAL", "FieldRecord", "HiddenEffects", "duty_profile",
            "generate_field_record"]
 
 FloatArray = npt.NDArray[np.float64]
@@ -49,6 +50,9 @@ FloatArray = npt.NDArray[np.float64]
 #: Field sampling interval [s] (paper 000 §3.2.2: "acquisition ... every 30 ms").
 SAMPLE_INTERVAL = 0.03
 _KNOT = 0.01  # pressure knots of the generated truth [s]; the samples are every 3rd knot
+
+#: library effects of the field circuit the generator's truth holds (:class:`HiddenEffects`)
+LIBRARY = ("side_plate_lag", "slip_hysteresis")
 
 #: Pressure levels of the movements [Pa] (paper 000 §3.2.2; seeds README).
 LEVELS: dict[str, tuple[float, float]] = {"standby": (11e5, 20e5), "lowering": (90e5, 110e5),
@@ -93,11 +97,9 @@ class HiddenEffects:
                                      ("hysteresis", self.hysteresis != 0.0)) if on)
 
     def overrides(self) -> dict[str, float]:
-        """Graph parameters of the circuit with effects (:mod:`sim.duty_cycle`)."""
-        lag = self.side_plate_lag > 0.0
-        return {"pump.a_lag": 1.0 if lag else 0.0,
-                "pump.tau_sp": self.side_plate_lag if lag else 1.0,
-                "pump.h": self.hysteresis, "pump.w_h": self.band}
+        """Parameters of the library effects (:data:`LIBRARY`) in the duty-cycle circuit."""
+        return {"side_plate_lag.tau": self.side_plate_lag, "slip_hysteresis.h": self.hysteresis,
+                "slip_hysteresis.w_h": self.band}
 
 
 @dataclass(frozen=True, eq=False)
@@ -254,12 +256,15 @@ def generate_field_record(duration: float = 60.0, *, speed: float = rpm(1467),
     t_k, p_k = duty_profile(duration, seed=rng, levels=levels, ripple=ripple)
     th_k = theta[0] + (theta[1] - theta[0]) * t_k / t_k[-1]
     every = round(SAMPLE_INTERVAL / _KNOT)
-    run = duty_cycle_model(True).simulate(t_k, p_k, th_k, speed, pm,
-                                          overrides=eff.overrides(), sample_every=every)
+    run = duty_cycle_model(LIBRARY).simulate(t_k, p_k, th_k, speed, pm,
+                                             overrides=eff.overrides(), sample_every=every)
     t_s = run.t
     p_true = p_k[::every]
-    truth = {"flow": run.q_meter, "pressure": p_true, "direction": run.outputs["pump.direction"],
-             "q_slip": run.outputs["pump.Q_s"] + run.outputs["pump.Q_st"]}
+    o = run.outputs
+    # net slip: the base elements less what the lag holds back and the hysteresis returns
+    truth = {"flow": run.q_meter, "pressure": p_true, "direction": o["slip_hysteresis.direction"],
+             "q_slip": o["pump.Q_s"] + o["pump.Q_st"] - o["side_plate_lag.dQ_s"]
+             - o["side_plate_lag.dQ_st"] - o["slip_hysteresis.dQ"]}
     note = (f"SIMULATED field record: {duration:g} s at {speed * 60 / (2 * math.pi):.0f} rpm, "
             f"oil {theta[0]:g}->{theta[1]:g} degC, samples every {SAMPLE_INTERVAL * 1e3:g} ms, "
             f"flowmeter +-{flowmeter.relative_bound:g} per sample, transducer "

@@ -190,7 +190,10 @@ class _Builder:
         for el in g.elements.values():
             self.element_equations(el, derivs)
         for aux in g.integrators.values():
-            code, _ = self.ref(aux.signal, None, aux.name)
+            if isinstance(aux.signal, LawCall):
+                code, _ = self.call(aux.signal, None, aux.name)
+            else:
+                code, _ = self.ref(aux.signal, None, aux.name)
             derivs.append((aux.name, code))
         outputs = []
         for out in g.outputs.values():

@@ -41,7 +41,8 @@ def to_dict(graph: BondGraph) -> dict[str, Any]:
             for t in graph.tables.values()
         ],
         "auxiliary_states": [
-            {"name": a.name, "derivative": a.signal, "unit": a.unit}
+            {"name": a.name, "unit": a.unit,
+             "derivative": a.signal if isinstance(a.signal, str) else a.signal.describe()}
             for a in graph.integrators.values()
         ],
         "outputs": [

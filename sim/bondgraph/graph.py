@@ -47,7 +47,7 @@ class Integrator:
     """An auxiliary state ``x`` with ``dx/dt = signal`` (e.g. piston position from velocity)."""
 
     name: str
-    signal: str
+    signal: str | LawCall
     initial: str
     scale: float
     unit: str
@@ -158,9 +158,14 @@ class BondGraph:
         self.tables[name] = Table(name, size, float(value), unit, source)
         return f"tbl:{name}"
 
-    def integrate(self, name: str, signal: str, *, initial: str = "0.0", scale: float = 1.0,
-                  unit: str = "") -> str:
-        """Add the auxiliary state ``name`` with ``d(name)/dt = signal``; returns ``"x:name"``."""
+    def integrate(self, name: str, signal: str | LawCall, *, initial: str = "0.0",
+                  scale: float = 1.0, unit: str = "") -> str:
+        """Add the auxiliary state ``name`` with ``d(name)/dt = signal``; returns ``"x:name"``.
+
+        ``signal`` is a reference (``"flow:hose2.line"``) or a law of efforts, flows, states
+        and parameters (:func:`~sim.bondgraph.call`), e.g. a first-order lag
+        ``call(rate, "effort:pump.core", "x:name", "p:tau")`` reading its own state.
+        """
         if name in self.integrators:
             raise ModelStructureError(f"duplicate auxiliary state {name!r}", elements=(name,))
         self.integrators[name] = Integrator(name, signal, initial, scale, unit)

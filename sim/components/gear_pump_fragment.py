@@ -33,10 +33,9 @@ viscosity is the table ``NAME.mu`` (a signal of time; a constant for a steady po
 graph needs the fluid parameters ``fluid.mu`` (outlet-passage resistance only) declared by
 the caller, as :mod:`sim.components.hose` does.
 
-With ``effects=True`` the fragment also holds the documented gaps of paper 000 §5 (side-plate
-lag, hysteresis; :data:`EFFECT_PARAMETERS`), for generating field records that the base
-model does not explain.  They are signal networks built of bond-graph elements (their
-efforts are pressures [Pa], their flows rates [Pa/s]; no hydraulic power flows in them).
+The documented gaps of paper 000 §5 (side-plate lag, hysteresis) are not part of the
+fragment: they are entries of the effect library (:mod:`sim.components.effects`,
+``side_plate_lag`` and ``slip_hysteresis``) that add their elements at ``NAME.core``.
 """
 
 from __future__ import annotations
@@ -44,7 +43,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 
-from sim.bondgraph import MTF, BondGraph, C, I, MSe, MSf, One, R, Zero, call
+from sim.bondgraph import MTF, BondGraph, C, I, MSf, One, R, Zero, call
 from sim.bondgraph.laws import constant, linear_effort, linear_flow, quotient
 from sim.components import gear_pump_laws as laws
 from sim.components.base import Fragment, declare
@@ -55,7 +54,7 @@ from sim.components.hose import hose_coefficients
 from sim.errors import ParameterError
 from sim.params import Param
 
-__all__ = ["COEFFICIENTS", "EFFECT_PARAMETERS", "PARAMETERS", "build", "pump_values",
+__all__ = ["COEFFICIENTS", "PARAMETERS", "build", "pump_values",
            "surface_values"]
 
 RPM = 2.0 * math.pi / 60.0
@@ -78,21 +77,6 @@ PARAMETERS: tuple[Param, ...] = (
     Param("omega_s", "rad/s", 1e-3, "chosen: sgn(ω) = tanh(ω/ω_s) is 1.0 above 0.02 rad/s",
           "speed scale of the Coulomb torque's sign"),
 )
-
-#: Parameters of the documented gaps (``effects=True``); the defaults switch them off.
-EFFECT_PARAMETERS: tuple[Param, ...] = (
-    Param("a_lag", "1", 0.0, "0 = off, 1 = on; paper 000 §5 (Fig. 10: measured flow delayed)",
-          "weight of the side-plate lag in the slip", lower_inclusive=True, upper=1.0),
-    Param("tau_sp", "s", 0.3, "chosen: 'time required for internal hydrodynamic adjustment' "
-          "(paper 000 §5), visible at 30 ms sampling", "side-plate lag time constant"),
-    Param("h", "1", 0.0, "0 = off; paper 000 §5 'appreciable hysteresis'", "relative change of "
-          "the slip with the direction of the last pressure change", lower=-1.0),
-    Param("w_h", "Pa", 3.0e5, "chosen: 3 bar play of the side-plate memory",
-          "half-width of the hysteresis band"),
-    Param("tau_h", "s", 0.02, "chosen: fast relaxation of the play operator",
-          "time constant of the hysteresis memory"),
-)
-
 
 def surface_values(surface: CoefficientSurface) -> list[float]:
     """The 16 coefficients ``c00 … c33`` of a surface of degree ≤ 3 in Δp and in ω [-].
@@ -133,31 +117,8 @@ def _surface_refs(name: str, k: str) -> tuple[str, ...]:
             *(f"p:{name}.{k}.c{i}{j}" for i in range(4) for j in range(4)))
 
 
-def _effect_networks(g: BondGraph, name: str, core: str) -> tuple[str, ...]:
-    """Side-plate lag and hysteresis memory (signal networks); their law references."""
-    declare(g, name, EFFECT_PARAMETERS)
-    for tag, rate, what in (
-            ("sp", call(linear_flow, "e", f"p:{name}.tau_sp"),
-             "side-plate balance pressure: τ·dp_sp/dt = Δp − p_sp"),
-            ("hy", call(laws.play_rate, "e", f"p:{name}.w_h", f"p:{name}.tau_h"),
-             "hysteresis memory m: play operator of half-width w_h")):
-        g.add(MSe(f"{name}.{tag}.drive", constant, f"effort:{core}", description="Δp (signal)"))
-        g.add(One(f"{name}.{tag}"))
-        g.add(R(f"{name}.{tag}.R", flow=rate, description=what))
-        g.add(C(f"{name}.{tag}.C", constant, "1.0", scale=1e5, description=what))
-        g.connect(f"{name}.{tag}.drive", f"{name}.{tag}")
-        g.connect(f"{name}.{tag}", f"{name}.{tag}.R")
-        g.connect(f"{name}.{tag}", f"{name}.{tag}.C")
-    g.output(f"{name}.direction", call(laws.direction, f"effort:{core}",
-                                       f"effort:{name}.hy.C", f"p:{name}.w_h"), "1",
-             "direction of the last pressure change (+1 rising, −1 falling)")
-    return (f"effort:{name}.sp.C", f"effort:{name}.hy.C", f"p:{name}.a_lag", f"p:{name}.h",
-            f"p:{name}.w_h")
-
-
 def build(g: BondGraph, name: str = "pump", *, pump: GearPump | None = None,
-          values: Mapping[str, float] | None = None, viscosity_points: int = 2,
-          effects: bool = False) -> Fragment:
+          values: Mapping[str, float] | None = None, viscosity_points: int = 2) -> Fragment:
     """Add the gear pump of Figure 7 (module docstring) to ``g``.
 
     Parameters
@@ -174,8 +135,6 @@ def build(g: BondGraph, name: str = "pump", *, pump: GearPump | None = None,
     viscosity_points
         Size of the viscosity table ``NAME.mu`` (2 for a constant, the record length for a
         duty cycle).
-    effects
-        Add the side-plate lag and hysteresis (:data:`EFFECT_PARAMETERS`, off by default).
 
     Returns
     -------
@@ -215,16 +174,9 @@ def build(g: BondGraph, name: str = "pump", *, pump: GearPump | None = None,
     g.add(Zero(core, description="pump core pressure: volumetric efficiency"))
     g.add(C(f"{name}.compr", quotient, f"{P}V_out", f"{P}beta_ef", scale=1e5,
             description="C COMPRPUMP: V_out/β_ef"))
-    if effects:
-        sp, m, a_lag, h, w_h = _effect_networks(g, name, core)
-        lam = call(laws.laminar_slip_field, dp, sp, m, a_lag, h, w_h, w, "t", mu, f"{P}D",
-                   *_surface_refs(name, "Cs"))
-        turb = call(laws.turbulent_slip_field, dp, sp, m, a_lag, h, w_h, w, f"{P}rho", f"{P}D",
-                    f"{P}dp_s", *_surface_refs(name, "Cst"))
-    else:
-        lam = call(laws.laminar_slip, dp, w, "t", mu, f"{P}D", *_surface_refs(name, "Cs"))
-        turb = call(laws.turbulent_slip, dp, w, f"{P}rho", f"{P}D", f"{P}dp_s",
-                    *_surface_refs(name, "Cst"))
+    lam = call(laws.laminar_slip, dp, w, "t", mu, f"{P}D", *_surface_refs(name, "Cs"))
+    turb = call(laws.turbulent_slip, dp, w, f"{P}rho", f"{P}D", f"{P}dp_s",
+                *_surface_refs(name, "Cst"))
     g.add(R(f"{name}.lamin", flow=lam, description="MSf LAMIN: Qs = Cs·Δp·D/μ (eq. 4)"))
     g.add(R(f"{name}.turb", flow=turb, description="MSf TURB: Qst (eqs. 5, 9)"))
     g.add(R(f"{name}.comp", flow=call(laws.compression_loss, dp, w, f"{P}D", f"{P}beta_ef"),

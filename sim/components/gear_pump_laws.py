@@ -34,12 +34,10 @@ __all__ = [
     "compression_loss",
     "direction",
     "laminar_slip",
-    "laminar_slip_field",
     "load_torque",
     "play_rate",
     "surface_value",
     "turbulent_slip",
-    "turbulent_slip_field",
     "viscous_torque",
 ]
 
@@ -131,7 +129,7 @@ def load_torque(omega: float, dp: float, D: float, omega_s: float, p_ref: float,
             * math.tanh(omega / omega_s))
 
 
-# -- the documented model gaps (paper 000 §5), for generated field records -----------------
+# -- the play operator of the slip hysteresis (paper 000 §5; sim.components.effects) --------
 
 @njit(cache=True)
 def _direction(dp: float, m: float, w: float) -> float:
@@ -159,30 +157,3 @@ def play_rate(e: float, w: float, tau: float) -> float:
     if e < -w:
         return (e + w) / tau
     return 0.0
-
-
-@law
-def laminar_slip_field(dp: float, p_sp: float, m: float, a_lag: float, h: float, w: float,
-                       omega: float, t: float, p: Arr, off: int, n: int, D: float,
-                       p_ref: float, omega_ref: float, *c: float) -> float:
-    """Laminar slip with side-plate lag and hysteresis [m³/s] (paper 000 §5, NOT in eq. 6).
-
-    ``Qs = (1 + h·s)·Qs(Δp_eff)`` with ``Δp_eff = Δp + a_lag·(p_sp − Δp)``: ``p_sp`` [Pa]
-    is the side plate's balance pressure, a first-order lag of Δp, so with ``a_lag = 1``
-    the leakage responds to pressure changes with that lag; ``s`` = :func:`direction`
-    makes the leakage depend on the direction of the last pressure change (``h`` [-]).
-    ``a_lag = 0`` and ``h = 0`` give eq. 4 exactly.
-    """
-    dp_eff = dp + a_lag * (p_sp - dp)
-    gain = 1.0 + h * _direction(dp, m, w)
-    return gain * _laminar(dp_eff, omega, table_lookup(t, p, off, n), D, p_ref, omega_ref, c)
-
-
-@law
-def turbulent_slip_field(dp: float, p_sp: float, m: float, a_lag: float, h: float, w: float,
-                         omega: float, rho: float, D: float, dp_s: float, p_ref: float,
-                         omega_ref: float, *c: float) -> float:
-    """Turbulent slip with side-plate lag and hysteresis [m³/s] (as :func:`laminar_slip_field`)."""
-    dp_eff = dp + a_lag * (p_sp - dp)
-    gain = 1.0 + h * _direction(dp, m, w)
-    return gain * _turbulent(dp_eff, omega, rho, D, dp_s, p_ref, omega_ref, c)

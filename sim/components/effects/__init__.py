@@ -7,7 +7,7 @@ named junctions.  A rig document lists effects in its optional ``effects:`` sect
 (:mod:`sim.rigs.schema`); :mod:`sim.rigs.assembly` builds circuit + effects and caches
 the compiled model per (circuit, effect types).
 
-Registered (circuit ``pump-valve-cylinder``):
+Registered, circuit ``pump-valve-cylinder`` (paper 002):
 
 ==============================  ===============  =========================================
 effect                          balance          bond-graph change
@@ -21,7 +21,20 @@ effect                          balance          bond-graph change
 ``turbulent_pump_slip``         pump flow        R on ``pump.out``
 ``pump_clearance_pressure``     pump flow        R on ``pump.out``
 ``speed_offset``                pump flow        Sf on ``pump.out``
+``pump_compressibility_loss``   pump flow        R on ``pump.out`` reading Vp, ω
 ==============================  ===============  =========================================
+
+circuit ``gear-pump-field`` (paper 000 Figure 7 duty cycle, :mod:`sim.duty_cycle`):
+
+==============================  ===============  =========================================
+effect                          balance          bond-graph change
+==============================  ===============  =========================================
+``side_plate_lag``              field flow       lag state p_sp + MSf on ``pump.core``
+``slip_hysteresis``             field flow       play-memory state m + MSf on ``pump.core``
+==============================  ===============  =========================================
+
+:func:`effects_for` lists the entries of one circuit (the hidden-effect bench of a circuit
+iterates it).
 """
 
 from __future__ import annotations
@@ -33,9 +46,12 @@ from types import MappingProxyType
 
 from sim.bondgraph import BondGraph
 from sim.components.effects import (
+    compressibility_loss,
     couette_drag,
     pressure_clearance,
     seal_friction_pressure,
+    side_plate_lag,
+    slip_hysteresis,
     speed_offset,
     stribeck_friction,
     turbulent_leakage,
@@ -44,7 +60,7 @@ from sim.components.effects.base import EffectEntry
 from sim.errors import RigFileError
 from sim.params import Param
 
-__all__ = ["EFFECTS", "Effect", "EffectEntry", "get_effect"]
+__all__ = ["EFFECTS", "Effect", "EffectEntry", "effects_for", "get_effect"]
 
 
 @dataclass(frozen=True)
@@ -52,12 +68,15 @@ class Effect:
     """A library effect: catalogue entry, parameters and graph builder.
 
     ``build(g)`` adds the effect to a graph holding the entry's circuit, with parameters
-    named ``{entry.name}.{param}``.
+    named ``{entry.name}.{param}``.  ``frozen`` names the auxiliary states the effect adds
+    that a steady solution must hold at their guess (a memory whose every value within a
+    band is an equilibrium).
     """
 
     entry: EffectEntry
     parameters: tuple[Param, ...]
     build: Callable[[BondGraph], None]
+    frozen: tuple[str, ...] = ()
 
     @property
     def name(self) -> str:
@@ -72,8 +91,9 @@ class Effect:
 def _single(module: object) -> Effect:
     entry: EffectEntry = module.ENTRY  # type: ignore[attr-defined]
     builder = module.build  # type: ignore[attr-defined]
+    frozen = tuple(f"{entry.name}.{s}" for s in getattr(module, "FROZEN", ()))
     return Effect(entry, module.PARAMETERS,  # type: ignore[attr-defined]
-                  lambda g: builder(g, entry.name))
+                  lambda g: builder(g, entry.name), frozen)
 
 
 def _paths(module: object) -> dict[str, Effect]:
@@ -89,7 +109,8 @@ def _paths(module: object) -> dict[str, Effect]:
 
 
 _REGISTRY: dict[str, Effect] = {}
-for _m in (stribeck_friction, seal_friction_pressure, couette_drag, speed_offset):
+for _m in (stribeck_friction, seal_friction_pressure, couette_drag, speed_offset,
+           compressibility_loss, side_plate_lag, slip_hysteresis):
     _e = _single(_m)
     _REGISTRY[_e.name] = _e
 for _m in (turbulent_leakage, pressure_clearance):
@@ -97,6 +118,11 @@ for _m in (turbulent_leakage, pressure_clearance):
 
 #: read-only view of the library, by effect name
 EFFECTS: Mapping[str, Effect] = MappingProxyType(_REGISTRY)
+
+
+def effects_for(circuit: str) -> dict[str, Effect]:
+    """The library entries that apply to ``circuit``, by name."""
+    return {k: e for k, e in _REGISTRY.items() if e.entry.circuit == circuit}
 
 
 def get_effect(name: object, circuit: str | None = None, *, field: str = "effects") -> Effect:

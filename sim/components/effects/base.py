@@ -23,7 +23,11 @@ import numpy.typing as npt
 from sim.bondgraph.graph import BondGraph
 from sim.bondgraph.laws import law
 
-__all__ = ["EffectEntry", "Regressor", "signed_sqrt", "signed_sqrt_array"]
+__all__ = ["FIELD_CIRCUIT", "EffectEntry", "Regressor", "signed_sqrt", "signed_sqrt_array"]
+
+#: the paper-000 field duty cycle (gear pump of Figure 7, hoses, relief, measured pressure;
+#: :mod:`sim.duty_cycle`): the circuit of the pump-slip dynamics entries
+FIELD_CIRCUIT = "gear-pump-field"
 
 Arr = npt.NDArray[np.float64]
 
@@ -49,8 +53,11 @@ class EffectEntry:
     balance
         The bond-graph constraint whose equation-error residual the effect enters:
         ``"piston_force"`` (1-junction of the piston, [N]), ``"chamber_flow"`` (flow from
-        chamber 1 to chamber 2 through the piston, [m³/s]) or ``"pump_flow"`` (flow out of
-        the pump outlet 0-junction, [m³/s]).
+        chamber 1 to chamber 2 through the piston, [m³/s]), ``"pump_flow"`` (flow out of
+        the pump outlet 0-junction, [m³/s]) or, on :data:`FIELD_CIRCUIT`, ``"field_flow"``
+        (relative flow residual ``q_meas/q_model − 1`` of a field record, [-]; signals
+        ``t``, ``P``, ``dP``, ``Q``, ``Q_s``, ``Q_st``, ``direction``, see
+        :func:`diagnostics.pump.field.field_signals`).
     coefficient
         Name of the parameter the regressor multiplies (its strength).
     signature
