@@ -38,7 +38,7 @@ class LackOfFit:
 
     Attributes
     ----------
-    F
+    f_stat
         The F statistic [-].
     p
         Its p-value [-] (small: the misfit is more than the scatter of the repeats).
@@ -50,7 +50,7 @@ class LackOfFit:
         Pure-error standard deviation [unit of the residual].
     """
 
-    F: float
+    f_stat: float
     p: float
     df_lof: int
     df_pe: int
@@ -59,7 +59,7 @@ class LackOfFit:
 
     def to_dict(self) -> dict[str, float]:
         """The test as JSON-able data."""
-        return {"F": self.F, "p": self.p, "df_lof": float(self.df_lof),
+        return {"F": self.f_stat, "p": self.p, "df_lof": float(self.df_lof),
                 "df_pe": float(self.df_pe), "rms_lof": self.rms_lof,
                 "sigma_pe": self.sigma_pe}
 
