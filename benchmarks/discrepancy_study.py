@@ -32,6 +32,8 @@ Cases:
   ∝ Q²) and the 4/2 valve's open paths narrowed to a third of their orifice coefficient
   (a valve orifice change ∝ Q²); neither is a library entry or a base column.
 
+Steady pump-bench tables (:mod:`benchmarks.discrepancy_steady`) run before the cycles.
+
 Everything is SIMULATED (RODAS4, noise-accurate, :mod:`diagnostics.discrepancy.simulate`).
 Prints a table and, as its last line, one JSON object.
 """
@@ -47,6 +49,7 @@ from typing import Any
 
 import numpy as np
 
+from benchmarks.discrepancy_steady import steady_study
 from diagnostics.discrepancy import Discovery, discover
 from diagnostics.discrepancy.simulate import SOLVER, simulate
 from diagnostics.discrepancy.synthetic import NOISE, effect_peak, synthesize
@@ -175,6 +178,8 @@ def main() -> None:
     effects = [e for e in LIGHT_EFFECTS if e in EFFECTS] if LIGHT else list(EFFECTS)
     print(f"discrepancy study: {'LIGHT' if LIGHT else 'full'}, {SEEDS} seed(s) per cell, "
           f"sizes {SIZES} σ, {WORKERS} worker(s), design (load N, °C, rad/s) {DESIGN}")
+    # the steady pump-bench cases first: cheap, and a failure there shows at once
+    steady = steady_study(SEEDS, SIZES, LIGHT)
     rows: list[dict[str, Any]] = []
     tasks: list[tuple[str, float, float, int]] = []
     for effect in effects:
@@ -274,7 +279,7 @@ def main() -> None:
         "rows": rows, "no_effect": null_rows, "outside": out_rows,
         "seconds_per_case_per_worker": per_case_s,
         "load_average_1min": os.getloadavg()[0],
-        "solver": SOLVER, "elapsed_s": time.perf_counter() - t_start,
+        "solver": SOLVER, **steady, "elapsed_s": time.perf_counter() - t_start,
     }
     print(json.dumps(summary))
 

@@ -109,7 +109,7 @@ def synthesize_bench(rig: Rig, *, rng: np.random.Generator,
                      effects: Mapping[str, float] | None = None,
                      speeds: Sequence[float] = (0.5, 0.75, 1.0, 1.25),
                      pressures: Sequence[float] = (5e5, 1e6, 2e6, 3e6, 4e6, 5e6),
-                     temperatures: Sequence[float] = (40.0, 60.0), repeats: int = 2,
+                     temperatures: Sequence[float] = (40.0, 50.0, 60.0), repeats: int = 2,
                      noise: str = "gaussian", sigma_q: float = NOISE["Q_meter_B"],
                      sigma_p: float = NOISE["P_pump"],
                      overrides: Mapping[str, float] | None = None) -> BenchData:
