@@ -36,10 +36,10 @@ def _peak(effect: str, value: float) -> float:
     strong reference strength cannot drive the synthetic flow negative.
     """
     rig = reference_rig()
-    quiet = {"sigma_q": 0.0, "sigma_p": 0.0}
     small = value * 1e-6
-    a = synthesize_bench(rig, rng=np.random.default_rng(0), effects={effect: small}, **quiet)
-    b = synthesize_bench(rig, rng=np.random.default_rng(0), **quiet)
+    a = synthesize_bench(rig, rng=np.random.default_rng(0), effects={effect: small},
+                         sigma_q=0.0, sigma_p=0.0)
+    b = synthesize_bench(rig, rng=np.random.default_rng(0), sigma_q=0.0, sigma_p=0.0)
     return float(np.max(np.abs(a.q - b.q))) / NOISE["Q_meter_B"] / 1e-6
 
 

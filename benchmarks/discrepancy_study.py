@@ -43,7 +43,9 @@ from __future__ import annotations
 import json
 import math
 import os
+import sys
 import time
+from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
 from typing import Any
 
@@ -161,11 +163,35 @@ def _outside(task: tuple[str, int]) -> dict[str, Any]:
     return {"kind": kind, "outcome": d.verdict, "named": sorted(n.name for n in d.named)}
 
 
-def _run(fn: Any, tasks: list[Any]) -> list[dict[str, Any]]:
-    if WORKERS <= 1 or len(tasks) <= 1:
-        return [fn(t) for t in tasks]
-    with ProcessPoolExecutor(WORKERS) as pool:
-        return list(pool.map(fn, tasks, chunksize=1))
+def _one(job: tuple[str, Any]) -> dict[str, Any]:
+    kind, task = job
+    fns: dict[str, Callable[[Any], dict[str, Any]]] = {
+        "hidden": _hidden, "null": _null, "outside": _outside}
+    fn = fns[kind]
+    t0 = time.perf_counter()
+    out = fn(task)
+    return out | {"kind_of_case": kind, "seconds": time.perf_counter() - t0}
+
+
+def _run(jobs: list[tuple[str, Any]]) -> list[dict[str, Any]]:
+    """Every case through a process pool; one JSON line per finished case on stderr (so a
+    run stopped early still leaves what it did)."""
+    out: list[dict[str, Any]] = []
+    if WORKERS <= 1:
+        results: Any = map(_one, jobs)
+        pool = None
+    else:
+        pool = ProcessPoolExecutor(WORKERS)
+        results = pool.map(_one, jobs, chunksize=1)
+    try:
+        for k, r in enumerate(results):
+            out.append(r)
+            print(json.dumps({"case": k + 1, "of": len(jobs), **r}), file=sys.stderr,
+                  flush=True)
+    finally:
+        if pool is not None:
+            pool.shutdown()
+    return out
 
 
 def _median(xs: list[float]) -> float | None:
@@ -196,9 +222,23 @@ def main() -> None:
             tasks += [(effect, size, strength, s) for s in range(SEEDS)]
             rows.append({"effect": effect, "balance": EFFECTS[effect].entry.balance,
                          "size_sigma": size, "strength": strength, "n": SEEDS})
-    t_hidden = time.perf_counter()
-    results = _run(_hidden, tasks)
-    per_case_s = (time.perf_counter() - t_hidden) * WORKERS / max(len(tasks), 1)
+    n_null = 1 if LIGHT else max(1, round(SEEDS * 5 / 3))
+    cells = [(noise, drift) for noise in ("gaussian", "proportional", "heavy")
+             for drift in (False, True)]
+    n_out = 1 if LIGHT else max(1, round(SEEDS * 5 / 6))
+    # seed-major order: a run stopped early has results for every cell
+    jobs: list[tuple[str, Any]] = []
+    for k in range(max(SEEDS, n_null, n_out)):
+        jobs += [("hidden", t) for t in tasks if t[3] == k]
+        jobs += [("null", (n, d, k)) for n, d in cells if k < n_null]
+        jobs += [("outside", (kind, k)) for kind in OUTSIDE if k < n_out]
+    t_cases = time.perf_counter()
+    done = _run(jobs)
+    wall = time.perf_counter() - t_cases
+    results = [r for r in done if r["kind_of_case"] == "hidden"]
+    null = [r for r in done if r["kind_of_case"] == "null"]
+    outside = [r for r in done if r["kind_of_case"] == "outside"]
+    per_case_s = float(np.median([r["seconds"] for r in done])) if done else float("nan")
     print(f"{'effect':28s} {'size':>5s} {'n':>3s} {'exact':>6s} {'group':>6s} {'wrong':>6s} "
           f"{'none':>5s} {'fail':>5s} {'RMSE ×':>7s} {'excess ×':>8s}")
     for row in rows:
@@ -220,10 +260,6 @@ def main() -> None:
               f"{row['median_rmse_ratio'] or float('nan'):7.2f} "
               f"{row['median_excess_ratio'] or float('nan'):8.2f}")
     # no effect: noise kinds × drift
-    n_null = 1 if LIGHT else max(1, round(SEEDS * 5 / 3))
-    cells = [(noise, drift) for noise in ("gaussian", "proportional", "heavy")
-             for drift in (False, True)]
-    null = _run(_null, [(n, d, k) for n, d in cells for k in range(n_null)])
     null_rows: list[dict[str, Any]] = []
     for noise, drift in cells:
         mine = [r for r in null if r["noise"] == noise and r["drift"] == drift]
@@ -236,8 +272,6 @@ def main() -> None:
               f"{fd}/{len(mine) - failed} false discoveries"
               + (f" ({failed} simulation failures)" if failed else ""))
     # outside the library
-    n_out = 1 if LIGHT else max(1, round(SEEDS * 5 / 6))
-    outside = _run(_outside, [(kind, k) for kind in OUTSIDE for k in range(n_out)])
     out_rows: list[dict[str, Any]] = []
     for kind in OUTSIDE:
         mine = [r for r in outside if r["kind"] == kind and r["outcome"] != "failed"]
@@ -277,7 +311,7 @@ def main() -> None:
         "out_of_library_misnamed": sum(r["misnamed"] for r in out_rows),
         "out_of_library_unexplained": sum(r["unexplained"] for r in out_rows),
         "rows": rows, "no_effect": null_rows, "outside": out_rows,
-        "seconds_per_case_per_worker": per_case_s,
+        "median_seconds_per_case_per_worker": per_case_s, "cases_wall_s": wall,
         "load_average_1min": os.getloadavg()[0],
         "solver": SOLVER, **steady, "elapsed_s": time.perf_counter() - t_start,
     }
