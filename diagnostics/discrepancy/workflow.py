@@ -14,6 +14,10 @@ Steps (DISCREPANCY.md):
 5. gap before/after on the held-out record (RMSE and max per output and region) and
    whiteness (Ljung-Box) before/after.
 
+When records repeat a condition, the lack-of-fit F-test against the repeats
+(:mod:`~diagnostics.discrepancy.lof`) is reported before/after.  Steady pump-bench tables
+go through :func:`diagnostics.discrepancy.steady.discover_steady` instead.
+
 "No effect" and "unexplained" are results: with nothing named, the report gives each
 candidate's minimum detectable size; a balance whose residual is still structured
 (Ljung-Box p < 0.01 with an RMS above the practical size) without an admissible library
