@@ -1,8 +1,9 @@
 """``hydrodiag discover DATA --rig ID --report out.html``: the discrepancy workflow from the
 command line, on the store the service uses, with a progress bar.
 
-Reads DATA (CSV or Parquet in the ``/simulate`` export format), runs
-:func:`diagnostics.discrepancy.discover` against the stored rig, stores the augmented rig
+Reads DATA (CSV or Parquet in the ``/simulate`` export format, or a steady table in the
+pump-bench CSV format), runs :func:`diagnostics.discrepancy.discover` (or
+:func:`~diagnostics.discrepancy.steady.discover_steady`) against the stored rig, stores the augmented rig
 as a new version when an effect is named (``--no-store`` to keep the store unchanged),
 prints the verdict and named effects, and writes the report (HTML page, and the charts as
 PNG and SVG beside it).  Exit code 0 on any verdict; a bad file is exit code 1 with a
@@ -26,7 +27,8 @@ __all__ = ["discover", "register"]
 
 def discover(
     data: Annotated[Path, typer.Argument(help="Measured cycles: CSV or Parquet in the "
-                                         "/simulate export format.")],
+                                         "/simulate export format, or steady points in the "
+                                         "pump-bench CSV format.")],
     rig_id: Annotated[int, typer.Option("--rig", help="Rig id in the store.")] = 1,
     version: Annotated[int | None, typer.Option(help="Rig version (default: latest).")] = None,
     report: Annotated[Path | None, typer.Option(help="Write the HTML report here "
@@ -41,11 +43,14 @@ def discover(
     from app.services.rigs import update_rig
     from diagnostics.discrepancy import discover as run
     from diagnostics.discrepancy.report import write_report
+    from diagnostics.discrepancy.steady import discover_steady, is_bench_table, read_bench_bytes
     from diagnostics.timeseries import read_series
 
     if not data.is_file():
         raise InputError(f"no such file: {data}", field="data")
-    records = read_series(data)
+    content = data.read_bytes()
+    bench = read_bench_bytes(content, field="data") if is_bench_table(content) else None
+    records = read_series(data) if bench is None else []
     with store_session() as session:
         resolved = RigCache(1).get(session, rig_id, version)
         with steps() as progress:
@@ -54,7 +59,10 @@ def discover(
             def tick(fraction: float, what: str) -> None:
                 progress.update(task, completed=fraction, description=what)
 
-            d = run(dict(resolved.document), records, progress=tick, refit=refit)
+            if bench is not None:
+                d = discover_steady(dict(resolved.document), bench, progress=tick)
+            else:
+                d = run(dict(resolved.document), records, progress=tick, refit=refit)
         new_version = None
         if d.named and store:
             _, row = update_rig(session, rig_id, d.rig_document, comment="hydrodiag discover: "

@@ -3,38 +3,57 @@
 Run: ``python -m benchmarks.discrepancy_study`` (``make discrepancy-study``).
 ``HYDRODIAG_LIGHT=1`` runs a small subset (CI); ``HYDRODIAG_SEEDS=N`` sets the seeds per
 (effect, size) (default 30) and scales the no-effect (5N/3 per noise × drift cell, 300 at
-N = 30) and out-of-library (5N/3, 50 at N = 30) counts.
+N = 30) and out-of-library (5N/6 per kind, 50 at N = 30 with two kinds) counts;
+``HYDRODIAG_WORKERS`` sets the process pool (default 2).
 
-The data come from the paper-002 rig *with* an effect (three cycles at 2.1/4.2/6.3 kN and
-40/50/60 °C, logged at 1 kHz with sensor noise) and the workflow starts from the rig
+Test design: three cycles of the paper-002 rig at 2.1/4.2/6.3 kN, 40/50/60 °C and pump
+speeds of 80/90/100 % of the stated 1600 rpm, logged at 1 kHz with sensor noise.  The
+record at the edge (6.3 kN, 60 °C, full speed) is held out.  Several pump speeds are what
+makes a speed-reading offset (a constant flow error) separable from a displacement error
+(∝ speed); at one speed they are the same column (ambiguity group ``{base,
+speed_offset}``).
+
+The data come from the rig *with* an effect and the workflow starts from the rig
 *without* it.  An effect's size is the largest difference it makes to a logged channel in
-steady motion (10-90 % of each phase), in units of that channel's noise σ
-(:func:`diagnostics.discrepancy.synthetic.effect_peak`); strengths are set from one
-calibration run per effect assuming the difference scales linearly with the strength.
+steady motion (10-90 % of each phase) over the three conditions of the design, in units of
+that channel's noise σ (:func:`diagnostics.discrepancy.synthetic.effect_peak`); strengths
+are set from one calibration per effect assuming the difference scales linearly with the
+strength.  Every effect of the registry :data:`sim.components.effects.EFFECTS` takes part.
 
 Cases:
 
-* hidden effects: every library effect × sizes 4σ, 8σ, 16σ × seeds;
+* hidden effects: every library effect × sizes 4σ, 8σ, 16σ × seeds; scored ``exact``
+  (exactly the true effect named), ``group`` (the true effect named or reported together
+  with the named ones: in their ambiguity group or as a competing explanation, but not alone),
+  ``wrong`` (something named, the true effect not among what was reported) and ``none``;
 * no effect: Gaussian, reading-proportional and heavy-tailed (t₃) noise, each with and
   without a ±20 % drift of base parameters (Fu, Kf, cc, Rlp, cv);
 * outside the library: both hoses narrowed to half their bore (a turbulent line loss
-  ∝ Q², which no library entry and no base column describes).
+  ∝ Q²) and the 4/2 valve's open paths narrowed to a third of their orifice coefficient
+  (a valve orifice change ∝ Q²); neither is a library entry or a base column.
 
-Everything is SIMULATED (transient solver ``run_cycle`` at rtol = 1e-5, solver error on
-the piston speed ≈ 0.35 σ).  Prints a table and, as its last line, one JSON object.
+Steady pump-bench tables (:mod:`benchmarks.discrepancy_steady`) run before the cycles.
+
+Everything is SIMULATED (RODAS4, noise-accurate, :mod:`diagnostics.discrepancy.simulate`).
+Prints a table and, as its last line, one JSON object.
 """
 
 from __future__ import annotations
 
 import json
+import math
 import os
+import sys
 import time
+from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor
 from typing import Any
 
 import numpy as np
 
+from benchmarks.discrepancy_steady import steady_study
 from diagnostics.discrepancy import Discovery, discover
-from diagnostics.discrepancy.simulate import simulate
+from diagnostics.discrepancy.simulate import SOLVER, simulate
 from diagnostics.discrepancy.synthetic import NOISE, effect_peak, synthesize
 from diagnostics.discrepancy.workflow import excess_ratio, gap_ratio
 from sim.components.effects import EFFECTS
@@ -44,11 +63,20 @@ from sim.rigs.assembly import Condition
 
 LIGHT = os.environ.get("HYDRODIAG_LIGHT") == "1"
 SEEDS = int(os.environ.get("HYDRODIAG_SEEDS", "1" if LIGHT else "30"))
+WORKERS = int(os.environ.get("HYDRODIAG_WORKERS", "2"))
 SIZES = (8.0, 16.0) if LIGHT else (4.0, 8.0, 16.0)
-LIGHT_EFFECTS = ("seal_friction_pressure", "couette_drag", "piston_clearance_pressure",
-                 "turbulent_pump_slip")
-CONDITIONS = ((2100.0, 40.0), (4200.0, 50.0), (6300.0, 60.0))
+LIGHT_EFFECTS = ("seal_friction_pressure", "piston_clearance_pressure",
+                 "turbulent_pump_slip", "speed_offset")
+#: stated pump speed of the reference rig [rad/s]
+SPEED = 1600.0 * 2.0 * math.pi / 60.0
+#: test design: (load [N], oil temperature [°C], pump speed [rad/s])
+DESIGN = ((2100.0, 40.0, 0.8 * SPEED), (4200.0, 50.0, 0.9 * SPEED), (6300.0, 60.0, SPEED))
 DRIFT = ("cylinder.Fu", "cylinder.Kf", "cylinder.cc", "pump.Rlp", "valve.cv")
+#: out-of-library kinds: name → parameter overrides of the truth rig
+OUTSIDE: dict[str, dict[str, float]] = {
+    "hoses at half bore (line loss ∝ Q²)": {"hose_A.d": 0.0127 / 2, "hose_B.d": 0.0127 / 2},
+    "valve orifice at 1/3 (∝ Q²)": {"valve.K": 5.0e-6 / 3},
+}
 
 
 def _doc_with(effect: str | None, value: float = 0.0) -> dict[str, Any]:
@@ -62,148 +90,230 @@ def _doc_with(effect: str | None, value: float = 0.0) -> dict[str, Any]:
     return doc
 
 
+def _conditions() -> list[Condition]:
+    return [Condition(load=L, oil_temperature=T, pump_speed=w) for L, T, w in DESIGN]
+
+
 def calibrate(effect: str) -> float:
-    """Strength giving a 1σ peak (steady motion) at the middle condition."""
+    """Strength giving a 1σ peak (steady motion) over the conditions of the design."""
     e = EFFECTS[effect]
     ref = e.entry.plausible[1] / 10 if e.entry.plausible[1] > 0 else 1.0
-    cond = Condition(load=4200.0, oil_temperature=50.0)
-    peak, _ = effect_peak(simulate(load_rig(_doc_with(effect, ref)), cond),
-                          simulate(reference_rig(), cond))
-    return ref / peak
+    with_rig, base = load_rig(_doc_with(effect, ref)), reference_rig()
+    peak = max(effect_peak(simulate(with_rig, c), simulate(base, c))[0] for c in _conditions())
+    return ref / peak if peak > 0 else math.inf
 
 
 def _case(doc: dict[str, Any], seed: int, *, noise: str = "gaussian",
           overrides: dict[str, float] | None = None) -> Discovery:
     rig = load_rig(doc)
     rng = np.random.default_rng(seed)
-    records = [synthesize(rig, Condition(load=L, oil_temperature=T), rng=rng,
-                          name=f"load-{L:.0f}", noise=noise, overrides=overrides)
-               for L, T in CONDITIONS]
+    records = [synthesize(rig, c, rng=rng, name=f"load-{c.load:.0f}", noise=noise,
+                          overrides=overrides) for c in _conditions()]
     return discover(reference_rig_document(), records, bootstrap=20, seed=seed)
 
 
-def _named(d: Discovery) -> set[str]:
-    return {n.name for n in d.named}
-
-
-def _together(d: Discovery, truth: str) -> bool:
-    """The true effect named, alone or with the members of its ambiguity group."""
-    names = _named(d)
+def score(d: Discovery, truth: str) -> str:
+    """``exact``, ``group``, ``wrong`` or ``none`` (module docstring)."""
+    names = {n.name for n in d.named}
+    if not names:
+        return "none"
     if names == {truth}:
-        return True
-    groups = [set(g) - {"base"} for n in d.named for g in n.ambiguity]
-    return truth in names and any(names <= g | {truth} for g in groups)
+        return "exact"
+    # each named effect with what was reported alongside it (ambiguity group, competing)
+    together = [{n.name} | {m for g in [*n.ambiguity, *n.competing] for m in g} for n in d.named]
+    return "group" if all(truth in g for g in together) else "wrong"
+
+
+def _hidden(task: tuple[str, float, float, int]) -> dict[str, Any]:
+    effect, size, strength, seed = task
+    try:
+        d = _case(_doc_with(effect, strength), 1000 * seed + 7)
+    except SimulationError:
+        return {"effect": effect, "size": size, "outcome": "failed"}
+    outcome = score(d, effect)
+    out: dict[str, Any] = {"effect": effect, "size": size, "outcome": outcome,
+                           "named": sorted(n.name for n in d.named)}
+    if outcome in ("exact", "group"):
+        out["rmse_ratio"] = gap_ratio(d.gap_before, d.gap_after)
+        out["excess_ratio"] = excess_ratio(d.gap_before, d.gap_after, NOISE)
+    return out
+
+
+def _null(task: tuple[str, bool, int]) -> dict[str, Any]:
+    noise, drift, k = task
+    rng = np.random.default_rng(5000 + k)
+    ov = None
+    if drift:
+        base = reference_rig().values()
+        ov = {p: base[p] * rng.uniform(0.8, 1.2) for p in DRIFT}
+    try:
+        d = _case(_doc_with(None), 5000 + k, noise=noise, overrides=ov)
+    except SimulationError:
+        return {"noise": noise, "drift": drift, "outcome": "failed"}
+    return {"noise": noise, "drift": drift, "outcome": "named" if d.named else d.verdict,
+            "named": sorted(n.name for n in d.named)}
+
+
+def _outside(task: tuple[str, int]) -> dict[str, Any]:
+    kind, k = task
+    try:
+        d = _case(_doc_with(None), 9000 + k, overrides=OUTSIDE[kind])
+    except SimulationError:
+        return {"kind": kind, "outcome": "failed"}
+    return {"kind": kind, "outcome": d.verdict, "named": sorted(n.name for n in d.named)}
+
+
+def _one(job: tuple[str, Any]) -> dict[str, Any]:
+    kind, task = job
+    fns: dict[str, Callable[[Any], dict[str, Any]]] = {
+        "hidden": _hidden, "null": _null, "outside": _outside}
+    fn = fns[kind]
+    t0 = time.perf_counter()
+    out = fn(task)
+    return out | {"kind_of_case": kind, "seconds": time.perf_counter() - t0}
+
+
+def _run(jobs: list[tuple[str, Any]]) -> list[dict[str, Any]]:
+    """Every case through a process pool; one JSON line per finished case on stderr (so a
+    run stopped early still leaves what it did)."""
+    out: list[dict[str, Any]] = []
+    if WORKERS <= 1:
+        results: Any = map(_one, jobs)
+        pool = None
+    else:
+        pool = ProcessPoolExecutor(WORKERS)
+        results = pool.map(_one, jobs, chunksize=1)
+    try:
+        for k, r in enumerate(results):
+            out.append(r)
+            print(json.dumps({"case": k + 1, "of": len(jobs), **r}), file=sys.stderr,
+                  flush=True)
+    finally:
+        if pool is not None:
+            pool.shutdown()
+    return out
+
+
+def _median(xs: list[float]) -> float | None:
+    vals = [x for x in xs if x is not None and math.isfinite(x)]
+    return float(np.median(vals)) if vals else None
 
 
 def main() -> None:
     t_start = time.perf_counter()
-    effects = LIGHT_EFFECTS if LIGHT else tuple(EFFECTS)
-    rows: list[dict[str, Any]] = []
+    effects = [e for e in LIGHT_EFFECTS if e in EFFECTS] if LIGHT else list(EFFECTS)
     print(f"discrepancy study: {'LIGHT' if LIGHT else 'full'}, {SEEDS} seed(s) per cell, "
-          f"sizes {SIZES} σ, noise σ = {NOISE}")
-    print(f"{'effect':28s} {'size':>5s} {'n':>3s} {'exact':>6s} {'wrong':>6s} {'none':>5s} "
-          f"{'RMSE ×':>7s} {'excess ×':>8s}")
+          f"sizes {SIZES} σ, {WORKERS} worker(s), design (load N, °C, rad/s) {DESIGN}")
+    # the steady pump-bench cases first: cheap, and a failure there shows at once
+    steady = steady_study(SEEDS, SIZES, LIGHT)
+    rows: list[dict[str, Any]] = []
+    tasks: list[tuple[str, float, float, int]] = []
     for effect in effects:
         unit_strength = calibrate(effect)
         top = 10 * max(abs(v) for v in EFFECTS[effect].entry.plausible)
         for size in SIZES:
-            if size * unit_strength > top:
-                # no steady-motion signature at a plausible strength (e.g. Stribeck)
+            strength = size * unit_strength
+            if not strength <= top:
+                # no steady-motion signature at a plausible strength on this design
                 rows.append({"effect": effect, "balance": EFFECTS[effect].entry.balance,
-                             "size_sigma": size, "strength": size * unit_strength, "n": 0,
+                             "size_sigma": size, "strength": strength, "n": 0,
                              "skipped": "strength > 10× the plausible range"})
-                print(f"{effect:28s} {size:5.0f}   skipped: strength {size * unit_strength:.3g} "
-                      f"> 10× plausible")
                 continue
-            exact = wrong = none = failed = 0
-            ratios: list[float] = []
-            excess: list[float] = []
-            for seed in range(SEEDS):
-                try:
-                    d = _case(_doc_with(effect, size * unit_strength), 1000 * seed + 7)
-                except SimulationError:
-                    failed += 1
-                    continue
-                names = _named(d)
-                if _together(d, effect):
-                    exact += 1
-                    ratios.append(gap_ratio(d.gap_before, d.gap_after))
-                    excess.append(excess_ratio(d.gap_before, d.gap_after, NOISE))
-                elif names:
-                    wrong += 1
-                else:
-                    none += 1
-            row = {"effect": effect, "balance": EFFECTS[effect].entry.balance, "size_sigma": size,
-                   "strength": size * unit_strength, "n": SEEDS, "failed": failed,
-                   "exact": exact / SEEDS, "wrong": wrong / SEEDS, "none": none / SEEDS,
-                   "median_rmse_ratio": float(np.median(ratios)) if ratios else None,
-                   "median_excess_ratio": float(np.median(excess)) if excess else None}
-            rows.append(row)
-            print(f"{effect:28s} {size:5.0f} {SEEDS:3d} {row['exact']:6.2f} {row['wrong']:6.2f} "
-                  f"{row['none']:5.2f} {row['median_rmse_ratio'] or float('nan'):7.2f} "
-                  f"{row['median_excess_ratio'] or float('nan'):8.2f}")
-    # no effect: noise kinds × drift
-    n_null = max(1, round(SEEDS * 5 / 3)) if not LIGHT else 1
-    null_rows: list[dict[str, Any]] = []
-    for noise in ("gaussian", "proportional", "heavy"):
-        for drift in (False, True):
-            fd = 0
-            for k in range(n_null):
-                rng = np.random.default_rng(5000 + k)
-                ov = None
-                if drift:
-                    base = reference_rig().values()
-                    ov = {p: base[p] * rng.uniform(0.8, 1.2) for p in DRIFT}
-                try:
-                    d = _case(_doc_with(None), 5000 + k, noise=noise, overrides=ov)
-                except SimulationError:
-                    continue
-                fd += bool(d.named)
-            null_rows.append({"noise": noise, "drift": drift, "n": n_null,
-                              "false_discoveries": fd})
-            print(f"no effect, {noise:12s} noise, drift {'±20 %' if drift else 'none  '}: "
-                  f"{fd}/{n_null} false discoveries")
-    # outside the library: narrowed hoses
-    n_out = max(1, round(SEEDS * 5 / 3)) if not LIGHT else 1
-    flagged = misnamed = unexplained = 0
-    out_names: dict[str, int] = {}
-    for k in range(n_out):
-        try:
-            d = _case(_doc_with(None), 9000 + k, overrides={"hose_A.d": 0.0127 / 2,
-                                                            "hose_B.d": 0.0127 / 2})
-        except SimulationError:
+            tasks += [(effect, size, strength, s) for s in range(SEEDS)]
+            rows.append({"effect": effect, "balance": EFFECTS[effect].entry.balance,
+                         "size_sigma": size, "strength": strength, "n": SEEDS})
+    n_null = 1 if LIGHT else max(1, round(SEEDS * 5 / 3))
+    cells = [(noise, drift) for noise in ("gaussian", "proportional", "heavy")
+             for drift in (False, True)]
+    n_out = 1 if LIGHT else max(1, round(SEEDS * 5 / 6))
+    # seed-major order: a run stopped early has results for every cell
+    jobs: list[tuple[str, Any]] = []
+    for k in range(max(SEEDS, n_null, n_out)):
+        jobs += [("hidden", t) for t in tasks if t[3] == k]
+        jobs += [("null", (n, d, k)) for n, d in cells if k < n_null]
+        jobs += [("outside", (kind, k)) for kind in OUTSIDE if k < n_out]
+    t_cases = time.perf_counter()
+    done = _run(jobs)
+    wall = time.perf_counter() - t_cases
+    results = [r for r in done if r["kind_of_case"] == "hidden"]
+    null = [r for r in done if r["kind_of_case"] == "null"]
+    outside = [r for r in done if r["kind_of_case"] == "outside"]
+    per_case_s = float(np.median([r["seconds"] for r in done])) if done else float("nan")
+    print(f"{'effect':28s} {'size':>5s} {'n':>3s} {'exact':>6s} {'group':>6s} {'wrong':>6s} "
+          f"{'none':>5s} {'fail':>5s} {'RMSE ×':>7s} {'excess ×':>8s}")
+    for row in rows:
+        if row["n"] == 0:
+            print(f"{row['effect']:28s} {row['size_sigma']:5.0f}   skipped: strength "
+                  f"{row['strength']:.3g} > 10× plausible")
             continue
-        if d.verdict == "named":
-            misnamed += 1
-        else:
-            flagged += 1
-            unexplained += d.verdict in ("unexplained", "partially explained")
-        for n in _named(d):
-            out_names[n] = out_names.get(n, 0) + 1
-    print(f"outside the library (hoses at half bore): {flagged}/{n_out} not confidently "
-          f"named ({unexplained} reported as unexplained), {misnamed}/{n_out} named as "
-          f"{out_names or '—'}")
+        mine = [r for r in results if r["effect"] == row["effect"]
+                and r["size"] == row["size_sigma"]]
+        for key in ("exact", "group", "wrong", "none", "failed"):
+            row[key] = sum(r["outcome"] == key for r in mine) / row["n"]
+        row["median_rmse_ratio"] = _median([r["rmse_ratio"] for r in mine if "rmse_ratio" in r])
+        row["median_excess_ratio"] = _median([r["excess_ratio"] for r in mine
+                                              if "excess_ratio" in r])
+        row["wrong_names"] = sorted({n for r in mine if r["outcome"] == "wrong"
+                                     for n in r["named"]})
+        print(f"{row['effect']:28s} {row['size_sigma']:5.0f} {row['n']:3d} {row['exact']:6.2f} "
+              f"{row['group']:6.2f} {row['wrong']:6.2f} {row['none']:5.2f} {row['failed']:5.2f} "
+              f"{row['median_rmse_ratio'] or float('nan'):7.2f} "
+              f"{row['median_excess_ratio'] or float('nan'):8.2f}")
+    # no effect: noise kinds × drift
+    null_rows: list[dict[str, Any]] = []
+    for noise, drift in cells:
+        mine = [r for r in null if r["noise"] == noise and r["drift"] == drift]
+        fd = sum(r["outcome"] == "named" for r in mine)
+        failed = sum(r["outcome"] == "failed" for r in mine)
+        null_rows.append({"noise": noise, "drift": drift, "n": len(mine) - failed,
+                          "failed": failed, "false_discoveries": fd,
+                          "named": sorted({n for r in mine for n in r.get("named", [])})})
+        print(f"no effect, {noise:12s} noise, drift {'±20 %' if drift else 'none  '}: "
+              f"{fd}/{len(mine) - failed} false discoveries"
+              + (f" ({failed} simulation failures)" if failed else ""))
+    # outside the library
+    out_rows: list[dict[str, Any]] = []
+    for kind in OUTSIDE:
+        mine = [r for r in outside if r["kind"] == kind and r["outcome"] != "failed"]
+        misnamed = sum(r["outcome"] == "named" for r in mine)
+        unexplained = sum(r["outcome"] in ("unexplained", "partially explained") for r in mine)
+        names: dict[str, int] = {}
+        for r in mine:
+            for n in r["named"]:
+                names[n] = names.get(n, 0) + 1
+        out_rows.append({"kind": kind, "n": len(mine), "misnamed": misnamed,
+                         "flagged": len(mine) - misnamed, "unexplained": unexplained,
+                         "names": names})
+        print(f"outside the library, {kind}: {len(mine) - misnamed}/{len(mine)} not "
+              f"confidently named ({unexplained} reported as unexplained), {misnamed} named "
+              f"as {names or '—'}")
     total_null = sum(r["n"] for r in null_rows)
     fd_total = sum(r["false_discoveries"] for r in null_rows)
+    n_outside = sum(r["n"] for r in out_rows)
 
     def rate(size: float, key: str) -> float | None:
         sel = [r[key] for r in rows if r["size_sigma"] == size and r["n"] > 0]
         return float(np.mean(sel)) if sel else None
 
-    named_ratios = [r["median_rmse_ratio"] for r in rows
-                    if r.get("median_rmse_ratio") is not None]
     summary = {
-        "light": LIGHT, "seeds_per_cell": SEEDS, "effects": list(effects),
-        "sizes_sigma": list(SIZES), "cases_hidden": len(rows) * SEEDS,
+        "light": LIGHT, "seeds_per_cell": SEEDS, "workers": WORKERS, "effects": effects,
+        "sizes_sigma": list(SIZES), "design": [list(c) for c in DESIGN],
+        "cases_hidden": len(tasks),
         "exact_rate_by_size": {str(s): rate(s, "exact") for s in SIZES},
+        "group_rate_by_size": {str(s): rate(s, "group") for s in SIZES},
         "wrong_rate_by_size": {str(s): rate(s, "wrong") for s in SIZES},
-        "median_rmse_ratio_when_named": float(np.median(named_ratios)) if named_ratios else None,
+        "median_rmse_ratio_when_named": _median([r["rmse_ratio"] for r in results
+                                                 if "rmse_ratio" in r]),
         "no_effect_cases": total_null, "false_discoveries": fd_total,
         "false_discovery_rate_dynamic": fd_total / total_null if total_null else None,
-        "out_of_library_cases": n_out, "out_of_library_flagged": flagged,
-        "out_of_library_misnamed": misnamed, "out_of_library_unexplained": unexplained,
-        "rows": rows, "no_effect": null_rows,
-        "solver": "run_cycle ROS2 rtol=1e-5", "elapsed_s": time.perf_counter() - t_start,
+        "out_of_library_cases": n_outside,
+        "out_of_library_flagged": sum(r["flagged"] for r in out_rows),
+        "out_of_library_misnamed": sum(r["misnamed"] for r in out_rows),
+        "out_of_library_unexplained": sum(r["unexplained"] for r in out_rows),
+        "rows": rows, "no_effect": null_rows, "outside": out_rows,
+        "median_seconds_per_case_per_worker": per_case_s, "cases_wall_s": wall,
+        "load_average_1min": os.getloadavg()[0],
+        "solver": SOLVER, **steady, "elapsed_s": time.perf_counter() - t_start,
     }
     print(json.dumps(summary))
 

@@ -1,10 +1,14 @@
 """Discrepancy runs as jobs: read the measured file, run the workflow, store the augmented rig.
 
-``POST /discrepancy`` and ``hydrodiag discover`` share this module.  The file is read by
-:func:`diagnostics.timeseries.read_series` before the job starts, so a bad column is a 422
-naming it and nothing is stored; the job runs :func:`diagnostics.discrepancy.discover`
-and, when an effect is named, stores the augmented rig document as a new version of the
-rig (:func:`app.services.rigs.update_rig`).  The job's result is the JSON report with
+``POST /discrepancy`` and ``hydrodiag discover`` share this module.  The file is either a
+time series in the ``/simulate`` export format (read by
+:func:`diagnostics.timeseries.read_series`) or a steady table in the pump-bench CSV format
+(``p_out``/``q`` columns and no ``t``: :func:`diagnostics.discrepancy.steady.read_bench_bytes`).
+It is read before the job starts, so a bad column is a 422 naming it and nothing is
+stored; the job runs :func:`diagnostics.discrepancy.discover` (or
+:func:`~diagnostics.discrepancy.steady.discover_steady` on a bench table) and, when an
+effect is named, stores the augmented rig document as a new version of the rig
+(:func:`app.services.rigs.update_rig`).  The job's result is the JSON report with
 ``new_rig_version`` and the self-contained HTML page under ``html``.
 """
 
@@ -22,6 +26,8 @@ from app.services.rig_cache import RigCache
 from app.services.rigs import update_rig
 from diagnostics.discrepancy import discover
 from diagnostics.discrepancy.report import html_page
+from diagnostics.discrepancy.steady import discover_steady, is_bench_table, read_bench_bytes
+from diagnostics.pump.data import BenchData
 from diagnostics.timeseries import SeriesRecord, read_series
 from sim.errors import InputError
 
@@ -41,6 +47,19 @@ class DiscrepancyPlan:
     records: list[SeriesRecord]
     refit: bool
     store: bool
+    bench: BenchData | None = None
+
+    @property
+    def names(self) -> list[str]:
+        """Names of the records read (``["bench table"]`` for a steady table)."""
+        return ["bench table"] if self.bench is not None else [r.name for r in self.records]
+
+    @property
+    def channels(self) -> list[str]:
+        """Channels found (bench: its quantities)."""
+        if self.bench is not None:
+            return ["n", "p_in", "p_out", "q", "theta"]
+        return sorted(self.records[0].channels)
 
 
 def read_records(content: bytes, *, field: str = "file") -> list[SeriesRecord]:
@@ -57,6 +76,9 @@ def plan_discrepancy(session: Session, rigs: RigCache, form: DiscrepancyForm,
                      content: bytes) -> DiscrepancyPlan:
     """Resolve the rig version and read the file; raises before anything is stored."""
     resolved = rigs.get(session, form.rig_id, form.rig_version)
+    if len(content) <= MAX_SERIES_BYTES and is_bench_table(content):
+        return DiscrepancyPlan(resolved.rig_id, resolved.version, dict(resolved.document), [],
+                               form.refit, form.store, read_bench_bytes(content))
     records = read_records(content)
     return DiscrepancyPlan(resolved.rig_id, resolved.version, dict(resolved.document), records,
                            form.refit, form.store)
@@ -68,7 +90,10 @@ def run_discrepancy(plan: DiscrepancyPlan, sessions: SessionFactory | None,
     def report(fraction: float, what: str) -> None:
         progress(min(0.95, fraction), what)
 
-    d = discover(plan.document, plan.records, progress=report, refit=plan.refit)
+    if plan.bench is not None:
+        d = discover_steady(plan.document, plan.bench, progress=report)
+    else:
+        d = discover(plan.document, plan.records, progress=report, refit=plan.refit)
     result = d.to_dict()
     result["rig_id"] = plan.rig_id
     result["rig_version"] = plan.version

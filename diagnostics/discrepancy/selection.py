@@ -144,13 +144,13 @@ def _dependent(B: Arr, c: Arr) -> bool:
 
 
 def _fit(y: Arr, Xb: Arr, Xc: Arr, names: list[str], scale: Arr, data: BalanceData,
-         m: int, ys: float, bnames: list[str]) -> tuple[Fit, Arr, Arr]:
+         m: int, ys: float, bnames: list[str], lags: int = HAC_LAGS) -> tuple[Fit, Arr, Arr]:
     X = np.hstack([Xb, Xc])
     coef, *_ = np.linalg.lstsq(X, y, rcond=None)
     resid = y - X @ coef
     rss = float(resid @ resid)
     n = y.size
-    cov = _hac_cov(X, resid, HAC_LAGS)
+    cov = _hac_cov(X, resid, lags)
     nb = Xb.shape[1]
     t_crit = stats.norm.ppf(1 - ALPHA / (2 * max(m, 1)))
     terms: list[Term] = []
@@ -190,8 +190,22 @@ def _blocks(n: int, size: int, rng: np.random.Generator) -> npt.NDArray[np.int64
     return np.concatenate([np.arange(s, min(s + size, n)) for s in starts])[:n]
 
 
-def select(data: BalanceData, *, bootstrap: int = 30, seed: int = 0) -> Selection:
-    """Select the effect(s) of one balance (module docstring)."""
+def select(data: BalanceData, *, bootstrap: int = 30, seed: int = 0, lags: int = HAC_LAGS,
+           block: int = 500) -> Selection:
+    """Select the effect(s) of one balance (module docstring).
+
+    Parameters
+    ----------
+    data
+        The balance evaluated on the data.
+    bootstrap, seed
+        Bootstrap replicates for the inclusion frequencies and their seed.
+    lags
+        Newey-West lag [samples]; 0 gives White's heteroscedasticity-robust errors
+        (independent rows: steady test points).
+    block
+        Moving-block length of the bootstrap [samples]; 1 for independent rows.
+    """
     y_si = data.y
     ys = float(np.sqrt(np.mean(y_si * y_si))) or 1.0
     y = y_si / ys
@@ -220,7 +234,7 @@ def select(data: BalanceData, *, bootstrap: int = 30, seed: int = 0) -> Selectio
                 continue
             idx = [cnames.index(c) for c in subset]
             fit, _, _ = _fit(y, Xb, Xc_all[:, idx], list(subset), cscale[idx] / ys, data, m,
-                             ys, bnames)
+                             ys, bnames, lags)
             fits[subset] = fit
             if size == 1:
                 singles[subset[0]] = fit.terms[0]
@@ -250,7 +264,8 @@ def select(data: BalanceData, *, bootstrap: int = 30, seed: int = 0) -> Selectio
         resid_si = (y - X @ coef) * ys
         base_named = {bn: float(c * ys / s) for bn, c, s in
                       zip(bnames, coef[: len(bnames)], bscale, strict=True)}
-        inclusion = _bootstrap(y, Xb, Xc_all, cnames, free, groups, chosen_key, bootstrap, seed)
+        inclusion = _bootstrap(y, Xb, Xc_all, cnames, free, groups, chosen_key, bootstrap, seed,
+                               block)
     return Selection(data.balance.name, data.balance.unit, chosen, base_bic,
                      base_bic - chosen.bic if chosen else 0.0, competing, groups, inclusion,
                      detectable, singles, base_named, resid_si, base_resid * ys,
@@ -258,8 +273,8 @@ def select(data: BalanceData, *, bootstrap: int = 30, seed: int = 0) -> Selectio
 
 
 def _bootstrap(y: Arr, Xb: Arr, Xc: Arr, cnames: list[str], free: list[str],
-               groups: list[list[str]], chosen: tuple[str, ...], reps: int, seed: int
-               ) -> dict[str, float]:
+               groups: list[list[str]], chosen: tuple[str, ...], reps: int, seed: int,
+               block: int = 500) -> dict[str, float]:
     """Inclusion frequency of each chosen term under a moving-block bootstrap (BIC choice)."""
     rng = np.random.default_rng(seed)
     n = y.size
@@ -267,7 +282,7 @@ def _bootstrap(y: Arr, Xb: Arr, Xc: Arr, cnames: list[str], free: list[str],
     subsets = [s for size in (1, 2) for s in itertools.combinations(free, size)
                if not (size == 2 and list(s) in groups)]
     for _ in range(reps):
-        rows = _blocks(n, 500, rng)
+        rows = _blocks(n, block, rng)
         yb, Xbb = y[rows], Xb[rows]
         c0, *_ = np.linalg.lstsq(Xbb, yb, rcond=None)
         r0 = yb - Xbb @ c0

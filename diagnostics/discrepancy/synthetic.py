@@ -9,6 +9,7 @@ channel), ``proportional`` (σ × |reading| / full scale + a floor of σ/4) and
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
@@ -17,7 +18,10 @@ from diagnostics.discrepancy.simulate import on_grid, simulate
 from diagnostics.timeseries import SeriesRecord
 from sim.rigs.assembly import Condition, Rig
 
-__all__ = ["CHANNELS", "NOISE", "UNITS", "synthesize"]
+if TYPE_CHECKING:
+    from diagnostics.pump.data import BenchData
+
+__all__ = ["CHANNELS", "NOISE", "UNITS", "synthesize", "synthesize_bench"]
 
 Arr = npt.NDArray[np.float64]
 
@@ -60,6 +64,8 @@ def synthesize(rig: Rig, condition: Condition, *, rng: np.random.Generator,
     phase = table["phase"].to_numpy(dtype=str)[idx]
     cond = {"load": condition.load, "back_pressure": condition.back_pressure,
             "oil_temperature": condition.oil_temperature}
+    if condition.pump_speed is not None:
+        cond["pump_speed"] = condition.pump_speed
     return SeriesRecord(name, t, chans, {c: UNITS[c] for c in chans}, phase, cond,
                         measured=False)
 
@@ -97,3 +103,52 @@ def effect_peak(truth_table: object, base_table: object, *, rate: float = 1000.0
             if peak > best:
                 best, where = peak, c
     return best, where
+
+
+def synthesize_bench(rig: Rig, *, rng: np.random.Generator,
+                     effects: Mapping[str, float] | None = None,
+                     speeds: Sequence[float] = (0.5, 0.75, 1.0, 1.25),
+                     pressures: Sequence[float] = (5e5, 1e6, 2e6, 3e6, 4e6, 5e6),
+                     temperatures: Sequence[float] = (40.0, 50.0, 60.0), repeats: int = 2,
+                     noise: str = "gaussian", sigma_q: float = NOISE["Q_meter_B"],
+                     sigma_p: float = NOISE["P_pump"],
+                     overrides: Mapping[str, float] | None = None) -> BenchData:
+    """Steady pump test points of the rig's pump, as a pump bench records them.
+
+    The flow is the pump-outlet 0-junction at steady state (paper 002 eqs. 1-5, Ṗ = 0),
+    ``q = ω·Vp − Δp/Rlp − Σ k·x_k``, with each hidden effect ``k`` (effect name →
+    coefficient [SI]) entering through its catalogue signature ``x_k`` — for the pump
+    entries the element's own flow law at steady state.  Grid: ``speeds`` (fractions of the
+    stated speed) × ``pressures`` [Pa] × ``temperatures`` [°C] × ``repeats``; the logged
+    pressure has noise ``sigma_p`` [Pa], the flow ``sigma_q`` [m³/s] (kinds as
+    :func:`synthesize`).  ``overrides`` change the truth's base parameters (drift).
+    """
+    from diagnostics.pump.data import BenchData
+    from sim.components.effects import EFFECTS
+
+    v = rig.values() | dict(overrides or {})
+    grid = [(w * v["pump.speed"], p, T) for w in speeds for p in pressures
+            for T in temperatures for _ in range(repeats)]
+    omega = np.array([g[0] for g in grid])
+    dp = np.array([g[1] for g in grid])
+    theta = np.array([g[2] for g in grid])
+    sig = {"P_pump": dp, "speed": omega, "Vp": np.full(dp.size, v["pump.Vp"]),
+           "dP_pump": np.zeros(dp.size), "T": theta,
+           "mu": np.array([rig.fluid.dynamic_viscosity(float(t)) for t in theta])}
+    q = omega * v["pump.Vp"] - dp / v["pump.Rlp"]
+    for name, k in (effects or {}).items():
+        q = q - k * np.asarray(EFFECTS[name].entry.regressor(sig), dtype=float)
+
+    def draw(s: float, x: Arr) -> Arr:
+        if noise == "gaussian":
+            return rng.normal(0.0, s, x.size)
+        if noise == "proportional":
+            return rng.normal(0.0, 1.0, x.size) * (s * np.abs(x) / np.max(np.abs(x)) + s / 4)
+        if noise == "heavy":
+            return rng.standard_t(3, x.size) * s / np.sqrt(3.0)
+        raise ValueError(f"unknown noise kind {noise!r}")
+
+    rep = np.array([i % repeats for i in range(len(grid))], dtype=np.int64)
+    return BenchData(p_in=np.zeros(dp.size), p_out=dp + draw(sigma_p, dp), omega=omega,
+                     theta=theta, q=q + draw(sigma_q, q), replicate=rep, simulated=True,
+                     provenance="hydrodiag synthesize_bench (rig pump, steady state)")

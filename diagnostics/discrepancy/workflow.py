@@ -14,6 +14,10 @@ Steps (DISCREPANCY.md):
 5. gap before/after on the held-out record (RMSE and max per output and region) and
    whiteness (Ljung-Box) before/after.
 
+When records repeat a condition, the lack-of-fit F-test against the repeats
+(:mod:`~diagnostics.discrepancy.lof`) is reported before/after.  Steady pump-bench tables
+go through :func:`diagnostics.discrepancy.steady.discover_steady` instead.
+
 "No effect" and "unexplained" are results: with nothing named, the report gives each
 candidate's minimum detectable size; a balance whose residual is still structured
 (Ljung-Box p < 0.01 with an RMS above the practical size) without an admissible library
@@ -31,21 +35,28 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 import pandas as pd
-from scipy.ndimage import uniform_filter1d
-from scipy.optimize import least_squares
 
 from diagnostics.discrepancy.balances import balance_data
-from diagnostics.discrepancy.gap import GapRow, aligned_residuals, gap_table, ljung_box_p
+from diagnostics.discrepancy.gap import GapRow, gap_table
+from diagnostics.discrepancy.lof import series_lack_of_fit
+from diagnostics.discrepancy.refit import refit as output_error_refit
+from diagnostics.discrepancy.refit import with_effects
 from diagnostics.discrepancy.selection import PRACTICAL, Selection, select
 from diagnostics.discrepancy.signals import condition_of, prepare
-from diagnostics.discrepancy.simulate import SOLVER, on_grid, simulate, solver_error
+from diagnostics.discrepancy.simulate import SOLVER, simulate, solver_error
+from diagnostics.discrepancy.verdict import (
+    excess_ratio,
+    gap_ratio,
+    verdict,
+    whiteness,
+)
 from diagnostics.timeseries import SeriesRecord
 from sim.components.effects import EFFECTS
-from sim.errors import InputError, SimulationError
+from sim.errors import InputError
 from sim.rigs.assembly import Rig
 from sim.rigs.schema import validate_rig_document
 
-__all__ = ["Discovery", "NamedEffect", "discover"]
+__all__ = ["Discovery", "NamedEffect", "discover", "excess_ratio", "gap_ratio"]
 
 Arr = npt.NDArray[np.float64]
 Progress = Callable[[float, str], None]
@@ -53,9 +64,6 @@ Progress = Callable[[float, str], None]
 #: measured channels compared in output-error form, when present
 #: held-out excess-gap ratio an added effect must reach to be kept
 CONFIRM_RATIO = 1.5
-#: held-out steady RMSE, in units of the channel's noise σ, above which an unnamed gap is
-#: reported as unexplained rather than "no effect"
-OUTPUT_GAP = 3.0
 
 OUTPUTS = ("P1", "P2", "v", "P_pump", "P_valve_P", "Q_meter_B", "Q_meter_C")
 
@@ -84,7 +92,12 @@ class NamedEffect:
 
 @dataclass
 class Discovery:
-    """Outcome of :func:`discover` (``to_dict`` gives the JSON report)."""
+    """Outcome of :func:`discover` (``to_dict`` gives the JSON report).
+
+    ``lack_of_fit`` holds the lack-of-fit F-test (:mod:`~diagnostics.discrepancy.lof`)
+    ``before``/``after`` adding the named effects when the data repeat a condition
+    (F, p, degrees of freedom, RMS of the misfit and pure-error σ), else it is empty.
+    """
 
     verdict: str
     message: str
@@ -100,6 +113,7 @@ class Discovery:
     solver: str
     detectable: dict[str, dict[str, float]] = field(default_factory=dict)
     traces: dict[str, Any] = field(default_factory=dict, repr=False)
+    lack_of_fit: dict[str, Any] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
         """The report as JSON-able data (units in the keys' descriptions)."""
@@ -134,6 +148,7 @@ class Discovery:
             "gap_before": gap(self.gap_before), "gap_after": gap(self.gap_after),
             "whiteness_before": self.whiteness_before, "whiteness_after": self.whiteness_after,
             "rig_document": self.rig_document, "solver": self.solver,
+            "lack_of_fit": self.lack_of_fit,
         }
 
 
@@ -143,24 +158,6 @@ def _split(records: Sequence[SeriesRecord], rig: Rig) -> tuple[list[int], list[i
     key = [(condition_of(r, rig).load, condition_of(r, rig).oil_temperature) for r in records]
     edge = max(range(len(records)), key=lambda i: key[i])
     return [i for i in range(len(records)) if i != edge], [edge]
-
-
-def _with_effects(doc: Mapping[str, Any], values: Mapping[str, float]) -> dict[str, Any]:
-    """A copy of ``doc`` whose ``effects:`` section holds ``values`` (``effect.param → SI``)."""
-    out = copy.deepcopy(dict(doc))
-    effects = dict(out.get("effects") or {})
-    for key, value in values.items():
-        name, _, pname = key.partition(".")
-        decl = EFFECTS[name].parameter(pname)
-        assert decl is not None
-        body = dict(effects.get(name) or {})
-        params = dict(body.get("parameters") or {})
-        params[pname] = {"value": float(value), "unit": decl.unit,
-                         "source": "fitted by hydrodiag discover (output error, re-simulated)"}
-        body["parameters"] = params
-        effects[name] = body
-    out["effects"] = effects
-    return out
 
 
 def _channels(records: Sequence[SeriesRecord]) -> list[str]:
@@ -176,75 +173,6 @@ def _sigmas(records: Sequence[SeriesRecord], channels: Sequence[str]) -> dict[st
         scale = float(np.max([np.max(np.abs(r.channels[c])) for r in records]))
         out[c] = max(s, 1e-4 * scale, 1e-30)
     return out
-
-
-def _stacked_residual(rig: Rig, records: Sequence[SeriesRecord], channels: Sequence[str],
-                      sig: Mapping[str, float], overrides: Mapping[str, float]) -> Arr:
-    """Model − measurement / σ over the steady part (10-90 %) of each measured phase.
-
-    A fixed set of samples (every 10th measured sample, time since phase start) whatever
-    the simulated phase lasts, so the vector has one length for the optimiser; a model
-    phase that ends earlier holds its last value there.
-    """
-    parts = []
-    for r in records:
-        table = simulate(rig, condition_of(r, rig), overrides)
-        phases = r.phase if r.phase is not None else np.full(r.t.size, "working")
-        for ph in ("working", "return"):
-            sel = np.flatnonzero(phases == ph)
-            tab = table[table["phase"] == ph]
-            if sel.size < 20 or len(tab) < 3:
-                continue
-            tm = r.t[sel] - r.t[sel][0]
-            keep = (tm >= 0.1 * tm[-1]) & (tm <= 0.9 * tm[-1])
-            idx = sel[keep][::10]
-            ts = tab["t [s]"].to_numpy(dtype=float)
-            model = on_grid(tab.assign(**{"t [s]": ts - ts[0]}), tm[keep][::10], list(channels))
-            for c in channels:
-                parts.append((model[c] - r.channels[c][idx]) / sig[c])
-    return np.concatenate(parts) if parts else np.zeros(1)
-
-
-def _refit(doc: dict[str, Any], start: Mapping[str, float], records: Sequence[SeriesRecord],
-           channels: Sequence[str], sig: Mapping[str, float], max_nfev: int
-           ) -> tuple[dict[str, float], dict[str, float]]:
-    """Output-error re-fit of the effect coefficients; returns (values, 1-σ errors)."""
-    rig = Rig.from_spec(validate_rig_document(_with_effects(doc, start)))
-    keys = list(start)
-    scale = np.array([abs(v) if v != 0 else 1.0 for v in start.values()])
-
-    def fun(z: Arr) -> Arr:
-        ov = {k: float(zi * s) for k, zi, s in zip(keys, z, scale, strict=True)}
-        try:
-            return _stacked_residual(rig, records, channels, sig, ov)
-        except (SimulationError, InputError):
-            return np.full(_n[0], 1e3)
-
-    _n = [0]
-    r0 = fun(np.ones(len(keys)))
-    _n[0] = r0.size
-    lo, hi = [], []
-    for k in keys:
-        name, _, pname = k.partition(".")
-        decl = EFFECTS[name].parameter(pname)
-        assert decl is not None
-        lo.append(-np.inf if decl.lower is None else decl.lower)
-        hi.append(np.inf if decl.upper is None else decl.upper)
-    lb = np.array(lo) / scale
-    ub = np.array(hi) / scale
-    z0 = np.clip(np.ones(len(keys)), lb + 1e-12, ub - 1e-12)
-    sol = least_squares(fun, z0, bounds=(lb, ub), x_scale=1.0, diff_step=0.05,
-                        max_nfev=max_nfev)
-    values = {k: float(z * s) for k, z, s in zip(keys, sol.x, scale, strict=True)}
-    J = sol.jac
-    dof = max(sol.fun.size - len(keys), 1)
-    s2 = float(sol.fun @ sol.fun) / dof
-    try:
-        cov = np.linalg.inv(J.T @ J) * s2
-        err = {k: float(math.sqrt(max(cov[i, i], 0.0)) * scale[i]) for i, k in enumerate(keys)}
-    except np.linalg.LinAlgError:
-        err = dict.fromkeys(keys, float("nan"))
-    return values, err
 
 
 def discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], *,
@@ -314,12 +242,12 @@ def discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], *
                  for t in s.chosen.terms}
         report(0.35 + 0.4 * k / len(chosen), f"output-error re-fit of {', '.join(start)}")
         if refit:
-            fitted, fit_err = _refit(doc, start, train, channels, sig, max_nfev)
+            fitted, fit_err = output_error_refit(doc, start, train, channels, sig, max_nfev)
         else:
             fitted, fit_err = dict(start), {key: float("nan") for key in start}
         significant = all(not math.isfinite(fit_err[key])
                           or abs(fitted[key]) >= 2.576 * fit_err[key] for key in fitted)
-        trial = Rig.from_spec(validate_rig_document(_with_effects(doc, fitted)))
+        trial = Rig.from_spec(validate_rig_document(with_effects(doc, fitted)))
         trial_gap = [row for r in held
                      for row in gap_table(r, simulate(trial, condition_of(r, trial)), channels)]
         if significant and excess_ratio(gap_before, trial_gap, sig) >= CONFIRM_RATIO:
@@ -327,7 +255,7 @@ def discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], *
             errors.update(fit_err)
         else:
             rejected += [t.effect for t in s.chosen.terms]
-    new_doc = _with_effects(doc, values) if values else copy.deepcopy(doc)
+    new_doc = with_effects(doc, values) if values else copy.deepcopy(doc)
     for s in selections:
         if s.chosen is None:
             continue
@@ -349,7 +277,7 @@ def discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], *
                 term.t, s.inclusion.get(term.effect, float("nan")),
                 s.competing, [g for g in s.ambiguity if term.effect in g]))
     report(0.8, "held-out check")
-    white_before = _whiteness(held, base_tables, channels, rate)
+    white_before = whiteness(held, base_tables, channels, rate)
     traces: dict[str, Any] = {"held": held[0], "before": base_tables[0], "channels": channels,
                               "selections": selections, "signals": signals, "data": data}
     if named:
@@ -357,102 +285,50 @@ def discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], *
         after_tables = [simulate(new_rig, condition_of(r, new_rig)) for r in held]
         gap_after = [row for r, t in zip(held, after_tables, strict=True)
                      for row in gap_table(r, t, channels)]
-        white_after = _whiteness(held, after_tables, channels, rate)
+        white_after = whiteness(held, after_tables, channels, rate)
         traces["after"] = after_tables[0]
     else:
         gap_after, white_after = [], {}
-    verdict, message = _verdict(named, selections, gap_before, gap_after, white_after, sig)
+    lof = _repeats_lack_of_fit(records, rig, new_doc if named else None, channels, sig)
+    outcome, message = verdict([n.name for n in named], selections, gap_before, gap_after,
+                               white_after, sig)
+    if lof.get("before") is not None:
+        message += (f"; lack of fit against repeated records p = {lof['before']['p']:.2g} "
+                    "before" + (f", {lof['after']['p']:.2g} after" if lof.get("after")
+                                else ""))
     if rejected:
         message += ("; not confirmed by re-simulation (output-error coefficient not "
                     f"significant or held-out gap not shrinking): {', '.join(rejected)}")
-    report(1.0, verdict)
+    report(1.0, outcome)
     detectable = {s.balance: s.detectable for s in selections}
-    return Discovery(verdict, message, named, selections, [r.name for r in train],
+    return Discovery(outcome, message, named, selections, [r.name for r in train],
                      [r.name for r in records] and [records[i].name for i in held_i],
                      gap_before, gap_after, white_before, white_after, new_doc,
-                     _solver_statement(base_tables), detectable, traces)
+                     _solver_statement(base_tables), detectable, traces, lof)
 
 
-def _whiteness(records: Sequence[SeriesRecord], tables: Sequence[Any], channels: Sequence[str],
-               rate: float) -> dict[str, float]:
-    out: dict[str, float] = {}
-    for c in channels:
-        ps = []
-        for r, t in zip(records, tables, strict=True):
-            res = aligned_residuals(r, t, [c])[c]
-            for tt, e, _ in res.values():
-                keep = (tt >= 0.1 * tt[-1]) & (tt <= 0.9 * tt[-1]) if tt.size else tt > 0
-                ps.append(ljung_box_p(e[keep], rate=rate))
-        vals = [p for p in ps if math.isfinite(p)]
-        out[c] = float(min(vals)) if vals else float("nan")
+def _repeats_lack_of_fit(records: Sequence[SeriesRecord], rig: Rig,
+                         new_doc: dict[str, Any] | None, channels: Sequence[str],
+                         sig: Mapping[str, float]) -> dict[str, Any]:
+    """Lack-of-fit F-test of the stored (and augmented) rig against records that repeat a
+    condition (:func:`~diagnostics.discrepancy.lof.series_lack_of_fit`); empty without
+    repeats.  One simulation per distinct condition."""
+    conds = [condition_of(r, rig) for r in records]
+    keys = [(c.load, c.back_pressure, c.oil_temperature, c.pump_speed) for c in conds]
+    if len(set(keys)) == len(keys):
+        return {}
+    out: dict[str, Any] = {}
+    rigs = {"before": rig}
+    if new_doc is not None:
+        rigs["after"] = Rig.from_spec(validate_rig_document(new_doc))
+    for label, model in rigs.items():
+        sims: dict[Any, pd.DataFrame] = {}
+        for k, c in zip(keys, conds, strict=True):
+            if k not in sims:
+                sims[k] = simulate(model, c)
+        res = series_lack_of_fit(records, [sims[k] for k in keys], channels, sig, keys)
+        out[label] = res.to_dict() if res is not None else None
     return out
-
-
-def excess_ratio(before: Sequence[GapRow], after: Sequence[GapRow],
-                 sigma: Mapping[str, float]) -> float:
-    """Held-out gap in excess of the noise, before/after, over the steady regions.
-
-    Excess = √(Σ max(RMSE² − σ², 0)/σ²) over the channels; a model that reaches the noise
-    floor has no excess, so the ratio is what 'the gap shrank' can mean near the noise.
-    """
-    def excess(rows: Sequence[GapRow]) -> float:
-        return math.sqrt(sum(max(r.rmse ** 2 - sigma[r.channel] ** 2, 0.0) / sigma[r.channel] ** 2
-                             for r in rows if r.region == "steady"))
-
-    b, a = excess(before), excess(after)
-    if a == 0.0:
-        return float("inf") if b > 0 else 1.0
-    return b / a
-
-
-def gap_ratio(before: Sequence[GapRow], after: Sequence[GapRow]) -> float:
-    """Held-out RMSE ratio before/after on the channel and region with the largest gap before,
-    measured in units of that channel's RMSE (the headline 'gap shrank by N×')."""
-    if not before or not after:
-        return float("nan")
-    worst = max(before, key=lambda r: r.rmse / (max(b.rmse for b in before
-                                                    if b.channel == r.channel) or 1.0)
-                if r.region == "steady" else -1.0)
-    match = [a for a in after if a.channel == worst.channel and a.region == worst.region]
-    if not match or match[0].rmse == 0:
-        return float("inf")
-    return worst.rmse / match[0].rmse
-
-
-def _structured(s: Selection) -> bool:
-    """Whether a balance's residual is more than noise: Ljung-Box p < 0.01 on the residual
-    every 20 samples and a low-passed (50 ms mean) RMS above 2× the practical size."""
-    r = s.residual
-    if r.size < 200:
-        return False
-    smooth = uniform_filter1d(r, 51)
-    big = float(np.sqrt(np.mean(smooth ** 2))) > 2 * PRACTICAL * s.full_scale
-    p = ljung_box_p(r, rate=1000.0)
-    return bool(big and math.isfinite(p) and p < 0.01)
-
-
-def _verdict(named: list[NamedEffect], selections: list[Selection], before: list[GapRow],
-             after: list[GapRow], white_after: dict[str, float],
-             sigma: Mapping[str, float]) -> tuple[str, str]:
-    structured = [s.balance for s in selections if _structured(s)]
-    # output-error gap on the held-out record, steady motion, in units of the noise
-    off = [f"{r.channel} ({r.rmse / sigma[r.channel]:.1f} σ)" for r in before
-           if r.region == "steady" and r.rmse > OUTPUT_GAP * sigma[r.channel]]
-    if named:
-        names = ", ".join(n.name for n in named)
-        if len(named) > 1 or structured:
-            return ("partially explained",
-                    f"named {names}; partially explained — possibly outside the library "
-                    f"(residual still above the practical size in: "
-                    f"{', '.join(structured) or 'none'}; two or more terms)")
-        return "named", f"named {names}"
-    if structured or off:
-        where = ", ".join([f"balance {b}" for b in structured] + off)
-        return ("unexplained",
-                f"model and data differ ({where}, held-out steady RMSE) but no library "
-                "effect explains it: possibly outside the library, or a drift of base "
-                "parameters that the stored rig does not have")
-    return "no effect", "no effect found: the gap is within the noise and the practical size"
 
 
 def _solver_statement(tables: list[pd.DataFrame]) -> str:

@@ -61,3 +61,26 @@ def test_discover_names_the_effect_stores_a_version_and_writes_the_report(
     failed = runner.invoke(cli, ["discover", str(bad), "--rig", "1"])
     assert failed.exit_code != 0
     assert "P2 [parsec]" in str(failed.exception) + failed.output
+
+
+def test_discover_reads_a_pump_bench_table(runner: CliRunner, tmp_path: Path) -> None:
+    from diagnostics.discrepancy.synthetic import synthesize_bench
+    from diagnostics.pump.csvio import write_bench_csv
+    from sim.rigs import reference_rig
+
+    path = tmp_path / "bench.csv"
+    write_bench_csv(synthesize_bench(reference_rig(), rng=np.random.default_rng(8),
+                                     effects={"speed_offset": 1.0}), path)
+    out = tmp_path / "bench.html"
+    result = runner.invoke(cli, ["discover", str(path), "--rig", "1", "--no-store",
+                                 "--report", str(out), "--json"])
+    assert result.exit_code == 0, result.output
+    body = json.loads(result.output[result.output.index("{"):])
+    assert [n["name"] for n in body["named"]] == ["speed_offset"]
+    assert body["new_rig_version"] is None
+    assert "speed_offset" in out.read_text()
+    bad = tmp_path / "bad.csv"
+    bad.write_text(path.read_text().replace("n [rev/s]", "n [parsec]"))
+    failed = runner.invoke(cli, ["discover", str(bad), "--rig", "1"])
+    assert failed.exit_code != 0
+    assert "n [parsec]" in str(failed.exception) + failed.output

@@ -140,3 +140,70 @@ def test_bad_files_are_422_naming_the_column_and_start_nothing(server: LiveServe
     assert r.status_code == 404, r.text
     assert server.row_counts() == before
 
+
+
+def _bench_csv(effects: dict[str, float] | None, seed: int) -> bytes:
+    from diagnostics.discrepancy.synthetic import synthesize_bench
+    from diagnostics.pump.csvio import bench_to_frame
+    from sim.rigs import reference_rig
+
+    bench = synthesize_bench(reference_rig(), rng=np.random.default_rng(seed), effects=effects)
+    frame = bench_to_frame(bench)
+    # as a bench writes it: bar, rpm, L/min
+    frame = pd.DataFrame({"p_in [bar]": frame["p_in [Pa]"] / 1e5,
+                          "p_out [bar]": frame["p_out [Pa]"] / 1e5,
+                          "n [rpm]": frame["n [rev/s]"] * 60.0,
+                          "theta [degC]": frame["theta [degC]"],
+                          "q [L/min]": frame["q [m^3/s]"] * 6e4,
+                          "replicate [-]": frame["replicate [-]"]})
+    return b"# SIMULATED steady points\n" + frame.to_csv(index=False).encode()
+
+
+def test_a_bench_table_with_hidden_turbulent_slip_is_named_and_stored(
+        server: LiveServer) -> None:
+    rig_id = _create(server, "bench-under-test")
+    content = _bench_csv({"turbulent_pump_slip": 3e-9}, 21)
+    r = server.client.post("/discrepancy", data={"rig_id": str(rig_id)},
+                           files={"file": ("bench.csv", content, "text/csv")},
+                           headers=server.auth)
+    assert r.status_code == 202, r.text
+    assert r.json()["records"] == ["bench table"]
+    job = _follow(server, r.json()["job_id"])
+    assert job["status"] == "succeeded", job["error"]
+    result = job["result"]
+    assert result["verdict"] == "named", result["message"]
+    assert [n["name"] for n in result["named"]] == ["turbulent_pump_slip"]
+    # the truth within 3 standard errors of the fitted value (the 95 % interval is ±1.96)
+    lo, hi = result["named"][0]["interval"]
+    se = (hi - lo) / (2 * 1.96)
+    assert abs(result["named"][0]["value"] - 3e-9) <= 3 * se
+    assert result["named"][0]["value"] == pytest.approx(3e-9, rel=0.1)
+    assert result["lack_of_fit"]["before"]["df_pe"] > 0
+    assert result["new_rig_version"] == 2
+    versions = server.client.get(f"/rigs/{rig_id}/versions").json()["items"]
+    doc = next(v for v in versions if v["version"] == 2)["document"]
+    kt = doc["effects"]["turbulent_pump_slip"]["parameters"]["K_t"]["value"]
+    assert kt == pytest.approx(result["named"][0]["value"])
+
+
+def test_bad_bench_tables_are_422_naming_the_column_and_store_nothing(
+        server: LiveServer) -> None:
+    before = server.row_counts()
+    good = _bench_csv(None, 22)
+    for bad, column in ((good.replace(b"q [L/min]", b"q [furlong]"), "q [furlong]"),
+                        (good.replace(b"theta [degC]", b"temp [degC]"), "theta")):
+        r = server.client.post("/discrepancy", data={"rig_id": "1"},
+                               files={"file": ("bench.csv", bad, "text/csv")},
+                               headers=server.auth)
+        assert r.status_code == 422, r.text
+        assert r.json()["error"]["field"] == column
+    holed = good.decode().splitlines()
+    cells = holed[5].split(",")
+    cells[1] = "nan"
+    holed[5] = ",".join(cells)
+    r = server.client.post("/discrepancy", data={"rig_id": "1"},
+                           files={"file": ("bench.csv", "\n".join(holed).encode(), "text/csv")},
+                           headers=server.auth)
+    assert r.status_code == 422, r.text
+    assert r.json()["error"]["field"] == "p_out [bar]"
+    assert server.row_counts() == before

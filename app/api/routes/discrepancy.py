@@ -38,7 +38,9 @@ async def start_discrepancy(
     form: Annotated[DiscrepancyForm, Form()],
     file: Annotated[UploadFile, File(
         description="Measured time series in the /simulate export format (CSV or Parquet, "
-        "units in the column names, 'phase' and optional 'record' columns) [-]",
+        "units in the column names, 'phase' and optional 'record' columns), or steady pump "
+        "test points in the pump-bench CSV format (p_in, p_out, n, theta, q with units, "
+        "optional replicate) [-]",
         examples=["record,t [s],phase,P1 [Pa],P2 [Pa],v [m/s],load [N]\n"
                   "load-2100,0.100,working,1.20e6,1.0e5,0.210,2100\n"
                   "load-2100,0.101,working,1.21e6,1.0e5,0.211,2100\n"
@@ -59,6 +61,5 @@ async def start_discrepancy(
     runner: JobRunner = request.app.state.jobs
     job = runner.submit("discrepancy", form.model_dump(mode="json"), _job(plan, request))
     response.headers["Location"] = f"/jobs/{job.id}"
-    return DiscrepancyAccepted(job_id=job.id, status=job.status,
-                               records=[r.name for r in plan.records],
-                               channels=sorted(plan.records[0].channels))
+    return DiscrepancyAccepted(job_id=job.id, status=job.status, records=plan.names,
+                               channels=plan.channels)

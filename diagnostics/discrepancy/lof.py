@@ -1,0 +1,155 @@
+"""Lack-of-fit F-test against repeated conditions: is the misfit more than the scatter?
+
+When the data repeat a condition (replicated steady test points, or several records of
+the same cycle), the residual splits into *pure error* (the scatter of the repeats about
+their own mean) and *lack of fit* (the means' distance from the model)
+(Draper & Smith, *Applied Regression Analysis*, 3rd ed. 1998, §2.1; NIST/SEMATECH
+e-Handbook §4.4.4.3)::
+
+    SS_pe  = Σ_g Σ_i (e_gi − ē_g)²        df_pe  = N − G
+    SS_lof = Σ_g n_g·ē_g²                 df_lof = G − p
+    F = (SS_lof/df_lof) / (SS_pe/df_pe)   p-value from F(df_lof, df_pe)
+
+``e`` is the residual (measurement − model) of a model with ``p`` parameters fitted to the
+same data; ``p = 0`` for a model that was not fitted to them (the stored rig).  Only groups
+with at least two members carry pure error; groups of one still count in ``SS_lof``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Hashable, Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+import pandas as pd
+from scipy import stats
+
+from diagnostics.discrepancy.gap import aligned_residuals
+from diagnostics.timeseries import SeriesRecord
+
+__all__ = ["LackOfFit", "lack_of_fit", "series_lack_of_fit"]
+
+
+@dataclass(frozen=True)
+class LackOfFit:
+    """Outcome of :func:`lack_of_fit`.
+
+    Attributes
+    ----------
+    f_stat
+        The F statistic [-].
+    p
+        Its p-value [-] (small: the misfit is more than the scatter of the repeats).
+    df_lof, df_pe
+        Degrees of freedom of lack of fit and pure error [-].
+    rms_lof
+        RMS of the group means of the residual [unit of the residual].
+    sigma_pe
+        Pure-error standard deviation [unit of the residual].
+    """
+
+    f_stat: float
+    p: float
+    df_lof: int
+    df_pe: int
+    rms_lof: float
+    sigma_pe: float
+
+    def to_dict(self) -> dict[str, float]:
+        """The test as JSON-able data."""
+        return {"F": self.f_stat, "p": self.p, "df_lof": float(self.df_lof),
+                "df_pe": float(self.df_pe), "rms_lof": self.rms_lof,
+                "sigma_pe": self.sigma_pe}
+
+
+def lack_of_fit(residual: npt.ArrayLike, groups: Sequence[Hashable], n_params: int = 0
+                ) -> LackOfFit | None:
+    """The lack-of-fit F-test of ``residual`` against the repeats in ``groups`` (module
+    docstring).
+
+    Parameters
+    ----------
+    residual
+        Residual per observation (measurement − model) [any unit].
+    groups
+        Condition label per observation; equal labels are repeats of one condition.
+    n_params
+        Parameters of the model fitted to these observations (0 for a stored model).
+
+    Returns
+    -------
+    LackOfFit or None
+        ``None`` when there are no repeats (no pure error) or no lack-of-fit degrees of
+        freedom.
+    """
+    e = np.asarray(residual, dtype=float)
+    if e.size != len(groups):
+        raise ValueError("one group label per residual expected")
+    labels: dict[Hashable, list[int]] = {}
+    for i, g in enumerate(groups):
+        labels.setdefault(g, []).append(i)
+    ss_pe = ss_lof = 0.0
+    for idx in labels.values():
+        sub = e[idx]
+        mean = float(np.mean(sub))
+        ss_pe += float(np.sum((sub - mean) ** 2))
+        ss_lof += len(idx) * mean * mean
+    df_pe = e.size - len(labels)
+    df_lof = len(labels) - n_params
+    if df_pe <= 0 or df_lof <= 0 or ss_pe <= 0.0:
+        return None
+    F = (ss_lof / df_lof) / (ss_pe / df_pe)
+    p = float(stats.f.sf(F, df_lof, df_pe))
+    return LackOfFit(float(F), p, df_lof, df_pe, math.sqrt(ss_lof / e.size),
+                     math.sqrt(ss_pe / df_pe))
+
+
+def series_lack_of_fit(records: Sequence[SeriesRecord], tables: Sequence[pd.DataFrame],
+                       channels: Sequence[str], sigma: Mapping[str, float],
+                       keys: Sequence[Hashable], *, every: float = 0.02) -> LackOfFit | None:
+    """Lack of fit of simulated cycles against records that repeat a condition.
+
+    Each record's residual (model − measurement, in units of the channel's noise σ) is
+    sampled every ``every`` seconds of the steady part (10-90 %) of each phase; a group is
+    (condition key, channel, phase, sample index), so the repeats of a condition give the
+    pure error at each instant and the model (not fitted to these samples: ``n_params =
+    0``) the lack of fit.
+
+    Parameters
+    ----------
+    records, tables
+        Measured records and the model's table for each.
+    channels
+        Channels compared.
+    sigma
+        Noise σ per channel [SI].
+    keys
+        Condition key of each record; equal keys are repeats.
+    every
+        Sampling interval of the residual [s] (longer than the noise's correlation).
+    """
+    if len(set(keys)) == len(keys):
+        return None
+    resid: list[float] = []
+    groups: list[Hashable] = []
+    for rec, table, key in zip(records, tables, keys, strict=True):
+        res = aligned_residuals(rec, table, channels)
+        for c in channels:
+            for phase, (t, e, _) in res[c].items():
+                if t.size < 3:
+                    continue
+                k = np.round(t / every).astype(int)
+                keep = (t >= 0.1 * t[-1]) & (t <= 0.9 * t[-1])
+                _, first = np.unique(k[keep], return_index=True)
+                idx = np.flatnonzero(keep)[first]
+                resid.extend((e[idx] / sigma[c]).tolist())
+                groups.extend((key, c, phase, int(kk)) for kk in k[idx])
+    counts: dict[Hashable, int] = {}
+    for g in groups:
+        counts[g] = counts.get(g, 0) + 1
+    sel = [i for i, g in enumerate(groups) if counts[g] >= 2]
+    if not sel:
+        return None
+    return lack_of_fit(np.asarray(resid)[sel], [groups[i] for i in sel], 0)

@@ -1,0 +1,120 @@
+"""Output-error re-fit of named effects by re-simulating the training records.
+
+An effect named in equation-error form (:mod:`~diagnostics.discrepancy.selection`) goes
+into a copy of the rig document (its ``effects:`` section) and its coefficient is
+re-estimated by least squares on model − measurement (scipy ``least_squares``, trust-region
+reflective within the parameter's declared bounds) over the steady part of every measured
+phase, each channel in units of its noise σ.  The 1-σ errors come from the Jacobian at the
+solution, scaled by the residual variance.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+from scipy.optimize import least_squares
+
+from diagnostics.discrepancy.signals import condition_of
+from diagnostics.discrepancy.simulate import on_grid, simulate
+from diagnostics.timeseries import SeriesRecord
+from sim.components.effects import EFFECTS
+from sim.errors import InputError, SimulationError
+from sim.rigs.assembly import Rig
+from sim.rigs.schema import validate_rig_document
+
+__all__ = ["refit", "stacked_residual", "with_effects"]
+
+Arr = npt.NDArray[np.float64]
+
+
+def with_effects(doc: Mapping[str, Any], values: Mapping[str, float]) -> dict[str, Any]:
+    """A copy of ``doc`` whose ``effects:`` section holds ``values`` (``effect.param → SI``)."""
+    out = copy.deepcopy(dict(doc))
+    effects = dict(out.get("effects") or {})
+    for key, value in values.items():
+        name, _, pname = key.partition(".")
+        decl = EFFECTS[name].parameter(pname)
+        assert decl is not None
+        body = dict(effects.get(name) or {})
+        params = dict(body.get("parameters") or {})
+        params[pname] = {"value": float(value), "unit": decl.unit,
+                         "source": "fitted by hydrodiag discover (output error, re-simulated)"}
+        body["parameters"] = params
+        effects[name] = body
+    out["effects"] = effects
+    return out
+
+
+
+def stacked_residual(rig: Rig, records: Sequence[SeriesRecord], channels: Sequence[str],
+                      sig: Mapping[str, float], overrides: Mapping[str, float]) -> Arr:
+    """Model − measurement / σ over the steady part (10-90 %) of each measured phase.
+
+    A fixed set of samples (every 10th measured sample, time since phase start) whatever
+    the simulated phase lasts, so the vector has one length for the optimiser; a model
+    phase that ends earlier holds its last value there.
+    """
+    parts = []
+    for r in records:
+        table = simulate(rig, condition_of(r, rig), overrides)
+        phases = r.phase if r.phase is not None else np.full(r.t.size, "working")
+        for ph in ("working", "return"):
+            sel = np.flatnonzero(phases == ph)
+            tab = table[table["phase"] == ph]
+            if sel.size < 20 or len(tab) < 3:
+                continue
+            tm = r.t[sel] - r.t[sel][0]
+            keep = (tm >= 0.1 * tm[-1]) & (tm <= 0.9 * tm[-1])
+            idx = sel[keep][::10]
+            ts = tab["t [s]"].to_numpy(dtype=float)
+            model = on_grid(tab.assign(**{"t [s]": ts - ts[0]}), tm[keep][::10], list(channels))
+            for c in channels:
+                parts.append((model[c] - r.channels[c][idx]) / sig[c])
+    return np.concatenate(parts) if parts else np.zeros(1)
+
+
+def refit(doc: dict[str, Any], start: Mapping[str, float], records: Sequence[SeriesRecord],
+           channels: Sequence[str], sig: Mapping[str, float], max_nfev: int
+           ) -> tuple[dict[str, float], dict[str, float]]:
+    """Output-error re-fit of the effect coefficients; returns (values, 1-σ errors)."""
+    rig = Rig.from_spec(validate_rig_document(with_effects(doc, start)))
+    keys = list(start)
+    scale = np.array([abs(v) if v != 0 else 1.0 for v in start.values()])
+
+    def fun(z: Arr) -> Arr:
+        ov = {k: float(zi * s) for k, zi, s in zip(keys, z, scale, strict=True)}
+        try:
+            return stacked_residual(rig, records, channels, sig, ov)
+        except (SimulationError, InputError):
+            return np.full(_n[0], 1e3)
+
+    _n = [0]
+    r0 = fun(np.ones(len(keys)))
+    _n[0] = r0.size
+    lo, hi = [], []
+    for k in keys:
+        name, _, pname = k.partition(".")
+        decl = EFFECTS[name].parameter(pname)
+        assert decl is not None
+        lo.append(-np.inf if decl.lower is None else decl.lower)
+        hi.append(np.inf if decl.upper is None else decl.upper)
+    lb = np.array(lo) / scale
+    ub = np.array(hi) / scale
+    z0 = np.clip(np.ones(len(keys)), lb + 1e-12, ub - 1e-12)
+    sol = least_squares(fun, z0, bounds=(lb, ub), x_scale=1.0, diff_step=0.05,
+                        max_nfev=max_nfev)
+    values = {k: float(z * s) for k, z, s in zip(keys, sol.x, scale, strict=True)}
+    J = sol.jac
+    dof = max(sol.fun.size - len(keys), 1)
+    s2 = float(sol.fun @ sol.fun) / dof
+    try:
+        cov = np.linalg.inv(J.T @ J) * s2
+        err = {k: float(math.sqrt(max(cov[i, i], 0.0)) * scale[i]) for i, k in enumerate(keys)}
+    except np.linalg.LinAlgError:
+        err = dict.fromkeys(keys, float("nan"))
+    return values, err

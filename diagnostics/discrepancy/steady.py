@@ -1,0 +1,283 @@
+"""The discrepancy workflow on steady pump-bench tables (the pump-bench CSV format).
+
+Users often have steady test points rather than time series: one row per point with
+``p_in``, ``p_out``, ``n``, ``theta``, ``q`` (and ``replicate``), units in the column names
+(:mod:`diagnostics.pump.csvio`).  At steady state the pump-outlet 0-junction of the rig
+(paper 002 eqs. 1-5; Ṗ = 0) reads::
+
+    ω·Vp − q = Δp/Rlp + Σ c_k·x_k(Δp, ω, μ(θ))        Δp = p_out − p_in   [m³/s]
+
+so the ``pump_flow`` balance of :mod:`~diagnostics.discrepancy.balances` is evaluated on
+the rows: target ``ω·Vp − q``, base columns ``Δp`` (laminar slip 1/Rlp) and ``ω`` (a
+correction of the displacement), re-fitted unpenalised, and the library's ``pump_flow``
+candidates.  Rows are independent, so the selection uses White's robust errors and an
+ordinary (block length 1) bootstrap.  Several speeds separate a speed-reading offset
+(constant) from a displacement error (∝ ω); several temperatures separate slip ∝ Δp/μ from
+slip ∝ √Δp.
+
+The rows at the edge of the operating range are held out: the highest temperature when
+there are two or more, else the top fifth of the pressures.  A named effect's coefficient
+is then re-fitted against the *stored* base model (the output-error form: the rig as
+stored plus the effect must reproduce the measured flow) and kept when it is significant
+(|t| ≥ 2.576) and the held-out gap in excess of the scatter shrinks at least
+:data:`~diagnostics.discrepancy.workflow.CONFIRM_RATIO`-fold.  Replicated points give the
+lack-of-fit F-test (:mod:`~diagnostics.discrepancy.lof`) before and after.
+"""
+
+from __future__ import annotations
+
+import io
+import math
+from collections.abc import Callable, Mapping
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+import pandas as pd
+
+from diagnostics.discrepancy.balances import BALANCES, BASE_SIGNS, BalanceData, effects_of
+from diagnostics.discrepancy.gap import GapRow
+from diagnostics.discrepancy.lof import lack_of_fit
+from diagnostics.discrepancy.refit import with_effects
+from diagnostics.discrepancy.selection import PRACTICAL, select
+from diagnostics.discrepancy.signals import Signals
+from diagnostics.discrepancy.verdict import OUTPUT_GAP, excess_ratio
+from diagnostics.discrepancy.workflow import CONFIRM_RATIO, Discovery, NamedEffect
+from diagnostics.pump.csvio import bench_from_frame
+from diagnostics.pump.data import BenchData
+from sim.components.effects import EFFECTS
+from sim.errors import InputError
+from sim.rigs.assembly import Rig
+from sim.rigs.schema import validate_rig_document
+
+__all__ = ["discover_steady", "is_bench_table", "read_bench_bytes"]
+
+Arr = npt.NDArray[np.float64]
+Progress = Callable[[float, str], None]
+
+#: the channel name of the delivered flow in the report
+FLOW = "q"
+
+
+def is_bench_table(content: bytes) -> bool:
+    """Whether ``content`` is a pump-bench CSV (``p_out`` and ``q`` columns, no ``t`` column)."""
+    head = b"\n".join(ln for ln in content.splitlines()[:50] if not ln.lstrip().startswith(b"#"))
+    first = head.split(b"\n", 1)[0].decode("utf-8", errors="replace")
+    names = {c.split("[")[0].strip().strip('"') for c in first.split(",")}
+    return {"p_out", "q"} <= names and "t" not in names
+
+
+def read_bench_bytes(content: bytes, *, field: str = "file") -> BenchData:
+    """A pump-bench CSV given as bytes (errors name the column, else ``field``)."""
+    text = content.decode("utf-8", errors="replace")
+    lines = [ln for ln in text.splitlines() if not ln.lstrip().startswith("#")]
+    if not lines:
+        raise InputError("the bench table has no rows", field=field)
+    try:
+        frame = pd.read_csv(io.StringIO("\n".join(lines)))
+    except (pd.errors.ParserError, pd.errors.EmptyDataError) as exc:
+        raise InputError(f"not a readable CSV table: {exc}", field=field) from None
+    if frame.empty:
+        raise InputError("the bench table has no rows", field=field)
+    return bench_from_frame(frame, simulated="SIMULATED" in text.split("\n", 1)[0])
+
+
+def _signals(bench: BenchData, rig: Rig, rows: npt.NDArray[np.int64]) -> Signals:
+    dp = (bench.p_out - bench.p_in)[rows]
+    values = {"P_pump": dp, "dP_pump": np.zeros(rows.size), "speed": bench.omega[rows],
+              "Vp": np.full(rows.size, rig.base["pump.Vp"]), "T": bench.theta[rows],
+              "mu": np.array([rig.fluid.dynamic_viscosity(float(t)) for t in bench.theta[rows]]),
+              "Q_meter_B": bench.q[rows]}
+    return Signals(values, np.zeros(rows.size, dtype=np.int64),
+                   np.full(rows.size, "steady"), np.arange(rows.size, dtype=float), ["bench"])
+
+
+def _balance(s: Signals, values: Mapping[str, float]) -> tuple[BalanceData, list[str]]:
+    """The pump-outlet balance on steady rows; candidates that need signals a steady
+    table has not are listed as skipped."""
+    c = s.values
+    y = c["speed"] * c["Vp"] - c["Q_meter_B"]
+    base = {"pump.Rlp": c["P_pump"], "pump.Vp": c["speed"]}
+    cands: dict[str, Arr] = {}
+    skipped: list[str] = []
+    for e in effects_of("pump_flow"):
+        try:
+            cands[e.name] = np.asarray(e.entry.regressor(c), dtype=float)
+        except KeyError:
+            skipped.append(e.name)
+    pump = next(b for b in BALANCES if b.name == "pump_flow")
+    full = float(values["pump.speed"] * values["pump.Vp"])
+    return (BalanceData(pump, y, base, cands, np.ones(y.size, dtype=bool), full,
+                        {k: v for k, v in BASE_SIGNS.items() if k in base}), skipped)
+
+
+def _split(bench: BenchData) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]]:
+    n = bench.q.size
+    temps = np.round(bench.theta)
+    if np.unique(temps).size >= 2:
+        held = temps == temps.max()
+    else:
+        dp = bench.p_out - bench.p_in
+        held = dp >= np.quantile(dp, 0.8)
+    if held.all() or not held.any() or n - int(held.sum()) < 6:
+        return np.arange(n), np.arange(n)
+    return np.flatnonzero(~held), np.flatnonzero(held)
+
+
+def _groups(bench: BenchData, rows: npt.NDArray[np.int64]) -> list[tuple[float, float, float]]:
+    """Condition of each row: Δp to 0.1 bar, speed to 0.1 rad/s, temperature to 0.5 °C."""
+    dp = bench.p_out - bench.p_in
+    return [(round(float(dp[i]) / 1e4), round(float(bench.omega[i]) * 10),
+             round(float(bench.theta[i]) * 2)) for i in rows]
+
+
+def _model(values: Mapping[str, float], s: Signals, coefs: Mapping[str, float]) -> Arr:
+    """Flow of the stored pump plus effects ``coefs`` (effect → coefficient) [m³/s]."""
+    c = s.values
+    q = c["speed"] * c["Vp"] - c["P_pump"] / values["pump.Rlp"]
+    for name, k in coefs.items():
+        q = q - k * np.asarray(EFFECTS[name].entry.regressor(c), dtype=float)
+    return np.asarray(q, dtype=float)
+
+
+def _stored_fit(values: Mapping[str, float], s: Signals, names: list[str]
+                ) -> tuple[dict[str, float], dict[str, float]]:
+    """Coefficients of ``names`` against the stored base (OLS, White errors) [SI]."""
+    c = s.values
+    r = c["speed"] * c["Vp"] - c["Q_meter_B"] - c["P_pump"] / values["pump.Rlp"]
+    X = np.column_stack([EFFECTS[n].entry.regressor(c) for n in names])
+    coef, *_ = np.linalg.lstsq(X, r, rcond=None)
+    e = r - X @ coef
+    bread = np.linalg.pinv(X.T @ X)
+    cov = bread @ (X * (e * e)[:, None]).T @ X @ bread * r.size / max(r.size - len(names), 1)
+    return ({n: float(coef[i]) for i, n in enumerate(names)},
+            {n: float(math.sqrt(max(cov[i, i], 0.0))) for i, n in enumerate(names)})
+
+
+def _gap(meas: Arr, model: Arr) -> list[GapRow]:
+    e = model - meas
+    return [GapRow(FLOW, "m^3/s", "steady", float(np.sqrt(np.mean(e * e))),
+                   float(np.max(np.abs(e))))]
+
+
+def discover_steady(rig_document: Mapping[str, Any], bench: BenchData, *,
+                    progress: Progress | None = None, bootstrap: int = 30,
+                    seed: int = 0) -> Discovery:
+    """The discrepancy workflow on steady pump test points (module docstring).
+
+    Parameters
+    ----------
+    rig_document
+        The rig as stored; its pump is the model checked.
+    bench
+        Steady test points (:func:`read_bench_bytes`, :func:`diagnostics.pump.csvio.read_bench_csv`).
+    progress
+        Called with (fraction done, what).
+    bootstrap, seed
+        Bootstrap replicates for the inclusion frequencies and their seed.
+
+    Raises
+    ------
+    InputError
+        Fewer than 8 rows (``field="file"``).
+    """
+    def report(frac: float, what: str) -> None:
+        if progress is not None:
+            progress(frac, what)
+
+    if bench.q.size < 8:
+        raise InputError(f"a bench table needs at least 8 rows, got {bench.q.size}",
+                         field="file")
+    doc = dict(rig_document)
+    rig = Rig.from_spec(validate_rig_document(doc))
+    values = rig.values()
+    train_i, held_i = _split(bench)
+    train, held = _signals(bench, rig, train_i), _signals(bench, rig, held_i)
+    report(0.1, "equation-error residuals of the pump outlet")
+    data, skipped = _balance(train, values)
+    sel = select(data, bootstrap=bootstrap, seed=seed, lags=0, block=1)
+    report(0.6, "selection done")
+    groups = _groups(bench, train_i)
+    lof_before = lack_of_fit(sel.base_residual, groups, len(data.base))
+    pe = lof_before.sigma_pe if lof_before is not None else float(
+        np.sqrt(np.mean(sel.residual ** 2)))
+    sigma = {FLOW: max(pe, 1e-12)}
+    meas = held.values["Q_meter_B"]
+    gap_before = _gap(meas, _model(values, held, {}))
+    named: list[NamedEffect] = []
+    fitted: dict[str, float] = {}
+    rejected: list[str] = []
+    gap_after: list[GapRow] = []
+    if sel.chosen is not None:
+        names = [t.effect for t in sel.chosen.terms]
+        coefs, errs = _stored_fit(values, train, names)
+        trial = _gap(meas, _model(values, held, coefs))
+        significant = all(abs(coefs[n]) >= 2.576 * errs[n] for n in names)
+        if significant and excess_ratio(gap_before, trial, sigma) >= CONFIRM_RATIO:
+            fitted, gap_after = coefs, trial
+            for t in sel.chosen.terms:
+                e = EFFECTS[t.effect]
+                decl = e.parameter(e.entry.coefficient)
+                assert decl is not None
+                v, err = coefs[t.effect], errs[t.effect]
+                lo, hi = e.entry.plausible
+                named.append(NamedEffect(
+                    t.effect, sel.balance, e.entry.explanation, e.entry.reference,
+                    e.entry.signature, e.entry.coefficient, decl.unit, t.coefficient, v,
+                    (v - 1.96 * err, v + 1.96 * err), bool(lo <= v <= hi), (lo, hi), t.t,
+                    sel.inclusion.get(t.effect, float("nan")), sel.competing,
+                    [g for g in sel.ambiguity if t.effect in g]))
+        else:
+            rejected = names
+    report(0.9, "held-out check")
+    lof_after = lack_of_fit(sel.residual, groups,
+                            len(data.base) + len(fitted)) if named else None
+    new_doc = with_effects(doc, {f"{n}.{EFFECTS[n].entry.coefficient}": v
+                                 for n, v in fitted.items()}) if fitted else dict(doc)
+    practical = PRACTICAL * data.full_scale
+    misfit = lof_before is not None and lof_before.p < 0.01 and lof_before.rms_lof > practical
+    off = gap_before[0].rmse > OUTPUT_GAP * sigma[FLOW]
+    if named:
+        outcome = "named" if len(named) == 1 else "partially explained"
+        message = f"named {', '.join(n.name for n in named)}"
+        if len(named) > 1:
+            message += "; partially explained — possibly outside the library (two terms)"
+    elif misfit or off:
+        outcome = "unexplained"
+        message = ("model and data differ (lack of fit against the repeats"
+                   + (f" p = {lof_before.p:.2g}" if lof_before is not None else "")
+                   + f"; held-out flow RMSE {gap_before[0].rmse / sigma[FLOW]:.1f} σ) but no "
+                   "library effect explains it: possibly outside the library, or a drift of "
+                   "base parameters that the stored rig does not have")
+    else:
+        outcome = "no effect"
+        message = "no effect found: the gap is within the scatter and the practical size"
+    if rejected:
+        message += ("; not confirmed against the stored pump (coefficient not significant or "
+                    f"held-out gap not shrinking): {', '.join(rejected)}")
+    if skipped:
+        message += f"; not computable from a steady table: {', '.join(skipped)}"
+    lof = {"before": lof_before.to_dict() if lof_before else None,
+           "after": lof_after.to_dict() if lof_after else None}
+    report(1.0, outcome)
+    return Discovery(
+        outcome, message, named, [sel], [f"bench rows {_ranges(train_i)}"],
+        [f"bench rows {_ranges(held_i)}"], gap_before, gap_after, {}, {}, new_doc,
+        "no simulation: steady pump-outlet balance (paper 002 eqs. 1-5, Ṗ = 0)",
+        {sel.balance: sel.detectable},
+        {"selections": [sel], "data": [data], "signals": train}, lof)
+
+
+def _ranges(rows: npt.NDArray[np.int64]) -> str:
+    """``0-11, 24-35``: row indices as ranges."""
+    if rows.size == 0:
+        return "none"
+    out, start, prev = [], int(rows[0]), int(rows[0])
+    for r in rows[1:]:
+        r = int(r)
+        if r != prev + 1:
+            out.append(f"{start}-{prev}" if prev > start else f"{start}")
+            start = r
+        prev = r
+    out.append(f"{start}-{prev}" if prev > start else f"{start}")
+    return ", ".join(out)

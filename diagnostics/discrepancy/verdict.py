@@ -1,0 +1,123 @@
+"""Verdicts of the discrepancy workflow: did the gap shrink, is what is left more than noise.
+
+* :func:`excess_ratio`: the held-out gap in excess of the sensors' noise before/after;
+* :func:`gap_ratio`: the headline RMSE ratio on the worst channel;
+* :func:`whiteness`: Ljung-Box p-value of the output-error residuals per channel;
+* :func:`verdict`: ``named``, ``partially explained``, ``unexplained`` or ``no effect``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+from scipy.ndimage import uniform_filter1d
+
+from diagnostics.discrepancy.gap import GapRow, aligned_residuals, ljung_box_p
+from diagnostics.discrepancy.selection import PRACTICAL, Selection
+from diagnostics.timeseries import SeriesRecord
+
+__all__ = ["OUTPUT_GAP", "excess_ratio", "gap_ratio", "structured", "verdict", "whiteness"]
+
+#: held-out steady RMSE, in units of the channel's noise σ, above which an unnamed gap is
+#: reported as unexplained rather than "no effect"
+OUTPUT_GAP = 3.0
+
+
+def whiteness(records: Sequence[SeriesRecord], tables: Sequence[Any], channels: Sequence[str],
+               rate: float) -> dict[str, float]:
+    out: dict[str, float] = {}
+    for c in channels:
+        ps = []
+        for r, t in zip(records, tables, strict=True):
+            res = aligned_residuals(r, t, [c])[c]
+            for tt, e, _ in res.values():
+                keep = (tt >= 0.1 * tt[-1]) & (tt <= 0.9 * tt[-1]) if tt.size else tt > 0
+                ps.append(ljung_box_p(e[keep], rate=rate))
+        vals = [p for p in ps if math.isfinite(p)]
+        out[c] = float(min(vals)) if vals else float("nan")
+    return out
+
+
+def excess_ratio(before: Sequence[GapRow], after: Sequence[GapRow],
+                 sigma: Mapping[str, float]) -> float:
+    """Held-out gap in excess of the noise, before/after, over the steady regions.
+
+    Excess = √(Σ max(RMSE² − σ², 0)/σ²) over the channels; a model that reaches the noise
+    floor has no excess, so the ratio is what 'the gap shrank' can mean near the noise.
+    """
+    def excess(rows: Sequence[GapRow]) -> float:
+        return math.sqrt(sum(max(r.rmse ** 2 - sigma[r.channel] ** 2, 0.0) / sigma[r.channel] ** 2
+                             for r in rows if r.region == "steady"))
+
+    b, a = excess(before), excess(after)
+    if a == 0.0:
+        return float("inf") if b > 0 else 1.0
+    return b / a
+
+
+def gap_ratio(before: Sequence[GapRow], after: Sequence[GapRow]) -> float:
+    """Held-out RMSE ratio before/after on the channel and region with the largest gap before,
+    measured in units of that channel's RMSE (the headline 'gap shrank by N×')."""
+    if not before or not after:
+        return float("nan")
+    worst = max(before, key=lambda r: r.rmse / (max(b.rmse for b in before
+                                                    if b.channel == r.channel) or 1.0)
+                if r.region == "steady" else -1.0)
+    match = [a for a in after if a.channel == worst.channel and a.region == worst.region]
+    if not match or match[0].rmse == 0:
+        return float("inf")
+    return worst.rmse / match[0].rmse
+
+
+def structured(s: Selection) -> bool:
+    """Whether a balance's residual is more than noise: Ljung-Box p < 0.01 on the residual
+    every 20 samples and a low-passed (50 ms mean) RMS above 2× the practical size."""
+    r = s.residual
+    if r.size < 200:
+        return False
+    smooth = uniform_filter1d(r, 51)
+    big = float(np.sqrt(np.mean(smooth ** 2))) > 2 * PRACTICAL * s.full_scale
+    p = ljung_box_p(r, rate=1000.0)
+    return bool(big and math.isfinite(p) and p < 0.01)
+
+
+def verdict(named: Sequence[str], selections: list[Selection], before: list[GapRow],
+            after: list[GapRow], white_after: dict[str, float],
+            sigma: Mapping[str, float]) -> tuple[str, str]:
+    """The verdict and its message from what was named and what is left.
+
+    Parameters
+    ----------
+    named
+        Names of the effects added to the rig.
+    selections
+        The selection of every balance.
+    before, after
+        Held-out gap rows before/after adding the effects [SI].
+    white_after
+        Ljung-Box p-values after, per channel [-].
+    sigma
+        Noise σ per channel [SI].
+    """
+    left = [s.balance for s in selections if structured(s)]
+    # output-error gap on the held-out record, steady motion, in units of the noise
+    off = [f"{r.channel} ({r.rmse / sigma[r.channel]:.1f} σ)" for r in before
+           if r.region == "steady" and r.rmse > OUTPUT_GAP * sigma[r.channel]]
+    if named:
+        names = ", ".join(named)
+        if len(named) > 1 or left:
+            return ("partially explained",
+                    f"named {names}; partially explained — possibly outside the library "
+                    f"(residual still above the practical size in: "
+                    f"{', '.join(left) or 'none'}; two or more terms)")
+        return "named", f"named {names}"
+    if left or off:
+        where = ", ".join([f"balance {b}" for b in left] + off)
+        return ("unexplained",
+                f"model and data differ ({where}, held-out steady RMSE) but no library "
+                "effect explains it: possibly outside the library, or a drift of base "
+                "parameters that the stored rig does not have")
+    return "no effect", "no effect found: the gap is within the noise and the practical size"

@@ -1,0 +1,129 @@
+"""The discrepancy workflow on steady pump-bench tables, and the lack-of-fit test."""
+
+from __future__ import annotations
+
+import io
+
+import numpy as np
+import pandas as pd
+import pytest
+from scipy import stats
+
+from diagnostics.discrepancy.lof import lack_of_fit, series_lack_of_fit
+from diagnostics.discrepancy.simulate import simulate
+from diagnostics.discrepancy.steady import discover_steady, is_bench_table, read_bench_bytes
+from diagnostics.discrepancy.synthetic import NOISE, synthesize, synthesize_bench
+from diagnostics.pump.csvio import bench_to_frame
+from sim.errors import InputError
+from sim.rigs import load_rig, reference_rig, reference_rig_document
+from sim.rigs.assembly import Condition
+
+
+def test_lack_of_fit_matches_the_hand_calculation() -> None:
+    # two conditions, three repeats each: means 1 and −0.5, scatter ±0.1 about them
+    e = np.array([0.9, 1.0, 1.1, -0.6, -0.5, -0.4])
+    g = ["a", "a", "a", "b", "b", "b"]
+    res = lack_of_fit(e, g, n_params=0)
+    assert res is not None
+    ss_pe = 4 * 0.01                      # (0.1² + 0 + 0.1²) per group
+    ss_lof = 3 * 1.0 ** 2 + 3 * 0.5 ** 2  # n_g·ē_g²
+    f_hand = (ss_lof / 2) / (ss_pe / 4)
+    assert res.f_stat == pytest.approx(f_hand)
+    assert (res.df_lof, res.df_pe) == (2, 4)
+    assert res.p == pytest.approx(stats.f.sf(f_hand, 2, 4))
+    assert res.sigma_pe == pytest.approx(0.1)
+
+
+def test_lack_of_fit_needs_repeats_and_is_calm_on_noise() -> None:
+    assert lack_of_fit(np.arange(4.0), ["a", "b", "c", "d"]) is None
+    rng = np.random.default_rng(0)
+    groups = [i // 3 for i in range(300)]
+    ps = [lack_of_fit(rng.normal(size=300), groups).p for _ in range(200)]  # type: ignore[union-attr]
+    # under the null the p-value is uniform: about 1 % below 0.01
+    assert np.mean(np.array(ps) < 0.01) < 0.04
+    # half the conditions off by 1 σ: E[F] ≈ 1 + 3·0.5 = 2.5 on (100, 200) degrees of freedom
+    biased = rng.normal(size=300) + 1.0 * np.array([g % 2 for g in groups])
+    res = lack_of_fit(biased, groups)
+    assert res is not None and res.p < 1e-6
+
+
+def test_repeated_cycles_give_a_lack_of_fit_only_when_the_model_misses() -> None:
+    doc = reference_rig_document()
+    doc["effects"] = {"seal_friction_pressure": {"parameters": {
+        "k_p": {"value": 4e-5, "unit": "m^2"}}}}
+    truth, base = load_rig(doc), reference_rig()
+    cond = Condition(load=4200.0, oil_temperature=50.0)
+    rng = np.random.default_rng(3)
+    recs = [synthesize(truth, cond, rng=rng, name=f"r{i}") for i in range(2)]
+    sig = {c: NOISE[c] for c in ("P1", "P2", "v")}
+    keys = ["same", "same"]
+    right = series_lack_of_fit(recs, [simulate(truth, cond)] * 2, list(sig), sig, keys)
+    wrong = series_lack_of_fit(recs, [simulate(base, cond)] * 2, list(sig), sig, keys)
+    assert right is not None and wrong is not None
+    assert right.p > 1e-3
+    assert wrong.p < 1e-6 and wrong.rms_lof > 3 * right.rms_lof
+    assert series_lack_of_fit(recs, [simulate(base, cond)] * 2, list(sig), sig,
+                              ["a", "b"]) is None
+
+
+@pytest.mark.parametrize(("effect", "value"), [("turbulent_pump_slip", 3e-9),
+                                                ("speed_offset", 1.0),
+                                                ("pump_clearance_pressure", 2e-20)])
+def test_a_hidden_pump_effect_is_named_from_a_bench_table(effect: str, value: float) -> None:
+    bench = synthesize_bench(reference_rig(), rng=np.random.default_rng(1),
+                             effects={effect: value})
+    d = discover_steady(reference_rig_document(), bench, bootstrap=10)
+    assert d.verdict == "named", d.message
+    assert [n.name for n in d.named] == [effect]
+    n = d.named[0]
+    # the truth within 3 standard errors (the 95 % interval is ±1.96 of them)
+    assert abs(n.value - value) <= 3 * (n.interval[1] - n.interval[0]) / (2 * 1.96)
+    assert n.value == pytest.approx(value, rel=0.1)
+    # held out: the 60 °C rows; the gap there falls to the scatter
+    assert d.gap_after[0].rmse < 1.5 * NOISE["Q_meter_B"] < d.gap_before[0].rmse
+    body = d.rig_document["effects"][effect]["parameters"]
+    assert next(iter(body.values()))["value"] == pytest.approx(n.value)
+    assert d.lack_of_fit["after"] is not None
+
+
+def test_a_speed_offset_at_one_speed_is_the_displacement_and_not_named() -> None:
+    bench = synthesize_bench(reference_rig(), rng=np.random.default_rng(2),
+                             effects={"speed_offset": 1.0}, speeds=(1.0,))
+    d = discover_steady(reference_rig_document(), bench, bootstrap=0)
+    assert d.named == []
+    assert ["base", "speed_offset"] in d.selections[0].ambiguity
+
+
+@pytest.mark.parametrize("noise", ["gaussian", "proportional", "heavy"])
+def test_no_effect_bench_tables_give_no_effect(noise: str) -> None:
+    for seed in range(5):
+        bench = synthesize_bench(reference_rig(), rng=np.random.default_rng(seed), noise=noise)
+        d = discover_steady(reference_rig_document(), bench, bootstrap=0)
+        assert d.named == [], d.message
+
+
+def _csv(frame: pd.DataFrame) -> bytes:
+    return frame.to_csv(index=False).encode()
+
+
+def test_bench_tables_are_recognised_and_bad_columns_named() -> None:
+    frame = bench_to_frame(synthesize_bench(reference_rig(), rng=np.random.default_rng(0)))
+    content = b"# SIMULATED virtual bench\n" + _csv(frame)
+    assert is_bench_table(content)
+    assert not is_bench_table(b"record,t [s],phase,P1 [Pa]\nA,0,working,1e5\n")
+    bench = read_bench_bytes(content)
+    assert bench.simulated and bench.q.size == len(frame)
+    with pytest.raises(InputError) as missing:
+        read_bench_bytes(_csv(frame.drop(columns=["theta [degC]"])))
+    assert missing.value.field == "theta"
+    with pytest.raises(InputError) as unit:
+        read_bench_bytes(_csv(frame.rename(columns={"q [m^3/s]": "q [furlong]"})))
+    assert unit.value.field == "q [furlong]"
+    holed = frame.copy()
+    holed.loc[3, "p_out [Pa]"] = np.nan
+    with pytest.raises(InputError) as nan:
+        read_bench_bytes(_csv(holed))
+    assert nan.value.field == "p_out [Pa]"
+    with pytest.raises(InputError):
+        discover_steady(reference_rig_document(), read_bench_bytes(_csv(frame.head(5))))
+    assert pd.read_csv(io.BytesIO(_csv(frame))).shape == frame.shape
