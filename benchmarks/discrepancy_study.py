@@ -18,7 +18,8 @@ The data come from the rig *with* an effect and the workflow starts from the rig
 steady motion (10-90 % of each phase) over the three conditions of the design, in units of
 that channel's noise σ (:func:`diagnostics.discrepancy.synthetic.effect_peak`); strengths
 are set from one calibration per effect assuming the difference scales linearly with the
-strength.  Every effect of the registry :data:`sim.components.effects.EFFECTS` takes part.
+strength.  Every effect of the registry that applies to the rig's circuit
+(:func:`sim.components.effects.effects_for`) takes part.
 
 Cases:
 
@@ -56,7 +57,7 @@ from diagnostics.discrepancy import Discovery, discover
 from diagnostics.discrepancy.simulate import SOLVER, simulate
 from diagnostics.discrepancy.synthetic import NOISE, effect_peak, synthesize
 from diagnostics.discrepancy.workflow import excess_ratio, gap_ratio
-from sim.components.effects import EFFECTS
+from sim.components.effects import EFFECTS, effects_for
 from sim.errors import SimulationError
 from sim.rigs import load_rig, reference_rig, reference_rig_document
 from sim.rigs.assembly import Condition
@@ -201,7 +202,8 @@ def _median(xs: list[float]) -> float | None:
 
 def main() -> None:
     t_start = time.perf_counter()
-    effects = [e for e in LIGHT_EFFECTS if e in EFFECTS] if LIGHT else list(EFFECTS)
+    rig_effects = effects_for(reference_rig().circuit)
+    effects = [e for e in LIGHT_EFFECTS if e in rig_effects] if LIGHT else list(rig_effects)
     print(f"discrepancy study: {'LIGHT' if LIGHT else 'full'}, {SEEDS} seed(s) per cell, "
           f"sizes {SIZES} σ, {WORKERS} worker(s), design (load N, °C, rad/s) {DESIGN}")
     # the steady pump-bench cases first: cheap, and a failure there shows at once
