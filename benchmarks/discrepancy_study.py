@@ -202,7 +202,7 @@ def _median(xs: list[float]) -> float | None:
 
 def main() -> None:
     t_start = time.perf_counter()
-    rig_effects = effects_for(reference_rig().circuit)
+    rig_effects = effects_for(reference_rig().circuit.name)
     effects = [e for e in LIGHT_EFFECTS if e in rig_effects] if LIGHT else list(rig_effects)
     print(f"discrepancy study: {'LIGHT' if LIGHT else 'full'}, {SEEDS} seed(s) per cell, "
           f"sizes {SIZES} σ, {WORKERS} worker(s), design (load N, °C, rad/s) {DESIGN}")
