@@ -30,6 +30,7 @@ from app.metrics import HttpMetrics, MetricsMiddleware
 from app.ratelimit import KeyRateLimiter
 from app.services.bootstrap import ensure_reference_data, upgrade_database
 from app.services.clearance import ClearanceEstimator
+from app.services.diagnosis_pool import DiagnosisPool
 from app.services.executors import SweepExecutors
 from app.services.jobs import JobRunner, fail_interrupted_jobs
 from app.services.rig_cache import RigCache
@@ -145,12 +146,14 @@ def create_app(
         if interrupted:
             logger.warning("%d job(s) of an earlier run marked failed", interrupted)
         app.state.jobs = JobRunner(sessions, workers=settings.job_workers)
-        app.state.warmup = Warmup(sessions, app.state.rigs, settings.rig_cache_size)
+        app.state.warmup = Warmup(sessions, app.state.rigs, settings.rig_cache_size,
+                                  then=app.state.diagnosis_pool.warm)
         app.state.warmup.start()
         try:
             yield
         finally:
             app.state.jobs.shutdown(wait=True)
+            app.state.diagnosis_pool.shutdown()
             app.state.sweep_executors.shutdown()
             engine.dispose()
 
@@ -165,6 +168,8 @@ def create_app(
     app.state.sessions = sessions
     app.state.clearance_estimator = clearance_estimator
     app.state.rigs = RigCache(settings.rig_cache_size)
+    app.state.diagnosis_pool = DiagnosisPool(settings.diagnosis_processes,
+                                             settings.rig_cache_size)
     app.state.sweep_executors = SweepExecutors(workers=settings.sweep_workers,
                                                dask_scheduler=settings.dask_scheduler)
     app.state.metrics = HttpMetrics()

@@ -9,6 +9,7 @@ in-memory SQLite database that would lose every write).
 
 from __future__ import annotations
 
+import os
 from functools import cached_property
 from pathlib import Path
 from typing import Literal
@@ -63,7 +64,13 @@ class Settings(BaseSettings):
     access_log
         Whether ``serve`` logs every request (uvicorn's access log).
     workers
-        Server processes of ``serve`` (uvicorn workers); each has its own caches.
+        Server processes of ``serve`` (uvicorn workers); each has its own caches.  Default:
+        one per core (``os.cpu_count()``).
+    diagnosis_processes
+        Worker processes of each server process that compute ``/diagnose``
+        (:mod:`app.services.diagnosis_pool`), so that diagnoses never hold the server's
+        interpreter lock and ``/health`` answers under load; 0 computes in the server's
+        threads.  Default 1.
     log_level
         Level of the service's log.
     sim_max_steps
@@ -96,7 +103,11 @@ class Settings(BaseSettings):
     dask_scheduler: str | None = Field(default=None, description="Dask scheduler address.")
     rig_cache_size: int = Field(default=16, ge=1, le=1024, description="Compiled rigs kept.")
     access_log: bool = Field(default=True, description="Log every request.")
-    workers: int = Field(default=1, ge=1, le=64, description="Server processes.")
+    workers: int = Field(default_factory=lambda: os.cpu_count() or 1, ge=1, le=64,
+                         description="Server processes (default: one per core).")
+    diagnosis_processes: int = Field(default=1, ge=0, le=64,
+                                     description="Diagnosis worker processes per server "
+                                     "process; 0: in its threads.")
     log_level: Literal["debug", "info", "warning", "error"] = Field(default="info")
     sim_max_steps: int = Field(default=2_000_000, ge=100, le=100_000_000,
                                description="Most solver steps of one /simulate integration.")

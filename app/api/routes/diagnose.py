@@ -1,28 +1,69 @@
-"""Diagnosis of measurement records: ``POST /diagnose``."""
+"""Diagnosis of measurement records: ``POST /diagnose``.
+
+The route is ``async`` and thin: the body is validated on the event loop; the store is
+read (key, rigs) in one thread-pool call; the diagnoses are computed by the application's
+:class:`~app.services.diagnosis_pool.DiagnosisPool` (worker processes, so the event loop
+never waits for a diagnosis's interpreter lock); the results are stored in a second
+thread-pool call and the answer is serialised once by pydantic's compiled serialiser.
+"""
 
 from __future__ import annotations
 
-from fastapi import APIRouter, Request
+import asyncio
+from datetime import datetime
 
-from app.api.deps import KeyHeaderDep, ReadAccess, RigsDep, SessionDep, require_key
+from fastapi import APIRouter, Request, Response
+from starlette.concurrency import run_in_threadpool
+
+from app.api.deps import KeyHeaderDep, ReadAccess, require_key
+from app.db.base import utcnow
 from app.schemas.common import ERROR_RESPONSES
 from app.schemas.diagnose import DiagnoseRequest, DiagnoseResponse
-from app.services.diagnosis import diagnose_request, response_of
+from app.services.diagnosis import (
+    DiagnosisOutcome,
+    GroupPlan,
+    outcome_of,
+    plan_groups,
+    response_json,
+    store_outcomes,
+)
+from app.services.diagnosis_pool import DiagnosisPool
 
 __all__ = ["router"]
 
 router = APIRouter(tags=["diagnosis"], dependencies=[ReadAccess], responses=ERROR_RESPONSES)
 
 
-@router.post("/diagnose", summary="Diagnose one record or a batch, and store them")
-def diagnose(body: DiagnoseRequest, request: Request, session: SessionDep, rigs: RigsDep,
-             key: KeyHeaderDep) -> DiagnoseResponse:
+def _plan(request: Request, body: DiagnoseRequest, key: str | None, now: datetime
+          ) -> list[GroupPlan]:
+    """Check the key when storing, resolve the rigs and build the records (one session)."""
+    with request.app.state.sessions() as session:
+        if body.store:
+            require_key(request, session, key)
+        return plan_groups(session, request.app.state.rigs, body, now)
+
+
+def _store(request: Request, body: DiagnoseRequest, outcomes: list[DiagnosisOutcome],
+           now: datetime) -> None:
+    with request.app.state.sessions() as session:
+        store_outcomes(session, body, outcomes, now)
+
+
+@router.post("/diagnose", summary="Diagnose one record or a batch, and store them",
+             response_model=DiagnoseResponse)
+async def diagnose(body: DiagnoseRequest, request: Request, key: KeyHeaderDep) -> Response:
     """Rank the fault hypotheses for each record (or for all records jointly).
 
     Records and results are stored in the history unless ``store`` is false; storing needs
-    the API key.  A request that fails in any record stores nothing.
+    the API key.  A request that fails in any record stores nothing.  With ``compact`` the
+    answer leaves out each hypothesis's predicted readings.
     """
     body.items()  # a malformed request is a 422 before it is a 401
+    now = utcnow()
+    plans = await run_in_threadpool(_plan, request, body, key, now)
+    pool: DiagnosisPool = request.app.state.diagnosis_pool
+    computed = await asyncio.gather(*(pool.compute(plan) for plan in plans))
+    outcomes = [outcome_of(plan, result) for plan, result in zip(plans, computed, strict=True)]
     if body.store:
-        require_key(request, session, key)
-    return response_of(body, diagnose_request(session, rigs, body))
+        await run_in_threadpool(_store, request, body, outcomes, now)
+    return Response(response_json(body, outcomes), media_type="application/json")
