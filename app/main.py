@@ -10,6 +10,7 @@ that factory itself for several workers.  Every process warms the stored rigs at
 from __future__ import annotations
 
 import logging
+import multiprocessing
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 from typing import Any
@@ -25,6 +26,7 @@ from app.api.router import api_router
 from app.console import router as console_router
 from app.db.engine import make_engine, make_session_factory
 from app.errors import install_error_handlers
+from app.lifeline import exit_with_parent
 from app.limits import BodyLimitMiddleware
 from app.metrics import HttpMetrics, MetricsMiddleware
 from app.ratelimit import KeyRateLimiter
@@ -191,8 +193,11 @@ def create_service_app() -> FastAPI:
     (nothing to do when ``serve`` has done it before starting its workers), so
     ``uvicorn app.main:create_service_app --factory`` works on a fresh data folder; table
     rows without a clearance get one from
-    :class:`~app.services.throttle_estimator.ThrottleClearanceEstimator`.
+    :class:`~app.services.throttle_estimator.ThrottleClearanceEstimator`.  As a worker
+    process of ``serve`` it ends itself when ``serve`` is gone (:mod:`app.lifeline`).
     """
     from app.services.throttle_estimator import ThrottleClearanceEstimator
 
+    if multiprocessing.parent_process() is not None:  # a worker of `serve`: leave with it
+        exit_with_parent()
     return create_app(Settings(), clearance_estimator=ThrottleClearanceEstimator())

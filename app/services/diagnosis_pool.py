@@ -34,6 +34,7 @@ from typing import Any
 
 from starlette.concurrency import run_in_threadpool
 
+from app.lifeline import exit_with_parent
 from app.services.diagnosis import (
     DIAGNOSIS_LOCK,
     GroupPlan,
@@ -51,8 +52,6 @@ __all__ = ["DiagnosisPool", "RigKey", "warm_rig"]
 
 logger = logging.getLogger("hydrodiag.app")
 
-#: How often a worker checks that the server process is still there [s].
-_PARENT_CHECK_S = 1.0
 #: Longest wait for every worker to start and warm [s].
 _WARM_TIMEOUT_S = 300.0
 
@@ -82,18 +81,11 @@ _RIG_ORDER: list[RigKey] = []
 _CACHE_SIZE = 16
 
 
-def _watch_parent(parent: int) -> None:
-    while os.getppid() == parent:
-        time.sleep(_PARENT_CHECK_S)
-    os._exit(0)  # the server is gone (kill -9 included): nothing left to serve
-
-
 def _worker_start(cache_size: int, parent: int, rigs: Sequence[tuple[RigKey, Any]]) -> None:
     """Initialiser of a worker: remember the cache size, watch the parent, warm the rigs."""
     global _CACHE_SIZE
     _CACHE_SIZE = cache_size
-    threading.Thread(target=_watch_parent, args=(parent,), daemon=True,
-                     name="hydrodiag-parent-watch").start()
+    exit_with_parent(parent)
     for key, document in rigs:
         try:
             warm_rig(_worker_rig(key, document))
