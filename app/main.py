@@ -171,7 +171,7 @@ def create_app(
     app.state.clearance_estimator = clearance_estimator
     app.state.rigs = RigCache(settings.rig_cache_size)
     app.state.diagnosis_pool = DiagnosisPool(settings.diagnosis_processes,
-                                             settings.rig_cache_size)
+                                             settings.rig_cache_size, settings.diagnosis_queue)
     app.state.sweep_executors = SweepExecutors(workers=settings.sweep_workers,
                                                dask_scheduler=settings.dask_scheduler)
     app.state.metrics = HttpMetrics()

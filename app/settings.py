@@ -71,6 +71,9 @@ class Settings(BaseSettings):
         (:mod:`app.services.diagnosis_pool`), so that diagnoses never hold the server's
         interpreter lock and ``/health`` answers under load; 0 computes in the server's
         threads.  Default 1.
+    diagnosis_queue
+        Most ``/diagnose`` requests a server process takes at once (running or waiting);
+        one more is answered 503 with ``Retry-After`` at once.  Default 32.
     log_level
         Level of the service's log.
     sim_max_steps
@@ -108,6 +111,9 @@ class Settings(BaseSettings):
     diagnosis_processes: int = Field(default=1, ge=0, le=64,
                                      description="Diagnosis worker processes per server "
                                      "process; 0: in its threads.")
+    diagnosis_queue: int = Field(default=32, ge=1, le=100_000,
+                                 description="Most /diagnose requests taken at once per "
+                                 "server process.")
     log_level: Literal["debug", "info", "warning", "error"] = Field(default="info")
     sim_max_steps: int = Field(default=2_000_000, ge=100, le=100_000_000,
                                description="Most solver steps of one /simulate integration.")

@@ -14,7 +14,8 @@ creation time, the key of :class:`~app.services.rig_cache.RigCache`); the rig do
 travels with each task and is compiled only on a miss.  :meth:`DiagnosisPool.warm` starts
 every worker and loads and exercises the stored rigs in it (one steady cycle and one
 diagnosis each) before the service reports ready.  Workers are started with ``spawn``
-(the server process has threads) and leave when the server process is gone, even after a
+(the server process has threads), run at a lower priority than the server
+(:data:`WORKER_NICENESS`), and leave when the server process is gone, even after a
 ``kill -9`` (they watch their parent).
 """
 
@@ -26,14 +27,18 @@ import multiprocessing
 import os
 import threading
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from concurrent.futures import ProcessPoolExecutor
+from contextlib import contextmanager
 from dataclasses import dataclass
 from datetime import UTC, datetime
-from typing import Any
+from typing import Any, TypeVar
 
+import anyio
+import anyio.to_thread
 from starlette.concurrency import run_in_threadpool
 
+from app.errors import ServiceBusyError
 from app.lifeline import exit_with_parent
 from app.services.diagnosis import (
     DIAGNOSIS_LOCK,
@@ -55,7 +60,14 @@ logger = logging.getLogger("hydrodiag.app")
 #: Longest wait for every worker to start and warm [s].
 _WARM_TIMEOUT_S = 300.0
 
+#: Niceness added to the diagnosis workers: the server's event loop (``/health``, parsing,
+#: answers) gets the CPU first when both want it.
+WORKER_NICENESS = 5
+#: Threads of a server process that read and write the store for /diagnose at once.
+STORE_THREADS = 4
+
 RigKey = tuple[int, int, datetime]
+T = TypeVar("T")
 
 
 def warm_rig(rig: Rig) -> None:
@@ -86,6 +98,7 @@ def _worker_start(cache_size: int, parent: int, rigs: Sequence[tuple[RigKey, Any
     global _CACHE_SIZE
     _CACHE_SIZE = cache_size
     exit_with_parent(parent)
+    os.nice(WORKER_NICENESS)
     for key, document in rigs:
         try:
             warm_rig(_worker_rig(key, document))
@@ -143,13 +156,45 @@ class DiagnosisPool:
         Compiled rigs each worker keeps [-].
     """
 
-    def __init__(self, processes: int, cache_size: int = 16) -> None:
-        if processes < 0:
-            raise ValueError("processes must be 0 or more")
+    def __init__(self, processes: int, cache_size: int = 16, queue: int = 32) -> None:
+        if processes < 0 or queue < 1:
+            raise ValueError("processes must be 0 or more, queue 1 or more")
         self.processes = processes
+        self.queue = queue
+        self.admitted = 0
         self._cache_size = cache_size
         self._executor: ProcessPoolExecutor | None = None
         self._lock = threading.Lock()
+        self._limiter: anyio.CapacityLimiter | None = None
+
+    @contextmanager
+    def admit(self) -> Iterator[None]:
+        """Count one request in for the length of the block, or refuse it when ``queue``
+        requests are already in (on the event loop only; no lock needed).
+
+        Raises
+        ------
+        ServiceBusyError
+            As many requests are in as the setting allows (503 with ``Retry-After``): a
+            request answered at once is better than one that waits past its deadline.
+        """
+        if self.admitted >= self.queue:
+            raise ServiceBusyError(
+                f"{self.admitted} diagnosis requests are already queued in this server "
+                "process (setting HYDRODIAG_DIAGNOSIS_QUEUE); retry shortly", retry_after=1)
+        self.admitted += 1
+        try:
+            yield
+        finally:
+            self.admitted -= 1
+
+    async def in_thread(self, call: Callable[[], T]) -> T:
+        """Run ``call`` (store reads and writes) in the thread pool, at most
+        :data:`STORE_THREADS` at once: more threads would only contend for the interpreter
+        lock with the event loop."""
+        if self._limiter is None:
+            self._limiter = anyio.CapacityLimiter(STORE_THREADS)
+        return await anyio.to_thread.run_sync(call, limiter=self._limiter)
 
     def _pool(self, rigs: Sequence[ResolvedRig] = ()) -> ProcessPoolExecutor:
         with self._lock:

@@ -15,6 +15,7 @@ from typing import Any
 import pytest
 
 from app.db.base import utcnow
+from app.errors import ServiceBusyError
 from app.schemas.diagnose import DiagnoseRequest
 from app.services.diagnosis import plan_groups
 from app.services.diagnosis_pool import DiagnosisPool
@@ -133,3 +134,30 @@ def test_workers_leave_when_the_server_is_killed() -> None:
     finally:
         if parent.poll() is None:
             parent.kill()
+
+
+def test_admission_refuses_past_the_queue_and_counts_back_down() -> None:
+    pool = DiagnosisPool(0, queue=2)
+    with pool.admit(), pool.admit():
+        assert pool.admitted == 2
+        with pytest.raises(ServiceBusyError), pool.admit():
+            pass
+    assert pool.admitted == 0
+    with pool.admit():
+        assert pool.admitted == 1
+
+
+def test_a_full_queue_is_503_with_retry_after_and_stores_nothing(server: LiveServer) -> None:
+    record = simulated_record(server, WORN_VALVE)
+    pool: DiagnosisPool = server.app.state.diagnosis_pool
+    before = server.row_counts()
+    pool.admitted += pool.queue  # as if that many requests were being diagnosed
+    try:
+        response = server.client.post("/diagnose", json={"record": record})
+    finally:
+        pool.admitted -= pool.queue
+    assert response.status_code == 503, response.text
+    assert response.headers["Retry-After"] == "1"
+    assert response.json()["error"]["type"] == "ServiceBusyError"
+    assert server.row_counts() == before
+    assert server.client.post("/diagnose", json={"record": record}).status_code == 200

@@ -4,20 +4,22 @@ The route is ``async`` and thin: the body is validated on the event loop; the st
 read (key, rigs) in one thread-pool call; the diagnoses are computed by the application's
 :class:`~app.services.diagnosis_pool.DiagnosisPool` (worker processes, so the event loop
 never waits for a diagnosis's interpreter lock); the results are stored in a second
-thread-pool call and the answer is serialised once by pydantic's compiled serialiser.
+thread-pool call and the answer is serialised once by pydantic's compiled serialiser.  A server process
+takes at most ``diagnosis_queue`` diagnosis requests at once; one more is answered 503
+with ``Retry-After`` at once rather than queued past its client's deadline.
 """
 
 from __future__ import annotations
 
 import asyncio
 from datetime import datetime
+from functools import partial
 
 from fastapi import APIRouter, Request, Response
-from starlette.concurrency import run_in_threadpool
 
 from app.api.deps import KeyHeaderDep, ReadAccess, require_key
 from app.db.base import utcnow
-from app.schemas.common import ERROR_RESPONSES
+from app.schemas.common import ERROR_RESPONSES, error_doc
 from app.schemas.diagnose import DiagnoseRequest, DiagnoseResponse
 from app.services.diagnosis import (
     DiagnosisOutcome,
@@ -50,7 +52,9 @@ def _store(request: Request, body: DiagnoseRequest, outcomes: list[DiagnosisOutc
 
 
 @router.post("/diagnose", summary="Diagnose one record or a batch, and store them",
-             response_model=DiagnoseResponse)
+             response_model=DiagnoseResponse, responses={503: error_doc(
+                 "As many diagnoses queued as the service accepts "
+                 "(HYDRODIAG_DIAGNOSIS_QUEUE); retry after Retry-After")})
 async def diagnose(body: DiagnoseRequest, request: Request, key: KeyHeaderDep) -> Response:
     """Rank the fault hypotheses for each record (or for all records jointly).
 
@@ -60,10 +64,12 @@ async def diagnose(body: DiagnoseRequest, request: Request, key: KeyHeaderDep) -
     """
     body.items()  # a malformed request is a 422 before it is a 401
     now = utcnow()
-    plans = await run_in_threadpool(_plan, request, body, key, now)
     pool: DiagnosisPool = request.app.state.diagnosis_pool
-    computed = await asyncio.gather(*(pool.compute(plan) for plan in plans))
-    outcomes = [outcome_of(plan, result) for plan, result in zip(plans, computed, strict=True)]
-    if body.store:
-        await run_in_threadpool(_store, request, body, outcomes, now)
+    with pool.admit():
+        plans = await pool.in_thread(partial(_plan, request, body, key, now))
+        computed = await asyncio.gather(*(pool.compute(plan) for plan in plans))
+        outcomes = [outcome_of(plan, result)
+                    for plan, result in zip(plans, computed, strict=True)]
+        if body.store:
+            await pool.in_thread(partial(_store, request, body, outcomes, now))
     return Response(response_json(body, outcomes), media_type="application/json")
