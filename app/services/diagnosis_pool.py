@@ -14,8 +14,7 @@ creation time, the key of :class:`~app.services.rig_cache.RigCache`); the rig do
 travels with each task and is compiled only on a miss.  :meth:`DiagnosisPool.warm` starts
 every worker and loads and exercises the stored rigs in it (one steady cycle and one
 diagnosis each) before the service reports ready.  Workers are started with ``spawn``
-(the server process has threads), run at a lower priority than the server
-(:data:`WORKER_NICENESS`), and leave when the server process is gone, even after a
+(the server process has threads) and leave when the server process is gone, even after a
 ``kill -9`` (they watch their parent).
 """
 
@@ -60,9 +59,6 @@ logger = logging.getLogger("hydrodiag.app")
 #: Longest wait for every worker to start and warm [s].
 _WARM_TIMEOUT_S = 300.0
 
-#: Niceness added to the diagnosis workers: the server's event loop (``/health``, parsing,
-#: answers) gets the CPU first when both want it.
-WORKER_NICENESS = 5
 #: Threads of a server process that read and write the store for /diagnose at once.
 STORE_THREADS = 4
 
@@ -98,7 +94,6 @@ def _worker_start(cache_size: int, parent: int, rigs: Sequence[tuple[RigKey, Any
     global _CACHE_SIZE
     _CACHE_SIZE = cache_size
     exit_with_parent(parent)
-    os.nice(WORKER_NICENESS)
     for key, document in rigs:
         try:
             warm_rig(_worker_rig(key, document))

@@ -12,12 +12,14 @@ with ``Retry-After`` at once rather than queued past its client's deadline.
 from __future__ import annotations
 
 import asyncio
+from collections.abc import AsyncIterator
 from datetime import datetime
 from functools import partial
 
-from fastapi import APIRouter, Request, Response
+from fastapi import APIRouter, Depends, Request, Response
+from sqlalchemy.orm import Session
 
-from app.api.deps import KeyHeaderDep, ReadAccess, require_key
+from app.api.deps import KeyHeaderDep, ReadAccess, SessionDep, require_key
 from app.db.base import utcnow
 from app.schemas.common import ERROR_RESPONSES, error_doc
 from app.schemas.diagnose import DiagnoseRequest, DiagnoseResponse
@@ -33,16 +35,29 @@ from app.services.diagnosis_pool import DiagnosisPool
 
 __all__ = ["router"]
 
-router = APIRouter(tags=["diagnosis"], dependencies=[ReadAccess], responses=ERROR_RESPONSES)
 
 
-def _plan(request: Request, body: DiagnoseRequest, key: str | None, now: datetime
-          ) -> list[GroupPlan]:
-    """Check the key when storing, resolve the rigs and build the records (one session)."""
-    with request.app.state.sessions() as session:
+async def _admitted(request: Request) -> AsyncIterator[None]:
+    """Count the request in (before anything reads the store), or answer 503 at once."""
+    pool: DiagnosisPool = request.app.state.diagnosis_pool
+    with pool.admit():
+        yield
+
+
+router = APIRouter(tags=["diagnosis"], dependencies=[Depends(_admitted), ReadAccess],
+                   responses=ERROR_RESPONSES)
+
+
+def _plan(request: Request, session: Session, body: DiagnoseRequest, key: str | None,
+          now: datetime) -> list[GroupPlan]:
+    """Check the key when storing, resolve the rigs and build the records; then close the
+    request's session, so that no connection is held while the diagnoses are computed."""
+    try:
         if body.store:
             require_key(request, session, key)
         return plan_groups(session, request.app.state.rigs, body, now)
+    finally:
+        session.close()
 
 
 def _store(request: Request, body: DiagnoseRequest, outcomes: list[DiagnosisOutcome],
@@ -55,7 +70,8 @@ def _store(request: Request, body: DiagnoseRequest, outcomes: list[DiagnosisOutc
              response_model=DiagnoseResponse, responses={503: error_doc(
                  "As many diagnoses queued as the service accepts "
                  "(HYDRODIAG_DIAGNOSIS_QUEUE); retry after Retry-After")})
-async def diagnose(body: DiagnoseRequest, request: Request, key: KeyHeaderDep) -> Response:
+async def diagnose(body: DiagnoseRequest, request: Request, session: SessionDep,
+                   key: KeyHeaderDep) -> Response:
     """Rank the fault hypotheses for each record (or for all records jointly).
 
     Records and results are stored in the history unless ``store`` is false; storing needs
@@ -65,11 +81,9 @@ async def diagnose(body: DiagnoseRequest, request: Request, key: KeyHeaderDep) -
     body.items()  # a malformed request is a 422 before it is a 401
     now = utcnow()
     pool: DiagnosisPool = request.app.state.diagnosis_pool
-    with pool.admit():
-        plans = await pool.in_thread(partial(_plan, request, body, key, now))
-        computed = await asyncio.gather(*(pool.compute(plan) for plan in plans))
-        outcomes = [outcome_of(plan, result)
-                    for plan, result in zip(plans, computed, strict=True)]
-        if body.store:
-            await pool.in_thread(partial(_store, request, body, outcomes, now))
+    plans = await pool.in_thread(partial(_plan, request, session, body, key, now))
+    computed = await asyncio.gather(*(pool.compute(plan) for plan in plans))
+    outcomes = [outcome_of(plan, result) for plan, result in zip(plans, computed, strict=True)]
+    if body.store:
+        await pool.in_thread(partial(_store, request, body, outcomes, now))
     return Response(response_json(body, outcomes), media_type="application/json")
