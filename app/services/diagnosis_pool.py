@@ -24,6 +24,7 @@ import asyncio
 import logging
 import multiprocessing
 import os
+import signal
 import threading
 import time
 from collections.abc import Callable, Iterator, Mapping, Sequence
@@ -93,6 +94,7 @@ def _worker_start(cache_size: int, parent: int, rigs: Sequence[tuple[RigKey, Any
     """Initialiser of a worker: remember the cache size, watch the parent, warm the rigs."""
     global _CACHE_SIZE
     _CACHE_SIZE = cache_size
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C stops the server, which stops us
     exit_with_parent(parent)
     for key, document in rigs:
         try:
