@@ -16,6 +16,7 @@ class                          status  when
 ``InputError`` and subclasses  422     invalid input, names the field
 ``SimulationError``            500     the solver failed
 ``ServiceUnavailableError``    503     the database is unreachable or not migrated
+``ServiceBusyError``           503     too many diagnoses queued (with ``Retry-After``)
 =============================  ======  =======================================
 
 Request validation by pydantic is reported as ``InputError`` with the same body; the first
@@ -50,6 +51,7 @@ from sim.errors import (
 __all__ = [
     "PayloadTooLargeError",
     "RateLimitError",
+    "ServiceBusyError",
     "ServiceUnavailableError",
     "error_response",
     "format_location",
@@ -62,6 +64,15 @@ logger = logging.getLogger("hydrodiag.app")
 
 class ServiceUnavailableError(HydrodiagError):
     """The service cannot answer now: the database is unreachable or not migrated."""
+
+
+class ServiceBusyError(ServiceUnavailableError):
+    """The service has as much work queued as it accepts (``diagnosis_queue``); retry in
+    ``retry_after`` seconds."""
+
+    def __init__(self, message: str, *, retry_after: int, field: str | None = None) -> None:
+        super().__init__(message, field=field)
+        self.retry_after = retry_after
 
 
 class PayloadTooLargeError(HydrodiagError):
@@ -140,7 +151,7 @@ async def _hydrodiag_error(_request: Request, exc: Exception) -> JSONResponse:
     if status >= 500:
         logger.error("%s: %s", type(exc).__name__, exc)
     headers = {"WWW-Authenticate": "APIKey"} if status == 401 else None
-    if isinstance(exc, RateLimitError):
+    if isinstance(exc, RateLimitError | ServiceBusyError):
         headers = {"Retry-After": str(exc.retry_after)}
     return error_response(status, type(exc).__name__, exc.message, exc.field, headers=headers)
 

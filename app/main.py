@@ -10,6 +10,7 @@ that factory itself for several workers.  Every process warms the stored rigs at
 from __future__ import annotations
 
 import logging
+import multiprocessing
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 from typing import Any
@@ -25,11 +26,13 @@ from app.api.router import api_router
 from app.console import router as console_router
 from app.db.engine import make_engine, make_session_factory
 from app.errors import install_error_handlers
+from app.lifeline import exit_with_parent
 from app.limits import BodyLimitMiddleware
 from app.metrics import HttpMetrics, MetricsMiddleware
 from app.ratelimit import KeyRateLimiter
 from app.services.bootstrap import ensure_reference_data, upgrade_database
 from app.services.clearance import ClearanceEstimator
+from app.services.diagnosis_pool import DiagnosisPool
 from app.services.executors import SweepExecutors
 from app.services.jobs import JobRunner, fail_interrupted_jobs
 from app.services.rig_cache import RigCache
@@ -145,12 +148,14 @@ def create_app(
         if interrupted:
             logger.warning("%d job(s) of an earlier run marked failed", interrupted)
         app.state.jobs = JobRunner(sessions, workers=settings.job_workers)
-        app.state.warmup = Warmup(sessions, app.state.rigs, settings.rig_cache_size)
+        app.state.warmup = Warmup(sessions, app.state.rigs, settings.rig_cache_size,
+                                  then=app.state.diagnosis_pool.warm)
         app.state.warmup.start()
         try:
             yield
         finally:
             app.state.jobs.shutdown(wait=True)
+            app.state.diagnosis_pool.shutdown()
             app.state.sweep_executors.shutdown()
             engine.dispose()
 
@@ -165,6 +170,8 @@ def create_app(
     app.state.sessions = sessions
     app.state.clearance_estimator = clearance_estimator
     app.state.rigs = RigCache(settings.rig_cache_size)
+    app.state.diagnosis_pool = DiagnosisPool(settings.diagnosis_processes,
+                                             settings.rig_cache_size, settings.diagnosis_queue)
     app.state.sweep_executors = SweepExecutors(workers=settings.sweep_workers,
                                                dask_scheduler=settings.dask_scheduler)
     app.state.metrics = HttpMetrics()
@@ -186,8 +193,11 @@ def create_service_app() -> FastAPI:
     (nothing to do when ``serve`` has done it before starting its workers), so
     ``uvicorn app.main:create_service_app --factory`` works on a fresh data folder; table
     rows without a clearance get one from
-    :class:`~app.services.throttle_estimator.ThrottleClearanceEstimator`.
+    :class:`~app.services.throttle_estimator.ThrottleClearanceEstimator`.  As a worker
+    process of ``serve`` it ends itself when ``serve`` is gone (:mod:`app.lifeline`).
     """
     from app.services.throttle_estimator import ThrottleClearanceEstimator
 
+    if multiprocessing.parent_process() is not None:  # a worker of `serve`: leave with it
+        exit_with_parent()
     return create_app(Settings(), clearance_estimator=ThrottleClearanceEstimator())

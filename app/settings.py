@@ -9,6 +9,7 @@ in-memory SQLite database that would lose every write).
 
 from __future__ import annotations
 
+import os
 from functools import cached_property
 from pathlib import Path
 from typing import Literal
@@ -18,12 +19,19 @@ from pydantic_settings import BaseSettings, SettingsConfigDict
 from sqlalchemy.engine import URL, make_url
 from sqlalchemy.exc import ArgumentError
 
-__all__ = ["WEAK_PASSWORDS", "Settings"]
+__all__ = ["WEAK_PASSWORDS", "Settings", "usable_cores"]
 
 #: Passwords that appear in tutorials and default images; refused in a database URL.
 WEAK_PASSWORDS = frozenset(
     {"", "admin", "changeme", "changethis", "hydrodiag", "password", "postgres", "secret", "root"}
 )
+
+
+def usable_cores() -> int:
+    """Cores this process may run on (its CPU affinity, e.g. a container's cpuset)."""
+    if hasattr(os, "sched_getaffinity"):
+        return max(1, len(os.sched_getaffinity(0)))
+    return os.cpu_count() or 1
 
 
 class Settings(BaseSettings):
@@ -63,7 +71,16 @@ class Settings(BaseSettings):
     access_log
         Whether ``serve`` logs every request (uvicorn's access log).
     workers
-        Server processes of ``serve`` (uvicorn workers); each has its own caches.
+        Server processes of ``serve`` (uvicorn workers); each has its own caches.  Default:
+        one per core this process may run on (:func:`usable_cores`).
+    diagnosis_processes
+        Worker processes of each server process that compute ``/diagnose``
+        (:mod:`app.services.diagnosis_pool`), so that diagnoses never hold the server's
+        interpreter lock and ``/health`` answers under load; 0 computes in the server's
+        threads.  Default 1.
+    diagnosis_queue
+        Most ``/diagnose`` requests a server process takes at once (running or waiting);
+        one more is answered 503 with ``Retry-After`` at once.  Default 32.
     log_level
         Level of the service's log.
     sim_max_steps
@@ -96,7 +113,14 @@ class Settings(BaseSettings):
     dask_scheduler: str | None = Field(default=None, description="Dask scheduler address.")
     rig_cache_size: int = Field(default=16, ge=1, le=1024, description="Compiled rigs kept.")
     access_log: bool = Field(default=True, description="Log every request.")
-    workers: int = Field(default=1, ge=1, le=64, description="Server processes.")
+    workers: int = Field(default_factory=lambda: min(usable_cores(), 64), ge=1, le=64,
+                         description="Server processes (default: one per core).")
+    diagnosis_processes: int = Field(default=1, ge=0, le=64,
+                                     description="Diagnosis worker processes per server "
+                                     "process; 0: in its threads.")
+    diagnosis_queue: int = Field(default=32, ge=1, le=100_000,
+                                 description="Most /diagnose requests taken at once per "
+                                 "server process.")
     log_level: Literal["debug", "info", "warning", "error"] = Field(default="info")
     sim_max_steps: int = Field(default=2_000_000, ge=100, le=100_000_000,
                                description="Most solver steps of one /simulate integration.")

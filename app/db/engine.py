@@ -19,6 +19,10 @@ SessionFactory = sessionmaker[Session]
 
 #: How long an SQLite connection waits for another writer before failing [ms].
 SQLITE_BUSY_TIMEOUT_MS = 10_000
+#: Connections kept open to an SQLite file, and opened beyond them when all are in use:
+#: as many as the threads that may read the store at once (the thread pool's 40 and the
+#: job threads), so that no request waits for a connection (SQLite's are cheap).
+SQLITE_POOL_SIZE, SQLITE_POOL_OVERFLOW = 16, 48
 
 
 def _sqlite_pragmas(dbapi_connection: Any, _record: Any) -> None:
@@ -48,7 +52,8 @@ def make_engine(url: URL) -> Engine:
     if url.get_backend_name() == "sqlite":
         if url.database:
             Path(url.database).parent.mkdir(parents=True, exist_ok=True)
-        engine = create_engine(url, connect_args={"check_same_thread": False})
+        engine = create_engine(url, connect_args={"check_same_thread": False},
+                               pool_size=SQLITE_POOL_SIZE, max_overflow=SQLITE_POOL_OVERFLOW)
         event.listen(engine, "connect", _sqlite_pragmas)
         return engine
     return create_engine(url, pool_pre_ping=True)

@@ -162,7 +162,10 @@ class MeasurementIn(RequestModel):
 class DiagnoseRequest(RequestModel):
     """One record (``record``) or a batch (``records``) to diagnose."""
 
-    model_config = ConfigDict(json_schema_extra={"examples": [{"record": _EXAMPLE_RECORD}]})
+    model_config = ConfigDict(json_schema_extra={"examples": [
+        {"record": _EXAMPLE_RECORD},
+        {"record": _EXAMPLE_RECORD, "store": False, "compact": True},
+    ]})
 
     record: MeasurementIn | None = Field(
         default=None, description="A single record; give this or `records` [-]",
@@ -183,6 +186,13 @@ class DiagnoseRequest(RequestModel):
         default=True,
         description="Store the records and results in the history (needs the API key) [-]",
         examples=[True],
+    )
+    compact: bool = Field(
+        default=False,
+        description="Answer with each diagnosis's summary: `result` without every "
+        "hypothesis's predicted readings (about half the size; the stored result keeps them) "
+        "[-]",
+        examples=[False],
     )
 
     def items(self) -> list[tuple[str, MeasurementIn]]:
@@ -311,7 +321,8 @@ class DiagnosisPublic(BaseModel):
     )
     result: dict[str, Any] = Field(
         description="The full diagnosis: every hypothesis with its fitted parameters and "
-        "predictions, isolability, direct inversions; SI units stated per field [-]",
+        "predictions (left out of each hypothesis with `compact`), isolability, direct "
+        "inversions; SI units stated per field [-]",
         examples=[{"top": "valve", "hypotheses": []}],
     )
 
@@ -323,5 +334,8 @@ class DiagnoseResponse(BaseModel):
         description="How the records were diagnosed [-]", examples=["single"])
     stored: bool = Field(description="Whether records and results were stored [-]",
                          examples=[True])
+    compact: bool = Field(
+        default=False, description="Whether each `result` leaves out the hypotheses' "
+        "predicted readings (request option `compact`) [-]", examples=[False])
     diagnoses: list[DiagnosisPublic] = Field(description="The diagnoses, in request order [-]",
                                              examples=[[]])

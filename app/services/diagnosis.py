@@ -19,7 +19,7 @@ import threading
 from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from datetime import datetime
-from typing import Any
+from typing import Any, Literal
 
 from sqlalchemy.orm import Session
 
@@ -36,10 +36,14 @@ from app.services.history import ComponentEstimate, add_diagnosis, add_measureme
 from app.services.measurements import stored_record, to_record
 from app.services.rig_cache import ResolvedRig, RigCache
 from diagnostics.diagnose import Diagnosis, diagnose
+from diagnostics.measurement import MeasurementRecord
 from sim.errors import InputError
+from sim.rigs import Rig
 
-__all__ = ["DIAGNOSIS_LOCK", "UNEXPLAINED", "DiagnosisOutcome", "EstimateOut", "diagnose_request",
-           "estimates_of", "json_ready", "response_of"]
+__all__ = ["DIAGNOSIS_LOCK", "UNEXPLAINED", "DiagnosisOutcome", "EstimateOut", "GroupPlan",
+           "GroupResult", "compact_result", "compute_group", "diagnose_request", "estimates_of",
+           "json_ready", "outcome_of", "plan_groups", "request_error", "response_json",
+           "response_of", "store_outcomes"]
 
 #: Serialises calls into ``diagnostics`` within one process (module docstring).
 DIAGNOSIS_LOCK = threading.Lock()
@@ -168,19 +172,34 @@ def _groups(request: DiagnoseRequest) -> list[list[tuple[str, MeasurementIn]]]:
     return [items]
 
 
-def _diagnose_group(session: Session, rigs: RigCache, group: list[tuple[str, MeasurementIn]],
-                    now: datetime) -> DiagnosisOutcome:
-    path0, first = group[0]
-    resolved = rigs.get(session, first.rig_id, first.rig_version,
-                        rig_field=f"{path0}.rig_id", version_field=f"{path0}.rig_version")
-    times = [record.measured_at or now for _, record in group]
-    records = [to_record(record, path=path, rig_name=resolved.name, measured_at=t)
-               for (path, record), t in zip(group, times, strict=True)]
-    try:
-        with DIAGNOSIS_LOCK:
-            diagnosis = diagnose(resolved.rig, records)
-    except InputError as exc:
-        raise type(exc)(exc.message, field=_request_field(exc.field, group)) from None
+@dataclass(frozen=True, slots=True)
+class GroupResult:
+    """The computed half of a diagnosis: plain data, picklable (it crosses processes).
+
+    ``field`` of an error raised while computing it is within the group's records
+    (``records[1].flow_B``); :func:`outcome_of` maps it to the request's path.
+    """
+
+    top: str
+    component: str
+    probability: float
+    estimates: list[EstimateOut]
+    result: dict[str, Any]
+
+
+def compute_group(rig: Rig, records: Sequence[MeasurementRecord], rig_version: int
+                  ) -> GroupResult:
+    """Diagnose ``records`` jointly on ``rig`` and shape the result as the API returns it.
+
+    Pure computation (no store, no locks): runs in the service's diagnosis processes
+    (:mod:`app.services.diagnosis_pool`) or, under :data:`DIAGNOSIS_LOCK`, in a thread.
+
+    Raises
+    ------
+    InputError
+        The records cannot be diagnosed on this rig (``field`` within the records).
+    """
+    diagnosis = diagnose(rig, list(records))
     top = diagnosis.top
     explained = diagnosis.explained
     estimates = estimates_of(diagnosis)
@@ -189,14 +208,66 @@ def _diagnose_group(session: Session, rigs: RigCache, group: list[tuple[str, Mea
                                          "value": e.value, "low": e.low, "high": e.high,
                                          "probability": e.probability, "source": e.source}
                            for e in estimates}
-    result["rig_version"] = resolved.version
-    return DiagnosisOutcome(
-        paths=[path for path, _ in group], resolved=resolved, measured_at=max(times),
+    result["rig_version"] = rig_version
+    return GroupResult(
         top=top.name if explained else UNEXPLAINED,
         component=("+".join(top.hypothesis.components) or "healthy") if explained
         else UNEXPLAINED,
-        probability=top.probability if explained else 0.0, estimates=estimates, result=result,
-    )
+        probability=top.probability if explained else 0.0, estimates=estimates, result=result)
+
+
+@dataclass(frozen=True, slots=True)
+class GroupPlan:
+    """One group of a request, resolved against the store and ready to compute."""
+
+    group: list[tuple[str, MeasurementIn]]
+    resolved: ResolvedRig
+    times: list[datetime]
+    records: list[MeasurementRecord]
+
+
+def plan_groups(session: Session, rigs: RigCache, request: DiagnoseRequest, now: datetime
+                ) -> list[GroupPlan]:
+    """Resolve each group's rig and build its diagnostics records (no diagnosis yet).
+
+    Raises
+    ------
+    NotFoundError, MeasurementError, InputError
+        An unknown rig or version, or an invalid record (``field`` is its path).
+    """
+    plans = []
+    for group in _groups(request):
+        path0, first = group[0]
+        resolved = rigs.get(session, first.rig_id, first.rig_version,
+                            rig_field=f"{path0}.rig_id", version_field=f"{path0}.rig_version")
+        times = [record.measured_at or now for _, record in group]
+        records = [to_record(record, path=path, rig_name=resolved.name, measured_at=t)
+                   for (path, record), t in zip(group, times, strict=True)]
+        plans.append(GroupPlan(group, resolved, times, records))
+    return plans
+
+
+def request_error(exc: InputError, plan: GroupPlan) -> InputError:
+    """``exc`` (raised by :func:`compute_group`) with its field as a path in the request."""
+    return type(exc)(exc.message, field=_request_field(exc.field, plan.group))
+
+
+def outcome_of(plan: GroupPlan, computed: GroupResult) -> DiagnosisOutcome:
+    """The outcome of a planned group from its computed result."""
+    return DiagnosisOutcome(
+        paths=[path for path, _ in plan.group], resolved=plan.resolved,
+        measured_at=max(plan.times), top=computed.top, component=computed.component,
+        probability=computed.probability, estimates=computed.estimates,
+        result=computed.result)
+
+
+def _compute_locked(plan: GroupPlan) -> DiagnosisOutcome:
+    try:
+        with DIAGNOSIS_LOCK:
+            computed = compute_group(plan.resolved.rig, plan.records, plan.resolved.version)
+    except InputError as exc:
+        raise request_error(exc, plan) from None
+    return outcome_of(plan, computed)
 
 
 def _store(session: Session, request: DiagnoseRequest, outcomes: Sequence[DiagnosisOutcome],
@@ -253,17 +324,34 @@ def diagnose_request(session: Session, rigs: RigCache, request: DiagnoseRequest
         A record is invalid or impossible on its rig (``field`` is its path).
     """
     now = utcnow()
-    outcomes = [_diagnose_group(session, rigs, group, now) for group in _groups(request)]
+    outcomes = [_compute_locked(plan) for plan in plan_groups(session, rigs, request, now)]
     if request.store:
-        try:
-            _store(session, request, outcomes, now)
-        except Exception:
-            session.rollback()
-            raise
+        store_outcomes(session, request, outcomes, now)
     return outcomes
 
 
-def _public(outcome: DiagnosisOutcome) -> DiagnosisPublic:
+def store_outcomes(session: Session, request: DiagnoseRequest,
+                   outcomes: Sequence[DiagnosisOutcome], now: datetime) -> None:
+    """Store the records and results of ``request`` in one transaction (all or nothing);
+    fills each outcome's ``diagnosis_id`` and ``measurement_ids``.
+
+    ``now`` is the time the request was planned at (that of records without one).
+    """
+    try:
+        _store(session, request, outcomes, now)
+    except Exception:
+        session.rollback()
+        raise
+
+
+def compact_result(result: dict[str, Any]) -> dict[str, Any]:
+    """``result`` without each hypothesis's predicted readings (the bulk of its size)."""
+    hypotheses = [{k: v for k, v in h.items() if k != "predicted"}
+                  for h in result.get("hypotheses", [])]
+    return result | {"hypotheses": hypotheses}
+
+
+def _public(outcome: DiagnosisOutcome, compact: bool) -> DiagnosisPublic:
     return DiagnosisPublic(
         id=outcome.diagnosis_id,
         measurement_ids=outcome.measurement_ids,
@@ -275,7 +363,7 @@ def _public(outcome: DiagnosisOutcome) -> DiagnosisPublic:
         component=outcome.component,
         probability=outcome.probability,
         estimates=[EstimatePublic.model_validate(asdict(e)) for e in outcome.estimates],
-        result=outcome.result,
+        result=compact_result(outcome.result) if compact else outcome.result,
         explained=outcome.result.get("explained", True),
         goodness_of_fit=outcome.result.get("goodness_of_fit"),
         misfit=outcome.result.get("misfit"),
@@ -285,7 +373,14 @@ def _public(outcome: DiagnosisOutcome) -> DiagnosisPublic:
 
 def response_of(request: DiagnoseRequest, outcomes: Sequence[DiagnosisOutcome]
                 ) -> DiagnoseResponse:
-    """The answer to ``request`` (the body of ``POST /diagnose``)."""
-    mode = "single" if request.record is not None else "joint" if request.joint else "each"
-    return DiagnoseResponse.model_validate({
-        "mode": mode, "stored": request.store, "diagnoses": [_public(o) for o in outcomes]})
+    """The answer to ``request`` (the body of ``POST /diagnose``); with ``compact``, each
+    ``result`` leaves out the hypotheses' predictions (the stored result keeps them)."""
+    mode: Literal["single", "each", "joint"] = (
+        "single" if request.record is not None else "joint" if request.joint else "each")
+    return DiagnoseResponse(mode=mode, stored=request.store, compact=request.compact,
+                            diagnoses=[_public(o, request.compact) for o in outcomes])
+
+
+def response_json(request: DiagnoseRequest, outcomes: Sequence[DiagnosisOutcome]) -> bytes:
+    """:func:`response_of` serialised as JSON (pydantic's compiled serialiser)."""
+    return response_of(request, outcomes).model_dump_json().encode("utf-8")

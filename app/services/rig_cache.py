@@ -47,6 +47,8 @@ class ResolvedRig:
         The version's rig document (SI values with units inside).
     rig
         The compiled rig, the same object for every request on this version.
+    created_at
+        When the version was stored (with id and version, the key of the compiled rig).
     """
 
     rig_id: int
@@ -55,6 +57,7 @@ class ResolvedRig:
     name: str
     document: Mapping[str, Any]
     rig: Rig
+    created_at: datetime
 
 
 def document_digest(document: Mapping[str, Any]) -> str:
@@ -150,7 +153,7 @@ class RigCache:
             assert stored is not None
             cached = self._rigs.put(key, (load_rig(stored.document), stored.document))
         rig, document = cached
-        return ResolvedRig(rig_id, number, version_id, row.name, document, rig)
+        return ResolvedRig(rig_id, number, version_id, row.name, document, rig, created_at)
 
 
 class DocumentRigs:

@@ -15,12 +15,13 @@ from __future__ import annotations
 import logging
 import threading
 import time
+from collections.abc import Callable, Sequence
 
 from sqlalchemy import select
 
 from app.db.engine import SessionFactory
 from app.db.models import Rig as RigRow
-from app.services.rig_cache import RigCache
+from app.services.rig_cache import ResolvedRig, RigCache
 from sim.cycle import phase_params
 from sim.errors import HydrodiagError
 from sim.rigs import Rig
@@ -50,12 +51,17 @@ class Warmup:
         The application's cache of compiled rigs, filled here.
     limit
         Largest number of rigs loaded [-] (the cache's size: more would be evicted).
+    then
+        Called with the loaded rigs before ``done`` is set (the diagnosis workers warm
+        them: :meth:`app.services.diagnosis_pool.DiagnosisPool.warm`).
     """
 
-    def __init__(self, sessions: SessionFactory, rigs: RigCache, limit: int) -> None:
+    def __init__(self, sessions: SessionFactory, rigs: RigCache, limit: int,
+                 then: Callable[[Sequence[ResolvedRig]], None] | None = None) -> None:
         self._sessions = sessions
         self._rigs = rigs
         self._limit = limit
+        self._then = then
         self._done = threading.Event()
         self.loaded: list[int] = []
         self.failed: dict[int, str] = {}
@@ -83,6 +89,7 @@ class Warmup:
                 ids = list(session.scalars(
                     select(RigRow.id).order_by(RigRow.updated_at.desc(), RigRow.id.desc())
                     .limit(self._limit)))
+                warmed: list[ResolvedRig] = []
                 for rig_id in ids:
                     try:
                         resolved = self._rigs.get(session, rig_id)
@@ -93,6 +100,9 @@ class Warmup:
                         logger.warning("rig %d not warmed: %s", rig_id, exc)
                     else:
                         self.loaded.append(rig_id)
+                        warmed.append(resolved)
+            if self._then is not None:
+                self._then(warmed)
         except Exception:  # never leave the service unready for ever
             logger.exception("warming the rigs failed")
         finally:

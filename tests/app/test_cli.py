@@ -19,7 +19,7 @@ from typer.testing import CliRunner
 from app.cli import cli
 from app.db.migrate import head_revision
 
-STARTUP_TIMEOUT_S = 60.0
+STARTUP_TIMEOUT_S = 120.0
 
 
 def _free_port() -> int:
@@ -31,7 +31,9 @@ def _free_port() -> int:
 @contextmanager
 def _serve(data_dir: Path) -> Iterator[tuple[str, subprocess.Popen[str]]]:
     port = _free_port()
-    env = os.environ | {"HYDRODIAG_DATA_DIR": str(data_dir)}
+    # one server worker: these tests are about the store and the keys (several workers:
+    # test_serve_workers.py), and the machine running the suite has few cores
+    env = os.environ | {"HYDRODIAG_DATA_DIR": str(data_dir), "HYDRODIAG_WORKERS": "1"}
     process = subprocess.Popen(
         [sys.executable, "-m", "app.cli", "serve", "--host", "127.0.0.1", "--port", str(port)],
         env=env, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True,

@@ -233,7 +233,11 @@ def test_the_image_steps_install_and_serve(tmp_path: Path) -> None:
             if time.monotonic() > deadline:
                 pytest.fail("the HEALTHCHECK did not pass in time")
             time.sleep(0.2)
-        assert httpx.get(f"http://127.0.0.1:{port}/ready").json()["status"] == "ready"
+        # alive is not ready: every worker warms its rigs and diagnosis process first
+        while (ready := httpx.get(f"http://127.0.0.1:{port}/ready", timeout=10)
+               ).status_code == 503 and time.monotonic() < deadline:
+            time.sleep(0.2)
+        assert ready.json()["status"] == "ready"
         assert (data_dir / "hydrodiag.db").exists()
     finally:
         server.terminate()

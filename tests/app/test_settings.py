@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import pytest
@@ -43,3 +44,12 @@ def test_a_file_as_data_dir_is_refused(tmp_path: Path) -> None:
     path.write_text("")
     with pytest.raises(ValidationError, match="not a folder"):
         Settings(data_dir=path)
+
+
+def test_serve_runs_one_worker_per_usable_core_unless_told(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.delenv("HYDRODIAG_WORKERS", raising=False)
+    assert Settings().workers == len(os.sched_getaffinity(0))
+    monkeypatch.setenv("HYDRODIAG_WORKERS", "3")
+    assert Settings().workers == 3
+    assert Settings().diagnosis_processes == 1 and Settings().diagnosis_queue == 32

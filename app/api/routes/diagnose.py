@@ -1,28 +1,89 @@
-"""Diagnosis of measurement records: ``POST /diagnose``."""
+"""Diagnosis of measurement records: ``POST /diagnose``.
+
+The route is ``async`` and thin: the body is validated on the event loop; the store is
+read (key, rigs) in one thread-pool call; the diagnoses are computed by the application's
+:class:`~app.services.diagnosis_pool.DiagnosisPool` (worker processes, so the event loop
+never waits for a diagnosis's interpreter lock); the results are stored in a second
+thread-pool call and the answer is serialised once by pydantic's compiled serialiser.  A server process
+takes at most ``diagnosis_queue`` diagnosis requests at once; one more is answered 503
+with ``Retry-After`` at once rather than queued past its client's deadline.
+"""
 
 from __future__ import annotations
 
-from fastapi import APIRouter, Request
+import asyncio
+from collections.abc import AsyncIterator
+from datetime import datetime
+from functools import partial
 
-from app.api.deps import KeyHeaderDep, ReadAccess, RigsDep, SessionDep, require_key
-from app.schemas.common import ERROR_RESPONSES
+from fastapi import APIRouter, Depends, Request, Response
+from sqlalchemy.orm import Session
+
+from app.api.deps import KeyHeaderDep, ReadAccess, SessionDep, require_key
+from app.db.base import utcnow
+from app.schemas.common import ERROR_RESPONSES, error_doc
 from app.schemas.diagnose import DiagnoseRequest, DiagnoseResponse
-from app.services.diagnosis import diagnose_request, response_of
+from app.services.diagnosis import (
+    DiagnosisOutcome,
+    GroupPlan,
+    outcome_of,
+    plan_groups,
+    response_json,
+    store_outcomes,
+)
+from app.services.diagnosis_pool import DiagnosisPool
 
 __all__ = ["router"]
 
-router = APIRouter(tags=["diagnosis"], dependencies=[ReadAccess], responses=ERROR_RESPONSES)
 
 
-@router.post("/diagnose", summary="Diagnose one record or a batch, and store them")
-def diagnose(body: DiagnoseRequest, request: Request, session: SessionDep, rigs: RigsDep,
-             key: KeyHeaderDep) -> DiagnoseResponse:
+async def _admitted(request: Request) -> AsyncIterator[None]:
+    """Count the request in (before anything reads the store), or answer 503 at once."""
+    pool: DiagnosisPool = request.app.state.diagnosis_pool
+    with pool.admit():
+        yield
+
+
+router = APIRouter(tags=["diagnosis"], dependencies=[Depends(_admitted), ReadAccess],
+                   responses=ERROR_RESPONSES)
+
+
+def _plan(request: Request, session: Session, body: DiagnoseRequest, key: str | None,
+          now: datetime) -> list[GroupPlan]:
+    """Check the key when storing, resolve the rigs and build the records; then close the
+    request's session, so that no connection is held while the diagnoses are computed."""
+    try:
+        if body.store:
+            require_key(request, session, key)
+        return plan_groups(session, request.app.state.rigs, body, now)
+    finally:
+        session.close()
+
+
+def _store(request: Request, body: DiagnoseRequest, outcomes: list[DiagnosisOutcome],
+           now: datetime) -> None:
+    with request.app.state.sessions() as session:
+        store_outcomes(session, body, outcomes, now)
+
+
+@router.post("/diagnose", summary="Diagnose one record or a batch, and store them",
+             response_model=DiagnoseResponse, responses={503: error_doc(
+                 "As many diagnoses queued as the service accepts "
+                 "(HYDRODIAG_DIAGNOSIS_QUEUE); retry after Retry-After")})
+async def diagnose(body: DiagnoseRequest, request: Request, session: SessionDep,
+                   key: KeyHeaderDep) -> Response:
     """Rank the fault hypotheses for each record (or for all records jointly).
 
     Records and results are stored in the history unless ``store`` is false; storing needs
-    the API key.  A request that fails in any record stores nothing.
+    the API key.  A request that fails in any record stores nothing.  With ``compact`` the
+    answer leaves out each hypothesis's predicted readings.
     """
     body.items()  # a malformed request is a 422 before it is a 401
+    now = utcnow()
+    pool: DiagnosisPool = request.app.state.diagnosis_pool
+    plans = await pool.in_thread(partial(_plan, request, session, body, key, now))
+    computed = await asyncio.gather(*(pool.compute(plan) for plan in plans))
+    outcomes = [outcome_of(plan, result) for plan, result in zip(plans, computed, strict=True)]
     if body.store:
-        require_key(request, session, key)
-    return response_of(body, diagnose_request(session, rigs, body))
+        await pool.in_thread(partial(_store, request, body, outcomes, now))
+    return Response(response_json(body, outcomes), media_type="application/json")

@@ -1,0 +1,163 @@
+"""POST /diagnose computed in worker processes: same answers as in a thread, errors that
+name their field, the compact answer, and workers that leave with a killed server."""
+
+from __future__ import annotations
+
+import asyncio
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+from typing import Any
+
+import pytest
+
+from app.db.base import utcnow
+from app.errors import ServiceBusyError
+from app.schemas.diagnose import DiagnoseRequest
+from app.services.diagnosis import plan_groups
+from app.services.diagnosis_pool import DiagnosisPool
+from app.services.rig_cache import RigCache
+from tests.app.conftest import simulated_record
+from tests.app.live import LiveServer
+
+WORN_VALVE = {"valve.cv": 60e-6}
+
+
+def test_the_service_diagnoses_in_a_worker_process(server: LiveServer) -> None:
+    pool: DiagnosisPool = server.app.state.diagnosis_pool
+    assert pool.processes == 1
+    record = simulated_record(server, WORN_VALVE)
+    response = server.client.post("/diagnose", json={"record": record, "store": False})
+    assert response.status_code == 200, response.text
+    assert response.json()["diagnoses"][0]["top"] == "valve"
+
+
+def test_compact_leaves_out_the_predictions_and_the_store_keeps_them(
+        server: LiveServer) -> None:
+    record = simulated_record(server, WORN_VALVE, measured_at="2026-04-01T08:00:00Z")
+    full = server.client.post("/diagnose", json={"record": record, "store": False})
+    compact = server.client.post("/diagnose", json={"record": record, "compact": True})
+    assert full.status_code == 200 and compact.status_code == 200, compact.text
+    assert full.json()["compact"] is False and compact.json()["compact"] is True
+    (f,), (c,) = full.json()["diagnoses"], compact.json()["diagnoses"]
+    assert all("predicted" in h for h in f["result"]["hypotheses"])
+    assert not any("predicted" in h for h in c["result"]["hypotheses"])
+    # the same diagnosis: ranking, probabilities and estimates unchanged
+    assert [h["name"] for h in c["result"]["hypotheses"]] == \
+        [h["name"] for h in f["result"]["hypotheses"]]
+    assert [h["probability"] for h in c["result"]["hypotheses"]] == pytest.approx(
+        [h["probability"] for h in f["result"]["hypotheses"]], rel=1e-6, abs=1e-9)
+    assert [(e["component"], e["source"]) for e in c["estimates"]] == \
+        [(e["component"], e["source"]) for e in f["estimates"]]
+    assert [e["value"] for e in c["estimates"]] == pytest.approx(
+        [e["value"] for e in f["estimates"]], rel=1e-6)
+    assert len(compact.content) < 0.9 * len(full.content)
+    stored = server.client.get(f"/diagnoses/{c['id']}")
+    assert stored.status_code == 200, stored.text
+    assert all("predicted" in h for h in stored.json()["result"]["hypotheses"])
+
+
+def test_an_error_raised_in_the_worker_names_its_field_and_stores_nothing(
+        server: LiveServer) -> None:
+    good = simulated_record(server, WORN_VALVE)
+    stalled = good | {"condition": {"oil_temperature": 40.0, "load_force": 1.0e6}}
+    before = server.row_counts()
+    response = server.client.post("/diagnose", json={"records": [good, stalled]})
+    assert response.status_code == 422, response.text
+    assert response.json()["error"]["field"] == "records[1].condition.force"
+    assert server.row_counts() == before
+
+
+def _diagnose(pool: DiagnosisPool, server: LiveServer, body: dict[str, Any]) -> Any:
+    request = DiagnoseRequest.model_validate(body)
+    with server.session() as session:
+        plans = plan_groups(session, RigCache(2), request, utcnow())
+    resolved = [p.resolved for p in plans]
+    pool.warm(resolved)
+    return [asyncio.run(pool.compute(plan)) for plan in plans]
+
+
+def test_a_worker_process_and_a_thread_give_the_same_diagnosis(server: LiveServer) -> None:
+    body = {"records": [simulated_record(server, WORN_VALVE),
+                        simulated_record(server, {"cylinder.cc": 120e-6})]}
+    in_thread = _diagnose(DiagnosisPool(0), server, body)
+    pool = DiagnosisPool(1)
+    try:
+        in_worker = _diagnose(pool, server, body)
+    finally:
+        pool.shutdown()
+    assert [r.top for r in in_worker] == [r.top for r in in_thread] == ["valve", "cylinder"]
+    for a, b in zip(in_worker, in_thread, strict=True):
+        assert a.probability == pytest.approx(b.probability, rel=1e-6)
+        assert [e.value for e in a.estimates] == pytest.approx([e.value for e in b.estimates],
+                                                               rel=1e-6)
+
+
+_KILLED_SERVER = textwrap.dedent("""
+    import os, sys, time
+    from app.services.diagnosis_pool import DiagnosisPool, _worker_pid
+    pool = DiagnosisPool(1)
+    pool.warm([])
+    print(pool._pool().submit(_worker_pid).result(), flush=True)
+    time.sleep(600)
+""")
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    try:  # a zombie is gone for our purpose
+        with open(f"/proc/{pid}/stat") as stat:
+            return stat.read().split()[2] != "Z"
+    except FileNotFoundError:
+        return False
+
+
+def test_workers_leave_when_the_server_is_killed() -> None:
+    parent = subprocess.Popen([sys.executable, "-c", _KILLED_SERVER], stdout=subprocess.PIPE,
+                              text=True, env=os.environ | {"PYTHONPATH": os.getcwd()})
+    try:
+        assert parent.stdout is not None
+        worker = int(parent.stdout.readline())
+        assert _alive(worker)
+        parent.send_signal(signal.SIGKILL)
+        parent.wait(timeout=30)
+        deadline = time.monotonic() + 30
+        while _alive(worker) and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert not _alive(worker)
+    finally:
+        if parent.poll() is None:
+            parent.kill()
+
+
+def test_admission_refuses_past_the_queue_and_counts_back_down() -> None:
+    pool = DiagnosisPool(0, queue=2)
+    with pool.admit(), pool.admit():
+        assert pool.admitted == 2
+        with pytest.raises(ServiceBusyError), pool.admit():
+            pass
+    assert pool.admitted == 0
+    with pool.admit():
+        assert pool.admitted == 1
+
+
+def test_a_full_queue_is_503_with_retry_after_and_stores_nothing(server: LiveServer) -> None:
+    record = simulated_record(server, WORN_VALVE)
+    pool: DiagnosisPool = server.app.state.diagnosis_pool
+    before = server.row_counts()
+    pool.admitted += pool.queue  # as if that many requests were being diagnosed
+    try:
+        response = server.client.post("/diagnose", json={"record": record})
+    finally:
+        pool.admitted -= pool.queue
+    assert response.status_code == 503, response.text
+    assert response.headers["Retry-After"] == "1"
+    assert response.json()["error"]["type"] == "ServiceBusyError"
+    assert server.row_counts() == before
+    assert server.client.post("/diagnose", json={"record": record}).status_code == 200
