@@ -9,6 +9,7 @@ a subclass of its root.  Every error response has the same body::
 class                          status  when
 =============================  ======  =======================================
 ``AuthError``                  401     missing or wrong ``X-API-Key``
+``ScopeError``                 403     the key's scope does not allow the operation
 ``NotFoundError``              404     unknown id (in the path or the body)
 ``ConflictError``              409     duplicate name, deleting what is in use
 ``PayloadTooLargeError``        413     the body is over ``max_body_bytes``
@@ -50,6 +51,7 @@ from sim.errors import (
 __all__ = [
     "PayloadTooLargeError",
     "RateLimitError",
+    "ScopeError",
     "ServiceUnavailableError",
     "error_response",
     "format_location",
@@ -68,6 +70,10 @@ class PayloadTooLargeError(HydrodiagError):
     """The request body is larger than the service accepts (``max_body_bytes``)."""
 
 
+class ScopeError(HydrodiagError):
+    """The API key is valid but its scope (read, write, admin) does not allow the operation."""
+
+
 class RateLimitError(HydrodiagError):
     """The API key has sent more requests than ``rate_limit_per_minute`` allows."""
 
@@ -78,6 +84,7 @@ class RateLimitError(HydrodiagError):
 
 _STATUS: dict[type[HydrodiagError], int] = {
     AuthError: 401,
+    ScopeError: 403,
     NotFoundError: 404,
     ConflictError: 409,
     PayloadTooLargeError: 413,

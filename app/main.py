@@ -20,7 +20,7 @@ from fastapi.openapi.utils import get_openapi
 from fastapi.routing import APIRoute, iter_route_contexts
 
 from app import __version__
-from app.api.deps import read_access, require_key
+from app.api.deps import SCOPE_OF, read_access
 from app.api.router import api_router
 from app.console import router as console_router
 from app.db.engine import make_engine, make_session_factory
@@ -28,6 +28,7 @@ from app.errors import install_error_handlers
 from app.limits import BodyLimitMiddleware
 from app.metrics import HttpMetrics, MetricsMiddleware
 from app.ratelimit import KeyRateLimiter
+from app.security import Scope
 from app.services.bootstrap import ensure_reference_data, upgrade_database
 from app.services.clearance import ClearanceEstimator
 from app.services.executors import SweepExecutors
@@ -52,6 +53,12 @@ the size limit are answered 413, unknown fields in a body 422.
 service started with `HYDRODIAG_OPEN_READS=true` also answers the operations marked
 `x-hydrodiag-access: open-reads` without a key (the reads, `/simulate`, and `/diagnose`
 with `"store": false`); anything that stores or changes data always needs the key.
+
+**Scopes.** Each key is `read`, `write` or `admin` (`hydrodiag keys create --scope`); each
+includes the ones before it.  `x-hydrodiag-scope` on each operation names the scope it
+needs: `read` for the reads, `/simulate` and `/diagnose` (`write` with `"store": true`,
+stated as `x-hydrodiag-scope-store`), `write` for whatever stores or changes data, `admin`
+for deletions.  A valid key below the needed scope is answered 403 (`ScopeError`).
 """
 
 #: Value of ``x-hydrodiag-access`` on each operation, by how it is guarded.
@@ -65,19 +72,24 @@ def _calls(dependant: Dependant) -> set[Any]:
     return found
 
 
-def _access_of(route: APIRoute) -> str:
+def _access_of(route: APIRoute) -> tuple[str, Scope | None]:
+    """How ``route`` is guarded, and the scope of key it needs (``None``: no key)."""
     calls = _calls(route.dependant)
-    if require_key in calls:
-        return ACCESS_KEY
+    scopes = [SCOPE_OF[call] for call in calls if call in SCOPE_OF]
+    scope = max(scopes, key=lambda s: s.rank) if scopes else None
+    if any(call in SCOPE_OF and call is not read_access for call in calls):
+        return ACCESS_KEY, scope
     if read_access in calls:
-        return ACCESS_OPEN_READS
-    return ACCESS_OPEN
+        return ACCESS_OPEN_READS, scope
+    return ACCESS_OPEN, None
 
 
 def _documented_openapi(app: FastAPI, open_reads: bool) -> dict[str, Any]:
     """The OpenAPI document with each operation's access stated under this setting.
 
-    ``x-hydrodiag-access`` is ``open``, ``open-reads`` or ``key``; ``security`` lists the
+    ``x-hydrodiag-access`` is ``open``, ``open-reads`` or ``key``; ``x-hydrodiag-scope``
+    (on every operation but the open ones) is the key scope it needs, ``read``, ``write``
+    or ``admin``; ``security`` lists the
     API key on every operation that needs it under the running settings, and for the
     ``open-reads`` ones when reads are open offers the empty requirement too (key
     optional).
@@ -89,12 +101,14 @@ def _documented_openapi(app: FastAPI, open_reads: bool) -> dict[str, Any]:
             route = context.route
             if not isinstance(route, APIRoute) or not route.include_in_schema:
                 continue
-            access = _access_of(route)
+            access, scope = _access_of(route)
             for method in context.methods or ():
                 operation = schema["paths"].get(context.path_format, {}).get(method.lower())
                 if operation is None:
                     continue
                 operation["x-hydrodiag-access"] = access
+                if scope is not None:
+                    operation["x-hydrodiag-scope"] = scope.value
                 if access == ACCESS_OPEN:
                     operation.pop("security", None)
                     for status in ("401", "403"):

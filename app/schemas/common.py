@@ -292,6 +292,8 @@ def error_doc(description: str) -> dict[str, Any]:
 #: Error responses documented on every route of the API.
 ERROR_RESPONSES: dict[int | str, dict[str, Any]] = {
     401: error_doc("Missing or wrong API key (header X-API-Key)"),
+    403: error_doc("The API key's scope (read, write, admin) does not allow this operation; "
+                   "see x-hydrodiag-scope"),
     404: error_doc("Unknown id"),
     409: error_doc("Conflicts with stored state"),
     413: error_doc("Request body over the size limit (HYDRODIAG_MAX_BODY_BYTES)"),

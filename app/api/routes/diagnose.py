@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from fastapi import APIRouter, Request
 
-from app.api.deps import KeyHeaderDep, ReadAccess, RigsDep, SessionDep, require_key
+from app.api.deps import KeyHeaderDep, ReadAccess, RigsDep, SessionDep, require_write_key
 from app.schemas.common import ERROR_RESPONSES
 from app.schemas.diagnose import DiagnoseRequest, DiagnoseResponse
 from app.services.diagnosis import diagnose_request, response_of
@@ -14,15 +14,16 @@ __all__ = ["router"]
 router = APIRouter(tags=["diagnosis"], dependencies=[ReadAccess], responses=ERROR_RESPONSES)
 
 
-@router.post("/diagnose", summary="Diagnose one record or a batch, and store them")
+@router.post("/diagnose", summary="Diagnose one record or a batch, and store them",
+             openapi_extra={"x-hydrodiag-scope-store": "write"})
 def diagnose(body: DiagnoseRequest, request: Request, session: SessionDep, rigs: RigsDep,
              key: KeyHeaderDep) -> DiagnoseResponse:
     """Rank the fault hypotheses for each record (or for all records jointly).
 
     Records and results are stored in the history unless ``store`` is false; storing needs
-    the API key.  A request that fails in any record stores nothing.
+    a key of scope ``write``.  A request that fails in any record stores nothing.
     """
     body.items()  # a malformed request is a 422 before it is a 401
     if body.store:
-        require_key(request, session, key)
+        require_write_key(request, session, key)
     return response_of(body, diagnose_request(session, rigs, body))
