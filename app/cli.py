@@ -62,11 +62,13 @@ def serve(
     """Migrate, preload the reference rig, make the first key, then serve HTTP."""
     import uvicorn
 
+    from app.logs import configure_logging
     from app.main import create_app
     from app.services.bootstrap import ensure_first_key, ensure_reference_data, upgrade_database
     from app.services.throttle_estimator import ThrottleClearanceEstimator
 
     settings = _settings(host=host, port=port)
+    configure_logging(settings.log_format, settings.log_level)
     estimator = ThrottleClearanceEstimator()
     engine = _engine(settings)
     sessions = make_session_factory(engine)
@@ -92,11 +94,11 @@ def serve(
     if settings.workers > 1:  # each worker builds the app from the environment
         uvicorn.run("app.main:create_service_app", factory=True, workers=settings.workers,
                     host=settings.host, port=settings.port, log_level=settings.log_level,
-                    access_log=settings.access_log)
+                    access_log=False)  # the service logs each request itself
     else:
         uvicorn.run(create_app(settings, clearance_estimator=estimator, prepare_store=False),
                     host=settings.host, port=settings.port, log_level=settings.log_level,
-                    access_log=settings.access_log)
+                    access_log=False)  # the service logs each request itself
 
 
 @keys_cli.command("create")

@@ -10,10 +10,12 @@ it.
 from __future__ import annotations
 
 import json
+from typing import Any
 
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from app.errors import PayloadTooLargeError
+from app.logs import request_id_of
 
 __all__ = ["BodyLimitMiddleware"]
 
@@ -33,13 +35,16 @@ class BodyLimitMiddleware:
         self.app = app
         self.limit = limit
 
-    async def _refuse(self, send: Send) -> None:
-        body = json.dumps({"error": {
+    async def _refuse(self, scope: Scope, send: Send) -> None:
+        error: dict[str, Any] = {
             "type": PayloadTooLargeError.__name__,
             "message": f"the request body is larger than the limit of {self.limit} bytes "
                        "(setting HYDRODIAG_MAX_BODY_BYTES)",
             "field": "body",
-        }}).encode("utf-8")
+        }
+        if (request_id := request_id_of(scope)) is not None:
+            error["request_id"] = request_id
+        body = json.dumps({"error": error}).encode("utf-8")
         await send({"type": "http.response.start", "status": 413, "headers": [
             (b"content-type", b"application/json"),
             (b"content-length", str(len(body)).encode("ascii")),
@@ -58,7 +63,7 @@ class BodyLimitMiddleware:
             except ValueError:
                 too_large = False  # the server refuses a malformed length itself
             if too_large:
-                await self._refuse(send)
+                await self._refuse(scope, send)
                 return
         if scope.get("method") in {"GET", "HEAD", "OPTIONS"} and declared is None:
             await self.app(scope, receive, send)
@@ -73,7 +78,7 @@ class BodyLimitMiddleware:
             chunk = message.get("body", b"")
             size += len(chunk)
             if size > self.limit:
-                await self._refuse(send)
+                await self._refuse(scope, send)
                 return
             chunks.append(chunk)
             if not message.get("more_body", False):

@@ -26,6 +26,7 @@ from app.console import router as console_router
 from app.db.engine import make_engine, make_session_factory
 from app.errors import install_error_handlers
 from app.limits import BodyLimitMiddleware
+from app.logs import RequestLogMiddleware, configure_logging
 from app.metrics import HttpMetrics, MetricsMiddleware
 from app.ratelimit import KeyRateLimiter
 from app.security import Scope
@@ -45,7 +46,9 @@ _DESCRIPTION = """\
 Fault diagnosis of hydraulic rigs from bond-graph models.
 
 Every quantity is in SI units, named in brackets in each field's description.  Errors have
-one body: `{"error": {"type": ..., "message": ..., "field": ...}}`; request bodies over
+one body: `{"error": {"type": ..., "message": ..., "field": ..., "request_id": ...}}`; every
+response carries `X-Request-ID` (the client's, when well formed: 1 to 64 letters, digits or
+`-._:`; else a new one), which the service log names too; request bodies over
 the size limit are answered 413, unknown fields in a body 422.
 
 **Access.** Every operation needs an API key in the `X-API-Key` header except `/health`,
@@ -186,6 +189,7 @@ def create_app(
                               if settings.rate_limit_per_minute else None)
     app.add_middleware(BodyLimitMiddleware, limit=settings.max_body_bytes)
     app.add_middleware(MetricsMiddleware, metrics=app.state.metrics)
+    app.add_middleware(RequestLogMiddleware, log=settings.access_log)  # outermost: ids on all
     install_error_handlers(app)
     app.include_router(api_router)
     app.include_router(console_router)
@@ -200,8 +204,13 @@ def create_service_app() -> FastAPI:
     (nothing to do when ``serve`` has done it before starting its workers), so
     ``uvicorn app.main:create_service_app --factory`` works on a fresh data folder; table
     rows without a clearance get one from
-    :class:`~app.services.throttle_estimator.ThrottleClearanceEstimator`.
+    :class:`~app.services.throttle_estimator.ThrottleClearanceEstimator`.  The
+    ``hydrodiag`` log goes to standard error as ``HYDRODIAG_LOG_FORMAT`` says
+    (:func:`app.logs.configure_logging`); run uvicorn with ``--no-access-log``, as the
+    service writes its own access line per request.
     """
     from app.services.throttle_estimator import ThrottleClearanceEstimator
 
-    return create_app(Settings(), clearance_estimator=ThrottleClearanceEstimator())
+    settings = Settings()
+    configure_logging(settings.log_format, settings.log_level)
+    return create_app(settings, clearance_estimator=ThrottleClearanceEstimator())

@@ -61,7 +61,11 @@ class Settings(BaseSettings):
     rig_cache_size
         Compiled rigs (rig, version) kept in memory.
     access_log
-        Whether ``serve`` logs every request (uvicorn's access log).
+        Whether the service logs one line per request (logger ``hydrodiag.access``:
+        method, route template, status, duration, request id, key id; see
+        :mod:`app.logs`).  ``serve`` turns uvicorn's own access log off.
+    log_format
+        ``json`` (default): one JSON object per log line; ``text``: plain lines.
     workers
         Server processes of ``serve`` (uvicorn workers); each has its own caches.
     log_level
@@ -98,6 +102,8 @@ class Settings(BaseSettings):
     access_log: bool = Field(default=True, description="Log every request.")
     workers: int = Field(default=1, ge=1, le=64, description="Server processes.")
     log_level: Literal["debug", "info", "warning", "error"] = Field(default="info")
+    log_format: Literal["json", "text"] = Field(default="json",
+                                                description="Log lines as JSON or text.")
     sim_max_steps: int = Field(default=2_000_000, ge=100, le=100_000_000,
                                description="Most solver steps of one /simulate integration.")
     sim_max_time: float = Field(default=600.0, gt=0, le=1e6,

@@ -262,6 +262,12 @@ class ErrorDetail(BaseModel):
         description="Every validation problem as {field, message}, for 422 responses [-]",
         examples=[[{"field": "points[2].bypass_flow_m3s", "message": "must be > 0"}]],
     )
+    request_id: str | None = Field(
+        default=None,
+        description="Id of the request, as echoed in the X-Request-ID header and written "
+                    "in the service log [-]",
+        examples=["3f2a9c0e5b7d41a8b6c2d9e0f1a2b3c4"],
+    )
 
 
 class ErrorBody(BaseModel):
