@@ -1,4 +1,12 @@
-"""Request body size limit, checked before anything parses the body.
+"""Limits on the work one request may ask for: body size, batch length, sweep size.
+
+Each limit is a setting (:class:`app.settings.Settings`, ``HYDRODIAG_...``) with a documented
+default; a request over it is answered 413 (body) or 422 (``InputError``) with a message
+that names the limit and its setting.  The schemas carry fixed *ceilings*
+(:data:`BATCH_RECORDS_CEILING`, ...): the most a setting may be raised to, and what bounds
+the work of parsing before the setting is checked.
+
+Request body size limit, checked before anything parses the body.
 
 :class:`BodyLimitMiddleware` answers 413 (``PayloadTooLargeError``, naming the limit) when
 the ``Content-Length`` header is over ``max_body_bytes``, and otherwise reads the body as it
@@ -16,8 +24,49 @@ from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from app.errors import PayloadTooLargeError
 from app.logs import request_id_of
+from sim.errors import InputError
 
-__all__ = ["BodyLimitMiddleware"]
+__all__ = [
+    "BATCH_RECORDS_CEILING",
+    "DEFAULT_SWEEP_POINTS",
+    "SWEEP_POINTS_CEILING",
+    "BodyLimitMiddleware",
+    "check_count",
+]
+
+#: Most records one ``/diagnose`` may carry whatever the settings say [-].
+BATCH_RECORDS_CEILING = 10_000
+#: Most points one sweep may run whatever the settings say, per method [-].
+SWEEP_POINTS_CEILING = {"steady": 100_000, "transient": 10_000}
+#: Default most points of one sweep, per method [-] (a transient point costs ~100 steady).
+DEFAULT_SWEEP_POINTS = {"steady": 5000, "transient": 200}
+
+
+def check_count(count: int, limit: int, *, what: str, field: str, setting: str) -> None:
+    """Refuse ``count`` items over ``limit`` with a 422 naming the limit and its setting.
+
+    Parameters
+    ----------
+    count
+        How many items the request asks for [-].
+    limit
+        Most allowed [-].
+    what
+        What is counted, plural (``"records"``), for the message.
+    field
+        The request field that holds them.
+    setting
+        Name of the setting's attribute (``max_batch_records``); the message gives its
+        environment variable.
+
+    Raises
+    ------
+    InputError
+        ``count`` is over ``limit``.
+    """
+    if count > limit:
+        raise InputError(f"{count} {what}; at most {limit} per request "
+                         f"(setting HYDRODIAG_{setting.upper()})", field=field)
 
 
 class BodyLimitMiddleware:

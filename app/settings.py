@@ -18,6 +18,8 @@ from pydantic_settings import BaseSettings, SettingsConfigDict
 from sqlalchemy.engine import URL, make_url
 from sqlalchemy.exc import ArgumentError
 
+from app.limits import BATCH_RECORDS_CEILING, DEFAULT_SWEEP_POINTS, SWEEP_POINTS_CEILING
+
 __all__ = ["WEAK_PASSWORDS", "Settings"]
 
 #: Passwords that appear in tutorials and default images; refused in a database URL.
@@ -70,6 +72,13 @@ class Settings(BaseSettings):
         Server processes of ``serve`` (uvicorn workers); each has its own caches.
     log_level
         Level of the service's log.
+    max_batch_records
+        Most records one ``/diagnose`` may carry [-]; default 100, at most 10,000.  More is
+        a 422 on ``records`` naming this setting.
+    max_sweep_points_steady, max_sweep_points_transient
+        Most scenarios one ``/scenarios`` sweep may run [-], steady (default 5,000, at most
+        100,000) and transient (default 200, at most 10,000).  More is a 422 on ``design``
+        naming the setting.
     sim_max_steps
         Most solver steps of one integration of ``/simulate`` (one phase of one run;
         enforced inside the compiled step loop); default 2,000,000 (RODAS4 needs ~1,000 a
@@ -104,6 +113,15 @@ class Settings(BaseSettings):
     log_level: Literal["debug", "info", "warning", "error"] = Field(default="info")
     log_format: Literal["json", "text"] = Field(default="json",
                                                 description="Log lines as JSON or text.")
+    max_batch_records: int = Field(default=100, ge=1, le=BATCH_RECORDS_CEILING,
+                                   description="Most records of one /diagnose.")
+    max_sweep_points_steady: int = Field(
+        default=DEFAULT_SWEEP_POINTS["steady"], ge=1, le=SWEEP_POINTS_CEILING["steady"],
+        description="Most points of one steady sweep.")
+    max_sweep_points_transient: int = Field(
+        default=DEFAULT_SWEEP_POINTS["transient"], ge=1,
+        le=SWEEP_POINTS_CEILING["transient"],
+        description="Most points of one transient sweep.")
     sim_max_steps: int = Field(default=2_000_000, ge=100, le=100_000_000,
                                description="Most solver steps of one /simulate integration.")
     sim_max_time: float = Field(default=600.0, gt=0, le=1e6,
@@ -134,6 +152,12 @@ class Settings(BaseSettings):
         if self.data_dir.exists() and not self.data_dir.is_dir():
             raise ValueError(f"data_dir {self.data_dir} exists and is not a folder")
         return self
+
+    @property
+    def sweep_points(self) -> dict[str, int]:
+        """Most points of one sweep, by method [-]."""
+        return {"steady": self.max_sweep_points_steady,
+                "transient": self.max_sweep_points_transient}
 
     @cached_property
     def url(self) -> URL:
