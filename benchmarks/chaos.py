@@ -22,8 +22,9 @@ loopback port:
    :mod:`benchmarks.chaos_kill`); without them the PostgreSQL part is reported skipped
    with the reason.
 3. **Bad input** — issue 14's catalogue (NaN, Infinity, negative and absurd values, a
-   10⁵-record batch, a 50 MB body, 5,000-deep nesting, wrong content type, malformed and
-   binary uploads, non-UTF-8, injection strings in paths), each must be a 4xx whose body
+   10⁵-record batch, a batch over ``HYDRODIAG_MAX_BATCH_RECORDS``, a 50 MB body, 5,000-deep
+   nesting, wrong content type, malformed and binary uploads, non-UTF-8, injection strings
+   in paths), each must be a 4xx whose body
    names the field or the limit; afterwards the server answers ``/health``, its RSS has
    grown by less than ``RSS_BOUND_MB``, and no table has changed.
 
@@ -125,6 +126,8 @@ def catalogue() -> list[tuple[str, str, str, dict[str, Any]]]:
         ("absurd clearance", "POST", "/simulate",
          {"json": {"rig_id": 1, "overrides": {"valve.cv": 1.0e9}}}),
         ("1e5-record batch", "POST", "/diagnose", {"json": batch}),
+        ("101-record batch", "POST", "/diagnose",
+         {"json": {"records": [RECORD] * 101, "store": True}}),
         ("50 MB body", "POST", "/rigs",
          {"content": b'{"document": "' + b"x" * 50_000_000 + b'"}', "headers": json_h}),
         ("5000-deep nesting", "POST", "/diagnose", {"content": _deep(5000), "headers": json_h}),

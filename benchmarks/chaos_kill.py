@@ -173,7 +173,7 @@ def kill_rounds(work: Path, rounds: int, name: str = "kill",
             integrity.append(sqlite_integrity(data_dir) if database_url is None
                              else postgres_integrity(database_url))
             per_round.append({k: len(v) - before[k] for k, v in acked.ids.items()})
-        wait_ready(server)
+            wait_ready(server)  # the next round writes to a warmed service
         lost = {kind: sum(not _present(server, kind, i) for i in ids)
                 for kind, ids in acked.ids.items()}
     finally:
