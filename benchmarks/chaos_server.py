@@ -48,9 +48,7 @@ def _free_port() -> int:
         return int(sock.getsockname()[1])
 
 
-def start(data_dir: Path, key: str = "", database_url: str | None = None) -> Server:
-    """Start the service on ``data_dir`` (its store there, or at ``database_url``); read
-    the first-start key when there is one."""
+def _start_once(data_dir: Path, key: str, database_url: str | None) -> Server:
     port = _free_port()
     env = os.environ | {"HYDRODIAG_DATA_DIR": str(data_dir), "HYDRODIAG_ACCESS_LOG": "false",
                         "HYDRODIAG_LOG_LEVEL": "warning"}
@@ -70,13 +68,33 @@ def start(data_dir: Path, key: str = "", database_url: str | None = None) -> Ser
     deadline = time.monotonic() + STARTUP_TIMEOUT_S
     while True:
         try:
-            if httpx.get(f"{server.base_url}/health", timeout=1).status_code == 200:
+            if httpx.get(f"{server.base_url}/health", timeout=5).status_code == 200:
                 return server
         except httpx.TransportError:
             pass
         if process.poll() is not None or time.monotonic() > deadline:
-            raise RuntimeError(f"the service did not start (see {data_dir}/service.log)")
+            if process.poll() is None:
+                process.kill()
+                process.wait(timeout=30)
+            tail = (data_dir / "service.log").read_text(errors="replace")[-2000:]
+            raise RuntimeError(f"the service did not start (exit {process.returncode}); "
+                               f"end of {data_dir}/service.log:\n{tail}")
         time.sleep(0.1)
+
+
+def start(data_dir: Path, key: str = "", database_url: str | None = None) -> Server:
+    """Start the service on ``data_dir`` (its store there, or at ``database_url``); read
+    the first-start key when there is one.
+
+    A start that fails (no ``/health`` within :data:`STARTUP_TIMEOUT_S`, or the process
+    exits) is tried once more on another port, after printing why; a second failure raises
+    with the end of the service's log.
+    """
+    try:
+        return _start_once(data_dir, key, database_url)
+    except RuntimeError as exc:
+        print(f"retrying a failed start: {exc}", file=sys.stderr)
+        return _start_once(data_dir, key, database_url)
 
 
 def stop(server: Server) -> None:
