@@ -48,7 +48,8 @@ def _free_port() -> int:
         return int(sock.getsockname()[1])
 
 
-def _start_once(data_dir: Path, key: str, database_url: str | None) -> Server:
+def _start_once(data_dir: Path, key: str, database_url: str | None,
+                found: list[str]) -> Server:
     port = _free_port()
     env = os.environ | {"HYDRODIAG_DATA_DIR": str(data_dir), "HYDRODIAG_ACCESS_LOG": "false",
                         "HYDRODIAG_LOG_LEVEL": "warning"}
@@ -64,6 +65,7 @@ def _start_once(data_dir: Path, key: str, database_url: str | None) -> Server:
         for line in process.stdout:
             if line.startswith("API key: "):
                 server.key = line.split(": ", 1)[1].strip()
+                found.append(server.key)
                 break
     deadline = time.monotonic() + STARTUP_TIMEOUT_S
     while True:
@@ -90,11 +92,12 @@ def start(data_dir: Path, key: str = "", database_url: str | None = None) -> Ser
     exits) is tried once more on another port, after printing why; a second failure raises
     with the end of the service's log.
     """
+    found: list[str] = []  # the first-start key, printed once even if that start fails
     try:
-        return _start_once(data_dir, key, database_url)
+        return _start_once(data_dir, key, database_url, found)
     except RuntimeError as exc:
         print(f"retrying a failed start: {exc}", file=sys.stderr)
-        return _start_once(data_dir, key, database_url)
+        return _start_once(data_dir, key or (found[0] if found else ""), database_url, found)
 
 
 def stop(server: Server) -> None:
