@@ -23,6 +23,7 @@ from app.cli_report import report_cli
 from app.cli_runs import register
 from app.cli_support import console, migrated_engine, settings_from_env, steps
 from app.db.engine import make_engine, make_session_factory
+from app.security import Scope
 from app.settings import Settings
 from sim.errors import HydrodiagError
 
@@ -61,11 +62,13 @@ def serve(
     """Migrate, preload the reference rig, make the first key, then serve HTTP."""
     import uvicorn
 
+    from app.logs import configure_logging
     from app.main import create_app
     from app.services.bootstrap import ensure_first_key, ensure_reference_data, upgrade_database
     from app.services.throttle_estimator import ThrottleClearanceEstimator
 
     settings = _settings(host=host, port=port)
+    configure_logging(settings.log_format, settings.log_level)
     estimator = ThrottleClearanceEstimator()
     engine = _engine(settings)
     sessions = make_session_factory(engine)
@@ -91,45 +94,50 @@ def serve(
     if settings.workers > 1:  # each worker builds the app from the environment
         uvicorn.run("app.main:create_service_app", factory=True, workers=settings.workers,
                     host=settings.host, port=settings.port, log_level=settings.log_level,
-                    access_log=settings.access_log)
+                    access_log=False)  # the service logs each request itself
     else:
         uvicorn.run(create_app(settings, clearance_estimator=estimator, prepare_store=False),
                     host=settings.host, port=settings.port, log_level=settings.log_level,
-                    access_log=settings.access_log)
+                    access_log=False)  # the service logs each request itself
 
 
 @keys_cli.command("create")
 def keys_create(
     name: Annotated[str, typer.Option(help="Unique name of the key (who or what uses it).")],
+    scope: Annotated[Scope, typer.Option(
+        case_sensitive=False,
+        help="What the key may do: read (reads, /simulate, unstored /diagnose), write "
+             "(also store and change), admin (also delete).")],
 ) -> None:
     """Create an API key and print it (only now: the store keeps its hash)."""
     from app.services.keys import create_api_key
 
     engine = _migrated_engine()
     with make_session_factory(engine)() as session:
-        _, plaintext = create_api_key(session, name)
+        _, plaintext = create_api_key(session, name, scope)
     engine.dispose()
     typer.echo(plaintext)
 
 
 @keys_cli.command("list")
 def keys_list() -> None:
-    """List the keys (names and prefixes; the keys themselves are not stored)."""
+    """List the keys (names, prefixes and scopes; the keys themselves are not stored)."""
     from app.services.keys import list_api_keys
 
     engine = _migrated_engine()
-    table = Table("id", "name", "prefix", "created", "revoked")
+    table = Table("id", "name", "prefix", "scope", "created", "revoked")
     with make_session_factory(engine)() as session:
         for row in list_api_keys(session):
-            table.add_row(str(row.id), row.name, row.prefix, f"{row.created_at:%Y-%m-%d %H:%M}",
-                          f"{row.revoked_at:%Y-%m-%d %H:%M}" if row.revoked_at else "")
+            table.add_row(str(row.id), row.name, row.prefix, row.scope,
+                          f"{row.created_at:%Y-%m-%d %H:%M}",
+                          f"{row.revoked_at:%Y-%m-%d %H:%M:%S}" if row.revoked_at else "")
     engine.dispose()
-    Console().print(table)
+    Console(width=160).print(table)
 
 
 @keys_cli.command("revoke")
 def keys_revoke(key_id: Annotated[int, typer.Argument(help="Id shown by `keys list`.")]) -> None:
-    """Revoke a key: it stops working at once."""
+    """Revoke a key: it stops working at once (a rotated key's grace period ends)."""
     from app.services.keys import revoke_api_key
 
     engine = _migrated_engine()
@@ -137,6 +145,30 @@ def keys_revoke(key_id: Annotated[int, typer.Argument(help="Id shown by `keys li
         row = revoke_api_key(session, key_id)
     engine.dispose()
     console.print(f"key {row.id} ({row.name}) revoked")
+
+
+@keys_cli.command("rotate")
+def keys_rotate(
+    key_id: Annotated[int, typer.Argument(help="Id shown by `keys list`.")],
+    grace: Annotated[float, typer.Option(
+        help="Seconds the old key keeps working, 0 (default: revoked at once) to 604800 "
+             "(7 days).")] = 0.0,
+) -> None:
+    """Replace a key by a new one with the same name and scope; print the new key.
+
+    The old key is renamed `<name>.rotated-<id>` and stops working after the grace period.
+    """
+    from app.services.keys import rotate_api_key
+
+    engine = _migrated_engine()
+    with make_session_factory(engine)() as session:
+        old, new, plaintext = rotate_api_key(session, key_id, grace_s=grace)
+        old_id, new_id, ends = old.id, new.id, old.revoked_at
+    engine.dispose()
+    when = "now" if not grace else f"at {ends:%Y-%m-%d %H:%M:%S} UTC"
+    typer.echo(f"key {old_id} replaced by key {new_id}; the old key stops working {when}",
+               err=True)
+    typer.echo(plaintext)
 
 
 @db_cli.command("upgrade")

@@ -226,7 +226,7 @@ def sweep(
     request = _validated(SweepRequest, load_document(file))
     settings = settings_from_env()
     with store_session() as session:
-        plan = plan_sweep(session, RigCache(1), request)
+        plan = plan_sweep(session, RigCache(1), request, settings.sweep_points)
     executors = SweepExecutors(workers=settings.sweep_workers,
                                dask_scheduler=settings.dask_scheduler)
     try:

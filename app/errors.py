@@ -3,12 +3,14 @@
 The tree is :mod:`sim.errors`; the service adds only :class:`ServiceUnavailableError`,
 a subclass of its root.  Every error response has the same body::
 
-    {"error": {"type": "InputError", "message": "must be > 0", "field": "points[2].bypass_flow_m3s"}}
+    {"error": {"type": "InputError", "message": "must be > 0", "field": "points[2].bypass_flow_m3s",
+               "request_id": "3f2a..."}}
 
 =============================  ======  =======================================
 class                          status  when
 =============================  ======  =======================================
 ``AuthError``                  401     missing or wrong ``X-API-Key``
+``ScopeError``                 403     the key's scope does not allow the operation
 ``NotFoundError``              404     unknown id (in the path or the body)
 ``ConflictError``              409     duplicate name, deleting what is in use
 ``PayloadTooLargeError``        413     the body is over ``max_body_bytes``
@@ -39,6 +41,7 @@ from fastapi.routing import iter_route_contexts
 from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.routing import Match
 
+from app.logs import request_id_of
 from sim.errors import (
     AuthError,
     ConflictError,
@@ -51,6 +54,7 @@ from sim.errors import (
 __all__ = [
     "PayloadTooLargeError",
     "RateLimitError",
+    "ScopeError",
     "ServiceBusyError",
     "ServiceUnavailableError",
     "error_response",
@@ -79,6 +83,10 @@ class PayloadTooLargeError(HydrodiagError):
     """The request body is larger than the service accepts (``max_body_bytes``)."""
 
 
+class ScopeError(HydrodiagError):
+    """The API key is valid but its scope (read, write, admin) does not allow the operation."""
+
+
 class RateLimitError(HydrodiagError):
     """The API key has sent more requests than ``rate_limit_per_minute`` allows."""
 
@@ -89,6 +97,7 @@ class RateLimitError(HydrodiagError):
 
 _STATUS: dict[type[HydrodiagError], int] = {
     AuthError: 401,
+    ScopeError: 403,
     NotFoundError: 404,
     ConflictError: 409,
     PayloadTooLargeError: 413,
@@ -137,15 +146,23 @@ def error_response(
     *,
     details: list[dict[str, Any]] | None = None,
     headers: Mapping[str, str] | None = None,
+    request: Request | None = None,
 ) -> JSONResponse:
-    """Build the JSON error response every handler returns."""
+    """Build the JSON error response every handler returns.
+
+    With ``request``, the body carries the request's id (``error.request_id``, the one
+    echoed in ``X-Request-ID`` and logged; see :mod:`app.logs`).
+    """
     error: dict[str, Any] = {"type": type_, "message": message, "field": field}
     if details is not None:
         error["details"] = details
+    request_id = None if request is None else request_id_of(request.scope)
+    if request_id is not None:
+        error["request_id"] = request_id
     return JSONResponse({"error": error}, status_code=status, headers=headers)
 
 
-async def _hydrodiag_error(_request: Request, exc: Exception) -> JSONResponse:
+async def _hydrodiag_error(request: Request, exc: Exception) -> JSONResponse:
     assert isinstance(exc, HydrodiagError)
     status = status_for(exc)
     if status >= 500:
@@ -153,7 +170,8 @@ async def _hydrodiag_error(_request: Request, exc: Exception) -> JSONResponse:
     headers = {"WWW-Authenticate": "APIKey"} if status == 401 else None
     if isinstance(exc, RateLimitError | ServiceBusyError):
         headers = {"Retry-After": str(exc.retry_after)}
-    return error_response(status, type(exc).__name__, exc.message, exc.field, headers=headers)
+    return error_response(status, type(exc).__name__, exc.message, exc.field, headers=headers,
+                          request=request)
 
 
 def _location(err: Mapping[str, Any]) -> str | None:
@@ -174,12 +192,13 @@ def _message(err: Mapping[str, Any]) -> str:
     return message
 
 
-async def _validation_error(_request: Request, exc: Exception) -> JSONResponse:
+async def _validation_error(request: Request, exc: Exception) -> JSONResponse:
     assert isinstance(exc, RequestValidationError)
     problems = [(_location(err), _message(err)) for err in exc.errors()]
     field, message = problems[0] if problems else (None, "invalid request")
     details: list[dict[str, Any]] = [{"field": f, "message": m} for f, m in problems]
-    return error_response(422, InputError.__name__, message, field, details=details)
+    return error_response(422, InputError.__name__, message, field, details=details,
+                          request=request)
 
 
 def allowed_methods(request: Request) -> list[str]:
@@ -196,25 +215,30 @@ async def _http_error(request: Request, exc: Exception) -> JSONResponse:
     assert isinstance(exc, StarletteHTTPException)
     if exc.status_code == 400:  # FastAPI could not decode the body (not UTF-8, bad form)
         return error_response(422, InputError.__name__,
-                              f"the body could not be read: {exc.detail}", "body")
+                              f"the body could not be read: {exc.detail}", "body",
+                              request=request)
     headers = dict(exc.headers or {})
     if exc.status_code == 405:
         headers["Allow"] = ", ".join(allowed_methods(request))
     type_ = NotFoundError.__name__ if exc.status_code == 404 else "HTTPError"
-    return error_response(exc.status_code, type_, str(exc.detail), headers=headers or None)
+    return error_response(exc.status_code, type_, str(exc.detail), headers=headers or None,
+                          request=request)
 
 
-async def _overflow_error(_request: Request, exc: Exception) -> JSONResponse:
+async def _overflow_error(request: Request, exc: Exception) -> JSONResponse:
     # a bound missed in some schema: the database driver refuses an integer; still the
     # caller's input, never a 500
     logger.warning("integer out of range reached the store: %s", exc)
     return error_response(422, InputError.__name__,
-                          f"an integer is out of range (at most {2**31 - 1}): {exc}")
+                          f"an integer is out of range (at most {2**31 - 1}): {exc}",
+                          request=request)
 
 
-async def _unexpected_error(_request: Request, exc: Exception) -> JSONResponse:
+async def _unexpected_error(request: Request, exc: Exception) -> JSONResponse:
     logger.exception("unexpected error", exc_info=exc)
-    return error_response(500, "InternalError", "internal error; see the service log")
+    return error_response(500, "InternalError",
+                          "internal error; see the service log under this request_id",
+                          request=request)
 
 
 def install_error_handlers(app: FastAPI) -> None:

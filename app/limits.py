@@ -1,4 +1,12 @@
-"""Request body size limit, checked before anything parses the body.
+"""Limits on the work one request may ask for: body size, batch length, sweep size.
+
+Each limit is a setting (:class:`app.settings.Settings`, ``HYDRODIAG_...``) with a documented
+default; a request over it is answered 413 (body) or 422 (``InputError``) with a message
+that names the limit and its setting.  The schemas carry fixed *ceilings*
+(:data:`BATCH_RECORDS_CEILING`, ...): the most a setting may be raised to, and what bounds
+the work of parsing before the setting is checked.
+
+Request body size limit, checked before anything parses the body.
 
 :class:`BodyLimitMiddleware` answers 413 (``PayloadTooLargeError``, naming the limit) when
 the ``Content-Length`` header is over ``max_body_bytes``, and otherwise reads the body as it
@@ -10,12 +18,55 @@ it.
 from __future__ import annotations
 
 import json
+from typing import Any
 
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from app.errors import PayloadTooLargeError
+from app.logs import request_id_of
+from sim.errors import InputError
 
-__all__ = ["BodyLimitMiddleware"]
+__all__ = [
+    "BATCH_RECORDS_CEILING",
+    "DEFAULT_SWEEP_POINTS",
+    "SWEEP_POINTS_CEILING",
+    "BodyLimitMiddleware",
+    "check_count",
+]
+
+#: Most records one ``/diagnose`` may carry whatever the settings say [-].
+BATCH_RECORDS_CEILING = 10_000
+#: Most points one sweep may run whatever the settings say, per method [-].
+SWEEP_POINTS_CEILING = {"steady": 100_000, "transient": 10_000}
+#: Default most points of one sweep, per method [-] (a transient point costs ~100 steady).
+DEFAULT_SWEEP_POINTS = {"steady": 5000, "transient": 200}
+
+
+def check_count(count: int, limit: int, *, what: str, field: str, setting: str) -> None:
+    """Refuse ``count`` items over ``limit`` with a 422 naming the limit and its setting.
+
+    Parameters
+    ----------
+    count
+        How many items the request asks for [-].
+    limit
+        Most allowed [-].
+    what
+        What is counted, plural (``"records"``), for the message.
+    field
+        The request field that holds them.
+    setting
+        Name of the setting's attribute (``max_batch_records``); the message gives its
+        environment variable.
+
+    Raises
+    ------
+    InputError
+        ``count`` is over ``limit``.
+    """
+    if count > limit:
+        raise InputError(f"{count} {what}; at most {limit} per request "
+                         f"(setting HYDRODIAG_{setting.upper()})", field=field)
 
 
 class BodyLimitMiddleware:
@@ -33,13 +84,16 @@ class BodyLimitMiddleware:
         self.app = app
         self.limit = limit
 
-    async def _refuse(self, send: Send) -> None:
-        body = json.dumps({"error": {
+    async def _refuse(self, scope: Scope, send: Send) -> None:
+        error: dict[str, Any] = {
             "type": PayloadTooLargeError.__name__,
             "message": f"the request body is larger than the limit of {self.limit} bytes "
                        "(setting HYDRODIAG_MAX_BODY_BYTES)",
             "field": "body",
-        }}).encode("utf-8")
+        }
+        if (request_id := request_id_of(scope)) is not None:
+            error["request_id"] = request_id
+        body = json.dumps({"error": error}).encode("utf-8")
         await send({"type": "http.response.start", "status": 413, "headers": [
             (b"content-type", b"application/json"),
             (b"content-length", str(len(body)).encode("ascii")),
@@ -58,7 +112,7 @@ class BodyLimitMiddleware:
             except ValueError:
                 too_large = False  # the server refuses a malformed length itself
             if too_large:
-                await self._refuse(send)
+                await self._refuse(scope, send)
                 return
         if scope.get("method") in {"GET", "HEAD", "OPTIONS"} and declared is None:
             await self.app(scope, receive, send)
@@ -73,7 +127,7 @@ class BodyLimitMiddleware:
             chunk = message.get("body", b"")
             size += len(chunk)
             if size > self.limit:
-                await self._refuse(send)
+                await self._refuse(scope, send)
                 return
             chunks.append(chunk)
             if not message.get("more_body", False):

@@ -21,15 +21,17 @@ from fastapi.openapi.utils import get_openapi
 from fastapi.routing import APIRoute, iter_route_contexts
 
 from app import __version__
-from app.api.deps import read_access, require_key
+from app.api.deps import SCOPE_OF, read_access
 from app.api.router import api_router
 from app.console import router as console_router
 from app.db.engine import make_engine, make_session_factory
 from app.errors import install_error_handlers
 from app.lifeline import exit_with_parent
 from app.limits import BodyLimitMiddleware
+from app.logs import RequestLogMiddleware, configure_logging
 from app.metrics import HttpMetrics, MetricsMiddleware
 from app.ratelimit import KeyRateLimiter
+from app.security import Scope
 from app.services.bootstrap import ensure_reference_data, upgrade_database
 from app.services.clearance import ClearanceEstimator
 from app.services.diagnosis_pool import DiagnosisPool
@@ -47,7 +49,9 @@ _DESCRIPTION = """\
 Fault diagnosis of hydraulic rigs from bond-graph models.
 
 Every quantity is in SI units, named in brackets in each field's description.  Errors have
-one body: `{"error": {"type": ..., "message": ..., "field": ...}}`; request bodies over
+one body: `{"error": {"type": ..., "message": ..., "field": ..., "request_id": ...}}`; every
+response carries `X-Request-ID` (the client's, when well formed: 1 to 64 letters, digits or
+`-._:`; else a new one), which the service log names too; request bodies over
 the size limit are answered 413, unknown fields in a body 422.
 
 **Access.** Every operation needs an API key in the `X-API-Key` header except `/health`,
@@ -55,6 +59,12 @@ the size limit are answered 413, unknown fields in a body 422.
 service started with `HYDRODIAG_OPEN_READS=true` also answers the operations marked
 `x-hydrodiag-access: open-reads` without a key (the reads, `/simulate`, and `/diagnose`
 with `"store": false`); anything that stores or changes data always needs the key.
+
+**Scopes.** Each key is `read`, `write` or `admin` (`hydrodiag keys create --scope`); each
+includes the ones before it.  `x-hydrodiag-scope` on each operation names the scope it
+needs: `read` for the reads, `/simulate` and `/diagnose` (`write` with `"store": true`,
+stated as `x-hydrodiag-scope-store`), `write` for whatever stores or changes data, `admin`
+for deletions.  A valid key below the needed scope is answered 403 (`ScopeError`).
 """
 
 #: Value of ``x-hydrodiag-access`` on each operation, by how it is guarded.
@@ -68,19 +78,24 @@ def _calls(dependant: Dependant) -> set[Any]:
     return found
 
 
-def _access_of(route: APIRoute) -> str:
+def _access_of(route: APIRoute) -> tuple[str, Scope | None]:
+    """How ``route`` is guarded, and the scope of key it needs (``None``: no key)."""
     calls = _calls(route.dependant)
-    if require_key in calls:
-        return ACCESS_KEY
+    scopes = [SCOPE_OF[call] for call in calls if call in SCOPE_OF]
+    scope = max(scopes, key=lambda s: s.rank) if scopes else None
+    if any(call in SCOPE_OF and call is not read_access for call in calls):
+        return ACCESS_KEY, scope
     if read_access in calls:
-        return ACCESS_OPEN_READS
-    return ACCESS_OPEN
+        return ACCESS_OPEN_READS, scope
+    return ACCESS_OPEN, None
 
 
 def _documented_openapi(app: FastAPI, open_reads: bool) -> dict[str, Any]:
     """The OpenAPI document with each operation's access stated under this setting.
 
-    ``x-hydrodiag-access`` is ``open``, ``open-reads`` or ``key``; ``security`` lists the
+    ``x-hydrodiag-access`` is ``open``, ``open-reads`` or ``key``; ``x-hydrodiag-scope``
+    (on every operation but the open ones) is the key scope it needs, ``read``, ``write``
+    or ``admin``; ``security`` lists the
     API key on every operation that needs it under the running settings, and for the
     ``open-reads`` ones when reads are open offers the empty requirement too (key
     optional).
@@ -92,12 +107,14 @@ def _documented_openapi(app: FastAPI, open_reads: bool) -> dict[str, Any]:
             route = context.route
             if not isinstance(route, APIRoute) or not route.include_in_schema:
                 continue
-            access = _access_of(route)
+            access, scope = _access_of(route)
             for method in context.methods or ():
                 operation = schema["paths"].get(context.path_format, {}).get(method.lower())
                 if operation is None:
                     continue
                 operation["x-hydrodiag-access"] = access
+                if scope is not None:
+                    operation["x-hydrodiag-scope"] = scope.value
                 if access == ACCESS_OPEN:
                     operation.pop("security", None)
                     for status in ("401", "403"):
@@ -179,6 +196,7 @@ def create_app(
                               if settings.rate_limit_per_minute else None)
     app.add_middleware(BodyLimitMiddleware, limit=settings.max_body_bytes)
     app.add_middleware(MetricsMiddleware, metrics=app.state.metrics)
+    app.add_middleware(RequestLogMiddleware, log=settings.access_log)  # outermost: ids on all
     install_error_handlers(app)
     app.include_router(api_router)
     app.include_router(console_router)
@@ -194,10 +212,15 @@ def create_service_app() -> FastAPI:
     ``uvicorn app.main:create_service_app --factory`` works on a fresh data folder; table
     rows without a clearance get one from
     :class:`~app.services.throttle_estimator.ThrottleClearanceEstimator`.  As a worker
-    process of ``serve`` it ends itself when ``serve`` is gone (:mod:`app.lifeline`).
+    process of ``serve`` it ends itself when ``serve`` is gone (:mod:`app.lifeline`).  The
+    ``hydrodiag`` log goes to standard error as ``HYDRODIAG_LOG_FORMAT`` says
+    (:func:`app.logs.configure_logging`); run uvicorn with ``--no-access-log``, as the
+    service writes its own access line per request.
     """
     from app.services.throttle_estimator import ThrottleClearanceEstimator
 
     if multiprocessing.parent_process() is not None:  # a worker of `serve`: leave with it
         exit_with_parent()
-    return create_app(Settings(), clearance_estimator=ThrottleClearanceEstimator())
+    settings = Settings()
+    configure_logging(settings.log_format, settings.log_level)
+    return create_app(settings, clearance_estimator=ThrottleClearanceEstimator())

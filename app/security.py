@@ -15,9 +15,11 @@ import secrets
 import threading
 from collections import OrderedDict
 from dataclasses import dataclass
+from enum import StrEnum
 
 __all__ = [
     "GeneratedKey",
+    "Scope",
     "VerifiedKeys",
     "generate_key",
     "hash_key",
@@ -34,6 +36,36 @@ _SALT_BYTES = 16
 #: yielding usable keys, and the cost bounds what each authenticated request pays.  The
 #: parameters are stored with each hash and can be raised without invalidating old keys.
 _SCRYPT_N, _SCRYPT_R, _SCRYPT_P, _SCRYPT_LEN = 2**12, 8, 1, 32
+
+
+class Scope(StrEnum):
+    """What an API key may do; each scope includes the ones before it.
+
+    ``read``
+        Read stored things, and compute without storing (``/simulate``, ``/diagnose``
+        with ``"store": false``).
+    ``write``
+        Also store and change things (rigs, tables, pump sets, series, stored diagnoses,
+        sweeps and other jobs).
+    ``admin``
+        Also delete stored things and read the list of keys.
+    """
+
+    READ = "read"
+    WRITE = "write"
+    ADMIN = "admin"
+
+    @property
+    def rank(self) -> int:
+        """Position in ``read < write < admin`` [-]."""
+        return _SCOPE_ORDER.index(self)
+
+    def allows(self, needed: Scope) -> bool:
+        """Return whether a key of this scope may run an operation that needs ``needed``."""
+        return self.rank >= needed.rank
+
+
+_SCOPE_ORDER = (Scope.READ, Scope.WRITE, Scope.ADMIN)
 
 
 @dataclass(frozen=True, slots=True)

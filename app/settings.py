@@ -19,6 +19,8 @@ from pydantic_settings import BaseSettings, SettingsConfigDict
 from sqlalchemy.engine import URL, make_url
 from sqlalchemy.exc import ArgumentError
 
+from app.limits import BATCH_RECORDS_CEILING, DEFAULT_SWEEP_POINTS, SWEEP_POINTS_CEILING
+
 __all__ = ["WEAK_PASSWORDS", "Settings", "usable_cores"]
 
 #: Passwords that appear in tutorials and default images; refused in a database URL.
@@ -69,7 +71,11 @@ class Settings(BaseSettings):
     rig_cache_size
         Compiled rigs (rig, version) kept in memory.
     access_log
-        Whether ``serve`` logs every request (uvicorn's access log).
+        Whether the service logs one line per request (logger ``hydrodiag.access``:
+        method, route template, status, duration, request id, key id; see
+        :mod:`app.logs`).  ``serve`` turns uvicorn's own access log off.
+    log_format
+        ``json`` (default): one JSON object per log line; ``text``: plain lines.
     workers
         Server processes of ``serve`` (uvicorn workers); each has its own caches.  Default:
         one per core this process may run on (:func:`usable_cores`).
@@ -83,6 +89,13 @@ class Settings(BaseSettings):
         one more is answered 503 with ``Retry-After`` at once.  Default 32.
     log_level
         Level of the service's log.
+    max_batch_records
+        Most records one ``/diagnose`` may carry [-]; default 100, at most 10,000.  More is
+        a 422 on ``records`` naming this setting.
+    max_sweep_points_steady, max_sweep_points_transient
+        Most scenarios one ``/scenarios`` sweep may run [-], steady (default 5,000, at most
+        100,000) and transient (default 200, at most 10,000).  More is a 422 on ``design``
+        naming the setting.
     sim_max_steps
         Most solver steps of one integration of ``/simulate`` (one phase of one run;
         enforced inside the compiled step loop); default 2,000,000 (RODAS4 needs ~1,000 a
@@ -122,6 +135,17 @@ class Settings(BaseSettings):
                                  description="Most /diagnose requests taken at once per "
                                  "server process.")
     log_level: Literal["debug", "info", "warning", "error"] = Field(default="info")
+    log_format: Literal["json", "text"] = Field(default="json",
+                                                description="Log lines as JSON or text.")
+    max_batch_records: int = Field(default=100, ge=1, le=BATCH_RECORDS_CEILING,
+                                   description="Most records of one /diagnose.")
+    max_sweep_points_steady: int = Field(
+        default=DEFAULT_SWEEP_POINTS["steady"], ge=1, le=SWEEP_POINTS_CEILING["steady"],
+        description="Most points of one steady sweep.")
+    max_sweep_points_transient: int = Field(
+        default=DEFAULT_SWEEP_POINTS["transient"], ge=1,
+        le=SWEEP_POINTS_CEILING["transient"],
+        description="Most points of one transient sweep.")
     sim_max_steps: int = Field(default=2_000_000, ge=100, le=100_000_000,
                                description="Most solver steps of one /simulate integration.")
     sim_max_time: float = Field(default=600.0, gt=0, le=1e6,
@@ -152,6 +176,12 @@ class Settings(BaseSettings):
         if self.data_dir.exists() and not self.data_dir.is_dir():
             raise ValueError(f"data_dir {self.data_dir} exists and is not a folder")
         return self
+
+    @property
+    def sweep_points(self) -> dict[str, int]:
+        """Most points of one sweep, by method [-]."""
+        return {"steady": self.max_sweep_points_steady,
+                "transient": self.max_sweep_points_transient}
 
     @cached_property
     def url(self) -> URL:

@@ -15,16 +15,22 @@ loopback port:
 2. **Kill -9** — ``ROUNDS`` rounds: three writer threads (``POST /diagnose`` with
    ``store``, ``POST /rigs/1/calibrations``, ``POST /pump-sets``) write as fast as the
    service answers; after a random 1-3 s the server gets SIGKILL mid-load, is restarted on
-   the same folder, and every acknowledged write (a 2xx with its id) is read back over HTTP
-   and counted; ``PRAGMA integrity_check`` must say ``ok``.
+   the same store, and every acknowledged write (a 2xx with its id) is read back over HTTP
+   and counted; the store's integrity check must say ``ok``.  Once on SQLite
+   (``PRAGMA integrity_check``) and once on a throw-away PostgreSQL cluster where its
+   server programs and psycopg are installed (``amcheck`` on every table and index;
+   :mod:`benchmarks.chaos_kill`); without them the PostgreSQL part is reported skipped
+   with the reason.
 3. **Bad input** — issue 14's catalogue (NaN, Infinity, negative and absurd values, a
-   10⁵-record batch, a 50 MB body, 5,000-deep nesting, wrong content type, malformed and
-   binary uploads, non-UTF-8, injection strings in paths), each must be a 4xx whose body
+   10⁵-record batch, a batch over ``HYDRODIAG_MAX_BATCH_RECORDS``, a 50 MB body, 5,000-deep
+   nesting, wrong content type, malformed and binary uploads, non-UTF-8, injection strings
+   in paths), each must be a 4xx whose body
    names the field or the limit; afterwards the server answers ``/health``, its RSS has
    grown by less than ``RSS_BOUND_MB``, and no table has changed.
 
 Full form: 500 examples per operation (``HYDRODIAG_FUZZ_EXAMPLES`` overrides), 10 kill
-rounds.  ``HYDRODIAG_LIGHT=1`` (CI): 3 examples per operation, 2 kill rounds.  Run with
+rounds per store.  ``HYDRODIAG_LIGHT=1`` (CI): 3 examples per operation, 2 kill rounds per
+store.  Run with
 ``make chaos``.  The last line printed is one JSON object with every figure.
 """
 
@@ -32,115 +38,26 @@ from __future__ import annotations
 
 import json
 import os
-import random
-import signal
 import sqlite3
 import subprocess
 import sys
 import tempfile
-import threading
 import time
-from collections.abc import Iterator
-from contextlib import contextmanager
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import httpx
+
+from benchmarks.chaos_kill import RECORD, TABLE, kill_rounds
+from benchmarks.chaos_server import running
+from tests.app.postgres import postgres_url, unavailable_reason
 
 LIGHT = os.environ.get("HYDRODIAG_LIGHT") == "1"
 #: examples per operation (issue 16 asks for at least 500); HYDRODIAG_FUZZ_EXAMPLES overrides
 FUZZ_EXAMPLES = int(os.environ.get("HYDRODIAG_FUZZ_EXAMPLES", 3 if LIGHT else 500))
 ROUNDS = 2 if LIGHT else 10
 RSS_BOUND_MB = 200.0
-STARTUP_TIMEOUT_S = 120.0
 CONFIG = Path(__file__).with_name("schemathesis.toml")
-
-
-@dataclass
-class Server:
-    """A running ``hydrodiag serve`` on ``data_dir``."""
-
-    base_url: str
-    data_dir: Path
-    process: subprocess.Popen[str]
-    key: str = ""
-
-    @property
-    def auth(self) -> dict[str, str]:
-        return {"X-API-Key": self.key}
-
-    def rss_mb(self) -> float:
-        """Resident memory of the server process [MiB]."""
-        for line in Path(f"/proc/{self.process.pid}/status").read_text().splitlines():
-            if line.startswith("VmRSS:"):
-                return int(line.split()[1]) / 1024
-        return float("nan")
-
-
-def _free_port() -> int:
-    import socket
-
-    with socket.socket() as sock:
-        sock.bind(("127.0.0.1", 0))
-        return int(sock.getsockname()[1])
-
-
-def start(data_dir: Path, key: str = "") -> Server:
-    """Start the service on ``data_dir``; read the first-start key when there is one."""
-    port = _free_port()
-    env = os.environ | {"HYDRODIAG_DATA_DIR": str(data_dir), "HYDRODIAG_ACCESS_LOG": "false",
-                        "HYDRODIAG_LOG_LEVEL": "warning"}
-    log = (data_dir / "service.log").open("a")
-    process = subprocess.Popen(
-        [sys.executable, "-m", "app.cli", "serve", "--host", "127.0.0.1", "--port", str(port)],
-        env=env, stdout=subprocess.PIPE, stderr=log, text=True)
-    server = Server(f"http://127.0.0.1:{port}", data_dir, process, key)
-    assert process.stdout is not None
-    if not key:
-        for line in process.stdout:
-            if line.startswith("API key: "):
-                server.key = line.split(": ", 1)[1].strip()
-                break
-    deadline = time.monotonic() + STARTUP_TIMEOUT_S
-    while True:
-        try:
-            if httpx.get(f"{server.base_url}/health", timeout=1).status_code == 200:
-                return server
-        except httpx.TransportError:
-            pass
-        if process.poll() is not None or time.monotonic() > deadline:
-            raise RuntimeError(f"the service did not start (see {data_dir}/service.log)")
-        time.sleep(0.1)
-
-
-def stop(server: Server) -> None:
-    """Stop the server gracefully (SIGTERM), or kill it if it does not go."""
-    server.process.terminate()
-    try:
-        server.process.wait(timeout=30)
-    except subprocess.TimeoutExpired:
-        server.process.kill()
-        server.process.wait(timeout=30)
-
-
-def wait_ready(server: Server) -> None:
-    """Wait until ``/ready`` answers 200 (store migrated, rigs loaded)."""
-    deadline = time.monotonic() + STARTUP_TIMEOUT_S
-    while httpx.get(f"{server.base_url}/ready", timeout=10).status_code != 200:
-        if time.monotonic() > deadline:
-            raise RuntimeError("the service did not become ready")
-        time.sleep(0.2)
-
-
-@contextmanager
-def running(data_dir: Path) -> Iterator[Server]:
-    server = start(data_dir)
-    try:
-        wait_ready(server)
-        yield server
-    finally:
-        stop(server)
 
 
 # --- 1. fuzzing ------------------------------------------------------------------------
@@ -187,111 +104,6 @@ def fuzz(work: Path) -> dict[str, Any]:
     }
 
 
-# --- 2. kill -9 ------------------------------------------------------------------------
-
-TABLE = {"throttle": "I", "component": "valve", "back_pressure_pa": 1.0e6,
-         "temperature_c": 40.0, "source": "chaos", "points": [
-             {"opening_turns": 0.0, "bypass_flow_m3s": 1.0e-5, "clearance_m": 40e-6},
-             {"opening_turns": 1.0, "bypass_flow_m3s": 3.0e-5, "clearance_m": 60e-6}]}
-RECORD = {"rig_id": 1, "condition": {"oil_temperature": 40.0, "load_force": 2100.0},
-          "pump_pressure": 14.6e5, "p1": 11.9e5, "p2": 1.2e5, "flow_B": 4.44e-4,
-          "flow_C": 3.97e-4, "speed_work": 0.180, "speed_return": 0.215}
-
-
-@dataclass
-class Acked:
-    """Writes the service acknowledged (2xx with an id), by kind."""
-
-    ids: dict[str, list[int]] = field(default_factory=lambda: {
-        "diagnoses": [], "calibrations": [], "pump_sets": []})
-    lock: threading.Lock = field(default_factory=threading.Lock)
-
-    def add(self, kind: str, ident: int) -> None:
-        with self.lock:
-            self.ids[kind].append(ident)
-
-
-def _writer(server: Server, kind: str, acked: Acked, stop_event: threading.Event,
-            seq: list[int]) -> None:
-    with httpx.Client(base_url=server.base_url, headers=server.auth, timeout=30) as client:
-        while not stop_event.is_set():
-            try:
-                if kind == "diagnoses":
-                    response = client.post("/diagnose", json={"record": RECORD})
-                    ident = response.json()["diagnoses"][0]["id"] if response.is_success \
-                        else None
-                elif kind == "calibrations":  # one table per condition: vary it
-                    response = client.post("/rigs/1/calibrations", json=TABLE | {
-                        "back_pressure_pa": random.uniform(1e5, 5e6),
-                        "temperature_c": random.uniform(10.0, 80.0)})
-                    ident = response.json()["id"] if response.is_success else None
-                else:
-                    seq[0] += 1
-                    response = client.post("/pump-sets", json={
-                        "name": f"chaos-{os.getpid()}-{seq[0]}-{random.getrandbits(32)}",
-                        "kind": "parameters", "pump": "gear",
-                        "quantities": {"Cs": {"value": 2.1e-9, "unit": "1"}}})
-                    ident = response.json()["id"] if response.is_success else None
-            except (httpx.TransportError, ValueError):
-                continue  # the server was killed: this write was never acknowledged
-            if ident is not None:
-                acked.add(kind, int(ident))
-
-
-def _present(server: Server, kind: str, ident: int) -> bool:
-    path = {"diagnoses": f"/diagnoses/{ident}", "calibrations": f"/rigs/1/calibrations/{ident}",
-            "pump_sets": f"/pump-sets/{ident}"}[kind]
-    return httpx.get(server.base_url + path, headers=server.auth, timeout=30).status_code == 200
-
-
-def kill_rounds(work: Path) -> dict[str, Any]:
-    """SIGKILL the server under concurrent writers; count lost acknowledged writes."""
-    data_dir = work / "kill"
-    data_dir.mkdir()
-    server = start(data_dir)
-    wait_ready(server)
-    key = server.key
-    acked = Acked()
-    rounds, integrity, restarts = [], [], []
-    rng = random.Random(14)
-    try:
-        for _ in range(ROUNDS):
-            stop_event = threading.Event()
-            seq = [0]
-            threads = [threading.Thread(target=_writer, args=(server, kind, acked, stop_event,
-                                                              seq))
-                       for kind in ("diagnoses", "calibrations", "pump_sets")]
-            before = {k: len(v) for k, v in acked.ids.items()}
-            for thread in threads:
-                thread.start()
-            time.sleep(rng.uniform(1.0, 3.0))
-            os.kill(server.process.pid, signal.SIGKILL)
-            server.process.wait(timeout=30)
-            stop_event.set()
-            for thread in threads:
-                thread.join(timeout=60)
-            started = time.perf_counter()
-            server = start(data_dir, key)
-            restarts.append(time.perf_counter() - started)
-            with sqlite3.connect(data_dir / "hydrodiag.db") as db:
-                integrity.append(db.execute("PRAGMA integrity_check").fetchone()[0])
-            rounds.append({k: len(v) - before[k] for k, v in acked.ids.items()})
-        lost = {kind: sum(not _present(server, kind, i) for i in ids)
-                for kind, ids in acked.ids.items()}
-    finally:
-        stop(server)
-    return {
-        "rounds": ROUNDS,
-        "acknowledged": {k: len(v) for k, v in acked.ids.items()},
-        "acknowledged_total": sum(len(v) for v in acked.ids.values()),
-        "lost": lost,
-        "lost_total": sum(lost.values()),
-        "integrity_ok": sum(i == "ok" for i in integrity),
-        "restart_s_max": round(max(restarts), 2),
-        "per_round": rounds,
-    }
-
-
 # --- 3. bad input ----------------------------------------------------------------------
 
 def _deep(depth: int) -> bytes:
@@ -314,6 +126,8 @@ def catalogue() -> list[tuple[str, str, str, dict[str, Any]]]:
         ("absurd clearance", "POST", "/simulate",
          {"json": {"rig_id": 1, "overrides": {"valve.cv": 1.0e9}}}),
         ("1e5-record batch", "POST", "/diagnose", {"json": batch}),
+        ("101-record batch", "POST", "/diagnose",
+         {"json": {"records": [RECORD] * 101, "store": True}}),
         ("50 MB body", "POST", "/rigs",
          {"content": b'{"document": "' + b"x" * 50_000_000 + b'"}', "headers": json_h}),
         ("5000-deep nesting", "POST", "/diagnose", {"content": _deep(5000), "headers": json_h}),
@@ -378,6 +192,13 @@ def bad_input(work: Path) -> dict[str, Any]:
             "rss_bounded": rss_after - rss_before < RSS_BOUND_MB, "store_unchanged": unchanged}
 
 
+def _print_kill(killed: dict[str, Any]) -> None:
+    print(f"kill -9 rounds on {killed['store']}: {killed['rounds']}, acknowledged writes "
+          f"{killed['acknowledged']}, lost {killed['lost']}, integrity ok "
+          f"{killed['integrity_ok']}/{killed['rounds']}, restart <= "
+          f"{killed['restart_s_max']} s\n")
+
+
 def main() -> None:
     """Run the three parts, print the tables and the JSON line."""
     with tempfile.TemporaryDirectory(prefix="hydrodiag-chaos-") as tmp:
@@ -392,11 +213,16 @@ def main() -> None:
               f"{bad['sql_in_query_matches_nothing']}")
         print(f"server up after: {bad['server_up_after']}, RSS {bad['rss_before_mb']} -> "
               f"{bad['rss_after_mb']} MiB, store unchanged: {bad['store_unchanged']}\n")
-        killed = kill_rounds(work)
-        print(f"kill -9 rounds: {killed['rounds']}, acknowledged writes "
-              f"{killed['acknowledged']}, lost {killed['lost']}, integrity ok "
-              f"{killed['integrity_ok']}/{killed['rounds']}, restart <= "
-              f"{killed['restart_s_max']} s\n")
+        killed = kill_rounds(work, ROUNDS)
+        _print_kill(killed)
+        reason = unavailable_reason()
+        pg: dict[str, Any] = {"skipped": reason}
+        if reason is None:
+            with postgres_url() as url:
+                pg = kill_rounds(work, ROUNDS, "kill-pg", url)
+            _print_kill(pg)
+        else:
+            print(f"kill -9 rounds on PostgreSQL skipped: {reason}\n")
         fuzzed = fuzz(work)
         print(f"Schemathesis: {fuzzed['requests']} test cases over {fuzzed['operations']} "
               f"operations ({fuzzed['examples_per_operation']} examples each, every phase, "
@@ -416,7 +242,12 @@ def main() -> None:
         "rss_bounded": bad["rss_bounded"],
         "rss_growth_mb": round(bad["rss_after_mb"] - bad["rss_before_mb"], 1),
         "store_unchanged": bad["store_unchanged"],
+        "pg_kill_rounds": pg.get("rounds", 0),
+        "pg_acknowledged_writes": pg.get("acknowledged_total", 0),
+        "pg_lost_writes": pg.get("lost_total"), "pg_integrity_ok": pg.get("integrity_ok"),
+        "pg_skipped": pg.get("skipped"),
         "fuzz": fuzzed, "kill": {k: v for k, v in killed.items() if k != "per_round"},
+        "kill_pg": {k: v for k, v in pg.items() if k != "per_round"},
     }
     print(json.dumps(summary))
 

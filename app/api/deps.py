@@ -1,9 +1,11 @@
 """Dependencies of the routes, as ``Annotated`` aliases.
 
 ``SessionDep`` gives a session per request (closed, and rolled back if uncommitted, when
-the request ends); ``WriteKeyDep`` demands a valid API key; ``ReadAccess`` demands one too
-unless the service runs with open reads (``HYDRODIAG_OPEN_READS=true``, default false):
-then the reads, ``/simulate`` and ``/diagnose`` without ``store`` answer without a key.
+the request ends); ``WriteKeyDep`` demands a valid API key of scope ``write`` or
+``admin``, ``AdminKeyDep`` one of scope ``admin``; ``ReadAccess`` demands a key of any
+scope unless the service runs with open reads (``HYDRODIAG_OPEN_READS=true``, default
+false): then the reads, ``/simulate`` and ``/diagnose`` without ``store`` answer without a
+key.  A valid key without the scope an operation needs is answered 403 (``ScopeError``).
 """
 
 from __future__ import annotations
@@ -17,9 +19,10 @@ from fastapi.security import APIKeyHeader
 from sqlalchemy.orm import Session
 
 from app.db.models import ApiKey
-from app.errors import RateLimitError
+from app.errors import RateLimitError, ScopeError
 from app.ratelimit import KeyRateLimiter
 from app.schemas.common import MAX_OFFSET
+from app.security import Scope
 from app.services.clearance import ClearanceEstimator
 from app.services.executors import SweepExecutors
 from app.services.keys import API_KEY_HEADER, authenticate
@@ -27,6 +30,8 @@ from app.services.rig_cache import RigCache
 from app.settings import Settings
 
 __all__ = [
+    "SCOPE_OF",
+    "AdminKeyDep",
     "EstimatorDep",
     "ExecutorsDep",
     "KeyHeaderDep",
@@ -39,7 +44,10 @@ __all__ = [
     "WriteKeyDep",
     "get_db",
     "read_access",
+    "require_admin_key",
     "require_key",
+    "require_scope",
+    "require_write_key",
 ]
 
 
@@ -108,18 +116,64 @@ def require_key(
     return cached
 
 
+def require_scope(request: Request, session: Session, key: str | None, needed: Scope) -> ApiKey:
+    """Authenticate the request's key and demand that its scope allows ``needed``.
+
+    Raises
+    ------
+    AuthError
+        No valid key (401).
+    ScopeError
+        A valid key whose scope is below ``needed`` (403).
+    """
+    row = require_key(request, session, key)
+    if not Scope(row.scope).allows(needed):
+        raise ScopeError(f"this operation needs a key of scope {needed.value!r} or above; "
+                         f"key {row.id} ({row.name}) has scope {row.scope!r}",
+                         field=API_KEY_HEADER)
+    return row
+
+
+def require_write_key(
+    request: Request,
+    session: SessionDep,
+    key: Annotated[str | None, Security(_api_key_header)],
+) -> ApiKey:
+    """Demand a valid key of scope ``write`` or ``admin``."""
+    return require_scope(request, session, key, Scope.WRITE)
+
+
+def require_admin_key(
+    request: Request,
+    session: SessionDep,
+    key: Annotated[str | None, Security(_api_key_header)],
+) -> ApiKey:
+    """Demand a valid key of scope ``admin``."""
+    return require_scope(request, session, key, Scope.ADMIN)
+
+
 def read_access(
     request: Request,
     settings: SettingsDep,
     session: SessionDep,
     key: Annotated[str | None, Security(_api_key_header)],
 ) -> None:
-    """Let the request through when reads are open, else demand a valid key."""
+    """Let the request through when reads are open, else demand a valid key (any scope)."""
     if not settings.open_reads:
         require_key(request, session, key)
 
 
-WriteKeyDep = Annotated[ApiKey, Depends(require_key)]
+#: The scope each access dependency demands (read for the keyed reads); the OpenAPI
+#: document states it on each operation as ``x-hydrodiag-scope``.
+SCOPE_OF: dict[object, Scope] = {
+    read_access: Scope.READ,
+    require_key: Scope.READ,
+    require_write_key: Scope.WRITE,
+    require_admin_key: Scope.ADMIN,
+}
+
+WriteKeyDep = Annotated[ApiKey, Depends(require_write_key)]
+AdminKeyDep = Annotated[ApiKey, Depends(require_admin_key)]
 #: The API key header as sent (``None`` when absent), for routes that write only on request.
 KeyHeaderDep = Annotated[str | None, Security(_api_key_header)]
 ReadAccess = Depends(read_access)

@@ -19,6 +19,7 @@ from app.console.views import diagnosis_view, history_page, trend_views
 from app.console.web import page, redirect
 from app.errors import format_location
 from app.schemas.diagnose import DiagnoseRequest
+from app.security import Scope
 from app.services import rigs as rig_service
 from app.services.diagnosis import diagnose_request
 from sim.errors import HydrodiagError, InputError
@@ -123,7 +124,15 @@ def diagnose_form(request: Request, session: SessionDep, _key: ConsoleKeyDep) ->
 def diagnose(request: Request, session: SessionDep, rigs: RigsDep, _key: ConsoleKeyDep,
              document: Annotated[str, Form()] = "",
              file: Annotated[UploadFile | None, File()] = None) -> Response:
-    """Diagnose and store; show the result, or the form again with the error."""
+    """Diagnose and store; show the result, or the form again with the error.
+
+    Storing needs a key of scope ``write``: a read key gets the form again with a 403.
+    """
+    if not Scope(_key.scope).allows(Scope.WRITE):
+        refusal = {"type": "ScopeError", "field": "api_key",
+                   "message": f"storing a diagnosis needs a key of scope 'write' or above; "
+                              f"this console is logged in with a {_key.scope!r} key"}
+        return _form(request, session, status_code=403, text=document, error=refusal)
     content = file.file.read(MAX_INPUT_BYTES + 1) if file is not None and file.filename else None
     try:
         outcomes = diagnose_request(session, rigs, parse_records(document, content))

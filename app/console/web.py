@@ -32,6 +32,7 @@ from markupsafe import Markup
 from sqlalchemy.orm import Session
 
 from app.db.models import ApiKey
+from app.services.keys import is_revoked
 from app.settings import Settings
 from diagnostics.plots import Chart, render_svg
 from sim.errors import AuthError
@@ -141,7 +142,7 @@ def console_key(request: Request, session: Session) -> ApiKey:
     if key is None or not hmac.compare_digest(
             parts[2], _signature(secret, key_id, issued, key.prefix)):
         raise AuthError("log in with an API key", field="api_key")
-    if key.revoked_at is not None:
+    if is_revoked(key):
         raise AuthError("this API key has been revoked", field="api_key")
     return key
 

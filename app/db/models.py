@@ -262,5 +262,10 @@ class ApiKey(Base):
     name: Mapped[str] = mapped_column(String(100), unique=True)
     prefix: Mapped[str] = mapped_column(String(16), unique=True)
     key_hash: Mapped[str] = mapped_column(String(255))
+    #: ``read``, ``write`` or ``admin`` (:class:`app.security.Scope`); keys made before
+    #: scopes existed (revision 0004) are ``admin``, as they could do everything.
+    scope: Mapped[str] = mapped_column(String(8), server_default="admin")
     created_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=utcnow)
+    #: When the key stops working: the moment of revocation, or the end of the grace
+    #: period of a rotated key (in the future until then).
     revoked_at: Mapped[datetime | None] = mapped_column(UTCDateTime())

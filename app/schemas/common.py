@@ -262,6 +262,12 @@ class ErrorDetail(BaseModel):
         description="Every validation problem as {field, message}, for 422 responses [-]",
         examples=[[{"field": "points[2].bypass_flow_m3s", "message": "must be > 0"}]],
     )
+    request_id: str | None = Field(
+        default=None,
+        description="Id of the request, as echoed in the X-Request-ID header and written "
+                    "in the service log [-]",
+        examples=["3f2a9c0e5b7d41a8b6c2d9e0f1a2b3c4"],
+    )
 
 
 class ErrorBody(BaseModel):
@@ -292,6 +298,8 @@ def error_doc(description: str) -> dict[str, Any]:
 #: Error responses documented on every route of the API.
 ERROR_RESPONSES: dict[int | str, dict[str, Any]] = {
     401: error_doc("Missing or wrong API key (header X-API-Key)"),
+    403: error_doc("The API key's scope (read, write, admin) does not allow this operation; "
+                   "see x-hydrodiag-scope"),
     404: error_doc("Unknown id"),
     409: error_doc("Conflicts with stored state"),
     413: error_doc("Request body over the size limit (HYDRODIAG_MAX_BODY_BYTES)"),

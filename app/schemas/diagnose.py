@@ -14,6 +14,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import AwareDatetime, BaseModel, BeforeValidator, ConfigDict, Field, model_validator
 
+from app.limits import BATCH_RECORDS_CEILING
 from app.schemas.common import MAX_ID, FiniteFloat, IsoDatetime, RequestModel
 from sim.errors import InputError
 
@@ -172,8 +173,9 @@ class DiagnoseRequest(RequestModel):
         examples=[_EXAMPLE_RECORD],
     )
     records: list[MeasurementIn] | None = Field(
-        default=None, min_length=1, max_length=100,
-        description="Several records; each is diagnosed on its own unless `joint` [-]",
+        default=None, min_length=1, max_length=BATCH_RECORDS_CEILING,
+        description="Several records; each is diagnosed on its own unless `joint`; at most "
+        "HYDRODIAG_MAX_BATCH_RECORDS (default 100) [-]",
         examples=[[_EXAMPLE_RECORD]],
     )
     joint: bool = Field(

@@ -1,29 +1,62 @@
-"""API keys in the store: create (shown once), authenticate, list, revoke."""
+"""API keys in the store: create (shown once), authenticate, list, revoke, rotate.
+
+Each key has a scope (:class:`app.security.Scope`: ``read`` < ``write`` < ``admin``).  A
+key stops working at its ``revoked_at``: the moment of :func:`revoke_api_key`, or, for a
+key replaced by :func:`rotate_api_key` with a grace period, the end of that period (so
+that clients can switch to the new key without a gap).
+"""
 
 from __future__ import annotations
 
 from collections.abc import Sequence
+from datetime import datetime, timedelta
 
-from sqlalchemy import func, select
+from sqlalchemy import func, or_, select
+from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
 
 from app.db.base import utcnow
 from app.db.models import ApiKey
-from app.security import VerifiedKeys, generate_key, split_key, verify_unknown
+from app.security import Scope, VerifiedKeys, generate_key, split_key, verify_unknown
 from app.services.common import commit, get_or_raise
-from sim.errors import AuthError, ConflictError
+from sim.errors import AuthError, ConflictError, InputError
 
-__all__ = ["authenticate", "count_active_keys", "create_api_key", "list_api_keys",
-           "revoke_api_key"]
+__all__ = ["MAX_GRACE_S", "authenticate", "count_active_keys", "create_api_key", "is_revoked",
+           "list_api_keys", "revoke_api_key", "rotate_api_key"]
 
 API_KEY_HEADER = "X-API-Key"
+
+#: Longest grace period of a rotated key [s] (7 days).
+MAX_GRACE_S = 7 * 24 * 3600
+
+#: Longest key name [characters] (the column's width).
+MAX_NAME_LENGTH = 100
 
 #: Keys verified by this process (scrypt once per key; see :class:`VerifiedKeys`).
 _VERIFIED = VerifiedKeys()
 
 
-def create_api_key(session: Session, name: str) -> tuple[ApiKey, str]:
-    """Create a key called ``name``.
+def is_revoked(row: ApiKey, now: datetime | None = None) -> bool:
+    """Return whether ``row`` has stopped working at ``now`` (default: the present)."""
+    return row.revoked_at is not None and row.revoked_at <= (now or utcnow())
+
+
+def _check_name(session: Session, name: str) -> str:
+    name = name.strip()
+    if not name or len(name) > MAX_NAME_LENGTH or not name.isprintable():
+        raise InputError(f"a key name is 1 to {MAX_NAME_LENGTH} printable characters",
+                         field="name")
+    if session.scalar(select(func.count()).select_from(ApiKey).where(ApiKey.name == name)):
+        raise ConflictError(f"a key named {name!r} exists", field="name")
+    return name
+
+
+def create_api_key(session: Session, name: str,
+                   scope: Scope = Scope.ADMIN) -> tuple[ApiKey, str]:
+    """Create a key called ``name`` with ``scope``.
+
+    The default scope is ``admin`` (the first-start key, keys made by tests); the CLI asks
+    for the scope explicitly.
 
     Returns
     -------
@@ -32,13 +65,15 @@ def create_api_key(session: Session, name: str) -> tuple[ApiKey, str]:
 
     Raises
     ------
+    InputError
+        ``name`` is empty, too long or not printable.
     ConflictError
         A key with this name exists.
     """
-    if session.scalar(select(func.count()).select_from(ApiKey).where(ApiKey.name == name)):
-        raise ConflictError(f"a key named {name!r} exists", field="name")
+    name = _check_name(session, name)
     generated = generate_key()
-    row = ApiKey(name=name, prefix=generated.prefix, key_hash=generated.key_hash)
+    row = ApiKey(name=name, prefix=generated.prefix, key_hash=generated.key_hash,
+                 scope=Scope(scope).value)
     session.add(row)
     commit(session, conflict=f"a key named {name!r} exists", field="name")
     return row, generated.plaintext
@@ -60,7 +95,7 @@ def authenticate(session: Session, key: str | None) -> ApiKey:
     row = None if prefix is None else session.scalar(select(ApiKey).where(ApiKey.prefix == prefix))
     valid = verify_unknown(key) if row is None else _VERIFIED.verify(row.id, key,
                                                                      row.key_hash)
-    if row is None or not valid or row.revoked_at is not None:
+    if row is None or not valid or is_revoked(row):
         raise AuthError("the API key is not valid", field=API_KEY_HEADER)
     return row
 
@@ -71,15 +106,65 @@ def list_api_keys(session: Session) -> Sequence[ApiKey]:
 
 
 def count_active_keys(session: Session) -> int:
-    """Return how many keys are not revoked."""
-    statement = select(func.count()).select_from(ApiKey).where(ApiKey.revoked_at.is_(None))
+    """Return how many keys are not revoked (a rotated key in its grace period is not)."""
+    statement = select(func.count()).select_from(ApiKey).where(
+        or_(ApiKey.revoked_at.is_(None), ApiKey.revoked_at > utcnow()))
     return int(session.scalar(statement) or 0)
 
 
 def revoke_api_key(session: Session, key_id: int) -> ApiKey:
-    """Revoke key ``key_id``; it stops working at once and stays listed."""
+    """Revoke key ``key_id``; it stops working at once (a grace period ends now) and stays
+    listed."""
     row = get_or_raise(session, ApiKey, key_id, what="API key")
-    if row.revoked_at is None:
+    if not is_revoked(row):
         row.revoked_at = utcnow()
         commit(session, conflict=f"key {key_id} changed concurrently")
     return row
+
+
+def rotate_api_key(session: Session, key_id: int, *,
+                   grace_s: float = 0.0) -> tuple[ApiKey, ApiKey, str]:
+    """Replace key ``key_id`` by a new key with the same name and scope.
+
+    The old row is renamed ``<name>.rotated-<id>`` and stops working after ``grace_s``
+    (at once for 0, the default); the new key takes the name.
+
+    Parameters
+    ----------
+    grace_s
+        How long the old key keeps working [s], 0 to :data:`MAX_GRACE_S`.
+
+    Returns
+    -------
+    old, new, plaintext
+        The old row, the new row and the new key (shown once, never stored).
+
+    Raises
+    ------
+    NotFoundError
+        No key ``key_id``.
+    InputError
+        ``grace_s`` is out of range, or the key is revoked already (nothing to rotate).
+    """
+    if not 0 <= grace_s <= MAX_GRACE_S:
+        raise InputError(f"the grace period must be 0 to {MAX_GRACE_S} s, not {grace_s}",
+                         field="grace")
+    old = get_or_raise(session, ApiKey, key_id, what="API key")
+    now = utcnow()
+    if is_revoked(old, now):
+        raise InputError(f"key {key_id} is revoked; create a new key instead", field="key_id")
+    name = old.name
+    old.name = f"{name[:MAX_NAME_LENGTH - 24]}.rotated-{old.id}"
+    end = now + timedelta(seconds=grace_s)
+    old.revoked_at = end if old.revoked_at is None else min(old.revoked_at, end)
+    try:
+        session.flush()  # the old row frees the name before the new row takes it
+    except IntegrityError as exc:
+        session.rollback()
+        raise ConflictError(f"a key named {old.name!r} exists", field="key_id") from exc
+    generated = generate_key()
+    new = ApiKey(name=name, prefix=generated.prefix, key_hash=generated.key_hash,
+                 scope=old.scope)
+    session.add(new)
+    commit(session, conflict=f"key {key_id} changed concurrently", field="key_id")
+    return old, new, generated.plaintext

@@ -22,17 +22,18 @@ from typing import Any
 import numpy as np
 from sqlalchemy.orm import Session
 
+from app.limits import DEFAULT_SWEEP_POINTS, check_count
 from app.schemas.sweeps import RangeSpec, SweepRequest
 from app.services.rig_cache import ResolvedRig, RigCache
 from app.services.simulation import condition_dict, condition_of
 from app.services.sweep_worker import SUMMARY_COLUMNS, evaluate_chunk
-from sim.errors import InputError, ParameterError
+from sim.errors import ParameterError
 from sim.scenarios import fault_overrides
 
 __all__ = ["MAX_POINTS", "SweepPlan", "plan_sweep", "run_sweep"]
 
 #: Most scenarios one sweep may run, per method [-].
-MAX_POINTS = {"steady": 5000, "transient": 200}
+MAX_POINTS = DEFAULT_SWEEP_POINTS
 #: Scenarios per task sent to the executor, per method [-].
 CHUNK = {"steady": 50, "transient": 2}
 
@@ -100,8 +101,12 @@ def _check_ranges(resolved: ResolvedRig, request: SweepRequest) -> None:
                     raise ParameterError(exc.message, field=f"{group}[{i}].{where}") from None
 
 
-def plan_sweep(session: Session, rigs: RigCache, request: SweepRequest) -> SweepPlan:
+def plan_sweep(session: Session, rigs: RigCache, request: SweepRequest,
+               max_points: Mapping[str, int] = MAX_POINTS) -> SweepPlan:
     """Check ``request`` and lay out its points.
+
+    ``max_points`` is the most points of one sweep by method [-] (the settings
+    ``HYDRODIAG_MAX_SWEEP_POINTS_STEADY`` and ``..._TRANSIENT``; default :data:`MAX_POINTS`).
 
     Raises
     ------
@@ -110,10 +115,9 @@ def plan_sweep(session: Session, rigs: RigCache, request: SweepRequest) -> Sweep
     InputError
         Too many points for the method, an unknown parameter, a range end out of bounds.
     """
-    limit = MAX_POINTS[request.method]
-    if request.n_points() > limit:
-        raise InputError(f"{request.n_points()} points; a {request.method} sweep runs at most "
-                         f"{limit}", field="design")
+    check_count(request.n_points(), max_points[request.method],
+                what=f"points of a {request.method} sweep", field="design",
+                setting=f"max_sweep_points_{request.method}")
     resolved = rigs.get(session, request.rig_id, request.rig_version)
     _check_ranges(resolved, request)
     rig = resolved.rig

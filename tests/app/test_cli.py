@@ -109,13 +109,13 @@ def test_db_upgrade_and_current(runner: CliRunner) -> None:
 
 
 def test_keys_create_list_revoke(runner: CliRunner) -> None:
-    created = runner.invoke(cli, ["keys", "create", "--name", "lab-pc"])
+    created = runner.invoke(cli, ["keys", "create", "--name", "lab-pc", "--scope", "write"])
     assert created.exit_code == 0, created.output
     key = created.output.strip()
     assert key.startswith("hd_")
     listed = runner.invoke(cli, ["keys", "list"]).output
     assert "lab-pc" in listed and key not in listed and key.split("_")[1] in listed
-    duplicate = runner.invoke(cli, ["keys", "create", "--name", "lab-pc"])
+    duplicate = runner.invoke(cli, ["keys", "create", "--name", "lab-pc", "--scope", "read"])
     assert duplicate.exit_code != 0
     revoked = runner.invoke(cli, ["keys", "revoke", "1"])
     assert revoked.exit_code == 0, revoked.output

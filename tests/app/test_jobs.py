@@ -98,7 +98,8 @@ def test_list_and_unknown(server: LiveServer) -> None:
     assert missing.status_code == 404
     assert missing.json()["error"] == {"type": "NotFoundError", "field": "job_id",
                                        "message": "no job with id "
-                                       "00000000-0000-0000-0000-000000000000"}
+                                       "00000000-0000-0000-0000-000000000000",
+                                       "request_id": missing.headers["X-Request-ID"]}
 
 
 def test_progress_must_be_a_fraction(server: LiveServer) -> None:

@@ -66,4 +66,4 @@ def test_routing_errors_have_the_common_body(
 ) -> None:
     response = server.client.request(method, path)
     assert response.status_code == status
-    assert set(response.json()["error"]) == {"type", "message", "field"}
+    assert set(response.json()["error"]) == {"type", "message", "field", "request_id"}

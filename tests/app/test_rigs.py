@@ -90,6 +90,7 @@ def test_request_shape_errors_name_the_field(server: LiveServer) -> None:
         "message": error["message"],
         "field": "document",
         "details": [{"field": "document", "message": error["message"]}],
+        "request_id": response.headers["X-Request-ID"],
     }
     bad_json = server.client.post("/rigs", content=b"{not json",
                                   headers=server.auth | {"content-type": "application/json"})

@@ -6,7 +6,14 @@ from typing import Annotated
 
 from fastapi import APIRouter, Path, Query, Response, status
 
-from app.api.deps import EstimatorDep, PageDep, ReadAccess, SessionDep, WriteKeyDep
+from app.api.deps import (
+    AdminKeyDep,
+    EstimatorDep,
+    PageDep,
+    ReadAccess,
+    SessionDep,
+    WriteKeyDep,
+)
 from app.api.routes.rigs import RigId
 from app.db.models import ThrottleCalibration
 from app.schemas.calibrations import (
@@ -98,8 +105,8 @@ def update_calibration(rig_id: RigId, calibration_id: CalibrationId, body: Calib
 @router.delete("/{calibration_id}", status_code=status.HTTP_204_NO_CONTENT,
                response_class=Response, summary="Delete a throttle equivalence table")
 def delete_calibration(rig_id: RigId, calibration_id: CalibrationId, session: SessionDep,
-                       _key: WriteKeyDep) -> None:
-    """Delete the table and its rows."""
+                       _key: AdminKeyDep) -> None:
+    """Delete the table and its rows (a key of scope ``admin``)."""
     service.delete_calibration(session, rig_id, calibration_id)
 
 

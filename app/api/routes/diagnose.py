@@ -19,8 +19,9 @@ from functools import partial
 from fastapi import APIRouter, Depends, Request, Response
 from sqlalchemy.orm import Session
 
-from app.api.deps import KeyHeaderDep, ReadAccess, SessionDep, require_key
+from app.api.deps import KeyHeaderDep, ReadAccess, SessionDep, SettingsDep, require_write_key
 from app.db.base import utcnow
+from app.limits import check_count
 from app.schemas.common import ERROR_RESPONSES, error_doc
 from app.schemas.diagnose import DiagnoseRequest, DiagnoseResponse
 from app.services.diagnosis import (
@@ -50,11 +51,11 @@ router = APIRouter(tags=["diagnosis"], dependencies=[Depends(_admitted), ReadAcc
 
 def _plan(request: Request, session: Session, body: DiagnoseRequest, key: str | None,
           now: datetime) -> list[GroupPlan]:
-    """Check the key when storing, resolve the rigs and build the records; then close the
+    """Check the key (scope ``write``) when storing, resolve the rigs and build the records; then close the
     request's session, so that no connection is held while the diagnoses are computed."""
     try:
         if body.store:
-            require_key(request, session, key)
+            require_write_key(request, session, key)
         return plan_groups(session, request.app.state.rigs, body, now)
     finally:
         session.close()
@@ -67,18 +68,22 @@ def _store(request: Request, body: DiagnoseRequest, outcomes: list[DiagnosisOutc
 
 
 @router.post("/diagnose", summary="Diagnose one record or a batch, and store them",
+             openapi_extra={"x-hydrodiag-scope-store": "write"},
              response_model=DiagnoseResponse, responses={503: error_doc(
                  "As many diagnoses queued as the service accepts "
                  "(HYDRODIAG_DIAGNOSIS_QUEUE); retry after Retry-After")})
 async def diagnose(body: DiagnoseRequest, request: Request, session: SessionDep,
-                   key: KeyHeaderDep) -> Response:
+                   key: KeyHeaderDep, settings: SettingsDep) -> Response:
     """Rank the fault hypotheses for each record (or for all records jointly).
 
     Records and results are stored in the history unless ``store`` is false; storing needs
-    the API key.  A request that fails in any record stores nothing.  With ``compact`` the
+    a key of scope ``write``.  A request that fails in any record stores nothing; one with
+    more records than ``HYDRODIAG_MAX_BATCH_RECORDS`` is a 422.  With ``compact`` the
     answer leaves out each hypothesis's predicted readings.
     """
-    body.items()  # a malformed request is a 422 before it is a 401
+    items = body.items()  # a malformed request is a 422 before it is a 401
+    check_count(len(items), settings.max_batch_records, what="records", field="records",
+                setting="max_batch_records")
     now = utcnow()
     pool: DiagnosisPool = request.app.state.diagnosis_pool
     plans = await pool.in_thread(partial(_plan, request, session, body, key, now))

@@ -6,7 +6,7 @@ from typing import Annotated
 
 from fastapi import APIRouter, File, Form, Path, Query, Response, UploadFile, status
 
-from app.api.deps import PageDep, ReadAccess, SessionDep, WriteKeyDep
+from app.api.deps import AdminKeyDep, PageDep, ReadAccess, SessionDep, WriteKeyDep
 from app.schemas.common import ERROR_RESPONSES, MAX_ID
 from app.schemas.pumps import (
     PumpBenchForm,
@@ -140,6 +140,6 @@ def update_pump_set(pump_set_id: PumpSetId, body: PumpSetUpdate, session: Sessio
 
 @router.delete("/{pump_set_id:int}", status_code=status.HTTP_204_NO_CONTENT,
                response_class=Response, summary="Delete a pump set")
-def delete_pump_set(pump_set_id: PumpSetId, session: SessionDep, _key: WriteKeyDep) -> None:
-    """Delete the pump set."""
+def delete_pump_set(pump_set_id: PumpSetId, session: SessionDep, _key: AdminKeyDep) -> None:
+    """Delete the pump set (a key of scope ``admin``)."""
     service.delete_pump_set(session, pump_set_id)

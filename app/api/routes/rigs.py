@@ -6,7 +6,7 @@ from typing import Annotated
 
 from fastapi import APIRouter, Path, Query, Response, status
 
-from app.api.deps import PageDep, ReadAccess, SessionDep, WriteKeyDep
+from app.api.deps import AdminKeyDep, PageDep, ReadAccess, SessionDep, WriteKeyDep
 from app.db.models import Rig, RigVersion
 from app.schemas.common import ERROR_RESPONSES, MAX_ID
 from app.schemas.rigs import RigCreate, RigList, RigPublic, RigUpdate, RigVersionList, RigVersionPublic
@@ -67,8 +67,11 @@ def update_rig(rig_id: RigId, body: RigUpdate, session: SessionDep,
 
 @router.delete("/{rig_id}", status_code=status.HTTP_204_NO_CONTENT, response_class=Response,
                summary="Delete a rig without history")
-def delete_rig(rig_id: RigId, session: SessionDep, _key: WriteKeyDep) -> None:
-    """Delete the rig, its versions and calibrations; refused (409) if it has history."""
+def delete_rig(rig_id: RigId, session: SessionDep, _key: AdminKeyDep) -> None:
+    """Delete the rig, its versions and calibrations; refused (409) if it has history.
+
+    Needs a key of scope ``admin``.
+    """
     service.delete_rig(session, rig_id)
 
 

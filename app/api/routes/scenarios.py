@@ -34,7 +34,7 @@ def start_sweep(body: SweepRequest, request: Request, session: SessionDep, rigs:
     Follow it at ``/jobs/{job_id}``: ``progress`` grows as points come back; the result has
     ``columns`` (fault, swept factors, summary keys with units) and ``rows``.
     """
-    plan = plan_sweep(session, rigs, body)
+    plan = plan_sweep(session, rigs, body, request.app.state.settings.sweep_points)
     runner: JobRunner = request.app.state.jobs
     job = runner.submit("sweep", body.model_dump(mode="json"), _job(plan, executors))
     response.headers["Location"] = f"/jobs/{job.id}"
