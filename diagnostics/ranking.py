@@ -31,26 +31,35 @@ prior probabilities.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
+from typing import Literal
 
 import numpy as np
 import numpy.typing as npt
 from scipy.special import ndtr
 
+from diagnostics.fastpath.fits import PairProblem, pair_problem
 from diagnostics.hypotheses import HYPOTHESES, PARAMETERS, FaultParameter, Hypothesis
-from diagnostics.observations import RecordObservations, condition_sigma
-from diagnostics.signatures import OBSERVABLES, SignatureMaps, evaluator, signature_maps
+from diagnostics.observations import RecordObservations
+from diagnostics.record_model import RecordModel
+from diagnostics.signatures import OBSERVABLES
 from sim.errors import SimulationError
-from sim.rigs import Condition, Rig
+from sim.rigs import Rig
 
-__all__ = ["HypothesisFit", "ParameterEstimate", "Ranker", "severity"]
+__all__ = ["DEFAULT_METHOD", "HypothesisFit", "Method", "ParameterEstimate", "Ranker",
+           "laplace_evidence", "profile_evidence", "severity"]
 
 Arr = npt.NDArray[np.float64]
 
 #: normalised residual [σ] given to a reading whose prediction is masked in a direct solve
 _MASKED = 1.0e3
-#: cap of a condition sensitivity [unit of the reading per K or N] (its square stays finite)
-_HUGE = 1.0e100
+#: log-likelihoods closer than this to the maximum are ties [-]
+_TIE = 1.0e-6
+
+#: how a Ranker computes: "fast" (compiled kernels, :mod:`diagnostics.fastpath`) or
+#: "direct" (a Python call per model evaluation; the reference of the equivalence test)
+Method = Literal["fast", "direct"]
+DEFAULT_METHOD: Method = "fast"
 
 
 def severity(param: FaultParameter, value: float, nominal: float) -> tuple[float, str]:
@@ -75,6 +84,52 @@ def severity(param: FaultParameter, value: float, nominal: float) -> tuple[float
     label = "none" if mult < 1.33 else "mild" if mult < 2.2 else \
         "moderate" if mult < 4.1 else "severe"
     return mult, label
+
+
+def laplace_evidence(cost: float, jac: Arr, z: Arr, zl: Arr, zu: Arr
+                     ) -> tuple[float, Arr, Arr]:
+    """ln Z of a pair by the Laplace approximation at the estimate ``z``, with the posterior
+    mass truncated at the bounds ``zl``, ``zu``; also the covariance and standard deviations
+    (a zero one replaced by the range) from the Gauss-Newton Hessian ``JᵀJ``.
+
+    The Occam factor is capped at 0: a flat likelihood cannot beat its prior.
+    """
+    span = zu - zl
+    h = jac.T @ jac
+    cov: Arr = np.asarray(np.linalg.pinv(h + 1e-12 * max(float(np.trace(h)), 1e-30) * np.eye(2)),
+                          dtype=np.float64)
+    sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    sd = np.where(sd > 0, sd, span)
+    mass = float(np.prod(ndtr((zu - z) / sd) - ndtr((zl - z) / sd)))
+    sign, logdet = np.linalg.slogdet(cov)
+    if sign <= 0 or not math.isfinite(logdet):
+        logdet = float(np.sum(np.log(sd**2)))
+    occam = math.log(2 * math.pi) + 0.5 * logdet + math.log(max(mass, 1e-300)) \
+        - float(np.sum(np.log(span)))
+    occam = min(occam, 0.0)  # a flat likelihood cannot beat its prior
+    return -0.5 * cost + occam, cov, sd
+
+
+def profile_evidence(grid: Arr, chi2: Arr, hss: Arr, zs: Arr, zl: Arr, zu: Arr, weak: int
+                     ) -> float:
+    """ln Z of a pair from its profile along the weak axis: at each ``grid`` point the
+    profiled ``chi2``, the curvature ``hss`` (JᵀJ) and the strong coordinate ``zs``; a
+    bound-truncated Laplace width across (capped at the prior), a trapezoid along."""
+    strong = 1 - weak
+    span = zu - zl
+    logs = np.empty(grid.size)
+    for k in range(grid.size):
+        if hss[k] > 0:
+            sd = 1.0 / math.sqrt(float(hss[k]))
+            mass = float(ndtr((zu[strong] - zs[k]) / sd) - ndtr((zl[strong] - zs[k]) / sd))
+            across = math.log(math.sqrt(2 * math.pi) * sd * max(mass, 1e-300) / span[strong])
+        else:
+            across = 0.0
+        logs[k] = -0.5 * float(chi2[k]) + min(across, 0.0)
+    top = float(logs.max())
+    w = np.exp(logs - top)
+    integral = float(np.sum(0.5 * (w[1:] + w[:-1]) * np.diff(grid))) / span[weak]
+    return top + math.log(max(integral, 1e-300))
 
 
 @dataclass
@@ -147,65 +202,6 @@ class HypothesisFit:
         return self.hypothesis.name
 
 
-class _RecordModel:
-    """One record's observations, σ, and its condition's signature maps."""
-
-    def __init__(self, rig: Rig, obs: RecordObservations, model_rel: float) -> None:
-        self.obs = obs
-        self.maps: SignatureMaps = signature_maps(rig, obs.condition)
-        self.idx = np.array([OBSERVABLES.index(n) for n in obs.names], dtype=np.int64)
-        pred = self.maps.nominal[self.idx]
-        # a reading the healthy rig cannot produce (a stalled return stroke has no velocity
-        # ratio) gets no model or condition term: its σ is the measurement's own
-        var = obs.u**2 + np.nan_to_num(model_rel * pred) ** 2
-        u_t, u_f = condition_sigma(obs.record)
-        cond = obs.condition
-        if u_t > 0:
-            var += self._condition_term(
-                rig, pred, [(replace(cond, oil_temperature=cond.oil_temperature + s), s)
-                            for s in (1.0, -1.0)]) * u_t**2
-        if u_f > 0:
-            if cond.load > 0:
-                step = 0.01 * cond.load
-                moved = [(replace(cond, load=cond.load + s), s) for s in (step, -step)]
-            else:
-                step = 0.01 * max(cond.back_pressure, 1e5)
-                moved = [(replace(cond, back_pressure=cond.back_pressure + s), s)
-                         for s in (step, -step)]
-            var += self._condition_term(rig, pred, moved) * u_f**2
-        self.sigma = np.sqrt(var)
-
-    def _condition_term(self, rig: Rig, pred: Arr, moved: list[tuple[Condition, float]]
-                        ) -> Arr:
-        """Squared sensitivity of the healthy readings to a condition, by a one-sided
-        difference (the other side where the first has no steady point; 0 where neither)."""
-        for cond, step in moved:
-            try:
-                moved_pred = self._vec(evaluator(rig, cond).nominal())
-            except SimulationError:
-                continue
-            with np.errstate(over="ignore", invalid="ignore"):
-                d = (moved_pred - pred) / step
-            # near a stall a reading (the velocity ratio) may react without bound: cap the
-            # sensitivity so its σ stays finite, huge, and the reading weighs nothing
-            d = np.clip(np.nan_to_num(d, nan=0.0, posinf=_HUGE, neginf=-_HUGE), -_HUGE, _HUGE)
-            return np.asarray(d**2)
-        return np.zeros_like(pred)
-
-    def _vec(self, pred: dict[str, float]) -> Arr:
-        return np.array([pred[n] for n in self.obs.names])
-
-    def chi2_grid(self, pred: Arr) -> Arr:
-        """χ² of this record at every point of a map (``pred[..., observables]``)."""
-        r = (self.obs.values - pred[..., self.idx]) / self.sigma
-        chi2 = np.sum(r * r, axis=-1)
-        # a masked prediction (stall, no operating point) cannot produce the reading
-        return np.asarray(np.where(np.isnan(chi2), np.inf, chi2))
-
-    def as_dict(self, full: Arr) -> dict[str, float]:
-        return {n: float(v) for n, v in zip(OBSERVABLES, full, strict=True)}
-
-
 class Ranker:
     """Fits and compares the hypotheses for a set of records of one rig.
 
@@ -217,12 +213,20 @@ class Ranker:
         One :class:`RecordObservations` per record.
     model_rel
         Relative model uncertainty added to every observation [-] (default 0.2 %).
+    method
+        ``"fast"``: maps, pair fits and profiles by the compiled kernels of
+        :mod:`diagnostics.fastpath`; ``"direct"``: one Python model evaluation at a time.
+        Both feed the same evidence and probability code below.
     """
 
     def __init__(self, rig: Rig, observations: list[RecordObservations],
-                 model_rel: float = 0.002) -> None:
+                 model_rel: float = 0.002, method: Method | None = None) -> None:
         self.rig = rig
-        self.models = [_RecordModel(rig, o, model_rel) for o in observations]
+        self.method: Method = method or DEFAULT_METHOD
+        if self.method not in ("fast", "direct"):
+            raise ValueError(f"unknown ranking method {self.method!r}")
+        fast = self.method == "fast"
+        self.models = [RecordModel(rig, o, model_rel, fast) for o in observations]
         self.n_obs = sum(len(o.names) for o in observations)
 
     # -- helpers ---------------------------------------------------------------------------
@@ -262,7 +266,10 @@ class Ranker:
             return HypothesisFit(hyp, math.inf, -math.inf, [est], preds,
                                  observable=detectability >= 1.0, detectability=detectability)
         log_ev = top + math.log(float(np.mean(np.exp(logl - top))))
-        k = int(np.argmax(logl))
+        # on a plateau (a parameter the readings do not feel, e.g. a relief setting above
+        # the working pressure) the maximum is the first point within _TIE of the top:
+        # round-off in the solves must not pick the estimate
+        k = int(np.argmax(logl >= top - _TIE))
         zk = float(z[k])
         if 0 < k < z.size - 1:  # parabola through the three best points
             y0, y1, y2 = logl[k - 1], logl[k], logl[k + 1]
@@ -294,21 +301,11 @@ class Ranker:
             rs.append(np.where(np.isfinite(r), r, _MASKED))
         return np.concatenate(rs), fulls
 
-    def fit_pair(self, hyp: Hypothesis, singles: dict[str, HypothesisFit]) -> HypothesisFit:
-        """Two-parameter hypothesis: Gauss-Newton on direct solves, Laplace evidence."""
-        params = tuple(PARAMETERS[n] for n in hyp.parameters)
-        bounds = [p.worn_bounds(self.rig) for p in params]
-        zl = np.array([p.to_z(b[0]) for p, b in zip(params, bounds, strict=True)])
-        zu = np.array([p.to_z(b[1]) for p, b in zip(params, bounds, strict=True)])
+    def _lm(self, params: tuple[FaultParameter, ...], z: Arr, zl: Arr, zu: Arr
+            ) -> tuple[Arr, float, Arr, list[Arr]]:
+        """Levenberg-Marquardt from ``z`` on direct solves: ``(z, χ², last Jacobian,
+        predictions)``; the Jacobian is by forward differences of 1e-6 of the range."""
         span = zu - zl
-        # start from the better single-fault estimate, the other parameter nominal
-        starts = []
-        for i, p in enumerate(params):
-            single = next(f for f in singles.values() if f.hypothesis.parameters == (p.name,))
-            z0 = zl.copy()
-            z0[i] = p.to_z(single.parameters[0].value)
-            starts.append((single.chi2, np.clip(z0, zl, zu)))
-        z = min(starts, key=lambda s: s[0])[1]
         r, fulls = self._residuals(params, z)
         cost = float(r @ r)
         lam = 1e-3
@@ -339,19 +336,29 @@ class Ranker:
             # a clearance) or no longer lowers χ² by a thousandth
             if not improved or moved < 1e-4 or gain < 1e-3:
                 break
-        h = jac.T @ jac
-        cov: Arr = np.asarray(np.linalg.pinv(h + 1e-12 * max(float(np.trace(h)), 1e-30) * np.eye(2)),
-                              dtype=np.float64)
-        sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
-        sd = np.where(sd > 0, sd, span)
-        mass = float(np.prod(ndtr((zu - z) / sd) - ndtr((zl - z) / sd)))
-        sign, logdet = np.linalg.slogdet(cov)
-        if sign <= 0 or not math.isfinite(logdet):
-            logdet = float(np.sum(np.log(sd**2)))
-        occam = math.log(2 * math.pi) + 0.5 * logdet + math.log(max(mass, 1e-300)) \
-            - float(np.sum(np.log(span)))
-        occam = min(occam, 0.0)  # a flat likelihood cannot beat its prior
-        log_ev = -0.5 * cost + occam
+        return z, cost, jac, fulls
+
+    def fit_pair(self, hyp: Hypothesis, singles: dict[str, HypothesisFit]) -> HypothesisFit:
+        """Two-parameter hypothesis: Levenberg-Marquardt, Laplace evidence."""
+        params = tuple(PARAMETERS[n] for n in hyp.parameters)
+        bounds = [p.worn_bounds(self.rig) for p in params]
+        zl = np.array([p.to_z(b[0]) for p, b in zip(params, bounds, strict=True)])
+        zu = np.array([p.to_z(b[1]) for p, b in zip(params, bounds, strict=True)])
+        span = zu - zl
+        # start from the better single-fault estimate, the other parameter nominal
+        starts = []
+        for i, p in enumerate(params):
+            single = next(f for f in singles.values() if f.hypothesis.parameters == (p.name,))
+            z0 = zl.copy()
+            z0[i] = p.to_z(single.parameters[0].value)
+            starts.append((single.chi2, np.clip(z0, zl, zu)))
+        z = min(starts, key=lambda s: s[0])[1]
+        prob = self._fast_problem(params)
+        if prob is not None:
+            z, cost, jac, fulls = prob.fit(z, zl, zu)
+        else:
+            z, cost, jac, fulls = self._lm(params, z, zl, zu)
+        log_ev, cov, sd = laplace_evidence(cost, jac, z, zl, zu)
         weak = int(np.argmax(sd / span))
         best_single = max(f.log_evidence for f in singles.values())
         # the capped Laplace value only overstates a ridge's evidence: refine it only when
@@ -366,15 +373,35 @@ class Ranker:
         preds = [m.as_dict(f) for m, f in zip(self.models, fulls, strict=True)]
         return HypothesisFit(hyp, cost, log_ev, ests, preds)
 
+    def _fast_problem(self, params: tuple[FaultParameter, ...]) -> PairProblem | None:
+        """The compiled pair problem on the fast path (None: direct path)."""
+        if self.method != "fast":
+            return None
+        return pair_problem(self.rig, self.models, params, _MASKED)
+
     def _profile_evidence(self, params: tuple[FaultParameter, ...], z_hat: Arr, cov: Arr,
                           zl: Arr, zu: Arr, weak: int, n: int = 6) -> float:
         """ln Z of a pair: trapezoid over ``n`` points of the weak axis, and at each the
         strong parameter profiled by Gauss-Newton with a bound-truncated Laplace width."""
         strong = 1 - weak
-        span = zu - zl
         grid = np.linspace(zl[weak], zu[weak], n)
         slope = cov[strong, weak] / cov[weak, weak] if cov[weak, weak] > 0 else 0.0
-        logs = np.empty(n)
+        prob = self._fast_problem(params)
+        if prob is not None:
+            chi2, hss, zs = prob.profile(z_hat, float(slope), weak, grid, zl, zu)
+        else:
+            chi2, hss, zs = self._profile_points(params, z_hat, float(slope), weak, grid,
+                                                 zl, zu)
+        return profile_evidence(grid, chi2, hss, zs, zl, zu, weak)
+
+    def _profile_points(self, params: tuple[FaultParameter, ...], z_hat: Arr, slope: float,
+                        weak: int, grid: Arr, zl: Arr, zu: Arr) -> tuple[Arr, Arr, Arr]:
+        """At each weak-axis point the strong parameter by Gauss-Newton (4 steps at most):
+        χ², the curvature J·J and the strong coordinate, one array each."""
+        strong = 1 - weak
+        span = zu - zl
+        n = grid.size
+        chi2s, hss, zs = np.empty(n), np.empty(n), np.empty(n)
         z = z_hat.copy()
         for k, zw in enumerate(grid):
             z[weak] = zw
@@ -401,18 +428,8 @@ class Ranker:
                 z, r = zn, rn
                 if step < 1e-4 * span[strong]:
                     break
-            chi2 = float(r @ r)
-            if h_ss > 0:
-                sd = 1.0 / math.sqrt(h_ss)
-                mass = float(ndtr((zu[strong] - z[strong]) / sd) - ndtr((zl[strong] - z[strong]) / sd))
-                across = math.log(math.sqrt(2 * math.pi) * sd * max(mass, 1e-300) / span[strong])
-            else:
-                across = 0.0
-            logs[k] = -0.5 * chi2 + min(across, 0.0)
-        top = float(logs.max())
-        w = np.exp(logs - top)
-        integral = float(np.sum(0.5 * (w[1:] + w[:-1]) * np.diff(grid))) / span[weak]
-        return top + math.log(max(integral, 1e-300))
+            chi2s[k], hss[k], zs[k] = float(r @ r), h_ss, z[strong]
+        return chi2s, hss, zs
 
     def rank(self, hypotheses: tuple[Hypothesis, ...] = HYPOTHESES) -> list[HypothesisFit]:
         """All hypotheses fitted; probabilities over the observable ones; most probable first."""
