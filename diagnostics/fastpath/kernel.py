@@ -94,19 +94,54 @@ def solve_point(pw, pr, mask, scale, last_w, last_r, nom_w, nom_r, oi, ow, orr, 
 
 
 def solve_grid(pw0, pr0, gidx, grid, mask, scale, last_w, last_r, nom_w, nom_r, oi, out,  # type: ignore[no-untyped-def]
-               ok, nout):
-    """:func:`solve_point` for every row of ``grid`` (graph parameters ``gidx``)."""
+               ok, nout, restart):
+    """:func:`solve_point` for every row of ``grid`` (graph parameters ``gidx``).
+
+    Along a run of rows (``restart`` 1 at a run's first row) Newton starts from the
+    secant predictor ``2·y[k-1] − y[k-2]`` of the two previous solutions (the rows of a
+    map are equally spaced), then from the last and the nominal solution.
+    """
     pw = pw0.copy()
     pr = pr0.copy()
     ow = np.empty(nout)
     orr = np.empty(nout)
-    yw = np.empty(last_w.size)
+    ns = last_w.size
+    yw = np.empty(ns)
+    prev_w = np.empty((2, ns))
+    prev_r = np.empty((2, ns))
+    pred_w = np.empty(ns)
+    pred_r = np.empty(ns)
+    run = 0
     for k in range(grid.shape[0]):
+        if restart[k]:
+            run = 0
         for j in range(gidx.size):
             pw[gidx[j]] = grid[k, j]
             pr[gidx[j]] = grid[k, j]
-        ok[k] = solve_point(pw, pr, mask, scale, last_w, last_r, nom_w, nom_r, oi, ow, orr,
-                            yw, out[k])
+        done = False
+        if run >= 2:
+            for i in range(ns):
+                pred_w[i] = 2.0 * prev_w[1, i] - prev_w[0, i]
+                pred_r[i] = 2.0 * prev_r[1, i] - prev_r[0, i]
+            done = solve_point(pw, pr, mask, scale, pred_w, pred_r, last_w, last_r, oi, ow,
+                               orr, yw, out[k])
+            if done:
+                for i in range(ns):
+                    last_w[i] = pred_w[i]
+                    last_r[i] = pred_r[i]
+        if not done:
+            done = solve_point(pw, pr, mask, scale, last_w, last_r, nom_w, nom_r, oi, ow,
+                               orr, yw, out[k])
+        ok[k] = done
+        if done:
+            for i in range(ns):
+                prev_w[0, i] = prev_w[1, i]
+                prev_r[0, i] = prev_r[1, i]
+                prev_w[1, i] = last_w[i]
+                prev_r[1, i] = last_r[i]
+            run += 1
+        else:
+            run = 0
 
 
 def graph_values(z, base, which, tlog, tmode, tconst, g):  # type: ignore[no-untyped-def]

@@ -121,15 +121,20 @@ class Context:
         sw[ix] = sr[ix] = mid
         self.states = np.array([sw, sr, sw, sr])
 
-    def solve(self, grid: Arr) -> tuple[Arr, npt.NDArray[np.bool_]]:
+    def solve(self, grid: Arr, restart: IArr | None = None
+              ) -> tuple[Arr, npt.NDArray[np.bool_]]:
         """Observables at each row of graph values ``grid`` (order of GRAPH_PARAMETERS);
-        rows whose Newton failed are NaN and False."""
-        out = np.empty((grid.shape[0], len(OBSERVABLES)))
-        ok = np.zeros(grid.shape[0], dtype=np.bool_)
+        rows whose Newton failed are NaN and False.  ``restart`` marks (1) the first row
+        of each run of equally spaced rows (a predictor runs along a run); default: every
+        row alone."""
+        n = grid.shape[0]
+        out = np.empty((n, len(OBSERVABLES)))
+        ok = np.zeros(n, dtype=np.bool_)
+        flags = np.ones(n, dtype=np.int64) if restart is None else restart
         s = self.states
         self.kernels.solve_grid(self.params[0], self.params[1], self.gidx,
                                 np.ascontiguousarray(grid), self.mask, self.scale, s[0], s[1],
-                                s[2], s[3], self.oi, out, ok, self.nout)
+                                s[2], s[3], self.oi, out, ok, self.nout, flags)
         return out, ok
 
     def nominal(self, base: Arr) -> Arr:
@@ -171,6 +176,7 @@ class FastMaps(SignatureMaps):
         singles = [h for h in HYPOTHESES if len(h.parameters) == 1]
         plans = []
         rows = []
+        starts = []
         for hyp in singles:
             (p,) = (PARAMETERS[n] for n in hyp.parameters)
             tr = transform(rig, p)
@@ -185,8 +191,10 @@ class FastMaps(SignatureMaps):
                     g[:, GRAPH_PARAMETERS.index(p.graph_param)] = [
                         p.graph_value(rig, p.from_z(float(z))) for z in zc]
                 rows.append(g)
+                starts.append(np.arange(zc.size) == 0)
             plans.append((hyp, p, zf, pieces))
-        coarse_all, ok = self.ctx.solve(np.concatenate(rows))
+        coarse_all, ok = self.ctx.solve(np.concatenate(rows),
+                                        np.concatenate(starts).astype(np.int64))
         start = 0
         for hyp, p, zf, pieces in plans:
             fine = np.empty((zf.size, len(OBSERVABLES)))

@@ -11,61 +11,21 @@ records always; the full 200 are ``slow``.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pytest
 
+from benchmarks.diagnose_cases import random_record
 from diagnostics.diagnose import Diagnosis, diagnose
 from diagnostics.fastpath.maps import fast_maps
-from diagnostics.hypotheses import HYPOTHESES, PARAMETERS
-from diagnostics.measurement import MeasurementRecord, OperatingCondition
-from diagnostics.quantity import DEFAULT_INSTRUMENTS
-from diagnostics.signatures import GRAPH_PARAMETERS, OBSERVABLES, SignatureMaps, evaluator
-from sim.errors import InputError, SimulationError
+from diagnostics.measurement import MeasurementRecord
+from diagnostics.signatures import OBSERVABLES, SignatureMaps
+from sim.errors import InputError
 from sim.rigs import Condition, Rig, reference_rig
-from tests.diagnostics.synth import FULL, NO_FLOW, RATIO
 from tests.diagnostics.test_any_rig import rig_with
-
-_SUBSETS = (FULL, NO_FLOW, RATIO, ("pump_pressure", "p1", "p2", "speed_work"),
-            ("flow_B", "flow_C", "speed_work", "speed_return"), ("p1", "p2", "velocity_ratio"))
 
 
 def _rigs() -> list[Rig]:
     return [reference_rig(), rig_with(0.05, 0.0, 0.025)]
-
-
-def random_record(rng: np.random.Generator, rig: Rig) -> MeasurementRecord | None:
-    """A noisy record of a random fault at a random condition (None: no operating point)."""
-    hyp = HYPOTHESES[int(rng.integers(len(HYPOTHESES)))]
-    faults = {}
-    for name in hyp.parameters:
-        p = PARAMETERS[name]
-        lo, hi = p.worn_bounds(rig)
-        z = rng.uniform(p.to_z(lo), p.to_z(hi))
-        faults[p.graph_param] = p.graph_value(rig, p.from_z(z))
-    temperature = float(rng.uniform(20.0, 60.0))
-    load = float(rng.uniform(0.05, 0.6)) * rig.base["relief.Pset"] * rig.values()["cylinder.A1"]
-    cond = Condition(load=load, oil_temperature=temperature)
-    try:
-        vals = evaluator(rig, cond)(np.array([faults.get(n, rig.base[n])
-                                              for n in GRAPH_PARAMETERS]))
-    except SimulationError:
-        return None
-    fields = _SUBSETS[int(rng.integers(len(_SUBSETS)))]
-    out = {}
-    for f in fields:
-        v = vals[f]
-        if not math.isfinite(v):
-            return None
-        inst = DEFAULT_INSTRUMENTS[f]
-        half = inst.relative_bound * abs(v) + inst.absolute_bound
-        out[f] = v + float(rng.uniform(-half, half))
-    oc = OperatingCondition.from_readings({"oil_temperature": temperature, "load_force": load})
-    try:
-        return MeasurementRecord.from_readings("r", oc, out)
-    except InputError:  # a piston that runs backwards reads no speed magnitude
-        return None
 
 
 def _run(rig: Rig, rec: MeasurementRecord, method: str) -> Diagnosis | str:
