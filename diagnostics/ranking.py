@@ -26,6 +26,13 @@ the data do not need costs the share of its prior range that the data rule out.
 
 Probabilities are the evidences normalised over the observable hypotheses, with equal
 prior probabilities.
+
+Two ways to the same numbers (``Ranker(..., method=)``): ``"fast"`` (default) builds the
+maps and runs the pair fits and profiles in compiled code (:mod:`diagnostics.fastpath`,
+one call per fit), ``"direct"`` one Python model evaluation at a time
+(:mod:`diagnostics.pair_direct`).  Both return numbers only; the evidences
+(:func:`laplace_evidence`, :func:`profile_evidence`, the single-fault integral) and the
+probabilities are computed here, once, for both.
 """
 
 from __future__ import annotations
@@ -41,8 +48,8 @@ from scipy.special import ndtr
 from diagnostics.fastpath.fits import PairProblem, pair_problem
 from diagnostics.hypotheses import HYPOTHESES, PARAMETERS, FaultParameter, Hypothesis
 from diagnostics.observations import RecordObservations
+from diagnostics.pair_direct import MASKED, levenberg_marquardt, profile_points
 from diagnostics.record_model import RecordModel
-from diagnostics.signatures import OBSERVABLES
 from sim.errors import SimulationError
 from sim.rigs import Rig
 
@@ -51,8 +58,6 @@ __all__ = ["DEFAULT_METHOD", "HypothesisFit", "Method", "ParameterEstimate", "Ra
 
 Arr = npt.NDArray[np.float64]
 
-#: normalised residual [σ] given to a reading whose prediction is masked in a direct solve
-_MASKED = 1.0e3
 #: log-likelihoods closer than this to the maximum are ties [-]
 _TIE = 1.0e-6
 
@@ -287,57 +292,6 @@ class Ranker:
         return HypothesisFit(hyp, float(chi2[k]), log_ev, [est], preds,
                              observable=detectability >= 1.0, detectability=detectability)
 
-    def _residuals(self, params: tuple[FaultParameter, ...], z: Arr) -> tuple[Arr, list[Arr]]:
-        vals = np.array([p.from_z(float(zz)) for p, zz in zip(params, z, strict=True)])
-        rs, fulls = [], []
-        for m in self.models:
-            try:
-                full = m.maps.predict(params, vals)
-            except SimulationError:  # no steady operating point: masked
-                full = np.full(len(OBSERVABLES), np.nan)
-            fulls.append(full)
-            r = (m.obs.values - full[m.idx]) / m.sigma
-            # a masked reading counts as a miss of _MASKED σ: the fit steps away from it
-            rs.append(np.where(np.isfinite(r), r, _MASKED))
-        return np.concatenate(rs), fulls
-
-    def _lm(self, params: tuple[FaultParameter, ...], z: Arr, zl: Arr, zu: Arr
-            ) -> tuple[Arr, float, Arr, list[Arr]]:
-        """Levenberg-Marquardt from ``z`` on direct solves: ``(z, χ², last Jacobian,
-        predictions)``; the Jacobian is by forward differences of 1e-6 of the range."""
-        span = zu - zl
-        r, fulls = self._residuals(params, z)
-        cost = float(r @ r)
-        lam = 1e-3
-        jac = np.zeros((r.size, 2))
-        for _ in range(15):
-            for j in range(2):
-                dz = 1e-6 * span[j]
-                zj = z.copy()
-                zj[j] = zj[j] + dz if zj[j] + dz <= zu[j] else zj[j] - dz
-                rj, _ = self._residuals(params, zj)
-                jac[:, j] = (rj - r) / (zj[j] - z[j])
-            g = jac.T @ r
-            h = jac.T @ jac
-            improved = False
-            while lam < 1e8:
-                step = -np.linalg.solve(h + lam * np.diag(np.diag(h) + 1e-30), g)
-                zn = np.clip(z + step, zl, zu)
-                rn, fn = self._residuals(params, zn)
-                cn = float(rn @ rn)
-                if cn < cost:
-                    improved = True
-                    moved = float(np.max(np.abs(zn - z) / span))
-                    gain = cost - cn
-                    z, r, fulls, cost, lam = zn, rn, fn, cn, max(lam / 10.0, 1e-9)
-                    break
-                lam *= 10.0
-            # converged: the step moves the estimate by < 1e-4 of its range (a few 1e-5 of
-            # a clearance) or no longer lowers χ² by a thousandth
-            if not improved or moved < 1e-4 or gain < 1e-3:
-                break
-        return z, cost, jac, fulls
-
     def fit_pair(self, hyp: Hypothesis, singles: dict[str, HypothesisFit]) -> HypothesisFit:
         """Two-parameter hypothesis: Levenberg-Marquardt, Laplace evidence."""
         params = tuple(PARAMETERS[n] for n in hyp.parameters)
@@ -357,7 +311,7 @@ class Ranker:
         if prob is not None:
             z, cost, jac, fulls = prob.fit(z, zl, zu)
         else:
-            z, cost, jac, fulls = self._lm(params, z, zl, zu)
+            z, cost, jac, fulls = levenberg_marquardt(self.models, params, z, zl, zu)
         log_ev, cov, sd = laplace_evidence(cost, jac, z, zl, zu)
         weak = int(np.argmax(sd / span))
         best_single = max(f.log_evidence for f in singles.values())
@@ -377,7 +331,7 @@ class Ranker:
         """The compiled pair problem on the fast path (None: direct path)."""
         if self.method != "fast":
             return None
-        return pair_problem(self.rig, self.models, params, _MASKED)
+        return pair_problem(self.rig, self.models, params, MASKED)
 
     def _profile_evidence(self, params: tuple[FaultParameter, ...], z_hat: Arr, cov: Arr,
                           zl: Arr, zu: Arr, weak: int, n: int = 6) -> float:
@@ -390,46 +344,9 @@ class Ranker:
         if prob is not None:
             chi2, hss, zs = prob.profile(z_hat, float(slope), weak, grid, zl, zu)
         else:
-            chi2, hss, zs = self._profile_points(params, z_hat, float(slope), weak, grid,
-                                                 zl, zu)
+            chi2, hss, zs = profile_points(self.models, params, z_hat, float(slope), weak, grid,
+                                           zl, zu)
         return profile_evidence(grid, chi2, hss, zs, zl, zu, weak)
-
-    def _profile_points(self, params: tuple[FaultParameter, ...], z_hat: Arr, slope: float,
-                        weak: int, grid: Arr, zl: Arr, zu: Arr) -> tuple[Arr, Arr, Arr]:
-        """At each weak-axis point the strong parameter by Gauss-Newton (4 steps at most):
-        χ², the curvature J·J and the strong coordinate, one array each."""
-        strong = 1 - weak
-        span = zu - zl
-        n = grid.size
-        chi2s, hss, zs = np.empty(n), np.empty(n), np.empty(n)
-        z = z_hat.copy()
-        for k, zw in enumerate(grid):
-            z[weak] = zw
-            z[strong] = float(np.clip(z_hat[strong] + slope * (zw - z_hat[weak]), zl[strong],
-                                      zu[strong]))
-            r, _ = self._residuals(params, z)
-            h_ss = 0.0
-            for _ in range(4):
-                dz = 1e-6 * span[strong]
-                zp = z.copy()
-                zp[strong] = zp[strong] + dz if zp[strong] + dz <= zu[strong] else zp[strong] - dz
-                rp, _ = self._residuals(params, zp)
-                j = (rp - r) / (zp[strong] - z[strong])
-                h_ss = float(j @ j)
-                if h_ss <= 0:
-                    break
-                zn = z.copy()
-                zn[strong] = float(np.clip(z[strong] - float(j @ r) / h_ss, zl[strong],
-                                           zu[strong]))
-                rn, _ = self._residuals(params, zn)
-                if float(rn @ rn) >= float(r @ r):
-                    break
-                step = abs(zn[strong] - z[strong])
-                z, r = zn, rn
-                if step < 1e-4 * span[strong]:
-                    break
-            chi2s[k], hss[k], zs[k] = float(r @ r), h_ss, z[strong]
-        return chi2s, hss, zs
 
     def rank(self, hypotheses: tuple[Hypothesis, ...] = HYPOTHESES) -> list[HypothesisFit]:
         """All hypotheses fitted; probabilities over the observable ones; most probable first."""
