@@ -45,7 +45,7 @@ import numpy as np
 import numpy.typing as npt
 from scipy.special import ndtr
 
-from diagnostics.fastpath.fits import PairProblem, pair_problem
+from diagnostics.fastpath.fits import PairProblem, RecordPack, pair_problem, record_pack
 from diagnostics.hypotheses import HYPOTHESES, PARAMETERS, FaultParameter, Hypothesis
 from diagnostics.observations import RecordObservations
 from diagnostics.pair_direct import MASKED, levenberg_marquardt, profile_points
@@ -232,6 +232,7 @@ class Ranker:
             raise ValueError(f"unknown ranking method {self.method!r}")
         fast = self.method == "fast"
         self.models = [RecordModel(rig, o, model_rel, fast) for o in observations]
+        self._pack: RecordPack | None = None
         self.n_obs = sum(len(o.names) for o in observations)
 
     # -- helpers ---------------------------------------------------------------------------
@@ -331,7 +332,9 @@ class Ranker:
         """The compiled pair problem on the fast path (None: direct path)."""
         if self.method != "fast":
             return None
-        return pair_problem(self.rig, self.models, params, MASKED)
+        if self._pack is None:
+            self._pack = record_pack(self.rig, self.models)
+        return None if self._pack is None else pair_problem(self.rig, self._pack, params, MASKED)
 
     def _profile_evidence(self, params: tuple[FaultParameter, ...], z_hat: Arr, cov: Arr,
                           zl: Arr, zu: Arr, weak: int, n: int = 6) -> float:

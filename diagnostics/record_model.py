@@ -19,7 +19,7 @@ from dataclasses import replace
 import numpy as np
 import numpy.typing as npt
 
-from diagnostics.fastpath.maps import fast_maps, nominal_observables
+from diagnostics.fastpath.maps import FastMaps, fast_maps, nominal_observables
 from diagnostics.observations import RecordObservations, condition_sigma
 from diagnostics.signatures import OBSERVABLES, SignatureMaps, evaluator, signature_maps
 from sim.errors import SimulationError
@@ -99,7 +99,9 @@ class RecordModel:
     def _moved(self, rig: Rig, cond: Condition) -> Arr:
         """Healthy readings at a moved condition (SimulationError when none)."""
         if self.fast:
-            return np.asarray(nominal_observables(rig, cond)[self.idx])
+            moved = self.maps.moved_nominal(cond) if isinstance(self.maps, FastMaps) else \
+                nominal_observables(rig, cond)
+            return np.asarray(moved[self.idx])
         return self._vec(evaluator(rig, cond).nominal())
 
     def _vec(self, pred: dict[str, float]) -> Arr:

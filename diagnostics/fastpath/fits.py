@@ -26,7 +26,7 @@ from sim.rigs import Rig
 if TYPE_CHECKING:
     from diagnostics.record_model import RecordModel
 
-__all__ = ["PairProblem", "pair_problem"]
+__all__ = ["PairProblem", "RecordPack", "pair_problem", "record_pack"]
 
 Arr = npt.NDArray[np.float64]
 
@@ -71,29 +71,51 @@ class PairProblem:
         return chi2, hss, zs
 
 
-def pair_problem(rig: Rig, models: Sequence[RecordModel], params: tuple[FaultParameter, ...],
-                 masked: float) -> PairProblem | None:
-    """The compiled problem of fitting ``params`` to ``models``' records, or None when a
-    parameter's mapping is not one the kernels know (the caller then fits directly)."""
-    trs = [transform(rig, p) for p in params]
-    if any(t is None for t in trs) or len(params) != 2:
-        return None
+@dataclass
+class RecordPack:
+    """The records of a ranking in the kernels' arrays (built once per ranking; the Newton
+    states carry over from one pair fit to the next, as the direct evaluator's do)."""
+
+    contexts: list[Any]
+    ctx_p: Arr
+    ctx_i: Arr
+    base: Arr
+    yobs: Arr
+    sig: Arr
+    oidx: npt.NDArray[np.int64]
+    start: npt.NDArray[np.int64]
+
+
+def record_pack(rig: Rig, models: Sequence[RecordModel]) -> RecordPack | None:
+    """:class:`RecordPack` of ``models`` (None unless every record has fast maps)."""
     maps = [m.maps for m in models]
-    if not all(isinstance(mp, FastMaps) for mp in maps):
-        return None
     ctxs = [mp.ctx for mp in maps if isinstance(mp, FastMaps)]
-    c0 = ctxs[0]
-    ctx_p = np.ascontiguousarray(np.array([c.params for c in ctxs]))
-    ctx_i = np.ascontiguousarray(np.array([c.states for c in ctxs]))
-    base = np.array([rig.base[n] for n in GRAPH_PARAMETERS])
-    which = np.array([t.index for t in trs if t is not None], dtype=np.int64)
-    tlog = np.array([t.log for t in trs if t is not None], dtype=np.bool_)
-    tmode = np.array([t.mode for t in trs if t is not None], dtype=np.int64)
-    tconst = np.array([t.const for t in trs if t is not None], dtype=np.float64)
-    yobs = np.concatenate([m.obs.values for m in models]).astype(np.float64)
-    sig = np.concatenate([m.sigma for m in models]).astype(np.float64)
-    oidx = np.concatenate([m.idx for m in models]).astype(np.int64)
-    start = np.cumsum([0, *(len(m.idx) for m in models)]).astype(np.int64)
-    prob = (ctx_p, ctx_i, c0.mask, c0.scale, c0.oi, base, c0.gidx, which, tlog, tmode, tconst,
-            yobs, sig, oidx, start, c0.nout)
-    return PairProblem(c0.kernels, prob, float(masked), len(models), int(yobs.size), ctxs)
+    if len(ctxs) != len(maps):
+        return None
+    return RecordPack(
+        ctxs, np.ascontiguousarray(np.array([c.params for c in ctxs])),
+        np.ascontiguousarray(np.array([c.states for c in ctxs])),
+        np.array([rig.base[n] for n in GRAPH_PARAMETERS]),
+        np.concatenate([m.obs.values for m in models]).astype(np.float64),
+        np.concatenate([m.sigma for m in models]).astype(np.float64),
+        np.concatenate([m.idx for m in models]).astype(np.int64),
+        np.cumsum([0, *(len(m.idx) for m in models)]).astype(np.int64))
+
+
+def pair_problem(rig: Rig, pack: RecordPack, params: tuple[FaultParameter, ...],
+                 masked: float) -> PairProblem | None:
+    """The compiled problem of fitting ``params`` to the records of ``pack``, or None when
+    a parameter's mapping is not one the kernels know (the caller then fits directly)."""
+    trs = [transform(rig, p) for p in params]
+    if len(params) != 2 or any(t is None for t in trs):
+        return None
+    ts = [t for t in trs if t is not None]
+    which = np.array([t.index for t in ts], dtype=np.int64)
+    tlog = np.array([t.log for t in ts], dtype=np.bool_)
+    tmode = np.array([t.mode for t in ts], dtype=np.int64)
+    tconst = np.array([t.const for t in ts], dtype=np.float64)
+    c0 = pack.contexts[0]
+    prob = (pack.ctx_p, pack.ctx_i, c0.mask, c0.scale, c0.oi, pack.base, c0.gidx, which, tlog,
+            tmode, tconst, pack.yobs, pack.sig, pack.oidx, pack.start, c0.nout)
+    return PairProblem(c0.kernels, prob, float(masked), len(pack.contexts),
+                       int(pack.yobs.size), pack.contexts)

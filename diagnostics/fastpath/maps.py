@@ -45,7 +45,8 @@ IArr = npt.NDArray[np.int64]
 #: model outputs the observables are made of, in the order the kernel expects
 _OUTPUTS = ("P_pump", "P1", "P2", "Q_meter_B", "Q_meter_C", "Q_relief", "v")
 
-_SEEDS: dict[int, tuple[Arr, Arr]] = {}
+#: per rig (held, so that its id is not reused while here), Newton starts of both phases
+_SEEDS: OrderedDict[int, tuple[Rig, Arr, Arr]] = OrderedDict()
 _MAPS: OrderedDict[tuple[int, Condition], FastMaps] = OrderedDict()
 _LOCK = threading.RLock()
 
@@ -80,13 +81,18 @@ def transform(rig: Rig, p: FaultParameter) -> Transform | None:
 
 def _seeds(rig: Rig) -> tuple[Arr, Arr]:
     """Per rig, a Newton start of each phase: the nominal point at the default condition."""
-    seeds = _SEEDS.get(id(rig))
-    if seeds is None:
-        cond = rig.default_condition()
-        seeds = (steady_phase(rig, "working", None, cond).state,
-                 steady_phase(rig, "return", None, cond).state)
-        _SEEDS[id(rig)] = seeds
-    return seeds
+    with _LOCK:
+        entry = _SEEDS.get(id(rig))
+    if entry is not None and entry[0] is rig:
+        return entry[1], entry[2]
+    cond = rig.default_condition()
+    work = steady_phase(rig, "working", None, cond).state
+    back = steady_phase(rig, "return", None, cond).state
+    with _LOCK:
+        _SEEDS[id(rig)] = (rig, work, back)
+        while len(_SEEDS) > 16:
+            _SEEDS.popitem(last=False)
+    return work, back
 
 
 class Context:
@@ -166,6 +172,7 @@ class FastMaps(SignatureMaps):
         self.rig = rig
         self.condition = condition
         self._ev: SteadyEvaluator | None = None
+        self._moved: dict[Condition, Arr | None] = {}
         self._base = np.array([rig.base[n] for n in GRAPH_PARAMETERS])
         self.ctx = Context(rig, condition)
         try:
@@ -208,6 +215,19 @@ class FastMaps(SignatureMaps):
                 self.ctx.kernels.pchip_columns(zc, np.ascontiguousarray(coarse), zf[sel], part)
                 fine[sel] = part
             self.maps[hyp.name] = HypothesisMap(hyp, (p,), [zf], fine)
+
+    def moved_nominal(self, condition: Condition) -> Arr:
+        """Healthy observables at a condition near this one (the σ of a record's condition
+        uncertainty), remembered with the maps.  Raises SimulationError if none."""
+        if condition not in self._moved:
+            try:
+                self._moved[condition] = nominal_observables(self.rig, condition)
+            except SimulationError:
+                self._moved[condition] = None
+        out = self._moved[condition]
+        if out is None:
+            raise SimulationError(f"no healthy operating point at {condition}")
+        return out
 
     @property
     def ev(self) -> SteadyEvaluator:  # type: ignore[override]
