@@ -104,3 +104,29 @@ def test_fast_maps_equal_the_direct_maps() -> None:
             scale = np.nanmax(np.abs(hm.pred), axis=0)
             err = np.abs(got - hm.pred) / np.where(scale > 0, scale, 1.0)
             assert float(np.max(err[ok])) < 1e-7, (name, OBSERVABLES)
+
+
+def test_the_kernels_parameter_laws_are_the_hypotheses_own() -> None:
+    """transform() reads each fault parameter's law off FaultParameter.graph_value: the
+    numbers the kernels use give the same graph values across the prior range."""
+    from diagnostics.fastpath.maps import transform
+    from diagnostics.hypotheses import PARAMETERS
+
+    rig = reference_rig()
+    for p in PARAMETERS.values():
+        tr = transform(rig, p)
+        assert tr is not None, p.name
+        lo, hi = p.bounds(rig)
+        z = np.linspace(p.to_z(max(lo, 1e-30)), p.to_z(hi), 7)
+        want = [p.graph_value(rig, p.from_z(float(zz))) for zz in z]
+        np.testing.assert_allclose(tr.graph(z), want, rtol=1e-12)
+
+
+def test_an_unknown_ranking_method_is_refused() -> None:
+    from diagnostics.observations import observe
+    from diagnostics.ranking import Ranker
+    from tests.diagnostics.synth import record
+
+    rig = reference_rig()
+    with pytest.raises(ValueError, match="ranking method"):
+        Ranker(rig, [observe(record(rig, {}), rig)], method="guess")  # type: ignore[arg-type]
