@@ -1,5 +1,5 @@
 """The fast path's compiled module of a rig: :mod:`diagnostics.fastpath.kernel` specialised
-to the rig's Newton solver and outputs.
+to the rig's Newton solver and outputs, with :mod:`diagnostics.fastpath.pchip`.
 
 The generated source imports ``steady`` and ``outputs`` from the rig's own generated
 module (:mod:`sim.bondgraph.codegen`) and holds the kernels, each under
@@ -13,7 +13,7 @@ import inspect
 import threading
 from types import ModuleType
 
-from diagnostics.fastpath import kernel
+from diagnostics.fastpath import kernel, pchip
 from sim.bondgraph.codegen import load_module
 from sim.rigs import Rig
 
@@ -32,7 +32,8 @@ def _source(rig_module: str) -> str:
         f"from {rig_module} import steady, outputs",
         "_jit = njit(cache=True, error_model='numpy')",
     ]
-    funcs = [f"@_jit\n{inspect.getsource(getattr(kernel, name))}" for name in kernel.KERNELS]
+    funcs = [f"@_jit\n{inspect.getsource(getattr(mod, name))}"
+             for mod in (kernel, pchip) for name in mod.KERNELS]
     return "\n".join(head) + "\n\n\n" + "\n\n".join(funcs)
 
 

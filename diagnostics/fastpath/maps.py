@@ -3,7 +3,7 @@
 :class:`FastMaps` is a :class:`~diagnostics.signatures.SignatureMaps` whose coarse grids
 (every single-fault hypothesis, 130 points on the reference rig) are solved by one call of
 the compiled :func:`~diagnostics.fastpath.kernel.solve_grid` and interpolated by the
-compiled masked PCHIP (:func:`~diagnostics.fastpath.kernel.pchip_columns`), the
+compiled masked PCHIP (:func:`~diagnostics.fastpath.pchip.pchip_columns`), the
 interpolation of :func:`~diagnostics.signatures.masked_pchip`.  Grids, pieces (the relief
 kink) and masking are the direct maps'; a point where Newton fails from the last and the
 nominal solution is retried by the direct evaluator (start-up transient), as the direct
