@@ -130,3 +130,35 @@ def test_an_unknown_ranking_method_is_refused() -> None:
     rig = reference_rig()
     with pytest.raises(ValueError, match="ranking method"):
         Ranker(rig, [observe(record(rig, {}), rig)], method="guess")  # type: ignore[arg-type]
+
+
+def test_the_kernels_fit_the_correlated_likelihood() -> None:
+    """The compiled pair fit whitens each record's residuals by its matrix W (issue 11):
+    its χ² at its estimate equals |W (y − ŷ)|² of the direct residuals there, on records
+    whose condition error correlates the readings (W not diagonal), two records at once."""
+    from diagnostics.hypotheses import PARAMETERS
+    from diagnostics.observations import observe
+    from diagnostics.pair_direct import residuals
+    from diagnostics.ranking import Ranker
+
+    rig = reference_rig()
+    rng = np.random.default_rng(3)
+    records: list[MeasurementRecord] = []
+    while len(records) < 2:
+        rec = random_record(rng, rig)
+        if rec is not None:
+            records.append(rec)
+    ranker = Ranker(rig, [observe(r, rig) for r in records], method="fast")
+    assert any(np.abs(np.tril(m.white, -1)).max() > 0 for m in ranker.models)
+    pairs = [f for f in ranker.rank() if len(f.hypothesis.parameters) == 2]
+    assert pairs
+    for fit in pairs:
+        params = tuple(PARAMETERS[n] for n in fit.hypothesis.parameters)
+        z = np.array([p.to_z(e.value) for p, e in zip(params, fit.parameters, strict=True)])
+        r, _ = residuals(ranker.models, params, z)
+        assert fit.chi2 == pytest.approx(float(r @ r), rel=1e-9, abs=1e-9), fit.name
+        # not the old per-σ χ²: the correlation matters at these records
+        per_sigma = sum(float(np.sum(((m.obs.values - np.asarray(
+            [pr[n] for n in m.obs.names])) / m.sigma) ** 2))
+            for m, pr in zip(ranker.models, fit.predicted, strict=True))
+        assert abs(per_sigma - fit.chi2) > 1e-6 * max(fit.chi2, 1.0), fit.name
