@@ -5,7 +5,7 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed-stamp
 export HYDRODIAG_CACHE_DIR ?= $(CURDIR)/.hydrodiag-cache
 
-.PHONY: run test lint bench accuracy pump-study load-bench console-bench screenshots real-data chaos discrepancy-study discrepancy-paper000 clean
+.PHONY: run test lint bench accuracy pump-study load-bench console-bench screenshots real-data chaos discrepancy-study discrepancy-paper000 diagnose-bench clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -40,6 +40,10 @@ real-data: $(STAMP)
 
 load-bench: $(STAMP)
 	$(PY) -m benchmarks.load_bench
+
+# in-process diagnose(): fast (compiled) vs direct path, warm and at new conditions; batches
+diagnose-bench: $(STAMP)
+	$(PY) -m benchmarks.diagnose_bench
 
 console-bench: $(STAMP)
 	$(PY) -m benchmarks.console_bench

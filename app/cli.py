@@ -18,6 +18,7 @@ from rich.progress import Progress
 from rich.table import Table
 from sqlalchemy import Engine
 
+from app.cli_batch import register as register_batch
 from app.cli_discover import register as register_discover
 from app.cli_report import report_cli
 from app.cli_runs import register
@@ -200,6 +201,7 @@ def db_current() -> None:
 register(cli)
 cli.add_typer(report_cli, name="report")
 register_discover(cli)
+register_batch(cli)
 
 
 def main() -> None:

@@ -22,7 +22,7 @@ from diagnostics.inversion import LeakageGeometry, cylinder_clearance, valve_cle
 from diagnostics.isolability import Isolability, isolability
 from diagnostics.measurement import MeasurementRecord
 from diagnostics.observations import OBSERVABLE_UNITS, observe
-from diagnostics.ranking import HypothesisFit, Ranker
+from diagnostics.ranking import HypothesisFit, Method, Ranker
 from diagnostics.ratio_index import RatioIndex, ratio_index
 from diagnostics.signatures import OBSERVABLES
 from diagnostics.uncertainty import Estimate
@@ -151,9 +151,12 @@ def _direct(rig: Rig, records: Sequence[MeasurementRecord], notes: list[str]
     return out
 
 
-def diagnose(rig: Rig, records: Sequence[MeasurementRecord], *, model_rel: float = 0.002
-             ) -> Diagnosis:
+def diagnose(rig: Rig, records: Sequence[MeasurementRecord], *, model_rel: float = 0.002,
+             method: Method | None = None) -> Diagnosis:
     """Diagnose ``rig`` from ``records`` (jointly).
+
+    ``method`` chooses how the hypotheses are fitted (:class:`~diagnostics.ranking.Ranker`):
+    ``"fast"`` (compiled, the default) or ``"direct"``.
 
     Raises
     ------
@@ -171,7 +174,7 @@ def diagnose(rig: Rig, records: Sequence[MeasurementRecord], *, model_rel: float
             field_path = ".".join(x for x in (prefix, exc.field or "") if x)
             raise MeasurementError(exc.message, field=field_path or None) from None
     try:
-        ranker = Ranker(rig, obs, model_rel)
+        ranker = Ranker(rig, obs, model_rel, method)
     except SimulationError as exc:
         raise MeasurementError(
             "the rig has no steady operating point at this condition even when healthy (the "

@@ -2,9 +2,10 @@
 
 Each hypothesis (:data:`diagnostics.hypotheses.HYPOTHESES`) frees some parameters; all
 records are fitted at once (several loads diagnose jointly: the clearances are the rig's,
-the conditions the records').  With normalised residuals
-``r_i = (y_i − ŷ_i(θ)) / σ_i`` (σ from :mod:`diagnostics.observations`) the likelihood is
-``exp(−χ²/2)``, and hypotheses are compared by their marginal likelihood (evidence)
+the conditions the records').  With whitened residuals ``r = W (y − ŷ(θ))``
+(``WᵀW = C⁻¹``, C the record's covariance with its correlated condition term,
+:class:`diagnostics.record_model.RecordModel`) the likelihood is ``exp(−χ²/2)``, and
+hypotheses are compared by their marginal likelihood (evidence)
 
 .. math:: Z_h = \\frac{1}{V_h} \\int e^{-\\chi^2(z)/2}\\,dz
 
@@ -26,32 +27,48 @@ the data do not need costs the share of its prior range that the data rule out.
 
 Probabilities are the evidences times the fleet prior, normalised over the observable
 hypotheses (:func:`diagnostics.evidence.posterior`).
+
+Two ways to the same numbers (``Ranker(..., method=)``): ``"fast"`` (default) builds the
+maps and runs the pair fits and profiles in compiled code (:mod:`diagnostics.fastpath`,
+one call per fit), ``"direct"`` one Python model evaluation at a time
+(:mod:`diagnostics.pair_direct`).  Both return numbers only; the evidences
+(:func:`laplace_evidence`, :func:`profile_evidence`, the single-fault integral) and the
+probabilities are computed here and in :mod:`diagnostics.evidence`, once, for both.
+Both use the one likelihood of :class:`diagnostics.record_model.RecordModel` (residuals
+whitened by the record's correlated covariance).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
+from typing import Literal
 
 import numpy as np
 import numpy.typing as npt
 from scipy.special import ndtr
 
-from diagnostics.evidence import acting_relief_setting, posterior, whitening
+from diagnostics.evidence import acting_relief_setting, posterior
+from diagnostics.fastpath.fits import PairProblem, RecordPack, pair_problem, record_pack
 from diagnostics.hypotheses import HYPOTHESES, PARAMETERS, FaultParameter, Hypothesis
-from diagnostics.observations import RecordObservations, condition_sigma
-from diagnostics.signatures import OBSERVABLES, SignatureMaps, evaluator, signature_maps
+from diagnostics.observations import RecordObservations
+from diagnostics.pair_direct import MASKED, levenberg_marquardt, profile_points
+from diagnostics.record_model import RecordModel
 from sim.errors import SimulationError
-from sim.rigs import Condition, Rig
+from sim.rigs import Rig
 
-__all__ = ["HypothesisFit", "ParameterEstimate", "Ranker", "severity"]
+__all__ = ["DEFAULT_METHOD", "HypothesisFit", "Method", "ParameterEstimate", "Ranker",
+           "laplace_evidence", "profile_evidence", "severity"]
 
 Arr = npt.NDArray[np.float64]
 
-#: normalised residual [σ] given to a reading whose prediction is masked in a direct solve
-_MASKED = 1.0e3
-#: cap of a condition sensitivity [unit of the reading per K or N] (its square stays finite)
-_HUGE = 1.0e100
+#: log-likelihoods closer than this to the maximum are ties [-]
+_TIE = 1.0e-6
+
+#: how a Ranker computes: "fast" (compiled kernels, :mod:`diagnostics.fastpath`) or
+#: "direct" (a Python call per model evaluation; the reference of the equivalence test)
+Method = Literal["fast", "direct"]
+DEFAULT_METHOD: Method = "fast"
 
 
 def severity(param: FaultParameter, value: float, nominal: float) -> tuple[float, str]:
@@ -76,6 +93,52 @@ def severity(param: FaultParameter, value: float, nominal: float) -> tuple[float
     label = "none" if mult < 1.33 else "mild" if mult < 2.2 else \
         "moderate" if mult < 4.1 else "severe"
     return mult, label
+
+
+def laplace_evidence(cost: float, jac: Arr, z: Arr, zl: Arr, zu: Arr
+                     ) -> tuple[float, Arr, Arr]:
+    """ln Z of a pair by the Laplace approximation at the estimate ``z``, with the posterior
+    mass truncated at the bounds ``zl``, ``zu``; also the covariance and standard deviations
+    (a zero one replaced by the range) from the Gauss-Newton Hessian ``JᵀJ``.
+
+    The Occam factor is capped at 0: a flat likelihood cannot beat its prior.
+    """
+    span = zu - zl
+    h = jac.T @ jac
+    cov: Arr = np.asarray(np.linalg.pinv(h + 1e-12 * max(float(np.trace(h)), 1e-30) * np.eye(2)),
+                          dtype=np.float64)
+    sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    sd = np.where(sd > 0, sd, span)
+    mass = float(np.prod(ndtr((zu - z) / sd) - ndtr((zl - z) / sd)))
+    sign, logdet = np.linalg.slogdet(cov)
+    if sign <= 0 or not math.isfinite(logdet):
+        logdet = float(np.sum(np.log(sd**2)))
+    occam = math.log(2 * math.pi) + 0.5 * logdet + math.log(max(mass, 1e-300)) \
+        - float(np.sum(np.log(span)))
+    occam = min(occam, 0.0)  # a flat likelihood cannot beat its prior
+    return -0.5 * cost + occam, cov, sd
+
+
+def profile_evidence(grid: Arr, chi2: Arr, hss: Arr, zs: Arr, zl: Arr, zu: Arr, weak: int
+                     ) -> float:
+    """ln Z of a pair from its profile along the weak axis: at each ``grid`` point the
+    profiled ``chi2``, the curvature ``hss`` (JᵀJ) and the strong coordinate ``zs``; a
+    bound-truncated Laplace width across (capped at the prior), a trapezoid along."""
+    strong = 1 - weak
+    span = zu - zl
+    logs = np.empty(grid.size)
+    for k in range(grid.size):
+        if hss[k] > 0:
+            sd = 1.0 / math.sqrt(float(hss[k]))
+            mass = float(ndtr((zu[strong] - zs[k]) / sd) - ndtr((zl[strong] - zs[k]) / sd))
+            across = math.log(math.sqrt(2 * math.pi) * sd * max(mass, 1e-300) / span[strong])
+        else:
+            across = 0.0
+        logs[k] = -0.5 * float(chi2[k]) + min(across, 0.0)
+    top = float(logs.max())
+    w = np.exp(logs - top)
+    integral = float(np.sum(0.5 * (w[1:] + w[:-1]) * np.diff(grid))) / span[weak]
+    return top + math.log(max(integral, 1e-300))
 
 
 @dataclass
@@ -148,78 +211,6 @@ class HypothesisFit:
         return self.hypothesis.name
 
 
-class _RecordModel:
-    """One record's observations, their covariance, and its condition's signature maps.
-
-    The covariance is ``diag(u² + (model_rel·ŷ)²) + Σ_k s_k s_kᵀ u_k²`` with ``s_k`` the
-    healthy readings' sensitivity to the record's oil temperature and load and ``u_k``
-    their standard uncertainties: one thermometer or load-cell error moves every reading
-    of the record at once, so it is a correlated term, not one independent σ per reading
-    (:func:`diagnostics.evidence.whitening`).  ``sigma`` is the marginal standard
-    uncertainty of each reading (its diagonal), used to state disagreements in σ.
-    """
-
-    def __init__(self, rig: Rig, obs: RecordObservations, model_rel: float) -> None:
-        self.obs = obs
-        self.maps: SignatureMaps = signature_maps(rig, obs.condition)
-        self.idx = np.array([OBSERVABLES.index(n) for n in obs.names], dtype=np.int64)
-        pred = self.maps.nominal[self.idx]
-        # a reading the healthy rig cannot produce (a stalled return stroke has no velocity
-        # ratio) gets no model or condition term: its σ is the measurement's own
-        diag = obs.u**2 + np.nan_to_num(model_rel * pred) ** 2
-        u_t, u_f = condition_sigma(obs.record)
-        cond = obs.condition
-        terms: list[Arr] = []
-        if u_t > 0:
-            terms.append(self._condition_term(
-                rig, pred, [(replace(cond, oil_temperature=cond.oil_temperature + s), s)
-                            for s in (1.0, -1.0)]) * u_t)
-        if u_f > 0:
-            if cond.load > 0:
-                step = 0.01 * cond.load
-                moved = [(replace(cond, load=cond.load + s), s) for s in (step, -step)]
-            else:
-                step = 0.01 * max(cond.back_pressure, 1e5)
-                moved = [(replace(cond, back_pressure=cond.back_pressure + s), s)
-                         for s in (step, -step)]
-            terms.append(self._condition_term(rig, pred, moved) * u_f)
-        self.sigma, self.white = whitening(diag, terms)
-
-    def _condition_term(self, rig: Rig, pred: Arr, moved: list[tuple[Condition, float]]
-                        ) -> Arr:
-        """Sensitivity of the healthy readings to a condition, by a one-sided difference
-        (the other side where the first has no steady point; 0 where neither)."""
-        for cond, step in moved:
-            try:
-                moved_pred = self._vec(evaluator(rig, cond).nominal())
-            except SimulationError:
-                continue
-            with np.errstate(over="ignore", invalid="ignore"):
-                d = (moved_pred - pred) / step
-            # near a stall a reading (the velocity ratio) may react without bound: cap the
-            # sensitivity so its σ stays finite, huge, and the reading weighs nothing
-            d = np.clip(np.nan_to_num(d, nan=0.0, posinf=_HUGE, neginf=-_HUGE), -_HUGE, _HUGE)
-            return np.asarray(d)
-        return np.zeros_like(pred)
-
-    def _vec(self, pred: dict[str, float]) -> Arr:
-        return np.array([pred[n] for n in self.obs.names])
-
-    def whitened(self, resid: Arr) -> Arr:
-        """Residuals ``y − ŷ`` [SI] (last axis: the readings) → independent unit normals."""
-        return np.asarray(resid @ self.white.T)
-
-    def chi2_grid(self, pred: Arr) -> Arr:
-        """χ² of this record at every point of a map (``pred[..., observables]``)."""
-        r = self.whitened(self.obs.values - pred[..., self.idx])
-        chi2 = np.sum(r * r, axis=-1)
-        # a masked prediction (stall, no operating point) cannot produce the reading
-        return np.asarray(np.where(np.isnan(chi2), np.inf, chi2))
-
-    def as_dict(self, full: Arr) -> dict[str, float]:
-        return {n: float(v) for n, v in zip(OBSERVABLES, full, strict=True)}
-
-
 class Ranker:
     """Fits and compares the hypotheses for a set of records of one rig.
 
@@ -231,12 +222,21 @@ class Ranker:
         One :class:`RecordObservations` per record.
     model_rel
         Relative model uncertainty added to every observation [-] (default 0.2 %).
+    method
+        ``"fast"``: maps, pair fits and profiles by the compiled kernels of
+        :mod:`diagnostics.fastpath`; ``"direct"``: one Python model evaluation at a time.
+        Both feed the same evidence and probability code below.
     """
 
     def __init__(self, rig: Rig, observations: list[RecordObservations],
-                 model_rel: float = 0.002) -> None:
+                 model_rel: float = 0.002, method: Method | None = None) -> None:
         self.rig = rig
-        self.models = [_RecordModel(rig, o, model_rel) for o in observations]
+        self.method: Method = method or DEFAULT_METHOD
+        if self.method not in ("fast", "direct"):
+            raise ValueError(f"unknown ranking method {self.method!r}")
+        fast = self.method == "fast"
+        self.models = [RecordModel(rig, o, model_rel, fast) for o in observations]
+        self._pack: RecordPack | None = None
         self.n_obs = sum(len(o.names) for o in observations)
 
     # -- helpers ---------------------------------------------------------------------------
@@ -276,7 +276,10 @@ class Ranker:
             return HypothesisFit(hyp, math.inf, -math.inf, [est], preds,
                                  observable=detectability >= 1.0, detectability=detectability)
         log_ev = top + math.log(float(np.mean(np.exp(logl - top))))
-        k = int(np.argmax(logl))
+        # on a plateau (a parameter the readings do not feel, e.g. a relief setting above
+        # the working pressure) the maximum is the first point within _TIE of the top:
+        # round-off in the solves must not pick the estimate
+        k = int(np.argmax(logl >= top - _TIE))
         zk = float(z[k])
         if 0 < k < z.size - 1:  # parabola through the three best points
             y0, y1, y2 = logl[k - 1], logl[k], logl[k + 1]
@@ -294,25 +297,8 @@ class Ranker:
         return HypothesisFit(hyp, float(chi2[k]), log_ev, [est], preds,
                              observable=detectability >= 1.0, detectability=detectability)
 
-    def _residuals(self, params: tuple[FaultParameter, ...], z: Arr) -> tuple[Arr, list[Arr]]:
-        vals = np.array([p.from_z(float(zz)) for p, zz in zip(params, z, strict=True)])
-        rs, fulls = [], []
-        for m in self.models:
-            try:
-                full = m.maps.predict(params, vals)
-            except SimulationError:  # no steady operating point: masked
-                full = np.full(len(OBSERVABLES), np.nan)
-            fulls.append(full)
-            resid = m.obs.values - full[m.idx]
-            if np.isfinite(resid).all():
-                rs.append(m.whitened(resid))
-            else:  # a masked reading counts as a miss of _MASKED σ: the fit steps away
-                r = resid / m.sigma
-                rs.append(np.where(np.isfinite(r), r, _MASKED))
-        return np.concatenate(rs), fulls
-
     def fit_pair(self, hyp: Hypothesis, singles: dict[str, HypothesisFit]) -> HypothesisFit:
-        """Two-parameter hypothesis: Gauss-Newton on direct solves, Laplace evidence."""
+        """Two-parameter hypothesis: Levenberg-Marquardt, Laplace evidence."""
         params = tuple(PARAMETERS[n] for n in hyp.parameters)
         bounds = [p.worn_bounds(self.rig) for p in params]
         zl = np.array([p.to_z(b[0]) for p, b in zip(params, bounds, strict=True)])
@@ -326,49 +312,12 @@ class Ranker:
             z0[i] = p.to_z(single.parameters[0].value)
             starts.append((single.chi2, np.clip(z0, zl, zu)))
         z = min(starts, key=lambda s: s[0])[1]
-        r, fulls = self._residuals(params, z)
-        cost = float(r @ r)
-        lam = 1e-3
-        jac = np.zeros((r.size, 2))
-        for _ in range(15):
-            for j in range(2):
-                dz = 1e-6 * span[j]
-                zj = z.copy()
-                zj[j] = zj[j] + dz if zj[j] + dz <= zu[j] else zj[j] - dz
-                rj, _ = self._residuals(params, zj)
-                jac[:, j] = (rj - r) / (zj[j] - z[j])
-            g = jac.T @ r
-            h = jac.T @ jac
-            improved = False
-            while lam < 1e8:
-                step = -np.linalg.solve(h + lam * np.diag(np.diag(h) + 1e-30), g)
-                zn = np.clip(z + step, zl, zu)
-                rn, fn = self._residuals(params, zn)
-                cn = float(rn @ rn)
-                if cn < cost:
-                    improved = True
-                    moved = float(np.max(np.abs(zn - z) / span))
-                    gain = cost - cn
-                    z, r, fulls, cost, lam = zn, rn, fn, cn, max(lam / 10.0, 1e-9)
-                    break
-                lam *= 10.0
-            # converged: the step moves the estimate by < 1e-4 of its range (a few 1e-5 of
-            # a clearance) or no longer lowers χ² by a thousandth
-            if not improved or moved < 1e-4 or gain < 1e-3:
-                break
-        h = jac.T @ jac
-        cov: Arr = np.asarray(np.linalg.pinv(h + 1e-12 * max(float(np.trace(h)), 1e-30) * np.eye(2)),
-                              dtype=np.float64)
-        sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
-        sd = np.where(sd > 0, sd, span)
-        mass = float(np.prod(ndtr((zu - z) / sd) - ndtr((zl - z) / sd)))
-        sign, logdet = np.linalg.slogdet(cov)
-        if sign <= 0 or not math.isfinite(logdet):
-            logdet = float(np.sum(np.log(sd**2)))
-        occam = math.log(2 * math.pi) + 0.5 * logdet + math.log(max(mass, 1e-300)) \
-            - float(np.sum(np.log(span)))
-        occam = min(occam, 0.0)  # a flat likelihood cannot beat its prior
-        log_ev = -0.5 * cost + occam
+        prob = self._fast_problem(params)
+        if prob is not None:
+            z, cost, jac, fulls = prob.fit(z, zl, zu)
+        else:
+            z, cost, jac, fulls = levenberg_marquardt(self.models, params, z, zl, zu)
+        log_ev, cov, sd = laplace_evidence(cost, jac, z, zl, zu)
         weak = int(np.argmax(sd / span))
         best_single = max(f.log_evidence for f in singles.values())
         # the capped Laplace value only overstates a ridge's evidence: refine it only when
@@ -383,53 +332,28 @@ class Ranker:
         preds = [m.as_dict(f) for m, f in zip(self.models, fulls, strict=True)]
         return HypothesisFit(hyp, cost, log_ev, ests, preds)
 
+    def _fast_problem(self, params: tuple[FaultParameter, ...]) -> PairProblem | None:
+        """The compiled pair problem on the fast path (None: direct path)."""
+        if self.method != "fast":
+            return None
+        if self._pack is None:
+            self._pack = record_pack(self.rig, self.models)
+        return None if self._pack is None else pair_problem(self.rig, self._pack, params, MASKED)
+
     def _profile_evidence(self, params: tuple[FaultParameter, ...], z_hat: Arr, cov: Arr,
                           zl: Arr, zu: Arr, weak: int, n: int = 6) -> float:
         """ln Z of a pair: trapezoid over ``n`` points of the weak axis, and at each the
         strong parameter profiled by Gauss-Newton with a bound-truncated Laplace width."""
         strong = 1 - weak
-        span = zu - zl
         grid = np.linspace(zl[weak], zu[weak], n)
         slope = cov[strong, weak] / cov[weak, weak] if cov[weak, weak] > 0 else 0.0
-        logs = np.empty(n)
-        z = z_hat.copy()
-        for k, zw in enumerate(grid):
-            z[weak] = zw
-            z[strong] = float(np.clip(z_hat[strong] + slope * (zw - z_hat[weak]), zl[strong],
-                                      zu[strong]))
-            r, _ = self._residuals(params, z)
-            h_ss = 0.0
-            for _ in range(4):
-                dz = 1e-6 * span[strong]
-                zp = z.copy()
-                zp[strong] = zp[strong] + dz if zp[strong] + dz <= zu[strong] else zp[strong] - dz
-                rp, _ = self._residuals(params, zp)
-                j = (rp - r) / (zp[strong] - z[strong])
-                h_ss = float(j @ j)
-                if h_ss <= 0:
-                    break
-                zn = z.copy()
-                zn[strong] = float(np.clip(z[strong] - float(j @ r) / h_ss, zl[strong],
-                                           zu[strong]))
-                rn, _ = self._residuals(params, zn)
-                if float(rn @ rn) >= float(r @ r):
-                    break
-                step = abs(zn[strong] - z[strong])
-                z, r = zn, rn
-                if step < 1e-4 * span[strong]:
-                    break
-            chi2 = float(r @ r)
-            if h_ss > 0:
-                sd = 1.0 / math.sqrt(h_ss)
-                mass = float(ndtr((zu[strong] - z[strong]) / sd) - ndtr((zl[strong] - z[strong]) / sd))
-                across = math.log(math.sqrt(2 * math.pi) * sd * max(mass, 1e-300) / span[strong])
-            else:
-                across = 0.0
-            logs[k] = -0.5 * chi2 + min(across, 0.0)
-        top = float(logs.max())
-        w = np.exp(logs - top)
-        integral = float(np.sum(0.5 * (w[1:] + w[:-1]) * np.diff(grid))) / span[weak]
-        return top + math.log(max(integral, 1e-300))
+        prob = self._fast_problem(params)
+        if prob is not None:
+            chi2, hss, zs = prob.profile(z_hat, float(slope), weak, grid, zl, zu)
+        else:
+            chi2, hss, zs = profile_points(self.models, params, z_hat, float(slope), weak, grid,
+                                           zl, zu)
+        return profile_evidence(grid, chi2, hss, zs, zl, zu, weak)
 
     def rank(self, hypotheses: tuple[Hypothesis, ...] = HYPOTHESES) -> list[HypothesisFit]:
         """All hypotheses fitted; probabilities over the observable ones; most probable first."""

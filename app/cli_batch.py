@@ -1,0 +1,160 @@
+"""``hydrodiag diagnose-batch FILE --rig ID``: thousands of records, each diagnosed alone.
+
+FILE is a CSV (one record per row; ``condition.oil_temperature`` style column names nest,
+as the console's CSV upload) or JSON Lines (one record, as in ``POST /diagnose``, per
+line).  Every record is validated as the API validates it (a bad one is reported with its
+line and field, and the batch is refused before anything runs), then all go through
+:func:`diagnostics.batch.diagnose_many` — in this process, on a local process pool
+(``--workers N``) or on a Dask cluster (``--dask tcp://host:8786``, the executor sweeps
+use) — with a progress bar.  The results are not stored in the history (use
+``POST /diagnose`` for that); ``--out`` writes one JSON line per record.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import time
+from collections import Counter
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+from pydantic import ValidationError
+from rich.table import Table
+
+from app.cli_support import console, steps, store_session
+from sim.errors import InputError
+
+__all__ = ["diagnose_batch", "read_batch", "register"]
+
+
+def _csv_rows(text: str) -> list[dict[str, Any]]:
+    import pandas as pd
+
+    try:
+        frame = pd.read_csv(io.StringIO(text), comment="#")
+    except (ValueError, pd.errors.ParserError) as exc:
+        raise InputError(f"not a readable CSV: {exc}", field="FILE") from None
+    rows = []
+    for _, row in frame.iterrows():
+        record: dict[str, Any] = {}
+        for column, value in row.items():
+            if pd.isna(value):
+                continue
+            target = record
+            *parents, leaf = str(column).strip().split(".")
+            for part in parents:
+                target = target.setdefault(part, {})
+            target[leaf] = value.item() if hasattr(value, "item") else value
+        rows.append(record)
+    return rows
+
+
+def read_batch(path: Path, rig_id: int) -> list[Any]:
+    """The records of ``path`` (CSV or JSON Lines) as validated ``MeasurementIn``; a
+    record without ``rig_id`` gets ``rig_id``.
+
+    Raises
+    ------
+    InputError
+        Unreadable file, no records, or a record the API would refuse (``field`` names
+        the line or row and the field).
+    """
+    from app.cli_support import validation_error
+    from app.schemas.diagnose import MeasurementIn
+
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"cannot read {path}: {exc}", field="FILE") from None
+    if path.suffix.lower() in (".jsonl", ".ndjson", ".json"):
+        rows = []
+        for n, line in enumerate(text.splitlines(), start=1):
+            if not line.strip():
+                continue
+            try:
+                rows.append(json.loads(line))
+            except json.JSONDecodeError as exc:
+                raise InputError(f"line {n} is not JSON: {exc.msg}", field=f"line {n}") from None
+        where = "line"
+    else:
+        rows = _csv_rows(text)
+        where = "row"
+    if not rows:
+        raise InputError("the file holds no records", field="FILE")
+    records = []
+    for n, row in enumerate(rows, start=1):
+        if not isinstance(row, dict):
+            raise InputError(f"{where} {n} is not a record (a mapping)", field=f"{where} {n}")
+        row.setdefault("rig_id", rig_id)
+        try:
+            records.append(MeasurementIn.model_validate(row))
+        except ValidationError as exc:
+            err = validation_error(exc)
+            raise InputError(err.message, field=f"{where} {n}: {err.field}") from None
+    return records
+
+
+def diagnose_batch(
+    file: Annotated[Path, typer.Argument(help="Records: CSV (a row each) or JSON Lines.")],
+    rig_id: Annotated[int, typer.Option("--rig", help="Rig id in the store (for records "
+                                        "that name none).")] = 1,
+    workers: Annotated[int, typer.Option(help="Local worker processes; 0 runs in this "
+                                         "process.")] = 0,
+    dask: Annotated[str | None, typer.Option(help="Dask scheduler address (tcp://host:8786)."
+                                             )] = None,
+    out: Annotated[Path | None, typer.Option(help="Write one JSON result per line here.")
+                   ] = None,
+    full: Annotated[bool, typer.Option(help="Whole diagnoses instead of summaries.")] = False,
+) -> None:
+    """Diagnose every record of FILE on its own against its stored rig, with progress."""
+    from app.services.executors import SweepExecutors
+    from app.services.measurements import to_record
+    from app.services.rig_cache import RigCache
+    from diagnostics.batch import diagnose_many
+
+    items = read_batch(file, rig_id)
+    rig_ids = {item.rig_id for item in items}
+    if len(rig_ids) > 1:
+        raise InputError(f"one rig per batch; the file names rigs {sorted(rig_ids)}",
+                         field="rig_id")
+    with store_session() as session:
+        resolved = RigCache(1).get(session, rig_ids.pop(), None)
+    now = datetime.now(UTC)
+    records = [to_record(item, path=f"record {n}", rig_name=resolved.name,
+                         measured_at=item.measured_at or now)
+               for n, item in enumerate(items, start=1)]
+    executors = SweepExecutors(workers=workers or 1, dask_scheduler=dask) \
+        if workers or dask else None
+    started = time.perf_counter()
+    try:
+        with steps() as progress:
+            task = progress.add_task(f"diagnosing {len(records)} records",
+                                     total=len(records))
+
+            def tick(done: int, total: int) -> None:
+                progress.update(task, completed=done)
+
+            results = diagnose_many(resolved.rig, records, progress=tick, full=full,
+                                    executor=None if executors is None else executors.get())
+    finally:
+        if executors is not None:
+            executors.shutdown()
+    elapsed = time.perf_counter() - started
+    if out is not None:
+        with out.open("w", encoding="utf-8") as fh:
+            for r in results:
+                fh.write(json.dumps(r, default=str) + "\n")
+    counts = Counter(r.get("top", "error") for r in results)
+    table = Table("top", "records", title=f"{len(results)} records in {elapsed:.1f} s "
+                  f"({len(results) / elapsed:.0f} records/s)")
+    for name, n in counts.most_common():
+        table.add_row(name, str(n))
+    console.print(table)
+
+
+def register(cli: typer.Typer) -> None:
+    """Add ``diagnose-batch`` to the ``hydrodiag`` command."""
+    cli.command("diagnose-batch")(diagnose_batch)

@@ -1,0 +1,151 @@
+"""Diagnose many records, each on its own, in-process or on any executor (issue 9).
+
+``diagnose_many(rig, records)`` runs every record through :func:`diagnostics.diagnose.diagnose`
+(the compiled fast path by default) and returns one plain result per record, in order.
+With ``executor`` (a :class:`concurrent.futures.Executor`: a process pool, or the
+``get_executor()`` of a Dask ``distributed.Client`` — the executors sweeps use,
+:class:`app.services.executors.SweepExecutors`) the records go out in chunks together with
+the rig *document*; a worker compiles each rig once (the numba cache makes that a load,
+not a compile) and keeps it, so continuation states and signature maps carry over from one
+chunk to the next.  A record the rig cannot take (no operating point, an impossible
+reading) gives an ``error`` entry and does not stop the batch.
+
+This module imports only :mod:`diagnostics` and :mod:`sim`: a worker loads no service code.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import threading
+from collections import OrderedDict
+from collections.abc import Callable, Mapping, Sequence
+from concurrent.futures import Executor, Future, as_completed
+from typing import Any
+
+from diagnostics.diagnose import Diagnosis, diagnose
+from diagnostics.measurement import MeasurementRecord
+from diagnostics.ranking import Method
+from sim.errors import HydrodiagError
+from sim.rigs import Rig, load_rig
+
+__all__ = ["diagnose_chunk", "diagnose_many", "summary"]
+
+#: progress callback: (records done, records in all)
+Progress = Callable[[int, int], None]
+
+_RIGS: OrderedDict[str, Rig] = OrderedDict()
+_RIGS_LOCK = threading.Lock()
+
+
+def _rig(document: Mapping[str, Any]) -> Rig:
+    """The compiled rig of ``document``, kept per process (4 most recent)."""
+    key = hashlib.sha256(json.dumps(document, sort_keys=True, default=str).encode()).hexdigest()
+    with _RIGS_LOCK:
+        rig = _RIGS.get(key)
+        if rig is not None:
+            _RIGS.move_to_end(key)
+            return rig
+    rig = load_rig(document)
+    with _RIGS_LOCK:
+        rig = _RIGS.setdefault(key, rig)
+        while len(_RIGS) > 4:
+            _RIGS.popitem(last=False)
+    return rig
+
+
+def _finite(x: float) -> float | None:
+    return float(x) if math.isfinite(x) else None
+
+
+def summary(d: Diagnosis) -> dict[str, Any]:
+    """The compact result of one diagnosis: the named fault (``"unexplained"`` when the
+    goodness-of-fit test fails), the best fit, its probability and estimates [SI], the χ²
+    p-value and the probabilities of all observable hypotheses."""
+    top = d.top
+    return {
+        "top": top.name if d.explained else "unexplained",
+        "best_fit": top.name,
+        "probability": top.probability,
+        "explained": d.explained,
+        "p_value": None if d.fit is None else d.fit.p_value,
+        "parameters": [{"name": p.name, "unit": p.unit, "value": p.value, "low": p.low,
+                        "high": p.high, "severity": p.severity} for p in top.parameters],
+        "probabilities": {f.name: f.probability for f in d.hypotheses if f.observable},
+        "chi2": _finite(top.chi2),
+    }
+
+
+def _one(rig: Rig, record: MeasurementRecord, full: bool, method: Method | None
+         ) -> dict[str, Any]:
+    try:
+        d = diagnose(rig, [record], method=method)
+    except HydrodiagError as exc:
+        return {"error": exc.message, "field": exc.field}
+    return d.to_dict() if full else summary(d)
+
+
+def diagnose_chunk(document: Mapping[str, Any], records: Sequence[MeasurementRecord],
+                   full: bool = False, method: Method | None = None) -> list[dict[str, Any]]:
+    """Diagnose each of ``records`` on the rig of ``document`` (what a worker runs).
+
+    Returns
+    -------
+    list of dict
+        Per record :func:`summary` (``full``: :meth:`Diagnosis.to_dict`), or
+        ``{"error": message, "field": field}``.
+    """
+    rig = _rig(document)
+    return [_one(rig, r, full, method) for r in records]
+
+
+def diagnose_many(rig: Rig, records: Sequence[MeasurementRecord], *,
+                  executor: Executor | None = None, progress: Progress | None = None,
+                  chunk_size: int | None = None, full: bool = False,
+                  method: Method | None = None) -> list[dict[str, Any]]:
+    """Diagnose each record on its own; results in the order of ``records``.
+
+    Parameters
+    ----------
+    rig
+        The rig (with an executor its document, :meth:`RigSpec.to_document`, travels).
+    records
+        The records.
+    executor
+        Where to run: None in this process; else chunks are submitted to it.
+    progress
+        Called with (done, total) after each record (in-process) or chunk.
+    chunk_size
+        Records per submitted task (default: about 8 tasks per worker, at most 250).
+    full
+        Whole :meth:`Diagnosis.to_dict` results instead of :func:`summary`.
+    method
+        ``"fast"`` (default) or ``"direct"`` (:class:`~diagnostics.ranking.Ranker`).
+    """
+    total = len(records)
+    if executor is None:
+        out = []
+        for i, r in enumerate(records):
+            out.append(_one(rig, r, full, method))
+            if progress is not None:
+                progress(i + 1, total)
+        return out
+    workers = int(getattr(executor, "_max_workers", 0) or 2)
+    size = chunk_size or max(1, min(250, math.ceil(total / (8 * workers))))
+    document = rig.spec.to_document()
+    futures: dict[Future[list[dict[str, Any]]], int] = {}
+    for start in range(0, total, size):
+        fut = executor.submit(diagnose_chunk, document, list(records[start:start + size]),
+                              full, method)
+        futures[fut] = start
+    results: list[dict[str, Any] | None] = [None] * total
+    done = 0
+    for fut in as_completed(futures):
+        start = futures[fut]
+        chunk = fut.result()
+        results[start:start + len(chunk)] = chunk
+        done += len(chunk)
+        if progress is not None:
+            progress(done, total)
+    return [r if r is not None else {"error": "lost", "field": None} for r in results]

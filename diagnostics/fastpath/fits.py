@@ -1,0 +1,138 @@
+"""Two-parameter hypothesis fits of the fast path: one compiled call per fit.
+
+:func:`pair_problem` packs what the compiled :func:`~diagnostics.fastpath.kernel.pair_fit`
+and :func:`~diagnostics.fastpath.kernel.profile_points` need — per record its condition's
+parameter vectors and Newton states (:class:`~diagnostics.fastpath.maps.Context`), its
+readings, their marginal σ and whitening matrix (the likelihood of
+:class:`~diagnostics.record_model.RecordModel`) and observable indices — and
+:class:`PairProblem` calls them.  What comes back
+are numbers (the estimate, χ², the Jacobian, the predictions; the profile's χ² and
+curvatures); the evidences are computed from them by the ranking's own functions
+(:func:`diagnostics.ranking.laplace_evidence`, :func:`diagnostics.ranking.profile_evidence`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import numpy.typing as npt
+
+from diagnostics.fastpath.maps import FastMaps, transform
+from diagnostics.hypotheses import FaultParameter
+from diagnostics.signatures import GRAPH_PARAMETERS
+from sim.rigs import Rig
+
+if TYPE_CHECKING:
+    from diagnostics.record_model import RecordModel
+
+__all__ = ["PairProblem", "RecordPack", "pair_problem", "record_pack"]
+
+Arr = npt.NDArray[np.float64]
+
+
+@dataclass
+class PairProblem:
+    """A pair fit's arrays for the kernels (see :func:`pair_problem`)."""
+
+    kernels: Any
+    prob: tuple[Any, ...]
+    masked: float
+    n_records: int
+    n_obs: int
+    contexts: list[Any]
+
+    def _store(self) -> None:
+        """Keep the continuation states for the next fit at these conditions."""
+        states = self.prob[1]
+        for k, ctx in enumerate(self.contexts):
+            ctx.states[0:2] = states[k, 0:2]
+
+    def fit(self, z0: Arr, zl: Arr, zu: Arr) -> tuple[Arr, float, Arr, list[Arr]]:
+        """Levenberg-Marquardt from ``z0``: ``(z, χ², last Jacobian, predictions per
+        record)`` (:func:`~diagnostics.fastpath.kernel.pair_fit`)."""
+        jac = np.zeros((self.n_obs, 2))
+        r = np.empty(self.n_obs)
+        fulls = np.empty((self.n_records, 9))
+        z, cost = self.kernels.pair_fit(np.asarray(z0, dtype=np.float64), zl, zu, self.prob,
+                                        self.masked, jac, r, fulls)
+        self._store()
+        return np.asarray(z), float(cost), jac, list(fulls)
+
+    def profile(self, z_hat: Arr, slope: float, weak: int, grid: Arr, zl: Arr, zu: Arr
+                ) -> tuple[Arr, Arr, Arr]:
+        """χ², curvature and strong coordinate along the weak axis
+        (:func:`~diagnostics.fastpath.kernel.profile_points`)."""
+        n = grid.size
+        chi2, hss, zs = np.empty(n), np.empty(n), np.empty(n)
+        self.kernels.profile_points(np.asarray(z_hat, dtype=np.float64), slope, weak, grid, zl,
+                                    zu, self.prob, self.masked, chi2, hss, zs)
+        self._store()
+        return chi2, hss, zs
+
+
+@dataclass
+class RecordPack:
+    """The records of a ranking in the kernels' arrays (built once per ranking; the Newton
+    states carry over from one pair fit to the next, as the direct evaluator's do)."""
+
+    contexts: list[Any]
+    ctx_p: Arr
+    ctx_i: Arr
+    base: Arr
+    yobs: Arr
+    sig: Arr
+    wrow: Arr
+    oidx: npt.NDArray[np.int64]
+    start: npt.NDArray[np.int64]
+
+
+def record_pack(rig: Rig, models: Sequence[RecordModel]) -> RecordPack | None:
+    """:class:`RecordPack` of ``models`` (None unless every record has fast maps)."""
+    maps = [m.maps for m in models]
+    ctxs = [mp.ctx for mp in maps if isinstance(mp, FastMaps)]
+    if len(ctxs) != len(maps):
+        return None
+    return RecordPack(
+        ctxs, np.ascontiguousarray(np.array([c.params for c in ctxs])),
+        np.ascontiguousarray(np.array([c.states for c in ctxs])),
+        np.array([rig.base[n] for n in GRAPH_PARAMETERS]),
+        np.concatenate([m.obs.values for m in models]).astype(np.float64),
+        np.concatenate([m.sigma for m in models]).astype(np.float64),
+        _white_rows(models),
+        np.concatenate([m.idx for m in models]).astype(np.int64),
+        np.cumsum([0, *(len(m.idx) for m in models)]).astype(np.int64))
+
+
+def _white_rows(models: Sequence[RecordModel]) -> Arr:
+    """Each record's whitening matrix W stacked by rows: row ``a`` (reading ``a`` of all
+    records) holds the row of W of its record over that record's readings, zero-padded."""
+    width = max(len(m.idx) for m in models)
+    rows = np.zeros((sum(len(m.idx) for m in models), width))
+    a = 0
+    for m in models:
+        n = len(m.idx)
+        rows[a:a + n, :n] = m.white
+        a += n
+    return np.ascontiguousarray(rows)
+
+
+def pair_problem(rig: Rig, pack: RecordPack, params: tuple[FaultParameter, ...],
+                 masked: float) -> PairProblem | None:
+    """The compiled problem of fitting ``params`` to the records of ``pack``, or None when
+    a parameter's mapping is not one the kernels know (the caller then fits directly)."""
+    trs = [transform(rig, p) for p in params]
+    if len(params) != 2 or any(t is None for t in trs):
+        return None
+    ts = [t for t in trs if t is not None]
+    which = np.array([t.index for t in ts], dtype=np.int64)
+    tlog = np.array([t.log for t in ts], dtype=np.bool_)
+    tmode = np.array([t.mode for t in ts], dtype=np.int64)
+    tconst = np.array([t.const for t in ts], dtype=np.float64)
+    c0 = pack.contexts[0]
+    prob = (pack.ctx_p, pack.ctx_i, c0.mask, c0.scale, c0.oi, pack.base, c0.gidx, which, tlog,
+            tmode, tconst, pack.yobs, pack.sig, pack.wrow, pack.oidx, pack.start, c0.nout)
+    return PairProblem(c0.kernels, prob, float(masked), len(pack.contexts),
+                       int(pack.yobs.size), pack.contexts)

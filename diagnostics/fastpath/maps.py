@@ -1,0 +1,256 @@
+"""Signature maps and healthy predictions of the fast path, solved in one compiled call.
+
+:class:`FastMaps` is a :class:`~diagnostics.signatures.SignatureMaps` whose coarse grids
+(every single-fault hypothesis, 130 points on the reference rig) are solved by one call of
+the compiled :func:`~diagnostics.fastpath.kernel.solve_grid` and interpolated by the
+compiled masked PCHIP (:func:`~diagnostics.fastpath.pchip.pchip_columns`), the
+interpolation of :func:`~diagnostics.signatures.masked_pchip`.  Grids, pieces (the relief
+kink) and masking are the direct maps'; a point where Newton fails from the last and the
+nominal solution is retried by the direct evaluator (start-up transient), as the direct
+path does.  :class:`Context` holds one condition's parameter vectors and Newton states,
+which the compiled pair fits (:mod:`diagnostics.fastpath.fits`) continue from.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+from collections import OrderedDict
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from diagnostics.fastpath.compiled import compiled_kernels
+from diagnostics.hypotheses import HYPOTHESES, PARAMETERS, FaultParameter, Hypothesis
+from diagnostics.signatures import (
+    FINE_1D,
+    GRAPH_PARAMETERS,
+    OBSERVABLES,
+    HypothesisMap,
+    SignatureMaps,
+    evaluator,
+)
+from sim.cycle import phase_params
+from sim.errors import SimulationError
+from sim.rigs import Condition, Rig
+from sim.steady import SteadyEvaluator, steady_phase
+
+__all__ = ["Context", "FastMaps", "Transform", "fast_maps", "nominal_observables",
+           "transform"]
+
+Arr = npt.NDArray[np.float64]
+IArr = npt.NDArray[np.int64]
+
+#: model outputs the observables are made of, in the order the kernel expects
+_OUTPUTS = ("P_pump", "P1", "P2", "Q_meter_B", "Q_meter_C", "Q_relief", "v")
+
+#: per rig (held, so that its id is not reused while here), Newton starts of both phases
+_SEEDS: OrderedDict[int, tuple[Rig, Arr, Arr]] = OrderedDict()
+_MAPS: OrderedDict[tuple[int, Condition], FastMaps] = OrderedDict()
+_LOCK = threading.RLock()
+
+
+@dataclass(frozen=True)
+class Transform:
+    """Fitting coordinate → graph parameter of a fault parameter, in numbers the kernel
+    reads: ``g = c·v`` (mode 0) or ``c/v`` (mode 1), ``v = exp(z)`` if ``log`` else ``z``."""
+
+    index: int
+    log: bool
+    mode: int
+    const: float
+
+    def graph(self, z: Arr) -> Arr:
+        """Graph values [SI] at fitting coordinates ``z``."""
+        v = np.exp(z) if self.log else np.asarray(z, dtype=np.float64)
+        return np.asarray(self.const * v if self.mode == 0 else self.const / v)
+
+
+def transform(rig: Rig, p: FaultParameter) -> Transform | None:
+    """The :class:`Transform` of ``p`` read off :meth:`FaultParameter.graph_value` (one
+    proportional or inverse law), or None when it is neither (then the direct path runs)."""
+    g1, g2 = p.graph_value(rig, 1.0), p.graph_value(rig, 2.0)
+    index = GRAPH_PARAMETERS.index(p.graph_param)
+    if g1 != 0.0 and math.isclose(g2, 2.0 * g1, rel_tol=1e-12):
+        return Transform(index, p.log, 0, g1)
+    if g1 != 0.0 and math.isclose(g2, 0.5 * g1, rel_tol=1e-12):
+        return Transform(index, p.log, 1, g1)
+    return None
+
+
+def _seeds(rig: Rig) -> tuple[Arr, Arr]:
+    """Per rig, a Newton start of each phase: the nominal point at the default condition."""
+    with _LOCK:
+        entry = _SEEDS.get(id(rig))
+    if entry is not None and entry[0] is rig:
+        return entry[1], entry[2]
+    cond = rig.default_condition()
+    work = steady_phase(rig, "working", None, cond).state
+    back = steady_phase(rig, "return", None, cond).state
+    with _LOCK:
+        _SEEDS[id(rig)] = (rig, work, back)
+        while len(_SEEDS) > 16:
+            _SEEDS.popitem(last=False)
+    return work, back
+
+
+class Context:
+    """One rig at one condition, in the kernel's arrays.
+
+    Attributes
+    ----------
+    params
+        Working and return parameter vectors, shape ``(2, n_params)``.
+    states
+        Newton states: last working, last return, nominal working, nominal return,
+        shape ``(4, n_states)``; the last ones move with every solve (continuation).
+    """
+
+    def __init__(self, rig: Rig, condition: Condition) -> None:
+        m = rig.model
+        self.rig = rig
+        self.condition = condition
+        self.kernels = compiled_kernels(rig)
+        self.params = np.array([phase_params(rig, ph, None, condition)
+                                for ph in ("working", "return")])
+        self.gidx = np.array([m.param_index(n) for n in GRAPH_PARAMETERS], dtype=np.int64)
+        self.mask = np.ones(len(m.state_names), dtype=np.int64)
+        self.mask[m.state_index("cylinder.x")] = 0
+        self.scale = m.scale
+        self.oi = np.array([m.output_names.index(n) for n in _OUTPUTS], dtype=np.int64)
+        self.nout = len(m.output_names)
+        sw, sr = _seeds(rig)
+        mid = 0.5 * rig.base["cylinder.stroke"]
+        ix = m.state_index("cylinder.x")
+        sw, sr = sw.copy(), sr.copy()
+        sw[ix] = sr[ix] = mid
+        self.states = np.array([sw, sr, sw, sr])
+
+    def solve(self, grid: Arr, restart: IArr | None = None
+              ) -> tuple[Arr, npt.NDArray[np.bool_]]:
+        """Observables at each row of graph values ``grid`` (order of GRAPH_PARAMETERS);
+        rows whose Newton failed are NaN and False.  ``restart`` marks (1) the first row
+        of each run of equally spaced rows (a predictor runs along a run); default: every
+        row alone."""
+        n = grid.shape[0]
+        out = np.empty((n, len(OBSERVABLES)))
+        ok = np.zeros(n, dtype=np.bool_)
+        flags = np.ones(n, dtype=np.int64) if restart is None else restart
+        s = self.states
+        self.kernels.solve_grid(self.params[0], self.params[1], self.gidx,
+                                np.ascontiguousarray(grid), self.mask, self.scale, s[0], s[1],
+                                s[2], s[3], self.oi, out, ok, self.nout, flags)
+        return out, ok
+
+    def nominal(self, base: Arr) -> Arr:
+        """Observables at graph values ``base``; the nominal Newton states are set to the
+        solution.  Raises SimulationError where no steady point is found (transient start
+        included)."""
+        out, ok = self.solve(base[None, :])
+        if not ok[0]:
+            ev = SteadyEvaluator(self.rig, self.condition, GRAPH_PARAMETERS)
+            out[0] = ev.vector(base, OBSERVABLES)
+            self.states[0] = ev._last["working"]
+            self.states[1] = ev._last["return"]
+        self.states[2] = self.states[0]
+        self.states[3] = self.states[1]
+        return out[0]
+
+
+def nominal_observables(rig: Rig, condition: Condition) -> Arr:
+    """Observables of the healthy rig at ``condition`` (graph values of the parameter
+    vector, as :meth:`SteadyEvaluator.nominal`).  Raises SimulationError if none."""
+    ctx = Context(rig, condition)
+    return ctx.nominal(ctx.params[0][ctx.gidx])
+
+
+class FastMaps(SignatureMaps):
+    """:class:`SignatureMaps` built by the compiled kernels (module docstring)."""
+
+    def __init__(self, rig: Rig, condition: Condition) -> None:
+        self.rig = rig
+        self.condition = condition
+        self._ev: SteadyEvaluator | None = None
+        self._moved: dict[Condition, Arr | None] = {}
+        self._base = np.array([rig.base[n] for n in GRAPH_PARAMETERS])
+        self.ctx = Context(rig, condition)
+        try:
+            self.nominal = self.ctx.nominal(self._base)
+        except SimulationError:
+            self.nominal = np.full(len(OBSERVABLES), np.nan)
+        self.maps: dict[str, HypothesisMap] = {}
+        singles = [h for h in HYPOTHESES if len(h.parameters) == 1]
+        plans = []
+        rows = []
+        starts = []
+        for hyp in singles:
+            (p,) = (PARAMETERS[n] for n in hyp.parameters)
+            tr = transform(rig, p)
+            zf = self._axis(p, FINE_1D)
+            pieces = [np.linspace(lo, hi, n)
+                      for lo, hi, n in self._pieces(p, float(zf[0]), float(zf[-1]))]
+            for zc in pieces:
+                g = np.tile(self._base, (zc.size, 1))
+                if tr is not None:
+                    g[:, tr.index] = tr.graph(zc)
+                else:
+                    g[:, GRAPH_PARAMETERS.index(p.graph_param)] = [
+                        p.graph_value(rig, p.from_z(float(z))) for z in zc]
+                rows.append(g)
+                starts.append(np.arange(zc.size) == 0)
+            plans.append((hyp, p, zf, pieces))
+        coarse_all, ok = self.ctx.solve(np.concatenate(rows),
+                                        np.concatenate(starts).astype(np.int64))
+        start = 0
+        for hyp, p, zf, pieces in plans:
+            fine = np.empty((zf.size, len(OBSERVABLES)))
+            for k, zc in enumerate(pieces):
+                coarse = coarse_all[start:start + zc.size]
+                for i in np.flatnonzero(~ok[start:start + zc.size]):
+                    coarse[i] = self._solve_or_nan((p,), p.from_z(float(zc[i])))
+                start += zc.size
+                sel = (zf >= zc[0]) & ((zf <= zc[-1]) if k == len(pieces) - 1 else (zf < zc[-1]))
+                part = np.empty((int(sel.sum()), len(OBSERVABLES)))
+                self.ctx.kernels.pchip_columns(zc, np.ascontiguousarray(coarse), zf[sel], part)
+                fine[sel] = part
+            self.maps[hyp.name] = HypothesisMap(hyp, (p,), [zf], fine)
+
+    def moved_nominal(self, condition: Condition) -> Arr:
+        """Healthy observables at a condition near this one (the σ of a record's condition
+        uncertainty), remembered with the maps.  Raises SimulationError if none."""
+        if condition not in self._moved:
+            try:
+                self._moved[condition] = nominal_observables(self.rig, condition)
+            except SimulationError:
+                self._moved[condition] = None
+        out = self._moved[condition]
+        if out is None:
+            raise SimulationError(f"no healthy operating point at {condition}")
+        return out
+
+    @property
+    def ev(self) -> SteadyEvaluator:  # type: ignore[override]
+        """The direct evaluator (built on first use: retries and the direct path)."""
+        if self._ev is None:
+            self._ev = evaluator(self.rig, self.condition)
+        return self._ev
+
+    def _build(self, hyp: Hypothesis) -> HypothesisMap:  # pragma: no cover - not used
+        return self.maps[hyp.name]
+
+
+def fast_maps(rig: Rig, condition: Condition) -> FastMaps:
+    """Cached :class:`FastMaps` of ``rig`` at ``condition`` (32 most recent)."""
+    key = (id(rig), condition)
+    with _LOCK:
+        maps = _MAPS.get(key)
+        if maps is not None:
+            _MAPS.move_to_end(key)
+            return maps
+    maps = FastMaps(rig, condition)
+    with _LOCK:
+        _MAPS[key] = maps
+        while len(_MAPS) > 32:
+            _MAPS.popitem(last=False)
+    return maps

@@ -1,0 +1,136 @@
+"""One record inside a ranking: its readings, their covariance, and its condition's
+signature maps.
+
+The covariance of the record's readings is
+
+.. math:: C = \\mathrm{diag}(u_i^2 + (ρ\\,ŷ_i)^2) + \\sum_k s_k s_k^T u_k^2
+
+with ``u`` the measurements' own uncertainties, ρ a relative model uncertainty and ``s_k``
+the healthy readings' sensitivity to the record's oil temperature and load (one-sided
+differences of 1 K and 1 % of the load), ``u_k`` their standard uncertainties: one
+thermometer or load-cell error moves every reading of the record at once, so it is a
+correlated (rank-one) term, not one independent σ per reading.  Residuals are whitened by
+``W`` with ``WᵀW = C⁻¹`` (:func:`diagnostics.evidence.whitening`, GUM Supplement 2 §3.21);
+``sigma`` is the marginal standard uncertainty of each reading (the diagonal of C).  This
+is the one likelihood of both inference paths: the direct one
+(:mod:`diagnostics.pair_direct`) calls :meth:`RecordModel.whitened`, the compiled one
+(:mod:`diagnostics.fastpath.fits`) is handed ``white`` and multiplies by it in the kernel.
+
+The healthy predictions come from the direct evaluator
+(:func:`diagnostics.signatures.evaluator`) or, on the fast path, from the compiled kernels
+(:func:`diagnostics.fastpath.maps.nominal_observables`); the maps likewise.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import numpy.typing as npt
+
+from diagnostics.evidence import whitening
+from diagnostics.fastpath.maps import FastMaps, fast_maps, nominal_observables
+from diagnostics.observations import RecordObservations, condition_sigma
+from diagnostics.signatures import OBSERVABLES, SignatureMaps, evaluator, signature_maps
+from sim.errors import SimulationError
+from sim.rigs import Condition, Rig
+
+__all__ = ["RecordModel"]
+
+Arr = npt.NDArray[np.float64]
+
+#: cap of a condition sensitivity [unit of the reading per K or N] (its square stays finite)
+_HUGE = 1.0e100
+
+
+class RecordModel:
+    """One record's observations, their covariance, and its condition's signature maps.
+
+    Attributes ``sigma`` (marginal σ of each reading [SI]) and ``white`` (whitening
+    matrix W [1/SI], lower triangular, one row and column per reading).
+
+    Parameters
+    ----------
+    rig
+        The rig.
+    obs
+        The record's observations.
+    model_rel
+        Relative model uncertainty [-].
+    fast
+        Build maps and healthy predictions with the compiled kernels
+        (:mod:`diagnostics.fastpath`) instead of the direct evaluator.
+    """
+
+    def __init__(self, rig: Rig, obs: RecordObservations, model_rel: float,
+                 fast: bool = False) -> None:
+        self.obs = obs
+        self.fast = fast
+        if fast:
+            self.maps: SignatureMaps = fast_maps(rig, obs.condition)
+        else:
+            self.maps = signature_maps(rig, obs.condition)
+        self.idx = np.array([OBSERVABLES.index(n) for n in obs.names], dtype=np.int64)
+        pred = self.maps.nominal[self.idx]
+        # a reading the healthy rig cannot produce (a stalled return stroke has no velocity
+        # ratio) gets no model or condition term: its σ is the measurement's own
+        diag = obs.u**2 + np.nan_to_num(model_rel * pred) ** 2
+        u_t, u_f = condition_sigma(obs.record)
+        cond = obs.condition
+        terms: list[Arr] = []
+        if u_t > 0:
+            terms.append(self._condition_term(
+                rig, pred, [(replace(cond, oil_temperature=cond.oil_temperature + s), s)
+                            for s in (1.0, -1.0)]) * u_t)
+        if u_f > 0:
+            if cond.load > 0:
+                step = 0.01 * cond.load
+                moved = [(replace(cond, load=cond.load + s), s) for s in (step, -step)]
+            else:
+                step = 0.01 * max(cond.back_pressure, 1e5)
+                moved = [(replace(cond, back_pressure=cond.back_pressure + s), s)
+                         for s in (step, -step)]
+            terms.append(self._condition_term(rig, pred, moved) * u_f)
+        self.sigma, self.white = whitening(diag, terms)
+
+    def _condition_term(self, rig: Rig, pred: Arr, moved: list[tuple[Condition, float]]
+                        ) -> Arr:
+        """Sensitivity of the healthy readings to a condition, by a one-sided
+        difference (the other side where the first has no steady point; 0 where neither)."""
+        for cond, step in moved:
+            try:
+                moved_pred = self._moved(rig, cond)
+            except SimulationError:
+                continue
+            with np.errstate(over="ignore", invalid="ignore"):
+                d = (moved_pred - pred) / step
+            # near a stall a reading (the velocity ratio) may react without bound: cap the
+            # sensitivity so its σ stays finite, huge, and the reading weighs nothing
+            d = np.clip(np.nan_to_num(d, nan=0.0, posinf=_HUGE, neginf=-_HUGE), -_HUGE, _HUGE)
+            return np.asarray(d)
+        return np.zeros_like(pred)
+
+    def _moved(self, rig: Rig, cond: Condition) -> Arr:
+        """Healthy readings at a moved condition (SimulationError when none)."""
+        if self.fast:
+            moved = self.maps.moved_nominal(cond) if isinstance(self.maps, FastMaps) else \
+                nominal_observables(rig, cond)
+            return np.asarray(moved[self.idx])
+        return self._vec(evaluator(rig, cond).nominal())
+
+    def _vec(self, pred: dict[str, float]) -> Arr:
+        return np.array([pred[n] for n in self.obs.names])
+
+    def whitened(self, resid: Arr) -> Arr:
+        """Residuals ``y − ŷ`` [SI] (last axis: the readings) → independent unit normals."""
+        return np.asarray(resid @ self.white.T)
+
+    def chi2_grid(self, pred: Arr) -> Arr:
+        """χ² of this record at every point of a map (``pred[..., observables]``)."""
+        r = self.whitened(self.obs.values - pred[..., self.idx])
+        chi2 = np.sum(r * r, axis=-1)
+        # a masked prediction (stall, no operating point) cannot produce the reading
+        return np.asarray(np.where(np.isnan(chi2), np.inf, chi2))
+
+    def as_dict(self, full: Arr) -> dict[str, float]:
+        return {n: float(v) for n, v in zip(OBSERVABLES, full, strict=True)}

@@ -1,0 +1,99 @@
+"""``hydrodiag diagnose-batch``: a CSV or JSON Lines file of records, each diagnosed alone."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pandas as pd
+import pytest
+from typer.testing import CliRunner
+
+from app.cli import cli
+from diagnostics.batch import diagnose_many
+from sim.rigs import reference_rig
+from tests.diagnostics.synth import FULL, readings, record
+
+_CASES = ({"valve.cv": 60e-6}, {"cylinder.cc": 150e-6}, {})
+
+
+@pytest.fixture
+def runner(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> CliRunner:
+    monkeypatch.setenv("HYDRODIAG_DATA_DIR", str(tmp_path / "store"))
+    monkeypatch.delenv("HYDRODIAG_DATABASE_URL", raising=False)
+    monkeypatch.delenv("HYDRODIAG_DASK_SCHEDULER", raising=False)
+    return CliRunner()
+
+
+def _rows() -> list[dict[str, float]]:
+    rig = reference_rig()
+    rows = []
+    for k, faults in enumerate(_CASES):
+        temperature, load = 35.0 + 5 * k, 1800.0 + 400 * k
+        vals = readings(rig, faults, load, temperature)
+        row = {f: vals[f] for f in FULL}
+        row["condition.oil_temperature"] = temperature
+        row["condition.load_force"] = load
+        rows.append(row)
+    return rows
+
+
+def test_a_csv_batch_names_each_fault_and_writes_a_result_per_row(
+        runner: CliRunner, tmp_path: Path) -> None:
+    pd.DataFrame(_rows()).to_csv(tmp_path / "records.csv", index=False)
+    out = tmp_path / "results.jsonl"
+    result = runner.invoke(cli, ["diagnose-batch", str(tmp_path / "records.csv"), "--rig", "1",
+                                 "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    results = [json.loads(line) for line in out.read_text().splitlines()]
+    assert [r["top"] for r in results] == ["valve", "cylinder", "healthy"]
+    (cv,) = results[0]["parameters"]
+    assert cv["name"] == "cv" and abs(cv["value"] - 60e-6) < 0.03 * 60e-6
+    assert cv["low"] <= 60e-6 <= cv["high"]
+    (cc,) = results[1]["parameters"]
+    assert abs(cc["value"] - 150e-6) < 0.03 * 150e-6
+
+
+def test_a_jsonl_batch_with_a_bad_record_is_refused_naming_the_line(
+        runner: CliRunner, tmp_path: Path) -> None:
+    lines = []
+    for row in _rows():
+        cond = {"oil_temperature": row.pop("condition.oil_temperature"),
+                "load_force": row.pop("condition.load_force")}
+        lines.append(json.dumps({**row, "condition": cond}))
+    lines[1] = lines[1].replace('"p1"', '"p_one"')
+    path = tmp_path / "records.jsonl"
+    path.write_text("\n".join(lines) + "\n")
+    bad = runner.invoke(cli, ["diagnose-batch", str(path)])
+    assert bad.exit_code != 0
+    assert getattr(bad.exception, "field", "").startswith("line 2")
+
+
+def test_diagnose_many_on_a_process_pool_and_a_dask_cluster_equals_in_process() -> None:
+    """The same records give the same results in-process, on 2 processes and on a
+    2-worker Dask LocalCluster (through SweepExecutors, as sweeps use it)."""
+    from distributed import LocalCluster
+
+    from app.services.executors import SweepExecutors
+
+    rig = reference_rig()
+    records = [record(rig, f, load=1500.0 + 300 * k, temperature=30.0 + 7 * k)
+               for k, f in enumerate(_CASES * 2)]
+    seen: list[tuple[int, int]] = []
+    here = diagnose_many(rig, records, progress=lambda d, t: seen.append((d, t)))
+    assert seen[-1] == (len(records), len(records))
+    pool = SweepExecutors(workers=2)
+    try:
+        on_pool = diagnose_many(rig, records, executor=pool.get(), chunk_size=2)
+    finally:
+        pool.shutdown()
+    with LocalCluster(n_workers=2, threads_per_worker=1, dashboard_address=None) as cluster:
+        dask = SweepExecutors(dask_scheduler=cluster.scheduler_address)
+        try:
+            on_dask = diagnose_many(rig, records, executor=dask.get(), chunk_size=2)
+        finally:
+            dask.shutdown()
+    for a, b, c in zip(here, on_pool, on_dask, strict=True):
+        assert a["top"] == b["top"] == c["top"]
+        assert abs(a["probability"] - b["probability"]) < 1e-6
+        assert abs(a["probability"] - c["probability"]) < 1e-6
