@@ -10,11 +10,12 @@ free loopback port and sends it traffic from this process (asyncio + httpx, 127.
    a diagnosis over the cost of the HTTP stack alone, in the same run.
 2. **Sustained** — stored ``POST /diagnose`` opened at ``RATE`` (200) requests/s for
    ``DURATION_S`` (60 s; 10 s with ``HYDRODIAG_LIGHT=1``) whatever the answers' pace (open
-   loop), while ``GET /health`` is probed 20 times a second on its own connection.
+   loop), while ``GET /health`` is probed 20 times a second from a process of its own
+   (:mod:`benchmarks.load_probe`: probed from the sending process it measured the client).
    Errors are non-200 answers, transport errors and answers later than 10 s.  Every
    acknowledged diagnosis (a 200 with its id) must be in the store afterwards.
-3. **Ramp** — the same open loop at rising rates (``RAMP_RPS``, ``RAMP_S`` each; light
-   form: two short steps) until p99 passes 100 ms or a request fails; the highest rate
+3. **Ramp** — the same open loop at rising rates from 50/s (``RAMP_RPS``, ``RAMP_S`` each;
+   light form: three short steps) until p99 passes 100 ms or a request fails; the highest rate
    that held is reported.
 
 Every record is different: readings simulated (``POST /simulate``, steady path) on a grid
@@ -58,7 +59,9 @@ CONCURRENCY = 4
 N_REQUESTS = 150 if LIGHT else 500
 RATE = 200.0
 DURATION_S = 10.0 if LIGHT else 60.0
-RAMP_RPS = (150.0, 300.0) if LIGHT else (150.0, 200.0, 250.0, 300.0, 400.0, 500.0, 650.0)
+RAMP_RPS = (50.0, 100.0, 150.0) if LIGHT else (50.0, 75.0, 100.0, 125.0, 150.0, 200.0, 250.0,
+                                               300.0, 400.0)
+PROBE_RATE = 20.0
 RAMP_S = 4.0 if LIGHT else 15.0
 STARTUP_TIMEOUT_S = 240.0
 READY_IN_A_ROW = 10
@@ -191,9 +194,20 @@ def _acknowledged_ids(responses: list[httpx.Response]) -> list[int]:
     return [int(d["id"]) for r in responses for d in r.json()["diagnoses"]]
 
 
-def _sustained(base_url: str, diagnose: Send, health: Send, rate: float, duration: float
+def _sustained(base_url: str, diagnose: Send, rate: float, duration: float
                ) -> dict[str, Any]:
-    return asyncio.run(open_loop(base_url, diagnose, rate, duration, probe=health))
+    """The open loop, with ``/health`` probed from a process of its own meanwhile."""
+    prober = subprocess.Popen(
+        [sys.executable, "-m", "benchmarks.load_probe", base_url, str(duration),
+         str(PROBE_RATE)], stdout=subprocess.PIPE, text=True)
+    try:
+        figures = asyncio.run(open_loop(base_url, diagnose, rate, duration))
+        out, _ = prober.communicate(timeout=duration + 60.0)
+    finally:
+        if prober.poll() is None:
+            prober.kill()
+    figures["probe"] = json.loads(out.strip().splitlines()[-1])
+    return figures
 
 
 def _holds(figures: dict[str, Any]) -> bool:
@@ -220,10 +234,10 @@ def run() -> dict[str, Any]:
                                                CONCURRENCY))
         diagnose_stats = asyncio.run(closed_loop(service.base_url, diagnose, N_REQUESTS,
                                                  CONCURRENCY))
-        sustained = _sustained(service.base_url, diagnose, health, RATE, DURATION_S)
+        sustained = _sustained(service.base_url, diagnose, RATE, DURATION_S)
         ramp = []
         for rate in RAMP_RPS:
-            step = _sustained(service.base_url, diagnose, health, rate, RAMP_S)
+            step = _sustained(service.base_url, diagnose, rate, RAMP_S)
             ramp.append(step)
             if not _holds(step):
                 break
