@@ -37,7 +37,6 @@ from app.services.diagnosis_pool import DiagnosisPool
 __all__ = ["router"]
 
 
-
 async def _admitted(request: Request) -> AsyncIterator[None]:
     """Count the request in (before anything reads the store), or answer 503 at once."""
     pool: DiagnosisPool = request.app.state.diagnosis_pool
@@ -51,8 +50,9 @@ router = APIRouter(tags=["diagnosis"], dependencies=[Depends(_admitted), ReadAcc
 
 def _plan(request: Request, session: Session, body: DiagnoseRequest, key: str | None,
           now: datetime) -> list[GroupPlan]:
-    """Check the key (scope ``write``) when storing, resolve the rigs and build the records; then close the
-    request's session, so that no connection is held while the diagnoses are computed."""
+    """Check the key (scope ``write``) when storing, resolve the rigs and build the records;
+    then close the request's session, so that no connection is held while the diagnoses are
+    computed."""
     try:
         if body.store:
             require_write_key(request, session, key)
