@@ -15,11 +15,7 @@ This module imports only :mod:`diagnostics` and :mod:`sim`: a worker loads no se
 
 from __future__ import annotations
 
-import hashlib
-import json
 import math
-import threading
-from collections import OrderedDict
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import Executor, Future, as_completed
 from typing import Any
@@ -28,31 +24,13 @@ from diagnostics.diagnose import Diagnosis, diagnose
 from diagnostics.measurement import MeasurementRecord
 from diagnostics.ranking import Method
 from sim.errors import HydrodiagError
-from sim.rigs import Rig, load_rig
+from sim.rigs import Rig
+from sim.rigs.process_cache import rig_of_document
 
 __all__ = ["diagnose_chunk", "diagnose_many", "summary"]
 
 #: progress callback: (records done, records in all)
 Progress = Callable[[int, int], None]
-
-_RIGS: OrderedDict[str, Rig] = OrderedDict()
-_RIGS_LOCK = threading.Lock()
-
-
-def _rig(document: Mapping[str, Any]) -> Rig:
-    """The compiled rig of ``document``, kept per process (4 most recent)."""
-    key = hashlib.sha256(json.dumps(document, sort_keys=True, default=str).encode()).hexdigest()
-    with _RIGS_LOCK:
-        rig = _RIGS.get(key)
-        if rig is not None:
-            _RIGS.move_to_end(key)
-            return rig
-    rig = load_rig(document)
-    with _RIGS_LOCK:
-        rig = _RIGS.setdefault(key, rig)
-        while len(_RIGS) > 4:
-            _RIGS.popitem(last=False)
-    return rig
 
 
 def _finite(x: float) -> float | None:
@@ -96,7 +74,7 @@ def diagnose_chunk(document: Mapping[str, Any], records: Sequence[MeasurementRec
         Per record :func:`summary` (``full``: :meth:`Diagnosis.to_dict`), or
         ``{"error": message, "field": field}``.
     """
-    rig = _rig(document)
+    rig = rig_of_document(document)
     return [_one(rig, r, full, method) for r in records]
 
 

@@ -8,17 +8,14 @@ last operating point carries over from one chunk to the next.
 
 from __future__ import annotations
 
-import hashlib
-import json
 import math
-import threading
-from collections import OrderedDict
 from collections.abc import Mapping, Sequence
 from typing import Any
 
 from sim.cycle import PHASES, SUMMARY_UNITS, run_cycle
 from sim.errors import HydrodiagError
-from sim.rigs import Condition, Rig, load_rig
+from sim.rigs import Condition
+from sim.rigs.process_cache import rig_of_document
 from sim.steady import steady_cycle
 
 __all__ = ["SUMMARY_COLUMNS", "evaluate_chunk"]
@@ -28,25 +25,6 @@ SUMMARY_COLUMNS: tuple[str, ...] = (
     *(f"{phase}.{key} [{unit}]" for phase in PHASES for key, unit in SUMMARY_UNITS.items()),
     "velocity_ratio [-]",
 )
-
-_RIGS: OrderedDict[str, Rig] = OrderedDict()
-_RIGS_LOCK = threading.Lock()
-_RIGS_KEPT = 4
-
-
-def _rig(document: Mapping[str, Any]) -> Rig:
-    key = hashlib.sha256(json.dumps(document, sort_keys=True, default=str).encode()).hexdigest()
-    with _RIGS_LOCK:
-        rig = _RIGS.get(key)
-        if rig is not None:
-            _RIGS.move_to_end(key)
-            return rig
-    rig = load_rig(document)
-    with _RIGS_LOCK:
-        rig = _RIGS.setdefault(key, rig)
-        while len(_RIGS) > _RIGS_KEPT:
-            _RIGS.popitem(last=False)
-    return rig
 
 
 def _values(summary: Mapping[str, float]) -> list[float | None]:
@@ -78,7 +56,7 @@ def evaluate_chunk(document: Mapping[str, Any], method: str,
         ``{"error": message}`` when the point has no solution (a stall, a failed solve):
         one bad point does not end a sweep.
     """
-    rig = _rig(document)
+    rig = rig_of_document(document)
     out: list[dict[str, Any]] = []
     for point in points:
         condition = Condition(**point["condition"])
