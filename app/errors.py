@@ -12,7 +12,8 @@ class                          status  when
 ``AuthError``                  401     missing or wrong ``X-API-Key``
 ``ScopeError``                 403     the key's scope does not allow the operation
 ``NotFoundError``              404     unknown id (in the path or the body)
-``ConflictError``              409     duplicate name, deleting what is in use
+``ConflictError``              409     duplicate name, deleting what is in use, a row
+                                       changed by a concurrent request (StaleDataError)
 ``PayloadTooLargeError``        413     the body is over ``max_body_bytes``
 ``RateLimitError``             429     the key's requests per minute are spent
 ``InputError`` and subclasses  422     invalid input, names the field
@@ -38,6 +39,7 @@ from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
 from fastapi.routing import iter_route_contexts
+from sqlalchemy.orm.exc import StaleDataError
 from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.routing import Match
 
@@ -234,6 +236,16 @@ async def _overflow_error(request: Request, exc: Exception) -> JSONResponse:
                           request=request)
 
 
+async def _stale_row(request: Request, exc: Exception) -> JSONResponse:
+    # a concurrent request deleted or rewrote the row this one was updating (found by the
+    # fuzzer: PATCH of a throttle table racing its DELETE); nothing of this request stored
+    logger.warning("concurrent change of a stored row: %s", exc)
+    return error_response(409, ConflictError.__name__,
+                          "the item was changed or deleted by another request while this one "
+                          "wrote it; nothing was stored: read it again and retry",
+                          request=request)
+
+
 async def _unexpected_error(request: Request, exc: Exception) -> JSONResponse:
     logger.exception("unexpected error", exc_info=exc)
     return error_response(500, "InternalError",
@@ -247,4 +259,5 @@ def install_error_handlers(app: FastAPI) -> None:
     app.add_exception_handler(RequestValidationError, _validation_error)
     app.add_exception_handler(StarletteHTTPException, _http_error)
     app.add_exception_handler(OverflowError, _overflow_error)
+    app.add_exception_handler(StaleDataError, _stale_row)
     app.add_exception_handler(Exception, _unexpected_error)

@@ -25,6 +25,7 @@ from scipy import stats
 
 from diagnostics.discrepancy.balances import BalanceData
 from sim.components.effects import EFFECTS
+from sim.errors import MeasurementError
 
 __all__ = ["ALPHA", "BIC_MARGIN", "PRACTICAL", "Selection", "Term", "select"]
 
@@ -131,6 +132,10 @@ def _hac_cov(X: Arr, resid: Arr, lags: int) -> Arr:
     return np.asarray(xtx_inv @ S @ xtx_inv, dtype=float)
 
 
+#: Fewest samples per fitted term a balance must hold for the selection [-].
+MIN_SAMPLES_PER_TERM = 5
+
+
 def _bic(rss: float, n: int, k: int) -> float:
     return n * math.log(max(rss, 1e-300) / n) + k * math.log(n)
 
@@ -213,6 +218,12 @@ def select(data: BalanceData, *, bootstrap: int = 30, seed: int = 0, lags: int =
     cnames, Xc_all, cscale = _scaled(data.candidates)
     m = len(cnames)
     n = y.size
+    if n < MIN_SAMPLES_PER_TERM * (Xb.shape[1] + 2):
+        raise MeasurementError(
+            f"the {data.balance.name} balance has {n} usable samples; at least "
+            f"{MIN_SAMPLES_PER_TERM * (Xb.shape[1] + 2)} are needed to fit its "
+            f"{Xb.shape[1]} base terms and two candidates (longer records, or a higher "
+            "sample rate)", field="file")
     base_coef, *_ = np.linalg.lstsq(Xb, y, rcond=None)
     base_resid = y - Xb @ base_coef
     base_bic = _bic(float(base_resid @ base_resid), n, Xb.shape[1])

@@ -63,3 +63,27 @@ def test_server_side_errors_keep_the_body_and_hide_internals() -> None:
     assert bug_response.status_code == 500
     assert bug_response.json()["error"]["type"] == "InternalError"
     assert "secret" not in bug_response.text
+
+
+def test_a_row_changed_under_a_write_is_a_409_not_a_500() -> None:
+    """Found by the fuzzer: PATCH of a throttle table racing its DELETE raised SQLAlchemy's
+    StaleDataError, answered 500."""
+    from sqlalchemy.orm.exc import StaleDataError
+
+    app = FastAPI()
+    install_error_handlers(app)
+
+    @app.patch("/row")
+    def row() -> None:
+        raise StaleDataError("UPDATE statement on table 'x' expected to update 1 row(s); 0 "
+                             "were matched.")
+
+    async def ask() -> httpx.Response:
+        transport = httpx.ASGITransport(app=app, raise_app_exceptions=False)
+        async with httpx.AsyncClient(transport=transport, base_url="http://t") as client:
+            return await client.patch("/row")
+
+    response = asyncio.run(ask())
+    assert response.status_code == 409
+    assert response.json()["error"]["type"] == "ConflictError"
+    assert "retry" in response.json()["error"]["message"]

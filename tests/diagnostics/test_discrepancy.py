@@ -92,3 +92,23 @@ def test_a_gap_outside_the_library_is_unexplained_not_misnamed():
     assert d.named == []
     assert d.verdict == "unexplained"
     assert "P_pump" in d.message
+
+
+def test_a_balance_with_too_few_samples_is_an_input_error_naming_the_file():
+    """Found by the fuzzer: a record of a few samples divided by zero in the BIC."""
+    import dataclasses
+
+    from sim.errors import MeasurementError
+
+    rig = reference_rig()
+    recs = _records(reference_rig_document(), 1)
+    data = {d.balance.name: d for d in balance_data(prepare(recs, rig), rig.values())}
+    full = data["pump_flow"]
+    for n in (0, 3):
+        short = dataclasses.replace(
+            full, y=full.y[:n], base={k: v[:n] for k, v in full.base.items()},
+            candidates={k: v[:n] for k, v in full.candidates.items()}, mask=full.mask[:n])
+        with pytest.raises(MeasurementError, match="usable samples") as err:
+            select(short, bootstrap=0)
+        assert err.value.field == "file"
+    assert select(full, bootstrap=0) is not None
