@@ -5,7 +5,8 @@ their source into one generated module per rig, below
 ``from <rig module> import steady, outputs``, and compiles them there with numba
 (``cache=True``: a second process loads the machine code).  ``steady`` is the rig's damped
 Newton solver (:func:`sim.solver.rosenbrock.steady`, specialised to the rig's right-hand
-side) and ``outputs`` its output function; as plain Python the placeholders below raise.
+side) and ``outputs`` its output function, declared in
+:mod:`diagnostics.fastpath.rig_interface` (``.pyi``); nothing here is called as plain Python.
 
 What is compiled here is what the direct path (:mod:`diagnostics.ranking`) does once per
 model evaluation, in Python:
@@ -31,22 +32,16 @@ the same Python functions the direct path uses.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:  # bound in the generated module (see the module docstring)
+    from diagnostics.fastpath.rig_interface import outputs, steady
 
 #: names copied into the generated module, in dependency order
 KERNELS = ("observables", "solve_point", "solve_grid", "graph_values", "residuals",
            "pair_fit", "profile_points")
-
-
-def steady(y0, p, mask, scale, tol, maxit, y):  # type: ignore[no-untyped-def]
-    """Placeholder of the rig's compiled Newton solver (see the module docstring)."""
-    raise NotImplementedError("only the generated module has the rig's solver")
-
-
-def outputs(t, y, p, out):  # type: ignore[no-untyped-def]
-    """Placeholder of the rig's compiled output function (see the module docstring)."""
-    raise NotImplementedError("only the generated module has the rig's outputs")
 
 
 def observables(w, r, oi, out):  # type: ignore[no-untyped-def]

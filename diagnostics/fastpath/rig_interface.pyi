@@ -1,0 +1,19 @@
+"""What a rig's generated module (:mod:`sim.bondgraph.codegen`) provides to the fast-path kernels.
+
+The kernels of :mod:`diagnostics.fastpath.kernel` are compiled below
+``from <rig module> import steady, outputs``; this declaration names those two functions
+and their signatures for the type checker and the reader.
+"""
+
+import numpy as np
+import numpy.typing as npt
+
+_Arr = npt.NDArray[np.float64]
+_IArr = npt.NDArray[np.int64]
+
+def steady(y0: _Arr, p: _Arr, mask: _IArr, scale: _Arr, tol: float, maxit: int,
+           y: _Arr) -> tuple[int, int, float]:
+    """The rig's damped Newton solver (:func:`sim.solver.rosenbrock.steady` on its RHS)."""
+
+def outputs(t: float, y: _Arr, p: _Arr, out: _Arr) -> None:
+    """The rig's output function: writes every declared output into ``out``."""
