@@ -12,7 +12,6 @@ use) — with a progress bar.  The results are not stored in the history (use
 
 from __future__ import annotations
 
-import io
 import json
 import time
 from collections import Counter
@@ -25,31 +24,10 @@ from pydantic import ValidationError
 from rich.table import Table
 
 from app.cli_support import console, steps, store_session
+from app.schemas.record_csv import record_rows
 from sim.errors import InputError
 
 __all__ = ["diagnose_batch", "read_batch", "register"]
-
-
-def _csv_rows(text: str) -> list[dict[str, Any]]:
-    import pandas as pd
-
-    try:
-        frame = pd.read_csv(io.StringIO(text), comment="#")
-    except (ValueError, pd.errors.ParserError) as exc:
-        raise InputError(f"not a readable CSV: {exc}", field="FILE") from None
-    rows = []
-    for _, row in frame.iterrows():
-        record: dict[str, Any] = {}
-        for column, value in row.items():
-            if pd.isna(value):
-                continue
-            target = record
-            *parents, leaf = str(column).strip().split(".")
-            for part in parents:
-                target = target.setdefault(part, {})
-            target[leaf] = value.item() if hasattr(value, "item") else value
-        rows.append(record)
-    return rows
 
 
 def read_batch(path: Path, rig_id: int) -> list[Any]:
@@ -80,7 +58,7 @@ def read_batch(path: Path, rig_id: int) -> list[Any]:
                 raise InputError(f"line {n} is not JSON: {exc.msg}", field=f"line {n}") from None
         where = "line"
     else:
-        rows = _csv_rows(text)
+        rows = record_rows(text.encode(), field="FILE")
         where = "row"
     if not rows:
         raise InputError("the file holds no records", field="FILE")

@@ -2,13 +2,11 @@
 
 from __future__ import annotations
 
-import io
 import json
 import re
 from datetime import datetime
 from typing import Annotated, Any
 
-import pandas as pd
 import yaml
 from fastapi import File, Form, Path, Query, Request, Response, UploadFile
 from pydantic import AwareDatetime, TypeAdapter, ValidationError
@@ -19,6 +17,7 @@ from app.console.views import diagnosis_view, history_page, trend_views
 from app.console.web import page, redirect
 from app.errors import format_location
 from app.schemas.diagnose import DiagnoseRequest
+from app.schemas.record_csv import record_rows
 from app.security import Scope
 from app.services import rigs as rig_service
 from app.services.diagnosis import diagnose_request
@@ -51,24 +50,9 @@ def _csv_records(content: bytes) -> list[dict[str, Any]]:
     if len(content) > MAX_INPUT_BYTES:
         raise InputError(f"the file has {len(content)} bytes; at most {MAX_INPUT_BYTES}",
                          field="file")
-    try:
-        frame = pd.read_csv(io.BytesIO(content), comment="#")
-    except (ValueError, UnicodeDecodeError, pd.errors.ParserError) as exc:
-        raise InputError(f"not a readable CSV: {exc}", field="file") from None
-    if frame.empty:
+    records = record_rows(content, field="file")
+    if not records:
         raise InputError("the CSV has no rows", field="file")
-    records = []
-    for _, row in frame.iterrows():
-        record: dict[str, Any] = {}
-        for column, value in row.items():
-            if pd.isna(value):
-                continue
-            target = record
-            *parents, leaf = str(column).strip().split(".")
-            for part in parents:
-                target = target.setdefault(part, {})
-            target[leaf] = value.item() if hasattr(value, "item") else value
-        records.append(record)
     return records
 
 
