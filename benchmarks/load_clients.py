@@ -1,4 +1,4 @@
-"""Traffic of the load benchmark: closed-loop clients, an open-loop sender, a health probe.
+"""Traffic of the load benchmark: closed-loop clients and an open-loop sender.
 
 Every function takes a ``send`` coroutine (one request on a given ``httpx.AsyncClient``)
 and returns plain figures: latencies [ms] at p50/p99, errors, throughput [1/s].
@@ -62,35 +62,12 @@ async def closed_loop(base_url: str, send: Send, n: int, concurrency: int) -> di
     return stats(latencies, errors, elapsed)
 
 
-async def _probe(base_url: str, send: Send, rate: float, stop: asyncio.Event
-                 ) -> dict[str, float]:
-    """Send one request every 1/``rate`` s on its own connection until ``stop``."""
-    latencies: list[float] = []
-    errors = 0
-    async with httpx.AsyncClient(base_url=base_url, timeout=TIMEOUT_S) as http:
-        start = time.perf_counter()
-        while not stop.is_set():
-            sent = time.perf_counter()
-            try:
-                ok = (await send(http)).status_code == 200
-            except httpx.HTTPError:
-                ok = False
-            if ok:
-                latencies.append(time.perf_counter() - sent)
-            else:
-                errors += 1
-            await asyncio.sleep(max(0.0, 1.0 / rate - (time.perf_counter() - sent)))
-        elapsed = time.perf_counter() - start
-    return stats(latencies, errors, elapsed)
-
-
-async def open_loop(base_url: str, send: Send, rate: float, duration: float, *,
-                    probe: Send | None = None, probe_rate: float = 20.0) -> dict[str, Any]:
+async def open_loop(base_url: str, send: Send, rate: float, duration: float
+                    ) -> dict[str, Any]:
     """Open a request every 1/``rate`` s for ``duration`` s, whatever the answers' pace.
 
-    Meanwhile ``probe`` (``GET /health``) is sent ``probe_rate`` times a second on a
-    connection of its own; its figures are under ``"probe"``.  ``"acknowledged"`` holds
-    the answers of 200 (to check them against the store).
+    ``"acknowledged"`` holds the answers of 200 (to check them against the store).  The
+    liveness probe runs in a process of its own (:mod:`benchmarks.load_probe`).
     """
     latencies: list[float] = []
     failures: dict[str, int] = {}
@@ -124,8 +101,6 @@ async def open_loop(base_url: str, send: Send, rate: float, duration: float, *,
     total = round(rate * duration)
     limits = httpx.Limits(max_connections=CLIENT_CONNECTIONS,
                           max_keepalive_connections=CLIENT_CONNECTIONS)
-    stop = asyncio.Event()
-    probing = asyncio.create_task(_probe(base_url, probe, probe_rate, stop)) if probe else None
     async with httpx.AsyncClient(base_url=base_url, timeout=TIMEOUT_S, limits=limits) as http:
         start = time.perf_counter()
         tasks = []
@@ -137,10 +112,8 @@ async def open_loop(base_url: str, send: Send, rate: float, duration: float, *,
         sending = time.perf_counter() - start
         await asyncio.gather(*tasks)
         elapsed = time.perf_counter() - start
-    stop.set()
-    probed = await probing if probing is not None else None
     figures = stats(latencies, sum(failures.values()), elapsed)
     return figures | {"target_rps": rate, "duration_s": duration, "sent": float(total),
                       "send_rps": total / sending if sending > 0 else float("nan"),
                       "peak_in_flight": float(peak), "failures": failures,
-                      "probe": probed, "acknowledged": acknowledged}
+                      "acknowledged": acknowledged}
