@@ -13,6 +13,10 @@ compressed polytropically (``p·V^n`` constant) above ``p0``, stores::
 
     ΔV = V0·p0^(1/n) · (p_i^(−1/n) − p_j^(−1/n)) = A · Δg                   (polytropic)
 
+(the polytropic gas law of accumulator sizing, p·V^n = const with n = 1.4 for fast
+adiabatic steps; a textbook relation, e.g. Esposito, *Fluid Power with Applications*,
+accumulator sizing — not one of the seed papers, which have no accumulator).
+
 so every step gives the *gas index* ``A = V0·p0^(1/n)`` [m³·Pa^(1/n)], which grows with the
 pre-charge for a given accumulator.  It is reported as the gas volume at a reference
 pressure, ``V_gas(p_ref) = A·p_ref^(−1/n)`` [m³].  The oil's own compressibility in the
