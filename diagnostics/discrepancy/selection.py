@@ -212,18 +212,19 @@ def select(data: BalanceData, *, bootstrap: int = 30, seed: int = 0, lags: int =
         Moving-block length of the bootstrap [samples]; 1 for independent rows.
     """
     y_si = data.y
+    n = y_si.size
+    n_base = len(data.base)
+    if n < MIN_SAMPLES_PER_TERM * (n_base + 2):
+        raise MeasurementError(
+            f"the {data.balance.name} balance has {n} usable samples; at least "
+            f"{MIN_SAMPLES_PER_TERM * (n_base + 2)} are needed to fit its "
+            f"{n_base} base terms and two candidates (longer records, or a higher "
+            "sample rate)", field="file")
     ys = float(np.sqrt(np.mean(y_si * y_si))) or 1.0
     y = y_si / ys
     bnames, Xb, bscale = _scaled(data.base)
     cnames, Xc_all, cscale = _scaled(data.candidates)
     m = len(cnames)
-    n = y.size
-    if n < MIN_SAMPLES_PER_TERM * (Xb.shape[1] + 2):
-        raise MeasurementError(
-            f"the {data.balance.name} balance has {n} usable samples; at least "
-            f"{MIN_SAMPLES_PER_TERM * (Xb.shape[1] + 2)} are needed to fit its "
-            f"{Xb.shape[1]} base terms and two candidates (longer records, or a higher "
-            "sample rate)", field="file")
     base_coef, *_ = np.linalg.lstsq(Xb, y, rcond=None)
     base_resid = y - Xb @ base_coef
     base_bic = _bic(float(base_resid @ base_resid), n, Xb.shape[1])
