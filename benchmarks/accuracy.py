@@ -3,12 +3,15 @@
 Suites (cases in :mod:`benchmarks.accuracy_cases`; readings from the transient model with
 instrument noise, oil 20-70 °C, load 2.1-6.3 kN; each record states its oil temperature
 and load with the error of its thermometer and load cell, as a rig's records do; a stroke
-that stalls or creeps is read in its settled state and diagnosed, not skipped; the truths
-are drawn with the equal frequencies of the diagnosis's fleet prior, a relief-setting case
-drawing another condition where its setting could not act):
+that stalls or creeps is read in its settled state and diagnosed, not skipped; the
+in-library cases are drawn from the diagnosis's own prior — truths with the frequencies
+of the fleet prior, fault parameters uniform in their fitting coordinates over their
+worn prior ranges (:func:`benchmarks.accuracy_cases.draw_fault`) — so that the stated
+probabilities can be checked against observed frequencies; a relief-setting case draws
+another condition where no setting of its range could act):
 
-* ``preset`` — the paper-002 rig, faults of the library drawn uniformly (healthy, five
-  single faults, three pairs) across their prior ranges;
+* ``preset`` — the paper-002 rig, faults of the library (healthy, five single faults,
+  three pairs) drawn from the prior;
 * ``differential`` — the same on a differential-cylinder rig the diagnosis was not
   tuned on;
 * ``beyond_range`` — faults beyond the prior ranges, on both rigs: the right answer is
@@ -25,7 +28,8 @@ input error), input errors (a clear 422), top-1 (strict; and grouped, where pump
 relief-seat leakage count as one *only* when the diagnosis states that their signatures
 are parallel), truth in the ambiguity set, Brier (strict and grouped), share not explained
 (misfit), per fault and per rig, the same without the stalled cases, the misses (truth →
-answer) and, per hypothesis, the sum of its stated probabilities against the cases where
+answer) with each miss's reason (:func:`benchmarks.accuracy_report.miss_reasons`),
+and, per hypothesis, the sum of its stated probabilities against the cases where
 it was the truth (:mod:`benchmarks.accuracy_report`); a reliability table (stated top
 probability vs observed top-1 frequency, by decile) over the in-library suites.  Nothing
 here tunes anything.
@@ -50,12 +54,18 @@ from benchmarks.accuracy_cases import (
     Case,
     differential_document,
     draw_fault,
+    draw_truth,
     misspecified_rig,
     noisy,
     stated_condition,
     transient_readings,
 )
-from benchmarks.accuracy_report import confusions, hypothesis_calibration, moving_figures
+from benchmarks.accuracy_report import (
+    confusions,
+    hypothesis_calibration,
+    miss_reasons,
+    moving_figures,
+)
 from diagnostics.commissioning import commission
 from diagnostics.diagnose import Diagnosis, diagnose
 from diagnostics.measurement import MeasurementRecord, OperatingCondition
@@ -70,7 +80,8 @@ SETS = {
 }
 PAIR = {"pump", "relief_seat"}
 #: relief-setting cases are drawn only where the healthy pump pressure exceeds this
-#: multiple of the nominal setting (the prior's 0.3 and a margin for it to act)
+#: multiple of the nominal setting (the prior's lowest setting, 0.3, and a margin for the
+#: acting part of the range to have a width)
 RELIEF_MIN = 0.35
 
 
@@ -113,7 +124,8 @@ def run_case(rig_model: Rig, rig_true: Rig, case: Case, rng: np.random.Generator
     for sname, fields in SETS.items():
         row: dict[str, Any] = {"suite": case.suite, "rig": case.rig, "truth": case.truth,
                                "in_library": case.in_library, "error": None,
-                               "stalled": bool(tr.stalled)}
+                               "stalled": bool(tr.stalled), "params": case.params,
+                               "load": case.load, "temperature": case.temperature}
         try:
             rec = MeasurementRecord.from_readings("study", cond, noisy(tr.values, fields, rng))
             row |= score(case, diagnose(rig_model, [rec]))
@@ -148,7 +160,7 @@ def run_suites(n: dict[str, int], rng: np.random.Generator
             rname = rig_names[k % len(rig_names)]
             model = rigs[rname]
             true_rig = misspecified_rig(docs[rname], rng)[0] if misspec else model
-            truth = str(rng.choice(truths))
+            truth = draw_truth(rng, truths)
             while True:
                 load, temp = float(rng.uniform(2.1e3, 6.3e3)), float(rng.uniform(20.0, 70.0))
                 pressure = healthy_pressure(model, load, temp)
@@ -259,6 +271,8 @@ def report(rows: dict[str, list[dict[str, Any]]]) -> dict[str, Any]:
             if sel and sel[0]["in_library"]:
                 figures[suite][sname]["without_stalled"] = moving_figures(sel)
             figures[suite][sname]["misses"] = confusions(sel)
+            if sel and sel[0]["in_library"]:
+                figures[suite][sname]["miss_reasons"] = miss_reasons(sel)
             figures[suite][sname]["per_hypothesis_stated_vs_true"] = \
                 hypothesis_calibration(sel)
         for sname in rows:
@@ -271,6 +285,9 @@ def report(rows: dict[str, list[dict[str, Any]]]) -> dict[str, Any]:
             if f["misses"]:
                 print(f"  {sname} misses (truth → answer ×n): " + ", ".join(
                     f"{t} → {a} ×{n}" for t, a, n in f["misses"]))
+            if f.get("miss_reasons"):
+                print(f"  {sname} misses by reason: " + ", ".join(
+                    f"{k} {v}" for k, v in f["miss_reasons"].items()))
             if sel and sel[0]["in_library"]:
                 print(f"  {sname} stated Σp / true cases: " + ", ".join(
                     f"{h} {a:.0f}/{b}" for h, (a, b) in

@@ -2,11 +2,23 @@
 
 from __future__ import annotations
 
+from collections import Counter
+
 import numpy as np
 import pytest
 
-from benchmarks.accuracy_cases import differential_document, stated_condition, transient_readings
+from benchmarks.accuracy_cases import (
+    IN_LIBRARY,
+    differential_document,
+    draw_fault,
+    draw_truth,
+    stated_condition,
+    transient_readings,
+)
+from benchmarks.accuracy_report import miss_reasons
 from diagnostics.diagnose import diagnose
+from diagnostics.evidence import FLEET_PRIOR
+from diagnostics.hypotheses import PARAMETERS
 from diagnostics.measurement import MeasurementRecord, OperatingCondition
 from sim.rigs import load_rig, reference_rig
 from tests.diagnostics.synth import FULL
@@ -47,3 +59,49 @@ def test_a_stated_condition_stays_within_its_instrument_bounds() -> None:
     assert np.all(np.abs(loads - 4.0e3) <= 40.0) and np.all(np.abs(temps - 50.0) <= 1.0)
     # uniform within the bound: its standard deviation is a/√3
     assert np.std(temps) == pytest.approx(1 / np.sqrt(3), rel=0.1)
+
+
+def test_in_library_draws_follow_the_diagnosis_prior() -> None:
+    """Every drawn parameter lies in its worn prior range; the draw is uniform in the
+    fitting coordinate (log for a clearance: half the draws below the geometric mean)."""
+    rig = reference_rig()
+    rng = np.random.default_rng(3)
+    lo, hi = PARAMETERS["cc"].worn_bounds(rig)
+    ccs = []
+    for _ in range(400):
+        ov, params = draw_fault(rig, "cylinder+pump", rng, beyond=False, pump_pressure=5e6)
+        assert lo <= params["cc"] <= hi and ov["cylinder.cc"] == params["cc"]
+        plo, phi = PARAMETERS["pump_leak"].worn_bounds(rig)
+        assert plo <= params["pump_leak"] <= phi
+        assert ov["pump.Rlp"] == pytest.approx(rig.base["pump.Rlp"] / params["pump_leak"])
+        ccs.append(params["cc"])
+    assert np.mean(np.array(ccs) < np.sqrt(lo * hi)) == pytest.approx(0.5, abs=0.08)
+    assert draw_fault(rig, "healthy", rng, beyond=False, pump_pressure=5e6) == ({}, {})
+
+
+def test_a_relief_setting_is_drawn_where_it_opens() -> None:
+    rig = reference_rig()
+    rng = np.random.default_rng(4)
+    p_pump = 0.6 * rig.base["relief.Pset"]
+    for _ in range(200):
+        _, params = draw_fault(rig, "relief_setting", rng, beyond=False, pump_pressure=p_pump)
+        assert PARAMETERS["Pset"].worn_bounds(rig)[0] <= params["Pset"] <= p_pump
+        _, params = draw_fault(rig, "relief_setting", rng, beyond=True, pump_pressure=p_pump)
+        assert params["Pset"] < PARAMETERS["Pset"].bounds(rig)[0]
+
+
+def test_truths_follow_the_fleet_prior() -> None:
+    rng = np.random.default_rng(5)
+    counts = Counter(draw_truth(rng) for _ in range(9000))
+    assert set(counts) == set(IN_LIBRARY)
+    for t in IN_LIBRARY:
+        assert counts[t] / 9000 == pytest.approx(FLEET_PRIOR[t], abs=0.015)
+
+
+def test_a_miss_is_classified_by_its_reason() -> None:
+    base = {"error": None, "top1_grouped": 0.0, "stalled": False, "explained": 1.0,
+            "in_set": 1.0}
+    rows = [base | {"stalled": True, "explained": 0.0}, base | {"explained": 0.0},
+            base, base | {"in_set": 0.0}, base | {"top1_grouped": 1.0}]
+    assert miss_reasons(rows) == {"stalled": 1, "unexplained": 1, "not_separable": 1,
+                                  "rejected": 1}
