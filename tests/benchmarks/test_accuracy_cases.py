@@ -50,6 +50,24 @@ def test_a_seal_worn_beyond_the_prior_stalls_and_is_answered_not_explained(rig_n
     d = diagnose(rig, [rec])
     assert not d.explained
     assert d.to_dict()["top"] == "unexplained"
+    # the steady model drives that piston backwards: the result states its limit
+    assert d.top.predicted[0]["speed_work"] < 0.0
+    assert "Model limit" in d.to_dict()["misfit"] and "end stop" in d.to_dict()["misfit"]
+
+
+def test_a_seal_worn_within_the_prior_that_stalls_is_stated_as_the_models_limit() -> None:
+    """3.4 × the seal clearance (inside the prior) at 4.9 kN and 35 °C: the transient
+    piston stalls on its end stop while the steady model has the load drive it backwards;
+    not explained, with the model limit stated (issue 11's breakaway/stall mismatch)."""
+    rig = reference_rig()
+    tr = transient_readings(rig, {"cylinder.cc": 3.4 * rig.base["cylinder.cc"]}, 4921.0, 35.0)
+    assert "working" in tr.stalled and tr.values["speed_work"] == 0.0
+    cond = OperatingCondition.from_readings({"oil_temperature": 35.0, "load_force": 4921.0})
+    rec = MeasurementRecord.from_readings(
+        "stall", cond, {k: tr.values[k] for k in FULL if k in tr.values and k != "speed_work"})
+    d = diagnose(rig, [rec])
+    assert not d.explained
+    assert "Model limit" in d.to_dict()["misfit"]
 
 
 def test_a_stated_condition_stays_within_its_instrument_bounds() -> None:
