@@ -31,8 +31,11 @@ are parallel), truth in the ambiguity set, Brier (strict and grouped), share not
 answer) with each miss's reason (:func:`benchmarks.accuracy_report.miss_reasons`),
 and, per hypothesis, the sum of its stated probabilities against the cases where
 it was the truth (:mod:`benchmarks.accuracy_report`); a reliability table (stated top
-probability vs observed top-1 frequency, by decile) over the in-library suites.  Nothing
-here tunes anything.
+probability vs observed top-1 frequency, by decile) over the in-library suites with its
+expected calibration error, and the Brier score the stated probabilities predict for
+themselves (mean of 1 − Σp², equal to the observed Brier when they are calibrated); a
+headline table of the in-library cases per sensor set, all of them and those whose
+piston moved.  Nothing here tunes anything.
 
 Prints tables and, as the last line, a JSON object.  ``HYDRODIAG_LIGHT=1`` runs a light form
 (CI).
@@ -106,12 +109,16 @@ def score(case: Case, d: Diagnosis) -> dict[str, Any]:
         brier_g = sum((p - float(h == tg)) ** 2 for h, p in gp.items()) + \
             (1.0 if tg not in gp else 0.0)
     else:
-        brier_g = brier
+        gp, brier_g = probs, brier
+    # the Brier score the stated probabilities predict for themselves (truth drawn from
+    # them): 1 − Σp²; over many cases it equals the observed one when they are calibrated
+    expected_g = 1.0 - sum(p * p for p in gp.values()) if gp else 1.0
     p_top = (probs.get("pump", 0) + probs.get("relief_seat", 0)) if grouped and top in PAIR \
         else d.top.probability
     return {"top": top, "top1": hit, "top1_grouped": hit_g, "explained": float(explained),
             "in_set": float(case.truth in d.isolability.ambiguity_set), "brier": brier,
-            "brier_grouped": brier_g, "p_top": p_top if explained else 0.0, "probs": probs}
+            "brier_grouped": brier_g, "brier_expected_grouped": expected_g,
+            "p_top": p_top if explained else 0.0, "probs": probs}
 
 
 def run_case(rig_model: Rig, rig_true: Rig, case: Case, rng: np.random.Generator,
@@ -224,6 +231,7 @@ def summarise(rows: list[dict[str, Any]]) -> dict[str, Any]:
     out |= {"top1": _mean(rows, "top1"), "top1_grouped": _mean(rows, "top1_grouped"),
             "truth_in_ambiguity_set": _mean(rows, "in_set"), "brier": _mean(rows, "brier"),
             "brier_grouped": _mean(rows, "brier_grouped"),
+            "brier_expected_grouped": _mean(rows, "brier_expected_grouped"),
             "not_explained": 1.0 - _mean(rows, "explained")}
     stalled = [r for r in ok if r["stalled"]]
     if stalled:
@@ -244,6 +252,39 @@ def reliability(rows: list[dict[str, Any]]) -> list[list[float]]:
         if sel.any():
             out.append([round(float(lo), 1), round(float(hi), 1), int(sel.sum()),
                         round(float(p[sel].mean()), 3), round(float(hit[sel].mean()), 3)])
+    return out
+
+
+def calibration_error(rel: list[list[float]]) -> float:
+    """Expected calibration error of a reliability table: Σ_bins n_b |p̄_b − f_b| / N."""
+    n = sum(r[2] for r in rel)
+    return float(sum(r[2] * abs(r[3] - r[4]) for r in rel) / n) if n else float("nan")
+
+
+def headline(rows: dict[str, list[dict[str, Any]]]) -> dict[str, Any]:
+    """In-library figures per sensor set over both rigs: all cases, the cases whose piston
+    moved (the steady model's domain), the misses by reason, the reliability's error."""
+    out: dict[str, Any] = {}
+    print("\nin-library cases (preset and differential rigs), per sensor set:")
+    print(f"{'sensor set':16s} {'cases':>10s} {'top-1':>6s} {'top-1*':>6s} {'in amb':>6s} "
+          f"{'Brier*':>6s} {'E[B*]':>6s} {'misfit':>6s} {'ECE':>6s}  misses by reason")
+    for sname, rs in rows.items():
+        sel = [r for r in rs if r["in_library"]]
+        ece = calibration_error(reliability(sel))
+        reasons = miss_reasons(sel)
+        out[sname] = {"all": summarise(sel),
+                      "moving": summarise([r for r in sel if not r["stalled"]]),
+                      "miss_reasons": reasons, "calibration_error": ece}
+        for part in ("all", "moving"):
+            f = out[sname][part]
+            if "top1" not in f:
+                continue
+            print(f"{sname:16s} {part + ' ' + str(f['n']):>10s} " + " ".join(
+                f"{f[k]:6.3f}" for k in ("top1", "top1_grouped", "truth_in_ambiguity_set",
+                                         "brier_grouped", "brier_expected_grouped",
+                                         "not_explained"))
+                  + (f" {ece:6.3f}  " + ", ".join(f"{k} {v}" for k, v in reasons.items())
+                     if part == "all" else ""))
     return out
 
 
@@ -318,9 +359,14 @@ def main() -> None:
           + ", ".join(f"{k} {v}" for k, v in n.items()) + f" cases, {seeds} commissioning seeds")
     print("top-1* and Brier* count pump and relief-seat leakage as one only where the "
           "diagnosis states their signatures are parallel; 'misfit' = share not explained "
-          "(no name given); 5xx = server errors, 422 = input errors")
+          "(no name given); 5xx = server errors, 422 = input errors; E[B*] = the Brier "
+          "score the stated probabilities predict for themselves (mean 1 − Σp²; equal to "
+          "Brier* when calibrated); ECE = expected calibration error of the reliability "
+          "table; 'moving' = cases whose piston moved in the transient cycle (the steady "
+          "model's domain)")
     rows, stalled = run_suites(n, rng)
     figures = report(rows)
+    figures["in_library"] = headline(rows)
     comm = commissioning_suite(seeds, rng)
     print(f"\ncommissioning: identifiable parameters inside their 95 % interval in "
           f"{comm['coverage_identifiable']:.3f} of (seed, parameter) pairs; per parameter "

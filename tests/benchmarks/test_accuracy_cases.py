@@ -123,3 +123,11 @@ def test_a_miss_is_classified_by_its_reason() -> None:
             base, base | {"in_set": 0.0}, base | {"top1_grouped": 1.0}]
     assert miss_reasons(rows) == {"stalled": 1, "unexplained": 1, "not_separable": 1,
                                   "rejected": 1}
+
+
+def test_the_calibration_error_weights_each_decile_by_its_cases() -> None:
+    from benchmarks.accuracy import calibration_error
+
+    # [lo, hi, n, mean stated p, observed]: |0.35-0.25|·2 + |0.95-1.0|·8 over 10 cases
+    rel = [[0.3, 0.4, 2, 0.35, 0.25], [0.9, 1.0, 8, 0.95, 1.0]]
+    assert calibration_error(rel) == pytest.approx((2 * 0.10 + 8 * 0.05) / 10)
