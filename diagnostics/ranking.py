@@ -327,7 +327,7 @@ class Ranker:
         # likelihood exp(−χ²_min/2), so skip only when that is 1000 times below the best
         # single fault's evidence
         if sd[weak] > span[weak] / 8.0 and -0.5 * cost > best_single - math.log(1000.0):
-            # a ridge or a flat direction: the Laplace approximation overstates the evidence;
+            # a ridge or a flat direction: the Laplace approximation misstates the evidence;
             # integrate along the weak axis, Laplace across it
             log_ev = self._profile_evidence(params, z, cov, zl, zu, weak)
         ests = [self._estimate(p, float(z[i]), max(float(z[i] - 1.96 * sd[i]), float(zl[i])),
