@@ -3,12 +3,15 @@
 Suites (cases in :mod:`benchmarks.accuracy_cases`; readings from the transient model with
 instrument noise, oil 20-70 °C, load 2.1-6.3 kN; each record states its oil temperature
 and load with the error of its thermometer and load cell, as a rig's records do; a stroke
-that stalls or creeps is read in its settled state and diagnosed, not skipped; the truths
-are drawn with the equal frequencies of the diagnosis's fleet prior, a relief-setting case
-drawing another condition where its setting could not act):
+that stalls or creeps is read in its settled state and diagnosed, not skipped; the
+in-library cases are drawn from the diagnosis's own prior — truths with the frequencies
+of the fleet prior, fault parameters uniform in their fitting coordinates over their
+worn prior ranges (:func:`benchmarks.accuracy_cases.draw_fault`) — so that the stated
+probabilities can be checked against observed frequencies; a relief-setting case draws
+another condition where no setting of its range could act):
 
-* ``preset`` — the paper-002 rig, faults of the library drawn uniformly (healthy, five
-  single faults, three pairs) across their prior ranges;
+* ``preset`` — the paper-002 rig, faults of the library (healthy, five single faults,
+  three pairs) drawn from the prior;
 * ``differential`` — the same on a differential-cylinder rig the diagnosis was not
   tuned on;
 * ``beyond_range`` — faults beyond the prior ranges, on both rigs: the right answer is
@@ -25,10 +28,14 @@ input error), input errors (a clear 422), top-1 (strict; and grouped, where pump
 relief-seat leakage count as one *only* when the diagnosis states that their signatures
 are parallel), truth in the ambiguity set, Brier (strict and grouped), share not explained
 (misfit), per fault and per rig, the same without the stalled cases, the misses (truth →
-answer) and, per hypothesis, the sum of its stated probabilities against the cases where
+answer) with each miss's reason (:func:`benchmarks.accuracy_report.miss_reasons`),
+and, per hypothesis, the sum of its stated probabilities against the cases where
 it was the truth (:mod:`benchmarks.accuracy_report`); a reliability table (stated top
-probability vs observed top-1 frequency, by decile) over the in-library suites.  Nothing
-here tunes anything.
+probability vs observed top-1 frequency, by decile) over the in-library suites with its
+expected calibration error, and the Brier score the stated probabilities predict for
+themselves (mean of 1 − Σp², equal to the observed Brier when they are calibrated); a
+headline table of the in-library cases per sensor set, all of them and those whose
+piston moved.  Nothing here tunes anything.
 
 Prints tables and, as the last line, a JSON object.  ``HYDRODIAG_LIGHT=1`` runs a light form
 (CI).
@@ -50,12 +57,18 @@ from benchmarks.accuracy_cases import (
     Case,
     differential_document,
     draw_fault,
+    draw_truth,
     misspecified_rig,
     noisy,
     stated_condition,
     transient_readings,
 )
-from benchmarks.accuracy_report import confusions, hypothesis_calibration, moving_figures
+from benchmarks.accuracy_report import (
+    confusions,
+    hypothesis_calibration,
+    miss_reasons,
+    moving_figures,
+)
 from diagnostics.commissioning import commission
 from diagnostics.diagnose import Diagnosis, diagnose
 from diagnostics.measurement import MeasurementRecord, OperatingCondition
@@ -70,7 +83,8 @@ SETS = {
 }
 PAIR = {"pump", "relief_seat"}
 #: relief-setting cases are drawn only where the healthy pump pressure exceeds this
-#: multiple of the nominal setting (the prior's 0.3 and a margin for it to act)
+#: multiple of the nominal setting (the prior's lowest setting, 0.3, and a margin for the
+#: acting part of the range to have a width)
 RELIEF_MIN = 0.35
 
 
@@ -95,12 +109,16 @@ def score(case: Case, d: Diagnosis) -> dict[str, Any]:
         brier_g = sum((p - float(h == tg)) ** 2 for h, p in gp.items()) + \
             (1.0 if tg not in gp else 0.0)
     else:
-        brier_g = brier
+        gp, brier_g = probs, brier
+    # the Brier score the stated probabilities predict for themselves (truth drawn from
+    # them): 1 − Σp²; over many cases it equals the observed one when they are calibrated
+    expected_g = 1.0 - sum(p * p for p in gp.values()) if gp else 1.0
     p_top = (probs.get("pump", 0) + probs.get("relief_seat", 0)) if grouped and top in PAIR \
         else d.top.probability
     return {"top": top, "top1": hit, "top1_grouped": hit_g, "explained": float(explained),
             "in_set": float(case.truth in d.isolability.ambiguity_set), "brier": brier,
-            "brier_grouped": brier_g, "p_top": p_top if explained else 0.0, "probs": probs}
+            "brier_grouped": brier_g, "brier_expected_grouped": expected_g,
+            "p_top": p_top if explained else 0.0, "probs": probs}
 
 
 def run_case(rig_model: Rig, rig_true: Rig, case: Case, rng: np.random.Generator,
@@ -113,7 +131,8 @@ def run_case(rig_model: Rig, rig_true: Rig, case: Case, rng: np.random.Generator
     for sname, fields in SETS.items():
         row: dict[str, Any] = {"suite": case.suite, "rig": case.rig, "truth": case.truth,
                                "in_library": case.in_library, "error": None,
-                               "stalled": bool(tr.stalled)}
+                               "stalled": bool(tr.stalled), "params": case.params,
+                               "load": case.load, "temperature": case.temperature}
         try:
             rec = MeasurementRecord.from_readings("study", cond, noisy(tr.values, fields, rng))
             row |= score(case, diagnose(rig_model, [rec]))
@@ -148,7 +167,7 @@ def run_suites(n: dict[str, int], rng: np.random.Generator
             rname = rig_names[k % len(rig_names)]
             model = rigs[rname]
             true_rig = misspecified_rig(docs[rname], rng)[0] if misspec else model
-            truth = str(rng.choice(truths))
+            truth = draw_truth(rng, truths)
             while True:
                 load, temp = float(rng.uniform(2.1e3, 6.3e3)), float(rng.uniform(20.0, 70.0))
                 pressure = healthy_pressure(model, load, temp)
@@ -212,6 +231,7 @@ def summarise(rows: list[dict[str, Any]]) -> dict[str, Any]:
     out |= {"top1": _mean(rows, "top1"), "top1_grouped": _mean(rows, "top1_grouped"),
             "truth_in_ambiguity_set": _mean(rows, "in_set"), "brier": _mean(rows, "brier"),
             "brier_grouped": _mean(rows, "brier_grouped"),
+            "brier_expected_grouped": _mean(rows, "brier_expected_grouped"),
             "not_explained": 1.0 - _mean(rows, "explained")}
     stalled = [r for r in ok if r["stalled"]]
     if stalled:
@@ -232,6 +252,39 @@ def reliability(rows: list[dict[str, Any]]) -> list[list[float]]:
         if sel.any():
             out.append([round(float(lo), 1), round(float(hi), 1), int(sel.sum()),
                         round(float(p[sel].mean()), 3), round(float(hit[sel].mean()), 3)])
+    return out
+
+
+def calibration_error(rel: list[list[float]]) -> float:
+    """Expected calibration error of a reliability table: Σ_bins n_b |p̄_b − f_b| / N."""
+    n = sum(r[2] for r in rel)
+    return float(sum(r[2] * abs(r[3] - r[4]) for r in rel) / n) if n else float("nan")
+
+
+def headline(rows: dict[str, list[dict[str, Any]]]) -> dict[str, Any]:
+    """In-library figures per sensor set over both rigs: all cases, the cases whose piston
+    moved (the steady model's domain), the misses by reason, the reliability's error."""
+    out: dict[str, Any] = {}
+    print("\nin-library cases (preset and differential rigs), per sensor set:")
+    print(f"{'sensor set':16s} {'cases':>10s} {'top-1':>6s} {'top-1*':>6s} {'in amb':>6s} "
+          f"{'Brier*':>6s} {'E[B*]':>6s} {'misfit':>6s} {'ECE':>6s}  misses by reason")
+    for sname, rs in rows.items():
+        sel = [r for r in rs if r["in_library"]]
+        ece = calibration_error(reliability(sel))
+        reasons = miss_reasons(sel)
+        out[sname] = {"all": summarise(sel),
+                      "moving": summarise([r for r in sel if not r["stalled"]]),
+                      "miss_reasons": reasons, "calibration_error": ece}
+        for part in ("all", "moving"):
+            f = out[sname][part]
+            if "top1" not in f:
+                continue
+            print(f"{sname:16s} {part + ' ' + str(f['n']):>10s} " + " ".join(
+                f"{f[k]:6.3f}" for k in ("top1", "top1_grouped", "truth_in_ambiguity_set",
+                                         "brier_grouped", "brier_expected_grouped",
+                                         "not_explained"))
+                  + (f" {ece:6.3f}  " + ", ".join(f"{k} {v}" for k, v in reasons.items())
+                     if part == "all" else ""))
     return out
 
 
@@ -259,6 +312,8 @@ def report(rows: dict[str, list[dict[str, Any]]]) -> dict[str, Any]:
             if sel and sel[0]["in_library"]:
                 figures[suite][sname]["without_stalled"] = moving_figures(sel)
             figures[suite][sname]["misses"] = confusions(sel)
+            if sel and sel[0]["in_library"]:
+                figures[suite][sname]["miss_reasons"] = miss_reasons(sel)
             figures[suite][sname]["per_hypothesis_stated_vs_true"] = \
                 hypothesis_calibration(sel)
         for sname in rows:
@@ -271,6 +326,9 @@ def report(rows: dict[str, list[dict[str, Any]]]) -> dict[str, Any]:
             if f["misses"]:
                 print(f"  {sname} misses (truth → answer ×n): " + ", ".join(
                     f"{t} → {a} ×{n}" for t, a, n in f["misses"]))
+            if f.get("miss_reasons"):
+                print(f"  {sname} misses by reason: " + ", ".join(
+                    f"{k} {v}" for k, v in f["miss_reasons"].items()))
             if sel and sel[0]["in_library"]:
                 print(f"  {sname} stated Σp / true cases: " + ", ".join(
                     f"{h} {a:.0f}/{b}" for h, (a, b) in
@@ -301,9 +359,14 @@ def main() -> None:
           + ", ".join(f"{k} {v}" for k, v in n.items()) + f" cases, {seeds} commissioning seeds")
     print("top-1* and Brier* count pump and relief-seat leakage as one only where the "
           "diagnosis states their signatures are parallel; 'misfit' = share not explained "
-          "(no name given); 5xx = server errors, 422 = input errors")
+          "(no name given); 5xx = server errors, 422 = input errors; E[B*] = the Brier "
+          "score the stated probabilities predict for themselves (mean 1 − Σp²; equal to "
+          "Brier* when calibrated); ECE = expected calibration error of the reliability "
+          "table; 'moving' = cases whose piston moved in the transient cycle (the steady "
+          "model's domain)")
     rows, stalled = run_suites(n, rng)
     figures = report(rows)
+    figures["in_library"] = headline(rows)
     comm = commissioning_suite(seeds, rng)
     print(f"\ncommissioning: identifiable parameters inside their 95 % interval in "
           f"{comm['coverage_identifiable']:.3f} of (seed, parameter) pairs; per parameter "

@@ -8,9 +8,15 @@ each instrument's class bound (flow ±1 %, pressure ±0.25 %, speed ±0.5 %, rat
 
 Fault draws (reported units of :mod:`diagnostics.hypotheses`):
 
-* in the library: clearances × 1.2-2.0, pump leakage × 2-8, seat leak 1-6 × the pump's
-  nominal leakage, relief setting 0.3 P0 up to 97 % of the healthy pump pressure (low
-  enough to open at the case's load); pairs of the first three;
+* in the library: **the diagnosis's own prior** — the truth with the frequencies of
+  :data:`diagnostics.evidence.FLEET_PRIOR`, each of its parameters uniform in its fitting
+  coordinate over its *worn* range (:meth:`diagnostics.hypotheses.FaultParameter.
+  worn_bounds`: clearances 1.1-4 × nominal and leakage factors 1.33-20, log-uniform; seat
+  leak 0.33-20 × the pump's nominal leakage conductance, log-uniform), a relief setting
+  uniform over the part of its worn range (0.3-0.95 P0) that opens at the case's
+  condition (below the healthy pump pressure: the prior of
+  :func:`diagnostics.evidence.acting_relief_setting`).  The stated probabilities assume
+  exactly this distribution, so the reliability table tests them and nothing else;
 * beyond the prior ranges: clearances × 4.5-6, pump leakage × 30-60, seat leak 30-60,
   relief setting 0.15-0.25 × P0 — the truth lies outside every hypothesis;
 * a mis-specified rig: the document's uncertain parameters (Lc, Ls, K, Fu, Kf, Rlp) are
@@ -29,11 +35,14 @@ import numpy as np
 import pandas as pd
 
 from diagnostics.commissioning import PRIOR_SD
+from diagnostics.evidence import FLEET_PRIOR
+from diagnostics.hypotheses import PARAMETERS
 from diagnostics.quantity import DEFAULT_INSTRUMENTS
 from sim.cycle import run_cycle
 from sim.rigs import Condition, Rig, load_rig, reference_rig_document
 
 __all__ = ["IN_LIBRARY", "Case", "TransientReadings", "differential_document", "draw_fault",
+           "draw_truth",
            "misspecified_rig", "noisy", "stated_condition", "transient_readings"]
 
 IN_LIBRARY = ("healthy", "cylinder", "valve", "pump", "relief_seat", "relief_setting",
@@ -82,30 +91,50 @@ def _log_uniform(rng: np.random.Generator, lo: float, hi: float) -> float:
     return float(np.exp(rng.uniform(np.log(lo), np.log(hi))))
 
 
+def draw_truth(rng: np.random.Generator, truths: tuple[str, ...] = IN_LIBRARY) -> str:
+    """A truth drawn with the frequencies of the fleet prior (renormalised over ``truths``)."""
+    w = np.array([FLEET_PRIOR.get(t, 1.0) for t in truths])
+    return str(truths[int(rng.choice(len(truths), p=w / w.sum()))])
+
+
+def _prior_value(rig: Rig, name: str, rng: np.random.Generator) -> float:
+    """A value of fault parameter ``name`` from its worn prior (uniform in ``z``)."""
+    p = PARAMETERS[name]
+    lo, hi = p.worn_bounds(rig)
+    return p.from_z(float(rng.uniform(p.to_z(lo), p.to_z(hi))))
+
+
 def draw_fault(rig: Rig, truth: str, rng: np.random.Generator, *, beyond: bool,
                pump_pressure: float) -> tuple[dict[str, float], dict[str, float]]:
-    """(graph overrides, true parameters in reported units) of ``truth`` on ``rig``."""
+    """(graph overrides, true parameters in reported units) of ``truth`` on ``rig``.
+
+    In the library (``beyond=False``) from the diagnosis's prior (module docstring); a
+    relief setting from the part of its worn range below ``pump_pressure`` [Pa] (the
+    healthy pump pressure at the case's condition), where it opens.  Beyond the ranges
+    (``beyond=True``): clearances × 4.5-6, leakage factors 30-60, a setting 0.15-0.25 P0.
+    """
     ov: dict[str, float] = {}
     params: dict[str, float] = {}
     for comp in truth.split("+"):
+        if comp == "healthy":
+            continue
         if comp in ("cylinder", "valve"):
-            key, name = ("cylinder.cc", "cc") if comp == "cylinder" else ("valve.cv", "cv")
-            f = _log_uniform(rng, 4.5, 6.0) if beyond else _log_uniform(rng, 1.2, 2.0)
-            params[name] = ov[key] = rig.base[key] * f
-        elif comp == "pump":
-            k = _log_uniform(rng, 30.0, 60.0) if beyond else _log_uniform(rng, 2.0, 8.0)
-            params["pump_leak"] = k
-            ov["pump.Rlp"] = rig.base["pump.Rlp"] / k
-        elif comp == "relief_seat":
-            s = _log_uniform(rng, 30.0, 60.0) if beyond else _log_uniform(rng, 1.0, 6.0)
-            params["seat_leak"] = s
-            ov["relief.Gseat"] = s / rig.base["pump.Rlp"]
+            name = "cc" if comp == "cylinder" else "cv"
+            value = rig.base[PARAMETERS[name].graph_param] * _log_uniform(rng, 4.5, 6.0) \
+                if beyond else _prior_value(rig, name, rng)
+        elif comp in ("pump", "relief_seat"):
+            name = "pump_leak" if comp == "pump" else "seat_leak"
+            value = _log_uniform(rng, 30.0, 60.0) if beyond else _prior_value(rig, name, rng)
         elif comp == "relief_setting":
+            name = "Pset"
             p0 = rig.base["relief.Pset"]
-            hi = min(0.97 * pump_pressure, p0)
-            value = rng.uniform(0.15 * p0, 0.25 * p0) if beyond else \
-                rng.uniform(0.3 * p0, max(hi, 0.3 * p0 * 1.01))
-            params["Pset"] = ov["relief.Pset"] = float(value)
+            lo, hi = PARAMETERS["Pset"].worn_bounds(rig)
+            value = float(rng.uniform(0.15 * p0, 0.25 * p0)) if beyond else \
+                float(rng.uniform(lo, max(min(hi, pump_pressure), lo * 1.01)))
+        else:
+            raise ValueError(f"no fault {comp!r} in the library")
+        params[name] = value
+        ov[PARAMETERS[name].graph_param] = PARAMETERS[name].graph_value(rig, value)
     return ov, params
 
 

@@ -5,6 +5,15 @@
 * :func:`hypothesis_calibration` — calibration in the large per hypothesis: the sum of the
   probabilities the diagnosis stated for a hypothesis over all cases against the number of
   cases in which it was the truth (equal when the stated probabilities are calibrated);
+* :func:`miss_reasons` — each grouped top-1 miss of an in-library case classified by
+  why it was missed: ``stalled`` (model limit: the piston stalled on its end stop in the
+  transient cycle, a state the steady signature maps do not have — they predict a piston
+  driven backwards there and mask it — so the diagnosis answers "not explained");
+  ``unexplained`` (the piston moved but no hypothesis passed the χ² test);
+  ``not_separable`` (physics: the truth passes the χ² test, it is in the stated
+  ambiguity set, and another hypothesis was more probable — these readings cannot
+  reject either); ``rejected`` (the truth failed the χ² test while another passed:
+  a model mismatch between the transient and the steady model, or an evidence error);
 * :func:`moving_figures` — the in-library figures without the cases whose piston stalled
   or crept (a state the steady model of the fault library does not have, so "not
   explained" is the right answer there).
@@ -17,7 +26,25 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["confusions", "hypothesis_calibration", "moving_figures"]
+__all__ = ["confusions", "hypothesis_calibration", "miss_reasons", "moving_figures"]
+
+#: the reasons of :func:`miss_reasons`, in the order they are tested
+REASONS = ("stalled", "unexplained", "not_separable", "rejected")
+
+
+def miss_reason(row: dict[str, Any]) -> str:
+    """Why an in-library case was missed (one of :data:`REASONS`; module docstring)."""
+    if row["stalled"]:
+        return "stalled"
+    if not row["explained"]:
+        return "unexplained"
+    return "not_separable" if row["in_set"] else "rejected"
+
+
+def miss_reasons(rows: list[dict[str, Any]]) -> dict[str, int]:
+    """Counts of the grouped top-1 misses by :func:`miss_reason` (every reason listed)."""
+    c = Counter(miss_reason(r) for r in rows if r["error"] is None and not r["top1_grouped"])
+    return {k: c[k] for k in REASONS}
 
 
 def confusions(rows: list[dict[str, Any]], top: int = 6) -> list[tuple[str, str, int]]:

@@ -9,7 +9,9 @@ hypothesis's uniform prior in its fitting coordinates, MacKay 2003 ch. 28 eq. 28
   worn range (exact to the grid, also where the likelihood is flat or sits on a bound);
 * pairs: Laplace approximation at the Gauss-Newton optimum with the Gaussian mass
   truncated at the bounds, replaced by a profile integral (quadrature along the weak axis,
-  Laplace across it) where the likelihood is a ridge that the Laplace value overstates.
+  Laplace across it) where the likelihood is a ridge, which the Laplace value misstates
+  either way (it overstates a ridge along an axis and understates one across both axes,
+  where JᵀJ is near singular, by orders of magnitude).
 
 Singles and pairs integrate over *worn* ranges only (each parameter past the ``none``
 severity, :meth:`diagnostics.hypotheses.FaultParameter.worn_bounds`): a pair does not
@@ -25,8 +27,11 @@ conditions (an unobservable one has the healthy evidence and says nothing; it ge
 probability 0 and is reported as not observable).  The prior π is the **fleet prior**
 :data:`FLEET_PRIOR`: with no fleet statistics for this rig type, every hypothesis of the
 library is equally likely before the readings (1/9 each: healthy, five single faults,
-three pairs).  The accuracy study (``make accuracy``) draws its cases' truths with exactly
-these frequencies, so its reliability table tests the evidences, not a prior mismatch.  A
+three pairs).  The accuracy study (``make accuracy``) draws its in-library cases from
+this prior *and* the parameter priors of :mod:`diagnostics.hypotheses` (truths with these
+frequencies, each fault parameter uniform in its fitting coordinate over its worn range),
+so its reliability table tests the evidences, not a mismatch between the prior and the
+draw.  A
 user with fleet statistics passes their own prior to :func:`posterior`.
 """
 

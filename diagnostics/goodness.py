@@ -14,6 +14,17 @@ sensor.  The result then names the readings that disagree most with the best fit
 standard uncertainties, and points to the discrepancy workflow (``hydrodiag discover``,
 ``POST /discrepancy``) and to commissioning (``POST /rigs/{id}/commission``,
 ``hydrodiag commission``) instead of naming a fault.
+
+A limit of the steady model is stated there too.  Where the load is more than the rig
+can hold (a seal or spool worn far, a hot differential cylinder at high load), the
+steady operating point of the working phase has the piston driven *backwards* by the
+load; a real piston (and the transient model, :func:`sim.cycle.run_cycle`) instead stalls
+on its end stop, where the pump's flow goes through the leakage paths and the relief
+valve.  The signature maps have no such end-stop state, so a record of a stalled stroke
+is not explained by any hypothesis.  When the most probable fit's working speed is
+negative and the record shows no working motion (no working speed, or one within 3 σ of
+zero), the statement says so (:func:`stall_limit`): the readings look like a stalled piston, which
+this diagnosis cannot explain; repeat the test at a lower load or oil temperature.
 """
 
 from __future__ import annotations
@@ -25,7 +36,7 @@ from scipy.stats import chi2 as chi2_dist
 
 from diagnostics.ranking import HypothesisFit, Ranker
 
-__all__ = ["TEST_LEVEL", "Disagreement", "GoodnessOfFit", "goodness_of_fit"]
+__all__ = ["TEST_LEVEL", "Disagreement", "GoodnessOfFit", "goodness_of_fit", "stall_limit"]
 
 #: test level α of the goodness-of-fit test [-]
 TEST_LEVEL = 0.01
@@ -115,6 +126,25 @@ def _disagreements(ranker: Ranker, fit: HypothesisFit) -> list[Disagreement]:
     return far if far else out[:3]
 
 
+def stall_limit(ranker: Ranker, fit: HypothesisFit) -> list[int]:
+    """Records whose readings look like a piston stalled on its end stop (module
+    docstring): ``fit`` drives the piston backwards there (predicted working speed < 0)
+    and the record shows no working motion (no working speed, or one within
+    :data:`DISAGREE_SIGMA` standard uncertainties of zero)."""
+    out = []
+    for i, (m, pred) in enumerate(zip(ranker.models, fit.predicted, strict=True)):
+        v = float(pred.get("speed_work", math.nan))
+        if not (math.isfinite(v) and v < 0.0):
+            continue
+        names = list(m.obs.names)
+        if "speed_work" in names:
+            j = names.index("speed_work")
+            if abs(float(m.obs.values[j])) > DISAGREE_SIGMA * float(m.sigma[j]):
+                continue
+        out.append(i)
+    return out
+
+
 def goodness_of_fit(ranker: Ranker, fits: list[HypothesisFit], level: float = TEST_LEVEL
                     ) -> GoodnessOfFit:
     """χ² goodness of fit of the best observable hypothesis among ranked ``fits``."""
@@ -146,6 +176,15 @@ def goodness_of_fit(ranker: Ranker, fits: list[HypothesisFit], level: float = TE
             "sensor. Next steps: the discrepancy workflow (`hydrodiag discover`, "
             "POST /discrepancy) and commissioning the rig from healthy records "
             "(`hydrodiag commission`, POST /rigs/{id}/commission).")
+        stalled = stall_limit(ranker, max(cands, key=lambda f: f.probability))
+        if stalled:
+            which = "" if len(ranker.models) == 1 else \
+                " (records " + ", ".join(map(str, stalled)) + ")"
+            statement += (
+                f" Model limit{which}: the record shows no working motion and the most "
+                "probable fit has the load drive the piston backwards — a piston stalled on its end stop, "
+                "a state the steady model of the fault library does not represent; repeat "
+                "the test at a lower load or oil temperature, where the piston moves.")
     return GoodnessOfFit(best.name, float(best.chi2), dof, level, limit, p, explained, dis,
                          statement)
 

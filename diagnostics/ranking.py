@@ -320,10 +320,14 @@ class Ranker:
         log_ev, cov, sd = laplace_evidence(cost, jac, z, zl, zu)
         weak = int(np.argmax(sd / span))
         best_single = max(f.log_evidence for f in singles.values())
-        # the capped Laplace value only overstates a ridge's evidence: refine it only when
-        # the pair could matter (within a factor 1000 of the best single fault)
-        if sd[weak] > span[weak] / 8.0 and log_ev > best_single - math.log(1000.0):
-            # a ridge or a flat direction: the Laplace approximation overstates the evidence;
+        # on a ridge the Laplace value is wrong either way (over a straight ridge along an
+        # axis it overstates; a ridge across both axes, where JᵀJ is near singular and
+        # both marginal widths are huge, it understates by orders of magnitude): refine
+        # it whenever the pair could matter — its evidence cannot exceed its maximum
+        # likelihood exp(−χ²_min/2), so skip only when that is 1000 times below the best
+        # single fault's evidence
+        if sd[weak] > span[weak] / 8.0 and -0.5 * cost > best_single - math.log(1000.0):
+            # a ridge or a flat direction: the Laplace approximation misstates the evidence;
             # integrate along the weak axis, Laplace across it
             log_ev = self._profile_evidence(params, z, cov, zl, zu, weak)
         ests = [self._estimate(p, float(z[i]), max(float(z[i] - 1.96 * sd[i]), float(zl[i])),
@@ -341,7 +345,7 @@ class Ranker:
         return None if self._pack is None else pair_problem(self.rig, self._pack, params, MASKED)
 
     def _profile_evidence(self, params: tuple[FaultParameter, ...], z_hat: Arr, cov: Arr,
-                          zl: Arr, zu: Arr, weak: int, n: int = 6) -> float:
+                          zl: Arr, zu: Arr, weak: int, n: int = 12) -> float:
         """ln Z of a pair: trapezoid over ``n`` points of the weak axis, and at each the
         strong parameter profiled by Gauss-Newton with a bound-truncated Laplace width."""
         strong = 1 - weak

@@ -2,11 +2,23 @@
 
 from __future__ import annotations
 
+from collections import Counter
+
 import numpy as np
 import pytest
 
-from benchmarks.accuracy_cases import differential_document, stated_condition, transient_readings
+from benchmarks.accuracy_cases import (
+    IN_LIBRARY,
+    differential_document,
+    draw_fault,
+    draw_truth,
+    stated_condition,
+    transient_readings,
+)
+from benchmarks.accuracy_report import miss_reasons
 from diagnostics.diagnose import diagnose
+from diagnostics.evidence import FLEET_PRIOR
+from diagnostics.hypotheses import PARAMETERS
 from diagnostics.measurement import MeasurementRecord, OperatingCondition
 from sim.rigs import load_rig, reference_rig
 from tests.diagnostics.synth import FULL
@@ -38,6 +50,24 @@ def test_a_seal_worn_beyond_the_prior_stalls_and_is_answered_not_explained(rig_n
     d = diagnose(rig, [rec])
     assert not d.explained
     assert d.to_dict()["top"] == "unexplained"
+    # the steady model drives that piston backwards: the result states its limit
+    assert d.top.predicted[0]["speed_work"] < 0.0
+    assert "Model limit" in d.to_dict()["misfit"] and "end stop" in d.to_dict()["misfit"]
+
+
+def test_a_seal_worn_within_the_prior_that_stalls_is_stated_as_the_models_limit() -> None:
+    """3.4 × the seal clearance (inside the prior) at 4.9 kN and 35 °C: the transient
+    piston stalls on its end stop while the steady model has the load drive it backwards;
+    not explained, with the model limit stated (issue 11's breakaway/stall mismatch)."""
+    rig = reference_rig()
+    tr = transient_readings(rig, {"cylinder.cc": 3.4 * rig.base["cylinder.cc"]}, 4921.0, 35.0)
+    assert "working" in tr.stalled and tr.values["speed_work"] == 0.0
+    cond = OperatingCondition.from_readings({"oil_temperature": 35.0, "load_force": 4921.0})
+    rec = MeasurementRecord.from_readings(
+        "stall", cond, {k: tr.values[k] for k in FULL if k in tr.values and k != "speed_work"})
+    d = diagnose(rig, [rec])
+    assert not d.explained
+    assert "Model limit" in d.to_dict()["misfit"]
 
 
 def test_a_stated_condition_stays_within_its_instrument_bounds() -> None:
@@ -47,3 +77,57 @@ def test_a_stated_condition_stays_within_its_instrument_bounds() -> None:
     assert np.all(np.abs(loads - 4.0e3) <= 40.0) and np.all(np.abs(temps - 50.0) <= 1.0)
     # uniform within the bound: its standard deviation is a/√3
     assert np.std(temps) == pytest.approx(1 / np.sqrt(3), rel=0.1)
+
+
+def test_in_library_draws_follow_the_diagnosis_prior() -> None:
+    """Every drawn parameter lies in its worn prior range; the draw is uniform in the
+    fitting coordinate (log for a clearance: half the draws below the geometric mean)."""
+    rig = reference_rig()
+    rng = np.random.default_rng(3)
+    lo, hi = PARAMETERS["cc"].worn_bounds(rig)
+    ccs = []
+    for _ in range(400):
+        ov, params = draw_fault(rig, "cylinder+pump", rng, beyond=False, pump_pressure=5e6)
+        assert lo <= params["cc"] <= hi and ov["cylinder.cc"] == params["cc"]
+        plo, phi = PARAMETERS["pump_leak"].worn_bounds(rig)
+        assert plo <= params["pump_leak"] <= phi
+        assert ov["pump.Rlp"] == pytest.approx(rig.base["pump.Rlp"] / params["pump_leak"])
+        ccs.append(params["cc"])
+    assert np.mean(np.array(ccs) < np.sqrt(lo * hi)) == pytest.approx(0.5, abs=0.08)
+    assert draw_fault(rig, "healthy", rng, beyond=False, pump_pressure=5e6) == ({}, {})
+
+
+def test_a_relief_setting_is_drawn_where_it_opens() -> None:
+    rig = reference_rig()
+    rng = np.random.default_rng(4)
+    p_pump = 0.6 * rig.base["relief.Pset"]
+    for _ in range(200):
+        _, params = draw_fault(rig, "relief_setting", rng, beyond=False, pump_pressure=p_pump)
+        assert PARAMETERS["Pset"].worn_bounds(rig)[0] <= params["Pset"] <= p_pump
+        _, params = draw_fault(rig, "relief_setting", rng, beyond=True, pump_pressure=p_pump)
+        assert params["Pset"] < PARAMETERS["Pset"].bounds(rig)[0]
+
+
+def test_truths_follow_the_fleet_prior() -> None:
+    rng = np.random.default_rng(5)
+    counts = Counter(draw_truth(rng) for _ in range(9000))
+    assert set(counts) == set(IN_LIBRARY)
+    for t in IN_LIBRARY:
+        assert counts[t] / 9000 == pytest.approx(FLEET_PRIOR[t], abs=0.015)
+
+
+def test_a_miss_is_classified_by_its_reason() -> None:
+    base = {"error": None, "top1_grouped": 0.0, "stalled": False, "explained": 1.0,
+            "in_set": 1.0}
+    rows = [base | {"stalled": True, "explained": 0.0}, base | {"explained": 0.0},
+            base, base | {"in_set": 0.0}, base | {"top1_grouped": 1.0}]
+    assert miss_reasons(rows) == {"stalled": 1, "unexplained": 1, "not_separable": 1,
+                                  "rejected": 1}
+
+
+def test_the_calibration_error_weights_each_decile_by_its_cases() -> None:
+    from benchmarks.accuracy import calibration_error
+
+    # [lo, hi, n, mean stated p, observed]: |0.35-0.25|·2 + |0.95-1.0|·8 over 10 cases
+    rel = [[0.3, 0.4, 2, 0.35, 0.25], [0.9, 1.0, 8, 0.95, 1.0]]
+    assert calibration_error(rel) == pytest.approx((2 * 0.10 + 8 * 0.05) / 10)

@@ -68,3 +68,9 @@ def test_a_relief_setting_at_0_38_of_nominal_is_inside_the_prior_and_found(rig):
     assert d.top.name == "relief_setting"
     (est,) = d.top.parameters
     assert est.low <= pset <= est.high
+
+
+def test_a_moving_piston_is_not_called_stalled(rig):
+    vals = readings(rig, {"valve.cv": 45e-6}, 2100.0, 40.0)
+    d = diagnose(rig, [record(rig, {}, values=dict(vals, p1=vals["p1"] * 1.05))])
+    assert not d.explained and "Model limit" not in d.to_dict()["misfit"]

@@ -133,3 +133,42 @@ def test_result_serialises_with_units(rig):
     assert doc["observable_units"]["flow_B"] == "m^3/s"
     assert doc["direct_inversions"]["cv"]["unit"] == "m"
     assert doc["hypotheses"][0]["parameters"][0]["unit"] == "m"
+
+
+def test_a_pair_whose_ridge_crosses_both_axes_has_the_evidence_of_its_quadrature() -> None:
+    """One reading (the velocity ratio) and two parameters: the likelihood of
+    cylinder+valve is a thin ridge across both axes in a corner of the prior square, where
+    JᵀJ is singular and the bound-truncated Laplace value understates the evidence by
+    orders of magnitude.  The ranking's value must agree with a 41 × 41 trapezoid
+    quadrature of exp(−χ²/2) over the prior square to within a factor 1.65 (0.5 in ln Z)."""
+    import math
+
+    from diagnostics.hypotheses import PARAMETERS
+    from diagnostics.measurement import MeasurementRecord, OperatingCondition
+    from diagnostics.observations import observe
+    from diagnostics.ranking import Ranker
+    from sim.errors import SimulationError
+
+    rig = reference_rig()
+    cond = OperatingCondition.from_readings({"oil_temperature": 45.72, "load_force": 2751.5})
+    rec = MeasurementRecord.from_readings("ridge", cond, {"velocity_ratio": 0.7827})
+    ranker = Ranker(rig, [observe(rec, rig)], 0.002)
+    fit = next(f for f in ranker.rank() if f.name == "cylinder+valve")
+    m = ranker.models[0]
+    ps = (PARAMETERS["cc"], PARAMETERS["cv"])
+    n = 41
+    axes = [np.linspace(p.to_z(p.worn_bounds(rig)[0]), p.to_z(p.worn_bounds(rig)[1]), n)
+            for p in ps]
+    logl = np.full((n, n), -np.inf)
+    for i, a in enumerate(axes[0]):
+        for j, b in enumerate(axes[1]):
+            try:
+                pred = m.maps.predict(ps, np.array([ps[0].from_z(a), ps[1].from_z(b)]))
+            except SimulationError:
+                continue
+            logl[i, j] = -0.5 * float(m.chi2_grid(pred[None, :])[0])
+    top = float(logl.max())
+    wt = np.ones(n)
+    wt[[0, -1]] = 0.5
+    exact = top + math.log(float(wt @ np.exp(logl - top) @ wt) / (n - 1) ** 2)
+    assert abs(fit.log_evidence - exact) < 0.5, (fit.log_evidence, exact)
