@@ -19,8 +19,7 @@ import numpy as np
 import numpy.typing as npt
 from scipy.optimize import least_squares
 
-from diagnostics.discrepancy.signals import condition_of
-from diagnostics.discrepancy.simulate import on_grid, simulate
+from diagnostics.discrepancy.simulate import on_grid, simulate_record
 from diagnostics.timeseries import SeriesRecord
 from sim.components.effects import EFFECTS
 from sim.errors import InputError, SimulationError
@@ -61,7 +60,7 @@ def stacked_residual(rig: Rig, records: Sequence[SeriesRecord], channels: Sequen
     """
     parts = []
     for r in records:
-        table = simulate(rig, condition_of(r, rig), overrides)
+        table = simulate_record(rig, r, overrides)
         phases = r.phase if r.phase is not None else np.full(r.t.size, "working")
         for ph in ("working", "return"):
             sel = np.flatnonzero(phases == ph)
