@@ -80,7 +80,7 @@ LIGHT = os.environ.get("HYDRODIAG_LIGHT") == "1"
 SEEDS = int(os.environ.get("HYDRODIAG_SEEDS", "1" if LIGHT else "30"))
 WORKERS = int(os.environ.get("HYDRODIAG_WORKERS", "2"))
 SIZES = (8.0, 16.0) if LIGHT else (4.0, 8.0, 16.0)
-LIGHT_EFFECTS = ("stribeck_friction", "seal_friction_pressure", "piston_clearance_pressure",
+LIGHT_EFFECTS = ("seal_friction_pressure", "piston_clearance_pressure",
                  "turbulent_pump_slip", "speed_offset")
 #: stated pump speed of the reference rig [rad/s]
 SPEED = 1600.0 * 2.0 * math.pi / 60.0
