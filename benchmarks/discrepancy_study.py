@@ -4,7 +4,9 @@ Run: ``python -m benchmarks.discrepancy_study`` (``make discrepancy-study``).
 ``HYDRODIAG_LIGHT=1`` runs a small subset (CI); ``HYDRODIAG_SEEDS=N`` sets the seeds per
 (effect, size) (default 30) and scales the no-effect (5N/3 per noise × drift cell, 300 at
 N = 30) and out-of-library (5N/6 per kind, 50 at N = 30 with two kinds) counts;
-``HYDRODIAG_WORKERS`` sets the process pool (default 2).
+``HYDRODIAG_WORKERS`` sets the process pool (default 2).  ``make discrepancy-study`` runs
+BLAS single-threaded (``OPENBLAS_NUM_THREADS=1``): with one process worker per core,
+threaded BLAS made the selection's bootstrap about 10× slower on a loaded machine.
 
 Test design: three cycles of the paper-002 rig at 2.1/4.2/6.3 kN, 40/50/60 °C and pump
 speeds of 80/90/100 % of the stated 1600 rpm, logged at 1 kHz with sensor noise.  The
