@@ -56,7 +56,7 @@ chaos: $(STAMP)
 	$(PY) -m benchmarks.chaos
 
 discrepancy-study: $(STAMP)
-	$(PY) -m benchmarks.discrepancy_study
+	OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 $(PY) -m benchmarks.discrepancy_study
 
 discrepancy-paper000: $(STAMP)
 	$(PY) -m benchmarks.discrepancy_paper000

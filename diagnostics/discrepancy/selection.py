@@ -287,25 +287,37 @@ def select(data: BalanceData, *, bootstrap: int = 30, seed: int = 0, lags: int =
 def _bootstrap(y: Arr, Xb: Arr, Xc: Arr, cnames: list[str], free: list[str],
                groups: list[list[str]], chosen: tuple[str, ...], reps: int, seed: int,
                block: int = 500) -> dict[str, float]:
-    """Inclusion frequency of each chosen term under a moving-block bootstrap (BIC choice)."""
+    """Inclusion frequency of each chosen term under a moving-block bootstrap (BIC choice).
+
+    Each replicate projects the base columns out once (QR; Frisch-Waugh-Lovell: the
+    residual of base + subset equals the residual of the projected target on the projected
+    subset columns), so a subset costs a fit of one or two columns.
+    """
     rng = np.random.default_rng(seed)
     n = y.size
     counts = dict.fromkeys(chosen, 0)
-    subsets = [s for size in (1, 2) for s in itertools.combinations(free, size)
+    subsets = [tuple(s) for size in (1, 2) for s in itertools.combinations(free, size)
                if not (size == 2 and list(s) in groups)]
+    index = {s: [cnames.index(c) for c in s] for s in subsets}
+    kb = Xb.shape[1]
     for _ in range(reps):
         rows = _blocks(n, block, rng)
-        yb, Xbb = y[rows], Xb[rows]
-        c0, *_ = np.linalg.lstsq(Xbb, yb, rcond=None)
-        r0 = yb - Xbb @ c0
+        yb, Xbb, Xcb = y[rows], Xb[rows], Xc[rows]
+        q, r_ = np.linalg.qr(Xbb)
+        d = np.abs(np.diag(r_))
+        if d.size and float(d.min()) > 1e-10 * float(d.max()):
+            ry = yb - q @ (q.T @ yb)
+            rc = Xcb - q @ (q.T @ Xcb)
+        else:  # rank-deficient base on this replicate: project with a least-squares fit
+            ry = yb - Xbb @ np.linalg.lstsq(Xbb, yb, rcond=None)[0]
+            rc = Xcb - Xbb @ np.linalg.lstsq(Xbb, Xcb, rcond=None)[0]
         best_key: tuple[str, ...] = ()
-        best = _bic(float(r0 @ r0), n, Xb.shape[1]) - BIC_MARGIN
+        best = _bic(float(ry @ ry), n, kb) - BIC_MARGIN
         for s in subsets:
-            idx = [cnames.index(c) for c in s]
-            X = np.hstack([Xbb, Xc[rows][:, idx]])
-            c, *_ = np.linalg.lstsq(X, yb, rcond=None)
-            r = yb - X @ c
-            b = _bic(float(r @ r), n, X.shape[1])
+            a = rc[:, index[s]]
+            c, *_ = np.linalg.lstsq(a, ry, rcond=None)
+            r = ry - a @ c
+            b = _bic(float(r @ r), n, kb + len(s))
             if b < best:
                 best, best_key = b, s
         for name in chosen:

@@ -6,6 +6,13 @@ RODAS4 solver in its noise-accurate mode (error below 0.3 σ of a velocity senso
 of pressure and flow sensors, :mod:`sim.solver.noise`), sampled on a grid of
 :data:`SAMPLE_RATE` from the dense output.  The error estimate it reached is kept in the
 table's ``attrs["solver"]`` so the report can state the solver error relative to the noise.
+
+A measured record is simulated by :func:`simulate_record`: under its own condition, and
+with its phase switch where the record switched.  A working phase that ends at the stroke
+end is switched by the end stop (the model's own event); one that ends short of it (the
+``x`` channel more than :data:`TIMED_MARGIN` of the stroke away from the end) was switched
+by time (a slow-motion test stroke, :func:`timed_switch`), and the model switches at the
+same time.
 """
 
 from __future__ import annotations
@@ -16,10 +23,13 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
+from diagnostics.discrepancy.signals import condition_of
+from diagnostics.timeseries import SeriesRecord
 from sim.cycle import run_cycle
 from sim.rigs.assembly import Condition, Rig
 
-__all__ = ["SAMPLE_RATE", "SOLVER", "on_grid", "simulate", "solver_error"]
+__all__ = ["SAMPLE_RATE", "SOLVER", "TIMED_MARGIN", "on_grid", "simulate", "simulate_record",
+           "solver_error", "timed_switch"]
 
 Arr = npt.NDArray[np.float64]
 
@@ -28,11 +38,18 @@ SAMPLE_RATE = 5000.0
 #: how the workflow simulates, in words (for the report)
 SOLVER = (f"sim.cycle.run_cycle, RODAS4, noise-accurate (≤ 0.3 σ velocity, ≤ 0.1 σ pressure "
           f"and flow), dense output at {SAMPLE_RATE:g} Hz")
+#: a working phase ending farther than this fraction of the stroke from the stroke end was
+#: switched by time, not by the end stop [-]
+TIMED_MARGIN = 0.05
 
 
 def simulate(rig: Rig, condition: Condition | None = None,
-             overrides: Mapping[str, float] | None = None) -> pd.DataFrame:
+             overrides: Mapping[str, float] | None = None,
+             t_max: float | None = None) -> pd.DataFrame:
     """One working + return cycle as a time-series table (the ``/simulate`` export format).
+
+    ``t_max`` [s] switches each phase after that long at the latest (a timed stroke);
+    ``None``: the end stops switch (:func:`sim.cycle.run_cycle`).
 
     Raises
     ------
@@ -40,11 +57,41 @@ def simulate(rig: Rig, condition: Condition | None = None,
         If the solver fails.
     """
     res = run_cycle(rig, overrides, condition, method="rodas4", sample_rate=SAMPLE_RATE,
-                    timeseries=True)
+                    timeseries=True, t_max=t_max)
     assert res.timeseries is not None
     table = res.timeseries
     table.attrs["solver"] = dict(res.solver.error_sigma or {}) if res.solver else {}
     return table
+
+
+def timed_switch(record: SeriesRecord, rig: Rig) -> float | None:
+    """When the record's working phase was switched by time, its duration [s], else ``None``.
+
+    Needs the ``x`` channel and both phases; a working phase whose last ``x`` lies within
+    :data:`TIMED_MARGIN` of the stroke end was switched by the end stop (``None``).
+    """
+    if record.phase is None or "x" not in record.channels:
+        return None
+    work = np.flatnonzero(record.phase == "working")
+    ret = np.flatnonzero(record.phase == "return")
+    if work.size < 2 or ret.size == 0:
+        return None
+    stroke = rig.base["cylinder.stroke"]
+    if record.channels["x"][work[-1]] >= (1.0 - TIMED_MARGIN) * stroke:
+        return None
+    return float(record.t[ret[0]] - record.t[work[0]])
+
+
+def simulate_record(rig: Rig, record: SeriesRecord,
+                    overrides: Mapping[str, float] | None = None) -> pd.DataFrame:
+    """The rig run like ``record`` was: its condition, its phase switch (module docstring).
+
+    Raises
+    ------
+    SimulationError
+        If the solver fails.
+    """
+    return simulate(rig, condition_of(record, rig), overrides, timed_switch(record, rig))
 
 
 def solver_error(tables: list[pd.DataFrame]) -> dict[str, float]:

@@ -50,7 +50,7 @@ from sim.errors import InputError
 from sim.rigs.assembly import Rig
 from sim.rigs.schema import validate_rig_document
 
-__all__ = ["discover_steady", "is_bench_table", "read_bench_bytes"]
+__all__ = ["discover_steady", "is_bench_table", "predict_flow", "read_bench_bytes"]
 
 Arr = npt.NDArray[np.float64]
 Progress = Callable[[float, str], None]
@@ -138,6 +138,18 @@ def _model(values: Mapping[str, float], s: Signals, coefs: Mapping[str, float]) 
     for name, k in coefs.items():
         q = q - k * np.asarray(EFFECTS[name].entry.regressor(c), dtype=float)
     return np.asarray(q, dtype=float)
+
+
+def predict_flow(rig_document: Mapping[str, Any], bench: BenchData,
+                 effects: Mapping[str, float] | None = None) -> Arr:
+    """Flow of the rig's pump at every bench row, plus ``effects`` [m³/s].
+
+    ``q = ω·Vp − Δp/Rlp − Σ k·x_k`` (paper 002 eqs. 1-5 at steady state) at the rows'
+    logged speed, pressure and temperature; ``effects`` maps effect name → coefficient [SI].
+    """
+    rig = Rig.from_spec(validate_rig_document(dict(rig_document)))
+    s = _signals(bench, rig, np.arange(bench.q.size))
+    return _model(rig.values(), s, effects or {})
 
 
 def _stored_fit(values: Mapping[str, float], s: Signals, names: list[str]

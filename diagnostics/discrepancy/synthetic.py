@@ -39,9 +39,14 @@ def synthesize(rig: Rig, condition: Condition, *, rng: np.random.Generator,
                name: str = "record", rate: float = 1000.0, noise: str = "gaussian",
                sigma: Mapping[str, float] | None = None,
                overrides: Mapping[str, float] | None = None,
-               channels: Sequence[str] = CHANNELS) -> SeriesRecord:
-    """One simulated cycle sampled at ``rate`` [Hz] with sensor noise (module docstring)."""
-    table = simulate(rig, condition, overrides)
+               channels: Sequence[str] = CHANNELS, t_max: float | None = None) -> SeriesRecord:
+    """One simulated cycle sampled at ``rate`` [Hz] with sensor noise (module docstring).
+
+    ``t_max`` [s] switches each phase after that long at the latest (a timed slow-motion
+    stroke, :func:`~diagnostics.discrepancy.simulate.timed_switch`); ``sigma`` of 0 gives
+    the noise-free truth.
+    """
+    table = simulate(rig, condition, overrides, t_max)
     t_end = float(table["t [s]"].iloc[-1])
     t = np.arange(0.0, t_end, 1.0 / rate)
     clean = on_grid(table, t, list(channels))

@@ -4,7 +4,9 @@ add it to the rig, and show the gap shrink on held-out data (issue 8).
 Steps (DISCREPANCY.md):
 
 1. split the records: the record at the *edge* of the operating range (highest load, then
-   highest temperature) is held out when there are at least two;
+   highest temperature) of each kind of stroke with at least two records (full strokes;
+   timed slow-motion strokes, :func:`~diagnostics.discrepancy.simulate.timed_switch`) is
+   held out;
 2. equation-error residuals of the rig's junction balances on the training records, base
    parameters re-fitted unpenalised (:mod:`~diagnostics.discrepancy.balances`);
 3. selection per balance (:mod:`~diagnostics.discrepancy.selection`);
@@ -43,7 +45,13 @@ from diagnostics.discrepancy.refit import refit as output_error_refit
 from diagnostics.discrepancy.refit import with_effects
 from diagnostics.discrepancy.selection import PRACTICAL, Selection, select
 from diagnostics.discrepancy.signals import condition_of, prepare
-from diagnostics.discrepancy.simulate import SOLVER, simulate, solver_error
+from diagnostics.discrepancy.simulate import (
+    SOLVER,
+    simulate,
+    simulate_record,
+    solver_error,
+    timed_switch,
+)
 from diagnostics.discrepancy.verdict import (
     excess_ratio,
     gap_ratio,
@@ -153,11 +161,21 @@ class Discovery:
 
 
 def _split(records: Sequence[SeriesRecord], rig: Rig) -> tuple[list[int], list[int]]:
+    """Training and held-out record indices: the edge record (highest load, then highest
+    temperature) of each kind of stroke (full strokes, timed slow strokes) that has at
+    least two records."""
     if len(records) < 2:
         return [0], []
     key = [(condition_of(r, rig).load, condition_of(r, rig).oil_temperature) for r in records]
-    edge = max(range(len(records)), key=lambda i: key[i])
-    return [i for i in range(len(records)) if i != edge], [edge]
+    timed = [timed_switch(r, rig) is not None for r in records]
+    held: list[int] = []
+    for kind in (False, True):
+        mine = [i for i in range(len(records)) if timed[i] == kind]
+        if len(mine) >= 2:
+            held.append(max(mine, key=lambda i: key[i]))
+    if not held:
+        held = [max(range(len(records)), key=lambda i: key[i])]
+    return [i for i in range(len(records)) if i not in held], sorted(held)
 
 
 def _channels(records: Sequence[SeriesRecord]) -> list[str]:
@@ -228,7 +246,7 @@ def discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], *
     named: list[NamedEffect] = []
     channels = _channels(records)
     sig = _sigmas(records, channels)
-    base_tables = [simulate(rig, condition_of(r, rig)) for r in held]
+    base_tables = [simulate_record(rig, r) for r in held]
     gap_before = [row for r, t in zip(held, base_tables, strict=True)
                   for row in gap_table(r, t, channels)]
     values: dict[str, float] = {}
@@ -249,7 +267,7 @@ def discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], *
                           or abs(fitted[key]) >= 2.576 * fit_err[key] for key in fitted)
         trial = Rig.from_spec(validate_rig_document(with_effects(doc, fitted)))
         trial_gap = [row for r in held
-                     for row in gap_table(r, simulate(trial, condition_of(r, trial)), channels)]
+                     for row in gap_table(r, simulate_record(trial, r), channels)]
         if significant and excess_ratio(gap_before, trial_gap, sig) >= CONFIRM_RATIO:
             values.update(fitted)
             errors.update(fit_err)
@@ -279,14 +297,16 @@ def discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], *
     report(0.8, "held-out check")
     white_before = whiteness(held, base_tables, channels, rate)
     traces: dict[str, Any] = {"held": held[0], "before": base_tables[0], "channels": channels,
-                              "selections": selections, "signals": signals, "data": data}
+                              "selections": selections, "signals": signals, "data": data,
+                              "held_all": held, "before_all": base_tables}
     if named:
         new_rig = Rig.from_spec(validate_rig_document(new_doc))
-        after_tables = [simulate(new_rig, condition_of(r, new_rig)) for r in held]
+        after_tables = [simulate_record(new_rig, r) for r in held]
         gap_after = [row for r, t in zip(held, after_tables, strict=True)
                      for row in gap_table(r, t, channels)]
         white_after = whiteness(held, after_tables, channels, rate)
         traces["after"] = after_tables[0]
+        traces["after_all"] = after_tables
     else:
         gap_after, white_after = [], {}
     lof = _repeats_lack_of_fit(records, rig, new_doc if named else None, channels, sig)
@@ -314,7 +334,9 @@ def _repeats_lack_of_fit(records: Sequence[SeriesRecord], rig: Rig,
     condition (:func:`~diagnostics.discrepancy.lof.series_lack_of_fit`); empty without
     repeats.  One simulation per distinct condition."""
     conds = [condition_of(r, rig) for r in records]
-    keys = [(c.load, c.back_pressure, c.oil_temperature, c.pump_speed) for c in conds]
+    switches = [timed_switch(r, rig) for r in records]
+    keys = [(c.load, c.back_pressure, c.oil_temperature, c.pump_speed,
+             None if sw is None else round(sw, 2)) for c, sw in zip(conds, switches, strict=True)]
     if len(set(keys)) == len(keys):
         return {}
     out: dict[str, Any] = {}
@@ -323,9 +345,9 @@ def _repeats_lack_of_fit(records: Sequence[SeriesRecord], rig: Rig,
         rigs["after"] = Rig.from_spec(validate_rig_document(new_doc))
     for label, model in rigs.items():
         sims: dict[Any, pd.DataFrame] = {}
-        for k, c in zip(keys, conds, strict=True):
+        for k, c, sw in zip(keys, conds, switches, strict=True):
             if k not in sims:
-                sims[k] = simulate(model, c)
+                sims[k] = simulate(model, c, None, sw)
         res = series_lack_of_fit(records, [sims[k] for k in keys], channels, sig, keys)
         out[label] = res.to_dict() if res is not None else None
     return out
