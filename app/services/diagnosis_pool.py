@@ -159,6 +159,8 @@ class DiagnosisPool:
         self.processes = processes
         self.queue = queue
         self.admitted = 0
+        #: Groups computed so far (in the workers or the thread) [-].
+        self.computed = 0
         self._cache_size = cache_size
         self._executor: ProcessPoolExecutor | None = None
         self._lock = threading.Lock()
@@ -231,6 +233,7 @@ class DiagnosisPool:
         InputError
             The records cannot be diagnosed on their rig.
         """
+        self.computed += 1
         if self.processes == 0:
             def locked() -> GroupResult:
                 with DIAGNOSIS_LOCK:
