@@ -222,8 +222,12 @@ def create_service_app() -> FastAPI:
     """
     from app.services.throttle_estimator import ThrottleClearanceEstimator
 
-    if multiprocessing.parent_process() is not None:  # a worker of `serve`: leave with it
-        exit_with_parent()
+    supervisor = multiprocessing.parent_process()
+    if supervisor is not None:  # a worker of `serve`: leave with it
+        # its pid as spawn recorded it: a supervisor killed before this line (a slow start)
+        # leaves us with init as parent, and watching "the current parent" would then
+        # serve on as an orphan
+        exit_with_parent(supervisor.pid)
     settings = Settings()
     configure_logging(settings.log_format, settings.log_level)
     return create_app(settings, clearance_estimator=ThrottleClearanceEstimator())
