@@ -36,6 +36,7 @@ from app.services.bootstrap import ensure_reference_data, upgrade_database
 from app.services.clearance import ClearanceEstimator
 from app.services.diagnosis_pool import DiagnosisPool
 from app.services.executors import SweepExecutors
+from app.services.group_commit import GroupCommitter
 from app.services.jobs import JobRunner, fail_interrupted_jobs
 from app.services.rig_cache import RigCache
 from app.services.warmup import Warmup
@@ -173,6 +174,7 @@ def create_app(
         finally:
             app.state.jobs.shutdown(wait=True)
             app.state.diagnosis_pool.shutdown()
+            app.state.diagnosis_writer.shutdown()
             app.state.sweep_executors.shutdown()
             engine.dispose()
 
@@ -189,6 +191,7 @@ def create_app(
     app.state.rigs = RigCache(settings.rig_cache_size)
     app.state.diagnosis_pool = DiagnosisPool(settings.diagnosis_processes,
                                              settings.rig_cache_size, settings.diagnosis_queue)
+    app.state.diagnosis_writer = GroupCommitter(sessions)
     app.state.sweep_executors = SweepExecutors(workers=settings.sweep_workers,
                                                dask_scheduler=settings.dask_scheduler)
     app.state.metrics = HttpMetrics()
@@ -219,8 +222,12 @@ def create_service_app() -> FastAPI:
     """
     from app.services.throttle_estimator import ThrottleClearanceEstimator
 
-    if multiprocessing.parent_process() is not None:  # a worker of `serve`: leave with it
-        exit_with_parent()
+    supervisor = multiprocessing.parent_process()
+    if supervisor is not None:  # a worker of `serve`: leave with it
+        # its pid as spawn recorded it: a supervisor killed before this line (a slow start)
+        # leaves us with init as parent, and watching "the current parent" would then
+        # serve on as an orphan
+        exit_with_parent(supervisor.pid)
     settings = Settings()
     configure_logging(settings.log_format, settings.log_level)
     return create_app(settings, clearance_estimator=ThrottleClearanceEstimator())

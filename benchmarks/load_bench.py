@@ -2,12 +2,17 @@
 
 Starts ``hydrodiag serve`` as configured by the environment (by default one server worker
 per core, each with one diagnosis process; embedded SQLite in a temporary folder) on a
-free loopback port and sends it traffic from this process (asyncio + httpx, 127.0.0.1):
+free loopback port and sends it traffic from this process (127.0.0.1; every request built
+as bytes before its phase and sent on raw asyncio streams, :mod:`benchmarks.load_clients`,
+so that the load generator takes as little of the 2 cores as it can):
 
 1. **Closed loop** — ``CONCURRENCY`` (4) clients send requests back to back: first
    ``GET /health``, then ``POST /diagnose`` (one stored record each, with the API key),
    ``N_REQUESTS`` of each.  p50/p99 and throughput of both and their ratios: the cost of
-   a diagnosis over the cost of the HTTP stack alone, in the same run.
+   a diagnosis over the cost of the HTTP stack alone, in the same run.  Meanwhile the CPU
+   time of the service's server processes, of its diagnosis processes and of this load
+   generator is read (``/proc``) and given per request [ms]: unlike latencies on a busy
+   machine, it says where the work goes.
 2. **Sustained** — stored ``POST /diagnose`` opened at ``RATE`` (200) requests/s for
    ``DURATION_S`` (60 s; 10 s with ``HYDRODIAG_LIGHT=1``) whatever the answers' pace (open
    loop), while ``GET /health`` is probed 20 times a second from a process of its own
@@ -38,6 +43,7 @@ import asyncio
 import json
 import os
 import random
+import resource
 import socket
 import sqlite3
 import subprocess
@@ -52,7 +58,7 @@ from typing import Any
 
 import httpx
 
-from benchmarks.load_clients import Send, closed_loop, open_loop
+from benchmarks.load_clients import closed_loop, open_loop, request_bytes
 
 LIGHT = os.environ.get("HYDRODIAG_LIGHT") == "1"
 CONCURRENCY = 4
@@ -190,18 +196,72 @@ def _stored_ids(data_dir: Path) -> set[int]:
         return {int(row[0]) for row in connection.execute("SELECT id FROM diagnoses")}
 
 
-def _acknowledged_ids(responses: list[httpx.Response]) -> list[int]:
-    return [int(d["id"]) for r in responses for d in r.json()["diagnoses"]]
+def _acknowledged_ids(bodies: list[bytes]) -> list[int]:
+    return [int(d["id"]) for body in bodies for d in json.loads(body)["diagnoses"]]
 
 
-def _sustained(base_url: str, diagnose: Send, rate: float, duration: float
+def _processes(root: int) -> list[int]:
+    """``root`` and every process below it."""
+    found = [root]
+    try:
+        children = (Path(f"/proc/{root}/task/{root}/children").read_text().split())
+    except OSError:
+        return found
+    for child in children:
+        found += _processes(int(child))
+    return found
+
+
+def _cpu_s(pid: int) -> float:
+    """CPU time (user + system) of process ``pid`` so far [s]; 0 when it is gone."""
+    try:
+        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    except OSError:
+        return 0.0
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def _is_diagnosis_process(pid: int) -> bool:
+    """A leaf process started by ``multiprocessing`` spawn: a diagnosis worker."""
+    try:
+        cmdline = Path(f"/proc/{pid}/cmdline").read_bytes()
+        children = Path(f"/proc/{pid}/task/{pid}/children").read_text().split()
+    except OSError:
+        return False
+    return b"spawn_main" in cmdline and not children
+
+
+@contextmanager
+def cpu_meter(root: int, figures: dict[str, Any]) -> Iterator[None]:
+    """CPU time spent meanwhile by the service's server processes, by its diagnosis
+    processes, and by this load generator (``*_cpu_s`` in ``figures``) [s]."""
+    pids = _processes(root)
+    before = {pid: _cpu_s(pid) for pid in pids}
+    own = resource.getrusage(resource.RUSAGE_SELF)
+    yield
+    after = {pid: _cpu_s(pid) for pid in pids}
+    mine = resource.getrusage(resource.RUSAGE_SELF)
+    diagnosis = {pid for pid in pids if _is_diagnosis_process(pid)}
+    spent = {pid: after[pid] - before[pid] for pid in pids}
+    figures["server_cpu_s"] = sum(v for pid, v in spent.items() if pid not in diagnosis)
+    figures["diagnosis_cpu_s"] = sum(v for pid, v in spent.items() if pid in diagnosis)
+    figures["client_cpu_s"] = (mine.ru_utime + mine.ru_stime) - (own.ru_utime + own.ru_stime)
+
+
+def _per_request_ms(figures: dict[str, Any]) -> dict[str, float]:
+    """CPU per request [ms] of each part, from :func:`cpu_meter`'s figures."""
+    return {f"{part}_cpu_ms_per_request": 1e3 * figures[f"{part}_cpu_s"] / figures["n"]
+            for part in ("server", "diagnosis", "client")}
+
+
+def _sustained(base_url: str, requests: list[bytes], rate: float, duration: float
                ) -> dict[str, Any]:
     """The open loop, with ``/health`` probed from a process of its own meanwhile."""
     prober = subprocess.Popen(
         [sys.executable, "-m", "benchmarks.load_probe", base_url, str(duration),
          str(PROBE_RATE)], stdout=subprocess.PIPE, text=True)
     try:
-        figures = asyncio.run(open_loop(base_url, diagnose, rate, duration))
+        figures = asyncio.run(open_loop(base_url, requests, rate, duration))
         out, _ = prober.communicate(timeout=duration + 60.0)
     finally:
         if prober.poll() is None:
@@ -221,23 +281,30 @@ def run() -> dict[str, Any]:
             serve(Path(folder)) as service:
         bodies = Bodies(_base_records(service))
         headers = {"X-API-Key": service.key}
+        health = request_bytes(service.base_url, "GET", "/health")
 
-        async def health(http: httpx.AsyncClient) -> httpx.Response:
-            return await http.get("/health")
+        def diagnoses(n: int) -> list[bytes]:  # built before the phase that sends them
+            return [request_bytes(service.base_url, "POST", "/diagnose", bodies(), headers)
+                    for _ in range(n)]
 
-        async def diagnose(http: httpx.AsyncClient) -> httpx.Response:
-            return await http.post("/diagnose", json=bodies(), headers=headers)
-
-        asyncio.run(closed_loop(service.base_url, health, 50, CONCURRENCY))  # warm-up
-        asyncio.run(closed_loop(service.base_url, diagnose, 30, CONCURRENCY))
-        health_stats = asyncio.run(closed_loop(service.base_url, health, N_REQUESTS,
-                                               CONCURRENCY))
-        diagnose_stats = asyncio.run(closed_loop(service.base_url, diagnose, N_REQUESTS,
-                                                 CONCURRENCY))
-        sustained = _sustained(service.base_url, diagnose, RATE, DURATION_S)
+        asyncio.run(closed_loop(service.base_url, [health] * 50, CONCURRENCY))  # warm-up
+        asyncio.run(closed_loop(service.base_url, diagnoses(30), CONCURRENCY))
+        health_stats: dict[str, Any] = {}
+        with cpu_meter(service.process.pid, health_stats):
+            health_stats |= asyncio.run(closed_loop(service.base_url, [health] * N_REQUESTS,
+                                                    CONCURRENCY))
+        diagnose_stats: dict[str, Any] = {}
+        requests = diagnoses(N_REQUESTS)
+        with cpu_meter(service.process.pid, diagnose_stats):
+            diagnose_stats |= asyncio.run(closed_loop(service.base_url, requests,
+                                                      CONCURRENCY))
+        health_stats |= _per_request_ms(health_stats)
+        diagnose_stats |= _per_request_ms(diagnose_stats)
+        sustained = _sustained(service.base_url, diagnoses(round(RATE * DURATION_S)), RATE,
+                               DURATION_S)
         ramp = []
         for rate in RAMP_RPS:
-            step = _sustained(service.base_url, diagnose, rate, RAMP_S)
+            step = _sustained(service.base_url, diagnoses(round(rate * RAMP_S)), rate, RAMP_S)
             ramp.append(step)
             if not _holds(step):
                 break
@@ -308,6 +375,11 @@ def _table(result: dict[str, Any]) -> str:
                  f"{s['failures'] or 'none'}; {result['acknowledged']} acknowledged "
                  f"diagnoses, {result['acknowledged_missing']} of them missing from the store; "
                  f"highest sustained rate {result['highest_sustained_rps']:g}/s")
+    lines.append("CPU per request [ms] (4 clients, closed loop): "
+                 + "; ".join(f"{name} server {f['server_cpu_ms_per_request']:.2f}, diagnosis "
+                             f"processes {f['diagnosis_cpu_ms_per_request']:.2f}, load "
+                             f"generator {f['client_cpu_ms_per_request']:.2f}"
+                             for name, f in (("/health", h), ("/diagnose", d))))
     lines.append(f"load average before {result['load_average_before']}, after "
                  f"{result['load_average_after']} on {result['cores']} cores")
     return "\n".join(lines)

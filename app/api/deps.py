@@ -10,13 +10,14 @@ key.  A valid key without the scope an operation needs is answered 403 (``ScopeE
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import AsyncIterator
 from dataclasses import dataclass
 from typing import Annotated
 
 from fastapi import Depends, Query, Request, Security
 from fastapi.security import APIKeyHeader
 from sqlalchemy.orm import Session
+from starlette.concurrency import run_in_threadpool
 
 from app.db.models import ApiKey
 from app.errors import RateLimitError, ScopeError
@@ -57,10 +58,25 @@ def get_settings(request: Request) -> Settings:
     return settings
 
 
-def get_db(request: Request) -> Iterator[Session]:
-    """Yield a session of the application's store for one request."""
-    with request.app.state.sessions() as session:
+async def get_db(request: Request) -> AsyncIterator[Session]:
+    """Yield a session of the application's store for one request.
+
+    On the event loop, not in a thread: making a session does no I/O (it connects on first
+    use, in the thread that uses it), and a session that holds no connection at the end (an
+    async route that closed it in its thread call, or never used it) is closed on the loop
+    too.  Only a session still holding a connection is closed in a thread, where returning
+    the connection to the pool may wait for the database.  A sync generator here cost two
+    thread hand-offs per request, and on a busy server each hand-off costs the event loop
+    its interpreter lock (profile of ``POST /diagnose``, issue 9).
+    """
+    session: Session = request.app.state.sessions()
+    try:
         yield session
+    finally:
+        if session.in_transaction():
+            await run_in_threadpool(session.close)
+        else:
+            session.close()
 
 
 def get_estimator(request: Request) -> ClearanceEstimator | None:

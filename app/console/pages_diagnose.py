@@ -2,25 +2,37 @@
 
 from __future__ import annotations
 
+import asyncio
 import json
 import re
 from datetime import datetime
+from functools import partial
 from typing import Annotated, Any
 
 import yaml
 from fastapi import File, Form, Path, Query, Request, Response, UploadFile
 from pydantic import AwareDatetime, TypeAdapter, ValidationError
+from sqlalchemy.orm import Session
 
 from app.api.deps import RigsDep, SessionDep
 from app.console.routing import ConsoleKeyDep, new_router
 from app.console.views import diagnosis_view, history_page, trend_views
 from app.console.web import page, redirect
-from app.errors import format_location
+from app.db.base import utcnow
+from app.errors import ServiceUnavailableError, format_location
 from app.schemas.diagnose import DiagnoseRequest
 from app.schemas.record_csv import record_rows
 from app.security import Scope
 from app.services import rigs as rig_service
-from app.services.diagnosis import diagnose_request
+from app.services.diagnosis import (
+    STORE_CONFLICT,
+    GroupPlan,
+    add_outcomes,
+    outcome_of,
+    plan_groups,
+)
+from app.services.diagnosis_pool import DiagnosisPool
+from app.services.group_commit import GroupCommitter
 from sim.errors import HydrodiagError, InputError
 
 __all__ = ["parse_records", "router"]
@@ -104,25 +116,50 @@ def diagnose_form(request: Request, session: SessionDep, _key: ConsoleKeyDep) ->
     return _form(request, session)
 
 
+def _plan(request: Request, session: Session, text: str, content: bytes | None
+          ) -> tuple[DiagnoseRequest, list[GroupPlan], datetime]:
+    """Parse the pasted document or CSV and resolve its rigs (in a thread: it reads the
+    store); ``now`` is the time of records that give none."""
+    body, now = parse_records(text, content), utcnow()
+    return body, plan_groups(session, request.app.state.rigs, body, now), now
+
+
 @router.post("/diagnose")
-def diagnose(request: Request, session: SessionDep, rigs: RigsDep, _key: ConsoleKeyDep,
-             document: Annotated[str, Form()] = "",
-             file: Annotated[UploadFile | None, File()] = None) -> Response:
+async def diagnose(request: Request, session: SessionDep, _key: ConsoleKeyDep,
+                   document: Annotated[str, Form()] = "",
+                   file: Annotated[UploadFile | None, File()] = None) -> Response:
     """Diagnose and store; show the result, or the form again with the error.
 
+    The diagnoses are computed by the service's diagnosis processes and stored by its group
+    commit, as ``POST /diagnose`` does (:mod:`app.api.routes.diagnose`), so that a console
+    diagnosis never holds the interpreter lock of the event loop that answers ``/health``.
     Storing needs a key of scope ``write``: a read key gets the form again with a 403.
     """
+    pool: DiagnosisPool = request.app.state.diagnosis_pool
     if not Scope(_key.scope).allows(Scope.WRITE):
         refusal = {"type": "ScopeError", "field": "api_key",
                    "message": f"storing a diagnosis needs a key of scope 'write' or above; "
                               f"this console is logged in with a {_key.scope!r} key"}
-        return _form(request, session, status_code=403, text=document, error=refusal)
-    content = file.file.read(MAX_INPUT_BYTES + 1) if file is not None and file.filename else None
+        return await pool.in_thread(partial(_form, request, session, status_code=403,
+                                             text=document, error=refusal))
+    content = (await file.read(MAX_INPUT_BYTES + 1)
+               if file is not None and file.filename else None)
     try:
-        outcomes = diagnose_request(session, rigs, parse_records(document, content))
+        with pool.admit():
+            body, plans, now = await pool.in_thread(partial(_plan, request, session, document,
+                                                       content))
+            computed = await asyncio.gather(*(pool.compute(plan) for plan in plans))
+            outcomes = [outcome_of(plan, result)
+                        for plan, result in zip(plans, computed, strict=True)]
+            writer: GroupCommitter = request.app.state.diagnosis_writer
+            await writer.write(lambda s: add_outcomes(s, body, outcomes, now),
+                               conflict=STORE_CONFLICT)
+    except ServiceUnavailableError:  # busy or not ready: the console's 503 page
+        raise
     except HydrodiagError as exc:
         error = {"type": type(exc).__name__, "message": exc.message, "field": exc.field}
-        return _form(request, session, status_code=422, text=document, error=error)
+        return await pool.in_thread(partial(_form, request, session, status_code=422,
+                                            text=document, error=error))
     if len(outcomes) == 1:
         return redirect(f"/console/diagnoses/{outcomes[0].diagnosis_id}")
     return redirect(f"/console/history?rig={outcomes[0].resolved.rig_id}")

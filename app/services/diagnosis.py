@@ -40,13 +40,17 @@ from diagnostics.measurement import MeasurementRecord
 from sim.errors import InputError
 from sim.rigs import Rig
 
-__all__ = ["DIAGNOSIS_LOCK", "UNEXPLAINED", "DiagnosisOutcome", "EstimateOut", "GroupPlan",
-           "GroupResult", "compact_result", "compute_group", "diagnose_request", "estimates_of",
-           "json_ready", "outcome_of", "plan_groups", "request_error", "response_json",
+__all__ = ["DIAGNOSIS_LOCK", "STORE_CONFLICT", "UNEXPLAINED", "DiagnosisOutcome", "EstimateOut",
+           "GroupPlan", "GroupResult", "add_outcomes", "compact_result", "compute_group",
+           "diagnose_request", "estimates_of", "json_ready", "outcome_of", "plan_groups",
+           "request_error", "response_json",
            "response_of", "store_outcomes"]
 
 #: Serialises calls into ``diagnostics`` within one process (module docstring).
 DIAGNOSIS_LOCK = threading.Lock()
+
+#: Message of a stored diagnosis refused by a constraint of the store.
+STORE_CONFLICT = "the diagnosis could not be stored"
 
 #: ``top`` and ``component`` of a diagnosis whose readings no hypothesis explains.
 UNEXPLAINED = "unexplained"
@@ -270,8 +274,14 @@ def _compute_locked(plan: GroupPlan) -> DiagnosisOutcome:
     return outcome_of(plan, computed)
 
 
-def _store(session: Session, request: DiagnoseRequest, outcomes: Sequence[DiagnosisOutcome],
-           now: datetime) -> None:
+def add_outcomes(session: Session, request: DiagnoseRequest,
+                 outcomes: Sequence[DiagnosisOutcome], now: datetime) -> None:
+    """Add the records and results of ``request`` to ``session`` and flush them (no
+    commit); fills each outcome's ``diagnosis_id`` and ``measurement_ids``.
+
+    Repeatable: run again on a fresh session after a rollback it adds the same rows anew
+    (:class:`~app.services.group_commit.GroupCommitter` relies on that).
+    """
     records = dict(request.items())
     for outcome in outcomes:
         # a joint result belongs to the latest record; the others are kept beside it
@@ -295,7 +305,6 @@ def _store(session: Session, request: DiagnoseRequest, outcomes: Sequence[Diagno
         session.flush()
         outcome.diagnosis_id = diagnosis.id
         outcome.measurement_ids = [row.id for row in rows]
-    commit(session, conflict="the diagnosis could not be stored")
 
 
 def diagnose_request(session: Session, rigs: RigCache, request: DiagnoseRequest
@@ -338,7 +347,8 @@ def store_outcomes(session: Session, request: DiagnoseRequest,
     ``now`` is the time the request was planned at (that of records without one).
     """
     try:
-        _store(session, request, outcomes, now)
+        add_outcomes(session, request, outcomes, now)
+        commit(session, conflict=STORE_CONFLICT)
     except Exception:
         session.rollback()
         raise

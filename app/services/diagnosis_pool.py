@@ -10,8 +10,9 @@ keeps its interpreter lock.  ``processes = 0`` computes in the server's thread p
 :data:`~app.services.diagnosis.DIAGNOSIS_LOCK`, as before (tests, small machines).
 
 Each worker keeps its own compiled rigs (an LRU keyed by rig id, version and the version's
-creation time, the key of :class:`~app.services.rig_cache.RigCache`); the rig document
-travels with each task and is compiled only on a miss.  :meth:`DiagnosisPool.warm` starts
+creation time, the key of :class:`~app.services.rig_cache.RigCache`); a task carries the
+key only, and a worker that lacks the rig answers so, and is sent the task again with
+the rig document (compiled there once).  :meth:`DiagnosisPool.warm` starts
 every worker and loads and exercises the stored rigs in it (one steady cycle and one
 diagnosis each) before the service reports ready.  Workers are started with ``spawn``
 (the server process has threads) and leave when the server process is gone, even after a
@@ -98,14 +99,20 @@ def _worker_start(cache_size: int, parent: int, rigs: Sequence[tuple[RigKey, Any
     exit_with_parent(parent)
     for key, document in rigs:
         try:
-            warm_rig(_worker_rig(key, document))
+            rig = _worker_rig(key, document)
+            assert rig is not None  # compiled from its document
+            warm_rig(rig)
         except HydrodiagError as exc:  # a rig that cannot run still answers 422s
             logger.warning("rig %s not warmed in a diagnosis worker: %s", key[0], exc)
 
 
-def _worker_rig(key: RigKey, document: Mapping[str, Any]) -> Rig:
+def _worker_rig(key: RigKey, document: Mapping[str, Any] | None) -> Rig | None:
+    """The compiled rig of ``key``, compiled from ``document`` on a miss; ``None`` on a
+    miss without the document."""
     rig = _RIGS.get(key)
     if rig is None:
+        if document is None:
+            return None
         rig = _RIGS[key] = load_rig(document)
         _RIG_ORDER.append(key)
         while len(_RIG_ORDER) > _CACHE_SIZE:
@@ -122,10 +129,17 @@ class _Failure:
     field: str | None
 
 
-def _worker_compute(key: RigKey, document: Mapping[str, Any],
-                    records: list[MeasurementRecord]) -> GroupResult | _Failure:
+#: The answer of a worker that lacks the rig and was not sent its document.
+_MISSING = "rig document needed"
+
+
+def _worker_compute(key: RigKey, document: Mapping[str, Any] | None,
+                    records: list[MeasurementRecord]) -> GroupResult | _Failure | str:
     try:
-        return compute_group(_worker_rig(key, document), records, key[1])
+        rig = _worker_rig(key, document)
+        if rig is None:
+            return _MISSING
+        return compute_group(rig, records, key[1])
     except HydrodiagError as exc:
         return _Failure(type(exc), exc.message, exc.field)
 
@@ -159,6 +173,8 @@ class DiagnosisPool:
         self.processes = processes
         self.queue = queue
         self.admitted = 0
+        #: Groups computed so far (in the workers or the thread) [-].
+        self.computed = 0
         self._cache_size = cache_size
         self._executor: ProcessPoolExecutor | None = None
         self._lock = threading.Lock()
@@ -231,6 +247,7 @@ class DiagnosisPool:
         InputError
             The records cannot be diagnosed on their rig.
         """
+        self.computed += 1
         if self.processes == 0:
             def locked() -> GroupResult:
                 with DIAGNOSIS_LOCK:
@@ -241,9 +258,15 @@ class DiagnosisPool:
             except InputError as exc:
                 raise request_error(exc, plan) from None
         loop = asyncio.get_running_loop()
+        # the rig's key only: its ~6 kB document is pickled and sent again only to a
+        # worker that has not compiled it yet (a rig created after start, or evicted)
         answer = await loop.run_in_executor(
-            self._pool(), _worker_compute, _key(plan.resolved), dict(plan.resolved.document),
-            plan.records)
+            self._pool(), _worker_compute, _key(plan.resolved), None, plan.records)
+        if isinstance(answer, str):  # _MISSING
+            answer = await loop.run_in_executor(
+                self._pool(), _worker_compute, _key(plan.resolved),
+                dict(plan.resolved.document), plan.records)
+        assert not isinstance(answer, str)
         if isinstance(answer, _Failure):
             error = answer.kind(answer.message, field=answer.field)
             if isinstance(error, InputError):

@@ -96,6 +96,26 @@ def test_a_worker_process_and_a_thread_give_the_same_diagnosis(server: LiveServe
                                                                rel=1e-6)
 
 
+def test_a_worker_without_the_rig_is_sent_its_document_once(server: LiveServer) -> None:
+    """Tasks carry the rig's key only; a worker that has not compiled the rig (warmed with
+    none here) gets the document on a second send, then keeps the compiled rig."""
+    body = {"record": simulated_record(server, WORN_VALVE)}
+    request = DiagnoseRequest.model_validate(body)
+    with server.session() as session:
+        (plan,) = plan_groups(session, RigCache(2), request, utcnow())
+    in_thread = _diagnose(DiagnosisPool(0), server, body)[0]
+    pool = DiagnosisPool(1)
+    try:
+        pool.warm([])
+        first = asyncio.run(pool.compute(plan))
+        again = asyncio.run(pool.compute(plan))
+    finally:
+        pool.shutdown()
+    for result in (first, again):
+        assert result.top == in_thread.top == "valve"
+        assert result.probability == pytest.approx(in_thread.probability, rel=1e-6)
+
+
 _KILLED_SERVER = textwrap.dedent("""
     import os, sys, time
     from app.services.diagnosis_pool import DiagnosisPool, _worker_pid

@@ -3,10 +3,12 @@
 The route is ``async`` and thin: the body is validated on the event loop; the store is
 read (key, rigs) in one thread-pool call; the diagnoses are computed by the application's
 :class:`~app.services.diagnosis_pool.DiagnosisPool` (worker processes, so the event loop
-never waits for a diagnosis's interpreter lock); the results are stored in a second
-thread-pool call and the answer is serialised once by pydantic's compiled serialiser.  A server process
-takes at most ``diagnosis_queue`` diagnosis requests at once; one more is answered 503
-with ``Retry-After`` at once rather than queued past its client's deadline.
+never waits for a diagnosis's interpreter lock); the results are stored by the
+application's :class:`~app.services.group_commit.GroupCommitter` (the rows of concurrent
+requests in one transaction, each answered after that commit) and the answer is
+serialised once by pydantic's compiled serialiser.  A server process takes at most
+``diagnosis_queue`` diagnosis requests at once; one more is answered 503 with
+``Retry-After`` at once rather than queued past its client's deadline.
 """
 
 from __future__ import annotations
@@ -25,14 +27,15 @@ from app.limits import check_count
 from app.schemas.common import ERROR_RESPONSES, error_doc
 from app.schemas.diagnose import DiagnoseRequest, DiagnoseResponse
 from app.services.diagnosis import (
-    DiagnosisOutcome,
+    STORE_CONFLICT,
     GroupPlan,
+    add_outcomes,
     outcome_of,
     plan_groups,
     response_json,
-    store_outcomes,
 )
 from app.services.diagnosis_pool import DiagnosisPool
+from app.services.group_commit import GroupCommitter
 
 __all__ = ["router"]
 
@@ -61,12 +64,6 @@ def _plan(request: Request, session: Session, body: DiagnoseRequest, key: str | 
         session.close()
 
 
-def _store(request: Request, body: DiagnoseRequest, outcomes: list[DiagnosisOutcome],
-           now: datetime) -> None:
-    with request.app.state.sessions() as session:
-        store_outcomes(session, body, outcomes, now)
-
-
 @router.post("/diagnose", summary="Diagnose one record or a batch, and store them",
              openapi_extra={"x-hydrodiag-scope-store": "write"},
              response_model=DiagnoseResponse, responses={503: error_doc(
@@ -89,6 +86,8 @@ async def diagnose(body: DiagnoseRequest, request: Request, session: SessionDep,
     plans = await pool.in_thread(partial(_plan, request, session, body, key, now))
     computed = await asyncio.gather(*(pool.compute(plan) for plan in plans))
     outcomes = [outcome_of(plan, result) for plan, result in zip(plans, computed, strict=True)]
-    if body.store:
-        await pool.in_thread(partial(_store, request, body, outcomes, now))
+    if body.store:  # answered once the group transaction holding its rows has committed
+        writer: GroupCommitter = request.app.state.diagnosis_writer
+        await writer.write(lambda s: add_outcomes(s, body, outcomes, now),
+                           conflict=STORE_CONFLICT)
     return Response(response_json(body, outcomes), media_type="application/json")

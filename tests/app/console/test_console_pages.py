@@ -6,6 +6,7 @@ import io
 import json
 import re
 import time
+from datetime import UTC, datetime
 
 import httpx
 import pandas as pd
@@ -117,6 +118,34 @@ def test_rig_page_lists_parameters_with_units_sources_and_chosen_flags(
     assert "bond graph &#39;pump-valve-cylinder&#39;" in html or \
         "bond graph 'pump-valve-cylinder'" in html
     assert "Throttle I" in html
+
+
+def test_the_form_diagnoses_in_the_diagnosis_processes_and_the_group_commit(
+        console_server: LiveServer, browser_client: httpx.Client) -> None:
+    """The console computes in the service's worker processes (never a thread of the server
+    process, whose interpreter lock /health needs) and stores through the group commit."""
+    pool = console_server.app.state.diagnosis_pool
+    writer = console_server.app.state.diagnosis_writer
+    assert pool.processes >= 1
+    computed, committed = pool.computed, writer.committed
+    record = simulated_record(console_server, {"valve.cv": 60e-6},
+                              measured_at="2026-03-11T08:00:00Z")
+    response = browser_client.post("/console/diagnose", data={"document": json.dumps(record)})
+    assert response.status_code == 303, response.text
+    assert pool.computed == computed + 1 and writer.committed == committed + 1
+    diagnosis_id = int(response.headers["location"].rsplit("/", 1)[1])
+    with console_server.session() as session:
+        stored = session.get(Diagnosis, diagnosis_id)
+        assert stored is not None and stored.component == "valve"
+        assert stored.measurement.measured_at.replace(tzinfo=UTC) == datetime(
+            2026, 3, 11, 8, tzinfo=UTC)
+    # an error computed in the worker comes back as the form with the field, nothing stored
+    before = console_server.row_counts()
+    stalled = record | {"condition": {"oil_temperature": 40.0, "load_force": 1.0e6}}
+    refused = browser_client.post("/console/diagnose", data={"document": json.dumps(stalled)})
+    assert refused.status_code == 422
+    assert "condition.force" in refused.text
+    assert console_server.row_counts() == before
 
 
 def test_a_diagnosis_through_the_form_is_stored_and_shown(
