@@ -6,8 +6,11 @@ Every estimate is computed from the measured cycles without any label; the label
 map's, and as its last line one JSON object with every figure.
 
 1. Pump leakage (:mod:`diagnostics.real.leakage`), its score and change points.
-2. The cooler confound: the orifice + laminar-shunt leak size (:mod:`diagnostics.real.shunt`),
-   and what else was tried, each *without* labels (labels only score): the
+2. The cooler confound: the orifice + laminar-shunt leak size (:mod:`diagnostics.real.shunt`)
+   from each cycle's plateaus up to its first departure to the relief valve
+   (``cycle_point(stop_at_relief=True)``: the 240 cycles that left the load program are
+   compared on the first working plateau they share with every cycle, and corrected rather
+   than flagged; their later plateaus follow a relief episode), and what else was tried, each *without* labels (labels only score): the
    temperature sensor of the envelope (TS1-TS4), the pressure law of the leak (G = Δq/Δp^a,
    a = 0, ½, 1), a viscosity exponent b (G·μ^b) fitted label-free inside change-point
    segments, and, as a sensitivity table only (never used to choose), G·μ^b on a grid.
@@ -98,19 +101,32 @@ def _within_segment_exponent(est: Arr, mu: Arr, cps: list[int]) -> tuple[float, 
 def _shunt(records: list[SeriesRecord], points: list, mu: Arr, labels: ZemaLabels,
            full: npt.NDArray[np.bool_]) -> dict[str, object]:
     """The orifice + laminar-shunt leak size (:mod:`diagnostics.real.shunt`), scored."""
-    est = shunt_estimates(records, points, mu, fit_on=full)
+    old = shunt_estimates(records, points, mu, fit_on=full)
+    so = score_leakage(old.size, labels.leakage, labels.cooler, labels.accumulator)
+    # every cycle's plateaus up to its first departure to the relief valve: the cycles that
+    # left the load program are corrected (compared on the plateau they share), not flagged
+    reached = [cycle_point(r, stop_at_relief=True) for r in records]
+    mu_r = dynamic_viscosity(Fluid(), np.array([c.theta for c in reached]))
+    est = shunt_estimates(records, reached, mu_r)
     sc = score_leakage(est.size, labels.leakage, labels.cooler, labels.accumulator)
     pr = score_leakage(est.size[full], labels.leakage[full], labels.cooler[full],
                        labels.accumulator[full])
+    off = ~full
+    po = score_leakage(est.size[off], labels.leakage[off], labels.cooler[off],
+                       labels.accumulator[off])
     print()
     print("leak size K = (q_ref(θ,p) − q − λ·Δp/μ·[leaking])/√Δp: orifice + laminar shunt "
           "(paper 000 eq. 6 form); no label used")
     print(f"  label-free nuisance values: leak threshold {est.threshold * 6e4:.3f} l/min "
           f"({int(est.leaking.sum())} cycles leaking), healthy dq/dp "
           f"{est.slope * 6e4 * 1e5:+.4f} l/min/bar, shunt λ = {est.shunt:.3e} m³ "
-          f"(fitted on the leaking cycles that ran the whole load program)")
+          f"(fitted on every leaking cycle)")
+    print("  plateaus: up to the cycle's first departure to the relief valve (cycles that left "
+          f"the load program keep their first working plateau: {int(off.sum())} cycles)")
     print(_row("K (all cycles)", sc))
     print(_row("K (cycles on the load program)", pr))
+    print(_row("K (cycles that left the program)", po))
+    print(_row("before: all plateaus, λ on program", so))
     med = {}
     for c in (3.0, 20.0, 100.0):
         m = full & (labels.stable == 0) & (labels.cooler == c)
@@ -126,7 +142,8 @@ def _shunt(records: list[SeriesRecord], points: list, mu: Arr, labels: ZemaLabel
                 "accumulator_within": list(x.accumulator_within),
                 "worst_confound": x.worst_confound}
 
-    return {"all_cycles": fig(sc), "load_program_only": fig(pr),
+    return {"all_cycles": fig(sc), "load_program_only": fig(pr), "left_program_only": fig(po),
+            "all_plateaus_lambda_on_program": fig(so), "cycles_left_program": int(off.sum()),
             "threshold_l_min": est.threshold * 6e4, "leaking_cycles": int(est.leaking.sum()),
             "healthy_slope_l_min_bar": est.slope * 6e4 * 1e5, "shunt_lambda_m3": est.shunt,
             "median_K_by_cooler_1e9": {k: [v * 1e9 for v in vs] for k, vs in med.items()},

@@ -88,3 +88,29 @@ def test_leak_size_orders_leakage_classes_on_the_slice() -> None:
     assert est.shunt >= 0.0
     with pytest.raises(InputError):
         shunt_estimates(recs[:3], pts, mu)
+
+
+def test_plateaus_after_a_relief_episode_are_left_out_on_request() -> None:
+    # start-up at the relief valve (no flow), a working plateau, a relief episode in the
+    # middle of the cycle (no flow), a last working plateau: the ZeMA cycles that left the
+    # load program (e.g. cycle 502)
+    t = np.arange(60, dtype=np.float64)
+    p = np.repeat([190.0, 141.0, 188.0, 145.0], 15) * BAR
+    q = np.repeat([0.0, 7.4, 1.1, 7.6], 15) * LPM
+    rec = SeriesRecord("off-program", t, {"p_pump": p, "q_work": q,
+                                          "oil_temperature": np.full(60, 56.0)},
+                       {"p_pump": "Pa", "q_work": "m^3/s", "oil_temperature": "degC"})
+    first = cycle_point(rec, stop_at_relief=True)
+    both = cycle_point(rec)
+    # the samples beside a jump are not steady (|dp/dt| from the central difference) and one
+    # settle second is dropped: 12 samples of the first plateau, 13 of the last (no jump after)
+    assert first.n == 12 and both.n == 25
+    assert first.pressure == pytest.approx(141.0 * BAR) and first.flow == pytest.approx(7.4 * LPM)
+    assert both.pressure == pytest.approx((12 * 141.0 + 13 * 145.0) / 25 * BAR)
+    assert both.flow == pytest.approx((12 * 7.4 + 13 * 7.6) / 25 * LPM)
+    # a cycle on its program (no relief episode after the first working plateau) is unchanged
+    on = SeriesRecord("on-program", t, {"p_pump": np.repeat([190.0, 141.0, 151.0, 145.0], 15) * BAR,
+                                        "q_work": np.repeat([0.0, 7.4, 7.3, 7.4], 15) * LPM,
+                                        "oil_temperature": np.full(60, 50.0)},
+                      {"p_pump": "Pa", "q_work": "m^3/s", "oil_temperature": "degC"})
+    assert cycle_point(on, stop_at_relief=True) == cycle_point(on)
