@@ -10,7 +10,8 @@ map's, and as its last line one JSON object with every figure.
    from each cycle's plateaus up to its first departure to the relief valve
    (``cycle_point(stop_at_relief=True)``: the 240 cycles that left the load program are
    compared on the first working plateau they share with every cycle, and corrected rather
-   than flagged; their later plateaus follow a relief episode), and what else was tried, each *without* labels (labels only score): the
+   than flagged; their later plateaus follow a relief episode), and what else was tried,
+   each *without* labels (labels only score): the
    temperature sensor of the envelope (TS1-TS4), the pressure law of the leak (G = Δq/Δp^a,
    a = 0, ½, 1), a viscosity exponent b (G·μ^b) fitted label-free inside change-point
    segments, and, as a sensitivity table only (never used to choose), G·μ^b on a grid.
