@@ -16,7 +16,10 @@ map's, and as its last line one JSON object with every figure.
    a = 0, ½, 1), a viscosity exponent b (G·μ^b) fitted label-free inside change-point
    segments, and, as a sensitivity table only (never used to choose), G·μ^b on a grid.
 3. Accumulator gas volume from the oil stored at the load steps
-   (:mod:`diagnostics.real.accumulator`).
+   (:mod:`diagnostics.real.accumulator`), the steps chosen by a rule fixed before scoring
+   (:func:`~diagnostics.real.accumulator.upper_steps`), with the label-free agreement of
+   the single steps and, for scoring only, how far apart the classes lie against their
+   scatter.
 4. Valve switching time from the pressure step at the valve's switching
    (:mod:`diagnostics.real.switching`), on all cycles at 1 Hz, and checked on the raw 100 Hz
    cycles of ``fullres_samples/``.
@@ -30,6 +33,7 @@ import time
 
 import numpy as np
 import numpy.typing as npt
+from scipy.stats import spearmanr
 
 from diagnostics.real.accumulator import gas_volumes, step_volumes
 from diagnostics.real.leakage import (
@@ -105,29 +109,39 @@ def _shunt(records: list[SeriesRecord], points: list, mu: Arr, labels: ZemaLabel
     old = shunt_estimates(records, points, mu, fit_on=full)
     so = score_leakage(old.size, labels.leakage, labels.cooler, labels.accumulator)
     # every cycle's plateaus up to its first departure to the relief valve: the cycles that
-    # left the load program are corrected (compared on the plateau they share), not flagged
+    # left the load program are compared on the plateau they share with every cycle and
+    # scored, not flagged; λ is fitted where all five plateaus are alike (on the program)
     reached = [cycle_point(r, stop_at_relief=True) for r in records]
     mu_r = dynamic_viscosity(Fluid(), np.array([c.theta for c in reached]))
-    est = shunt_estimates(records, reached, mu_r)
-    sc = score_leakage(est.size, labels.leakage, labels.cooler, labels.accumulator)
-    pr = score_leakage(est.size[full], labels.leakage[full], labels.cooler[full],
-                       labels.accumulator[full])
+    est = shunt_estimates(records, reached, mu_r, fit_on=full)
     off = ~full
-    po = score_leakage(est.size[off], labels.leakage[off], labels.cooler[off],
-                       labels.accumulator[off])
+
+    def scores(x: Arr) -> tuple[LeakageScore, LeakageScore, LeakageScore]:
+        return tuple(score_leakage(x[m], labels.leakage[m], labels.cooler[m],  # type: ignore[return-value]
+                                   labels.accumulator[m])
+                     for m in (np.ones_like(full), full, off))
+
+    sc, pr, po = scores(est.size)
+    alt = shunt_estimates(records, reached, mu_r)
+    sa, pa, _ = scores(alt.size)
     print()
     print("leak size K = (q_ref(θ,p) − q − λ·Δp/μ·[leaking])/√Δp: orifice + laminar shunt "
           "(paper 000 eq. 6 form); no label used")
     print(f"  label-free nuisance values: leak threshold {est.threshold * 6e4:.3f} l/min "
           f"({int(est.leaking.sum())} cycles leaking), healthy dq/dp "
           f"{est.slope * 6e4 * 1e5:+.4f} l/min/bar, shunt λ = {est.shunt:.3e} m³ "
-          f"(fitted on every leaking cycle)")
+          f"(fitted on the leaking cycles that ran the whole load program)")
     print("  plateaus: up to the cycle's first departure to the relief valve (cycles that left "
-          f"the load program keep their first working plateau: {int(off.sum())} cycles)")
+          f"the load program keep their first working plateau: {int(off.sum())} cycles, scored)")
     print(_row("K (all cycles)", sc))
     print(_row("K (cycles on the load program)", pr))
     print(_row("K (cycles that left the program)", po))
-    print(_row("before: all plateaus, λ on program", so))
+    print(f"  λ fitted on every leaking cycle instead: λ = {alt.shunt:.3e} m³")
+    print(_row("  K, λ on all (all cycles)", sa))
+    print(_row("  K, λ on all (on the program)", pa))
+    print(_row("before: all plateaus of every cycle", so))
+    print("  no one λ leaves both populations free of the cooler: at matched oil temperature the "
+          "cycles that left the program read less leak than the hot ones on it")
     med = {}
     for c in (3.0, 20.0, 100.0):
         m = full & (labels.stable == 0) & (labels.cooler == c)
@@ -144,7 +158,9 @@ def _shunt(records: list[SeriesRecord], points: list, mu: Arr, labels: ZemaLabel
                 "worst_confound": x.worst_confound}
 
     return {"all_cycles": fig(sc), "load_program_only": fig(pr), "left_program_only": fig(po),
-            "all_plateaus_lambda_on_program": fig(so), "cycles_left_program": int(off.sum()),
+            "lambda_on_all_cycles": {"shunt_lambda_m3": alt.shunt, "all_cycles": fig(sa),
+                                     "load_program_only": fig(pa)},
+            "all_plateaus_of_every_cycle": fig(so), "cycles_left_program": int(off.sum()),
             "threshold_l_min": est.threshold * 6e4, "leaking_cycles": int(est.leaking.sum()),
             "healthy_slope_l_min_bar": est.slope * 6e4 * 1e5, "shunt_lambda_m3": est.shunt,
             "median_K_by_cooler_1e9": {k: [v * 1e9 for v in vs] for k, vs in med.items()},
@@ -237,33 +253,68 @@ def _leakage(points: list, labels: ZemaLabels, light: bool,
 _SENSOR_POINTS: dict[str, list] = {}
 
 
+def _separation(v: Arr, labels: Arr, a: float, b: float) -> dict[str, float]:
+    """How far apart two pre-charge classes lie against their own scatter (scoring only).
+
+    d' = (median_b − median_a)/σ with σ the pooled robust spread (1.4826·MAD) of the two
+    classes; ``Φ(d'/√2)`` is the AUROC two normal classes that far apart would give, and
+    ``(b/a)^(1/n)`` the ratio of gas volumes the polytropic law expects at equal V0 [-].
+    """
+    xa, xb = v[(labels == a) & np.isfinite(v)], v[(labels == b) & np.isfinite(v)]
+    ma, mb = float(np.median(xa)), float(np.median(xb))
+    sa = 1.4826 * float(np.median(np.abs(xa - ma)))
+    sb = 1.4826 * float(np.median(np.abs(xb - mb)))
+    sig = math.sqrt(0.5 * (sa * sa + sb * sb))
+    d = (mb - ma) / sig
+    return {"measured_ratio": mb / ma, "expected_ratio": (b / a) ** (1.0 / 1.4),
+            "relative_spread": sig / ma, "d_prime": d,
+            "gaussian_auroc": 0.5 * math.erfc(-d / 2.0)}
+
+
 def _accumulator(records: list[SeriesRecord], labels: ZemaLabels) -> dict[str, object]:
     others = {"leakage": labels.leakage, "cooler": labels.cooler, "valve": labels.valve}
     print()
     print("accumulator: gas volume at 150 bar from the oil stored at the load steps "
           "(polytropic n = 1.4), scored against the pre-charge label [bar]")
     out: dict[str, object] = {}
+    per = np.column_stack([gas_volumes(records, steps=(k,)) for k in range(4)])
+    ok = np.all(np.isfinite(per), axis=1)
+    agree = np.asarray(spearmanr(per[ok]).statistic, dtype=np.float64)
+    print("  label-free: rank correlation, cycle by cycle, of the gas volumes of single steps "
+          "(steps 0-3: 146→156, 156→166, 166→156, 156→151 bar)")
+    for k in range(4):
+        print("    step " + str(k) + "  " + "  ".join(f"{x:+.3f}" for x in agree[k]))
     per_step = {}
     for k in range(4):
-        v = gas_volumes(records, steps=(k,))
-        s = score_classes(v, labels.accumulator, others)
-        per_step[str(k)] = s.as_dict()
-        print(_class_row(f"step {k} alone", s))
+        sk = score_classes(per[:, k], labels.accumulator, others)
+        per_step[str(k)] = sk.as_dict()
+        print(_class_row(f"step {k} alone (record only)", sk))
     raw = gas_volumes(records, temperature=None)
     s_raw = score_classes(raw, labels.accumulator, others)
-    print(_class_row("steps 1+2, no gas temperature", s_raw))
+    print(_class_row("upper steps, no gas temperature", s_raw))
     vg = gas_volumes(records)
     s = score_classes(vg, labels.accumulator, others)
-    print(_class_row("steps 1+2, gas at 20 °C", s))
+    print(_class_row("upper steps, gas at 20 °C (rule)", s))
     med = {f"{a:g}": float(np.nanmedian(vg[labels.accumulator == a])) * 1e3
            for a in (90.0, 100.0, 115.0, 130.0)}
     print("  median gas volume [l] by pre-charge: "
           + ", ".join(f"{k} bar: {v:.4f}" for k, v in med.items()))
+    sep = {f"{a:g}<{b:g}": _separation(vg, labels.accumulator, a, b)
+           for a, b in ((90.0, 100.0), (100.0, 115.0), (115.0, 130.0))}
+    print("  class separation (scoring only): measured / polytropic ratio of medians, robust "
+          "spread, d', AUROC of two normal classes that far apart")
+    for name, v in sep.items():
+        print(f"    {name:8s} ratio {v['measured_ratio']:.3f} / {v['expected_ratio']:.3f}  spread "
+              f"{100 * v['relative_spread']:.1f} %  d' {v['d_prime']:.2f}  "
+              f"Φ(d'/√2) {v['gaussian_auroc']:.3f}")
     n_ok = int(np.isfinite(vg).sum())
     print(f"  cycles with the four load steps: {n_ok} of {vg.size} (the others left the load "
           "program: relief valve holding the middle plateaus)")
-    out.update({"steps_1_2": s.as_dict(), "steps_1_2_no_temperature": s_raw.as_dict(),
-                "per_step": per_step, "median_gas_l": med,
+    out.update({"upper_steps": s.as_dict(), "upper_steps_no_temperature": s_raw.as_dict(),
+                "step_rule": "steps between plateaus in the upper half of the cycle's "
+                             "working pressures (fixed before scoring)",
+                "step_agreement_spearman": agree.tolist(),
+                "per_step": per_step, "median_gas_l": med, "separation": sep,
                 "cycles_scored": n_ok})
     return out
 

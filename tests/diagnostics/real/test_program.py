@@ -2,12 +2,19 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
 import pytest
 
-from diagnostics.real.accumulator import LoadStep, gas_volume, gas_volumes, step_volumes
+from diagnostics.real.accumulator import (
+    LoadStep,
+    gas_volume,
+    gas_volumes,
+    step_volumes,
+    upper_steps,
+)
 from diagnostics.real.scoring import score_classes
 from diagnostics.real.switching import (
     crossing_time,
@@ -197,3 +204,16 @@ def test_score_classes_by_hand() -> None:
     assert s2.n == 9
     with pytest.raises(InputError):
         score_classes(est, label[:3], {})
+
+
+def test_upper_steps_are_those_between_the_upper_plateaus() -> None:
+    # the ZeMA load program: plateaus 146, 156, 166, 156, 151 bar
+    levels = [146.0, 156.0, 166.0, 156.2, 151.0]
+    steps = [LoadStep(a * BAR, b * BAR, 1e-6, float(k)) for k, (a, b)
+             in enumerate(itertools.pairwise(levels))]
+    chosen = upper_steps(steps)
+    assert [(s.p_from / BAR, s.p_to / BAR) for s in chosen] == [(156.0, 166.0), (166.0, 156.2)]
+    # an even count of plateaus: the lower middle one bounds the upper half
+    four = [LoadStep(a * BAR, b * BAR, 1e-6, 0.0) for a, b in [(140, 150), (150, 160), (160, 170)]]
+    assert [s.p_from / BAR for s in upper_steps(four)] == [150.0, 160.0]
+    assert upper_steps([]) == []
