@@ -44,7 +44,7 @@ from diagnostics.real.leakage import (
     score_leakage,
 )
 from diagnostics.real.scoring import ClassScore, score_classes
-from diagnostics.real.shunt import shunt_estimates
+from diagnostics.real.shunt import fit_relaxation, shunt_estimates
 from diagnostics.real.switching import crossing_time, switching_lags, switching_times
 from diagnostics.real.zema import (
     FULLRES_CYCLES,
@@ -111,8 +111,14 @@ def _shunt(records: list[SeriesRecord], points: list, mu: Arr, labels: ZemaLabel
     # every cycle's plateaus up to its first departure to the relief valve: the cycles that
     # left the load program are compared on the plateau they share with every cycle and
     # scored, not flagged; λ is fitted where all five plateaus are alike (on the program)
-    reached = [cycle_point(r, stop_at_relief=True) for r in records]
-    mu_r = dynamic_viscosity(Fluid(), np.array([c.theta for c in reached]))
+    def mu_of(th: Arr) -> Arr:
+        return np.asarray(dynamic_viscosity(Fluid(), th), dtype=np.float64)
+
+    tau, tau_rho = fit_relaxation(records, mu_of, fit_on=full)
+    plain = [cycle_point(r, stop_at_relief=True) for r in records]
+    sp = shunt_estimates(records, plain, mu_of(np.array([c.theta for c in plain])), fit_on=full)
+    reached = [cycle_point(r, stop_at_relief=True, relaxation=tau) for r in records]
+    mu_r = mu_of(np.array([c.theta for c in reached]))
     est = shunt_estimates(records, reached, mu_r, fit_on=full)
     off = ~full
 
@@ -124,6 +130,7 @@ def _shunt(records: list[SeriesRecord], points: list, mu: Arr, labels: ZemaLabel
     sc, pr, po = scores(est.size)
     alt = shunt_estimates(records, reached, mu_r)
     sa, pa, _ = scores(alt.size)
+    s0, p0, _ = scores(sp.size)
     print()
     print("leak size K = (q_ref(θ,p) − q − λ·Δp/μ·[leaking])/√Δp: orifice + laminar shunt "
           "(paper 000 eq. 6 form); no label used")
@@ -133,15 +140,22 @@ def _shunt(records: list[SeriesRecord], points: list, mu: Arr, labels: ZemaLabel
           f"(fitted on the leaking cycles that ran the whole load program)")
     print("  plateaus: up to the cycle's first departure to the relief valve (cycles that left "
           f"the load program keep their first working plateau: {int(off.sum())} cycles, scored)")
+    print(f"  plateau flow: settled value after the accumulator gas's relaxation, τ = {tau:.1f} s "
+          "(label-free: the τ where K from the first plateau alone minus K from all plateaus "
+          "carries the least rank correlation with θ; |ρ| on the grid 0-8 s: "
+          + " ".join(f"{x:.2f}" for x in tau_rho) + ")")
     print(_row("K (all cycles)", sc))
     print(_row("K (cycles on the load program)", pr))
     print(_row("K (cycles that left the program)", po))
+    print(_row("  K, plateau means (τ = 0), all", s0))
+    print(_row("  K, plateau means (τ = 0), on program", p0))
     print(f"  λ fitted on every leaking cycle instead: λ = {alt.shunt:.3e} m³")
     print(_row("  K, λ on all (all cycles)", sa))
     print(_row("  K, λ on all (on the program)", pa))
     print(_row("before: all plateaus of every cycle", so))
-    print("  no one λ leaves both populations free of the cooler: at matched oil temperature the "
-          "cycles that left the program read less leak than the hot ones on it")
+    print("  no one λ leaves both populations free of the cooler: the cycles that left the "
+          "program are the hottest, and their first plateau reads less leak than the trend of "
+          "the on-program cycles' pooled plateaus")
     med = {}
     for c in (3.0, 20.0, 100.0):
         m = full & (labels.stable == 0) & (labels.cooler == c)
@@ -158,6 +172,8 @@ def _shunt(records: list[SeriesRecord], points: list, mu: Arr, labels: ZemaLabel
                 "worst_confound": x.worst_confound}
 
     return {"all_cycles": fig(sc), "load_program_only": fig(pr), "left_program_only": fig(po),
+            "relaxation_s": tau, "relaxation_grid_abs_rho": [float(x) for x in tau_rho],
+            "plateau_means": {"all_cycles": fig(s0), "load_program_only": fig(p0)},
             "lambda_on_all_cycles": {"shunt_lambda_m3": alt.shunt, "all_cycles": fig(sa),
                                      "load_program_only": fig(pa)},
             "all_plateaus_of_every_cycle": fig(so), "cycles_left_program": int(off.sum()),
