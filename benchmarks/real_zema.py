@@ -287,7 +287,8 @@ def _separation(v: Arr, labels: Arr, a: float, b: float) -> dict[str, float]:
             "gaussian_auroc": 0.5 * math.erfc(-d / 2.0)}
 
 
-def _accumulator(records: list[SeriesRecord], labels: ZemaLabels) -> dict[str, object]:
+def _accumulator(records: list[SeriesRecord], labels: ZemaLabels,
+                 relaxation: float) -> dict[str, object]:
     others = {"leakage": labels.leakage, "cooler": labels.cooler, "valve": labels.valve}
     print()
     print("accumulator: gas volume at 150 bar from the oil stored at the load steps "
@@ -308,9 +309,14 @@ def _accumulator(records: list[SeriesRecord], labels: ZemaLabels) -> dict[str, o
     raw = gas_volumes(records, temperature=None)
     s_raw = score_classes(raw, labels.accumulator, others)
     print(_class_row("upper steps, no gas temperature", s_raw))
-    vg = gas_volumes(records)
+    plain = gas_volumes(records)
+    s_plain = score_classes(plain, labels.accumulator, others)
+    print(_class_row("upper steps, gas at 20 °C, means", s_plain))
+    vg = gas_volumes(records, relaxation=relaxation)
     s = score_classes(vg, labels.accumulator, others)
-    print(_class_row("upper steps, gas at 20 °C (rule)", s))
+    print(_class_row(f"upper, 20 °C, settled τ={relaxation:.1f} s", s))
+    print("  (τ: the gas relaxation time found for the leak estimate, label-free; the pump line "
+          "q_ss through the plateaus' settled flows)")
     med = {f"{a:g}": float(np.nanmedian(vg[labels.accumulator == a])) * 1e3
            for a in (90.0, 100.0, 115.0, 130.0)}
     print("  median gas volume [l] by pre-charge: "
@@ -326,7 +332,9 @@ def _accumulator(records: list[SeriesRecord], labels: ZemaLabels) -> dict[str, o
     n_ok = int(np.isfinite(vg).sum())
     print(f"  cycles with the four load steps: {n_ok} of {vg.size} (the others left the load "
           "program: relief valve holding the middle plateaus)")
-    out.update({"upper_steps": s.as_dict(), "upper_steps_no_temperature": s_raw.as_dict(),
+    out.update({"upper_steps": s.as_dict(), "relaxation_s": relaxation,
+                "upper_steps_plateau_means": s_plain.as_dict(),
+                "upper_steps_no_temperature": s_raw.as_dict(),
                 "step_rule": "steps between plateaus in the upper half of the cycle's "
                              "working pressures (fixed before scoring)",
                 "step_agreement_spearman": agree.tolist(),
@@ -411,7 +419,7 @@ def zema(light: bool) -> dict[str, object]:
     lk = _leakage(points, labels, light, full)
     mu = dynamic_viscosity(Fluid(), np.array([p.theta for p in points]))
     shunt = _shunt(records, points, mu, labels, full)
-    acc = _accumulator(records, labels)
+    acc = _accumulator(records, labels, float(shunt["relaxation_s"]))  # type: ignore[arg-type]
     valve = _valve(records, labels)
     sc: LeakageScore = lk["score"]  # type: ignore[assignment]
     st: LeakageScore = lk["stable"]  # type: ignore[assignment]

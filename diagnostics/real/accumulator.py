@@ -63,6 +63,7 @@ import numpy as np
 import numpy.typing as npt
 
 from diagnostics.real.leakage import record_plateaus
+from diagnostics.real.relaxation import settled_flow
 from diagnostics.timeseries import SeriesRecord
 from sim.errors import InputError, MeasurementError
 
@@ -100,7 +101,8 @@ class LoadStep:
 
 def step_volumes(record: SeriesRecord, *, pressure: str = "p_pump", flow: str = "q_work",
                  min_flow_fraction: float = 0.2, max_gap: float = 4.0,
-                 min_step: float = 2.0e5, **plateau_options: float) -> list[LoadStep]:
+                 min_step: float = 2.0e5, relaxation: float = 0.0,
+                 **plateau_options: float) -> list[LoadStep]:
     """The load steps of ``record`` with the oil volume stored in each (module docstring).
 
     Parameters
@@ -116,6 +118,11 @@ def step_volumes(record: SeriesRecord, *, pressure: str = "p_pump", flow: str = 
         Longest transition between two plateaus [s]; longer gaps are not one step.
     min_step
         Smallest pressure change [Pa] counted as a step.
+    relaxation
+        Relaxation time of the gas [s]: with > 0 the steady flow ``q_ss`` runs through the
+        plateaus' settled flows (:func:`~diagnostics.real.relaxation.settled_flow`), not
+        their means, so the gas's slow heat exchange after the previous step does not shift
+        the pump line the stored oil is counted against.
     plateau_options
         Passed to :func:`~diagnostics.real.leakage.record_plateaus`.
     """
@@ -126,6 +133,8 @@ def step_volumes(record: SeriesRecord, *, pressure: str = "p_pump", flow: str = 
     p, q = record.channel(pressure), record.channel(flow)
     means = [(a, b, float(p[a:b].mean()), float(q[a:b].mean())) for a, b in plats]
     top = max((m[3] for m in means), default=0.0)
+    if relaxation > 0:
+        means = [(a, b, pm, settled_flow(q[a:b], relaxation * rate)) for a, b, pm, _ in means]
     dt = 1.0 / rate
     steps: list[LoadStep] = []
     for (_, b1, p1, q1), (a2, _, p2, q2) in itertools.pairwise(means):

@@ -217,3 +217,21 @@ def test_upper_steps_are_those_between_the_upper_plateaus() -> None:
     four = [LoadStep(a * BAR, b * BAR, 1e-6, 0.0) for a, b in [(140, 150), (150, 160), (160, 170)]]
     assert [s.p_from / BAR for s in upper_steps(four)] == [150.0, 160.0]
     assert upper_steps([]) == []
+
+
+def test_step_volume_counts_against_the_settled_pump_line() -> None:
+    # as above, but the first plateau still carries the gas's outflow after an earlier fall
+    t = np.arange(40, dtype=np.float64)
+    p = np.where(t < 19, 150.0, 160.0) * BAR
+    p[19] = 155.0 * BAR
+    q_ss = 8.0 - 0.01 * (p / BAR - 150.0)
+    q = q_ss.copy()
+    q[19] -= 0.3
+    q[:18] += 0.08 * np.exp(-t[:18] / 2.0)  # decays within the first plateau
+    rec = _record(t, p, q * LPM)
+    (settled,) = step_volumes(rec, relaxation=2.0)
+    (means,) = step_volumes(rec)
+    # the plateau's settled flow is the pump's: the stored oil comes back exactly
+    assert settled.volume == pytest.approx(0.3 * LPM, rel=1e-6)
+    # its mean lifts the pump line at 150 bar and overstates the oil stored in the step
+    assert means.volume > settled.volume * 1.01
