@@ -36,6 +36,8 @@ from diagnostics.pump import (
 from diagnostics.pump.levels import cluster_levels
 from diagnostics.pump.map_subset import subset_held_out
 from diagnostics.pump.piston import (
+    FLOW_LOSS_TERMS,
+    TORQUE_LOSS_TERMS,
     HeldOut,
     PistonMap,
     bench_frame,
@@ -81,6 +83,21 @@ def _inner_and_floor(sub: PistonMap, h: HeldOut) -> tuple[float, float, float, f
     sq, st = float(sse[0]), float(sse[1])
     return (fi, ti, 100.0 * float(np.sqrt(sq / dof)) / h.flow_full,
             100.0 * float(np.sqrt(st / dof)) / h.torque_full)
+
+
+def _signs_ok(h: HeldOut) -> bool:
+    """Every coefficient of the chosen flow and torque models has its term's sign."""
+    ok = True
+    for fit, library in ((h.flow, FLOW_LOSS_TERMS), (h.torque, TORQUE_LOSS_TERMS)):
+        signs = {t.name: t.sign for t in library}
+        ok &= all(signs[n] == 0 or c >= 0 for n, c in zip(fit.terms, fit.coef, strict=True))
+    return bool(ok)
+
+
+def _marks(row: dict[str, object]) -> str:
+    t = row["targets"]
+    assert isinstance(t, dict)
+    return " ".join(f"{k}:{'yes' if v else 'MISS'}" for k, v in t.items())
 
 
 def pump_map() -> dict[str, object]:
@@ -132,6 +149,14 @@ def pump_map() -> dict[str, object]:
             "flow_terms": list(h.flow_terms), "torque_terms": list(h.torque_terms),
             "flow_S_interior_speeds_pct": fi, "torque_S_interior_speeds_pct": ti,
             "flow_scatter_floor_pct": ff, "torque_scatter_floor_pct": tf,
+            "targets": {
+                "flow_S_le_0.3": h.flow_S <= 0.3,
+                "flow_S_le_0.3_of_full_flow": h.flow_S * fq <= 0.3,
+                "flow_no_worse_than_quadratic": h.flow_S <= h.flow_S_quadratic,
+                "torque_S_le_0.3": h.torque_S <= 0.3,
+                "torque_S_le_0.3_of_full_torque": h.torque_S * ft <= 0.3,
+                "torque_no_worse_than_quadratic": h.torque_S <= h.torque_S_quadratic,
+                "signs_physical": _signs_ok(h)},
             "paper001_subset": {
                 r.response: {"terms": list(r.model.terms),
                              "coef": [float(c) for c in r.model.coef],
@@ -141,6 +166,11 @@ def pump_map() -> dict[str, object]:
                              "not_identifiable": list(r.not_identifiable)}
                 for r in (sf, st)},
         })
+    print()
+    print("targets per setting (S in % of the setting's max; 'of_full': % of the pump's max; "
+          "the quadratic on the same split):")
+    for row in rows:
+        print(f"{row['displacement_cm3_rev']:11.1f}  {_marks(row)}")
     print()
     print("paper 001 best subset (Table 1 terms, AIC, VIF ≤ 10, sign checks), per setting: "
           "in-sample S, R² (as paper 001) | one speed left out; S in % of the setting's max")
@@ -174,7 +204,9 @@ def pump_map() -> dict[str, object]:
                 "torque_S_le_0.3_of_full_torque_all": every("torque_S_pct_of_full_torque",
                                                             limit=0.3),
                 "torque_no_worse_than_quadratic_all": every("torque_S_pct",
-                                                            "torque_S_quadratic_pct")}}
+                                                            "torque_S_quadratic_pct"),
+                "signs_physical_all": all(bool(r["targets"]["signs_physical"])  # type: ignore[index]
+                                          for r in rows)}}
 
 
 def main() -> None:

@@ -6,16 +6,20 @@ Every estimate is computed from the measured cycles without any label; the label
 map's, and as its last line one JSON object with every figure.
 
 1. Pump leakage (:mod:`diagnostics.real.leakage`), its score and change points.
-2. The cooler confound: the orifice + laminar-shunt leak size (:mod:`diagnostics.real.shunt`),
-   and what else was tried, each *without* labels (labels only score): the
+2. The cooler confound: the orifice + laminar-shunt leak size (:mod:`diagnostics.real.shunt`)
+   from each cycle's plateaus up to its first departure to the relief valve
+   (``cycle_point(stop_at_relief=True)``: the 240 cycles that left the load program are
+   compared on the first working plateau they share with every cycle, and corrected rather
+   than flagged; their later plateaus follow a relief episode), and what else was tried,
+   each *without* labels (labels only score): the
    temperature sensor of the envelope (TS1-TS4), the pressure law of the leak (G = Δq/Δp^a,
    a = 0, ½, 1), a viscosity exponent b (G·μ^b) fitted label-free inside change-point
    segments, and, as a sensitivity table only (never used to choose), G·μ^b on a grid.
-3. Accumulator gas volume from the oil stored at the load steps
-   (:mod:`diagnostics.real.accumulator`).
-4. Valve switching time from the pressure step at the valve's switching
-   (:mod:`diagnostics.real.switching`), on all cycles at 1 Hz, and checked on the raw 100 Hz
-   cycles of ``fullres_samples/``.
+3. Accumulator gas volume from the oil stored at the load steps, the steps chosen by a
+   rule fixed before scoring (:mod:`benchmarks.real_zema_program`).
+4. Valve switching time from the pressure step at the valve's switching, on all cycles at
+   1 Hz, and checked on the raw 100 Hz cycles of ``fullres_samples/``
+   (:mod:`benchmarks.real_zema_program`).
 """
 
 from __future__ import annotations
@@ -27,7 +31,8 @@ import time
 import numpy as np
 import numpy.typing as npt
 
-from diagnostics.real.accumulator import gas_volumes, step_volumes
+from benchmarks.real_zema_program import accumulator, valve_lag
+from diagnostics.real.accumulator import step_volumes
 from diagnostics.real.leakage import (
     LeakageScore,
     change_points,
@@ -35,14 +40,10 @@ from diagnostics.real.leakage import (
     leakage_estimates,
     score_leakage,
 )
-from diagnostics.real.scoring import ClassScore, score_classes
-from diagnostics.real.shunt import shunt_estimates
-from diagnostics.real.switching import crossing_time, switching_lags, switching_times
+from diagnostics.real.shunt import fit_relaxation, shunt_estimates
 from diagnostics.real.zema import (
-    FULLRES_CYCLES,
     ZemaLabels,
     load_1hz,
-    read_fullres,
     read_records,
     zema_root,
 )
@@ -63,13 +64,6 @@ def _row(name: str, s: LeakageScore) -> str:
     aw = ", ".join(f"{v:+.2f}" for v in s.accumulator_within)
     return (f"{name:34s} {s.spearman:6.3f} {s.ceiling:6.3f} {100 * s.fraction:6.1f} "
             f"{s.auroc_01:6.3f} {s.auroc_12:6.3f}  cooler [{cw}]  acc [{aw}]")
-
-
-def _class_row(name: str, s: ClassScore) -> str:
-    auc = " ".join(f"{k}:{v:.3f}" for k, v in s.auroc.items())
-    conf = "  ".join(f"{k} [{', '.join(f'{x:+.2f}' for x in v)}]" for k, v in s.within.items())
-    return (f"{name:30s} n={s.n:4d} ρ={s.spearman:+.3f} ceil={s.ceiling:.3f} "
-            f"({100 * s.fraction:5.1f} %)  AUROC {auc}\n{'':32s}within-class ρ: {conf}")
 
 
 def _within_segment_exponent(est: Arr, mu: Arr, cps: list[int]) -> tuple[float, float, int]:
@@ -98,10 +92,31 @@ def _within_segment_exponent(est: Arr, mu: Arr, cps: list[int]) -> tuple[float, 
 def _shunt(records: list[SeriesRecord], points: list, mu: Arr, labels: ZemaLabels,
            full: npt.NDArray[np.bool_]) -> dict[str, object]:
     """The orifice + laminar-shunt leak size (:mod:`diagnostics.real.shunt`), scored."""
-    est = shunt_estimates(records, points, mu, fit_on=full)
-    sc = score_leakage(est.size, labels.leakage, labels.cooler, labels.accumulator)
-    pr = score_leakage(est.size[full], labels.leakage[full], labels.cooler[full],
-                       labels.accumulator[full])
+    old = shunt_estimates(records, points, mu, fit_on=full)
+    so = score_leakage(old.size, labels.leakage, labels.cooler, labels.accumulator)
+    # every cycle's plateaus up to its first departure to the relief valve: the cycles that
+    # left the load program are compared on the plateau they share with every cycle and
+    # scored, not flagged; λ is fitted where all five plateaus are alike (on the program)
+    def mu_of(th: Arr) -> Arr:
+        return np.asarray(dynamic_viscosity(Fluid(), th), dtype=np.float64)
+
+    tau, tau_rho = fit_relaxation(records, mu_of, fit_on=full)
+    plain = [cycle_point(r, stop_at_relief=True) for r in records]
+    sp = shunt_estimates(records, plain, mu_of(np.array([c.theta for c in plain])), fit_on=full)
+    reached = [cycle_point(r, stop_at_relief=True, relaxation=tau) for r in records]
+    mu_r = mu_of(np.array([c.theta for c in reached]))
+    est = shunt_estimates(records, reached, mu_r, fit_on=full)
+    off = ~full
+
+    def scores(x: Arr) -> tuple[LeakageScore, LeakageScore, LeakageScore]:
+        return tuple(score_leakage(x[m], labels.leakage[m], labels.cooler[m],  # type: ignore[return-value]
+                                   labels.accumulator[m])
+                     for m in (np.ones_like(full), full, off))
+
+    sc, pr, po = scores(est.size)
+    alt = shunt_estimates(records, reached, mu_r)
+    sa, pa, _ = scores(alt.size)
+    s0, p0, _ = scores(sp.size)
     print()
     print("leak size K = (q_ref(θ,p) − q − λ·Δp/μ·[leaking])/√Δp: orifice + laminar shunt "
           "(paper 000 eq. 6 form); no label used")
@@ -109,8 +124,24 @@ def _shunt(records: list[SeriesRecord], points: list, mu: Arr, labels: ZemaLabel
           f"({int(est.leaking.sum())} cycles leaking), healthy dq/dp "
           f"{est.slope * 6e4 * 1e5:+.4f} l/min/bar, shunt λ = {est.shunt:.3e} m³ "
           f"(fitted on the leaking cycles that ran the whole load program)")
+    print("  plateaus: up to the cycle's first departure to the relief valve (cycles that left "
+          f"the load program keep their first working plateau: {int(off.sum())} cycles, scored)")
+    print(f"  plateau flow: settled value after the accumulator gas's relaxation, τ = {tau:.1f} s "
+          "(label-free: the τ where K from the first plateau alone minus K from all plateaus "
+          "carries the least rank correlation with θ; |ρ| on the grid 0-8 s: "
+          + " ".join(f"{x:.2f}" for x in tau_rho) + ")")
     print(_row("K (all cycles)", sc))
     print(_row("K (cycles on the load program)", pr))
+    print(_row("K (cycles that left the program)", po))
+    print(_row("  K, plateau means (τ = 0), all", s0))
+    print(_row("  K, plateau means (τ = 0), on program", p0))
+    print(f"  λ fitted on every leaking cycle instead: λ = {alt.shunt:.3e} m³")
+    print(_row("  K, λ on all (all cycles)", sa))
+    print(_row("  K, λ on all (on the program)", pa))
+    print(_row("before: all plateaus of every cycle", so))
+    print("  no one λ leaves both populations free of the cooler: the cycles that left the "
+          "program are the hottest, and their first plateau reads less leak than the trend of "
+          "the on-program cycles' pooled plateaus")
     med = {}
     for c in (3.0, 20.0, 100.0):
         m = full & (labels.stable == 0) & (labels.cooler == c)
@@ -126,7 +157,12 @@ def _shunt(records: list[SeriesRecord], points: list, mu: Arr, labels: ZemaLabel
                 "accumulator_within": list(x.accumulator_within),
                 "worst_confound": x.worst_confound}
 
-    return {"all_cycles": fig(sc), "load_program_only": fig(pr),
+    return {"all_cycles": fig(sc), "load_program_only": fig(pr), "left_program_only": fig(po),
+            "relaxation_s": tau, "relaxation_grid_abs_rho": [float(x) for x in tau_rho],
+            "plateau_means": {"all_cycles": fig(s0), "load_program_only": fig(p0)},
+            "lambda_on_all_cycles": {"shunt_lambda_m3": alt.shunt, "all_cycles": fig(sa),
+                                     "load_program_only": fig(pa)},
+            "all_plateaus_of_every_cycle": fig(so), "cycles_left_program": int(off.sum()),
             "threshold_l_min": est.threshold * 6e4, "leaking_cycles": int(est.leaking.sum()),
             "healthy_slope_l_min_bar": est.slope * 6e4 * 1e5, "shunt_lambda_m3": est.shunt,
             "median_K_by_cooler_1e9": {k: [v * 1e9 for v in vs] for k, vs in med.items()},
@@ -219,88 +255,6 @@ def _leakage(points: list, labels: ZemaLabels, light: bool,
 _SENSOR_POINTS: dict[str, list] = {}
 
 
-def _accumulator(records: list[SeriesRecord], labels: ZemaLabels) -> dict[str, object]:
-    others = {"leakage": labels.leakage, "cooler": labels.cooler, "valve": labels.valve}
-    print()
-    print("accumulator: gas volume at 150 bar from the oil stored at the load steps "
-          "(polytropic n = 1.4), scored against the pre-charge label [bar]")
-    out: dict[str, object] = {}
-    per_step = {}
-    for k in range(4):
-        v = gas_volumes(records, steps=(k,))
-        s = score_classes(v, labels.accumulator, others)
-        per_step[str(k)] = s.as_dict()
-        print(_class_row(f"step {k} alone", s))
-    raw = gas_volumes(records, temperature=None)
-    s_raw = score_classes(raw, labels.accumulator, others)
-    print(_class_row("steps 1+2, no gas temperature", s_raw))
-    vg = gas_volumes(records)
-    s = score_classes(vg, labels.accumulator, others)
-    print(_class_row("steps 1+2, gas at 20 °C", s))
-    med = {f"{a:g}": float(np.nanmedian(vg[labels.accumulator == a])) * 1e3
-           for a in (90.0, 100.0, 115.0, 130.0)}
-    print("  median gas volume [l] by pre-charge: "
-          + ", ".join(f"{k} bar: {v:.4f}" for k, v in med.items()))
-    n_ok = int(np.isfinite(vg).sum())
-    print(f"  cycles with the four load steps: {n_ok} of {vg.size} (the others left the load "
-          "program: relief valve holding the middle plateaus)")
-    out.update({"steps_1_2": s.as_dict(), "steps_1_2_no_temperature": s_raw.as_dict(),
-                "per_step": per_step, "median_gas_l": med,
-                "cycles_scored": n_ok})
-    return out
-
-
-def _valve(records: list[SeriesRecord], labels: ZemaLabels) -> dict[str, object]:
-    print()
-    print("valve: equivalent switching time t* of the relief→load pressure step (s 9-11), "
-          "lag behind the campaign's 1 % quantile; scored against the valve condition "
-          "(the lag grows as it falls)")
-    t = switching_times(records)
-    lag = switching_lags(t)
-    others = {"leakage": labels.leakage, "cooler": labels.cooler,
-              "accumulator": labels.accumulator}
-    s = score_classes(lag, labels.valve, others, decreasing=True)
-    print(_class_row("lag (1 Hz block means)", s))
-    med = {f"{v:g}": float(np.nanmedian(lag[labels.valve == v])) * 1e3
-           for v in (100.0, 90.0, 80.0, 73.0)}
-    print("  median lag [ms] by valve condition: "
-          + ", ".join(f"{k} %: {v:.0f}" for k, v in med.items()))
-    # the raw 100 Hz cycles: same t* from the raw samples as from their 1 s means?
-    path = zema_root() / "fullres_samples" / "jeremiafourie" / "testing_sample.csv"
-    raw = read_fullres(path, FULLRES_CYCLES, sensors=("PS1", "PS2"))
-    t_raw = switching_times(raw)
-    data, lab = load_1hz(zema_root(), list(FULLRES_CYCLES), sensors=("PS1",))
-    t_1hz = switching_times(read_records(data))
-    diff = float(np.max(np.abs(t_raw - t_1hz)))
-    s_raw = score_classes(t_raw, lab.valve, {}, decreasing=True)
-    print(f"  raw 100 Hz cycles {list(FULLRES_CYCLES)}: t* raw vs 1 Hz differ by at most "
-          f"{diff * 1e3:.3g} ms; ρ(t*, valve, decreasing) on these {len(raw)} cycles = "
-          f"{s_raw.spearman:+.3f} (ceiling {s_raw.ceiling:.3f})")
-    rows = []
-    for r, c, tr, v in zip(raw, FULLRES_CYCLES, t_raw, lab.valve, strict=True):
-        p = r.channel("p_pump")
-        hi, lo = float(p[200:900].mean()), float(p[1200:1900].mean())
-        opening = crossing_time(r, 5.0e5)
-        p90 = crossing_time(r, lo + 0.9 * (hi - lo), channel="p_pump", rising=False)
-        p10 = crossing_time(r, lo + 0.1 * (hi - lo), channel="p_pump", rising=False)
-        rows.append({"cycle": c, "valve": float(v), "t_star_s": float(tr),
-                     "ps2_opening_s": opening, "ps1_fall_10_90_ms": (p10 - p90) * 1e3})
-        print(f"    cycle {c:5d}  valve {v:4.0f} %  t* = {tr:.3f} s   PS2 through 5 bar at "
-              f"{opening:.3f} s   PS1 fall 90→10 % {1e3 * (p10 - p90):4.0f} ms")
-    s_open = score_classes(np.array([r["ps2_opening_s"] for r in rows]), lab.valve, {},
-                           decreasing=True)
-    by_valve = {f"{v:g}": float(np.median([r["ps2_opening_s"] for r in rows
-                                           if r["valve"] == v])) for v in (100.0, 90.0, 80.0)}
-    print(f"  PS2 opening at native rate: ρ = {s_open.spearman:+.3f} (ceiling "
-          f"{s_open.ceiling:.3f}), AUROC {s_open.auroc}; median opening by valve "
-          + ", ".join(f"{k} %: {v:.3f} s" for k, v in by_valve.items()))
-    return {"fullres": rows, "fullres_opening": s_open.as_dict(),
-            "fullres_opening_median_s": by_valve, "lag": s.as_dict(), "median_lag_ms": med,
-            "fullres_max_diff_ms": diff * 1e3,
-            "fullres_spearman": s_raw.spearman, "fullres_ceiling": s_raw.ceiling,
-            "fullres_cycles": len(raw)}
-
-
 def zema(light: bool) -> dict[str, object]:
     """Run the ZeMA study, print its tables, return its figures."""
     root = zema_root()
@@ -326,8 +280,8 @@ def zema(light: bool) -> dict[str, object]:
     lk = _leakage(points, labels, light, full)
     mu = dynamic_viscosity(Fluid(), np.array([p.theta for p in points]))
     shunt = _shunt(records, points, mu, labels, full)
-    acc = _accumulator(records, labels)
-    valve = _valve(records, labels)
+    acc = accumulator(records, labels, float(shunt["relaxation_s"]))  # type: ignore[arg-type]
+    valve = valve_lag(records, labels)
     sc: LeakageScore = lk["score"]  # type: ignore[assignment]
     st: LeakageScore = lk["stable"]  # type: ignore[assignment]
     bl: LeakageScore = lk["baseline"]  # type: ignore[assignment]

@@ -29,8 +29,14 @@ torque loss ``T_L = T − D·Δp`` [N·m]::
                          either sign)
         + b₆·Δp·ω        Coulomb friction that changes with speed (mixed to fluid
                          film, Stribeck; either sign)
+        + b₇·√ω          friction of a full fluid film under a constant load: the     b₇ ≥ 0
+                         cylinder block held on the valve plate by its spring.  A
+                         hydrodynamic film under a load W settles at h ∝ √(μ·U/W), so
+                         its friction μ·U·A/h ∝ √(μ·U·W): ∝ √ω at constant W and μ
+                         (slider-bearing theory, e.g. Hamrock, *Fundamentals of Fluid
+                         Film Lubrication*, ch. 8; not a seed paper)
 
-The terms beyond paper 000's (a₅-a₇, b₅-b₆) are what the V32HL56 map showed the
+The terms beyond paper 000's (a₅-a₇, b₅-b₇) are what the V32HL56 map showed the
 constant-coefficient model misses: its flow loss at 4,500 rpm is about 3× that at 1,000 rpm at
 the same Δp, and grows faster than linearly in Δp at high speed (``make real-data``).
 
@@ -176,6 +182,7 @@ TORQUE_LOSS_TERMS: tuple[LossTerm, ...] = (
     LossTerm("1", lambda p, w: np.ones_like(p), +1),
     LossTerm("dp^2", lambda p, w: p * p, 0),
     LossTerm("dp*omega", lambda p, w: p * w, 0),
+    LossTerm("sqrt(omega)", lambda p, w: np.sqrt(w), +1),
 )
 
 

@@ -43,6 +43,7 @@ import numpy.typing as npt
 from scipy.ndimage import uniform_filter1d
 from scipy.stats import mannwhitneyu, rankdata, spearmanr
 
+from diagnostics.real.relaxation import settled_flow
 from diagnostics.timeseries import SeriesRecord
 from sim.errors import InputError, MeasurementError
 
@@ -114,11 +115,22 @@ def record_plateaus(record: SeriesRecord, *, pressure: str = "p_pump",
 
 def cycle_point(record: SeriesRecord, *, pressure: str = "p_pump", flow: str = "q_work",
                 temperature: str = "oil_temperature", min_flow_fraction: float = 0.2,
-                **plateau_options: float) -> CyclePoint:
+                stop_at_relief: bool = False, relaxation: float = 0.0,
+                max_plateaus: int | None = None, **plateau_options: float) -> CyclePoint:
     """Flow, pressure and temperature pooled over the working plateaus of one cycle.
 
     A plateau whose mean flow is below ``min_flow_fraction`` [-] of the record's largest
-    plateau flow is a no-flow plateau (relief valve) and is left out.
+    plateau flow is a no-flow plateau (relief valve) and is left out.  With
+    ``stop_at_relief`` the working plateaus that follow a no-flow plateau *after* the first
+    working plateau are left out too: once the cycle has left its load program for the
+    relief valve (the line and accumulator charged to relief pressure, the oil in the pump
+    heated by full-pressure throttling), its later plateaus are not in the steady state the
+    healthy reference was taken in.  Every cycle then contributes the plateaus it reached
+    the same way (on the ZeMA rig: all five working plateaus, or only the first one).
+
+    ``relaxation`` [s] > 0 takes each plateau's flow as its settled value
+    (:func:`~diagnostics.real.relaxation.settled_flow`, the accumulator's gas relaxation
+    removed) instead of its mean; ``max_plateaus`` keeps only the first working plateaus.
 
     Raises
     ------
@@ -131,12 +143,26 @@ def cycle_point(record: SeriesRecord, *, pressure: str = "p_pump", flow: str = "
              else np.full(p.size, record.condition.get("oil_temperature", math.nan)))
     means = [(a, b, float(q[a:b].mean())) for a, b in plats]
     top = max((m for _, _, m in means), default=0.0)
-    keep = [(a, b) for a, b, m in means if top > 0 and m >= min_flow_fraction * top]
+    keep: list[tuple[int, int]] = []
+    for a, b, m in means:
+        working = top > 0 and m >= min_flow_fraction * top
+        if working:
+            keep.append((a, b))
+        elif stop_at_relief and keep:
+            break
     if not keep:
         raise MeasurementError(f"record {record.name!r} has no pressure plateau with flow",
                                field=pressure)
+    if max_plateaus is not None:
+        keep = keep[:max(1, max_plateaus)]
     idx = np.concatenate([np.arange(a, b) for a, b in keep])
-    return CyclePoint(record.name, float(p[idx].mean()), float(q[idx].mean()),
+    if relaxation > 0:
+        rate = record.sample_rate or 1.0
+        flow_mean = sum((b - a) * settled_flow(q[a:b], relaxation * rate)
+                        for a, b in keep) / idx.size
+    else:
+        flow_mean = float(q[idx].mean())
+    return CyclePoint(record.name, float(p[idx].mean()), float(flow_mean),
                       float(theta[idx].mean()), int(idx.size))
 
 

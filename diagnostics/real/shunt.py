@@ -27,19 +27,24 @@ setting can (the shunt is paper 000 eq. 6's laminar slip term, ``Q = Cs·D·Δp/
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
 from scipy.stats import spearmanr
 
-from diagnostics.real.leakage import CyclePoint, leakage_estimates, record_plateaus
+from diagnostics.real.leakage import (
+    CyclePoint,
+    cycle_point,
+    leakage_estimates,
+    record_plateaus,
+)
 from diagnostics.timeseries import SeriesRecord
 from sim.errors import InputError
 
-__all__ = ["ShuntEstimate", "fit_shunt", "leak_threshold", "plateau_slope", "reference_flows",
-           "shunt_estimates"]
+__all__ = ["ShuntEstimate", "fit_relaxation", "fit_shunt", "leak_threshold", "plateau_slope",
+           "reference_flows", "shunt_estimates"]
 
 Arr = npt.NDArray[np.float64]
 Mask = npt.NDArray[np.bool_]
@@ -160,7 +165,9 @@ class ShuntEstimate:
 
 
 def shunt_estimates(records: Sequence[SeriesRecord], points: Sequence[CyclePoint], mu: Arr,
-                    *, fit_on: Mask | None = None, window: float = 1.0) -> ShuntEstimate:
+                    *, fit_on: Mask | None = None, window: float = 1.0,
+                    leaking: Mask | None = None, shunt: float | None = None,
+                    slope: float | None = None) -> ShuntEstimate:
     """Leak size per cycle (module docstring, steps 1-3) from records and their cycle points.
 
     Parameters
@@ -174,6 +181,9 @@ def shunt_estimates(records: Sequence[SeriesRecord], points: Sequence[CyclePoint
         program); all when None.  Never labels.
     window
         Half-width [°C] of the oil-temperature neighbourhood of the reference.
+    leaking, shunt, slope
+        Leaking cycles, ``λ`` [m³] and healthy ``dq/dp`` [m³/(s·Pa)] to use as given
+        (e.g. found on other plateaus of the same cycles) instead of finding them here.
 
     Raises
     ------
@@ -186,13 +196,65 @@ def shunt_estimates(records: Sequence[SeriesRecord], points: Sequence[CyclePoint
     th = np.array([c.theta for c in points])
     first = leakage_estimates(points, window=window) * p
     thr = leak_threshold(first)
-    leaking = first > thr
+    leak = first > thr if leaking is None else np.asarray(leaking, dtype=bool)
     use = np.ones(len(points), dtype=bool) if fit_on is None else np.asarray(fit_on, dtype=bool)
-    slopes = np.array([plateau_slope(r) for r in records])
-    ok = ~leaking & use & np.isfinite(slopes)
-    slope = float(np.median(slopes[ok])) if ok.any() else 0.0
+    if slope is None:
+        slopes = np.array([plateau_slope(r) for r in records])
+        ok = ~leak & use & np.isfinite(slopes)
+        slope = float(np.median(slopes[ok])) if ok.any() else 0.0
     q = np.array([c.flow for c in points])
-    deficit = reference_flows(points, ~leaking, slope, window=window) - q
-    lam = fit_shunt(deficit, p, np.asarray(mu, dtype=np.float64), th, leaking & use)
-    size = _size(deficit, p, np.asarray(mu, dtype=np.float64), leaking, lam)
-    return ShuntEstimate(size, deficit, leaking, thr, slope, lam)
+    deficit = reference_flows(points, ~leak, slope, window=window) - q
+    m = np.asarray(mu, dtype=np.float64)
+    lam = fit_shunt(deficit, p, m, th, leak & use) if shunt is None else float(shunt)
+    size = _size(deficit, p, m, leak, lam)
+    return ShuntEstimate(size, deficit, leak, thr, slope, lam)
+
+
+def fit_relaxation(records: Sequence[SeriesRecord], mu_of: Callable[[Arr], Arr], *,
+                   taus: Sequence[float] = tuple(np.arange(0.0, 8.01, 0.5)),
+                   fit_on: Mask | None = None) -> tuple[float, Arr]:
+    """Relaxation time ``τ`` [s] of the accumulator's gas that makes the leak size plateau-free.
+
+    Label-free: a cycle's leak size must not depend on which plateau measured it.  For each
+    ``τ`` the leak size ``K`` from the cycle's plateaus up to its first relief episode and
+    ``K₁`` from its first working plateau alone (the one every cycle has) are computed with the
+    same leaking cycles, slope and ``λ``; ``τ`` is the grid value where ``K₁ − K`` of the
+    leaking ``fit_on`` cycles carries the least rank correlation with the oil temperature
+    (the gas relaxes faster when hot, so a wrong ``τ`` leaves a temperature trend between
+    the plateaus).  Returns ``τ`` and the |ρ| of every grid value.
+
+    Parameters
+    ----------
+    records
+        The cycles of a campaign.
+    mu_of
+        Viscosity [Pa·s] at oil temperatures [°C].
+    taus
+        Grid of relaxation times [s].
+    fit_on
+        Cycles that count (e.g. those that ran the whole load program); all when None.
+
+    Raises
+    ------
+    InputError
+        An empty grid, or too few cycles (see :func:`shunt_estimates`).
+    """
+    if len(taus) == 0:
+        raise InputError("the grid of relaxation times is empty", field="taus")
+    use = (np.ones(len(records), dtype=bool) if fit_on is None
+           else np.asarray(fit_on, dtype=bool))
+    rho = np.full(len(taus), np.nan)
+    for i, tau in enumerate(taus):
+        pts = [cycle_point(r, stop_at_relief=True, relaxation=float(tau)) for r in records]
+        one = [cycle_point(r, max_plateaus=1, relaxation=float(tau)) for r in records]
+        th = np.array([c.theta for c in pts])
+        est = shunt_estimates(records, pts, mu_of(th), fit_on=use)
+        th1 = np.array([c.theta for c in one])
+        est1 = shunt_estimates(records, one, mu_of(th1), leaking=est.leaking,
+                               shunt=est.shunt, slope=est.slope)
+        m = est.leaking & use & np.isfinite(est.size) & np.isfinite(est1.size)
+        if int(m.sum()) >= 10:
+            rho[i] = abs(float(spearmanr(est1.size[m] - est.size[m], th[m])[0]))
+    if not np.any(np.isfinite(rho)):
+        raise InputError("too few leaking cycles to find the relaxation time", field="records")
+    return float(taus[int(np.nanargmin(rho))]), rho

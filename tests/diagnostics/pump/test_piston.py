@@ -124,3 +124,22 @@ def test_degenerate_maps_are_refused(big) -> None:  # type: ignore[no-untyped-de
         fit_losses(PistonMap(data.dp, data.omega, data.q, data.torque, data.D), D,
                    target="drain")
     assert err.value.field == "QDr"
+
+
+def test_spring_loaded_film_friction_comes_back_from_a_synthetic_map() -> None:
+    # torque loss of a known pump: Coulomb 2e-7 N·m/Pa (2 N·m at 100 bar), viscous
+    # 5e-3 N·m·s, and a spring-loaded film 0.4 N·m·s^½ (√ω: 4 N·m at 100 rad/s)
+    rng = np.random.default_rng(3)
+    w = np.repeat(np.array([500.0, 1500.0, 2500.0, 3500.0, 4500.0]) * math.pi / 30, 8)
+    dp = np.tile(np.linspace(5e6, 35e6, 8), 5)
+    D = 30e-6 / (2 * math.pi)
+    loss = 2e-7 * dp + 5e-3 * w + 0.4 * np.sqrt(w)
+    torque = D * dp + loss + rng.normal(0.0, 0.005, dp.size)
+    q = D * w * 0.98
+    data = PistonMap(dp, w, q, torque, np.full(dp.size, D))
+    _, fit = fit_losses(data, D)
+    assert "sqrt(omega)" in fit.terms
+    coef = dict(zip(fit.terms, fit.coef, strict=True))
+    assert coef["sqrt(omega)"] == pytest.approx(0.4, rel=0.1)
+    # the fitted loss reproduces the known one within the noise
+    assert np.max(np.abs(fit.loss(dp, w) - loss)) < 0.02

@@ -2,12 +2,19 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
 import pytest
 
-from diagnostics.real.accumulator import LoadStep, gas_volume, gas_volumes, step_volumes
+from diagnostics.real.accumulator import (
+    LoadStep,
+    gas_volume,
+    gas_volumes,
+    step_volumes,
+    upper_steps,
+)
 from diagnostics.real.scoring import score_classes
 from diagnostics.real.switching import (
     crossing_time,
@@ -197,3 +204,34 @@ def test_score_classes_by_hand() -> None:
     assert s2.n == 9
     with pytest.raises(InputError):
         score_classes(est, label[:3], {})
+
+
+def test_upper_steps_are_those_between_the_upper_plateaus() -> None:
+    # the ZeMA load program: plateaus 146, 156, 166, 156, 151 bar
+    levels = [146.0, 156.0, 166.0, 156.2, 151.0]
+    steps = [LoadStep(a * BAR, b * BAR, 1e-6, float(k)) for k, (a, b)
+             in enumerate(itertools.pairwise(levels))]
+    chosen = upper_steps(steps)
+    assert [(s.p_from / BAR, s.p_to / BAR) for s in chosen] == [(156.0, 166.0), (166.0, 156.2)]
+    # an even count of plateaus: the lower middle one bounds the upper half
+    four = [LoadStep(a * BAR, b * BAR, 1e-6, 0.0) for a, b in [(140, 150), (150, 160), (160, 170)]]
+    assert [s.p_from / BAR for s in upper_steps(four)] == [150.0, 160.0]
+    assert upper_steps([]) == []
+
+
+def test_step_volume_counts_against_the_settled_pump_line() -> None:
+    # as above, but the first plateau still carries the gas's outflow after an earlier fall
+    t = np.arange(40, dtype=np.float64)
+    p = np.where(t < 19, 150.0, 160.0) * BAR
+    p[19] = 155.0 * BAR
+    q_ss = 8.0 - 0.01 * (p / BAR - 150.0)
+    q = q_ss.copy()
+    q[19] -= 0.3
+    q[:18] += 0.08 * np.exp(-t[:18] / 2.0)  # decays within the first plateau
+    rec = _record(t, p, q * LPM)
+    (settled,) = step_volumes(rec, relaxation=2.0)
+    (means,) = step_volumes(rec)
+    # the plateau's settled flow is the pump's: the stored oil comes back exactly
+    assert settled.volume == pytest.approx(0.3 * LPM, rel=1e-6)
+    # its mean lifts the pump line at 150 bar and overstates the oil stored in the step
+    assert means.volume > settled.volume * 1.01

@@ -6,8 +6,10 @@ import numpy as np
 import pytest
 
 from diagnostics.real.leakage import CyclePoint, cycle_point
+from diagnostics.real.relaxation import settled_flow
 from diagnostics.real.scoring import score_classes
 from diagnostics.real.shunt import (
+    fit_relaxation,
     fit_shunt,
     leak_threshold,
     plateau_slope,
@@ -88,3 +90,80 @@ def test_leak_size_orders_leakage_classes_on_the_slice() -> None:
     assert est.shunt >= 0.0
     with pytest.raises(InputError):
         shunt_estimates(recs[:3], pts, mu)
+
+
+def test_plateaus_after_a_relief_episode_are_left_out_on_request() -> None:
+    # start-up at the relief valve (no flow), a working plateau, a relief episode in the
+    # middle of the cycle (no flow), a last working plateau: the ZeMA cycles that left the
+    # load program (e.g. cycle 502)
+    t = np.arange(60, dtype=np.float64)
+    p = np.repeat([190.0, 141.0, 188.0, 145.0], 15) * BAR
+    q = np.repeat([0.0, 7.4, 1.1, 7.6], 15) * LPM
+    rec = SeriesRecord("off-program", t, {"p_pump": p, "q_work": q,
+                                          "oil_temperature": np.full(60, 56.0)},
+                       {"p_pump": "Pa", "q_work": "m^3/s", "oil_temperature": "degC"})
+    first = cycle_point(rec, stop_at_relief=True)
+    both = cycle_point(rec)
+    # the samples beside a jump are not steady (|dp/dt| from the central difference) and one
+    # settle second is dropped: 12 samples of the first plateau, 13 of the last (no jump after)
+    assert first.n == 12 and both.n == 25
+    assert first.pressure == pytest.approx(141.0 * BAR) and first.flow == pytest.approx(7.4 * LPM)
+    assert both.pressure == pytest.approx((12 * 141.0 + 13 * 145.0) / 25 * BAR)
+    assert both.flow == pytest.approx((12 * 7.4 + 13 * 7.6) / 25 * LPM)
+    # a cycle on its program (no relief episode after the first working plateau) is unchanged
+    on = SeriesRecord("on-program", t, {"p_pump": np.repeat([190.0, 141.0, 151.0, 145.0], 15) * BAR,
+                                        "q_work": np.repeat([0.0, 7.4, 7.3, 7.4], 15) * LPM,
+                                        "oil_temperature": np.full(60, 50.0)},
+                      {"p_pump": "Pa", "q_work": "m^3/s", "oil_temperature": "degC"})
+    assert cycle_point(on, stop_at_relief=True) == cycle_point(on)
+
+
+def test_settled_flow_removes_a_known_relaxation() -> None:
+    k = np.arange(8, dtype=np.float64)
+    q = (7.9 + 0.06 * np.exp(-k / 3.0)) * LPM  # the gas still gives out oil after a fall
+    assert settled_flow(q, 3.0) == pytest.approx(7.9 * LPM, rel=1e-12)
+    # the plain mean keeps part of the outflow; τ = 0 is that mean
+    assert settled_flow(q, 0.0) == pytest.approx(float(q.mean()))
+    assert float(q.mean()) > 7.9 * LPM + 0.01 * LPM
+    with pytest.raises(InputError):
+        settled_flow(q, -1.0)
+    with pytest.raises(InputError):
+        settled_flow(q[:2], 3.0)
+
+
+def test_cycle_point_with_relaxation_uses_the_settled_plateau_flows() -> None:
+    t = np.arange(60, dtype=np.float64)
+    p = np.repeat([190.0, 141.0, 151.0, 161.0], 15) * BAR
+    base = np.repeat([0.0, 7.90, 7.84, 7.78], 15)
+    bump = np.zeros(60)
+    for a, sign in ((15, 1.0), (30, 1.0), (45, -1.0)):  # out after the falls, in after the rise
+        bump[a:a + 15] = sign * 0.05 * np.exp(-np.arange(15) / 2.0)
+    rec = SeriesRecord("relax", t, {"p_pump": p, "q_work": (base + bump) * LPM,
+                                    "oil_temperature": np.full(60, 45.0)},
+                       {"p_pump": "Pa", "q_work": "m^3/s", "oil_temperature": "degC"})
+    pt = cycle_point(rec, relaxation=2.0)
+    plain = cycle_point(rec)
+    # the settled flows are the pump's own: their sample-weighted mean
+    plats = [(17, 29), (32, 44), (47, 60)]
+    n = np.array([b - a for a, b in plats], dtype=np.float64)
+    assert pt.flow == pytest.approx(float(np.dot(n, [7.90, 7.84, 7.78]) / n.sum()) * LPM, rel=1e-9)
+    assert pt.pressure == plain.pressure and pt.n == plain.n == int(n.sum())
+    assert cycle_point(rec, relaxation=2.0, max_plateaus=1).flow == pytest.approx(7.90 * LPM)
+
+
+def test_relaxation_time_is_found_without_labels_on_the_slice() -> None:
+    data, labels = load_1hz(zema_slice())
+    recs = read_records(data)
+
+    def mu_of(th: np.ndarray) -> np.ndarray:
+        return np.asarray(dynamic_viscosity(Fluid(), th), dtype=np.float64)
+
+    grid = (0.0, 2.0, 4.0)
+    tau, rho = fit_relaxation(recs, mu_of, taus=grid)
+    assert tau in grid and rho.shape == (3,)
+    assert float(rho[grid.index(tau)]) == float(np.nanmin(rho))
+    pts = [cycle_point(r, stop_at_relief=True, relaxation=tau) for r in recs]
+    est = shunt_estimates(recs, pts, mu_of(np.array([c.theta for c in pts])))
+    assert score_classes(est.size, labels.leakage, {}).worst_auroc == 1.0
+    with pytest.raises(InputError):
+        fit_relaxation(recs, mu_of, taus=())
