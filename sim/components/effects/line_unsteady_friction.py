@@ -77,7 +77,9 @@ def build(g: BondGraph, name: str = NAME, values: Mapping[str, float] | None = N
 
 
 def _regressor(s: Mapping[str, Arr]) -> Arr:
-    return np.asarray(s["I_hose"] * s["dQ_line"], dtype=float)
+    # hose B's effort balance, P2 − P_B − R·Q = (1 + k3)·I·Q̇ with Q = −Q_meter_C (chamber
+    # 2 towards port B): needs P_B and the derivative dQ_meter_C, which no balance has yet
+    return np.asarray(-s["I_hose_B"] * s["dQ_meter_C"], dtype=float)
 
 
 ENTRY = EffectEntry(
@@ -87,5 +89,5 @@ ENTRY = EffectEntry(
     reference="Brunone, Golia & Greco, IAHR Hydraulic Transients (1991) 201-209; Vardy & "
               "Brown, J. Hydraul. Res. 33 (1995)",
     circuit="pump-valve-cylinder", balance="hose_pressure", coefficient="k3",
-    signature="I·dQ/dt (needs the valve-port pressure)", regressor=_regressor, sign=1.0,
+    signature="−I_B·dQ_C/dt (needs the valve-port pressure P_B)", regressor=_regressor, sign=1.0,
     plausible=(0.0, 0.5))

@@ -22,10 +22,12 @@ P ≥ 0, so it only dissipates.
 
 Signature: only while the relief passes flow (``P_pump > Pset``): to first order in
 k_ov the relief passes ``(P − Pset)/Rrv − k_ov·(P − Pset)²/Rrv³``, so the pump-outlet flow
-balance over those samples gains the column ``−(P − Pset)²/Rrv³``
-(:data:`diagnostics.discrepancy.balances.BALANCES`' ``relief_flow``).  A cycle whose
-phases end when the piston reaches its stop never opens the relief: there the effect
-leaves no trace at all.
+balance over those samples (``relief_flow``: ω·Vp − Q_B = P/Rlp + Cp·Ṗ + (P − Pset)/Rrv
++ k_ov·column) gains the column ``−(P − Pset)²/Rrv³``.  The paper-002 cycle
+(:func:`sim.cycle.run_cycle`) ends each phase when the piston reaches its stop, so the
+relief never opens (at most 45 bar of the 70 bar setting over the discrepancy study's
+loads) and the effect leaves no trace at all; :mod:`diagnostics.discrepancy.balances`
+therefore has no ``relief_flow`` balance yet — it needs a cycle that dwells at the stop.
 """
 
 from __future__ import annotations
