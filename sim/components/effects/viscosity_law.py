@@ -11,7 +11,12 @@ Soc.* 177, 1886, 157-234; Merritt, *Hydraulic Control Systems*, 1967, ch. 2)::
 
 λ [1/K] is the slope error (λ > 0: the true oil thins faster), ``T_ref`` the temperature
 at which the stated law is right (the data sheet's 40 °C point).  λ = 0 (the default)
-is the stated law exactly.
+is the stated law exactly.  The catalogue expects λ > 0: a lower viscosity index than
+stated — the shear-down of the VI improver of a multigrade hydraulic oil (ISO 11158
+HV/HVLP, DIN 51524-3), or a top-up with a lower-VI oil — makes the oil thinner than
+stated when hot; a higher VI than stated is not a fault.  The one-sided sign is also what
+keeps the entry apart from the turbulent piston leak on a design whose temperature rises
+with load (the column of a λ < 0 mimics √Δp's there).
 
 Bond-graph change: none to the junction structure — every viscous element reads the one
 parameter ``fluid.mu`` (the piston and spool laminar gaps, paper 002 eqs. 23 and 36; the
@@ -89,5 +94,5 @@ ENTRY = EffectEntry(
     reference="Reynolds, Phil. Trans. R. Soc. 177 (1886) 157 (exponential viscosity law); "
               "Merritt, Hydraulic Control Systems (1967), ch. 2; ASTM D341 (stated law)",
     circuit="pump-valve-cylinder", balance="chamber_flow", coefficient="lam",
-    signature="(T − T_ref)·G·(P1 − P2)/μ", regressor=_regressor, sign=0.0,
-    plausible=(-0.02, 0.02))
+    signature="(T − T_ref)·G·(P1 − P2)/μ", regressor=_regressor, sign=1.0,
+    plausible=(0.0, 0.02))
