@@ -171,13 +171,16 @@ def prepare(records: Sequence[SeriesRecord], rig: Rig, *, rate: float = 1000.0,
                                                          delta=1.0 / rate)
         ch = smooth
         ch.update(derivs)
-        ch["mu"] = np.full(t.size, rig.fluid.dynamic_viscosity(cond.oil_temperature))
+        values = rig.values(condition=cond)
+        # the rig's μ at this temperature, with any fluid correction it carries (a fitted
+        # viscosity law of an augmented rig)
+        ch["mu"] = np.full(t.size, values["fluid.mu"])
         ch["T"] = np.full(t.size, cond.oil_temperature)
         ch["load"] = np.where(phase == "return", 0.0, cond.load)
         speed = cond.pump_speed if cond.pump_speed is not None else rig.base["pump.speed"]
         ch["speed"] = np.full(t.size, speed)
         ch["Vp"] = np.full(t.size, rig.base["pump.Vp"])
-        for k, const in stated_coefficients(rig.values(condition=cond)).items():
+        for k, const in stated_coefficients(values).items():
             ch[k] = np.full(t.size, const)
         for k, v in ch.items():
             parts.setdefault(k, []).append(v)

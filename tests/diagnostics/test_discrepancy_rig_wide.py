@@ -66,3 +66,16 @@ def test_entrained_air_enters_the_chamber_balance_with_its_own_coefficient():
     assert single.coefficient == pytest.approx(truth, rel=0.2)
     assert sel.chosen is not None
     assert [t.effect for t in sel.chosen.terms] == ["entrained_air"]
+
+
+def test_signals_of_a_rig_carrying_the_viscosity_law_use_its_corrected_viscosity():
+    """A rig version with the fitted law analyses its data with μ_true, not the stated μ."""
+    lam = 0.008
+    doc = _with("viscosity_law", "lam", lam, "1/K")
+    recs = _records(doc, 21)
+    s_aug = prepare(recs, load_rig(doc))
+    s_base = prepare(recs, reference_rig())
+    for i, (_, T) in enumerate(CONDITIONS):
+        mu_aug = s_aug.values["mu"][s_aug.record == i]
+        mu_base = s_base.values["mu"][s_base.record == i]
+        np.testing.assert_allclose(mu_aug, mu_base * np.exp(-lam * (T - 40.0)), rtol=1e-13)
