@@ -5,7 +5,7 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed-stamp
 export HYDRODIAG_CACHE_DIR ?= $(CURDIR)/.hydrodiag-cache
 
-.PHONY: run test lint bench accuracy pump-study load-bench console-bench screenshots real-data chaos discrepancy-study discrepancy-paper000 diagnose-bench clean
+.PHONY: run test lint bench accuracy pump-study load-bench console-bench screenshots real-data chaos discrepancy-study discrepancy-effects discrepancy-paper000 diagnose-bench clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -57,6 +57,9 @@ chaos: $(STAMP)
 
 discrepancy-study: $(STAMP)
 	OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 $(PY) -m benchmarks.discrepancy_study
+
+discrepancy-effects: $(STAMP)
+	$(PY) -m benchmarks.discrepancy_effects
 
 discrepancy-paper000: $(STAMP)
 	$(PY) -m benchmarks.discrepancy_paper000

@@ -8,7 +8,8 @@ Golay, *Anal. Chem.* 36, 1964) taken per record and phase on a uniform grid.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -19,7 +20,7 @@ from diagnostics.timeseries import SeriesRecord
 from sim.errors import InputError
 from sim.rigs.assembly import Condition, Rig
 
-__all__ = ["DERIVED", "Signals", "condition_of", "prepare"]
+__all__ = ["DERIVED", "Signals", "condition_of", "prepare", "stated_coefficients"]
 
 Arr = npt.NDArray[np.float64]
 
@@ -35,7 +36,8 @@ class Signals:
     ----------
     values
         Channel → samples (measured channels, ``d<channel>`` derivatives, ``mu`` [Pa·s],
-        ``load`` [N] per sample (0 in the return phase), ``T`` [°C]).
+        ``load`` [N] per sample (0 in the return phase), ``T`` [°C], the stated rig's
+        constants of :func:`stated_coefficients`).
     record
         Record index of each sample.
     phase
@@ -80,6 +82,27 @@ def condition_of(record: SeriesRecord, rig: Rig) -> Condition:
                      back_pressure=c.get("back_pressure", base.back_pressure),
                      oil_temperature=c.get("oil_temperature", base.oil_temperature),
                      pump_speed=c.get("pump_speed"))
+
+
+def stated_coefficients(values: Mapping[str, float]) -> dict[str, float]:
+    """Constants of the stated rig that library regressors scale by, SI.
+
+    ``G_piston`` [m³]: the piston gap's laminar coefficient π·D·c³/(12·L) of paper 002
+    eq. 36 (leak = G·(P1 − P2)/μ); ``V02`` [m³], ``A2`` [m²], ``stroke`` [m]: chamber 2's
+    dead volume, annulus and stroke (eq. 34); ``Pset`` [Pa], ``Rrv`` [Pa·s/m³]: the relief
+    valve's setting and slope (eq. 6); ``I_hose_B`` [kg/m⁴]: hose B's oil-column inertance.
+    Each is present when the rig has the component.
+    """
+    out: dict[str, float] = {}
+    if all(k in values for k in ("cylinder.bore", "cylinder.cc", "cylinder.Lc")):
+        out["G_piston"] = (math.pi * values["cylinder.bore"] * values["cylinder.cc"] ** 3
+                           / (12.0 * values["cylinder.Lc"]))
+    for key in ("cylinder.V02", "cylinder.A2", "cylinder.stroke", "relief.Pset", "relief.Rrv"):
+        if key in values:
+            out[key.partition(".")[2]] = values[key]
+    if "hose_B.I" in values:
+        out["I_hose_B"] = values["hose_B.I"]
+    return out
 
 
 def _uniform(record: SeriesRecord, rate: float) -> tuple[Arr, dict[str, Arr], npt.NDArray[np.str_]]:
@@ -148,12 +171,17 @@ def prepare(records: Sequence[SeriesRecord], rig: Rig, *, rate: float = 1000.0,
                                                          delta=1.0 / rate)
         ch = smooth
         ch.update(derivs)
-        ch["mu"] = np.full(t.size, rig.fluid.dynamic_viscosity(cond.oil_temperature))
+        values = rig.values(condition=cond)
+        # the rig's μ at this temperature, with any fluid correction it carries (a fitted
+        # viscosity law of an augmented rig)
+        ch["mu"] = np.full(t.size, values["fluid.mu"])
         ch["T"] = np.full(t.size, cond.oil_temperature)
         ch["load"] = np.where(phase == "return", 0.0, cond.load)
         speed = cond.pump_speed if cond.pump_speed is not None else rig.base["pump.speed"]
         ch["speed"] = np.full(t.size, speed)
         ch["Vp"] = np.full(t.size, rig.base["pump.Vp"])
+        for k, const in stated_coefficients(values).items():
+            ch[k] = np.full(t.size, const)
         for k, v in ch.items():
             parts.setdefault(k, []).append(v)
         rec_idx.append(np.full(t.size, i, dtype=np.int64))

@@ -124,6 +124,9 @@ class Rig:
         v["fluid.mu"] = self.fluid.dynamic_viscosity(T)
         v["fluid.rho"] = self.fluid.density(T)
         v["fluid.beta"] = self.fluid.beta
+        for name in self.spec.effect_types:
+            # effects on a fluid property (a wrong μ(T) law) before anything derives from it
+            v.update(get_effect(name).fluid_values(v, T))
         for d in self.derivations:
             v.update(d(v))
         return v

@@ -22,7 +22,20 @@ effect                          balance          bond-graph change
 ``pump_clearance_pressure``     pump flow        R on ``pump.out``
 ``speed_offset``                pump flow        Sf on ``pump.out``
 ``pump_compressibility_loss``   pump flow        R on ``pump.out`` reading Vp, ω
+``viscosity_law``               chamber flow     ``fluid.mu`` × exp(−λ(T − T_ref)) for
+                                                 every viscous R (a fluid correction)
+``entrained_air``               chamber flow     law of C ``cylinder.C1/C2``: + air
+                                                 compliance α0·V·(p_a/p)^(1/n)/(n·p)
+``relief_override``             relief flow      law of R ``relief``: P − Pset = Rrv·Q +
+                                                 k_ov·Q²
+``line_unsteady_friction``      (none logged)    law of I ``hose_A/B.I``: × (1 + k3)
 ==============================  ===============  =========================================
+
+The last four change a fluid property or an existing element's constitutive law rather
+than adding an element (the element keeps its place and causality).  On the paper-002
+logger's channels, ``line_unsteady_friction`` enters no balance (its effort balance needs
+the valve-port pressures), and ``relief_override`` shows only while the relief passes
+flow, which a cycle whose phases end at the end stops never does.
 
 circuit ``gear-pump-field`` (paper 000 Figure 7 duty cycle, :mod:`sim.duty_cycle`):
 
@@ -48,19 +61,26 @@ from sim.bondgraph import BondGraph
 from sim.components.effects import (
     compressibility_loss,
     couette_drag,
+    entrained_air,
+    line_unsteady_friction,
     pressure_clearance,
+    relief_override,
     seal_friction_pressure,
     side_plate_lag,
     slip_hysteresis,
     speed_offset,
     stribeck_friction,
     turbulent_leakage,
+    viscosity_law,
 )
 from sim.components.effects.base import EffectEntry
 from sim.errors import RigFileError
 from sim.params import Param
 
-__all__ = ["EFFECTS", "Effect", "EffectEntry", "effects_for", "get_effect"]
+__all__ = ["EFFECTS", "Effect", "EffectEntry", "FluidCorrection", "effects_for", "get_effect"]
+
+#: (graph parameter values, oil temperature [°C]) → corrected ``fluid.*`` values
+FluidCorrection = Callable[[Mapping[str, float], float], dict[str, float]]
 
 
 @dataclass(frozen=True)
@@ -70,18 +90,30 @@ class Effect:
     ``build(g)`` adds the effect to a graph holding the entry's circuit, with parameters
     named ``{entry.name}.{param}``.  ``frozen`` names the auxiliary states the effect adds
     that a steady solution must hold at their guess (a memory whose every value within a
-    band is an equilibrium).
+    band is an equilibrium).  ``fluid`` corrects the fluid parameters (``fluid.mu`` ...)
+    at the operating condition's oil temperature: an effect on a property that every
+    element reads rather than an added element (:meth:`fluid_values`).
     """
 
     entry: EffectEntry
     parameters: tuple[Param, ...]
     build: Callable[[BondGraph], None]
     frozen: tuple[str, ...] = ()
+    fluid: FluidCorrection | None = None
 
     @property
     def name(self) -> str:
         """The effect's name."""
         return self.entry.name
+
+    def fluid_values(self, values: Mapping[str, float], T: float) -> dict[str, float]:
+        """Corrected fluid parameters at oil temperature ``T`` [°C] (empty if none).
+
+        ``values`` are the graph parameter values with the stated fluid properties;
+        :meth:`sim.rigs.assembly.Rig.values` applies this before the components derive
+        their coefficients from ``fluid.*``.
+        """
+        return {} if self.fluid is None else self.fluid(values, T)
 
     def parameter(self, name: str) -> Param | None:
         """The declaration of parameter ``name``, or ``None``."""
@@ -92,8 +124,10 @@ def _single(module: object) -> Effect:
     entry: EffectEntry = module.ENTRY  # type: ignore[attr-defined]
     builder = module.build  # type: ignore[attr-defined]
     frozen = tuple(f"{entry.name}.{s}" for s in getattr(module, "FROZEN", ()))
+    fluid = getattr(module, "fluid_values", None)
     return Effect(entry, module.PARAMETERS,  # type: ignore[attr-defined]
-                  lambda g: builder(g, entry.name), frozen)
+                  lambda g: builder(g, entry.name), frozen,
+                  None if fluid is None else partial(fluid, name=entry.name))
 
 
 def _paths(module: object) -> dict[str, Effect]:
@@ -110,7 +144,8 @@ def _paths(module: object) -> dict[str, Effect]:
 
 _REGISTRY: dict[str, Effect] = {}
 for _m in (stribeck_friction, seal_friction_pressure, couette_drag, speed_offset,
-           compressibility_loss, side_plate_lag, slip_hysteresis):
+           compressibility_loss, side_plate_lag, slip_hysteresis, viscosity_law,
+           relief_override, entrained_air, line_unsteady_friction):
     _e = _single(_m)
     _REGISTRY[_e.name] = _e
 for _m in (turbulent_leakage, pressure_clearance):

@@ -57,7 +57,10 @@ class EffectEntry:
         the pump outlet 0-junction, [m³/s]) or, on :data:`FIELD_CIRCUIT`, ``"field_flow"``
         (relative flow residual ``q_meas/q_model − 1`` of a field record, [-]; signals
         ``t``, ``P``, ``dP``, ``Q``, ``Q_s``, ``Q_st``, ``direction``, see
-        :func:`diagnostics.pump.field.field_signals`).
+        :func:`diagnostics.pump.field.field_signals`).  An entry may name a balance the
+        rig's logged channels do not allow (``"relief_flow"``, ``"hose_pressure"``): it
+        is in the library — a rig file can add it, a re-fit by re-simulation can fit
+        it — but the equation-error selection never proposes it.
     coefficient
         Name of the parameter the regressor multiplies (its strength).
     signature

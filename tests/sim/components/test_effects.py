@@ -27,6 +27,10 @@ STRENGTHS = {
     "pump_clearance_pressure": ("k_c", 5e-19),
     "speed_offset": ("d_speed", 5.0),
     "pump_compressibility_loss": ("k_b", 6.7e-10),
+    "viscosity_law": ("lam", 0.01),
+    "relief_override": ("k_ov", 4e12),
+    "entrained_air": ("alpha", 1e-3),
+    "line_unsteady_friction": ("k3", 0.05),
 }
 
 
