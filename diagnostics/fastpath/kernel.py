@@ -16,7 +16,8 @@ model evaluation, in Python:
   :class:`sim.steady.SteadyEvaluator`) and the nine observables of
   :data:`diagnostics.signatures.OBSERVABLES` (signed speeds, the velocity ratio NaN where
   the return stroke stalls);
-* :func:`solve_grid` — the same over the rows of a matrix (a signature map's coarse grid);
+* the same over the rows of a matrix (a signature map's coarse grid) is
+  :func:`diagnostics.fastpath.chord.solve_grid`, with a chord Newton;
 * :func:`pair_fit` — the Levenberg-Marquardt fit of a two-parameter hypothesis over all
   records (forward-difference Jacobians of step 1e-6 of the range, a masked reading a
   miss of ``masked`` σ), the exact iteration of ``Ranker.fit_pair``;
@@ -40,8 +41,8 @@ if TYPE_CHECKING:  # bound in the generated module (see the module docstring)
     from diagnostics.fastpath.rig_interface import outputs, steady
 
 #: names copied into the generated module, in dependency order
-KERNELS = ("observables", "solve_point", "solve_grid", "graph_values", "residuals",
-           "pair_fit", "profile_points")
+KERNELS = ("observables", "solve_point", "graph_values", "residuals", "pair_fit",
+           "profile_points")
 
 
 def observables(w, r, oi, out):  # type: ignore[no-untyped-def]
@@ -86,57 +87,6 @@ def solve_point(pw, pr, mask, scale, last_w, last_r, nom_w, nom_r, oi, ow, orr, 
         outputs(0.0, yw, p, o)
     observables(ow, orr, oi, out)
     return True
-
-
-def solve_grid(pw0, pr0, gidx, grid, mask, scale, last_w, last_r, nom_w, nom_r, oi, out,  # type: ignore[no-untyped-def]
-               ok, nout, restart):
-    """:func:`solve_point` for every row of ``grid`` (graph parameters ``gidx``).
-
-    Along a run of rows (``restart`` 1 at a run's first row) Newton starts from the
-    secant predictor ``2·y[k-1] − y[k-2]`` of the two previous solutions (the rows of a
-    map are equally spaced), then from the last and the nominal solution.
-    """
-    pw = pw0.copy()
-    pr = pr0.copy()
-    ow = np.empty(nout)
-    orr = np.empty(nout)
-    ns = last_w.size
-    yw = np.empty(ns)
-    prev_w = np.empty((2, ns))
-    prev_r = np.empty((2, ns))
-    pred_w = np.empty(ns)
-    pred_r = np.empty(ns)
-    run = 0
-    for k in range(grid.shape[0]):
-        if restart[k]:
-            run = 0
-        for j in range(gidx.size):
-            pw[gidx[j]] = grid[k, j]
-            pr[gidx[j]] = grid[k, j]
-        done = False
-        if run >= 2:
-            for i in range(ns):
-                pred_w[i] = 2.0 * prev_w[1, i] - prev_w[0, i]
-                pred_r[i] = 2.0 * prev_r[1, i] - prev_r[0, i]
-            done = solve_point(pw, pr, mask, scale, pred_w, pred_r, last_w, last_r, oi, ow,
-                               orr, yw, out[k])
-            if done:
-                for i in range(ns):
-                    last_w[i] = pred_w[i]
-                    last_r[i] = pred_r[i]
-        if not done:
-            done = solve_point(pw, pr, mask, scale, last_w, last_r, nom_w, nom_r, oi, ow,
-                               orr, yw, out[k])
-        ok[k] = done
-        if done:
-            for i in range(ns):
-                prev_w[0, i] = prev_w[1, i]
-                prev_r[0, i] = prev_r[1, i]
-                prev_w[1, i] = last_w[i]
-                prev_r[1, i] = last_r[i]
-            run += 1
-        else:
-            run = 0
 
 
 def graph_values(z, base, which, tlog, tmode, tconst, g):  # type: ignore[no-untyped-def]

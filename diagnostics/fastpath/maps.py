@@ -17,6 +17,7 @@ import math
 import threading
 from collections import OrderedDict
 from dataclasses import dataclass
+from types import ModuleType
 
 import numpy as np
 import numpy.typing as npt
@@ -31,13 +32,13 @@ from diagnostics.signatures import (
     SignatureMaps,
     evaluator,
 )
-from sim.cycle import phase_params
+from sim.cycle import _phase_settings
 from sim.errors import SimulationError
 from sim.rigs import Condition, Rig
 from sim.steady import SteadyEvaluator, steady_phase
 
 __all__ = ["Context", "FastMaps", "Transform", "fast_maps", "nominal_observables",
-           "transform"]
+           "phase_vectors", "transform"]
 
 Arr = npt.NDArray[np.float64]
 IArr = npt.NDArray[np.int64]
@@ -45,8 +46,8 @@ IArr = npt.NDArray[np.int64]
 #: model outputs the observables are made of, in the order the kernel expects
 _OUTPUTS = ("P_pump", "P1", "P2", "Q_meter_B", "Q_meter_C", "Q_relief", "v")
 
-#: per rig (held, so that its id is not reused while here), Newton starts of both phases
-_SEEDS: OrderedDict[int, tuple[Rig, Arr, Arr]] = OrderedDict()
+#: per rig (held, so that its id is not reused while here), what depends on the rig only
+_LAYOUTS: OrderedDict[int, tuple[Rig, _Layout]] = OrderedDict()
 _MAPS: OrderedDict[tuple[int, Condition], FastMaps] = OrderedDict()
 _LOCK = threading.RLock()
 
@@ -79,20 +80,64 @@ def transform(rig: Rig, p: FaultParameter) -> Transform | None:
     return None
 
 
-def _seeds(rig: Rig) -> tuple[Arr, Arr]:
-    """Per rig, a Newton start of each phase: the nominal point at the default condition."""
+@dataclass(frozen=True)
+class _Layout:
+    """What a :class:`Context` needs that depends on the rig only (built once per rig)."""
+
+    kernels: ModuleType
+    gidx: IArr
+    mask: IArr
+    scale: Arr
+    oi: IArr
+    nout: int
+    states: Arr
+    #: parameter indices and values that turn the working vector into the return one
+    ret_idx: IArr
+    ret_val: Arr
+    work: dict[str, float]
+
+
+def _layout(rig: Rig) -> _Layout:
+    """The :class:`_Layout` of ``rig`` (cached per rig; the Newton starts are the nominal
+    points of both phases at the default condition, the piston at mid-stroke)."""
     with _LOCK:
-        entry = _SEEDS.get(id(rig))
+        entry = _LAYOUTS.get(id(rig))
     if entry is not None and entry[0] is rig:
-        return entry[1], entry[2]
+        return entry[1]
+    m = rig.model
     cond = rig.default_condition()
-    work = steady_phase(rig, "working", None, cond).state
-    back = steady_phase(rig, "return", None, cond).state
+    sw = steady_phase(rig, "working", None, cond).state.copy()
+    sr = steady_phase(rig, "return", None, cond).state.copy()
+    ix = m.state_index("cylinder.x")
+    sw[ix] = sr[ix] = 0.5 * rig.base["cylinder.stroke"]
+    mask = np.ones(len(m.state_names), dtype=np.int64)
+    mask[ix] = 0
+    ret = _phase_settings(rig, "return")
+    lay = _Layout(
+        compiled_kernels(rig),
+        np.array([m.param_index(n) for n in GRAPH_PARAMETERS], dtype=np.int64), mask,
+        m.scale, np.array([m.output_names.index(n) for n in _OUTPUTS], dtype=np.int64),
+        len(m.output_names), np.array([sw, sr, sw, sr]),
+        np.array([m.param_index(n) for n in ret], dtype=np.int64),
+        np.array(list(ret.values()), dtype=np.float64), _phase_settings(rig, "working"))
     with _LOCK:
-        _SEEDS[id(rig)] = (rig, work, back)
-        while len(_SEEDS) > 16:
-            _SEEDS.popitem(last=False)
-    return work, back
+        _LAYOUTS[id(rig)] = (rig, lay)
+        while len(_LAYOUTS) > 16:
+            _LAYOUTS.popitem(last=False)
+    return lay
+
+
+def phase_vectors(rig: Rig, condition: Condition) -> Arr:
+    """Working and return parameter vectors at ``condition``, shape ``(2, n_params)``: the
+    vectors of :func:`sim.cycle.phase_params` from one evaluation of the rig's values (the
+    return vector is the working one with the return phase's settings)."""
+    lay = _layout(rig)
+    values = rig.values(None, condition)
+    values.update(lay.work)
+    pw = rig.model.params(values)
+    pr = pw.copy()
+    pr[lay.ret_idx] = lay.ret_val
+    return np.array([pw, pr])
 
 
 class Context:
@@ -105,27 +150,28 @@ class Context:
     states
         Newton states: last working, last return, nominal working, nominal return,
         shape ``(4, n_states)``; the last ones move with every solve (continuation).
+    use_chord
+        Grid solves try the chord Newton first (:mod:`diagnostics.fastpath.chord`; the
+        ``chord`` argument, default True); False: the damped solver alone.
+    counts
+        Phase solves of the grid solves so far: settled by the chord iteration (0), its
+        failures by reason (1-4, :func:`~diagnostics.fastpath.chord.chord`), damped (5).
     """
 
-    def __init__(self, rig: Rig, condition: Condition) -> None:
-        m = rig.model
+    def __init__(self, rig: Rig, condition: Condition, chord: bool = True) -> None:
+        lay = _layout(rig)
         self.rig = rig
         self.condition = condition
-        self.kernels = compiled_kernels(rig)
-        self.params = np.array([phase_params(rig, ph, None, condition)
-                                for ph in ("working", "return")])
-        self.gidx = np.array([m.param_index(n) for n in GRAPH_PARAMETERS], dtype=np.int64)
-        self.mask = np.ones(len(m.state_names), dtype=np.int64)
-        self.mask[m.state_index("cylinder.x")] = 0
-        self.scale = m.scale
-        self.oi = np.array([m.output_names.index(n) for n in _OUTPUTS], dtype=np.int64)
-        self.nout = len(m.output_names)
-        sw, sr = _seeds(rig)
-        mid = 0.5 * rig.base["cylinder.stroke"]
-        ix = m.state_index("cylinder.x")
-        sw, sr = sw.copy(), sr.copy()
-        sw[ix] = sr[ix] = mid
-        self.states = np.array([sw, sr, sw, sr])
+        self.kernels = lay.kernels
+        self.params = phase_vectors(rig, condition)
+        self.gidx = lay.gidx
+        self.mask = lay.mask
+        self.scale = lay.scale
+        self.oi = lay.oi
+        self.nout = lay.nout
+        self.states = lay.states.copy()
+        self.use_chord = chord
+        self.counts = np.zeros(6, dtype=np.int64)
 
     def solve(self, grid: Arr, restart: IArr | None = None
               ) -> tuple[Arr, npt.NDArray[np.bool_]]:
@@ -140,7 +186,8 @@ class Context:
         s = self.states
         self.kernels.solve_grid(self.params[0], self.params[1], self.gidx,
                                 np.ascontiguousarray(grid), self.mask, self.scale, s[0], s[1],
-                                s[2], s[3], self.oi, out, ok, self.nout, flags)
+                                s[2], s[3], self.oi, out, ok, self.nout, flags,
+                                self.use_chord, self.counts)
         return out, ok
 
     def nominal(self, base: Arr) -> Arr:
@@ -166,15 +213,16 @@ def nominal_observables(rig: Rig, condition: Condition) -> Arr:
 
 
 class FastMaps(SignatureMaps):
-    """:class:`SignatureMaps` built by the compiled kernels (module docstring)."""
+    """:class:`SignatureMaps` built by the compiled kernels (module docstring); ``chord``
+    False solves the grid by the damped solver alone (the reference of the chord's test)."""
 
-    def __init__(self, rig: Rig, condition: Condition) -> None:
+    def __init__(self, rig: Rig, condition: Condition, chord: bool = True) -> None:
         self.rig = rig
         self.condition = condition
         self._ev: SteadyEvaluator | None = None
         self._moved: dict[Condition, Arr | None] = {}
         self._base = np.array([rig.base[n] for n in GRAPH_PARAMETERS])
-        self.ctx = Context(rig, condition)
+        self.ctx = Context(rig, condition, chord)
         try:
             self.nominal = self.ctx.nominal(self._base)
         except SimulationError:
