@@ -39,7 +39,7 @@ if TYPE_CHECKING:  # bound in the generated module (see the module docstring)
 #: names copied into the generated module, in dependency order
 KERNELS = ("newton_matrix", "chord", "solve_grid")
 #: module constants copied into the generated module
-CONSTANTS = ("CHORD_TOL", "CONTRACTION", "FIRST_STEP", "MAX_CHORD", "REFRESH")
+CONSTANTS = ("CHORD_TOL", "FIT_TOL", "CONTRACTION", "FIRST_STEP", "MAX_CHORD", "REFRESH")
 
 #: a chord step must shrink by this factor or the iteration is abandoned [-]
 CONTRACTION = 0.5
@@ -47,6 +47,9 @@ CONTRACTION = 0.5
 FIRST_STEP = 0.25
 #: a chord solve converged when its scaled step is below this [-]
 CHORD_TOL = 1.0e-10
+#: the same on the pair fits' evaluations, whose forward differences (steps of 1e-6 of
+#: the range) need the solution to 1e-12 [-]
+FIT_TOL = 1.0e-12
 #: chord iterations at most [-]
 MAX_CHORD = 12
 #: a chord solve that took more iterations than this rebuilds the Jacobian at its

@@ -45,10 +45,14 @@ class PairProblem:
     contexts: list[Any]
 
     def _store(self) -> None:
-        """Keep the continuation states for the next fit at these conditions."""
-        states = self.prob[1]
+        """Keep the continuation states and chord Jacobians for the next fit at these
+        conditions."""
+        states, jac, piv, valid = self.prob[1], self.prob[17], self.prob[18], self.prob[19]
         for k, ctx in enumerate(self.contexts):
             ctx.states[0:2] = states[k, 0:2]
+            ctx.jac[:] = jac[k]
+            ctx.piv[:] = piv[k]
+            ctx.jac_valid[:] = valid[k]
 
     def fit(self, z0: Arr, zl: Arr, zu: Arr) -> tuple[Arr, float, Arr, list[Arr]]:
         """Levenberg-Marquardt from ``z0``: ``(z, χ², last Jacobian, predictions per
@@ -76,7 +80,8 @@ class PairProblem:
 @dataclass
 class RecordPack:
     """The records of a ranking in the kernels' arrays (built once per ranking; the Newton
-    states carry over from one pair fit to the next, as the direct evaluator's do)."""
+    states carry over from one pair fit to the next, as the direct evaluator's do, and so do
+    the chord Jacobians)."""
 
     contexts: list[Any]
     ctx_p: Arr
@@ -87,6 +92,9 @@ class RecordPack:
     wrow: Arr
     oidx: npt.NDArray[np.int64]
     start: npt.NDArray[np.int64]
+    jac: Arr
+    piv: npt.NDArray[np.int64]
+    jac_valid: npt.NDArray[np.bool_]
 
 
 def record_pack(rig: Rig, models: Sequence[RecordModel]) -> RecordPack | None:
@@ -103,7 +111,9 @@ def record_pack(rig: Rig, models: Sequence[RecordModel]) -> RecordPack | None:
         np.concatenate([m.sigma for m in models]).astype(np.float64),
         _white_rows(models),
         np.concatenate([m.idx for m in models]).astype(np.int64),
-        np.cumsum([0, *(len(m.idx) for m in models)]).astype(np.int64))
+        np.cumsum([0, *(len(m.idx) for m in models)]).astype(np.int64),
+        np.array([c.jac for c in ctxs]), np.array([c.piv for c in ctxs]),
+        np.array([c.jac_valid for c in ctxs]))
 
 
 def _white_rows(models: Sequence[RecordModel]) -> Arr:
@@ -133,6 +143,7 @@ def pair_problem(rig: Rig, pack: RecordPack, params: tuple[FaultParameter, ...],
     tconst = np.array([t.const for t in ts], dtype=np.float64)
     c0 = pack.contexts[0]
     prob = (pack.ctx_p, pack.ctx_i, c0.mask, c0.scale, c0.oi, pack.base, c0.gidx, which, tlog,
-            tmode, tconst, pack.yobs, pack.sig, pack.wrow, pack.oidx, pack.start, c0.nout)
+            tmode, tconst, pack.yobs, pack.sig, pack.wrow, pack.oidx, pack.start, c0.nout,
+            pack.jac, pack.piv, pack.jac_valid)
     return PairProblem(c0.kernels, prob, float(masked), len(pack.contexts),
                        int(pack.yobs.size), pack.contexts)

@@ -156,6 +156,11 @@ class Context:
     counts
         Phase solves of the grid solves so far: settled by the chord iteration (0), its
         failures by reason (1-4, :func:`~diagnostics.fastpath.chord.chord`), damped (5).
+    jac, piv, jac_valid
+        Per phase the LU-factored Jacobian at a recent solution of the pair fits, its
+        pivots and whether it holds one (the chord iteration of
+        :func:`diagnostics.fastpath.kernel.solve_point` runs on it; kept with the context,
+        so the next diagnosis at this condition starts with it).
     """
 
     def __init__(self, rig: Rig, condition: Condition, chord: bool = True) -> None:
@@ -172,6 +177,10 @@ class Context:
         self.states = lay.states.copy()
         self.use_chord = chord
         self.counts = np.zeros(6, dtype=np.int64)
+        m = int(lay.mask.sum())
+        self.jac = np.zeros((2, m, m))
+        self.piv = np.zeros((2, m), dtype=np.int64)
+        self.jac_valid = np.zeros(2, dtype=np.bool_)
 
     def solve(self, grid: Arr, restart: IArr | None = None
               ) -> tuple[Arr, npt.NDArray[np.bool_]]:
