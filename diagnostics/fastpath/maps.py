@@ -16,8 +16,11 @@ from __future__ import annotations
 import math
 import threading
 from collections import OrderedDict
+from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 from types import ModuleType
+from typing import TypeVar, cast
 
 import numpy as np
 import numpy.typing as npt
@@ -49,6 +52,9 @@ _OUTPUTS = ("P_pump", "P1", "P2", "Q_meter_B", "Q_meter_C", "Q_relief", "v")
 #: per rig (held, so that its id is not reused while here), what depends on the rig only
 _LAYOUTS: OrderedDict[int, tuple[Rig, _Layout]] = OrderedDict()
 _MAPS: OrderedDict[tuple[int, Condition], FastMaps] = OrderedDict()
+#: per rig, the parts of the maps that do not depend on the condition (:func:`_memo`)
+_PIECES: OrderedDict[tuple[object, ...], tuple[Rig, object]] = OrderedDict()
+_T = TypeVar("_T")
 _LOCK = threading.RLock()
 
 
@@ -221,6 +227,38 @@ def nominal_observables(rig: Rig, condition: Condition) -> Arr:
     return ctx.nominal(ctx.params[0][ctx.gidx])
 
 
+def _memo(rig: Rig, key: tuple[object, ...], make: Callable[[], _T]) -> _T:
+    """What ``make`` returns for ``rig`` and ``key``, kept (the 64 most recent) for the
+    next condition: the parts of a map that do not depend on the condition."""
+    full = (id(rig), *key)
+    with _LOCK:
+        hit = _PIECES.get(full)
+        if hit is not None and hit[0] is rig:
+            _PIECES.move_to_end(full)
+            return cast(_T, hit[1])
+    value = make()
+    with _LOCK:
+        _PIECES[full] = (rig, value)
+        while len(_PIECES) > 64:
+            _PIECES.popitem(last=False)
+    return value
+
+
+def _piece_rows(rig: Rig, p: FaultParameter, base: Arr, lo: float, hi: float, n: int
+                ) -> tuple[Arr, Arr, IArr]:
+    """A map piece's coarse nodes ``zc`` (``n`` from ``lo`` to ``hi`` in fitting
+    coordinates), the graph values of its rows and its run flags (1 at the first row)."""
+    zc = np.linspace(lo, hi, n)
+    tr = transform(rig, p)
+    g = np.tile(base, (n, 1))
+    if tr is not None:
+        g[:, tr.index] = tr.graph(zc)
+    else:
+        g[:, GRAPH_PARAMETERS.index(p.graph_param)] = [
+            p.graph_value(rig, p.from_z(float(z))) for z in zc]
+    return zc, g, (np.arange(n) == 0).astype(np.int64)
+
+
 class FastMaps(SignatureMaps):
     """:class:`SignatureMaps` built by the compiled kernels (module docstring); ``chord``
     False solves the grid by the damped solver alone (the reference of the chord's test)."""
@@ -237,28 +275,23 @@ class FastMaps(SignatureMaps):
         except SimulationError:
             self.nominal = np.full(len(OBSERVABLES), np.nan)
         self.maps: dict[str, HypothesisMap] = {}
-        singles = [h for h in HYPOTHESES if len(h.parameters) == 1]
         plans = []
         rows = []
         starts = []
-        for hyp in singles:
+        for hyp in HYPOTHESES:
+            if len(hyp.parameters) != 1:
+                continue
             (p,) = (PARAMETERS[n] for n in hyp.parameters)
-            tr = transform(rig, p)
-            zf = self._axis(p, FINE_1D)
-            pieces = [np.linspace(lo, hi, n)
-                      for lo, hi, n in self._pieces(p, float(zf[0]), float(zf[-1]))]
-            for zc in pieces:
-                g = np.tile(self._base, (zc.size, 1))
-                if tr is not None:
-                    g[:, tr.index] = tr.graph(zc)
-                else:
-                    g[:, GRAPH_PARAMETERS.index(p.graph_param)] = [
-                        p.graph_value(rig, p.from_z(float(z))) for z in zc]
+            zf = _memo(rig, ("axis", p.name), partial(self._axis, p, FINE_1D))
+            pieces = []
+            for lo, hi, n in self._pieces(p, float(zf[0]), float(zf[-1])):
+                zc, g, first = _memo(rig, (p.name, lo, hi, n),
+                                     partial(_piece_rows, rig, p, self._base, lo, hi, n))
+                pieces.append(zc)
                 rows.append(g)
-                starts.append(np.arange(zc.size) == 0)
+                starts.append(first)
             plans.append((hyp, p, zf, pieces))
-        coarse_all, ok = self.ctx.solve(np.concatenate(rows),
-                                        np.concatenate(starts).astype(np.int64))
+        coarse_all, ok = self.ctx.solve(np.concatenate(rows), np.concatenate(starts))
         start = 0
         for hyp, p, zf, pieces in plans:
             fine = np.empty((zf.size, len(OBSERVABLES)))
