@@ -105,13 +105,23 @@ def laplace_evidence(cost: float, jac: Arr, z: Arr, zl: Arr, zu: Arr
     """
     span = zu - zl
     h = jac.T @ jac
-    cov: Arr = np.asarray(np.linalg.pinv(h + 1e-12 * max(float(np.trace(h)), 1e-30) * np.eye(2)),
-                          dtype=np.float64)
+    # the regularised 2×2 Hessian inverted in closed form (positive definite: its
+    # pseudo-inverse, without an SVD per fit); det(JᵀJ) by Cauchy-Binet, a sum of squared
+    # 2×2 minors of J, so a near-collinear pair loses no digits to cancellation
+    eps = 1e-12 * max(float(h[0, 0] + h[1, 1]), 1e-30)
+    a, b, c, d = float(h[0, 0]) + eps, float(h[0, 1]), float(h[1, 0]), float(h[1, 1]) + eps
+    minors = np.outer(jac[:, 0], jac[:, 1]) - np.outer(jac[:, 1], jac[:, 0])
+    det = 0.5 * float(np.sum(minors * minors)) + eps * (a + d - 2.0 * eps) + eps * eps
+    logdet = math.nan  # ln det cov
+    if det > 0.0 and math.isfinite(det):
+        cov: Arr = np.array([[d / det, -b / det], [-c / det, a / det]])
+        logdet = -math.log(det)
+    else:
+        cov = np.asarray(np.linalg.pinv(np.array([[a, b], [c, d]])), dtype=np.float64)
     sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     sd = np.where(sd > 0, sd, span)
     mass = float(np.prod(ndtr((zu - z) / sd) - ndtr((zl - z) / sd)))
-    sign, logdet = np.linalg.slogdet(cov)
-    if sign <= 0 or not math.isfinite(logdet):
+    if not math.isfinite(logdet):
         logdet = float(np.sum(np.log(sd**2)))
     occam = math.log(2 * math.pi) + 0.5 * logdet + math.log(max(mass, 1e-300)) \
         - float(np.sum(np.log(span)))
