@@ -133,4 +133,5 @@ class RecordModel:
         return np.asarray(np.where(np.isnan(chi2), np.inf, chi2))
 
     def as_dict(self, full: Arr) -> dict[str, float]:
-        return {n: float(v) for n, v in zip(OBSERVABLES, full, strict=True)}
+        """Observables ``full`` [SI] by name (Python floats)."""
+        return dict(zip(OBSERVABLES, np.asarray(full, dtype=np.float64).tolist(), strict=True))

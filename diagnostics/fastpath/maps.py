@@ -76,7 +76,12 @@ class Transform:
 
 def transform(rig: Rig, p: FaultParameter) -> Transform | None:
     """The :class:`Transform` of ``p`` read off :meth:`FaultParameter.graph_value` (one
-    proportional or inverse law), or None when it is neither (then the direct path runs)."""
+    proportional or inverse law), or None when it is neither (then the direct path runs);
+    kept per rig."""
+    return _memo(rig, ("transform", p), partial(_transform, rig, p))
+
+
+def _transform(rig: Rig, p: FaultParameter) -> Transform | None:
     g1, g2 = p.graph_value(rig, 1.0), p.graph_value(rig, 2.0)
     index = GRAPH_PARAMETERS.index(p.graph_param)
     if g1 != 0.0 and math.isclose(g2, 2.0 * g1, rel_tol=1e-12):
