@@ -265,8 +265,19 @@ class Ranker:
 
     # -- fits ------------------------------------------------------------------------------
     def fit_single(self, hyp: Hypothesis) -> HypothesisFit:
-        """One-parameter hypothesis on the signature maps."""
+        """One-parameter hypothesis on the signature maps (fast: one compiled call,
+        :meth:`diagnostics.fastpath.fits.RecordPack.single`; direct: numpy below)."""
         (p,) = (PARAMETERS[n] for n in hyp.parameters)
+        pack = self._record_pack()
+        if pack is not None:
+            s = pack.single(hyp.name, _TIE)
+            z0, z1 = float(s.z[0]), float(s.z[-1])
+            finite = math.isfinite(s.top)
+            est = self._estimate(p, s.z_hat, s.z_low, s.z_high, z0, z1)
+            preds = [m.as_dict(m.maps.maps[hyp.name].pred[s.k]) for m in self.models]
+            return HypothesisFit(hyp, s.chi2 if finite else math.inf, s.log_evidence, [est],
+                                 preds, observable=s.detectability >= 1.0,
+                                 detectability=s.detectability)
         chi2 = np.zeros(self.models[0].maps.maps[hyp.name].axes[0].size)
         detect = np.zeros_like(chi2)
         for m in self.models:
@@ -344,11 +355,16 @@ class Ranker:
 
     def _fast_problem(self, params: tuple[FaultParameter, ...]) -> PairProblem | None:
         """The compiled pair problem on the fast path (None: direct path)."""
+        pack = self._record_pack()
+        return None if pack is None else pair_problem(self.rig, pack, params, MASKED)
+
+    def _record_pack(self) -> RecordPack | None:
+        """The records in the compiled kernels' arrays (fast path; None: direct)."""
         if self.method != "fast":
             return None
         if self._pack is None:
             self._pack = record_pack(self.rig, self.models)
-        return None if self._pack is None else pair_problem(self.rig, self._pack, params, MASKED)
+        return self._pack
 
     def _profile_evidence(self, params: tuple[FaultParameter, ...], z_hat: Arr, cov: Arr,
                           zl: Arr, zu: Arr, weak: int, n: int = 6) -> float:
