@@ -32,7 +32,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from scipy.stats import chi2 as chi2_dist
+from scipy.special import chdtrc, gammaincinv
 
 from diagnostics.ranking import HypothesisFit, Ranker
 
@@ -110,7 +110,16 @@ class GoodnessOfFit:
 
 
 def _p_value(chi2: float, dof: int) -> float:
-    return float(chi2_dist.sf(chi2, dof)) if math.isfinite(chi2) else 0.0
+    # the χ² survival function as scipy.stats.chi2.sf computes it (its support χ² ≥ 0),
+    # without the distribution object's per-call argument checks
+    if not math.isfinite(chi2):
+        return 0.0
+    return float(chdtrc(dof, chi2)) if chi2 >= 0.0 else 1.0
+
+
+def _limit(level: float, dof: int) -> float:
+    # χ²_{1-α}(ν) as scipy.stats.chi2.ppf computes it: 2·P⁻¹(ν/2, 1 − α)
+    return float(2.0 * gammaincinv(0.5 * dof, 1.0 - level))
 
 
 def _disagreements(ranker: Ranker, fit: HypothesisFit) -> list[Disagreement]:
@@ -155,7 +164,7 @@ def goodness_of_fit(ranker: Ranker, fits: list[HypothesisFit], level: float = TE
         dof = max(n - len(f.hypothesis.parameters), 1)
         scored.append((_p_value(f.chi2, dof), -f.probability, f, dof))
     p, _, best, dof = max(scored, key=lambda s: (s[0], s[1]))
-    limit = float(chi2_dist.ppf(1.0 - level, dof))
+    limit = _limit(level, dof)
     explained = bool(math.isfinite(best.chi2) and best.chi2 <= limit)
     dis = _disagreements(ranker, best)
     if explained:

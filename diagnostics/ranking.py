@@ -105,13 +105,23 @@ def laplace_evidence(cost: float, jac: Arr, z: Arr, zl: Arr, zu: Arr
     """
     span = zu - zl
     h = jac.T @ jac
-    cov: Arr = np.asarray(np.linalg.pinv(h + 1e-12 * max(float(np.trace(h)), 1e-30) * np.eye(2)),
-                          dtype=np.float64)
+    # the regularised 2×2 Hessian inverted in closed form (positive definite: its
+    # pseudo-inverse, without an SVD per fit); det(JᵀJ) by Cauchy-Binet, a sum of squared
+    # 2×2 minors of J, so a near-collinear pair loses no digits to cancellation
+    eps = 1e-12 * max(float(h[0, 0] + h[1, 1]), 1e-30)
+    a, b, c, d = float(h[0, 0]) + eps, float(h[0, 1]), float(h[1, 0]), float(h[1, 1]) + eps
+    minors = np.outer(jac[:, 0], jac[:, 1]) - np.outer(jac[:, 1], jac[:, 0])
+    det = 0.5 * float(np.sum(minors * minors)) + eps * (a + d - 2.0 * eps) + eps * eps
+    logdet = math.nan  # ln det cov
+    if det > 0.0 and math.isfinite(det):
+        cov: Arr = np.array([[d / det, -b / det], [-c / det, a / det]])
+        logdet = -math.log(det)
+    else:
+        cov = np.asarray(np.linalg.pinv(np.array([[a, b], [c, d]])), dtype=np.float64)
     sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     sd = np.where(sd > 0, sd, span)
     mass = float(np.prod(ndtr((zu - z) / sd) - ndtr((zl - z) / sd)))
-    sign, logdet = np.linalg.slogdet(cov)
-    if sign <= 0 or not math.isfinite(logdet):
+    if not math.isfinite(logdet):
         logdet = float(np.sum(np.log(sd**2)))
     occam = math.log(2 * math.pi) + 0.5 * logdet + math.log(max(mass, 1e-300)) \
         - float(np.sum(np.log(span)))
@@ -255,8 +265,19 @@ class Ranker:
 
     # -- fits ------------------------------------------------------------------------------
     def fit_single(self, hyp: Hypothesis) -> HypothesisFit:
-        """One-parameter hypothesis on the signature maps."""
+        """One-parameter hypothesis on the signature maps (fast: one compiled call,
+        :meth:`diagnostics.fastpath.fits.RecordPack.single`; direct: numpy below)."""
         (p,) = (PARAMETERS[n] for n in hyp.parameters)
+        pack = self._record_pack()
+        if pack is not None:
+            s = pack.single(hyp.name, _TIE)
+            z0, z1 = float(s.z[0]), float(s.z[-1])
+            finite = math.isfinite(s.top)
+            est = self._estimate(p, s.z_hat, s.z_low, s.z_high, z0, z1)
+            preds = [m.as_dict(m.maps.maps[hyp.name].pred[s.k]) for m in self.models]
+            return HypothesisFit(hyp, s.chi2 if finite else math.inf, s.log_evidence, [est],
+                                 preds, observable=s.detectability >= 1.0,
+                                 detectability=s.detectability)
         chi2 = np.zeros(self.models[0].maps.maps[hyp.name].axes[0].size)
         detect = np.zeros_like(chi2)
         for m in self.models:
@@ -338,11 +359,16 @@ class Ranker:
 
     def _fast_problem(self, params: tuple[FaultParameter, ...]) -> PairProblem | None:
         """The compiled pair problem on the fast path (None: direct path)."""
+        pack = self._record_pack()
+        return None if pack is None else pair_problem(self.rig, pack, params, MASKED)
+
+    def _record_pack(self) -> RecordPack | None:
+        """The records in the compiled kernels' arrays (fast path; None: direct)."""
         if self.method != "fast":
             return None
         if self._pack is None:
             self._pack = record_pack(self.rig, self.models)
-        return None if self._pack is None else pair_problem(self.rig, self._pack, params, MASKED)
+        return self._pack
 
     def _profile_evidence(self, params: tuple[FaultParameter, ...], z_hat: Arr, cov: Arr,
                           zl: Arr, zu: Arr, weak: int, n: int = 12) -> float:

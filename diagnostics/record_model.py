@@ -74,7 +74,8 @@ class RecordModel:
         pred = self.maps.nominal[self.idx]
         # a reading the healthy rig cannot produce (a stalled return stroke has no velocity
         # ratio) gets no model or condition term: its σ is the measurement's own
-        diag = obs.u**2 + np.nan_to_num(model_rel * pred) ** 2
+        rel = model_rel * pred
+        diag = obs.u**2 + np.where(np.isnan(rel), 0.0, rel) ** 2
         u_t, u_f = condition_sigma(obs.record)
         cond = obs.condition
         terms: list[Arr] = []
@@ -106,8 +107,7 @@ class RecordModel:
                 d = (moved_pred - pred) / step
             # near a stall a reading (the velocity ratio) may react without bound: cap the
             # sensitivity so its σ stays finite, huge, and the reading weighs nothing
-            d = np.clip(np.nan_to_num(d, nan=0.0, posinf=_HUGE, neginf=-_HUGE), -_HUGE, _HUGE)
-            return np.asarray(d)
+            return np.asarray(np.clip(np.where(np.isnan(d), 0.0, d), -_HUGE, _HUGE))
         return np.zeros_like(pred)
 
     def _moved(self, rig: Rig, cond: Condition) -> Arr:
@@ -133,4 +133,5 @@ class RecordModel:
         return np.asarray(np.where(np.isnan(chi2), np.inf, chi2))
 
     def as_dict(self, full: Arr) -> dict[str, float]:
-        return {n: float(v) for n, v in zip(OBSERVABLES, full, strict=True)}
+        """Observables ``full`` [SI] by name (Python floats)."""
+        return dict(zip(OBSERVABLES, np.asarray(full, dtype=np.float64).tolist(), strict=True))

@@ -1,8 +1,9 @@
-"""The fast path's compiled module of a rig: :mod:`diagnostics.fastpath.kernel` specialised
-to the rig's Newton solver and outputs, with :mod:`diagnostics.fastpath.pchip`.
+"""The fast path's compiled module of a rig: :mod:`diagnostics.fastpath.kernel` and
+:mod:`diagnostics.fastpath.chord` specialised to the rig's Newton solver, right-hand side and
+outputs, with :mod:`diagnostics.fastpath.pchip` and :mod:`diagnostics.fastpath.singles`.
 
-The generated source imports ``steady`` and ``outputs`` from the rig's own generated
-module (:mod:`sim.bondgraph.codegen`) and holds the kernels, each under
+The generated source imports ``steady``, ``outputs``, ``rhs`` and the LU routines from the
+rig's own generated module (:mod:`sim.bondgraph.codegen`) and holds the kernels, each under
 ``@njit(cache=True)``; it is written to the same cache folder under a name that hashes its
 source, so a second process loads the machine code instead of compiling it.
 """
@@ -13,7 +14,7 @@ import inspect
 import threading
 from types import ModuleType
 
-from diagnostics.fastpath import kernel, pchip
+from diagnostics.fastpath import chord, kernel, pchip, singles
 from sim.bondgraph.codegen import load_module
 from sim.rigs import Rig
 
@@ -29,12 +30,15 @@ def _source(rig_module: str) -> str:
         "import math",
         "import numpy as np",
         "from numba import njit",
-        f"from {rig_module} import steady, outputs",
+        f"from {rig_module} import steady, outputs, rhs, lu_factor, lu_solve",
         "_jit = njit(cache=True, error_model='numpy')",
     ]
+    mods = (kernel, chord, pchip, singles)
+    consts = [f"{name} = {getattr(mod, name)!r}"
+              for mod in mods for name in getattr(mod, "CONSTANTS", ())]
     funcs = [f"@_jit\n{inspect.getsource(getattr(mod, name))}"
-             for mod in (kernel, pchip) for name in mod.KERNELS]
-    return "\n".join(head) + "\n\n\n" + "\n\n".join(funcs)
+             for mod in mods for name in mod.KERNELS]
+    return "\n".join(head + consts) + "\n\n\n" + "\n\n".join(funcs)
 
 
 def compiled_kernels(rig: Rig) -> ModuleType:

@@ -1,4 +1,4 @@
-"""Two-parameter hypothesis fits of the fast path: one compiled call per fit.
+"""Hypothesis fits of the fast path: one compiled call per fit.
 
 :func:`pair_problem` packs what the compiled :func:`~diagnostics.fastpath.kernel.pair_fit`
 and :func:`~diagnostics.fastpath.kernel.profile_points` need — per record its condition's
@@ -9,6 +9,8 @@ readings, their marginal σ and whitening matrix (the likelihood of
 are numbers (the estimate, χ², the Jacobian, the predictions; the profile's χ² and
 curvatures); the evidences are computed from them by the ranking's own functions
 (:func:`diagnostics.ranking.laplace_evidence`, :func:`diagnostics.ranking.profile_evidence`).
+:meth:`RecordPack.single` does the same for a one-parameter hypothesis on the maps
+(:mod:`diagnostics.fastpath.singles`).
 """
 
 from __future__ import annotations
@@ -28,7 +30,7 @@ from sim.rigs import Rig
 if TYPE_CHECKING:
     from diagnostics.record_model import RecordModel
 
-__all__ = ["PairProblem", "RecordPack", "pair_problem", "record_pack"]
+__all__ = ["PairProblem", "RecordPack", "SingleNumbers", "pair_problem", "record_pack"]
 
 Arr = npt.NDArray[np.float64]
 
@@ -45,10 +47,14 @@ class PairProblem:
     contexts: list[Any]
 
     def _store(self) -> None:
-        """Keep the continuation states for the next fit at these conditions."""
-        states = self.prob[1]
+        """Keep the continuation states and chord Jacobians for the next fit at these
+        conditions."""
+        states, jac, piv, valid = self.prob[1], self.prob[17], self.prob[18], self.prob[19]
         for k, ctx in enumerate(self.contexts):
             ctx.states[0:2] = states[k, 0:2]
+            ctx.jac[:] = jac[k]
+            ctx.piv[:] = piv[k]
+            ctx.jac_valid[:] = valid[k]
 
     def fit(self, z0: Arr, zl: Arr, zu: Arr) -> tuple[Arr, float, Arr, list[Arr]]:
         """Levenberg-Marquardt from ``z0``: ``(z, χ², last Jacobian, predictions per
@@ -76,7 +82,8 @@ class PairProblem:
 @dataclass
 class RecordPack:
     """The records of a ranking in the kernels' arrays (built once per ranking; the Newton
-    states carry over from one pair fit to the next, as the direct evaluator's do)."""
+    states carry over from one pair fit to the next, as the direct evaluator's do, and so do
+    the chord Jacobians)."""
 
     contexts: list[Any]
     ctx_p: Arr
@@ -87,6 +94,42 @@ class RecordPack:
     wrow: Arr
     oidx: npt.NDArray[np.int64]
     start: npt.NDArray[np.int64]
+    jac: Arr
+    piv: npt.NDArray[np.int64]
+    jac_valid: npt.NDArray[np.bool_]
+    nominal: Arr
+    models: Sequence[RecordModel]
+
+    def single(self, name: str, tie: float) -> SingleNumbers:
+        """The numbers of the one-parameter hypothesis ``name`` on the records' maps
+        (:func:`~diagnostics.fastpath.singles.single_scan`, one compiled call)."""
+        maps = [m.maps.maps[name].pred for m in self.models]
+        preds = maps[0][None] if len(maps) == 1 else np.ascontiguousarray(np.stack(maps))
+        z = self.models[0].maps.maps[name].axes[0]
+        chi2 = np.empty(z.size)
+        top, log_ev, k, zk, lo, hi, det = self.contexts[0].kernels.single_scan(
+            z, preds, self.nominal, self.yobs, self.wrow, self.sig, self.oidx, self.start,
+            tie, chi2)
+        return SingleNumbers(float(top), float(log_ev), int(k), float(chi2[k]), float(zk),
+                             float(lo), float(hi), float(det), z)
+
+
+@dataclass
+class SingleNumbers:
+    """A one-parameter fit's numbers (:meth:`RecordPack.single`): the maximum of the
+    log-likelihood ``top`` (−∞: no point predicts the readings), ``log_evidence``, the
+    estimate's map index ``k`` and χ² there, the estimate and 95 % interval in fitting
+    coordinates, the detectability [σ] and the map's axis ``z``."""
+
+    top: float
+    log_evidence: float
+    k: int
+    chi2: float
+    z_hat: float
+    z_low: float
+    z_high: float
+    detectability: float
+    z: Arr
 
 
 def record_pack(rig: Rig, models: Sequence[RecordModel]) -> RecordPack | None:
@@ -103,7 +146,10 @@ def record_pack(rig: Rig, models: Sequence[RecordModel]) -> RecordPack | None:
         np.concatenate([m.sigma for m in models]).astype(np.float64),
         _white_rows(models),
         np.concatenate([m.idx for m in models]).astype(np.int64),
-        np.cumsum([0, *(len(m.idx) for m in models)]).astype(np.int64))
+        np.cumsum([0, *(len(m.idx) for m in models)]).astype(np.int64),
+        np.array([c.jac for c in ctxs]), np.array([c.piv for c in ctxs]),
+        np.array([c.jac_valid for c in ctxs]),
+        np.ascontiguousarray(np.array([m.maps.nominal for m in models])), models)
 
 
 def _white_rows(models: Sequence[RecordModel]) -> Arr:
@@ -133,6 +179,7 @@ def pair_problem(rig: Rig, pack: RecordPack, params: tuple[FaultParameter, ...],
     tconst = np.array([t.const for t in ts], dtype=np.float64)
     c0 = pack.contexts[0]
     prob = (pack.ctx_p, pack.ctx_i, c0.mask, c0.scale, c0.oi, pack.base, c0.gidx, which, tlog,
-            tmode, tconst, pack.yobs, pack.sig, pack.wrow, pack.oidx, pack.start, c0.nout)
+            tmode, tconst, pack.yobs, pack.sig, pack.wrow, pack.oidx, pack.start, c0.nout,
+            pack.jac, pack.piv, pack.jac_valid)
     return PairProblem(c0.kernels, prob, float(masked), len(pack.contexts),
                        int(pack.yobs.size), pack.contexts)

@@ -12,11 +12,13 @@ What is compiled here is what the direct path (:mod:`diagnostics.ranking`) does 
 model evaluation, in Python:
 
 * :func:`solve_point` — both phases' steady operating points for one parameter vector
-  (Newton from the last solution, then from the nominal one: the continuation of
+  (the chord iteration of :mod:`diagnostics.fastpath.chord` from the last solution, then
+  Newton from the last solution and from the nominal one: the continuation of
   :class:`sim.steady.SteadyEvaluator`) and the nine observables of
   :data:`diagnostics.signatures.OBSERVABLES` (signed speeds, the velocity ratio NaN where
   the return stroke stalls);
-* :func:`solve_grid` — the same over the rows of a matrix (a signature map's coarse grid);
+* the same over the rows of a matrix (a signature map's coarse grid) is
+  :func:`diagnostics.fastpath.chord.solve_grid`, with a chord Newton;
 * :func:`pair_fit` — the Levenberg-Marquardt fit of a two-parameter hypothesis over all
   records (forward-difference Jacobians of step 1e-6 of the range, a masked reading a
   miss of ``masked`` σ), the exact iteration of ``Ranker.fit_pair``;
@@ -37,11 +39,12 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:  # bound in the generated module (see the module docstring)
+    from diagnostics.fastpath.chord import FIT_TOL, REFRESH, chord, newton_matrix
     from diagnostics.fastpath.rig_interface import outputs, steady
 
 #: names copied into the generated module, in dependency order
-KERNELS = ("observables", "solve_point", "solve_grid", "graph_values", "residuals",
-           "pair_fit", "profile_points")
+KERNELS = ("observables", "solve_point", "graph_values", "residuals", "pair_fit",
+           "profile_points")
 
 
 def observables(w, r, oi, out):  # type: ignore[no-untyped-def]
@@ -62,81 +65,48 @@ def observables(w, r, oi, out):  # type: ignore[no-untyped-def]
     out[8] = vw / -vr if vr < 0.0 else np.nan
 
 
-def solve_point(pw, pr, mask, scale, last_w, last_r, nom_w, nom_r, oi, ow, orr, yw,  # type: ignore[no-untyped-def]
-                out):
-    """Both phases at one parameter vector pair; True when both converged.
+def solve_point(pw, pr, mask, scale, states, jac, piv, valid, oi, ow, orr, work, out):  # type: ignore[no-untyped-def]
+    """Both phases of one record at one parameter vector pair; True when both converged.
 
-    Continuation: Newton from ``last_*`` (updated on success), then from ``nom_*``.
-    On failure ``out`` is NaN (the caller may retry from a start-up transient).
+    ``states`` = last working, last return, nominal working, nominal return (the last ones
+    updated on success); ``jac``, ``piv``, ``valid``: per phase the factored Jacobian the
+    chord iteration (:func:`diagnostics.fastpath.chord.chord`, scaled step below
+    ``FIT_TOL``) runs on from the last solution; then the damped Newton from the last and
+    the nominal solution (the continuation of :class:`sim.steady.SteadyEvaluator`), after
+    which the Jacobian is rebuilt at the solution.  ``work`` = rows y, f, f_trial,
+    y_trial, dy.  On failure ``out`` is NaN (the caller may retry from a start-up
+    transient).
     """
+    y = work[0]
+    f = work[1]
+    ft = work[2]
+    yt = work[3]
+    dy = work[4, :jac.shape[1]]
     for ph in range(2):
         p = pw if ph == 0 else pr
-        last = last_w if ph == 0 else last_r
-        nom = nom_w if ph == 0 else nom_r
+        last = states[ph]
         o = ow if ph == 0 else orr
-        status, _, _ = steady(last, p, mask, scale, 1e-10, 60, yw)
-        if status != 0:
-            status, _, _ = steady(nom, p, mask, scale, 1e-10, 60, yw)
-        if status != 0:
+        conv = False
+        if valid[ph]:
+            why, its = chord(last, p, mask, scale, FIT_TOL, y, jac[ph], piv[ph], f, dy)
+            conv = why == 0
+            if conv and its > REFRESH:
+                valid[ph] = newton_matrix(y, p, mask, scale, jac[ph], piv[ph], f, yt, ft)
+        if not conv:
+            conv = steady(last, p, mask, scale, 1e-10, 60, y)[0] == 0
+            if not conv:
+                conv = steady(states[2 + ph], p, mask, scale, 1e-10, 60, y)[0] == 0
+            if conv:
+                valid[ph] = newton_matrix(y, p, mask, scale, jac[ph], piv[ph], f, yt, ft)
+        if not conv:
             for j in range(out.size):
                 out[j] = np.nan
             return False
-        for i in range(yw.size):
-            last[i] = yw[i]
-        outputs(0.0, yw, p, o)
+        for i in range(y.size):
+            last[i] = y[i]
+        outputs(0.0, y, p, o)
     observables(ow, orr, oi, out)
     return True
-
-
-def solve_grid(pw0, pr0, gidx, grid, mask, scale, last_w, last_r, nom_w, nom_r, oi, out,  # type: ignore[no-untyped-def]
-               ok, nout, restart):
-    """:func:`solve_point` for every row of ``grid`` (graph parameters ``gidx``).
-
-    Along a run of rows (``restart`` 1 at a run's first row) Newton starts from the
-    secant predictor ``2·y[k-1] − y[k-2]`` of the two previous solutions (the rows of a
-    map are equally spaced), then from the last and the nominal solution.
-    """
-    pw = pw0.copy()
-    pr = pr0.copy()
-    ow = np.empty(nout)
-    orr = np.empty(nout)
-    ns = last_w.size
-    yw = np.empty(ns)
-    prev_w = np.empty((2, ns))
-    prev_r = np.empty((2, ns))
-    pred_w = np.empty(ns)
-    pred_r = np.empty(ns)
-    run = 0
-    for k in range(grid.shape[0]):
-        if restart[k]:
-            run = 0
-        for j in range(gidx.size):
-            pw[gidx[j]] = grid[k, j]
-            pr[gidx[j]] = grid[k, j]
-        done = False
-        if run >= 2:
-            for i in range(ns):
-                pred_w[i] = 2.0 * prev_w[1, i] - prev_w[0, i]
-                pred_r[i] = 2.0 * prev_r[1, i] - prev_r[0, i]
-            done = solve_point(pw, pr, mask, scale, pred_w, pred_r, last_w, last_r, oi, ow,
-                               orr, yw, out[k])
-            if done:
-                for i in range(ns):
-                    last_w[i] = pred_w[i]
-                    last_r[i] = pred_r[i]
-        if not done:
-            done = solve_point(pw, pr, mask, scale, last_w, last_r, nom_w, nom_r, oi, ow,
-                               orr, yw, out[k])
-        ok[k] = done
-        if done:
-            for i in range(ns):
-                prev_w[0, i] = prev_w[1, i]
-                prev_r[0, i] = prev_r[1, i]
-                prev_w[1, i] = last_w[i]
-                prev_r[1, i] = last_r[i]
-            run += 1
-        else:
-            run = 0
 
 
 def graph_values(z, base, which, tlog, tmode, tconst, g):  # type: ignore[no-untyped-def]
@@ -164,26 +134,28 @@ def residuals(z, prob, masked, r, fulls):  # type: ignore[no-untyped-def]
     ``yobs``, their marginal ``sig``, the whitening rows ``wrow`` (row ``a`` of the
     reading's record's matrix W, :class:`diagnostics.record_model.RecordModel`, over that
     record's readings), observable index ``oidx``, record ``start`` offsets, the number of
-    model outputs ``nout``).  Record k's residuals are ``W_k (y − ŷ)``; a record with a
-    reading without prediction falls back to residuals per marginal σ, that reading
-    counting ``masked`` σ (as :func:`diagnostics.pair_direct.residuals`).
+    model outputs ``nout``, per record its phases' factored Jacobians ``ctx_j``, pivots
+    ``ctx_piv`` and whether they hold one, ``ctx_v`` (:func:`solve_point`)).  Record k's
+    residuals are ``W_k (y − ŷ)``; a record with a reading without prediction falls back
+    to residuals per marginal σ, that reading counting ``masked`` σ (as
+    :func:`diagnostics.pair_direct.residuals`).
     """
     (ctx_p, ctx_i, mask, scale, oi, base, gidx, which, tlog, tmode, tconst, yobs, sig, wrow,
-     oidx, start, nout) = prob
+     oidx, start, nout, ctx_j, ctx_piv, ctx_v) = prob
     d = np.empty(wrow.shape[1])
     g = np.empty(base.size)
     graph_values(z, base, which, tlog, tmode, tconst, g)
     ow = np.empty(nout)
     orr = np.empty(nout)
-    yw = np.empty(ctx_i.shape[2])
+    work = np.empty((5, ctx_i.shape[2]))
     for k in range(ctx_p.shape[0]):
         pw = ctx_p[k, 0].copy()
         pr = ctx_p[k, 1].copy()
         for j in range(gidx.size):
             pw[gidx[j]] = g[j]
             pr[gidx[j]] = g[j]
-        solve_point(pw, pr, mask, scale, ctx_i[k, 0], ctx_i[k, 1], ctx_i[k, 2], ctx_i[k, 3],
-                    oi, ow, orr, yw, fulls[k])
+        solve_point(pw, pr, mask, scale, ctx_i[k], ctx_j[k], ctx_piv[k], ctx_v[k], oi, ow, orr,
+                    work, fulls[k])
         s0 = start[k]
         n = start[k + 1] - s0
         finite = True

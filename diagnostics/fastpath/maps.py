@@ -16,7 +16,11 @@ from __future__ import annotations
 import math
 import threading
 from collections import OrderedDict
+from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
+from types import ModuleType
+from typing import TypeVar, cast
 
 import numpy as np
 import numpy.typing as npt
@@ -31,13 +35,13 @@ from diagnostics.signatures import (
     SignatureMaps,
     evaluator,
 )
-from sim.cycle import phase_params
+from sim.cycle import _phase_settings
 from sim.errors import SimulationError
 from sim.rigs import Condition, Rig
 from sim.steady import SteadyEvaluator, steady_phase
 
 __all__ = ["Context", "FastMaps", "Transform", "fast_maps", "nominal_observables",
-           "transform"]
+           "phase_vectors", "transform"]
 
 Arr = npt.NDArray[np.float64]
 IArr = npt.NDArray[np.int64]
@@ -45,9 +49,12 @@ IArr = npt.NDArray[np.int64]
 #: model outputs the observables are made of, in the order the kernel expects
 _OUTPUTS = ("P_pump", "P1", "P2", "Q_meter_B", "Q_meter_C", "Q_relief", "v")
 
-#: per rig (held, so that its id is not reused while here), Newton starts of both phases
-_SEEDS: OrderedDict[int, tuple[Rig, Arr, Arr]] = OrderedDict()
+#: per rig (held, so that its id is not reused while here), what depends on the rig only
+_LAYOUTS: OrderedDict[int, tuple[Rig, _Layout]] = OrderedDict()
 _MAPS: OrderedDict[tuple[int, Condition], FastMaps] = OrderedDict()
+#: per rig, the parts of the maps that do not depend on the condition (:func:`_memo`)
+_PIECES: OrderedDict[tuple[object, ...], tuple[Rig, object]] = OrderedDict()
+_T = TypeVar("_T")
 _LOCK = threading.RLock()
 
 
@@ -69,7 +76,12 @@ class Transform:
 
 def transform(rig: Rig, p: FaultParameter) -> Transform | None:
     """The :class:`Transform` of ``p`` read off :meth:`FaultParameter.graph_value` (one
-    proportional or inverse law), or None when it is neither (then the direct path runs)."""
+    proportional or inverse law), or None when it is neither (then the direct path runs);
+    kept per rig."""
+    return _memo(rig, ("transform", p), partial(_transform, rig, p))
+
+
+def _transform(rig: Rig, p: FaultParameter) -> Transform | None:
     g1, g2 = p.graph_value(rig, 1.0), p.graph_value(rig, 2.0)
     index = GRAPH_PARAMETERS.index(p.graph_param)
     if g1 != 0.0 and math.isclose(g2, 2.0 * g1, rel_tol=1e-12):
@@ -79,20 +91,64 @@ def transform(rig: Rig, p: FaultParameter) -> Transform | None:
     return None
 
 
-def _seeds(rig: Rig) -> tuple[Arr, Arr]:
-    """Per rig, a Newton start of each phase: the nominal point at the default condition."""
+@dataclass(frozen=True)
+class _Layout:
+    """What a :class:`Context` needs that depends on the rig only (built once per rig)."""
+
+    kernels: ModuleType
+    gidx: IArr
+    mask: IArr
+    scale: Arr
+    oi: IArr
+    nout: int
+    states: Arr
+    #: parameter indices and values that turn the working vector into the return one
+    ret_idx: IArr
+    ret_val: Arr
+    work: dict[str, float]
+
+
+def _layout(rig: Rig) -> _Layout:
+    """The :class:`_Layout` of ``rig`` (cached per rig; the Newton starts are the nominal
+    points of both phases at the default condition, the piston at mid-stroke)."""
     with _LOCK:
-        entry = _SEEDS.get(id(rig))
+        entry = _LAYOUTS.get(id(rig))
     if entry is not None and entry[0] is rig:
-        return entry[1], entry[2]
+        return entry[1]
+    m = rig.model
     cond = rig.default_condition()
-    work = steady_phase(rig, "working", None, cond).state
-    back = steady_phase(rig, "return", None, cond).state
+    sw = steady_phase(rig, "working", None, cond).state.copy()
+    sr = steady_phase(rig, "return", None, cond).state.copy()
+    ix = m.state_index("cylinder.x")
+    sw[ix] = sr[ix] = 0.5 * rig.base["cylinder.stroke"]
+    mask = np.ones(len(m.state_names), dtype=np.int64)
+    mask[ix] = 0
+    ret = _phase_settings(rig, "return")
+    lay = _Layout(
+        compiled_kernels(rig),
+        np.array([m.param_index(n) for n in GRAPH_PARAMETERS], dtype=np.int64), mask,
+        m.scale, np.array([m.output_names.index(n) for n in _OUTPUTS], dtype=np.int64),
+        len(m.output_names), np.array([sw, sr, sw, sr]),
+        np.array([m.param_index(n) for n in ret], dtype=np.int64),
+        np.array(list(ret.values()), dtype=np.float64), _phase_settings(rig, "working"))
     with _LOCK:
-        _SEEDS[id(rig)] = (rig, work, back)
-        while len(_SEEDS) > 16:
-            _SEEDS.popitem(last=False)
-    return work, back
+        _LAYOUTS[id(rig)] = (rig, lay)
+        while len(_LAYOUTS) > 16:
+            _LAYOUTS.popitem(last=False)
+    return lay
+
+
+def phase_vectors(rig: Rig, condition: Condition) -> Arr:
+    """Working and return parameter vectors at ``condition``, shape ``(2, n_params)``: the
+    vectors of :func:`sim.cycle.phase_params` from one evaluation of the rig's values (the
+    return vector is the working one with the return phase's settings)."""
+    lay = _layout(rig)
+    values = rig.values(None, condition)
+    values.update(lay.work)
+    pw = rig.model.params(values)
+    pr = pw.copy()
+    pr[lay.ret_idx] = lay.ret_val
+    return np.array([pw, pr])
 
 
 class Context:
@@ -105,27 +161,37 @@ class Context:
     states
         Newton states: last working, last return, nominal working, nominal return,
         shape ``(4, n_states)``; the last ones move with every solve (continuation).
+    use_chord
+        Grid solves try the chord Newton first (:mod:`diagnostics.fastpath.chord`; the
+        ``chord`` argument, default True); False: the damped solver alone.
+    counts
+        Phase solves of the grid solves so far: settled by the chord iteration (0), its
+        failures by reason (1-4, :func:`~diagnostics.fastpath.chord.chord`), damped (5).
+    jac, piv, jac_valid
+        Per phase the LU-factored Jacobian at a recent solution of the pair fits, its
+        pivots and whether it holds one (the chord iteration of
+        :func:`diagnostics.fastpath.kernel.solve_point` runs on it; kept with the context,
+        so the next diagnosis at this condition starts with it).
     """
 
-    def __init__(self, rig: Rig, condition: Condition) -> None:
-        m = rig.model
+    def __init__(self, rig: Rig, condition: Condition, chord: bool = True) -> None:
+        lay = _layout(rig)
         self.rig = rig
         self.condition = condition
-        self.kernels = compiled_kernels(rig)
-        self.params = np.array([phase_params(rig, ph, None, condition)
-                                for ph in ("working", "return")])
-        self.gidx = np.array([m.param_index(n) for n in GRAPH_PARAMETERS], dtype=np.int64)
-        self.mask = np.ones(len(m.state_names), dtype=np.int64)
-        self.mask[m.state_index("cylinder.x")] = 0
-        self.scale = m.scale
-        self.oi = np.array([m.output_names.index(n) for n in _OUTPUTS], dtype=np.int64)
-        self.nout = len(m.output_names)
-        sw, sr = _seeds(rig)
-        mid = 0.5 * rig.base["cylinder.stroke"]
-        ix = m.state_index("cylinder.x")
-        sw, sr = sw.copy(), sr.copy()
-        sw[ix] = sr[ix] = mid
-        self.states = np.array([sw, sr, sw, sr])
+        self.kernels = lay.kernels
+        self.params = phase_vectors(rig, condition)
+        self.gidx = lay.gidx
+        self.mask = lay.mask
+        self.scale = lay.scale
+        self.oi = lay.oi
+        self.nout = lay.nout
+        self.states = lay.states.copy()
+        self.use_chord = chord
+        self.counts = np.zeros(6, dtype=np.int64)
+        m = int(lay.mask.sum())
+        self.jac = np.zeros((2, m, m))
+        self.piv = np.zeros((2, m), dtype=np.int64)
+        self.jac_valid = np.zeros(2, dtype=np.bool_)
 
     def solve(self, grid: Arr, restart: IArr | None = None
               ) -> tuple[Arr, npt.NDArray[np.bool_]]:
@@ -140,7 +206,8 @@ class Context:
         s = self.states
         self.kernels.solve_grid(self.params[0], self.params[1], self.gidx,
                                 np.ascontiguousarray(grid), self.mask, self.scale, s[0], s[1],
-                                s[2], s[3], self.oi, out, ok, self.nout, flags)
+                                s[2], s[3], self.oi, out, ok, self.nout, flags,
+                                self.use_chord, self.counts)
         return out, ok
 
     def nominal(self, base: Arr) -> Arr:
@@ -165,43 +232,71 @@ def nominal_observables(rig: Rig, condition: Condition) -> Arr:
     return ctx.nominal(ctx.params[0][ctx.gidx])
 
 
-class FastMaps(SignatureMaps):
-    """:class:`SignatureMaps` built by the compiled kernels (module docstring)."""
+def _memo(rig: Rig, key: tuple[object, ...], make: Callable[[], _T]) -> _T:
+    """What ``make`` returns for ``rig`` and ``key``, kept (the 64 most recent) for the
+    next condition: the parts of a map that do not depend on the condition."""
+    full = (id(rig), *key)
+    with _LOCK:
+        hit = _PIECES.get(full)
+        if hit is not None and hit[0] is rig:
+            _PIECES.move_to_end(full)
+            return cast(_T, hit[1])
+    value = make()
+    with _LOCK:
+        _PIECES[full] = (rig, value)
+        while len(_PIECES) > 64:
+            _PIECES.popitem(last=False)
+    return value
 
-    def __init__(self, rig: Rig, condition: Condition) -> None:
+
+def _piece_rows(rig: Rig, p: FaultParameter, base: Arr, lo: float, hi: float, n: int
+                ) -> tuple[Arr, Arr, IArr]:
+    """A map piece's coarse nodes ``zc`` (``n`` from ``lo`` to ``hi`` in fitting
+    coordinates), the graph values of its rows and its run flags (1 at the first row)."""
+    zc = np.linspace(lo, hi, n)
+    tr = transform(rig, p)
+    g = np.tile(base, (n, 1))
+    if tr is not None:
+        g[:, tr.index] = tr.graph(zc)
+    else:
+        g[:, GRAPH_PARAMETERS.index(p.graph_param)] = [
+            p.graph_value(rig, p.from_z(float(z))) for z in zc]
+    return zc, g, (np.arange(n) == 0).astype(np.int64)
+
+
+class FastMaps(SignatureMaps):
+    """:class:`SignatureMaps` built by the compiled kernels (module docstring); ``chord``
+    False solves the grid by the damped solver alone (the reference of the chord's test)."""
+
+    def __init__(self, rig: Rig, condition: Condition, chord: bool = True) -> None:
         self.rig = rig
         self.condition = condition
         self._ev: SteadyEvaluator | None = None
         self._moved: dict[Condition, Arr | None] = {}
         self._base = np.array([rig.base[n] for n in GRAPH_PARAMETERS])
-        self.ctx = Context(rig, condition)
+        self.ctx = Context(rig, condition, chord)
         try:
             self.nominal = self.ctx.nominal(self._base)
         except SimulationError:
             self.nominal = np.full(len(OBSERVABLES), np.nan)
         self.maps: dict[str, HypothesisMap] = {}
-        singles = [h for h in HYPOTHESES if len(h.parameters) == 1]
         plans = []
         rows = []
         starts = []
-        for hyp in singles:
+        for hyp in HYPOTHESES:
+            if len(hyp.parameters) != 1:
+                continue
             (p,) = (PARAMETERS[n] for n in hyp.parameters)
-            tr = transform(rig, p)
-            zf = self._axis(p, FINE_1D)
-            pieces = [np.linspace(lo, hi, n)
-                      for lo, hi, n in self._pieces(p, float(zf[0]), float(zf[-1]))]
-            for zc in pieces:
-                g = np.tile(self._base, (zc.size, 1))
-                if tr is not None:
-                    g[:, tr.index] = tr.graph(zc)
-                else:
-                    g[:, GRAPH_PARAMETERS.index(p.graph_param)] = [
-                        p.graph_value(rig, p.from_z(float(z))) for z in zc]
+            zf = _memo(rig, ("axis", p.name), partial(self._axis, p, FINE_1D))
+            pieces = []
+            for lo, hi, n in self._pieces(p, float(zf[0]), float(zf[-1])):
+                zc, g, first = _memo(rig, (p.name, lo, hi, n),
+                                     partial(_piece_rows, rig, p, self._base, lo, hi, n))
+                pieces.append(zc)
                 rows.append(g)
-                starts.append(np.arange(zc.size) == 0)
+                starts.append(first)
             plans.append((hyp, p, zf, pieces))
-        coarse_all, ok = self.ctx.solve(np.concatenate(rows),
-                                        np.concatenate(starts).astype(np.int64))
+        coarse_all, ok = self.ctx.solve(np.concatenate(rows), np.concatenate(starts))
         start = 0
         for hyp, p, zf, pieces in plans:
             fine = np.empty((zf.size, len(OBSERVABLES)))

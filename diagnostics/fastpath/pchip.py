@@ -53,6 +53,10 @@ def pchip_columns(xc, yc, xf, out):  # type: ignore[no-untyped-def]
     """Masked PCHIP of every column of ``yc`` (nodes ``xc``) at ``xf`` into ``out``: over
     the finite nodes only, NaN unless both nodes around a point are finite."""
     nc = xc.size
+    # the coarse interval of each point (the same for every column)
+    rights = np.empty(xf.size, dtype=np.int64)
+    for i in range(xf.size):
+        rights[i] = min(max(np.searchsorted(xc, xf[i]), 1), nc - 1)
     for j in range(yc.shape[1]):
         good = np.empty(nc, dtype=np.bool_)
         ng = 0
@@ -77,8 +81,7 @@ def pchip_columns(xc, yc, xf, out):  # type: ignore[no-untyped-def]
         seg = 0
         for i in range(xf.size):
             t = xf[i]
-            right = np.searchsorted(xc, t)
-            right = min(max(right, 1), nc - 1)
+            right = rights[i]
             if not (good[right] and good[right - 1]):
                 out[i, j] = np.nan
                 continue
