@@ -25,7 +25,8 @@ from typing import Any
 
 import numpy as np
 
-from benchmarks.discrepancy_study import _case, _doc_with, calibrate, score
+from benchmarks.discrepancy_study import _case, _doc_with, calibrate, score, truth_ratio
+from diagnostics.discrepancy.synthetic import NOISE
 from diagnostics.discrepancy.workflow import gap_ratio
 
 LIGHT = os.environ.get("HYDRODIAG_LIGHT") == "1"
@@ -49,8 +50,9 @@ def case(effect: str, size: float, strength: float, seed: int) -> dict[str, Any]
         "chosen": {s.balance: [t.effect for t in s.chosen.terms]
                    for s in d.selections if s.chosen is not None},
         "verdict": d.verdict}
-    if d.named:
-        out["rmse_ratio"] = gap_ratio(d.gap_before, d.gap_after)
+    if d.named:  # as the study: against the noise-free truth, and against the noisy data
+        out["rmse_ratio"] = truth_ratio(d, _doc_with(effect, strength))
+        out["rmse_ratio_vs_data"] = gap_ratio(d.gap_before, d.gap_after, NOISE)
     out["seconds"] = time.perf_counter() - t0
     return out
 
