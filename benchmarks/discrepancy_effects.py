@@ -23,9 +23,14 @@ import time
 from collections import Counter
 from typing import Any
 
-import numpy as np
-
-from benchmarks.discrepancy_study import _case, _doc_with, calibrate, score, truth_ratio
+from benchmarks.discrepancy_study import (
+    _case,
+    _doc_with,
+    _median,
+    calibrate,
+    score,
+    truth_ratio,
+)
 from diagnostics.discrepancy.synthetic import NOISE
 from diagnostics.discrepancy.workflow import gap_ratio
 
@@ -55,11 +60,6 @@ def case(effect: str, size: float, strength: float, seed: int) -> dict[str, Any]
         out["rmse_ratio_vs_data"] = gap_ratio(d.gap_before, d.gap_after, NOISE)
     out["seconds"] = time.perf_counter() - t0
     return out
-
-
-def _median(xs: list[float]) -> float | None:
-    vals = [x for x in xs if x is not None and math.isfinite(x)]
-    return float(np.median(vals)) if vals else None
 
 
 def main() -> None:
