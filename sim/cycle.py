@@ -28,7 +28,7 @@ from sim.solver.limits import SolverLimits
 from sim.solver.noise import NoiseAccuracy, error_estimate
 
 __all__ = ["METHODS", "PHASES", "SUMMARY_UNITS", "CycleResult", "PhaseRun", "PhaseSummary",
-           "SolverReport", "integrate_phases", "phase_params", "run_cycle",
+           "SolverReport", "integrate_phases", "phase_params", "phase_settings", "run_cycle",
            "sampled_outputs"]
 
 #: integration methods of :func:`run_cycle`
@@ -52,7 +52,11 @@ MIN_SAMPLE_RATE = 1.0
 
 PHASES = ("working", "return")
 
-def _phase_settings(rig: Rig, phase: str) -> dict[str, float]:
+
+def phase_settings(rig: Rig, phase: str) -> dict[str, float]:
+    """The parameters one phase sets (paper 002 §3): working, spool at N = +1 from the
+    chamber-1 end stop; return, spool at N = −1 from the end of stroke with no load
+    (eq. 52)."""
     stroke = rig.base["cylinder.stroke"]
     if phase == "working":
         return {"valve.N": 1.0, "cylinder.x_init": 0.0}
@@ -65,7 +69,7 @@ def phase_params(rig: Rig, phase: str, overrides: Mapping[str, float] | None,
     """Parameter vector of one phase."""
     if phase not in PHASES:
         raise ValueError(f"unknown phase {phase!r}")
-    return rig.params(overrides, condition, _phase_settings(rig, phase))
+    return rig.params(overrides, condition, phase_settings(rig, phase))
 
 
 def _averages(rig: Rig, t: Arr, y: Arr, p: Arr) -> dict[str, float]:

@@ -50,7 +50,7 @@ from diagnostics.discrepancy.signals import Signals
 from diagnostics.pump.field import FieldPrediction, field_signals, predict
 from diagnostics.pump.field_record import FieldRecord
 from diagnostics.quantity import DEFAULT_INSTRUMENTS, InstrumentClass
-from sim.components.effects import effects_for
+from sim.components.effects import effects_for, parameter_bounds
 from sim.components.gear_pump import GearPump
 from sim.components.gear_pump_map import stand_in_pump
 from sim.duty_cycle import CIRCUIT
@@ -185,16 +185,9 @@ def _output_error(records: Sequence[FieldRecord], pump: GearPump, start: Mapping
                   max_nfev: int, rtol: float) -> tuple[dict[str, float], dict[str, float], int]:
     """Re-fit the effect coefficients by re-simulating ``records`` (module docstring, 3)."""
     keys = list(start)
-    lib = effects_for(CIRCUIT)
     scale = np.array([abs(v) if v != 0.0 else 1.0 for v in start.values()])
-    lo, hi = [], []
-    for k in keys:
-        name, _, pname = k.partition(".")
-        decl = lib[name].parameter(pname)
-        assert decl is not None
-        lo.append(-np.inf if decl.lower is None else decl.lower)
-        hi.append(np.inf if decl.upper is None else decl.upper)
-    lb, ub = np.array(lo) / scale, np.array(hi) / scale
+    lo, hi = parameter_bounds(keys)
+    lb, ub = lo / scale, hi / scale
     calls = [0]
     size = sum(r.t.size for r in records)
 

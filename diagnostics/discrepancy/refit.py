@@ -21,7 +21,7 @@ from scipy.optimize import least_squares
 
 from diagnostics.discrepancy.simulate import on_grid, simulate_record
 from diagnostics.timeseries import SeriesRecord
-from sim.components.effects import EFFECTS
+from sim.components.effects import EFFECTS, parameter_bounds
 from sim.errors import InputError, SimulationError
 from sim.rigs.assembly import Rig
 from sim.rigs.schema import validate_rig_document
@@ -95,15 +95,9 @@ def refit(doc: dict[str, Any], start: Mapping[str, float], records: Sequence[Ser
     _n = [0]
     r0 = fun(np.ones(len(keys)))
     _n[0] = r0.size
-    lo, hi = [], []
-    for k in keys:
-        name, _, pname = k.partition(".")
-        decl = EFFECTS[name].parameter(pname)
-        assert decl is not None
-        lo.append(-np.inf if decl.lower is None else decl.lower)
-        hi.append(np.inf if decl.upper is None else decl.upper)
-    lb = np.array(lo) / scale
-    ub = np.array(hi) / scale
+    lo, hi = parameter_bounds(keys)
+    lb = lo / scale
+    ub = hi / scale
     z0 = np.clip(np.ones(len(keys)), lb + 1e-12, ub - 1e-12)
     # stop once the scaled coefficients move by < 0.1 % (far inside their interval) or the
     # cost by < 0.01 %: each evaluation re-simulates every training record

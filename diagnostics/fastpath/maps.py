@@ -35,7 +35,7 @@ from diagnostics.signatures import (
     SignatureMaps,
     evaluator,
 )
-from sim.cycle import _phase_settings
+from sim.cycle import phase_settings
 from sim.errors import SimulationError
 from sim.rigs import Condition, Rig
 from sim.steady import SteadyEvaluator, steady_phase
@@ -123,14 +123,14 @@ def _layout(rig: Rig) -> _Layout:
     sw[ix] = sr[ix] = 0.5 * rig.base["cylinder.stroke"]
     mask = np.ones(len(m.state_names), dtype=np.int64)
     mask[ix] = 0
-    ret = _phase_settings(rig, "return")
+    ret = phase_settings(rig, "return")
     lay = _Layout(
         compiled_kernels(rig),
         np.array([m.param_index(n) for n in GRAPH_PARAMETERS], dtype=np.int64), mask,
         m.scale, np.array([m.output_names.index(n) for n in _OUTPUTS], dtype=np.int64),
         len(m.output_names), np.array([sw, sr, sw, sr]),
         np.array([m.param_index(n) for n in ret], dtype=np.int64),
-        np.array(list(ret.values()), dtype=np.float64), _phase_settings(rig, "working"))
+        np.array(list(ret.values()), dtype=np.float64), phase_settings(rig, "working"))
     with _LOCK:
         _LAYOUTS[id(rig)] = (rig, lay)
         while len(_LAYOUTS) > 16:

@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 from collections.abc import Iterator
+from pathlib import Path
 from typing import Any
 
 import pytest
+from typer.testing import CliRunner
 
 from sim.rigs import reference_rig_document
 from tests.app.live import LiveServer, live_server, sqlite_settings
@@ -16,6 +18,15 @@ def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[LiveServer]:
     """A server with open reads, shared by the tests of one module."""
     with live_server(sqlite_settings(tmp_path_factory.mktemp("store"))) as live:
         yield live
+
+
+@pytest.fixture
+def runner(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> CliRunner:
+    """A CLI runner on an SQLite store in ``tmp_path`` (no database URL, no Dask scheduler)."""
+    monkeypatch.setenv("HYDRODIAG_DATA_DIR", str(tmp_path))
+    monkeypatch.delenv("HYDRODIAG_DATABASE_URL", raising=False)
+    monkeypatch.delenv("HYDRODIAG_DASK_SCHEDULER", raising=False)
+    return CliRunner()
 
 
 @pytest.fixture

@@ -40,22 +40,28 @@ def _serve(data_dir: Path) -> Iterator[tuple[str, subprocess.Popen[str]]]:
     )
     base_url = f"http://127.0.0.1:{port}"
     try:
-        deadline = time.monotonic() + STARTUP_TIMEOUT_S
-        while True:
-            if process.poll() is not None:
-                raise AssertionError(f"serve exited with {process.returncode}")
-            try:
-                if httpx.get(f"{base_url}/health", timeout=1).status_code == 200:
-                    break
-            except httpx.TransportError:
-                pass
-            if time.monotonic() > deadline:
-                raise AssertionError("serve did not answer /health in time")
-            time.sleep(0.1)
+        _wait_healthy(process, base_url)
         yield base_url, process
     finally:
         process.terminate()
         process.wait(timeout=30)
+
+
+def _wait_healthy(process: subprocess.Popen[str], base_url: str,
+                  timeout: float = STARTUP_TIMEOUT_S) -> None:
+    """Poll ``/health`` until it answers 200; fail if ``process`` exits or time runs out."""
+    deadline = time.monotonic() + timeout
+    while True:
+        if process.poll() is not None:
+            raise AssertionError(f"the server exited at start-up with {process.returncode}")
+        try:
+            if httpx.get(f"{base_url}/health", timeout=1).status_code == 200:
+                return
+        except httpx.TransportError:
+            pass
+        if time.monotonic() > deadline:
+            raise AssertionError("the server did not answer /health in time")
+        time.sleep(0.1)
 
 
 def _wait_ready(base_url: str) -> None:
@@ -91,12 +97,6 @@ def test_serve_migrates_preloads_and_prints_the_first_key_once(tmp_path: Path) -
     assert _keys_printed(process) == []
     assert (tmp_path / "hydrodiag.db").exists()
 
-
-@pytest.fixture
-def runner(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> CliRunner:
-    monkeypatch.setenv("HYDRODIAG_DATA_DIR", str(tmp_path))
-    monkeypatch.delenv("HYDRODIAG_DATABASE_URL", raising=False)
-    return CliRunner()
 
 
 def test_db_upgrade_and_current(runner: CliRunner) -> None:
@@ -182,16 +182,7 @@ def test_the_uvicorn_factory_starts_on_a_fresh_folder(tmp_path: Path) -> None:
         env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     base_url = f"http://127.0.0.1:{port}"
     try:
-        deadline = time.monotonic() + STARTUP_TIMEOUT_S
-        while True:
-            assert process.poll() is None, "the factory exited at start-up"
-            try:
-                if httpx.get(f"{base_url}/health", timeout=1).status_code == 200:
-                    break
-            except httpx.TransportError:
-                pass
-            assert time.monotonic() < deadline, "no answer in time"
-            time.sleep(0.1)
+        _wait_healthy(process, base_url)
         _wait_ready(base_url)
         assert httpx.get(f"{base_url}/ready").json()["revision"] == head_revision()
     finally:

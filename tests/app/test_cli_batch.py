@@ -6,7 +6,6 @@ import json
 from pathlib import Path
 
 import pandas as pd
-import pytest
 from typer.testing import CliRunner
 
 from app.cli import cli
@@ -16,13 +15,6 @@ from tests.diagnostics.synth import FULL, readings, record
 
 _CASES = ({"valve.cv": 60e-6}, {"cylinder.cc": 150e-6}, {})
 
-
-@pytest.fixture
-def runner(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> CliRunner:
-    monkeypatch.setenv("HYDRODIAG_DATA_DIR", str(tmp_path / "store"))
-    monkeypatch.delenv("HYDRODIAG_DATABASE_URL", raising=False)
-    monkeypatch.delenv("HYDRODIAG_DASK_SCHEDULER", raising=False)
-    return CliRunner()
 
 
 def _rows() -> list[dict[str, float]]:

@@ -7,21 +7,12 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-import pytest
 from typer.testing import CliRunner
 
 from app.cli import cli
 from diagnostics.discrepancy.synthetic import synthesize
 from sim.rigs import load_rig, reference_rig_document
 from sim.rigs.assembly import Condition
-
-
-@pytest.fixture
-def runner(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> CliRunner:
-    monkeypatch.setenv("HYDRODIAG_DATA_DIR", str(tmp_path / "store"))
-    monkeypatch.delenv("HYDRODIAG_DATABASE_URL", raising=False)
-    monkeypatch.delenv("HYDRODIAG_DASK_SCHEDULER", raising=False)
-    return CliRunner()
 
 
 def _data(path: Path) -> Path:

@@ -28,14 +28,6 @@ from sim.components.gear_pump_map import stand_in_pump
 from tests.real_slices import v32hl56_slice, zema_slice
 
 
-@pytest.fixture
-def runner(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> CliRunner:
-    monkeypatch.setenv("HYDRODIAG_DATA_DIR", str(tmp_path / "store"))
-    monkeypatch.delenv("HYDRODIAG_DATABASE_URL", raising=False)
-    monkeypatch.delenv("HYDRODIAG_DASK_SCHEDULER", raising=False)
-    return CliRunner()
-
-
 def _count(model: Any) -> int:
     engine = make_engine(Settings().url)
     try:

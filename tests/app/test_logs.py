@@ -129,7 +129,7 @@ def test_no_key_secret_or_body_reaches_the_log(logged: tuple[LiveServer, io.Stri
 
 def test_serve_writes_json_lines_without_secrets(tmp_path: Path) -> None:
     """``hydrodiag serve`` in a subprocess: its standard error, as an operator sees it."""
-    from tests.app.test_cli import _free_port, _wait_ready
+    from tests.app.test_cli import _free_port, _wait_healthy, _wait_ready
 
     port = _free_port()
     env = os.environ | {"HYDRODIAG_DATA_DIR": str(tmp_path), "HYDRODIAG_LOG_FORMAT": "json"}
@@ -138,16 +138,7 @@ def test_serve_writes_json_lines_without_secrets(tmp_path: Path) -> None:
         env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     base_url = f"http://127.0.0.1:{port}"
     try:
-        deadline = time.monotonic() + 60
-        while True:
-            assert process.poll() is None, "serve exited at start-up"
-            try:
-                if httpx.get(f"{base_url}/health", timeout=1).status_code == 200:
-                    break
-            except httpx.TransportError:
-                pass
-            assert time.monotonic() < deadline, "no answer in time"
-            time.sleep(0.1)
+        _wait_healthy(process, base_url)
         _wait_ready(base_url)
         secret = {"X-API-Key": SECRET_IN_HEADER, "X-Request-ID": "subprocess-1"}
         assert httpx.post(f"{base_url}/simulate", headers=secret,

@@ -203,12 +203,6 @@ def test_scope_order() -> None:
     assert not Scope.READ.allows(Scope.WRITE) and not Scope.WRITE.allows(Scope.ADMIN)
 
 
-@pytest.fixture
-def runner(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> CliRunner:
-    monkeypatch.setenv("HYDRODIAG_DATA_DIR", str(tmp_path))
-    monkeypatch.delenv("HYDRODIAG_DATABASE_URL", raising=False)
-    return CliRunner()
-
 
 def test_cli_creates_lists_rotates_and_revokes_scoped_keys(runner: CliRunner,
                                                            tmp_path: Path) -> None:

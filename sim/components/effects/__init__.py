@@ -52,10 +52,13 @@ iterates it).
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from functools import partial
 from types import MappingProxyType
+
+import numpy as np
+import numpy.typing as npt
 
 from sim.bondgraph import BondGraph
 from sim.components.effects import (
@@ -76,6 +79,8 @@ from sim.components.effects import (
 from sim.components.effects.base import EffectEntry
 from sim.errors import RigFileError
 from sim.params import Param
+
+Arr = npt.NDArray[np.float64]
 
 __all__ = ["EFFECTS", "Effect", "EffectEntry", "FluidCorrection", "effects_for", "get_effect"]
 
@@ -176,3 +181,20 @@ def get_effect(name: object, circuit: str | None = None, *, field: str = "effect
         raise RigFileError(f"effect {name!r} applies to circuit {effect.entry.circuit!r}, "
                            f"not {circuit!r}", field=field)
     return effect
+
+
+def parameter_bounds(keys: Sequence[str]) -> tuple[Arr, Arr]:
+    """Declared lower and upper bounds of effect parameters named ``effect.param``.
+
+    A missing bound is ±inf (what :func:`scipy.optimize.least_squares` takes), in each
+    parameter's SI unit.
+    """
+    lo, hi = [], []
+    for key in keys:
+        name, _, pname = key.partition(".")
+        decl = get_effect(name).parameter(pname)
+        if decl is None:
+            raise RigFileError(f"effect {name!r} has no parameter {pname!r}", field="effects")
+        lo.append(-np.inf if decl.lower is None else decl.lower)
+        hi.append(np.inf if decl.upper is None else decl.upper)
+    return np.array(lo, dtype=float), np.array(hi, dtype=float)

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from sim.bondgraph.elements import Kind
-from sim.components.effects import EFFECTS, effects_for, get_effect
+from sim.components.effects import EFFECTS, effects_for, get_effect, parameter_bounds
 from sim.cycle import run_cycle
 from sim.errors import ParameterError, RigFileError
 from sim.rigs import load_rig, reference_rig, reference_rig_document
@@ -184,3 +184,16 @@ def test_effect_parameters_take_overrides_and_the_model_is_cached_per_effect_set
         a.values({"couette_drag.k_c": -1.0})
     with pytest.raises(ParameterError):
         reference_rig().values({"couette_drag.k_c": 7.0})
+
+
+def test_parameter_bounds_are_the_declared_ones() -> None:
+    keys = [f"{name}.{p.name}" for name, e in EFFECTS.items() for p in e.parameters]
+    lo, hi = parameter_bounds(keys)
+    for key, low, high in zip(keys, lo, hi, strict=True):
+        name, _, pname = key.partition(".")
+        decl = EFFECTS[name].parameter(pname)
+        assert decl is not None
+        assert low == (-np.inf if decl.lower is None else decl.lower)
+        assert high == (np.inf if decl.upper is None else decl.upper)
+    with pytest.raises(RigFileError, match="no parameter"):
+        parameter_bounds(["viscosity_law.not_a_parameter"])
