@@ -41,8 +41,8 @@ import pandas as pd
 from diagnostics.discrepancy.balances import balance_data
 from diagnostics.discrepancy.gap import GapRow, gap_table
 from diagnostics.discrepancy.lof import series_lack_of_fit
+from diagnostics.discrepancy.refit import compare_from, with_effects
 from diagnostics.discrepancy.refit import refit as output_error_refit
-from diagnostics.discrepancy.refit import with_effects
 from diagnostics.discrepancy.selection import PRACTICAL, Selection, select
 from diagnostics.discrepancy.signals import condition_of, prepare
 from diagnostics.discrepancy.simulate import (
@@ -268,7 +268,9 @@ def discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], *
         trial = Rig.from_spec(validate_rig_document(with_effects(doc, fitted)))
         trial_gap = [row for r in held
                      for row in gap_table(r, simulate_record(trial, r), channels)]
-        if significant and excess_ratio(gap_before, trial_gap, sig) >= CONFIRM_RATIO:
+        # an effect acting in the build-up after a switch is judged there too
+        regions = ("steady",) if compare_from(list(start)) > 0 else ("steady", "after step")
+        if significant and excess_ratio(gap_before, trial_gap, sig, regions) >= CONFIRM_RATIO:
             values.update(fitted)
             errors.update(fit_err)
         else:

@@ -71,6 +71,10 @@ class EffectEntry:
         Expected sign of the coefficient (+1: the effect adds to the loss).
     plausible
         Plausible range of the coefficient [its unit].
+    window
+        Where the output-error confirmation compares model and data: ``"steady"``
+        (10-90 % of each phase) or ``"build-up"`` (0-90 %: the pressure build-up after a
+        valve switch included, for an effect whose signature is there).
     """
 
     name: str
@@ -83,6 +87,7 @@ class EffectEntry:
     regressor: Regressor
     sign: float
     plausible: tuple[float, float]
+    window: str = "steady"
 
 
 BuildEffect = Callable[[BondGraph, str], None]
