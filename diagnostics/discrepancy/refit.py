@@ -30,7 +30,8 @@ from sim.errors import InputError, SimulationError
 from sim.rigs.assembly import Rig
 from sim.rigs.schema import validate_rig_document
 
-__all__ = ["compare_from", "refit", "stacked_residual", "with_effects"]
+__all__ = ["APART", "compare_from", "output_cost", "refit", "stacked_residual", "tell_apart",
+           "with_effects"]
 
 Arr = npt.NDArray[np.float64]
 
@@ -155,3 +156,50 @@ def refit(doc: dict[str, Any], start: Mapping[str, float], records: Sequence[Ser
     except np.linalg.LinAlgError:
         err = dict.fromkeys(keys, float("nan"))
     return values, err
+
+
+def output_cost(doc: dict[str, Any], values: Mapping[str, float],
+                records: Sequence[SeriesRecord], channels: Sequence[str],
+                sig: Mapping[str, float]) -> float:
+    """Σ((model − measurement)/σ)² over 10-90 % of each phase of ``records`` [-] with the
+    effect parameters ``values`` in the rig (:func:`stacked_residual`); ``inf`` if the
+    solver fails."""
+    try:
+        rig = Rig.from_spec(validate_rig_document(with_effects(doc, values)))
+        r = stacked_residual(rig, records, channels, sig, {})
+    except (SimulationError, InputError):
+        return math.inf
+    return float(r @ r)
+
+
+#: output-error BIC margin within which re-fitted alternatives count as not told apart
+APART = 10.0
+
+
+def tell_apart(doc: dict[str, Any], options: Sequence[Mapping[str, float]],
+               records: Sequence[SeriesRecord], channels: Sequence[str],
+               sig: Mapping[str, float], max_nfev: int
+               ) -> tuple[int, list[int], list[tuple[dict[str, float], dict[str, float]]]]:
+    """Re-fit each alternative explanation in output-error form and compare them.
+
+    The equation error sees one balance; re-simulation sees every logged channel, where
+    explanations that share a balance's column part (a viscosity law changes every
+    viscous element, a pressure-dependent piston clearance only the piston gap).  Each
+    option (``effect.param`` → start value) is re-fitted (:func:`refit`) and scored by
+    BIC = Σ((model − data)/σ)² + k·ln(n) over the compared samples.
+
+    Returns
+    -------
+    best, group, fits
+        Index of the lowest BIC; indices of the options within :data:`APART` of it (the
+        best included: the data cannot separate them); (values, 1-σ errors) per option.
+    """
+    fits = [refit(doc, start, records, channels, sig, max_nfev) for start in options]
+    # the compared samples are fixed by the records (stacked_residual), whatever the model
+    n = stacked_residual(Rig.from_spec(validate_rig_document(doc)), records, channels, sig,
+                         {}).size
+    bic = [output_cost(doc, values, records, channels, sig) + len(start) * math.log(max(n, 2))
+           for (values, _), start in zip(fits, options, strict=True)]
+    best = int(np.argmin(bic))
+    group = [i for i, b in enumerate(bic) if b - bic[best] < APART]
+    return best, group, fits

@@ -41,9 +41,9 @@ import pandas as pd
 from diagnostics.discrepancy.balances import balance_data
 from diagnostics.discrepancy.gap import GapRow, gap_table
 from diagnostics.discrepancy.lof import series_lack_of_fit
-from diagnostics.discrepancy.refit import compare_from, with_effects
+from diagnostics.discrepancy.refit import compare_from, tell_apart, with_effects
 from diagnostics.discrepancy.refit import refit as output_error_refit
-from diagnostics.discrepancy.selection import PRACTICAL, Selection, select
+from diagnostics.discrepancy.selection import PRACTICAL, Fit, Selection, select
 from diagnostics.discrepancy.signals import condition_of, prepare
 from diagnostics.discrepancy.simulate import (
     SOLVER,
@@ -178,6 +178,12 @@ def _split(records: Sequence[SeriesRecord], rig: Rig) -> tuple[list[int], list[i
     return [i for i in range(len(records)) if i not in held], sorted(held)
 
 
+def _start(fit: Fit) -> dict[str, float]:
+    """Output-error start of a fitted subset: ``effect.param`` → equation-error value."""
+    return {f"{t.effect}.{EFFECTS[t.effect].entry.coefficient}": t.coefficient
+            for t in fit.terms}
+
+
 def _channels(records: Sequence[SeriesRecord]) -> list[str]:
     return [c for c in OUTPUTS if c in records[0].channels]
 
@@ -253,16 +259,28 @@ def discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], *
     errors: dict[str, float] = {}
     rejected: list[str] = []
     chosen = [s for s in selections if s.chosen is not None]
+    picked: dict[str, Fit] = {}
+    apart: dict[str, list[str]] = {}
     for k, s in enumerate(chosen):
-        # each balance's explanation is confirmed on its own, in output-error form
+        # each balance's explanation is confirmed on its own, in output-error form; near
+        # alternatives of the equation error are re-fitted too and told apart there
         assert s.chosen is not None
-        start = {f"{t.effect}.{EFFECTS[t.effect].entry.coefficient}": t.coefficient
-                 for t in s.chosen.terms}
-        report(0.35 + 0.4 * k / len(chosen), f"output-error re-fit of {', '.join(start)}")
-        if refit:
+        options = [s.chosen, *s.near] if refit else [s.chosen]
+        starts = [_start(f) for f in options]
+        report(0.35 + 0.4 * k / len(chosen), f"output-error re-fit of {', '.join(starts[0])}")
+        if len(options) > 1:
+            best, group, fits = tell_apart(doc, starts, train, channels, sig, max_nfev)
+            (fitted, fit_err), start = fits[best], starts[best]
+            picked[s.balance] = options[best]
+            if len(group) > 1:
+                apart[s.balance] = sorted({t.effect for i in group for t in options[i].terms})
+        elif refit:
+            start = starts[0]
             fitted, fit_err = output_error_refit(doc, start, train, channels, sig, max_nfev)
         else:
+            start = starts[0]
             fitted, fit_err = dict(start), {key: float("nan") for key in start}
+        fit = picked.get(s.balance, s.chosen)
         significant = all(not math.isfinite(fit_err[key])
                           or abs(fitted[key]) >= 2.576 * fit_err[key] for key in fitted)
         trial = Rig.from_spec(validate_rig_document(with_effects(doc, fitted)))
@@ -274,12 +292,12 @@ def discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], *
             values.update(fitted)
             errors.update(fit_err)
         else:
-            rejected += [t.effect for t in s.chosen.terms]
+            rejected += [t.effect for t in fit.terms]
     new_doc = with_effects(doc, values) if values else copy.deepcopy(doc)
     for s in selections:
         if s.chosen is None:
             continue
-        for term in s.chosen.terms:
+        for term in picked.get(s.balance, s.chosen).terms:
             e = EFFECTS[term.effect]
             key = f"{term.effect}.{e.entry.coefficient}"
             if key not in values:
@@ -295,7 +313,8 @@ def discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], *
                 e.entry.signature, e.entry.coefficient, decl.unit, term.coefficient, value,
                 (value - 1.96 * err, value + 1.96 * err), bool(lo <= value <= hi), (lo, hi),
                 term.t, s.inclusion.get(term.effect, float("nan")),
-                s.competing, [g for g in s.ambiguity if term.effect in g]))
+                s.competing, [g for g in s.ambiguity if term.effect in g]
+                + ([apart[s.balance]] if s.balance in apart else [])))
     report(0.8, "held-out check")
     white_before = whiteness(held, base_tables, channels, rate)
     traces: dict[str, Any] = {"held": held[0], "before": base_tables[0], "channels": channels,
@@ -318,6 +337,9 @@ def discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], *
         message += (f"; lack of fit against repeated records p = {lof['before']['p']:.2g} "
                     "before" + (f", {lof['after']['p']:.2g} after" if lof.get("after")
                                 else ""))
+    for balance, names in apart.items():
+        message += (f"; {' and '.join(names)} explain the {balance} gap alike, in re-simulation "
+                    "too (ΔBIC < 10): an ambiguity group on this test design")
     if rejected:
         message += ("; not confirmed by re-simulation (output-error coefficient not "
                     f"significant or held-out gap not shrinking): {', '.join(rejected)}")
