@@ -112,7 +112,7 @@ def test_a_near_twin_of_the_equation_error_choice_is_told_apart_by_re_simulation
     chamber = next(s for s in d.selections if s.balance == "chamber_flow")
     assert chamber.chosen is not None
     assert [t.effect for t in chamber.chosen.terms] == ["viscosity_law"]
-    assert [[t.effect for t in f.terms] for f in chamber.near
-                                              if f.terms[0].effect.startswith("piston")] == [["piston_clearance_pressure"]]
+    near = [[t.effect for t in f.terms] for f in chamber.near]
+    assert ["piston_clearance_pressure"] in near
     assert [n.name for n in d.named] == ["piston_clearance_pressure"]
     assert d.named[0].value == pytest.approx(truth, rel=0.1)
