@@ -5,15 +5,16 @@ Bonferroni-corrected two-sided t-test (α = 0.01 over the candidates of the bala
 HAC (Newey-West) standard errors, has the expected sign, lies within 10× the top of its
 plausible range, leaves the re-fitted base parameters with their physical signs (friction,
 conductances, displacement ≥ 0), and its contribution is larger than the practical size
-(0.1 % of the balance's full scale, RMS). The admissible subset with the lowest BIC is
-chosen if it improves on the base fit by at least 10; admissible subsets within ΔBIC < 2
-of it are competing explanations; those within ΔBIC < :data:`NEAR_BIC`, and singles
-whose column nearly repeats a chosen one's (:data:`NEAR_CORR`), are *near* alternatives,
-which the workflow re-fits in output-error form to tell apart
+(0.1 % of the balance's full scale, RMS; for an entry whose signature is only at slow
+piston speed, its peak: it acts on a few samples). The admissible subset with the lowest
+BIC is chosen if it improves on the base fit by at least 10; admissible subsets within
+ΔBIC < 2 of it are competing explanations; those within ΔBIC < :data:`NEAR_BIC`, and
+singles whose column nearly repeats a chosen one's (:data:`NEAR_CORR`), are *near*
+alternatives, which the workflow re-fits in output-error form to tell apart
 (:mod:`~diagnostics.discrepancy.workflow`). Candidates whose columns are linearly
 dependent on the base columns or on each other on this test design (relative residual
-norm < 1e-3 after projection) form *ambiguity groups*, reported together. A moving-block bootstrap gives
-each chosen term's inclusion frequency.
+norm < 1e-3 after projection) form *ambiguity groups*, reported together. A moving-block
+bootstrap gives each chosen term's inclusion frequency.
 """
 
 from __future__ import annotations
@@ -183,7 +184,11 @@ def _fit(y: Arr, Xb: Arr, Xc: Arr, names: list[str], scale: Arr, data: BalanceDa
         entry = EFFECTS[name].entry
         c_si = coef[k] / scale[j]
         se_si = se / scale[j]
-        contrib = float(np.sqrt(np.mean((Xc[:, j] * coef[k]) ** 2))) * ys
+        if entry.window == "slow":
+            # a slow-speed signature acts on a few samples: its size is its peak there
+            contrib = float(np.max(np.abs(Xc[:, j] * coef[k]))) * ys
+        else:
+            contrib = float(np.sqrt(np.mean((Xc[:, j] * coef[k]) ** 2))) * ys
         lo, hi = entry.plausible
         span = hi - lo
         plausible = (lo - 10 * span) <= c_si <= (hi + 10 * span) if entry.sign == 0 else \

@@ -52,6 +52,7 @@ from diagnostics.discrepancy.simulate import (
     solver_error,
     timed_switch,
 )
+from diagnostics.discrepancy.slow import is_slow, slow_confirmed, slow_records, slow_refit
 from diagnostics.discrepancy.verdict import (
     excess_ratio,
     gap_ratio,
@@ -268,7 +269,13 @@ def discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], *
         options = [s.chosen, *s.near] if refit else [s.chosen]
         starts = [_start(f) for f in options]
         report(0.35 + 0.4 * k / len(chosen), f"output-error re-fit of {', '.join(starts[0])}")
-        if len(options) > 1:
+        # a slow-speed effect (stick-slip) is re-fitted and confirmed on statistics of
+        # the timed slow strokes; without slow strokes it cannot be confirmed
+        slow = refit and is_slow(list(starts[0]))
+        if slow:
+            start = starts[0]
+            fitted, fit_err = slow_refit(doc, start, slow_records(train, rig), channels, sig)
+        elif len(options) > 1:
             best, group, fits = tell_apart(doc, starts, train, channels, sig, max_nfev)
             (fitted, fit_err), start = fits[best], starts[best]
             picked[s.balance] = options[best]
@@ -284,11 +291,16 @@ def discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], *
         significant = all(not math.isfinite(fit_err[key])
                           or abs(fitted[key]) >= 2.576 * fit_err[key] for key in fitted)
         trial = Rig.from_spec(validate_rig_document(with_effects(doc, fitted)))
-        trial_gap = [row for r in held
-                     for row in gap_table(r, simulate_record(trial, r), channels)]
-        # an effect acting in the build-up after a switch is judged there too
-        regions = ("steady",) if compare_from(list(start)) > 0 else ("steady", "after step")
-        if significant and excess_ratio(gap_before, trial_gap, sig, regions) >= CONFIRM_RATIO:
+        if slow:
+            confirmed = slow_confirmed(rig, trial, slow_records(held, rig), channels, sig,
+                                       CONFIRM_RATIO)
+        else:
+            trial_gap = [row for r in held
+                         for row in gap_table(r, simulate_record(trial, r), channels)]
+            # an effect acting in the build-up after a switch is judged there too
+            regions = ("steady",) if compare_from(list(start)) > 0 else ("steady", "after step")
+            confirmed = excess_ratio(gap_before, trial_gap, sig, regions) >= CONFIRM_RATIO
+        if significant and confirmed:
             values.update(fitted)
             errors.update(fit_err)
         else:

@@ -73,8 +73,10 @@ class EffectEntry:
         Plausible range of the coefficient [its unit].
     window
         Where the output-error confirmation compares model and data: ``"steady"``
-        (10-90 % of each phase) or ``"build-up"`` (0-90 %: the pressure build-up after a
-        valve switch included, for an effect whose signature is there).
+        (10-90 % of each phase), ``"build-up"`` (0-90 %: the pressure build-up after a
+        valve switch included, for an effect whose signature is there) or ``"slow"``
+        (statistics of the timed slow strokes, where the piston stick-slips:
+        :mod:`diagnostics.discrepancy.slow`).
     """
 
     name: str
