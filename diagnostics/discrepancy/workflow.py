@@ -12,7 +12,10 @@ Steps (DISCREPANCY.md):
 3. selection per balance (:mod:`~diagnostics.discrepancy.selection`);
 4. every named effect goes into a new rig document (``effects:`` section) with its
    coefficient re-fitted in output-error form by re-simulating the training records
-   (scipy ``least_squares``);
+   (scipy ``least_squares``; near alternatives of the selection are re-fitted too and
+   told apart there, :func:`~diagnostics.discrepancy.refit.tell_apart`; a slow-speed
+   entry on statistics of the slow strokes, :mod:`~diagnostics.discrepancy.slow`), and
+   kept when the held-out gap shrinks (:data:`CONFIRM_RATIO`);
 5. gap before/after on the held-out record (RMSE and max per output and region) and
    whiteness (Ljung-Box) before/after.
 
@@ -70,10 +73,9 @@ __all__ = ["Discovery", "NamedEffect", "discover", "excess_ratio", "gap_ratio"]
 Arr = npt.NDArray[np.float64]
 Progress = Callable[[float, str], None]
 
-#: measured channels compared in output-error form, when present
 #: held-out excess-gap ratio an added effect must reach to be kept
 CONFIRM_RATIO = 1.5
-
+#: measured channels compared in output-error form, when present
 OUTPUTS = ("P1", "P2", "v", "P_pump", "P_valve_P", "Q_meter_B", "Q_meter_C")
 
 
