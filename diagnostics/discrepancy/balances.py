@@ -18,9 +18,9 @@ balance             equation (residual = Σ candidate coefficient × regressor)
 ``chamber_flow``    Q_C − A2·ẋ = a·(P1 − P2)/μ + b·ẋ − V2(x)/β·Ṗ2 − c·Ṗ2 + …   [m³/s]
                     (0-junction of chamber 2, eqs. 34, 36, 50)
 ``valve_flow``      working: Q_B − Q_C − (A1 − A2)·ẋ, return: Q_B + Q_C
-                    = compressibility of the sides + a·P_P/μ + …   [m³/s]
-                    (0-junctions of port P and the chambers, eq. 23; the piston leakage
-                    cancels)
+                    = compressibility of the sides + a·(P_P − P_T)/μ + …   [m³/s]
+                    (0-junctions of port P and the chambers, eqs. 23-24, P_T = PRvt; the
+                    piston leakage cancels)
 ``pump_flow``       ω·Vp − Q_B = P/Rlp + Cp·Ṗ + b·ω + …   [m³/s]
                     (0-junction of the pump outlet, eqs. 1-5; relief closed)
 ==================  =====================================================================
@@ -119,7 +119,8 @@ def _valve(s: Signals, v: dict[str, float]) -> tuple[Arr, dict[str, Arr]]:
     x = c.get("x", 0.0 * c["v"])
     vol1 = v["cylinder.V01"] + v["cylinder.A1"] * x
     vol2 = v["cylinder.V02"] + v["cylinder.A2"] * (v["cylinder.stroke"] - x)
-    base = {"valve.cv (laminar)": c["P_valve_P"] / c["mu"],
+    # the spool leaks across P_P − P_T, the T port at PRvt (paper 002 eqs. 23-24)
+    base = {"valve.cv (laminar)": (c["P_valve_P"] - c.get("PRvt", 0.0)) / c["mu"],
             "fluid.beta (chamber 1)": work * vol1 * c["dP1"], "hose_A compliance": work * c["dP1"],
             "fluid.beta (chamber 2)": work * vol2 * c["dP2"], "hose_B compliance": ret * c["dP2"]}
     return y, base

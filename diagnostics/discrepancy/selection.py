@@ -5,12 +5,16 @@ Bonferroni-corrected two-sided t-test (α = 0.01 over the candidates of the bala
 HAC (Newey-West) standard errors, has the expected sign, lies within 10× the top of its
 plausible range, leaves the re-fitted base parameters with their physical signs (friction,
 conductances, displacement ≥ 0), and its contribution is larger than the practical size
-(0.1 % of the balance's full scale, RMS). The admissible subset with the lowest BIC is
-chosen if it improves on the base fit by at least 10; admissible subsets within ΔBIC < 2
-of it are competing explanations. Candidates whose columns are linearly dependent on the
-base columns or on each other on this test design (relative residual norm < 1e-3 after
-projection) form *ambiguity groups*, reported together. A moving-block bootstrap gives
-each chosen term's inclusion frequency.
+(0.1 % of the balance's full scale, RMS; for an entry whose signature is only at slow
+piston speed, its peak: it acts on a few samples). The admissible subset with the lowest
+BIC is chosen if it improves on the base fit by at least 10; admissible subsets within
+ΔBIC < 2 of it are competing explanations; those within ΔBIC < :data:`NEAR_BIC`, and
+singles whose column nearly repeats a chosen one's (:data:`NEAR_CORR`), are *near*
+alternatives, which the workflow re-fits in output-error form to tell apart
+(:mod:`~diagnostics.discrepancy.workflow`). Candidates whose columns are linearly
+dependent on the base columns or on each other on this test design (relative residual
+norm < 1e-3 after projection) form *ambiguity groups*, reported together. A moving-block
+bootstrap gives each chosen term's inclusion frequency.
 """
 
 from __future__ import annotations
@@ -27,12 +31,17 @@ from diagnostics.discrepancy.balances import BalanceData
 from sim.components.effects import EFFECTS
 from sim.errors import MeasurementError
 
-__all__ = ["ALPHA", "BIC_MARGIN", "PRACTICAL", "Selection", "Term", "select"]
+__all__ = ["ALPHA", "BIC_MARGIN", "NEAR_BIC", "PRACTICAL", "Fit", "Selection", "Term", "select"]
 
 Arr = npt.NDArray[np.float64]
 
 ALPHA = 0.01
 BIC_MARGIN = 10.0
+#: admissible subsets within this ΔBIC of the chosen one are near alternatives
+NEAR_BIC = 10.0
+#: |correlation| of two candidate columns, base columns projected out, above which an
+#: admissible single is a near alternative of the chosen term whatever its ΔBIC
+NEAR_CORR = 0.98
 #: practical size: RMS contribution ≥ this fraction of the balance's full scale
 PRACTICAL = 0.001
 #: Newey-West lag [samples at the analysis rate] (≥ the Savitzky-Golay window)
@@ -91,6 +100,12 @@ class Selection:
         Re-fitted base coefficients by column name [SI].
     residual
         Residual of the chosen (or base) fit at the kept samples [balance unit].
+    near
+        Admissible subsets other than the chosen one within ΔBIC < :data:`NEAR_BIC`, and
+        admissible singles whose column correlates with a chosen term's at ≥
+        :data:`NEAR_CORR` once the base columns are projected out, best first (the
+        competing ones included): explanations the equation error hardly separates
+        (piston clearance vs viscosity law: 0.991 on the study's design).
     """
 
     balance: str
@@ -107,6 +122,7 @@ class Selection:
     residual: Arr
     base_residual: Arr
     full_scale: float
+    near: list[Fit] = field(default_factory=list)
 
 
 def _scaled(cols: dict[str, Arr]) -> tuple[list[str], Arr, Arr]:
@@ -168,7 +184,11 @@ def _fit(y: Arr, Xb: Arr, Xc: Arr, names: list[str], scale: Arr, data: BalanceDa
         entry = EFFECTS[name].entry
         c_si = coef[k] / scale[j]
         se_si = se / scale[j]
-        contrib = float(np.sqrt(np.mean((Xc[:, j] * coef[k]) ** 2))) * ys
+        if entry.window == "slow":
+            # a slow-speed signature acts on a few samples: its size is its peak there
+            contrib = float(np.max(np.abs(Xc[:, j] * coef[k]))) * ys
+        else:
+            contrib = float(np.sqrt(np.mean((Xc[:, j] * coef[k]) ** 2))) * ys
         lo, hi = entry.plausible
         span = hi - lo
         plausible = (lo - 10 * span) <= c_si <= (hi + 10 * span) if entry.sign == 0 else \
@@ -188,6 +208,21 @@ def _fit(y: Arr, Xb: Arr, Xc: Arr, names: list[str], scale: Arr, data: BalanceDa
                            "terms trade off against the base model")
     fit = Fit(terms, _bic(rss, n, X.shape[1]), rss, not reasons, reasons)
     return fit, np.asarray(coef, dtype=float), resid
+
+
+def _twins(Xb: Arr, Xc: Arr, cnames: list[str], chosen: tuple[str, ...]) -> set[str]:
+    """Candidates whose column, with the base columns projected out, correlates with a
+    chosen term's at |r| ≥ :data:`NEAR_CORR` (on this test design)."""
+    coef, *_ = np.linalg.lstsq(Xb, Xc, rcond=None)
+    R = Xc - Xb @ coef
+    norms = np.linalg.norm(R, axis=0)
+    norms[norms == 0] = 1.0
+    R = R / norms
+    out: set[str] = set()
+    for c in chosen:
+        r = R.T @ R[:, cnames.index(c)]
+        out |= {n for n, v in zip(cnames, r, strict=True) if n != c and abs(v) >= NEAR_CORR}
+    return out
 
 
 def _blocks(n: int, size: int, rng: np.random.Generator) -> npt.NDArray[np.int64]:
@@ -260,11 +295,15 @@ def select(data: BalanceData, *, bootstrap: int = 30, seed: int = 0, lags: int =
     admissible = {k: f for k, f in fits.items() if f.admissible and base_bic - f.bic >= BIC_MARGIN}
     chosen_key: tuple[str, ...] | None = None
     competing: list[list[str]] = []
+    near: list[Fit] = []
     if admissible:
         chosen_key = min(admissible, key=lambda k: admissible[k].bic)
         best = admissible[chosen_key].bic
-        competing = [list(k) for k, f in sorted(admissible.items(), key=lambda kv: kv[1].bic)
-                     if k != chosen_key and f.bic - best < 2.0]
+        ranked = sorted(admissible.items(), key=lambda kv: kv[1].bic)
+        competing = [list(k) for k, f in ranked if k != chosen_key and f.bic - best < 2.0]
+        twins = _twins(Xb, Xc_all, cnames, chosen_key)
+        near = [f for k, f in ranked if k != chosen_key
+                and (f.bic - best < NEAR_BIC or (len(k) == 1 and k[0] in twins))]
     chosen = fits[chosen_key] if chosen_key is not None else None
     inclusion: dict[str, float] = {}
     resid_si = base_resid * ys
@@ -281,7 +320,7 @@ def select(data: BalanceData, *, bootstrap: int = 30, seed: int = 0, lags: int =
     return Selection(data.balance.name, data.balance.unit, chosen, base_bic,
                      base_bic - chosen.bic if chosen else 0.0, competing, groups, inclusion,
                      detectable, singles, base_named, resid_si, base_resid * ys,
-                     data.full_scale)
+                     data.full_scale, near)
 
 
 def _bootstrap(y: Arr, Xb: Arr, Xc: Arr, cnames: list[str], free: list[str],

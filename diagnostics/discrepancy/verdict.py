@@ -42,15 +42,17 @@ def whiteness(records: Sequence[SeriesRecord], tables: Sequence[Any], channels: 
 
 
 def excess_ratio(before: Sequence[GapRow], after: Sequence[GapRow],
-                 sigma: Mapping[str, float]) -> float:
-    """Held-out gap in excess of the noise, before/after, over the steady regions.
+                 sigma: Mapping[str, float],
+                 regions: Sequence[str] = ("steady",)) -> float:
+    """Held-out gap in excess of the noise, before/after, over ``regions`` (the steady
+    regions; with ``"after step"`` too for an effect whose signature is in the build-up).
 
     Excess = √(Σ max(RMSE² − σ², 0)/σ²) over the channels; a model that reaches the noise
     floor has no excess, so the ratio is what 'the gap shrank' can mean near the noise.
     """
     def excess(rows: Sequence[GapRow]) -> float:
         return math.sqrt(sum(max(r.rmse ** 2 - sigma[r.channel] ** 2, 0.0) / sigma[r.channel] ** 2
-                             for r in rows if r.region == "steady"))
+                             for r in rows if r.region in regions))
 
     b, a = excess(before), excess(after)
     if a == 0.0:

@@ -12,7 +12,10 @@ Steps (DISCREPANCY.md):
 3. selection per balance (:mod:`~diagnostics.discrepancy.selection`);
 4. every named effect goes into a new rig document (``effects:`` section) with its
    coefficient re-fitted in output-error form by re-simulating the training records
-   (scipy ``least_squares``);
+   (scipy ``least_squares``; near alternatives of the selection are re-fitted too and
+   told apart there, :func:`~diagnostics.discrepancy.refit.tell_apart`; a slow-speed
+   entry on statistics of the slow strokes, :mod:`~diagnostics.discrepancy.slow`), and
+   kept when the held-out gap shrinks (:data:`CONFIRM_RATIO`);
 5. gap before/after on the held-out record (RMSE and max per output and region) and
    whiteness (Ljung-Box) before/after.
 
@@ -41,9 +44,9 @@ import pandas as pd
 from diagnostics.discrepancy.balances import balance_data
 from diagnostics.discrepancy.gap import GapRow, gap_table
 from diagnostics.discrepancy.lof import series_lack_of_fit
+from diagnostics.discrepancy.refit import compare_from, tell_apart, with_effects
 from diagnostics.discrepancy.refit import refit as output_error_refit
-from diagnostics.discrepancy.refit import with_effects
-from diagnostics.discrepancy.selection import PRACTICAL, Selection, select
+from diagnostics.discrepancy.selection import PRACTICAL, Fit, Selection, select
 from diagnostics.discrepancy.signals import condition_of, prepare
 from diagnostics.discrepancy.simulate import (
     SOLVER,
@@ -52,6 +55,7 @@ from diagnostics.discrepancy.simulate import (
     solver_error,
     timed_switch,
 )
+from diagnostics.discrepancy.slow import is_slow, slow_confirmed, slow_records, slow_refit
 from diagnostics.discrepancy.verdict import (
     excess_ratio,
     gap_ratio,
@@ -69,10 +73,9 @@ __all__ = ["Discovery", "NamedEffect", "discover", "excess_ratio", "gap_ratio"]
 Arr = npt.NDArray[np.float64]
 Progress = Callable[[float, str], None]
 
-#: measured channels compared in output-error form, when present
 #: held-out excess-gap ratio an added effect must reach to be kept
 CONFIRM_RATIO = 1.5
-
+#: measured channels compared in output-error form, when present
 OUTPUTS = ("P1", "P2", "v", "P_pump", "P_valve_P", "Q_meter_B", "Q_meter_C")
 
 
@@ -178,6 +181,12 @@ def _split(records: Sequence[SeriesRecord], rig: Rig) -> tuple[list[int], list[i
     return [i for i in range(len(records)) if i not in held], sorted(held)
 
 
+def _start(fit: Fit) -> dict[str, float]:
+    """Output-error start of a fitted subset: ``effect.param`` → equation-error value."""
+    return {f"{t.effect}.{EFFECTS[t.effect].entry.coefficient}": t.coefficient
+            for t in fit.terms}
+
+
 def _channels(records: Sequence[SeriesRecord]) -> list[str]:
     return [c for c in OUTPUTS if c in records[0].channels]
 
@@ -253,31 +262,56 @@ def discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], *
     errors: dict[str, float] = {}
     rejected: list[str] = []
     chosen = [s for s in selections if s.chosen is not None]
+    picked: dict[str, Fit] = {}
+    apart: dict[str, list[str]] = {}
     for k, s in enumerate(chosen):
-        # each balance's explanation is confirmed on its own, in output-error form
+        # each balance's explanation is confirmed on its own, in output-error form; near
+        # alternatives of the equation error are re-fitted too and told apart there
         assert s.chosen is not None
-        start = {f"{t.effect}.{EFFECTS[t.effect].entry.coefficient}": t.coefficient
-                 for t in s.chosen.terms}
-        report(0.35 + 0.4 * k / len(chosen), f"output-error re-fit of {', '.join(start)}")
-        if refit:
+        options = [s.chosen, *s.near] if refit else [s.chosen]
+        starts = [_start(f) for f in options]
+        report(0.35 + 0.4 * k / len(chosen), f"output-error re-fit of {', '.join(starts[0])}")
+        # a slow-speed effect (stick-slip) is re-fitted and confirmed on statistics of
+        # the timed slow strokes; without slow strokes it cannot be confirmed
+        slow = refit and is_slow(list(starts[0]))
+        if slow:
+            start = starts[0]
+            fitted, fit_err = slow_refit(doc, start, slow_records(train, rig), channels, sig)
+        elif len(options) > 1:
+            best, group, fits = tell_apart(doc, starts, train, channels, sig, max_nfev)
+            (fitted, fit_err), start = fits[best], starts[best]
+            picked[s.balance] = options[best]
+            if len(group) > 1:
+                apart[s.balance] = sorted({t.effect for i in group for t in options[i].terms})
+        elif refit:
+            start = starts[0]
             fitted, fit_err = output_error_refit(doc, start, train, channels, sig, max_nfev)
         else:
+            start = starts[0]
             fitted, fit_err = dict(start), {key: float("nan") for key in start}
+        fit = picked.get(s.balance, s.chosen)
         significant = all(not math.isfinite(fit_err[key])
                           or abs(fitted[key]) >= 2.576 * fit_err[key] for key in fitted)
         trial = Rig.from_spec(validate_rig_document(with_effects(doc, fitted)))
-        trial_gap = [row for r in held
-                     for row in gap_table(r, simulate_record(trial, r), channels)]
-        if significant and excess_ratio(gap_before, trial_gap, sig) >= CONFIRM_RATIO:
+        if slow:
+            confirmed = slow_confirmed(rig, trial, slow_records(held, rig), channels, sig,
+                                       CONFIRM_RATIO)
+        else:
+            trial_gap = [row for r in held
+                         for row in gap_table(r, simulate_record(trial, r), channels)]
+            # an effect acting in the build-up after a switch is judged there too
+            regions = ("steady",) if compare_from(list(start)) > 0 else ("steady", "after step")
+            confirmed = excess_ratio(gap_before, trial_gap, sig, regions) >= CONFIRM_RATIO
+        if significant and confirmed:
             values.update(fitted)
             errors.update(fit_err)
         else:
-            rejected += [t.effect for t in s.chosen.terms]
+            rejected += [t.effect for t in fit.terms]
     new_doc = with_effects(doc, values) if values else copy.deepcopy(doc)
     for s in selections:
         if s.chosen is None:
             continue
-        for term in s.chosen.terms:
+        for term in picked.get(s.balance, s.chosen).terms:
             e = EFFECTS[term.effect]
             key = f"{term.effect}.{e.entry.coefficient}"
             if key not in values:
@@ -293,7 +327,8 @@ def discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], *
                 e.entry.signature, e.entry.coefficient, decl.unit, term.coefficient, value,
                 (value - 1.96 * err, value + 1.96 * err), bool(lo <= value <= hi), (lo, hi),
                 term.t, s.inclusion.get(term.effect, float("nan")),
-                s.competing, [g for g in s.ambiguity if term.effect in g]))
+                s.competing, [g for g in s.ambiguity if term.effect in g]
+                + ([apart[s.balance]] if s.balance in apart else [])))
     report(0.8, "held-out check")
     white_before = whiteness(held, base_tables, channels, rate)
     traces: dict[str, Any] = {"held": held[0], "before": base_tables[0], "channels": channels,
@@ -316,6 +351,9 @@ def discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], *
         message += (f"; lack of fit against repeated records p = {lof['before']['p']:.2g} "
                     "before" + (f", {lof['after']['p']:.2g} after" if lof.get("after")
                                 else ""))
+    for balance, names in apart.items():
+        message += (f"; {' and '.join(names)} explain the {balance} gap alike, in re-simulation "
+                    "too (ΔBIC < 10): an ambiguity group on this test design")
     if rejected:
         message += ("; not confirmed by re-simulation (output-error coefficient not "
                     f"significant or held-out gap not shrinking): {', '.join(rejected)}")

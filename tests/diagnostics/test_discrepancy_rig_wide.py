@@ -79,3 +79,40 @@ def test_signals_of_a_rig_carrying_the_viscosity_law_use_its_corrected_viscosity
         mu_aug = s_aug.values["mu"][s_aug.record == i]
         mu_base = s_base.values["mu"][s_base.record == i]
         np.testing.assert_allclose(mu_aug, mu_base * np.exp(-lam * (T - 40.0)), rtol=1e-13)
+
+
+def test_entrained_air_at_8_sigma_is_confirmed_in_the_build_up_after_the_switches():
+    """Air acts in the pressure build-up after each valve switch (``window="build-up"``):
+    the output-error re-fit locates its valley there and the held-out check compares
+    0-90 % of each phase; over 10-90 % alone the study's 8σ size (α0 = 5.4e-4) was never
+    confirmed, and a re-fit started from the equation-error estimate stayed 3.6× off."""
+    from benchmarks.discrepancy_study import _case, _doc_with
+
+    truth = 5.4e-4
+    d = _case(_doc_with("entrained_air", truth), 7)
+    assert [n.name for n in d.named] == ["entrained_air"]
+    n = d.named[0]
+    # the equation-error estimate is 3-4× off at this size (the build-up lies at the end
+    # stops, outside the balance); the re-simulated value is the truth's
+    assert n.equation_error > 2.0 * truth
+    assert n.value == pytest.approx(truth, rel=0.03)
+    assert excess_ratio(d.gap_before, d.gap_after, NOISE, ("steady", "after step")) >= 2.0
+
+
+def test_a_near_twin_of_the_equation_error_choice_is_told_apart_by_re_simulation():
+    """Piston clearance growing with pressure and a wrong viscosity law leave columns
+    correlated at 0.99 in the chamber balance (base columns projected out).  On this
+    seed (the study's 16σ size) the equation error prefers the viscosity law by ΔBIC 68;
+    re-simulated, the viscosity law also changes the valve, pump and friction — which
+    the data do not show — and the pressure-dependent clearance is named."""
+    from benchmarks.discrepancy_study import _case, _doc_with
+
+    truth = 2.436e-20
+    d = _case(_doc_with("piston_clearance_pressure", truth), 1007)
+    chamber = next(s for s in d.selections if s.balance == "chamber_flow")
+    assert chamber.chosen is not None
+    assert [t.effect for t in chamber.chosen.terms] == ["viscosity_law"]
+    near = [[t.effect for t in f.terms] for f in chamber.near]
+    assert ["piston_clearance_pressure"] in near
+    assert [n.name for n in d.named] == ["piston_clearance_pressure"]
+    assert d.named[0].value == pytest.approx(truth, rel=0.1)

@@ -71,6 +71,12 @@ class EffectEntry:
         Expected sign of the coefficient (+1: the effect adds to the loss).
     plausible
         Plausible range of the coefficient [its unit].
+    window
+        Where the output-error confirmation compares model and data: ``"steady"``
+        (10-90 % of each phase), ``"build-up"`` (0-90 %: the pressure build-up after a
+        valve switch included, for an effect whose signature is there) or ``"slow"``
+        (statistics of the timed slow strokes, where the piston stick-slips:
+        :mod:`diagnostics.discrepancy.slow`).
     """
 
     name: str
@@ -83,6 +89,7 @@ class EffectEntry:
     regressor: Regressor
     sign: float
     plausible: tuple[float, float]
+    window: str = "steady"
 
 
 BuildEffect = Callable[[BondGraph, str], None]

@@ -109,4 +109,4 @@ ENTRY = EffectEntry(
               "entrained air); Manring, Hydraulic Control Systems (2005), ch. 2",
     circuit="pump-valve-cylinder", balance="chamber_flow", coefficient="alpha",
     signature="−V2·(p_a/p_abs2)^(1/n)/(n·p_abs2)·Ṗ2", regressor=_regressor, sign=1.0,
-    plausible=(0.0, 0.02))
+    plausible=(0.0, 0.02), window="build-up")

@@ -57,7 +57,7 @@ ENTRY = EffectEntry(
     reference="Armstrong-Hélouvry, Dupont, Canudas de Wit, Automatica 30(7) 1994, eq. 7",
     circuit="pump-valve-cylinder", balance="piston_force", coefficient="F_s",
     signature="exp(−(ẋ/v_st)²)·sgn(ẋ)", regressor=_regressor, sign=1.0,
-    plausible=(0.0, 2000.0))
+    plausible=(0.0, 2000.0), window="slow")
 
 
 def build(g: BondGraph, name: str = NAME, values: Mapping[str, float] | None = None) -> None:

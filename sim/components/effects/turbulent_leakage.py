@@ -71,7 +71,8 @@ def _pump(s: Mapping[str, Arr]) -> Arr:
 
 
 def _spool(s: Mapping[str, Arr]) -> Arr:
-    return signed_sqrt_array(s["P_valve_P"], 1e4)
+    # the path runs from port P to port T, held at PRvt (paper 002 eq. 24)
+    return signed_sqrt_array(s["P_valve_P"] - s.get("PRvt", 0.0), 1e4)
 
 
 _REF = "Merritt, Hydraulic Control Systems (1967), eq. 3-5"
@@ -87,8 +88,8 @@ def entries() -> dict[str, tuple[EffectEntry, str, str | None]]:
             _piston, 1.0, (0.0, 5e-7)), "cylinder.c1", "cylinder.c2"),
         "turbulent_spool_leakage": (EffectEntry(
             "turbulent_spool_leakage",
-            "worn 4/2 spool lands leaking P → T as an orifice: flow ∝ √P_valve",
-            _REF, "pump-valve-cylinder", "valve_flow", "K_t", "√P_valve_P",
+            "worn 4/2 spool lands leaking P → T as an orifice: flow ∝ √(P_valve − P_T)",
+            _REF, "pump-valve-cylinder", "valve_flow", "K_t", "√(P_valve_P − PRvt)",
             _spool, 1.0, (0.0, 5e-7)), "valve.P", "valve.T"),
         "turbulent_pump_slip": (EffectEntry(
             "turbulent_pump_slip",
