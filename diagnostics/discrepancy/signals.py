@@ -90,14 +90,17 @@ def stated_coefficients(values: Mapping[str, float]) -> dict[str, float]:
     ``G_piston`` [m³]: the piston gap's laminar coefficient π·D·c³/(12·L) of paper 002
     eq. 36 (leak = G·(P1 − P2)/μ); ``V02`` [m³], ``A2`` [m²], ``stroke`` [m]: chamber 2's
     dead volume, annulus and stroke (eq. 34); ``Pset`` [Pa], ``Rrv`` [Pa·s/m³]: the relief
-    valve's setting and slope (eq. 6); ``I_hose_B`` [kg/m⁴]: hose B's oil-column inertance.
-    Each is present when the rig has the component.
+    valve's setting and slope (eq. 6); ``Rlp`` [Pa·s/m³], ``Cp`` [m³/Pa]: the pump's
+    leakage resistance and outlet capacitance (eqs. 1-5), with which a regressor estimates
+    the relief flow from measured signals; ``I_hose_B`` [kg/m⁴]: hose B's oil-column
+    inertance.  Each is present when the rig has the component.
     """
     out: dict[str, float] = {}
     if all(k in values for k in ("cylinder.bore", "cylinder.cc", "cylinder.Lc")):
         out["G_piston"] = (math.pi * values["cylinder.bore"] * values["cylinder.cc"] ** 3
                            / (12.0 * values["cylinder.Lc"]))
-    for key in ("cylinder.V02", "cylinder.A2", "cylinder.stroke", "relief.Pset", "relief.Rrv"):
+    for key in ("cylinder.V02", "cylinder.A2", "cylinder.stroke", "relief.Pset", "relief.Rrv",
+                "pump.Rlp", "pump.Cp"):
         if key in values:
             out[key.partition(".")[2]] = values[key]
     if "hose_B.I" in values:

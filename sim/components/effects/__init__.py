@@ -35,7 +35,9 @@ The last four change a fluid property or an existing element's constitutive law 
 than adding an element (the element keeps its place and causality).  On the paper-002
 logger's channels, ``line_unsteady_friction`` enters no balance (its effort balance needs
 the valve-port pressures), and ``relief_override`` shows only while the relief passes
-flow, which a cycle whose phases end at the end stops never does.
+flow, which a cycle whose phases end at the end stops never does: it needs records with a
+dwell at the stop (:data:`diagnostics.discrepancy.synthetic.DWELLS`), where the
+``relief_flow`` balance of :mod:`diagnostics.discrepancy.balances` reads it.
 
 circuit ``gear-pump-field`` (paper 000 Figure 7 duty cycle, :mod:`sim.duty_cycle`):
 
