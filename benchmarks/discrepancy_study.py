@@ -75,7 +75,7 @@ from benchmarks.discrepancy_steady import steady_study
 from diagnostics.discrepancy import Discovery, discover
 from diagnostics.discrepancy.gap import GapRow, gap_table
 from diagnostics.discrepancy.simulate import SOLVER, simulate
-from diagnostics.discrepancy.synthetic import DWELLS, NOISE, effect_peak, synthesize
+from diagnostics.discrepancy.synthetic import DWELLS, NOISE, channels_for, effect_peak, synthesize
 from diagnostics.discrepancy.workflow import excess_ratio, gap_ratio
 from sim.components.effects import EFFECTS, effects_for
 from sim.errors import SimulationError, SolverLimitError
@@ -141,7 +141,8 @@ def calibrate(effect: str) -> float:
         with_rig = load_rig(_doc_with(effect, ref))
         try:
             peak = max(effect_peak(simulate(with_rig, c, None, sw),
-                                   simulate(base, c, None, sw))[0]
+                                   simulate(base, c, None, sw),
+                                   channels=channels_for([effect]))[0]
                        for _, c, sw in _conditions())
         except (SimulationError, SolverLimitError):
             continue
@@ -153,8 +154,10 @@ def _case(doc: dict[str, Any], seed: int, *, noise: str = "gaussian",
           overrides: dict[str, float] | None = None) -> Discovery:
     rig = load_rig(doc)
     rng = np.random.default_rng(seed)
+    # the logger's channels plus the extra sensor an effect needs (synthetic.SENSORS)
+    channels = channels_for(list(doc.get("effects", {})))
     records = [synthesize(rig, c, rng=rng, name=name, noise=noise, overrides=overrides,
-                          t_max=sw) for name, c, sw in _conditions()]
+                          t_max=sw, channels=channels) for name, c, sw in _conditions()]
     return discover(reference_rig_document(), records, bootstrap=20, seed=seed)
 
 

@@ -28,6 +28,11 @@ balance             equation (residual = Σ candidate coefficient × regressor)
                     closed samples of ``pump_flow`` and the samples where the relief
                     passes flow, o = 1: a dwell at the end stop; a, r re-fit the
                     relief's setting and slope)
+``hose_pressure``   ∫(P2 − P_B) dt − I_B·ΔQ_C = R_B·∫Q_C dt + …   [Pa·s] over the last
+                    20 ms (1-junction of hose B, :mod:`sim.components.hose`; needs the
+                    pressure at valve port B, not on paper 002's logger; every window of
+                    the record, switches and end stops included, whose trapezoid error
+                    bound is small, :func:`~diagnostics.discrepancy.signals.hose_integrals`)
 ==================  =====================================================================
 
 End-stop contact (x within 6 mm of either end: the stop plus the smoothing window at the
@@ -74,6 +79,9 @@ RELIEF_OPEN = 1.005
 OPEN_SETTLE = 0.1
 #: fewest relief-open samples for the relief balance
 MIN_OPEN = 200
+#: the hose balance keeps windows whose trapezoid-error bound (``hose.hf``) is below this
+#: fraction of its full scale plus twice the median bound (the noise's share)
+HOSE_HF_LIMIT = 0.01
 
 
 @dataclass(frozen=True)
@@ -160,6 +168,13 @@ def _relief(s: Signals, v: dict[str, float]) -> tuple[Arr, dict[str, Arr]]:
     return y, base
 
 
+def _hose(s: Signals, v: dict[str, float]) -> tuple[Arr, dict[str, Arr]]:
+    c = s.values
+    y = c["hose.int_dp"] - v["hose_B.I"] * c["hose.dq"]
+    # R = 128·μ·L/(π·d⁴): the column μ·∫Q re-fits 128·L/(π·d⁴) (bore, length, viscosity)
+    return y, {"hose_B.R": c["mu"] * c["hose.int_q"]}
+
+
 def _relief_open(s: Signals, v: dict[str, float]) -> npt.NDArray[np.bool_]:
     """Working-phase samples where the relief passes flow, from :data:`OPEN_SETTLE` after
     it opened to :data:`SETTLE` before the phase ends (the pressure spike of a valve switch
@@ -196,6 +211,9 @@ BALANCES: tuple[Balance, ...] = (
             lambda v: v["pump.speed"] * v["pump.Vp"], _pump),
     Balance("relief_flow", "m^3/s", ("Q_meter_B", "P_pump"),
             lambda v: v["pump.speed"] * v["pump.Vp"], _relief),
+    # full scale: hose B's inertial pressure impulse for a reversal of the pump flow
+    Balance("hose_pressure", "Pa*s", ("P2", "P_valve_B", "Q_meter_C", "hose.int_dp"),
+            lambda v: 2.0 * v["hose_B.I"] * v["pump.speed"] * v["pump.Vp"], _hose),
 )
 
 
@@ -215,7 +233,15 @@ def balance_data(s: Signals, values: dict[str, float]) -> list[BalanceData]:
             continue
         if b.name == "relief_flow" and "relief.Rrv" not in values:
             continue
-        mask = _inside(s, values) & (s.since_phase_start() >= SETTLE)
+        if b.name == "hose_pressure":
+            if "hose_B.I" not in values:
+                continue
+            ok = s.values["hose.ok"] > 0.5
+            hf = s.values["hose.hf"]
+            limit = HOSE_HF_LIMIT * b.full_scale(values) + 2.0 * float(np.median(hf[ok]))
+            mask = ok & (hf <= limit)
+        else:
+            mask = _inside(s, values) & (s.since_phase_start() >= SETTLE)
         if b.name in ("pump_flow", "relief_flow"):
             mask &= s.values["P_pump"] < RELIEF_MARGIN * values["relief.Pset"]
         if b.name == "relief_flow":

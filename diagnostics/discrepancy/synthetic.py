@@ -21,19 +21,31 @@ from sim.rigs.assembly import Condition, Rig
 if TYPE_CHECKING:
     from diagnostics.pump.data import BenchData
 
-__all__ = ["CHANNELS", "DWELLS", "NOISE", "UNITS", "effect_peak", "synthesize",
-           "synthesize_bench"]
+__all__ = ["CHANNELS", "DWELLS", "NOISE", "SENSORS", "UNITS", "channels_for", "effect_peak",
+           "synthesize", "synthesize_bench"]
 
 Arr = npt.NDArray[np.float64]
 
 #: channels a rig logger records, with their SI unit
 UNITS: dict[str, str] = {"x": "m", "v": "m/s", "P1": "Pa", "P2": "Pa", "P_pump": "Pa",
-                         "P_valve_P": "Pa", "Q_meter_B": "m^3/s", "Q_meter_C": "m^3/s"}
-CHANNELS = tuple(UNITS)
+                         "P_valve_P": "Pa", "Q_meter_B": "m^3/s", "Q_meter_C": "m^3/s",
+                         "P_valve_B": "Pa"}
+#: the paper-002 logger's channels (``P_valve_B`` is an extra sensor, :data:`SENSORS`)
+CHANNELS = tuple(c for c in UNITS if c != "P_valve_B")
+#: extra sensors an effect needs to leave an equation-error signature: unsteady line
+#: friction shows in hose B's effort balance, which needs the pressure at valve port B
+SENSORS: dict[str, tuple[str, ...]] = {"line_unsteady_friction": ("P_valve_B",)}
 
 #: default sensor noise σ per channel [SI]: 0.05 bar, 1 mm/s, 0.1 mm, 0.05 L/min
 NOISE: dict[str, float] = {"x": 1e-4, "v": 1e-3, "P1": 5e3, "P2": 5e3, "P_pump": 5e3,
-                           "P_valve_P": 5e3, "Q_meter_B": 8.3e-7, "Q_meter_C": 8.3e-7}
+                           "P_valve_P": 5e3, "Q_meter_B": 8.3e-7, "Q_meter_C": 8.3e-7,
+                           "P_valve_B": 5e3}
+
+
+def channels_for(effects: Sequence[str] = ()) -> tuple[str, ...]:
+    """The logger's channels plus the extra sensors the ``effects`` need (:data:`SENSORS`)."""
+    extra = [c for e in effects for c in SENSORS.get(e, ()) if c not in CHANNELS]
+    return CHANNELS + tuple(dict.fromkeys(extra))
 
 #: dwell records of the hidden-effect bench's test design: (load [N], oil temperature
 #: [°C], pump speed [fraction of the stated], working-phase switch [s]).  The stroke runs
@@ -122,6 +134,9 @@ def effect_peak(truth_table: object, base_table: object, *, rate: float = 1000.0
     each on the time since its own start, over 10-90 % of the shorter of the two
     durations (steady motion, steady dwell), so that a start-up transient or a shifted
     end-stop arrival (a changed stroke time) does not count as a difference of many σ.
+    An extra sensor (:data:`SENSORS`: the valve-port pressure of unsteady line friction)
+    is compared over the whole of each segment, switch transients included: it is logged
+    for the transient signature of its effect, which does not shift the switch times.
     """
     import pandas as pd
 
@@ -134,11 +149,11 @@ def effect_peak(truth_table: object, base_table: object, *, rate: float = 1000.0
                                 _segments(base_table, phase, stroke), strict=False):
             assert isinstance(a_rel, pd.DataFrame) and isinstance(b_rel, pd.DataFrame)
             span = min(float(a_rel["t [s]"].iloc[-1]), float(b_rel["t [s]"].iloc[-1]))
-            t = np.arange(0.1 * span, 0.9 * span, 1.0 / rate)
-            a = on_grid(a_rel, t, chans)
-            b = on_grid(b_rel, t, chans)
             for c in chans:
-                peak = float(np.max(np.abs(a[c] - b[c]), initial=0.0)) / sig[c]
+                lo, hi = (0.0, 1.0) if c not in CHANNELS else (0.1, 0.9)
+                t = np.arange(lo * span, hi * span, 1.0 / rate)
+                diff = on_grid(a_rel, t, [c])[c] - on_grid(b_rel, t, [c])[c]
+                peak = float(np.max(np.abs(diff), initial=0.0)) / sig[c]
                 if peak > best:
                     best, where = peak, c
     return best, where
