@@ -8,7 +8,10 @@ instead of the whole library, reporting per case the named effects, the competin
 ambiguous ones, each balance's choice before the output-error confirmation, and the
 fitted strength.  ``HYDRODIAG_EFFECTS`` (comma list; default the rig-wide entries:
 viscosity law, entrained air, relief override, unsteady line friction),
-``HYDRODIAG_SEEDS`` (default 5), ``HYDRODIAG_SIZES`` (σ, default 4,8,16);
+``HYDRODIAG_SEEDS`` (default 5), ``HYDRODIAG_SIZES`` (σ, default 4,8,16; unsteady line
+friction's size is the peak difference at valve port B, switch transients included,
+where 1000 σ ≈ k3 = 0.1, so its sizes are better given as 250,500,1000,2000);
+a case whose simulation fails (solver limit) is counted as ``failed``, as in the bench;
 ``HYDRODIAG_LIGHT=1``: the viscosity law at 16σ, one seed.  Seeds are 1..N (case seed
 1000·s + 7, as the bench).  Everything is SIMULATED.  Prints a table and, as its last
 line, one JSON object.
@@ -33,6 +36,7 @@ from benchmarks.discrepancy_study import (
 )
 from diagnostics.discrepancy.synthetic import NOISE
 from diagnostics.discrepancy.workflow import gap_ratio
+from sim.errors import SimulationError, SolverLimitError
 
 LIGHT = os.environ.get("HYDRODIAG_LIGHT") == "1"
 DEFAULT = "viscosity_law,entrained_air,relief_override,line_unsteady_friction"
@@ -45,7 +49,13 @@ SIZES = [float(s) for s in os.environ.get("HYDRODIAG_SIZES", "16" if LIGHT else 
 def case(effect: str, size: float, strength: float, seed: int) -> dict[str, Any]:
     """One hidden-effect case and what the workflow reported."""
     t0 = time.perf_counter()
-    d = _case(_doc_with(effect, strength), 1000 * seed + 7)
+    try:
+        d = _case(_doc_with(effect, strength), 1000 * seed + 7)
+    except (SimulationError, SolverLimitError) as exc:  # as the bench: a failed case
+        return {"effect": effect, "size": size, "seed": seed, "strength": strength,
+                "outcome": "failed", "named": [], "fitted": {}, "competing": [],
+                "ambiguity": [], "chosen": {}, "verdict": f"failed: {exc}",
+                "seconds": time.perf_counter() - t0}
     out: dict[str, Any] = {
         "effect": effect, "size": size, "seed": seed, "strength": strength,
         "outcome": score(d, effect), "named": [n.name for n in d.named],
@@ -89,6 +99,7 @@ def main() -> None:
                 "effect": effect, "size_sigma": size, "strength": strength, "n": n,
                 "exact": counts["exact"] / n, "group": counts["group"] / n,
                 "wrong": counts["wrong"] / n, "none": counts["none"] / n,
+                "failed": counts["failed"] / n,
                 "chosen_by_a_balance": chosen / n,
                 "median_fit_error": _median(fit),
                 "median_rmse_ratio": _median([c.get("rmse_ratio", math.nan) for c in done]),
@@ -97,7 +108,8 @@ def main() -> None:
                 "time_vs_null_case": (_median([c["seconds"] for c in done]) or 0.0)
                 / null_seconds})
     print(f"{'effect':24s} {'σ':>4s} {'n':>3s} {'exact':>6s} {'group':>6s} {'wrong':>6s} "
-          f"{'none':>5s} {'chosen':>7s} {'fit err':>8s} {'RMSE ×':>7s} {'t/null':>7s}  other names")
+          f"{'none':>5s} {'fail':>5s} {'chosen':>7s} {'fit err':>8s} {'RMSE ×':>7s} "
+          f"{'t/null':>7s}  other names")
     for r in rows:
         if r["n"] == 0:
             print(f"{r['effect']:24s} {r['size_sigma']:4.0f}   0  skipped: {r['skipped']}")
@@ -107,7 +119,7 @@ def main() -> None:
             return format(x, fmt) if x is not None else "—"
 
         print(f"{r['effect']:24s} {r['size_sigma']:4.0f} {r['n']:3d} {r['exact']:6.2f} "
-              f"{r['group']:6.2f} {r['wrong']:6.2f} {r['none']:5.2f} "
+              f"{r['group']:6.2f} {r['wrong']:6.2f} {r['none']:5.2f} {r['failed']:5.2f} "
               f"{r['chosen_by_a_balance']:7.2f} {f(r['median_fit_error'], '8.3f')} "
               f"{f(r['median_rmse_ratio'], '7.2f')} {r['time_vs_null_case']:7.2f}  "
               f"{', '.join(r['named_instead']) or '—'}")

@@ -18,6 +18,10 @@ size); the slow 60 °C one is held out too.  It is off by default: on this rig a
 stroke makes Stribeck friction stick-slip and even the base rig's slow records differ
 from their own noise-free truth by 3-14 σ in steady flow (sampling of the reversal
 transient), so they add false "unexplained" verdicts.
+Four dwell records (:data:`diagnostics.discrepancy.synthetic.DWELLS`; ``HYDRODIAG_DWELL=0``
+leaves them out) run the stroke into its stop and hold it there about 1.5 s before a timed
+switch, the relief valve passing 3-16 L/min: the only place a relief-valve override
+leaves a signature; the one at the highest load is held out.
 Several pump speeds are what makes a speed-reading offset (a constant flow
 error) separable from a displacement error (∝ speed); at one speed they are the same
 column (ambiguity group ``{base, speed_offset}``).
@@ -71,7 +75,7 @@ from benchmarks.discrepancy_steady import steady_study
 from diagnostics.discrepancy import Discovery, discover
 from diagnostics.discrepancy.gap import GapRow, gap_table
 from diagnostics.discrepancy.simulate import SOLVER, simulate
-from diagnostics.discrepancy.synthetic import NOISE, effect_peak, synthesize
+from diagnostics.discrepancy.synthetic import DWELLS, NOISE, channels_for, effect_peak, synthesize
 from diagnostics.discrepancy.workflow import excess_ratio, gap_ratio
 from sim.components.effects import EFFECTS, effects_for
 from sim.errors import SimulationError, SolverLimitError
@@ -94,7 +98,9 @@ DESIGN: tuple[tuple[float, float, float, float | None], ...] = (
     (2100.0, 40.0, 0.8 * SPEED, None), (4200.0, 50.0, 0.9 * SPEED, None),
     (6300.0, 60.0, SPEED, None)) + (
     ((2100.0, 40.0, SLOW * SPEED, SLOW_SWITCH), (2100.0, 60.0, SLOW * SPEED, SLOW_SWITCH))
-    if os.environ.get("HYDRODIAG_SLOW") == "1" else ())
+    if os.environ.get("HYDRODIAG_SLOW") == "1" else ()) + (
+    tuple((L, T, f * SPEED, sw) for L, T, f, sw in DWELLS)
+    if os.environ.get("HYDRODIAG_DWELL", "1") == "1" else ())
 DRIFT = ("cylinder.Fu", "cylinder.Kf", "cylinder.cc", "pump.Rlp", "valve.cv")
 #: out-of-library kinds: name → parameter overrides of the truth rig
 OUTSIDE: dict[str, dict[str, float]] = {
@@ -135,7 +141,8 @@ def calibrate(effect: str) -> float:
         with_rig = load_rig(_doc_with(effect, ref))
         try:
             peak = max(effect_peak(simulate(with_rig, c, None, sw),
-                                   simulate(base, c, None, sw))[0]
+                                   simulate(base, c, None, sw),
+                                   channels=channels_for([effect]))[0]
                        for _, c, sw in _conditions())
         except (SimulationError, SolverLimitError):
             continue
@@ -147,8 +154,10 @@ def _case(doc: dict[str, Any], seed: int, *, noise: str = "gaussian",
           overrides: dict[str, float] | None = None) -> Discovery:
     rig = load_rig(doc)
     rng = np.random.default_rng(seed)
+    # the logger's channels plus the extra sensor an effect needs (synthetic.SENSORS)
+    channels = channels_for(list(doc.get("effects", {})))
     records = [synthesize(rig, c, rng=rng, name=name, noise=noise, overrides=overrides,
-                          t_max=sw) for name, c, sw in _conditions()]
+                          t_max=sw, channels=channels) for name, c, sw in _conditions()]
     return discover(reference_rig_document(), records, bootstrap=20, seed=seed)
 
 

@@ -4,7 +4,10 @@ Working phase: spool at N = +1 (P→A, B→T), the load acts, the piston extends
 chamber-1 end stop until it reaches the stroke.  Return phase: spool at N = −1, no load
 (eq. 52), the piston retracts to x = 0, starting from the state the working phase ended
 in.  Each phase ends on an event (the piston reaching its end of stroke, as the rig's
-terminal switches 24/25 do) or at ``t_max`` if the piston stalls.
+terminal switches 24/25 do) or at ``t_max`` if the piston stalls.  With ``hold`` the
+working phase is switched by time only, at ``t_max``: a piston that reaches its stop
+earlier is held there (a dwell at the end stop, the pump flow going over the relief valve,
+paper 002 eq. 6), as a timer-switched test stroke is.
 
 Phase averages: the speed is ``stroke / duration`` (what a rig measures with its terminal
 switches); pressures and flows are time averages over the middle 80 % of the stroke,
@@ -121,12 +124,13 @@ class PhaseRun:
 def integrate_phases(rig: Rig, params: list[Arr], *, method: str, rtol: float,
                      grid: Arr | None = None, times: list[Arr] | None = None,
                      t_max: float | None = None, limits: SolverLimits | None = None,
-                     deadline: float | None = None) -> list[PhaseRun]:
+                     deadline: float | None = None, hold: bool = False) -> list[PhaseRun]:
     """Both phases, one after the other, each from the state the previous ended in.
 
     ``params`` holds the phases' parameter vectors (:func:`phase_params`); ``grid`` is
     one sampling grid for both phases, ``times`` one array of output times per phase
-    (RODAS4 only; ``None``: every accepted step).
+    (RODAS4 only; ``None``: every accepted step).  ``hold`` (with ``t_max``): the working
+    phase ends at ``t_max`` only, not at the end stop (module docstring).
     """
     limits = limits if limits is not None else SolverLimits()
     m = rig.model
@@ -141,8 +145,10 @@ def integrate_phases(rig: Rig, params: list[Arr], *, method: str, rtol: float,
         direction = 1.0 if phase == "working" else -1.0
         level = stroke if phase == "working" else 0.0
         sample = times[k] if times is not None else grid
+        held = hold and t_max is not None and phase == "working"
         res = m.integrate(y, p, t0 + t_lim, t0=t0, rtol=rtol, method=method, times=sample,
-                          event=("cylinder.x", level, direction), limits=limits,
+                          event=None if held else ("cylinder.x", level, direction),
+                          limits=limits,
                           deadline=deadline)
         if not res.success:
             raise SolverLimitError(
@@ -162,7 +168,7 @@ def sampled_outputs(runs: list[PhaseRun], rig: Rig) -> list[tuple[Arr, Arr]]:
 
 def _noise_run(rig: Rig, params: list[Arr], accuracy: NoiseAccuracy, rtol: float | None,
                grid: Arr | None, t_max: float | None, limits: SolverLimits,
-               deadline: float | None) -> tuple[list[PhaseRun], SolverReport]:
+               deadline: float | None, hold: bool = False) -> tuple[list[PhaseRun], SolverReport]:
     """RODAS4 at a tolerance whose estimated error meets ``accuracy`` (see module notes).
 
     With ``rtol`` given the run is at that tolerance and only estimated; without, the
@@ -176,10 +182,10 @@ def _noise_run(rig: Rig, params: list[Arr], accuracy: NoiseAccuracy, rtol: float
     while True:
         tries += 1
         main = integrate_phases(rig, params, method="rodas4", rtol=r, grid=grid, times=None,
-                          t_max=t_max, limits=limits, deadline=deadline)
+                          t_max=t_max, limits=limits, deadline=deadline, hold=hold)
         comp = integrate_phases(rig, params, method="rodas4", rtol=COMPANION_RATIO * r, grid=None,
                           times=[run.res.t for run in main], t_max=t_max, limits=limits,
-                          deadline=deadline)
+                          deadline=deadline, hold=hold)
         est = error_estimate(sampled_outputs(main, rig), sampled_outputs(comp, rig), COMPANION_RATIO,
                              m.output_names, targets)
         worst = max((est[n] / targets[n][1] for n in est), default=0.0)
@@ -202,7 +208,8 @@ def run_cycle(rig: Rig, overrides: Mapping[str, float] | None = None,
               condition: Condition | None = None, *, rtol: float | None = None,
               method: str = "ros2", accuracy: NoiseAccuracy | None = None,
               sample_rate: float | None = None, t_max: float | None = None,
-              timeseries: bool = True, limits: SolverLimits | None = None) -> CycleResult:
+              timeseries: bool = True, limits: SolverLimits | None = None,
+              hold: bool = False) -> CycleResult:
     """Simulate one working + return cycle.
 
     Parameters
@@ -237,6 +244,10 @@ def run_cycle(rig: Rig, overrides: Mapping[str, float] | None = None,
     limits
         Step, simulated-time and wall-clock bounds of the run (one wall-clock budget for
         the whole cycle, companion runs included).
+    hold
+        With ``t_max``: switch the working phase at ``t_max`` only, holding a piston that
+        reaches its stop earlier there (a dwell at the end stop, the relief passing the
+        pump flow); the return phase still ends at its stop.
 
     Raises
     ------
@@ -273,16 +284,16 @@ def run_cycle(rig: Rig, overrides: Mapping[str, float] | None = None,
     if method == "ros2":
         r = 1e-3 if rtol is None else rtol
         runs = integrate_phases(rig, params, method="ros2", rtol=r, grid=None, times=None,
-                          t_max=t_max, limits=lim, deadline=deadline)
+                          t_max=t_max, limits=lim, deadline=deadline, hold=hold)
         report = SolverReport("ros2", r, sum(x.res.rejected for x in runs))
     elif rtol is not None and accuracy is None:
         runs = integrate_phases(rig, params, method="rodas4", rtol=rtol, grid=grid, times=None,
-                          t_max=t_max, limits=lim, deadline=deadline)
+                          t_max=t_max, limits=lim, deadline=deadline, hold=hold)
         report = SolverReport("rodas4", rtol, sum(x.res.rejected for x in runs),
                               sum(x.res.nfev for x in runs))
     else:
         runs, report = _noise_run(rig, params, accuracy or NoiseAccuracy(), rtol, grid, t_max,
-                                  lim, deadline)
+                                  lim, deadline, hold)
     ix = m.state_index("cylinder.x")
     frames: list[pd.DataFrame] = []
     phases: list[PhaseSummary] = []

@@ -23,6 +23,16 @@ balance             equation (residual = Σ candidate coefficient × regressor)
                     piston leakage cancels)
 ``pump_flow``       ω·Vp − Q_B = P/Rlp + Cp·Ṗ + b·ω + …   [m³/s]
                     (0-junction of the pump outlet, eqs. 1-5; relief closed)
+``relief_flow``     ω·Vp − Q_B − (P − Pset)⁺/Rrv = P/Rlp + Cp·Ṗ + b·ω + a·o + r·(P − Pset)⁺
+                    + …   [m³/s] (the same junction with the relief valve, eq. 6, over the
+                    closed samples of ``pump_flow`` and the samples where the relief
+                    passes flow, o = 1: a dwell at the end stop; a, r re-fit the
+                    relief's setting and slope)
+``hose_pressure``   ∫(P2 − P_B) dt − I_B·ΔQ_C = R_B·∫Q_C dt + …   [Pa·s] over the last
+                    20 ms (1-junction of hose B, :mod:`sim.components.hose`; needs the
+                    pressure at valve port B, not on paper 002's logger; every window of
+                    the record, switches and end stops included, whose trapezoid error
+                    bound is small, :func:`~diagnostics.discrepancy.signals.hose_integrals`)
 ==================  =====================================================================
 
 End-stop contact (x within 6 mm of either end: the stop plus the smoothing window at the
@@ -30,7 +40,11 @@ working speed) is left out, where the stop force is
 unmeasured; the force balance also leaves out the piston at rest (|ẋ| < 5 mm/s, where
 friction is whatever holds it); the first 50 ms after each valve switch are left out
 (the derivative window and the hoses' wave transient); the pump balance uses the samples
-below 80 % of the relief setting.
+below 80 % of the relief setting.  The relief balance adds the samples above
+:data:`RELIEF_OPEN` × the setting from :data:`OPEN_SETTLE` after the relief opened (a piston
+held at its stop); it is evaluated only when at least :data:`MIN_OPEN` such samples exist
+(records with a dwell at the stop, :mod:`diagnostics.discrepancy.simulate`), since
+otherwise its candidate column is zero.
 """
 
 from __future__ import annotations
@@ -57,6 +71,17 @@ MOVING = 5e-3
 SETTLE = 0.05
 #: fraction of the relief setting below which the relief valve counts as closed
 RELIEF_MARGIN = 0.8
+#: fraction of the relief setting above which the relief valve counts as open (0.35 bar,
+#: 7 σ of the pressure sensor, above the setting of paper 002's 70 bar valve)
+RELIEF_OPEN = 1.005
+#: time after the relief opened before its samples are used [s] (the pressure rise at the
+#: arrival at the stop, and the smoothing window)
+OPEN_SETTLE = 0.1
+#: fewest relief-open samples for the relief balance
+MIN_OPEN = 200
+#: the hose balance keeps windows whose trapezoid-error bound (``hose.hf``) is below this
+#: fraction of its full scale plus twice the median bound (the noise's share)
+HOSE_HF_LIMIT = 0.01
 
 
 @dataclass(frozen=True)
@@ -133,6 +158,39 @@ def _pump(s: Signals, v: dict[str, float]) -> tuple[Arr, dict[str, Arr]]:
     return y, base
 
 
+def _relief(s: Signals, v: dict[str, float]) -> tuple[Arr, dict[str, Arr]]:
+    c = s.values
+    d = np.maximum(c["P_pump"] - v["relief.Pset"], 0.0)
+    opened = (c["P_pump"] > RELIEF_OPEN * v["relief.Pset"]).astype(float)
+    y = c["speed"] * c["Vp"] - c["Q_meter_B"] - d / v["relief.Rrv"] \
+        - v.get("relief.Gseat", 0.0) * c["P_pump"]
+    base = {"pump.Rlp": c["P_pump"], "pump.Cp": c["dP_pump"], "pump.Vp": c["speed"],
+            "relief.Pset": opened, "relief.Rrv": opened * d}
+    return y, base
+
+
+def _hose(s: Signals, v: dict[str, float]) -> tuple[Arr, dict[str, Arr]]:
+    c = s.values
+    y = c["hose.int_dp"] - v["hose_B.I"] * c["hose.dq"]
+    # R = 128·μ·L/(π·d⁴): the column μ·∫Q re-fits 128·L/(π·d⁴) (bore, length, viscosity)
+    return y, {"hose_B.R": c["mu"] * c["hose.int_q"]}
+
+
+def _relief_open(s: Signals, v: dict[str, float]) -> npt.NDArray[np.bool_]:
+    """Working-phase samples where the relief passes flow, from :data:`OPEN_SETTLE` after
+    it opened to :data:`SETTLE` before the phase ends (the pressure spike of a valve switch
+    in the return phase and the smoothing window's edge at the switch are left out)."""
+    opened = (s.values["P_pump"] > RELIEF_OPEN * v["relief.Pset"]) & (s.phase != "return")
+    keep = np.zeros(s.t.size, dtype=bool)
+    for rec in np.unique(s.record):
+        for ph in np.unique(s.phase):
+            m = np.flatnonzero((s.record == rec) & (s.phase == ph))
+            o = m[opened[m]]
+            if o.size:
+                keep[o] = (s.t[o] - s.t[o[0]] >= OPEN_SETTLE) & (s.t[m].max() - s.t[o] >= SETTLE)
+    return keep
+
+
 #: base columns whose re-fitted coefficient must stay ≥ 0 (friction, conductances): a
 #: subset that drives one negative trades off against the base model.  ``pump.Vp`` is not
 #: here: the pump balance's target already subtracts the stated ω·Vp, so its column's
@@ -152,6 +210,11 @@ BALANCES: tuple[Balance, ...] = (
             lambda v: v["pump.speed"] * v["pump.Vp"], _valve),
     Balance("pump_flow", "m^3/s", ("Q_meter_B", "P_pump"),
             lambda v: v["pump.speed"] * v["pump.Vp"], _pump),
+    Balance("relief_flow", "m^3/s", ("Q_meter_B", "P_pump"),
+            lambda v: v["pump.speed"] * v["pump.Vp"], _relief),
+    # full scale: hose B's inertial pressure impulse for a reversal of the pump flow
+    Balance("hose_pressure", "Pa*s", ("P2", "P_valve_B", "Q_meter_C", "hose.int_dp"),
+            lambda v: 2.0 * v["hose_B.I"] * v["pump.speed"] * v["pump.Vp"], _hose),
 )
 
 
@@ -169,9 +232,24 @@ def balance_data(s: Signals, values: dict[str, float]) -> list[BalanceData]:
     for b in BALANCES:
         if not s.has(*b.channels):
             continue
-        mask = _inside(s, values) & (s.since_phase_start() >= SETTLE)
-        if b.name == "pump_flow":
+        if b.name == "relief_flow" and "relief.Rrv" not in values:
+            continue
+        if b.name == "hose_pressure":
+            if "hose_B.I" not in values:
+                continue
+            ok = s.values["hose.ok"] > 0.5
+            hf = s.values["hose.hf"]
+            limit = HOSE_HF_LIMIT * b.full_scale(values) + 2.0 * float(np.median(hf[ok]))
+            mask = ok & (hf <= limit)
+        else:
+            mask = _inside(s, values) & (s.since_phase_start() >= SETTLE)
+        if b.name in ("pump_flow", "relief_flow"):
             mask &= s.values["P_pump"] < RELIEF_MARGIN * values["relief.Pset"]
+        if b.name == "relief_flow":
+            opened = _relief_open(s, values)
+            if opened.sum() < MIN_OPEN:
+                continue
+            mask |= opened
         if b.name == "piston_force":
             # at rest the friction is whatever holds the piston (stiction): unmeasured
             mask &= np.abs(s.values["v"]) > MOVING

@@ -20,12 +20,17 @@ from diagnostics.timeseries import SeriesRecord
 from sim.errors import InputError
 from sim.rigs.assembly import Condition, Rig
 
-__all__ = ["DERIVED", "Signals", "condition_of", "prepare", "stated_coefficients"]
+__all__ = ["DERIVED", "HOSE", "HOSE_WINDOW", "Signals", "condition_of", "hose_integrals",
+           "prepare", "stated_coefficients"]
 
 Arr = npt.NDArray[np.float64]
 
 #: channels whose Savitzky-Golay derivative the balances use
 DERIVED = ("v", "P1", "P2", "P_pump")
+#: channels of hose B's effort balance: chamber-2 pressure, valve-port-B pressure, meter C
+HOSE = ("P2", "P_valve_B", "Q_meter_C")
+#: window of the hose balance's running integrals [s]
+HOSE_WINDOW = 0.02
 
 
 @dataclass
@@ -91,21 +96,60 @@ def stated_coefficients(values: Mapping[str, float]) -> dict[str, float]:
     eq. 36 (leak = G·(P1 − P2)/μ); ``V02`` [m³], ``A2`` [m²], ``stroke`` [m]: chamber 2's
     dead volume, annulus and stroke (eq. 34); ``Pset`` [Pa], ``Rrv`` [Pa·s/m³]: the relief
     valve's setting and slope (eq. 6); ``PRvt`` [Pa]: the 4/2 valve's T-port pressure
-    (eq. 24; the spool leaks across P_P − PRvt, eq. 23); ``I_hose_B`` [kg/m⁴]: hose B's
-    oil-column inertance.
-    Each is present when the rig has the component.
+    (eq. 24; the spool leaks across P_P − PRvt, eq. 23); ``Rlp`` [Pa·s/m³], ``Cp`` [m³/Pa]:
+    the pump's leakage resistance and outlet capacitance (eqs. 1-5), with which a regressor
+    estimates the relief flow from measured signals; ``I_hose_B`` [kg/m⁴]: hose B's
+    oil-column inertance.  Each is present when the rig has the component.
     """
     out: dict[str, float] = {}
     if all(k in values for k in ("cylinder.bore", "cylinder.cc", "cylinder.Lc")):
         out["G_piston"] = (math.pi * values["cylinder.bore"] * values["cylinder.cc"] ** 3
                            / (12.0 * values["cylinder.Lc"]))
     for key in ("cylinder.V02", "cylinder.A2", "cylinder.stroke", "relief.Pset", "relief.Rrv",
-                "valve.PRvt"):
+                "valve.PRvt", "pump.Rlp", "pump.Cp"):
         if key in values:
             out[key.partition(".")[2]] = values[key]
     if "hose_B.I" in values:
         out["I_hose_B"] = values["hose_B.I"]
     return out
+
+
+def hose_integrals(t: Arr, p2: Arr, p_b: Arr, q_c: Arr, window: float = HOSE_WINDOW
+                   ) -> dict[str, Arr]:
+    """Running integrals of hose B's effort balance over the last ``window`` [s].
+
+    Hose B joins valve port B to chamber 2 (paper 002 Figure 1; :mod:`sim.components.hose`):
+    ``P2 − P_B = R·Q_C + I·dQ_C/dt`` with ``Q_C`` the flow out of chamber 2 (meter C).  Integrated
+    from ``t − window`` to ``t`` it needs no derivative of measured data::
+
+        ∫(P2 − P_B) dt = R·∫Q_C dt + I·(Q_C(t) − Q_C(t − window))
+
+    The pressures oscillate by tens of bar for ≈ 0.2 s after each valve switch and end-stop
+    arrival (the hose's oil column against the compliances, partly faster than a 1 kHz
+    logger resolves); the integrals are taken on the raw samples (trapezoid with the
+    Euler-Maclaurin end correction −h²/12·Δf′), not on smoothed ones, which such a
+    transient would not survive.  Returns ``hose.int_dp`` [Pa·s], ``hose.int_q`` [m³],
+    ``hose.dq`` [m³/s], ``hose.ok`` (1 where a whole window lies in the record, else 0) and
+    ``hose.hf`` [Pa·s], a bound of the trapezoid error over the window, Σ|Δ²(P2 − P_B)|·h/12
+    (large where the transient is not resolved: the balance leaves those windows out).
+    """
+    # a uniform grid (prepare's): the window is a whole number of samples
+    h = float(np.median(np.diff(t))) if t.size > 1 else 0.0
+    dp = p2 - p_b
+    cum_dp = np.concatenate([[0.0], np.cumsum(0.5 * (dp[1:] + dp[:-1]) * np.diff(t))])
+    cum_q = np.concatenate([[0.0], np.cumsum(0.5 * (q_c[1:] + q_c[:-1]) * np.diff(t))])
+    n = round(window / h) if h > 0 else 0
+    idx = np.arange(t.size)
+    ok = idx >= n
+    j = np.where(ok, idx - n, 0)
+    # Euler-Maclaurin end correction of the trapezoid rule, −h²/12·(f'(t) − f'(t − window))
+    f1 = np.gradient(dp, t) if t.size > 2 else np.zeros_like(dp)
+    corr = -h * h / 12.0 * (f1 - f1[j])
+    d2 = np.zeros_like(dp)
+    d2[1:-1] = np.abs(dp[2:] - 2.0 * dp[1:-1] + dp[:-2])
+    cum_d2 = np.cumsum(d2) * h / 12.0
+    return {"hose.int_dp": cum_dp - cum_dp[j] + corr, "hose.int_q": cum_q - cum_q[j],
+            "hose.dq": q_c - q_c[j], "hose.ok": ok.astype(float), "hose.hf": cum_d2 - cum_d2[j]}
 
 
 def _uniform(record: SeriesRecord, rate: float) -> tuple[Arr, dict[str, Arr], npt.NDArray[np.str_]]:
@@ -172,6 +216,10 @@ def prepare(records: Sequence[SeriesRecord], rig: Rig, *, rate: float = 1000.0,
                 if c in DERIVED:
                     derivs[f"d{c}"][sel] = savgol_filter(ch[c][sel], w, 3, deriv=1,
                                                          delta=1.0 / rate)
+        if all(c in ch for c in HOSE):
+            # on the raw samples, across the valve switch (every term is a state of the
+            # graph, continuous there)
+            derivs.update(hose_integrals(t, ch["P2"], ch["P_valve_B"], ch["Q_meter_C"]))
         ch = smooth
         ch.update(derivs)
         values = rig.values(condition=cond)

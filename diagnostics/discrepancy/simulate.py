@@ -12,7 +12,11 @@ with its phase switch where the record switched.  A working phase that ends at t
 end is switched by the end stop (the model's own event); one that ends short of it (the
 ``x`` channel more than :data:`TIMED_MARGIN` of the stroke away from the end) was switched
 by time (a slow-motion test stroke, :func:`timed_switch`), and the model switches at the
-same time.
+same time.  So does one whose piston stood at the stroke end for longer than
+:data:`DWELL_MIN` before the switch (a *dwell* record: the stroke runs into the stop and is
+held there, the pump flow going over the relief valve, until a timer switches): the model
+holds its piston at the stop until the same time (``hold`` of
+:func:`sim.cycle.run_cycle`).  :func:`record_kind` names the three kinds.
 """
 
 from __future__ import annotations
@@ -28,8 +32,8 @@ from diagnostics.timeseries import SeriesRecord
 from sim.cycle import run_cycle
 from sim.rigs.assembly import Condition, Rig
 
-__all__ = ["SAMPLE_RATE", "SOLVER", "TIMED_MARGIN", "on_grid", "simulate", "simulate_record",
-           "solver_error", "timed_switch"]
+__all__ = ["AT_STOP", "DWELL_MIN", "SAMPLE_RATE", "SOLVER", "TIMED_MARGIN", "on_grid",
+           "record_kind", "simulate", "simulate_record", "solver_error", "timed_switch"]
 
 Arr = npt.NDArray[np.float64]
 
@@ -41,6 +45,13 @@ SOLVER = (f"sim.cycle.run_cycle, RODAS4, noise-accurate (≤ 0.3 σ velocity, �
 #: a working phase ending farther than this fraction of the stroke from the stroke end was
 #: switched by time, not by the end stop [-]
 TIMED_MARGIN = 0.05
+#: a piston within this distance of the stroke end is at its stop [m] (10 σ of the
+#: position sensor)
+AT_STOP = 1e-3
+#: a working phase whose piston stood at its stop for longer than this before the switch
+#: is a dwell record [s] (an end-stop switch leaves it there for < 40 ms even at 15 %
+#: pump speed)
+DWELL_MIN = 0.25
 
 
 def simulate(rig: Rig, condition: Condition | None = None,
@@ -48,8 +59,9 @@ def simulate(rig: Rig, condition: Condition | None = None,
              t_max: float | None = None) -> pd.DataFrame:
     """One working + return cycle as a time-series table (the ``/simulate`` export format).
 
-    ``t_max`` [s] switches each phase after that long at the latest (a timed stroke);
-    ``None``: the end stops switch (:func:`sim.cycle.run_cycle`).
+    ``t_max`` [s] switches the working phase after that long (a timed stroke: one that
+    reaches its stop earlier dwells there, ``hold`` of :func:`sim.cycle.run_cycle`) and
+    the return phase at its stop or after that long; ``None``: the end stops switch.
 
     Raises
     ------
@@ -57,28 +69,45 @@ def simulate(rig: Rig, condition: Condition | None = None,
         If the solver fails.
     """
     res = run_cycle(rig, overrides, condition, method="rodas4", sample_rate=SAMPLE_RATE,
-                    timeseries=True, t_max=t_max)
+                    timeseries=True, t_max=t_max, hold=t_max is not None)
     assert res.timeseries is not None
     table = res.timeseries
     table.attrs["solver"] = dict(res.solver.error_sigma or {}) if res.solver else {}
     return table
 
 
-def timed_switch(record: SeriesRecord, rig: Rig) -> float | None:
-    """When the record's working phase was switched by time, its duration [s], else ``None``.
-
-    Needs the ``x`` channel and both phases; a working phase whose last ``x`` lies within
-    :data:`TIMED_MARGIN` of the stroke end was switched by the end stop (``None``).
-    """
+def record_kind(record: SeriesRecord, rig: Rig) -> str:
+    """``"full"`` (switched by the end stop), ``"slow"`` (switched by time short of the
+    stop) or ``"dwell"`` (held at the stop for longer than :data:`DWELL_MIN`, then
+    switched by time); ``"full"`` without the ``x`` channel or both phases."""
     if record.phase is None or "x" not in record.channels:
-        return None
+        return "full"
     work = np.flatnonzero(record.phase == "working")
     ret = np.flatnonzero(record.phase == "return")
     if work.size < 2 or ret.size == 0:
-        return None
+        return "full"
     stroke = rig.base["cylinder.stroke"]
-    if record.channels["x"][work[-1]] >= (1.0 - TIMED_MARGIN) * stroke:
+    x = record.channels["x"][work]
+    if x[-1] < (1.0 - TIMED_MARGIN) * stroke:
+        return "slow"
+    away = np.flatnonzero(x < stroke - AT_STOP)
+    arrival = record.t[work[away[-1] + 1]] if away.size and away[-1] + 1 < work.size \
+        else record.t[work[0]]
+    return "dwell" if record.t[work[-1]] - arrival > DWELL_MIN else "full"
+
+
+def timed_switch(record: SeriesRecord, rig: Rig) -> float | None:
+    """When the record's working phase was switched by time, its duration [s], else ``None``.
+
+    Switched by time: a slow stroke (the last ``x`` farther than :data:`TIMED_MARGIN` of
+    the stroke from its end) or a dwell at the stop (:func:`record_kind`); needs the ``x``
+    channel and both phases.
+    """
+    if record_kind(record, rig) == "full":
         return None
+    assert record.phase is not None
+    work = np.flatnonzero(record.phase == "working")
+    ret = np.flatnonzero(record.phase == "return")
     return float(record.t[ret[0]] - record.t[work[0]])
 
 

@@ -14,25 +14,50 @@ from typing import TYPE_CHECKING
 import numpy as np
 import numpy.typing as npt
 
-from diagnostics.discrepancy.simulate import on_grid, simulate
+from diagnostics.discrepancy.simulate import AT_STOP, DWELL_MIN, on_grid, simulate
 from diagnostics.timeseries import SeriesRecord
 from sim.rigs.assembly import Condition, Rig
 
 if TYPE_CHECKING:
     from diagnostics.pump.data import BenchData
 
-__all__ = ["CHANNELS", "NOISE", "UNITS", "synthesize", "synthesize_bench"]
+__all__ = ["CHANNELS", "DWELLS", "NOISE", "SENSORS", "UNITS", "channels_for", "effect_peak",
+           "synthesize", "synthesize_bench"]
 
 Arr = npt.NDArray[np.float64]
 
 #: channels a rig logger records, with their SI unit
 UNITS: dict[str, str] = {"x": "m", "v": "m/s", "P1": "Pa", "P2": "Pa", "P_pump": "Pa",
-                         "P_valve_P": "Pa", "Q_meter_B": "m^3/s", "Q_meter_C": "m^3/s"}
-CHANNELS = tuple(UNITS)
+                         "P_valve_P": "Pa", "Q_meter_B": "m^3/s", "Q_meter_C": "m^3/s",
+                         "P_valve_B": "Pa"}
+#: the paper-002 logger's channels (``P_valve_B`` is an extra sensor, :data:`SENSORS`)
+CHANNELS = tuple(c for c in UNITS if c != "P_valve_B")
+#: extra sensors an effect needs to leave an equation-error signature: unsteady line
+#: friction shows in hose B's effort balance, which needs the pressure at valve port B
+SENSORS: dict[str, tuple[str, ...]] = {"line_unsteady_friction": ("P_valve_B",)}
 
 #: default sensor noise σ per channel [SI]: 0.05 bar, 1 mm/s, 0.1 mm, 0.05 L/min
 NOISE: dict[str, float] = {"x": 1e-4, "v": 1e-3, "P1": 5e3, "P2": 5e3, "P_pump": 5e3,
-                           "P_valve_P": 5e3, "Q_meter_B": 8.3e-7, "Q_meter_C": 8.3e-7}
+                           "P_valve_P": 5e3, "Q_meter_B": 8.3e-7, "Q_meter_C": 8.3e-7,
+                           "P_valve_B": 5e3}
+
+
+def channels_for(effects: Sequence[str] = ()) -> tuple[str, ...]:
+    """The logger's channels plus the extra sensors the ``effects`` need (:data:`SENSORS`)."""
+    extra = [c for e in effects for c in SENSORS.get(e, ()) if c not in CHANNELS]
+    return CHANNELS + tuple(dict.fromkeys(extra))
+
+#: dwell records of the hidden-effect bench's test design: (load [N], oil temperature
+#: [°C], pump speed [fraction of the stated], working-phase switch [s]).  The stroke runs
+#: into its stop and is held there about 1.5 s before the timed switch, the pump flow over
+#: the relief valve: at 40 °C the relief passes about 3, 10 and 16 L/min at 50, 75 and
+#: 100 % speed (the rest leaks through the piston and the valve), three levels of the
+#: relief flow, enough to tell an override ∝ Q² from a re-fitted setting and slope
+#: (:mod:`diagnostics.discrepancy.balances`, ``relief_flow``).  The last, at the highest
+#: load, is the one the workflow holds out (about 11 L/min at 50 °C).
+DWELLS: tuple[tuple[float, float, float, float], ...] = (
+    (2100.0, 40.0, 0.5, 6.7), (2100.0, 40.0, 0.75, 4.8), (4200.0, 40.0, 1.0, 4.1),
+    (6300.0, 50.0, 1.0, 4.6))
 
 
 def synthesize(rig: Rig, condition: Condition, *, rng: np.random.Generator,
@@ -75,38 +100,62 @@ def synthesize(rig: Rig, condition: Condition, *, rng: np.random.Generator,
                         measured=False)
 
 
+def _segments(table: object, phase: str, stroke: float) -> list[object]:
+    """A phase of a simulated table cut where its piston reaches its stop: the motion, and
+    the dwell at the stop when it lasts longer than :data:`~diagnostics.discrepancy.
+    simulate.DWELL_MIN` (each with its own time origin)."""
+    import pandas as pd
+
+    assert isinstance(table, pd.DataFrame)
+    tab = table[table["phase"] == phase]
+    t = tab["t [s]"].to_numpy(dtype=float)
+    x = tab["x [m]"].to_numpy(dtype=float) if "x [m]" in tab else None
+    cut = t.size
+    if x is not None and t.size:
+        end = stroke if phase == "working" else 0.0
+        at = np.flatnonzero(np.abs(x - end) <= AT_STOP)
+        cut = int(at[0]) if at.size else t.size
+    parts = [tab.iloc[:cut]]
+    if cut < t.size and t[-1] - t[cut] > DWELL_MIN:
+        parts.append(tab.iloc[cut:])
+    return [p.assign(**{"t [s]": p["t [s]"].to_numpy(dtype=float) - float(p["t [s]"].iloc[0])})
+            for p in parts if len(p) > 2]
+
+
 def effect_peak(truth_table: object, base_table: object, *, rate: float = 1000.0,
                 sigma: Mapping[str, float] | None = None,
-                channels: Sequence[str] = CHANNELS) -> tuple[float, str]:
+                channels: Sequence[str] = CHANNELS,
+                stroke: float = 0.5) -> tuple[float, str]:
     """Largest |with − without| over channels in units of that channel's noise σ.
 
     Returns ``(peak / σ, channel)``: the effect's size as the bench states it.  Each phase
-    is compared on the time since its start, over 10-90 % of the shorter of the two
-    durations (steady motion), so that a start-up transient or a shifted end-stop arrival
-    (a changed stroke time) does not count as a difference of many σ.
+    is cut where the piston reaches its stop (``stroke`` [m]): the motion and, in a dwell
+    record, the dwell at the stop (where the relief passes the pump flow) are compared
+    each on the time since its own start, over 10-90 % of the shorter of the two
+    durations (steady motion, steady dwell), so that a start-up transient or a shifted
+    end-stop arrival (a changed stroke time) does not count as a difference of many σ.
+    An extra sensor (:data:`SENSORS`: the valve-port pressure of unsteady line friction)
+    is compared over the whole of each segment, switch transients included: it is logged
+    for the transient signature of its effect, which does not shift the switch times.
     """
     import pandas as pd
 
     assert isinstance(truth_table, pd.DataFrame) and isinstance(base_table, pd.DataFrame)
     sig = dict(NOISE) | dict(sigma or {})
+    chans = [c for c in channels if c != "x"]
     best, where = 0.0, ""
     for phase in ("working", "return"):
-        a_tab = truth_table[truth_table["phase"] == phase]
-        b_tab = base_table[base_table["phase"] == phase]
-        ta = a_tab["t [s]"].to_numpy(dtype=float)
-        tb = b_tab["t [s]"].to_numpy(dtype=float)
-        span = min(ta[-1] - ta[0], tb[-1] - tb[0])
-        t = np.arange(0.1 * span, 0.9 * span, 1.0 / rate)
-        a_rel = a_tab.assign(**{"t [s]": ta - ta[0]})
-        b_rel = b_tab.assign(**{"t [s]": tb - tb[0]})
-        a = on_grid(a_rel, t, list(channels))
-        b = on_grid(b_rel, t, list(channels))
-        for c in channels:
-            if c == "x":
-                continue
-            peak = float(np.max(np.abs(a[c] - b[c]))) / sig[c]
-            if peak > best:
-                best, where = peak, c
+        for a_rel, b_rel in zip(_segments(truth_table, phase, stroke),
+                                _segments(base_table, phase, stroke), strict=False):
+            assert isinstance(a_rel, pd.DataFrame) and isinstance(b_rel, pd.DataFrame)
+            span = min(float(a_rel["t [s]"].iloc[-1]), float(b_rel["t [s]"].iloc[-1]))
+            for c in chans:
+                lo, hi = (0.0, 1.0) if c not in CHANNELS else (0.1, 0.9)
+                t = np.arange(lo * span, hi * span, 1.0 / rate)
+                diff = on_grid(a_rel, t, [c])[c] - on_grid(b_rel, t, [c])[c]
+                peak = float(np.max(np.abs(diff), initial=0.0)) / sig[c]
+                if peak > best:
+                    best, where = peak, c
     return best, where
 
 

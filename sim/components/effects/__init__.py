@@ -28,14 +28,17 @@ effect                          balance          bond-graph change
                                                  compliance α0·V·(p_a/p)^(1/n)/(n·p)
 ``relief_override``             relief flow      law of R ``relief``: P − Pset = Rrv·Q +
                                                  k_ov·Q²
-``line_unsteady_friction``      (none logged)    law of I ``hose_A/B.I``: × (1 + k3)
+``line_unsteady_friction``      hose pressure    law of I ``hose_A/B.I``: × (1 + k3)
 ==============================  ===============  =========================================
 
 The last four change a fluid property or an existing element's constitutive law rather
 than adding an element (the element keeps its place and causality).  On the paper-002
 logger's channels, ``line_unsteady_friction`` enters no balance (its effort balance needs
-the valve-port pressures), and ``relief_override`` shows only while the relief passes
-flow, which a cycle whose phases end at the end stops never does.
+the pressure at valve port B, ``P_valve_B``: logged, the ``hose_pressure`` balance reads
+it), and ``relief_override`` shows only while the relief passes
+flow, which a cycle whose phases end at the end stops never does: it needs records with a
+dwell at the stop (:data:`diagnostics.discrepancy.synthetic.DWELLS`), where the
+``relief_flow`` balance of :mod:`diagnostics.discrepancy.balances` reads it.
 
 circuit ``gear-pump-field`` (paper 000 Figure 7 duty cycle, :mod:`sim.duty_cycle`):
 

@@ -21,12 +21,17 @@ Bond-graph change: the I elements of both hoses (``hose_A.I``, ``hose_B.I``) on 
 1-junctions keep their place and integral causality; their inertance law becomes
 :func:`scaled_inertance`.  An I stores and returns energy (no dissipation added).
 
-Signature: the hose's effort balance ``P_port − P_chamber − R·Q = (1 + k3)·I·Q̇`` needs the
-pressure at the valve's A/B port, which the paper-002 logger does not record; no balance
-of :mod:`diagnostics.discrepancy.balances` evaluates it.  On that rig the whole base
-inertance term is ≈ 0.3 bar for the first ~50 ms after a valve switch (I = 3.4e6 kg/m⁴,
-Q̇ ≈ 1e-2 m³/s²), where the balances leave samples out; an unsteady friction of
-k3 ≤ 0.1 stays below the 0.05 bar pressure noise.
+Signature: hose B's effort balance ``P2 − P_B = R·Q_C + (1 + k3)·I·dQ_C/dt`` (Q_C out of
+chamber 2, meter C) needs the pressure at the valve's B port, which the paper-002 logger
+does not record: with that sensor logged (``P_valve_B``, an output of the circuit) the
+``hose_pressure`` balance of :mod:`diagnostics.discrepancy.balances` evaluates it,
+integrated over 20 ms windows so that no derivative of the measured pressures is needed
+(:func:`diagnostics.discrepancy.signals.hose_integrals`); k3 multiplies ``I·ΔQ_C``.  The
+effect lives in the hoses' oscillation after each valve switch and end-stop arrival
+(tens of bar for ≈ 0.2 s on the paper-002 rig), partly faster than a 1 kHz logger
+resolves: the balance leaves out the windows it cannot integrate and, at 1 kHz, names
+k3 ≳ 0.1; without the port pressure the workflow has no balance for it and reports its
+minimum detectable size as unknown (no candidate column).
 """
 
 from __future__ import annotations
@@ -77,9 +82,10 @@ def build(g: BondGraph, name: str = NAME, values: Mapping[str, float] | None = N
 
 
 def _regressor(s: Mapping[str, Arr]) -> Arr:
-    # hose B's effort balance, P2 − P_B − R·Q = (1 + k3)·I·Q̇ with Q = −Q_meter_C (chamber
-    # 2 towards port B): needs P_B and the derivative dQ_meter_C, which no balance has yet
-    return np.asarray(-s["I_hose_B"] * s["dQ_meter_C"], dtype=float)
+    # hose B's effort balance integrated over a window (diagnostics.discrepancy.signals.
+    # hose_integrals): ∫(P2 − P_B) dt = R·∫Q_C dt + (1 + k3)·I·ΔQ_C, the stated I·ΔQ_C
+    # subtracted from the target, so k3 multiplies I·ΔQ_C
+    return np.asarray(s["I_hose_B"] * s["hose.dq"], dtype=float)
 
 
 ENTRY = EffectEntry(
@@ -89,5 +95,6 @@ ENTRY = EffectEntry(
     reference="Brunone, Golia & Greco, IAHR Hydraulic Transients (1991) 201-209; Vardy & "
               "Brown, J. Hydraul. Res. 33 (1995)",
     circuit="pump-valve-cylinder", balance="hose_pressure", coefficient="k3",
-    signature="−I_B·dQ_C/dt (needs the valve-port pressure P_B)", regressor=_regressor, sign=1.0,
+    signature="I_B·ΔQ_C over 20 ms in hose B's integrated effort balance (needs the "
+              "valve-port pressure P_valve_B)", regressor=_regressor, sign=1.0,
     plausible=(0.0, 0.5))

@@ -20,14 +20,17 @@ Bond-graph change: the relief R on the pump outlet 0-junction keeps its place an
 flow-out causality; its constitutive law becomes :func:`override_flow`.  Q ≥ 0 whenever
 P ≥ 0, so it only dissipates.
 
-Signature: only while the relief passes flow (``P_pump > Pset``): to first order in
-k_ov the relief passes ``(P − Pset)/Rrv − k_ov·(P − Pset)²/Rrv³``, so the pump-outlet flow
-balance over those samples (``relief_flow``: ω·Vp − Q_B = P/Rlp + Cp·Ṗ + (P − Pset)/Rrv
-+ k_ov·column) gains the column ``−(P − Pset)²/Rrv³``.  The paper-002 cycle
-(:func:`sim.cycle.run_cycle`) ends each phase when the piston reaches its stop, so the
-relief never opens (at most 45 bar of the 70 bar setting over the discrepancy study's
-loads) and the effect leaves no trace at all; :mod:`diagnostics.discrepancy.balances`
-therefore has no ``relief_flow`` balance yet — it needs a cycle that dwells at the stop.
+Signature: only while the relief passes flow (``P_pump > Pset``).  Written for the flow,
+the law is exactly ``Q = (P − Pset)/Rrv − k_ov·Q²/Rrv``, so the pump-outlet flow balance
+with the stated relief line subtracted (``relief_flow`` of
+:mod:`diagnostics.discrepancy.balances`: ω·Vp − Q_B − (P − Pset)/Rrv = P/Rlp + Cp·Ṗ + …)
+gains the column ``−Q²/Rrv``, Q the relief flow estimated from measured signals and the
+stated pump, ``ω·Vp − Q_B − P/Rlp − Cp·Ṗ``.  A cycle whose phases end at the end stops
+never opens the relief (at most 45 bar of the 70 bar setting over the discrepancy
+study's loads): the effect shows only in records with a *dwell* at the stop
+(:data:`diagnostics.discrepancy.synthetic.DWELLS`), at three relief flows or more, since
+the balance re-fits the relief's setting and slope (constant and linear in Q) before an
+override is named.
 """
 
 from __future__ import annotations
@@ -83,10 +86,14 @@ def build(g: BondGraph, name: str = NAME, values: Mapping[str, float] | None = N
 
 
 def _regressor(s: Mapping[str, Arr]) -> Arr:
-    # the override takes k_ov·d²/Rrv³ from the relief flow, so the pump delivers that
-    # much more past the outlet junction: −column in ω·Vp − Q_B
-    d = np.maximum(s["P_pump"] - s["Pset"], 0.0)
-    return np.asarray(-d * d / s["Rrv"] ** 3, dtype=float)
+    # P − Pset = Rrv·Q + k_ov·Q² ⇔ Q = (P − Pset)/Rrv − k_ov·Q²/Rrv exactly: with the
+    # stated relief line subtracted from the outlet balance the override leaves
+    # −Q²/Rrv, Q the relief flow estimated from measured signals and the stated pump
+    # (ω·Vp − Q_B − P/Rlp − Cp·Ṗ) while the relief passes flow
+    opened = s["P_pump"] > s["Pset"]
+    q = s["speed"] * s["Vp"] - s["Q_meter_B"] - s["P_pump"] / s["Rlp"] - s["Cp"] * s["dP_pump"]
+    q = np.where(opened, np.maximum(q, 0.0), 0.0)
+    return np.asarray(-q * q / s["Rrv"], dtype=float)
 
 
 ENTRY = EffectEntry(
@@ -96,5 +103,6 @@ ENTRY = EffectEntry(
     reference="Merritt, Hydraulic Control Systems (1967), ch. 5 (steady flow forces); "
               "Manring, Hydraulic Control Systems (2005), ch. 4 (relief-valve override)",
     circuit="pump-valve-cylinder", balance="relief_flow", coefficient="k_ov",
-    signature="−(P_pump − Pset)²/Rrv³ while the relief passes flow", regressor=_regressor,
+    signature="−Q_relief²/Rrv while the relief passes flow (Q_relief = ω·Vp − Q_B − P/Rlp "
+              "− Cp·Ṗ)", regressor=_regressor,
     sign=1.0, plausible=(0.0, 1e13))

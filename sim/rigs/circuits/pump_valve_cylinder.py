@@ -3,7 +3,9 @@
 A pump with a relief valve feeds a 4/2 valve through a supply line; hoses join ports A and
 B to a double-acting cylinder, with a check valve in the A line (eqs. 53-54); throttle
 valves H (across the piston) and I (valve P→T) stand for worn clearances (§2.7).  Meters B
-(flow into the valve's P port) and C (flow out of chamber 2) are the paper's flowmeters.
+(flow into the valve's P port) and C (flow out of chamber 2) are the paper's flowmeters;
+``P_valve_B``, the pressure at port B, is an extra sensor a user may log (with P2 and
+meter C it gives hose B's effort balance).
 """
 
 from __future__ import annotations
@@ -53,6 +55,8 @@ def build_graph(name: str = "pump-valve-cylinder") -> tuple[BondGraph, list[Deri
              "flowmeter B: flow into the valve's P port")
     g.output("Q_meter_C", LawCall(negated, (f"flow:{hose_b.ports['line']}",)), "m^3/s",
              "flowmeter C: flow out of chamber 2 towards port B")
+    g.output("P_valve_B", f"effort:{valve.ports['B']}", "Pa",
+             "pressure at valve port B (hose B's valve end; not on paper 002's logger)")
     g.output("Q_throttle_H", "flow:throttle_H.path", "m^3/s", "bypass through throttle H")
     g.output("Q_throttle_I", "flow:throttle_I.path", "m^3/s", "bypass through throttle I")
     return g, [f.derive for f in frags if f.derive is not None]
