@@ -69,6 +69,13 @@ MOVING = 5e-3
 #: time after each valve switch left out [s]: the Savitzky-Golay window and the
 #: switching transient (hose waves) that the lumped balances do not describe
 SETTLE = 0.05
+#: gauge chamber pressure below which samples are left out [Pa] (0.5 bar absolute): the
+#: rig model has no cavitation, and near vacuum the compliance regressors (entrained air's
+#: (p_a/p_abs)^(1/n)/p_abs) grow without bound and a few samples would set the fit
+VACUUM = -0.5e5
+#: time left out after the switch that ends a dwell at the stop [s]: the chambers
+#: decompress from the relief pressure, a switching transient ten times the usual step
+DWELL_SETTLE = 0.15
 #: fraction of the relief setting below which the relief valve counts as closed
 RELIEF_MARGIN = 0.8
 #: fraction of the relief setting above which the relief valve counts as open (0.35 bar,
@@ -176,6 +183,20 @@ def _hose(s: Signals, v: dict[str, float]) -> tuple[Arr, dict[str, Arr]]:
     return y, {"hose_B.R": c["mu"] * c["hose.int_q"]}
 
 
+def _after_dwell(s: Signals, v: dict[str, float]) -> npt.NDArray[np.bool_]:
+    """Return-phase samples within :data:`DWELL_SETTLE` of the switch of a record whose
+    working phase ended with the relief open (a dwell at the stop)."""
+    out = np.zeros(s.t.size, dtype=bool)
+    if "P_pump" not in s.values or "relief.Pset" not in v:
+        return out
+    since = s.since_phase_start()
+    for rec in np.unique(s.record):
+        work = np.flatnonzero((s.record == rec) & (s.phase == "working"))
+        if work.size and s.values["P_pump"][work[-1]] > RELIEF_OPEN * v["relief.Pset"]:
+            out |= (s.record == rec) & (s.phase == "return") & (since < DWELL_SETTLE)
+    return out
+
+
 def _relief_open(s: Signals, v: dict[str, float]) -> npt.NDArray[np.bool_]:
     """Working-phase samples where the relief passes flow, from :data:`OPEN_SETTLE` after
     it opened to :data:`SETTLE` before the phase ends (the pressure spike of a valve switch
@@ -242,7 +263,10 @@ def balance_data(s: Signals, values: dict[str, float]) -> list[BalanceData]:
             limit = HOSE_HF_LIMIT * b.full_scale(values) + 2.0 * float(np.median(hf[ok]))
             mask = ok & (hf <= limit)
         else:
-            mask = _inside(s, values) & (s.since_phase_start() >= SETTLE)
+            mask = _inside(s, values) & (s.since_phase_start() >= SETTLE) & ~_after_dwell(s, values)
+            for ch in ("P1", "P2"):
+                if ch in b.channels:
+                    mask &= s.values[ch] > VACUUM
         if b.name in ("pump_flow", "relief_flow"):
             mask &= s.values["P_pump"] < RELIEF_MARGIN * values["relief.Pset"]
         if b.name == "relief_flow":

@@ -23,7 +23,13 @@ import numpy as np
 import numpy.typing as npt
 from scipy.optimize import least_squares, minimize_scalar
 
-from diagnostics.discrepancy.simulate import on_grid, simulate_record
+from diagnostics.discrepancy.simulate import (
+    AT_STOP,
+    on_grid,
+    phase_segments,
+    record_kind,
+    simulate_record,
+)
 from diagnostics.timeseries import SeriesRecord
 from sim.components.effects import EFFECTS, parameter_bounds
 from sim.errors import InputError, SimulationError
@@ -76,24 +82,42 @@ def stacked_residual(rig: Rig, records: Sequence[SeriesRecord], channels: Sequen
 
     A fixed set of samples (every 10th measured sample, time since phase start) whatever
     the simulated phase lasts, so the vector has one length for the optimiser; a model
-    phase that ends earlier holds its last value there.
+    phase that ends earlier holds its last value there.  The working phase of a dwell
+    record (:func:`~diagnostics.discrepancy.simulate.record_kind`) is compared as two
+    segments, the motion and the dwell at the stop, each on the time since its own start
+    (:func:`~diagnostics.discrepancy.simulate.phase_segments`): otherwise a shifted
+    arrival at the stop, a step of the whole pump flow, would outweigh the effect.
     """
     parts = []
+    stroke = float(rig.base.get("cylinder.stroke", 0.0))
     for r in records:
         table = simulate_record(rig, r, overrides)
         phases = r.phase if r.phase is not None else np.full(r.t.size, "working")
+        dwell = record_kind(r, rig) == "dwell"
         for ph in ("working", "return"):
             sel = np.flatnonzero(phases == ph)
             tab = table[table["phase"] == ph]
             if sel.size < 20 or len(tab) < 3:
                 continue
-            tm = r.t[sel] - r.t[sel][0]
-            keep = (tm >= start * tm[-1]) & (tm <= 0.9 * tm[-1])
-            idx = sel[keep][::10]
-            ts = tab["t [s]"].to_numpy(dtype=float)
-            model = on_grid(tab.assign(**{"t [s]": ts - ts[0]}), tm[keep][::10], list(channels))
-            for c in channels:
-                parts.append((model[c] - r.channels[c][idx]) / sig[c])
+            if dwell and ph == "working":
+                at = np.flatnonzero(r.channels["x"][sel] >= stroke - AT_STOP)
+                cut = int(at[0]) if at.size else sel.size
+                measured = [s_ for s_ in (sel[:cut], sel[cut:]) if s_.size >= 20]
+                model_parts = phase_segments(table, ph, stroke)
+            else:
+                measured = [sel]
+                model_parts = [tab.assign(**{"t [s]": tab["t [s]"].to_numpy(dtype=float)
+                                             - float(tab["t [s]"].iloc[0])})]
+            for k, seg in enumerate(measured):
+                model_tab = model_parts[min(k, len(model_parts) - 1)]
+                if k >= len(model_parts):      # the model never reached the stop: its end held
+                    model_tab = model_tab.iloc[-1:].assign(**{"t [s]": 0.0})
+                tm = r.t[seg] - r.t[seg][0]
+                keep = (tm >= start * tm[-1]) & (tm <= 0.9 * tm[-1])
+                idx = seg[keep][::10]
+                model = on_grid(model_tab, tm[keep][::10], list(channels))
+                for c in channels:
+                    parts.append((model[c] - r.channels[c][idx]) / sig[c])
     return np.concatenate(parts) if parts else np.zeros(1)
 
 

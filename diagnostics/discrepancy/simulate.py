@@ -32,7 +32,7 @@ from diagnostics.timeseries import SeriesRecord
 from sim.cycle import run_cycle
 from sim.rigs.assembly import Condition, Rig
 
-__all__ = ["AT_STOP", "DWELL_MIN", "SAMPLE_RATE", "SOLVER", "TIMED_MARGIN", "on_grid",
+__all__ = ["AT_STOP", "DWELL_MIN", "SAMPLE_RATE", "SOLVER", "TIMED_MARGIN", "on_grid", "phase_segments",
            "record_kind", "simulate", "simulate_record", "solver_error", "timed_switch"]
 
 Arr = npt.NDArray[np.float64]
@@ -130,6 +130,29 @@ def solver_error(tables: list[pd.DataFrame]) -> dict[str, float]:
         for name, value in dict(table.attrs.get("solver", {})).items():
             worst[name] = max(worst.get(name, 0.0), float(value))
     return worst
+
+
+def phase_segments(table: pd.DataFrame, phase: str, stroke: float) -> list[pd.DataFrame]:
+    """A phase of a simulated table cut where its piston reaches its stop: the motion, and
+    the dwell at the stop when it lasts longer than :data:`DWELL_MIN` (each with its own
+    time origin, ``t [s]`` from 0).
+
+    ``stroke`` [m] is the cylinder's stroke; the working phase ends at ``x = stroke``, the
+    return phase at ``x = 0``.  Without an ``x [m]`` column the phase is one segment.
+    """
+    tab = table[table["phase"] == phase]
+    t = tab["t [s]"].to_numpy(dtype=float)
+    x = tab["x [m]"].to_numpy(dtype=float) if "x [m]" in tab else None
+    cut = t.size
+    if x is not None and t.size:
+        end = stroke if phase == "working" else 0.0
+        at = np.flatnonzero(np.abs(x - end) <= AT_STOP)
+        cut = int(at[0]) if at.size else t.size
+    parts = [tab.iloc[:cut]]
+    if cut < t.size and t[-1] - t[cut] > DWELL_MIN:
+        parts.append(tab.iloc[cut:])
+    return [p.assign(**{"t [s]": p["t [s]"].to_numpy(dtype=float) - float(p["t [s]"].iloc[0])})
+            for p in parts if len(p) > 2]
 
 
 def on_grid(table: pd.DataFrame, t: Arr, channels: list[str]) -> dict[str, Arr]:

@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import numpy.typing as npt
 
-from diagnostics.discrepancy.simulate import AT_STOP, DWELL_MIN, on_grid, simulate
+from diagnostics.discrepancy.simulate import on_grid, phase_segments, simulate
 from diagnostics.timeseries import SeriesRecord
 from sim.rigs.assembly import Condition, Rig
 
@@ -100,28 +100,6 @@ def synthesize(rig: Rig, condition: Condition, *, rng: np.random.Generator,
                         measured=False)
 
 
-def _segments(table: object, phase: str, stroke: float) -> list[object]:
-    """A phase of a simulated table cut where its piston reaches its stop: the motion, and
-    the dwell at the stop when it lasts longer than :data:`~diagnostics.discrepancy.
-    simulate.DWELL_MIN` (each with its own time origin)."""
-    import pandas as pd
-
-    assert isinstance(table, pd.DataFrame)
-    tab = table[table["phase"] == phase]
-    t = tab["t [s]"].to_numpy(dtype=float)
-    x = tab["x [m]"].to_numpy(dtype=float) if "x [m]" in tab else None
-    cut = t.size
-    if x is not None and t.size:
-        end = stroke if phase == "working" else 0.0
-        at = np.flatnonzero(np.abs(x - end) <= AT_STOP)
-        cut = int(at[0]) if at.size else t.size
-    parts = [tab.iloc[:cut]]
-    if cut < t.size and t[-1] - t[cut] > DWELL_MIN:
-        parts.append(tab.iloc[cut:])
-    return [p.assign(**{"t [s]": p["t [s]"].to_numpy(dtype=float) - float(p["t [s]"].iloc[0])})
-            for p in parts if len(p) > 2]
-
-
 def effect_peak(truth_table: object, base_table: object, *, rate: float = 1000.0,
                 sigma: Mapping[str, float] | None = None,
                 channels: Sequence[str] = CHANNELS,
@@ -145,8 +123,8 @@ def effect_peak(truth_table: object, base_table: object, *, rate: float = 1000.0
     chans = [c for c in channels if c != "x"]
     best, where = 0.0, ""
     for phase in ("working", "return"):
-        for a_rel, b_rel in zip(_segments(truth_table, phase, stroke),
-                                _segments(base_table, phase, stroke), strict=False):
+        for a_rel, b_rel in zip(phase_segments(truth_table, phase, stroke),
+                                phase_segments(base_table, phase, stroke), strict=False):
             assert isinstance(a_rel, pd.DataFrame) and isinstance(b_rel, pd.DataFrame)
             span = min(float(a_rel["t [s]"].iloc[-1]), float(b_rel["t [s]"].iloc[-1]))
             for c in chans:

@@ -96,23 +96,34 @@ def test_entrained_air_at_8_sigma_is_confirmed_in_the_build_up_after_the_switche
     # stops, outside the balance); the re-simulated value is the truth's
     assert n.equation_error > 2.0 * truth
     assert n.value == pytest.approx(truth, rel=0.03)
-    assert excess_ratio(d.gap_before, d.gap_after, NOISE, ("steady", "after step")) >= 2.0
+    # held out: a full stroke and a dwell at the stop, whose dwell carries no air signature
+    assert excess_ratio(d.gap_before, d.gap_after, NOISE, ("steady", "after step")) >= 1.5
 
 
 def test_a_near_twin_of_the_equation_error_choice_is_told_apart_by_re_simulation():
     """Piston clearance growing with pressure and a wrong viscosity law leave columns
-    correlated at 0.99 in the chamber balance (base columns projected out).  On this
-    seed (the study's 16σ size) the equation error prefers the viscosity law by ΔBIC 68;
-    re-simulated, the viscosity law also changes the valve, pump and friction — which
-    the data do not show — and the pressure-dependent clearance is named."""
-    from benchmarks.discrepancy_study import _case, _doc_with
+    correlated at 0.99 in the chamber balance (base columns projected out), so the
+    equation error alone may prefer either.  Re-simulated from their equation-error
+    estimates (:func:`~diagnostics.discrepancy.refit.tell_apart`), the viscosity law also
+    changes the valve, pump and friction — which the data do not show — and the
+    pressure-dependent clearance wins, at its true size (the study's 16σ size, seed 1007)."""
+    from benchmarks.discrepancy_study import _conditions, _doc_with
+    from diagnostics.discrepancy.refit import tell_apart
+    from diagnostics.discrepancy.workflow import OUTPUTS
 
     truth = 2.436e-20
-    d = _case(_doc_with("piston_clearance_pressure", truth), 1007)
-    chamber = next(s for s in d.selections if s.balance == "chamber_flow")
-    assert chamber.chosen is not None
-    assert [t.effect for t in chamber.chosen.terms] == ["viscosity_law"]
-    near = [[t.effect for t in f.terms] for f in chamber.near]
-    assert ["piston_clearance_pressure"] in near
-    assert [n.name for n in d.named] == ["piston_clearance_pressure"]
-    assert d.named[0].value == pytest.approx(truth, rel=0.1)
+    rig = load_rig(_doc_with("piston_clearance_pressure", truth))
+    rng = np.random.default_rng(1007)
+    records = [synthesize(rig, c, rng=rng, name=name, t_max=sw) for name, c, sw in _conditions()]
+    base = reference_rig()
+    data = {b.balance.name: b for b in balance_data(prepare(records, base), base.values())}
+    singles = select(data["chamber_flow"], bootstrap=0).singles
+    options = [{"viscosity_law.lam": float(singles["viscosity_law"].coefficient)},
+               {"piston_clearance_pressure.k_c": float(singles["piston_clearance_pressure"]
+                                                        .coefficient)}]
+    channels = [c for c in OUTPUTS if c in records[0].channels]
+    best, group, fits = tell_apart(reference_rig_document(), options, records, channels,
+                                   NOISE, 8)
+    assert best == 1
+    assert 0 not in group                       # told apart, not reported together
+    assert fits[1][0]["piston_clearance_pressure.k_c"] == pytest.approx(truth, rel=0.1)
