@@ -9,6 +9,8 @@
   against the healthy flow of the same plateau, on the whole program's scale;
 * :mod:`~diagnostics.real.accumulator` — accumulator gas volume per cycle from the oil
   stored at the load steps (polytropic gas, pre-charge referred to one temperature);
+* :mod:`~diagnostics.real.precharge` — accumulator volume of the rig and pre-charge per
+  cycle from where the accumulator stops storing oil (empty below the pre-charge);
 * :mod:`~diagnostics.real.switching` — valve switching time and lag from the pressure step,
   the same from block means as from raw samples;
 * :mod:`~diagnostics.real.scoring` — scores of an estimate against an ordered label and its
