@@ -7,6 +7,10 @@ Called by :func:`benchmarks.real_zema.zema` (``make real-data``); split from it 
   (:func:`~diagnostics.real.accumulator.upper_steps`), the pump line through the plateaus'
   settled flows (the gas relaxation time found for the leak estimate), with the label-free
   agreement of single steps and, for scoring only, how far apart the classes lie.
+* Accumulator pre-charge per cycle (:mod:`diagnostics.real.precharge`): the accumulator's
+  volume one number of the rig, the pre-charge per cycle from the four load steps with the
+  accumulator empty below it (hot oil raises the gas's pressure above the lower plateaus),
+  referred to 20 °C.
 * Valve switching time from the pressure step at the valve's switching
   (:mod:`diagnostics.real.switching`), at 1 Hz and on the raw 100 Hz cycles.
 """
@@ -19,7 +23,8 @@ import numpy as np
 import numpy.typing as npt
 from scipy.stats import spearmanr
 
-from diagnostics.real.accumulator import gas_volumes
+from diagnostics.real.accumulator import gas_volumes, step_volumes
+from diagnostics.real.precharge import fit_precharge, refer_precharge
 from diagnostics.real.scoring import ClassScore, score_classes
 from diagnostics.real.switching import crossing_time, switching_lags, switching_times
 from diagnostics.real.zema import (
@@ -107,7 +112,8 @@ def accumulator(records: list[SeriesRecord], labels: ZemaLabels,
     n_ok = int(np.isfinite(vg).sum())
     print(f"  cycles with the four load steps: {n_ok} of {vg.size} (the others left the load "
           "program: relief valve holding the middle plateaus)")
-    out.update({"upper_steps": s.as_dict(), "relaxation_s": relaxation,
+    pre = _precharge(records, labels, relaxation, others)
+    out.update({"precharge": pre, "upper_steps": s.as_dict(), "relaxation_s": relaxation,
                 "upper_steps_plateau_means": s_plain.as_dict(),
                 "upper_steps_no_temperature": s_raw.as_dict(),
                 "step_rule": "steps between plateaus in the upper half of the cycle's "
@@ -116,6 +122,33 @@ def accumulator(records: list[SeriesRecord], labels: ZemaLabels,
                 "per_step": per_step, "median_gas_l": med, "separation": sep,
                 "cycles_scored": n_ok})
     return out
+
+
+def _precharge(records: list[SeriesRecord], labels: ZemaLabels, relaxation: float,
+               others: dict[str, Arr]) -> dict[str, object]:
+    """Pre-charge per cycle where the accumulator empties (:mod:`diagnostics.real.precharge`)."""
+    steps = [step_volumes(r, relaxation=relaxation) for r in records]
+    fit = fit_precharge([s if len(s) == 4 else None for s in steps])
+    theta = np.array([float(np.mean(r.channel("oil_temperature"))) for r in records])
+    p20 = refer_precharge(fit.p0, theta)
+    s = score_classes(p20, labels.accumulator, others)
+    print()
+    print("accumulator pre-charge per cycle: V(p) = V0·min(1, (p0/p)^(1/1.4)), empty below p0; "
+          "V0 one number of the rig, p0 per cycle, least squares over the four load steps "
+          "(no label); p0 referred to 20 °C with the cycle's oil temperature")
+    print(f"  V0 = {fit.v0 * 1e3:.3f} l, rms residual {fit.rms * 1e6:.2f} ml per step, "
+          f"{fit.at_grid_edge} cycles at the grid's edge")
+    print(_class_row("p0 at 20 °C (all four steps)", s))
+    med = {f"{a:g}": float(np.nanmedian(p20[labels.accumulator == a])) / 1e5
+           for a in (90.0, 100.0, 115.0, 130.0)}
+    hot = {f"{a:g}": float(np.nanmedian(fit.p0[labels.accumulator == a])) / 1e5
+           for a in (90.0, 100.0, 115.0, 130.0)}
+    print("  median p0 [bar] by pre-charge label, at 20 °C: "
+          + ", ".join(f"{k}: {v:.1f}" for k, v in med.items())
+          + "; at the gas temperature: " + ", ".join(f"{k}: {v:.1f}" for k, v in hot.items()))
+    return {"score": s.as_dict(), "v0_l": fit.v0 * 1e3, "rms_ml": fit.rms * 1e6,
+            "at_grid_edge": fit.at_grid_edge, "median_p0_20C_bar": med,
+            "median_p0_gas_temperature_bar": hot}
 
 
 def valve_lag(records: list[SeriesRecord], labels: ZemaLabels) -> dict[str, object]:

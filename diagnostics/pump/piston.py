@@ -268,7 +268,8 @@ class HeldOut:
     ``flow_pred`` [m³/s] and ``torque_pred`` [N·m] are the held-out predictions at every
     point (each from the fit without its speed); ``flow_full`` [m³/s] and ``torque_full``
     [N·m] are the setting's largest measured flow and torque, the scales of S; ``flow`` and
-    ``torque`` are the models fitted on all the setting's points.
+    ``torque`` are the models fitted on all the setting's points; ``flow_pred_quadratic``
+    [m³/s] and ``torque_pred_quadratic`` [N·m] the quadratic's held-out predictions.
     """
 
     D: float
@@ -289,6 +290,8 @@ class HeldOut:
     torque_full: float
     flow: LossFit
     torque: LossFit
+    flow_pred_quadratic: Arr
+    torque_pred_quadratic: Arr
 
 
 def _s_r2(y: Arr, pred: Arr, full: float) -> tuple[float, float]:
@@ -326,7 +329,7 @@ def held_out_speed(data: PistonMap, D: float, *,
     tsq, trq = _s_r2(data.torque, qt, t_full)
     flow, torque = fit_losses(data, D, target=target)
     return HeldOut(D, int(w_lev.size), fs, fr, fsq, frq, ts, tr, tsq, trq, flow.terms,
-                   torque.terms, pq, pt, q_full, t_full, flow, torque)
+                   torque.terms, pq, pt, q_full, t_full, flow, torque, qq, qt)
 
 
 def bench_frame(data: PistonMap, theta: float) -> pd.DataFrame:

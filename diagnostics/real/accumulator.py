@@ -42,6 +42,11 @@ that touch the lower plateaus agree with each other (0.87) but hardly with the u
 charged at 20 °C holds 130·328/293 ≈ 146 bar).  The rule picks the same steps that an
 earlier version had picked after seeing per-step scores, so its score is not a fresh test.
 
+In hot oil a high fill's pressure at the gas temperature rises above the lower plateaus:
+the accumulator is then empty there and the gas index of the upper steps reads low (the
+130/115 bar ratio of the gas volumes is compressed).  :mod:`~diagnostics.real.precharge`
+models that emptying and reads the pre-charge itself per cycle.
+
 Defaults
 --------
 ``n = 1.4`` [-]: adiabatic exponent of nitrogen, the usual choice for accumulator

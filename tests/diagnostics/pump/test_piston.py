@@ -9,6 +9,7 @@ import pandas as pd
 import pytest
 
 from diagnostics.pump import bench_from_frame, derived_capacity_toet, parameterise
+from diagnostics.pump.compare import s_difference
 from diagnostics.pump.levels import cluster_levels
 from diagnostics.pump.piston import (
     FLOW_LOSS_TERMS,
@@ -112,6 +113,13 @@ def test_held_out_speed_scores_both_models(big) -> None:  # type: ignore[no-unty
     res = data.q - h.flow_pred
     assert math.isclose(100 * math.sqrt(float(np.mean(res**2))) / h.flow_full, h.flow_S)
     assert h.flow_full == float(np.max(data.q)) and h.torque_pred.shape == data.torque.shape
+    # the quadratic's held-out predictions are kept too, and give its S
+    resq = data.torque - h.torque_pred_quadratic
+    assert math.isclose(100 * math.sqrt(float(np.mean(resq**2))) / h.torque_full,
+                        h.torque_S_quadratic)
+    d = s_difference(data.q, h.flow_pred, h.flow_pred_quadratic, data.omega, h.flow_full)
+    assert d.blocks == 9 and math.isclose(d.difference, h.flow_S - h.flow_S_quadratic)
+    assert d.low <= d.difference <= d.high
 
 
 def test_degenerate_maps_are_refused(big) -> None:  # type: ignore[no-untyped-def]
