@@ -14,16 +14,24 @@ readings wherever the piston still moves (tested against direct solves), far und
 instruments' 0.25-1 %.
 
 Stall, creep and end stops: on some rigs (a hot differential cylinder at the worn end of
-the clearance range, a heavy load) the piston stops or runs backwards in a phase.  The
-signed speeds stay smooth through that, but the velocity ratio is undefined where the
-return stroke stalls, and a grid point may have no steady operating point at all.  Such
-points are *masked*: their predictions are NaN, the interpolation runs over the valid
-points only, and a fine point is valid only when both coarse points around it are.  The
-likelihood treats a masked prediction as impossible for a record that reads it
-(:mod:`diagnostics.ranking`), and :attr:`HypothesisMap.masked` states which share of the
-prior range was masked.  Two-parameter hypotheses are not mapped: tensor-product splines
-over 11 × 11 points erred by up to 2.5 % near the stall ridge, so pairs are fitted by
-direct solves instead (:mod:`diagnostics.ranking`).
+the clearance range, a heavy load) the load is more than the worn rig can push in a
+phase.  The piston then sits on its end stop, and the steady model gives that state
+(:mod:`sim.steady`, *End stops*): speed 0, the pressures and flows of the leak paths and
+the relief at rest, so a stalled record is predicted like any other.  Between the
+moving and the held state the readings have a kink (their slopes jump where the speed
+reaches 0), which no spline through it follows: an axis whose coarse nodes change state
+is split at the *ridge*, located by bisection to :data:`RIDGE_TOL` of the axis, and each
+side is mapped on its own nodes (:meth:`SignatureMaps._ridge_pieces`).  The velocity
+ratio is undefined where the return stroke is held and grows without bound as it
+stops; it is masked there and over the last coarse interval before such a ridge.  A
+grid point with no operating point at all (neither moving nor held) is *masked* too:
+its predictions are NaN, the interpolation runs over the valid points only, and a fine
+point is valid only when both coarse points around it are.  The likelihood treats a
+masked prediction as impossible for a record that reads it (:mod:`diagnostics.ranking`),
+and :attr:`HypothesisMap.masked` states which share of the prior range was masked;
+:attr:`HypothesisMap.held` which share has a piston on its stop.  Two-parameter
+hypotheses are not mapped: tensor-product splines over 11 × 11 points erred by up to
+2.5 % near the stall ridge, so pairs are fitted by direct solves instead (:mod:`diagnostics.ranking`).
 """
 
 from __future__ import annotations
@@ -43,8 +51,8 @@ from sim.errors import SimulationError
 from sim.rigs import Condition, Rig
 from sim.steady import SteadyEvaluator
 
-__all__ = ["GRAPH_PARAMETERS", "OBSERVABLES", "HypothesisMap", "SignatureMaps",
-           "evaluator", "masked_pchip", "signature_maps"]
+__all__ = ["CREEP", "GRAPH_PARAMETERS", "OBSERVABLES", "RIDGE_TOL", "HypothesisMap", "SignatureMaps",
+           "evaluator", "held_state", "masked_pchip", "signature_maps", "stroke_states"]
 
 Arr = npt.NDArray[np.float64]
 
@@ -57,6 +65,15 @@ OBSERVABLES: tuple[str, ...] = ("pump_pressure", "p1", "p2", "flow_B", "flow_C",
                                 "speed_work", "speed_return", "velocity_ratio")
 
 COARSE_1D, FINE_1D = 25, 241
+#: bisection of a moving/held ridge stops at this share of the axis [-]
+RIDGE_TOL = 1e-9
+#: a stroke slower than this many switching speeds of the Coulomb friction law
+#: (``cylinder.v_s``, :func:`sim.components.cylinder.friction_force`) creeps: friction
+#: falls from ``Fu`` (tanh(4) = 0.9993) to 0 over that band, a second kink [-]
+CREEP = 4.0
+#: columns of the working and return speeds in :data:`OBSERVABLES` (0 on the end stop)
+_SPEEDS = (OBSERVABLES.index("speed_work"), OBSERVABLES.index("speed_return"))
+_RATIO = OBSERVABLES.index("velocity_ratio")
 
 _EVALUATORS: OrderedDict[tuple[int, Condition], Any] = OrderedDict()
 _MAPS: OrderedDict[tuple[int, Condition], Any] = OrderedDict()
@@ -118,6 +135,33 @@ class HypothesisMap:
         steady operating point) [-]."""
         return np.asarray(np.mean(np.isnan(self.pred), axis=0), dtype=np.float64)
 
+    @property
+    def held(self) -> Arr:
+        """Share of the fine grid with the piston on its end stop in the working and in
+        the return phase [-] (two values)."""
+        return np.asarray(np.mean(self.pred[:, list(_SPEEDS)] == 0.0, axis=0),
+                          dtype=np.float64)
+
+
+def stroke_states(row: Arr, creep: float) -> tuple[int, int] | None:
+    """State of the working and the return stroke of a row of predictions: 0 moving, 1
+    creeping (slower than ``creep`` [m/s]), 2 held on its end stop (speed 0); None for a
+    row without prediction."""
+    st = held_state(row)
+    if st is None:
+        return None
+    w, r = (float(row[i]) for i in _SPEEDS)
+    return (2 if st[0] else int(w < creep)), (2 if st[1] else int(r < creep))
+
+
+def held_state(row: Arr) -> tuple[bool, bool] | None:
+    """Whether the working and the return piston of a row of predictions sit on their end
+    stops (speed exactly 0, :mod:`sim.steady`); None for a row without prediction."""
+    w, r = float(row[_SPEEDS[0]]), float(row[_SPEEDS[1]])
+    if not (math.isfinite(w) and math.isfinite(r)):
+        return None
+    return w == 0.0, r == 0.0
+
 
 class SignatureMaps:
     """Signature maps of every hypothesis for one rig at one condition."""
@@ -169,6 +213,83 @@ class SignatureMaps:
                 return [(z_lo, kink, COARSE_1D), (kink, z_hi, 5)]
         return [(z_lo, z_hi, COARSE_1D)]
 
+    @property
+    def _creep(self) -> float:
+        """Speed below which a stroke counts as creeping [m/s] (:data:`CREEP` switching
+        speeds of the friction law)."""
+        return CREEP * float(self.rig.base["cylinder.v_s"])
+
+    def _state_at(self, p: FaultParameter, z: float) -> tuple[int, int] | None:
+        """:func:`stroke_states` of ``p`` at fitting coordinate ``z`` (one direct solve)."""
+        return stroke_states(self._solve_or_nan((p,), p.from_z(z)), self._creep)
+
+    def _ridge_pieces(self, p: FaultParameter, zc: Arr, coarse: Arr
+                      ) -> list[tuple[float, float, int]] | None:
+        """The segments (start, end, nodes) of a piece whose coarse nodes change stroke
+        state (:func:`stroke_states`: moving, creeping, held; module docstring), split at
+        each ridge; None when no adjacent nodes change state.  Each ridge is bracketed by
+        bisection to :data:`RIDGE_TOL` of the piece (a coarse interval may hold two: into
+        the creep band and onto the stop); each side keeps a share of the nodes in
+        proportion to its length, 5 at least."""
+        creep = self._creep
+        states = [stroke_states(row, creep) for row in coarse]
+        tol = RIDGE_TOL * float(zc[-1] - zc[0])
+        cuts: list[tuple[float, float]] = []
+        for k in range(zc.size - 1):
+            a_st, end_st = states[k], states[k + 1]
+            if a_st is None or end_st is None:
+                continue
+            a, end = float(zc[k]), float(zc[k + 1])
+            for _ in range(3):  # at most: moving → creeping → held, and one spare
+                if a_st == end_st:
+                    break
+                b, b_st = end, end_st
+                while b - a > tol:
+                    mid = 0.5 * (a + b)
+                    st = self._state_at(p, mid)
+                    if st is None:
+                        break
+                    if st == a_st:
+                        a = mid
+                    else:
+                        b, b_st = mid, st
+                if b - a > tol:  # no operating point inside: no cut here
+                    break
+                cuts.append((a, b))
+                a, a_st = b, b_st
+        if not cuts:
+            return None
+        span = float(zc[-1] - zc[0])
+        out = []
+        start = float(zc[0])
+        for a, b in [*cuts, (float(zc[-1]), math.nan)]:
+            n = max(5, math.ceil((zc.size - 1) * (a - start) / span) + 1)
+            out.append((start, a, n))
+            start = b
+        return out
+
+    @staticmethod
+    def _mask_ratio_before_held_return(coarses: list[Arr]) -> None:
+        """The velocity ratio NaN at a moving node next to a held return stroke, along the
+        nodes of consecutive pieces ``coarses`` (in place; it grows without bound there,
+        module docstring)."""
+        rows = [(c, k) for c in coarses for k in range(c.shape[0])]
+        st = [held_state(c[k]) for c, k in rows]
+        for i, (c, k) in enumerate(rows):
+            if st[i] is None or st[i][1]:  # type: ignore[index]
+                continue
+            near = [st[j] for j in (i - 1, i + 1) if 0 <= j < len(st)]
+            if any(s is not None and s[1] for s in near):
+                c[k, _RATIO] = np.nan
+
+    @staticmethod
+    def _selection(zf: Arr, starts: list[float], k: int) -> npt.NDArray[np.bool_]:
+        """Fine points piece ``k`` of the pieces beginning at ``starts`` serves: from its
+        start (the first from −∞) to the next piece's start (the last to +∞)."""
+        lo = -math.inf if k == 0 else starts[k]
+        hi = math.inf if k == len(starts) - 1 else starts[k + 1]
+        return np.asarray((zf >= lo) & (zf < hi))
+
     def _axis(self, p: FaultParameter, n: int) -> Arr:
         lo, hi = p.worn_bounds(self.rig)
         return np.linspace(p.to_z(lo), p.to_z(hi), n)
@@ -182,10 +303,19 @@ class SignatureMaps:
             for lo, hi, n in self._pieces(p, float(zf[0]), float(zf[-1])):
                 zc = np.linspace(lo, hi, n)
                 coarse = np.array([self._solve_or_nan(params, p.from_z(z)) for z in zc])
-                pieces.append((zc, coarse))
+                split = self._ridge_pieces(p, zc, coarse)
+                if split is None:
+                    pieces.append((zc, coarse))
+                    continue
+                for a, b, m in split:
+                    zs = np.linspace(a, b, m)
+                    pieces.append((zs, np.array([self._solve_or_nan(params, p.from_z(z))
+                                                 for z in zs])))
             fine = np.empty((zf.size, len(OBSERVABLES)))
+            starts = [float(zc[0]) for zc, _ in pieces]
+            self._mask_ratio_before_held_return([coarse for _, coarse in pieces])
             for k, (zc, coarse) in enumerate(pieces):
-                sel = (zf >= zc[0]) & ((zf <= zc[-1]) if k == len(pieces) - 1 else (zf < zc[-1]))
+                sel = self._selection(zf, starts, k)
                 fine[sel] = masked_pchip(zc, coarse, zf[sel])
             return HypothesisMap(hyp, params, [zf], fine)
         raise ValueError("maps are built for one parameter; pairs are fitted directly")

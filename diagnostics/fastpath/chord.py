@@ -33,7 +33,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:  # bound in the generated module (see the module docstring)
-    from diagnostics.fastpath.kernel import observables
+    from diagnostics.fastpath.kernel import end_stop, observables, stop_index
     from diagnostics.fastpath.rig_interface import lu_factor, lu_solve, outputs, rhs, steady
 
 #: names copied into the generated module, in dependency order
@@ -135,7 +135,11 @@ def solve_grid(pw0, pr0, gidx, grid, mask, scale, last_w, last_r, nom_w, nom_r, 
     first from that start; then the damped solver from the start, the last and the nominal
     solution.  ``last_*`` end as the last row's solutions.  ``counts`` adds the phase solves
     settled by the chord iteration (0), its failures by :func:`chord`'s reason (1-4), and
-    the damped solves (5).
+    the damped solves (5).  A phase whose start is held on its end stop (velocity state
+    0) tries the end-stop state first; a moving solution against the phase's direction,
+    or none, gives way to the end-stop state
+    (:func:`diagnostics.fastpath.kernel.end_stop`, from the moving solution, the start,
+    the last and the nominal one), as in :func:`diagnostics.fastpath.kernel.solve_point`.
     """
     pw = pw0.copy()
     pr = pr0.copy()
@@ -157,6 +161,7 @@ def solve_grid(pw0, pr0, gidx, grid, mask, scale, last_w, last_r, nom_w, nom_r, 
     prev = np.empty((2, 3, ns))
     start = np.empty(ns)
     run = 0
+    im = stop_index(mask)
     for k in range(grid.shape[0]):
         if restart[k]:
             run = 0
@@ -175,22 +180,38 @@ def solve_grid(pw0, pr0, gidx, grid, mask, scale, last_w, last_r, nom_w, nom_r, 
                     start[i] = 2.0 * prev[ph, 2, i] - prev[ph, 1, i]
                 else:
                     start[i] = last[i]
+            sign = 1.0 if ph == 0 else -1.0
             conv = False
-            if use_chord and valid[ph]:
-                why, its = chord(start, p, mask, scale, CHORD_TOL, y, jac[ph], piv[ph], f, dy)
-                conv = why == 0
-                counts[why] += 1
-                if conv and its > REFRESH:  # slow contraction: the Jacobian has moved
-                    valid[ph] = newton_matrix(y, p, mask, scale, jac[ph], piv[ph], f, yt, ft)
+            if im >= 0 and start[im] == 0.0:
+                conv = end_stop(start, p, mask, scale, sign, y)
             if not conv:
-                counts[5] += 1
-                conv = steady(start, p, mask, scale, 1e-10, 60, y)[0] == 0
-                if not conv and run >= 2:
-                    conv = steady(last, p, mask, scale, 1e-10, 60, y)[0] == 0
+                if use_chord and valid[ph]:
+                    why, its = chord(start, p, mask, scale, CHORD_TOL, y, jac[ph], piv[ph], f,
+                                     dy)
+                    conv = why == 0
+                    counts[why] += 1
+                    if conv and its > REFRESH:  # slow contraction: the Jacobian has moved
+                        valid[ph] = newton_matrix(y, p, mask, scale, jac[ph], piv[ph], f, yt,
+                                                  ft)
                 if not conv:
-                    conv = steady(nom, p, mask, scale, 1e-10, 60, y)[0] == 0
-                if conv and use_chord:
-                    valid[ph] = newton_matrix(y, p, mask, scale, jac[ph], piv[ph], f, yt, ft)
+                    counts[5] += 1
+                    conv = steady(start, p, mask, scale, 1e-10, 60, y)[0] == 0
+                    if not conv and run >= 2:
+                        conv = steady(last, p, mask, scale, 1e-10, 60, y)[0] == 0
+                    if not conv:
+                        conv = steady(nom, p, mask, scale, 1e-10, 60, y)[0] == 0
+                    if conv and use_chord:
+                        valid[ph] = newton_matrix(y, p, mask, scale, jac[ph], piv[ph], f, yt,
+                                                  ft)
+                if im >= 0 and not (conv and sign * y[im] >= 0.0):
+                    moved = conv
+                    conv = moved and end_stop(y, p, mask, scale, sign, y)
+                    if not conv:
+                        conv = end_stop(start, p, mask, scale, sign, y)
+                    if not conv:
+                        conv = end_stop(last, p, mask, scale, sign, y)
+                    if not conv:
+                        conv = end_stop(nom, p, mask, scale, sign, y)
             if not conv:
                 done = False
                 break
