@@ -20,7 +20,7 @@ phase.  The piston then sits on its end stop, and the steady model gives that st
 the relief at rest, so a stalled record is predicted like any other.  Between the
 moving and the held state the readings have a kink (their slopes jump where the speed
 reaches 0), which no spline through it follows: an axis whose coarse nodes change state
-is split at the *ridge*, located by bisection to :data:`RIDGE_TOL` of the axis, and each
+is split at the *ridge*, bracketed to 8e-5 of the axis (:data:`RIDGE_ROUNDS`), and each
 side is mapped on its own nodes (:meth:`SignatureMaps._ridge_pieces`).  The velocity
 ratio is undefined where the return stroke is held and grows without bound as it
 stops; it is masked there and over the last coarse interval before such a ridge.  A
@@ -51,8 +51,9 @@ from sim.errors import SimulationError
 from sim.rigs import Condition, Rig
 from sim.steady import SteadyEvaluator
 
-__all__ = ["CREEP", "GRAPH_PARAMETERS", "OBSERVABLES", "RIDGE_TOL", "HypothesisMap", "SignatureMaps",
-           "evaluator", "held_state", "masked_pchip", "signature_maps", "stroke_states"]
+__all__ = ["CREEP", "GRAPH_PARAMETERS", "OBSERVABLES", "RIDGE_POINTS", "RIDGE_ROUNDS",
+           "HypothesisMap", "SignatureMaps", "evaluator", "held_state", "masked_pchip",
+           "signature_maps", "stroke_codes", "stroke_states"]
 
 Arr = npt.NDArray[np.float64]
 
@@ -65,8 +66,9 @@ OBSERVABLES: tuple[str, ...] = ("pump_pressure", "p1", "p2", "flow_B", "flow_C",
                                 "speed_work", "speed_return", "velocity_ratio")
 
 COARSE_1D, FINE_1D = 25, 241
-#: bisection of a moving/held ridge stops at this share of the axis [-]
-RIDGE_TOL = 1e-9
+#: a ridge between moving and held is bracketed by this many rounds of as many equally
+#: spaced solves inside the bracket (a coarse interval over 8³: 8e-5 of the axis) [-]
+RIDGE_ROUNDS, RIDGE_POINTS = 3, 7
 #: a stroke slower than this many switching speeds of the Coulomb friction law
 #: (``cylinder.v_s``, :func:`sim.components.cylinder.friction_force`) creeps: friction
 #: falls from ``Fu`` (tanh(4) = 0.9993) to 0 over that band, a second kink [-]
@@ -143,6 +145,32 @@ class HypothesisMap:
                           dtype=np.float64)
 
 
+_CREEP_SPEEDS: dict[int, tuple[Rig, float]] = {}
+
+
+def _creep_speed(rig: Rig) -> float:
+    """:data:`CREEP` times the rig's friction switching speed [m/s] (kept per rig)."""
+    hit = _CREEP_SPEEDS.get(id(rig))
+    if hit is None or hit[0] is not rig:
+        if len(_CREEP_SPEEDS) > 64:
+            _CREEP_SPEEDS.clear()
+        hit = (rig, CREEP * float(rig.base["cylinder.v_s"]))
+        _CREEP_SPEEDS[id(rig)] = hit
+    return hit[1]
+
+
+def stroke_codes(rows: Arr, creep: float) -> npt.NDArray[np.int64]:
+    """:func:`stroke_states` of each row of ``rows`` as one code, ``3·working + return``;
+    -1 for a row without prediction."""
+    w, r = rows[:, _SPEEDS[0]], rows[:, _SPEEDS[1]]
+    with np.errstate(invalid="ignore"):
+        ws = np.where(w == 0.0, 2, (w < creep).astype(np.int64))
+        rs = np.where(r == 0.0, 2, (r < creep).astype(np.int64))
+    code = 3 * ws + rs
+    code[~(np.isfinite(w) & np.isfinite(r))] = -1
+    return np.asarray(code, dtype=np.int64)
+
+
 def stroke_states(row: Arr, creep: float) -> tuple[int, int] | None:
     """State of the working and the return stroke of a row of predictions: 0 moving, 1
     creeping (slower than ``creep`` [m/s]), 2 held on its end stop (speed 0); None for a
@@ -216,44 +244,49 @@ class SignatureMaps:
     @property
     def _creep(self) -> float:
         """Speed below which a stroke counts as creeping [m/s] (:data:`CREEP` switching
-        speeds of the friction law)."""
-        return CREEP * float(self.rig.base["cylinder.v_s"])
+        speeds of the friction law; kept per rig)."""
+        return _creep_speed(self.rig)
 
-    def _state_at(self, p: FaultParameter, z: float) -> tuple[int, int] | None:
-        """:func:`stroke_states` of ``p`` at fitting coordinate ``z`` (one direct solve)."""
-        return stroke_states(self._solve_or_nan((p,), p.from_z(z)), self._creep)
+    def _states_on(self, p: FaultParameter, zs: Arr) -> npt.NDArray[np.int64]:
+        """:func:`stroke_codes` of ``p`` at fitting coordinates ``zs`` (direct solves)."""
+        return stroke_codes(np.array([self._solve_or_nan((p,), p.from_z(float(z)))
+                                      for z in zs]), self._creep)
 
     def _ridge_pieces(self, p: FaultParameter, zc: Arr, coarse: Arr
                       ) -> list[tuple[float, float, int]] | None:
         """The segments (start, end, nodes) of a piece whose coarse nodes change stroke
         state (:func:`stroke_states`: moving, creeping, held; module docstring), split at
-        each ridge; None when no adjacent nodes change state.  Each ridge is bracketed by
-        bisection to :data:`RIDGE_TOL` of the piece (a coarse interval may hold two: into
-        the creep band and onto the stop); each side keeps a share of the nodes in
+        each ridge; None when no adjacent nodes change state.  Each ridge is bracketed
+        by :data:`RIDGE_ROUNDS` rounds of :data:`RIDGE_POINTS` equally spaced solves
+        inside the bracket (one grid solve each; a coarse interval may hold two ridges:
+        into the creep band and onto the stop); each side keeps a share of the nodes in
         proportion to its length, 5 at least."""
-        creep = self._creep
-        states = [stroke_states(row, creep) for row in coarse]
-        tol = RIDGE_TOL * float(zc[-1] - zc[0])
+        states = stroke_codes(coarse, self._creep)
+        change = (states[:-1] != states[1:]) & (states[:-1] >= 0) & (states[1:] >= 0)
+        if not change.any():
+            return None
         cuts: list[tuple[float, float]] = []
-        for k in range(zc.size - 1):
-            a_st, end_st = states[k], states[k + 1]
-            if a_st is None or end_st is None:
-                continue
+        for k in np.flatnonzero(change):
+            a_st, end_st = int(states[k]), int(states[k + 1])
             a, end = float(zc[k]), float(zc[k + 1])
             for _ in range(3):  # at most: moving → creeping → held, and one spare
                 if a_st == end_st:
                     break
                 b, b_st = end, end_st
-                while b - a > tol:
-                    mid = 0.5 * (a + b)
-                    st = self._state_at(p, mid)
-                    if st is None:
+                for _ in range(RIDGE_ROUNDS):
+                    zs = np.linspace(a, b, RIDGE_POINTS + 2)[1:-1]
+                    sts = self._states_on(p, zs)
+                    other = np.flatnonzero(sts != a_st)
+                    if other.size == 0:
+                        a = float(zs[-1])
+                        continue
+                    j = int(other[0])
+                    if j > 0:
+                        a = float(zs[j - 1])
+                    b, b_st = float(zs[j]), int(sts[j])
+                    if b_st < 0:
                         break
-                    if st == a_st:
-                        a = mid
-                    else:
-                        b, b_st = mid, st
-                if b - a > tol:  # no operating point inside: no cut here
+                if b_st < 0:  # no operating point inside: no cut here
                     break
                 cuts.append((a, b))
                 a, a_st = b, b_st
@@ -268,26 +301,32 @@ class SignatureMaps:
             start = b
         return out
 
-    @staticmethod
-    def _mask_ratio_before_held_return(coarses: list[Arr]) -> None:
+    def _mask_ratio_before_held_return(self, coarses: list[Arr]) -> None:
         """The velocity ratio NaN at a moving node next to a held return stroke, along the
         nodes of consecutive pieces ``coarses`` (in place; it grows without bound there,
         module docstring)."""
-        rows = [(c, k) for c in coarses for k in range(c.shape[0])]
-        st = [held_state(c[k]) for c, k in rows]
-        for i, (c, k) in enumerate(rows):
-            if st[i] is None or st[i][1]:  # type: ignore[index]
-                continue
-            near = [st[j] for j in (i - 1, i + 1) if 0 <= j < len(st)]
-            if any(s is not None and s[1] for s in near):
-                c[k, _RATIO] = np.nan
+        code = stroke_codes(np.concatenate(coarses), self._creep)
+        held = (code >= 0) & (code % 3 == 2)
+        near = np.zeros(code.size, dtype=bool)
+        near[1:] |= held[:-1]
+        near[:-1] |= held[1:]
+        bad = np.flatnonzero(near & (code >= 0) & ~held)
+        if bad.size == 0:
+            return
+        ends = np.cumsum([c.shape[0] for c in coarses])
+        for i in bad:
+            piece = int(np.searchsorted(ends, i, side="right"))
+            row = int(i - (ends[piece - 1] if piece else 0))
+            coarses[piece][row, _RATIO] = np.nan
 
     @staticmethod
-    def _selection(zf: Arr, starts: list[float], k: int) -> npt.NDArray[np.bool_]:
-        """Fine points piece ``k`` of the pieces beginning at ``starts`` serves: from its
-        start (the first from −∞) to the next piece's start (the last to +∞)."""
-        lo = -math.inf if k == 0 else starts[k]
-        hi = math.inf if k == len(starts) - 1 else starts[k + 1]
+    def _selection(zf: Arr, ends: list[float], k: int) -> npt.NDArray[np.bool_]:
+        """Fine points piece ``k`` of the pieces ending at ``ends`` serves: from the end of
+        the piece before (the first from −∞) to its own end (the last to +∞).  Across a
+        ridge's bracket (8e-5 of the axis) the piece after it extrapolates back: on the
+        held side the speed stays exactly 0."""
+        lo = -math.inf if k == 0 else ends[k - 1]
+        hi = math.inf if k == len(ends) - 1 else ends[k]
         return np.asarray((zf >= lo) & (zf < hi))
 
     def _axis(self, p: FaultParameter, n: int) -> Arr:
@@ -312,10 +351,10 @@ class SignatureMaps:
                     pieces.append((zs, np.array([self._solve_or_nan(params, p.from_z(z))
                                                  for z in zs])))
             fine = np.empty((zf.size, len(OBSERVABLES)))
-            starts = [float(zc[0]) for zc, _ in pieces]
+            ends = [float(zc[-1]) for zc, _ in pieces]
             self._mask_ratio_before_held_return([coarse for _, coarse in pieces])
             for k, (zc, coarse) in enumerate(pieces):
-                sel = self._selection(zf, starts, k)
+                sel = self._selection(zf, ends, k)
                 fine[sel] = masked_pchip(zc, coarse, zf[sel])
             return HypothesisMap(hyp, params, [zf], fine)
         raise ValueError("maps are built for one parameter; pairs are fitted directly")

@@ -35,7 +35,7 @@ from diagnostics.signatures import (
     HypothesisMap,
     SignatureMaps,
     evaluator,
-    stroke_states,
+    stroke_codes,
 )
 from sim.cycle import phase_settings
 from sim.errors import SimulationError
@@ -318,10 +318,10 @@ class FastMaps(SignatureMaps):
                     out, good = self.ctx.solve(g, first)
                     solved.append((zs, self._retried(p, zs, out, good)))
             fine = np.empty((zf.size, len(OBSERVABLES)))
-            edges = [float(zc[0]) for zc, _ in solved]
+            ends = [float(zc[-1]) for zc, _ in solved]
             self._mask_ratio_before_held_return([coarse for _, coarse in solved])
             for k, (zc, coarse) in enumerate(solved):
-                sel = self._selection(zf, edges, k)
+                sel = self._selection(zf, ends, k)
                 part = np.empty((int(sel.sum()), len(OBSERVABLES)))
                 self.ctx.kernels.pchip_columns(zc, np.ascontiguousarray(coarse), zf[sel], part)
                 fine[sel] = part
@@ -335,17 +335,16 @@ class FastMaps(SignatureMaps):
             coarse[i] = self._solve_or_nan((p,), p.from_z(float(zc[i])))
         return coarse
 
-    def _state_at(self, p: FaultParameter, z: float) -> tuple[int, int] | None:
-        """:func:`~diagnostics.signatures.stroke_states` at ``z`` by one compiled solve
-        (the ridge bisection of :meth:`SignatureMaps._ridge_pieces`; not counted in
-        :attr:`Context.counts`, which describe the grids' solves)."""
-        _, g, first = _piece_rows(self.rig, p, self._base, z, z, 1)
+    def _states_on(self, p: FaultParameter, zs: Arr) -> npt.NDArray[np.int64]:
+        """:func:`~diagnostics.signatures.stroke_codes` at ``zs`` by one compiled grid
+        solve (the ridge bracketing of :meth:`SignatureMaps._ridge_pieces`; not counted
+        in :attr:`Context.counts`, which describe the maps' grids)."""
+        _, g, first = _piece_rows(self.rig, p, self._base, float(zs[0]), float(zs[-1]),
+                                  zs.size)
         counts = self.ctx.counts.copy()
         out, ok = self.ctx.solve(g, first)
         self.ctx.counts[:] = counts
-        if not ok[0]:
-            return super()._state_at(p, z)
-        return stroke_states(out[0], self._creep)
+        return stroke_codes(self._retried(p, zs, out, ok), self._creep)
 
     def moved_nominal(self, condition: Condition) -> Arr:
         """Healthy observables at a condition near this one (the σ of a record's condition

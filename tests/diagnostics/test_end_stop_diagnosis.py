@@ -41,3 +41,28 @@ def test_a_stalled_stroke_is_explained_and_its_leak_sized(graph: str, value: flo
     assert est.low <= value <= est.high
     assert any("end stop" in n for n in d.regime_notes)
     assert "Model limit" not in (d.fit.statement if d.fit else "")
+
+
+def test_maps_follow_direct_solves_across_the_stall_ridge() -> None:
+    """The seal and spool maps at a load the worn end cannot push: the held range is
+    mapped in its end-stop state (speed 0) and the interpolation follows direct solves
+    across the ridge and the creep band before it (split there, not smeared) to 1e-3 of
+    each reading's range."""
+    from diagnostics.fastpath.maps import fast_maps
+    from diagnostics.signatures import SignatureMaps
+    from sim.rigs import Condition
+
+    rig = reference_rig()
+    cond = Condition(load=4200.0, oil_temperature=55.0)
+    fast, direct = fast_maps(rig, cond), SignatureMaps(rig, cond)
+    for name in ("cylinder", "valve"):
+        hm = fast.maps[name]
+        assert 0.1 < hm.held[0] < 0.9  # both states inside the prior range
+        (p,) = hm.params
+        truth = np.array([direct.predict((p,), np.array([p.from_z(float(z))]))
+                          for z in hm.axes[0]])
+        assert np.isfinite(hm.pred).all() and np.isfinite(truth).all()
+        scale = np.max(np.abs(truth), axis=0)
+        err = np.abs(hm.pred - truth) / np.where(scale > 0, scale, 1.0)
+        assert float(err.max()) < 1e-3, (name, err.max(axis=0))
+        assert float(hm.pred[:, 6].min()) == 0.0  # held: speed exactly 0, never negative
