@@ -296,8 +296,8 @@ def main() -> None:
           "(no name given); 5xx = server errors, 422 = input errors; E[B*] = the Brier "
           "score the stated probabilities predict for themselves (mean 1 − Σp²; equal to "
           "Brier* when calibrated); ECE = expected calibration error of the reliability "
-          "table; 'moving' = cases whose piston moved in the transient cycle (the steady "
-          "model's domain)")
+          "table; 'moving' = cases whose piston moved in the transient cycle, 'stalled' = "
+          "those with a stroke that stalled or crept (fitted with the end-stop state)")
     rows, stalled = run_suites(n, rng)
     figures = report(rows)
     figures["in_library"] = headline(rows)

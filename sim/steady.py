@@ -29,8 +29,7 @@ other state is steady: the pump flow goes through the leak paths (piston clearan
 eq. 36 with ``ẋ = 0``; spool, pump) and over the relief valve (eq. 6).  That *end-stop
 state* is solved here by the same Newton, with the piston's inertia state (its velocity)
 frozen at zero (its equation, whose residual is then the net force on the held piston
-over its mass, dropped)
-and the position at the stop.  It is the phase's operating point when the moving
+over its mass, dropped) and the position at the stop.  It is the phase's operating point when the moving
 solution runs backwards or fails, and the held piston is pressed *into* the stop (net
 force against the commanded direction, :func:`stop_force` ≥ 0); the point is flagged
 (:attr:`SteadyPoint.end_stop`), its speed is 0.
