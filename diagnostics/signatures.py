@@ -47,6 +47,14 @@ import numpy.typing as npt
 from scipy.interpolate import PchipInterpolator
 
 from diagnostics.hypotheses import HYPOTHESES, PARAMETERS, FaultParameter, Hypothesis
+from diagnostics.stroke_state import (
+    CREEP,
+    SPEED_COLUMNS,
+    creep_speed,
+    held_state,
+    stroke_codes,
+    stroke_states,
+)
 from sim.errors import SimulationError
 from sim.rigs import Condition, Rig
 from sim.steady import SteadyEvaluator
@@ -69,12 +77,10 @@ COARSE_1D, FINE_1D = 25, 241
 #: a ridge between moving and held is bracketed by this many rounds of as many equally
 #: spaced solves inside the bracket (a coarse interval over 8³: 8e-5 of the axis) [-]
 RIDGE_ROUNDS, RIDGE_POINTS = 3, 7
-#: a stroke slower than this many switching speeds of the Coulomb friction law
-#: (``cylinder.v_s``, :func:`sim.components.cylinder.friction_force`) creeps: friction
-#: falls from ``Fu`` (tanh(4) = 0.9993) to 0 over that band, a second kink [-]
-CREEP = 4.0
 #: columns of the working and return speeds in :data:`OBSERVABLES` (0 on the end stop)
 _SPEEDS = (OBSERVABLES.index("speed_work"), OBSERVABLES.index("speed_return"))
+if _SPEEDS != SPEED_COLUMNS:  # the stroke-state functions read the speeds there
+    raise ImportError("diagnostics.stroke_state.SPEED_COLUMNS is out of step with OBSERVABLES")
 _RATIO = OBSERVABLES.index("velocity_ratio")
 
 _EVALUATORS: OrderedDict[tuple[int, Condition], Any] = OrderedDict()
@@ -145,52 +151,6 @@ class HypothesisMap:
                           dtype=np.float64)
 
 
-_CREEP_SPEEDS: dict[int, tuple[Rig, float]] = {}
-
-
-def _creep_speed(rig: Rig) -> float:
-    """:data:`CREEP` times the rig's friction switching speed [m/s] (kept per rig)."""
-    hit = _CREEP_SPEEDS.get(id(rig))
-    if hit is None or hit[0] is not rig:
-        if len(_CREEP_SPEEDS) > 64:
-            _CREEP_SPEEDS.clear()
-        hit = (rig, CREEP * float(rig.base["cylinder.v_s"]))
-        _CREEP_SPEEDS[id(rig)] = hit
-    return hit[1]
-
-
-def stroke_codes(rows: Arr, creep: float) -> npt.NDArray[np.int64]:
-    """:func:`stroke_states` of each row of ``rows`` as one code, ``3·working + return``;
-    -1 for a row without prediction."""
-    w, r = rows[:, _SPEEDS[0]], rows[:, _SPEEDS[1]]
-    with np.errstate(invalid="ignore"):
-        ws = np.where(w == 0.0, 2, (w < creep).astype(np.int64))
-        rs = np.where(r == 0.0, 2, (r < creep).astype(np.int64))
-    code = 3 * ws + rs
-    code[~(np.isfinite(w) & np.isfinite(r))] = -1
-    return np.asarray(code, dtype=np.int64)
-
-
-def stroke_states(row: Arr, creep: float) -> tuple[int, int] | None:
-    """State of the working and the return stroke of a row of predictions: 0 moving, 1
-    creeping (slower than ``creep`` [m/s]), 2 held on its end stop (speed 0); None for a
-    row without prediction."""
-    st = held_state(row)
-    if st is None:
-        return None
-    w, r = (float(row[i]) for i in _SPEEDS)
-    return (2 if st[0] else int(w < creep)), (2 if st[1] else int(r < creep))
-
-
-def held_state(row: Arr) -> tuple[bool, bool] | None:
-    """Whether the working and the return piston of a row of predictions sit on their end
-    stops (speed exactly 0, :mod:`sim.steady`); None for a row without prediction."""
-    w, r = float(row[_SPEEDS[0]]), float(row[_SPEEDS[1]])
-    if not (math.isfinite(w) and math.isfinite(r)):
-        return None
-    return w == 0.0, r == 0.0
-
-
 class SignatureMaps:
     """Signature maps of every hypothesis for one rig at one condition."""
 
@@ -245,7 +205,7 @@ class SignatureMaps:
     def _creep(self) -> float:
         """Speed below which a stroke counts as creeping [m/s] (:data:`CREEP` switching
         speeds of the friction law; kept per rig)."""
-        return _creep_speed(self.rig)
+        return creep_speed(self.rig)
 
     def _states_on(self, p: FaultParameter, zs: Arr) -> npt.NDArray[np.int64]:
         """:func:`stroke_codes` of ``p`` at fitting coordinates ``zs`` (direct solves)."""
