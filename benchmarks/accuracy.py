@@ -34,8 +34,9 @@ it was the truth (:mod:`benchmarks.accuracy_report`); a reliability table (state
 probability vs observed top-1 frequency, by decile) over the in-library suites with its
 expected calibration error, and the Brier score the stated probabilities predict for
 themselves (mean of 1 − Σp², equal to the observed Brier when they are calibrated); a
-headline table of the in-library cases per sensor set, all of them and those whose
-piston moved.  Nothing here tunes anything.
+headline table of the in-library cases per sensor set, all of them, those whose piston
+moved and those with a stroke that stalled or crept (figures in
+:mod:`benchmarks.accuracy_figures`).  Nothing here tunes anything.
 
 Prints tables and, as the last line, a JSON object.  ``HYDRODIAG_LIGHT=1`` runs a light form
 (CI).
@@ -62,6 +63,11 @@ from benchmarks.accuracy_cases import (
     noisy,
     stated_condition,
     transient_readings,
+)
+from benchmarks.accuracy_figures import (
+    headline,
+    reliability,
+    summarise,
 )
 from benchmarks.accuracy_report import (
     confusions,
@@ -216,78 +222,6 @@ def commissioning_suite(seeds: int, rng: np.random.Generator) -> dict[str, Any]:
                               for k, v in hits.items()}}
 
 
-def _mean(rows: list[dict[str, Any]], key: str) -> float:
-    vals = [r[key] for r in rows if r["error"] is None]
-    return float(np.mean(vals)) if vals else float("nan")
-
-
-def summarise(rows: list[dict[str, Any]]) -> dict[str, Any]:
-    ok = [r for r in rows if r["error"] is None]
-    out: dict[str, Any] = {
-        "n": len(rows), "server_errors": sum(1 for r in rows if (r["error"] or "").startswith(
-            "server")), "input_errors": sum(1 for r in rows if r["error"] == "input")}
-    if not ok:
-        return out
-    out |= {"top1": _mean(rows, "top1"), "top1_grouped": _mean(rows, "top1_grouped"),
-            "truth_in_ambiguity_set": _mean(rows, "in_set"), "brier": _mean(rows, "brier"),
-            "brier_grouped": _mean(rows, "brier_grouped"),
-            "brier_expected_grouped": _mean(rows, "brier_expected_grouped"),
-            "not_explained": 1.0 - _mean(rows, "explained")}
-    stalled = [r for r in ok if r["stalled"]]
-    if stalled:
-        out |= {"stalled": len(stalled), "stalled_not_explained": 1.0 - _mean(stalled,
-                                                                              "explained")}
-    return out
-
-
-def reliability(rows: list[dict[str, Any]]) -> list[list[float]]:
-    """[lo, hi, n, mean stated p_top, observed top-1 (grouped)] by decile."""
-    ok = [r for r in rows if r["error"] is None and r["explained"]]
-    p = np.array([r["p_top"] for r in ok])
-    hit = np.array([r["top1_grouped"] for r in ok])
-    out = []
-    for lo in np.arange(0.0, 1.0, 0.1):
-        hi = lo + 0.1
-        sel = (p >= lo) & ((p < hi) if hi < 0.999 else (p <= 1.0))
-        if sel.any():
-            out.append([round(float(lo), 1), round(float(hi), 1), int(sel.sum()),
-                        round(float(p[sel].mean()), 3), round(float(hit[sel].mean()), 3)])
-    return out
-
-
-def calibration_error(rel: list[list[float]]) -> float:
-    """Expected calibration error of a reliability table: Σ_bins n_b |p̄_b − f_b| / N."""
-    n = sum(r[2] for r in rel)
-    return float(sum(r[2] * abs(r[3] - r[4]) for r in rel) / n) if n else float("nan")
-
-
-def headline(rows: dict[str, list[dict[str, Any]]]) -> dict[str, Any]:
-    """In-library figures per sensor set over both rigs: all cases, the cases whose piston
-    moved (the steady model's domain), the misses by reason, the reliability's error."""
-    out: dict[str, Any] = {}
-    print("\nin-library cases (preset and differential rigs), per sensor set:")
-    print(f"{'sensor set':16s} {'cases':>10s} {'top-1':>6s} {'top-1*':>6s} {'in amb':>6s} "
-          f"{'Brier*':>6s} {'E[B*]':>6s} {'misfit':>6s} {'ECE':>6s}  misses by reason")
-    for sname, rs in rows.items():
-        sel = [r for r in rs if r["in_library"]]
-        ece = calibration_error(reliability(sel))
-        reasons = miss_reasons(sel)
-        out[sname] = {"all": summarise(sel),
-                      "moving": summarise([r for r in sel if not r["stalled"]]),
-                      "miss_reasons": reasons, "calibration_error": ece}
-        for part in ("all", "moving"):
-            f = out[sname][part]
-            if "top1" not in f:
-                continue
-            print(f"{sname:16s} {part + ' ' + str(f['n']):>10s} " + " ".join(
-                f"{f[k]:6.3f}" for k in ("top1", "top1_grouped", "truth_in_ambiguity_set",
-                                         "brier_grouped", "brier_expected_grouped",
-                                         "not_explained"))
-                  + (f" {ece:6.3f}  " + ", ".join(f"{k} {v}" for k, v in reasons.items())
-                     if part == "all" else ""))
-    return out
-
-
 def report(rows: dict[str, list[dict[str, Any]]]) -> dict[str, Any]:
     figures: dict[str, Any] = {}
     suites = sorted({r["suite"] for rs in rows.values() for r in rs},
@@ -362,8 +296,8 @@ def main() -> None:
           "(no name given); 5xx = server errors, 422 = input errors; E[B*] = the Brier "
           "score the stated probabilities predict for themselves (mean 1 − Σp²; equal to "
           "Brier* when calibrated); ECE = expected calibration error of the reliability "
-          "table; 'moving' = cases whose piston moved in the transient cycle (the steady "
-          "model's domain)")
+          "table; 'moving' = cases whose piston moved in the transient cycle, 'stalled' = "
+          "those with a stroke that stalled or crept (fitted with the end-stop state)")
     rows, stalled = run_suites(n, rng)
     figures = report(rows)
     figures["in_library"] = headline(rows)

@@ -6,17 +6,17 @@
   probabilities the diagnosis stated for a hypothesis over all cases against the number of
   cases in which it was the truth (equal when the stated probabilities are calibrated);
 * :func:`miss_reasons` — each grouped top-1 miss of an in-library case classified by
-  why it was missed: ``stalled`` (model limit: the piston stalled on its end stop in the
-  transient cycle, a state the steady signature maps do not have — they predict a piston
-  driven backwards there and mask it — so the diagnosis answers "not explained");
-  ``unexplained`` (the piston moved but no hypothesis passed the χ² test);
+  why it was missed: ``stalled`` (a stroke stalled or crept in the transient cycle and
+  no hypothesis passed the χ² test, the end-stop state of the steady model included:
+  a model limit); ``unexplained`` (the piston moved but no hypothesis passed the χ²
+  test);
   ``not_separable`` (physics: the truth passes the χ² test, it is in the stated
   ambiguity set, and another hypothesis was more probable — these readings cannot
   reject either); ``rejected`` (the truth failed the χ² test while another passed:
   a model mismatch between the transient and the steady model, or an evidence error);
 * :func:`moving_figures` — the in-library figures without the cases whose piston stalled
-  or crept (a state the steady model of the fault library does not have, so "not
-  explained" is the right answer there).
+  or crept (fitted with the end-stop state of the steady model; shown apart so that the
+  moving cases' figures compare with earlier studies).
 """
 
 from __future__ import annotations
@@ -34,10 +34,8 @@ REASONS = ("stalled", "unexplained", "not_separable", "rejected")
 
 def miss_reason(row: dict[str, Any]) -> str:
     """Why an in-library case was missed (one of :data:`REASONS`; module docstring)."""
-    if row["stalled"]:
-        return "stalled"
     if not row["explained"]:
-        return "unexplained"
+        return "stalled" if row["stalled"] else "unexplained"
     return "not_separable" if row["in_set"] else "rejected"
 
 

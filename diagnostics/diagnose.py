@@ -68,8 +68,9 @@ class Diagnosis:
         Goodness of fit of the best hypothesis (:mod:`diagnostics.goodness`); when it
         fails, no fault is named.
     regime_notes
-        Stall, creep and end-stop states met by the maps: which hypothesis values were
-        masked because the piston stalls there, and whether the healthy rig does.
+        End-stop states met by the maps (which hypothesis values hold the piston on its
+        stop, predicted in that state, and whether the healthy rig's does) and the values
+        masked for want of a prediction.
     """
 
     rig: str
@@ -177,8 +178,8 @@ def diagnose(rig: Rig, records: Sequence[MeasurementRecord], *, model_rel: float
         ranker = Ranker(rig, obs, model_rel, method)
     except SimulationError as exc:
         raise MeasurementError(
-            "the rig has no steady operating point at this condition even when healthy (the "
-            f"piston stalls or sits on its end stop): {exc}; check the load and oil "
+            "the rig has no steady operating point at this condition even when healthy "
+            f"(neither moving nor held on its end stop): {exc}; check the load and oil "
             "temperature against the rig", field="condition") from None
     fits = ranker.rank()
     iso = isolability(ranker, fits, model_rel)
@@ -210,26 +211,45 @@ def diagnose(rig: Rig, records: Sequence[MeasurementRecord], *, model_rel: float
 
 
 def regime_notes(ranker: Ranker) -> list[str]:
-    """Statements of the stall / no-operating-point states the maps met (masked values)."""
+    """Statements of the end-stop states (a stalled stroke, modelled: :mod:`sim.steady`)
+    and of the values without prediction (masked) the maps met."""
     out: list[str] = []
+    iw, ir = OBSERVABLES.index("speed_work"), OBSERVABLES.index("speed_return")
     for i, m in enumerate(ranker.models):
         where = f"record {i}: " if len(ranker.models) > 1 else ""
         nominal = m.maps.nominal
-        if not np.isfinite(nominal).all():
-            out.append(f"{where}the healthy rig's return stroke stalls at this condition "
-                       "(no velocity ratio); a record's ratio is compared as impossible")
-        elif nominal[OBSERVABLES.index("speed_work")] <= 0.0:
-            out.append(f"{where}the healthy rig's piston does not advance in the working "
-                       "phase at this condition (load at or above stall)")
+        if nominal[iw] == 0.0:
+            out.append(f"{where}the healthy rig's working piston sits on its end stop at this "
+                       "condition (load at or above what it can push): predicted in its "
+                       "end-stop state, speed 0")
+        if nominal[ir] == 0.0:
+            out.append(f"{where}the healthy rig's return stroke sits on its end stop at this "
+                       "condition (no velocity ratio); a record's ratio is compared as "
+                       "impossible")
+        elif not np.isfinite(nominal).all():
+            out.append(f"{where}the healthy rig has no steady operating point at this "
+                       "condition; readings without prediction are compared as impossible")
+        # the pressures and flows are the working phase's: its stop concerns every record
+        reads_return = bool(np.isin(m.idx, (ir, OBSERVABLES.index("velocity_ratio"))).any())
         for name, hm in m.maps.maps.items():
+            (p,) = hm.params
+            for col, phase in ((iw, "working"), (ir, "return")):
+                held = hm.pred[:, col] == 0.0
+                if held.any() and (phase == "working" or reads_return):
+                    vals = np.array([p.from_z(float(z)) for z in hm.axes[0][held]])
+                    out.append(
+                        f"{where}{name}: for {p.name} from {vals.min():.4g} to "
+                        f"{vals.max():.4g} {p.unit} ({held.mean():.0%} of its prior range) "
+                        f"the {phase} piston sits on its end stop (stalled); predicted in "
+                        "that state (speed 0, the pump's flow through the leakage paths and "
+                        "over the relief valve)")
             bad = np.isnan(hm.pred[:, m.idx]).any(axis=1)
             if not bad.any():
                 continue
-            (p,) = hm.params
             vals = np.array([p.from_z(float(z)) for z in hm.axes[0][bad]])
             out.append(
                 f"{where}{name}: for {p.name} from {vals.min():.4g} to {vals.max():.4g} "
-                f"{p.unit} ({bad.mean():.0%} of its prior range) the piston stalls or has no "
-                "steady operating point, so these readings have no prediction there; those "
-                "values are masked (excluded) in the fit")
+                f"{p.unit} ({bad.mean():.0%} of its prior range) these readings have no "
+                "prediction (a velocity ratio with the return stroke on its end stop, or no "
+                "steady operating point); those values are masked (excluded) in the fit")
     return out

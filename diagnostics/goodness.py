@@ -15,16 +15,17 @@ standard uncertainties, and points to the discrepancy workflow (``hydrodiag disc
 ``POST /discrepancy``) and to commissioning (``POST /rigs/{id}/commission``,
 ``hydrodiag commission``) instead of naming a fault.
 
-A limit of the steady model is stated there too.  Where the load is more than the rig
-can hold (a seal or spool worn far, a hot differential cylinder at high load), the
-steady operating point of the working phase has the piston driven *backwards* by the
-load; a real piston (and the transient model, :func:`sim.cycle.run_cycle`) instead stalls
-on its end stop, where the pump's flow goes through the leakage paths and the relief
-valve.  The signature maps have no such end-stop state, so a record of a stalled stroke
-is not explained by any hypothesis.  When the most probable fit's working speed is
-negative and the record shows no working motion (no working speed, or one within 3 σ of
-zero), the statement says so (:func:`stall_limit`): the readings look like a stalled piston, which
-this diagnosis cannot explain; repeat the test at a lower load or oil temperature.
+Stalled strokes are fitted like any other.  Where the load is more than the (worn) rig
+can push, the piston sits on its end stop, where the pump's flow goes through the leakage
+paths and over the relief valve; the steady model has that end-stop state
+(:mod:`sim.steady`, *End stops*) and the signature maps and fits predict it (speed 0), so
+the leak sizes are estimated from a stalled record's pressures and flows.  Only when
+even that does not explain the readings of a record that shows no working motion (no
+working speed, or one within 3 σ of zero) while the most probable fit holds its piston
+on the stop too does the statement add a model limit (:func:`stall_limit`): the stalled
+rig is not described by the rig model's end-stop state and its fault library (a load or
+relief setting off its stated value, a fault beyond the library); repeat the test at a
+lower load or oil temperature, where the piston moves.
 """
 
 from __future__ import annotations
@@ -136,14 +137,15 @@ def _disagreements(ranker: Ranker, fit: HypothesisFit) -> list[Disagreement]:
 
 
 def stall_limit(ranker: Ranker, fit: HypothesisFit) -> list[int]:
-    """Records whose readings look like a piston stalled on its end stop (module
-    docstring): ``fit`` drives the piston backwards there (predicted working speed < 0)
-    and the record shows no working motion (no working speed, or one within
-    :data:`DISAGREE_SIGMA` standard uncertainties of zero)."""
+    """Records that show a stalled piston the end-stop state does not explain (module
+    docstring): ``fit`` holds the piston on its end stop there (predicted working speed
+    0) and the record shows no working motion (no working speed, or one within
+    :data:`DISAGREE_SIGMA` standard uncertainties of zero).  Called when the fit is not
+    explained."""
     out = []
     for i, (m, pred) in enumerate(zip(ranker.models, fit.predicted, strict=True)):
         v = float(pred.get("speed_work", math.nan))
-        if not (math.isfinite(v) and v < 0.0):
+        if v != 0.0:
             continue
         names = list(m.obs.names)
         if "speed_work" in names:
@@ -191,9 +193,11 @@ def goodness_of_fit(ranker: Ranker, fits: list[HypothesisFit], level: float = TE
                 " (records " + ", ".join(map(str, stalled)) + ")"
             statement += (
                 f" Model limit{which}: the record shows no working motion and the most "
-                "probable fit has the load drive the piston backwards — a piston stalled on its end stop, "
-                "a state the steady model of the fault library does not represent; repeat "
-                "the test at a lower load or oil temperature, where the piston moves.")
+                "probable fit holds the piston on its end stop too, yet the readings of "
+                "that stalled state (the pump's flow through the leakage paths and over "
+                "the relief valve) are not those of the rig model and its fault library; "
+                "repeat the test at a lower load or oil temperature, where the piston "
+                "moves.")
     return GoodnessOfFit(best.name, float(best.chi2), dof, level, limit, p, explained, dis,
                          statement)
 

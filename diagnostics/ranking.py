@@ -31,8 +31,8 @@ hypotheses (:func:`diagnostics.evidence.posterior`).
 Two ways to the same numbers (``Ranker(..., method=)``): ``"fast"`` (default) builds the
 maps and runs the pair fits and profiles in compiled code (:mod:`diagnostics.fastpath`,
 one call per fit), ``"direct"`` one Python model evaluation at a time
-(:mod:`diagnostics.pair_direct`).  Both return numbers only; the evidences
-(:func:`laplace_evidence`, :func:`profile_evidence`, the single-fault integral) and the
+(:mod:`diagnostics.pair_direct`).  Both return numbers only; the evidences (the pairs'
+in :mod:`diagnostics.pair_evidence`, the single-fault integral here) and the
 probabilities are computed here and in :mod:`diagnostics.evidence`, once, for both.
 Both use the one likelihood of :class:`diagnostics.record_model.RecordModel` (residuals
 whitened by the record's correlated covariance).
@@ -46,13 +46,13 @@ from typing import Literal
 
 import numpy as np
 import numpy.typing as npt
-from scipy.special import ndtr
 
 from diagnostics.evidence import acting_relief_setting, posterior
 from diagnostics.fastpath.fits import PairProblem, RecordPack, pair_problem, record_pack
 from diagnostics.hypotheses import HYPOTHESES, PARAMETERS, FaultParameter, Hypothesis
 from diagnostics.observations import RecordObservations
 from diagnostics.pair_direct import MASKED, levenberg_marquardt, profile_points
+from diagnostics.pair_evidence import laplace_evidence, profile_evidence
 from diagnostics.record_model import RecordModel
 from sim.errors import SimulationError
 from sim.rigs import Rig
@@ -93,62 +93,6 @@ def severity(param: FaultParameter, value: float, nominal: float) -> tuple[float
     label = "none" if mult < 1.33 else "mild" if mult < 2.2 else \
         "moderate" if mult < 4.1 else "severe"
     return mult, label
-
-
-def laplace_evidence(cost: float, jac: Arr, z: Arr, zl: Arr, zu: Arr
-                     ) -> tuple[float, Arr, Arr]:
-    """ln Z of a pair by the Laplace approximation at the estimate ``z``, with the posterior
-    mass truncated at the bounds ``zl``, ``zu``; also the covariance and standard deviations
-    (a zero one replaced by the range) from the Gauss-Newton Hessian ``JᵀJ``.
-
-    The Occam factor is capped at 0: a flat likelihood cannot beat its prior.
-    """
-    span = zu - zl
-    h = jac.T @ jac
-    # the regularised 2×2 Hessian inverted in closed form (positive definite: its
-    # pseudo-inverse, without an SVD per fit); det(JᵀJ) by Cauchy-Binet, a sum of squared
-    # 2×2 minors of J, so a near-collinear pair loses no digits to cancellation
-    eps = 1e-12 * max(float(h[0, 0] + h[1, 1]), 1e-30)
-    a, b, c, d = float(h[0, 0]) + eps, float(h[0, 1]), float(h[1, 0]), float(h[1, 1]) + eps
-    minors = np.outer(jac[:, 0], jac[:, 1]) - np.outer(jac[:, 1], jac[:, 0])
-    det = 0.5 * float(np.sum(minors * minors)) + eps * (a + d - 2.0 * eps) + eps * eps
-    logdet = math.nan  # ln det cov
-    if det > 0.0 and math.isfinite(det):
-        cov: Arr = np.array([[d / det, -b / det], [-c / det, a / det]])
-        logdet = -math.log(det)
-    else:
-        cov = np.asarray(np.linalg.pinv(np.array([[a, b], [c, d]])), dtype=np.float64)
-    sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
-    sd = np.where(sd > 0, sd, span)
-    mass = float(np.prod(ndtr((zu - z) / sd) - ndtr((zl - z) / sd)))
-    if not math.isfinite(logdet):
-        logdet = float(np.sum(np.log(sd**2)))
-    occam = math.log(2 * math.pi) + 0.5 * logdet + math.log(max(mass, 1e-300)) \
-        - float(np.sum(np.log(span)))
-    occam = min(occam, 0.0)  # a flat likelihood cannot beat its prior
-    return -0.5 * cost + occam, cov, sd
-
-
-def profile_evidence(grid: Arr, chi2: Arr, hss: Arr, zs: Arr, zl: Arr, zu: Arr, weak: int
-                     ) -> float:
-    """ln Z of a pair from its profile along the weak axis: at each ``grid`` point the
-    profiled ``chi2``, the curvature ``hss`` (JᵀJ) and the strong coordinate ``zs``; a
-    bound-truncated Laplace width across (capped at the prior), a trapezoid along."""
-    strong = 1 - weak
-    span = zu - zl
-    logs = np.empty(grid.size)
-    for k in range(grid.size):
-        if hss[k] > 0:
-            sd = 1.0 / math.sqrt(float(hss[k]))
-            mass = float(ndtr((zu[strong] - zs[k]) / sd) - ndtr((zl[strong] - zs[k]) / sd))
-            across = math.log(math.sqrt(2 * math.pi) * sd * max(mass, 1e-300) / span[strong])
-        else:
-            across = 0.0
-        logs[k] = -0.5 * float(chi2[k]) + min(across, 0.0)
-    top = float(logs.max())
-    w = np.exp(logs - top)
-    integral = float(np.sum(0.5 * (w[1:] + w[:-1]) * np.diff(grid))) / span[weak]
-    return top + math.log(max(integral, 1e-300))
 
 
 @dataclass

@@ -32,7 +32,7 @@ from diagnostics.evidence import whitening
 from diagnostics.fastpath.maps import FastMaps, fast_maps, nominal_observables
 from diagnostics.observations import RecordObservations, condition_sigma
 from diagnostics.signatures import OBSERVABLES, SignatureMaps, evaluator, signature_maps
-from sim.errors import SimulationError
+from sim.errors import MeasurementError, SimulationError
 from sim.rigs import Condition, Rig
 
 __all__ = ["RecordModel"]
@@ -93,6 +93,15 @@ class RecordModel:
                          for s in (step, -step)]
             terms.append(self._condition_term(rig, pred, moved) * u_f)
         self.sigma, self.white = whitening(diag, terms)
+        for name, value, sig in zip(obs.names, obs.values, self.sigma, strict=True):
+            if not sig > 0.0:
+                # a speed or velocity ratio of 0 (a stroke that did not move) read by an
+                # instrument whose uncertainty is relative, where no model term adds any
+                raise MeasurementError(
+                    f"the reading {float(value):g} has zero standard uncertainty (the "
+                    "instrument's uncertainty is relative and nothing else is uncertain "
+                    "here); a stroke that does not move has no speed or velocity ratio to "
+                    "read: leave the reading out, or state its uncertainty", field=name)
 
     def _condition_term(self, rig: Rig, pred: Arr, moved: list[tuple[Condition, float]]
                         ) -> Arr:

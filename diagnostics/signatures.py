@@ -14,16 +14,24 @@ readings wherever the piston still moves (tested against direct solves), far und
 instruments' 0.25-1 %.
 
 Stall, creep and end stops: on some rigs (a hot differential cylinder at the worn end of
-the clearance range, a heavy load) the piston stops or runs backwards in a phase.  The
-signed speeds stay smooth through that, but the velocity ratio is undefined where the
-return stroke stalls, and a grid point may have no steady operating point at all.  Such
-points are *masked*: their predictions are NaN, the interpolation runs over the valid
-points only, and a fine point is valid only when both coarse points around it are.  The
-likelihood treats a masked prediction as impossible for a record that reads it
-(:mod:`diagnostics.ranking`), and :attr:`HypothesisMap.masked` states which share of the
-prior range was masked.  Two-parameter hypotheses are not mapped: tensor-product splines
-over 11 × 11 points erred by up to 2.5 % near the stall ridge, so pairs are fitted by
-direct solves instead (:mod:`diagnostics.ranking`).
+the clearance range, a heavy load) the load is more than the worn rig can push in a
+phase.  The piston then sits on its end stop, and the steady model gives that state
+(:mod:`sim.steady`, *End stops*): speed 0, the pressures and flows of the leak paths and
+the relief at rest, so a stalled record is predicted like any other.  Between the
+moving and the held state the readings have a kink (their slopes jump where the speed
+reaches 0), which no spline through it follows: an axis whose coarse nodes change state
+is split at the *ridge*, bracketed to 8e-5 of the axis (:data:`RIDGE_ROUNDS`), and each
+side is mapped on its own nodes (:meth:`SignatureMaps._ridge_pieces`).  The velocity
+ratio is undefined where the return stroke is held and grows without bound as it
+stops; it is masked there and over the last coarse interval before such a ridge.  A
+grid point with no operating point at all (neither moving nor held) is *masked* too:
+its predictions are NaN, the interpolation runs over the valid points only, and a fine
+point is valid only when both coarse points around it are.  The likelihood treats a
+masked prediction as impossible for a record that reads it (:mod:`diagnostics.ranking`),
+and :attr:`HypothesisMap.masked` states which share of the prior range was masked;
+:attr:`HypothesisMap.held` which share has a piston on its stop.  Two-parameter
+hypotheses are not mapped: tensor-product splines over 11 × 11 points erred by up to
+2.5 % near the stall ridge, so pairs are fitted by direct solves instead (:mod:`diagnostics.ranking`).
 """
 
 from __future__ import annotations
@@ -39,12 +47,21 @@ import numpy.typing as npt
 from scipy.interpolate import PchipInterpolator
 
 from diagnostics.hypotheses import HYPOTHESES, PARAMETERS, FaultParameter, Hypothesis
+from diagnostics.stroke_state import (
+    CREEP,
+    SPEED_COLUMNS,
+    creep_speed,
+    held_state,
+    stroke_codes,
+    stroke_states,
+)
 from sim.errors import SimulationError
 from sim.rigs import Condition, Rig
 from sim.steady import SteadyEvaluator
 
-__all__ = ["GRAPH_PARAMETERS", "OBSERVABLES", "HypothesisMap", "SignatureMaps",
-           "evaluator", "masked_pchip", "signature_maps"]
+__all__ = ["CREEP", "GRAPH_PARAMETERS", "OBSERVABLES", "RIDGE_POINTS", "RIDGE_ROUNDS",
+           "HypothesisMap", "SignatureMaps", "evaluator", "held_state", "masked_pchip",
+           "signature_maps", "stroke_codes", "stroke_states"]
 
 Arr = npt.NDArray[np.float64]
 
@@ -57,6 +74,14 @@ OBSERVABLES: tuple[str, ...] = ("pump_pressure", "p1", "p2", "flow_B", "flow_C",
                                 "speed_work", "speed_return", "velocity_ratio")
 
 COARSE_1D, FINE_1D = 25, 241
+#: a ridge between moving and held is bracketed by this many rounds of as many equally
+#: spaced solves inside the bracket (a coarse interval over 8³: 8e-5 of the axis) [-]
+RIDGE_ROUNDS, RIDGE_POINTS = 3, 7
+#: columns of the working and return speeds in :data:`OBSERVABLES` (0 on the end stop)
+_SPEEDS = (OBSERVABLES.index("speed_work"), OBSERVABLES.index("speed_return"))
+if _SPEEDS != SPEED_COLUMNS:  # the stroke-state functions read the speeds there
+    raise ImportError("diagnostics.stroke_state.SPEED_COLUMNS is out of step with OBSERVABLES")
+_RATIO = OBSERVABLES.index("velocity_ratio")
 
 _EVALUATORS: OrderedDict[tuple[int, Condition], Any] = OrderedDict()
 _MAPS: OrderedDict[tuple[int, Condition], Any] = OrderedDict()
@@ -118,6 +143,13 @@ class HypothesisMap:
         steady operating point) [-]."""
         return np.asarray(np.mean(np.isnan(self.pred), axis=0), dtype=np.float64)
 
+    @property
+    def held(self) -> Arr:
+        """Share of the fine grid with the piston on its end stop in the working and in
+        the return phase [-] (two values)."""
+        return np.asarray(np.mean(self.pred[:, list(_SPEEDS)] == 0.0, axis=0),
+                          dtype=np.float64)
+
 
 class SignatureMaps:
     """Signature maps of every hypothesis for one rig at one condition."""
@@ -169,6 +201,94 @@ class SignatureMaps:
                 return [(z_lo, kink, COARSE_1D), (kink, z_hi, 5)]
         return [(z_lo, z_hi, COARSE_1D)]
 
+    @property
+    def _creep(self) -> float:
+        """Speed below which a stroke counts as creeping [m/s] (:data:`CREEP` switching
+        speeds of the friction law; kept per rig)."""
+        return creep_speed(self.rig)
+
+    def _states_on(self, p: FaultParameter, zs: Arr) -> npt.NDArray[np.int64]:
+        """:func:`stroke_codes` of ``p`` at fitting coordinates ``zs`` (direct solves)."""
+        return stroke_codes(np.array([self._solve_or_nan((p,), p.from_z(float(z)))
+                                      for z in zs]), self._creep)
+
+    def _ridge_pieces(self, p: FaultParameter, zc: Arr, coarse: Arr
+                      ) -> list[tuple[float, float, int]] | None:
+        """The segments (start, end, nodes) of a piece whose coarse nodes change stroke
+        state (:func:`stroke_states`: moving, creeping, held; module docstring), split at
+        each ridge; None when no adjacent nodes change state.  Each ridge is bracketed
+        by :data:`RIDGE_ROUNDS` rounds of :data:`RIDGE_POINTS` equally spaced solves
+        inside the bracket (one grid solve each; a coarse interval may hold two ridges:
+        into the creep band and onto the stop); each side keeps a share of the nodes in
+        proportion to its length, 5 at least."""
+        states = stroke_codes(coarse, self._creep)
+        change = (states[:-1] != states[1:]) & (states[:-1] >= 0) & (states[1:] >= 0)
+        if not change.any():
+            return None
+        cuts: list[tuple[float, float]] = []
+        for k in np.flatnonzero(change):
+            a_st, end_st = int(states[k]), int(states[k + 1])
+            a, end = float(zc[k]), float(zc[k + 1])
+            for _ in range(3):  # at most: moving → creeping → held, and one spare
+                if a_st == end_st:
+                    break
+                b, b_st = end, end_st
+                for _ in range(RIDGE_ROUNDS):
+                    zs = np.linspace(a, b, RIDGE_POINTS + 2)[1:-1]
+                    sts = self._states_on(p, zs)
+                    other = np.flatnonzero(sts != a_st)
+                    if other.size == 0:
+                        a = float(zs[-1])
+                        continue
+                    j = int(other[0])
+                    if j > 0:
+                        a = float(zs[j - 1])
+                    b, b_st = float(zs[j]), int(sts[j])
+                    if b_st < 0:
+                        break
+                if b_st < 0:  # no operating point inside: no cut here
+                    break
+                cuts.append((a, b))
+                a, a_st = b, b_st
+        if not cuts:
+            return None
+        span = float(zc[-1] - zc[0])
+        out = []
+        start = float(zc[0])
+        for a, b in [*cuts, (float(zc[-1]), math.nan)]:
+            n = max(5, math.ceil((zc.size - 1) * (a - start) / span) + 1)
+            out.append((start, a, n))
+            start = b
+        return out
+
+    def _mask_ratio_before_held_return(self, coarses: list[Arr]) -> None:
+        """The velocity ratio NaN at a moving node next to a held return stroke, along the
+        nodes of consecutive pieces ``coarses`` (in place; it grows without bound there,
+        module docstring)."""
+        code = stroke_codes(np.concatenate(coarses), self._creep)
+        held = (code >= 0) & (code % 3 == 2)
+        near = np.zeros(code.size, dtype=bool)
+        near[1:] |= held[:-1]
+        near[:-1] |= held[1:]
+        bad = np.flatnonzero(near & (code >= 0) & ~held)
+        if bad.size == 0:
+            return
+        ends = np.cumsum([c.shape[0] for c in coarses])
+        for i in bad:
+            piece = int(np.searchsorted(ends, i, side="right"))
+            row = int(i - (ends[piece - 1] if piece else 0))
+            coarses[piece][row, _RATIO] = np.nan
+
+    @staticmethod
+    def _selection(zf: Arr, ends: list[float], k: int) -> npt.NDArray[np.bool_]:
+        """Fine points piece ``k`` of the pieces ending at ``ends`` serves: from the end of
+        the piece before (the first from −∞) to its own end (the last to +∞).  Across a
+        ridge's bracket (8e-5 of the axis) the piece after it extrapolates back: on the
+        held side the speed stays exactly 0."""
+        lo = -math.inf if k == 0 else ends[k - 1]
+        hi = math.inf if k == len(ends) - 1 else ends[k]
+        return np.asarray((zf >= lo) & (zf < hi))
+
     def _axis(self, p: FaultParameter, n: int) -> Arr:
         lo, hi = p.worn_bounds(self.rig)
         return np.linspace(p.to_z(lo), p.to_z(hi), n)
@@ -182,10 +302,19 @@ class SignatureMaps:
             for lo, hi, n in self._pieces(p, float(zf[0]), float(zf[-1])):
                 zc = np.linspace(lo, hi, n)
                 coarse = np.array([self._solve_or_nan(params, p.from_z(z)) for z in zc])
-                pieces.append((zc, coarse))
+                split = self._ridge_pieces(p, zc, coarse)
+                if split is None:
+                    pieces.append((zc, coarse))
+                    continue
+                for a, b, m in split:
+                    zs = np.linspace(a, b, m)
+                    pieces.append((zs, np.array([self._solve_or_nan(params, p.from_z(z))
+                                                 for z in zs])))
             fine = np.empty((zf.size, len(OBSERVABLES)))
+            ends = [float(zc[-1]) for zc, _ in pieces]
+            self._mask_ratio_before_held_return([coarse for _, coarse in pieces])
             for k, (zc, coarse) in enumerate(pieces):
-                sel = (zf >= zc[0]) & ((zf <= zc[-1]) if k == len(pieces) - 1 else (zf < zc[-1]))
+                sel = self._selection(zf, ends, k)
                 fine[sel] = masked_pchip(zc, coarse, zf[sel])
             return HypothesisMap(hyp, params, [zf], fine)
         raise ValueError("maps are built for one parameter; pairs are fitted directly")

@@ -15,6 +15,24 @@ Newton fails from there, the transient start is repeated with the new parameters
 The phase averages of :func:`sim.cycle.run_cycle` agree with these operating points
 (tested over faults and loads to 0.5 %): the start-up transient lasts milliseconds
 against phases of seconds.
+
+End stops
+---------
+Where the load is more than the (worn) rig can push, the moving steady solution of a
+phase has the piston travel *against* the commanded direction (or there is none).  The
+transient model (:func:`sim.cycle.run_cycle`, end stops of
+:func:`sim.components.cylinder.end_stop_force`) instead parks the piston on the stop it
+started from (the chamber-1 stop, ``x = 0``, in the working phase; ``x = stroke`` in the
+return phase) and settles there: ``ẋ = 0``, the stop's reaction takes up the force
+balance (paper 002 eq. 35 with ``m·ẍ = 0`` and the stop force as the unknown), and every
+other state is steady: the pump flow goes through the leak paths (piston clearance,
+eq. 36 with ``ẋ = 0``; spool, pump) and over the relief valve (eq. 6).  That *end-stop
+state* is solved here by the same Newton, with the piston's inertia state (its velocity)
+frozen at zero (its equation, whose residual is then the net force on the held piston
+over its mass, dropped) and the position at the stop.  It is the phase's operating point when the moving
+solution runs backwards or fails, and the held piston is pressed *into* the stop (net
+force against the commanded direction, :func:`stop_force` ≥ 0); the point is flagged
+(:attr:`SteadyPoint.end_stop`), its speed is 0.
 """
 
 from __future__ import annotations
@@ -30,7 +48,8 @@ from sim.cycle import PHASES, SUMMARY_UNITS, CycleResult, PhaseSummary, phase_pa
 from sim.errors import SimulationError
 from sim.rigs.assembly import Condition, Rig
 
-__all__ = ["OBSERVABLES", "SteadyEvaluator", "SteadyPoint", "steady_cycle", "steady_phase"]
+__all__ = ["DIRECTION", "OBSERVABLES", "SteadyEvaluator", "SteadyPoint", "steady_cycle",
+           "steady_phase", "stop_force"]
 
 Arr = npt.NDArray[np.float64]
 
@@ -38,6 +57,11 @@ Arr = npt.NDArray[np.float64]
 _GUESS: OrderedDict[tuple[int, str], Arr] = OrderedDict()
 _GUESS_SIZE = 128
 _T0 = np.zeros(1)
+
+#: commanded direction of travel per phase, +1 towards chamber 2 (extension) [-]
+DIRECTION: dict[str, float] = {"working": 1.0, "return": -1.0}
+#: states held in the end-stop state: the position (at the stop) and the velocity (zero)
+_STOP_FROZEN = ("cylinder.x", "cylinder.mass")
 
 
 @dataclass
@@ -47,6 +71,10 @@ class SteadyPoint:
     phase: str
     state: Arr
     outputs: dict[str, float]
+    #: the piston sits on its end stop (the end-stop state, module docstring)
+    end_stop: bool = False
+    #: reaction of the end stop on the piston, pushing against the load [N] (0 when moving)
+    stop_reaction: float = 0.0
 
     @property
     def speed(self) -> float:
@@ -63,14 +91,57 @@ def _transient_start(rig: Rig, p: Arr) -> Arr:
     return res.y[-1].copy()
 
 
+def stop_force(rig: Rig, phase: str, y: Arr, p: Arr) -> float:
+    """Force with which the held piston of state ``y`` presses into its end stop [N].
+
+    The piston's inertia state is its velocity; frozen at zero, its equation's residual
+    is the acceleration the net force without the stop would give,
+    ``ẍ = (A1·P1 − A2·P2 − F_load)/m`` (paper 002 eq. 35; friction is zero at ``ẋ = 0``,
+    the stop's force zero on its face), positive towards chamber 2.  The stop of the phase
+    holds the piston against the commanded direction ``d`` (:data:`DIRECTION`), so the
+    state is consistent when ``−d·m·ẍ ≥ 0``; that reaction is returned.
+    """
+    m = rig.model
+    f = np.empty_like(y)
+    m.module.rhs(0.0, y, p, f)
+    mass = float(p[m.param_index("cylinder.mass")])
+    return float(-DIRECTION[phase] * mass * f[m.state_index("cylinder.mass")])
+
+
+def _stop_start(rig: Rig, phase: str, y: Arr) -> Arr:
+    """``y`` with the piston held on the phase's end stop (the start of the end-stop solve)."""
+    m = rig.model
+    out = y.copy()
+    out[m.state_index("cylinder.mass")] = 0.0
+    out[m.state_index("cylinder.x")] = 0.0 if phase == "working" else rig.base["cylinder.stroke"]
+    return out
+
+
+def _end_stop(rig: Rig, phase: str, p: Arr, guesses: list[Arr], tol: float
+              ) -> tuple[Arr, float] | None:
+    """The end-stop state from the first guess that converges, and its stop reaction
+    [N]; None when none converges or the held piston is not pressed into its stop."""
+    m = rig.model
+    for g in guesses:
+        try:
+            y = m.steady(_stop_start(rig, phase, g), p, frozen=_STOP_FROZEN, tol=tol)
+        except SimulationError:
+            continue
+        reaction = stop_force(rig, phase, y, p)
+        return (y, reaction) if reaction >= 0.0 else None
+    return None
+
+
 def steady_phase(rig: Rig, phase: str, overrides: Mapping[str, float] | None = None,
                  condition: Condition | None = None, *, tol: float = 1e-10) -> SteadyPoint:
-    """Steady operating point of ``phase`` ("working" or "return").
+    """Steady operating point of ``phase`` ("working" or "return"): the moving piston's,
+    or the end-stop state (module docstring) where the moving solution runs against the
+    commanded direction or is not found.
 
     Raises
     ------
     SimulationError
-        If no steady point is found (for instance a piston that stalls on its end stop).
+        If neither a moving steady point nor a consistent end-stop state is found.
     """
     if phase not in PHASES:
         raise ValueError(f"unknown phase {phase!r}")
@@ -78,6 +149,7 @@ def steady_phase(rig: Rig, phase: str, overrides: Mapping[str, float] | None = N
     m = rig.model
     p = phase_params(rig, phase, overrides, cond)
     ix = m.state_index("cylinder.x")
+    iv = m.output_names.index("v")
     mid = 0.5 * rig.base["cylinder.stroke"]
     key = (id(rig), phase)
     guess = _GUESS.get(key)
@@ -87,16 +159,35 @@ def steady_phase(rig: Rig, phase: str, overrides: Mapping[str, float] | None = N
             y = m.steady(guess, p, frozen=("cylinder.x",), tol=tol)
         except SimulationError:
             y = None
+    start: Arr | None = None
     if y is None:
         start = _transient_start(rig, p)
-        start[ix] = mid
-        y = m.steady(start, p, frozen=("cylinder.x",), tol=tol)
-        if guess is None:
+        moving = start.copy()
+        moving[ix] = mid
+        try:
+            y = m.steady(moving, p, frozen=("cylinder.x",), tol=tol)
+        except SimulationError:
+            y = None
+        if guess is None and y is not None:
             _GUESS[key] = y.copy()
             while len(_GUESS) > _GUESS_SIZE:
                 _GUESS.popitem(last=False)
-    out = m.outputs(np.zeros(1), y[None, :], p)[0]
-    return SteadyPoint(phase, y, dict(zip(m.output_names, map(float, out), strict=True)))
+    if y is not None:
+        out = m.outputs(np.zeros(1), y[None, :], p)[0]
+        if DIRECTION[phase] * out[iv] >= 0.0:
+            return SteadyPoint(phase, y, dict(zip(m.output_names, map(float, out), strict=True)))
+    guesses = [g for g in (y, start) if g is not None]
+    if start is None:
+        guesses.append(_transient_start(rig, p))
+    held = _end_stop(rig, phase, p, guesses, tol)
+    if held is None:
+        raise SimulationError(f"{phase}: no steady operating point (the moving piston "
+                              + ("runs against the commanded direction" if y is not None else
+                                 "has none") + " and no end-stop state holds)")
+    ys, reaction = held
+    out = m.outputs(np.zeros(1), ys[None, :], p)[0]
+    return SteadyPoint(phase, ys, dict(zip(m.output_names, map(float, out), strict=True)),
+                       end_stop=True, stop_reaction=reaction)
 
 
 def steady_cycle(rig: Rig, overrides: Mapping[str, float] | None = None,
@@ -112,7 +203,7 @@ def steady_cycle(rig: Rig, overrides: Mapping[str, float] | None = None,
         vals = {k: sp.outputs[k] for k in SUMMARY_UNITS if k in sp.outputs}
         vals["speed"] = sp.speed
         vals["duration"] = stroke / sp.speed if sp.speed > 0 else float("inf")
-        summaries.append(PhaseSummary(phase, vals, sp.speed > 0))
+        summaries.append(PhaseSummary(phase, vals, sp.speed > 0 and not sp.end_stop))
     w, r = summaries
     ratio = w["speed"] / r["speed"] if r["speed"] > 0 else float("nan")
     return CycleResult(w, r, ratio, None, {})
@@ -138,7 +229,9 @@ class SteadyEvaluator:
     The two phases' parameter vectors are built once; each call patches the named graph
     parameters (``"cylinder.cc"``, ``"pump.Rlp"`` ...) and solves both operating points by
     Newton from the last solution (continuation), falling back to the nominal point and
-    then to a start-up transient.  This is what a diagnosis calls hundreds of times.
+    then to a start-up transient; a phase whose piston cannot travel in its commanded
+    direction gets its end-stop state (speed 0; module docstring).  This is what a
+    diagnosis calls hundreds of times.
 
     Parameters
     ----------
@@ -163,6 +256,9 @@ class SteadyEvaluator:
         self._last = {ph: y.copy() for ph, y in self._nominal.items()}
         self._mask = np.ones(len(m.state_names), dtype=np.int64)
         self._mask[m.state_index("cylinder.x")] = 0
+        self._imom = m.state_index("cylinder.mass")
+        self._stop_mask = self._mask.copy()
+        self._stop_mask[self._imom] = 0
         self._nout = len(m.output_names)
         self._oidx = {n: i for i, n in enumerate(m.output_names)}
         self.stroke = rig.base["cylinder.stroke"]
@@ -172,22 +268,52 @@ class SteadyEvaluator:
         """Observables at the rig's own parameter values."""
         return self(np.array([self._p["working"][i] for i in self._idx]))
 
+    def _held(self, phase: str, guess: Arr, p: Arr, y: Arr) -> bool:
+        """The end-stop state from ``guess`` into ``y`` (velocity frozen at 0, the position
+        left where it is: no steady equation depends on it); True when it converged and
+        the held piston is pressed into its stop (:func:`stop_force`)."""
+        mod = self._m.module
+        start = guess.copy()
+        start[self._imom] = 0.0
+        status, _, _ = mod.steady(start, p, self._stop_mask, self._m.scale, 1e-10, 60, y)
+        if status != 0:
+            return False
+        f = np.empty_like(y)
+        mod.rhs(0.0, y, p, f)
+        return bool(-DIRECTION[phase] * f[self._imom] >= 0.0)
+
     def _solve(self, phase: str, p: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+        """The phase's operating point: a piston held on its stop last time is tried on
+        the stop first; else the moving point (last, nominal, start-up transient), kept
+        when it travels in the commanded direction; else the end-stop state."""
         mod = self._m.module
         y = np.empty_like(self._last[phase])
-        for guess in (self._last[phase], self._nominal[phase]):
+        last = self._last[phase]
+        if last[self._imom] == 0.0 and self._held(phase, last, p, y):
+            self._last[phase] = y.copy()
+            return y
+        moving: Arr | None = None
+        for guess in (last, self._nominal[phase]):
             status, _, _ = mod.steady(guess, p, self._mask, self._m.scale, 1e-10, 60, y)
             if status == 0:
+                moving = y.copy()
+                break
+        start: Arr | None = None
+        if moving is None:
+            start = _transient_start(self.rig, p)
+            start[self._m.state_index("cylinder.x")] = 0.5 * self.stroke
+            if mod.steady(start, p, self._mask, self._m.scale, 1e-10, 60, y)[0] == 0:
+                moving = y.copy()
+        if moving is not None and DIRECTION[phase] * moving[self._imom] >= 0.0:
+            self._last[phase] = moving
+            return moving
+        for held in (moving, last, self._nominal[phase], start):
+            if held is not None and self._held(phase, held, p, y):
                 self._last[phase] = y.copy()
                 return y
-        start = _transient_start(self.rig, p)
-        start[self._m.state_index("cylinder.x")] = 0.5 * self.stroke
-        status, its, res = mod.steady(start, p, self._mask, self._m.scale, 1e-10, 60, y)
-        if status != 0:
-            raise SimulationError(f"{phase}: steady state not found ({its} iterations, "
-                                  f"residual {res:.3g})")
-        self._last[phase] = y.copy()
-        return y
+        raise SimulationError(f"{phase}: no steady operating point (moving: "
+                              + ("runs against the commanded direction" if moving is not None
+                                 else "not found") + "; no end-stop state holds)")
 
     def phase_outputs(self, values: npt.ArrayLike
                       ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
@@ -207,8 +333,7 @@ class SteadyEvaluator:
 
     def _value(self, key: str, w: npt.NDArray[np.float64], r: npt.NDArray[np.float64]) -> float:
         iv = self._oidx["v"]
-        # signed speeds: positive in each phase's own direction (a piston that cannot hold
-        # its load in the working phase moves backwards and reads negative)
+        # speeds positive in each phase's direction of travel, 0 on the end stop
         if key == "speed_work":
             return float(w[iv])
         if key == "speed_return":
@@ -231,8 +356,9 @@ class SteadyEvaluator:
         """Observables (see :data:`OBSERVABLES`, plus speeds, ratio, durations, pump flow)
         for the parameter ``values`` (SI, in the order of ``names``).
 
-        Speeds are signed, positive in each phase's direction of travel, so the maps stay
-        smooth through a stall.
+        Speeds are positive in each phase's direction of travel and 0 where the piston
+        sits on its end stop (a stalled stroke; the velocity ratio is NaN where the return
+        stroke is held, 0 where the working stroke is).
         """
         w, r = self.phase_outputs(values)
         keys = (*OBSERVABLES, "pump_flow", "speed_work", "speed_return", "velocity_ratio",

@@ -33,7 +33,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:  # bound in the generated module (see the module docstring)
-    from diagnostics.fastpath.kernel import observables
+    from diagnostics.fastpath.kernel import end_stop, observables, stop_index
     from diagnostics.fastpath.rig_interface import lu_factor, lu_solve, outputs, rhs, steady
 
 #: names copied into the generated module, in dependency order
@@ -135,7 +135,12 @@ def solve_grid(pw0, pr0, gidx, grid, mask, scale, last_w, last_r, nom_w, nom_r, 
     first from that start; then the damped solver from the start, the last and the nominal
     solution.  ``last_*`` end as the last row's solutions.  ``counts`` adds the phase solves
     settled by the chord iteration (0), its failures by :func:`chord`'s reason (1-4), and
-    the damped solves (5).
+    the damped solves (5).  A phase whose start is held on its end stop (velocity state
+    0) tries the end-stop state first (by the chord iteration on that state's own
+    Jacobian, then :func:`diagnostics.fastpath.kernel.end_stop`); a moving solution
+    against the phase's direction, or none, gives way to the end-stop state
+    (:func:`diagnostics.fastpath.kernel.end_stop`, from the moving solution, the start,
+    the last and the nominal one), as in :func:`diagnostics.fastpath.kernel.solve_point`.
     """
     pw = pw0.copy()
     pr = pr0.copy()
@@ -157,6 +162,15 @@ def solve_grid(pw0, pr0, gidx, grid, mask, scale, last_w, last_r, nom_w, nom_r, 
     prev = np.empty((2, 3, ns))
     start = np.empty(ns)
     run = 0
+    im = stop_index(mask)
+    # the end-stop state's own chord: its states (mask 1 only) and factored Jacobians
+    hmask = np.empty(ns, dtype=np.int64)
+    for i in range(ns):
+        hmask[i] = 1 if mask[i] == 1 else 0
+    mh = m - 1 if im >= 0 else m
+    hjac = np.empty((2, mh, mh))
+    hpiv = np.zeros((2, mh), dtype=np.int64)
+    hvalid = np.zeros(2, dtype=np.bool_)
     for k in range(grid.shape[0]):
         if restart[k]:
             run = 0
@@ -175,22 +189,54 @@ def solve_grid(pw0, pr0, gidx, grid, mask, scale, last_w, last_r, nom_w, nom_r, 
                     start[i] = 2.0 * prev[ph, 2, i] - prev[ph, 1, i]
                 else:
                     start[i] = last[i]
+            sign = 1.0 if ph == 0 else -1.0
             conv = False
-            if use_chord and valid[ph]:
-                why, its = chord(start, p, mask, scale, CHORD_TOL, y, jac[ph], piv[ph], f, dy)
-                conv = why == 0
-                counts[why] += 1
-                if conv and its > REFRESH:  # slow contraction: the Jacobian has moved
-                    valid[ph] = newton_matrix(y, p, mask, scale, jac[ph], piv[ph], f, yt, ft)
-            if not conv:
-                counts[5] += 1
-                conv = steady(start, p, mask, scale, 1e-10, 60, y)[0] == 0
-                if not conv and run >= 2:
-                    conv = steady(last, p, mask, scale, 1e-10, 60, y)[0] == 0
+            if im >= 0 and start[im] == 0.0:
+                if use_chord and hvalid[ph]:
+                    why, its = chord(start, p, hmask, scale, CHORD_TOL, y, hjac[ph], hpiv[ph],
+                                     f, dy[:mh])
+                    if why == 0:
+                        rhs(0.0, y, p, f)
+                        conv = -sign * f[im] >= 0.0
+                        if conv and its > REFRESH:
+                            hvalid[ph] = newton_matrix(y, p, hmask, scale, hjac[ph], hpiv[ph],
+                                                       f, yt, ft)
                 if not conv:
-                    conv = steady(nom, p, mask, scale, 1e-10, 60, y)[0] == 0
-                if conv and use_chord:
-                    valid[ph] = newton_matrix(y, p, mask, scale, jac[ph], piv[ph], f, yt, ft)
+                    conv = end_stop(start, p, mask, scale, sign, y)
+                    if conv and use_chord:
+                        hvalid[ph] = newton_matrix(y, p, hmask, scale, hjac[ph], hpiv[ph], f,
+                                                   yt, ft)
+            if not conv:
+                if use_chord and valid[ph]:
+                    why, its = chord(start, p, mask, scale, CHORD_TOL, y, jac[ph], piv[ph], f,
+                                     dy)
+                    conv = why == 0
+                    counts[why] += 1
+                    if conv and its > REFRESH:  # slow contraction: the Jacobian has moved
+                        valid[ph] = newton_matrix(y, p, mask, scale, jac[ph], piv[ph], f, yt,
+                                                  ft)
+                if not conv:
+                    counts[5] += 1
+                    conv = steady(start, p, mask, scale, 1e-10, 60, y)[0] == 0
+                    if not conv and run >= 2:
+                        conv = steady(last, p, mask, scale, 1e-10, 60, y)[0] == 0
+                    if not conv:
+                        conv = steady(nom, p, mask, scale, 1e-10, 60, y)[0] == 0
+                    if conv and use_chord:
+                        valid[ph] = newton_matrix(y, p, mask, scale, jac[ph], piv[ph], f, yt,
+                                                  ft)
+                if im >= 0 and not (conv and sign * y[im] >= 0.0):
+                    moved = conv
+                    conv = moved and end_stop(y, p, mask, scale, sign, y)
+                    if not conv:
+                        conv = end_stop(start, p, mask, scale, sign, y)
+                    if not conv:
+                        conv = end_stop(last, p, mask, scale, sign, y)
+                    if not conv:
+                        conv = end_stop(nom, p, mask, scale, sign, y)
+                    if conv and use_chord:
+                        hvalid[ph] = newton_matrix(y, p, hmask, scale, hjac[ph], hpiv[ph], f,
+                                                   yt, ft)
             if not conv:
                 done = False
                 break

@@ -11,12 +11,16 @@ side) and ``outputs`` its output function, declared in
 What is compiled here is what the direct path (:mod:`diagnostics.ranking`) does once per
 model evaluation, in Python:
 
+* :func:`end_stop` — the end-stop state of :mod:`sim.steady` (the piston held on its stop,
+  its velocity state frozen at 0 — marked 2 in ``mask`` — the other states steady),
+  accepted where the held piston is pressed into its stop;
 * :func:`solve_point` — both phases' steady operating points for one parameter vector
   (the chord iteration of :mod:`diagnostics.fastpath.chord` from the last solution, then
   Newton from the last solution and from the nominal one: the continuation of
-  :class:`sim.steady.SteadyEvaluator`) and the nine observables of
-  :data:`diagnostics.signatures.OBSERVABLES` (signed speeds, the velocity ratio NaN where
-  the return stroke stalls);
+  :class:`sim.steady.SteadyEvaluator`, the end-stop state where the moving piston would
+  run against its phase's direction) and the nine observables of
+  :data:`diagnostics.signatures.OBSERVABLES` (speeds 0 on the stop, the velocity ratio
+  NaN where the return stroke is held);
 * the same over the rows of a matrix (a signature map's coarse grid) is
   :func:`diagnostics.fastpath.chord.solve_grid`, with a chord Newton;
 * :func:`pair_fit` — the Levenberg-Marquardt fit of a two-parameter hypothesis over all
@@ -40,11 +44,11 @@ import numpy as np
 
 if TYPE_CHECKING:  # bound in the generated module (see the module docstring)
     from diagnostics.fastpath.chord import FIT_TOL, REFRESH, chord, newton_matrix
-    from diagnostics.fastpath.rig_interface import outputs, steady
+    from diagnostics.fastpath.rig_interface import outputs, rhs, steady
 
 #: names copied into the generated module, in dependency order
-KERNELS = ("observables", "solve_point", "graph_values", "residuals", "pair_fit",
-           "profile_points")
+KERNELS = ("observables", "stop_index", "end_stop", "solve_point", "graph_values",
+           "residuals", "pair_fit", "profile_points")
 
 
 def observables(w, r, oi, out):  # type: ignore[no-untyped-def]
@@ -65,6 +69,37 @@ def observables(w, r, oi, out):  # type: ignore[no-untyped-def]
     out[8] = vw / -vr if vr < 0.0 else np.nan
 
 
+def stop_index(mask):  # type: ignore[no-untyped-def]
+    """Index of the piston's velocity state (``mask`` 2: solved when moving, held at 0 on
+    the end stop); -1 if the mask marks none."""
+    for i in range(mask.size):
+        if mask[i] == 2:
+            return i
+    return -1
+
+
+def end_stop(y0, p, mask, scale, sign, y):  # type: ignore[no-untyped-def]
+    """The end-stop state (:mod:`sim.steady`) from ``y0`` into ``y`` (``y0`` may be ``y``):
+    the velocity state held at 0, the states ``mask`` 1 steady (damped Newton); True when
+    it converged and the held piston is pressed into its stop, ``−sign·ẍ ≥ 0`` (``sign``
+    the phase's commanded direction, ``ẍ`` the velocity equation's residual)."""
+    im = stop_index(mask)
+    if im < 0:
+        return False
+    n = y0.size
+    held = np.empty(n, dtype=np.int64)
+    start = np.empty(n)
+    for i in range(n):
+        held[i] = 1 if mask[i] == 1 else 0
+        start[i] = y0[i]
+    start[im] = 0.0
+    if steady(start, p, held, scale, 1e-10, 60, y)[0] != 0:
+        return False
+    f = np.empty(n)
+    rhs(0.0, y, p, f)
+    return -sign * f[im] >= 0.0
+
+
 def solve_point(pw, pr, mask, scale, states, jac, piv, valid, oi, ow, orr, work, out):  # type: ignore[no-untyped-def]
     """Both phases of one record at one parameter vector pair; True when both converged.
 
@@ -73,31 +108,45 @@ def solve_point(pw, pr, mask, scale, states, jac, piv, valid, oi, ow, orr, work,
     chord iteration (:func:`diagnostics.fastpath.chord.chord`, scaled step below
     ``FIT_TOL``) runs on from the last solution; then the damped Newton from the last and
     the nominal solution (the continuation of :class:`sim.steady.SteadyEvaluator`), after
-    which the Jacobian is rebuilt at the solution.  ``work`` = rows y, f, f_trial,
-    y_trial, dy.  On failure ``out`` is NaN (the caller may retry from a start-up
-    transient).
+    which the Jacobian is rebuilt at the solution.  A phase whose last point was held on
+    its end stop tries that state first; a moving solution against the phase's direction
+    (or none) gives way to the end-stop state (:func:`end_stop`, from the moving, the last
+    and the nominal solution).  ``work`` = rows y, f, f_trial, y_trial, dy.  On failure
+    ``out`` is NaN (the caller may retry from a start-up transient).
     """
     y = work[0]
     f = work[1]
     ft = work[2]
     yt = work[3]
     dy = work[4, :jac.shape[1]]
+    im = stop_index(mask)
     for ph in range(2):
         p = pw if ph == 0 else pr
+        sign = 1.0 if ph == 0 else -1.0
         last = states[ph]
         o = ow if ph == 0 else orr
         conv = False
-        if valid[ph]:
-            why, its = chord(last, p, mask, scale, FIT_TOL, y, jac[ph], piv[ph], f, dy)
-            conv = why == 0
-            if conv and its > REFRESH:
-                valid[ph] = newton_matrix(y, p, mask, scale, jac[ph], piv[ph], f, yt, ft)
+        if im >= 0 and last[im] == 0.0:
+            conv = end_stop(last, p, mask, scale, sign, y)
         if not conv:
-            conv = steady(last, p, mask, scale, 1e-10, 60, y)[0] == 0
+            if valid[ph]:
+                why, its = chord(last, p, mask, scale, FIT_TOL, y, jac[ph], piv[ph], f, dy)
+                conv = why == 0
+                if conv and its > REFRESH:
+                    valid[ph] = newton_matrix(y, p, mask, scale, jac[ph], piv[ph], f, yt, ft)
             if not conv:
-                conv = steady(states[2 + ph], p, mask, scale, 1e-10, 60, y)[0] == 0
-            if conv:
-                valid[ph] = newton_matrix(y, p, mask, scale, jac[ph], piv[ph], f, yt, ft)
+                conv = steady(last, p, mask, scale, 1e-10, 60, y)[0] == 0
+                if not conv:
+                    conv = steady(states[2 + ph], p, mask, scale, 1e-10, 60, y)[0] == 0
+                if conv:
+                    valid[ph] = newton_matrix(y, p, mask, scale, jac[ph], piv[ph], f, yt, ft)
+            if im >= 0 and not (conv and sign * y[im] >= 0.0):
+                moved = conv
+                conv = moved and end_stop(y, p, mask, scale, sign, y)
+                if not conv:
+                    conv = end_stop(last, p, mask, scale, sign, y)
+                if not conv:
+                    conv = end_stop(states[2 + ph], p, mask, scale, sign, y)
         if not conv:
             for j in range(out.size):
                 out[j] = np.nan

@@ -5,10 +5,11 @@
 the compiled :func:`~diagnostics.fastpath.kernel.solve_grid` and interpolated by the
 compiled masked PCHIP (:func:`~diagnostics.fastpath.pchip.pchip_columns`), the
 interpolation of :func:`~diagnostics.signatures.masked_pchip`.  Grids, pieces (the relief
-kink) and masking are the direct maps'; a point where Newton fails from the last and the
-nominal solution is retried by the direct evaluator (start-up transient), as the direct
-path does.  :class:`Context` holds one condition's parameter vectors and Newton states,
-which the compiled pair fits (:mod:`diagnostics.fastpath.fits`) continue from.
+kink, the moving/held ridges) and masking are the direct maps'; a point where Newton
+fails from the last and the nominal solution is retried by the direct evaluator
+(start-up transient), as the direct path does.  :class:`Context` holds one condition's
+parameter vectors and Newton states, which the compiled pair fits
+(:mod:`diagnostics.fastpath.fits`) continue from.
 """
 
 from __future__ import annotations
@@ -34,6 +35,7 @@ from diagnostics.signatures import (
     HypothesisMap,
     SignatureMaps,
     evaluator,
+    stroke_codes,
 )
 from sim.cycle import phase_settings
 from sim.errors import SimulationError
@@ -97,6 +99,8 @@ class _Layout:
 
     kernels: ModuleType
     gidx: IArr
+    #: solver mask per state: 1 solved, 0 held (the position), 2 the piston's velocity
+    #: (solved when moving, held at 0 in the end-stop state)
     mask: IArr
     scale: Arr
     oi: IArr
@@ -123,6 +127,7 @@ def _layout(rig: Rig) -> _Layout:
     sw[ix] = sr[ix] = 0.5 * rig.base["cylinder.stroke"]
     mask = np.ones(len(m.state_names), dtype=np.int64)
     mask[ix] = 0
+    mask[m.state_index("cylinder.mass")] = 2  # held at 0 in the end-stop state
     ret = phase_settings(rig, "return")
     lay = _Layout(
         compiled_kernels(rig),
@@ -188,7 +193,7 @@ class Context:
         self.states = lay.states.copy()
         self.use_chord = chord
         self.counts = np.zeros(6, dtype=np.int64)
-        m = int(lay.mask.sum())
+        m = int(np.count_nonzero(lay.mask))
         self.jac = np.zeros((2, m, m))
         self.piv = np.zeros((2, m), dtype=np.int64)
         self.jac_valid = np.zeros(2, dtype=np.bool_)
@@ -299,17 +304,47 @@ class FastMaps(SignatureMaps):
         coarse_all, ok = self.ctx.solve(np.concatenate(rows), np.concatenate(starts))
         start = 0
         for hyp, p, zf, pieces in plans:
-            fine = np.empty((zf.size, len(OBSERVABLES)))
-            for k, zc in enumerate(pieces):
-                coarse = coarse_all[start:start + zc.size]
-                for i in np.flatnonzero(~ok[start:start + zc.size]):
-                    coarse[i] = self._solve_or_nan((p,), p.from_z(float(zc[i])))
+            solved = []
+            for zc in pieces:
+                coarse = self._retried(p, zc, coarse_all[start:start + zc.size],
+                                       ok[start:start + zc.size])
                 start += zc.size
-                sel = (zf >= zc[0]) & ((zf <= zc[-1]) if k == len(pieces) - 1 else (zf < zc[-1]))
+                split = self._ridge_pieces(p, zc, coarse)
+                if split is None:
+                    solved.append((zc, coarse))
+                    continue
+                for a, b, m in split:
+                    zs, g, first = _piece_rows(rig, p, self._base, a, b, m)
+                    out, good = self.ctx.solve(g, first)
+                    solved.append((zs, self._retried(p, zs, out, good)))
+            fine = np.empty((zf.size, len(OBSERVABLES)))
+            ends = [float(zc[-1]) for zc, _ in solved]
+            self._mask_ratio_before_held_return([coarse for _, coarse in solved])
+            for k, (zc, coarse) in enumerate(solved):
+                sel = self._selection(zf, ends, k)
                 part = np.empty((int(sel.sum()), len(OBSERVABLES)))
                 self.ctx.kernels.pchip_columns(zc, np.ascontiguousarray(coarse), zf[sel], part)
                 fine[sel] = part
             self.maps[hyp.name] = HypothesisMap(hyp, (p,), [zf], fine)
+
+    def _retried(self, p: FaultParameter, zc: Arr, coarse: Arr, ok: npt.NDArray[np.bool_]
+                 ) -> Arr:
+        """``coarse`` with the rows whose compiled solve failed solved by the direct
+        evaluator (start-up transient), NaN where that fails too."""
+        for i in np.flatnonzero(~ok):
+            coarse[i] = self._solve_or_nan((p,), p.from_z(float(zc[i])))
+        return coarse
+
+    def _states_on(self, p: FaultParameter, zs: Arr) -> npt.NDArray[np.int64]:
+        """:func:`~diagnostics.signatures.stroke_codes` at ``zs`` by one compiled grid
+        solve (the ridge bracketing of :meth:`SignatureMaps._ridge_pieces`; not counted
+        in :attr:`Context.counts`, which describe the maps' grids)."""
+        _, g, first = _piece_rows(self.rig, p, self._base, float(zs[0]), float(zs[-1]),
+                                  zs.size)
+        counts = self.ctx.counts.copy()
+        out, ok = self.ctx.solve(g, first)
+        self.ctx.counts[:] = counts
+        return stroke_codes(self._retried(p, zs, out, ok), self._creep)
 
     def moved_nominal(self, condition: Condition) -> Arr:
         """Healthy observables at a condition near this one (the σ of a record's condition

@@ -50,24 +50,31 @@ def test_a_seal_worn_beyond_the_prior_stalls_and_is_answered_not_explained(rig_n
     d = diagnose(rig, [rec])
     assert not d.explained
     assert d.to_dict()["top"] == "unexplained"
-    # the steady model drives that piston backwards: the result states its limit
-    assert d.top.predicted[0]["speed_work"] < 0.0
+    # the best fit holds the piston on its end stop too (the steady model's end-stop
+    # state), at the worn end of the prior, and cannot reach these pressures: the result
+    # states the limit
+    assert d.top.predicted[0]["speed_work"] == 0.0
     assert "Model limit" in d.to_dict()["misfit"] and "end stop" in d.to_dict()["misfit"]
 
 
-def test_a_seal_worn_within_the_prior_that_stalls_is_stated_as_the_models_limit() -> None:
+def test_a_seal_worn_within_the_prior_that_stalls_is_explained_and_sized() -> None:
     """3.4 × the seal clearance (inside the prior) at 4.9 kN and 35 °C: the transient
-    piston stalls on its end stop while the steady model has the load drive it backwards;
-    not explained, with the model limit stated (issue 11's breakaway/stall mismatch)."""
+    piston stalls on its end stop; the steady model's end-stop state explains the readings
+    (before issue 11's end-stop state: "not explained", a model limit), names the seal
+    and brackets its clearance."""
     rig = reference_rig()
-    tr = transient_readings(rig, {"cylinder.cc": 3.4 * rig.base["cylinder.cc"]}, 4921.0, 35.0)
+    cc = 3.4 * rig.base["cylinder.cc"]
+    tr = transient_readings(rig, {"cylinder.cc": cc}, 4921.0, 35.0)
     assert "working" in tr.stalled and tr.values["speed_work"] == 0.0
     cond = OperatingCondition.from_readings({"oil_temperature": 35.0, "load_force": 4921.0})
     rec = MeasurementRecord.from_readings(
         "stall", cond, {k: tr.values[k] for k in FULL if k in tr.values and k != "speed_work"})
     d = diagnose(rig, [rec])
-    assert not d.explained
-    assert "Model limit" in d.to_dict()["misfit"]
+    assert d.explained and d.top.name == "cylinder"
+    assert d.top.predicted[0]["speed_work"] == 0.0
+    (est,) = d.top.parameters
+    assert est.low <= cc <= est.high
+    assert d.to_dict()["misfit"] is None
 
 
 def test_a_stated_condition_stays_within_its_instrument_bounds() -> None:
@@ -126,7 +133,7 @@ def test_a_miss_is_classified_by_its_reason() -> None:
 
 
 def test_the_calibration_error_weights_each_decile_by_its_cases() -> None:
-    from benchmarks.accuracy import calibration_error
+    from benchmarks.accuracy_figures import calibration_error
 
     # [lo, hi, n, mean stated p, observed]: |0.35-0.25|·2 + |0.95-1.0|·8 over 10 cases
     rel = [[0.3, 0.4, 2, 0.35, 0.25], [0.9, 1.0, 8, 0.95, 1.0]]

@@ -6,15 +6,18 @@ reference rig and on a differential-cylinder rig are diagnosed both ways.  The f
 must give the same probabilities (within 0.01), the same estimates (within a tenth of the
 direct interval), the same top hypothesis and the same goodness-of-fit verdict; a record
 one path refuses, the other refuses too.  ``test_fast_equals_direct_light`` runs 30
-records always; the full 200 are ``slow``.
+records always; the full 200 are ``slow``; 16 records of a piston stalled on its end stop
+(issue 11) run always.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 import pytest
 
-from benchmarks.diagnose_cases import random_record
+from benchmarks.diagnose_cases import random_record, stalled_record
 from diagnostics.diagnose import Diagnosis, diagnose
 from diagnostics.fastpath.maps import fast_maps
 from diagnostics.measurement import MeasurementRecord
@@ -59,13 +62,15 @@ def compare(fast: Diagnosis, direct: Diagnosis) -> list[str]:
     return bad
 
 
-def _check(n: int, seed: int) -> None:
+def _check(n: int, seed: int,
+           make: Callable[[np.random.Generator, Rig], MeasurementRecord | None] = random_record
+           ) -> None:
     rng = np.random.default_rng(seed)
     rigs = _rigs()
     done, failures = 0, []
     while done < n:
         rig = rigs[int(rng.random() < 0.3)]
-        rec = random_record(rng, rig)
+        rec = make(rng, rig)
         if rec is None:
             continue
         done += 1
@@ -87,6 +92,12 @@ def test_fast_equals_direct_light() -> None:
 @pytest.mark.slow
 def test_fast_equals_direct_on_200_records() -> None:
     _check(200, seed=2026)
+
+
+def test_fast_equals_direct_on_stalled_records() -> None:
+    """Records whose working piston sits on its end stop (issue 11: loads 30-100 % of the
+    stall load, worn faults; no speed read): both paths fit the end-stop state alike."""
+    _check(16, seed=11, make=stalled_record)
 
 
 def test_fast_maps_equal_the_direct_maps() -> None:

@@ -1,0 +1,96 @@
+"""Figures of the accuracy study (:mod:`benchmarks.accuracy`): per group of cases.
+
+* :func:`summarise` — server and input errors, top-1 (strict and grouped), truth in the
+  ambiguity set, Brier (strict, grouped, and the grouped Brier the stated probabilities
+  predict for themselves), share not explained, and for the cases with a stroke that
+  stalled or crept the share of them not explained;
+* :func:`reliability`, :func:`calibration_error` — the reliability table (stated top
+  probability vs observed grouped top-1 frequency, by decile) and its expected
+  calibration error;
+* :func:`headline` — the in-library table per sensor set (all cases, moving, stalled).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from benchmarks.accuracy_report import miss_reasons
+
+__all__ = ["calibration_error", "headline", "reliability", "summarise"]
+
+
+def _mean(rows: list[dict[str, Any]], key: str) -> float:
+    vals = [r[key] for r in rows if r["error"] is None]
+    return float(np.mean(vals)) if vals else float("nan")
+
+
+def summarise(rows: list[dict[str, Any]]) -> dict[str, Any]:
+    ok = [r for r in rows if r["error"] is None]
+    out: dict[str, Any] = {
+        "n": len(rows), "server_errors": sum(1 for r in rows if (r["error"] or "").startswith(
+            "server")), "input_errors": sum(1 for r in rows if r["error"] == "input")}
+    if not ok:
+        return out
+    out |= {"top1": _mean(rows, "top1"), "top1_grouped": _mean(rows, "top1_grouped"),
+            "truth_in_ambiguity_set": _mean(rows, "in_set"), "brier": _mean(rows, "brier"),
+            "brier_grouped": _mean(rows, "brier_grouped"),
+            "brier_expected_grouped": _mean(rows, "brier_expected_grouped"),
+            "not_explained": 1.0 - _mean(rows, "explained")}
+    stalled = [r for r in ok if r["stalled"]]
+    if stalled:
+        out |= {"stalled": len(stalled), "stalled_not_explained": 1.0 - _mean(stalled,
+                                                                              "explained")}
+    return out
+
+
+def reliability(rows: list[dict[str, Any]]) -> list[list[float]]:
+    """[lo, hi, n, mean stated p_top, observed top-1 (grouped)] by decile."""
+    ok = [r for r in rows if r["error"] is None and r["explained"]]
+    p = np.array([r["p_top"] for r in ok])
+    hit = np.array([r["top1_grouped"] for r in ok])
+    out = []
+    for lo in np.arange(0.0, 1.0, 0.1):
+        hi = lo + 0.1
+        sel = (p >= lo) & ((p < hi) if hi < 0.999 else (p <= 1.0))
+        if sel.any():
+            out.append([round(float(lo), 1), round(float(hi), 1), int(sel.sum()),
+                        round(float(p[sel].mean()), 3), round(float(hit[sel].mean()), 3)])
+    return out
+
+
+def calibration_error(rel: list[list[float]]) -> float:
+    """Expected calibration error of a reliability table: Σ_bins n_b |p̄_b − f_b| / N."""
+    n = sum(r[2] for r in rel)
+    return float(sum(r[2] * abs(r[3] - r[4]) for r in rel) / n) if n else float("nan")
+
+
+def headline(rows: dict[str, list[dict[str, Any]]]) -> dict[str, Any]:
+    """In-library figures per sensor set over both rigs: all cases, the cases whose piston
+    moved and those with a stroke that stalled or crept in the transient cycle (fitted
+    with the steady model's end-stop state), the misses by reason, the reliability's
+    error."""
+    out: dict[str, Any] = {}
+    print("\nin-library cases (preset and differential rigs), per sensor set:")
+    print(f"{'sensor set':16s} {'cases':>10s} {'top-1':>6s} {'top-1*':>6s} {'in amb':>6s} "
+          f"{'Brier*':>6s} {'E[B*]':>6s} {'misfit':>6s} {'ECE':>6s}  misses by reason")
+    for sname, rs in rows.items():
+        sel = [r for r in rs if r["in_library"]]
+        ece = calibration_error(reliability(sel))
+        reasons = miss_reasons(sel)
+        out[sname] = {"all": summarise(sel),
+                      "moving": summarise([r for r in sel if not r["stalled"]]),
+                      "stalled": summarise([r for r in sel if r["stalled"]]),
+                      "miss_reasons": reasons, "calibration_error": ece}
+        for part in ("all", "moving", "stalled"):
+            f = out[sname][part]
+            if "top1" not in f:
+                continue
+            print(f"{sname:16s} {part + ' ' + str(f['n']):>10s} " + " ".join(
+                f"{f[k]:6.3f}" for k in ("top1", "top1_grouped", "truth_in_ambiguity_set",
+                                         "brier_grouped", "brier_expected_grouped",
+                                         "not_explained"))
+                  + (f" {ece:6.3f}  " + ", ".join(f"{k} {v}" for k, v in reasons.items())
+                     if part == "all" else ""))
+    return out
