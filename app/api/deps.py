@@ -55,8 +55,12 @@ __all__ = [
 ]
 
 
-def get_settings(request: Request) -> Settings:
-    """Return the settings the application was created with."""
+async def get_settings(request: Request) -> Settings:
+    """Return the settings the application was created with.
+
+    ``async`` like the other accessors here: FastAPI runs a plain function dependency in
+    its thread pool, a thread hand-off per request for a read of an attribute.
+    """
     settings: Settings = request.app.state.settings
     return settings
 
@@ -82,19 +86,19 @@ async def get_db(request: Request) -> AsyncIterator[Session]:
             session.close()
 
 
-def get_estimator(request: Request) -> ClearanceEstimator | None:
+async def get_estimator(request: Request) -> ClearanceEstimator | None:
     """Return the clearance estimator the application was given, if any."""
     estimator: ClearanceEstimator | None = request.app.state.clearance_estimator
     return estimator
 
 
-def get_rigs(request: Request) -> RigCache:
+async def get_rigs(request: Request) -> RigCache:
     """Return the application's cache of compiled rigs."""
     rigs: RigCache = request.app.state.rigs
     return rigs
 
 
-def get_executors(request: Request) -> SweepExecutors:
+async def get_executors(request: Request) -> SweepExecutors:
     """Return the executors the application's sweeps run on."""
     executors: SweepExecutors = request.app.state.sweep_executors
     return executors

@@ -37,6 +37,7 @@ import logging
 import multiprocessing
 import os
 import pickle
+import struct
 import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
@@ -77,7 +78,42 @@ STORE_THREADS = 4
 #: Weight of the newest task in the running mean of a task's time [-].
 _SERVICE_TIME_WEIGHT = 0.1
 
+#: Most bytes read from a pipe at once [byte].
+_READ_CHUNK = 1 << 20
+
 T = TypeVar("T")
+
+
+def _take_message(buffer: bytearray) -> bytes | None:
+    """Remove and return the first whole message of ``buffer``, framed as
+    :meth:`multiprocessing.connection.Connection.send_bytes` frames it (a signed 4-byte
+    big-endian length, or -1 then an 8-byte length); ``None`` while it is incomplete."""
+    if len(buffer) < 4:
+        return None
+    (size,) = struct.unpack_from("!i", buffer)
+    start = 4
+    if size == -1:
+        if len(buffer) < 12:
+            return None
+        (size,) = struct.unpack_from("!Q", buffer, 4)
+        start = 12
+    if len(buffer) < start + size:
+        return None
+    message = bytes(buffer[start:start + size])
+    del buffer[:start + size]
+    return message
+
+
+def _send(connection: Connection, message: bytes) -> None:
+    """Send ``message`` whole, the descriptor blocking meanwhile (the process at the other
+    end is idle, reading; uvloop leaves the descriptor non-blocking)."""
+    fd = connection.fileno()
+    blocking = os.get_blocking(fd)
+    os.set_blocking(fd, True)
+    try:
+        connection.send_bytes(message)
+    finally:
+        os.set_blocking(fd, blocking)
 
 
 @dataclass(eq=False)
@@ -90,6 +126,7 @@ class _Process:
     pid: int | None = None
     waiter: asyncio.Future[Any] | None = None
     sent_at: float = 0.0
+    buffer: bytearray = field(default_factory=bytearray)
 
 
 @dataclass
@@ -148,8 +185,12 @@ class DiagnosisPool:
     # --- admission ---------------------------------------------------------------------
 
     def expected_wait_s(self) -> float:
-        """Expected wait of one more request for a diagnosis process [s]."""
-        return self.admitted / max(self.processes, 1) * self.service_time_s
+        """Expected wait of one more request for a diagnosis process [s]: the tasks ahead
+        of it (computing or queued), shared among the processes, times the running mean of
+        a task's time from sending to answer (which counts the time the machine's other
+        work takes the processes' cores)."""
+        busy = sum(1 for w in self._workers if w.waiter is not None)
+        return (busy + len(self._pending)) / max(self.processes, 1) * self.service_time_s
 
     @contextmanager
     def admit(self) -> Iterator[None]:
@@ -245,14 +286,23 @@ class DiagnosisPool:
                 loop.add_reader(worker.connection.fileno(), self._on_answer, worker)
 
     def _on_answer(self, worker: _Process) -> None:
+        """Read what the pipe holds (never blocking: uvloop makes the descriptor
+        non-blocking) and handle each whole message in it."""
         try:
-            seconds, result = pickle.loads(worker.connection.recv_bytes())
-        except (EOFError, OSError):
+            chunk = os.read(worker.connection.fileno(), _READ_CHUNK)
+        except BlockingIOError:
+            return
+        except OSError:
+            chunk = b""
+        if not chunk:  # the process is gone
             self._replace(worker)
             return
-        if not worker.ready:  # a replacement process's "ready"
-            worker.ready, worker.pid = True, result
-        else:
+        worker.buffer += chunk
+        while (message := _take_message(worker.buffer)) is not None:
+            seconds, result = pickle.loads(message)
+            if not worker.ready:  # a replacement process's "ready"
+                worker.ready, worker.pid = True, result
+                continue
             waiter, worker.waiter = worker.waiter, None
             elapsed = time.perf_counter() - worker.sent_at
             self.service_time_s += _SERVICE_TIME_WEIGHT * (elapsed - self.service_time_s)
@@ -282,7 +332,7 @@ class DiagnosisPool:
             if worker.ready and worker.waiter is None:
                 queued = self._pending.popleft()
                 worker.waiter, worker.sent_at = queued.future, time.perf_counter()
-                worker.connection.send_bytes(queued.message)
+                _send(worker.connection, queued.message)
 
     async def _call(self, kind: str, payload: Any) -> Any:
         if not self._workers or (self._loop is None
