@@ -37,14 +37,10 @@ import logging
 import multiprocessing
 import os
 import pickle
-import struct
 import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
-from dataclasses import dataclass, field
-from multiprocessing.connection import Connection
-from multiprocessing.process import BaseProcess
 from typing import Any, TypeVar
 
 import anyio
@@ -60,6 +56,7 @@ from app.services.diagnosis import (
     compute_group,
     request_error,
 )
+from app.services.diagnosis_pipes import READ_CHUNK, Process, Queued, send_whole, take_message
 from app.services.diagnosis_task import DiagnoseAnswer, DiagnoseTask, TaskFailure, run_task
 from app.services.diagnosis_worker import MISSING, serve_pipe, warm_rig
 from app.services.rig_cache import ResolvedRig, RigCache
@@ -78,61 +75,13 @@ STORE_THREADS = 4
 #: Weight of the newest task in the running mean of a task's time [-].
 _SERVICE_TIME_WEIGHT = 0.1
 
-#: Most bytes read from a pipe at once [byte].
-_READ_CHUNK = 1 << 20
+#: First tasks of a process left out of the running mean (cold caches) [-].
+_COLD_TASKS = 3
+
+#: Largest sample of a task's time taken, over the running mean [-].
+_SERVICE_TIME_CLAMP = 4.0
 
 T = TypeVar("T")
-
-
-def _take_message(buffer: bytearray) -> bytes | None:
-    """Remove and return the first whole message of ``buffer``, framed as
-    :meth:`multiprocessing.connection.Connection.send_bytes` frames it (a signed 4-byte
-    big-endian length, or -1 then an 8-byte length); ``None`` while it is incomplete."""
-    if len(buffer) < 4:
-        return None
-    (size,) = struct.unpack_from("!i", buffer)
-    start = 4
-    if size == -1:
-        if len(buffer) < 12:
-            return None
-        (size,) = struct.unpack_from("!Q", buffer, 4)
-        start = 12
-    if len(buffer) < start + size:
-        return None
-    message = bytes(buffer[start:start + size])
-    del buffer[:start + size]
-    return message
-
-
-def _send(connection: Connection, message: bytes) -> None:
-    """Send ``message`` whole, the descriptor blocking meanwhile (the process at the other
-    end is idle, reading; uvloop leaves the descriptor non-blocking)."""
-    fd = connection.fileno()
-    blocking = os.get_blocking(fd)
-    os.set_blocking(fd, True)
-    try:
-        connection.send_bytes(message)
-    finally:
-        os.set_blocking(fd, blocking)
-
-
-@dataclass(eq=False)
-class _Process:
-    """One diagnosis process, its pipe, and the task it is computing."""
-
-    process: BaseProcess
-    connection: Connection
-    ready: bool = False
-    pid: int | None = None
-    waiter: asyncio.Future[Any] | None = None
-    sent_at: float = 0.0
-    buffer: bytearray = field(default_factory=bytearray)
-
-
-@dataclass
-class _Queued:
-    message: bytes
-    future: asyncio.Future[Any] = field(repr=False)
 
 
 class DiagnosisPool:
@@ -175,9 +124,9 @@ class DiagnosisPool:
         self._url = url
         self._sessions = sessions
         self._rigs = rigs
-        self._workers: list[_Process] = []
+        self._workers: list[Process] = []
         self._warm: list[tuple[Any, Any]] = []
-        self._pending: collections.deque[_Queued] = collections.deque()
+        self._pending: collections.deque[Queued] = collections.deque()
         self._loop: asyncio.AbstractEventLoop | None = None
         self._lock = threading.Lock()
         self._limiter: anyio.CapacityLimiter | None = None
@@ -230,7 +179,7 @@ class DiagnosisPool:
 
     # --- the processes -----------------------------------------------------------------
 
-    def _spawn(self) -> _Process:
+    def _spawn(self) -> Process:
         context = multiprocessing.get_context("spawn")
         mine, theirs = context.Pipe(duplex=True)
         process = context.Process(
@@ -238,7 +187,7 @@ class DiagnosisPool:
             args=(theirs, self._url, self._cache_size, os.getpid(), self._warm))
         process.start()
         theirs.close()
-        return _Process(process, mine)
+        return Process(process, mine)
 
     def _start(self) -> None:
         with self._lock:
@@ -285,11 +234,11 @@ class DiagnosisPool:
             for worker in self._workers:
                 loop.add_reader(worker.connection.fileno(), self._on_answer, worker)
 
-    def _on_answer(self, worker: _Process) -> None:
+    def _on_answer(self, worker: Process) -> None:
         """Read what the pipe holds (never blocking: uvloop makes the descriptor
         non-blocking) and handle each whole message in it."""
         try:
-            chunk = os.read(worker.connection.fileno(), _READ_CHUNK)
+            chunk = os.read(worker.connection.fileno(), READ_CHUNK)
         except BlockingIOError:
             return
         except OSError:
@@ -298,20 +247,33 @@ class DiagnosisPool:
             self._replace(worker)
             return
         worker.buffer += chunk
-        while (message := _take_message(worker.buffer)) is not None:
+        while (message := take_message(worker.buffer)) is not None:
             seconds, result = pickle.loads(message)
             if not worker.ready:  # a replacement process's "ready"
                 worker.ready, worker.pid = True, result
                 continue
             waiter, worker.waiter = worker.waiter, None
-            elapsed = time.perf_counter() - worker.sent_at
-            self.service_time_s += _SERVICE_TIME_WEIGHT * (elapsed - self.service_time_s)
+            self._learn(worker, time.perf_counter() - worker.sent_at)
             del seconds
             if waiter is not None and not waiter.done():
                 waiter.set_result(result)
         self._dispatch()
 
-    def _replace(self, gone: _Process) -> None:
+    def _learn(self, worker: Process, elapsed: float) -> None:
+        """Update the running mean of a task's time with ``elapsed`` [s].  A process's
+        first tasks (cold caches: up to a second) are left out, and a sample is taken at
+        most :data:`_SERVICE_TIME_CLAMP` times the mean, so that one slow task (a batch, a
+        new rig) does not close admission for the many that follow."""
+        worker.done += 1
+        if worker.done <= _COLD_TASKS:
+            return
+        if self.service_time_s > 0:
+            elapsed = min(elapsed, _SERVICE_TIME_CLAMP * self.service_time_s)
+            self.service_time_s += _SERVICE_TIME_WEIGHT * (elapsed - self.service_time_s)
+        else:
+            self.service_time_s = elapsed
+
+    def _replace(self, gone: Process) -> None:
         """A process died: answer its task 503 and start another in its place."""
         assert self._loop is not None
         self._loop.remove_reader(gone.connection.fileno())
@@ -332,7 +294,7 @@ class DiagnosisPool:
             if worker.ready and worker.waiter is None:
                 queued = self._pending.popleft()
                 worker.waiter, worker.sent_at = queued.future, time.perf_counter()
-                _send(worker.connection, queued.message)
+                send_whole(worker.connection, queued.message)
 
     async def _call(self, kind: str, payload: Any) -> Any:
         if not self._workers or (self._loop is None
@@ -342,7 +304,7 @@ class DiagnosisPool:
         assert self._loop is not None
         future: asyncio.Future[Any] = self._loop.create_future()
         message = pickle.dumps((kind, payload), protocol=pickle.HIGHEST_PROTOCOL)
-        self._pending.append(_Queued(message, future))
+        self._pending.append(Queued(message, future))
         self._dispatch()
         return await future
 

@@ -17,7 +17,8 @@ from sqlalchemy import select
 from app.db.models import Diagnosis, DiagnosisEstimate, Measurement
 from app.errors import ServiceBusyError
 from app.security import Scope
-from app.services.diagnosis_pool import DiagnosisPool, _Queued, _take_message
+from app.services.diagnosis_pipes import Process, Queued, take_message
+from app.services.diagnosis_pool import DiagnosisPool
 from app.services.keys import create_api_key, revoke_api_key
 from tests.app.conftest import simulated_record
 from tests.app.live import LiveServer
@@ -95,11 +96,11 @@ def test_admission_refuses_once_the_expected_wait_passes_the_budget() -> None:
     loop = asyncio.new_event_loop()
     try:
         for _ in range(5):  # 5 ahead: 50 ms, within the budget
-            pool._pending.append(_Queued(b"", loop.create_future()))
+            pool._pending.append(Queued(b"", loop.create_future()))
         assert pool.expected_wait_s() == pytest.approx(0.05)
         with pool.admit():
             assert pool.admitted == 1
-        pool._pending.append(_Queued(b"", loop.create_future()))  # 60 ms
+        pool._pending.append(Queued(b"", loop.create_future()))  # 60 ms
         with pytest.raises(ServiceBusyError) as refused, pool.admit():
             pass
         assert refused.value.retry_after == 1
@@ -108,12 +109,24 @@ def test_admission_refuses_once_the_expected_wait_passes_the_budget() -> None:
         loop.close()
 
 
+def test_the_service_time_leaves_out_cold_tasks_and_clamps_slow_ones() -> None:
+    pool = DiagnosisPool(1)
+    worker = Process(None, None)  # type: ignore[arg-type]
+    for _ in range(3):  # cold first tasks: not learnt
+        pool._learn(worker, 0.9)
+    assert pool.service_time_s == 0.0
+    pool._learn(worker, 0.010)
+    assert pool.service_time_s == pytest.approx(0.010)
+    pool._learn(worker, 10.0)  # a batch: taken as 4 times the mean at most
+    assert pool.service_time_s == pytest.approx(0.010 + 0.1 * (0.040 - 0.010))
+
+
 def test_messages_are_taken_whole_from_the_pipe_buffer() -> None:
     buffer = bytearray((5).to_bytes(4, "big") + b"hello" + (3).to_bytes(4, "big") + b"ab")
-    assert _take_message(buffer) == b"hello"
-    assert _take_message(buffer) is None  # the second is incomplete
+    assert take_message(buffer) == b"hello"
+    assert take_message(buffer) is None  # the second is incomplete
     buffer += b"c"
-    assert _take_message(buffer) == b"abc"
+    assert take_message(buffer) == b"abc"
     assert buffer == bytearray()
 
 
