@@ -65,7 +65,7 @@ def serve(
 
     from app.logs import configure_logging
     from app.main import create_app
-    from app.nodelay import NoDelayH11Protocol
+    from app.nodelay import NoDelayHttpToolsProtocol
     from app.services.bootstrap import ensure_first_key, ensure_reference_data, upgrade_database
     from app.services.throttle_estimator import ThrottleClearanceEstimator
 
@@ -96,12 +96,12 @@ def serve(
     if settings.workers > 1:  # each worker builds the app from the environment
         uvicorn.run("app.main:create_service_app", factory=True, workers=settings.workers,
                     host=settings.host, port=settings.port, log_level=settings.log_level,
-                    http=NoDelayH11Protocol,  # no Nagle delay on kept-alive connections
+                    http=NoDelayHttpToolsProtocol,  # no Nagle delay on kept-alive connections
                     access_log=False)  # the service logs each request itself
     else:
         uvicorn.run(create_app(settings, clearance_estimator=estimator, prepare_store=False),
                     host=settings.host, port=settings.port, log_level=settings.log_level,
-                    http=NoDelayH11Protocol,  # no Nagle delay on kept-alive connections
+                    http=NoDelayHttpToolsProtocol,  # no Nagle delay on kept-alive connections
                     access_log=False)  # the service logs each request itself
 
 

@@ -21,7 +21,7 @@ from fastapi.openapi.utils import get_openapi
 from fastapi.routing import APIRoute, iter_route_contexts
 
 from app import __version__
-from app.api.deps import SCOPE_OF, read_access
+from app.api.deps import OPEN_READ_ACCESS, SCOPE_OF
 from app.api.router import api_router
 from app.console import router as console_router
 from app.db.engine import make_engine, make_session_factory
@@ -84,9 +84,9 @@ def _access_of(route: APIRoute) -> tuple[str, Scope | None]:
     calls = _calls(route.dependant)
     scopes = [SCOPE_OF[call] for call in calls if call in SCOPE_OF]
     scope = max(scopes, key=lambda s: s.rank) if scopes else None
-    if any(call in SCOPE_OF and call is not read_access for call in calls):
+    if any(call in SCOPE_OF and call not in OPEN_READ_ACCESS for call in calls):
         return ACCESS_KEY, scope
-    if read_access in calls:
+    if calls & OPEN_READ_ACCESS:
         return ACCESS_OPEN_READS, scope
     return ACCESS_OPEN, None
 
@@ -189,8 +189,10 @@ def create_app(
     app.state.sessions = sessions
     app.state.clearance_estimator = clearance_estimator
     app.state.rigs = RigCache(settings.rig_cache_size)
-    app.state.diagnosis_pool = DiagnosisPool(settings.diagnosis_processes,
-                                             settings.rig_cache_size, settings.diagnosis_queue)
+    app.state.diagnosis_pool = DiagnosisPool(
+        settings.diagnosis_processes, settings.rig_cache_size, settings.diagnosis_queue,
+        url=settings.url.render_as_string(hide_password=False), sessions=sessions,
+        rigs=app.state.rigs, wait_budget_s=settings.diagnosis_wait_ms / 1e3)
     app.state.diagnosis_writer = GroupCommitter(sessions)
     app.state.sweep_executors = SweepExecutors(workers=settings.sweep_workers,
                                                dask_scheduler=settings.dask_scheduler)

@@ -5,7 +5,11 @@ with protocol number 0, and asyncio sets ``TCP_NODELAY`` only on sockets whose p
 ``IPPROTO_TCP``.  Without it a kept-alive client's next request meets Nagle's algorithm
 against the client's delayed ACK: every answer after the first took 40-44 ms instead of
 under 1 ms (``GET /health`` measured with ``HYDRODIAG_WORKERS=2``).  ``serve`` passes this
-class as uvicorn's ``http`` protocol in both the single- and multi-worker cases.
+class as uvicorn's ``http`` protocol in both the single- and multi-worker cases:
+:class:`NoDelayHttpToolsProtocol` (uvicorn's parser in C, ``httptools``);
+:class:`NoDelayH11Protocol` is the pure-Python one it used before.  The pure
+Python parser and its per-event objects were a fifth of the server process's CPU per
+``POST /diagnose`` once the diagnosis had left it (profile of issue 9).
 """
 
 from __future__ import annotations
@@ -14,8 +18,9 @@ import asyncio
 import socket
 
 from uvicorn.protocols.http.h11_impl import H11Protocol
+from uvicorn.protocols.http.httptools_impl import HttpToolsProtocol
 
-__all__ = ["NoDelayH11Protocol", "set_nodelay"]
+__all__ = ["NoDelayH11Protocol", "NoDelayHttpToolsProtocol", "set_nodelay"]
 
 
 def set_nodelay(transport: asyncio.BaseTransport) -> bool:
@@ -32,6 +37,15 @@ def set_nodelay(transport: asyncio.BaseTransport) -> bool:
 
 class NoDelayH11Protocol(H11Protocol):
     """:class:`~uvicorn.protocols.http.h11_impl.H11Protocol` with ``TCP_NODELAY`` set."""
+
+    def connection_made(self, transport: asyncio.BaseTransport) -> None:
+        set_nodelay(transport)
+        super().connection_made(transport)  # type: ignore[arg-type]
+
+
+
+class NoDelayHttpToolsProtocol(HttpToolsProtocol):
+    """uvicorn's ``httptools`` protocol (its parser in C) with ``TCP_NODELAY`` set."""
 
     def connection_made(self, transport: asyncio.BaseTransport) -> None:
         set_nodelay(transport)

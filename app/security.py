@@ -175,6 +175,14 @@ class VerifiedKeys:
         message = key.encode("utf-8") + b"\0" + stored.encode("ascii", "replace")
         return hmac.new(self._secret, message, hashlib.sha256).digest()
 
+    def known(self, row_id: int, key: str, stored: str) -> bool:
+        """Return whether ``key`` matches ``stored`` by the remembered HMAC alone (no
+        scrypt: cheap enough for the event loop); false when it was not verified yet."""
+        tag = self._tag(key, stored)
+        with self._lock:
+            known = self._seen.get(row_id)
+        return known is not None and hmac.compare_digest(known, tag)
+
     def verify(self, row_id: int, key: str, stored: str) -> bool:
         """Return whether ``key`` matches ``stored``, by the remembered HMAC or by scrypt."""
         tag = self._tag(key, stored)

@@ -87,6 +87,11 @@ class Settings(BaseSettings):
     diagnosis_queue
         Most ``/diagnose`` requests a server process takes at once (running or waiting);
         one more is answered 503 with ``Retry-After`` at once.  Default 32.
+    diagnosis_wait_ms
+        Longest expected wait of a ``/diagnose`` request for a diagnosis process [ms]: the
+        tasks ahead, divided among the processes, times the measured time of one; past it
+        a request is answered 503 with ``Retry-After`` before any work, so that an
+        overloaded service refuses what it cannot do in time.  Default 100.
     log_level
         Level of the service's log.
     max_batch_records
@@ -134,6 +139,9 @@ class Settings(BaseSettings):
     diagnosis_queue: int = Field(default=32, ge=1, le=100_000,
                                  description="Most /diagnose requests taken at once per "
                                  "server process.")
+    diagnosis_wait_ms: float = Field(default=100.0, gt=0, le=600_000,
+                                     description="Longest expected wait for a diagnosis "
+                                     "process before /diagnose answers 503 [ms].")
     log_level: Literal["debug", "info", "warning", "error"] = Field(default="info")
     log_format: Literal["json", "text"] = Field(default="json",
                                                 description="Log lines as JSON or text.")

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from collections.abc import AsyncIterator
 from dataclasses import dataclass
-from typing import Annotated
+from typing import Annotated, Any
 
 from fastapi import Depends, Query, Request, Security
 from fastapi.security import APIKeyHeader
@@ -26,11 +26,12 @@ from app.schemas.common import MAX_OFFSET
 from app.security import Scope
 from app.services.clearance import ClearanceEstimator
 from app.services.executors import SweepExecutors
-from app.services.keys import API_KEY_HEADER, authenticate
+from app.services.keys import API_KEY_HEADER, authenticate, authenticate_on_loop
 from app.services.rig_cache import RigCache
 from app.settings import Settings
 
 __all__ = [
+    "OPEN_READ_ACCESS",
     "SCOPE_OF",
     "AdminKeyDep",
     "EstimatorDep",
@@ -45,15 +46,21 @@ __all__ = [
     "WriteKeyDep",
     "get_db",
     "read_access",
+    "read_access_on_loop",
     "require_admin_key",
     "require_key",
+    "require_key_on_loop",
     "require_scope",
     "require_write_key",
 ]
 
 
-def get_settings(request: Request) -> Settings:
-    """Return the settings the application was created with."""
+async def get_settings(request: Request) -> Settings:
+    """Return the settings the application was created with.
+
+    ``async`` like the other accessors here: FastAPI runs a plain function dependency in
+    its thread pool, a thread hand-off per request for a read of an attribute.
+    """
     settings: Settings = request.app.state.settings
     return settings
 
@@ -79,19 +86,19 @@ async def get_db(request: Request) -> AsyncIterator[Session]:
             session.close()
 
 
-def get_estimator(request: Request) -> ClearanceEstimator | None:
+async def get_estimator(request: Request) -> ClearanceEstimator | None:
     """Return the clearance estimator the application was given, if any."""
     estimator: ClearanceEstimator | None = request.app.state.clearance_estimator
     return estimator
 
 
-def get_rigs(request: Request) -> RigCache:
+async def get_rigs(request: Request) -> RigCache:
     """Return the application's cache of compiled rigs."""
     rigs: RigCache = request.app.state.rigs
     return rigs
 
 
-def get_executors(request: Request) -> SweepExecutors:
+async def get_executors(request: Request) -> SweepExecutors:
     """Return the executors the application's sweeps run on."""
     executors: SweepExecutors = request.app.state.sweep_executors
     return executors
@@ -120,16 +127,53 @@ def require_key(
     cached: ApiKey | None = getattr(request.state, "api_key", None)
     if cached is None:
         cached = authenticate(session, key)
-        limiter: KeyRateLimiter | None = request.app.state.rate_limiter
-        if limiter is not None:
-            wait = limiter.acquire(cached.prefix)
-            if wait > 0:
-                raise RateLimitError(
-                    f"this API key is over its {int(limiter.capacity)} requests per minute; "
-                    f"retry in {limiter.retry_after(wait)} s", retry_after=limiter.retry_after(wait),
-                    field=API_KEY_HEADER)
+        _count_rate(request, cached.prefix)
         request.state.api_key = cached
     return cached
+
+
+def _count_rate(request: Request, prefix: str) -> None:
+    """Count the request against its key's rate (429 when spent)."""
+    limiter: KeyRateLimiter | None = request.app.state.rate_limiter
+    if limiter is not None:
+        wait = limiter.acquire(prefix)
+        if wait > 0:
+            raise RateLimitError(
+                f"this API key is over its {int(limiter.capacity)} requests per minute; "
+                f"retry in {limiter.retry_after(wait)} s", retry_after=limiter.retry_after(wait),
+                field=API_KEY_HEADER)
+
+
+async def require_key_on_loop(request: Request, key: str | None, needed: Scope) -> Any:
+    """:func:`require_scope` for ``async`` routes: the key checked on the event loop
+    (:func:`app.services.keys.authenticate_on_loop`), counted against its rate once per
+    request; returns the key's row (``id``, ``name``, ``prefix``, ``scope``).
+
+    Raises
+    ------
+    AuthError, ScopeError, RateLimitError
+        As :func:`require_scope` (401, 403, 429).
+    """
+    row: Any = getattr(request.state, "api_key", None)
+    if row is None:
+        row = await authenticate_on_loop(request.app.state.engine, key)
+        _count_rate(request, row.prefix)
+        request.state.api_key = row
+    if not Scope(row.scope).allows(needed):
+        raise ScopeError(f"this operation needs a key of scope {needed.value!r} or above; "
+                         f"key {row.id} ({row.name}) has scope {row.scope!r}",
+                         field=API_KEY_HEADER)
+    return row
+
+
+async def read_access_on_loop(
+    request: Request,
+    settings: SettingsDep,
+    key: Annotated[str | None, Security(_api_key_header)],
+) -> None:
+    """:func:`read_access` for ``async`` routes: no session, no thread hand-off."""
+    if not settings.open_reads:
+        await require_key_on_loop(request, key, Scope.READ)
 
 
 def require_scope(request: Request, session: Session, key: str | None, needed: Scope) -> ApiKey:
@@ -183,10 +227,14 @@ def read_access(
 #: document states it on each operation as ``x-hydrodiag-scope``.
 SCOPE_OF: dict[object, Scope] = {
     read_access: Scope.READ,
+    read_access_on_loop: Scope.READ,
     require_key: Scope.READ,
     require_write_key: Scope.WRITE,
     require_admin_key: Scope.ADMIN,
 }
+
+#: The access dependencies that let reads through without a key under open reads.
+OPEN_READ_ACCESS = frozenset({read_access, read_access_on_loop})
 
 WriteKeyDep = Annotated[ApiKey, Depends(require_write_key)]
 AdminKeyDep = Annotated[ApiKey, Depends(require_admin_key)]

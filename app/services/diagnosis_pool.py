@@ -1,46 +1,54 @@
-"""Where ``POST /diagnose`` computes: worker processes beside the event loop, or a thread.
+"""Where ``POST /diagnose`` computes: diagnosis processes beside the event loop, or a thread.
 
 A diagnosis is CPU-bound Python and compiled code.  Run in a thread of the server process
 it holds the interpreter lock, and the event loop then waits up to the switch interval
 (5 ms) at each of its steps: ``/health`` queued behind diagnoses for seconds under load
-(issue 14).  :class:`DiagnosisPool` with ``processes`` ≥ 1 sends the computation
-(:func:`app.services.diagnosis.compute_group`) to that many worker processes of its own,
-so the server process only parses, authenticates, stores and answers, and its event loop
-keeps its interpreter lock.  ``processes = 0`` computes in the server's thread pool under
-:data:`~app.services.diagnosis.DIAGNOSIS_LOCK`, as before (tests, small machines).
+(issue 14).  :class:`DiagnosisPool` with ``processes`` ≥ 1 sends the work to that many
+diagnosis processes of its own (:mod:`app.services.diagnosis_worker`), so that the server
+process only parses, authenticates, stores and answers.  ``processes = 0`` computes in the
+server's thread pool under :data:`~app.services.diagnosis.DIAGNOSIS_LOCK` (tests, small
+machines).
 
-Each worker keeps its own compiled rigs (an LRU keyed by rig id, version and the version's
-creation time, the key of :class:`~app.services.rig_cache.RigCache`); a task carries the
-key only, and a worker that lacks the rig answers so, and is sent the task again with
-the rig document (compiled there once).  :meth:`DiagnosisPool.warm` starts
-every worker and loads and exercises the stored rigs in it (one steady cycle and one
-diagnosis each) before the service reports ready.  Workers are started with ``spawn``
-(the server process has threads) and leave when the server process is gone, even after a
-``kill -9`` (they watch their parent).
+Each process has one pipe to the server process, and the event loop reads the answers
+from it itself (``loop.add_reader``): no executor thread between them.  A
+``ProcessPoolExecutor`` took three thread hand-offs per task (its queue feeder, its result
+manager, the loop's wake-up), each costing the event loop its interpreter lock, about a
+tenth of the server process's CPU per request (profile of issue 9).  A process takes one
+task at a time; the others wait in the pool's queue.
+
+Admission (:meth:`DiagnosisPool.admit`): a server process takes at most ``queue``
+``/diagnose`` requests at once, and refuses one more (503 with ``Retry-After``, before any
+work) also when the expected wait for a diagnosis process — the requests in, divided among
+the processes, times the measured time of one — is over ``wait_budget_s``: work the machine
+cannot do in time is refused at once rather than queued past its client's patience, and
+the event loop keeps time to answer ``/health``.
+
+Processes are started with ``spawn`` (the server process has threads) and leave when the
+server process is gone, even after a ``kill -9`` (they watch their parent); one that dies is
+replaced, and the request it was computing is answered 503.
 """
 
 from __future__ import annotations
 
 import asyncio
+import collections
+import contextlib
 import logging
 import multiprocessing
 import os
-import signal
+import pickle
 import threading
 import time
-from collections.abc import Callable, Iterator, Mapping, Sequence
-from concurrent.futures import ProcessPoolExecutor
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
-from dataclasses import dataclass
-from datetime import UTC, datetime
 from typing import Any, TypeVar
 
 import anyio
 import anyio.to_thread
 from starlette.concurrency import run_in_threadpool
 
-from app.errors import ServiceBusyError
-from app.lifeline import exit_with_parent
+from app.db.engine import SessionFactory
+from app.errors import ServiceBusyError, ServiceUnavailableError
 from app.services.diagnosis import (
     DIAGNOSIS_LOCK,
     GroupPlan,
@@ -48,153 +56,113 @@ from app.services.diagnosis import (
     compute_group,
     request_error,
 )
-from app.services.rig_cache import ResolvedRig
-from diagnostics.measurement import MeasurementRecord, OperatingCondition
+from app.services.diagnosis_pipes import READ_CHUNK, Process, Queued, send_whole, take_message
+from app.services.diagnosis_task import DiagnoseAnswer, DiagnoseTask, TaskFailure, run_task
+from app.services.diagnosis_worker import MISSING, serve_pipe, warm_rig
+from app.services.rig_cache import ResolvedRig, RigCache
 from sim.errors import HydrodiagError, InputError
-from sim.rigs import Rig, load_rig
-from sim.steady import steady_cycle
 
-__all__ = ["DiagnosisPool", "RigKey", "warm_rig"]
+__all__ = ["DiagnosisPool", "warm_rig"]
 
 logger = logging.getLogger("hydrodiag.app")
 
-#: Longest wait for every worker to start and warm [s].
+#: Longest wait for every process to start and warm [s].
 _WARM_TIMEOUT_S = 300.0
 
-#: Threads of a server process that read and write the store for /diagnose at once.
+#: Threads of a server process that read and write the store for the console at once.
 STORE_THREADS = 4
 
-RigKey = tuple[int, int, datetime]
+#: Weight of the newest task in the running mean of a task's time [-].
+_SERVICE_TIME_WEIGHT = 0.1
+
+#: First tasks of a process left out of the running mean (cold caches) [-].
+_COLD_TASKS = 3
+
+#: Largest sample of a task's time taken, over the running mean [-].
+_SERVICE_TIME_CLAMP = 4.0
+
 T = TypeVar("T")
 
 
-def warm_rig(rig: Rig) -> None:
-    """Call the compiled code a diagnosis uses once on ``rig``: a steady cycle at the
-    rig's default condition, then a diagnosis of the velocity ratio it predicts."""
-    condition = rig.default_condition()
-    ratio = steady_cycle(rig, condition=condition).velocity_ratio
-    if not ratio > 0:  # the piston stalls at the default condition: nothing to diagnose
-        return
-    load = ({"back_pressure": condition.back_pressure} if condition.back_pressure
-            else {"load_force": condition.load})
-    record = MeasurementRecord.from_readings(
-        "warm-up", OperatingCondition.from_readings(
-            {"oil_temperature": condition.oil_temperature} | load),
-        {"velocity_ratio": ratio}, rig_name="warm-up", taken_at=datetime.now(UTC))
-    compute_group(rig, [record], 1)
-
-
-# --- in the worker processes -------------------------------------------------------------
-
-_RIGS: dict[RigKey, Rig] = {}
-_RIG_ORDER: list[RigKey] = []
-_CACHE_SIZE = 16
-
-
-def _worker_start(cache_size: int, parent: int, rigs: Sequence[tuple[RigKey, Any]]) -> None:
-    """Initialiser of a worker: remember the cache size, watch the parent, warm the rigs."""
-    global _CACHE_SIZE
-    _CACHE_SIZE = cache_size
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C stops the server, which stops us
-    exit_with_parent(parent)
-    for key, document in rigs:
-        try:
-            rig = _worker_rig(key, document)
-            assert rig is not None  # compiled from its document
-            warm_rig(rig)
-        except HydrodiagError as exc:  # a rig that cannot run still answers 422s
-            logger.warning("rig %s not warmed in a diagnosis worker: %s", key[0], exc)
-
-
-def _worker_rig(key: RigKey, document: Mapping[str, Any] | None) -> Rig | None:
-    """The compiled rig of ``key``, compiled from ``document`` on a miss; ``None`` on a
-    miss without the document."""
-    rig = _RIGS.get(key)
-    if rig is None:
-        if document is None:
-            return None
-        rig = _RIGS[key] = load_rig(document)
-        _RIG_ORDER.append(key)
-        while len(_RIG_ORDER) > _CACHE_SIZE:
-            _RIGS.pop(_RIG_ORDER.pop(0), None)
-    return rig
-
-
-@dataclass(frozen=True, slots=True)
-class _Failure:
-    """An error of the library, carried back as plain data (its ``field`` survives)."""
-
-    kind: type[HydrodiagError]
-    message: str
-    field: str | None
-
-
-#: The answer of a worker that lacks the rig and was not sent its document.
-_MISSING = "rig document needed"
-
-
-def _worker_compute(key: RigKey, document: Mapping[str, Any] | None,
-                    records: list[MeasurementRecord]) -> GroupResult | _Failure | str:
-    try:
-        rig = _worker_rig(key, document)
-        if rig is None:
-            return _MISSING
-        return compute_group(rig, records, key[1])
-    except HydrodiagError as exc:
-        return _Failure(type(exc), exc.message, exc.field)
-
-
-def _worker_pid() -> int:
-    time.sleep(0.05)  # long enough that the other workers take the other probes
-    return os.getpid()
-
-
-# --- in the server process ---------------------------------------------------------------
-
-
-def _key(resolved: ResolvedRig) -> RigKey:
-    return (resolved.rig_id, resolved.version, resolved.created_at)
-
-
 class DiagnosisPool:
-    """Computes diagnoses in ``processes`` worker processes, or in a thread when 0.
+    """Computes diagnoses in ``processes`` diagnosis processes, or in a thread when 0.
 
     Parameters
     ----------
     processes
-        Worker processes [-]; 0 computes in the server's thread pool.
+        Diagnosis processes [-]; 0 computes in the server's thread pool.
     cache_size
-        Compiled rigs each worker keeps [-].
+        Compiled rigs each process keeps [-].
+    queue
+        Most requests taken at once (running or waiting) [-].
+    url
+        Database URL the processes resolve rigs with (:meth:`diagnose`).
+    sessions, rigs
+        The server's store and compiled rigs, used by :meth:`diagnose` when ``processes``
+        is 0.
+    wait_budget_s
+        Longest expected wait for a diagnosis process before a request is refused [s];
+        ``None``: only ``queue`` bounds the requests taken.
     """
 
-    def __init__(self, processes: int, cache_size: int = 16, queue: int = 32) -> None:
+    def __init__(self, processes: int, cache_size: int = 16, queue: int = 32, *,
+                 url: str | None = None, sessions: SessionFactory | None = None,
+                 rigs: RigCache | None = None, wait_budget_s: float | None = None) -> None:
         if processes < 0 or queue < 1:
             raise ValueError("processes must be 0 or more, queue 1 or more")
         self.processes = processes
         self.queue = queue
+        self.wait_budget_s = wait_budget_s
         self.admitted = 0
-        #: Groups computed so far (in the workers or the thread) [-].
+        #: Tasks computed so far (in the processes or the thread) [-].
         self.computed = 0
+        #: Running mean of the time from sending a task to its answer [s].
+        self.service_time_s = 0.0
+        #: Requests refused by the expected wait (not by ``queue``) [-].
+        self.refused_by_wait = 0
         self._cache_size = cache_size
-        self._executor: ProcessPoolExecutor | None = None
+        self._url = url
+        self._sessions = sessions
+        self._rigs = rigs
+        self._workers: list[Process] = []
+        self._warm: list[tuple[Any, Any]] = []
+        self._pending: collections.deque[Queued] = collections.deque()
+        self._loop: asyncio.AbstractEventLoop | None = None
         self._lock = threading.Lock()
         self._limiter: anyio.CapacityLimiter | None = None
 
+    # --- admission ---------------------------------------------------------------------
+
+    def expected_wait_s(self) -> float:
+        """Expected wait of one more request for a diagnosis process [s]: the tasks ahead
+        of it (computing or queued), shared among the processes, times the running mean of
+        a task's time from sending to answer (which counts the time the machine's other
+        work takes the processes' cores)."""
+        busy = sum(1 for w in self._workers if w.waiter is not None)
+        return (busy + len(self._pending)) / max(self.processes, 1) * self.service_time_s
+
     @contextmanager
     def admit(self) -> Iterator[None]:
-        """Count one request in for the length of the block, or refuse it when ``queue``
-        requests are already in (on the event loop only; no lock needed).
+        """Count one request in for the length of the block, or refuse it (on the event
+        loop only; no lock needed).
 
         Raises
         ------
         ServiceBusyError
-            As many requests are in as the setting allows (503 with ``Retry-After``): a
-            request answered at once is better than one that waits past its deadline.
+            ``queue`` requests are in already, or the expected wait is over
+            ``wait_budget_s`` (503 with ``Retry-After``): a request answered at once is
+            better than one that waits past its deadline.
         """
         if self.admitted >= self.queue:
             raise ServiceBusyError(
                 f"{self.admitted} diagnosis requests are already queued in this server "
                 "process (setting HYDRODIAG_DIAGNOSIS_QUEUE); retry shortly", retry_after=1)
+        if self.wait_budget_s is not None and self.expected_wait_s() > self.wait_budget_s:
+            self.refused_by_wait += 1
+            raise ServiceBusyError(
+                f"a diagnosis would wait about {1e3 * self.expected_wait_s():.0f} ms here, "
+                f"over {1e3 * self.wait_budget_s:.0f} ms (setting "
+                "HYDRODIAG_DIAGNOSIS_WAIT_MS); retry shortly", retry_after=1)
         self.admitted += 1
         try:
             yield
@@ -209,35 +177,165 @@ class DiagnosisPool:
             self._limiter = anyio.CapacityLimiter(STORE_THREADS)
         return await anyio.to_thread.run_sync(call, limiter=self._limiter)
 
-    def _pool(self, rigs: Sequence[ResolvedRig] = ()) -> ProcessPoolExecutor:
+    # --- the processes -----------------------------------------------------------------
+
+    def _spawn(self) -> Process:
+        context = multiprocessing.get_context("spawn")
+        mine, theirs = context.Pipe(duplex=True)
+        process = context.Process(
+            target=serve_pipe, name="hydrodiag-diagnosis", daemon=True,
+            args=(theirs, self._url, self._cache_size, os.getpid(), self._warm))
+        process.start()
+        theirs.close()
+        return Process(process, mine)
+
+    def _start(self) -> None:
         with self._lock:
-            if self._executor is None:
-                self._executor = ProcessPoolExecutor(
-                    max_workers=self.processes,
-                    mp_context=multiprocessing.get_context("spawn"),
-                    initializer=_worker_start,
-                    initargs=(self._cache_size, os.getpid(),
-                              [(_key(r), dict(r.document)) for r in rigs]))
-            return self._executor
+            while len(self._workers) < self.processes:
+                self._workers.append(self._spawn())
+
+    def _wait_ready(self, timeout: float = _WARM_TIMEOUT_S) -> None:
+        """Read each process's ``ready`` (before the event loop reads their pipes)."""
+        deadline = time.monotonic() + timeout
+        with self._lock:
+            for worker in self._workers:
+                if worker.ready or self._loop is not None:
+                    continue
+                if not worker.connection.poll(max(deadline - time.monotonic(), 0.0)):
+                    raise ServiceUnavailableError("a diagnosis process did not start in time")
+                worker.ready, worker.pid = True, pickle.loads(worker.connection.recv_bytes())[1]
 
     def warm(self, rigs: Sequence[ResolvedRig]) -> None:
-        """Start every worker and warm ``rigs`` in each (blocks until all are warm).
-
-        Each worker runs the warm-up in its initialiser, before it takes any task; the
-        probes here return once every worker has answered one, so all have started.
-        """
+        """Start every process and warm ``rigs`` in each (blocks until all are warm; not
+        on the event loop)."""
         if self.processes == 0:
             for resolved in rigs:
                 with DIAGNOSIS_LOCK:
                     warm_rig(resolved.rig)
             return
-        pool = self._pool(rigs)
-        seen: set[int] = set()
-        deadline = time.monotonic() + _WARM_TIMEOUT_S
-        while len(seen) < self.processes and time.monotonic() < deadline:
-            probes = [pool.submit(_worker_pid) for _ in range(self.processes)]
-            seen |= {probe.result(timeout=_WARM_TIMEOUT_S) for probe in probes}
-        logger.info("%d diagnosis worker(s) warm", len(seen))
+        self._warm = [(r.key, dict(r.document)) for r in rigs]
+        self._start()
+        self._wait_ready()
+        logger.info("%d diagnosis process(es) warm", len(self._workers))
+
+    def worker_pids(self) -> list[int]:
+        """Process ids of the diagnosis processes, once started (blocks until they are)."""
+        self._start()
+        self._wait_ready()
+        return [w.pid for w in self._workers if w.pid is not None]
+
+    def _attach(self) -> None:
+        """Read the pipes from the running event loop (again after a new loop: tests)."""
+        loop = asyncio.get_running_loop()
+        if self._loop is loop:
+            return
+        with self._lock:
+            self._loop = loop
+            for worker in self._workers:
+                loop.add_reader(worker.connection.fileno(), self._on_answer, worker)
+
+    def _on_answer(self, worker: Process) -> None:
+        """Read what the pipe holds (never blocking: uvloop makes the descriptor
+        non-blocking) and handle each whole message in it."""
+        try:
+            chunk = os.read(worker.connection.fileno(), READ_CHUNK)
+        except BlockingIOError:
+            return
+        except OSError:
+            chunk = b""
+        if not chunk:  # the process is gone
+            self._replace(worker)
+            return
+        worker.buffer += chunk
+        while (message := take_message(worker.buffer)) is not None:
+            seconds, result = pickle.loads(message)
+            if not worker.ready:  # a replacement process's "ready"
+                worker.ready, worker.pid = True, result
+                continue
+            waiter, worker.waiter = worker.waiter, None
+            self._learn(worker, time.perf_counter() - worker.sent_at)
+            del seconds
+            if waiter is not None and not waiter.done():
+                waiter.set_result(result)
+        self._dispatch()
+
+    def _learn(self, worker: Process, elapsed: float) -> None:
+        """Update the running mean of a task's time with ``elapsed`` [s].  A process's
+        first tasks (cold caches: up to a second) are left out, and a sample is taken at
+        most :data:`_SERVICE_TIME_CLAMP` times the mean, so that one slow task (a batch, a
+        new rig) does not close admission for the many that follow."""
+        worker.done += 1
+        if worker.done <= _COLD_TASKS:
+            return
+        if self.service_time_s > 0:
+            elapsed = min(elapsed, _SERVICE_TIME_CLAMP * self.service_time_s)
+            self.service_time_s += _SERVICE_TIME_WEIGHT * (elapsed - self.service_time_s)
+        else:
+            self.service_time_s = elapsed
+
+    def _replace(self, gone: Process) -> None:
+        """A process died: answer its task 503 and start another in its place."""
+        assert self._loop is not None
+        self._loop.remove_reader(gone.connection.fileno())
+        gone.connection.close()
+        logger.error("a diagnosis process (pid %s) stopped; starting another", gone.pid)
+        if gone.waiter is not None and not gone.waiter.done():
+            gone.waiter.set_exception(ServiceUnavailableError(
+                "the diagnosis process computing this request stopped; retry"))
+        with self._lock:
+            index = self._workers.index(gone)
+            self._workers[index] = worker = self._spawn()
+        self._loop.add_reader(worker.connection.fileno(), self._on_answer, worker)
+
+    def _dispatch(self) -> None:
+        for worker in self._workers:
+            if not self._pending:
+                return
+            if worker.ready and worker.waiter is None:
+                queued = self._pending.popleft()
+                worker.waiter, worker.sent_at = queued.future, time.perf_counter()
+                send_whole(worker.connection, queued.message)
+
+    async def _call(self, kind: str, payload: Any) -> Any:
+        if not self._workers or (self._loop is None
+                                 and not all(w.ready for w in self._workers)):
+            await asyncio.to_thread(self.worker_pids)
+        self._attach()
+        assert self._loop is not None
+        future: asyncio.Future[Any] = self._loop.create_future()
+        message = pickle.dumps((kind, payload), protocol=pickle.HIGHEST_PROTOCOL)
+        self._pending.append(Queued(message, future))
+        self._dispatch()
+        return await future
+
+    # --- the work ----------------------------------------------------------------------
+
+    async def diagnose(self, task: DiagnoseTask) -> DiagnoseAnswer:
+        """Resolve, diagnose and serialise one ``POST /diagnose``
+        (:func:`app.services.diagnosis_task.run_task`).
+
+        Raises
+        ------
+        HydrodiagError
+            As the request's answer: unknown rig or version (404), a record impossible on
+            its rig (422), the field a path in the request.
+        """
+        self.computed += 1
+        if self.processes == 0:
+            if self._sessions is None or self._rigs is None:
+                raise RuntimeError("a pool without processes needs sessions and rigs")
+            sessions, rigs = self._sessions, self._rigs
+
+            def locked() -> DiagnoseAnswer | TaskFailure:
+                with DIAGNOSIS_LOCK:
+                    return run_task(sessions, rigs, task)
+            answer = await run_in_threadpool(locked)
+        else:
+            answer = await self._call("request", task)
+        if isinstance(answer, TaskFailure):
+            raise answer.error()
+        assert isinstance(answer, DiagnoseAnswer)
+        return answer
 
     async def compute(self, plan: GroupPlan) -> GroupResult:
         """Diagnose one planned group; errors name their field in the request.
@@ -257,27 +355,32 @@ class DiagnosisPool:
                 return await run_in_threadpool(locked)
             except InputError as exc:
                 raise request_error(exc, plan) from None
-        loop = asyncio.get_running_loop()
         # the rig's key only: its ~6 kB document is pickled and sent again only to a
-        # worker that has not compiled it yet (a rig created after start, or evicted)
-        answer = await loop.run_in_executor(
-            self._pool(), _worker_compute, _key(plan.resolved), None, plan.records)
-        if isinstance(answer, str):  # _MISSING
-            answer = await loop.run_in_executor(
-                self._pool(), _worker_compute, _key(plan.resolved),
-                dict(plan.resolved.document), plan.records)
-        assert not isinstance(answer, str)
-        if isinstance(answer, _Failure):
-            error = answer.kind(answer.message, field=answer.field)
+        # process that has not compiled it yet (a rig created after start, or evicted)
+        answer = await self._call("group", (plan.resolved.key, None, plan.records))
+        if answer == MISSING:
+            answer = await self._call("group", (plan.resolved.key,
+                                                dict(plan.resolved.document), plan.records))
+        if isinstance(answer, TaskFailure):
+            error: HydrodiagError = answer.error()
             if isinstance(error, InputError):
                 raise request_error(error, plan) from None
             raise error
+        assert isinstance(answer, GroupResult)
         return answer
 
     def shutdown(self) -> None:
-        """Stop the workers (the running diagnoses finish first)."""
+        """Stop the processes (a running diagnosis finishes first)."""
         with self._lock:
-            executor, self._executor = self._executor, None
-        if executor is not None:
-            executor.shutdown(wait=True, cancel_futures=True)
-
+            workers, self._workers = self._workers, []
+            loop, self._loop = self._loop, None
+        for worker in workers:
+            if loop is not None and not loop.is_closed():
+                with contextlib.suppress(RuntimeError, ValueError, OSError):
+                    loop.remove_reader(worker.connection.fileno())  # not on its thread
+            worker.connection.close()  # the process leaves at its next read
+        for worker in workers:
+            worker.process.join(timeout=30)
+            if worker.process.is_alive():
+                worker.process.kill()
+                worker.process.join(timeout=5)

@@ -61,6 +61,11 @@ def _settle(future: asyncio.Future[None], error: BaseException | None) -> None:
         future.set_exception(error)
 
 
+def _settle_all(futures: list[asyncio.Future[None]]) -> None:
+    for future in futures:
+        _settle(future, None)
+
+
 def _answer(pending: _Pending, error: BaseException | None) -> None:
     """Tell the request (on its event loop thread) how its write went."""
     with contextlib.suppress(RuntimeError):  # a closed loop: nobody waits for the answer
@@ -154,8 +159,12 @@ class GroupCommitter:
             return
         self.transactions += 1
         self.committed += len(batch)
+        by_loop: dict[asyncio.AbstractEventLoop, list[asyncio.Future[None]]] = {}
         for pending in batch:
-            _answer(pending, None)
+            by_loop.setdefault(pending.loop, []).append(pending.future)
+        for loop, futures in by_loop.items():  # one wake-up of each loop per transaction
+            with contextlib.suppress(RuntimeError):  # a closed loop: nobody waits
+                loop.call_soon_threadsafe(_settle_all, futures)
 
     def _commit_alone(self, pending: _Pending) -> None:
         error: BaseException | None = None

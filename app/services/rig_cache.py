@@ -28,7 +28,10 @@ from app.services.rigs import get_rig
 from sim.errors import NotFoundError
 from sim.rigs import Rig, load_rig
 
-__all__ = ["DocumentRigs", "ResolvedRig", "RigCache", "document_digest"]
+__all__ = ["DocumentRigs", "ResolvedRig", "RigCache", "RigKey", "document_digest"]
+
+#: Key of a compiled rig: rig id, version, creation time of the version.
+RigKey = tuple[int, int, datetime]
 
 
 @dataclass(frozen=True, slots=True)
@@ -58,6 +61,11 @@ class ResolvedRig:
     document: Mapping[str, Any]
     rig: Rig
     created_at: datetime
+
+    @property
+    def key(self) -> RigKey:
+        """Key of the compiled rig: (rig id, version, creation time of the version)."""
+        return (self.rig_id, self.version, self.created_at)
 
 
 def document_digest(document: Mapping[str, Any]) -> str:
@@ -146,7 +154,7 @@ class RigCache:
         if found is None:
             raise NotFoundError(f"rig {rig_id} has no version {number}", field=version_field)
         version_id, created_at = found
-        key: tuple[int, int, datetime] = (rig_id, number, created_at)
+        key: RigKey = (rig_id, number, created_at)
         cached: tuple[Rig, Mapping[str, Any]] | None = self._rigs.get(key)
         if cached is None:  # the document is read only when the rig is compiled
             stored = session.get(RigVersion, version_id)
@@ -154,6 +162,16 @@ class RigCache:
             cached = self._rigs.put(key, (load_rig(stored.document), stored.document))
         rig, document = cached
         return ResolvedRig(rig_id, number, version_id, row.name, document, rig, created_at)
+
+    def compiled(self, key: RigKey, document: Mapping[str, Any] | None) -> Rig | None:
+        """The compiled rig of ``key`` (see :meth:`ResolvedRig.key`), compiled from
+        ``document`` on a miss; ``None`` on a miss without the document."""
+        cached: tuple[Rig, Mapping[str, Any]] | None = self._rigs.get(key)
+        if cached is None:
+            if document is None:
+                return None
+            cached = self._rigs.put(key, (load_rig(document), document))
+        return cached[0]
 
 
 class DocumentRigs:

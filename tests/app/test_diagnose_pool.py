@@ -118,10 +118,10 @@ def test_a_worker_without_the_rig_is_sent_its_document_once(server: LiveServer) 
 
 _KILLED_SERVER = textwrap.dedent("""
     import os, sys, time
-    from app.services.diagnosis_pool import DiagnosisPool, _worker_pid
+    from app.services.diagnosis_pool import DiagnosisPool
     pool = DiagnosisPool(1)
     pool.warm([])
-    print(pool._pool().submit(_worker_pid).result(), flush=True)
+    print(pool.worker_pids()[0], flush=True)
     time.sleep(600)
 """)
 

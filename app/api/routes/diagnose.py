@@ -1,76 +1,72 @@
 """Diagnosis of measurement records: ``POST /diagnose``.
 
-The route is ``async`` and thin: the body is validated on the event loop; the store is
-read (key, rigs) in one thread-pool call; the diagnoses are computed by the application's
-:class:`~app.services.diagnosis_pool.DiagnosisPool` (worker processes, so the event loop
-never waits for a diagnosis's interpreter lock); the results are stored by the
-application's :class:`~app.services.group_commit.GroupCommitter` (the rows of concurrent
-requests in one transaction, each answered after that commit) and the answer is
-serialised once by pydantic's compiled serialiser.  A server process takes at most
-``diagnosis_queue`` diagnosis requests at once; one more is answered 503 with
-``Retry-After`` at once rather than queued past its client's deadline.
+The route is ``async`` and a thin pipe (issue 9): the body is validated on the event loop
+(FastAPI: a malformed request is a 422 naming the field before anything else), the key is
+checked on the event loop (:func:`~app.api.deps.require_key_on_loop`: scope ``write`` to
+store), and the body's bytes go to a diagnosis process of the application's
+:class:`~app.services.diagnosis_pool.DiagnosisPool`, which resolves the rigs, diagnoses,
+serialises the answer and prepares the rows (:mod:`app.services.diagnosis_task`).  The
+rows are stored by the application's :class:`~app.services.group_commit.GroupCommitter`
+(the rows of concurrent requests in one transaction, SQLAlchemy Core inserts,
+:mod:`app.services.diagnosis_rows`), and the answer, its stored ids spliced in, is sent
+once that transaction has committed.  A server process refuses a request (503 with
+``Retry-After``, before any work) when ``diagnosis_queue`` requests are in or the expected
+wait for a diagnosis process is over ``diagnosis_wait_ms``.
 """
 
 from __future__ import annotations
 
-import asyncio
 from collections.abc import AsyncIterator
-from datetime import datetime
-from functools import partial
 
 from fastapi import APIRouter, Depends, Request, Response
 from sqlalchemy.orm import Session
 
-from app.api.deps import KeyHeaderDep, ReadAccess, SessionDep, SettingsDep, require_write_key
+from app.api.deps import KeyHeaderDep, SettingsDep, read_access_on_loop, require_key_on_loop
 from app.db.base import utcnow
 from app.limits import check_count
 from app.schemas.common import ERROR_RESPONSES, error_doc
 from app.schemas.diagnose import DiagnoseRequest, DiagnoseResponse
-from app.services.diagnosis import (
-    STORE_CONFLICT,
-    GroupPlan,
-    add_outcomes,
-    outcome_of,
-    plan_groups,
-    response_json,
-)
+from app.security import Scope
+from app.services.diagnosis import STORE_CONFLICT
 from app.services.diagnosis_pool import DiagnosisPool
+from app.services.diagnosis_rows import insert_rows
+from app.services.diagnosis_task import DiagnoseTask, StoredRows
 from app.services.group_commit import GroupCommitter
 
 __all__ = ["router"]
 
 
 async def _admitted(request: Request) -> AsyncIterator[None]:
-    """Count the request in (before anything reads the store), or answer 503 at once."""
+    """Count the request in (before its body is read), or answer 503 at once."""
     pool: DiagnosisPool = request.app.state.diagnosis_pool
     with pool.admit():
         yield
 
 
-router = APIRouter(tags=["diagnosis"], dependencies=[Depends(_admitted), ReadAccess],
+router = APIRouter(tags=["diagnosis"],
+                   dependencies=[Depends(_admitted), Depends(read_access_on_loop)],
                    responses=ERROR_RESPONSES)
 
 
-def _plan(request: Request, session: Session, body: DiagnoseRequest, key: str | None,
-          now: datetime) -> list[GroupPlan]:
-    """Check the key (scope ``write``) when storing, resolve the rigs and build the records;
-    then close the request's session, so that no connection is held while the diagnoses are
-    computed."""
-    try:
-        if body.store:
-            require_write_key(request, session, key)
-        return plan_groups(session, request.app.state.rigs, body, now)
-    finally:
-        session.close()
+class _Rows:
+    """A repeatable write of a request's rows (the group committer may run it twice)."""
+
+    def __init__(self, rows: list[StoredRows]) -> None:
+        self.rows = rows
+        self.ids: list[tuple[int, list[int]]] = []
+
+    def __call__(self, session: Session) -> None:
+        self.ids = insert_rows(session, self.rows)
 
 
 @router.post("/diagnose", summary="Diagnose one record or a batch, and store them",
              openapi_extra={"x-hydrodiag-scope-store": "write"},
              response_model=DiagnoseResponse, responses={503: error_doc(
                  "As many diagnoses queued as the service accepts "
-                 "(HYDRODIAG_DIAGNOSIS_QUEUE); retry after Retry-After")})
-async def diagnose(body: DiagnoseRequest, request: Request, session: SessionDep,
-                   key: KeyHeaderDep, settings: SettingsDep) -> Response:
+                 "(HYDRODIAG_DIAGNOSIS_QUEUE), or a longer expected wait than the service "
+                 "accepts (HYDRODIAG_DIAGNOSIS_WAIT_MS); retry after Retry-After")})
+async def diagnose(body: DiagnoseRequest, request: Request, key: KeyHeaderDep,
+                   settings: SettingsDep) -> Response:
     """Rank the fault hypotheses for each record (or for all records jointly).
 
     Records and results are stored in the history unless ``store`` is false; storing needs
@@ -81,13 +77,14 @@ async def diagnose(body: DiagnoseRequest, request: Request, session: SessionDep,
     items = body.items()  # a malformed request is a 422 before it is a 401
     check_count(len(items), settings.max_batch_records, what="records", field="records",
                 setting="max_batch_records")
-    now = utcnow()
+    if body.store:
+        await require_key_on_loop(request, key, Scope.WRITE)
     pool: DiagnosisPool = request.app.state.diagnosis_pool
-    plans = await pool.in_thread(partial(_plan, request, session, body, key, now))
-    computed = await asyncio.gather(*(pool.compute(plan) for plan in plans))
-    outcomes = [outcome_of(plan, result) for plan, result in zip(plans, computed, strict=True)]
-    if body.store:  # answered once the group transaction holding its rows has committed
-        writer: GroupCommitter = request.app.state.diagnosis_writer
-        await writer.write(lambda s: add_outcomes(s, body, outcomes, now),
-                           conflict=STORE_CONFLICT)
-    return Response(response_json(body, outcomes), media_type="application/json")
+    answer = await pool.diagnose(DiagnoseTask(await request.body(), utcnow()))
+    if not body.store:
+        return Response(answer.body(), media_type="application/json")
+    # answered once the group transaction holding its rows has committed
+    write = _Rows(answer.rows)
+    writer: GroupCommitter = request.app.state.diagnosis_writer
+    await writer.write(write, conflict=STORE_CONFLICT)
+    return Response(answer.body(write.ids), media_type="application/json")
