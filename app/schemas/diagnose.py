@@ -247,8 +247,9 @@ class DisagreementPublic(BaseModel):
                          examples=["pump_pressure"])
     measured: float = Field(description="Reading [SI unit of the reading]", examples=[2.6e6])
     predicted: float | None = Field(
-        description="Best fit's prediction; null where the model has none (the piston "
-        "stalls) [SI unit of the reading]", examples=[3.4e6])
+        description="Best fit's prediction; null where the model has none (no operating "
+        "point, or the velocity ratio of a return stroke held on its stop) [SI unit of the "
+        "reading]", examples=[3.4e6])
     sigma: float = Field(description="Standard uncertainty used in the fit [SI unit of the "
                          "reading]", examples=[8.6e3])
     deviation: float | None = Field(
@@ -314,8 +315,9 @@ class DiagnosisPublic(BaseModel):
         "and where to go next (discrepancy workflow, commissioning); null otherwise [-]",
         examples=[None])
     regime_notes: list[str] = Field(
-        default_factory=list, description="Stall / no-operating-point states met: hypothesis "
-        "values masked because the piston stalls there [-]", examples=[[]])
+        default_factory=list, description="End-stop states met (the piston held on its stop over "
+        "a range of a hypothesis's values: predicted, speed 0) and values without a prediction "
+        "(no operating point: masked) [-]", examples=[[]])
     estimates: list[EstimatePublic] = Field(
         description="Per-component estimates kept for the trends: closed-form where the "
         "flows allow, else the fit of a single-fault hypothesis the readings do not reject [-]",
