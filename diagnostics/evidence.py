@@ -143,8 +143,10 @@ def whitening(diag: npt.NDArray[np.float64], terms: Sequence[npt.NDArray[np.floa
     for t in terms:
         cov = cov + np.outer(t, t)
     sigma = np.sqrt(np.diag(cov))
-    fallback = np.diag(1.0 / sigma)
-    if not np.isfinite(cov).all() or np.max(sigma) > 1e50:
+    with np.errstate(divide="ignore"):
+        fallback = np.diag(1.0 / sigma)
+    if not np.isfinite(cov).all() or np.max(sigma) > 1e50 or not np.all(sigma > 0.0):
+        # a reading with zero σ is refused by the caller (diagnostics.record_model)
         return sigma, fallback
     # factor the correlation matrix (scale-free: readings in Pa and m³/s side by side)
     corr = cov / np.outer(sigma, sigma)
