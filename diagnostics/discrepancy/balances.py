@@ -250,6 +250,8 @@ def balance_data(s: Signals, values: dict[str, float]) -> list[BalanceData]:
     ``values`` are the rig's parameter values (:meth:`sim.rigs.assembly.Rig.values`).
     """
     out: list[BalanceData] = []
+    # samples away from the end stops, settled after a switch (and after a dwell's switch)
+    settled = _inside(s, values) & (s.since_phase_start() >= SETTLE) & ~_after_dwell(s, values)
     for b in BALANCES:
         if not s.has(*b.channels):
             continue
@@ -263,7 +265,7 @@ def balance_data(s: Signals, values: dict[str, float]) -> list[BalanceData]:
             limit = HOSE_HF_LIMIT * b.full_scale(values) + 2.0 * float(np.median(hf[ok]))
             mask = ok & (hf <= limit)
         else:
-            mask = _inside(s, values) & (s.since_phase_start() >= SETTLE) & ~_after_dwell(s, values)
+            mask = settled.copy()
             for ch in ("P1", "P2"):
                 if ch in b.channels:
                     mask &= s.values[ch] > VACUUM
