@@ -8,7 +8,9 @@ map's, and as its last line one JSON object with every figure.
 1. Pump leakage (:mod:`diagnostics.real.leakage`), its score and change points.
    The JSON's top-level figures (``spearman`` … ``worst_confound``, ``targets``) are those
    of the headline estimator, the per-plateau leak size with the plateau profile
-   (:mod:`diagnostics.real.profile`, ``shunt_model.plateau_profile``); the first envelope
+   (:mod:`diagnostics.real.profile`) and the accumulator's intake given back to each
+   plateau's flow (:mod:`benchmarks.real_zema_confound`, ``shunt_model.accumulator_intake``;
+   without it: ``shunt_model.plateau_profile``); the first envelope
    estimate is kept as a labelled comparison under ``envelope_estimate``.
 2. The cooler confound: the orifice + laminar-shunt leak size (:mod:`diagnostics.real.shunt`)
    from each cycle's plateaus up to its first departure to the relief valve
@@ -35,6 +37,7 @@ import time
 import numpy as np
 import numpy.typing as npt
 
+from benchmarks.real_zema_confound import accumulator_corrected
 from benchmarks.real_zema_program import accumulator, valve_lag
 from diagnostics.real.accumulator import step_volumes
 from diagnostics.real.leakage import (
@@ -158,9 +161,11 @@ def _shunt(records: list[SeriesRecord], points: list, mu: Arr, labels: ZemaLabel
           "healthy flow of the same plateau; cycle size = mean of K_k/r_k (no label used)")
     print("  plateau profile r_k (median K_k/mean K of the leaking cycles on the program): "
           + " ".join(f"{x:.3f}" for x in prof.profile) + f"; λ = {prof.shunt:.3e} m³")
-    print(_row("K profile (all cycles) HEADLINE", kc))
+    print(_row("K profile (all cycles)", kc))
     print(_row("K profile (on the load program)", kp))
     print(_row("K profile (left the program)", ko))
+    ka, acc_fig = accumulator_corrected(records, labels, est.leaking, est.slope, tau, full,
+                                        mu_of, _row)
     med = {}
     for c in (3.0, 20.0, 100.0):
         m = full & (labels.stable == 0) & (labels.cooler == c)
@@ -176,10 +181,11 @@ def _shunt(records: list[SeriesRecord], points: list, mu: Arr, labels: ZemaLabel
                 "accumulator_within": list(x.accumulator_within),
                 "worst_confound": x.worst_confound}
 
-    return {"plateau_profile": {"all_cycles": fig(kc), "load_program_only": fig(kp),
+    return {"accumulator_intake": acc_fig,
+            "plateau_profile": {"all_cycles": fig(kc), "load_program_only": fig(kp),
                                 "left_program_only": fig(ko), "shunt_lambda_m3": prof.shunt,
                                 "profile": [float(x) for x in prof.profile]},
-            "headline": kc,
+            "headline": ka,
             "all_cycles": fig(sc), "load_program_only": fig(pr), "left_program_only": fig(po),
             "relaxation_s": tau, "relaxation_grid_abs_rho": [float(x) for x in tau_rho],
             "plateau_means": {"all_cycles": fig(s0), "load_program_only": fig(p0)},
@@ -189,7 +195,7 @@ def _shunt(records: list[SeriesRecord], points: list, mu: Arr, labels: ZemaLabel
             "threshold_l_min": est.threshold * 6e4, "leaking_cycles": int(est.leaking.sum()),
             "healthy_slope_l_min_bar": est.slope * 6e4 * 1e5, "shunt_lambda_m3": est.shunt,
             "median_K_by_cooler_1e9": {k: [v * 1e9 for v in vs] for k, vs in med.items()},
-            "targets": _targets(kc)}
+            "targets": _targets(ka)}
 
 
 def _targets(s: LeakageScore) -> dict[str, bool]:
@@ -318,7 +324,8 @@ def zema(light: bool) -> dict[str, object]:
     return {
         "study": "real_data", "light": light, "cycles": len(points),
         "estimator": "leak size per plateau against the same plateau's healthy flow, "
-                     "orifice + laminar shunt, plateau profile (shunt_model.plateau_profile)",
+                     "orifice + laminar shunt, plateau profile, the accumulator's intake "
+                     "given back to each plateau's flow (shunt_model.accumulator_intake)",
         "spearman": hd.spearman, "spearman_ceiling": hd.ceiling,
         "fraction_of_ceiling": hd.fraction, "auroc_0_1": hd.auroc_01,
         "auroc_1_2": hd.auroc_12, "cooler_within": list(hd.cooler_within),

@@ -27,6 +27,18 @@ The oil compressed in the line adds ``c·Δp`` to every step; fitted freely on t
 campaign ``c`` comes out negative (unphysical), so it is held at its bound 0.  ``n`` is
 the module default of :mod:`~diagnostics.real.accumulator` (1.4, fixed before any
 score; the residual hardly changes between 1.0 and 1.4, so the data do not fix it).
+
+Two uses of the fit in the leak estimate (:mod:`~diagnostics.real.profile`):
+
+* :func:`stored_rate`: while the pressure still drifts on a plateau the accumulator takes in
+  (or gives out) ``d(V0 − V(p))/dt`` [m³/s], which a flowmeter downstream of the
+  accumulator node misses (or reads on top); the time derivative of :func:`stored_volume`.
+* :func:`cycle_precharges`: the pre-charge at the gas temperature for *every* cycle.  A
+  cycle that left the load program has no four load steps and no fit of its own; it takes
+  the pre-charge (referred to 20 °C) of the nearest cycle in record order that has one,
+  moved to its own oil temperature.  The rule was fixed before any score and rests on the
+  hardware: a pre-charge changes only when the accumulator is refilled or swapped, not
+  from one 60 s cycle to the next.
 """
 
 from __future__ import annotations
@@ -41,7 +53,8 @@ from scipy.optimize import minimize_scalar
 from diagnostics.real.accumulator import ABSOLUTE_ZERO, LoadStep
 from sim.errors import InputError
 
-__all__ = ["PrechargeFit", "fit_precharge", "refer_precharge", "stored_volume"]
+__all__ = ["PrechargeFit", "cycle_precharges", "fit_precharge", "refer_precharge", "stored_rate",
+           "stored_volume"]
 
 Arr = npt.NDArray[np.float64]
 
@@ -146,3 +159,75 @@ def refer_precharge(p0: npt.ArrayLike, theta: npt.ArrayLike, theta_ref: float = 
     t = np.asarray(theta, dtype=np.float64) + ABSOLUTE_ZERO
     return np.asarray(np.asarray(p0, dtype=np.float64) * (theta_ref + ABSOLUTE_ZERO) / t,
                       dtype=np.float64)
+
+
+def stored_rate(p: npt.ArrayLike, p0: float, v0: float, rate: float, n: float = 1.4) -> Arr:
+    """Oil flow into the accumulator [m³/s] at each sample of one plateau, from its pressure.
+
+    ``(S(p_{k+1}) − S(p_{k−1}))/((k+1 − (k−1))·Δt)`` with ``S`` the oil stored
+    (:func:`stored_volume`), central inside the plateau and one-sided at its two ends (the
+    samples beyond belong to the transitions), so a steady pressure gives zero.
+
+    Parameters
+    ----------
+    p
+        Pressure samples of one plateau [Pa], uniformly spaced.
+    p0
+        Pre-charge at the gas temperature [Pa].
+    v0
+        Accumulator gas volume when empty [m³].
+    rate
+        Sample rate [Hz].
+    n
+        Polytropic exponent [-].
+
+    Raises
+    ------
+    InputError
+        Fewer than 2 samples, a rate ≤ 0, or a non-finite ``p0``/``v0``.
+    """
+    x = np.asarray(p, dtype=np.float64)
+    if x.size < 2:
+        raise InputError("a stored-volume rate needs at least 2 samples", field="p")
+    if not (rate > 0 and np.isfinite(p0) and p0 > 0 and np.isfinite(v0) and v0 >= 0):
+        raise InputError(f"the stored-volume rate needs rate > 0, p0 > 0 and V0 ≥ 0 (got "
+                         f"{rate}, {p0}, {v0})", field="precharge")
+    k = np.arange(x.size)
+    lo, hi = np.maximum(k - 1, 0), np.minimum(k + 1, x.size - 1)
+    return np.asarray(stored_volume(x[lo], x[hi], p0, v0, n) * rate / (hi - lo),
+                      dtype=np.float64)
+
+
+def cycle_precharges(p0: npt.ArrayLike, theta: npt.ArrayLike, theta_ref: float = 20.0) -> Arr:
+    """Pre-charge at the gas temperature [Pa] for every cycle (module docstring).
+
+    Parameters
+    ----------
+    p0
+        Fitted pre-charge at the gas temperature per cycle, in record order [Pa]; NaN where a
+        cycle had no fit.
+    theta
+        Oil (gas) temperature per cycle [°C], the one the fit's ``p0`` was taken at.
+    theta_ref
+        Fill temperature the neighbour's pre-charge is referred through [°C].
+
+    Raises
+    ------
+    InputError
+        Shapes differ, or no cycle has a fitted pre-charge.
+    """
+    a = np.asarray(p0, dtype=np.float64)
+    t = np.asarray(theta, dtype=np.float64)
+    if a.shape != t.shape or a.ndim != 1:
+        raise InputError("pre-charges and temperatures differ in shape", field="precharge")
+    have = np.flatnonzero(np.isfinite(a))
+    if have.size == 0:
+        raise InputError("no cycle has a fitted pre-charge", field="precharge")
+    idx = np.arange(a.size)
+    after = np.clip(np.searchsorted(have, idx), 0, have.size - 1)
+    before = np.clip(after - 1, 0, have.size - 1)
+    near = np.where(np.abs(have[before] - idx) <= np.abs(have[after] - idx),
+                    have[before], have[after])
+    p20 = refer_precharge(a[near], t[near], theta_ref)
+    moved = p20 * (t + ABSOLUTE_ZERO) / (theta_ref + ABSOLUTE_ZERO)
+    return np.asarray(np.where(np.isfinite(a), a, moved), dtype=np.float64)

@@ -30,6 +30,11 @@ like, without labels:
    :func:`~diagnostics.real.shunt.fit_shunt` (no rank correlation of the leaking
    whole-program cycles' sizes with θ), the profile refitted at every trial ``λ``.
 
+Optionally (``precharge`` of :func:`plateau_table`) each plateau's flow first gets back the
+oil the accumulator took in while the pressure still drifted on the plateau
+(:func:`~diagnostics.real.precharge.stored_rate`, the cycle's own pre-charge and the rig's
+accumulator volume from :mod:`~diagnostics.real.precharge`): ``q + d(V0 − V(p))/dt``.
+
 Nothing here is fitted with labels; "leaking" is the label-free threshold of
 :func:`~diagnostics.real.shunt.leak_threshold`.
 """
@@ -45,6 +50,7 @@ import numpy.typing as npt
 from scipy.stats import spearmanr
 
 from diagnostics.real.leakage import record_plateaus
+from diagnostics.real.precharge import stored_rate
 from diagnostics.real.relaxation import settled_flow
 from diagnostics.timeseries import SeriesRecord
 from sim.errors import InputError
@@ -68,11 +74,15 @@ class PlateauTable:
         Plateau settled flow [m³/s], cycles × plateaus.
     theta
         Oil temperature over the plateaus used [°C], per cycle.
+    intake
+        Mean accumulator intake given back to each plateau's flow [m³/s], cycles ×
+        plateaus (None: no pre-charge given).
     """
 
     pressure: Arr
     flow: Arr
     theta: Arr
+    intake: Arr | None = None
 
     @property
     def complete(self) -> Mask:
@@ -83,23 +93,32 @@ class PlateauTable:
 def plateau_table(records: Sequence[SeriesRecord], *, plateaus: int = 5,
                   relaxation: float = 0.0, pressure: str = "p_pump", flow: str = "q_work",
                   temperature: str = "oil_temperature",
-                  min_flow_fraction: float = 0.2) -> PlateauTable:
+                  min_flow_fraction: float = 0.2, precharge: npt.ArrayLike | None = None,
+                  gas_volume: float = 0.0, polytropic: float = 1.4) -> PlateauTable:
     """The first ``plateaus`` working plateaus of each record, up to its first relief episode.
 
     Working and no-flow plateaus as in :func:`~diagnostics.real.leakage.cycle_point`
     (``stop_at_relief=True``); ``relaxation`` [s] > 0 takes each plateau's settled flow.
+    With ``precharge`` (per record, at the gas temperature [Pa]), ``gas_volume`` ``V0``
+    [m³] and ``polytropic`` ``n`` [-], each flow sample first gets back the accumulator's
+    intake (:func:`~diagnostics.real.precharge.stored_rate`).
 
     Raises
     ------
     InputError
-        ``plateaus`` < 1, or a record without a working plateau (``field=pressure``).
+        ``plateaus`` < 1, ``precharge`` not one finite value per record
+        (``field="precharge"``), or a record without a working plateau (``field=pressure``).
     """
     if plateaus < 1:
         raise InputError(f"plateaus must be ≥ 1, got {plateaus}", field="plateaus")
     n = len(records)
+    pre = None if precharge is None else np.asarray(precharge, dtype=np.float64)
+    if pre is not None and (pre.shape != (n,) or not np.all(np.isfinite(pre))):
+        raise InputError("precharge needs one finite pre-charge per record", field="precharge")
     pm = np.full((n, plateaus), math.nan)
     qm = np.full((n, plateaus), math.nan)
     th = np.full(n, math.nan)
+    im = None if pre is None else np.full((n, plateaus), math.nan)
     for i, r in enumerate(records):
         p, q = r.channel(pressure), r.channel(flow)
         temp = (r.channel(temperature) if temperature in r.channels
@@ -119,9 +138,14 @@ def plateau_table(records: Sequence[SeriesRecord], *, plateaus: int = 5,
         rate = r.sample_rate or 1.0
         for k, (a, b) in enumerate(kept):
             pm[i, k] = float(p[a:b].mean())
-            qm[i, k] = settled_flow(q[a:b], relaxation * rate)
+            qk = q[a:b]
+            if pre is not None and im is not None:
+                intake = stored_rate(p[a:b], float(pre[i]), gas_volume, rate, polytropic)
+                im[i, k] = float(intake.mean())
+                qk = qk + intake
+            qm[i, k] = settled_flow(qk, relaxation * rate)
         th[i] = float(np.concatenate([temp[a:b] for a, b in kept]).mean())
-    return PlateauTable(pm, qm, th)
+    return PlateauTable(pm, qm, th, im)
 
 
 def plateau_deficits(table: PlateauTable, healthy: Mask, slope: float, *,
