@@ -14,6 +14,10 @@ Reads ``data/real/pump-efficiency-V32HL56/V32HL56-efficiency.csv`` of the shared
 * whether the model's held-out S differs from the quadratic's beyond chance: a paired block
   bootstrap over the speed levels (:mod:`diagnostics.pump.compare`); the target
   "no worse than the quadratic" is still scored as the plain comparison of the two S;
+* where the quadratic wins: whether it is itself a sign-valid member of the loss family
+  (:func:`~diagnostics.pump.compare.quadratic_in_family`), and speed by speed the terms AIC
+  chose in that fold against the quadratic's, with both held-out S
+  (:func:`~diagnostics.pump.compare.fold_s`);
 * paper 001's best subset (Table 1 terms, AIC, VIF ≤ 10, sign checks;
   :mod:`diagnostics.pump.map_subset`): in-sample S and R² as paper 001 reports them, and
   with one speed left out.
@@ -36,7 +40,12 @@ from diagnostics.pump import (
     derived_capacity_toet,
     derived_capacity_vimax,
 )
-from diagnostics.pump.compare import s_difference
+from diagnostics.pump.compare import (
+    QUADRATIC_TERMS,
+    fold_s,
+    quadratic_in_family,
+    s_difference,
+)
 from diagnostics.pump.levels import cluster_levels
 from diagnostics.pump.map_subset import subset_held_out
 from diagnostics.pump.piston import (
@@ -98,6 +107,39 @@ def _signs_ok(h: HeldOut) -> bool:
     return bool(ok)
 
 
+def _why_quadratic(sub: PistonMap, D: float, h: HeldOut) -> dict[str, object]:
+    """Print and return, per response, the quadratic's membership of the family and, where
+    it wins, the fold-by-fold terms and S (% of the setting's max)."""
+    mem = quadratic_in_family(sub, D)
+    _, w_lev = cluster_levels(sub.omega, field="Speed")
+    out: dict[str, object] = {}
+    for name, y, pm, pq, full, terms, member, coef in (
+            ("flow", sub.q, h.flow_pred, h.flow_pred_quadratic, h.flow_full,
+             h.fold_flow_terms, mem.flow_member, mem.flow_coef),
+            ("torque", sub.torque, h.torque_pred, h.torque_pred_quadratic, h.torque_full,
+             h.fold_torque_terms, mem.torque_member, mem.torque_coef)):
+        sm, sq = fold_s(y, pm, pq, sub.omega, full)
+        same = [set(t) == QUADRATIC_TERMS for t in terms]
+        out[name] = {"quadratic_is_sign_valid_member": member, "quadratic_coef": coef,
+                     "folds_choosing_quadratic_terms": int(sum(same)),
+                     "fold_S_model_pct": sm.tolist(), "fold_S_quadratic_pct": sq.tolist(),
+                     "fold_terms": [list(t) for t in terms]}
+        s_m = float(np.sqrt(np.mean((y - pm) ** 2)))
+        s_q = float(np.sqrt(np.mean((y - pq) ** 2)))
+        if s_m <= s_q:
+            continue
+        print(f"{'':11s} {name}: the quadratic wins; it is "
+              f"{'a sign-valid member of the family' if member else 'NOT sign-valid (a family sign broken)'}"
+              f"; folds where AIC chose its six terms: {sum(same)} of {len(same)}")
+        for k, (t, a, b) in enumerate(zip(terms, sm, sq, strict=True)):
+            drop = sorted(QUADRATIC_TERMS - set(t))
+            add = sorted(set(t) - QUADRATIC_TERMS)
+            print(f"{'':13s} {w_lev[k] * 60.0 / (2.0 * np.pi):5.0f} rpm left out: S model "
+                  f"{a:.3f} quadratic {b:.3f} ({a - b:+.3f}); vs the quadratic's terms: "
+                  f"dropped {', '.join(drop) or '-'}; added {', '.join(add) or '-'}")
+    return out
+
+
 def _marks(row: dict[str, object]) -> str:
     t = row["targets"]
     assert isinstance(t, dict)
@@ -145,6 +187,7 @@ def pump_map() -> dict[str, object]:
         print(f"{'':11s} S(model) − S(quadratic), 95 % paired bootstrap over the {dq.blocks} "
               f"speeds: flow {dq.difference:+.3f} [{dq.low:+.3f}, {dq.high:+.3f}] %, torque "
               f"{dt.difference:+.3f} [{dt.low:+.3f}, {dt.high:+.3f}] %")
+        why = _why_quadratic(sub, D, h)
         sf = subset_held_out(sub, D, response="flow", theta=THETA)
         st = subset_held_out(sub, D, response="torque", theta=THETA)
         rows.append({
@@ -159,6 +202,7 @@ def pump_map() -> dict[str, object]:
             "flow_terms": list(h.flow_terms), "torque_terms": list(h.torque_terms),
             "flow_S_interior_speeds_pct": fi, "torque_S_interior_speeds_pct": ti,
             "flow_scatter_floor_pct": ff, "torque_scatter_floor_pct": tf,
+            "quadratic_vs_family": why,
             "S_minus_quadratic_95pct": {
                 "flow": [dq.difference, dq.low, dq.high],
                 "torque": [dt.difference, dt.low, dt.high]},

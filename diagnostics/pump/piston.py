@@ -292,6 +292,8 @@ class HeldOut:
     torque: LossFit
     flow_pred_quadratic: Arr
     torque_pred_quadratic: Arr
+    fold_flow_terms: tuple[tuple[str, ...], ...] = ()
+    fold_torque_terms: tuple[tuple[str, ...], ...] = ()
 
 
 def _s_r2(y: Arr, pred: Arr, full: float) -> tuple[float, float]:
@@ -309,10 +311,14 @@ def held_out_speed(data: PistonMap, D: float, *,
         raise InputError(f"{w_lev.size} speed levels: leaving one out needs ≥ 3",
                          field="Speed")
     pq, pt, qq, qt = (np.zeros(len(data)) for _ in range(4))
+    f_terms: list[tuple[str, ...]] = []
+    t_terms: list[tuple[str, ...]] = []
     for k in range(w_lev.size):
         test = w_idx == k
         train = data.subset(~test)
         flow, torque = fit_losses(train, D, target=target)
+        f_terms.append(flow.terms)
+        t_terms.append(torque.terms)
         dp, w = data.dp[test], data.omega[test]
         pq[test] = D * w - flow.loss(dp, w)
         pt[test] = D * dp + torque.loss(dp, w)
@@ -329,7 +335,8 @@ def held_out_speed(data: PistonMap, D: float, *,
     tsq, trq = _s_r2(data.torque, qt, t_full)
     flow, torque = fit_losses(data, D, target=target)
     return HeldOut(D, int(w_lev.size), fs, fr, fsq, frq, ts, tr, tsq, trq, flow.terms,
-                   torque.terms, pq, pt, q_full, t_full, flow, torque, qq, qt)
+                   torque.terms, pq, pt, q_full, t_full, flow, torque, qq, qt,
+                   tuple(f_terms), tuple(t_terms))
 
 
 def bench_frame(data: PistonMap, theta: float) -> pd.DataFrame:
