@@ -56,8 +56,9 @@ from app.services.diagnosis import (
     compute_group,
     request_error,
 )
+from app.services.diagnosis_answer import DiagnoseAnswer
 from app.services.diagnosis_pipes import READ_CHUNK, Process, Queued, send_whole, take_message
-from app.services.diagnosis_task import DiagnoseAnswer, DiagnoseTask, TaskFailure, run_task
+from app.services.diagnosis_task import DiagnoseTask, TaskFailure, run_task
 from app.services.diagnosis_worker import MISSING, serve_pipe, warm_rig
 from app.services.rig_cache import ResolvedRig, RigCache
 from sim.errors import HydrodiagError, InputError

@@ -20,7 +20,7 @@ from sqlalchemy.orm import Session
 
 from app.db.base import utcnow
 from app.db.models import Diagnosis, DiagnosisEstimate, Measurement
-from app.services.diagnosis_task import StoredRows
+from app.services.diagnosis_answer import StoredRows
 
 __all__ = ["insert_rows"]
 
@@ -29,9 +29,9 @@ _DIAGNOSES: Table = Diagnosis.__table__  # type: ignore[assignment]
 _ESTIMATES: Table = DiagnosisEstimate.__table__  # type: ignore[assignment]
 
 
-def _json(text: str, dialect: str) -> ColumnElement[Any]:
-    """``text`` (a serialised JSON document) as the value of a JSON column."""
-    value = type_coerce(text, Text)
+def _json(encoded: bytes, dialect: str) -> ColumnElement[Any]:
+    """``encoded`` (a JSON document, UTF-8) as the value of a JSON column."""
+    value = type_coerce(encoded.decode(), Text)
     if dialect == "sqlite":  # SQLite keeps JSON as its text
         return value
     return cast(value, JSONB if dialect == "postgresql" else JSON)
