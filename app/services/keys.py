@@ -12,7 +12,7 @@ from collections.abc import Sequence
 from datetime import datetime, timedelta
 from typing import Any
 
-from sqlalchemy import Engine, Row, func, or_, select
+from sqlalchemy import Engine, Row, bindparam, func, or_, select
 from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
 from starlette.concurrency import run_in_threadpool
@@ -105,10 +105,15 @@ def authenticate(session: Session, key: str | None) -> ApiKey:
 _KEY_COLUMNS = select(ApiKey.id, ApiKey.name, ApiKey.prefix, ApiKey.scope, ApiKey.key_hash,
                       ApiKey.revoked_at)
 
+#: The key's row by its prefix, one statement built once: its compiled form is found in the
+#: engine's cache without walking a new statement (a new ``where(prefix == literal)`` per
+#: request cost ~0.3 ms of cache-key generation, the most of a key check; issue 9).
+_KEY_BY_PREFIX = _KEY_COLUMNS.where(ApiKey.prefix == bindparam("prefix"))
+
 
 def _key_row(engine: Engine, prefix: str) -> Any:
     with engine.connect() as connection:
-        return connection.execute(_KEY_COLUMNS.where(ApiKey.prefix == prefix)).first()
+        return connection.execute(_KEY_BY_PREFIX, {"prefix": prefix}).first()
 
 
 async def authenticate_on_loop(engine: Engine, key: str | None) -> Row[Any]:
