@@ -43,6 +43,7 @@ import asyncio
 import json
 import os
 import random
+import re
 import resource
 import socket
 import sqlite3
@@ -270,6 +271,32 @@ def _sustained(base_url: str, requests: list[bytes], rate: float, duration: floa
     return figures
 
 
+_STAGE = re.compile(r'^hydrodiag_diagnosis_stage_seconds_(sum|count)\{stage="(\w+)"\} (\S+)$')
+_HTTP = re.compile(r'^hydrodiag_http_request_duration_seconds_(sum|count)'
+                   r'\{method="POST",route="/diagnose"\} (\S+)$')
+
+
+def timeline(base_url: str) -> dict[str, float]:
+    """Mean time of a ``POST /diagnose`` in each stage [ms], from one server process's
+    ``/metrics`` (every request it has answered so far): ``server`` from its arrival to
+    its answer, of which ``queue`` (for a diagnosis process), ``compute`` (in it),
+    ``transfer`` (pipes and wake-ups), ``commit`` (group commit), and ``other`` the rest
+    (parsing, validation, key check, routing, sending)."""
+    text = httpx.get(f"{base_url}/metrics", timeout=30).text
+    sums: dict[str, float] = {}
+    counts: dict[str, float] = {}
+    for line in text.splitlines():
+        if (m := _STAGE.match(line)) is not None:
+            (sums if m.group(1) == "sum" else counts)[m.group(2)] = float(m.group(3))
+        elif (m := _HTTP.match(line)) is not None:
+            (sums if m.group(1) == "sum" else counts)["server"] = float(m.group(2))
+    means = {k: 1e3 * sums[k] / counts[k] for k in sums if counts.get(k)}
+    if "server" in means:
+        means["other"] = means["server"] - sum(
+            means.get(k, 0.0) for k in ("queue", "compute", "transfer", "commit"))
+    return means
+
+
 def _holds(figures: dict[str, Any]) -> bool:
     return bool(figures["errors"] == 0 and figures["p99_ms"] <= P99_TARGET_MS)
 
@@ -298,6 +325,7 @@ def run() -> dict[str, Any]:
         with cpu_meter(service.process.pid, diagnose_stats):
             diagnose_stats |= asyncio.run(closed_loop(service.base_url, requests,
                                                       CONCURRENCY))
+        stages = timeline(service.base_url)
         health_stats |= _per_request_ms(health_stats)
         diagnose_stats |= _per_request_ms(diagnose_stats)
         sustained = _sustained(service.base_url, diagnoses(round(RATE * DURATION_S)), RATE,
@@ -323,7 +351,7 @@ def run() -> dict[str, Any]:
         "workers": os.environ.get("HYDRODIAG_WORKERS", "default (one per core)"),
         "load_average_before": [round(x, 2) for x in load_before],
         "load_average_after": [round(x, 2) for x in os.getloadavg()],
-        "health": health_stats, "diagnose": diagnose_stats,
+        "health": health_stats, "diagnose": diagnose_stats, "timeline_ms": stages,
         "ratio_p50": ratio_p50, "ratio_p99": diagnose_stats["p99_ms"] / health_stats["p99_ms"],
         "ratio_throughput": health_stats["throughput_rps"] / diagnose_stats["throughput_rps"],
         "sustained": sustained,
@@ -380,6 +408,8 @@ def _table(result: dict[str, Any]) -> str:
                              f"processes {f['diagnosis_cpu_ms_per_request']:.2f}, load "
                              f"generator {f['client_cpu_ms_per_request']:.2f}"
                              for name, f in (("/health", h), ("/diagnose", d))))
+    lines.append("timeline of a stored /diagnose, mean [ms] (one server process, closed loops): "
+                 + ", ".join(f"{k} {v:.2f}" for k, v in result["timeline_ms"].items()))
     lines.append(f"load average before {result['load_average_before']}, after "
                  f"{result['load_average_after']} on {result['cores']} cores")
     return "\n".join(lines)

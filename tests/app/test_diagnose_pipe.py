@@ -147,3 +147,30 @@ def test_a_killed_diagnosis_process_is_replaced(server: LiveServer) -> None:
     assert statuses[-1] == 200, statuses
     (replacement,) = pool.worker_pids()
     assert replacement != pid
+
+
+def test_the_stages_of_a_stored_diagnosis_are_timed(server: LiveServer) -> None:
+    """``/metrics`` counts each stage of a stored diagnosis once more after one request:
+    queue, compute (in the diagnosis process), transfer, commit; the compute time is
+    within the whole request's."""
+    def counts() -> dict[str, float]:
+        text = server.anon.get("/metrics").text
+        found = {}
+        for stage in ("queue", "compute", "transfer", "commit"):
+            for kind in ("count", "sum"):
+                prefix = f'hydrodiag_diagnosis_stage_seconds_{kind}{{stage="{stage}"}} '
+                lines = [x for x in text.splitlines() if x.startswith(prefix)]
+                found[f"{stage}_{kind}"] = float(lines[0].split()[-1]) if lines else 0.0
+        return found
+
+    record = simulated_record(server, WORN_VALVE)
+    before = counts()
+    started = time.perf_counter()
+    response = server.client.post("/diagnose", json={"record": record})
+    elapsed = time.perf_counter() - started
+    assert response.status_code == 200, response.text
+    after = counts()
+    for stage in ("queue", "compute", "transfer", "commit"):
+        assert after[f"{stage}_count"] == before[f"{stage}_count"] + 1, stage
+    computed = after["compute_sum"] - before["compute_sum"]
+    assert 0 < computed < elapsed

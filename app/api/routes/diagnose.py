@@ -18,6 +18,7 @@ wait for a diagnosis process is over ``diagnosis_wait_ms``.
 
 from __future__ import annotations
 
+import time
 from collections.abc import AsyncIterator
 
 from fastapi import APIRouter, Depends, Request, Response
@@ -90,5 +91,8 @@ async def diagnose(body: DiagnoseRequest, request: Request, key: KeyHeaderDep,
     # answered once the group transaction holding its rows has committed
     write = _Rows(answer.rows)
     writer: GroupCommitter = request.app.state.diagnosis_writer
+    handed = time.perf_counter()
     await writer.write(write, conflict=STORE_CONFLICT)
+    stages = request.app.state.metrics.diagnosis_stage
+    stages.labels("commit").observe(time.perf_counter() - handed)
     return Response(answer.body(write.ids), media_type="application/json")
