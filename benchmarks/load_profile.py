@@ -9,6 +9,10 @@ process, the share of samples whose stack passes through each part (a sample cou
 every part its stack holds, so the shares of nested parts overlap), and the top functions
 by own time.  The last line is one JSON object with the shares.
 
+First the same traffic without the profiler, its CPU per request read from ``/proc`` for
+the server process, the diagnosis process and this load generator (admission by expected
+wait switched off: every request is served, none is a cheap 503).
+
 Run: ``python -m benchmarks.load_profile`` (``HYDRODIAG_LIGHT=1``: fewer requests).
 """
 
@@ -25,7 +29,15 @@ import time
 from pathlib import Path
 from typing import Any
 
-from benchmarks.load_bench import Bodies, _base_records, _is_diagnosis_process, _processes, serve
+from benchmarks.load_bench import (
+    Bodies,
+    _base_records,
+    _is_diagnosis_process,
+    _per_request_ms,
+    _processes,
+    cpu_meter,
+    serve,
+)
 from benchmarks.load_clients import closed_loop, request_bytes
 
 LIGHT = os.environ.get("HYDRODIAG_LIGHT") == "1"
@@ -45,7 +57,7 @@ PARTS: dict[str, tuple[str, ...]] = {
     "group commit (sqlalchemy)": ("group_commit.py",),
     "diagnosis task": ("run_task",),
     "  json.loads + validation (worker)": ("json.loads", "model_validate"),
-    "  plan (rig, records)": ("plan_groups",),
+    "  plan (rig, records)": ("plan_groups", "plan_forms"),
     "  diagnose()": ("compute_group",),
     "  answer + rows serialised": ("answer_of",),
     "pickle (worker)": ("pickle", "dumps", "loads"),
@@ -87,6 +99,7 @@ def main() -> None:
     if spy is None:
         raise SystemExit("py-spy is needed: pip install py-spy")
     os.environ["HYDRODIAG_WORKERS"] = "1"
+    os.environ["HYDRODIAG_DIAGNOSIS_WAIT_MS"] = "600000"  # every request in: CPU, not 503s
     out: dict[str, Any] = {"load_average_before": os.getloadavg()}
     with tempfile.TemporaryDirectory(prefix="hydrodiag-profile-") as folder, \
             serve(Path(folder)) as service:
@@ -98,6 +111,12 @@ def main() -> None:
                     for _ in range(n)]
 
         asyncio.run(closed_loop(service.base_url, diagnoses(30), CONCURRENCY))
+        cpu: dict[str, Any] = {}
+        requests = diagnoses(N_REQUESTS)
+        with cpu_meter(service.process.pid, cpu):
+            cpu |= asyncio.run(closed_loop(service.base_url, requests, CONCURRENCY))
+        out["cpu_ms_per_request"] = _per_request_ms(cpu)
+        out["cpu_phase"] = cpu
         pids = _processes(service.process.pid)
         worker = next(p for p in pids if _is_diagnosis_process(p))
         server = service.process.pid  # one worker: uvicorn serves in the process of serve
@@ -128,6 +147,9 @@ def main() -> None:
         print("  top app functions, inclusive:")
         for frame, share in out[name]["top_app"]:
             print(f"    {100 * share:5.1f} %  {frame[:110]}")
+    print("CPU per stored /diagnose [ms] (closed loop, no profiler): " + ", ".join(
+        f"{k.split('_cpu')[0]} {v:.2f}" for k, v in out["cpu_ms_per_request"].items())
+        + f"; errors {out['cpu_phase']['errors']:.0f}")
     print(f"closed loop: p50 {figures['p50_ms']:.1f} ms, {figures['throughput_rps']:.0f}/s")
     print(json.dumps(out))
 

@@ -174,3 +174,24 @@ def test_the_stages_of_a_stored_diagnosis_are_timed(server: LiveServer) -> None:
         assert after[f"{stage}_count"] == before[f"{stage}_count"] + 1, stage
     computed = after["compute_sum"] - before["compute_sum"]
     assert 0 < computed < elapsed
+
+
+def test_the_event_loop_reads_a_key_as_the_store_does(server: LiveServer) -> None:
+    """The driver-level read of the event loop gives the row SQLAlchemy gives, its
+    revocation time as an aware UTC time, and sees a revocation at once."""
+    from app.security import split_key
+    from app.services.keys import _key_row, _key_row_sqlite
+
+    with server.session() as session:
+        row, key = create_api_key(session, "loop-reader", Scope.READ)
+    prefix = split_key(key)
+    assert prefix is not None
+    fresh = _key_row_sqlite(server.engine, prefix)
+    assert fresh == _key_row(server.engine, prefix) and fresh is not None
+    assert fresh.revoked_at is None and fresh.scope == "read"
+    with server.session() as session:
+        revoke_api_key(session, row.id)
+    revoked = _key_row_sqlite(server.engine, prefix)
+    assert revoked == _key_row(server.engine, prefix) and revoked is not None
+    assert revoked.revoked_at is not None and revoked.revoked_at.utcoffset() is not None
+    assert _key_row_sqlite(server.engine, "0" * 12) is None
