@@ -272,27 +272,23 @@ def _sustained(base_url: str, requests: list[bytes], rate: float, duration: floa
 
 
 _STAGE = re.compile(r'^hydrodiag_diagnosis_stage_seconds_(sum|count)\{stage="(\w+)"\} (\S+)$')
-_HTTP = re.compile(r'^hydrodiag_http_request_duration_seconds_(sum|count)'
-                   r'\{method="POST",route="/diagnose"\} (\S+)$')
 
 
 def timeline(base_url: str) -> dict[str, float]:
-    """Mean time of a ``POST /diagnose`` in each stage [ms], from one server process's
-    ``/metrics`` (every request it has answered so far): ``server`` from its arrival to
-    its answer, of which ``queue`` (for a diagnosis process), ``compute`` (in it),
-    ``transfer`` (pipes and wake-ups), ``commit`` (group commit), and ``other`` the rest
-    (parsing, validation, key check, routing, sending)."""
+    """Mean time of a stored ``POST /diagnose`` in each stage [ms], from one server
+    process's ``/metrics`` (every request it has answered so far): ``request`` from its
+    arrival to its answer, of which ``queue`` (for a diagnosis process), ``compute`` (in
+    it), ``transfer`` (pipes and wake-ups), ``commit`` (group commit), and ``other`` the
+    rest (parsing, validation, key check, routing)."""
     text = httpx.get(f"{base_url}/metrics", timeout=30).text
     sums: dict[str, float] = {}
     counts: dict[str, float] = {}
     for line in text.splitlines():
         if (m := _STAGE.match(line)) is not None:
             (sums if m.group(1) == "sum" else counts)[m.group(2)] = float(m.group(3))
-        elif (m := _HTTP.match(line)) is not None:
-            (sums if m.group(1) == "sum" else counts)["server"] = float(m.group(2))
     means = {k: 1e3 * sums[k] / counts[k] for k in sums if counts.get(k)}
-    if "server" in means:
-        means["other"] = means["server"] - sum(
+    if "request" in means:
+        means["other"] = means["request"] - sum(
             means.get(k, 0.0) for k in ("queue", "compute", "transfer", "commit"))
     return means
 

@@ -27,6 +27,7 @@ from sqlalchemy.orm import Session
 from app.api.deps import KeyHeaderDep, SettingsDep, read_access_on_loop, require_key_on_loop
 from app.db.base import utcnow
 from app.limits import check_count
+from app.metrics import STARTED
 from app.schemas.common import ERROR_RESPONSES, error_doc
 from app.schemas.diagnose import DiagnoseRequest, DiagnoseResponse
 from app.security import Scope
@@ -93,6 +94,8 @@ async def diagnose(body: DiagnoseRequest, request: Request, key: KeyHeaderDep,
     writer: GroupCommitter = request.app.state.diagnosis_writer
     handed = time.perf_counter()
     await writer.write(write, conflict=STORE_CONFLICT)
+    done = time.perf_counter()
     stages = request.app.state.metrics.diagnosis_stage
-    stages.labels("commit").observe(time.perf_counter() - handed)
+    stages.labels("commit").observe(done - handed)
+    stages.labels("request").observe(done - getattr(request.state, STARTED, done))
     return Response(answer.body(write.ids), media_type="application/json")
