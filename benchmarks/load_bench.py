@@ -12,7 +12,8 @@ so that the load generator takes as little of the 2 cores as it can):
    a diagnosis over the cost of the HTTP stack alone, in the same run.  Meanwhile the CPU
    time of the service's server processes, of its diagnosis processes and of this load
    generator is read (``/proc``) and given per request [ms]: unlike latencies on a busy
-   machine, it says where the work goes.
+   machine, it says where the work goes; and the mean timeline of a stored diagnosis
+   (:func:`benchmarks.load_timeline.timeline`: where it waits).
 2. **Sustained** — stored ``POST /diagnose`` opened at ``RATE`` (200) requests/s for
    ``DURATION_S`` (60 s; 10 s with ``HYDRODIAG_LIGHT=1``) whatever the answers' pace (open
    loop), while ``GET /health`` is probed 20 times a second from a process of its own
@@ -43,7 +44,6 @@ import asyncio
 import json
 import os
 import random
-import re
 import resource
 import socket
 import sqlite3
@@ -60,6 +60,7 @@ from typing import Any
 import httpx
 
 from benchmarks.load_clients import closed_loop, open_loop, request_bytes
+from benchmarks.load_timeline import timeline
 
 LIGHT = os.environ.get("HYDRODIAG_LIGHT") == "1"
 CONCURRENCY = 4
@@ -269,28 +270,6 @@ def _sustained(base_url: str, requests: list[bytes], rate: float, duration: floa
             prober.kill()
     figures["probe"] = json.loads(out.strip().splitlines()[-1])
     return figures
-
-
-_STAGE = re.compile(r'^hydrodiag_diagnosis_stage_seconds_(sum|count)\{stage="(\w+)"\} (\S+)$')
-
-
-def timeline(base_url: str) -> dict[str, float]:
-    """Mean time of a stored ``POST /diagnose`` in each stage [ms], from one server
-    process's ``/metrics`` (every request it has answered so far): ``request`` from its
-    arrival to its answer, of which ``queue`` (for a diagnosis process), ``compute`` (in
-    it), ``transfer`` (pipes and wake-ups), ``commit`` (group commit), and ``other`` the
-    rest (parsing, validation, key check, routing)."""
-    text = httpx.get(f"{base_url}/metrics", timeout=30).text
-    sums: dict[str, float] = {}
-    counts: dict[str, float] = {}
-    for line in text.splitlines():
-        if (m := _STAGE.match(line)) is not None:
-            (sums if m.group(1) == "sum" else counts)[m.group(2)] = float(m.group(3))
-    means = {k: 1e3 * sums[k] / counts[k] for k in sums if counts.get(k)}
-    if "request" in means:
-        means["other"] = means["request"] - sum(
-            means.get(k, 0.0) for k in ("queue", "compute", "transfer", "commit"))
-    return means
 
 
 def _holds(figures: dict[str, Any]) -> bool:
