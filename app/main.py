@@ -189,14 +189,16 @@ def create_app(
     app.state.sessions = sessions
     app.state.clearance_estimator = clearance_estimator
     app.state.rigs = RigCache(settings.rig_cache_size)
+    app.state.metrics = HttpMetrics()
+    stages = app.state.metrics.diagnosis_stage
     app.state.diagnosis_pool = DiagnosisPool(
         settings.diagnosis_processes, settings.rig_cache_size, settings.diagnosis_queue,
         url=settings.url.render_as_string(hide_password=False), sessions=sessions,
-        rigs=app.state.rigs, wait_budget_s=settings.diagnosis_wait_ms / 1e3)
+        rigs=app.state.rigs, wait_budget_s=settings.diagnosis_wait_ms / 1e3,
+        observe=lambda stage, seconds: stages.labels(stage).observe(seconds))
     app.state.diagnosis_writer = GroupCommitter(sessions)
     app.state.sweep_executors = SweepExecutors(workers=settings.sweep_workers,
                                                dask_scheduler=settings.dask_scheduler)
-    app.state.metrics = HttpMetrics()
     app.state.rate_limiter = (KeyRateLimiter(settings.rate_limit_per_minute)
                               if settings.rate_limit_per_minute else None)
     app.add_middleware(BodyLimitMiddleware, limit=settings.max_body_bytes)

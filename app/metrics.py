@@ -1,4 +1,5 @@
-"""Prometheus metrics of the service: request count and latency per route.
+"""Prometheus metrics of the service: request count and latency per route, and the stages
+of ``POST /diagnose``.
 
 The route label is the path *template* (``/rigs/{rig_id}``), so the number of series stays
 bounded whatever ids clients use; requests that match no route count as ``<unmatched>``.
@@ -13,7 +14,10 @@ from typing import Any
 from prometheus_client import CollectorRegistry, Counter, Histogram
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
-__all__ = ["HttpMetrics", "MetricsMiddleware"]
+__all__ = ["STARTED", "HttpMetrics", "MetricsMiddleware"]
+
+#: Key in ``request.state`` of the time the request arrived [s, ``time.perf_counter``].
+STARTED = "hydrodiag_started"
 
 
 class HttpMetrics:
@@ -32,6 +36,21 @@ class HttpMetrics:
             "Time to answer an HTTP request [s], by method and route template",
             ["method", "route"],
             registry=self.registry,
+        )
+        #: Where a ``POST /diagnose`` waits (issue 9): ``queue`` from its arrival at the
+        #: pool to its send to a free diagnosis process, ``compute`` in that process (as
+        #: the process timed it), ``transfer`` the rest of the round trip (pipes, pickling,
+        #: the wake-ups of both ends), ``commit`` from handing its rows to the group commit
+        #: to that transaction's commit; ``request`` the whole of a stored diagnosis's
+        #: request, from its arrival to its answer.
+        self.diagnosis_stage = Histogram(
+            "hydrodiag_diagnosis_stage_seconds",
+            "Time a POST /diagnose spends in each stage [s]: queue (for a diagnosis "
+            "process), compute (in it), transfer (pipes and wake-ups), commit (group commit), "
+            "request (the whole of a stored diagnosis)",
+            ["stage"],
+            registry=self.registry,
+            buckets=(0.0005, 0.001, 0.002, 0.005, 0.01, 0.02, 0.05, 0.1, 0.2, 0.5, 1.0),
         )
 
 
@@ -54,6 +73,7 @@ class MetricsMiddleware:
             return
         status = 500
         start = time.perf_counter()
+        scope.setdefault("state", {})[STARTED] = start  # request.state.<STARTED>
 
         async def send_and_watch(message: Message) -> None:
             nonlocal status

@@ -12,7 +12,8 @@ so that the load generator takes as little of the 2 cores as it can):
    a diagnosis over the cost of the HTTP stack alone, in the same run.  Meanwhile the CPU
    time of the service's server processes, of its diagnosis processes and of this load
    generator is read (``/proc``) and given per request [ms]: unlike latencies on a busy
-   machine, it says where the work goes.
+   machine, it says where the work goes; and the mean timeline of a stored diagnosis
+   (:func:`benchmarks.load_timeline.timeline`: where it waits).
 2. **Sustained** — stored ``POST /diagnose`` opened at ``RATE`` (200) requests/s for
    ``DURATION_S`` (60 s; 10 s with ``HYDRODIAG_LIGHT=1``) whatever the answers' pace (open
    loop), while ``GET /health`` is probed 20 times a second from a process of its own
@@ -59,6 +60,7 @@ from typing import Any
 import httpx
 
 from benchmarks.load_clients import closed_loop, open_loop, request_bytes
+from benchmarks.load_timeline import timeline
 
 LIGHT = os.environ.get("HYDRODIAG_LIGHT") == "1"
 CONCURRENCY = 4
@@ -298,6 +300,7 @@ def run() -> dict[str, Any]:
         with cpu_meter(service.process.pid, diagnose_stats):
             diagnose_stats |= asyncio.run(closed_loop(service.base_url, requests,
                                                       CONCURRENCY))
+        stages = timeline(service.base_url)
         health_stats |= _per_request_ms(health_stats)
         diagnose_stats |= _per_request_ms(diagnose_stats)
         sustained = _sustained(service.base_url, diagnoses(round(RATE * DURATION_S)), RATE,
@@ -323,7 +326,7 @@ def run() -> dict[str, Any]:
         "workers": os.environ.get("HYDRODIAG_WORKERS", "default (one per core)"),
         "load_average_before": [round(x, 2) for x in load_before],
         "load_average_after": [round(x, 2) for x in os.getloadavg()],
-        "health": health_stats, "diagnose": diagnose_stats,
+        "health": health_stats, "diagnose": diagnose_stats, "timeline_ms": stages,
         "ratio_p50": ratio_p50, "ratio_p99": diagnose_stats["p99_ms"] / health_stats["p99_ms"],
         "ratio_throughput": health_stats["throughput_rps"] / diagnose_stats["throughput_rps"],
         "sustained": sustained,
@@ -380,6 +383,8 @@ def _table(result: dict[str, Any]) -> str:
                              f"processes {f['diagnosis_cpu_ms_per_request']:.2f}, load "
                              f"generator {f['client_cpu_ms_per_request']:.2f}"
                              for name, f in (("/health", h), ("/diagnose", d))))
+    lines.append("timeline of a stored /diagnose, mean [ms] (one server process, closed loops): "
+                 + ", ".join(f"{k} {v:.2f}" for k, v in result["timeline_ms"].items()))
     lines.append(f"load average before {result['load_average_before']}, after "
                  f"{result['load_average_after']} on {result['cores']} cores")
     return "\n".join(lines)

@@ -75,50 +75,95 @@ def _json_type_problem(annotation: Any, value: Any) -> str | None:
     Only the JSON kinds are compared (booleans, numbers, strings; lists and maps item by
     item); ranges and formats stay pydantic's.
     """
+    return _checker(annotation)(value)
+
+
+#: The check of each annotation met, built once (:func:`_checker`), with the annotation
+#: kept alive beside it (the key is its ``id``).
+_CHECKERS: dict[int, tuple[Any, Callable[[Any], str | None]]] = {}
+
+
+def _checker(annotation: Any) -> Callable[[Any], str | None]:
+    """:func:`_json_type_problem` for ``annotation``, its type inspected once: the check
+    runs for every field of every request model on every request (issue 9)."""
+    found = _CHECKERS.get(id(annotation))
+    if found is None or found[0] is not annotation:
+        found = (annotation, _build_checker(annotation))
+        _CHECKERS[id(annotation)] = found
+    return found[1]
+
+
+def _no_problem(value: Any) -> str | None:
+    return None
+
+
+def _build_checker(annotation: Any) -> Callable[[Any], str | None]:
     origin = typing.get_origin(annotation)
     if origin is Annotated:
-        return _json_type_problem(typing.get_args(annotation)[0], value)
+        return _checker(typing.get_args(annotation)[0])
     if origin in (typing.Union, types.UnionType):
-        options = [a for a in typing.get_args(annotation) if a is not type(None)]
-        if value is None:
-            return None
-        problems = [_json_type_problem(a, value) for a in options]
-        return None if any(p is None for p in problems) else problems[0]
+        options = [_checker(a) for a in typing.get_args(annotation) if a is not type(None)]
+
+        def union(value: Any) -> str | None:
+            if value is None:
+                return None
+            problems = [check(value) for check in options]
+            return None if any(p is None for p in problems) else problems[0]
+        return union
     if origin in (list, tuple, set, frozenset):
-        if not isinstance(value, list):
-            return f"must be a JSON array, not {type(value).__name__}"
         args = typing.get_args(annotation)
-        for item in value:
-            problem = _json_type_problem(args[0], item) if args else None
-            if problem:
-                return problem
-        return None
+        item_check = _checker(args[0]) if args else _no_problem
+
+        def array(value: Any) -> str | None:
+            if not isinstance(value, list):
+                return f"must be a JSON array, not {type(value).__name__}"
+            for item in value:
+                problem = item_check(item)
+                if problem:
+                    return problem
+            return None
+        return array
     if origin is dict:
-        if not isinstance(value, dict):
-            return f"must be a JSON object, not {type(value).__name__}"
         args = typing.get_args(annotation)
-        for item in value.values():
-            problem = _json_type_problem(args[1], item) if len(args) == 2 else None
-            if problem:
-                return problem
-        return None
+        value_check = _checker(args[1]) if len(args) == 2 else _no_problem
+
+        def mapping(value: Any) -> str | None:
+            if not isinstance(value, dict):
+                return f"must be a JSON object, not {type(value).__name__}"
+            for item in value.values():
+                problem = value_check(item)
+                if problem:
+                    return problem
+            return None
+        return mapping
     if annotation in (int, float):
-        if isinstance(value, bool) or not isinstance(value, int | float):
-            return f"must be a JSON number, not {type(value).__name__}"
-        if annotation is int and isinstance(value, float) and not value.is_integer():
-            return None  # pydantic's own message for a fraction
-    elif annotation is bool:
-        if not isinstance(value, bool):
-            return f"must be true or false, not {type(value).__name__}"
-    elif annotation is str:
-        if not isinstance(value, str):
-            return f"must be a JSON string, not {type(value).__name__}"
-    elif annotation is dt.datetime:
-        try:
-            iso_only(value)
-        except ValueError as exc:
-            return str(exc)
-    return None
+
+        def number(value: Any) -> str | None:
+            if isinstance(value, bool) or not isinstance(value, int | float):
+                return f"must be a JSON number, not {type(value).__name__}"
+            return None  # a fraction for an integer: pydantic's own message
+        return number
+    if annotation is bool:
+        def boolean(value: Any) -> str | None:
+            if not isinstance(value, bool):
+                return f"must be true or false, not {type(value).__name__}"
+            return None
+        return boolean
+    if annotation is str:
+        def string(value: Any) -> str | None:
+            if not isinstance(value, str):
+                return f"must be a JSON string, not {type(value).__name__}"
+            return None
+        return string
+    if annotation is dt.datetime:
+        def moment(value: Any) -> str | None:
+            try:
+                iso_only(value)
+            except ValueError as exc:
+                return str(exc)
+            return None
+        return moment
+    return _no_problem
 
 #: A float that must be finite (no NaN, no infinity).
 FiniteFloat = Annotated[float, Field(allow_inf_nan=False)]
@@ -154,6 +199,26 @@ def _unknown_field_message(unknown: list[str], known: list[str]) -> str:
     return f"{noun} {', '.join(parts)}; known fields: {', '.join(known)}"
 
 
+#: Per request model: its field names, the keys it accepts, and each field's name, alias
+#: and JSON-kind check, found once (issue 9: the check runs for every nested model of every
+#: request).
+_PLANS: dict[type, tuple[list[str], frozenset[str],
+                         tuple[tuple[str, str | None, Callable[[Any], str | None]], ...]]] = {}
+
+
+def _plan(cls: type[RequestModel]) -> tuple[
+        list[str], frozenset[str], tuple[tuple[str, str | None, Callable[[Any], str | None]], ...]]:
+    plan = _PLANS.get(cls)
+    if plan is None:
+        known = list(cls.model_fields)
+        allowed = (set(known) | {f.alias for f in cls.model_fields.values() if f.alias}
+                   | cls.form_siblings)
+        checks = tuple((name, info.alias, _checker(info.annotation))
+                       for name, info in cls.model_fields.items())
+        plan = _PLANS[cls] = (known, frozenset(allowed), checks)
+    return plan
+
+
 class RequestModel(BaseModel):
     """Base of every request model: unknown fields are refused, never silently ignored.
 
@@ -176,9 +241,7 @@ class RequestModel(BaseModel):
     def _refuse_unknown_fields(cls, data: Any) -> Any:
         if not isinstance(data, dict):
             return data
-        known = list(cls.model_fields)
-        allowed = set(known) | {f.alias for f in cls.model_fields.values() if f.alias}
-        allowed |= cls.form_siblings
+        known, allowed, checks = _plan(cls)
         unknown = [str(k) for k in data if k not in allowed]
         if unknown:
             raise PydanticCustomError(
@@ -186,11 +249,11 @@ class RequestModel(BaseModel):
                 {"unknown_field": unknown[0][:100]},
             )
         if cls.json_kinds:
-            for name, info in cls.model_fields.items():
-                key = info.alias if info.alias in data else name
+            for name, alias, check in checks:
+                key = alias if alias in data else name
                 if key not in data:
                     continue
-                problem = _json_type_problem(info.annotation, data[key])
+                problem = check(data[key])
                 if problem:
                     raise PydanticCustomError("json_type", f"{key}: {problem}",
                                               {"unknown_field": key})

@@ -150,7 +150,7 @@ def estimates_of(diagnosis: Diagnosis) -> list[EstimateOut]:
     return [e for e in out if all(math.isfinite(x) for x in (e.value, e.low, e.high))]
 
 
-def _request_field(field: str | None, group: list[tuple[str, MeasurementIn]]) -> str | None:
+def _request_field(field: str | None, group: Sequence[tuple[str, object]]) -> str | None:
     """Path in the request of a field that ``diagnose`` named within its records."""
     if field is None:
         return None
@@ -222,9 +222,14 @@ def compute_group(rig: Rig, records: Sequence[MeasurementRecord], rig_version: i
 
 @dataclass(frozen=True, slots=True)
 class GroupPlan:
-    """One group of a request, resolved against the store and ready to compute."""
+    """One group of a request, resolved against the store and ready to compute.
 
-    group: list[tuple[str, MeasurementIn]]
+    ``group`` holds each record's path in the request and the record (a
+    :class:`~app.schemas.diagnose.MeasurementIn`, or its
+    :class:`~app.services.diagnosis_form.RecordForm`).
+    """
+
+    group: Sequence[tuple[str, object]]
     resolved: ResolvedRig
     times: list[datetime]
     records: list[MeasurementRecord]

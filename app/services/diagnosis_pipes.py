@@ -75,3 +75,5 @@ class Queued:
 
     message: bytes
     future: asyncio.Future[Any] = field(repr=False)
+    #: When it was queued [s, ``time.perf_counter``].
+    queued_at: float = 0.0

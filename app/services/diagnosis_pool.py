@@ -56,8 +56,9 @@ from app.services.diagnosis import (
     compute_group,
     request_error,
 )
+from app.services.diagnosis_answer import DiagnoseAnswer
 from app.services.diagnosis_pipes import READ_CHUNK, Process, Queued, send_whole, take_message
-from app.services.diagnosis_task import DiagnoseAnswer, DiagnoseTask, TaskFailure, run_task
+from app.services.diagnosis_task import DiagnoseTask, TaskFailure, run_task
 from app.services.diagnosis_worker import MISSING, serve_pipe, warm_rig
 from app.services.rig_cache import ResolvedRig, RigCache
 from sim.errors import HydrodiagError, InputError
@@ -103,11 +104,15 @@ class DiagnosisPool:
     wait_budget_s
         Longest expected wait for a diagnosis process before a request is refused [s];
         ``None``: only ``queue`` bounds the requests taken.
+    observe
+        Told each task's stages (``queue``, ``compute``, ``transfer``) and their times
+        [s] (:attr:`app.metrics.HttpMetrics.diagnosis_stage`); ``None``: not timed.
     """
 
     def __init__(self, processes: int, cache_size: int = 16, queue: int = 32, *,
                  url: str | None = None, sessions: SessionFactory | None = None,
-                 rigs: RigCache | None = None, wait_budget_s: float | None = None) -> None:
+                 rigs: RigCache | None = None, wait_budget_s: float | None = None,
+                 observe: Callable[[str, float], None] | None = None) -> None:
         if processes < 0 or queue < 1:
             raise ValueError("processes must be 0 or more, queue 1 or more")
         self.processes = processes
@@ -130,6 +135,7 @@ class DiagnosisPool:
         self._loop: asyncio.AbstractEventLoop | None = None
         self._lock = threading.Lock()
         self._limiter: anyio.CapacityLimiter | None = None
+        self._observe = observe
 
     # --- admission ---------------------------------------------------------------------
 
@@ -253,8 +259,11 @@ class DiagnosisPool:
                 worker.ready, worker.pid = True, result
                 continue
             waiter, worker.waiter = worker.waiter, None
-            self._learn(worker, time.perf_counter() - worker.sent_at)
-            del seconds
+            elapsed = time.perf_counter() - worker.sent_at
+            self._learn(worker, elapsed)
+            if self._observe is not None:
+                self._observe("compute", seconds)
+                self._observe("transfer", max(elapsed - seconds, 0.0))
             if waiter is not None and not waiter.done():
                 waiter.set_result(result)
         self._dispatch()
@@ -294,6 +303,8 @@ class DiagnosisPool:
             if worker.ready and worker.waiter is None:
                 queued = self._pending.popleft()
                 worker.waiter, worker.sent_at = queued.future, time.perf_counter()
+                if self._observe is not None:
+                    self._observe("queue", worker.sent_at - queued.queued_at)
                 send_whole(worker.connection, queued.message)
 
     async def _call(self, kind: str, payload: Any) -> Any:
@@ -304,7 +315,7 @@ class DiagnosisPool:
         assert self._loop is not None
         future: asyncio.Future[Any] = self._loop.create_future()
         message = pickle.dumps((kind, payload), protocol=pickle.HIGHEST_PROTOCOL)
-        self._pending.append(Queued(message, future))
+        self._pending.append(Queued(message, future, time.perf_counter()))
         self._dispatch()
         return await future
 

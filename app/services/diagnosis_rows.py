@@ -12,15 +12,16 @@ read back through the same models.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from functools import cache
 from typing import Any
 
-from sqlalchemy import JSON, ColumnElement, Table, Text, cast, insert, type_coerce
+from sqlalchemy import JSON, ColumnElement, Insert, Table, Text, bindparam, cast, insert, type_coerce
 from sqlalchemy.dialects.postgresql import JSONB
 from sqlalchemy.orm import Session
 
 from app.db.base import utcnow
 from app.db.models import Diagnosis, DiagnosisEstimate, Measurement
-from app.services.diagnosis_task import StoredRows
+from app.services.diagnosis_answer import StoredRows
 
 __all__ = ["insert_rows"]
 
@@ -29,12 +30,27 @@ _DIAGNOSES: Table = Diagnosis.__table__  # type: ignore[assignment]
 _ESTIMATES: Table = DiagnosisEstimate.__table__  # type: ignore[assignment]
 
 
-def _json(text: str, dialect: str) -> ColumnElement[Any]:
-    """``text`` (a serialised JSON document) as the value of a JSON column."""
-    value = type_coerce(text, Text)
+def _json(name: str, dialect: str) -> ColumnElement[Any]:
+    """The bound parameter ``name`` (a JSON document as text) as the value of a JSON
+    column."""
+    value = type_coerce(bindparam(name), Text)
     if dialect == "sqlite":  # SQLite keeps JSON as its text
         return value
     return cast(value, JSONB if dialect == "postgresql" else JSON)
+
+
+@cache
+def _statements(dialect: str) -> tuple[Insert, Insert, Insert]:
+    """The three inserts for ``dialect``, built once: a statement built per row cost its
+    cache key's generation each time (issue 9)."""
+    measurement = insert(_MEASUREMENTS).values(
+        rig_id=bindparam("rig_id"), measured_at=bindparam("measured_at"),
+        record=_json("record", dialect), created_at=bindparam("created_at"))
+    diagnosis = insert(_DIAGNOSES).values(
+        measurement_id=bindparam("measurement_id"), rig_version_id=bindparam("rig_version_id"),
+        component=bindparam("component"), probability=bindparam("probability"),
+        result=_json("result", dialect), created_at=bindparam("created_at"))
+    return measurement, diagnosis, insert(_ESTIMATES)
 
 
 def insert_rows(session: Session, rows: Sequence[StoredRows]) -> list[tuple[int, list[int]]]:
@@ -58,23 +74,24 @@ def insert_rows(session: Session, rows: Sequence[StoredRows]) -> list[tuple[int,
         A constraint refused a row (a rig or version deleted meanwhile).
     """
     connection = session.connection()  # Core statements on the session's transaction
-    dialect = connection.dialect.name
+    add_measurement, add_diagnosis, add_estimates = _statements(connection.dialect.name)
     now = utcnow()
     ids: list[tuple[int, list[int]]] = []
     for item in rows:
         measurement_ids = [
-            int(connection.execute(insert(_MEASUREMENTS).values(
-                rig_id=item.rig_id, measured_at=measured_at,
-                record=_json(record, dialect), created_at=now,
-            )).inserted_primary_key[0])  # type: ignore[index]
+            int(connection.execute(add_measurement, {
+                "rig_id": item.rig_id, "measured_at": measured_at,
+                "record": record.decode(), "created_at": now,
+            }).inserted_primary_key[0])  # type: ignore[index]
             for measured_at, record in item.measurements]
-        diagnosis_id = int(connection.execute(insert(_DIAGNOSES).values(
-            measurement_id=measurement_ids[item.latest], rig_version_id=item.rig_version_id,
-            component=item.component, probability=item.probability,
-            result=_json(item.result, dialect), created_at=now,
-        )).inserted_primary_key[0])  # type: ignore[index]
+        diagnosis_id = int(connection.execute(add_diagnosis, {
+            "measurement_id": measurement_ids[item.latest],
+            "rig_version_id": item.rig_version_id, "component": item.component,
+            "probability": item.probability, "result": item.result.decode(),
+            "created_at": now,
+        }).inserted_primary_key[0])  # type: ignore[index]
         if item.estimates:
-            connection.execute(insert(_ESTIMATES), [
+            connection.execute(add_estimates, [
                 {"diagnosis_id": diagnosis_id, "component": component,
                  "probability": probability, "clearance_m": clearance,
                  "slip_coefficient": slip}

@@ -1,45 +1,42 @@
-"""A whole ``POST /diagnose`` as one task for a diagnosis process: body bytes in, answer out.
+"""A whole ``POST /diagnose`` as one task for a diagnosis process: a validated form in,
+answer out.
 
 The server process of ``POST /diagnose`` is a thin pipe (issue 9): it validates the body
 (FastAPI, so that a malformed request is the same 422 as ever), checks the key, and hands
-the body's bytes to a diagnosis process as a :class:`DiagnoseTask`.  There
-:func:`run_task` resolves the rigs against the store (a session of that process's own),
-builds the records, diagnoses them, serialises each answer's JSON and prepares the rows to
-store with their JSON documents already serialised (:class:`StoredRows`).  It answers with
-a :class:`DiagnoseAnswer` (or a :class:`TaskFailure` that names the field), plain data that
-pickles quickly; the server stores the rows (:func:`app.services.diagnosis_rows.insert_rows`,
-SQLAlchemy Core) and splices the stored ids into the answer's bytes
-(:meth:`DiagnoseAnswer.body`).  Nothing of the diagnosis or its JSON runs in the server
+the request's validated form (:class:`~app.services.diagnosis_form.RequestForm`: named
+tuples of numbers, not validated again) to a diagnosis process as a :class:`DiagnoseTask`.
+There :func:`run_task` resolves the rigs against the store (a session of that process's
+own), builds the records, diagnoses them, and encodes the answer and the rows to store from
+one encoding of each result (:func:`app.services.diagnosis_answer.answer_of`).  It answers
+with a :class:`~app.services.diagnosis_answer.DiagnoseAnswer` (or a :class:`TaskFailure`
+that names the field), plain data that pickles quickly; the server stores the rows
+(:func:`app.services.diagnosis_rows.insert_rows`, SQLAlchemy Core) and splices the stored
+ids into the answer's bytes.  Nothing of the diagnosis or its JSON runs in the server
 process.
 """
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from datetime import datetime
-from typing import Literal
+
+from sqlalchemy.orm import Session
 
 from app.db.engine import SessionFactory
-from app.schemas.diagnose import DiagnoseRequest, DiagnoseResponse, DiagnosisPublic
 from app.services.diagnosis import (
-    DiagnosisOutcome,
     GroupPlan,
     GroupResult,
     compute_group,
     outcome_of,
-    plan_groups,
     request_error,
-    response_of,
 )
-from app.services.measurements import stored_record
+from app.services.diagnosis_answer import DiagnoseAnswer, StoredRows, answer_of
+from app.services.diagnosis_form import RecordForm, RequestForm, measurement_record
 from app.services.rig_cache import RigCache
 from sim.errors import HydrodiagError, InputError
 
-__all__ = ["DiagnoseAnswer", "DiagnoseTask", "StoredRows", "TaskFailure", "run_task"]
-
-#: How each serialised diagnosis begins before it is stored (``id`` is its first field).
-UNSTORED_PREFIX = b'{"id":null,"measurement_ids":[]'
+__all__ = ["DiagnoseAnswer", "DiagnoseTask", "StoredRows", "TaskFailure", "plan_forms",
+           "run_task"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -48,75 +45,14 @@ class DiagnoseTask:
 
     Attributes
     ----------
-    body
-        The request body as received (validated by the server already).
+    form
+        The request, validated by the server already.
     now
         Time of the request [UTC]: that of records without one.
     """
 
-    body: bytes
+    form: RequestForm
     now: datetime
-
-
-@dataclass(frozen=True, slots=True)
-class StoredRows:
-    """The rows of one diagnosis to store, JSON documents serialised.
-
-    Attributes
-    ----------
-    rig_id, rig_version_id
-        The rig and the row id of the version it was diagnosed with.
-    measurements
-        Each record's time [UTC] and its stored document (JSON text), in request order.
-    latest
-        Index in ``measurements`` of the record that carries the diagnosis.
-    component, probability
-        What the diagnosis blames, and the probability of its top hypothesis [1].
-    result
-        The full result (JSON text).
-    estimates
-        Per component: name, probability [1], clearance [m], slip coefficient [-].
-    """
-
-    rig_id: int
-    rig_version_id: int
-    measurements: list[tuple[datetime, str]]
-    latest: int
-    component: str
-    probability: float
-    result: str
-    estimates: list[tuple[str, float | None, float | None, float | None]]
-
-
-@dataclass(frozen=True, slots=True)
-class DiagnoseAnswer:
-    """The answer of a task: JSON parts, and the rows to store (empty when not stored).
-
-    Attributes
-    ----------
-    head
-        ``{"mode":...,"stored":...,"compact":...,"diagnoses":[`` as bytes.
-    diagnoses
-        Each diagnosis serialised, with ``id`` null and no measurement ids.
-    rows
-        The rows of each diagnosis, when the request stores them.
-    """
-
-    head: bytes
-    diagnoses: list[bytes]
-    rows: list[StoredRows]
-
-    def body(self, ids: list[tuple[int, list[int]]] | None = None) -> bytes:
-        """The answer's JSON, with each diagnosis's stored id and measurement ids."""
-        parts = self.diagnoses
-        if ids is not None:
-            parts = []
-            for part, (diagnosis_id, measurement_ids) in zip(self.diagnoses, ids, strict=True):
-                assert part.startswith(UNSTORED_PREFIX)
-                listed = ",".join(str(i) for i in measurement_ids)
-                stored = f'{{"id":{diagnosis_id},"measurement_ids":[{listed}]'
-                parts.append(stored.encode() + part[len(UNSTORED_PREFIX):])
-        return self.head + b",".join(parts) + b"]}"
 
 
 @dataclass(frozen=True, slots=True)
@@ -132,36 +68,46 @@ class TaskFailure:
         return self.kind(self.message, field=self.field)
 
 
-def _rows(outcome: DiagnosisOutcome, request: DiagnoseRequest, now: datetime) -> StoredRows:
-    records = dict(request.items())
-    # a joint result belongs to the latest record; the others are kept beside it
-    times = [records[p].measured_at or now for p in outcome.paths]
-    latest = max(range(len(times)), key=lambda i: (times[i], i))
-    stored = [(t, json.dumps(stored_record(records[p], t)))
-              for p, t in zip(outcome.paths, times, strict=True)]
-    estimates = [(h.component, h.probability, h.clearance_m, h.slip_coefficient)
-                 for h in (e.history() for e in outcome.estimates)]
-    return StoredRows(outcome.resolved.rig_id, outcome.resolved.version_id, stored, latest,
-                      outcome.component, outcome.probability, json.dumps(outcome.result),
-                      estimates)
+def _groups(form: RequestForm) -> list[list[RecordForm]]:
+    if form.mode != "joint":
+        return [[record] for record in form.records]
+    first = form.records[0]
+    for record in form.records[1:]:
+        if record.rig_id != first.rig_id:
+            raise InputError("a joint diagnosis needs records of one rig",
+                             field=f"{record.path}.rig_id")
+        if record.rig_version != first.rig_version:
+            raise InputError("a joint diagnosis needs one version of the rig document",
+                             field=f"{record.path}.rig_version")
+    return [form.records]
 
 
-def answer_of(request: DiagnoseRequest, outcomes: list[DiagnosisOutcome], now: datetime
-              ) -> DiagnoseAnswer:
-    """The answer to ``request`` from its outcomes: serialised, with the rows to store."""
-    response = response_of(request, outcomes)
-    mode: Literal["single", "each", "joint"] = response.mode
-    head = DiagnoseResponse(mode=mode, stored=response.stored, compact=response.compact,
-                            diagnoses=[]).model_dump_json().encode()
-    assert head.endswith(b"[]}")
-    parts = [DiagnosisPublic.model_dump_json(d).encode() for d in response.diagnoses]
-    rows = [_rows(o, request, now) for o in outcomes] if request.store else []
-    return DiagnoseAnswer(head[:-2], parts, rows)
+def plan_forms(session: Session, rigs: RigCache, form: RequestForm, now: datetime
+               ) -> list[GroupPlan]:
+    """Resolve each group's rig and build its diagnostics records, as
+    :func:`app.services.diagnosis.plan_groups` does for a validated model.
+
+    Raises
+    ------
+    NotFoundError, MeasurementError, InputError
+        An unknown rig or version, or an invalid record (``field`` is its path).
+    """
+    plans = []
+    for group in _groups(form):
+        first = group[0]
+        resolved = rigs.get(session, first.rig_id, first.rig_version,
+                            rig_field=f"{first.path}.rig_id",
+                            version_field=f"{first.path}.rig_version")
+        times = [record.measured_at or now for record in group]
+        records = [measurement_record(record, rig_name=resolved.name, measured_at=t)
+                   for record, t in zip(group, times, strict=True)]
+        plans.append(GroupPlan([(r.path, r) for r in group], resolved, times, records))
+    return plans
 
 
 def run_task(sessions: SessionFactory, rigs: RigCache, task: DiagnoseTask
              ) -> DiagnoseAnswer | TaskFailure:
-    """Resolve, diagnose and serialise the request of ``task`` (in a diagnosis process).
+    """Resolve, diagnose and encode the request of ``task`` (in a diagnosis process).
 
     Parameters
     ----------
@@ -179,11 +125,10 @@ def run_task(sessions: SessionFactory, rigs: RigCache, task: DiagnoseTask
         its ``field`` a path in the request.
     """
     try:
-        request = DiagnoseRequest.model_validate(json.loads(task.body))
         with sessions() as session:
-            plans = plan_groups(session, rigs, request, task.now)
+            plans = plan_forms(session, rigs, task.form, task.now)
         outcomes = [outcome_of(plan, _computed(plan)) for plan in plans]
-        return answer_of(request, outcomes, task.now)
+        return answer_of(task.form, outcomes, task.now)
     except HydrodiagError as exc:
         return TaskFailure(type(exc), exc.message, exc.field)
 

@@ -20,11 +20,11 @@ from dataclasses import dataclass
 from datetime import datetime
 from typing import Any
 
-from sqlalchemy import select
+from sqlalchemy import bindparam, select
 from sqlalchemy.orm import Session
 
+from app.db.models import Rig as RigRow
 from app.db.models import RigVersion
-from app.services.rigs import get_rig
 from sim.errors import NotFoundError
 from sim.rigs import Rig, load_rig
 
@@ -105,6 +105,13 @@ class _Lru:
             return len(self._items)
 
 
+#: The statements of :meth:`RigCache.get`, built once (a statement built per request cost
+#: its cache key's generation, ~0.3 ms each; issue 9).
+_RIG = select(RigRow.name, RigRow.latest_version).where(RigRow.id == bindparam("rig_id"))
+_VERSION = select(RigVersion.id, RigVersion.created_at).where(
+    RigVersion.rig_id == bindparam("rig_id"), RigVersion.version == bindparam("version"))
+
+
 class RigCache:
     """Compiled rigs per stored (rig id, version); thread-safe.
 
@@ -145,12 +152,11 @@ class RigCache:
         NotFoundError
             No such rig, or the rig has no such version.
         """
-        row = get_rig(session, rig_id, field=rig_field)
+        row = session.execute(_RIG, {"rig_id": rig_id}).first()
+        if row is None:
+            raise NotFoundError(f"no rig with id {rig_id}", field=rig_field)
         number = row.latest_version if version is None else version
-        found = session.execute(
-            select(RigVersion.id, RigVersion.created_at)
-            .where(RigVersion.rig_id == rig_id, RigVersion.version == number)
-        ).first()
+        found = session.execute(_VERSION, {"rig_id": rig_id, "version": number}).first()
         if found is None:
             raise NotFoundError(f"rig {rig_id} has no version {number}", field=version_field)
         version_id, created_at = found

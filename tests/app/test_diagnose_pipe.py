@@ -147,3 +147,52 @@ def test_a_killed_diagnosis_process_is_replaced(server: LiveServer) -> None:
     assert statuses[-1] == 200, statuses
     (replacement,) = pool.worker_pids()
     assert replacement != pid
+
+
+def test_the_stages_of_a_stored_diagnosis_are_timed(server: LiveServer) -> None:
+    """``/metrics`` counts each stage of a stored diagnosis once more after one request:
+    queue, compute (in the diagnosis process), transfer, commit, and the whole request;
+    the compute time is within the request's, which is within the client's."""
+    def counts() -> dict[str, float]:
+        text = server.anon.get("/metrics").text
+        found = {}
+        for stage in ("queue", "compute", "transfer", "commit", "request"):
+            for kind in ("count", "sum"):
+                prefix = f'hydrodiag_diagnosis_stage_seconds_{kind}{{stage="{stage}"}} '
+                lines = [x for x in text.splitlines() if x.startswith(prefix)]
+                found[f"{stage}_{kind}"] = float(lines[0].split()[-1]) if lines else 0.0
+        return found
+
+    record = simulated_record(server, WORN_VALVE)
+    before = counts()
+    started = time.perf_counter()
+    response = server.client.post("/diagnose", json={"record": record})
+    elapsed = time.perf_counter() - started
+    assert response.status_code == 200, response.text
+    after = counts()
+    for stage in ("queue", "compute", "transfer", "commit", "request"):
+        assert after[f"{stage}_count"] == before[f"{stage}_count"] + 1, stage
+    computed = after["compute_sum"] - before["compute_sum"]
+    whole = after["request_sum"] - before["request_sum"]
+    assert 0 < computed < whole < elapsed
+
+
+def test_the_event_loop_reads_a_key_as_the_store_does(server: LiveServer) -> None:
+    """The driver-level read of the event loop gives the row SQLAlchemy gives, its
+    revocation time as an aware UTC time, and sees a revocation at once."""
+    from app.security import split_key
+    from app.services.keys import _key_row, _key_row_sqlite
+
+    with server.session() as session:
+        row, key = create_api_key(session, "loop-reader", Scope.READ)
+    prefix = split_key(key)
+    assert prefix is not None
+    fresh = _key_row_sqlite(server.engine, prefix)
+    assert fresh == _key_row(server.engine, prefix) and fresh is not None
+    assert fresh.revoked_at is None and fresh.scope == "read"
+    with server.session() as session:
+        revoke_api_key(session, row.id)
+    revoked = _key_row_sqlite(server.engine, prefix)
+    assert revoked == _key_row(server.engine, prefix) and revoked is not None
+    assert revoked.revoked_at is not None and revoked.revoked_at.utcoffset() is not None
+    assert _key_row_sqlite(server.engine, "0" * 12) is None

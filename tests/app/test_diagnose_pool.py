@@ -4,6 +4,7 @@ name their field, the compact answer, and workers that leave with a killed serve
 from __future__ import annotations
 
 import asyncio
+import json
 import os
 import signal
 import subprocess
@@ -19,6 +20,7 @@ from app.errors import ServiceBusyError
 from app.schemas.diagnose import DiagnoseRequest
 from app.services.diagnosis import plan_groups
 from app.services.diagnosis_pool import DiagnosisPool
+from app.services.diagnosis_task import TaskFailure
 from app.services.rig_cache import RigCache
 from tests.app.conftest import simulated_record
 from tests.app.live import LiveServer
@@ -181,3 +183,25 @@ def test_a_full_queue_is_503_with_retry_after_and_stores_nothing(server: LiveSer
     assert response.json()["error"]["type"] == "ServiceBusyError"
     assert server.row_counts() == before
     assert server.client.post("/diagnose", json={"record": record}).status_code == 200
+
+
+def test_the_warm_up_request_runs_whole_through_the_store(server: LiveServer) -> None:
+    """What a diagnosis process runs before it says ready: an unstored request of the
+    rig's healthy readings at its default condition, resolved through the store, whose
+    top hypothesis is 'healthy' and which stores nothing."""
+    from app.services.diagnosis_task import run_task
+    from app.services.diagnosis_worker import warm_task
+
+    rigs = RigCache(2)
+    with server.session() as session:
+        resolved = rigs.get(session, 1)
+    task = warm_task(resolved.key, resolved.rig)
+    assert task is not None and not task.form.store
+    (record,) = task.form.records
+    assert {"pump_pressure", "p1", "p2", "flow_B", "flow_C"} <= set(record.readings)
+    before = server.row_counts()
+    answer = run_task(server.sessions, rigs, task)
+    assert not isinstance(answer, TaskFailure), answer
+    (diagnosis,) = json.loads(answer.body())["diagnoses"]
+    assert diagnosis["top"] == "healthy" and diagnosis["id"] is None
+    assert answer.rows == [] and server.row_counts() == before

@@ -3,10 +3,12 @@
 The route is ``async`` and a thin pipe (issue 9): the body is validated on the event loop
 (FastAPI: a malformed request is a 422 naming the field before anything else), the key is
 checked on the event loop (:func:`~app.api.deps.require_key_on_loop`: scope ``write`` to
-store), and the body's bytes go to a diagnosis process of the application's
+store), and the request's validated form (:mod:`app.services.diagnosis_form`: plain data,
+not validated again) goes to a diagnosis process of the application's
 :class:`~app.services.diagnosis_pool.DiagnosisPool`, which resolves the rigs, diagnoses,
-serialises the answer and prepares the rows (:mod:`app.services.diagnosis_task`).  The
-rows are stored by the application's :class:`~app.services.group_commit.GroupCommitter`
+and encodes the answer and the rows from one encoding of each result
+(:mod:`app.services.diagnosis_task`).  The rows are stored by the application's
+:class:`~app.services.group_commit.GroupCommitter`
 (the rows of concurrent requests in one transaction, SQLAlchemy Core inserts,
 :mod:`app.services.diagnosis_rows`), and the answer, its stored ids spliced in, is sent
 once that transaction has committed.  A server process refuses a request (503 with
@@ -16,6 +18,7 @@ wait for a diagnosis process is over ``diagnosis_wait_ms``.
 
 from __future__ import annotations
 
+import time
 from collections.abc import AsyncIterator
 
 from fastapi import APIRouter, Depends, Request, Response
@@ -24,13 +27,16 @@ from sqlalchemy.orm import Session
 from app.api.deps import KeyHeaderDep, SettingsDep, read_access_on_loop, require_key_on_loop
 from app.db.base import utcnow
 from app.limits import check_count
+from app.metrics import STARTED
 from app.schemas.common import ERROR_RESPONSES, error_doc
 from app.schemas.diagnose import DiagnoseRequest, DiagnoseResponse
 from app.security import Scope
 from app.services.diagnosis import STORE_CONFLICT
+from app.services.diagnosis_answer import StoredRows
+from app.services.diagnosis_form import request_form
 from app.services.diagnosis_pool import DiagnosisPool
 from app.services.diagnosis_rows import insert_rows
-from app.services.diagnosis_task import DiagnoseTask, StoredRows
+from app.services.diagnosis_task import DiagnoseTask
 from app.services.group_commit import GroupCommitter
 
 __all__ = ["router"]
@@ -74,17 +80,22 @@ async def diagnose(body: DiagnoseRequest, request: Request, key: KeyHeaderDep,
     more records than ``HYDRODIAG_MAX_BATCH_RECORDS`` is a 422.  With ``compact`` the
     answer leaves out each hypothesis's predicted readings.
     """
-    items = body.items()  # a malformed request is a 422 before it is a 401
-    check_count(len(items), settings.max_batch_records, what="records", field="records",
+    form = request_form(body)  # a malformed request is a 422 before it is a 401
+    check_count(len(form.records), settings.max_batch_records, what="records", field="records",
                 setting="max_batch_records")
     if body.store:
         await require_key_on_loop(request, key, Scope.WRITE)
     pool: DiagnosisPool = request.app.state.diagnosis_pool
-    answer = await pool.diagnose(DiagnoseTask(await request.body(), utcnow()))
+    answer = await pool.diagnose(DiagnoseTask(form, utcnow()))
     if not body.store:
         return Response(answer.body(), media_type="application/json")
     # answered once the group transaction holding its rows has committed
     write = _Rows(answer.rows)
     writer: GroupCommitter = request.app.state.diagnosis_writer
+    handed = time.perf_counter()
     await writer.write(write, conflict=STORE_CONFLICT)
+    done = time.perf_counter()
+    stages = request.app.state.metrics.diagnosis_stage
+    stages.labels("commit").observe(done - handed)
+    stages.labels("request").observe(done - getattr(request.state, STARTED, done))
     return Response(answer.body(write.ids), media_type="application/json")
