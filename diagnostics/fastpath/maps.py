@@ -241,8 +241,10 @@ class FastMaps(SignatureMaps):
     def _grid(self, params: list[FaultParameter], zs: Arr) -> Arr:
         """Graph values with ``params[i]`` at ``zs[i]`` [fitting coordinate] in row ``i``."""
         grid = np.empty((zs.size, len(GRAPH_PARAMETERS)))
-        for i, p in enumerate(params):
-            grid[i] = _rows_at(self.rig, p, self._base, zs[i:i + 1])[0]
+        names = np.array([p.name for p in params])
+        for p in {p.name: p for p in params}.values():  # one call per parameter
+            sel = names == p.name
+            grid[sel] = _rows_at(self.rig, p, self._base, zs[sel])
         return grid
 
     def probe_moving(self, params: list[FaultParameter], zs: list[Arr],
