@@ -61,7 +61,7 @@ from sim.steady import SteadyEvaluator
 
 __all__ = ["CREEP", "GRAPH_PARAMETERS", "OBSERVABLES", "RIDGE_POINTS", "RIDGE_ROUNDS",
            "HypothesisMap", "SignatureMaps", "evaluator", "held_state", "masked_pchip",
-           "signature_maps", "stroke_codes", "stroke_states"]
+           "ridge_segments", "signature_maps", "stroke_codes", "stroke_states"]
 
 Arr = npt.NDArray[np.float64]
 
@@ -250,16 +250,7 @@ class SignatureMaps:
                     break
                 cuts.append((a, b))
                 a, a_st = b, b_st
-        if not cuts:
-            return None
-        span = float(zc[-1] - zc[0])
-        out = []
-        start = float(zc[0])
-        for a, b in [*cuts, (float(zc[-1]), math.nan)]:
-            n = max(5, math.ceil((zc.size - 1) * (a - start) / span) + 1)
-            out.append((start, a, n))
-            start = b
-        return out
+        return ridge_segments(zc, cuts) if cuts else None
 
     def _mask_ratio_before_held_return(self, coarses: list[Arr]) -> None:
         """The velocity ratio NaN at a moving node next to a held return stroke, along the
@@ -318,6 +309,21 @@ class SignatureMaps:
                 fine[sel] = masked_pchip(zc, coarse, zf[sel])
             return HypothesisMap(hyp, params, [zf], fine)
         raise ValueError("maps are built for one parameter; pairs are fitted directly")
+
+
+def ridge_segments(zc: Arr, cuts: list[tuple[float, float]]) -> list[tuple[float, float, int]]:
+    """The segments (start, end, nodes) of a piece with coarse nodes ``zc`` split at the
+    ridge brackets ``cuts`` (``(a, b)`` in order along the axis; a segment ends at ``a``,
+    the next starts at ``b``): each keeps a share of the nodes in proportion to its
+    length, 5 at least."""
+    span = float(zc[-1] - zc[0])
+    out = []
+    start = float(zc[0])
+    for a, b in [*cuts, (float(zc[-1]), math.nan)]:
+        n = max(5, math.ceil((zc.size - 1) * (a - start) / span) + 1)
+        out.append((start, a, n))
+        start = b
+    return out
 
 
 def masked_pchip(zc: Arr, coarse: Arr, zf: Arr) -> Arr:

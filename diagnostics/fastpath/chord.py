@@ -22,7 +22,8 @@ after a slow chord solve, more than :data:`REFRESH` iterations).
 
 * :func:`newton_matrix` — the factored forward-difference Jacobian (``steady``'s);
 * :func:`chord` — the iteration above;
-* :func:`solve_grid` — both phases at every row of a grid, chord first.
+* :func:`solve_grid` — both phases at every row of a grid, chord first (the fallback chain
+  of :func:`diagnostics.fastpath.phase.phase_solve`).
 """
 
 from __future__ import annotations
@@ -33,8 +34,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:  # bound in the generated module (see the module docstring)
-    from diagnostics.fastpath.kernel import end_stop, observables, stop_index
-    from diagnostics.fastpath.rig_interface import lu_factor, lu_solve, outputs, rhs, steady
+    from diagnostics.fastpath.kernel import observables
+    from diagnostics.fastpath.phase import drive, held_mask, phase_solve
+    from diagnostics.fastpath.rig_interface import lu_factor, lu_solve, outputs, rhs
 
 #: names copied into the generated module, in dependency order
 KERNELS = ("newton_matrix", "chord", "solve_grid")
@@ -124,23 +126,23 @@ def chord(y0, p, mask, scale, tol, y, jac, piv, f, dy):  # type: ignore[no-untyp
 
 
 def solve_grid(pw0, pr0, gidx, grid, mask, scale, last_w, last_r, nom_w, nom_r, oi, out,  # type: ignore[no-untyped-def]
-               ok, nout, restart, use_chord, counts):
+               ok, nout, restart, use_chord, counts, creep, y0, ys, drv):
     """Both phases' steady points and the observables at every row of ``grid`` (graph
     parameters ``gidx``); ``ok[k]`` False (and NaN) where no start converged.
 
-    Along a run of rows (``restart`` 1 at a run's first row) the start is extrapolated from
-    the previous solutions (the rows of a map are equally spaced): quadratically,
+    Along a run of rows (``restart`` 1 at a run's first row, which starts from the last
+    solution; 2: from ``y0[k]``, one state per phase) the start is extrapolated from the
+    previous solutions (the rows of a map are equally spaced): quadratically,
     ``3·y[k-1] − 3·y[k-2] + y[k-3]``, from the fourth row of a run, linearly,
-    ``2·y[k-1] − y[k-2]``, at the third, else the last solution.  With ``use_chord`` the chord iteration runs
-    first from that start; then the damped solver from the start, the last and the nominal
-    solution.  ``last_*`` end as the last row's solutions.  ``counts`` adds the phase solves
-    settled by the chord iteration (0), its failures by :func:`chord`'s reason (1-4), and
-    the damped solves (5).  A phase whose start is held on its end stop (velocity state
-    0) tries the end-stop state first (by the chord iteration on that state's own
-    Jacobian, then :func:`diagnostics.fastpath.kernel.end_stop`); a moving solution
-    against the phase's direction, or none, gives way to the end-stop state
-    (:func:`diagnostics.fastpath.kernel.end_stop`, from the moving solution, the start,
-    the last and the nominal one), as in :func:`diagnostics.fastpath.kernel.solve_point`.
+    ``2·y[k-1] − y[k-2]``, at the third, else the last solution.  Each phase is solved by
+    :func:`diagnostics.fastpath.phase.phase_solve` (with ``use_chord``, the chord
+    iteration on the moving or the held state's Jacobian first; then the damped solver
+    from the start, the last and the nominal solution; the end-stop state where the moving
+    solution runs against the phase's direction).  ``last_*`` end as the last row's
+    solutions.  ``counts`` adds the phase solves settled by the chord iteration (0), its
+    failures by :func:`chord`'s reason (1-4), and the damped solves (5).  Out per row:
+    ``ys[k]`` the solutions of both phases, ``drv[k]`` their
+    :func:`~diagnostics.fastpath.phase.drive` at speed ``creep`` [m/s] (NaN where none).
     """
     pw = pw0.copy()
     pr = pr0.copy()
@@ -151,9 +153,16 @@ def solve_grid(pw0, pr0, gidx, grid, mask, scale, last_w, last_r, nom_w, nom_r, 
     for i in range(ns):
         if mask[i] != 0:
             m += 1
+    hmask = held_mask(mask)
+    mh = 0
+    for i in range(ns):
+        mh += hmask[i]
     jac = np.empty((2, m, m))
     piv = np.zeros((2, m), dtype=np.int64)
     valid = np.zeros(2, dtype=np.bool_)
+    hjac = np.empty((2, mh, mh))
+    hpiv = np.zeros((2, mh), dtype=np.int64)
+    hvalid = np.zeros(2, dtype=np.bool_)
     f = np.empty(ns)
     ft = np.empty(ns)
     yt = np.empty(ns)
@@ -162,15 +171,6 @@ def solve_grid(pw0, pr0, gidx, grid, mask, scale, last_w, last_r, nom_w, nom_r, 
     prev = np.empty((2, 3, ns))
     start = np.empty(ns)
     run = 0
-    im = stop_index(mask)
-    # the end-stop state's own chord: its states (mask 1 only) and factored Jacobians
-    hmask = np.empty(ns, dtype=np.int64)
-    for i in range(ns):
-        hmask[i] = 1 if mask[i] == 1 else 0
-    mh = m - 1 if im >= 0 else m
-    hjac = np.empty((2, mh, mh))
-    hpiv = np.zeros((2, mh), dtype=np.int64)
-    hvalid = np.zeros(2, dtype=np.bool_)
     for k in range(grid.shape[0]):
         if restart[k]:
             run = 0
@@ -187,61 +187,21 @@ def solve_grid(pw0, pr0, gidx, grid, mask, scale, last_w, last_r, nom_w, nom_r, 
                     start[i] = 3.0 * (prev[ph, 2, i] - prev[ph, 1, i]) + prev[ph, 0, i]
                 elif run == 2:
                     start[i] = 2.0 * prev[ph, 2, i] - prev[ph, 1, i]
+                elif run == 0 and restart[k] == 2:
+                    start[i] = y0[k, ph, i]
                 else:
                     start[i] = last[i]
             sign = 1.0 if ph == 0 else -1.0
-            conv = False
-            if im >= 0 and start[im] == 0.0:
-                if use_chord and hvalid[ph]:
-                    why, its = chord(start, p, hmask, scale, CHORD_TOL, y, hjac[ph], hpiv[ph],
-                                     f, dy[:mh])
-                    if why == 0:
-                        rhs(0.0, y, p, f)
-                        conv = -sign * f[im] >= 0.0
-                        if conv and its > REFRESH:
-                            hvalid[ph] = newton_matrix(y, p, hmask, scale, hjac[ph], hpiv[ph],
-                                                       f, yt, ft)
-                if not conv:
-                    conv = end_stop(start, p, mask, scale, sign, y)
-                    if conv and use_chord:
-                        hvalid[ph] = newton_matrix(y, p, hmask, scale, hjac[ph], hpiv[ph], f,
-                                                   yt, ft)
-            if not conv:
-                if use_chord and valid[ph]:
-                    why, its = chord(start, p, mask, scale, CHORD_TOL, y, jac[ph], piv[ph], f,
-                                     dy)
-                    conv = why == 0
-                    counts[why] += 1
-                    if conv and its > REFRESH:  # slow contraction: the Jacobian has moved
-                        valid[ph] = newton_matrix(y, p, mask, scale, jac[ph], piv[ph], f, yt,
-                                                  ft)
-                if not conv:
-                    counts[5] += 1
-                    conv = steady(start, p, mask, scale, 1e-10, 60, y)[0] == 0
-                    if not conv and run >= 2:
-                        conv = steady(last, p, mask, scale, 1e-10, 60, y)[0] == 0
-                    if not conv:
-                        conv = steady(nom, p, mask, scale, 1e-10, 60, y)[0] == 0
-                    if conv and use_chord:
-                        valid[ph] = newton_matrix(y, p, mask, scale, jac[ph], piv[ph], f, yt,
-                                                  ft)
-                if im >= 0 and not (conv and sign * y[im] >= 0.0):
-                    moved = conv
-                    conv = moved and end_stop(y, p, mask, scale, sign, y)
-                    if not conv:
-                        conv = end_stop(start, p, mask, scale, sign, y)
-                    if not conv:
-                        conv = end_stop(last, p, mask, scale, sign, y)
-                    if not conv:
-                        conv = end_stop(nom, p, mask, scale, sign, y)
-                    if conv and use_chord:
-                        hvalid[ph] = newton_matrix(y, p, hmask, scale, hjac[ph], hpiv[ph], f,
-                                                   yt, ft)
-            if not conv:
+            try_last = run >= 2 or (run == 0 and restart[k] == 2)
+            if not phase_solve(start, last, nom, p, mask, hmask, scale, sign, CHORD_TOL, ph,
+                               jac, piv, valid, hjac, hpiv, hvalid, use_chord, try_last,
+                               counts, y, f, ft, yt, dy):
                 done = False
                 break
             for i in range(ns):
                 last[i] = y[i]
+                ys[k, ph, i] = y[i]
+            drive(y, p, mask, sign, creep, yt, ft, drv[k, ph])
             outputs(0.0, y, p, ow if ph == 0 else orr)
         ok[k] = done
         if done:
@@ -256,4 +216,7 @@ def solve_grid(pw0, pr0, gidx, grid, mask, scale, last_w, last_r, nom_w, nom_r, 
         else:
             for j in range(out.shape[1]):
                 out[k, j] = np.nan
+            for ph in range(2):
+                drv[k, ph, 0] = np.nan
+                drv[k, ph, 1] = np.nan
             run = 0

@@ -1,6 +1,7 @@
-"""The fast path's compiled module of a rig: :mod:`diagnostics.fastpath.kernel` and
-:mod:`diagnostics.fastpath.chord` specialised to the rig's Newton solver, right-hand side and
-outputs, with :mod:`diagnostics.fastpath.pchip` and :mod:`diagnostics.fastpath.singles`.
+"""The fast path's compiled module of a rig: :mod:`diagnostics.fastpath.phase`,
+:mod:`diagnostics.fastpath.kernel` and :mod:`diagnostics.fastpath.chord` specialised to
+the rig's Newton solver, right-hand side and outputs, with
+:mod:`diagnostics.fastpath.pchip` and :mod:`diagnostics.fastpath.singles`.
 
 The generated source imports ``steady``, ``outputs``, ``rhs`` and the LU routines from the
 rig's own generated module (:mod:`sim.bondgraph.codegen`) and holds the kernels, each under
@@ -14,7 +15,7 @@ import inspect
 import threading
 from types import ModuleType
 
-from diagnostics.fastpath import chord, kernel, pchip, singles
+from diagnostics.fastpath import chord, kernel, pchip, phase, singles
 from sim.bondgraph.codegen import load_module
 from sim.rigs import Rig
 
@@ -33,7 +34,7 @@ def _source(rig_module: str) -> str:
         f"from {rig_module} import steady, outputs, rhs, lu_factor, lu_solve",
         "_jit = njit(cache=True, error_model='numpy')",
     ]
-    mods = (kernel, chord, pchip, singles)
+    mods = (phase, kernel, chord, pchip, singles)
     consts = [f"{name} = {getattr(mod, name)!r}"
               for mod in mods for name in getattr(mod, "CONSTANTS", ())]
     funcs = [f"@_jit\n{inspect.getsource(getattr(mod, name))}"

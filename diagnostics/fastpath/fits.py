@@ -50,11 +50,15 @@ class PairProblem:
         """Keep the continuation states and chord Jacobians for the next fit at these
         conditions."""
         states, jac, piv, valid = self.prob[1], self.prob[17], self.prob[18], self.prob[19]
+        hjac, hpiv, hvalid = self.prob[20], self.prob[21], self.prob[22]
         for k, ctx in enumerate(self.contexts):
             ctx.states[0:2] = states[k, 0:2]
             ctx.jac[:] = jac[k]
             ctx.piv[:] = piv[k]
             ctx.jac_valid[:] = valid[k]
+            ctx.hjac[:] = hjac[k]
+            ctx.hpiv[:] = hpiv[k]
+            ctx.hjac_valid[:] = hvalid[k]
 
     def fit(self, z0: Arr, zl: Arr, zu: Arr) -> tuple[Arr, float, Arr, list[Arr]]:
         """Levenberg-Marquardt from ``z0``: ``(z, χ², last Jacobian, predictions per
@@ -83,7 +87,7 @@ class PairProblem:
 class RecordPack:
     """The records of a ranking in the kernels' arrays (built once per ranking; the Newton
     states carry over from one pair fit to the next, as the direct evaluator's do, and so do
-    the chord Jacobians)."""
+    the chord Jacobians of the moving and the held state)."""
 
     contexts: list[Any]
     ctx_p: Arr
@@ -97,6 +101,9 @@ class RecordPack:
     jac: Arr
     piv: npt.NDArray[np.int64]
     jac_valid: npt.NDArray[np.bool_]
+    hjac: Arr
+    hpiv: npt.NDArray[np.int64]
+    hjac_valid: npt.NDArray[np.bool_]
     nominal: Arr
     models: Sequence[RecordModel]
 
@@ -148,7 +155,8 @@ def record_pack(rig: Rig, models: Sequence[RecordModel]) -> RecordPack | None:
         np.concatenate([m.idx for m in models]).astype(np.int64),
         np.cumsum([0, *(len(m.idx) for m in models)]).astype(np.int64),
         np.array([c.jac for c in ctxs]), np.array([c.piv for c in ctxs]),
-        np.array([c.jac_valid for c in ctxs]),
+        np.array([c.jac_valid for c in ctxs]), np.array([c.hjac for c in ctxs]),
+        np.array([c.hpiv for c in ctxs]), np.array([c.hjac_valid for c in ctxs]),
         np.ascontiguousarray(np.array([m.maps.nominal for m in models])), models)
 
 
@@ -180,6 +188,6 @@ def pair_problem(rig: Rig, pack: RecordPack, params: tuple[FaultParameter, ...],
     c0 = pack.contexts[0]
     prob = (pack.ctx_p, pack.ctx_i, c0.mask, c0.scale, c0.oi, pack.base, c0.gidx, which, tlog,
             tmode, tconst, pack.yobs, pack.sig, pack.wrow, pack.oidx, pack.start, c0.nout,
-            pack.jac, pack.piv, pack.jac_valid)
+            pack.jac, pack.piv, pack.jac_valid, pack.hjac, pack.hpiv, pack.hjac_valid)
     return PairProblem(c0.kernels, prob, float(masked), len(pack.contexts),
                        int(pack.yobs.size), pack.contexts)

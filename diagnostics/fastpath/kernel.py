@@ -11,14 +11,13 @@ side) and ``outputs`` its output function, declared in
 What is compiled here is what the direct path (:mod:`diagnostics.ranking`) does once per
 model evaluation, in Python:
 
-* :func:`end_stop` — the end-stop state of :mod:`sim.steady` (the piston held on its stop,
-  its velocity state frozen at 0 — marked 2 in ``mask`` — the other states steady),
-  accepted where the held piston is pressed into its stop;
 * :func:`solve_point` — both phases' steady operating points for one parameter vector
-  (the chord iteration of :mod:`diagnostics.fastpath.chord` from the last solution, then
-  Newton from the last solution and from the nominal one: the continuation of
-  :class:`sim.steady.SteadyEvaluator`, the end-stop state where the moving piston would
-  run against its phase's direction) and the nine observables of
+  (the fallback chain of :func:`diagnostics.fastpath.phase.phase_solve`, shared with the
+  maps' grid solves: the chord iteration of :mod:`diagnostics.fastpath.chord` on the
+  moving or the held state's Jacobian from the last solution, then Newton from the last
+  solution and from the nominal one — the continuation of
+  :class:`sim.steady.SteadyEvaluator` — and the end-stop state of :mod:`sim.steady` where
+  the moving piston would run against its phase's direction) and the nine observables of
   :data:`diagnostics.signatures.OBSERVABLES` (speeds 0 on the stop, the velocity ratio
   NaN where the return stroke is held);
 * the same over the rows of a matrix (a signature map's coarse grid) is
@@ -43,11 +42,12 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:  # bound in the generated module (see the module docstring)
-    from diagnostics.fastpath.chord import FIT_TOL, REFRESH, chord, newton_matrix
-    from diagnostics.fastpath.rig_interface import outputs, rhs, steady
+    from diagnostics.fastpath.chord import FIT_TOL
+    from diagnostics.fastpath.phase import held_mask, phase_solve
+    from diagnostics.fastpath.rig_interface import outputs
 
 #: names copied into the generated module, in dependency order
-KERNELS = ("observables", "stop_index", "end_stop", "solve_point", "graph_values",
+KERNELS = ("observables", "solve_point", "graph_values",
            "residuals", "pair_fit", "profile_points")
 
 
@@ -69,91 +69,40 @@ def observables(w, r, oi, out):  # type: ignore[no-untyped-def]
     out[8] = vw / -vr if vr < 0.0 else np.nan
 
 
-def stop_index(mask):  # type: ignore[no-untyped-def]
-    """Index of the piston's velocity state (``mask`` 2: solved when moving, held at 0 on
-    the end stop); -1 if the mask marks none."""
-    for i in range(mask.size):
-        if mask[i] == 2:
-            return i
-    return -1
-
-
-def end_stop(y0, p, mask, scale, sign, y):  # type: ignore[no-untyped-def]
-    """The end-stop state (:mod:`sim.steady`) from ``y0`` into ``y`` (``y0`` may be ``y``):
-    the velocity state held at 0, the states ``mask`` 1 steady (damped Newton); True when
-    it converged and the held piston is pressed into its stop, ``−sign·ẍ ≥ 0`` (``sign``
-    the phase's commanded direction, ``ẍ`` the velocity equation's residual)."""
-    im = stop_index(mask)
-    if im < 0:
-        return False
-    n = y0.size
-    held = np.empty(n, dtype=np.int64)
-    start = np.empty(n)
-    for i in range(n):
-        held[i] = 1 if mask[i] == 1 else 0
-        start[i] = y0[i]
-    start[im] = 0.0
-    if steady(start, p, held, scale, 1e-10, 60, y)[0] != 0:
-        return False
-    f = np.empty(n)
-    rhs(0.0, y, p, f)
-    return -sign * f[im] >= 0.0
-
-
-def solve_point(pw, pr, mask, scale, states, jac, piv, valid, oi, ow, orr, work, out):  # type: ignore[no-untyped-def]
+def solve_point(pw, pr, mask, hmask, scale, states, jac, piv, valid, hjac, hpiv, hvalid, oi,  # type: ignore[no-untyped-def]
+                ow, orr, work, counts, out):
     """Both phases of one record at one parameter vector pair; True when both converged.
 
     ``states`` = last working, last return, nominal working, nominal return (the last ones
-    updated on success); ``jac``, ``piv``, ``valid``: per phase the factored Jacobian the
-    chord iteration (:func:`diagnostics.fastpath.chord.chord`, scaled step below
-    ``FIT_TOL``) runs on from the last solution; then the damped Newton from the last and
-    the nominal solution (the continuation of :class:`sim.steady.SteadyEvaluator`), after
-    which the Jacobian is rebuilt at the solution.  A phase whose last point was held on
-    its end stop tries that state first; a moving solution against the phase's direction
-    (or none) gives way to the end-stop state (:func:`end_stop`, from the moving, the last
-    and the nominal solution).  ``work`` = rows y, f, f_trial, y_trial, dy.  On failure
-    ``out`` is NaN (the caller may retry from a start-up transient).
+    updated on success).  Each phase by :func:`diagnostics.fastpath.phase.phase_solve`
+    from the last solution (the continuation of :class:`sim.steady.SteadyEvaluator`):
+    the chord iteration (scaled step below ``FIT_TOL``) on the factored Jacobian of the
+    moving (``jac``, ``piv``, ``valid``) or, where the last point was held on its end stop,
+    the held state (``hjac``, ``hpiv``, ``hvalid``), per phase; then the damped Newton from
+    the last and the nominal solution; the end-stop state where the moving solution runs
+    against the phase's direction.  ``hmask`` = :func:`~diagnostics.fastpath.phase.held_mask`
+    of ``mask``; ``work`` = rows y, f, f_trial, y_trial, dy; ``counts`` as
+    :func:`~diagnostics.fastpath.chord.solve_grid`'s.  On failure ``out`` is NaN (the caller
+    may retry from a start-up transient).
     """
     y = work[0]
     f = work[1]
     ft = work[2]
     yt = work[3]
-    dy = work[4, :jac.shape[1]]
-    im = stop_index(mask)
+    dy = work[4]
     for ph in range(2):
         p = pw if ph == 0 else pr
         sign = 1.0 if ph == 0 else -1.0
         last = states[ph]
-        o = ow if ph == 0 else orr
-        conv = False
-        if im >= 0 and last[im] == 0.0:
-            conv = end_stop(last, p, mask, scale, sign, y)
-        if not conv:
-            if valid[ph]:
-                why, its = chord(last, p, mask, scale, FIT_TOL, y, jac[ph], piv[ph], f, dy)
-                conv = why == 0
-                if conv and its > REFRESH:
-                    valid[ph] = newton_matrix(y, p, mask, scale, jac[ph], piv[ph], f, yt, ft)
-            if not conv:
-                conv = steady(last, p, mask, scale, 1e-10, 60, y)[0] == 0
-                if not conv:
-                    conv = steady(states[2 + ph], p, mask, scale, 1e-10, 60, y)[0] == 0
-                if conv:
-                    valid[ph] = newton_matrix(y, p, mask, scale, jac[ph], piv[ph], f, yt, ft)
-            if im >= 0 and not (conv and sign * y[im] >= 0.0):
-                moved = conv
-                conv = moved and end_stop(y, p, mask, scale, sign, y)
-                if not conv:
-                    conv = end_stop(last, p, mask, scale, sign, y)
-                if not conv:
-                    conv = end_stop(states[2 + ph], p, mask, scale, sign, y)
-        if not conv:
+        if not phase_solve(last, last, states[2 + ph], p, mask, hmask, scale, sign, FIT_TOL,
+                           ph, jac, piv, valid, hjac, hpiv, hvalid, True, False, counts, y, f,
+                           ft, yt, dy):
             for j in range(out.size):
                 out[j] = np.nan
             return False
         for i in range(y.size):
             last[i] = y[i]
-        outputs(0.0, y, p, o)
+        outputs(0.0, y, p, ow if ph == 0 else orr)
     observables(ow, orr, oi, out)
     return True
 
@@ -184,27 +133,30 @@ def residuals(z, prob, masked, r, fulls):  # type: ignore[no-untyped-def]
     reading's record's matrix W, :class:`diagnostics.record_model.RecordModel`, over that
     record's readings), observable index ``oidx``, record ``start`` offsets, the number of
     model outputs ``nout``, per record its phases' factored Jacobians ``ctx_j``, pivots
-    ``ctx_piv`` and whether they hold one, ``ctx_v`` (:func:`solve_point`)).  Record k's
+    ``ctx_piv`` and whether they hold one, ``ctx_v``, and the same of the held state
+    ``ctx_hj``, ``ctx_hpiv``, ``ctx_hv`` (:func:`solve_point`)).  Record k's
     residuals are ``W_k (y − ŷ)``; a record with a reading without prediction falls back
     to residuals per marginal σ, that reading counting ``masked`` σ (as
     :func:`diagnostics.pair_direct.residuals`).
     """
     (ctx_p, ctx_i, mask, scale, oi, base, gidx, which, tlog, tmode, tconst, yobs, sig, wrow,
-     oidx, start, nout, ctx_j, ctx_piv, ctx_v) = prob
+     oidx, start, nout, ctx_j, ctx_piv, ctx_v, ctx_hj, ctx_hpiv, ctx_hv) = prob
     d = np.empty(wrow.shape[1])
     g = np.empty(base.size)
     graph_values(z, base, which, tlog, tmode, tconst, g)
     ow = np.empty(nout)
     orr = np.empty(nout)
     work = np.empty((5, ctx_i.shape[2]))
+    hmask = held_mask(mask)
+    counts = np.zeros(6, dtype=np.int64)
     for k in range(ctx_p.shape[0]):
         pw = ctx_p[k, 0].copy()
         pr = ctx_p[k, 1].copy()
         for j in range(gidx.size):
             pw[gidx[j]] = g[j]
             pr[gidx[j]] = g[j]
-        solve_point(pw, pr, mask, scale, ctx_i[k], ctx_j[k], ctx_piv[k], ctx_v[k], oi, ow, orr,
-                    work, fulls[k])
+        solve_point(pw, pr, mask, hmask, scale, ctx_i[k], ctx_j[k], ctx_piv[k], ctx_v[k],
+                    ctx_hj[k], ctx_hpiv[k], ctx_hv[k], oi, ow, orr, work, counts, fulls[k])
         s0 = start[k]
         n = start[k + 1] - s0
         finite = True

@@ -5,11 +5,14 @@
 the compiled :func:`~diagnostics.fastpath.kernel.solve_grid` and interpolated by the
 compiled masked PCHIP (:func:`~diagnostics.fastpath.pchip.pchip_columns`), the
 interpolation of :func:`~diagnostics.signatures.masked_pchip`.  Grids, pieces (the relief
-kink, the moving/held ridges) and masking are the direct maps'; a point where Newton
-fails from the last and the nominal solution is retried by the direct evaluator
-(start-up transient), as the direct path does.  :class:`Context` holds one condition's
-parameter vectors and Newton states, which the compiled pair fits
-(:mod:`diagnostics.fastpath.fits`) continue from.
+kink) and masking are the direct maps'; the ridges between moving, creeping and held
+strokes are located from the piston's drive (:mod:`diagnostics.fastpath.ridges`, all the
+ridges of a condition together, a few compiled solves in all) to the width of the direct
+maps' brackets, and the segments between them solved in one more grid solve.  A point
+where Newton fails from the last and the nominal solution is retried by the direct
+evaluator (start-up transient), as the direct path does.  :class:`Context`
+(:mod:`diagnostics.fastpath.context`) holds one condition's parameter vectors and Newton
+states, which the compiled pair fits (:mod:`diagnostics.fastpath.fits`) continue from.
 """
 
 from __future__ import annotations
@@ -20,13 +23,13 @@ from collections import OrderedDict
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import partial
-from types import ModuleType
 from typing import TypeVar, cast
 
 import numpy as np
 import numpy.typing as npt
 
-from diagnostics.fastpath.compiled import compiled_kernels
+from diagnostics.fastpath.context import Context, nominal_observables, phase_vectors
+from diagnostics.fastpath.ridges import Cut, Piece, locate
 from diagnostics.hypotheses import HYPOTHESES, PARAMETERS, FaultParameter, Hypothesis
 from diagnostics.signatures import (
     FINE_1D,
@@ -35,12 +38,11 @@ from diagnostics.signatures import (
     HypothesisMap,
     SignatureMaps,
     evaluator,
-    stroke_codes,
+    ridge_segments,
 )
-from sim.cycle import phase_settings
 from sim.errors import SimulationError
 from sim.rigs import Condition, Rig
-from sim.steady import SteadyEvaluator, steady_phase
+from sim.steady import SteadyEvaluator
 
 __all__ = ["Context", "FastMaps", "Transform", "fast_maps", "nominal_observables",
            "phase_vectors", "transform"]
@@ -48,14 +50,11 @@ __all__ = ["Context", "FastMaps", "Transform", "fast_maps", "nominal_observables
 Arr = npt.NDArray[np.float64]
 IArr = npt.NDArray[np.int64]
 
-#: model outputs the observables are made of, in the order the kernel expects
-_OUTPUTS = ("P_pump", "P1", "P2", "Q_meter_B", "Q_meter_C", "Q_relief", "v")
-
-#: per rig (held, so that its id is not reused while here), what depends on the rig only
-_LAYOUTS: OrderedDict[int, tuple[Rig, _Layout]] = OrderedDict()
 _MAPS: OrderedDict[tuple[int, Condition], FastMaps] = OrderedDict()
 #: per rig, the parts of the maps that do not depend on the condition (:func:`_memo`)
 _PIECES: OrderedDict[tuple[object, ...], tuple[Rig, object]] = OrderedDict()
+#: per rig and fault parameter, its :class:`Transform`
+_TRANSFORMS: dict[tuple[int, str], tuple[Rig, Transform | None]] = {}
 _T = TypeVar("_T")
 _LOCK = threading.RLock()
 
@@ -79,8 +78,15 @@ class Transform:
 def transform(rig: Rig, p: FaultParameter) -> Transform | None:
     """The :class:`Transform` of ``p`` read off :meth:`FaultParameter.graph_value` (one
     proportional or inverse law), or None when it is neither (then the direct path runs);
-    kept per rig."""
-    return _memo(rig, ("transform", p), partial(_transform, rig, p))
+    kept per rig (a plain dict: the pair fits ask for it at every fit)."""
+    key = (id(rig), p.name)
+    hit = _TRANSFORMS.get(key)
+    if hit is None or hit[0] is not rig:
+        if len(_TRANSFORMS) > 256:
+            _TRANSFORMS.clear()
+        hit = (rig, _transform(rig, p))
+        _TRANSFORMS[key] = hit
+    return hit[1]
 
 
 def _transform(rig: Rig, p: FaultParameter) -> Transform | None:
@@ -91,150 +97,6 @@ def _transform(rig: Rig, p: FaultParameter) -> Transform | None:
     if g1 != 0.0 and math.isclose(g2, 0.5 * g1, rel_tol=1e-12):
         return Transform(index, p.log, 1, g1)
     return None
-
-
-@dataclass(frozen=True)
-class _Layout:
-    """What a :class:`Context` needs that depends on the rig only (built once per rig)."""
-
-    kernels: ModuleType
-    gidx: IArr
-    #: solver mask per state: 1 solved, 0 held (the position), 2 the piston's velocity
-    #: (solved when moving, held at 0 in the end-stop state)
-    mask: IArr
-    scale: Arr
-    oi: IArr
-    nout: int
-    states: Arr
-    #: parameter indices and values that turn the working vector into the return one
-    ret_idx: IArr
-    ret_val: Arr
-    work: dict[str, float]
-
-
-def _layout(rig: Rig) -> _Layout:
-    """The :class:`_Layout` of ``rig`` (cached per rig; the Newton starts are the nominal
-    points of both phases at the default condition, the piston at mid-stroke)."""
-    with _LOCK:
-        entry = _LAYOUTS.get(id(rig))
-    if entry is not None and entry[0] is rig:
-        return entry[1]
-    m = rig.model
-    cond = rig.default_condition()
-    sw = steady_phase(rig, "working", None, cond).state.copy()
-    sr = steady_phase(rig, "return", None, cond).state.copy()
-    ix = m.state_index("cylinder.x")
-    sw[ix] = sr[ix] = 0.5 * rig.base["cylinder.stroke"]
-    mask = np.ones(len(m.state_names), dtype=np.int64)
-    mask[ix] = 0
-    mask[m.state_index("cylinder.mass")] = 2  # held at 0 in the end-stop state
-    ret = phase_settings(rig, "return")
-    lay = _Layout(
-        compiled_kernels(rig),
-        np.array([m.param_index(n) for n in GRAPH_PARAMETERS], dtype=np.int64), mask,
-        m.scale, np.array([m.output_names.index(n) for n in _OUTPUTS], dtype=np.int64),
-        len(m.output_names), np.array([sw, sr, sw, sr]),
-        np.array([m.param_index(n) for n in ret], dtype=np.int64),
-        np.array(list(ret.values()), dtype=np.float64), phase_settings(rig, "working"))
-    with _LOCK:
-        _LAYOUTS[id(rig)] = (rig, lay)
-        while len(_LAYOUTS) > 16:
-            _LAYOUTS.popitem(last=False)
-    return lay
-
-
-def phase_vectors(rig: Rig, condition: Condition) -> Arr:
-    """Working and return parameter vectors at ``condition``, shape ``(2, n_params)``: the
-    vectors of :func:`sim.cycle.phase_params` from one evaluation of the rig's values (the
-    return vector is the working one with the return phase's settings)."""
-    lay = _layout(rig)
-    values = rig.values(None, condition)
-    values.update(lay.work)
-    pw = rig.model.params(values)
-    pr = pw.copy()
-    pr[lay.ret_idx] = lay.ret_val
-    return np.array([pw, pr])
-
-
-class Context:
-    """One rig at one condition, in the kernel's arrays.
-
-    Attributes
-    ----------
-    params
-        Working and return parameter vectors, shape ``(2, n_params)``.
-    states
-        Newton states: last working, last return, nominal working, nominal return,
-        shape ``(4, n_states)``; the last ones move with every solve (continuation).
-    use_chord
-        Grid solves try the chord Newton first (:mod:`diagnostics.fastpath.chord`; the
-        ``chord`` argument, default True); False: the damped solver alone.
-    counts
-        Phase solves of the grid solves so far: settled by the chord iteration (0), its
-        failures by reason (1-4, :func:`~diagnostics.fastpath.chord.chord`), damped (5).
-    jac, piv, jac_valid
-        Per phase the LU-factored Jacobian at a recent solution of the pair fits, its
-        pivots and whether it holds one (the chord iteration of
-        :func:`diagnostics.fastpath.kernel.solve_point` runs on it; kept with the context,
-        so the next diagnosis at this condition starts with it).
-    """
-
-    def __init__(self, rig: Rig, condition: Condition, chord: bool = True) -> None:
-        lay = _layout(rig)
-        self.rig = rig
-        self.condition = condition
-        self.kernels = lay.kernels
-        self.params = phase_vectors(rig, condition)
-        self.gidx = lay.gidx
-        self.mask = lay.mask
-        self.scale = lay.scale
-        self.oi = lay.oi
-        self.nout = lay.nout
-        self.states = lay.states.copy()
-        self.use_chord = chord
-        self.counts = np.zeros(6, dtype=np.int64)
-        m = int(np.count_nonzero(lay.mask))
-        self.jac = np.zeros((2, m, m))
-        self.piv = np.zeros((2, m), dtype=np.int64)
-        self.jac_valid = np.zeros(2, dtype=np.bool_)
-
-    def solve(self, grid: Arr, restart: IArr | None = None
-              ) -> tuple[Arr, npt.NDArray[np.bool_]]:
-        """Observables at each row of graph values ``grid`` (order of GRAPH_PARAMETERS);
-        rows whose Newton failed are NaN and False.  ``restart`` marks (1) the first row
-        of each run of equally spaced rows (a predictor runs along a run); default: every
-        row alone."""
-        n = grid.shape[0]
-        out = np.empty((n, len(OBSERVABLES)))
-        ok = np.zeros(n, dtype=np.bool_)
-        flags = np.ones(n, dtype=np.int64) if restart is None else restart
-        s = self.states
-        self.kernels.solve_grid(self.params[0], self.params[1], self.gidx,
-                                np.ascontiguousarray(grid), self.mask, self.scale, s[0], s[1],
-                                s[2], s[3], self.oi, out, ok, self.nout, flags,
-                                self.use_chord, self.counts)
-        return out, ok
-
-    def nominal(self, base: Arr) -> Arr:
-        """Observables at graph values ``base``; the nominal Newton states are set to the
-        solution.  Raises SimulationError where no steady point is found (transient start
-        included)."""
-        out, ok = self.solve(base[None, :])
-        if not ok[0]:
-            ev = SteadyEvaluator(self.rig, self.condition, GRAPH_PARAMETERS)
-            out[0] = ev.vector(base, OBSERVABLES)
-            self.states[0] = ev._last["working"]
-            self.states[1] = ev._last["return"]
-        self.states[2] = self.states[0]
-        self.states[3] = self.states[1]
-        return out[0]
-
-
-def nominal_observables(rig: Rig, condition: Condition) -> Arr:
-    """Observables of the healthy rig at ``condition`` (graph values of the parameter
-    vector, as :meth:`SteadyEvaluator.nominal`).  Raises SimulationError if none."""
-    ctx = Context(rig, condition)
-    return ctx.nominal(ctx.params[0][ctx.gidx])
 
 
 def _memo(rig: Rig, key: tuple[object, ...], make: Callable[[], _T]) -> _T:
@@ -254,19 +116,24 @@ def _memo(rig: Rig, key: tuple[object, ...], make: Callable[[], _T]) -> _T:
     return value
 
 
+def _rows_at(rig: Rig, p: FaultParameter, base: Arr, zs: Arr) -> Arr:
+    """Graph values with ``p`` at fitting coordinates ``zs``, the others at ``base``."""
+    tr = transform(rig, p)
+    g = np.tile(base, (zs.size, 1))
+    if tr is not None:
+        g[:, tr.index] = tr.graph(zs)
+    else:
+        g[:, GRAPH_PARAMETERS.index(p.graph_param)] = [
+            p.graph_value(rig, p.from_z(float(z))) for z in zs]
+    return g
+
+
 def _piece_rows(rig: Rig, p: FaultParameter, base: Arr, lo: float, hi: float, n: int
                 ) -> tuple[Arr, Arr, IArr]:
     """A map piece's coarse nodes ``zc`` (``n`` from ``lo`` to ``hi`` in fitting
     coordinates), the graph values of its rows and its run flags (1 at the first row)."""
     zc = np.linspace(lo, hi, n)
-    tr = transform(rig, p)
-    g = np.tile(base, (n, 1))
-    if tr is not None:
-        g[:, tr.index] = tr.graph(zc)
-    else:
-        g[:, GRAPH_PARAMETERS.index(p.graph_param)] = [
-            p.graph_value(rig, p.from_z(float(z))) for z in zc]
-    return zc, g, (np.arange(n) == 0).astype(np.int64)
+    return zc, _rows_at(rig, p, base, zc), (np.arange(n) == 0).astype(np.int64)
 
 
 class FastMaps(SignatureMaps):
@@ -285,6 +152,7 @@ class FastMaps(SignatureMaps):
         except SimulationError:
             self.nominal = np.full(len(OBSERVABLES), np.nan)
         self.maps: dict[str, HypothesisMap] = {}
+        hyps: list[tuple[Hypothesis, FaultParameter, Arr, int]] = []
         plans = []
         rows = []
         starts = []
@@ -293,39 +161,137 @@ class FastMaps(SignatureMaps):
                 continue
             (p,) = (PARAMETERS[n] for n in hyp.parameters)
             zf = _memo(rig, ("axis", p.name), partial(self._axis, p, FINE_1D))
-            pieces = []
+            n_pieces = 0
             for lo, hi, n in self._pieces(p, float(zf[0]), float(zf[-1])):
                 zc, g, first = _memo(rig, (p.name, lo, hi, n),
                                      partial(_piece_rows, rig, p, self._base, lo, hi, n))
-                pieces.append(zc)
+                plans.append((p, zc))
                 rows.append(g)
                 starts.append(first)
-            plans.append((hyp, p, zf, pieces))
-        coarse_all, ok = self.ctx.solve(np.concatenate(rows), np.concatenate(starts))
-        start = 0
-        for hyp, p, zf, pieces in plans:
-            solved = []
-            for zc in pieces:
-                coarse = self._retried(p, zc, coarse_all[start:start + zc.size],
-                                       ok[start:start + zc.size])
-                start += zc.size
-                split = self._ridge_pieces(p, zc, coarse)
-                if split is None:
-                    solved.append((zc, coarse))
-                    continue
-                for a, b, m in split:
-                    zs, g, first = _piece_rows(rig, p, self._base, a, b, m)
-                    out, good = self.ctx.solve(g, first)
-                    solved.append((zs, self._retried(p, zs, out, good)))
+                n_pieces += 1
+            hyps.append((hyp, p, zf, n_pieces))
+        # every piece of every hypothesis in one grid solve, then every ridge located
+        # together (:mod:`diagnostics.fastpath.ridges`), then every split piece in one solve
+        out, ok, ys, drv = self.ctx.probe(np.concatenate(rows), np.concatenate(starts))
+        pieces = []
+        at = 0
+        for p, zc in plans:
+            sl = slice(at, at + zc.size)
+            at += zc.size
+            pieces.append(Piece(p, zc, self._retried(p, zc, out[sl], ok[sl].copy()), ys[sl],
+                                drv[sl], ok[sl]))
+        solved = self._split(pieces, locate(self, pieces))
+        k = 0
+        for hyp, p, zf, n_pieces in hyps:
+            parts = [part for j in range(k, k + n_pieces) for part in solved[j]]
+            k += n_pieces
             fine = np.empty((zf.size, len(OBSERVABLES)))
-            ends = [float(zc[-1]) for zc, _ in solved]
-            self._mask_ratio_before_held_return([coarse for _, coarse in solved])
-            for k, (zc, coarse) in enumerate(solved):
-                sel = self._selection(zf, ends, k)
+            ends = [float(zc[-1]) for zc, _ in parts]
+            self._mask_ratio_before_held_return([coarse for _, coarse in parts])
+            for j, (zc, coarse) in enumerate(parts):
+                sel = self._selection(zf, ends, j)
                 part = np.empty((int(sel.sum()), len(OBSERVABLES)))
                 self.ctx.kernels.pchip_columns(zc, np.ascontiguousarray(coarse), zf[sel], part)
                 fine[sel] = part
             self.maps[hyp.name] = HypothesisMap(hyp, (p,), [zf], fine)
+
+    def _split(self, pieces: list[Piece], cuts: list[list[Cut]]) -> list[list[tuple[Arr, Arr]]]:
+        """Each piece's segments (nodes, observables): the piece itself where it has no
+        ridge, else its segments between the ridges' brackets
+        (:func:`~diagnostics.signatures.ridge_segments`), all solved in one grid solve,
+        each from the solution at its first node."""
+        plan: list[list[Arr] | None] = []
+        rows: list[Arr] = []
+        flags: list[IArr] = []
+        starts: list[Arr] = []
+        for pc, cut in zip(pieces, cuts, strict=True):
+            if not cut:
+                plan.append(None)
+                continue
+            nodes: list[Arr] = []
+            first_y = [pc.ys[0] if pc.ok[0] else None] + [c.y_hi for c in cut]
+            for (a, b, m), y0 in zip(ridge_segments(pc.zc, [(c.lo, c.hi) for c in cut]),
+                                     first_y, strict=True):
+                zs, g, first = _piece_rows(self.rig, pc.p, self._base, a, b, m)
+                nodes.append(zs)
+                rows.append(g)
+                y = np.empty((m, 2, pc.ys.shape[-1]))
+                if y0 is not None:
+                    y[0] = y0
+                flags.append(first if y0 is None else 2 * first)
+                starts.append(y)
+            plan.append(nodes)
+        if rows:
+            out, ok, _, _ = self.ctx.probe(np.concatenate(rows), np.concatenate(flags),
+                                           np.concatenate(starts))
+        solved: list[list[tuple[Arr, Arr]]] = []
+        at = 0
+        for pc, planned in zip(pieces, plan, strict=True):
+            if planned is None:
+                solved.append([(pc.zc, pc.coarse)])
+                continue
+            parts: list[tuple[Arr, Arr]] = []
+            for zs in planned:
+                sl = slice(at, at + zs.size)
+                at += zs.size
+                parts.append((zs, self._retried(pc.p, zs, out[sl], ok[sl])))
+            solved.append(parts)
+        return solved
+
+    def _grid(self, params: list[FaultParameter], zs: Arr) -> Arr:
+        """Graph values with ``params[i]`` at ``zs[i]`` [fitting coordinate] in row ``i``."""
+        grid = np.empty((zs.size, len(GRAPH_PARAMETERS)))
+        names = np.array([p.name for p in params])
+        for p in {p.name: p for p in params}.values():  # one call per parameter
+            sel = names == p.name
+            grid[sel] = _rows_at(self.rig, p, self._base, zs[sel])
+        return grid
+
+    def probe_moving(self, params: list[FaultParameter], zs: list[Arr],
+                     starts: list[Arr | None]) -> tuple[Arr, Arr, Arr, npt.NDArray[np.bool_]]:
+        """Observables, solutions, drives and success (:meth:`Context.probe`) at runs of
+        points: run ``j`` at fitting coordinates ``zs[j]`` of its parameters (``params``,
+        one per point), the first started from ``starts[j]`` (the phases' solutions
+        nearby; None: the last solution), each next one from the one before.  Points the
+        compiled solve fails are retried by the direct evaluator (observables only)."""
+        flat = np.concatenate(zs)
+        flags = np.ones(flat.size, dtype=np.int64)
+        y0 = np.empty((flat.size, 2, self.ctx.states.shape[1]))
+        at = 0
+        for z, y in zip(zs, starts, strict=True):
+            if y is not None and z.size:
+                y0[at] = y
+                flags[at] = 2
+            at += z.size
+        out, ok, ys, drv = self.ctx.probe(self._grid(params, flat), flags, y0)
+        for i in np.flatnonzero(~ok):
+            out[i] = self._solve_or_nan((params[i],), params[i].from_z(float(flat[i])))
+        return out, ys, drv, ok
+
+    def probe_held(self, params: list[FaultParameter], phases: list[int], zs: list[Arr],
+                   starts: list[Arr | None]) -> tuple[Arr, Arr, npt.NDArray[np.bool_]]:
+        """The end-stop state's drive [m/s²] of phase ``phases[i]`` at point ``i``
+        (:func:`~diagnostics.fastpath.phase.held_grid`), its solutions and success;
+        arguments as :meth:`probe_moving` (a run starts from its phase's state in
+        ``starts[j]``, None: the nominal one, and goes on from point to point)."""
+        flat = np.concatenate(zs)
+        n = flat.size
+        ns = self.ctx.states.shape[1]
+        flags = np.zeros(n, dtype=np.int64)
+        y0 = np.empty((n, ns))
+        at = 0
+        for z, y in zip(zs, starts, strict=True):
+            ph = phases[at]
+            flags[at] = 1
+            y0[at] = self.ctx.states[2 + ph] if y is None else y[ph] if y.ndim == 2 else y
+            at += z.size
+        g = np.empty(n)
+        ys = np.empty((n, ns))
+        ok = np.zeros(n, dtype=np.bool_)
+        self.ctx.kernels.held_grid(self.ctx.params[0], self.ctx.params[1], self.ctx.gidx,
+                                   self._grid(params, flat), np.array(phases, dtype=np.int64),
+                                   self.ctx.mask, self.ctx.scale, flags, y0, ys, g, ok)
+        return g, ys, ok
 
     def _retried(self, p: FaultParameter, zc: Arr, coarse: Arr, ok: npt.NDArray[np.bool_]
                  ) -> Arr:
@@ -334,17 +300,6 @@ class FastMaps(SignatureMaps):
         for i in np.flatnonzero(~ok):
             coarse[i] = self._solve_or_nan((p,), p.from_z(float(zc[i])))
         return coarse
-
-    def _states_on(self, p: FaultParameter, zs: Arr) -> npt.NDArray[np.int64]:
-        """:func:`~diagnostics.signatures.stroke_codes` at ``zs`` by one compiled grid
-        solve (the ridge bracketing of :meth:`SignatureMaps._ridge_pieces`; not counted
-        in :attr:`Context.counts`, which describe the maps' grids)."""
-        _, g, first = _piece_rows(self.rig, p, self._base, float(zs[0]), float(zs[-1]),
-                                  zs.size)
-        counts = self.ctx.counts.copy()
-        out, ok = self.ctx.solve(g, first)
-        self.ctx.counts[:] = counts
-        return stroke_codes(self._retried(p, zs, out, ok), self._creep)
 
     def moved_nominal(self, condition: Condition) -> Arr:
         """Healthy observables at a condition near this one (the σ of a record's condition

@@ -102,8 +102,16 @@ def test_fast_equals_direct_on_stalled_records() -> None:
 
 def test_fast_maps_equal_the_direct_maps() -> None:
     """The compiled grid solve and PCHIP give the direct maps (a hot differential rig with
-    masked stall points included)."""
+    masked stall points included, and a load that stalls the worn seal and spool): to
+    1e-7 along an axis whose stroke states do not change; along one that crosses a ridge
+    the fast maps locate it their own way (diagnostics.fastpath.ridges), to the same
+    bracket width, so both interpolate the same readings on slightly different nodes:
+    within 5e-4 of each reading's range, as each follows the direct solves."""
+    from diagnostics.stroke_state import creep_speed, stroke_codes
+
+    crossed = 0
     for rig, cond in ((reference_rig(), Condition(load=2500.0, oil_temperature=33.0)),
+                      (reference_rig(), Condition(load=4200.0, oil_temperature=55.0)),
                       (rig_with(0.06, 0.0, 0.03, Lc=0.003),
                        Condition(load=1000.0, oil_temperature=70.0))):
         fast, direct = fast_maps(rig, cond), SignatureMaps(rig, cond)
@@ -112,9 +120,15 @@ def test_fast_maps_equal_the_direct_maps() -> None:
             got = fast.maps[name].pred
             np.testing.assert_array_equal(np.isnan(got), np.isnan(hm.pred))
             ok = np.isfinite(hm.pred)
-            scale = np.nanmax(np.abs(hm.pred), axis=0)
+            codes = stroke_codes(hm.pred, creep_speed(rig))
+            valid = codes[codes >= 0]
+            ridge = bool((valid[1:] != valid[:-1]).any())
+            crossed += ridge
+            scale = (np.nanmax(hm.pred, axis=0) - np.nanmin(hm.pred, axis=0) if ridge
+                     else np.nanmax(np.abs(hm.pred), axis=0))
             err = np.abs(got - hm.pred) / np.where(scale > 0, scale, 1.0)
-            assert float(np.max(err[ok])) < 1e-7, (name, OBSERVABLES)
+            assert float(np.max(err[ok])) < (5e-4 if ridge else 1e-7), (name, OBSERVABLES)
+    assert crossed >= 2  # the seal and the spool map at 4.2 kN cross the stall ridge
 
 
 def test_the_kernels_parameter_laws_are_the_hypotheses_own() -> None:
