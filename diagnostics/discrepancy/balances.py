@@ -123,6 +123,8 @@ class BalanceData:
     mask: npt.NDArray[np.bool_]
     full_scale: float
     base_signs: dict[str, float]
+    #: which kept rows are a piston held at its stop (:func:`_held`); ``None``: none
+    held: npt.NDArray[np.bool_] | None = None
 
 
 def _inside(s: Signals, v: dict[str, float]) -> npt.NDArray[np.bool_]:
@@ -316,5 +318,6 @@ def balance_data(s: Signals, values: dict[str, float]) -> list[BalanceData]:
         y, base = b.build(sub, values)
         cands = {e.name: e.entry.regressor(sub.values) for e in effects_of(b.name)}
         out.append(BalanceData(b, y, base, cands, mask, b.full_scale(values),
-                               {k: v for k, v in BASE_SIGNS.items() if k in base}))
+                               {k: v for k, v in BASE_SIGNS.items() if k in base},
+                               held[mask] if held[mask].any() else None))
     return out

@@ -6,13 +6,15 @@ HAC (Newey-West) standard errors, has the expected sign, lies within 10× the to
 plausible range, leaves the re-fitted base parameters with their physical signs (friction,
 conductances, displacement ≥ 0), and its contribution is larger than the practical size
 (0.1 % of the balance's full scale, RMS; for an entry whose signature is only at slow
-piston speed, its peak: it acts on a few samples). The admissible subset with the lowest
-BIC is chosen if it improves on the base fit by at least 10 — except that once an admissible
-subset shows the gap is of practical size, a *single* term that passes every check but the
-practical size competes too (:attr:`Fit.small`): the practical size says whether there is a
-gap worth explaining, the BIC which explanation fits it (on the hidden-effect bench a true
-pressure-dependent pump clearance at 4σ explained 0.93× the practical size and its t was
-29, while the compressibility loss, t = 14, passed it at 1.09× and was named instead).
+piston speed, its peak: it acts on a few samples; in a flow balance with the samples of a
+piston held at its stop, the larger of its RMS in the motion and at the stop). The
+admissible subset with the lowest BIC is chosen if it improves on the base fit by at least
+10 — except that once an admissible subset shows the gap is of practical size, a *single*
+term that passes every check but the practical size competes too (:attr:`Fit.small`): the
+practical size says whether there is a gap worth explaining, the BIC which explanation
+fits it (on the hidden-effect bench a true pressure-dependent pump clearance at 4σ
+explained 0.93× the practical size and its t was 29, while the compressibility loss,
+t = 14, passed it at 1.09× and was named instead).
 Pairs still need every term of practical size.  Admissible subsets within
 ΔBIC < 2 of it are competing explanations; those within ΔBIC < :data:`NEAR_BIC`, and
 singles whose column nearly repeats a chosen one's (:data:`NEAR_CORR`), are *near*
@@ -196,6 +198,11 @@ def _fit(y: Arr, Xb: Arr, Xc: Arr, names: list[str], scale: Arr, data: BalanceDa
         if entry.window == "slow":
             # a slow-speed signature acts on a few samples: its size is its peak there
             contrib = float(np.max(np.abs(Xc[:, j] * coef[k]))) * ys
+        elif data.held is not None and 0 < data.held.sum() < data.held.size:
+            # judged in the motion and at the stop apart: a leak's contribution at the
+            # stop must not be diluted by the motion, nor a motion signature by the hold
+            contrib = max(float(np.sqrt(np.mean((Xc[part, j] * coef[k]) ** 2)))
+                          for part in (data.held, ~data.held)) * ys
         else:
             contrib = float(np.sqrt(np.mean((Xc[:, j] * coef[k]) ** 2))) * ys
         lo, hi = entry.plausible
