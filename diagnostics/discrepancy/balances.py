@@ -36,10 +36,16 @@ balance             equation (residual = Σ candidate coefficient × regressor)
 ==================  =====================================================================
 
 End-stop contact (x within 6 mm of either end: the stop plus the smoothing window at the
-working speed) is left out, where the stop force is
-unmeasured; the force balance also leaves out the piston at rest (|ẋ| < 5 mm/s, where
-friction is whatever holds it); the first 50 ms after each valve switch are left out
-(the derivative window and the hoses' wave transient); the pump balance uses the samples
+working speed) is left out of the force balance, where the stop force is unmeasured.  The
+two flow balances keep the samples of a piston *held* at its stop (a dwell record), from
+:data:`HELD_SETTLE` after it came within 6 mm of the stop to :data:`SETTLE` before the
+phase ends (:func:`_held`): there ẋ = 0 and the chamber and valve junctions hold exactly —
+meter C is the piston leak at the full working pressure, B − C the spool leak — and the
+stop force does not enter them; the arrival (deceleration into the stop, the pressure
+rising to the relief setting) is left out like a switch.  The force balance also leaves
+out the piston at rest (|ẋ| < 5 mm/s, where friction is whatever holds it); the first
+50 ms after each valve switch are left out (the derivative window and the hoses' wave
+transient); the pump balance uses the samples
 below 80 % of the relief setting.  The relief balance adds the samples above
 :data:`RELIEF_OPEN` × the setting from :data:`OPEN_SETTLE` after the relief opened (a piston
 held at its stop); it is evaluated only when at least :data:`MIN_OPEN` such samples exist
@@ -76,6 +82,10 @@ VACUUM = -0.5e5
 #: time left out after the switch that ends a dwell at the stop [s]: the chambers
 #: decompress from the relief pressure, a switching transient ten times the usual step
 DWELL_SETTLE = 0.15
+#: time after a piston came within :data:`END_MARGIN` of a stop where it stays before its
+#: held samples are used by the flow balances [s]: the arrival (≈ 30 ms to the contact, the
+#: chamber pressures settling within ≈ 80 ms on the reference rig) and the smoothing window
+HELD_SETTLE = 0.15
 #: fraction of the relief setting below which the relief valve counts as closed
 RELIEF_MARGIN = 0.8
 #: fraction of the relief setting above which the relief valve counts as open (0.35 bar,
@@ -113,6 +123,8 @@ class BalanceData:
     mask: npt.NDArray[np.bool_]
     full_scale: float
     base_signs: dict[str, float]
+    #: which kept rows are a piston held at its stop (:func:`_held`); ``None``: none
+    held: npt.NDArray[np.bool_] | None = None
 
 
 def _inside(s: Signals, v: dict[str, float]) -> npt.NDArray[np.bool_]:
@@ -181,6 +193,27 @@ def _hose(s: Signals, v: dict[str, float]) -> tuple[Arr, dict[str, Arr]]:
     y = c["hose.int_dp"] - v["hose_B.I"] * c["hose.dq"]
     # R = 128·μ·L/(π·d⁴): the column μ·∫Q re-fits 128·L/(π·d⁴) (bore, length, viscosity)
     return y, {"hose_B.R": c["mu"] * c["hose.int_q"]}
+
+
+def _held(s: Signals, v: dict[str, float]) -> npt.NDArray[np.bool_]:
+    """Samples of a piston held at a stop (module docstring): within :data:`END_MARGIN` of
+    either end in the run of such samples that lasts to the end of its record's phase, at
+    least :data:`HELD_SETTLE` after that run began and :data:`SETTLE` before the phase ends.
+    A stroke switched by its stop has a run of a few milliseconds: nothing is kept."""
+    out = np.zeros(s.t.size, dtype=bool)
+    if "x" not in s.values:
+        return out
+    near = ~_inside(s, v)
+    for rec in np.unique(s.record):
+        for ph in np.unique(s.phase):
+            m = np.flatnonzero((s.record == rec) & (s.phase == ph))
+            if m.size == 0 or not near[m[-1]]:
+                continue
+            away = np.flatnonzero(~near[m])
+            run = m[away[-1] + 1:] if away.size else m
+            t = s.t[run]
+            out[run] = (t - t[0] >= HELD_SETTLE) & (t[-1] - t >= SETTLE)
+    return out
 
 
 def _after_dwell(s: Signals, v: dict[str, float]) -> npt.NDArray[np.bool_]:
@@ -252,6 +285,8 @@ def balance_data(s: Signals, values: dict[str, float]) -> list[BalanceData]:
     out: list[BalanceData] = []
     # samples away from the end stops, settled after a switch (and after a dwell's switch)
     settled = _inside(s, values) & (s.since_phase_start() >= SETTLE) & ~_after_dwell(s, values)
+    # the flow balances also keep a piston held at its stop (a dwell)
+    held = _held(s, values)
     for b in BALANCES:
         if not s.has(*b.channels):
             continue
@@ -265,7 +300,7 @@ def balance_data(s: Signals, values: dict[str, float]) -> list[BalanceData]:
             limit = HOSE_HF_LIMIT * b.full_scale(values) + 2.0 * float(np.median(hf[ok]))
             mask = ok & (hf <= limit)
         else:
-            mask = settled.copy()
+            mask = settled | held if b.name in ("chamber_flow", "valve_flow") else settled.copy()
             for ch in ("P1", "P2"):
                 if ch in b.channels:
                     mask &= s.values[ch] > VACUUM
@@ -283,5 +318,6 @@ def balance_data(s: Signals, values: dict[str, float]) -> list[BalanceData]:
         y, base = b.build(sub, values)
         cands = {e.name: e.entry.regressor(sub.values) for e in effects_of(b.name)}
         out.append(BalanceData(b, y, base, cands, mask, b.full_scale(values),
-                               {k: v for k, v in BASE_SIGNS.items() if k in base}))
+                               {k: v for k, v in BASE_SIGNS.items() if k in base},
+                               held[mask] if held[mask].any() else None))
     return out
