@@ -65,7 +65,9 @@ def test_registered_rigs_answer_200_or_422_at_any_temperature(server: LiveServer
                     continue
                 answered += 1
                 (d,) = response.json()["diagnoses"]
-                assert d["goodness_of_fit"]["dof"] >= 1
+                gof = d["goodness_of_fit"]
+                # ν = n − k: 0 only where the result says no χ² test is possible
+                assert gof["dof"] >= 1 or gof["testable"] is False
                 assert d["explained"] is (d["top"] != "unexplained")
     assert answered > 0
 
