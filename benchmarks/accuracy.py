@@ -89,6 +89,7 @@ from benchmarks.accuracy_report import (
 )
 from diagnostics.commissioning import commission
 from diagnostics.diagnose import Diagnosis, diagnose
+from diagnostics.hypotheses import PARAMETERS
 from diagnostics.measurement import MeasurementRecord, OperatingCondition
 from diagnostics.signatures import evaluator
 from sim.errors import InputError
@@ -139,10 +140,11 @@ def score(case: Case, d: Diagnosis) -> dict[str, Any]:
               "chi2": None if fit is None else fit.chi2, "dof": None if fit is None else fit.dof,
               "gof_hypothesis": None if fit is None else fit.hypothesis}
     # flagged: no confident name — not explained, or a fault beyond the prior ranges stated
-    # to explain the readings as well; an untestable fit (as many parameters as readings)
-    # is not a detection, and is counted apart
-    flagged = float(not explained or (fit is not None and bool(fit.beyond_range)))
+    # to explain the readings as well by a tested fit; an untestable fit (as many
+    # parameters as readings) is no detection, whatever it states, and is counted apart
     testable = float(fit.testable) if fit is not None else 1.0
+    flagged = float(not explained or (fit is not None and bool(fit.beyond_range)
+                                      and fit.testable))
     return {"top": top, "top1": hit, "top1_grouped": hit_g, "explained": float(explained),
             "flagged": flagged, "testable": testable, "detail": detail,
             "in_set": float(case.truth in d.isolability.ambiguity_set),
@@ -165,7 +167,13 @@ def run_case(rig_model: Rig, rig_true: Rig, case: Case, rng: np.random.Generator
                                "load": case.load, "temperature": case.temperature,
                                "stated": [load, temp],
                                "size": fault_size(rig_true, case.overrides, case.load,
-                                                  case.temperature, fields)}
+                                                  case.temperature, fields),
+                               # the weakest component's own shift: what naming a pair needs
+                               "size_weakest": min((fault_size(
+                                   rig_true, {g: v for g, v in case.overrides.items()
+                                              if g == PARAMETERS[name].graph_param},
+                                   case.load, case.temperature, fields)
+                                   for name in case.params), default=0.0)}
         try:
             readings = noisy(tr.values, fields, rng)
             row["readings"] = readings
@@ -337,7 +345,8 @@ def main() -> None:
     rows, stalled = run_suites(n, rng)
     figures = report(rows)
     figures["in_library"] = headline(rows)
-    figures["in_library_by_size"] = by_size(rows)
+    figures["in_library_by_size"] = by_size(rows, "size")
+    figures["in_library_by_weakest_size"] = by_size(rows, "size_weakest")
     dump = os.environ.get("HYDRODIAG_ACCURACY_DUMP")
     if dump:  # every case, one JSON line per (case, sensor set), for case-by-case study
         with open(dump, "w", encoding="utf-8") as fh:

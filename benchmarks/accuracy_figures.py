@@ -108,13 +108,19 @@ def headline(rows: dict[str, list[dict[str, Any]]]) -> dict[str, Any]:
     return out
 
 
-def by_size(rows: dict[str, list[dict[str, Any]]]) -> dict[str, list[dict[str, Any]]]:
+def by_size(rows: dict[str, list[dict[str, Any]]], key: str = "size"
+            ) -> dict[str, list[dict[str, Any]]]:
     """In-library figures per sensor set: the healthy cases, then the faulty ones by
-    fault-size bin (:data:`SIZE_BINS`): n, top-1 strict and grouped, truth in the
-    ambiguity set, mean ambiguity-set size, share not explained."""
+    fault-size bin (:data:`SIZE_BINS`) of ``key``: ``"size"``, the fault's largest
+    reading shift, or ``"size_weakest"``, the smallest over its components of each
+    component's own largest shift (a pair with one incipient component is small by this
+    measure); n, top-1 strict and grouped, truth in the ambiguity set, mean
+    ambiguity-set size, share not explained."""
     out: dict[str, list[dict[str, Any]]] = {}
-    print("\nin-library cases by fault size (largest reading shift of the fault, in σ of "
-          "the readings; steady model at the true condition):")
+    what = "largest reading shift of the fault" if key == "size" else \
+        "the weakest component's own largest reading shift"
+    print(f"\nin-library cases by fault size ({what}, in σ of the readings; steady model at "
+          "the true condition):")
     print(f"{'sensor set':16s} {'size [σ]':>9s} {'n':>5s} {'top-1':>6s} {'top-1*':>6s} "
           f"{'in amb':>6s} {'|amb|':>6s} {'misfit':>6s}")
     for sname, rs in rows.items():
@@ -124,7 +130,7 @@ def by_size(rows: dict[str, list[dict[str, Any]]]) -> dict[str, list[dict[str, A
             ("healthy", [r for r in ok if r["truth"] == "healthy"], 0.0, 0.0)]
         for lo, hi in SIZE_BINS:
             bins.append((f"{lo:g}-{hi:g}" if np.isfinite(hi) else f">={lo:g}",
-                         [r for r in ok if r["truth"] != "healthy" and lo <= r["size"] < hi],
+                         [r for r in ok if r["truth"] != "healthy" and lo <= r[key] < hi],
                          lo, hi))
         for label, sel, lo, hi in bins:
             if not sel:

@@ -12,7 +12,9 @@ its range whose likelihood still rises past it is rejected by the range test of
 :mod:`diagnostics.range_test` (the readings ask for a fault beyond the range, or for a
 component better than the rig document says).  A hypothesis with as many parameters as
 readings (ν ≤ 0: one parameter on the velocity ratio alone) fits any reading its range
-can reach: no χ² test exists for it, only the range test.  The readings are *explained*
+can reach: it is rejected only where it cannot reach the readings (χ² above χ²_{1-α}(n):
+the best fit's χ² is at most the χ² at the truth, a χ²_n variable, so this keeps the
+level) or by the range test.  The readings are *explained*
 when some observable hypothesis passes, tried in the order of their p-values (those with
 ν ≤ 0 last); when the only ones that pass have ν ≤ 0 the result says that a misfit
 cannot be detected with these readings (``testable`` false) instead of claiming a test.
@@ -206,7 +208,11 @@ def goodness_of_fit(ranker: Ranker, fits: list[HypothesisFit], level: float = TE
     tests: list[RangeTest] = []
     passed = None
     for testable, p, _, f, dof in scored:
-        if not math.isfinite(f.chi2) or (testable and f.chi2 > _limit(level, dof)):
+        # ν ≤ 0: the best fit's χ² is at most the χ² at the truth, a χ²_n variable, so
+        # χ² > χ²_{1-α}(n) still rejects at level α (conservative): the reading lies
+        # beyond what the hypothesis can reach
+        lim = _limit(level, dof) if testable else _limit(level, ranker.n_obs)
+        if not math.isfinite(f.chi2) or f.chi2 > lim:
             continue
         rt = range_test(ranker, f, level) if f.parameters else None
         if rt is not None:
@@ -276,7 +282,7 @@ def _beyond_range(ranker: Ranker, cands: list[HypothesisFit], tests: list[RangeT
         if not (rt.rejected and rt.sides == ["severe"]):
             continue
         dof = _dof(ranker, f)
-        if dof < 1 or rt.chi2_extended <= _limit(level, dof):
+        if rt.chi2_extended <= _limit(level, dof if dof >= 1 else ranker.n_obs):
             out.append(rt)
     return out
 
@@ -293,7 +299,10 @@ def _misfit_statement(ranker: Ranker, cands: list[HypothesisFit], best: Hypothes
         for d in dis[:4])
     fit_clause = (f"even the best fit ({best.name}) leaves χ² = {best.chi2:.3g} on {dof} "
                   f"degrees of freedom (limit {limit:.3g} at the {level:.0%} level)"
-                  if dof >= 1 else f"the best fit is {best.name} (χ² = {best.chi2:.3g})")
+                  if dof >= 1 else
+                  f"even the best fit ({best.name}, as many parameters as readings) leaves "
+                  f"χ² = {best.chi2:.3g} (limit {_limit(level, ranker.n_obs):.3g} on "
+                  f"{ranker.n_obs} reading(s) at the {level:.0%} level)")
     statement = (
         "the readings are not explained by the rig model and its fault library: "
         f"{fit_clause}; disagreeing readings: {worst}.")

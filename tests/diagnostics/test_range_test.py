@@ -113,3 +113,15 @@ def test_no_flow_meters_in_library_is_explained(rig):
     d = diagnose(rig, [record(rig, {"valve.cv": 50e-6}, load=2100.0, rng=rng,
                               fields=NO_FLOW)])
     assert d.explained and d.fit is not None and d.fit.testable
+
+
+def test_ratio_alone_out_of_every_hypothesis_reach_is_not_explained(rig):
+    """A velocity ratio 20 % above the healthy one: wear only lowers it on this rig, so no
+    hypothesis reaches it — with one reading this is still a misfit, detected (the best
+    fit's χ² is at most a χ²_n variable at the truth: χ²_{1-α}(n) keeps the level)."""
+    vals = readings(rig, {}, 2100.0, 40.0)
+    d = diagnose(rig, [record(rig, {}, values={"velocity_ratio": 1.2 * vals["velocity_ratio"]},
+                              fields=RATIO)])
+    assert d.fit is not None and not d.explained and d.fit.testable
+    assert all(f.chi2 > chi2_dist.ppf(1 - TEST_LEVEL, 1) for f in d.hypotheses if f.observable)
+    assert "not explained" in d.fit.statement
