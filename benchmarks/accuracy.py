@@ -101,6 +101,17 @@ SETS = {
     "ratio_alone": ("velocity_ratio",),
 }
 PAIR = {"pump", "relief_seat"}
+#: what the results state they cannot do with a sensor set (printed, and in the JSON)
+LIMITS = [
+    "velocity ratio alone: one reading and one-parameter hypotheses leave no degree of "
+    "freedom; a misfit is detected only where no hypothesis reaches the reading (χ² above "
+    "χ²_{0.99}(1)), otherwise the result says that it cannot be detected ('untest')",
+    "no flow meters, piston held on its stop: three pressures fix only the ratios of the "
+    "leak conductances; a pair fits them on one degree of freedom, so a seal or land length "
+    "off by its uncertainty reads as clearance wear (commission the rig first), and a relief "
+    "setting below the prior reads as spool wear (the result states the setting that would "
+    "explain the readings: 'flagged')",
+]
 #: relief-setting cases are drawn only where the healthy pump pressure exceeds this
 #: multiple of the nominal setting (the prior's lowest setting, 0.3, and a margin for the
 #: acting part of the range to have a width)
@@ -311,6 +322,10 @@ def report(rows: dict[str, list[dict[str, Any]]]) -> dict[str, Any]:
         print("  full sensors per fault (n, top-1*, misfit): " + "; ".join(
             f"{t} {f['n']} {f.get('top1_grouped', float('nan')):.2f} "
             f"{f.get('not_explained', float('nan')):.2f}" for t, f in full.items()))
+    figures["limits"] = LIMITS
+    print("\nlimits stated by the results (not counted as detections):")
+    for line in LIMITS:
+        print(f"  - {line}")
     figures["reliability"] = {}
     print("\nreliability of the stated top probability (in-library suites, grouped top-1), "
           "[decile) n mean-p observed:")
