@@ -27,7 +27,11 @@ velocity ratio alone.  Figures per suite and sensor set: server errors (anything
 input error), input errors (a clear 422), top-1 (strict; and grouped, where pump and
 relief-seat leakage count as one *only* when the diagnosis states that their signatures
 are parallel), truth in the ambiguity set, Brier (strict and grouped), share not explained
-(misfit), per fault and per rig, the same without the stalled cases, the misses (truth →
+(misfit), share *flagged* (no confident name: not explained, or the result states that a
+fault beyond the prior ranges explains the readings as well — the misfit-detection figure
+of the out-of-library suites), share *untestable* (the result states that a misfit cannot
+be detected with these readings: as many parameters as readings, the velocity ratio alone;
+not counted as detected), per fault and per rig, the same without the stalled cases, the misses (truth →
 answer) with each miss's reason (:func:`benchmarks.accuracy_report.miss_reasons`),
 and, per hypothesis, the sum of its stated probabilities against the cases where
 it was the truth (:mod:`benchmarks.accuracy_report`); a reliability table (stated top
@@ -35,8 +39,14 @@ probability vs observed top-1 frequency, by decile) over the in-library suites w
 expected calibration error, and the Brier score the stated probabilities predict for
 themselves (mean of 1 − Σp², equal to the observed Brier when they are calibrated); a
 headline table of the in-library cases per sensor set, all of them, those whose piston
-moved and those with a stroke that stalled or crept (figures in
+moved and those with a stroke that stalled or crept; the in-library cases by fault size
+(the fault's largest reading shift in σ of the readings,
+:func:`benchmarks.accuracy_cases.fault_size`): top-1, truth in the ambiguity set and its
+mean size per bin, so that the study says which wear sizes are named (figures in
 :mod:`benchmarks.accuracy_figures`).  Nothing here tunes anything.
+``HYDRODIAG_ACCURACY_DUMP=cases.jsonl`` writes every (case, sensor set) with its readings,
+stated condition, answer, fitted values, χ² and degrees of freedom, one JSON line each, for
+case-by-case study.
 
 Prints tables and, as the last line, a JSON object.  ``HYDRODIAG_LIGHT=1`` runs a light form
 (CI).
@@ -59,12 +69,14 @@ from benchmarks.accuracy_cases import (
     differential_document,
     draw_fault,
     draw_truth,
+    fault_size,
     misspecified_rig,
     noisy,
     stated_condition,
     transient_readings,
 )
 from benchmarks.accuracy_figures import (
+    by_size,
     headline,
     reliability,
     summarise,
@@ -77,6 +89,7 @@ from benchmarks.accuracy_report import (
 )
 from diagnostics.commissioning import commission
 from diagnostics.diagnose import Diagnosis, diagnose
+from diagnostics.hypotheses import PARAMETERS
 from diagnostics.measurement import MeasurementRecord, OperatingCondition
 from diagnostics.signatures import evaluator
 from sim.errors import InputError
@@ -88,6 +101,17 @@ SETS = {
     "ratio_alone": ("velocity_ratio",),
 }
 PAIR = {"pump", "relief_seat"}
+#: what the results state they cannot do with a sensor set (printed, and in the JSON)
+LIMITS = [
+    "velocity ratio alone: one reading and one-parameter hypotheses leave no degree of "
+    "freedom; a misfit is detected only where no hypothesis reaches the reading (χ² above "
+    "χ²_{0.99}(1)), otherwise the result says that it cannot be detected ('untest')",
+    "no flow meters, piston held on its stop: three pressures fix only the ratios of the "
+    "leak conductances; a pair fits them on one degree of freedom, so a seal or land length "
+    "off by its uncertainty reads as clearance wear (commission the rig first), and a relief "
+    "setting below the prior reads as spool wear (the result states the setting that would "
+    "explain the readings: 'flagged')",
+]
 #: relief-setting cases are drawn only where the healthy pump pressure exceeds this
 #: multiple of the nominal setting (the prior's lowest setting, 0.3, and a margin for the
 #: acting part of the range to have a width)
@@ -121,8 +145,21 @@ def score(case: Case, d: Diagnosis) -> dict[str, Any]:
     expected_g = 1.0 - sum(p * p for p in gp.values()) if gp else 1.0
     p_top = (probs.get("pump", 0) + probs.get("relief_seat", 0)) if grouped and top in PAIR \
         else d.top.probability
+    fit = d.fit
+    detail = {"best_fit": d.top.name, "p_best": d.top.probability,
+              "fitted": [(e.name, e.value, e.multiple, e.at_bound) for e in d.top.parameters],
+              "chi2": None if fit is None else fit.chi2, "dof": None if fit is None else fit.dof,
+              "gof_hypothesis": None if fit is None else fit.hypothesis}
+    # flagged: no confident name — not explained, or a fault beyond the prior ranges stated
+    # to explain the readings as well by a tested fit; an untestable fit (as many
+    # parameters as readings) is no detection, whatever it states, and is counted apart
+    testable = float(fit.testable) if fit is not None else 1.0
+    flagged = float(not explained or (fit is not None and bool(fit.beyond_range)
+                                      and fit.testable))
     return {"top": top, "top1": hit, "top1_grouped": hit_g, "explained": float(explained),
-            "in_set": float(case.truth in d.isolability.ambiguity_set), "brier": brier,
+            "flagged": flagged, "testable": testable, "detail": detail,
+            "in_set": float(case.truth in d.isolability.ambiguity_set),
+            "set_size": len(d.isolability.ambiguity_set), "brier": brier,
             "brier_grouped": brier_g, "brier_expected_grouped": expected_g,
             "p_top": p_top if explained else 0.0, "probs": probs}
 
@@ -138,9 +175,20 @@ def run_case(rig_model: Rig, rig_true: Rig, case: Case, rng: np.random.Generator
         row: dict[str, Any] = {"suite": case.suite, "rig": case.rig, "truth": case.truth,
                                "in_library": case.in_library, "error": None,
                                "stalled": bool(tr.stalled), "params": case.params,
-                               "load": case.load, "temperature": case.temperature}
+                               "load": case.load, "temperature": case.temperature,
+                               "stated": [load, temp],
+                               "size": fault_size(rig_true, case.overrides, case.load,
+                                                  case.temperature, fields),
+                               # the weakest component's own shift: what naming a pair needs
+                               "size_weakest": min((fault_size(
+                                   rig_true, {g: v for g, v in case.overrides.items()
+                                              if g == PARAMETERS[name].graph_param},
+                                   case.load, case.temperature, fields)
+                                   for name in case.params), default=0.0)}
         try:
-            rec = MeasurementRecord.from_readings("study", cond, noisy(tr.values, fields, rng))
+            readings = noisy(tr.values, fields, rng)
+            row["readings"] = readings
+            rec = MeasurementRecord.from_readings("study", cond, readings)
             row |= score(case, diagnose(rig_model, [rec]))
         except InputError as exc:
             row["error"] = "input"
@@ -229,7 +277,8 @@ def report(rows: dict[str, list[dict[str, Any]]]) -> dict[str, Any]:
     for suite in suites:
         print(f"\n== {suite} ==")
         print(f"{'sensor set':16s} {'n':>4s} {'5xx':>4s} {'422':>4s} {'top-1':>6s} "
-              f"{'top-1*':>6s} {'in amb':>6s} {'Brier':>6s} {'Brier*':>6s} {'misfit':>6s}")
+              f"{'top-1*':>6s} {'in amb':>6s} {'Brier':>6s} {'Brier*':>6s} {'misfit':>6s} "
+              f"{'flagged':>7s} {'untest':>6s}")
         figures[suite] = {}
         for sname, rs in rows.items():
             sel = [r for r in rs if r["suite"] == suite]
@@ -242,7 +291,9 @@ def report(rows: dict[str, list[dict[str, Any]]]) -> dict[str, Any]:
             print(f"{sname:16s} {s['n']:4d} {s['server_errors']:4d} {s['input_errors']:4d} "
                   + " ".join(f"{s.get(k, float('nan')):6.3f}" for k in (
                       "top1", "top1_grouped", "truth_in_ambiguity_set", "brier",
-                      "brier_grouped", "not_explained")))
+                      "brier_grouped", "not_explained"))
+                  + f" {s.get('flagged', float('nan')):7.3f}"
+                  + f" {s.get('untestable', float('nan')):6.3f}")
             if sel and sel[0]["in_library"]:
                 figures[suite][sname]["without_stalled"] = moving_figures(sel)
             figures[suite][sname]["misses"] = confusions(sel)
@@ -271,6 +322,10 @@ def report(rows: dict[str, list[dict[str, Any]]]) -> dict[str, Any]:
         print("  full sensors per fault (n, top-1*, misfit): " + "; ".join(
             f"{t} {f['n']} {f.get('top1_grouped', float('nan')):.2f} "
             f"{f.get('not_explained', float('nan')):.2f}" for t, f in full.items()))
+    figures["limits"] = LIMITS
+    print("\nlimits stated by the results (not counted as detections):")
+    for line in LIMITS:
+        print(f"  - {line}")
     figures["reliability"] = {}
     print("\nreliability of the stated top probability (in-library suites, grouped top-1), "
           "[decile) n mean-p observed:")
@@ -293,7 +348,11 @@ def main() -> None:
           + ", ".join(f"{k} {v}" for k, v in n.items()) + f" cases, {seeds} commissioning seeds")
     print("top-1* and Brier* count pump and relief-seat leakage as one only where the "
           "diagnosis states their signatures are parallel; 'misfit' = share not explained "
-          "(no name given); 5xx = server errors, 422 = input errors; E[B*] = the Brier "
+          "(no name given); 'flagged' = no confident name (not explained, or the result states "
+          "that a fault beyond the prior ranges explains the readings as well: the misfit "
+          "detection figure); 'untest' = the result states that a misfit cannot be detected "
+          "with these readings (as many parameters as readings: not counted as detected); "
+          "5xx = server errors, 422 = input errors; E[B*] = the Brier "
           "score the stated probabilities predict for themselves (mean 1 − Σp²; equal to "
           "Brier* when calibrated); ECE = expected calibration error of the reliability "
           "table; 'moving' = cases whose piston moved in the transient cycle, 'stalled' = "
@@ -301,6 +360,14 @@ def main() -> None:
     rows, stalled = run_suites(n, rng)
     figures = report(rows)
     figures["in_library"] = headline(rows)
+    figures["in_library_by_size"] = by_size(rows, "size")
+    figures["in_library_by_weakest_size"] = by_size(rows, "size_weakest")
+    dump = os.environ.get("HYDRODIAG_ACCURACY_DUMP")
+    if dump:  # every case, one JSON line per (case, sensor set), for case-by-case study
+        with open(dump, "w", encoding="utf-8") as fh:
+            for sname, rs in rows.items():
+                for r in rs:
+                    fh.write(json.dumps({"sensors": sname} | r, default=float) + "\n")
     comm = commissioning_suite(seeds, rng)
     print(f"\ncommissioning: identifiable parameters inside their 95 % interval in "
           f"{comm['coverage_identifiable']:.3f} of (seed, parameter) pairs; per parameter "

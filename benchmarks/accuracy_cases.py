@@ -38,11 +38,13 @@ from diagnostics.commissioning import PRIOR_SD
 from diagnostics.evidence import FLEET_PRIOR
 from diagnostics.hypotheses import PARAMETERS
 from diagnostics.quantity import DEFAULT_INSTRUMENTS
+from diagnostics.signatures import evaluator
 from sim.cycle import run_cycle
+from sim.errors import SimulationError
 from sim.rigs import Condition, Rig, load_rig, reference_rig_document
 
 __all__ = ["IN_LIBRARY", "Case", "TransientReadings", "differential_document", "draw_fault",
-           "draw_truth",
+           "draw_truth", "fault_size",
            "misspecified_rig", "noisy", "stated_condition", "transient_readings"]
 
 IN_LIBRARY = ("healthy", "cylinder", "valve", "pump", "relief_seat", "relief_setting",
@@ -235,3 +237,31 @@ def stated_condition(load: float, temp: float, rng: np.random.Generator
     half_l = ui.relative_bound * abs(load) + ui.absolute_bound
     half_t = ti.relative_bound * abs(temp) + ti.absolute_bound
     return load + float(rng.uniform(-half_l, half_l)), temp + float(rng.uniform(-half_t, half_t))
+
+
+def fault_size(rig: Rig, ov: dict[str, float], load: float, temp: float,
+               fields: tuple[str, ...]) -> float:
+    """The fault's largest reading shift [σ]: max over ``fields`` of |faulty − healthy| / u,
+    both from the steady model of ``rig`` at the true condition, u the standard
+    uncertainty of the field's default instrument (class bound / √3) at the larger of the
+    two readings (a speed that drops to 0 on the end stop keeps its healthy σ).  A reading
+    that the fault takes away (a velocity ratio with the return stroke on its end stop)
+    counts as an infinite shift; NaN where either state has no steady solution."""
+    ev = evaluator(rig, Condition(load=load, oil_temperature=temp))
+    try:
+        healthy = ev.nominal()
+        faulty = ev(np.array([ov.get(k, rig.base[k]) for k in ev.names]))
+    except SimulationError:
+        return float("nan")
+    worst = 0.0
+    for f in fields:
+        h, y = healthy.get(f, np.nan), faulty.get(f, np.nan)
+        if not np.isfinite(h):
+            continue
+        if not np.isfinite(y):
+            return float("inf")
+        inst = DEFAULT_INSTRUMENTS[f]
+        u = (inst.relative_bound * max(abs(y), abs(h)) + inst.absolute_bound) / np.sqrt(3.0)
+        if u > 0.0:
+            worst = max(worst, abs(y - h) / u)
+    return float(worst)

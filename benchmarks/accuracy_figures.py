@@ -7,7 +7,11 @@
 * :func:`reliability`, :func:`calibration_error` — the reliability table (stated top
   probability vs observed grouped top-1 frequency, by decile) and its expected
   calibration error;
-* :func:`headline` — the in-library table per sensor set (all cases, moving, stalled).
+* :func:`headline` — the in-library table per sensor set (all cases, moving, stalled);
+* :func:`by_size` — the in-library cases per sensor set by fault size (the fault's
+  largest reading shift in standard uncertainties of the readings,
+  :func:`benchmarks.accuracy_cases.fault_size`): top-1, truth in the ambiguity set and
+  the mean size of that set, so that the study says which wear sizes are named.
 """
 
 from __future__ import annotations
@@ -18,7 +22,11 @@ import numpy as np
 
 from benchmarks.accuracy_report import miss_reasons
 
-__all__ = ["calibration_error", "headline", "reliability", "summarise"]
+__all__ = ["SIZE_BINS", "by_size", "calibration_error", "headline", "reliability", "summarise"]
+
+#: fault-size bins of :func:`by_size` [σ of the readings]: [lo, hi)
+SIZE_BINS = ((0.0, 2.0), (2.0, 5.0), (5.0, 10.0), (10.0, 30.0), (30.0, 100.0),
+             (100.0, float("inf")))
 
 
 def _mean(rows: list[dict[str, Any]], key: str) -> float:
@@ -37,7 +45,9 @@ def summarise(rows: list[dict[str, Any]]) -> dict[str, Any]:
             "truth_in_ambiguity_set": _mean(rows, "in_set"), "brier": _mean(rows, "brier"),
             "brier_grouped": _mean(rows, "brier_grouped"),
             "brier_expected_grouped": _mean(rows, "brier_expected_grouped"),
-            "not_explained": 1.0 - _mean(rows, "explained")}
+            "not_explained": 1.0 - _mean(rows, "explained"),
+            "flagged": _mean(rows, "flagged"),
+            "untestable": 1.0 - _mean(rows, "testable")}
     stalled = [r for r in ok if r["stalled"]]
     if stalled:
         out |= {"stalled": len(stalled), "stalled_not_explained": 1.0 - _mean(stalled,
@@ -74,7 +84,8 @@ def headline(rows: dict[str, list[dict[str, Any]]]) -> dict[str, Any]:
     out: dict[str, Any] = {}
     print("\nin-library cases (preset and differential rigs), per sensor set:")
     print(f"{'sensor set':16s} {'cases':>10s} {'top-1':>6s} {'top-1*':>6s} {'in amb':>6s} "
-          f"{'Brier*':>6s} {'E[B*]':>6s} {'misfit':>6s} {'ECE':>6s}  misses by reason")
+          f"{'Brier*':>6s} {'E[B*]':>6s} {'misfit':>6s} {'flagged':>7s} {'ECE':>6s}  "
+          "misses by reason")
     for sname, rs in rows.items():
         sel = [r for r in rs if r["in_library"]]
         ece = calibration_error(reliability(sel))
@@ -91,6 +102,47 @@ def headline(rows: dict[str, list[dict[str, Any]]]) -> dict[str, Any]:
                 f"{f[k]:6.3f}" for k in ("top1", "top1_grouped", "truth_in_ambiguity_set",
                                          "brier_grouped", "brier_expected_grouped",
                                          "not_explained"))
+                + f" {f['flagged']:7.3f}"
                   + (f" {ece:6.3f}  " + ", ".join(f"{k} {v}" for k, v in reasons.items())
                      if part == "all" else ""))
+    return out
+
+
+def by_size(rows: dict[str, list[dict[str, Any]]], key: str = "size"
+            ) -> dict[str, list[dict[str, Any]]]:
+    """In-library figures per sensor set: the healthy cases, then the faulty ones by
+    fault-size bin (:data:`SIZE_BINS`) of ``key``: ``"size"``, the fault's largest
+    reading shift, or ``"size_weakest"``, the smallest over its components of each
+    component's own largest shift (a pair with one incipient component is small by this
+    measure); n, top-1 strict and grouped, truth in the ambiguity set, mean
+    ambiguity-set size, share not explained."""
+    out: dict[str, list[dict[str, Any]]] = {}
+    what = "largest reading shift of the fault" if key == "size" else \
+        "the weakest component's own largest reading shift"
+    print(f"\nin-library cases by fault size ({what}, in σ of the readings; steady model at "
+          "the true condition):")
+    print(f"{'sensor set':16s} {'size [σ]':>9s} {'n':>5s} {'top-1':>6s} {'top-1*':>6s} "
+          f"{'in amb':>6s} {'|amb|':>6s} {'misfit':>6s}")
+    for sname, rs in rows.items():
+        ok = [r for r in rs if r["in_library"] and r["error"] is None]
+        out[sname] = []
+        bins: list[tuple[str, list[dict[str, Any]], float, float]] = [
+            ("healthy", [r for r in ok if r["truth"] == "healthy"], 0.0, 0.0)]
+        for lo, hi in SIZE_BINS:
+            bins.append((f"{lo:g}-{hi:g}" if np.isfinite(hi) else f">={lo:g}",
+                         [r for r in ok if r["truth"] != "healthy" and lo <= r[key] < hi],
+                         lo, hi))
+        for label, sel, lo, hi in bins:
+            if not sel:
+                continue
+            f = {"bin": label, "size_low": lo,
+                 "size_high": hi if np.isfinite(hi) else None, "n": len(sel),
+                 "top1": _mean(sel, "top1"), "top1_grouped": _mean(sel, "top1_grouped"),
+                 "truth_in_ambiguity_set": _mean(sel, "in_set"),
+                 "mean_ambiguity_set_size": _mean(sel, "set_size"),
+                 "not_explained": 1.0 - _mean(sel, "explained")}
+            out[sname].append(f)
+            print(f"{sname:16s} {label:>9s} {f['n']:5d} " + " ".join(
+                f"{f[k]:6.3f}" for k in ("top1", "top1_grouped", "truth_in_ambiguity_set",
+                                         "mean_ambiguity_set_size", "not_explained")))
     return out

@@ -95,6 +95,13 @@ class Diagnosis:
         """Whether some hypothesis of the library explains the readings (χ² test)."""
         return self.fit is None or self.fit.explained
 
+    @property
+    def confident(self) -> bool:
+        """Whether the name is a confident answer: explained by a χ² test, and no fault
+        beyond the prior ranges explains the readings as well
+        (:attr:`diagnostics.goodness.GoodnessOfFit.confident`)."""
+        return self.fit is None or self.fit.confident
+
     def to_dict(self) -> dict[str, Any]:
         """Plain JSON-able form (SI units, stated per field)."""
         def fit(f: HypothesisFit) -> dict[str, Any]:
@@ -130,6 +137,7 @@ class Diagnosis:
             "observable_units": OBSERVABLE_UNITS,
             "notes": self.notes,
             "explained": self.explained,
+            "confident": self.confident,
             "goodness_of_fit": None if self.fit is None else asdict(self.fit),
             "misfit": None if self.explained or self.fit is None else self.fit.statement,
             "regime_notes": self.regime_notes,
@@ -203,7 +211,7 @@ def diagnose(rig: Rig, records: Sequence[MeasurementRecord], *, model_rel: float
     n = sum(len(o.names) for o in obs)
     if not math.isfinite(fits[0].log_evidence):
         notes.append("no hypothesis explains the records")
-    if not gof.explained:
+    if not gof.confident:
         notes.append(gof.statement)
     return Diagnosis(rig.spec.name, fits, iso, direct, ratio,
                      slip if slip is None else (slip[0], slip[1], slip[2]), len(records), n,

@@ -4,10 +4,21 @@ Probabilities compare the hypotheses with one another; they say nothing about wh
 any of them fits.  With normalised residuals ``r_i = (y_i − ŷ_i(θ̂)) / σ_i`` of the best
 fit, a hypothesis with ``k`` fitted parameters explains ``n`` readings when
 
-.. math:: χ² = \\sum_i r_i^2 \\le χ²_{1-α}(ν), \\qquad ν = \\max(n - k, 1)
+.. math:: χ² = \\sum_i r_i^2 \\le χ²_{1-α}(ν), \\qquad ν = n - k \\ge 1
 
 at the test level α = 1 % (the same test as the ambiguity set of
-:mod:`diagnostics.isolability`).  When no observable hypothesis passes, the readings are
+:mod:`diagnostics.isolability`) **and** its prior range holds: a fit pinned on a bound of
+its range whose likelihood still rises past it is rejected by the range test of
+:mod:`diagnostics.range_test` (the readings ask for a fault beyond the range, or for a
+component better than the rig document says).  A hypothesis with as many parameters as
+readings (ν ≤ 0: one parameter on the velocity ratio alone) fits any reading its range
+can reach: it is rejected only where it cannot reach the readings (χ² above χ²_{1-α}(n):
+the best fit's χ² is at most the χ² at the truth, a χ²_n variable, so this keeps the
+level) or by the range test.  The readings are *explained*
+when some observable hypothesis passes, tried in the order of their p-values (those with
+ν ≤ 0 last); when the only ones that pass have ν ≤ 0 the result says that a misfit
+cannot be detected with these readings (``testable`` false) instead of claiming a test.
+When no observable hypothesis passes, the readings are
 *not explained by the rig model and its fault library*: an unmodelled fault, a fault
 beyond the prior ranges, a rig document that does not describe the rig, or a faulty
 sensor.  The result then names the readings that disagree most with the best fit, in
@@ -35,6 +46,8 @@ from dataclasses import dataclass, field
 
 from scipy.special import chdtrc, gammaincinv
 
+from diagnostics.hypotheses import PARAMETERS
+from diagnostics.range_test import RangeTest, pinned, range_test
 from diagnostics.ranking import HypothesisFit, Ranker
 
 __all__ = ["TEST_LEVEL", "Disagreement", "GoodnessOfFit", "goodness_of_fit", "stall_limit"]
@@ -80,19 +93,32 @@ class GoodnessOfFit:
     Attributes
     ----------
     hypothesis
-        The hypothesis tested (the observable one with the highest p-value).
+        The hypothesis reported: the first that passes (in the order of the module
+        docstring), else the observable one with the highest p-value.
     chi2
         Its χ² at the estimate [-].
     dof
-        Degrees of freedom ν = max(n − k, 1) [-].
+        Degrees of freedom ν = n − k, 0 when k ≥ n (no χ² test) [-].
     level
         Test level α [-].
     limit
-        χ²_{1-α}(ν) [-].
+        χ²_{1-α}(ν) [-]; infinite when ν = 0.
     p_value
-        P(χ²_ν ≥ χ²) [-].
+        P(χ²_ν ≥ χ²) [-]; 1 when ν = 0.
     explained
         Whether some observable hypothesis passes the test.
+    testable
+        Whether the conclusion rests on a χ² test: false when the readings are explained
+        only by hypotheses with as many parameters as readings (a misfit cannot be
+        detected with these readings; the statement says so).
+    range_tests
+        The range tests run (:mod:`diagnostics.range_test`), in the order tried.
+    beyond_range
+        Single-fault hypotheses pinned on the severe bound of their prior whose range
+        test rejects the range and whose fit beyond it passes the χ² test: explanations
+        outside the library's ranges that the readings allow as well (a relief setting
+        below 0.3 × nominal on a held piston reads as a worn spool without flow meters).
+        When there is one, the name is not a confident answer: the statement says so.
     disagreements
         Readings of the tested fit beyond 3 σ, worst first (the worst three when none is).
     statement
@@ -108,6 +134,14 @@ class GoodnessOfFit:
     explained: bool
     disagreements: list[Disagreement] = field(default_factory=list)
     statement: str = ""
+    testable: bool = True
+    range_tests: list[RangeTest] = field(default_factory=list)
+    beyond_range: list[RangeTest] = field(default_factory=list)
+
+    @property
+    def confident(self) -> bool:
+        """Explained, by a χ² test, with no explanation beyond the prior ranges as good."""
+        return self.explained and self.testable and not self.beyond_range
 
 
 def _p_value(chi2: float, dof: int) -> float:
@@ -156,48 +190,141 @@ def stall_limit(ranker: Ranker, fit: HypothesisFit) -> list[int]:
     return out
 
 
+def _dof(ranker: Ranker, f: HypothesisFit) -> int:
+    return ranker.n_obs - len(f.hypothesis.parameters)
+
+
 def goodness_of_fit(ranker: Ranker, fits: list[HypothesisFit], level: float = TEST_LEVEL
                     ) -> GoodnessOfFit:
-    """χ² goodness of fit of the best observable hypothesis among ranked ``fits``."""
-    n = ranker.n_obs
+    """χ² goodness of fit and range test of the observable hypotheses among ranked
+    ``fits`` (module docstring)."""
     cands = [f for f in fits if f.observable] or fits[:1]
     scored = []
     for f in cands:
-        dof = max(n - len(f.hypothesis.parameters), 1)
-        scored.append((_p_value(f.chi2, dof), -f.probability, f, dof))
-    p, _, best, dof = max(scored, key=lambda s: (s[0], s[1]))
-    limit = _limit(level, dof)
-    explained = bool(math.isfinite(best.chi2) and best.chi2 <= limit)
+        dof = _dof(ranker, f)
+        p = _p_value(f.chi2, dof) if dof >= 1 else (1.0 if math.isfinite(f.chi2) else 0.0)
+        scored.append((dof >= 1, p, -f.probability, f, dof))
+    scored.sort(key=lambda s: (not s[0], -s[1], s[2]))
+    tests: list[RangeTest] = []
+    passed = None
+    for testable, p, _, f, dof in scored:
+        # ν ≤ 0: the best fit's χ² is at most the χ² at the truth, a χ²_n variable, so
+        # χ² > χ²_{1-α}(n) still rejects at level α (conservative): the reading lies
+        # beyond what the hypothesis can reach
+        lim = _limit(level, dof) if testable else _limit(level, ranker.n_obs)
+        if not math.isfinite(f.chi2) or f.chi2 > lim:
+            continue
+        rt = range_test(ranker, f, level) if f.parameters else None
+        if rt is not None:
+            tests.append(rt)
+            if rt.rejected:
+                continue
+        passed = (testable, p, f, dof)
+        break
+    explained = passed is not None
+    if passed is not None:
+        testable, p, best, dof = passed
+    else:
+        testable, p, _, best, dof = max(scored, key=lambda s: (s[0], s[1], -s[2]))
+    limit = _limit(level, dof) if dof >= 1 else math.inf
+    beyond = _beyond_range(ranker, cands, tests, level)
     dis = _disagreements(ranker, best)
-    if explained:
+    if explained and testable:
         statement = (f"the readings are consistent with {best.name} (χ² = {best.chi2:.3g} on "
                      f"{dof} degrees of freedom, limit {limit:.3g} at the {level:.0%} level)")
-    else:
-        worst = ", ".join(
-            (f"{d.reading}" + (f" (record {d.record})" if len(ranker.models) > 1 else "")
-             + (f" by {d.deviation:+.1f} σ" if math.isfinite(d.deviation) else
-                " (the model has no value: the piston stalls)"))
-            for d in dis[:4])
+    elif explained:
         statement = (
-            "the readings are not explained by the rig model and its fault library: even the "
-            f"best fit ({best.name}) leaves χ² = {best.chi2:.3g} on {dof} degrees of freedom "
-            f"(limit {limit:.3g} at the {level:.0%} level); disagreeing readings: {worst}. "
-            "No fault is named. Possible causes: a fault outside the library or beyond its "
-            "prior ranges, a rig document that does not describe this rig, or a faulty "
-            "sensor. Next steps: the discrepancy workflow (`hydrodiag discover`, "
-            "POST /discrepancy) and commissioning the rig from healthy records "
-            "(`hydrodiag commission`, POST /rigs/{id}/commission).")
-        stalled = stall_limit(ranker, max(cands, key=lambda f: f.probability))
-        if stalled:
-            which = "" if len(ranker.models) == 1 else \
-                " (records " + ", ".join(map(str, stalled)) + ")"
-            statement += (
-                f" Model limit{which}: the record shows no working motion and the most "
-                "probable fit holds the piston on its end stop too, yet the readings of "
-                "that stalled state (the pump's flow through the leakage paths and over "
-                "the relief valve) are not those of the rig model and its fault library; "
-                "repeat the test at a lower load or oil temperature, where the piston "
-                "moves.")
-    return GoodnessOfFit(best.name, float(best.chi2), dof, level, limit, p, explained, dis,
-                         statement)
+            f"a misfit cannot be detected with these readings: {best.name} has "
+            f"{len(best.hypothesis.parameters)} parameter(s) for {ranker.n_obs} reading(s), "
+            "so it fits any value its range reaches and no χ² test is possible (nor does a "
+            "range test show a value beyond its prior); a fault outside the library "
+            "or a rig document that does not describe this rig would not show — add a "
+            "reading (a pressure, a flow) to test the fit")
+    else:
+        statement = _misfit_statement(ranker, cands, best, dof, limit, level, dis, tests)
+    if beyond:
+        statement += (
+            (" " if statement.endswith(".") else ". ")
+            + "The readings are explained as well by a fault beyond the library's prior "
+            "range: " + "; ".join(
+                f"{t.hypothesis} at " + ", ".join(f"{k} = {v:.4g}" for k, v in
+                                                    t.extended.items())
+                + f" (χ² = {t.chi2_extended:.3g})" for t in beyond)
+            + (f"; {max(cands, key=lambda f: f.probability).name} is not a confident "
+               "answer: check "
+               + " and ".join(sorted({c for t in beyond for c in _components(t)}))
+               + " directly" if explained else "") + ".")
+    return GoodnessOfFit(best.name, float(best.chi2), max(dof, 0), level, limit, p,
+                         explained, dis, statement, bool(testable or not explained), tests,
+                         beyond)
 
+
+def _components(t: RangeTest) -> set[str]:
+    return {PARAMETERS[p].component for p in t.parameters}
+
+
+def _beyond_range(ranker: Ranker, cands: list[HypothesisFit], tests: list[RangeTest],
+                  level: float) -> list[RangeTest]:
+    """Single-fault explanations beyond the prior ranges (:attr:`GoodnessOfFit.
+    beyond_range`); each range test is run once (those already in ``tests`` reused)."""
+    done = {t.hypothesis: t for t in tests}
+    out = []
+    for f in cands:
+        if len(f.parameters) != 1 or not any(side == "severe" for _, side in
+                                             pinned(ranker, f)):
+            continue
+        rt = done.get(f.name)
+        if rt is None:
+            rt = range_test(ranker, f, level)
+            if rt is None:
+                continue
+            tests.append(rt)
+        if not (rt.rejected and rt.sides == ["severe"]):
+            continue
+        dof = _dof(ranker, f)
+        if rt.chi2_extended <= _limit(level, dof if dof >= 1 else ranker.n_obs):
+            out.append(rt)
+    return out
+
+
+def _misfit_statement(ranker: Ranker, cands: list[HypothesisFit], best: HypothesisFit,
+                      dof: int, limit: float, level: float, dis: list[Disagreement],
+                      tests: list[RangeTest]) -> str:
+    """The statement of readings not explained (names the disagreeing readings, the
+    range tests that failed, and the next steps)."""
+    worst = ", ".join(
+        (f"{d.reading}" + (f" (record {d.record})" if len(ranker.models) > 1 else "")
+         + (f" by {d.deviation:+.1f} σ" if math.isfinite(d.deviation) else
+            " (the model has no value: the piston stalls)"))
+        for d in dis[:4])
+    fit_clause = (f"even the best fit ({best.name}) leaves χ² = {best.chi2:.3g} on {dof} "
+                  f"degrees of freedom (limit {limit:.3g} at the {level:.0%} level)"
+                  if dof >= 1 else
+                  f"even the best fit ({best.name}, as many parameters as readings) leaves "
+                  f"χ² = {best.chi2:.3g} (limit {_limit(level, ranker.n_obs):.3g} on "
+                  f"{ranker.n_obs} reading(s) at the {level:.0%} level)")
+    statement = (
+        "the readings are not explained by the rig model and its fault library: "
+        f"{fit_clause}; disagreeing readings: {worst}.")
+    rejected = [t for t in tests if t.rejected]
+    if rejected:
+        statement += " Fits that pass the χ² test only on a bound of their prior: " + "; ".join(
+            t.describe() for t in rejected) + "."
+    statement += (
+        " No fault is named. Possible causes: a fault outside the library or beyond its "
+        "prior ranges, a rig document that does not describe this rig, or a faulty "
+        "sensor. Next steps: the discrepancy workflow (`hydrodiag discover`, "
+        "POST /discrepancy) and commissioning the rig from healthy records "
+        "(`hydrodiag commission`, POST /rigs/{id}/commission).")
+    stalled = stall_limit(ranker, max(cands, key=lambda f: f.probability))
+    if stalled:
+        which = "" if len(ranker.models) == 1 else \
+            " (records " + ", ".join(map(str, stalled)) + ")"
+        statement += (
+            f" Model limit{which}: the record shows no working motion and the most "
+            "probable fit holds the piston on its end stop too, yet the readings of "
+            "that stalled state (the pump's flow through the leakage paths and over "
+            "the relief valve) are not those of the rig model and its fault library; "
+            "repeat the test at a lower load or oil temperature, where the piston "
+            "moves.")
+    return statement

@@ -40,7 +40,7 @@ from dataclasses import dataclass
 
 from sim.rigs import Rig
 
-__all__ = ["HYPOTHESES", "PARAMETERS", "WORN", "FaultParameter", "Hypothesis"]
+__all__ = ["EXTENDED", "HYPOTHESES", "PARAMETERS", "WORN", "FaultParameter", "Hypothesis"]
 
 
 @dataclass(frozen=True)
@@ -103,6 +103,16 @@ class FaultParameter:
             return WORN["seat_leak"], hi
         return WORN[self.name] * lo, hi
 
+    def extended_bounds(self, rig: Rig) -> tuple[float, float]:
+        """Range of the reported value in which the range test of
+        :mod:`diagnostics.range_test` looks for a better fit beyond the prior [unit]
+        (:data:`EXTENDED`, in the units of ``low``/``high``)."""
+        lo, hi = EXTENDED[self.name]
+        if self.name == "seat_leak":
+            return lo, hi
+        nom = self.nominal_value(rig)
+        return lo * nom, hi * nom
+
     def to_z(self, value: float) -> float:
         """Reported value → fitting coordinate."""
         return math.log(value) if self.log else value
@@ -123,6 +133,17 @@ class FaultParameter:
 #: start of the *worn* range, in the units of ``low``/``high`` (leakage multiple 1.33)
 WORN: dict[str, float] = {"cc": 1.33 ** (1 / 3), "cv": 1.33 ** (1 / 3), "pump_leak": 1.33,
                           "seat_leak": 0.33, "Pset": 0.95}
+
+#: range searched beyond each prior by the range test (:mod:`diagnostics.range_test`), in
+#: the units of ``low``/``high`` [-]: on the severe side far past any rig that still works
+#: (10 × the clearance is 1000 × its laminar leakage; a leakage 1000 × nominal; a relief set
+#: at 2 % of nominal), on the healthy side past the rig document (half the clearance, a
+#: tenth of the pump's leakage, no seat leak; a relief setting above nominal leaves every
+#: reading healthy and is not searched).  Source: chosen, not tuned — the test only needs
+#: the best fit beyond the bound, and a wider range can only find a better one.
+EXTENDED: dict[str, tuple[float, float]] = {
+    "cc": (0.5, 10.0), "cv": (0.5, 10.0), "pump_leak": (0.1, 1000.0), "Pset": (0.02, 0.95),
+    "seat_leak": (1.0e-3, 1000.0)}
 
 PARAMETERS: dict[str, FaultParameter] = {
     p.name: p for p in (

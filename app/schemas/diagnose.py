@@ -257,6 +257,32 @@ class DisagreementPublic(BaseModel):
         examples=[-97.0])
 
 
+class RangeTestPublic(BaseModel):
+    """Likelihood-ratio test of a hypothesis's prior range: a fit pinned on a bound whose
+    likelihood still rises past it (`diagnostics.range_test`)."""
+
+    hypothesis: str = Field(description="Hypothesis tested [-]", examples=["pump"])
+    parameters: list[str] = Field(description="Its parameters pinned on a bound [-]",
+                                  examples=[["pump_leak"]])
+    sides: list[str] = Field(
+        description="Per parameter: 'severe' (a fault larger than the prior allows) or "
+        "'healthy' (a component better than the rig document says) [-]",
+        examples=[["severe"]])
+    chi2_bounded: float | None = Field(description="χ² at the bounded estimate [-]",
+                                       examples=[320.8])
+    chi2_extended: float | None = Field(
+        description="Best χ² with the pinned ranges extended [-]", examples=[2.8])
+    statistic: float | None = Field(description="Λ = χ²_bounded − χ²_extended [-]",
+                                    examples=[318.0])
+    dof: int = Field(ge=1, description="Number of pinned parameters [-]", examples=[1])
+    limit: float = Field(description="χ² limit of Λ at the test level [-]", examples=[6.63])
+    rejected: bool = Field(description="Whether the readings ask for a value beyond the "
+                           "range [-]", examples=[True])
+    extended: dict[str, float | None] = Field(
+        description="Best values beyond the range, by parameter [unit of the parameter, "
+        "see the hypothesis's parameters]", examples=[{"pump_leak": 30.1}])
+
+
 class GoodnessOfFitPublic(BaseModel):
     """χ² goodness-of-fit test of the best-fitting hypothesis."""
 
@@ -264,10 +290,13 @@ class GoodnessOfFitPublic(BaseModel):
                             examples=["valve"])
     chi2: float | None = Field(description="χ² at its estimate; null if infinite [-]",
                                examples=[4.1])
-    dof: int = Field(ge=1, description="Degrees of freedom max(n − k, 1) [-]", examples=[6])
+    dof: int = Field(ge=0, description="Degrees of freedom ν = n − k; 0 when the hypothesis "
+                     "has as many parameters as readings (no χ² test) [-]", examples=[6])
     level: float = Field(gt=0, lt=1, description="Test level α [1]", examples=[0.01])
-    limit: float = Field(description="χ² limit at the test level [-]", examples=[16.8])
-    p_value: float = Field(ge=0, le=1, description="P(χ²_ν ≥ χ²) [1]", examples=[0.66])
+    limit: float | None = Field(description="χ² limit at the test level; null when ν = 0 [-]",
+                                examples=[16.8])
+    p_value: float = Field(ge=0, le=1, description="P(χ²_ν ≥ χ²); 1 when ν = 0 [1]",
+                           examples=[0.66])
     explained: bool = Field(description="Whether a hypothesis of the library passes [-]",
                             examples=[True])
     disagreements: list[DisagreementPublic] = Field(
@@ -275,6 +304,17 @@ class GoodnessOfFitPublic(BaseModel):
         "when none is) [-]", examples=[[]])
     statement: str = Field(description="The test's result in one statement [-]",
                            examples=["the readings are consistent with valve"])
+    testable: bool = Field(
+        default=True, description="Whether the conclusion rests on a χ² test; false when "
+        "only hypotheses with as many parameters as readings explain them (a misfit cannot "
+        "be detected with these readings) [-]", examples=[True])
+    range_tests: list[RangeTestPublic] = Field(
+        default_factory=list, description="Range tests run (fits pinned on a prior bound) "
+        "[-]", examples=[[]])
+    beyond_range: list[RangeTestPublic] = Field(
+        default_factory=list, description="Single faults beyond their prior range that "
+        "explain the readings as well; when any, the name is not a confident answer [-]",
+        examples=[[]])
 
 
 class DiagnosisPublic(BaseModel):

@@ -1,0 +1,127 @@
+"""The range test (a fit pinned on a prior bound), beyond-range explanations, and the
+honest degrees of freedom of the goodness-of-fit test (issue 11)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.stats import chi2 as chi2_dist
+
+from diagnostics.diagnose import diagnose
+from diagnostics.goodness import TEST_LEVEL, goodness_of_fit
+from diagnostics.hypotheses import PARAMETERS
+from diagnostics.observations import observe
+from diagnostics.range_test import pinned, range_test
+from diagnostics.ranking import Ranker
+from sim.rigs import reference_rig
+from tests.diagnostics.synth import FULL, NO_FLOW, RATIO, readings, record
+
+
+@pytest.fixture(scope="module")
+def rig():
+    return reference_rig()
+
+
+def _ranked(rig, rec):
+    ranker = Ranker(rig, [observe(rec, rig)])
+    return ranker, ranker.rank()
+
+
+def test_a_pump_leak_beyond_its_prior_is_found_past_the_bound(rig):
+    """Pump leakage 40 × nominal (prior 1.33-20): the pump fit sits on its severe bound;
+    the range test rejects the range and finds the leak factor past it, at the truth
+    (noise-free readings: to the solver's accuracy, well inside 2 %)."""
+    rec = record(rig, {"pump.Rlp": rig.base["pump.Rlp"] / 40.0}, load=2100.0)
+    ranker, fits = _ranked(rig, rec)
+    pump = next(f for f in fits if f.name == "pump")
+    assert pinned(ranker, pump) == [(0, "severe")]
+    rt = range_test(ranker, pump, TEST_LEVEL)
+    assert rt is not None and rt.rejected
+    assert rt.limit == pytest.approx(chi2_dist.ppf(1 - TEST_LEVEL, 1))
+    assert rt.statistic == pytest.approx(rt.chi2_bounded - rt.chi2_extended)
+    assert rt.extended["pump_leak"] == pytest.approx(40.0, rel=0.02)
+    assert rt.chi2_extended < 1.0  # noise-free: the extended fit is exact
+
+
+def test_a_fault_inside_its_prior_passes_the_range_test(rig):
+    """Pump leakage 15 × nominal (inside the prior) with instrument noise: explained, a
+    confident name, no beyond-range explanation."""
+    rng = np.random.default_rng(5)
+    rec = record(rig, {"pump.Rlp": rig.base["pump.Rlp"] / 15.0}, load=2100.0, rng=rng)
+    d = diagnose(rig, [rec])
+    assert d.explained and d.confident and d.fit is not None
+    assert d.fit.beyond_range == []
+    assert not any(t.rejected for t in d.fit.range_tests)
+
+
+def test_a_held_relief_setting_below_its_prior_is_stated_as_an_alternative(rig):
+    """Relief set at 0.2 × nominal (prior 0.3-0.95), 6.3 kN: the piston is held on its stop
+    and without flow meters its pressures read as a worn spool as well; the result must
+    say that a relief setting beyond the prior explains them, at the true setting, and
+    not give a confident name."""
+    pset = 0.2 * rig.base["relief.Pset"]
+    vals = readings(rig, {"relief.Pset": pset}, 6300.0, 40.0)
+    assert vals["speed_work"] == 0.0  # held on its end stop
+    rec = record(rig, {}, load=6300.0, values=vals, fields=("pump_pressure", "p1", "p2"))
+    d = diagnose(rig, [rec])
+    assert d.fit is not None and not d.confident
+    assert d.explained  # in-library pairs fit the held pressures too (spool and pump wear)
+    (alt,) = [t for t in d.fit.beyond_range if t.hypothesis == "relief_setting"]
+    assert alt.extended["Pset"] == pytest.approx(pset, rel=0.01)
+    assert alt.chi2_extended <= chi2_dist.ppf(1 - TEST_LEVEL, 2)
+    assert "beyond the library's prior range" in d.fit.statement
+    assert "relief" in d.fit.statement.split("check")[-1]
+    assert d.to_dict()["confident"] is False
+
+
+def test_ratio_alone_states_that_a_misfit_cannot_be_detected(rig):
+    """One reading and one-parameter hypotheses: no degree of freedom is left, so a
+    passing single fault is no χ² test; the result says so (dof 0, testable false)."""
+    vals = readings(rig, {"valve.cv": 50e-6}, 2100.0, 40.0)
+    d = diagnose(rig, [record(rig, {}, values=vals, fields=RATIO)])
+    assert d.fit is not None and d.explained
+    assert len(d.top.hypothesis.parameters) >= 1
+    assert not d.fit.testable and not d.confident
+    assert d.fit.dof == 0 and d.fit.limit == float("inf") and d.fit.p_value == 1.0
+    assert "cannot be detected" in d.fit.statement
+    body = d.to_dict()["goodness_of_fit"]
+    assert body["testable"] is False and body["dof"] == 0
+
+
+def test_dof_counts_every_parameter(rig):
+    """ν = n − k without a floor: the full set (7 readings) and a pair leave 5."""
+    rng = np.random.default_rng(2)
+    rec = record(rig, {"valve.cv": 50e-6, "pump.Rlp": rig.base["pump.Rlp"] / 6.0},
+                 load=2100.0, rng=rng, fields=FULL)
+    ranker, fits = _ranked(rig, rec)
+    gof = goodness_of_fit(ranker, fits)
+    tested = next(f for f in fits if f.name == gof.hypothesis)
+    assert gof.dof == len(FULL) - len(tested.hypothesis.parameters)
+    assert gof.testable
+
+
+def test_extended_ranges_contain_the_priors(rig):
+    for p in PARAMETERS.values():
+        lo, hi = p.worn_bounds(rig)
+        elo, ehi = p.extended_bounds(rig)
+        assert elo < lo and ehi >= hi
+
+
+def test_no_flow_meters_in_library_is_explained(rig):
+    """A worn spool (cv 50 µm), moving piston, no flow meters, with noise: explained."""
+    rng = np.random.default_rng(9)
+    d = diagnose(rig, [record(rig, {"valve.cv": 50e-6}, load=2100.0, rng=rng,
+                              fields=NO_FLOW)])
+    assert d.explained and d.fit is not None and d.fit.testable
+
+
+def test_ratio_alone_out_of_every_hypothesis_reach_is_not_explained(rig):
+    """A velocity ratio 20 % above the healthy one: wear only lowers it on this rig, so no
+    hypothesis reaches it — with one reading this is still a misfit, detected (the best
+    fit's χ² is at most a χ²_n variable at the truth: χ²_{1-α}(n) keeps the level)."""
+    vals = readings(rig, {}, 2100.0, 40.0)
+    d = diagnose(rig, [record(rig, {}, values={"velocity_ratio": 1.2 * vals["velocity_ratio"]},
+                              fields=RATIO)])
+    assert d.fit is not None and not d.explained and d.fit.testable
+    assert all(f.chi2 > chi2_dist.ppf(1 - TEST_LEVEL, 1) for f in d.hypotheses if f.observable)
+    assert "not explained" in d.fit.statement
