@@ -153,9 +153,13 @@ def agree(a: Quantity, b: Quantity, k: float = CONSISTENCY_K) -> bool:
 
 
 def quotient(a: Quantity, b: Quantity) -> Quantity:
-    """a/b with first-order uncertainty (independent inputs, GUM eq. 12)."""
+    """a/b with first-order uncertainty (independent inputs, GUM eq. 12).
+
+    The second term is written ``(a/b)·(u_b/b)`` rather than ``a·u_b/b²``: a divisor near
+    the smallest float (a reading of 1e-279) squares to zero.
+    """
     value = a.value / b.value
-    return Quantity(value, math.hypot(a.u / b.value, a.value * b.u / b.value**2))
+    return Quantity(value, math.hypot(a.u / b.value, value * (b.u / b.value)))
 
 
 def combine(a: Quantity, b: Quantity) -> Quantity:

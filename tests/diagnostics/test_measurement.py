@@ -217,3 +217,16 @@ def test_stroke_against_rig() -> None:
     with pytest.raises(MeasurementError) as err:
         check_against_rig(record(stroke=0.4), LIMITS)
     assert err.value.field == "stroke"
+
+
+def test_a_quotient_by_a_reading_near_the_smallest_float_has_an_uncertainty() -> None:
+    """GUM eq. 12 for a/b: u = √((u_a/b)² + (a/b · u_b/b)²); a divisor of 4.6e-279 squares
+    to zero, which once raised ZeroDivisionError (found by the property test of the
+    /diagnose form)."""
+    from diagnostics.quantity import Quantity, quotient
+
+    tiny = Quantity(4.5592642422275285e-279, 1.3161462187783494e-281)
+    q = quotient(Quantity(0.0, 0.0), tiny)
+    assert q.value == 0.0 and q.u == 0.0
+    q = quotient(Quantity(2.0, 0.02), Quantity(4.0, 0.04))
+    assert q.value == 0.5 and math.isclose(q.u, 0.5 * math.hypot(0.01, 0.01))
