@@ -135,6 +135,8 @@ def refit(doc: dict[str, Any], start: Mapping[str, float], records: Sequence[Ser
         try:
             return stacked_residual(rig, records, channels, sig, ov, start)
         except (SimulationError, InputError):
+            if start not in _n:  # the start itself cannot be simulated: say so
+                raise
             return np.full(_n[start], 1e3)
 
     _n: dict[float, int] = {}

@@ -1,0 +1,28 @@
+"""The output-error re-fit when its start cannot be simulated (:func:`diagnostics.
+discrepancy.refit.refit`)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import pytest
+
+from diagnostics.discrepancy import refit as refit_module
+from sim.errors import SolverLimitError
+from sim.rigs import reference_rig_document
+
+
+def test_a_start_the_solver_cannot_simulate_raises_the_solver_error_not_a_key_error(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """A 10-seed study stopped on ``KeyError: 0.1``: the re-fit's residual function fell back
+    to a penalty vector sized by the first evaluation, and the first evaluation was the one
+    that failed (RODAS4's step fell below round-off).  The failure must reach the caller as
+    the solver's own error, which the workflow's callers count as a failed case."""
+
+    def fails(*args: Any, **kwargs: Any) -> Any:
+        raise SolverLimitError("rtol: working phase: the step size fell below round-off")
+
+    monkeypatch.setattr(refit_module, "stacked_residual", fails)
+    with pytest.raises(SolverLimitError):
+        refit_module.refit(reference_rig_document(), {"entrained_air.alpha": 2.5e-4}, [],
+                           ["P1"], {"P1": 1e4}, max_nfev=5)
