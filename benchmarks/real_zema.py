@@ -174,24 +174,17 @@ def _shunt(records: list[SeriesRecord], points: list, mu: Arr, labels: ZemaLabel
         print(f"  cooler {c:5.0f} %: median K [1e-9 m³/(s·Pa^½)] by leakage class "
               + "  ".join(f"{v * 1e9:7.4f}" for v in vals))
 
-    def fig(x: LeakageScore) -> dict[str, object]:
-        return {"spearman": x.spearman, "fraction_of_ceiling": x.fraction,
-                "auroc_0_1": x.auroc_01, "auroc_1_2": x.auroc_12,
-                "cooler_within": list(x.cooler_within),
-                "accumulator_within": list(x.accumulator_within),
-                "worst_confound": x.worst_confound}
-
     return {"accumulator_intake": acc_fig,
-            "plateau_profile": {"all_cycles": fig(kc), "load_program_only": fig(kp),
-                                "left_program_only": fig(ko), "shunt_lambda_m3": prof.shunt,
+            "plateau_profile": {"all_cycles": kc.figures(), "load_program_only": kp.figures(),
+                                "left_program_only": ko.figures(), "shunt_lambda_m3": prof.shunt,
                                 "profile": [float(x) for x in prof.profile]},
             "headline": ka,
-            "all_cycles": fig(sc), "load_program_only": fig(pr), "left_program_only": fig(po),
+            "all_cycles": sc.figures(), "load_program_only": pr.figures(), "left_program_only": po.figures(),
             "relaxation_s": tau, "relaxation_grid_abs_rho": [float(x) for x in tau_rho],
-            "plateau_means": {"all_cycles": fig(s0), "load_program_only": fig(p0)},
-            "lambda_on_all_cycles": {"shunt_lambda_m3": alt.shunt, "all_cycles": fig(sa),
-                                     "load_program_only": fig(pa)},
-            "all_plateaus_of_every_cycle": fig(so), "cycles_left_program": int(off.sum()),
+            "plateau_means": {"all_cycles": s0.figures(), "load_program_only": p0.figures()},
+            "lambda_on_all_cycles": {"shunt_lambda_m3": alt.shunt, "all_cycles": sa.figures(),
+                                     "load_program_only": pa.figures()},
+            "all_plateaus_of_every_cycle": so.figures(), "cycles_left_program": int(off.sum()),
             "threshold_l_min": est.threshold * 6e4, "leaking_cycles": int(est.leaking.sum()),
             "healthy_slope_l_min_bar": est.slope * 6e4 * 1e5, "shunt_lambda_m3": est.shunt,
             "median_K_by_cooler_1e9": {k: [v * 1e9 for v in vs] for k, vs in med.items()},

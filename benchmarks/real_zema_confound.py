@@ -83,15 +83,8 @@ def accumulator_corrected(records: list[SeriesRecord], labels: ZemaLabels, leaki
           "temperature drifts: inside a cell a residual temperature dependence and an "
           "accumulator dependence cannot be told apart without labels")
 
-    def fig(x: LeakageScore) -> dict[str, object]:
-        return {"spearman": x.spearman, "fraction_of_ceiling": x.fraction,
-                "auroc_0_1": x.auroc_01, "auroc_1_2": x.auroc_12,
-                "cooler_within": list(x.cooler_within),
-                "accumulator_within": list(x.accumulator_within),
-                "worst_confound": x.worst_confound}
-
-    return sc["all"], {"all_cycles": fig(sc["all"]), "load_program_only": fig(sc["on"]),
-                       "left_program_only": fig(sc["off"]), "v0_l": fit.v0 * 1e3,
+    return sc["all"], {"all_cycles": sc["all"].figures(), "load_program_only": sc["on"].figures(),
+                       "left_program_only": sc["off"].figures(), "v0_l": fit.v0 * 1e3,
                        "shunt_lambda_m3": prof.shunt,
                        "profile": [float(x) for x in prof.profile],
                        "median_intake_l_min_by_precharge": med_rate,

@@ -270,6 +270,14 @@ class LeakageScore:
         """Largest |ρ| with the cooler or accumulator label within a leakage class [-]."""
         return float(max(abs(v) for v in self.cooler_within + self.accumulator_within))
 
+    def figures(self) -> dict[str, object]:
+        """The scores as the studies' JSON reports them [-]."""
+        return {"spearman": self.spearman, "fraction_of_ceiling": self.fraction,
+                "auroc_0_1": self.auroc_01, "auroc_1_2": self.auroc_12,
+                "cooler_within": list(self.cooler_within),
+                "accumulator_within": list(self.accumulator_within),
+                "worst_confound": self.worst_confound}
+
 
 def _auroc(est: Arr, cls: Arr, a: float, b: float) -> float:
     xa, xb = est[cls == a], est[cls == b]
