@@ -47,7 +47,7 @@ from dataclasses import dataclass, field
 from scipy.special import chdtrc, gammaincinv
 
 from diagnostics.hypotheses import PARAMETERS
-from diagnostics.range_test import RangeTest, pinned, range_test
+from diagnostics.range_test import RangeTest, pinned, range_test, range_tests
 from diagnostics.ranking import HypothesisFit, Ranker
 
 __all__ = ["TEST_LEVEL", "Disagreement", "GoodnessOfFit", "goodness_of_fit", "stall_limit"]
@@ -268,17 +268,18 @@ def _beyond_range(ranker: Ranker, cands: list[HypothesisFit], tests: list[RangeT
     """Single-fault explanations beyond the prior ranges (:attr:`GoodnessOfFit.
     beyond_range`); each range test is run once (those already in ``tests`` reused)."""
     done = {t.hypothesis: t for t in tests}
+    todo = [f for f in cands if len(f.parameters) == 1 and f.name not in done
+            and any(side == "severe" for _, side in pinned(ranker, f))]
+    for rt in range_tests(ranker, todo, level):  # run together: one search for all
+        if rt is not None:
+            tests.append(rt)
+            done[rt.hypothesis] = rt
     out = []
     for f in cands:
-        if len(f.parameters) != 1 or not any(side == "severe" for _, side in
-                                             pinned(ranker, f)):
-            continue
         rt = done.get(f.name)
-        if rt is None:
-            rt = range_test(ranker, f, level)
-            if rt is None:
-                continue
-            tests.append(rt)
+        if rt is None or len(f.parameters) != 1 or not any(
+                side == "severe" for _, side in pinned(ranker, f)):
+            continue
         if not (rt.rejected and rt.sides == ["severe"]):
             continue
         dof = _dof(ranker, f)

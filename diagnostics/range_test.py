@@ -22,9 +22,15 @@ boundary Λ is asymptotically a mixture of χ²_0 … χ²_m (Self & Liang, Theo
 χ²_m quantile is conservative: a truth inside the range (or on its bound) is rejected
 with probability at most α.
 
-Both χ² values are taken with direct steady solves (:func:`diagnostics.pair_direct.
-residuals`), so Λ compares like with like; one parameter is searched on a grid beyond its
-bound and refined by a bounded scalar minimisation, two by Levenberg-Marquardt.
+Both χ² values are taken from the same evaluator, so Λ compares like with like.  One
+parameter is searched on a grid beyond its bound, refined on a second grid between the best
+point's neighbours (three times) and by the vertex of the parabola through the best point
+and its neighbours; two by Levenberg-Marquardt.  The evaluator is the compiled steady kernel of the
+fast path when every record has fast maps (:meth:`diagnostics.fastpath.maps.FastMaps.
+probe_moving`: a whole grid in one compiled call per record, points it fails solved
+directly) and direct steady solves otherwise (:func:`diagnostics.pair_direct.residuals`,
+Levenberg-Marquardt always); the two agree to the solver's tolerance
+(``tests/diagnostics/test_range_test.py``).
 """
 
 from __future__ import annotations
@@ -35,23 +41,23 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
-from scipy.optimize import minimize_scalar
 from scipy.special import gammaincinv
 
+from diagnostics.fastpath.maps import FastMaps
 from diagnostics.hypotheses import PARAMETERS, FaultParameter
-from diagnostics.pair_direct import levenberg_marquardt, residuals
+from diagnostics.pair_direct import MASKED, levenberg_marquardt, residuals
 
 if TYPE_CHECKING:
     from diagnostics.ranking import HypothesisFit, Ranker
 
-__all__ = ["RangeTest", "pinned", "range_test"]
+__all__ = ["RangeTest", "chi2_points", "pinned", "range_test", "range_tests"]
 
 Arr = npt.NDArray[np.float64]
 
 #: an estimate within this share of its range from a bound sits on it [-]
 PIN_TOL = 1.0e-3
 
-#: grid points of the one-parameter search beyond a bound [-]
+#: grid points of the one-parameter search beyond a bound, and of its refinement [-]
 SCAN_POINTS = 24
 
 
@@ -132,9 +138,44 @@ def _chi2(ranker: Ranker, params: tuple[FaultParameter, ...], z: Arr) -> float:
     return float(r @ r)
 
 
-def range_test(ranker: Ranker, fit: HypothesisFit, level: float) -> RangeTest | None:
-    """The range test of ``fit`` (module docstring); None when no parameter is pinned or
-    the pinned side cannot be extended (a relief setting above its healthy end)."""
+def chi2_points(ranker: Ranker, params: list[FaultParameter], zs: Arr) -> Arr:
+    """χ² of the one-parameter hypothesis ``params[i]`` at fitting coordinate ``zs[i]``
+    for every point ``i``, as :func:`diagnostics.pair_direct.residuals` scores it (a
+    masked reading counts ``MASKED`` σ): on the compiled kernel, all points in one call
+    per record, when every record has fast maps; else by direct solves."""
+    zs = np.asarray(zs, dtype=np.float64)
+    if not all(isinstance(m.maps, FastMaps) for m in ranker.models):
+        return np.array([_chi2(ranker, (p,), np.array([z])) for p, z in zip(params, zs,
+                                                                             strict=True)])
+    total = np.zeros(zs.size)
+    for m in ranker.models:
+        maps = m.maps
+        assert isinstance(maps, FastMaps)
+        out, _, _, _ = maps.probe_moving(params, [zs], [None])
+        resid = m.obs.values[None, :] - out[:, m.idx]
+        whole = np.isfinite(resid).all(axis=1)
+        r = np.empty_like(resid)
+        r[whole] = m.whitened(resid[whole])
+        part = resid[~whole] / m.sigma
+        r[~whole] = np.where(np.isfinite(part), part, MASKED)
+        total += np.sum(r * r, axis=1)
+    return total
+
+
+@dataclass
+class _Plan:
+    """What a range test of one fit needs: its parameters, estimate, extended bounds and
+    the pinned parameters that can be extended (index, side)."""
+
+    fit: HypothesisFit
+    params: tuple[FaultParameter, ...]
+    z0: Arr
+    zle: Arr
+    zue: Arr
+    used: list[tuple[int, str]]
+
+
+def _plan(ranker: Ranker, fit: HypothesisFit) -> _Plan | None:
     pins = pinned(ranker, fit)
     params = tuple(PARAMETERS[e.name] for e in fit.parameters)
     z0 = np.array([p.to_z(e.value) for p, e in zip(params, fit.parameters, strict=True)])
@@ -154,36 +195,120 @@ def range_test(ranker: Ranker, fit: HypothesisFit, level: float) -> RangeTest | 
         else:
             continue
         used.append((i, side))
-    if not used:
-        return None
-    chi2_b = _chi2(ranker, params, z0)
-    if len(params) == 1:
-        z_best, chi2_e = _search_1d(ranker, params, float(zle[0]), float(zue[0]), float(z0[0]))
-        ze = np.array([z_best])
-    else:
-        ze, chi2_e, _, _ = levenberg_marquardt(ranker.models, params, z0.copy(), zle, zue)
-    chi2_e = min(chi2_e, chi2_b)
-    m = len(used)
-    limit = float(2.0 * gammaincinv(0.5 * m, 1.0 - level))
-    stat = chi2_b - chi2_e if math.isfinite(chi2_b) else math.inf
-    return RangeTest(fit.name, [params[i].name for i, _ in used], [s for _, s in used],
-                     chi2_b, chi2_e, stat, m, limit, bool(stat > limit),
-                     {params[i].name: params[i].from_z(float(ze[i])) for i, _ in used})
+    return _Plan(fit, params, z0, zle, zue, used) if used else None
 
 
-def _search_1d(ranker: Ranker, params: tuple[FaultParameter, ...], zlo: float, zhi: float,
-               z0: float) -> tuple[float, float]:
-    """(z, χ²) of the best one-parameter fit on [zlo, zhi]: a grid, then a bounded
-    scalar minimisation between the best grid point's neighbours."""
-    grid = np.linspace(zlo, zhi, SCAN_POINTS)
-    chi = np.array([_chi2(ranker, params, np.array([z])) for z in grid])
-    chi = np.where(np.isfinite(chi), chi, np.inf)
-    k = int(np.argmin(chi))
-    if not math.isfinite(float(chi[k])):
-        return z0, math.inf
-    a, b = float(grid[max(k - 1, 0)]), float(grid[min(k + 1, grid.size - 1)])
-    res = minimize_scalar(lambda z: _chi2(ranker, params, np.array([z])), bounds=(a, b),
-                          method="bounded", options={"xatol": 1e-4 * (zhi - zlo)})
-    if math.isfinite(float(res.fun)) and float(res.fun) < float(chi[k]):
-        return float(res.x), float(res.fun)
-    return float(grid[k]), float(chi[k])
+def range_test(ranker: Ranker, fit: HypothesisFit, level: float) -> RangeTest | None:
+    """The range test of ``fit`` (module docstring); None when no parameter is pinned or
+    the pinned side cannot be extended (a relief setting above its healthy end)."""
+    return range_tests(ranker, [fit], level)[0]
+
+
+def range_tests(ranker: Ranker, fits: list[HypothesisFit], level: float
+                ) -> list[RangeTest | None]:
+    """:func:`range_test` of each of ``fits``; the one-parameter searches of all of them
+    run together (one compiled call per record and search stage)."""
+    plans = [_plan(ranker, f) for f in fits]
+    ones = [pl for pl in plans if pl is not None and len(pl.params) == 1]
+    found = dict(zip((id(pl) for pl in ones), _search_1d(ranker, ones), strict=True))
+    out: list[RangeTest | None] = []
+    for pl in plans:
+        if pl is None:
+            out.append(None)
+            continue
+        if len(pl.params) == 1:
+            chi2_b, z_best, chi2_e = found[id(pl)]
+            ze = np.array([z_best])
+        else:
+            chi2_b = _chi2(ranker, pl.params, pl.z0)
+            ze, chi2_e, _, _ = levenberg_marquardt(ranker.models, pl.params, pl.z0.copy(),
+                                                   pl.zle, pl.zue)
+        chi2_e = min(chi2_e, chi2_b)
+        m = len(pl.used)
+        limit = float(2.0 * gammaincinv(0.5 * m, 1.0 - level))
+        stat = chi2_b - chi2_e if math.isfinite(chi2_b) else math.inf
+        out.append(RangeTest(
+            pl.fit.name, [pl.params[i].name for i, _ in pl.used], [s for _, s in pl.used],
+            chi2_b, chi2_e, stat, m, limit, bool(stat > limit),
+            {pl.params[i].name: pl.params[i].from_z(float(ze[i])) for i, _ in pl.used}))
+    return out
+
+
+def _search_1d(ranker: Ranker, plans: list[_Plan]) -> list[tuple[float, float, float]]:
+    """(χ²_b, z, χ²_e) of each one-parameter plan: χ² at its estimate, and the best fit
+    on its extended range (module docstring) — a grid, :data:`REFINE_LEVELS` grids each
+    between the best point so far and its neighbours, then :data:`VERTEX_STEPS` vertices
+    of the parabola through the best point and its neighbours."""
+    if not plans:
+        return []
+    ps = [pl.params[0] for pl in plans]
+    grids = np.array([np.linspace(pl.zle[0], pl.zue[0], SCAN_POINTS) for pl in plans])
+    first = np.concatenate([grids, np.array([[pl.z0[0]] for pl in plans])], axis=1)
+    chi = _finite(_points(ranker, ps, first))
+    chi_b, chi = chi[:, -1], chi[:, :-1]
+    xs, ys = grids, chi
+    for _ in range(REFINE_LEVELS):  # each level: a grid between the best point's neighbours
+        fine = np.array([np.linspace(*_bracket(x, y), REFINE_POINTS)
+                         for x, y in zip(xs, ys, strict=True)])
+        xs = np.concatenate([xs, fine], axis=1)
+        ys = np.concatenate([ys, _finite(_points(ranker, ps, fine))], axis=1)
+    for _ in range(VERTEX_STEPS):
+        zv = np.array([_vertex(x, y) for x, y in zip(xs, ys, strict=True)])
+        cv = _finite(_points(ranker, ps, zv[:, None]))
+        xs = np.concatenate([xs, zv[:, None]], axis=1)
+        ys = np.concatenate([ys, cv], axis=1)
+    out = []
+    for i, pl in enumerate(plans):
+        j = int(np.argmin(ys[i]))
+        if not math.isfinite(float(ys[i, j])):
+            out.append((float(chi_b[i]), float(pl.z0[0]), math.inf))
+        else:
+            out.append((float(chi_b[i]), float(xs[i, j]), float(ys[i, j])))
+    return out
+
+
+#: refinement grids of the one-parameter search, their points, and the parabola-vertex
+#: steps after them: the last grid's spacing is 2^L/((SCAN_POINTS − 1)·(REFINE_POINTS −
+#: 1)^L) ≈ 2.6e-4 of the extended range for L = REFINE_LEVELS [-]
+REFINE_LEVELS = 3
+REFINE_POINTS = 12
+VERTEX_STEPS = 1
+
+
+def _points(ranker: Ranker, ps: list[FaultParameter], zs: Arr) -> Arr:
+    """:func:`chi2_points` of rows of points, row ``i`` of parameter ``ps[i]``."""
+    rows, cols = zs.shape
+    flat = chi2_points(ranker, [p for p in ps for _ in range(cols)], zs.reshape(-1))
+    return flat.reshape(rows, cols)
+
+
+def _bracket(x: Arr, y: Arr) -> tuple[float, float]:
+    """The nearest points on each side of the best of points ``(x, y)`` (the best point
+    itself at an end)."""
+    x, first = np.unique(x, return_index=True)  # sorted, each point once
+    k = int(np.argmin(y[first]))
+    return float(x[max(k - 1, 0)]), float(x[min(k + 1, x.size - 1)])
+
+
+def _vertex(x: Arr, y: Arr) -> float:
+    """The vertex of the parabola through the best of points ``(x, y)`` and its nearest
+    neighbour on each side (the best point itself when it has none or the parabola
+    opens downward)."""
+    x, first = np.unique(x, return_index=True)  # sorted, each point once
+    y = y[first]
+    j = int(np.argmin(y))
+    if not 0 < j < x.size - 1 or not math.isfinite(float(y[j - 1] + y[j + 1])):
+        return float(x[j])
+    (x0, x1, x2), (y0, y1, y2) = x[j - 1:j + 2], y[j - 1:j + 2]
+    den = (x0 - x1) * (x0 - x2) * (x1 - x2)
+    if den == 0.0:
+        return float(x1)
+    ca = (x2 * (y1 - y0) + x1 * (y0 - y2) + x0 * (y2 - y1)) / den
+    cb = (x2 ** 2 * (y0 - y1) + x1 ** 2 * (y2 - y0) + x0 ** 2 * (y1 - y2)) / den
+    if ca <= 0.0:
+        return float(x1)
+    return float(np.clip(-cb / (2.0 * ca), x0, x2))
+
+
+def _finite(chi: Arr) -> Arr:
+    return np.where(np.isfinite(chi), chi, np.inf)

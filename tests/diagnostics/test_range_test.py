@@ -8,10 +8,11 @@ import pytest
 from scipy.stats import chi2 as chi2_dist
 
 from diagnostics.diagnose import diagnose
+from diagnostics.fastpath.maps import FastMaps
 from diagnostics.goodness import TEST_LEVEL, goodness_of_fit
 from diagnostics.hypotheses import PARAMETERS
 from diagnostics.observations import observe
-from diagnostics.range_test import pinned, range_test
+from diagnostics.range_test import _bounds, _chi2, chi2_points, pinned, range_test, range_tests
 from diagnostics.ranking import Ranker
 from sim.rigs import reference_rig
 from tests.diagnostics.synth import FULL, NO_FLOW, RATIO, readings, record
@@ -125,3 +126,62 @@ def test_ratio_alone_out_of_every_hypothesis_reach_is_not_explained(rig):
     assert d.fit is not None and not d.explained and d.fit.testable
     assert all(f.chi2 > chi2_dist.ppf(1 - TEST_LEVEL, 1) for f in d.hypotheses if f.observable)
     assert "not explained" in d.fit.statement
+
+
+def _pinned_singles(ranker, fits):
+    return [f for f in fits if len(f.parameters) == 1 and pinned(ranker, f)]
+
+
+def test_the_compiled_chi2_is_the_direct_chi2(rig):
+    """The range test's compiled evaluator (one kernel call for many points) scores
+    every point as the direct steady solves do, past the priors too (a held piston and a
+    stalled one included: relief settings down to the extended bound)."""
+    rng = np.random.default_rng(3)
+    rec = record(rig, {"valve.cv": 3.0 * rig.base["valve.cv"]}, load=4200.0, rng=rng)
+    ranker, _ = _ranked(rig, rec)
+    assert all(isinstance(m.maps, FastMaps) for m in ranker.models)  # the compiled branch
+    ps, zs = [], []
+    for name in ("pump_leak", "Pset", "cv", "cc"):
+        p = PARAMETERS[name]
+        _, _, zl, zu = _bounds(ranker, p)
+        ps += [p] * 9
+        zs += list(np.linspace(zl, zu, 9))
+    fast = chi2_points(ranker, ps, np.array(zs))
+    direct = np.array([_chi2(ranker, (p,), np.array([z])) for p, z in zip(ps, zs, strict=True)])
+    assert np.isfinite(direct).all()
+    np.testing.assert_allclose(fast, direct, rtol=1e-7)
+
+
+def test_tests_run_together_equal_tests_run_alone(rig):
+    """:func:`range_tests` searches all pinned singles in one batch; each answer is the
+    one its own :func:`range_test` gives."""
+    rng = np.random.default_rng(8)
+    rec = record(rig, {"pump.Rlp": rig.base["pump.Rlp"] / 40.0}, load=2100.0, rng=rng)
+    ranker, fits = _ranked(rig, rec)
+    singles = _pinned_singles(ranker, fits)
+    assert len(singles) >= 2
+    together = range_tests(ranker, singles, TEST_LEVEL)
+    for f, t in zip(singles, together, strict=True):
+        alone = range_test(ranker, f, TEST_LEVEL)
+        assert (t is None) == (alone is None)
+        if t is not None and alone is not None:
+            assert t.chi2_extended == pytest.approx(alone.chi2_extended, rel=1e-9, abs=1e-9)
+            assert t.rejected == alone.rejected
+
+
+def test_the_search_finds_the_minimum_of_a_dense_scan(rig):
+    """The grid-and-refine search beyond the bound reaches the lowest χ² of a 400-point
+    direct scan of the extended range (to 1e-3 of it, or 1e-3 absolute)."""
+    rng = np.random.default_rng(4)
+    rec = record(rig, {"pump.Rlp": rig.base["pump.Rlp"] / 35.0}, load=2100.0, rng=rng)
+    ranker, fits = _ranked(rig, rec)
+    for f in _pinned_singles(ranker, fits):
+        rt = range_test(ranker, f, TEST_LEVEL)
+        if rt is None:
+            continue
+        p = PARAMETERS[f.parameters[0].name]
+        zl, zu, zle, zue = _bounds(ranker, p)
+        z0 = p.to_z(f.parameters[0].value)
+        lo, hi = (zle, zu) if abs(z0 - zl) < abs(z0 - zu) else (zl, zue)
+        scan = min(_chi2(ranker, (p,), np.array([z])) for z in np.linspace(lo, hi, 400))
+        assert rt.chi2_extended <= min(scan, rt.chi2_bounded) + max(1e-3, 1e-3 * scan)
