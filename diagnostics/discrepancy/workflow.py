@@ -64,7 +64,7 @@ from diagnostics.discrepancy.verdict import (
 )
 from diagnostics.timeseries import SeriesRecord
 from sim.components.effects import EFFECTS
-from sim.errors import InputError
+from sim.errors import InputError, SimulationError
 from sim.rigs.assembly import Rig
 from sim.rigs.schema import validate_rig_document
 
@@ -261,6 +261,7 @@ def discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], *
     values: dict[str, float] = {}
     errors: dict[str, float] = {}
     rejected: list[str] = []
+    unsimulable: list[str] = []
     chosen = [s for s in selections if s.chosen is not None]
     picked: dict[str, Fit] = {}
     apart: dict[str, list[str]] = {}
@@ -273,35 +274,42 @@ def discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], *
         report(0.35 + 0.4 * k / len(chosen), f"output-error re-fit of {', '.join(starts[0])}")
         # a slow-speed effect (stick-slip) is re-fitted and confirmed on statistics of
         # the timed slow strokes; without slow strokes it cannot be confirmed
-        slow = refit and is_slow(list(starts[0]))
-        if slow:
-            start = starts[0]
-            fitted, fit_err = slow_refit(doc, start, slow_records(train, rig), channels, sig)
-        elif len(options) > 1:
-            best, group, fits = tell_apart(doc, starts, train, channels, sig, max_nfev)
-            (fitted, fit_err), start = fits[best], starts[best]
-            picked[s.balance] = options[best]
-            if len(group) > 1:
-                apart[s.balance] = sorted({t.effect for i in group for t in options[i].terms})
-        elif refit:
-            start = starts[0]
-            fitted, fit_err = output_error_refit(doc, start, train, channels, sig, max_nfev)
-        else:
-            start = starts[0]
-            fitted, fit_err = dict(start), {key: float("nan") for key in start}
-        fit = picked.get(s.balance, s.chosen)
-        significant = all(not math.isfinite(fit_err[key])
-                          or abs(fitted[key]) >= 2.576 * fit_err[key] for key in fitted)
-        trial = Rig.from_spec(validate_rig_document(with_effects(doc, fitted)))
-        if slow:
-            confirmed = slow_confirmed(rig, trial, slow_records(held, rig), channels, sig,
-                                       CONFIRM_RATIO)
-        else:
-            trial_gap = [row for r in held
-                         for row in gap_table(r, simulate_record(trial, r), channels)]
-            # an effect acting in the build-up after a switch is judged there too
-            regions = ("steady",) if compare_from(list(start)) > 0 else ("steady", "after step")
-            confirmed = excess_ratio(gap_before, trial_gap, sig, regions) >= CONFIRM_RATIO
+        fit = s.chosen
+        try:
+            slow = refit and is_slow(list(starts[0]))
+            if slow:
+                start = starts[0]
+                fitted, fit_err = slow_refit(doc, start, slow_records(train, rig), channels, sig)
+            elif len(options) > 1:
+                best, group, fits = tell_apart(doc, starts, train, channels, sig, max_nfev)
+                (fitted, fit_err), start = fits[best], starts[best]
+                picked[s.balance] = options[best]
+                if len(group) > 1:
+                    apart[s.balance] = sorted({t.effect for i in group for t in options[i].terms})
+            elif refit:
+                start = starts[0]
+                fitted, fit_err = output_error_refit(doc, start, train, channels, sig, max_nfev)
+            else:
+                start = starts[0]
+                fitted, fit_err = dict(start), {key: float("nan") for key in start}
+            fit = picked.get(s.balance, s.chosen)
+            significant = all(not math.isfinite(fit_err[key])
+                              or abs(fitted[key]) >= 2.576 * fit_err[key] for key in fitted)
+            trial = Rig.from_spec(validate_rig_document(with_effects(doc, fitted)))
+            if slow:
+                confirmed = slow_confirmed(rig, trial, slow_records(held, rig), channels, sig,
+                                           CONFIRM_RATIO)
+            else:
+                trial_gap = [row for r in held
+                             for row in gap_table(r, simulate_record(trial, r), channels)]
+                # an effect acting in the build-up after a switch is judged there too
+                regions = ("steady",) if compare_from(list(start)) > 0 else ("steady", "after step")
+                confirmed = excess_ratio(gap_before, trial_gap, sig, regions) >= CONFIRM_RATIO
+        except (SimulationError, InputError) as exc:
+            # a candidate whose re-fit (or its augmented rig) cannot be simulated is not
+            # confirmed: it is rejected with the solver's reason and the others go on
+            unsimulable += [f"{t.effect} ({exc})" for t in fit.terms]
+            continue
         if significant and confirmed:
             values.update(fitted)
             errors.update(fit_err)
@@ -357,6 +365,9 @@ def discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], *
     if rejected:
         message += ("; not confirmed by re-simulation (output-error coefficient not "
                     f"significant or held-out gap not shrinking): {', '.join(rejected)}")
+    if unsimulable:
+        message += ("; not confirmed: the re-fitted rig could not be simulated: "
+                    + "; ".join(unsimulable))
     report(1.0, outcome)
     detectable = {s.balance: s.detectable for s in selections}
     return Discovery(outcome, message, named, selections, [r.name for r in train],
