@@ -56,6 +56,7 @@ from diagnostics.discrepancy.simulate import (
     timed_switch,
 )
 from diagnostics.discrepancy.slow import is_slow, slow_confirmed, slow_records, slow_refit
+from diagnostics.discrepancy.transient import Screened, gap_unexplained, screen_build_up
 from diagnostics.discrepancy.verdict import (
     excess_ratio,
     gap_ratio,
@@ -151,8 +152,10 @@ class Discovery:
 
         return {
             "verdict": self.verdict, "message": self.message,
-            "named": [vars(n) | {"interval": list(n.interval),
-                                 "plausible_range": list(n.plausible_range)}
+            # a value the screen does not define (equation-error estimate, t) is null
+            "named": [{k: (None if isinstance(v, float) and not math.isfinite(v) else v)
+                       for k, v in vars(n).items()}
+                      | {"interval": list(n.interval), "plausible_range": list(n.plausible_range)}
                       for n in self.named],
             "balances": [sel_dict(s) for s in self.selections],
             "training_records": self.training, "held_out_records": self.held_out,
@@ -315,7 +318,19 @@ def discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], *
             errors.update(fit_err)
         else:
             rejected += [t.effect for t in fit.terms]
+    screened: Screened | None = None
+    screen_notes: list[str] = []
+    if refit and not values and gap_unexplained(selections, gap_before, sig):
+        # a gap no balance explains: the effects only a re-simulation of the build-up sees
+        report(0.75, "output-error screen of the build-up effects")
+        screened, screen_notes = screen_build_up(doc, train, held, channels, sig, gap_before,
+                                                 max_nfev, CONFIRM_RATIO)
+        if screened is not None:
+            values[screened.key] = screened.value
+            errors[screened.key] = screened.error
     new_doc = with_effects(doc, values) if values else copy.deepcopy(doc)
+    if screened is not None:
+        named.append(_screened_effect(screened))
     for s in selections:
         if s.chosen is None:
             continue
@@ -365,6 +380,12 @@ def discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], *
     if rejected:
         message += ("; not confirmed by re-simulation (output-error coefficient not "
                     f"significant or held-out gap not shrinking): {', '.join(rejected)}")
+    if screened is not None:
+        message += (f"; {screened.effect.name} named by the output-error screen of the "
+                    "build-up effects (its signature lies in the first 50 ms after a switch, "
+                    "which no balance uses)")
+    elif screen_notes:
+        message += "; build-up effects re-simulated and not confirmed: " + "; ".join(screen_notes)
     if unsimulable:
         message += ("; not confirmed: the re-fitted rig could not be simulated: "
                     + "; ".join(unsimulable))
@@ -374,6 +395,21 @@ def discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], *
                      [r.name for r in records] and [records[i].name for i in held_i],
                      gap_before, gap_after, white_before, white_after, new_doc,
                      _solver_statement(base_tables), detectable, traces, lof)
+
+
+def _screened_effect(sc: Screened) -> NamedEffect:
+    """The :class:`NamedEffect` of an effect the build-up screen kept (no balance: its
+    equation-error estimate, t and inclusion are not defined)."""
+    e = sc.effect
+    decl = e.parameter(e.entry.coefficient)
+    assert decl is not None
+    lo, hi = e.entry.plausible
+    return NamedEffect(e.name, "output error (build-up screen)", e.entry.explanation,
+                       e.entry.reference, e.entry.signature, e.entry.coefficient, decl.unit,
+                       float("nan"), sc.value,
+                       (sc.value - 1.96 * sc.error, sc.value + 1.96 * sc.error),
+                       bool(lo <= sc.value <= hi), (lo, hi), sc.value / sc.error,
+                       float("nan"), [], [])
 
 
 def _repeats_lack_of_fit(records: Sequence[SeriesRecord], rig: Rig,
