@@ -53,8 +53,10 @@ __all__ = ["DIRECTION", "OBSERVABLES", "SteadyEvaluator", "SteadyPoint", "steady
 
 Arr = npt.NDArray[np.float64]
 
-#: nominal operating point per (rig, phase), the first guess of later solves (bounded)
-_GUESS: OrderedDict[tuple[int, str], Arr] = OrderedDict()
+#: nominal operating point per (rig, phase), the first guess of later solves (bounded);
+#: the rig is kept with it, so a new rig that reuses a collected rig's ``id`` does not start
+#: from that rig's point
+_GUESS: OrderedDict[tuple[int, str], tuple[Rig, Arr]] = OrderedDict()
 _GUESS_SIZE = 128
 _T0 = np.zeros(1)
 
@@ -152,7 +154,8 @@ def steady_phase(rig: Rig, phase: str, overrides: Mapping[str, float] | None = N
     iv = m.output_names.index("v")
     mid = 0.5 * rig.base["cylinder.stroke"]
     key = (id(rig), phase)
-    guess = _GUESS.get(key)
+    hit = _GUESS.get(key)
+    guess = hit[1] if hit is not None and hit[0] is rig else None
     y: Arr | None = None
     if guess is not None:
         try:
@@ -169,7 +172,7 @@ def steady_phase(rig: Rig, phase: str, overrides: Mapping[str, float] | None = N
         except SimulationError:
             y = None
         if guess is None and y is not None:
-            _GUESS[key] = y.copy()
+            _GUESS[key] = (rig, y.copy())
             while len(_GUESS) > _GUESS_SIZE:
                 _GUESS.popitem(last=False)
     if y is not None:
