@@ -133,6 +133,10 @@ class Selection:
     base_residual: Arr
     full_scale: float
     near: list[Fit] = field(default_factory=list)
+    #: singles that fail only the practical size, with the BIC margin, best first: tried
+    #: in output-error form when nothing else explains a held-out gap above the noise
+    #: (:mod:`~diagnostics.discrepancy.confirm`)
+    small: list[Fit] = field(default_factory=list)
 
 
 def _scaled(cols: dict[str, Arr]) -> tuple[list[str], Arr, Arr]:
@@ -327,6 +331,9 @@ def select(data: BalanceData, *, bootstrap: int = 30, seed: int = 0, lags: int =
         near = [f for k, f in ranked if k != chosen_key
                 and (f.bic - best < NEAR_BIC or (len(k) == 1 and k[0] in twins))]
     chosen = fits[chosen_key] if chosen_key is not None else None
+    small = sorted((f for k, f in fits.items()
+                    if len(k) == 1 and f.small and base_bic - f.bic >= BIC_MARGIN),
+                   key=lambda f: f.bic)
     inclusion: dict[str, float] = {}
     resid_si = base_resid * ys
     base_named = {bn: float(c * ys / s) for bn, c, s in zip(bnames, base_coef, bscale, strict=True)}
@@ -342,7 +349,7 @@ def select(data: BalanceData, *, bootstrap: int = 30, seed: int = 0, lags: int =
     return Selection(data.balance.name, data.balance.unit, chosen, base_bic,
                      base_bic - chosen.bic if chosen else 0.0, competing, groups, inclusion,
                      detectable, singles, base_named, resid_si, base_resid * ys,
-                     data.full_scale, near)
+                     data.full_scale, near, small)
 
 
 def _bootstrap(y: Arr, Xb: Arr, Xc: Arr, cnames: list[str], free: list[str],

@@ -43,7 +43,7 @@ from sim.errors import InputError, SimulationError
 from sim.rigs.assembly import Rig
 from sim.rigs.schema import validate_rig_document
 
-__all__ = ["Screened", "build_up_effects", "gap_unexplained", "screen_build_up"]
+__all__ = ["Screened", "above_noise", "build_up_effects", "gap_unexplained", "screen_build_up"]
 
 #: the screen's start: this fraction of the top of the entry's plausible range [-]
 START_FRACTION = 0.1
@@ -64,7 +64,7 @@ class Screened:
     ratio: float
 
 
-def _above_noise(rows: Sequence[GapRow], sigma: Mapping[str, float]) -> list[str]:
+def above_noise(rows: Sequence[GapRow], sigma: Mapping[str, float]) -> list[str]:
     """Channels whose held-out steady RMSE exceeds OUTPUT_GAP σ."""
     return sorted({r.channel for r in rows
                    if r.region == "steady" and r.rmse > OUTPUT_GAP * sigma[r.channel]})
@@ -79,7 +79,7 @@ def gap_unexplained(selections: Sequence[Selection], before: Sequence[GapRow],
                     sigma: Mapping[str, float]) -> bool:
     """The precondition of the ``unexplained`` verdict: a balance with structure left, or a
     held-out steady RMSE above :data:`~diagnostics.discrepancy.verdict.OUTPUT_GAP` σ."""
-    return any(structured(s) for s in selections) or bool(_above_noise(before, sigma))
+    return any(structured(s) for s in selections) or bool(above_noise(before, sigma))
 
 
 def screen_build_up(doc: Mapping[str, Any], train: Sequence[SeriesRecord],
@@ -107,7 +107,7 @@ def screen_build_up(doc: Mapping[str, Any], train: Sequence[SeriesRecord],
             notes.append(f"{e.name} (coefficient not significant)")
         elif ratio < confirm_ratio:
             notes.append(f"{e.name} (held-out gap ratio {ratio:.2f} < {confirm_ratio})")
-        elif left := _above_noise(after, sigma):
+        elif left := above_noise(after, sigma):
             notes.append(f"{e.name} (leaves the held-out gap above the noise: "
                          f"{', '.join(left)})")
         else:

@@ -42,11 +42,11 @@ import numpy.typing as npt
 import pandas as pd
 
 from diagnostics.discrepancy.balances import balance_data
+from diagnostics.discrepancy.confirm import Small, confirm_chosen, confirm_small
 from diagnostics.discrepancy.gap import GapRow, gap_table
 from diagnostics.discrepancy.lof import series_lack_of_fit
-from diagnostics.discrepancy.refit import compare_from, tell_apart, with_effects
-from diagnostics.discrepancy.refit import refit as output_error_refit
-from diagnostics.discrepancy.selection import PRACTICAL, Fit, Selection, select
+from diagnostics.discrepancy.refit import with_effects
+from diagnostics.discrepancy.selection import PRACTICAL, Selection, select
 from diagnostics.discrepancy.signals import condition_of, prepare
 from diagnostics.discrepancy.simulate import (
     SOLVER,
@@ -55,7 +55,6 @@ from diagnostics.discrepancy.simulate import (
     solver_error,
     timed_switch,
 )
-from diagnostics.discrepancy.slow import is_slow, slow_confirmed, slow_records, slow_refit
 from diagnostics.discrepancy.transient import Screened, gap_unexplained, screen_build_up
 from diagnostics.discrepancy.verdict import (
     excess_ratio,
@@ -65,7 +64,7 @@ from diagnostics.discrepancy.verdict import (
 )
 from diagnostics.timeseries import SeriesRecord
 from sim.components.effects import EFFECTS
-from sim.errors import InputError, SimulationError
+from sim.errors import InputError
 from sim.rigs.assembly import Rig
 from sim.rigs.schema import validate_rig_document
 
@@ -184,12 +183,6 @@ def _split(records: Sequence[SeriesRecord], rig: Rig) -> tuple[list[int], list[i
     return [i for i in range(len(records)) if i not in held], sorted(held)
 
 
-def _start(fit: Fit) -> dict[str, float]:
-    """Output-error start of a fitted subset: ``effect.param`` → equation-error value."""
-    return {f"{t.effect}.{EFFECTS[t.effect].entry.coefficient}": t.coefficient
-            for t in fit.terms}
-
-
 def _channels(records: Sequence[SeriesRecord]) -> list[str]:
     return [c for c in OUTPUTS if c in records[0].channels]
 
@@ -261,80 +254,40 @@ def discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], *
     base_tables = [simulate_record(rig, r) for r in held]
     gap_before = [row for r, t in zip(held, base_tables, strict=True)
                   for row in gap_table(r, t, channels)]
-    values: dict[str, float] = {}
-    errors: dict[str, float] = {}
-    rejected: list[str] = []
-    unsimulable: list[str] = []
-    chosen = [s for s in selections if s.chosen is not None]
-    picked: dict[str, Fit] = {}
-    apart: dict[str, list[str]] = {}
-    for k, s in enumerate(chosen):
-        # each balance's explanation is confirmed on its own, in output-error form; near
-        # alternatives of the equation error are re-fitted too and told apart there
-        assert s.chosen is not None
-        options = [s.chosen, *s.near] if refit else [s.chosen]
-        starts = [_start(f) for f in options]
-        report(0.35 + 0.4 * k / len(chosen), f"output-error re-fit of {', '.join(starts[0])}")
-        # a slow-speed effect (stick-slip) is re-fitted and confirmed on statistics of
-        # the timed slow strokes; without slow strokes it cannot be confirmed
-        fit = s.chosen
-        try:
-            slow = refit and is_slow(list(starts[0]))
-            if slow:
-                start = starts[0]
-                fitted, fit_err = slow_refit(doc, start, slow_records(train, rig), channels, sig)
-            elif len(options) > 1:
-                best, group, fits = tell_apart(doc, starts, train, channels, sig, max_nfev)
-                (fitted, fit_err), start = fits[best], starts[best]
-                picked[s.balance] = options[best]
-                if len(group) > 1:
-                    apart[s.balance] = sorted({t.effect for i in group for t in options[i].terms})
-            elif refit:
-                start = starts[0]
-                fitted, fit_err = output_error_refit(doc, start, train, channels, sig, max_nfev)
-            else:
-                start = starts[0]
-                fitted, fit_err = dict(start), {key: float("nan") for key in start}
-            fit = picked.get(s.balance, s.chosen)
-            significant = all(not math.isfinite(fit_err[key])
-                              or abs(fitted[key]) >= 2.576 * fit_err[key] for key in fitted)
-            trial = Rig.from_spec(validate_rig_document(with_effects(doc, fitted)))
-            if slow:
-                confirmed = slow_confirmed(rig, trial, slow_records(held, rig), channels, sig,
-                                           CONFIRM_RATIO)
-            else:
-                trial_gap = [row for r in held
-                             for row in gap_table(r, simulate_record(trial, r), channels)]
-                # an effect acting in the build-up after a switch is judged there too
-                regions = ("steady",) if compare_from(list(start)) > 0 else ("steady", "after step")
-                confirmed = excess_ratio(gap_before, trial_gap, sig, regions) >= CONFIRM_RATIO
-        except (SimulationError, InputError) as exc:
-            # a candidate whose re-fit (or its augmented rig) cannot be simulated is not
-            # confirmed: it is rejected with the solver's reason and the others go on
-            unsimulable += [f"{t.effect} ({exc})" for t in fit.terms]
-            continue
-        if significant and confirmed:
-            values.update(fitted)
-            errors.update(fit_err)
-        else:
-            rejected += [t.effect for t in fit.terms]
+    conf = confirm_chosen(doc, rig, selections, train, held, channels, sig, gap_before,
+                          refit=refit, max_nfev=max_nfev, confirm_ratio=CONFIRM_RATIO,
+                          report=report)
+    values, errors, picked = conf.values, conf.errors, conf.picked
+    small: Small | None = None
     screened: Screened | None = None
+    second_look: list[str] = []
     screen_notes: list[str] = []
     if refit and not values and gap_unexplained(selections, gap_before, sig):
-        # a gap no balance explains: the effects only a re-simulation of the build-up sees
-        report(0.75, "output-error screen of the build-up effects")
-        screened, screen_notes = screen_build_up(doc, train, held, channels, sig, gap_before,
-                                                 max_nfev, CONFIRM_RATIO)
-        if screened is not None:
-            values[screened.key] = screened.value
-            errors[screened.key] = screened.error
+        # a gap no balance explains: first the significant singles below the practical
+        # size, then the effects only a re-simulation of the build-up sees
+        report(0.72, "output-error check of the effects below the practical size")
+        small, second_look = confirm_small(doc, selections, train, held, channels, sig,
+                                           gap_before, max_nfev=max_nfev,
+                                           confirm_ratio=CONFIRM_RATIO)
+        if small is not None:
+            values[small.key] = small.value
+            errors[small.key] = small.error
+            picked[small.selection.balance] = small.fit
+        else:
+            report(0.75, "output-error screen of the build-up effects")
+            screened, screen_notes = screen_build_up(doc, train, held, channels, sig,
+                                                     gap_before, max_nfev, CONFIRM_RATIO)
+            if screened is not None:
+                values[screened.key] = screened.value
+                errors[screened.key] = screened.error
     new_doc = with_effects(doc, values) if values else copy.deepcopy(doc)
     if screened is not None:
         named.append(_screened_effect(screened))
     for s in selections:
-        if s.chosen is None:
+        fit = picked.get(s.balance, s.chosen)
+        if fit is None:
             continue
-        for term in picked.get(s.balance, s.chosen).terms:
+        for term in fit.terms:
             e = EFFECTS[term.effect]
             key = f"{term.effect}.{e.entry.coefficient}"
             if key not in values:
@@ -351,7 +304,7 @@ def discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], *
                 (value - 1.96 * err, value + 1.96 * err), bool(lo <= value <= hi), (lo, hi),
                 term.t, s.inclusion.get(term.effect, float("nan")),
                 s.competing, [g for g in s.ambiguity if term.effect in g]
-                + ([apart[s.balance]] if s.balance in apart else [])))
+                + ([conf.apart[s.balance]] if s.balance in conf.apart else [])))
     report(0.8, "held-out check")
     white_before = whiteness(held, base_tables, channels, rate)
     traces: dict[str, Any] = {"held": held[0], "before": base_tables[0], "channels": channels,
@@ -374,21 +327,32 @@ def discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], *
         message += (f"; lack of fit against repeated records p = {lof['before']['p']:.2g} "
                     "before" + (f", {lof['after']['p']:.2g} after" if lof.get("after")
                                 else ""))
-    for balance, names in apart.items():
+    for balance, names in conf.apart.items():
         message += (f"; {' and '.join(names)} explain the {balance} gap alike, in re-simulation "
                     "too (ΔBIC < 10): an ambiguity group on this test design")
-    if rejected:
+    if conf.rejected:
         message += ("; not confirmed by re-simulation (output-error coefficient not "
-                    f"significant or held-out gap not shrinking): {', '.join(rejected)}")
+                    f"significant or held-out gap not shrinking): {', '.join(conf.rejected)}")
+    if small is not None:
+        (term,) = small.fit.terms
+        message += (f"; {term.effect} named below the practical size (equation-error RMS "
+                    f"{term.rms_contribution:.3g} < {PRACTICAL * small.selection.full_scale:.3g} "
+                    f"{small.selection.unit} in the {small.selection.balance} balance, |t| = "
+                    f"{abs(term.t):.3g}): re-simulated, the held-out excess gap shrinks "
+                    f"{small.ratio:.3g}×" + (f", {', '.join(small.left)} still above the noise"
+                                             if small.left else " to the noise"))
+    elif second_look:
+        message += ("; significant below the practical size, re-simulated and not confirmed: "
+                    + "; ".join(second_look))
     if screened is not None:
         message += (f"; {screened.effect.name} named by the output-error screen of the "
                     "build-up effects (its signature lies in the first 50 ms after a switch, "
                     "which no balance uses)")
     elif screen_notes:
         message += "; build-up effects re-simulated and not confirmed: " + "; ".join(screen_notes)
-    if unsimulable:
+    if conf.unsimulable:
         message += ("; not confirmed: the re-fitted rig could not be simulated: "
-                    + "; ".join(unsimulable))
+                    + "; ".join(conf.unsimulable))
     report(1.0, outcome)
     detectable = {s.balance: s.detectable for s in selections}
     return Discovery(outcome, message, named, selections, [r.name for r in train],

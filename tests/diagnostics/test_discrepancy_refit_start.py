@@ -33,15 +33,15 @@ def test_a_candidate_whose_refit_cannot_be_simulated_is_rejected_and_the_case_go
     """Seal friction hidden in the data is the equation error's choice; when its output-error
     re-fit hits the solver's limit the workflow does not stop: the candidate is not
     confirmed, the answer says why (the solver's own message), and nothing is named."""
+    from diagnostics.discrepancy import confirm as confirm_module
     from diagnostics.discrepancy import discover
-    from diagnostics.discrepancy import workflow as workflow_module
     from tests.diagnostics.test_discrepancy import _records, _with
 
     def fails(*args: Any, **kwargs: Any) -> Any:
         raise SolverLimitError("rtol: working phase: the step size fell below round-off")
 
-    monkeypatch.setattr(workflow_module, "output_error_refit", fails)
-    monkeypatch.setattr(workflow_module, "tell_apart", fails)
+    monkeypatch.setattr(confirm_module, "output_error_refit", fails)
+    monkeypatch.setattr(confirm_module, "tell_apart", fails)
     recs = _records(_with("seal_friction_pressure", "k_p", 1.5e-5, "m^2"), 2)
     d = discover(reference_rig_document(), recs, bootstrap=10)
     assert d.named == []
