@@ -26,13 +26,16 @@ def test_the_screen_covers_the_build_up_entries() -> None:
 
 
 def test_entrained_air_no_balance_sees_is_named_by_re_simulation() -> None:
-    """Named by the screen, within 10 % of the truth, the held-out gap shrinking; the
-    report's undefined equation-error figures are null, not NaN."""
+    """Named by the screen, within 5 % of the truth and inside its stated interval (the
+    re-fit scans the compared part's cost near the build-up's valley, which lies ~10 %
+    off; the error counts that disagreement), the held-out gap shrinking; the report's
+    undefined equation-error figures are null, not NaN."""
     d = _case(_doc_with("entrained_air", ALPHA), 1007)
     assert [n.name for n in d.named] == ["entrained_air"]
     n = d.named[0]
     assert n.balance == "output error (build-up screen)"
-    assert n.value == pytest.approx(ALPHA, rel=0.10)
+    assert n.value == pytest.approx(ALPHA, rel=0.05)
+    assert n.interval[0] <= ALPHA <= n.interval[1]
     assert n.plausible
     assert d.verdict == "named"
     assert "output-error screen" in d.message
