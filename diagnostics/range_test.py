@@ -49,6 +49,7 @@ from diagnostics.pair_direct import MASKED, levenberg_marquardt, residuals
 
 if TYPE_CHECKING:
     from diagnostics.ranking import HypothesisFit, Ranker
+    from diagnostics.record_model import RecordModel
 
 __all__ = ["RangeTest", "chi2_points", "pinned", "range_test", "range_tests"]
 
@@ -152,13 +153,43 @@ def chi2_points(ranker: Ranker, params: list[FaultParameter], zs: Arr) -> Arr:
         maps = m.maps
         assert isinstance(maps, FastMaps)
         out, _, _, _ = maps.probe_moving(params, [zs], [None])
-        resid = m.obs.values[None, :] - out[:, m.idx]
-        whole = np.isfinite(resid).all(axis=1)
-        r = np.empty_like(resid)
-        r[whole] = m.whitened(resid[whole])
-        part = resid[~whole] / m.sigma
-        r[~whole] = np.where(np.isfinite(part), part, MASKED)
-        total += np.sum(r * r, axis=1)
+        total += _record_chi2(m, out)
+    return total
+
+
+def _record_chi2(m: RecordModel, out: Arr) -> Arr:
+    """χ² of record ``m`` at predicted observables ``out`` (rows: points), a masked
+    reading counting ``MASKED`` σ."""
+    resid = m.obs.values[None, :] - out[:, m.idx]
+    whole = np.isfinite(resid).all(axis=1)
+    r = np.empty_like(resid)
+    r[whole] = m.whitened(resid[whole])
+    part = resid[~whole] / m.sigma
+    r[~whole] = np.where(np.isfinite(part), part, MASKED)
+    return np.asarray(np.sum(r * r, axis=1))
+
+
+def _grid_chi2(ranker: Ranker, ps: list[FaultParameter], grids: Arr) -> Arr:
+    """:func:`_points` of the first search grids (row ``i``: parameter ``ps[i]``): their
+    predictions do not depend on the readings, so each record's maps keep them
+    (:attr:`FastMaps.kept`, per parameter and grid) and a record at a condition seen
+    before costs no solve; the missing rows are solved together, one call per record."""
+    if not all(isinstance(m.maps, FastMaps) for m in ranker.models):
+        return _points(ranker, ps, grids)
+    total = np.zeros(grids.shape)
+    for m in ranker.models:
+        maps = m.maps
+        assert isinstance(maps, FastMaps)
+        keys = [("range grid", p.name, g.tobytes()) for p, g in zip(ps, grids, strict=True)]
+        missing = [i for i, k in enumerate(keys) if k not in maps.kept]
+        if missing:
+            out, _, _, _ = maps.probe_moving(
+                [ps[i] for i in missing for _ in range(grids.shape[1])],
+                [grids[missing].reshape(-1)], [None])
+            for j, i in enumerate(missing):
+                maps.kept[keys[i]] = out[j * grids.shape[1]:(j + 1) * grids.shape[1]]
+        for i, k in enumerate(keys):
+            total[i] = _record_chi2(m, maps.kept[k])
     return total
 
 
@@ -243,10 +274,8 @@ def _search_1d(ranker: Ranker, plans: list[_Plan]) -> list[tuple[float, float, f
         return []
     ps = [pl.params[0] for pl in plans]
     grids = np.array([np.linspace(pl.zle[0], pl.zue[0], SCAN_POINTS) for pl in plans])
-    first = np.concatenate([grids, np.array([[pl.z0[0]] for pl in plans])], axis=1)
-    chi = _finite(_points(ranker, ps, first))
-    chi_b, chi = chi[:, -1], chi[:, :-1]
-    xs, ys = grids, chi
+    chi_b = _finite(_points(ranker, ps, np.array([[pl.z0[0]] for pl in plans])))[:, 0]
+    xs, ys = grids, _finite(_grid_chi2(ranker, ps, grids))
     for _ in range(REFINE_LEVELS):  # each level: a grid between the best point's neighbours
         fine = np.array([np.linspace(*_bracket(x, y), REFINE_POINTS)
                          for x, y in zip(xs, ys, strict=True)])

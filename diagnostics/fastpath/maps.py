@@ -145,6 +145,9 @@ class FastMaps(SignatureMaps):
         self.condition = condition
         self._ev: SteadyEvaluator | None = None
         self._moved: dict[Condition, Arr | None] = {}
+        #: predictions that do not depend on the readings, kept for the next record at
+        #: this condition (the range test's first grids, :mod:`diagnostics.range_test`)
+        self.kept: dict[tuple[str, str, bytes], Arr] = {}
         self._base = np.array([rig.base[n] for n in GRAPH_PARAMETERS])
         self.ctx = Context(rig, condition, chord)
         try:

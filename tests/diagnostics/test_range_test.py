@@ -185,3 +185,39 @@ def test_the_search_finds_the_minimum_of_a_dense_scan(rig):
         lo, hi = (zle, zu) if abs(z0 - zl) < abs(z0 - zu) else (zl, zue)
         scan = min(_chi2(ranker, (p,), np.array([z])) for z in np.linspace(lo, hi, 400))
         assert rt.chi2_extended <= min(scan, rt.chi2_bounded) + max(1e-3, 1e-3 * scan)
+
+
+def test_a_second_record_at_the_same_condition_reuses_the_first_grids(rig, monkeypatch):
+    """The first search grids' predictions do not depend on the readings: a second record
+    at the condition (other noise) solves none of them again, and its answers are the ones
+    it gets with nothing kept (to the solver's continuation, 1e-9)."""
+    rec1 = record(rig, {"pump.Rlp": rig.base["pump.Rlp"] / 40.0}, load=2100.0,
+                  rng=np.random.default_rng(11))
+    rec2 = record(rig, {"pump.Rlp": rig.base["pump.Rlp"] / 40.0}, load=2100.0,
+                  rng=np.random.default_rng(12))
+    ranker1, fits1 = _ranked(rig, rec1)
+    range_tests(ranker1, _pinned_singles(ranker1, fits1), TEST_LEVEL)
+    ranker2, fits2 = _ranked(rig, rec2)
+    maps = ranker2.models[0].maps
+    assert maps is ranker1.models[0].maps and maps.kept  # one condition, one set of maps
+    singles = _pinned_singles(ranker2, fits2)
+    solved: list[int] = []
+    probe = FastMaps.probe_moving
+
+    def counting(self, params, zs, starts):
+        solved.append(sum(z.size for z in zs))
+        return probe(self, params, zs, starts)
+
+    monkeypatch.setattr(FastMaps, "probe_moving", counting)
+    kept = range_tests(ranker2, singles, TEST_LEVEL)
+    with_kept = sum(solved)
+    maps.kept.clear()
+    solved.clear()
+    fresh = range_tests(ranker2, singles, TEST_LEVEL)
+    grid_points = 24 * sum(1 for t in fresh if t is not None and len(t.parameters) == 1)
+    assert sum(solved) - with_kept == grid_points > 0
+    for a, b in zip(kept, fresh, strict=True):
+        assert (a is None) == (b is None)
+        if a is not None and b is not None:
+            assert a.chi2_extended == pytest.approx(b.chi2_extended, rel=1e-9, abs=1e-9)
+            assert a.rejected == b.rejected
