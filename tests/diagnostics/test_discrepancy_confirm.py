@@ -12,29 +12,19 @@ from __future__ import annotations
 
 from typing import Any
 
-import numpy as np
 import pytest
 
-from benchmarks.discrepancy_study import _case, _conditions, _doc_with
-from diagnostics.discrepancy.balances import BalanceData, balance_data
+from benchmarks.discrepancy_study import _case, _doc_with
+from diagnostics.discrepancy.balances import BalanceData
 from diagnostics.discrepancy.selection import PRACTICAL, select
-from diagnostics.discrepancy.signals import prepare
-from diagnostics.discrepancy.synthetic import synthesize
-from diagnostics.discrepancy.workflow import _split
-from sim.rigs import load_rig, reference_rig
+from tests.diagnostics.test_discrepancy_practical import bench_balance
 
 #: the bench's 4 σ seal-friction coefficient: 4 × the calibrated 1 σ of 1.93399e-6 [m²]
 K_SEAL = 7.73596e-6
 
 
 def _piston_balance(doc: dict[str, Any], seed: int) -> BalanceData:
-    rig = load_rig(doc)
-    rng = np.random.default_rng(seed)
-    records = [synthesize(rig, c, rng=rng, name=n, t_max=sw) for n, c, sw in _conditions()]
-    base = reference_rig()
-    train, _ = _split(records, base)
-    data = balance_data(prepare([records[i] for i in train], base), base.values())
-    return next(d for d in data if d.balance.name == "piston_force")
+    return bench_balance(doc, seed, "piston_force")
 
 
 def test_a_significant_single_below_the_practical_size_is_kept_for_the_second_look() -> None:

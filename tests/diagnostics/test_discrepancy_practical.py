@@ -27,14 +27,20 @@ from sim.rigs import load_rig, reference_rig
 K_C = 4.8515e-21
 
 
-def _pump_balance(doc: dict[str, Any], seed: int) -> BalanceData:
+def bench_balance(doc: dict[str, Any], seed: int, balance: str) -> BalanceData:
+    """The ``balance`` of the training records of the hidden-effect bench's design, the
+    data made by the rig ``doc`` with the case seed ``seed``."""
     rig = load_rig(doc)
     rng = np.random.default_rng(seed)
     records = [synthesize(rig, c, rng=rng, name=n, t_max=sw) for n, c, sw in _conditions()]
     base = reference_rig()
     train, _ = _split(records, base)
     data = balance_data(prepare([records[i] for i in train], base), base.values())
-    return next(d for d in data if d.balance.name == "pump_flow")
+    return next(d for d in data if d.balance.name == balance)
+
+
+def _pump_balance(doc: dict[str, Any], seed: int) -> BalanceData:
+    return bench_balance(doc, seed, "pump_flow")
 
 
 def test_a_better_single_below_the_practical_size_beats_a_worse_one_above_it() -> None:
