@@ -13,6 +13,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from app.settings import Settings
 from sim.cycle import run_cycle
 from sim.errors import ParameterError
 from sim.rigs import reference_rig
@@ -93,7 +94,7 @@ def test_a_run_past_the_step_limit_is_422_with_the_reason(limited: LiveServer) -
 
 
 def test_the_settings_document_their_solver_limits() -> None:
-    settings = sqlite_settings(Path("unused"))
+    settings = Settings(data_dir=Path("unused"))
     assert settings.sim_max_steps == 2_000_000
     assert settings.sim_max_time == 600.0 and settings.sim_wall_clock == 10.0
 
