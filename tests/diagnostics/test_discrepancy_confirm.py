@@ -18,6 +18,7 @@ from benchmarks.discrepancy_study import _case, _doc_with
 from diagnostics.discrepancy.balances import BalanceData
 from diagnostics.discrepancy.selection import PRACTICAL, select
 from tests.diagnostics.test_discrepancy_practical import bench_balance
+from tests.diagnostics.test_discrepancy_transient import assert_named_alone
 
 #: the bench's 4 σ seal-friction coefficient: 4 × the calibrated 1 σ of 1.93399e-6 [m²]
 K_SEAL = 7.73596e-6
@@ -48,16 +49,9 @@ def test_seal_friction_below_the_practical_size_is_named_by_re_simulation() -> N
     document carrying it; the message says it was below the practical size and how much
     the held-out gap shrank."""
     d = _case(_doc_with("seal_friction_pressure", K_SEAL), 1007)
-    assert [n.name for n in d.named] == ["seal_friction_pressure"]
-    n = d.named[0]
-    assert n.balance == "piston_force"
-    assert n.value == pytest.approx(K_SEAL, rel=0.10)
-    assert n.interval[0] <= K_SEAL <= n.interval[1]
-    assert n.plausible
-    assert d.verdict == "named"
+    assert_named_alone(d, "seal_friction_pressure", "k_p", K_SEAL, 0.10)
+    assert d.named[0].balance == "piston_force"
     assert "named below the practical size" in d.message
-    effects = d.rig_document["effects"]
-    assert effects["seal_friction_pressure"]["parameters"]["k_p"]["value"] == n.value
     piston = next(b for b in d.to_dict()["balances"] if b["balance"] == "piston_force")
     assert piston["chosen"] == []
     assert (piston["candidates"]["seal_friction_pressure"]["rms_contribution"]

@@ -12,13 +12,25 @@ import numpy as np
 import pytest
 
 from benchmarks.discrepancy_study import _case, _doc_with
-from diagnostics.discrepancy import discover
+from diagnostics.discrepancy import Discovery, discover
 from diagnostics.discrepancy.transient import build_up_effects
 from sim.rigs import reference_rig_document
 from tests.diagnostics.test_discrepancy import _records
 
 #: the bench's 8 σ free-air fraction: 8 × the calibrated 1 σ of 3.2027e-5 [-]
 ALPHA = 2.5622e-4
+
+
+def assert_named_alone(d: Discovery, effect: str, param: str, truth: float, rel: float) -> None:
+    """``effect`` is the one name, its value within ``rel`` of ``truth`` and inside its
+    stated interval, plausible, and the new rig document carries that value."""
+    assert [n.name for n in d.named] == [effect]
+    n = d.named[0]
+    assert n.value == pytest.approx(truth, rel=rel)
+    assert n.interval[0] <= truth <= n.interval[1]
+    assert n.plausible
+    assert d.verdict == "named"
+    assert d.rig_document["effects"][effect]["parameters"][param]["value"] == n.value
 
 
 def test_the_screen_covers_the_build_up_entries() -> None:
@@ -31,15 +43,9 @@ def test_entrained_air_no_balance_sees_is_named_by_re_simulation() -> None:
     off; the error counts that disagreement), the held-out gap shrinking; the report's
     undefined equation-error figures are null, not NaN."""
     d = _case(_doc_with("entrained_air", ALPHA), 1007)
-    assert [n.name for n in d.named] == ["entrained_air"]
-    n = d.named[0]
-    assert n.balance == "output error (build-up screen)"
-    assert n.value == pytest.approx(ALPHA, rel=0.05)
-    assert n.interval[0] <= ALPHA <= n.interval[1]
-    assert n.plausible
-    assert d.verdict == "named"
+    assert_named_alone(d, "entrained_air", "alpha", ALPHA, 0.05)
+    assert d.named[0].balance == "output error (build-up screen)"
     assert "output-error screen" in d.message
-    assert d.rig_document["effects"]["entrained_air"]["parameters"]["alpha"]["value"] == n.value
     named = d.to_dict()["named"][0]
     assert named["equation_error"] is None and named["inclusion"] is None
     assert np.isfinite(named["t"])
