@@ -143,7 +143,8 @@ def main() -> None:
         print(f"{case:<30}{f:>9.2f}; {fb:<5.2f}{d:>10.2f}; {db:<5.2f}{d / f:>9.1f}x")
     print("fast path at a new condition, median per stage [ms]: "
           + ", ".join(f"{k} {v:.2f}" for k, v in stages.items()))
-    print(f"first diagnosis of the process (kernels loaded from the cache): "
+    print(f"first diagnosis of the process (kernels loaded from the cache a run before "
+          f"left, or compiled when there is none): "
           f"{1e3 * cold_fast:.0f} ms")
     print(f"\nbatch of {n_batch} records (direct: {n_direct})")
     print(f"{'where':<34}{'records/s':>11}")
