@@ -20,6 +20,7 @@ from __future__ import annotations
 import math
 from collections.abc import Hashable, Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -27,9 +28,13 @@ import pandas as pd
 from scipy import stats
 
 from diagnostics.discrepancy.gap import aligned_residuals
+from diagnostics.discrepancy.signals import condition_of
+from diagnostics.discrepancy.simulate import simulate, timed_switch
 from diagnostics.timeseries import SeriesRecord
+from sim.rigs.assembly import Rig
+from sim.rigs.schema import validate_rig_document
 
-__all__ = ["LackOfFit", "lack_of_fit", "series_lack_of_fit"]
+__all__ = ["LackOfFit", "lack_of_fit", "repeats_lack_of_fit", "series_lack_of_fit"]
 
 
 @dataclass(frozen=True)
@@ -153,3 +158,29 @@ def series_lack_of_fit(records: Sequence[SeriesRecord], tables: Sequence[pd.Data
     if not sel:
         return None
     return lack_of_fit(np.asarray(resid)[sel], [groups[i] for i in sel], 0)
+
+
+def repeats_lack_of_fit(records: Sequence[SeriesRecord], rig: Rig,
+                         new_doc: dict[str, Any] | None, channels: Sequence[str],
+                         sig: Mapping[str, float]) -> dict[str, Any]:
+    """Lack-of-fit F-test of the stored (and augmented) rig against records that repeat a
+    condition (:func:`~diagnostics.discrepancy.lof.series_lack_of_fit`); empty without
+    repeats.  One simulation per distinct condition."""
+    conds = [condition_of(r, rig) for r in records]
+    switches = [timed_switch(r, rig) for r in records]
+    keys = [(c.load, c.back_pressure, c.oil_temperature, c.pump_speed,
+             None if sw is None else round(sw, 2)) for c, sw in zip(conds, switches, strict=True)]
+    if len(set(keys)) == len(keys):
+        return {}
+    out: dict[str, Any] = {}
+    rigs = {"before": rig}
+    if new_doc is not None:
+        rigs["after"] = Rig.from_spec(validate_rig_document(new_doc))
+    for label, model in rigs.items():
+        sims: dict[Any, pd.DataFrame] = {}
+        for k, c, sw in zip(keys, conds, switches, strict=True):
+            if k not in sims:
+                sims[k] = simulate(model, c, None, sw)
+        res = series_lack_of_fit(records, [sims[k] for k in keys], channels, sig, keys)
+        out[label] = res.to_dict() if res is not None else None
+    return out

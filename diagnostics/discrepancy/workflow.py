@@ -44,13 +44,12 @@ import pandas as pd
 from diagnostics.discrepancy.balances import balance_data
 from diagnostics.discrepancy.confirm import Small, confirm_chosen, confirm_small
 from diagnostics.discrepancy.gap import GapRow, gap_table
-from diagnostics.discrepancy.lof import series_lack_of_fit
+from diagnostics.discrepancy.lof import repeats_lack_of_fit
 from diagnostics.discrepancy.refit import with_effects
 from diagnostics.discrepancy.selection import PRACTICAL, Selection, select
 from diagnostics.discrepancy.signals import condition_of, prepare
 from diagnostics.discrepancy.simulate import (
     SOLVER,
-    simulate,
     simulate_record,
     solver_error,
     timed_switch,
@@ -320,7 +319,7 @@ def discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], *
         traces["after_all"] = after_tables
     else:
         gap_after, white_after = [], {}
-    lof = _repeats_lack_of_fit(records, rig, new_doc if named else None, channels, sig)
+    lof = repeats_lack_of_fit(records, rig, new_doc if named else None, channels, sig)
     outcome, message = verdict([n.name for n in named], selections, gap_before, gap_after,
                                white_after, sig)
     if lof.get("before") is not None:
@@ -374,32 +373,6 @@ def _screened_effect(sc: Screened) -> NamedEffect:
                        (sc.value - 1.96 * sc.error, sc.value + 1.96 * sc.error),
                        bool(lo <= sc.value <= hi), (lo, hi), sc.value / sc.error,
                        float("nan"), [], [])
-
-
-def _repeats_lack_of_fit(records: Sequence[SeriesRecord], rig: Rig,
-                         new_doc: dict[str, Any] | None, channels: Sequence[str],
-                         sig: Mapping[str, float]) -> dict[str, Any]:
-    """Lack-of-fit F-test of the stored (and augmented) rig against records that repeat a
-    condition (:func:`~diagnostics.discrepancy.lof.series_lack_of_fit`); empty without
-    repeats.  One simulation per distinct condition."""
-    conds = [condition_of(r, rig) for r in records]
-    switches = [timed_switch(r, rig) for r in records]
-    keys = [(c.load, c.back_pressure, c.oil_temperature, c.pump_speed,
-             None if sw is None else round(sw, 2)) for c, sw in zip(conds, switches, strict=True)]
-    if len(set(keys)) == len(keys):
-        return {}
-    out: dict[str, Any] = {}
-    rigs = {"before": rig}
-    if new_doc is not None:
-        rigs["after"] = Rig.from_spec(validate_rig_document(new_doc))
-    for label, model in rigs.items():
-        sims: dict[Any, pd.DataFrame] = {}
-        for k, c, sw in zip(keys, conds, switches, strict=True):
-            if k not in sims:
-                sims[k] = simulate(model, c, None, sw)
-        res = series_lack_of_fit(records, [sims[k] for k in keys], channels, sig, keys)
-        out[label] = res.to_dict() if res is not None else None
-    return out
 
 
 def _solver_statement(tables: list[pd.DataFrame]) -> str:
