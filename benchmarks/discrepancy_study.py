@@ -4,7 +4,10 @@ Run: ``python -m benchmarks.discrepancy_study`` (``make discrepancy-study``).
 ``HYDRODIAG_LIGHT=1`` runs a small subset (CI); ``HYDRODIAG_SEEDS=N`` sets the seeds per
 (effect, size) (default 30) and scales the no-effect (5N/3 per noise × drift cell, 300 at
 N = 30) and out-of-library (5N/6 per kind, 50 at N = 30 with two kinds) counts;
-``HYDRODIAG_WORKERS`` sets the process pool (default 2).  ``make discrepancy-study`` runs
+``HYDRODIAG_WORKERS`` sets the process pool (default 2); ``HYDRODIAG_KINDS`` (comma-separated
+of ``steady,hidden,null,outside``, default all) runs only those kinds of case, at the counts
+``HYDRODIAG_SEEDS`` gives them (``HYDRODIAG_KINDS=outside`` with 30 seeds: the 50
+out-of-library cases alone).  ``make discrepancy-study`` runs
 BLAS single-threaded (``OPENBLAS_NUM_THREADS=1``): with one process worker per core,
 threaded BLAS made the selection's bootstrap about 10× slower on a loaded machine.
 
@@ -85,6 +88,8 @@ from sim.rigs.assembly import Condition
 LIGHT = os.environ.get("HYDRODIAG_LIGHT") == "1"
 SEEDS = int(os.environ.get("HYDRODIAG_SEEDS", "1" if LIGHT else "30"))
 WORKERS = int(os.environ.get("HYDRODIAG_WORKERS", "2"))
+KINDS = {"steady", "hidden", "null", "outside"}
+CHOSEN = set(os.environ.get("HYDRODIAG_KINDS", ",".join(sorted(KINDS))).split(","))
 SIZES = (8.0, 16.0) if LIGHT else (4.0, 8.0, 16.0)
 LIGHT_EFFECTS = ("seal_friction_pressure", "piston_clearance_pressure",
                  "turbulent_pump_slip", "speed_offset")
@@ -272,11 +277,14 @@ def _median(xs: list[float]) -> float | None:
 def main() -> None:
     t_start = time.perf_counter()
     rig_effects = effects_for(reference_rig().circuit.name)
-    effects = [e for e in LIGHT_EFFECTS if e in rig_effects] if LIGHT else list(rig_effects)
+    if not CHOSEN <= KINDS:
+        sys.exit(f"HYDRODIAG_KINDS: unknown {sorted(CHOSEN - KINDS)}; known {sorted(KINDS)}")
+    effects = [e for e in (LIGHT_EFFECTS if LIGHT else rig_effects)
+               if e in rig_effects and "hidden" in CHOSEN]
     print(f"discrepancy study: {'LIGHT' if LIGHT else 'full'}, {SEEDS} seed(s) per cell, "
           f"sizes {SIZES} σ, {WORKERS} worker(s), design (load N, °C, rad/s) {DESIGN}")
     # the steady pump-bench cases first: cheap, and a failure there shows at once
-    steady = steady_study(SEEDS, SIZES, LIGHT)
+    steady = steady_study(SEEDS, SIZES, LIGHT) if "steady" in CHOSEN else {}
     rows: list[dict[str, Any]] = []
     tasks: list[tuple[str, float, float, int]] = []
     for effect in effects:
@@ -293,10 +301,10 @@ def main() -> None:
             tasks += [(effect, size, strength, s) for s in range(SEEDS)]
             rows.append({"effect": effect, "balance": EFFECTS[effect].entry.balance,
                          "size_sigma": size, "strength": strength, "n": SEEDS})
-    n_null = 1 if LIGHT else max(1, round(SEEDS * 5 / 3))
+    n_null = 0 if "null" not in CHOSEN else 1 if LIGHT else max(1, round(SEEDS * 5 / 3))
     cells = [(noise, drift) for noise in ("gaussian", "proportional", "heavy")
              for drift in (False, True)]
-    n_out = 1 if LIGHT else max(1, round(SEEDS * 5 / 6))
+    n_out = 0 if "outside" not in CHOSEN else 1 if LIGHT else max(1, round(SEEDS * 5 / 6))
     # seed-major order: a run stopped early has results for every cell
     jobs: list[tuple[str, Any]] = []
     for k in range(max(SEEDS, n_null, n_out)):
@@ -310,8 +318,10 @@ def main() -> None:
     null = [r for r in done if r["kind_of_case"] == "null"]
     outside = [r for r in done if r["kind_of_case"] == "outside"]
     per_case_s = float(np.median([r["seconds"] for r in done])) if done else float("nan")
-    print(f"{'effect':28s} {'size':>5s} {'n':>3s} {'exact':>6s} {'group':>6s} {'wrong':>6s} "
-          f"{'none':>5s} {'fail':>5s} {'RMSE ×':>7s} {'vs data':>7s} {'excess ×':>8s}")
+    if rows:
+        print(f"{'effect':28s} {'size':>5s} {'n':>3s} {'exact':>6s} {'group':>6s} "
+              f"{'wrong':>6s} {'none':>5s} {'fail':>5s} {'RMSE ×':>7s} {'vs data':>7s} "
+              f"{'excess ×':>8s}")
     for row in rows:
         if row["n"] == 0:
             print(f"{row['effect']:28s} {row['size_sigma']:5.0f}   skipped: strength "
@@ -335,7 +345,7 @@ def main() -> None:
               f"{row['median_excess_ratio'] or float('nan'):8.2f}")
     # no effect: noise kinds × drift
     null_rows: list[dict[str, Any]] = []
-    for noise, drift in cells:
+    for noise, drift in cells if n_null else []:
         mine = [r for r in null if r["noise"] == noise and r["drift"] == drift]
         fd = sum(r["outcome"] == "named" for r in mine)
         failed = sum(r["outcome"] == "failed" for r in mine)
@@ -347,7 +357,7 @@ def main() -> None:
               + (f" ({failed} simulation failures)" if failed else ""))
     # outside the library
     out_rows: list[dict[str, Any]] = []
-    for kind in OUTSIDE:
+    for kind in OUTSIDE if n_out else {}:
         mine = [r for r in outside if r["kind"] == kind and r["outcome"] != "failed"]
         misnamed = sum(r["outcome"] == "named" for r in mine)
         unexplained = sum(r["outcome"] in ("unexplained", "partially explained") for r in mine)
@@ -370,7 +380,8 @@ def main() -> None:
         return float(np.mean(sel)) if sel else None
 
     summary = {
-        "light": LIGHT, "seeds_per_cell": SEEDS, "workers": WORKERS, "effects": effects,
+        "light": LIGHT, "seeds_per_cell": SEEDS, "workers": WORKERS, "kinds": sorted(CHOSEN),
+        "effects": effects,
         "sizes_sigma": list(SIZES), "design": [list(c) for c in DESIGN],
         "cases_hidden": len(tasks),
         "exact_rate_by_size": {str(s): rate(s, "exact") for s in SIZES},
