@@ -275,12 +275,12 @@ def _median(xs: list[float]) -> float | None:
 
 
 def main() -> None:
-    t_start = time.perf_counter()
-    rig_effects = effects_for(reference_rig().circuit.name)
     if not CHOSEN <= KINDS:
         sys.exit(f"HYDRODIAG_KINDS: unknown {sorted(CHOSEN - KINDS)}; known {sorted(KINDS)}")
-    effects = [e for e in (LIGHT_EFFECTS if LIGHT else rig_effects)
-               if e in rig_effects and "hidden" in CHOSEN]
+    t_start = time.perf_counter()
+    rig_effects = effects_for(reference_rig().circuit.name)
+    effects = ([e for e in LIGHT_EFFECTS if e in rig_effects] if LIGHT else list(rig_effects)
+               ) if "hidden" in CHOSEN else []
     print(f"discrepancy study: {'LIGHT' if LIGHT else 'full'}, {SEEDS} seed(s) per cell, "
           f"sizes {SIZES} σ, {WORKERS} worker(s), design (load N, °C, rad/s) {DESIGN}")
     # the steady pump-bench cases first: cheap, and a failure there shows at once
