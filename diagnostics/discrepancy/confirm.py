@@ -49,13 +49,21 @@ from sim.errors import InputError, SimulationError
 from sim.rigs.assembly import Rig
 from sim.rigs.schema import validate_rig_document
 
-__all__ = ["Confirmed", "Small", "confirm_chosen", "confirm_small", "start_of"]
+__all__ = ["Confirmed", "Small", "confirm_chosen", "confirm_small", "is_significant",
+           "start_of"]
 
 Progress = Callable[[float, str], None]
 
 #: below the practical size, a held-out excess ratio this many times the confirmation
 #: ratio stands in for closing the held-out gap to the noise [-]
 SMALL_RATIO = 2.0
+
+
+def is_significant(value: float, error: float) -> bool:
+    """Whether an output-error coefficient ``value`` is :data:`SIGNIFICANT_T` standard
+    errors ``error`` [same unit] from zero; not when the error could not be estimated
+    (NaN: a singular Jacobian or a flat χ², the records do not determine it)."""
+    return math.isfinite(error) and abs(value) >= SIGNIFICANT_T * error
 
 
 def start_of(fit: Fit) -> dict[str, float]:
@@ -121,9 +129,10 @@ def confirm_chosen(doc: dict[str, Any], rig: Rig, selections: Sequence[Selection
                 start = starts[0]
                 fitted, fit_err = dict(start), {key: float("nan") for key in start}
             fit = out.picked.get(s.balance, s.chosen)
-            significant = all(not math.isfinite(fit_err[key])
-                              or abs(fitted[key]) >= SIGNIFICANT_T * fit_err[key]
-                              for key in fitted)
+            # without a re-fit the equation error's significance stands (errors NaN by
+            # design); after one, an error the fit could not estimate is not significant
+            significant = not refit or all(is_significant(fitted[key], fit_err[key])
+                                           for key in fitted)
             if slow:
                 trial = Rig.from_spec(validate_rig_document(with_effects(doc, fitted)))
                 confirmed = slow_confirmed(rig, trial, slow_records(held, rig), channels, sig,
@@ -191,7 +200,7 @@ def confirm_small(doc: dict[str, Any], selections: Sequence[Selection],
         value, err = values[key], errors[key]
         regions = ("steady",) if compare_from([key]) > 0 else ("steady", "after step")
         ratio = excess_ratio(gap_before, after, sig, regions)
-        if not (math.isfinite(err) and abs(value) >= SIGNIFICANT_T * err):
+        if not is_significant(value, err):
             notes.append(f"{term.effect} ({size}; output-error coefficient not significant)")
         elif ratio < confirm_ratio:
             notes.append(f"{term.effect} ({size}; held-out gap ratio {ratio:.2f} < "

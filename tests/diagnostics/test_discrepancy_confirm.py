@@ -10,13 +10,16 @@ it by re-simulation and names it.
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import pytest
 
 from benchmarks.discrepancy_study import _case, _doc_with
 from diagnostics.discrepancy.balances import BalanceData
+from diagnostics.discrepancy.confirm import is_significant
 from diagnostics.discrepancy.selection import PRACTICAL, select
+from diagnostics.discrepancy.transient import SIGNIFICANT_T
 from tests.diagnostics.test_discrepancy_practical import bench_balance
 from tests.diagnostics.test_discrepancy_transient import assert_named_alone
 
@@ -56,3 +59,13 @@ def test_seal_friction_below_the_practical_size_is_named_by_re_simulation() -> N
     assert piston["chosen"] == []
     assert (piston["candidates"]["seal_friction_pressure"]["rms_contribution"]
             < piston["practical_size"])
+
+
+def test_a_re_fitted_coefficient_is_significant_only_with_an_error_the_fit_could_estimate(
+) -> None:
+    # the output-error error is NaN when the Jacobian is singular or the slow strokes' χ²
+    # is flat: the records do not determine the coefficient, so it is not confirmed
+    assert not is_significant(5.0, math.nan)
+    assert not is_significant(5.0, math.inf)
+    assert is_significant(-5.0, 5.0 / (SIGNIFICANT_T + 0.1))
+    assert not is_significant(5.0, 5.0 / (SIGNIFICANT_T - 0.1))
