@@ -39,7 +39,7 @@ import numpy as np
 import numpy.typing as npt
 
 from diagnostics.signatures import RIDGE_POINTS, RIDGE_ROUNDS
-from diagnostics.stroke_state import stroke_codes
+from diagnostics.stroke_state import SPEED_COLUMNS, stroke_codes
 
 if TYPE_CHECKING:
     from diagnostics.fastpath.maps import FastMaps
@@ -56,7 +56,7 @@ RIDGE_TOL = float((RIDGE_POINTS + 1) ** -RIDGE_ROUNDS)
 #: refinement rounds at most; a ridge still wider than its tolerance keeps its bracket
 MAX_ROUNDS = 8
 #: where a round solves, around the estimate, in tolerances [-]
-OFFSETS = (-36.0, -12.0, -4.0, -1.5, -0.45, 0.45, 1.5, 4.0, 12.0, 36.0)
+OFFSETS = (-36.0, -12.0, -4.0, -1.35, -0.45, 0.45, 1.35, 4.0, 12.0, 36.0)
 #: the creep ridge's first estimate from the held state (the level of its drive where the
 #: moving state's friction is that at the creep speed) before any moving solve
 HELD_ESTIMATE = True
@@ -118,13 +118,22 @@ class _Target:
     owner: _Target | None = None
     waiting: bool = False
     guess: float | None = None
+    #: a creep ridge's two points on its moving side nearest it: (z, speed above creep)
+    near: tuple[tuple[float, float], tuple[float, float]] | None = None
 
     def estimate(self) -> float:
-        """The first estimate where given, else regula falsi in the bracket (its middle
-        where the drives do not allow it)."""
+        """The first estimate where given; for a creep ridge with two points on its
+        moving side, the line of their speeds extrapolated to the creep speed; else regula falsi
+        in the bracket (its middle where the drives do not allow it)."""
         if self.guess is not None:
             z, self.guess = self.guess, None
             return min(max(z, self.lo), self.hi)
+        if self.near is not None:
+            (z1, g1), (z2, g2) = self.near
+            if g1 != g2:
+                z = z1 - g1 * (z2 - z1) / (g2 - g1)
+                if self.lo < z < self.hi:
+                    return z
         den = self.g_lo - self.g_hi
         if math.isfinite(den) and den != 0.0:
             z = self.lo + (self.hi - self.lo) * self.g_lo / den
@@ -206,6 +215,7 @@ def locate(maps: FastMaps, pieces: list[Piece]) -> list[list[Cut]]:
                 g = drv[np.arange(len(phases)), phases, 1]
                 sides = [bool(c >= 0 and _above(int(c), ph, True))
                          for c, ph in zip(codes, phases, strict=True)]
+                speed = out[np.arange(len(phases)), np.take(SPEED_COLUMNS, phases)] - creep
             j = 0
             for t, z in zip(todo, zs, strict=True):
                 sl = slice(j, j + z.size)
@@ -213,6 +223,8 @@ def locate(maps: FastMaps, pieces: list[Piece]) -> list[list[Cut]]:
                 r = slice(None) if held or t.up else slice(None, None, -1)
                 _update(t, z[r], codes[sl][r], np.asarray(sides[sl])[r], g[sl][r], ys[sl][r],
                         ok[sl][r])
+                if not held:
+                    _moving_side(t, z[r], np.asarray(sides[sl])[r], speed[sl][r])
                 if t.owner is not None and not t.open:  # the creep ridge's first estimate
                     t.owner.waiting = False
                     if not t.dead:
@@ -255,6 +267,30 @@ def _update(t: _Target, zs: Arr, codes: IArr, sides: npt.NDArray[np.bool_], g: A
             _keep(t, "lo", ys[j - 1] if ok[j - 1] else None)
     if t.hi - t.lo <= t.tol:
         t.open = False
+
+
+def _moving_side(t: _Target, zs: Arr, sides: npt.NDArray[np.bool_], excess: Arr) -> None:
+    """Keep a creep ridge's two points nearest it on its moving side (``zs`` ascending;
+    this round's and the last ones') with the stroke's speed above the creep speed
+    ``excess`` [m/s], which extrapolates to the ridge (:meth:`_Target.estimate`): the
+    drive does not, it bends down steeply near the ridge and is far off on the creeping
+    side, so that regula falsi across the bracket left the second round's estimate 5-6
+    tolerances off (measured), a third round."""
+    if t.dead:
+        return
+    moving = np.asarray(sides, dtype=bool)
+    if t.up:  # the moving side is lo's: the run of points from lo
+        n = moving.size if moving.all() else int(np.argmin(moving))
+        idx = range(n)
+    else:  # hi's: the run of points up to hi
+        n = moving.size if moving.all() else int(np.argmin(moving[::-1]))
+        idx = range(moving.size - n, moving.size)
+    pts = [(float(zs[i]), float(excess[i])) for i in idx if math.isfinite(excess[i])]
+    if t.near is not None:
+        pts += list(t.near)
+    if len(pts) >= 2:
+        pts.sort(key=lambda q: q[0], reverse=t.up)  # the nearest the ridge first
+        t.near = (pts[0], pts[1])
 
 
 def _keep(t: _Target, end: str, y: Arr | None) -> None:
