@@ -133,5 +133,6 @@ def verdict(named: Sequence[str], selections: list[Selection], before: list[GapR
         return ("unexplained",
                 f"model and data differ ({where}, held-out steady RMSE) but no library "
                 "effect explains it: possibly outside the library, or a drift of base "
-                "parameters that the stored rig does not have")
+                "parameters that the stored rig does not have (re-commission the rig from "
+                "healthy records: POST /rigs/{id}/commission, hydrodiag commission)")
     return "no effect", "no effect found: the gap is within the noise and the practical size"

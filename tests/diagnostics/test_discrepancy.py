@@ -92,6 +92,8 @@ def test_a_gap_outside_the_library_is_unexplained_not_misnamed():
     assert d.named == []
     assert d.verdict == "unexplained"
     assert "P_pump" in d.message
+    # and where to go next when the stored rig has drifted rather than a new effect acting
+    assert "POST /rigs/{id}/commission" in d.message
 
 
 def test_a_balance_with_too_few_samples_is_an_input_error_naming_the_file():
