@@ -18,15 +18,18 @@ root of a quantity the grid solves give already, the piston's *drive*
 
 A secant between the two coarse nodes around a ridge estimates it; each round solves a
 few points around the estimate (offsets :data:`OFFSETS` times the tolerance) and at the
-bracket's quartiles, the bracket shrinks to the first change of side among them, and the next
-estimate is the secant of the new bracket.  The side of a point is that of the direct
-maps (its stroke state, :func:`diagnostics.stroke_state.stroke_codes`; for the held
-ridge the sign of the end-stop state's drive, the consistency test of that state).  All
-the ridges of all the hypotheses at a condition are refined together, one compiled solve
-per kind per round (:data:`MAX_ROUNDS` at most; typically two), each run of points
-started from the solution at an end of its bracket.  A point with no operating point
-gives up the ridge (no cut, as the direct maps).  The final bracket is as narrow as the
-direct maps' (:data:`RIDGE_TOL` of the coarse interval).
+bracket's quartiles, the bracket shrinks to the first change of side among them, and the
+next estimate is the secant of the new bracket; for a creep ridge, once two points lie on
+its moving side, the line of their speeds extrapolated to the creep speed (the drive bends
+steeply near that ridge: its secant left a third round in most conditions).  The side of
+a point is that of the direct maps (its stroke state,
+:func:`diagnostics.stroke_state.stroke_codes`; for the held ridge the sign of the end-stop
+state's drive, the consistency test of that state).  All the ridges of all the hypotheses
+at a condition are refined together, one compiled solve per kind per round
+(:data:`MAX_ROUNDS` at most; typically two), each run of points started from the solution
+at an end of its bracket.  A point with no operating point gives up the ridge (no cut, as
+the direct maps).  The final bracket is as narrow as the direct maps' (:data:`RIDGE_TOL`
+of the coarse interval).
 """
 
 from __future__ import annotations
@@ -123,8 +126,8 @@ class _Target:
 
     def estimate(self) -> float:
         """The first estimate where given; for a creep ridge with two points on its
-        moving side, the line of their speeds extrapolated to the creep speed; else regula falsi
-        in the bracket (its middle where the drives do not allow it)."""
+        moving side, the line of their speeds extrapolated to the creep speed; else
+        regula falsi in the bracket (its middle where the drives do not allow it)."""
         if self.guess is not None:
             z, self.guess = self.guess, None
             return min(max(z, self.lo), self.hi)
