@@ -14,8 +14,10 @@ import math
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
 from typing import Any
+from weakref import WeakKeyDictionary
 
 import numpy as np
+import numpy.typing as npt
 
 from diagnostics.goodness import GoodnessOfFit, goodness_of_fit
 from diagnostics.inversion import LeakageGeometry, cylinder_clearance, valve_clearance
@@ -24,7 +26,7 @@ from diagnostics.measurement import MeasurementRecord
 from diagnostics.observations import OBSERVABLE_UNITS, observe
 from diagnostics.ranking import HypothesisFit, Method, Ranker
 from diagnostics.ratio_index import RatioIndex, ratio_index
-from diagnostics.signatures import OBSERVABLES
+from diagnostics.signatures import OBSERVABLES, SignatureMaps
 from diagnostics.uncertainty import Estimate
 from sim.errors import MeasurementError, SimulationError
 from sim.rigs import Rig
@@ -222,42 +224,59 @@ def regime_notes(ranker: Ranker) -> list[str]:
     """Statements of the end-stop states (a stalled stroke, modelled: :mod:`sim.steady`)
     and of the values without prediction (masked) the maps met."""
     out: list[str] = []
-    iw, ir = OBSERVABLES.index("speed_work"), OBSERVABLES.index("speed_return")
     for i, m in enumerate(ranker.models):
         where = f"record {i}: " if len(ranker.models) > 1 else ""
-        nominal = m.maps.nominal
-        if nominal[iw] == 0.0:
-            out.append(f"{where}the healthy rig's working piston sits on its end stop at this "
-                       "condition (load at or above what it can push): predicted in its "
-                       "end-stop state, speed 0")
-        if nominal[ir] == 0.0:
-            out.append(f"{where}the healthy rig's return stroke sits on its end stop at this "
-                       "condition (no velocity ratio); a record's ratio is compared as "
-                       "impossible")
-        elif not np.isfinite(nominal).all():
-            out.append(f"{where}the healthy rig has no steady operating point at this "
-                       "condition; readings without prediction are compared as impossible")
-        # the pressures and flows are the working phase's: its stop concerns every record
-        reads_return = bool(np.isin(m.idx, (ir, OBSERVABLES.index("velocity_ratio"))).any())
-        for name, hm in m.maps.maps.items():
-            (p,) = hm.params
-            for col, phase in ((iw, "working"), (ir, "return")):
-                held = hm.pred[:, col] == 0.0
-                if held.any() and (phase == "working" or reads_return):
-                    vals = np.array([p.from_z(float(z)) for z in hm.axes[0][held]])
-                    out.append(
-                        f"{where}{name}: for {p.name} from {vals.min():.4g} to "
-                        f"{vals.max():.4g} {p.unit} ({held.mean():.0%} of its prior range) "
-                        f"the {phase} piston sits on its end stop (stalled); predicted in "
-                        "that state (speed 0, the pump's flow through the leakage paths and "
-                        "over the relief valve)")
-            bad = np.isnan(hm.pred[:, m.idx]).any(axis=1)
-            if not bad.any():
-                continue
-            vals = np.array([p.from_z(float(z)) for z in hm.axes[0][bad]])
-            out.append(
-                f"{where}{name}: for {p.name} from {vals.min():.4g} to {vals.max():.4g} "
-                f"{p.unit} ({bad.mean():.0%} of its prior range) these readings have no "
-                "prediction (a velocity ratio with the return stroke on its end stop, or no "
-                "steady operating point); those values are masked (excluded) in the fit")
+        idx = tuple(int(k) for k in m.idx)
+        kept = _NOTES.setdefault(m.maps, {})
+        if idx not in kept:  # the notes follow from the maps and the readings' columns
+            kept[idx] = _map_notes(m.maps, np.asarray(m.idx))
+        out += [where + note for note in kept[idx]]
+    return out
+
+
+#: per signature maps (one condition), their regime notes by the readings' columns
+_NOTES: WeakKeyDictionary[SignatureMaps, dict[tuple[int, ...], list[str]]] = (
+    WeakKeyDictionary())
+
+
+def _map_notes(maps: SignatureMaps, idx: npt.NDArray[np.int64]) -> list[str]:
+    """:func:`regime_notes` of one condition's maps for readings of columns ``idx``."""
+    out: list[str] = []
+    iw, ir = OBSERVABLES.index("speed_work"), OBSERVABLES.index("speed_return")
+    nominal = maps.nominal
+    if nominal[iw] == 0.0:
+        out.append("the healthy rig's working piston sits on its end stop at this "
+                   "condition (load at or above what it can push): predicted in its "
+                   "end-stop state, speed 0")
+    if nominal[ir] == 0.0:
+        out.append("the healthy rig's return stroke sits on its end stop at this "
+                   "condition (no velocity ratio); a record's ratio is compared as "
+                   "impossible")
+    elif not np.isfinite(nominal).all():
+        out.append("the healthy rig has no steady operating point at this "
+                   "condition; readings without prediction are compared as impossible")
+    # the pressures and flows are the working phase's: its stop concerns every record
+    reads_return = bool(np.isin(idx, (ir, OBSERVABLES.index("velocity_ratio"))).any())
+    for name, hm in maps.maps.items():
+        (p,) = hm.params
+        for col, phase in ((iw, "working"), (ir, "return")):
+            held = hm.pred[:, col] == 0.0
+            if held.any() and (phase == "working" or reads_return):
+                z = hm.axes[0][held]  # from_z increases with z
+                out.append(
+                    f"{name}: for {p.name} from {p.from_z(float(z.min())):.4g} to "
+                    f"{p.from_z(float(z.max())):.4g} {p.unit} ({held.mean():.0%} of its prior "
+                    f"range) the {phase} piston sits on its end stop (stalled); predicted in "
+                    "that state (speed 0, the pump's flow through the leakage paths and "
+                    "over the relief valve)")
+        bad = np.isnan(hm.pred[:, idx]).any(axis=1)
+        if not bad.any():
+            continue
+        z = hm.axes[0][bad]
+        out.append(
+            f"{name}: for {p.name} from {p.from_z(float(z.min())):.4g} to "
+            f"{p.from_z(float(z.max())):.4g} {p.unit} ({bad.mean():.0%} of its prior range) "
+            "these readings have no prediction (a velocity ratio with the return stroke on "
+            "its end stop, or no steady operating point); those values are masked "
+            "(excluded) in the fit")
     return out
