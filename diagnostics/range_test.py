@@ -169,27 +169,69 @@ def _record_chi2(m: RecordModel, out: Arr) -> Arr:
     return np.asarray(np.sum(r * r, axis=1))
 
 
-def _grid_chi2(ranker: Ranker, ps: list[FaultParameter], grids: Arr) -> Arr:
-    """:func:`_points` of the first search grids (row ``i``: parameter ``ps[i]``): their
-    predictions do not depend on the readings, so each record's maps keep them
-    (:attr:`FastMaps.kept`, per parameter and grid) and a record at a condition seen
-    before costs no solve; the missing rows are solved together, one call per record."""
+def _grid_chi2(ranker: Ranker, ps: list[FaultParameter], grids: Arr) -> tuple[Arr, _Known]:
+    """:func:`_points` of the first search grids (row ``i``: parameter ``ps[i]``), and the
+    points solved (:data:`_Known`): their predictions do not depend on the readings, so
+    each record's maps keep them (:attr:`FastMaps.kept`, per parameter and grid) and a
+    record at a condition seen before costs no solve; the missing rows are solved
+    together, one call per record."""
     if not all(isinstance(m.maps, FastMaps) for m in ranker.models):
-        return _points(ranker, ps, grids)
+        return _points(ranker, ps, grids), []
     total = np.zeros(grids.shape)
+    known: _Known = []
     for m in ranker.models:
         maps = m.maps
         assert isinstance(maps, FastMaps)
         keys = [("range grid", p.name, g.tobytes()) for p, g in zip(ps, grids, strict=True)]
         missing = [i for i, k in enumerate(keys) if k not in maps.kept]
         if missing:
-            out, _, _, _ = maps.probe_moving(
+            out, ys, _, ok = maps.probe_moving(
                 [ps[i] for i in missing for _ in range(grids.shape[1])],
                 [grids[missing].reshape(-1)], [None])
             for j, i in enumerate(missing):
-                maps.kept[keys[i]] = out[j * grids.shape[1]:(j + 1) * grids.shape[1]]
+                sl = slice(j * grids.shape[1], (j + 1) * grids.shape[1])
+                maps.kept[keys[i]] = (out[sl], ys[sl], ok[sl])
+        rows = []
         for i, k in enumerate(keys):
-            total[i] = _record_chi2(m, maps.kept[k])
+            out_k, ys_k, ok_k = maps.kept[k]
+            total[i] = _record_chi2(m, out_k)
+            rows.append((grids[i][ok_k], ys_k[ok_k]))
+        known.append(rows)
+    return total, known
+
+
+#: per record, per search row: the points solved so far [fitting coordinate] and the
+#: phases' solutions there, from which the next points of the row start
+_Known = list[list[tuple[Arr, Arr]]]
+
+
+def _points_near(ranker: Ranker, ps: list[FaultParameter], zs: Arr, known: _Known) -> Arr:
+    """:func:`_points` of rows of equally spaced points, each row a run of the compiled
+    solve started from the solution at the nearest point of its row solved before
+    (``known``, extended in place), not from the last point of another row, of another
+    parameter (measured on the diagnose bench's warm record, four faults pinned on their
+    bounds: the three refinement levels 0.56 / 0.43 / 0.31 → 0.51 / 0.23 / 0.19 ms)."""
+    if not known:
+        return _points(ranker, ps, zs)
+    rows, cols = zs.shape
+    total = np.zeros((rows, cols))
+    params = [p for p in ps for _ in range(cols)]
+    for m, row_known in zip(ranker.models, known, strict=True):
+        maps = m.maps
+        assert isinstance(maps, FastMaps)
+        starts: list[Arr | None] = []
+        for i in range(rows):
+            z_done, y_done = row_known[i]
+            starts.append(y_done[int(np.argmin(np.abs(z_done - zs[i, 0])))]
+                          if z_done.size else None)
+        out, ys, _, ok = maps.probe_moving(params, list(zs), starts, even=True)
+        total += _record_chi2(m, out).reshape(rows, cols)
+        for i in range(rows):
+            sl = slice(i * cols, (i + 1) * cols)
+            good = ok[sl]
+            z_done, y_done = row_known[i]
+            row_known[i] = (np.concatenate([z_done, zs[i][good]]),
+                            np.concatenate([y_done, ys[sl][good]]))
     return total
 
 
@@ -274,16 +316,18 @@ def _search_1d(ranker: Ranker, plans: list[_Plan]) -> list[tuple[float, float, f
         return []
     ps = [pl.params[0] for pl in plans]
     grids = np.array([np.linspace(pl.zle[0], pl.zue[0], SCAN_POINTS) for pl in plans])
-    chi_b = _finite(_points(ranker, ps, np.array([[pl.z0[0]] for pl in plans])))[:, 0]
-    xs, ys = grids, _finite(_grid_chi2(ranker, ps, grids))
+    grid_chi2, known = _grid_chi2(ranker, ps, grids)
+    chi_b = _finite(_points_near(ranker, ps, np.array([[pl.z0[0]] for pl in plans]),
+                                 known))[:, 0]
+    xs, ys = grids, _finite(grid_chi2)
     for _ in range(REFINE_LEVELS):  # each level: a grid between the best point's neighbours
         fine = np.array([np.linspace(*_bracket(x, y), REFINE_POINTS)
                          for x, y in zip(xs, ys, strict=True)])
         xs = np.concatenate([xs, fine], axis=1)
-        ys = np.concatenate([ys, _finite(_points(ranker, ps, fine))], axis=1)
+        ys = np.concatenate([ys, _finite(_points_near(ranker, ps, fine, known))], axis=1)
     for _ in range(VERTEX_STEPS):
         zv = np.array([_vertex(x, y) for x, y in zip(xs, ys, strict=True)])
-        cv = _finite(_points(ranker, ps, zv[:, None]))
+        cv = _finite(_points_near(ranker, ps, zv[:, None], known))
         xs = np.concatenate([xs, zv[:, None]], axis=1)
         ys = np.concatenate([ys, cv], axis=1)
     out = []

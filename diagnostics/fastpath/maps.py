@@ -146,8 +146,9 @@ class FastMaps(SignatureMaps):
         self._ev: SteadyEvaluator | None = None
         self._moved: dict[Condition, Arr | None] = {}
         #: predictions that do not depend on the readings, kept for the next record at
-        #: this condition (the range test's first grids, :mod:`diagnostics.range_test`)
-        self.kept: dict[tuple[str, str, bytes], Arr] = {}
+        #: this condition with the phases' solutions and success (the range test's first
+        #: grids, :mod:`diagnostics.range_test`)
+        self.kept: dict[tuple[str, str, bytes], tuple[Arr, Arr, npt.NDArray[np.bool_]]] = {}
         self._base = np.array([rig.base[n] for n in GRAPH_PARAMETERS])
         self.ctx = Context(rig, condition, chord)
         try:
@@ -251,14 +252,20 @@ class FastMaps(SignatureMaps):
         return grid
 
     def probe_moving(self, params: list[FaultParameter], zs: list[Arr],
-                     starts: list[Arr | None]) -> tuple[Arr, Arr, Arr, npt.NDArray[np.bool_]]:
+                     starts: list[Arr | None], even: bool = False
+                     ) -> tuple[Arr, Arr, Arr, npt.NDArray[np.bool_]]:
         """Observables, solutions, drives and success (:meth:`Context.probe`) at runs of
         points: run ``j`` at fitting coordinates ``zs[j]`` of its parameters (``params``,
         one per point), the first started from ``starts[j]`` (the phases' solutions
-        nearby; None: the last solution), each next one from the one before.  Points the
-        compiled solve fails are retried by the direct evaluator (observables only)."""
+        nearby; None: the last solution), each next one from the one before (``even``:
+        runs of equally spaced points, each next one from the solutions before it
+        extrapolated, as the maps' grids).  Points the compiled solve fails are retried
+        by the direct evaluator (observables only)."""
         flat = np.concatenate(zs)
         flags = np.ones(flat.size, dtype=np.int64)
+        if even:
+            flags[:] = 0
+            flags[np.cumsum([0] + [z.size for z in zs[:-1]])] = 1
         y0 = np.empty((flat.size, 2, self.ctx.states.shape[1]))
         at = 0
         for z, y in zip(zs, starts, strict=True):

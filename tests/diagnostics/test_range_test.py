@@ -204,9 +204,9 @@ def test_a_second_record_at_the_same_condition_reuses_the_first_grids(rig, monke
     solved: list[int] = []
     probe = FastMaps.probe_moving
 
-    def counting(self, params, zs, starts):
+    def counting(self, params, zs, starts, even=False):
         solved.append(sum(z.size for z in zs))
-        return probe(self, params, zs, starts)
+        return probe(self, params, zs, starts, even)
 
     monkeypatch.setattr(FastMaps, "probe_moving", counting)
     kept = range_tests(ranker2, singles, TEST_LEVEL)
