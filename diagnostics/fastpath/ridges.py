@@ -203,31 +203,32 @@ def locate(maps: FastMaps, pieces: list[Piece]) -> list[list[Cut]]:
                 continue
             # each run goes away from the end it starts at (continuation)
             zs = [t.points() if held or t.up else t.points()[::-1] for t in todo]
-            params = [pieces[t.piece].p for t, z in zip(todo, zs, strict=True) for _ in z]
+            sizes = [z.size for z in zs]
+            params = [pieces[t.piece].p for t, n in zip(todo, sizes, strict=True)
+                      for _ in range(n)]
+            phases = np.repeat(np.array([t.phase for t in todo], dtype=np.int64), sizes)
             starts = [_start(t) for t in todo]
             if held:
-                phases = [t.phase for t, z in zip(todo, zs, strict=True) for _ in z]
-                g, ys, ok = maps.probe_held(params, phases, zs, starts)
-                g -= np.array([t.theta for t, z in zip(todo, zs, strict=True) for _ in z])
-                sides = [not (gi <= 0.0) for gi in g]  # NaN where none: see below
+                g, ys, ok = maps.probe_held(params, phases.tolist(), zs, starts)
+                g -= np.repeat([t.theta for t in todo], sizes)
+                sides = ~(g <= 0.0)  # NaN where none: see below
                 codes = np.where(ok, 0, -1)
             else:
                 out, ys, drv, ok = maps.probe_moving(params, zs, starts)
                 codes = stroke_codes(out, creep)
-                phases = [t.phase for t, z in zip(todo, zs, strict=True) for _ in z]
-                g = drv[np.arange(len(phases)), phases, 1]
-                sides = [bool(c >= 0 and _above(int(c), ph, True))
-                         for c, ph in zip(codes, phases, strict=True)]
-                speed = out[np.arange(len(phases)), np.take(SPEED_COLUMNS, phases)] - creep
+                rows = np.arange(phases.size)
+                g = drv[rows, phases, 1]
+                # the moving side of a creep ridge (:func:`_above`): the phase moving
+                sides = (codes >= 0) & (np.where(phases == 0, codes // 3, codes % 3) == 0)
+                speed = out[rows, np.take(SPEED_COLUMNS, phases)] - creep
             j = 0
             for t, z in zip(todo, zs, strict=True):
                 sl = slice(j, j + z.size)
                 j += z.size
                 r = slice(None) if held or t.up else slice(None, None, -1)
-                _update(t, z[r], codes[sl][r], np.asarray(sides[sl])[r], g[sl][r], ys[sl][r],
-                        ok[sl][r])
+                _update(t, z[r], codes[sl][r], sides[sl][r], g[sl][r], ys[sl][r], ok[sl][r])
                 if not held:
-                    _moving_side(t, z[r], np.asarray(sides[sl])[r], speed[sl][r])
+                    _moving_side(t, z[r], sides[sl][r], speed[sl][r])
                 if t.owner is not None and not t.open:  # the creep ridge's first estimate
                     t.owner.waiting = False
                     if not t.dead:
