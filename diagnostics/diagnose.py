@@ -229,7 +229,7 @@ def regime_notes(ranker: Ranker) -> list[str]:
         idx = tuple(int(k) for k in m.idx)
         kept = _NOTES.setdefault(m.maps, {})
         if idx not in kept:  # the notes follow from the maps and the readings' columns
-            kept[idx] = _map_notes(m.maps, np.asarray(m.idx))
+            kept[idx] = _map_notes(m.maps, m.idx)
         out += [where + note for note in kept[idx]]
     return out
 

@@ -30,7 +30,6 @@ at all (12 drifted, 8 out of library, seeds 0-3), so this path did not run there
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -41,7 +40,7 @@ from diagnostics.discrepancy.refit import refit as output_error_refit
 from diagnostics.discrepancy.selection import PRACTICAL, Fit, Selection
 from diagnostics.discrepancy.simulate import simulate_record
 from diagnostics.discrepancy.slow import is_slow, slow_confirmed, slow_records, slow_refit
-from diagnostics.discrepancy.transient import SIGNIFICANT_T, above_noise
+from diagnostics.discrepancy.transient import above_noise, is_significant
 from diagnostics.discrepancy.verdict import excess_ratio
 from diagnostics.timeseries import SeriesRecord
 from sim.components.effects import EFFECTS
@@ -49,21 +48,13 @@ from sim.errors import InputError, SimulationError
 from sim.rigs.assembly import Rig
 from sim.rigs.schema import validate_rig_document
 
-__all__ = ["Confirmed", "Small", "confirm_chosen", "confirm_small", "is_significant",
-           "start_of"]
+__all__ = ["Confirmed", "Small", "confirm_chosen", "confirm_small", "start_of"]
 
 Progress = Callable[[float, str], None]
 
 #: below the practical size, a held-out excess ratio this many times the confirmation
 #: ratio stands in for closing the held-out gap to the noise [-]
 SMALL_RATIO = 2.0
-
-
-def is_significant(value: float, error: float) -> bool:
-    """Whether an output-error coefficient ``value`` is :data:`SIGNIFICANT_T` standard
-    errors ``error`` [same unit] from zero; not when the error could not be estimated
-    (NaN: a singular Jacobian or a flat χ², the records do not determine it)."""
-    return math.isfinite(error) and abs(value) >= SIGNIFICANT_T * error
 
 
 def start_of(fit: Fit) -> dict[str, float]:

@@ -43,12 +43,20 @@ from sim.errors import InputError, SimulationError
 from sim.rigs.assembly import Rig
 from sim.rigs.schema import validate_rig_document
 
-__all__ = ["Screened", "above_noise", "build_up_effects", "gap_unexplained", "screen_build_up"]
+__all__ = ["Screened", "above_noise", "build_up_effects", "gap_unexplained", "is_significant",
+           "screen_build_up"]
 
 #: the screen's start: this fraction of the top of the entry's plausible range [-]
 START_FRACTION = 0.1
 #: |coefficient| / its standard error a screened effect must reach (two-sided 1 %) [-]
 SIGNIFICANT_T = 2.576
+
+
+def is_significant(value: float, error: float) -> bool:
+    """Whether an output-error coefficient ``value`` is :data:`SIGNIFICANT_T` standard
+    errors ``error`` [same unit] from zero; not when the error could not be estimated
+    (NaN: a singular Jacobian or a flat χ², the records do not determine it)."""
+    return math.isfinite(error) and abs(value) >= SIGNIFICANT_T * error
 
 
 @dataclass
@@ -103,7 +111,7 @@ def screen_build_up(doc: Mapping[str, Any], train: Sequence[SeriesRecord],
             continue
         value, err = values[key], errors[key]
         ratio = excess_ratio(before, after, sigma, ("steady", "after step"))
-        if not (math.isfinite(err) and abs(value) >= SIGNIFICANT_T * err):
+        if not is_significant(value, err):
             notes.append(f"{e.name} (coefficient not significant)")
         elif ratio < confirm_ratio:
             notes.append(f"{e.name} (held-out gap ratio {ratio:.2f} < {confirm_ratio})")

@@ -278,7 +278,7 @@ class FastMaps(SignatureMaps):
             out[i] = self._solve_or_nan((params[i],), params[i].from_z(float(flat[i])))
         return out, ys, drv, ok
 
-    def probe_held(self, params: list[FaultParameter], phases: list[int], zs: list[Arr],
+    def probe_held(self, params: list[FaultParameter], phases: IArr, zs: list[Arr],
                    starts: list[Arr | None]) -> tuple[Arr, Arr, npt.NDArray[np.bool_]]:
         """The end-stop state's drive [m/s²] of phase ``phases[i]`` at point ``i``
         (:func:`~diagnostics.fastpath.phase.held_grid`), its solutions and success;
@@ -291,7 +291,7 @@ class FastMaps(SignatureMaps):
         y0 = np.empty((n, ns))
         at = 0
         for z, y in zip(zs, starts, strict=True):
-            ph = phases[at]
+            ph = int(phases[at])
             flags[at] = 1
             y0[at] = self.ctx.states[2 + ph] if y is None else y[ph] if y.ndim == 2 else y
             at += z.size
@@ -299,7 +299,7 @@ class FastMaps(SignatureMaps):
         ys = np.empty((n, ns))
         ok = np.zeros(n, dtype=np.bool_)
         self.ctx.kernels.held_grid(self.ctx.params[0], self.ctx.params[1], self.ctx.gidx,
-                                   self._grid(params, flat), np.array(phases, dtype=np.int64),
+                                   self._grid(params, flat), np.asarray(phases, dtype=np.int64),
                                    self.ctx.mask, self.ctx.scale, flags, y0, ys, g, ok)
         return g, ys, ok
 

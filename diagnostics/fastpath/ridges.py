@@ -209,7 +209,7 @@ def locate(maps: FastMaps, pieces: list[Piece]) -> list[list[Cut]]:
             phases = np.repeat(np.array([t.phase for t in todo], dtype=np.int64), sizes)
             starts = [_start(t) for t in todo]
             if held:
-                g, ys, ok = maps.probe_held(params, phases.tolist(), zs, starts)
+                g, ys, ok = maps.probe_held(params, phases, zs, starts)
                 g -= np.repeat([t.theta for t in todo], sizes)
                 sides = ~(g <= 0.0)  # NaN where none: see below
                 codes = np.where(ok, 0, -1)

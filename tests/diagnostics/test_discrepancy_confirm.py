@@ -17,9 +17,8 @@ import pytest
 
 from benchmarks.discrepancy_study import _case, _doc_with
 from diagnostics.discrepancy.balances import BalanceData
-from diagnostics.discrepancy.confirm import is_significant
 from diagnostics.discrepancy.selection import PRACTICAL, select
-from diagnostics.discrepancy.transient import SIGNIFICANT_T
+from diagnostics.discrepancy.transient import SIGNIFICANT_T, is_significant
 from tests.diagnostics.test_discrepancy_practical import bench_balance
 from tests.diagnostics.test_discrepancy_transient import assert_named_alone
 
