@@ -25,6 +25,7 @@ from scipy.optimize import least_squares, minimize_scalar
 
 from diagnostics.discrepancy.simulate import (
     AT_STOP,
+    despiked,
     on_grid,
     phase_segments,
     record_kind,
@@ -36,8 +37,8 @@ from sim.errors import InputError, SimulationError
 from sim.rigs.assembly import Rig
 from sim.rigs.schema import validate_rig_document
 
-__all__ = ["APART", "compare_from", "output_cost", "refit", "stacked_residual", "tell_apart",
-           "with_effects"]
+__all__ = ["APART", "compare_from", "output_cost", "refit", "residual_parts", "stacked_residual",
+           "tell_apart", "with_effects"]
 
 Arr = npt.NDArray[np.float64]
 
@@ -82,7 +83,17 @@ def compare_from(keys: Sequence[str]) -> float:
 def stacked_residual(rig: Rig, records: Sequence[SeriesRecord], channels: Sequence[str],
                       sig: Mapping[str, float], overrides: Mapping[str, float],
                       start: float = 0.1) -> Arr:
-    """Model − measurement / σ over ``start``-90 % of each measured phase.
+    """Model − measurement / σ over ``start``-90 % of each measured phase, stacked
+    (:func:`residual_parts`)."""
+    parts = residual_parts(rig, records, channels, sig, overrides, start)
+    return np.concatenate([p for _, p in parts]) if parts else np.zeros(1)
+
+
+def residual_parts(rig: Rig, records: Sequence[SeriesRecord], channels: Sequence[str],
+                   sig: Mapping[str, float], overrides: Mapping[str, float],
+                   start: float = 0.1) -> list[tuple[str, Arr]]:
+    """Model − measurement / σ over ``start``-90 % of each measured phase, per channel
+    (one part per record, phase segment and channel).
 
     A fixed set of samples (every 10th measured sample, time since phase start) whatever
     the simulated phase lasts, so the vector has one length for the optimiser; a model
@@ -92,7 +103,7 @@ def stacked_residual(rig: Rig, records: Sequence[SeriesRecord], channels: Sequen
     (:func:`~diagnostics.discrepancy.simulate.phase_segments`): otherwise a shifted
     arrival at the stop, a step of the whole pump flow, would outweigh the effect.
     """
-    parts = []
+    parts: list[tuple[str, Arr]] = []
     stroke = float(rig.base.get("cylinder.stroke", 0.0))
     for r in records:
         table = simulate_record(rig, r, overrides)
@@ -104,7 +115,7 @@ def stacked_residual(rig: Rig, records: Sequence[SeriesRecord], channels: Sequen
             if sel.size < 20 or len(tab) < 3:
                 continue
             if dwell and ph == "working":
-                at = np.flatnonzero(r.channels["x"][sel] >= stroke - AT_STOP)
+                at = np.flatnonzero(despiked(r.channels["x"][sel]) >= stroke - AT_STOP)
                 cut = int(at[0]) if at.size else sel.size
                 measured = [s_ for s_ in (sel[:cut], sel[cut:]) if s_.size >= 20]
                 model_parts = phase_segments(table, ph, stroke)
@@ -121,8 +132,8 @@ def stacked_residual(rig: Rig, records: Sequence[SeriesRecord], channels: Sequen
                 idx = seg[keep][::10]
                 model = on_grid(model_tab, tm[keep][::10], list(channels))
                 for c in channels:
-                    parts.append((model[c] - r.channels[c][idx]) / sig[c])
-    return np.concatenate(parts) if parts else np.zeros(1)
+                    parts.append((c, (model[c] - r.channels[c][idx]) / sig[c]))
+    return parts
 
 
 def refit(doc: dict[str, Any], start: Mapping[str, float], records: Sequence[SeriesRecord],

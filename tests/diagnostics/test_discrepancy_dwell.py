@@ -96,6 +96,35 @@ def test_dwell_records_are_timed_and_re_simulated_with_the_same_switch() -> None
     assert record_kind(full, rig) == "full" and timed_switch(full, rig) is None
 
 
+def test_a_spike_of_the_position_sensor_during_a_dwell_leaves_it_a_dwell() -> None:
+    """Heavy-tailed position noise: one sample 2 mm off the stop late in the dwell made the
+    dwell a full stroke (its arrival read after the spike), re-simulated as a stroke that
+    switches at the stop; the stop is also found where the piston reached it."""
+    import dataclasses
+
+    from diagnostics.discrepancy.refit import residual_parts
+
+    rig = reference_rig()
+    rec = _dwells(rig, design=DWELLS[1:2])[0]
+    work = np.flatnonzero(rec.phase == "working")
+    x = rec.channels["x"].copy()
+    x[work[-30]] -= 2e-3  # 30 ms before the switch, 1.5 s into the dwell
+    spiked = dataclasses.replace(rec, channels={**rec.channels, "x": x})
+    assert record_kind(spiked, rig) == "dwell"
+    assert timed_switch(spiked, rig) == pytest.approx(timed_switch(rec, rig))
+    channels = ["P1", "P_pump", "Q_meter_B"]
+    sig = {"P1": 5e3, "P_pump": 5e3, "Q_meter_B": 8.3e-7}
+    x = rec.channels["x"].copy()
+    x[work[5]] = rig.base["cylinder.stroke"]  # and a spike to the stop early in the motion
+    early = dataclasses.replace(rec, channels={**rec.channels, "x": x})
+    clean = residual_parts(rig, [rec], channels, sig, {})
+    for r in (spiked, early):  # compared where the unspiked record is, sample for sample
+        parts = residual_parts(rig, [r], channels, sig, {})
+        assert [c for c, _ in parts] == [c for c, _ in clean]
+        for (_, a), (_, b) in zip(parts, clean, strict=True):
+            np.testing.assert_allclose(a, b, atol=1e-9)
+
+
 def test_the_relief_balance_is_exact_on_noise_free_dwells_with_the_override() -> None:
     d = _relief(_dwells(_rig(K_OV)))
     assert d is not None
