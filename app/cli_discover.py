@@ -82,9 +82,17 @@ def discover(
                       title=f"rig {rig_id}: new version {new_version}" if new_version
                       else f"rig {rig_id} (not stored)")
         for n in d.named:
-            table.add_row(n.name, f"{n.parameter} [{n.unit}]", f"{n.value:.4g}",
+            table.add_row(n.name, f"{n.parameter} \\[{n.unit}]", f"{n.value:.4g}",
                           f"{n.interval[0]:.3g} … {n.interval[1]:.3g}",
                           "yes" if n.plausible else "NO")
+        console.print(table)
+    if d.base_drift is not None and d.base_drift.accepted:
+        table = Table("parameter", "stored", "re-fitted", "change", "95 % interval",
+                      title="base drift (reported, not stored)")
+        for b in d.base_drift.parameters:
+            table.add_row(f"{b.parameter} \\[{b.unit}]", f"{b.stored:.4g}", f"{b.value:.4g}",
+                          f"{100 * b.change:+.1f} %" + ("" if b.significant else " n.s."),
+                          f"{b.value - 1.96 * b.error:.3g} … {b.value + 1.96 * b.error:.3g}")
         console.print(table)
 
 

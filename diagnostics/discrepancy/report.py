@@ -2,7 +2,8 @@
 
 Charts: the equation-error residual of the balance with the named effect (or the largest
 residual) against time and against chamber/pump pressure, before and after the effect;
-model vs measurement on the held-out record before and after.  The HTML page inlines the
+model vs measurement on the held-out record before and after (the effect, or the base
+drift's re-fitted parameters).  The HTML page inlines the
 SVGs (no scripts, no CDN, CSP-safe), so it opens offline.
 """
 
@@ -89,11 +90,12 @@ def charts(d: Discovery) -> dict[str, Chart]:
             series.append(Series(_thin(tt[k]), _thin(meas[k] + e[k]), f"base model ({ph})",
                                  dashed=True))
         after = d.traces.get("after")
+        label = "with base drift" if d.verdict == "base drift" else "with effect"
         if after is not None:
             for ph, (tt, e, meas) in aligned_residuals(held, after, [worst])[worst].items():
                 k = steady(tt)
                 series.append(Series(_thin(tt[k]), _thin(meas[k] + e[k]),
-                                     f"with effect ({ph})"))
+                                     f"{label} ({ph})"))
         out["model_vs_measurement"] = line_chart(
             f"Held-out record {held.name}: {worst} (steady part)", "time since phase start [s]",
             f"{worst} [{unit}]", series)
@@ -127,6 +129,20 @@ def html_page(d: Discovery, title: str = "hydrodiag discrepancy report") -> str:
                 f" ({'plausible' if n.plausible else 'NOT plausible'})</td>"
                 f"<td>{_fmt(n.t)}</td><td>{_fmt(n.inclusion)}</td>"
                 f"<td>{e(str(n.competing))}</td><td>{e(str(n.ambiguity))}</td></tr>")
+        parts.append("</table>")
+    if d.base_drift is not None:
+        accepted = d.base_drift.accepted
+        parts.append(f"<h2>Base parameters re-fitted by re-simulation ("
+                     f"{'they close the gap: base drift' if accepted else 'not accepted'})"
+                     "</h2>" + ("" if accepted else f"<p>{e(d.base_drift.reason)}</p>")
+                     + "<table><tr><th>parameter</th><th>why it drifts</th><th>stored</th>"
+                     "<th>re-fitted</th><th>change</th><th>95 % interval</th></tr>")
+        for b in d.base_drift.parameters:
+            parts.append(f"<tr><td>{e(b.parameter)} [{e(b.unit)}]</td><td>{e(b.why)}</td>"
+                         f"<td>{_fmt(b.stored)}</td><td>{_fmt(b.value)}</td>"
+                         f"<td>{100 * b.change:+.1f} %{'' if b.significant else ' (n.s.)'}"
+                         f"</td><td>{_fmt(b.value - 1.96 * b.error)} … "
+                         f"{_fmt(b.value + 1.96 * b.error)}</td></tr>")
         parts.append("</table>")
     parts.append("<h2>Balances (equation error, base parameters re-fitted)</h2><table><tr>"
                  "<th>balance</th><th>chosen</th><th>ΔBIC</th><th>residual RMS</th>"

@@ -3,14 +3,17 @@
 * :func:`excess_ratio`: the held-out gap in excess of the sensors' noise before/after;
 * :func:`gap_ratio`: the headline RMSE ratio on the worst channel;
 * :func:`whiteness`: Ljung-Box p-value of the output-error residuals per channel;
-* :func:`verdict`: ``named``, ``partially explained``, ``unexplained`` or ``no effect``.
+* :func:`verdict`: ``named``, ``partially explained``, ``base drift`` (no effect: the rig's
+  own parameters moved, :mod:`~diagnostics.discrepancy.drift`), ``unexplained`` or
+  ``no effect`` (also when the base re-fit closes the gap without moving a parameter
+  significantly).
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from scipy.ndimage import uniform_filter1d
@@ -18,6 +21,9 @@ from scipy.ndimage import uniform_filter1d
 from diagnostics.discrepancy.gap import GapRow, aligned_residuals, ljung_box_p
 from diagnostics.discrepancy.selection import PRACTICAL, Selection
 from diagnostics.timeseries import SeriesRecord
+
+if TYPE_CHECKING:  # drift imports this module
+    from diagnostics.discrepancy.drift import Drift
 
 __all__ = ["OUTPUT_GAP", "excess_ratio", "gap_ratio", "structured", "verdict", "whiteness"]
 
@@ -100,7 +106,7 @@ def structured(s: Selection) -> bool:
 
 def verdict(named: Sequence[str], selections: list[Selection], before: list[GapRow],
             after: list[GapRow], white_after: dict[str, float],
-            sigma: Mapping[str, float]) -> tuple[str, str]:
+            sigma: Mapping[str, float], drift: Drift | None = None) -> tuple[str, str]:
     """The verdict and its message from what was named and what is left.
 
     Parameters
@@ -115,6 +121,9 @@ def verdict(named: Sequence[str], selections: list[Selection], before: list[GapR
         Ljung-Box p-values after, per channel [-].
     sigma
         Noise σ per channel [SI].
+    drift
+        The base re-fit when nothing was named and the gap is above the noise
+        (:func:`~diagnostics.discrepancy.drift.refit_base`), else None.
     """
     left = [s.balance for s in selections if structured(s)]
     # output-error gap on the held-out record, steady motion, in units of the noise
@@ -128,11 +137,26 @@ def verdict(named: Sequence[str], selections: list[Selection], before: list[GapR
                     f"(residual still above the practical size in: "
                     f"{', '.join(left) or 'none'}; two or more terms)")
         return "named", f"named {names}"
+    where = ", ".join([f"balance {b}" for b in left] + off)
+    if (left or off) and drift is not None and drift.accepted:
+        after_off = max(drift.rms_after.values(), default=0.0)
+        return ("base drift",
+                f"no new effect: model and data differ ({where}, held-out steady RMSE) and "
+                "the rig's own parameters, re-fitted by re-simulation, close the gap "
+                f"(held-out RMSE at most {after_off:.1f} σ per channel, a dwell's motion and "
+                f"stop each from its own start): {drift.statement()}. "
+                "A clearance or pump leakage that moved is wear: POST /diagnose sizes it "
+                "against the stored rig; friction that moved is re-commissioning "
+                "(POST /rigs/{id}/commission, hydrodiag commission). The stored rig is "
+                "left as it is")
+    if (left or off) and drift is not None and drift.unchanged:
+        return ("no effect", f"no effect found: the held-out steady RMSE on the phase's clock "
+                f"is above the noise ({where}), but {drift.reason}")
     if left or off:
-        where = ", ".join([f"balance {b}" for b in left] + off)
+        tried = f"; {drift.reason}" if drift is not None and drift.reason else ""
         return ("unexplained",
                 f"model and data differ ({where}, held-out steady RMSE) but no library "
                 "effect explains it: possibly outside the library, or a drift of base "
                 "parameters that the stored rig does not have (re-commission the rig from "
-                "healthy records: POST /rigs/{id}/commission, hydrodiag commission)")
+                "healthy records: POST /rigs/{id}/commission, hydrodiag commission)" + tried)
     return "no effect", "no effect found: the gap is within the noise and the practical size"

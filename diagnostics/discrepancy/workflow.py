@@ -17,7 +17,11 @@ Steps (DISCREPANCY.md):
    entry on statistics of the slow strokes, :mod:`~diagnostics.discrepancy.slow`), and
    kept when the held-out gap shrinks (:data:`CONFIRM_RATIO`);
 5. gap before/after on the held-out record (RMSE and max per output and region) and
-   whiteness (Ljung-Box) before/after.
+   whiteness (Ljung-Box) before/after;
+6. when nothing was named, the held-out gap is above the noise and no balance keeps a
+   structured residual: the rig's own parameters that change in service re-fitted by
+   re-simulation (:mod:`~diagnostics.discrepancy.drift`); if they close the gap, the
+   verdict is ``base drift`` (no new effect), with the changes.
 
 When records repeat a condition, the lack-of-fit F-test against the repeats
 (:mod:`~diagnostics.discrepancy.lof`) is reported before/after.  Steady pump-bench tables
@@ -43,6 +47,7 @@ import pandas as pd
 
 from diagnostics.discrepancy.balances import balance_data
 from diagnostics.discrepancy.confirm import Small, confirm_chosen, confirm_small
+from diagnostics.discrepancy.drift import Drift, refit_base
 from diagnostics.discrepancy.gap import GapRow, gap_table
 from diagnostics.discrepancy.lof import repeats_lack_of_fit
 from diagnostics.discrepancy.refit import with_effects
@@ -54,10 +59,16 @@ from diagnostics.discrepancy.simulate import (
     solver_error,
     timed_switch,
 )
-from diagnostics.discrepancy.transient import Screened, gap_unexplained, screen_build_up
+from diagnostics.discrepancy.transient import (
+    Screened,
+    above_noise,
+    gap_unexplained,
+    screen_build_up,
+)
 from diagnostics.discrepancy.verdict import (
     excess_ratio,
     gap_ratio,
+    structured,
     verdict,
     whiteness,
 )
@@ -124,6 +135,8 @@ class Discovery:
     detectable: dict[str, dict[str, float]] = field(default_factory=dict)
     traces: dict[str, Any] = field(default_factory=dict, repr=False)
     lack_of_fit: dict[str, Any] = field(default_factory=dict)
+    #: the base re-fit of step 6 where it ran (accepted or not), else None
+    base_drift: Drift | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """The report as JSON-able data (units in the keys' descriptions)."""
@@ -161,6 +174,7 @@ class Discovery:
             "whiteness_before": self.whiteness_before, "whiteness_after": self.whiteness_after,
             "rig_document": self.rig_document, "solver": self.solver,
             "lack_of_fit": self.lack_of_fit,
+            "base_drift": self.base_drift.to_dict() if self.base_drift is not None else None,
         }
 
 
@@ -319,9 +333,19 @@ def discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], *
         traces["after_all"] = after_tables
     else:
         gap_after, white_after = [], {}
+    drift: Drift | None = None
+    if refit and not named and not any(structured(s) for s in selections) \
+            and above_noise(gap_before, sig):
+        report(0.85, "re-fit of the base parameters that drift in service")
+        drift = refit_base(rig, train, held, channels, sig, max_nfev)
+        if drift is not None and drift.accepted:
+            gap_after = drift.gap_after
+            white_after = whiteness(held, drift.tables, channels, rate)
+            traces["after"] = drift.tables[0]
+            traces["after_all"] = drift.tables
     lof = repeats_lack_of_fit(records, rig, new_doc if named else None, channels, sig)
     outcome, message = verdict([n.name for n in named], selections, gap_before, gap_after,
-                               white_after, sig)
+                               white_after, sig, drift)
     if lof.get("before") is not None:
         message += (f"; lack of fit against repeated records p = {lof['before']['p']:.2g} "
                     "before" + (f", {lof['after']['p']:.2g} after" if lof.get("after")
@@ -357,7 +381,7 @@ def discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], *
     return Discovery(outcome, message, named, selections, [r.name for r in train],
                      [r.name for r in records] and [records[i].name for i in held_i],
                      gap_before, gap_after, white_before, white_after, new_doc,
-                     _solver_statement(base_tables), detectable, traces, lof)
+                     _solver_statement(base_tables), detectable, traces, lof, drift)
 
 
 def _screened_effect(sc: Screened) -> NamedEffect:

@@ -7,6 +7,7 @@ import pytest
 
 from diagnostics.discrepancy import discover
 from diagnostics.discrepancy.balances import balance_data
+from diagnostics.discrepancy.report import html_page
 from diagnostics.discrepancy.selection import select
 from diagnostics.discrepancy.signals import prepare
 from diagnostics.discrepancy.synthetic import synthesize
@@ -94,6 +95,41 @@ def test_a_gap_outside_the_library_is_unexplained_not_misnamed():
     assert "P_pump" in d.message
     # and where to go next when the stored rig has drifted rather than a new effect acting
     assert "POST /rigs/{id}/commission" in d.message
+    # the rig's own parameters were re-fitted and do not close the gap: a loss ∝ Q² is
+    # neither friction nor a clearance
+    assert d.base_drift is not None and not d.base_drift.accepted
+    assert d.base_drift.reason in d.message
+
+
+def test_a_drifted_rig_is_base_drift_not_a_new_effect():
+    """No effect, but the rig's seals and clearances moved from the stored values: the
+    verdict says so, with the changes, and closes the held-out gap to the noise."""
+    rig = reference_rig()
+    truth = {"cylinder.Fu": 1.15, "cylinder.cc": 0.85, "valve.cv": 1.1, "pump.Rlp": 0.9}
+    recs = _records(reference_rig_document(), 6,
+                    overrides={k: f * rig.base[k] for k, f in truth.items()})
+    d = discover(reference_rig_document(), recs, bootstrap=10)
+    assert d.named == []
+    assert d.verdict == "base drift", d.message
+    assert d.base_drift is not None and d.base_drift.accepted
+    fitted = {p.parameter: p for p in d.base_drift.parameters}
+    for k in ("cylinder.cc", "valve.cv"):  # the clearances within a percent
+        assert fitted[k].value == pytest.approx(truth[k] * rig.base[k], rel=0.01)
+        assert fitted[k].significant
+    assert fitted["cylinder.Fu"].change > 0.05
+    sigma = {"P1": 5e3, "P2": 5e3, "v": 1e-3, "P_pump": 5e3, "P_valve_P": 5e3,
+             "Q_meter_B": 8.3e-7, "Q_meter_C": 8.3e-7}
+    before = {r.channel: r.rmse / sigma[r.channel] for r in d.gap_before
+              if r.region == "steady"}
+    after = {r.channel: r.rmse / sigma[r.channel] for r in d.gap_after
+             if r.region == "steady"}
+    assert max(before.values()) > 10.0
+    assert max(after.values()) < 3.0  # OUTPUT_GAP: within the noise
+    # reported, not stored: a moved clearance is wear for /diagnose to size
+    assert d.rig_document == reference_rig_document()
+    assert d.to_dict()["base_drift"]["parameters"][0]["unit"]
+    page = html_page(d)
+    assert "they close the gap: base drift" in page and "with base drift" in page
 
 
 def test_a_balance_with_too_few_samples_is_an_input_error_naming_the_file():

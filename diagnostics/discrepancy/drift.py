@@ -1,0 +1,205 @@
+"""Base drift: a gap that no library effect explains, closed by the rig's own parameters.
+
+A rig in service is not the rig that was stored: seals wear and swell (their friction
+changes), clearances open, the pump's leakage grows.  Data from such a rig differ from the
+stored model without any missing physics, and no effect of the library explains the gap
+(the equation-error balances re-fit their base coefficients, but the held-out output error
+is taken against the stored rig).  So when the workflow has named nothing and the held-out
+steady gap is still above the noise (:func:`~diagnostics.discrepancy.transient.
+above_noise`) while no balance keeps a structured residual (a drift moves the balances'
+coefficients, it leaves no shape behind), the parameters of :data:`DRIFTING` are re-fitted
+in output-error form by re-simulating the training records (scipy ``least_squares`` on
+the same stacked residual as the effect re-fits, :func:`~diagnostics.discrepancy.refit.
+stacked_residual`), each between 1/:data:`SPAN` and :data:`SPAN` times its stored value.
+
+The answer is *base drift* only when the re-fitted rig brings every channel of the held-out
+records within :data:`~diagnostics.discrepancy.verdict.OUTPUT_GAP` σ (RMS over 10-90 % of
+each phase, a dwell record's motion and stop each from its own start, as the re-fit
+compares them: a friction 1 % off shifts the arrival at the stop by a few milliseconds,
+and compared on the phase's clock that step of the whole pump flow alone reads ~10 σ of
+P2) and no parameter ends on its bound (a parameter pushed to a factor 3 is standing in
+for something else).  Otherwise the gap stays *unexplained*.
+
+When the re-fitted rig is within the noise but no parameter moved significantly, the
+stored rig itself explains the data: the gap was in the comparison on the phase's clock (a
+held-out dwell whose arrival at the stop is a few samples off, heavy-tailed noise against
+a MAD-based σ), and the answer is *no effect*.
+
+The re-fitted values are reported, not stored: a clearance or pump leakage that moved is
+what ``POST /diagnose`` sizes as wear against the stored healthy rig, and writing it into
+the rig would hide that wear; friction is what commissioning re-fits.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+import pandas as pd
+from scipy.optimize import least_squares
+
+from diagnostics.discrepancy.gap import GapRow, gap_table
+from diagnostics.discrepancy.refit import residual_parts, stacked_residual
+from diagnostics.discrepancy.simulate import simulate_record
+from diagnostics.discrepancy.verdict import OUTPUT_GAP
+from diagnostics.timeseries import SeriesRecord
+from sim.errors import InputError, ParameterError, SimulationError
+from sim.rigs.assembly import Rig
+
+__all__ = ["DRIFTING", "SPAN", "BaseDrift", "Drift", "refit_base"]
+
+Arr = npt.NDArray[np.float64]
+
+#: parameters that change in service, and why (those the rig has are re-fitted)
+DRIFTING: dict[str, str] = {
+    "cylinder.Fu": "Coulomb friction of the piston and rod seals (seal wear and swell; "
+                   "paper 002 eq. 37)",
+    "cylinder.Kf": "viscous friction of the seals (paper 002 eq. 37)",
+    "cylinder.cc": "piston clearance (wear; paper 002 eqs. 36, 50)",
+    "pump.Rlp": "pump leakage resistance (wear; paper 002 eq. 5)",
+    "valve.cv": "spool clearance (wear; paper 002 eq. 23)",
+}
+#: each re-fitted parameter stays between 1/SPAN and SPAN times its stored value [-]
+SPAN = 3.0
+#: a value within this fraction of the log-span of a bound counts as on it [-]
+ON_BOUND = 0.01
+
+
+@dataclass(frozen=True)
+class BaseDrift:
+    """One re-fitted base parameter: name (``role.name``), unit, why it drifts, stored
+    and re-fitted value and the re-fit's 1-σ error [unit]."""
+
+    parameter: str
+    unit: str
+    why: str
+    stored: float
+    value: float
+    error: float
+
+    @property
+    def change(self) -> float:
+        """Relative change from the stored value [-]."""
+        return self.value / self.stored - 1.0
+
+    @property
+    def significant(self) -> bool:
+        """Whether the change is more than 2.576 standard errors (two-sided 1 %)."""
+        return math.isfinite(self.error) and abs(self.value - self.stored) >= 2.576 * self.error
+
+
+@dataclass
+class Drift:
+    """Outcome of :func:`refit_base`: the re-fitted parameters, the held-out gap with them
+    and the held-out records simulated with them, whether they explain the gap
+    (``accepted``) and, if not, why."""
+
+    parameters: list[BaseDrift]
+    gap_after: list[GapRow]
+    tables: list[pd.DataFrame] = field(repr=False)
+    #: per channel, the RMS of (model − measurement)/σ on the held-out records with the
+    #: re-fitted parameters, motion and dwell each from its own start [σ]
+    rms_after: dict[str, float]
+    accepted: bool
+    reason: str
+    #: the re-fitted rig is within the noise, but no parameter moved significantly: the
+    #: stored rig explains the data (the gap was in the comparison on the phase's clock)
+    unchanged: bool = False
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-able: per parameter its unit, stored and re-fitted value [unit], change [-]
+        and 95 % interval [unit]."""
+        return {"accepted": self.accepted, "reason": self.reason, "unchanged": self.unchanged,
+                "held_out_rms_sigma": self.rms_after,
+                "parameters": [{"parameter": d.parameter, "unit": d.unit, "why": d.why,
+                                "stored": d.stored, "value": d.value, "change": d.change,
+                                "interval": [d.value - 1.96 * d.error,
+                                             d.value + 1.96 * d.error]
+                                if math.isfinite(d.error) else None,
+                                "significant": d.significant} for d in self.parameters]}
+
+    def statement(self) -> str:
+        """The changes in words, the significant ones first."""
+        rows = sorted(self.parameters, key=lambda d: not d.significant)
+        return ", ".join(
+            f"{d.parameter} {100 * d.change:+.1f} % (± {196 * d.error / d.stored:.2g} %)"
+            + ("" if d.significant else " n.s.") for d in rows)
+
+
+def refit_base(rig: Rig, train: Sequence[SeriesRecord], held: Sequence[SeriesRecord],
+               channels: Sequence[str], sigma: Mapping[str, float], max_nfev: int
+               ) -> Drift | None:
+    """Re-fit :data:`DRIFTING` on ``train`` by re-simulation and check ``held`` (module
+    docstring); None when the rig has none of those parameters, or the stored or the
+    re-fitted rig cannot be simulated (a trial point the solver cannot run counts as a bad
+    fit, as in the effect re-fits)."""
+    keys = [k for k in DRIFTING if k in rig.base and rig.base[k] > 0.0]
+    if not keys:
+        return None
+    stored = np.array([rig.base[k] for k in keys])
+    lo, hi = np.full(len(keys), 1.0 / SPAN), np.full(len(keys), SPAN)
+    decls = [rig.circuit.parameter(*k.split(".", 1)) for k in keys]
+    for i, decl in enumerate(decls):  # inside the declared bounds too
+        if decl is not None and decl.upper is not None:
+            hi[i] = min(hi[i], decl.upper / stored[i])
+        if decl is not None and decl.lower is not None:
+            lo[i] = max(lo[i], decl.lower / stored[i] * (1.0 + 1e-9))
+
+    def fun(z: Arr) -> Arr:
+        ov = {k: float(zi * s) for k, zi, s in zip(keys, z, stored, strict=True)}
+        try:
+            return stacked_residual(rig, train, channels, sigma, ov)
+        except (SimulationError, InputError, ParameterError):
+            if not n:  # the stored rig itself: nothing to re-fit from
+                raise
+            return np.full(n[0], 1e3)  # a trial the solver cannot run is a bad trial
+
+    n: list[int] = []
+    try:
+        n.append(fun(np.ones(len(keys))).size)
+        sol = least_squares(fun, np.ones(len(keys)), bounds=(lo, hi), x_scale=1.0,
+                            diff_step=0.05, max_nfev=max_nfev, xtol=1e-3, ftol=1e-4)
+        fitted = {k: float(z * s) for k, z, s in zip(keys, sol.x, stored, strict=True)}
+        tables = [simulate_record(rig, r, fitted) for r in held]
+        after = [row for r, t in zip(held, tables, strict=True)
+                 for row in gap_table(r, t, channels)]
+        parts = residual_parts(rig, held, channels, sigma, fitted)
+    except (SimulationError, InputError, ParameterError):
+        return None
+    dof = max(sol.fun.size - len(keys), 1)
+    try:
+        cov = np.linalg.inv(sol.jac.T @ sol.jac) * float(sol.fun @ sol.fun) / dof
+        err = np.sqrt(np.clip(np.diag(cov), 0.0, None)) * stored
+    except np.linalg.LinAlgError:
+        err = np.full(len(keys), math.nan)
+    params = []
+    for i, (k, decl) in enumerate(zip(keys, decls, strict=True)):
+        params.append(BaseDrift(k, decl.unit if decl is not None else "", DRIFTING[k],
+                                float(stored[i]), fitted[k], float(err[i])))
+    width = np.log(hi) - np.log(lo)
+    pinned = [k for i, k in enumerate(keys)
+              if min(math.log(sol.x[i] / lo[i]), math.log(hi[i] / sol.x[i]))
+              < ON_BOUND * width[i]]
+    rms = {c: float(np.sqrt(np.mean(np.concatenate([p for ch, p in parts if ch == c]) ** 2)))
+           for c in channels if any(ch == c for ch, _ in parts)}
+    left = sorted(c for c, v in rms.items() if v > OUTPUT_GAP)
+    moved = any(d.significant for d in params)
+    if pinned:
+        reason = (f"re-fitted, {', '.join(pinned)} end(s) on the bound of a factor {SPAN:g}: "
+                  "no drift of the rig's own parameters explains the gap")
+    elif left:
+        reason = ("re-fitted, the held-out gap stays above the noise in "
+                  + ", ".join(f"{c} ({rms[c]:.1f} σ)" for c in left)
+                  + ": no drift of the rig's own parameters explains it")
+    elif not moved:
+        reason = ("re-fitted, no parameter moves significantly and the held-out records are "
+                  f"within {max(rms.values(), default=0.0):.1f} σ per channel compared as the "
+                  "re-fit compares them (a dwell's motion and stop each from its own start)")
+    else:
+        reason = ""
+    within = not pinned and not left
+    return Drift(params, after, tables, rms, within and moved, reason, within and not moved)
