@@ -29,8 +29,8 @@ Measured on the hidden-effect bench's design (``HYDRODIAG_SEEDS=10
 HYDRODIAG_KINDS=null,outside make discrepancy-study``): all 51 cycles of a rig whose five
 parameters drifted by up to ±20 % (Gaussian, proportional and t₃ noise) answered
 ``base drift`` (in the eight looked at one by one, the clearances within 1 % of the
-truth, friction and pump leakage within 1-9 %); no out-of-library case put down to drift (0/16, and 0/50 at 30 seeds): a loss ∝ Q²
-sends the friction to its bound.
+truth, friction and pump leakage within 1-9 %); no out-of-library case put down to
+drift (0/16, and 0/50 at 30 seeds): a loss ∝ Q² sends the friction to its bound.
 
 The re-fitted values are reported, not stored: a clearance or pump leakage that moved is
 what ``POST /diagnose`` sizes as wear against the stored healthy rig, and writing it into
