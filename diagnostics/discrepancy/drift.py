@@ -28,8 +28,9 @@ a MAD-based σ), and the answer is *no effect*.
 Measured on the hidden-effect bench's design (``HYDRODIAG_SEEDS=10
 HYDRODIAG_KINDS=null,outside make discrepancy-study``): all 51 cycles of a rig whose five
 parameters drifted by up to ±20 % (Gaussian, proportional and t₃ noise) answered
-``base drift`` (in the eight looked at one by one, the clearances within 1 % of the
-truth, friction and pump leakage within 1-9 %); no out-of-library case put down to
+``base drift`` (in the seven checked one by one against their truth: the clearances
+within 0.1 points of the truth's change, Rlp within 1.3, Fu within 2.2, Kf — weakly
+determined on this design — up to 13 points off); no out-of-library case put down to
 drift (0/16, and 0/50 at 30 seeds): a loss ∝ Q² sends the friction to its bound.
 
 The re-fitted values are reported, not stored: a clearance or pump leakage that moved is
