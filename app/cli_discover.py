@@ -90,9 +90,9 @@ def discover(
         table = Table("parameter", "stored", "re-fitted", "change", "95 % interval",
                       title="base drift (reported, not stored)")
         for b in d.base_drift.parameters:
+            ci = f"{b.interval[0]:.3g} … {b.interval[1]:.3g}" if b.interval else "—"
             table.add_row(f"{b.parameter} \\[{b.unit}]", f"{b.stored:.4g}", f"{b.value:.4g}",
-                          f"{100 * b.change:+.1f} %" + ("" if b.significant else " n.s."),
-                          f"{b.value - 1.96 * b.error:.3g} … {b.value + 1.96 * b.error:.3g}")
+                          f"{100 * b.change:+.1f} %" + ("" if b.significant else " n.s."), ci)
         console.print(table)
 
 

@@ -53,6 +53,7 @@ from scipy.optimize import least_squares
 from diagnostics.discrepancy.gap import GapRow, gap_table
 from diagnostics.discrepancy.refit import residual_parts, stacked_residual
 from diagnostics.discrepancy.simulate import simulate_record
+from diagnostics.discrepancy.transient import is_significant
 from diagnostics.discrepancy.verdict import OUTPUT_GAP
 from diagnostics.timeseries import SeriesRecord
 from sim.errors import InputError, ParameterError, SimulationError
@@ -96,8 +97,16 @@ class BaseDrift:
 
     @property
     def significant(self) -> bool:
-        """Whether the change is more than 2.576 standard errors (two-sided 1 %)."""
-        return math.isfinite(self.error) and abs(self.value - self.stored) >= 2.576 * self.error
+        """Whether the change is significant as an effect's coefficient is
+        (:func:`~diagnostics.discrepancy.transient.is_significant`, two-sided 1 %)."""
+        return is_significant(self.value - self.stored, self.error)
+
+    @property
+    def interval(self) -> tuple[float, float] | None:
+        """95 % interval of the re-fitted value [unit]; None where the error is unknown."""
+        if not math.isfinite(self.error):
+            return None
+        return self.value - 1.96 * self.error, self.value + 1.96 * self.error
 
 
 @dataclass
@@ -125,9 +134,7 @@ class Drift:
                 "held_out_rms_sigma": self.rms_after,
                 "parameters": [{"parameter": d.parameter, "unit": d.unit, "why": d.why,
                                 "stored": d.stored, "value": d.value, "change": d.change,
-                                "interval": [d.value - 1.96 * d.error,
-                                             d.value + 1.96 * d.error]
-                                if math.isfinite(d.error) else None,
+                                "interval": list(d.interval) if d.interval else None,
                                 "significant": d.significant} for d in self.parameters]}
 
     def statement(self) -> str:
@@ -160,15 +167,17 @@ def refit_base(rig: Rig, train: Sequence[SeriesRecord], held: Sequence[SeriesRec
     def fun(z: Arr) -> Arr:
         ov = {k: float(zi * s) for k, zi, s in zip(keys, z, stored, strict=True)}
         try:
-            return stacked_residual(rig, train, channels, sigma, ov)
+            r = stacked_residual(rig, train, channels, sigma, ov)
         except (SimulationError, InputError, ParameterError):
-            if not n:  # the stored rig itself: nothing to re-fit from
+            if not n:  # the first call is the stored rig: nothing to re-fit from
                 raise
             return np.full(n[0], 1e3)  # a trial the solver cannot run is a bad trial
+        if not n:
+            n.append(r.size)
+        return r
 
     n: list[int] = []
     try:
-        n.append(fun(np.ones(len(keys))).size)
         sol = least_squares(fun, np.ones(len(keys)), bounds=(lo, hi), x_scale=1.0,
                             diff_step=0.05, max_nfev=max_nfev, xtol=1e-3, ftol=1e-4)
         fitted = {k: float(z * s) for k, z, s in zip(keys, sol.x, stored, strict=True)}

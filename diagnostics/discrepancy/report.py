@@ -138,11 +138,11 @@ def html_page(d: Discovery, title: str = "hydrodiag discrepancy report") -> str:
                      + "<table><tr><th>parameter</th><th>why it drifts</th><th>stored</th>"
                      "<th>re-fitted</th><th>change</th><th>95 % interval</th></tr>")
         for b in d.base_drift.parameters:
+            lo, hi = b.interval or (math.nan, math.nan)
             parts.append(f"<tr><td>{e(b.parameter)} [{e(b.unit)}]</td><td>{e(b.why)}</td>"
                          f"<td>{_fmt(b.stored)}</td><td>{_fmt(b.value)}</td>"
                          f"<td>{100 * b.change:+.1f} %{'' if b.significant else ' (n.s.)'}"
-                         f"</td><td>{_fmt(b.value - 1.96 * b.error)} … "
-                         f"{_fmt(b.value + 1.96 * b.error)}</td></tr>")
+                         f"</td><td>{_fmt(lo)} … {_fmt(hi)}</td></tr>")
         parts.append("</table>")
     parts.append("<h2>Balances (equation error, base parameters re-fitted)</h2><table><tr>"
                  "<th>balance</th><th>chosen</th><th>ΔBIC</th><th>residual RMS</th>"
