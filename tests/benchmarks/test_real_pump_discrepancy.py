@@ -1,0 +1,68 @@
+"""The discrepancy workflow on slices of the measured V32HL56 map (issues 8 and 12)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from benchmarks.real_pump_discrepancy import cross_settings, stored_pump
+from benchmarks.real_pump_map import THETA
+from diagnostics.discrepancy.steady import discover_steady
+from diagnostics.pump import bench_from_frame, derived_capacity_toet
+from diagnostics.pump.levels import cluster_levels
+from diagnostics.pump.piston import bench_frame, read_efficiency_map
+from tests.real_slices import v32hl56_slice
+
+
+@pytest.fixture(scope="module")
+def settings() -> list:
+    data = read_efficiency_map(v32hl56_slice())
+    idx, levels = cluster_levels(data.D, field="Displacement")
+    return [data.subset(idx == k) for k in range(levels.size)]
+
+
+def test_the_stored_pump_reproduces_its_bench_in_the_mean(settings: list) -> None:
+    """Toet's capacity and the least-squares laminar leak: the stored pump's flow balance
+    (ω·Vp − q = Δp/Rlp) leaves a residual of zero mean weight against Δp."""
+    bench = bench_from_frame(bench_frame(settings[0], THETA))
+    doc = stored_pump(bench, "slice")
+    pump = doc["components"]["pump"]["parameters"]
+    cap = pump["Vp"]["value"] / (2 * np.pi)
+    assert pytest.approx(cap) == derived_capacity_toet(bench).D
+    dp = bench.p_out - bench.p_in
+    r = bench.omega * cap - bench.q - dp / pump["Rlp"]["value"]
+    assert abs(np.sum(r * dp)) < 1e-9 * np.sum(np.abs(bench.q * dp))
+
+
+def test_the_workflow_names_a_loss_growing_with_pressure_times_speed_and_flags_its_size(
+        settings: list) -> None:
+    """Measured data nobody here wrote: at 23.2 and 56.9 cm³/rev the flow loss has a term
+    ∝ Δp·ω that the laminar leak cannot take (held-out gap 6-7 l/min); the workflow names
+    the library's entry with that signature, shrinks the held-out gap more than 5×, and
+    marks its coefficient as outside the plausible range of oil compression (paper 000
+    eq. 6: ≤ 2e-9 1/Pa) — it is not that effect alone (module docstring of the study)."""
+    for sub in settings:
+        bench = bench_from_frame(bench_frame(sub, THETA))
+        d = discover_steady(stored_pump(bench, "slice"), bench, bootstrap=0)
+        assert d.verdict in ("named", "partially explained"), d.message
+        comp = next(n for n in d.named if n.name == "pump_compressibility_loss")
+        assert comp.value > comp.plausible_range[1] and not comp.plausible
+        assert comp.interval[0] > 0.0 and comp.interval[1] > comp.interval[0]
+        assert d.gap_before[0].rmse > 5.0 * d.gap_after[0].rmse
+        # the augmented rig carries the effect and the re-fitted pump
+        pump = d.rig_document["components"]["pump"]["parameters"]
+        assert "re-fitted" in pump["Rlp"]["source"]
+
+
+def test_the_loss_does_not_scale_with_the_displacement(settings: list) -> None:
+    """Compression of the displaced oil alone (the library's entry) would make the
+    absolute Δp·ω coefficient proportional to the displacement (×2.5 from 23.2 to
+    56.9 cm³/rev); measured, it grows by a third, and a fifth of it or less reaches the
+    case drain (compression loses no oil to the case)."""
+    data = read_efficiency_map(v32hl56_slice())
+    idx, levels = cluster_levels(data.D, field="Displacement")
+    a = cross_settings(data, idx, levels.size)
+    lo, hi = a["a_m3_per_rad_Pa"]
+    assert a["D_m3_per_rad"][1] / a["D_m3_per_rad"][0] > 2.4
+    assert 1.0 < hi / lo < 1.6
+    assert all(0.0 < s < 0.3 for s in a["drain_share"])
