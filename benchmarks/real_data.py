@@ -14,7 +14,7 @@ setting, the derived capacity (intercept, Toet, Vimax; one temperature, assumed)
 piston loss family (:mod:`diagnostics.pump.piston`) with one speed left out at a time next to
 a plain quadratic in (Δp, n), with the flow loss fitted to Qth − QOut and to the measured
 case-drain flow; and the discrepancy workflow on each setting as a bench table
-(:mod:`benchmarks.real_pump_discrepancy`).
+(:mod:`benchmarks.real_discrepancy`).
 
 ``HYDRODIAG_LIGHT=1``: every 4th cycle; the map in full (it is small).
 Run: ``make real-data``.  Last line: JSON.
@@ -25,7 +25,7 @@ from __future__ import annotations
 import json
 import os
 
-from benchmarks import real_pump_discrepancy, real_pump_map
+from benchmarks import real_discrepancy, real_pump_map
 from benchmarks.real_zema import zema
 
 
@@ -39,7 +39,8 @@ def main() -> None:
     light = os.environ.get("HYDRODIAG_LIGHT") == "1"
     figures = zema(light)
     figures["pump_map"] = pump_map()
-    figures["pump_discrepancy"] = real_pump_discrepancy.pump_discrepancy()
+    figures["pump_discrepancy"] = real_discrepancy.pump_discrepancy()
+    figures["zema_discrepancy"] = real_discrepancy.zema_discrepancy(light)
     print(json.dumps(figures))
 
 

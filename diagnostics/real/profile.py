@@ -49,6 +49,7 @@ import numpy as np
 import numpy.typing as npt
 from scipy.stats import spearmanr
 
+from diagnostics.pump.data import BenchData
 from diagnostics.real.leakage import record_plateaus
 from diagnostics.real.precharge import stored_rate
 from diagnostics.real.relaxation import settled_flow
@@ -88,6 +89,30 @@ class PlateauTable:
     def complete(self) -> Mask:
         """Cycles with every plateau of the table [-]."""
         return np.asarray(np.all(np.isfinite(self.flow), axis=1), dtype=np.bool_)
+
+    def bench(self, speed: float, cycles: Mask | None = None, *,
+              provenance: str = "") -> BenchData:
+        """The plateaus of ``cycles`` (all if None) as a steady pump-bench table
+        (:class:`~diagnostics.pump.data.BenchData`, one row per plateau with a flow): the
+        plateau pressure over a tank inlet (``p_in`` = 0), the shaft ``speed`` [rad/s] (the
+        rig's stated one where the data record none), the cycle's oil temperature and the
+        plateau's flow; measured data (``simulated`` False).  What the discrepancy
+        workflow's steady branch reads (:func:`diagnostics.discrepancy.steady.discover_steady`).
+
+        Raises
+        ------
+        InputError
+            No plateau with a flow among ``cycles`` (``field="cycles"``).
+        """
+        use = np.ones(self.theta.size, dtype=bool) if cycles is None else np.asarray(cycles)
+        theta = np.broadcast_to(self.theta[:, None], self.flow.shape)
+        ok = use[:, None] & np.isfinite(self.flow) & np.isfinite(self.pressure)
+        if not ok.any():
+            raise InputError("no plateau with a flow in these cycles", field="cycles")
+        n = int(ok.sum())
+        return BenchData(p_in=np.zeros(n), p_out=self.pressure[ok], omega=np.full(n, speed),
+                         theta=theta[ok], q=self.flow[ok], simulated=False,
+                         provenance=provenance)
 
 
 def plateau_table(records: Sequence[SeriesRecord], *, plateaus: int = 5,

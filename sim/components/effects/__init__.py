@@ -22,6 +22,7 @@ effect                          balance          bond-graph change
 ``pump_clearance_pressure``     pump flow        R on ``pump.out``
 ``speed_offset``                pump flow        Sf on ``pump.out``
 ``pump_compressibility_loss``   pump flow        R on ``pump.out`` reading Vp, ω
+``viscous_pump_slip``           pump flow        R on ``pump.out`` reading Vp, μ(T)
 ``viscosity_law``               chamber flow     ``fluid.mu`` × exp(−λ(T − T_ref)) for
                                                  every viscous R (a fluid correction)
 ``entrained_air``               chamber flow     law of C ``cylinder.C1/C2``: + air
@@ -78,6 +79,7 @@ from sim.components.effects import (
     stribeck_friction,
     turbulent_leakage,
     viscosity_law,
+    viscous_pump_slip,
 )
 from sim.components.effects.base import EffectEntry
 from sim.errors import RigFileError
@@ -153,7 +155,7 @@ def _paths(module: object) -> dict[str, Effect]:
 _REGISTRY: dict[str, Effect] = {}
 for _m in (stribeck_friction, seal_friction_pressure, couette_drag, speed_offset,
            compressibility_loss, side_plate_lag, slip_hysteresis, viscosity_law,
-           relief_override, entrained_air, line_unsteady_friction):
+           relief_override, entrained_air, line_unsteady_friction, viscous_pump_slip):
     _e = _single(_m)
     _REGISTRY[_e.name] = _e
 for _m in (turbulent_leakage, pressure_clearance):

@@ -51,6 +51,22 @@ def test_plateau_table_numbers_the_working_plateaus_up_to_the_relief() -> None:
         plateau_table([_record("dead", [190.0, 189.0], [0.0, 0.0], 40.0)])
 
 
+def test_a_plateau_table_is_a_bench_table_row_by_plateau() -> None:
+    on = _record("on", [190.0, 146.0, 156.0, 166.0], [0.0, 7.9, 7.8, 7.7], 40.0)
+    off = _record("off", [190.0, 141.0, 188.0, 145.0], [0.0, 7.4, 1.1, 7.6], 56.0)
+    tab = plateau_table([on, off], plateaus=3)
+    b = tab.bench(157.0)
+    assert b.q.size == 4 and not b.simulated
+    assert b.p_out == pytest.approx(np.array([146.0, 156.0, 166.0, 141.0]) * BAR)
+    assert b.q == pytest.approx(np.array([7.9, 7.8, 7.7, 7.4]) * LPM)
+    assert b.theta == pytest.approx([40.0, 40.0, 40.0, 56.0])
+    assert np.all(b.p_in == 0.0) and np.all(b.omega == 157.0)
+    assert tab.bench(157.0, np.array([False, True])).q == pytest.approx([7.4 * LPM])
+    with pytest.raises(InputError) as exc:
+        tab.bench(157.0, np.array([False, False]))
+    assert exc.value.field == "cycles"
+
+
 def test_deficit_is_taken_against_the_same_plateau_of_healthy_cycles() -> None:
     p = np.array([[146.0, 156.0], [147.0, 157.0], [146.0, 156.0], [141.0, np.nan]]) * BAR
     q = np.array([[7.90, 7.80], [7.88, 7.78], [7.60, 7.45], [7.50, np.nan]]) * LPM

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -27,6 +28,7 @@ STRENGTHS = {
     "pump_clearance_pressure": ("k_c", 5e-19),
     "speed_offset": ("d_speed", 5.0),
     "pump_compressibility_loss": ("k_b", 6.7e-10),
+    "viscous_pump_slip": ("C_s", 1e-8),
     "viscosity_law": ("lam", 0.01),
     "relief_override": ("k_ov", 4e12),
     "entrained_air": ("alpha", 1e-3),
@@ -68,7 +70,7 @@ def test_junction_balances_and_effect_dissipation_at_random_states(full_rig):
     p = full_rig.params(graph_values={"valve.N": 1.0})
     effect_rs = [el for el in g.elements.values()
                  if el.kind is Kind.R and el.name.split(".")[0] in EFFECTS]
-    assert len(effect_rs) == 9  # every effect but the speed offset is an R
+    assert len(effect_rs) == 10  # every effect but the speed offset is an R
     for _ in range(25):
         y = m.initial_state(p)
         for i in range(len(m.state_names)):
@@ -152,6 +154,23 @@ def test_compressibility_loss_takes_k_b_p_vp_omega_from_the_delivered_flow():
     # 4 MPa: β_c = 1.5 GPa); Q_meter_B is what reaches the valve
     lost = 6.7e-10 * out["P_pump"] * v["pump.Vp"] * v["pump.speed"]
     assert base["Q_meter_B"] - out["Q_meter_B"] == pytest.approx(lost, rel=0.03)
+
+
+def test_viscous_pump_slip_takes_c_s_p_vp_over_mu_from_the_delivered_flow():
+    """Paper 000 eq. 4 by hand: C_s·P·Vp/μ(T) leaves the outlet junction, and it doubles
+    between 40 °C and the oil temperature where μ has halved."""
+    rig = load_rig(_doc({"viscous_pump_slip": 1e-8}))
+    lost = {}
+    for theta in (40.0, 60.0):
+        cond = replace(rig.default_condition(), oil_temperature=theta)
+        base = steady_phase(reference_rig(), "working", condition=cond).outputs
+        out = steady_phase(rig, "working", condition=cond).outputs
+        v = rig.values(condition=cond)
+        lost[theta] = (1e-8 * out["P_pump"] * v["pump.Vp"] / v["fluid.mu"], v["fluid.mu"])
+        assert base["Q_meter_B"] - out["Q_meter_B"] == pytest.approx(lost[theta][0], rel=0.03)
+    ratio = lost[60.0][0] / lost[40.0][0]
+    assert ratio > 1.8
+    assert ratio == pytest.approx(lost[40.0][1] / lost[60.0][1], rel=0.05)
 
 
 def test_effects_section_errors_name_the_field():
