@@ -18,14 +18,15 @@ slip ∝ √Δp.
 The rows at the edge of the operating range are held out: the highest temperature when
 there are two to :data:`LEVELS` of them, the top fifth of the temperatures when they spread
 over a range (monitoring data: the ZeMA plateaus, 35-58 °C), else the top fifth of the
-pressures.  A named effect's coefficient
-is then re-fitted to the residual of the *stored* pump together with corrections of the
-pump's own laminar slip and displacement (DISCREPANCY.md, item 3: a stored pump is never
-exact, and an effect fitted against a fixed one takes up the pump's error and reports an
-interval as if the pump were known — ±2-3 % on the synthetic tables, whose stored pump is
-the truth, against ±5-27 % with the pump re-fitted), and kept when it is significant
-(|t| ≥ 2.576, White errors on columns scaled to unit RMS: :func:`robust_ols`), of the
-entry's sign, and the held-out gap in excess of the scatter shrinks at least
+pressures.  A named effect's coefficient is then re-fitted to the residual of the *stored*
+pump together with corrections of the pump's own laminar slip and displacement
+(DISCREPANCY.md, item 3: a stored pump is never exact, and an effect fitted against a fixed
+one takes up the pump's error and reports an interval as if the pump were known — 95 %
+half-widths of 2-8 % of the value on synthetic tables whose stored pump is the truth,
+against 5-29 % with the pump re-fitted), and kept when it is significant (|t| ≥ 2.576,
+White errors on columns scaled to unit RMS: :func:`robust_ols`), of the entry's sign, with
+a re-fitted pump that is still a pump (1/Rlp and Vp positive), and the held-out gap in
+excess of the scatter shrinks at least
 :data:`~diagnostics.discrepancy.workflow.CONFIRM_RATIO`-fold against the stored pump.  The
 augmented rig carries the effect *and* the re-fitted Rlp and Vp (a bench table is the
 pump's characterisation, not field data of a worn rig); the message gives the held-out
@@ -299,7 +300,9 @@ def discover_steady(rig_document: Mapping[str, Any], bench: BenchData, *,
         # significant and of the entry's sign with the pump re-fitted too, and shrinking the
         # held-out gap of the stored pump
         valid = all(abs(coefs[n]) >= 2.576 * errs[n]
-                    and EFFECTS[n].entry.sign * coefs[n] >= 0.0 for n in names)
+                    and EFFECTS[n].entry.sign * coefs[n] >= 0.0 for n in names) \
+            and 1.0 / values["pump.Rlp"] + base["pump.Rlp"] > 0.0 \
+            and values["pump.Vp"] - base["pump.Vp"] > 0.0
         if valid and excess_ratio(gap_before, trial, sigma) >= CONFIRM_RATIO:
             fitted, refitted, gap_after = coefs, base, trial
             for t in sel.chosen.terms:
@@ -348,7 +351,7 @@ def discover_steady(rig_document: Mapping[str, Any], bench: BenchData, *,
                     f"leave a held-out flow RMSE of {gap_alone[0].rmse / sigma[FLOW]:.1f} σ")
     if rejected:
         message += ("; not confirmed (coefficient not significant or of the wrong sign, or the "
-                    "held-out gap not shrinking): "
+                    "re-fitted pump leaking negatively, or the held-out gap not shrinking): "
                     f"{', '.join(rejected)}")
     if skipped:
         message += f"; not computable from a steady table: {', '.join(skipped)}"

@@ -84,8 +84,9 @@ def test_a_hidden_pump_effect_is_named_from_a_bench_table(effect: str, value: fl
     n = d.named[0]
     # the truth within 3 standard errors (the 95 % interval is ±1.96 of them); the errors
     # count the pump's laminar slip and displacement re-fitted with the effect (√P, P²/μ and
-    # P/μ are close to the laminar column P over one pressure range: ±5-28 % here, where the
-    # pump held at its stored values gave ±2-3 % — too narrow for a real pump)
+    # P/μ are close to the laminar column P over one pressure range: 95 % half-widths of
+    # 5-29 % of the value here, where the pump held at its stored values gave 2-8 % — too
+    # narrow for a real pump)
     half = (n.interval[1] - n.interval[0]) / 2
     assert abs(n.value - value) <= 3 * half / 1.96
     assert half < 0.3 * value

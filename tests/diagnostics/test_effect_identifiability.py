@@ -39,3 +39,27 @@ def test_pump_compressibility_loss_is_the_laminar_leak_column_at_one_speed():
     assert g - 1 / v["pump.Rlp"] == pytest.approx(
         6.7e-10 * v["pump.speed"] * v["pump.Vp"], rel=0.1)
 
+
+
+def test_viscous_pump_slip_is_the_laminar_leak_column_at_one_temperature():
+    """P·Vp/μ at one oil temperature is the laminar leak's column P scaled: the selection
+    puts it in the base's ambiguity group; over 40/50/60 °C it is a column of its own."""
+    doc = reference_rig_document()
+    doc["effects"] = {"viscous_pump_slip": {"parameters": {"C_s": {"value": 1e-8, "unit": "1"}}}}
+    rig = load_rig(doc)
+    for conditions, apart in ((tuple((L, 50.0) for L, _ in CONDITIONS), False),
+                              (CONDITIONS, True)):
+        rng = np.random.default_rng(3)
+        recs = [synthesize(rig, Condition(load=L, oil_temperature=T), rng=rng,
+                           name=f"L{L:.0f}") for L, T in conditions]
+        data = {d.balance.name: d for d in balance_data(prepare(recs, reference_rig()),
+                                                        reference_rig().values())}
+        pump = data["pump_flow"]
+        r = abs(np.corrcoef(pump.candidates["viscous_pump_slip"], pump.base["pump.Rlp"])[0, 1])
+        sel = select(pump, bootstrap=0)
+        if apart:
+            assert r < 0.999
+            assert ["base", "viscous_pump_slip"] not in sel.ambiguity
+        else:
+            assert r > 1 - 1e-12
+            assert ["base", "viscous_pump_slip"] in sel.ambiguity
