@@ -102,9 +102,13 @@ class PlateauTable:
         Raises
         ------
         InputError
-            No plateau with a flow among ``cycles`` (``field="cycles"``).
+            ``cycles`` not one boolean per cycle, or no plateau with a flow among them
+            (``field="cycles"``).
         """
         use = np.ones(self.theta.size, dtype=bool) if cycles is None else np.asarray(cycles)
+        if use.shape != self.theta.shape or use.dtype != np.bool_:
+            raise InputError(f"cycles must be {self.theta.size} booleans, one per cycle",
+                             field="cycles")
         theta = np.broadcast_to(self.theta[:, None], self.flow.shape)
         ok = use[:, None] & np.isfinite(self.flow) & np.isfinite(self.pressure)
         if not ok.any():

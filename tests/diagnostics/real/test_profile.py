@@ -62,9 +62,10 @@ def test_a_plateau_table_is_a_bench_table_row_by_plateau() -> None:
     assert b.theta == pytest.approx([40.0, 40.0, 40.0, 56.0])
     assert np.all(b.p_in == 0.0) and np.all(b.omega == 157.0)
     assert tab.bench(157.0, np.array([False, True])).q == pytest.approx([7.4 * LPM])
-    with pytest.raises(InputError) as exc:
-        tab.bench(157.0, np.array([False, False]))
-    assert exc.value.field == "cycles"
+    for bad in (np.array([False, False]), np.array([True]), np.array([1, 0])):
+        with pytest.raises(InputError) as exc:
+            tab.bench(157.0, bad)
+        assert exc.value.field == "cycles"
 
 
 def test_deficit_is_taken_against_the_same_plateau_of_healthy_cycles() -> None:
