@@ -13,8 +13,8 @@ The V32HL56 piston-pump map (``data/real/pump-efficiency-V32HL56/``): per displa
 setting, the derived capacity (intercept, Toet, Vimax; one temperature, assumed), the
 piston loss family (:mod:`diagnostics.pump.piston`) with one speed left out at a time next to
 a plain quadratic in (Δp, n), with the flow loss fitted to Qth − QOut and to the measured
-case-drain flow; and the discrepancy workflow on each setting as a bench table
-(:mod:`benchmarks.real_discrepancy`).
+case-drain flow.  The discrepancy workflow on each setting as a bench table and on the ZeMA
+plateaus as bench tables (:mod:`benchmarks.real_discrepancy`).
 
 ``HYDRODIAG_LIGHT=1``: every 4th cycle; the map in full (it is small).
 Run: ``make real-data``.  Last line: JSON.
