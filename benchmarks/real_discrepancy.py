@@ -15,8 +15,10 @@ Then the question the workflow cannot ask of one table: is the loss ∝ Δp·ω 
 compression of the displaced oil (paper 000 eq. 6, the library entry, ∝ Vp), or something
 else?  Across the five settings, the absolute coefficient ``a`` of Δp·ω in the flow loss
 ``ω·D − q = G·Δp + b·ω + a·Δp·ω`` [m³/(rad·Pa)] (:func:`cross_settings`) is fitted against
-the displacement D [m³/rad]: compression of the swept and of a fixed dead volume V₀ gives
-``a = D/β + V₀/(2π·β)`` (slope 1/β, intercept V₀), and the share of ``a`` that appears in
+the displacement D [m³/rad]: paper 000 eq. 6's compressibility term ``Δp·D·ω/β`` with the
+compressed volume per turn taken as the swept one plus a fixed dead volume V₀ [m³/rev] (our
+extension, for a variable-displacement pump) gives ``a = D/β + V₀/(2π·β)`` (slope 1/β,
+intercept V₀), and the share of ``a`` that appears in
 the measured case-drain flow says how much of it is leakage (compression loses no oil to
 the case).
 

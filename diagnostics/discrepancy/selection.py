@@ -39,7 +39,8 @@ from diagnostics.discrepancy.balances import BalanceData
 from sim.components.effects import EFFECTS
 from sim.errors import MeasurementError
 
-__all__ = ["ALPHA", "BIC_MARGIN", "NEAR_BIC", "PRACTICAL", "Fit", "Selection", "Term", "select"]
+__all__ = ["ALPHA", "BIC_MARGIN", "NEAR_BIC", "PRACTICAL", "Fit", "Selection", "Term", "hac_cov",
+           "select"]
 
 Arr = npt.NDArray[np.float64]
 
@@ -149,8 +150,9 @@ def _scaled(cols: dict[str, Arr]) -> tuple[list[str], Arr, Arr]:
     return names, X / scale, scale
 
 
-def _hac_cov(X: Arr, resid: Arr, lags: int) -> Arr:
-    """Newey-West covariance of OLS coefficients (Bartlett kernel)."""
+def hac_cov(X: Arr, resid: Arr, lags: int) -> Arr:
+    """Newey-West covariance of OLS coefficients (Bartlett kernel); ``lags`` = 0 gives
+    White's (HC0)."""
     n = X.shape[0]
     xtx_inv = np.linalg.pinv(X.T @ X)
     u = X * resid[:, None]
@@ -185,7 +187,7 @@ def _fit(y: Arr, Xb: Arr, Xc: Arr, names: list[str], scale: Arr, data: BalanceDa
     resid = y - X @ coef
     rss = float(resid @ resid)
     n = y.size
-    cov = _hac_cov(X, resid, lags)
+    cov = hac_cov(X, resid, lags)
     nb = Xb.shape[1]
     t_crit = stats.norm.ppf(1 - ALPHA / (2 * max(m, 1)))
     terms: list[Term] = []

@@ -54,7 +54,7 @@ from diagnostics.discrepancy.balances import BALANCES, BASE_SIGNS, BalanceData, 
 from diagnostics.discrepancy.gap import GapRow
 from diagnostics.discrepancy.lof import lack_of_fit
 from diagnostics.discrepancy.refit import with_effects
-from diagnostics.discrepancy.selection import PRACTICAL, select
+from diagnostics.discrepancy.selection import PRACTICAL, hac_cov, select
 from diagnostics.discrepancy.signals import Signals
 from diagnostics.discrepancy.verdict import OUTPUT_GAP, excess_ratio
 from diagnostics.discrepancy.workflow import CONFIRM_RATIO, Discovery, NamedEffect
@@ -191,10 +191,8 @@ def robust_ols(X: Arr, y: Arr) -> tuple[Arr, Arr]:
     scale[~(scale > 0)] = 1.0
     Xs = X / scale
     coef, *_ = np.linalg.lstsq(Xs, y, rcond=None)
-    e = y - Xs @ coef
     n, k = Xs.shape
-    bread = np.linalg.pinv(Xs.T @ Xs)
-    cov = bread @ (Xs * (e * e)[:, None]).T @ Xs @ bread * n / max(n - k, 1)
+    cov = hac_cov(Xs, y - Xs @ coef, 0) * n / max(n - k, 1)  # HC0 → HC1
     return coef / scale, np.sqrt(np.maximum(np.diag(cov), 0.0)) / scale
 
 
@@ -218,15 +216,20 @@ def _stored_fit(values: Mapping[str, float], s: Signals, names: list[str]
             dict(zip(BASE, (float(coef[0]), float(coef[1])), strict=True)))
 
 
+def _refitted(values: Mapping[str, float], base: Mapping[str, float]) -> dict[str, float]:
+    """The pump's Rlp [Pa·s/m³] and Vp [m³/rad] with the corrections ``base``
+    (:func:`_model`'s form)."""
+    return {"pump.Rlp": 1.0 / (1.0 / values["pump.Rlp"] + base["pump.Rlp"]),
+            "pump.Vp": values["pump.Vp"] - base["pump.Vp"]}
+
+
 def _with_base(doc: Mapping[str, Any], values: Mapping[str, float],
                base: Mapping[str, float]) -> dict[str, Any]:
     """A copy of ``doc`` whose pump carries the re-fitted Rlp and Vp (in the document's
     own units), their sources saying so."""
     out = copy.deepcopy(dict(doc))
     params = out["components"]["pump"]["parameters"]
-    new = {"pump.Rlp": 1.0 / (1.0 / values["pump.Rlp"] + base["pump.Rlp"]),
-           "pump.Vp": values["pump.Vp"] - base["pump.Vp"]}
-    for key, v in new.items():
+    for key, v in _refitted(values, base).items():
         name = key.partition(".")[2]
         entry = params[name] if isinstance(params[name], dict) else {"value": params[name]}
         params[name] = {**entry, "value": float(entry["value"]) * v / values[key],
@@ -301,8 +304,7 @@ def discover_steady(rig_document: Mapping[str, Any], bench: BenchData, *,
         # held-out gap of the stored pump
         valid = all(abs(coefs[n]) >= 2.576 * errs[n]
                     and EFFECTS[n].entry.sign * coefs[n] >= 0.0 for n in names) \
-            and 1.0 / values["pump.Rlp"] + base["pump.Rlp"] > 0.0 \
-            and values["pump.Vp"] - base["pump.Vp"] > 0.0
+            and all(v > 0.0 for v in _refitted(values, base).values())
         if valid and excess_ratio(gap_before, trial, sigma) >= CONFIRM_RATIO:
             fitted, refitted, gap_after = coefs, base, trial
             for t in sel.chosen.terms:
@@ -369,10 +371,9 @@ def discover_steady(rig_document: Mapping[str, Any], bench: BenchData, *,
 
 def _base_change(values: Mapping[str, float], base: Mapping[str, float]) -> str:
     """``Rlp 6e+11 → 5.8e+11 Pa·s/m³, Vp … m³/rad``: the pump re-fitted by ``base``."""
-    rlp = 1.0 / (1.0 / values["pump.Rlp"] + base["pump.Rlp"])
-    vp = values["pump.Vp"] - base["pump.Vp"]
-    return (f"pump re-fitted: Rlp {values['pump.Rlp']:.4g} → {rlp:.4g} Pa·s/m³, "
-            f"Vp {values['pump.Vp']:.5g} → {vp:.5g} m³/rad")
+    new = _refitted(values, base)
+    return (f"pump re-fitted: Rlp {values['pump.Rlp']:.4g} → {new['pump.Rlp']:.4g} Pa·s/m³, "
+            f"Vp {values['pump.Vp']:.5g} → {new['pump.Vp']:.5g} m³/rad")
 
 
 def _ranges(rows: npt.NDArray[np.int64]) -> str:
