@@ -53,8 +53,14 @@ LOCAL_SPAN = 0.28
 LOCAL_POINTS = 13
 
 
-def with_effects(doc: Mapping[str, Any], values: Mapping[str, float]) -> dict[str, Any]:
-    """A copy of ``doc`` whose ``effects:`` section holds ``values`` (``effect.param → SI``)."""
+#: the source of a parameter fitted by re-simulation
+RESIMULATED = "fitted by hydrodiag discover (output error, re-simulated)"
+
+
+def with_effects(doc: Mapping[str, Any], values: Mapping[str, float], *,
+                 source: str = RESIMULATED) -> dict[str, Any]:
+    """A copy of ``doc`` whose ``effects:`` section holds ``values`` (``effect.param → SI``),
+    each with ``source`` (how it was fitted)."""
     out = copy.deepcopy(dict(doc))
     effects = dict(out.get("effects") or {})
     for key, value in values.items():
@@ -64,7 +70,7 @@ def with_effects(doc: Mapping[str, Any], values: Mapping[str, float]) -> dict[st
         body = dict(effects.get(name) or {})
         params = dict(body.get("parameters") or {})
         params[pname] = {"value": float(value), "unit": decl.unit,
-                         "source": "fitted by hydrodiag discover (output error, re-simulated)"}
+                         "source": source}
         body["parameters"] = params
         effects[name] = body
     out["effects"] = effects

@@ -74,6 +74,9 @@ Progress = Callable[[float, str], None]
 FLOW = "q"
 #: more oil temperatures than this (to 1 °C) are a spread, not a bench's levels [-]
 LEVELS = 5
+#: the source of a coefficient fitted here, in the augmented rig document
+FITTED = ("fitted by hydrodiag discover (steady pump-bench table: least squares with the "
+          "pump's Rlp and Vp)")
 
 
 def is_bench_table(content: bytes) -> bool:
@@ -109,15 +112,19 @@ def _signals(bench: BenchData, rig: Rig, rows: npt.NDArray[np.int64]) -> Signals
                    np.full(rows.size, "steady"), np.arange(rows.size, dtype=float), ["bench"])
 
 
-def _balance(s: Signals, values: Mapping[str, float]) -> tuple[BalanceData, list[str]]:
-    """The pump-outlet balance on steady rows; candidates that need signals a steady
-    table has not are listed as skipped."""
+def _balance(s: Signals, values: Mapping[str, float], circuit: str
+             ) -> tuple[BalanceData, list[str]]:
+    """The pump-outlet balance on steady rows, with the library's entries that apply to
+    ``circuit``; candidates that need signals a steady table has not are listed as
+    skipped."""
     c = s.values
     y = c["speed"] * c["Vp"] - c["Q_meter_B"]
     base = {"pump.Rlp": c["P_pump"], "pump.Vp": c["speed"]}
     cands: dict[str, Arr] = {}
     skipped: list[str] = []
     for e in effects_of("pump_flow"):
+        if not e.entry.applies_to(circuit):
+            continue
         try:
             cands[e.name] = np.asarray(e.entry.regressor(c), dtype=float)
         except KeyError:
@@ -278,7 +285,7 @@ def discover_steady(rig_document: Mapping[str, Any], bench: BenchData, *,
     train_i, held_i = _split(bench)
     train, held = _signals(bench, rig, train_i), _signals(bench, rig, held_i)
     report(0.1, "equation-error residuals of the pump outlet")
-    data, skipped = _balance(train, values)
+    data, skipped = _balance(train, values, rig.circuit.name)
     sel = select(data, bootstrap=bootstrap, seed=seed, lags=0, block=1)
     report(0.6, "selection done")
     groups = _groups(bench, train_i)
@@ -326,7 +333,8 @@ def discover_steady(rig_document: Mapping[str, Any], bench: BenchData, *,
                             len(data.base) + len(fitted)) if named else None
     new_doc = with_effects(_with_base(doc, values, refitted),
                            {f"{n}.{EFFECTS[n].entry.coefficient}": v
-                            for n, v in fitted.items()}) if fitted else dict(doc)
+                            for n, v in fitted.items()}, source=FITTED) if fitted else dict(doc)
+    validate_rig_document(new_doc)  # the augmented rig must load as any stored rig
     practical = PRACTICAL * data.full_scale
     misfit = lof_before is not None and lof_before.p < 0.01 and lof_before.rms_lof > practical
     off = gap_before[0].rmse > OUTPUT_GAP * sigma[FLOW]

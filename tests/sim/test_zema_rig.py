@@ -51,3 +51,48 @@ def test_more_internal_leakage_lowers_the_working_flow() -> None:
     assert leaky["Q_work"] < healthy["Q_work"]
     assert leaky["Q_pump_leak"] == pytest.approx(leaky["P_pump"] / (3.5e12 / 3), rel=1e-9)
     assert math.isfinite(leaky["T_pump"])
+
+
+#: a strength of each pump-outlet entry that takes 1-10 % of the working flow [SI]
+PUMP_EFFECTS = {"turbulent_pump_slip": ("K_t", 5e-10), "pump_clearance_pressure": ("k_c", 3e-22),
+                "speed_offset": ("d_speed", -5.0), "pump_compressibility_loss": ("k_b", 2e-9),
+                "viscous_pump_slip": ("C_s", 1e-8)}
+
+
+def test_the_pump_entries_of_the_library_apply_to_this_circuit_and_leave_their_signature(
+        ) -> None:
+    """The library's pump-outlet entries touch only ``pump.*`` and ``fluid.*``, so a rig of
+    this circuit can hold them (what ``hydrodiag discover`` stores for the ZeMA rig): at
+    zero strength the rig is the base exactly; with a strength, the pump-outlet volume
+    balance at the steady state leaves exactly the entry's regressor times its strength —
+    the column the discrepancy workflow fits."""
+    from sim.components.effects import effects_for, get_effect
+    from sim.rigs import load_rig_document
+
+    assert set(effects_for("pump-relief-orifice")) == set(PUMP_EFFECTS)
+    base = _steady()
+    for name, (pname, value) in PUMP_EFFECTS.items():
+        effect = get_effect(name, "pump-relief-orifice")
+        unit = effect.parameter(pname).unit
+        doc = load_rig_document(RIG)
+        doc["effects"] = {name: {"parameters": {pname: {"value": 0.0, "unit": unit}}}}
+        rig = load_rig(doc)
+        m = rig.model
+        p = rig.params()
+        y = m.steady(m.initial_state(p), p)
+        off = dict(zip(m.output_names, map(float, m.outputs(np.zeros(1), y[None, :], p)[0]),
+                       strict=True))
+        assert all(off[k] == base[k] for k in base), name
+        doc["effects"][name]["parameters"][pname]["value"] = value
+        rig = load_rig(doc)
+        m, p, v = rig.model, rig.params(), rig.values()
+        y = m.steady(m.initial_state(p), p)
+        on = dict(zip(m.output_names, map(float, m.outputs(np.zeros(1), y[None, :], p)[0]),
+                      strict=True))
+        unexplained = (v["pump.speed"] * v["pump.Vp"] - on["Q_work"] - on["Q_pump_leak"]
+                       - on["Q_relief"])
+        signals = {"P_pump": np.array([on["P_pump"]]), "Vp": np.array([v["pump.Vp"]]),
+                   "speed": np.array([v["pump.speed"]]), "mu": np.array([v["fluid.mu"]])}
+        expected = value * float(effect.entry.regressor(signals)[0])
+        assert 0.01 < abs(expected) / on["Q_work"] < 0.1, name
+        assert unexplained == pytest.approx(expected, rel=1e-3), name

@@ -167,7 +167,7 @@ EFFECTS: Mapping[str, Effect] = MappingProxyType(_REGISTRY)
 
 def effects_for(circuit: str) -> dict[str, Effect]:
     """The library entries that apply to ``circuit``, by name."""
-    return {k: e for k, e in _REGISTRY.items() if e.entry.circuit == circuit}
+    return {k: e for k, e in _REGISTRY.items() if e.entry.applies_to(circuit)}
 
 
 def get_effect(name: object, circuit: str | None = None, *, field: str = "effects") -> Effect:
@@ -182,9 +182,10 @@ def get_effect(name: object, circuit: str | None = None, *, field: str = "effect
     if effect is None:
         raise RigFileError(f"unknown effect {name!r} (known: {', '.join(_REGISTRY)})",
                            field=field)
-    if circuit is not None and effect.entry.circuit != circuit:
-        raise RigFileError(f"effect {name!r} applies to circuit {effect.entry.circuit!r}, "
-                           f"not {circuit!r}", field=field)
+    if circuit is not None and not effect.entry.applies_to(circuit):
+        where = " or ".join(repr(c) for c in (effect.entry.circuit, *effect.entry.also))
+        raise RigFileError(f"effect {name!r} applies to circuit {where}, not {circuit!r}",
+                           field=field)
     return effect
 
 

@@ -23,11 +23,14 @@ import numpy.typing as npt
 from sim.bondgraph.graph import BondGraph
 from sim.bondgraph.laws import law
 
-__all__ = ["FIELD_CIRCUIT", "EffectEntry", "Regressor", "signed_sqrt", "signed_sqrt_array"]
+__all__ = ["FIELD_CIRCUIT", "PUMP_CIRCUITS", "EffectEntry", "Regressor", "signed_sqrt", "signed_sqrt_array"]
 
 #: the paper-000 field duty cycle (gear pump of Figure 7, hoses, relief, measured pressure;
 #: :mod:`sim.duty_cycle`): the circuit of the pump-slip dynamics entries
 FIELD_CIRCUIT = "gear-pump-field"
+#: the circuits that hold paper 002's pump at ``pump`` besides the paper-002 rig: where
+#: the pump-outlet entries apply too (:attr:`EffectEntry.also`)
+PUMP_CIRCUITS = ("pump-relief-orifice",)
 
 Arr = npt.NDArray[np.float64]
 
@@ -50,6 +53,11 @@ class EffectEntry:
         Where the law comes from.
     circuit
         The circuit whose junctions the bond-graph change uses.
+    also
+        Further circuits that hold the same junctions and parameters: the pump entries
+        (an element on the pump outlet ``pump.out`` reading only ``pump.*`` and
+        ``fluid.*``) apply to every circuit built around :mod:`sim.components.pump` as
+        ``pump`` (:data:`PUMP_CIRCUITS`).
     balance
         The bond-graph constraint whose equation-error residual the effect enters:
         ``"piston_force"`` (1-junction of the piston, [N]), ``"chamber_flow"`` (flow from
@@ -90,6 +98,11 @@ class EffectEntry:
     sign: float
     plausible: tuple[float, float]
     window: str = "steady"
+    also: tuple[str, ...] = ()
+
+    def applies_to(self, circuit: str) -> bool:
+        """Whether the bond-graph change finds its junctions in ``circuit``."""
+        return circuit == self.circuit or circuit in self.also
 
 
 BuildEffect = Callable[[BondGraph, str], None]

@@ -26,7 +26,7 @@ import numpy as np
 from sim.bondgraph import BondGraph, R, call
 from sim.bondgraph.laws import law
 from sim.components.base import declare
-from sim.components.effects.base import Arr, EffectEntry
+from sim.components.effects.base import PUMP_CIRCUITS, Arr, EffectEntry
 from sim.params import Param
 
 __all__ = ["ENTRY", "PARAMETERS", "build", "compression_flow"]
@@ -64,4 +64,5 @@ ENTRY = EffectEntry(
                 "loss ∝ P·ω",
     reference="paper 000 eq. 6 (compressibility term, MSf COMP of Figure 7)",
     circuit="pump-valve-cylinder", balance="pump_flow", coefficient="k_b",
-    signature="P_pump·ω·Vp", regressor=_regressor, sign=1.0, plausible=(0.0, 2e-9))
+    signature="P_pump·ω·Vp", regressor=_regressor, sign=1.0, plausible=(0.0, 2e-9),
+    also=PUMP_CIRCUITS)

@@ -22,7 +22,7 @@ import numpy as np
 from sim.bondgraph import BondGraph, One, R, call
 from sim.bondgraph.laws import law
 from sim.components.base import declare
-from sim.components.effects.base import Arr, EffectEntry
+from sim.components.effects.base import PUMP_CIRCUITS, Arr, EffectEntry
 from sim.params import Param
 
 __all__ = ["PARAMETERS", "build_across", "build_to_tank", "clearance_flow", "entries"]
@@ -87,5 +87,5 @@ def entries() -> dict[str, tuple[EffectEntry, str, str | None]]:
             "pump_clearance_pressure",
             "pump side plates and housing deflecting under pressure: slip grows with P²/μ",
             _REF, "pump-valve-cylinder", "pump_flow", "k_c", "P·|P|/μ", _pump, 1.0,
-            (0.0, 1e-17)), "pump.out", None),
+            (0.0, 1e-17), also=PUMP_CIRCUITS), "pump.out", None),
     }

@@ -18,7 +18,7 @@ import numpy as np
 from sim.bondgraph import BondGraph, Sf
 from sim.bondgraph.laws import product
 from sim.components.base import declare
-from sim.components.effects.base import Arr, EffectEntry
+from sim.components.effects.base import PUMP_CIRCUITS, Arr, EffectEntry
 from sim.params import Param
 
 __all__ = ["ENTRY", "PARAMETERS", "build"]
@@ -41,7 +41,8 @@ ENTRY = EffectEntry(
     explanation="the shaft turns faster or slower than the stated speed: constant flow offset",
     reference="paper 000 §5 (offset from a wrong speed reading); paper 002 eqs. 1-2",
     circuit="pump-valve-cylinder", balance="pump_flow", coefficient="d_speed",
-    signature="−Vp (constant)", regressor=_regressor, sign=0.0, plausible=(-20.0, 20.0))
+    signature="−Vp (constant)", regressor=_regressor, sign=0.0, plausible=(-20.0, 20.0),
+    also=PUMP_CIRCUITS)
 
 
 def build(g: BondGraph, name: str = NAME, values: Mapping[str, float] | None = None) -> None:

@@ -20,7 +20,7 @@ from collections.abc import Mapping
 from sim.bondgraph import BondGraph, One, R, call
 from sim.bondgraph.laws import law
 from sim.components.base import declare
-from sim.components.effects.base import Arr, EffectEntry, signed_sqrt, signed_sqrt_array
+from sim.components.effects.base import PUMP_CIRCUITS, Arr, EffectEntry, signed_sqrt, signed_sqrt_array
 from sim.params import Param
 
 __all__ = ["PARAMETERS", "build_across", "build_to_tank", "entries", "turbulent_flow"]
@@ -95,6 +95,7 @@ def entries() -> dict[str, tuple[EffectEntry, str, str | None]]:
             "turbulent_pump_slip",
             "pump slip through short worn gaps (tooth tips, side plates) ∝ √P",
             "Ivantysyn & Ivantysynova, Hydrostatic Pumps and Motors (2001), §8.1",
-            "pump-valve-cylinder", "pump_flow", "K_t", "√P_pump", _pump, 1.0, (0.0, 5e-7)),
+            "pump-valve-cylinder", "pump_flow", "K_t", "√P_pump", _pump, 1.0, (0.0, 5e-7),
+            also=PUMP_CIRCUITS),
             "pump.out", None),
     }

@@ -33,7 +33,7 @@ import numpy as np
 from sim.bondgraph import BondGraph, R, call
 from sim.bondgraph.laws import law
 from sim.components.base import declare
-from sim.components.effects.base import Arr, EffectEntry
+from sim.components.effects.base import PUMP_CIRCUITS, Arr, EffectEntry
 from sim.params import Param
 
 __all__ = ["ENTRY", "PARAMETERS", "build", "viscous_slip_flow"]
@@ -71,4 +71,5 @@ ENTRY = EffectEntry(
                 "where the stored pump holds one constant leak resistance",
     reference="paper 000 eqs. 4 and 6 (laminar slip Q_s = C_s·Δp·D/μ)",
     circuit="pump-valve-cylinder", balance="pump_flow", coefficient="C_s",
-    signature="P_pump·Vp/μ(T)", regressor=_regressor, sign=1.0, plausible=(0.0, 1e-7))
+    signature="P_pump·Vp/μ(T)", regressor=_regressor, sign=1.0, plausible=(0.0, 1e-7),
+    also=PUMP_CIRCUITS)
