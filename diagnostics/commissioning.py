@@ -186,7 +186,10 @@ def commission(rig: Rig, records: Sequence[MeasurementRecord],
     ------
     MeasurementError
         No records, a record impossible on the rig, or an unknown parameter name.
+    CircuitError
+        The rig's circuit has no cylinder cycle.
     """
+    rig.require_cycle("commissioning")
     if not records:
         raise MeasurementError("at least one healthy record is needed", field="records")
     names = tuple(parameters) if parameters is not None else tuple(COMMISSIONED)

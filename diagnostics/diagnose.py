@@ -173,9 +173,12 @@ def diagnose(rig: Rig, records: Sequence[MeasurementRecord], *, model_rel: float
     ------
     MeasurementError
         A record is impossible on this rig, or carries nothing usable.
+    CircuitError
+        The rig's circuit has no cylinder cycle.
     """
     if not records:
         raise MeasurementError("at least one record is needed", field="records")
+    rig.require_cycle("a diagnosis")
     obs = []
     for i, rec in enumerate(records):
         try:

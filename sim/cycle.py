@@ -257,7 +257,10 @@ def run_cycle(rig: Rig, overrides: Mapping[str, float] | None = None,
         A limit of ``limits`` was reached, or the tolerance is below round-off.
     SimulationError
         The solver failed.
+    CircuitError
+        The rig's circuit has no cylinder cycle.
     """
+    rig.require_cycle("a cycle simulation")
     if method not in METHODS:
         raise ParameterError(f"unknown method {method!r} (known: {', '.join(METHODS)})",
                              field="method")

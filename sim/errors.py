@@ -30,6 +30,7 @@ __all__ = [
     "AlgebraicLoopError",
     "AuthError",
     "CausalityError",
+    "CircuitError",
     "ConflictError",
     "DerivativeCausalityError",
     "HydrodiagError",
@@ -86,6 +87,11 @@ class ParameterError(InputError):
 
 class RigFileError(ParameterError):
     """A rig description file (YAML/JSON) does not validate."""
+
+
+class CircuitError(InputError):
+    """The rig's circuit has not the part an operation needs (a cylinder's working/return
+    cycle for a cycle simulation or a diagnosis); the message names the circuit."""
 
 
 class MeasurementError(InputError):

@@ -147,6 +147,7 @@ def steady_phase(rig: Rig, phase: str, overrides: Mapping[str, float] | None = N
     """
     if phase not in PHASES:
         raise ValueError(f"unknown phase {phase!r}")
+    rig.require_cycle("a steady phase")
     cond = condition if condition is not None else rig.default_condition()
     m = rig.model
     p = phase_params(rig, phase, overrides, cond)
@@ -199,6 +200,7 @@ def steady_cycle(rig: Rig, overrides: Mapping[str, float] | None = None,
 
     Durations are ``stroke / speed`` (start-up transients neglected).
     """
+    rig.require_cycle("a steady cycle")
     stroke = rig.base["cylinder.stroke"]
     summaries = []
     for phase in PHASES:

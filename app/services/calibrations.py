@@ -26,6 +26,7 @@ from app.services.clearance import ClearanceCurveFit, ClearanceEstimator, TableP
 from app.services.common import commit, paginate
 from app.services.rigs import get_rig, latest_version
 from sim.errors import ConflictError, InputError, NotFoundError
+from sim.rigs.circuits import DEFAULT_CIRCUIT, get_circuit, require_cycle
 
 __all__ = [
     "create_calibration",
@@ -164,10 +165,15 @@ def create_calibration(
         No such rig.
     InputError
         The rows break a rule of :func:`~app.services.clearance.check_table`.
+    CircuitError
+        The rig's circuit has no cylinder cycle, hence no throttles across its cylinder
+        and valve (paper 002 §2.7).
     ConflictError
         The rig has a table for this throttle at this back-pressure and temperature.
     """
-    get_rig(session, rig_id)
+    rig = get_rig(session, rig_id)
+    circuit = latest_version(session, rig).document.get("circuit", DEFAULT_CIRCUIT)
+    require_cycle(get_circuit(circuit), rig.name, "a throttle equivalence table")
     calibration = ThrottleCalibration(
         rig_id=rig_id,
         throttle=data.throttle,

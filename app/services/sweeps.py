@@ -119,6 +119,7 @@ def plan_sweep(session: Session, rigs: RigCache, request: SweepRequest,
                 what=f"points of a {request.method} sweep", field="design",
                 setting=f"max_sweep_points_{request.method}")
     resolved = rigs.get(session, request.rig_id, request.rig_version)
+    resolved.rig.require_cycle("a sweep of fault scenarios")
     _check_ranges(resolved, request)
     rig = resolved.rig
     names = [s.name for s in request.parameters]

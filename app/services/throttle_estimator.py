@@ -62,6 +62,7 @@ class ThrottleClearanceEstimator:
         if cached is not None:
             return cached
         rig = self._rigs.get(document)
+        rig.require_cycle("the equivalent clearance of a throttle table (paper 002 §2.7)")
         values = rig.values()
         condition = Condition(load=back_pressure_pa * values["cylinder.A2"], back_pressure=0.0,
                               oil_temperature=temperature_c)

@@ -246,6 +246,7 @@ def discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], *
 
     doc = dict(rig_document)
     rig = Rig.from_spec(validate_rig_document(doc))
+    rig.require_cycle("the discrepancy workflow on measured cycles")
     if not records:
         raise InputError("no records to analyse", field="file")
     train_i, held_i = _split(records, rig)

@@ -14,7 +14,7 @@ from sim.components.base import Derivation
 from sim.components.effects import get_effect
 from sim.errors import ParameterError
 from sim.fluid import Fluid
-from sim.rigs.circuits import DEFAULT_CIRCUIT, Circuit, get_circuit
+from sim.rigs.circuits import DEFAULT_CIRCUIT, Circuit, get_circuit, require_cycle
 from sim.rigs.schema import RigSpec, check_bounds
 
 __all__ = ["Condition", "Rig", "build_graph", "build_graph_with_effects"]
@@ -67,6 +67,11 @@ class Rig:
     def circuit(self) -> Circuit:
         """The circuit of the rig file."""
         return self.spec.circuit
+
+    def require_cycle(self, what: str) -> None:
+        """Raise :class:`CircuitError` (``field="rig_id"``) unless the rig's circuit has the
+        cylinder's working/return cycle that ``what`` runs (:attr:`Circuit.cycle`)."""
+        require_cycle(self.circuit, self.spec.name, what)
 
     @classmethod
     def from_spec(cls, spec: RigSpec) -> Rig:

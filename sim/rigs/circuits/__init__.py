@@ -30,10 +30,11 @@ from sim.components import (
     throttle,
 )
 from sim.components.base import Derivation
-from sim.errors import RigFileError
+from sim.errors import CircuitError, RigFileError
 from sim.params import Param
 
-__all__ = ["CIRCUITS", "COMPONENT_TYPES", "DEFAULT_CIRCUIT", "Circuit", "get_circuit", "register"]
+__all__ = ["CIRCUITS", "COMPONENT_TYPES", "DEFAULT_CIRCUIT", "Circuit", "get_circuit", "register",
+           "require_cycle"]
 
 #: component type name → module declaring ``PARAMETERS`` (the types a rig file may use)
 COMPONENT_TYPES: dict[str, ModuleType] = {
@@ -73,6 +74,12 @@ class Circuit:
         Attribute of :class:`sim.rigs.Condition` → graph parameter it sets
         (``{"load": "load.force"}``).  The oil temperature always sets the fluid's
         properties and ``pump_speed`` sets ``pump.speed``.
+    cycle
+        Whether the circuit has paper 002's working/return cycle — a double-acting
+        cylinder driven through the 4/2 valve — which the cycle simulation
+        (:func:`sim.cycle.run_cycle`, :func:`sim.steady.steady_cycle`), the diagnosis
+        and commissioning run; a circuit without it is simulated and checked through
+        its bond graph and the steady pump-bench workflow only.
     """
 
     name: str
@@ -81,6 +88,7 @@ class Circuit:
     build: GraphBuilder
     condition: tuple[Param, ...]
     condition_targets: Mapping[str, str]
+    cycle: bool = False
 
     def parameter(self, role: str, name: str) -> Param | None:
         """The declaration of ``role.name`` in this circuit, or ``None``."""
@@ -93,6 +101,19 @@ class Circuit:
 _REGISTRY: dict[str, Circuit] = {}
 #: read-only view of the registered circuits, by name
 CIRCUITS: Mapping[str, Circuit] = MappingProxyType(_REGISTRY)
+
+
+def require_cycle(circuit: Circuit, rig_name: str, what: str) -> None:
+    """Raise :class:`CircuitError` (``field="rig_id"``) unless ``circuit`` has the
+    cylinder's working/return cycle that ``what`` runs (:attr:`Circuit.cycle`); the message
+    names the rig, its circuit and the circuits that have one."""
+    if not circuit.cycle:
+        cycles = [c.name for c in _REGISTRY.values() if c.cycle]
+        raise CircuitError(
+            f"{what} needs the working/return cycle of a cylinder; rig {rig_name!r} is a "
+            f"{circuit.name!r} circuit without one (circuits with it: {', '.join(cycles)}). "
+            "Its pump can be checked against steady test points with the discrepancy "
+            "workflow (a pump-bench table).", field="rig_id")
 
 
 def register(circuit: Circuit) -> Circuit:

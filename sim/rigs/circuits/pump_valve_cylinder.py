@@ -64,6 +64,7 @@ def build_graph(name: str = "pump-valve-cylinder") -> tuple[BondGraph, list[Deri
 
 CIRCUIT = register(Circuit(
     name="pump-valve-cylinder",
+    cycle=True,
     title="paper 002 Figure 1: pump, relief valve, 4/2 valve, hoses, double-acting cylinder",
     roles={
         "pump": "fixed_displacement_pump",

@@ -1,0 +1,99 @@
+"""A rig whose circuit has no cylinder cycle (the ZeMA rig, ``pump-relief-orifice``) over HTTP.
+
+The store takes any valid rig; what needs paper 002's working/return cycle — simulation,
+sweeps, diagnosis, commissioning, throttle tables — answers 422 ``CircuitError`` naming
+``rig_id`` and stores nothing (before: 500 from a missing ``cylinder.*`` parameter), and what
+the circuit supports — the discrepancy workflow on a steady pump-bench table — runs and
+stores the augmented rig, here on measured ZeMA plateaus.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from diagnostics.pump.csvio import bench_to_frame
+from diagnostics.real.profile import plateau_table
+from diagnostics.real.relaxation import ZEMA_RELAXATION
+from diagnostics.real.zema import load_1hz, read_records
+from sim.rigs import load_rig, load_rig_document
+from tests.app.live import LiveServer
+from tests.real_slices import zema_slice
+
+ZEMA = Path(__file__).resolve().parents[2] / "sim" / "rigs" / "zema.yaml"
+RECORD = {"measured_at": "2026-11-22T08:30:00Z",
+          "condition": {"oil_temperature": 40.0, "load_force": 2100.0},
+          "pump_pressure": 14.5e6}
+
+
+@pytest.fixture(scope="module")
+def rig_id(server: LiveServer) -> int:
+    r = server.client.post("/rigs", json={"document": load_rig_document(ZEMA)},
+                           headers=server.auth)
+    assert r.status_code == 201, r.text
+    return int(r.json()["id"])
+
+
+def _refused(r: Any, what: str) -> None:
+    assert r.status_code == 422, r.text
+    error = r.json()["error"]
+    assert error["type"] == "CircuitError" and error["field"].endswith("rig_id"), error
+    assert what in error["message"] and "'pump-relief-orifice'" in error["message"]
+
+
+def test_what_needs_a_cylinder_cycle_is_a_clear_422_and_stores_nothing(
+        server: LiveServer, rig_id: int) -> None:
+    before = server.row_counts()
+    for method in ("transient", "steady"):
+        _refused(server.client.post("/simulate", json={"rig_id": rig_id, "method": method}),
+                 "cycle")
+    _refused(server.client.post("/scenarios", json={"rig_id": rig_id, "faults": ["healthy"]},
+                                headers=server.auth), "a sweep")
+    _refused(server.client.post("/diagnose", json={"record": RECORD | {"rig_id": rig_id}},
+                                headers=server.auth), "a diagnosis")
+    _refused(server.client.post(f"/rigs/{rig_id}/commission",
+                                json={"records": [RECORD | {"rig_id": rig_id}]},
+                                headers=server.auth), "commissioning")
+    table = {"throttle": "I", "component": "valve", "back_pressure_pa": 1e6,
+             "temperature_c": 40.0, "source": "test", "points": [
+                 {"opening_turns": 0.0, "bypass_flow_m3s": 8.6e-6},
+                 {"opening_turns": 1.0, "bypass_flow_m3s": 2.7e-5}]}
+    _refused(server.client.post(f"/rigs/{rig_id}/calibrations", json=table,
+                                headers=server.auth), "throttle")
+    assert server.row_counts() == before
+
+
+def test_measured_zema_plateaus_go_through_the_workflow_and_the_augmented_rig_is_stored(
+        server: LiveServer, rig_id: int) -> None:
+    """The slice's healthy-pump cycles (labels choose the rows, nothing is fitted to them)
+    as a bench table over HTTP: the leak growing as the oil thins is named and the rig's
+    new version — the circuit without a cylinder, now with the library's pump entry —
+    loads and carries the fitted coefficient."""
+    data, labels = load_1hz(zema_slice(), None)
+    table = plateau_table(read_records(data), relaxation=ZEMA_RELAXATION)
+    bench = table.bench(1500.0 * math.pi / 30.0, np.asarray(labels.leakage) == 0.0)
+    content = bench_to_frame(bench).to_csv(index=False).encode()
+    r = server.client.post("/discrepancy", data={"rig_id": str(rig_id)},
+                           files={"file": ("plateaus.csv", content, "text/csv")},
+                           headers=server.auth)
+    assert r.status_code == 202, r.text
+    deadline = time.monotonic() + 300.0
+    while (job := server.client.get(f"/jobs/{r.json()['job_id']}").json())["status"] not in (
+            "succeeded", "failed"):
+        assert time.monotonic() < deadline, job
+        time.sleep(0.2)
+    assert job["status"] == "succeeded", job["error"]
+    result = job["result"]
+    assert result["verdict"] == "named", result["message"]
+    (named,) = result["named"]
+    assert named["name"] in ("viscous_pump_slip", "pump_clearance_pressure")
+    doc = server.client.get(f"/rigs/{rig_id}/versions/{result['new_rig_version']}").json()
+    rig = load_rig(doc["document"])
+    assert rig.circuit.name == "pump-relief-orifice"
+    coefficient = f"{named['name']}.{'C_s' if named['name'] == 'viscous_pump_slip' else 'k_c'}"
+    assert rig.values()[coefficient] == pytest.approx(named["value"])
