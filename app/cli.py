@@ -21,6 +21,7 @@ from sqlalchemy import Engine
 from app.cli_batch import register as register_batch
 from app.cli_discover import register as register_discover
 from app.cli_report import report_cli
+from app.cli_rigs import rigs_cli
 from app.cli_runs import register
 from app.cli_support import console, migrated_engine, settings_from_env, steps
 from app.db.engine import make_engine, make_session_factory
@@ -38,6 +39,7 @@ keys_cli = typer.Typer(help="API keys (only salted hashes are stored).", no_args
 db_cli = typer.Typer(help="The store's schema.", no_args_is_help=True)
 cli.add_typer(keys_cli, name="keys")
 cli.add_typer(db_cli, name="db")
+cli.add_typer(rigs_cli, name="rigs")
 
 def _settings(**overrides: object) -> Settings:
     return settings_from_env(**overrides)

@@ -71,7 +71,8 @@ def read_batch(path: Path, rig_id: int) -> list[Any]:
             records.append(MeasurementIn.model_validate(row))
         except ValidationError as exc:
             err = validation_error(exc)
-            raise InputError(err.message, field=f"{where} {n}: {err.field}") from None
+            inner = f": {err.field}" if err.field else ""
+            raise InputError(err.message, field=f"{where} {n}{inner}") from None
     return records
 
 

@@ -7,15 +7,22 @@ the documented adapter (:mod:`diagnostics.real.zema`).
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 from rich.console import Console
 from rich.table import Table
 
 from app.cli_support import steps, store_session
+from diagnostics.real.relaxation import ZEMA_RELAXATION
 from sim.errors import InputError
+
+if TYPE_CHECKING:
+    from sqlalchemy.orm import Session
+
+    from diagnostics.timeseries import SeriesRecord
 
 __all__ = ["import_cli"]
 
@@ -84,6 +91,15 @@ def import_zema(
     root: Annotated[Path | None, typer.Option(
         help="Folder of the ZeMA data set; default: data/real/uci-hydraulic-zema of "
              "HYDRODIAG_SHARED, ../shared or /work/shared.")] = None,
+    bench: Annotated[Path | None, typer.Option(
+        help="Also write the cycles' settled working plateaus here as a pump-bench CSV "
+             "for 'hydrodiag discover' (plateau pressure, the rig's pump speed, the "
+             "cycle's oil temperature, FS1).")] = None,
+    relaxation: Annotated[float, typer.Option(
+        help="Plateau settling time of --bench \\[s] (found on the ZeMA cycles without "
+             "labels).")] = ZEMA_RELAXATION,
+    store: Annotated[bool, typer.Option(help="Store the cycles as series of the rig.")
+                     ] = True,
 ) -> None:
     """Import ZeMA load cycles (1 Hz: PS1, PS2, FS1, EPS1, TS1) through the adapter."""
     from app.services.series import store_records
@@ -91,13 +107,54 @@ def import_zema(
 
     if last < first:
         raise InputError("last must not be before first", field="--last")
+    if not relaxation >= 0:
+        raise InputError("the settling time must be ≥ 0 [s]", field="--relaxation")
     data, _ = load_1hz(root, cycles=list(range(first, last + 1)))
     with store_session() as session, steps() as progress:
+        speed = _pump_speed(session, rig_id)
         task = progress.add_task("reading cycles", total=data.cycles.size)
         records = read_records(data, lambda done, total: progress.update(task,
                                                                           completed=done))
-        store = progress.add_task("storing", total=len(records))
-        rows = store_records(session, rig_id, name, records,
-                             lambda done, total: progress.update(store, completed=done))
-    _out.print(f"{len(rows)} ZeMA cycles stored for rig {rig_id} as {name!r} "
-               f"(series {rows[0].id}..{rows[-1].id})", markup=False)
+        if bench is not None:
+            plateaus = progress.add_task("plateaus", total=None)
+            rows_written = _write_bench(records, speed, relaxation, bench,
+                                        f"ZeMA cycles {first}-{last}")
+            progress.update(plateaus, total=1, completed=1)
+        if store:
+            job = progress.add_task("storing", total=len(records))
+            rows = store_records(session, rig_id, name, records,
+                                 lambda done, total: progress.update(job, completed=done))
+    if store:
+        _out.print(f"{len(rows)} ZeMA cycles stored for rig {rig_id} as {name!r} "
+                   f"(series {rows[0].id}..{rows[-1].id})", markup=False)
+    if bench is not None:
+        _out.print(f"{rows_written} settled plateaus of {len(records)} cycles written to "
+                   f"{bench} (τ = {relaxation:g} s, pump speed {speed * 30 / math.pi:.0f} rpm "
+                   f"from rig {rig_id})", markup=False)
+
+
+def _pump_speed(session: Session, rig_id: int) -> float:
+    """The stored rig's pump shaft speed [rad/s] (what the bench table records)."""
+    from app.services.rigs import get_rig, latest_version
+    from sim.rigs import load_rig
+
+    values = load_rig(latest_version(session, get_rig(session, rig_id, field="--rig"))
+                      .document).values()
+    if "pump.speed" not in values:
+        raise InputError(f"rig {rig_id} has no pump speed for the bench table", field="--rig")
+    return float(values["pump.speed"])
+
+
+def _write_bench(records: list[SeriesRecord], speed: float, relaxation: float, path: Path,
+                 provenance: str) -> int:
+    """Write the records' settled working plateaus as a pump-bench CSV; return the rows."""
+    from diagnostics.pump import write_bench_csv
+    from diagnostics.real.profile import plateau_table
+
+    table = plateau_table(records, relaxation=relaxation)
+    data = table.bench(speed, provenance=provenance)
+    try:
+        write_bench_csv(data, path)
+    except OSError as exc:
+        raise InputError(f"cannot write {path}: {exc.strerror}", field="--bench") from None
+    return int(data.q.size)

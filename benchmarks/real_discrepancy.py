@@ -55,6 +55,7 @@ from diagnostics.pump.data import BenchData
 from diagnostics.pump.levels import cluster_levels
 from diagnostics.pump.piston import PistonMap, bench_frame, read_efficiency_map
 from diagnostics.real.profile import plateau_table
+from diagnostics.real.relaxation import ZEMA_RELAXATION
 from diagnostics.real.zema import find_shared, load_1hz, read_records, zema_root
 from sim.rigs import load_rig_document, reference_rig_document
 
@@ -62,9 +63,8 @@ from sim.rigs import load_rig_document, reference_rig_document
 LPM = 6e4
 #: the ZeMA rig as hydrodiag describes it
 ZEMA_RIG = Path(__file__).resolve().parents[1] / "sim" / "rigs" / "zema.yaml"
-#: plateau flow settling time [s]: found without labels by the ZeMA study
-#: (:func:`diagnostics.real.shunt.fit_relaxation`, ``make real-data``: 3.5 s)
-RELAXATION = 3.5
+#: plateau flow settling time [s], found without labels by the ZeMA study
+RELAXATION = ZEMA_RELAXATION
 
 
 def stored_pump(bench: BenchData, source: str) -> dict[str, Any]:

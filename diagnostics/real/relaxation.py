@@ -26,7 +26,11 @@ import numpy.typing as npt
 
 from sim.errors import InputError
 
-__all__ = ["settled_flow"]
+__all__ = ["ZEMA_RELAXATION", "settled_flow"]
+
+#: the ZeMA rig's plateau settling time ``τ`` [s], found without labels by
+#: :func:`diagnostics.real.shunt.fit_relaxation` over all 2205 cycles (``make real-data``)
+ZEMA_RELAXATION = 3.5
 
 
 def settled_flow(q: npt.ArrayLike, tau: float) -> float:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 from typing import Any
 
@@ -26,6 +27,8 @@ from diagnostics.pump import (
 )
 from sim.components.gear_pump_map import stand_in_pump
 from tests.real_slices import v32hl56_slice, zema_slice
+
+ZEMA_RIG = Path(__file__).resolve().parents[2] / "sim" / "rigs" / "zema.yaml"
 
 
 def _count(model: Any) -> int:
@@ -169,6 +172,40 @@ def test_import_zema_cycles_and_a_series_file(runner: CliRunner, tmp_path: Path)
     bad = runner.invoke(cli, ["import", "series", str(csv), "--rig", "1", "--name", "bad"])
     assert bad.exit_code != 0 and _count(MeasuredSeries) == 6
     assert "[Hz]" in runner.invoke(cli, ["import", "series", "--help"]).stdout
+
+
+def test_zema_plateaus_become_a_bench_table_the_workflow_reads(runner: CliRunner,
+                                                               tmp_path: Path) -> None:
+    """The ZeMA path from the command line: the rig file into the store, the cycles'
+    settled plateaus written as a bench table at the stored rig's pump speed, the workflow
+    on it.  The slice's 18 cycles mix the three pump-leakage classes — a change of the pump
+    between cycles, which no effect of the library is — and the workflow says so."""
+    from app.db.models import MeasuredSeries
+    from diagnostics.pump import read_bench_csv
+    from diagnostics.real.profile import plateau_table
+    from diagnostics.real.zema import load_1hz, read_records
+
+    root = zema_slice()
+    assert runner.invoke(cli, ["rigs", "add", str(ZEMA_RIG)]).exit_code == 0
+    out = tmp_path / "plateaus.csv"
+    result = runner.invoke(cli, ["import", "zema", "--rig", "2", "--root", str(root),
+                                 "--first", "1", "--last", "18", "--bench", str(out),
+                                 "--no-store"])
+    assert result.exit_code == 0, result.output
+    assert "90 settled plateaus of 18 cycles" in result.stdout and "1500 rpm" in result.stdout
+    assert _count(MeasuredSeries) == 0
+    data, _ = load_1hz(root, list(range(1, 19)))
+    expected = plateau_table(read_records(data), relaxation=3.5).bench(50.0 * math.pi)
+    bench = read_bench_csv(out)
+    assert not bench.simulated and bench.q == pytest.approx(expected.q, rel=1e-12)
+    assert bench.theta == pytest.approx(expected.theta, rel=1e-12)
+    found = runner.invoke(cli, ["discover", str(out), "--rig", "2", "--no-store"],
+                          env={"COLUMNS": "200"})
+    assert found.exit_code == 0, found.output
+    assert "unexplained" in found.output and "lack of fit" in found.output
+    bad = runner.invoke(cli, ["import", "zema", "--rig", "2", "--root", str(root),
+                              "--relaxation", "-1", "--bench", str(out)])
+    assert bad.exit_code != 0 and "--relaxation" in str(bad.exception)
 
 
 def test_simulate_samples_at_a_rate_and_reports_its_error(runner: CliRunner,

@@ -1,0 +1,103 @@
+"""``hydrodiag rigs``: register, list, read and version rig descriptions in the store.
+
+The same services as ``/rigs`` over HTTP (:mod:`app.services.rigs`): a document is validated
+by ``sim`` and stored in its canonical form; an update adds a version, never overwrites.
+A rig file is the YAML (or JSON) that ``sim`` reads, e.g. ``sim/rigs/zema.yaml``::
+
+    hydrodiag rigs add sim/rigs/zema.yaml        # → rig 2
+    hydrodiag import zema --rig 2 --first 1 --last 200
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Annotated
+
+import typer
+import yaml
+from rich.console import Console
+from rich.table import Table
+
+from app.cli_support import load_document, store_session
+from sim.errors import InputError
+
+__all__ = ["rigs_cli"]
+
+_out = Console()
+
+rigs_cli = typer.Typer(help="Rig descriptions in the store (as /rigs over HTTP).",
+                       no_args_is_help=True)
+
+FileArg = Annotated[Path, typer.Argument(help="Rig description: YAML or JSON "
+                                              "(schema hydrodiag.rig/1, as sim/rigs/*.yaml).")]
+CommentOption = Annotated[str | None, typer.Option(help="Note stored with the version.")]
+
+
+def _document(path: Path) -> dict[str, object]:
+    doc = load_document(str(path))
+    if not isinstance(doc, dict):
+        raise InputError(f"{path.name} is not a rig description (a mapping)", field="FILE")
+    return doc
+
+
+@rigs_cli.command("add")
+def add(file: FileArg, comment: CommentOption = None) -> None:
+    """Validate FILE and store it as version 1 of a new rig; print its id."""
+    from app.services.rigs import create_rig
+
+    doc = _document(file)
+    with store_session() as session:
+        rig, version = create_rig(session, doc, comment=comment)
+        _out.print(f"rig {rig.id} {rig.name!r} stored (version {version.version})",
+                   markup=False)
+
+
+@rigs_cli.command("update")
+def update(
+    rig_id: Annotated[int, typer.Argument(help="Rig id in the store.")],
+    file: FileArg,
+    comment: CommentOption = None,
+) -> None:
+    """Validate FILE and store it as the next version of rig RIG_ID (same name)."""
+    from app.services.rigs import update_rig
+
+    doc = _document(file)
+    with store_session() as session:
+        rig, version = update_rig(session, rig_id, doc, comment=comment)
+        _out.print(f"rig {rig.id} {rig.name!r}: version {version.version} stored", markup=False)
+
+
+@rigs_cli.command("list")
+def list_all() -> None:
+    """List the stored rigs with their latest version."""
+    from app.services.rigs import list_rigs
+
+    with store_session() as session:
+        rows, total = list_rigs(session, limit=10_000, offset=0)
+        table = Table(title=f"{total} rigs")
+        for column in ("id", "name", "version", "circuit"):
+            table.add_column(column, no_wrap=True)
+        table.add_column("title", overflow="fold")
+        for rig, version in rows:
+            table.add_row(str(rig.id), rig.name, str(version.version),
+                          str(version.document.get("circuit", "")), rig.title)
+    _out.print(table)
+
+
+@rigs_cli.command("show")
+def show(
+    rig_id: Annotated[int, typer.Argument(help="Rig id in the store.")],
+    version: Annotated[int | None, typer.Option(help="Version (default: latest).")] = None,
+    as_json: Annotated[bool, typer.Option("--json", help="JSON instead of YAML.")] = False,
+) -> None:
+    """Print a stored rig description (canonical form, SI values with their sources); the
+    output is a rig file ``rigs add`` and ``rigs update`` read back."""
+    from app.services.rigs import get_rig, get_version, latest_version
+
+    with store_session() as session:
+        row = (latest_version(session, get_rig(session, rig_id)) if version is None
+               else get_version(session, rig_id, version))
+        doc = dict(row.document)
+    typer.echo(json.dumps(doc, indent=2) if as_json
+               else yaml.safe_dump(doc, sort_keys=False, allow_unicode=True), nl=as_json)
