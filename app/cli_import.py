@@ -109,6 +109,8 @@ def import_zema(
         raise InputError("last must not be before first", field="--last")
     if not relaxation >= 0:
         raise InputError("the settling time must be ≥ 0 [s]", field="--relaxation")
+    if not store and bench is None:
+        raise InputError("nothing to do: --no-store without --bench", field="--no-store")
     data, _ = load_1hz(root, cycles=list(range(first, last + 1)))
     with store_session() as session, steps() as progress:
         speed = _pump_speed(session, rig_id)

@@ -206,6 +206,9 @@ def test_zema_plateaus_become_a_bench_table_the_workflow_reads(runner: CliRunner
     bad = runner.invoke(cli, ["import", "zema", "--rig", "2", "--root", str(root),
                               "--relaxation", "-1", "--bench", str(out)])
     assert bad.exit_code != 0 and "--relaxation" in str(bad.exception)
+    idle = runner.invoke(cli, ["import", "zema", "--rig", "2", "--root", str(root),
+                               "--no-store"])
+    assert idle.exit_code != 0 and "nothing to do" in str(idle.exception)
 
 
 def test_simulate_samples_at_a_rate_and_reports_its_error(runner: CliRunner,

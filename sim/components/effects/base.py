@@ -23,7 +23,8 @@ import numpy.typing as npt
 from sim.bondgraph.graph import BondGraph
 from sim.bondgraph.laws import law
 
-__all__ = ["FIELD_CIRCUIT", "PUMP_CIRCUITS", "EffectEntry", "Regressor", "signed_sqrt", "signed_sqrt_array"]
+__all__ = ["FIELD_CIRCUIT", "PUMP_CIRCUITS", "EffectEntry", "Regressor", "signed_sqrt",
+           "signed_sqrt_array"]
 
 #: the paper-000 field duty cycle (gear pump of Figure 7, hoses, relief, measured pressure;
 #: :mod:`sim.duty_cycle`): the circuit of the pump-slip dynamics entries
