@@ -184,7 +184,7 @@ def refit_base(rig: Rig, train: Sequence[SeriesRecord], held: Sequence[SeriesRec
         tables = [simulate_record(rig, r, fitted) for r in held]
         after = [row for r, t in zip(held, tables, strict=True)
                  for row in gap_table(r, t, channels)]
-        parts = residual_parts(rig, held, channels, sigma, fitted)
+        parts = residual_parts(rig, held, channels, sigma, fitted, tables=tables)
     except (SimulationError, InputError, ParameterError):
         return None
     dof = max(sol.fun.size - len(keys), 1)

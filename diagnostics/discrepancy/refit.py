@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 import numpy.typing as npt
+import pandas as pd
 from scipy.optimize import least_squares, minimize_scalar
 
 from diagnostics.discrepancy.simulate import (
@@ -97,9 +98,12 @@ def stacked_residual(rig: Rig, records: Sequence[SeriesRecord], channels: Sequen
 
 def residual_parts(rig: Rig, records: Sequence[SeriesRecord], channels: Sequence[str],
                    sig: Mapping[str, float], overrides: Mapping[str, float],
-                   start: float = 0.1) -> list[tuple[str, Arr]]:
+                   start: float = 0.1, tables: Sequence[pd.DataFrame] | None = None
+                   ) -> list[tuple[str, Arr]]:
     """Model − measurement / σ over ``start``-90 % of each measured phase, per channel
-    (one part per record, phase segment and channel).
+    (one part per record, phase segment and channel); ``tables`` are the records'
+    simulations with ``overrides`` where the caller has them already
+    (:func:`~diagnostics.discrepancy.simulate.simulate_record`).
 
     A fixed set of samples (every 10th measured sample, time since phase start) whatever
     the simulated phase lasts, so the vector has one length for the optimiser; a model
@@ -111,8 +115,8 @@ def residual_parts(rig: Rig, records: Sequence[SeriesRecord], channels: Sequence
     """
     parts: list[tuple[str, Arr]] = []
     stroke = float(rig.base.get("cylinder.stroke", 0.0))
-    for r in records:
-        table = simulate_record(rig, r, overrides)
+    for i, r in enumerate(records):
+        table = tables[i] if tables is not None else simulate_record(rig, r, overrides)
         phases = r.phase if r.phase is not None else np.full(r.t.size, "working")
         dwell = record_kind(r, rig) == "dwell"
         for ph in ("working", "return"):
