@@ -10,6 +10,10 @@ Registered here:
 
 * ``pump-valve-cylinder`` — paper 002, Figure 1 (:mod:`sim.rigs.circuits.pump_valve_cylinder`);
 * ``pump-relief-orifice`` — the ZeMA rig at its data's level (:mod:`sim.rigs.circuits.pump_relief_orifice`).
+
+Only a circuit with paper 002's working/return cycle (:attr:`Circuit.cycle`) runs the cycle
+simulation, the diagnosis and commissioning; for another, those raise
+:class:`~sim.errors.CircuitError` (:func:`require_cycle`).
 """
 
 from __future__ import annotations
