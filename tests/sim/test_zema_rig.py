@@ -96,3 +96,18 @@ def test_the_pump_entries_of_the_library_apply_to_this_circuit_and_leave_their_s
         expected = value * float(effect.entry.regressor(signals)[0])
         assert 0.01 < abs(expected) / on["Q_work"] < 0.1, name
         assert unexplained == pytest.approx(expected, rel=1e-3), name
+
+
+def test_an_effect_on_the_cylinder_is_refused_on_this_circuit_naming_where_it_applies() -> None:
+    from sim.components.effects import get_effect
+    from sim.errors import RigFileError
+    from sim.rigs import load_rig_document
+
+    doc = load_rig_document(RIG)
+    doc["effects"] = {"couette_drag": {}}
+    with pytest.raises(RigFileError, match="applies to circuit 'pump-valve-cylinder', not "
+                                           "'pump-relief-orifice'") as err:
+        load_rig(doc)
+    assert err.value.field is not None and err.value.field.startswith("effects")
+    assert get_effect("viscous_pump_slip", "pump-relief-orifice").entry.applies_to(
+        "pump-valve-cylinder")
