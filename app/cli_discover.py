@@ -17,12 +17,17 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
+from rich.console import Console
+from rich.markup import escape
 from rich.table import Table
 
 from app.cli_support import console, steps, store_session
 from sim.errors import InputError
 
 __all__ = ["discover", "register"]
+
+#: the verdict and its tables (the result) go to stdout; progress and notes to stderr
+_out = Console()
 
 
 def discover(
@@ -76,7 +81,7 @@ def discover(
         typer.echo(json.dumps(d.to_dict() | {"new_rig_version": new_version}, indent=2,
                               default=str))
         return
-    console.print(f"[bold]{d.verdict}[/bold]: {d.message}")
+    _out.print(f"[bold]{d.verdict}[/bold]: {escape(d.message)}")
     if d.named:
         table = Table("effect", "parameter", "value", "95 % interval", "plausible",
                       title=f"rig {rig_id}: new version {new_version}" if new_version
@@ -85,7 +90,7 @@ def discover(
             table.add_row(n.name, f"{n.parameter} \\[{n.unit}]", f"{n.value:.4g}",
                           f"{n.interval[0]:.3g} … {n.interval[1]:.3g}",
                           "yes" if n.plausible else "NO")
-        console.print(table)
+        _out.print(table)
     if d.base_drift is not None and d.base_drift.accepted:
         table = Table("parameter", "stored", "re-fitted", "change", "95 % interval",
                       title="base drift (reported, not stored)")
@@ -93,7 +98,7 @@ def discover(
             ci = f"{b.interval[0]:.3g} … {b.interval[1]:.3g}" if b.interval else "—"
             table.add_row(f"{b.parameter} \\[{b.unit}]", f"{b.stored:.4g}", f"{b.value:.4g}",
                           f"{100 * b.change:+.1f} %" + ("" if b.significant else " n.s."), ci)
-        console.print(table)
+        _out.print(table)
 
 
 def register(cli: typer.Typer) -> None:

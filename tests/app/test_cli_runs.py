@@ -202,7 +202,8 @@ def test_zema_plateaus_become_a_bench_table_the_workflow_reads(runner: CliRunner
     found = runner.invoke(cli, ["discover", str(out), "--rig", "2", "--no-store"],
                           env={"COLUMNS": "200"})
     assert found.exit_code == 0, found.output
-    assert "unexplained" in found.output and "lack of fit" in found.output
+    # the verdict is the command's result: on stdout (progress on stderr)
+    assert "unexplained" in found.stdout and "lack of fit" in found.stdout
     bad = runner.invoke(cli, ["import", "zema", "--rig", "2", "--root", str(root),
                               "--relaxation", "-1", "--bench", str(out)])
     assert bad.exit_code != 0 and "--relaxation" in str(bad.exception)
