@@ -106,6 +106,7 @@ def parse_records(text: str, content: bytes | None) -> DiagnoseRequest:
 def _form(request: Request, session: Any, *, status_code: int = 200, text: str = "",
           error: dict[str, Any] | None = None) -> Response:
     rows, _ = rig_service.list_rigs(session, limit=500, offset=0)
+    rows = [(r, v) for r, v in rows if rig_service.has_cycle(v)]  # what can be diagnosed
     return page(request, "diagnose.html", status_code=status_code, rigs=rows, text=text,
                 error=error)
 

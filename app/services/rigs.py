@@ -17,6 +17,7 @@ from app.db.models import Measurement, Rig, RigVersion
 from app.services.common import commit, get_or_raise, paginate, prefixed
 from sim.errors import ConflictError, NotFoundError, ParameterError
 from sim.rigs import validate_rig_document
+from sim.rigs.circuits import DEFAULT_CIRCUIT, get_circuit
 
 __all__ = [
     "create_rig",
@@ -24,6 +25,7 @@ __all__ = [
     "find_rig",
     "get_rig",
     "get_version",
+    "has_cycle",
     "latest_version",
     "list_rigs",
     "list_versions",
@@ -83,6 +85,12 @@ def list_rigs(
     total = session.scalar(select(func.count()).select_from(Rig).where(condition)) or 0
     rows = session.execute(statement.limit(limit).offset(offset)).all()
     return [(rig, version) for rig, version in rows], total
+
+
+def has_cycle(version: RigVersion) -> bool:
+    """Whether the version's circuit has paper 002's cylinder cycle, which simulation and
+    diagnosis need (:attr:`sim.rigs.circuits.Circuit.cycle`)."""
+    return get_circuit(version.document.get("circuit", DEFAULT_CIRCUIT)).cycle
 
 
 def list_versions(

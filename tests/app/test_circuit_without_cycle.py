@@ -97,3 +97,21 @@ def test_measured_zema_plateaus_go_through_the_workflow_and_the_augmented_rig_is
     assert rig.circuit.name == "pump-relief-orifice"
     coefficient = f"{named['name']}.{'C_s' if named['name'] == 'viscous_pump_slip' else 'k_c'}"
     assert rig.values()[coefficient] == pytest.approx(named["value"])
+
+
+def test_the_console_offers_it_where_it_applies_and_explains_the_rest(
+        server: LiveServer, rig_id: int) -> None:
+    """Its rig page renders; the simulate form and the diagnose page list only rigs with a
+    cylinder cycle; a simulate link made by hand shows the 422's message, not a 500."""
+    from tests.app.console.conftest import login
+
+    client = login(server)
+    try:
+        assert client.get(f"/console/rigs/{rig_id}").status_code == 200
+        form = client.get("/console/simulate").text
+        assert f'<option value="{rig_id}"' not in form and '<option value="1"' in form
+        assert "zema-hydraulic-rig" not in client.get("/console/diagnose").text
+        run = client.get(f"/console/simulate?rig={rig_id}&run=true")
+        assert run.status_code == 422 and "CircuitError" in run.text
+    finally:
+        client.close()
