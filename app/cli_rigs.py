@@ -17,6 +17,7 @@ from typing import Annotated
 import typer
 import yaml
 from rich.console import Console
+from rich.markup import escape
 from rich.table import Table
 
 from app.cli_support import load_document, store_session
@@ -80,8 +81,8 @@ def list_all() -> None:
             table.add_column(column, no_wrap=True)
         table.add_column("title", overflow="fold")
         for rig, version in rows:
-            table.add_row(str(rig.id), rig.name, str(version.version),
-                          str(version.document.get("circuit", "")), rig.title)
+            table.add_row(str(rig.id), escape(rig.name), str(version.version),
+                          escape(str(version.document.get("circuit", ""))), escape(rig.title))
     _out.print(table)
 
 

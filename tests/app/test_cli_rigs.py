@@ -25,6 +25,7 @@ def test_a_rig_file_is_added_listed_shown_and_versioned(runner: CliRunner,
     # the stored, canonical document loads as the file does: the same parameter values
     assert load_rig(doc).values() == load_rig(ZEMA).values()
     doc["components"]["pump"]["parameters"]["Rlp"]["value"] = 1.75e12
+    doc["title"] = "ZeMA [worn]"  # brackets are text, not markup
     (tmp_path / "worn.yaml").write_text(yaml.safe_dump(doc, allow_unicode=True))
     updated = runner.invoke(cli, ["rigs", "update", "2", str(tmp_path / "worn.yaml")])
     assert "version 2 stored" in updated.stdout, updated.output
@@ -33,6 +34,7 @@ def test_a_rig_file_is_added_listed_shown_and_versioned(runner: CliRunner,
                                                "--json"]).stdout)
     assert load_rig(latest).values()["pump.Rlp"] == 1.75e12
     assert load_rig(first).values()["pump.Rlp"] == 3.5e12
+    assert "ZeMA [worn]" in runner.invoke(cli, ["rigs", "list"]).stdout
 
 
 def test_bad_rig_files_are_refused_with_the_field_and_store_nothing(runner: CliRunner,
