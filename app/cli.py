@@ -14,6 +14,7 @@ from typing import Annotated
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 from rich.progress import Progress
 from rich.table import Table
 from sqlalchemy import Engine
@@ -134,7 +135,7 @@ def keys_list() -> None:
     table = Table("id", "name", "prefix", "scope", "created", "revoked")
     with make_session_factory(engine)() as session:
         for row in list_api_keys(session):
-            table.add_row(str(row.id), row.name, row.prefix, row.scope,
+            table.add_row(str(row.id), escape(row.name), row.prefix, row.scope,
                           f"{row.created_at:%Y-%m-%d %H:%M}",
                           f"{row.revoked_at:%Y-%m-%d %H:%M:%S}" if row.revoked_at else "")
     engine.dispose()

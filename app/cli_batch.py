@@ -21,6 +21,7 @@ from typing import Annotated, Any
 
 import typer
 from pydantic import ValidationError
+from rich.markup import escape
 from rich.table import Table
 
 from app.cli_support import console, steps, store_session
@@ -130,7 +131,7 @@ def diagnose_batch(
     table = Table("top", "records", title=f"{len(results)} records in {elapsed:.1f} s "
                   f"({len(results) / elapsed:.0f} records/s)")
     for name, n in counts.most_common():
-        table.add_row(name, str(n))
+        table.add_row(escape(name), str(n))
     console.print(table)
 
 

@@ -17,6 +17,7 @@ from typing import Annotated, Any
 import typer
 from pydantic import ValidationError
 from rich.console import Console
+from rich.markup import escape
 from rich.table import Table
 
 from app.cli_import import import_cli
@@ -117,11 +118,11 @@ def simulate(
     table = Table("quantity", "value", title=f"rig {public.rig_id} v{public.rig_version}, "
                   f"{public.fault or 'overrides only'}, {public.method}")
     for key, value in public.summary.items():
-        table.add_row(key, "—" if value is None else f"{value:.6g}")
+        table.add_row(escape(key), "—" if value is None else f"{value:.6g}")
     if public.solver is not None:
         table.add_row("solver", f"{public.solver.method}, rtol {public.solver.rtol:.3g}")
         for name, err in (public.solver.error_sigma or {}).items():
-            table.add_row(f"error estimate {name} [σ]", f"{err:.3g}")
+            table.add_row(escape(f"error estimate {name} [σ]"), f"{err:.3g}")
     _out.print(table)
 
 
@@ -164,7 +165,7 @@ def diagnose(
                                for p in fit["parameters"])
             probability = "not observable" if not fit["observable"] else \
                 f"{fit['probability']:.4f}"
-            table.add_row(fit["name"], probability, params)
+            table.add_row(escape(fit["name"]), probability, escape(params))
         _out.print(table)
         if item.misfit:
             _out.print(f"[bold red]not explained:[/] {item.misfit}")
@@ -204,7 +205,7 @@ def commission(
                   f"{response.version} (χ² = {response.chi2:.3g} on {response.n_observations} "
                   "readings)")
     for p in response.parameters:
-        table.add_row(p.name, f"{p.before:.4g} {p.unit}", f"{p.value:.4g}",
+        table.add_row(escape(p.name), escape(f"{p.before:.4g} {p.unit}"), f"{p.value:.4g}",
                       f"{p.low:.4g} … {p.high:.4g}", "yes" if p.identifiable else "no")
     _out.print(table)
     for s in response.statements:
@@ -290,11 +291,12 @@ def calibrate_pump(
     with store_session() as session, steps() as progress:
         progress.add_task("parameterising", total=None)
         pump_set = store_bench_parameters(session, form, content)
-    table = Table("quantity", "value", "unit", title=f"pump set {pump_set.id}: {pump_set.name}")
+    table = Table("quantity", "value", "unit",
+                  title=escape(f"pump set {pump_set.id}: {pump_set.name}"))
     for key, quantity in pump_set.quantities.items():
         value = quantity["value"]
         shown = f"{value:.6g}" if isinstance(value, float) else f"array {len(value)} rows"
-        table.add_row(key, shown, quantity["unit"])
+        table.add_row(escape(key), shown, escape(quantity["unit"]))
     _out.print(table)
     if pump_set.source:
         _out.print(pump_set.source, markup=False)
@@ -317,7 +319,7 @@ def calibrate_throttle(
                                          estimator=ThrottleClearanceEstimator())
         rows = [(p.opening_turns, p.bypass_flow_m3s, p.clearance_m, p.clearance_origin)
                 for p in calibration.points]
-    table = Table("opening [turn]", "bypass flow [m³/s]", "clearance [m]", "origin",
+    table = Table("opening \\[turn]", "bypass flow \\[m³/s]", "clearance \\[m]", "origin",
                   title=f"calibration {calibration.id}: throttle {calibration.throttle}, "
                   f"{calibration.component}")
     for opening, flow, clearance, origin in rows:

@@ -52,6 +52,8 @@ def test_simulate_prints_the_summary_and_writes_the_series(runner: CliRunner,
                                 "--output", str(tmp_path / "run.parquet")])
     assert table.exit_code == 0, table.output
     assert "velocity_ratio [-]" in table.stdout
+    # units in brackets are text, not rich markup (issue 12: the CLI showed every unit)
+    assert "working.Q_meter_B [m^3/s]" in table.stdout and "working.speed [m/s]" in table.stdout
     frame = pq.read_table(tmp_path / "run.parquet").to_pandas()
     assert list(frame.columns[:2]) == ["t [s]", "phase"] and len(frame) > 100
     worn = _simulated_summary(runner, "--set", "valve.cv=60e-6")
@@ -117,7 +119,7 @@ def test_calibrate_pump_and_throttle(runner: CliRunner, tmp_path: Path) -> None:
     before = _count(ThrottleCalibration)
     throttle = runner.invoke(cli, ["calibrate", "throttle", str(table)])
     assert throttle.exit_code == 0, throttle.output
-    assert "computed" in throttle.stdout
+    assert "computed" in throttle.stdout and "clearance [m]" in throttle.stdout
     assert _count(ThrottleCalibration) == before + 1
 
 
