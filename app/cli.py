@@ -151,7 +151,7 @@ def keys_revoke(key_id: Annotated[int, typer.Argument(help="Id shown by `keys li
     with make_session_factory(engine)() as session:
         row = revoke_api_key(session, key_id)
     engine.dispose()
-    console.print(f"key {row.id} ({row.name}) revoked")
+    console.print(f"key {row.id} ({row.name}) revoked", markup=False)
 
 
 @keys_cli.command("rotate")
@@ -215,7 +215,7 @@ def main() -> None:
     try:
         cli()
     except HydrodiagError as exc:
-        console.print(f"[red]{type(exc).__name__}:[/red] {exc}")
+        console.print(f"[red]{type(exc).__name__}:[/red] {escape(str(exc))}")
         sys.exit(1)
 
 

@@ -168,9 +168,9 @@ def diagnose(
             table.add_row(escape(fit["name"]), probability, escape(params))
         _out.print(table)
         if item.misfit:
-            _out.print(f"[bold red]not explained:[/] {item.misfit}")
+            _out.print(f"[bold red]not explained:[/] {escape(item.misfit)}")
         for note in item.regime_notes:
-            _out.print(f"note: {note}")
+            _out.print(f"note: {note}", markup=False)
 
 
 def commission(
@@ -209,7 +209,7 @@ def commission(
                       f"{p.low:.4g} … {p.high:.4g}", "yes" if p.identifiable else "no")
     _out.print(table)
     for s in response.statements:
-        _out.print(f"note: {s}")
+        _out.print(f"note: {s}", markup=False)
 
 
 def sweep(

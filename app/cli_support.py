@@ -9,6 +9,7 @@ from typing import Any
 import typer
 from pydantic import ValidationError
 from rich.console import Console
+from rich.markup import escape
 from rich.progress import BarColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 from sqlalchemy import Engine
 from sqlalchemy.orm import Session
@@ -30,7 +31,8 @@ def settings_from_env(**overrides: object) -> Settings:
         changes = {k: v for k, v in overrides.items() if v is not None}
         return Settings.model_validate(settings.model_dump() | changes) if changes else settings
     except ValidationError as exc:
-        console.print(f"[red]invalid configuration (HYDRODIAG_* variables):[/red]\n{exc}")
+        console.print("[red]invalid configuration (HYDRODIAG_* variables):[/red]\n"
+                      + escape(str(exc)))
         raise typer.Exit(code=2) from exc
 
 
