@@ -20,11 +20,14 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from sim.bondgraph.elements import LawCall, R
 from sim.bondgraph.graph import BondGraph
 from sim.bondgraph.laws import law
+from sim.components.base import declare
+from sim.params import Param
 
-__all__ = ["FIELD_CIRCUIT", "PUMP_CIRCUITS", "EffectEntry", "Regressor", "signed_sqrt",
-           "signed_sqrt_array"]
+__all__ = ["FIELD_CIRCUIT", "PUMP_CIRCUITS", "EffectEntry", "Regressor", "leak_to_tank",
+           "signed_sqrt", "signed_sqrt_array"]
 
 #: the paper-000 field duty cycle (gear pump of Figure 7, hoses, relief, measured pressure;
 #: :mod:`sim.duty_cycle`): the circuit of the pump-slip dynamics entries
@@ -107,6 +110,16 @@ class EffectEntry:
 
 
 BuildEffect = Callable[[BondGraph, str], None]
+
+
+def leak_to_tank(g: BondGraph, name: str, node: str, parameters: tuple[Param, ...],
+                 values: Mapping[str, float] | None, flow: LawCall, description: str) -> None:
+    """Declare the effect's ``parameters`` and add its R ``{name}.R`` from the 0-junction
+    ``node`` to the tank (gauge pressure 0, so the R's effort is the node's pressure) with
+    the flow law ``flow``: the bond-graph change of every leak to tank in the library."""
+    declare(g, name, parameters, values)
+    g.add(R(f"{name}.R", flow=flow, description=description))
+    g.connect(node, f"{name}.R", label=f"{name}.R")
 
 
 @law

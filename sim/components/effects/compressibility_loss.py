@@ -23,10 +23,9 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from sim.bondgraph import BondGraph, R, call
+from sim.bondgraph import BondGraph, call
 from sim.bondgraph.laws import law
-from sim.components.base import declare
-from sim.components.effects.base import PUMP_CIRCUITS, Arr, EffectEntry
+from sim.components.effects.base import PUMP_CIRCUITS, Arr, EffectEntry, leak_to_tank
 from sim.params import Param
 
 __all__ = ["ENTRY", "PARAMETERS", "build", "compression_flow"]
@@ -48,10 +47,9 @@ def compression_flow(p: float, k_b: float, Vp: float, omega: float) -> float:
 
 def build(g: BondGraph, name: str = NAME, values: Mapping[str, float] | None = None) -> None:
     """Add the compressibility-loss R on ``pump.out`` (module docstring)."""
-    declare(g, name, PARAMETERS, values)
-    g.add(R(f"{name}.R", flow=call(compression_flow, "e", f"p:{name}.k_b", "p:pump.Vp",
-                                   "p:pump.speed"), description="Q_c = k_b·P·Vp·ω"))
-    g.connect("pump.out", f"{name}.R", label=f"{name}.R")
+    leak_to_tank(g, name, "pump.out", PARAMETERS, values,
+                 call(compression_flow, "e", f"p:{name}.k_b", "p:pump.Vp", "p:pump.speed"),
+                 "Q_c = k_b·P·Vp·ω")
 
 
 def _regressor(s: Mapping[str, Arr]) -> Arr:

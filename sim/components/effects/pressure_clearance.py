@@ -22,7 +22,7 @@ import numpy as np
 from sim.bondgraph import BondGraph, One, R, call
 from sim.bondgraph.laws import law
 from sim.components.base import declare
-from sim.components.effects.base import PUMP_CIRCUITS, Arr, EffectEntry
+from sim.components.effects.base import PUMP_CIRCUITS, Arr, EffectEntry, leak_to_tank
 from sim.params import Param
 
 __all__ = ["PARAMETERS", "build_across", "build_to_tank", "clearance_flow", "entries"]
@@ -56,10 +56,8 @@ def build_across(g: BondGraph, name: str, high: str, low: str,
 def build_to_tank(g: BondGraph, name: str, high: str,
                   values: Mapping[str, float] | None = None) -> None:
     """Add the deforming-gap path from 0-junction ``high`` to the tank."""
-    declare(g, name, PARAMETERS, values)
-    g.add(R(f"{name}.R", flow=call(clearance_flow, "e", f"p:{name}.k_c", "p:fluid.mu"),
-            description="Q = k_c·P·|P|/μ"))
-    g.connect(high, f"{name}.R", label=f"{name}.R")
+    leak_to_tank(g, name, high, PARAMETERS, values,
+                 call(clearance_flow, "e", f"p:{name}.k_c", "p:fluid.mu"), "Q = k_c·P·|P|/μ")
 
 
 def _piston(s: Mapping[str, Arr]) -> Arr:

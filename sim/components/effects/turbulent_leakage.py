@@ -20,7 +20,14 @@ from collections.abc import Mapping
 from sim.bondgraph import BondGraph, One, R, call
 from sim.bondgraph.laws import law
 from sim.components.base import declare
-from sim.components.effects.base import PUMP_CIRCUITS, Arr, EffectEntry, signed_sqrt, signed_sqrt_array
+from sim.components.effects.base import (
+    PUMP_CIRCUITS,
+    Arr,
+    EffectEntry,
+    leak_to_tank,
+    signed_sqrt,
+    signed_sqrt_array,
+)
 from sim.params import Param
 
 __all__ = ["PARAMETERS", "build_across", "build_to_tank", "entries", "turbulent_flow"]
@@ -56,10 +63,9 @@ def build_across(g: BondGraph, name: str, high: str, low: str,
 def build_to_tank(g: BondGraph, name: str, high: str,
                   values: Mapping[str, float] | None = None) -> None:
     """Add the √P path from 0-junction ``high`` to the tank (pressure 0)."""
-    declare(g, name, PARAMETERS, values)
-    g.add(R(f"{name}.R", flow=call(turbulent_flow, "e", f"p:{name}.K_t", f"p:{name}.p_t"),
-            description="Q = K_t·sgn(P)·√|P|"))
-    g.connect(high, f"{name}.R", label=f"{name}.R")
+    leak_to_tank(g, name, high, PARAMETERS, values,
+                 call(turbulent_flow, "e", f"p:{name}.K_t", f"p:{name}.p_t"),
+                 "Q = K_t·sgn(P)·√|P|")
 
 
 def _piston(s: Mapping[str, Arr]) -> Arr:

@@ -30,10 +30,9 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from sim.bondgraph import BondGraph, R, call
+from sim.bondgraph import BondGraph, call
 from sim.bondgraph.laws import law
-from sim.components.base import declare
-from sim.components.effects.base import PUMP_CIRCUITS, Arr, EffectEntry
+from sim.components.effects.base import PUMP_CIRCUITS, Arr, EffectEntry, leak_to_tank
 from sim.params import Param
 
 __all__ = ["ENTRY", "PARAMETERS", "build", "viscous_slip_flow"]
@@ -55,10 +54,9 @@ def viscous_slip_flow(p: float, C_s: float, Vp: float, mu: float) -> float:
 
 def build(g: BondGraph, name: str = NAME, values: Mapping[str, float] | None = None) -> None:
     """Add the viscous-slip R on ``pump.out`` (module docstring)."""
-    declare(g, name, PARAMETERS, values)
-    g.add(R(f"{name}.R", flow=call(viscous_slip_flow, "e", f"p:{name}.C_s", "p:pump.Vp",
-                                   "p:fluid.mu"), description="Q_s = C_s·P·Vp/μ"))
-    g.connect("pump.out", f"{name}.R", label=f"{name}.R")
+    leak_to_tank(g, name, "pump.out", PARAMETERS, values,
+                 call(viscous_slip_flow, "e", f"p:{name}.C_s", "p:pump.Vp", "p:fluid.mu"),
+                 "Q_s = C_s·P·Vp/μ")
 
 
 def _regressor(s: Mapping[str, Arr]) -> Arr:
