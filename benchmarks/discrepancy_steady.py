@@ -46,12 +46,14 @@ def _peak(effect: str, value: float) -> float:
 
 
 def _truth_ratio(doc: dict[str, Any], d: Any, effect: str, strength: float) -> float:
-    """Held-out (60 °C) RMSE of (model − noise-free truth) before/after naming."""
+    """Held-out (60 °C) RMSE of (model − noise-free truth) before/after naming: the stored
+    rig, and the augmented rig the workflow returns (its re-fitted pump and the effect)."""
     clean = synthesize_bench(reference_rig(), rng=np.random.default_rng(0),
                              effects={effect: strength}, sigma_q=0.0, sigma_p=0.0)
     held = clean.theta == clean.theta.max()
     before = predict_flow(doc, clean)[held] - clean.q[held]
-    after = predict_flow(doc, clean, {n.name: n.value for n in d.named})[held] - clean.q[held]
+    after = predict_flow(d.rig_document, clean,
+                         {n.name: n.value for n in d.named})[held] - clean.q[held]
     rb, ra = float(np.sqrt(np.mean(before ** 2))), float(np.sqrt(np.mean(after ** 2)))
     return rb / ra if ra > 0 else float("inf")
 
@@ -104,6 +106,7 @@ def steady_study(seeds: int, sizes: tuple[float, ...], light: bool) -> dict[str,
         for drift in (False, True):
             fd = 0
             names: set[str] = set()
+            verdicts: dict[str, int] = {}
             for k in range(n_null):
                 rng = np.random.default_rng(8000 + k)
                 ov = {p: base[p] * rng.uniform(0.8, 1.2) for p in DRIFT} if drift else None
@@ -111,10 +114,13 @@ def steady_study(seeds: int, sizes: tuple[float, ...], light: bool) -> dict[str,
                 d = discover_steady(doc, bench, bootstrap=0)
                 fd += bool(d.named)
                 names |= {m.name for m in d.named}
+                verdicts[d.verdict] = verdicts.get(d.verdict, 0) + 1
             null_rows.append({"noise": noise, "drift": drift, "n": n_null,
-                              "false_discoveries": fd, "named": sorted(names)})
+                              "false_discoveries": fd, "named": sorted(names),
+                              "verdicts": verdicts})
             print(f"steady no effect, {noise:12s} noise, drift "
-                  f"{'±20 %' if drift else 'none  '}: {fd}/{n_null} false discoveries")
+                  f"{'±20 %' if drift else 'none  '}: {fd}/{n_null} false discoveries; "
+                  + ", ".join(f"{v} {c}" for v, c in sorted(verdicts.items())))
     total = sum(r["n"] for r in null_rows)
     fd_total = sum(r["false_discoveries"] for r in null_rows)
 

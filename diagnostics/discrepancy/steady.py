@@ -29,8 +29,12 @@ a re-fitted pump that is still a pump (1/Rlp and Vp positive), and the held-out 
 excess of the scatter shrinks at least
 :data:`~diagnostics.discrepancy.workflow.CONFIRM_RATIO`-fold against the stored pump.  The
 augmented rig carries the effect *and* the re-fitted Rlp and Vp (a bench table is the
-pump's characterisation, not field data of a worn rig); the message gives the held-out
-gap before, after, and with the pump re-fitted alone.  Replicated points give the
+pump's characterisation, not field data of a worn rig), the coefficient restated for the
+re-fitted Vp where the element reads it (:func:`_on_refitted`); the message gives the
+held-out gap before, after, and with the pump re-fitted alone.  When no effect is named
+and the pump re-fitted alone brings the held-out gap within
+:data:`~diagnostics.discrepancy.verdict.OUTPUT_GAP` σ, the verdict is ``base drift`` (the
+stored rig left as it is), as in the transient workflow.  Replicated points give the
 lack-of-fit F-test (:mod:`~diagnostics.discrepancy.lof`) before and after.
 
 On measured data (the V32HL56 piston-pump map, :mod:`benchmarks.real_discrepancy`)
@@ -230,6 +234,33 @@ def _refitted(values: Mapping[str, float], base: Mapping[str, float]) -> dict[st
             "pump.Vp": values["pump.Vp"] - base["pump.Vp"]}
 
 
+def _on_refitted(values: Mapping[str, float], base: Mapping[str, float], s: Signals,
+                 coefs: Mapping[str, float], errs: Mapping[str, float]
+                 ) -> tuple[dict[str, float], dict[str, float]]:
+    """The effect coefficients and their errors restated for the re-fitted pump.
+
+    :func:`_stored_fit` fits each ``k·x_k`` with ``x_k`` evaluated at the *stored* Vp; the
+    augmented rig evaluates its element with the *re-fitted* Vp (the compressibility loss
+    ``k_b·P·Vp·ω``, the viscous slip ``C·P·Vp/μ``, the speed offset ``δω·Vp``).  So that
+    the stored rig delivers the flow that was fitted, ``k`` becomes ``k·x_old/x_new`` —
+    a constant, since a regressor is proportional to Vp or does not read it (least squares
+    over the rows, exact then).  Without this a rig whose stored displacement was 3× off
+    (the reference rig checked against a V32HL56 setting) carried a loss 3× too large.
+    """
+    new = dict(s.values)
+    new["Vp"] = np.full_like(s.values["Vp"], _refitted(values, base)["pump.Vp"])
+    out_k: dict[str, float] = {}
+    out_e: dict[str, float] = {}
+    for name, k in coefs.items():
+        reg = EFFECTS[name].entry.regressor
+        x_old = np.asarray(reg(s.values), dtype=float)
+        x_new = np.asarray(reg(new), dtype=float)
+        nn = float(x_new @ x_new)
+        f = float(x_old @ x_new) / nn if nn > 0.0 else 1.0
+        out_k[name], out_e[name] = k * f, errs[name] * abs(f)
+    return out_k, out_e
+
+
 def _with_base(doc: Mapping[str, Any], values: Mapping[str, float],
                base: Mapping[str, float]) -> dict[str, Any]:
     """A copy of ``doc`` whose pump carries the re-fitted Rlp and Vp (in the document's
@@ -313,6 +344,7 @@ def discover_steady(rig_document: Mapping[str, Any], bench: BenchData, *,
                     and EFFECTS[n].entry.sign * coefs[n] >= 0.0 for n in names) \
             and all(v > 0.0 for v in _refitted(values, base).values())
         if valid and excess_ratio(gap_before, trial, sigma) >= CONFIRM_RATIO:
+            coefs, errs = _on_refitted(values, base, train, coefs, errs)
             fitted, refitted, gap_after = coefs, base, trial
             for t in sel.chosen.terms:
                 e = EFFECTS[t.effect]
@@ -346,6 +378,17 @@ def discover_steady(rig_document: Mapping[str, Any], bench: BenchData, *,
                     f" (the pump re-fitted alone: {gap_alone[0].rmse / sigma[FLOW]:.1f} σ)")
         if len(named) > 1:
             message += "; partially explained — possibly outside the library (two terms)"
+    elif off and _drifted(values, alone, gap_alone[0].rmse, sigma[FLOW]):
+        outcome = "base drift"
+        gap_after = gap_alone
+        message = (f"no new effect: the held-out flow differs from the stored pump's "
+                   f"({gap_before[0].rmse / sigma[FLOW]:.1f} σ) and the pump's own laminar "
+                   f"slip and displacement, re-fitted alone, close the gap "
+                   f"({gap_alone[0].rmse / sigma[FLOW]:.1f} σ; {_base_change(values, alone)}). "
+                   "A pump leakage that moved in service is wear (POST /diagnose sizes it "
+                   "against the stored rig); a stored pump that never matched this bench is "
+                   "re-characterised (hydrodiag calibrate pump; hydrodiag rigs update). The "
+                   "stored rig is left as it is")
     elif misfit or off:
         outcome = "unexplained"
         message = ("model and data differ (lack of fit against the repeats"
@@ -356,7 +399,7 @@ def discover_steady(rig_document: Mapping[str, Any], bench: BenchData, *,
     else:
         outcome = "no effect"
         message = "no effect found: the gap is within the scatter and the practical size"
-    if not named and off:
+    if not named and off and outcome != "base drift":
         message += (f"; the pump's own parameters re-fitted alone ({_base_change(values, alone)}) "
                     f"leave a held-out flow RMSE of {gap_alone[0].rmse / sigma[FLOW]:.1f} σ")
     if rejected:
@@ -375,6 +418,16 @@ def discover_steady(rig_document: Mapping[str, Any], bench: BenchData, *,
         {sel.balance: sel.detectable},
         {"selections": [sel], "data": [data], "signals": train, "gap_alone": gap_alone,
          "sigma": sigma[FLOW]}, lof)
+
+
+def _drifted(values: Mapping[str, float], alone: Mapping[str, float], rmse_alone: float,
+             sigma: float) -> bool:
+    """Whether the pump re-fitted alone (``alone``: :func:`_stored_fit`'s corrections) is
+    still a pump and brings the held-out flow RMSE [m³/s] within
+    :data:`~diagnostics.discrepancy.verdict.OUTPUT_GAP` σ — the steady form of the
+    transient workflow's ``base drift``."""
+    return (all(v > 0.0 for v in _refitted(values, alone).values())
+            and rmse_alone <= OUTPUT_GAP * sigma)
 
 
 def _base_change(values: Mapping[str, float], base: Mapping[str, float]) -> str:
