@@ -24,7 +24,7 @@ from app.cli_discover import register as register_discover
 from app.cli_report import report_cli
 from app.cli_rigs import rigs_cli
 from app.cli_runs import register
-from app.cli_support import console, migrated_engine, settings_from_env, steps
+from app.cli_support import console, migrated_engine, settings_from_env, steps, unwrap_help
 from app.db.engine import make_engine, make_session_factory
 from app.security import Scope
 from app.settings import Settings
@@ -208,6 +208,7 @@ register(cli)
 cli.add_typer(report_cli, name="report")
 register_discover(cli)
 register_batch(cli)
+unwrap_help(cli)
 
 
 def main() -> None:

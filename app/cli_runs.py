@@ -21,6 +21,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from app.cli_import import import_cli
+from app.cli_pump_map import calibrate_pump_map
 from app.cli_support import console, load_document, settings_from_env, steps, store_session
 from sim.errors import InputError
 from sim.scenarios import FAULTS
@@ -334,5 +335,6 @@ def register(cli: typer.Typer) -> None:
     cli.command()(diagnose)
     cli.command()(commission)
     cli.command()(sweep)
+    calibrate_cli.command("pump-map")(calibrate_pump_map)
     cli.add_typer(calibrate_cli, name="calibrate")
     cli.add_typer(import_cli, name="import")

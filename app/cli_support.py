@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import inspect
 from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import Any
@@ -19,7 +20,7 @@ from app.settings import Settings
 from sim.errors import InputError
 
 __all__ = ["console", "load_document", "migrated_engine", "settings_from_env", "steps",
-           "store_session", "validation_error"]
+           "store_session", "unwrap_help", "validation_error"]
 
 console = Console(stderr=True)
 
@@ -92,3 +93,17 @@ def validation_error(exc: ValidationError) -> InputError:
     first = exc.errors()[0]
     return InputError(str(first.get("msg", "invalid")),
                       field=format_location(tuple(first.get("loc", ()))))
+
+
+def unwrap_help(app: typer.Typer) -> None:
+    """Give every command of ``app`` (and of its sub-apps) its docstring as help with each
+    paragraph on one line: typer 0.29 prints the single line breaks of a docstring's later
+    paragraphs as they are, which at 80 columns left every other line a word or two long.
+    Paragraphs stay apart; rich wraps each to the terminal."""
+    for info in app.registered_commands:
+        if info.help is None and info.callback is not None and info.callback.__doc__:
+            doc = inspect.cleandoc(info.callback.__doc__)
+            info.help = "\n\n".join(" ".join(p.split()) for p in doc.split("\n\n"))
+    for group in app.registered_groups:
+        if group.typer_instance is not None:
+            unwrap_help(group.typer_instance)

@@ -31,7 +31,8 @@ from app.services.rigs import get_rig
 from diagnostics.pump import BenchData, PumpParameterisation, parameterise, read_bench_csv
 from sim.errors import InputError
 
-__all__ = ["MAX_CSV_BYTES", "parameterise_csv", "read_bench_bytes", "store_bench_parameters"]
+__all__ = ["MAX_CSV_BYTES", "bench_pump_set", "parameterise_csv", "read_bench_bytes",
+           "store_bench_parameters"]
 
 #: Largest bench CSV accepted [byte].
 MAX_CSV_BYTES = 5 * 1024 * 1024
@@ -134,15 +135,26 @@ def store_bench_parameters(session: Session, form: PumpBenchForm, content: bytes
     """
     if form.rig_id is not None:
         get_rig(session, form.rig_id, field="rig_id")
+    return create_pump_set(session, bench_pump_set(form, content))
+
+
+def bench_pump_set(form: PumpBenchForm, content: bytes) -> PumpSetCreate:
+    """The pump set of a bench CSV, validated and not stored (:func:`store_bench_parameters`
+    less the rig check and the store: several sets checked before any is stored).
+
+    Raises
+    ------
+    InputError
+        The file cannot be read or parameterised (``field`` starts with ``file``).
+    """
     data, result = parameterise_csv(content, displacement=form.displacement_m3_rad,
                                     displacement_std=form.displacement_std_m3_rad)
     checked, check_note = check_quantities(data, result.D)
     notes = [n for n in (_SIMULATED if data.simulated else None, form.source,
                          data.provenance or None, result.not_identifiable or None,
                          check_note) if n]
-    create = PumpSetCreate.model_validate({
+    return PumpSetCreate.model_validate({
         "name": form.name, "kind": "parameters", "rig_id": form.rig_id, "pump": form.pump,
         "source": "; ".join(notes)[:2000] or None,
         "quantities": _quantities(data, result) | checked,
     })
-    return create_pump_set(session, create)

@@ -14,6 +14,7 @@ from app.services.rigs import get_rig
 from sim.errors import ConflictError
 
 __all__ = [
+    "check_name_free",
     "create_pump_set",
     "delete_pump_set",
     "get_pump_set",
@@ -44,7 +45,7 @@ def list_pump_sets(
     return paginate(session, statement, limit=limit, offset=offset)
 
 
-def _check_name_free(session: Session, name: str, *, exclude_id: int | None = None) -> None:
+def check_name_free(session: Session, name: str, *, exclude_id: int | None = None) -> None:
     statement = select(func.count()).select_from(PumpSet).where(PumpSet.name == name)
     if exclude_id is not None:
         statement = statement.where(PumpSet.id != exclude_id)
@@ -64,7 +65,7 @@ def create_pump_set(session: Session, data: PumpSetCreate) -> PumpSet:
     """
     if data.rig_id is not None:
         get_rig(session, data.rig_id, field="rig_id")
-    _check_name_free(session, data.name)
+    check_name_free(session, data.name)
     pump_set = PumpSet(
         name=data.name,
         kind=data.kind,
@@ -85,7 +86,7 @@ def update_pump_set(session: Session, pump_set_id: int, data: PumpSetUpdate) -> 
     if changes.get("rig_id") is not None:
         get_rig(session, changes["rig_id"], field="rig_id")
     if changes.get("name") is not None:
-        _check_name_free(session, changes["name"], exclude_id=pump_set_id)
+        check_name_free(session, changes["name"], exclude_id=pump_set_id)
     for key, value in changes.items():
         setattr(pump_set, key, value)
     commit(session, conflict="a pump set with this name exists", field="name")
