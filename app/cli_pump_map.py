@@ -102,9 +102,7 @@ def calibrate_pump_map(
             try:
                 form = PumpBenchForm.model_validate({
                     "name": f"{name}-{cm3:.1f}cm3", "pump": f"{pump} at {cm3:.1f} cm³/rev",
-                    "rig_id": rig_id,
-                    "source": f"efficiency map {file.name}, setting {cm3:.1f} cm³/rev, "
-                              f"θ {theta:g} °C assumed"})
+                    "rig_id": rig_id})   # the table's header line is the set's source
             except ValidationError as exc:
                 bad = validation_error(exc)
                 raise InputError(bad.message, field=f"--{bad.field}") from None
