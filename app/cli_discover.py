@@ -2,9 +2,11 @@
 command line, on the store the service uses, with a progress bar.
 
 Reads DATA (CSV or Parquet in the ``/simulate`` export format, or a steady table in the
-pump-bench CSV format), runs :func:`diagnostics.discrepancy.discover` (or
-:func:`~diagnostics.discrepancy.steady.discover_steady`) against the stored rig, stores the augmented rig
-as a new version when an effect is named (``--no-store`` to keep the store unchanged),
+pump-bench CSV format) or the rig's stored records named by ``--series``, runs
+:func:`diagnostics.discrepancy.discover` (or
+:func:`~diagnostics.discrepancy.steady.discover_steady`) against the stored rig, stores the
+augmented rig as a new version when an effect is named (``--no-store`` to keep the store
+unchanged),
 prints the verdict and named effects, and writes the report (HTML page, and the charts as
 PNG and SVG beside it).  Exit code 0 on any verdict; a bad file is exit code 1 with a
 message naming the column.
@@ -14,7 +16,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 from rich.console import Console
@@ -24,6 +26,9 @@ from rich.table import Table
 from app.cli_support import console, steps, store_session
 from sim.errors import InputError
 
+if TYPE_CHECKING:
+    from diagnostics.timeseries import SeriesRecord
+
 __all__ = ["discover", "register"]
 
 #: the verdict and its tables (the result) go to stdout; progress and notes to stderr
@@ -31,9 +36,9 @@ _out = Console()
 
 
 def discover(
-    data: Annotated[Path, typer.Argument(help="Measured cycles: CSV or Parquet in the "
-                                         "/simulate export format, or steady points in the "
-                                         "pump-bench CSV format.")],
+    data: Annotated[Path | None, typer.Argument(help="Measured cycles: CSV or Parquet in the "
+                                                "/simulate export format, or steady points in "
+                                                "the pump-bench CSV format.")] = None,
     rig_id: Annotated[int, typer.Option("--rig", help="Rig id in the store.")] = 1,
     version: Annotated[int | None, typer.Option(help="Rig version (default: latest).")] = None,
     report: Annotated[Path | None, typer.Option(help="Write the HTML report here "
@@ -42,22 +47,34 @@ def discover(
     store: Annotated[bool, typer.Option(help="Store the augmented rig as a new version.")
                      ] = True,
     as_json: Annotated[bool, typer.Option("--json", help="Print the JSON report.")] = False,
+    series: Annotated[str | None, typer.Option(
+        help="Stored measured records of the rig to check instead of DATA (hydrodiag import, "
+             "POST /rigs/{id}/series): ids, comma-separated, e.g. 3,4,5.")] = None,
 ) -> None:
     """Find what the rig model misses in DATA, name it, add it to the rig, show the gap."""
     from app.services.rig_cache import RigCache
     from app.services.rigs import update_rig
+    from app.services.series import stored_records
     from diagnostics.discrepancy import discover as run
     from diagnostics.discrepancy.report import write_report
     from diagnostics.discrepancy.steady import discover_steady, is_bench_table, read_bench_bytes
     from diagnostics.timeseries import read_series
 
-    if not data.is_file():
-        raise InputError(f"no such file: {data}", field="data")
-    content = data.read_bytes()
-    bench = read_bench_bytes(content, field="data") if is_bench_table(content) else None
-    records = read_series(data) if bench is None else []
+    if (data is None) == (series is None):
+        raise InputError("give DATA or --series (stored records of the rig), one of them",
+                         field="data" if data is None else "--series")
+    bench = None
+    records: list[SeriesRecord] = []
+    if data is not None:
+        if not data.is_file():
+            raise InputError(f"no such file: {data}", field="data")
+        content = data.read_bytes()
+        bench = read_bench_bytes(content, field="data") if is_bench_table(content) else None
+        records = read_series(data) if bench is None else []
     with store_session() as session:
         resolved = RigCache(1).get(session, rig_id, version)
+        if series is not None:
+            records = stored_records(session, rig_id, _ids(series))
         with steps() as progress:
             task = progress.add_task("discrepancy workflow", total=1.0)
 
@@ -99,6 +116,18 @@ def discover(
             table.add_row(f"{b.parameter} \\[{b.unit}]", f"{b.stored:.4g}", f"{b.value:.4g}",
                           f"{100 * b.change:+.1f} %" + ("" if b.significant else " n.s."), ci)
         _out.print(table)
+
+
+def _ids(text: str) -> list[int]:
+    """``"3, 4,5"`` → ``[3, 4, 5]``; anything else is an :class:`InputError` on ``--series``."""
+    try:
+        ids = [int(x) for x in text.split(",")]
+    except ValueError:
+        raise InputError(f"not a comma-separated list of ids: {text!r}", field="--series"
+                         ) from None
+    if any(i < 1 for i in ids):
+        raise InputError("series ids are positive", field="--series")
+    return ids
 
 
 def register(cli: typer.Typer) -> None:

@@ -1,4 +1,4 @@
-"""Discrepancy runs: ``POST /discrepancy`` (form fields + a measured time-series file)."""
+"""Discrepancy runs: ``POST /discrepancy`` (form fields + a measured file or stored series)."""
 
 from __future__ import annotations
 
@@ -25,6 +25,14 @@ class DiscrepancyForm(UploadForm):
                         "by re-simulation [-]", examples=[True])
     store: bool = Field(default=True, description="Store the augmented rig as a new version "
                         "of the rig when an effect is named [-]", examples=[True])
+    series_ids: str | None = Field(
+        default=None, pattern=r"^\s*[1-9][0-9]{0,17}\s*(,\s*[1-9][0-9]{0,17}\s*){0,199}$",
+        description="Stored measured records of the rig (POST /rigs/{rig_id}/series) to check "
+        "instead of a file: their ids, comma-separated, at most 200 [-]", examples=["3,4,5"])
+
+    def ids(self) -> list[int]:
+        """The ids of ``series_ids`` in the order given (empty when none)."""
+        return [int(x) for x in self.series_ids.split(",")] if self.series_ids else []
 
 
 class DiscrepancyAccepted(BaseModel):

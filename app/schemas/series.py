@@ -32,7 +32,7 @@ class SeriesImportForm(UploadForm):
 
 
 class SeriesPublic(PublicModel):
-    """A stored record (without its samples; ``GET /series/{id}/data`` returns them)."""
+    """A stored record (without its samples; ``GET /series/{id}`` returns them)."""
 
     id: int = Field(description="Series identifier [-]", examples=[1])
     rig_id: int = Field(description="Rig the record was measured on [-]", examples=[1])
@@ -60,11 +60,16 @@ class SeriesData(SeriesPublic):
         description="Channel → values, in the unit of ``units`` [SI]",
         examples=[{"p_pump": [1.91e7, 1.91e7, 1.47e7]}])
 
+    phase: list[str] | None = Field(
+        default=None, description="Phase label of every sample ('working', 'return'), null "
+        "when the file had no phase column [-]", examples=[["working", "working", "return"]])
+
     @classmethod
     def of(cls, row: Any) -> SeriesData:
         """Build from a stored row."""
         base = SeriesPublic.model_validate(row).model_dump()
-        return cls(**base, t=row.data["t"], channels=row.data["channels"])
+        return cls(**base, t=row.data["t"], channels=row.data["channels"],
+                   phase=row.data.get("phase"))
 
 
 class SeriesList(Page[SeriesPublic]):

@@ -4,7 +4,9 @@
 time series in the ``/simulate`` export format (read by
 :func:`diagnostics.timeseries.read_series`) or a steady table in the pump-bench CSV format
 (``p_out``/``q`` columns and no ``t``: :func:`diagnostics.discrepancy.steady.read_bench_bytes`).
-It is read before the job starts, so a bad column is a 422 naming it and nothing is
+Instead of a file, ``series_ids`` names measured records stored with the rig
+(``POST /rigs/{rig_id}/series``, ``hydrodiag import``), read back with their phases and
+conditions.  It is read before the job starts, so a bad column is a 422 naming it and nothing is
 stored; the job runs :func:`diagnostics.discrepancy.discover` (or
 :func:`~diagnostics.discrepancy.steady.discover_steady` on a bench table) and, when an
 effect is named, stores the augmented rig document as a new version of the rig
@@ -24,6 +26,7 @@ from app.db.engine import SessionFactory
 from app.schemas.discrepancy import DiscrepancyForm
 from app.services.rig_cache import RigCache
 from app.services.rigs import update_rig
+from app.services.series import stored_records
 from diagnostics.discrepancy import discover
 from diagnostics.discrepancy.report import html_page
 from diagnostics.discrepancy.steady import discover_steady, is_bench_table, read_bench_bytes
@@ -73,9 +76,17 @@ def read_records(content: bytes, *, field: str = "file") -> list[SeriesRecord]:
 
 
 def plan_discrepancy(session: Session, rigs: RigCache, form: DiscrepancyForm,
-                     content: bytes) -> DiscrepancyPlan:
-    """Resolve the rig version and read the file; raises before anything is stored."""
+                     content: bytes | None) -> DiscrepancyPlan:
+    """Resolve the rig version and read the file, or the stored series ``form.series_ids``
+    (one of the two); raises before anything is stored."""
+    if (content is None) == (form.series_ids is None):
+        raise InputError("give a file or series_ids (stored records of the rig), one of them",
+                         field="file" if content is None else "series_ids")
     resolved = rigs.get(session, form.rig_id, form.rig_version)
+    if content is None:
+        records = stored_records(session, form.rig_id, form.ids())
+        return DiscrepancyPlan(resolved.rig_id, resolved.version, dict(resolved.document),
+                               records, form.refit, form.store)
     if len(content) <= MAX_SERIES_BYTES and is_bench_table(content):
         return DiscrepancyPlan(resolved.rig_id, resolved.version, dict(resolved.document), [],
                                form.refit, form.store, read_bench_bytes(content))

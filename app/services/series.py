@@ -13,6 +13,7 @@ from __future__ import annotations
 import json
 from collections.abc import Callable, Sequence
 
+import numpy as np
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
@@ -22,8 +23,16 @@ from app.services.rigs import get_rig
 from diagnostics.timeseries import SeriesRecord, read_series
 from sim.errors import InputError
 
-__all__ = ["MAX_SERIES_BYTES", "get_series", "import_series", "list_series", "parse_column_map",
-           "store_records"]
+__all__ = [
+    "MAX_SERIES_BYTES",
+    "as_record",
+    "get_series",
+    "import_series",
+    "list_series",
+    "parse_column_map",
+    "store_records",
+    "stored_records",
+]
 
 #: Largest time-series file accepted [byte].
 MAX_SERIES_BYTES = 20 * 1024 * 1024
@@ -70,7 +79,8 @@ def store_records(session: Session, rig_id: int, name: str, records: Sequence[Se
             rig_id=rig_id, name=name, record=r.name[:200], sample_rate=rate,
             n_samples=len(r), measured=r.measured, units=dict(r.units),
             condition=dict(r.condition),
-            data={"t": r.t.tolist(), "channels": {c: v.tolist() for c, v in r.channels.items()}},
+            data={"t": r.t.tolist(), "channels": {c: v.tolist() for c, v in r.channels.items()}}
+            | ({} if r.phase is None else {"phase": [str(x) for x in r.phase]}),
         ))
         if progress is not None:
             progress(k + 1, len(records))
@@ -112,3 +122,38 @@ def list_series(session: Session, rig_id: int, *, limit: int, offset: int
 def get_series(session: Session, series_id: int) -> MeasuredSeries:
     """The stored record ``series_id`` (:class:`NotFoundError` when absent)."""
     return get_or_raise(session, MeasuredSeries, series_id, what="series", field="series_id")
+
+
+def as_record(row: MeasuredSeries) -> SeriesRecord:
+    """The stored record as the import path read it: samples, units, phases (where the file
+    had a ``phase`` column) and condition, marked measured or not as stored."""
+    data = row.data
+    phase = data.get("phase")
+    return SeriesRecord(row.record, np.asarray(data["t"], dtype=float),
+                        {c: np.asarray(v, dtype=float) for c, v in data["channels"].items()},
+                        dict(row.units), None if phase is None else np.asarray(phase, dtype=str),
+                        {k: float(v) for k, v in row.condition.items()},
+                        {"series_id": row.id, "import": row.name}, row.measured)
+
+
+def stored_records(session: Session, rig_id: int, ids: Sequence[int], *,
+                   field: str = "series_ids") -> list[SeriesRecord]:
+    """The stored records ``ids`` of rig ``rig_id``, in the order given.
+
+    Raises
+    ------
+    InputError
+        No ids, an id given twice, or a record of another rig (``field``).
+    NotFoundError
+        An id names no stored record.
+    """
+    if not ids:
+        raise InputError("give at least one stored series id", field=field)
+    if len(set(ids)) != len(ids):
+        raise InputError("a series id is given twice", field=field)
+    rows = [get_or_raise(session, MeasuredSeries, i, what="series", field=field) for i in ids]
+    other = [r.id for r in rows if r.rig_id != rig_id]
+    if other:
+        raise InputError(f"series {', '.join(map(str, other))} belong to another rig, not rig "
+                         f"{rig_id}", field=field)
+    return [as_record(r) for r in rows]

@@ -54,6 +54,27 @@ def test_discover_names_the_effect_stores_a_version_and_writes_the_report(
     assert "P2 [parsec]" in str(failed.exception) + failed.output
 
 
+def test_discover_runs_on_records_stored_by_import(runner: CliRunner, tmp_path: Path) -> None:
+    data = _data(tmp_path / "cycles.csv")
+    from_file = runner.invoke(cli, ["discover", str(data), "--rig", "1", "--no-store", "--json"])
+    assert from_file.exit_code == 0, from_file.output
+    imported = runner.invoke(cli, ["import", "series", str(data), "--rig", "1", "--name", "c"])
+    assert imported.exit_code == 0, imported.output
+    # stored with their phases and conditions, the records give the workflow's answer exactly
+    stored = runner.invoke(cli, ["discover", "--series", "1,2,3", "--rig", "1", "--no-store",
+                                 "--json"])
+    assert stored.exit_code == 0, stored.output
+    a = json.loads(from_file.output[from_file.output.index("{"):])
+    b = json.loads(stored.output[stored.output.index("{"):])
+    assert [n["name"] for n in b["named"]] == ["seal_friction_pressure"]
+    assert b["named"][0]["value"] == a["named"][0]["value"]
+    assert b["held_out_records"] == a["held_out_records"] == ["load-6300"]
+    for args, field in ((["--series", "1,x"], "--series"), ([str(data), "--series", "1"], "--series"),
+                        ([], "data"), (["--series", "1,1"], "series_ids")):
+        bad = runner.invoke(cli, ["discover", *args, "--rig", "1"])
+        assert bad.exit_code != 0 and field in str(bad.exception), (args, bad.exception)
+
+
 def test_discover_reads_a_pump_bench_table(runner: CliRunner, tmp_path: Path) -> None:
     from diagnostics.discrepancy.synthetic import synthesize_bench
     from diagnostics.pump.csvio import write_bench_csv

@@ -123,6 +123,50 @@ def test_hidden_friction_is_named_stored_and_the_new_version_matches_the_data(
         assert forbidden not in page.text
 
 
+def test_records_stored_with_the_rig_are_checked_by_id(server: LiveServer,
+                                                       measured: bytes) -> None:
+    rig_id = _create(server, "rig-with-stored-cycles")
+    r = server.client.post(f"/rigs/{rig_id}/series", data={"name": "cycles"},
+                           files={"file": ("cycles.csv", measured, "text/csv")},
+                           headers=server.auth)
+    assert r.status_code == 201, r.text
+    ids = [item["id"] for item in r.json()["items"]]
+    # read back with its phases: the workflow needs them to find the strokes
+    back = server.client.get(f"/series/{ids[0]}").json()
+    (first,) = [rec for rec in read_series(measured) if rec.name == "load-2100"]
+    assert first.phase is not None and back["phase"] == first.phase.tolist()
+    assert back["condition"] == {"load": 2100.0, "oil_temperature": 40.0}
+    other = _create(server, "another-rig")
+    before = server.row_counts()
+    for data, status, field in (({}, 422, "file"),
+                                ({"series_ids": "1,a"}, 422, "series_ids"),
+                                ({"series_ids": f"{ids[0]},{ids[0]}"}, 422, "series_ids"),
+                                ({"series_ids": "99999"}, 404, "series_ids")):
+        r = server.client.post("/discrepancy", data={"rig_id": str(rig_id), **data},
+                               headers=server.auth)
+        assert r.status_code == status and field in r.text, (data, r.text)
+    r = server.client.post("/discrepancy", data={"rig_id": str(other), "series_ids": str(ids[0])},
+                           headers=server.auth)
+    assert r.status_code == 422 and "another rig" in r.text
+    r = server.client.post("/discrepancy", data={"rig_id": str(rig_id), "series_ids": "1"},
+                           files={"file": ("x.csv", measured)}, headers=server.auth)
+    assert r.status_code == 422 and "series_ids" in r.text
+    assert server.row_counts() == before
+    r = server.client.post("/discrepancy", data={
+        "rig_id": str(rig_id), "store": "false", "series_ids": ",".join(map(str, ids))},
+        headers=server.auth)
+    assert r.status_code == 202, r.text
+    assert r.json()["records"] == ["load-2100", "load-4200", "load-6300"]
+    job = _follow(server, r.json()["job_id"])
+    assert job["status"] == "succeeded", job["error"]
+    result = job["result"]
+    assert [n["name"] for n in result["named"]] == ["seal_friction_pressure"]
+    named = result["named"][0]
+    assert named["interval"][0] <= HIDDEN_KP <= named["interval"][1]
+    assert result["new_rig_version"] is None
+    assert server.row_counts()["rig_versions"] == before["rig_versions"]
+
+
 def test_bad_files_are_422_naming_the_column_and_start_nothing(server: LiveServer,
                                                                measured: bytes) -> None:
     before = server.row_counts()

@@ -36,19 +36,20 @@ def _job(plan: DiscrepancyPlan, request: Request) -> Any:
              summary="Find what the rig model misses in measured data (a job)")
 async def start_discrepancy(
     form: Annotated[DiscrepancyForm, Form()],
-    file: Annotated[UploadFile, File(
+    request: Request, session: SessionDep, rigs: RigsDep, _key: WriteKeyDep,
+    response: Response,
+    file: Annotated[UploadFile | None, File(
         description="Measured time series in the /simulate export format (CSV or Parquet, "
         "units in the column names, 'phase' and optional 'record' columns), or steady pump "
         "test points in the pump-bench CSV format (p_in, p_out, n, theta, q with units, "
-        "optional replicate) [-]",
+        "optional replicate); leave out when series_ids names stored records [-]",
         examples=["record,t [s],phase,P1 [Pa],P2 [Pa],v [m/s],load [N]\n"
                   "load-2100,0.100,working,1.20e6,1.0e5,0.210,2100\n"
                   "load-2100,0.101,working,1.21e6,1.0e5,0.211,2100\n"
-                  "load-2100,0.102,working,1.20e6,1.0e5,0.210,2100\n"])],
-    request: Request, session: SessionDep, rigs: RigsDep, _key: WriteKeyDep,
-    response: Response,
+                  "load-2100,0.102,working,1.20e6,1.0e5,0.210,2100\n"])] = None,
 ) -> DiscrepancyAccepted:
-    """Read the file (a bad column is a 422 naming it), then start the workflow as a job.
+    """Read the file (a bad column is a 422 naming it) or the stored records named by
+    ``series_ids``, then start the workflow as a job.
 
     Unknown form fields are refused (422 naming the field).
 
@@ -56,7 +57,7 @@ async def start_discrepancy(
     fitted parameters with intervals, held-out gap before/after, whiteness, competing
     explanations) and ``new_rig_version``; ``/jobs/{job_id}?format=html`` gives the page.
     """
-    content = await file.read(MAX_SERIES_BYTES + 1)
+    content = None if file is None else await file.read(MAX_SERIES_BYTES + 1)
     plan = await run_in_threadpool(plan_discrepancy, session, rigs, form, content)
     runner: JobRunner = request.app.state.jobs
     job = runner.submit("discrepancy", form.model_dump(mode="json"), _job(plan, request))
