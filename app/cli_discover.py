@@ -58,6 +58,7 @@ def discover(
     from diagnostics.discrepancy import discover as run
     from diagnostics.discrepancy.report import write_report
     from diagnostics.discrepancy.steady import discover_steady, is_bench_table, read_bench_bytes
+    from diagnostics.discrepancy.workflow import require_phases
     from diagnostics.timeseries import read_series
 
     if (data is None) == (series is None):
@@ -75,6 +76,8 @@ def discover(
         resolved = RigCache(1).get(session, rig_id, version)
         if series is not None:
             records = stored_records(session, rig_id, _ids(series))
+        if bench is None:
+            require_phases(records)
         with steps() as progress:
             task = progress.add_task("discrepancy workflow", total=1.0)
 

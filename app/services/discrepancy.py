@@ -30,6 +30,7 @@ from app.services.series import stored_records
 from diagnostics.discrepancy import discover
 from diagnostics.discrepancy.report import html_page
 from diagnostics.discrepancy.steady import discover_steady, is_bench_table, read_bench_bytes
+from diagnostics.discrepancy.workflow import require_phases
 from diagnostics.pump.data import BenchData
 from diagnostics.timeseries import SeriesRecord, read_series
 from sim.errors import InputError
@@ -85,12 +86,14 @@ def plan_discrepancy(session: Session, rigs: RigCache, form: DiscrepancyForm,
     resolved = rigs.get(session, form.rig_id, form.rig_version)
     if content is None:
         records = stored_records(session, form.rig_id, form.ids())
+        require_phases(records)
         return DiscrepancyPlan(resolved.rig_id, resolved.version, dict(resolved.document),
                                records, form.refit, form.store)
     if len(content) <= MAX_SERIES_BYTES and is_bench_table(content):
         return DiscrepancyPlan(resolved.rig_id, resolved.version, dict(resolved.document), [],
                                form.refit, form.store, read_bench_bytes(content))
     records = read_records(content)
+    require_phases(records)
     return DiscrepancyPlan(resolved.rig_id, resolved.version, dict(resolved.document), records,
                            form.refit, form.store)
 

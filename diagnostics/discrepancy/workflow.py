@@ -78,7 +78,7 @@ from sim.errors import InputError
 from sim.rigs.assembly import Rig
 from sim.rigs.schema import validate_rig_document
 
-__all__ = ["Discovery", "NamedEffect", "discover", "excess_ratio", "gap_ratio"]
+__all__ = ["Discovery", "NamedEffect", "discover", "excess_ratio", "gap_ratio", "require_phases"]
 
 Arr = npt.NDArray[np.float64]
 Progress = Callable[[float, str], None]
@@ -211,6 +211,18 @@ def _sigmas(records: Sequence[SeriesRecord], channels: Sequence[str]) -> dict[st
     return out
 
 
+def require_phases(records: Sequence[SeriesRecord]) -> None:
+    """Raise :class:`InputError` (``field="phase"``) for a record without a ``phase`` column
+    that labels its working or return stroke: the workflow averages, splits and re-simulates
+    by stroke, and without the labels it compared the whole record to one stroke (every
+    channel hundreds of σ off, "unexplained")."""
+    for r in records:
+        if r.phase is None or not np.isin(r.phase, ("working", "return")).any():
+            raise InputError(f"record {r.name!r} has no 'phase' column labelling its "
+                             "'working' and 'return' strokes (the /simulate export has one)",
+                             field="phase")
+
+
 def discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], *,
              progress: Progress | None = None, refit: bool = True, max_nfev: int = 8,
              bootstrap: int = 30, seed: int = 0) -> Discovery:
@@ -249,6 +261,7 @@ def discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], *
     rig.require_cycle("the discrepancy workflow on measured cycles")
     if not records:
         raise InputError("no records to analyse", field="file")
+    require_phases(records)
     train_i, held_i = _split(records, rig)
     train = [records[i] for i in train_i]
     held = [records[i] for i in held_i] or train

@@ -179,6 +179,13 @@ def test_bad_files_are_422_naming_the_column_and_start_nothing(server: LiveServe
     r = server.client.post("/discrepancy", data={"rig_id": "1", "colour": "red"},
                            files={"file": ("x.csv", measured)}, headers=server.auth)
     assert r.status_code == 422, r.text
+    # without the stroke labels the workflow compared a whole record with one stroke
+    # (every channel hundreds of σ off, "unexplained"); now refused before the job
+    no_phase = pd.read_csv(io.BytesIO(measured)).drop(columns="phase")
+    r = server.client.post("/discrepancy", data={"rig_id": "1"},
+                           files={"file": ("x.csv", no_phase.to_csv(index=False).encode())},
+                           headers=server.auth)
+    assert r.status_code == 422 and r.json()["error"]["field"] == "phase", r.text
     r = server.client.post("/discrepancy", data={"rig_id": "999"},
                            files={"file": ("x.csv", measured)}, headers=server.auth)
     assert r.status_code == 404, r.text
