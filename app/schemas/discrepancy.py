@@ -28,7 +28,8 @@ class DiscrepancyForm(UploadForm):
     series_ids: str | None = Field(
         default=None, pattern=r"^\s*[1-9][0-9]{0,17}\s*(,\s*[1-9][0-9]{0,17}\s*){0,199}$",
         description="Stored measured records of the rig (POST /rigs/{rig_id}/series) to check "
-        "instead of a file: their ids, comma-separated, at most 200 [-]", examples=["3,4,5"])
+        "instead of a file: their ids, comma-separated, at most 200, e.g. '3,4,5' [-]",
+        examples=[None])
 
     def ids(self) -> list[int]:
         """The ids of ``series_ids`` in the order given (empty when none)."""
