@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from fastapi import APIRouter
 
-from app.console import pages_diagnose, pages_rigs, pages_simulate
+from app.console import pages_diagnose, pages_rigs, pages_series, pages_simulate
 
 __all__ = ["router"]
 
@@ -17,3 +17,4 @@ router = APIRouter()
 router.include_router(pages_rigs.router)
 router.include_router(pages_diagnose.router)
 router.include_router(pages_simulate.router)
+router.include_router(pages_series.router)

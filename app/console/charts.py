@@ -16,6 +16,7 @@ import pandas as pd
 
 from app.services.trends import ComponentTrendOut
 from diagnostics.plots import Bar, Chart, Series, bar_chart, line_chart
+from diagnostics.timeseries import SeriesRecord
 
 __all__ = [
     "SEVERITY_BANDS",
@@ -23,6 +24,7 @@ __all__ = [
     "estimate_charts",
     "probability_chart",
     "reading_chart",
+    "series_charts",
     "simulation_charts",
     "surface_chart",
     "trend_chart",
@@ -231,3 +233,32 @@ def surface_chart(name: str, coef: Sequence[Sequence[float]], p_ref: float, omeg
                  * (omega / omega_ref) ** j).sum(axis=(0, 1))
         series.append(Series(dp * 1e-5, value, f"ω = {omega:.0f} rad/s"))
     return line_chart(f"{name} over pressure rise", "Δp [bar]", f"{name} [1]", series)
+
+
+#: SI unit of a stored channel → (axis label, factor to the axis unit), for the series page
+_AXES = {"Pa": ("pressure [bar]", 1e-5), "m^3/s": ("flow [l/min]", 6e4),
+         "m/s": ("speed [m/s]", 1.0), "m": ("position [mm]", 1e3),
+         "degC": ("temperature [°C]", 1.0), "W": ("power [kW]", 1e-3),
+         "N": ("force [kN]", 1e-3), "N*m": ("torque [N·m]", 1.0)}
+
+
+def series_charts(record: SeriesRecord, *, most: int = 600) -> list[Chart]:
+    """A stored measured record's channels against time, one chart per unit (pressures in
+    bar, flows in l/min, …), at most ``most`` points a line; the phases' boundaries marked
+    where the record has phase labels."""
+    step = max(1, len(record) // most)
+    t = record.t[::step]
+    marks: list[tuple[float, str]] = []
+    if record.phase is not None and record.phase.size:
+        change = np.flatnonzero(record.phase[1:] != record.phase[:-1]) + 1
+        marks = [(float(record.t[i]), str(record.phase[i])) for i in change]
+    groups: dict[str, list[str]] = {}
+    for name in record.channels:
+        groups.setdefault(record.units.get(name, "-"), []).append(name)
+    charts = []
+    for unit, names in groups.items():
+        label, factor = _AXES.get(unit, (f"[{unit}]", 1.0))
+        series = [Series(t, record.channels[n][::step] * factor, n) for n in names]
+        title = f"{record.name}: {label.split(' [')[0]}"  # the legend names the channels
+        charts.append(line_chart(title, "t [s]", label, series, vlines=marks))
+    return charts

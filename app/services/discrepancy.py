@@ -23,7 +23,9 @@ from typing import Any
 from sqlalchemy.orm import Session
 
 from app.db.engine import SessionFactory
+from app.db.models import Job
 from app.schemas.discrepancy import DiscrepancyForm
+from app.services.jobs import JobRunner, Progress
 from app.services.rig_cache import RigCache
 from app.services.rigs import update_rig
 from app.services.series import stored_records
@@ -35,7 +37,8 @@ from diagnostics.pump.data import BenchData
 from diagnostics.timeseries import SeriesRecord, read_series
 from sim.errors import InputError
 
-__all__ = ["MAX_SERIES_BYTES", "DiscrepancyPlan", "plan_discrepancy", "run_discrepancy"]
+__all__ = ["MAX_SERIES_BYTES", "DiscrepancyPlan", "plan_discrepancy", "run_discrepancy",
+           "submit_discrepancy"]
 
 #: Largest measured file accepted [byte].
 MAX_SERIES_BYTES = 50 * 1024 * 1024
@@ -120,3 +123,13 @@ def run_discrepancy(plan: DiscrepancyPlan, sessions: SessionFactory | None,
             result["new_rig_version"] = version.version
     result["html"] = html_page(d)
     return result
+
+
+def submit_discrepancy(runner: JobRunner, sessions: SessionFactory, form: DiscrepancyForm,
+                       plan: DiscrepancyPlan) -> Job:
+    """Start :func:`run_discrepancy` of ``plan`` as a job of ``runner`` (``POST
+    /discrepancy`` and the console's measured-series page); returns the queued job."""
+    def run(_params: dict[str, Any], progress: Progress) -> dict[str, Any]:
+        return run_discrepancy(plan, sessions, progress)
+
+    return runner.submit("discrepancy", form.model_dump(mode="json"), run)

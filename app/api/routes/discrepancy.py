@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Annotated, Any
+from typing import Annotated
 
 from fastapi import APIRouter, File, Form, Request, Response, UploadFile, status
 from starlette.concurrency import run_in_threadpool
@@ -12,24 +12,13 @@ from app.schemas.common import ERROR_RESPONSES
 from app.schemas.discrepancy import DiscrepancyAccepted, DiscrepancyForm
 from app.services.discrepancy import (
     MAX_SERIES_BYTES,
-    DiscrepancyPlan,
     plan_discrepancy,
-    run_discrepancy,
+    submit_discrepancy,
 )
-from app.services.jobs import JobRunner, Progress
 
 __all__ = ["router"]
 
 router = APIRouter(tags=["discrepancy"], dependencies=[ReadAccess], responses=ERROR_RESPONSES)
-
-
-def _job(plan: DiscrepancyPlan, request: Request) -> Any:
-    sessions = request.app.state.sessions
-
-    def run(_params: dict[str, Any], progress: Progress) -> dict[str, Any]:
-        return run_discrepancy(plan, sessions, progress)
-
-    return run
 
 
 @router.post("/discrepancy", status_code=status.HTTP_202_ACCEPTED,
@@ -59,8 +48,7 @@ async def start_discrepancy(
     """
     content = None if file is None else await file.read(MAX_SERIES_BYTES + 1)
     plan = await run_in_threadpool(plan_discrepancy, session, rigs, form, content)
-    runner: JobRunner = request.app.state.jobs
-    job = runner.submit("discrepancy", form.model_dump(mode="json"), _job(plan, request))
+    job = submit_discrepancy(request.app.state.jobs, request.app.state.sessions, form, plan)
     response.headers["Location"] = f"/jobs/{job.id}"
     return DiscrepancyAccepted(job_id=job.id, status=job.status, records=plan.names,
                                channels=plan.channels)

@@ -50,6 +50,26 @@ def seed_pump_set(server: LiveServer, folder: Path) -> dict[str, Any]:
     return dict(response.json())
 
 
+def seed_series(server: LiveServer) -> list[int]:
+    """Store, through the API, a /simulate export of a worn spool at two loads as measured
+    series of rig 1 (with their phase labels); return their ids."""
+    frames = []
+    for load in (2100.0, 4200.0):
+        response = server.client.post("/simulate", json={
+            "rig_id": 1, "fault": "worn_spool", "condition": {"load": load},
+            "sample_rate": 500, "timeseries": "csv"})
+        assert response.status_code == 200, response.text
+        lines = [ln for ln in response.text.splitlines() if not ln.startswith("#")]
+        head, *rows = lines
+        frames += [f"load-{load:.0f},{row},{load}" for row in rows]
+    content = "\n".join([f"record,{head},load [N]", *frames]) + "\n"
+    response = server.client.post("/rigs/1/series", data={"name": "worn-spool"},
+                                  files={"file": ("cycles.csv", content.encode(), "text/csv")},
+                                  headers=server.auth)
+    assert response.status_code == 201, response.text
+    return [int(item["id"]) for item in response.json()["items"]]
+
+
 def login(server: LiveServer, client: httpx.Client | None = None) -> httpx.Client:
     """A client of ``server`` logged in to the console through its form."""
     client = client or httpx.Client(base_url=server.base_url, timeout=60.0)
@@ -65,6 +85,7 @@ def console_server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[LiveSer
     with live_server(sqlite_settings(tmp_path_factory.mktemp("console-store"))) as live:
         live.seeded = seed_history(live)  # type: ignore[attr-defined]
         seed_pump_set(live, tmp_path_factory.mktemp("bench"))
+        live.series = seed_series(live)  # type: ignore[attr-defined]
         yield live
 
 

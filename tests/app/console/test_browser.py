@@ -46,6 +46,8 @@ PAGES = {
     "/console/trends?rig=1": ("trends", 2),
     "/console/simulate?run=true&fault=worn_spool&load=2100": ("simulate", 4),
     "/console/pumps": ("pumps", 2),
+    "/console/series?rig=1": ("series", 0),
+    "/console/series/1": ("series-record", 3),
 }
 
 
@@ -189,3 +191,22 @@ def test_pumps_page_draws_measured_against_model(console_server: LiveServer, pag
         assert pts >= n and w > 100 and h > 50 and marks >= 1, (title, pts, w, h, marks)
     assert page.problems == [], page.problems
     page.screenshot(path=str(shots / "console-pumps-check.png"), full_page=True)
+
+
+def test_ticked_records_are_checked_and_the_page_follows_the_job(
+        console_server: LiveServer, page: Any, shots: Path) -> None:
+    first = console_server.series[0]  # type: ignore[attr-defined]
+    page.problems.clear()
+    page.goto(f"{console_server.base_url}/console/series?rig=1")
+    page.check(f"#series-{first}")
+    page.click("#check-form button[type=submit]")
+    page.wait_for_url("**/console/jobs/*")
+    # the page reloads itself (a meta refresh: the console has no script) until done
+    page.wait_for_selector("#verdict", timeout=300_000)
+    assert page.inner_text("#job-status") == "succeeded"
+    assert page.inner_text("#verdict").startswith("Verdict: ")
+    page.screenshot(path=str(shots / "console-job.png"), full_page=True)
+    page.click("#report")
+    page.wait_for_url("**/report")
+    assert page.inner_text("h1") == "hydrodiag discrepancy report"
+    assert page.problems == [], page.problems

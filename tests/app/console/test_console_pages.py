@@ -23,7 +23,8 @@ from tests.app.live import LiveServer
 
 PAGES = ["/console/rigs", "/console/rigs/1", "/console/diagnose", "/console/history",
          "/console/trends?rig=1", "/console/simulate", "/console/pumps",
-         "/console/simulate?run=true&fault=worn_spool&load=2100"]
+         "/console/simulate?run=true&fault=worn_spool&load=2100", "/console/series?rig=1",
+         "/console/series/1"]
 
 
 def plot_points(html: str) -> list[int]:
@@ -93,7 +94,7 @@ def test_every_page_renders_with_its_plots_and_the_policy(
         console_server: LiveServer, browser_client: httpx.Client) -> None:
     expect_plots = {"/console/rigs/1": 1, "/console/trends?rig=1": 2,
                     "/console/simulate?run=true&fault=worn_spool&load=2100": 4,
-                    "/console/pumps": 2}
+                    "/console/pumps": 2, "/console/series/1": 3}
     for url in PAGES:
         response = browser_client.get(url)
         assert response.status_code == 200, (url, response.text[-500:])

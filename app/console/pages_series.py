@@ -1,0 +1,115 @@
+"""Console pages: a rig's measured series, one series plotted, and the discrepancy workflow
+on the series chosen (a job, followed on its page, its report shown when done).
+
+The records are those ``POST /rigs/{id}/series`` and ``hydrodiag import`` stored; the check
+is ``POST /discrepancy`` with ``series_ids`` (:func:`app.services.discrepancy.plan_discrepancy`,
+the same validation and the same job), so a record without phase labels or of another rig
+gets the API's field-naming error on the page.  Starting a check needs a key of scope
+``write``.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Any
+
+from fastapi import Form, Path, Query, Request, Response
+from fastapi.responses import HTMLResponse
+from starlette.concurrency import run_in_threadpool
+
+from app.api.deps import RigsDep, SessionDep
+from app.console.charts import series_charts
+from app.console.routing import ConsoleKeyDep, new_router
+from app.console.web import SECURITY_HEADERS, page, redirect
+from app.schemas.discrepancy import DiscrepancyForm
+from app.security import Scope
+from app.services import jobs as job_service
+from app.services import rigs as rig_service
+from app.services import series as series_service
+from app.services.discrepancy import plan_discrepancy, submit_discrepancy
+from sim.errors import HydrodiagError, InputError
+
+__all__ = ["router"]
+
+router = new_router()
+
+#: Records listed on one page of the series list [-].
+PAGE = 100
+
+
+def _list(request: Request, session: Any, rig: int | None, offset: int,
+          error: dict[str, Any] | None = None, status_code: int = 200) -> Response:
+    rigs, _ = rig_service.list_rigs(session, limit=500, offset=0)
+    chosen = rig if rig is not None else (rigs[0][0].id if rigs else None)
+    items, total = (series_service.list_series(session, chosen, limit=PAGE, offset=offset)
+                    if chosen is not None else ([], 0))
+    jobs, _ = job_service.list_jobs(session, limit=20, offset=0, kind="discrepancy")
+    mine = [j for j in jobs if (j.params or {}).get("rig_id") == chosen]
+    return page(request, "series.html", status_code=status_code, rigs=rigs, rig=chosen,
+                items=items, total=total, offset=offset, page_size=PAGE, jobs=mine,
+                error=error)
+
+
+@router.get("/series")
+def series_list(request: Request, session: SessionDep, _key: ConsoleKeyDep,
+                rig: Annotated[int | None, Query(ge=1)] = None,
+                offset: Annotated[int, Query(ge=0)] = 0) -> Response:
+    """The rig's stored records (a page of them), the form that checks the ticked ones, and
+    the rig's recent checks."""
+    return _list(request, session, rig, offset)
+
+
+@router.get("/series/{series_id}")
+def series_one(request: Request, session: SessionDep, _key: ConsoleKeyDep,
+               series_id: Annotated[int, Path(ge=1)]) -> Response:
+    """One stored record: what it is, and its channels against time."""
+    row = series_service.get_series(session, series_id)
+    record = series_service.as_record(row)
+    return page(request, "series_one.html", row=row, charts=series_charts(record),
+                phases=sorted(set(record.phase.tolist())) if record.phase is not None else [])
+
+
+@router.post("/series/check")
+async def check(request: Request, session: SessionDep, rigs: RigsDep, _key: ConsoleKeyDep,
+                rig: Annotated[int, Form(ge=1)],
+                series: Annotated[list[int] | None, Form()] = None,
+                store: Annotated[bool, Form()] = False) -> Response:
+    """Start the discrepancy workflow on the ticked records; go to the job's page."""
+    if not Scope(_key.scope).allows(Scope.WRITE):
+        refusal = {"type": "ScopeError", "field": "api_key",
+                   "message": "a check may store a new rig version and needs a key of scope "
+                              f"'write' or above; this console is logged in with a "
+                              f"{_key.scope!r} key"}
+        return await run_in_threadpool(_list, request, session, rig, 0, refusal, 403)
+    try:
+        if not series:
+            raise InputError("tick at least one record", field="series_ids")
+        form = DiscrepancyForm(rig_id=rig, store=store,
+                               series_ids=",".join(str(i) for i in series))
+        plan = await run_in_threadpool(plan_discrepancy, session, rigs, form, None)
+    except HydrodiagError as exc:
+        error = {"type": type(exc).__name__, "message": exc.message, "field": exc.field}
+        return await run_in_threadpool(_list, request, session, rig, 0, error, 422)
+    job = submit_discrepancy(request.app.state.jobs, request.app.state.sessions, form, plan)
+    return redirect(f"/console/jobs/{job.id}")
+
+
+@router.get("/jobs/{job_id}")
+def job_page(request: Request, session: SessionDep, _key: ConsoleKeyDep,
+             job_id: Annotated[str, Path(max_length=36)]) -> Response:
+    """A job's state; reloads itself every 2 s until it is done; a finished check's verdict,
+    named effects and a link to its report."""
+    job = job_service.get_job(session, job_id)
+    done = job.status in ("succeeded", "failed")
+    return page(request, "job.html", job=job, done=done, result=job.result or {})
+
+
+@router.get("/jobs/{job_id}/report")
+def job_report(session: SessionDep, _key: ConsoleKeyDep,
+               job_id: Annotated[str, Path(max_length=36)]) -> Response:
+    """The finished job's self-contained report page (inline SVG, no script, no style
+    element: it keeps the console's Content-Security-Policy)."""
+    job = job_service.get_job(session, job_id)
+    html = (job.result or {}).get("html") if job.status == "succeeded" else None
+    if not isinstance(html, str):
+        raise InputError(f"job {job_id} has no report (status {job.status!r})", field="job_id")
+    return HTMLResponse(html, headers=SECURITY_HEADERS)
