@@ -110,8 +110,9 @@ def html_page(d: Discovery, title: str = "hydrodiag discrepancy report") -> str:
     """A self-contained HTML page of the report (inline SVG, no scripts, no external links)."""
     e = html.escape
     rep = d.to_dict()
+    # an empty inline icon: a browser would otherwise ask the service for /favicon.ico
     parts = [f"<!doctype html><html lang='en'><head><meta charset='utf-8'><title>{e(title)}"
-             "</title></head><body>", f"<h1>{e(title)}</h1>",
+             "</title><link rel='icon' href='data:,'></head><body>", f"<h1>{e(title)}</h1>",
              f"<p><strong>Verdict: {e(d.verdict)}</strong> — {e(d.message)}</p>",
              f"<p>Training records: {e(', '.join(d.training))}; held out (edge of the operating "
              f"range): {e(', '.join(d.held_out) or 'none')}. Solver: {e(d.solver)}.</p>"]

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import io
+import re
 import time
 from typing import Any
 
@@ -119,8 +120,9 @@ def test_hidden_friction_is_named_stored_and_the_new_version_matches_the_data(
     assert page.headers["content-type"].startswith("text/html")
     assert "seal_friction_pressure" in page.text and "<svg" in page.text
     # self-contained: nothing loaded from elsewhere (no scripts, links, remote sources)
-    for forbidden in ("<script", "<link", 'src="http', "href=\"http", "url(http"):
+    for forbidden in ("<script", 'src="http', "href=\"http", "url(http"):
         assert forbidden not in page.text
+    assert re.findall(r"<link[^>]*>", page.text) == ["<link rel='icon' href='data:,'>"]
 
 
 def test_records_stored_with_the_rig_are_checked_by_id(server: LiveServer,
