@@ -144,7 +144,7 @@ def verdict(named: Sequence[str], selections: list[Selection], before: list[GapR
                 f"no new effect: model and data differ ({where}, held-out steady RMSE) and "
                 "the rig's own parameters, re-fitted by re-simulation, close the gap "
                 f"(held-out RMSE at most {after_off:.1f} σ per channel, a dwell's motion and "
-                f"stop each from its own start): {drift.statement()}. "
+                f"stop each from its own start): {drift.statement().rstrip('.')}. "
                 "A clearance or pump leakage that moved is wear: POST /diagnose sizes it "
                 "against the stored rig; friction that moved is re-commissioning "
                 "(POST /rigs/{id}/commission, hydrodiag commission). The stored rig is "
