@@ -53,6 +53,8 @@ class LackOfFit:
         RMS of the group means of the residual [unit of the residual].
     sigma_pe
         Pure-error standard deviation [unit of the residual].
+    n_groups
+        Number of conditions ``G`` [-].
     """
 
     f_stat: float
@@ -61,12 +63,27 @@ class LackOfFit:
     df_pe: int
     rms_lof: float
     sigma_pe: float
+    n_groups: int = 0
+
+    @property
+    def rms_excess(self) -> float:
+        """The lack of fit's size beyond the scatter [unit of the residual].
+
+        A group of ``n_g`` repeats whose mean is off by ``m_g`` has ``E[n_g·ē_g²] = σ² +
+        n_g·m_g²``, so ``rms_lof²`` (``Σ n_g·ē_g²/N``) carries ``(G/N)·σ²`` of pure scatter
+        even when the model is right; ``√max(0, rms_lof² − (G/N)·σ_pe²)`` is what remains,
+        to compare with a practical size (noise alone gives ≈ 0, not ≈ σ/√n).
+        """
+        n = self.df_pe + self.n_groups
+        if n <= 0:
+            return self.rms_lof
+        return math.sqrt(max(0.0, self.rms_lof ** 2 - self.n_groups / n * self.sigma_pe ** 2))
 
     def to_dict(self) -> dict[str, float]:
         """The test as JSON-able data."""
         return {"F": self.f_stat, "p": self.p, "df_lof": float(self.df_lof),
                 "df_pe": float(self.df_pe), "rms_lof": self.rms_lof,
-                "sigma_pe": self.sigma_pe}
+                "sigma_pe": self.sigma_pe, "rms_excess": self.rms_excess}
 
 
 def lack_of_fit(residual: npt.ArrayLike, groups: Sequence[Hashable], n_params: int = 0
@@ -108,7 +125,7 @@ def lack_of_fit(residual: npt.ArrayLike, groups: Sequence[Hashable], n_params: i
     F = (ss_lof / df_lof) / (ss_pe / df_pe)
     p = float(stats.f.sf(F, df_lof, df_pe))
     return LackOfFit(float(F), p, df_lof, df_pe, math.sqrt(ss_lof / e.size),
-                     math.sqrt(ss_pe / df_pe))
+                     math.sqrt(ss_pe / df_pe), len(labels))
 
 
 def series_lack_of_fit(records: Sequence[SeriesRecord], tables: Sequence[pd.DataFrame],

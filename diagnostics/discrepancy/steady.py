@@ -368,7 +368,10 @@ def discover_steady(rig_document: Mapping[str, Any], bench: BenchData, *,
                             for n, v in fitted.items()}, source=FITTED) if fitted else dict(doc)
     validate_rig_document(new_doc)  # the augmented rig must load as any stored rig
     practical = PRACTICAL * data.full_scale
-    misfit = lof_before is not None and lof_before.p < 0.01 and lof_before.rms_lof > practical
+    # significant, and larger than the practical size beyond what the scatter gives the
+    # condition means (rms_lof alone is ≈ σ/√2 on pure noise, above the practical size)
+    misfit = (lof_before is not None and lof_before.p < 0.01
+              and lof_before.rms_excess > practical)
     off = gap_before[0].rmse > OUTPUT_GAP * sigma[FLOW]
     if named:
         outcome = "named" if len(named) == 1 else "partially explained"

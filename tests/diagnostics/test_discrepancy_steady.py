@@ -51,6 +51,12 @@ def test_lack_of_fit_needs_repeats_and_is_calm_on_noise() -> None:
     biased = rng.normal(size=300) + 1.0 * np.array([g % 2 for g in groups])
     res = lack_of_fit(biased, groups)
     assert res is not None and res.p < 1e-6
+    # the size beyond the scatter: RMS of the offsets, √(½·1²) ≈ 0.71 σ; on noise alone
+    # ≈ 0, where the plain RMS of the condition means is ≈ σ·√(G/N) = 0.58 σ
+    assert res.rms_excess == pytest.approx(np.sqrt(0.5), abs=0.12)
+    calm = [lack_of_fit(rng.normal(size=300), groups) for _ in range(50)]
+    assert np.mean([r.rms_lof for r in calm if r]) == pytest.approx(np.sqrt(1 / 3), abs=0.05)
+    assert np.mean([r.rms_excess for r in calm if r]) < 0.15
 
 
 def test_repeated_cycles_give_a_lack_of_fit_only_when_the_model_misses() -> None:
