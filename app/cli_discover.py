@@ -24,6 +24,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from app.cli_support import console, steps, store_session
+from diagnostics.real.relaxation import ZEMA_RELAXATION
 from sim.errors import InputError
 
 if TYPE_CHECKING:
@@ -50,11 +51,16 @@ def discover(
     series: Annotated[str | None, typer.Option(
         help="Stored measured records of the rig to check instead of DATA (hydrodiag import, "
              "POST /rigs/{id}/series): ids, comma-separated, e.g. 3,4,5.")] = None,
+    relaxation: Annotated[float, typer.Option(
+        help="--series of a rig without a working/return cycle (the ZeMA rig): settling "
+             r"time of each pressure plateau's flow \[s]; the settled plateaus are checked "
+             "as a pump-bench table.")] = ZEMA_RELAXATION,
 ) -> None:
     """Find what the rig model misses in DATA, name it, add it to the rig, show the gap."""
+    from app.schemas.discrepancy import DiscrepancyForm
+    from app.services.discrepancy import plan_discrepancy
     from app.services.rig_cache import RigCache
     from app.services.rigs import update_rig
-    from app.services.series import stored_records
     from diagnostics.discrepancy import discover as run
     from diagnostics.discrepancy.report import write_report
     from diagnostics.discrepancy.steady import discover_steady, is_bench_table, read_bench_bytes
@@ -74,9 +80,13 @@ def discover(
         records = read_series(data) if bench is None else []
     with store_session() as session:
         resolved = RigCache(1).get(session, rig_id, version)
-        if series is not None:
-            records = stored_records(session, rig_id, _ids(series))
-        if bench is None:
+        if series is not None:  # as POST /discrepancy reads stored records
+            plan = plan_discrepancy(session, RigCache(1), DiscrepancyForm(
+                rig_id=rig_id, rig_version=version, refit=refit, store=store,
+                series_ids=",".join(str(i) for i in _ids(series)), relaxation=relaxation),
+                None)
+            bench, records = plan.bench, plan.records
+        elif bench is None:
             require_phases(records)
         with steps() as progress:
             task = progress.add_task("discrepancy workflow", total=1.0)

@@ -151,10 +151,9 @@ def _write_bench(records: list[SeriesRecord], speed: float, relaxation: float, p
                  provenance: str) -> int:
     """Write the records' settled working plateaus as a pump-bench CSV; return the rows."""
     from diagnostics.pump import write_bench_csv
-    from diagnostics.real.profile import plateau_table
+    from diagnostics.real.profile import settled_bench
 
-    table = plateau_table(records, relaxation=relaxation)
-    data = table.bench(speed, provenance=provenance)
+    data = settled_bench(records, speed, relaxation=relaxation, provenance=provenance)
     try:
         write_bench_csv(data, path)
     except OSError as exc:

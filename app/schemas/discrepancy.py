@@ -5,6 +5,7 @@ from __future__ import annotations
 from pydantic import BaseModel, Field
 
 from app.schemas.common import MAX_ID, UploadForm
+from diagnostics.real.relaxation import ZEMA_RELAXATION
 
 __all__ = ["DiscrepancyAccepted", "DiscrepancyForm"]
 
@@ -30,6 +31,13 @@ class DiscrepancyForm(UploadForm):
         description="Stored measured records of the rig (POST /rigs/{rig_id}/series) to check "
         "instead of a file: their ids, comma-separated, at most 200, e.g. '3,4,5' [-]",
         examples=[None])
+
+    relaxation: float = Field(
+        default=ZEMA_RELAXATION, ge=0.0, le=60.0,
+        description="For stored records of a rig without a working/return cycle (the "
+        "pump-relief-orifice circuit): the settling time after which each pressure plateau's "
+        "flow is read, the records' settled plateaus then checked as a pump-bench table; "
+        "3.5 s was found on the ZeMA cycles without labels [s]", examples=[ZEMA_RELAXATION])
 
     def ids(self) -> list[int]:
         """The ids of ``series_ids`` in the order given (empty when none)."""

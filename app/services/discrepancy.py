@@ -6,8 +6,9 @@ time series in the ``/simulate`` export format (read by
 (``p_out``/``q`` columns and no ``t``: :func:`diagnostics.discrepancy.steady.read_bench_bytes`).
 Instead of a file, ``series_ids`` names measured records stored with the rig
 (``POST /rigs/{rig_id}/series``, ``hydrodiag import``), read back with their phases and
-conditions.  It is read before the job starts, so a bad column is a 422 naming it and nothing is
-stored; the job runs :func:`diagnostics.discrepancy.discover` (or
+conditions; for a rig without a working/return cycle (the ZeMA rig) their settled pressure
+plateaus become the steady table.  It is read before the job starts, so a bad column is
+a 422 naming it and nothing is stored; the job runs :func:`diagnostics.discrepancy.discover` (or
 :func:`~diagnostics.discrepancy.steady.discover_steady` on a bench table) and, when an
 effect is named, stores the augmented rig document as a new version of the rig
 (:func:`app.services.rigs.update_rig`).  The job's result is the JSON report with
@@ -34,8 +35,11 @@ from diagnostics.discrepancy.report import html_page
 from diagnostics.discrepancy.steady import discover_steady, is_bench_table, read_bench_bytes
 from diagnostics.discrepancy.workflow import require_phases
 from diagnostics.pump.data import BenchData
+from diagnostics.real.profile import settled_bench
 from diagnostics.timeseries import SeriesRecord, read_series
 from sim.errors import InputError
+from sim.rigs import load_rig
+from sim.rigs.circuits import DEFAULT_CIRCUIT, get_circuit
 
 __all__ = ["MAX_SERIES_BYTES", "DiscrepancyPlan", "plan_discrepancy", "run_discrepancy",
            "submit_discrepancy"]
@@ -89,9 +93,14 @@ def plan_discrepancy(session: Session, rigs: RigCache, form: DiscrepancyForm,
     resolved = rigs.get(session, form.rig_id, form.rig_version)
     if content is None:
         records = stored_records(session, form.rig_id, form.ids())
+        document = dict(resolved.document)
+        if not get_circuit(document.get("circuit", DEFAULT_CIRCUIT)).cycle:
+            return DiscrepancyPlan(resolved.rig_id, resolved.version, document, [],
+                                   form.refit, form.store,
+                                   _plateaus(records, document, form.relaxation))
         require_phases(records)
-        return DiscrepancyPlan(resolved.rig_id, resolved.version, dict(resolved.document),
-                               records, form.refit, form.store)
+        return DiscrepancyPlan(resolved.rig_id, resolved.version, document, records,
+                               form.refit, form.store)
     if len(content) <= MAX_SERIES_BYTES and is_bench_table(content):
         return DiscrepancyPlan(resolved.rig_id, resolved.version, dict(resolved.document), [],
                                form.refit, form.store, read_bench_bytes(content))
@@ -99,6 +108,20 @@ def plan_discrepancy(session: Session, rigs: RigCache, form: DiscrepancyForm,
     require_phases(records)
     return DiscrepancyPlan(resolved.rig_id, resolved.version, dict(resolved.document), records,
                            form.refit, form.store)
+
+
+def _plateaus(records: list[SeriesRecord], document: dict[str, Any],
+              relaxation: float) -> BenchData:
+    """Stored records of a rig without a cycle (a pump feeding a relief valve and an
+    orifice, the ZeMA rig) as the steady table of their settled working plateaus
+    (:func:`diagnostics.real.profile.settled_bench`) at the rig's pump speed."""
+    values = load_rig(document).values()
+    if "pump.speed" not in values:
+        raise InputError("the rig states no pump speed for the plateau table", field="rig_id")
+    names = ", ".join(r.name for r in records[:3]) + (" …" if len(records) > 3 else "")
+    return settled_bench(records, float(values["pump.speed"]), relaxation=relaxation,
+                         provenance=f"settled plateaus (τ = {relaxation:g} s) of stored "
+                                    f"records {names}")
 
 
 def run_discrepancy(plan: DiscrepancyPlan, sessions: SessionFactory | None,

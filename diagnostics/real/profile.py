@@ -57,7 +57,7 @@ from diagnostics.timeseries import SeriesRecord
 from sim.errors import InputError
 
 __all__ = ["PlateauTable", "ProfileEstimate", "plateau_deficits", "plateau_profile",
-           "plateau_table", "profile_sizes"]
+           "plateau_table", "profile_sizes", "settled_bench"]
 
 Arr = npt.NDArray[np.float64]
 Mask = npt.NDArray[np.bool_]
@@ -117,6 +117,15 @@ class PlateauTable:
         return BenchData(p_in=np.zeros(n), p_out=self.pressure[ok], omega=np.full(n, speed),
                          theta=theta[ok], q=self.flow[ok], simulated=False,
                          provenance=provenance)
+
+
+def settled_bench(records: Sequence[SeriesRecord], speed: float, *, relaxation: float,
+                  provenance: str = "") -> BenchData:
+    """The records' settled working plateaus as a steady pump-bench table: one row per
+    plateau (:func:`plateau_table` with ``relaxation`` [s], :meth:`PlateauTable.bench` at
+    the shaft ``speed`` [rad/s]) — what ``hydrodiag import zema --bench`` writes and the
+    discrepancy workflow checks for a rig without a working/return cycle."""
+    return plateau_table(records, relaxation=relaxation).bench(speed, provenance=provenance)
 
 
 def plateau_table(records: Sequence[SeriesRecord], *, plateaus: int = 5,

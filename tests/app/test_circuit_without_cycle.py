@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from diagnostics.pump.csvio import bench_to_frame
@@ -97,6 +98,30 @@ def test_measured_zema_plateaus_go_through_the_workflow_and_the_augmented_rig_is
     assert rig.circuit.name == "pump-relief-orifice"
     coefficient = f"{named['name']}.{'C_s' if named['name'] == 'viscous_pump_slip' else 'k_c'}"
     assert rig.values()[coefficient] == pytest.approx(named["value"])
+    # the same cycles imported over HTTP as measured series of the rig and checked by id:
+    # a rig without a cycle has its records' settled plateaus checked, the same table
+    healthy = [rec for rec, k in zip(read_records(data), labels.leakage, strict=True)
+               if k == 0.0]
+    frames = [rec.frame().assign(record=rec.name) for rec in healthy]
+    r = server.client.post(f"/rigs/{rig_id}/series", data={"name": "healthy-cycles"},
+                           files={"file": ("cycles.csv",
+                                           pd.concat(frames).to_csv(index=False).encode())},
+                           headers=server.auth)
+    assert r.status_code == 201, r.text
+    ids = ",".join(str(item["id"]) for item in r.json()["items"])
+    versions = server.row_counts()["rig_versions"]
+    r = server.client.post("/discrepancy", data={"rig_id": str(rig_id), "series_ids": ids,
+                                                 "rig_version": "1", "store": "false"},
+                           headers=server.auth)
+    assert r.status_code == 202, r.text
+    while (again := server.client.get(f"/jobs/{r.json()['job_id']}").json())["status"] not in (
+            "succeeded", "failed"):
+        assert time.monotonic() < deadline, again
+        time.sleep(0.2)
+    assert again["status"] == "succeeded", again["error"]
+    assert [n["name"] for n in again["result"]["named"]] == [named["name"]]
+    assert again["result"]["named"][0]["value"] == pytest.approx(named["value"], rel=1e-9)
+    assert server.row_counts()["rig_versions"] == versions
 
 
 def test_the_console_offers_it_where_it_applies_and_explains_the_rest(

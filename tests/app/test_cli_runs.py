@@ -269,6 +269,19 @@ def test_zema_plateaus_become_a_bench_table_the_workflow_reads(runner: CliRunner
     assert found.exit_code == 0, found.output
     # the verdict is the command's result: on stdout (progress on stderr)
     assert "unexplained" in found.stdout and "lack of fit" in found.stdout
+    # the same cycles stored with the rig and checked by id: their settled plateaus are the
+    # table (a rig without a working/return cycle), the answer the file's, exactly
+    stored = runner.invoke(cli, ["import", "zema", "--rig", "2", "--root", str(root),
+                                 "--first", "1", "--last", "18"])
+    assert stored.exit_code == 0, stored.output
+    by_file = runner.invoke(cli, ["discover", str(out), "--rig", "2", "--no-store", "--json"])
+    by_id = runner.invoke(cli, ["discover", "--series", ",".join(map(str, range(1, 19))),
+                                "--rig", "2", "--no-store", "--json"])
+    assert by_id.exit_code == 0, by_id.output
+    a = json.loads(by_file.stdout[by_file.stdout.index("{"):])
+    b = json.loads(by_id.stdout[by_id.stdout.index("{"):])
+    assert b["verdict"] == a["verdict"] == "unexplained"
+    assert b["gap_before"] == a["gap_before"] and b["lack_of_fit"] == a["lack_of_fit"]
     bad = runner.invoke(cli, ["import", "zema", "--rig", "2", "--root", str(root),
                               "--relaxation", "-1", "--bench", str(out)])
     assert bad.exit_code != 0 and "--relaxation" in str(bad.exception)
