@@ -5,7 +5,8 @@ request.  :class:`Warmup` does that once at start-up for the rigs the service se
 latest version of each stored rig, newest first, as many as the rig cache holds — and runs
 one steady operating point and a millisecond of each transient solver (RODAS4, ROS2) on
 each, so that every compiled function has been called once (loaded from the code cache,
-or compiled on a machine's first start).
+or compiled on a machine's first start).  A rig without a working/return cycle (the ZeMA
+rig's circuit) is loaded only: nothing a diagnosis or a cycle would run exists for it.
 ``/ready`` answers 503 until it has finished, so a load balancer sends no traffic to a
 worker that is still loading.
 """
@@ -93,6 +94,9 @@ class Warmup:
                 for rig_id in ids:
                     try:
                         resolved = self._rigs.get(session, rig_id)
+                        if not resolved.rig.circuit.cycle:  # nothing a diagnosis would run
+                            self.loaded.append(rig_id)
+                            continue
                         steady_cycle(resolved.rig)
                         _touch_transient_solvers(resolved.rig)
                     except HydrodiagError as exc:  # a rig that cannot run still serves 422s

@@ -140,3 +140,17 @@ def test_the_console_offers_it_where_it_applies_and_explains_the_rest(
         assert run.status_code == 422 and "CircuitError" in run.text
     finally:
         client.close()
+
+
+def test_start_up_loads_a_rig_without_a_cycle_without_a_warning(
+        server: LiveServer, rig_id: int, caplog: pytest.LogCaptureFixture) -> None:
+    from app.services.rig_cache import RigCache
+    from app.services.warmup import Warmup
+
+    warm = Warmup(server.sessions, RigCache(16), 16)
+    with caplog.at_level("WARNING", logger="hydrodiag.app"):
+        warm.start()
+        assert warm.wait(300.0)
+    # it was warned of as "not warmed: … needs the working/return cycle" at every start
+    assert rig_id in warm.loaded and warm.failed == {}
+    assert not [r for r in caplog.records if "not warmed" in r.getMessage()]
