@@ -154,6 +154,7 @@ def stored_records(session: Session, rig_id: int, ids: Sequence[int], *,
     rows = [get_or_raise(session, MeasuredSeries, i, what="series", field=field) for i in ids]
     other = [r.id for r in rows if r.rig_id != rig_id]
     if other:
-        raise InputError(f"series {', '.join(map(str, other))} belong to another rig, not rig "
+        raise InputError(f"series {', '.join(map(str, other))} "
+                         f"{'belongs' if len(other) == 1 else 'belong'} to another rig, not rig "
                          f"{rig_id}", field=field)
     return [as_record(r) for r in rows]
