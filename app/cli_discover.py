@@ -58,7 +58,7 @@ def discover(
 ) -> None:
     """Find what the rig model misses in DATA, name it, add it to the rig, show the gap."""
     from app.schemas.discrepancy import DiscrepancyForm
-    from app.services.discrepancy import plan_discrepancy
+    from app.services.discrepancy import data_field, plan_discrepancy
     from app.services.rig_cache import RigCache
     from app.services.rigs import update_rig
     from diagnostics.discrepancy import discover as run
@@ -94,10 +94,11 @@ def discover(
             def tick(fraction: float, what: str) -> None:
                 progress.update(task, completed=fraction, description=what)
 
-            if bench is not None:
-                d = discover_steady(dict(resolved.document), bench, progress=tick)
-            else:
-                d = run(dict(resolved.document), records, progress=tick, refit=refit)
+            with data_field("--series" if series is not None else "data"):
+                if bench is not None:
+                    d = discover_steady(dict(resolved.document), bench, progress=tick)
+                else:
+                    d = run(dict(resolved.document), records, progress=tick, refit=refit)
         new_version = None
         if d.named and store:
             _, row = update_rig(session, rig_id, d.rig_document, comment="hydrodiag discover: "

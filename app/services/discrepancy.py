@@ -17,7 +17,8 @@ effect is named, stores the augmented rig document as a new version of the rig
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any
 
@@ -37,12 +38,12 @@ from diagnostics.discrepancy.workflow import require_phases
 from diagnostics.pump.data import BenchData
 from diagnostics.real.profile import settled_bench
 from diagnostics.timeseries import SeriesRecord, read_series
-from sim.errors import InputError
+from sim.errors import HydrodiagError, InputError
 from sim.rigs import load_rig
 from sim.rigs.circuits import DEFAULT_CIRCUIT, get_circuit
 
-__all__ = ["MAX_SERIES_BYTES", "DiscrepancyPlan", "plan_discrepancy", "run_discrepancy",
-           "submit_discrepancy"]
+__all__ = ["MAX_SERIES_BYTES", "DiscrepancyPlan", "data_field", "plan_discrepancy",
+           "run_discrepancy", "submit_discrepancy"]
 
 #: Largest measured file accepted [byte].
 MAX_SERIES_BYTES = 50 * 1024 * 1024
@@ -59,6 +60,8 @@ class DiscrepancyPlan:
     refit: bool
     store: bool
     bench: BenchData | None = None
+    #: where the data came from, as errors should name it: the upload or the stored ids
+    source: str = "file"
 
     @property
     def names(self) -> list[str]:
@@ -97,10 +100,11 @@ def plan_discrepancy(session: Session, rigs: RigCache, form: DiscrepancyForm,
         if not get_circuit(document.get("circuit", DEFAULT_CIRCUIT)).cycle:
             return DiscrepancyPlan(resolved.rig_id, resolved.version, document, [],
                                    form.refit, form.store,
-                                   _plateaus(records, document, form.relaxation))
+                                   _plateaus(records, document, form.relaxation),
+                                   "series_ids")
         require_phases(records)
         return DiscrepancyPlan(resolved.rig_id, resolved.version, document, records,
-                               form.refit, form.store)
+                               form.refit, form.store, source="series_ids")
     if len(content) <= MAX_SERIES_BYTES and is_bench_table(content):
         return DiscrepancyPlan(resolved.rig_id, resolved.version, dict(resolved.document), [],
                                form.refit, form.store, read_bench_bytes(content))
@@ -124,16 +128,29 @@ def _plateaus(records: list[SeriesRecord], document: dict[str, Any],
                                     f"records {names}")
 
 
+@contextmanager
+def data_field(name: str) -> Iterator[None]:
+    """Errors of the workflow about its data (``field`` ``file``, as the upload is called)
+    name ``name`` instead: ``series_ids`` for stored records, an option on the command line."""
+    try:
+        yield
+    except HydrodiagError as exc:
+        if exc.field == "file":
+            exc.field = name
+        raise
+
+
 def run_discrepancy(plan: DiscrepancyPlan, sessions: SessionFactory | None,
                     progress: Callable[..., None]) -> dict[str, Any]:
     """Run the workflow; store the augmented rig when an effect is named (``sessions``)."""
     def report(fraction: float, what: str) -> None:
         progress(min(0.95, fraction), what)
 
-    if plan.bench is not None:
-        d = discover_steady(plan.document, plan.bench, progress=report)
-    else:
-        d = discover(plan.document, plan.records, progress=report, refit=plan.refit)
+    with data_field(plan.source):
+        if plan.bench is not None:
+            d = discover_steady(plan.document, plan.bench, progress=report)
+        else:
+            d = discover(plan.document, plan.records, progress=report, refit=plan.refit)
     result = d.to_dict()
     result["rig_id"] = plan.rig_id
     result["rig_version"] = plan.version
