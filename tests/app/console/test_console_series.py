@@ -52,6 +52,9 @@ def test_ticked_records_are_checked_and_the_report_is_shown(console_server: Live
     assert '<dd id="job-status">succeeded' in page.text, page.text
     # the worn spool (cv 60 µm against 34 µm) is the rig's own clearance moved: base drift
     assert "Verdict: base drift" in page.text and "valve.cv" in page.text
+    # the re-fitted parameters as a table: the spool clearance up by 76 % (60/34 µm)
+    row = re.search(r"<code>valve.cv</code>.*?</tr>", page.text, re.S)
+    assert row is not None and "+76." in row.group(0)
     report = browser_client.get(f"{job_url}/report")
     assert report.status_code == 200 and "hydrodiag discrepancy report" in report.text
     for name, value in SECURITY_HEADERS.items():
