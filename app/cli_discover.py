@@ -81,10 +81,11 @@ def discover(
     with store_session() as session:
         resolved = RigCache(1).get(session, rig_id, version)
         if series is not None:  # as POST /discrepancy reads stored records
-            plan = plan_discrepancy(session, RigCache(1), DiscrepancyForm(
-                rig_id=rig_id, rig_version=version, refit=refit, store=store,
-                series_ids=",".join(str(i) for i in _ids(series)), relaxation=relaxation),
-                None)
+            with data_field("--series", ("file", "series_ids")):
+                plan = plan_discrepancy(session, RigCache(1), DiscrepancyForm(
+                    rig_id=rig_id, rig_version=version, refit=refit, store=store,
+                    series_ids=",".join(str(i) for i in _ids(series)),
+                    relaxation=relaxation), None)
             bench, records = plan.bench, plan.records
         elif bench is None:
             require_phases(records)

@@ -33,7 +33,12 @@ from app.services.rigs import update_rig
 from app.services.series import stored_records
 from diagnostics.discrepancy import discover
 from diagnostics.discrepancy.report import html_page
-from diagnostics.discrepancy.steady import discover_steady, is_bench_table, read_bench_bytes
+from diagnostics.discrepancy.steady import (
+    discover_steady,
+    is_bench_table,
+    read_bench_bytes,
+    require_rows,
+)
 from diagnostics.discrepancy.workflow import require_phases
 from diagnostics.pump.data import BenchData
 from diagnostics.real.profile import settled_bench
@@ -98,16 +103,19 @@ def plan_discrepancy(session: Session, rigs: RigCache, form: DiscrepancyForm,
         records = stored_records(session, form.rig_id, form.ids())
         document = dict(resolved.document)
         if not get_circuit(document.get("circuit", DEFAULT_CIRCUIT)).cycle:
+            bench = _plateaus(records, document, form.relaxation)
+            with data_field("series_ids"):
+                require_rows(bench)
             return DiscrepancyPlan(resolved.rig_id, resolved.version, document, [],
-                                   form.refit, form.store,
-                                   _plateaus(records, document, form.relaxation),
-                                   "series_ids")
+                                   form.refit, form.store, bench, "series_ids")
         require_phases(records)
         return DiscrepancyPlan(resolved.rig_id, resolved.version, document, records,
                                form.refit, form.store, source="series_ids")
     if len(content) <= MAX_SERIES_BYTES and is_bench_table(content):
+        bench = read_bench_bytes(content)
+        require_rows(bench)
         return DiscrepancyPlan(resolved.rig_id, resolved.version, dict(resolved.document), [],
-                               form.refit, form.store, read_bench_bytes(content))
+                               form.refit, form.store, bench)
     records = read_records(content)
     require_phases(records)
     return DiscrepancyPlan(resolved.rig_id, resolved.version, dict(resolved.document), records,
@@ -129,13 +137,14 @@ def _plateaus(records: list[SeriesRecord], document: dict[str, Any],
 
 
 @contextmanager
-def data_field(name: str) -> Iterator[None]:
-    """Errors of the workflow about its data (``field`` ``file``, as the upload is called)
-    name ``name`` instead: ``series_ids`` for stored records, an option on the command line."""
+def data_field(name: str, fields: tuple[str, ...] = ("file",)) -> Iterator[None]:
+    """Errors of the workflow about its data (``field`` one of ``fields``: ``file``, as the
+    upload is called) name ``name`` instead: ``series_ids`` for stored records, an option
+    on the command line."""
     try:
         yield
     except HydrodiagError as exc:
-        if exc.field == "file":
+        if exc.field in fields:
             exc.field = name
         raise
 

@@ -58,7 +58,7 @@ from diagnostics.discrepancy.balances import BALANCES, BASE_SIGNS, BalanceData, 
 from diagnostics.discrepancy.gap import GapRow
 from diagnostics.discrepancy.lof import lack_of_fit
 from diagnostics.discrepancy.refit import with_effects
-from diagnostics.discrepancy.selection import PRACTICAL, hac_cov, select
+from diagnostics.discrepancy.selection import MIN_SAMPLES_PER_TERM, PRACTICAL, hac_cov, select
 from diagnostics.discrepancy.signals import Signals
 from diagnostics.discrepancy.verdict import OUTPUT_GAP, excess_ratio
 from diagnostics.discrepancy.workflow import CONFIRM_RATIO, Discovery, NamedEffect
@@ -69,7 +69,8 @@ from sim.errors import InputError
 from sim.rigs.assembly import Rig
 from sim.rigs.schema import validate_rig_document
 
-__all__ = ["discover_steady", "is_bench_table", "predict_flow", "read_bench_bytes"]
+__all__ = ["discover_steady", "is_bench_table", "predict_flow", "read_bench_bytes",
+           "require_rows"]
 
 Arr = npt.NDArray[np.float64]
 Progress = Callable[[float, str], None]
@@ -282,6 +283,22 @@ def _gap(meas: Arr, model: Arr) -> list[GapRow]:
                    float(np.max(np.abs(e))))]
 
 
+def require_rows(bench: BenchData) -> None:
+    """Raise :class:`InputError` (``field="file"``) for a table too small for the workflow:
+    fewer than 8 rows, or fewer training rows (those not held out) than the pump balance's
+    selection needs (:data:`~diagnostics.discrepancy.selection.MIN_SAMPLES_PER_TERM` per
+    term: the two base terms and two candidates).  Cheap: called before a job starts."""
+    if bench.q.size < 8:
+        raise InputError(f"a bench table needs at least 8 rows, got {bench.q.size}",
+                         field="file")
+    train, _ = _split(bench)
+    need = MIN_SAMPLES_PER_TERM * (len(BASE) + 2)
+    if train.size < need:
+        raise InputError(f"{bench.q.size} rows leave {train.size} to fit once the edge of the "
+                         f"operating range is held out; the pump balance needs {need} (more "
+                         "test points, or more records)", field="file")
+
+
 def discover_steady(rig_document: Mapping[str, Any], bench: BenchData, *,
                     progress: Progress | None = None, bootstrap: int = 30,
                     seed: int = 0) -> Discovery:
@@ -307,9 +324,7 @@ def discover_steady(rig_document: Mapping[str, Any], bench: BenchData, *,
         if progress is not None:
             progress(frac, what)
 
-    if bench.q.size < 8:
-        raise InputError(f"a bench table needs at least 8 rows, got {bench.q.size}",
-                         field="file")
+    require_rows(bench)
     doc = dict(rig_document)
     rig = Rig.from_spec(validate_rig_document(doc))
     values = rig.values()

@@ -110,6 +110,12 @@ def test_measured_zema_plateaus_go_through_the_workflow_and_the_augmented_rig_is
     assert r.status_code == 201, r.text
     ids = ",".join(str(item["id"]) for item in r.json()["items"])
     versions = server.row_counts()["rig_versions"]
+    # two cycles are ten plateaus: refused before a job starts, naming the field
+    few = server.client.post("/discrepancy", data={"rig_id": str(rig_id),
+                                                   "series_ids": ",".join(ids.split(",")[:2])},
+                             headers=server.auth)
+    assert few.status_code == 422 and few.json()["error"]["field"] == "series_ids", few.text
+    assert "rows leave" in few.json()["error"]["message"]
     r = server.client.post("/discrepancy", data={"rig_id": str(rig_id), "series_ids": ids,
                                                  "rig_version": "1", "store": "false"},
                            headers=server.auth)

@@ -71,7 +71,7 @@ def test_discover_runs_on_records_stored_by_import(runner: CliRunner, tmp_path: 
     assert b["held_out_records"] == a["held_out_records"] == ["load-6300"]
     for args, field in ((["--series", "1,x"], "--series"), ([str(data), "--series", "1"], "--series"),
                         (["--series", "1", "--relaxation", "-1"], "relaxation"),
-                        ([], "data"), (["--series", "1,1"], "series_ids")):
+                        ([], "data"), (["--series", "1,1"], "--series")):
         bad = runner.invoke(cli, ["discover", *args, "--rig", "1"])
         assert bad.exit_code != 0 and field in str(bad.exception), (args, bad.exception)
 

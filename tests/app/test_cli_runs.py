@@ -284,7 +284,7 @@ def test_zema_plateaus_become_a_bench_table_the_workflow_reads(runner: CliRunner
     assert b["gap_before"] == a["gap_before"] and b["lack_of_fit"] == a["lack_of_fit"]
     # two cycles are ten plateaus, too few: the error names the option the data came from
     few = runner.invoke(cli, ["discover", "--series", "1,2", "--rig", "2", "--no-store"])
-    assert few.exit_code != 0 and str(few.exception).startswith("--series: ")
+    assert few.exit_code != 0 and str(few.exception).startswith("--series: 10 rows leave")
     bad = runner.invoke(cli, ["import", "zema", "--rig", "2", "--root", str(root),
                               "--relaxation", "-1", "--bench", str(out)])
     assert bad.exit_code != 0 and "--relaxation" in str(bad.exception)
