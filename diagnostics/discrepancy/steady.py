@@ -56,7 +56,7 @@ import pandas as pd
 
 from diagnostics.discrepancy.balances import BALANCES, BASE_SIGNS, BalanceData, effects_of
 from diagnostics.discrepancy.gap import GapRow
-from diagnostics.discrepancy.lof import lack_of_fit
+from diagnostics.discrepancy.lof import lack_of_fit, permutation_p
 from diagnostics.discrepancy.refit import with_effects
 from diagnostics.discrepancy.selection import MIN_SAMPLES_PER_TERM, PRACTICAL, hac_cov, select
 from diagnostics.discrepancy.signals import Signals
@@ -385,8 +385,10 @@ def discover_steady(rig_document: Mapping[str, Any], bench: BenchData, *,
     practical = PRACTICAL * data.full_scale
     # significant, and larger than the practical size beyond what the scatter gives the
     # condition means (rms_lof alone is ≈ σ/√2 on pure noise, above the practical size)
+    # and, since bench scatter is often heavy-tailed, significant by permutation too
     misfit = (lof_before is not None and lof_before.p < 0.01
-              and lof_before.rms_excess > practical)
+              and lof_before.rms_excess > practical
+              and permutation_p(sel.base_residual, groups) < 0.01)
     off = gap_before[0].rmse > OUTPUT_GAP * sigma[FLOW]
     if named:
         outcome = "named" if len(named) == 1 else "partially explained"

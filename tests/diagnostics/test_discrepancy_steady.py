@@ -9,7 +9,7 @@ import pandas as pd
 import pytest
 from scipy import stats
 
-from diagnostics.discrepancy.lof import lack_of_fit, series_lack_of_fit
+from diagnostics.discrepancy.lof import lack_of_fit, permutation_p, series_lack_of_fit
 from diagnostics.discrepancy.simulate import simulate
 from diagnostics.discrepancy.steady import (
     discover_steady,
@@ -57,6 +57,27 @@ def test_lack_of_fit_needs_repeats_and_is_calm_on_noise() -> None:
     calm = [lack_of_fit(rng.normal(size=300), groups) for _ in range(50)]
     assert np.mean([r.rms_lof for r in calm if r]) == pytest.approx(np.sqrt(1 / 3), abs=0.05)
     assert np.mean([r.rms_excess for r in calm if r]) < 0.15
+
+
+def test_the_permutation_lack_of_fit_holds_its_level_in_heavy_tailed_scatter() -> None:
+    # t₃ scatter, 40 conditions of 2 and 20 of 1: the F-test's p-values come out too small
+    # (more than 1 % below 0.01), the permutation p-values keep the level; a real misfit
+    # (every other condition off by 2 σ) is found by both
+    rng = np.random.default_rng(4)
+    groups = [i // 2 for i in range(80)] + list(range(100, 120))
+    f_hits = perm_hits = 0
+    trials = 300
+    for _ in range(trials):
+        e = rng.standard_t(3, size=100)
+        res = lack_of_fit(e, groups)
+        assert res is not None
+        f_hits += res.p < 0.01
+        perm_hits += permutation_p(e, groups, permutations=199, seed=1) < 0.01
+    assert perm_hits / trials < 0.025 < f_hits / trials
+    off = rng.standard_t(3, size=100) + 2.0 * np.array([g % 2 for g in groups])
+    assert permutation_p(off, groups) < 0.01
+    res = lack_of_fit(off, groups)
+    assert res is not None and res.p < 0.01
 
 
 def test_repeated_cycles_give_a_lack_of_fit_only_when_the_model_misses() -> None:
