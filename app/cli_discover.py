@@ -19,11 +19,12 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
 
 import typer
+from pydantic import ValidationError
 from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
-from app.cli_support import console, steps, store_session
+from app.cli_support import console, steps, store_session, validation_error
 from diagnostics.real.relaxation import ZEMA_RELAXATION
 from sim.errors import InputError
 
@@ -81,11 +82,16 @@ def discover(
     with store_session() as session:
         resolved = RigCache(1).get(session, rig_id, version)
         if series is not None:  # as POST /discrepancy reads stored records
+            try:
+                form = DiscrepancyForm(rig_id=rig_id, rig_version=version, refit=refit,
+                                       store=store, relaxation=relaxation,
+                                       series_ids=",".join(str(i) for i in _ids(series)))
+            except ValidationError as exc:
+                bad = validation_error(exc)
+                raise InputError(bad.message, field=_OPTIONS.get(bad.field or "", bad.field)
+                                 ) from None
             with data_field("--series", ("file", "series_ids")):
-                plan = plan_discrepancy(session, RigCache(1), DiscrepancyForm(
-                    rig_id=rig_id, rig_version=version, refit=refit, store=store,
-                    series_ids=",".join(str(i) for i in _ids(series)),
-                    relaxation=relaxation), None)
+                plan = plan_discrepancy(session, RigCache(1), form, None)
             bench, records = plan.bench, plan.records
         elif bench is None:
             require_phases(records)
@@ -131,6 +137,11 @@ def discover(
             table.add_row(f"{b.parameter} \\[{b.unit}]", f"{b.stored:.4g}", f"{b.value:.4g}",
                           f"{100 * b.change:+.1f} %" + ("" if b.significant else " n.s."), ci)
         _out.print(table)
+
+
+#: form fields of POST /discrepancy → the options that fill them here
+_OPTIONS = {"series_ids": "--series", "relaxation": "--relaxation", "rig_id": "--rig",
+            "rig_version": "--version"}
 
 
 def _ids(text: str) -> list[int]:

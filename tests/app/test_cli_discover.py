@@ -11,6 +11,7 @@ from typer.testing import CliRunner
 
 from app.cli import cli
 from diagnostics.discrepancy.synthetic import synthesize
+from sim.errors import InputError
 from sim.rigs import load_rig, reference_rig_document
 from sim.rigs.assembly import Condition
 
@@ -70,10 +71,12 @@ def test_discover_runs_on_records_stored_by_import(runner: CliRunner, tmp_path: 
     assert b["named"][0]["value"] == a["named"][0]["value"]
     assert b["held_out_records"] == a["held_out_records"] == ["load-6300"]
     for args, field in ((["--series", "1,x"], "--series"), ([str(data), "--series", "1"], "--series"),
-                        (["--series", "1", "--relaxation", "-1"], "relaxation"),
+                        (["--series", "1", "--relaxation", "-1"], "--relaxation"),
+                        (["--series", ",".join(["1"] * 201)], "--series"),
                         ([], "data"), (["--series", "1,1"], "--series")):
         bad = runner.invoke(cli, ["discover", *args, "--rig", "1"])
         assert bad.exit_code != 0 and field in str(bad.exception), (args, bad.exception)
+        assert isinstance(bad.exception, InputError), (args, bad.exception)  # exit 1, a message
 
 
 def test_discover_reads_a_pump_bench_table(runner: CliRunner, tmp_path: Path) -> None:
