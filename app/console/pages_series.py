@@ -14,12 +14,14 @@ from typing import Annotated, Any
 
 from fastapi import Form, Path, Query, Request, Response
 from fastapi.responses import HTMLResponse
+from pydantic import ValidationError
 from starlette.concurrency import run_in_threadpool
 
 from app.api.deps import RigsDep, SessionDep
 from app.console.charts import series_charts
 from app.console.routing import ConsoleKeyDep, new_router
 from app.console.web import SECURITY_HEADERS, page, redirect
+from app.errors import format_location
 from app.schemas.discrepancy import DiscrepancyForm
 from app.security import Scope
 from app.services import jobs as job_service
@@ -83,8 +85,13 @@ async def check(request: Request, session: SessionDep, rigs: RigsDep, _key: Cons
     try:
         if not series:
             raise InputError("tick at least one record", field="series_ids")
-        form = DiscrepancyForm(rig_id=rig, store=store,
-                               series_ids=",".join(str(i) for i in series))
+        try:
+            form = DiscrepancyForm(rig_id=rig, store=store,
+                                   series_ids=",".join(str(i) for i in series))
+        except ValidationError as exc:  # e.g. more records ticked than a check takes
+            first = exc.errors()[0]
+            raise InputError(str(first.get("msg", "invalid")),
+                             field=format_location(first.get("loc", ()))) from None
         plan = await run_in_threadpool(plan_discrepancy, session, rigs, form, None)
     except HydrodiagError as exc:
         error = {"type": type(exc).__name__, "message": exc.message, "field": exc.field}

@@ -70,6 +70,9 @@ def test_a_check_without_records_or_with_a_read_key_names_the_field(
     before = console_server.row_counts()
     empty = browser_client.post("/console/series/check", data={"rig": "1"})
     assert empty.status_code == 422 and error_box(empty.text)[0] == "series_ids"
+    many = browser_client.post("/console/series/check",
+                               data={"rig": "1", "series": [str(i) for i in range(1, 202)]})
+    assert many.status_code == 422 and error_box(many.text)[0] == "series_ids"
     with console_server.session() as session:
         _, plaintext = create_api_key(session, "console-series-read", Scope.READ)
     first = str(console_server.series[0])  # type: ignore[attr-defined]
