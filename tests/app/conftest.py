@@ -67,3 +67,18 @@ def simulated_record(server: LiveServer, overrides: dict[str, float] | None = No
     if measured_at is not None:
         record["measured_at"] = measured_at
     return record
+
+
+def store_count(model: Any) -> int:
+    """Rows of ``model`` in the store the CLI uses (``HYDRODIAG_DATA_DIR`` of :func:`runner`)."""
+    from sqlalchemy import func, select
+
+    from app.db.engine import make_engine, make_session_factory
+    from app.settings import Settings
+
+    engine = make_engine(Settings().url)
+    try:
+        with make_session_factory(engine)() as session:
+            return int(session.scalar(select(func.count()).select_from(model)) or 0)
+    finally:
+        engine.dispose()

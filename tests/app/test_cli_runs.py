@@ -7,18 +7,14 @@ import math
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import pandas as pd
 import pyarrow.parquet as pq
 import pytest
 import yaml
-from sqlalchemy import func, select
 from typer.testing import CliRunner
 
 from app.cli import cli
-from app.db.engine import make_engine, make_session_factory
 from app.db.models import Diagnosis, PumpSet, ThrottleCalibration
-from app.settings import Settings
 from diagnostics.pump import (
     InstrumentNoise,
     default_levels,
@@ -27,18 +23,10 @@ from diagnostics.pump import (
     write_bench_csv,
 )
 from sim.components.gear_pump_map import stand_in_pump
+from tests.app.conftest import store_count
 from tests.real_slices import v32hl56_slice, zema_slice
 
 ZEMA_RIG = Path(__file__).resolve().parents[2] / "sim" / "rigs" / "zema.yaml"
-
-
-def _count(model: Any) -> int:
-    engine = make_engine(Settings().url)
-    try:
-        with make_session_factory(engine)() as session:
-            return int(session.scalar(select(func.count()).select_from(model)) or 0)
-    finally:
-        engine.dispose()
 
 
 def _simulated_summary(runner: CliRunner, *options: str) -> dict[str, Any]:
@@ -78,11 +66,11 @@ def test_diagnose_a_yaml_file_of_records(runner: CliRunner, tmp_path: Path) -> N
     assert result.exit_code == 0, result.output
     body = json.loads(result.stdout)
     assert body["mode"] == "each" and [d["top"] for d in body["diagnoses"]] == ["valve"] * 2
-    assert _count(Diagnosis) == 2
+    assert store_count(Diagnosis) == 2
     table = runner.invoke(cli, ["diagnose", str(path), "--joint", "--no-store"])
     assert table.exit_code == 0, table.output
     assert "valve" in table.stdout and "not stored" in table.stdout
-    assert _count(Diagnosis) == 2
+    assert store_count(Diagnosis) == 2
     path.write_text(yaml.safe_dump(record | {"flow_C": -1.0}))
     bad = runner.invoke(cli, ["diagnose", str(path)])
     assert bad.exit_code != 0 and getattr(bad.exception, "field", None) == "record.flow_C"
@@ -110,18 +98,18 @@ def test_calibrate_pump_and_throttle(runner: CliRunner, tmp_path: Path) -> None:
     pump = runner.invoke(cli, ["calibrate", "pump", str(tmp_path / "bench.csv"),
                                "--name", "cli-pump", "--pump", "stand-in gear pump"])
     assert pump.exit_code == 0, pump.output
-    assert "Cs_coef" in pump.stdout and _count(PumpSet) == 1
+    assert "Cs_coef" in pump.stdout and store_count(PumpSet) == 1
     table = tmp_path / "table.yaml"
     table.write_text(yaml.safe_dump({
         "throttle": "I", "component": "valve", "back_pressure_pa": 3.0e6,
         "temperature_c": 40.0,
         "points": [{"opening_turns": 0.0, "bypass_flow_m3s": 1.0e-5},
                    {"opening_turns": 1.0, "bypass_flow_m3s": 8.0e-5}]}))
-    before = _count(ThrottleCalibration)
+    before = store_count(ThrottleCalibration)
     throttle = runner.invoke(cli, ["calibrate", "throttle", str(table)])
     assert throttle.exit_code == 0, throttle.output
     assert "computed" in throttle.stdout and "clearance [m]" in throttle.stdout
-    assert _count(ThrottleCalibration) == before + 1
+    assert store_count(ThrottleCalibration) == before + 1
 
 
 def test_calibrate_pump_on_a_real_single_temperature_map(runner: CliRunner, tmp_path: Path,
@@ -145,11 +133,11 @@ def test_calibrate_pump_on_a_real_single_temperature_map(runner: CliRunner, tmp_
     # the sign-checked loss model is stored with its held-out error and its points
     assert "check_flow_S" in result.stdout and "points_q_held_out" in result.stdout
     assert "checked one speed out" in result.stdout
-    assert _count(PumpSet) == 1
+    assert store_count(PumpSet) == 1
     both = runner.invoke(cli, ["calibrate", "pump", str(tmp_path / "map.csv"), "--name", "v33",
                                "--pump", "x", "--displacement", "1e-6",
                                "--displacement-cm3-rev", "57"])
-    assert both.exit_code != 0 and _count(PumpSet) == 1
+    assert both.exit_code != 0 and store_count(PumpSet) == 1
     monkeypatch.setenv("COLUMNS", "200")
     help_text = runner.invoke(cli, ["calibrate", "pump", "--help"]).stdout
     for unit in ("[m³/rad]", "[cm³/rev]", "[Pa, kPa, bar, MPa]"):
@@ -160,65 +148,6 @@ def test_calibrate_pump_on_a_real_single_temperature_map(runner: CliRunner, tmp_
     assert "[rad/s]" in runner.invoke(cli, ["simulate", "--help"]).stdout
 
 
-def test_calibrate_pump_map_stores_one_checked_set_per_setting(runner: CliRunner,
-                                                               tmp_path: Path) -> None:
-    from diagnostics.pump.csvio import read_bench_csv
-
-    slice_ = v32hl56_slice()          # the 23.2 and 56.9 cm³/rev settings of V32HL56
-    # a set of one setting's name already stored: nothing of the map may be stored
-    frame = pd.read_csv(slice_)
-    one = tmp_path / "one.csv"
-    pd.DataFrame({"p_in [Pa]": 0.0, "p_out [Pa]": frame["Deltap"] * 1e6,
-                  "n [rpm]": frame["Speed"], "theta [degC]": 50.0,
-                  "q [l/min]": frame["QOut"]}).to_csv(one, index=False)
-    taken = runner.invoke(cli, ["calibrate", "pump", str(one), "--name", "v32-56.9cm3",
-                                "--pump", "x"])
-    assert taken.exit_code == 0, taken.output
-    clash = runner.invoke(cli, ["calibrate", "pump-map", str(slice_), "--name", "v32",
-                                "--pump", "V32HL56", "--theta", "50"])
-    assert clash.exit_code == 1 and "v32-56.9cm3" in str(clash.exception)
-    assert _count(PumpSet) == 1
-    bad = tmp_path / "bad.csv"
-    frame.drop(columns="Displacement").to_csv(bad, index=False)
-    missing = runner.invoke(cli, ["calibrate", "pump-map", str(bad), "--name", "w",
-                                  "--pump", "V32HL56", "--theta", "50"])
-    assert missing.exit_code == 1 and "Displacement" in str(missing.exception)
-    assert _count(PumpSet) == 1
-
-    out = tmp_path / "bench"
-    result = runner.invoke(cli, ["calibrate", "pump-map", str(slice_), "--name", "map",
-                                 "--pump", "V32HL56", "--theta", "50", "--bench-dir", str(out)])
-    assert result.exit_code == 0, result.output
-    assert _count(PumpSet) == 3 and "θ 50 °C assumed" in result.stdout
-    engine = make_engine(Settings().url)
-    try:
-        with make_session_factory(engine)() as session:
-            sets = {p.name: p.quantities for p in session.scalars(
-                select(PumpSet).where(PumpSet.name.like("map-%")))}
-    finally:
-        engine.dispose()
-    assert sorted(sets) == ["map-23.2cm3", "map-56.9cm3"]
-    for name, stated in (("map-23.2cm3", 23.2), ("map-56.9cm3", 56.9)):
-        q = sets[name]
-        # Toet's derived capacity a little above the stated displacement (README: 0.3-0.8 %)
-        assert 1.0 < q["D_per_rev"]["value"] * 1e6 / stated < 1.01
-        assert 0.0 < q["check_flow_S"]["value"] < 1.0      # held out one speed at a time [%]
-        bench = read_bench_csv(out / f"V32HL56-slice-{stated}cm3.csv")
-        mine = frame[(frame["Displacement"] - stated).abs() < 0.5]
-        assert bench.q.size == len(mine) == q["n_points"]["value"]
-        assert np.allclose(np.sort(bench.q), np.sort(mine["QOut"].to_numpy()) / 6e4)
-        assert np.all(bench.theta == 50.0)
-    # the table goes to discover as written; against the reference rig (a pump 3.3× smaller)
-    # the compression loss comes out as against a pump made from the bench (2.39e-9 1/Pa,
-    # make real-data): the stored pump is re-fitted and the coefficient restated for it
-    found = runner.invoke(cli, ["discover", str(out / "V32HL56-slice-56.9cm3.csv"),
-                                "--rig", "1", "--no-store", "--json"])
-    assert found.exit_code == 0, found.output
-    named = json.loads(found.stdout)["named"]
-    assert [n["name"] for n in named] == ["pump_compressibility_loss"]
-    assert 2.2e-9 < named[0]["value"] < 2.6e-9
-
-
 def test_import_zema_cycles_and_a_series_file(runner: CliRunner, tmp_path: Path) -> None:
     from app.db.models import MeasuredSeries
 
@@ -226,16 +155,16 @@ def test_import_zema_cycles_and_a_series_file(runner: CliRunner, tmp_path: Path)
     result = runner.invoke(cli, ["import", "zema", "--rig", "1", "--root", str(root),
                                  "--first", "2", "--last", "5"])
     assert result.exit_code == 0, result.output
-    assert "4 ZeMA cycles stored" in result.stdout and _count(MeasuredSeries) == 4
+    assert "4 ZeMA cycles stored" in result.stdout and store_count(MeasuredSeries) == 4
     csv = tmp_path / "s.csv"
     csv.write_text("record,t [s],p_pump [bar],q_work [l/min]\na,0,150,7.9\na,1,151,7.8\n"
                    "b,0,160,7.7\nb,0.5,161,7.6\n")
     result = runner.invoke(cli, ["import", "series", str(csv), "--rig", "1", "--name", "s"])
     assert result.exit_code == 0, result.output
-    assert _count(MeasuredSeries) == 6 and "p_pump [Pa]" in result.stdout
+    assert store_count(MeasuredSeries) == 6 and "p_pump [Pa]" in result.stdout
     csv.write_text("t [s],p_pump [psi]\n0,1\n1,2\n")
     bad = runner.invoke(cli, ["import", "series", str(csv), "--rig", "1", "--name", "bad"])
-    assert bad.exit_code != 0 and _count(MeasuredSeries) == 6
+    assert bad.exit_code != 0 and store_count(MeasuredSeries) == 6
     assert "[Hz]" in runner.invoke(cli, ["import", "series", "--help"]).stdout
 
 
@@ -258,7 +187,7 @@ def test_zema_plateaus_become_a_bench_table_the_workflow_reads(runner: CliRunner
                                  "--no-store"])
     assert result.exit_code == 0, result.output
     assert "90 settled plateaus of 18 cycles" in result.stdout and "1500 rpm" in result.stdout
-    assert _count(MeasuredSeries) == 0
+    assert store_count(MeasuredSeries) == 0
     data, _ = load_1hz(root, list(range(1, 19)))
     expected = plateau_table(read_records(data), relaxation=3.5).bench(50.0 * math.pi)
     bench = read_bench_csv(out)
