@@ -28,6 +28,7 @@ from app.services import jobs as job_service
 from app.services import rigs as rig_service
 from app.services import series as series_service
 from app.services.discrepancy import plan_discrepancy, submit_discrepancy
+from diagnostics.real.relaxation import ZEMA_RELAXATION
 from sim.errors import HydrodiagError, InputError
 
 __all__ = ["router"]
@@ -46,9 +47,10 @@ def _list(request: Request, session: Any, rig: int | None, offset: int,
                     if chosen is not None else ([], 0))
     jobs, _ = job_service.list_jobs(session, limit=20, offset=0, kind="discrepancy")
     mine = [j for j in jobs if (j.params or {}).get("rig_id") == chosen]
+    cycle = next((rig_service.has_cycle(v) for r, v in rigs if r.id == chosen), True)
     return page(request, "series.html", status_code=status_code, rigs=rigs, rig=chosen,
                 items=items, total=total, offset=offset, page_size=PAGE, jobs=mine,
-                error=error)
+                error=error, cycle=cycle, relaxation=ZEMA_RELAXATION)
 
 
 @router.get("/series")
