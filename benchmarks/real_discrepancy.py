@@ -49,7 +49,8 @@ from typing import Any
 import numpy as np
 
 from benchmarks.real_pump_map import THETA
-from diagnostics.discrepancy.steady import discover_steady, robust_ols
+from diagnostics.discrepancy.pump_refit import robust_ols
+from diagnostics.discrepancy.steady import discover_steady
 from diagnostics.pump import bench_from_frame, derived_capacity_toet
 from diagnostics.pump.data import BenchData
 from diagnostics.pump.levels import cluster_levels

@@ -24,15 +24,17 @@ pump together with corrections of the pump's own laminar slip and displacement
 one takes up the pump's error and reports an interval as if the pump were known — 95 %
 half-widths of 2-8 % of the value on synthetic tables whose stored pump is the truth,
 against 5-29 % with the pump re-fitted), and kept when it is significant (|t| ≥ 2.576,
-White errors on columns scaled to unit RMS: :func:`robust_ols`), of the entry's sign, with
+White errors on columns scaled to unit RMS:
+:func:`~diagnostics.discrepancy.pump_refit.robust_ols`), of the entry's sign, with
 a re-fitted pump that is still a pump (1/Rlp and Vp positive), and the held-out gap in
 excess of the scatter shrinks at least
 :data:`~diagnostics.discrepancy.workflow.CONFIRM_RATIO`-fold against the stored pump.  The
 augmented rig carries the effect *and* the re-fitted Rlp and Vp (a bench table is the
 pump's characterisation, not field data of a worn rig), the coefficient restated for the
-re-fitted Vp where the element reads it (:func:`_on_refitted`); the message gives the
-held-out gap before, after, and with the pump re-fitted alone.  When no effect is named
-and the pump re-fitted alone brings the held-out gap within
+re-fitted Vp where the element reads it (:mod:`~diagnostics.discrepancy.pump_refit`, which
+holds the pump's re-fit); the message gives the held-out gap before, after, and with the
+pump re-fitted alone.  When no effect is named and the pump re-fitted alone brings the
+held-out gap within
 :data:`~diagnostics.discrepancy.verdict.OUTPUT_GAP` σ, the verdict is ``base drift`` (the
 stored rig left as it is), as in the transient workflow.  Replicated points give the
 lack-of-fit F-test (:mod:`~diagnostics.discrepancy.lof`) before and after.
@@ -45,7 +47,6 @@ depended on how the stored pump had been calibrated; with the pump re-fitted it 
 
 from __future__ import annotations
 
-import copy
 import io
 from collections.abc import Callable, Mapping
 from typing import Any
@@ -57,8 +58,18 @@ import pandas as pd
 from diagnostics.discrepancy.balances import BALANCES, BASE_SIGNS, BalanceData, effects_of
 from diagnostics.discrepancy.gap import GapRow
 from diagnostics.discrepancy.lof import lack_of_fit, permutation_p
+from diagnostics.discrepancy.pump_refit import (
+    BASE,
+    base_change,
+    drifted,
+    model_flow,
+    on_refitted,
+    refitted_pump,
+    stored_fit,
+    with_base,
+)
 from diagnostics.discrepancy.refit import with_effects
-from diagnostics.discrepancy.selection import MIN_SAMPLES_PER_TERM, PRACTICAL, hac_cov, select
+from diagnostics.discrepancy.selection import MIN_SAMPLES_PER_TERM, PRACTICAL, select
 from diagnostics.discrepancy.signals import Signals
 from diagnostics.discrepancy.verdict import OUTPUT_GAP, excess_ratio
 from diagnostics.discrepancy.workflow import CONFIRM_RATIO, Discovery, NamedEffect
@@ -163,20 +174,6 @@ def _groups(bench: BenchData, rows: npt.NDArray[np.int64]) -> list[tuple[float, 
              round(float(bench.theta[i]) * 2)) for i in rows]
 
 
-def _model(values: Mapping[str, float], s: Signals, coefs: Mapping[str, float],
-           base: Mapping[str, float] | None = None) -> Arr:
-    """Flow of the stored pump plus effects ``coefs`` (effect → coefficient) [m³/s], with
-    the corrections ``base`` of its own parameters (:data:`BASE`: a laminar conductance
-    added to 1/Rlp [m³/(s·Pa)], a displacement taken off Vp [m³/rad]) where given."""
-    c = s.values
-    b = base or {}
-    q = (c["speed"] * (c["Vp"] - b.get("pump.Vp", 0.0))
-         - c["P_pump"] * (1.0 / values["pump.Rlp"] + b.get("pump.Rlp", 0.0)))
-    for name, k in coefs.items():
-        q = q - k * np.asarray(EFFECTS[name].entry.regressor(c), dtype=float)
-    return np.asarray(q, dtype=float)
-
-
 def predict_flow(rig_document: Mapping[str, Any], bench: BenchData,
                  effects: Mapping[str, float] | None = None) -> Arr:
     """Flow of the rig's pump at every bench row, plus ``effects`` [m³/s].
@@ -186,95 +183,7 @@ def predict_flow(rig_document: Mapping[str, Any], bench: BenchData,
     """
     rig = Rig.from_spec(validate_rig_document(dict(rig_document)))
     s = _signals(bench, rig, np.arange(bench.q.size))
-    return _model(rig.values(), s, effects or {})
-
-
-def robust_ols(X: Arr, y: Arr) -> tuple[Arr, Arr]:
-    """Least-squares coefficients of ``y`` on the columns of ``X`` and their White (HC1)
-    standard errors.
-
-    The columns are scaled to unit RMS first (DISCREPANCY.md, item 4): the regressors of the
-    pump balance differ by up to 10¹⁶ in size (P·ω·Vp against P²/μ), and the normal matrix
-    of the raw columns is then singular to machine precision — its pseudo-inverse set the
-    smaller column's error to zero, which passed any coefficient as significant (seen on
-    the V32HL56 map, ``make real-data``).
-    """
-    scale = np.sqrt(np.mean(X * X, axis=0))
-    scale[~(scale > 0)] = 1.0
-    Xs = X / scale
-    coef, *_ = np.linalg.lstsq(Xs, y, rcond=None)
-    n, k = Xs.shape
-    cov = hac_cov(Xs, y - Xs @ coef, 0) * n / max(n - k, 1)  # HC0 → HC1
-    return coef / scale, np.sqrt(np.maximum(np.diag(cov), 0.0)) / scale
-
-
-#: the pump's own parameters re-fitted with an effect (DISCREPANCY.md, item 3): the column
-#: of each in the pump balance — the laminar slip 1/Rlp ∝ P, the displacement Vp ∝ ω
-BASE = ("pump.Rlp", "pump.Vp")
-
-
-def _stored_fit(values: Mapping[str, float], s: Signals, names: list[str]
-                ) -> tuple[dict[str, float], dict[str, float], dict[str, float]]:
-    """Coefficients of ``names`` [SI] and their errors, fitted with corrections of the
-    stored pump's laminar slip and displacement (:data:`BASE`, in :func:`_model`'s form)
-    to the residual of the stored pump (OLS, White errors)."""
-    c = s.values
-    r = c["speed"] * c["Vp"] - c["Q_meter_B"] - c["P_pump"] / values["pump.Rlp"]
-    X = np.column_stack([c["P_pump"], c["speed"]]
-                        + [EFFECTS[n].entry.regressor(c) for n in names])
-    coef, se = robust_ols(X, r)
-    return ({n: float(coef[2 + i]) for i, n in enumerate(names)},
-            {n: float(se[2 + i]) for i, n in enumerate(names)},
-            dict(zip(BASE, (float(coef[0]), float(coef[1])), strict=True)))
-
-
-def _refitted(values: Mapping[str, float], base: Mapping[str, float]) -> dict[str, float]:
-    """The pump's Rlp [Pa·s/m³] and Vp [m³/rad] with the corrections ``base``
-    (:func:`_model`'s form)."""
-    return {"pump.Rlp": 1.0 / (1.0 / values["pump.Rlp"] + base["pump.Rlp"]),
-            "pump.Vp": values["pump.Vp"] - base["pump.Vp"]}
-
-
-def _on_refitted(values: Mapping[str, float], base: Mapping[str, float], s: Signals,
-                 coefs: Mapping[str, float], errs: Mapping[str, float]
-                 ) -> tuple[dict[str, float], dict[str, float]]:
-    """The effect coefficients and their errors restated for the re-fitted pump.
-
-    :func:`_stored_fit` fits each ``k·x_k`` with ``x_k`` evaluated at the *stored* Vp; the
-    augmented rig evaluates its element with the *re-fitted* Vp (the compressibility loss
-    ``k_b·P·Vp·ω``, the viscous slip ``C·P·Vp/μ``, the speed offset ``δω·Vp``).  So that
-    the stored rig delivers the flow that was fitted, ``k`` becomes ``k·x_old/x_new`` —
-    a constant, since a regressor is proportional to Vp or does not read it (least squares
-    over the rows, exact then).  Without this a rig whose stored displacement was 3× off
-    (the reference rig checked against a V32HL56 setting) carried a loss 3× too large.
-    """
-    new = dict(s.values)
-    new["Vp"] = np.full_like(s.values["Vp"], _refitted(values, base)["pump.Vp"])
-    out_k: dict[str, float] = {}
-    out_e: dict[str, float] = {}
-    for name, k in coefs.items():
-        reg = EFFECTS[name].entry.regressor
-        x_old = np.asarray(reg(s.values), dtype=float)
-        x_new = np.asarray(reg(new), dtype=float)
-        nn = float(x_new @ x_new)
-        f = float(x_old @ x_new) / nn if nn > 0.0 else 1.0
-        out_k[name], out_e[name] = k * f, errs[name] * abs(f)
-    return out_k, out_e
-
-
-def _with_base(doc: Mapping[str, Any], values: Mapping[str, float],
-               base: Mapping[str, float]) -> dict[str, Any]:
-    """A copy of ``doc`` whose pump carries the re-fitted Rlp and Vp (in the document's
-    own units), their sources saying so."""
-    out = copy.deepcopy(dict(doc))
-    params = out["components"]["pump"]["parameters"]
-    for key, v in _refitted(values, base).items():
-        name = key.partition(".")[2]
-        entry = params[name] if isinstance(params[name], dict) else {"value": params[name]}
-        params[name] = {**entry, "value": float(entry["value"]) * v / values[key],
-                        "source": "re-fitted with the named effect by hydrodiag discover "
-                                  "(steady pump-bench table)"}
-    return out
+    return model_flow(rig.values(), s, effects or {})
 
 
 def _gap(meas: Arr, model: Arr) -> list[GapRow]:
@@ -340,26 +249,26 @@ def discover_steady(rig_document: Mapping[str, Any], bench: BenchData, *,
         np.sqrt(np.mean(sel.residual ** 2)))
     sigma = {FLOW: max(pe, 1e-12)}
     meas = held.values["Q_meter_B"]
-    gap_before = _gap(meas, _model(values, held, {}))
+    gap_before = _gap(meas, model_flow(values, held, {}))
     named: list[NamedEffect] = []
     fitted: dict[str, float] = {}
     refitted: dict[str, float] = {}
     rejected: list[str] = []
     gap_after: list[GapRow] = []
     # the stored pump's own laminar slip and displacement re-fitted alone (reported)
-    _, _, alone = _stored_fit(values, train, [])
-    gap_alone = _gap(meas, _model(values, held, {}, alone))
+    _, _, alone = stored_fit(values, train, [])
+    gap_alone = _gap(meas, model_flow(values, held, {}, alone))
     if sel.chosen is not None:
         names = [t.effect for t in sel.chosen.terms]
-        coefs, errs, base = _stored_fit(values, train, names)
-        trial = _gap(meas, _model(values, held, coefs, base))
+        coefs, errs, base = stored_fit(values, train, names)
+        trial = _gap(meas, model_flow(values, held, coefs, base))
         # significant and of the entry's sign with the pump re-fitted too, and shrinking the
         # held-out gap of the stored pump
         valid = all(abs(coefs[n]) >= 2.576 * errs[n]
                     and EFFECTS[n].entry.sign * coefs[n] >= 0.0 for n in names) \
-            and all(v > 0.0 for v in _refitted(values, base).values())
+            and all(v > 0.0 for v in refitted_pump(values, base).values())
         if valid and excess_ratio(gap_before, trial, sigma) >= CONFIRM_RATIO:
-            coefs, errs = _on_refitted(values, base, train, coefs, errs)
+            coefs, errs = on_refitted(values, base, train, coefs, errs)
             fitted, refitted, gap_after = coefs, base, trial
             for t in sel.chosen.terms:
                 e = EFFECTS[t.effect]
@@ -378,7 +287,7 @@ def discover_steady(rig_document: Mapping[str, Any], bench: BenchData, *,
     report(0.9, "held-out check")
     lof_after = lack_of_fit(sel.residual, groups,
                             len(data.base) + len(fitted)) if named else None
-    new_doc = with_effects(_with_base(doc, values, refitted),
+    new_doc = with_effects(with_base(doc, values, refitted),
                            {f"{n}.{EFFECTS[n].entry.coefficient}": v
                             for n, v in fitted.items()}, source=FITTED) if fitted else dict(doc)
     validate_rig_document(new_doc)  # the augmented rig must load as any stored rig
@@ -394,17 +303,17 @@ def discover_steady(rig_document: Mapping[str, Any], bench: BenchData, *,
         outcome = "named" if len(named) == 1 else "partially explained"
         message = f"named {', '.join(n.name for n in named)}"
         message += (f"; held-out flow RMSE {gap_before[0].rmse / sigma[FLOW]:.1f} σ → "
-                    f"{gap_after[0].rmse / sigma[FLOW]:.1f} σ with the {_base_change(values, refitted)}"
+                    f"{gap_after[0].rmse / sigma[FLOW]:.1f} σ with the {base_change(values, refitted)}"
                     f" (the pump re-fitted alone: {gap_alone[0].rmse / sigma[FLOW]:.1f} σ)")
         if len(named) > 1:
             message += "; partially explained — possibly outside the library (two terms)"
-    elif off and _drifted(values, alone, gap_alone[0].rmse, sigma[FLOW]):
+    elif off and drifted(values, alone, gap_alone[0].rmse, sigma[FLOW]):
         outcome = "base drift"
         gap_after = gap_alone
         message = (f"no new effect: the held-out flow differs from the stored pump's "
                    f"({gap_before[0].rmse / sigma[FLOW]:.1f} σ) and the pump's own laminar "
                    f"slip and displacement, re-fitted alone, close the gap "
-                   f"({gap_alone[0].rmse / sigma[FLOW]:.1f} σ; {_base_change(values, alone)}). "
+                   f"({gap_alone[0].rmse / sigma[FLOW]:.1f} σ; {base_change(values, alone)}). "
                    "A pump leakage that moved in service is wear (POST /diagnose sizes it "
                    "against the stored rig); a stored pump that never matched this bench is "
                    "re-characterised (hydrodiag calibrate pump; hydrodiag rigs update). The "
@@ -420,7 +329,7 @@ def discover_steady(rig_document: Mapping[str, Any], bench: BenchData, *,
         outcome = "no effect"
         message = "no effect found: the gap is within the scatter and the practical size"
     if not named and off and outcome != "base drift":
-        message += (f"; the pump's own parameters re-fitted alone ({_base_change(values, alone)}) "
+        message += (f"; the pump's own parameters re-fitted alone ({base_change(values, alone)}) "
                     f"leave a held-out flow RMSE of {gap_alone[0].rmse / sigma[FLOW]:.1f} σ")
     if rejected:
         message += ("; not confirmed (coefficient not significant or of the wrong sign, or the "
@@ -438,23 +347,6 @@ def discover_steady(rig_document: Mapping[str, Any], bench: BenchData, *,
         {sel.balance: sel.detectable},
         {"selections": [sel], "data": [data], "signals": train, "gap_alone": gap_alone,
          "sigma": sigma[FLOW]}, lof)
-
-
-def _drifted(values: Mapping[str, float], alone: Mapping[str, float], rmse_alone: float,
-             sigma: float) -> bool:
-    """Whether the pump re-fitted alone (``alone``: :func:`_stored_fit`'s corrections) is
-    still a pump and brings the held-out flow RMSE [m³/s] within
-    :data:`~diagnostics.discrepancy.verdict.OUTPUT_GAP` σ — the steady form of the
-    transient workflow's ``base drift``."""
-    return (all(v > 0.0 for v in _refitted(values, alone).values())
-            and rmse_alone <= OUTPUT_GAP * sigma)
-
-
-def _base_change(values: Mapping[str, float], base: Mapping[str, float]) -> str:
-    """``Rlp 6e+11 → 5.8e+11 Pa·s/m³, Vp … m³/rad``: the pump re-fitted by ``base``."""
-    new = _refitted(values, base)
-    return (f"pump re-fitted: Rlp {values['pump.Rlp']:.4g} → {new['pump.Rlp']:.4g} Pa·s/m³, "
-            f"Vp {values['pump.Vp']:.5g} → {new['pump.Vp']:.5g} m³/rad")
 
 
 def _ranges(rows: npt.NDArray[np.int64]) -> str:

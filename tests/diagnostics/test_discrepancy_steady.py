@@ -10,13 +10,13 @@ import pytest
 from scipy import stats
 
 from diagnostics.discrepancy.lof import lack_of_fit, permutation_p, series_lack_of_fit
+from diagnostics.discrepancy.pump_refit import robust_ols
 from diagnostics.discrepancy.simulate import simulate
 from diagnostics.discrepancy.steady import (
     discover_steady,
     is_bench_table,
     predict_flow,
     read_bench_bytes,
-    robust_ols,
 )
 from diagnostics.discrepancy.synthetic import NOISE, synthesize, synthesize_bench
 from diagnostics.pump.csvio import bench_to_frame
