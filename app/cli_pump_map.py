@@ -60,6 +60,20 @@ def _tables(file: Path, theta: float) -> list[tuple[float, bytes, int, int]]:
     return out
 
 
+def _write(tables: list[tuple[float, bytes, int, int]], file: Path, folder: Path | None
+           ) -> None:
+    """Each setting's bench table as ``<map>-<setting>cm3.csv`` in ``folder`` (if given)."""
+    if folder is None:
+        return
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        for cm3, content, _, _ in tables:
+            (folder / f"{file.stem}-{cm3:.1f}cm3.csv").write_bytes(content)
+    except OSError as exc:
+        raise InputError(f"cannot write into {folder}: {exc.strerror}",
+                         field="--bench-dir") from None
+
+
 def _shown(pump_set: PumpSetCreate, key: str, scale: float = 1.0) -> str:
     """The quantity ``key`` of a pump set × ``scale``, or "-" where it has none."""
     q = pump_set.quantities.get(key)
@@ -112,10 +126,6 @@ def calibrate_pump_map(
                 raise InputError(f"setting {cm3:.1f} cm³/rev: {exc.message}",
                                  field=exc.field) from None
             progress.advance(task)
-    if bench_dir is not None:
-        bench_dir.mkdir(parents=True, exist_ok=True)
-        for cm3, content, _, _ in tables:
-            (bench_dir / f"{file.stem}-{cm3:.1f}cm3.csv").write_bytes(content)
     ids: list[str] = ["-"] * len(sets)
     if store:
         with store_session() as session:
@@ -123,7 +133,10 @@ def calibrate_pump_map(
                 get_rig(session, rig_id, field="--rig")
             for s in sets:
                 check_name_free(session, s.name)
+            _write(tables, file, bench_dir)  # checked: nothing refused from here on
             ids = [str(create_pump_set(session, s).id) for s in sets]
+    else:
+        _write(tables, file, bench_dir)
     table = Table("setting \\[cm³/rev]", "points", "speeds", "D Toet \\[cm³/rev]",
                   "flow S \\[%]", "torque S \\[%]", "pump set",
                   title=escape(f"{file.name}: {len(sets)} displacement settings, θ "

@@ -33,8 +33,10 @@ def test_calibrate_pump_map_stores_one_checked_set_per_setting(runner: CliRunner
                                 "--pump", "x"])
     assert taken.exit_code == 0, taken.output
     clash = runner.invoke(cli, ["calibrate", "pump-map", str(slice_), "--name", "v32",
-                                "--pump", "V32HL56", "--theta", "50"])
+                                "--pump", "V32HL56", "--theta", "50",
+                                "--bench-dir", str(tmp_path / "refused")])
     assert clash.exit_code == 1 and "v32-56.9cm3" in str(clash.exception)
+    assert not (tmp_path / "refused").exists()         # refused before anything is written
     assert store_count(PumpSet) == 1
     bad = tmp_path / "bad.csv"
     frame.drop(columns="Displacement").to_csv(bad, index=False)
