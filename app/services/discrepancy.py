@@ -118,6 +118,7 @@ def plan_discrepancy(session: Session, rigs: RigCache, form: DiscrepancyForm,
                                form.refit, form.store, bench)
     records = read_records(content)
     require_phases(records)
+    resolved.rig.require_cycle("the discrepancy workflow on measured cycles")  # a 422 now
     return DiscrepancyPlan(resolved.rig_id, resolved.version, dict(resolved.document), records,
                            form.refit, form.store)
 

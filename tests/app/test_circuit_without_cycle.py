@@ -66,6 +66,11 @@ def test_what_needs_a_cylinder_cycle_is_a_clear_422_and_stores_nothing(
                  {"opening_turns": 1.0, "bypass_flow_m3s": 2.7e-5}]}
     _refused(server.client.post(f"/rigs/{rig_id}/calibrations", json=table,
                                 headers=server.auth), "throttle")
+    # measured cycles (a /simulate-format time series) for it: refused before a job starts
+    cycles = b"t [s],phase,P1 [Pa],v [m/s]\n0,working,1e5,0.1\n0.001,working,1e5,0.1\n"
+    _refused(server.client.post("/discrepancy", data={"rig_id": str(rig_id)},
+                                files={"file": ("cycles.csv", cycles, "text/csv")},
+                                headers=server.auth), "the discrepancy workflow")
     assert server.row_counts() == before
 
 
