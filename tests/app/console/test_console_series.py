@@ -32,6 +32,7 @@ def test_the_rigs_records_are_listed_and_plotted_by_unit(console_server: LiveSer
     assert len(points) == len(set(units.values())) >= 3 and all(n > 0 for n in points)
     assert "return, working" in one.text          # the phases the workflow needs were kept
     assert browser_client.get("/console/series/99999").status_code == 404
+    assert 'href="/console/series?rig=1"' in browser_client.get("/console/rigs/1").text
 
 
 def test_ticked_records_are_checked_and_the_report_is_shown(console_server: LiveServer,
