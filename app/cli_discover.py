@@ -80,7 +80,8 @@ def discover(
         bench = read_bench_bytes(content, field="data") if is_bench_table(content) else None
         records = read_series(data) if bench is None else []
     with store_session() as session:
-        resolved = RigCache(1).get(session, rig_id, version)
+        rigs = RigCache(1)   # the plan of --series resolves the same version from it
+        resolved = rigs.get(session, rig_id, version)
         if series is not None:  # as POST /discrepancy reads stored records
             try:
                 form = DiscrepancyForm(rig_id=rig_id, rig_version=version, refit=refit,
@@ -91,7 +92,7 @@ def discover(
                 raise InputError(bad.message, field=_OPTIONS.get(bad.field or "", bad.field)
                                  ) from None
             with data_field("--series", ("file", "series_ids")):
-                plan = plan_discrepancy(session, RigCache(1), form, None)
+                plan = plan_discrepancy(session, rigs, form, None)
             bench, records = plan.bench, plan.records
         elif bench is None:
             require_phases(records)

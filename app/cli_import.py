@@ -138,13 +138,12 @@ def import_zema(
 def _pump_speed(session: Session, rig_id: int) -> float:
     """The stored rig's pump shaft speed [rad/s] (what the bench table records)."""
     from app.services.rigs import get_rig, latest_version
+    from diagnostics.real.profile import stated_pump_speed
     from sim.rigs import load_rig
 
     values = load_rig(latest_version(session, get_rig(session, rig_id, field="--rig"))
                       .document).values()
-    if "pump.speed" not in values:
-        raise InputError(f"rig {rig_id} has no pump speed for the bench table", field="--rig")
-    return float(values["pump.speed"])
+    return stated_pump_speed(values, field="--rig")
 
 
 def _write_bench(records: list[SeriesRecord], speed: float, relaxation: float, path: Path,

@@ -17,7 +17,7 @@ effect is named, stores the augmented rig document as a new version of the rig
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any
@@ -41,10 +41,9 @@ from diagnostics.discrepancy.steady import (
 )
 from diagnostics.discrepancy.workflow import require_phases
 from diagnostics.pump.data import BenchData
-from diagnostics.real.profile import settled_bench
+from diagnostics.real.profile import settled_bench, stated_pump_speed
 from diagnostics.timeseries import SeriesRecord, read_series
 from sim.errors import HydrodiagError, InputError
-from sim.rigs import load_rig
 from sim.rigs.circuits import DEFAULT_CIRCUIT, get_circuit
 
 __all__ = ["MAX_SERIES_BYTES", "DiscrepancyPlan", "data_field", "plan_discrepancy",
@@ -103,7 +102,7 @@ def plan_discrepancy(session: Session, rigs: RigCache, form: DiscrepancyForm,
         records = stored_records(session, form.rig_id, form.ids())
         document = dict(resolved.document)
         if not get_circuit(document.get("circuit", DEFAULT_CIRCUIT)).cycle:
-            bench = _plateaus(records, document, form.relaxation)
+            bench = _plateaus(records, resolved.rig.values(), form.relaxation)
             with data_field("series_ids"):
                 require_rows(bench)
             return DiscrepancyPlan(resolved.rig_id, resolved.version, document, [],
@@ -123,16 +122,14 @@ def plan_discrepancy(session: Session, rigs: RigCache, form: DiscrepancyForm,
                            form.refit, form.store)
 
 
-def _plateaus(records: list[SeriesRecord], document: dict[str, Any],
+def _plateaus(records: list[SeriesRecord], values: Mapping[str, float],
               relaxation: float) -> BenchData:
     """Stored records of a rig without a cycle (a pump feeding a relief valve and an
     orifice, the ZeMA rig) as the steady table of their settled working plateaus
-    (:func:`diagnostics.real.profile.settled_bench`) at the rig's pump speed."""
-    values = load_rig(document).values()
-    if "pump.speed" not in values:
-        raise InputError("the rig states no pump speed for the plateau table", field="rig_id")
+    (:func:`diagnostics.real.profile.settled_bench`) at the pump speed the rig's parameter
+    ``values`` state."""
     names = ", ".join(r.name for r in records[:3]) + (" …" if len(records) > 3 else "")
-    return settled_bench(records, float(values["pump.speed"]), relaxation=relaxation,
+    return settled_bench(records, stated_pump_speed(values), relaxation=relaxation,
                          provenance=f"settled plateaus (τ = {relaxation:g} s) of stored "
                                     f"records {names}")
 

@@ -64,7 +64,7 @@ class LackOfFit:
     df_pe: int
     rms_lof: float
     sigma_pe: float
-    n_groups: int = 0
+    n_groups: int
 
     @property
     def rms_excess(self) -> float:
@@ -75,9 +75,7 @@ class LackOfFit:
         even when the model is right; ``√max(0, rms_lof² − (G/N)·σ_pe²)`` is what remains,
         to compare with a practical size (noise alone gives ≈ 0, not ≈ σ/√n).
         """
-        n = self.df_pe + self.n_groups
-        if n <= 0:
-            return self.rms_lof
+        n = self.df_pe + self.n_groups  # N > 0: lack_of_fit returns None without repeats
         return math.sqrt(max(0.0, self.rms_lof ** 2 - self.n_groups / n * self.sigma_pe ** 2))
 
     def to_dict(self) -> dict[str, float]:

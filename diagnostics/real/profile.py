@@ -42,7 +42,7 @@ Nothing here is fitted with labels; "leaking" is the label-free threshold of
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -57,7 +57,7 @@ from diagnostics.timeseries import SeriesRecord
 from sim.errors import InputError
 
 __all__ = ["PlateauTable", "ProfileEstimate", "plateau_deficits", "plateau_profile",
-           "plateau_table", "profile_sizes", "settled_bench"]
+           "plateau_table", "profile_sizes", "settled_bench", "stated_pump_speed"]
 
 Arr = npt.NDArray[np.float64]
 Mask = npt.NDArray[np.bool_]
@@ -117,6 +117,15 @@ class PlateauTable:
         return BenchData(p_in=np.zeros(n), p_out=self.pressure[ok], omega=np.full(n, speed),
                          theta=theta[ok], q=self.flow[ok], simulated=False,
                          provenance=provenance)
+
+
+def stated_pump_speed(values: Mapping[str, float], *, field: str = "rig_id") -> float:
+    """The rig's stated pump shaft speed ``pump.speed`` [rad/s] from its parameter
+    ``values`` — what a plateau table records as the bench speed, the data recording none;
+    :class:`InputError` (``field``) when the rig states none."""
+    if "pump.speed" not in values:
+        raise InputError("the rig states no pump speed for the plateau table", field=field)
+    return float(values["pump.speed"])
 
 
 def settled_bench(records: Sequence[SeriesRecord], speed: float, *, relaxation: float,
