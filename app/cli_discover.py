@@ -65,7 +65,7 @@ def discover(
     from diagnostics.discrepancy import discover as run
     from diagnostics.discrepancy.report import write_report
     from diagnostics.discrepancy.steady import discover_steady, is_bench_table, read_bench_bytes
-    from diagnostics.discrepancy.workflow import require_phases
+    from diagnostics.discrepancy.workflow import require_cycle_records
     from diagnostics.timeseries import read_series
 
     if (data is None) == (series is None):
@@ -95,7 +95,7 @@ def discover(
                 plan = plan_discrepancy(session, rigs, form, None)
             bench, records = plan.bench, plan.records
         elif bench is None:
-            require_phases(records)
+            require_cycle_records(records)
         with steps() as progress:
             task = progress.add_task("discrepancy workflow", total=1.0)
 

@@ -164,12 +164,17 @@ class SeriesRecord:
                             dict(self.condition), dict(self.metadata), self.measured)
 
     def frame(self) -> pd.DataFrame:
-        """The record as a table in the import format (units in the column names)."""
+        """The record as a table in the import format (units in the column names); its
+        condition entries that are not channels as constant condition columns
+        (``load [N]`` ...), so that :func:`read_series` reads the condition back."""
         data: dict[str, Any] = {"t [s]": self.t}
         if self.phase is not None:
             data["phase"] = self.phase
         for k, v in self.channels.items():
             data[f"{k} [{self.units[k]}]"] = v
+        for k, value in self.condition.items():
+            if k in CONDITION_CHANNELS and k not in self.channels:
+                data[f"{k} [{CONDITION_CHANNELS[k]}]"] = np.full(self.t.size, float(value))
         return pd.DataFrame(data)
 
 

@@ -39,7 +39,7 @@ from diagnostics.discrepancy.steady import (
     read_bench_bytes,
     require_rows,
 )
-from diagnostics.discrepancy.workflow import require_phases
+from diagnostics.discrepancy.workflow import require_cycle_records
 from diagnostics.pump.data import BenchData
 from diagnostics.real.profile import settled_bench, stated_pump_speed
 from diagnostics.timeseries import SeriesRecord, read_series
@@ -107,7 +107,7 @@ def plan_discrepancy(session: Session, rigs: RigCache, form: DiscrepancyForm,
                 require_rows(bench)
             return DiscrepancyPlan(resolved.rig_id, resolved.version, document, [],
                                    form.refit, form.store, bench, "series_ids")
-        require_phases(records)
+        require_cycle_records(records)
         return DiscrepancyPlan(resolved.rig_id, resolved.version, document, records,
                                form.refit, form.store, source="series_ids")
     if len(content) <= MAX_SERIES_BYTES and is_bench_table(content):
@@ -116,8 +116,8 @@ def plan_discrepancy(session: Session, rigs: RigCache, form: DiscrepancyForm,
         return DiscrepancyPlan(resolved.rig_id, resolved.version, dict(resolved.document), [],
                                form.refit, form.store, bench)
     records = read_records(content)
-    require_phases(records)
     resolved.rig.require_cycle("the discrepancy workflow on measured cycles")  # a 422 now
+    require_cycle_records(records)
     return DiscrepancyPlan(resolved.rig_id, resolved.version, dict(resolved.document), records,
                            form.refit, form.store)
 

@@ -80,12 +80,20 @@ class Signals:
 
 
 def condition_of(record: SeriesRecord, rig: Rig) -> Condition:
-    """The operating condition of a record (its constant condition channels, else the rig's)."""
+    """The operating condition of a record: its constant condition channels; an oil
+    temperature logged as a varying channel at its mean (the rig is simulated at one
+    temperature); what the record does not state, the rig's (the workflow first checks
+    that load and temperature are stated, :func:`~diagnostics.discrepancy.workflow.
+    require_cycle_records`)."""
     base = rig.default_condition()
     c = record.condition
+    temperature = c.get("oil_temperature")
+    if temperature is None and "oil_temperature" in record.channels:
+        temperature = float(np.mean(record.channels["oil_temperature"]))
     return Condition(load=c.get("load", base.load),
                      back_pressure=c.get("back_pressure", base.back_pressure),
-                     oil_temperature=c.get("oil_temperature", base.oil_temperature),
+                     oil_temperature=base.oil_temperature if temperature is None
+                     else temperature,
                      pump_speed=c.get("pump_speed"))
 
 

@@ -188,6 +188,14 @@ def test_bad_files_are_422_naming_the_column_and_start_nothing(server: LiveServe
                            files={"file": ("x.csv", no_phase.to_csv(index=False).encode())},
                            headers=server.auth)
     assert r.status_code == 422 and r.json()["error"]["field"] == "phase", r.text
+    # records that do not state their load were simulated at the rig's nominal 2.1 kN
+    # (healthy cycles "unexplained"); now refused before the job, naming the column
+    no_load = pd.read_csv(io.BytesIO(measured)).drop(columns="load [N]")
+    r = server.client.post("/discrepancy", data={"rig_id": "1"},
+                           files={"file": ("x.csv", no_load.to_csv(index=False).encode())},
+                           headers=server.auth)
+    assert r.status_code == 422 and r.json()["error"]["field"] == "load", r.text
+    assert "load [N]" in r.json()["error"]["message"]
     r = server.client.post("/discrepancy", data={"rig_id": "999"},
                            files={"file": ("x.csv", measured)}, headers=server.auth)
     assert r.status_code == 404, r.text

@@ -85,6 +85,36 @@ def test_no_effect_data_give_no_effect():
     assert all(v > 0 for bal in d.detectable.values() for v in bal.values())
 
 
+def test_records_that_do_not_state_their_load_or_temperature_are_refused():
+    """A user pass: /simulate exports of healthy cycles at 2.1-6.3 kN and 40-50 °C, put in
+    one file with a record column, lost the single-record header that states each one's
+    condition; simulated at the rig's nominal 2.1 kN / 40 °C instead, they came out
+    "unexplained" (piston-force residual 0.9 % of full scale).  Now the workflow names
+    the missing condition; a logged temperature channel states the temperature."""
+    import dataclasses
+
+    from diagnostics.discrepancy.signals import condition_of
+    from sim.errors import InputError
+
+    recs = _records(reference_rig_document(), 3)
+    bare = [dataclasses.replace(r, condition={}) for r in recs]
+    with pytest.raises(InputError, match="does not state its load") as err:
+        discover(reference_rig_document(), bare, bootstrap=0)
+    assert err.value.field == "load"
+    loads = [dataclasses.replace(r, condition={"load": r.condition["load"]}) for r in recs]
+    with pytest.raises(InputError, match="oil_temperature \\[degC\\]") as err:
+        discover(reference_rig_document(), loads, bootstrap=0)
+    assert err.value.field == "oil_temperature"
+    # a varying logged temperature: the rig is simulated at its mean
+    r = recs[1]
+    ramp = np.linspace(48.0, 52.0, r.t.size)
+    logged = dataclasses.replace(r, condition={"load": 4200.0},
+                                 channels=r.channels | {"oil_temperature": ramp},
+                                 units=r.units | {"oil_temperature": "degC"})
+    cond = condition_of(logged, reference_rig())
+    assert cond.load == 4200.0 and cond.oil_temperature == pytest.approx(50.0)
+
+
 def test_a_gap_outside_the_library_is_unexplained_not_misnamed():
     """Hoses at half bore: a line loss ∝ Q² that no library entry describes."""
     recs = _records(reference_rig_document(), 4,

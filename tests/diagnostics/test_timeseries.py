@@ -42,6 +42,9 @@ def test_a_simulate_export_reads_back_exactly_in_si(cycle):
     # and the record writes itself back in the same format
     again = series_from_frame(rec.frame())[0]
     np.testing.assert_array_equal(again.channel("v"), rec.channel("v"))
+    # with its condition: written as constant columns, read back as the condition
+    assert again.condition == rec.condition
+    assert set(again.channels) == set(rec.channels) | {"oil_temperature"}  # logged as well
 
 
 def test_parquet_with_metadata_reads_back(tmp_path, cycle):

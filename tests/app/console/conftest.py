@@ -61,8 +61,8 @@ def seed_series(server: LiveServer) -> list[int]:
         assert response.status_code == 200, response.text
         lines = [ln for ln in response.text.splitlines() if not ln.startswith("#")]
         head, *rows = lines
-        frames += [f"load-{load:.0f},{row},{load}" for row in rows]
-    content = "\n".join([f"record,{head},load [N]", *frames]) + "\n"
+        frames += [f"load-{load:.0f},{row},{load},40" for row in rows]
+    content = "\n".join([f"record,{head},load [N],oil_temperature [degC]", *frames]) + "\n"
     response = server.client.post("/rigs/1/series", data={"name": "worn-spool"},
                                   files={"file": ("cycles.csv", content.encode(), "text/csv")},
                                   headers=server.auth)
