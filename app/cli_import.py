@@ -55,7 +55,8 @@ def import_series(
     rig_id: RigOption,
     name: NameOption,
     column_map: Annotated[str | None, typer.Option(
-        help='JSON raw column → \\[channel, unit], e.g. \'{"PS1": \\["p_pump", "bar"]}\'.')
+        help='JSON raw column → \\[channel, unit], e.g. '
+             '\'{"PS1": \\["P_pump", "bar"], "run": \\["record", "-"]}\'.')
     ] = None,
     sample_rate: Annotated[float | None, typer.Option(
         help="Samples per second for a file without a time column \\[Hz].")] = None,

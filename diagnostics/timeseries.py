@@ -21,7 +21,8 @@ same for a single-record file.  A varying temperature stays a channel as well.
 
 A *column map* adapts other tables (a data logger's, a public data set's): raw column →
 ``(channel, unit)``, e.g. ``{"PS1": ("P_pump", "bar")}``; mapped columns need no unit in
-their names.  A table without a time column needs its ``sample_rate`` [Hz].
+their names, and a logger's own record or stroke column maps to ``("record", "-")`` or
+``("phase", "-")``.  A table without a time column needs its ``sample_rate`` [Hz].
 :func:`read_series` is the entry point; :meth:`SeriesRecord.frame` writes a
 record back in the same format.
 """
@@ -263,7 +264,8 @@ def series_from_frame(frame: pd.DataFrame, *, name: str = "table",
     name
         Name of the source, used for a single record without a ``record`` column.
     column_map
-        Raw column → ``(channel, unit)`` for columns without units in their names.
+        Raw column → ``(channel, unit)`` for columns without units in their names; a
+        column of labels maps to ``("record", "-")`` or ``("phase", "-")``.
     expected
         Channel → SI unit it must have (a rig's outputs); other channels take the SI unit
         of whatever unit they are written in.
@@ -284,6 +286,20 @@ def series_from_frame(frame: pd.DataFrame, *, name: str = "table",
         non-increasing time, a required channel missing, a record of < 2 samples.
     """
     cmap = dict(column_map or {})
+    labels = {raw: chan for raw, (chan, _) in cmap.items() if chan in _LABELS}
+    for raw, label in labels.items():  # a logger's own record or phase column
+        unit = cmap.pop(raw)[1]
+        if unit.strip() not in ("", "-", "1"):
+            raise InputError(f"{label!r} is a label column: its unit is '-' (not {unit!r})",
+                             field=raw)
+        if raw not in frame.columns:
+            raise InputError(f"the column map names {raw!r}, which the table does not have",
+                             field=raw)
+        if label in frame.columns and label != raw:
+            raise InputError(f"the table has a {label!r} column already", field=raw)
+    if len(set(labels.values())) < len(labels):
+        raise InputError("two columns are mapped to the same label", field="column_map")
+    frame = frame.rename(columns=labels)
     exp = dict(CONDITION_CHANNELS, **(expected or {}))
     meta = dict(metadata or {})
     columns: dict[str, tuple[str, str, float, float]] = {}  # raw → (channel, unit, scale, offset)
@@ -297,7 +313,8 @@ def series_from_frame(frame: pd.DataFrame, *, name: str = "table",
             m = _COLUMN.match(raw)
             if m is None:
                 raise InputError("a column needs its unit in brackets ('P1 [bar]') or an "
-                                 "entry in the column map", field=raw)
+                                 "entry in the column map (a column of labels: "
+                                 "['record', '-'] or ['phase', '-'])", field=raw)
             chan, unit = m.group(1), m.group(2)
         canonical, scale, offset = si_factor(unit, column=raw, expected=exp.get(chan))
         if chan in (c[0] for c in columns.values()):
@@ -328,7 +345,8 @@ def series_from_frame(frame: pd.DataFrame, *, name: str = "table",
             try:
                 data = pd.to_numeric(group[raw], errors="raise").to_numpy(dtype=float)
             except (ValueError, TypeError):
-                raise InputError("a value is not a number", field=raw) from None
+                raise InputError("a value is not a number (a column of labels? map it to "
+                                 "['record', '-'] or ['phase', '-'])", field=raw) from None
             bad = ~np.isfinite(data)
             if bad.any():
                 row = int(np.argmax(bad))

@@ -24,8 +24,10 @@ class SeriesImportForm(UploadForm):
     column_map: str | None = Field(
         default=None, max_length=20000,
         description="JSON object raw column → [channel, unit] for columns without a unit in "
-        "their names, e.g. {\"PS1\": [\"p_pump\", \"bar\"]} [-]",
-        examples=['{"PS1": ["p_pump", "bar"], "FS1": ["q_work", "l/min"]}'])
+        "their names, e.g. {\"PS1\": [\"P_pump\", \"bar\"]}; a column of record or stroke "
+        "labels maps to [\"record\", \"-\"] or [\"phase\", \"-\"] [-]",
+        examples=['{"PS1": ["P_pump", "bar"], "FS1": ["Q_meter_B", "L/min"], '
+                  '"run": ["record", "-"]}'])
     sample_rate: FiniteFloat | None = Field(
         default=None, gt=0,
         description="Samples per second for a file without a time column [Hz]", examples=[1.0])

@@ -87,6 +87,29 @@ def test_a_column_map_adapts_a_foreign_table():
     np.testing.assert_allclose(rec.channel("P_pump"), [150e5, 151e5, 152e5])
 
 
+def test_a_loggers_own_record_and_stroke_columns_map_to_the_labels():
+    """A user pass: a logger's 'run' and 'stroke' columns could not be mapped ('a value is
+    not a number'); they map to the labels, with its units converted and the condition
+    read from its own columns."""
+    frame = pd.DataFrame({"run": ["a", "a", "a", "b", "b"], "ms": [0.0, 1.0, 2.0, 0.0, 1.0],
+                          "stroke": ["working", "working", "return", "working", "return"],
+                          "q": [30.0, 30.0, -30.0, 15.0, -15.0], "F": [4.2] * 3 + [2.1] * 2})
+    cmap = {"run": ("record", "-"), "stroke": ("phase", ""), "ms": ("t", "ms"),
+            "q": ("Q_meter_B", "L/min"), "F": ("load", "kN")}
+    a, b = series_from_frame(frame, column_map=cmap)
+    assert (a.name, b.name) == ("a", "b")
+    np.testing.assert_allclose(a.t, [0.0, 1e-3, 2e-3])
+    np.testing.assert_allclose(b.channel("Q_meter_B"), [2.5e-4, -2.5e-4])
+    assert a.phase is not None and list(a.phase) == ["working", "working", "return"]
+    assert a.condition == {"load": 4200.0} and b.condition == {"load": 2100.0}
+    with pytest.raises(InputError, match="label column") as err:
+        series_from_frame(frame, column_map=cmap | {"run": ("record", "s")})
+    assert err.value.field == "run"
+    with pytest.raises(InputError, match="'record', '-'") as err:
+        series_from_frame(frame, column_map={k: v for k, v in cmap.items() if k != "run"})
+    assert err.value.field == "run"
+
+
 @pytest.mark.parametrize(
     ("frame", "field", "words"),
     [
