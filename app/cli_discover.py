@@ -137,6 +137,8 @@ def discover(
             ci = f"{b.interval[0]:.3g} … {b.interval[1]:.3g}" if b.interval else "—"
             table.add_row(f"{b.parameter} \\[{b.unit}]", f"{b.stored:.4g}", f"{b.value:.4g}",
                           f"{100 * b.change:+.1f} %" + ("" if b.significant else " n.s."), ci)
+        for k in d.base_drift.kept:
+            table.add_row(k, "", "kept as stored", "", "")
         _out.print(table)
 
 

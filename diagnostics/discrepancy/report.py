@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from diagnostics.discrepancy.drift import DRIFTING
 from diagnostics.discrepancy.gap import aligned_residuals
 from diagnostics.discrepancy.workflow import Discovery
 from diagnostics.plots import Chart, Series, line_chart, render_png, render_svg
@@ -144,6 +145,10 @@ def html_page(d: Discovery, title: str = "hydrodiag discrepancy report") -> str:
                          f"<td>{_fmt(b.stored)}</td><td>{_fmt(b.value)}</td>"
                          f"<td>{100 * b.change:+.1f} %{'' if b.significant else ' (n.s.)'}"
                          f"</td><td>{_fmt(lo)} … {_fmt(hi)}</td></tr>")
+        for k in d.base_drift.kept:
+            parts.append(f"<tr><td>{e(k)}</td><td>{e(DRIFTING.get(k, ''))}</td><td colspan='4'>"
+                         "kept as stored: the wear alone brings the held-out records within "
+                         "the noise</td></tr>")
         parts.append("</table>")
     parts.append("<h2>Balances (equation error, base parameters re-fitted)</h2><table><tr>"
                  "<th>balance</th><th>chosen</th><th>ΔBIC</th><th>residual RMS</th>"

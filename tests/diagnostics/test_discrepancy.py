@@ -162,6 +162,26 @@ def test_a_drifted_rig_is_base_drift_not_a_new_effect():
     assert "they close the gap: base drift" in page and "with base drift" in page
 
 
+def test_a_worn_pump_is_base_drift_sized_as_the_scenario_and_friction_is_kept():
+    """The project's own worn_pump scenario (Rlp ÷ 3) sat on the old factor-3 bound of the
+    re-fit and came out "unexplained" (or, with the budget ending early, Rlp −56.5 %);
+    the wear ranges are now the diagnosis priors' and the wear is re-fitted first."""
+    rig = reference_rig()
+    recs = _records(reference_rig_document(), 8,
+                    overrides={"pump.Rlp": rig.base["pump.Rlp"] / 3.0})
+    d = discover(reference_rig_document(), recs, bootstrap=0)
+    assert d.named == []
+    assert d.verdict == "base drift", d.message
+    assert d.base_drift is not None
+    fitted = {p.parameter: p for p in d.base_drift.parameters}
+    assert fitted["pump.Rlp"].value == pytest.approx(rig.base["pump.Rlp"] / 3.0, rel=0.05)
+    assert fitted["pump.Rlp"].significant
+    assert d.base_drift.kept == ["cylinder.Fu", "cylinder.Kf"]
+    assert "kept as stored" in d.message
+    page = html_page(d)
+    assert "kept as stored" in page and "viscous friction of the seals" in page
+
+
 def test_a_balance_with_too_few_samples_is_an_input_error_naming_the_file():
     """Found by the fuzzer: a record of a few samples divided by zero in the BIC."""
     import dataclasses
