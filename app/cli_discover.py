@@ -39,8 +39,10 @@ _out = Console()
 
 def discover(
     data: Annotated[Path | None, typer.Argument(help="Measured cycles: CSV or Parquet in the "
-                                                "/simulate export format, or steady points in "
-                                                "the pump-bench CSV format.")] = None,
+                                                "/simulate export format, each record with its "
+                                                "'load [N]' and 'oil_temperature [degC]' "
+                                                "columns (or the export's header), or steady "
+                                                "points in the pump-bench CSV format.")] = None,
     rig_id: Annotated[int, typer.Option("--rig", help="Rig id in the store.")] = 1,
     version: Annotated[int | None, typer.Option(help="Rig version (default: latest).")] = None,
     report: Annotated[Path | None, typer.Option(help="Write the HTML report here "

@@ -286,19 +286,17 @@ def series_from_frame(frame: pd.DataFrame, *, name: str = "table",
         non-increasing time, a required channel missing, a record of < 2 samples.
     """
     cmap = dict(column_map or {})
-    labels = {raw: chan for raw, (chan, _) in cmap.items() if chan in _LABELS}
-    for raw, label in labels.items():  # a logger's own record or phase column
-        unit = cmap.pop(raw)[1]
+    labels: dict[str, str] = {}  # a logger's own record or phase column → the label
+    for raw, (label, unit) in [(r, c) for r, c in cmap.items() if c[0] in _LABELS]:
+        del cmap[raw]
         if unit.strip() not in ("", "-", "1"):
             raise InputError(f"{label!r} is a label column: its unit is '-' (not {unit!r})",
                              field=raw)
-        if raw not in frame.columns:
-            raise InputError(f"the column map names {raw!r}, which the table does not have",
-                             field=raw)
-        if label in frame.columns and label != raw:
+        if raw not in frame.columns or raw == label:  # unused entries, as for channels
+            continue
+        if label in frame.columns or label in labels.values():
             raise InputError(f"the table has a {label!r} column already", field=raw)
-    if len(set(labels.values())) < len(labels):
-        raise InputError("two columns are mapped to the same label", field="column_map")
+        labels[raw] = label
     frame = frame.rename(columns=labels)
     exp = dict(CONDITION_CHANNELS, **(expected or {}))
     meta = dict(metadata or {})

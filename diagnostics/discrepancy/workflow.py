@@ -414,6 +414,10 @@ def discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], *
     if conf.unsimulable:
         message += ("; not confirmed: the re-fitted rig could not be simulated: "
                     + "; ".join(conf.unsimulable))
+    if not held_i:
+        message += ("; one record only: every gap above is measured on the record the "
+                    "parameters were fitted to, not on a held-out one (give records at two "
+                    "or more loads or temperatures)")
     report(1.0, outcome)
     detectable = {s.balance: s.detectable for s in selections}
     return Discovery(outcome, message, named, selections, [r.name for r in train],

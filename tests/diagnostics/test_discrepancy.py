@@ -115,6 +115,14 @@ def test_records_that_do_not_state_their_load_or_temperature_are_refused():
     assert cond.load == 4200.0 and cond.oil_temperature == pytest.approx(50.0)
 
 
+def test_one_record_says_that_its_gap_is_not_held_out():
+    d = discover(reference_rig_document(), _records(reference_rig_document(), 3)[:1],
+                 bootstrap=0)
+    assert d.verdict == "no effect"
+    assert d.held_out == [] and d.training == ["L2100"]
+    assert "one record only" in d.message
+
+
 def test_a_gap_outside_the_library_is_unexplained_not_misnamed():
     """Hoses at half bore: a line loss ∝ Q² that no library entry describes."""
     recs = _records(reference_rig_document(), 4,

@@ -29,13 +29,15 @@ async def start_discrepancy(
     response: Response,
     file: Annotated[UploadFile | None, File(
         description="Measured time series in the /simulate export format (CSV or Parquet, "
-        "units in the column names, 'phase' and optional 'record' columns), or steady pump "
-        "test points in the pump-bench CSV format (p_in, p_out, n, theta, q with units, "
-        "optional replicate); leave out when series_ids names stored records [-]",
-        examples=["record,t [s],phase,P1 [Pa],P2 [Pa],v [m/s],load [N]\n"
-                  "load-2100,0.100,working,1.20e6,1.0e5,0.210,2100\n"
-                  "load-2100,0.101,working,1.21e6,1.0e5,0.211,2100\n"
-                  "load-2100,0.102,working,1.20e6,1.0e5,0.210,2100\n"])] = None,
+        "units in the column names, 'phase' and optional 'record' columns, each record's "
+        "load and oil temperature as constant columns or the export's '# condition' header), "
+        "or steady pump test points in the pump-bench CSV format (p_in, p_out, n, theta, q "
+        "with units, optional replicate); leave out when series_ids names stored records [-]",
+        examples=["record,t [s],phase,P1 [Pa],P2 [Pa],v [m/s],load [N],"
+                  "oil_temperature [degC]\n"
+                  "load-2100,0.100,working,1.20e6,1.0e5,0.210,2100,40\n"
+                  "load-2100,0.101,working,1.21e6,1.0e5,0.211,2100,40\n"
+                  "load-2100,0.102,working,1.20e6,1.0e5,0.210,2100,40\n"])] = None,
 ) -> DiscrepancyAccepted:
     """Read the file (a bad column is a 422 naming it) or the stored records named by
     ``series_ids``, then start the workflow as a job.
