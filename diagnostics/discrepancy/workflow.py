@@ -225,7 +225,8 @@ def require_cycle_records(records: Sequence[SeriesRecord]) -> None:
       "unexplained").
     * ``field="load"`` / ``"oil_temperature"``: the record does not state its load or oil
       temperature (:data:`STATED`; a constant column, the single-record export's
-      ``# condition`` header, or for the temperature a logged channel).  Every simulated
+      ``# condition`` header, or for the temperature a logged channel; a load that varies
+      within the record is refused, the rig being simulated at one load).  Every simulated
       stroke, the piston-force balance and the choice of the held-out record depend on
       them, and with the rig's nominal condition put in their place, healthy cycles at
       2.1-6.3 kN and 40-50 °C came out "unexplained" with the piston-force residual at
@@ -237,6 +238,12 @@ def require_cycle_records(records: Sequence[SeriesRecord]) -> None:
             raise InputError(f"record {r.name!r} has no 'phase' column labelling its "
                              "'working' and 'return' strokes (the /simulate export has one)",
                              field="phase")
+        if "load" not in r.condition and "load" in r.channels:
+            lo, hi = float(np.min(r.channels["load"])), float(np.max(r.channels["load"]))
+            raise InputError(f"the load of record {r.name!r} varies ({lo:.4g} to {hi:.4g} N); "
+                             "the rig is simulated at one load per record, that of the "
+                             "working stroke: give it as a constant 'load [N]' column",
+                             field="load")
         for key, column in STATED.items():
             if key not in r.condition and key not in r.channels:
                 raise InputError(

@@ -105,6 +105,15 @@ def test_records_that_do_not_state_their_load_or_temperature_are_refused():
     with pytest.raises(InputError, match="oil_temperature \\[degC\\]") as err:
         discover(reference_rig_document(), loads, bootstrap=0)
     assert err.value.field == "oil_temperature"
+    # a load logged as a varying channel is refused: the rig runs at one load per record
+    r0 = recs[0]
+    varying = dataclasses.replace(
+        r0, condition={"oil_temperature": 40.0},
+        channels=r0.channels | {"load": np.where(r0.phase == "working", 2100.0, 0.0)},
+        units=r0.units | {"load": "N"})
+    with pytest.raises(InputError, match="varies") as err:
+        discover(reference_rig_document(), [varying, *recs[1:]], bootstrap=0)
+    assert err.value.field == "load"
     # a varying logged temperature: the rig is simulated at its mean
     r = recs[1]
     ramp = np.linspace(48.0, 52.0, r.t.size)
