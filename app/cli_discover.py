@@ -65,9 +65,9 @@ def discover(
     from app.services.rig_cache import RigCache
     from app.services.rigs import update_rig
     from diagnostics.discrepancy import discover as run
+    from diagnostics.discrepancy.records import require_cycle_records
     from diagnostics.discrepancy.report import write_report
     from diagnostics.discrepancy.steady import discover_steady, is_bench_table, read_bench_bytes
-    from diagnostics.discrepancy.workflow import require_cycle_records
     from diagnostics.timeseries import read_series
 
     if (data is None) == (series is None):

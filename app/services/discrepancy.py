@@ -32,6 +32,7 @@ from app.services.rig_cache import RigCache
 from app.services.rigs import update_rig
 from app.services.series import stored_records
 from diagnostics.discrepancy import discover
+from diagnostics.discrepancy.records import require_cycle_records
 from diagnostics.discrepancy.report import html_page
 from diagnostics.discrepancy.steady import (
     discover_steady,
@@ -39,7 +40,6 @@ from diagnostics.discrepancy.steady import (
     read_bench_bytes,
     require_rows,
 )
-from diagnostics.discrepancy.workflow import require_cycle_records
 from diagnostics.pump.data import BenchData
 from diagnostics.real.profile import settled_bench, stated_pump_speed
 from diagnostics.timeseries import SeriesRecord, read_series

@@ -148,6 +148,9 @@ class Drift:
     #: parameters of :data:`DRIFTING` kept as stored: the wear alone brought the held-out
     #: records within :data:`WHITE` σ
     kept: list[str] = field(default_factory=list)
+    #: where all five were re-fitted: the wear's own re-fit, alone, that came first (the
+    #: start of :mod:`~diagnostics.discrepancy.worn` when no drift closes the gap)
+    wear: Drift | None = field(default=None, repr=False)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-able: per parameter its unit, stored and re-fitted value [unit], change [-]
@@ -167,8 +170,7 @@ class Drift:
             f"{d.parameter} {100 * d.change:+.1f} % (± {196 * d.error / d.stored:.2g} %)"
             + ("" if d.significant else " n.s.") for d in rows)
         if self.kept:
-            text += (f"; {', '.join(self.kept)} kept as stored (the wear alone brings the "
-                     "held-out records within the noise)")
+            text += f"; {', '.join(self.kept)} kept as stored (not re-fitted)"
         return text
 
 
@@ -208,10 +210,12 @@ def refit_base(rig: Rig, train: Sequence[SeriesRecord], held: Sequence[SeriesRec
         first.kept = [k for k in keys if k not in wear]
         return first
     both = _refit(rig, keys, train, held, channels, sigma, max_nfev, log=False)
-    if (both is None or both.pinned or both.left) and first is not None \
-            and not first.pinned and not first.left:
+    if first is not None and not first.pinned:
         first.kept = [k for k in keys if k not in wear]
-        return first
+        if (both is None or both.pinned or both.left) and not first.left:
+            return first
+        if both is not None:
+            both.wear = first
     return both
 
 

@@ -134,8 +134,9 @@ def html_page(d: Discovery, title: str = "hydrodiag discrepancy report") -> str:
         parts.append("</table>")
     if d.base_drift is not None:
         accepted = d.base_drift.accepted
-        parts.append(f"<h2>Base parameters re-fitted by re-simulation ("
-                     f"{'they close the gap: base drift' if accepted else 'not accepted'})"
+        state = ("they close the gap: base drift" if accepted
+                 else "the wear the effect was named on" if d.named else "not accepted")
+        parts.append(f"<h2>Base parameters re-fitted by re-simulation ({state})"
                      "</h2>" + ("" if accepted else f"<p>{e(d.base_drift.reason)}</p>")
                      + "<table><tr><th>parameter</th><th>why it drifts</th><th>stored</th>"
                      "<th>re-fitted</th><th>change</th><th>95 % interval</th></tr>")
@@ -147,8 +148,7 @@ def html_page(d: Discovery, title: str = "hydrodiag discrepancy report") -> str:
                          f"</td><td>{_fmt(lo)} … {_fmt(hi)}</td></tr>")
         for k in d.base_drift.kept:
             parts.append(f"<tr><td>{e(k)}</td><td>{e(DRIFTING.get(k, ''))}</td><td colspan='4'>"
-                         "kept as stored: the wear alone brings the held-out records within "
-                         "the noise</td></tr>")
+                         "kept as stored (not re-fitted)</td></tr>")
         parts.append("</table>")
     parts.append("<h2>Balances (equation error, base parameters re-fitted)</h2><table><tr>"
                  "<th>balance</th><th>chosen</th><th>ΔBIC</th><th>residual RMS</th>"

@@ -83,7 +83,7 @@ def condition_of(record: SeriesRecord, rig: Rig) -> Condition:
     """The operating condition of a record: its constant condition channels; an oil
     temperature logged as a varying channel at its mean (the rig is simulated at one
     temperature); what the record does not state, the rig's (the workflow first checks
-    that load and temperature are stated, :func:`~diagnostics.discrepancy.workflow.
+    that load and temperature are stated, :func:`~diagnostics.discrepancy.records.
     require_cycle_records`)."""
     base = rig.default_condition()
     c = record.condition

@@ -21,7 +21,10 @@ Steps (DISCREPANCY.md):
 6. when nothing was named, the held-out gap is above the noise and no balance keeps a
    structured residual: the rig's own parameters that change in service re-fitted by
    re-simulation (:mod:`~diagnostics.discrepancy.drift`); if they close the gap, the
-   verdict is ``base drift`` (no new effect), with the changes.
+   verdict is ``base drift`` (no new effect), with the changes;
+7. when a balance proposed an effect that was not confirmed and no drift closes the gap
+   either: steps 2-5 again from the rig with its wear re-fitted alone
+   (:mod:`~diagnostics.discrepancy.worn`: a worn rig that also lacks an effect).
 
 When records repeat a condition, the lack-of-fit F-test against the repeats
 (:mod:`~diagnostics.discrepancy.lof`) is reported before/after.  Steady pump-bench tables
@@ -50,6 +53,7 @@ from diagnostics.discrepancy.confirm import Small, confirm_chosen, confirm_small
 from diagnostics.discrepancy.drift import Drift, refit_base
 from diagnostics.discrepancy.gap import GapRow, gap_table
 from diagnostics.discrepancy.lof import repeats_lack_of_fit
+from diagnostics.discrepancy.records import require_cycle_records
 from diagnostics.discrepancy.refit import with_effects
 from diagnostics.discrepancy.selection import PRACTICAL, Selection, select
 from diagnostics.discrepancy.signals import condition_of, prepare
@@ -72,14 +76,14 @@ from diagnostics.discrepancy.verdict import (
     verdict,
     whiteness,
 )
+from diagnostics.discrepancy.worn import named_after_wear, worn_document
 from diagnostics.timeseries import SeriesRecord
 from sim.components.effects import EFFECTS
 from sim.errors import InputError
 from sim.rigs.assembly import Rig
 from sim.rigs.schema import validate_rig_document
 
-__all__ = ["Discovery", "NamedEffect", "discover", "excess_ratio", "gap_ratio",
-           "require_cycle_records"]
+__all__ = ["Discovery", "NamedEffect", "discover", "excess_ratio", "gap_ratio"]
 
 Arr = npt.NDArray[np.float64]
 Progress = Callable[[float, str], None]
@@ -212,48 +216,6 @@ def _sigmas(records: Sequence[SeriesRecord], channels: Sequence[str]) -> dict[st
     return out
 
 
-#: condition entries every measured cycle must state, with the column that states them
-STATED: dict[str, str] = {"load": "load [N]", "oil_temperature": "oil_temperature [degC]"}
-
-
-def require_cycle_records(records: Sequence[SeriesRecord]) -> None:
-    """Raise :class:`InputError` for a record the workflow cannot compare with the rig.
-
-    * ``field="phase"``: no ``phase`` column labelling its working or return stroke — the
-      workflow averages, splits and re-simulates by stroke, and without the labels it
-      compared the whole record to one stroke (every channel hundreds of σ off,
-      "unexplained").
-    * ``field="load"`` / ``"oil_temperature"``: the record does not state its load or oil
-      temperature (:data:`STATED`; a constant column, the single-record export's
-      ``# condition`` header, or for the temperature a logged channel; a load that varies
-      within the record is refused, the rig being simulated at one load).  Every simulated
-      stroke, the piston-force balance and the choice of the held-out record depend on
-      them, and with the rig's nominal condition put in their place, healthy cycles at
-      2.1-6.3 kN and 40-50 °C came out "unexplained" with the piston-force residual at
-      0.9 % of full scale (60× the noise-level residual of the same cycles with their
-      condition).
-    """
-    for r in records:
-        if r.phase is None or not np.isin(r.phase, ("working", "return")).any():
-            raise InputError(f"record {r.name!r} has no 'phase' column labelling its "
-                             "'working' and 'return' strokes (the /simulate export has one)",
-                             field="phase")
-        if "load" not in r.condition and "load" in r.channels:
-            lo, hi = float(np.min(r.channels["load"])), float(np.max(r.channels["load"]))
-            raise InputError(f"the load of record {r.name!r} varies ({lo:.4g} to {hi:.4g} N); "
-                             "the rig is simulated at one load per record, that of the "
-                             "working stroke: give it as a constant 'load [N]' column",
-                             field="load")
-        for key, column in STATED.items():
-            if key not in r.condition and key not in r.channels:
-                raise InputError(
-                    f"record {r.name!r} does not state its {key.replace('_', ' ')}: add a "
-                    f"'{column}' column (constant within the record; any unit of its kind) "
-                    "or keep the '# condition = ...' header of a single-record /simulate "
-                    "export; the rig's nominal condition is not assumed for measured data",
-                    field=key)
-
-
 def discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], *,
              progress: Progress | None = None, refit: bool = True, max_nfev: int = 8,
              bootstrap: int = 30, seed: int = 0) -> Discovery:
@@ -283,6 +245,16 @@ def discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], *
     InputError
         No records, channels that differ between records, none of the balances computable.
     """
+    return _discover(rig_document, records, progress=progress, refit=refit,
+                     max_nfev=max_nfev, bootstrap=bootstrap, seed=seed, worn_pass=False)
+
+
+def _discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], *,
+              progress: Progress | None, refit: bool, max_nfev: int, bootstrap: int,
+              seed: int, worn_pass: bool) -> Discovery:
+    """:func:`discover`; ``worn_pass``: the run from the rig with its wear re-fitted
+    (:mod:`~diagnostics.discrepancy.worn`), which names an effect or is discarded, so it
+    re-fits no base drift and does not run again."""
     def report(frac: float, what: str) -> None:
         if progress is not None:
             progress(frac, what)
@@ -379,7 +351,7 @@ def discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], *
     else:
         gap_after, white_after = [], {}
     drift: Drift | None = None
-    if refit and not named and not any(structured(s) for s in selections) \
+    if refit and not worn_pass and not named and not any(structured(s) for s in selections) \
             and above_noise(gap_before, sig):
         report(0.85, "re-fit of the base parameters that drift in service")
         drift = refit_base(rig, train, held, channels, sig, max_nfev)
@@ -425,12 +397,20 @@ def discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], *
         message += ("; one record only: every gap above is measured on the record the "
                     "parameters were fitted to, not on a held-out one (give records at two "
                     "or more loads or temperatures)")
-    report(1.0, outcome)
     detectable = {s.balance: s.detectable for s in selections}
-    return Discovery(outcome, message, named, selections, [r.name for r in train],
-                     [r.name for r in records] and [records[i].name for i in held_i],
-                     gap_before, gap_after, white_before, white_after, new_doc,
-                     _solver_statement(base_tables), detectable, traces, lof, drift)
+    result = Discovery(outcome, message, named, selections, [r.name for r in train],
+                       [r.name for r in records] and [records[i].name for i in held_i],
+                       gap_before, gap_after, white_before, white_after, new_doc,
+                       _solver_statement(base_tables), detectable, traces, lof, drift)
+    if (refit and not named and conf.rejected and drift is not None
+            and not drift.accepted and drift.wear is not None):
+        report(0.9, "the workflow again from the rig with its wear re-fitted")
+        again = _discover(worn_document(doc, drift.wear), records, progress=None, refit=refit,
+                          max_nfev=max_nfev, bootstrap=bootstrap, seed=seed, worn_pass=True)
+        if again.named:
+            result = named_after_wear(result, again, doc, drift.wear)
+    report(1.0, result.verdict)
+    return result
 
 
 def _screened_effect(sc: Screened) -> NamedEffect:
