@@ -30,8 +30,8 @@ def require_cycle_records(records: Sequence[SeriesRecord]) -> None:
       stroke, the piston-force balance and the choice of the held-out record depend on
       them, and with the rig's nominal condition put in their place, healthy cycles at
       2.1-6.3 kN and 40-50 °C came out "unexplained" with the piston-force residual at
-      0.9 % of full scale (60× the noise-level residual of the same cycles with their
-      condition).
+      0.9 % of full scale (13× the 0.07 % of the same cycles with their condition,
+      50 ms means).
     """
     for r in records:
         if r.phase is None or not np.isin(r.phase, ("working", "return")).any():
