@@ -189,7 +189,7 @@ def _split(records: Sequence[SeriesRecord], rig: Rig) -> tuple[list[int], list[i
     least two records."""
     if len(records) < 2:
         return [0], []
-    key = [(condition_of(r, rig).load, condition_of(r, rig).oil_temperature) for r in records]
+    key = [(c.load, c.oil_temperature) for c in (condition_of(r, rig) for r in records)]
     timed = [timed_switch(r, rig) is not None for r in records]
     held: list[int] = []
     for kind in (False, True):

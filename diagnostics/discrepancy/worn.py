@@ -43,15 +43,13 @@ WORN_SOURCE = "re-fitted wear (discrepancy workflow; reported, not stored)"
 
 def worn_document(doc: Mapping[str, Any], wear: Drift) -> dict[str, Any]:
     """A copy of the rig document ``doc`` with the re-fitted wear parameters of ``wear``
-    (``role.name`` → value [SI]) written into its components."""
+    (``role.name`` → value in its SI unit) written into its components, each with that
+    unit (the document may state it in another, e.g. µm)."""
     out = copy.deepcopy(dict(doc))
     for p in wear.parameters:
         role, _, name = p.parameter.partition(".")
-        entry = out["components"][role]["parameters"][name]
-        if isinstance(entry, dict):
-            entry.update({"value": p.value, "source": WORN_SOURCE})
-        else:  # a bare number
-            out["components"][role]["parameters"][name] = p.value
+        out["components"][role]["parameters"][name] = {"value": p.value, "unit": p.unit,
+                                                       "source": WORN_SOURCE}
     return out
 
 
