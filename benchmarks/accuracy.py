@@ -18,6 +18,12 @@ another condition where no setting of its range could act):
   "not explained" (no confident name);
 * ``misspecified`` — in-library faults on a rig whose uncertain parameters are off by
   their stated uncertainty, diagnosed against the document: "not explained" expected;
+* ``incipient`` — a leaking component (seal, spool, pump, relief seat) between the rig
+  document's value and the start of the worn range (leakage × 1.1-1.33), on both rigs,
+  its own random draws: not in the library's worn ranges, so not an in-library figure;
+  a healthy answer or the component named (top, or stated by the explaining fit as
+  incipient wear) is right, "not explained" is wrong (it once said "better than the rig
+  document" of a seal a little worse than it);
 * ``commissioning`` — that mis-specified rig commissioned from six healthy transient
   records (3 loads × 2 temperatures, full sensors and the pump flow): share of the
   identifiable parameters whose 95 % interval holds the truth.
@@ -28,7 +34,8 @@ input error), input errors (a clear 422), top-1 (strict; and grouped, where pump
 relief-seat leakage count as one *only* when the diagnosis states that their signatures
 are parallel), truth in the ambiguity set, Brier (strict and grouped), share not explained
 (misfit), share *flagged* (no confident name: not explained, or the result states that a
-fault beyond the prior ranges explains the readings as well — the misfit-detection figure
+fault beyond the prior ranges explains the readings as well, or that the explaining fit
+lies below its worn range: incipient wear or a document off by that much — the misfit-detection figure
 of the out-of-library suites), share *untestable* (the result states that a misfit cannot
 be detected with these readings: as many parameters as readings, the velocity ratio alone;
 not counted as detected), per fault and per rig, the same without the stalled cases, the misses (truth →
@@ -65,6 +72,7 @@ import numpy as np
 from benchmarks.accuracy_cases import (
     BEYOND,
     IN_LIBRARY,
+    INCIPIENT,
     Case,
     differential_document,
     draw_fault,
@@ -149,13 +157,16 @@ def score(case: Case, d: Diagnosis) -> dict[str, Any]:
     detail = {"best_fit": d.top.name, "p_best": d.top.probability,
               "fitted": [(e.name, e.value, e.multiple, e.at_bound) for e in d.top.parameters],
               "chi2": None if fit is None else fit.chi2, "dof": None if fit is None else fit.dof,
-              "gof_hypothesis": None if fit is None else fit.hypothesis}
+              "gof_hypothesis": None if fit is None else fit.hypothesis,
+              "incipient": [] if fit is None or fit.incipient is None else
+              sorted(PARAMETERS[p].component for p in fit.incipient.incipient)}
     # flagged: no confident name — not explained, or a fault beyond the prior ranges stated
-    # to explain the readings as well by a tested fit; an untestable fit (as many
+    # to explain the readings as well by a tested fit, or the explaining fit placed below
+    # its worn range (incipient, or a document off by that much); an untestable fit (as many
     # parameters as readings) is no detection, whatever it states, and is counted apart
     testable = float(fit.testable) if fit is not None else 1.0
-    flagged = float(not explained or (fit is not None and bool(fit.beyond_range)
-                                      and fit.testable))
+    flagged = float(not explained or (fit is not None and fit.testable and (
+        bool(fit.beyond_range) or fit.incipient is not None)))
     return {"top": top, "top1": hit, "top1_grouped": hit_g, "explained": float(explained),
             "flagged": flagged, "testable": testable, "detail": detail,
             "in_set": float(case.truth in d.isolability.ambiguity_set),
@@ -198,6 +209,31 @@ def run_case(rig_model: Rig, rig_true: Rig, case: Case, rng: np.random.Generator
         rows[sname].append(row)
 
 
+def incipient_answers(rows: list[dict[str, Any]]) -> dict[str, float]:
+    """Shares of the incipient suite's answers: not explained (the defect this suite
+    guards against), healthy, the truth named as the top hypothesis, the truth's
+    component stated as incipient wear by the explaining fit, and the truth named either
+    way (printed)."""
+    ok = [r for r in rows if r["error"] is None]
+    if not ok:
+        return {}
+
+    def share(pred: Any) -> float:
+        return float(np.mean([pred(r) for r in ok]))
+
+    def stated(r: dict[str, Any]) -> bool:
+        comp = "relief" if r["truth"] == "relief_seat" else r["truth"]
+        return comp in r["detail"]["incipient"]
+
+    out = {"not_explained": share(lambda r: r["top"] == "unexplained"),
+           "healthy": share(lambda r: r["top"] == "healthy"),
+           "top_is_truth": share(lambda r: r["top"] == r["truth"]),
+           "incipient_stated": share(stated),
+           "truth_named": share(lambda r: r["top"] == r["truth"] or stated(r))}
+    print("  answers: " + ", ".join(f"{k} {v:.3f}" for k, v in out.items()))
+    return out
+
+
 def healthy_pressure(rig: Rig, load: float, temp: float) -> float:
     """Healthy pump pressure [Pa] (steady), to draw relief settings that act."""
     return float(evaluator(rig, Condition(load=load, oil_temperature=temp)).nominal()[
@@ -216,8 +252,11 @@ def run_suites(n: dict[str, int], rng: np.random.Generator
             ("differential", ["differential"], IN_LIBRARY, False, False),
             ("beyond_range", ["preset", "differential"], BEYOND, True, False),
             ("misspecified", ["preset", "differential"], IN_LIBRARY, False, True)]
+    plan.append(("incipient", ["preset", "differential"], INCIPIENT, False, False))
     for suite, rig_names, truths, beyond, misspec in plan:
-        for k in range(n[suite]):
+        if suite == "incipient":  # its own draws: the other suites' stay as they were
+            rng = rng.spawn(1)[0]
+        for k in range(n.get(suite, 0)):
             rname = rig_names[k % len(rig_names)]
             model = rigs[rname]
             true_rig = misspecified_rig(docs[rname], rng)[0] if misspec else model
@@ -231,8 +270,10 @@ def run_suites(n: dict[str, int], rng: np.random.Generator
                 # differ from the equal prior probabilities the diagnosis states)
                 if truth != "relief_setting" or pressure >= RELIEF_MIN * model.base["relief.Pset"]:
                     break
-            ov, params = draw_fault(model, truth, rng, beyond=beyond, pump_pressure=pressure)
-            case = Case(suite, rname, truth, not (beyond or misspec), ov, params, load, temp)
+            ov, params = draw_fault(model, truth, rng, beyond=beyond, pump_pressure=pressure,
+                                    incipient=suite == "incipient")
+            case = Case(suite, rname, truth, not (beyond or misspec or suite == "incipient"),
+                        ov, params, load, temp)
             run_case(model, true_rig, case, rng, rows)
     stalled = sum(1 for r in rows["full"] if r["stalled"])
     return rows, stalled
@@ -273,7 +314,8 @@ def commissioning_suite(seeds: int, rng: np.random.Generator) -> dict[str, Any]:
 def report(rows: dict[str, list[dict[str, Any]]]) -> dict[str, Any]:
     figures: dict[str, Any] = {}
     suites = sorted({r["suite"] for rs in rows.values() for r in rs},
-                    key=["preset", "differential", "beyond_range", "misspecified"].index)
+                    key=["preset", "differential", "beyond_range", "misspecified",
+                         "incipient"].index)
     for suite in suites:
         print(f"\n== {suite} ==")
         print(f"{'sensor set':16s} {'n':>4s} {'5xx':>4s} {'422':>4s} {'top-1':>6s} "
@@ -296,6 +338,8 @@ def report(rows: dict[str, list[dict[str, Any]]]) -> dict[str, Any]:
                   + f" {s.get('untestable', float('nan')):6.3f}")
             if sel and sel[0]["in_library"]:
                 figures[suite][sname]["without_stalled"] = moving_figures(sel)
+            if suite == "incipient":
+                figures[suite][sname]["answers"] = incipient_answers(sel)
             figures[suite][sname]["misses"] = confusions(sel)
             if sel and sel[0]["in_library"]:
                 figures[suite][sname]["miss_reasons"] = miss_reasons(sel)
@@ -339,8 +383,10 @@ def report(rows: dict[str, list[dict[str, Any]]]) -> dict[str, Any]:
 
 def main() -> None:
     light = os.environ.get("HYDRODIAG_LIGHT") == "1"
-    n = {"preset": 40, "differential": 40, "beyond_range": 20, "misspecified": 20} if light \
-        else {"preset": 400, "differential": 400, "beyond_range": 150, "misspecified": 150}
+    n = {"preset": 40, "differential": 40, "beyond_range": 20, "misspecified": 20,
+         "incipient": 20} if light \
+        else {"preset": 400, "differential": 400, "beyond_range": 150, "misspecified": 150,
+              "incipient": 160}
     seeds = 6 if light else 40
     rng = np.random.default_rng(20261123)
     t_start = time.perf_counter()
@@ -349,8 +395,9 @@ def main() -> None:
     print("top-1* and Brier* count pump and relief-seat leakage as one only where the "
           "diagnosis states their signatures are parallel; 'misfit' = share not explained "
           "(no name given); 'flagged' = no confident name (not explained, or the result states "
-          "that a fault beyond the prior ranges explains the readings as well: the misfit "
-          "detection figure); 'untest' = the result states that a misfit cannot be detected "
+          "that a fault beyond the prior ranges explains the readings as well, or that the "
+          "explaining fit lies below its worn range: the misfit detection figure); "
+          "'untest' = the result states that a misfit cannot be detected "
           "with these readings (as many parameters as readings: not counted as detected); "
           "5xx = server errors, 422 = input errors; E[B*] = the Brier "
           "score the stated probabilities predict for themselves (mean 1 − Σp²; equal to "

@@ -43,13 +43,15 @@ from sim.cycle import run_cycle
 from sim.errors import SimulationError
 from sim.rigs import Condition, Rig, load_rig, reference_rig_document
 
-__all__ = ["IN_LIBRARY", "Case", "TransientReadings", "differential_document", "draw_fault",
+__all__ = ["INCIPIENT", "IN_LIBRARY", "Case", "TransientReadings", "differential_document", "draw_fault",
            "draw_truth", "fault_size",
            "misspecified_rig", "noisy", "stated_condition", "transient_readings"]
 
 IN_LIBRARY = ("healthy", "cylinder", "valve", "pump", "relief_seat", "relief_setting",
               "cylinder+valve", "cylinder+pump", "valve+pump")
 BEYOND = ("cylinder", "valve", "pump", "relief_seat", "relief_setting")
+#: leakage faults drawn between the document's value and the worn range
+INCIPIENT = ("cylinder", "valve", "pump", "relief_seat")
 
 
 @dataclass
@@ -107,14 +109,26 @@ def _prior_value(rig: Rig, name: str, rng: np.random.Generator) -> float:
 
 
 def draw_fault(rig: Rig, truth: str, rng: np.random.Generator, *, beyond: bool,
-               pump_pressure: float) -> tuple[dict[str, float], dict[str, float]]:
+               pump_pressure: float, incipient: bool = False
+               ) -> tuple[dict[str, float], dict[str, float]]:
     """(graph overrides, true parameters in reported units) of ``truth`` on ``rig``.
 
     In the library (``beyond=False``) from the diagnosis's prior (module docstring); a
     relief setting from the part of its worn range below ``pump_pressure`` [Pa] (the
     healthy pump pressure at the case's condition), where it opens.  Beyond the ranges
     (``beyond=True``): clearances × 4.5-6, leakage factors 30-60, a setting 0.15-0.25 P0.
+    Incipient (``incipient=True``, leakage faults only): between the document's value and
+    the start of the worn range — leakage × 1.1-1.33 (log-uniform), a seat leak 0.1-0.33.
     """
+    if incipient:
+        name = {"cylinder": "cc", "valve": "cv", "pump": "pump_leak",
+                "relief_seat": "seat_leak"}[truth]
+        leak = _log_uniform(rng, 1.1, 1.33) if name != "seat_leak" else \
+            _log_uniform(rng, 0.1, 0.33)
+        value = rig.base[PARAMETERS[name].graph_param] * leak ** (1 / 3) \
+            if name in ("cc", "cv") else leak
+        return ({PARAMETERS[name].graph_param: PARAMETERS[name].graph_value(rig, value)},
+                {name: value})
     ov: dict[str, float] = {}
     params: dict[str, float] = {}
     for comp in truth.split("+"):

@@ -119,6 +119,12 @@ class GoodnessOfFit:
         outside the library's ranges that the readings allow as well (a relief setting
         below 0.3 × nominal on a held piston reads as a worn spool without flow meters).
         When there is one, the name is not a confident answer: the statement says so.
+    incipient
+        The range test of the explaining hypothesis when the readings place one of its
+        parameters between the rig document's value and the start of its worn range
+        (:func:`diagnostics.range_test._incipient`): wear too small for the worn range,
+        or a rig document off by that much.  ``chi2`` is then the χ² at those values;
+        the name is not a confident answer and the statement says why.
     disagreements
         Readings of the tested fit beyond 3 σ, worst first (the worst three when none is).
     statement
@@ -137,11 +143,14 @@ class GoodnessOfFit:
     testable: bool = True
     range_tests: list[RangeTest] = field(default_factory=list)
     beyond_range: list[RangeTest] = field(default_factory=list)
+    incipient: RangeTest | None = None
 
     @property
     def confident(self) -> bool:
-        """Explained, by a χ² test, with no explanation beyond the prior ranges as good."""
-        return self.explained and self.testable and not self.beyond_range
+        """Explained, by a χ² test, with no explanation beyond the prior ranges as good
+        and no value of the explaining fit below its worn range."""
+        return (self.explained and self.testable and not self.beyond_range
+                and self.incipient is None)
 
 
 def _p_value(chi2: float, dof: int) -> float:
@@ -219,18 +228,28 @@ def goodness_of_fit(ranker: Ranker, fits: list[HypothesisFit], level: float = TE
             tests.append(rt)
             if rt.rejected:
                 continue
-        passed = (testable, p, f, dof)
+        passed = (testable, p, f, dof, rt if rt is not None and rt.incipient else None)
         break
+    if passed is None:
+        passed = _incipient_pass(ranker, scored, tests, level)
     explained = passed is not None
+    incipient = None
+    chi2 = math.nan
     if passed is not None:
-        testable, p, best, dof = passed
+        testable, p, best, dof, incipient = passed
+        if incipient is None:
+            chi2 = best.chi2
+        else:  # the χ² at the values between the document's and the worn range's start
+            chi2 = incipient.chi2_document
+            p = _p_value(chi2, dof) if dof >= 1 else p
     else:
         testable, p, _, best, dof = max(scored, key=lambda s: (s[0], s[1], -s[2]))
+        chi2 = best.chi2
     limit = _limit(level, dof) if dof >= 1 else math.inf
     beyond = _beyond_range(ranker, cands, tests, level)
     dis = _disagreements(ranker, best)
     if explained and testable:
-        statement = (f"the readings are consistent with {best.name} (χ² = {best.chi2:.3g} on "
+        statement = (f"the readings are consistent with {best.name} (χ² = {chi2:.3g} on "
                      f"{dof} degrees of freedom, limit {limit:.3g} at the {level:.0%} level)")
     elif explained:
         statement = (
@@ -242,6 +261,8 @@ def goodness_of_fit(ranker: Ranker, fits: list[HypothesisFit], level: float = TE
             "reading (a pressure, a flow) to test the fit")
     else:
         statement = _misfit_statement(ranker, cands, best, dof, limit, level, dis, tests)
+    if incipient is not None:
+        statement += _incipient_clause(ranker, incipient)
     if beyond:
         statement += (
             (" " if statement.endswith(".") else ". ")
@@ -254,9 +275,54 @@ def goodness_of_fit(ranker: Ranker, fits: list[HypothesisFit], level: float = TE
                "answer: check "
                + " and ".join(sorted({c for t in beyond for c in _components(t)}))
                + " directly" if explained else "") + ".")
-    return GoodnessOfFit(best.name, float(best.chi2), max(dof, 0), level, limit, p,
+    return GoodnessOfFit(best.name, float(chi2), max(dof, 0), level, limit, p,
                          explained, dis, statement, bool(testable or not explained), tests,
-                         beyond)
+                         beyond, incipient)
+
+
+def _incipient_pass(ranker: Ranker, scored: list[tuple[bool, float, float, HypothesisFit,
+                                                      int]],
+                    tests: list[RangeTest], level: float
+                    ) -> tuple[bool, float, HypothesisFit, int, RangeTest] | None:
+    """When no hypothesis passes: the first (in the order tried) whose fit sits on the
+    healthy end of its worn range and whose χ² with the values its range test finds
+    between the rig document's and that end passes the test — incipient wear, or a
+    rig document off by that much (:func:`diagnostics.range_test._incipient`).  Range
+    tests run here are added to ``tests``."""
+    done = {t.hypothesis: t for t in tests}
+    for testable, p, _, f, dof in scored:
+        if not f.parameters or not any(side == "healthy" for _, side in pinned(ranker, f)):
+            continue
+        rt = done.get(f.name)
+        if rt is None:
+            rt = range_test(ranker, f, level)
+            if rt is None:
+                continue
+            tests.append(rt)
+        if rt.rejected or not rt.incipient:
+            continue
+        chi2 = rt.chi2_document
+        lim = _limit(level, dof) if testable else _limit(level, ranker.n_obs)
+        if chi2 <= lim:
+            return testable, p, f, dof, rt
+    return None
+
+
+def _incipient_clause(ranker: Ranker, rt: RangeTest) -> str:
+    """The statement's clause on values below the worn range (:attr:`GoodnessOfFit.
+    incipient`)."""
+    parts = []
+    for name, value in rt.incipient.items():
+        par = PARAMETERS[name]
+        worn = par.worn_bounds(ranker.rig)[0]
+        unit = "" if par.unit == "1" else f" {par.unit}"
+        parts.append(f"{name} = {value:.4g}{unit} (the rig document {par.nominal_value(ranker.rig):.4g}"
+                     f"{unit}, the worn range from {worn:.4g}{unit})")
+    comps = sorted({PARAMETERS[n].component for n in rt.incipient})
+    return (f", with {' and '.join(parts)} below the worn range: incipient wear of the "
+            f"{' and '.join(comps)}, or a rig document off by that much; not a confident "
+            "name: watch the trend, and commission a new or rebuilt rig from healthy "
+            "records (`hydrodiag commission`, POST /rigs/{id}/commission)")
 
 
 def _components(t: RangeTest) -> set[str]:

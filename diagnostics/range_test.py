@@ -7,7 +7,12 @@ likelihood still rises outward — the readings then ask for a fault beyond the 
 range (a leakage past 20 × nominal, a relief setting below 0.3 × nominal), or for a
 component better than the rig document says (a seal length off its stated value reads as
 a clearance below nominal).  Neither is the hypothesis as stated, so neither is a
-confident answer.
+confident answer.  Between the rig document's value and the start of the worn range
+(leakage × 1 … 1.33) lies wear too small for the worn range: a fit pinned on that healthy
+end is tested again against the document's value (:func:`_incipient`); readings that ask
+for a value in between are *incipient* wear of the component (or a document off by that
+much), which the goodness-of-fit test states as such instead of "better than the rig
+document".
 
 The test is the likelihood-ratio test of the range constraint (Self & Liang 1987,
 *J. Am. Stat. Assoc.* 82:605, the boundary case): with χ²_b the χ² at the bounded
@@ -73,8 +78,11 @@ class RangeTest:
     parameters
         Its parameters pinned at a bound.
     sides
-        For each: ``"severe"`` (the fault would be larger than the range allows) or
-        ``"healthy"`` (the component would be better than the rig document says).
+        For each: ``"severe"`` (the fault would be larger than the range allows),
+        ``"healthy"`` (the component would be better than the rig document says),
+        ``"incipient"`` (between the rig document's value and the start of the worn
+        range: wear too small for the library's worn range, or a document off by that
+        much) or ``"document"`` (at the document's value: not worn; :func:`_incipient`).
     chi2_bounded, chi2_extended
         χ² at the bounded estimate and at the best fit with the ranges extended [-].
     statistic
@@ -84,9 +92,17 @@ class RangeTest:
     limit
         χ²_{1-α}(m) [-].
     rejected
-        Λ > limit: the readings ask for a value beyond the range.
+        Λ > limit: the readings ask for a value beyond the range (for ``"incipient"``
+        parameters the range extended to the rig document's value holds, so the test
+        does not reject).
     extended
-        The best values beyond the range, by parameter [unit of the parameter].
+        The best values beyond the range, by parameter [unit of the parameter]; with
+        ``"incipient"`` parameters, the best values with the range extended to the rig
+        document's value.
+    chi2_document
+        Best χ² with the healthy-side ranges extended only to the rig document's value
+        (:func:`_incipient`; NaN where that test was not needed) [-]: the hypothesis's χ²
+        with its ``"incipient"`` values.
     """
 
     hypothesis: str
@@ -99,16 +115,33 @@ class RangeTest:
     limit: float
     rejected: bool
     extended: dict[str, float] = field(default_factory=dict)
+    chi2_document: float = math.nan
 
     def describe(self) -> str:
         """One clause for a reader."""
         what = ", ".join(
-            f"{p} {'beyond its worn range' if s == 'severe' else 'better than the rig document'}"
-            f" (best {self.extended.get(p, math.nan):.4g})"
+            f"{p} {_SIDE_WORDS[s]} (best {self.extended.get(p, math.nan):.4g})"
             for p, s in zip(self.parameters, self.sides, strict=True))
         return (f"{self.hypothesis} sits on the bound of its prior and its likelihood still "
                 f"rises past it ({what}: χ² {self.chi2_bounded:.3g} → "
                 f"{self.chi2_extended:.3g}, Λ = {self.statistic:.3g} > {self.limit:.3g})")
+
+    @property
+    def incipient(self) -> dict[str, float]:
+        """The parameters the readings place between the rig document's value and the
+        start of the worn range (incipient wear), with those values [unit]; empty when
+        the test rejects the range."""
+        if self.rejected:
+            return {}
+        return {p: self.extended[p] for p, s in zip(self.parameters, self.sides, strict=True)
+                if s == "incipient"}
+
+
+#: how :meth:`RangeTest.describe` words each side
+_SIDE_WORDS = {"severe": "beyond its worn range",
+               "healthy": "better than the rig document",
+               "incipient": "below its worn range, worse than the rig document",
+               "document": "at the rig document's value, not worn"}
 
 
 def _bounds(ranker: Ranker, p: FaultParameter) -> tuple[float, float, float, float]:
@@ -300,11 +333,71 @@ def range_tests(ranker: Ranker, fits: list[HypothesisFit], level: float
         m = len(pl.used)
         limit = float(2.0 * gammaincinv(0.5 * m, 1.0 - level))
         stat = chi2_b - chi2_e if math.isfinite(chi2_b) else math.inf
+        sides = [s for _, s in pl.used]
+        rejected = bool(stat > limit)
+        chi2_d = math.nan
+        if rejected and "healthy" in sides:
+            ze, chi2_d, sides, rejected = _incipient(ranker, pl, ze, chi2_e, limit)
         out.append(RangeTest(
-            pl.fit.name, [pl.params[i].name for i, _ in pl.used], [s for _, s in pl.used],
-            chi2_b, chi2_e, stat, m, limit, bool(stat > limit),
-            {pl.params[i].name: pl.params[i].from_z(float(ze[i])) for i, _ in pl.used}))
+            pl.fit.name, [pl.params[i].name for i, _ in pl.used], sides,
+            chi2_b, chi2_e, stat, m, limit, rejected,
+            {pl.params[i].name: pl.params[i].from_z(float(ze[i])) for i, _ in pl.used},
+            chi2_d))
     return out
+
+
+def _document_z(ranker: Ranker, p: FaultParameter) -> float:
+    """The rig document's value of ``p`` in fitting coordinates (−∞ where the document
+    has none: no seat leak)."""
+    nominal = p.nominal_value(ranker.rig)
+    return p.to_z(nominal) if nominal > 0.0 or not p.log else -math.inf
+
+
+def _incipient(ranker: Ranker, pl: _Plan, ze: Arr, chi2_e: float, limit: float
+               ) -> tuple[Arr, float, list[str], bool]:
+    """A range rejected on its healthy side, tested again against the rig document.
+
+    The worn range starts at the ``none`` severity limit (leakage × 1.33), not at the
+    rig document's value; a component between the two is worn a little, or its document
+    is off by that much, not "better than the rig document".  The constraint tested is
+    then each healthy-side parameter ≥ its document value (the severe-side ones within
+    their ranges, as before): χ²_d, the best χ² under it, against χ²_e as in the module
+    docstring.  When χ²_d − χ²_e ≤ ``limit``, the healthy-side parameters whose best
+    value under the constraint lies below the worn range are ``"incipient"``, at those
+    values, and the range holds; one that sits on its document value is ``"document"``
+    (the component is as built, the hypothesis blames it wrongly: rejected).  Otherwise
+    rejected, each healthy-side parameter named by where its extended best lies.
+
+    Returns the values (fitting coordinates), χ²_d, sides and whether the range is
+    rejected.
+    """
+    zdoc = np.array([_document_z(ranker, p) for p in pl.params])
+    zl = np.array([_bounds(ranker, p)[0] for p in pl.params])
+    zu = np.array([_bounds(ranker, p)[1] for p in pl.params])
+    lo, hi = pl.zle.copy(), pl.zue.copy()
+    for i, side in pl.used:
+        if side == "healthy":
+            lo[i] = max(float(zdoc[i]), float(pl.zle[i]))
+        else:
+            hi[i] = zu[i]
+    if bool(np.all((ze >= lo) & (ze <= hi))):
+        zd, chi2_d = ze, chi2_e
+    elif len(pl.params) == 1:
+        zd = np.clip(ze, lo, hi)
+        chi2_d = float(chi2_points(ranker, list(pl.params), zd)[0])
+    else:
+        zd, chi2_d, _, _ = levenberg_marquardt(ranker.models, pl.params,
+                                               np.clip(ze, lo, hi), lo, hi)
+    tol = PIN_TOL * (zu - zl)
+    if math.isfinite(chi2_d) and chi2_d - chi2_e <= limit:
+        sides = [side if side != "healthy" else
+                 "document" if zd[i] <= zdoc[i] + tol[i] else
+                 "incipient" if zd[i] < zl[i] - tol[i] else side
+                 for i, side in pl.used]
+        return np.asarray(zd, dtype=np.float64), chi2_d, sides, "document" in sides
+    sides = [side if side != "healthy" or ze[i] < zdoc[i] else "incipient"
+             for i, side in pl.used]
+    return ze, chi2_d, sides, True
 
 
 def _search_1d(ranker: Ranker, plans: list[_Plan]) -> list[tuple[float, float, float]]:

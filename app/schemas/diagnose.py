@@ -265,8 +265,11 @@ class RangeTestPublic(BaseModel):
     parameters: list[str] = Field(description="Its parameters pinned on a bound [-]",
                                   examples=[["pump_leak"]])
     sides: list[str] = Field(
-        description="Per parameter: 'severe' (a fault larger than the prior allows) or "
-        "'healthy' (a component better than the rig document says) [-]",
+        description="Per parameter: 'severe' (a fault larger than the prior allows), "
+        "'healthy' (a component better than the rig document says), 'incipient' (between "
+        "the rig document's value and the start of the worn range: wear too small for the "
+        "worn range, or a document off by that much) or 'document' (at the document's "
+        "value: the component is not worn) [-]",
         examples=[["severe"]])
     chi2_bounded: float | None = Field(description="χ² at the bounded estimate [-]",
                                        examples=[320.8])
@@ -281,6 +284,10 @@ class RangeTestPublic(BaseModel):
     extended: dict[str, float | None] = Field(
         description="Best values beyond the range, by parameter [unit of the parameter, "
         "see the hypothesis's parameters]", examples=[{"pump_leak": 30.1}])
+    chi2_document: float | None = Field(
+        default=None, description="Best χ² with the healthy-side ranges extended only to "
+        "the rig document's value; null where that test was not needed [-]",
+        examples=[None])
 
 
 class GoodnessOfFitPublic(BaseModel):
@@ -315,6 +322,11 @@ class GoodnessOfFitPublic(BaseModel):
         default_factory=list, description="Single faults beyond their prior range that "
         "explain the readings as well; when any, the name is not a confident answer [-]",
         examples=[[]])
+    incipient: RangeTestPublic | None = Field(
+        default=None, description="Range test of the explaining hypothesis when the "
+        "readings place a parameter between the rig document's value and the start of its "
+        "worn range (incipient wear, or a document off by that much); χ² is then taken "
+        "there, and the name is not a confident answer [-]", examples=[None])
 
 
 class DiagnosisPublic(BaseModel):

@@ -119,3 +119,26 @@ def test_a_relief_setting_below_its_prior_is_said_over_http_and_stored(
     assert stored.status_code == 200
     assert stored.json()["result"]["goodness_of_fit"]["beyond_range"] == \
         d["result"]["goodness_of_fit"]["beyond_range"]
+
+
+def test_incipient_seal_wear_is_said_over_http_and_stored(server: LiveServer) -> None:
+    """The reference rig's seal at leakage 1.2 × nominal (past the document, short of the
+    worn range), steady readings: explained by the cylinder fit below its worn range —
+    the response and the stored result carry the incipient range test, the statement says
+    so, and the answer is not a confident one."""
+    cc = 83e-6 * 1.2 ** (1 / 3)
+    record = steady_record(server, 1, {"cylinder.cc": cc}, 4200.0, 45.0)
+    assert record is not None
+    response = server.client.post("/diagnose", json={"record": record})
+    assert response.status_code == 200, response.text
+    (d,) = response.json()["diagnoses"]
+    gof = d["goodness_of_fit"]
+    assert gof["explained"] is True and d["result"]["confident"] is False
+    assert gof["hypothesis"] == "cylinder"
+    inc = gof["incipient"]
+    assert inc["sides"] == ["incipient"] and inc["rejected"] is False
+    assert inc["extended"]["cc"] == pytest.approx(cc, rel=5e-3)
+    assert "incipient wear of the cylinder" in gof["statement"]
+    stored = server.client.get(f"/diagnoses/{d['id']}")
+    assert stored.json()["result"]["goodness_of_fit"]["incipient"] == \
+        d["result"]["goodness_of_fit"]["incipient"]

@@ -138,3 +138,25 @@ def test_the_calibration_error_weights_each_decile_by_its_cases() -> None:
     # [lo, hi, n, mean stated p, observed]: |0.35-0.25|·2 + |0.95-1.0|·8 over 10 cases
     rel = [[0.3, 0.4, 2, 0.35, 0.25], [0.9, 1.0, 8, 0.95, 1.0]]
     assert calibration_error(rel) == pytest.approx((2 * 0.10 + 8 * 0.05) / 10)
+
+
+def test_incipient_faults_lie_between_the_document_and_the_worn_range():
+    """The incipient suite's draws: leakage × 1.1-1.33 (seat leak 0.1-0.33), i.e. past the
+    document's value and short of the worn range where each hypothesis starts."""
+    from benchmarks.accuracy_cases import INCIPIENT, draw_fault
+    from diagnostics.hypotheses import PARAMETERS
+    from sim.rigs import reference_rig
+
+    rig = reference_rig()
+    rng = np.random.default_rng(4)
+    for truth in INCIPIENT:
+        for _ in range(20):
+            ov, params = draw_fault(rig, truth, rng, beyond=False, pump_pressure=1e7,
+                                    incipient=True)
+            ((name, value),) = params.items()
+            par = PARAMETERS[name]
+            worn_start = par.worn_bounds(rig)[0]
+            assert par.nominal_value(rig) < value < worn_start
+            leak = (value / par.nominal_value(rig)) ** 3 if name in ("cc", "cv") else value
+            assert (0.1 if name == "seat_leak" else 1.1) <= leak <= 1.33
+            assert ov == {par.graph_param: par.graph_value(rig, value)}

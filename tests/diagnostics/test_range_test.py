@@ -221,3 +221,76 @@ def test_a_second_record_at_the_same_condition_reuses_the_first_grids(rig, monke
         if a is not None and b is not None:
             assert a.chi2_extended == pytest.approx(b.chi2_extended, rel=1e-9, abs=1e-9)
             assert a.rejected == b.rejected
+
+
+def test_wear_below_the_worn_range_is_incipient_not_better_than_the_document(rig):
+    """A piston seal whose leakage is 1.2 × nominal (cc 1.063 × c0): past the document's
+    value, short of the worn range (from leakage 1.33 ×).  Noise-free, full sensors: the
+    cylinder fit sits on the healthy end of its worn range; tested against the document's
+    value the range holds, the readings place cc between the two (at the truth, to the
+    solver's accuracy), the readings are explained by the cylinder fit there — incipient,
+    not a confident name — where they were once "not explained: cc better than the rig
+    document" (found diagnosing a seal that wears week by week)."""
+    c0 = rig.base["cylinder.cc"]
+    truth = c0 * 1.2 ** (1 / 3)
+    rec = record(rig, {"cylinder.cc": truth}, load=4200.0, temperature=45.0)
+    ranker, fits = _ranked(rig, rec)
+    cyl = next(f for f in fits if f.name == "cylinder")
+    assert pinned(ranker, cyl) == [(0, "healthy")]
+    rt = range_test(ranker, cyl, TEST_LEVEL)
+    assert rt is not None and not rt.rejected and rt.sides == ["incipient"]
+    assert rt.statistic > rt.limit  # the worn range's start alone is rejected
+    assert rt.incipient["cc"] == pytest.approx(truth, rel=2e-3)
+    assert rt.chi2_document < 1e-2  # noise-free: exact there
+    d = diagnose(rig, [rec])
+    # the probabilities rank the worn hypotheses (the gap has no prior mass): the
+    # explaining fit is named by the goodness-of-fit test and its statement
+    assert d.explained and d.fit is not None and d.fit.hypothesis == "cylinder"
+    assert not d.fit.confident and d.fit.incipient is not None
+    assert "incipient wear of the cylinder" in d.fit.statement
+    assert "better than the rig document" not in d.fit.statement
+
+
+def test_a_joint_visit_at_incipient_wear_is_explained_by_the_second_pass(rig):
+    """Three records (2.1 / 4.2 / 6.3 kN) of the same seal at leakage 1.2 × nominal, with
+    instrument noise: at the start of the worn range the cylinder fit fails the χ² test
+    outright, so only the second pass (fits on the healthy end of their worn range,
+    tested at the values their range test finds) explains them — as incipient cylinder
+    wear, with the χ² taken there."""
+    rng = np.random.default_rng(21)
+    truth = rig.base["cylinder.cc"] * 1.2 ** (1 / 3)
+    recs = [record(rig, {"cylinder.cc": truth}, load=load, temperature=t, rng=rng)
+            for load, t in ((2100.0, 35.0), (4200.0, 45.0), (6300.0, 50.0))]
+    d = diagnose(rig, recs)
+    cyl = next(f for f in d.hypotheses if f.name == "cylinder")
+    assert d.fit is not None and d.fit.incipient is not None
+    assert cyl.chi2 > d.fit.limit  # at the bound: fails
+    assert d.explained and d.fit.hypothesis == "cylinder" and d.fit.chi2 <= d.fit.limit
+    assert d.fit.incipient.incipient["cc"] == pytest.approx(truth, rel=0.02)
+
+
+def test_a_component_better_than_its_document_is_still_not_explained(rig):
+    """A piston seal tighter than the document says (cc 0.8 × c0: a rig document whose
+    clearance is off), noise-free: below the document's value the range test still
+    rejects the cylinder ('better than the rig document'), and nothing else explains
+    the readings."""
+    rec = record(rig, {"cylinder.cc": 0.8 * rig.base["cylinder.cc"]}, load=4200.0)
+    ranker, fits = _ranked(rig, rec)
+    cyl = next(f for f in fits if f.name == "cylinder")
+    rt = range_test(ranker, cyl, TEST_LEVEL)
+    assert rt is not None and rt.rejected and rt.sides == ["healthy"]
+    assert rt.extended["cc"] == pytest.approx(0.8 * rig.base["cylinder.cc"], rel=2e-3)
+    assert rt.chi2_document - rt.chi2_extended > rt.limit
+
+
+def test_a_component_at_its_document_value_is_not_worn(rig):
+    """Noise-free healthy readings: a cylinder fit pinned on the healthy end of its worn
+    range finds the document's value beyond it — the cylinder is as built, the
+    hypothesis that blames it is rejected ('document'), not called incipient."""
+    rec = record(rig, {}, load=4200.0)
+    ranker, fits = _ranked(rig, rec)
+    cyl = next(f for f in fits if f.name == "cylinder")
+    rt = range_test(ranker, cyl, TEST_LEVEL)
+    assert rt is not None and rt.rejected and rt.sides == ["document"]
+    assert rt.incipient == {}
+    assert "at the rig document's value" in rt.describe()
