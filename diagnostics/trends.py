@@ -28,7 +28,8 @@ Time left (:func:`forecast_threshold`)
     ``"not_worsening"``      slope ≤ 0 in the worsening direction: ``time_left = inf``;
                              ``time_left_low`` is still the earliest crossing the slope
                              interval allows (inf if none);
-    ``"crossed"``            the fitted value at ``now`` is already past the threshold;
+    ``"crossed"``            the fitted value at ``now`` is already past the threshold
+                             (``crossed_at``: when the fitted line crossed it);
     ``"insufficient_data"``  fewer than :data:`MIN_POINTS` distinct times.
 """
 
@@ -264,6 +265,10 @@ class ThresholdForecast:
         The trend, or ``None`` with insufficient data.
     message
         One sentence for the report.
+    crossed_at
+        ``"crossed"``: when the fitted line crossed the threshold [s, the series' time
+        origin]; NaN otherwise, or when the line does not worsen (a level already past
+        the threshold).
     """
 
     status: Status
@@ -275,6 +280,7 @@ class ThresholdForecast:
     time_left_high: float
     fit: TrendFit | None
     message: str
+    crossed_at: float = math.nan
 
 
 def _time_to(fit: TrendFit, threshold: float, slope: float, now: float) -> float:
@@ -323,9 +329,15 @@ def forecast_threshold(series: TrendSeries, threshold: float, *,
     latest = _time_to(f, thr, f.slope_low, t_ref)
     unit = series.unit
     if f.value_at(t_ref) >= thr:
+        # when the fitted line crossed: before the reference time, or (a level already
+        # past the threshold that does not rise) not on this line
+        crossed = f.pivot_time + (thr - f.pivot_value) / f.slope if f.slope > 0.0 \
+            else math.nan
+        when = (f"; the fitted line crossed it {t_ref - crossed:.3g} s before the reference "
+                "time" if math.isfinite(crossed) else "")
         return ThresholdForecast("crossed", threshold, direction, t_ref, 0.0, 0.0, 0.0, fit,
                                  f"{series.quantity} is past {threshold:.4g} {unit} on the "
-                                 "fitted trend")
+                                 f"fitted trend{when}", crossed)
     if f.slope <= 0.0:
         return ThresholdForecast("not_worsening", threshold, direction, t_ref, math.inf,
                                  earliest, math.inf, fit,

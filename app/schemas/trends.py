@@ -49,8 +49,11 @@ class ComponentTrend(BaseModel):
     threshold_source: str = Field(
         description="'given', or how the default was derived from the rig [-]",
         examples=["default: 1.6 × nominal clearance (leakage ×4.1, 'severe')"])
-    status: Literal["worsening", "not_worsening", "crossed", "insufficient_data"] = Field(
-        description="Which case of diagnostics.trends.forecast_threshold applies [-]",
+    status: Literal["worsening", "not_worsening", "crossed", "insufficient_data",
+                    "stale"] = Field(
+        description="Which case of diagnostics.trends.forecast_threshold applies, or "
+        "'stale': at least 3 later diagnoses of the rig gave no estimate of this component "
+        "(its hypothesis did not fit their readings), so nothing is forecast [-]",
         examples=["worsening"])
     time_left_s: float | None = Field(
         description="Time from the last visit to the crossing on the fitted line; null when "
@@ -62,8 +65,11 @@ class ComponentTrend(BaseModel):
         description="Latest crossing the slope interval allows; null when never or unknown [s]",
         examples=[9.3e7])
     crossing_at: datetime | None = Field(
-        description="Date of the crossing on the fitted line [UTC]",
-        examples=["2027-11-22T08:30:00Z"])
+        description="Date of the crossing on the fitted line; for 'crossed', when the line "
+        "crossed the threshold [UTC]", examples=["2027-11-22T08:30:00Z"])
+    later_diagnoses: int = Field(
+        default=0, ge=0, description="Diagnoses of the rig after the last point (in the "
+        "window) that gave no estimate of this component [-]", examples=[0])
     message: str = Field(description="One sentence for the report [-]",
                          examples=["cv reaches 5.44e-05 m in 3.1e+07 s"])
 

@@ -15,10 +15,10 @@ at the rig's default oil temperature.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from datetime import UTC, datetime, timedelta
 
-from sqlalchemy import select
+from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
 from app.db.models import Diagnosis, DiagnosisEstimate, Measurement
@@ -39,6 +39,8 @@ CLEARANCE_MULTIPLE = 4.1 ** (1.0 / 3.0)
 #: Slip multiple of the default pump threshold [-].
 SLIP_MULTIPLE = 4.1
 _Z95 = 1.959963984540054
+#: later diagnoses without an estimate of a component from which its trend is stale [-]
+STALE_AFTER = 3
 
 
 @dataclass(frozen=True, slots=True)
@@ -56,7 +58,13 @@ class TrendPointOut:
 
 @dataclass(frozen=True, slots=True)
 class ComponentTrendOut:
-    """A component's trend; times in seconds, values in ``unit`` (``None``: not defined)."""
+    """A component's trend; times in seconds, values in ``unit`` (``None``: not defined).
+
+    ``crossing_at``: when the fitted line reaches the threshold, or, ``"crossed"``, when it
+    did.  ``later_diagnoses``: diagnoses of the rig (in the window) after the last point,
+    which gave no estimate of this component; from :data:`STALE_AFTER` of them the status
+    is ``"stale"`` and nothing is forecast.
+    """
 
     component: str
     quantity: str
@@ -73,6 +81,7 @@ class ComponentTrendOut:
     time_left_high_s: float | None
     crossing_at: datetime | None
     message: str
+    later_diagnoses: int = 0
 
 
 def default_threshold(rig: Rig, component: str) -> tuple[float, str]:
@@ -122,7 +131,9 @@ def _points(component: str, history: list[HistoryPoint],
 
 
 def _trend(component: str, rig_id: int, points: list[TrendPointOut], threshold: float,
-           source: str) -> ComponentTrendOut:
+           source: str, later: tuple[int, datetime | None] = (0, None)) -> ComponentTrendOut:
+    """The trend of ``points``; ``later``: the rig's diagnoses after the last point (how
+    many, and the last one's time), :func:`_later`."""
     quantity, unit = COMPONENTS[component]
     uncertainties: tuple[float, ...] | None = None
     if points and all(p.low is not None and p.high is not None for p in points):
@@ -134,21 +145,39 @@ def _trend(component: str, rig_id: int, points: list[TrendPointOut], threshold: 
     forecast = forecast_threshold(series, threshold, direction="increasing")
     fit = forecast.fit
     crossing = None
-    if fit is not None and math.isfinite(forecast.time_left):
+    if fit is not None and forecast.status == "crossed":  # when the fitted line crossed it
+        crossing = (datetime.fromtimestamp(forecast.crossed_at, UTC)
+                    if math.isfinite(forecast.crossed_at) else None)
+    elif fit is not None and math.isfinite(forecast.time_left):
         try:
             crossing = datetime.fromtimestamp(forecast.now, UTC) + timedelta(
                 seconds=forecast.time_left)
         except OverflowError:  # beyond the calendar: time_left_s says how far
             crossing = None
+    status: str = forecast.status
+    message = forecast.message
+    if later[0] and points:
+        since = (f"no {quantity} estimate in the {later[0]} later diagnosis(es) of this rig "
+                 f"(since {points[-1].measured_at:%Y-%m-%d}, to {later[1]:%Y-%m-%d}): the "
+                 f"{component} alone did not fit their readings or could not be observed")
+        if later[0] >= STALE_AFTER:
+            status = "stale"
+            message = (f"{since}; the trend of the {len(points)} earlier point(s) forecasts "
+                       "nothing now")
+            forecast = replace(forecast, time_left=math.nan, time_left_low=math.nan,
+                               time_left_high=math.nan)
+            crossing = None
+        else:
+            message = f"{message}; {since}"
     return ComponentTrendOut(
         component, quantity, unit, points,
         slope=None if fit is None else fit.slope,
         slope_low=None if fit is None else fit.slope_low,
         slope_high=None if fit is None else fit.slope_high,
-        threshold=threshold, threshold_source=source, status=forecast.status,
+        threshold=threshold, threshold_source=source, status=status,
         time_left_s=_finite(forecast.time_left), time_left_low_s=_finite(forecast.time_left_low),
         time_left_high_s=_finite(forecast.time_left_high), crossing_at=crossing,
-        message=forecast.message,
+        message=message, later_diagnoses=later[0],
     )
 
 
@@ -196,5 +225,21 @@ def component_trends(
             limit, source = threshold, "given"
         else:
             limit, source = default_threshold(resolved.rig, name)
-        out.append(_trend(name, rig_id, _points(name, history, intervals), limit, source))
+        points = _points(name, history, intervals)
+        later = _later(session, rig_id, points[-1].measured_at, until) if points else (0, None)
+        out.append(_trend(name, rig_id, points, limit, source, later))
     return out
+
+
+def _later(session: Session, rig_id: int, after: datetime, until: datetime | None
+           ) -> tuple[int, datetime | None]:
+    """How many diagnoses of rig ``rig_id`` were made of records taken after ``after``
+    (up to ``until``), and when the last of those records was taken."""
+    where = [Measurement.rig_id == rig_id, Measurement.measured_at > after]
+    if until is not None:
+        where.append(Measurement.measured_at <= until)
+    joined = select(Measurement.measured_at).join(
+        Diagnosis, Diagnosis.measurement_id == Measurement.id).where(*where)
+    count = session.scalar(select(func.count()).select_from(joined.subquery())) or 0
+    last = session.scalar(joined.order_by(Measurement.measured_at.desc()).limit(1))
+    return int(count), last

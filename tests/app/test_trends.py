@@ -127,3 +127,53 @@ def test_trend_answer_matches_the_reference_computation(server: LiveServer,
         assert trend["slope"] == pytest.approx(float(ref.slope), rel=1e-12, abs=0.0)
         assert trend["slope_low"] == pytest.approx(low, rel=1e-12, abs=0.0)
         assert trend["slope_high"] == pytest.approx(high, rel=1e-12, abs=0.0)
+
+
+@pytest.fixture(scope="module")
+def seal_rig(server: LiveServer) -> int:
+    """Three healthy visits a month apart, then three with the seal at twice its clearance
+    (leakage × 8, past the default threshold of 1.6 ×)."""
+    rig_id = int(new_rig(server, "seal-trend-rig")["id"])
+    for month, factor in ((1, 1.0), (2, 1.0), (3, 1.0), (4, 2.0), (5, 2.0), (6, 2.0)):
+        record = simulated_record(server, {"cylinder.cc": 83e-6 * factor}, rig_id=rig_id,
+                                  measured_at=f"2026-{month:02d}-05T09:00:00Z")
+        response = server.client.post("/diagnose", json={"record": record},
+                                      headers=server.auth)
+        assert response.status_code == 200, response.text
+    return rig_id
+
+
+def test_a_crossed_threshold_says_when_the_line_crossed_it(server: LiveServer,
+                                                           seal_rig: int) -> None:
+    """Past the threshold: time left 0 and ``crossing_at`` the date the fitted line
+    crossed it — between the last healthy visit and the last visit, not the last visit
+    itself (it once was)."""
+    trends = {t["component"]: t
+              for t in server.client.get(f"/rigs/{seal_rig}/trends").json()["components"]}
+    cyl = trends["cylinder"]
+    assert cyl["status"] == "crossed" and cyl["time_left_s"] == 0.0
+    crossing = datetime.fromisoformat(cyl["crossing_at"])
+    assert datetime.fromisoformat("2026-03-05T09:00:00Z") < crossing \
+        < datetime.fromisoformat("2026-06-05T09:00:00Z")
+    assert "the fitted line crossed it" in cyl["message"]
+
+
+def test_a_component_no_later_diagnosis_estimates_is_stale(server: LiveServer,
+                                                           seal_rig: int) -> None:
+    """Every component with points in the healthy months but none in the three worn
+    ones (the worn seal's readings reject it alone) is 'stale': it says how many later
+    diagnoses gave no estimate and forecasts nothing — not a crossing date from points
+    the later history overtook.  The cylinder, estimated on every visit, is not."""
+    trends = server.client.get(f"/rigs/{seal_rig}/trends").json()["components"]
+    stale = [t for t in trends if t["later_diagnoses"] > 0]
+    # the pump: plausible on the healthy visits (a leak at the start of its worn range
+    # fits their readings), rejected on the worn seal's
+    assert [t["component"] for t in stale] == ["pump"]
+    for t in stale:
+        last = datetime.fromisoformat(t["points"][-1]["measured_at"])
+        assert last < datetime.fromisoformat("2026-04-05T09:00:00Z")
+        assert t["later_diagnoses"] == 3 and t["status"] == "stale"
+        assert t["time_left_s"] is None and t["crossing_at"] is None
+        assert "no " in t["message"] and "3 later diagnosis(es)" in t["message"]
+    assert {t["component"] for t in trends if t["later_diagnoses"] == 0} == {"cylinder",
+                                                                             "valve"}

@@ -105,8 +105,14 @@ def test_short_series_is_insufficient_not_an_error() -> None:
 
 
 def test_already_crossed() -> None:
+    """Past the threshold: time left 0, and when the fitted line crossed it (0.5 µm a day
+    through (day 30, 115 µm): 120 µm on day 40, 20 days before the last visit)."""
     fc = forecast_threshold(series([0, 30, 60], [100e-6, 115e-6, 130e-6]), 120e-6)
     assert fc.status == "crossed" and fc.time_left == 0.0
+    assert fc.crossed_at == pytest.approx(40.0 * DAY)
+    assert f"crossed it {20 * DAY:.3g} s before" in fc.message
+    level = forecast_threshold(series([0, 30, 60], [130e-6, 129e-6, 130e-6]), 120e-6)
+    assert level.status == "crossed" and math.isnan(level.crossed_at)  # a level past it
 
 
 def test_decreasing_direction_mirrors_increasing() -> None:

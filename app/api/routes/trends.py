@@ -29,7 +29,7 @@ def _public(trend: ComponentTrendOut) -> ComponentTrend:
         status=trend.status,  # type: ignore[arg-type]
         time_left_s=trend.time_left_s, time_left_low_s=trend.time_left_low_s,
         time_left_high_s=trend.time_left_high_s, crossing_at=trend.crossing_at,
-        message=trend.message,
+        message=trend.message, later_diagnoses=trend.later_diagnoses,
     )
 
 
