@@ -8,8 +8,10 @@ nominal) at several loads and oil temperatures pin them down.
 
 Model: each parameter is fitted in ``z = ln(θ/θ₀)`` (θ₀ the document's value) with a
 Gaussian prior ``z ~ N(0, s²)`` — ``s`` the stated relative uncertainty of the value
-(:data:`PRIOR_SD`) — and the readings' likelihood of :mod:`diagnostics.ranking`
-(``r_i = (y_i − ŷ_i(θ))/σ_i``, σ² = u² + (model_rel·ŷ)²).  Levenberg-Marquardt on the
+(:data:`PRIOR_SD`) — and the readings' likelihood of the diagnosis
+(:mod:`diagnostics.record_model`: ``r = W (y − ŷ(θ))``, ``WᵀW = C⁻¹``, C the instruments'
+variances, a model term ``model_rel·ŷ`` and the correlated terms of the record's stated
+oil temperature and load, taken at the document's values).  Levenberg-Marquardt on the
 steady operating points (:class:`sim.steady.SteadyEvaluator`) minimises
 
 .. math:: Φ(z) = \\sum_i r_i(z)^2 + \\sum_j (z_j / s_j)^2
@@ -34,8 +36,10 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
+from diagnostics.evidence import whitening
 from diagnostics.measurement import MeasurementRecord
 from diagnostics.observations import RecordObservations, observe
+from diagnostics.record_model import condition_moves, condition_terms
 from diagnostics.signatures import OBSERVABLES
 from sim.errors import MeasurementError, SimulationError
 from sim.rigs import Rig
@@ -134,7 +138,18 @@ class Commissioning:
 
 
 class _Problem:
-    """Normalised residuals of all records for log-parameters ``z``."""
+    """Whitened residuals of all records for log-parameters ``z``.
+
+    Each record's readings are weighed as the diagnosis weighs them
+    (:mod:`diagnostics.record_model`): ``C = diag(u² + (ρ·ŷ₀)²) + Σ_k s_k s_kᵀ u_k²`` with
+    ``ŷ₀`` the readings at the document's values and ``s_k`` their sensitivity to the
+    record's stated oil temperature and load (one thermometer or load-cell error moves
+    every reading of the record at once), whitened by ``W`` (``WᵀW = C⁻¹``).  Treating a
+    stated condition as exact made the readings disagree by more than their σ (median
+    χ²/n 1.47 on 20 mis-specified rigs whose records state their condition with their
+    instruments' error) and the 95 % intervals cover the truth in 84 % of (seed,
+    parameter) pairs.
+    """
 
     def __init__(self, rig: Rig, obs: list[RecordObservations], names: tuple[str, ...],
                  model_rel: float) -> None:
@@ -144,15 +159,30 @@ class _Problem:
         self.evs = [SteadyEvaluator(rig, o.condition, names) for o in obs]
         self.idx = [np.array([OBSERVABLES.index(n) for n in o.names]) for o in obs]
         self.model_rel = model_rel
+        self.weights = [self._whitening(rig, ev, o, idx)
+                        for ev, o, idx in zip(self.evs, obs, self.idx, strict=True)]
+
+    def _whitening(self, rig: Rig, ev: SteadyEvaluator, o: RecordObservations, idx: Arr
+                   ) -> tuple[Arr, Arr]:
+        """(marginal σ, whitening matrix W) of one record (class docstring)."""
+        pred = ev.vector(self.theta0, OBSERVABLES)[idx]
+        rel = self.model_rel * pred
+        diag = o.u**2 + np.where(np.isfinite(rel), rel, 0.0) ** 2
+        terms = condition_terms(pred, condition_moves(o), lambda c: SteadyEvaluator(
+            rig, c, self.names).vector(self.theta0, OBSERVABLES)[idx])
+        return whitening(diag, terms)
 
     def residuals(self, z: Arr) -> Arr:
         theta = self.theta0 * np.exp(z)
         out = []
-        for ev, o, idx in zip(self.evs, self.obs, self.idx, strict=True):
-            pred = ev.vector(theta, OBSERVABLES)[idx]
-            sigma = np.sqrt(o.u**2 + np.nan_to_num(self.model_rel * pred) ** 2)
-            r = (o.values - pred) / sigma
-            out.append(np.where(np.isfinite(r), r, 1e3))
+        for ev, o, idx, (sigma, white) in zip(self.evs, self.obs, self.idx, self.weights,
+                                              strict=True):
+            resid = o.values - ev.vector(theta, OBSERVABLES)[idx]
+            if np.all(np.isfinite(resid)):
+                out.append(white @ resid)
+            else:  # a reading the model cannot produce there: its marginal σ, 1e3 if none
+                r = resid / sigma
+                out.append(np.where(np.isfinite(r), r, 1e3))
         return np.concatenate(out)
 
     def jacobian(self, z: Arr, r: Arr, h: float = 1e-5) -> Arr:

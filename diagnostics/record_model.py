@@ -23,6 +23,7 @@ The healthy predictions come from the direct evaluator
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import replace
 
 import numpy as np
@@ -35,12 +36,59 @@ from diagnostics.signatures import OBSERVABLES, SignatureMaps, evaluator, signat
 from sim.errors import MeasurementError, SimulationError
 from sim.rigs import Condition, Rig
 
-__all__ = ["RecordModel"]
+__all__ = ["RecordModel", "condition_moves", "condition_terms"]
 
 Arr = npt.NDArray[np.float64]
 
 #: cap of a condition sensitivity [unit of the reading per K or N] (its square stays finite)
 _HUGE = 1.0e100
+
+
+def condition_moves(obs: RecordObservations
+                    ) -> list[tuple[float, list[tuple[Condition, float]]]]:
+    """For each stated condition of ``obs`` that is uncertain: its standard uncertainty
+    [K or N/Pa] and the moved conditions of a one-sided difference, with their steps
+    (±1 K of oil temperature; ±1 % of the load, or of the back pressure of a rig without
+    a load)."""
+    u_t, u_f = condition_sigma(obs.record)
+    cond = obs.condition
+    out: list[tuple[float, list[tuple[Condition, float]]]] = []
+    if u_t > 0:
+        out.append((u_t, [(replace(cond, oil_temperature=cond.oil_temperature + s), s)
+                          for s in (1.0, -1.0)]))
+    if u_f > 0:
+        if cond.load > 0:
+            step = 0.01 * cond.load
+            out.append((u_f, [(replace(cond, load=cond.load + s), s) for s in (step, -step)]))
+        else:
+            step = 0.01 * max(cond.back_pressure, 1e5)
+            out.append((u_f, [(replace(cond, back_pressure=cond.back_pressure + s), s)
+                              for s in (step, -step)]))
+    return out
+
+
+def condition_terms(pred: Arr, moves: list[tuple[float, list[tuple[Condition, float]]]],
+                    readings_at: Callable[[Condition], Arr]) -> list[Arr]:
+    """The correlated terms ``s_k·u_k`` of the module docstring: for each of ``moves``
+    (:func:`condition_moves`), the sensitivity of the readings ``pred`` by a one-sided
+    difference of ``readings_at`` (the other side where the first has no steady point,
+    :class:`~sim.errors.SimulationError`; 0 where neither), times the uncertainty."""
+    terms = []
+    for u, moved in moves:
+        sens = np.zeros_like(pred)
+        for cond, step in moved:
+            try:
+                moved_pred = readings_at(cond)
+            except SimulationError:
+                continue
+            with np.errstate(over="ignore", invalid="ignore"):
+                d = (moved_pred - pred) / step
+            # near a stall a reading (the velocity ratio) may react without bound: cap the
+            # sensitivity so its σ stays finite, huge, and the reading weighs nothing
+            sens = np.asarray(np.clip(np.where(np.isnan(d), 0.0, d), -_HUGE, _HUGE))
+            break
+        terms.append(sens * u)
+    return terms
 
 
 class RecordModel:
@@ -76,22 +124,8 @@ class RecordModel:
         # ratio) gets no model or condition term: its σ is the measurement's own
         rel = model_rel * pred
         diag = obs.u**2 + np.where(np.isnan(rel), 0.0, rel) ** 2
-        u_t, u_f = condition_sigma(obs.record)
-        cond = obs.condition
-        terms: list[Arr] = []
-        if u_t > 0:
-            terms.append(self._condition_term(
-                rig, pred, [(replace(cond, oil_temperature=cond.oil_temperature + s), s)
-                            for s in (1.0, -1.0)]) * u_t)
-        if u_f > 0:
-            if cond.load > 0:
-                step = 0.01 * cond.load
-                moved = [(replace(cond, load=cond.load + s), s) for s in (step, -step)]
-            else:
-                step = 0.01 * max(cond.back_pressure, 1e5)
-                moved = [(replace(cond, back_pressure=cond.back_pressure + s), s)
-                         for s in (step, -step)]
-            terms.append(self._condition_term(rig, pred, moved) * u_f)
+        terms = condition_terms(pred, condition_moves(obs),
+                                lambda cond: self._moved(rig, cond))
         self.sigma, self.white = whitening(diag, terms)
         for name, value, sig in zip(obs.names, obs.values, self.sigma, strict=True):
             if not sig > 0.0:
@@ -102,22 +136,6 @@ class RecordModel:
                     "instrument's uncertainty is relative and nothing else is uncertain "
                     "here); a stroke that does not move has no speed or velocity ratio to "
                     "read: leave the reading out, or state its uncertainty", field=name)
-
-    def _condition_term(self, rig: Rig, pred: Arr, moved: list[tuple[Condition, float]]
-                        ) -> Arr:
-        """Sensitivity of the healthy readings to a condition, by a one-sided
-        difference (the other side where the first has no steady point; 0 where neither)."""
-        for cond, step in moved:
-            try:
-                moved_pred = self._moved(rig, cond)
-            except SimulationError:
-                continue
-            with np.errstate(over="ignore", invalid="ignore"):
-                d = (moved_pred - pred) / step
-            # near a stall a reading (the velocity ratio) may react without bound: cap the
-            # sensitivity so its σ stays finite, huge, and the reading weighs nothing
-            return np.asarray(np.clip(np.where(np.isnan(d), 0.0, d), -_HUGE, _HUGE))
-        return np.zeros_like(pred)
 
     def _moved(self, rig: Rig, cond: Condition) -> Arr:
         """Healthy readings at a moved condition (SimulationError when none)."""
