@@ -35,6 +35,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import numpy.typing as npt
+from scipy.special import gammaincinv
 
 from diagnostics.evidence import whitening
 from diagnostics.measurement import MeasurementRecord
@@ -66,6 +67,10 @@ PRIOR_SD: dict[str, float] = {"cylinder.Lc": 0.5, "valve.Ls": 0.5, "valve.K": 0.
 
 #: a parameter is pinned down when the records shrink its prior σ by this factor [-]
 PINNED = 0.5
+#: test level of the χ² test of the fit (as the diagnosis's goodness of fit) [-]
+TEST_LEVEL = 0.01
+#: a reading is named as disagreeing beyond this many standard uncertainties [σ]
+DISAGREE_SIGMA = 3.0
 
 
 @dataclass
@@ -121,7 +126,18 @@ class Commissioning:
     iterations
         Levenberg-Marquardt iterations [-].
     statements
-        What a reader must know (what could not be pinned down and why).
+        What a reader must know (what could not be pinned down and why; first, when the
+        fit does not explain the records, that and the readings that disagree most).
+    dof
+        Degrees of freedom of the χ² test: readings less the effective number of fitted
+        parameters (Σ 1 − posterior/prior variance) [-].
+    limit
+        χ²_{1-α}(dof) at :data:`TEST_LEVEL` [-].
+    consistent
+        Whether χ² ≤ ``limit``: the records are those of one healthy rig of the
+        document's family.  When not, the service stores nothing.
+    disagreements
+        (record index, reading, deviation [σ]) beyond 3 σ at the fit, worst first.
     """
 
     rig: str
@@ -131,6 +147,10 @@ class Commissioning:
     n_records: int
     iterations: int
     statements: list[str] = field(default_factory=list)
+    dof: float = math.nan
+    limit: float = math.inf
+    consistent: bool = True
+    disagreements: list[tuple[int, str, float]] = field(default_factory=list)
 
     def values(self) -> dict[str, float]:
         """Fitted values of the parameters the records pinned down [SI]."""
@@ -265,7 +285,38 @@ def commission(rig: Rig, records: Sequence[MeasurementRecord],
                 "value is kept; records at other loads and oil temperatures, or with the flow "
                 "meters, would help")
     chi2 = float(r @ r)
-    return Commissioning(rig.spec.name, out, chi2, int(r.size), len(records), its, statements)
+    # degrees of freedom: the readings less the parameters the records determine — each
+    # counts 1 − (posterior/prior variance), the trace of the Laplace fit's hat matrix
+    dof = float(r.size - np.sum(1.0 - (sd / s) ** 2))
+    limit = float(2.0 * gammaincinv(0.5 * dof, 1.0 - TEST_LEVEL)) if dof > 0 else math.inf
+    disagreements = _disagreements(problem, z)
+    consistent = chi2 <= limit
+    if not consistent:
+        worst = ", ".join(f"records[{i}].{name} by {dev:+.1f} σ"
+                          for i, name, dev in disagreements[:4])
+        statements.insert(0, (
+            f"the records are not those of one healthy rig of this document: at the fit χ² = "
+            f"{chi2:.4g} on {dof:.1f} degrees of freedom (limit {limit:.4g} at the "
+            f"{TEST_LEVEL:.0%} level); the readings that disagree most: {worst} — a record of "
+            "a worn component, a record at another condition than it states, or an effect "
+            "the rig model lacks; leave such a record out (or diagnose it) and commission "
+            "again"))
+    return Commissioning(rig.spec.name, out, chi2, int(r.size), len(records), its, statements,
+                         dof, limit, consistent, disagreements)
+
+
+def _disagreements(problem: _Problem, z: Arr) -> list[tuple[int, str, float]]:
+    """(record index, reading, (y − ŷ)/σ) at the fit ``z``, beyond
+    :data:`DISAGREE_SIGMA` σ (σ the reading's marginal uncertainty), worst first."""
+    theta = problem.theta0 * np.exp(z)
+    out = []
+    for i, (ev, o, idx, (sigma, _)) in enumerate(zip(problem.evs, problem.obs, problem.idx,
+                                                     problem.weights, strict=True)):
+        dev = (o.values - ev.vector(theta, OBSERVABLES)[idx]) / sigma
+        out += [(i, name, float(d) if math.isfinite(d) else math.inf)
+                for name, d in zip(o.names, dev, strict=True)
+                if not abs(d) <= DISAGREE_SIGMA]
+    return sorted(out, key=lambda x: -abs(x[2]))
 
 
 def _fit(problem: _Problem, s: Arr, max_iterations: int) -> tuple[Arr, Arr, Arr, int]:

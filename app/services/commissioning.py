@@ -4,7 +4,8 @@ Used by ``POST /rigs/{rig_id}/commission`` and ``hydrodiag commission``.  The fi
 :func:`diagnostics.commissioning.commission` on the rig's latest version; the parameters
 the records pin down are written into a copy of that version's document (value in SI, with
 a source naming the fit and its interval), stored through :func:`app.services.rigs.update_rig`.
-Nothing is stored when any record is invalid or the fit fails.
+Nothing is stored when any record is invalid, the fit fails, or the fitted rig does not
+explain the records (χ² test at 1 %: a record of a worn rig among them).
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ from app.services.diagnosis import DIAGNOSIS_LOCK
 from app.services.measurements import to_record
 from app.services.rig_cache import RigCache
 from diagnostics.commissioning import Commissioning, commission
-from sim.errors import InputError
+from sim.errors import InputError, MeasurementError
 
 __all__ = ["commission_rig", "commissioned_document"]
 
@@ -52,6 +53,10 @@ def commission_rig(session: Session, rigs: RigCache, rig_id: int, request: Commi
         No such rig.
     InputError
         A record names another rig, or is invalid (``field`` is its path).
+    MeasurementError
+        The fit does not explain the records (its χ² test fails): not the records of one
+        healthy rig of this document (``field`` names the record that disagrees most);
+        nothing is stored.
     """
     resolved = rigs.get(session, rig_id)
     now = utcnow()
@@ -67,6 +72,10 @@ def commission_rig(session: Session, rigs: RigCache, rig_id: int, request: Commi
             fit = commission(resolved.rig, records, request.parameters)
     except InputError as exc:
         raise type(exc)(exc.message, field=exc.field) from None
+    if not fit.consistent:  # a version fitted to a record that is not healthy: not stored
+        worst = fit.disagreements[0][0] if fit.disagreements else None
+        raise MeasurementError(fit.statements[0] + "; nothing stored",
+                               field="records" if worst is None else f"records[{worst}]")
     circuit = resolved.rig.circuit
     units = {}
     for p in fit.parameters:
@@ -80,5 +89,6 @@ def commission_rig(session: Session, rigs: RigCache, rig_id: int, request: Commi
     return CommissionResponse.model_validate({
         "rig_id": rig.id, "from_version": resolved.version, "version": version.version,
         "parameters": [asdict(p) | {"unit": units[p.name]} for p in fit.parameters],
-        "chi2": fit.chi2, "n_observations": fit.n_observations, "n_records": fit.n_records,
+        "chi2": fit.chi2, "dof": fit.dof, "chi2_limit": fit.limit,
+        "n_observations": fit.n_observations, "n_records": fit.n_records,
         "statements": fit.statements})

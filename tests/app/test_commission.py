@@ -86,6 +86,18 @@ def test_bad_commissioning_requests_are_422_and_store_nothing(server: LiveServer
                                       headers=server.auth)
         assert response.status_code == 422, response.text
         assert response.json()["error"]["field"] == field
+    # a record of a worn seal among the healthy ones: no rig of the document explains
+    # them; refused, naming that record, nothing stored
+    worn = healthy_bodies(rig_id)
+    vals = readings(true_rig(), {"cylinder.cc": 1.6 * 83e-6}, 4200.0, 55.0)
+    worn[3].update({f: vals[f] for f in FIELDS})
+    response = server.client.post(f"/rigs/{rig_id}/commission", json={"records": worn},
+                                  headers=server.auth)
+    assert response.status_code == 422, response.text
+    error = response.json()["error"]
+    assert error["field"] == "records[3]"
+    assert "not those of one healthy rig" in error["message"]
+    assert "nothing stored" in error["message"]
     versions = server.client.get(f"/rigs/{rig_id}/versions").json()
     assert versions["total"] == 1
     missing = server.client.post("/rigs/9999/commission", json={"records": records},

@@ -104,3 +104,25 @@ def test_a_stated_condition_is_weighed_with_its_instruments_error() -> None:
         if p.identifiable:
             assert p.low <= documented.base[p.name] * TRUTH[p.name] <= p.high, p
     assert c.chi2 < c.n_observations
+
+
+def test_a_worn_record_among_the_healthy_ones_is_named_and_the_fit_said_inconsistent() -> None:
+    """Six records of the as-built rig, one of them (4.2 kN, 55 °C) with the seal worn to
+    1.6 × its clearance: no rig of the document's family explains them (χ² ≈ 4,800 on
+    ≈ 43 degrees of freedom, the seal length dragged to half its truth) — the result says
+    so, names that record first, and is not consistent; the six healthy ones are."""
+    documented, actual = reference_rig(), true_rig()
+    rng = np.random.default_rng(3)
+    fields = (*FULL, "pump_flow")
+    conditions = [(load, t) for load in (2100.0, 4200.0, 6300.0) for t in (35.0, 55.0)]
+    worn = [record(actual, {"cylinder.cc": 83e-6 * (1.6 if k == 3 else 1.0)}, load=load,
+                   temperature=t, rng=rng, fields=fields)
+            for k, (load, t) in enumerate(conditions)]
+    c = commission(documented, worn)
+    assert not c.consistent and c.chi2 > c.limit
+    assert c.disagreements[0][0] == 3
+    assert c.statements[0].startswith("the records are not those of one healthy rig")
+    assert "records[3]" in c.statements[0]
+    healthy = commission(documented, healthy_records(actual, 3))
+    assert healthy.consistent and healthy.chi2 <= healthy.limit
+    assert 40.0 < healthy.dof < healthy.n_observations
