@@ -36,7 +36,9 @@ class ComponentTrend(BaseModel):
     quantity: str = Field(description="'cc', 'cv' (clearance) or 'Cs' (pump slip) [-]",
                           examples=["cv"])
     unit: str = Field(description="Unit of the series [-]", examples=["m"])
-    points: list[TrendPoint] = Field(description="The series, oldest first [-]", examples=[[]])
+    points: list[TrendPoint] = Field(
+        description="The series, oldest first: the points made with the latest version's "
+        "parameters [-]", examples=[[]])
     slope: float | None = Field(
         description="Theil-Sen slope; null with fewer than 3 visit times [unit/s]",
         examples=[1.2e-12])
@@ -70,6 +72,12 @@ class ComponentTrend(BaseModel):
     later_diagnoses: int = Field(
         default=0, ge=0, description="Diagnoses of the rig after the last point (in the "
         "window) that gave no estimate of this component [-]", examples=[0])
+    left_out: int = Field(
+        default=0, ge=0, description="Points of older rig versions whose parameters differ "
+        "from the latest version's (commissioning, a rebuild), left out of `points` and the "
+        "fit: their estimates were made against another document [-]", examples=[0])
+    left_out_versions: list[int] = Field(
+        default_factory=list, description="Those versions [-]", examples=[[]])
     message: str = Field(description="One sentence for the report [-]",
                          examples=["cv reaches 5.44e-05 m in 3.1e+07 s"])
 

@@ -15,7 +15,7 @@ at the rig's default oil temperature.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime, timedelta
 
 from sqlalchemy import func, select
@@ -23,7 +23,7 @@ from sqlalchemy.orm import Session
 
 from app.db.models import Diagnosis, DiagnosisEstimate, Measurement
 from app.services.history import HistoryPoint, component_history
-from app.services.rig_cache import RigCache
+from app.services.rig_cache import ResolvedRig, RigCache
 from diagnostics.trends import TrendSeries, forecast_threshold
 from sim.errors import InputError
 from sim.rigs import Rig
@@ -63,7 +63,9 @@ class ComponentTrendOut:
     ``crossing_at``: when the fitted line reaches the threshold, or, ``"crossed"``, when it
     did.  ``later_diagnoses``: diagnoses of the rig (in the window) after the last point,
     which gave no estimate of this component; from :data:`STALE_AFTER` of them the status
-    is ``"stale"`` and nothing is forecast.
+    is ``"stale"`` and nothing is forecast.  ``left_out``: points of older rig versions
+    whose parameters differ from the latest version's (``left_out_versions``), not in
+    ``points``.
     """
 
     component: str
@@ -82,6 +84,8 @@ class ComponentTrendOut:
     crossing_at: datetime | None
     message: str
     later_diagnoses: int = 0
+    left_out: int = 0
+    left_out_versions: list[int] = field(default_factory=list)
 
 
 def default_threshold(rig: Rig, component: str) -> tuple[float, str]:
@@ -219,15 +223,43 @@ def component_trends(
                  for name in names}
     intervals = _intervals(session, sorted({h.diagnosis_id for hs in histories.values()
                                             for h in hs}))
+    comparable = _comparable(session, rigs, resolved, {h.rig_version for hs in
+                                                       histories.values() for h in hs})
     out = []
     for name, history in histories.items():
         if threshold is not None:
             limit, source = threshold, "given"
         else:
             limit, source = default_threshold(resolved.rig, name)
-        points = _points(name, history, intervals)
+        every = _points(name, history, intervals)
+        points = [p for p in every if comparable[p.rig_version]]
+        left = sorted({p.rig_version for p in every if not comparable[p.rig_version]})
         later = _later(session, rig_id, points[-1].measured_at, until) if points else (0, None)
-        out.append(_trend(name, rig_id, points, limit, source, later))
+        trend = _trend(name, rig_id, points, limit, source, later)
+        if left:
+            n_left = len(every) - len(points)
+            note = (f"{n_left} point(s) of version(s) {', '.join(map(str, left))} left out: "
+                    f"the rig document's parameters changed in version {resolved.version} "
+                    "(commissioning, a rebuild), so estimates made against the older "
+                    "document are not comparable")
+            trend = replace(trend, message=f"{trend.message}; {note}", left_out=n_left,
+                            left_out_versions=left)
+        out.append(trend)
+    return out
+
+
+def _comparable(session: Session, rigs: RigCache, latest: ResolvedRig, versions: set[int]
+                ) -> dict[int, bool]:
+    """Whether each of ``versions`` of the rig has the latest version's parameters and
+    fluid: a trend joins only estimates made against the same physics (a commissioned
+    seal length or a new nominal clearance moves every estimate by a step)."""
+    out = {}
+    for v in versions:
+        if v == latest.version:
+            out[v] = True
+            continue
+        other = rigs.get(session, latest.rig_id, v).rig
+        out[v] = other.base == latest.rig.base and other.fluid == latest.rig.fluid
     return out
 
 

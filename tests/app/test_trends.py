@@ -177,3 +177,45 @@ def test_a_component_no_later_diagnosis_estimates_is_stale(server: LiveServer,
         assert "no " in t["message"] and "3 later diagnosis(es)" in t["message"]
     assert {t["component"] for t in trends if t["later_diagnoses"] == 0} == {"cylinder",
                                                                              "valve"}
+
+
+def test_points_of_a_version_with_other_parameters_are_left_out(server: LiveServer) -> None:
+    """A rig diagnosed three times, its document then given a 15 % shorter seal (as
+    commissioning would write it), diagnosed three times more: the seal's estimates
+    against the older document are a step off the newer ones, so the cylinder's trend
+    joins only the latest version's points and says how many it left out and why.  A
+    version that changes only the comment keeps every point."""
+    from sim.rigs import reference_rig_document
+
+    rig_id = int(new_rig(server, "version-trend-rig")["id"])
+
+    def diagnose(month: int) -> None:
+        record = simulated_record(server, {}, rig_id=rig_id,
+                                  measured_at=f"2026-{month:02d}-05T09:00:00Z")
+        response = server.client.post("/diagnose", json={"record": record},
+                                      headers=server.auth)
+        assert response.status_code == 200, response.text
+
+    for month in (1, 2, 3):
+        diagnose(month)
+    same = reference_rig_document() | {"name": "version-trend-rig"}
+    response = server.client.put(f"/rigs/{rig_id}", json={"document": same,
+                                                          "comment": "comment only"},
+                                 headers=server.auth)
+    assert response.status_code == 200, response.text
+    diagnose(4)
+    cyl = server.client.get(f"/rigs/{rig_id}/trends", params={"component": "cylinder"}
+                            ).json()["components"][0]
+    assert len(cyl["points"]) == 4 and cyl["left_out"] == 0
+    shorter = reference_rig_document() | {"name": "version-trend-rig"}
+    shorter["components"]["cylinder"]["parameters"]["Lc"]["value"] *= 0.85
+    response = server.client.put(f"/rigs/{rig_id}", json={"document": shorter},
+                                 headers=server.auth)
+    assert response.status_code == 200, response.text
+    for month in (5, 6, 7):
+        diagnose(month)
+    cyl = server.client.get(f"/rigs/{rig_id}/trends", params={"component": "cylinder"}
+                            ).json()["components"][0]
+    assert [p["rig_version"] for p in cyl["points"]] == [3, 3, 3]
+    assert cyl["left_out"] == 4 and cyl["left_out_versions"] == [1, 2]
+    assert "4 point(s) of version(s) 1, 2 left out" in cyl["message"]
