@@ -25,6 +25,7 @@ from sqlalchemy.orm import Session
 from app.schemas.simulate import ConditionSpec, SimulateRequest, SimulationPublic
 from app.services.rig_cache import ResolvedRig, RigCache
 from app.settings import Settings
+from diagnostics.timeseries import CONDITION_CHANNELS
 from sim.cycle import CycleResult, run_cycle
 from sim.errors import InputError, ParameterError
 from sim.rigs import Condition, Rig
@@ -183,10 +184,17 @@ def simulate(session: Session, rigs: RigCache, request: SimulateRequest,
 
 
 def _frame(outcome: SimulationOutcome) -> pd.DataFrame:
+    """The run's time series with its condition as constant columns (``load [N]``,
+    ``oil_temperature [degC]`` …, :data:`diagnostics.timeseries.CONDITION_CHANNELS`): a
+    record cut from the export, or several exports put in one table with a ``record``
+    column, still states at what load and temperature it ran (the discrepancy workflow
+    refuses a cycle that does not)."""
     frame = outcome.result.timeseries
     if frame is None:
         raise InputError("this run has no time series", field="timeseries")
-    return frame
+    stated = {f"{k} [{unit}]": v for k, unit in CONDITION_CHANNELS.items()
+              if (v := condition_dict(outcome.condition).get(k)) is not None}
+    return frame.assign(**{k: float(v) for k, v in stated.items()})
 
 
 def timeseries_table(outcome: SimulationOutcome) -> dict[str, Any]:

@@ -65,6 +65,11 @@ def test_csv_round_trip(server: LiveServer, as_json: dict[str, Any]) -> None:
     assert len(frame) == len(table["data"]) > 100
     expected = pd.DataFrame(table["data"], columns=table["columns"])
     pd.testing.assert_frame_equal(frame, expected, check_dtype=False, rtol=1e-15)
+    # the condition as constant columns as well: a record cut from the export, or exports
+    # put in one table, still says at what load and temperature it ran
+    assert (frame["load [N]"] == 4200.0).all()
+    cond = json.loads(header["condition"])
+    assert (frame["oil_temperature [degC]"] == cond["oil_temperature"]).all()
 
 
 def test_parquet_round_trip(server: LiveServer, as_json: dict[str, Any]) -> None:

@@ -51,8 +51,9 @@ def seed_pump_set(server: LiveServer, folder: Path) -> dict[str, Any]:
 
 
 def seed_series(server: LiveServer) -> list[int]:
-    """Store, through the API, a /simulate export of a worn spool at two loads as measured
-    series of rig 1 (with their phase labels); return their ids."""
+    """Store, through the API, /simulate exports of a worn spool at two loads put in one
+    table with a record column, as measured series of rig 1 (with their phase labels and
+    the condition each export states in its columns); return their ids."""
     frames = []
     for load in (2100.0, 4200.0):
         response = server.client.post("/simulate", json={
@@ -60,9 +61,10 @@ def seed_series(server: LiveServer) -> list[int]:
             "sample_rate": 500, "timeseries": "csv"})
         assert response.status_code == 200, response.text
         lines = [ln for ln in response.text.splitlines() if not ln.startswith("#")]
-        head, *rows = lines
-        frames += [f"load-{load:.0f},{row},{load},40" for row in rows]
-    content = "\n".join([f"record,{head},load [N],oil_temperature [degC]", *frames]) + "\n"
+        head, *rows = lines  # the export states its load and temperature as columns
+        assert "load [N]" in head.split(",") and "oil_temperature [degC]" in head.split(",")
+        frames += [f"load-{load:.0f},{row}" for row in rows]
+    content = "\n".join([f"record,{head}", *frames]) + "\n"
     response = server.client.post("/rigs/1/series", data={"name": "worn-spool"},
                                   files={"file": ("cycles.csv", content.encode(), "text/csv")},
                                   headers=server.auth)
