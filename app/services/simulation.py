@@ -192,9 +192,9 @@ def _frame(outcome: SimulationOutcome) -> pd.DataFrame:
     frame = outcome.result.timeseries
     if frame is None:
         raise InputError("this run has no time series", field="timeseries")
-    stated = {f"{k} [{unit}]": v for k, unit in CONDITION_CHANNELS.items()
-              if (v := condition_dict(outcome.condition).get(k)) is not None}
-    return frame.assign(**{k: float(v) for k, v in stated.items()})
+    condition = condition_dict(outcome.condition)
+    return frame.assign(**{f"{k} [{unit}]": float(v) for k, unit in CONDITION_CHANNELS.items()
+                           if (v := condition.get(k)) is not None})
 
 
 def timeseries_table(outcome: SimulationOutcome) -> dict[str, Any]:
