@@ -170,6 +170,11 @@ def diagnose(
         _out.print(table)
         if item.misfit:
             _out.print(f"[bold red]not explained:[/] {escape(item.misfit)}")
+        elif item.result.get("confident") is False and item.goodness_of_fit is not None:
+            # explained, but not a confident name: a fault beyond the prior ranges fits as
+            # well, the fit lies below its worn range (incipient), or no χ² test is possible
+            _out.print("[bold yellow]caution:[/] "
+                       f"{escape(item.goodness_of_fit.statement)}")
         for note in item.regime_notes:
             _out.print(f"note: {note}", markup=False)
 

@@ -76,6 +76,30 @@ def test_diagnose_a_yaml_file_of_records(runner: CliRunner, tmp_path: Path) -> N
     assert bad.exit_code != 0 and getattr(bad.exception, "field", None) == "record.flow_C"
 
 
+def test_diagnose_says_when_the_name_is_not_a_confident_one(runner: CliRunner,
+                                                           tmp_path: Path) -> None:
+    """A seal at leakage 1.2 × nominal (below the worn range) read at three loads and
+    diagnosed jointly: explained, not a confident name — the table is followed by the
+    goodness-of-fit statement (incipient wear, or a document off by that much), which the
+    CLI once left out."""
+    from sim.rigs import reference_rig
+    from tests.diagnostics.synth import FULL, readings
+
+    rig = reference_rig()
+    records = []
+    for load, temperature in ((2100.0, 35.0), (4200.0, 45.0), (6300.0, 50.0)):
+        v = readings(rig, {"cylinder.cc": 83e-6 * 1.2 ** (1 / 3)}, load, temperature)
+        records.append({"rig_id": 1, "condition": {"oil_temperature": temperature,
+                                                   "load_force": load},
+                        **{f: float(v[f]) for f in FULL}})
+    path = tmp_path / "records.yaml"
+    path.write_text(yaml.safe_dump(records))
+    result = runner.invoke(cli, ["diagnose", str(path), "--joint", "--no-store"])
+    assert result.exit_code == 0, result.output
+    text = " ".join(result.stdout.split())
+    assert "caution:" in text and "incipient wear of the cylinder" in text
+
+
 def test_sweep_writes_the_results_table(runner: CliRunner, tmp_path: Path) -> None:
     spec = tmp_path / "sweep.json"
     spec.write_text(json.dumps({
