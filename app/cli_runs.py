@@ -210,7 +210,7 @@ def commission(
                   title=f"rig {response.rig_id}: version {response.from_version} → "
                   f"{response.version} (χ² = {response.chi2:.3g} on {response.n_observations} "
                   f"readings, {response.dof:.1f} degrees of freedom, limit "
-                  f"{response.chi2_limit:.3g})")
+                  f"{'none' if response.chi2_limit is None else f'{response.chi2_limit:.3g}'})")
     for p in response.parameters:
         table.add_row(escape(p.name), escape(f"{p.before:.4g} {p.unit}"), f"{p.value:.4g}",
                       f"{p.low:.4g} … {p.high:.4g}", "yes" if p.identifiable else "no")

@@ -65,9 +65,10 @@ class CommissionResponse(BaseModel):
     chi2: float = Field(description="χ² of the readings at the estimate [-]", examples=[27.0])
     dof: float = Field(description="Degrees of freedom of its test: readings less the "
                        "effective number of fitted parameters [-]", examples=[43.3])
-    chi2_limit: float = Field(description="χ² limit at the 1 % level; a fit above it is "
-                              "refused (422 naming the record that disagrees most) [-]",
-                              examples=[67.8])
+    chi2_limit: float | None = Field(
+        description="χ² limit at the 1 % level; a fit above it is refused (422 naming the "
+        "record that disagrees most); null when there is no degree of freedom [-]",
+        examples=[67.8])
     n_observations: int = Field(ge=1, description="Readings used [-]", examples=[48])
     n_records: int = Field(ge=1, description="Records used [-]", examples=[6])
     statements: list[str] = Field(

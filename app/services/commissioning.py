@@ -11,6 +11,7 @@ explain the records (χ² test at 1 %: a record of a worn rig among them).
 from __future__ import annotations
 
 import copy
+import math
 from dataclasses import asdict
 from typing import Any
 
@@ -89,6 +90,7 @@ def commission_rig(session: Session, rigs: RigCache, rig_id: int, request: Commi
     return CommissionResponse.model_validate({
         "rig_id": rig.id, "from_version": resolved.version, "version": version.version,
         "parameters": [asdict(p) | {"unit": units[p.name]} for p in fit.parameters],
-        "chi2": fit.chi2, "dof": fit.dof, "chi2_limit": fit.limit,
+        "chi2": fit.chi2, "dof": fit.dof,
+        "chi2_limit": fit.limit if math.isfinite(fit.limit) else None,
         "n_observations": fit.n_observations, "n_records": fit.n_records,
         "statements": fit.statements})
