@@ -38,6 +38,7 @@ import numpy.typing as npt
 from scipy.special import gammaincinv
 
 from diagnostics.evidence import whitening
+from diagnostics.goodness import DISAGREE_SIGMA, TEST_LEVEL
 from diagnostics.measurement import MeasurementRecord
 from diagnostics.observations import RecordObservations, observe
 from diagnostics.record_model import condition_moves, condition_terms
@@ -67,10 +68,7 @@ PRIOR_SD: dict[str, float] = {"cylinder.Lc": 0.5, "valve.Ls": 0.5, "valve.K": 0.
 
 #: a parameter is pinned down when the records shrink its prior σ by this factor [-]
 PINNED = 0.5
-#: test level of the χ² test of the fit (as the diagnosis's goodness of fit) [-]
-TEST_LEVEL = 0.01
-#: a reading is named as disagreeing beyond this many standard uncertainties [σ]
-DISAGREE_SIGMA = 3.0
+
 
 
 @dataclass
@@ -132,7 +130,8 @@ class Commissioning:
         Degrees of freedom of the χ² test: readings less the effective number of fitted
         parameters (Σ 1 − posterior/prior variance) [-].
     limit
-        χ²_{1-α}(dof) at :data:`TEST_LEVEL` [-].
+        χ²_{1-α}(dof) at the goodness-of-fit test's level
+        (:data:`diagnostics.goodness.TEST_LEVEL`) [-].
     consistent
         Whether χ² ≤ ``limit``: the records are those of one healthy rig of the
         document's family.  When not, the service stores nothing.
@@ -285,8 +284,10 @@ def commission(rig: Rig, records: Sequence[MeasurementRecord],
                 "value is kept; records at other loads and oil temperatures, or with the flow "
                 "meters, would help")
     chi2 = float(r @ r)
-    # degrees of freedom: the readings less the parameters the records determine — each
-    # counts 1 − (posterior/prior variance), the trace of the Laplace fit's hat matrix
+    # degrees of freedom: the readings less the parameters the records determine, each
+    # counting 1 − posterior/prior variance — their sum, tr(JᵀJ·C), is MacKay's number of
+    # well-determined parameters γ (MacKay 1992, Neural Comput. 4:415, §4), so that
+    # χ² ≈ n − γ for a model that fits
     dof = float(r.size - np.sum(1.0 - (sd / s) ** 2))
     limit = float(2.0 * gammaincinv(0.5 * dof, 1.0 - TEST_LEVEL)) if dof > 0 else math.inf
     disagreements = _disagreements(problem, z)

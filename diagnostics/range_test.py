@@ -372,8 +372,8 @@ def _incipient(ranker: Ranker, pl: _Plan, ze: Arr, chi2_e: float, limit: float
     rejected.
     """
     zdoc = np.array([_document_z(ranker, p) for p in pl.params])
-    zl = np.array([_bounds(ranker, p)[0] for p in pl.params])
-    zu = np.array([_bounds(ranker, p)[1] for p in pl.params])
+    zl, zu = (np.array(b) for b in zip(*(_bounds(ranker, p)[:2] for p in pl.params),
+                                       strict=True))
     lo, hi = pl.zle.copy(), pl.zue.copy()
     for i, side in pl.used:
         if side == "healthy":
