@@ -39,11 +39,14 @@ fault beyond the prior ranges explains the readings as well, or that the explain
 lies below its worn range: incipient wear or a document off by that much — the misfit-detection figure
 of the out-of-library suites), share *untestable* (the result states that a misfit cannot
 be detected with these readings: as many parameters as readings, the velocity ratio alone;
-not counted as detected), per fault and per rig, the same without the stalled cases, the misses (truth →
-answer) with each miss's reason (:func:`benchmarks.accuracy_report.miss_reasons`),
-and, per hypothesis, the sum of its stated probabilities against the cases where
-it was the truth (:mod:`benchmarks.accuracy_report`); a reliability table (stated top
-probability vs observed top-1 frequency, by decile) over the in-library suites with its
+not counted as detected), per fault and per rig, the same without the stalled cases,
+for the single leakage faults of seal, spool and pump the share whose component the
+history stores an estimate of and the share of those whose 95 % interval holds the truth
+(:func:`stored_estimate`), the misses (truth → answer) with each miss's reason
+(:func:`benchmarks.accuracy_report.miss_reasons`), and, per hypothesis, the sum of its
+stated probabilities against the cases where it was the truth
+(:mod:`benchmarks.accuracy_report`); a reliability table (stated top probability vs
+observed top-1 frequency, by decile) over the in-library suites with its
 expected calibration error, and the Brier score the stated probabilities predict for
 themselves (mean of 1 − Σp², equal to the observed Brier when they are calibrated); a
 headline table of the in-library cases per sensor set, all of them, those whose piston
@@ -70,6 +73,7 @@ from typing import Any
 
 import numpy as np
 
+from app.services.diagnosis import estimates_of
 from benchmarks.accuracy_cases import (
     BEYOND,
     IN_LIBRARY,
@@ -176,6 +180,37 @@ def score(case: Case, d: Diagnosis) -> dict[str, Any]:
             "p_top": p_top if explained else 0.0, "probs": probs}
 
 
+#: the quantity the history stores for a single leakage fault's parameter
+_STORED = {"cc": ("cylinder", "cc"), "cv": ("valve", "cv"), "pump_leak": ("pump", "Cs")}
+
+
+def stored_estimate(case: Case, d: Diagnosis, rig: Rig, temperature: float
+                    ) -> dict[str, Any] | None:
+    """Whether the history stores an estimate of the truth's component (what
+    :func:`app.services.diagnosis.estimates_of` keeps for the trends) and whether its 95 %
+    interval holds the truth, for a single leakage fault of the seal, spool or pump (a
+    slip coefficient compared as its leak factor at the stated ``temperature`` [°C]);
+    None for other cases."""
+    if len(case.params) != 1:
+        return None
+    ((name, truth),) = case.params.items()
+    if name not in _STORED:
+        return None
+    component, quantity = _STORED[name]
+    est = next((e for e in estimates_of(d) if e.component == component
+                and e.quantity == quantity), None)
+    if est is None:
+        return {"stored": 0.0, "held": float("nan")}
+    low, high = est.low, est.high
+    if name == "pump_leak":  # Cs = μ·k/(D·R_lp), paper 000 eq. 6
+        scale = rig.base["pump.Vp"] * rig.base["pump.Rlp"] / \
+            rig.fluid.dynamic_viscosity(temperature)
+        low, high = low * scale, high * scale
+    value = est.value * (low / est.low if est.low else 1.0)
+    return {"stored": 1.0, "held": float(low * (1 - 1e-12) <= truth <= high * (1 + 1e-12)),
+            "source": est.source, "truth": truth, "value": value, "low": low, "high": high}
+
+
 def run_case(rig_model: Rig, rig_true: Rig, case: Case, rng: np.random.Generator,
              rows: dict[str, list[dict[str, Any]]]) -> None:
     """Diagnose ``case`` with every sensor set (a stalled or creeping stroke included: the
@@ -201,7 +236,9 @@ def run_case(rig_model: Rig, rig_true: Rig, case: Case, rng: np.random.Generator
             readings = noisy(tr.values, fields, rng)
             row["readings"] = readings
             rec = MeasurementRecord.from_readings("study", cond, readings)
-            row |= score(case, diagnose(rig_model, [rec]))
+            d = diagnose(rig_model, [rec])
+            row |= score(case, d)
+            row["stored"] = stored_estimate(case, d, rig_model, temp)
         except InputError as exc:
             row["error"] = "input"
             row["message"] = f"{exc.field}: {exc.message}"
@@ -363,6 +400,10 @@ def report(rows: dict[str, list[dict[str, Any]]]) -> dict[str, Any]:
             if f["misses"]:
                 print(f"  {sname} misses (truth → answer ×n): " + ", ".join(
                     f"{t} → {a} ×{n}" for t, a, n in f["misses"]))
+            if f.get("stored_cases"):
+                print(f"  {sname}: the history stores the truth's component in "
+                      f"{f['stored']:.3f} of the {f['stored_cases']} single leakage faults; "
+                      f"its 95 % interval holds the truth in {f['stored_held']:.3f} of those")
             if f.get("miss_reasons"):
                 print(f"  {sname} misses by reason: " + ", ".join(
                     f"{k} {v}" for k, v in f["miss_reasons"].items()))

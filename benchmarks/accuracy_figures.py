@@ -2,7 +2,9 @@
 
 * :func:`summarise` — server and input errors, top-1 (strict and grouped), truth in the
   ambiguity set, Brier (strict, grouped, and the grouped Brier the stated probabilities
-  predict for themselves), share not explained, and for the cases with a stroke that
+  predict for themselves), share not explained, for the single leakage faults the share
+  whose component the history stores and the share of those held by its interval, and for
+  the cases with a stroke that
   stalled or crept the share of them not explained;
 * :func:`reliability`, :func:`calibration_error` — the reliability table (stated top
   probability vs observed grouped top-1 frequency, by decile) and its expected
@@ -48,6 +50,12 @@ def summarise(rows: list[dict[str, Any]]) -> dict[str, Any]:
             "not_explained": 1.0 - _mean(rows, "explained"),
             "flagged": _mean(rows, "flagged"),
             "untestable": 1.0 - _mean(rows, "testable")}
+    stored = [r["stored"] for r in ok if r.get("stored") is not None]
+    if stored:  # single leakage faults: the history's estimate of the truth's component
+        held = [x["held"] for x in stored if x["stored"]]
+        out |= {"stored_cases": len(stored),
+                "stored": float(np.mean([x["stored"] for x in stored])),
+                "stored_held": float(np.mean(held)) if held else float("nan")}
     stalled = [r for r in ok if r["stalled"]]
     if stalled:
         out |= {"stalled": len(stalled), "stalled_not_explained": 1.0 - _mean(stalled,

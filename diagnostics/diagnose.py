@@ -20,11 +20,12 @@ import numpy as np
 import numpy.typing as npt
 
 from diagnostics.goodness import GoodnessOfFit, goodness_of_fit
+from diagnostics.healthy_end import healthy_end_estimates
 from diagnostics.inversion import LeakageGeometry, cylinder_clearance, valve_clearance
 from diagnostics.isolability import Isolability, isolability
 from diagnostics.measurement import MeasurementRecord
 from diagnostics.observations import OBSERVABLE_UNITS, observe
-from diagnostics.ranking import HypothesisFit, Method, Ranker
+from diagnostics.ranking import HypothesisFit, Method, ParameterEstimate, Ranker
 from diagnostics.ratio_index import RatioIndex, ratio_index
 from diagnostics.signatures import OBSERVABLES, SignatureMaps
 from diagnostics.uncertainty import Estimate
@@ -69,6 +70,12 @@ class Diagnosis:
     fit
         Goodness of fit of the best hypothesis (:mod:`diagnostics.goodness`); when it
         fails, no fault is named.
+    healthy_end
+        Single-fault hypotheses whose fit sits on the healthy end of its worn range (and
+        whose component has no closed-form inversion), profiled from the rig document's
+        value up (:mod:`diagnostics.healthy_end`): the component's value when it is worn
+        less than the worn range assumes, by hypothesis name (``at_bound``: at the
+        document's value); only those whose profile passes the goodness-of-fit test.
     regime_notes
         End-stop states met by the maps (which hypothesis values hold the piston on its
         stop, predicted in that state, and whether the healthy rig's does) and the values
@@ -86,6 +93,7 @@ class Diagnosis:
     notes: list[str] = field(default_factory=list)
     fit: GoodnessOfFit | None = None
     regime_notes: list[str] = field(default_factory=list)
+    healthy_end: dict[str, ParameterEstimate] = field(default_factory=dict)
 
     @property
     def top(self) -> HypothesisFit:
@@ -143,6 +151,7 @@ class Diagnosis:
             "goodness_of_fit": None if self.fit is None else asdict(self.fit),
             "misfit": None if self.explained or self.fit is None else self.fit.statement,
             "regime_notes": self.regime_notes,
+            "healthy_end": {k: asdict(e) for k, e in self.healthy_end.items()},
         }
 
 
@@ -206,12 +215,13 @@ def diagnose(rig: Rig, records: Sequence[MeasurementRecord], *, model_rel: float
             if q is not None:
                 ratio = ratio_index(rig, o.condition, q)
                 break
+    profiled = _healthy_end(ranker, fits, direct)
     slip = None
     pump = next(f for f in fits if f.name == "pump")
     if pump.observable:
         mu = rig.fluid.dynamic_viscosity(obs[0].condition.oil_temperature)
         vp, rlp = rig.base["pump.Vp"], rig.base["pump.Rlp"]
-        (est,) = pump.parameters
+        (est,) = [profiled["pump"]] if "pump" in profiled else pump.parameters
         slip = tuple(mu * k / (vp * rlp) for k in (est.value, est.low, est.high))
     n = sum(len(o.names) for o in obs)
     if not math.isfinite(fits[0].log_evidence):
@@ -220,7 +230,20 @@ def diagnose(rig: Rig, records: Sequence[MeasurementRecord], *, model_rel: float
         notes.append(gof.statement)
     return Diagnosis(rig.spec.name, fits, iso, direct, ratio,
                      slip if slip is None else (slip[0], slip[1], slip[2]), len(records), n,
-                     notes, gof, regime_notes(ranker))
+                     notes, gof, regime_notes(ranker), profiled)
+
+
+#: closed-form inversion of each component's single-fault parameter (:func:`_direct`)
+_DIRECT = {"cylinder": "cc", "valve": "cv"}
+
+
+def _healthy_end(ranker: Ranker, fits: list[HypothesisFit], direct: dict[str, Estimate]
+                 ) -> dict[str, ParameterEstimate]:
+    """:func:`diagnostics.healthy_end.healthy_end_estimates` of the observable single-fault
+    fits whose component has no closed-form inversion here."""
+    return healthy_end_estimates(ranker, [
+        f for f in fits if f.observable and len(f.hypothesis.components) == 1
+        and _DIRECT.get(f.name) not in direct])
 
 
 def regime_notes(ranker: Ranker) -> list[str]:

@@ -56,7 +56,8 @@ if TYPE_CHECKING:
     from diagnostics.ranking import HypothesisFit, Ranker
     from diagnostics.record_model import RecordModel
 
-__all__ = ["RangeTest", "chi2_points", "pinned", "range_test", "range_tests"]
+__all__ = ["RangeTest", "chi2_points", "parabola_vertex", "pinned", "range_test", "range_tests",
+           "record_chi2"]
 
 Arr = npt.NDArray[np.float64]
 
@@ -186,11 +187,11 @@ def chi2_points(ranker: Ranker, params: list[FaultParameter], zs: Arr) -> Arr:
         maps = m.maps
         assert isinstance(maps, FastMaps)
         out, _, _, _ = maps.probe_moving(params, [zs], [None])
-        total += _record_chi2(m, out)
+        total += record_chi2(m, out)
     return total
 
 
-def _record_chi2(m: RecordModel, out: Arr) -> Arr:
+def record_chi2(m: RecordModel, out: Arr) -> Arr:
     """χ² of record ``m`` at predicted observables ``out`` (rows: points), a masked
     reading counting ``MASKED`` σ."""
     resid = m.obs.values[None, :] - out[:, m.idx]
@@ -227,7 +228,7 @@ def _grid_chi2(ranker: Ranker, ps: list[FaultParameter], grids: Arr) -> tuple[Ar
         rows = []
         for i, k in enumerate(keys):
             out_k, ys_k, ok_k = maps.kept[k]
-            total[i] = _record_chi2(m, out_k)
+            total[i] = record_chi2(m, out_k)
             rows.append((grids[i][ok_k], ys_k[ok_k]))
         known.append(rows)
     return total, known
@@ -258,7 +259,7 @@ def _points_near(ranker: Ranker, ps: list[FaultParameter], zs: Arr, known: _Know
             starts.append(y_done[int(np.argmin(np.abs(z_done - zs[i, 0])))]
                           if z_done.size else None)
         out, ys, _, ok = maps.probe_moving(params, list(zs), starts, even=True)
-        total += _record_chi2(m, out).reshape(rows, cols)
+        total += record_chi2(m, out).reshape(rows, cols)
         for i in range(rows):
             sl = slice(i * cols, (i + 1) * cols)
             good = ok[sl]
@@ -419,7 +420,7 @@ def _search_1d(ranker: Ranker, plans: list[_Plan]) -> list[tuple[float, float, f
         xs = np.concatenate([xs, fine], axis=1)
         ys = np.concatenate([ys, _finite(_points_near(ranker, ps, fine, known))], axis=1)
     for _ in range(VERTEX_STEPS):
-        zv = np.array([_vertex(x, y) for x, y in zip(xs, ys, strict=True)])
+        zv = np.array([parabola_vertex(x, y) for x, y in zip(xs, ys, strict=True)])
         cv = _finite(_points_near(ranker, ps, zv[:, None], known))
         xs = np.concatenate([xs, zv[:, None]], axis=1)
         ys = np.concatenate([ys, cv], axis=1)
@@ -456,7 +457,7 @@ def _bracket(x: Arr, y: Arr) -> tuple[float, float]:
     return float(x[max(k - 1, 0)]), float(x[min(k + 1, x.size - 1)])
 
 
-def _vertex(x: Arr, y: Arr) -> float:
+def parabola_vertex(x: Arr, y: Arr) -> float:
     """The vertex of the parabola through the best of points ``(x, y)`` and its nearest
     neighbour on each side (the best point itself when it has none or the parabola
     opens downward)."""

@@ -231,9 +231,11 @@ class EstimatePublic(BaseModel):
         ge=0, le=1, description="Probability that this component alone is at fault [1]",
         examples=[0.75],
     )
-    source: Literal["direct", "hypothesis"] = Field(
+    source: Literal["direct", "hypothesis", "profile"] = Field(
         description="'direct': closed-form inversion of the flows (paper 002 §2.7); "
-        "'hypothesis': fit of the component's single-fault hypothesis [-]",
+        "'hypothesis': fit of the component's single-fault hypothesis; 'profile': that fit "
+        "sat on the healthy end of its worn range, so the value is profiled from the rig "
+        "document's value up (a component worn less than the worn range assumes) [-]",
         examples=["direct"],
     )
 

@@ -62,7 +62,9 @@ _CLEARANCE_HYPOTHESES = {"cylinder": "cc", "valve": "cv"}
 @dataclass(frozen=True, slots=True)
 class EstimateOut:
     """One component's estimate: value and 95 % interval [unit], probability [1], and its
-    source: ``"direct"`` (closed-form inversion) or ``"hypothesis"`` (single-fault fit)."""
+    source: ``"direct"`` (closed-form inversion), ``"hypothesis"`` (single-fault fit) or
+    ``"profile"`` (that fit sat on the healthy end of its worn range: profiled from the
+    rig document's value up, :mod:`diagnostics.healthy_end`)."""
 
     component: str
     quantity: str
@@ -125,8 +127,15 @@ def estimates_of(diagnosis: Diagnosis) -> list[EstimateOut]:
     when the readings cannot reject that hypothesis (its ambiguity set).  Pump: the laminar
     slip coefficient Cs [-] of paper 000 eq. 6 under the pump hypothesis, when that is not
     rejected.  A rejected hypothesis's fit explains the readings by the wrong component
-    and estimates nothing, so it is left out.  ``probability`` is always that of the
-    component's single-fault hypothesis.
+    and estimates nothing, so it is left out.
+
+    A fit on the healthy end of its worn range says only "no more worn than the range's
+    start"; the component's value is then the profile from the rig document's value up
+    (:attr:`~diagnostics.diagnose.Diagnosis.healthy_end`, source ``"profile"``), kept when
+    the profile passes the goodness-of-fit test whether or not the worn range's fit did:
+    a seal wearing from its document's value toward the worn range is stored where it is,
+    neither at the range's start with an interval that excludes it nor left out.
+    ``probability`` is always that of the component's single-fault hypothesis.
     """
     fits = {f.name: f for f in diagnosis.hypotheses}
     plausible = set(diagnosis.isolability.ambiguity_set)
@@ -138,15 +147,21 @@ def estimates_of(diagnosis: Diagnosis) -> list[EstimateOut]:
         if direct is not None:
             out.append(EstimateOut(component, quantity, direct.unit, direct.value, direct.low,
                                    direct.high, probability, "direct"))
+        elif component in diagnosis.healthy_end:
+            p = diagnosis.healthy_end[component]
+            out.append(EstimateOut(component, quantity, p.unit, p.value, p.low, p.high,
+                                   probability, "profile"))
         elif fit is not None and fit.observable and component in plausible:
             (p,) = fit.parameters
             out.append(EstimateOut(component, quantity, p.unit, p.value, p.low, p.high,
                                    probability, "hypothesis"))
     pump = fits.get("pump")
-    if pump is not None and "pump" in plausible and diagnosis.pump_slip is not None:
+    if pump is not None and diagnosis.pump_slip is not None and (
+            "pump" in plausible or "pump" in diagnosis.healthy_end):
         value, low, high = diagnosis.pump_slip
         out.append(EstimateOut("pump", "Cs", "1", value, min(low, high), max(low, high),
-                               pump.probability, "hypothesis"))
+                               pump.probability,
+                               "profile" if "pump" in diagnosis.healthy_end else "hypothesis"))
     return [e for e in out if all(math.isfinite(x) for x in (e.value, e.low, e.high))]
 
 

@@ -219,3 +219,28 @@ def test_points_of_a_version_with_other_parameters_are_left_out(server: LiveServ
     assert [p["rig_version"] for p in cyl["points"]] == [3, 3, 3]
     assert cyl["left_out"] == 4 and cyl["left_out_versions"] == [1, 2]
     assert "4 point(s) of version(s) 1, 2 left out" in cyl["message"]
+
+
+def test_a_seal_wearing_short_of_its_worn_range_trends_where_it_is(server: LiveServer) -> None:
+    """A seal wearing from its document value (83 µm) toward the worn range (91.3 µm),
+    three visits a month apart, without flow meters: each stored point is the profile
+    from the document's value (source "profile"), its interval holds the truth, and the
+    trend rises — not three points at the worn range's start with intervals that exclude
+    the seal, a flat line."""
+    rig_id = int(new_rig(server, "incipient-trend-rig")["id"])
+    visits = (("2026-01-05T09:00:00Z", 84e-6), ("2026-02-05T09:00:00Z", 86.5e-6),
+              ("2026-03-05T09:00:00Z", 89e-6))
+    for when, cc in visits:
+        record = simulated_record(server, {"cylinder.cc": cc}, rig_id=rig_id,
+                                  load=4200.0, measured_at=when)
+        del record["flow_B"], record["flow_C"]
+        response = server.client.post("/diagnose", json={"record": record},
+                                      headers=server.auth)
+        assert response.status_code == 200, response.text
+        est = response.json()["diagnoses"][0]["result"]["estimates"]["cylinder"]
+        assert est["source"] == "profile" and est["low"] <= cc <= est["high"]
+    cyl = server.client.get(f"/rigs/{rig_id}/trends", params={"component": "cylinder"}
+                            ).json()["components"][0]
+    assert [p["value"] for p in cyl["points"]] == pytest.approx([cc for _, cc in visits],
+                                                                rel=5e-3)
+    assert cyl["slope"] == pytest.approx(2.5e-6 / (29.5 * 86400), rel=0.15)

@@ -1,0 +1,148 @@
+"""A component's value when its single-fault fit sits on the healthy end of its worn range.
+
+A single-fault hypothesis's parameter ranges over the component's *worn* prior
+(:meth:`~diagnostics.hypotheses.FaultParameter.worn_bounds`: from leakage × 1.33 up), so
+the fit of a component worn less than that, or not at all, sits on that end with its 95 %
+interval clipped there: a healthy piston seal (clearance at the rig document's 83 µm) is
+fitted at the worn range's start, 91.3 µm, with an interval [91.3, 93.6] µm that
+excludes the truth.  That is right for the hypothesis (a worn seal is at least that worn)
+and wrong for what the history keeps of the component: its value over time, which starts
+at the document's value and passes through the gap before the worn range while it wears
+(the first points of every trend).
+
+For the component's value the parameter is profiled from the rig document's value up:
+χ²(z) of the one-parameter hypothesis on :data:`POINTS` equally spaced fitting
+coordinates from the document's value z_d to z_l + (z_l − z_d), z_l the worn range's
+start (twice the gap; fixed by the rig, not by the readings, so a record at a condition
+seen before reuses the grid's predictions, :attr:`diagnostics.fastpath.maps.FastMaps.kept`).
+The estimate is the grid's minimum refined by the parabola through it and its neighbours
+(:func:`~diagnostics.range_test.parabola_vertex`); the 95 % interval is the profile
+likelihood's, where χ²(z) − χ²_min ≤ 1.96² (Wilks; the χ²₁ quantile), its ends
+interpolated linearly between grid points and clipped at the document's value (below it
+the component would be better than built: :mod:`diagnostics.range_test` says whether the
+readings ask for that).  Where the profile stays under the threshold to the grid's top,
+the upper end is the fit's own (its Gauss-Newton interval from the worn range's start,
+which bounds the profile's from above).  The χ² is evaluated as the range test evaluates
+it (:func:`~diagnostics.range_test.chi2_points`, the compiled kernel when every record has
+fast maps).  A profile whose best χ² fails the goodness-of-fit test
+(:mod:`diagnostics.goodness`) estimates nothing: no value of that component alone, from
+its document's up, explains the readings.  Whether the component is the likely culprit
+is the ranking's business; the profile is its value if it is the one that moved
+(the single-fault assumption every hypothesis estimate makes).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+import numpy as np
+import numpy.typing as npt
+from scipy.special import gammaincinv
+
+from diagnostics.fastpath.maps import FastMaps
+from diagnostics.goodness import TEST_LEVEL
+from diagnostics.hypotheses import PARAMETERS, FaultParameter
+from diagnostics.range_test import chi2_points, parabola_vertex, pinned, record_chi2
+from diagnostics.ranking import ParameterEstimate, severity
+
+if TYPE_CHECKING:
+    from diagnostics.ranking import HypothesisFit, Ranker
+
+__all__ = ["POINTS", "PROFILED", "healthy_end_estimates"]
+
+Arr = npt.NDArray[np.float64]
+
+#: grid points of the profile from the rig document's value [-]: a spacing of 1/16 of
+#: the gap between the document's value and the worn range (0.6 % of a clearance)
+POINTS = 33
+
+#: parameters profiled: those whose rig document gives a value below the worn range
+#: (a relief setting's healthy end is its document value; a seat leak has none) [-]
+PROFILED = ("cc", "cv", "pump_leak")
+
+#: Δχ² of the 95 % profile-likelihood interval: 1.96², the χ²₁ 95 % quantile [-]
+DELTA_95 = 1.96 ** 2
+
+
+def _grid(ranker: Ranker, p: FaultParameter) -> Arr:
+    zd = p.to_z(p.nominal_value(ranker.rig))
+    zl = p.to_z(p.worn_bounds(ranker.rig)[0])
+    return np.linspace(zd, zl + (zl - zd), POINTS)
+
+
+def _profile(ranker: Ranker, ps: list[FaultParameter], grids: Arr) -> Arr:
+    """χ² of row ``i`` of ``grids`` under the one-parameter hypothesis of ``ps[i]``;
+    each record's rows in one compiled call, kept on its maps by parameter and grid."""
+    if not all(isinstance(m.maps, FastMaps) for m in ranker.models):
+        flat = chi2_points(ranker, [p for p in ps for _ in range(POINTS)], grids.reshape(-1))
+        return flat.reshape(grids.shape)
+    total = np.zeros(grids.shape)
+    for m in ranker.models:
+        maps = m.maps
+        assert isinstance(maps, FastMaps)
+        keys = [("healthy-end grid", p.name, g.tobytes()) for p, g in zip(ps, grids,
+                                                                            strict=True)]
+        missing = [i for i, k in enumerate(keys) if k not in maps.kept]
+        if missing:
+            out, ys, _, ok = maps.probe_moving([ps[i] for i in missing for _ in range(POINTS)],
+                                               [grids[i] for i in missing],
+                                               [None] * len(missing), even=True)
+            for j, i in enumerate(missing):
+                sl = slice(j * POINTS, (j + 1) * POINTS)
+                maps.kept[keys[i]] = (out[sl], ys[sl], ok[sl])
+        for i, k in enumerate(keys):
+            total[i] += record_chi2(m, maps.kept[k][0])
+    return np.where(np.isfinite(total), total, np.inf)
+
+
+def _crossing(z: Arr, chi: Arr, j: int, level: float, step: int) -> float | None:
+    """The fitting coordinate where ``chi`` first rises above ``level`` going from index
+    ``j`` by ``step`` (linear between grid points); None when it never does."""
+    k = j
+    while 0 <= k + step < z.size:
+        if chi[k + step] > level:
+            if not math.isfinite(float(chi[k + step])):
+                return float(z[k + step])
+            t = (level - chi[k]) / (chi[k + step] - chi[k])
+            return float(z[k] + t * (z[k + step] - z[k]))
+        k += step
+    return None
+
+
+def healthy_end_estimates(ranker: Ranker, fits: list[HypothesisFit],
+                          level: float = TEST_LEVEL) -> dict[str, ParameterEstimate]:
+    """The profile estimate (module docstring) of each of ``fits`` that has one parameter
+    of :data:`PROFILED` and sits on the healthy end of its worn range, by hypothesis name,
+    when the profile's best χ² passes the goodness-of-fit test at ``level``
+    (χ²_{1−α}(n − 1), n readings; no test without a degree of freedom): a component whose
+    every value from its document's up leaves the readings unexplained estimates nothing
+    (:mod:`diagnostics.goodness`)."""
+    todo = [f for f in fits if len(f.parameters) == 1 and f.parameters[0].name in PROFILED
+            and any(side == "healthy" for _, side in pinned(ranker, f))]
+    if not todo:
+        return {}
+    ps = [PARAMETERS[f.parameters[0].name] for f in todo]
+    grids = np.array([_grid(ranker, p) for p in ps])
+    chi = _profile(ranker, ps, grids)
+    dof = ranker.n_obs - 1
+    limit = float(2.0 * gammaincinv(0.5 * dof, 1.0 - level)) if dof >= 1 else math.inf
+    out: dict[str, ParameterEstimate] = {}
+    for f, p, z, c in zip(todo, ps, grids, chi, strict=True):
+        j = int(np.argmin(c))
+        if not float(c[j]) <= limit:
+            continue
+        best = parabola_vertex(z, c) if 0 < j < z.size - 1 else float(z[j])
+        level = float(c[j]) + DELTA_95
+        low = _crossing(z, c, j, level, -1)
+        high = _crossing(z, c, j, level, +1)
+        fitted = f.parameters[0]
+        hi = max(p.to_z(fitted.high), float(z[-1])) if high is None else high
+        at_document = best <= z[0]
+        value = fitted.nominal if at_document else p.from_z(best)
+        mult, label = severity(p, value, fitted.nominal)
+        out[f.name] = ParameterEstimate(
+            p.name, p.component, p.unit, value,
+            fitted.nominal if low is None else p.from_z(low), p.from_z(hi), fitted.nominal,
+            mult, label, bool(at_document))
+    return out
