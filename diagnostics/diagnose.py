@@ -19,8 +19,10 @@ from weakref import WeakKeyDictionary
 import numpy as np
 import numpy.typing as npt
 
+from diagnostics.condition_interval import widen
 from diagnostics.goodness import GoodnessOfFit, goodness_of_fit
 from diagnostics.healthy_end import healthy_end_estimates
+from diagnostics.hypotheses import PARAMETERS
 from diagnostics.inversion import LeakageGeometry, cylinder_clearance, valve_clearance
 from diagnostics.isolability import Isolability, isolability
 from diagnostics.measurement import MeasurementRecord
@@ -71,11 +73,12 @@ class Diagnosis:
         Goodness of fit of the best hypothesis (:mod:`diagnostics.goodness`); when it
         fails, no fault is named.
     healthy_end
-        Single-fault hypotheses whose fit sits on the healthy end of its worn range (and
-        whose component has no closed-form inversion), profiled from the rig document's
-        value up (:mod:`diagnostics.healthy_end`): the component's value when it is worn
-        less than the worn range assumes, by hypothesis name (``at_bound``: at the
-        document's value); only those whose profile passes the goodness-of-fit test.
+        Single-fault hypotheses whose fit sits on the healthy end of its worn range, or
+        whose interval reaches it (and whose component has no closed-form inversion),
+        profiled from the rig document's value up (:mod:`diagnostics.healthy_end`): the
+        component's value when it may be worn less than the worn range assumes, by
+        hypothesis name (``at_bound``: at the document's value); only those whose profile
+        passes the goodness-of-fit test.
     regime_notes
         End-stop states met by the maps (which hypothesis values hold the piston on its
         stop, predicted in that state, and whether the healthy rig's does) and the values
@@ -215,7 +218,9 @@ def diagnose(rig: Rig, records: Sequence[MeasurementRecord], *, model_rel: float
             if q is not None:
                 ratio = ratio_index(rig, o.condition, q)
                 break
+    _widen(ranker, fits, {})
     profiled = _healthy_end(ranker, fits, direct)
+    _widen(ranker, [], profiled)
     slip = None
     pump = next(f for f in fits if f.name == "pump")
     if pump.observable:
@@ -231,6 +236,24 @@ def diagnose(rig: Rig, records: Sequence[MeasurementRecord], *, model_rel: float
     return Diagnosis(rig.spec.name, fits, iso, direct, ratio,
                      slip if slip is None else (slip[0], slip[1], slip[2]), len(records), n,
                      notes, gof, regime_notes(ranker), profiled)
+
+
+def _widen(ranker: Ranker, fits: list[HypothesisFit],
+           profiled: dict[str, ParameterEstimate]) -> None:
+    """The stated conditions' uncertainty at the estimate in the intervals of the
+    one-parameter fits that explain the readings to some degree and of the profiles
+    (:mod:`diagnostics.condition_interval`)."""
+    items = []
+    for f in fits:
+        if len(f.parameters) == 1 and f.observable and math.isfinite(f.chi2):
+            (est,) = f.parameters
+            p = PARAMETERS[est.name]
+            lo, hi = p.worn_bounds(ranker.rig)
+            items.append((p, est, p.to_z(lo), p.to_z(hi)))
+    for est in profiled.values():
+        p = PARAMETERS[est.name]
+        items.append((p, est, p.to_z(est.nominal), p.to_z(p.worn_bounds(ranker.rig)[1])))
+    widen(ranker, items)
 
 
 #: closed-form inversion of each component's single-fault parameter (:func:`_direct`)

@@ -24,7 +24,11 @@ readings ask for that).  Where the profile stays under the threshold to the grid
 the upper end is the fit's own (its Gauss-Newton interval from the worn range's start,
 which bounds the profile's from above).  The χ² is evaluated as the range test evaluates
 it (:func:`~diagnostics.range_test.chi2_points`, the compiled kernel when every record has
-fast maps).  A profile whose best χ² fails the goodness-of-fit test
+fast maps).  A fit *inside* its worn range whose interval reaches the range's start (the
+posterior cut there: a pump leaking 1.2 × nominal fitted at 1.6 × with an interval from
+1.33 ×) keeps its estimate and upper end, and takes the profile's lower end: where χ²
+rises 1.96² above the fit's, going down from the range's start toward the document's
+value.  A profile whose best χ² fails the goodness-of-fit test
 (:mod:`diagnostics.goodness`) estimates nothing: no value of that component alone, from
 its document's up, explains the readings.  Whether the component is the likely culprit
 is the ranking's business; the profile is its value if it is the one that moved
@@ -34,6 +38,7 @@ is the ranking's business; the profile is its value if it is the one that moved
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -43,7 +48,7 @@ from scipy.special import gammaincinv
 from diagnostics.fastpath.maps import FastMaps
 from diagnostics.goodness import TEST_LEVEL
 from diagnostics.hypotheses import PARAMETERS, FaultParameter
-from diagnostics.range_test import chi2_points, parabola_vertex, pinned, record_chi2
+from diagnostics.range_test import PIN_TOL, chi2_points, parabola_vertex, pinned, record_chi2
 from diagnostics.ranking import ParameterEstimate, severity
 
 if TYPE_CHECKING:
@@ -85,9 +90,11 @@ def _profile(ranker: Ranker, ps: list[FaultParameter], grids: Arr) -> Arr:
                                                                             strict=True)]
         missing = [i for i, k in enumerate(keys) if k not in maps.kept]
         if missing:
+            saved = maps.ctx.states.copy()  # later fits at this condition start as before
             out, ys, _, ok = maps.probe_moving([ps[i] for i in missing for _ in range(POINTS)],
                                                [grids[i] for i in missing],
                                                [None] * len(missing), even=True)
+            maps.ctx.states[:] = saved
             for j, i in enumerate(missing):
                 sl = slice(j * POINTS, (j + 1) * POINTS)
                 maps.kept[keys[i]] = (out[sl], ys[sl], ok[sl])
@@ -110,6 +117,15 @@ def _crossing(z: Arr, chi: Arr, j: int, level: float, step: int) -> float | None
     return None
 
 
+def _touches(ranker: Ranker, f: HypothesisFit) -> bool:
+    """Whether the 95 % interval of one-parameter fit ``f`` (estimate inside its worn
+    range) reaches the range's healthy end: the posterior there is cut by the range."""
+    (est,) = f.parameters
+    p = PARAMETERS[est.name]
+    zl, zu = (p.to_z(b) for b in p.worn_bounds(ranker.rig))
+    return p.to_z(est.low) - zl <= PIN_TOL * (zu - zl)
+
+
 def healthy_end_estimates(ranker: Ranker, fits: list[HypothesisFit],
                           level: float = TEST_LEVEL) -> dict[str, ParameterEstimate]:
     """The profile estimate (module docstring) of each of ``fits`` that has one parameter
@@ -117,26 +133,39 @@ def healthy_end_estimates(ranker: Ranker, fits: list[HypothesisFit],
     when the profile's best χ² passes the goodness-of-fit test at ``level``
     (χ²_{1−α}(n − 1), n readings; no test without a degree of freedom): a component whose
     every value from its document's up leaves the readings unexplained estimates nothing
-    (:mod:`diagnostics.goodness`)."""
-    todo = [f for f in fits if len(f.parameters) == 1 and f.parameters[0].name in PROFILED
-            and any(side == "healthy" for _, side in pinned(ranker, f))]
+    (:mod:`diagnostics.goodness`).  A fit inside its worn range whose interval reaches the
+    range's healthy end keeps its estimate and upper end; its lower end is the profile's,
+    where χ² rises 1.96² above the fit's going down toward the document's value."""
+    todo = []
+    for f in fits:
+        if len(f.parameters) != 1 or f.parameters[0].name not in PROFILED:
+            continue
+        if any(side == "healthy" for _, side in pinned(ranker, f)):
+            todo.append((f, True))
+        elif not pinned(ranker, f) and math.isfinite(f.chi2) and _touches(ranker, f):
+            todo.append((f, False))
     if not todo:
         return {}
-    ps = [PARAMETERS[f.parameters[0].name] for f in todo]
+    ps = [PARAMETERS[f.parameters[0].name] for f, _ in todo]
     grids = np.array([_grid(ranker, p) for p in ps])
     chi = _profile(ranker, ps, grids)
     dof = ranker.n_obs - 1
     limit = float(2.0 * gammaincinv(0.5 * dof, 1.0 - level)) if dof >= 1 else math.inf
     out: dict[str, ParameterEstimate] = {}
-    for f, p, z, c in zip(todo, ps, grids, chi, strict=True):
+    for (f, on_end), p, z, c in zip(todo, ps, grids, chi, strict=True):
+        fitted = f.parameters[0]
         j = int(np.argmin(c))
         if not float(c[j]) <= limit:
             continue
+        if not on_end:  # the worn range's start is the grid's middle point
+            low = _crossing(z, c, POINTS // 2, min(f.chi2, float(c[j])) + DELTA_95, -1)
+            out[f.name] = replace(fitted, low=fitted.nominal if low is None else
+                                  p.from_z(low))
+            continue
         best = parabola_vertex(z, c) if 0 < j < z.size - 1 else float(z[j])
-        level = float(c[j]) + DELTA_95
-        low = _crossing(z, c, j, level, -1)
-        high = _crossing(z, c, j, level, +1)
-        fitted = f.parameters[0]
+        threshold = float(c[j]) + DELTA_95
+        low = _crossing(z, c, j, threshold, -1)
+        high = _crossing(z, c, j, threshold, +1)
         hi = max(p.to_z(fitted.high), float(z[-1])) if high is None else high
         at_document = best <= z[0]
         value = fitted.nominal if at_document else p.from_z(best)

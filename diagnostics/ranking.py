@@ -16,7 +16,9 @@ the data do not need costs the share of its prior range that the data rule out.
 * One parameter: the integral is taken on the 241-point signature map
   (:mod:`diagnostics.signatures`), exactly where the likelihood is flat or sits on a
   bound; the estimate is the maximum (refined by a parabola through the best grid points)
-  and the 95 % interval is the central 95 % of the posterior.
+  and the 95 % interval is the central 95 % of the posterior (the Laplace interval where
+  the posterior is too narrow for the grid,
+  :func:`diagnostics.fastpath.singles.posterior_interval`).
 * Two parameters: Gauss-Newton on direct solves from the better of the two single-fault
   estimates, then the Laplace approximation with the posterior mass truncated at the
   bounds; interval ±1.96 σ from the Gauss-Newton covariance, clipped to the bounds.
@@ -49,6 +51,7 @@ import numpy.typing as npt
 
 from diagnostics.evidence import acting_relief_setting, posterior
 from diagnostics.fastpath.fits import PairProblem, RecordPack, pair_problem, record_pack
+from diagnostics.fastpath.singles import posterior_interval
 from diagnostics.hypotheses import HYPOTHESES, PARAMETERS, FaultParameter, Hypothesis
 from diagnostics.observations import RecordObservations
 from diagnostics.pair_direct import MASKED, levenberg_marquardt, profile_points
@@ -246,17 +249,14 @@ class Ranker:
         # round-off in the solves must not pick the estimate
         k = int(np.argmax(logl >= top - _TIE))
         zk = float(z[k])
+        den = math.nan
         if 0 < k < z.size - 1:  # parabola through the three best points
             y0, y1, y2 = logl[k - 1], logl[k], logl[k + 1]
-            den = y0 - 2 * y1 + y2
+            den = float(y0 - 2 * y1 + y2)
             if den < 0 and math.isfinite(den):  # not beside a masked (stalled) point
                 zk += 0.5 * (y0 - y2) / den * (z[1] - z[0])
-        post = np.exp(logl - logl.max())
-        cdf = np.cumsum(post)
-        cdf /= cdf[-1]
-        lo_z, hi_z = float(np.interp(0.025, cdf, z)), float(np.interp(0.975, cdf, z))
-        lo_z, hi_z = min(lo_z, zk), max(hi_z, zk)
-        est = self._estimate(p, zk, lo_z, hi_z, float(z[0]), float(z[-1]))
+        lo_z, hi_z = posterior_interval(z, np.exp(logl - logl.max()), zk, den)
+        est = self._estimate(p, zk, float(lo_z), float(hi_z), float(z[0]), float(z[-1]))
         preds = [m.as_dict(m.maps.maps[hyp.name].pred[k]) for m in self.models]
         detectability = float(np.sqrt(detect.max()))
         return HypothesisFit(hyp, float(chi2[k]), log_ev, [est], preds,

@@ -94,8 +94,9 @@ def condition_terms(pred: Arr, moves: list[tuple[float, list[tuple[Condition, fl
 class RecordModel:
     """One record's observations, their covariance, and its condition's signature maps.
 
-    Attributes ``sigma`` (marginal σ of each reading [SI]) and ``white`` (whitening
-    matrix W [1/SI], lower triangular, one row and column per reading).
+    Attributes ``sigma`` (marginal σ of each reading [SI]), ``white`` (whitening
+    matrix W [1/SI], lower triangular, one row and column per reading) and ``diag`` (the
+    covariance's uncorrelated part, the readings' and the model's variances [SI²]).
 
     Parameters
     ----------
@@ -123,10 +124,11 @@ class RecordModel:
         # a reading the healthy rig cannot produce (a stalled return stroke has no velocity
         # ratio) gets no model or condition term: its σ is the measurement's own
         rel = model_rel * pred
-        diag = obs.u**2 + np.where(np.isnan(rel), 0.0, rel) ** 2
+        #: the uncorrelated part of the covariance: the readings' own and the model's [SI²]
+        self.diag = obs.u**2 + np.where(np.isnan(rel), 0.0, rel) ** 2
         terms = condition_terms(pred, condition_moves(obs),
                                 lambda cond: self._moved(rig, cond))
-        self.sigma, self.white = whitening(diag, terms)
+        self.sigma, self.white = whitening(self.diag, terms)
         for name, value, sig in zip(obs.names, obs.values, self.sigma, strict=True):
             if not sig > 0.0:
                 # a speed or velocity ratio of 0 (a stroke that did not move) read by an

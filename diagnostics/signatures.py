@@ -36,6 +36,7 @@ hypotheses are not mapped: tensor-product splines over 11 × 11 points erred by 
 
 from __future__ import annotations
 
+import contextlib
 import math
 import threading
 from collections import OrderedDict
@@ -178,6 +179,21 @@ class SignatureMaps:
     def predict(self, params: tuple[FaultParameter, ...], values: Arr) -> Arr:
         """Observables for ``params`` at ``values``, solved directly (no interpolation)."""
         return self.ev.vector(self.graph_values(params, values), OBSERVABLES)
+
+    def observables_at(self, params: list[FaultParameter], zs: Arr,
+                       condition: Condition | None = None) -> Arr:
+        """Observables with ``params[i]`` at fitting coordinate ``zs[i]`` in row ``i`` (the
+        other parameters at the rig document's values), at this condition or at
+        ``condition``, solved directly (no interpolation); NaN rows where no steady
+        operating point exists."""
+        ev = self.ev if condition is None or condition == self.condition else \
+            evaluator(self.rig, condition)
+        out = np.full((len(params), len(OBSERVABLES)), np.nan)
+        for i, (p, z) in enumerate(zip(params, zs, strict=True)):
+            with contextlib.suppress(SimulationError):  # no steady point: the row stays NaN
+                out[i] = ev.vector(self.graph_values((p,), np.array([p.from_z(float(z))])),
+                                   OBSERVABLES)
+        return out
 
     def _solve_or_nan(self, params: tuple[FaultParameter, ...], value: float) -> Arr:
         """Direct prediction, NaN everywhere where no steady operating point exists."""

@@ -144,7 +144,7 @@ class FastMaps(SignatureMaps):
         self.rig = rig
         self.condition = condition
         self._ev: SteadyEvaluator | None = None
-        self._moved: dict[Condition, Arr | None] = {}
+        self._moved: dict[Condition, tuple[Context, Arr] | None] = {}
         #: predictions that do not depend on the readings, kept for the next record at
         #: this condition with the phases' solutions and success (the range test's first
         #: grids, :mod:`diagnostics.range_test`)
@@ -314,14 +314,41 @@ class FastMaps(SignatureMaps):
     def moved_nominal(self, condition: Condition) -> Arr:
         """Healthy observables at a condition near this one (the σ of a record's condition
         uncertainty), remembered with the maps.  Raises SimulationError if none."""
+        moved = self._moved_context(condition)
+        if moved is None:
+            raise SimulationError(f"no healthy operating point at {condition}")
+        return moved[1]
+
+    def _moved_context(self, condition: Condition) -> tuple[Context, Arr] | None:
+        """The kernel's context at a condition near this one and the healthy observables
+        there (None where it has no healthy operating point), remembered with the maps."""
         if condition not in self._moved:
+            ctx = Context(self.rig, condition)
             try:
-                self._moved[condition] = nominal_observables(self.rig, condition)
+                self._moved[condition] = (ctx, ctx.nominal(ctx.params[0][ctx.gidx]))
             except SimulationError:
                 self._moved[condition] = None
-        out = self._moved[condition]
-        if out is None:
-            raise SimulationError(f"no healthy operating point at {condition}")
+        return self._moved[condition]
+
+    def observables_at(self, params: list[FaultParameter], zs: Arr,
+                       condition: Condition | None = None) -> Arr:
+        """:meth:`SignatureMaps.observables_at` on the compiled kernel (one call; at this
+        condition a point it fails is solved directly, at a moved one it stays NaN).  The
+        context's Newton states are left as they were: the next fit at this condition
+        starts where it would have."""
+        zs = np.asarray(zs, dtype=np.float64)
+        if condition is None or condition == self.condition:
+            saved = self.ctx.states.copy()  # the maps' continuation is not moved by this
+            out, ok = self.ctx.solve(self._grid(params, zs))
+            self.ctx.states[:] = saved
+            for i in np.flatnonzero(~ok):
+                out[i] = self._solve_or_nan((params[i],), params[i].from_z(float(zs[i])))
+            return out
+        moved = self._moved_context(condition)
+        if moved is None:
+            return np.full((zs.size, len(OBSERVABLES)), np.nan)
+        out, ok = moved[0].solve(self._grid(params, zs))
+        out[~ok] = np.nan
         return out
 
     @property

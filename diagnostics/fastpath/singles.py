@@ -13,9 +13,8 @@ counts χ² = ∞ there),
 
 (the evidence integral of :mod:`diagnostics.ranking` on the uniform grid); the estimate is
 the first point within ``tie`` of the maximum, refined by a parabola through its
-neighbours; the 95 % interval the 2.5 % and 97.5 % points of the posterior's cumulative
-sum (linear interpolation as ``numpy.interp``), widened to hold the estimate; the
-detectability ``max_k sqrt(Σ ((ŷ(z_k) − ŷ₀)/σ)²)`` against the healthy prediction.
+neighbours; the 95 % interval by :func:`posterior_interval`; the detectability
+``max_k sqrt(Σ ((ŷ(z_k) − ŷ₀)/σ)²)`` against the healthy prediction.
 """
 
 from __future__ import annotations
@@ -25,7 +24,13 @@ import math
 import numpy as np
 
 #: names copied into the generated module, in dependency order
-KERNELS = ("interp_monotone", "single_scan")
+KERNELS = ("interp_monotone", "posterior_interval", "single_scan")
+#: module constants copied into the generated module (:mod:`diagnostics.fastpath.compiled`)
+CONSTANTS = ("LAPLACE_SPACINGS",)
+
+#: a posterior whose Laplace standard deviation is at most this many grid spacings takes
+#: the Laplace interval (:func:`posterior_interval`) [-]
+LAPLACE_SPACINGS = 2.0
 
 
 def interp_monotone(x, xp, fp):  # type: ignore[no-untyped-def]
@@ -46,6 +51,41 @@ def interp_monotone(x, xp, fp):  # type: ignore[no-untyped-def]
             hi = mid
     slope = (fp[hi] - fp[lo]) / (xp[hi] - xp[lo])
     return slope * (x - xp[lo]) + fp[lo]
+
+
+def posterior_interval(z, post, zk, den):  # type: ignore[no-untyped-def]
+    """95 % interval [fitting coordinate] of a one-parameter posterior known at the equally
+    spaced points ``z`` (``post``: its density there, any scale), estimate ``zk``.
+
+    ``den`` = ℓ_{k−1} − 2ℓ_k + ℓ_{k+1} of the log-likelihood ℓ at the best point and its
+    neighbours (NaN where there is no parabola: the best point at an end, or beside a
+    masked one).  Where the parabola gives a Laplace standard deviation σ = h/√(−den) of
+    at most :data:`LAPLACE_SPACINGS` grid spacings h, the posterior is too narrow for the
+    grid to resolve and the interval is ẑ ± 1.96σ, clipped to the axis.  Otherwise the
+    2.5 % and 97.5 % points of the cumulative integral of the density interpolated
+    linearly between the points (the trapezoid rule; linear between points), widened to
+    hold the estimate.  (The interval was once read off the cumulative *sum* of the
+    point masses, which puts each point's mass on the interval before it: half a grid
+    spacing low, and for a posterior spanning a few points an interval that missed the
+    truth of 24 % of the seals the accuracy study drew without flow meters.)"""
+    n = z.size
+    h = z[1] - z[0]
+    if den < 0.0 and math.isfinite(den):
+        sd = h / math.sqrt(-den)
+        if sd <= LAPLACE_SPACINGS * h:
+            return max(zk - 1.96 * sd, z[0]), min(zk + 1.96 * sd, z[n - 1])
+    cdf = np.empty(n)
+    cdf[0] = 0.0
+    for k in range(1, n):
+        cdf[k] = cdf[k - 1] + 0.5 * (post[k - 1] + post[k])
+    total = cdf[n - 1]
+    if not total > 0.0:  # all the mass on one end point
+        return zk, zk
+    for k in range(n):
+        cdf[k] /= total
+    lo = min(interp_monotone(0.025, cdf, z), zk)
+    hi = max(interp_monotone(0.975, cdf, z), zk)
+    return lo, hi
 
 
 def single_scan(z, preds, nominal, yobs, wrow, sig, oidx, start, tie, chi2):  # type: ignore[no-untyped-def]
@@ -102,6 +142,7 @@ def single_scan(z, preds, nominal, yobs, wrow, sig, oidx, start, tie, chi2):  # 
             best = k
             break
     zk = z[best]
+    den = math.nan
     if 0 < best < n - 1:
         y0 = -0.5 * chi2[best - 1]
         y1 = -0.5 * chi2[best]
@@ -109,13 +150,5 @@ def single_scan(z, preds, nominal, yobs, wrow, sig, oidx, start, tie, chi2):  # 
         den = y0 - 2 * y1 + y2
         if den < 0 and math.isfinite(den):
             zk += 0.5 * (y0 - y2) / den * (z[1] - z[0])
-    cdf = np.empty(n)
-    acc = 0.0
-    for k in range(n):
-        acc += post[k]
-        cdf[k] = acc
-    for k in range(n):
-        cdf[k] /= acc
-    lo = min(interp_monotone(0.025, cdf, z), zk)
-    hi = max(interp_monotone(0.975, cdf, z), zk)
+    lo, hi = posterior_interval(z, post, zk, den)
     return top, log_ev, best, zk, lo, hi, detectability
