@@ -79,6 +79,11 @@ class Diagnosis:
         component's value when it may be worn less than the worn range assumes, by
         hypothesis name (``at_bound``: at the document's value); only those whose profile
         passes the goodness-of-fit test.
+    reading_sigma
+        Per record, each reading's standard uncertainty as the likelihood weighs it [SI
+        unit of the reading]: the measurement's own, the model's and the stated
+        condition's (:mod:`diagnostics.record_model`; the condition's part moves every
+        reading of a record at once, so the readings' errors are correlated).
     regime_notes
         End-stop states met by the maps (which hypothesis values hold the piston on its
         stop, predicted in that state, and whether the healthy rig's does) and the values
@@ -97,6 +102,7 @@ class Diagnosis:
     fit: GoodnessOfFit | None = None
     regime_notes: list[str] = field(default_factory=list)
     healthy_end: dict[str, ParameterEstimate] = field(default_factory=dict)
+    reading_sigma: list[dict[str, float]] = field(default_factory=list)
 
     @property
     def top(self) -> HypothesisFit:
@@ -155,6 +161,7 @@ class Diagnosis:
             "misfit": None if self.explained or self.fit is None else self.fit.statement,
             "regime_notes": self.regime_notes,
             "healthy_end": {k: asdict(e) for k, e in self.healthy_end.items()},
+            "reading_sigma": self.reading_sigma,
         }
 
 
@@ -235,7 +242,9 @@ def diagnose(rig: Rig, records: Sequence[MeasurementRecord], *, model_rel: float
         notes.append(gof.statement)
     return Diagnosis(rig.spec.name, fits, iso, direct, ratio,
                      slip if slip is None else (slip[0], slip[1], slip[2]), len(records), n,
-                     notes, gof, regime_notes(ranker), profiled)
+                     notes, gof, regime_notes(ranker), profiled,
+                     [{n: float(u) for n, u in zip(m.obs.names, m.sigma, strict=True)}
+                      for m in ranker.models])
 
 
 def _widen(ranker: Ranker, fits: list[HypothesisFit],

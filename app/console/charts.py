@@ -22,8 +22,10 @@ __all__ = [
     "SEVERITY_BANDS",
     "calibration_chart",
     "estimate_charts",
+    "predicted_for",
     "probability_chart",
     "reading_chart",
+    "record_index",
     "series_charts",
     "simulation_charts",
     "surface_chart",
@@ -49,13 +51,29 @@ def probability_chart(result: Mapping[str, Any], *, top: int = 8) -> Chart:
     return bar_chart("Hypothesis probabilities", "probability [1]", bars)
 
 
+def record_index(result: Mapping[str, Any]) -> int:
+    """Which of a joint diagnosis's records the stored result belongs to (its
+    ``record_index``; 0 for a single record and for results stored before it was kept)."""
+    index = result.get("record_index")
+    return index if isinstance(index, int) and index >= 0 else 0
+
+
+def predicted_for(fit: Mapping[str, Any], index: int) -> dict[str, Any]:
+    """A hypothesis's predictions of record ``index`` of the diagnosis (empty if none)."""
+    predicted = fit.get("predicted") or []
+    return dict(predicted[index]) if index < len(predicted) and predicted[index] else {}
+
+
 def reading_chart(result: Mapping[str, Any], measured: Mapping[str, tuple[float, float]],
                   *, leading: int = 3) -> Chart | None:
     """Measured readings with their 95 % interval against each leading hypothesis' prediction.
 
     Each reading is drawn relative to its measured value, ``(y / measured − 1)`` [1], so
     pressures, flows and speeds share one axis: the measurement sits at 0 with its
-    interval ±1.96·u/|measured|, each hypothesis' prediction beside it.
+    instrument's interval ±1.96·u/|measured| and, left of it in grey, ±1.96·σ/|measured|
+    with σ the standard uncertainty the diagnosis weighed it by (``reading_sigma``: the
+    instrument's, the model's and the stated load's and temperature's, which moves every
+    reading of the record at once), each hypothesis' prediction beside it.
 
     Parameters
     ----------
@@ -71,11 +89,22 @@ def reading_chart(result: Mapping[str, Any], measured: Mapping[str, tuple[float,
         return None
     x = np.arange(len(names), dtype=float)
     half = np.array([1.959963984540054 * measured[n][1] / abs(measured[n][0]) for n in names])
-    series = [Series(x, np.zeros_like(x), "measured (95 %)", kind="errorbars", low=-half,
-                     high=half, color="#000000")]
+    series = [Series(x, np.zeros_like(x), "measured, instrument (95 %)", kind="errorbars",
+                     low=-half, high=half, color="#000000")]
+    index = record_index(result)
+    sigmas = result.get("reading_sigma") or []
+    sigma = sigmas[index] if index < len(sigmas) and sigmas[index] else {}
+    weighed = np.array([1.959963984540054 * float(sigma[n]) / abs(measured[n][0])
+                        if sigma.get(n) is not None else np.nan for n in names])
+    keep = np.isfinite(weighed)
+    if keep.any():
+        series.append(Series(x[keep] - 0.12, np.zeros(int(keep.sum())),
+                             "as the diagnosis weighs it (95 %; load, temperature, model)",
+                             kind="errorbars", low=-weighed[keep], high=weighed[keep],
+                             color="#777777"))
     fits = sorted(result.get("hypotheses", []), key=lambda f: -(f.get("probability") or 0.0))
     for i, fit in enumerate(fits[:leading]):
-        predicted = (fit.get("predicted") or [{}])[0]
+        predicted = predicted_for(fit, index)
         y = np.array([(predicted.get(n) if predicted.get(n) is not None else np.nan)
                       for n in names], dtype=float)
         rel = y / np.array([measured[n][0] for n in names]) - 1.0

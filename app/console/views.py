@@ -16,8 +16,10 @@ from sqlalchemy.orm import Session
 
 from app.console.charts import (
     estimate_charts,
+    predicted_for,
     probability_chart,
     reading_chart,
+    record_index,
     trend_chart,
 )
 from app.db.models import Diagnosis, Measurement, Rig
@@ -96,11 +98,15 @@ def diagnosis_view(session: Session, diagnosis_id: int) -> DiagnosisView:
     result = dict(row.result)
     measured = measured_readings(dict(measurement.record), rig_name)
     best = sorted(result.get("hypotheses", []), key=lambda f: -(f.get("probability") or 0.0))[:3]
+    index = record_index(result)
+    sigmas = result.get("reading_sigma") or []
+    sigma = sigmas[index] if index < len(sigmas) and sigmas[index] else {}
     readings = []
     for name, (value, u) in measured.items():
-        predicted = {f["name"]: ((f.get("predicted") or [{}])[0]).get(name) for f in best}
+        predicted = {f["name"]: predicted_for(f, index).get(name) for f in best}
         readings.append({"name": name, "unit": result.get("observable_units", {}).get(name, ""),
-                         "value": value, "u": u, "predicted": predicted})
+                         "value": value, "u": u, "sigma": sigma.get(name),
+                         "predicted": predicted})
     return DiagnosisView(row.id, measurement.rig_id, rig_name, row.rig_version.version,
                          measurement.measured_at, row.component, row.probability, result,
                          dict(measurement.record), readings, probability_chart(result),

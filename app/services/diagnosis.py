@@ -276,13 +276,20 @@ def request_error(exc: InputError, plan: GroupPlan) -> InputError:
     return type(exc)(exc.message, field=_request_field(exc.field, plan.group))
 
 
+def latest_record(times: Sequence[datetime]) -> int:
+    """Index of the record a joint result belongs to: the latest (the last of equals)."""
+    return max(range(len(times)), key=lambda i: (times[i], i))
+
+
 def outcome_of(plan: GroupPlan, computed: GroupResult) -> DiagnosisOutcome:
-    """The outcome of a planned group from its computed result."""
+    """The outcome of a planned group from its computed result; the result says which of
+    the group's records it is stored with (``record_index``: per-record lists such as each
+    hypothesis's ``predicted`` are in the group's order)."""
     return DiagnosisOutcome(
         paths=[path for path, _ in plan.group], resolved=plan.resolved,
         measured_at=max(plan.times), top=computed.top, component=computed.component,
         probability=computed.probability, estimates=computed.estimates,
-        result=computed.result)
+        result=computed.result | {"record_index": latest_record(plan.times)})
 
 
 def _compute_locked(plan: GroupPlan) -> DiagnosisOutcome:
@@ -306,7 +313,7 @@ def add_outcomes(session: Session, request: DiagnoseRequest,
     for outcome in outcomes:
         # a joint result belongs to the latest record; the others are kept beside it
         times = [records[p].measured_at or now for p in outcome.paths]
-        latest = max(range(len(times)), key=lambda i: (times[i], i))
+        latest = latest_record(times)
         rows: list[Any] = []
         for i, path in enumerate(outcome.paths):
             record = stored_record(records[path], times[i])

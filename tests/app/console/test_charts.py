@@ -133,3 +133,18 @@ def test_pump_check_charts_draw_measured_model_and_residuals_by_speed() -> None:
     # a set without checked points (hand-made, or not checkable) draws none of them
     assert pump_check_charts({"D": {"value": 1e-6}}) == []
     assert pump_check_charts(quantities | {"points_T": {"value": [1.0]}}) == []
+
+
+def test_a_joint_diagnosis_draws_its_stored_record_with_the_weighed_sigma() -> None:
+    """Record 1 of a joint diagnosis is the stored one (``record_index``): its predictions
+    are drawn, and beside the instrument's bar the σ the diagnosis weighed it by."""
+    result = {"record_index": 1,
+              "reading_sigma": [{"p1": 9e3}, {"p1": 2e4}],
+              "hypotheses": [{"name": "valve", "probability": 0.9,
+                              "predicted": [{"p1": 5.0e5}, {"p1": 1.01e6}]}]}
+    chart = reading_chart(result, {"p1": (1.0e6, 5e3)})
+    assert chart is not None
+    measured, weighed, valve = chart.series
+    assert measured.high == pytest.approx([1.96 * 5e3 / 1e6], rel=1e-3)
+    assert weighed.high == pytest.approx([1.96 * 2e4 / 1e6], rel=1e-3)
+    assert valve.y == pytest.approx([0.01])

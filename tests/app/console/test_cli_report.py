@@ -56,3 +56,36 @@ def test_trends_report_and_refusals(store: Path) -> None:
     missing = runner.invoke(cli, ["report", "diagnosis", "7", "--output", str(store / "r.html")])
     assert isinstance(missing.exception, NotFoundError)
     assert not (store / "r.pdf").exists() and not (store / "r.html").exists()
+
+
+def test_a_joint_visit_is_shown_against_its_own_records_predictions(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Two records of one visit at 2.1 and 6.3 kN diagnosed jointly are stored with the
+    later one; its page compares it with the predictions *of that record* (it once drew
+    the 6.3 kN readings against the 2.1 kN predictions: 3.43 MPa measured, 1.45 MPa
+    predicted), and shows the σ the diagnosis weighed each reading by (at least the
+    instrument's)."""
+    from app.cli_support import store_session
+    from app.console.views import diagnosis_view
+    from sim.rigs import reference_rig
+    from tests.diagnostics.synth import FULL, readings
+
+    monkeypatch.setenv("HYDRODIAG_DATA_DIR", str(tmp_path / "data"))
+    rig = reference_rig()
+    records = []
+    for day, load in ((1, 2100.0), (2, 6300.0)):
+        values = readings(rig, {"valve.cv": 45e-6}, load, 40.0)
+        records.append({"rig_id": 1, "measured_at": f"2026-05-0{day}T08:00:00Z",
+                        "condition": {"oil_temperature": 40.0, "load_force": load},
+                        **{k: values[k] for k in FULL}})
+    path = tmp_path / "visit.json"
+    path.write_text(json.dumps({"records": records, "joint": True}))
+    result = CliRunner().invoke(cli, ["diagnose", str(path)])
+    assert result.exit_code == 0, result.output
+    with store_session() as session:
+        view = diagnosis_view(session, 1)
+    assert view.result["record_index"] == 1 and view.result["n_records"] == 2
+    for row in view.readings:
+        assert row["value"] == pytest.approx(records[1][row["name"]])
+        assert row["predicted"]["valve"] == pytest.approx(row["value"], rel=5e-3)
+        assert row["sigma"] >= row["u"]
