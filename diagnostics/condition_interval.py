@@ -45,7 +45,7 @@ if TYPE_CHECKING:
     from diagnostics.ranking import ParameterEstimate, Ranker
     from diagnostics.record_model import RecordModel
 
-__all__ = ["STEP", "condition_sigmas", "widen"]
+__all__ = ["STEP", "chi2_at_estimates", "condition_sigmas", "widen"]
 
 Arr = npt.NDArray[np.float64]
 
@@ -60,21 +60,12 @@ def condition_sigmas(ranker: Ranker, params: Sequence[FaultParameter], zs: Arr) 
     ∞ where no reading feels the parameter there."""
     zs = np.asarray(zs, dtype=np.float64)
     n = zs.size
-    steps = np.array([STEP * (p.to_z(p.worn_bounds(ranker.rig)[1])
-                              - p.to_z(p.worn_bounds(ranker.rig)[0])) for p in params])
+    steps = _steps(ranker, params)
     num = np.zeros(n)
     den = np.zeros(n)
     for m in ranker.models:
         y0, jac = _at_estimates(m, params, zs, steps)
-        terms = []
-        for u, moved in condition_moves(m.obs):
-            sens = np.full_like(y0, np.nan)
-            for cond, step in moved:  # the other side only where the first has no point
-                y = m.maps.observables_at(list(params), zs, cond)[:, m.idx]
-                sens = np.where(np.isnan(sens), (y - y0) / step, sens)
-                if not np.isnan(sens).any():
-                    break
-            terms.append(sens * u)
+        terms = _condition_terms(m, params, zs, y0)
         fitted = np.linalg.inv(m.white.T @ m.white)  # the covariance the fit weighs by
         whole = np.isfinite(jac).all(axis=1) & np.isfinite(y0).all(axis=1)
         for t in terms:
@@ -100,6 +91,50 @@ def condition_sigmas(ranker: Ranker, params: Sequence[FaultParameter], zs: Arr) 
             den[i] += float(j @ weights)
     with np.errstate(divide="ignore", invalid="ignore"):
         return np.where(den > 0.0, np.sqrt(num) / den, math.inf)
+
+
+def _steps(ranker: Ranker, params: Sequence[FaultParameter]) -> Arr:
+    return np.array([STEP * (p.to_z(p.worn_bounds(ranker.rig)[1])
+                             - p.to_z(p.worn_bounds(ranker.rig)[0])) for p in params])
+
+
+def _condition_terms(m: RecordModel, params: Sequence[FaultParameter], zs: Arr, y0: Arr
+                     ) -> list[Arr]:
+    """``s_k u_k`` of record ``m`` at each estimate (rows; its readings' columns): one-sided
+    differences of the stated conditions (:func:`~diagnostics.record_model.condition_moves`)
+    at the fitted parameter, NaN where neither side has a steady point."""
+    terms = []
+    for u, moved in condition_moves(m.obs):
+        sens = np.full_like(y0, np.nan)
+        for cond, step in moved:  # the other side only where the first has no point
+            y = m.maps.observables_at(list(params), zs, cond)[:, m.idx]
+            sens = np.where(np.isnan(sens), (y - y0) / step, sens)
+            if not np.isnan(sens).any():
+                break
+        terms.append(sens * u)
+    return terms
+
+
+def chi2_at_estimates(ranker: Ranker, params: Sequence[FaultParameter], zs: Arr) -> Arr:
+    """χ² of each one-parameter estimate ``zs[i]`` of ``params[i]`` with the covariance
+    *at the estimate*: ``Σ_records rᵀ C⁻¹ r``, ``r`` the readings less the predictions at
+    ẑ, ``C`` as in the module docstring (the stated conditions' sensitivities at the
+    fitted parameter) [-]; ∞ where a reading has no prediction there (the fit's own χ²,
+    which counts such a reading as masked, then stands)."""
+    zs = np.asarray(zs, dtype=np.float64)
+    steps = _steps(ranker, params)
+    out = np.zeros(zs.size)
+    for m in ranker.models:
+        y0, _ = _at_estimates(m, params, zs, steps)
+        terms = _condition_terms(m, params, zs, y0)
+        for i in range(zs.size):
+            cov = np.diag(m.diag)
+            for t in terms:
+                cov += np.outer(t[i], t[i])
+            r = m.obs.values - y0[i]
+            out[i] += float(r @ np.linalg.solve(cov, r)) if np.isfinite(cov).all() \
+                and np.isfinite(r).all() else math.inf
+    return out
 
 
 def _at_estimates(m: RecordModel, params: Sequence[FaultParameter], zs: Arr, steps: Arr
