@@ -24,6 +24,10 @@ another condition where no setting of its range could act):
   a healthy answer or the component named (top, or stated by the explaining fit as
   incipient wear) is right, "not explained" is wrong (it once said "better than the rig
   document" of a seal a little worse than it);
+* ``joint`` — visits of three records (2.1/4.2/6.3 kN, one oil temperature, each record
+  stating its condition with its instruments' error) diagnosed together, a single leakage
+  fault from its worn prior (:mod:`benchmarks.accuracy_joint`): not explained, top-1, and
+  whether the history's estimate holds the truth;
 * ``commissioning`` — that mis-specified rig commissioned from six healthy transient
   records (3 loads × 2 temperatures, each stated with its instruments' error, full
   sensors and the pump flow): share of the
@@ -94,6 +98,7 @@ from benchmarks.accuracy_figures import (
     reliability,
     summarise,
 )
+from benchmarks.accuracy_joint import joint_suite
 from benchmarks.accuracy_report import (
     confusions,
     hypothesis_calibration,
@@ -470,6 +475,11 @@ def main() -> None:
           f"passed in {comm['consistent']:.3f} of the seeds; per parameter "
           + "; ".join(f"{k} pinned {v['pinned_in_seeds']}/{seeds}, coverage {v['coverage']:.2f}"
                       for k, v in comm["per_parameter"].items()))
+    n_joint = 10 if light else 60
+    print(f"\njoint visits ({n_joint}: a single leakage fault, three loads diagnosed together, "
+          "each record's load and temperature stated with its instruments' error; "
+          "benchmarks/accuracy_joint.py):")
+    joint = joint_suite(n_joint, rng, stored_estimate)
     wall = time.perf_counter() - t_start
 
     # speed: one record, warm (maps of its condition cached) and cold, vs one steady solve
@@ -496,7 +506,7 @@ def main() -> None:
           f"{t_warm / t_eval:.0f}x, {t_cold / t_eval:.0f}x); wall {wall:.0f} s; {stalled} cases "
           "had a stroke that stalled or crept (diagnosed, not skipped)")
     print(json.dumps({"cases": n, "stalled_cases": stalled, "suites": figures,
-                      "commissioning": comm,
+                      "commissioning": comm, "joint": joint,
                       "diagnosis_warm_ms": round(1e3 * t_warm, 3),
                       "diagnosis_cold_ms": round(1e3 * t_cold, 3),
                       "steady_evaluation_us": round(1e6 * t_eval, 2),

@@ -37,15 +37,17 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
+from scipy.stats import chi2 as chi2_dist
 
-from diagnostics.hypotheses import FaultParameter
+from diagnostics.hypotheses import PARAMETERS, FaultParameter
 from diagnostics.record_model import condition_moves
 
 if TYPE_CHECKING:
-    from diagnostics.ranking import ParameterEstimate, Ranker
+    from diagnostics.ranking import HypothesisFit, ParameterEstimate, Ranker
     from diagnostics.record_model import RecordModel
 
-__all__ = ["STEP", "chi2_at_estimates", "condition_sigmas", "widen"]
+__all__ = ["STEP", "chi2_at_estimates", "condition_sigmas", "rejected_singles_at_fit",
+           "widen"]
 
 Arr = npt.NDArray[np.float64]
 
@@ -135,6 +137,24 @@ def chi2_at_estimates(ranker: Ranker, params: Sequence[FaultParameter], zs: Arr)
             out[i] += float(r @ np.linalg.solve(cov, r)) if np.isfinite(cov).all() \
                 and np.isfinite(r).all() else math.inf
     return out
+
+
+def rejected_singles_at_fit(ranker: Ranker, fits: Sequence[HypothesisFit],
+                            alpha: float = 0.01) -> dict[str, float]:
+    """:func:`chi2_at_estimates` of the observable one-parameter fits whose χ² exceeds
+    χ²_{1−α}(max(n − 1, 1)) (n readings), by hypothesis name, in one batch: what the
+    ambiguity set (:mod:`diagnostics.isolability`) and the goodness-of-fit test
+    (:mod:`diagnostics.goodness`) test again with the stated condition's sensitivity at
+    the estimate."""
+    limit = float(chi2_dist.ppf(1.0 - alpha, max(ranker.n_obs - 1, 1)))
+    todo = [f for f in fits if f.observable and len(f.parameters) == 1
+            and math.isfinite(f.chi2) and f.chi2 > limit]
+    if not todo:
+        return {}
+    params = [PARAMETERS[f.parameters[0].name] for f in todo]
+    zs = np.array([p.to_z(f.parameters[0].value) for p, f in zip(params, todo, strict=True)])
+    chi2 = chi2_at_estimates(ranker, params, zs)
+    return {f.name: float(c) for f, c in zip(todo, chi2, strict=True)}
 
 
 def _at_estimates(m: RecordModel, params: Sequence[FaultParameter], zs: Arr, steps: Arr

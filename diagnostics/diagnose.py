@@ -19,7 +19,7 @@ from weakref import WeakKeyDictionary
 import numpy as np
 import numpy.typing as npt
 
-from diagnostics.condition_interval import widen
+from diagnostics.condition_interval import rejected_singles_at_fit, widen
 from diagnostics.goodness import GoodnessOfFit, goodness_of_fit
 from diagnostics.healthy_end import healthy_end_estimates
 from diagnostics.hypotheses import PARAMETERS
@@ -214,8 +214,9 @@ def diagnose(rig: Rig, records: Sequence[MeasurementRecord], *, model_rel: float
             f"(neither moving nor held on its end stop): {exc}; check the load and oil "
             "temperature against the rig", field="condition") from None
     fits = ranker.rank()
-    iso = isolability(ranker, fits, model_rel)
-    gof = goodness_of_fit(ranker, fits)
+    at_fit = rejected_singles_at_fit(ranker, fits)
+    iso = isolability(ranker, fits, model_rel, at_fit)
+    gof = goodness_of_fit(ranker, fits, at_fit=at_fit)
     notes: list[str] = []
     direct = _direct(rig, records, notes)
     ratio = None

@@ -31,8 +31,9 @@ uncertainty with the sensitivity of the *healthy* rig's readings
 (:mod:`diagnostics.record_model`); a worn component's leakage makes the readings feel the
 temperature many times more.  A one-parameter fit the test rejects is therefore tested
 again with that sensitivity taken at its estimate
-(:func:`diagnostics.condition_interval.chi2_at_estimates`), and passes if that χ² does;
-the statement then gives both.  (Joint visits of a worn seal without flow meters, each
+(:func:`diagnostics.condition_interval.rejected_singles_at_fit`, computed once by
+:func:`diagnostics.diagnose.diagnose` for this test and the ambiguity set), and passes if
+that χ² does; the statement then gives both.  (Joint visits of a worn seal without flow meters, each
 record's temperature stated within its thermometer's class, were "not explained" in 5 of
 30, with the true temperatures in none.)
 
@@ -52,12 +53,11 @@ lower load or oil temperature, where the piston moves.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 
-import numpy as np
 from scipy.special import chdtrc, gammaincinv
 
-from diagnostics.condition_interval import chi2_at_estimates
 from diagnostics.hypotheses import PARAMETERS
 from diagnostics.range_test import RangeTest, pinned, range_test, range_tests
 from diagnostics.ranking import HypothesisFit, Ranker
@@ -215,10 +215,13 @@ def _dof(ranker: Ranker, f: HypothesisFit) -> int:
     return ranker.n_obs - len(f.hypothesis.parameters)
 
 
-def goodness_of_fit(ranker: Ranker, fits: list[HypothesisFit], level: float = TEST_LEVEL
-                    ) -> GoodnessOfFit:
+def goodness_of_fit(ranker: Ranker, fits: list[HypothesisFit], level: float = TEST_LEVEL,
+                    at_fit: Mapping[str, float] | None = None) -> GoodnessOfFit:
     """χ² goodness of fit and range test of the observable hypotheses among ranked
-    ``fits`` (module docstring)."""
+    ``fits`` (module docstring); ``at_fit``: the χ² of rejected one-parameter fits with the
+    stated condition's sensitivity at their estimates, by name
+    (:func:`diagnostics.condition_interval.rejected_singles_at_fit`)."""
+    retest = at_fit or {}
     cands = [f for f in fits if f.observable] or fits[:1]
     scored = []
     for f in cands:
@@ -228,14 +231,15 @@ def goodness_of_fit(ranker: Ranker, fits: list[HypothesisFit], level: float = TE
     scored.sort(key=lambda s: (not s[0], -s[1], s[2]))
     tests: list[RangeTest] = []
     passed = None
-    at_fit: dict[str, float] = {}
+    used: dict[str, float] = {}
     for testable, p, _, f, dof in scored:
         # ν ≤ 0: the best fit's χ² is at most the χ² at the truth, a χ²_n variable, so
         # χ² > χ²_{1-α}(n) still rejects at level α (conservative): the reading lies
         # beyond what the hypothesis can reach
         lim = _limit(level, dof) if testable else _limit(level, ranker.n_obs)
-        if (not math.isfinite(f.chi2) or f.chi2 > lim) and _retest(ranker, f, lim, at_fit):
-            p = _p_value(at_fit[f.name], dof) if testable else p
+        if (not math.isfinite(f.chi2) or f.chi2 > lim) and retest.get(f.name, math.inf) <= lim:
+            used[f.name] = retest[f.name]
+            p = _p_value(used[f.name], dof) if testable else p
         elif not math.isfinite(f.chi2) or f.chi2 > lim:
             continue
         rt = range_test(ranker, f, level) if f.parameters else None
@@ -253,7 +257,7 @@ def goodness_of_fit(ranker: Ranker, fits: list[HypothesisFit], level: float = TE
     if passed is not None:
         testable, p, best, dof, incipient = passed
         if incipient is None:
-            chi2 = at_fit.get(best.name, best.chi2)
+            chi2 = used.get(best.name, best.chi2)
         else:  # the χ² at the values between the document's and the worn range's start
             chi2 = incipient.chi2_document
             p = _p_value(chi2, dof) if dof >= 1 else p
@@ -268,7 +272,7 @@ def goodness_of_fit(ranker: Ranker, fits: list[HypothesisFit], level: float = TE
                      f"{dof} degrees of freedom, limit {limit:.3g} at the {level:.0%} level"
                      + (f"; with the stated load's and temperature's uncertainty taken at "
                         f"the fitted wear, where it weighs more than at the healthy rig's: "
-                        f"{best.chi2:.3g} at the healthy rig's" if best.name in at_fit
+                        f"{best.chi2:.3g} at the healthy rig's" if best.name in used
                         and incipient is None else "") + ")")
     elif explained:
         statement = (
@@ -297,27 +301,6 @@ def goodness_of_fit(ranker: Ranker, fits: list[HypothesisFit], level: float = TE
     return GoodnessOfFit(best.name, float(chi2), max(dof, 0), level, limit, p,
                          explained, dis, statement, bool(testable or not explained), tests,
                          beyond, incipient)
-
-
-def _retest(ranker: Ranker, f: HypothesisFit, limit: float, at_fit: dict[str, float]
-            ) -> bool:
-    """Whether one-parameter fit ``f``, rejected with the covariance the ranking weighs
-    by (the stated load's and temperature's sensitivity at the *healthy* rig), passes with
-    that sensitivity taken at its estimate (:func:`diagnostics.condition_interval.
-    chi2_at_estimates`): a worn component's leakage makes the readings feel the
-    temperature many times more than the healthy rig's, so a temperature stated within its
-    thermometer's class once failed joint visits of a worn seal (5 of 30 without flow
-    meters; 0 of 30 with the true temperature stated).  The χ² used is kept in
-    ``at_fit``."""
-    if len(f.parameters) != 1 or not math.isfinite(f.chi2):
-        return False
-    (est,) = f.parameters
-    p = PARAMETERS[est.name]
-    (chi2,) = chi2_at_estimates(ranker, [p], np.array([p.to_z(est.value)]))
-    if not chi2 <= limit:
-        return False
-    at_fit[f.name] = float(chi2)
-    return True
 
 
 def _incipient_pass(ranker: Ranker, scored: list[tuple[bool, float, float, HypothesisFit,

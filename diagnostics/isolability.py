@@ -22,6 +22,7 @@ Three statements accompany every ranking:
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -79,13 +80,15 @@ def _chi2_limit(dof: int, alpha: float) -> float:
     return float(chi2_dist.ppf(1.0 - alpha, dof))
 
 
-def _consistent_set(fits: list[HypothesisFit], n_obs: int, alpha: float = 0.01) -> list[str]:
+def _consistent_set(fits: list[HypothesisFit], n_obs: int, alpha: float = 0.01,
+                    at_fit: Mapping[str, float] | None = None) -> list[str]:
+    retest = at_fit or {}
     out = []
     for f in fits:
         if not f.observable:
             continue
         dof = max(n_obs - len(f.hypothesis.parameters), 1)
-        if f.chi2 <= _chi2_limit(dof, alpha):
+        if min(f.chi2, retest.get(f.name, math.inf)) <= _chi2_limit(dof, alpha):
             out.append(f.name)
     return out  # empty: nothing fits (diagnostics.goodness states it)
 
@@ -136,11 +139,14 @@ def _signature(ranker: Ranker, name: str) -> np.ndarray:
     return np.concatenate(parts)
 
 
-def isolability(ranker: Ranker, fits: list[HypothesisFit], model_rel: float = 0.002
-                ) -> Isolability:
-    """Isolability statement for ranked ``fits`` of ``ranker``'s records."""
+def isolability(ranker: Ranker, fits: list[HypothesisFit], model_rel: float = 0.002,
+                at_fit: Mapping[str, float] | None = None) -> Isolability:
+    """Isolability statement for ranked ``fits`` of ``ranker``'s records; ``at_fit``: the
+    χ² of rejected one-parameter fits with the stated condition's sensitivity at their
+    estimates (:func:`diagnostics.condition_interval.rejected_singles_at_fit`), which
+    keeps such a fit in the ambiguity set when it passes."""
     present = {n for m in ranker.models for n in m.obs.names}
-    amb = _consistent_set(fits, ranker.n_obs)
+    amb = _consistent_set(fits, ranker.n_obs, at_fit=at_fit)
     cred = _credible_set(fits)
     statements: list[str] = []
     not_obs = [f.name for f in fits if not f.observable]

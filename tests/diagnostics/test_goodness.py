@@ -100,5 +100,6 @@ def test_a_worn_seals_visit_with_temperatures_stated_within_class_is_explained(
     assert d.explained and d.fit is not None
     assert d.fit.chi2 <= d.fit.limit
     assert "taken at the fitted wear" in d.fit.statement
+    assert "cylinder" in d.isolability.ambiguity_set
     (est,) = next(f for f in d.hypotheses if f.name == "cylinder").parameters
     assert est.low <= cc <= est.high
