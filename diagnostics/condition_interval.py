@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -46,8 +47,8 @@ if TYPE_CHECKING:
     from diagnostics.ranking import HypothesisFit, ParameterEstimate, Ranker
     from diagnostics.record_model import RecordModel
 
-__all__ = ["STEP", "chi2_at_estimates", "condition_sigmas", "rejected_singles_at_fit",
-           "widen"]
+__all__ = ["STEP", "Parts", "SingleChecks", "check_singles", "chi2_at_estimates",
+           "condition_sigmas", "estimate_parts", "widen"]
 
 Arr = npt.NDArray[np.float64]
 
@@ -56,18 +57,37 @@ Arr = npt.NDArray[np.float64]
 STEP = 1.0e-3
 
 
-def condition_sigmas(ranker: Ranker, params: Sequence[FaultParameter], zs: Arr) -> Arr:
-    """σ_z of each one-parameter estimate ``zs[i]`` of ``params[i]`` with the stated
-    conditions marginalised at the estimate (module docstring) [fitting coordinate];
-    ∞ where no reading feels the parameter there."""
+#: per record: the predictions ŷ and ∂ŷ/∂z at each estimate and the condition terms
+#: ``s_k u_k`` there (rows: estimates; columns: the record's readings)
+Parts = list[tuple[Arr, Arr, list[Arr]]]
+
+
+def estimate_parts(ranker: Ranker, params: Sequence[FaultParameter], zs: Arr) -> Parts:
+    """:data:`Parts` of the one-parameter estimates ``zs[i]`` of ``params[i]``: on the
+    signature maps where they can be, then one compiled call per record and moved
+    condition for all of them."""
     zs = np.asarray(zs, dtype=np.float64)
-    n = zs.size
     steps = _steps(ranker, params)
-    num = np.zeros(n)
-    den = np.zeros(n)
+    out: Parts = []
     for m in ranker.models:
         y0, jac = _at_estimates(m, params, zs, steps)
-        terms = _condition_terms(m, params, zs, y0)
+        out.append((y0, jac, _condition_terms(m, params, zs, y0)))
+    return out
+
+
+def condition_sigmas(ranker: Ranker, params: Sequence[FaultParameter], zs: Arr,
+                     parts: Parts | None = None) -> Arr:
+    """σ_z of each one-parameter estimate ``zs[i]`` of ``params[i]`` with the stated
+    conditions marginalised at the estimate (module docstring) [fitting coordinate];
+    ∞ where no reading feels the parameter there.  ``parts``: those of
+    :func:`estimate_parts`, computed here when not given."""
+    zs = np.asarray(zs, dtype=np.float64)
+    n = zs.size
+    if parts is None:
+        parts = estimate_parts(ranker, params, zs)
+    num = np.zeros(n)
+    den = np.zeros(n)
+    for m, (y0, jac, terms) in zip(ranker.models, parts, strict=True):
         fitted = np.linalg.inv(m.white.T @ m.white)  # the covariance the fit weighs by
         whole = np.isfinite(jac).all(axis=1) & np.isfinite(y0).all(axis=1)
         for t in terms:
@@ -117,18 +137,19 @@ def _condition_terms(m: RecordModel, params: Sequence[FaultParameter], zs: Arr, 
     return terms
 
 
-def chi2_at_estimates(ranker: Ranker, params: Sequence[FaultParameter], zs: Arr) -> Arr:
+def chi2_at_estimates(ranker: Ranker, params: Sequence[FaultParameter], zs: Arr,
+                      parts: Parts | None = None) -> Arr:
     """χ² of each one-parameter estimate ``zs[i]`` of ``params[i]`` with the covariance
     *at the estimate*: ``Σ_records rᵀ C⁻¹ r``, ``r`` the readings less the predictions at
     ẑ, ``C`` as in the module docstring (the stated conditions' sensitivities at the
     fitted parameter) [-]; ∞ where a reading has no prediction there (the fit's own χ²,
-    which counts such a reading as masked, then stands)."""
+    which counts such a reading as masked, then stands).  ``parts`` as
+    :func:`condition_sigmas` takes them."""
     zs = np.asarray(zs, dtype=np.float64)
-    steps = _steps(ranker, params)
+    if parts is None:
+        parts = estimate_parts(ranker, params, zs)
     out = np.zeros(zs.size)
-    for m in ranker.models:
-        y0, _ = _at_estimates(m, params, zs, steps)
-        terms = _condition_terms(m, params, zs, y0)
+    for m, (y0, _, terms) in zip(ranker.models, parts, strict=True):
         for i in range(zs.size):
             cov = np.diag(m.diag)
             for t in terms:
@@ -139,22 +160,39 @@ def chi2_at_estimates(ranker: Ranker, params: Sequence[FaultParameter], zs: Arr)
     return out
 
 
-def rejected_singles_at_fit(ranker: Ranker, fits: Sequence[HypothesisFit],
-                            alpha: float = 0.01) -> dict[str, float]:
-    """:func:`chi2_at_estimates` of the observable one-parameter fits whose χ² exceeds
-    χ²_{1−α}(max(n − 1, 1)) (n readings), by hypothesis name, in one batch: what the
-    ambiguity set (:mod:`diagnostics.isolability`) and the goodness-of-fit test
-    (:mod:`diagnostics.goodness`) test again with the stated condition's sensitivity at
-    the estimate."""
-    limit = float(chi2_dist.ppf(1.0 - alpha, max(ranker.n_obs - 1, 1)))
+@dataclass
+class SingleChecks:
+    """The one-parameter fits of a diagnosis checked with the stated condition's
+    sensitivity at their estimates, by hypothesis name: ``chi2`` (:func:`chi2_at_estimates`)
+    and ``sigma`` (:func:`condition_sigmas`, fitting coordinate)."""
+
+    chi2: dict[str, float] = field(default_factory=dict)
+    sigma: dict[str, float] = field(default_factory=dict)
+
+    def rejected(self, fits: Sequence[HypothesisFit], n_obs: int, alpha: float = 0.01
+                 ) -> dict[str, float]:
+        """``chi2`` of the fits whose own χ² exceeds χ²_{1−α}(max(n − 1, 1)): what the
+        ambiguity set (:mod:`diagnostics.isolability`) and the goodness-of-fit test
+        (:mod:`diagnostics.goodness`) test again."""
+        limit = float(chi2_dist.ppf(1.0 - alpha, max(n_obs - 1, 1)))
+        return {f.name: self.chi2[f.name] for f in fits
+                if f.name in self.chi2 and f.chi2 > limit}
+
+
+def check_singles(ranker: Ranker, fits: Sequence[HypothesisFit]) -> SingleChecks:
+    """:class:`SingleChecks` of the observable one-parameter fits with a finite χ², from one
+    :func:`estimate_parts` (the σ of the intervals and the χ² of the tests share it)."""
     todo = [f for f in fits if f.observable and len(f.parameters) == 1
-            and math.isfinite(f.chi2) and f.chi2 > limit]
+            and math.isfinite(f.chi2)]
     if not todo:
-        return {}
+        return SingleChecks()
     params = [PARAMETERS[f.parameters[0].name] for f in todo]
     zs = np.array([p.to_z(f.parameters[0].value) for p, f in zip(params, todo, strict=True)])
-    chi2 = chi2_at_estimates(ranker, params, zs)
-    return {f.name: float(c) for f, c in zip(todo, chi2, strict=True)}
+    parts = estimate_parts(ranker, params, zs)
+    chi2 = chi2_at_estimates(ranker, params, zs, parts)
+    sigma = condition_sigmas(ranker, params, zs, parts)
+    return SingleChecks({f.name: float(c) for f, c in zip(todo, chi2, strict=True)},
+                        {f.name: float(g) for f, g in zip(todo, sigma, strict=True)})
 
 
 def _at_estimates(m: RecordModel, params: Sequence[FaultParameter], zs: Arr, steps: Arr
@@ -191,15 +229,16 @@ def _at_estimates(m: RecordModel, params: Sequence[FaultParameter], zs: Arr, ste
 
 
 def widen(ranker: Ranker, estimates: Sequence[tuple[FaultParameter, ParameterEstimate,
-                                                    float, float]]) -> None:
+                                                    float, float]],
+          sigmas: Sequence[float] | None = None) -> None:
     """Widen each estimate's 95 % interval in place to hold ẑ ± 1.96 σ_z
-    (:func:`condition_sigmas`), clipped to its range ``(z_lo, z_hi)`` [fitting coordinate]
-    given with it."""
+    (:func:`condition_sigmas`, or ``sigmas`` when given), clipped to its range
+    ``(z_lo, z_hi)`` [fitting coordinate] given with it."""
     if not estimates:
         return
     params = [p for p, _, _, _ in estimates]
     zs = np.array([p.to_z(e.value) for p, e, _, _ in estimates])
-    sig = condition_sigmas(ranker, params, zs)
+    sig = condition_sigmas(ranker, params, zs) if sigmas is None else np.asarray(sigmas)
     for (p, e, z_lo, z_hi), z, s in zip(estimates, zs, sig, strict=True):
         if not math.isfinite(float(s)):
             continue

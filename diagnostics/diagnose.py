@@ -19,7 +19,7 @@ from weakref import WeakKeyDictionary
 import numpy as np
 import numpy.typing as npt
 
-from diagnostics.condition_interval import rejected_singles_at_fit, widen
+from diagnostics.condition_interval import check_singles, widen
 from diagnostics.goodness import GoodnessOfFit, goodness_of_fit
 from diagnostics.healthy_end import healthy_end_estimates
 from diagnostics.hypotheses import PARAMETERS
@@ -214,7 +214,8 @@ def diagnose(rig: Rig, records: Sequence[MeasurementRecord], *, model_rel: float
             f"(neither moving nor held on its end stop): {exc}; check the load and oil "
             "temperature against the rig", field="condition") from None
     fits = ranker.rank()
-    at_fit = rejected_singles_at_fit(ranker, fits)
+    checks = check_singles(ranker, fits)
+    at_fit = checks.rejected(fits, ranker.n_obs)
     iso = isolability(ranker, fits, model_rel, at_fit)
     gof = goodness_of_fit(ranker, fits, at_fit=at_fit)
     notes: list[str] = []
@@ -226,7 +227,7 @@ def diagnose(rig: Rig, records: Sequence[MeasurementRecord], *, model_rel: float
             if q is not None:
                 ratio = ratio_index(rig, o.condition, q)
                 break
-    _widen(ranker, fits, {})
+    _widen(ranker, fits, {}, checks.sigma)
     profiled = _healthy_end(ranker, fits, direct)
     _widen(ranker, [], profiled)
     slip = None
@@ -248,18 +249,23 @@ def diagnose(rig: Rig, records: Sequence[MeasurementRecord], *, model_rel: float
                       for m in ranker.models])
 
 
-def _widen(ranker: Ranker, fits: list[HypothesisFit],
-           profiled: dict[str, ParameterEstimate]) -> None:
+def _widen(ranker: Ranker, fits: list[HypothesisFit], profiled: dict[str, ParameterEstimate],
+           sigma: dict[str, float] | None = None) -> None:
     """The stated conditions' uncertainty at the estimate in the intervals of the
-    one-parameter fits that explain the readings to some degree and of the profiles
+    one-parameter fits ``sigma`` was computed for (by name) and of the profiles
     (:mod:`diagnostics.condition_interval`)."""
     items = []
+    sigmas = []
     for f in fits:
-        if len(f.parameters) == 1 and f.observable and math.isfinite(f.chi2):
+        if sigma is not None and f.name in sigma:
             (est,) = f.parameters
             p = PARAMETERS[est.name]
             lo, hi = p.worn_bounds(ranker.rig)
             items.append((p, est, p.to_z(lo), p.to_z(hi)))
+            sigmas.append(sigma[f.name])
+    if items:
+        widen(ranker, items, sigmas)
+    items = []
     for est in profiled.values():
         p = PARAMETERS[est.name]
         items.append((p, est, p.to_z(est.nominal), p.to_z(p.worn_bounds(ranker.rig)[1])))

@@ -31,7 +31,7 @@ uncertainty with the sensitivity of the *healthy* rig's readings
 (:mod:`diagnostics.record_model`); a worn component's leakage makes the readings feel the
 temperature many times more.  A one-parameter fit the test rejects is therefore tested
 again with that sensitivity taken at its estimate
-(:func:`diagnostics.condition_interval.rejected_singles_at_fit`, computed once by
+(:meth:`diagnostics.condition_interval.SingleChecks.rejected`, computed once by
 :func:`diagnostics.diagnose.diagnose` for this test and the ambiguity set), and passes if
 that χ² does; the statement then gives both.  (Joint visits of a worn seal without flow meters, each
 record's temperature stated within its thermometer's class, were "not explained" in 5 of
@@ -220,7 +220,7 @@ def goodness_of_fit(ranker: Ranker, fits: list[HypothesisFit], level: float = TE
     """χ² goodness of fit and range test of the observable hypotheses among ranked
     ``fits`` (module docstring); ``at_fit``: the χ² of rejected one-parameter fits with the
     stated condition's sensitivity at their estimates, by name
-    (:func:`diagnostics.condition_interval.rejected_singles_at_fit`)."""
+    (:meth:`diagnostics.condition_interval.SingleChecks.rejected`)."""
     retest = at_fit or {}
     cands = [f for f in fits if f.observable] or fits[:1]
     scored = []
