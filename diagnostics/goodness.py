@@ -33,9 +33,9 @@ temperature many times more.  A one-parameter fit the test rejects is therefore 
 again with that sensitivity taken at its estimate
 (:meth:`diagnostics.condition_interval.SingleChecks.rejected`, computed once by
 :func:`diagnostics.diagnose.diagnose` for this test and the ambiguity set), and passes if
-that χ² does; the statement then gives both.  (Joint visits of a worn seal without flow meters, each
-record's temperature stated within its thermometer's class, were "not explained" in 5 of
-30, with the true temperatures in none.)
+that χ² does; the statement then gives both.  (Joint visits of a worn seal without flow
+meters, each record's temperature stated within its thermometer's class, were "not
+explained" in 5 of 30, with the true temperatures in none.)
 
 Stalled strokes are fitted like any other.  Where the load is more than the (worn) rig
 can push, the piston sits on its end stop, where the pump's flow goes through the leakage

@@ -21,10 +21,12 @@ likelihood's, where χ²(z) − χ²_min ≤ 1.96² (Wilks; the χ²₁ quantile
 interpolated linearly between grid points and clipped at the document's value (below it
 the component would be better than built: :mod:`diagnostics.range_test` says whether the
 readings ask for that).  Where the profile stays under the threshold to the grid's top,
-the upper end is the fit's own (its Gauss-Newton interval from the worn range's start,
-which bounds the profile's from above).  The χ² is evaluated as the range test evaluates
-it (:func:`~diagnostics.range_test.chi2_points`, the compiled kernel when every record has
-fast maps).  A fit *inside* its worn range whose interval reaches the range's start (the
+the upper end is the fit's own (its posterior interval from the worn range's start, which
+bounds the profile's from above). :func:`diagnostics.diagnose.diagnose` then widens the
+interval for the stated condition at the estimate
+(:mod:`diagnostics.condition_interval`). The χ² is evaluated as the range test evaluates
+it (:func:`~diagnostics.range_test.chi2_points`, the compiled kernel when every record
+has fast maps).  A fit *inside* its worn range whose interval reaches the range's start (the
 posterior cut there: a pump leaking 1.2 × nominal fitted at 1.6 × with an interval from
 1.33 ×) keeps its estimate and upper end, and takes the profile's lower end: where χ²
 rises 1.96² above the fit's, going down from the range's start toward the document's
