@@ -110,6 +110,7 @@ from diagnostics.diagnose import Diagnosis, diagnose
 from diagnostics.hypotheses import PARAMETERS
 from diagnostics.measurement import MeasurementRecord, OperatingCondition
 from diagnostics.signatures import evaluator
+from diagnostics.slip import rig_slip_coefficient
 from sim.errors import InputError
 from sim.rigs import Condition, Rig, load_rig, reference_rig, reference_rig_document
 
@@ -206,12 +207,9 @@ def stored_estimate(case: Case, d: Diagnosis, rig: Rig, temperature: float
                 and e.quantity == quantity), None)
     if est is None:
         return {"stored": 0.0, "held": float("nan")}
-    low, high = est.low, est.high
-    if name == "pump_leak":  # Cs = μ·k/(D·R_lp), paper 000 eq. 6
-        scale = rig.base["pump.Vp"] * rig.base["pump.Rlp"] / \
-            rig.fluid.dynamic_viscosity(temperature)
-        low, high = low * scale, high * scale
-    value = est.value * (low / est.low if est.low else 1.0)
+    # a slip coefficient as its leak factor (paper 000 eq. 6, linear in it)
+    scale = 1.0 / rig_slip_coefficient(rig, temperature) if name == "pump_leak" else 1.0
+    value, low, high = (scale * x for x in (est.value, est.low, est.high))
     return {"stored": 1.0, "held": float(low * (1 - 1e-12) <= truth <= high * (1 + 1e-12)),
             "source": est.source, "truth": truth, "value": value, "low": low, "high": high}
 

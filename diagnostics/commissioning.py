@@ -35,10 +35,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import numpy.typing as npt
-from scipy.special import gammaincinv
 
 from diagnostics.evidence import whitening
-from diagnostics.goodness import DISAGREE_SIGMA, TEST_LEVEL
+from diagnostics.goodness import DISAGREE_SIGMA, TEST_LEVEL, chi2_limit
 from diagnostics.measurement import MeasurementRecord
 from diagnostics.observations import RecordObservations, observe
 from diagnostics.record_model import condition_moves, condition_terms
@@ -68,7 +67,6 @@ PRIOR_SD: dict[str, float] = {"cylinder.Lc": 0.5, "valve.Ls": 0.5, "valve.K": 0.
 
 #: a parameter is pinned down when the records shrink its prior σ by this factor [-]
 PINNED = 0.5
-
 
 
 @dataclass
@@ -289,7 +287,7 @@ def commission(rig: Rig, records: Sequence[MeasurementRecord],
     # well-determined parameters γ (MacKay 1992, Neural Comput. 4:415, §4), so that
     # χ² ≈ n − γ for a model that fits
     dof = float(r.size - np.sum(1.0 - (sd / s) ** 2))
-    limit = float(2.0 * gammaincinv(0.5 * dof, 1.0 - TEST_LEVEL)) if dof > 0 else math.inf
+    limit = chi2_limit(TEST_LEVEL, dof) if dof > 0 else math.inf
     disagreements = _disagreements(problem, z)
     consistent = chi2 <= limit
     if not consistent:

@@ -2,13 +2,14 @@
 
 A record's covariance (:mod:`diagnostics.record_model`) carries the uncertainty of its
 stated oil temperature and load as correlated terms ``s_k u_k``, with ``s_k`` the
-sensitivity of the *healthy* rig's readings.  A worn component's leakage is what makes
-the readings feel the temperature (laminar leakage ∝ c³/μ(T), paper 002 eq. 2-3; paper
-000 eq. 6), so at a worn rig's estimate the sensitivity is many times the healthy one: on
-the reference rig a seal at 2.5 × its clearance read with its oil temperature stated 1 K
-off is fitted 1.5 % off, where the posterior on the signature map gives ± 0.2 %; in the
-accuracy study the history's 95 % intervals of single leakage faults read without flow
-meters held the truth in 76 % (preset) and 75 % (differential rig) of the cases.
+sensitivity of the *healthy* rig's readings. A worn component's leakage is what makes the
+readings feel the temperature (laminar leakage ∝ c³/μ(T): piston, paper 002 eqs. 36, 50;
+spool, eq. 23; pump slip ∝ 1/μ, paper 000 eq. 6), so at a worn rig's estimate the
+sensitivity is many times the healthy one: on the reference rig a seal at 2.5 × its
+clearance read with its oil temperature stated 1 K off is fitted 1.5 % off, where the
+posterior on the signature map gives ± 0.2 %; in the accuracy study the history's 95 %
+intervals of single leakage faults read without flow meters held the truth in 76 %
+(preset) and 75 % (differential rig) of the cases.
 
 The interval of a one-parameter estimate ẑ is therefore widened to hold the estimator's
 own spread with the stated conditions marginalised *at the estimate*.  Per record, with
@@ -47,7 +48,6 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
-from scipy.stats import chi2 as chi2_dist
 
 from diagnostics.hypotheses import PARAMETERS, FaultParameter
 from diagnostics.record_model import condition_moves
@@ -172,20 +172,13 @@ def chi2_at_estimates(ranker: Ranker, params: Sequence[FaultParameter], zs: Arr,
 @dataclass
 class SingleChecks:
     """The one-parameter fits of a diagnosis checked with the stated condition's
-    sensitivity at their estimates, by hypothesis name: ``chi2`` (:func:`chi2_at_estimates`)
-    and ``sigma`` (:func:`condition_sigmas`, fitting coordinate)."""
+    sensitivity at their estimates, by hypothesis name: ``chi2`` (:func:`chi2_at_estimates`;
+    the ambiguity set, :mod:`diagnostics.isolability`, and the goodness-of-fit test,
+    :mod:`diagnostics.goodness`, test again with it a fit they reject) and ``sigma``
+    (:func:`condition_sigmas`, fitting coordinate)."""
 
     chi2: dict[str, float] = field(default_factory=dict)
     sigma: dict[str, float] = field(default_factory=dict)
-
-    def rejected(self, fits: Sequence[HypothesisFit], n_obs: int, alpha: float = 0.01
-                 ) -> dict[str, float]:
-        """``chi2`` of the fits whose own χ² exceeds χ²_{1−α}(max(n − 1, 1)): what the
-        ambiguity set (:mod:`diagnostics.isolability`) and the goodness-of-fit test
-        (:mod:`diagnostics.goodness`) test again."""
-        limit = float(chi2_dist.ppf(1.0 - alpha, max(n_obs - 1, 1)))
-        return {f.name: self.chi2[f.name] for f in fits
-                if f.name in self.chi2 and f.chi2 > limit}
 
 
 def check_singles(ranker: Ranker, fits: Sequence[HypothesisFit]) -> SingleChecks:

@@ -30,11 +30,12 @@ from diagnostics.observations import OBSERVABLE_UNITS, observe
 from diagnostics.ranking import HypothesisFit, Method, ParameterEstimate, Ranker
 from diagnostics.ratio_index import RatioIndex, ratio_index
 from diagnostics.signatures import OBSERVABLES, SignatureMaps
+from diagnostics.slip import rig_slip_coefficient
 from diagnostics.uncertainty import Estimate
 from sim.errors import MeasurementError, SimulationError
 from sim.rigs import Rig
 
-__all__ = ["Diagnosis", "diagnose", "leakage_geometry", "regime_notes"]
+__all__ = ["CLEARANCES", "Diagnosis", "diagnose", "leakage_geometry", "regime_notes"]
 
 
 def leakage_geometry(rig: Rig) -> LeakageGeometry:
@@ -215,9 +216,8 @@ def diagnose(rig: Rig, records: Sequence[MeasurementRecord], *, model_rel: float
             "temperature against the rig", field="condition") from None
     fits = ranker.rank()
     checks = check_singles(ranker, fits)
-    at_fit = checks.rejected(fits, ranker.n_obs)
-    iso = isolability(ranker, fits, model_rel, at_fit)
-    gof = goodness_of_fit(ranker, fits, at_fit=at_fit)
+    iso = isolability(ranker, fits, model_rel, checks.chi2)
+    gof = goodness_of_fit(ranker, fits, at_fit=checks.chi2)
     notes: list[str] = []
     direct = _direct(rig, records, notes)
     ratio = None
@@ -233,10 +233,9 @@ def diagnose(rig: Rig, records: Sequence[MeasurementRecord], *, model_rel: float
     slip = None
     pump = next(f for f in fits if f.name == "pump")
     if pump.observable:
-        mu = rig.fluid.dynamic_viscosity(obs[0].condition.oil_temperature)
-        vp, rlp = rig.base["pump.Vp"], rig.base["pump.Rlp"]
         (est,) = [profiled["pump"]] if "pump" in profiled else pump.parameters
-        slip = tuple(mu * k / (vp * rlp) for k in (est.value, est.low, est.high))
+        slip = tuple(rig_slip_coefficient(rig, obs[0].condition.oil_temperature, k)
+                     for k in (est.value, est.low, est.high))
     n = sum(len(o.names) for o in obs)
     if not math.isfinite(fits[0].log_evidence):
         notes.append("no hypothesis explains the records")
@@ -272,8 +271,9 @@ def _widen(ranker: Ranker, fits: list[HypothesisFit], profiled: dict[str, Parame
     widen(ranker, items)
 
 
-#: closed-form inversion of each component's single-fault parameter (:func:`_direct`)
-_DIRECT = {"cylinder": "cc", "valve": "cv"}
+#: single-fault hypotheses whose parameter is a component's equivalent clearance, by the
+#: key of its closed-form inversion in :attr:`Diagnosis.direct` (paper 002 §2.7) [m]
+CLEARANCES = {"cylinder": "cc", "valve": "cv"}
 
 
 def _healthy_end(ranker: Ranker, fits: list[HypothesisFit], direct: dict[str, Estimate]
@@ -282,7 +282,7 @@ def _healthy_end(ranker: Ranker, fits: list[HypothesisFit], direct: dict[str, Es
     fits whose component has no closed-form inversion here."""
     return healthy_end_estimates(ranker, [
         f for f in fits if f.observable and len(f.hypothesis.components) == 1
-        and _DIRECT.get(f.name) not in direct])
+        and CLEARANCES.get(f.name) not in direct])
 
 
 def regime_notes(ranker: Ranker) -> list[str]:

@@ -31,7 +31,7 @@ uncertainty with the sensitivity of the *healthy* rig's readings
 (:mod:`diagnostics.record_model`); a worn component's leakage makes the readings feel the
 temperature many times more.  A one-parameter fit the test rejects is therefore tested
 again with that sensitivity taken at its estimate
-(:meth:`diagnostics.condition_interval.SingleChecks.rejected`, computed once by
+(:func:`diagnostics.condition_interval.check_singles`, computed once by
 :func:`diagnostics.diagnose.diagnose` for this test and the ambiguity set), and passes if
 that χ² does; the statement then gives both.  (Joint visits of a worn seal without flow
 meters, each record's temperature stated within its thermometer's class, were "not
@@ -62,7 +62,8 @@ from diagnostics.hypotheses import PARAMETERS
 from diagnostics.range_test import RangeTest, pinned, range_test, range_tests
 from diagnostics.ranking import HypothesisFit, Ranker
 
-__all__ = ["TEST_LEVEL", "Disagreement", "GoodnessOfFit", "goodness_of_fit", "stall_limit"]
+__all__ = ["TEST_LEVEL", "Disagreement", "GoodnessOfFit", "chi2_limit", "goodness_of_fit",
+           "stall_limit"]
 
 #: test level α of the goodness-of-fit test [-]
 TEST_LEVEL = 0.01
@@ -173,7 +174,8 @@ def _p_value(chi2: float, dof: int) -> float:
     return float(chdtrc(dof, chi2)) if chi2 >= 0.0 else 1.0
 
 
-def _limit(level: float, dof: int) -> float:
+def chi2_limit(level: float, dof: float) -> float:
+    """χ²_{1−α}(ν) [-]: the limit of the χ² test at ``level`` α with ``dof`` ν."""
     # χ²_{1-α}(ν) as scipy.stats.chi2.ppf computes it: 2·P⁻¹(ν/2, 1 − α)
     return float(2.0 * gammaincinv(0.5 * dof, 1.0 - level))
 
@@ -218,9 +220,9 @@ def _dof(ranker: Ranker, f: HypothesisFit) -> int:
 def goodness_of_fit(ranker: Ranker, fits: list[HypothesisFit], level: float = TEST_LEVEL,
                     at_fit: Mapping[str, float] | None = None) -> GoodnessOfFit:
     """χ² goodness of fit and range test of the observable hypotheses among ranked
-    ``fits`` (module docstring); ``at_fit``: the χ² of rejected one-parameter fits with the
+    ``fits`` (module docstring); ``at_fit``: the χ² of one-parameter fits with the
     stated condition's sensitivity at their estimates, by name
-    (:meth:`diagnostics.condition_interval.SingleChecks.rejected`)."""
+    (:func:`diagnostics.condition_interval.check_singles`)."""
     retest = at_fit or {}
     cands = [f for f in fits if f.observable] or fits[:1]
     scored = []
@@ -236,7 +238,7 @@ def goodness_of_fit(ranker: Ranker, fits: list[HypothesisFit], level: float = TE
         # ν ≤ 0: the best fit's χ² is at most the χ² at the truth, a χ²_n variable, so
         # χ² > χ²_{1-α}(n) still rejects at level α (conservative): the reading lies
         # beyond what the hypothesis can reach
-        lim = _limit(level, dof) if testable else _limit(level, ranker.n_obs)
+        lim = chi2_limit(level, dof) if testable else chi2_limit(level, ranker.n_obs)
         if (not math.isfinite(f.chi2) or f.chi2 > lim) and retest.get(f.name, math.inf) <= lim:
             used[f.name] = retest[f.name]
             p = _p_value(used[f.name], dof) if testable else p
@@ -264,7 +266,7 @@ def goodness_of_fit(ranker: Ranker, fits: list[HypothesisFit], level: float = TE
     else:
         testable, p, _, best, dof = max(scored, key=lambda s: (s[0], s[1], -s[2]))
         chi2 = best.chi2
-    limit = _limit(level, dof) if dof >= 1 else math.inf
+    limit = chi2_limit(level, dof) if dof >= 1 else math.inf
     beyond = _beyond_range(ranker, cands, tests, level)
     dis = _disagreements(ranker, best)
     if explained and testable:
@@ -325,7 +327,7 @@ def _incipient_pass(ranker: Ranker, scored: list[tuple[bool, float, float, Hypot
         if rt.rejected or not rt.incipient:
             continue
         chi2 = rt.chi2_document
-        lim = _limit(level, dof) if testable else _limit(level, ranker.n_obs)
+        lim = chi2_limit(level, dof) if testable else chi2_limit(level, ranker.n_obs)
         if chi2 <= lim:
             return testable, p, f, dof, rt
     return None
@@ -372,7 +374,7 @@ def _beyond_range(ranker: Ranker, cands: list[HypothesisFit], tests: list[RangeT
         if not (rt.rejected and rt.sides == ["severe"]):
             continue
         dof = _dof(ranker, f)
-        if rt.chi2_extended <= _limit(level, dof if dof >= 1 else ranker.n_obs):
+        if rt.chi2_extended <= chi2_limit(level, dof if dof >= 1 else ranker.n_obs):
             out.append(rt)
     return out
 
@@ -391,7 +393,7 @@ def _misfit_statement(ranker: Ranker, cands: list[HypothesisFit], best: Hypothes
                   f"degrees of freedom (limit {limit:.3g} at the {level:.0%} level)"
                   if dof >= 1 else
                   f"even the best fit ({best.name}, as many parameters as readings) leaves "
-                  f"χ² = {best.chi2:.3g} (limit {_limit(level, ranker.n_obs):.3g} on "
+                  f"χ² = {best.chi2:.3g} (limit {chi2_limit(level, ranker.n_obs):.3g} on "
                   f"{ranker.n_obs} reading(s) at the {level:.0%} level)")
     statement = (
         "the readings are not explained by the rig model and its fault library: "

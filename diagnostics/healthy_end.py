@@ -14,7 +14,7 @@ For the component's value the parameter is profiled from the rig document's valu
 χ²(z) of the one-parameter hypothesis on :data:`POINTS` equally spaced fitting
 coordinates from the document's value z_d to z_l + (z_l − z_d), z_l the worn range's
 start (twice the gap; fixed by the rig, not by the readings, so a record at a condition
-seen before reuses the grid's predictions, :attr:`diagnostics.fastpath.maps.FastMaps.kept`).
+seen before reuses the grid's predictions, :func:`~diagnostics.range_test.grid_chi2`).
 The estimate is the grid's minimum refined by the parabola through it and its neighbours
 (:func:`~diagnostics.range_test.parabola_vertex`); the 95 % interval is the profile
 likelihood's, where χ²(z) − χ²_min ≤ 1.96² (Wilks; the χ²₁ quantile), its ends
@@ -25,8 +25,8 @@ the upper end is the fit's own (its posterior interval from the worn range's sta
 bounds the profile's from above). :func:`diagnostics.diagnose.diagnose` then widens the
 interval for the stated condition at the estimate
 (:mod:`diagnostics.condition_interval`). The χ² is evaluated as the range test evaluates
-it (:func:`~diagnostics.range_test.chi2_points`, the compiled kernel when every record
-has fast maps).  A fit *inside* its worn range whose interval reaches the range's start (the
+its first grids (:func:`~diagnostics.range_test.grid_chi2`, the compiled kernel when every
+record has fast maps).  A fit *inside* its worn range whose interval reaches the range's start (the
 posterior cut there: a pump leaking 1.2 × nominal fitted at 1.6 × with an interval from
 1.33 ×) keeps its estimate and upper end, and takes the profile's lower end: where χ²
 rises 1.96² above the fit's, going down from the range's start toward the document's
@@ -45,12 +45,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
-from scipy.special import gammaincinv
 
 from diagnostics.fastpath.maps import FastMaps
-from diagnostics.goodness import TEST_LEVEL
+from diagnostics.goodness import TEST_LEVEL, chi2_limit
 from diagnostics.hypotheses import PARAMETERS, FaultParameter
-from diagnostics.range_test import PIN_TOL, chi2_points, parabola_vertex, pinned, record_chi2
+from diagnostics.range_test import PIN_TOL, grid_chi2, parabola_vertex, pinned
 from diagnostics.ranking import ParameterEstimate, severity
 
 if TYPE_CHECKING:
@@ -79,30 +78,16 @@ def _grid(ranker: Ranker, p: FaultParameter) -> Arr:
 
 
 def _profile(ranker: Ranker, ps: list[FaultParameter], grids: Arr) -> Arr:
-    """χ² of row ``i`` of ``grids`` under the one-parameter hypothesis of ``ps[i]``;
-    each record's rows in one compiled call, kept on its maps by parameter and grid."""
-    if not all(isinstance(m.maps, FastMaps) for m in ranker.models):
-        flat = chi2_points(ranker, [p for p in ps for _ in range(POINTS)], grids.reshape(-1))
-        return flat.reshape(grids.shape)
-    total = np.zeros(grids.shape)
-    for m in ranker.models:
-        maps = m.maps
-        assert isinstance(maps, FastMaps)
-        keys = [("healthy-end grid", p.name, g.tobytes()) for p, g in zip(ps, grids,
-                                                                            strict=True)]
-        missing = [i for i, k in enumerate(keys) if k not in maps.kept]
-        if missing:
-            saved = maps.ctx.states.copy()  # later fits at this condition start as before
-            out, ys, _, ok = maps.probe_moving([ps[i] for i in missing for _ in range(POINTS)],
-                                               [grids[i] for i in missing],
-                                               [None] * len(missing), even=True)
-            maps.ctx.states[:] = saved
-            for j, i in enumerate(missing):
-                sl = slice(j * POINTS, (j + 1) * POINTS)
-                maps.kept[keys[i]] = (out[sl], ys[sl], ok[sl])
-        for i, k in enumerate(keys):
-            total[i] += record_chi2(m, maps.kept[k][0])
-    return np.where(np.isfinite(total), total, np.inf)
+    """χ² of row ``i`` of ``grids`` under the one-parameter hypothesis of ``ps[i]``
+    (:func:`~diagnostics.range_test.grid_chi2`: each record's rows in one compiled call,
+    kept on its maps by parameter and grid); the kernel's continuation is left where it
+    was, so the fits that follow at this condition start as they would have."""
+    fast = [m.maps for m in ranker.models if isinstance(m.maps, FastMaps)]
+    saved = [maps.ctx.states.copy() for maps in fast]
+    chi, _ = grid_chi2(ranker, ps, grids)
+    for maps, states in zip(fast, saved, strict=True):
+        maps.ctx.states[:] = states
+    return np.where(np.isfinite(chi), chi, np.inf)
 
 
 def _crossing(z: Arr, chi: Arr, j: int, level: float, step: int) -> float | None:
@@ -152,7 +137,7 @@ def healthy_end_estimates(ranker: Ranker, fits: list[HypothesisFit],
     grids = np.array([_grid(ranker, p) for p in ps])
     chi = _profile(ranker, ps, grids)
     dof = ranker.n_obs - 1
-    limit = float(2.0 * gammaincinv(0.5 * dof, 1.0 - level)) if dof >= 1 else math.inf
+    limit = chi2_limit(level, dof) if dof >= 1 else math.inf
     out: dict[str, ParameterEstimate] = {}
     for (f, on_end), p, z, c in zip(todo, ps, grids, chi, strict=True):
         fitted = f.parameters[0]

@@ -142,9 +142,9 @@ def _signature(ranker: Ranker, name: str) -> np.ndarray:
 def isolability(ranker: Ranker, fits: list[HypothesisFit], model_rel: float = 0.002,
                 at_fit: Mapping[str, float] | None = None) -> Isolability:
     """Isolability statement for ranked ``fits`` of ``ranker``'s records; ``at_fit``: the
-    χ² of rejected one-parameter fits with the stated condition's sensitivity at their
-    estimates (:meth:`diagnostics.condition_interval.SingleChecks.rejected`), which
-    keeps such a fit in the ambiguity set when it passes."""
+    χ² of one-parameter fits with the stated condition's sensitivity at their estimates
+    (:func:`diagnostics.condition_interval.check_singles`), which keeps a fit its own χ²
+    rejects in the ambiguity set when it passes."""
     present = {n for m in ranker.models for n in m.obs.names}
     amb = _consistent_set(fits, ranker.n_obs, at_fit=at_fit)
     cred = _credible_set(fits)

@@ -56,8 +56,8 @@ if TYPE_CHECKING:
     from diagnostics.ranking import HypothesisFit, Ranker
     from diagnostics.record_model import RecordModel
 
-__all__ = ["RangeTest", "chi2_points", "parabola_vertex", "pinned", "range_test", "range_tests",
-           "record_chi2"]
+__all__ = ["RangeTest", "chi2_points", "grid_chi2", "parabola_vertex", "pinned", "range_test",
+           "range_tests", "record_chi2"]
 
 Arr = npt.NDArray[np.float64]
 
@@ -203,9 +203,10 @@ def record_chi2(m: RecordModel, out: Arr) -> Arr:
     return np.asarray(np.sum(r * r, axis=1))
 
 
-def _grid_chi2(ranker: Ranker, ps: list[FaultParameter], grids: Arr) -> tuple[Arr, _Known]:
-    """:func:`_points` of the first search grids (row ``i``: parameter ``ps[i]``), and the
-    points solved (:data:`_Known`): their predictions do not depend on the readings, so
+def grid_chi2(ranker: Ranker, ps: list[FaultParameter], grids: Arr) -> tuple[Arr, _Known]:
+    """:func:`_points` of grids fixed by the rig, not by the readings (row ``i``:
+    parameter ``ps[i]``; the first search grids, :mod:`diagnostics.healthy_end`'s profile),
+    and the points solved (:data:`_Known`): their predictions do not depend on the readings, so
     each record's maps keep them (:attr:`FastMaps.kept`, per parameter and grid) and a
     record at a condition seen before costs no solve; the missing rows are solved
     together, one call per record."""
@@ -410,10 +411,10 @@ def _search_1d(ranker: Ranker, plans: list[_Plan]) -> list[tuple[float, float, f
         return []
     ps = [pl.params[0] for pl in plans]
     grids = np.array([np.linspace(pl.zle[0], pl.zue[0], SCAN_POINTS) for pl in plans])
-    grid_chi2, known = _grid_chi2(ranker, ps, grids)
+    first, known = grid_chi2(ranker, ps, grids)
     chi_b = _finite(_points_near(ranker, ps, np.array([[pl.z0[0]] for pl in plans]),
                                  known))[:, 0]
-    xs, ys = grids, _finite(grid_chi2)
+    xs, ys = grids, _finite(first)
     for _ in range(REFINE_LEVELS):  # each level: a grid between the best point's neighbours
         fine = np.array([np.linspace(*_bracket(x, y), REFINE_POINTS)
                          for x, y in zip(xs, ys, strict=True)])

@@ -40,8 +40,9 @@ from diagnostics.uncertainty import Estimate, Method, propagate
 from sim.components.gear_pump import GearPump, dynamic_viscosity, gear_pump_flow
 from sim.errors import MeasurementError
 from sim.fluid import Fluid
+from sim.rigs import Rig
 
-__all__ = ["slip_coefficient", "slip_coefficient_two_temperatures"]
+__all__ = ["rig_slip_coefficient", "slip_coefficient", "slip_coefficient_two_temperatures"]
 
 FloatArray = NDArray[np.float64]
 
@@ -160,3 +161,14 @@ def slip_coefficient_two_temperatures(cold: MeasurementRecord, warm: Measurement
     derived = {"mu1": fl.dynamic_viscosity(t1.value), "mu2": fl.dynamic_viscosity(t2.value)}
     notes = tuple(dict.fromkeys(notes_a + notes_b))
     return replace(est, derived=derived, notes=est.notes + notes)
+
+
+def rig_slip_coefficient(rig: Rig, temperature: float, leak_factor: float = 1.0) -> float:
+    """Laminar slip coefficient Cs [-] of ``rig``'s pump at oil ``temperature`` [°C] when it
+    leaks ``leak_factor`` [-] times its document's leakage (the diagnosis's ``pump_leak``).
+
+    Paper 000 eq. 6 writes the slip as ``Cs·D·Δp/μ``; the rig's pump leaks
+    ``k·Δp/R_lp`` (its leakage resistance ``pump.Rlp`` [Pa·s/m³]) with ``D = pump.Vp``
+    [m³/rad], so ``Cs = μ(T)·k/(D·R_lp)``."""
+    mu = rig.fluid.dynamic_viscosity(temperature)
+    return float(mu * leak_factor / (rig.base["pump.Vp"] * rig.base["pump.Rlp"]))

@@ -27,6 +27,7 @@ __all__ = [
     "reading_chart",
     "record_index",
     "series_charts",
+    "sigma_for",
     "simulation_charts",
     "surface_chart",
     "trend_chart",
@@ -58,10 +59,21 @@ def record_index(result: Mapping[str, Any]) -> int:
     return index if isinstance(index, int) and index >= 0 else 0
 
 
+def _of_record(per_record: Any, index: int) -> dict[str, Any]:
+    """Entry ``index`` of a per-record list of a stored result (empty if none)."""
+    items = per_record or []
+    return dict(items[index]) if index < len(items) and items[index] else {}
+
+
 def predicted_for(fit: Mapping[str, Any], index: int) -> dict[str, Any]:
     """A hypothesis's predictions of record ``index`` of the diagnosis (empty if none)."""
-    predicted = fit.get("predicted") or []
-    return dict(predicted[index]) if index < len(predicted) and predicted[index] else {}
+    return _of_record(fit.get("predicted"), index)
+
+
+def sigma_for(result: Mapping[str, Any], index: int) -> dict[str, Any]:
+    """The σ the diagnosis weighed each reading of record ``index`` by (``reading_sigma``;
+    empty for results stored before it was kept) [SI unit of the reading]."""
+    return _of_record(result.get("reading_sigma"), index)
 
 
 def reading_chart(result: Mapping[str, Any], measured: Mapping[str, tuple[float, float]],
@@ -92,8 +104,7 @@ def reading_chart(result: Mapping[str, Any], measured: Mapping[str, tuple[float,
     series = [Series(x, np.zeros_like(x), "measured, instrument (95 %)", kind="errorbars",
                      low=-half, high=half, color="#000000")]
     index = record_index(result)
-    sigmas = result.get("reading_sigma") or []
-    sigma = sigmas[index] if index < len(sigmas) and sigmas[index] else {}
+    sigma = sigma_for(result, index)
     weighed = np.array([1.959963984540054 * float(sigma[n]) / abs(measured[n][0])
                         if sigma.get(n) is not None else np.nan for n in names])
     keep = np.isfinite(weighed)

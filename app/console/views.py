@@ -20,6 +20,7 @@ from app.console.charts import (
     probability_chart,
     reading_chart,
     record_index,
+    sigma_for,
     trend_chart,
 )
 from app.db.models import Diagnosis, Measurement, Rig
@@ -99,8 +100,7 @@ def diagnosis_view(session: Session, diagnosis_id: int) -> DiagnosisView:
     measured = measured_readings(dict(measurement.record), rig_name)
     best = sorted(result.get("hypotheses", []), key=lambda f: -(f.get("probability") or 0.0))[:3]
     index = record_index(result)
-    sigmas = result.get("reading_sigma") or []
-    sigma = sigmas[index] if index < len(sigmas) and sigmas[index] else {}
+    sigma = sigma_for(result, index)
     readings = []
     for name, (value, u) in measured.items():
         predicted = {f["name"]: predicted_for(f, index).get(name) for f in best}

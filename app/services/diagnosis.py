@@ -35,7 +35,7 @@ from app.services.common import commit, prefixed
 from app.services.history import ComponentEstimate, add_diagnosis, add_measurement
 from app.services.measurements import stored_record, to_record
 from app.services.rig_cache import ResolvedRig, RigCache
-from diagnostics.diagnose import Diagnosis, diagnose
+from diagnostics.diagnose import CLEARANCES, Diagnosis, diagnose
 from diagnostics.measurement import MeasurementRecord
 from sim.errors import InputError
 from sim.rigs import Rig
@@ -54,9 +54,6 @@ STORE_CONFLICT = "the diagnosis could not be stored"
 
 #: ``top`` and ``component`` of a diagnosis whose readings no hypothesis explains.
 UNEXPLAINED = "unexplained"
-
-#: Single-fault hypotheses whose parameter is a component's equivalent clearance [m].
-_CLEARANCE_HYPOTHESES = {"cylinder": "cc", "valve": "cv"}
 
 
 @dataclass(frozen=True, slots=True)
@@ -140,7 +137,7 @@ def estimates_of(diagnosis: Diagnosis) -> list[EstimateOut]:
     fits = {f.name: f for f in diagnosis.hypotheses}
     plausible = set(diagnosis.isolability.ambiguity_set)
     out: list[EstimateOut] = []
-    for component, quantity in _CLEARANCE_HYPOTHESES.items():
+    for component, quantity in CLEARANCES.items():
         fit = fits.get(component)
         probability = fit.probability if fit is not None else 0.0
         direct = diagnosis.direct.get(quantity)

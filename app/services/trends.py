@@ -24,6 +24,7 @@ from sqlalchemy.orm import Session
 from app.db.models import Diagnosis, DiagnosisEstimate, Measurement
 from app.services.history import HistoryPoint, component_history
 from app.services.rig_cache import ResolvedRig, RigCache
+from diagnostics.slip import rig_slip_coefficient
 from diagnostics.trends import TrendSeries, forecast_threshold
 from sim.errors import InputError
 from sim.rigs import Rig
@@ -94,8 +95,7 @@ def default_threshold(rig: Rig, component: str) -> tuple[float, str]:
         nominal = rig.base["cylinder.cc" if component == "cylinder" else "valve.cv"]
         return (CLEARANCE_MULTIPLE * nominal,
                 "default: 1.6 × nominal clearance (leakage ×4.1, 'severe')")
-    mu = rig.fluid.dynamic_viscosity(rig.default_condition().oil_temperature)
-    healthy = mu / (rig.base["pump.Vp"] * rig.base["pump.Rlp"])
+    healthy = rig_slip_coefficient(rig, rig.default_condition().oil_temperature)
     return SLIP_MULTIPLE * healthy, "default: 4.1 × the healthy pump's Cs"
 
 

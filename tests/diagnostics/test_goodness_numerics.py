@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from scipy.stats import chi2
 
-from diagnostics.goodness import _limit, _p_value
+from diagnostics.goodness import _p_value, chi2_limit
 
 
 @pytest.mark.parametrize("dof", [1, 2, 3, 5, 7, 12, 30])
@@ -26,12 +26,12 @@ def test_tail_equals_scipy_stats(dof: int) -> None:
 @pytest.mark.parametrize("dof", [1, 2, 4, 9, 25])
 @pytest.mark.parametrize("level", [0.001, 0.01, 0.05])
 def test_limit_equals_scipy_stats(dof: int, level: float) -> None:
-    assert _limit(level, dof) == pytest.approx(float(chi2.ppf(1.0 - level, dof)), rel=1e-12)
+    assert chi2_limit(level, dof) == pytest.approx(float(chi2.ppf(1.0 - level, dof)), rel=1e-12)
     # and it is the quantile: the tail beyond it is the level
-    assert _p_value(_limit(level, dof), dof) == pytest.approx(level, rel=1e-9)
+    assert _p_value(chi2_limit(level, dof), dof) == pytest.approx(level, rel=1e-9)
 
 
 def test_hand_values() -> None:
     # ν = 2: P(χ² ≥ x) = exp(−x/2) exactly; the 1 % limit is −2 ln 0.01 = 9.2103...
     assert _p_value(3.0, 2) == pytest.approx(math.exp(-1.5), rel=1e-13)
-    assert _limit(0.01, 2) == pytest.approx(-2.0 * math.log(0.01), rel=1e-12)
+    assert chi2_limit(0.01, 2) == pytest.approx(-2.0 * math.log(0.01), rel=1e-12)
