@@ -33,9 +33,10 @@ left out of the sums.
 
 The same covariance gives each one-parameter fit's χ² at its estimate
 (:func:`chi2_at_estimates`), with which the goodness-of-fit test and the ambiguity set
-test again a fit they reject (:class:`SingleChecks`); the probabilities keep the healthy
-rig's covariance.  Every prediction is a steady solve or a map look-up
-(:meth:`diagnostics.signatures.SignatureMaps.observables_at`; on the fast path one
+test again a fit they reject (:class:`SingleChecks`), and with which the evidences move
+to each hypothesis's estimate (:mod:`diagnostics.evidence_at_fit`; a pair's estimate
+through :func:`point_parts`).  Every prediction is a steady solve or a map look-up
+(:meth:`diagnostics.signatures.SignatureMaps.observables_at_points`; on the fast path one
 compiled call per record and moved condition for all estimates together).
 """
 
@@ -55,9 +56,11 @@ from diagnostics.record_model import condition_moves
 if TYPE_CHECKING:
     from diagnostics.ranking import HypothesisFit, ParameterEstimate, Ranker
     from diagnostics.record_model import RecordModel
+    from diagnostics.signatures import Point
 
-__all__ = ["STEP", "Parts", "SingleChecks", "check_singles", "chi2_at_estimates",
-           "condition_sigmas", "estimate_parts", "widen"]
+__all__ = ["STEP", "Parts", "SingleChecks", "at_estimate", "check_singles",
+           "chi2_at_estimates", "condition_sigmas", "difference_steps", "estimate_parts",
+           "point_parts", "widen"]
 
 Arr = npt.NDArray[np.float64]
 
@@ -76,11 +79,22 @@ def estimate_parts(ranker: Ranker, params: Sequence[FaultParameter], zs: Arr) ->
     signature maps where they can be, then one compiled call per record and moved
     condition for all of them."""
     zs = np.asarray(zs, dtype=np.float64)
-    steps = _steps(ranker, params)
+    steps = difference_steps(ranker, params)
+    points = [((p,), (float(z),)) for p, z in zip(params, zs, strict=True)]
     out: Parts = []
     for m in ranker.models:
         y0, jac = _at_estimates(m, params, zs, steps)
-        out.append((y0, jac, _condition_terms(m, params, zs, y0)))
+        out.append((y0, jac, _condition_terms(m, points, y0)))
+    return out
+
+
+def point_parts(ranker: Ranker, points: Sequence[Point]) -> Parts:
+    """:data:`Parts` at estimates of several parameters each (a pair hypothesis's):
+    predictions solved there (one compiled call per record), ∂ŷ/∂z not computed (NaN)."""
+    out: Parts = []
+    for m in ranker.models:
+        y0 = m.maps.observables_at_points(points)[:, m.idx]
+        out.append((y0, np.full_like(y0, np.nan), _condition_terms(m, points, y0)))
     return out
 
 
@@ -124,21 +138,22 @@ def condition_sigmas(ranker: Ranker, params: Sequence[FaultParameter], zs: Arr,
         return np.where(den > 0.0, np.sqrt(num) / den, math.inf)
 
 
-def _steps(ranker: Ranker, params: Sequence[FaultParameter]) -> Arr:
+def difference_steps(ranker: Ranker, params: Sequence[FaultParameter]) -> Arr:
+    """The central-difference step of each parameter: :data:`STEP` of its worn range
+    [fitting coordinate]."""
     return np.array([STEP * (p.to_z(p.worn_bounds(ranker.rig)[1])
                              - p.to_z(p.worn_bounds(ranker.rig)[0])) for p in params])
 
 
-def _condition_terms(m: RecordModel, params: Sequence[FaultParameter], zs: Arr, y0: Arr
-                     ) -> list[Arr]:
+def _condition_terms(m: RecordModel, points: Sequence[Point], y0: Arr) -> list[Arr]:
     """``s_k u_k`` of record ``m`` at each estimate (rows; its readings' columns): one-sided
     differences of the stated conditions (:func:`~diagnostics.record_model.condition_moves`)
-    at the fitted parameter, NaN where neither side has a steady point."""
+    at the fitted parameters, NaN where neither side has a steady point."""
     terms = []
     for u, moved in condition_moves(m.obs):
         sens = np.full_like(y0, np.nan)
         for cond, step in moved:  # the other side only where the first has no point
-            y = m.maps.observables_at(list(params), zs, cond)[:, m.idx]
+            y = m.maps.observables_at_points(points, cond)[:, m.idx]
             sens = np.where(np.isnan(sens), (y - y0) / step, sens)
             if not np.isnan(sens).any():
                 break
@@ -160,13 +175,19 @@ def chi2_at_estimates(ranker: Ranker, params: Sequence[FaultParameter], zs: Arr,
     out = np.zeros(zs.size)
     for m, (y0, _, terms) in zip(ranker.models, parts, strict=True):
         for i in range(zs.size):
-            cov = np.diag(m.diag)
-            for t in terms:
-                cov += np.outer(t[i], t[i])
+            cov = at_estimate(m, terms, i)
             r = m.obs.values - y0[i]
             out[i] += float(r @ np.linalg.solve(cov, r)) if np.isfinite(cov).all() \
                 and np.isfinite(r).all() else math.inf
     return out
+
+
+def at_estimate(m: RecordModel, terms: list[Arr], i: int) -> Arr:
+    """Record ``m``'s covariance at estimate ``i`` of ``terms`` (module docstring) [SI²]."""
+    cov = np.diag(m.diag)
+    for t in terms:
+        cov += np.outer(t[i], t[i])
+    return cov
 
 
 @dataclass
@@ -179,6 +200,8 @@ class SingleChecks:
 
     chi2: dict[str, float] = field(default_factory=dict)
     sigma: dict[str, float] = field(default_factory=dict)
+    #: the :data:`Parts` both were computed from, one row per name of ``chi2`` in order
+    parts: Parts = field(default_factory=list)
 
 
 def check_singles(ranker: Ranker, fits: Sequence[HypothesisFit]) -> SingleChecks:
@@ -194,7 +217,7 @@ def check_singles(ranker: Ranker, fits: Sequence[HypothesisFit]) -> SingleChecks
     chi2 = chi2_at_estimates(ranker, params, zs, parts)
     sigma = condition_sigmas(ranker, params, zs, parts)
     return SingleChecks({f.name: float(c) for f, c in zip(todo, chi2, strict=True)},
-                        {f.name: float(g) for f, g in zip(todo, sigma, strict=True)})
+                        {f.name: float(g) for f, g in zip(todo, sigma, strict=True)}, parts)
 
 
 def _at_estimates(m: RecordModel, params: Sequence[FaultParameter], zs: Arr, steps: Arr

@@ -20,6 +20,7 @@ import numpy as np
 import numpy.typing as npt
 
 from diagnostics.condition_interval import check_singles, widen
+from diagnostics.evidence_at_fit import evidence_at_fit
 from diagnostics.goodness import GoodnessOfFit, goodness_of_fit
 from diagnostics.healthy_end import healthy_end_estimates
 from diagnostics.hypotheses import PARAMETERS
@@ -216,6 +217,7 @@ def diagnose(rig: Rig, records: Sequence[MeasurementRecord], *, model_rel: float
             "temperature against the rig", field="condition") from None
     fits = ranker.rank()
     checks = check_singles(ranker, fits)
+    evidence_at_fit(ranker, fits, checks)
     iso = isolability(ranker, fits, model_rel, checks.chi2)
     gof = goodness_of_fit(ranker, fits, at_fit=checks.chi2)
     notes: list[str] = []

@@ -49,8 +49,8 @@ from diagnostics.hypotheses import HYPOTHESES
 if TYPE_CHECKING:
     from diagnostics.ranking import HypothesisFit, Ranker
 
-__all__ = ["FLEET_PRIOR", "acting_relief_setting", "opening_pressure", "posterior",
-           "whitening"]
+__all__ = ["FLEET_PRIOR", "acting_relief_setting", "map_log_evidence", "map_support",
+           "opening_pressure", "posterior", "whitening"]
 
 #: prior probability of each hypothesis before the readings [-] (sums to 1); source: no
 #: fleet statistics, every hypothesis of the library equally likely
@@ -99,18 +99,35 @@ def acting_relief_setting(ranker: Ranker, fits: Sequence[HypothesisFit]) -> floa
     if fit is None or not math.isfinite(fit.log_evidence):
         return None
     p_open = opening_pressure(ranker)
-    z = ranker.models[0].maps.maps["relief_setting"].axes[0]
-    acting = z < p_open  # Pset is fitted linearly: z is the setting [Pa]
+    acting = map_support(ranker, "relief_setting")
     if not math.isfinite(p_open) or not acting.any():
         return None
-    chi2 = np.zeros(z.size)
+    chi2 = np.zeros(acting.size)
     for m in ranker.models:
         chi2 += m.chi2_grid(m.maps.maps["relief_setting"].pred)
-    logl = -0.5 * chi2[acting]
-    top = float(logl.max())
-    fit.log_evidence = top + math.log(float(np.mean(np.exp(logl - top)))) \
-        if math.isfinite(top) else -math.inf
+    fit.log_evidence = map_log_evidence(chi2, acting)
     return p_open
+
+
+def map_support(ranker: Ranker, name: str) -> npt.NDArray[np.bool_]:
+    """The points of single-fault hypothesis ``name``'s signature map its prior covers:
+    all of them, but for ``relief_setting`` only the settings below the records' highest
+    healthy pump pressure (:func:`acting_relief_setting`; none where that is unknown)."""
+    z = ranker.models[0].maps.maps[name].axes[0]
+    if name != "relief_setting":
+        return np.ones(z.size, dtype=bool)
+    return np.asarray(z < opening_pressure(ranker))  # Pset is fitted linearly: z in Pa
+
+
+def map_log_evidence(chi2: npt.NDArray[np.float64], support: npt.NDArray[np.bool_]
+                     ) -> float:
+    """ln Z of a single fault from its χ² on the signature map's points [-]: the mean of
+    the likelihood ``exp(−χ²/2)`` over the points of ``support`` (the uniform prior in
+    the fitting coordinate on the equally spaced fine grid); −∞ where none is finite."""
+    logl = -0.5 * chi2[support]
+    top = float(logl.max()) if logl.size else -math.inf
+    return top + math.log(float(np.mean(np.exp(logl - top)))) if math.isfinite(top) \
+        else -math.inf
 
 
 def whitening(diag: npt.NDArray[np.float64], terms: Sequence[npt.NDArray[np.float64]]

@@ -28,7 +28,9 @@ the data do not need costs the share of its prior range that the data rule out.
   and say nothing).
 
 Probabilities are the evidences times the fleet prior, normalised over the observable
-hypotheses (:func:`diagnostics.evidence.posterior`).
+hypotheses (:func:`diagnostics.evidence.posterior`); :func:`diagnostics.diagnose.diagnose`
+then moves each evidence to the stated condition's covariance at the hypothesis's own
+estimate (:mod:`diagnostics.evidence_at_fit`) and normalises again.
 
 Two ways to the same numbers (``Ranker(..., method=)``): ``"fast"`` (default) builds the
 maps and runs the pair fits and profiles in compiled code (:mod:`diagnostics.fastpath`,
@@ -61,7 +63,7 @@ from sim.errors import SimulationError
 from sim.rigs import Rig
 
 __all__ = ["DEFAULT_METHOD", "HypothesisFit", "Method", "ParameterEstimate", "Ranker",
-           "laplace_evidence", "profile_evidence", "severity"]
+           "laplace_evidence", "profile_evidence", "rank_order", "severity"]
 
 Arr = npt.NDArray[np.float64]
 
@@ -351,5 +353,9 @@ class Ranker:
                     continue  # no steady operating point anywhere near: not a candidate
         acting_relief_setting(self, fits)  # a setting that never opens is not a cause
         posterior(fits)  # fleet prior × evidence, over the observable ones (evidence.py)
-        return sorted(fits, key=lambda f: (not f.observable, -f.probability,
-                                           len(f.hypothesis.parameters)))
+        return sorted(fits, key=rank_order)
+
+
+def rank_order(fit: HypothesisFit) -> tuple[bool, float, int]:
+    """Sort key of the ranking: observable first, most probable first, simpler first."""
+    return not fit.observable, -fit.probability, len(fit.hypothesis.parameters)

@@ -150,6 +150,11 @@ class RecordModel:
     def _vec(self, pred: dict[str, float]) -> Arr:
         return np.array([pred[n] for n in self.obs.names])
 
+    @property
+    def log_det(self) -> float:
+        """ln |C| of the readings' covariance, ``−2 Σ ln |W_ii|`` (W triangular) [-]."""
+        return -2.0 * float(np.sum(np.log(np.abs(np.diag(self.white)))))
+
     def whitened(self, resid: Arr) -> Arr:
         """Residuals ``y − ŷ`` [SI] (last axis: the readings) → independent unit normals."""
         return np.asarray(resid @ self.white.T)

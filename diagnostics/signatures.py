@@ -40,6 +40,7 @@ import contextlib
 import math
 import threading
 from collections import OrderedDict
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -61,10 +62,13 @@ from sim.rigs import Condition, Rig
 from sim.steady import SteadyEvaluator
 
 __all__ = ["CREEP", "GRAPH_PARAMETERS", "OBSERVABLES", "RIDGE_POINTS", "RIDGE_ROUNDS",
-           "HypothesisMap", "SignatureMaps", "evaluator", "held_state", "masked_pchip",
+           "HypothesisMap", "Point", "SignatureMaps", "evaluator", "held_state", "masked_pchip",
            "ridge_segments", "signature_maps", "stroke_codes", "stroke_states"]
 
 Arr = npt.NDArray[np.float64]
+
+#: fault parameters and their fitting coordinates, set together (one hypothesis's estimate)
+Point = tuple[tuple[FaultParameter, ...], tuple[float, ...]]
 
 #: graph parameters the evaluators expose, in this order
 GRAPH_PARAMETERS: tuple[str, ...] = ("cylinder.cc", "valve.cv", "pump.Rlp", "relief.Pset",
@@ -186,13 +190,21 @@ class SignatureMaps:
         other parameters at the rig document's values), at this condition or at
         ``condition``, solved directly (no interpolation); NaN rows where no steady
         operating point exists."""
+        return self.observables_at_points(
+            [((p,), (float(z),)) for p, z in zip(params, zs, strict=True)], condition)
+
+    def observables_at_points(self, points: Sequence[Point],
+                              condition: Condition | None = None) -> Arr:
+        """:meth:`observables_at` with several parameters per row: row ``i`` with the
+        parameters of ``points[i]`` at its fitting coordinates (a pair hypothesis's
+        estimate)."""
         ev = self.ev if condition is None or condition == self.condition else \
             evaluator(self.rig, condition)
-        out = np.full((len(params), len(OBSERVABLES)), np.nan)
-        for i, (p, z) in enumerate(zip(params, zs, strict=True)):
+        out = np.full((len(points), len(OBSERVABLES)), np.nan)
+        for i, (ps, zs) in enumerate(points):
+            values = np.array([p.from_z(z) for p, z in zip(ps, zs, strict=True)])
             with contextlib.suppress(SimulationError):  # no steady point: the row stays NaN
-                out[i] = ev.vector(self.graph_values((p,), np.array([p.from_z(float(z))])),
-                                   OBSERVABLES)
+                out[i] = ev.vector(self.graph_values(ps, values), OBSERVABLES)
         return out
 
     def _solve_or_nan(self, params: tuple[FaultParameter, ...], value: float) -> Arr:

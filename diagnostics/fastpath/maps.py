@@ -20,7 +20,7 @@ from __future__ import annotations
 import math
 import threading
 from collections import OrderedDict
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import partial
 from typing import TypeVar, cast
@@ -36,6 +36,7 @@ from diagnostics.signatures import (
     GRAPH_PARAMETERS,
     OBSERVABLES,
     HypothesisMap,
+    Point,
     SignatureMaps,
     evaluator,
     ridge_segments,
@@ -118,14 +119,19 @@ def _memo(rig: Rig, key: tuple[object, ...], make: Callable[[], _T]) -> _T:
 
 def _rows_at(rig: Rig, p: FaultParameter, base: Arr, zs: Arr) -> Arr:
     """Graph values with ``p`` at fitting coordinates ``zs``, the others at ``base``."""
-    tr = transform(rig, p)
     g = np.tile(base, (zs.size, 1))
+    _set_rows(rig, p, g, zs)
+    return g
+
+
+def _set_rows(rig: Rig, p: FaultParameter, g: Arr, zs: Arr) -> None:
+    """Set ``p`` at fitting coordinates ``zs`` in the graph-value rows ``g`` (in place)."""
+    tr = transform(rig, p)
     if tr is not None:
         g[:, tr.index] = tr.graph(zs)
     else:
         g[:, GRAPH_PARAMETERS.index(p.graph_param)] = [
             p.graph_value(rig, p.from_z(float(z))) for z in zs]
-    return g
 
 
 def _piece_rows(rig: Rig, p: FaultParameter, base: Arr, lo: float, hi: float, n: int
@@ -330,24 +336,38 @@ class FastMaps(SignatureMaps):
                 self._moved[condition] = None
         return self._moved[condition]
 
-    def observables_at(self, params: list[FaultParameter], zs: Arr,
-                       condition: Condition | None = None) -> Arr:
-        """:meth:`SignatureMaps.observables_at` on the compiled kernel (one call; at this
-        condition a point it fails is solved directly, at a moved one it stays NaN).  The
-        context's Newton states are left as they were: the next fit at this condition
-        starts where it would have."""
-        zs = np.asarray(zs, dtype=np.float64)
+    def observables_at_points(self, points: Sequence[Point],
+                              condition: Condition | None = None) -> Arr:
+        """:meth:`SignatureMaps.observables_at_points` on the compiled kernel (one call; at
+        this condition a point it fails is solved directly, at a moved one it stays NaN).
+        The context's Newton states are left as they were: the next fit at this condition
+        starts where it would have (:meth:`SignatureMaps.observables_at` comes here)."""
+        grid = np.tile(self._base, (len(points), 1))
+        rows: dict[str, tuple[FaultParameter, list[int], list[float]]] = {}
+        for i, (params, zs) in enumerate(points):
+            for p, z in zip(params, zs, strict=True):
+                rows.setdefault(p.name, (p, [], []))[1].append(i)
+                rows[p.name][2].append(z)
+        for p, at, zvals in rows.values():  # one call per parameter
+            sub = grid[at]
+            _set_rows(self.rig, p, sub, np.array(zvals))
+            grid[at] = sub
         if condition is None or condition == self.condition:
             saved = self.ctx.states.copy()  # the maps' continuation is not moved by this
-            out, ok = self.ctx.solve(self._grid(params, zs))
+            out, ok = self.ctx.solve(grid)
             self.ctx.states[:] = saved
-            for i in np.flatnonzero(~ok):
-                out[i] = self._solve_or_nan((params[i],), params[i].from_z(float(zs[i])))
+            for k in np.flatnonzero(~ok):
+                params, zs = points[int(k)]
+                try:
+                    out[k] = self.predict(params, np.array([p.from_z(z) for p, z in
+                                                            zip(params, zs, strict=True)]))
+                except SimulationError:  # no steady operating point: the row stays NaN
+                    out[k] = np.nan
             return out
         moved = self._moved_context(condition)
         if moved is None:
-            return np.full((zs.size, len(OBSERVABLES)), np.nan)
-        out, ok = moved[0].solve(self._grid(params, zs))
+            return np.full((len(points), len(OBSERVABLES)), np.nan)
+        out, ok = moved[0].solve(grid)
         out[~ok] = np.nan
         return out
 

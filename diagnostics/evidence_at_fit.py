@@ -1,0 +1,183 @@
+"""The stated condition's uncertainty at each hypothesis's estimate in its evidence.
+
+The ranking (:mod:`diagnostics.ranking`) weighs every hypothesis's residuals by one
+covariance per record, ``C_h``, whose correlated terms carry the stated oil temperature's
+and load's uncertainty through the *healthy* rig's sensitivities
+(:mod:`diagnostics.record_model`).  A worn component's leakage is what makes the readings
+feel the temperature (laminar leakage ∝ c³/μ(T): piston, paper 002 eqs. 36, 50; spool,
+eq. 23; pump slip ∝ 1/μ, paper 000 eq. 6), so at a worn estimate a thermometer's error
+moves the readings many times more than on the healthy rig.  Weighed by ``C_h``, that
+movement looks like a misfit that only a second fault can absorb: a visit of a seal at
+6 × its leakage, temperatures stated ±0.9 K off, ranked ``cylinder+pump`` over
+``cylinder``.
+
+The likelihood of a hypothesis is ``N(y; ŷ(θ), C(θ))``, its covariance the one *at* its
+parameters.  The evidence of each observable fitted hypothesis is therefore moved by the
+change of its log-likelihood at the estimate from ``C_h`` to ``C(θ̂)``
+(:func:`diagnostics.condition_interval.at_fit_likelihood`, the Gaussian's normalisation
+included: a covariance that grows with the wear pays for what it lets the readings do):
+
+.. math:: \\ln Z_h \\leftarrow \\ln Z_h - \\frac{1}{2} \\sum_{records} \\left(
+          r^T C(θ̂)^{-1} r - r^T C_h^{-1} r + \\ln|C(θ̂)| - \\ln|C_h| \\right)
+
+with ``r`` the readings less the predictions at ``θ̂``.  This is the Laplace form's peak
+term under the covariance at the estimate; the Occam factor (the posterior's width
+against the prior's) stays the ranking's, and the estimate is not refitted (a residual
+at the ranking's estimate can only overstate the misfit under ``C(θ̂)``).  The healthy
+hypothesis's covariance is the healthy one: it does not move.  Single faults take their
+χ² and change from :func:`diagnostics.condition_interval.check_singles`; pairs take the
+sensitivities at both parameters at once (one compiled call per record and moved
+condition).  The probabilities are then the fleet prior times these evidences
+(:func:`diagnostics.evidence.posterior`) and the fits are ordered again.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+import numpy as np
+import numpy.typing as npt
+
+from diagnostics.condition_interval import (
+    Parts,
+    SingleChecks,
+    at_estimate,
+    difference_steps,
+    point_parts,
+)
+from diagnostics.evidence import map_log_evidence, map_support, posterior
+from diagnostics.hypotheses import PARAMETERS
+from diagnostics.pair_evidence import laplace_evidence
+from diagnostics.ranking import HypothesisFit, rank_order
+
+if TYPE_CHECKING:
+    from diagnostics.ranking import Ranker
+    from diagnostics.record_model import RecordModel
+    from diagnostics.signatures import Point
+
+__all__ = ["evidence_at_fit", "pair_shift", "single_log_evidence"]
+
+Arr = npt.NDArray[np.float64]
+
+
+def evidence_at_fit(ranker: Ranker, fits: list[HypothesisFit], checks: SingleChecks
+                    ) -> dict[str, float]:
+    """Move each observable fitted hypothesis's ``log_evidence`` to the covariance at its
+    estimate (module docstring), recompute the probabilities and reorder ``fits`` in
+    place.
+
+    Returns
+    -------
+    dict
+        The change of each moved hypothesis's log-evidence, by name [-].
+    """
+    shift: dict[str, float] = {}
+    for i, name in enumerate(checks.chi2):
+        fit = next(f for f in fits if f.name == name)
+        log_ev = single_log_evidence(ranker, name, checks.parts, i)
+        if math.isfinite(fit.log_evidence) and log_ev is not None:
+            shift[name] = log_ev - fit.log_evidence
+    pairs = [f for f in fits if f.observable and len(f.parameters) > 1
+             and math.isfinite(f.log_evidence)]
+    if pairs:
+        shift.update({f.name: d for f, d in zip(pairs, pair_shift(ranker, pairs),
+                                                strict=True) if d is not None})
+    for f in fits:
+        if f.name in shift:
+            f.log_evidence += shift[f.name]
+    posterior(fits)
+    fits.sort(key=rank_order)
+    return shift
+
+
+def _cholesky(cov: Arr) -> Arr | None:
+    """Lower Cholesky factor of ``cov``, None where it has none."""
+    if not np.isfinite(cov).all():
+        return None
+    try:
+        return np.asarray(np.linalg.cholesky(cov))
+    except np.linalg.LinAlgError:
+        return None
+
+
+def _log_det_change(m: RecordModel, chol: Arr) -> float:
+    """ln |C| − ln |C_h| of record ``m`` for the Cholesky factor of C [-]."""
+    return 2.0 * float(np.sum(np.log(np.diag(chol)))) - m.log_det
+
+
+def single_log_evidence(ranker: Ranker, name: str, parts: Parts, i: int) -> float | None:
+    """ln Z of single fault ``name`` on its signature map with every record's covariance
+    taken at its estimate (row ``i`` of ``parts``, :func:`~diagnostics.condition_interval.
+    estimate_parts`), the Gaussian's normalisation relative to the ranking's included
+    [-]; None where that covariance cannot be formed (a sensitivity without a steady
+    point on either side)."""
+    support = map_support(ranker, name)
+    chi2 = np.zeros(support.size)
+    log_det = 0.0
+    for m, (_, _, terms) in zip(ranker.models, parts, strict=True):
+        chol = _cholesky(at_estimate(m, terms, i))
+        if chol is None:
+            return None
+        white = np.linalg.solve(chol, (m.obs.values - m.maps.maps[name].pred[:, m.idx]).T)
+        c = np.sum(white * white, axis=0)
+        chi2 += np.where(np.isnan(c), np.inf, c)  # a masked prediction: impossible
+        log_det += _log_det_change(m, chol)
+    return map_log_evidence(chi2, support) - 0.5 * log_det
+
+
+def pair_shift(ranker: Ranker, pairs: list[HypothesisFit]) -> list[float | None]:
+    """The change of each pair's ln Z from the ranking's covariance to the one at its
+    estimate: the Laplace evidence (:func:`diagnostics.pair_evidence.laplace_evidence`:
+    peak, Gauss-Newton width and the bounds' truncation) with the residuals and the
+    Jacobian (central differences of :data:`~diagnostics.condition_interval.STEP` of each
+    worn range) whitened by either, less half the change of ln |C| [-]; None where a
+    reading has no prediction or the covariance cannot be formed there."""
+    params = [tuple(PARAMETERS[e.name] for e in f.parameters) for f in pairs]
+    zs = [np.array([p.to_z(e.value) for p, e in zip(ps, f.parameters, strict=True)])
+          for ps, f in zip(params, pairs, strict=True)]
+    centres: list[Point] = [(ps, tuple(float(v) for v in z))
+                            for ps, z in zip(params, zs, strict=True)]
+    moves: list[Point] = []
+    for ps, z in zip(params, zs, strict=True):
+        step = difference_steps(ranker, ps)
+        for k in range(len(ps)):
+            for sign in (1.0, -1.0):
+                moved = z.copy()
+                moved[k] += sign * step[k]
+                moves.append((ps, tuple(float(v) for v in moved)))
+    parts = point_parts(ranker, centres)
+    moved_y = [m.maps.observables_at_points(moves)[:, m.idx] for m in ranker.models]
+    out: list[float | None] = []
+    at = 0
+    for j, (ps, z) in enumerate(zip(params, zs, strict=True)):
+        step = difference_steps(ranker, ps)
+        n = 2 * len(ps)
+        cost = np.zeros(2)
+        jacs: list[list[Arr]] = [[], []]
+        log_det = 0.0
+        ok = True
+        for m, (y0, _, terms), ym in zip(ranker.models, parts, moved_y, strict=True):
+            r = m.obs.values - y0[j]
+            jac = (ym[at:at + n:2] - ym[at + 1:at + n:2]).T / (2.0 * step)
+            chol = _cholesky(at_estimate(m, terms, j))
+            if chol is None or not (np.isfinite(r).all() and np.isfinite(jac).all()):
+                ok = False
+                break
+            for w, (rw, jw) in enumerate(((m.whitened(r), m.white @ jac),
+                                          (np.linalg.solve(chol, r),
+                                           np.linalg.solve(chol, jac)))):
+                cost[w] += float(rw @ rw)
+                jacs[w].append(np.asarray(jw, dtype=np.float64))
+            log_det += _log_det_change(m, chol)
+        at += n
+        if not ok:
+            out.append(None)
+            continue
+        bounds = [p.worn_bounds(ranker.rig) for p in ps]
+        zl = np.array([p.to_z(b[0]) for p, b in zip(ps, bounds, strict=True)])
+        zu = np.array([p.to_z(b[1]) for p, b in zip(ps, bounds, strict=True)])
+        fitted, moved_ev = (laplace_evidence(float(cost[w]), np.vstack(jacs[w]), z, zl, zu)[0]
+                            for w in (0, 1))
+        out.append(moved_ev - fitted - 0.5 * log_det)
+    return out

@@ -1,0 +1,115 @@
+"""The stated condition's uncertainty at each hypothesis's estimate in its evidence
+(:mod:`diagnostics.evidence_at_fit`)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from diagnostics.condition_interval import SingleChecks, check_singles, point_parts
+from diagnostics.evidence import map_log_evidence, map_support
+from diagnostics.evidence_at_fit import evidence_at_fit, pair_shift, single_log_evidence
+from diagnostics.hypotheses import PARAMETERS
+from diagnostics.measurement import MeasurementRecord, OperatingCondition
+from diagnostics.observations import observe
+from diagnostics.quantity import Quantity
+from diagnostics.ranking import Ranker
+from sim.rigs import reference_rig
+from tests.diagnostics.synth import NO_FLOW, readings
+
+LOADS = (2100.0, 4200.0, 6300.0)
+
+
+@pytest.fixture(scope="module")
+def rig():
+    return reference_rig()
+
+
+def _visit(rig, leak, temperature, offsets, exact=False):
+    """Noise-free records of a seal at ``leak`` × its laminar leakage at three loads, each
+    stating its oil temperature ``offsets`` K off (exactly, when ``exact``)."""
+    cc = PARAMETERS["cc"].nominal_value(rig) * leak ** (1.0 / 3.0)
+    out = []
+    for load, off in zip(LOADS, offsets, strict=True):
+        vals = readings(rig, {"cylinder.cc": cc}, load, temperature)
+        t = temperature + off
+        cond = OperatingCondition.from_readings(
+            {"oil_temperature": Quantity(t, 0.0) if exact else t,
+             "load_force": Quantity(load, 0.0) if exact else load})
+        out.append(observe(MeasurementRecord.from_readings("r", cond,
+                                                           {k: vals[k] for k in NO_FLOW}), rig))
+    return out
+
+
+def test_with_the_healthy_covariance_the_map_quadrature_is_the_rankings(rig):
+    """The single-fault quadrature on the map with the ranking's own covariance
+    reproduces the ranking's (compiled) log-evidence: the two integrate the same thing."""
+    ranker = Ranker(rig, _visit(rig, 3.0, 40.0, (1.0, -1.0, 1.0)))
+    for f in ranker.rank():
+        if len(f.parameters) != 1 or not math.isfinite(f.log_evidence):
+            continue
+        chi2 = sum(m.chi2_grid(m.maps.maps[f.name].pred) for m in ranker.models)
+        assert map_log_evidence(chi2, map_support(ranker, f.name)) == \
+            pytest.approx(f.log_evidence, abs=1e-6)
+
+
+def test_an_exact_condition_moves_no_evidence(rig):
+    """A condition stated exactly carries no uncertainty: the covariance at any estimate
+    is the ranking's, and neither a single's nor a pair's evidence moves."""
+    ranker = Ranker(rig, _visit(rig, 3.0, 40.0, (0.0, 0.0, 0.0), exact=True))
+    fits = ranker.rank()
+    shift = evidence_at_fit(ranker, fits, check_singles(ranker, fits))
+    assert shift
+    assert max(abs(d) for d in shift.values()) < 1e-9
+
+
+def test_a_pair_point_with_one_parameter_at_the_document_is_the_single(rig):
+    """A two-parameter point (the seal's estimate, the document's pump leakage) solved by
+    the compiled kernel predicts what the single fault's map does at that seal (within
+    1e-5: the map's linear interpolation)."""
+    ranker = Ranker(rig, _visit(rig, 4.0, 40.0, (1.0, 1.0, -1.0)))
+    fits = ranker.rank()
+    cyl = next(f for f in fits if f.name == "cylinder")
+    (est,) = cyl.parameters
+    cc, leak = PARAMETERS["cc"], PARAMETERS["pump_leak"]
+    z = (cc.to_z(est.value), leak.to_z(leak.nominal_value(rig)))
+    parts = point_parts(ranker, [((cc, leak), z)])
+    checks = check_singles(ranker, fits)
+    k = list(checks.chi2).index("cylinder")
+    for (y0, _, _), (ys, _, _) in zip(parts, checks.parts, strict=True):
+        np.testing.assert_allclose(y0[0], ys[k], rtol=1e-5)
+
+
+def test_a_worn_seal_visit_is_a_seal_not_a_seal_and_a_pump(rig):
+    """A seal at 6 × its leakage, noise-free, the visit's temperatures stated 1 K off
+    (+, −, +: the thermometer's class bound).  Weighed by the healthy rig's sensitivity the
+    readings ranked ``cylinder+pump`` first (p 0.97: the pump absorbed what the stated
+    temperature does to the worn seal); with each hypothesis's covariance at its estimate
+    the seal alone is named (measured p 0.996)."""
+    ranker = Ranker(rig, _visit(rig, 6.0, 40.0, (1.0, -1.0, 1.0)))
+    fits = ranker.rank()
+    assert fits[0].name == "cylinder+pump"
+    evidence_at_fit(ranker, fits, check_singles(ranker, fits))
+    assert fits[0].name == "cylinder"
+    assert fits[0].probability > 0.9
+    assert sum(f.probability for f in fits) == pytest.approx(1.0)
+
+
+def test_without_a_covariance_nothing_moves(rig):
+    """A single whose covariance cannot be formed and a pair set where a reading has no
+    prediction are left as ranked (None), not guessed."""
+    ranker = Ranker(rig, _visit(rig, 3.0, 40.0, (1.0, -1.0, 1.0)))
+    fits = ranker.rank()
+    name = next(f.name for f in fits if len(f.parameters) == 1)
+    nan_parts = [(np.full((1, m.idx.size), np.nan), np.full((1, m.idx.size), np.nan),
+                  [np.full((1, m.idx.size), np.nan)]) for m in ranker.models]
+    assert single_log_evidence(ranker, name, nan_parts, 0) is None
+    before = {f.name: f.log_evidence for f in fits}
+    evidence_at_fit(ranker, fits, SingleChecks())
+    pairs = [f for f in fits if len(f.parameters) == 2 and math.isfinite(f.log_evidence)]
+    assert len(pair_shift(ranker, pairs)) == len(pairs)
+    for f in fits:
+        if len(f.parameters) == 1:
+            assert f.log_evidence == before[f.name]
