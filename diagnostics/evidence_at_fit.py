@@ -76,13 +76,14 @@ def evidence_at_fit(ranker: Ranker, fits: list[HypothesisFit], checks: SingleChe
     for i, name in enumerate(checks.chi2):
         fit = next(f for f in fits if f.name == name)
         log_ev = single_log_evidence(ranker, name, checks.parts, i)
-        if math.isfinite(fit.log_evidence) and log_ev is not None:
+        if log_ev is not None and math.isfinite(log_ev - fit.log_evidence):
             shift[name] = log_ev - fit.log_evidence
     pairs = [f for f in fits if f.observable and len(f.parameters) > 1
              and math.isfinite(f.log_evidence)]
     if pairs:
         shift.update({f.name: d for f, d in zip(pairs, pair_shift(ranker, pairs),
-                                                strict=True) if d is not None})
+                                                strict=True) if d is not None
+                      and math.isfinite(d)})
     for f in fits:
         if f.name in shift:
             f.log_evidence += shift[f.name]
