@@ -139,9 +139,9 @@ def pair_shift(ranker: Ranker, pairs: list[HypothesisFit]) -> list[float | None]
           for ps, f in zip(params, pairs, strict=True)]
     centres: list[Point] = [(ps, tuple(float(v) for v in z))
                             for ps, z in zip(params, zs, strict=True)]
+    steps = [difference_steps(ranker, ps) for ps in params]
     moves: list[Point] = []
-    for ps, z in zip(params, zs, strict=True):
-        step = difference_steps(ranker, ps)
+    for ps, z, step in zip(params, zs, steps, strict=True):
         for k in range(len(ps)):
             for sign in (1.0, -1.0):
                 moved = z.copy()
@@ -151,8 +151,7 @@ def pair_shift(ranker: Ranker, pairs: list[HypothesisFit]) -> list[float | None]
     moved_y = [m.maps.observables_at_points(moves)[:, m.idx] for m in ranker.models]
     out: list[float | None] = []
     at = 0
-    for j, (ps, z) in enumerate(zip(params, zs, strict=True)):
-        step = difference_steps(ranker, ps)
+    for j, (ps, z, step) in enumerate(zip(params, zs, steps, strict=True)):
         n = 2 * len(ps)
         cost = np.zeros(2)
         jacs: list[list[Arr]] = [[], []]

@@ -95,8 +95,9 @@ class RecordModel:
     """One record's observations, their covariance, and its condition's signature maps.
 
     Attributes ``sigma`` (marginal σ of each reading [SI]), ``white`` (whitening
-    matrix W [1/SI], lower triangular, one row and column per reading) and ``diag`` (the
-    covariance's uncorrelated part, the readings' and the model's variances [SI²]).
+    matrix W [1/SI], lower triangular, one row and column per reading), ``diag`` (the
+    covariance's uncorrelated part, the readings' and the model's variances [SI²]) and
+    ``log_det`` (ln |C| [-]).
 
     Parameters
     ----------
@@ -129,6 +130,8 @@ class RecordModel:
         terms = condition_terms(pred, condition_moves(obs),
                                 lambda cond: self._moved(rig, cond))
         self.sigma, self.white = whitening(self.diag, terms)
+        #: ln |C| of the readings' covariance, ``−2 Σ ln |W_ii|`` (W triangular) [-]
+        self.log_det = -2.0 * float(np.sum(np.log(np.abs(np.diag(self.white)))))
         for name, value, sig in zip(obs.names, obs.values, self.sigma, strict=True):
             if not sig > 0.0:
                 # a speed or velocity ratio of 0 (a stroke that did not move) read by an
@@ -149,11 +152,6 @@ class RecordModel:
 
     def _vec(self, pred: dict[str, float]) -> Arr:
         return np.array([pred[n] for n in self.obs.names])
-
-    @property
-    def log_det(self) -> float:
-        """ln |C| of the readings' covariance, ``−2 Σ ln |W_ii|`` (W triangular) [-]."""
-        return -2.0 * float(np.sum(np.log(np.abs(np.diag(self.white)))))
 
     def whitened(self, resid: Arr) -> Arr:
         """Residuals ``y − ŷ`` [SI] (last axis: the readings) → independent unit normals."""
