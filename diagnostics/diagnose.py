@@ -217,7 +217,7 @@ def diagnose(rig: Rig, records: Sequence[MeasurementRecord], *, model_rel: float
             "temperature against the rig", field="condition") from None
     fits = ranker.rank()
     checks = check_singles(ranker, fits)
-    evidence_at_fit(ranker, fits, checks)
+    at_fit = evidence_at_fit(ranker, fits, checks)
     iso = isolability(ranker, fits, model_rel, checks.chi2)
     gof = goodness_of_fit(ranker, fits, at_fit=checks.chi2)
     notes: list[str] = []
@@ -229,7 +229,7 @@ def diagnose(rig: Rig, records: Sequence[MeasurementRecord], *, model_rel: float
             if q is not None:
                 ratio = ratio_index(rig, o.condition, q)
                 break
-    _widen(ranker, fits, {}, checks.sigma)
+    _widen(ranker, fits, {}, checks.sigma, at_fit.pair_sigma)
     profiled = _healthy_end(ranker, fits, direct)
     _widen(ranker, [], profiled)
     slip = None
@@ -251,19 +251,25 @@ def diagnose(rig: Rig, records: Sequence[MeasurementRecord], *, model_rel: float
 
 
 def _widen(ranker: Ranker, fits: list[HypothesisFit], profiled: dict[str, ParameterEstimate],
-           sigma: dict[str, float] | None = None) -> None:
+           sigma: dict[str, float] | None = None,
+           pair_sigma: dict[str, npt.NDArray[np.float64]] | None = None) -> None:
     """The stated conditions' uncertainty at the estimate in the intervals of the
-    one-parameter fits ``sigma`` was computed for (by name) and of the profiles
+    one-parameter fits ``sigma`` was computed for (by name), of the pairs ``pair_sigma``
+    was (:mod:`diagnostics.evidence_at_fit`) and of the profiles
     (:mod:`diagnostics.condition_interval`)."""
     items = []
-    sigmas = []
+    sigmas: list[float] = []
     for f in fits:
-        if sigma is not None and f.name in sigma:
-            (est,) = f.parameters
+        got = (None if sigma is None or f.name not in sigma else [sigma[f.name]]) or \
+            (None if pair_sigma is None or f.name not in pair_sigma
+             else [float(v) for v in pair_sigma[f.name]])
+        if got is None:
+            continue
+        for est, sd in zip(f.parameters, got, strict=True):
             p = PARAMETERS[est.name]
             lo, hi = p.worn_bounds(ranker.rig)
             items.append((p, est, p.to_z(lo), p.to_z(hi)))
-            sigmas.append(sigma[f.name])
+            sigmas.append(sd)
     if items:
         widen(ranker, items, sigmas)
     items = []

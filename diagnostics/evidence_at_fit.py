@@ -34,6 +34,7 @@ condition).  The probabilities are then the fleet prior times these evidences
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -56,23 +57,29 @@ if TYPE_CHECKING:
     from diagnostics.record_model import RecordModel
     from diagnostics.signatures import Point
 
-__all__ = ["evidence_at_fit", "pair_shift", "single_log_evidence"]
+__all__ = ["AtFit", "evidence_at_fit", "pair_at_fit", "single_log_evidence"]
 
 Arr = npt.NDArray[np.float64]
 
 
+@dataclass
+class AtFit:
+    """What :func:`evidence_at_fit` computed, by hypothesis name: ``shift``, the change of
+    each moved log-evidence [-]; ``pair_sigma``, each pair's σ_z per parameter with the
+    stated condition at its estimate (the sandwich of :func:`pair_at_fit`) [fitting
+    coordinate]."""
+
+    shift: dict[str, float] = field(default_factory=dict)
+    pair_sigma: dict[str, Arr] = field(default_factory=dict)
+
+
 def evidence_at_fit(ranker: Ranker, fits: list[HypothesisFit], checks: SingleChecks
-                    ) -> dict[str, float]:
+                    ) -> AtFit:
     """Move each observable fitted hypothesis's ``log_evidence`` to the covariance at its
     estimate (module docstring), recompute the probabilities and reorder ``fits`` in
-    place.
-
-    Returns
-    -------
-    dict
-        The change of each moved hypothesis's log-evidence, by name [-].
-    """
-    shift: dict[str, float] = {}
+    place; the pairs' σ for their intervals come with it (:class:`AtFit`)."""
+    out = AtFit()
+    shift = out.shift
     for i, name in enumerate(checks.chi2):
         fit = next(f for f in fits if f.name == name)
         log_ev = single_log_evidence(ranker, name, checks.parts, i)
@@ -80,16 +87,16 @@ def evidence_at_fit(ranker: Ranker, fits: list[HypothesisFit], checks: SingleChe
             shift[name] = log_ev - fit.log_evidence
     pairs = [f for f in fits if f.observable and len(f.parameters) > 1
              and math.isfinite(f.log_evidence)]
-    if pairs:
-        shift.update({f.name: d for f, d in zip(pairs, pair_shift(ranker, pairs),
-                                                strict=True) if d is not None
-                      and math.isfinite(d)})
+    for f, got in zip(pairs, pair_at_fit(ranker, pairs), strict=True):
+        if got is not None and math.isfinite(got[0]):
+            shift[f.name] = got[0]
+            out.pair_sigma[f.name] = got[1]
     for f in fits:
         if f.name in shift:
             f.log_evidence += shift[f.name]
     posterior(fits)
     fits.sort(key=rank_order)
-    return shift
+    return out
 
 
 def _cholesky(cov: Arr) -> Arr | None:
@@ -127,13 +134,20 @@ def single_log_evidence(ranker: Ranker, name: str, parts: Parts, i: int) -> floa
     return map_log_evidence(chi2, support) - 0.5 * log_det
 
 
-def pair_shift(ranker: Ranker, pairs: list[HypothesisFit]) -> list[float | None]:
-    """The change of each pair's ln Z from the ranking's covariance to the one at its
-    estimate: the Laplace evidence (:func:`diagnostics.pair_evidence.laplace_evidence`:
+def pair_at_fit(ranker: Ranker, pairs: list[HypothesisFit]
+                ) -> list[tuple[float, Arr] | None]:
+    """Per pair, the change of its ln Z from the ranking's covariance ``C_h`` to the one at
+    its estimate ``C`` [-] and its parameters' σ_z with the stated condition there
+    [fitting coordinate]; None where a reading has no prediction or ``C`` cannot be
+    formed there.
+
+    The change is the Laplace evidence (:func:`diagnostics.pair_evidence.laplace_evidence`:
     peak, Gauss-Newton width and the bounds' truncation) with the residuals and the
-    Jacobian (central differences of :data:`~diagnostics.condition_interval.STEP` of each
-    worn range) whitened by either, less half the change of ln |C| [-]; None where a
-    reading has no prediction or the covariance cannot be formed there."""
+    Jacobian ``J`` (central differences of :data:`~diagnostics.condition_interval.STEP`
+    of each worn range) whitened by either, less half the change of ln |C|.  σ_z is the
+    sandwich of the estimator the fit used, ``A⁻¹ B A⁻¹`` with ``A = Σ Jᵀ C_h⁻¹ J`` and
+    ``B = Σ Jᵀ C_h⁻¹ C C_h⁻¹ J`` (:mod:`diagnostics.condition_interval` for one
+    parameter); with the condition stated exactly it is the Gauss-Newton σ."""
     params = [tuple(PARAMETERS[e.name] for e in f.parameters) for f in pairs]
     zs = [np.array([p.to_z(e.value) for p, e in zip(ps, f.parameters, strict=True)])
           for ps, f in zip(params, pairs, strict=True)]
@@ -149,13 +163,14 @@ def pair_shift(ranker: Ranker, pairs: list[HypothesisFit]) -> list[float | None]
                 moves.append((ps, tuple(float(v) for v in moved)))
     parts = point_parts(ranker, centres)
     moved_y = [m.maps.observables_at_points(moves)[:, m.idx] for m in ranker.models]
-    out: list[float | None] = []
+    out: list[tuple[float, Arr] | None] = []
     at = 0
     for j, (ps, z, step) in enumerate(zip(params, zs, steps, strict=True)):
         n = 2 * len(ps)
         cost = np.zeros(2)
         jacs: list[list[Arr]] = [[], []]
         log_det = 0.0
+        spread = np.zeros((len(ps), len(ps)))
         ok = True
         for m, (y0, _, terms), ym in zip(ranker.models, parts, moved_y, strict=True):
             r = m.obs.values - y0[j]
@@ -169,6 +184,8 @@ def pair_shift(ranker: Ranker, pairs: list[HypothesisFit]) -> list[float | None]
                                            np.linalg.solve(chol, jac)))):
                 cost[w] += float(rw @ rw)
                 jacs[w].append(np.asarray(jw, dtype=np.float64))
+            weights = chol.T @ (m.white.T @ jacs[0][-1])  # Lᵀ C_h⁻¹ J
+            spread += weights.T @ weights
             log_det += _log_det_change(m, chol)
         at += n
         if not ok:
@@ -179,5 +196,11 @@ def pair_shift(ranker: Ranker, pairs: list[HypothesisFit]) -> list[float | None]
         zu = np.array([p.to_z(b[1]) for p, b in zip(ps, bounds, strict=True)])
         fitted, moved_ev = (laplace_evidence(float(cost[w]), np.vstack(jacs[w]), z, zl, zu)[0]
                             for w in (0, 1))
-        out.append(moved_ev - fitted - 0.5 * log_det)
+        info = np.vstack(jacs[0])
+        try:
+            inv = np.linalg.inv(info.T @ info)
+            sd = np.sqrt(np.clip(np.diag(inv @ spread @ inv), 0.0, None))
+        except np.linalg.LinAlgError:  # a flat direction: no width to state
+            sd = np.full(len(ps), math.inf)
+        out.append((moved_ev - fitted - 0.5 * log_det, sd))
     return out

@@ -9,8 +9,9 @@ import numpy as np
 import pytest
 
 from diagnostics.condition_interval import SingleChecks, check_singles, point_parts
+from diagnostics.diagnose import diagnose
 from diagnostics.evidence import map_log_evidence, map_support
-from diagnostics.evidence_at_fit import evidence_at_fit, pair_shift, single_log_evidence
+from diagnostics.evidence_at_fit import evidence_at_fit, pair_at_fit, single_log_evidence
 from diagnostics.hypotheses import PARAMETERS
 from diagnostics.measurement import MeasurementRecord, OperatingCondition
 from diagnostics.observations import observe
@@ -60,9 +61,46 @@ def test_an_exact_condition_moves_no_evidence(rig):
     is the ranking's, and neither a single's nor a pair's evidence moves."""
     ranker = Ranker(rig, _visit(rig, 3.0, 40.0, (0.0, 0.0, 0.0), exact=True))
     fits = ranker.rank()
-    shift = evidence_at_fit(ranker, fits, check_singles(ranker, fits))
+    shift = evidence_at_fit(ranker, fits, check_singles(ranker, fits)).shift
     assert shift
     assert max(abs(d) for d in shift.values()) < 1e-9
+
+
+def test_an_exact_condition_leaves_a_pairs_interval_the_fits_own(rig):
+    """With the condition stated exactly the sandwich σ of a pair is its Gauss-Newton σ:
+    ±1.96 σ reproduces the ranking's interval of each parameter where it is not clipped
+    (within 2 %: the ranking's Jacobian is the fit's, this one a central difference)."""
+    ranker = Ranker(rig, _visit(rig, 3.0, 40.0, (0.0, 0.0, 0.0), exact=True))
+    fits = ranker.rank()
+    pairs = [f for f in fits if len(f.parameters) == 2 and math.isfinite(f.log_evidence)]
+    checked = 0
+    for f, got in zip(pairs, pair_at_fit(ranker, pairs), strict=True):
+        assert got is not None
+        for est, sd in zip(f.parameters, got[1], strict=True):
+            p = PARAMETERS[est.name]
+            lo, hi = (p.to_z(b) for b in p.worn_bounds(rig))
+            z, zl, zh = p.to_z(est.value), p.to_z(est.low), p.to_z(est.high)
+            if zl > lo + 1e-9 and zh < hi - 1e-9:  # not clipped at a bound
+                assert 1.96 * sd == pytest.approx(0.5 * (zh - zl), rel=0.02)
+                assert z - zl == pytest.approx(zh - z, rel=1e-6)
+                checked += 1
+    assert checked
+
+
+def test_a_stated_condition_widens_a_worn_pairs_interval(rig):
+    """A seal at 6 × its leakage, temperatures stated 1 K off: the pair cylinder+pump's
+    seal interval in the answer holds ẑ ± 1.96 σ of the sandwich, which the stated
+    condition at the worn estimate makes wider than the fit's own (measured ×3)."""
+    recs = [o.record for o in _visit(rig, 6.0, 40.0, (1.0, -1.0, 1.0))]
+    d = diagnose(rig, recs)
+    pair = next(f for f in d.hypotheses if f.name == "cylinder+pump")
+    (cyl,) = [e for e in pair.parameters if e.name == "cc"]
+    exact = diagnose(rig, [o.record for o in _visit(rig, 6.0, 40.0, (1.0, -1.0, 1.0),
+                                                    exact=True)])
+    (cyl0,) = [e for e in next(f for f in exact.hypotheses if f.name == "cylinder+pump"
+                               ).parameters if e.name == "cc"]
+    p = PARAMETERS["cc"]
+    assert p.to_z(cyl.high) - p.to_z(cyl.low) > 2.0 * (p.to_z(cyl0.high) - p.to_z(cyl0.low))
 
 
 def test_a_pair_point_with_one_parameter_at_the_document_is_the_single(rig):
@@ -109,7 +147,7 @@ def test_without_a_covariance_nothing_moves(rig):
     before = {f.name: f.log_evidence for f in fits}
     evidence_at_fit(ranker, fits, SingleChecks())
     pairs = [f for f in fits if len(f.parameters) == 2 and math.isfinite(f.log_evidence)]
-    assert len(pair_shift(ranker, pairs)) == len(pairs)
+    assert len(pair_at_fit(ranker, pairs)) == len(pairs)
     for f in fits:
         if len(f.parameters) == 1:
             assert f.log_evidence == before[f.name]
