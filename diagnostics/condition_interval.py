@@ -89,12 +89,30 @@ def estimate_parts(ranker: Ranker, params: Sequence[FaultParameter], zs: Arr) ->
 
 
 def point_parts(ranker: Ranker, points: Sequence[Point]) -> Parts:
-    """:data:`Parts` at estimates of several parameters each (a pair hypothesis's):
-    predictions solved there (one compiled call per record), ∂ŷ/∂z not computed (NaN)."""
+    """:data:`Parts` at estimates of several parameters each (a pair hypothesis's): the
+    predictions and their central differences ``∂ŷ/∂z_k`` (:func:`difference_steps`;
+    axes: estimates, readings, parameters) solved together, one compiled call per record,
+    then the condition terms."""
+    steps = [difference_steps(ranker, ps) for ps, _ in points]
+    moves: list[Point] = []
+    for (ps, z), step in zip(points, steps, strict=True):
+        for k in range(len(ps)):
+            for sign in (1.0, -1.0):
+                moved = list(z)
+                moved[k] += sign * float(step[k])
+                moves.append((ps, tuple(moved)))
+    width = max((len(ps) for ps, _ in points), default=0)
     out: Parts = []
     for m in ranker.models:
-        y0 = m.maps.observables_at_points(points)[:, m.idx]
-        out.append((y0, np.full_like(y0, np.nan), _condition_terms(m, points, y0)))
+        y = m.maps.observables_at_points([*points, *moves])[:, m.idx]
+        y0, ym = y[:len(points)], y[len(points):]
+        jac = np.full((len(points), m.idx.size, width), np.nan)
+        at = 0
+        for j, step in enumerate(steps):
+            n = 2 * step.size
+            jac[j, :, :step.size] = (ym[at:at + n:2] - ym[at + 1:at + n:2]).T / (2.0 * step)
+            at += n
+        out.append((y0, jac, _condition_terms(m, points, y0)))
     return out
 
 

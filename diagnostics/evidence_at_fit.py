@@ -40,13 +40,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import numpy.typing as npt
 
-from diagnostics.condition_interval import (
-    Parts,
-    SingleChecks,
-    at_estimate,
-    difference_steps,
-    point_parts,
-)
+from diagnostics.condition_interval import Parts, SingleChecks, at_estimate, point_parts
 from diagnostics.evidence import map_log_evidence, map_support, posterior
 from diagnostics.hypotheses import PARAMETERS
 from diagnostics.pair_evidence import laplace_evidence
@@ -55,7 +49,6 @@ from diagnostics.ranking import HypothesisFit, rank_order
 if TYPE_CHECKING:
     from diagnostics.ranking import Ranker
     from diagnostics.record_model import RecordModel
-    from diagnostics.signatures import Point
 
 __all__ = ["AtFit", "evidence_at_fit", "pair_at_fit", "single_log_evidence"]
 
@@ -151,30 +144,18 @@ def pair_at_fit(ranker: Ranker, pairs: list[HypothesisFit]
     params = [tuple(PARAMETERS[e.name] for e in f.parameters) for f in pairs]
     zs = [np.array([p.to_z(e.value) for p, e in zip(ps, f.parameters, strict=True)])
           for ps, f in zip(params, pairs, strict=True)]
-    centres: list[Point] = [(ps, tuple(float(v) for v in z))
-                            for ps, z in zip(params, zs, strict=True)]
-    steps = [difference_steps(ranker, ps) for ps in params]
-    moves: list[Point] = []
-    for ps, z, step in zip(params, zs, steps, strict=True):
-        for k in range(len(ps)):
-            for sign in (1.0, -1.0):
-                moved = z.copy()
-                moved[k] += sign * step[k]
-                moves.append((ps, tuple(float(v) for v in moved)))
-    parts = point_parts(ranker, centres)
-    moved_y = [m.maps.observables_at_points(moves)[:, m.idx] for m in ranker.models]
+    parts = point_parts(ranker, [(ps, tuple(float(v) for v in z))
+                                 for ps, z in zip(params, zs, strict=True)])
     out: list[tuple[float, Arr] | None] = []
-    at = 0
-    for j, (ps, z, step) in enumerate(zip(params, zs, steps, strict=True)):
-        n = 2 * len(ps)
+    for j, (ps, z) in enumerate(zip(params, zs, strict=True)):
         cost = np.zeros(2)
         jacs: list[list[Arr]] = [[], []]
         log_det = 0.0
         spread = np.zeros((len(ps), len(ps)))
         ok = True
-        for m, (y0, _, terms), ym in zip(ranker.models, parts, moved_y, strict=True):
+        for m, (y0, jac_all, terms) in zip(ranker.models, parts, strict=True):
             r = m.obs.values - y0[j]
-            jac = (ym[at:at + n:2] - ym[at + 1:at + n:2]).T / (2.0 * step)
+            jac = jac_all[j][:, :len(ps)]
             chol = _cholesky(at_estimate(m, terms, j))
             if chol is None or not (np.isfinite(r).all() and np.isfinite(jac).all()):
                 ok = False
@@ -187,7 +168,6 @@ def pair_at_fit(ranker: Ranker, pairs: list[HypothesisFit]
             weights = chol.T @ (m.white.T @ jacs[0][-1])  # Lᵀ C_h⁻¹ J
             spread += weights.T @ weights
             log_det += _log_det_change(m, chol)
-        at += n
         if not ok:
             out.append(None)
             continue

@@ -106,7 +106,8 @@ def test_a_stated_condition_widens_a_worn_pairs_interval(rig):
 def test_a_pair_point_with_one_parameter_at_the_document_is_the_single(rig):
     """A two-parameter point (the seal's estimate, the document's pump leakage) solved by
     the compiled kernel predicts what the single fault's map does at that seal (within
-    1e-5: the map's linear interpolation)."""
+    1e-5: the map's linear interpolation), and its derivative along the seal is the map's
+    secant there (within 1 %)."""
     ranker = Ranker(rig, _visit(rig, 4.0, 40.0, (1.0, 1.0, -1.0)))
     fits = ranker.rank()
     cyl = next(f for f in fits if f.name == "cylinder")
@@ -116,8 +117,9 @@ def test_a_pair_point_with_one_parameter_at_the_document_is_the_single(rig):
     parts = point_parts(ranker, [((cc, leak), z)])
     checks = check_singles(ranker, fits)
     k = list(checks.chi2).index("cylinder")
-    for (y0, _, _), (ys, _, _) in zip(parts, checks.parts, strict=True):
+    for (y0, jac, _), (ys, js, _) in zip(parts, checks.parts, strict=True):
         np.testing.assert_allclose(y0[0], ys[k], rtol=1e-5)
+        np.testing.assert_allclose(jac[0][:, 0], js[k], rtol=0.01)
 
 
 def test_a_worn_seal_visit_is_a_seal_not_a_seal_and_a_pump(rig):
