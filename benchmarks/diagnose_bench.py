@@ -33,7 +33,9 @@ import numpy as np
 
 from benchmarks.diagnose_cases import FULL, random_records
 from diagnostics.batch import diagnose_many
+from diagnostics.condition_interval import check_singles
 from diagnostics.diagnose import diagnose
+from diagnostics.evidence_at_fit import evidence_at_fit
 from diagnostics.fastpath.maps import fast_maps
 from diagnostics.goodness import goodness_of_fit
 from diagnostics.isolability import isolability
@@ -65,11 +67,15 @@ def _warm(executor: Executor, rig: Rig, records: Sequence[MeasurementRecord]) ->
 
 def _stages(rig: Rig, records: Sequence[MeasurementRecord]) -> dict[str, float]:
     """Median time [ms] of each stage of a fast diagnosis at a new condition: the maps,
-    σ (the healthy readings at the moved conditions), the fits, isolability, goodness of
-    fit, and the whole :func:`diagnose` once the maps are cached (which adds the direct
-    inversions, the ratio index and the notes to σ, fits, isolability and goodness)."""
-    parts: dict[str, list[float]] = {k: [] for k in ("maps", "sigma", "fits", "isolability",
-                                                      "goodness", "diagnose_maps_cached")}
+    σ (the healthy readings at the moved conditions), the fits, the single faults checked
+    at their estimates (:func:`~diagnostics.condition_interval.check_singles`), the
+    evidences moved there (:func:`~diagnostics.evidence_at_fit.evidence_at_fit`),
+    isolability, goodness of fit, and the whole :func:`diagnose` once the maps are cached
+    (which adds the intervals' widening, the profiles, the direct inversions, the ratio
+    index and the notes)."""
+    parts: dict[str, list[float]] = {k: [] for k in (
+        "maps", "sigma", "fits", "checks", "evidence_at_fit", "isolability", "goodness",
+        "diagnose_maps_cached")}
     for rec in records:
         obs = [observe(rec, rig)]
         t0 = time.perf_counter()
@@ -79,15 +85,20 @@ def _stages(rig: Rig, records: Sequence[MeasurementRecord]) -> dict[str, float]:
         t2 = time.perf_counter()
         fits = ranker.rank()
         t3 = time.perf_counter()
-        isolability(ranker, fits, 0.002)
+        checks = check_singles(ranker, fits)
         t4 = time.perf_counter()
-        goodness_of_fit(ranker, fits)
+        evidence_at_fit(ranker, fits, checks)
         t5 = time.perf_counter()
-        diagnose(rig, [rec], method="fast")  # maps cached now: everything but the maps
+        isolability(ranker, fits, 0.002, checks.chi2)
         t6 = time.perf_counter()
+        goodness_of_fit(ranker, fits, at_fit=checks.chi2)
+        t7 = time.perf_counter()
+        diagnose(rig, [rec], method="fast")  # maps cached now: everything but the maps
+        t8 = time.perf_counter()
         for key, dt in (("maps", t1 - t0), ("sigma", t2 - t1), ("fits", t3 - t2),
-                        ("isolability", t4 - t3), ("goodness", t5 - t4),
-                        ("diagnose_maps_cached", t6 - t5)):
+                        ("checks", t4 - t3), ("evidence_at_fit", t5 - t4),
+                        ("isolability", t6 - t5), ("goodness", t7 - t6),
+                        ("diagnose_maps_cached", t8 - t7)):
             parts[key].append(dt)
     return {k: round(1e3 * statistics.median(v), 3) for k, v in parts.items()}
 
