@@ -99,9 +99,10 @@ def acting_relief_setting(ranker: Ranker, fits: Sequence[HypothesisFit]) -> floa
     if fit is None or not math.isfinite(fit.log_evidence):
         return None
     p_open = opening_pressure(ranker)
-    acting = map_support(ranker, "relief_setting")
-    if not math.isfinite(p_open) or not acting.any():
+    lowest = float(ranker.models[0].maps.maps["relief_setting"].axes[0][0])
+    if not lowest < p_open:  # no setting of the range acts here (or no prediction)
         return None
+    acting = map_support(ranker, "relief_setting")
     chi2 = np.zeros(acting.size)
     for m in ranker.models:
         chi2 += m.chi2_grid(m.maps.maps["relief_setting"].pred)
@@ -112,11 +113,12 @@ def acting_relief_setting(ranker: Ranker, fits: Sequence[HypothesisFit]) -> floa
 def map_support(ranker: Ranker, name: str) -> npt.NDArray[np.bool_]:
     """The points of single-fault hypothesis ``name``'s signature map its prior covers:
     all of them, but for ``relief_setting`` only the settings below the records' highest
-    healthy pump pressure (:func:`acting_relief_setting`; none where that is unknown)."""
+    healthy pump pressure where any is (:func:`acting_relief_setting`)."""
     z = ranker.models[0].maps.maps[name].axes[0]
     if name != "relief_setting":
         return np.ones(z.size, dtype=bool)
-    return np.asarray(z < opening_pressure(ranker))  # Pset is fitted linearly: z in Pa
+    acting = z < opening_pressure(ranker)  # Pset is fitted linearly: z is the setting [Pa]
+    return np.asarray(acting) if acting.any() else np.ones(z.size, dtype=bool)
 
 
 def map_log_evidence(chi2: npt.NDArray[np.float64], support: npt.NDArray[np.bool_]
