@@ -221,6 +221,13 @@ class SingleChecks:
     #: the :data:`Parts` both were computed from, one row per name of ``chi2`` in order
     parts: Parts = field(default_factory=list)
 
+    def reading_sigma(self, ranker: Ranker) -> dict[str, list[Arr]]:
+        """Per fit (by name) and record, each reading's marginal σ with the covariance at
+        the estimate [SI unit of the reading]."""
+        return {name: [np.sqrt(np.diag(at_estimate(m, terms, i)))
+                       for m, (_, _, terms) in zip(ranker.models, self.parts, strict=True)]
+                for i, name in enumerate(self.chi2)}
+
 
 def check_singles(ranker: Ranker, fits: Sequence[HypothesisFit]) -> SingleChecks:
     """:class:`SingleChecks` of the observable one-parameter fits with a finite χ², from one

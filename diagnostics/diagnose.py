@@ -219,7 +219,8 @@ def diagnose(rig: Rig, records: Sequence[MeasurementRecord], *, model_rel: float
     checks = check_singles(ranker, fits)
     at_fit = evidence_at_fit(ranker, fits, checks)
     iso = isolability(ranker, fits, model_rel, checks.chi2)
-    gof = goodness_of_fit(ranker, fits, at_fit=checks.chi2)
+    gof = goodness_of_fit(ranker, fits, at_fit=checks.chi2,
+                          at_fit_sigma=checks.reading_sigma(ranker))
     notes: list[str] = []
     direct = _direct(rig, records, notes)
     ratio = None

@@ -53,9 +53,11 @@ lower load or oil temperature, where the piston moves.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
+import numpy as np
+import numpy.typing as npt
 from scipy.special import chdtrc, gammaincinv
 
 from diagnostics.hypotheses import PARAMETERS
@@ -180,11 +182,16 @@ def chi2_limit(level: float, dof: float) -> float:
     return float(2.0 * gammaincinv(0.5 * dof, 1.0 - level))
 
 
-def _disagreements(ranker: Ranker, fit: HypothesisFit) -> list[Disagreement]:
+def _disagreements(ranker: Ranker, fit: HypothesisFit,
+                   sigma: Sequence[npt.NDArray[np.float64]] | None = None
+                   ) -> list[Disagreement]:
+    """The readings that disagree most with ``fit``, in σ of the readings (``sigma``, per
+    record, where the test weighed them by another covariance than the ranking's)."""
     out = []
     for i, (m, pred) in enumerate(zip(ranker.models, fit.predicted, strict=True)):
+        sig = m.sigma if sigma is None else sigma[i]
         for j, name in enumerate(m.obs.names):
-            y, s = float(m.obs.values[j]), float(m.sigma[j])
+            y, s = float(m.obs.values[j]), float(sig[j])
             yhat = float(pred[name])
             dev = (y - yhat) / s if math.isfinite(yhat) else math.inf
             out.append(Disagreement(i, name, y, yhat, s, dev))
@@ -218,11 +225,14 @@ def _dof(ranker: Ranker, f: HypothesisFit) -> int:
 
 
 def goodness_of_fit(ranker: Ranker, fits: list[HypothesisFit], level: float = TEST_LEVEL,
-                    at_fit: Mapping[str, float] | None = None) -> GoodnessOfFit:
+                    at_fit: Mapping[str, float] | None = None,
+                    at_fit_sigma: Mapping[str, Sequence[npt.NDArray[np.float64]]] | None = None
+                    ) -> GoodnessOfFit:
     """χ² goodness of fit and range test of the observable hypotheses among ranked
     ``fits`` (module docstring); ``at_fit``: the χ² of one-parameter fits with the
-    stated condition's sensitivity at their estimates, by name
-    (:func:`diagnostics.condition_interval.check_singles`)."""
+    stated condition's sensitivity at their estimates, by name, and ``at_fit_sigma`` the
+    readings' σ per record there, in which a fit explained by that χ² states its
+    disagreeing readings (:func:`diagnostics.condition_interval.check_singles`)."""
     retest = at_fit or {}
     cands = [f for f in fits if f.observable] or fits[:1]
     scored = []
@@ -268,7 +278,8 @@ def goodness_of_fit(ranker: Ranker, fits: list[HypothesisFit], level: float = TE
         chi2 = best.chi2
     limit = chi2_limit(level, dof) if dof >= 1 else math.inf
     beyond = _beyond_range(ranker, cands, tests, level)
-    dis = _disagreements(ranker, best)
+    dis = _disagreements(ranker, best, (at_fit_sigma or {}).get(best.name)
+                         if best.name in used else None)
     if explained and testable:
         statement = (f"the readings are consistent with {best.name} (χ² = {chi2:.3g} on "
                      f"{dof} degrees of freedom, limit {limit:.3g} at the {level:.0%} level"
