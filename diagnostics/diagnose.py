@@ -82,10 +82,12 @@ class Diagnosis:
         hypothesis name (``at_bound``: at the document's value); only those whose profile
         passes the goodness-of-fit test.
     reading_sigma
-        Per record, each reading's standard uncertainty as the likelihood weighs it [SI
-        unit of the reading]: the measurement's own, the model's and the stated
-        condition's (:mod:`diagnostics.record_model`; the condition's part moves every
-        reading of a record at once, so the readings' errors are correlated).
+        Per record, each reading's standard uncertainty as the likelihood of the most
+        probable hypothesis weighs it [SI unit of the reading]: the measurement's own,
+        the model's and the stated condition's at that hypothesis's estimate
+        (:mod:`diagnostics.record_model`, :mod:`diagnostics.evidence_at_fit`; the
+        condition's part moves every reading of a record at once, so the readings'
+        errors are correlated).
     regime_notes
         End-stop states met by the maps (which hypothesis values hold the piston on its
         stop, predicted in that state, and whether the healthy rig's does) and the values
@@ -219,8 +221,8 @@ def diagnose(rig: Rig, records: Sequence[MeasurementRecord], *, model_rel: float
     checks = check_singles(ranker, fits)
     at_fit = evidence_at_fit(ranker, fits, checks)
     iso = isolability(ranker, fits, model_rel, checks.chi2)
-    gof = goodness_of_fit(ranker, fits, at_fit=checks.chi2,
-                          at_fit_sigma=checks.reading_sigma(ranker))
+    single_sigma = checks.reading_sigma(ranker)
+    gof = goodness_of_fit(ranker, fits, at_fit=checks.chi2, at_fit_sigma=single_sigma)
     notes: list[str] = []
     direct = _direct(rig, records, notes)
     ratio = None
@@ -247,8 +249,18 @@ def diagnose(rig: Rig, records: Sequence[MeasurementRecord], *, model_rel: float
     return Diagnosis(rig.spec.name, fits, iso, direct, ratio,
                      slip if slip is None else (slip[0], slip[1], slip[2]), len(records), n,
                      notes, gof, regime_notes(ranker), profiled,
-                     [{n: float(u) for n, u in zip(m.obs.names, m.sigma, strict=True)}
-                      for m in ranker.models])
+                     _reading_sigma(ranker, fits[0].name,
+                                    {**single_sigma, **at_fit.pair_reading_sigma}))
+
+
+def _reading_sigma(ranker: Ranker, top: str, at_estimate: dict[str, list[npt.NDArray[np.float64]]]
+                   ) -> list[dict[str, float]]:
+    """Per record, each reading's σ as the likelihood of the most probable hypothesis
+    ``top`` weighs it: with the stated condition at its estimate where that was computed
+    (:mod:`diagnostics.evidence_at_fit`), else the ranking's [SI unit of the reading]."""
+    sigmas = at_estimate.get(top) or [m.sigma for m in ranker.models]
+    return [{n: float(u) for n, u in zip(m.obs.names, s, strict=True)}
+            for m, s in zip(ranker.models, sigmas, strict=True)]
 
 
 def _widen(ranker: Ranker, fits: list[HypothesisFit], profiled: dict[str, ParameterEstimate],

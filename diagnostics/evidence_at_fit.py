@@ -68,10 +68,13 @@ class AtFit:
     """What :func:`evidence_at_fit` computed, by hypothesis name: ``shift``, the change of
     each moved log-evidence [-]; ``pair_sigma``, each pair's σ_z per parameter with the
     stated condition at its estimate (the sandwich of :func:`pair_at_fit`) [fitting
-    coordinate]."""
+    coordinate]; ``pair_reading_sigma`` below."""
 
     shift: dict[str, float] = field(default_factory=dict)
     pair_sigma: dict[str, Arr] = field(default_factory=dict)
+    #: each pair's readings' marginal σ per record with the covariance at its estimate
+    #: [SI unit of the reading]
+    pair_reading_sigma: dict[str, list[Arr]] = field(default_factory=dict)
 
 
 def evidence_at_fit(ranker: Ranker, fits: list[HypothesisFit], checks: SingleChecks
@@ -90,8 +93,7 @@ def evidence_at_fit(ranker: Ranker, fits: list[HypothesisFit], checks: SingleChe
              and math.isfinite(f.log_evidence)]
     for f, got in zip(pairs, pair_at_fit(ranker, pairs), strict=True):
         if got is not None and math.isfinite(got[0]):
-            shift[f.name] = got[0]
-            out.pair_sigma[f.name] = got[1]
+            shift[f.name], out.pair_sigma[f.name], out.pair_reading_sigma[f.name] = got
     for f in fits:
         if f.name in shift:
             f.log_evidence += shift[f.name]
@@ -136,11 +138,11 @@ def single_log_evidence(ranker: Ranker, name: str, parts: Parts, i: int) -> floa
 
 
 def pair_at_fit(ranker: Ranker, pairs: list[HypothesisFit]
-                ) -> list[tuple[float, Arr] | None]:
+                ) -> list[tuple[float, Arr, list[Arr]] | None]:
     """Per pair, the change of its ln Z from the ranking's covariance ``C_h`` to the one at
-    its estimate ``C`` [-] and its parameters' σ_z with the stated condition there
-    [fitting coordinate]; None where a reading has no prediction or ``C`` cannot be
-    formed there.
+    its estimate ``C`` [-], its parameters' σ_z with the stated condition there [fitting
+    coordinate] and per record its readings' marginal σ under ``C`` [SI unit of the
+    reading]; None where a reading has no prediction or ``C`` cannot be formed there.
 
     The change is the Laplace evidence (:func:`diagnostics.pair_evidence.laplace_evidence`:
     peak, Gauss-Newton width and the bounds' truncation) with the residuals and the
@@ -154,12 +156,13 @@ def pair_at_fit(ranker: Ranker, pairs: list[HypothesisFit]
           for ps, f in zip(params, pairs, strict=True)]
     parts = point_parts(ranker, [(ps, tuple(float(v) for v in z))
                                  for ps, z in zip(params, zs, strict=True)])
-    out: list[tuple[float, Arr] | None] = []
+    out: list[tuple[float, Arr, list[Arr]] | None] = []
     for j, (ps, z) in enumerate(zip(params, zs, strict=True)):
         cost = np.zeros(2)
         jacs: list[list[Arr]] = [[], []]
         log_det = 0.0
         spread = np.zeros((len(ps), len(ps)))
+        marginal: list[Arr] = []
         ok = True
         for m, (y0, jac_all, terms) in zip(ranker.models, parts, strict=True):
             r = m.obs.values - y0[j]
@@ -175,6 +178,7 @@ def pair_at_fit(ranker: Ranker, pairs: list[HypothesisFit]
                 jacs[w].append(np.asarray(jw, dtype=np.float64))
             weights = chol.T @ (m.white.T @ jacs[0][-1])  # Lᵀ C_h⁻¹ J
             spread += weights.T @ weights
+            marginal.append(np.sqrt(np.sum(chol * chol, axis=1)))  # √diag(L Lᵀ)
             log_det += _log_det_change(m, chol)
         if not ok:
             out.append(None)
@@ -190,5 +194,5 @@ def pair_at_fit(ranker: Ranker, pairs: list[HypothesisFit]
             sd = np.sqrt(np.clip(np.diag(inv @ spread @ inv), 0.0, None))
         except np.linalg.LinAlgError:  # a flat direction: no width to state
             sd = np.full(len(ps), math.inf)
-        out.append((moved_ev - fitted - 0.5 * log_det, sd))
+        out.append((moved_ev - fitted - 0.5 * log_det, sd, marginal))
     return out

@@ -153,3 +153,18 @@ def test_without_a_covariance_nothing_moves(rig):
     for f in fits:
         if len(f.parameters) == 1:
             assert f.log_evidence == before[f.name]
+
+
+def test_the_answer_states_the_sigma_its_top_hypothesis_is_weighed_by(rig):
+    """``reading_sigma`` (the console's grey bars) is the named fault's: for the worn
+    seal's visit the working speed's σ at the fitted wear, several times the healthy
+    rig's that the ranking started from, and no reading's σ below the instrument's."""
+    obs = _visit(rig, 6.0, 40.0, (1.0, -1.0, 1.0))
+    d = diagnose(rig, [o.record for o in obs])
+    assert d.top.name == "cylinder"
+    ranker = Ranker(rig, obs)
+    for m, stated in zip(ranker.models, d.reading_sigma, strict=True):
+        k = list(m.obs.names).index("speed_work")
+        assert stated["speed_work"] > 2.0 * m.sigma[k]
+        for name, u in zip(m.obs.names, m.obs.u, strict=True):
+            assert stated[name] >= u
