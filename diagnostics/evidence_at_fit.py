@@ -48,7 +48,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import numpy.typing as npt
 
-from diagnostics.condition_interval import Parts, SingleChecks, at_estimate, point_parts
+from diagnostics.condition_interval import Parts, SingleChecks, point_parts
 from diagnostics.evidence import map_log_evidence, map_support, posterior
 from diagnostics.hypotheses import PARAMETERS
 from diagnostics.pair_evidence import laplace_evidence
@@ -58,7 +58,7 @@ if TYPE_CHECKING:
     from diagnostics.ranking import Ranker
     from diagnostics.record_model import RecordModel
 
-__all__ = ["AtFit", "evidence_at_fit", "pair_at_fit", "single_log_evidence"]
+__all__ = ["AtFit", "evidence_at_fit", "pair_at_fit", "singles_log_evidence"]
 
 Arr = npt.NDArray[np.float64]
 
@@ -84,9 +84,10 @@ def evidence_at_fit(ranker: Ranker, fits: list[HypothesisFit], checks: SingleChe
     place; the pairs' σ for their intervals come with it (:class:`AtFit`)."""
     out = AtFit()
     shift = out.shift
-    for i, name in enumerate(checks.chi2):
+    names = list(checks.chi2)
+    for name, log_ev in zip(names, singles_log_evidence(ranker, names, checks.parts),
+                            strict=True):
         fit = next(f for f in fits if f.name == name)
-        log_ev = single_log_evidence(ranker, name, checks.parts, i)
         if log_ev is not None and math.isfinite(log_ev - fit.log_evidence):
             shift[name] = log_ev - fit.log_evidence
     pairs = [f for f in fits if f.observable and len(f.parameters) > 1
@@ -102,39 +103,55 @@ def evidence_at_fit(ranker: Ranker, fits: list[HypothesisFit], checks: SingleChe
     return out
 
 
-def _cholesky(cov: Arr) -> Arr | None:
-    """Lower Cholesky factor of ``cov``, None where it has none."""
-    if not np.isfinite(cov).all():
-        return None
+def _factors(m: RecordModel, terms: list[Arr], k: int) -> tuple[Arr, npt.NDArray[np.bool_]]:
+    """Record ``m``'s covariance at each of ``k`` estimates (rows of ``terms``;
+    :func:`~diagnostics.condition_interval.at_estimate`, stacked) factored by Cholesky:
+    the lower factors (the identity where there is none) and whether each could be
+    formed."""
+    cov = np.broadcast_to(np.diag(m.diag), (k, m.idx.size, m.idx.size)).copy()
+    for t in terms:
+        cov += t[:, :, None] * t[:, None, :]
+    ok = np.asarray(np.isfinite(cov).all(axis=(1, 2)), dtype=np.bool_)
+    cov[~ok] = np.eye(m.idx.size)
     try:
-        return np.asarray(np.linalg.cholesky(cov))
-    except np.linalg.LinAlgError:
-        return None
+        return np.linalg.cholesky(cov), ok
+    except np.linalg.LinAlgError:  # one of them is not positive definite: each on its own
+        chol = np.empty_like(cov)
+        for i in range(cov.shape[0]):
+            try:
+                chol[i] = np.linalg.cholesky(cov[i])
+            except np.linalg.LinAlgError:
+                chol[i], ok[i] = np.eye(m.idx.size), False
+        return chol, ok
 
 
-def _log_det_change(m: RecordModel, chol: Arr) -> float:
-    """ln |C| − ln |C_h| of record ``m`` for the Cholesky factor of C [-]."""
-    return 2.0 * float(np.sum(np.log(np.diag(chol)))) - m.log_det
+def _log_det_change(m: RecordModel, chol: Arr) -> Arr:
+    """ln |C| − ln |C_h| of record ``m`` for stacked Cholesky factors of C [-]."""
+    return 2.0 * np.sum(np.log(np.diagonal(chol, axis1=-2, axis2=-1)), axis=-1) - m.log_det
 
 
-def single_log_evidence(ranker: Ranker, name: str, parts: Parts, i: int) -> float | None:
-    """ln Z of single fault ``name`` on its signature map with every record's covariance
-    taken at its estimate (row ``i`` of ``parts``, :func:`~diagnostics.condition_interval.
-    estimate_parts`), the Gaussian's normalisation relative to the ranking's included
-    [-]; None where that covariance cannot be formed (a sensitivity without a steady
-    point on either side)."""
-    support = map_support(ranker, name)
-    chi2 = np.zeros(support.size)
-    log_det = 0.0
+def singles_log_evidence(ranker: Ranker, names: list[str], parts: Parts
+                         ) -> list[float | None]:
+    """ln Z of each single fault ``names[i]`` on its signature map with every record's
+    covariance taken at its estimate (row ``i`` of ``parts``,
+    :func:`~diagnostics.condition_interval.estimate_parts`), the Gaussian's normalisation
+    relative to the ranking's included [-]; None where that covariance cannot be formed
+    (a sensitivity without a steady point on either side).  All of them at once."""
+    if not names:
+        return []
+    chi2 = np.zeros((len(names), ranker.models[0].maps.maps[names[0]].axes[0].size))
+    log_det = np.zeros(len(names))
+    ok = np.ones(len(names), dtype=bool)
     for m, (_, _, terms) in zip(ranker.models, parts, strict=True):
-        chol = _cholesky(at_estimate(m, terms, i))
-        if chol is None:
-            return None
-        white = np.linalg.solve(chol, (m.obs.values - m.maps.maps[name].pred[:, m.idx]).T)
-        c = np.sum(white * white, axis=0)
+        chol, formed = _factors(m, terms, len(names))
+        ok &= formed
+        resid = m.obs.values - np.stack([m.maps.maps[n].pred[:, m.idx] for n in names])
+        white = np.linalg.solve(chol, np.swapaxes(resid, 1, 2))
+        c = np.sum(white * white, axis=1)
         chi2 += np.where(np.isnan(c), np.inf, c)  # a masked prediction: impossible
         log_det += _log_det_change(m, chol)
-    return map_log_evidence(chi2, support) - 0.5 * log_det
+    return [map_log_evidence(chi2[i], map_support(ranker, n)) - 0.5 * float(log_det[i])
+            if ok[i] else None for i, n in enumerate(names)]
 
 
 def pair_at_fit(ranker: Ranker, pairs: list[HypothesisFit]
@@ -150,49 +167,52 @@ def pair_at_fit(ranker: Ranker, pairs: list[HypothesisFit]
     of each worn range) whitened by either, less half the change of ln |C|.  σ_z is the
     sandwich of the estimator the fit used, ``A⁻¹ B A⁻¹`` with ``A = Σ Jᵀ C_h⁻¹ J`` and
     ``B = Σ Jᵀ C_h⁻¹ C C_h⁻¹ J`` (:mod:`diagnostics.condition_interval` for one
-    parameter); with the condition stated exactly it is the Gauss-Newton σ."""
+    parameter); with the condition stated exactly it is the Gauss-Newton σ.  All pairs
+    at once, per record."""
+    if not pairs:
+        return []
     params = [tuple(PARAMETERS[e.name] for e in f.parameters) for f in pairs]
     zs = [np.array([p.to_z(e.value) for p, e in zip(ps, f.parameters, strict=True)])
           for ps, f in zip(params, pairs, strict=True)]
     parts = point_parts(ranker, [(ps, tuple(float(v) for v in z))
                                  for ps, z in zip(params, zs, strict=True)])
+    n_pairs, width = len(pairs), max(len(ps) for ps in params)
+    cost = np.zeros((2, n_pairs))
+    jacs: list[list[Arr]] = [[], []]  # per whitening, per record: (pairs, readings, width)
+    spread = np.zeros((n_pairs, width, width))
+    log_det = np.zeros(n_pairs)
+    ok = np.ones(n_pairs, dtype=bool)
+    marginal: list[Arr] = []
+    for m, (y0, jac, terms) in zip(ranker.models, parts, strict=True):
+        chol, formed = _factors(m, terms, n_pairs)
+        r = m.obs.values - y0
+        ok &= formed & np.isfinite(r).all(axis=1) & np.isfinite(jac).all(axis=(1, 2))
+        both = np.concatenate([r[:, :, None], jac], axis=2)  # (pairs, readings, 1 + width)
+        for w, whitened in enumerate((np.einsum("ij,pjk->pik", m.white, both),
+                                      np.linalg.solve(chol, both))):
+            cost[w] += np.sum(whitened[:, :, 0] ** 2, axis=1)
+            jacs[w].append(whitened[:, :, 1:])
+        weights = np.swapaxes(chol, 1, 2) @ np.einsum("ji,pjk->pik", m.white, jacs[0][-1])
+        spread += np.swapaxes(weights, 1, 2) @ weights  # (Lᵀ C_h⁻¹ J)ᵀ (Lᵀ C_h⁻¹ J)
+        marginal.append(np.sqrt(np.sum(chol * chol, axis=2)))  # √diag(L Lᵀ)
+        log_det += _log_det_change(m, chol)
     out: list[tuple[float, Arr, list[Arr]] | None] = []
     for j, (ps, z) in enumerate(zip(params, zs, strict=True)):
-        cost = np.zeros(2)
-        jacs: list[list[Arr]] = [[], []]
-        log_det = 0.0
-        spread = np.zeros((len(ps), len(ps)))
-        marginal: list[Arr] = []
-        ok = True
-        for m, (y0, jac_all, terms) in zip(ranker.models, parts, strict=True):
-            r = m.obs.values - y0[j]
-            jac = jac_all[j][:, :len(ps)]
-            chol = _cholesky(at_estimate(m, terms, j))
-            if chol is None or not (np.isfinite(r).all() and np.isfinite(jac).all()):
-                ok = False
-                break
-            for w, (rw, jw) in enumerate(((m.whitened(r), m.white @ jac),
-                                          (np.linalg.solve(chol, r),
-                                           np.linalg.solve(chol, jac)))):
-                cost[w] += float(rw @ rw)
-                jacs[w].append(np.asarray(jw, dtype=np.float64))
-            weights = chol.T @ (m.white.T @ jacs[0][-1])  # Lᵀ C_h⁻¹ J
-            spread += weights.T @ weights
-            marginal.append(np.sqrt(np.sum(chol * chol, axis=1)))  # √diag(L Lᵀ)
-            log_det += _log_det_change(m, chol)
-        if not ok:
+        if not ok[j]:
             out.append(None)
             continue
         bounds = [p.worn_bounds(ranker.rig) for p in ps]
         zl = np.array([p.to_z(b[0]) for p, b in zip(ps, bounds, strict=True)])
         zu = np.array([p.to_z(b[1]) for p, b in zip(ps, bounds, strict=True)])
-        fitted, moved_ev = (laplace_evidence(float(cost[w]), np.vstack(jacs[w]), z, zl, zu)[0]
+        k = len(ps)
+        stacked = [np.vstack([jw[j][:, :k] for jw in jacs[w]]) for w in (0, 1)]
+        fitted, moved_ev = (laplace_evidence(float(cost[w, j]), stacked[w], z, zl, zu)[0]
                             for w in (0, 1))
-        info = np.vstack(jacs[0])
         try:
-            inv = np.linalg.inv(info.T @ info)
-            sd = np.sqrt(np.clip(np.diag(inv @ spread @ inv), 0.0, None))
+            inv = np.linalg.inv(stacked[0].T @ stacked[0])
+            sd = np.sqrt(np.clip(np.diag(inv @ spread[j, :k, :k] @ inv), 0.0, None))
         except np.linalg.LinAlgError:  # a flat direction: no width to state
-            sd = np.full(len(ps), math.inf)
-        out.append((moved_ev - fitted - 0.5 * log_det, sd, marginal))
+            sd = np.full(k, math.inf)
+        out.append((moved_ev - fitted - 0.5 * float(log_det[j]), sd,
+                    [mg[j] for mg in marginal]))
     return out

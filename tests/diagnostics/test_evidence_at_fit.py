@@ -11,7 +11,7 @@ import pytest
 from diagnostics.condition_interval import SingleChecks, check_singles, point_parts
 from diagnostics.diagnose import diagnose
 from diagnostics.evidence import map_log_evidence, map_support
-from diagnostics.evidence_at_fit import evidence_at_fit, pair_at_fit, single_log_evidence
+from diagnostics.evidence_at_fit import evidence_at_fit, pair_at_fit, singles_log_evidence
 from diagnostics.hypotheses import PARAMETERS
 from diagnostics.measurement import MeasurementRecord, OperatingCondition
 from diagnostics.observations import observe
@@ -145,7 +145,7 @@ def test_without_a_covariance_nothing_moves(rig):
     name = next(f.name for f in fits if len(f.parameters) == 1)
     nan_parts = [(np.full((1, m.idx.size), np.nan), np.full((1, m.idx.size), np.nan),
                   [np.full((1, m.idx.size), np.nan)]) for m in ranker.models]
-    assert single_log_evidence(ranker, name, nan_parts, 0) is None
+    assert singles_log_evidence(ranker, [name], nan_parts) == [None]
     before = {f.name: f.log_evidence for f in fits}
     evidence_at_fit(ranker, fits, SingleChecks())
     pairs = [f for f in fits if len(f.parameters) == 2 and math.isfinite(f.log_evidence)]
