@@ -151,6 +151,7 @@ class FastMaps(SignatureMaps):
         self.condition = condition
         self._ev: SteadyEvaluator | None = None
         self._moved: dict[Condition, tuple[Context, Arr] | None] = {}
+        self._point_grids: dict[tuple[Point, ...], Arr] = {}
         #: predictions that do not depend on the readings, kept for the next record at
         #: this condition with the phases' solutions and success (the range test's first
         #: grids, :mod:`diagnostics.range_test`)
@@ -336,12 +337,12 @@ class FastMaps(SignatureMaps):
                 self._moved[condition] = None
         return self._moved[condition]
 
-    def observables_at_points(self, points: Sequence[Point],
-                              condition: Condition | None = None) -> Arr:
-        """:meth:`SignatureMaps.observables_at_points` on the compiled kernel (one call; at
-        this condition a point it fails is solved directly, at a moved one it stays NaN).
-        The context's Newton states are left as they were: the next fit at this condition
-        starts where it would have (:meth:`SignatureMaps.observables_at` comes here)."""
+    def _point_grid(self, points: tuple[Point, ...]) -> Arr:
+        """Graph values of ``points`` (rows), kept for the last few sets of points: the
+        same estimates are solved at this condition and at the moved ones in turn."""
+        grid = self._point_grids.get(points)
+        if grid is not None:
+            return grid
         grid = np.tile(self._base, (len(points), 1))
         rows: dict[str, tuple[FaultParameter, list[int], list[float]]] = {}
         for i, (params, zs) in enumerate(points):
@@ -352,6 +353,18 @@ class FastMaps(SignatureMaps):
             sub = grid[at]
             _set_rows(self.rig, p, sub, np.array(zvals))
             grid[at] = sub
+        if len(self._point_grids) >= 4:
+            self._point_grids.clear()
+        self._point_grids[points] = grid
+        return grid
+
+    def observables_at_points(self, points: Sequence[Point],
+                              condition: Condition | None = None) -> Arr:
+        """:meth:`SignatureMaps.observables_at_points` on the compiled kernel (one call; at
+        this condition a point it fails is solved directly, at a moved one it stays NaN).
+        The context's Newton states are left as they were: the next fit at this condition
+        starts where it would have (:meth:`SignatureMaps.observables_at` comes here)."""
+        grid = self._point_grid(tuple(points))
         if condition is None or condition == self.condition:
             saved = self.ctx.states.copy()  # the maps' continuation is not moved by this
             out, ok = self.ctx.solve(grid)
