@@ -158,12 +158,11 @@ def diagnose(
         _print_json(response.model_dump(mode="json"))
         return
     for item in response.diagnoses:
-        table = Table("hypothesis", "probability", "parameters",
+        table = Table("hypothesis", "probability", "parameters (95 % interval)",
                       title=f"{', '.join(item.records)}: {item.top} "
                       f"(p = {item.probability:.3f}), diagnosis {item.id or 'not stored'}")
         for fit in item.result["hypotheses"]:
-            params = ", ".join(f"{p['name']} = {p['value']:.4g} {p['unit']}"
-                               for p in fit["parameters"])
+            params = ", ".join(_parameter_text(p) for p in fit["parameters"])
             probability = "not observable" if not fit["observable"] else \
                 f"{fit['probability']:.4f}"
             table.add_row(escape(fit["name"]), probability, escape(params))
@@ -344,3 +343,10 @@ def register(cli: typer.Typer) -> None:
     calibrate_cli.command("pump-map")(calibrate_pump_map)
     cli.add_typer(calibrate_cli, name="calibrate")
     cli.add_typer(import_cli, name="import")
+
+
+def _parameter_text(p: dict[str, Any]) -> str:
+    """``name = value (low … high) unit`` of a fitted parameter (no unit for a factor,
+    whose unit is 1)."""
+    unit = "" if p["unit"] in ("1", "-", "") else f" {p['unit']}"
+    return f"{p['name']} = {p['value']:.4g} ({p['low']:.4g} … {p['high']:.4g}){unit}"

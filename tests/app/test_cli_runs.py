@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from pathlib import Path
 from typing import Any
 
@@ -70,6 +71,13 @@ def test_diagnose_a_yaml_file_of_records(runner: CliRunner, tmp_path: Path) -> N
     table = runner.invoke(cli, ["diagnose", str(path), "--joint", "--no-store"])
     assert table.exit_code == 0, table.output
     assert "valve" in table.stdout and "not stored" in table.stdout
+    # each fitted parameter with its 95 % interval, a factor without a unit of "1"
+    joint = json.loads(runner.invoke(cli, ["diagnose", str(path), "--joint", "--no-store",
+                                           "--json"]).stdout)["diagnoses"][0]["result"]
+    (cv,) = next(f for f in joint["hypotheses"] if f["name"] == "valve")["parameters"]
+    flat = " ".join(table.stdout.split())
+    assert f"cv = {cv['value']:.4g} ({cv['low']:.4g} … {cv['high']:.4g}) m" in flat
+    assert "pump_leak = " in flat and not re.search(r"pump_leak = [^,]*\) 1\b", flat)
     assert store_count(Diagnosis) == 2
     path.write_text(yaml.safe_dump(record | {"flow_C": -1.0}))
     bad = runner.invoke(cli, ["diagnose", str(path)])
