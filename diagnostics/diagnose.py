@@ -132,7 +132,8 @@ class Diagnosis:
                 "name": f.name, "components": list(f.hypothesis.components),
                 "description": f.hypothesis.description,
                 "probability": f.probability, "observable": f.observable,
-                "chi2": f.chi2, "log_evidence": f.log_evidence,
+                "chi2": f.chi2, "chi2_at_estimate": f.chi2_at_estimate,
+                "log_evidence": f.log_evidence,
                 "parameters": [asdict(p) for p in f.parameters],
                 "predicted": f.predicted,
             }

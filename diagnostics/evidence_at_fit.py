@@ -88,13 +88,15 @@ def evidence_at_fit(ranker: Ranker, fits: list[HypothesisFit], checks: SingleChe
     for name, log_ev in zip(names, singles_log_evidence(ranker, names, checks.parts),
                             strict=True):
         fit = next(f for f in fits if f.name == name)
+        fit.chi2_at_estimate = checks.chi2[name]
         if log_ev is not None and math.isfinite(log_ev - fit.log_evidence):
             shift[name] = log_ev - fit.log_evidence
     pairs = [f for f in fits if f.observable and len(f.parameters) > 1
              and math.isfinite(f.log_evidence)]
     for f, got in zip(pairs, pair_at_fit(ranker, pairs), strict=True):
         if got is not None and math.isfinite(got[0]):
-            shift[f.name], out.pair_sigma[f.name], out.pair_reading_sigma[f.name] = got
+            (shift[f.name], out.pair_sigma[f.name], out.pair_reading_sigma[f.name],
+             f.chi2_at_estimate) = got
     for f in fits:
         if f.name in shift:
             f.log_evidence += shift[f.name]
@@ -155,11 +157,12 @@ def singles_log_evidence(ranker: Ranker, names: list[str], parts: Parts
 
 
 def pair_at_fit(ranker: Ranker, pairs: list[HypothesisFit]
-                ) -> list[tuple[float, Arr, list[Arr]] | None]:
+                ) -> list[tuple[float, Arr, list[Arr], float] | None]:
     """Per pair, the change of its ln Z from the ranking's covariance ``C_h`` to the one at
     its estimate ``C`` [-], its parameters' σ_z with the stated condition there [fitting
-    coordinate] and per record its readings' marginal σ under ``C`` [SI unit of the
-    reading]; None where a reading has no prediction or ``C`` cannot be formed there.
+    coordinate], per record its readings' marginal σ under ``C`` [SI unit of the
+    reading] and its χ² under ``C`` [-]; None where a reading has no prediction or ``C``
+    cannot be formed there.
 
     The change is the Laplace evidence (:func:`diagnostics.pair_evidence.laplace_evidence`:
     peak, Gauss-Newton width and the bounds' truncation) with the residuals and the
@@ -196,7 +199,7 @@ def pair_at_fit(ranker: Ranker, pairs: list[HypothesisFit]
         spread += np.swapaxes(weights, 1, 2) @ weights  # (Lᵀ C_h⁻¹ J)ᵀ (Lᵀ C_h⁻¹ J)
         marginal.append(np.sqrt(np.sum(chol * chol, axis=2)))  # √diag(L Lᵀ)
         log_det += _log_det_change(m, chol)
-    out: list[tuple[float, Arr, list[Arr]] | None] = []
+    out: list[tuple[float, Arr, list[Arr], float] | None] = []
     for j, (ps, z) in enumerate(zip(params, zs, strict=True)):
         if not ok[j]:
             out.append(None)
@@ -214,5 +217,5 @@ def pair_at_fit(ranker: Ranker, pairs: list[HypothesisFit]
         except np.linalg.LinAlgError:  # a flat direction: no width to state
             sd = np.full(k, math.inf)
         out.append((moved_ev - fitted - 0.5 * float(log_det[j]), sd,
-                    [mg[j] for mg in marginal]))
+                    [mg[j] for mg in marginal], float(cost[1, j])))
     return out

@@ -142,7 +142,12 @@ class HypothesisFit:
     hypothesis
         The hypothesis.
     chi2
-        χ² at the estimate.
+        χ² at the estimate, the readings weighed by the ranking's covariance (the stated
+        condition through the healthy rig's sensitivity).
+    chi2_at_estimate
+        χ² at the estimate with the stated condition's sensitivity taken there
+        (:mod:`diagnostics.evidence_at_fit`; NaN where not computed: healthy, or no
+        covariance there).
     log_evidence
         ln Z (up to a constant shared by all hypotheses).
     parameters
@@ -163,6 +168,7 @@ class HypothesisFit:
     observable: bool = True
     probability: float = 0.0
     detectability: float = field(default=math.inf)
+    chi2_at_estimate: float = field(default=math.nan)
 
     @property
     def name(self) -> str:

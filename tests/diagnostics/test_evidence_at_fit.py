@@ -162,6 +162,13 @@ def test_the_answer_states_the_sigma_its_top_hypothesis_is_weighed_by(rig):
     obs = _visit(rig, 6.0, 40.0, (1.0, -1.0, 1.0))
     d = diagnose(rig, [o.record for o in obs])
     assert d.top.name == "cylinder"
+    # its χ² at the estimate is the one the goodness test passed (measured 9.3 on 14
+    # degrees of freedom, against 138 under the ranking's covariance), in the answer
+    assert d.fit is not None and d.top.chi2_at_estimate == pytest.approx(d.fit.chi2)
+    assert d.top.chi2_at_estimate < d.top.chi2 / 5.0
+    pair = next(f for f in d.hypotheses if f.name == "cylinder+pump")
+    assert math.isfinite(pair.chi2_at_estimate)
+    assert d.to_dict()["hypotheses"][0]["chi2_at_estimate"] == d.top.chi2_at_estimate
     ranker = Ranker(rig, obs)
     for m, stated in zip(ranker.models, d.reading_sigma, strict=True):
         k = list(m.obs.names).index("speed_work")
