@@ -20,6 +20,7 @@ import pytest
 from benchmarks.diagnose_cases import random_record, stalled_record
 from diagnostics.diagnose import Diagnosis, diagnose
 from diagnostics.fastpath.maps import fast_maps
+from diagnostics.hypotheses import PARAMETERS
 from diagnostics.measurement import MeasurementRecord
 from diagnostics.signatures import OBSERVABLES, SignatureMaps
 from sim.errors import InputError
@@ -187,3 +188,28 @@ def test_the_kernels_fit_the_correlated_likelihood() -> None:
             [pr[n] for n in m.obs.names])) / m.sigma) ** 2))
             for m, pr in zip(ranker.models, fit.predicted, strict=True))
         assert abs(per_sigma - fit.chi2) > 1e-6 * max(fit.chi2, 1.0), fit.name
+
+
+def test_points_of_two_parameters_solve_alike_on_both_paths() -> None:
+    """A pair's estimate and its neighbours (several parameters per row) give the same
+    observables on the compiled kernel and by direct steady solves, at the maps' condition
+    and at a moved one (the stated condition's sensitivity), within 1e-6 relative; a row
+    and its permutation of parameters are the same point, and a one-parameter row is
+    :meth:`~diagnostics.signatures.SignatureMaps.observables_at`'s (to Newton's
+    tolerance: each row's solve starts from the one before)."""
+    rig = reference_rig()
+    cond = Condition(load=4200.0, oil_temperature=45.0)
+    moved = Condition(load=4200.0, oil_temperature=46.0)
+    cc, leak, cv = PARAMETERS["cc"], PARAMETERS["pump_leak"], PARAMETERS["cv"]
+    points = [((cc, leak), (cc.to_z(120e-6), leak.to_z(3.0))),
+              ((leak, cc), (leak.to_z(3.0), cc.to_z(120e-6))),
+              ((cc, cv), (cc.to_z(100e-6), cv.to_z(45e-6))),
+              ((cv,), (cv.to_z(50e-6),))]
+    fast, direct = fast_maps(rig, cond), SignatureMaps(rig, cond)
+    for at in (None, moved):
+        a = fast.observables_at_points(points, at)
+        b = direct.observables_at_points(points, at)
+        np.testing.assert_allclose(a, b, rtol=1e-6, atol=1e-12)
+        np.testing.assert_allclose(a[0], a[1], rtol=1e-9)  # to Newton's tolerance
+    single = fast.observables_at([cv], np.array([cv.to_z(50e-6)]))
+    np.testing.assert_allclose(single[0], fast.observables_at_points(points)[3], rtol=1e-9)
