@@ -111,8 +111,9 @@ def _factors(m: RecordModel, terms: list[Arr], k: int) -> tuple[Arr, npt.NDArray
     the lower factors (the identity where there is none) and whether each could be
     formed."""
     cov = np.broadcast_to(np.diag(m.diag), (k, m.idx.size, m.idx.size)).copy()
-    for t in terms:
-        cov += t[:, :, None] * t[:, None, :]
+    with np.errstate(over="ignore", invalid="ignore"):  # a non-finite one is not formed
+        for t in terms:
+            cov += t[:, :, None] * t[:, None, :]
     ok = np.asarray(np.isfinite(cov).all(axis=(1, 2)), dtype=np.bool_)
     cov[~ok] = np.eye(m.idx.size)
     try:
