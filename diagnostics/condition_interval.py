@@ -58,8 +58,8 @@ if TYPE_CHECKING:
     from diagnostics.record_model import RecordModel
     from diagnostics.signatures import Point
 
-__all__ = ["STEP", "Parts", "SingleChecks", "at_estimate", "check_singles",
-           "chi2_at_estimates", "condition_sigmas", "difference_steps", "estimate_parts",
+__all__ = ["STEP", "Parts", "SingleChecks", "check_singles", "chi2_at_estimates",
+           "condition_sigmas", "covariances", "difference_steps", "estimate_parts",
            "point_parts", "widen"]
 
 Arr = npt.NDArray[np.float64]
@@ -159,8 +159,9 @@ def condition_sigmas(ranker: Ranker, params: Sequence[FaultParameter], zs: Arr,
 def difference_steps(ranker: Ranker, params: Sequence[FaultParameter]) -> Arr:
     """The central-difference step of each parameter: :data:`STEP` of its worn range
     [fitting coordinate]."""
-    return np.array([STEP * (p.to_z(p.worn_bounds(ranker.rig)[1])
-                             - p.to_z(p.worn_bounds(ranker.rig)[0])) for p in params])
+    bounds = [p.worn_bounds(ranker.rig) for p in params]
+    return np.array([STEP * (p.to_z(hi) - p.to_z(lo))
+                     for p, (lo, hi) in zip(params, bounds, strict=True)])
 
 
 def _condition_terms(m: RecordModel, points: Sequence[Point], y0: Arr) -> list[Arr]:
@@ -190,21 +191,32 @@ def chi2_at_estimates(ranker: Ranker, params: Sequence[FaultParameter], zs: Arr,
     zs = np.asarray(zs, dtype=np.float64)
     if parts is None:
         parts = estimate_parts(ranker, params, zs)
-    out = np.zeros(zs.size)
-    for m, (y0, _, terms) in zip(ranker.models, parts, strict=True):
-        for i in range(zs.size):
-            cov = at_estimate(m, terms, i)
-            r = m.obs.values - y0[i]
-            out[i] += float(r @ np.linalg.solve(cov, r)) if np.isfinite(cov).all() \
-                and np.isfinite(r).all() else math.inf
+    return _chi2(ranker, parts, [covariances(m, terms, zs.size)
+                                 for m, (_, _, terms) in zip(ranker.models, parts, strict=True)])
+
+
+def _chi2(ranker: Ranker, parts: Parts, covs: list[Arr]) -> Arr:
+    """:func:`chi2_at_estimates` from the records' stacked covariances ``covs``."""
+    out = np.zeros(covs[0].shape[0] if covs else 0)
+    for m, (y0, _, _), cov in zip(ranker.models, parts, covs, strict=True):
+        r = m.obs.values - y0
+        ok = np.isfinite(cov).all(axis=(1, 2)) & np.isfinite(r).all(axis=1)
+        if ok.any():
+            x = np.linalg.solve(cov[ok], r[ok][:, :, None])[:, :, 0]
+            out[ok] += np.sum(r[ok] * x, axis=1)
+        out[~ok] = math.inf
     return out
 
 
-def at_estimate(m: RecordModel, terms: list[Arr], i: int) -> Arr:
-    """Record ``m``'s covariance at estimate ``i`` of ``terms`` (module docstring) [SI²]."""
-    cov = np.diag(m.diag)
-    for t in terms:
-        cov += np.outer(t[i], t[i])
+def covariances(m: RecordModel, terms: list[Arr], k: int) -> Arr:
+    """Record ``m``'s covariance at each of ``k`` estimates (rows of ``terms``; module
+    docstring), stacked ``(k, readings, readings)`` [SI²]; not finite where a sensitivity
+    is not."""
+    n = m.idx.size
+    cov = np.broadcast_to(np.diag(m.diag), (k, n, n)).copy()
+    with np.errstate(over="ignore", invalid="ignore"):  # a non-finite one stays so
+        for t in terms:
+            cov += t[:, :, None] * t[:, None, :]
     return cov
 
 
@@ -220,18 +232,20 @@ class SingleChecks:
     sigma: dict[str, float] = field(default_factory=dict)
     #: the :data:`Parts` both were computed from, one row per name of ``chi2`` in order
     parts: Parts = field(default_factory=list)
+    #: per record, the covariance at each estimate (:func:`covariances`) [SI²]
+    covariance: list[Arr] = field(default_factory=list)
 
-    def reading_sigma(self, ranker: Ranker) -> dict[str, list[Arr]]:
+    def reading_sigma(self) -> dict[str, list[Arr]]:
         """Per fit (by name) and record, each reading's marginal σ with the covariance at
         the estimate [SI unit of the reading]."""
-        return {name: [np.sqrt(np.diag(at_estimate(m, terms, i)))
-                       for m, (_, _, terms) in zip(ranker.models, self.parts, strict=True)]
+        return {name: [np.sqrt(np.diagonal(cov[i])) for cov in self.covariance]
                 for i, name in enumerate(self.chi2)}
 
 
 def check_singles(ranker: Ranker, fits: Sequence[HypothesisFit]) -> SingleChecks:
     """:class:`SingleChecks` of the observable one-parameter fits with a finite χ², from one
-    :func:`estimate_parts` (the σ of the intervals and the χ² of the tests share it)."""
+    :func:`estimate_parts` (the σ of the intervals and the χ² of the tests share it); each
+    fit's ``chi2_at_estimate`` is set."""
     todo = [f for f in fits if f.observable and len(f.parameters) == 1
             and math.isfinite(f.chi2)]
     if not todo:
@@ -239,10 +253,15 @@ def check_singles(ranker: Ranker, fits: Sequence[HypothesisFit]) -> SingleChecks
     params = [PARAMETERS[f.parameters[0].name] for f in todo]
     zs = np.array([p.to_z(f.parameters[0].value) for p, f in zip(params, todo, strict=True)])
     parts = estimate_parts(ranker, params, zs)
-    chi2 = chi2_at_estimates(ranker, params, zs, parts)
+    covs = [covariances(m, terms, zs.size)
+            for m, (_, _, terms) in zip(ranker.models, parts, strict=True)]
+    chi2 = _chi2(ranker, parts, covs)
+    for f, c in zip(todo, chi2, strict=True):
+        f.chi2_at_estimate = float(c)
     sigma = condition_sigmas(ranker, params, zs, parts)
     return SingleChecks({f.name: float(c) for f, c in zip(todo, chi2, strict=True)},
-                        {f.name: float(g) for f, g in zip(todo, sigma, strict=True)}, parts)
+                        {f.name: float(g) for f, g in zip(todo, sigma, strict=True)}, parts,
+                        covs)
 
 
 def _at_estimates(m: RecordModel, params: Sequence[FaultParameter], zs: Arr, steps: Arr

@@ -11,7 +11,7 @@ record has a velocity ratio but not both speeds, the ratio index
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from typing import Any
 from weakref import WeakKeyDictionary
@@ -222,7 +222,7 @@ def diagnose(rig: Rig, records: Sequence[MeasurementRecord], *, model_rel: float
     checks = check_singles(ranker, fits)
     at_fit = evidence_at_fit(ranker, fits, checks)
     iso = isolability(ranker, fits, model_rel, checks.chi2)
-    single_sigma = checks.reading_sigma(ranker)
+    single_sigma = checks.reading_sigma()
     gof = goodness_of_fit(ranker, fits, at_fit=checks.chi2, at_fit_sigma=single_sigma)
     notes: list[str] = []
     direct = _direct(rig, records, notes)
@@ -233,7 +233,8 @@ def diagnose(rig: Rig, records: Sequence[MeasurementRecord], *, model_rel: float
             if q is not None:
                 ratio = ratio_index(rig, o.condition, q)
                 break
-    _widen(ranker, fits, {}, checks.sigma, at_fit.pair_sigma)
+    _widen(ranker, fits, {}, {**{name: [sd] for name, sd in checks.sigma.items()},
+                              **at_fit.pair_sigma})
     profiled = _healthy_end(ranker, fits, direct)
     _widen(ranker, [], profiled)
     slip = None
@@ -265,25 +266,22 @@ def _reading_sigma(ranker: Ranker, top: str, at_estimate: dict[str, list[npt.NDA
 
 
 def _widen(ranker: Ranker, fits: list[HypothesisFit], profiled: dict[str, ParameterEstimate],
-           sigma: dict[str, float] | None = None,
-           pair_sigma: dict[str, npt.NDArray[np.float64]] | None = None) -> None:
-    """The stated conditions' uncertainty at the estimate in the intervals of the
-    one-parameter fits ``sigma`` was computed for (by name), of the pairs ``pair_sigma``
-    was (:mod:`diagnostics.evidence_at_fit`) and of the profiles
-    (:mod:`diagnostics.condition_interval`)."""
+           sigma: Mapping[str, Sequence[float] | npt.NDArray[np.float64]] | None = None
+           ) -> None:
+    """The stated conditions' uncertainty at the estimate in the intervals of the fits
+    ``sigma`` holds each parameter's σ_z for (by name: the singles',
+    :mod:`diagnostics.condition_interval`, the pairs', :mod:`diagnostics.evidence_at_fit`)
+    and of the profiles."""
     items = []
     sigmas: list[float] = []
     for f in fits:
-        got = (None if sigma is None or f.name not in sigma else [sigma[f.name]]) or \
-            (None if pair_sigma is None or f.name not in pair_sigma
-             else [float(v) for v in pair_sigma[f.name]])
-        if got is None:
+        if sigma is None or f.name not in sigma:
             continue
-        for est, sd in zip(f.parameters, got, strict=True):
+        for est, sd in zip(f.parameters, sigma[f.name], strict=True):
             p = PARAMETERS[est.name]
             lo, hi = p.worn_bounds(ranker.rig)
             items.append((p, est, p.to_z(lo), p.to_z(hi)))
-            sigmas.append(sd)
+            sigmas.append(float(sd))
     if items:
         widen(ranker, items, sigmas)
     items = []

@@ -50,7 +50,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import numpy.typing as npt
 
-from diagnostics.condition_interval import Parts, SingleChecks, point_parts
+from diagnostics.condition_interval import SingleChecks, covariances, point_parts
 from diagnostics.evidence import map_log_evidence, map_support, posterior
 from diagnostics.hypotheses import PARAMETERS
 from diagnostics.pair_evidence import laplace_evidence
@@ -87,10 +87,9 @@ def evidence_at_fit(ranker: Ranker, fits: list[HypothesisFit], checks: SingleChe
     out = AtFit()
     shift = out.shift
     names = list(checks.chi2)
-    for name, log_ev in zip(names, singles_log_evidence(ranker, names, checks.parts),
+    for name, log_ev in zip(names, singles_log_evidence(ranker, names, checks.covariance),
                             strict=True):
         fit = next(f for f in fits if f.name == name)
-        fit.chi2_at_estimate = checks.chi2[name]
         if log_ev is not None and math.isfinite(log_ev - fit.log_evidence):
             shift[name] = log_ev - fit.log_evidence
     pairs = [f for f in fits if f.observable and len(f.parameters) > 1
@@ -107,26 +106,22 @@ def evidence_at_fit(ranker: Ranker, fits: list[HypothesisFit], checks: SingleChe
     return out
 
 
-def _factors(m: RecordModel, terms: list[Arr], k: int) -> tuple[Arr, npt.NDArray[np.bool_]]:
-    """Record ``m``'s covariance at each of ``k`` estimates (rows of ``terms``;
-    :func:`~diagnostics.condition_interval.at_estimate`, stacked) factored by Cholesky:
-    the lower factors (the identity where there is none) and whether each could be
-    formed."""
-    cov = np.broadcast_to(np.diag(m.diag), (k, m.idx.size, m.idx.size)).copy()
-    with np.errstate(over="ignore", invalid="ignore"):  # a non-finite one is not formed
-        for t in terms:
-            cov += t[:, :, None] * t[:, None, :]
+def _factors(cov: Arr) -> tuple[Arr, npt.NDArray[np.bool_]]:
+    """Stacked covariances ``cov`` (:func:`~diagnostics.condition_interval.covariances`)
+    factored by Cholesky: the lower factors (the identity where there is none) and whether
+    each could be formed."""
+    cov = cov.copy()
     ok = np.asarray(np.isfinite(cov).all(axis=(1, 2)), dtype=np.bool_)
-    cov[~ok] = np.eye(m.idx.size)
+    cov[~ok] = np.eye(cov.shape[1])
     try:
-        return np.linalg.cholesky(cov), ok
+        return np.asarray(np.linalg.cholesky(cov), dtype=np.float64), ok
     except np.linalg.LinAlgError:  # one of them is not positive definite: each on its own
         chol = np.empty_like(cov)
         for i in range(cov.shape[0]):
             try:
                 chol[i] = np.linalg.cholesky(cov[i])
             except np.linalg.LinAlgError:
-                chol[i], ok[i] = np.eye(m.idx.size), False
+                chol[i], ok[i] = np.eye(cov.shape[1]), False
         return chol, ok
 
 
@@ -135,20 +130,21 @@ def _log_det_change(m: RecordModel, chol: Arr) -> Arr:
     return 2.0 * np.sum(np.log(np.diagonal(chol, axis1=-2, axis2=-1)), axis=-1) - m.log_det
 
 
-def singles_log_evidence(ranker: Ranker, names: list[str], parts: Parts
+def singles_log_evidence(ranker: Ranker, names: list[str], covs: list[Arr]
                          ) -> list[float | None]:
     """ln Z of each single fault ``names[i]`` on its signature map with every record's
-    covariance taken at its estimate (row ``i`` of ``parts``,
-    :func:`~diagnostics.condition_interval.estimate_parts`), the Gaussian's normalisation
-    relative to the ranking's included [-]; None where that covariance cannot be formed
-    (a sensitivity without a steady point on either side).  All of them at once."""
+    covariance taken at its estimate (``covs``: per record, row ``i`` stacked;
+    :attr:`~diagnostics.condition_interval.SingleChecks.covariance`), the Gaussian's
+    normalisation relative to the ranking's included [-]; None where that covariance
+    cannot be formed (a sensitivity without a steady point on either side).  All of them
+    at once."""
     if not names:
         return []
     chi2 = np.zeros((len(names), ranker.models[0].maps.maps[names[0]].axes[0].size))
     log_det = np.zeros(len(names))
     ok = np.ones(len(names), dtype=bool)
-    for m, (_, _, terms) in zip(ranker.models, parts, strict=True):
-        chol, formed = _factors(m, terms, len(names))
+    for m, cov in zip(ranker.models, covs, strict=True):
+        chol, formed = _factors(cov)
         ok &= formed
         resid = m.obs.values - np.stack([m.maps.maps[n].pred[:, m.idx] for n in names])
         white = np.linalg.solve(chol, np.swapaxes(resid, 1, 2))
@@ -190,7 +186,7 @@ def pair_at_fit(ranker: Ranker, pairs: list[HypothesisFit]
     ok = np.ones(n_pairs, dtype=bool)
     marginal: list[Arr] = []
     for m, (y0, jac, terms) in zip(ranker.models, parts, strict=True):
-        chol, formed = _factors(m, terms, n_pairs)
+        chol, formed = _factors(covariances(m, terms, n_pairs))
         r = m.obs.values - y0
         ok &= formed & np.isfinite(r).all(axis=1) & np.isfinite(jac).all(axis=(1, 2))
         both = np.concatenate([r[:, :, None], jac], axis=2)  # (pairs, readings, 1 + width)

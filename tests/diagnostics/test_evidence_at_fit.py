@@ -8,7 +8,12 @@ import math
 import numpy as np
 import pytest
 
-from diagnostics.condition_interval import SingleChecks, check_singles, point_parts
+from diagnostics.condition_interval import (
+    SingleChecks,
+    check_singles,
+    covariances,
+    point_parts,
+)
 from diagnostics.diagnose import diagnose
 from diagnostics.evidence import map_log_evidence, map_support
 from diagnostics.evidence_at_fit import evidence_at_fit, pair_at_fit, singles_log_evidence
@@ -143,9 +148,9 @@ def test_without_a_covariance_nothing_moves(rig):
     ranker = Ranker(rig, _visit(rig, 3.0, 40.0, (1.0, -1.0, 1.0)))
     fits = ranker.rank()
     name = next(f.name for f in fits if len(f.parameters) == 1)
-    nan_parts = [(np.full((1, m.idx.size), np.nan), np.full((1, m.idx.size), np.nan),
-                  [np.full((1, m.idx.size), np.nan)]) for m in ranker.models]
-    assert singles_log_evidence(ranker, [name], nan_parts) == [None]
+    nan_terms = [np.full((1, m.idx.size), np.nan) for m in ranker.models]
+    nan_covs = [covariances(m, [t], 1) for m, t in zip(ranker.models, nan_terms, strict=True)]
+    assert singles_log_evidence(ranker, [name], nan_covs) == [None]
     before = {f.name: f.log_evidence for f in fits}
     evidence_at_fit(ranker, fits, SingleChecks())
     pairs = [f for f in fits if len(f.parameters) == 2 and math.isfinite(f.log_evidence)]
