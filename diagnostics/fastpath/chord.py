@@ -126,7 +126,8 @@ def chord(y0, p, mask, scale, tol, y, jac, piv, f, dy):  # type: ignore[no-untyp
 
 
 def solve_grid(pw0, pr0, gidx, grid, mask, scale, last_w, last_r, nom_w, nom_r, oi, out,  # type: ignore[no-untyped-def]
-               ok, nout, restart, use_chord, counts, creep, y0, ys, drv):
+               ok, nout, restart, use_chord, counts, creep, y0, ys, drv, jac, piv, valid,
+               hjac, hpiv, hvalid):
     """Both phases' steady points and the observables at every row of ``grid`` (graph
     parameters ``gidx``); ``ok[k]`` False (and NaN) where no start converged.
 
@@ -143,26 +144,19 @@ def solve_grid(pw0, pr0, gidx, grid, mask, scale, last_w, last_r, nom_w, nom_r, 
     failures by :func:`chord`'s reason (1-4), and the damped solves (5).  Out per row:
     ``ys[k]`` the solutions of both phases, ``drv[k]`` their
     :func:`~diagnostics.fastpath.phase.drive` at speed ``creep`` [m/s] (NaN where none).
+    ``jac``, ``piv``, ``valid`` and ``hjac``, ``hpiv``, ``hvalid``: per phase the factored
+    Jacobians of the moving and the held state (:func:`~diagnostics.fastpath.phase.
+    phase_solve`), the caller's, so that a grid starts from the last one's (its context
+    keeps them: the first row of a call is no longer a damped solve and a Jacobian built
+    afresh for each phase).
     """
     pw = pw0.copy()
     pr = pr0.copy()
     ow = np.empty(nout)
     orr = np.empty(nout)
     ns = last_w.size
-    m = 0
-    for i in range(ns):
-        if mask[i] != 0:
-            m += 1
+    m = jac.shape[1]
     hmask = held_mask(mask)
-    mh = 0
-    for i in range(ns):
-        mh += hmask[i]
-    jac = np.empty((2, m, m))
-    piv = np.zeros((2, m), dtype=np.int64)
-    valid = np.zeros(2, dtype=np.bool_)
-    hjac = np.empty((2, mh, mh))
-    hpiv = np.zeros((2, mh), dtype=np.int64)
-    hvalid = np.zeros(2, dtype=np.bool_)
     f = np.empty(ns)
     ft = np.empty(ns)
     yt = np.empty(ns)

@@ -176,7 +176,9 @@ class Context:
         self.kernels.solve_grid(self.params[0], self.params[1], self.gidx,
                                 np.ascontiguousarray(grid), self.mask, self.scale, s[0], s[1],
                                 s[2], s[3], self.oi, out, ok, self.nout, flags,
-                                self.use_chord, self.counts, self.creep, y0, ys, drv)
+                                self.use_chord, self.counts, self.creep, y0, ys, drv,
+                                self.jac, self.piv, self.jac_valid, self.hjac, self.hpiv,
+                                self.hjac_valid)
         return out, ok, ys, drv
 
     def nominal(self, base: Arr) -> Arr:
