@@ -60,7 +60,7 @@ if TYPE_CHECKING:
 
 __all__ = ["STEP", "Parts", "SingleChecks", "check_singles", "chi2_at_estimates",
            "condition_sigmas", "covariances", "difference_steps", "estimate_parts",
-           "point_parts", "widen"]
+           "joint_parts", "observable_pairs", "pair_points", "point_parts", "widen"]
 
 Arr = npt.NDArray[np.float64]
 
@@ -78,14 +78,7 @@ def estimate_parts(ranker: Ranker, params: Sequence[FaultParameter], zs: Arr) ->
     """:data:`Parts` of the one-parameter estimates ``zs[i]`` of ``params[i]``: on the
     signature maps where they can be, then one compiled call per record and moved
     condition for all of them."""
-    zs = np.asarray(zs, dtype=np.float64)
-    steps = difference_steps(ranker, params)
-    points = [((p,), (float(z),)) for p, z in zip(params, zs, strict=True)]
-    out: Parts = []
-    for m in ranker.models:
-        y0, jac = _at_estimates(m, params, zs, steps)
-        out.append((y0, jac, _condition_terms(m, points, y0)))
-    return out
+    return joint_parts(ranker, params, zs, [])[0]
 
 
 def point_parts(ranker: Ranker, points: Sequence[Point]) -> Parts:
@@ -93,6 +86,18 @@ def point_parts(ranker: Ranker, points: Sequence[Point]) -> Parts:
     predictions and their central differences ``∂ŷ/∂z_k`` (:func:`difference_steps`;
     axes: estimates, readings, parameters) solved together, one compiled call per record,
     then the condition terms."""
+    return joint_parts(ranker, [], np.empty(0), points)[1]
+
+
+def joint_parts(ranker: Ranker, params: Sequence[FaultParameter], zs: Arr,
+                points: Sequence[Point]) -> tuple[Parts, Parts]:
+    """:func:`estimate_parts` of the one-parameter estimates ``zs[i]`` of ``params[i]``
+    and :func:`point_parts` of ``points``, their condition terms solved together: one
+    compiled call per record and moved condition for both (the pairs' and the singles'
+    estimates at a moved condition were two calls each)."""
+    zs = np.asarray(zs, dtype=np.float64)
+    s_steps = difference_steps(ranker, params)
+    singles: list[Point] = [((p,), (float(z),)) for p, z in zip(params, zs, strict=True)]
     steps = [difference_steps(ranker, ps) for ps, _ in points]
     moves: list[Point] = []
     for (ps, z), step in zip(points, steps, strict=True):
@@ -102,18 +107,26 @@ def point_parts(ranker: Ranker, points: Sequence[Point]) -> Parts:
                 moved[k] += sign * float(step[k])
                 moves.append((ps, tuple(moved)))
     width = max((len(ps) for ps, _ in points), default=0)
-    out: Parts = []
+    every = [*singles, *points]
+    n = len(singles)
+    out_s: Parts = []
+    out_p: Parts = []
     for m in ranker.models:
-        y = m.maps.observables_at_points([*points, *moves])[:, m.idx]
-        y0, ym = y[:len(points)], y[len(points):]
-        jac = np.full((len(points), m.idx.size, width), np.nan)
-        at = 0
-        for j, step in enumerate(steps):
-            n = 2 * step.size
-            jac[j, :, :step.size] = (ym[at:at + n:2] - ym[at + 1:at + n:2]).T / (2.0 * step)
-            at += n
-        out.append((y0, jac, _condition_terms(m, points, y0)))
-    return out
+        y0_s, jac_s = _at_estimates(m, params, zs, s_steps)
+        y0_p = np.empty((0, m.idx.size))
+        jac_p = np.full((len(points), m.idx.size, width), np.nan)
+        if points:
+            y = m.maps.observables_at_points([*points, *moves])[:, m.idx]
+            y0_p, ym = y[:len(points)], y[len(points):]
+            at = 0
+            for j, step in enumerate(steps):
+                k = 2 * step.size
+                jac_p[j, :, :step.size] = (ym[at:at + k:2] - ym[at + 1:at + k:2]).T / (2.0 * step)
+                at += k
+        terms = _condition_terms(m, every, np.concatenate([y0_s, y0_p]))
+        out_s.append((y0_s, jac_s, [t[:n] for t in terms]))
+        out_p.append((y0_p, jac_p, [t[n:] for t in terms]))
+    return out_s, out_p
 
 
 def condition_sigmas(ranker: Ranker, params: Sequence[FaultParameter], zs: Arr,
@@ -171,7 +184,7 @@ def _condition_terms(m: RecordModel, points: Sequence[Point], y0: Arr) -> list[A
     terms = []
     for u, moved in condition_moves(m.obs):
         sens = np.full_like(y0, np.nan)
-        for cond, step in moved:  # the other side only where the first has no point
+        for cond, step in moved if points else ():  # the other side only where the first has no point
             y = m.maps.observables_at_points(points, cond)[:, m.idx]
             sens = np.where(np.isnan(sens), (y - y0) / step, sens)
             if not np.isnan(sens).any():
@@ -234,6 +247,11 @@ class SingleChecks:
     parts: Parts = field(default_factory=list)
     #: per record, the covariance at each estimate (:func:`covariances`) [SI²]
     covariance: list[Arr] = field(default_factory=list)
+    #: the observable pairs' estimates (:func:`pair_points`) and their :data:`Parts`
+    #: (:func:`point_parts`), solved with the singles' (:func:`joint_parts`) for
+    #: :func:`diagnostics.evidence_at_fit.pair_at_fit`
+    pair_points: list[Point] = field(default_factory=list)
+    pair_parts: Parts = field(default_factory=list)
 
     def reading_sigma(self) -> dict[str, list[Arr]]:
         """Per fit (by name) and record, each reading's marginal σ with the covariance at
@@ -242,17 +260,37 @@ class SingleChecks:
                 for i, name in enumerate(self.chi2)}
 
 
+def observable_pairs(fits: Sequence[HypothesisFit]) -> list[HypothesisFit]:
+    """The fitted pairs whose evidence moves to their estimates
+    (:func:`diagnostics.evidence_at_fit.pair_at_fit`): observable, finite evidence."""
+    return [f for f in fits if f.observable and len(f.parameters) > 1
+            and math.isfinite(f.log_evidence)]
+
+
+def pair_points(fits: Sequence[HypothesisFit]) -> list[Point]:
+    """The estimates of fits ``fits`` as points: their parameters and fitting
+    coordinates."""
+    out: list[Point] = []
+    for f in fits:
+        ps = tuple(PARAMETERS[e.name] for e in f.parameters)
+        out.append((ps, tuple(float(p.to_z(e.value)) for p, e in zip(ps, f.parameters,
+                                                                     strict=True))))
+    return out
+
+
 def check_singles(ranker: Ranker, fits: Sequence[HypothesisFit]) -> SingleChecks:
     """:class:`SingleChecks` of the observable one-parameter fits with a finite χ², from one
     :func:`estimate_parts` (the σ of the intervals and the χ² of the tests share it); each
-    fit's ``chi2_at_estimate`` is set."""
+    fit's ``chi2_at_estimate`` is set.  The observable pairs' :func:`point_parts` are
+    solved with them (:func:`joint_parts`) and kept."""
     todo = [f for f in fits if f.observable and len(f.parameters) == 1
             and math.isfinite(f.chi2)]
     if not todo:
         return SingleChecks()
     params = [PARAMETERS[f.parameters[0].name] for f in todo]
     zs = np.array([p.to_z(f.parameters[0].value) for p, f in zip(params, todo, strict=True)])
-    parts = estimate_parts(ranker, params, zs)
+    points = pair_points(observable_pairs(fits))
+    parts, p_parts = joint_parts(ranker, params, zs, points)
     covs = [covariances(m, terms, zs.size)
             for m, (_, _, terms) in zip(ranker.models, parts, strict=True)]
     chi2 = _chi2(ranker, parts, covs)
@@ -261,7 +299,7 @@ def check_singles(ranker: Ranker, fits: Sequence[HypothesisFit]) -> SingleChecks
     sigma = condition_sigmas(ranker, params, zs, parts)
     return SingleChecks({f.name: float(c) for f, c in zip(todo, chi2, strict=True)},
                         {f.name: float(g) for f, g in zip(todo, sigma, strict=True)}, parts,
-                        covs)
+                        covs, points, p_parts)
 
 
 def _at_estimates(m: RecordModel, params: Sequence[FaultParameter], zs: Arr, steps: Arr

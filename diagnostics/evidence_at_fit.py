@@ -50,7 +50,14 @@ from typing import TYPE_CHECKING
 import numpy as np
 import numpy.typing as npt
 
-from diagnostics.condition_interval import SingleChecks, covariances, point_parts
+from diagnostics.condition_interval import (
+    Parts,
+    SingleChecks,
+    covariances,
+    observable_pairs,
+    pair_points,
+    point_parts,
+)
 from diagnostics.evidence import map_log_evidence, map_support, posterior
 from diagnostics.hypotheses import PARAMETERS
 from diagnostics.pair_evidence import laplace_evidence
@@ -92,9 +99,9 @@ def evidence_at_fit(ranker: Ranker, fits: list[HypothesisFit], checks: SingleChe
         fit = next(f for f in fits if f.name == name)
         if log_ev is not None and math.isfinite(log_ev - fit.log_evidence):
             shift[name] = log_ev - fit.log_evidence
-    pairs = [f for f in fits if f.observable and len(f.parameters) > 1
-             and math.isfinite(f.log_evidence)]
-    for f, got in zip(pairs, pair_at_fit(ranker, pairs), strict=True):
+    pairs = observable_pairs(fits)
+    known = checks.pair_parts if checks.pair_points == pair_points(pairs) else None
+    for f, got in zip(pairs, pair_at_fit(ranker, pairs, known), strict=True):
         if got is not None and math.isfinite(got[0]):
             (shift[f.name], out.pair_sigma[f.name], out.pair_reading_sigma[f.name],
              f.chi2_at_estimate) = got
@@ -155,7 +162,7 @@ def singles_log_evidence(ranker: Ranker, names: list[str], covs: list[Arr]
             if ok[i] else None for i, n in enumerate(names)]
 
 
-def pair_at_fit(ranker: Ranker, pairs: list[HypothesisFit]
+def pair_at_fit(ranker: Ranker, pairs: list[HypothesisFit], parts: Parts | None = None
                 ) -> list[tuple[float, Arr, list[Arr], float] | None]:
     """Per pair, the change of its ln Z from the ranking's covariance ``C_h`` to the one at
     its estimate ``C`` [-], its parameters' σ_z with the stated condition there [fitting
@@ -170,14 +177,16 @@ def pair_at_fit(ranker: Ranker, pairs: list[HypothesisFit]
     sandwich of the estimator the fit used, ``A⁻¹ B A⁻¹`` with ``A = Σ Jᵀ C_h⁻¹ J`` and
     ``B = Σ Jᵀ C_h⁻¹ C C_h⁻¹ J`` (:mod:`diagnostics.condition_interval` for one
     parameter); with the condition stated exactly it is the Gauss-Newton σ.  All pairs
-    at once, per record."""
+    at once, per record; ``parts``: the pairs' :func:`~diagnostics.condition_interval.
+    point_parts` where already solved (:attr:`~diagnostics.condition_interval.
+    SingleChecks.pair_parts`)."""
     if not pairs:
         return []
     params = [tuple(PARAMETERS[e.name] for e in f.parameters) for f in pairs]
     zs = [np.array([p.to_z(e.value) for p, e in zip(ps, f.parameters, strict=True)])
           for ps, f in zip(params, pairs, strict=True)]
-    parts = point_parts(ranker, [(ps, tuple(float(v) for v in z))
-                                 for ps, z in zip(params, zs, strict=True)])
+    if parts is None:
+        parts = point_parts(ranker, pair_points(pairs))
     n_pairs, width = len(pairs), max(len(ps) for ps in params)
     cost = np.zeros((2, n_pairs))
     jacs: list[list[Arr]] = [[], []]  # per whitening, per record: (pairs, readings, width)
