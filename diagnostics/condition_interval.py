@@ -142,16 +142,19 @@ def condition_sigmas(ranker: Ranker, params: Sequence[FaultParameter], zs: Arr,
     num = np.zeros(n)
     den = np.zeros(n)
     for m, (y0, jac, terms) in zip(ranker.models, parts, strict=True):
-        fitted = np.linalg.inv(m.white.T @ m.white)  # the covariance the fit weighs by
         whole = np.isfinite(jac).all(axis=1) & np.isfinite(y0).all(axis=1)
         for t in terms:
             whole &= np.isfinite(t).all(axis=1)
         if whole.any():  # every reading predicted: all estimates at once
-            w = np.linalg.solve(fitted, jac[whole].T).T  # rows: the estimates' weights
+            # rows: the estimates' weights C_h⁻¹ J, with C_h⁻¹ = WᵀW (the fit's whitening)
+            w = (jac[whole] @ m.white.T) @ m.white
             num[whole] += np.sum(m.diag * w * w, axis=1) + sum(
                 np.sum(t[whole] * w, axis=1) ** 2 for t in terms)
             den[whole] += np.sum(jac[whole] * w, axis=1)
-        for i in np.flatnonzero(~whole):
+        partial = np.flatnonzero(~whole)
+        # the covariance the fit weighs by, where a reading has no prediction (its block)
+        fitted = np.linalg.inv(m.white.T @ m.white) if partial.size else m.white
+        for i in partial:
             cols = [t[i] for t in terms]
             ok = np.isfinite(jac[i]) & np.isfinite(y0[i])
             for c in cols:
