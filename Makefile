@@ -5,7 +5,7 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed-stamp
 export HYDRODIAG_CACHE_DIR ?= $(CURDIR)/.hydrodiag-cache
 
-.PHONY: run test lint bench accuracy pump-study load-bench console-bench screenshots real-data chaos discrepancy-study discrepancy-effects discrepancy-paper000 diagnose-bench clean
+.PHONY: run test lint bench accuracy pump-study load-bench console-bench screenshots real-data chaos discrepancy-study discrepancy-effects discrepancy-paper000 diagnose-bench diagnose-ab clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -44,6 +44,11 @@ load-bench: $(STAMP)
 # in-process diagnose(): fast (compiled) vs direct path, warm and at new conditions; batches
 diagnose-bench: $(STAMP)
 	$(PY) -m benchmarks.diagnose_bench
+
+# the same diagnose() against an older tree, interleaved: make diagnose-ab BASE=/tmp/base
+# (git worktree add /tmp/base REV first)
+diagnose-ab: $(STAMP)
+	$(PY) -m benchmarks.diagnose_ab $(BASE) $(ROUNDS)
 
 console-bench: $(STAMP)
 	$(PY) -m benchmarks.console_bench
