@@ -233,7 +233,8 @@ class Job(Base):
     __tablename__ = "jobs"
     __table_args__ = (
         CheckConstraint(
-            "status IN ('queued', 'running', 'succeeded', 'failed')", name="status"
+            "status IN ('queued', 'running', 'succeeded', 'failed', 'cancelled')",
+            name="status"
         ),
         CheckConstraint("progress >= 0 AND progress <= 1", name="progress"),
         Index(None, "status"),
@@ -251,6 +252,9 @@ class Job(Base):
     started_at: Mapped[datetime | None] = mapped_column(UTCDateTime())
     finished_at: Mapped[datetime | None] = mapped_column(UTCDateTime())
     updated_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=utcnow, onupdate=utcnow)
+    #: when a cancel was asked of the job while it ran (it stops at its next progress
+    #: report, :class:`app.services.jobs.Progress`)
+    cancel_requested_at: Mapped[datetime | None] = mapped_column(UTCDateTime())
 
 
 class ApiKey(Base):

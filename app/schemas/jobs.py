@@ -11,11 +11,12 @@ from app.schemas.common import Page, PublicModel, Timestamp
 
 __all__ = ["JobList", "JobPublic", "JobStatus"]
 
-JobStatus = Literal["queued", "running", "succeeded", "failed"]
+JobStatus = Literal["queued", "running", "succeeded", "failed", "cancelled"]
 
 
 class JobPublic(PublicModel):
-    """A job's state; ``result`` is filled when it succeeded, ``error`` when it failed."""
+    """A job's state; ``result`` is filled when it succeeded, ``error`` when it failed or
+    was cancelled."""
 
     id: str = Field(
         description="Job identifier (UUID) [-]", examples=["1b4e28ba-2fa1-11d2-883f-0016d3cca427"]
@@ -45,7 +46,11 @@ class JobPublic(PublicModel):
         description="When a worker took the job [UTC]", examples=["2026-11-22T08:30:01Z"]
     )
     finished_at: datetime | None = Field(
-        description="When the job succeeded or failed [UTC]", examples=[None]
+        description="When the job succeeded, failed or was cancelled [UTC]", examples=[None]
+    )
+    cancel_requested_at: datetime | None = Field(
+        description="When a cancel was asked of the job while it ran; it stops at its next "
+        "progress report [UTC]", examples=[None]
     )
 
 

@@ -13,6 +13,14 @@ JSON-ready result::
 
 The threads only orchestrate: CPU-heavy work inside a job fans out to processes (or a Dask
 cluster) through the executor that ``diagnostics`` chooses.
+
+A job can be cancelled (:func:`cancel_job`, ``POST /jobs/{id}/cancel``): a queued one at
+once (it never starts); a running one is asked to stop — ``cancel_requested_at`` is set in
+the store, which every server process shares — and stops at its next progress report that
+is written (every :data:`PROGRESS_STEP` of progress),
+where :class:`Progress` raises :class:`JobCancelledError` (a job function that fans work out
+cancels what has not started on its way out).  A job that finishes before it looks keeps
+its result.
 """
 
 from __future__ import annotations
@@ -31,10 +39,10 @@ from app.db.engine import SessionFactory
 from app.db.models import Job
 from app.schemas.jobs import JobStatus
 from app.services.common import get_or_raise, paginate
-from sim.errors import HydrodiagError
+from sim.errors import ConflictError, HydrodiagError
 
-__all__ = ["JobFunction", "JobRunner", "Progress", "fail_interrupted_jobs", "get_job",
-           "list_jobs"]
+__all__ = ["JobCancelledError", "JobFunction", "JobRunner", "Progress", "cancel_job",
+           "fail_interrupted_jobs", "get_job", "list_jobs"]
 
 logger = logging.getLogger("hydrodiag.jobs")
 
@@ -42,11 +50,17 @@ logger = logging.getLogger("hydrodiag.jobs")
 PROGRESS_STEP = 0.01
 
 
+class JobCancelledError(Exception):
+    """Raised in a running job by :class:`Progress` once a cancel was asked of it."""
+
+
 class Progress:
     """Reports a job's progress to the store; call it with a fraction in [0, 1].
 
     Writes are skipped until the fraction has grown by :data:`PROGRESS_STEP`, so a job may
-    report after every case without flooding the store.
+    report after every case without flooding the store.  A write that finds a cancel asked
+    of the job (``cancel_requested_at`` set) raises :class:`JobCancelledError` instead: the
+    same statement writes and looks.
     """
 
     def __init__(self, sessions: SessionFactory, job_id: str) -> None:
@@ -62,12 +76,14 @@ class Progress:
             return
         self._written = fraction
         with self._sessions() as session:
-            session.execute(
+            written = session.execute(
                 update(Job)
-                .where(Job.id == self._job_id)
+                .where(Job.id == self._job_id, Job.cancel_requested_at.is_(None))
                 .values(progress=fraction, message=message, updated_at=utcnow())
             )
             session.commit()
+        if not getattr(written, "rowcount", 1):
+            raise JobCancelledError(self._job_id)
 
 
 JobFunction = Callable[[dict[str, Any], Progress], Mapping[str, Any]]
@@ -114,22 +130,33 @@ class JobRunner:
         future.add_done_callback(_log_crash)
         return job
 
-    def _set(self, job_id: str, **values: Any) -> None:
+    def _set(self, job_id: str, *, when: str | None = None, **values: Any) -> bool:
+        """Update job ``job_id`` (only while its status is ``when``, if given); whether a
+        row was updated."""
+        statement = update(Job).where(Job.id == job_id)
+        if when is not None:
+            statement = statement.where(Job.status == when)
         with self._sessions() as session:
-            session.execute(update(Job).where(Job.id == job_id).values(updated_at=utcnow(),
-                                                                          **values))
+            done = session.execute(statement.values(updated_at=utcnow(), **values))
             session.commit()
+        return bool(getattr(done, "rowcount", 1))
 
     def _run(self, job_id: str, params: dict[str, Any], function: JobFunction) -> None:
-        self._set(job_id, status="running", started_at=utcnow())
+        if not self._set(job_id, when="queued", status="running", started_at=utcnow()):
+            return  # cancelled while it waited for a thread
         try:
             result = dict(function(params, Progress(self._sessions, job_id)))
+        except JobCancelledError:
+            self._set(job_id, when="running", status="cancelled", finished_at=utcnow(),
+                      error=_CANCELLED)
+            return
         except Exception as exc:
             if not isinstance(exc, HydrodiagError):
                 logger.exception("job %s failed", job_id)
-            self._set(job_id, status="failed", error=_error_of(exc), finished_at=utcnow())
+            self._set(job_id, when="running", status="failed", error=_error_of(exc),
+                      finished_at=utcnow())
             return
-        self._set(job_id, status="succeeded", progress=1.0, result=result,
+        self._set(job_id, when="running", status="succeeded", progress=1.0, result=result,
                   finished_at=utcnow())
 
     def shutdown(self, *, wait: bool = True) -> None:
@@ -141,6 +168,41 @@ def _log_crash(future: Future[None]) -> None:
     exc = future.exception() if not future.cancelled() else None
     if exc is not None:
         logger.error("job bookkeeping failed: %s", exc)
+
+
+#: the ``error`` of a cancelled job
+_CANCELLED = {"type": "JobCancelledError", "message": "cancelled on request", "field": None}
+
+
+def cancel_job(session: Session, job_id: str) -> Job:
+    """Cancel job ``job_id``: a queued one at once (status ``cancelled``), a running one by
+    asking it to stop (``cancel_requested_at``; see the module docstring); asking again,
+    or of a cancelled job, changes nothing.  Returns the job as it is then.
+
+    Raises
+    ------
+    NotFoundError
+        No such job.
+    ConflictError
+        The job has already succeeded or failed (before the cancel reached it).
+    """
+    job = get_job(session, job_id)
+    if job.status in ("queued", "running"):
+        now = utcnow()
+        queued = session.execute(
+            update(Job).where(Job.id == job_id, Job.status == "queued")
+            .values(status="cancelled", finished_at=now, updated_at=now, error=_CANCELLED))
+        if not getattr(queued, "rowcount", 0):
+            session.execute(
+                update(Job).where(Job.id == job_id, Job.status == "running",
+                                  Job.cancel_requested_at.is_(None))
+                .values(cancel_requested_at=now, updated_at=now))
+        session.commit()
+        session.refresh(job)
+    if job.status in ("succeeded", "failed"):
+        raise ConflictError(f"job {job_id} has already finished ({job.status}); there is "
+                            "nothing to cancel", field="job_id")
+    return job
 
 
 def get_job(session: Session, job_id: str) -> Job:
@@ -166,8 +228,14 @@ def list_jobs(
 
 
 def fail_interrupted_jobs(session: Session) -> int:
-    """Mark jobs left queued or running by a stopped service as failed; return how many."""
+    """Mark jobs left queued or running by a stopped service as failed (those asked to
+    stop as cancelled); return how many."""
     now = utcnow()
+    cancelled = session.execute(
+        update(Job)
+        .where(Job.status == "running", Job.cancel_requested_at.is_not(None))
+        .values(status="cancelled", finished_at=now, updated_at=now, error=_CANCELLED)
+    )
     result = session.execute(
         update(Job)
         .where(Job.status.in_(("queued", "running")))
@@ -181,4 +249,5 @@ def fail_interrupted_jobs(session: Session) -> int:
         )
     )
     session.commit()
-    return int(getattr(result, "rowcount", 0) or 0)
+    return int(getattr(result, "rowcount", 0) or 0) + int(getattr(cancelled, "rowcount", 0)
+                                                           or 0)

@@ -150,7 +150,9 @@ def run_sweep(plan: SweepPlan, executor: Executor,
     executor
         Any ``concurrent.futures``-shaped executor (process pool, Dask client executor).
     progress
-        Called with the fraction done [1] and a note after each chunk.
+        Called with the fraction done [1] and a note after each chunk; when it raises (a
+        cancelled job, :class:`app.services.jobs.JobCancelledError`) the chunks not started are
+        cancelled and the exception goes on.
 
     Returns
     -------
@@ -170,14 +172,19 @@ def run_sweep(plan: SweepPlan, executor: Executor,
         futures[executor.submit(evaluate_chunk, document, method, chunk)] = start
     outcomes: list[Mapping[str, Any] | None] = [None] * len(points)
     done = 0
-    for future in as_completed(futures):
-        start = futures[future]
-        chunk_result: Sequence[Mapping[str, Any]] = future.result()
-        for offset, outcome in enumerate(chunk_result):
-            outcomes[start + offset] = outcome
-        done += len(chunk_result)
-        if progress is not None:
-            progress(done / len(points), f"point {done} of {len(points)}")
+    try:
+        for future in as_completed(futures):
+            start = futures[future]
+            chunk_result: Sequence[Mapping[str, Any]] = future.result()
+            for offset, outcome in enumerate(chunk_result):
+                outcomes[start + offset] = outcome
+            done += len(chunk_result)
+            if progress is not None:
+                progress(done / len(points), f"point {done} of {len(points)}")
+    except BaseException:  # a cancelled job (or a failure): the chunks not started go
+        for future in futures:
+            future.cancel()
+        raise
     rows, errors = [], []
     blank: list[float | None] = [None] * len(SUMMARY_COLUMNS)
     for i, (point, maybe) in enumerate(zip(points, outcomes, strict=True)):

@@ -9,7 +9,7 @@ from typing import Any
 import pytest
 
 from app.db.models import Job
-from app.services.jobs import JobRunner, Progress
+from app.services.jobs import JobFunction, JobRunner, Progress
 from sim.errors import SimulationError
 from tests.app.live import LiveServer, live_server, sqlite_settings
 
@@ -124,3 +124,91 @@ def test_jobs_cut_off_by_a_stop_are_marked_failed_at_start(
         assert body["status"] == "failed"
         assert body["error"]["type"] == "ServiceUnavailableError"
         assert body["progress"] == 0.4
+
+
+def _until_cancelled(started: threading.Event) -> JobFunction:
+    """A job that reports progress every few milliseconds until it is stopped (at most
+    :data:`POLL_TIMEOUT_S`), counting its reports."""
+    def run(params: dict[str, Any], progress: Progress) -> dict[str, Any]:
+        deadline = time.monotonic() + POLL_TIMEOUT_S
+        step = 0
+        while time.monotonic() < deadline:
+            step += 1
+            progress(min(0.9, step / 1000), f"step {step}")
+            started.set()
+            time.sleep(0.005)
+        return {"steps": step}
+    return run
+
+
+def test_a_running_job_stops_at_its_next_progress_report(server: LiveServer) -> None:
+    started = threading.Event()
+    job = server.app.state.jobs.submit("endless", {}, _until_cancelled(started))
+    assert started.wait(POLL_TIMEOUT_S)
+    asked = server.client.post(f"/jobs/{job.id}/cancel")
+    assert asked.status_code == 202, asked.text
+    assert asked.json()["cancel_requested_at"] is not None
+    assert asked.json()["status"] in ("running", "cancelled")
+    done = _wait_for(server, job.id, {"succeeded", "failed", "cancelled"})
+    assert done["status"] == "cancelled"
+    assert done["error"] == {"type": "JobCancelledError", "message": "cancelled on request",
+                             "field": None}
+    assert done["result"] is None
+    assert done["cancel_requested_at"] <= done["finished_at"]
+    # it stopped where it was: the progress stored is the last written before the cancel
+    # (writes come every 1 %: 0 when the cancel came before the first)
+    assert 0.0 <= done["progress"] < 0.9
+    # asking again changes nothing; the list finds it by its status
+    again = server.client.post(f"/jobs/{job.id}/cancel")
+    assert again.status_code == 202 and again.json()["status"] == "cancelled"
+    assert again.json()["finished_at"] == done["finished_at"]
+    listed = server.client.get("/jobs", params={"status": "cancelled", "kind": "endless"})
+    assert [j["id"] for j in listed.json()["items"]] == [job.id]
+
+
+def test_a_queued_job_is_cancelled_before_it_starts(server: LiveServer) -> None:
+    release = threading.Event()
+    ran: list[str] = []
+
+    def blocks(params: dict[str, Any], progress: Progress) -> dict[str, Any]:
+        release.wait(POLL_TIMEOUT_S)
+        return {}
+
+    def records(params: dict[str, Any], progress: Progress) -> dict[str, Any]:
+        ran.append("ran")
+        return {}
+
+    runner: JobRunner = server.app.state.jobs
+    blockers = [runner.submit("blocker", {}, blocks) for _ in range(server.settings.job_workers)]
+    for b in blockers:
+        _wait_for(server, b.id, {"running"})
+    waiting = runner.submit("waiting", {}, records)
+    assert server.client.get(f"/jobs/{waiting.id}").json()["status"] == "queued"
+    cancelled = server.client.post(f"/jobs/{waiting.id}/cancel")
+    assert cancelled.status_code == 202
+    body = cancelled.json()
+    assert (body["status"], body["started_at"], body["cancel_requested_at"]) == (
+        "cancelled", None, None)
+    assert body["finished_at"] is not None
+    release.set()
+    for b in blockers:
+        assert _wait_for(server, b.id, {"succeeded", "failed"})["status"] == "succeeded"
+    time.sleep(0.1)  # the freed thread takes the cancelled job and must leave it alone
+    assert ran == []
+    assert server.client.get(f"/jobs/{waiting.id}").json()["status"] == "cancelled"
+
+
+def test_finished_unknown_and_keyless_cancels_are_refused(server: LiveServer) -> None:
+    runner: JobRunner = server.app.state.jobs
+    job = runner.submit("short", {"n": 3}, _sum_of_squares)
+    _wait_for(server, job.id, {"succeeded"})
+    refused = server.client.post(f"/jobs/{job.id}/cancel")
+    assert refused.status_code == 409
+    assert refused.json()["error"]["field"] == "job_id"
+    assert "succeeded" in refused.json()["error"]["message"]
+    after = server.client.get(f"/jobs/{job.id}").json()
+    assert (after["status"], after["cancel_requested_at"]) == ("succeeded", None)
+    assert server.client.post(
+        "/jobs/00000000-0000-0000-0000-000000000000/cancel").status_code == 404
+    assert server.anon.post(f"/jobs/{job.id}/cancel").status_code == 401
+

@@ -7,7 +7,7 @@ from typing import Annotated, Any, Literal
 from fastapi import APIRouter, Path, Query
 from fastapi.responses import HTMLResponse
 
-from app.api.deps import PageDep, ReadAccess, SessionDep
+from app.api.deps import PageDep, ReadAccess, SessionDep, WriteKeyDep
 from app.schemas.common import ERROR_RESPONSES
 from app.schemas.jobs import JobList, JobPublic, JobStatus
 from app.services import jobs as service
@@ -57,3 +57,19 @@ def get_job(
                              f"{job.kind!r})", field="format")
         return HTMLResponse(page)
     return JobPublic.model_validate(job)
+
+
+@router.post("/{job_id}/cancel", summary="Cancel a job", response_model=JobPublic,
+             status_code=202)
+def cancel_job(
+    job_id: Annotated[str, Path(max_length=36, description="Job identifier (UUID) [-]",
+                                examples=["1b4e28ba-2fa1-11d2-883f-0016d3cca427"])],
+    session: SessionDep,
+    _key: WriteKeyDep,
+) -> Any:
+    """Cancel a job: a queued one at once (``status`` ``cancelled``), a running one at its
+    next progress report (``cancel_requested_at`` set now; poll ``GET /jobs/{id}`` until
+    ``status`` is ``cancelled``, or ``succeeded`` if it finished first).  Asking again, or
+    of a cancelled job, changes nothing; a job that has succeeded or failed is answered
+    409."""
+    return JobPublic.model_validate(service.cancel_job(session, job_id))
