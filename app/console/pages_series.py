@@ -29,7 +29,7 @@ from app.services import rigs as rig_service
 from app.services import series as series_service
 from app.services.discrepancy import plan_discrepancy, submit_discrepancy
 from diagnostics.real.relaxation import ZEMA_RELAXATION
-from sim.errors import HydrodiagError, InputError
+from sim.errors import ConflictError, HydrodiagError, InputError
 
 __all__ = ["router"]
 
@@ -105,11 +105,35 @@ async def check(request: Request, session: SessionDep, rigs: RigsDep, _key: Cons
 @router.get("/jobs/{job_id}")
 def job_page(request: Request, session: SessionDep, _key: ConsoleKeyDep,
              job_id: Annotated[str, Path(max_length=36)]) -> Response:
-    """A job's state; reloads itself every 2 s until it is done; a finished check's verdict,
-    named effects and a link to its report."""
+    """A job's state; reloads itself every 2 s until it is done, with a button that cancels
+    it; a finished check's verdict, named effects and a link to its report."""
+    return _job_page(request, session, job_id)
+
+
+def _job_page(request: Request, session: SessionDep, job_id: str,
+              error: dict[str, Any] | None = None, status_code: int = 200) -> Response:
     job = job_service.get_job(session, job_id)
-    done = job.status in ("succeeded", "failed")
-    return page(request, "job.html", job=job, done=done, result=job.result or {})
+    done = job.status in ("succeeded", "failed", "cancelled")
+    return page(request, "job.html", status_code, job=job, done=done, result=job.result or {},
+                error=error)
+
+
+@router.post("/jobs/{job_id}/cancel")
+def cancel_job(request: Request, session: SessionDep, _key: ConsoleKeyDep,
+               job_id: Annotated[str, Path(max_length=36)]) -> Response:
+    """Cancel the job (``POST /jobs/{id}/cancel``: a queued one at once, a running one at
+    its next progress report) and show its page again; a key of scope ``write`` or above."""
+    if not Scope(_key.scope).allows(Scope.WRITE):
+        refusal = {"type": "ScopeError", "field": "api_key",
+                   "message": "cancelling a job needs a key of scope 'write' or above; this "
+                              f"console is logged in with a {_key.scope!r} key"}
+        return _job_page(request, session, job_id, refusal, 403)
+    try:
+        job_service.cancel_job(session, job_id)
+    except ConflictError as exc:
+        error = {"type": type(exc).__name__, "message": exc.message, "field": exc.field}
+        return _job_page(request, session, job_id, error, 409)
+    return redirect(f"/console/jobs/{job_id}")
 
 
 @router.get("/jobs/{job_id}/report")

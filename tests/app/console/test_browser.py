@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import os
 import shutil
+import threading
+import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -209,4 +211,32 @@ def test_ticked_records_are_checked_and_the_page_follows_the_job(
     page.click("#report")
     page.wait_for_url("**/report")
     assert page.inner_text("h1") == "hydrodiag discrepancy report"
+    assert page.problems == [], page.problems
+
+
+def test_a_running_job_is_cancelled_with_its_button(console_server: LiveServer, page: Any,
+                                                     shots: Path) -> None:
+    started = threading.Event()
+
+    def endless(params: dict[str, Any], progress: Any) -> dict[str, Any]:
+        deadline = time.monotonic() + 120.0
+        step = 0
+        while time.monotonic() < deadline:
+            step += 1
+            progress(min(0.9, step / 2000), f"step {step}")
+            started.set()
+            time.sleep(0.01)
+        return {}
+
+    job = console_server.app.state.jobs.submit("endless", {}, endless)
+    assert started.wait(60.0)
+    page.problems.clear()
+    page.goto(f"{console_server.base_url}/console/jobs/{job.id}")
+    assert page.inner_text("#job-status") == "running"
+    page.screenshot(path=str(shots / "console-job-running.png"), full_page=True)
+    page.click("#cancel-job")
+    # the page reloads itself until the job has stopped at its next progress report
+    page.wait_for_selector("#job-cancelled", timeout=60_000)
+    assert page.inner_text("#job-status") == "cancelled"
+    assert page.query_selector("#cancel-job") is None
     assert page.problems == [], page.problems

@@ -4,12 +4,15 @@ discrepancy workflow started on ticked records and followed to its report."""
 from __future__ import annotations
 
 import re
+import threading
 import time
+from typing import Any
 
 import httpx
 
 from app.console.web import SECURITY_HEADERS
 from app.security import Scope
+from app.services.jobs import JobFunction, Progress
 from app.services.keys import create_api_key
 from tests.app.console.test_console_pages import error_box, plot_points
 from tests.app.live import LiveServer
@@ -87,3 +90,61 @@ def test_a_check_without_records_or_with_a_read_key_names_the_field(
     after = console_server.row_counts()
     assert {k: v for k, v in after.items() if k != "api_keys"} == {
         k: v for k, v in before.items() if k != "api_keys"}
+
+
+def _reports_until_cancelled(started: threading.Event) -> JobFunction:
+    """A job that reports progress every few milliseconds until it is stopped (at most a
+    minute)."""
+    def run(params: dict[str, Any], progress: Progress) -> dict[str, Any]:
+        deadline = time.monotonic() + 60.0
+        step = 0
+        while time.monotonic() < deadline:
+            step += 1
+            progress(min(0.9, step / 1000), f"step {step}")
+            started.set()
+            time.sleep(0.005)
+        return {}
+    return run
+
+
+def test_a_job_is_cancelled_from_its_page(console_server: LiveServer,
+                                          browser_client: httpx.Client) -> None:
+    started = threading.Event()
+    job = console_server.app.state.jobs.submit("endless", {}, _reports_until_cancelled(started))
+    assert started.wait(60.0)
+    url = f"/console/jobs/{job.id}"
+    running = browser_client.get(url)
+    assert 'id="cancel-job"' in running.text and 'http-equiv="refresh"' in running.text
+    asked = browser_client.post(f"{url}/cancel")
+    assert asked.status_code == 303 and asked.headers["location"] == url
+    deadline = time.monotonic() + 60.0
+    while 'http-equiv="refresh"' in (shown := browser_client.get(url)).text:
+        assert time.monotonic() < deadline, shown.text
+        time.sleep(0.1)
+    assert '<dd id="job-status">cancelled' in shown.text and 'id="job-cancelled"' in shown.text
+    assert 'id="cancel-job"' not in shown.text
+    assert console_server.client.get(f"/jobs/{job.id}").json()["status"] == "cancelled"
+    # a job that is over cannot be cancelled: the page says so, with the field
+    again = browser_client.post(f"{url}/cancel")
+    assert again.status_code == 303  # a cancelled job: asking again changes nothing
+    done = console_server.app.state.jobs.submit("short", {}, lambda params, progress: {})
+    while console_server.client.get(f"/jobs/{done.id}").json()["status"] != "succeeded":
+        assert time.monotonic() < deadline
+        time.sleep(0.05)
+    refused = browser_client.post(f"/console/jobs/{done.id}/cancel")
+    assert refused.status_code == 409 and error_box(refused.text)[0] == "job_id"
+
+
+def test_a_read_key_cannot_cancel_a_job(console_server: LiveServer) -> None:
+    started = threading.Event()
+    job = console_server.app.state.jobs.submit("endless", {}, _reports_until_cancelled(started))
+    assert started.wait(60.0)
+    with console_server.session() as session:
+        _, plaintext = create_api_key(session, "console-cancel-read", Scope.READ)
+    with httpx.Client(base_url=console_server.base_url, timeout=60.0) as client:
+        client.post("/console/login", data={"api_key": plaintext, "next": ""})
+        refused = client.post(f"/console/jobs/{job.id}/cancel")
+    assert refused.status_code == 403 and error_box(refused.text)[0] == "api_key"
+    body = console_server.client.get(f"/jobs/{job.id}").json()
+    assert (body["status"], body["cancel_requested_at"]) == ("running", None)
+    assert console_server.client.post(f"/jobs/{job.id}/cancel").status_code == 202
