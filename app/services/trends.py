@@ -21,13 +21,14 @@ from datetime import UTC, datetime, timedelta
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
-from app.db.models import Diagnosis, DiagnosisEstimate, Measurement
+from app.db.models import Diagnosis, DiagnosisEstimate, Measurement, RigVersion
 from app.services.history import HistoryPoint, component_history
 from app.services.rig_cache import ResolvedRig, RigCache
 from diagnostics.slip import rig_slip_coefficient
 from diagnostics.trends import TrendSeries, forecast_threshold
 from sim.errors import InputError
-from sim.rigs import Rig
+from sim.fluid import Fluid
+from sim.rigs import Rig, validate_rig_document
 
 __all__ = ["COMPONENTS", "ComponentTrendOut", "TrendPointOut", "component_trends",
            "default_threshold"]
@@ -223,8 +224,8 @@ def component_trends(
                  for name in names}
     intervals = _intervals(session, sorted({h.diagnosis_id for hs in histories.values()
                                             for h in hs}))
-    comparable = _comparable(session, rigs, resolved, {h.rig_version for hs in
-                                                       histories.values() for h in hs})
+    comparable = _comparable(session, resolved, {h.rig_version for hs in
+                                                 histories.values() for h in hs})
     out = []
     for name, history in histories.items():
         if threshold is not None:
@@ -248,18 +249,26 @@ def component_trends(
     return out
 
 
-def _comparable(session: Session, rigs: RigCache, latest: ResolvedRig, versions: set[int]
+def _comparable(session: Session, latest: ResolvedRig, versions: set[int]
                 ) -> dict[int, bool]:
     """Whether each of ``versions`` of the rig has the latest version's parameters and
     fluid: a trend joins only estimates made against the same physics (a commissioned
-    seal length or a new nominal clearance moves every estimate by a step)."""
-    out = {}
-    for v in versions:
-        if v == latest.version:
-            out[v] = True
-            continue
-        other = rigs.get(session, latest.rig_id, v).rig
-        out[v] = other.base == latest.rig.base and other.fluid == latest.rig.fluid
+    seal length or a new nominal clearance moves every estimate by a step).  The older
+    documents are read and validated, not compiled: compiling them (as the rig cache
+    would) took a new model's compilation for a version with other elements and pushed
+    the rigs being diagnosed out of the cache."""
+    out = {v: True for v in versions if v == latest.version}
+    older = sorted(versions - set(out))
+    if not older:
+        return out
+    rows = session.execute(select(RigVersion.version, RigVersion.document).where(
+        RigVersion.rig_id == latest.rig_id, RigVersion.version.in_(older))).all()
+    for version, document in rows:
+        spec = validate_rig_document(document)
+        fluid = Fluid(**{k: q.value for k, q in spec.fluid.items()})  # as Rig.from_spec
+        out[version] = spec.values() == latest.rig.base and fluid == latest.rig.fluid
+    for v in older:
+        out.setdefault(v, False)  # a version no longer stored: not comparable
     return out
 
 

@@ -219,6 +219,15 @@ def test_points_of_a_version_with_other_parameters_are_left_out(server: LiveServ
     assert [p["rig_version"] for p in cyl["points"]] == [3, 3, 3]
     assert cyl["left_out"] == 4 and cyl["left_out_versions"] == [1, 2]
     assert "4 point(s) of version(s) 1, 2 left out" in cyl["message"]
+    # the older versions are told apart by their documents, not compiled: a cache that
+    # has only seen the trends holds the latest version alone
+    from app.services.rig_cache import RigCache
+    from app.services.trends import component_trends
+
+    fresh = RigCache()
+    with server.session() as session:
+        (again,) = component_trends(session, fresh, rig_id, component="cylinder")
+    assert (again.left_out, again.left_out_versions, len(fresh)) == (4, [1, 2], 1)
 
 
 def test_a_seal_wearing_short_of_its_worn_range_trends_where_it_is(server: LiveServer) -> None:
