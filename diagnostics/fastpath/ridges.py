@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from itertools import pairwise
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -146,13 +147,18 @@ class _Target:
 
     def points(self) -> Arr:
         """This round's points: :data:`OFFSETS` around the estimate and the bracket's
-        quartiles (so that a poor estimate still shrinks it fourfold), inside it."""
-        w = self.hi - self.lo
-        z = self.estimate() + self.tol * np.array(OFFSETS)
-        if w > 3.0 * self.tol * OFFSETS[-1]:
-            z = np.concatenate((z, self.lo + w * np.array(QUARTILES)))
-        z = np.sort(z[(z > self.lo) & (z < self.hi)])
-        return np.asarray(z[np.concatenate(([True], np.diff(z) > 0.1 * self.tol))])
+        quartiles (so that a poor estimate still shrinks it fourfold), inside it, in
+        order, each more than a tenth of the tolerance past the one before it (a dozen
+        numbers: Python floats, numpy's per-call cost was most of the time)."""
+        lo, hi, tol = self.lo, self.hi, self.tol
+        w = hi - lo
+        e = self.estimate()
+        z = [e + tol * o for o in OFFSETS]
+        if w > 3.0 * tol * OFFSETS[-1]:
+            z += [lo + w * q for q in QUARTILES]
+        z = sorted(v for v in z if lo < v < hi)
+        gap = 0.1 * tol
+        return np.array(z[:1] + [b for a, b in pairwise(z) if b - a > gap])
 
 
 def _above(code: int, phase: int, creep_ridge: bool) -> bool:
@@ -165,8 +171,12 @@ def _above(code: int, phase: int, creep_ridge: bool) -> bool:
 
 def _targets(pieces: list[Piece], creep: float) -> list[_Target]:
     out = []
+    every = stroke_codes(np.concatenate([pc.coarse for pc in pieces]), creep) if pieces \
+        else np.empty(0, dtype=np.int64)
+    at = 0
     for i, pc in enumerate(pieces):
-        codes = stroke_codes(pc.coarse, creep)
+        codes = every[at:at + pc.zc.size]  # row by row: one call for every piece
+        at += pc.zc.size
         dz = float(pc.zc[1] - pc.zc[0])
         for k in np.flatnonzero((codes[:-1] != codes[1:]) & (codes[:-1] >= 0)
                                 & (codes[1:] >= 0)):
@@ -254,16 +264,16 @@ def _start(t: _Target) -> Arr | None:
 def _update(t: _Target, zs: Arr, codes: IArr, sides: npt.NDArray[np.bool_], g: Arr,
             ys: Arr, ok: npt.NDArray[np.bool_]) -> None:
     """The bracket of ``t`` narrowed to the first change of side among ``zs``."""
-    if zs.size == 0 or (codes < 0).any():
+    if zs.size == 0 or min(codes.tolist()) < 0:
         t.open, t.dead = False, True
         return
-    change = np.flatnonzero(sides != t.up)
-    if change.size == 0:  # all on lo's side
+    up = t.up
+    j = next((k for k, side in enumerate(sides.tolist()) if side != up), -1)
+    if j < 0:  # all on lo's side
         j = zs.size - 1
         t.lo, t.g_lo = float(zs[j]), float(g[j])
         _keep(t, "lo", ys[j] if ok[j] else None)
     else:
-        j = int(change[0])
         t.hi, t.g_hi = float(zs[j]), float(g[j])
         _keep(t, "hi", ys[j] if ok[j] else None)
         if j > 0:
@@ -282,14 +292,16 @@ def _moving_side(t: _Target, zs: Arr, sides: npt.NDArray[np.bool_], excess: Arr)
     tolerances off (measured), a third round."""
     if t.dead:
         return
-    moving = np.asarray(sides, dtype=bool)
+    moving = [bool(m) for m in sides.tolist()]
+    size = len(moving)
     if t.up:  # the moving side is lo's: the run of points from lo
-        n = moving.size if moving.all() else int(np.argmin(moving))
+        n = next((k for k, m in enumerate(moving) if not m), size)
         idx = range(n)
     else:  # hi's: the run of points up to hi
-        n = moving.size if moving.all() else int(np.argmin(moving[::-1]))
-        idx = range(moving.size - n, moving.size)
-    pts = [(float(zs[i]), float(excess[i])) for i in idx if math.isfinite(excess[i])]
+        n = next((k for k, m in enumerate(reversed(moving)) if not m), size)
+        idx = range(size - n, size)
+    zl, xl = zs.tolist(), excess.tolist()
+    pts = [(zl[i], xl[i]) for i in idx if math.isfinite(xl[i])]
     if t.near is not None:
         pts += list(t.near)
     if len(pts) >= 2:
