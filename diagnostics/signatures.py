@@ -280,12 +280,16 @@ class SignatureMaps:
                 a, a_st = b, b_st
         return ridge_segments(zc, cuts) if cuts else None
 
-    def _mask_ratio_before_held_return(self, coarses: list[Arr]) -> None:
+    def _mask_ratio_before_held_return(self, coarses: list[Arr],
+                                       code: npt.NDArray[np.int64] | None = None) -> None:
         """The velocity ratio NaN at a moving node next to a held return stroke, along the
         nodes of consecutive pieces ``coarses`` (in place; it grows without bound there,
-        module docstring)."""
-        code = stroke_codes(np.concatenate(coarses), self._creep)
+        module docstring); ``code``: their nodes' stroke codes when known."""
+        if code is None:
+            code = stroke_codes(np.concatenate(coarses), self._creep)
         held = (code >= 0) & (code % 3 == 2)
+        if not held.any():
+            return
         near = np.zeros(code.size, dtype=bool)
         near[1:] |= held[:-1]
         near[:-1] |= held[1:]

@@ -41,6 +41,7 @@ from diagnostics.signatures import (
     evaluator,
     ridge_segments,
 )
+from diagnostics.stroke_state import stroke_codes
 from sim.errors import SimulationError
 from sim.rigs import Condition, Rig
 from sim.steady import SteadyEvaluator
@@ -192,13 +193,20 @@ class FastMaps(SignatureMaps):
             pieces.append(Piece(p, zc, self._retried(p, zc, out[sl], ok[sl].copy()), ys[sl],
                                 drv[sl], ok[sl]))
         solved = self._split(pieces, locate(self, pieces))
+        # the stroke states of every node of every map in one call
+        codes = stroke_codes(np.concatenate([c for pcs in solved for _, c in pcs]),
+                             self.ctx.creep)
         k = 0
+        at = 0
         for hyp, p, zf, n_pieces in hyps:
             parts = [part for j in range(k, k + n_pieces) for part in solved[j]]
             k += n_pieces
             fine = np.empty((zf.size, len(OBSERVABLES)))
             ends = [float(zc[-1]) for zc, _ in parts]
-            self._mask_ratio_before_held_return([coarse for _, coarse in parts])
+            n = sum(zc.size for zc, _ in parts)
+            self._mask_ratio_before_held_return([coarse for _, coarse in parts],
+                                                codes[at:at + n])
+            at += n
             for j, (zc, coarse) in enumerate(parts):
                 sel = self._selection(zf, ends, j)
                 part = np.empty((int(sel.sum()), len(OBSERVABLES)))
@@ -212,7 +220,7 @@ class FastMaps(SignatureMaps):
         (:func:`~diagnostics.signatures.ridge_segments`), all solved in one grid solve,
         each from the solution at its first node."""
         plan: list[list[Arr] | None] = []
-        rows: list[Arr] = []
+        params: list[FaultParameter] = []
         flags: list[IArr] = []
         starts: list[Arr] = []
         for pc, cut in zip(pieces, cuts, strict=True):
@@ -223,17 +231,19 @@ class FastMaps(SignatureMaps):
             first_y = [pc.ys[0] if pc.ok[0] else None] + [c.y_hi for c in cut]
             for (a, b, m), y0 in zip(ridge_segments(pc.zc, [(c.lo, c.hi) for c in cut]),
                                      first_y, strict=True):
-                zs, g, first = _piece_rows(self.rig, pc.p, self._base, a, b, m)
-                nodes.append(zs)
-                rows.append(g)
+                nodes.append(np.linspace(a, b, m))
+                params.extend([pc.p] * m)
+                first = np.zeros(m, dtype=np.int64)
                 y = np.empty((m, 2, pc.ys.shape[-1]))
+                first[0] = 1 if y0 is None else 2
                 if y0 is not None:
                     y[0] = y0
-                flags.append(first if y0 is None else 2 * first)
+                flags.append(first)
                 starts.append(y)
             plan.append(nodes)
-        if rows:
-            out, ok, _, _ = self.ctx.probe(np.concatenate(rows), np.concatenate(flags),
+        if params:  # the rows of every segment built at once (one call a parameter)
+            zs = np.concatenate([z for nodes in plan if nodes is not None for z in nodes])
+            out, ok, _, _ = self.ctx.probe(self._grid(params, zs), np.concatenate(flags),
                                            np.concatenate(starts))
         solved: list[list[tuple[Arr, Arr]]] = []
         at = 0
@@ -251,11 +261,17 @@ class FastMaps(SignatureMaps):
 
     def _grid(self, params: list[FaultParameter], zs: Arr) -> Arr:
         """Graph values with ``params[i]`` at ``zs[i]`` [fitting coordinate] in row ``i``."""
-        grid = np.empty((zs.size, len(GRAPH_PARAMETERS)))
-        names = np.array([p.name for p in params])
-        for p in {p.name: p for p in params}.values():  # one call per parameter
-            sel = names == p.name
-            grid[sel] = _rows_at(self.rig, p, self._base, zs[sel])
+        grid = np.tile(self._base, (zs.size, 1))
+        rows: dict[str, tuple[FaultParameter, list[int]]] = {}
+        for i, p in enumerate(params):
+            rows.setdefault(p.name, (p, []))[1].append(i)
+        for p, at in rows.values():  # one call per parameter
+            if len(at) == zs.size:
+                _set_rows(self.rig, p, grid, zs)
+                continue
+            sub = grid[at]
+            _set_rows(self.rig, p, sub, zs[at])
+            grid[at] = sub
         return grid
 
     def probe_moving(self, params: list[FaultParameter], zs: list[Arr],
