@@ -207,11 +207,13 @@ class FastMaps(SignatureMaps):
             self._mask_ratio_before_held_return([coarse for _, coarse in parts],
                                                 codes[at:at + n])
             at += n
+            # each part's fine points (SignatureMaps._selection: zf sorted, so a range),
+            # interpolated straight into the map's rows
+            cut = [0, *np.searchsorted(zf, ends[:-1], side="left").tolist(), zf.size]
             for j, (zc, coarse) in enumerate(parts):
-                sel = self._selection(zf, ends, j)
-                part = np.empty((int(sel.sum()), len(OBSERVABLES)))
-                self.ctx.kernels.pchip_columns(zc, np.ascontiguousarray(coarse), zf[sel], part)
-                fine[sel] = part
+                a, b = cut[j], cut[j + 1]
+                self.ctx.kernels.pchip_columns(zc, np.ascontiguousarray(coarse), zf[a:b],
+                                               fine[a:b])
             self.maps[hyp.name] = HypothesisMap(hyp, (p,), [zf], fine)
 
     def _split(self, pieces: list[Piece], cuts: list[list[Cut]]) -> list[list[tuple[Arr, Arr]]]:
