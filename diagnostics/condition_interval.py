@@ -187,7 +187,8 @@ def _condition_terms(m: RecordModel, points: Sequence[Point], y0: Arr) -> list[A
     terms = []
     for u, moved in condition_moves(m.obs):
         sens = np.full_like(y0, np.nan)
-        for cond, step in moved if points else ():  # the other side only where the first has no point
+        # the other side only where the first has no point (nothing to solve: no call)
+        for cond, step in moved if points else ():
             y = m.maps.observables_at_points(points, cond)[:, m.idx]
             sens = np.where(np.isnan(sens), (y - y0) / step, sens)
             if not np.isnan(sens).any():
