@@ -143,11 +143,14 @@ def dynamic_viscosity(fluid: Fluid, theta: ArrayLike) -> FloatArray:
     evaluated once per distinct temperature.
     """
     t = _f64(theta)
-    if not np.all(np.isfinite(t)):
+    flat = t.ravel().tolist()
+    if not all(math.isfinite(v) for v in flat):
         raise ParameterError("oil temperature must be finite", field="theta")
-    uniq, inv = np.unique(t, return_inverse=True)
-    mu = np.array([fluid.dynamic_viscosity(float(v)) for v in uniq], dtype=np.float64)
-    return mu[inv].reshape(t.shape)
+    memo: dict[float, float] = {}  # a few distinct temperatures among many: a dict, no sort
+    for v in flat:
+        if v not in memo:
+            memo[v] = fluid.dynamic_viscosity(v)
+    return np.array([memo[v] for v in flat], dtype=np.float64).reshape(t.shape)
 
 
 def flow_losses(
