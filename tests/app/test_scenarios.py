@@ -72,7 +72,9 @@ def test_a_grid_sweep_runs_to_completion_with_progress(server: LiveServer) -> No
 def test_a_cancelled_sweep_stops_without_its_remaining_points(server: LiveServer) -> None:
     """POST /jobs/{id}/cancel on a running sweep: it stops at its next progress report
     (the chunks not started are cancelled on the pool) and keeps no result."""
-    body = {"rig_id": 1, "faults": ["healthy"], "design": "lhs", "samples": 40, "seed": 3,
+    # the most transient points a request takes: ~4 s of work on two cores, so the cancel
+    # (sent as soon as the first chunk is reported) arrives while most are still queued
+    body = {"rig_id": 1, "faults": ["healthy"], "design": "lhs", "samples": 200, "seed": 3,
             "method": "transient",
             "conditions": [{"name": "oil_temperature", "low": 30.0, "high": 60.0}]}
     accepted = server.client.post("/scenarios", json=body, headers=server.auth).json()
@@ -80,7 +82,7 @@ def test_a_cancelled_sweep_stops_without_its_remaining_points(server: LiveServer
     deadline = time.monotonic() + POLL_TIMEOUT_S
     while server.client.get(f"/jobs/{job_id}").json()["progress"] == 0.0:
         assert time.monotonic() < deadline, "the sweep never reported"
-        time.sleep(0.05)
+        time.sleep(0.01)
     asked = server.client.post(f"/jobs/{job_id}/cancel", headers=server.auth)
     assert asked.status_code == 202, asked.text
     while (job := server.client.get(f"/jobs/{job_id}").json())["status"] == "running":
@@ -88,8 +90,8 @@ def test_a_cancelled_sweep_stops_without_its_remaining_points(server: LiveServer
         time.sleep(0.05)
     assert job["status"] == "cancelled", job
     assert job["result"] is None and job["error"]["type"] == "JobCancelledError"
-    done = int(job["message"].split()[1])  # "point k of 40"
-    assert 0 < done < 40 and job["progress"] == pytest.approx(done / 40)
+    done = int(job["message"].split()[1])  # "point k of 200"
+    assert 0 < done < 200 and job["progress"] == pytest.approx(done / 200)
 
 
 def test_a_latin_hypercube_of_transient_runs(server: LiveServer) -> None:
