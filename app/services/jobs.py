@@ -26,6 +26,7 @@ its result.
 from __future__ import annotations
 
 import logging
+import time
 import uuid
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
@@ -48,6 +49,8 @@ logger = logging.getLogger("hydrodiag.jobs")
 
 #: Smallest change of progress that is written to the store [1].
 PROGRESS_STEP = 0.01
+#: Longest time between two looks for a cancel while a job reports [s].
+CANCEL_LOOK_S = 0.5
 
 
 class JobCancelledError(Exception):
@@ -60,21 +63,32 @@ class Progress:
     Writes are skipped until the fraction has grown by :data:`PROGRESS_STEP`, so a job may
     report after every case without flooding the store.  A write that finds a cancel asked
     of the job (``cancel_requested_at`` set) raises :class:`JobCancelledError` instead: the
-    same statement writes and looks.
+    same statement writes and looks.  A skipped write still looks for a cancel when the last
+    look is :data:`CANCEL_LOOK_S` old, so a job whose fraction grows slowly stops as soon.
     """
 
     def __init__(self, sessions: SessionFactory, job_id: str) -> None:
         self._sessions = sessions
         self._job_id = job_id
         self._written = 0.0
+        self._looked = time.monotonic()
 
     def __call__(self, fraction: float, message: str | None = None) -> None:
         """Record that ``fraction`` [1] of the work is done, with an optional note."""
         if not 0.0 <= fraction <= 1.0:
             raise ValueError(f"progress must lie in [0, 1], got {fraction}")
+        now = time.monotonic()
         if fraction - self._written < PROGRESS_STEP and fraction < 1.0:
+            if now - self._looked >= CANCEL_LOOK_S:
+                self._looked = now
+                with self._sessions() as session:
+                    asked = session.scalar(select(Job.cancel_requested_at)
+                                           .where(Job.id == self._job_id))
+                if asked is not None:
+                    raise JobCancelledError(self._job_id)
             return
         self._written = fraction
+        self._looked = now
         with self._sessions() as session:
             written = session.execute(
                 update(Job)

@@ -212,3 +212,24 @@ def test_finished_unknown_and_keyless_cancels_are_refused(server: LiveServer) ->
         "/jobs/00000000-0000-0000-0000-000000000000/cancel").status_code == 404
     assert server.anon.post(f"/jobs/{job.id}/cancel").status_code == 401
 
+
+
+def test_a_job_whose_progress_grows_slowly_still_stops(server: LiveServer) -> None:
+    """A job reporting the same fraction again and again (no write is due) looks for a
+    cancel every CANCEL_LOOK_S all the same."""
+    started = threading.Event()
+
+    def stuck(params: dict[str, Any], progress: Progress) -> dict[str, Any]:
+        deadline = time.monotonic() + POLL_TIMEOUT_S
+        while time.monotonic() < deadline:
+            progress(0.0, "still at the start")
+            started.set()
+            time.sleep(0.005)
+        return {"ran": "to its deadline"}
+
+    job = server.app.state.jobs.submit("stuck", {}, stuck)
+    assert started.wait(POLL_TIMEOUT_S)
+    assert server.client.post(f"/jobs/{job.id}/cancel").status_code == 202
+    done = _wait_for(server, job.id, {"succeeded", "failed", "cancelled"})
+    assert (done["status"], done["result"]) == ("cancelled", None)
+    assert done["progress"] == 0.0
