@@ -9,8 +9,9 @@ from typing import Any
 import pytest
 
 from app.db.models import Job
-from app.services.jobs import JobFunction, JobRunner, Progress
+from app.services.jobs import JobRunner, Progress
 from sim.errors import SimulationError
+from tests.app.jobs_support import reports_until_cancelled
 from tests.app.live import LiveServer, live_server, sqlite_settings
 
 POLL_TIMEOUT_S = 30.0
@@ -126,24 +127,9 @@ def test_jobs_cut_off_by_a_stop_are_marked_failed_at_start(
         assert body["progress"] == 0.4
 
 
-def _until_cancelled(started: threading.Event) -> JobFunction:
-    """A job that reports progress every few milliseconds until it is stopped (at most
-    :data:`POLL_TIMEOUT_S`), counting its reports."""
-    def run(params: dict[str, Any], progress: Progress) -> dict[str, Any]:
-        deadline = time.monotonic() + POLL_TIMEOUT_S
-        step = 0
-        while time.monotonic() < deadline:
-            step += 1
-            progress(min(0.9, step / 1000), f"step {step}")
-            started.set()
-            time.sleep(0.005)
-        return {"steps": step}
-    return run
-
-
 def test_a_running_job_stops_at_its_next_progress_report(server: LiveServer) -> None:
     started = threading.Event()
-    job = server.app.state.jobs.submit("endless", {}, _until_cancelled(started))
+    job = server.app.state.jobs.submit("endless", {}, reports_until_cancelled(started, POLL_TIMEOUT_S))
     assert started.wait(POLL_TIMEOUT_S)
     asked = server.client.post(f"/jobs/{job.id}/cancel")
     assert asked.status_code == 202, asked.text

@@ -12,7 +12,6 @@ from __future__ import annotations
 import os
 import shutil
 import threading
-import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -20,6 +19,7 @@ from typing import Any
 import pytest
 
 from tests.app.conftest import simulated_record
+from tests.app.jobs_support import reports_until_cancelled
 from tests.app.live import LiveServer
 
 CHROMIUM = os.environ.get("HYDRODIAG_CHROMIUM") or shutil.which("chromium") or "/usr/bin/chromium"
@@ -217,18 +217,8 @@ def test_ticked_records_are_checked_and_the_page_follows_the_job(
 def test_a_running_job_is_cancelled_with_its_button(console_server: LiveServer, page: Any,
                                                      shots: Path) -> None:
     started = threading.Event()
-
-    def endless(params: dict[str, Any], progress: Any) -> dict[str, Any]:
-        deadline = time.monotonic() + 120.0
-        step = 0
-        while time.monotonic() < deadline:
-            step += 1
-            progress(min(0.9, step / 2000), f"step {step}")
-            started.set()
-            time.sleep(0.01)
-        return {}
-
-    job = console_server.app.state.jobs.submit("endless", {}, endless)
+    job = console_server.app.state.jobs.submit("endless", {},
+                                             reports_until_cancelled(started, 120.0))
     assert started.wait(60.0)
     page.problems.clear()
     page.goto(f"{console_server.base_url}/console/jobs/{job.id}")

@@ -6,15 +6,14 @@ from __future__ import annotations
 import re
 import threading
 import time
-from typing import Any
 
 import httpx
 
 from app.console.web import SECURITY_HEADERS
 from app.security import Scope
-from app.services.jobs import JobFunction, Progress
 from app.services.keys import create_api_key
 from tests.app.console.test_console_pages import error_box, plot_points
+from tests.app.jobs_support import reports_until_cancelled
 from tests.app.live import LiveServer
 
 
@@ -92,25 +91,10 @@ def test_a_check_without_records_or_with_a_read_key_names_the_field(
         k: v for k, v in before.items() if k != "api_keys"}
 
 
-def _reports_until_cancelled(started: threading.Event) -> JobFunction:
-    """A job that reports progress every few milliseconds until it is stopped (at most a
-    minute)."""
-    def run(params: dict[str, Any], progress: Progress) -> dict[str, Any]:
-        deadline = time.monotonic() + 60.0
-        step = 0
-        while time.monotonic() < deadline:
-            step += 1
-            progress(min(0.9, step / 1000), f"step {step}")
-            started.set()
-            time.sleep(0.005)
-        return {}
-    return run
-
-
 def test_a_job_is_cancelled_from_its_page(console_server: LiveServer,
                                           browser_client: httpx.Client) -> None:
     started = threading.Event()
-    job = console_server.app.state.jobs.submit("endless", {}, _reports_until_cancelled(started))
+    job = console_server.app.state.jobs.submit("endless", {}, reports_until_cancelled(started))
     assert started.wait(60.0)
     url = f"/console/jobs/{job.id}"
     running = browser_client.get(url)
@@ -137,7 +121,7 @@ def test_a_job_is_cancelled_from_its_page(console_server: LiveServer,
 
 def test_a_read_key_cannot_cancel_a_job(console_server: LiveServer) -> None:
     started = threading.Event()
-    job = console_server.app.state.jobs.submit("endless", {}, _reports_until_cancelled(started))
+    job = console_server.app.state.jobs.submit("endless", {}, reports_until_cancelled(started))
     assert started.wait(60.0)
     with console_server.session() as session:
         _, plaintext = create_api_key(session, "console-cancel-read", Scope.READ)
