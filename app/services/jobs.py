@@ -16,11 +16,11 @@ cluster) through the executor that ``diagnostics`` chooses.
 
 A job can be cancelled (:func:`cancel_job`, ``POST /jobs/{id}/cancel``): a queued one at
 once (it never starts); a running one is asked to stop — ``cancel_requested_at`` is set in
-the store, which every server process shares — and stops at its next progress report that
-is written (every :data:`PROGRESS_STEP` of progress),
-where :class:`Progress` raises :class:`JobCancelledError` (a job function that fans work out
-cancels what has not started on its way out).  A job that finishes before it looks keeps
-its result.
+the store, which every server process shares — and stops at its next progress report
+(one that is written, every :data:`PROGRESS_STEP` of progress, or one :data:`CANCEL_LOOK_S`
+after the last look), where :class:`Progress` raises :class:`JobCancelledError` (a job
+function that fans work out cancels what has not started on its way out).  A job that
+finishes before it looks keeps its result.
 """
 
 from __future__ import annotations
