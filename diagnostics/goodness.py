@@ -286,7 +286,8 @@ def goodness_of_fit(ranker: Ranker, fits: list[HypothesisFit], level: float = TE
                      + (f"; with the stated load's and temperature's uncertainty taken at "
                         f"the fitted wear, where it weighs more than at the healthy rig's: "
                         f"{best.chi2:.3g} at the healthy rig's" if best.name in used
-                        and incipient is None else "") + ")")
+                        and incipient is None else "") + ")"
+                     + _most_probable_clause(ranker, cands, best, retest, level))
     elif explained:
         statement = (
             f"a misfit cannot be detected with these readings: {best.name} has "
@@ -314,6 +315,26 @@ def goodness_of_fit(ranker: Ranker, fits: list[HypothesisFit], level: float = TE
     return GoodnessOfFit(best.name, float(chi2), max(dof, 0), level, limit, p,
                          explained, dis, statement, bool(testable or not explained), tests,
                          beyond, incipient)
+
+
+def _most_probable_clause(ranker: Ranker, cands: list[HypothesisFit], best: HypothesisFit,
+                          retest: Mapping[str, float], level: float) -> str:
+    """The statement's clause on the most probable fit when the test names another (the
+    one the readings fit best by the χ² test's p-value, which a simpler or a more probable
+    hypothesis need not be): whether it passes the same test, so that a reader of the
+    answer's top name is not left to guess."""
+    top = max(cands, key=lambda f: f.probability)
+    if top is best:
+        return ""
+    dof = _dof(ranker, top)
+    if dof < 1:
+        return (f"; the most probable, {top.name}, has as many parameters as readings: "
+                "the test cannot judge it")
+    lim = chi2_limit(level, dof)
+    chi2 = min(top.chi2, retest.get(top.name, math.inf))
+    verdict = "passes it too" if chi2 <= lim else "does not pass it"
+    return (f"; the most probable, {top.name}, {verdict} (χ² = {chi2:.3g} on {dof} degrees "
+            f"of freedom, limit {lim:.3g})")
 
 
 def _incipient_pass(ranker: Ranker, scored: list[tuple[bool, float, float, HypothesisFit,

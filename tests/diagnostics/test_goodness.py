@@ -107,3 +107,38 @@ def test_a_worn_seals_visit_with_temperatures_stated_within_class_is_explained(
     # the healthy rig's σ put the working speed 6-9 σ off in a χ² that passes)
     if d.fit.hypothesis == "cylinder":
         assert all(abs(x.deviation) < 4.0 for x in d.fit.disagreements)
+
+
+def test_the_statement_says_how_the_most_probable_fit_fares_when_it_names_another() -> None:
+    """The test names the fit with the best p-value, which the answer's most probable
+    hypothesis need not be (a simpler fault, a higher prior): the statement then says
+    whether that one passes the same test, with its own χ² and limit (random faulty and
+    healthy records of every sensor subset)."""
+    from benchmarks.diagnose_cases import SUBSETS, random_record
+    from diagnostics.goodness import chi2_limit
+
+    rig = reference_rig()
+    rng = np.random.default_rng(21)
+    seen = 0
+    while seen < 6:
+        rec = random_record(rng, rig, SUBSETS)
+        if rec is None:
+            continue
+        d = diagnose(rig, [rec])
+        assert d.fit is not None
+        if not (d.explained and d.fit.testable) or d.fit.hypothesis == d.top.name:
+            assert "the most probable" not in d.fit.statement
+            continue
+        seen += 1
+        top = d.top
+        dof = d.n_observations - len(top.hypothesis.parameters)
+        clause = d.fit.statement.split(f"; the most probable, {top.name}, ")[1]
+        if dof < 1:
+            assert clause.startswith("has as many parameters as readings")
+            continue
+        limit = chi2_limit(TEST_LEVEL, dof)
+        # a single fault is tested again with the stated condition at its estimate
+        retest = top.chi2_at_estimate if len(top.hypothesis.parameters) == 1 else np.nan
+        chi2 = min(top.chi2, retest) if np.isfinite(retest) else top.chi2
+        assert clause.startswith("passes it too" if chi2 <= limit else "does not pass it")
+        assert f"on {dof} degrees of freedom, limit {limit:.3g})" in clause
