@@ -248,34 +248,26 @@ def _points_near(ranker: Ranker, ps: list[FaultParameter], zs: Arr, known: _Know
     bounds: the three refinement levels 0.56 / 0.43 / 0.31 → 0.51 / 0.23 / 0.19 ms)."""
     if not known:
         return _points(ranker, ps, zs)
-    return np.array(_runs_near(ranker, ps, list(range(len(ps))), list(zs), known))
-
-
-def _runs_near(ranker: Ranker, ps: list[FaultParameter], rows: list[int], runs: list[Arr],
-               known: _Known) -> list[Arr]:
-    """χ² of runs of equally spaced points (``runs[j]`` on search row ``rows[j]``, of
-    parameter ``ps[rows[j]]``; runs of any length, several per row), all in one compiled
-    call per record, each run started as :func:`_points_near` starts a row."""
-    params = [ps[i] for i, z in zip(rows, runs, strict=True) for _ in range(z.size)]
-    sizes = np.cumsum([0] + [z.size for z in runs])
-    total = np.zeros(int(sizes[-1]))
+    rows, cols = zs.shape
+    total = np.zeros((rows, cols))
+    params = [p for p in ps for _ in range(cols)]
     for m, row_known in zip(ranker.models, known, strict=True):
         maps = m.maps
         assert isinstance(maps, FastMaps)
         starts: list[Arr | None] = []
-        for i, z in zip(rows, runs, strict=True):
+        for i in range(rows):
             z_done, y_done = row_known[i]
-            starts.append(y_done[int(np.argmin(np.abs(z_done - z[0])))]
-                          if z_done.size and z.size else None)
-        out, ys, _, ok = maps.probe_moving(params, runs, starts, even=True)
-        total += record_chi2(m, out)
-        for j, (i, z) in enumerate(zip(rows, runs, strict=True)):
-            sl = slice(int(sizes[j]), int(sizes[j + 1]))
+            starts.append(y_done[int(np.argmin(np.abs(z_done - zs[i, 0])))]
+                          if z_done.size else None)
+        out, ys, _, ok = maps.probe_moving(params, list(zs), starts, even=True)
+        total += record_chi2(m, out).reshape(rows, cols)
+        for i in range(rows):
+            sl = slice(i * cols, (i + 1) * cols)
             good = ok[sl]
             z_done, y_done = row_known[i]
-            row_known[i] = (np.concatenate([z_done, z[good]]),
+            row_known[i] = (np.concatenate([z_done, zs[i][good]]),
                             np.concatenate([y_done, ys[sl][good]]))
-    return [total[int(sizes[j]):int(sizes[j + 1])] for j in range(len(runs))]
+    return total
 
 
 @dataclass
@@ -420,24 +412,14 @@ def _search_1d(ranker: Ranker, plans: list[_Plan]) -> list[tuple[float, float, f
     ps = [pl.params[0] for pl in plans]
     grids = np.array([np.linspace(pl.zle[0], pl.zue[0], SCAN_POINTS) for pl in plans])
     first, known = grid_chi2(ranker, ps, grids)
+    chi_b = _finite(_points_near(ranker, ps, np.array([[pl.z0[0]] for pl in plans]),
+                                 known))[:, 0]
     xs, ys = grids, _finite(first)
-    chi_b = np.full(len(plans), np.inf)
-    for level in range(REFINE_LEVELS):  # each level: a grid between the best point's neighbours
+    for _ in range(REFINE_LEVELS):  # each level: a grid between the best point's neighbours
         fine = np.array([np.linspace(*_bracket(x, y), REFINE_POINTS)
                          for x, y in zip(xs, ys, strict=True)])
-        if level == 0 and known:  # χ² at the bounded estimates: in the same call
-            rows = list(range(len(ps)))
-            got = _runs_near(ranker, ps, rows + rows,
-                             list(fine) + [pl.z0[:1] for pl in plans], known)
-            chi_b = _finite(np.array([g[0] for g in got[len(ps):]]))
-            found = np.array(got[:len(ps)])
-        elif level == 0:
-            chi_b = _finite(_points(ranker, ps, np.array([[pl.z0[0]] for pl in plans])))[:, 0]
-            found = _points(ranker, ps, fine)
-        else:
-            found = _points_near(ranker, ps, fine, known)
         xs = np.concatenate([xs, fine], axis=1)
-        ys = np.concatenate([ys, _finite(found)], axis=1)
+        ys = np.concatenate([ys, _finite(_points_near(ranker, ps, fine, known))], axis=1)
     for _ in range(VERTEX_STEPS):
         zv = np.array([parabola_vertex(x, y) for x, y in zip(xs, ys, strict=True)])
         cv = _finite(_points_near(ranker, ps, zv[:, None], known))

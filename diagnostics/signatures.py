@@ -303,14 +303,13 @@ class SignatureMaps:
             coarses[piece][row, _RATIO] = np.nan
 
     @staticmethod
-    def _selection(zf: Arr, ends: list[float], k: int) -> npt.NDArray[np.bool_]:
-        """Fine points piece ``k`` of the pieces ending at ``ends`` serves: from the end of
-        the piece before (the first from −∞) to its own end (the last to +∞).  Across a
-        ridge's bracket (8e-5 of the axis) the piece after it extrapolates back: on the
-        held side the speed stays exactly 0."""
-        lo = -math.inf if k == 0 else ends[k - 1]
-        hi = math.inf if k == len(ends) - 1 else ends[k]
-        return np.asarray((zf >= lo) & (zf < hi))
+    def _served(zf: Arr, ends: list[float]) -> list[int]:
+        """Where in the fine axis ``zf`` (sorted) each of the pieces ending at ``ends``
+        starts serving, and the axis's size: piece ``k`` serves ``zf[cut[k]:cut[k + 1]]``,
+        from the end of the piece before (the first from −∞) to its own end (the last to
+        +∞).  Across a ridge's bracket (8e-5 of the axis) the piece after it extrapolates
+        back: on the held side the speed stays exactly 0."""
+        return [0, *np.searchsorted(zf, ends[:-1], side="left").tolist(), int(zf.size)]
 
     def _axis(self, p: FaultParameter, n: int) -> Arr:
         lo, hi = p.worn_bounds(self.rig)
@@ -336,9 +335,9 @@ class SignatureMaps:
             fine = np.empty((zf.size, len(OBSERVABLES)))
             ends = [float(zc[-1]) for zc, _ in pieces]
             self._mask_ratio_before_held_return([coarse for _, coarse in pieces])
+            cut = self._served(zf, ends)
             for k, (zc, coarse) in enumerate(pieces):
-                sel = self._selection(zf, ends, k)
-                fine[sel] = masked_pchip(zc, coarse, zf[sel])
+                fine[cut[k]:cut[k + 1]] = masked_pchip(zc, coarse, zf[cut[k]:cut[k + 1]])
             return HypothesisMap(hyp, params, [zf], fine)
         raise ValueError("maps are built for one parameter; pairs are fitted directly")
 

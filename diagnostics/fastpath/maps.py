@@ -207,9 +207,7 @@ class FastMaps(SignatureMaps):
             self._mask_ratio_before_held_return([coarse for _, coarse in parts],
                                                 codes[at:at + n])
             at += n
-            # each part's fine points (SignatureMaps._selection: zf sorted, so a range),
-            # interpolated straight into the map's rows
-            cut = [0, *np.searchsorted(zf, ends[:-1], side="left").tolist(), zf.size]
+            cut = self._served(zf, ends)  # interpolated straight into the map's rows
             for j, (zc, coarse) in enumerate(parts):
                 a, b = cut[j], cut[j + 1]
                 self.ctx.kernels.pchip_columns(zc, np.ascontiguousarray(coarse), zf[a:b],
