@@ -24,7 +24,7 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
-from app.cli_support import console, steps, store_session, validation_error
+from app.cli_support import console, series_ids, steps, store_session, validation_error
 from diagnostics.real.relaxation import ZEMA_RELAXATION
 from sim.errors import InputError
 
@@ -88,7 +88,7 @@ def discover(
             try:
                 form = DiscrepancyForm(rig_id=rig_id, rig_version=version, refit=refit,
                                        store=store, relaxation=relaxation,
-                                       series_ids=",".join(str(i) for i in _ids(series)))
+                                       series_ids=",".join(str(i) for i in series_ids(series)))
             except ValidationError as exc:
                 bad = validation_error(exc)
                 raise InputError(bad.message, field=_OPTIONS.get(bad.field or "", bad.field)
@@ -147,18 +147,6 @@ def discover(
 #: form fields of POST /discrepancy → the options that fill them here
 _OPTIONS = {"series_ids": "--series", "relaxation": "--relaxation", "rig_id": "--rig",
             "rig_version": "--version"}
-
-
-def _ids(text: str) -> list[int]:
-    """``"3, 4,5"`` → ``[3, 4, 5]``; anything else is an :class:`InputError` on ``--series``."""
-    try:
-        ids = [int(x) for x in text.split(",")]
-    except ValueError:
-        raise InputError(f"not a comma-separated list of ids: {text!r}", field="--series"
-                         ) from None
-    if any(i < 1 for i in ids):
-        raise InputError("series ids are positive", field="--series")
-    return ids
 
 
 def register(cli: typer.Typer) -> None:

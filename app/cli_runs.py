@@ -22,7 +22,14 @@ from rich.table import Table
 
 from app.cli_import import import_cli
 from app.cli_pump_map import calibrate_pump_map
-from app.cli_support import console, load_document, settings_from_env, steps, store_session
+from app.cli_support import (
+    console,
+    load_document,
+    series_ids,
+    settings_from_env,
+    steps,
+    store_session,
+)
 from sim.errors import InputError
 from sim.scenarios import FAULTS
 
@@ -44,14 +51,15 @@ def _print_json(payload: Any) -> None:
     typer.echo(json.dumps(payload, indent=2, default=str))
 
 
-def _overrides(items: list[str]) -> dict[str, float]:
+def _overrides(items: list[str], *, field: str = "--set", form: str = "role.name=value"
+               ) -> dict[str, float]:
     out: dict[str, float] = {}
     for item in items:
         name, _, value = item.partition("=")
         try:
             out[name.strip()] = float(value)
         except ValueError:
-            raise InputError(f"expected role.name=value, got {item!r}", field="--set") from None
+            raise InputError(f"expected {form}, got {item!r}", field=field) from None
     return out
 
 
@@ -136,27 +144,71 @@ def _diagnose_body(document: Any, *, joint: bool, store: bool) -> dict[str, Any]
     return {"record": document, "store": store}
 
 
+#: suffixes of a measured cycle's file (the import path of diagnostics.timeseries)
+_CYCLE_SUFFIXES = (".csv", ".parquet", ".pq")
+
+
 def diagnose(
-    file: Annotated[str, typer.Argument(help="Record(s): JSON or YAML.")],
+    file: Annotated[str | None, typer.Argument(
+        help="Record(s): JSON or YAML (a record, a list, or a /diagnose body); or measured "
+        "cycles: CSV or Parquet in the /simulate export's format, with --rig.")] = None,
+    series: Annotated[str | None, typer.Option(
+        help="Stored measured cycles (POST /rigs/{id}/series) instead of FILE: ids, "
+        "comma-separated, e.g. 3,4.")] = None,
+    rig: Annotated[int | None, typer.Option(help="The rig a cycle FILE was measured on.")
+                   ] = None,
+    condition: Annotated[list[str] | None, typer.Option(
+        help="A cycle's condition where its file does not state it or is wrong: "
+        "oil_temperature=40 (°C), load_force=4200 (N), back_pressure (Pa), pump_speed "
+        "(rad/s); repeat.")] = None,
     joint: Annotated[bool, typer.Option(help="Diagnose all records together.")] = False,
     store: Annotated[bool, typer.Option(help="Keep records and results in the history.")
                      ] = True,
     as_json: Annotated[bool, typer.Option("--json", help="Print the API's JSON answer.")] = False,
 ) -> None:
-    """Diagnose the record(s) of FILE against their stored rig, as POST /diagnose does."""
+    """Diagnose the record(s) of FILE, or measured cycles, against their stored rig, as POST
+    /diagnose does.
+
+    A measured cycle (a CSV or Parquet FILE with --rig, or stored cycles by --series) is
+    read as the rig's meters read it, as GET /series/{id}/record does: working-phase
+    pressures and flows over the middle 80 % of the travel, each stroke's steady speed.
+    """
     from app.schemas.diagnose import DiagnoseRequest
     from app.services.diagnosis import diagnose_request, response_of
     from app.services.rig_cache import RigCache
+    from app.services.series_record import file_cycle_records, stored_cycle_record
 
-    request = _validated(DiagnoseRequest,
-                         _diagnose_body(load_document(file), joint=joint, store=store))
+    if (file is None) == (series is None):
+        raise InputError("give FILE or --series (stored cycles), one of them", field="FILE")
+    cycles = series is not None or Path(str(file)).suffix.lower() in _CYCLE_SUFFIXES
+    if not cycles and (rig is not None or condition):
+        raise InputError("--rig and --condition go with a measured cycle (CSV or Parquet, or "
+                         "--series); a JSON or YAML record names its rig itself", field="--rig")
+    stated = _overrides(condition or [], field="--condition", form="name=value")
     with store_session() as session, steps() as progress:
+        rigs = RigCache(4)
+        if series is not None:
+            read = [stored_cycle_record(session, rigs, i, condition=stated)
+                    for i in series_ids(series)]
+        elif cycles:
+            if rig is None:
+                raise InputError("a measured cycle needs the rig it was measured on (--rig ID)",
+                                 field="--rig")
+            read = file_cycle_records(session, rigs, Path(str(file)), rig, condition=stated)
+        document = load_document(str(file)) if not cycles else (
+            [r.body for r in read] if joint or len(read) > 1 else read[0].body)
+        request = _validated(DiagnoseRequest,
+                             _diagnose_body(document, joint=joint, store=store))
         task = progress.add_task("diagnosing", total=None)
-        response = response_of(request, diagnose_request(session, RigCache(4), request))
+        response = response_of(request, diagnose_request(session, rigs, request))
         progress.update(task, description="done")
     if as_json:
         _print_json(response.model_dump(mode="json"))
         return
+    if cycles:
+        for k, r in enumerate(read):
+            for note in r.readings.notes:
+                _out.print(f"cycle {r.readings.name} (record {k}): {note}", markup=False)
     for item in response.diagnoses:
         table = Table("hypothesis", "probability", "parameters (95 % interval)",
                       title=f"{', '.join(item.records)}: {item.top} "

@@ -19,7 +19,7 @@ from app.db.engine import make_engine, make_session_factory
 from app.settings import Settings
 from sim.errors import InputError
 
-__all__ = ["console", "load_document", "migrated_engine", "settings_from_env", "steps",
+__all__ = ["console", "load_document", "migrated_engine", "series_ids", "settings_from_env", "steps",
            "store_session", "unwrap_help", "validation_error"]
 
 console = Console(stderr=True)
@@ -84,6 +84,18 @@ def load_document(path: str) -> Any:
         return json.loads(text) if p.suffix.lower() == ".json" else yaml.safe_load(text)
     except (json.JSONDecodeError, yaml.YAMLError) as exc:
         raise InputError(f"{p.name} is not valid JSON or YAML: {exc}", field="FILE") from None
+
+
+def series_ids(text: str, *, field: str = "--series") -> list[int]:
+    """``"3, 4,5"`` → ``[3, 4, 5]``; anything else is an :class:`InputError` on ``field``."""
+    try:
+        ids = [int(x) for x in text.split(",")]
+    except ValueError:
+        raise InputError(f"not a comma-separated list of ids: {text!r}", field=field
+                         ) from None
+    if any(i < 1 for i in ids):
+        raise InputError("series ids are positive", field=field)
+    return ids
 
 
 def validation_error(exc: ValidationError) -> InputError:

@@ -35,6 +35,7 @@ import numpy as np
 import pandas as pd
 
 from diagnostics.commissioning import PRIOR_SD
+from diagnostics.cycle_readings import phase_reading
 from diagnostics.evidence import FLEET_PRIOR
 from diagnostics.hypotheses import PARAMETERS
 from diagnostics.quantity import DEFAULT_INSTRUMENTS
@@ -173,27 +174,16 @@ class TransientReadings:
     stalled: tuple[str, ...]
 
 
-#: share of a stalled phase, at its end, over which its readings are averaged [-]
-SETTLED_SHARE = 0.5
-
-
 def _settled(ts: pd.DataFrame, phase: str) -> dict[str, float]:
-    """Time averages over the last :data:`SETTLED_SHARE` of a phase that did not complete:
-    the settled stall or creep state a meter reads (the start-up transient, in which the
-    hoses fill and a flow may reverse, left out), and the creep speed over that span."""
+    """The settled stall or creep state of a phase that did not complete, as a meter reads
+    it (:func:`diagnostics.cycle_readings.phase_reading`: the last half of the phase, the
+    start-up transient, in which the hoses fill and a flow may reverse, left out), and the
+    creep speed over that span."""
     rows = ts[ts["phase"] == phase]
-    t = rows["t [s]"].to_numpy()
-    sel = t >= t[0] + (1.0 - SETTLED_SHARE) * (t[-1] - t[0])
-    if sel.sum() < 2:
-        sel = np.ones(t.size, dtype=bool)
-    ts_, span = t[sel], t[sel][-1] - t[sel][0]
-    out = {}
-    for name in ("P_pump", "P1", "P2", "Q_meter_B", "Q_meter_C", "Q_relief"):
-        col = rows[next(c for c in rows.columns if c.startswith(f"{name} ["))].to_numpy()[sel]
-        out[name] = float(np.trapezoid(col, ts_) / span) if span > 0 else float(col[0])
-    x = rows["x [m]"].to_numpy()[sel]
-    out["speed"] = float(abs(x[-1] - x[0]) / span) if span > 0 else 0.0
-    return out
+    channels = {c.split(" [")[0]: rows[c].to_numpy() for c in rows.columns if " [" in c}
+    read = phase_reading(phase, channels.pop("t"), channels["x"], channels, 0.0,
+                         completed=False)
+    return {**read.averages, "speed": read.speed}
 
 
 def transient_readings(rig: Rig, ov: dict[str, float], load: float, temp: float

@@ -26,6 +26,7 @@ import pandas as pd
 from sim.bondgraph.model import IntegrationResult
 from sim.cycle_result import SUMMARY_UNITS, CycleResult, PhaseSummary, SolverReport
 from sim.errors import ParameterError, SolverLimitError
+from sim.phase_reading import steady_window, time_average
 from sim.rigs.assembly import Condition, Rig
 from sim.solver.limits import SolverLimits
 from sim.solver.noise import NoiseAccuracy, error_estimate
@@ -76,27 +77,16 @@ def phase_params(rig: Rig, phase: str, overrides: Mapping[str, float] | None,
 
 
 def _averages(rig: Rig, t: Arr, y: Arr, p: Arr) -> dict[str, float]:
-    """Time averages of the outputs over the middle of the stroke (10-90 % of the travel).
-
-    A meter on the rig is read while the piston moves steadily; the start-up transient
-    (pressure build-up, flow reversal in the hoses) and the arrival at the end stop are
-    left out, as a reader of the paper's traces does.  Falls back to the whole phase if
-    the piston travelled too little to have a middle.
-    """
+    """Time averages of the outputs over the middle of the stroke (10-90 % of the travel,
+    :func:`sim.phase_reading.steady_window`), where a rig's meters are read; the whole
+    phase if the piston travelled too little to have a middle."""
     out = rig.model.outputs(t, y, p)
-    x = y[:, rig.model.state_index("cylinder.x")]
-    travel = np.abs(x - x[0])
-    total = travel[-1]
-    sel = (travel >= 0.1 * total) & (travel <= 0.9 * total)
-    if total <= 0 or sel.sum() < 3:
-        sel = np.ones(t.size, dtype=bool)
+    sel = steady_window(y[:, rig.model.state_index("cylinder.x")])
     ts = t[sel]
-    span = ts[-1] - ts[0]
     res: dict[str, float] = {}
     for j, name in enumerate(rig.model.output_names):
         if name in SUMMARY_UNITS:
-            col = out[sel, j]
-            res[name] = float(np.trapezoid(col, ts) / span) if span > 0 else float(col[0])
+            res[name] = time_average(out[sel, j], ts)
     return res
 
 

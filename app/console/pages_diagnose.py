@@ -19,7 +19,7 @@ from app.console.routing import ConsoleKeyDep, new_router
 from app.console.views import diagnosis_view, history_page, trend_views
 from app.console.web import page, redirect
 from app.db.base import utcnow
-from app.errors import ServiceUnavailableError, format_location
+from app.errors import ServiceUnavailableError, format_location, status_for
 from app.schemas.diagnose import DiagnoseRequest
 from app.schemas.record_csv import record_rows
 from app.security import Scope
@@ -33,6 +33,7 @@ from app.services.diagnosis import (
 )
 from app.services.diagnosis_pool import DiagnosisPool
 from app.services.group_commit import GroupCommitter
+from app.services.series_record import stored_cycle_record
 from sim.errors import HydrodiagError, InputError
 
 __all__ = ["parse_records", "router"]
@@ -112,9 +113,19 @@ def _form(request: Request, session: Any, *, status_code: int = 200, text: str =
 
 
 @router.get("/diagnose")
-def diagnose_form(request: Request, session: SessionDep, _key: ConsoleKeyDep) -> Response:
-    """The form: paste a record (JSON or YAML) or upload a CSV of records."""
-    return _form(request, session)
+def diagnose_form(request: Request, session: SessionDep, rigs: RigsDep, _key: ConsoleKeyDep,
+                  series: Annotated[int | None, Query(ge=1)] = None) -> Response:
+    """The form: paste a record (JSON or YAML) or upload a CSV of records; with ``series``,
+    filled with that stored cycle's record (``GET /series/{id}/record``)."""
+    if series is None:
+        return _form(request, session)
+    try:
+        body = stored_cycle_record(session, rigs, series).body
+    except HydrodiagError as exc:
+        error = {"type": type(exc).__name__, "message": exc.message,
+                 "field": "series" if exc.field == "series_id" else exc.field}
+        return _form(request, session, status_code=status_for(exc), error=error)
+    return _form(request, session, text=json.dumps(body, indent=2))
 
 
 def _plan(request: Request, session: Session, text: str, content: bytes | None

@@ -1,5 +1,6 @@
-"""Console pages: a rig's measured series, one series plotted, and the discrepancy workflow
-on the series chosen (a job, followed on its page, its report shown when done).
+"""Console pages: a rig's measured series, one series plotted (a cycle also read as a
+record, diagnosed from the diagnose form), and the discrepancy workflow on the series
+chosen (a job, followed on its page, its report shown when done).
 
 The records are those ``POST /rigs/{id}/series`` and ``hydrodiag import`` stored; the check
 is ``POST /discrepancy`` with ``series_ids`` (:func:`app.services.discrepancy.plan_discrepancy`,
@@ -28,6 +29,7 @@ from app.services import jobs as job_service
 from app.services import rigs as rig_service
 from app.services import series as series_service
 from app.services.discrepancy import plan_discrepancy, submit_discrepancy
+from app.services.series_record import READING_UNITS, stored_cycle_record
 from diagnostics.real.relaxation import ZEMA_RELAXATION
 from sim.errors import ConflictError, HydrodiagError, InputError
 
@@ -63,13 +65,21 @@ def series_list(request: Request, session: SessionDep, _key: ConsoleKeyDep,
 
 
 @router.get("/series/{series_id}")
-def series_one(request: Request, session: SessionDep, _key: ConsoleKeyDep,
+def series_one(request: Request, session: SessionDep, rigs: RigsDep, _key: ConsoleKeyDep,
                series_id: Annotated[int, Path(ge=1)]) -> Response:
-    """One stored record: what it is, and its channels against time."""
+    """One stored record: what it is, its channels against time, and a cycle's readings
+    as a record (``GET /series/{id}/record``) with a link that diagnoses them, or why it
+    cannot be read as one."""
     row = series_service.get_series(session, series_id)
     record = series_service.as_record(row)
+    read, unread = None, None
+    try:
+        read = stored_cycle_record(session, rigs, series_id)
+    except InputError as exc:  # no phases, no position, a circuit without a cylinder ...
+        unread = {"type": type(exc).__name__, "message": exc.message, "field": exc.field}
     return page(request, "series_one.html", row=row, charts=series_charts(record),
-                phases=sorted(set(record.phase.tolist())) if record.phase is not None else [])
+                phases=sorted(set(record.phase.tolist())) if record.phase is not None else [],
+                read=read, unread=unread, units=READING_UNITS)
 
 
 @router.post("/series/check")

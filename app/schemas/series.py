@@ -4,11 +4,36 @@ from __future__ import annotations
 
 from typing import Any
 
-from pydantic import Field
+from pydantic import BaseModel, ConfigDict, Field
 
-from app.schemas.common import FiniteFloat, Page, PublicModel, Timestamp, UploadForm
+from app.schemas.common import (
+    MAX_ID,
+    FiniteFloat,
+    Page,
+    PublicModel,
+    Timestamp,
+    UploadForm,
+)
 
-__all__ = ["SeriesData", "SeriesImportForm", "SeriesList", "SeriesPublic"]
+__all__ = ["CYCLE_EXAMPLE", "CycleQuery", "PhaseReadingPublic", "SeriesData", "SeriesImportForm",
+           "SeriesList", "SeriesPublic", "SeriesRecordPublic"]
+
+#: a measured cycle in the format /simulate exports (the upload's example)
+CYCLE_EXAMPLE = (
+    "t [s],phase,x [m],P_pump [bar],P1 [bar],P2 [bar],Q_meter_B [l/min],Q_meter_C [l/min]\n"
+    "0,working,0,24.3,21.7,1.18,27.8,22.7\n"
+    "0.62,working,0.1,24.3,21.7,1.18,27.8,22.7\n"
+    "1.24,working,0.2,24.3,21.7,1.18,27.8,22.7\n"
+    "1.86,working,0.3,24.3,21.7,1.18,27.8,22.7\n"
+    "2.48,working,0.4,24.3,21.7,1.18,27.8,22.7\n"
+    "3.1,working,0.5,24.3,21.7,1.18,27.8,22.7\n"
+    "3.11,return,0.5,3.2,1.2,2.0,28.0,-27.7\n"
+    "3.57,return,0.4,3.2,1.2,2.0,28.0,-27.7\n"
+    "4.03,return,0.3,3.2,1.2,2.0,28.0,-27.7\n"
+    "4.49,return,0.2,3.2,1.2,2.0,28.0,-27.7\n"
+    "4.95,return,0.1,3.2,1.2,2.0,28.0,-27.7\n"
+    "5.41,return,0,3.2,1.2,2.0,28.0,-27.7\n"
+)
 
 
 class SeriesImportForm(UploadForm):
@@ -76,3 +101,75 @@ class SeriesData(SeriesPublic):
 
 class SeriesList(Page[SeriesPublic]):
     """A page of stored records."""
+
+
+class CycleQuery(BaseModel):
+    """How to read a stored cycle as a record (``GET /series/{id}/record``): the rig version
+    to diagnose against and condition values that override the series' own.  Query
+    parameters are text, so numbers are parsed from it (not the JSON bodies' strict
+    check); an unknown parameter is refused."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    rig_version: int | None = Field(
+        default=None, ge=1, le=MAX_ID,
+        description="Version of the rig document whose stroke judges a completed stroke; the "
+        "latest when null [-]", examples=[1])
+    oil_temperature: FiniteFloat | None = Field(
+        default=None, description="Oil temperature, when the series does not state it [°C]",
+        examples=[40.0])
+    load_force: FiniteFloat | None = Field(
+        default=None, description="Load on the piston in the working phase [N]",
+        examples=[4200.0])
+    back_pressure: FiniteFloat | None = Field(
+        default=None, description="Back-pressure of the load valve; 0 with a load force "
+        "[Pa]", examples=[0.0])
+    pump_speed: FiniteFloat | None = Field(
+        default=None, description="Pump shaft speed [rad/s]", examples=[167.55])
+
+    def condition(self) -> dict[str, float]:
+        """The condition values given."""
+        return {k: v for k, v in self.model_dump(exclude={"rig_version"}).items()
+                if v is not None}
+
+
+class PhaseReadingPublic(BaseModel):
+    """One phase of a cycle as a rig reads it (diagnostics.cycle_readings)."""
+
+    phase: str = Field(description="'working' or 'return' [-]", examples=["working"])
+    completed: bool = Field(
+        description="Whether the piston travelled at least 98 % of the stroke; a stalled or "
+        "creeping stroke is read over the last half of the phase [-]", examples=[True])
+    window_start: float = Field(description="First sample read [s]", examples=[0.314])
+    window_end: float = Field(description="Last sample read [s]", examples=[2.791])
+    travel: float = Field(description="Distance travelled in the phase [m]", examples=[0.4999])
+    speed: float = Field(description="Steady speed (least-squares slope of the position over "
+                         "the middle 80 % of the travel) or creep speed [m/s]",
+                         examples=[0.1614])
+    averages: dict[str, float] = Field(
+        description="Channel → time average over the samples read [SI unit of the channel]",
+        examples=[{"P1": 2.174e6}])
+
+
+class SeriesRecordPublic(BaseModel):
+    """A stored cycle read as the record ``POST /diagnose`` takes."""
+
+    series_id: int = Field(description="Series identifier [-]", examples=[1])
+    rig_id: int = Field(description="Rig the cycle was measured on [-]", examples=[1])
+    rig_version: int = Field(description="Version of the rig document used [-]",
+                             examples=[1])
+    record: dict[str, Any] = Field(
+        description="The record, in the form of `record` in POST /diagnose: condition and "
+        "readings in SI units (each of its default instrument class) [-]",
+        examples=[{"rig_id": 1, "condition": {"oil_temperature": 40.0, "load_force": 4200.0},
+                   "p1": 2.174e6, "speed_work": 0.1614, "speed_return": 0.2177}])
+    phases: list[PhaseReadingPublic] = Field(
+        description="The phases read [-]",
+        examples=[[{"phase": "working", "completed": True, "window_start": 0.314,
+                    "window_end": 2.791, "travel": 0.4999, "speed": 0.1614,
+                    "averages": {"P1": 2.174e6}}]])
+    notes: list[str] = Field(
+        description="What a reader must know (a stalled stroke, a reading left out, and "
+        "why) [-]",
+        examples=[["the working stroke stalled or crept (212.0 mm of 500.0 mm): read over "
+                   "the last half of the phase"]])

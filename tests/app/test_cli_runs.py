@@ -264,3 +264,34 @@ def test_simulate_samples_at_a_rate_and_reports_its_error(runner: CliRunner,
     assert frame["t [s]"].diff().dropna().round(12).eq(1e-3).all()
     ros2 = runner.invoke(cli, ["simulate", "--solver", "ros2", "--sample-rate", "1000"])
     assert ros2.exit_code != 0 and "sample_rate" in str(ros2.exception)
+
+
+def test_diagnose_a_measured_cycle_file_and_a_stored_one(runner: CliRunner,
+                                                          tmp_path: Path) -> None:
+    """A cycle in the /simulate export's format is read as the rig's meters read it
+    (GET /series/{id}/record) and diagnosed; the same cycle stored, by --series."""
+    cycle = tmp_path / "cycle.csv"
+    made = runner.invoke(cli, ["simulate", "--fault", "worn_spool", "--load", "4200",
+                               "--sample-rate", "1000", "--output", str(cycle)])
+    assert made.exit_code == 0, made.output
+    result = runner.invoke(cli, ["diagnose", str(cycle), "--rig", "1", "--no-store", "--json"])
+    assert result.exit_code == 0, result.output
+    [answer] = json.loads(result.stdout)["diagnoses"]
+    assert answer["top"] == "valve" and answer["id"] is None
+    assert store_count(Diagnosis) == 0
+    imported = runner.invoke(cli, ["import", "series", str(cycle), "--rig", "1",
+                                   "--name", "cycle"])
+    assert imported.exit_code == 0, imported.output
+    stored = runner.invoke(cli, ["diagnose", "--series", "1", "--condition",
+                                 "oil_temperature=40"])
+    assert stored.exit_code == 0, stored.output
+    assert "valve (p = " in stored.stdout and store_count(Diagnosis) == 1
+    for args, field in ((["diagnose", str(cycle)], "--rig"),
+                        (["diagnose", "--series", "1", "--condition", "oil=40"],
+                         "condition.oil"),
+                        (["diagnose", "--series", "1,x"], "--series"),
+                        (["diagnose", str(cycle), "--series", "1"], "FILE"),
+                        (["diagnose", "--series", "99"], "series_id")):
+        bad = runner.invoke(cli, args)
+        assert bad.exit_code != 0 and getattr(bad.exception, "field", None) == field, args
+    assert store_count(Diagnosis) == 1

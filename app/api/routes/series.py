@@ -4,12 +4,22 @@ from __future__ import annotations
 
 from typing import Annotated
 
-from fastapi import APIRouter, File, Form, Path, Response, UploadFile, status
+from fastapi import APIRouter, File, Form, Path, Query, Response, UploadFile, status
 
-from app.api.deps import PageDep, ReadAccess, SessionDep, WriteKeyDep
+from app.api.deps import PageDep, ReadAccess, RigsDep, SessionDep, WriteKeyDep
 from app.schemas.common import ERROR_RESPONSES
-from app.schemas.series import SeriesData, SeriesImportForm, SeriesList, SeriesPublic
+from app.schemas.series import (
+    CYCLE_EXAMPLE,
+    CycleQuery,
+    PhaseReadingPublic,
+    SeriesData,
+    SeriesImportForm,
+    SeriesList,
+    SeriesPublic,
+    SeriesRecordPublic,
+)
 from app.services import series as service
+from app.services.series_record import stored_cycle_record
 
 __all__ = ["router"]
 
@@ -28,7 +38,7 @@ def import_series(
     file: Annotated[UploadFile, File(
         description="CSV or Parquet, one row per sample: 't [s]' (or a sample rate), "
         "channels 'name [unit]' (or a column map), optional 'record' and 'phase' [-]",
-        examples=["record,t [s],p_pump [bar],q_work [l/min]\nc1,0,150,7.9\nc1,1,151,7.9\n"])],
+        examples=[CYCLE_EXAMPLE])],
     session: SessionDep,
     _key: WriteKeyDep,
     response: Response,
@@ -56,3 +66,23 @@ def list_series(rig_id: RigId, session: SessionDep, page: PageDep) -> SeriesList
 def get_series(series_id: SeriesId, session: SessionDep) -> SeriesData:
     """Return the record with its samples in SI units."""
     return SeriesData.of(service.get_series(session, series_id))
+
+
+@router.get("/series/{series_id}/record",
+            summary="Read a measured cycle as the record POST /diagnose takes")
+def series_record(series_id: SeriesId, query: Annotated[CycleQuery, Query()],
+                  session: SessionDep, rigs: RigsDep) -> SeriesRecordPublic:
+    """Read the stored cycle phase by phase as the rig's meters read it
+    (diagnostics.cycle_readings): working-phase pressures and flows averaged over the middle
+    80 % of the travel, each stroke's steady speed; a stalled stroke over the last half of
+    its phase.  Post ``record`` to ``/diagnose`` as it is; the query's condition values
+    override the series'.  Nothing is stored."""
+    read = stored_cycle_record(session, rigs, series_id, rig_version=query.rig_version,
+                               condition=query.condition())
+    return SeriesRecordPublic(
+        series_id=series_id, rig_id=read.rig.rig_id, rig_version=read.rig.version,
+        record=read.body, notes=list(read.readings.notes),
+        phases=[PhaseReadingPublic(phase=p.phase, completed=p.completed,
+                                   window_start=p.window[0], window_end=p.window[1],
+                                   travel=p.travel, speed=p.speed, averages=p.averages)
+                for p in read.readings.phases])

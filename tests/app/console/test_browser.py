@@ -214,6 +214,24 @@ def test_ticked_records_are_checked_and_the_page_follows_the_job(
     assert page.problems == [], page.problems
 
 
+def test_a_stored_cycle_is_diagnosed_from_its_page(console_server: LiveServer, page: Any,
+                                                   shots: Path) -> None:
+    """The series page reads the cycle as a record; its link fills the diagnose form, whose
+    submission diagnoses and stores it like a typed record."""
+    second = console_server.series[1]  # type: ignore[attr-defined]
+    page.problems.clear()
+    page.goto(f"{console_server.base_url}/console/series/{second}")
+    assert "speed_work" in page.inner_text("#record-readings")
+    page.click("#diagnose-record")
+    page.wait_for_url(f"**/console/diagnose?series={second}")
+    assert '"speed_return"' in page.input_value("#document")
+    page.screenshot(path=str(shots / "console-diagnose-cycle.png"), full_page=True)
+    page.click("#diagnose-form button[type=submit]")
+    page.wait_for_url("**/console/diagnoses/*")
+    assert page.inner_text("h1").split(": ", 1)[1].startswith("valve")
+    assert page.problems == [], page.problems
+
+
 def test_a_running_job_is_cancelled_with_its_button(console_server: LiveServer, page: Any,
                                                      shots: Path) -> None:
     started = threading.Event()

@@ -1,8 +1,11 @@
-"""The console's measured-series pages: the stored records, one plotted, and the
-discrepancy workflow started on ticked records and followed to its report."""
+"""The console's measured-series pages: the stored records, one plotted (a cycle read as a
+record that fills the diagnose form), and the discrepancy workflow started on ticked
+records and followed to its report."""
 
 from __future__ import annotations
 
+import html
+import json
 import re
 import threading
 import time
@@ -132,3 +135,31 @@ def test_a_read_key_cannot_cancel_a_job(console_server: LiveServer) -> None:
     body = console_server.client.get(f"/jobs/{job.id}").json()
     assert (body["status"], body["cancel_requested_at"]) == ("running", None)
     assert console_server.client.post(f"/jobs/{job.id}/cancel").status_code == 202
+
+
+def test_a_cycle_is_shown_as_a_record_and_fills_the_diagnose_form(
+        console_server: LiveServer, browser_client: httpx.Client) -> None:
+    first = console_server.series[0]  # type: ignore[attr-defined]
+    one = browser_client.get(f"/console/series/{first}")
+    assert 'id="record-readings"' in one.text and f'/console/diagnose?series={first}' in one.text
+    api = console_server.client.get(f"/series/{first}/record").json()["record"]
+    assert "<td>speed_work</td>" in one.text and "<td>m/s</td>" in one.text
+    form = browser_client.get(f"/console/diagnose?series={first}")
+    assert form.status_code == 200
+    filled = re.search(r'<textarea id="document"[^>]*>(.*?)</textarea>', form.text, re.S)
+    assert filled is not None
+    assert json.loads(html.unescape(filled.group(1))) == api
+    missing = browser_client.get("/console/diagnose?series=99999")
+    assert missing.status_code == 404 and error_box(missing.text)[0] == "series"
+
+
+def test_a_series_that_is_no_cycle_says_why(console_server: LiveServer,
+                                           browser_client: httpx.Client) -> None:
+    r = console_server.client.post("/rigs/1/series", data={"name": "flat"},
+                                   files={"file": ("flat.csv", b"t [s],P_pump [bar]\n0,1\n1,2\n",
+                                                   "text/csv")},
+                                   headers=console_server.auth)
+    assert r.status_code == 201, r.text
+    page = browser_client.get(f"/console/series/{r.json()['items'][0]['id']}")
+    assert page.status_code == 200 and 'id="record-unread"' in page.text
+    assert "no &#39;phase&#39; column" in page.text or "no 'phase' column" in page.text

@@ -1,0 +1,93 @@
+"""A measured cycle as the record ``POST /diagnose`` takes.
+
+Used by ``GET /series/{id}/record`` and ``hydrodiag diagnose --series`` / ``hydrodiag
+diagnose CYCLE.csv``: a cycle (a stored series, or a file read by the one import path
+:func:`diagnostics.timeseries.read_series`) is read phase by phase
+(:func:`diagnostics.cycle_readings.cycle_readings`, with the stroke of the rig document it
+will be diagnosed against) and written as a ``record`` body of ``/diagnose``: the same
+validation, the same diagnosis, the same history as readings typed in by hand.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from sqlalchemy.orm import Session
+
+from app.schemas.diagnose import MEASURED_FIELDS
+from app.services.rig_cache import ResolvedRig, RigCache
+from app.services.series import as_record, get_series
+from diagnostics.cycle_readings import CycleReadings, cycle_readings
+from diagnostics.timeseries import SeriesRecord, read_series
+
+__all__ = ["READING_UNITS", "CycleRecord", "cycle_record", "file_cycle_records", "record_body",
+           "stored_cycle_record"]
+
+#: unit of each reading of a record [SI], as the record's schema states it
+READING_UNITS: dict[str, str] = {name: unit for name, (unit, _) in MEASURED_FIELDS.items()}
+
+
+@dataclass(frozen=True)
+class CycleRecord:
+    """A cycle read as a record: the rig it was read against, the readings and the body."""
+
+    rig: ResolvedRig
+    readings: CycleReadings
+    body: dict[str, Any]
+
+
+def record_body(readings: CycleReadings, rig_id: int, rig_version: int | None
+                ) -> dict[str, Any]:
+    """The ``record`` of a ``/diagnose`` body: rig, condition and readings [SI], each of its
+    default instrument class (checked by building the measurement record)."""
+    readings.record(str(rig_id))  # an impossible reading is a 422 here, naming its field
+    body: dict[str, Any] = {"rig_id": rig_id, "condition": dict(readings.condition)}
+    if rig_version is not None:
+        body["rig_version"] = rig_version
+    body.update(readings.readings)
+    return body
+
+
+def cycle_record(series: SeriesRecord, rig: ResolvedRig,
+                 condition: Mapping[str, float] | None = None, *,
+                 pin_version: bool = True) -> CycleRecord:
+    """Read ``series`` against ``rig`` (its stroke), the ``condition`` given overriding the
+    series'; ``pin_version`` writes the rig version into the body."""
+    rig.rig.require_cycle("reading a cycle as a record")
+    readings = cycle_readings(series, rig.rig.base["cylinder.stroke"], condition)
+    body = record_body(readings, rig.rig_id, rig.version if pin_version else None)
+    return CycleRecord(rig, readings, body)
+
+
+def stored_cycle_record(session: Session, rigs: RigCache, series_id: int, *,
+                        rig_version: int | None = None,
+                        condition: Mapping[str, float] | None = None) -> CycleRecord:
+    """The stored cycle ``series_id`` read against its rig (``rig_version``, else the
+    latest).
+
+    Raises
+    ------
+    NotFoundError
+        No series ``series_id``, or its rig has no such version.
+    CircuitError
+        The rig has no cylinder cycle.
+    InputError
+        The series is not a readable cycle (:func:`diagnostics.cycle_readings.cycle_readings`)
+        or gives an impossible reading.
+    """
+    row = get_series(session, series_id)
+    rig = rigs.get(session, row.rig_id, rig_version)
+    return cycle_record(as_record(row), rig, condition)
+
+
+def file_cycle_records(session: Session, rigs: RigCache, path: Path, rig_id: int, *,
+                       rig_version: int | None = None,
+                       condition: Mapping[str, float] | None = None) -> list[CycleRecord]:
+    """Every cycle of a CSV or Parquet file (its ``record`` column separates them) read
+    against rig ``rig_id`` (``rig_version``, else the latest); errors name ``--rig`` and
+    the file's column."""
+    rig = rigs.get(session, rig_id, rig_version, rig_field="--rig", version_field="--version")
+    return [cycle_record(s, rig, condition) for s in read_series(path)]

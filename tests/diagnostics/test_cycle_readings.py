@@ -1,0 +1,155 @@
+"""A measured cycle read as a record (diagnostics.cycle_readings): the simulator's own
+phase readings come back from its exported series, the speeds are the steady model's, a
+stalled stroke is read as the accuracy study reads it, and a cycle that cannot be read is
+refused naming why."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from benchmarks.accuracy_cases import transient_readings
+from diagnostics.cycle_readings import COMPLETED_SHARE, cycle_readings
+from diagnostics.diagnose import diagnose
+from diagnostics.quantity import DEFAULT_INSTRUMENTS
+from diagnostics.signatures import evaluator
+from diagnostics.timeseries import SeriesRecord, read_series, series_from_frame
+from sim.cycle import run_cycle
+from sim.errors import InputError
+from sim.rigs import Condition, reference_rig
+
+RIG = reference_rig()
+STROKE = RIG.base["cylinder.stroke"]
+WORN_SPOOL = {"valve.cv": 60e-6}
+LOAD, TEMP = 4200.0, 40.0
+
+
+def _export(overrides: dict[str, float], load: float, temp: float, **kw: Any) -> Any:
+    """The cycle as ``/simulate`` exports it (1 kHz grid, noise-accurate RODAS4) with its
+    condition as constant columns, and the run."""
+    res = run_cycle(RIG, overrides, Condition(load=load, oil_temperature=temp),
+                    method="rodas4", sample_rate=1000.0, **kw)
+    frame = res.timeseries.assign(**{"load [N]": load, "oil_temperature [degC]": temp})
+    return frame, res
+
+
+@pytest.fixture(scope="module")
+def worn_spool() -> Any:
+    return _export(WORN_SPOOL, LOAD, TEMP)
+
+
+def test_the_exported_cycle_reads_back_as_the_simulators_phase_summary(worn_spool: Any,
+                                                                       tmp_path: Any) -> None:
+    frame, res = worn_spool
+    path = tmp_path / "cycle.csv"
+    frame.to_csv(path, index=False)
+    [series] = read_series(path)  # the one import path, through a file
+    read = cycle_readings(series, STROKE)
+    w = res.working.values
+    expected = {"pump_pressure": w["P_pump"], "p1": w["P1"], "p2": w["P2"],
+                "flow_B": w["Q_meter_B"], "flow_C": w["Q_meter_C"],
+                "pump_flow": w["Q_meter_B"] + w["Q_relief"]}
+    for name, value in expected.items():  # the same window and rule, on the same samples
+        assert read.readings[name] == pytest.approx(value, rel=1e-9, abs=1e-12), name
+    assert read.condition == {"load_force": LOAD, "oil_temperature": TEMP}
+    assert [p.completed for p in read.phases] == [True, True] and read.notes == ()
+    # the steady stroke's speed is the steady model's (stroke/duration is 0.1 % lower)
+    model = evaluator(RIG, Condition(load=LOAD, oil_temperature=TEMP))
+    values = [WORN_SPOOL.get(n, RIG.base[n]) for n in model.names]
+    v_work, v_return = model.vector(values, ("speed_work", "speed_return"))
+    u = DEFAULT_INSTRUMENTS["speed_work"].relative_bound / np.sqrt(3.0)
+    assert abs(read.readings["speed_work"] / v_work - 1.0) < 0.01 * u
+    assert abs(read.readings["speed_return"] / v_return - 1.0) < 0.01 * u
+    assert abs(res.working.values["speed"] / v_work - 1.0) > 0.2 * u
+
+
+def test_a_read_cycle_is_diagnosed_as_its_fault(worn_spool: Any) -> None:
+    frame, _ = worn_spool
+    [series] = series_from_frame(frame)
+    result = diagnose(RIG, [cycle_readings(series, STROKE).record("reference")])
+    top = result.hypotheses[0]
+    assert top.name == "valve" and top.probability > 0.5
+    [cv] = top.parameters
+    assert cv.low <= WORN_SPOOL["valve.cv"] <= cv.high
+
+
+def test_the_speed_channel_stands_in_for_the_position(worn_spool: Any) -> None:
+    frame, _ = worn_spool
+    [with_x] = series_from_frame(frame)
+    [with_v] = series_from_frame(frame.drop(columns=["x [m]"]))
+    a, b = cycle_readings(with_x, STROKE), cycle_readings(with_v, STROKE)
+    for name in ("speed_work", "speed_return", "p1", "flow_C"):
+        assert b.readings[name] == pytest.approx(a.readings[name], rel=1e-4), name
+
+
+def test_a_noisy_position_still_gives_the_steady_speed(worn_spool: Any) -> None:
+    """A 0.1 mm rms encoder noise: the slope over the middle of the stroke stays within a
+    tenth of the encoder's class, where the end points' difference would not be bound."""
+    frame, _ = worn_spool
+    rng = np.random.default_rng(3)
+    noisy = frame.assign(**{"x [m]": frame["x [m]"] + rng.normal(0.0, 1e-4, len(frame))})
+    [clean], [rough] = series_from_frame(frame), series_from_frame(noisy)
+    a, b = cycle_readings(clean, STROKE), cycle_readings(rough, STROKE)
+    for name in ("speed_work", "speed_return"):
+        assert abs(b.readings[name] / a.readings[name] - 1.0) < 5e-4, name
+
+
+def test_a_stalled_working_stroke_is_read_as_the_accuracy_study_reads_it() -> None:
+    """A worn seal under a heavy hot load: the working piston stops short of its stroke;
+    its settled state is read over the last half of the phase, the return stroke gives no
+    speed, and the notes say so."""
+    overrides, load, temp = {"cylinder.cc": 4e-4}, 6300.0, 60.0
+    frame, res = _export(overrides, load, temp)
+    assert not res.working.completed
+    [series] = series_from_frame(frame)
+    read = cycle_readings(series, STROKE)
+    assert read.phases[0].completed is False
+    assert read.phases[0].travel < COMPLETED_SHARE * STROKE
+    assert "speed_return" not in read.readings
+    assert any("stalled" in n for n in read.notes)
+    bench = transient_readings(RIG, overrides, load, temp)  # the same rules on ROS2 steps
+    for name in ("pump_pressure", "p1", "p2", "flow_B", "flow_C"):
+        assert read.readings[name] == pytest.approx(bench.values[name], rel=2e-3), name
+
+
+def _series(frame: pd.DataFrame) -> SeriesRecord:
+    return series_from_frame(frame)[0]
+
+
+@pytest.mark.parametrize(("change", "field"), [
+    (lambda f: f.drop(columns=["phase"]), "phase"),
+    (lambda f: f.drop(columns=["x [m]", "v [m/s]"]), "x"),
+    (lambda f: f.assign(phase="dwell"), "phase"),
+])
+def test_a_cycle_that_cannot_be_read_is_refused_naming_why(worn_spool: Any, change: Any,
+                                                           field: str) -> None:
+    frame, _ = worn_spool
+    with pytest.raises(InputError) as err:
+        cycle_readings(_series(change(frame)), STROKE)
+    assert err.value.field == field
+
+
+def test_the_condition_is_the_series_unless_stated(worn_spool: Any) -> None:
+    frame, _ = worn_spool
+    bare = _series(frame.drop(columns=["oil_temperature [degC]"]))
+    with pytest.raises(InputError) as err:
+        cycle_readings(bare, STROKE).record("reference")
+    assert err.value.field == "condition.oil_temperature"
+    stated = cycle_readings(bare, STROKE, {"oil_temperature": 45.0})
+    assert stated.record("reference").condition.oil_temperature.value == 45.0
+    with pytest.raises(InputError) as err:
+        cycle_readings(bare, STROKE, {"temperature": 45.0})
+    assert err.value.field == "condition.temperature"
+    both = _series(frame.assign(**{"back_pressure [Pa]": 1e6}))
+    with pytest.raises(InputError) as err:
+        cycle_readings(both, STROKE)
+    assert err.value.field == "condition.back_pressure"
+    # a logged temperature that drifts is averaged over the working stroke's window
+    t = frame["t [s]"].to_numpy()
+    drifting = _series(frame.assign(**{"oil_temperature [degC]": 40.0 + t}))
+    read = cycle_readings(drifting, STROKE)
+    lo, hi = read.phases[0].window
+    assert read.condition["oil_temperature"] == pytest.approx(40.0 + 0.5 * (lo + hi), rel=1e-6)
