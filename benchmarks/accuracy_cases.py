@@ -2,8 +2,10 @@
 
 Rigs: the paper-002 preset (through-rod cylinder) and a differential-cylinder rig (60 mm
 bore, no rod on the cap side, one 30 mm rod: the rig of issue 11) that nothing in the
-diagnosis was tuned on.  Readings come from the *transient* cycle (phase averages), not
-from the steady fast path the diagnosis uses, with instrument noise drawn uniformly within
+diagnosis was tuned on.  Readings come from the *transient* cycle, read as a measured
+cycle is (:func:`diagnostics.cycle_readings.phase_reading`: phase averages over the middle
+of the stroke, a linear encoder's speed), not from the steady fast path the diagnosis
+uses, with instrument noise drawn uniformly within
 each instrument's class bound (flow ±1 %, pressure ±0.25 %, speed ±0.5 %, ratio ±1 %).
 
 Fault draws (reported units of :mod:`diagnostics.hypotheses`):
@@ -174,15 +176,18 @@ class TransientReadings:
     stalled: tuple[str, ...]
 
 
-def _settled(ts: pd.DataFrame, phase: str) -> dict[str, float]:
-    """The settled stall or creep state of a phase that did not complete, as a meter reads
-    it (:func:`diagnostics.cycle_readings.phase_reading`: the last half of the phase, the
-    start-up transient, in which the hoses fill and a flow may reverse, left out), and the
-    creep speed over that span."""
+def _read(ts: pd.DataFrame, phase: str, completed: bool) -> dict[str, float]:
+    """A phase of the simulated cycle as a rig's meters read it
+    (:func:`diagnostics.cycle_readings.phase_reading`, the function a measured cycle goes
+    through): a completed stroke over the middle 80 % of its travel, its speed a linear
+    encoder's (the position's slope there: the steady speed; the simulator's
+    stroke/duration counts the start-up and reads 0.1 % low, 0.4 σ of the encoder); a
+    stalled or creeping one over the last half of the phase (the start-up transient, in
+    which the hoses fill and a flow may reverse, left out), and the creep speed there."""
     rows = ts[ts["phase"] == phase]
     channels = {c.split(" [")[0]: rows[c].to_numpy() for c in rows.columns if " [" in c}
     read = phase_reading(phase, channels.pop("t"), channels["x"], channels, 0.0,
-                         completed=False)
+                         completed=completed)
     return {**read.averages, "speed": read.speed}
 
 
@@ -194,15 +199,16 @@ def transient_readings(rig: Rig, ov: dict[str, float], load: float, temp: float
     or creeps: a clearance beyond the prior range, a relief setting near the load
     pressure, a hot differential cylinder on its return) is read as a rig reads it: its
     pressures, flows and speed are those of the settled stall or creep state (the last
-    half of the phase, :func:`_settled`); a return stroke after a stalled working stroke
+    half of the phase, :func:`_read`); a moving stroke's speed is a linear encoder's over the
+    middle of its travel; a return stroke after a stalled working stroke
     is not a stroke (it starts where the piston stalled) and gives no speed; the velocity
     ratio is given only when both strokes moved and the working one completed.
     """
     res = run_cycle(rig, ov, Condition(load=load, oil_temperature=temp),
                     timeseries=True)
     assert res.timeseries is not None
-    w = res.working.values if res.working.completed else _settled(res.timeseries, "working")
-    r = res.return_.values if res.return_.completed else _settled(res.timeseries, "return")
+    w = _read(res.timeseries, "working", res.working.completed)
+    r = _read(res.timeseries, "return", res.return_.completed)
     values = {"pump_pressure": w["P_pump"], "p1": w["P1"], "p2": w["P2"],
               "flow_B": w["Q_meter_B"], "flow_C": w["Q_meter_C"],
               "pump_flow": w["Q_meter_B"] + w["Q_relief"], "speed_work": w["speed"],
