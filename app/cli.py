@@ -1,5 +1,5 @@
-"""Command line of the service: ``hydrodiag serve | keys ... | db ...`` and the work commands
-``simulate | diagnose | sweep | calibrate`` (:mod:`app.cli_runs`).
+"""Command line of the service: ``hydrodiag serve | keys ... | db ... | jobs ...`` and the
+work commands ``simulate | diagnose | sweep | calibrate`` (:mod:`app.cli_runs`).
 
 ``serve`` migrates the store, preloads the paper-002 reference rig and its throttle tables
 (missing clearances computed by :class:`~app.services.throttle_estimator.
@@ -21,6 +21,7 @@ from sqlalchemy import Engine
 
 from app.cli_batch import register as register_batch
 from app.cli_discover import register as register_discover
+from app.cli_jobs import jobs_cli
 from app.cli_report import report_cli
 from app.cli_rigs import rigs_cli
 from app.cli_runs import register
@@ -41,6 +42,7 @@ db_cli = typer.Typer(help="The store's schema.", no_args_is_help=True)
 cli.add_typer(keys_cli, name="keys")
 cli.add_typer(db_cli, name="db")
 cli.add_typer(rigs_cli, name="rigs")
+cli.add_typer(jobs_cli, name="jobs")
 
 def _settings(**overrides: object) -> Settings:
     return settings_from_env(**overrides)
