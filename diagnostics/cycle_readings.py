@@ -238,11 +238,10 @@ def _condition(series: SeriesRecord, work: PhaseReading | None,
     out = {_CONDITION[k]: float(v) for k, v in series.condition.items()
            if k in _CONDITION and v is not None and math.isfinite(v)}
     if "oil_temperature" in series.channels and "oil_temperature" not in out and work is not None:
-        t = series.t[series.phase == "working"] if series.phase is not None else series.t
-        lo, hi = work.window
-        sel = (t >= lo) & (t <= hi)
-        temp = series.channels["oil_temperature"][series.phase == "working"][sel]
-        out["oil_temperature"] = time_average(temp, t[sel])
+        rows = series.phase == "working"
+        t, temp = series.t[rows], series.channels["oil_temperature"][rows]
+        sel = (t >= work.window[0]) & (t <= work.window[1])
+        out["oil_temperature"] = time_average(temp[sel], t[sel])
     for key, value in (stated or {}).items():
         if key not in _CONDITION.values():
             raise InputError(f"unknown condition field (one of {', '.join(_CONDITION.values())})",

@@ -52,13 +52,12 @@ def record_body(readings: CycleReadings, rig_id: int, rig_version: int | None
 
 
 def cycle_record(series: SeriesRecord, rig: ResolvedRig,
-                 condition: Mapping[str, float] | None = None, *,
-                 pin_version: bool = True) -> CycleRecord:
+                 condition: Mapping[str, float] | None = None) -> CycleRecord:
     """Read ``series`` against ``rig`` (its stroke), the ``condition`` given overriding the
-    series'; ``pin_version`` writes the rig version into the body."""
+    series'; the body names the rig version read against, so that it is diagnosed there."""
     rig.rig.require_cycle("reading a cycle as a record")
     readings = cycle_readings(series, rig.rig.base["cylinder.stroke"], condition)
-    body = record_body(readings, rig.rig_id, rig.version if pin_version else None)
+    body = record_body(readings, rig.rig_id, rig.version)
     return CycleRecord(rig, readings, body)
 
 
