@@ -176,7 +176,7 @@ class TransientReadings:
     stalled: tuple[str, ...]
 
 
-def _read(ts: pd.DataFrame, phase: str, completed: bool) -> dict[str, float]:
+def _read(ts: pd.DataFrame, phase: str, completed: bool, stroke: float) -> dict[str, float]:
     """A phase of the simulated cycle as a rig's meters read it
     (:func:`diagnostics.cycle_readings.phase_reading`, the function a measured cycle goes
     through): a completed stroke over the middle 80 % of its travel, its speed a linear
@@ -186,8 +186,10 @@ def _read(ts: pd.DataFrame, phase: str, completed: bool) -> dict[str, float]:
     which the hoses fill and a flow may reverse, left out), and the creep speed there."""
     rows = ts[ts["phase"] == phase]
     channels = {c.split(" [")[0]: rows[c].to_numpy() for c in rows.columns if " [" in c}
-    read = phase_reading(phase, channels.pop("t"), channels["x"], channels, 0.0,
-                         completed=completed)
+    # the simulated position is exact: every creep is read (a measured one's resolution is
+    # the reader's HELD_SHARE of the stroke), and the class noise is added to it later
+    read = phase_reading(phase, channels.pop("t"), channels["x"], channels, stroke,
+                         completed=completed, held_share=0.0)
     return {**read.averages, "speed": read.speed}
 
 
@@ -207,8 +209,9 @@ def transient_readings(rig: Rig, ov: dict[str, float], load: float, temp: float
     res = run_cycle(rig, ov, Condition(load=load, oil_temperature=temp),
                     timeseries=True)
     assert res.timeseries is not None
-    w = _read(res.timeseries, "working", res.working.completed)
-    r = _read(res.timeseries, "return", res.return_.completed)
+    stroke = rig.base["cylinder.stroke"]
+    w = _read(res.timeseries, "working", res.working.completed, stroke)
+    r = _read(res.timeseries, "return", res.return_.completed, stroke)
     values = {"pump_pressure": w["P_pump"], "p1": w["P1"], "p2": w["P2"],
               "flow_B": w["Q_meter_B"], "flow_C": w["Q_meter_C"],
               "pump_flow": w["Q_meter_B"] + w["Q_relief"], "speed_work": w["speed"],

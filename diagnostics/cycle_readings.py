@@ -13,9 +13,10 @@ as the simulator reads its own phases (:mod:`sim.phase_reading`):
   encoder);
 * a **stalled or creeping stroke** (less travel) is read over the last half of the phase,
   the settled state: averages as above and the creep speed from the position's change
-  there.  A speed of 0 is left out (the encoder's class is relative: a reading of 0 would
-  have no uncertainty), and so is the return stroke's speed after a stalled working stroke
-  (it starts where the piston stalled: no stroke).
+  there.  A held stroke's speed (it moved less than :data:`HELD_SHARE` of the stroke while
+  settled: noise, not creep) is left out — the encoder's class is relative, so a reading
+  of 0 would have no uncertainty —, and so is the return stroke's speed after a stalled
+  working stroke (it starts where the piston stalled: no stroke).
 
 Working-phase pressures and flows are the record's (:data:`CHANNELS`: ``P_pump``, ``P1``,
 ``P2``, ``Q_meter_B``, ``Q_meter_C``; the pump's flow from a ``Q_pump`` channel, else
@@ -47,13 +48,17 @@ from diagnostics.timeseries import SeriesRecord
 from sim.errors import InputError
 from sim.phase_reading import settled_window, steady_slope, steady_window, time_average
 
-__all__ = ["CHANNELS", "COMPLETED_SHARE", "CycleReadings", "PhaseReading", "cycle_readings",
+__all__ = ["CHANNELS", "COMPLETED_SHARE", "HELD_SHARE", "CycleReadings", "PhaseReading", "cycle_readings",
            "phase_reading"]
 
 Arr = npt.NDArray[np.float64]
 
 #: share of the rig's stroke a phase must travel to count as a completed stroke [-]
 COMPLETED_SHARE = 0.98
+#: a stalled stroke that moves less than this share of the stroke over its settled window
+#: is held on its stop (0.05 mm on a 0.5 m stroke: a linear encoder's resolution, well
+#: above a logged position's noise, below any creep the model predicts over seconds) [-]
+HELD_SHARE = 1e-4
 #: record field → channel of the working phase it is read from
 CHANNELS: dict[str, str] = {"pump_pressure": "P_pump", "p1": "P1", "p2": "P2",
                             "flow_B": "Q_meter_B", "flow_C": "Q_meter_C"}
@@ -139,10 +144,12 @@ class CycleReadings:
 
 
 def phase_reading(phase: str, t: Arr, x: Arr, channels: Mapping[str, Arr], stroke: float,
-                  completed: bool | None = None) -> PhaseReading:
+                  completed: bool | None = None, held_share: float = HELD_SHARE
+                  ) -> PhaseReading:
     """Read one phase (module docstring): times ``t`` [s], positions ``x`` [m], the
     channels [SI] and the rig's ``stroke`` [m]; ``completed`` as known (a simulation's
-    end-of-stroke event), else judged from the travel."""
+    end-of-stroke event), else judged from the travel; ``held_share`` of the stroke, the
+    least settled motion that is creep (0 for a simulated position, which resolves any)."""
     travel = float(abs(x[-1] - x[0]))
     if completed is None:
         completed = travel >= COMPLETED_SHARE * stroke
@@ -150,9 +157,9 @@ def phase_reading(phase: str, t: Arr, x: Arr, channels: Mapping[str, Arr], strok
     ts, xs = t[sel], x[sel]
     if completed:
         speed = steady_slope(ts, xs)
-    else:
-        span = ts[-1] - ts[0]
-        speed = float(abs(xs[-1] - xs[0]) / span) if span > 0 else 0.0
+    else:  # held (moved less than a position sensor resolves while settled) or creeping
+        span, moved = ts[-1] - ts[0], float(abs(xs[-1] - xs[0]))
+        speed = moved / span if span > 0 and moved >= held_share * stroke else 0.0
     averages = {c: time_average(channels[c][sel], ts) for c in _AVERAGED if c in channels}
     return PhaseReading(phase, completed, (float(ts[0]), float(ts[-1])), travel, speed,
                         averages)
@@ -228,7 +235,9 @@ def cycle_readings(series: SeriesRecord, stroke: float,
         elif p.speed > 0.0:
             readings[_SPEED[p.phase]] = p.speed
         else:
-            notes.append(f"the {p.phase} stroke did not move: no speed reading")
+            notes.append(f"the {p.phase} stroke is held on its end stop: no speed reading "
+                         "(a speed of 0 has no uncertainty under the encoder's relative "
+                         "class)")
     return CycleReadings(series.name, readings, _condition(series, work, condition), tuple(phases),
                          tuple(notes))
 
