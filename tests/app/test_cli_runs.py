@@ -295,3 +295,27 @@ def test_diagnose_a_measured_cycle_file_and_a_stored_one(runner: CliRunner,
         bad = runner.invoke(cli, args)
         assert bad.exit_code != 0 and getattr(bad.exception, "field", None) == field, args
     assert store_count(Diagnosis) == 1
+
+
+def test_diagnose_a_file_of_several_cycles_each_or_jointly(runner: CliRunner,
+                                                            tmp_path: Path) -> None:
+    """Two cycles of one worn spool at two loads in one Parquet table (a ``record`` column):
+    each is read and diagnosed on its own, or both together with --joint."""
+    frames = []
+    for load in ("2100", "4200"):
+        out = tmp_path / f"c{load}.parquet"
+        made = runner.invoke(cli, ["simulate", "--fault", "worn_spool", "--load", load,
+                                   "--sample-rate", "500", "--output", str(out)])
+        assert made.exit_code == 0, made.output
+        frames.append(pq.read_table(out).to_pandas().assign(record=f"load-{load}"))
+    both = tmp_path / "visit.parquet"
+    pd.concat(frames).to_parquet(both)
+    each = runner.invoke(cli, ["diagnose", str(both), "--rig", "1", "--no-store", "--json"])
+    assert each.exit_code == 0, each.output
+    answers = json.loads(each.stdout)["diagnoses"]
+    assert [a["top"] for a in answers] == ["valve", "valve"]
+    joint = runner.invoke(cli, ["diagnose", str(both), "--rig", "1", "--no-store", "--json",
+                                "--joint"])
+    assert joint.exit_code == 0, joint.output
+    [answer] = json.loads(joint.stdout)["diagnoses"]
+    assert answer["top"] == "valve" and len(answer["records"]) == 2
