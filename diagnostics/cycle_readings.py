@@ -4,7 +4,8 @@ A rig's logged cycle (the table ``/simulate`` exports, or a logger's through a c
 read by :func:`diagnostics.timeseries.read_series`) becomes one measurement record, read
 as the simulator reads its own phases (:mod:`sim.phase_reading`):
 
-* a **moving stroke** (travel ≥ :data:`COMPLETED_SHARE` of the rig's stroke) is read over
+* a **moving stroke** (travel ≥ :data:`COMPLETED_SHARE` of the rig's stroke, or one whose
+  end stop came between two samples: still moving at its last sample) is read over
   the middle 80 % of its travel: pressures and flows as time averages, the speed as the
   least-squares slope of the position there — what a linear encoder reads of the steady
   stroke, and what the steady model of the diagnosis predicts (on the reference rig, a
@@ -55,6 +56,9 @@ Arr = npt.NDArray[np.float64]
 
 #: share of the rig's stroke a phase must travel to count as a completed stroke [-]
 COMPLETED_SHARE = 0.98
+#: a stroke short of COMPLETED_SHARE that covered this share and still moved at its last
+#: sample ended between two samples (:func:`_cut_by_sampling`) [-]
+SAMPLED_SHARE = 0.9
 #: a stalled stroke that moves less than this share of the stroke over its settled window
 #: is held on its stop (0.05 mm on a 0.5 m stroke: a linear encoder's resolution, well
 #: above a logged position's noise, below any creep the model predicts over seconds) [-]
@@ -152,7 +156,7 @@ def phase_reading(phase: str, t: Arr, x: Arr, channels: Mapping[str, Arr], strok
     least settled motion that is creep (0 for a simulated position, which resolves any)."""
     travel = float(abs(x[-1] - x[0]))
     if completed is None:
-        completed = travel >= COMPLETED_SHARE * stroke
+        completed = travel >= COMPLETED_SHARE * stroke or _cut_by_sampling(t, x, travel, stroke)
     sel = steady_window(x) if completed else settled_window(t)
     ts, xs = t[sel], x[sel]
     if completed:
@@ -163,6 +167,18 @@ def phase_reading(phase: str, t: Arr, x: Arr, channels: Mapping[str, Arr], strok
     averages = {c: time_average(channels[c][sel], ts) for c in _AVERAGED if c in channels}
     return PhaseReading(phase, completed, (float(ts[0]), float(ts[-1])), travel, speed,
                         averages)
+
+
+def _cut_by_sampling(t: Arr, x: Arr, travel: float, stroke: float) -> bool:
+    """Whether a stroke short of :data:`COMPLETED_SHARE` was still moving at its last
+    sample, at half its mid-stroke speed or more, having covered :data:`SAMPLED_SHARE` of
+    the stroke: the end stop came between two samples (at 20 Hz a 0.22 m/s stroke ends up
+    to 11 mm after its last sample), not a stall."""
+    if travel < SAMPLED_SHARE * stroke or t.size < 4:
+        return False
+    sel = steady_window(x)
+    end = abs(x[-1] - x[-2]) / (t[-1] - t[-2]) if t[-1] > t[-2] else 0.0
+    return bool(end >= 0.5 * steady_slope(t[sel], x[sel]))
 
 
 def _position(series: SeriesRecord) -> Arr:

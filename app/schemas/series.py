@@ -138,8 +138,9 @@ class PhaseReadingPublic(BaseModel):
 
     phase: str = Field(description="'working' or 'return' [-]", examples=["working"])
     completed: bool = Field(
-        description="Whether the piston travelled at least 98 % of the stroke; a stalled or "
-        "creeping stroke is read over the last half of the phase [-]", examples=[True])
+        description="Whether the piston travelled at least 98 % of the stroke (or was still "
+        "moving at its last sample, the end stop between two samples); a stalled or creeping "
+        "stroke is read over the last half of the phase [-]", examples=[True])
     window_start: float = Field(description="First sample read [s]", examples=[0.314])
     window_end: float = Field(description="Last sample read [s]", examples=[2.791])
     travel: float = Field(description="Distance travelled in the phase [m]", examples=[0.4999])
