@@ -22,7 +22,8 @@ same for a single-record file.  A varying temperature stays a channel as well.
 A *column map* adapts other tables (a data logger's, a public data set's): raw column →
 ``(channel, unit)``, e.g. ``{"PS1": ("P_pump", "bar")}``; mapped columns need no unit in
 their names, and a logger's own record or stroke column maps to ``("record", "-")`` or
-``("phase", "-")``.  A table without a time column needs its ``sample_rate`` [Hz].
+``("phase", "-")`` (a numeric spool command, N = +1 / −1 as paper 002 writes it, reads as
+``working`` / ``return``).  A table without a time column needs its ``sample_rate`` [Hz].
 :func:`read_series` is the entry point; :meth:`SeriesRecord.frame` writes a
 record back in the same format.
 """
@@ -368,7 +369,7 @@ def series_from_frame(frame: pd.DataFrame, *, name: str = "table",
         if "phase" in group.columns:
             if group["phase"].isna().any():
                 raise InputError(f"empty phase label in record {label!r}", field="phase")
-            phase = group["phase"].astype(str).to_numpy().astype(np.str_)
+            phase = _phase_labels(group["phase"])
         condition: dict[str, float] = {}
         if len(groups) == 1:
             condition.update({k: float(v) for k, v in header_condition.items()
@@ -386,6 +387,22 @@ def series_from_frame(frame: pd.DataFrame, *, name: str = "table",
                         del units[chan]
         records.append(SeriesRecord(label, t, values, units, phase, condition, meta, measured))
     return records
+
+
+#: a logged spool command read as the phase it commands (paper 002 §3: N = +1 working,
+#: N = −1 return)
+_SPOOL_COMMAND = {1.0: "working", -1.0: "return"}
+
+
+def _phase_labels(column: pd.Series) -> npt.NDArray[np.str_]:
+    """The phase labels of a record: as written, or a numeric spool command N = ±1 as
+    ``working``/``return`` (other numbers, e.g. 0 with the spool centred, stay as written)."""
+    numbers = pd.to_numeric(column, errors="coerce")
+    labels = column.astype(str).to_numpy().astype(np.str_)
+    if numbers.notna().all():
+        labels = np.array([_SPOOL_COMMAND.get(float(v), str(label))
+                           for v, label in zip(numbers, labels, strict=True)], dtype=np.str_)
+    return labels
 
 
 def read_series(source: str | Path | bytes | pd.DataFrame, *, format: str | None = None,

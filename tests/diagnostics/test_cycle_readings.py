@@ -219,3 +219,23 @@ def test_coarse_sampling_and_a_dwell_read_as_the_steady_stroke(rate: float,
     for name, p in zip(names, predicted, strict=True):
         u = DEFAULT_INSTRUMENTS[name].relative_bound * abs(p) / np.sqrt(3.0)
         assert abs(read.readings[name] - p) < 0.01 * u, name
+
+
+def test_a_loggers_table_with_a_spool_command_reads_as_the_export(worn_spool: Any) -> None:
+    """A data logger's table: its own column names through a column map, pressures in bar,
+    the position in mm, the spool command N = +1 / −1 (paper 002) as its phase column —
+    the same readings as the export's."""
+    frame, _ = worn_spool
+    log = pd.DataFrame({
+        "time": frame["t [s]"], "N": np.where(frame["phase"] == "working", 1, -1),
+        "pos": 1e3 * frame["x [m]"], "PT1": frame["P1 [Pa]"] / 1e5,
+        "PT2": frame["P2 [Pa]"] / 1e5, "FT_C": 6e4 * frame["Q_meter_C [m^3/s]"]})
+    [series] = read_series(log, column_map={
+        "time": ("t", "s"), "N": ("phase", "-"), "pos": ("x", "mm"), "PT1": ("P1", "bar"),
+        "PT2": ("P2", "bar"), "FT_C": ("Q_meter_C", "L/min")})
+    assert set(series.phase.tolist()) == {"working", "return"}
+    read = cycle_readings(series, STROKE, {"oil_temperature": TEMP, "load_force": LOAD})
+    export = cycle_readings(_series(frame), STROKE)
+    assert set(read.readings) == {"p1", "p2", "flow_C", "speed_work", "speed_return"}
+    for name, value in read.readings.items():
+        assert value == pytest.approx(export.readings[name], rel=1e-9), name
