@@ -23,7 +23,9 @@ Working-phase pressures and flows are the record's (:data:`CHANNELS`: ``P_pump``
 ``P2``, ``Q_meter_B``, ``Q_meter_C``; the pump's flow from a ``Q_pump`` channel, else
 ``Q_meter_B`` + ``Q_relief`` where both are logged); each phase's speed is a reading and the
 velocity ratio follows from them (:meth:`diagnostics.measurement.MeasurementRecord.ratio`).
-A channel the series lacks is a reading the record lacks.  The position is ``x`` [m], or
+A channel the series lacks is a reading the record lacks; a series without a ``phase``
+column has its phases read off the position (working up to the piston's reversal, a note
+says so).  The position is ``x`` [m], or
 the speed ``v`` [m/s] integrated; without either the steady stroke cannot be found.  The
 condition is the series' (constant condition columns or the export's header), overridden
 by what the caller states; a logged oil temperature that varies is averaged over the
@@ -181,6 +183,30 @@ def _cut_by_sampling(t: Arr, x: Arr, travel: float, stroke: float) -> bool:
     return bool(end >= 0.5 * steady_slope(t[sel], x[sel]))
 
 
+def _phases_from_position(series: SeriesRecord, x: Arr, stroke: float) -> npt.NDArray[np.str_]:
+    """Phase labels of a cycle logged without them: working while the piston extends and
+    dwells at its farthest point, return from the last sample there on (a logger that
+    records the position but not the spool command).  One out-and-back per record: a
+    record whose piston leaves its start again after coming back is several cycles."""
+    away = np.abs(x - x[0])
+    tol = HELD_SHARE * stroke
+    if away.size < 4 or float(np.max(away)) < 10.0 * tol:
+        raise InputError(f"cycle {series.name!r} has no 'phase' column and its piston does "
+                         "not move: give the phases (working/return, or the spool command "
+                         "N = +1/−1)", field="phase")
+    # departures: from home (within 10 tol of the start) out past half the farthest point
+    state = np.where(away <= 10.0 * tol, 0, np.where(away >= 0.5 * float(np.max(away)), 1, -1))
+    marked = state[state >= 0]
+    if int(np.sum((marked[1:] == 1) & (marked[:-1] == 0))) > 1:
+        raise InputError(f"cycle {series.name!r} has no 'phase' column and holds more than "
+                         "one out-and-back of the piston: separate the cycles with a "
+                         "'record' column, or give the phases", field="phase")
+    far = int(np.flatnonzero(away >= float(np.max(away)) - tol)[-1])
+    labels = np.full(x.size, "return", dtype="<U7")
+    labels[: far + 1] = "working"
+    return labels
+
+
 def _position(series: SeriesRecord) -> Arr:
     if "x" in series.channels:
         return series.channels["x"]
@@ -199,7 +225,8 @@ def cycle_readings(series: SeriesRecord, stroke: float,
     Parameters
     ----------
     series
-        The cycle, with its ``phase`` column.
+        The cycle, with its ``phase`` column; without one, the phases are read off the
+        position (:func:`_phases_from_position`) and a note says so.
     stroke
         The rig's stroke [m].
     condition
@@ -209,18 +236,21 @@ def cycle_readings(series: SeriesRecord, stroke: float,
     Raises
     ------
     InputError
-        No ``phase`` column or no working/return phase in it, no position or speed channel,
+        No working/return phase in the ``phase`` column (or, without one, a piston that
+        does not move or moves out and back more than once), no position or speed channel,
         a phase with fewer than two samples, an unknown condition field, or a series whose
         condition has both a load and a back-pressure.
     """
-    if series.phase is None:
-        raise InputError(f"cycle {series.name!r} has no 'phase' column (working/return): a "
-                         "cycle is read phase by phase", field="phase")
     x = _position(series)
     phases: list[PhaseReading] = []
     notes: list[str] = []
+    labels = series.phase
+    if labels is None:
+        labels = _phases_from_position(series, x, stroke)
+        notes.append(f"no phase column: working up to the piston's reversal at t = "
+                     f"{series.t[int(np.sum(labels == 'working')) - 1]:.3f} s, return after it")
     for name in ("working", "return"):
-        rows = series.phase == name
+        rows = labels == name
         if not rows.any():
             notes.append(f"no {name} phase: its readings are left out")
             continue
@@ -254,16 +284,16 @@ def cycle_readings(series: SeriesRecord, stroke: float,
             notes.append(f"the {p.phase} stroke is held on its end stop: no speed reading "
                          "(a speed of 0 has no uncertainty under the encoder's relative "
                          "class)")
-    return CycleReadings(series.name, readings, _condition(series, work, condition), tuple(phases),
-                         tuple(notes))
+    return CycleReadings(series.name, readings, _condition(series, labels, work, condition),
+                         tuple(phases), tuple(notes))
 
 
-def _condition(series: SeriesRecord, work: PhaseReading | None,
+def _condition(series: SeriesRecord, labels: npt.NDArray[np.str_], work: PhaseReading | None,
                stated: Mapping[str, float] | None) -> dict[str, float]:
     out = {_CONDITION[k]: float(v) for k, v in series.condition.items()
            if k in _CONDITION and v is not None and math.isfinite(v)}
     if "oil_temperature" in series.channels and "oil_temperature" not in out and work is not None:
-        rows = series.phase == "working"
+        rows = labels == "working"
         t, temp = series.t[rows], series.channels["oil_temperature"][rows]
         sel = (t >= work.window[0]) & (t <= work.window[1])
         out["oil_temperature"] = time_average(temp[sel], t[sel])

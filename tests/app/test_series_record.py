@@ -84,7 +84,7 @@ def test_what_is_no_cycle_is_refused(server: LiveServer) -> None:
     assert server.client.get("/series/999999/record").status_code == 404
     flat = _import(server, b"t [s],P_pump [bar]\n0,10\n1,11\n")
     r = server.client.get(f"/series/{flat}/record")
-    assert r.status_code == 422 and r.json()["error"]["field"] == "phase", r.text
+    assert r.status_code == 422 and r.json()["error"]["field"] == "x", r.text
     zema = server.client.post("/rigs", json={"document": load_rig_document(ZEMA)},
                               headers=server.auth)
     assert zema.status_code == 201, zema.text

@@ -120,7 +120,9 @@ def _series(frame: pd.DataFrame) -> SeriesRecord:
 
 
 @pytest.mark.parametrize(("change", "field"), [
-    (lambda f: f.drop(columns=["phase"]), "phase"),
+    (lambda f: f.drop(columns=["phase"]).assign(**{"x [m]": 0.0, "v [m/s]": 0.0}), "phase"),
+    (lambda f: pd.concat([f, f.assign(**{"t [s]": f["t [s]"] + 6.0})]).drop(columns=["phase"]),
+     "phase"),
     (lambda f: f.drop(columns=["x [m]", "v [m/s]"]), "x"),
     (lambda f: f.assign(phase="dwell"), "phase"),
 ])
@@ -239,3 +241,22 @@ def test_a_loggers_table_with_a_spool_command_reads_as_the_export(worn_spool: An
     assert set(read.readings) == {"p1", "p2", "flow_C", "speed_work", "speed_return"}
     for name, value in read.readings.items():
         assert value == pytest.approx(export.readings[name], rel=1e-9), name
+
+
+@pytest.mark.parametrize("extra", [{}, {"t_max": 4.6, "hold": True}])
+def test_a_cycle_logged_without_phases_reads_them_off_the_position(extra: dict[str, Any]
+                                                                  ) -> None:
+    """A logger that records the position but not the spool command: working up to the
+    piston's reversal (after a dwell at the stop, if any), return after it — the same
+    readings as with the phase column, and a note that says how the phases were found."""
+    res = run_cycle(RIG, WORN_SPOOL, Condition(load=LOAD, oil_temperature=TEMP),
+                    method="rodas4", sample_rate=1000.0, **extra)
+    frame = res.timeseries.assign(**{"load [N]": LOAD, "oil_temperature [degC]": TEMP})
+    labelled = cycle_readings(_series(frame), STROKE)
+    unlabelled = cycle_readings(_series(frame.drop(columns=["phase"])), STROKE)
+    assert [p.completed for p in unlabelled.phases] == [True, True]
+    for name, value in labelled.readings.items():
+        assert unlabelled.readings[name] == pytest.approx(value, rel=1e-8), name
+    [note] = unlabelled.notes
+    switch = float(frame[frame["phase"] == "working"]["t [s]"].iloc[-1])
+    assert "no phase column" in note and abs(float(note.split("t = ")[1].split()[0]) - switch) < 0.005

@@ -75,7 +75,8 @@ def series_record(series_id: SeriesId, query: Annotated[CycleQuery, Query()],
     """Read the stored cycle phase by phase as the rig's meters read it
     (diagnostics.cycle_readings): working-phase pressures and flows averaged over the middle
     80 % of the travel, each stroke's steady speed; a stalled stroke over the last half of
-    its phase.  Post ``record`` to ``/diagnose`` as it is; the query's condition values
+    its phase; a series without a phase column has its phases read off the position (a
+    note says so).  Post ``record`` to ``/diagnose`` as it is; the query's condition values
     override the series'.  Nothing is stored."""
     read = stored_cycle_record(session, rigs, series_id, rig_version=query.rig_version,
                                condition=query.condition())

@@ -162,4 +162,4 @@ def test_a_series_that_is_no_cycle_says_why(console_server: LiveServer,
     assert r.status_code == 201, r.text
     page = browser_client.get(f"/console/series/{r.json()['items'][0]['id']}")
     assert page.status_code == 200 and 'id="record-unread"' in page.text
-    assert "no &#39;phase&#39; column" in page.text or "no 'phase' column" in page.text
+    assert "no piston position" in page.text
