@@ -184,10 +184,12 @@ def _cut_by_sampling(t: Arr, x: Arr, travel: float, stroke: float) -> bool:
 
 
 def _phases_from_position(series: SeriesRecord, x: Arr, stroke: float) -> npt.NDArray[np.str_]:
-    """Phase labels of a cycle logged without them: working while the piston extends and
-    dwells at its farthest point, return from the last sample there on (a logger that
-    records the position but not the spool command).  One out-and-back per record: a
-    record whose piston leaves its start again after coming back is several cycles."""
+    """Phase labels of a cycle logged without them (a logger that records the position but
+    not the spool command), the record taken to start with the working stroke as paper
+    002's cycle does: working while the piston moves away from where it started and dwells
+    at its farthest point, return from the last sample there on.  One out-and-back per
+    record: a record whose piston leaves its start again after coming back is several
+    cycles."""
     away = np.abs(x - x[0])
     tol = HELD_SHARE * stroke
     if away.size < 4 or float(np.max(away)) < 10.0 * tol:
@@ -247,7 +249,8 @@ def cycle_readings(series: SeriesRecord, stroke: float,
     labels = series.phase
     if labels is None:
         labels = _phases_from_position(series, x, stroke)
-        notes.append(f"no phase column: working up to the piston's reversal at t = "
+        notes.append(f"no phase column: the record taken to start with the working stroke "
+                     f"(paper 002's cycle), working up to the piston's reversal at t = "
                      f"{series.t[int(np.sum(labels == 'working')) - 1]:.3f} s, return after it")
     for name in ("working", "return"):
         rows = labels == name
