@@ -13,7 +13,7 @@ stops at its next progress report (``POST /jobs/{id}/cancel`` does the same)::
 from __future__ import annotations
 
 import json
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any, cast
 
 import typer
 from rich.console import Console
@@ -22,6 +22,9 @@ from rich.table import Table
 
 from app.cli_support import store_session
 from sim.errors import InputError
+
+if TYPE_CHECKING:
+    from app.schemas.jobs import JobStatus
 
 __all__ = ["jobs_cli"]
 
@@ -66,8 +69,7 @@ def list_jobs(
                          field="--status")
     with store_session() as session:
         jobs, total = list_stored(session, limit=limit, offset=0,
-                                  status=status,  # type: ignore[arg-type]
-                                  kind=kind)
+                                  status=cast("JobStatus | None", status), kind=kind)
         items = [_public(j) for j in jobs]
     if as_json:
         typer.echo(json.dumps({"items": items, "total": total}, indent=2))
