@@ -27,7 +27,6 @@ from app.services.rig_cache import ResolvedRig, RigCache
 from diagnostics.slip import rig_slip_coefficient
 from diagnostics.trends import TrendSeries, forecast_threshold
 from sim.errors import InputError
-from sim.fluid import Fluid
 from sim.rigs import Rig, validate_rig_document
 
 __all__ = ["COMPONENTS", "ComponentTrendOut", "TrendPointOut", "component_trends",
@@ -265,8 +264,8 @@ def _comparable(session: Session, latest: ResolvedRig, versions: set[int]
         RigVersion.rig_id == latest.rig_id, RigVersion.version.in_(older))).all()
     for version, document in rows:
         spec = validate_rig_document(document)
-        fluid = Fluid(**{k: q.value for k, q in spec.fluid.items()})  # as Rig.from_spec
-        out[version] = spec.values() == latest.rig.base and fluid == latest.rig.fluid
+        out[version] = (spec.values() == latest.rig.base
+                        and spec.fluid_model() == latest.rig.fluid)
     for v in older:
         out.setdefault(v, False)  # a version no longer stored: not comparable
     return out

@@ -78,7 +78,7 @@ class Rig:
         """Compile the circuit and keep the rig's parameter values."""
         _, derivations = _graph_cached(spec.circuit, spec.effect_types)
         model = _model_cached(spec.circuit, spec.effect_types)
-        fl = Fluid(**{k: q.value for k, q in spec.fluid.items()})
+        fl = spec.fluid_model()
         base = spec.values()
         unknown = set(base) - set(model.param_names)
         if unknown:

@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from sim.errors import ParameterError, RigFileError
-from sim.fluid import FLUID_PARAMETERS
+from sim.fluid import FLUID_PARAMETERS, Fluid
 from sim.params import Param
 from sim.rigs.circuits import CIRCUITS, COMPONENT_TYPES, DEFAULT_CIRCUIT, Circuit, get_circuit
 from sim.units import to_si
@@ -85,6 +85,10 @@ class RigSpec:
         out.update({f"{eff}.{k}": q.value for eff, ps in self.effects.items()
                     for k, q in ps.items()})
         return out
+
+    def fluid_model(self) -> Fluid:
+        """The oil of the ``fluid:`` section (SI values) as the simulation uses it."""
+        return Fluid(**{k: q.value for k, q in self.fluid.items()})
 
     @property
     def effect_types(self) -> tuple[str, ...]:
