@@ -38,13 +38,15 @@ NameOption = Annotated[str, typer.Option(help="Name of the import (file or campa
 def _summary(rows: list[object], title: str) -> None:
     from app.db.models import MeasuredSeries
 
-    table = Table("id", "record", "samples", "rate \\[Hz]", "channels \\[SI unit]",
-                  title=title)
+    table = Table("id", "record", "measured at \\[UTC]", "samples", "rate \\[Hz]",
+                  "channels \\[SI unit]", title=title)
     for row in rows:
         assert isinstance(row, MeasuredSeries)
         rate = "-" if row.sample_rate is None else f"{row.sample_rate:.6g}"
         units = ", ".join(f"{k} [{u}]" for k, u in row.units.items())
-        table.add_row(str(row.id), row.record, str(row.n_samples), rate, units.replace("[", "\\["))
+        when = "-" if row.measured_at is None else f"{row.measured_at:%Y-%m-%d %H:%M:%S}"
+        table.add_row(str(row.id), row.record, when, str(row.n_samples), rate,
+                      units.replace("[", "\\["))
     _out.print(table)
 
 
@@ -60,12 +62,17 @@ def import_series(
     ] = None,
     sample_rate: Annotated[float | None, typer.Option(
         help="Samples per second for a file without a time column \\[Hz].")] = None,
+    started_at: Annotated[str | None, typer.Option(
+        help="Clock time at which the file's t reads 0, ISO 8601 with zone (e.g. "
+             "2026-11-20T08:00:00Z): each record is stored as measured then plus its first "
+             "sample's t \\[UTC]; default: the file header's started_at, else none.")] = None,
 ) -> None:
     """Read a time-series file and store each record, as POST /rigs/{id}/series does."""
     from app.services.series import parse_column_map, store_records
-    from diagnostics.timeseries import read_series
+    from diagnostics.timeseries import clock_time, read_series
 
     cmap = parse_column_map(column_map, field="--column-map")
+    start = None if started_at is None else clock_time(started_at, field="--started-at")
     if sample_rate is not None and not sample_rate > 0:
         raise InputError("the sample rate must be > 0 [Hz]", field="--sample-rate")
     try:
@@ -75,7 +82,8 @@ def import_series(
     with store_session() as session, steps() as progress:
         task = progress.add_task(f"reading {file.name}", total=None)
         records = read_series(content, format="parquet" if file.suffix.lower() in (
-            ".parquet", ".pq") else None, column_map=cmap, sample_rate=sample_rate)
+            ".parquet", ".pq") else None, column_map=cmap, sample_rate=sample_rate,
+            started_at=start)
         progress.update(task, description=f"storing {len(records)} records",
                         total=len(records), completed=0)
         rows = store_records(session, rig_id, name, records,

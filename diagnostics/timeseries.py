@@ -19,6 +19,12 @@ Condition channels — ``load [N]``, ``back_pressure [Pa]``, ``oil_temperature [
 :attr:`SeriesRecord.condition`; the export's ``# condition = {...}`` header line does the
 same for a single-record file.  A varying temperature stays a channel as well.
 
+A record's clock time: ``started_at`` (a keyword of :func:`read_series`, or the header line
+``# started_at = "2026-11-20T08:00:00Z"``) is the time [UTC, ISO 8601 with its zone] at
+which the file's ``t`` reads 0; each record's :attr:`SeriesRecord.measured_at` is that plus
+its first sample's ``t`` (records whose time restarts at 0, or a file read by its sample
+rate, all get the start).  Without it a record has no clock time.
+
 A *column map* adapts other tables (a data logger's, a public data set's): raw column →
 ``(channel, unit)``, e.g. ``{"PS1": ("P_pump", "bar")}``; mapped columns need no unit in
 their names, and a logger's own record or stroke column maps to ``("record", "-")`` or
@@ -36,6 +42,7 @@ import math
 import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from datetime import UTC, datetime, timedelta
 from pathlib import Path
 from typing import Any
 
@@ -50,6 +57,7 @@ __all__ = [
     "CONDITION_CHANNELS",
     "PARQUET_METADATA_KEY",
     "SeriesRecord",
+    "clock_time",
     "read_series",
     "series_from_frame",
     "si_factor",
@@ -121,6 +129,8 @@ class SeriesRecord:
         The file's header entries (rig, fault, summary ...) as parsed JSON.
     measured
         True for data read from a file (the default); generated data sets it False.
+    started_at
+        Clock time at which ``t`` reads 0 [UTC], None when the source does not say.
     """
 
     name: str
@@ -131,6 +141,7 @@ class SeriesRecord:
     condition: dict[str, float] = field(default_factory=dict)
     metadata: dict[str, Any] = field(default_factory=dict)
     measured: bool = True
+    started_at: datetime | None = None
 
     def __len__(self) -> int:
         return int(self.t.size)
@@ -145,6 +156,14 @@ class SeriesRecord:
         if med <= 0 or float(np.max(np.abs(dt - med))) > 0.01 * med:
             return None
         return 1.0 / med
+
+    @property
+    def measured_at(self) -> datetime | None:
+        """Clock time of the first sample [UTC]: :attr:`started_at` plus ``t[0]``; None
+        without a start."""
+        if self.started_at is None:
+            return None
+        return self.started_at + timedelta(seconds=float(self.t[0]))
 
     @property
     def duration(self) -> float:
@@ -163,7 +182,8 @@ class SeriesRecord:
         sel = (self.t >= start) & (self.t <= stop)
         return SeriesRecord(self.name, self.t[sel], {k: v[sel] for k, v in self.channels.items()},
                             dict(self.units), None if self.phase is None else self.phase[sel],
-                            dict(self.condition), dict(self.metadata), self.measured)
+                            dict(self.condition), dict(self.metadata), self.measured,
+                            self.started_at)
 
     def frame(self) -> pd.DataFrame:
         """The record as a table in the import format (units in the column names); its
@@ -242,6 +262,31 @@ def _read_frame(source: str | Path | bytes | pd.DataFrame, fmt: str | None
     return frame, meta, name
 
 
+def clock_time(value: object, *, field: str = "started_at") -> datetime:
+    """A clock time given as ISO 8601 text with its zone (or an aware datetime), in UTC.
+
+    Raises
+    ------
+    InputError
+        Not a time, or a time without its zone (``field`` names where it was given).
+    """
+    if isinstance(value, datetime):
+        when = value
+    elif isinstance(value, str):
+        try:
+            when = datetime.fromisoformat(value.strip().replace("Z", "+00:00"))
+        except ValueError:
+            raise InputError(f"{value!r} is not an ISO 8601 time (e.g. 2026-11-20T08:00:00Z)",
+                             field=field) from None
+    else:
+        raise InputError("give the time as ISO 8601 text (e.g. 2026-11-20T08:00:00Z)",
+                         field=field)
+    if when.tzinfo is None or when.utcoffset() is None:
+        raise InputError("give the time with its zone (ISO 8601, e.g. ...Z or +01:00)",
+                         field=field)
+    return when.astimezone(UTC)
+
+
 def _record_groups(frame: pd.DataFrame) -> list[tuple[str, pd.DataFrame]]:
     if "record" not in frame.columns:
         return [("", frame)]
@@ -254,8 +299,8 @@ def series_from_frame(frame: pd.DataFrame, *, name: str = "table",
                       column_map: Mapping[str, tuple[str, str]] | None = None,
                       expected: Mapping[str, str] | None = None,
                       required: Sequence[str] = (), metadata: Mapping[str, Any] | None = None,
-                      measured: bool = True,
-                      sample_rate: float | None = None) -> list[SeriesRecord]:
+                      measured: bool = True, sample_rate: float | None = None,
+                      started_at: datetime | None = None) -> list[SeriesRecord]:
     """Records of a table in the import format (module docstring).
 
     Parameters
@@ -279,12 +324,16 @@ def series_from_frame(frame: pd.DataFrame, *, name: str = "table",
     sample_rate
         Samples per second [Hz] for a table without a time column: each record's times
         are then ``0, 1/rate, 2/rate, ...`` [s].  Ignored when the table has a time column.
+    started_at
+        Clock time at which ``t`` reads 0 [UTC, with its zone]; the header's
+        ``started_at`` when None; the records' :attr:`SeriesRecord.started_at`.
 
     Raises
     ------
     InputError
         Naming the column: no time column (and no ``sample_rate``), unknown or wrong unit, NaN or infinity,
-        non-increasing time, a required channel missing, a record of < 2 samples.
+        non-increasing time, a required channel missing, a record of < 2 samples; a start
+        without its zone (``started_at``).
     """
     cmap = dict(column_map or {})
     labels: dict[str, str] = {}  # a logger's own record or phase column → the label
@@ -301,6 +350,9 @@ def series_from_frame(frame: pd.DataFrame, *, name: str = "table",
     frame = frame.rename(columns=labels)
     exp = dict(CONDITION_CHANNELS, **(expected or {}))
     meta = dict(metadata or {})
+    start = (clock_time(started_at) if started_at is not None
+             else clock_time(meta["started_at"])
+             if meta.get("started_at") is not None else None)
     columns: dict[str, tuple[str, str, float, float]] = {}  # raw → (channel, unit, scale, offset)
     for col in frame.columns:
         raw = str(col)
@@ -385,7 +437,8 @@ def series_from_frame(frame: pd.DataFrame, *, name: str = "table",
                     if chan != "oil_temperature":
                         del values[chan]
                         del units[chan]
-        records.append(SeriesRecord(label, t, values, units, phase, condition, meta, measured))
+        records.append(SeriesRecord(label, t, values, units, phase, condition, meta, measured,
+                                    start))
     return records
 
 
@@ -408,7 +461,8 @@ def _phase_labels(column: pd.Series) -> npt.NDArray[np.str_]:
 def read_series(source: str | Path | bytes | pd.DataFrame, *, format: str | None = None,
                 column_map: Mapping[str, tuple[str, str]] | None = None,
                 expected: Mapping[str, str] | None = None, required: Sequence[str] = (),
-                measured: bool = True, sample_rate: float | None = None) -> list[SeriesRecord]:
+                measured: bool = True, sample_rate: float | None = None,
+                started_at: datetime | None = None) -> list[SeriesRecord]:
     """Read measured time series from a CSV or Parquet file (path or bytes) or a table.
 
     See the module docstring for the format and :func:`series_from_frame` for the options.
@@ -425,4 +479,4 @@ def read_series(source: str | Path | bytes | pd.DataFrame, *, format: str | None
         raise InputError("the table has no rows", field="file")
     return series_from_frame(frame, name=name, column_map=column_map, expected=expected,
                              required=required, metadata=meta, measured=measured,
-                             sample_rate=sample_rate)
+                             sample_rate=sample_rate, started_at=started_at)

@@ -166,7 +166,8 @@ class MeasuredSeries(Base):
     """One imported time-series record of a rig (:mod:`diagnostics.timeseries`), in SI units.
 
     ``data`` holds ``{"t": [...] [s], "channels": {name: [...]}}``; ``units`` the SI unit of
-    every channel; ``condition`` the record's constant operating condition.
+    every channel; ``condition`` the record's constant operating condition; ``measured_at``
+    the clock time of its first sample when the import stated one (null otherwise).
     """
 
     __tablename__ = "measured_series"
@@ -181,6 +182,7 @@ class MeasuredSeries(Base):
     units: Mapped[dict[str, Any]] = mapped_column(JSONDocument)
     condition: Mapped[dict[str, Any]] = mapped_column(JSONDocument)
     data: Mapped[dict[str, Any]] = mapped_column(JSONDocument)
+    measured_at: Mapped[datetime | None] = mapped_column(UTCDateTime())
     created_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=utcnow)
 
 

@@ -139,6 +139,12 @@ class MeasurementIn(RequestModel):
         "request when null [UTC]",
         examples=["2026-11-22T08:30:00Z"],
     )
+    series_id: int | None = Field(
+        default=None, ge=1, le=MAX_ID,
+        description="Stored series of the record's rig the readings were read from "
+        "(GET /series/{id}/record puts it here); kept with the record in the history [-]",
+        examples=[None],
+    )
     condition: ConditionIn = Field(
         description="Operating condition [-]",
         examples=[{"oil_temperature": 40.0, "load_force": 2100.0}],

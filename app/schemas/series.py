@@ -9,6 +9,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from app.schemas.common import (
     MAX_ID,
     FiniteFloat,
+    IsoDatetime,
     Page,
     PublicModel,
     Timestamp,
@@ -56,6 +57,12 @@ class SeriesImportForm(UploadForm):
     sample_rate: FiniteFloat | None = Field(
         default=None, gt=0,
         description="Samples per second for a file without a time column [Hz]", examples=[1.0])
+    started_at: IsoDatetime | None = Field(
+        default=None,
+        description="Clock time at which the file's t reads 0, ISO 8601 with zone; each "
+        "record is stored as measured at this plus its first sample's t (the file header's "
+        "'# started_at = \"...\"' when not given; none when neither) [UTC]",
+        examples=["2026-11-20T08:00:00Z"])
 
 
 class SeriesPublic(PublicModel):
@@ -76,6 +83,10 @@ class SeriesPublic(PublicModel):
         description="Constant operating condition: load [N], back_pressure [Pa], "
         "oil_temperature [°C], pump_speed [rad/s] — those known [SI]",
         examples=[{"oil_temperature": 45.2}])
+    measured_at: Timestamp | None = Field(
+        default=None, description="Clock time of the first sample, when the import stated "
+        "it (null otherwise); a record read from the series is stored at this time [UTC]",
+        examples=["2026-11-20T08:00:00Z"])
     created_at: Timestamp
 
 

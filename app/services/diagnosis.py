@@ -35,6 +35,7 @@ from app.services.common import commit, prefixed
 from app.services.history import ComponentEstimate, add_diagnosis, add_measurement
 from app.services.measurements import stored_record, to_record
 from app.services.rig_cache import ResolvedRig, RigCache
+from app.services.series import check_source
 from diagnostics.diagnose import CLEARANCES, Diagnosis, diagnose
 from diagnostics.measurement import MeasurementRecord
 from sim.errors import InputError
@@ -272,6 +273,10 @@ def plan_groups(session: Session, rigs: RigCache, request: DiagnoseRequest, now:
         path0, first = group[0]
         resolved = rigs.get(session, first.rig_id, first.rig_version,
                             rig_field=f"{path0}.rig_id", version_field=f"{path0}.rig_version")
+        for path, record in group:
+            if record.series_id is not None:
+                check_source(session, record.series_id, record.rig_id,
+                             field=f"{path}.series_id")
         times = [record.measured_at or now for _, record in group]
         records = [to_record(record, path=path, rig_name=resolved.name, measured_at=t)
                    for (path, record), t in zip(group, times, strict=True)]

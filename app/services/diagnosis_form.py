@@ -51,6 +51,8 @@ class RecordForm(NamedTuple):
         The rig, and the version of its document (``None``: the latest).
     measured_at
         When the readings were taken [UTC]; ``None``: the time of the request.
+    series_id
+        The stored series the readings were read from, or ``None``.
     condition, readings
         The operating condition's and the measured readings given, by field name in the
         schema's order (:data:`ReadingForm` each).
@@ -60,6 +62,7 @@ class RecordForm(NamedTuple):
     rig_id: int
     rig_version: int | None
     measured_at: datetime | None
+    series_id: int | None
     condition: dict[str, ReadingForm]
     readings: dict[str, ReadingForm]
 
@@ -95,7 +98,7 @@ def _readings(model: MeasurementIn | ConditionIn, names: tuple[str, ...]
 
 def record_form(data: MeasurementIn, path: str) -> RecordForm:
     """The form of one validated record at ``path`` in its request."""
-    return RecordForm(path, data.rig_id, data.rig_version, data.measured_at,
+    return RecordForm(path, data.rig_id, data.rig_version, data.measured_at, data.series_id,
                       _readings(data.condition, CONDITION_FIELDS), _readings(data, _MEASURED))
 
 
@@ -172,6 +175,8 @@ def stored_document(form: RecordForm, measured_at: datetime) -> Mapping[str, Any
         document["rig_version"] = form.rig_version
     if form.measured_at is not None:
         document["measured_at"] = None  # keeps its place; filled in below
+    if form.series_id is not None:
+        document["series_id"] = form.series_id
     document["condition"] = {name: _reading_document(r) for name, r in form.condition.items()}
     for name, reading in form.readings.items():
         document[name] = _reading_document(reading)

@@ -33,6 +33,7 @@ from app.services.diagnosis import (
 from app.services.diagnosis_answer import DiagnoseAnswer, StoredRows, answer_of
 from app.services.diagnosis_form import RecordForm, RequestForm, measurement_record
 from app.services.rig_cache import RigCache
+from app.services.series import check_source
 from sim.errors import HydrodiagError, InputError
 
 __all__ = ["DiagnoseAnswer", "DiagnoseTask", "StoredRows", "TaskFailure", "plan_forms",
@@ -98,6 +99,10 @@ def plan_forms(session: Session, rigs: RigCache, form: RequestForm, now: datetim
         resolved = rigs.get(session, first.rig_id, first.rig_version,
                             rig_field=f"{first.path}.rig_id",
                             version_field=f"{first.path}.rig_version")
+        for record in group:
+            if record.series_id is not None:
+                check_source(session, record.series_id, record.rig_id,
+                             field=f"{record.path}.series_id")
         times = [record.measured_at or now for record in group]
         records = [measurement_record(record, rig_name=resolved.name, measured_at=t)
                    for record, t in zip(group, times, strict=True)]

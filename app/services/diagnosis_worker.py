@@ -99,7 +99,7 @@ def warm_task(key: RigKey, rig: Rig) -> DiagnoseTask | None:
     if warm is None:
         return None
     condition, readings = warm
-    record = RecordForm("record", key[0], key[1], None,
+    record = RecordForm("record", key[0], key[1], None, None,
                         {k: (v, None, None) for k, v in condition.items()},
                         {k: (v, None, None) for k, v in readings.items()})
     return DiagnoseTask(RequestForm("single", False, False, [record]), datetime.now(UTC))

@@ -13,7 +13,7 @@ from typing import Any
 from sqlalchemy import exists, func, select, true
 from sqlalchemy.orm import Session
 
-from app.db.models import Measurement, Rig, RigVersion
+from app.db.models import MeasuredSeries, Measurement, Rig, RigVersion
 from app.services.common import commit, get_or_raise, paginate, prefixed
 from sim.errors import ConflictError, NotFoundError, ParameterError
 from sim.rigs import validate_rig_document
@@ -164,12 +164,19 @@ def delete_rig(session: Session, rig_id: int) -> None:
     Raises
     ------
     ConflictError
-        The rig has measurement history, which is kept.
+        The rig has measurement history, which is kept, or measured series (delete them
+        first: ``DELETE /series/{id}``).
     """
     rig = get_rig(session, rig_id)
     if session.scalar(select(exists().where(Measurement.rig_id == rig_id))):
         raise ConflictError(
             f"rig {rig_id} has measurement history; it cannot be deleted", field="rig_id"
         )
+    series = session.scalar(select(func.count()).select_from(MeasuredSeries)
+                            .where(MeasuredSeries.rig_id == rig_id))
+    if series:
+        raise ConflictError(
+            f"rig {rig_id} has {series} measured series (GET /rigs/{rig_id}/series); delete "
+            "them first (DELETE /series/{id})", field="rig_id")
     session.delete(rig)
     commit(session, conflict=f"rig {rig_id} is in use")

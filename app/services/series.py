@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Callable, Sequence
+from datetime import datetime, timedelta
 
 import numpy as np
 from sqlalchemy import select
@@ -26,6 +27,8 @@ from sim.errors import InputError
 __all__ = [
     "MAX_SERIES_BYTES",
     "as_record",
+    "check_source",
+    "delete_series",
     "get_series",
     "import_series",
     "list_series",
@@ -78,7 +81,7 @@ def store_records(session: Session, rig_id: int, name: str, records: Sequence[Se
         rows.append(MeasuredSeries(
             rig_id=rig_id, name=name, record=r.name[:200], sample_rate=rate,
             n_samples=len(r), measured=r.measured, units=dict(r.units),
-            condition=dict(r.condition),
+            condition=dict(r.condition), measured_at=r.measured_at,
             data={"t": r.t.tolist(), "channels": {c: v.tolist() for c, v in r.channels.items()}}
             | ({} if r.phase is None else {"phase": [str(x) for x in r.phase]}),
         ))
@@ -91,9 +94,11 @@ def store_records(session: Session, rig_id: int, name: str, records: Sequence[Se
 
 def import_series(session: Session, rig_id: int, name: str, content: bytes, *,
                   column_map: dict[str, tuple[str, str]] | None = None,
-                  sample_rate: float | None = None, fmt: str | None = None
-                  ) -> list[MeasuredSeries]:
-    """Read a CSV/Parquet file and store its records (errors name ``file.<column>``)."""
+                  sample_rate: float | None = None, fmt: str | None = None,
+                  started_at: datetime | None = None) -> list[MeasuredSeries]:
+    """Read a CSV/Parquet file and store its records (errors name ``file.<column>``);
+    ``started_at``: the clock time at which the file's ``t`` reads 0 [UTC], else the file
+    header's (:mod:`diagnostics.timeseries`)."""
     get_rig(session, rig_id, field="rig_id")
     if len(content) > MAX_SERIES_BYTES:
         raise InputError(f"the file has {len(content)} bytes; at most {MAX_SERIES_BYTES}",
@@ -102,9 +107,10 @@ def import_series(session: Session, rig_id: int, name: str, content: bytes, *,
         raise InputError("the file is empty", field="file")
     try:
         records = read_series(content, format=fmt, column_map=column_map,
-                              sample_rate=sample_rate)
+                              sample_rate=sample_rate, started_at=started_at)
     except InputError as exc:
-        where = exc.field if exc.field in ("column_map", "sample_rate") else (
+        given = ("column_map", "sample_rate") + (("started_at",) if started_at else ())
+        where = exc.field if exc.field in given else (
             f"file.{exc.field}" if exc.field and exc.field != "file" else "file")
         raise type(exc)(exc.message, field=where) from None
     return store_records(session, rig_id, name, records)
@@ -124,16 +130,43 @@ def get_series(session: Session, series_id: int) -> MeasuredSeries:
     return get_or_raise(session, MeasuredSeries, series_id, what="series", field="series_id")
 
 
+def check_source(session: Session, series_id: int, rig_id: int, *, field: str) -> None:
+    """Check that a record read from stored series ``series_id`` names that series' rig.
+
+    Raises
+    ------
+    NotFoundError
+        No such series (``field``).
+    InputError
+        The series belongs to another rig (``field``).
+    """
+    row = get_or_raise(session, MeasuredSeries, series_id, what="series", field=field)
+    if row.rig_id != rig_id:
+        raise InputError(f"series {series_id} belongs to rig {row.rig_id}, not rig {rig_id}",
+                         field=field)
+
+
+def delete_series(session: Session, series_id: int) -> None:
+    """Delete the stored record ``series_id`` (:class:`NotFoundError` when absent).  Nothing
+    refers to it: a record read from it and diagnosed is stored in the history on its own,
+    and jobs keep the ids they were given as text."""
+    session.delete(get_series(session, series_id))
+    commit(session, conflict=f"series {series_id} could not be deleted", field="series_id")
+
+
 def as_record(row: MeasuredSeries) -> SeriesRecord:
     """The stored record as the import path read it: samples, units, phases (where the file
-    had a ``phase`` column) and condition, marked measured or not as stored."""
+    had a ``phase`` column), condition and clock time, marked measured or not as stored."""
     data = row.data
     phase = data.get("phase")
-    return SeriesRecord(row.record, np.asarray(data["t"], dtype=float),
+    t = np.asarray(data["t"], dtype=float)
+    start = (None if row.measured_at is None
+             else row.measured_at - timedelta(seconds=float(t[0])))
+    return SeriesRecord(row.record, t,
                         {c: np.asarray(v, dtype=float) for c, v in data["channels"].items()},
                         dict(row.units), None if phase is None else np.asarray(phase, dtype=str),
                         {k: float(v) for k, v in row.condition.items()},
-                        {"series_id": row.id, "import": row.name}, row.measured)
+                        {"series_id": row.id, "import": row.name}, row.measured, start)
 
 
 def stored_records(session: Session, rig_id: int, ids: Sequence[int], *,

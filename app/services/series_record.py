@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
+from datetime import datetime
 from pathlib import Path
 from typing import Any
 
@@ -39,25 +40,35 @@ class CycleRecord:
     body: dict[str, Any]
 
 
-def record_body(readings: CycleReadings, rig_id: int, rig_version: int | None
+def record_body(readings: CycleReadings, rig_id: int, rig_version: int | None,
+                measured_at: datetime | None = None, series_id: int | None = None
                 ) -> dict[str, Any]:
-    """The ``record`` of a ``/diagnose`` body: rig, condition and readings [SI], each of its
+    """The ``record`` of a ``/diagnose`` body: rig, the cycle's clock time when known, the
+    stored series it was read from (if any), condition and readings [SI], each of its
     default instrument class (checked by building the measurement record)."""
     readings.record(str(rig_id))  # an impossible reading is a 422 here, naming its field
-    body: dict[str, Any] = {"rig_id": rig_id, "condition": dict(readings.condition)}
+    body: dict[str, Any] = {"rig_id": rig_id}
     if rig_version is not None:
         body["rig_version"] = rig_version
+    if measured_at is not None:
+        body["measured_at"] = measured_at.isoformat().replace("+00:00", "Z")
+    if series_id is not None:
+        body["series_id"] = series_id
+    body["condition"] = dict(readings.condition)
     body.update(readings.readings)
     return body
 
 
 def cycle_record(series: SeriesRecord, rig: ResolvedRig,
-                 condition: Mapping[str, float] | None = None) -> CycleRecord:
+                 condition: Mapping[str, float] | None = None,
+                 series_id: int | None = None) -> CycleRecord:
     """Read ``series`` against ``rig`` (its stroke), the ``condition`` given overriding the
-    series'; the body names the rig version read against, so that it is diagnosed there."""
+    series'; the body names the rig version read against, so that it is diagnosed there,
+    the clock time of the cycle's first sample when the series has one, and the stored
+    series ``series_id`` it came from."""
     rig.rig.require_cycle("reading a cycle as a record")
     readings = cycle_readings(series, rig.rig.base["cylinder.stroke"], condition)
-    body = record_body(readings, rig.rig_id, rig.version)
+    body = record_body(readings, rig.rig_id, rig.version, series.measured_at, series_id)
     return CycleRecord(rig, readings, body)
 
 
@@ -79,7 +90,7 @@ def stored_cycle_record(session: Session, rigs: RigCache, series_id: int, *,
     """
     row = get_series(session, series_id)
     rig = rigs.get(session, row.rig_id, rig_version)
-    return cycle_record(as_record(row), rig, condition)
+    return cycle_record(as_record(row), rig, condition, row.id)
 
 
 def file_cycle_records(session: Session, rigs: RigCache, path: Path, rig_id: int, *,

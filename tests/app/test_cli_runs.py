@@ -12,9 +12,11 @@ import pandas as pd
 import pyarrow.parquet as pq
 import pytest
 import yaml
+from sqlalchemy import select
 from typer.testing import CliRunner
 
 from app.cli import cli
+from app.cli_support import store_session
 from app.db.models import Diagnosis, PumpSet, ThrottleCalibration
 from diagnostics.pump import (
     InstrumentNoise,
@@ -194,9 +196,21 @@ def test_import_zema_cycles_and_a_series_file(runner: CliRunner, tmp_path: Path)
     result = runner.invoke(cli, ["import", "series", str(csv), "--rig", "1", "--name", "s"])
     assert result.exit_code == 0, result.output
     assert store_count(MeasuredSeries) == 6 and "p_pump [Pa]" in result.stdout
+    timed = runner.invoke(cli, ["import", "series", str(csv), "--rig", "1", "--name", "t",
+                                "--started-at", "2026-11-20T08:00:00Z"])
+    assert timed.exit_code == 0, timed.output
+    assert timed.stdout.count("2026-11-20 08:00:00") == 2  # b starts at t = 0 as well
+    with store_session() as session:
+        times = session.scalars(select(MeasuredSeries.measured_at)
+                                .where(MeasuredSeries.name == "t")).all()
+    assert [w.isoformat() if w else None for w in times] == ["2026-11-20T08:00:00+00:00"] * 2
+    naive = runner.invoke(cli, ["import", "series", str(csv), "--rig", "1", "--name", "u",
+                                "--started-at", "2026-11-20T08:00:00"])
+    assert naive.exit_code != 0 and getattr(naive.exception, "field", None) == "--started-at"
+    assert store_count(MeasuredSeries) == 8
     csv.write_text("t [s],p_pump [psi]\n0,1\n1,2\n")
     bad = runner.invoke(cli, ["import", "series", str(csv), "--rig", "1", "--name", "bad"])
-    assert bad.exit_code != 0 and store_count(MeasuredSeries) == 6
+    assert bad.exit_code != 0 and store_count(MeasuredSeries) == 8
     assert "[Hz]" in runner.invoke(cli, ["import", "series", "--help"]).stdout
 
 

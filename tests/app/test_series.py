@@ -8,6 +8,7 @@ from typing import Any
 import pytest
 
 from diagnostics.real.zema import COLUMN_MAP, cycles_frame, load_1hz
+from sim.rigs import reference_rig_document
 from tests.app.live import LiveServer
 from tests.real_slices import zema_slice
 
@@ -76,3 +77,28 @@ def test_unknown_rig_and_series(server: LiveServer) -> None:
     assert response.status_code == 404 and response.json()["error"]["field"] == "rig_id"
     assert server.row_counts() == before
     assert server.client.get("/series/99999").status_code == 404
+
+
+def test_a_series_is_deleted_and_then_its_rig(server: LiveServer) -> None:
+    """A rig with measured series names them when its deletion is refused; an admin deletes
+    a series (404 after), and then the rig."""
+    document = reference_rig_document() | {"name": "delete-me"}
+    created = server.client.post("/rigs", json={"document": document}, headers=server.auth)
+    assert created.status_code == 201, created.text
+    rig = int(created.json()["id"])
+    stored = _upload(server, b"t [s],p [bar]\n0,1\n1,2\n", {"name": "wrong-file"}, rig=rig)
+    series = int(stored.json()["items"][0]["id"])
+    before = server.row_counts()
+    refused = server.client.delete(f"/rigs/{rig}", headers=server.auth)
+    assert refused.status_code == 409, refused.text
+    error = refused.json()["error"]
+    assert error["field"] == "rig_id" and "1 measured series" in error["message"]
+    assert server.row_counts() == before
+    assert server.anon.delete(f"/series/{series}").status_code == 401
+    assert server.client.delete(f"/series/{series}", headers=server.auth).status_code == 204
+    assert server.client.get(f"/series/{series}").status_code == 404
+    assert server.client.delete(f"/series/{series}", headers=server.auth).status_code == 404
+    assert server.client.delete(f"/rigs/{rig}", headers=server.auth).status_code == 204
+    after = server.row_counts()
+    assert after["measured_series"] == before["measured_series"] - 1
+    assert after["rigs"] == before["rigs"] - 1

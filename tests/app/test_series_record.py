@@ -92,3 +92,79 @@ def test_what_is_no_cycle_is_refused(server: LiveServer) -> None:
                      rig=int(zema.json()["id"]))
     r = server.client.get(f"/series/{pumped}/record")
     assert r.status_code == 422 and r.json()["error"]["type"] == "CircuitError", r.text
+
+
+def test_a_cycle_stored_with_its_clock_time_is_diagnosed_at_that_time(
+        server: LiveServer) -> None:
+    """The import's start (here the file header's, then the form's) puts each record at its
+    first sample's time; the record read from the series carries it, and the history stores
+    the diagnosis there, not at the time of the request."""
+    exported = _simulated_cycle(server, "worn_spool", 4200.0)
+    headed = b'# started_at = "2026-11-20T08:00:00+01:00"\n' + exported
+    r = server.client.post("/rigs/1/series", data={"name": "visit"},
+                           files={"file": ("cycle.csv", headed, "text/csv")},
+                           headers=server.auth)
+    assert r.status_code == 201, r.text
+    [item] = r.json()["items"]
+    assert item["measured_at"] == "2026-11-20T07:00:00Z"  # t starts at 0 in the export
+    read = server.client.get(f"/series/{item['id']}/record").json()
+    assert read["record"]["measured_at"] == "2026-11-20T07:00:00Z"
+    d = server.client.post("/diagnose", json={"record": read["record"]}, headers=server.auth)
+    assert d.status_code == 200, d.text
+    [answer] = d.json()["diagnoses"]
+    stored = server.client.get(f"/measurements/{answer['measurement_ids'][0]}").json()
+    assert stored["measured_at"] == "2026-11-20T07:00:00Z"
+    assert stored["record"]["series_id"] == read["record"]["series_id"] == item["id"]
+    # the form's start wins over the header's; a record's time is its first sample's
+    two = (b"t [s],record,x [m]\n" + b"".join(
+        f"{t},{rec},{0.1 * t}\n".encode() for rec, ts in (("a", (0, 1)), ("b", (90.5, 91)))
+        for t in ts))
+    r = server.client.post("/rigs/1/series",
+                           data={"name": "two", "started_at": "2026-11-21T10:00:00Z"},
+                           files={"file": ("two.csv", b'# started_at = "2020-01-01T00:00:00Z"\n'
+                                           + two, "text/csv")}, headers=server.auth)
+    assert r.status_code == 201, r.text
+    assert [i["measured_at"] for i in r.json()["items"]] == [
+        "2026-11-21T10:00:00Z", "2026-11-21T10:01:30.500000Z"]
+    # without a start a series has no time, and neither has the record read from it
+    plain = _import(server, exported)
+    assert server.client.get(f"/series/{plain}").json()["measured_at"] is None
+    assert "measured_at" not in server.client.get(f"/series/{plain}/record").json()["record"]
+
+
+@pytest.mark.parametrize(("header", "form", "field"), [
+    (b'# started_at = "2026-11-20T08:00:00"\n', {}, "file.started_at"),
+    (b'# started_at = "yesterday"\n', {}, "file.started_at"),
+    (b"", {"started_at": "2026-11-20T08:00:00"}, "started_at"),
+    (b"", {"started_at": "1763625600"}, "started_at"),
+])
+def test_a_start_without_its_zone_is_refused_and_nothing_stored(
+        server: LiveServer, header: bytes, form: dict[str, str], field: str) -> None:
+    before = server.row_counts()
+    r = server.client.post("/rigs/1/series", data={"name": "bad-time"} | form,
+                           files={"file": ("c.csv", header + b"t [s],x [m]\n0,0\n1,0.1\n",
+                                           "text/csv")}, headers=server.auth)
+    assert r.status_code == 422, r.text
+    assert r.json()["error"]["field"] == field
+    assert server.row_counts() == before
+
+
+def test_a_record_names_a_series_of_its_own_rig(server: LiveServer,
+                                                worn_spool_series: int) -> None:
+    """``series_id`` (put there by GET /series/{id}/record) is kept with the stored record;
+    a series of another rig is a 422 and an unknown one a 404, both naming the field, with
+    nothing stored."""
+    record = server.client.get(f"/series/{worn_spool_series}/record").json()["record"]
+    zema = server.client.post("/rigs", json={"document": load_rig_document(ZEMA) | {
+        "name": "zema-provenance"}}, headers=server.auth)
+    assert zema.status_code == 201, zema.text
+    other = _import(server, b"t [s],P_pump [bar]\n0,10\n1,11\n", rig=int(zema.json()["id"]))
+    before = server.row_counts()
+    for series, status in ((other, 422), (999999, 404)):
+        for body in ({"record": record | {"series_id": series}},
+                     {"records": [record, record | {"series_id": series}]}):
+            r = server.client.post("/diagnose", json=body, headers=server.auth)
+            assert r.status_code == status, r.text
+            path = "record" if "record" in body else "records[1]"
+            assert r.json()["error"]["field"] == f"{path}.series_id"
+    assert server.row_counts() == before

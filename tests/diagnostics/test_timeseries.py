@@ -139,3 +139,39 @@ def test_unreadable_files_are_input_errors(tmp_path):
         read_series(bad)
     with pytest.raises(InputError):
         read_series(b"PAR1 not really parquet", format="parquet")
+
+
+def test_the_clock_time_of_each_record(tmp_path, cycle):
+    """``started_at`` (the keyword, else the header) is the time at t = 0; a record's
+    ``measured_at`` adds its first sample's t; windows keep the clock; a Parquet file's
+    metadata carries the start as the CSV header does."""
+    import json
+    from datetime import UTC, datetime
+
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    frame = pd.DataFrame({"t [s]": [0.0, 1.0, 3600.0, 3601.0], "record": ["a", "a", "b", "b"],
+                          "P1 [bar]": [1.0, 2.0, 3.0, 4.0]})
+    text = frame.to_csv(index=False).encode()
+    a, b = read_series(b'# started_at = "2026-11-20T09:00:00+01:00"\n' + text)
+    assert a.started_at == b.started_at == datetime(2026, 11, 20, 8, tzinfo=UTC)
+    assert a.measured_at == datetime(2026, 11, 20, 8, tzinfo=UTC)
+    assert b.measured_at == datetime(2026, 11, 20, 9, tzinfo=UTC)
+    assert b.window(3600.5, 3601.0).measured_at == datetime(2026, 11, 20, 9, 0, 1, tzinfo=UTC)
+    given = datetime(2027, 1, 1, tzinfo=UTC)
+    assert read_series(b'# started_at = "2026-11-20T09:00:00Z"\n' + text,
+                       started_at=given)[0].measured_at == given
+    assert read_series(text)[0].measured_at is None
+    table = pa.Table.from_pandas(cycle.timeseries, preserve_index=False)
+    meta = {b"hydrodiag": json.dumps({"started_at": "2026-11-20T08:00:00Z"}).encode()}
+    pq.write_table(table.replace_schema_metadata(meta), tmp_path / "run.parquet")
+    (rec,) = read_series(tmp_path / "run.parquet")
+    assert rec.measured_at == datetime(2026, 11, 20, 8, tzinfo=UTC)
+
+
+@pytest.mark.parametrize("start", ['"2026-11-20T08:00:00"', '"monday"', "1763625600"])
+def test_a_start_without_its_zone_is_refused(start):
+    with pytest.raises(InputError) as err:
+        read_series(f"# started_at = {start}\nt [s],P1 [bar]\n0,1\n1,2\n".encode())
+    assert err.value.field == "started_at"

@@ -6,7 +6,7 @@ from typing import Annotated
 
 from fastapi import APIRouter, File, Form, Path, Query, Response, UploadFile, status
 
-from app.api.deps import PageDep, ReadAccess, RigsDep, SessionDep, WriteKeyDep
+from app.api.deps import AdminKeyDep, PageDep, ReadAccess, RigsDep, SessionDep, WriteKeyDep
 from app.schemas.common import ERROR_RESPONSES
 from app.schemas.series import (
     CYCLE_EXAMPLE,
@@ -48,7 +48,7 @@ def import_series(
     content = file.file.read(service.MAX_SERIES_BYTES + 1)
     rows = service.import_series(session, rig_id, form.name, content,
                                  column_map=service.parse_column_map(form.column_map),
-                                 sample_rate=form.sample_rate)
+                                 sample_rate=form.sample_rate, started_at=form.started_at)
     response.headers["Location"] = f"/rigs/{rig_id}/series"
     return SeriesList(items=[SeriesPublic.model_validate(r) for r in rows], total=len(rows),
                       limit=max(1, len(rows)), offset=0)
@@ -66,6 +66,14 @@ def list_series(rig_id: RigId, session: SessionDep, page: PageDep) -> SeriesList
 def get_series(series_id: SeriesId, session: SessionDep) -> SeriesData:
     """Return the record with its samples in SI units."""
     return SeriesData.of(service.get_series(session, series_id))
+
+
+@router.delete("/series/{series_id}", status_code=status.HTTP_204_NO_CONTENT,
+               response_class=Response, summary="Delete a measured record")
+def delete_series(series_id: SeriesId, session: SessionDep, _key: AdminKeyDep) -> None:
+    """Delete the stored record (a wrong import, or to delete its rig); diagnoses of cycles
+    read from it stay in the history.  Needs a key of scope ``admin``."""
+    service.delete_series(session, series_id)
 
 
 @router.get("/series/{series_id}/record",

@@ -229,6 +229,9 @@ def test_a_stored_cycle_is_diagnosed_from_its_page(console_server: LiveServer, p
     page.click("#diagnose-form button[type=submit]")
     page.wait_for_url("**/console/diagnoses/*")
     assert page.inner_text("h1").split(": ", 1)[1].startswith("valve")
+    assert f"read from stored series {second}" in page.inner_text("main")
+    page.click("#source-series")  # the diagnosis links back to the cycle it was read from
+    page.wait_for_url(f"**/console/series/{second}")
     assert page.problems == [], page.problems
 
 

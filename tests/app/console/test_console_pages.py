@@ -179,6 +179,8 @@ def test_bad_form_input_names_the_field_and_stores_nothing(
             "record.pump_pressure",
         "rig_id: 99\ncondition: {oil_temperature: 40, load_force: 2100}\npump_pressure: 1.4e6":
             "record.rig_id",
+        "rig_id: 1\nseries_id: 99999\ncondition: {oil_temperature: 40, load_force: 2100}\n"
+        "pump_pressure: 1.4e6": "record.series_id",
         "{not yaml: [": "document",
         "": "document",
     }
