@@ -52,13 +52,16 @@ def _summary(rows: list[object], title: str) -> None:
 
 @import_cli.command("series")
 def import_series(
-    file: Annotated[Path, typer.Argument(help="CSV or Parquet: 't \\[s]' and 'name \\[unit]' "
-                                              "columns, optional 'record' and 'phase'.")],
+    file: Annotated[Path, typer.Argument(help="CSV (comma, semicolon or tab) or Parquet: "
+                                              "'t \\[s]' and 'name \\[unit]' columns, "
+                                              "optional 'record' and 'phase'.")],
     rig_id: RigOption,
     name: NameOption,
     column_map: Annotated[str | None, typer.Option(
         help='JSON raw column → \\[channel, unit], e.g. '
-             '\'{"PS1": \\["P_pump", "bar"], "run": \\["record", "-"]}\'.')
+             '\'{"PS1": \\["P_pump", "bar"], "run": \\["record", "-"]}\'; a raw signal '
+             '→ \\[channel, unit, gain, offset] (gain·raw + offset in unit), a column to '
+             'leave out → \\["skip", "-"].')
     ] = None,
     sample_rate: Annotated[float | None, typer.Option(
         help="Samples per second for a file without a time column \\[Hz].")] = None,
@@ -83,7 +86,7 @@ def import_series(
         task = progress.add_task(f"reading {file.name}", total=None)
         records = read_series(content, format="parquet" if file.suffix.lower() in (
             ".parquet", ".pq") else None, column_map=cmap, sample_rate=sample_rate,
-            started_at=start)
+            started_at=start, name=file.name)
         progress.update(task, description=f"storing {len(records)} records",
                         total=len(records), completed=0)
         rows = store_records(session, rig_id, name, records,

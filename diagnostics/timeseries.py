@@ -29,7 +29,14 @@ A *column map* adapts other tables (a data logger's, a public data set's): raw c
 ``(channel, unit)``, e.g. ``{"PS1": ("P_pump", "bar")}``; mapped columns need no unit in
 their names, and a logger's own record or stroke column maps to ``("record", "-")`` or
 ``("phase", "-")`` (a numeric spool command, N = +1 / −1 as paper 002 writes it, reads as
-``working`` / ``return``).  A table without a time column needs its ``sample_rate`` [Hz].
+``working`` / ``return``).  A raw signal (ADC counts, a transducer's volts or milliamps)
+takes its linear calibration: ``(channel, unit, gain, offset)`` reads ``gain·raw + offset``
+in ``unit`` (a 4-20 mA transducer of 0-250 bar: ``("P1", "bar", 15.625, -62.5)``; a
+sample index at 500 Hz: ``("t", "s", 0.002, 0)``); ``("skip", "-")`` leaves a column out
+(a logger's own notes or features).  A table without a time column needs its
+``sample_rate`` [Hz].  CSV files may be separated by commas, semicolons or tabs (found from
+the first lines); a semicolon-separated file whose numbers are written with a decimal
+comma (``1,5``, as spreadsheets in many locales write them) is read so.
 :func:`read_series` is the entry point; :meth:`SeriesRecord.frame` writes a
 record back in the same format.
 """
@@ -56,6 +63,8 @@ from sim.units import UNITS
 __all__ = [
     "CONDITION_CHANNELS",
     "PARQUET_METADATA_KEY",
+    "SKIP",
+    "ColumnEntry",
     "SeriesRecord",
     "clock_time",
     "read_series",
@@ -77,6 +86,10 @@ _COLUMN = re.compile(r"^\s*(.+?)\s*\[(.*)\]\s*$")
 _META = re.compile(r"^#\s*([A-Za-z_][A-Za-z0-9_]*)\s*=\s*(.*)$")
 #: columns that are labels, not channels
 _LABELS = ("phase", "record")
+#: the column map's channel name that leaves a column out
+SKIP = "skip"
+#: one column map entry: (channel, unit) or (channel, unit, gain, offset)
+ColumnEntry = tuple[str, str] | tuple[str, str, float, float]
 
 
 def si_factor(unit: str, *, column: str, expected: str | None = None) -> tuple[str, float, float]:
@@ -255,11 +268,38 @@ def _read_frame(source: str | Path | bytes | pd.DataFrame, fmt: str | None
     except UnicodeDecodeError:
         raise InputError("the CSV file is not UTF-8 text", field="file") from None
     meta, skip = _header_lines(text)
+    sep, decimal = _dialect(text.splitlines()[skip:skip + 6])
     try:
-        frame = pd.read_csv(io.StringIO(text), skiprows=skip, comment=None)
+        frame = pd.read_csv(io.StringIO(text), skiprows=skip, comment=None, sep=sep,
+                            decimal=decimal)
     except (pd.errors.ParserError, pd.errors.EmptyDataError) as exc:
         raise InputError(f"not a readable CSV table: {exc}", field="file") from None
     return frame, meta, name
+
+
+_DECIMAL_COMMA = re.compile(r"^\s*[-+]?\d+,\d+([eE][-+]?\d+)?\s*$")
+_DECIMAL_POINT = re.compile(r"^\s*[-+]?\d*\.\d+([eE][-+]?\d+)?\s*$")
+
+
+def _dialect(lines: list[str]) -> tuple[str, str]:
+    """The separator and decimal mark of a CSV table from its first lines (the header and a
+    few rows): the one of tab, semicolon and comma that splits every line into the same
+    number (> 1) of fields, preferring tab, then semicolon, then comma (a comma may be a
+    decimal mark); a semicolon- or tab-separated table with numbers like ``1,5`` and none
+    like ``1.5`` has decimal commas."""
+    lines = [ln for ln in lines if ln.strip()]
+    sep = ","
+    for cand in ("\t", ";"):
+        counts = {ln.count(cand) for ln in lines}
+        if lines and len(counts) == 1 and counts.pop() > 0:
+            sep = cand
+            break
+    if sep == ",":
+        return sep, "."
+    cells = [c for ln in lines[1:] for c in ln.split(sep)]
+    comma = any(_DECIMAL_COMMA.match(c) for c in cells)
+    point = any(_DECIMAL_POINT.match(c) for c in cells)
+    return sep, "," if comma and not point else "."
 
 
 def clock_time(value: object, *, field: str = "started_at") -> datetime:
@@ -287,6 +327,27 @@ def clock_time(value: object, *, field: str = "started_at") -> datetime:
     return when.astimezone(UTC)
 
 
+def _entry(raw: str, entry: ColumnEntry) -> tuple[str, str, float, float]:
+    """A column map entry as ``(channel, unit, gain, offset)`` (gain 1, offset 0 when not
+    given).
+
+    Raises
+    ------
+    InputError
+        Not 2 or 4 items, a gain that is 0 or not finite, an offset not finite (``raw``).
+    """
+    if len(entry) == 2:
+        return entry[0], entry[1], 1.0, 0.0
+    if len(entry) == 4:
+        gain, offset = float(entry[2]), float(entry[3])
+        if not (math.isfinite(gain) and gain != 0.0 and math.isfinite(offset)):
+            raise InputError(f"the calibration of {raw!r} needs a finite, non-zero gain and a "
+                             f"finite offset, got {entry[2]!r}, {entry[3]!r}", field=raw)
+        return entry[0], entry[1], gain, offset
+    raise InputError("a column map entry is [channel, unit] or [channel, unit, gain, offset]",
+                     field=raw)
+
+
 def _record_groups(frame: pd.DataFrame) -> list[tuple[str, pd.DataFrame]]:
     if "record" not in frame.columns:
         return [("", frame)]
@@ -296,7 +357,7 @@ def _record_groups(frame: pd.DataFrame) -> list[tuple[str, pd.DataFrame]]:
 
 
 def series_from_frame(frame: pd.DataFrame, *, name: str = "table",
-                      column_map: Mapping[str, tuple[str, str]] | None = None,
+                      column_map: Mapping[str, ColumnEntry] | None = None,
                       expected: Mapping[str, str] | None = None,
                       required: Sequence[str] = (), metadata: Mapping[str, Any] | None = None,
                       measured: bool = True, sample_rate: float | None = None,
@@ -310,8 +371,10 @@ def series_from_frame(frame: pd.DataFrame, *, name: str = "table",
     name
         Name of the source, used for a single record without a ``record`` column.
     column_map
-        Raw column → ``(channel, unit)`` for columns without units in their names; a
-        column of labels maps to ``("record", "-")`` or ``("phase", "-")``.
+        Raw column → ``(channel, unit)`` for columns without units in their names, or
+        ``(channel, unit, gain, offset)`` for a raw signal (``gain·raw + offset`` in
+        ``unit``); a column of labels maps to ``("record", "-")`` or ``("phase", "-")``,
+        a column to leave out to ``("skip", "-")``.
     expected
         Channel → SI unit it must have (a rig's outputs); other channels take the SI unit
         of whatever unit they are written in.
@@ -335,14 +398,20 @@ def series_from_frame(frame: pd.DataFrame, *, name: str = "table",
         non-increasing time, a required channel missing, a record of < 2 samples; a start
         without its zone (``started_at``).
     """
-    cmap = dict(column_map or {})
+    cmap = {raw: _entry(raw, entry) for raw, entry in (column_map or {}).items()}
     labels: dict[str, str] = {}  # a logger's own record or phase column → the label
-    for raw, (label, unit) in [(r, c) for r, c in cmap.items() if c[0] in _LABELS]:
+    for raw, (label, unit, gain, off) in [(r, c) for r, c in cmap.items()
+                                          if c[0] in (*_LABELS, SKIP)]:
         del cmap[raw]
-        if unit.strip() not in ("", "-", "1"):
-            raise InputError(f"{label!r} is a label column: its unit is '-' (not {unit!r})",
+        if unit.strip() not in ("", "-", "1") or (gain, off) != (1.0, 0.0):
+            what = ("'skip' leaves the column out" if label == SKIP
+                    else f"{label!r} is a label column")
+            raise InputError(f"{what}: its unit is '-' (not {unit!r}), without a calibration",
                              field=raw)
         if raw not in frame.columns or raw == label:  # unused entries, as for channels
+            continue
+        if label == SKIP:
+            frame = frame.drop(columns=raw)
             continue
         if label in frame.columns or label in labels.values():
             raise InputError(f"the table has a {label!r} column already", field=raw)
@@ -358,8 +427,9 @@ def series_from_frame(frame: pd.DataFrame, *, name: str = "table",
         raw = str(col)
         if raw in _LABELS:
             continue
+        gain, zero = 1.0, 0.0
         if raw in cmap:
-            chan, unit = cmap[raw]
+            chan, unit, gain, zero = cmap[raw]
         else:
             m = _COLUMN.match(raw)
             if m is None:
@@ -370,7 +440,8 @@ def series_from_frame(frame: pd.DataFrame, *, name: str = "table",
         canonical, scale, offset = si_factor(unit, column=raw, expected=exp.get(chan))
         if chan in (c[0] for c in columns.values()):
             raise InputError(f"channel {chan!r} appears twice", field=raw)
-        columns[raw] = (chan, canonical, scale, offset)
+        # SI = (gain·raw + zero)·scale + offset
+        columns[raw] = (chan, canonical, gain * scale, zero * scale + offset)
     time_col = next((raw for raw, c in columns.items() if c[0] == "t"), None)
     if time_col is None and sample_rate is not None:
         if not (math.isfinite(sample_rate) and sample_rate > 0.0):
@@ -459,24 +530,26 @@ def _phase_labels(column: pd.Series) -> npt.NDArray[np.str_]:
 
 
 def read_series(source: str | Path | bytes | pd.DataFrame, *, format: str | None = None,
-                column_map: Mapping[str, tuple[str, str]] | None = None,
+                column_map: Mapping[str, ColumnEntry] | None = None,
                 expected: Mapping[str, str] | None = None, required: Sequence[str] = (),
                 measured: bool = True, sample_rate: float | None = None,
-                started_at: datetime | None = None) -> list[SeriesRecord]:
+                started_at: datetime | None = None, name: str | None = None
+                ) -> list[SeriesRecord]:
     """Read measured time series from a CSV or Parquet file (path or bytes) or a table.
 
     See the module docstring for the format and :func:`series_from_frame` for the options.
     ``format`` (``"csv"``/``"parquet"``) is taken from the file suffix or the bytes when
-    not given.
+    not given; ``name`` names a record without a ``record`` column (default: the file's
+    name, ``upload`` for bytes).
 
     Raises
     ------
     InputError
         The file cannot be read, or a column is invalid (the error names it).
     """
-    frame, meta, name = _read_frame(source, format)
+    frame, meta, source_name = _read_frame(source, format)
     if frame.empty:
         raise InputError("the table has no rows", field="file")
-    return series_from_frame(frame, name=name, column_map=column_map, expected=expected,
+    return series_from_frame(frame, name=name or source_name, column_map=column_map, expected=expected,
                              required=required, metadata=meta, measured=measured,
                              sample_rate=sample_rate, started_at=started_at)

@@ -19,11 +19,15 @@ Slices (chosen without looking at any estimate):
   130/115/100/90 bar (valve 100 %) — in the same layout, for the valve-lag and accumulator
   estimates.
 * V32HL56: the header and every row whose displacement rounds to 23 or 57 cm³/rev.
+* Rotary actuators (``vtnsi_slice``): the header and first 400 samples of the first
+  recording (by name) of ``Act_1`` (baseline) and of ``Act_4 (Seal Defect)``, decompressed,
+  tab-separated as the data set writes them, under their own names.
 """
 
 from __future__ import annotations
 
 import csv
+import gzip
 import tempfile
 import threading
 from pathlib import Path
@@ -32,8 +36,8 @@ import pytest
 
 from diagnostics.real.zema import find_shared
 
-__all__ = ["ZEMA_CYCLES", "ZEMA_PROGRAM_CYCLES", "v32hl56_slice", "zema_program_slice",
-           "zema_slice"]
+__all__ = ["ZEMA_CYCLES", "ZEMA_PROGRAM_CYCLES", "v32hl56_slice", "vtnsi_slice",
+           "zema_program_slice", "zema_slice"]
 
 #: original 1-based cycle numbers of the ZeMA slice, in row order
 ZEMA_CYCLES = (974, 1015, 1056, 1110, 1151, 1192, 1246, 1287, 1328, 1706, 1747, 1788, 1842,
@@ -124,3 +128,20 @@ def v32hl56_slice() -> Path:
         dst.write_text("\n".join([lines[0], *rows]) + "\n", encoding="utf-8")
         _MADE["v32"] = dst
         return dst
+
+
+def vtnsi_slice() -> list[Path]:
+    """The two rotary-actuator recordings of the slice (module docstring): baseline, seal."""
+    with _LOCK:
+        if "vtnsi" in _MADE:
+            return sorted(_MADE["vtnsi"].iterdir())
+        src = _shared_real() / "hydraulic-actuator-vtnsi" / "Data"
+        dst = _workdir() / "vtnsi"
+        dst.mkdir()
+        for folder in ("Act_1", "Act_4 (Seal Defect)"):
+            first = sorted((src / folder).glob("*.txt.gz"))[0]
+            with gzip.open(first, "rt", encoding="utf-8") as fh:
+                lines = [next(fh) for _ in range(401)]
+            (dst / first.name.removesuffix(".gz")).write_text("".join(lines), encoding="utf-8")
+        _MADE["vtnsi"] = dst
+        return sorted(dst.iterdir())

@@ -50,8 +50,10 @@ class SeriesImportForm(UploadForm):
     column_map: str | None = Field(
         default=None, max_length=20000,
         description="JSON object raw column → [channel, unit] for columns without a unit in "
-        "their names, e.g. {\"PS1\": [\"P_pump\", \"bar\"]}; a column of record or stroke "
-        "labels maps to [\"record\", \"-\"] or [\"phase\", \"-\"] [-]",
+        "their names, e.g. {\"PS1\": [\"P_pump\", \"bar\"]}; a raw signal (ADC counts, volts, "
+        "mA) → [channel, unit, gain, offset], read as gain·raw + offset in unit; a column of "
+        "record or stroke labels maps to [\"record\", \"-\"] or [\"phase\", \"-\"], one to "
+        "leave out to [\"skip\", \"-\"] [-]",
         examples=['{"PS1": ["P_pump", "bar"], "FS1": ["Q_meter_B", "L/min"], '
                   '"run": ["record", "-"]}'])
     sample_rate: FiniteFloat | None = Field(

@@ -21,7 +21,7 @@ from sqlalchemy.orm import Session
 from app.db.models import MeasuredSeries
 from app.services.common import commit, get_or_raise, paginate
 from app.services.rigs import get_rig
-from diagnostics.timeseries import SeriesRecord, read_series
+from diagnostics.timeseries import ColumnEntry, SeriesRecord, read_series
 from sim.errors import InputError
 
 __all__ = [
@@ -42,8 +42,10 @@ MAX_SERIES_BYTES = 20 * 1024 * 1024
 
 
 def parse_column_map(text: str | None, *, field: str = "column_map"
-                     ) -> dict[str, tuple[str, str]] | None:
-    """The column map given as JSON ``{"raw": ["channel", "unit"]}``; None when absent."""
+                     ) -> dict[str, ColumnEntry] | None:
+    """The column map given as JSON ``{"raw": ["channel", "unit"]}`` (or ``["channel",
+    "unit", gain, offset]`` for a raw signal, ``["skip", "-"]`` for a column to leave out;
+    :mod:`diagnostics.timeseries`); None when absent."""
     if text is None or not text.strip():
         return None
     try:
@@ -52,12 +54,16 @@ def parse_column_map(text: str | None, *, field: str = "column_map"
         raise InputError(f"not valid JSON: {exc.msg}", field=field) from None
     if not isinstance(raw, dict):
         raise InputError("must be a JSON object raw column → [channel, unit]", field=field)
-    out: dict[str, tuple[str, str]] = {}
+    out: dict[str, ColumnEntry] = {}
     for key, value in raw.items():
-        if (not isinstance(value, list) or len(value) != 2
-                or not all(isinstance(v, str) and v for v in value)):
-            raise InputError("each entry must be [channel, unit]", field=f"{field}.{key}")
-        out[str(key)] = (value[0], value[1])
+        if (not isinstance(value, list) or len(value) not in (2, 4)
+                or not all(isinstance(v, str) and v for v in value[:2])
+                or not all(isinstance(v, int | float) and not isinstance(v, bool)
+                           for v in value[2:])):
+            raise InputError("each entry must be [channel, unit] or [channel, unit, gain, "
+                             "offset] (numbers)", field=f"{field}.{key}")
+        out[str(key)] = ((value[0], value[1]) if len(value) == 2
+                         else (value[0], value[1], float(value[2]), float(value[3])))
     return out
 
 
@@ -93,12 +99,14 @@ def store_records(session: Session, rig_id: int, name: str, records: Sequence[Se
 
 
 def import_series(session: Session, rig_id: int, name: str, content: bytes, *,
-                  column_map: dict[str, tuple[str, str]] | None = None,
+                  column_map: dict[str, ColumnEntry] | None = None,
                   sample_rate: float | None = None, fmt: str | None = None,
-                  started_at: datetime | None = None) -> list[MeasuredSeries]:
+                  started_at: datetime | None = None, filename: str | None = None
+                  ) -> list[MeasuredSeries]:
     """Read a CSV/Parquet file and store its records (errors name ``file.<column>``);
     ``started_at``: the clock time at which the file's ``t`` reads 0 [UTC], else the file
-    header's (:mod:`diagnostics.timeseries`)."""
+    header's (:mod:`diagnostics.timeseries`); ``filename`` names a record without a
+    ``record`` column."""
     get_rig(session, rig_id, field="rig_id")
     if len(content) > MAX_SERIES_BYTES:
         raise InputError(f"the file has {len(content)} bytes; at most {MAX_SERIES_BYTES}",
@@ -107,7 +115,8 @@ def import_series(session: Session, rig_id: int, name: str, content: bytes, *,
         raise InputError("the file is empty", field="file")
     try:
         records = read_series(content, format=fmt, column_map=column_map,
-                              sample_rate=sample_rate, started_at=started_at)
+                              sample_rate=sample_rate, started_at=started_at,
+                              name=filename or None)
     except InputError as exc:
         given = ("column_map", "sample_rate") + (("started_at",) if started_at else ())
         where = exc.field if exc.field in given else (

@@ -60,6 +60,10 @@ def test_zema_cycles_are_stored_and_read_back(server: LiveServer, zema_csv: Any)
         (b"t [s],p [bar]\n0,1\n1,2\n", {"column_map": "{not json"}, "column_map"),
         (b"t [s],p [bar]\n0,1\n1,2\n", {"sample_rate": "-1"}, "sample_rate"),
         (b"t [s],p [bar]\n0,1\n1,2\n", {"extra": "x"}, "extra"),
+        (b"record,PS1\nc,1\nc,2\n", {"column_map": '{"PS1": ["p_pump", "bar", "x", 0]}',
+                                     "sample_rate": "1"}, "column_map.PS1"),
+        (b"record,PS1\nc,1\nc,2\n", {"column_map": '{"PS1": ["p_pump", "bar", 0, 0]}',
+                                     "sample_rate": "1"}, "file.PS1"),
     ],
 )
 def test_bad_files_are_422_naming_the_column_and_store_nothing(
@@ -102,3 +106,23 @@ def test_a_series_is_deleted_and_then_its_rig(server: LiveServer) -> None:
     after = server.row_counts()
     assert after["measured_series"] == before["measured_series"] - 1
     assert after["rigs"] == before["rigs"] - 1
+
+
+def test_a_loggers_semicolon_file_with_raw_signals(server: LiveServer) -> None:
+    """A logger's export as a spreadsheet in many locales writes it (';', decimal commas),
+    its pressure a 4-20 mA signal and its time a sample count, with a column of notes:
+    read through the calibrations of the column map, the notes left out, the record
+    named after the file."""
+    content = b"sample;PT1 signal;note\n0;4,0;start\n1;12,0;\n2;20,0;end\n"
+    cmap = json.dumps({"sample": ["t", "ms", 10, 0], "PT1 signal": ["P1", "bar", 15.625, -62.5],
+                       "note": ["skip", "-"]})
+    response = server.client.post("/rigs/1/series", data={"name": "logger", "column_map": cmap},
+                                  files={"file": ("run-7.csv", content, "text/csv")},
+                                  headers=server.auth)
+    assert response.status_code == 201, response.text
+    [item] = response.json()["items"]
+    assert item["record"] == "run-7.csv" and item["units"] == {"P1": "Pa"}
+    assert item["sample_rate"] == pytest.approx(100.0)
+    full = server.client.get(f"/series/{item['id']}").json()
+    assert full["t"] == pytest.approx([0.0, 0.01, 0.02])
+    assert full["channels"]["P1"] == pytest.approx([0.0, 125e5, 250e5])
