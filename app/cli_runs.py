@@ -161,6 +161,15 @@ def diagnose(
         help="A cycle's condition where its file does not state it or is wrong: "
         "oil_temperature=40 (°C), load_force=4200 (N), back_pressure (Pa), pump_speed "
         "(rad/s); repeat.")] = None,
+    column_map: Annotated[str | None, typer.Option(
+        help="A cycle FILE in a logger's own layout: JSON raw column → \\[channel, unit] "
+        "(or \\[channel, unit, gain, offset], \\[\"skip\", \"-\"]), as 'import series' "
+        "takes it.")] = None,
+    sample_rate: Annotated[float | None, typer.Option(
+        help="Samples per second of a cycle FILE without a time column \\[Hz].")] = None,
+    started_at: Annotated[str | None, typer.Option(
+        help="Clock time at which a cycle FILE's t reads 0, ISO 8601 with zone \\[UTC]: the "
+        "records are diagnosed as measured then.")] = None,
     joint: Annotated[bool, typer.Option(help="Diagnose all records together.")] = False,
     store: Annotated[bool, typer.Option(help="Keep records and results in the history.")
                      ] = True,
@@ -172,11 +181,15 @@ def diagnose(
     A measured cycle (a CSV or Parquet FILE with --rig, or stored cycles by --series) is
     read as the rig's meters read it, as GET /series/{id}/record does: working-phase
     pressures and flows over the middle 80 % of the travel, each stroke's steady speed.
+    A logger's file is read through --column-map (and --sample-rate, --started-at) as
+    'import series' reads it.
     """
     from app.schemas.diagnose import DiagnoseRequest
     from app.services.diagnosis import diagnose_request, response_of
     from app.services.rig_cache import RigCache
+    from app.services.series import parse_column_map
     from app.services.series_record import file_cycle_records, stored_cycle_record
+    from diagnostics.timeseries import clock_time
 
     if (file is None) == (series is None):
         raise InputError("give FILE or --series (stored cycles), one of them", field="FILE")
@@ -184,6 +197,16 @@ def diagnose(
     if not cycles and (rig is not None or condition):
         raise InputError("--rig and --condition go with a measured cycle (CSV or Parquet, or "
                          "--series); a JSON or YAML record names its rig itself", field="--rig")
+    reading = {"--column-map": column_map, "--sample-rate": sample_rate,
+               "--started-at": started_at}
+    for option, value in reading.items():
+        if value is not None and (series is not None or not cycles):
+            raise InputError(f"{option} goes with a cycle FILE (CSV or Parquet); stored "
+                             "cycles were read at import", field=option)
+    if sample_rate is not None and not sample_rate > 0:
+        raise InputError("the sample rate must be > 0 [Hz]", field="--sample-rate")
+    cmap = parse_column_map(column_map, field="--column-map")
+    start = None if started_at is None else clock_time(started_at, field="--started-at")
     stated = _overrides(condition or [], field="--condition", form="name=value")
     with store_session() as session, steps() as progress:
         rigs = RigCache(4)
@@ -194,7 +217,9 @@ def diagnose(
             if rig is None:
                 raise InputError("a measured cycle needs the rig it was measured on (--rig ID)",
                                  field="--rig")
-            read = file_cycle_records(session, rigs, Path(str(file)), rig, condition=stated)
+            read = file_cycle_records(session, rigs, Path(str(file)), rig, condition=stated,
+                                      column_map=cmap, sample_rate=sample_rate,
+                                      started_at=start)
         document = load_document(str(file)) if not cycles else (
             [r.body for r in read] if joint or len(read) > 1 else read[0].body)
         request = _validated(DiagnoseRequest,

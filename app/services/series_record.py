@@ -22,7 +22,7 @@ from app.schemas.diagnose import MEASURED_FIELDS
 from app.services.rig_cache import ResolvedRig, RigCache
 from app.services.series import as_record, get_series
 from diagnostics.cycle_readings import CycleReadings, cycle_readings
-from diagnostics.timeseries import SeriesRecord, read_series
+from diagnostics.timeseries import ColumnEntry, SeriesRecord, read_series
 
 __all__ = ["READING_UNITS", "CycleRecord", "cycle_record", "file_cycle_records", "record_body",
            "stored_cycle_record"]
@@ -95,9 +95,14 @@ def stored_cycle_record(session: Session, rigs: RigCache, series_id: int, *,
 
 def file_cycle_records(session: Session, rigs: RigCache, path: Path, rig_id: int, *,
                        rig_version: int | None = None,
-                       condition: Mapping[str, float] | None = None) -> list[CycleRecord]:
+                       condition: Mapping[str, float] | None = None,
+                       column_map: Mapping[str, ColumnEntry] | None = None,
+                       sample_rate: float | None = None,
+                       started_at: datetime | None = None) -> list[CycleRecord]:
     """Every cycle of a CSV or Parquet file (its ``record`` column separates them) read
-    against rig ``rig_id`` (``rig_version``, else the latest); errors name ``--rig`` and
-    the file's column."""
+    against rig ``rig_id`` (``rig_version``, else the latest), through ``column_map``,
+    ``sample_rate`` and ``started_at`` as :func:`diagnostics.timeseries.read_series` takes
+    them; errors name ``--rig`` and the file's column."""
     rig = rigs.get(session, rig_id, rig_version, rig_field="--rig", version_field="--version")
-    return [cycle_record(s, rig, condition) for s in read_series(path)]
+    return [cycle_record(s, rig, condition) for s in read_series(
+        path, column_map=column_map, sample_rate=sample_rate, started_at=started_at)]

@@ -309,6 +309,38 @@ def test_diagnose_a_measured_cycle_file_and_a_stored_one(runner: CliRunner,
         bad = runner.invoke(cli, args)
         assert bad.exit_code != 0 and getattr(bad.exception, "field", None) == field, args
     assert store_count(Diagnosis) == 1
+    # the same cycle as a logger writes it: its own names and units, ';' and decimal
+    # commas, the spool command for the phase, time in ms, no header: read through a
+    # column map, the condition stated, it is the same diagnosis
+    frame = pd.read_csv(cycle, comment="#")
+    logger = pd.DataFrame({
+        "time": frame["t [s]"] * 1e3, "spool": frame["phase"].map({"working": 1, "return": -1}),
+        "pos": frame["x [m]"] * 1e3, "PP": frame["P_pump [Pa]"] / 1e5,
+        "PA": frame["P1 [Pa]"] / 1e5, "PB": frame["P2 [Pa]"] / 1e5,
+        "QB": frame["Q_meter_B [m^3/s]"] * 6e4, "QC": frame["Q_meter_C [m^3/s]"] * 6e4,
+        "QR": frame["Q_relief [m^3/s]"] * 6e4, "remark": "ok"})
+    logged = tmp_path / "logger.csv"
+    logger.to_csv(logged, sep=";", decimal=",", index=False, float_format="%.12g")
+    cmap = json.dumps({"time": ["t", "ms"], "spool": ["phase", "-"], "pos": ["x", "mm"],
+                       "PP": ["P_pump", "bar"], "PA": ["P1", "bar"], "PB": ["P2", "bar"],
+                       "QB": ["Q_meter_B", "l/min"], "QC": ["Q_meter_C", "l/min"],
+                       "QR": ["Q_relief", "l/min"], "remark": ["skip", "-"]})
+    again = runner.invoke(cli, ["diagnose", str(logged), "--rig", "1", "--column-map", cmap,
+                                "--condition", "oil_temperature=40", "--condition",
+                                "load_force=4200", "--started-at", "2026-11-20T08:00:00Z",
+                                "--no-store", "--json"])
+    assert again.exit_code == 0, again.output
+    [same] = json.loads(again.stdout)["diagnoses"]
+    assert same["top"] == answer["top"] == "valve"
+    assert same["probability"] == pytest.approx(answer["probability"], abs=1e-6)
+    for args, field in ((["diagnose", "--series", "1", "--column-map", cmap], "--column-map"),
+                        (["diagnose", str(logged), "--rig", "1", "--sample-rate", "0"],
+                         "--sample-rate"),
+                        (["diagnose", str(logged), "--rig", "1", "--column-map", "[1]"],
+                         "--column-map")):
+        bad = runner.invoke(cli, args)
+        assert bad.exit_code != 0 and getattr(bad.exception, "field", None) == field, args
+    assert store_count(Diagnosis) == 1
 
 
 def test_diagnose_a_file_of_several_cycles_each_or_jointly(runner: CliRunner,
