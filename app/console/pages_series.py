@@ -2,18 +2,21 @@
 record, diagnosed from the diagnose form), and the discrepancy workflow on the series
 chosen (a job, followed on its page, its report shown when done).
 
-The records are those ``POST /rigs/{id}/series`` and ``hydrodiag import`` stored; the check
+The records are those ``POST /rigs/{id}/series`` and ``hydrodiag import`` stored, or the
+page's own import form (the same service and validation: a file, a column map for a
+logger's layout, a sample rate, the clock time at t = 0); the check
 is ``POST /discrepancy`` with ``series_ids`` (:func:`app.services.discrepancy.plan_discrepancy`,
 the same validation and the same job), so a record without phase labels or of another rig
-gets the API's field-naming error on the page.  Starting a check needs a key of scope
-``write``.
+gets the API's field-naming error on the page.  Importing and starting a check need a key
+of scope ``write``.
 """
 
 from __future__ import annotations
 
+import re
 from typing import Annotated, Any
 
-from fastapi import Form, Path, Query, Request, Response
+from fastapi import File, Form, Path, Query, Request, Response, UploadFile
 from fastapi.responses import HTMLResponse
 from pydantic import ValidationError
 from starlette.concurrency import run_in_threadpool
@@ -24,6 +27,7 @@ from app.console.routing import ConsoleKeyDep, new_router
 from app.console.web import SECURITY_HEADERS, page, redirect
 from app.errors import format_location
 from app.schemas.discrepancy import DiscrepancyForm
+from app.schemas.series import SeriesImportForm
 from app.security import Scope
 from app.services import jobs as job_service
 from app.services import rigs as rig_service
@@ -42,7 +46,8 @@ PAGE = 100
 
 
 def _list(request: Request, session: Any, rig: int | None, offset: int,
-          error: dict[str, Any] | None = None, status_code: int = 200) -> Response:
+          error: dict[str, Any] | None = None, status_code: int = 200,
+          entered: dict[str, str] | None = None) -> Response:
     rigs, _ = rig_service.list_rigs(session, limit=500, offset=0)
     chosen = rig if rig is not None else (rigs[0][0].id if rigs else None)
     items, total = (series_service.list_series(session, chosen, limit=PAGE, offset=offset)
@@ -52,7 +57,7 @@ def _list(request: Request, session: Any, rig: int | None, offset: int,
     cycle = next((rig_service.has_cycle(v) for r, v in rigs if r.id == chosen), True)
     return page(request, "series.html", status_code=status_code, rigs=rigs, rig=chosen,
                 items=items, total=total, offset=offset, page_size=PAGE, jobs=mine,
-                error=error, cycle=cycle, relaxation=ZEMA_RELAXATION)
+                error=error, cycle=cycle, relaxation=ZEMA_RELAXATION, entered=entered)
 
 
 @router.get("/series")
@@ -89,10 +94,7 @@ async def check(request: Request, session: SessionDep, rigs: RigsDep, _key: Cons
                 store: Annotated[bool, Form()] = False) -> Response:
     """Start the discrepancy workflow on the ticked records; go to the job's page."""
     if not Scope(_key.scope).allows(Scope.WRITE):
-        refusal = {"type": "ScopeError", "field": "api_key",
-                   "message": "a check may store a new rig version and needs a key of scope "
-                              f"'write' or above; this console is logged in with a "
-                              f"{_key.scope!r} key"}
+        refusal = _refusal(_key.scope, "a check may store a new rig version and")
         return await run_in_threadpool(_list, request, session, rig, 0, refusal, 403)
     try:
         if not series:
@@ -110,6 +112,61 @@ async def check(request: Request, session: SessionDep, rigs: RigsDep, _key: Cons
         return await run_in_threadpool(_list, request, session, rig, 0, error, 422)
     job = submit_discrepancy(request.app.state.jobs, request.app.state.sessions, form, plan)
     return redirect(f"/console/jobs/{job.id}")
+
+
+def _refusal(key_scope: str, what: str) -> dict[str, Any]:
+    return {"type": "ScopeError", "field": "api_key",
+            "message": f"{what} needs a key of scope 'write' or above; this console is "
+                       f"logged in with a {key_scope!r} key"}
+
+
+def _import_name(name: str, filename: str | None) -> str:
+    """The import's name as given, else the file's name with the characters a name may
+    not hold replaced by '-'."""
+    if name.strip():
+        return name.strip()
+    return re.sub(r"[^A-Za-z0-9_.:-]", "-", filename or "")[:200] or "upload"
+
+
+@router.post("/series/import")
+async def import_file(request: Request, session: SessionDep, _key: ConsoleKeyDep,
+                      rig: Annotated[int, Form(ge=1)],
+                      name: Annotated[str, Form(max_length=200)] = "",
+                      column_map: Annotated[str, Form(max_length=20000)] = "",
+                      sample_rate: Annotated[str, Form(max_length=40)] = "",
+                      started_at: Annotated[str, Form(max_length=64)] = "",
+                      file: Annotated[UploadFile | None, File()] = None) -> Response:
+    """Import a file's records as the rig's series (``POST /rigs/{id}/series``); go to the
+    record's page (one record) or the rig's list; a bad file or field shows the list again
+    with the error naming it and the fields as entered, nothing stored."""
+    entered = {"name": name, "column_map": column_map, "sample_rate": sample_rate,
+               "started_at": started_at}
+    if not Scope(_key.scope).allows(Scope.WRITE):
+        return await run_in_threadpool(_list, request, session, rig, 0,
+                                       _refusal(_key.scope, "importing a file"), 403, entered)
+    try:
+        if file is None or not file.filename:
+            raise InputError("choose a file to import", field="file")
+        try:
+            form = SeriesImportForm.model_validate({
+                "name": _import_name(name, file.filename), "column_map": column_map or None,
+                "sample_rate": sample_rate.strip() or None,
+                "started_at": started_at.strip() or None})
+        except ValidationError as exc:
+            first = exc.errors()[0]
+            raise InputError(str(first.get("msg", "invalid")),
+                             field=format_location(first.get("loc", ()))) from None
+        content = await file.read(series_service.MAX_SERIES_BYTES + 1)
+        rows = await run_in_threadpool(
+            series_service.import_series, session, rig, form.name, content,
+            column_map=series_service.parse_column_map(form.column_map),
+            sample_rate=form.sample_rate, started_at=form.started_at, filename=file.filename)
+    except HydrodiagError as exc:
+        error = {"type": type(exc).__name__, "message": exc.message, "field": exc.field}
+        return await run_in_threadpool(_list, request, session, rig, 0, error, 422, entered)
+    if len(rows) == 1:
+        return redirect(f"/console/series/{rows[0].id}")
+    return redirect(f"/console/series?rig={rig}")
 
 
 @router.get("/jobs/{job_id}")

@@ -11,6 +11,7 @@ refused whole: nothing is stored.
 from __future__ import annotations
 
 import json
+import math
 from collections.abc import Callable, Sequence
 from datetime import datetime, timedelta
 
@@ -62,6 +63,10 @@ def parse_column_map(text: str | None, *, field: str = "column_map"
                            for v in value[2:])):
             raise InputError("each entry must be [channel, unit] or [channel, unit, gain, "
                              "offset] (numbers)", field=f"{field}.{key}")
+        if len(value) == 4 and (value[2] == 0 or not math.isfinite(value[2])
+                                or not math.isfinite(value[3])):
+            raise InputError("the gain must be a finite number other than 0 and the offset "
+                             "finite", field=f"{field}.{key}")
         out[str(key)] = ((value[0], value[1]) if len(value) == 2
                          else (value[0], value[1], float(value[2]), float(value[3])))
     return out

@@ -63,7 +63,7 @@ def test_zema_cycles_are_stored_and_read_back(server: LiveServer, zema_csv: Any)
         (b"record,PS1\nc,1\nc,2\n", {"column_map": '{"PS1": ["p_pump", "bar", "x", 0]}',
                                      "sample_rate": "1"}, "column_map.PS1"),
         (b"record,PS1\nc,1\nc,2\n", {"column_map": '{"PS1": ["p_pump", "bar", 0, 0]}',
-                                     "sample_rate": "1"}, "file.PS1"),
+                                     "sample_rate": "1"}, "column_map.PS1"),
     ],
 )
 def test_bad_files_are_422_naming_the_column_and_store_nothing(

@@ -251,3 +251,37 @@ def test_a_running_job_is_cancelled_with_its_button(console_server: LiveServer, 
     assert page.inner_text("#job-status") == "cancelled"
     assert page.query_selector("#cancel-job") is None
     assert page.problems == [], page.problems
+
+
+def test_a_loggers_cycle_is_imported_from_the_measured_page(console_server: LiveServer,
+                                                           page: Any, shots: Path,
+                                                           tmp_path: Path) -> None:
+    """The import form of the measured page: a cycle as a logger writes it (own names,
+    ';' and decimal commas, the spool command), its column map typed in, lands on the
+    record's page, read as a record."""
+    exported = console_server.client.get(f"/series/{console_server.series[1]}").json()  # type: ignore[attr-defined]
+    cond = exported["condition"]
+    rows = ["time;spool;pos;PA;PB;oil;force"] + [
+        f"{t * 1e3:.6g};{1 if ph == 'working' else -1};{x * 1e3:.9g};{p1 / 1e5:.9g};"
+        f"{p2 / 1e5:.9g};{cond['oil_temperature']:.4g};{cond['load']:.6g}".replace(".", ",")
+        for t, ph, x, p1, p2 in zip(exported["t"], exported["phase"],
+                                    exported["channels"]["x"], exported["channels"]["P1"],
+                                    exported["channels"]["P2"], strict=True)]
+    logged = tmp_path / "logger-run.csv"
+    logged.write_text("\n".join(rows) + "\n")
+    page.problems.clear()
+    page.goto(f"{console_server.base_url}/console/series?rig=1")
+    page.click("#import summary")
+    page.set_input_files("#import-file", str(logged))
+    page.fill("#import-map", '{"time": ["t", "ms"], "spool": ["phase", "-"], '
+                             '"pos": ["x", "mm"], "PA": ["P1", "bar"], "PB": ["P2", "bar"], '
+                             '"oil": ["oil_temperature", "degC"], "force": ["load", "kN", '
+                             '0.001, 0]}')
+    page.fill("#import-start", "2026-11-20T08:00:00Z")
+    page.screenshot(path=str(shots / "console-series-import.png"), full_page=True)
+    page.click("#import-form button[type=submit]")
+    page.wait_for_url("**/console/series/*")
+    assert "logger-run.csv" in page.inner_text("h1")
+    assert "2026-11-20 08:00:00" in page.inner_text("main")
+    assert "p1" in page.inner_text("#record-readings")  # its pressures read as a record
+    assert page.problems == [], page.problems

@@ -11,6 +11,7 @@ import threading
 import time
 
 import httpx
+from markupsafe import escape
 
 from app.console.web import SECURITY_HEADERS
 from app.security import Scope
@@ -163,3 +164,74 @@ def test_a_series_that_is_no_cycle_says_why(console_server: LiveServer,
     page = browser_client.get(f"/console/series/{r.json()['items'][0]['id']}")
     assert page.status_code == 200 and 'id="record-unread"' in page.text
     assert "no piston position" in page.text
+
+
+def _new_rig(server: LiveServer, name: str) -> int:
+    from sim.rigs import reference_rig_document
+
+    made = server.client.post("/rigs", json={"document": reference_rig_document() | {
+        "name": name}})
+    assert made.status_code == 201, made.text
+    return int(made.json()["id"])
+
+
+def test_a_loggers_file_is_imported_from_the_page(console_server: LiveServer,
+                                                 browser_client: httpx.Client) -> None:
+    """The list's import form: a semicolon file with decimal commas and a 4-20 mA pressure
+    through a column map, its clock time given; one record goes to its page, stored in SI
+    with its time; two records to the rig's list."""
+    rig = _new_rig(console_server, "console-import")
+    content = b"n;PT1 signal;note\n0;4,0;a\n1;12,0;\n2;20,0;b\n"
+    cmap = json.dumps({"n": ["t", "s", 0.5, 0], "PT1 signal": ["P1", "bar", 15.625, -62.5],
+                       "note": ["skip", "-"]})
+    done = browser_client.post("/console/series/import", data={
+        "rig": str(rig), "column_map": cmap, "started_at": "2026-11-20T08:00:00Z"},
+        files={"file": ("run 7.csv", content, "text/csv")})
+    assert done.status_code == 303, done.text
+    series_id = int(done.headers["location"].rsplit("/", 1)[1])
+    stored = console_server.client.get(f"/series/{series_id}").json()
+    assert stored["rig_id"] == rig and stored["name"] == "run-7.csv"
+    assert stored["channels"]["P1"] == [0.0, 125e5, 250e5] and stored["t"] == [0.0, 0.5, 1.0]
+    assert stored["measured_at"] == "2026-11-20T08:00:00Z"
+    page = browser_client.get(done.headers["location"])
+    assert "2026-11-20 08:00:00" in page.text
+    two = browser_client.post("/console/series/import", data={"rig": str(rig), "name": "two"},
+                              files={"file": ("two.csv", b"record,t [s],P1 [bar]\na,0,1\na,1,2\n"
+                                              b"b,0,3\nb,1,4\n", "text/csv")})
+    assert two.status_code == 303 and two.headers["location"] == f"/console/series?rig={rig}"
+    listed = browser_client.get(two.headers["location"]).text
+    assert listed.count('name="series" value=') == 3
+
+
+def test_a_bad_import_names_the_field_and_keeps_what_was_entered(
+        console_server: LiveServer, browser_client: httpx.Client) -> None:
+    rig = _new_rig(console_server, "console-import-bad")
+    before = console_server.row_counts()
+    good = b"t [s],P1 [bar]\n0,1\n1,2\n"
+    cases = [
+        ({"column_map": '{"P1": ["P1", "bar", 0, 0]}'}, good, "column_map.P1"),
+        ({"column_map": '{"PT": ["P1", "bar", "x", 0]}'}, good, "column_map.PT"),
+        ({"started_at": "2026-11-20T08:00:00"}, good, "started_at"),
+        ({"sample_rate": "fast"}, good, "sample_rate"),
+        ({"name": "a name with spaces"}, good, "name"),
+        ({}, b"t [s],P1 [psi]\n0,1\n1,2\n", "file.P1"),
+        ({}, None, "file"),
+    ]
+    for form, content, field in cases:
+        files = None if content is None else {"file": ("f.csv", content, "text/csv")}
+        refused = browser_client.post("/console/series/import", data={"rig": str(rig)} | form,
+                                      files=files)
+        assert refused.status_code == 422, (form, refused.text)
+        assert error_box(refused.text)[0].startswith(field), (form, error_box(refused.text))
+        for value in form.values():
+            assert str(escape(value)) in refused.text  # as Jinja writes it into the form
+    with console_server.session() as session:
+        _, plaintext = create_api_key(session, "console-import-read", Scope.READ)
+    with httpx.Client(base_url=console_server.base_url, timeout=60.0) as client:
+        client.post("/console/login", data={"api_key": plaintext, "next": ""})
+        refused = client.post("/console/series/import", data={"rig": str(rig)},
+                              files={"file": ("f.csv", good, "text/csv")})
+    assert refused.status_code == 403 and error_box(refused.text)[0] == "api_key"
+    after = console_server.row_counts()
+    assert {k: v for k, v in after.items() if k != "api_keys"} == {
+        k: v for k, v in before.items() if k != "api_keys"}
