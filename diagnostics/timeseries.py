@@ -35,8 +35,8 @@ in ``unit`` (a 4-20 mA transducer of 0-250 bar: ``("P1", "bar", 15.625, -62.5)``
 sample index at 500 Hz: ``("t", "s", 0.002, 0)``); ``("skip", "-")`` leaves a column out
 (a logger's own notes or features).  A table without a time column needs its
 ``sample_rate`` [Hz].  CSV files may be separated by commas, semicolons or tabs (found from
-the first lines); a semicolon-separated file whose numbers are written with a decimal
-comma (``1,5``, as spreadsheets in many locales write them) is read so.
+the first lines); a semicolon- or tab-separated file whose numbers are written with a
+decimal comma (``1,5``, as spreadsheets in many locales write them) is read so.
 :func:`read_series` is the entry point; :meth:`SeriesRecord.frame` writes a
 record back in the same format.
 """
