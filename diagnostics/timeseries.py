@@ -44,6 +44,7 @@ record back in the same format.
 from __future__ import annotations
 
 import io
+import itertools
 import json
 import math
 import re
@@ -216,7 +217,8 @@ class SeriesRecord:
 def _header_lines(text: str) -> tuple[dict[str, Any], int]:
     meta: dict[str, Any] = {}
     skipped = 0
-    for line in text.splitlines():
+    for line in io.StringIO(text):  # lazily: the header is a few lines of a long file
+        line = line.rstrip("\r\n")
         if not line.startswith("#"):
             break
         skipped += 1
@@ -268,7 +270,8 @@ def _read_frame(source: str | Path | bytes | pd.DataFrame, fmt: str | None
     except UnicodeDecodeError:
         raise InputError("the CSV file is not UTF-8 text", field="file") from None
     meta, skip = _header_lines(text)
-    sep, decimal = _dialect(text.splitlines()[skip:skip + 6])
+    sep, decimal = _dialect([ln.rstrip("\r\n")
+                             for ln in itertools.islice(io.StringIO(text), skip, skip + 6)])
     try:
         frame = pd.read_csv(io.StringIO(text), skiprows=skip, comment=None, sep=sep,
                             decimal=decimal)
