@@ -8,7 +8,7 @@ import difflib
 import re
 import types
 import typing
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from datetime import datetime
 from typing import Annotated, Any, ClassVar, Generic, TypeVar
 
@@ -184,7 +184,8 @@ def reject_null(value: T | None) -> T:
     return value
 
 
-def _unknown_field_message(unknown: list[str], known: list[str]) -> str:
+def _unknown_field_message(unknown: list[str], known: list[str],
+                           synonyms: Mapping[str, str] | None = None) -> str:
     parts = []
     for name in unknown[:10]:
         by_case = {k.lower(): k for k in known}
@@ -192,6 +193,8 @@ def _unknown_field_message(unknown: list[str], known: list[str]) -> str:
         close = [by_case[c] for c in difflib.get_close_matches(name.lower(), list(by_case),
                                                                n=1, cutoff=0.6)]
         hint = f" (did you mean {close[0]!r}?)" if close else ""
+        if synonyms and name in synonyms:  # another operation's name for the same quantity
+            hint = f" (here it is {synonyms[name]!r})"
         parts.append(f"{name[:100]!r}{hint}")
     if len(unknown) > 10:
         parts.append(f"and {len(unknown) - 10} more")
@@ -235,6 +238,9 @@ class RequestModel(BaseModel):
     #: Compare the values' JSON kinds with the documented ones (off for form models, whose
     #: values all arrive as text).
     json_kinds: ClassVar[bool] = True
+    #: Names other operations give a field of this model (``load_force`` of a diagnosis
+    #: record for the ``load`` of a simulation): the 422 of such a key names this one.
+    synonyms: ClassVar[Mapping[str, str]] = {}
 
     @model_validator(mode="before")
     @classmethod
@@ -245,7 +251,7 @@ class RequestModel(BaseModel):
         unknown = [str(k) for k in data if k not in allowed]
         if unknown:
             raise PydanticCustomError(
-                "extra_forbidden", _unknown_field_message(unknown, known),
+                "extra_forbidden", _unknown_field_message(unknown, known, cls.synonyms),
                 {"unknown_field": unknown[0][:100]},
             )
         if cls.json_kinds:

@@ -9,8 +9,9 @@ uncertainty ``u`` or its instrument bound ``bound`` (read as rectangular, u = bo
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from functools import partial
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any, ClassVar, Literal
 
 from pydantic import AwareDatetime, BaseModel, BeforeValidator, ConfigDict, Field, model_validator
 
@@ -113,6 +114,8 @@ def _reading(unit: str, meaning: str, example: float, *, required: bool = False)
 
 class ConditionIn(RequestModel):
     """Operating condition of a record; state the load force or the back-pressure."""
+
+    synonyms: ClassVar[Mapping[str, str]] = {"load": "load_force"}
 
     oil_temperature: Reading = _reading("°C", "Oil temperature", 40.0, required=True)
     load_force: Reading | None = _reading("N", "Load on the piston, working phase", 2100.0)

@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from functools import partial
-from typing import Any, Literal
+from typing import Any, ClassVar, Literal
 
 from pydantic import BaseModel, Field, PositiveFloat, field_validator
 
@@ -50,6 +51,8 @@ def check_fault(value: str | None) -> str | None:
 
 class ConditionSpec(RequestModel):
     """Operating condition; a field left out takes the rig document's default."""
+
+    synonyms: ClassVar[Mapping[str, str]] = {"load_force": "load"}
 
     load: FiniteFloat | None = Field(
         default=None, description="Load force resisting extension, working phase [N]",

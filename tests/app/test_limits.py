@@ -115,6 +115,27 @@ def test_unknown_fields_are_422_in_every_request_model(server: LiveServer, path:
     assert server.row_counts() == before
 
 
+@pytest.mark.parametrize(("path", "body", "field", "name"), [
+    ("/simulate", {"rig_id": 1, "condition": {"load_force": 2100.0}}, "condition.load_force",
+     "load"),
+    ("/diagnose", {"record": {"rig_id": 1, "condition": {"oil_temperature": 40.0,
+                                                         "load": 2100.0}, "p1": 1.2e6}},
+     "record.condition.load", "load_force"),
+])
+def test_the_loads_other_name_is_pointed_to(server: LiveServer, path: str,
+                                            body: dict[str, Any], field: str,
+                                            name: str) -> None:
+    """A simulation's condition names the load ``load``, a diagnosis record's ``load_force``
+    (a reading with its uncertainty): the other operation's name gets a 422 naming this one."""
+    before = server.row_counts()
+    response = server.client.post(path, json=body)
+    assert response.status_code == 422, response.text
+    error = response.json()["error"]
+    assert error["field"] == field, error
+    assert f"(here it is {name!r})" in error["message"]
+    assert server.row_counts() == before
+
+
 def test_every_request_model_forbids_unknown_fields(server: LiveServer) -> None:
     spec = server.client.get("/openapi.json").json()
     schemas = spec["components"]["schemas"]
