@@ -52,9 +52,10 @@ def _summary(rows: list[object], title: str) -> None:
 
 @import_cli.command("series")
 def import_series(
-    file: Annotated[Path, typer.Argument(help="CSV (comma, semicolon or tab) or Parquet: "
-                                              "'t \\[s]' and 'name \\[unit]' columns, "
-                                              "optional 'record' and 'phase'.")],
+    files: Annotated[list[Path], typer.Argument(
+        help="CSV (comma, semicolon or tab) or Parquet files, gzip-compressed or not: "
+             "'t \\[s]' and 'name \\[unit]' columns, optional 'record' and 'phase'; several "
+             "files (a logger's folder) are stored together or not at all.")],
     rig_id: RigOption,
     name: NameOption,
     column_map: Annotated[str | None, typer.Option(
@@ -68,30 +69,38 @@ def import_series(
     started_at: Annotated[str | None, typer.Option(
         help="Clock time at which the file's t reads 0, ISO 8601 with zone (e.g. "
              "2026-11-20T08:00:00Z): each record is stored as measured then plus its first "
-             "sample's t \\[UTC]; default: the file header's started_at, else none.")] = None,
+             "sample's t \\[UTC]; default: the file header's started_at, else none. One "
+             "file only: several take theirs from their headers.")] = None,
 ) -> None:
-    """Read a time-series file and store each record, as POST /rigs/{id}/series does."""
+    """Read time-series files and store each record, as POST /rigs/{id}/series does."""
     from app.services.series import parse_column_map, store_records
     from diagnostics.timeseries import clock_time, read_series
 
     cmap = parse_column_map(column_map, field="--column-map")
     start = None if started_at is None else clock_time(started_at, field="--started-at")
+    if start is not None and len(files) > 1:
+        raise InputError("one start for several files would put their records at the same "
+                         "time: give each file its '# started_at = ...' header line, or "
+                         "import them one by one", field="--started-at")
     if sample_rate is not None and not sample_rate > 0:
         raise InputError("the sample rate must be > 0 [Hz]", field="--sample-rate")
-    try:
-        content = file.read_bytes()
-    except OSError as exc:
-        raise InputError(f"cannot read {file}: {exc.strerror}", field="FILE") from None
     with store_session() as session, steps() as progress:
-        task = progress.add_task(f"reading {file.name}", total=None)
-        records = read_series(content, format="parquet" if file.suffix.lower() in (
-            ".parquet", ".pq") else None, column_map=cmap, sample_rate=sample_rate,
-            started_at=start, name=file.name)
+        task = progress.add_task("reading", total=len(files))
+        records = []
+        for k, file in enumerate(files):
+            progress.update(task, description=f"reading {file.name}", completed=k)
+            try:
+                records.extend(read_series(file, column_map=cmap, sample_rate=sample_rate,
+                                           started_at=start))
+            except InputError as exc:  # which of the files, and its column
+                raise type(exc)(f"{file}: {exc.message}",
+                                field="FILE" if exc.field == "file" else exc.field) from None
         progress.update(task, description=f"storing {len(records)} records",
                         total=len(records), completed=0)
         rows = store_records(session, rig_id, name, records,
                              lambda done, total: progress.update(task, completed=done))
-    _summary(list(rows), f"{len(rows)} records of {file.name} stored for rig {rig_id}")
+    what = files[0].name if len(files) == 1 else f"{len(files)} files"
+    _summary(list(rows), f"{len(rows)} records of {what} stored for rig {rig_id}")
 
 
 @import_cli.command("zema")

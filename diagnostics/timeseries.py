@@ -36,7 +36,8 @@ sample index at 500 Hz: ``("t", "s", 0.002, 0)``); ``("skip", "-")`` leaves a co
 (a logger's own notes or features).  A table without a time column needs its
 ``sample_rate`` [Hz].  CSV files may be separated by commas, semicolons or tabs (found from
 the first lines); a semicolon- or tab-separated file whose numbers are written with a
-decimal comma (``1,5``, as spreadsheets in many locales write them) is read so.
+decimal comma (``1,5``, as spreadsheets in many locales write them) is read so; a
+gzip-compressed file is read decompressed.
 :func:`read_series` is the entry point; :meth:`SeriesRecord.frame` writes a
 record back in the same format.
 """
@@ -48,6 +49,7 @@ import itertools
 import json
 import math
 import re
+import zlib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, datetime, timedelta
@@ -63,6 +65,7 @@ from sim.units import UNITS
 
 __all__ = [
     "CONDITION_CHANNELS",
+    "MAX_DECOMPRESSED_BYTES",
     "PARQUET_METADATA_KEY",
     "SKIP",
     "ColumnEntry",
@@ -74,6 +77,9 @@ __all__ = [
 ]
 
 Arr = npt.NDArray[np.float64]
+
+#: Largest gzip-compressed file's size once decompressed, unless the caller says [byte].
+MAX_DECOMPRESSED_BYTES = 64 * 1024 * 1024
 
 #: Key of the JSON header in a Parquet file's metadata (as ``/simulate`` writes it).
 PARQUET_METADATA_KEY = "hydrodiag"
@@ -231,21 +237,42 @@ def _header_lines(text: str) -> tuple[dict[str, Any], int]:
     return meta, skipped
 
 
-def _read_frame(source: str | Path | bytes | pd.DataFrame, fmt: str | None
+def _gunzipped(raw: bytes, max_bytes: int) -> bytes:
+    """``raw`` decompressed when it is gzip data (its magic bytes), else as it is.
+
+    Raises
+    ------
+    InputError
+        Broken gzip data, or more than ``max_bytes`` once decompressed (``file``).
+    """
+    if raw[:2] != b"\x1f\x8b":
+        return raw
+    inflate = zlib.decompressobj(wbits=16 + zlib.MAX_WBITS)
+    try:
+        out = inflate.decompress(raw, max_bytes + 1)
+    except zlib.error as exc:
+        raise InputError(f"not readable gzip data: {exc}", field="file") from None
+    if len(out) > max_bytes:
+        raise InputError(f"the file is more than {max_bytes} bytes decompressed", field="file")
+    return out
+
+
+def _read_frame(source: str | Path | bytes | pd.DataFrame, fmt: str | None,
+                max_bytes: int = MAX_DECOMPRESSED_BYTES
                 ) -> tuple[pd.DataFrame, dict[str, Any], str]:
     if isinstance(source, pd.DataFrame):
         return source, {}, "table"
     name = "upload"
     if isinstance(source, str | Path):
         path = Path(source)
-        name = path.name
-        fmt = fmt or ("parquet" if path.suffix.lower() in (".parquet", ".pq") else "csv")
+        name = path.name.removesuffix(".gz")
+        fmt = fmt or ("parquet" if Path(name).suffix.lower() in (".parquet", ".pq") else "csv")
         try:
-            raw = path.read_bytes()
+            raw = _gunzipped(path.read_bytes(), max_bytes)
         except OSError as exc:
             raise InputError(f"cannot read {path}: {exc.strerror}", field="file") from None
     else:
-        raw = bytes(source)
+        raw = _gunzipped(bytes(source), max_bytes)
         fmt = fmt or ("parquet" if raw[:4] == b"PAR1" else "csv")
     if fmt == "parquet":
         import pyarrow as pa
@@ -536,21 +563,22 @@ def read_series(source: str | Path | bytes | pd.DataFrame, *, format: str | None
                 column_map: Mapping[str, ColumnEntry] | None = None,
                 expected: Mapping[str, str] | None = None, required: Sequence[str] = (),
                 measured: bool = True, sample_rate: float | None = None,
-                started_at: datetime | None = None, name: str | None = None
-                ) -> list[SeriesRecord]:
+                started_at: datetime | None = None, name: str | None = None,
+                max_bytes: int = MAX_DECOMPRESSED_BYTES) -> list[SeriesRecord]:
     """Read measured time series from a CSV or Parquet file (path or bytes) or a table.
 
     See the module docstring for the format and :func:`series_from_frame` for the options.
     ``format`` (``"csv"``/``"parquet"``) is taken from the file suffix or the bytes when
     not given; ``name`` names a record without a ``record`` column (default: the file's
-    name, ``upload`` for bytes).
+    name without ``.gz``, ``upload`` for bytes).  A gzip-compressed file (``.gz``, as
+    loggers and archives keep them) is read decompressed, up to ``max_bytes`` [byte].
 
     Raises
     ------
     InputError
         The file cannot be read, or a column is invalid (the error names it).
     """
-    frame, meta, source_name = _read_frame(source, format)
+    frame, meta, source_name = _read_frame(source, format, max_bytes)
     if frame.empty:
         raise InputError("the table has no rows", field="file")
     return series_from_frame(frame, name=name or source_name, column_map=column_map, expected=expected,

@@ -121,7 +121,8 @@ def import_series(session: Session, rig_id: int, name: str, content: bytes, *,
     try:
         records = read_series(content, format=fmt, column_map=column_map,
                               sample_rate=sample_rate, started_at=started_at,
-                              name=filename or None)
+                              name=filename.removesuffix(".gz") if filename else None,
+                              max_bytes=MAX_SERIES_BYTES)
     except InputError as exc:
         given = ("column_map", "sample_rate") + (("started_at",) if started_at else ())
         where = exc.field if exc.field in given else (

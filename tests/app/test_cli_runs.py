@@ -214,6 +214,46 @@ def test_import_zema_cycles_and_a_series_file(runner: CliRunner, tmp_path: Path)
     assert "[Hz]" in runner.invoke(cli, ["import", "series", "--help"]).stdout
 
 
+def test_a_loggers_folder_of_compressed_files_is_imported_together(
+        runner: CliRunner, tmp_path: Path) -> None:
+    """The rotary-actuator recordings as the data set keeps them (gzip, tab-separated raw
+    counts, ``tests/real_slices.py``): several files in one import, each record named after
+    its file; one bad file among them stores nothing; one start for several files is
+    refused."""
+    import gzip
+
+    from app.db.models import MeasuredSeries
+    from tests.real_slices import vtnsi_slice
+
+    paths = []
+    for path in vtnsi_slice():
+        packed = tmp_path / (path.name + ".gz")
+        packed.write_bytes(gzip.compress(path.read_bytes()))
+        paths.append(packed)
+    cmap = json.dumps({"PG_1": ["pg1", "-"], "PG_2": ["pg2", "-"], "Angle": ["angle", "-"]}
+                      | {c: ["skip", "-"] for c in (
+                          "Time", "Accel_1", "Accel_2", "Accel_3", "Temp_1", "Temp_2",
+                          "Temp_3", "PG_3", "Lim_1", "Lim_2", "Lim_3", "Internal_Temp",
+                          "F_Names", "F_Values", "Prediction")})
+    args = ["import", "series", *map(str, paths), "--rig", "1", "--name", "vtnsi",
+            "--column-map", cmap, "--sample-rate", "250"]
+    bad = tmp_path / "broken.csv"
+    bad.write_text("t [s],P1 [psi]\n0,1\n1,2\n")
+    refused = runner.invoke(cli, [*args[:4], str(bad), *args[4:]])
+    assert refused.exit_code != 0 and "broken.csv" in str(refused.exception)
+    assert store_count(MeasuredSeries) == 0  # a fresh store: the two good files not stored
+    both = runner.invoke(cli, [*args, "--started-at", "2019-09-10T16:37:01Z"])
+    assert both.exit_code != 0 and getattr(both.exception, "field", None) == "--started-at"
+    done = runner.invoke(cli, args)
+    assert done.exit_code == 0, done.output
+    assert store_count(MeasuredSeries) == 2 and "2 files" in done.stdout
+    with store_session() as session:
+        rows = session.scalars(select(MeasuredSeries).where(MeasuredSeries.name == "vtnsi")
+                               .order_by(MeasuredSeries.id)).all()
+        assert [r.record for r in rows] == [p.name.removesuffix(".gz") for p in paths]
+        assert all(r.n_samples == 400 and r.sample_rate == pytest.approx(250.0) for r in rows)
+
+
 def test_zema_plateaus_become_a_bench_table_the_workflow_reads(runner: CliRunner,
                                                                tmp_path: Path) -> None:
     """The ZeMA path from the command line: the rig file into the store, the cycles'

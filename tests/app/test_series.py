@@ -126,3 +126,28 @@ def test_a_loggers_semicolon_file_with_raw_signals(server: LiveServer) -> None:
     full = server.client.get(f"/series/{item['id']}").json()
     assert full["t"] == pytest.approx([0.0, 0.01, 0.02])
     assert full["channels"]["P1"] == pytest.approx([0.0, 125e5, 250e5])
+
+
+def test_a_compressed_upload_is_read_and_a_bomb_refused(server: LiveServer) -> None:
+    """A gzip-compressed file is read as its text (the record named without ``.gz``); one
+    that decompresses beyond the series limit is a 422 naming the file, nothing stored."""
+    import gzip
+
+    from app.services.series import MAX_SERIES_BYTES
+
+    text = b"t [s],P1 [bar]\n0,1.5\n1,2.5\n"
+    r = server.client.post("/rigs/1/series", data={"name": "packed"},
+                           files={"file": ("run.csv.gz", gzip.compress(text), "application/gzip")},
+                           headers=server.auth)
+    assert r.status_code == 201, r.text
+    [item] = r.json()["items"]
+    assert item["record"] == "run.csv"
+    assert server.client.get(f"/series/{item['id']}").json()["channels"]["P1"] == [1.5e5, 2.5e5]
+    before = server.row_counts()
+    bomb = gzip.compress(b"t [s],P1 [bar]\n" + b"0,1\n" * (MAX_SERIES_BYTES // 4 + 1))
+    assert len(bomb) < 100_000
+    r = server.client.post("/rigs/1/series", data={"name": "bomb"},
+                           files={"file": ("bomb.csv.gz", bomb, "application/gzip")},
+                           headers=server.auth)
+    assert r.status_code == 422 and r.json()["error"]["field"] == "file", r.text
+    assert server.row_counts() == before
