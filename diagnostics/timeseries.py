@@ -247,14 +247,25 @@ def _gunzipped(raw: bytes, max_bytes: int) -> bytes:
     """
     if raw[:2] != b"\x1f\x8b":
         return raw
-    inflate = zlib.decompressobj(wbits=16 + zlib.MAX_WBITS)
-    try:
-        out = inflate.decompress(raw, max_bytes + 1)
-    except zlib.error as exc:
-        raise InputError(f"not readable gzip data: {exc}", field="file") from None
-    if len(out) > max_bytes:
-        raise InputError(f"the file is more than {max_bytes} bytes decompressed", field="file")
-    return out
+    parts: list[bytes] = []
+    size = 0
+    rest = raw
+    while rest:  # member by member: a gzip file may hold several
+        inflate = zlib.decompressobj(wbits=16 + zlib.MAX_WBITS)
+        try:
+            part = inflate.decompress(rest, max_bytes + 1 - size)
+        except zlib.error as exc:
+            raise InputError(f"not readable gzip data: {exc}", field="file") from None
+        size += len(part)
+        if size > max_bytes:
+            raise InputError(f"the file is more than {max_bytes} bytes decompressed",
+                             field="file")
+        if not inflate.eof:
+            raise InputError("the gzip data end before their end (a truncated file?)",
+                             field="file")
+        parts.append(part)
+        rest = inflate.unused_data
+    return b"".join(parts)
 
 
 def _read_frame(source: str | Path | bytes | pd.DataFrame, fmt: str | None,
