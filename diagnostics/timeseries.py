@@ -39,17 +39,14 @@ the first lines); a semicolon- or tab-separated file whose numbers are written w
 decimal comma (``1,5``, as spreadsheets in many locales write them) is read so; a
 gzip-compressed file is read decompressed.
 :func:`read_series` is the entry point; :meth:`SeriesRecord.frame` writes a
-record back in the same format.
+record back in the same format.  The file layer (gzip, the CSV dialect, header lines and
+Parquet metadata) is :mod:`diagnostics.table_files`.
 """
 
 from __future__ import annotations
 
-import io
-import itertools
-import json
 import math
 import re
-import zlib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, datetime, timedelta
@@ -60,6 +57,7 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
+from diagnostics.table_files import MAX_DECOMPRESSED_BYTES, PARQUET_METADATA_KEY, read_table
 from sim.errors import InputError
 from sim.units import UNITS
 
@@ -78,19 +76,12 @@ __all__ = [
 
 Arr = npt.NDArray[np.float64]
 
-#: Largest gzip-compressed file's size once decompressed, unless the caller says [byte].
-MAX_DECOMPRESSED_BYTES = 64 * 1024 * 1024
-
-#: Key of the JSON header in a Parquet file's metadata (as ``/simulate`` writes it).
-PARQUET_METADATA_KEY = "hydrodiag"
-
 #: Condition channels and their SI unit (°C for temperature, as everywhere in hydrodiag).
 CONDITION_CHANNELS: dict[str, str] = {
     "load": "N", "back_pressure": "Pa", "oil_temperature": "degC", "pump_speed": "rad/s",
 }
 
 _COLUMN = re.compile(r"^\s*(.+?)\s*\[(.*)\]\s*$")
-_META = re.compile(r"^#\s*([A-Za-z_][A-Za-z0-9_]*)\s*=\s*(.*)$")
 #: columns that are labels, not channels
 _LABELS = ("phase", "record")
 #: the column map's channel name that leaves a column out
@@ -218,129 +209,6 @@ class SeriesRecord:
             if k in CONDITION_CHANNELS and k not in self.channels:
                 data[f"{k} [{CONDITION_CHANNELS[k]}]"] = np.full(self.t.size, float(value))
         return pd.DataFrame(data)
-
-
-def _header_lines(text: str) -> tuple[dict[str, Any], int]:
-    meta: dict[str, Any] = {}
-    skipped = 0
-    for line in io.StringIO(text):  # lazily: the header is a few lines of a long file
-        line = line.rstrip("\r\n")
-        if not line.startswith("#"):
-            break
-        skipped += 1
-        m = _META.match(line)
-        if m is not None:
-            try:
-                meta[m.group(1)] = json.loads(m.group(2))
-            except json.JSONDecodeError:
-                meta[m.group(1)] = m.group(2).strip()
-    return meta, skipped
-
-
-def _gunzipped(raw: bytes, max_bytes: int) -> bytes:
-    """``raw`` decompressed when it is gzip data (its magic bytes), else as it is.
-
-    Raises
-    ------
-    InputError
-        Broken gzip data, or more than ``max_bytes`` once decompressed (``file``).
-    """
-    if raw[:2] != b"\x1f\x8b":
-        return raw
-    parts: list[bytes] = []
-    size = 0
-    rest = raw
-    while rest:  # member by member: a gzip file may hold several
-        inflate = zlib.decompressobj(wbits=16 + zlib.MAX_WBITS)
-        try:
-            part = inflate.decompress(rest, max_bytes + 1 - size)
-        except zlib.error as exc:
-            raise InputError(f"not readable gzip data: {exc}", field="file") from None
-        size += len(part)
-        if size > max_bytes:
-            raise InputError(f"the file is more than {max_bytes} bytes decompressed",
-                             field="file")
-        if not inflate.eof:
-            raise InputError("the gzip data end before their end (a truncated file?)",
-                             field="file")
-        parts.append(part)
-        rest = inflate.unused_data
-    return b"".join(parts)
-
-
-def _read_frame(source: str | Path | bytes | pd.DataFrame, fmt: str | None,
-                max_bytes: int = MAX_DECOMPRESSED_BYTES
-                ) -> tuple[pd.DataFrame, dict[str, Any], str]:
-    if isinstance(source, pd.DataFrame):
-        return source, {}, "table"
-    name = "upload"
-    if isinstance(source, str | Path):
-        path = Path(source)
-        name = path.name.removesuffix(".gz")
-        fmt = fmt or ("parquet" if Path(name).suffix.lower() in (".parquet", ".pq") else "csv")
-        try:
-            raw = _gunzipped(path.read_bytes(), max_bytes)
-        except OSError as exc:
-            raise InputError(f"cannot read {path}: {exc.strerror}", field="file") from None
-    else:
-        raw = _gunzipped(bytes(source), max_bytes)
-        fmt = fmt or ("parquet" if raw[:4] == b"PAR1" else "csv")
-    if fmt == "parquet":
-        import pyarrow as pa
-        import pyarrow.parquet as pq
-
-        try:
-            table = pq.read_table(io.BytesIO(raw))
-        except (pa.ArrowException, OSError) as exc:
-            raise InputError(f"not a readable Parquet file: {exc}", field="file") from None
-        meta: dict[str, Any] = {}
-        blob = (table.schema.metadata or {}).get(PARQUET_METADATA_KEY.encode())
-        if blob is not None:
-            try:
-                meta = dict(json.loads(blob.decode("utf-8")))
-            except (ValueError, UnicodeDecodeError):
-                meta = {}
-        return table.to_pandas(), meta, name
-    if fmt != "csv":
-        raise InputError(f"unknown format {fmt!r} (csv or parquet)", field="format")
-    try:
-        text = raw.decode("utf-8-sig")
-    except UnicodeDecodeError:
-        raise InputError("the CSV file is not UTF-8 text", field="file") from None
-    meta, skip = _header_lines(text)
-    sep, decimal = _dialect([ln.rstrip("\r\n")
-                             for ln in itertools.islice(io.StringIO(text), skip, skip + 6)])
-    try:
-        frame = pd.read_csv(io.StringIO(text), skiprows=skip, comment=None, sep=sep,
-                            decimal=decimal)
-    except (pd.errors.ParserError, pd.errors.EmptyDataError) as exc:
-        raise InputError(f"not a readable CSV table: {exc}", field="file") from None
-    return frame, meta, name
-
-
-_DECIMAL_COMMA = re.compile(r"^\s*[-+]?\d+,\d+([eE][-+]?\d+)?\s*$")
-_DECIMAL_POINT = re.compile(r"^\s*[-+]?\d*\.\d+([eE][-+]?\d+)?\s*$")
-
-
-def _dialect(lines: list[str]) -> tuple[str, str]:
-    """The separator and decimal mark of a CSV table from its first lines (the header and a
-    few rows): the one of tab, semicolon and comma that splits every line into the same
-    number (> 1) of fields, preferring tab, then semicolon, then comma (a comma may be a
-    decimal mark); a semicolon- or tab-separated table with numbers like ``1,5`` and none
-    like ``1.5`` has decimal commas."""
-    lines = [ln for ln in lines if ln.strip()]
-    sep = ","
-    for cand in ("\t", ";"):
-        counts = {ln.count(cand) for ln in lines}
-        if lines and len(counts) == 1 and counts.pop() > 0:
-            sep = cand
-            break
-    if sep == ",":
-        return sep, "."
-    cells = [c for ln in lines[1:] for c in ln.split(sep)]
-    comma = any(_DECIMAL_COMMA.match(c) for c in cells)
-    point = any(_DECIMAL_POINT.match(c) for c in cells)
-    return sep, "," if comma and not point else "."
 
 
 def clock_time(value: object, *, field: str = "started_at") -> datetime:
@@ -589,7 +457,7 @@ def read_series(source: str | Path | bytes | pd.DataFrame, *, format: str | None
     InputError
         The file cannot be read, or a column is invalid (the error names it).
     """
-    frame, meta, source_name = _read_frame(source, format, max_bytes)
+    frame, meta, source_name = read_table(source, format, max_bytes)
     if frame.empty:
         raise InputError("the table has no rows", field="file")
     return series_from_frame(frame, name=name or source_name, column_map=column_map, expected=expected,

@@ -1,0 +1,171 @@
+"""Table files as loggers and exports write them: the reading layer of :mod:`diagnostics.timeseries`.
+
+A CSV or Parquet file, from a path or its bytes, gzip-compressed or not (one member or
+several; a truncated stream or one past the size limit is refused), is read into a table
+and its header: CSV files may start with ``# key = <json>`` lines (the ``/simulate``
+export's: rig, condition, summary, ``started_at``), Parquet files carry the same entries as
+JSON in their key-value metadata under :data:`PARQUET_METADATA_KEY`.  A CSV file's
+separator (comma, semicolon or tab) and decimal mark are found from its first lines
+(:func:`dialect`).  Errors are :class:`~sim.errors.InputError` naming ``file`` or
+``format``.
+"""
+
+from __future__ import annotations
+
+import io
+import itertools
+import json
+import re
+import zlib
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+from sim.errors import InputError
+
+__all__ = ["MAX_DECOMPRESSED_BYTES", "PARQUET_METADATA_KEY", "dialect", "gunzipped",
+           "read_table"]
+
+#: Largest gzip-compressed file's size once decompressed, unless the caller says [byte].
+MAX_DECOMPRESSED_BYTES = 64 * 1024 * 1024
+#: Key of the JSON header in a Parquet file's metadata (as ``/simulate`` writes it).
+PARQUET_METADATA_KEY = "hydrodiag"
+
+_META = re.compile(r"^#\s*([A-Za-z_][A-Za-z0-9_]*)\s*=\s*(.*)$")
+
+
+def _header_lines(text: str) -> tuple[dict[str, Any], int]:
+    """The ``# key = <json>`` lines at the top of a CSV text, parsed, and how many lines
+    the header holds."""
+    meta: dict[str, Any] = {}
+    skipped = 0
+    for line in io.StringIO(text):  # lazily: the header is a few lines of a long file
+        line = line.rstrip("\r\n")
+        if not line.startswith("#"):
+            break
+        skipped += 1
+        m = _META.match(line)
+        if m is not None:
+            try:
+                meta[m.group(1)] = json.loads(m.group(2))
+            except json.JSONDecodeError:
+                meta[m.group(1)] = m.group(2).strip()
+    return meta, skipped
+
+
+def gunzipped(raw: bytes, max_bytes: int) -> bytes:
+    """``raw`` decompressed when it is gzip data (its magic bytes), else as it is.
+
+    Raises
+    ------
+    InputError
+        Broken gzip data, or more than ``max_bytes`` once decompressed (``file``).
+    """
+    if raw[:2] != b"\x1f\x8b":
+        return raw
+    parts: list[bytes] = []
+    size = 0
+    rest = raw
+    while rest:  # member by member: a gzip file may hold several
+        inflate = zlib.decompressobj(wbits=16 + zlib.MAX_WBITS)
+        try:
+            part = inflate.decompress(rest, max_bytes + 1 - size)
+        except zlib.error as exc:
+            raise InputError(f"not readable gzip data: {exc}", field="file") from None
+        size += len(part)
+        if size > max_bytes:
+            raise InputError(f"the file is more than {max_bytes} bytes decompressed",
+                             field="file")
+        if not inflate.eof:
+            raise InputError("the gzip data end before their end (a truncated file?)",
+                             field="file")
+        parts.append(part)
+        rest = inflate.unused_data
+    return b"".join(parts)
+
+
+def read_table(source: str | Path | bytes | pd.DataFrame, fmt: str | None = None,
+               max_bytes: int = MAX_DECOMPRESSED_BYTES
+               ) -> tuple[pd.DataFrame, dict[str, Any], str]:
+    """The table of a CSV or Parquet file (a path or its bytes, gzip-compressed or not) or a
+    table given as it is, its header entries (CSV ``# key = <json>`` lines, Parquet
+    metadata under :data:`PARQUET_METADATA_KEY`) and the source's name (the file's without
+    ``.gz``; ``upload`` for bytes, ``table`` for a table).
+
+    Raises
+    ------
+    InputError
+        The file cannot be read, decompressed (beyond ``max_bytes`` [byte]) or parsed, or
+        ``fmt`` is neither ``csv`` nor ``parquet`` (``file``, ``format``).
+    """
+    if isinstance(source, pd.DataFrame):
+        return source, {}, "table"
+    name = "upload"
+    if isinstance(source, str | Path):
+        path = Path(source)
+        name = path.name.removesuffix(".gz")
+        fmt = fmt or ("parquet" if Path(name).suffix.lower() in (".parquet", ".pq") else "csv")
+        try:
+            raw = gunzipped(path.read_bytes(), max_bytes)
+        except OSError as exc:
+            raise InputError(f"cannot read {path}: {exc.strerror}", field="file") from None
+    else:
+        raw = gunzipped(bytes(source), max_bytes)
+        fmt = fmt or ("parquet" if raw[:4] == b"PAR1" else "csv")
+    if fmt == "parquet":
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+
+        try:
+            table = pq.read_table(io.BytesIO(raw))
+        except (pa.ArrowException, OSError) as exc:
+            raise InputError(f"not a readable Parquet file: {exc}", field="file") from None
+        meta: dict[str, Any] = {}
+        blob = (table.schema.metadata or {}).get(PARQUET_METADATA_KEY.encode())
+        if blob is not None:
+            try:
+                meta = dict(json.loads(blob.decode("utf-8")))
+            except (ValueError, UnicodeDecodeError):
+                meta = {}
+        return table.to_pandas(), meta, name
+    if fmt != "csv":
+        raise InputError(f"unknown format {fmt!r} (csv or parquet)", field="format")
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        raise InputError("the CSV file is not UTF-8 text", field="file") from None
+    meta, skip = _header_lines(text)
+    sep, decimal = dialect([ln.rstrip("\r\n")
+                            for ln in itertools.islice(io.StringIO(text), skip, skip + 6)])
+    try:
+        frame = pd.read_csv(io.StringIO(text), skiprows=skip, comment=None, sep=sep,
+                            decimal=decimal)
+    except (pd.errors.ParserError, pd.errors.EmptyDataError) as exc:
+        raise InputError(f"not a readable CSV table: {exc}", field="file") from None
+    return frame, meta, name
+
+
+_DECIMAL_COMMA = re.compile(r"^\s*[-+]?\d+,\d+([eE][-+]?\d+)?\s*$")
+_DECIMAL_POINT = re.compile(r"^\s*[-+]?\d*\.\d+([eE][-+]?\d+)?\s*$")
+
+
+def dialect(lines: list[str]) -> tuple[str, str]:
+    """The separator and decimal mark of a CSV table from its first lines (the header and a
+    few rows): the one of tab, semicolon and comma that splits every line into the same
+    number (> 1) of fields, preferring tab, then semicolon, then comma (a comma may be a
+    decimal mark); a semicolon- or tab-separated table with numbers like ``1,5`` and none
+    like ``1.5`` has decimal commas."""
+    lines = [ln for ln in lines if ln.strip()]
+    sep = ","
+    for cand in ("\t", ";"):
+        counts = {ln.count(cand) for ln in lines}
+        if lines and len(counts) == 1 and counts.pop() > 0:
+            sep = cand
+            break
+    if sep == ",":
+        return sep, "."
+    cells = [c for ln in lines[1:] for c in ln.split(sep)]
+    comma = any(_DECIMAL_COMMA.match(c) for c in cells)
+    point = any(_DECIMAL_POINT.match(c) for c in cells)
+    return sep, "," if comma and not point else "."

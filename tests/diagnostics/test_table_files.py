@@ -1,0 +1,60 @@
+"""Table files as loggers write them (diagnostics.table_files): the CSV dialect, gzip."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from diagnostics.table_files import dialect, read_table
+from diagnostics.timeseries import read_series
+from sim.errors import InputError
+
+
+def test_the_dialect_is_found_from_the_first_lines():
+    assert dialect(["t [s],P1 [bar]", "0,1.5"]) == (",", ".")
+    assert dialect(["t [s];P1 [bar]", "0;1,5", "0,5;2,5"]) == (";", ",")
+    assert dialect(["t [s];P1 [bar]", "0;1.5"]) == (";", ".")
+    assert dialect(["t [s]\tP1 [bar]", "0\t1,5"]) == ("\t", ",")
+    assert dialect(["t [s]\tP1 [bar]", "0\t4288"]) == ("\t", ".")  # integers: no mark
+    # a comma file whose one text column holds a semicolon in a row: still commas
+    assert dialect(["t [s],note", "0,a;b", "1,c"]) == (",", ".")
+    frame, meta, name = read_table(b"# rig = \"x\"\nt [s];P1 [bar]\n0;1,5\n")
+    assert meta == {"rig": "x"} and name == "upload"
+    assert frame.to_dict("list") == {"t [s]": [0], "P1 [bar]": [1.5]}
+
+
+def test_semicolons_and_decimal_commas_and_tabs_are_read():
+    """A spreadsheet's CSV in many locales (';' and '1,5') and a tab-separated logger file
+    read as the comma CSV does; a comma file with a decimal point stays as it was."""
+    comma = read_series(b"t [s],P1 [bar]\n0,1.5\n0.5,2.5\n")[0]
+    semi = read_series(b"t [s];P1 [bar]\n0;1,5\n0,5;2,5\n")[0]
+    tab = read_series(b"t [s]\tP1 [bar]\n0\t1.5\n0.5\t2.5\n")[0]
+    for rec in (semi, tab):
+        np.testing.assert_array_equal(rec.t, comma.t)
+        np.testing.assert_array_equal(rec.channel("P1"), comma.channel("P1"))
+    np.testing.assert_allclose(comma.channel("P1"), [1.5e5, 2.5e5])
+    # semicolons with decimal points (and thousands nowhere): points stay points
+    point = read_series(b"t [s];P1 [bar]\n0;1.5\n0.5;2.5\n")[0]
+    np.testing.assert_array_equal(point.channel("P1"), comma.channel("P1"))
+
+
+def test_gzip_files_are_read_and_broken_ones_refused(tmp_path):
+    """A .gz file (one member or several, as ``cat a.gz b.gz`` makes) reads as its text,
+    the record named without .gz; truncated or over-large data is refused naming the
+    file."""
+    import gzip
+
+    text = b"t [s];P1 [bar]\n0;1,5\n0,5;2,5\n"
+    path = tmp_path / "run.csv.gz"
+    path.write_bytes(gzip.compress(text))
+    (rec,) = read_series(path)
+    assert rec.name == "run.csv"
+    np.testing.assert_allclose(rec.channel("P1"), [1.5e5, 2.5e5])
+    two = gzip.compress(text[:20]) + gzip.compress(text[20:])
+    np.testing.assert_array_equal(read_series(two)[0].channel("P1"), rec.channel("P1"))
+    for raw, words in ((gzip.compress(text)[:-12], "end before"),
+                       (gzip.compress(text * 100), "more than 1000 bytes"),
+                       (b"\x1f\x8b" + b"\x00" * 20, "gzip")):
+        with pytest.raises(InputError) as err:
+            read_series(raw, max_bytes=1000)
+        assert err.value.field == "file" and words in err.value.message
