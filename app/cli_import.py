@@ -70,14 +70,26 @@ def import_series(
         help="Clock time at which the file's t reads 0, ISO 8601 with zone (e.g. "
              "2026-11-20T08:00:00Z): each record is stored as measured then plus its first "
              "sample's t \\[UTC]; default: the file header's started_at, else none. One "
-             "file only: several take theirs from their headers.")] = None,
+             "file only: several take theirs from their headers or names.")] = None,
+    time_in_name: Annotated[str | None, typer.Option(
+        help="Each file's start as its logger wrote it into the name, a strptime format "
+             "(e.g. '%m-%d-%Y-%I-%M-%S %p' for '…_9-10-2019-4-37-01 PM.txt'; %Y %y %m %d %H "
+             "%I %M %S %f %j %p %b %z).")] = None,
+    zone: Annotated[str | None, typer.Option(
+        help="The time zone of --time-in-name when its format has no %z: Z, +02:00, "
+             "-0400.")] = None,
 ) -> None:
     """Read time-series files and store each record, as POST /rigs/{id}/series does."""
     from app.services.series import parse_column_map, store_records
+    from diagnostics.table_files import time_in_name as time_in_name_of
     from diagnostics.timeseries import clock_time, read_series
 
     cmap = parse_column_map(column_map, field="--column-map")
     start = None if started_at is None else clock_time(started_at, field="--started-at")
+    if time_in_name is not None and start is not None:
+        raise InputError("give --started-at or --time-in-name, not both", field="--started-at")
+    if zone is not None and time_in_name is None:
+        raise InputError("--zone goes with --time-in-name", field="--zone")
     if start is not None and len(files) > 1:
         raise InputError("one start for several files would put their records at the same "
                          "time: give each file its '# started_at = ...' header line, or "
@@ -90,8 +102,11 @@ def import_series(
         for k, file in enumerate(files):
             progress.update(task, description=f"reading {file.name}", completed=k)
             try:
+                own = start if time_in_name is None else time_in_name_of(
+                    file.name.removesuffix(".gz"), time_in_name, zone, field="--time-in-name",
+                    zone_field="--zone")
                 records.extend(read_series(file, column_map=cmap, sample_rate=sample_rate,
-                                           started_at=start))
+                                           started_at=own))
             except InputError as exc:  # which of the files, and its column
                 raise type(exc)(f"{file}: {exc.message}",
                                 field="FILE" if exc.field == "file" else exc.field) from None

@@ -17,6 +17,7 @@ import itertools
 import json
 import re
 import zlib
+from datetime import UTC, datetime, timedelta, timezone
 from pathlib import Path
 from typing import Any
 
@@ -25,7 +26,7 @@ import pandas as pd
 from sim.errors import InputError
 
 __all__ = ["MAX_DECOMPRESSED_BYTES", "PARQUET_METADATA_KEY", "dialect", "gunzipped",
-           "read_table"]
+           "read_table", "time_in_name"]
 
 #: Largest gzip-compressed file's size once decompressed, unless the caller says [byte].
 MAX_DECOMPRESSED_BYTES = 64 * 1024 * 1024
@@ -169,3 +170,61 @@ def dialect(lines: list[str]) -> tuple[str, str]:
     comma = any(_DECIMAL_COMMA.match(c) for c in cells)
     point = any(_DECIMAL_POINT.match(c) for c in cells)
     return sep, "," if comma and not point else "."
+
+
+#: strptime directives a file name's time may use, as the text each matches
+_DIRECTIVES = {"Y": r"\d{4}", "y": r"\d{2}", "m": r"\d{1,2}", "d": r"\d{1,2}",
+               "H": r"\d{1,2}", "I": r"\d{1,2}", "M": r"\d{1,2}", "S": r"\d{1,2}",
+               "f": r"\d{1,6}", "j": r"\d{1,3}", "p": r"(?:AM|PM|am|pm)",
+               "b": r"[A-Za-z]{3}", "z": r"(?:Z|[+-]\d{2}:?\d{2})", "%": "%"}
+_ZONE = re.compile(r"^(?:Z|([+-])(\d{2}):?(\d{2}))$")
+
+
+def _zone(text: str, field: str) -> timezone:
+    m = _ZONE.match(text.strip())
+    if m is None:
+        raise InputError(f"{text!r} is not a UTC offset (Z, +02:00, -0400)", field=field)
+    if m.group(1) is None:
+        return UTC
+    minutes = int(m.group(2)) * 60 + int(m.group(3))
+    return timezone(timedelta(minutes=minutes if m.group(1) == "+" else -minutes))
+
+
+def time_in_name(name: str, fmt: str, zone: str | None = None, *,
+                 field: str = "time_in_name", zone_field: str = "zone") -> datetime:
+    """The clock time a logger wrote into a file's ``name``, in UTC: the first part of the
+    name that reads as ``fmt`` (strptime directives ``%Y %y %m %d %H %I %M %S %f %j %p %b
+    %z``; e.g. ``%m-%d-%Y-%I-%M-%S %p`` finds ``9-10-2019-4-37-01 PM``), in the time zone
+    ``zone`` (``Z``, ``+02:00``) unless ``fmt`` has ``%z``.
+
+    Raises
+    ------
+    InputError
+        A directive not supported, no zone (or two), no such time in the name (``field``;
+        ``zone_field`` for a bad offset).
+    """
+    pattern, k = [], 0
+    while k < len(fmt):
+        if fmt[k] == "%":
+            code = fmt[k + 1:k + 2]
+            if code not in _DIRECTIVES:
+                raise InputError(f"%{code} is not a directive a file name's time may use (use "
+                                 "%Y %y %m %d %H %I %M %S %f %j %p %b %z)", field=field)
+            pattern.append(_DIRECTIVES[code])
+            k += 2
+        else:
+            pattern.append(re.escape(fmt[k]))
+            k += 1
+    has_zone = "%z" in fmt
+    if has_zone == (zone is not None):
+        raise InputError("give the time zone once: %z in the format, or the zone (Z, +02:00)",
+                         field=field)
+    for m in re.finditer("(?=(" + "".join(pattern) + "))", name):
+        try:
+            when = datetime.strptime(m.group(1), fmt)
+        except ValueError:
+            continue  # e.g. month 13: the next place in the name may read
+        if zone is not None:
+            when = when.replace(tzinfo=_zone(zone, zone_field))
+        return when.astimezone(UTC)
+    raise InputError(f"no time of the form {fmt!r} in the file name {name!r}", field=field)

@@ -252,6 +252,22 @@ def test_a_loggers_folder_of_compressed_files_is_imported_together(
                                .order_by(MeasuredSeries.id)).all()
         assert [r.record for r in rows] == [p.name.removesuffix(".gz") for p in paths]
         assert all(r.n_samples == 400 and r.sample_rate == pytest.approx(250.0) for r in rows)
+    # each file's start as the logger wrote it into the name (the data set's local time)
+    timed = runner.invoke(cli, [*args[:7], "vtnsi-timed", *args[8:], "--time-in-name",
+                                "%m-%d-%Y-%I-%M-%S %p", "--zone", "-04:00"])
+    assert timed.exit_code == 0, timed.output
+    with store_session() as session:
+        times = session.scalars(select(MeasuredSeries.measured_at)
+                                .where(MeasuredSeries.name == "vtnsi-timed")
+                                .order_by(MeasuredSeries.id)).all()
+    assert [w.isoformat() if w else None for w in times] == [
+        "2019-09-11T12:55:09+00:00", "2019-09-10T20:37:01+00:00"]  # Base 8:55 AM, Leak 4:37 PM
+    for extra, field in ((["--time-in-name", "%m-%d-%Y"], "--time-in-name"),
+                         (["--zone", "Z"], "--zone"),
+                         (["--time-in-name", "%Y", "--zone", "CET"], "--zone")):
+        bad = runner.invoke(cli, [*args, *extra])
+        assert bad.exit_code != 0 and getattr(bad.exception, "field", None) == field, extra
+    assert store_count(MeasuredSeries) == 4
 
 
 def test_zema_plateaus_become_a_bench_table_the_workflow_reads(runner: CliRunner,

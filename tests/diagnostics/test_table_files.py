@@ -58,3 +58,30 @@ def test_gzip_files_are_read_and_broken_ones_refused(tmp_path):
         with pytest.raises(InputError) as err:
             read_series(raw, max_bytes=1000)
         assert err.value.field == "file" and words in err.value.message
+
+
+def test_a_loggers_time_is_read_from_the_file_name():
+    """The vtnsi recordings' names carry their start (``…_9-10-2019-4-37-01 PM``): read in
+    the zone given, or by the name's own offset; a directive the reader does not know, a
+    missing or doubled zone and a name without such a time are refused naming the field."""
+    from datetime import UTC, datetime
+
+    from diagnostics.table_files import time_in_name
+
+    name = "Leak_000_0_303_9-10-2019-4-37-01 PM.txt"
+    fmt = "%m-%d-%Y-%I-%M-%S %p"
+    assert time_in_name(name, fmt, "-04:00") == datetime(2019, 9, 10, 20, 37, 1, tzinfo=UTC)
+    assert time_in_name(name, fmt, "Z") == datetime(2019, 9, 10, 16, 37, 1, tzinfo=UTC)
+    assert time_in_name("run_20261120T081500+0100.csv", "%Y%m%dT%H%M%S%z") == datetime(
+        2026, 11, 20, 7, 15, tzinfo=UTC)
+    # the first place that reads as a date wins: 13-40-... is passed over
+    assert time_in_name("13-40-2019_01-02-2020.csv", "%m-%d-%Y", "Z") == datetime(
+        2020, 1, 2, tzinfo=UTC)
+    for args, field in (((name, "%c", "Z"), "time_in_name"),
+                        ((name, fmt), "time_in_name"),
+                        (("x+0100", "x%z", "Z"), "time_in_name"),
+                        ((name, fmt, "EST"), "zone"),
+                        (("no-time.csv", fmt, "Z"), "time_in_name")):
+        with pytest.raises(InputError) as err:
+            time_in_name(*args)
+        assert err.value.field == field, args
