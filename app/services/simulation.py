@@ -25,6 +25,7 @@ from sqlalchemy.orm import Session
 from app.schemas.simulate import ConditionSpec, SimulateRequest, SimulationPublic
 from app.services.rig_cache import ResolvedRig, RigCache
 from app.settings import Settings
+from diagnostics.table_files import PARQUET_METADATA_KEY  # the import reads it back
 from diagnostics.timeseries import CONDITION_CHANNELS
 from sim.cycle import CycleResult, run_cycle
 from sim.errors import InputError, ParameterError
@@ -47,9 +48,6 @@ __all__ = [
     "timeseries_parquet",
     "timeseries_table",
 ]
-
-#: Key of the JSON metadata in a Parquet answer.
-PARQUET_METADATA_KEY = "hydrodiag"
 
 #: grid of a RODAS4 run whose time series is not asked for [Hz]
 SUMMARY_SAMPLE_RATE = 1000.0
