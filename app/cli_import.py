@@ -15,7 +15,13 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from app.cli_support import steps, store_session
+from app.cli_support import (
+    ColumnMapOption,
+    SampleRateOption,
+    reading_options,
+    steps,
+    store_session,
+)
 from diagnostics.real.relaxation import ZEMA_RELAXATION
 from sim.errors import InputError
 
@@ -58,14 +64,8 @@ def import_series(
              "files (a logger's folder) are stored together or not at all.")],
     rig_id: RigOption,
     name: NameOption,
-    column_map: Annotated[str | None, typer.Option(
-        help='JSON raw column → \\[channel, unit], e.g. '
-             '\'{"PS1": \\["P_pump", "bar"], "run": \\["record", "-"]}\'; a raw signal '
-             '→ \\[channel, unit, gain, offset] (gain·raw + offset in unit), a column to '
-             'leave out → \\["skip", "-"].')
-    ] = None,
-    sample_rate: Annotated[float | None, typer.Option(
-        help="Samples per second for a file without a time column \\[Hz].")] = None,
+    column_map: ColumnMapOption = None,
+    sample_rate: SampleRateOption = None,
     started_at: Annotated[str | None, typer.Option(
         help="Clock time at which the file's t reads 0, ISO 8601 with zone (e.g. "
              "2026-11-20T08:00:00Z): each record is stored as measured then plus its first "
@@ -80,12 +80,11 @@ def import_series(
              "-0400.")] = None,
 ) -> None:
     """Read time-series files and store each record, as POST /rigs/{id}/series does."""
-    from app.services.series import parse_column_map, store_records
+    from app.services.series import store_records
     from diagnostics.table_files import time_in_name as time_in_name_of
-    from diagnostics.timeseries import clock_time, read_series
+    from diagnostics.timeseries import read_series
 
-    cmap = parse_column_map(column_map, field="--column-map")
-    start = None if started_at is None else clock_time(started_at, field="--started-at")
+    cmap, sample_rate, start = reading_options(column_map, sample_rate, started_at)
     if time_in_name is not None and start is not None:
         raise InputError("give --started-at or --time-in-name, not both", field="--started-at")
     if zone is not None and time_in_name is None:
@@ -94,8 +93,6 @@ def import_series(
         raise InputError("one start for several files would put their records at the same "
                          "time: give each file its '# started_at = ...' header line, or "
                          "import them one by one", field="--started-at")
-    if sample_rate is not None and not sample_rate > 0:
-        raise InputError("the sample rate must be > 0 [Hz]", field="--sample-rate")
     with store_session() as session, steps() as progress:
         task = progress.add_task("reading", total=len(files))
         records = []

@@ -23,8 +23,11 @@ from rich.table import Table
 from app.cli_import import import_cli
 from app.cli_pump_map import calibrate_pump_map
 from app.cli_support import (
+    ColumnMapOption,
+    SampleRateOption,
     console,
     load_document,
+    reading_options,
     series_ids,
     settings_from_env,
     steps,
@@ -161,12 +164,8 @@ def diagnose(
         help="A cycle's condition where its file does not state it or is wrong: "
         "oil_temperature=40 (°C), load_force=4200 (N), back_pressure (Pa), pump_speed "
         "(rad/s); repeat.")] = None,
-    column_map: Annotated[str | None, typer.Option(
-        help="A cycle FILE in a logger's own layout: JSON raw column → \\[channel, unit] "
-        "(or \\[channel, unit, gain, offset], \\[\"skip\", \"-\"]), as 'import series' "
-        "takes it.")] = None,
-    sample_rate: Annotated[float | None, typer.Option(
-        help="Samples per second of a cycle FILE without a time column \\[Hz].")] = None,
+    column_map: ColumnMapOption = None,
+    sample_rate: SampleRateOption = None,
     started_at: Annotated[str | None, typer.Option(
         help="Clock time at which a cycle FILE's t reads 0, ISO 8601 with zone \\[UTC]: the "
         "records are diagnosed as measured then.")] = None,
@@ -187,9 +186,7 @@ def diagnose(
     from app.schemas.diagnose import DiagnoseRequest
     from app.services.diagnosis import diagnose_request, response_of
     from app.services.rig_cache import RigCache
-    from app.services.series import parse_column_map
     from app.services.series_record import file_cycle_records, stored_cycle_record
-    from diagnostics.timeseries import clock_time
 
     if (file is None) == (series is None):
         raise InputError("give FILE or --series (stored cycles), one of them", field="FILE")
@@ -203,10 +200,7 @@ def diagnose(
         if value is not None and (series is not None or not cycles):
             raise InputError(f"{option} goes with a cycle FILE (CSV or Parquet); stored "
                              "cycles were read at import", field=option)
-    if sample_rate is not None and not sample_rate > 0:
-        raise InputError("the sample rate must be > 0 [Hz]", field="--sample-rate")
-    cmap = parse_column_map(column_map, field="--column-map")
-    start = None if started_at is None else clock_time(started_at, field="--started-at")
+    cmap, sample_rate, start = reading_options(column_map, sample_rate, started_at)
     stated = _overrides(condition or [], field="--condition", form="name=value")
     with store_session() as session, steps() as progress:
         rigs = RigCache(4)

@@ -5,7 +5,8 @@ from __future__ import annotations
 import inspect
 from collections.abc import Iterator
 from contextlib import contextmanager
-from typing import Any
+from datetime import datetime
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 from pydantic import ValidationError
@@ -19,8 +20,12 @@ from app.db.engine import make_engine, make_session_factory
 from app.settings import Settings
 from sim.errors import InputError
 
-__all__ = ["console", "load_document", "migrated_engine", "series_ids", "settings_from_env", "steps",
-           "store_session", "unwrap_help", "validation_error"]
+if TYPE_CHECKING:
+    from diagnostics.timeseries import ColumnEntry
+
+__all__ = ["ColumnMapOption", "SampleRateOption", "console", "load_document", "migrated_engine",
+           "reading_options", "series_ids", "settings_from_env", "steps", "store_session",
+           "unwrap_help", "validation_error"]
 
 console = Console(stderr=True)
 
@@ -96,6 +101,38 @@ def series_ids(text: str, *, field: str = "--series") -> list[int]:
     if any(i < 1 for i in ids):
         raise InputError("series ids are positive", field=field)
     return ids
+
+
+#: ``--column-map`` of the commands that read a logger's file (``import series``, ``diagnose``)
+ColumnMapOption = Annotated[str | None, typer.Option(
+    help='A logger\'s own layout: JSON raw column → \\[channel, unit], e.g. '
+         '\'{"PS1": \\["P_pump", "bar"], "run": \\["record", "-"]}\'; a raw signal → '
+         '\\[channel, unit, gain, offset] (gain·raw + offset in unit), a column to leave '
+         'out → \\["skip", "-"].')]
+#: ``--sample-rate`` of the same commands
+SampleRateOption = Annotated[float | None, typer.Option(
+    help="Samples per second of a file without a time column \\[Hz].")]
+
+
+def reading_options(column_map: str | None, sample_rate: float | None,
+                    started_at: str | None
+                    ) -> tuple[dict[str, ColumnEntry] | None, float | None, datetime | None]:
+    """``--column-map``, ``--sample-rate`` and ``--started-at`` as the time-series reader
+    takes them: the map parsed, the rate checked, the start read with its zone.
+
+    Raises
+    ------
+    InputError
+        Naming the option: a map that is not one, a rate ≤ 0, a start without its zone.
+    """
+    from app.services.series import parse_column_map
+    from diagnostics.timeseries import clock_time
+
+    if sample_rate is not None and not sample_rate > 0:
+        raise InputError("the sample rate must be > 0 [Hz]", field="--sample-rate")
+    cmap = parse_column_map(column_map, field="--column-map")
+    start = None if started_at is None else clock_time(started_at, field="--started-at")
+    return cmap, sample_rate, start
 
 
 def validation_error(exc: ValidationError) -> InputError:

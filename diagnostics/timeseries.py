@@ -69,6 +69,7 @@ __all__ = [
     "ColumnEntry",
     "SeriesRecord",
     "clock_time",
+    "column_entry",
     "read_series",
     "series_from_frame",
     "si_factor",
@@ -236,7 +237,7 @@ def clock_time(value: object, *, field: str = "started_at") -> datetime:
     return when.astimezone(UTC)
 
 
-def _entry(raw: str, entry: ColumnEntry) -> tuple[str, str, float, float]:
+def column_entry(raw: str, entry: ColumnEntry) -> tuple[str, str, float, float]:
     """A column map entry as ``(channel, unit, gain, offset)`` (gain 1, offset 0 when not
     given).
 
@@ -307,7 +308,7 @@ def series_from_frame(frame: pd.DataFrame, *, name: str = "table",
         non-increasing time, a required channel missing, a record of < 2 samples; a start
         without its zone (``started_at``).
     """
-    cmap = {raw: _entry(raw, entry) for raw, entry in (column_map or {}).items()}
+    cmap = {raw: column_entry(raw, entry) for raw, entry in (column_map or {}).items()}
     labels: dict[str, str] = {}  # a logger's own record or phase column → the label
     for raw, (label, unit, gain, off) in [(r, c) for r, c in cmap.items()
                                           if c[0] in (*_LABELS, SKIP)]:

@@ -11,7 +11,6 @@ refused whole: nothing is stored.
 from __future__ import annotations
 
 import json
-import math
 from collections.abc import Callable, Sequence
 from datetime import datetime, timedelta
 
@@ -22,7 +21,7 @@ from sqlalchemy.orm import Session
 from app.db.models import MeasuredSeries
 from app.services.common import commit, get_or_raise, paginate
 from app.services.rigs import get_rig
-from diagnostics.timeseries import ColumnEntry, SeriesRecord, read_series
+from diagnostics.timeseries import ColumnEntry, SeriesRecord, column_entry, read_series
 from sim.errors import InputError
 
 __all__ = [
@@ -63,12 +62,13 @@ def parse_column_map(text: str | None, *, field: str = "column_map"
                            for v in value[2:])):
             raise InputError("each entry must be [channel, unit] or [channel, unit, gain, "
                              "offset] (numbers)", field=f"{field}.{key}")
-        if len(value) == 4 and (value[2] == 0 or not math.isfinite(value[2])
-                                or not math.isfinite(value[3])):
-            raise InputError("the gain must be a finite number other than 0 and the offset "
-                             "finite", field=f"{field}.{key}")
-        out[str(key)] = ((value[0], value[1]) if len(value) == 2
-                         else (value[0], value[1], float(value[2]), float(value[3])))
+        entry: ColumnEntry = ((value[0], value[1]) if len(value) == 2
+                              else (value[0], value[1], float(value[2]), float(value[3])))
+        try:  # the reader's own check of a calibration, named as a field of the map
+            column_entry(str(key), entry)
+        except InputError as exc:
+            raise InputError(exc.message, field=f"{field}.{key}") from None
+        out[str(key)] = entry
     return out
 
 
@@ -124,8 +124,7 @@ def import_series(session: Session, rig_id: int, name: str, content: bytes, *,
                               name=filename.removesuffix(".gz") if filename else None,
                               max_bytes=MAX_SERIES_BYTES)
     except InputError as exc:
-        given = ("column_map", "sample_rate") + (("started_at",) if started_at else ())
-        where = exc.field if exc.field in given else (
+        where = exc.field if exc.field in ("column_map", "sample_rate") else (
             f"file.{exc.field}" if exc.field and exc.field != "file" else "file")
         raise type(exc)(exc.message, field=where) from None
     return store_records(session, rig_id, name, records)
