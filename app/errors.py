@@ -14,7 +14,8 @@ class                          status  when
 ``NotFoundError``              404     unknown id (in the path or the body)
 ``ConflictError``              409     duplicate name, deleting what is in use, a row
                                        changed by a concurrent request (StaleDataError)
-``PayloadTooLargeError``        413     the body is over ``max_body_bytes``
+``PayloadTooLargeError``        413     the body is over ``max_body_bytes`` (uploads:
+                                       ``max_upload_bytes``)
 ``RateLimitError``             429     the key's requests per minute are spent
 ``InputError`` and subclasses  422     invalid input, names the field
 ``SimulationError``            500     the solver failed
@@ -82,7 +83,8 @@ class ServiceBusyError(ServiceUnavailableError):
 
 
 class PayloadTooLargeError(HydrodiagError):
-    """The request body is larger than the service accepts (``max_body_bytes``)."""
+    """The request body is larger than the service accepts (``max_body_bytes``; a file
+    upload: ``max_upload_bytes``)."""
 
 
 class ScopeError(HydrodiagError):

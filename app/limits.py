@@ -9,10 +9,13 @@ the work of parsing before the setting is checked.
 Request body size limit, checked before anything parses the body.
 
 :class:`BodyLimitMiddleware` answers 413 (``PayloadTooLargeError``, naming the limit) when
-the ``Content-Length`` header is over ``max_body_bytes``, and otherwise reads the body as it
+the ``Content-Length`` header is over the limit, and otherwise reads the body as it
 arrives, stopping at the limit, before the application sees it: a 50 MB body (or one sent
 in chunks without a length) costs at most the limit in memory, and no JSON parser runs on
-it.
+it.  The limit is ``max_body_bytes`` (8 MiB) for every body but a file upload
+(``multipart/form-data``), which has ``max_upload_bytes`` (64 MiB): the upload routes take
+files larger than any JSON document (a measured series up to 20 MiB, a discrepancy data
+file up to 50 MiB) and cap their file themselves.
 """
 
 from __future__ import annotations
@@ -32,6 +35,7 @@ __all__ = [
     "SWEEP_POINTS_CEILING",
     "BodyLimitMiddleware",
     "check_count",
+    "check_file",
 ]
 
 #: Most records one ``/diagnose`` may carry whatever the settings say [-].
@@ -69,26 +73,64 @@ def check_count(count: int, limit: int, *, what: str, field: str, setting: str) 
                          f"(setting HYDRODIAG_{setting.upper()})", field=field)
 
 
+def check_file(content: bytes, limit: int, *, field: str = "file") -> None:
+    """Refuse an uploaded file over ``limit`` bytes, or an empty one, with a 422 on ``field``.
+
+    The routes read at most ``limit + 1`` bytes of an upload, so a file over the limit is
+    said to be larger than it, not given a size it does not have.
+
+    Parameters
+    ----------
+    content
+        The file's bytes as read (at most ``limit + 1`` of them) [-].
+    limit
+        Largest file accepted [byte].
+    field
+        The form field that holds the file.
+
+    Raises
+    ------
+    InputError
+        The file is over ``limit`` bytes, or holds only white space.
+    """
+    if len(content) > limit:
+        raise InputError(f"the file is larger than {limit} bytes ({limit / 2**20:g} MiB), "
+                         "the most this operation reads", field=field)
+    if not content.strip():
+        raise InputError("the file is empty", field=field)
+
+
 class BodyLimitMiddleware:
-    """ASGI middleware refusing request bodies over ``limit`` bytes with a 413.
+    """ASGI middleware refusing request bodies over their limit with a 413.
 
     Parameters
     ----------
     app
         The application it wraps.
     limit
-        Largest body accepted [byte].
+        Largest body accepted [byte] (setting ``max_body_bytes``).
+    upload_limit
+        Largest ``multipart/form-data`` body accepted [byte] (setting
+        ``max_upload_bytes``); ``limit`` when not given.
     """
 
-    def __init__(self, app: ASGIApp, limit: int) -> None:
+    def __init__(self, app: ASGIApp, limit: int, upload_limit: int | None = None) -> None:
         self.app = app
         self.limit = limit
+        self.upload_limit = limit if upload_limit is None else upload_limit
 
-    async def _refuse(self, scope: Scope, send: Send) -> None:
+    def _limit_of(self, headers: dict[bytes, bytes]) -> tuple[int, str]:
+        """The limit [byte] that applies to a request with ``headers``, and its setting."""
+        kind = headers.get(b"content-type", b"").split(b";", 1)[0].strip().lower()
+        if kind == b"multipart/form-data":
+            return self.upload_limit, "HYDRODIAG_MAX_UPLOAD_BYTES"
+        return self.limit, "HYDRODIAG_MAX_BODY_BYTES"
+
+    async def _refuse(self, scope: Scope, send: Send, limit: int, setting: str) -> None:
         error: dict[str, Any] = {
             "type": PayloadTooLargeError.__name__,
-            "message": f"the request body is larger than the limit of {self.limit} bytes "
-                       "(setting HYDRODIAG_MAX_BODY_BYTES)",
+            "message": f"the request body is larger than the limit of {limit} bytes "
+                       f"(setting {setting})",
             "field": "body",
         }
         if (request_id := request_id_of(scope)) is not None:
@@ -105,14 +147,16 @@ class BodyLimitMiddleware:
         if scope["type"] != "http":
             await self.app(scope, receive, send)
             return
-        declared = dict(scope.get("headers") or []).get(b"content-length")
+        headers = dict(scope.get("headers") or [])
+        limit, setting = self._limit_of(headers)
+        declared = headers.get(b"content-length")
         if declared is not None:
             try:
-                too_large = int(declared) > self.limit
+                too_large = int(declared) > limit
             except ValueError:
                 too_large = False  # the server refuses a malformed length itself
             if too_large:
-                await self._refuse(scope, send)
+                await self._refuse(scope, send, limit, setting)
                 return
         if scope.get("method") in {"GET", "HEAD", "OPTIONS"} and declared is None:
             await self.app(scope, receive, send)
@@ -126,8 +170,8 @@ class BodyLimitMiddleware:
                 return
             chunk = message.get("body", b"")
             size += len(chunk)
-            if size > self.limit:
-                await self._refuse(scope, send)
+            if size > limit:
+                await self._refuse(scope, send, limit, setting)
                 return
             chunks.append(chunk)
             if not message.get("more_body", False):

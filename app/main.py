@@ -201,7 +201,8 @@ def create_app(
                                                dask_scheduler=settings.dask_scheduler)
     app.state.rate_limiter = (KeyRateLimiter(settings.rate_limit_per_minute)
                               if settings.rate_limit_per_minute else None)
-    app.add_middleware(BodyLimitMiddleware, limit=settings.max_body_bytes)
+    app.add_middleware(BodyLimitMiddleware, limit=settings.max_body_bytes,
+                       upload_limit=settings.max_upload_bytes)
     app.add_middleware(MetricsMiddleware, metrics=app.state.metrics)
     app.add_middleware(RequestLogMiddleware, log=settings.access_log)  # outermost: ids on all
     install_error_handlers(app)

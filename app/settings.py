@@ -54,8 +54,13 @@ class Settings(BaseSettings):
         answer without an API key (default false: every operation but ``/health``,
         ``/ready``, ``/metrics`` and the docs needs one).
     max_body_bytes
-        Largest request body accepted [byte]; a larger one is answered 413 before it is
-        read in full.
+        Largest request body accepted [byte] (default 8 MiB); a larger one is answered 413
+        before it is read in full.  File uploads (``multipart/form-data``) have their own
+        limit, ``max_upload_bytes``.
+    max_upload_bytes
+        Largest ``multipart/form-data`` body accepted [byte] (default 64 MiB): a measured
+        series (file up to 20 MiB), a discrepancy data file (up to 50 MiB) or a bench CSV
+        with its form fields.  Each upload route also caps its file (422 naming ``file``).
     rate_limit_per_minute
         Requests each API key may send per minute (and in a burst), per server process;
         over it, 429 with ``Retry-After``.  0 (default) sets no limit.
@@ -121,6 +126,8 @@ class Settings(BaseSettings):
                              "/diagnose need no API key when true.")
     max_body_bytes: int = Field(default=8 * 1024 * 1024, ge=1024, le=1024**3,
                                 description="Largest request body [byte].")
+    max_upload_bytes: int = Field(default=64 * 1024 * 1024, ge=1024, le=1024**3,
+                                  description="Largest file-upload (multipart) body [byte].")
     rate_limit_per_minute: int = Field(default=0, ge=0, le=10**6,
                                        description="Requests per API key and minute; 0: none.")
     host: str = Field(default="127.0.0.1", description="Interface `serve` binds.")

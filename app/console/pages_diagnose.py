@@ -20,6 +20,7 @@ from app.console.views import diagnosis_view, history_page, trend_views
 from app.console.web import page, redirect
 from app.db.base import utcnow
 from app.errors import ServiceUnavailableError, format_location, status_for
+from app.limits import check_file
 from app.schemas.diagnose import DiagnoseRequest
 from app.schemas.record_csv import record_rows
 from app.security import Scope
@@ -60,9 +61,7 @@ MAX_INPUT_BYTES = 1024 * 1024
 
 def _csv_records(content: bytes) -> list[dict[str, Any]]:
     """Records from a CSV: one per row; ``condition.load_force`` style names nest."""
-    if len(content) > MAX_INPUT_BYTES:
-        raise InputError(f"the file has {len(content)} bytes; at most {MAX_INPUT_BYTES}",
-                         field="file")
+    check_file(content, MAX_INPUT_BYTES)
     records = record_rows(content, field="file")
     if not records:
         raise InputError("the CSV has no rows", field="file")

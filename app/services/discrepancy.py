@@ -26,6 +26,7 @@ from sqlalchemy.orm import Session
 
 from app.db.engine import SessionFactory
 from app.db.models import Job
+from app.limits import check_file
 from app.schemas.discrepancy import DiscrepancyForm
 from app.services.jobs import JobRunner, Progress
 from app.services.rig_cache import RigCache
@@ -82,11 +83,7 @@ class DiscrepancyPlan:
 
 def read_records(content: bytes, *, field: str = "file") -> list[SeriesRecord]:
     """Read a measured CSV/Parquet file given as bytes (errors name the column)."""
-    if len(content) > MAX_SERIES_BYTES:
-        raise InputError(f"the file has {len(content)} bytes; at most {MAX_SERIES_BYTES}",
-                         field=field)
-    if not content.strip():
-        raise InputError("the file is empty", field=field)
+    check_file(content, MAX_SERIES_BYTES, field=field)
     return read_series(content)
 
 

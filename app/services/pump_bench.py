@@ -23,6 +23,7 @@ import numpy as np
 from sqlalchemy.orm import Session
 
 from app.db.models import PumpSet
+from app.limits import check_file
 from app.schemas.pumps import PumpBenchForm, PumpSetCreate
 from app.services.common import prefixed
 from app.services.pump_check import check_quantities
@@ -42,11 +43,7 @@ _SIMULATED = "SIMULATED virtual-bench data, not measured"
 
 def read_bench_bytes(content: bytes, *, field: str = "file") -> BenchData:
     """Read a bench CSV given as bytes (errors name ``field`` and the column)."""
-    if len(content) > MAX_CSV_BYTES:
-        raise InputError(f"the file has {len(content)} bytes; at most {MAX_CSV_BYTES}",
-                         field=field)
-    if not content.strip():
-        raise InputError("the file is empty", field=field)
+    check_file(content, MAX_CSV_BYTES, field=field)
     try:
         content.decode("utf-8")
     except UnicodeDecodeError:

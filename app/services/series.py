@@ -19,6 +19,7 @@ from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from app.db.models import MeasuredSeries
+from app.limits import check_file
 from app.services.common import commit, get_or_raise, paginate
 from app.services.rigs import get_rig
 from diagnostics.timeseries import ColumnEntry, SeriesRecord, column_entry, read_series
@@ -113,11 +114,7 @@ def import_series(session: Session, rig_id: int, name: str, content: bytes, *,
     header's (:mod:`diagnostics.timeseries`); ``filename`` names a record without a
     ``record`` column."""
     get_rig(session, rig_id, field="rig_id")
-    if len(content) > MAX_SERIES_BYTES:
-        raise InputError(f"the file has {len(content)} bytes; at most {MAX_SERIES_BYTES}",
-                         field="file")
-    if not content.strip():
-        raise InputError("the file is empty", field="file")
+    check_file(content, MAX_SERIES_BYTES, field="file")
     try:
         records = read_series(content, format=fmt, column_map=column_map,
                               sample_rate=sample_rate, started_at=started_at,

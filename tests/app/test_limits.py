@@ -158,7 +158,8 @@ def test_an_unknown_form_field_is_refused(server: LiveServer) -> None:
 
 @pytest.fixture(scope="module")
 def small(tmp_path_factory: pytest.TempPathFactory) -> Iterator[LiveServer]:
-    settings = sqlite_settings(tmp_path_factory.mktemp("small"), max_body_bytes=4096)
+    settings = sqlite_settings(tmp_path_factory.mktemp("small"), max_body_bytes=4096,
+                               max_upload_bytes=64 * 1024)
     with live_server(settings) as live:
         yield live
 
@@ -187,8 +188,41 @@ def test_a_body_over_the_limit_is_413_naming_it(small: LiveServer) -> None:
     assert small_body.status_code == 422  # under the limit: read and validated as usual
 
 
+def _series_csv(rows: int) -> bytes:
+    """A measured pump-pressure trace of ``rows`` samples at 1 kHz (~22 bytes a row)."""
+    lines = ["t [s],p_pump [bar]"] + [f"{i / 1000:.3f},{80 + (i % 50) / 10:.6f}"
+                                      for i in range(rows)]
+    return ("\n".join(lines) + "\n").encode()
+
+
+def test_a_file_upload_has_its_own_larger_limit(small: LiveServer) -> None:
+    # a series file larger than the JSON body limit is read (multipart has its own limit)
+    content = _series_csv(1000)
+    assert 4096 < len(content) < 64 * 1024
+    response = small.client.post("/rigs/1/series", data={"name": "over-json-limit"},
+                                 files={"file": ("cycle.csv", content, "text/csv")},
+                                 headers=small.auth)
+    assert response.status_code == 201, response.text
+    assert response.json()["items"][0]["n_samples"] == 1000
+    before = small.row_counts()
+    too_big = _series_csv(5000)
+    assert len(too_big) > 64 * 1024
+    refused = small.client.post("/rigs/1/series", data={"name": "over-upload-limit"},
+                                files={"file": ("cycle.csv", too_big, "text/csv")},
+                                headers=small.auth)
+    assert refused.status_code == 413
+    message = refused.json()["error"]["message"]
+    assert "65536 bytes" in message and "HYDRODIAG_MAX_UPLOAD_BYTES" in message
+    assert small.row_counts() == before
+    # a JSON body cannot pass as an upload: its own content type decides its limit
+    big = small.client.post("/rigs", content=b'{"document": {"name": "' + b"x" * 10_000 + b'"}}',
+                            headers={**small.auth, "Content-Type": "application/json"})
+    assert big.status_code == 413 and "HYDRODIAG_MAX_BODY_BYTES" in big.json()["error"]["message"]
+
+
 def test_413_is_documented_and_the_default_limit_is_a_setting(server: LiveServer) -> None:
     assert server.settings.max_body_bytes == 8 * 1024 * 1024
+    assert server.settings.max_upload_bytes == 64 * 1024 * 1024
     spec = server.client.get("/openapi.json").json()
     assert "413" in spec["paths"]["/diagnose"]["post"]["responses"]
 

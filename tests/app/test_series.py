@@ -151,3 +151,22 @@ def test_a_compressed_upload_is_read_and_a_bomb_refused(server: LiveServer) -> N
                            headers=server.auth)
     assert r.status_code == 422 and r.json()["error"]["field"] == "file", r.text
     assert server.row_counts() == before
+
+
+def test_a_file_over_the_series_limit_is_refused_by_the_route_not_the_body_limit(
+        server: LiveServer) -> None:
+    """A file between the series cap (20 MiB) and the upload body limit (64 MiB) reaches the
+    route, which reads one byte past its cap and says the file is larger than the cap."""
+    from app.services.series import MAX_SERIES_BYTES
+
+    before = server.row_counts()
+    content = b"t [s],P1 [bar]\n" + b"0.000,1.000\n" * (MAX_SERIES_BYTES // 12 + 10)
+    assert MAX_SERIES_BYTES < len(content) < server.settings.max_upload_bytes
+    r = server.client.post("/rigs/1/series", data={"name": "too-long"},
+                           files={"file": ("long.csv", content, "text/csv")},
+                           headers=server.auth)
+    assert r.status_code == 422, r.text
+    error = r.json()["error"]
+    assert error["field"] == "file"
+    assert f"larger than {MAX_SERIES_BYTES} bytes (20 MiB)" in error["message"]
+    assert server.row_counts() == before
