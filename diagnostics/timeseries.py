@@ -160,14 +160,17 @@ class SeriesRecord:
 
     @property
     def sample_rate(self) -> float | None:
-        """Samples per second [Hz] when the sampling is uniform (steps within 1 %), else None."""
+        """Samples per second [Hz] when the sampling is uniform (steps within 1 %), else None.
+
+        The rate is the number of steps over the span, given to 12 significant digits: a
+        logger's times written to the millisecond read 1000 Hz, not 999.99999999 Hz."""
         dt = np.diff(self.t)
         if dt.size == 0:
             return None
         med = float(np.median(dt))
         if med <= 0 or float(np.max(np.abs(dt - med))) > 0.01 * med:
             return None
-        return 1.0 / med
+        return float(f"{dt.size / float(self.t[-1] - self.t[0]):.12g}")
 
     @property
     def measured_at(self) -> datetime | None:

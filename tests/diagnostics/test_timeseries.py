@@ -6,7 +6,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from diagnostics.timeseries import read_series, series_from_frame
+from diagnostics.timeseries import SeriesRecord, read_series, series_from_frame
 from sim.cycle import run_cycle
 from sim.errors import InputError
 from sim.rigs import Condition, reference_rig
@@ -75,6 +75,10 @@ def test_units_are_converted_and_records_are_split():
     assert (a.name, b.name) == ("a", "b")
     assert a.sample_rate == pytest.approx(100.0)
     assert a.channel("P_pump")[0] == pytest.approx(150e5)
+    # a logger's times written to the millisecond: exactly its rate, not 999.99999999 Hz
+    logged = np.array([float(f"{i / 1000:.3f}") for i in range(400_000)])
+    assert np.median(np.diff(logged)) != 1e-3
+    assert SeriesRecord("logged", logged, {}, {}).sample_rate == 1000.0
     assert b.channel("Q")[0] == pytest.approx(7.6e-3 / 60)
     assert a.condition == pytest.approx({"oil_temperature": 40.0, "load": 2100.0})
     assert b.condition["load"] == pytest.approx(4200.0)
