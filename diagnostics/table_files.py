@@ -186,7 +186,11 @@ def _zone(text: str, field: str) -> timezone:
         raise InputError(f"{text!r} is not a UTC offset (Z, +02:00, -0400)", field=field)
     if m.group(1) is None:
         return UTC
-    minutes = int(m.group(2)) * 60 + int(m.group(3))
+    hours, minutes = int(m.group(2)), int(m.group(3))
+    if hours > 14 or minutes >= 60:  # civil offsets run from -12:00 to +14:00
+        raise InputError(f"{text!r} is not a UTC offset: at most 14 hours and 59 minutes",
+                         field=field)
+    minutes += 60 * hours
     return timezone(timedelta(minutes=minutes if m.group(1) == "+" else -minutes))
 
 

@@ -135,12 +135,14 @@ async def import_file(request: Request, session: SessionDep, _key: ConsoleKeyDep
                       column_map: Annotated[str, Form(max_length=20000)] = "",
                       sample_rate: Annotated[str, Form(max_length=40)] = "",
                       started_at: Annotated[str, Form(max_length=64)] = "",
+                      time_in_name: Annotated[str, Form(max_length=100)] = "",
+                      zone: Annotated[str, Form(max_length=10)] = "",
                       file: Annotated[UploadFile | None, File()] = None) -> Response:
     """Import a file's records as the rig's series (``POST /rigs/{id}/series``); go to the
     record's page (one record) or the rig's list; a bad file or field shows the list again
     with the error naming it and the fields as entered, nothing stored."""
     entered = {"name": name, "column_map": column_map, "sample_rate": sample_rate,
-               "started_at": started_at}
+               "started_at": started_at, "time_in_name": time_in_name, "zone": zone}
     if not Scope(_key.scope).allows(Scope.WRITE):
         return await run_in_threadpool(_list, request, session, rig, 0,
                                        _refusal(_key.scope, "importing a file"), 403, entered)
@@ -151,7 +153,8 @@ async def import_file(request: Request, session: SessionDep, _key: ConsoleKeyDep
             form = SeriesImportForm.model_validate({
                 "name": _import_name(name, file.filename), "column_map": column_map or None,
                 "sample_rate": sample_rate.strip() or None,
-                "started_at": started_at.strip() or None})
+                "started_at": started_at.strip() or None,
+                "time_in_name": time_in_name.strip() or None, "zone": zone.strip() or None})
         except ValidationError as exc:
             first = exc.errors()[0]
             raise InputError(str(first.get("msg", "invalid")),
@@ -160,7 +163,8 @@ async def import_file(request: Request, session: SessionDep, _key: ConsoleKeyDep
         rows = await run_in_threadpool(
             series_service.import_series, session, rig, form.name, content,
             column_map=series_service.parse_column_map(form.column_map),
-            sample_rate=form.sample_rate, started_at=form.started_at, filename=file.filename)
+            sample_rate=form.sample_rate, started_at=form.started_at, filename=file.filename,
+            time_in_name=form.time_in_name, zone=form.zone)
     except HydrodiagError as exc:
         error = {"type": type(exc).__name__, "message": exc.message, "field": exc.field}
         return await run_in_threadpool(_list, request, session, rig, 0, error, 422, entered)

@@ -65,6 +65,16 @@ class SeriesImportForm(UploadForm):
         "record is stored as measured at this plus its first sample's t (the file header's "
         "'# started_at = \"...\"' when not given; none when neither) [UTC]",
         examples=["2026-11-20T08:00:00Z"])
+    time_in_name: str | None = Field(
+        default=None, min_length=2, max_length=100,
+        description="Read the start instead from the time the logger wrote into the file's "
+        "name, a strptime format (%Y %y %m %d %H %I %M %S %f %j %p %b %z), e.g. "
+        "'%m-%d-%Y-%I-%M-%S %p' for 'PS1_9-10-2019-4-37-01 PM.txt'; not with started_at [-]",
+        examples=["%Y%m%d-%H%M%S"])
+    zone: str | None = Field(
+        default=None, max_length=10,
+        description="Time zone of time_in_name when its format has no %z: Z, +02:00, -0400 "
+        "[-]", examples=["+01:00"])
 
 
 class SeriesPublic(PublicModel):

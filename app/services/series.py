@@ -22,6 +22,7 @@ from app.db.models import MeasuredSeries
 from app.limits import check_file
 from app.services.common import commit, get_or_raise, paginate
 from app.services.rigs import get_rig
+from diagnostics.table_files import time_in_name as time_in_name_of
 from diagnostics.timeseries import ColumnEntry, SeriesRecord, column_entry, read_series
 from sim.errors import InputError
 
@@ -36,6 +37,7 @@ __all__ = [
     "parse_column_map",
     "store_records",
     "stored_records",
+    "upload_start",
 ]
 
 #: Largest time-series file accepted [byte].
@@ -104,16 +106,44 @@ def store_records(session: Session, rig_id: int, name: str, records: Sequence[Se
     return rows
 
 
+def upload_start(filename: str | None, started_at: datetime | None,
+                 time_in_name: str | None, zone: str | None) -> datetime | None:
+    """The clock time at which an uploaded file's ``t`` reads 0 [UTC]: ``started_at``, or
+    the time the logger wrote into ``filename`` read with the strptime format
+    ``time_in_name`` in ``zone`` (:func:`diagnostics.table_files.time_in_name`; a ``.gz``
+    suffix left out); None when neither is given (the file's header may hold it).
+
+    Raises
+    ------
+    InputError
+        Both ``started_at`` and ``time_in_name``, a ``zone`` without ``time_in_name``, an
+        upload without a file name, or no such time in it (naming the form field).
+    """
+    if time_in_name is None:
+        if zone is not None:
+            raise InputError("zone goes with time_in_name", field="zone")
+        return started_at
+    if started_at is not None:
+        raise InputError("give started_at or time_in_name, not both", field="started_at")
+    if not filename:
+        raise InputError("the upload has no file name to read the time from",
+                         field="time_in_name")
+    return time_in_name_of(filename.removesuffix(".gz"), time_in_name, zone)
+
+
 def import_series(session: Session, rig_id: int, name: str, content: bytes, *,
                   column_map: dict[str, ColumnEntry] | None = None,
                   sample_rate: float | None = None, fmt: str | None = None,
-                  started_at: datetime | None = None, filename: str | None = None
+                  started_at: datetime | None = None, filename: str | None = None,
+                  time_in_name: str | None = None, zone: str | None = None
                   ) -> list[MeasuredSeries]:
     """Read a CSV/Parquet file and store its records (errors name ``file.<column>``);
-    ``started_at``: the clock time at which the file's ``t`` reads 0 [UTC], else the file
+    ``started_at``: the clock time at which the file's ``t`` reads 0 [UTC] (or read from
+    ``filename`` by ``time_in_name`` and ``zone``: :func:`upload_start`), else the file
     header's (:mod:`diagnostics.timeseries`); ``filename`` names a record without a
     ``record`` column."""
     get_rig(session, rig_id, field="rig_id")
+    started_at = upload_start(filename, started_at, time_in_name, zone)
     check_file(content, MAX_SERIES_BYTES, field="file")
     try:
         records = read_series(content, format=fmt, column_map=column_map,

@@ -170,3 +170,35 @@ def test_a_file_over_the_series_limit_is_refused_by_the_route_not_the_body_limit
     assert error["field"] == "file"
     assert f"larger than {MAX_SERIES_BYTES} bytes (20 MiB)" in error["message"]
     assert server.row_counts() == before
+
+
+def test_the_start_is_read_from_the_file_name_a_logger_wrote(server: LiveServer) -> None:
+    """``time_in_name``: the clock time in the uploaded file's name (its zone given, or by %z
+    in the format) is the time at which its t reads 0; conflicting or unreadable fields are a
+    422 naming them, nothing stored."""
+    content = b"t [s],P1 [bar]\n1.5,10\n2.5,11\n"
+    name = "PS1_9-10-2019-4-37-01 PM.txt.gz"
+    import gzip
+
+    r = server.client.post("/rigs/1/series", data={
+        "name": "named", "time_in_name": "%m-%d-%Y-%I-%M-%S %p", "zone": "-04:00"},
+        files={"file": (name, gzip.compress(content), "application/gzip")}, headers=server.auth)
+    assert r.status_code == 201, r.text
+    [item] = r.json()["items"]
+    assert item["measured_at"] == "2019-09-10T20:37:02.500000Z"  # 16:37:01 −04:00 + 1.5 s
+    before = server.row_counts()
+    for form, field in [
+        ({"time_in_name": "%m-%d-%Y-%I-%M-%S %p"}, "time_in_name"),  # no zone
+        ({"time_in_name": "%Y%m%d", "zone": "Z"}, "time_in_name"),  # not in the name
+        ({"time_in_name": "%m-%d-%Y-%I-%M-%S %p", "zone": "+25:00"}, "zone"),
+        ({"time_in_name": "%m-%d-%Y-%I-%M-%S %p", "zone": "Z",
+          "started_at": "2026-11-20T08:00:00Z"}, "started_at"),
+        ({"zone": "Z"}, "zone"),
+        ({"time_in_name": "%Q-%d", "zone": "Z"}, "time_in_name"),
+    ]:
+        refused = server.client.post("/rigs/1/series", data={"name": "named-bad"} | form,
+                                     files={"file": (name, content, "text/csv")},
+                                     headers=server.auth)
+        assert refused.status_code == 422, (form, refused.text)
+        assert refused.json()["error"]["field"] == field, (form, refused.json())
+    assert server.row_counts() == before

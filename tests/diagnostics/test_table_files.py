@@ -81,6 +81,8 @@ def test_a_loggers_time_is_read_from_the_file_name():
                         ((name, fmt), "time_in_name"),
                         (("x+0100", "x%z", "Z"), "time_in_name"),
                         ((name, fmt, "EST"), "zone"),
+                        ((name, fmt, "+25:00"), "zone"),  # not an offset (was a ValueError)
+                        ((name, fmt, "+01:75"), "zone"),
                         (("no-time.csv", fmt, "Z"), "time_in_name")):
         with pytest.raises(InputError) as err:
             time_in_name(*args)

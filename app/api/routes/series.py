@@ -49,7 +49,8 @@ def import_series(
     rows = service.import_series(session, rig_id, form.name, content,
                                  column_map=service.parse_column_map(form.column_map),
                                  sample_rate=form.sample_rate, started_at=form.started_at,
-                                 filename=file.filename)
+                                 filename=file.filename, time_in_name=form.time_in_name,
+                                 zone=form.zone)
     response.headers["Location"] = f"/rigs/{rig_id}/series"
     return SeriesList(items=[SeriesPublic.model_validate(r) for r in rows], total=len(rows),
                       limit=max(1, len(rows)), offset=0)

@@ -201,6 +201,12 @@ def test_a_loggers_file_is_imported_from_the_page(console_server: LiveServer,
     assert two.status_code == 303 and two.headers["location"] == f"/console/series?rig={rig}"
     listed = browser_client.get(two.headers["location"]).text
     assert listed.count('name="series" value=') == 3
+    named = browser_client.post("/console/series/import", data={
+        "rig": str(rig), "time_in_name": "%Y%m%d-%H%M%S", "zone": "+01:00"},
+        files={"file": ("log_20261120-093000.csv", b"t [s],P1 [bar]\n2,1\n3,2\n", "text/csv")})
+    assert named.status_code == 303, named.text
+    stored = console_server.client.get(named.headers["location"].replace("/console", "")).json()
+    assert stored["measured_at"] == "2026-11-20T08:30:02Z"
 
 
 def test_a_bad_import_names_the_field_and_keeps_what_was_entered(
@@ -213,6 +219,8 @@ def test_a_bad_import_names_the_field_and_keeps_what_was_entered(
         ({"column_map": '{"PT": ["P1", "bar", "x", 0]}'}, good, "column_map.PT"),
         ({"started_at": "2026-11-20T08:00:00"}, good, "started_at"),
         ({"sample_rate": "fast"}, good, "sample_rate"),
+        ({"time_in_name": "%Y%m%d-%H%M%S", "zone": "Z"}, good, "time_in_name"),
+        ({"zone": "+01:00"}, good, "zone"),
         ({"name": "a name with spaces"}, good, "name"),
         ({}, b"t [s],P1 [psi]\n0,1\n1,2\n", "file.P1"),
         ({}, None, "file"),
