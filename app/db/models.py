@@ -41,6 +41,11 @@ __all__ = [
 ]
 
 JOB_STATUSES = ("queued", "running", "succeeded", "failed")
+#: Table option of every table with an integer key: SQLite never gives a deleted row's id
+#: to a new one (``AUTOINCREMENT``; without it the highest freed id is reused, and a stored
+#: diagnosis, job or link naming the deleted row would name the new one).  PostgreSQL's
+#: sequences never reuse ids.  Revision 0007.
+NO_ID_REUSE = {"sqlite_autoincrement": True}
 PUMP_SET_KINDS = ("parameters", "loss_map")
 
 
@@ -48,6 +53,7 @@ class Rig(Base):
     """A hydraulic rig; its description lives in versions (:class:`RigVersion`)."""
 
     __tablename__ = "rigs"
+    __table_args__ = NO_ID_REUSE
 
     id: Mapped[int] = mapped_column(Integer, primary_key=True)
     name: Mapped[str] = mapped_column(String(100), unique=True)
@@ -66,7 +72,7 @@ class RigVersion(Base):
     """One immutable version of a rig description document."""
 
     __tablename__ = "rig_versions"
-    __table_args__ = (UniqueConstraint("rig_id", "version"),)
+    __table_args__ = (UniqueConstraint("rig_id", "version"), NO_ID_REUSE)
 
     id: Mapped[int] = mapped_column(Integer, primary_key=True)
     rig_id: Mapped[int] = mapped_column(ForeignKey("rigs.id", ondelete="CASCADE"))
@@ -87,6 +93,7 @@ class ThrottleCalibration(Base):
             "rig_id", "throttle", "back_pressure_pa", "temperature_c",
             name="uq_throttle_calibrations_condition",
         ),
+        NO_ID_REUSE,
     )
 
     id: Mapped[int] = mapped_column(Integer, primary_key=True)
@@ -112,6 +119,7 @@ class CalibrationPoint(Base):
     __table_args__ = (
         UniqueConstraint("calibration_id", "opening_turns"),
         CheckConstraint("clearance_origin IN ('given', 'computed')", name="clearance_origin"),
+        NO_ID_REUSE,
     )
 
     id: Mapped[int] = mapped_column(Integer, primary_key=True)
@@ -130,7 +138,8 @@ class PumpSet(Base):
     """A pump parameter set or loss map: named quantities, each with its unit."""
 
     __tablename__ = "pump_sets"
-    __table_args__ = (CheckConstraint("kind IN ('parameters', 'loss_map')", name="kind"),)
+    __table_args__ = (CheckConstraint("kind IN ('parameters', 'loss_map')", name="kind"),
+                      NO_ID_REUSE)
 
     id: Mapped[int] = mapped_column(Integer, primary_key=True)
     name: Mapped[str] = mapped_column(String(100), unique=True)
@@ -149,7 +158,7 @@ class Measurement(Base):
     """A measurement record posted for a rig (the input of a diagnosis)."""
 
     __tablename__ = "measurements"
-    __table_args__ = (Index(None, "rig_id", "measured_at"),)
+    __table_args__ = (Index(None, "rig_id", "measured_at"), NO_ID_REUSE)
 
     id: Mapped[int] = mapped_column(Integer, primary_key=True)
     rig_id: Mapped[int] = mapped_column(ForeignKey("rigs.id", ondelete="RESTRICT"))
@@ -171,6 +180,7 @@ class MeasuredSeries(Base):
     """
 
     __tablename__ = "measured_series"
+    __table_args__ = NO_ID_REUSE
 
     id: Mapped[int] = mapped_column(Integer, primary_key=True)
     rig_id: Mapped[int] = mapped_column(ForeignKey("rigs.id", ondelete="RESTRICT"), index=True)
@@ -190,6 +200,7 @@ class Diagnosis(Base):
     """The result of diagnosing one measurement against one rig version."""
 
     __tablename__ = "diagnoses"
+    __table_args__ = NO_ID_REUSE
 
     id: Mapped[int] = mapped_column(Integer, primary_key=True)
     measurement_id: Mapped[int] = mapped_column(
@@ -217,6 +228,7 @@ class DiagnosisEstimate(Base):
     __table_args__ = (
         UniqueConstraint("diagnosis_id", "component"),
         Index(None, "component"),
+        NO_ID_REUSE,
     )
 
     id: Mapped[int] = mapped_column(Integer, primary_key=True)
@@ -263,6 +275,7 @@ class ApiKey(Base):
     """An API key: only a salted scrypt hash of the secret is kept."""
 
     __tablename__ = "api_keys"
+    __table_args__ = NO_ID_REUSE
 
     id: Mapped[int] = mapped_column(Integer, primary_key=True)
     name: Mapped[str] = mapped_column(String(100), unique=True)

@@ -21,7 +21,7 @@ from app.reference_data import REFERENCE_CALIBRATIONS
 from app.services.bootstrap import ensure_first_key, ensure_reference_data
 from app.services.calibrations import list_calibrations
 from app.services.history import ComponentEstimate, component_history, record_diagnosis
-from app.services.rigs import find_rig, update_rig
+from app.services.rigs import create_rig, delete_rig, find_rig, update_rig
 from sim.errors import InputError, NotFoundError
 from sim.rigs import reference_rig_document
 from tests.app import postgres
@@ -213,3 +213,44 @@ def test_json_columns_round_trip_as_the_standard_library_wrote_them(sessions: An
     with sessions() as session:
         back = session.get(MeasuredSeries, key)
         assert back is not None and back.data["t"] == values  # == on floats: bit for bit
+
+
+def _counts(engine: Engine) -> dict[str, int]:
+    with engine.connect() as connection:
+        return {t.name: connection.execute(text(f"SELECT count(*) FROM {t.name}")).scalar_one()
+                for t in Base.metadata.sorted_tables}
+
+
+def test_a_deleted_rows_id_is_never_given_again_and_the_migration_keeps_every_row(
+        tmp_path: Path) -> None:
+    """Revision 0007 rebuilds the SQLite tables with AUTOINCREMENT: a store filled at 0006
+    keeps every row and reference (no cascade fires while a referenced table is rebuilt),
+    and after it a new rig never takes the id of the newest deleted one (before, SQLite
+    handed the highest freed id out again)."""
+    engine = make_engine(make_url(f"sqlite:///{tmp_path / 'ids.db'}"))
+    migrate.upgrade(engine, "0006")
+    factory = make_session_factory(engine)
+    with factory() as session:
+        ensure_reference_data(session)
+        ensure_first_key(session)
+        rig = find_rig(session, "paper002-reference")
+        assert rig is not None
+        update_rig(session, rig.id, reference_rig_document() | {"title": "second version"})
+    before = _counts(engine)
+    assert before["rig_versions"] == 2 and before["calibration_points"] > 0
+    migrate.upgrade(engine)
+    assert _counts(engine) == before
+    with engine.connect() as connection:
+        assert connection.execute(text("PRAGMA foreign_keys")).scalar() == 1
+        assert connection.execute(text("PRAGMA foreign_key_check")).fetchall() == []
+    with factory() as session:
+        made, _ = create_rig(session, reference_rig_document() | {"name": "short-lived"})
+        gone = made.id
+        delete_rig(session, gone)
+        again, _ = create_rig(session, reference_rig_document() | {"name": "next"})
+        assert again.id > gone
+    after = _counts(engine)
+    assert after["rigs"] == before["rigs"] + 1
+    migrate.downgrade(engine, "0006")  # and back: the rows stay
+    assert _counts(engine) == after
+    engine.dispose()
