@@ -32,10 +32,14 @@ from diagnostics.quantity import (
     quotient,
 )
 from sim.errors import MeasurementError
+from sim.rigs.assembly import MAX_PUMP_SPEED
 
 __all__ = [
     "CONSISTENCY_K",
     "DEFAULT_INSTRUMENTS",
+    "MAX_GAUGE_PRESSURE",
+    "MAX_MAGNITUDE",
+    "MAX_PUMP_SPEED",
     "MIN_GAUGE_PRESSURE",
     "OIL_TEMPERATURE_RANGE",
     "InstrumentClass",
@@ -47,6 +51,13 @@ __all__ = [
 
 #: Lowest accepted gauge pressure [Pa]: −1 bar is vacuum; below it a reading is impossible.
 MIN_GAUGE_PRESSURE = -1.0e5
+#: Highest accepted gauge pressure [Pa]: 10 kbar, beyond the range of hydraulic pressure
+#: transducers (industrial ones end at 1-7 kbar); above it a reading is taken to be an error.
+MAX_GAUGE_PRESSURE = 1.0e9
+#: Largest magnitude of any value or standard uncertainty [SI]: beyond it the squares the
+#: diagnosis weighs readings by overflow; an uncertainty that large states nothing (leave
+#: the reading out instead).
+MAX_MAGNITUDE = 1.0e100
 
 #: Accepted oil temperature range [°C] of a mineral-oil circuit; outside it the reading is
 #: taken to be an error rather than a condition.
@@ -68,15 +79,27 @@ def _as_quantity(path: str, item: float | Quantity,
 
 
 def _check_quantity(path: str, q: Quantity, *, lower: float | None = None,
-                    strict: bool = False, what: str = "value") -> None:
-    """Finite value and uncertainty, and an optional lower bound on the value."""
+                    strict: bool = False, what: str = "value", upper: float | None = None,
+                    unit: str = "") -> None:
+    """Finite value and uncertainty of at most :data:`MAX_MAGNITUDE`, and optional bounds
+    on the value (``lower``, strict or not; ``upper`` in ``unit``)."""
     if not isinstance(q, Quantity):
         raise MeasurementError(f"expected a Quantity, got {type(q).__name__}", field=path)
     if not math.isfinite(q.value):
         raise MeasurementError(f"{what} must be finite, got {q.value}", field=path)
+    if abs(q.value) > MAX_MAGNITUDE:
+        raise MeasurementError(f"{what} {q.value:g} is not a reading (magnitude above "
+                               f"{MAX_MAGNITUDE:g})", field=path)
     if not (math.isfinite(q.u) and q.u >= 0.0):
         raise MeasurementError(f"standard uncertainty must be finite and ≥ 0, got {q.u}",
                                field=f"{path}.u")
+    if q.u > MAX_MAGNITUDE:
+        raise MeasurementError(f"standard uncertainty {q.u:g} states nothing (above "
+                               f"{MAX_MAGNITUDE:g}); leave the reading out instead",
+                               field=f"{path}.u")
+    if upper is not None and q.value > upper:
+        raise MeasurementError(f"{what} {q.value:g} {unit} is above {upper:g} {unit}, "
+                               "beyond any instrument of a hydraulic rig", field=path)
     if q.distribution not in ("normal", "rectangular"):
         raise MeasurementError(f"unknown distribution {q.distribution!r}",
                                field=f"{path}.distribution")
@@ -120,9 +143,11 @@ class OperatingCondition:
             _check_quantity("condition.load_force", self.load_force)
         if self.back_pressure is not None:
             _check_quantity("condition.back_pressure", self.back_pressure,
-                            lower=MIN_GAUGE_PRESSURE)
-        if self.pump_speed is not None:
-            _check_quantity("condition.pump_speed", self.pump_speed, lower=0.0)
+                            lower=MIN_GAUGE_PRESSURE, upper=MAX_GAUGE_PRESSURE, unit="Pa",
+                            what="gauge pressure")
+        if self.pump_speed is not None:  # a pump at rest delivers nothing to diagnose
+            _check_quantity("condition.pump_speed", self.pump_speed, lower=0.0, strict=True,
+                            upper=MAX_PUMP_SPEED, unit="rad/s", what="pump speed")
 
     @classmethod
     def from_readings(cls, readings: Mapping[str, float | Quantity], *,
@@ -211,7 +236,8 @@ class MeasurementRecord:
         if not isinstance(self.condition, OperatingCondition):
             raise MeasurementError("expected an OperatingCondition", field="condition")
         for name in _PRESSURE_FIELDS:
-            self._check(name, lower=MIN_GAUGE_PRESSURE, what="gauge pressure")
+            self._check(name, lower=MIN_GAUGE_PRESSURE, what="gauge pressure",
+                        upper=MAX_GAUGE_PRESSURE, unit="Pa")
         for name in _FLOW_FIELDS:
             self._check(name, lower=0.0, what="flow")
         for name in _SPEED_FIELDS:
@@ -222,10 +248,12 @@ class MeasurementRecord:
         for phase in ("work", "return"):
             self._check_speed_vs_duration(phase)
 
-    def _check(self, name: str, *, lower: float, strict: bool = False, what: str = "value") -> None:
+    def _check(self, name: str, *, lower: float, strict: bool = False, what: str = "value",
+               upper: float | None = None, unit: str = "") -> None:
         q = getattr(self, name)
         if q is not None:
-            _check_quantity(name, q, lower=lower, strict=strict, what=what)
+            _check_quantity(name, q, lower=lower, strict=strict, what=what, upper=upper,
+                            unit=unit)
 
     def _check_speed_vs_duration(self, phase: str) -> None:
         """A stated speed must agree with stroke / duration of the same phase."""

@@ -9,6 +9,7 @@ from typing import Any, ClassVar, Literal
 from pydantic import BaseModel, Field, PositiveFloat, field_validator
 
 from app.schemas.common import FiniteFloat, RequestModel
+from sim.rigs.assembly import MAX_PUMP_SPEED
 from sim.scenarios import FAULTS
 
 __all__ = [
@@ -66,7 +67,8 @@ class ConditionSpec(RequestModel):
         default=None, description="Oil temperature [°C]", examples=[40.0],
     )
     pump_speed: FiniteFloat | None = Field(
-        default=None, gt=0, description="Pump shaft speed; the rig's when null [rad/s]",
+        default=None, gt=0, le=MAX_PUMP_SPEED,
+        description="Pump shaft speed; the rig's when null [rad/s]",
         examples=[None],
     )
 

@@ -17,7 +17,12 @@ from sim.fluid import Fluid
 from sim.rigs.circuits import DEFAULT_CIRCUIT, Circuit, get_circuit, require_cycle
 from sim.rigs.schema import RigSpec, check_bounds
 
-__all__ = ["Condition", "Rig", "build_graph", "build_graph_with_effects"]
+#: Highest pump shaft speed a condition may state [rad/s]: ~19,000 rpm, twice the fastest
+#: hydraulic pumps (chosen; a rig simulated beyond it would report pressures no relief
+#: valve of the circuit allows, and a reading beyond it is taken to be an error).
+MAX_PUMP_SPEED = 2000.0
+
+__all__ = ["MAX_PUMP_SPEED", "Condition", "Rig", "build_graph", "build_graph_with_effects"]
 
 Arr = npt.NDArray[np.float64]
 
@@ -120,8 +125,10 @@ class Rig:
             except ParameterError as exc:
                 raise ParameterError(exc.message, field=exc.field) from None
         if cond.pump_speed is not None:
-            if not cond.pump_speed > 0:
-                raise ParameterError("pump speed must be > 0 rad/s", field="condition.pump_speed")
+            if not 0 < cond.pump_speed <= MAX_PUMP_SPEED:
+                raise ParameterError(f"pump speed must be > 0 and ≤ {MAX_PUMP_SPEED:g} rad/s "
+                                     f"(~19,000 rpm), got {cond.pump_speed:g}",
+                                     field="condition.pump_speed")
             v["pump.speed"] = cond.pump_speed
         for attribute, target in circuit.condition_targets.items():
             v[target] = getattr(cond, attribute)

@@ -98,6 +98,24 @@ def test_vacuum_down_to_minus_one_bar_is_accepted() -> None:
     assert record(p2=-0.9e5).p2 is not None
 
 
+@pytest.mark.parametrize(("name", "value"), [("p1", 1.01e9), ("pump_pressure", 1e12),
+                                             ("p2", 1e300), ("flow_C", 1e300),
+                                             ("duration_work", 1e101), ("stroke", 1e300)])
+def test_readings_beyond_any_instrument_are_refused(name: str, value: float) -> None:
+    """A pressure above 10 kbar, or any number above 1e100 (its square, which weighs the
+    reading, overflowed: a 1e300 bar reading dropped out of the fit unnoticed)."""
+    with pytest.raises(MeasurementError) as err:
+        record(**{name: value})
+    assert err.value.field == name
+    assert record(p1=9.9e8).p1 is not None  # 9.9 kbar: an ultra-high-pressure transducer
+
+
+def test_an_uncertainty_that_states_nothing_is_refused() -> None:
+    with pytest.raises(MeasurementError) as err:
+        record(p1=Quantity(12e5, 1e300))
+    assert err.value.field == "p1.u" and "leave the reading out" in err.value.message
+
+
 def test_condition_validation() -> None:
     with pytest.raises(MeasurementError) as err:
         OperatingCondition.from_readings({"oil_temperature": 40.0})
@@ -115,6 +133,14 @@ def test_condition_validation() -> None:
         OperatingCondition.from_readings({"oil_temperature": 40.0, "load_force": 2.1e3,
                                           "pump_speed": -1.0})
     assert err.value.field == "condition.pump_speed"
+    for speed in (0.0, 2001.0, 1e9):  # at rest, or faster than any hydraulic pump
+        with pytest.raises(MeasurementError) as err:
+            OperatingCondition.from_readings({"oil_temperature": 40.0, "load_force": 2.1e3,
+                                              "pump_speed": speed})
+        assert err.value.field == "condition.pump_speed"
+    with pytest.raises(MeasurementError) as err:
+        OperatingCondition.from_readings({"oil_temperature": 40.0, "back_pressure": 2e9})
+    assert err.value.field == "condition.back_pressure"
 
 
 def test_missing_rig_is_refused() -> None:
