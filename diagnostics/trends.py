@@ -339,12 +339,18 @@ def forecast_threshold(series: TrendSeries, threshold: float, *,
                                  f"{series.quantity} is past {threshold:.4g} {unit} on the "
                                  f"fitted trend{when}", crossed)
     if f.slope <= 0.0:
+        if math.isinf(earliest):
+            steepest = f"not even the steepest slope the data allow reaches {threshold:.4g} {unit}"
+        elif earliest > 0.0:
+            steepest = (f"at the steepest slope the data allow, {threshold:.4g} {unit} would "
+                        f"be reached in {earliest:.3g} s")
+        else:
+            steepest = (f"at the steepest slope the data allow it could already be past "
+                        f"{threshold:.4g} {unit}")
         return ThresholdForecast("not_worsening", threshold, direction, t_ref, math.inf,
                                  earliest, math.inf, fit,
                                  f"{series.quantity} is not worsening (slope "
-                                 f"{fit.slope:.3g} {unit}/s); at the steepest slope the data "
-                                 f"allow, {threshold:.4g} {unit} would be reached in "
-                                 f"{earliest:.3g} s")
+                                 f"{fit.slope:.3g} {unit}/s); {steepest}")
     left = _time_to(f, thr, f.slope, t_ref)
     return ThresholdForecast("worsening", threshold, direction, t_ref, left, earliest, latest,
                              fit, f"{series.quantity} reaches {threshold:.4g} {unit} in "

@@ -78,6 +78,11 @@ class ComponentTrend(BaseModel):
         "fit: their estimates were made against another document [-]", examples=[0])
     left_out_versions: list[int] = Field(
         default_factory=list, description="Those versions [-]", examples=[[]])
+    unexplained: int = Field(
+        default=0, ge=0, description="Points of diagnoses whose readings the rig model and "
+        "its fault library did not explain (top 'unexplained'), left out of `points` and the "
+        "fit: an estimate through a model the readings contradict estimates nothing [-]",
+        examples=[0])
     message: str = Field(description="One sentence for the report [-]",
                          examples=["cv reaches 5.44e-05 m in 3.1e+07 s"])
 

@@ -56,6 +56,8 @@ class HistoryPoint:
     probability: float | None
     clearance_m: float | None
     slip_coefficient: float | None
+    #: what the diagnosis named (``"valve"``, ``"healthy"``, ``"unexplained"``)
+    verdict: str | None = None
 
 
 def add_measurement(
@@ -174,7 +176,7 @@ def component_history(
     statement = (
         select(Diagnosis.id, Measurement.measured_at, RigVersion.version,
                DiagnosisEstimate.probability, DiagnosisEstimate.clearance_m,
-               DiagnosisEstimate.slip_coefficient)
+               DiagnosisEstimate.slip_coefficient, Diagnosis.component)
         .join(Diagnosis, DiagnosisEstimate.diagnosis_id == Diagnosis.id)
         .join(Measurement, Diagnosis.measurement_id == Measurement.id)
         .join(RigVersion, Diagnosis.rig_version_id == RigVersion.id)

@@ -22,6 +22,7 @@ from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
 from app.db.models import Diagnosis, DiagnosisEstimate, Measurement, RigVersion
+from app.services.diagnosis import UNEXPLAINED
 from app.services.history import HistoryPoint, component_history
 from app.services.rig_cache import ResolvedRig, RigCache
 from diagnostics.slip import rig_slip_coefficient
@@ -66,7 +67,9 @@ class ComponentTrendOut:
     which gave no estimate of this component; from :data:`STALE_AFTER` of them the status
     is ``"stale"`` and nothing is forecast.  ``left_out``: points of older rig versions
     whose parameters differ from the latest version's (``left_out_versions``), not in
-    ``points``.
+    ``points``.  ``unexplained``: points of diagnoses whose readings the rig model and its
+    fault library did not explain, left out (an inversion through a model the readings
+    contradict estimates nothing: a stalled piston read as a 230 µm seal gap).
     """
 
     component: str
@@ -87,6 +90,7 @@ class ComponentTrendOut:
     later_diagnoses: int = 0
     left_out: int = 0
     left_out_versions: list[int] = field(default_factory=list)
+    unexplained: int = 0
 
 
 def default_threshold(rig: Rig, component: str) -> tuple[float, str]:
@@ -163,7 +167,8 @@ def _trend(component: str, rig_id: int, points: list[TrendPointOut], threshold: 
     if later[0] and points:
         since = (f"no {quantity} estimate in the {later[0]} later diagnosis(es) of this rig "
                  f"(since {points[-1].measured_at:%Y-%m-%d}, to {later[1]:%Y-%m-%d}): the "
-                 f"{component} alone did not fit their readings or could not be observed")
+                 f"{component} alone did not fit their readings, could not be observed, or "
+                 "the rig model explained none of them")
         if later[0] >= STALE_AFTER:
             status = "stale"
             message = (f"{since}; the trend of the {len(points)} earlier point(s) forecasts "
@@ -173,6 +178,11 @@ def _trend(component: str, rig_id: int, points: list[TrendPointOut], threshold: 
             crossing = None
         else:
             message = f"{message}; {since}"
+    if points and status != "crossed" and points[-1].value > threshold:
+        last = points[-1]
+        message = (f"{message}; the latest estimate, {last.value:.4g} {unit} "
+                   f"({last.measured_at:%Y-%m-%d}), is past the threshold (one point: the "
+                   "robust trend weighs it as one of many)")
     return ComponentTrendOut(
         component, quantity, unit, points,
         slope=None if fit is None else fit.slope,
@@ -231,7 +241,8 @@ def component_trends(
             limit, source = threshold, "given"
         else:
             limit, source = default_threshold(resolved.rig, name)
-        every = _points(name, history, intervals)
+        explained = [h for h in history if h.verdict != UNEXPLAINED]
+        every = _points(name, explained, intervals)
         points = [p for p in every if comparable[p.rig_version]]
         left = sorted({p.rig_version for p in every if not comparable[p.rig_version]})
         later = _later(session, rig_id, points[-1].measured_at, until) if points else (0, None)
@@ -244,6 +255,12 @@ def component_trends(
                     "document are not comparable")
             trend = replace(trend, message=f"{trend.message}; {note}", left_out=n_left,
                             left_out_versions=left)
+        if n_unexplained := len(_points(name, history, intervals)) - len(every):
+            note = (f"{n_unexplained} point(s) of diagnoses the rig model did not explain "
+                    "left out (their readings contradict the model the estimate is made "
+                    "with)")
+            trend = replace(trend, message=f"{trend.message}; {note}",
+                            unexplained=n_unexplained)
         out.append(trend)
     return out
 

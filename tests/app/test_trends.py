@@ -253,3 +253,46 @@ def test_a_seal_wearing_short_of_its_worn_range_trends_where_it_is(server: LiveS
     assert [p["value"] for p in cyl["points"]] == pytest.approx([cc for _, cc in visits],
                                                                 rel=5e-3)
     assert cyl["slope"] == pytest.approx(2.5e-6 / (29.5 * 86400), rel=0.15)
+
+
+def test_points_of_unexplained_diagnoses_are_left_out(server: LiveServer) -> None:
+    """Three healthy visits and a fourth whose piston reads stalled (speed 0 with the pump
+    delivering): the model does not explain it, and its closed-form seal gap (all of meter
+    B's flow read as leakage) is far past the threshold.  The trend leaves that point out
+    and says so, instead of forecasting a crossing from it."""
+    rig_id = int(new_rig(server, "unexplained-trend-rig")["id"])
+    for month in (1, 2, 3, 4):
+        record = simulated_record(server, {}, rig_id=rig_id,
+                                  measured_at=f"2026-{month:02d}-05T09:00:00Z")
+        if month == 4:
+            record["speed_work"] = 0.0
+        response = server.client.post("/diagnose", json={"record": record},
+                                      headers=server.auth)
+        assert response.status_code == 200, response.text
+        assert (response.json()["diagnoses"][0]["top"] == "unexplained") == (month == 4)
+    stored = server.client.get("/diagnoses", params={"rig_id": rig_id}).json()["items"]
+    assert len(stored) == 4
+    cyl = server.client.get(f"/rigs/{rig_id}/trends", params={"component": "cylinder"}
+                            ).json()["components"][0]
+    assert len(cyl["points"]) == 3 and cyl["unexplained"] == 1
+    assert all(p["value"] == pytest.approx(83e-6, rel=0.05) for p in cyl["points"])
+    assert cyl["status"] == "not_worsening" and cyl["crossing_at"] is None
+    assert "1 point(s) of diagnoses the rig model did not explain left out" in cyl["message"]
+
+
+def test_a_latest_estimate_past_the_threshold_is_named() -> None:
+    """Four visits at 40 µm and a fifth at 60 µm against a 50 µm threshold: the robust
+    line stays at 40 µm (not crossed, not worsening), and the message names the last
+    estimate past the threshold instead of staying silent about it."""
+    from datetime import UTC, timedelta
+
+    from app.services.trends import TrendPointOut, _trend
+
+    start = datetime(2026, 1, 5, 9, tzinfo=UTC)
+    points = [TrendPointOut(k + 1, start + timedelta(days=30 * k), 1, value, None, None, 0.9)
+              for k, value in enumerate([40e-6, 40e-6, 40e-6, 40e-6, 60e-6])]
+    trend = _trend("valve", 1, points, 50e-6, "given")
+    assert trend.status == "not_worsening"
+    assert "the latest estimate, 6e-05 m (2026-05-05), is past the threshold" in trend.message
+    below = _trend("valve", 1, points[:4], 50e-6, "given")
+    assert "latest estimate" not in below.message

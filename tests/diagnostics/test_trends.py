@@ -179,3 +179,22 @@ def test_theil_sen_needs_two_distinct_times() -> None:
     with pytest.raises(InputError) as err:
         theil_sen([1.0, 1.0, 1.0], [0.0, 1.0, 2.0])
     assert err.value.field == "times"
+
+
+def test_a_flat_trend_whose_steepest_slope_is_already_past_says_so() -> None:
+    """Not worsening, but the slope interval's upper end puts the level past the threshold
+    already: the message says so, not "would be reached in 0 s"."""
+    from diagnostics.trends import TrendSeries, forecast_threshold
+
+    day = 86400.0
+    values = (40e-6, 70e-6, 40e-6, 70e-6, 40e-6)
+    series = TrendSeries("r", "cylinder", "cc", "m", tuple(k * day for k in range(5)),
+                         values, None)
+    forecast = forecast_threshold(series, 60e-6)
+    assert forecast.status == "not_worsening"
+    assert forecast.time_left_low == 0.0
+    assert "reached in 0 s" not in forecast.message
+    assert "could already be past 6e-05 m" in forecast.message
+    flat = forecast_threshold(TrendSeries("r", "cylinder", "cc", "m", series.times,
+                                          (40e-6,) * 5, None), 60e-6)
+    assert "not even the steepest slope the data allow reaches" in flat.message

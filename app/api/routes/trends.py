@@ -31,6 +31,7 @@ def _public(trend: ComponentTrendOut) -> ComponentTrend:
         time_left_high_s=trend.time_left_high_s, crossing_at=trend.crossing_at,
         message=trend.message, later_diagnoses=trend.later_diagnoses,
         left_out=trend.left_out, left_out_versions=trend.left_out_versions,
+        unexplained=trend.unexplained,
     )
 
 
