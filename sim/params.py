@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 
-__all__ = ["Param", "param_table"]
+__all__ = ["Param", "Relation", "broken_relation", "param_table"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -48,3 +48,28 @@ def param_table(params: Iterable[Param]) -> dict[str, Param]:
             raise ValueError(f"duplicate parameter {p.name!r}")
         out[p.name] = p
     return out
+
+
+@dataclass(frozen=True, slots=True)
+class Relation:
+    """A bound of one parameter by others of the same component (its geometry).
+
+    Attributes
+    ----------
+    name
+        The parameter bounded (named in the error).
+    text
+        The bound in words, for the error (``"the rod must be thinner than the bore"``).
+    holds
+        Whether the component's values [SI, by parameter name] keep it.
+    """
+
+    name: str
+    text: str
+    holds: Callable[[Mapping[str, float]], bool]
+
+
+def broken_relation(relations: Iterable[Relation], values: Mapping[str, float]
+                    ) -> Relation | None:
+    """The first of ``relations`` that ``values`` [SI, by parameter name] break, or None."""
+    return next((r for r in relations if not r.holds(values)), None)

@@ -36,7 +36,7 @@ __all__ = [
 def _canonical(document: Mapping[str, Any]) -> tuple[str, str, dict[str, Any]]:
     """Validate ``document``; return (name, title, canonical document)."""
     try:
-        spec = validate_rig_document(document)
+        spec = validate_rig_document(document, strict=True)
     except ParameterError as exc:  # RigFileError and its parents: the field is in `document`
         raise type(exc)(exc.message, field=prefixed("document", exc.field)) from exc
     canonical = spec.to_document()

@@ -35,10 +35,11 @@ from collections.abc import Mapping
 from sim.bondgraph import TF, BondGraph, C, I, MSe, One, R, Zero, call
 from sim.bondgraph.laws import constant, law, quotient
 from sim.components.base import Fragment, declare
-from sim.params import Param
+from sim.params import Param, Relation
 
 __all__ = [
     "PARAMETERS",
+    "RELATIONS",
     "annulus_area",
     "build",
     "chamber_capacitance",
@@ -74,6 +75,17 @@ PARAMETERS: tuple[Param, ...] = (
     Param("k_stop", "N/m", 1e9, "chosen: stiff steel end stop", "end-stop stiffness"),
     Param("c_stop", "N*s/m", 2e5, "chosen: near-critical damping of the end stop with 7.2 kg",
           "end-stop damping"),
+)
+
+#: Geometry: each rod thinner than the bore (an annulus of positive area), the radial
+#: clearance less than the bore's radius.
+RELATIONS: tuple[Relation, ...] = (
+    Relation("rod1", "the chamber-1 rod must be thinner than the bore",
+             lambda p: p["rod1"] < p["bore"]),
+    Relation("rod2", "the chamber-2 rod must be thinner than the bore",
+             lambda p: p["rod2"] < p["bore"]),
+    Relation("cc", "the radial clearance must be less than the bore's radius",
+             lambda p: p["cc"] < 0.5 * p["bore"]),
 )
 
 

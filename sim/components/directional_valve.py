@@ -20,9 +20,9 @@ from collections.abc import Mapping
 from sim.bondgraph import BondGraph, One, R, Se, Zero, call
 from sim.bondgraph.laws import constant, law
 from sim.components.base import Fragment, declare
-from sim.params import Param
+from sim.params import Param, Relation
 
-__all__ = ["PARAMETERS", "build", "path_flow", "spool_leakage_flow"]
+__all__ = ["PARAMETERS", "RELATIONS", "build", "path_flow", "spool_leakage_flow"]
 
 PARAMETERS: tuple[Param, ...] = (
     Param("K", "m^3/(s*Pa^0.5)", 5.0e-6, "chosen: paper 002 §2.6 K values illegible; Table 3 "
@@ -41,6 +41,12 @@ PARAMETERS: tuple[Param, ...] = (
           "spool position ratio Xi/W", lower=-1.0, upper=1.0, lower_inclusive=True),
     Param("PRvt", "Pa", 1.0e5, "paper 002 §2.6 'PR = 0.e6 Pa PRvt' read as 0.1e6 Pa (eq. 24)",
           "pressure of the T port: drop from T to tank", lower_inclusive=True),
+)
+
+#: Geometry: the radial clearance less than the spool's radius.
+RELATIONS: tuple[Relation, ...] = (
+    Relation("cv", "the radial clearance must be less than the spool's radius",
+             lambda p: p["cv"] < 0.5 * p["Dv"]),
 )
 
 

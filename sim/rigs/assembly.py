@@ -14,6 +14,7 @@ from sim.components.base import Derivation
 from sim.components.effects import get_effect
 from sim.errors import ParameterError
 from sim.fluid import Fluid
+from sim.params import broken_relation
 from sim.rigs.circuits import DEFAULT_CIRCUIT, Circuit, get_circuit, require_cycle
 from sim.rigs.schema import RigSpec, check_bounds
 
@@ -99,6 +100,23 @@ class Rig:
             oil_temperature=c["oil_temperature"].value if "oil_temperature" in c else 40.0,
         )
 
+    def _check_relations(self, v: Mapping[str, float], overrides: Mapping[str, float]) -> None:
+        """Refuse overrides that break their component's geometry (a rod thicker than the
+        bore, a clearance wider than the radius), naming the override."""
+        circuit = self.spec.circuit
+        for role in {key.partition(".")[0] for key in overrides}:
+            relations = circuit.relations(role)
+            if not relations:
+                continue
+            prefix = f"{role}."
+            own = {k.removeprefix(prefix): x for k, x in v.items() if k.startswith(prefix)}
+            if (broken := broken_relation(relations, own)) is not None:
+                key = f"{role}.{broken.name}"
+                if key not in overrides:
+                    key = next(k for k in overrides if k.startswith(prefix))
+                raise ParameterError(f"{broken.text} (with the overrides given)",
+                                     field=f"overrides.{key}")
+
     def values(self, overrides: Mapping[str, float] | None = None,
                condition: Condition | None = None) -> dict[str, float]:
         """All graph parameter values for ``overrides`` (``role.name`` → SI) and ``condition``."""
@@ -118,6 +136,8 @@ class Rig:
             except ParameterError as exc:
                 raise ParameterError(exc.message, field=exc.field) from None
             v[key] = float(value)
+        if overrides:
+            self._check_relations(v, overrides)
         for decl in circuit.condition:
             attribute = _CONDITION_ATTRIBUTES.get(decl.name, decl.name)
             try:

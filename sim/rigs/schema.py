@@ -18,6 +18,7 @@ An optional ``effects:`` section adds named effects of the library
 
 from __future__ import annotations
 
+import difflib
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -25,7 +26,7 @@ from typing import Any
 
 from sim.errors import ParameterError, RigFileError
 from sim.fluid import FLUID_PARAMETERS, Fluid
-from sim.params import Param
+from sim.params import Param, broken_relation
 from sim.rigs.circuits import CIRCUITS, COMPONENT_TYPES, DEFAULT_CIRCUIT, Circuit, get_circuit
 from sim.units import to_si
 
@@ -132,8 +133,8 @@ def check_bounds(value: float, decl: Param, field_path: str) -> None:
                            field=field_path)
 
 
-def _parameter_block(raw: Any, decls: tuple[Param, ...], path: str, *, partial: bool
-                     ) -> dict[str, Quantity]:
+def _parameter_block(raw: Any, decls: tuple[Param, ...], path: str, *, partial: bool,
+                     strict: bool = False) -> dict[str, Quantity]:
     if not isinstance(raw, Mapping):
         raise RigFileError("expected a mapping of parameters", field=path)
     known = {d.name: d for d in decls}
@@ -148,12 +149,37 @@ def _parameter_block(raw: Any, decls: tuple[Param, ...], path: str, *, partial: 
                 continue
             raise RigFileError(f"missing parameter {d.name!r} ({d.description}, {d.unit})",
                                field=f"{path}.{d.name}")
+        if strict and isinstance(raw[d.name], Mapping):
+            _known_keys(raw[d.name], QUANTITY_KEYS, f"{path}.{d.name}")
         out[d.name] = _quantity(raw[d.name], d, f"{path}.{d.name}")
     return out
 
 
-def validate_rig_document(doc: Mapping[str, Any]) -> RigSpec:
+#: keys a rig document may have, at the top, in a component and in a parameter
+DOCUMENT_KEYS = ("schema", "name", "title", "description", "circuit", "fluid", "components",
+                 "condition", "effects")
+COMPONENT_KEYS = ("type", "parameters")
+QUANTITY_KEYS = ("value", "unit", "source")
+
+
+def _known_keys(raw: Mapping[str, Any], known: tuple[str, ...], path: str) -> None:
+    """Refuse a key of ``raw`` not in ``known``, naming it and the close known one."""
+    for key in raw:
+        if key not in known:
+            close = difflib.get_close_matches(str(key), known, n=1)
+            hint = f"; did you mean {close[0]!r}?" if close else ""
+            raise RigFileError(f"unknown key {key!r} (known: {', '.join(known)}){hint}",
+                               field=f"{path}.{key}" if path else str(key))
+
+
+def validate_rig_document(doc: Mapping[str, Any], *, strict: bool = False) -> RigSpec:
     """Validate a rig document and convert it to SI.
+
+    ``strict`` (a document being stored: ``POST``/``PUT /rigs``, ``hydrodiag rigs add``)
+    also refuses keys the schema does not know (at the top, in a component, in a
+    parameter) and parameters that break their component's geometry (a rod thicker than
+    the bore, a clearance wider than the radius: :attr:`Circuit.relations`).  Documents
+    already stored are read without it, so that one stored before these checks still loads.
 
     Raises
     ------
@@ -162,6 +188,8 @@ def validate_rig_document(doc: Mapping[str, Any]) -> RigSpec:
     """
     if not isinstance(doc, Mapping):
         raise RigFileError("a rig document must be a mapping", field="")
+    if strict:
+        _known_keys(doc, DOCUMENT_KEYS, "")
     if doc.get("schema") != SCHEMA:
         raise RigFileError(f"expected schema {SCHEMA!r}, got {doc.get('schema')!r}",
                            field="schema")
@@ -169,7 +197,8 @@ def validate_rig_document(doc: Mapping[str, Any]) -> RigSpec:
     if not isinstance(name, str) or not name.strip():
         raise RigFileError("a non-empty name is required", field="name")
     circuit = get_circuit(doc.get("circuit", DEFAULT_CIRCUIT))
-    fluid = _parameter_block(doc.get("fluid", {}), FLUID_PARAMETERS, "fluid", partial=False)
+    fluid = _parameter_block(doc.get("fluid", {}), FLUID_PARAMETERS, "fluid", partial=False,
+                             strict=strict)
     comps_raw = doc.get("components")
     if not isinstance(comps_raw, Mapping):
         raise RigFileError("a mapping of components is required", field="components")
@@ -188,18 +217,24 @@ def validate_rig_document(doc: Mapping[str, Any]) -> RigSpec:
         if raw.get("type") != ctype:
             raise RigFileError(f"role {role!r} takes a {ctype!r}, got {raw.get('type')!r}",
                                field=f"{path}.type")
+        if strict:
+            _known_keys(raw, COMPONENT_KEYS, path)
         params = _parameter_block(raw.get("parameters", {}), COMPONENT_TYPES[ctype].PARAMETERS,
-                                  f"{path}.parameters", partial=False)
+                                  f"{path}.parameters", partial=False, strict=strict)
+        if strict and (broken := broken_relation(
+                circuit.relations(role), {k: q.value for k, q in params.items()})):
+            raise RigFileError(broken.text, field=f"{path}.parameters.{broken.name}")
         components[role] = (ctype, params)
     condition = _parameter_block(doc.get("condition", {}), circuit.condition, "condition",
-                                 partial=True)
-    effects = _effects_block(doc.get("effects", {}), circuit)
+                                 partial=True, strict=strict)
+    effects = _effects_block(doc.get("effects", {}), circuit, strict=strict)
     return RigSpec(name.strip(), str(doc.get("title", "")), str(doc.get("description", "")),
                    fluid, components, condition, document=dict(doc), circuit=circuit,
                    effects=effects)
 
 
-def _effects_block(raw: Any, circuit: Circuit) -> dict[str, dict[str, Quantity]]:
+def _effects_block(raw: Any, circuit: Circuit, *, strict: bool = False
+                   ) -> dict[str, dict[str, Quantity]]:
     """Validate the optional ``effects:`` section (module docstring)."""
     from sim.components.effects import get_effect
 
@@ -218,5 +253,5 @@ def _effects_block(raw: Any, circuit: Circuit) -> dict[str, dict[str, Quantity]]
                 raise RigFileError(f"unknown key {key!r} (expected 'parameters')",
                                    field=f"{path}.{key}")
         out[str(name)] = _parameter_block(body.get("parameters", {}), effect.parameters,
-                                          f"{path}.parameters", partial=True)
+                                          f"{path}.parameters", partial=True, strict=strict)
     return out

@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 from datetime import UTC, datetime
+from typing import Any
+
+import pytest
 
 from app.services.history import ComponentEstimate, record_diagnosis
 from tests.app.conftest import new_rig
@@ -65,6 +68,32 @@ def test_invalid_document_is_422_naming_the_field_and_stores_nothing(
     assert error["type"] == "RigFileError"
     assert error["field"] == "document.components.cylinder.parameters.bore"
     assert "> 0" in error["message"]
+    assert server.row_counts() == before
+
+
+@pytest.mark.parametrize(("mutate", "field", "words"), [
+    (lambda d: d.update(colour="red"), "document.colour", "unknown key 'colour'"),
+    (lambda d: d["components"]["valve"].update(extra=1), "document.components.valve.extra",
+     "unknown key"),
+    (lambda d: d["components"]["valve"]["parameters"]["cv"].update(tolerance=3),
+     "document.components.valve.parameters.cv.tolerance", "unknown key"),
+    (lambda d: d.update(descripton="x"), "document.descripton", "did you mean 'description'"),
+    (lambda d: d["components"]["valve"]["parameters"]["cv"].update(value=1e300),
+     "document.components.valve.parameters.cv", "less than the spool's radius"),
+    (lambda d: d["components"]["cylinder"]["parameters"]["rod1"].update(value=70.0, unit="mm"),
+     "document.components.cylinder.parameters.rod1", "thinner than the bore"),
+])
+def test_unknown_keys_and_impossible_geometry_are_refused(
+        server: LiveServer, rig_document: dict, mutate: Any, field: str, words: str) -> None:
+    """A stored document holds what the schema knows and a geometry that can exist: a
+    1e300 m spool clearance was stored and every later steady /simulate answered 500."""
+    before = server.row_counts()
+    rig_document["name"] = "strict"
+    mutate(rig_document)
+    response = server.client.post("/rigs", json={"document": rig_document}, headers=server.auth)
+    assert response.status_code == 422, response.text
+    assert response.json()["error"]["field"] == field
+    assert words in response.json()["error"]["message"]
     assert server.row_counts() == before
 
 

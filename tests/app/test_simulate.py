@@ -43,6 +43,22 @@ def test_overrides_apply_over_the_named_fault(server: LiveServer) -> None:
     assert body["steps"] == {}
 
 
+@pytest.mark.parametrize(("overrides", "field"), [
+    ({"valve.cv": 1.0}, "overrides.valve.cv"),  # was 500: no start-up transient
+    ({"valve.cv": 1e300}, "overrides.valve.cv"),  # was 200 with a NaN leak flow
+    ({"cylinder.rod1": 0.07}, "overrides.cylinder.rod1"),  # was 500
+    ({"cylinder.bore": 0.02}, "overrides.cylinder.bore"),
+])
+def test_overrides_that_break_the_geometry_are_422(server: LiveServer,
+                                                   overrides: dict[str, float],
+                                                   field: str) -> None:
+    for method in ("steady", "transient"):
+        response = server.client.post("/simulate", json={
+            "rig_id": 1, "fault": "healthy", "method": method, "overrides": overrides})
+        assert response.status_code == 422, response.text
+        assert response.json()["error"]["field"] == field
+
+
 def test_the_steady_path_agrees_with_the_transient_one(server: LiveServer,
                                                        as_json: dict[str, Any]) -> None:
     steady = server.client.post("/simulate", json=WORN_VALVE | {"method": "steady"}).json()

@@ -35,7 +35,7 @@ from sim.components import (
 )
 from sim.components.base import Derivation
 from sim.errors import CircuitError, RigFileError
-from sim.params import Param
+from sim.params import Param, Relation
 
 __all__ = ["CIRCUITS", "COMPONENT_TYPES", "DEFAULT_CIRCUIT", "Circuit", "get_circuit", "register",
            "require_cycle"]
@@ -100,6 +100,12 @@ class Circuit:
         if ctype is None:
             return None
         return next((p for p in COMPONENT_TYPES[ctype].PARAMETERS if p.name == name), None)
+
+    def relations(self, role: str) -> tuple[Relation, ...]:
+        """The geometric bounds among the parameters of ``role``'s component (none for an
+        unknown role or a component without them)."""
+        ctype = self.roles.get(role)
+        return () if ctype is None else getattr(COMPONENT_TYPES[ctype], "RELATIONS", ())
 
 
 _REGISTRY: dict[str, Circuit] = {}

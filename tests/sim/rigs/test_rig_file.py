@@ -82,3 +82,28 @@ def test_an_unknown_circuit_is_named():
         validate_rig_document(doc)
     assert exc.value.field == "circuit"
     assert "pump-valve-cylinder" in exc.value.message
+
+
+def test_a_strict_document_knows_every_key_and_keeps_its_geometry():
+    """``strict`` (a document being stored) refuses keys the schema does not know and
+    parameters that break their component's geometry; without it (a stored document read
+    back) the same document loads, so one stored before these checks still works."""
+    for mutate, field in [
+        (lambda d: d.update(colour="red"), "colour"),
+        (lambda d: d["fluid"]["beta"].update(note="x"), "fluid.beta.note"),
+        (lambda d: d["components"]["cylinder"]["parameters"]["cc"].update(value=0.031),
+         "components.cylinder.parameters.cc"),
+        (lambda d: d["components"]["cylinder"]["parameters"]["rod2"].update(value=0.06),
+         "components.cylinder.parameters.rod2"),
+    ]:
+        doc = copy.deepcopy(reference_rig_document())
+        mutate(doc)
+        with pytest.raises(RigFileError) as exc:
+            validate_rig_document(doc, strict=True)
+        assert exc.value.field == field
+        validate_rig_document(doc)
+    validate_rig_document(reference_rig_document(), strict=True)
+    for circuit in CIRCUITS.values():
+        for role in circuit.roles:
+            for relation in circuit.relations(role):  # each relation holds on its defaults
+                assert circuit.parameter(role, relation.name) is not None
