@@ -70,11 +70,11 @@ class SeriesImportForm(UploadForm):
         description="Read the start instead from the time the logger wrote into the file's "
         "name, a strptime format (%Y %y %m %d %H %I %M %S %f %j %p %b %z), e.g. "
         "'%m-%d-%Y-%I-%M-%S %p' for 'PS1_9-10-2019-4-37-01 PM.txt'; not with started_at [-]",
-        examples=["%Y%m%d-%H%M%S"])
+        examples=[None])
     zone: str | None = Field(
         default=None, max_length=10,
         description="Time zone of time_in_name when its format has no %z: Z, +02:00, -0400 "
-        "[-]", examples=["+01:00"])
+        "[-]", examples=[None])
 
 
 class SeriesPublic(PublicModel):
