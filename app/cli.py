@@ -27,6 +27,7 @@ from app.cli_rigs import rigs_cli
 from app.cli_runs import register
 from app.cli_support import console, migrated_engine, settings_from_env, steps, unwrap_help
 from app.db.engine import make_engine, make_session_factory
+from app.schemas.common import MAX_ID
 from app.security import Scope
 from app.settings import Settings
 from sim.errors import HydrodiagError
@@ -145,7 +146,8 @@ def keys_list() -> None:
 
 
 @keys_cli.command("revoke")
-def keys_revoke(key_id: Annotated[int, typer.Argument(help="Id shown by `keys list`.")]) -> None:
+def keys_revoke(key_id: Annotated[int, typer.Argument(min=1, max=MAX_ID,
+                                                     help="Id shown by `keys list`.")]) -> None:
     """Revoke a key: it stops working at once (a rotated key's grace period ends)."""
     from app.services.keys import revoke_api_key
 
@@ -158,7 +160,7 @@ def keys_revoke(key_id: Annotated[int, typer.Argument(help="Id shown by `keys li
 
 @keys_cli.command("rotate")
 def keys_rotate(
-    key_id: Annotated[int, typer.Argument(help="Id shown by `keys list`.")],
+    key_id: Annotated[int, typer.Argument(min=1, max=MAX_ID, help="Id shown by `keys list`.")],
     grace: Annotated[float, typer.Option(
         help="Seconds the old key keeps working, 0 (default: revoked at once) to 604800 "
              "(7 days).")] = 0.0,

@@ -24,7 +24,8 @@ from pydantic import ValidationError
 from rich.markup import escape
 from rich.table import Table
 
-from app.cli_support import console, steps, store_session
+from app.cli_support import console, steps, store_session, writable
+from app.schemas.common import MAX_ID
 from app.schemas.record_csv import record_rows
 from sim.errors import InputError
 
@@ -79,10 +80,10 @@ def read_batch(path: Path, rig_id: int) -> list[Any]:
 
 def diagnose_batch(
     file: Annotated[Path, typer.Argument(help="Records: CSV (a row each) or JSON Lines.")],
-    rig_id: Annotated[int, typer.Option("--rig", help="Rig id in the store (for records "
-                                        "that name none).")] = 1,
-    workers: Annotated[int, typer.Option(help="Local worker processes; 0 runs in this "
-                                         "process.")] = 0,
+    rig_id: Annotated[int, typer.Option("--rig", min=1, max=MAX_ID, help="Rig id in the store "
+                                        "(for records that name none).")] = 1,
+    workers: Annotated[int, typer.Option(min=0, max=256, help="Local worker processes; 0 runs "
+                                         "in this process.")] = 0,
     dask: Annotated[str | None, typer.Option(help="Dask scheduler address (tcp://host:8786)."
                                              )] = None,
     out: Annotated[Path | None, typer.Option(help="Write one JSON result per line here.")
@@ -95,6 +96,8 @@ def diagnose_batch(
     from app.services.rig_cache import RigCache
     from diagnostics.batch import diagnose_many
 
+    if out is not None:
+        writable(out, "--out")
     items = read_batch(file, rig_id)
     rig_ids = {item.rig_id for item in items}
     if len(rig_ids) > 1:

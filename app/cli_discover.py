@@ -24,7 +24,15 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
-from app.cli_support import console, series_ids, steps, store_session, validation_error
+from app.cli_support import (
+    console,
+    series_ids,
+    steps,
+    store_session,
+    validation_error,
+    writable,
+)
+from app.schemas.common import MAX_ID
 from diagnostics.real.relaxation import ZEMA_RELAXATION
 from sim.errors import InputError
 
@@ -43,8 +51,10 @@ def discover(
                                                 "'load [N]' and 'oil_temperature [degC]' "
                                                 "columns (or the export's header), or steady "
                                                 "points in the pump-bench CSV format.")] = None,
-    rig_id: Annotated[int, typer.Option("--rig", help="Rig id in the store.")] = 1,
-    version: Annotated[int | None, typer.Option(help="Rig version (default: latest).")] = None,
+    rig_id: Annotated[int, typer.Option("--rig", min=1, max=MAX_ID,
+                                        help="Rig id in the store.")] = 1,
+    version: Annotated[int | None, typer.Option(min=1, max=MAX_ID,
+                                                help="Rig version (default: latest).")] = None,
     report: Annotated[Path | None, typer.Option(help="Write the HTML report here "
                                                 "(charts as PNG/SVG beside it).")] = None,
     refit: Annotated[bool, typer.Option(help="Output-error re-fit by re-simulation.")] = True,
@@ -73,6 +83,8 @@ def discover(
     if (data is None) == (series is None):
         raise InputError("give DATA or --series (stored records of the rig), one of them",
                          field="data" if data is None else "--series")
+    if report is not None:
+        writable(report, "--report")
     bench = None
     records: list[SeriesRecord] = []
     if data is not None:

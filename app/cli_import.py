@@ -22,6 +22,7 @@ from app.cli_support import (
     steps,
     store_session,
 )
+from app.schemas.common import MAX_ID
 from diagnostics.real.relaxation import ZEMA_RELAXATION
 from sim.errors import InputError
 
@@ -37,7 +38,7 @@ _out = Console()
 import_cli = typer.Typer(help="Import measured time series as measurements of a rig.",
                          no_args_is_help=True)
 
-RigOption = Annotated[int, typer.Option("--rig", help="Rig id in the store.")]
+RigOption = Annotated[int, typer.Option("--rig", min=1, max=MAX_ID, help="Rig id in the store.")]
 NameOption = Annotated[str, typer.Option(help="Name of the import (file or campaign).")]
 
 

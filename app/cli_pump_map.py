@@ -26,6 +26,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from app.cli_support import steps, store_session, validation_error
+from app.schemas.common import MAX_ID
 from sim.errors import InputError
 
 if TYPE_CHECKING:
@@ -91,7 +92,8 @@ def calibrate_pump_map(
     theta: Annotated[float, typer.Option(help="Oil temperature \\[°C] assumed for the "
                                          "whole map (the file records none).",
                                          min=-40.0, max=150.0)],
-    rig_id: Annotated[int | None, typer.Option("--rig", help="Rig of the pump.")] = None,
+    rig_id: Annotated[int | None, typer.Option("--rig", min=1, max=MAX_ID,
+                                               help="Rig of the pump.")] = None,
     bench_dir: Annotated[Path | None, typer.Option(
         help="Write each setting's bench table (pump-bench CSV) into this folder.")] = None,
     store: Annotated[bool, typer.Option(help="Store the pump sets.")] = True,

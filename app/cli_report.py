@@ -13,7 +13,8 @@ from typing import Annotated, Any
 
 import typer
 
-from app.cli_support import console, store_session
+from app.cli_support import console, store_session, writable
+from app.schemas.common import MAX_ID
 from sim.errors import InputError
 
 __all__ = ["render_report", "report_cli"]
@@ -28,7 +29,8 @@ def _suffix(output: Path) -> str:
     suffix = output.suffix.lower()
     if suffix not in (".html", ".png"):
         raise InputError(f"the output must end in .html or .png, not {suffix or 'nothing'!r}",
-                         field="output")
+                         field="--output")
+    writable(output, "--output")
     return suffix
 
 
@@ -56,7 +58,7 @@ def render_report(title: str, charts: list[Any], suffix: str, **context: Any) ->
 
 @report_cli.command("diagnosis")
 def report_diagnosis(
-    diagnosis_id: Annotated[int, typer.Argument(min=1, help="Stored diagnosis id.")],
+    diagnosis_id: Annotated[int, typer.Argument(min=1, max=MAX_ID, help="Stored diagnosis id.")],
     output: Annotated[Path, typer.Option(help="report.html or report.png")] = Path("report.html"),
 ) -> None:
     """A stored diagnosis: probabilities, measured vs predicted, estimates, isolability."""
@@ -72,7 +74,7 @@ def report_diagnosis(
 
 @report_cli.command("trends")
 def report_trends(
-    rig: Annotated[int, typer.Option(min=1, help="Rig id.")] = 1,
+    rig: Annotated[int, typer.Option(min=1, max=MAX_ID, help="Rig id.")] = 1,
     output: Annotated[Path, typer.Option(help="trends.html or trends.png")] = Path("trends.html"),
 ) -> None:
     """A rig's component trends: estimates over time, Theil–Sen line, threshold, time left."""

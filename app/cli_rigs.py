@@ -21,6 +21,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from app.cli_support import load_document, store_session
+from app.schemas.common import MAX_ID
 from sim.errors import InputError
 
 __all__ = ["rigs_cli"]
@@ -56,7 +57,7 @@ def add(file: FileArg, comment: CommentOption = None) -> None:
 
 @rigs_cli.command("update")
 def update(
-    rig_id: Annotated[int, typer.Argument(help="Rig id in the store.")],
+    rig_id: Annotated[int, typer.Argument(min=1, max=MAX_ID, help="Rig id in the store.")],
     file: FileArg,
     comment: CommentOption = None,
 ) -> None:
@@ -88,8 +89,9 @@ def list_all() -> None:
 
 @rigs_cli.command("show")
 def show(
-    rig_id: Annotated[int, typer.Argument(help="Rig id in the store.")],
-    version: Annotated[int | None, typer.Option(help="Version (default: latest).")] = None,
+    rig_id: Annotated[int, typer.Argument(min=1, max=MAX_ID, help="Rig id in the store.")],
+    version: Annotated[int | None, typer.Option(min=1, max=MAX_ID,
+                                                help="Version (default: latest).")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="JSON instead of YAML.")] = False,
 ) -> None:
     """Print a stored rig description (canonical form, SI values with their sources); the

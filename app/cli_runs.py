@@ -32,7 +32,9 @@ from app.cli_support import (
     settings_from_env,
     steps,
     store_session,
+    writable,
 )
+from app.schemas.common import MAX_ID
 from sim.errors import InputError
 from sim.scenarios import FAULTS
 
@@ -67,7 +69,8 @@ def _overrides(items: list[str], *, field: str = "--set", form: str = "role.name
 
 
 def simulate(
-    rig_id: Annotated[int, typer.Option("--rig", help="Rig id in the store.")] = 1,
+    rig_id: Annotated[int, typer.Option("--rig", min=1, max=MAX_ID,
+                                        help="Rig id in the store.")] = 1,
     fault: Annotated[str | None, typer.Option(help=f"Named fault: {', '.join(FAULTS)}.")] = None,
     set_: Annotated[list[str] | None, typer.Option(
         "--set", help="Override role.name=value in SI units (repeat), e.g. valve.cv=60e-6.")
@@ -103,6 +106,8 @@ def simulate(
     formats = {".csv": "csv", ".parquet": "parquet", ".json": "json"}
     if output is not None and output.suffix.lower() not in formats:
         raise InputError("the output must end in .csv, .parquet or .json", field="--output")
+    if output is not None:
+        writable(output, "--output")
     request = _validated(SimulateRequest, {
         "rig_id": rig_id, "fault": fault, "overrides": _overrides(set_ or []),
         "condition": {"load": load, "back_pressure": back_pressure,
@@ -158,7 +163,8 @@ def diagnose(
     series: Annotated[str | None, typer.Option(
         help="Stored measured cycles (POST /rigs/{id}/series) instead of FILE: ids, "
         "comma-separated, e.g. 3,4.")] = None,
-    rig: Annotated[int | None, typer.Option(help="The rig a cycle FILE was measured on.")
+    rig: Annotated[int | None, typer.Option(min=1, max=MAX_ID,
+                                            help="The rig a cycle FILE was measured on.")
                    ] = None,
     condition: Annotated[list[str] | None, typer.Option(
         help="A cycle's condition where its file does not state it or is wrong: "
@@ -252,7 +258,8 @@ def diagnose(
 def commission(
     file: Annotated[str, typer.Argument(help="Healthy records: a list, or {records: [...]}, "
                                         "JSON or YAML.")],
-    rig: Annotated[int, typer.Option(help="Rig to commission (its latest version).")],
+    rig: Annotated[int, typer.Option(min=1, max=MAX_ID,
+                                     help="Rig to commission (its latest version).")],
     parameter: Annotated[list[str] | None, typer.Option(
         help="A parameter to fit (repeat); all six by default.")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print the API's JSON answer.")] = False,
@@ -301,6 +308,7 @@ def sweep(
 
     if output.suffix.lower() not in (".csv", ".json"):
         raise InputError("the output must end in .csv or .json", field="--output")
+    writable(output, "--output")
     request = _validated(SweepRequest, load_document(file))
     settings = settings_from_env()
     with store_session() as session:
@@ -333,7 +341,8 @@ def calibrate_pump(
     file: Annotated[Path, typer.Argument(help="Bench CSV, units in the column names.")],
     name: Annotated[str, typer.Option(help="Unique name of the pump set.")],
     pump: Annotated[str, typer.Option(help="Pump model and size.")],
-    rig_id: Annotated[int | None, typer.Option("--rig", help="Rig of the pump.")] = None,
+    rig_id: Annotated[int | None, typer.Option("--rig", min=1, max=MAX_ID,
+                                               help="Rig of the pump.")] = None,
     displacement: Annotated[float | None, typer.Option(
         help="Derived capacity D \\[m³/rad]; from the data when left out.")] = None,
     displacement_cm3_rev: Annotated[float | None, typer.Option(
@@ -382,7 +391,8 @@ def calibrate_pump(
 @calibrate_cli.command("throttle")
 def calibrate_throttle(
     file: Annotated[str, typer.Argument(help="Table: the body of POST /rigs/{id}/calibrations.")],
-    rig_id: Annotated[int, typer.Option("--rig", help="Rig id in the store.")] = 1,
+    rig_id: Annotated[int, typer.Option("--rig", min=1, max=MAX_ID,
+                                        help="Rig id in the store.")] = 1,
 ) -> None:
     """Store a throttle equivalence table; clearances not given are computed from the flows."""
     from app.schemas.calibrations import CalibrationCreate

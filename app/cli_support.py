@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import inspect
+import os
 from collections.abc import Iterator
 from contextlib import contextmanager
 from datetime import datetime
+from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
@@ -17,6 +19,7 @@ from sqlalchemy import Engine
 from sqlalchemy.orm import Session
 
 from app.db.engine import make_engine, make_session_factory
+from app.schemas.common import MAX_ID
 from app.settings import Settings
 from sim.errors import InputError
 
@@ -25,7 +28,7 @@ if TYPE_CHECKING:
 
 __all__ = ["ColumnMapOption", "SampleRateOption", "console", "load_document", "migrated_engine",
            "reading_options", "series_ids", "settings_from_env", "steps", "store_session",
-           "unwrap_help", "validation_error"]
+           "unwrap_help", "validation_error", "writable"]
 
 console = Console(stderr=True)
 
@@ -76,19 +79,37 @@ def steps() -> Progress:
 def load_document(path: str) -> Any:
     """Read a JSON or YAML file (by its suffix; YAML otherwise)."""
     import json
-    from pathlib import Path
 
     import yaml
+
+    from sim.yaml_loader import load_yaml
 
     p = Path(path)
     try:
         text = p.read_text(encoding="utf-8")
     except OSError as exc:
         raise InputError(f"cannot read {p}: {exc.strerror}", field="FILE") from None
+    except UnicodeDecodeError:
+        raise InputError(f"{p.name} is not UTF-8 text (JSON or YAML)", field="FILE") from None
     try:
-        return json.loads(text) if p.suffix.lower() == ".json" else yaml.safe_load(text)
+        return json.loads(text) if p.suffix.lower() == ".json" else load_yaml(text)
     except (json.JSONDecodeError, yaml.YAMLError) as exc:
         raise InputError(f"{p.name} is not valid JSON or YAML: {exc}", field="FILE") from None
+
+
+def writable(path: Path, option: str) -> Path:
+    """``path`` if a file can be written there (its folder exists, it is not a folder), else
+    an :class:`InputError` on ``option``: checked before the work whose result it takes, so
+    a wrong path costs neither the work nor a half-done store (``discover`` stored its new
+    rig version, then failed writing the report)."""
+    if path.is_dir():
+        raise InputError(f"{path} is a folder; give a file name", field=option)
+    folder = path.parent if str(path.parent) else Path(".")
+    if not folder.is_dir():
+        raise InputError(f"cannot write {path}: no folder {folder}", field=option)
+    if not os.access(folder, os.W_OK) or (path.exists() and not os.access(path, os.W_OK)):
+        raise InputError(f"cannot write {path}: permission denied", field=option)
+    return path
 
 
 def series_ids(text: str, *, field: str = "--series") -> list[int]:
@@ -98,8 +119,8 @@ def series_ids(text: str, *, field: str = "--series") -> list[int]:
     except ValueError:
         raise InputError(f"not a comma-separated list of ids: {text!r}", field=field
                          ) from None
-    if any(i < 1 for i in ids):
-        raise InputError("series ids are positive", field=field)
+    if any(not 1 <= i <= MAX_ID for i in ids):
+        raise InputError(f"series ids are 1 to {MAX_ID}", field=field)
     return ids
 
 

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import asyncio
 import json
-import re
 from datetime import datetime
 from functools import partial
 from typing import Annotated, Any
@@ -36,24 +35,12 @@ from app.services.diagnosis_pool import DiagnosisPool
 from app.services.group_commit import GroupCommitter
 from app.services.series_record import stored_cycle_record
 from sim.errors import HydrodiagError, InputError
+from sim.yaml_loader import load_yaml
 
 __all__ = ["parse_records", "router"]
 
 router = new_router()
 
-
-class _Loader(yaml.SafeLoader):
-    """YAML with the floats of YAML 1.2 and JSON (``1.4e6`` is a number, not text)."""
-
-
-_Loader.add_implicit_resolver(
-    "tag:yaml.org,2002:float",
-    re.compile(r"""^(?:[-+]?(?:[0-9][0-9_]*)\.[0-9_]*(?:[eE][-+]?[0-9]+)?
-               |[-+]?(?:[0-9][0-9_]*)(?:[eE][-+]?[0-9]+)
-               |\.[0-9_]+(?:[eE][-+]?[0-9]+)?
-               |[-+]?\.(?:inf|Inf|INF)
-               |\.(?:nan|NaN|NAN))$""", re.X),
-    list("-+0123456789."))
 
 #: Largest pasted text or uploaded CSV [byte].
 MAX_INPUT_BYTES = 1024 * 1024
@@ -86,7 +73,7 @@ def parse_records(text: str, content: bytes | None) -> DiagnoseRequest:
         if len(text) > MAX_INPUT_BYTES:
             raise InputError(f"at most {MAX_INPUT_BYTES} characters", field="document")
         try:
-            document = yaml.load(text, Loader=_Loader)
+            document = load_yaml(text)
         except yaml.YAMLError as exc:
             raise InputError(f"neither JSON nor YAML: {exc}", field="document") from None
         if not isinstance(document, dict):

@@ -13,6 +13,7 @@ import yaml
 from sim.errors import RigFileError
 from sim.rigs.assembly import Condition, Rig, build_graph
 from sim.rigs.schema import RigSpec, validate_rig_document
+from sim.yaml_loader import load_yaml
 
 __all__ = [
     "REFERENCE_RIG_PATH",
@@ -37,8 +38,10 @@ def load_rig_document(path: str | Path) -> dict[str, Any]:
         text = p.read_text(encoding="utf-8")
     except OSError as exc:
         raise RigFileError(f"cannot read {p}: {exc.strerror}", field="path") from None
+    except UnicodeDecodeError:
+        raise RigFileError(f"{p.name} is not UTF-8 text", field="path") from None
     try:
-        doc = json.loads(text) if p.suffix == ".json" else yaml.safe_load(text)
+        doc = json.loads(text) if p.suffix == ".json" else load_yaml(text)
     except (json.JSONDecodeError, yaml.YAMLError) as exc:
         raise RigFileError(f"{p.name} is not valid {'JSON' if p.suffix == '.json' else 'YAML'}:"
                            f" {exc}", field="") from None

@@ -1,0 +1,79 @@
+"""What every command shares: output paths checked before the work, documents read as
+their authors wrote them, ids bounded (app/cli_support.py)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from app.cli import cli
+from app.db.models import RigVersion
+from tests.app.conftest import store_count
+
+README_RECORD = """rig_id: 1
+measured_at: "2026-11-22T08:30:00Z"
+condition: {oil_temperature: 40.0, load_force: 2100.0}
+pump_pressure: 14.50e5
+p1: 11.88e5
+p2: 1.202e5
+flow_B: 4.643e-4
+flow_C: 4.172e-4
+speed_work: 0.1881
+speed_return: 0.2177
+"""
+
+
+@pytest.mark.parametrize("command", [
+    ["simulate", "--steady", "--output", "{missing}/run.csv"],
+    ["simulate", "--steady", "--output", "{folder}"],
+    ["sweep", "{doc}", "--output", "{missing}/sweep.csv"],
+    ["report", "diagnosis", "1", "--output", "{missing}/report.html"],
+    ["report", "trends", "--output", "{folder}"],
+    ["diagnose-batch", "{doc}", "--out", "{missing}/results.jsonl"],
+    ["discover", "--series", "1", "--rig", "1", "--report", "{missing}/report.html"],
+])
+def test_an_output_that_cannot_be_written_is_refused_before_the_work(
+        runner: CliRunner, tmp_path: Path, command: list[str]) -> None:
+    """A missing folder or a folder as the file: refused naming the option, before anything
+    runs or is stored (discover stored its new rig version, then failed writing the
+    report: each retry stored one more)."""
+    folder = tmp_path / "a-folder.csv"
+    folder.mkdir()
+    doc = tmp_path / "doc.json"
+    doc.write_text("{}")
+    args = [a.format(missing=tmp_path / "missing", folder=folder, doc=doc) for a in command]
+    assert runner.invoke(cli, ["rigs", "list"]).exit_code == 0  # the store, preloaded
+    before = store_count(RigVersion)
+    result = runner.invoke(cli, args)
+    assert result.exit_code != 0
+    option = next(a for a in command if a in ("--output", "--out", "--report"))
+    assert f"{option}:" in str(result.exception), result.output
+    assert store_count(RigVersion) == before
+
+
+def test_yaml_numbers_as_engineers_write_them_are_numbers(runner: CliRunner,
+                                                          tmp_path: Path) -> None:
+    """``14.50e5`` and ``4.643e-4`` (YAML 1.2 and JSON floats; PyYAML's YAML 1.1 read the
+    first as text and the record was refused as 'not a valid dictionary')."""
+    path = tmp_path / "record.yaml"
+    path.write_text(README_RECORD)
+    result = runner.invoke(cli, ["diagnose", str(path), "--no-store", "--json"])
+    assert result.exit_code == 0, result.output
+    assert '"top": "valve"' in result.stdout
+
+
+def test_a_file_that_is_not_utf8_and_ids_beyond_the_store_are_refused(
+        runner: CliRunner, tmp_path: Path) -> None:
+    path = tmp_path / "record.json"
+    path.write_bytes(b"\xff\xfe\x00bad")
+    result = runner.invoke(cli, ["diagnose", str(path), "--no-store"])
+    assert result.exit_code != 0 and "not UTF-8" in str(result.exception)
+    for args in (["diagnose", "--series", "99999999999999999999", "--no-store"],
+                 ["rigs", "show", "99999999999999999999"],
+                 ["report", "diagnosis", "99999999999999999999"],
+                 ["keys", "revoke", "99999999999999999999"]):
+        result = runner.invoke(cli, args)
+        assert result.exit_code != 0, args
+        assert not isinstance(result.exception, OverflowError), args
