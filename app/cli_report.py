@@ -46,7 +46,7 @@ def render_report(title: str, charts: list[Any], suffix: str, **context: Any) ->
 
     if suffix == ".png":
         if not charts:
-            raise InputError("nothing to plot: the report has no chart", field="output")
+            raise InputError("nothing to plot: the report has no chart", field="--output")
         return render_png_stack(charts)
     from app.console.web import templates
 

@@ -52,7 +52,7 @@ def test_trends_report_and_refusals(store: Path) -> None:
                                str(out)]).exit_code == 0
     assert "Trends of rig 1" in out.read_text() and "valve" in out.read_text()
     wrong = runner.invoke(cli, ["report", "diagnosis", "1", "--output", str(store / "r.pdf")])
-    assert isinstance(wrong.exception, InputError) and wrong.exception.field == "output"
+    assert isinstance(wrong.exception, InputError) and wrong.exception.field == "--output"
     missing = runner.invoke(cli, ["report", "diagnosis", "7", "--output", str(store / "r.html")])
     assert isinstance(missing.exception, NotFoundError)
     assert not (store / "r.pdf").exists() and not (store / "r.html").exists()
