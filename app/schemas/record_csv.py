@@ -4,16 +4,42 @@
 left out (the reading was not taken); ``#`` lines are comments.  The rows are plain
 dictionaries for :class:`~app.schemas.diagnose.MeasurementIn` to validate.  Used by the
 console's upload and by ``hydrodiag diagnose-batch``.
+
+A row is read as written or refused naming its line: a row with fewer cells than the
+header (a cut line would have left its last readings "not taken"), more cells that are
+not empty, or a cell that writes a number as ``nan`` or ``inf`` (only an empty cell
+means "not taken", as ``null`` does in JSON).  Trailing empty cells, as spreadsheets
+write them after the last column, are allowed.
 """
 
 from __future__ import annotations
 
+import csv
 import io
+import math
+import re
 from typing import Any
 
 from sim.errors import InputError
 
 __all__ = ["record_rows"]
+
+_INTEGER = re.compile(r"^[+-]?[0-9]+$")
+
+
+def _value(cell: str, *, line: int, column: str, field: str) -> Any:
+    """A cell as JSON would carry it: an integer, a finite number or text."""
+    text = cell.strip()
+    if _INTEGER.match(text):
+        return int(text)
+    try:
+        number = float(text)
+    except ValueError:
+        return text  # a time, a rig name: validated by the record's schema
+    if not math.isfinite(number):
+        raise InputError(f"line {line}: {column} is {text!r}; leave a reading out with an "
+                         "empty cell", field=field)
+    return number
 
 
 def record_rows(content: bytes, *, field: str) -> list[dict[str, Any]]:
@@ -22,24 +48,40 @@ def record_rows(content: bytes, *, field: str) -> list[dict[str, Any]]:
     Raises
     ------
     InputError
-        Not a readable CSV (naming ``field``).
+        Not UTF-8 or not a CSV, a row whose cells do not match the header, a ``nan`` or
+        ``inf`` cell (naming ``field`` and the line).
     """
-    import pandas as pd
-
     try:
-        frame = pd.read_csv(io.BytesIO(content), comment="#")
-    except (ValueError, UnicodeDecodeError, pd.errors.ParserError) as exc:
+        text = content.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        raise InputError("not a readable CSV: the file is not UTF-8 text", field=field
+                         ) from None
+    lines = [(n, line) for n, line in enumerate(text.splitlines(), start=1)
+             if line.strip() and not line.lstrip().startswith("#")]
+    if not lines:
+        return []
+    try:
+        table = list(csv.reader([line for _, line in lines]))
+    except csv.Error as exc:
         raise InputError(f"not a readable CSV: {exc}", field=field) from None
+    header = [name.strip() for name in table[0]]
+    while header and not header[-1]:  # a spreadsheet's trailing separator
+        header.pop()
+    if not header or any(not name for name in header):
+        raise InputError(f"line {lines[0][0]}: every column needs a name", field=field)
     rows = []
-    for _, row in frame.iterrows():
+    for (number, _), cells in zip(lines[1:], table[1:], strict=True):
+        if len(cells) < len(header) or any(c.strip() for c in cells[len(header):]):
+            raise InputError(f"line {number} has {len(cells)} cells for the header's "
+                             f"{len(header)} columns", field=field)
         record: dict[str, Any] = {}
-        for column, value in row.items():
-            if pd.isna(value):
+        for column, cell in zip(header, cells, strict=False):
+            if not cell.strip():
                 continue
             target = record
-            *parents, leaf = str(column).strip().split(".")
+            *parents, leaf = column.split(".")
             for part in parents:
                 target = target.setdefault(part, {})
-            target[leaf] = value.item() if hasattr(value, "item") else value
+            target[leaf] = _value(cell, line=number, column=column, field=field)
         rows.append(record)
     return rows

@@ -89,3 +89,30 @@ def test_diagnose_many_on_a_process_pool_and_a_dask_cluster_equals_in_process() 
         assert a["top"] == b["top"] == c["top"]
         assert abs(a["probability"] - b["probability"]) < 1e-6
         assert abs(a["probability"] - c["probability"]) < 1e-6
+
+
+def test_a_row_is_read_as_written_or_refused_naming_its_line(runner: CliRunner,
+                                                            tmp_path: Path) -> None:
+    """A cut row (fewer cells than the header: its last readings became "not taken" and the
+    row was diagnosed 'pump'), a ``nan`` cell (read as not taken, where JSON refuses NaN)
+    and extra filled cells are refused naming the line; a spreadsheet's trailing commas on
+    every line are read as the table (they shifted every column: 40 °C read as 2100)."""
+    rows = _rows()
+    header = ",".join(rows[0])
+    line = ",".join(str(v) for v in rows[0].values())
+    for body, words in [
+        (f"{header}\n{line}\n{','.join(line.split(',')[:3])}\n", "line 3 has 3 cells"),
+        (f"{header}\n{line.replace(str(rows[0]['p1']), 'nan')}\n", "line 2: p1 is 'nan'"),
+        (f"{header}\n{line},7\n", "line 2 has"),
+    ]:
+        path = tmp_path / "bad.csv"
+        path.write_text(body)
+        result = runner.invoke(cli, ["diagnose-batch", str(path), "--rig", "1"])
+        assert result.exit_code != 0
+        assert words in str(result.exception), (words, result.output)
+    path = tmp_path / "excel.csv"
+    path.write_text(f"# exported\n{header},\n{line},\n")
+    out = tmp_path / "results.jsonl"
+    result = runner.invoke(cli, ["diagnose-batch", str(path), "--rig", "1", "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    assert json.loads(out.read_text().splitlines()[0])["top"] == "valve"
