@@ -15,7 +15,6 @@ write them after the last column, are allowed.
 from __future__ import annotations
 
 import csv
-import io
 import math
 import re
 from typing import Any
