@@ -101,6 +101,6 @@ def check_quantities(data: BenchData, D: float) -> tuple[dict[str, dict[str, Any
                 ("torque_S_quadratic", h.torque_S_quadratic,
                  "held-out torque error of a quadratic in (Δp, n), same split")):
             out[f"loss{k}_{key}"] = _q(value, "%", f"{what}, % of the level's largest value")
-    notes = [f"loss model checked one speed out: flow S {check.flow_S:.3f} %, torque S "
-             f"{check.torque_S:.3f} % of the largest measured", *check.skipped]
+    notes = [f"loss model checked one speed out: flow S {check.flow_S:.3g} %, torque S "
+             f"{check.torque_S:.3g} % of the largest measured", *check.skipped]
     return out, "; ".join(notes)

@@ -109,7 +109,7 @@ def bench_from_frame(frame: pd.DataFrame, *, simulated: bool = False,
         values = pd.to_numeric(frame[col], errors="coerce").to_numpy(dtype=np.float64)
         if np.any(np.isnan(values)):
             row = int(np.flatnonzero(np.isnan(values))[0])
-            raise InputError(f"empty or non-numeric value (row {row})", field=col)
+            raise InputError(f"empty or non-numeric value (data row {row + 1})", field=col)
         return values * scale + offset
 
     return BenchData(

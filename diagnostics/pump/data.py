@@ -16,7 +16,18 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
+from diagnostics.measurement import MAX_GAUGE_PRESSURE, MIN_GAUGE_PRESSURE, OIL_TEMPERATURE_RANGE
 from sim.errors import InputError, MeasurementError
+from sim.rigs.assembly import MAX_PUMP_SPEED
+
+#: Plausible range of each column [SI]: gauge pressures from vacuum to 10 kbar, speeds up to
+#: ~19,000 rpm, the oil temperatures a record may state, delivered flow up to 1 m³/s
+#: (60,000 l/min); a value outside is an error of the file, not a test point.
+_PLAUSIBLE = (("p_in", MIN_GAUGE_PRESSURE, MAX_GAUGE_PRESSURE, "Pa"),
+              ("p_out", MIN_GAUGE_PRESSURE, MAX_GAUGE_PRESSURE, "Pa"),
+              ("omega", 0.0, MAX_PUMP_SPEED, "rad/s"),
+              ("theta", *OIL_TEMPERATURE_RANGE, "degC"),
+              ("q", 0.0, 1.0, "m^3/s"))
 
 __all__ = ["BenchData"]
 
@@ -101,6 +112,13 @@ class BenchData:
             raise MeasurementError("shaft speed must be positive", field="omega")
         if np.any(cols["q"] <= 0):
             raise MeasurementError("delivered flow must be positive", field="q")
+        for name, low, high, unit in _PLAUSIBLE:
+            arr = cols[name]
+            if np.any(bad := (arr < low) | (arr > high)):
+                row = int(np.flatnonzero(bad)[0])
+                raise MeasurementError(
+                    f"data row {row + 1}: {arr[row]:g} {unit} is outside {low:g} to {high:g} "
+                    f"{unit}, beyond any instrument of a pump bench", field=name)
         if np.any(p_out - cols["p_in"] < 0):
             raise MeasurementError("outlet pressure below inlet pressure: not pumping",
                                    field="p_out")
