@@ -152,14 +152,21 @@ def _diagnose_body(document: Any, *, joint: bool, store: bool) -> dict[str, Any]
     return {"record": document, "store": store}
 
 
-#: suffixes of a measured cycle's file (the import path of diagnostics.timeseries)
-_CYCLE_SUFFIXES = (".csv", ".parquet", ".pq")
+#: suffixes of a measured cycle's file, gzip-compressed or not (the import path of
+#: diagnostics.timeseries: CSV separated by commas, semicolons or tabs, or Parquet)
+_CYCLE_SUFFIXES = (".csv", ".tsv", ".txt", ".parquet", ".pq")
+
+
+def _is_cycle_file(name: str) -> bool:
+    """Whether ``name`` is a measured cycle's table (``run.csv``, ``log.txt.gz``)."""
+    return Path(name.removesuffix(".gz")).suffix.lower() in _CYCLE_SUFFIXES
 
 
 def diagnose(
     file: Annotated[str | None, typer.Argument(
         help="Record(s): JSON or YAML (a record, a list, or a /diagnose body); or measured "
-        "cycles: CSV or Parquet in the /simulate export's format, with --rig.")] = None,
+        "cycles: CSV (.csv, .tsv, .txt) or Parquet, gzip-compressed or not, in the /simulate "
+        "export's format or a logger's through --column-map, with --rig.")] = None,
     series: Annotated[str | None, typer.Option(
         help="Stored measured cycles (POST /rigs/{id}/series) instead of FILE: ids, "
         "comma-separated, e.g. 3,4.")] = None,
@@ -196,7 +203,7 @@ def diagnose(
 
     if (file is None) == (series is None):
         raise InputError("give FILE or --series (stored cycles), one of them", field="FILE")
-    cycles = series is not None or Path(str(file)).suffix.lower() in _CYCLE_SUFFIXES
+    cycles = series is not None or _is_cycle_file(str(file))
     if not cycles and (rig is not None or condition):
         raise InputError("--rig and --condition go with a measured cycle (CSV or Parquet, or "
                          "--series); a JSON or YAML record names its rig itself", field="--rig")

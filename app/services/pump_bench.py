@@ -15,8 +15,6 @@ on and its error with one speed left out (:mod:`app.services.pump_check`).
 from __future__ import annotations
 
 import math
-import tempfile
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -45,17 +43,10 @@ def read_bench_bytes(content: bytes, *, field: str = "file") -> BenchData:
     """Read a bench CSV given as bytes (errors name ``field`` and the column)."""
     check_file(content, MAX_CSV_BYTES, field=field)
     try:
-        content.decode("utf-8")
-    except UnicodeDecodeError:
-        raise InputError("the file is not UTF-8 text", field=field) from None
-    with tempfile.TemporaryDirectory(prefix="hydrodiag-bench-") as folder:
-        path = Path(folder) / "bench.csv"
-        path.write_bytes(content)
-        try:
-            return read_bench_csv(path)
-        except InputError as exc:
-            name = None if exc.field == "path" else exc.field
-            raise type(exc)(exc.message, field=prefixed(field, name)) from None
+        return read_bench_csv(content, field=field)
+    except InputError as exc:
+        name = None if exc.field == field else exc.field
+        raise type(exc)(exc.message, field=prefixed(field, name)) from None
 
 
 def parameterise_csv(content: bytes, *, displacement: float | None = None,

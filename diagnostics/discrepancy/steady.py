@@ -47,13 +47,11 @@ depended on how the stored pump had been calibrated; with the pump re-fitted it 
 
 from __future__ import annotations
 
-import io
 from collections.abc import Callable, Mapping
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
-import pandas as pd
 
 from diagnostics.discrepancy.balances import BALANCES, BASE_SIGNS, BalanceData, effects_of
 from diagnostics.discrepancy.gap import GapRow
@@ -73,7 +71,7 @@ from diagnostics.discrepancy.selection import MIN_SAMPLES_PER_TERM, PRACTICAL, s
 from diagnostics.discrepancy.signals import Signals
 from diagnostics.discrepancy.verdict import OUTPUT_GAP, excess_ratio
 from diagnostics.discrepancy.workflow import CONFIRM_RATIO, Discovery, NamedEffect
-from diagnostics.pump.csvio import bench_from_frame
+from diagnostics.pump.csvio import is_bench_table, read_bench_csv
 from diagnostics.pump.data import BenchData
 from sim.components.effects import EFFECTS
 from sim.errors import InputError
@@ -95,27 +93,10 @@ FITTED = ("fitted by hydrodiag discover (steady pump-bench table: least squares 
           "pump's Rlp and Vp)")
 
 
-def is_bench_table(content: bytes) -> bool:
-    """Whether ``content`` is a pump-bench CSV (``p_out`` and ``q`` columns, no ``t`` column)."""
-    head = b"\n".join(ln for ln in content.splitlines()[:50] if not ln.lstrip().startswith(b"#"))
-    first = head.split(b"\n", 1)[0].decode("utf-8", errors="replace")
-    names = {c.split("[")[0].strip().strip('"') for c in first.split(",")}
-    return {"p_out", "q"} <= names and "t" not in names
-
-
 def read_bench_bytes(content: bytes, *, field: str = "file") -> BenchData:
-    """A pump-bench CSV given as bytes (errors name the column, else ``field``)."""
-    text = content.decode("utf-8", errors="replace")
-    lines = [ln for ln in text.splitlines() if not ln.lstrip().startswith("#")]
-    if not lines:
-        raise InputError("the bench table has no rows", field=field)
-    try:
-        frame = pd.read_csv(io.StringIO("\n".join(lines)))
-    except (pd.errors.ParserError, pd.errors.EmptyDataError) as exc:
-        raise InputError(f"not a readable CSV table: {exc}", field=field) from None
-    if frame.empty:
-        raise InputError("the bench table has no rows", field=field)
-    return bench_from_frame(frame, simulated="SIMULATED" in text.split("\n", 1)[0])
+    """A pump-bench CSV given as bytes (:func:`diagnostics.pump.csvio.read_bench_csv`;
+    errors name the column, else ``field``)."""
+    return read_bench_csv(content, field=field)
 
 
 def _signals(bench: BenchData, rig: Rig, rows: npt.NDArray[np.int64]) -> Signals:

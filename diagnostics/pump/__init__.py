@@ -33,7 +33,13 @@ from diagnostics.pump.coefficients import (
     parameterise,
     point_coefficients,
 )
-from diagnostics.pump.csvio import bench_from_frame, bench_to_frame, read_bench_csv, write_bench_csv
+from diagnostics.pump.csvio import (
+    bench_from_frame,
+    bench_to_frame,
+    is_bench_table,
+    read_bench_csv,
+    write_bench_csv,
+)
 from diagnostics.pump.data import BenchData
 from diagnostics.pump.levels import cluster_levels, group_keys
 from diagnostics.pump.plans import latin_hypercube_plan, orthogonal_plan
@@ -86,6 +92,7 @@ __all__ = [
     "fit_ols",
     "fit_surface",
     "group_keys",
+    "is_bench_table",
     "iso4409_grid",
     "latin_hypercube_plan",
     "orthogonal_plan",

@@ -17,7 +17,8 @@ name           accepted units              meaning
 Written files use ``p_in [Pa]``, ``p_out [Pa]``, ``n [rev/s]``, ``theta [degC]``,
 ``q [m^3/s]``, ``T [N*m]``, ``replicate [-]``.  Inside, speed is converted to rad/s.  Lines
 at the top starting with ``#`` are provenance; a line containing ``SIMULATED`` marks
-virtual-bench data and sets :attr:`BenchData.simulated`.
+virtual-bench data and sets :attr:`BenchData.simulated`.  Files are read as the time-series
+import reads them: gzip-compressed or not, separated by commas, semicolons or tabs.
 """
 
 from __future__ import annotations
@@ -31,10 +32,12 @@ import numpy as np
 import pandas as pd
 
 from diagnostics.pump.data import BenchData
+from diagnostics.table_files import MAX_DECOMPRESSED_BYTES, dialect, gunzipped
 from sim.errors import InputError
 from sim.units import to_si
 
-__all__ = ["bench_from_frame", "bench_to_frame", "read_bench_csv", "write_bench_csv"]
+__all__ = ["bench_from_frame", "bench_to_frame", "is_bench_table", "read_bench_csv",
+           "write_bench_csv"]
 
 _HEADER = re.compile(r"^\s*([A-Za-z_][A-Za-z0-9_]*)\s*\[(.*)\]\s*$")
 _NAMES = {"p_in": "p_in", "p_out": "p_out", "n": "n", "omega": "n", "theta": "theta",
@@ -151,28 +154,63 @@ def write_bench_csv(data: BenchData, path: str | Path) -> None:
     Path(path).write_text("\n".join([*lines, body]) if lines else body, encoding="utf-8")
 
 
-def read_bench_csv(path: str | Path) -> BenchData:
-    """Read bench data written by :func:`write_bench_csv` or by a real test rig.
+def read_bench_csv(source: str | Path | bytes, *, field: str = "path") -> BenchData:
+    """Read bench data written by :func:`write_bench_csv` or by a real test rig: a path or
+    the file's bytes, gzip-compressed or not, separated by commas, semicolons or tabs (a
+    semicolon or tab table may write decimal commas), as the time-series import reads
+    them (:mod:`diagnostics.table_files`).
 
     Raises
     ------
     InputError
-        If the file is missing, empty or not a CSV table, or as :func:`bench_from_frame`.
+        If the file is missing, empty, not UTF-8 or not a CSV table (naming ``field``), or
+        as :func:`bench_from_frame`.
     """
-    p = Path(path)
-    if not p.is_file():
-        raise InputError(f"no such file: {p}", field="path")
-    text = p.read_text(encoding="utf-8")
+    if isinstance(source, str | Path):
+        p = Path(source)
+        if not p.is_file():
+            raise InputError(f"no such file: {p}", field=field)
+        try:
+            raw = p.read_bytes()
+        except OSError as exc:
+            raise InputError(f"cannot read {p}: {exc.strerror}", field=field) from None
+    else:
+        raw = bytes(source)
+    try:
+        text = gunzipped(raw, MAX_DECOMPRESSED_BYTES).decode("utf-8-sig")
+    except InputError as exc:
+        raise InputError(exc.message, field=field) from None
+    except UnicodeDecodeError:
+        raise InputError("the file is not UTF-8 text", field=field) from None
     lines = text.splitlines()
     header: list[str] = []
     while lines and lines[0].lstrip().startswith("#"):
         header.append(lines.pop(0).lstrip()[1:].strip())
+    lines = [ln for ln in lines if ln.strip()]
     if not lines:
-        raise InputError("file has no table", field="path")
+        raise InputError("file has no table", field=field)
+    sep, decimal = dialect(lines[:6])
     try:
-        frame = pd.read_csv(io.StringIO("\n".join(lines)))
+        frame = pd.read_csv(io.StringIO("\n".join(lines)), sep=sep, decimal=decimal)
     except (pd.errors.ParserError, pd.errors.EmptyDataError) as exc:
-        raise InputError(f"not a readable CSV table: {exc}", field="path") from None
+        raise InputError(f"not a readable CSV table: {exc}", field=field) from None
+    if frame.empty:
+        raise InputError("the bench table has no rows", field=field)
     simulated = any("SIMULATED" in h for h in header)
     provenance = "\n".join(h for h in header if "SIMULATED" not in h)
     return bench_from_frame(frame, simulated=simulated, provenance=provenance)
+
+
+def is_bench_table(content: bytes) -> bool:
+    """Whether ``content`` (gzip-compressed or not) is a pump-bench CSV: ``p_out`` and ``q``
+    columns, no ``t`` column, in any of the separators :func:`read_bench_csv` reads."""
+    try:
+        text = gunzipped(content, MAX_DECOMPRESSED_BYTES).decode("utf-8-sig", errors="replace")
+    except InputError:
+        return False
+    lines = [ln for ln in text.splitlines()[:50] if ln.strip() and not ln.lstrip().startswith("#")]
+    if not lines:
+        return False
+    sep, _ = dialect(lines[:6])
+    names = {c.split("[")[0].strip().strip('"') for c in lines[0].split(sep)}
+    return {"p_out", "q"} <= names and "t" not in names

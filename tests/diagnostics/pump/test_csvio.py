@@ -104,3 +104,29 @@ def test_a_file_that_is_not_a_csv_table_is_an_input_error(tmp_path, text):
     path.write_text(text)
     with pytest.raises(InputError):
         read_bench_csv(path)
+
+
+def test_a_table_is_read_as_the_series_import_reads_it(grid_bench: BenchData,
+                                                       tmp_path: Path) -> None:
+    """Gzip-compressed, or a spreadsheet's export separated by semicolons with decimal
+    commas: the same points as the comma file (the bench reader took commas only and said
+    "'Pa]; p_out [Pa]; …' is not a unit")."""
+    import gzip
+
+    from diagnostics.pump import is_bench_table
+
+    path = tmp_path / "bench.csv"
+    write_bench_csv(grid_bench, path)
+    text = path.read_text()
+    header = [ln for ln in text.splitlines() if ln.startswith("#")]
+    body = [ln for ln in text.splitlines() if not ln.startswith("#")]
+    europe = "\n".join([*header, *(ln.replace(",", ";") if k == 0 else
+                                   ";".join(c.replace(".", ",") for c in ln.split(","))
+                                   for k, ln in enumerate(body))]) + "\n"
+    for content in (gzip.compress(text.encode()), europe.encode()):
+        assert is_bench_table(content)
+        back = read_bench_csv(content)
+        assert back.simulated
+        np.testing.assert_allclose(back.p_out, grid_bench.p_out, rtol=1e-12)
+        np.testing.assert_allclose(back.q, grid_bench.q, rtol=1e-12)
+    assert not is_bench_table(b"t [s],p_out [Pa],q [m^3/s]\n0,1,2\n")
