@@ -26,6 +26,7 @@ from rich.table import Table
 
 from app.cli_support import (
     console,
+    estimate_text,
     series_ids,
     steps,
     store_session,
@@ -48,7 +49,7 @@ _out = Console()
 def discover(
     data: Annotated[Path | None, typer.Argument(help="Measured cycles: CSV or Parquet in the "
                                                 "/simulate export format, each record with its "
-                                                "'load [N]' and 'oil_temperature [degC]' "
+                                                "'load \\[N]' and 'oil_temperature \\[degC]' "
                                                 "columns (or the export's header), or steady "
                                                 "points in the pump-bench CSV format.")] = None,
     rig_id: Annotated[int, typer.Option("--rig", min=1, max=MAX_ID,
@@ -140,17 +141,18 @@ def discover(
                       title=f"rig {rig_id}: new version {new_version}" if new_version
                       else f"rig {rig_id} (not stored)")
         for n in d.named:
-            table.add_row(n.name, f"{n.parameter} \\[{n.unit}]", f"{n.value:.4g}",
-                          f"{n.interval[0]:.3g} … {n.interval[1]:.3g}",
+            value, interval = estimate_text(n.value, *n.interval)
+            table.add_row(n.name, f"{n.parameter} \\[{n.unit}]", value, interval,
                           "yes" if n.plausible else "NO")
         _out.print(table)
     if d.base_drift is not None and d.base_drift.accepted:
         table = Table("parameter", "stored", "re-fitted", "change", "95 % interval",
                       title="base drift (reported, not stored)")
         for b in d.base_drift.parameters:
-            ci = f"{b.interval[0]:.3g} … {b.interval[1]:.3g}" if b.interval else "—"
-            table.add_row(f"{b.parameter} \\[{b.unit}]", f"{b.stored:.4g}", f"{b.value:.4g}",
-                          f"{100 * b.change:+.1f} %" + ("" if b.significant else " n.s."), ci)
+            value, ci = estimate_text(b.value, *b.interval) if b.interval else (
+                f"{b.value:.4g}", "—")
+            table.add_row(f"{b.parameter} \\[{b.unit}]", f"{b.stored:.4g}", value,
+                          f"{100 * b.change:+.3g} %" + ("" if b.significant else " n.s."), ci)
         for k in d.base_drift.kept:
             table.add_row(k, "", "kept as stored", "", "")
         _out.print(table)

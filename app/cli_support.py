@@ -26,9 +26,9 @@ from sim.errors import InputError
 if TYPE_CHECKING:
     from diagnostics.timeseries import ColumnEntry
 
-__all__ = ["ColumnMapOption", "SampleRateOption", "console", "load_document", "migrated_engine",
-           "reading_options", "series_ids", "settings_from_env", "steps", "store_session",
-           "unwrap_help", "validation_error", "writable"]
+__all__ = ["ColumnMapOption", "SampleRateOption", "console", "estimate_text", "load_document",
+           "migrated_engine", "reading_options", "series_ids", "settings_from_env", "steps",
+           "store_session", "unwrap_help", "validation_error", "writable"]
 
 console = Console(stderr=True)
 
@@ -110,6 +110,16 @@ def writable(path: Path, option: str) -> Path:
     if not os.access(folder, os.W_OK) or (path.exists() and not os.access(path, os.W_OK)):
         raise InputError(f"cannot write {path}: permission denied", field=option)
     return path
+
+
+def estimate_text(value: float, low: float, high: float) -> tuple[str, str]:
+    """An estimate and its interval as text with as many significant digits (4 to 10) as it
+    takes to tell the interval's ends apart: at a fixed 3 digits a tight interval read
+    "6e-05 … 6e-05" beside a value of 5.999e-05 that seemed to lie outside it."""
+    digits = 4
+    while digits < 10 and f"{low:.{digits}g}" == f"{high:.{digits}g}":
+        digits += 1
+    return f"{value:.{digits}g}", f"{low:.{digits}g} … {high:.{digits}g}"
 
 
 def series_ids(text: str, *, field: str = "--series") -> list[int]:

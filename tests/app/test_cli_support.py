@@ -3,7 +3,9 @@ their authors wrote them, ids bounded (app/cli_support.py)."""
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import pytest
 from typer.testing import CliRunner
@@ -77,3 +79,39 @@ def test_a_file_that_is_not_utf8_and_ids_beyond_the_store_are_refused(
         result = runner.invoke(cli, args)
         assert result.exit_code != 0, args
         assert not isinstance(result.exception, OverflowError), args
+
+
+def test_every_unit_written_in_a_help_text_is_shown(runner: CliRunner) -> None:
+    """Rich reads ``[degC]`` as markup and drops it (issue 12: units lost from the help);
+    every bracketed unit a command's help text holds must be in what ``--help`` prints."""
+    import re
+
+    from typer.main import get_command
+
+    def commands(cmd: Any, path: list[str]) -> Iterator[tuple[list[str], Any]]:
+        if hasattr(cmd, "commands"):  # a group (typer's own click, not click's classes)
+            for name, sub in cmd.commands.items():
+                yield from commands(sub, [*path, name])
+        else:
+            yield path, cmd
+
+    checked = 0
+    for path, cmd in commands(get_command(cli), []):
+        texts = [cmd.help or ""] + [getattr(p, "help", None) or "" for p in cmd.params]
+        units = {u for t in texts for u in re.findall(r"\[([^\[\]\s]{1,16})\]", t)}
+        if not units:
+            continue
+        shown = runner.invoke(cli, [*path, "--help"], terminal_width=240).stdout
+        flat = re.sub(r"[\s│]+", "", shown)
+        for unit in units:
+            assert f"[{unit}]" in flat, (path, unit)
+            checked += 1
+    assert checked > 20
+
+
+def test_an_estimate_is_shown_with_the_digits_its_interval_needs() -> None:
+    from app.cli_support import estimate_text
+
+    assert estimate_text(5.99925e-05, 5.9989e-05, 5.9996e-05) == (
+        "5.99925e-05", "5.9989e-05 … 5.9996e-05")  # was "6e-05 … 6e-05" beside 5.999e-05
+    assert estimate_text(0.5, 0.25, 0.75) == ("0.5", "0.25 … 0.75")
