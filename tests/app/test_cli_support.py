@@ -116,5 +116,5 @@ def test_an_estimate_is_shown_with_the_digits_its_interval_needs() -> None:
     assert estimate_text(5.99925e-05, 5.9989e-05, 5.9996e-05) == (
         "5.999e-05", "5.999e-05 … 6e-05")
     assert estimate_text(8.3025e-05, 8.30244e-05, 8.30269e-05) == (
-        "8.3025e-05", "8.3024e-05 … 8.3027e-05")
+        "8.302e-05", "8.302e-05 … 8.303e-05")
     assert estimate_text(0.5, 0.25, 0.75) == ("0.5", "0.25 … 0.75")
