@@ -31,6 +31,7 @@ __all__ = [
     "CalibrationPoint",
     "Diagnosis",
     "DiagnosisEstimate",
+    "DiagnosisRecord",
     "Job",
     "MeasuredSeries",
     "Measurement",
@@ -169,6 +170,10 @@ class Measurement(Base):
     diagnoses: Mapped[list[Diagnosis]] = relationship(
         back_populates="measurement", cascade="all, delete-orphan", passive_deletes=True
     )
+    #: every diagnosis made from this record: those kept with it and the joint ones it
+    #: took part in (:class:`DiagnosisRecord`)
+    diagnosed_in: Mapped[list[Diagnosis]] = relationship(
+        secondary="diagnosis_records", viewonly=True, order_by="Diagnosis.id")
 
 
 class MeasuredSeries(Base):
@@ -215,10 +220,27 @@ class Diagnosis(Base):
     created_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=utcnow)
 
     measurement: Mapped[Measurement] = relationship(back_populates="diagnoses")
+    #: every record the diagnosis was made from (a joint one has several; its result is
+    #: kept with one of them, :attr:`measurement`)
+    records: Mapped[list[Measurement]] = relationship(
+        secondary="diagnosis_records", order_by="Measurement.id")
     rig_version: Mapped[RigVersion] = relationship()
     estimates: Mapped[list[DiagnosisEstimate]] = relationship(
         back_populates="diagnosis", cascade="all, delete-orphan", passive_deletes=True
     )
+
+
+class DiagnosisRecord(Base):
+    """One record a diagnosis was made from (revision 0008): a joint diagnosis of a visit
+    at three loads is linked to each of its three records, not only to the one its result
+    is kept with, so that every record reads back the diagnoses it took part in."""
+
+    __tablename__ = "diagnosis_records"
+
+    diagnosis_id: Mapped[int] = mapped_column(
+        ForeignKey("diagnoses.id", ondelete="CASCADE"), primary_key=True)
+    measurement_id: Mapped[int] = mapped_column(
+        ForeignKey("measurements.id", ondelete="CASCADE"), primary_key=True, index=True)
 
 
 class DiagnosisEstimate(Base):

@@ -35,8 +35,8 @@ class StoredMeasurementPublic(PublicModel):
         "[m³/s], speeds [m/s], durations [s], temperature [°C], force [N]), its time "
         "filled in [-]", examples=[_RECORD_EXAMPLE])
     diagnosis_ids: list[int] = Field(
-        description="Stored diagnoses of this record; empty for a record of a joint batch "
-        "whose diagnosis is kept with another record [-]", examples=[[12]])
+        description="Stored diagnoses made from this record: its own and the joint ones it "
+        "took part in (kept with another record of the visit) [-]", examples=[[12]])
     created_at: AwareDatetime = Field(description="When it was stored [UTC]",
                                       examples=["2026-11-22T08:31:02Z"])
 
@@ -65,6 +65,10 @@ class StoredDiagnosisPublic(PublicModel):
     id: int = Field(description="Diagnosis identifier [-]", examples=[12])
     measurement_id: int = Field(description="Measurement the result is kept with [-]",
                                 examples=[31])
+    measurement_ids: list[int] = Field(
+        description="Every measurement the diagnosis was made from: one, or each record of "
+        "a joint diagnosis (joint diagnoses stored before revision 0008 name only the one "
+        "they are kept with) [-]", examples=[[31]])
     rig_id: int = Field(description="Rig identifier [-]", examples=[1])
     rig_version: int = Field(description="Version of the rig document used [-]",
                              examples=[1])

@@ -342,6 +342,7 @@ def add_outcomes(session: Session, request: DiagnoseRequest,
             else:
                 rows.append(add_measurement(session, rig_id=outcome.resolved.rig_id,
                                             measured_at=times[i], record=record))
+        diagnosis.records = rows  # a joint diagnosis is linked to each of its records
         session.flush()
         outcome.diagnosis_id = diagnosis.id
         outcome.measurement_ids = [row.id for row in rows]

@@ -20,7 +20,7 @@ from sqlalchemy.dialects.postgresql import JSONB
 from sqlalchemy.orm import Session
 
 from app.db.base import utcnow
-from app.db.models import Diagnosis, DiagnosisEstimate, Measurement
+from app.db.models import Diagnosis, DiagnosisEstimate, DiagnosisRecord, Measurement
 from app.services.diagnosis_answer import StoredRows
 
 __all__ = ["insert_rows"]
@@ -28,6 +28,7 @@ __all__ = ["insert_rows"]
 _MEASUREMENTS: Table = Measurement.__table__  # type: ignore[assignment]
 _DIAGNOSES: Table = Diagnosis.__table__  # type: ignore[assignment]
 _ESTIMATES: Table = DiagnosisEstimate.__table__  # type: ignore[assignment]
+_RECORDS: Table = DiagnosisRecord.__table__  # type: ignore[assignment]
 
 
 def _json(name: str, dialect: str) -> ColumnElement[Any]:
@@ -40,8 +41,8 @@ def _json(name: str, dialect: str) -> ColumnElement[Any]:
 
 
 @cache
-def _statements(dialect: str) -> tuple[Insert, Insert, Insert]:
-    """The three inserts for ``dialect``, built once: a statement built per row cost its
+def _statements(dialect: str) -> tuple[Insert, Insert, Insert, Insert]:
+    """The four inserts for ``dialect``, built once: a statement built per row cost its
     cache key's generation each time (issue 9)."""
     measurement = insert(_MEASUREMENTS).values(
         rig_id=bindparam("rig_id"), measured_at=bindparam("measured_at"),
@@ -50,7 +51,7 @@ def _statements(dialect: str) -> tuple[Insert, Insert, Insert]:
         measurement_id=bindparam("measurement_id"), rig_version_id=bindparam("rig_version_id"),
         component=bindparam("component"), probability=bindparam("probability"),
         result=_json("result", dialect), created_at=bindparam("created_at"))
-    return measurement, diagnosis, insert(_ESTIMATES)
+    return measurement, diagnosis, insert(_ESTIMATES), insert(_RECORDS)
 
 
 def insert_rows(session: Session, rows: Sequence[StoredRows]) -> list[tuple[int, list[int]]]:
@@ -74,7 +75,8 @@ def insert_rows(session: Session, rows: Sequence[StoredRows]) -> list[tuple[int,
         A constraint refused a row (a rig or version deleted meanwhile).
     """
     connection = session.connection()  # Core statements on the session's transaction
-    add_measurement, add_diagnosis, add_estimates = _statements(connection.dialect.name)
+    add_measurement, add_diagnosis, add_estimates, add_records = _statements(
+        connection.dialect.name)
     now = utcnow()
     ids: list[tuple[int, list[int]]] = []
     for item in rows:
@@ -90,6 +92,8 @@ def insert_rows(session: Session, rows: Sequence[StoredRows]) -> list[tuple[int,
             "probability": item.probability, "result": item.result.decode(),
             "created_at": now,
         }).inserted_primary_key[0])  # type: ignore[index]
+        connection.execute(add_records, [  # every record the diagnosis was made from
+            {"diagnosis_id": diagnosis_id, "measurement_id": m} for m in measurement_ids])
         if item.estimates:
             connection.execute(add_estimates, [
                 {"diagnosis_id": diagnosis_id, "component": component,

@@ -107,6 +107,7 @@ def add_diagnosis(
                                   record=record)
     diagnosis = Diagnosis(
         measurement=measurement,
+        records=[measurement],
         rig_version_id=rig_version_id,
         component=component,
         probability=probability,

@@ -33,7 +33,8 @@ def list_measurements(session: Session, *, limit: int, offset: int, rig_id: int 
                       ) -> tuple[list[Measurement], int]:
     """Return a page of stored records, newest measurement first, and their total."""
     _window(since, until)
-    statement = select(Measurement).options(selectinload(Measurement.diagnoses))
+    statement = select(Measurement).options(
+        selectinload(Measurement.diagnosed_in).load_only(Diagnosis.id))
     if rig_id is not None:
         statement = statement.where(Measurement.rig_id == rig_id)
     if since is not None:
@@ -59,6 +60,7 @@ def list_diagnoses(session: Session, *, limit: int, offset: int, rig_id: int | N
     statement = (select(Diagnosis).join(Diagnosis.measurement)
                  .options(selectinload(Diagnosis.estimates),
                           selectinload(Diagnosis.measurement),
+                          selectinload(Diagnosis.records).load_only(Measurement.id),
                           selectinload(Diagnosis.rig_version).load_only(RigVersion.version)))
     if rig_id is not None:
         statement = statement.where(Measurement.rig_id == rig_id)

@@ -63,8 +63,14 @@ def test_lists_filter_by_rig_and_time_newest_first(server: LiveServer,
     assert server.client.get("/diagnoses", params={"rig_id": 999}).json()["total"] == 0
     april = server.client.get("/measurements", params={"since": "2026-04-01T00:00:00Z"}).json()
     assert april["total"] == 2  # both records of the joint batch are stored
-    assert sorted(len(m["diagnosis_ids"]) for m in april["items"]) == [0, 1]
-    assert stored["joint"]["id"] in {i for m in april["items"] for i in m["diagnosis_ids"]}
+    # each record of the joint batch reads back the diagnosis it took part in (the one the
+    # result is not kept with read none before revision 0008)
+    assert [m["diagnosis_ids"] for m in april["items"]] == [[stored["joint"]["id"]]] * 2
+    joint = server.client.get(f"/diagnoses/{stored['joint']['id']}").json()
+    assert joint["measurement_ids"] == sorted(stored["joint"]["measurement_ids"])
+    assert joint["measurement_id"] in joint["measurement_ids"]
+    single = server.client.get(f"/diagnoses/{stored['single'][0][1]['id']}").json()
+    assert single["measurement_ids"] == [single["measurement_id"]]
 
 
 def test_read_back_errors(server: LiveServer, stored: dict[str, Any]) -> None:

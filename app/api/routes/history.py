@@ -38,12 +38,13 @@ Until = Annotated[IsoDatetime | None, Query(
 def _measurement(row: Measurement) -> StoredMeasurementPublic:
     return StoredMeasurementPublic(
         id=row.id, rig_id=row.rig_id, measured_at=row.measured_at, record=row.record,
-        diagnosis_ids=sorted(d.id for d in row.diagnoses), created_at=row.created_at)
+        diagnosis_ids=sorted(d.id for d in row.diagnosed_in), created_at=row.created_at)
 
 
 def _diagnosis(row: Diagnosis) -> StoredDiagnosisPublic:
     return StoredDiagnosisPublic(
-        id=row.id, measurement_id=row.measurement_id, rig_id=row.measurement.rig_id,
+        id=row.id, measurement_id=row.measurement_id,
+        measurement_ids=sorted(m.id for m in row.records), rig_id=row.measurement.rig_id,
         rig_version=row.rig_version.version, measured_at=row.measurement.measured_at,
         component=row.component, probability=row.probability,
         estimates=[StoredEstimatePublic.model_validate(e) for e in row.estimates],
