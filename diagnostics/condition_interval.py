@@ -52,6 +52,7 @@ import numpy.typing as npt
 
 from diagnostics.hypotheses import PARAMETERS, FaultParameter
 from diagnostics.record_model import condition_moves
+from sim.errors import ParameterError
 
 if TYPE_CHECKING:
     from diagnostics.ranking import HypothesisFit, ParameterEstimate, Ranker
@@ -189,7 +190,10 @@ def _condition_terms(m: RecordModel, points: Sequence[Point], y0: Arr) -> list[A
         sens = np.full_like(y0, np.nan)
         # the other side only where the first has no point (nothing to solve: no call)
         for cond, step in moved if points else ():
-            y = m.maps.observables_at_points(points, cond)[:, m.idx]
+            try:
+                y = m.maps.observables_at_points(points, cond)[:, m.idx]
+            except ParameterError:  # past the circuit's range of conditions: the other side
+                continue
             sens = np.where(np.isnan(sens), (y - y0) / step, sens)
             if not np.isnan(sens).any():
                 break

@@ -33,7 +33,7 @@ from diagnostics.evidence import whitening
 from diagnostics.fastpath.maps import FastMaps, fast_maps, nominal_observables
 from diagnostics.observations import RecordObservations, condition_sigma
 from diagnostics.signatures import OBSERVABLES, SignatureMaps, evaluator, signature_maps
-from sim.errors import MeasurementError, SimulationError
+from sim.errors import MeasurementError, ParameterError, SimulationError
 from sim.rigs import Condition, Rig
 
 __all__ = ["RecordModel", "condition_moves", "condition_terms"]
@@ -72,14 +72,15 @@ def condition_terms(pred: Arr, moves: list[tuple[float, list[tuple[Condition, fl
     """The correlated terms ``s_k·u_k`` of the module docstring: for each of ``moves``
     (:func:`condition_moves`), the sensitivity of the readings ``pred`` by a one-sided
     difference of ``readings_at`` (the other side where the first has no steady point,
-    :class:`~sim.errors.SimulationError`; 0 where neither), times the uncertainty."""
+    :class:`~sim.errors.SimulationError`, or lies past the circuit's range of conditions,
+    :class:`~sim.errors.ParameterError`; 0 where neither), times the uncertainty."""
     terms = []
     for u, moved in moves:
         sens = np.zeros_like(pred)
         for cond, step in moved:
             try:
                 moved_pred = readings_at(cond)
-            except SimulationError:
+            except (SimulationError, ParameterError):  # no steady point, or past a bound
                 continue
             with np.errstate(over="ignore", invalid="ignore"):
                 d = (moved_pred - pred) / step

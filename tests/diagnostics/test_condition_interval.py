@@ -99,3 +99,23 @@ def test_intervals_cover_worn_seals_read_as_a_rig_reads_them(rig):
                       if f.name == "cylinder").parameters
         held += est.low <= cc <= est.high
     assert held >= 26
+
+
+def test_a_condition_at_the_circuits_bound_is_diagnosed_and_one_past_it_named(rig):
+    """At 150 °C (the circuit's upper bound) the temperature's sensitivity is taken 1 K
+    down, not up past the bound (refused as "≤ 150 degC, got 151", a number the record
+    never stated); a load past the circuit's bound is refused naming the record's
+    ``condition.load_force`` (was the circuit's ``condition.force``)."""
+    from sim.errors import MeasurementError
+    from tests.diagnostics.synth import record
+
+    hot = record(rig, {"valve.cv": 60e-6}, temperature=150.0)
+    assert hot.condition.oil_temperature.u > 0
+    assert diagnose(rig, [hot]).top.name == "valve"
+    heavy = record(rig, {}, values=readings(rig, {}, 2100.0, 40.0))
+    cond = OperatingCondition.from_readings({"oil_temperature": 40.0, "load_force": 2e6})
+    with pytest.raises(MeasurementError) as err:
+        diagnose(rig, [MeasurementRecord.from_readings("r", cond, {
+            k: getattr(heavy, k) for k in ("p1", "p2")})])
+    assert err.value.field == "condition.load_force"
+    assert "2e+06" in err.value.message
