@@ -12,12 +12,16 @@
 * ``discrepancy`` — ``POST /discrepancy``: the discrepancy workflow as a job;
 * ``jobs`` — status, progress and results of long work;
 * ``history`` — stored measurements and diagnoses read back.
+
+Every operation but those of ``ops`` refuses a query parameter it does not read
+(:mod:`app.api.query_check`).
 """
 
 from __future__ import annotations
 
-from fastapi import APIRouter
+from fastapi import APIRouter, Depends
 
+from app.api.query_check import known_query
 from app.api.routes import (
     calibrations,
     commission,
@@ -37,6 +41,7 @@ from app.api.routes import (
 __all__ = ["api_router"]
 
 api_router = APIRouter()
-for _module in (ops, rigs, commission, calibrations, trends, pumps, series, diagnose, simulate,
+api_router.include_router(ops.router)  # no parameters, and /health must cost nothing
+for _module in (rigs, commission, calibrations, trends, pumps, series, diagnose, simulate,
                 scenarios, discrepancy, jobs, history):
-    api_router.include_router(_module.router)
+    api_router.include_router(_module.router, dependencies=[Depends(known_query)])

@@ -272,3 +272,23 @@ def test_malformed_json_names_the_body_and_the_position(server: LiveServer) -> N
     assert response.status_code == 422
     error = response.json()["error"]
     assert error["field"] == "body" and "at character 9" in error["message"]
+
+
+@pytest.mark.parametrize(("path", "params", "field", "hint"), [
+    ("/diagnoses", {"rigid": "1"}, "rigid", "rig_id"),  # answered the unfiltered list
+    ("/rigs/1/trends", {"componnet": "valve"}, "componnet", "component"),
+    ("/series/1/record", {"oil_temprature": "40"}, "oil_temprature", "oil_temperature"),
+    ("/rigs", {"limit": "5", "ofset": "1"}, "ofset", "offset"),
+])
+def test_an_unknown_query_parameter_is_refused_naming_the_close_one(
+        server: LiveServer, path: str, params: dict[str, str], field: str, hint: str) -> None:
+    response = server.client.get(path, params=params)
+    assert response.status_code == 422, response.text
+    error = response.json()["error"]
+    assert error["field"] == field and f"did you mean {hint!r}" in error["message"]
+
+
+def test_known_query_parameters_and_health_pass(server: LiveServer) -> None:
+    assert server.client.get("/rigs", params={"limit": 5, "offset": 0}).status_code == 200
+    assert server.client.get("/diagnoses", params={"rig_id": 1}).status_code == 200
+    assert server.anon.get("/health", params={"probe": "1"}).status_code == 200

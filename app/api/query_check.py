@@ -1,0 +1,72 @@
+"""Unknown query parameters are refused, as unknown body fields are.
+
+``GET /diagnoses?rigid=1`` (a typo of ``rig_id``) answered the unfiltered list; a client
+could not tell a filter it misspelt from one that matched everything.  :func:`known_query`
+runs before every operation of the API (not ``/health`` and the other operations of
+``ops``, which take no parameters and must cost nothing) and answers 422 naming the
+parameter, with the close known name.
+"""
+
+from __future__ import annotations
+
+import difflib
+from typing import Any
+
+from fastapi import Request
+from fastapi.dependencies.models import Dependant
+from pydantic import BaseModel
+
+from sim.errors import InputError
+
+__all__ = ["known_query", "query_names"]
+
+#: the query parameter names of each route, by the route's id
+_NAMES: dict[int, frozenset[str]] = {}
+
+
+def _model(annotation: Any) -> type[BaseModel] | None:
+    return annotation if isinstance(annotation, type) and issubclass(annotation, BaseModel) \
+        else None
+
+
+def query_names(dependant: Dependant) -> frozenset[str]:
+    """The names of the query parameters ``dependant`` and its dependencies read (the
+    fields of a query model, ``Annotated[Model, Query()]``, one by one)."""
+    names: set[str] = set()
+    stack = [dependant]
+    while stack:
+        current = stack.pop()
+        for param in current.query_params:
+            model = _model(param.field_info.annotation)
+            if model is None:
+                names.add(param.alias)
+            else:
+                names.update(f.alias or name for name, f in model.model_fields.items())
+        stack.extend(current.dependencies)
+    return frozenset(names)
+
+
+async def known_query(request: Request) -> None:
+    """Refuse a query parameter the operation does not read (422 naming it).
+
+    Raises
+    ------
+    InputError
+        ``field`` is the parameter's name.
+    """
+    if not request.query_params:
+        return
+    route = request.scope.get("route")
+    dependant = getattr(route, "dependant", None)
+    if dependant is None:
+        return
+    names = _NAMES.get(id(route))
+    if names is None:
+        names = _NAMES[id(route)] = query_names(dependant)
+    for key in request.query_params:
+        if key not in names:
+            close = difflib.get_close_matches(key, sorted(names), n=1)
+            known = ", ".join(sorted(names)) or "none"
+            hint = f"; did you mean {close[0]!r}?" if close else ""
+            raise InputError(f"unknown query parameter {key!r} (known: {known}){hint}",
+                             field=key)
