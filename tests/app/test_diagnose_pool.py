@@ -65,11 +65,12 @@ def test_compact_leaves_out_the_predictions_and_the_store_keeps_them(
 def test_an_error_raised_in_the_worker_names_its_field_and_stores_nothing(
         server: LiveServer) -> None:
     good = simulated_record(server, WORN_VALVE)
-    stalled = good | {"condition": {"oil_temperature": 40.0, "load_force": 1.0e6}}
+    # a load past the circuit's range: found by the diagnosis, in the worker
+    stalled = good | {"condition": {"oil_temperature": 40.0, "load_force": 1.5e6}}
     before = server.row_counts()
     response = server.client.post("/diagnose", json={"records": [good, stalled]})
     assert response.status_code == 422, response.text
-    assert response.json()["error"]["field"] == "records[1].condition.force"
+    assert response.json()["error"]["field"] == "records[1].condition.load_force"
     assert server.row_counts() == before
 
 

@@ -142,10 +142,10 @@ def test_the_form_diagnoses_in_the_diagnosis_processes_and_the_group_commit(
             2026, 3, 11, 8, tzinfo=UTC)
     # an error computed in the worker comes back as the form with the field, nothing stored
     before = console_server.row_counts()
-    stalled = record | {"condition": {"oil_temperature": 40.0, "load_force": 1.0e6}}
+    stalled = record | {"condition": {"oil_temperature": 40.0, "load_force": 1.5e6}}
     refused = browser_client.post("/console/diagnose", data={"document": json.dumps(stalled)})
     assert refused.status_code == 422
-    assert "condition.force" in refused.text
+    assert "condition.load_force" in refused.text
     assert console_server.row_counts() == before
 
 
