@@ -20,6 +20,7 @@ from app.console.web import page, redirect
 from app.db.base import utcnow
 from app.errors import ServiceUnavailableError, format_location, status_for
 from app.limits import check_file
+from app.schemas.common import MAX_ID
 from app.schemas.diagnose import DiagnoseRequest
 from app.schemas.record_csv import record_rows
 from app.security import Scope
@@ -100,7 +101,7 @@ def _form(request: Request, session: Any, *, status_code: int = 200, text: str =
 
 @router.get("/diagnose")
 def diagnose_form(request: Request, session: SessionDep, rigs: RigsDep, _key: ConsoleKeyDep,
-                  series: Annotated[int | None, Query(ge=1)] = None) -> Response:
+                  series: Annotated[int | None, Query(ge=1, le=MAX_ID)] = None) -> Response:
     """The form: paste a record (JSON or YAML) or upload a CSV of records; with ``series``,
     filled with that stored cycle's record (``GET /series/{id}/record``)."""
     if series is None:
@@ -165,7 +166,7 @@ async def diagnose(request: Request, session: SessionDep, _key: ConsoleKeyDep,
 
 @router.get("/diagnoses/{diagnosis_id}")
 def diagnosis(request: Request, session: SessionDep, _key: ConsoleKeyDep,
-              diagnosis_id: Annotated[int, Path(ge=1)]) -> Response:
+              diagnosis_id: Annotated[int, Path(ge=1, le=MAX_ID)]) -> Response:
     """One stored diagnosis: probabilities, readings, estimates, what cannot be separated."""
     return page(request, "diagnosis.html", view=diagnosis_view(session, diagnosis_id))
 
@@ -202,7 +203,7 @@ def history(request: Request, session: SessionDep, _key: ConsoleKeyDep,
             rig: Annotated[str, Query(max_length=20)] = "",
             since: Annotated[str, Query(max_length=64)] = "",
             until: Annotated[str, Query(max_length=64)] = "",
-            page_number: Annotated[int, Query(alias="page", ge=1)] = 1) -> Response:
+            page_number: Annotated[int, Query(alias="page", ge=1, le=MAX_ID)] = 1) -> Response:
     """Every stored diagnosis, newest first, filtered by rig and time (blank: any), paginated."""
     rig_id, start, end = _rig(rig), _time(since, "since"), _time(until, "until")
     found = history_page(session, rig_id=rig_id, since=start, until=end, page=page_number)
@@ -214,7 +215,7 @@ def history(request: Request, session: SessionDep, _key: ConsoleKeyDep,
 
 @router.get("/trends")
 def trends(request: Request, session: SessionDep, rigs: RigsDep, _key: ConsoleKeyDep,
-           rig: Annotated[int, Query(ge=1)] = 1,
+           rig: Annotated[int, Query(ge=1, le=MAX_ID)] = 1,
            since: Annotated[str, Query(max_length=64)] = "",
            until: Annotated[str, Query(max_length=64)] = "") -> Response:
     """Per component: estimates over time, Theil–Sen line and band, threshold, time left."""

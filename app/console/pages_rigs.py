@@ -16,6 +16,7 @@ from app.console.charts import calibration_chart, surface_chart
 from app.console.pump_charts import pump_check_charts
 from app.console.routing import ConsoleKeyDep, new_router
 from app.console.web import COOKIE, SECURITY_HEADERS, issue_cookie, page, redirect
+from app.schemas.common import MAX_ID
 from app.services import calibrations as calibration_service
 from app.services import pumps as pump_service
 from app.services import rigs as rig_service
@@ -129,7 +130,7 @@ def _dot_svg(dot: str) -> str | None:
 
 @router.get("/rigs/{rig_id}")
 def rig(request: Request, session: SessionDep, _key: ConsoleKeyDep,
-        rig_id: Annotated[int, Path(ge=1)]) -> Response:
+        rig_id: Annotated[int, Path(ge=1, le=MAX_ID)]) -> Response:
     """One rig: parameters, versions, throttle tables with their curves, bond graph."""
     row = rig_service.get_rig(session, rig_id)
     version = rig_service.latest_version(session, row)
@@ -147,7 +148,7 @@ def rig(request: Request, session: SessionDep, _key: ConsoleKeyDep,
 
 @router.get("/pumps")
 def pumps(request: Request, session: SessionDep, _key: ConsoleKeyDep,
-          set_id: Annotated[int | None, Query(ge=1)] = None) -> Response:
+          set_id: Annotated[int | None, Query(ge=1, le=MAX_ID)] = None) -> Response:
     """Pump sets; the chosen one with its quantities, measured vs model from its checked
     points, and its fitted loss surfaces."""
     rows, total = pump_service.list_pump_sets(session, limit=500, offset=0)

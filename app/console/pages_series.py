@@ -26,6 +26,7 @@ from app.console.charts import series_charts
 from app.console.routing import ConsoleKeyDep, new_router
 from app.console.web import SECURITY_HEADERS, page, redirect
 from app.errors import format_location
+from app.schemas.common import MAX_ID
 from app.schemas.discrepancy import DiscrepancyForm
 from app.schemas.series import SeriesImportForm
 from app.security import Scope
@@ -62,7 +63,7 @@ def _list(request: Request, session: Any, rig: int | None, offset: int,
 
 @router.get("/series")
 def series_list(request: Request, session: SessionDep, _key: ConsoleKeyDep,
-                rig: Annotated[int | None, Query(ge=1)] = None,
+                rig: Annotated[int | None, Query(ge=1, le=MAX_ID)] = None,
                 offset: Annotated[int, Query(ge=0)] = 0) -> Response:
     """The rig's stored records (a page of them), the form that checks the ticked ones, and
     the rig's recent checks."""
@@ -71,7 +72,7 @@ def series_list(request: Request, session: SessionDep, _key: ConsoleKeyDep,
 
 @router.get("/series/{series_id}")
 def series_one(request: Request, session: SessionDep, rigs: RigsDep, _key: ConsoleKeyDep,
-               series_id: Annotated[int, Path(ge=1)]) -> Response:
+               series_id: Annotated[int, Path(ge=1, le=MAX_ID)]) -> Response:
     """One stored record: what it is, its channels against time, and a cycle's readings
     as a record (``GET /series/{id}/record``) with a link that diagnoses them, or why it
     cannot be read as one."""
@@ -89,7 +90,7 @@ def series_one(request: Request, session: SessionDep, rigs: RigsDep, _key: Conso
 
 @router.post("/series/check")
 async def check(request: Request, session: SessionDep, rigs: RigsDep, _key: ConsoleKeyDep,
-                rig: Annotated[int, Form(ge=1)],
+                rig: Annotated[int, Form(ge=1, le=MAX_ID)],
                 series: Annotated[list[int] | None, Form()] = None,
                 store: Annotated[bool, Form()] = False) -> Response:
     """Start the discrepancy workflow on the ticked records; go to the job's page."""
@@ -130,7 +131,7 @@ def _import_name(name: str, filename: str | None) -> str:
 
 @router.post("/series/import")
 async def import_file(request: Request, session: SessionDep, _key: ConsoleKeyDep,
-                      rig: Annotated[int, Form(ge=1)],
+                      rig: Annotated[int, Form(ge=1, le=MAX_ID)],
                       name: Annotated[str, Form(max_length=200)] = "",
                       column_map: Annotated[str, Form(max_length=20000)] = "",
                       sample_rate: Annotated[str, Form(max_length=40)] = "",

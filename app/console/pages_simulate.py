@@ -17,6 +17,7 @@ from app.console.charts import simulation_charts
 from app.console.routing import ConsoleKeyDep, new_router
 from app.console.web import SECURITY_HEADERS, page
 from app.errors import format_location
+from app.schemas.common import MAX_ID
 from app.schemas.simulate import SimulateRequest
 from app.services import rigs as rig_service
 from app.services.simulation import simulate, summary_of, timeseries_csv, timeseries_parquet
@@ -52,7 +53,7 @@ def _request(rig: int, fault: str, load: str, oil_temperature: str, back_pressur
 
 @router.get("/simulate")
 def simulate_page(request: Request, session: SessionDep, rigs: RigsDep, _key: ConsoleKeyDep,
-                  rig: Annotated[int, Query(ge=1)] = 1,
+                  rig: Annotated[int, Query(ge=1, le=MAX_ID)] = 1,
                   fault: Annotated[str, Query(max_length=40)] = "",
                   load: Annotated[str, Query(max_length=40)] = "",
                   oil_temperature: Annotated[str, Query(max_length=40)] = "",
@@ -86,7 +87,7 @@ def simulate_page(request: Request, session: SessionDep, rigs: RigsDep, _key: Co
 @router.get("/simulate/download")
 def download(session: SessionDep, rigs: RigsDep, _key: ConsoleKeyDep,
              format: Annotated[Literal["csv", "parquet"], Query()],
-             rig: Annotated[int, Query(ge=1)] = 1,
+             rig: Annotated[int, Query(ge=1, le=MAX_ID)] = 1,
              fault: Annotated[str, Query(max_length=40)] = "",
              load: Annotated[str, Query(max_length=40)] = "",
              oil_temperature: Annotated[str, Query(max_length=40)] = "",

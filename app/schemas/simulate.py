@@ -8,7 +8,7 @@ from typing import Any, ClassVar, Literal
 
 from pydantic import BaseModel, Field, PositiveFloat, field_validator
 
-from app.schemas.common import FiniteFloat, RequestModel
+from app.schemas.common import MAX_ID, FiniteFloat, RequestModel
 from sim.rigs.assembly import MAX_PUMP_SPEED
 from sim.scenarios import FAULTS
 
@@ -24,7 +24,7 @@ __all__ = [
 #: How the time series of a transient run comes back.
 TimeseriesFormat = Literal["json", "csv", "parquet"]
 
-_rig_id = partial(Field, ge=1, description="Rig identifier [-]", examples=[1])
+_rig_id = partial(Field, ge=1, le=MAX_ID, description="Rig identifier [-]", examples=[1])
 _rig_version = partial(
     Field, ge=1, description="Version of the rig document; the latest when null [-]",
     examples=[None],

@@ -292,3 +292,13 @@ def test_known_query_parameters_and_health_pass(server: LiveServer) -> None:
     assert server.client.get("/rigs", params={"limit": 5, "offset": 0}).status_code == 200
     assert server.client.get("/diagnoses", params={"rig_id": 1}).status_code == 200
     assert server.anon.get("/health", params={"probe": "1"}).status_code == 200
+
+
+@pytest.mark.parametrize("path", ["/series/99999999999999999999", "/rigs/99999999999999999999/series",
+                                  "/series/2147483648/record"])
+def test_every_id_in_a_path_is_bounded(server: LiveServer, path: str) -> None:
+    """As every other route: a 422 naming the id, not the SQLite driver's "Python int too
+    large to convert" with no field."""
+    response = server.client.get(path)
+    assert response.status_code == 422, response.text
+    assert response.json()["error"]["field"] in ("series_id", "rig_id")

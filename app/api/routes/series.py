@@ -7,7 +7,7 @@ from typing import Annotated
 from fastapi import APIRouter, File, Form, Path, Query, Response, UploadFile, status
 
 from app.api.deps import AdminKeyDep, PageDep, ReadAccess, RigsDep, SessionDep, WriteKeyDep
-from app.schemas.common import ERROR_RESPONSES
+from app.schemas.common import ERROR_RESPONSES, MAX_ID
 from app.schemas.series import (
     CYCLE_EXAMPLE,
     CycleQuery,
@@ -26,8 +26,9 @@ __all__ = ["router"]
 router = APIRouter(tags=["measured series"], dependencies=[ReadAccess],
                    responses=ERROR_RESPONSES)
 
-RigId = Annotated[int, Path(ge=1, description="Rig identifier [-]", examples=[1])]
-SeriesId = Annotated[int, Path(ge=1, description="Series identifier [-]", examples=[1])]
+RigId = Annotated[int, Path(ge=1, le=MAX_ID, description="Rig identifier [-]", examples=[1])]
+SeriesId = Annotated[int, Path(ge=1, le=MAX_ID, description="Series identifier [-]",
+                                     examples=[1])]
 
 
 @router.post("/rigs/{rig_id}/series", status_code=status.HTTP_201_CREATED,
