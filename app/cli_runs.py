@@ -141,6 +141,8 @@ def simulate(
         for name, err in (public.solver.error_sigma or {}).items():
             table.add_row(escape(f"error estimate {name} [σ]"), f"{err:.3g}")
     _out.print(table)
+    for note in public.notes:
+        console.print(f"[yellow]note:[/yellow] {escape(note)}")
 
 
 def _diagnose_body(document: Any, *, joint: bool, store: bool) -> dict[str, Any]:

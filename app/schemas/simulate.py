@@ -208,3 +208,7 @@ class SimulationPublic(BaseModel):
         default=None, description="The time series when asked for as 'json' [-]",
         examples=[None],
     )
+    notes: list[str] = Field(
+        default_factory=list, description="What the result holds that the model does not: "
+        "a gauge pressure below vacuum (the model has no cavitation), by output [-]",
+        examples=[[]])

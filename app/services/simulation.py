@@ -25,6 +25,7 @@ from sqlalchemy.orm import Session
 from app.schemas.simulate import ConditionSpec, SimulateRequest, SimulationPublic
 from app.services.rig_cache import ResolvedRig, RigCache
 from app.settings import Settings
+from diagnostics.measurement import MIN_GAUGE_PRESSURE
 from diagnostics.table_files import PARQUET_METADATA_KEY  # the import reads it back
 from diagnostics.timeseries import CONDITION_CHANNELS
 from sim.cycle import CycleResult, run_cycle
@@ -40,6 +41,7 @@ __all__ = [
     "SimulationOutcome",
     "condition_of",
     "limits_of",
+    "physics_notes",
     "public_of",
     "run_scenario",
     "simulate",
@@ -74,6 +76,7 @@ class SimulationOutcome:
             "rig": self.resolved.name, "fault": self.fault, "overrides": self.overrides,
             "condition": condition_dict(self.condition), "method": self.method,
             "summary": summary_of(self.result), "solver": _solver_public(self.result),
+            "notes": physics_notes(self.result),
         }
 
 
@@ -94,6 +97,29 @@ def condition_dict(condition: Condition) -> dict[str, float | None]:
     pump_speed [rad/s]."""
     return {"load": condition.load, "back_pressure": condition.back_pressure,
             "oil_temperature": condition.oil_temperature, "pump_speed": condition.pump_speed}
+
+
+def physics_notes(result: CycleResult) -> list[str]:
+    """What the result holds that the model does not: a gauge pressure below vacuum
+    (:data:`~diagnostics.measurement.MIN_GAUGE_PRESSURE`, −1 bar), in a phase average or
+    anywhere in the time series.  The bond-graph model has no cavitation (the oil's
+    pressure may fall without bound), so an overrunning load, or the switch-over of a
+    transient, can drive a chamber to pressures oil cannot hold; the numbers there are
+    reported, not physical."""
+    lows: dict[str, float] = {}
+    for key, value in result.summary().items():
+        if key.endswith("[Pa]") and math.isfinite(value) and value < MIN_GAUGE_PRESSURE:
+            lows[key] = value
+    frame = result.timeseries
+    if frame is not None:
+        for column in frame.columns:
+            if str(column).endswith("[Pa]"):
+                low = float(frame[column].min())
+                if math.isfinite(low) and low < MIN_GAUGE_PRESSURE:
+                    lows[str(column)] = low
+    return [f"{name} reaches {value / 1e5:.4g} bar gauge, below vacuum (-1 bar): the model "
+            "has no cavitation, so the oil's pressure there is not physical"
+            for name, value in lows.items()]
 
 
 def summary_of(result: CycleResult) -> dict[str, float | None]:
@@ -256,4 +282,5 @@ def public_of(outcome: SimulationOutcome, *, table: bool = False) -> SimulationP
         "steps": dict(result.steps),
         "solver": _solver_public(result),
         "timeseries": timeseries_table(outcome) if table else None,
+        "notes": physics_notes(result),
     })

@@ -129,3 +129,19 @@ def test_unknown_rig_or_version_is_404(server: LiveServer) -> None:
     assert unknown.status_code == 404 and unknown.json()["error"]["field"] == "rig_id"
     version = server.client.post("/simulate", json=WORN_VALVE | {"rig_version": 9})
     assert version.status_code == 404 and version.json()["error"]["field"] == "rig_version"
+
+
+def test_pressures_below_vacuum_are_named_as_beyond_the_model(server: LiveServer) -> None:
+    """An overrunning load pulls chamber 1 below vacuum; the model has no cavitation, so
+    the answer says which pressures fall below -1 bar instead of presenting -92 bar as a
+    result.  A resisting load gives no note."""
+    pulled = server.client.post("/simulate", json={
+        "rig_id": 1, "fault": "healthy", "method": "steady", "condition": {"load": -20000}})
+    assert pulled.status_code == 200, pulled.text
+    body = pulled.json()
+    assert body["summary"]["working.P1 [Pa]"] < -1e5
+    assert any(n.startswith("working.P1 [Pa] reaches") and "no cavitation" in n
+               for n in body["notes"])
+    resisting = server.client.post("/simulate", json={
+        "rig_id": 1, "fault": "healthy", "method": "steady", "condition": {"load": 2100}})
+    assert resisting.json()["notes"] == []
