@@ -39,7 +39,13 @@ import_cli = typer.Typer(help="Import measured time series as measurements of a 
                          no_args_is_help=True)
 
 RigOption = Annotated[int, typer.Option("--rig", min=1, max=MAX_ID, help="Rig id in the store.")]
-NameOption = Annotated[str, typer.Option(help="Name of the import (file or campaign).")]
+NameOption = Annotated[str, typer.Option(help="Name of the import (file or campaign): 1 to 200 "
+                                                  "letters, digits and _ . : -.")]
+
+
+def _shown(name: str) -> str:
+    """A file name as a terminal can print it: a byte that is not UTF-8 shown as '?'."""
+    return name.encode("utf-8", errors="replace").decode("utf-8")
 
 
 def _summary(rows: list[object], title: str) -> None:
@@ -98,7 +104,7 @@ def import_series(
         task = progress.add_task("reading", total=len(files))
         records = []
         for k, file in enumerate(files):
-            progress.update(task, description=f"reading {file.name}", completed=k)
+            progress.update(task, description=f"reading {_shown(file.name)}", completed=k)
             try:
                 own = start if time_in_name is None else time_in_name_of(
                     file.name.removesuffix(".gz"), time_in_name, zone, field="--time-in-name",
@@ -112,7 +118,7 @@ def import_series(
                         total=len(records), completed=0)
         rows = store_records(session, rig_id, name, records,
                              lambda done, total: progress.update(task, completed=done))
-    what = files[0].name if len(files) == 1 else f"{len(files)} files"
+    what = _shown(files[0].name) if len(files) == 1 else f"{len(files)} files"
     _summary(list(rows), f"{len(rows)} records of {what} stored for rig {rig_id}")
 
 

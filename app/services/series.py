@@ -11,6 +11,7 @@ refused whole: nothing is stored.
 from __future__ import annotations
 
 import json
+import re
 from collections.abc import Callable, Sequence
 from datetime import datetime, timedelta
 
@@ -27,6 +28,7 @@ from diagnostics.timeseries import ColumnEntry, SeriesRecord, column_entry, read
 from sim.errors import InputError
 
 __all__ = [
+    "IMPORT_NAME",
     "MAX_SERIES_BYTES",
     "as_record",
     "check_source",
@@ -40,6 +42,8 @@ __all__ = [
     "upload_start",
 ]
 
+#: What an import's name may be (the upload form's pattern, and the CLI's ``--name``).
+IMPORT_NAME = re.compile(r"[A-Za-z0-9_.:-]{1,200}")
 #: Largest time-series file accepted [byte].
 MAX_SERIES_BYTES = 20 * 1024 * 1024
 
@@ -87,13 +91,18 @@ def store_records(session: Session, rig_id: int, name: str, records: Sequence[Se
         No records.
     """
     get_rig(session, rig_id, field="rig_id")
+    if not IMPORT_NAME.fullmatch(name):
+        raise InputError("the import's name is 1 to 200 letters, digits and _ . : - "
+                         f"(got {name!r})", field="name")
     if not records:
         raise InputError("the file holds no record", field="file")
     rows = []
     for k, r in enumerate(records):
         rate = r.sample_rate
+        # a file name that is not UTF-8 (a logger's Latin-1 name) keeps a '?' for each byte
+        record = r.name.encode("utf-8", errors="replace").decode("utf-8")[:200]
         rows.append(MeasuredSeries(
-            rig_id=rig_id, name=name, record=r.name[:200], sample_rate=rate,
+            rig_id=rig_id, name=name, record=record, sample_rate=rate,
             n_samples=len(r), measured=r.measured, units=dict(r.units),
             condition=dict(r.condition), measured_at=r.measured_at,
             data={"t": r.t.tolist(), "channels": {c: v.tolist() for c, v in r.channels.items()}}

@@ -155,6 +155,8 @@ def _parameter_block(raw: Any, decls: tuple[Param, ...], path: str, *, partial: 
     return out
 
 
+#: longest name and title of a stored rig [characters] (its store's columns)
+NAME_LENGTH, TITLE_LENGTH = 100, 200
 #: keys a rig document may have, at the top, in a component and in a parameter
 DOCUMENT_KEYS = ("schema", "name", "title", "description", "circuit", "fluid", "components",
                  "condition", "effects")
@@ -196,6 +198,13 @@ def validate_rig_document(doc: Mapping[str, Any], *, strict: bool = False) -> Ri
     name = doc.get("name")
     if not isinstance(name, str) or not name.strip():
         raise RigFileError("a non-empty name is required", field="name")
+    if strict:
+        for key, most in (("name", NAME_LENGTH), ("title", TITLE_LENGTH)):
+            text = doc.get(key, "")
+            if not isinstance(text, str) or len(text.strip()) > most or not (
+                    text.isprintable()):
+                raise RigFileError(f"the {key} is text of at most {most} printable "
+                                   "characters", field=key)
     circuit = get_circuit(doc.get("circuit", DEFAULT_CIRCUIT))
     fluid = _parameter_block(doc.get("fluid", {}), FLUID_PARAMETERS, "fluid", partial=False,
                              strict=strict)

@@ -118,3 +118,20 @@ def test_an_estimate_is_shown_with_the_digits_its_interval_needs() -> None:
     assert estimate_text(8.3025e-05, 8.30244e-05, 8.30269e-05) == (
         "8.302e-05", "8.302e-05 … 8.303e-05")
     assert estimate_text(0.5, 0.25, 0.75) == ("0.5", "0.25 … 0.75")
+
+
+def test_import_names_are_checked_and_a_non_utf8_file_name_is_kept_readable(
+        runner: CliRunner, tmp_path: Path) -> None:
+    """``--name $'x\\xff'`` failed at the commit with a UnicodeEncodeError traceback; a
+    file whose name is not UTF-8 (a logger's Latin-1 name) did the same."""
+    content = "t [s],P1 [bar]\n0,1\n1,2\n"
+    plain = tmp_path / "run.csv"
+    plain.write_text(content)
+    for name in ("x\udcff", "", "two words"):
+        result = runner.invoke(cli, ["import", "series", str(plain), "--rig", "1",
+                                     "--name", name])
+        assert result.exit_code != 0 and "name:" in str(result.exception), name
+    latin = tmp_path / "w\udcffn.csv"
+    latin.write_text(content)
+    result = runner.invoke(cli, ["import", "series", str(latin), "--rig", "1", "--name", "l1"])
+    assert result.exit_code == 0, result.output

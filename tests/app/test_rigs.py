@@ -78,6 +78,7 @@ def test_invalid_document_is_422_naming_the_field_and_stores_nothing(
     (lambda d: d["components"]["valve"]["parameters"]["cv"].update(tolerance=3),
      "document.components.valve.parameters.cv.tolerance", "unknown key"),
     (lambda d: d.update(descripton="x"), "document.descripton", "did you mean 'description'"),
+    (lambda d: d.update(name="x" * 101), "document.name", "at most 100"),
     (lambda d: d["components"]["valve"]["parameters"]["cv"].update(value=1e300),
      "document.components.valve.parameters.cv", "less than the spool's radius"),
     (lambda d: d["components"]["cylinder"]["parameters"]["rod1"].update(value=70.0, unit="mm"),
