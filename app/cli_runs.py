@@ -272,6 +272,9 @@ def commission(
     parameter: Annotated[list[str] | None, typer.Option(
         help="A parameter to fit (repeat); all six by default.")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print the API's JSON answer.")] = False,
+    beyond_prior: Annotated[bool, typer.Option(
+        help="Store a fit that moves a parameter more than 3 prior σ from the document's "
+        "value (refused otherwise: the records may hold wear the fit would absorb).")] = False,
 ) -> None:
     """Fit rig RIG's uncertain parameters to FILE's healthy records and store the result as
     a new rig version, as POST /rigs/{id}/commission does."""
@@ -284,6 +287,8 @@ def commission(
         {"records": document}
     if parameter:
         body["parameters"] = parameter
+    if beyond_prior:
+        body["beyond_prior"] = True
     request = _validated(CommissionRequest, body)
     with store_session() as session, steps() as progress:
         task = progress.add_task("commissioning", total=None)

@@ -46,7 +46,8 @@ from sim.errors import MeasurementError, SimulationError
 from sim.rigs import Rig
 from sim.steady import SteadyEvaluator
 
-__all__ = ["COMMISSIONED", "PRIOR_SD", "CommissionedParameter", "Commissioning", "commission"]
+__all__ = ["COMMISSIONED", "PRIOR_LIMIT", "PRIOR_SD", "CommissionedParameter", "Commissioning",
+           "commission"]
 
 Arr = npt.NDArray[np.float64]
 
@@ -65,6 +66,9 @@ COMMISSIONED: dict[str, str] = {
 PRIOR_SD: dict[str, float] = {"cylinder.Lc": 0.5, "valve.Ls": 0.5, "valve.K": 0.7,
                               "cylinder.Fu": 0.5, "cylinder.Kf": 0.7, "pump.Rlp": 0.7}
 
+#: a fitted value beyond this many prior σ of ln θ from the document's is not stored
+#: unless asked (:attr:`Commissioning.beyond_prior`) [-]
+PRIOR_LIMIT = 3.0
 #: a parameter is pinned down when the records shrink its prior σ by this factor [-]
 PINNED = 0.5
 
@@ -89,6 +93,10 @@ class CommissionedParameter:
         Whether the records pinned it down (posterior σ ≤ half the prior σ).
     correlated_with
         Parameters whose posterior correlation with this one is ≥ 0.8 in magnitude.
+    prior_shift
+        How far the estimate moved from the document's value, in prior standard deviations
+        of ln θ [-]; beyond :data:`PRIOR_LIMIT` the document's uncertainty does not allow
+        it (:attr:`Commissioning.beyond_prior`).
     """
 
     name: str
@@ -101,6 +109,7 @@ class CommissionedParameter:
     posterior_sd: float
     identifiable: bool
     correlated_with: list[str] = field(default_factory=list)
+    prior_shift: float = 0.0
 
 
 @dataclass
@@ -152,6 +161,12 @@ class Commissioning:
     def values(self) -> dict[str, float]:
         """Fitted values of the parameters the records pinned down [SI]."""
         return {p.name: p.value for p in self.parameters if p.identifiable}
+
+    @property
+    def beyond_prior(self) -> list[str]:
+        """The pinned-down parameters that moved more than :data:`PRIOR_LIMIT` prior σ."""
+        return [p.name for p in self.parameters
+                if p.identifiable and abs(p.prior_shift) > PRIOR_LIMIT]
 
 
 class _Problem:
@@ -269,10 +284,18 @@ def commission(rig: Rig, records: Sequence[MeasurementRecord],
         partners = [names[k] for k in range(len(names))
                     if k != j and abs(corr[j, k]) >= 0.8]
         theta0 = float(problem.theta0[j])
+        shift = float(z[j] / s[j])
         out.append(CommissionedParameter(
             n, COMMISSIONED[n], theta0, theta0 * math.exp(z[j]),
             theta0 * math.exp(z[j] - 1.96 * sd[j]), theta0 * math.exp(z[j] + 1.96 * sd[j]),
-            float(s[j]), float(sd[j]), pinned, partners))
+            float(s[j]), float(sd[j]), pinned, partners, shift))
+        if abs(shift) > PRIOR_LIMIT:
+            statements.append(
+                f"{n} ({COMMISSIONED[n]}) moved {math.expm1(z[j]):+.0%} from the document's "
+                f"value, {abs(shift):.1f} prior σ: more than the document's uncertainty "
+                f"(±{s[j]:.2f} in ln θ) allows. The records may hold wear the fit absorbed "
+                "(a worn valve's leak read as a short land; diagnose them first), or the "
+                "document's value is wrong")
         if not pinned:
             why = (f"it trades off against {', '.join(partners)}" if partners else
                    "the readings hardly depend on it at these conditions")

@@ -2,12 +2,24 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 from pydantic import BaseModel, Field
 
 from app.schemas.common import RequestModel
-from app.schemas.diagnose import _EXAMPLE_RECORD, MeasurementIn
+from app.schemas.diagnose import MeasurementIn
 
 __all__ = ["CommissionRequest", "CommissionResponse", "CommissionedParameterPublic"]
+
+#: a healthy record of the reference rig at 40 °C and 2.1 kN (its steady readings; the
+#: diagnosis example's worn-valve record would move the valve's land length by -81 %, a
+#: fit that is refused unless `beyond_prior`)
+_HEALTHY_RECORD: dict[str, Any] = {
+    "rig_id": 1, "measured_at": "2026-11-22T08:30:00Z",
+    "condition": {"oil_temperature": 40.0, "load_force": 2100.0},
+    "pump_pressure": 14.56e5, "p1": 11.92e5, "p2": 1.227e5, "flow_B": 4.642e-4,
+    "flow_C": 4.556e-4, "speed_work": 0.2064, "speed_return": 0.2195,
+}
 
 _PARAMETERS = ["cylinder.Lc", "valve.Ls", "valve.K", "cylinder.Fu", "cylinder.Kf", "pump.Rlp"]
 
@@ -17,8 +29,9 @@ class CommissionRequest(RequestModel):
 
     records: list[MeasurementIn] = Field(
         min_length=1, max_length=100,
-        description="Records of the healthy rig; each names this rig (its `rig_version` is "
-        "ignored: the latest version is commissioned) [-]", examples=[[_EXAMPLE_RECORD]])
+        description="Records of the healthy rig; each names this rig (the latest version is "
+        "commissioned: a record stating another `rig_version` is refused) [-]",
+        examples=[[_HEALTHY_RECORD]])
     parameters: list[str] | None = Field(
         default=None, min_length=1,
         description="Which uncertain parameters to fit, of " + ", ".join(_PARAMETERS)
@@ -26,6 +39,10 @@ class CommissionRequest(RequestModel):
     comment: str | None = Field(default=None, max_length=500,
                                 description="Comment for the new rig version [-]",
                                 examples=["commissioned after installation"])
+    beyond_prior: bool = Field(
+        default=False, description="Store a fit that moves a parameter more than 3 prior σ "
+        "from the document's value (refused otherwise: the records may hold wear the fit "
+        "would absorb, masking it in every later diagnosis) [-]", examples=[False])
 
 
 class CommissionedParameterPublic(BaseModel):
@@ -44,6 +61,10 @@ class CommissionedParameterPublic(BaseModel):
                             examples=[0.5])
     posterior_sd: float = Field(description="Standard deviation of ln θ after them [-]",
                                 examples=[0.025])
+    prior_shift: float = Field(
+        description="How far the fit moved it from the document's value, in prior standard "
+        "deviations of ln θ; beyond 3 the fit is not stored unless `beyond_prior` [-]",
+        examples=[0.6])
     identifiable: bool = Field(
         description="Whether the records pinned it down (posterior σ ≤ half the prior σ); "
         "only these are written into the new version [-]", examples=[True])

@@ -66,6 +66,10 @@ def commission_rig(session: Session, rigs: RigCache, rig_id: int, request: Commi
         if data.rig_id != rig_id:
             raise InputError(f"the record names rig {data.rig_id}, not {rig_id}",
                              field=f"records[{i}].rig_id")
+        if data.rig_version is not None and data.rig_version != resolved.version:
+            raise InputError(f"commissioning fits rig {rig_id}'s latest version "
+                             f"({resolved.version}); the record states version "
+                             f"{data.rig_version}", field=f"records[{i}].rig_version")
         records.append(to_record(data, path=f"records[{i}]", rig_name=resolved.name,
                                  measured_at=data.measured_at or now))
     try:
@@ -77,6 +81,10 @@ def commission_rig(session: Session, rigs: RigCache, rig_id: int, request: Commi
         worst = fit.disagreements[0][0] if fit.disagreements else None
         raise MeasurementError(fit.statements[0] + "; nothing stored",
                                field="records" if worst is None else f"records[{worst}]")
+    if fit.beyond_prior and not request.beyond_prior:
+        far = [s for s in fit.statements if "prior σ" in s]
+        raise MeasurementError("; ".join(far) + "; nothing stored (send beyond_prior: true "
+                               "to store it anyway)", field="beyond_prior")
     circuit = resolved.rig.circuit
     units = {}
     for p in fit.parameters:

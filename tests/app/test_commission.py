@@ -80,7 +80,8 @@ def test_bad_commissioning_requests_are_422_and_store_nothing(server: LiveServer
     records = healthy_bodies(rig_id)[:2]
     cases = [({"records": records, "parameters": ["cylinder.cc"]}, "parameters[0]"),
              ({"records": [dict(records[0], rig_id=1)]}, "records[0].rig_id"),
-             ({"records": [dict(records[0], speed_work=5.0)]}, "records[0].speed_work")]
+             ({"records": [dict(records[0], speed_work=5.0)]}, "records[0].speed_work"),
+             ({"records": [dict(records[0], rig_version=99)]}, "records[0].rig_version")]
     for body, field in cases:
         response = server.client.post(f"/rigs/{rig_id}/commission", json=body,
                                       headers=server.auth)
@@ -125,3 +126,25 @@ def test_cli_commission(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None
     # main() prints the error and exits 1; the runner keeps the exception
     assert bad.exit_code != 0 and getattr(bad.exception, "field", None) == "parameters[0]"
     assert "x.y" in str(bad.exception)
+
+
+def test_a_worn_record_is_not_absorbed_into_the_document(server: LiveServer) -> None:
+    """One record of a worn spool (cv 60 µm for 34) given as healthy: the fit explains it
+    by a land 81 % shorter, 3.4 prior σ from the document's value.  Stored, that version
+    would diagnose the same worn spool as healthy; refused naming ``beyond_prior``, and
+    stored when it is sent, the move stated per parameter (``prior_shift``)."""
+    rig_id = new_rig(server, "commission-worn")["id"]
+    vals = readings(reference_rig(), {"valve.cv": 60e-6}, 2100.0, 40.0)
+    record = {"rig_id": rig_id, "condition": {"oil_temperature": 40.0, "load_force": 2100.0},
+              **{f: vals[f] for f in FULL}}
+    refused = server.client.post(f"/rigs/{rig_id}/commission", json={"records": [record]},
+                                 headers=server.auth)
+    assert refused.status_code == 422, refused.text
+    error = refused.json()["error"]
+    assert error["field"] == "beyond_prior" and "valve.Ls" in error["message"]
+    assert server.client.get(f"/rigs/{rig_id}/versions").json()["total"] == 1
+    stored = server.client.post(f"/rigs/{rig_id}/commission", json={
+        "records": [record], "beyond_prior": True}, headers=server.auth)
+    assert stored.status_code == 201, stored.text
+    ls = next(p for p in stored.json()["parameters"] if p["name"] == "valve.Ls")
+    assert ls["prior_shift"] < -3.0 and ls["value"] < 0.3 * ls["before"]
