@@ -25,12 +25,12 @@ class RangeSpec(RequestModel):
         min_length=3, max_length=64,
         description="A parameter override 'role.name' (in `parameters`) or a condition "
         "field load, back_pressure, oil_temperature, pump_speed (in `conditions`) [-]",
-        examples=["valve.cv"],
+        examples=["cylinder.cc"],
     )
     low: FiniteFloat = Field(description="Lowest value, SI unit of the factor [unit]",
-                             examples=[34e-6])
+                             examples=[83e-6])
     high: FiniteFloat = Field(description="Highest value, SI unit of the factor [unit]",
-                              examples=[80e-6])
+                              examples=[160e-6])
     levels: int = Field(
         default=3, ge=1, le=100,
         description="Number of levels on a grid (ignored by a Latin hypercube) [-]",
@@ -66,8 +66,9 @@ class SweepRequest(RequestModel):
     )
     parameters: list[RangeSpec] = Field(
         default_factory=list, max_length=8,
-        description="Parameter overrides to vary, applied over the fault's [-]",
-        examples=[[{"name": "valve.cv", "low": 34e-6, "high": 80e-6, "levels": 4}]],
+        description="Parameter overrides to vary, applied over the fault's; one a named fault "
+        "sets itself is refused for that fault (its points would be another's) [-]",
+        examples=[[{"name": "cylinder.cc", "low": 83e-6, "high": 160e-6, "levels": 4}]],
     )
     conditions: list[RangeSpec] = Field(
         default_factory=list, max_length=4,

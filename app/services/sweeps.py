@@ -27,7 +27,7 @@ from app.schemas.sweeps import RangeSpec, SweepRequest
 from app.services.rig_cache import ResolvedRig, RigCache
 from app.services.simulation import condition_dict, condition_of
 from app.services.sweep_worker import SUMMARY_COLUMNS, evaluate_chunk
-from sim.errors import ParameterError
+from sim.errors import InputError, ParameterError
 from sim.scenarios import fault_overrides
 
 __all__ = ["MAX_POINTS", "SweepPlan", "plan_sweep", "run_sweep"]
@@ -126,8 +126,15 @@ def plan_sweep(session: Session, rigs: RigCache, request: SweepRequest,
     conditions = [s.name for s in request.conditions]
     design = _design(request)
     points = []
-    for fault in request.faults:
+    for k, fault in enumerate(request.faults):
         base = fault_overrides(rig, fault)
+        if hidden := sorted(set(base) & set(names)):
+            # the varied parameter replaces the fault's own: every point of this fault would
+            # repeat another fault's, labelled with this one
+            raise InputError(f"the fault {fault!r} sets {', '.join(hidden)}, which the design "
+                             "varies, so its points would be another fault's under its name; "
+                             "vary it under 'healthy', or leave the fault out",
+                             field=f"faults[{k}]")
         for row in design:
             overrides = dict(base) | {n: float(v) for n, v in zip(names, row, strict=False)}
             changes = {n: float(v) for n, v in zip(conditions, row[len(names):], strict=True)}

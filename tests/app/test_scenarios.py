@@ -116,6 +116,8 @@ def test_a_latin_hypercube_of_transient_runs(server: LiveServer) -> None:
          "parameters[0].low"),
         ({"parameters": [{"name": "valve.nothing", "low": 1.0, "high": 2.0}]},
          "parameters[0].name"),
+        # worn_spool sets valve.cv itself: its points would be 'healthy' ones, mislabelled
+        ({"parameters": [{"name": "valve.cv", "low": 34e-6, "high": 80e-6}]}, "faults[1]"),
         ({"conditions": [{"name": "humidity", "low": 1.0, "high": 2.0}]}, "conditions"),
         ({"conditions": [{"name": "pump_speed", "low": -5.0, "high": 100.0}]},
          "conditions[0].low"),
