@@ -157,10 +157,11 @@ def reading_options(column_map: str | None, sample_rate: float | None,
         Naming the option: a map that is not one, a rate ≤ 0, a start without its zone.
     """
     from app.services.series import parse_column_map
-    from diagnostics.timeseries import clock_time
+    from diagnostics.timeseries import MAX_SAMPLE_RATE, clock_time
 
-    if sample_rate is not None and not sample_rate > 0:
-        raise InputError("the sample rate must be > 0 [Hz]", field="--sample-rate")
+    if sample_rate is not None and not 0 < sample_rate <= MAX_SAMPLE_RATE:
+        raise InputError(f"the sample rate must be above 0 and at most {MAX_SAMPLE_RATE:g} "
+                         "Hz", field="--sample-rate")
     cmap = parse_column_map(column_map, field="--column-map")
     start = None if started_at is None else clock_time(started_at, field="--started-at")
     return cmap, sample_rate, start

@@ -75,6 +75,10 @@ __all__ = [
     "si_factor",
 ]
 
+#: Highest sample rate a file without a time column may state [Hz] (10 MHz: beyond any
+#: logger of a hydraulic rig; 1e308 Hz gave times of 1e-308 s)
+MAX_SAMPLE_RATE = 1.0e7
+
 Arr = npt.NDArray[np.float64]
 
 #: Condition channels and their SI unit (°C for temperature, as everywhere in hydrodiag).
@@ -357,9 +361,9 @@ def series_from_frame(frame: pd.DataFrame, *, name: str = "table",
         columns[raw] = (chan, canonical, gain * scale, zero * scale + offset)
     time_col = next((raw for raw, c in columns.items() if c[0] == "t"), None)
     if time_col is None and sample_rate is not None:
-        if not (math.isfinite(sample_rate) and sample_rate > 0.0):
-            raise InputError("the sample rate must be a positive number [Hz]",
-                             field="sample_rate")
+        if not (math.isfinite(sample_rate) and 0.0 < sample_rate <= MAX_SAMPLE_RATE):
+            raise InputError(f"the sample rate must be above 0 and at most "
+                             f"{MAX_SAMPLE_RATE:g} Hz", field="sample_rate")
     elif time_col is None:
         raise InputError("no time column: name it 't [s]' (or map one to 't'), or give the "
                          "sample rate", field="t")

@@ -15,6 +15,7 @@ from app.schemas.common import (
     Timestamp,
     UploadForm,
 )
+from diagnostics.timeseries import MAX_SAMPLE_RATE
 
 __all__ = ["CYCLE_EXAMPLE", "CycleQuery", "PhaseReadingPublic", "SeriesData", "SeriesImportForm",
            "SeriesList", "SeriesPublic", "SeriesRecordPublic"]
@@ -57,7 +58,7 @@ class SeriesImportForm(UploadForm):
         examples=['{"PS1": ["P_pump", "bar"], "FS1": ["Q_meter_B", "L/min"], '
                   '"run": ["record", "-"]}'])
     sample_rate: FiniteFloat | None = Field(
-        default=None, gt=0,
+        default=None, gt=0, le=MAX_SAMPLE_RATE,
         description="Samples per second for a file without a time column [Hz]", examples=[1.0])
     started_at: IsoDatetime | None = Field(
         default=None,

@@ -59,6 +59,7 @@ def test_zema_cycles_are_stored_and_read_back(server: LiveServer, zema_csv: Any)
         (b"record,PS1\nc,1\nc,2\n", {"column_map": '{"PS1": ["p_pump", "bar"]}'}, "file.t"),
         (b"t [s],p [bar]\n0,1\n1,2\n", {"column_map": "{not json"}, "column_map"),
         (b"t [s],p [bar]\n0,1\n1,2\n", {"sample_rate": "-1"}, "sample_rate"),
+        (b"p [bar]\n1\n2\n", {"sample_rate": "1e308"}, "sample_rate"),  # t of 1e-308 s
         (b"t [s],p [bar]\n0,1\n1,2\n", {"extra": "x"}, "extra"),
         (b"record,PS1\nc,1\nc,2\n", {"column_map": '{"PS1": ["p_pump", "bar", "x", 0]}',
                                      "sample_rate": "1"}, "column_map.PS1"),
