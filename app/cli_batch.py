@@ -111,6 +111,13 @@ def diagnose_batch(
                for n, item in enumerate(items, start=1)]
     executors = SweepExecutors(workers=workers or 1, dask_scheduler=dask) \
         if workers or dask else None
+    executor = None
+    if executors is not None:
+        try:
+            executor = executors.get()
+        except (OSError, ValueError, TimeoutError) as exc:  # a bad or unreachable address
+            raise InputError(f"cannot use the Dask scheduler {dask!r}: {exc}",
+                             field="--dask") from None
     started = time.perf_counter()
     try:
         with steps() as progress:
@@ -121,7 +128,7 @@ def diagnose_batch(
                 progress.update(task, completed=done)
 
             results = diagnose_many(resolved.rig, records, progress=tick, full=full,
-                                    executor=None if executors is None else executors.get())
+                                    executor=executor)
     finally:
         if executors is not None:
             executors.shutdown()

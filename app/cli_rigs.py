@@ -94,8 +94,9 @@ def show(
                                                 help="Version (default: latest).")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="JSON instead of YAML.")] = False,
 ) -> None:
-    """Print a stored rig description (canonical form, SI values with their sources); the
-    output is a rig file ``rigs add`` and ``rigs update`` read back."""
+    """Print a stored rig description (canonical form: each value in the unit it was
+    stored with, and its source); the output is a rig file ``rigs add`` and ``rigs update``
+    read back."""
     from app.services.rigs import get_rig, get_version, latest_version
 
     with store_session() as session:
