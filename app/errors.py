@@ -200,6 +200,13 @@ async def _validation_error(request: Request, exc: Exception) -> JSONResponse:
     assert isinstance(exc, RequestValidationError)
     problems = [(_location(err), _message(err)) for err in exc.errors()]
     field, message = problems[0] if problems else (None, "invalid request")
+    kind = request.headers.get("content-type", "").split(";", 1)[0].strip().lower()
+    if field == "body" and kind not in ("application/json", "multipart/form-data",
+                                        "application/x-www-form-urlencoded"):
+        # FastAPI reads a body of another type as text: "should be a valid dictionary"
+        message = (f"the body must be JSON, sent with Content-Type: application/json (it "
+                   f"came as {kind or 'no content type'!r})")
+        problems[0] = (field, message)
     details: list[dict[str, Any]] = [{"field": f, "message": m} for f, m in problems]
     return error_response(422, InputError.__name__, message, field, details=details,
                           request=request)

@@ -302,3 +302,15 @@ def test_every_id_in_a_path_is_bounded(server: LiveServer, path: str) -> None:
     response = server.client.get(path)
     assert response.status_code == 422, response.text
     assert response.json()["error"]["field"] in ("series_id", "rig_id")
+
+
+def test_a_body_of_another_type_is_told_to_be_json(server: LiveServer) -> None:
+    """Sent as text/plain (curl -d without a header), a JSON route's body was refused as
+    "Input should be a valid dictionary"; the message now says what to send."""
+    before = server.row_counts()
+    response = server.client.post("/diagnose", content=b'{"record": {}}', headers={
+        **server.auth, "Content-Type": "text/plain"})
+    assert response.status_code == 422
+    error = response.json()["error"]
+    assert error["field"] == "body" and "Content-Type: application/json" in error["message"]
+    assert server.row_counts() == before
