@@ -11,7 +11,7 @@ import math
 from collections.abc import Sequence
 from typing import cast
 
-from sqlalchemy import func, select
+from sqlalchemy import select
 from sqlalchemy.orm import Session, selectinload
 
 from app.db.models import CalibrationPoint, ThrottleCalibration
@@ -133,7 +133,7 @@ def _rows(
 def _check_condition_free(
     session: Session, calibration: ThrottleCalibration, *, exclude_id: int | None = None
 ) -> None:
-    statement = select(func.count()).select_from(ThrottleCalibration).where(
+    statement = select(ThrottleCalibration.id).where(
         ThrottleCalibration.rig_id == calibration.rig_id,
         ThrottleCalibration.throttle == calibration.throttle,
         ThrottleCalibration.back_pressure_pa == calibration.back_pressure_pa,
@@ -141,11 +141,12 @@ def _check_condition_free(
     )
     if exclude_id is not None:
         statement = statement.where(ThrottleCalibration.id != exclude_id)
-    if session.scalar(statement):
+    if (existing := session.scalar(statement.limit(1))) is not None:
         raise ConflictError(
             f"rig {calibration.rig_id} already has a table for throttle "
             f"{calibration.throttle!r} at {calibration.back_pressure_pa:g} Pa and "
-            f"{calibration.temperature_c:g} °C; update that one",
+            f"{calibration.temperature_c:g} °C (calibration {existing}); update that one "
+            f"(PATCH /rigs/{calibration.rig_id}/calibrations/{existing}) or delete it first",
             field="throttle",
         )
 

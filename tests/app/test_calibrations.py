@@ -137,11 +137,14 @@ def test_field_validation_names_the_field(
 def test_duplicate_condition_is_409_and_stores_nothing(server: LiveServer) -> None:
     rig = new_rig(server, "cal-duplicate")
     url = f"/rigs/{rig['id']}/calibrations"
-    assert server.client.post(url, json=TABLE, headers=server.auth).status_code == 201
+    first = server.client.post(url, json=TABLE, headers=server.auth)
+    assert first.status_code == 201
     before = server.row_counts()
     response = server.client.post(url, json=TABLE, headers=server.auth)
     assert response.status_code == 409
     assert response.json()["error"]["field"] == "throttle"
+    # names the table in the way and how to change it (the CLI cannot update one)
+    assert f"{url}/{first.json()['id']}" in response.json()["error"]["message"]
     assert server.row_counts() == before
     other_condition = server.client.post(url, json=TABLE | {"temperature_c": 60.0},
                                          headers=server.auth)
