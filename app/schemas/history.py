@@ -74,6 +74,12 @@ class StoredDiagnosisPublic(PublicModel):
                              examples=[1])
     measured_at: AwareDatetime = Field(description="Time of the record [UTC]",
                                        examples=["2026-11-22T08:30:00Z"])
+    top: str | None = Field(
+        default=None, description="Most probable hypothesis, 'unexplained' when nothing "
+        "fits, as POST /diagnose answered it [-]", examples=["valve"])
+    explained: bool | None = Field(
+        default=None, description="Whether the rig model and its fault library explain the "
+        "readings, as POST /diagnose answered it [-]", examples=[True])
     component: str | None = Field(
         description="Component(s) the top hypothesis blames, '+'-joined; 'healthy' [-]",
         examples=["valve"])

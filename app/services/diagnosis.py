@@ -18,7 +18,7 @@ import re
 import threading
 from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, field
-from datetime import datetime
+from datetime import UTC, datetime
 from typing import Any, Literal
 
 from sqlalchemy.orm import Session
@@ -409,7 +409,7 @@ def _public(outcome: DiagnosisOutcome, compact: bool) -> DiagnosisPublic:
         records=outcome.paths,
         rig_id=outcome.resolved.rig_id,
         rig_version=outcome.resolved.version,
-        measured_at=outcome.measured_at,
+        measured_at=outcome.measured_at.astimezone(UTC),  # as GET /diagnoses reads it back
         top=outcome.top,
         component=outcome.component,
         probability=outcome.probability,

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
-from datetime import datetime
+from datetime import UTC, datetime
 from typing import Any
 
 import orjson
@@ -131,7 +131,7 @@ def _head(outcome: DiagnosisOutcome) -> bytes:
     public = {
         "id": None, "measurement_ids": [], "records": outcome.paths,
         "rig_id": outcome.resolved.rig_id, "rig_version": outcome.resolved.version,
-        "measured_at": iso_utc(outcome.measured_at), "top": outcome.top,
+        "measured_at": iso_utc(outcome.measured_at.astimezone(UTC)), "top": outcome.top,
         "component": outcome.component, "probability": outcome.probability,
         "explained": result.get("explained", True),
         "goodness_of_fit": _fit_public(result.get("goodness_of_fit")),

@@ -166,3 +166,15 @@ def test_a_record_impossible_on_its_rig_is_422(server: LiveServer) -> None:
     response = server.client.post("/diagnose", json={"record": record, "store": False})
     assert response.status_code == 422, response.text
     assert response.json()["error"]["field"].startswith("record.")
+
+
+def test_the_answer_gives_the_time_in_utc_as_it_is_read_back(server: LiveServer) -> None:
+    """A record stated at 10:00+02:00 was echoed with +02:00 while GET /diagnoses read it
+    back as 08:00Z: one diagnosis, two spellings of its time."""
+    record = simulated_record(server, WORN_VALVE, measured_at="2026-11-23T10:00:00+02:00")
+    for compact in (False, True):
+        answer = server.client.post("/diagnose", json={"record": record, "compact": compact},
+                                    headers=server.auth).json()["diagnoses"][0]
+        assert answer["measured_at"] == "2026-11-23T08:00:00Z"
+        stored = server.client.get(f"/diagnoses/{answer['id']}").json()
+        assert stored["measured_at"] == answer["measured_at"]

@@ -71,6 +71,10 @@ def test_lists_filter_by_rig_and_time_newest_first(server: LiveServer,
     assert joint["measurement_id"] in joint["measurement_ids"]
     single = server.client.get(f"/diagnoses/{stored['single'][0][1]['id']}").json()
     assert single["measurement_ids"] == [single["measurement_id"]]
+    # read back as POST /diagnose answered it: its top name, explained, and its time
+    posted = stored["single"][0][1]
+    assert (single["top"], single["explained"]) == (posted["top"], posted["explained"])
+    assert single["measured_at"] == posted["measured_at"]
 
 
 def test_read_back_errors(server: LiveServer, stored: dict[str, Any]) -> None:

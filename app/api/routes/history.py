@@ -46,6 +46,7 @@ def _diagnosis(row: Diagnosis) -> StoredDiagnosisPublic:
         id=row.id, measurement_id=row.measurement_id,
         measurement_ids=sorted(m.id for m in row.records), rig_id=row.measurement.rig_id,
         rig_version=row.rig_version.version, measured_at=row.measurement.measured_at,
+        top=row.result.get("top"), explained=row.result.get("explained"),
         component=row.component, probability=row.probability,
         estimates=[StoredEstimatePublic.model_validate(e) for e in row.estimates],
         result=row.result, created_at=row.created_at)
