@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pydantic import BaseModel, Field
 
-from app.schemas.common import MAX_ID, UploadForm
+from app.schemas.common import MAX_ID, FiniteFloat, UploadForm
 from diagnostics.real.relaxation import ZEMA_RELAXATION
 
 __all__ = ["DiscrepancyAccepted", "DiscrepancyForm"]
@@ -32,7 +32,7 @@ class DiscrepancyForm(UploadForm):
         "instead of a file: their ids, comma-separated, at most 200, e.g. '3,4,5' [-]",
         examples=[None])
 
-    relaxation: float = Field(
+    relaxation: FiniteFloat = Field(
         default=ZEMA_RELAXATION, ge=0.0, le=60.0,
         description="For stored records of a rig without a working/return cycle (the "
         "pump-relief-orifice circuit): the settling time after which each pressure plateau's "

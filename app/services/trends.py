@@ -218,6 +218,8 @@ def component_trends(
         raise InputError("a threshold belongs to one component; name it", field="threshold")
     if threshold is not None and not (math.isfinite(threshold) and threshold > 0):
         raise InputError("the threshold must be finite and > 0", field="threshold")
+    if since is not None and until is not None and until < since:  # as /diagnoses answers
+        raise InputError("`until` is before `since`", field="until")
     resolved = rigs.get(session, rig_id, rig_field="rig_id")
     if component is not None:
         names = [component]

@@ -314,3 +314,21 @@ def test_a_body_of_another_type_is_told_to_be_json(server: LiveServer) -> None:
     error = response.json()["error"]
     assert error["field"] == "body" and "Content-Type: application/json" in error["message"]
     assert server.row_counts() == before
+
+
+@pytest.mark.parametrize(("method", "path", "kwargs", "field", "words"), [
+    ("get", "/rigs/1/calibrations/1/clearance", {"params": {"opening_turns": "nan"}},
+     "opening_turns[0]", "finite"),  # was "opening nan turn is outside the calibrated range"
+    ("post", "/discrepancy", {"data": {"rig_id": "1", "series_ids": "1", "relaxation": "nan"}},
+     "relaxation", "finite"),  # was "should be less than or equal to 60"
+    ("get", "/rigs/1/trends", {"params": {"since": "2026-05-01T00:00:00Z",
+                                          "until": "2026-04-01T00:00:00Z"}},
+     "until", "before"),  # answered 200 with empty trends; /diagnoses answered 422
+])
+def test_nan_and_reversed_windows_are_named_as_such(server: LiveServer, method: str, path: str,
+                                                    kwargs: dict[str, Any], field: str,
+                                                    words: str) -> None:
+    response = getattr(server.client, method)(path, headers=server.auth, **kwargs)
+    assert response.status_code == 422, response.text
+    assert response.json()["error"]["field"] == field
+    assert words in response.json()["error"]["message"]

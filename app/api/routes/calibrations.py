@@ -26,7 +26,7 @@ from app.schemas.calibrations import (
     ClearanceCurve,
     ClearanceSamples,
 )
-from app.schemas.common import ERROR_RESPONSES, MAX_ID
+from app.schemas.common import ERROR_RESPONSES, MAX_ID, FiniteFloat
 from app.services import calibrations as service
 from sim.errors import InputError
 
@@ -117,7 +117,7 @@ def clearance_at(
     calibration_id: CalibrationId,
     session: SessionDep,
     opening_turns: Annotated[
-        list[float],
+        list[FiniteFloat],
         Query(min_length=1, max_length=1000,
               description="Throttle openings, repeat the parameter for several [turn]",
               examples=[[0.25]]),
