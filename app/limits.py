@@ -135,7 +135,7 @@ class BodyLimitMiddleware:
         }
         if (request_id := request_id_of(scope)) is not None:
             error["request_id"] = request_id
-        body = json.dumps({"error": error}).encode("utf-8")
+        body = json.dumps({"error": error}, separators=(",", ":")).encode("utf-8")  # as orjson
         await send({"type": "http.response.start", "status": 413, "headers": [
             (b"content-type", b"application/json"),
             (b"content-length", str(len(body)).encode("ascii")),

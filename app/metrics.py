@@ -56,7 +56,8 @@ class HttpMetrics:
 
 def _route_of(scope: Scope) -> str:
     route: Any = scope.get("route")
-    path = getattr(route, "path", None)
+    # the template without converters: /pump-sets/{pump_set_id}, not {pump_set_id:int}
+    path = getattr(route, "path_format", None) or getattr(route, "path", None)
     return str(path) if path else "<unmatched>"
 
 

@@ -45,7 +45,9 @@ def test_metrics_count_requests_per_route_template(server: LiveServer) -> None:
     for rig_id in (1, 2, 999999):
         server.client.get(f"/rigs/{rig_id}")
     server.client.get("/no/such/route")
+    server.client.get("/pump-sets/999999")  # a route with a converter: {pump_set_id:int}
     text = server.client.get("/metrics").text
+    assert 'route="/pump-sets/{pump_set_id}"' in text and ":int}" not in text
     assert 'hydrodiag_http_requests_total{method="GET",route="/rigs/{rig_id}",status="404"}' \
         in text
     assert 'route="/rigs/999999"' not in text
