@@ -23,7 +23,7 @@ from app.cli_support import (
     store_session,
 )
 from app.schemas.common import MAX_ID
-from diagnostics.real.relaxation import ZEMA_RELAXATION
+from diagnostics.real.relaxation import MAX_RELAXATION, ZEMA_RELAXATION
 from sim.errors import InputError
 
 if TYPE_CHECKING:
@@ -136,6 +136,7 @@ def import_zema(
              "for 'hydrodiag discover' (plateau pressure, the rig's pump speed, the "
              "cycle's oil temperature, FS1).")] = None,
     relaxation: Annotated[float, typer.Option(
+        min=0.0, max=MAX_RELAXATION,
         help="Plateau settling time of --bench \\[s] (found on the ZeMA cycles without "
              "labels).")] = ZEMA_RELAXATION,
     store: Annotated[bool, typer.Option(help="Store the cycles as series of the rig.")
@@ -147,8 +148,9 @@ def import_zema(
 
     if last < first:
         raise InputError("last must not be before first", field="--last")
-    if not relaxation >= 0:
-        raise InputError("the settling time must be ≥ 0 [s]", field="--relaxation")
+    if not 0 <= relaxation <= MAX_RELAXATION:  # NaN too
+        raise InputError(f"the settling time is 0 to {MAX_RELAXATION:g} s, as discover takes "
+                         "it", field="--relaxation")
     if not store and bench is None:
         raise InputError("nothing to do: --no-store without --bench", field="--no-store")
     data, _ = load_1hz(root, cycles=list(range(first, last + 1)))

@@ -5,7 +5,7 @@ from __future__ import annotations
 from pydantic import BaseModel, Field
 
 from app.schemas.common import MAX_ID, FiniteFloat, UploadForm
-from diagnostics.real.relaxation import ZEMA_RELAXATION
+from diagnostics.real.relaxation import MAX_RELAXATION, ZEMA_RELAXATION
 
 __all__ = ["DiscrepancyAccepted", "DiscrepancyForm"]
 
@@ -33,7 +33,7 @@ class DiscrepancyForm(UploadForm):
         examples=[None])
 
     relaxation: FiniteFloat = Field(
-        default=ZEMA_RELAXATION, ge=0.0, le=60.0,
+        default=ZEMA_RELAXATION, ge=0.0, le=MAX_RELAXATION,
         description="For stored records of a rig without a working/return cycle (the "
         "pump-relief-orifice circuit): the settling time after which each pressure plateau's "
         "flow is read, the records' settled plateaus then checked as a pump-bench table; "

@@ -26,11 +26,14 @@ import numpy.typing as npt
 
 from sim.errors import InputError
 
-__all__ = ["ZEMA_RELAXATION", "settled_flow"]
+__all__ = ["MAX_RELAXATION", "ZEMA_RELAXATION", "settled_flow"]
 
 #: the ZeMA rig's plateau settling time ``τ`` [s], found without labels by
 #: :func:`diagnostics.real.shunt.fit_relaxation` over all 2205 cycles (``make real-data``)
 ZEMA_RELAXATION = 3.5
+#: Longest settling time a plateau may be given [s]: the ZeMA load program's plateaus last
+#: 10-20 s, a relaxation past a minute leaves no plateau to read
+MAX_RELAXATION = 60.0
 
 
 def settled_flow(q: npt.ArrayLike, tau: float) -> float:
