@@ -136,7 +136,6 @@ def import_zema(
              "for 'hydrodiag discover' (plateau pressure, the rig's pump speed, the "
              "cycle's oil temperature, FS1).")] = None,
     relaxation: Annotated[float, typer.Option(
-        min=0.0, max=MAX_RELAXATION,
         help="Plateau settling time of --bench \\[s] (found on the ZeMA cycles without "
              "labels).")] = ZEMA_RELAXATION,
     store: Annotated[bool, typer.Option(help="Store the cycles as series of the rig.")
@@ -149,8 +148,8 @@ def import_zema(
     if last < first:
         raise InputError("last must not be before first", field="--last")
     if not 0 <= relaxation <= MAX_RELAXATION:  # NaN too
-        raise InputError(f"the settling time is 0 to {MAX_RELAXATION:g} s, as discover takes "
-                         "it", field="--relaxation")
+        raise InputError(f"the settling time must be 0 to {MAX_RELAXATION:g} [s], as discover "
+                         "takes it", field="--relaxation")
     if not store and bench is None:
         raise InputError("nothing to do: --no-store without --bench", field="--no-store")
     data, _ = load_1hz(root, cycles=list(range(first, last + 1)))
