@@ -82,7 +82,8 @@ def commission_rig(session: Session, rigs: RigCache, rig_id: int, request: Commi
         raise MeasurementError(fit.statements[0] + "; nothing stored",
                                field="records" if worst is None else f"records[{worst}]")
     if fit.beyond_prior and not request.beyond_prior:
-        far = [s for s in fit.statements if "prior σ" in s]
+        far = [s for s in fit.statements if s.startswith(tuple(f"{n} (" for n in
+                                                              fit.beyond_prior))]
         raise MeasurementError("; ".join(far) + "; nothing stored (send beyond_prior: true "
                                "to store it anyway)", field="beyond_prior")
     circuit = resolved.rig.circuit
