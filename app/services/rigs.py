@@ -132,6 +132,10 @@ def update_rig(
 ) -> tuple[Rig, RigVersion]:
     """Add a new version of rig ``rig_id`` with ``document``.
 
+    A document identical to the latest version's, with no comment or the same one, adds
+    nothing and returns that version: a retried update (``PUT`` after a lost answer,
+    ``hydrodiag rigs update`` run twice) stores one version, not two identical ones.
+
     Raises
     ------
     NotFoundError
@@ -149,6 +153,9 @@ def update_rig(
             "a rig keeps its name (create a new rig instead)",
             field="document.name",
         )
+    latest = latest_version(session, rig)
+    if latest.document == canonical and comment in (None, latest.comment):
+        return rig, latest
     rig.latest_version += 1
     rig.title = title
     version = RigVersion(rig=rig, version=rig.latest_version, document=canonical,

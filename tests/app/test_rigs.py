@@ -54,6 +54,12 @@ def test_update_adds_versions_and_keeps_old_ones(server: LiveServer, rig_documen
     assert cc == 8.3e-5
     latest = server.client.get(f"/rigs/{rig['id']}").json()
     assert latest["document"]["components"]["cylinder"]["parameters"]["cc"]["value"] == 1.2e-4
+    # the same update again (a retry after a lost answer) stores no second, identical version
+    again = server.client.put(f"/rigs/{rig['id']}",
+                              json={"document": rig_document, "comment": "worn piston"},
+                              headers=server.auth)
+    assert again.status_code == 200 and again.json()["latest_version"] == 2
+    assert server.client.get(f"/rigs/{rig['id']}/versions").json()["total"] == 2
 
 
 def test_invalid_document_is_422_naming_the_field_and_stores_nothing(
