@@ -80,13 +80,19 @@ def create_pump_set(session: Session, data: PumpSetCreate) -> PumpSet:
 
 
 def update_pump_set(session: Session, pump_set_id: int, data: PumpSetUpdate) -> PumpSet:
-    """Change a pump set; fields left out stay, ``rig_id: null`` detaches it from its rig."""
+    """Change a pump set; fields left out stay, ``rig_id: null`` detaches it from its rig.
+    New quantities without a new source keep the old source with a note that it describes
+    the set as it was (a bench set's "loss model checked" no longer holds for them)."""
     pump_set = get_pump_set(session, pump_set_id)
     changes = data.model_dump(mode="json", exclude_unset=True)
     if changes.get("rig_id") is not None:
         get_rig(session, changes["rig_id"], field="rig_id")
     if changes.get("name") is not None:
         check_name_free(session, changes["name"], exclude_id=pump_set_id)
+    if "quantities" in changes and "source" not in changes and pump_set.source:
+        # the source describes the quantities it came with (a bench check, a held-out S)
+        changes["source"] = (f"{pump_set.source}; quantities replaced by an update since: "
+                             "the notes before describe the set as it was")[-2000:]
     for key, value in changes.items():
         setattr(pump_set, key, value)
     commit(session, conflict="a pump set with this name exists", field="name")

@@ -108,6 +108,14 @@ def test_patch_and_delete(server: LiveServer) -> None:
                                headers=server.auth).status_code == 404
     assert server.anon.patch(url, json={"name": "x"}).status_code == 401
     assert server.client.get(url).json() == renamed
+    # new quantities without a new source: the old source is kept, marked as describing the
+    # set as it was (a bench set's "loss model checked" would otherwise vouch for them)
+    replaced = server.client.patch(url, json={"quantities": {"Cs": {"value": 3e-9,
+                                                                    "unit": "1"}}},
+                                   headers=server.auth).json()
+    assert replaced["source"].startswith("paper 000, two-temperature method; quantities "
+                                         "replaced by an update")
+    renamed = replaced
     assert server.client.delete(url, headers=server.auth).status_code == 204
     for response in (server.client.get(url), server.client.delete(url, headers=server.auth),
                      server.client.patch(url, json={}, headers=server.auth)):
