@@ -23,7 +23,7 @@ from app.console.charts import (
     sigma_for,
     trend_chart,
 )
-from app.db.models import Diagnosis, Measurement, Rig
+from app.db.models import Diagnosis, MeasuredSeries, Measurement, Rig
 from app.schemas.diagnose import MeasurementIn
 from app.services.common import get_or_raise
 from app.services.measurements import to_record
@@ -59,6 +59,9 @@ class DiagnosisView:
     probabilities: Chart
     relative: Chart | None
     estimates: list[Chart]
+    #: whether the stored series the record was read from (``record.series_id``) is still
+    #: stored (a deleted one's id is never given again, so its link would be a 404)
+    series_stored: bool = False
 
     @property
     def charts(self) -> list[Chart]:
@@ -107,10 +110,13 @@ def diagnosis_view(session: Session, diagnosis_id: int) -> DiagnosisView:
         readings.append({"name": name, "unit": result.get("observable_units", {}).get(name, ""),
                          "value": value, "u": u, "sigma": sigma.get(name),
                          "predicted": predicted})
+    series_id = measurement.record.get("series_id")
+    stored = series_id is not None and session.get(MeasuredSeries, series_id) is not None
     return DiagnosisView(row.id, measurement.rig_id, rig_name, row.rig_version.version,
                          measurement.measured_at, row.component, row.probability, result,
                          dict(measurement.record), readings, probability_chart(result),
-                         reading_chart(result, measured), estimate_charts(result))
+                         reading_chart(result, measured), estimate_charts(result),
+                         series_stored=stored)
 
 
 @dataclass

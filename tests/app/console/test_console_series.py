@@ -243,3 +243,26 @@ def test_a_bad_import_names_the_field_and_keeps_what_was_entered(
     after = console_server.row_counts()
     assert {k: v for k, v in after.items() if k != "api_keys"} == {
         k: v for k, v in before.items() if k != "api_keys"}
+
+
+def test_a_diagnosis_of_a_deleted_series_says_so(console_server: LiveServer,
+                                                 browser_client: httpx.Client) -> None:
+    """Its link went to the series' id, which after the delete pointed at another cycle
+    (ids were reused) and now would be a 404: the page says the series was deleted."""
+    export = console_server.client.post("/simulate", json={
+        "rig_id": 1, "fault": "worn_spool", "condition": {"load": 4200},
+        "sample_rate": 200, "timeseries": "csv"})
+    assert export.status_code == 200, export.text
+    stored = console_server.client.post(
+        "/rigs/1/series", data={"name": "to-delete"}, headers=console_server.auth,
+        files={"file": ("cycle.csv", export.content, "text/csv")}).json()["items"][0]
+    record = console_server.client.get(f"/series/{stored['id']}/record").json()["record"]
+    answer = console_server.client.post("/diagnose", json={"record": record},
+                                        headers=console_server.auth).json()["diagnoses"][0]
+    page = browser_client.get(f"/console/diagnoses/{answer['id']}").text
+    assert f'href="/console/series/{stored["id"]}"' in page
+    assert console_server.client.delete(f"/series/{stored['id']}",
+                                        headers=console_server.auth).status_code == 204
+    page = browser_client.get(f"/console/diagnoses/{answer['id']}").text
+    assert f'href="/console/series/{stored["id"]}"' not in page
+    assert f"read from series {stored['id']}, since deleted" in page
