@@ -55,21 +55,24 @@ def record_rows(content: bytes, *, field: str) -> list[dict[str, Any]]:
     except UnicodeDecodeError:
         raise InputError("not a readable CSV: the file is not UTF-8 text", field=field
                          ) from None
-    lines = [(n, line) for n, line in enumerate(text.splitlines(), start=1)
-             if line.strip() and not line.lstrip().startswith("#")]
-    if not lines:
+    kept = [(n, line) for n, line in enumerate(text.splitlines(), start=1)
+            if line.strip() and not line.lstrip().startswith("#")]
+    if not kept:
         return []
+    reader = csv.reader((line + "\n" for _, line in kept), strict=True)
+    table: list[tuple[int, list[str]]] = []  # (the file's line a row ends on, its cells)
     try:
-        table = list(csv.reader([line for _, line in lines]))
+        for cells in reader:  # a quoted cell may span lines: count rows by the reader
+            table.append((kept[reader.line_num - 1][0], cells))
     except csv.Error as exc:
         raise InputError(f"not a readable CSV: {exc}", field=field) from None
-    header = [name.strip() for name in table[0]]
+    header = [name.strip() for name in table[0][1]]
     while header and not header[-1]:  # a spreadsheet's trailing separator
         header.pop()
     if not header or any(not name for name in header):
-        raise InputError(f"line {lines[0][0]}: every column needs a name", field=field)
+        raise InputError(f"line {table[0][0]}: every column needs a name", field=field)
     rows = []
-    for (number, _), cells in zip(lines[1:], table[1:], strict=True):
+    for number, cells in table[1:]:
         if len(cells) < len(header) or any(c.strip() for c in cells[len(header):]):
             raise InputError(f"line {number} has {len(cells)} cells for the header's "
                              f"{len(header)} columns", field=field)

@@ -116,3 +116,19 @@ def test_a_row_is_read_as_written_or_refused_naming_its_line(runner: CliRunner,
     result = runner.invoke(cli, ["diagnose-batch", str(path), "--rig", "1", "--out", str(out)])
     assert result.exit_code == 0, result.output
     assert json.loads(out.read_text().splitlines()[0])["top"] == "valve"
+
+
+def test_a_quoted_cell_may_span_lines_and_a_broken_quote_is_refused() -> None:
+    """Rows are counted by the CSV reader, not by lines: a note with a line break in its
+    cell kept the table one row short of its lines (a ValueError, a 500 on the console)."""
+    import pytest
+
+    from app.schemas.record_csv import record_rows
+    from sim.errors import InputError
+
+    rows = record_rows(b'rig_id,note\n1,"first\nsecond"\n2,x\n', field="file")
+    assert rows == [{"rig_id": 1, "note": "first\nsecond"}, {"rig_id": 2, "note": "x"}]
+    for broken in (b'rig_id,note\n1,"open\n', b'rig_id,note\n1,"a"b\n'):
+        with pytest.raises(InputError) as err:
+            record_rows(broken, field="file")
+        assert err.value.field == "file" and "not a readable CSV" in err.value.message
