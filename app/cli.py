@@ -155,7 +155,9 @@ def keys_revoke(key_id: Annotated[int, typer.Argument(min=1, max=MAX_ID,
     with make_session_factory(engine)() as session:
         row = revoke_api_key(session, key_id)
     engine.dispose()
-    console.print(f"key {row.id} ({row.name}) revoked", markup=False)
+    when = f" at {row.revoked_at:%Y-%m-%d %H:%M:%S} UTC" if row.revoked_at else ""
+    console.print(f"key {row.id} ({row.name}) revoked{when}", markup=False)  # an earlier
+    # revocation (or a rotation's grace end) keeps its own time: revoking again changes nothing
 
 
 @keys_cli.command("rotate")

@@ -35,7 +35,7 @@ from app.cli_support import (
     writable,
 )
 from app.schemas.common import MAX_ID
-from sim.errors import InputError
+from sim.errors import HydrodiagError, InputError
 from sim.scenarios import FAULTS
 
 __all__ = ["register"]
@@ -43,13 +43,30 @@ __all__ = ["register"]
 _out = Console()
 
 
-def _validated(model: Any, document: Any) -> Any:
+def _validated(model: Any, document: Any, options: dict[str, str] | None = None) -> Any:
+    """``document`` validated as ``model``; an error names the option the user typed where
+    ``options`` maps the model's field to it (``displacement_m3_rad`` → ``--displacement``)."""
     try:
         return model.model_validate(document)
     except ValidationError as exc:
         from app.cli_support import validation_error
 
-        raise validation_error(exc) from None
+        raise _as_option(validation_error(exc), options) from None
+
+
+def _as_option(exc: HydrodiagError, options: dict[str, str] | None) -> HydrodiagError:
+    """``exc`` with its field renamed to the command's option when ``options`` maps it."""
+    if options and exc.field in options:
+        return type(exc)(exc.message, field=options[exc.field])
+    return exc
+
+
+#: simulate: the request's fields → the options that fill them
+_SIMULATE_OPTIONS = {"rig_id": "--rig", "fault": "--fault", "sample_rate": "--sample-rate",
+                     "timeseries": "--output", "rtol": "--rtol", "solver": "--solver",
+                     "condition.load": "--load", "condition.back_pressure": "--back-pressure",
+                     "condition.oil_temperature": "--oil-temperature",
+                     "condition.pump_speed": "--pump-speed"}
 
 
 def _print_json(payload: Any) -> None:
@@ -115,10 +132,13 @@ def simulate(
         "method": "steady" if steady else "transient",
         "timeseries": formats[output.suffix.lower()] if output is not None else None,
         "solver": solver, "rtol": rtol, "sample_rate": sample_rate,
-    })
+    }, _SIMULATE_OPTIONS)
     with store_session() as session, steps() as progress:
         progress.add_task("simulating", total=None)
-        outcome = run(session, RigCache(1), request)
+        try:
+            outcome = run(session, RigCache(1), request)
+        except HydrodiagError as exc:
+            raise _as_option(exc, _SIMULATE_OPTIONS) from None
     if output is not None:
         kind = formats[output.suffix.lower()]
         if kind == "csv":
@@ -383,7 +403,9 @@ def calibrate_pump(
     if displacement_cm3_rev is not None:
         displacement = displacement_cm3_rev * 1e-6 / (2.0 * math.pi)
     form = _validated(PumpBenchForm, {"name": name, "pump": pump, "rig_id": rig_id,
-                                      "displacement_m3_rad": displacement})
+                                      "displacement_m3_rad": displacement},
+                      {"name": "--name", "pump": "--pump", "rig_id": "--rig",
+                       "displacement_m3_rad": "--displacement"})
     try:
         content = file.read_bytes()
     except OSError as exc:

@@ -102,7 +102,7 @@ class SimulateRequest(RequestModel):
         "sampling, error estimate) or 'ros2' (second order, one row per step) [-]",
         examples=["rodas4"],
     )
-    rtol: float | None = Field(
+    rtol: FiniteFloat | None = Field(
         default=None, gt=1e-8, le=1e-1,
         description="Relative tolerance of the transient integrator; null (default): "
         "noise-accurate, the tolerance is chosen so that the estimated error meets "

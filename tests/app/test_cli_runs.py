@@ -333,7 +333,7 @@ def test_simulate_samples_at_a_rate_and_reports_its_error(runner: CliRunner,
     frame = pd.read_csv(out, comment="#")
     assert frame["t [s]"].diff().dropna().round(12).eq(1e-3).all()
     ros2 = runner.invoke(cli, ["simulate", "--solver", "ros2", "--sample-rate", "1000"])
-    assert ros2.exit_code != 0 and "sample_rate" in str(ros2.exception)
+    assert ros2.exit_code != 0 and "--sample-rate" in str(ros2.exception)
 
 
 def test_diagnose_a_measured_cycle_file_and_a_stored_one(runner: CliRunner,

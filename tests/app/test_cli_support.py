@@ -135,3 +135,17 @@ def test_import_names_are_checked_and_a_non_utf8_file_name_is_kept_readable(
     latin.write_text(content)
     result = runner.invoke(cli, ["import", "series", str(latin), "--rig", "1", "--name", "l1"])
     assert result.exit_code == 0, result.output
+
+
+def test_errors_name_the_option_typed(runner: CliRunner, tmp_path: Path) -> None:
+    """Not the API's field a command fills from it (displacement_m3_rad, sample_rate)."""
+    sample = Path(__file__).resolve().parents[2] / "docs" / "samples" / "bench_sample.csv"
+    for args, option in (
+            (["calibrate", "pump", str(sample), "--name", "x", "--pump", "p",
+              "--displacement", "-1"], "--displacement"),
+            (["simulate", "--solver", "ros2", "--sample-rate", "100"], "--sample-rate"),
+            (["simulate", "--steady", "--output", str(tmp_path / "run.csv")], "--output"),
+            (["simulate", "--rtol", "nan"], "--rtol")):
+        result = runner.invoke(cli, args)
+        assert result.exit_code != 0, args
+        assert getattr(result.exception, "field", None) == option, (args, result.exception)
