@@ -87,15 +87,13 @@ def import_series(
              "-0400.")] = None,
 ) -> None:
     """Read time-series files and store each record, as POST /rigs/{id}/series does."""
-    from app.services.series import store_records
-    from diagnostics.table_files import time_in_name as time_in_name_of
+    from app.services.series import store_records, upload_start
     from diagnostics.timeseries import read_series
 
     cmap, sample_rate, start = reading_options(column_map, sample_rate, started_at)
-    if time_in_name is not None and start is not None:
-        raise InputError("give --started-at or --time-in-name, not both", field="--started-at")
-    if zone is not None and time_in_name is None:
-        raise InputError("--zone goes with --time-in-name", field="--zone")
+    options = ("--started-at", "--time-in-name", "--zone")
+    if time_in_name is None or start is not None:  # the options' conflicts, before any file
+        upload_start(None, start, time_in_name, zone, names=options)
     if start is not None and len(files) > 1:
         raise InputError("one start for several files would put their records at the same "
                          "time: give each file its '# started_at = ...' header line, or "
@@ -106,9 +104,7 @@ def import_series(
         for k, file in enumerate(files):
             progress.update(task, description=f"reading {_shown(file.name)}", completed=k)
             try:
-                own = start if time_in_name is None else time_in_name_of(
-                    file.name.removesuffix(".gz"), time_in_name, zone, field="--time-in-name",
-                    zone_field="--zone")
+                own = upload_start(file.name, start, time_in_name, zone, names=options)
                 records.extend(read_series(file, column_map=cmap, sample_rate=sample_rate,
                                            started_at=own))
             except InputError as exc:  # which of the files, and its column

@@ -28,7 +28,7 @@ from app.console.web import SECURITY_HEADERS, page, redirect
 from app.errors import format_location
 from app.schemas.common import MAX_ID
 from app.schemas.discrepancy import DiscrepancyForm
-from app.schemas.series import SeriesImportForm
+from app.schemas.series import IMPORT_NAME_CHARACTER, SeriesImportForm
 from app.security import Scope
 from app.services import jobs as job_service
 from app.services import rigs as rig_service
@@ -126,7 +126,7 @@ def _import_name(name: str, filename: str | None) -> str:
     not hold replaced by '-'."""
     if name.strip():
         return name.strip()
-    return re.sub(r"[^A-Za-z0-9_.:-]", "-", filename or "")[:200] or "upload"
+    return re.sub(f"(?!{IMPORT_NAME_CHARACTER}).", "-", filename or "")[:200] or "upload"
 
 
 @router.post("/series/import")

@@ -17,8 +17,13 @@ from app.schemas.common import (
 )
 from diagnostics.timeseries import MAX_SAMPLE_RATE
 
-__all__ = ["CYCLE_EXAMPLE", "CycleQuery", "PhaseReadingPublic", "SeriesData", "SeriesImportForm",
-           "SeriesList", "SeriesPublic", "SeriesRecordPublic"]
+__all__ = ["CYCLE_EXAMPLE", "IMPORT_NAME_CHARACTER", "IMPORT_NAME_PATTERN", "CycleQuery",
+           "PhaseReadingPublic", "SeriesData", "SeriesImportForm", "SeriesList", "SeriesPublic",
+           "SeriesRecordPublic"]
+
+#: a character an import's name may hold, and the whole name (the form, the CLI, the store)
+IMPORT_NAME_CHARACTER = r"[A-Za-z0-9_.:-]"
+IMPORT_NAME_PATTERN = rf"^{IMPORT_NAME_CHARACTER}{{1,200}}$"
 
 #: a measured cycle in the format /simulate exports (the upload's example)
 CYCLE_EXAMPLE = (
@@ -45,7 +50,7 @@ class SeriesImportForm(UploadForm):
     (:class:`~app.schemas.common.UploadForm`).
     """
 
-    name: str = Field(min_length=1, max_length=200, pattern=r"^[A-Za-z0-9_.:-]+$",
+    name: str = Field(min_length=1, max_length=200, pattern=IMPORT_NAME_PATTERN,
                       description="Name of the import (the file or campaign) [-]",
                       examples=["zema-cycles-1-100"])
     column_map: str | None = Field(

@@ -21,6 +21,7 @@ from sqlalchemy.orm import Session
 
 from app.db.models import MeasuredSeries
 from app.limits import check_file
+from app.schemas.series import IMPORT_NAME_PATTERN
 from app.services.common import commit, get_or_raise, paginate
 from app.services.rigs import get_rig
 from diagnostics.table_files import time_in_name as time_in_name_of
@@ -43,7 +44,7 @@ __all__ = [
 ]
 
 #: What an import's name may be (the upload form's pattern, and the CLI's ``--name``).
-IMPORT_NAME = re.compile(r"[A-Za-z0-9_.:-]{1,200}")
+IMPORT_NAME = re.compile(IMPORT_NAME_PATTERN)
 #: Largest time-series file accepted [byte].
 MAX_SERIES_BYTES = 20 * 1024 * 1024
 
@@ -116,28 +117,33 @@ def store_records(session: Session, rig_id: int, name: str, records: Sequence[Se
 
 
 def upload_start(filename: str | None, started_at: datetime | None,
-                 time_in_name: str | None, zone: str | None) -> datetime | None:
+                 time_in_name: str | None, zone: str | None, *,
+                 names: tuple[str, str, str] = ("started_at", "time_in_name", "zone")
+                 ) -> datetime | None:
     """The clock time at which an uploaded file's ``t`` reads 0 [UTC]: ``started_at``, or
     the time the logger wrote into ``filename`` read with the strptime format
     ``time_in_name`` in ``zone`` (:func:`diagnostics.table_files.time_in_name`; a ``.gz``
     suffix left out); None when neither is given (the file's header may hold it).
+    ``names``: what the caller calls the three (the form's fields, the CLI's options).
 
     Raises
     ------
     InputError
         Both ``started_at`` and ``time_in_name``, a ``zone`` without ``time_in_name``, an
-        upload without a file name, or no such time in it (naming the form field).
+        upload without a file name, or no such time in it (naming the field or option).
     """
+    start_name, format_name, zone_name = names
     if time_in_name is None:
         if zone is not None:
-            raise InputError("zone goes with time_in_name", field="zone")
+            raise InputError(f"{zone_name} goes with {format_name}", field=zone_name)
         return started_at
     if started_at is not None:
-        raise InputError("give started_at or time_in_name, not both", field="started_at")
+        raise InputError(f"give {start_name} or {format_name}, not both", field=start_name)
     if not filename:
         raise InputError("the upload has no file name to read the time from",
-                         field="time_in_name")
-    return time_in_name_of(filename.removesuffix(".gz"), time_in_name, zone)
+                         field=format_name)
+    return time_in_name_of(filename.removesuffix(".gz"), time_in_name, zone,
+                           field=format_name, zone_field=zone_name)
 
 
 def import_series(session: Session, rig_id: int, name: str, content: bytes, *,
