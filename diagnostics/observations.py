@@ -23,7 +23,6 @@ from diagnostics.consistency import RigLimits, check_against_rig
 from diagnostics.measurement import MeasurementRecord, Quantity
 from sim.errors import MeasurementError, ParameterError
 from sim.rigs import Condition, Rig
-from sim.rigs.schema import check_bounds
 
 __all__ = [
     "OBSERVABLE_UNITS",
@@ -93,33 +92,27 @@ def sim_condition(record: MeasurementRecord) -> Condition:
                      oil_temperature=c.oil_temperature.value, pump_speed=speed)
 
 
-#: a condition parameter of a circuit → the record's name for it (``condition.<name>``)
-_RECORD_CONDITION = {"force": "load_force", "back_pressure": "back_pressure",
-                     "oil_temperature": "oil_temperature"}
-#: … and the attribute of :class:`~sim.rigs.Condition` that holds it
-_CONDITION_ATTRIBUTE = {"force": "load"}
+#: a circuit's condition parameter → the record's name for it (``condition.<name>``)
+_RECORD_CONDITION = {"condition.force": "condition.load_force"}
 
 
 def check_condition(record: MeasurementRecord, rig: Rig) -> None:
     """Refuse a record whose condition is outside the range the rig's circuit is modelled
-    for, naming the record's field (``condition.load_force``, not the circuit's
-    ``condition.force``) and the value the record states.
+    for (:meth:`sim.rigs.Rig.check_condition`), naming the record's field
+    (``condition.load_force``, not the circuit's ``condition.force``) and the value the
+    record states.
 
     Raises
     ------
     MeasurementError
         A stated oil temperature, load or back-pressure outside the circuit's bounds.
     """
-    cond = sim_condition(record)
-    for decl in rig.spec.circuit.condition:
-        value = getattr(cond, _CONDITION_ATTRIBUTE.get(decl.name, decl.name), None)
-        if value is None:
-            continue
-        try:
-            check_bounds(float(value), decl, decl.name)
-        except ParameterError as exc:
-            raise MeasurementError(exc.message.removeprefix(f"{decl.name}: "), field=(
-                f"condition.{_RECORD_CONDITION.get(decl.name, decl.name)}")) from None
+    try:
+        rig.check_condition(sim_condition(record))
+    except ParameterError as exc:
+        field = exc.field or ""
+        raise MeasurementError(exc.message.removeprefix(f"{field}: "),
+                               field=_RECORD_CONDITION.get(field, field)) from None
 
 
 def observe(record: MeasurementRecord, rig: Rig, *, check: bool = True) -> RecordObservations:

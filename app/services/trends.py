@@ -243,8 +243,9 @@ def component_trends(
             limit, source = threshold, "given"
         else:
             limit, source = default_threshold(resolved.rig, name)
-        explained = [h for h in history if h.verdict != UNEXPLAINED]
-        every = _points(name, explained, intervals)
+        estimated = _points(name, history, intervals)
+        unexplained = {h.diagnosis_id for h in history if h.verdict == UNEXPLAINED}
+        every = [p for p in estimated if p.diagnosis_id not in unexplained]
         points = [p for p in every if comparable[p.rig_version]]
         left = sorted({p.rig_version for p in every if not comparable[p.rig_version]})
         later = _later(session, rig_id, points[-1].measured_at, until) if points else (0, None)
@@ -257,7 +258,7 @@ def component_trends(
                     "document are not comparable")
             trend = replace(trend, message=f"{trend.message}; {note}", left_out=n_left,
                             left_out_versions=left)
-        if n_unexplained := len(_points(name, history, intervals)) - len(every):
+        if n_unexplained := len(estimated) - len(every):
             note = (f"{n_unexplained} point(s) of diagnoses the rig model did not explain "
                     "left out (their readings contradict the model the estimate is made "
                     "with)")

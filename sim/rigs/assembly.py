@@ -117,6 +117,22 @@ class Rig:
                 raise ParameterError(f"{broken.text} (with the overrides given)",
                                      field=f"overrides.{key}")
 
+    def check_condition(self, cond: Condition) -> None:
+        """Refuse a condition outside the range the circuit is modelled for.
+
+        Raises
+        ------
+        ParameterError
+            Naming the circuit's condition parameter (``condition.force``,
+            ``condition.oil_temperature``).
+        """
+        for decl in self.spec.circuit.condition:
+            attribute = _CONDITION_ATTRIBUTES.get(decl.name, decl.name)
+            try:
+                check_bounds(getattr(cond, attribute), decl, f"condition.{decl.name}")
+            except ParameterError as exc:
+                raise ParameterError(exc.message, field=exc.field) from None
+
     def values(self, overrides: Mapping[str, float] | None = None,
                condition: Condition | None = None) -> dict[str, float]:
         """All graph parameter values for ``overrides`` (``role.name`` → SI) and ``condition``."""
@@ -138,12 +154,7 @@ class Rig:
             v[key] = float(value)
         if overrides:
             self._check_relations(v, overrides)
-        for decl in circuit.condition:
-            attribute = _CONDITION_ATTRIBUTES.get(decl.name, decl.name)
-            try:
-                check_bounds(getattr(cond, attribute), decl, f"condition.{decl.name}")
-            except ParameterError as exc:
-                raise ParameterError(exc.message, field=exc.field) from None
+        self.check_condition(cond)
         if cond.pump_speed is not None:
             if not 0 < cond.pump_speed <= MAX_PUMP_SPEED:
                 raise ParameterError(f"pump speed must be > 0 and ≤ {MAX_PUMP_SPEED:g} rad/s "

@@ -257,10 +257,7 @@ def _effects_block(raw: Any, circuit: Circuit, *, strict: bool = False
         effect = get_effect(name, circuit.name, field=path)
         if not isinstance(body, Mapping):
             raise RigFileError("expected a mapping {parameters}", field=path)
-        for key in body:
-            if key != "parameters":
-                raise RigFileError(f"unknown key {key!r} (expected 'parameters')",
-                                   field=f"{path}.{key}")
+        _known_keys(body, ("parameters",), path)
         out[str(name)] = _parameter_block(body.get("parameters", {}), effect.parameters,
                                           f"{path}.parameters", partial=True, strict=strict)
     return out
