@@ -24,7 +24,7 @@ from pydantic import ValidationError
 from rich.markup import escape
 from rich.table import Table
 
-from app.cli_support import console, steps, store_session, writable
+from app.cli_support import console, counted, steps, store_session, writable
 from app.schemas.common import MAX_ID
 from app.schemas.record_csv import record_rows
 from sim.errors import InputError
@@ -121,7 +121,7 @@ def diagnose_batch(
     started = time.perf_counter()
     try:
         with steps() as progress:
-            task = progress.add_task(f"diagnosing {len(records)} records",
+            task = progress.add_task(f"diagnosing {counted(len(records), 'record')}",
                                      total=len(records))
 
             def tick(done: int, total: int) -> None:
@@ -138,7 +138,7 @@ def diagnose_batch(
             for r in results:
                 fh.write(json.dumps(r, default=str) + "\n")
     counts = Counter(r.get("top", "error") for r in results)
-    table = Table("top", "records", title=f"{len(results)} records in {elapsed:.1f} s "
+    table = Table("top", "records", title=f"{counted(len(results), 'record')} in {elapsed:.1f} s "
                   f"({len(results) / elapsed:.0f} records/s)")
     for name, n in counts.most_common():
         table.add_row(escape(name), str(n))

@@ -135,7 +135,9 @@ def discover(
         typer.echo(json.dumps(d.to_dict() | {"new_rig_version": new_version}, indent=2,
                               default=str))
         return
-    _out.print(f"[bold]{d.verdict}[/bold]: {escape(d.message)}")
+    # the message of a named effect starts with the verdict ("named coulomb …")
+    rest = d.message[len(d.verdict):] if d.message.startswith(d.verdict) else f": {d.message}"
+    _out.print(f"[bold]{d.verdict}[/bold]{escape(rest)}")
     if d.named:
         table = Table("effect", "parameter", "value", "95 % interval", "plausible",
                       title=f"rig {rig_id}: new version {new_version}" if new_version

@@ -18,6 +18,7 @@ from rich.table import Table
 from app.cli_support import (
     ColumnMapOption,
     SampleRateOption,
+    counted,
     reading_options,
     steps,
     store_session,
@@ -110,12 +111,12 @@ def import_series(
             except InputError as exc:  # which of the files, and its column
                 raise type(exc)(f"{file}: {exc.message}",
                                 field="FILE" if exc.field == "file" else exc.field) from None
-        progress.update(task, description=f"storing {len(records)} records",
+        progress.update(task, description=f"storing {counted(len(records), 'record')}",
                         total=len(records), completed=0)
         rows = store_records(session, rig_id, name, records,
                              lambda done, total: progress.update(task, completed=done))
     what = _shown(files[0].name) if len(files) == 1 else f"{len(files)} files"
-    _summary(list(rows), f"{len(rows)} records of {what} stored for rig {rig_id}")
+    _summary(list(rows), f"{counted(len(rows), 'record')} of {what} stored for rig {rig_id}")
 
 
 @import_cli.command("zema")
@@ -164,10 +165,11 @@ def import_zema(
             rows = store_records(session, rig_id, name, records,
                                  lambda done, total: progress.update(job, completed=done))
     if store:
-        _out.print(f"{len(rows)} ZeMA cycles stored for rig {rig_id} as {name!r} "
+        _out.print(f"{counted(len(rows), 'ZeMA cycle')} stored for rig {rig_id} as {name!r} "
                    f"(series {rows[0].id}..{rows[-1].id})", markup=False)
     if bench is not None:
-        _out.print(f"{rows_written} settled plateaus of {len(records)} cycles written to "
+        _out.print(f"{counted(rows_written, 'settled plateau')} of "
+                   f"{counted(len(records), 'cycle')} written to "
                    f"{bench} (τ = {relaxation:g} s, pump speed {speed * 30 / math.pi:.0f} rpm "
                    f"from rig {rig_id})", markup=False)
 

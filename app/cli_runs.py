@@ -26,6 +26,7 @@ from app.cli_support import (
     ColumnMapOption,
     SampleRateOption,
     console,
+    estimate_text,
     load_document,
     reading_options,
     series_ids,
@@ -273,6 +274,9 @@ def diagnose(
                 f"{fit['probability']:.4f}"
             table.add_row(escape(fit["name"]), probability, escape(params))
         _out.print(table)
+        if any(p.get("at_bound") for f in item.result["hypotheses"] for p in f["parameters"]):
+            _out.print("at bound: the fit sits on the healthy end of the hypothesis's worn "
+                       "range (the records show no more wear than it must assume)", markup=False)
         if item.misfit:
             _out.print(f"[bold red]not explained:[/] {escape(item.misfit)}")
         elif item.result.get("confident") is False and item.goodness_of_fit is not None:
@@ -464,6 +468,9 @@ def register(cli: typer.Typer) -> None:
 
 def _parameter_text(p: dict[str, Any]) -> str:
     """``name = value (low … high) unit`` of a fitted parameter (no unit for a factor,
-    whose unit is 1)."""
+    whose unit is 1), and whether the fit sits on the healthy end of the hypothesis's worn
+    range (the records show no more wear than the hypothesis must assume)."""
     unit = "" if p["unit"] in ("1", "-", "") else f" {p['unit']}"
-    return f"{p['name']} = {p['value']:.4g} ({p['low']:.4g} … {p['high']:.4g}){unit}"
+    value, interval = estimate_text(p["value"], p["low"], p["high"])
+    bound = ", at bound" if p.get("at_bound") else ""
+    return f"{p['name']} = {value} ({interval}){unit}{bound}"

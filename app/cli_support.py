@@ -112,6 +112,11 @@ def writable(path: Path, option: str) -> Path:
     return path
 
 
+def counted(n: int, noun: str) -> str:
+    """``counted(1, "record")`` → ``"1 record"``, ``counted(3, "record")`` → ``"3 records"``."""
+    return f"{n} {noun}" if n == 1 else f"{n} {noun}s"
+
+
 def estimate_text(value: float, low: float, high: float) -> tuple[str, str]:
     """An estimate and its interval as text with as many significant digits (4 to 10) as it
     takes to tell the interval's ends apart: at a fixed 3 digits a tight interval read

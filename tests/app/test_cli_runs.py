@@ -16,7 +16,7 @@ from sqlalchemy import select
 from typer.testing import CliRunner
 
 from app.cli import cli
-from app.cli_support import store_session
+from app.cli_support import estimate_text, store_session
 from app.db.models import Diagnosis, PumpSet, ThrottleCalibration
 from diagnostics.pump import (
     InstrumentNoise,
@@ -78,7 +78,12 @@ def test_diagnose_a_yaml_file_of_records(runner: CliRunner, tmp_path: Path) -> N
                                            "--json"]).stdout)["diagnoses"][0]["result"]
     (cv,) = next(f for f in joint["hypotheses"] if f["name"] == "valve")["parameters"]
     flat = " ".join(table.stdout.split())
-    assert f"cv = {cv['value']:.4g} ({cv['low']:.4g} … {cv['high']:.4g}) m" in flat
+    value, interval = estimate_text(cv["value"], cv["low"], cv["high"])
+    assert f"cv = {value} ({interval}) m" in flat
+    # a hypothesis that the records push to the healthy end of its worn range says so
+    bound = [p for f in joint["hypotheses"] for p in f["parameters"] if p["at_bound"]]
+    assert bound and flat.count("at bound") == len(bound) + 1   # each, and the footnote
+    assert "at bound: the fit sits on the healthy end of the hypothesis's worn range" in flat
     assert "pump_leak = " in flat and not re.search(r"pump_leak = [^,]*\) 1\b", flat)
     assert store_count(Diagnosis) == 2
     path.write_text(yaml.safe_dump(record | {"flow_C": -1.0}))

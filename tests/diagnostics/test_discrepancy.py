@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -72,6 +74,12 @@ def test_hidden_seal_friction_is_named_fitted_and_the_held_out_gap_shrinks():
     assert excess_ratio(d.gap_before, d.gap_after, sigma) >= 2.0
     steady = {(r.channel, r.region): r.rmse for r in d.gap_after}
     assert steady[("P1", "steady")] < 1.5 * 5e3  # at the noise after the effect is added
+    # the message says how far the held-out gap shrank, channel by channel, in noise σ
+    before = {(r.channel, r.region): r.rmse for r in d.gap_before}
+    shrink = re.search(r"held-out steady RMSE .*P1 ([\d.]+) σ → ([\d.]+) σ", d.message)
+    assert shrink is not None, d.message
+    assert float(shrink[1]) > float(shrink[2])
+    assert float(shrink[1]) == pytest.approx(before[("P1", "steady")] / 5e3, rel=0.15)
     spec = validate_rig_document(d.rig_document)
     assert spec.effects["seal_friction_pressure"]["k_p"].value == pytest.approx(n.value)
 
