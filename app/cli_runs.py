@@ -56,9 +56,12 @@ def _validated(model: Any, document: Any, options: dict[str, str] | None = None)
 
 
 def _as_option(exc: HydrodiagError, options: dict[str, str] | None) -> HydrodiagError:
-    """``exc`` with its field renamed to the command's option when ``options`` maps it."""
-    if options and exc.field in options:
-        return type(exc)(exc.message, field=options[exc.field])
+    """``exc`` with its field renamed to the command's option when ``options`` maps it, or
+    maps the list the field is an item of (``parameters[0]`` → ``--parameter``)."""
+    field = exc.field or ""
+    for name, option in (options or {}).items():
+        if field == name or field.startswith(f"{name}["):
+            return type(exc)(exc.message, field=option)
     return exc
 
 
@@ -68,6 +71,11 @@ _SIMULATE_OPTIONS = {"rig_id": "--rig", "fault": "--fault", "sample_rate": "--sa
                      "condition.load": "--load", "condition.back_pressure": "--back-pressure",
                      "condition.oil_temperature": "--oil-temperature",
                      "condition.pump_speed": "--pump-speed"}
+
+
+#: commission: the request's fields → the options that fill them
+_COMMISSION_OPTIONS = {"parameters": "--parameter", "rig_id": "--rig",
+                       "beyond_prior": "--beyond-prior"}
 
 
 def _print_json(payload: Any) -> None:
@@ -307,16 +315,24 @@ def commission(
     from app.services.rig_cache import RigCache
 
     document = load_document(file)
-    body = dict(document) if isinstance(document, dict) and "records" in document else \
-        {"records": document}
+    if isinstance(document, dict) and "records" in document:
+        body = dict(document)
+    elif isinstance(document, list):
+        body = {"records": document}
+    else:
+        raise InputError(f"{file} holds no records: give a list of records, or "
+                         "{records: [...]}", field="FILE")
     if parameter:
         body["parameters"] = parameter
     if beyond_prior:
         body["beyond_prior"] = True
-    request = _validated(CommissionRequest, body)
+    request = _validated(CommissionRequest, body, _COMMISSION_OPTIONS)
     with store_session() as session, steps() as progress:
         task = progress.add_task("commissioning", total=None)
-        response = commission_rig(session, RigCache(4), rig, request)
+        try:
+            response = commission_rig(session, RigCache(4), rig, request)
+        except HydrodiagError as exc:
+            raise _as_option(exc, _COMMISSION_OPTIONS) from None
         progress.update(task, description="done")
     if as_json:
         _print_json(response.model_dump(mode="json"))

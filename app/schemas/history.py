@@ -2,19 +2,25 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Literal
 
 from pydantic import AwareDatetime, Field
 
 from app.schemas.common import Page, PublicModel
 
 __all__ = [
+    "BlamedComponent",
     "StoredDiagnosisList",
     "StoredDiagnosisPublic",
     "StoredEstimatePublic",
     "StoredMeasurementList",
     "StoredMeasurementPublic",
 ]
+
+#: what a stored diagnosis's top hypothesis blames: one component, a pair of the fault
+#: library (:data:`diagnostics.hypotheses.HYPOTHESES`), ``healthy`` or ``unexplained``
+BlamedComponent = Literal["healthy", "unexplained", "cylinder", "valve", "pump", "relief",
+                          "cylinder+valve", "cylinder+pump", "valve+pump"]
 
 _RECORD_EXAMPLE: dict[str, Any] = {
     "rig_id": 1, "measured_at": "2026-11-22T08:30:00+00:00",

@@ -6,7 +6,7 @@ from collections.abc import Sequence
 from datetime import datetime
 from typing import Any
 
-from sqlalchemy import Select, func, select
+from sqlalchemy import Select, func, or_, select
 from sqlalchemy.orm import Session, selectinload
 
 from app.db.models import Diagnosis, Measurement, RigVersion
@@ -68,8 +68,12 @@ def list_diagnoses(session: Session, *, limit: int, offset: int, rig_id: int | N
         statement = statement.where(Measurement.measured_at >= since)
     if until is not None:
         statement = statement.where(Measurement.measured_at <= until)
-    if component is not None:
-        statement = statement.where(Diagnosis.component == component)
+    if component is not None:  # a component alone also finds the pairs that blame it
+        blamed = Diagnosis.component == component
+        if "+" not in component and component not in ("healthy", "unexplained"):
+            blamed = or_(blamed, Diagnosis.component.like(f"{component}+%"),
+                         Diagnosis.component.like(f"%+{component}"))
+        statement = statement.where(blamed)
     return _page(session, statement, limit=limit, offset=offset,
                  order=(Measurement.measured_at.desc(), Diagnosis.id.desc()))
 

@@ -124,8 +124,13 @@ def test_cli_commission(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None
     assert "valve.K" in table.output
     bad = runner.invoke(cli, ["commission", str(path), "--rig", "1", "--parameter", "x.y"])
     # main() prints the error and exits 1; the runner keeps the exception
-    assert bad.exit_code != 0 and getattr(bad.exception, "field", None) == "parameters[0]"
+    assert bad.exit_code != 0 and getattr(bad.exception, "field", None) == "--parameter"
     assert "x.y" in str(bad.exception)
+    # a file without records names the file, not the API's "records" field
+    (tmp_path / "empty.json").write_text("{}")
+    empty = runner.invoke(cli, ["commission", str(tmp_path / "empty.json"), "--rig", "1"])
+    assert empty.exit_code != 0 and getattr(empty.exception, "field", None) == "FILE"
+    assert "holds no records" in str(empty.exception)
 
 
 def test_a_worn_record_is_not_absorbed_into_the_document(server: LiveServer) -> None:

@@ -77,6 +77,32 @@ def test_lists_filter_by_rig_and_time_newest_first(server: LiveServer,
     assert single["measured_at"] == posted["measured_at"]
 
 
+def test_the_component_filter_finds_the_pairs_that_blame_it(server: LiveServer) -> None:
+    """``component=valve`` once matched only a top of exactly "valve": a spool and pump worn
+    together ("valve+pump") was left out of the valve's list."""
+    window = {"since": "2026-06-01T00:00:00Z", "until": "2026-06-30T00:00:00Z"}
+    posted = {}
+    for day, overrides in (("01", {"valve.cv": 80e-6, "pump.Rlp": 6e11 / 12}),
+                           ("02", WORN_VALVE), ("03", {})):
+        record = simulated_record(server, overrides, measured_at=f"2026-06-{day}T10:00:00Z")
+        answer = server.client.post("/diagnose", json={"record": record}).json()["diagnoses"][0]
+        posted[answer["id"]] = answer["component"]
+    assert sorted(posted.values()) == ["healthy", "valve", "valve+pump"]
+
+    def listed(component: str) -> set[int]:
+        got = server.client.get("/diagnoses", params=window | {"component": component})
+        assert got.status_code == 200, got.text
+        return {d["id"] for d in got.json()["items"]}
+
+    for component in ("valve", "pump", "valve+pump", "healthy", "cylinder"):
+        expected = {i for i, c in posted.items()
+                    if c == component or component in c.split("+")}
+        assert listed(component) == expected, component
+    # a name outside the library is refused, not answered with an empty page
+    bad = server.client.get("/diagnoses", params={"component": "spool"})
+    assert bad.status_code == 422 and bad.json()["error"]["field"] == "component"
+
+
 def test_read_back_errors(server: LiveServer, stored: dict[str, Any]) -> None:
     assert server.client.get("/diagnoses/999999").status_code == 404
     assert server.client.get("/measurements/999999").json()["error"]["type"] == "NotFoundError"

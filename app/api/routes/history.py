@@ -13,6 +13,7 @@ from app.api.deps import PageDep, ReadAccess, SessionDep
 from app.db.models import Diagnosis, Measurement
 from app.schemas.common import ERROR_RESPONSES, MAX_ID, IsoDatetime
 from app.schemas.history import (
+    BlamedComponent,
     StoredDiagnosisList,
     StoredDiagnosisPublic,
     StoredEstimatePublic,
@@ -76,9 +77,10 @@ def get_measurement(
 def list_diagnoses(
     session: SessionDep, page: PageDep, rig_id: RigFilter = None, since: Since = None,
     until: Until = None,
-    component: Annotated[str | None, Query(
-        max_length=64, description="Only diagnoses whose top hypothesis blames this "
-        "component ('valve', 'cylinder', 'pump', 'healthy', ...) [-]",
+    component: Annotated[BlamedComponent | None, Query(
+        description="Only diagnoses whose top hypothesis blames this component: a single "
+        "component also finds the pairs that blame it ('valve' finds 'valve+pump'); a pair, "
+        "'healthy' or 'unexplained' only itself [-]",
         examples=["valve"])] = None,
 ) -> StoredDiagnosisList:
     """Return a page of stored diagnoses, newest record first."""
