@@ -76,9 +76,9 @@ def discover(
     from app.services.rig_cache import RigCache
     from app.services.rigs import update_rig
     from diagnostics.discrepancy import discover as run
-    from diagnostics.discrepancy.records import require_cycle_records
     from diagnostics.discrepancy.report import write_report
     from diagnostics.discrepancy.steady import discover_steady, is_bench_table, read_bench_bytes
+    from diagnostics.discrepancy.workflow import check_records
     from diagnostics.timeseries import read_series
 
     if (data is None) == (series is None):
@@ -110,7 +110,8 @@ def discover(
                 plan = plan_discrepancy(session, rigs, form, None)
             bench, records = plan.bench, plan.records
         elif bench is None:
-            require_cycle_records(records)
+            with data_field("data"):
+                check_records(resolved.document, records)
         with steps() as progress:
             task = progress.add_task("discrepancy workflow", total=1.0)
 

@@ -33,7 +33,6 @@ from app.services.rig_cache import RigCache
 from app.services.rigs import update_rig
 from app.services.series import stored_records
 from diagnostics.discrepancy import discover
-from diagnostics.discrepancy.records import require_cycle_records
 from diagnostics.discrepancy.report import html_page
 from diagnostics.discrepancy.steady import (
     discover_steady,
@@ -41,6 +40,7 @@ from diagnostics.discrepancy.steady import (
     read_bench_bytes,
     require_rows,
 )
+from diagnostics.discrepancy.workflow import check_records
 from diagnostics.pump.data import BenchData
 from diagnostics.real.profile import settled_bench, stated_pump_speed
 from diagnostics.timeseries import SeriesRecord, read_series
@@ -104,7 +104,8 @@ def plan_discrepancy(session: Session, rigs: RigCache, form: DiscrepancyForm,
                 require_rows(bench)
             return DiscrepancyPlan(resolved.rig_id, resolved.version, document, [],
                                    form.refit, form.store, bench, "series_ids")
-        require_cycle_records(records)
+        with data_field("series_ids"):
+            check_records(document, records)
         return DiscrepancyPlan(resolved.rig_id, resolved.version, document, records,
                                form.refit, form.store, source="series_ids")
     if len(content) <= MAX_SERIES_BYTES and is_bench_table(content):
@@ -113,8 +114,7 @@ def plan_discrepancy(session: Session, rigs: RigCache, form: DiscrepancyForm,
         return DiscrepancyPlan(resolved.rig_id, resolved.version, dict(resolved.document), [],
                                form.refit, form.store, bench)
     records = read_records(content)
-    resolved.rig.require_cycle("the discrepancy workflow on measured cycles")  # a 422 now
-    require_cycle_records(records)
+    check_records(resolved.document, records)  # a 422 now, not a job that fails
     return DiscrepancyPlan(resolved.rig_id, resolved.version, dict(resolved.document), records,
                            form.refit, form.store)
 

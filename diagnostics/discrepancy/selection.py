@@ -40,7 +40,7 @@ from sim.components.effects import EFFECTS
 from sim.errors import MeasurementError
 
 __all__ = ["ALPHA", "BIC_MARGIN", "NEAR_BIC", "PRACTICAL", "Fit", "Selection", "Term", "hac_cov",
-           "select"]
+           "require_samples", "select"]
 
 Arr = npt.NDArray[np.float64]
 
@@ -254,6 +254,18 @@ def _blocks(n: int, size: int, rng: np.random.Generator) -> npt.NDArray[np.int64
     return np.concatenate([np.arange(s, min(s + size, n)) for s in starts])[:n]
 
 
+def require_samples(data: BalanceData) -> None:
+    """Raise :class:`MeasurementError` when the balance has too few usable samples to fit
+    its base terms and two candidates (:data:`MIN_SAMPLES_PER_TERM` each)."""
+    n, n_base = data.y.size, len(data.base)
+    if n < MIN_SAMPLES_PER_TERM * (n_base + 2):
+        raise MeasurementError(
+            f"the {data.balance.name} balance has {n} usable samples; at least "
+            f"{MIN_SAMPLES_PER_TERM * (n_base + 2)} are needed to fit its "
+            f"{n_base} base terms and two candidates (longer records, or a higher "
+            "sample rate)", field="file")
+
+
 def select(data: BalanceData, *, bootstrap: int = 30, seed: int = 0, lags: int = HAC_LAGS,
            block: int = 500) -> Selection:
     """Select the effect(s) of one balance (module docstring).
@@ -270,15 +282,9 @@ def select(data: BalanceData, *, bootstrap: int = 30, seed: int = 0, lags: int =
     block
         Moving-block length of the bootstrap [samples]; 1 for independent rows.
     """
+    require_samples(data)
     y_si = data.y
     n = y_si.size
-    n_base = len(data.base)
-    if n < MIN_SAMPLES_PER_TERM * (n_base + 2):
-        raise MeasurementError(
-            f"the {data.balance.name} balance has {n} usable samples; at least "
-            f"{MIN_SAMPLES_PER_TERM * (n_base + 2)} are needed to fit its "
-            f"{n_base} base terms and two candidates (longer records, or a higher "
-            "sample rate)", field="file")
     ys = float(np.sqrt(np.mean(y_si * y_si))) or 1.0
     y = y_si / ys
     bnames, Xb, bscale = _scaled(data.base)

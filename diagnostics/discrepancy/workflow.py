@@ -48,15 +48,15 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
-from diagnostics.discrepancy.balances import balance_data
+from diagnostics.discrepancy.balances import BalanceData, balance_data
 from diagnostics.discrepancy.confirm import Small, confirm_chosen, confirm_small
 from diagnostics.discrepancy.drift import Drift, refit_base
 from diagnostics.discrepancy.gap import GapRow, gap_table
 from diagnostics.discrepancy.lof import repeats_lack_of_fit
 from diagnostics.discrepancy.records import require_cycle_records
 from diagnostics.discrepancy.refit import with_effects
-from diagnostics.discrepancy.selection import PRACTICAL, Selection, select
-from diagnostics.discrepancy.signals import condition_of, prepare
+from diagnostics.discrepancy.selection import PRACTICAL, Selection, require_samples, select
+from diagnostics.discrepancy.signals import Signals, condition_of, prepare
 from diagnostics.discrepancy.simulate import (
     SOLVER,
     simulate_record,
@@ -83,7 +83,8 @@ from sim.errors import InputError
 from sim.rigs.assembly import Rig
 from sim.rigs.schema import validate_rig_document
 
-__all__ = ["Discovery", "NamedEffect", "discover", "excess_ratio", "gap_ratio"]
+__all__ = ["Discovery", "NamedEffect", "check_records", "discover", "excess_ratio",
+           "gap_ratio"]
 
 Arr = npt.NDArray[np.float64]
 Progress = Callable[[float, str], None]
@@ -249,6 +250,35 @@ def discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], *
                      max_nfev=max_nfev, bootstrap=bootstrap, seed=seed, worn_pass=False)
 
 
+def check_records(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord]) -> None:
+    """Raise what the workflow's first step would raise on these records (no phase
+    column, an unstated condition, no balance computable, too few usable samples), in
+    ~0.1 s per 15,000 samples and before any simulation: ``POST /discrepancy`` answers
+    422 instead of accepting a job that fails."""
+    _first_step(rig_document, records)
+
+
+def _first_step(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord]
+                ) -> tuple[Rig, list[int], list[int], Signals, list[BalanceData]]:
+    """The rig, the training/held-out split, the training records' prepared signals and
+    the balances evaluated on them, each with enough usable samples to fit."""
+    rig = Rig.from_spec(validate_rig_document(dict(rig_document)))
+    rig.require_cycle("the discrepancy workflow on measured cycles")
+    if not records:
+        raise InputError("no records to analyse", field="file")
+    require_cycle_records(records)
+    train_i, held_i = _split(records, rig)
+    signals = prepare([records[i] for i in train_i], rig)
+    data = balance_data(signals, rig.values())
+    if not data:
+        raise InputError("the records lack the channels of every balance (need e.g. P1, P2, v "
+                         "for the piston force, or Q_meter_B, P_pump for the pump)",
+                         field="file")
+    for d in data:
+        require_samples(d)
+    return rig, train_i, held_i, signals, data
+
+
 def _discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], *,
               progress: Progress | None, refit: bool, max_nfev: int, bootstrap: int,
               seed: int, worn_pass: bool) -> Discovery:
@@ -260,21 +290,10 @@ def _discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], 
             progress(frac, what)
 
     doc = dict(rig_document)
-    rig = Rig.from_spec(validate_rig_document(doc))
-    rig.require_cycle("the discrepancy workflow on measured cycles")
-    if not records:
-        raise InputError("no records to analyse", field="file")
-    require_cycle_records(records)
-    train_i, held_i = _split(records, rig)
+    report(0.05, "equation-error residuals")
+    rig, train_i, held_i, signals, data = _first_step(doc, records)
     train = [records[i] for i in train_i]
     held = [records[i] for i in held_i] or train
-    report(0.05, "equation-error residuals")
-    signals = prepare(train, rig)
-    data = balance_data(signals, rig.values())
-    if not data:
-        raise InputError("the records lack the channels of every balance (need e.g. P1, P2, v "
-                         "for the piston force, or Q_meter_B, P_pump for the pump)",
-                         field="file")
     selections = [select(d, bootstrap=bootstrap, seed=seed) for d in data]
     report(0.3, "selection done")
     rate = 1000.0

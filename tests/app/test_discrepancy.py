@@ -199,6 +199,17 @@ def test_bad_files_are_422_naming_the_column_and_start_nothing(server: LiveServe
     r = server.client.post("/discrepancy", data={"rig_id": "999"},
                            files={"file": ("x.csv", measured)}, headers=server.auth)
     assert r.status_code == 404, r.text
+    # the OpenAPI example (three samples: the format, not a usable cycle) was accepted and
+    # its job failed; too few usable samples is now a 422 before the job
+    schemas = server.client.get("/openapi.json").json()["components"]["schemas"]
+    (body,) = [v for k, v in schemas.items() if "start_discrepancy" in k]
+    (example,) = body["properties"]["file"]["examples"]
+    jobs = server.client.get("/jobs").json()["total"]
+    r = server.client.post("/discrepancy", data={"rig_id": "1"},
+                           files={"file": ("x.csv", example.encode())}, headers=server.auth)
+    assert r.status_code == 422 and "usable samples" in r.json()["error"]["message"], r.text
+    assert r.json()["error"]["field"] == "file"
+    assert server.client.get("/jobs").json()["total"] == jobs
     assert server.row_counts() == before
 
 

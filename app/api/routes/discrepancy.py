@@ -32,7 +32,9 @@ async def start_discrepancy(
         "units in the column names, 'phase' and optional 'record' columns, each record's "
         "load and oil temperature as constant columns or the export's '# condition' header), "
         "or steady pump test points in the pump-bench CSV format (p_in, p_out, n, theta, q "
-        "with units, optional replicate); leave out when series_ids names stored records [-]",
+        "with units, optional replicate); leave out when series_ids names stored records. "
+        "The example shows the format only: the workflow needs whole strokes (a few "
+        "thousand samples at 1 kHz), and too few usable samples is a 422 [-]",
         examples=["record,t [s],phase,P1 [Pa],P2 [Pa],v [m/s],load [N],"
                   "oil_temperature [degC]\n"
                   "load-2100,0.100,working,1.20e6,1.0e5,0.210,2100,40\n"
