@@ -26,7 +26,7 @@ import pandas as pd
 from sim.bondgraph.model import IntegrationResult
 from sim.cycle_result import SUMMARY_UNITS, CycleResult, PhaseSummary, SolverReport
 from sim.errors import ParameterError, SolverLimitError
-from sim.phase_reading import steady_window, time_average
+from sim.phase_reading import settled_window, steady_window, time_average
 from sim.rigs.assembly import Condition, Rig
 from sim.solver.limits import SolverLimits
 from sim.solver.noise import NoiseAccuracy, error_estimate
@@ -76,18 +76,29 @@ def phase_params(rig: Rig, phase: str, overrides: Mapping[str, float] | None,
     return rig.params(overrides, condition, phase_settings(rig, phase))
 
 
-def _averages(rig: Rig, t: Arr, y: Arr, p: Arr) -> dict[str, float]:
-    """Time averages of the outputs over the middle of the stroke (10-90 % of the travel,
-    :func:`sim.phase_reading.steady_window`), where a rig's meters are read; the whole
-    phase if the piston travelled too little to have a middle."""
+def _averages(rig: Rig, t: Arr, y: Arr, p: Arr, completed: bool
+              ) -> tuple[dict[str, float], dict[str, float]]:
+    """Time averages of the outputs as a rig's meters read the phase
+    (:mod:`sim.phase_reading`): a completed stroke over the middle of its travel (10-90 %,
+    :func:`~sim.phase_reading.steady_window`; the whole phase if the piston travelled too
+    little to have a middle), a stroke that stalled or crept short of its end over the
+    last half of the phase (:func:`~sim.phase_reading.settled_window`, the settled state:
+    10-90 % of a stall's few µm of travel read the start-up transient, 0.6 bar at the pump
+    with the relief valve blowing at 71 bar).  Also the lowest value of each pressure
+    output over the whole phase [Pa] (what :attr:`PhaseSummary.lowest` keeps)."""
     out = rig.model.outputs(t, y, p)
-    sel = steady_window(y[:, rig.model.state_index("cylinder.x")])
+    sel = (steady_window(y[:, rig.model.state_index("cylinder.x")]) if completed
+           else settled_window(t))
     ts = t[sel]
     res: dict[str, float] = {}
-    for j, name in enumerate(rig.model.output_names):
+    lowest: dict[str, float] = {}
+    for j, (name, unit) in enumerate(zip(rig.model.output_names, rig.model.output_units,
+                                         strict=True)):
         if name in SUMMARY_UNITS:
             res[name] = time_average(out[sel, j], ts)
-    return res
+        if unit == "Pa":
+            lowest[name] = float(np.min(out[:, j]))
+    return res, lowest
 
 
 def _phase_limit(rig: Rig, p: Arr, t_max: float | None) -> float:
@@ -298,12 +309,12 @@ def run_cycle(rig: Rig, overrides: Mapping[str, float] | None = None,
         if grid is not None:
             t_all = np.concatenate([[run.t0], res.t, [res.t_final]])
             y_all = np.vstack([run.y0[None, :], res.y, res.y_final[None, :]])
-        values = _averages(rig, t_all, y_all, run.p)
+        values, lowest = _averages(rig, t_all, y_all, run.p, res.status == 1)
         duration = float(res.t_final - run.t0)
         travelled = abs(float(res.y_final[ix] - run.y0[ix]))
         values["duration"] = duration
         values["speed"] = travelled / duration if duration > 0 else 0.0
-        phases.append(PhaseSummary(run.phase, values, res.status == 1))
+        phases.append(PhaseSummary(run.phase, values, res.status == 1, lowest))
         steps[run.phase] = int(res.steps)
         if timeseries:
             out = m.outputs(res.t, res.y, run.p)

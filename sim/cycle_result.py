@@ -35,11 +35,26 @@ SUMMARY_UNITS: dict[str, str] = {
 
 @dataclass
 class PhaseSummary:
-    """Averages of one phase (keys and units: :data:`SUMMARY_UNITS`)."""
+    """Averages of one phase (keys and units: :data:`SUMMARY_UNITS`).
+
+    Attributes
+    ----------
+    phase
+        ``"working"`` or ``"return"``.
+    values
+        The phase's readings: averages over the middle of a completed stroke's travel, or
+        over the settled last half of a stroke that stalled or crept [SI].
+    completed
+        Whether the piston reached its end of stroke within the phase's time limit.
+    lowest
+        Lowest value of each pressure output over the whole phase, transients included
+        [Pa] (empty for the steady path, which has no transient).
+    """
 
     phase: str
     values: dict[str, float]
     completed: bool
+    lowest: dict[str, float] = field(default_factory=dict)
 
     def __getitem__(self, key: str) -> float:
         return self.values[key]

@@ -20,7 +20,13 @@ from app.errors import format_location
 from app.schemas.common import MAX_ID
 from app.schemas.simulate import SimulateRequest
 from app.services import rigs as rig_service
-from app.services.simulation import simulate, summary_of, timeseries_csv, timeseries_parquet
+from app.services.simulation import (
+    physics_notes,
+    simulate,
+    summary_of,
+    timeseries_csv,
+    timeseries_parquet,
+)
 from sim.errors import HydrodiagError, InputError
 from sim.scenarios import FAULTS
 
@@ -65,7 +71,7 @@ def simulate_page(request: Request, session: SessionDep, rigs: RigsDep, _key: Co
     form = {"rig": rig, "fault": fault, "load": load, "oil_temperature": oil_temperature,
             "back_pressure": back_pressure}
     context: dict[str, Any] = {"rigs": rows, "faults": FAULTS, "form": form, "charts": [],
-                               "summary": None, "error": None, "query": ""}
+                               "summary": None, "notes": [], "error": None, "query": ""}
     if run:
         try:
             body = _request(rig, fault, load, oil_temperature, back_pressure, "json")
@@ -80,6 +86,7 @@ def simulate_page(request: Request, session: SessionDep, rigs: RigsDep, _key: Co
         context["charts"] = [] if frame is None else simulation_charts(
             frame, nominal.result.timeseries, label)
         context["summary"] = summary_of(outcome.result)
+        context["notes"] = physics_notes(outcome.result)
         context["query"] = str(request.url.query)
     return page(request, "simulate.html", **context)
 

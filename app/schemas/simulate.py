@@ -209,6 +209,9 @@ class SimulationPublic(BaseModel):
         examples=[None],
     )
     notes: list[str] = Field(
-        default_factory=list, description="What the result holds that the model does not: "
-        "a gauge pressure below vacuum (the model has no cavitation), by output [-]",
+        default_factory=list, description="What a reader must know that the numbers do not "
+        "say: a stroke that did not reach its end (stalled or crept; its averages are the "
+        "settled last half of the phase), a gauge pressure below vacuum anywhere in the "
+        "phase (the model has no cavitation), by output; the same whether or not the time "
+        "series is asked for [-]",
         examples=[[]])

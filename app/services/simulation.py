@@ -100,13 +100,39 @@ def condition_dict(condition: Condition) -> dict[str, float | None]:
 
 
 def physics_notes(result: CycleResult) -> list[str]:
-    """What the result holds that the model does not: a gauge pressure below vacuum
-    (:data:`~diagnostics.measurement.MIN_GAUGE_PRESSURE`, −1 bar), in a phase average or
-    anywhere in the time series.  The bond-graph model has no cavitation (the oil's
-    pressure may fall without bound), so an overrunning load, or the switch-over of a
-    transient, can drive a chamber to pressures oil cannot hold; the numbers there are
-    reported, not physical."""
+    """What a reader of the result must know that its numbers do not say.
+
+    * A stroke that did not reach its end within the phase's time limit: the piston
+      stalled on a load it cannot push, or crept; its averages are the settled state (the
+      last half of the phase, :mod:`sim.phase_reading`), and a return stroke after a
+      stalled working stroke starts where the piston stopped: it is not a stroke.
+    * A gauge pressure below vacuum (:data:`~diagnostics.measurement.MIN_GAUGE_PRESSURE`,
+      −1 bar) in a phase average or anywhere in the phase (each phase's lowest pressure is
+      kept whether or not the time series was asked for).  The bond-graph model has no
+      cavitation (the oil's pressure may fall without bound), so an overrunning load, or
+      the switch-over of a transient, can drive a chamber to pressures oil cannot hold; the
+      numbers there are reported, not physical.
+    """
+    notes: list[str] = []
+    phases = (result.working, result.return_)
+    if not result.working.completed:
+        notes.append(
+            f"the working stroke did not reach its end in {result.working['duration']:.4g} s "
+            f"(creep speed {result.working['speed']:.3g} m/s): the piston stalled on a load "
+            "it cannot push, or crept; its averages are the settled state (the last half of "
+            "the phase), and the return stroke starts where the piston stopped, so its "
+            "averages and the velocity ratio are not those of a stroke")
+    if not result.return_.completed:
+        notes.append(
+            f"the return stroke did not reach its end in {result.return_['duration']:.4g} s "
+            f"(creep speed {result.return_['speed']:.3g} m/s): the piston stalled or crept; "
+            "its averages are the settled state (the last half of the phase)")
     lows: dict[str, float] = {}
+    for phase in phases:
+        for name, value in phase.lowest.items():
+            key = f"{name} [Pa]"
+            if math.isfinite(value) and value < MIN_GAUGE_PRESSURE:
+                lows[key] = min(value, lows.get(key, value))
     for key, value in result.summary().items():
         if key.endswith("[Pa]") and math.isfinite(value) and value < MIN_GAUGE_PRESSURE:
             lows[key] = value
@@ -116,10 +142,11 @@ def physics_notes(result: CycleResult) -> list[str]:
             if str(column).endswith("[Pa]"):
                 low = float(frame[column].min())
                 if math.isfinite(low) and low < MIN_GAUGE_PRESSURE:
-                    lows[str(column)] = low
-    return [f"{name} reaches {value / 1e5:.4g} bar gauge, below vacuum (-1 bar): the model "
-            "has no cavitation, so the oil's pressure there is not physical"
-            for name, value in lows.items()]
+                    key = str(column)
+                    lows[key] = min(low, lows.get(key, low))
+    return notes + [f"{name} reaches {value / 1e5:.4g} bar gauge, below vacuum (-1 bar): the "
+                    "model has no cavitation, so the oil's pressure there is not physical"
+                    for name, value in lows.items()]
 
 
 def summary_of(result: CycleResult) -> dict[str, float | None]:

@@ -239,6 +239,17 @@ def test_simulation_downloads_are_the_apis_files(browser_client: httpx.Client) -
     assert bad.status_code == 422 and error_box(bad.text)[0] == "format"
 
 
+def test_the_simulate_page_says_what_the_numbers_do_not(browser_client: httpx.Client) -> None:
+    """The API's notes were left off the page: a switch-over below vacuum, a stroke that
+    stalled (its averages then the settled state, not a stroke's)."""
+    dips = browser_client.get("/console/simulate?run=true&fault=worn_spool&load=4200")
+    assert dips.status_code == 200
+    notes = re.findall(r"<li>([^<]*)</li>", dips.text.split('id="notes"')[1].split("</ul>")[0])
+    assert notes and all("below vacuum" in n for n in notes)
+    stall = browser_client.get("/console/simulate?run=true&fault=worn_piston&load=20000")
+    assert "the working stroke did not reach its end" in stall.text
+
+
 def test_pumps_page_shows_measured_against_model_from_the_stored_points(
         console_server: LiveServer, browser_client: httpx.Client) -> None:
     sets = console_server.client.get("/pump-sets").json()["items"]
