@@ -72,9 +72,8 @@ def discover(
 ) -> None:
     """Find what the rig model misses in DATA, name it, add it to the rig, show the gap."""
     from app.schemas.discrepancy import DiscrepancyForm
-    from app.services.discrepancy import data_field, plan_discrepancy
+    from app.services.discrepancy import data_field, plan_discrepancy, store_discovery
     from app.services.rig_cache import RigCache
-    from app.services.rigs import update_rig
     from diagnostics.discrepancy import discover as run
     from diagnostics.discrepancy.report import write_report
     from diagnostics.discrepancy.steady import discover_steady, is_bench_table, read_bench_bytes
@@ -123,18 +122,16 @@ def discover(
                     d = discover_steady(dict(resolved.document), bench, progress=tick)
                 else:
                     d = run(dict(resolved.document), records, progress=tick, refit=refit)
-        new_version = None
-        if d.named and store:
-            _, row = update_rig(session, rig_id, d.rig_document, comment="hydrodiag discover: "
-                                f"added {', '.join(n.name for n in d.named)}")
-            new_version = row.version
+        new_version = not_stored = None
+        if store:
+            new_version, not_stored = store_discovery(session, rig_id, resolved.version, d)
     if report is not None:
         written = write_report(d, report)
         console.print(f"report written to {written['html']} (+ {len(written['png'])} PNG, "
                       f"{len(written['svg'])} SVG)")
     if as_json:
-        typer.echo(json.dumps(d.to_dict() | {"new_rig_version": new_version}, indent=2,
-                              default=str))
+        typer.echo(json.dumps(d.to_dict() | {"new_rig_version": new_version,
+                                             "not_stored": not_stored}, indent=2, default=str))
         return
     # the message of a named effect starts with the verdict ("named coulomb …")
     rest = d.message[len(d.verdict):] if d.message.startswith(d.verdict) else f": {d.message}"
@@ -148,6 +145,8 @@ def discover(
             table.add_row(n.name, f"{n.parameter} \\[{n.unit}]", value, interval,
                           "yes" if n.plausible else "NO")
         _out.print(table)
+    if not_stored:
+        _out.print(not_stored, markup=False)
     if d.base_drift is not None and d.base_drift.accepted:
         table = Table("parameter", "stored", "re-fitted", "change", "95 % interval",
                       title="base drift (reported, not stored)")

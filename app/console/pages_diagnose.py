@@ -68,17 +68,29 @@ def parse_records(text: str, content: bytes | None) -> DiagnoseRequest:
         Nothing given, unreadable text, or a record the API would refuse (``field`` as
         the API names it).
     """
-    if content:
+    if content is not None and text.strip():
+        raise InputError("give a pasted record or a CSV file, not both (the file would be "
+                         "diagnosed and the text left out)", field="document")
+    if content is not None:
+        if not content.strip():
+            raise InputError("the file is empty", field="file")
         document: Any = {"records": _csv_records(content)}
     elif text.strip():
         if len(text) > MAX_INPUT_BYTES:
             raise InputError(f"at most {MAX_INPUT_BYTES} characters", field="document")
         try:
             document = load_yaml(text)
+        except yaml.constructor.ConstructorError as exc:  # a key given twice, a bad tag
+            raise InputError(f"{exc.problem} ({exc.problem_mark})" if exc.problem_mark
+                             else str(exc.problem), field="document") from None
         except yaml.YAMLError as exc:
             raise InputError(f"neither JSON nor YAML: {exc}", field="document") from None
         if not isinstance(document, dict):
             raise InputError("give a record (a mapping) or a request body", field="document")
+        if "store" in document and document["store"] is not True:
+            raise InputError("the console stores every diagnosis it shows; leave out "
+                             "'store' (POST /diagnose with store: false answers without "
+                             "storing)", field="store")
         if not {"record", "records"} & set(document):
             document = {"record": document}
     else:

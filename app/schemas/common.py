@@ -12,11 +12,21 @@ from collections.abc import Callable, Mapping
 from datetime import datetime
 from typing import Annotated, Any, ClassVar, Generic, TypeVar
 
-from pydantic import AwareDatetime, BaseModel, BeforeValidator, ConfigDict, Field, model_validator
+from pydantic import (
+    AfterValidator,
+    AwareDatetime,
+    BaseModel,
+    BeforeValidator,
+    ConfigDict,
+    Field,
+    model_validator,
+)
 from pydantic_core import PydanticCustomError
 
 __all__ = [
+    "EARLIEST_MEASUREMENT",
     "ERROR_RESPONSES",
+    "FUTURE_ALLOWANCE_S",
     "MAX_ID",
     "MAX_OFFSET",
     "ErrorBody",
@@ -24,12 +34,14 @@ __all__ = [
     "FiniteFloat",
     "IdInt",
     "IsoDatetime",
+    "MeasurementTime",
     "Page",
     "PublicModel",
     "RequestModel",
     "Timestamp",
     "UploadForm",
     "error_doc",
+    "measurement_time_problem",
     "not_nullable",
     "reject_null",
 ]
@@ -65,6 +77,39 @@ def iso_only(value: Any) -> Any:
 
 #: A time with its zone, as ISO 8601 only (query parameters and body fields).
 IsoDatetime = Annotated[AwareDatetime, BeforeValidator(iso_only)]
+
+#: Earliest time a measurement may be stored with (digital records; a 1900 date is a
+#: logger's unset clock) [UTC].
+EARLIEST_MEASUREMENT = dt.datetime(1970, 1, 1, tzinfo=dt.UTC)
+#: How far ahead of the service's clock a measurement time may lie (clock skew, a zone
+#: written wrong by up to a day) [s].
+FUTURE_ALLOWANCE_S = 86400.0
+
+
+def measurement_time_problem(value: dt.datetime) -> str | None:
+    """Why ``value`` cannot be when something was measured (None: it can): before
+    :data:`EARLIEST_MEASUREMENT` or more than :data:`FUTURE_ALLOWANCE_S` ahead of now.  A
+    record dated 2999 went to the top of the history and stretched every trend's axis to
+    4e5 days."""
+    latest = dt.datetime.now(dt.UTC) + dt.timedelta(seconds=FUTURE_ALLOWANCE_S)
+    if value < EARLIEST_MEASUREMENT:
+        return (f"{value.isoformat()} is before {EARLIEST_MEASUREMENT.date()}: not a time a "
+                "measurement was taken (a logger's unset clock?)")
+    if value > latest:
+        return (f"{value.isoformat()} is in the future (more than a day after the service's "
+                f"clock, {latest.replace(microsecond=0).isoformat()})")
+    return None
+
+
+def _measured(value: dt.datetime) -> dt.datetime:
+    problem = measurement_time_problem(value)
+    if problem is not None:
+        raise ValueError(problem)
+    return value
+
+
+#: When something was measured: ISO 8601 with zone, from 1970 to a day ahead of now.
+MeasurementTime = Annotated[AwareDatetime, BeforeValidator(iso_only), AfterValidator(_measured)]
 
 
 def _json_type_problem(annotation: Any, value: Any) -> str | None:

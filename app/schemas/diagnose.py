@@ -16,7 +16,7 @@ from typing import Annotated, Any, ClassVar, Literal
 from pydantic import AwareDatetime, BaseModel, BeforeValidator, ConfigDict, Field, model_validator
 
 from app.limits import BATCH_RECORDS_CEILING
-from app.schemas.common import MAX_ID, FiniteFloat, IsoDatetime, RequestModel
+from app.schemas.common import MAX_ID, FiniteFloat, MeasurementTime, RequestModel
 from sim.errors import InputError
 
 __all__ = [
@@ -136,10 +136,10 @@ class MeasurementIn(RequestModel):
 
     rig_id: int = _rig_id()
     rig_version: int | None = _rig_version(default=None)
-    measured_at: IsoDatetime | None = Field(
+    measured_at: MeasurementTime | None = Field(
         default=None,
-        description="When the readings were taken, ISO 8601 with zone; the time of the "
-        "request when null [UTC]",
+        description="When the readings were taken, ISO 8601 with zone, from 1970 to a day "
+        "ahead of the service's clock; the time of the request when null [UTC]",
         examples=["2026-11-22T08:30:00Z"],
     )
     series_id: int | None = Field(

@@ -2,14 +2,15 @@
 
 from __future__ import annotations
 
-from typing import Any
+import re
+from typing import Annotated, Any
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field
 
 from app.schemas.common import (
     MAX_ID,
     FiniteFloat,
-    IsoDatetime,
+    MeasurementTime,
     Page,
     PublicModel,
     Timestamp,
@@ -17,13 +18,38 @@ from app.schemas.common import (
 )
 from diagnostics.timeseries import MAX_SAMPLE_RATE
 
-__all__ = ["CYCLE_EXAMPLE", "IMPORT_NAME_CHARACTER", "IMPORT_NAME_PATTERN", "CycleQuery",
-           "PhaseReadingPublic", "SeriesData", "SeriesImportForm", "SeriesList", "SeriesPublic",
-           "SeriesRecordPublic"]
+__all__ = [
+    "CYCLE_EXAMPLE",
+    "IMPORT_NAME_CHARACTER",
+    "IMPORT_NAME_PATTERN",
+    "CycleQuery",
+    "PhaseReadingPublic",
+    "SeriesData",
+    "SeriesImportForm",
+    "SeriesList",
+    "SeriesPublic",
+    "SeriesRecordPublic",
+    "import_name_problem",
+]
 
 #: a character an import's name may hold, and the whole name (the form, the CLI, the store)
 IMPORT_NAME_CHARACTER = r"[A-Za-z0-9_.:-]"
 IMPORT_NAME_PATTERN = rf"^{IMPORT_NAME_CHARACTER}{{1,200}}$"
+
+
+def import_name_problem(name: str) -> str | None:
+    """Why ``name`` cannot name an import, in words (the form showed the raw pattern)."""
+    if re.fullmatch(IMPORT_NAME_PATTERN, name):
+        return None
+    return ("an import's name is 1 to 200 of the letters A-Z and a-z, digits and _ . : - "
+            f"(no spaces or accents; e.g. pruefstand-2026-11); got {name[:60]!r}")
+
+
+def _import_name(name: str) -> str:
+    problem = import_name_problem(name)
+    if problem is not None:
+        raise ValueError(problem)
+    return name
 
 #: a measured cycle in the format /simulate exports (the upload's example)
 CYCLE_EXAMPLE = (
@@ -50,9 +76,10 @@ class SeriesImportForm(UploadForm):
     (:class:`~app.schemas.common.UploadForm`).
     """
 
-    name: str = Field(min_length=1, max_length=200, pattern=IMPORT_NAME_PATTERN,
-                      description="Name of the import (the file or campaign) [-]",
-                      examples=["zema-cycles-1-100"])
+    name: Annotated[str, AfterValidator(_import_name)] = Field(
+        min_length=1, max_length=200, json_schema_extra={"pattern": IMPORT_NAME_PATTERN},
+        description="Name of the import (the file or campaign): letters A-Z a-z, digits and "
+        "_ . : - [-]", examples=["zema-cycles-1-100"])
     column_map: str | None = Field(
         default=None, max_length=20000,
         description="JSON object raw column → [channel, unit] for columns without a unit in "
@@ -65,9 +92,10 @@ class SeriesImportForm(UploadForm):
     sample_rate: FiniteFloat | None = Field(
         default=None, gt=0, le=MAX_SAMPLE_RATE,
         description="Samples per second for a file without a time column [Hz]", examples=[1.0])
-    started_at: IsoDatetime | None = Field(
+    started_at: MeasurementTime | None = Field(
         default=None,
-        description="Clock time at which the file's t reads 0, ISO 8601 with zone; each "
+        description="Clock time at which the file's t reads 0, ISO 8601 with zone, from "
+        "1970 to a day ahead of the service's clock; each "
         "record is stored as measured at this plus its first sample's t (the file header's "
         "'# started_at = \"...\"' when not given; none when neither) [UTC]",
         examples=["2026-11-20T08:00:00Z"])

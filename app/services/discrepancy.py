@@ -30,9 +30,9 @@ from app.limits import check_file
 from app.schemas.discrepancy import DiscrepancyForm
 from app.services.jobs import JobRunner, Progress
 from app.services.rig_cache import RigCache
-from app.services.rigs import update_rig
+from app.services.rigs import get_rig, latest_version, update_rig
 from app.services.series import stored_records
-from diagnostics.discrepancy import discover
+from diagnostics.discrepancy import Discovery, discover
 from diagnostics.discrepancy.report import html_page
 from diagnostics.discrepancy.steady import (
     discover_steady,
@@ -45,6 +45,7 @@ from diagnostics.pump.data import BenchData
 from diagnostics.real.profile import settled_bench, stated_pump_speed
 from diagnostics.timeseries import SeriesRecord, read_series
 from sim.errors import HydrodiagError, InputError
+from sim.rigs import load_rig
 from sim.rigs.circuits import DEFAULT_CIRCUIT, get_circuit
 
 __all__ = ["MAX_SERIES_BYTES", "DiscrepancyPlan", "data_field", "plan_discrepancy",
@@ -158,15 +159,59 @@ def run_discrepancy(plan: DiscrepancyPlan, sessions: SessionFactory | None,
     result = d.to_dict()
     result["rig_id"] = plan.rig_id
     result["rig_version"] = plan.version
-    result["new_rig_version"] = None
-    if d.named and plan.store and sessions is not None:
-        names = ", ".join(n.name for n in d.named)
+    result["new_rig_version"] = result["not_stored"] = None
+    if plan.store and sessions is not None:
         with sessions() as session:
-            _, version = update_rig(session, plan.rig_id, d.rig_document,
-                                    comment=f"hydrodiag discover: added {names}")
-            result["new_rig_version"] = version.version
+            result["new_rig_version"], result["not_stored"] = store_discovery(
+                session, plan.rig_id, plan.version, d)
     result["html"] = html_page(d)
     return result
+
+
+#: a re-fit that moves a pump's displacement by more than this share is neither wear nor
+#: drift: the data come from another pump (a V32HL56 bench checked against rig 1 stored
+#: its 17.5 cm³/rev pump as 57) [-]
+MAX_DISPLACEMENT_CHANGE = 0.10
+
+
+def store_discovery(session: Session, rig_id: int, from_version: int, d: Discovery
+                    ) -> tuple[int | None, str | None]:
+    """Store the augmented rig of ``d`` (the workflow run on version ``from_version``) as a
+    new version of rig ``rig_id``: (the new version, None), or (None, why it was not
+    stored), or (None, None) when nothing was named.
+
+    Not stored: a named effect outside its plausible range (the report names it, as
+    evidence that the data may not be this rig's); a version that is no longer the latest
+    (its successors' changes, an effect added since, would be dropped); a pump
+    displacement re-fitted by more than :data:`MAX_DISPLACEMENT_CHANGE` (another pump).
+    """
+    if not d.named:
+        return None, None
+    implausible = [f"{n.name} ({n.parameter} = {n.value:.4g} {n.unit}, plausible "
+                   f"{n.plausible_range[0]:.3g} to {n.plausible_range[1]:.3g})"
+                   for n in d.named if not n.plausible]
+    if implausible:
+        return None, ("not stored: outside its plausible range: " + "; ".join(implausible)
+                      + " — the data may not come from this rig, or the effect stands for "
+                      "another")
+    rig = get_rig(session, rig_id, field="rig_id")
+    if rig.latest_version != from_version:
+        return None, (f"not stored: the workflow ran on version {from_version} and the "
+                      f"rig's latest is {rig.latest_version}, whose changes a version built "
+                      f"on {from_version} would drop; run it on the latest version to store")
+    before = load_rig(latest_version(session, rig).document).values()
+    after = load_rig(d.rig_document).values()
+    for key in (k for k in before if k.endswith(".Vp") and k in after):
+        change = after[key] / before[key] - 1.0
+        if abs(change) > MAX_DISPLACEMENT_CHANGE:
+            return None, (f"not stored: the re-fit moves {key} by {100 * change:+.0f} %: a "
+                          "displacement does not wear by that much, so the data come from "
+                          "another pump (hydrodiag calibrate pump characterises it)")
+    names = ", ".join(n.name for n in d.named)
+    _, version = update_rig(session, rig_id, d.rig_document,
+                            comment=f"hydrodiag discover: added {names} (from version "
+                                    f"{from_version})")
+    return version.version, None
 
 
 def submit_discrepancy(runner: JobRunner, sessions: SessionFactory, form: DiscrepancyForm,

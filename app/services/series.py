@@ -11,7 +11,6 @@ refused whole: nothing is stored.
 from __future__ import annotations
 
 import json
-import re
 from collections.abc import Callable, Sequence
 from datetime import datetime, timedelta
 
@@ -21,7 +20,8 @@ from sqlalchemy.orm import Session
 
 from app.db.models import MeasuredSeries
 from app.limits import check_file
-from app.schemas.series import IMPORT_NAME_PATTERN
+from app.schemas.common import measurement_time_problem
+from app.schemas.series import import_name_problem
 from app.services.common import commit, get_or_raise, paginate
 from app.services.rigs import get_rig
 from diagnostics.table_files import time_in_name as time_in_name_of
@@ -29,7 +29,6 @@ from diagnostics.timeseries import ColumnEntry, SeriesRecord, column_entry, read
 from sim.errors import InputError
 
 __all__ = [
-    "IMPORT_NAME",
     "MAX_SERIES_BYTES",
     "as_record",
     "check_source",
@@ -44,7 +43,6 @@ __all__ = [
 ]
 
 #: What an import's name may be (the upload form's pattern, and the CLI's ``--name``).
-IMPORT_NAME = re.compile(IMPORT_NAME_PATTERN)
 #: Largest time-series file accepted [byte].
 MAX_SERIES_BYTES = 20 * 1024 * 1024
 
@@ -92,11 +90,16 @@ def store_records(session: Session, rig_id: int, name: str, records: Sequence[Se
         No records.
     """
     get_rig(session, rig_id, field="rig_id")
-    if not IMPORT_NAME.fullmatch(name):
-        raise InputError("the import's name is 1 to 200 letters, digits and _ . : - "
-                         f"(got {name!r})", field="name")
+    problem = import_name_problem(name)
+    if problem is not None:
+        raise InputError(problem, field="name")
     if not records:
         raise InputError("the file holds no record", field="file")
+    for r in records:  # a time from the file's header or its name, as a given started_at
+        problem = None if r.measured_at is None else measurement_time_problem(r.measured_at)
+        if problem is not None:
+            raise InputError(f"record {r.name!r} would be stored as measured at {problem}",
+                             field="started_at")
     rows = []
     for k, r in enumerate(records):
         rate = r.sample_rate

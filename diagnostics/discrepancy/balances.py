@@ -61,7 +61,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from diagnostics.discrepancy.signals import Signals
+from diagnostics.discrepancy.signals import HOSE_WINDOW, Signals
 from sim.components.effects import EFFECTS, Effect
 
 __all__ = ["BALANCES", "Balance", "BalanceData", "balance_data"]
@@ -125,6 +125,11 @@ class BalanceData:
     base_signs: dict[str, float]
     #: which kept rows are a piston held at its stop (:func:`_held`); ``None``: none
     held: npt.NDArray[np.bool_] | None = None
+    #: RMS that the sensors' white noise alone gives the residual once averaged over
+    #: :data:`STRUCTURE_SMOOTH` samples [unit of the balance]; 0 where it is far below the
+    #: practical size (every balance but the hose's, whose windowed integral of a pressure
+    #: difference carries 18 Pa·s of 0.05 bar noise against a practical size of 3.2 Pa·s)
+    noise_floor: float = 0.0
 
 
 def _inside(s: Signals, v: dict[str, float]) -> npt.NDArray[np.bool_]:
@@ -319,5 +324,25 @@ def balance_data(s: Signals, values: dict[str, float]) -> list[BalanceData]:
         cands = {e.name: e.entry.regressor(sub.values) for e in effects_of(b.name)}
         out.append(BalanceData(b, y, base, cands, mask, b.full_scale(values),
                                {k: v for k, v in BASE_SIGNS.items() if k in base},
-                               held[mask] if held[mask].any() else None))
+                               held[mask] if held[mask].any() else None,
+                               _hose_noise(sub) if b.name == "hose_pressure" else 0.0))
     return out
+
+
+#: samples over which a residual is averaged before its size is judged (50 ms at 1 kHz,
+#: :func:`diagnostics.discrepancy.verdict.structured`)
+STRUCTURE_SMOOTH = 51
+
+
+def _hose_noise(s: Signals) -> float:
+    """RMS of the hose balance's residual from the pressure sensors' white noise alone,
+    averaged over :data:`STRUCTURE_SMOOTH` samples [Pa·s]: the windowed integral is
+    h·Σ over n samples of the noise (σ_dp each), and the average of
+    :data:`STRUCTURE_SMOOTH` overlapping windows weighs each sample by their overlap, so
+    the RMS is σ_dp·h·‖box(n) ∗ box(51)‖/51 (the largest σ_dp of the records)."""
+    if s.t.size == 0:
+        return 0.0
+    h = float(np.max(s.values["hose.h"]))
+    n = max(round(HOSE_WINDOW / h), 1) if h > 0 else 1
+    weights = np.convolve(np.ones(n), np.ones(STRUCTURE_SMOOTH)) / STRUCTURE_SMOOTH
+    return float(np.max(s.values["hose.sigma_dp"]) * h * np.sqrt(np.sum(weights ** 2)))

@@ -41,7 +41,7 @@ from diagnostics.discrepancy.selection import PRACTICAL, Fit, Selection
 from diagnostics.discrepancy.simulate import simulate_record
 from diagnostics.discrepancy.slow import is_slow, slow_confirmed, slow_records, slow_refit
 from diagnostics.discrepancy.transient import above_noise, is_significant
-from diagnostics.discrepancy.verdict import excess_ratio
+from diagnostics.discrepancy.verdict import STEADY_SLACK, excess, excess_ratio
 from diagnostics.timeseries import SeriesRecord
 from sim.components.effects import EFFECTS
 from sim.errors import InputError, SimulationError
@@ -129,10 +129,21 @@ def confirm_chosen(doc: dict[str, Any], rig: Rig, selections: Sequence[Selection
                 confirmed = slow_confirmed(rig, trial, slow_records(held, rig), channels, sig,
                                            confirm_ratio)
             else:
-                # an effect acting in the build-up after a switch is judged there too
+                # an effect acting in the build-up after a switch is judged there too, and
+                # must neither cost the steady motion nor leave every steady channel that
+                # was above the noise there: hidden entrained air (α 0.005) re-fitted 23 %
+                # low shrank the build-up gap enough to pass while every channel's steady
+                # gap grew (Q_meter_C 3.2 σ → 4.2 σ), and on another seed re-fitted 18×
+                # low left it at 3.2 σ; both were named and stored.  Not confirmed here,
+                # the screen of the build-up effects re-fits it from its own scan.
                 regions = ("steady",) if compare_from(list(start)) > 0 else ("steady", "after step")
-                confirmed = excess_ratio(gap_before, _held_gap(doc, fitted, held, channels),
-                                         sig, regions) >= confirm_ratio
+                gap_after = _held_gap(doc, fitted, held, channels)
+                confirmed = excess_ratio(gap_before, gap_after, sig, regions) >= confirm_ratio
+                if confirmed and "after step" in regions:
+                    off_before = set(above_noise(gap_before, sig))
+                    off_after = set(above_noise(gap_after, sig))
+                    confirmed = (excess(gap_after, sig) <= excess(gap_before, sig) + STEADY_SLACK
+                                 and (not off_before or off_after < off_before))
         except (SimulationError, InputError) as exc:
             # a candidate whose re-fit (or its augmented rig) cannot be simulated is not
             # confirmed: it is rejected with the solver's reason and the others go on

@@ -138,6 +138,8 @@ class Selection:
     #: in output-error form when nothing else explains a held-out gap above the noise
     #: (:mod:`~diagnostics.discrepancy.confirm`)
     small: list[Fit] = field(default_factory=list)
+    #: the balance's :attr:`~diagnostics.discrepancy.balances.BalanceData.noise_floor`
+    noise_floor: float = 0.0
 
 
 def _scaled(cols: dict[str, Arr]) -> tuple[list[str], Arr, Arr]:
@@ -357,7 +359,7 @@ def select(data: BalanceData, *, bootstrap: int = 30, seed: int = 0, lags: int =
     return Selection(data.balance.name, data.balance.unit, chosen, base_bic,
                      base_bic - chosen.bic if chosen else 0.0, competing, groups, inclusion,
                      detectable, singles, base_named, resid_si, base_resid * ys,
-                     data.full_scale, near, small)
+                     data.full_scale, near, small, data.noise_floor)
 
 
 def _bootstrap(y: Arr, Xb: Arr, Xc: Arr, cnames: list[str], free: list[str],

@@ -139,7 +139,9 @@ def hose_integrals(t: Arr, p2: Arr, p_b: Arr, q_c: Arr, window: float = HOSE_WIN
     transient would not survive.  Returns ``hose.int_dp`` [Pa·s], ``hose.int_q`` [m³],
     ``hose.dq`` [m³/s], ``hose.ok`` (1 where a whole window lies in the record, else 0) and
     ``hose.hf`` [Pa·s], a bound of the trapezoid error over the window, Σ|Δ²(P2 − P_B)|·h/12
-    (large where the transient is not resolved: the balance leaves those windows out).
+    (large where the transient is not resolved: the balance leaves those windows out),
+    ``hose.sigma_dp`` [Pa], the white noise σ of P2 − P_B per sample (constant over the
+    record), and ``hose.h`` [s], the sampling step.
     """
     # a uniform grid (prepare's): the window is a whole number of samples
     h = float(np.median(np.diff(t))) if t.size > 1 else 0.0
@@ -156,8 +158,14 @@ def hose_integrals(t: Arr, p2: Arr, p_b: Arr, q_c: Arr, window: float = HOSE_WIN
     d2 = np.zeros_like(dp)
     d2[1:-1] = np.abs(dp[2:] - 2.0 * dp[1:-1] + dp[:-2])
     cum_d2 = np.cumsum(d2) * h / 12.0
+    # the sensors' white noise in P2 − P_B (MAD of second differences, robust to the
+    # transients): what the windowed integral carries even where the model is exact
+    raw = dp[2:] - 2.0 * dp[1:-1] + dp[:-2]
+    sigma_dp = (float(np.median(np.abs(raw - np.median(raw))) / 0.6745 / math.sqrt(6.0))
+                if raw.size else 0.0)
     return {"hose.int_dp": cum_dp - cum_dp[j] + corr, "hose.int_q": cum_q - cum_q[j],
-            "hose.dq": q_c - q_c[j], "hose.ok": ok.astype(float), "hose.hf": cum_d2 - cum_d2[j]}
+            "hose.dq": q_c - q_c[j], "hose.ok": ok.astype(float), "hose.hf": cum_d2 - cum_d2[j],
+            "hose.sigma_dp": np.full(t.size, sigma_dp), "hose.h": np.full(t.size, h)}
 
 
 def _uniform(record: SeriesRecord, rate: float) -> tuple[Arr, dict[str, Arr], npt.NDArray[np.str_]]:

@@ -339,8 +339,8 @@ def _discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], 
         for term in fit.terms:
             e = EFFECTS[term.effect]
             key = f"{term.effect}.{e.entry.coefficient}"
-            if key not in values:
-                continue
+            if key not in values or (screened is not None and key == screened.key):
+                continue  # not confirmed, or named once by the screen of the build-up
             decl = e.parameter(e.entry.coefficient)
             assert decl is not None
             value, err = values[key], errors[key]
@@ -389,9 +389,11 @@ def _discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], 
     for balance, names in conf.apart.items():
         message += (f"; {' and '.join(names)} explain the {balance} gap alike, in re-simulation "
                     "too (ΔBIC < 10): an ambiguity group on this test design")
-    if conf.rejected:
+    rejected = [e for e in conf.rejected if screened is None or e != screened.effect.name]
+    if rejected:
         message += ("; not confirmed by re-simulation (output-error coefficient not "
-                    f"significant or held-out gap not shrinking): {', '.join(conf.rejected)}")
+                    "significant, held-out gap not shrinking, or a build-up effect that "
+                    f"widens the steady gap): {', '.join(rejected)}")
     if small is not None:
         (term,) = small.fit.terms
         message += (f"; {term.effect} named below the practical size (equation-error RMS "
@@ -404,9 +406,11 @@ def _discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], 
         message += ("; significant below the practical size, re-simulated and not confirmed: "
                     + "; ".join(second_look))
     if screened is not None:
+        unconfirmed = (" (its balance's equation-error estimate, re-fitted from there, was "
+                       "not confirmed)" if screened.effect.name in conf.rejected else "")
         message += (f"; {screened.effect.name} named by the output-error screen of the "
                     "build-up effects (its signature lies in the first 50 ms after a switch, "
-                    "which no balance uses)")
+                    f"which no balance uses){unconfirmed}")
     elif screen_notes:
         message += "; build-up effects re-simulated and not confirmed: " + "; ".join(screen_notes)
     if conf.unsimulable:

@@ -100,3 +100,45 @@ def test_discover_reads_a_pump_bench_table(runner: CliRunner, tmp_path: Path) ->
     failed = runner.invoke(cli, ["discover", str(bad), "--rig", "1"])
     assert failed.exit_code != 0
     assert "n [parsec]" in str(failed.exception) + failed.output
+
+
+def test_what_would_damage_the_rig_is_reported_and_not_stored(runner: CliRunner,
+                                                              tmp_path: Path) -> None:
+    """A user pass stored (1) a version built on version 1 as the latest, dropping the effect
+    version 2 had added, and (2) a bench of another pump as rig 1's pump (17.5 → 57
+    cm³/rev).  Neither is stored now; the answer says why, and the store is unchanged."""
+    from diagnostics.discrepancy.synthetic import synthesize_bench
+    from diagnostics.pump.csvio import write_bench_csv
+    from sim.rigs import reference_rig
+
+    data = _data(tmp_path / "cycles.csv")
+    first = runner.invoke(cli, ["discover", str(data), "--rig", "1", "--json"])
+    assert json.loads(first.output[first.output.index("{"):])["new_rig_version"] == 2
+    again = runner.invoke(cli, ["discover", str(data), "--rig", "1", "--version", "1",
+                                "--json"])
+    assert again.exit_code == 0, again.output
+    body = json.loads(again.output[again.output.index("{"):])
+    assert body["named"] and body["new_rig_version"] is None
+    assert "ran on version 1 and the rig's latest is 2" in body["not_stored"]
+    rig = reference_rig()
+    other = tmp_path / "other-pump.csv"
+    write_bench_csv(synthesize_bench(rig, rng=np.random.default_rng(8), effects={
+        "speed_offset": 1.0}, overrides={"pump.Vp": 3 * rig.values()["pump.Vp"]}), other)
+    bench = runner.invoke(cli, ["discover", str(other), "--rig", "1"])
+    assert bench.exit_code == 0, bench.output
+    flat = " ".join(bench.output.split())
+    assert "not stored: the re-fit moves pump.Vp by +200 %" in flat
+    # (3) an effect the report itself marks implausible: a speed reading 30 rad/s off
+    far = tmp_path / "far-off.csv"
+    write_bench_csv(synthesize_bench(rig, rng=np.random.default_rng(8), effects={
+        "speed_offset": 30.0}), far)
+    implausible = runner.invoke(cli, ["discover", str(far), "--rig", "1", "--json"])
+    body = json.loads(implausible.output[implausible.output.index("{"):])
+    assert [(n["name"], n["plausible"]) for n in body["named"]] == [("speed_offset", False)]
+    assert body["new_rig_version"] is None
+    assert body["not_stored"].startswith("not stored: outside its plausible range: speed_offset")
+    from app.cli_support import store_session
+    from app.services.rigs import get_rig
+
+    with store_session() as session:
+        assert get_rig(session, 1).latest_version == 2

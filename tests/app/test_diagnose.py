@@ -116,6 +116,8 @@ def test_a_joint_diagnosis_needs_one_rig(server: LiveServer) -> None:
         ({"flow_B": {"value": 4e-4, "u": 1e-6, "bound": 1e-6}}, "records[1].flow_B"),
         ({"flow_B": {"value": 4e-4, "u": -1.0}}, "records[1].flow_B.u"),
         ({"measured_at": "2026-03-01T08:00:00"}, "records[1].measured_at"),
+        ({"measured_at": "2999-01-01T00:00:00Z"}, "records[1].measured_at"),  # the future
+        ({"measured_at": "1900-01-01T00:00:00Z"}, "records[1].measured_at"),  # unset clock
         ({"condition": {"load_force": 2100.0}}, "records[1].condition.oil_temperature"),
         ({"condition": {"oil_temperature": 40.0}}, "records[1].condition.load_force"),
         ({"speed_work": 0.18, "speed_return": 0.215, "velocity_ratio": 0.5},

@@ -76,6 +76,16 @@ def test_bad_files_are_422_naming_the_column_and_store_nothing(
     assert server.row_counts() == before
 
 
+def test_an_import_name_outside_its_characters_is_told_in_words(server: LiveServer) -> None:
+    """The form once answered with the raw pattern '^[A-Za-z0-9_.:-]{1,200}$'."""
+    response = _upload(server, b"t [s],P1 [bar]\n0,10\n1,11\n", {"name": "Prüfstand Öl"})
+    assert response.status_code == 422 and response.json()["error"]["field"] == "name"
+    message = response.json()["error"]["message"]
+    assert "no spaces or accents" in message and "^[" not in message
+    schema = server.client.get("/openapi.json").text
+    assert "[A-Za-z0-9_.:-]{1,200}" in schema   # still documented as a pattern
+
+
 def test_unknown_rig_and_series(server: LiveServer) -> None:
     before = server.row_counts()
     response = _upload(server, b"t [s],p [bar]\n0,1\n1,2\n", {"name": "x"}, rig=999)
@@ -203,3 +213,31 @@ def test_the_start_is_read_from_the_file_name_a_logger_wrote(server: LiveServer)
         assert refused.status_code == 422, (form, refused.text)
         assert refused.json()["error"]["field"] == field, (form, refused.json())
     assert server.row_counts() == before
+
+
+def test_a_start_that_cannot_be_a_measurements_time_is_refused(server: LiveServer) -> None:
+    """A series dated 2999 or 1900 was stored, and a diagnosis of it went to the top of the
+    history and stretched the trends' axis: refused, from the form, from the file's header
+    and from its name, nothing stored."""
+    content = b"t [s],P1 [bar]\n0,10\n1,11\n"
+    before = server.row_counts()
+    cases = [({"started_at": "2999-01-01T00:00:00Z"}, content, "x.csv"),
+             ({"started_at": "1900-01-01T00:00:00Z"}, content, "x.csv"),
+             ({}, b'# started_at = "2999-01-01T00:00:00Z"\n' + content, "x.csv"),
+             ({"time_in_name": "%Y%m%d", "zone": "Z"}, content, "log_19000101.csv")]
+    for form, body, name in cases:
+        refused = server.client.post("/rigs/1/series", data={"name": "dated"} | form,
+                                     files={"file": (name, body, "text/csv")},
+                                     headers=server.auth)
+        assert refused.status_code == 422, (form, refused.text)
+        assert refused.json()["error"]["field"] == "started_at", (form, refused.json())
+    assert server.row_counts() == before
+    # yesterday's and an hour ahead (a logger's clock a little fast) are stored
+    from datetime import UTC, datetime, timedelta
+
+    for delta in (timedelta(days=-1), timedelta(hours=1)):
+        when = (datetime.now(UTC) + delta).isoformat()
+        ok = server.client.post("/rigs/1/series", data={"name": "dated", "started_at": when},
+                                files={"file": ("x.csv", content, "text/csv")},
+                                headers=server.auth)
+        assert ok.status_code == 201, ok.text

@@ -126,3 +126,26 @@ def test_the_size_of_unsteady_friction_is_read_at_the_port_in_the_switch_transie
     assert channel == "P_valve_B" and peak > 20.0
     logger, _ = effect_peak(with_, base)
     assert peak > 2.0 * logger
+
+
+def test_the_hose_residuals_size_is_judged_against_what_the_noise_gives_it() -> None:
+    """The windowed integral of P2 − P_B carries h·√n of the pressure noise: with 0.05 bar
+    sensors its 50 ms-averaged residual is ~18 Pa·s on pure noise against a practical size
+    of 3.2 Pa·s, so "above 2× the practical size" always held and a Ljung-Box p < 0.01 alone
+    (1 % of clean records) read "possibly outside the library".  The noise floor is the
+    one the sensors' σ predicts, and a noise-only residual is not structured."""
+    from diagnostics.discrepancy.balances import STRUCTURE_SMOOTH
+    from diagnostics.discrepancy.selection import PRACTICAL
+    from diagnostics.discrepancy.verdict import structured
+
+    d = _hose(_records(0.0, seed=3))
+    assert d is not None
+    n = round(0.02 * 1000.0)
+    weights = np.convolve(np.ones(n), np.ones(STRUCTURE_SMOOTH)) / STRUCTURE_SMOOTH
+    predicted = math.hypot(NOISE["P2"], NOISE["P_valve_B"]) * 1e-3 * math.sqrt(np.sum(weights ** 2))
+    assert d.noise_floor == pytest.approx(predicted, rel=0.1)
+    assert d.noise_floor > 4 * PRACTICAL * d.full_scale   # why the size gate never held
+    sel = select(d, bootstrap=0)
+    smooth = np.sqrt(np.mean(np.convolve(sel.residual, np.ones(51) / 51, "same") ** 2))
+    assert smooth == pytest.approx(d.noise_floor, rel=0.3)   # the residual is the noise
+    assert sel.noise_floor == d.noise_floor and not structured(sel)

@@ -169,6 +169,13 @@ def test_a_diagnosis_through_the_form_is_stored_and_shown(
     estimate = re.search(r"<td>cylinder</td><td><code>cc</code></td><td class=\"num\">([^<]+)<",
                          page.text)
     assert estimate is not None and float(estimate.group(1)) == pytest.approx(100e-6, rel=1e-3)
+    # the fitted-parameter table says what its measure is: the cylinder's leakage multiple
+    # (c/c0)³ = 1.75 (it read "multiple 1.75" beside a clearance 1.2 × nominal), and the
+    # relief setting's drift below nominal
+    fitted = page.text.split("Fitted fault parameters")[1]
+    row = re.search(r"<code>cylinder\.cc</code>.*?leakage ×([^<]+)<", fitted)
+    assert row is not None and float(row.group(1)) == pytest.approx((100 / 83) ** 3, rel=0.02)
+    assert re.search(r"<code>relief\.Pset</code>.*?setting \d+ % low<", fitted)
 
 
 def test_bad_form_input_names_the_field_and_stores_nothing(
@@ -183,12 +190,27 @@ def test_bad_form_input_names_the_field_and_stores_nothing(
         "pump_pressure: 1.4e6": "record.series_id",
         "{not yaml: [": "document",
         "": "document",
+        # a reading pasted twice was diagnosed on the second without a word
+        "rig_id: 1\ncondition: {oil_temperature: 40, load_force: 2100}\np1: 11.88e5\n"
+        "p1: 5.0e5": "document",
+        # store: false was diagnosed and stored
+        "store: false\nrecord:\n  rig_id: 1\n  condition: {oil_temperature: 40, "
+        "load_force: 2100}\n  p1: 11.88e5": "store",
     }
     for text, field in cases.items():
         response = browser_client.post("/console/diagnose", data={"document": text})
         assert response.status_code == 422, text
         assert error_box(response.text)[0] == field, text
         assert "Nothing was stored" in response.text
+    assert "given twice" in browser_client.post("/console/diagnose", data={
+        "document": "p1: 1\np1: 2"}).text
+    good = "rig_id,condition.oil_temperature,condition.load_force,p1\n1,40,2100,1188000\n"
+    for data, files, field in [
+            ({"document": "rig_id: 1"}, {"file": ("r.csv", good.encode(), "text/csv")},
+             "document"),   # both: the file was diagnosed, the text left out
+            ({}, {"file": ("r.csv", b"", "text/csv")}, "file")]:   # was "paste a record"
+        response = browser_client.post("/console/diagnose", data=data, files=files)
+        assert response.status_code == 422 and error_box(response.text)[0] == field, field
     simulate = browser_client.get("/console/simulate?run=true&load=heavy")
     assert simulate.status_code == 422
     assert error_box(simulate.text)[0] == "condition.load"
