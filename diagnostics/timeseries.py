@@ -389,8 +389,8 @@ def series_from_frame(frame: pd.DataFrame, *, name: str = "table",
             bad = ~np.isfinite(data)
             if bad.any():
                 row = int(np.argmax(bad))
-                raise InputError(f"NaN or infinite value in record {label!r} at row {row}",
-                                 field=raw)
+                raise InputError(f"NaN or infinite value in record {label!r} at its sample "
+                                 f"{row + 1} (counting from 1)", field=raw)
             values[chan] = data * scale + offset
         if time_col is None:
             assert sample_rate is not None
@@ -403,8 +403,9 @@ def series_from_frame(frame: pd.DataFrame, *, name: str = "table",
         steps = np.diff(t)
         if np.any(steps <= 0):
             row = int(np.argmax(steps <= 0)) + 1
-            raise InputError(f"time does not increase in record {label!r} at row {row} "
-                             "(separate records with a 'record' column)", field=time_col or "t")
+            raise InputError(f"time does not increase in record {label!r} at its sample "
+                             f"{row + 1} (counting from 1; separate records with a 'record' "
+                             "column)", field=time_col or "t")
         phase: npt.NDArray[np.str_] | None = None
         if "phase" in group.columns:
             if group["phase"].isna().any():

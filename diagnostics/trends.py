@@ -48,12 +48,14 @@ from diagnostics.uncertainty import Estimate
 from sim.errors import InputError
 
 __all__ = [
+    "DAY_S",
     "MIN_POINTS",
     "ThresholdForecast",
     "TrendFit",
     "TrendSeries",
     "fit_trend",
     "forecast_threshold",
+    "span",
     "theil_sen",
 ]
 
@@ -290,6 +292,22 @@ def _time_to(fit: TrendFit, threshold: float, slope: float, now: float) -> float
     return max(fit.pivot_time + (threshold - fit.pivot_value) / slope - now, 0.0)
 
 
+#: a day [s]: the unit of the trends' rates and spans
+DAY_S = 86400.0
+
+
+def span(seconds: float) -> str:
+    """A time span as an operator reads it: days from a day up, hours from an hour, else
+    seconds (the trend table's rates are per day; messages once gave 1.83e+06 s)."""
+    if not math.isfinite(seconds):
+        return "never" if seconds > 0 else f"{seconds:g} s"
+    if abs(seconds) >= DAY_S:
+        return f"{seconds / DAY_S:.3g} days"
+    if abs(seconds) >= 3600.0:
+        return f"{seconds / 3600.0:.3g} h"
+    return f"{seconds:.3g} s"
+
+
 def forecast_threshold(series: TrendSeries, threshold: float, *,
                        direction: Direction = "increasing", now: float | None = None,
                        confidence: float = 0.95) -> ThresholdForecast:
@@ -333,7 +351,7 @@ def forecast_threshold(series: TrendSeries, threshold: float, *,
         # past the threshold that does not rise) not on this line
         crossed = f.pivot_time + (thr - f.pivot_value) / f.slope if f.slope > 0.0 \
             else math.nan
-        when = (f"; the fitted line crossed it {t_ref - crossed:.3g} s before the reference "
+        when = (f"; the fitted line crossed it {span(t_ref - crossed)} before the reference "
                 "time" if math.isfinite(crossed) else "")
         return ThresholdForecast("crossed", threshold, direction, t_ref, 0.0, 0.0, 0.0, fit,
                                  f"{series.quantity} is past {threshold:.4g} {unit} on the "
@@ -343,16 +361,16 @@ def forecast_threshold(series: TrendSeries, threshold: float, *,
             steepest = f"not even the steepest slope the data allow reaches {threshold:.4g} {unit}"
         elif earliest > 0.0:
             steepest = (f"at the steepest slope the data allow, {threshold:.4g} {unit} would "
-                        f"be reached in {earliest:.3g} s")
+                        f"be reached in {span(earliest)}")
         else:
             steepest = (f"at the steepest slope the data allow it could already be past "
                         f"{threshold:.4g} {unit}")
         return ThresholdForecast("not_worsening", threshold, direction, t_ref, math.inf,
                                  earliest, math.inf, fit,
                                  f"{series.quantity} is not worsening (slope "
-                                 f"{fit.slope:.3g} {unit}/s); {steepest}")
+                                 f"{fit.slope * DAY_S:.3g} {unit}/day); {steepest}")
     left = _time_to(f, thr, f.slope, t_ref)
     return ThresholdForecast("worsening", threshold, direction, t_ref, left, earliest, latest,
                              fit, f"{series.quantity} reaches {threshold:.4g} {unit} in "
-                             f"{left:.3g} s ({100 * confidence:.0f} % interval "
-                             f"{earliest:.3g} s to {latest:.3g} s)")
+                             f"{span(left)} ({100 * confidence:.0f} % interval "
+                             f"{span(earliest)} to {span(latest)})")

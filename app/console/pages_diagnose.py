@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import asyncio
 import json
+import re
 from datetime import datetime
 from functools import partial
 from typing import Annotated, Any
@@ -191,13 +192,17 @@ _TIME = TypeAdapter(AwareDatetime)
 
 
 def _time(text: str, field: str) -> datetime | None:
-    """A filter's time: blank for none, else ISO 8601 with its zone."""
+    """A filter's time: blank for none, else ISO 8601 with its zone, or a date alone
+    (``2026-10-05``: its 00:00 UTC)."""
     if not text.strip():
         return None
+    if re.fullmatch(r"\d{4}-\d{2}-\d{2}", text.strip()):
+        text = f"{text.strip()}T00:00:00Z"
     try:
         return _TIME.validate_python(text.strip())
     except ValidationError:
-        raise InputError("give the time as ISO 8601 with its zone, e.g. 2026-01-01T00:00:00Z",
+        raise InputError("give the time as ISO 8601 with its zone, e.g. 2026-01-01T00:00:00Z, "
+                         "or a date alone, 2026-01-01 (its 00:00 UTC)",
                          field=field) from None
 
 

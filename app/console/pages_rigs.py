@@ -6,6 +6,7 @@ import pathlib
 import shutil
 import subprocess
 from typing import Annotated, Any
+from urllib.parse import unquote
 
 import numpy as np
 from fastapi import Form, Path, Query, Request, Response
@@ -40,8 +41,13 @@ def stylesheet() -> FileResponse:
 
 
 def _safe_next(target: str | None) -> str:
-    """Only a path inside the console (no open redirect)."""
-    if target and target.startswith("/console") and "//" not in target and "\\" not in target:
+    """Only a path inside the console (no open redirect): ``/console`` or below it, with no
+    ``.`` or ``..`` segment, percent-encoded or not (``/console/../../x`` left it)."""
+    if not target or "//" in target or "\\" in target:
+        return "/console/rigs"
+    path = unquote(target.split("?", 1)[0])
+    segments = path.split("/")
+    if (path == "/console" or path.startswith("/console/")) and not {".", ".."} & set(segments):
         return target
     return "/console/rigs"
 

@@ -85,7 +85,8 @@ def series_one(request: Request, session: SessionDep, rigs: RigsDep, _key: Conso
         unread = {"type": type(exc).__name__, "message": exc.message, "field": exc.field}
     return page(request, "series_one.html", row=row, charts=series_charts(record),
                 phases=sorted(set(record.phase.tolist())) if record.phase is not None else [],
-                read=read, unread=unread, units=READING_UNITS)
+                read=read, unread=unread, units=READING_UNITS,
+                channel_notes=series_service.channel_notes(session, row.rig_id, [row]))
 
 
 @router.post("/series/check")

@@ -71,7 +71,8 @@ def simulate_page(request: Request, session: SessionDep, rigs: RigsDep, _key: Co
     form = {"rig": rig, "fault": fault, "load": load, "oil_temperature": oil_temperature,
             "back_pressure": back_pressure}
     context: dict[str, Any] = {"rigs": rows, "faults": FAULTS, "form": form, "charts": [],
-                               "summary": None, "notes": [], "error": None, "query": ""}
+                               "summary": None, "notes": [], "condition": None, "error": None,
+                               "query": ""}
     if run:
         try:
             body = _request(rig, fault, load, oil_temperature, back_pressure, "json")
@@ -87,6 +88,7 @@ def simulate_page(request: Request, session: SessionDep, rigs: RigsDep, _key: Co
             frame, nominal.result.timeseries, label)
         context["summary"] = summary_of(outcome.result)
         context["notes"] = physics_notes(outcome.result)
+        context["condition"] = outcome.condition
         context["query"] = str(request.url.query)
     return page(request, "simulate.html", **context)
 

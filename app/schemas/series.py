@@ -157,7 +157,12 @@ class SeriesData(SeriesPublic):
 
 
 class SeriesList(Page[SeriesPublic]):
-    """A page of stored records."""
+    """A page of stored records; an import's answer also says what the rig's model has no
+    channel for."""
+
+    notes: list[str] = Field(
+        default_factory=list, description="On an import: channels stored that the rig's model "
+        "has none of (a misspelt name in a column map?) [-]", examples=[[]])
 
 
 class CycleQuery(BaseModel):

@@ -194,10 +194,43 @@ def _groups(request: DiagnoseRequest) -> list[list[tuple[str, MeasurementIn]]]:
     for path, record in items[1:]:
         if record.rig_id != first.rig_id:
             raise InputError("a joint diagnosis needs records of one rig", field=f"{path}.rig_id")
-        if record.rig_version != first.rig_version:
+    stated = [(path, r.rig_version) for path, r in items if r.rig_version is not None]
+    for path, version in stated[1:]:
+        if version != stated[0][1]:
             raise InputError("a joint diagnosis needs one version of the rig document",
                              field=f"{path}.rig_version")
     return [items]
+
+
+def joint_rig(session: Session, rigs: RigCache, rig_id: int,
+              versions: Sequence[tuple[str, int | None]]) -> ResolvedRig:
+    """The rig version of a group of records (``versions``: each record's path and stated
+    version): the one they state, a record stating none meaning the latest.  A group whose
+    stated version is not the latest and has a record stating none is refused, naming that
+    record (it means another version); one stating version 1 beside one stating none, both
+    meaning version 1, was refused before.
+
+    Raises
+    ------
+    NotFoundError, InputError
+        An unknown rig or version; a record meaning another version.
+    """
+    path0 = versions[0][0]
+    stated = next(((p, v) for p, v in versions if v is not None), None)
+    if stated is None:
+        return rigs.get(session, rig_id, None, rig_field=f"{path0}.rig_id",
+                        version_field=f"{path0}.rig_version")
+    resolved = rigs.get(session, rig_id, stated[1], rig_field=f"{path0}.rig_id",
+                        version_field=f"{stated[0]}.rig_version")
+    unstated = [p for p, v in versions if v is None]
+    if unstated:
+        latest = rigs.get(session, rig_id, None, rig_field=f"{path0}.rig_id").version
+        if latest != resolved.version:
+            raise InputError(f"states no rig version, so the latest ({latest}), while "
+                             f"{stated[0]} states version {resolved.version}: a joint "
+                             "diagnosis needs one version of the rig document",
+                             field=f"{unstated[0]}.rig_version")
+    return resolved
 
 
 @dataclass(frozen=True, slots=True)
@@ -270,9 +303,8 @@ def plan_groups(session: Session, rigs: RigCache, request: DiagnoseRequest, now:
     """
     plans = []
     for group in _groups(request):
-        path0, first = group[0]
-        resolved = rigs.get(session, first.rig_id, first.rig_version,
-                            rig_field=f"{path0}.rig_id", version_field=f"{path0}.rig_version")
+        resolved = joint_rig(session, rigs, group[0][1].rig_id,
+                             [(path, record.rig_version) for path, record in group])
         for path, record in group:
             if record.series_id is not None:
                 check_source(session, record.series_id, record.rig_id,

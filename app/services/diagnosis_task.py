@@ -27,6 +27,7 @@ from app.services.diagnosis import (
     GroupPlan,
     GroupResult,
     compute_group,
+    joint_rig,
     outcome_of,
     request_error,
 )
@@ -77,7 +78,9 @@ def _groups(form: RequestForm) -> list[list[RecordForm]]:
         if record.rig_id != first.rig_id:
             raise InputError("a joint diagnosis needs records of one rig",
                              field=f"{record.path}.rig_id")
-        if record.rig_version != first.rig_version:
+    stated = [r for r in form.records if r.rig_version is not None]
+    for record in stated[1:]:
+        if record.rig_version != stated[0].rig_version:
             raise InputError("a joint diagnosis needs one version of the rig document",
                              field=f"{record.path}.rig_version")
     return [form.records]
@@ -95,10 +98,8 @@ def plan_forms(session: Session, rigs: RigCache, form: RequestForm, now: datetim
     """
     plans = []
     for group in _groups(form):
-        first = group[0]
-        resolved = rigs.get(session, first.rig_id, first.rig_version,
-                            rig_field=f"{first.path}.rig_id",
-                            version_field=f"{first.path}.rig_version")
+        resolved = joint_rig(session, rigs, group[0].rig_id,
+                             [(record.path, record.rig_version) for record in group])
         for record in group:
             if record.series_id is not None:
                 check_source(session, record.series_id, record.rig_id,

@@ -23,26 +23,34 @@ from app.limits import check_file
 from app.schemas.common import measurement_time_problem
 from app.schemas.series import import_name_problem
 from app.services.common import commit, get_or_raise, paginate
-from app.services.rigs import get_rig
+from app.services.rigs import get_rig, has_cycle, latest_version
 from diagnostics.table_files import time_in_name as time_in_name_of
-from diagnostics.timeseries import ColumnEntry, SeriesRecord, column_entry, read_series
+from diagnostics.timeseries import (
+    CONDITION_CHANNELS,
+    ColumnEntry,
+    SeriesRecord,
+    column_entry,
+    read_series,
+)
 from sim.errors import InputError
+from sim.rigs import load_rig
 
 __all__ = [
     "MAX_SERIES_BYTES",
     "as_record",
+    "channel_notes",
     "check_source",
     "delete_series",
     "get_series",
     "import_series",
     "list_series",
     "parse_column_map",
+    "rig_channels",
     "store_records",
     "stored_records",
     "upload_start",
 ]
 
-#: What an import's name may be (the upload form's pattern, and the CLI's ``--name``).
 #: Largest time-series file accepted [byte].
 MAX_SERIES_BYTES = 20 * 1024 * 1024
 
@@ -160,11 +168,11 @@ def import_series(session: Session, rig_id: int, name: str, content: bytes, *,
     ``filename`` by ``time_in_name`` and ``zone``: :func:`upload_start`), else the file
     header's (:mod:`diagnostics.timeseries`); ``filename`` names a record without a
     ``record`` column."""
-    get_rig(session, rig_id, field="rig_id")
+    known = rig_channels(session, rig_id)
     started_at = upload_start(filename, started_at, time_in_name, zone)
     check_file(content, MAX_SERIES_BYTES, field="file")
     try:
-        records = read_series(content, format=fmt, column_map=column_map,
+        records = read_series(content, format=fmt, column_map=column_map, expected=known,
                               sample_rate=sample_rate, started_at=started_at,
                               name=filename.removesuffix(".gz") if filename else None,
                               max_bytes=MAX_SERIES_BYTES)
@@ -173,6 +181,34 @@ def import_series(session: Session, rig_id: int, name: str, content: bytes, *,
             f"file.{exc.field}" if exc.field and exc.field != "file" else "file")
         raise type(exc)(exc.message, field=where) from None
     return store_records(session, rig_id, name, records)
+
+
+def rig_channels(session: Session, rig_id: int) -> dict[str, str]:
+    """The channels of rig ``rig_id``'s model (its latest version) and their SI units: a
+    channel of an import with one of these names must be of that dimension (a pressure in
+    L/min was stored, and the workflow then read P1 985,787,553,649 σ off)."""
+    model = load_rig(latest_version(session, get_rig(session, rig_id, field="rig_id"))
+                     .document).model
+    return dict(zip(model.output_names, model.output_units, strict=True))
+
+
+def channel_notes(session: Session, rig_id: int, rows: Sequence[MeasuredSeries]
+                  ) -> list[str]:
+    """What an import stored for a rig with a working/return cycle that its model has no
+    channel for (a misspelt name in a column map, ``P9`` for ``P1``): stored as given, but
+    nothing compares with it.  A rig without a cycle (the ZeMA rig) is read by its
+    plateau channels (``p_pump``, ``q_work``: :mod:`diagnostics.real.profile`), not by
+    its model's outputs, and gets no note."""
+    if not has_cycle(latest_version(session, get_rig(session, rig_id, field="rig_id"))):
+        return []
+    known = rig_channels(session, rig_id)
+    names = {c for r in rows for c in r.units}
+    unknown = sorted(names - set(known) - set(CONDITION_CHANNELS))
+    if not unknown:
+        return []
+    return [f"channel(s) {', '.join(unknown)} are not channels of the rig's model "
+            f"({', '.join(known)}): stored as given, but no comparison or diagnosis reads "
+            "them; a misspelt name is imported again with the column map corrected"]
 
 
 def list_series(session: Session, rig_id: int, *, limit: int, offset: int

@@ -138,6 +138,23 @@ def _points(component: str, history: list[HistoryPoint],
     return out
 
 
+#: below this probability of its component, a point is an estimate "if it were this
+#: component", and a status that leans on it says so [-]
+UNLIKELY = 0.5
+
+
+def _if_blamed(component: str, point: TrendPointOut) -> str:
+    """'; if the pump is the worn one: …' when ``point``'s diagnosis gave its component a
+    probability below :data:`UNLIKELY` (a pump estimate from a diagnosis that named the
+    valve read "pump past the threshold" as a plain fact)."""
+    p = point.probability
+    if p is None or p >= UNLIKELY:
+        return ""
+    return (f"; that estimate holds if the {component} is the worn component, and its "
+            f"diagnosis ({point.diagnosis_id}) gave it probability {p:.2g}: another "
+            "component explains the readings better")
+
+
 def _trend(component: str, rig_id: int, points: list[TrendPointOut], threshold: float,
            source: str, later: tuple[int, datetime | None] = (0, None)) -> ComponentTrendOut:
     """The trend of ``points``; ``later``: the rig's diagnoses after the last point (how
@@ -182,7 +199,9 @@ def _trend(component: str, rig_id: int, points: list[TrendPointOut], threshold: 
         last = points[-1]
         message = (f"{message}; the latest estimate, {last.value:.4g} {unit} "
                    f"({last.measured_at:%Y-%m-%d}), is past the threshold (one point: the "
-                   "robust trend weighs it as one of many)")
+                   "robust trend weighs it as one of many){_if_blamed(component, last)}")
+    elif points and status == "crossed":
+        message += _if_blamed(component, points[-1])
     return ComponentTrendOut(
         component, quantity, unit, points,
         slope=None if fit is None else fit.slope,

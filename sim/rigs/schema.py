@@ -124,12 +124,13 @@ def _quantity(raw: Any, decl: Param, field_path: str) -> Quantity:
 def check_bounds(value: float, decl: Param, field_path: str) -> None:
     """Raise :class:`RigFileError` if ``value`` [SI] is outside ``decl``'s bounds."""
     lo, hi = decl.lower, decl.upper
+    unit = "" if decl.unit in ("1", "-", "") else f" {decl.unit}"  # "≤ 2.0 1" read as a typo
     if lo is not None and (value < lo or (value == lo and not decl.lower_inclusive)):
         rel = "≥" if decl.lower_inclusive else ">"
-        raise RigFileError(f"{decl.description} must be {rel} {lo} {decl.unit}, got {value:g}",
+        raise RigFileError(f"{decl.description} must be {rel} {lo:g}{unit}, got {value:g}",
                            field=field_path)
     if hi is not None and value > hi:
-        raise RigFileError(f"{decl.description} must be ≤ {hi} {decl.unit}, got {value:g}",
+        raise RigFileError(f"{decl.description} must be ≤ {hi:g}{unit}, got {value:g}",
                            field=field_path)
 
 

@@ -100,6 +100,35 @@ def test_a_joint_diagnosis_keeps_every_record_and_one_result(server: LiveServer)
     assert len(diagnosis["measurement_ids"]) == 2
 
 
+def test_a_record_without_a_version_means_the_latest_in_a_joint_visit(
+        server: LiveServer) -> None:
+    """One record stating version 1 and one stating none (both version 1, the latest) were
+    refused as two versions; once the rig has a version 2, the one stating none means 2
+    and the visit is refused naming it."""
+    rig = new_rig(server, "joint-versions")
+    first = simulated_record(server) | {"rig_id": rig["id"], "rig_version": 1}
+    second = simulated_record(server, load=4200.0) | {"rig_id": rig["id"]}
+    body = {"records": [first, second], "joint": True, "store": False}
+    accepted = server.client.post("/diagnose", json=body, headers=server.auth)
+    assert accepted.status_code == 200, accepted.text
+    assert accepted.json()["diagnoses"][0]["rig_version"] == 1
+    document = server.client.get(f"/rigs/{rig['id']}").json()["document"]
+    updated = server.client.put(f"/rigs/{rig['id']}", json={
+        "document": document, "comment": "a second version"}, headers=server.auth)
+    assert updated.status_code == 200, updated.text
+    refused = server.client.post("/diagnose", json=body, headers=server.auth)
+    assert refused.status_code == 422, refused.text
+    assert refused.json()["error"]["field"] == "records[1].rig_version"
+    assert "the latest (2)" in refused.json()["error"]["message"]
+    # the console's path (plan_groups) resolves alike
+    from app.services.diagnosis import joint_rig
+
+    with server.session() as session:
+        resolved = joint_rig(session, server.app.state.rigs, rig["id"],
+                             [("records[0]", 1), ("records[1]", 1)])
+        assert resolved.version == 1
+
+
 def test_a_joint_diagnosis_needs_one_rig(server: LiveServer) -> None:
     other = new_rig(server, "diagnose-other")
     records = [simulated_record(server), simulated_record(server) | {"rig_id": other["id"]}]

@@ -199,14 +199,15 @@ def test_bad_files_are_422_naming_the_column_and_start_nothing(server: LiveServe
     r = server.client.post("/discrepancy", data={"rig_id": "999"},
                            files={"file": ("x.csv", measured)}, headers=server.auth)
     assert r.status_code == 404, r.text
-    # the OpenAPI example (three samples: the format, not a usable cycle) was accepted and
-    # its job failed; too few usable samples is now a 422 before the job
-    schemas = server.client.get("/openapi.json").json()["components"]["schemas"]
-    (body,) = [v for k, v in schemas.items() if "start_discrepancy" in k]
-    (example,) = body["properties"]["file"]["examples"]
+    # the OpenAPI example was once three samples of a cycle: accepted, and its job failed;
+    # too few usable samples is now a 422 before the job
+    excerpt = ("record,t [s],phase,P1 [Pa],P2 [Pa],v [m/s],load [N],oil_temperature [degC]\n"
+               "load-2100,0.100,working,1.20e6,1.0e5,0.210,2100,40\n"
+               "load-2100,0.101,working,1.21e6,1.0e5,0.211,2100,40\n"
+               "load-2100,0.102,working,1.20e6,1.0e5,0.210,2100,40\n")
     jobs = server.client.get("/jobs").json()["total"]
     r = server.client.post("/discrepancy", data={"rig_id": "1"},
-                           files={"file": ("x.csv", example.encode())}, headers=server.auth)
+                           files={"file": ("x.csv", excerpt.encode())}, headers=server.auth)
     assert r.status_code == 422 and "usable samples" in r.json()["error"]["message"], r.text
     assert r.json()["error"]["field"] == "file"
     assert server.client.get("/jobs").json()["total"] == jobs
@@ -279,3 +280,17 @@ def test_bad_bench_tables_are_422_naming_the_column_and_store_nothing(
     assert r.status_code == 422, r.text
     assert r.json()["error"]["field"] == "p_out [bar]"
     assert server.row_counts() == before
+
+
+def test_the_openapi_example_runs_to_an_answer(server: LiveServer) -> None:
+    """The upload's example (a steady bench table of the rig's own pump) is a job that
+    finishes: nothing missing, so "no effect", and nothing stored."""
+    schemas = server.client.get("/openapi.json").json()["components"]["schemas"]
+    (body,) = [v for k, v in schemas.items() if "start_discrepancy" in k]
+    example = body["properties"]["file"]["examples"][0]
+    r = server.client.post("/discrepancy", data={"rig_id": "1", "store": "false"},
+                           files={"file": ("bench.csv", example.encode(), "text/csv")},
+                           headers=server.auth)
+    assert r.status_code == 202, r.text
+    result = _follow(server, r.json()["job_id"])["result"]
+    assert result["verdict"] == "no effect" and result["new_rig_version"] is None

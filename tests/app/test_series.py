@@ -241,3 +241,28 @@ def test_a_start_that_cannot_be_a_measurements_time_is_refused(server: LiveServe
                                 files={"file": ("x.csv", content, "text/csv")},
                                 headers=server.auth)
         assert ok.status_code == 201, ok.text
+
+
+def test_a_channel_of_the_rig_in_a_unit_of_another_quantity_is_refused(
+        server: LiveServer) -> None:
+    """A pressure column mapped in L/min was stored, and the workflow then read P1
+    985,787,553,649 σ off; a misspelt channel (P9 for P1) was stored without a word."""
+    content = b"time;PA;PB\n0;10;1\n1;11;1\n"
+    before = server.row_counts()
+    wrong = server.client.post("/rigs/1/series", data={
+        "name": "units", "column_map": json.dumps({"time": ["t", "s"], "PA": ["P1", "L/min"],
+                                                   "PB": ["P2", "bar"]})},
+        files={"file": ("log.csv", content, "text/csv")}, headers=server.auth)
+    assert wrong.status_code == 422, wrong.text
+    assert wrong.json()["error"]["field"] == "file.PA"
+    assert "expected Pa" in wrong.json()["error"]["message"]
+    assert server.row_counts() == before
+    typo = server.client.post("/rigs/1/series", data={
+        "name": "units", "column_map": json.dumps({"time": ["t", "s"], "PA": ["P9", "bar"],
+                                                   "PB": ["P2", "bar"]})},
+        files={"file": ("log.csv", content, "text/csv")}, headers=server.auth)
+    assert typo.status_code == 201, typo.text
+    (note,) = typo.json()["notes"]
+    assert note.startswith("channel(s) P9 are not channels of the rig's model")
+    listed = server.client.get("/rigs/1/series").json()
+    assert listed["notes"] == []

@@ -296,3 +296,20 @@ def test_a_latest_estimate_past_the_threshold_is_named() -> None:
     assert "the latest estimate, 6e-05 m (2026-05-05), is past the threshold" in trend.message
     below = _trend("valve", 1, points[:4], 50e-6, "given")
     assert "latest estimate" not in below.message
+
+
+def test_a_status_leaning_on_an_unlikely_components_estimate_says_so() -> None:
+    """A pump Cs stored from a diagnosis that gave the pump p = 0.002 (the valve explained
+    the readings) read "the latest estimate … is past the threshold" as a plain fact."""
+    from datetime import UTC
+
+    from app.services.trends import UNLIKELY, TrendPointOut, _if_blamed
+
+    when = datetime(2026, 11, 2, tzinfo=UTC)
+    unlikely = TrendPointOut(63, when, 1, 1.1e-7, 1.0e-7, 1.2e-7, 0.002)
+    note = _if_blamed("pump", unlikely)
+    assert "holds if the pump is the worn component" in note and "(63)" in note
+    assert "probability 0.002" in note
+    likely = TrendPointOut(64, when, 1, 1.1e-7, 1.0e-7, 1.2e-7, UNLIKELY)
+    assert _if_blamed("pump", likely) == ""
+    assert _if_blamed("pump", TrendPointOut(65, when, 1, 1.1e-7, None, None, None)) == ""

@@ -110,7 +110,7 @@ def test_already_crossed() -> None:
     fc = forecast_threshold(series([0, 30, 60], [100e-6, 115e-6, 130e-6]), 120e-6)
     assert fc.status == "crossed" and fc.time_left == 0.0
     assert fc.crossed_at == pytest.approx(40.0 * DAY)
-    assert f"crossed it {20 * DAY:.3g} s before" in fc.message
+    assert "crossed it 20 days before" in fc.message
     level = forecast_threshold(series([0, 30, 60], [130e-6, 129e-6, 130e-6]), 120e-6)
     assert level.status == "crossed" and math.isnan(level.crossed_at)  # a level past it
 
@@ -198,3 +198,13 @@ def test_a_flat_trend_whose_steepest_slope_is_already_past_says_so() -> None:
     flat = forecast_threshold(TrendSeries("r", "cylinder", "cc", "m", series.times,
                                           (40e-6,) * 5, None), 60e-6)
     assert "not even the steepest slope the data allow reaches" in flat.message
+
+
+def test_spans_read_in_the_trend_tables_unit() -> None:
+    """Messages gave "1.83e+06 s" beside a table in days."""
+    from diagnostics.trends import span
+
+    assert span(20 * DAY) == "20 days"
+    assert span(2 * 3600.0) == "2 h"
+    assert span(42.0) == "42 s"
+    assert span(math.inf) == "never"

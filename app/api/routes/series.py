@@ -53,8 +53,9 @@ def import_series(
                                  filename=file.filename, time_in_name=form.time_in_name,
                                  zone=form.zone)
     response.headers["Location"] = f"/rigs/{rig_id}/series"
+    notes = service.channel_notes(session, rig_id, rows)
     return SeriesList(items=[SeriesPublic.model_validate(r) for r in rows], total=len(rows),
-                      limit=max(1, len(rows)), offset=0)
+                      limit=max(1, len(rows)), offset=0, notes=notes)
 
 
 @router.get("/rigs/{rig_id}/series", summary="List the rig's measured records")

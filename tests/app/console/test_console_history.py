@@ -78,6 +78,9 @@ def test_the_history_filters_by_time_and_rig(full: tuple[LiveServer, httpx.Clien
     # the filter form sends blank fields for "any": the whole history
     assert f"({N} diagnoses)" in client.get("/console/history?rig=&since=&until=").text
     assert client.get("/console/trends?rig=1&since=&until=").status_code == 200
+    # a date alone is its 00:00 UTC (it was refused, the page replaced by the error page)
+    dated = client.get("/console/history?rig=1&since=2025-01-01&until=2025-01-10")
+    assert dated.status_code == 200 and 'value="2025-01-01T00:00:00+00:00"' in dated.text
     bad = client.get("/console/history?since=yesterday")
     assert bad.status_code == 422 and 'data-field="since"' in bad.text
     reversed_ = client.get("/console/history?since=2025-02-01T00:00:00Z"

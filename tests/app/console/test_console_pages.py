@@ -61,9 +61,11 @@ def test_pages_need_a_login_and_send_the_key_nowhere_but_the_form(
         assert console_server.key not in cookie  # the key itself is never in the cookie
         assert anonymous.get("/console/rigs").status_code == 200
         # an open redirect is refused: only paths of the console
-        evil = anonymous.post("/console/login", data={"api_key": console_server.key,
-                                                      "next": "//evil.example/x"})
-        assert evil.headers["location"] == "/console/rigs"
+        for target in ("//evil.example/x", "/console/../../evil", "/console/%2e%2e/x",
+                       "/consoleevil"):
+            evil = anonymous.post("/console/login", data={"api_key": console_server.key,
+                                                          "next": target})
+            assert evil.headers["location"] == "/console/rigs", target
         out = anonymous.post("/console/logout")
         assert out.status_code == 303 and COOKIE not in anonymous.cookies
         assert anonymous.get("/console/rigs").status_code == 303
@@ -263,9 +265,11 @@ def test_simulation_downloads_are_the_apis_files(browser_client: httpx.Client) -
 
 def test_the_simulate_page_says_what_the_numbers_do_not(browser_client: httpx.Client) -> None:
     """The API's notes were left off the page: a switch-over below vacuum, a stroke that
-    stalled (its averages then the settled state, not a stroke's)."""
+    stalled (its averages then the settled state, not a stroke's); and which condition a
+    blank field stood for."""
     dips = browser_client.get("/console/simulate?run=true&fault=worn_spool&load=4200")
     assert dips.status_code == 200
+    assert "Simulated at load 4200 N, oil 40 °C, back-pressure 0 bar" in dips.text
     notes = re.findall(r"<li>([^<]*)</li>", dips.text.split('id="notes"')[1].split("</ul>")[0])
     assert notes and all("below vacuum" in n for n in notes)
     stall = browser_client.get("/console/simulate?run=true&fault=worn_piston&load=20000")

@@ -42,6 +42,10 @@ def test_reference_document_validates_and_converts_units():
         (lambda d: d.update(schema="x"), "schema", "expected schema"),
         (lambda d: d["fluid"]["beta"].update(value="big"), "fluid.beta.value", "number"),
         (lambda d: d["fluid"]["beta"].update(value=float("nan")), "fluid.beta.value", "finite"),
+        # a dimensionless bound reads "≤ 0.2, got", not "≤ 0.2 1, got"
+        (lambda d: d.update(effects={"entrained_air": {"parameters": {"alpha": {
+            "value": 0.5, "unit": "1"}}}}), "effects.entrained_air.parameters.alpha",
+         "must be ≤ 0.2, got 0.5"),
     ],
 )
 def test_invalid_documents_name_the_field(mutate, field, words):
