@@ -195,7 +195,7 @@ def _direct(rig: Rig, records: Sequence[MeasurementRecord], notes: list[str]
             ) -> dict[str, Estimate]:
     geom = leakage_geometry(rig)
     out: dict[str, Estimate] = {}
-    for rec in records:
+    for k, rec in enumerate(records):
         for key, needs, fn in (("cc", ("flow_C", "p1", "p2"), cylinder_clearance),
                                ("cv", ("flow_B", "flow_C", "pump_pressure"), valve_clearance)):
             if key in out or any(getattr(rec, n) is None for n in needs):
@@ -204,6 +204,11 @@ def _direct(rig: Rig, records: Sequence[MeasurementRecord], notes: list[str]
                 out[key] = fn(rec, geom, method="delta")
             except MeasurementError as exc:
                 notes.append(f"direct inversion of {key} not possible: {exc}")
+                continue
+            if len(records) > 1:  # a joint visit's page showed another record beside it
+                notes.append(f"the direct inversion of {key} (paper 002 §2.7) is that of "
+                             f"record {k + 1} of the {len(records)}, the first with "
+                             f"{', '.join(needs)}; the hypothesis fits use all of them")
     return out
 
 

@@ -98,6 +98,10 @@ def test_a_joint_diagnosis_keeps_every_record_and_one_result(server: LiveServer)
     assert after["measurements"] == before["measurements"] + 2
     assert after["diagnoses"] == before["diagnoses"] + 1
     assert len(diagnosis["measurement_ids"]) == 2
+    # which record the closed-form inversions come from (the console's page showed the
+    # other record's readings beside them without a word)
+    assert [n for n in diagnosis["result"]["notes"] if n.startswith(
+        "the direct inversion of cv (paper 002 §2.7) is that of record 1 of the 2")]
 
 
 def test_a_record_without_a_version_means_the_latest_in_a_joint_visit(

@@ -180,6 +180,21 @@ def test_a_diagnosis_through_the_form_is_stored_and_shown(
     assert re.search(r"<code>relief\.Pset</code>.*?setting \d+ % low<", fitted)
 
 
+def test_a_joint_visits_page_says_whose_readings_it_shows(
+        console_server: LiveServer, browser_client: httpx.Client) -> None:
+    """A joint visit's page listed one record's readings unlabelled, the estimates coming
+    from the other record."""
+    records = [simulated_record(console_server, {"valve.cv": 60e-6}, load=load,
+                                measured_at=f"2026-03-1{i}T08:00:00Z")
+               for i, load in enumerate((2100.0, 4200.0))]
+    response = browser_client.post("/console/diagnose", data={"document": json.dumps(
+        {"records": records, "joint": True})})
+    assert response.status_code == 303
+    page = browser_client.get(response.headers["location"]).text
+    assert "The readings of record 2 of the visit's 2 (the latest" in page
+    assert "is that of record 1 of the 2" in page
+
+
 def test_bad_form_input_names_the_field_and_stores_nothing(
         console_server: LiveServer, browser_client: httpx.Client) -> None:
     before = console_server.row_counts()
