@@ -18,3 +18,4 @@ router.include_router(pages_rigs.router)
 router.include_router(pages_diagnose.router)
 router.include_router(pages_simulate.router)
 router.include_router(pages_series.router)
+router.include_router(pages_rigs.unknown)   # last: any other /console path

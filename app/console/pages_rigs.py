@@ -25,7 +25,7 @@ from app.services.keys import authenticate
 from diagnostics.plots import Chart
 from sim.bondgraph.equations import derive_equations
 from sim.bondgraph.export import to_dot
-from sim.errors import AuthError
+from sim.errors import AuthError, NotFoundError
 from sim.rigs import build_graph
 
 __all__ = ["router"]
@@ -173,3 +173,17 @@ def pumps(request: Request, session: SessionDep, _key: ConsoleKeyDep,
                 continue  # a hand-made set without the surface's scales: table only
         charts = pump_check_charts(q) + charts
     return page(request, "pumps.html", rows=rows, total=total, chosen=chosen, charts=charts)
+
+
+#: The console's answer to a path it does not have (it was the API's JSON 404): included
+#: after every other console router.
+unknown = new_router()
+
+
+@unknown.get("/{rest:path}")
+def unknown_page(request: Request, _key: ConsoleKeyDep, rest: str) -> Response:
+    """A console path that does not exist: the console's not-found page, with its menu
+    (``/console/`` itself goes to the rigs)."""
+    if not rest:
+        return redirect("/console/rigs")
+    raise NotFoundError(f"the console has no page /console/{rest}", field="path")

@@ -14,6 +14,7 @@ from typing import Annotated, Any
 from fastapi import APIRouter, Depends, Request, Response
 from fastapi.exceptions import RequestValidationError
 from fastapi.routing import APIRoute
+from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from app.api.deps import SessionDep
 from app.console.web import SECURITY_HEADERS, console_key, login_url, page, redirect
@@ -50,6 +51,15 @@ class ConsoleRoute(APIRoute):
             except (HydrodiagError, RequestValidationError) as exc:
                 status = 422 if isinstance(exc, RequestValidationError) else status_for(exc)
                 return page(request, "error.html", status_code=status, error=error_of(exc))
+            except StarletteHTTPException as exc:
+                if exc.status_code != 400:
+                    raise
+                # the form itself could not be read (a field over the multipart part limit
+                # of 1 MiB): the console's page, not the API's JSON
+                error = {"type": InputError.__name__, "field": "body",
+                         "message": f"the form could not be read: {exc.detail} (a pasted "
+                                    "text is at most 1 MiB; upload a larger batch as a CSV)"}
+                return page(request, "error.html", status_code=422, error=error)
             for name, value in SECURITY_HEADERS.items():
                 response.headers.setdefault(name, value)
             return response

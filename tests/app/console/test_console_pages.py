@@ -180,6 +180,19 @@ def test_a_diagnosis_through_the_form_is_stored_and_shown(
     assert re.search(r"<code>relief\.Pset</code>.*?setting \d+ % low<", fitted)
 
 
+def test_a_path_the_console_lacks_and_an_unreadable_form_get_its_pages(
+        browser_client: httpx.Client) -> None:
+    """A mistyped console URL and a paste over the multipart part limit answered with the
+    API's JSON, without the console's menu."""
+    missing = browser_client.get("/console/nosuch")
+    assert missing.status_code == 404 and missing.headers["content-type"].startswith("text/html")
+    assert error_box(missing.text)[0] == "path" and "/console/nosuch" in missing.text
+    assert browser_client.get("/console/").status_code == 303
+    huge = browser_client.post("/console/diagnose", data={"document": "#" * (1024 * 1024 + 10)})
+    assert huge.status_code == 422 and huge.headers["content-type"].startswith("text/html")
+    assert error_box(huge.text)[0] == "body" and "at most 1 MiB" in huge.text
+
+
 def test_a_joint_visits_page_says_whose_readings_it_shows(
         console_server: LiveServer, browser_client: httpx.Client) -> None:
     """A joint visit's page listed one record's readings unlabelled, the estimates coming
