@@ -22,12 +22,14 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from diagnostics.discrepancy.drift import BaseDrift, Drift
+from diagnostics.discrepancy.gap import GapRow
 from diagnostics.discrepancy.selection import hac_cov
 from diagnostics.discrepancy.signals import Signals
 from diagnostics.discrepancy.verdict import OUTPUT_GAP
 from sim.components.effects import EFFECTS
 
-__all__ = ["BASE", "base_change", "drifted", "model_flow", "on_refitted", "refitted_pump",
+__all__ = ["BASE", "base_change", "bench_drift", "drifted", "model_flow", "on_refitted", "refitted_pump",
            "robust_ols", "stored_fit", "with_base"]
 
 Arr = npt.NDArray[np.float64]
@@ -150,3 +152,25 @@ def base_change(values: Mapping[str, float], base: Mapping[str, float]) -> str:
     new = refitted_pump(values, base)
     return (f"pump re-fitted: Rlp {values['pump.Rlp']:.4g} → {new['pump.Rlp']:.4g} Pa·s/m³, "
             f"Vp {values['pump.Vp']:.5g} → {new['pump.Vp']:.5g} m³/rad")
+
+
+def bench_drift(values: Mapping[str, float], s: Signals, gap_after: list[GapRow],
+                sigma_flow: float) -> Drift:
+    """The pump re-fitted alone (:func:`stored_fit` without effects) as a
+    :class:`~diagnostics.discrepancy.drift.Drift`: Rlp and Vp stored and re-fitted, each
+    with its White error carried through ``1/Rlp + c`` and ``Vp − c`` [SI], and the
+    held-out flow gap with them.  The cycle path reported this in ``base_drift``; a bench
+    table's "base drift" once said it only in its message."""
+    c = s.values
+    r = c["speed"] * c["Vp"] - c["Q_meter_B"] - c["P_pump"] / values["pump.Rlp"]
+    coef, se = robust_ols(np.column_stack([c["P_pump"], c["speed"]]), r)
+    new = refitted_pump(values, dict(zip(BASE, (float(coef[0]), float(coef[1])), strict=True)))
+    rlp_error = new["pump.Rlp"] ** 2 * float(se[0])   # |∂Rlp/∂c| = Rlp²
+    parameters = [
+        BaseDrift("pump.Rlp", "Pa*s/m^3", "internal leakage: wear, or a stored value that "
+                  "never matched this pump", values["pump.Rlp"], new["pump.Rlp"], rlp_error),
+        BaseDrift("pump.Vp", "m^3/rad", "displacement: does not wear; a change is another "
+                  "pump or a wrong stored value", values["pump.Vp"], new["pump.Vp"],
+                  float(se[1]))]
+    return Drift(parameters, gap_after, [], {"Q_meter_B": gap_after[0].rmse / sigma_flow},
+                 accepted=True, reason="")

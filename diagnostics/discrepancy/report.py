@@ -136,7 +136,8 @@ def html_page(d: Discovery, title: str = "hydrodiag discrepancy report") -> str:
         accepted = d.base_drift.accepted
         state = ("they close the gap: base drift" if accepted
                  else "the wear the effect was named on" if d.named else "not accepted")
-        parts.append(f"<h2>Base parameters re-fitted by re-simulation ({state})"
+        how = "on the bench table's balance" if not d.base_drift.tables else "by re-simulation"
+        parts.append(f"<h2>Base parameters re-fitted {how} ({state})"
                      "</h2>" + ("" if accepted else f"<p>{e(d.base_drift.reason)}</p>")
                      + "<table><tr><th>parameter</th><th>why it drifts</th><th>stored</th>"
                      "<th>re-fitted</th><th>change</th><th>95 % interval</th></tr>")

@@ -54,11 +54,13 @@ import numpy as np
 import numpy.typing as npt
 
 from diagnostics.discrepancy.balances import BALANCES, BASE_SIGNS, BalanceData, effects_of
+from diagnostics.discrepancy.drift import Drift
 from diagnostics.discrepancy.gap import GapRow
 from diagnostics.discrepancy.lof import lack_of_fit, permutation_p
 from diagnostics.discrepancy.pump_refit import (
     BASE,
     base_change,
+    bench_drift,
     drifted,
     model_flow,
     on_refitted,
@@ -280,6 +282,7 @@ def discover_steady(rig_document: Mapping[str, Any], bench: BenchData, *,
               and lof_before.rms_excess > practical
               and permutation_p(sel.base_residual, groups) < 0.01)
     off = gap_before[0].rmse > OUTPUT_GAP * sigma[FLOW]
+    drift: Drift | None = None
     if named:
         outcome = "named" if len(named) == 1 else "partially explained"
         message = f"named {', '.join(n.name for n in named)}"
@@ -291,6 +294,7 @@ def discover_steady(rig_document: Mapping[str, Any], bench: BenchData, *,
     elif off and drifted(values, alone, gap_alone[0].rmse, sigma[FLOW]):
         outcome = "base drift"
         gap_after = gap_alone
+        drift = bench_drift(values, train, gap_alone, sigma[FLOW])
         message = (f"no new effect: the held-out flow differs from the stored pump's "
                    f"({gap_before[0].rmse / sigma[FLOW]:.1f} σ) and the pump's own laminar "
                    f"slip and displacement, re-fitted alone, close the gap "
@@ -327,7 +331,7 @@ def discover_steady(rig_document: Mapping[str, Any], bench: BenchData, *,
         "no simulation: steady pump-outlet balance (paper 002 eqs. 1-5, Ṗ = 0)",
         {sel.balance: sel.detectable},
         {"selections": [sel], "data": [data], "signals": train, "gap_alone": gap_alone,
-         "sigma": sigma[FLOW]}, lof)
+         "sigma": sigma[FLOW]}, lof, drift)
 
 
 def _ranges(rows: npt.NDArray[np.int64]) -> str:

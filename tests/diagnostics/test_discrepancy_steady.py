@@ -175,6 +175,25 @@ def test_a_bench_pump_unlike_the_stored_one_without_an_effect_is_base_drift() ->
         assert "Rlp 6e+11 → " in d.message and "Vp 2.7852e-06 → " in d.message
 
 
+def test_a_bench_tables_base_drift_is_reported_as_the_cycles_is() -> None:
+    """The pump's leakage doubled (Rlp halved), nothing else: "base drift" with the re-fitted
+    Rlp and Vp in ``base_drift`` (it was null for a bench table, the values only in the
+    message), Rlp's 95 % interval holding the truth, the displacement unchanged."""
+    rig = reference_rig()
+    truth = 0.5 * rig.values()["pump.Rlp"]
+    bench = synthesize_bench(rig, rng=np.random.default_rng(8), overrides={"pump.Rlp": truth})
+    d = discover_steady(reference_rig_document(), bench, bootstrap=0)
+    assert d.verdict == "base drift" and d.base_drift is not None
+    rlp, vp = d.base_drift.parameters
+    assert (rlp.parameter, vp.parameter) == ("pump.Rlp", "pump.Vp")
+    assert rlp.interval is not None and rlp.interval[0] <= truth <= rlp.interval[1]
+    assert rlp.significant and not vp.significant
+    assert f"Rlp 6e+11 → {rlp.value:.4g}" in d.message   # the message states the same re-fit
+    report = d.to_dict()["base_drift"]
+    assert report["parameters"][0]["change"] == pytest.approx(-0.5, abs=0.03)
+    assert report["held_out_rms_sigma"]["Q_meter_B"] < 1.5
+
+
 def test_a_speed_offset_at_one_speed_is_the_displacement_and_not_named() -> None:
     bench = synthesize_bench(reference_rig(), rng=np.random.default_rng(2),
                              effects={"speed_offset": 1.0}, speeds=(1.0,))
