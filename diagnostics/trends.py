@@ -345,7 +345,9 @@ def forecast_threshold(series: TrendSeries, threshold: float, *,
     thr = d * threshold
     earliest = _time_to(f, thr, f.slope_high, t_ref)
     latest = _time_to(f, thr, f.slope_low, t_ref)
-    unit = series.unit
+    # " m" after a number; nothing for a dimensionless quantity ("1.1e-07 1" read as a typo)
+    unit = "" if series.unit in ("1", "-", "") else f" {series.unit}"
+    per_day = f"{series.unit}/day" if unit else "per day"
     if f.value_at(t_ref) >= thr:
         # when the fitted line crossed: before the reference time, or (a level already
         # past the threshold that does not rise) not on this line
@@ -354,23 +356,23 @@ def forecast_threshold(series: TrendSeries, threshold: float, *,
         when = (f"; the fitted line crossed it {span(t_ref - crossed)} before the reference "
                 "time" if math.isfinite(crossed) else "")
         return ThresholdForecast("crossed", threshold, direction, t_ref, 0.0, 0.0, 0.0, fit,
-                                 f"{series.quantity} is past {threshold:.4g} {unit} on the "
+                                 f"{series.quantity} is past {threshold:.4g}{unit} on the "
                                  f"fitted trend{when}", crossed)
     if f.slope <= 0.0:
         if math.isinf(earliest):
-            steepest = f"not even the steepest slope the data allow reaches {threshold:.4g} {unit}"
+            steepest = f"not even the steepest slope the data allow reaches {threshold:.4g}{unit}"
         elif earliest > 0.0:
-            steepest = (f"at the steepest slope the data allow, {threshold:.4g} {unit} would "
+            steepest = (f"at the steepest slope the data allow, {threshold:.4g}{unit} would "
                         f"be reached in {span(earliest)}")
         else:
             steepest = (f"at the steepest slope the data allow it could already be past "
-                        f"{threshold:.4g} {unit}")
+                        f"{threshold:.4g}{unit}")
         return ThresholdForecast("not_worsening", threshold, direction, t_ref, math.inf,
                                  earliest, math.inf, fit,
                                  f"{series.quantity} is not worsening (slope "
-                                 f"{fit.slope * DAY_S:.3g} {unit}/day); {steepest}")
+                                 f"{fit.slope * DAY_S:.3g} {per_day}); {steepest}")
     left = _time_to(f, thr, f.slope, t_ref)
     return ThresholdForecast("worsening", threshold, direction, t_ref, left, earliest, latest,
-                             fit, f"{series.quantity} reaches {threshold:.4g} {unit} in "
+                             fit, f"{series.quantity} reaches {threshold:.4g}{unit} in "
                              f"{span(left)} ({100 * confidence:.0f} % interval "
                              f"{span(earliest)} to {span(latest)})")

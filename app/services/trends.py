@@ -197,7 +197,8 @@ def _trend(component: str, rig_id: int, points: list[TrendPointOut], threshold: 
             message = f"{message}; {since}"
     if points and status != "crossed" and points[-1].value > threshold:
         last = points[-1]
-        message = (f"{message}; the latest estimate, {last.value:.4g} {unit} "
+        shown = "" if unit in ("1", "-") else f" {unit}"
+        message = (f"{message}; the latest estimate, {last.value:.4g}{shown} "
                    f"({last.measured_at:%Y-%m-%d}), is past the threshold (one point: the "
                    "robust trend weighs it as one of many){_if_blamed(component, last)}")
     elif points and status == "crossed":

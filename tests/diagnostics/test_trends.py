@@ -208,3 +208,14 @@ def test_spans_read_in_the_trend_tables_unit() -> None:
     assert span(2 * 3600.0) == "2 h"
     assert span(42.0) == "42 s"
     assert span(math.inf) == "never"
+
+
+def test_a_dimensionless_quantity_is_written_without_a_unit_of_1() -> None:
+    """A pump's Cs [1] read "past 9.759e-08 1" and "slope … 1/s"."""
+    cs = TrendSeries("rig-1", "pump", "Cs", "1", tuple(d * DAY for d in (0, 30, 60)),
+                     (2e-8, 6e-8, 1.1e-7), None)
+    past = forecast_threshold(cs, 9.759e-8)
+    assert "past 9.759e-08 on the fitted trend" in past.message
+    flat = forecast_threshold(TrendSeries("rig-1", "pump", "Cs", "1", cs.times,
+                                          (3e-8, 2.9e-8, 2.8e-8), None), 9.759e-8)
+    assert "per day)" in flat.message and " 1/" not in flat.message
