@@ -70,6 +70,15 @@ def series_list(request: Request, session: SessionDep, _key: ConsoleKeyDep,
     return _list(request, session, rig, offset)
 
 
+@router.get("/series/import")
+@router.get("/series/check")
+def series_forms(_key: ConsoleKeyDep) -> Response:
+    """The import and check forms post here; a reload of the address after a failed post,
+    or a bookmark, goes back to the page that holds them (it read "import" as a series id
+    and answered 422)."""
+    return redirect("/console/series")
+
+
 @router.get("/series/{series_id}")
 def series_one(request: Request, session: SessionDep, rigs: RigsDep, _key: ConsoleKeyDep,
                series_id: Annotated[int, Path(ge=1, le=MAX_ID)]) -> Response:

@@ -93,6 +93,13 @@ def test_a_check_without_records_or_with_a_read_key_names_the_field(
     after = console_server.row_counts()
     assert {k: v for k, v in after.items() if k != "api_keys"} == {
         k: v for k, v in before.items() if k != "api_keys"}
+    # the fields hold what the form accepts (a 250-character name replaced the page), and
+    # a reload of the post's address returns to the form (it read "import" as an id)
+    page = browser_client.get("/console/series?rig=1").text
+    assert 'name="name" maxlength="200"' in page and 'maxlength="20000"' in page
+    for path in ("/console/series/import", "/console/series/check"):
+        back = browser_client.get(path)
+        assert back.status_code == 303 and back.headers["location"] == "/console/series"
 
 
 def test_a_job_is_cancelled_from_its_page(console_server: LiveServer,
