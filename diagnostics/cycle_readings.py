@@ -52,7 +52,7 @@ from sim.errors import InputError
 from sim.phase_reading import settled_window, steady_slope, steady_window, time_average
 
 __all__ = ["CHANNELS", "COMPLETED_SHARE", "HELD_SHARE", "CycleReadings", "PhaseReading", "cycle_readings",
-           "phase_reading"]
+           "phase_reading", "phases_from_position", "position"]
 
 Arr = npt.NDArray[np.float64]
 
@@ -183,7 +183,7 @@ def _cut_by_sampling(t: Arr, x: Arr, travel: float, stroke: float) -> bool:
     return bool(end >= 0.5 * steady_slope(t[sel], x[sel]))
 
 
-def _phases_from_position(series: SeriesRecord, x: Arr, stroke: float) -> npt.NDArray[np.str_]:
+def phases_from_position(series: SeriesRecord, x: Arr, stroke: float) -> npt.NDArray[np.str_]:
     """Phase labels of a cycle logged without them (a logger that records the position but
     not the spool command), the record taken to start with the working stroke as paper
     002's cycle does: working while the piston moves away from where it started and dwells
@@ -209,7 +209,8 @@ def _phases_from_position(series: SeriesRecord, x: Arr, stroke: float) -> npt.ND
     return labels
 
 
-def _position(series: SeriesRecord) -> Arr:
+def position(series: SeriesRecord) -> Arr:
+    """The piston position [m]: ``x``, or the speed ``v`` integrated from 0."""
     if "x" in series.channels:
         return series.channels["x"]
     if "v" in series.channels:
@@ -228,7 +229,7 @@ def cycle_readings(series: SeriesRecord, stroke: float,
     ----------
     series
         The cycle, with its ``phase`` column; without one, the phases are read off the
-        position (:func:`_phases_from_position`) and a note says so.
+        position (:func:`phases_from_position`) and a note says so.
     stroke
         The rig's stroke [m].
     condition
@@ -243,12 +244,12 @@ def cycle_readings(series: SeriesRecord, stroke: float,
         a phase with fewer than two samples, an unknown condition field, or a series whose
         condition has both a load and a back-pressure.
     """
-    x = _position(series)
+    x = position(series)
     phases: list[PhaseReading] = []
     notes: list[str] = []
     labels = series.phase
     if labels is None:
-        labels = _phases_from_position(series, x, stroke)
+        labels = phases_from_position(series, x, stroke)
         notes.append(f"no phase column: the record taken to start with the working stroke "
                      f"(paper 002's cycle), working up to the piston's reversal at t = "
                      f"{series.t[int(np.sum(labels == 'working')) - 1]:.3f} s, return after it")

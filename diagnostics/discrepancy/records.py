@@ -3,14 +3,16 @@ load and oil temperature it ran at (:func:`require_cycle_records`)."""
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 
 import numpy as np
 
+from diagnostics.cycle_readings import phases_from_position, position
 from diagnostics.timeseries import SeriesRecord
 from sim.errors import InputError
 
-__all__ = ["STATED", "require_cycle_records"]
+__all__ = ["STATED", "require_cycle_records", "with_phases"]
 
 #: condition entries every measured cycle must state, with the column that states them
 STATED: dict[str, str] = {"load": "load [N]", "oil_temperature": "oil_temperature [degC]"}
@@ -52,3 +54,31 @@ def require_cycle_records(records: Sequence[SeriesRecord]) -> None:
                     "or keep the '# condition = ...' header of a single-record /simulate "
                     "export; the rig's nominal condition is not assumed for measured data",
                     field=key)
+
+
+def with_phases(records: Sequence[SeriesRecord], stroke: float
+                ) -> tuple[list[SeriesRecord], list[str]]:
+    """``records`` with the phases of any logged without them read off the piston's
+    position, as a diagnosis of the cycle reads them
+    (:func:`diagnostics.cycle_readings.phases_from_position`: working up to the piston's
+    reversal, the record taken to start with the working stroke), and a note naming those
+    records; ``stroke`` [m].  A logger that records the position but not the spool command
+    was refused by the workflow while its cycle could be diagnosed.  Records without a
+    position or speed channel are left as they are (:func:`require_cycle_records` names
+    them)."""
+    out: list[SeriesRecord] = []
+    read: list[str] = []
+    for r in records:
+        if r.phase is None and ("x" in r.channels or "v" in r.channels):
+            labels = phases_from_position(r, position(r), stroke)
+            out.append(dataclasses.replace(r, phase=labels))
+            read.append(r.name)
+        else:
+            out.append(r)
+    notes = ([f"no phase column in {', '.join(repr(n) for n in read)}: phases read off the "
+              "position (working up to the piston's reversal, the valve taken to switch "
+              "there: a few ms after it did, which biases what the build-up after the "
+              "switch shows — a pressure-dependent seal friction came out 8 % low where the "
+              "labels gave it 1.4 % low; log the spool command where you can)"]
+             if read else [])
+    return out, notes

@@ -53,7 +53,7 @@ from diagnostics.discrepancy.confirm import Small, confirm_chosen, confirm_small
 from diagnostics.discrepancy.drift import Drift, refit_base
 from diagnostics.discrepancy.gap import GapRow, gap_table
 from diagnostics.discrepancy.lof import repeats_lack_of_fit
-from diagnostics.discrepancy.records import require_cycle_records
+from diagnostics.discrepancy.records import require_cycle_records, with_phases
 from diagnostics.discrepancy.refit import with_effects
 from diagnostics.discrepancy.selection import PRACTICAL, Selection, require_samples, select
 from diagnostics.discrepancy.signals import Signals, condition_of, prepare
@@ -246,8 +246,12 @@ def discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], *
     InputError
         No records, channels that differ between records, none of the balances computable.
     """
-    return _discover(rig_document, records, progress=progress, refit=refit,
-                     max_nfev=max_nfev, bootstrap=bootstrap, seed=seed, worn_pass=False)
+    labelled, notes = _labelled(rig_document, records)
+    d = _discover(rig_document, labelled, progress=progress, refit=refit,
+                  max_nfev=max_nfev, bootstrap=bootstrap, seed=seed, worn_pass=False)
+    if notes:
+        d.message += "; " + "; ".join(notes)
+    return d
 
 
 def check_records(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord]) -> None:
@@ -255,7 +259,16 @@ def check_records(rig_document: Mapping[str, Any], records: Sequence[SeriesRecor
     column, an unstated condition, no balance computable, too few usable samples), in
     ~0.1 s per 15,000 samples and before any simulation: ``POST /discrepancy`` answers
     422 instead of accepting a job that fails."""
-    _first_step(rig_document, records)
+    _first_step(rig_document, _labelled(rig_document, records)[0])
+
+
+def _labelled(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord]
+              ) -> tuple[list[SeriesRecord], list[str]]:
+    """The records with phases read off the position where they have none
+    (:func:`~diagnostics.discrepancy.records.with_phases`), on a rig with a cylinder."""
+    stroke = Rig.from_spec(validate_rig_document(dict(rig_document))).values().get(
+        "cylinder.stroke")
+    return (list(records), []) if stroke is None else with_phases(records, stroke)
 
 
 def _first_step(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord]

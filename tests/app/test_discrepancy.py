@@ -182,8 +182,10 @@ def test_bad_files_are_422_naming_the_column_and_start_nothing(server: LiveServe
                            files={"file": ("x.csv", measured)}, headers=server.auth)
     assert r.status_code == 422, r.text
     # without the stroke labels the workflow compared a whole record with one stroke
-    # (every channel hundreds of σ off, "unexplained"); now refused before the job
-    no_phase = pd.read_csv(io.BytesIO(measured)).drop(columns="phase")
+    # (every channel hundreds of σ off, "unexplained"); the phases are read off the
+    # position now (a diagnosis of the cycle does the same), and without a position or a
+    # speed either it is refused before the job
+    no_phase = pd.read_csv(io.BytesIO(measured)).drop(columns=["phase", "x [m]", "v [m/s]"])
     r = server.client.post("/discrepancy", data={"rig_id": "1"},
                            files={"file": ("x.csv", no_phase.to_csv(index=False).encode())},
                            headers=server.auth)

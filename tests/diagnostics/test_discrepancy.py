@@ -252,3 +252,22 @@ def test_a_balance_with_too_few_samples_is_an_input_error_naming_the_file():
             select(short, bootstrap=0)
         assert err.value.field == "file"
     assert select(full, bootstrap=0) is not None
+
+
+def test_cycles_logged_without_phases_have_them_read_off_the_position():
+    """A logger of the position but not the spool command: the workflow refused its cycles
+    ("no 'phase' column") while a diagnosis read their phases off the position.  Read the
+    same way, the hidden seal friction is named as with the labels, and the answer says
+    where the phases came from."""
+    import dataclasses
+
+    truth = 1.5e-5
+    labelled = _records(_with("seal_friction_pressure", "k_p", truth, "m^2"), 2)
+    bare = [dataclasses.replace(r, phase=None) for r in labelled]
+    d = discover(reference_rig_document(), bare, bootstrap=10)
+    assert d.verdict == "named" and [n.name for n in d.named] == ["seal_friction_pressure"]
+    # the switch read at the reversal lies 1-2 ms after the valve's: 8 % low here, where
+    # the labels give it 1.4 % low; the note says so
+    assert d.named[0].value == pytest.approx(truth, rel=0.1)
+    assert "no phase column in 'L2100', 'L4200', 'L6300': phases read off the position" \
+        in d.message and "log the spool command" in d.message
