@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from fastapi import APIRouter
 
-from app.console import pages_diagnose, pages_rigs, pages_series, pages_simulate
+from app.console import pages_diagnose, pages_pumps, pages_rigs, pages_series, pages_simulate
 
 __all__ = ["router"]
 
@@ -18,4 +18,5 @@ router.include_router(pages_rigs.router)
 router.include_router(pages_diagnose.router)
 router.include_router(pages_simulate.router)
 router.include_router(pages_series.router)
+router.include_router(pages_pumps.router)
 router.include_router(pages_rigs.unknown)   # last: any other /console path

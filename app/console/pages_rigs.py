@@ -1,4 +1,4 @@
-"""Console pages: login, rigs, one rig (parameters, versions, calibrations, bond graph), pumps."""
+"""Console pages: login, rigs, one rig (parameters, versions, calibrations, bond graph)."""
 
 from __future__ import annotations
 
@@ -9,17 +9,15 @@ from typing import Annotated, Any
 from urllib.parse import unquote
 
 import numpy as np
-from fastapi import Form, Path, Query, Request, Response
+from fastapi import Form, Path, Request, Response
 from fastapi.responses import FileResponse
 
 from app.api.deps import SessionDep
-from app.console.charts import calibration_chart, surface_chart
-from app.console.pump_charts import pump_check_charts
+from app.console.charts import calibration_chart
 from app.console.routing import ConsoleKeyDep, new_router
 from app.console.web import COOKIE, SECURITY_HEADERS, issue_cookie, page, redirect
 from app.schemas.common import MAX_ID
 from app.services import calibrations as calibration_service
-from app.services import pumps as pump_service
 from app.services import rigs as rig_service
 from app.services.keys import authenticate
 from diagnostics.plots import Chart
@@ -150,29 +148,6 @@ def rig(request: Request, session: SessionDep, _key: ConsoleKeyDep,
                 parameters=_parameters(version.document),
                 calibrations=[(c, _calibration_chart(c)) for c in calibrations],
                 equations=derive_equations(graph).describe(), dot=dot, dot_svg=_dot_svg(dot))
-
-
-@router.get("/pumps")
-def pumps(request: Request, session: SessionDep, _key: ConsoleKeyDep,
-          set_id: Annotated[int | None, Query(ge=1, le=MAX_ID)] = None) -> Response:
-    """Pump sets; the chosen one with its quantities, measured vs model from its checked
-    points, and its fitted loss surfaces."""
-    rows, total = pump_service.list_pump_sets(session, limit=500, offset=0)
-    chosen = pump_service.get_pump_set(session, set_id) if set_id is not None else (
-        rows[0] if rows else None)
-    charts: list[Chart] = []
-    if chosen is not None:
-        q = chosen.quantities
-        for name in sorted(k[:-5] for k in q if k.endswith("_coef")):
-            try:
-                charts.append(surface_chart(
-                    name, q[f"{name}_coef"]["value"], q[f"{name}_p_ref"]["value"],
-                    q[f"{name}_omega_ref"]["value"], q["dp_range"]["value"],
-                    q["omega_range"]["value"]))
-            except (KeyError, TypeError, ValueError):
-                continue  # a hand-made set without the surface's scales: table only
-        charts = pump_check_charts(q) + charts
-    return page(request, "pumps.html", rows=rows, total=total, chosen=chosen, charts=charts)
 
 
 #: The console's answer to a path it does not have (it was the API's JSON 404): included

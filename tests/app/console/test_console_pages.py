@@ -15,6 +15,7 @@ import pytest
 
 from app.console.web import COOKIE, SECURITY_HEADERS, SESSION_LIFETIME_S
 from app.db.models import Diagnosis
+from app.security import Scope
 from app.services.keys import create_api_key, revoke_api_key
 from app.services.trends import CLEARANCE_MULTIPLE
 from tests.app.conftest import simulated_record
@@ -318,3 +319,43 @@ def test_pumps_page_shows_measured_against_model_from_the_stored_points(
     assert int(plots[flow]) == 2 * n and int(plots[torque]) == 2 * n
     assert int(plots["Held-out flow residual, measured − model"]) == n
     assert "check_flow_S" in html
+
+
+def test_a_bench_csv_is_made_a_pump_set_from_the_page(
+        console_server: LiveServer, browser_client: httpx.Client) -> None:
+    """The pumps page pointed operators at the API; the same service fits and stores the
+    set from the page, the displacement asked in cm³/rev; a refused file or field keeps what
+    was entered and stores nothing; a read key cannot store."""
+    from pathlib import Path
+
+    sample = (Path(__file__).parents[3] / "docs" / "samples" / "bench_sample.csv").read_bytes()
+    before = console_server.row_counts()
+    bad = browser_client.post("/console/pumps/bench", data={
+        "name": "bench-bad", "pump": "gear", "displacement": "1.5"},
+        files={"file": ("b.csv", sample.replace(b"q [m^3/s]", b"q [parsec]"), "text/csv")})
+    assert bad.status_code == 422 and "parsec" in bad.text
+    assert 'value="bench-bad"' in bad.text and 'value="1.5"' in bad.text
+    no_file = browser_client.post("/console/pumps/bench", data={"name": "x", "pump": "gear"})
+    assert no_file.status_code == 422 and error_box(no_file.text)[0] == "file"
+    negative = browser_client.post("/console/pumps/bench", data={
+        "name": "x", "pump": "gear", "displacement": "-2"},
+        files={"file": ("b.csv", sample, "text/csv")})
+    assert negative.status_code == 422 and error_box(negative.text)[0] == "displacement"
+    assert console_server.row_counts() == before
+    made = browser_client.post("/console/pumps/bench", data={
+        "name": "bench-from-page", "pump": "stand-in gear pump"},
+        files={"file": ("bench_sample.csv", sample, "text/csv")})
+    assert made.status_code == 303, made.text
+    set_id = int(made.headers["location"].rsplit("=", 1)[1])
+    stored = console_server.client.get(f"/pump-sets/{set_id}").json()
+    api = console_server.client.post("/pump-sets/bench", data={
+        "name": "bench-from-api", "pump": "stand-in gear pump"},
+        files={"file": ("bench_sample.csv", sample, "text/csv")}).json()
+    assert stored["quantities"]["D"]["value"] == pytest.approx(api["quantities"]["D"]["value"])
+    with console_server.session() as session:
+        _, plaintext = create_api_key(session, "console-pumps-read", Scope.READ)
+    with httpx.Client(base_url=console_server.base_url, timeout=60.0) as client:
+        client.post("/console/login", data={"api_key": plaintext, "next": ""})
+        refused = client.post("/console/pumps/bench", data={"name": "r", "pump": "gear"},
+                              files={"file": ("b.csv", sample, "text/csv")})
+    assert refused.status_code == 403 and error_box(refused.text)[0] == "api_key"

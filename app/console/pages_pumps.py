@@ -1,0 +1,121 @@
+"""Console page of the pump sets: the stored sets, the chosen one's quantities, measured vs
+model and loss surfaces, and a bench CSV made into a set (as ``POST /pump-sets/bench``).
+
+The upload goes through the same service and validation as the API
+(:func:`app.services.pump_bench.store_bench_parameters`); a refused file or field shows the
+page again with the error naming it and the fields as entered, nothing stored.  The
+displacement is asked in cm³/rev, as an engineer reads it off a data sheet, and passed on
+in m³/rad.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Annotated, Any
+
+from fastapi import File, Form, Query, Request, Response, UploadFile
+from pydantic import ValidationError
+from starlette.concurrency import run_in_threadpool
+
+from app.api.deps import SessionDep
+from app.console.charts import surface_chart
+from app.console.pump_charts import pump_check_charts
+from app.console.routing import ConsoleKeyDep, new_router
+from app.console.web import page, redirect
+from app.errors import format_location, status_for
+from app.schemas.common import MAX_ID
+from app.schemas.pumps import PumpBenchForm
+from app.security import Scope
+from app.services import pumps as pump_service
+from app.services.pump_bench import MAX_CSV_BYTES, store_bench_parameters
+from diagnostics.plots import Chart
+from sim.errors import HydrodiagError, InputError
+
+__all__ = ["router"]
+
+router = new_router()
+
+#: cm³/rev → m³/rad [m³/rad per cm³/rev]
+_CM3_PER_REV = 1e-6 / (2.0 * math.pi)
+
+
+def _page(request: Request, session: Any, set_id: int | None, *, status_code: int = 200,
+          error: dict[str, Any] | None = None, entered: dict[str, str] | None = None
+          ) -> Response:
+    rows, total = pump_service.list_pump_sets(session, limit=500, offset=0)
+    chosen = pump_service.get_pump_set(session, set_id) if set_id is not None else (
+        rows[0] if rows else None)
+    charts: list[Chart] = []
+    if chosen is not None:
+        q = chosen.quantities
+        for name in sorted(k[:-5] for k in q if k.endswith("_coef")):
+            try:
+                charts.append(surface_chart(
+                    name, q[f"{name}_coef"]["value"], q[f"{name}_p_ref"]["value"],
+                    q[f"{name}_omega_ref"]["value"], q["dp_range"]["value"],
+                    q["omega_range"]["value"]))
+            except (KeyError, TypeError, ValueError):
+                continue  # a hand-made set without the surface's scales: table only
+        charts = pump_check_charts(q) + charts
+    return page(request, "pumps.html", status_code=status_code, rows=rows, total=total,
+                chosen=chosen, charts=charts, error=error, entered=entered or {})
+
+
+@router.get("/pumps")
+def pumps(request: Request, session: SessionDep, _key: ConsoleKeyDep,
+          set_id: Annotated[int | None, Query(ge=1, le=MAX_ID)] = None) -> Response:
+    """Pump sets; the chosen one with its quantities, measured vs model from its checked
+    points, and its fitted loss surfaces; the form that makes a set from a bench CSV."""
+    return _page(request, session, set_id)
+
+
+def _form(name: str, pump: str, rig: str, source: str, displacement: str) -> PumpBenchForm:
+    """The API's form of the page's fields (the displacement from cm³/rev)."""
+    fields: dict[str, Any] = {"name": name.strip(), "pump": pump.strip(),
+                              "rig_id": rig.strip() or None, "source": source.strip() or None}
+    if displacement.strip():
+        try:
+            fields["displacement_m3_rad"] = float(displacement) * _CM3_PER_REV
+        except ValueError:
+            raise InputError(f"not a number: {displacement!r}", field="displacement") from None
+    try:
+        return PumpBenchForm.model_validate(fields)
+    except ValidationError as exc:
+        first = exc.errors()[0]
+        where = format_location(first.get("loc", ()))
+        raise InputError(str(first.get("msg", "invalid")),
+                         field="displacement" if where == "displacement_m3_rad" else where
+                         ) from None
+
+
+@router.post("/pumps/bench")
+async def bench(request: Request, session: SessionDep, _key: ConsoleKeyDep,
+                name: Annotated[str, Form(max_length=200)] = "",
+                pump: Annotated[str, Form(max_length=200)] = "",
+                rig: Annotated[str, Form(max_length=20)] = "",
+                source: Annotated[str, Form(max_length=2000)] = "",
+                displacement: Annotated[str, Form(max_length=40)] = "",
+                file: Annotated[UploadFile | None, File()] = None) -> Response:
+    """Parameterise a bench CSV (ISO 4409 test points, paper 000's loss model) and store
+    the set; go to it.  A refused file or field: the page again with the error, the fields
+    as entered, nothing stored; a read key: 403."""
+    entered = {"name": name, "pump": pump, "rig": rig, "source": source,
+               "displacement": displacement}
+    if not Scope(_key.scope).allows(Scope.WRITE):
+        refusal = {"type": "ScopeError", "field": "api_key",
+                   "message": "storing a pump set needs a key of scope 'write' or above; "
+                              f"this console is logged in with a {_key.scope!r} key"}
+        return await run_in_threadpool(_page, request, session, None, status_code=403,
+                                       error=refusal, entered=entered)
+    try:
+        if file is None or not file.filename:
+            raise InputError("choose a bench CSV", field="file")
+        form = _form(name, pump, rig, source, displacement)
+        content = await file.read(MAX_CSV_BYTES + 1)
+        pump_set = await run_in_threadpool(store_bench_parameters, session, form, content)
+    except HydrodiagError as exc:
+        error = {"type": type(exc).__name__, "message": exc.message, "field": exc.field}
+        return await run_in_threadpool(_page, request, session, None,
+                                       status_code=status_for(exc), error=error,
+                                       entered=entered)
+    return redirect(f"/console/pumps?set_id={pump_set.id}")
