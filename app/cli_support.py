@@ -174,11 +174,9 @@ def reading_options(column_map: str | None, sample_rate: float | None,
 
 def validation_error(exc: ValidationError) -> InputError:
     """The first problem of a pydantic validation error as an :class:`InputError`."""
-    from app.errors import format_location
+    from app.errors import first_problem
 
-    first = exc.errors()[0]
-    return InputError(str(first.get("msg", "invalid")),
-                      field=format_location(tuple(first.get("loc", ()))))
+    return first_problem(exc.errors())
 
 
 def unwrap_help(app: typer.Typer) -> None:

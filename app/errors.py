@@ -61,6 +61,7 @@ __all__ = [
     "ServiceBusyError",
     "ServiceUnavailableError",
     "error_response",
+    "first_problem",
     "format_location",
     "install_error_handlers",
     "status_for",
@@ -176,6 +177,15 @@ async def _hydrodiag_error(request: Request, exc: Exception) -> JSONResponse:
         headers = {"Retry-After": str(exc.retry_after)}
     return error_response(status, type(exc).__name__, exc.message, exc.field, headers=headers,
                           request=request)
+
+
+def first_problem(errors: Sequence[Mapping[str, Any]]) -> InputError:
+    """The first of pydantic's ``errors`` as the :class:`InputError` the API answers with:
+    its field as :func:`_location` names it (a JSON type or an unknown key named down to
+    the key: ``record.rig_id``, where the console and the CLI once said ``record``)."""
+    if not errors:
+        return InputError("invalid input")
+    return InputError(_message(errors[0]) or "invalid", field=_location(errors[0]))
 
 
 def _location(err: Mapping[str, Any]) -> str | None:

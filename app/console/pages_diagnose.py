@@ -19,7 +19,7 @@ from app.console.routing import ConsoleKeyDep, new_router
 from app.console.views import diagnosis_view, history_page, trend_views
 from app.console.web import page, redirect
 from app.db.base import utcnow
-from app.errors import ServiceUnavailableError, format_location, status_for
+from app.errors import ServiceUnavailableError, first_problem, status_for
 from app.limits import check_file
 from app.schemas.common import MAX_ID
 from app.schemas.diagnose import DiagnoseRequest
@@ -99,9 +99,7 @@ def parse_records(text: str, content: bytes | None) -> DiagnoseRequest:
     try:
         return DiagnoseRequest.model_validate(json.loads(json.dumps(document, default=str)))
     except ValidationError as exc:
-        first = exc.errors()[0]
-        raise InputError(str(first.get("msg", "invalid")),
-                         field=format_location(first.get("loc", ()))) from None
+        raise first_problem(exc.errors()) from None
 
 
 def _form(request: Request, session: Any, *, status_code: int = 200, text: str = "",

@@ -22,7 +22,7 @@ from app.console.charts import surface_chart
 from app.console.pump_charts import pump_check_charts
 from app.console.routing import ConsoleKeyDep, new_router
 from app.console.web import page, redirect
-from app.errors import format_location, status_for
+from app.errors import first_problem, status_for
 from app.schemas.common import MAX_ID
 from app.schemas.pumps import PumpBenchForm
 from app.security import Scope
@@ -81,11 +81,10 @@ def _form(name: str, pump: str, rig: str, source: str, displacement: str) -> Pum
     try:
         return PumpBenchForm.model_validate(fields)
     except ValidationError as exc:
-        first = exc.errors()[0]
-        where = format_location(first.get("loc", ()))
-        raise InputError(str(first.get("msg", "invalid")),
-                         field="displacement" if where == "displacement_m3_rad" else where
-                         ) from None
+        problem = first_problem(exc.errors())
+        if problem.field == "displacement_m3_rad":  # the page's field, in cm³/rev
+            problem.field = "displacement"
+        raise problem from None
 
 
 @router.post("/pumps/bench")

@@ -25,7 +25,7 @@ from app.api.deps import RigsDep, SessionDep
 from app.console.charts import series_charts
 from app.console.routing import ConsoleKeyDep, new_router
 from app.console.web import SECURITY_HEADERS, page, redirect
-from app.errors import format_location
+from app.errors import first_problem
 from app.schemas.common import MAX_ID
 from app.schemas.discrepancy import DiscrepancyForm
 from app.schemas.series import IMPORT_NAME_CHARACTER, SeriesImportForm
@@ -114,9 +114,7 @@ async def check(request: Request, session: SessionDep, rigs: RigsDep, _key: Cons
             form = DiscrepancyForm(rig_id=rig, store=store,
                                    series_ids=",".join(str(i) for i in series))
         except ValidationError as exc:  # e.g. more records ticked than a check takes
-            first = exc.errors()[0]
-            raise InputError(str(first.get("msg", "invalid")),
-                             field=format_location(first.get("loc", ()))) from None
+            raise first_problem(exc.errors()) from None
         plan = await run_in_threadpool(plan_discrepancy, session, rigs, form, None)
     except HydrodiagError as exc:
         error = {"type": type(exc).__name__, "message": exc.message, "field": exc.field}
@@ -167,9 +165,7 @@ async def import_file(request: Request, session: SessionDep, _key: ConsoleKeyDep
                 "started_at": started_at.strip() or None,
                 "time_in_name": time_in_name.strip() or None, "zone": zone.strip() or None})
         except ValidationError as exc:
-            first = exc.errors()[0]
-            raise InputError(str(first.get("msg", "invalid")),
-                             field=format_location(first.get("loc", ()))) from None
+            raise first_problem(exc.errors()) from None
         content = await file.read(series_service.MAX_SERIES_BYTES + 1)
         rows = await run_in_threadpool(
             series_service.import_series, session, rig, form.name, content,

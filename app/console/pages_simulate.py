@@ -16,7 +16,7 @@ from app.api.deps import RigsDep, SessionDep
 from app.console.charts import simulation_charts
 from app.console.routing import ConsoleKeyDep, new_router
 from app.console.web import SECURITY_HEADERS, page
-from app.errors import format_location
+from app.errors import first_problem
 from app.schemas.common import MAX_ID
 from app.schemas.simulate import SimulateRequest
 from app.services import rigs as rig_service
@@ -52,9 +52,7 @@ def _request(rig: int, fault: str, load: str, oil_temperature: str, back_pressur
             "rig_id": rig, "fault": None if fault in ("", "healthy") else fault,
             "condition": condition, "method": "transient", "timeseries": timeseries})
     except ValidationError as exc:
-        first = exc.errors()[0]
-        raise InputError(str(first.get("msg", "invalid")),
-                         field=format_location(first.get("loc", ()))) from None
+        raise first_problem(exc.errors()) from None
 
 
 @router.get("/simulate")

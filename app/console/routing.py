@@ -19,7 +19,7 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 from app.api.deps import SessionDep
 from app.console.web import SECURITY_HEADERS, console_key, login_url, page, redirect
 from app.db.models import ApiKey
-from app.errors import format_location, status_for
+from app.errors import first_problem, status_for
 from sim.errors import AuthError, HydrodiagError, InputError
 
 __all__ = ["ConsoleKeyDep", "ConsoleRoute", "error_of", "new_router"]
@@ -28,10 +28,7 @@ __all__ = ["ConsoleKeyDep", "ConsoleRoute", "error_of", "new_router"]
 def error_of(exc: Exception) -> dict[str, Any]:
     """The API's error body (type, message, field) of ``exc``, for a page."""
     if isinstance(exc, RequestValidationError):
-        problems = exc.errors()
-        first = problems[0] if problems else {}
-        return {"type": InputError.__name__, "message": str(first.get("msg", "invalid input")),
-                "field": format_location(first.get("loc", ()))}
+        exc = first_problem(exc.errors())
     assert isinstance(exc, HydrodiagError)
     return {"type": type(exc).__name__, "message": exc.message, "field": exc.field}
 

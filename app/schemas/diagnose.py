@@ -14,6 +14,7 @@ from functools import partial
 from typing import Annotated, Any, ClassVar, Literal
 
 from pydantic import AwareDatetime, BaseModel, BeforeValidator, ConfigDict, Field, model_validator
+from pydantic_core import PydanticCustomError
 
 from app.limits import BATCH_RECORDS_CEILING
 from app.schemas.common import MAX_ID, FiniteFloat, MeasurementTime, RequestModel
@@ -93,9 +94,15 @@ class ReadingIn(RequestModel):
 
 
 def _number_to_reading(value: Any) -> Any:
-    """A bare number is a reading of the field's default instrument class."""
+    """A bare number is a reading of the field's default instrument class; text is not a
+    number (a pasted ``p1: NaN`` read "should be a valid dictionary or instance of
+    ReadingIn")."""
     if isinstance(value, int | float) and not isinstance(value, bool):
         return {"value": value}
+    if isinstance(value, str):
+        raise PydanticCustomError(
+            "reading_text", "a reading is a number or an object (value, u), not the text {text} "
+            "(leave a reading that was not taken out)", {"text": repr(value[:40])})
     return value
 
 

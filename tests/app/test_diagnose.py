@@ -149,6 +149,8 @@ def test_a_joint_diagnosis_needs_one_rig(server: LiveServer) -> None:
         ({"flow_B": {"value": 4e-4, "u": 1e-6, "bound": 1e-6}}, "records[1].flow_B"),
         ({"flow_B": {"value": 4e-4, "u": -1.0}}, "records[1].flow_B.u"),
         ({"measured_at": "2026-03-01T08:00:00"}, "records[1].measured_at"),
+        ({"p1": "NaN"}, "records[1].p1"),  # text, not a number
+        ({"rig_id": "abc"}, "records[1].rig_id"),
         ({"measured_at": "2999-01-01T00:00:00Z"}, "records[1].measured_at"),  # the future
         ({"measured_at": "1900-01-01T00:00:00Z"}, "records[1].measured_at"),  # unset clock
         ({"condition": {"load_force": 2100.0}}, "records[1].condition.oil_temperature"),

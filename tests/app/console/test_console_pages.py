@@ -224,6 +224,9 @@ def test_bad_form_input_names_the_field_and_stores_nothing(
         # a reading pasted twice was diagnosed on the second without a word
         "rig_id: 1\ncondition: {oil_temperature: 40, load_force: 2100}\np1: 11.88e5\n"
         "p1: 5.0e5": "document",
+        # a JSON type was reported on "record", not on the key
+        "rig_id: abc\ncondition: {oil_temperature: 40, load_force: 2100}\np1: 11.88e5":
+            "record.rig_id",
         # store: false was diagnosed and stored
         "store: false\nrecord:\n  rig_id: 1\n  condition: {oil_temperature: 40, "
         "load_force: 2100}\n  p1: 11.88e5": "store",
