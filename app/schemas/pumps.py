@@ -11,6 +11,7 @@ from functools import partial
 from typing import Annotated, Literal
 
 from pydantic import AfterValidator, ConfigDict, Field, StringConstraints, field_validator
+from pydantic_core import PydanticCustomError
 
 from app.schemas.common import (
     MAX_ID,
@@ -23,6 +24,7 @@ from app.schemas.common import (
     not_nullable,
     reject_null,
 )
+from sim.units import UNITS
 
 __all__ = [
     "PumpBenchForm",
@@ -52,6 +54,20 @@ def _rectangular(value: Value) -> Value:
     return value
 
 
+#: what a pump set's quantity may be written in: a unit :mod:`sim.units` knows, or ``SI``
+#: (a fitted surface's coefficients, each in the SI unit of its term)
+KNOWN_UNITS = frozenset({u for units in UNITS.values() for u in units} | {"SI"})
+
+
+def _known_unit(unit: str) -> str:
+    if unit not in KNOWN_UNITS:
+        raise PydanticCustomError(
+            "unknown_unit", "unknown unit {unit}: write it as hydrodiag's units are (Pa, bar, "
+            "m^3/rad, cm^3/rev, m^3/s, L/min, rad/s, rpm, N*m, degC, 1 for dimensionless, SI "
+            "for a surface's coefficients)", {"unit": repr(unit)})
+    return unit
+
+
 class Quantity(RequestModel):
     """A value (scalar, 1-D or 2-D array) with its unit."""
 
@@ -59,8 +75,10 @@ class Quantity(RequestModel):
         description="Number, list or list of rows (a map), in the stated unit [unit]",
         examples=[1.47e-5, [0.0, 5.0e6, 1.0e7]],
     )
-    unit: Annotated[str, StringConstraints(min_length=1, max_length=32)] = Field(
-        description="Unit of the value, SI with '1' for dimensionless [-]",
+    unit: Annotated[str, StringConstraints(min_length=1, max_length=32),
+                    AfterValidator(_known_unit)] = Field(
+        description="Unit of the value, one hydrodiag knows (sim.units), '1' for "
+        "dimensionless, 'SI' for a fitted surface's coefficients [-]",
         examples=["m^3/rev", "Pa", "1"],
     )
     description: Annotated[str, StringConstraints(max_length=500)] | None = Field(
@@ -135,6 +153,17 @@ class PumpSetUpdate(RequestModel):
     _not_null = field_validator(*_NOT_NULL)(reject_null)
 
 
+class StoredQuantity(PublicModel):
+    """A stored quantity as it was written (a set stored before units were checked reads
+    back as it is, not as an error)."""
+
+    value: Value = Field(description="Number, list or list of rows (a map), in the stated "
+                         "unit [unit]", examples=[1.47e-5])
+    unit: str = Field(description="Unit of the value [-]", examples=["m^3/rev"])
+    description: str | None = Field(default=None, description="What the quantity is [-]",
+                                    examples=["derived capacity"])
+
+
 class PumpSetPublic(PublicModel):
     """A stored pump set."""
 
@@ -144,7 +173,7 @@ class PumpSetPublic(PublicModel):
     rig_id: int | None = _rig_id()
     pump: str = _pump()
     source: str | None = _source()
-    quantities: dict[str, Quantity] = _quantities()
+    quantities: dict[str, StoredQuantity] = _quantities()
     created_at: Timestamp
     updated_at: Timestamp
 

@@ -57,6 +57,7 @@ def test_create_get_list_and_filter(server: LiveServer) -> None:
         ({"quantities": {"m": {"value": [[1.0, 2.0], [3.0]], "unit": "Pa"}}}, "quantities.m.value"),
         ({"quantities": {"m": {"value": 1.0}}}, "quantities.m.unit"),
         ({"quantities": {"m": {"value": 1.0, "unit": ""}}}, "quantities.m.unit"),
+        ({"quantities": {"m": {"value": 1.0, "unit": "furlong"}}}, "quantities.m.unit"),
         ({"quantities": {}}, "quantities"),
         ({"quantities": {"2bad": {"value": 1.0, "unit": "1"}}}, "quantities.2bad"),
         ({"kind": "curve"}, "kind"),
@@ -129,3 +130,25 @@ def test_deleting_the_rig_detaches_its_pump_sets(server: LiveServer) -> None:
                               headers=server.auth).json()
     assert server.client.delete(f"/rigs/{rig['id']}", headers=server.auth).status_code == 204
     assert server.client.get(f"/pump-sets/{body['id']}").json()["rig_id"] is None
+
+
+def test_a_unit_hydrodiag_does_not_know_is_refused_and_an_old_one_reads_back(
+        server: LiveServer) -> None:
+    """A quantity in 'furlong' was stored as given; now refused naming it.  A set stored
+    before the check reads back as it was written, not as a server error."""
+    from app.db.models import PumpSet
+
+    refused = server.client.post("/pump-sets", json={
+        "name": "furlongs", "kind": "parameters", "pump": "p",
+        "quantities": {"D": {"value": 1.0, "unit": "furlong"}}})
+    assert refused.status_code == 422
+    assert refused.json()["error"]["field"] == "quantities.D.unit"
+    assert "unknown unit 'furlong'" in refused.json()["error"]["message"]
+    with server.session() as session:
+        old = PumpSet(name="stored-before-the-check", kind="parameters", pump="p",
+                      quantities={"D": {"value": 1.0, "unit": "furlong"}})
+        session.add(old)
+        session.commit()
+        old_id = old.id
+    back = server.client.get(f"/pump-sets/{old_id}")
+    assert back.status_code == 200 and back.json()["quantities"]["D"]["unit"] == "furlong"
