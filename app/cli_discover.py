@@ -25,8 +25,11 @@ from rich.markup import escape
 from rich.table import Table
 
 from app.cli_support import (
+    ColumnMapOption,
+    SampleRateOption,
     console,
     estimate_text,
+    reading_options,
     series_ids,
     steps,
     store_session,
@@ -65,6 +68,8 @@ def discover(
     series: Annotated[str | None, typer.Option(
         help="Stored measured records of the rig to check instead of DATA (hydrodiag import, "
              "POST /rigs/{id}/series): ids, comma-separated, e.g. 3,4,5.")] = None,
+    column_map: ColumnMapOption = None,
+    sample_rate: SampleRateOption = None,
     relaxation: Annotated[float, typer.Option(
         help="--series of a rig without a working/return cycle (the ZeMA rig): settling "
              r"time of each pressure plateau's flow \[s]; the settled plateaus are checked "
@@ -87,15 +92,29 @@ def discover(
         writable(report, "--report")
     bench = None
     records: list[SeriesRecord] = []
-    if data is not None:
-        if not data.is_file():
-            raise InputError(f"no such file: {data}", field="data")
-        content = data.read_bytes()
-        bench = read_bench_bytes(content, field="data") if is_bench_table(content) else None
-        records = read_series(data) if bench is None else []
+    cmap, sample_rate, _ = reading_options(column_map, sample_rate, None)
+    if (cmap or sample_rate) and data is None:
+        raise InputError("a column map and a sample rate read DATA; stored records were read "
+                         "with theirs at import", field="--column-map" if cmap else
+                         "--sample-rate")
     with store_session() as session:
         rigs = RigCache(1)   # the plan of --series resolves the same version from it
         resolved = rigs.get(session, rig_id, version)
+        if data is not None:
+            if not data.is_file():
+                raise InputError(f"no such file: {data}", field="data")
+            content = data.read_bytes()
+            if is_bench_table(content):
+                if cmap or sample_rate:
+                    raise InputError("a column map and a sample rate read a time series, "
+                                     "not a bench table", field="--column-map" if cmap
+                                     else "--sample-rate")
+                bench = read_bench_bytes(content, field="data")
+            else:
+                model = resolved.rig.model   # a channel of the rig: of its dimension
+                records = read_series(data, column_map=cmap, sample_rate=sample_rate,
+                                      expected=dict(zip(model.output_names,
+                                                        model.output_units, strict=True)))
         if series is not None:  # as POST /discrepancy reads stored records
             try:
                 form = DiscrepancyForm(rig_id=rig_id, rig_version=version, refit=refit,

@@ -6,6 +6,7 @@ from pydantic import BaseModel, Field
 
 from app.schemas.common import MAX_ID, FiniteFloat, UploadForm
 from diagnostics.real.relaxation import MAX_RELAXATION, ZEMA_RELAXATION
+from diagnostics.timeseries import MAX_SAMPLE_RATE
 
 __all__ = ["DiscrepancyAccepted", "DiscrepancyForm"]
 
@@ -30,6 +31,16 @@ class DiscrepancyForm(UploadForm):
         default=None, pattern=r"^\s*[1-9][0-9]{0,17}\s*(,\s*[1-9][0-9]{0,17}\s*){0,199}$",
         description="Stored measured records of the rig (POST /rigs/{rig_id}/series) to check "
         "instead of a file: their ids, comma-separated, at most 200, e.g. '3,4,5' [-]",
+        examples=[None])
+
+    column_map: str | None = Field(
+        default=None, max_length=20000,
+        description="A logger's own layout for the file's columns, as the series import takes "
+        "it: JSON raw column → [channel, unit] (or [channel, unit, gain, offset]), "
+        "['record', '-'], ['phase', '-'] or ['skip', '-'] [-]", examples=[None])
+    sample_rate: FiniteFloat | None = Field(
+        default=None, gt=0, le=MAX_SAMPLE_RATE,
+        description="Samples per second of a file without a time column [Hz]",
         examples=[None])
 
     relaxation: FiniteFloat = Field(

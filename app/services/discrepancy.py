@@ -31,7 +31,7 @@ from app.schemas.discrepancy import DiscrepancyForm
 from app.services.jobs import JobRunner, Progress
 from app.services.rig_cache import RigCache
 from app.services.rigs import get_rig, latest_version, update_rig
-from app.services.series import stored_records
+from app.services.series import parse_column_map, stored_records
 from diagnostics.discrepancy import Discovery, discover
 from diagnostics.discrepancy.report import html_page
 from diagnostics.discrepancy.steady import (
@@ -43,7 +43,7 @@ from diagnostics.discrepancy.steady import (
 from diagnostics.discrepancy.workflow import check_records
 from diagnostics.pump.data import BenchData
 from diagnostics.real.profile import settled_bench, stated_pump_speed
-from diagnostics.timeseries import SeriesRecord, read_series
+from diagnostics.timeseries import ColumnEntry, SeriesRecord, read_series
 from sim.errors import HydrodiagError, InputError
 from sim.rigs import load_rig
 from sim.rigs.circuits import DEFAULT_CIRCUIT, get_circuit
@@ -82,10 +82,16 @@ class DiscrepancyPlan:
         return sorted(self.records[0].channels)
 
 
-def read_records(content: bytes, *, field: str = "file") -> list[SeriesRecord]:
-    """Read a measured CSV/Parquet file given as bytes (errors name the column)."""
+def read_records(content: bytes, *, field: str = "file",
+                 column_map: Mapping[str, ColumnEntry] | None = None,
+                 sample_rate: float | None = None,
+                 expected: Mapping[str, str] | None = None) -> list[SeriesRecord]:
+    """Read a measured CSV/Parquet file given as bytes (errors name the column), through a
+    logger's ``column_map`` and ``sample_rate`` where given; ``expected``: the rig's
+    channels and their units (a known channel must be of its dimension)."""
     check_file(content, MAX_SERIES_BYTES, field=field)
-    return read_series(content)
+    return read_series(content, column_map=column_map, sample_rate=sample_rate,
+                       expected=expected)
 
 
 def plan_discrepancy(session: Session, rigs: RigCache, form: DiscrepancyForm,
@@ -110,11 +116,18 @@ def plan_discrepancy(session: Session, rigs: RigCache, form: DiscrepancyForm,
         return DiscrepancyPlan(resolved.rig_id, resolved.version, document, records,
                                form.refit, form.store, source="series_ids")
     if len(content) <= MAX_SERIES_BYTES and is_bench_table(content):
+        if form.column_map or form.sample_rate:
+            raise InputError("a column map and a sample rate read a time series, not a bench "
+                             "table", field="column_map" if form.column_map else "sample_rate")
         bench = read_bench_bytes(content)
         require_rows(bench)
         return DiscrepancyPlan(resolved.rig_id, resolved.version, dict(resolved.document), [],
                                form.refit, form.store, bench)
-    records = read_records(content)
+    model = resolved.rig.model   # a channel of the rig must be of its dimension
+    records = read_records(content, column_map=parse_column_map(form.column_map),
+                           sample_rate=form.sample_rate,
+                           expected=dict(zip(model.output_names, model.output_units,
+                                             strict=True)))
     check_records(resolved.document, records)  # a 422 now, not a job that fails
     return DiscrepancyPlan(resolved.rig_id, resolved.version, dict(resolved.document), records,
                            form.refit, form.store)

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import pytest
 from typer.testing import CliRunner
 
 from app.cli import cli
@@ -142,3 +143,38 @@ def test_what_would_damage_the_rig_is_reported_and_not_stored(runner: CliRunner,
 
     with store_session() as session:
         assert get_rig(session, 1).latest_version == 2
+
+
+def test_discover_reads_a_loggers_layout_through_a_column_map(runner: CliRunner,
+                                                               tmp_path: Path) -> None:
+    """A logger's file (its own column names, ms, bar) had to be imported before it could be
+    checked; with --column-map it is checked as the export is, to the same answer."""
+    data = _data(tmp_path / "cycles.csv")
+    frame = pd.read_csv(data)
+    logger = pd.DataFrame({
+        "run": frame["record"], "time_ms": frame["t [s]"] * 1e3, "valve": frame["phase"],
+        "pos_mm": frame["x [m]"] * 1e3, "vel": frame["v [m/s]"],
+        "PA": frame["P1 [Pa]"] / 1e5, "PB": frame["P2 [Pa]"] / 1e5,
+        "PP": frame["P_pump [Pa]"] / 1e5, "PV": frame["P_valve_P [Pa]"] / 1e5,
+        "QB": frame["Q_meter_B [m^3/s]"] * 6e4, "QC": frame["Q_meter_C [m^3/s]"] * 6e4,
+        "F": frame["load [N]"], "T": frame["oil_temperature [degC]"]})
+    path = tmp_path / "logger.csv"
+    logger.to_csv(path, index=False)
+    cmap = json.dumps({"run": ["record", "-"], "time_ms": ["t", "ms"], "valve": ["phase", "-"],
+                       "pos_mm": ["x", "mm"], "vel": ["v", "m/s"], "PA": ["P1", "bar"],
+                       "PB": ["P2", "bar"], "PP": ["P_pump", "bar"], "PV": ["P_valve_P", "bar"],
+                       "QB": ["Q_meter_B", "L/min"], "QC": ["Q_meter_C", "L/min"],
+                       "F": ["load", "N"], "T": ["oil_temperature", "degC"]})
+    a = runner.invoke(cli, ["discover", str(data), "--rig", "1", "--no-store", "--json"])
+    b = runner.invoke(cli, ["discover", str(path), "--rig", "1", "--no-store", "--json",
+                            "--column-map", cmap])
+    assert b.exit_code == 0, b.output
+    first = json.loads(a.output[a.output.index("{"):])
+    mapped = json.loads(b.output[b.output.index("{"):])
+    assert [n["name"] for n in mapped["named"]] == ["seal_friction_pressure"]
+    assert mapped["named"][0]["value"] == pytest.approx(first["named"][0]["value"], rel=1e-3)
+    wrong = runner.invoke(cli, ["discover", str(path), "--rig", "1", "--no-store",
+                                "--column-map", cmap.replace('["P1", "bar"]', '["P1", "L/min"]')])
+    assert wrong.exit_code != 0 and getattr(wrong.exception, "field", None) == "PA"
+    stored = runner.invoke(cli, ["discover", "--series", "1", "--rig", "1", "--column-map", cmap])
+    assert getattr(stored.exception, "field", None) == "--column-map"

@@ -296,3 +296,10 @@ def test_the_openapi_example_runs_to_an_answer(server: LiveServer) -> None:
     assert r.status_code == 202, r.text
     result = _follow(server, r.json()["job_id"])["result"]
     assert result["verdict"] == "no effect" and result["new_rig_version"] is None
+    # a column map reads a logger's time series, not a bench table; a bad one is named
+    for form, field in (({"column_map": '{"q": ["Q_meter_B", "L/min"]}'}, "column_map"),
+                        ({"sample_rate": "100"}, "sample_rate")):
+        refused = server.client.post("/discrepancy", data={"rig_id": "1"} | form,
+                                     files={"file": ("bench.csv", example.encode(), "text/csv")},
+                                     headers=server.auth)
+        assert refused.status_code == 422 and refused.json()["error"]["field"] == field
