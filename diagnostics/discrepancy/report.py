@@ -130,7 +130,7 @@ def html_page(d: Discovery, title: str = "hydrodiag discrepancy report") -> str:
                 f"<td>{_fmt(n.plausible_range[0])} … {_fmt(n.plausible_range[1])}"
                 f" ({'plausible' if n.plausible else 'NOT plausible'})</td>"
                 f"<td>{_fmt(n.t)}</td><td>{_fmt(n.inclusion)}</td>"
-                f"<td>{e(str(n.competing))}</td><td>{e(str(n.ambiguity))}</td></tr>")
+                f"<td>{e(_groups(n.competing))}</td><td>{e(_groups(n.ambiguity))}</td></tr>")
         parts.append("</table>")
     if d.base_drift is not None:
         accepted = d.base_drift.accepted
@@ -161,7 +161,7 @@ def html_page(d: Discovery, title: str = "hydrodiag discrepancy report") -> str:
         parts.append(f"<tr><td>{e(b['balance'])}</td><td>{e(', '.join(b['chosen']) or '—')}</td>"
                      f"<td>{_fmt(b['bic_gain'])}</td><td>{_fmt(b['residual_rms'])} "
                      f"[{e(b['unit'])}]</td><td>{_fmt(b['practical_size'])}</td>"
-                     f"<td>{e(str(b['ambiguity']))}</td><td>{e(mds)}</td></tr>")
+                     f"<td>{e(_groups(b['ambiguity']))}</td><td>{e(mds)}</td></tr>")
     parts.append("</table>")
     parts.append("<h2>Held-out gap (model − measurement)</h2><table><tr><th>output</th>"
                  "<th>region</th><th>RMSE before</th><th>RMSE after</th><th>max before</th>"
@@ -200,3 +200,12 @@ def write_report(d: Discovery, path: str | Path) -> dict[str, Any]:
         written["png"].append(str(png))
         written["svg"].append(str(svg))
     return written
+
+
+def _groups(groups: Any) -> str:
+    """``[['base', 'couette_drag']]`` as a reader writes it: ``base + couette_drag``, groups
+    separated by ``;``, ``—`` for none (the page printed Python's lists)."""
+    if not groups:
+        return "—"
+    return "; ".join(" + ".join(str(x) for x in g) if isinstance(g, list | tuple) else str(g)
+                     for g in groups)
