@@ -15,7 +15,7 @@ from pydantic import AwareDatetime, TypeAdapter, ValidationError
 from sqlalchemy.orm import Session
 
 from app.api.deps import RigsDep, SessionDep
-from app.console.routing import ConsoleKeyDep, new_router
+from app.console.routing import ConsoleKeyDep, new_router, write_refusal
 from app.console.views import diagnosis_view, history_page, trend_views
 from app.console.web import page, redirect
 from app.db.base import utcnow
@@ -24,7 +24,6 @@ from app.limits import check_file
 from app.schemas.common import MAX_ID
 from app.schemas.diagnose import DiagnoseRequest
 from app.schemas.record_csv import record_rows
-from app.security import Scope
 from app.services import rigs as rig_service
 from app.services.diagnosis import (
     STORE_CONFLICT,
@@ -146,10 +145,8 @@ async def diagnose(request: Request, session: SessionDep, _key: ConsoleKeyDep,
     Storing needs a key of scope ``write``: a read key gets the form again with a 403.
     """
     pool: DiagnosisPool = request.app.state.diagnosis_pool
-    if not Scope(_key.scope).allows(Scope.WRITE):
-        refusal = {"type": "ScopeError", "field": "api_key",
-                   "message": f"storing a diagnosis needs a key of scope 'write' or above; "
-                              f"this console is logged in with a {_key.scope!r} key"}
+    refusal = write_refusal(_key, "storing a diagnosis")
+    if refusal is not None:
         return await pool.in_thread(partial(_form, request, session, status_code=403,
                                              text=document, error=refusal))
     content = (await file.read(MAX_INPUT_BYTES + 1)

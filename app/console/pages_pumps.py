@@ -20,12 +20,11 @@ from starlette.concurrency import run_in_threadpool
 from app.api.deps import SessionDep
 from app.console.charts import surface_chart
 from app.console.pump_charts import pump_check_charts
-from app.console.routing import ConsoleKeyDep, new_router
+from app.console.routing import ConsoleKeyDep, new_router, write_refusal
 from app.console.web import page, redirect
 from app.errors import first_problem, status_for
 from app.schemas.common import MAX_ID
 from app.schemas.pumps import PumpBenchForm
-from app.security import Scope
 from app.services import pumps as pump_service
 from app.services.pump_bench import MAX_CSV_BYTES, store_bench_parameters
 from diagnostics.plots import Chart
@@ -100,10 +99,8 @@ async def bench(request: Request, session: SessionDep, _key: ConsoleKeyDep,
     as entered, nothing stored; a read key: 403."""
     entered = {"name": name, "pump": pump, "rig": rig, "source": source,
                "displacement": displacement}
-    if not Scope(_key.scope).allows(Scope.WRITE):
-        refusal = {"type": "ScopeError", "field": "api_key",
-                   "message": "storing a pump set needs a key of scope 'write' or above; "
-                              f"this console is logged in with a {_key.scope!r} key"}
+    refusal = write_refusal(_key, "storing a pump set")
+    if refusal is not None:
         return await run_in_threadpool(_page, request, session, None, status_code=403,
                                        error=refusal, entered=entered)
     try:

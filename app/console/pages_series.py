@@ -23,13 +23,12 @@ from starlette.concurrency import run_in_threadpool
 
 from app.api.deps import RigsDep, SessionDep
 from app.console.charts import series_charts
-from app.console.routing import ConsoleKeyDep, new_router
+from app.console.routing import ConsoleKeyDep, new_router, write_refusal
 from app.console.web import SECURITY_HEADERS, page, redirect
 from app.errors import first_problem
 from app.schemas.common import MAX_ID
 from app.schemas.discrepancy import DiscrepancyForm
 from app.schemas.series import IMPORT_NAME_CHARACTER, SeriesImportForm
-from app.security import Scope
 from app.services import jobs as job_service
 from app.services import rigs as rig_service
 from app.services import series as series_service
@@ -104,8 +103,8 @@ async def check(request: Request, session: SessionDep, rigs: RigsDep, _key: Cons
                 series: Annotated[list[int] | None, Form()] = None,
                 store: Annotated[bool, Form()] = False) -> Response:
     """Start the discrepancy workflow on the ticked records; go to the job's page."""
-    if not Scope(_key.scope).allows(Scope.WRITE):
-        refusal = _refusal(_key.scope, "a check may store a new rig version and")
+    refusal = write_refusal(_key, "a check may store a new rig version and")
+    if refusal is not None:
         return await run_in_threadpool(_list, request, session, rig, 0, refusal, 403)
     try:
         if not series:
@@ -121,12 +120,6 @@ async def check(request: Request, session: SessionDep, rigs: RigsDep, _key: Cons
         return await run_in_threadpool(_list, request, session, rig, 0, error, 422)
     job = submit_discrepancy(request.app.state.jobs, request.app.state.sessions, form, plan)
     return redirect(f"/console/jobs/{job.id}")
-
-
-def _refusal(key_scope: str, what: str) -> dict[str, Any]:
-    return {"type": "ScopeError", "field": "api_key",
-            "message": f"{what} needs a key of scope 'write' or above; this console is "
-                       f"logged in with a {key_scope!r} key"}
 
 
 def _import_name(name: str, filename: str | None) -> str:
@@ -152,9 +145,9 @@ async def import_file(request: Request, session: SessionDep, _key: ConsoleKeyDep
     with the error naming it and the fields as entered, nothing stored."""
     entered = {"name": name, "column_map": column_map, "sample_rate": sample_rate,
                "started_at": started_at, "time_in_name": time_in_name, "zone": zone}
-    if not Scope(_key.scope).allows(Scope.WRITE):
-        return await run_in_threadpool(_list, request, session, rig, 0,
-                                       _refusal(_key.scope, "importing a file"), 403, entered)
+    refusal = write_refusal(_key, "importing a file")
+    if refusal is not None:
+        return await run_in_threadpool(_list, request, session, rig, 0, refusal, 403, entered)
     try:
         if file is None or not file.filename:
             raise InputError("choose a file to import", field="file")
@@ -201,10 +194,8 @@ def cancel_job(request: Request, session: SessionDep, _key: ConsoleKeyDep,
                job_id: Annotated[str, Path(max_length=36)]) -> Response:
     """Cancel the job (``POST /jobs/{id}/cancel``: a queued one at once, a running one at
     its next progress report) and show its page again; a key of scope ``write`` or above."""
-    if not Scope(_key.scope).allows(Scope.WRITE):
-        refusal = {"type": "ScopeError", "field": "api_key",
-                   "message": "cancelling a job needs a key of scope 'write' or above; this "
-                              f"console is logged in with a {_key.scope!r} key"}
+    refusal = write_refusal(_key, "cancelling a job")
+    if refusal is not None:
         return _job_page(request, session, job_id, refusal, 403)
     try:
         job_service.cancel_job(session, job_id)

@@ -20,9 +20,10 @@ from app.api.deps import SessionDep
 from app.console.web import SECURITY_HEADERS, console_key, login_url, page, redirect
 from app.db.models import ApiKey
 from app.errors import first_problem, status_for
+from app.security import Scope
 from sim.errors import AuthError, HydrodiagError, InputError
 
-__all__ = ["ConsoleKeyDep", "ConsoleRoute", "error_of", "new_router"]
+__all__ = ["ConsoleKeyDep", "ConsoleRoute", "error_of", "new_router", "write_refusal"]
 
 
 def error_of(exc: Exception) -> dict[str, Any]:
@@ -31,6 +32,16 @@ def error_of(exc: Exception) -> dict[str, Any]:
         exc = first_problem(exc.errors())
     assert isinstance(exc, HydrodiagError)
     return {"type": type(exc).__name__, "message": exc.message, "field": exc.field}
+
+
+def write_refusal(key: ApiKey, what: str) -> dict[str, Any] | None:
+    """The error a page shows when the logged-in ``key`` may not do ``what`` (storing or
+    changing something needs scope ``write``); ``None`` when it may."""
+    if Scope(key.scope).allows(Scope.WRITE):
+        return None
+    return {"type": "ScopeError", "field": "api_key",
+            "message": f"{what} needs a key of scope 'write' or above; this console is "
+                       f"logged in with a {key.scope!r} key"}
 
 
 class ConsoleRoute(APIRoute):
