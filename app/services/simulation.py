@@ -144,9 +144,12 @@ def physics_notes(result: CycleResult) -> list[str]:
                 if math.isfinite(low) and low < MIN_GAUGE_PRESSURE:
                     key = str(column)
                     lows[key] = min(low, lows.get(key, low))
-    return notes + [f"{name} reaches {value / 1e5:.4g} bar gauge, below vacuum (-1 bar): the "
-                    "model has no cavitation, so the oil's pressure there is not physical"
-                    for name, value in lows.items()]
+    if lows:
+        notes.append("below vacuum (-1 bar gauge), where the model has no cavitation and the "
+                     "oil's pressure is not physical: " + ", ".join(
+                         f"{name} reaches {value / 1e5:.4g} bar gauge"
+                         for name, value in lows.items()))
+    return notes
 
 
 def summary_of(result: CycleResult) -> dict[str, float | None]:
