@@ -51,8 +51,9 @@ from diagnostics.timeseries import SeriesRecord
 from sim.errors import InputError
 from sim.phase_reading import settled_window, steady_slope, steady_window, time_average
 
-__all__ = ["CHANNELS", "COMPLETED_SHARE", "HELD_SHARE", "CycleReadings", "PhaseReading", "cycle_readings",
-           "phase_reading", "phases_from_position", "position"]
+__all__ = ["CHANNELS", "COMPLETED_SHARE", "HELD_SHARE", "READ_CHANNELS", "CycleReadings",
+           "PhaseReading", "cycle_readings", "phase_reading", "phases_from_position",
+           "position"]
 
 Arr = npt.NDArray[np.float64]
 
@@ -70,6 +71,9 @@ CHANNELS: dict[str, str] = {"pump_pressure": "P_pump", "p1": "P1", "p2": "P2",
                             "flow_B": "Q_meter_B", "flow_C": "Q_meter_C"}
 #: channels averaged in each phase's window (those the record or the pump's flow needs)
 _AVERAGED = (*CHANNELS.values(), "Q_pump", "Q_relief")
+#: every channel a cycle's readings are taken from (a pump flow meter ``Q_pump`` is no
+#: output of the rig's model, yet read)
+READ_CHANNELS: tuple[str, ...] = (*_AVERAGED, "x", "v")
 #: series condition key → record condition field
 _CONDITION = {"load": "load_force", "back_pressure": "back_pressure",
               "oil_temperature": "oil_temperature", "pump_speed": "pump_speed"}

@@ -24,6 +24,7 @@ from app.schemas.common import measurement_time_problem
 from app.schemas.series import import_name_problem
 from app.services.common import commit, get_or_raise, paginate
 from app.services.rigs import get_rig, has_cycle, latest_version
+from diagnostics.cycle_readings import READ_CHANNELS
 from diagnostics.table_files import time_in_name as time_in_name_of
 from diagnostics.timeseries import (
     CONDITION_CHANNELS,
@@ -203,7 +204,7 @@ def channel_notes(session: Session, rig_id: int, rows: Sequence[MeasuredSeries]
         return []
     known = rig_channels(session, rig_id)
     names = {c for r in rows for c in r.units}
-    unknown = sorted(names - set(known) - set(CONDITION_CHANNELS))
+    unknown = sorted(names - set(known) - set(CONDITION_CHANNELS) - set(READ_CHANNELS))
     if not unknown:
         return []
     return [f"channel(s) {', '.join(unknown)} are not channels of the rig's model "

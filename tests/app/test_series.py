@@ -266,3 +266,9 @@ def test_a_channel_of_the_rig_in_a_unit_of_another_quantity_is_refused(
     assert note.startswith("channel(s) P9 are not channels of the rig's model")
     listed = server.client.get("/rigs/1/series").json()
     assert listed["notes"] == []
+    # a pump flow meter is no output of the model, yet a cycle's readings use it: no note
+    metered = server.client.post("/rigs/1/series", data={
+        "name": "units", "column_map": json.dumps({"time": ["t", "s"], "PA": ["Q_pump", "L/min"],
+                                                   "PB": ["P2", "bar"]})},
+        files={"file": ("log.csv", content, "text/csv")}, headers=server.auth)
+    assert metered.status_code == 201 and metered.json()["notes"] == []
