@@ -81,8 +81,9 @@ def _form(name: str, pump: str, rig: str, source: str, displacement: str) -> Pum
         return PumpBenchForm.model_validate(fields)
     except ValidationError as exc:
         problem = first_problem(exc.errors())
-        if problem.field == "displacement_m3_rad":  # the page's field, in cm³/rev
-            problem.field = "displacement"
+        # the page's names: the displacement in cm³/rev, the rig's id
+        problem.field = {"displacement_m3_rad": "displacement", "rig_id": "rig"}.get(
+            problem.field or "", problem.field)
         raise problem from None
 
 

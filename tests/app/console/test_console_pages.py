@@ -344,6 +344,10 @@ def test_a_bench_csv_is_made_a_pump_set_from_the_page(
         "name": "x", "pump": "gear", "displacement": "-2"},
         files={"file": ("b.csv", sample, "text/csv")})
     assert negative.status_code == 422 and error_box(negative.text)[0] == "displacement"
+    no_rig = browser_client.post("/console/pumps/bench", data={
+        "name": "x", "pump": "gear", "rig": "zero"},
+        files={"file": ("b.csv", sample, "text/csv")})
+    assert no_rig.status_code == 422 and error_box(no_rig.text)[0] == "rig"
     assert console_server.row_counts() == before
     made = browser_client.post("/console/pumps/bench", data={
         "name": "bench-from-page", "pump": "stand-in gear pump"},
