@@ -15,6 +15,7 @@ from pydantic import AwareDatetime, TypeAdapter, ValidationError
 from sqlalchemy.orm import Session
 
 from app.api.deps import RigsDep, SessionDep
+from app.console.pages_series import stated_condition
 from app.console.routing import ConsoleKeyDep, new_router, write_refusal
 from app.console.views import diagnosis_view, history_page, trend_views
 from app.console.web import page, redirect
@@ -111,13 +112,17 @@ def _form(request: Request, session: Any, *, status_code: int = 200, text: str =
 
 @router.get("/diagnose")
 def diagnose_form(request: Request, session: SessionDep, rigs: RigsDep, _key: ConsoleKeyDep,
-                  series: Annotated[int | None, Query(ge=1, le=MAX_ID)] = None) -> Response:
+                  series: Annotated[int | None, Query(ge=1, le=MAX_ID)] = None,
+                  oil_temperature: Annotated[str, Query(max_length=40)] = "",
+                  load_force: Annotated[str, Query(max_length=40)] = "") -> Response:
     """The form: paste a record (JSON or YAML) or upload a CSV of records; with ``series``,
-    filled with that stored cycle's record (``GET /series/{id}/record``)."""
+    filled with that stored cycle's record (``GET /series/{id}/record``), read with the
+    oil temperature and load the series page stated for it, if any."""
     if series is None:
         return _form(request, session)
     try:
-        body = stored_cycle_record(session, rigs, series).body
+        body = stored_cycle_record(session, rigs, series, condition=stated_condition(
+            oil_temperature, load_force)).body
     except HydrodiagError as exc:
         error = {"type": type(exc).__name__, "message": exc.message,
                  "field": "series" if exc.field == "series_id" else exc.field}

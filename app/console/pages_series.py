@@ -13,8 +13,10 @@ of scope ``write``.
 
 from __future__ import annotations
 
+import math
 import re
 from typing import Annotated, Any
+from urllib.parse import urlencode
 
 from fastapi import File, Form, Path, Query, Request, Response, UploadFile
 from fastapi.responses import HTMLResponse
@@ -78,22 +80,50 @@ def series_forms(_key: ConsoleKeyDep) -> Response:
     return redirect("/console/series")
 
 
+#: the condition a stored cycle may lack, and the page states: field → unit
+STATED_CONDITION = {"oil_temperature": "°C", "load_force": "N"}
+
+
+def stated_condition(oil_temperature: str, load_force: str) -> dict[str, float]:
+    """The condition a user states for a stored cycle (blank: the series' own), as
+    ``GET /series/{id}/record`` takes it: a logger file without an oil-temperature column
+    could be imported but never read as a record from the console."""
+    out: dict[str, float] = {}
+    for name, text in (("oil_temperature", oil_temperature), ("load_force", load_force)):
+        if not text.strip():
+            continue
+        try:
+            value = float(text)
+        except ValueError:
+            raise InputError(f"not a number: {text[:40]!r}", field=name) from None
+        if not math.isfinite(value):
+            raise InputError(f"not a finite number: {text[:40]!r}", field=name)
+        out[name] = value
+    return out
+
+
 @router.get("/series/{series_id}")
 def series_one(request: Request, session: SessionDep, rigs: RigsDep, _key: ConsoleKeyDep,
-               series_id: Annotated[int, Path(ge=1, le=MAX_ID)]) -> Response:
+               series_id: Annotated[int, Path(ge=1, le=MAX_ID)],
+               oil_temperature: Annotated[str, Query(max_length=40)] = "",
+               load_force: Annotated[str, Query(max_length=40)] = "") -> Response:
     """One stored record: what it is, its channels against time, and a cycle's readings
     as a record (``GET /series/{id}/record``) with a link that diagnoses them, or why it
-    cannot be read as one."""
+    cannot be read as one; the oil temperature and load it lacks can be stated here."""
     row = series_service.get_series(session, series_id)
     record = series_service.as_record(row)
     read, unread = None, None
+    stated = {"oil_temperature": oil_temperature, "load_force": load_force}
     try:
-        read = stored_cycle_record(session, rigs, series_id)
+        read = stored_cycle_record(session, rigs, series_id,
+                                   condition=stated_condition(oil_temperature, load_force))
     except InputError as exc:  # no phases, no position, a circuit without a cylinder ...
         unread = {"type": type(exc).__name__, "message": exc.message, "field": exc.field}
+    query = urlencode({k: v for k, v in stated.items() if v.strip()})
     return page(request, "series_one.html", row=row, charts=series_charts(record),
                 phases=sorted(set(record.phase.tolist())) if record.phase is not None else [],
-                read=read, unread=unread, units=READING_UNITS,
+                read=read, unread=unread, units=READING_UNITS, stated=stated,
+                stated_units=STATED_CONDITION, stated_query=f"&{query}" if query else "",
                 channel_notes=series_service.channel_notes(session, row.rig_id, [row]))
 
 

@@ -273,3 +273,36 @@ def test_a_diagnosis_of_a_deleted_series_says_so(console_server: LiveServer,
     page = browser_client.get(f"/console/diagnoses/{answer['id']}").text
     assert f'href="/console/series/{stored["id"]}"' not in page
     assert f"read from series {stored['id']}, since deleted" in page
+
+
+def test_a_cycle_without_its_temperature_is_read_with_the_one_stated_on_its_page(
+        console_server: LiveServer, browser_client: httpx.Client) -> None:
+    """A logger's file without an oil-temperature column could be imported but never read
+    as a record from the console: no field took the condition.  The series page states it,
+    reads the record with it, and its link fills the diagnose form with the same record."""
+    import io
+
+    import pandas as pd
+
+    export = console_server.client.post("/simulate", json={
+        "rig_id": 1, "fault": "worn_spool", "condition": {"load": 2100.0},
+        "sample_rate": 500, "timeseries": "csv"}).text
+    frame = pd.read_csv(io.StringIO(export), comment="#").drop(
+        columns=["oil_temperature [degC]"])
+    stored = console_server.client.post("/rigs/1/series", data={"name": "no-temperature"},
+                                        files={"file": ("c.csv", frame.to_csv(index=False)
+                                                        .encode(), "text/csv")})
+    assert stored.status_code == 201, stored.text
+    series = stored.json()["items"][0]["id"]
+    bare = browser_client.get(f"/console/series/{series}")
+    assert 'id="record-unread"' in bare.text and 'id="state-condition"' in bare.text
+    stated = browser_client.get(f"/console/series/{series}?oil_temperature=40")
+    assert 'id="record-readings"' in stated.text
+    assert f"/console/diagnose?series={series}&amp;oil_temperature=40" in stated.text
+    api = console_server.client.get(f"/series/{series}/record",
+                                    params={"oil_temperature": 40}).json()["record"]
+    form = browser_client.get(f"/console/diagnose?series={series}&oil_temperature=40")
+    filled = re.search(r'<textarea id="document"[^>]*>(.*?)</textarea>', form.text, re.S)
+    assert filled is not None and json.loads(html.unescape(filled.group(1))) == api
+    bad = browser_client.get(f"/console/series/{series}?oil_temperature=warm")
+    assert "not a number" in bad.text and "oil_temperature" in bad.text
