@@ -38,10 +38,10 @@ from app.cli_support import (
 )
 from app.schemas.common import MAX_ID
 from diagnostics.real.relaxation import ZEMA_RELAXATION
-from sim.errors import InputError
+from sim.errors import HydrodiagError, InputError
 
 if TYPE_CHECKING:
-    from diagnostics.timeseries import SeriesRecord
+    pass
 
 __all__ = ["discover", "register"]
 
@@ -81,55 +81,40 @@ def discover(
     from app.services.rig_cache import RigCache
     from diagnostics.discrepancy import discover as run
     from diagnostics.discrepancy.report import write_report
-    from diagnostics.discrepancy.steady import discover_steady, is_bench_table, read_bench_bytes
-    from diagnostics.discrepancy.workflow import check_records
-    from diagnostics.timeseries import read_series
+    from diagnostics.discrepancy.steady import discover_steady
 
     if (data is None) == (series is None):
         raise InputError("give DATA or --series (stored records of the rig), one of them",
                          field="data" if data is None else "--series")
     if report is not None:
         writable(report, "--report")
-    bench = None
-    records: list[SeriesRecord] = []
-    cmap, sample_rate, _ = reading_options(column_map, sample_rate, None)
+    cmap, sample_rate, _ = reading_options(column_map, sample_rate, None)  # names the options
     if (cmap or sample_rate) and data is None:
         raise InputError("a column map and a sample rate read DATA; stored records were read "
                          "with theirs at import", field="--column-map" if cmap else
                          "--sample-rate")
+    content = None
+    if data is not None:
+        if not data.is_file():
+            raise InputError(f"no such file: {data}", field="data")
+        content = data.read_bytes()
+    try:  # the form POST /discrepancy takes, planned as it plans it
+        form = DiscrepancyForm(
+            rig_id=rig_id, rig_version=version, refit=refit, store=store,
+            relaxation=relaxation, column_map=column_map, sample_rate=sample_rate,
+            series_ids=None if series is None else ",".join(str(i) for i in series_ids(series)))
+    except ValidationError as exc:
+        raise _as_option(validation_error(exc)) from None
     with store_session() as session:
-        rigs = RigCache(1)   # the plan of --series resolves the same version from it
+        rigs = RigCache(1)   # the plan resolves the same version from it
         resolved = rigs.get(session, rig_id, version)
-        if data is not None:
-            if not data.is_file():
-                raise InputError(f"no such file: {data}", field="data")
-            content = data.read_bytes()
-            if is_bench_table(content):
-                if cmap or sample_rate:
-                    raise InputError("a column map and a sample rate read a time series, "
-                                     "not a bench table", field="--column-map" if cmap
-                                     else "--sample-rate")
-                bench = read_bench_bytes(content, field="data")
-            else:
-                model = resolved.rig.model   # a channel of the rig: of its dimension
-                records = read_series(data, column_map=cmap, sample_rate=sample_rate,
-                                      expected=dict(zip(model.output_names,
-                                                        model.output_units, strict=True)))
-        if series is not None:  # as POST /discrepancy reads stored records
-            try:
-                form = DiscrepancyForm(rig_id=rig_id, rig_version=version, refit=refit,
-                                       store=store, relaxation=relaxation,
-                                       series_ids=",".join(str(i) for i in series_ids(series)))
-            except ValidationError as exc:
-                bad = validation_error(exc)
-                raise InputError(bad.message, field=_OPTIONS.get(bad.field or "", bad.field)
-                                 ) from None
-            with data_field("--series", ("file", "series_ids")):
-                plan = plan_discrepancy(session, rigs, form, None)
-            bench, records = plan.bench, plan.records
-        elif bench is None:
-            with data_field("data"):
-                check_records(resolved.document, records)
+        try:
+            with data_field("data" if data is not None else "--series", ("file", "series_ids")):
+                plan = plan_discrepancy(session, rigs, form, content,
+                                        data.name if data is not None else None)
+        except HydrodiagError as exc:
+            raise _as_option(exc) from None
+        bench, records = plan.bench, plan.records
         with steps() as progress:
             task = progress.add_task("discrepancy workflow", total=1.0)
 
@@ -181,7 +166,17 @@ def discover(
 
 #: form fields of POST /discrepancy → the options that fill them here
 _OPTIONS = {"series_ids": "--series", "relaxation": "--relaxation", "rig_id": "--rig",
-            "rig_version": "--version"}
+            "rig_version": "--version", "column_map": "--column-map",
+            "sample_rate": "--sample-rate"}
+
+
+def _as_option(exc: HydrodiagError) -> HydrodiagError:
+    """``exc`` naming the option that fills its form field (``column_map.PA`` →
+    ``--column-map.PA``)."""
+    head, dot, rest = (exc.field or "").partition(".")
+    if head in _OPTIONS:
+        exc.field = _OPTIONS[head] + dot + rest
+    return exc
 
 
 def register(cli: typer.Typer) -> None:

@@ -88,7 +88,7 @@ def import_series(
              "-0400.")] = None,
 ) -> None:
     """Read time-series files and store each record, as POST /rigs/{id}/series does."""
-    from app.services.series import channel_notes, rig_channels, store_records, upload_start
+    from app.services.series import rig_channels, store_records, upload_start
     from diagnostics.timeseries import read_series
 
     cmap, sample_rate, start = reading_options(column_map, sample_rate, started_at)
@@ -100,7 +100,7 @@ def import_series(
                          "time: give each file its '# started_at = ...' header line, or "
                          "import them one by one", field="--started-at")
     with store_session() as session, steps() as progress:
-        known = rig_channels(session, rig_id)   # a known channel must be of its dimension
+        channels = rig_channels(session, rig_id)   # a known channel: of its dimension
         task = progress.add_task("reading", total=len(files))
         records = []
         for k, file in enumerate(files):
@@ -108,7 +108,7 @@ def import_series(
             try:
                 own = upload_start(file.name, start, time_in_name, zone, names=options)
                 records.extend(read_series(file, column_map=cmap, sample_rate=sample_rate,
-                                           started_at=own, expected=known))
+                                           started_at=own, expected=channels.units))
             except InputError as exc:  # which of the files, and its column
                 raise type(exc)(f"{file}: {exc.message}",
                                 field="FILE" if exc.field == "file" else exc.field) from None
@@ -116,7 +116,7 @@ def import_series(
                         total=len(records), completed=0)
         rows = store_records(session, rig_id, name, records,
                              lambda done, total: progress.update(task, completed=done))
-        notes = channel_notes(session, rig_id, rows)
+        notes = channels.notes(rows)
     what = _shown(files[0].name) if len(files) == 1 else f"{len(files)} files"
     _summary(list(rows), f"{counted(len(rows), 'record')} of {what} stored for rig {rig_id}")
     for note in notes:

@@ -38,6 +38,7 @@ from app.cli_support import (
 from app.schemas.common import MAX_ID
 from sim.errors import HydrodiagError, InputError
 from sim.scenarios import FAULTS
+from sim.units import unit_suffix
 
 __all__ = ["register"]
 
@@ -486,7 +487,7 @@ def _parameter_text(p: dict[str, Any]) -> str:
     """``name = value (low … high) unit`` of a fitted parameter (no unit for a factor,
     whose unit is 1), and whether the fit sits on the healthy end of the hypothesis's worn
     range (the records show no more wear than the hypothesis must assume)."""
-    unit = "" if p["unit"] in ("1", "-", "") else f" {p['unit']}"
+    unit = unit_suffix(p["unit"])
     value, interval = estimate_text(p["value"], p["low"], p["high"])
     bound = ", at bound" if p.get("at_bound") else ""
     return f"{p['name']} = {value} ({interval}){unit}{bound}"

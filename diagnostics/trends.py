@@ -46,6 +46,7 @@ from scipy import stats
 
 from diagnostics.uncertainty import Estimate
 from sim.errors import InputError
+from sim.units import unit_suffix
 
 __all__ = [
     "DAY_S",
@@ -346,7 +347,7 @@ def forecast_threshold(series: TrendSeries, threshold: float, *,
     earliest = _time_to(f, thr, f.slope_high, t_ref)
     latest = _time_to(f, thr, f.slope_low, t_ref)
     # " m" after a number; nothing for a dimensionless quantity ("1.1e-07 1" read as a typo)
-    unit = "" if series.unit in ("1", "-", "") else f" {series.unit}"
+    unit = unit_suffix(series.unit)
     per_day = f"{series.unit}/day" if unit else "per day"
     if f.value_at(t_ref) >= thr:
         # when the fitted line crossed: before the reference time, or (a level already

@@ -12,7 +12,7 @@ import math
 
 from sim.errors import ParameterError
 
-__all__ = ["UNITS", "from_si", "to_si"]
+__all__ = ["UNITS", "from_si", "to_si", "unit_suffix"]
 
 _RPM = 2.0 * math.pi / 60.0
 
@@ -89,3 +89,9 @@ def to_si(value: float, unit: str, expected: str, *, field: str | None = None) -
 def from_si(value: float, unit: str, canonical: str) -> float:
     """Convert an SI ``value`` of canonical unit ``canonical`` into ``unit``."""
     return float(value) / UNITS[canonical][unit]
+
+
+def unit_suffix(unit: str) -> str:
+    """What follows a number: `` Pa`` for a unit, nothing for a dimensionless one (``1``,
+    ``-``: "≤ 0.2 1" and "1.1e-07 1" read as typos)."""
+    return "" if unit in ("1", "-", "") else f" {unit}"

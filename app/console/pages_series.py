@@ -13,7 +13,6 @@ of scope ``write``.
 
 from __future__ import annotations
 
-import math
 import re
 from typing import Annotated, Any
 from urllib.parse import urlencode
@@ -30,7 +29,7 @@ from app.console.web import SECURITY_HEADERS, page, redirect
 from app.errors import first_problem
 from app.schemas.common import MAX_ID
 from app.schemas.discrepancy import DiscrepancyForm
-from app.schemas.series import IMPORT_NAME_CHARACTER, SeriesImportForm
+from app.schemas.series import IMPORT_NAME_CHARACTER, CycleQuery, SeriesImportForm
 from app.services import jobs as job_service
 from app.services import rigs as rig_service
 from app.services import series as series_service
@@ -85,21 +84,16 @@ STATED_CONDITION = {"oil_temperature": "°C", "load_force": "N"}
 
 
 def stated_condition(oil_temperature: str, load_force: str) -> dict[str, float]:
-    """The condition a user states for a stored cycle (blank: the series' own), as
-    ``GET /series/{id}/record`` takes it: a logger file without an oil-temperature column
-    could be imported but never read as a record from the console."""
-    out: dict[str, float] = {}
-    for name, text in (("oil_temperature", oil_temperature), ("load_force", load_force)):
-        if not text.strip():
-            continue
-        try:
-            value = float(text)
-        except ValueError:
-            raise InputError(f"not a number: {text[:40]!r}", field=name) from None
-        if not math.isfinite(value):
-            raise InputError(f"not a finite number: {text[:40]!r}", field=name)
-        out[name] = value
-    return out
+    """The condition a user states for a stored cycle (blank: the series' own), read as
+    ``GET /series/{id}/record`` reads its query (:class:`~app.schemas.series.CycleQuery`):
+    a logger file without an oil-temperature column could be imported but never read as
+    a record from the console."""
+    given = {k: v.strip() for k, v in (("oil_temperature", oil_temperature),
+                                       ("load_force", load_force)) if v.strip()}
+    try:
+        return CycleQuery.model_validate(given).condition()
+    except ValidationError as exc:
+        raise first_problem(exc.errors()) from None
 
 
 @router.get("/series/{series_id}")
@@ -124,7 +118,7 @@ def series_one(request: Request, session: SessionDep, rigs: RigsDep, _key: Conso
                 phases=sorted(set(record.phase.tolist())) if record.phase is not None else [],
                 read=read, unread=unread, units=READING_UNITS, stated=stated,
                 stated_units=STATED_CONDITION, stated_query=f"&{query}" if query else "",
-                channel_notes=series_service.channel_notes(session, row.rig_id, [row]))
+                channel_notes=series_service.rig_channels(session, row.rig_id).notes([row]))
 
 
 @router.post("/series/check")
@@ -190,7 +184,7 @@ async def import_file(request: Request, session: SessionDep, _key: ConsoleKeyDep
         except ValidationError as exc:
             raise first_problem(exc.errors()) from None
         content = await file.read(series_service.MAX_SERIES_BYTES + 1)
-        rows = await run_in_threadpool(
+        rows, _notes = await run_in_threadpool(  # the series page shows the notes
             series_service.import_series, session, rig, form.name, content,
             column_map=series_service.parse_column_map(form.column_map),
             sample_rate=form.sample_rate, started_at=form.started_at, filename=file.filename,

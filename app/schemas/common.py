@@ -103,8 +103,8 @@ def measurement_time_problem(value: dt.datetime) -> str | None:
 
 def _measured(value: dt.datetime) -> dt.datetime:
     problem = measurement_time_problem(value)
-    if problem is not None:
-        raise ValueError(problem)
+    if problem is not None:  # the sentence as it is, without pydantic's "Value error, "
+        raise PydanticCustomError("measurement_time", "{problem}", {"problem": problem})
     return value
 
 

@@ -6,6 +6,7 @@ import re
 from typing import Annotated, Any
 
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field
+from pydantic_core import PydanticCustomError
 
 from app.schemas.common import (
     MAX_ID,
@@ -47,8 +48,8 @@ def import_name_problem(name: str) -> str | None:
 
 def _import_name(name: str) -> str:
     problem = import_name_problem(name)
-    if problem is not None:
-        raise ValueError(problem)
+    if problem is not None:  # the sentence as it is, without pydantic's "Value error, "
+        raise PydanticCustomError("import_name", "{problem}", {"problem": problem})
     return name
 
 #: a measured cycle in the format /simulate exports (the upload's example)

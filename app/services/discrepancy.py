@@ -85,19 +85,24 @@ class DiscrepancyPlan:
 def read_records(content: bytes, *, field: str = "file",
                  column_map: Mapping[str, ColumnEntry] | None = None,
                  sample_rate: float | None = None,
-                 expected: Mapping[str, str] | None = None) -> list[SeriesRecord]:
+                 expected: Mapping[str, str] | None = None,
+                 filename: str | None = None) -> list[SeriesRecord]:
     """Read a measured CSV/Parquet file given as bytes (errors name the column), through a
     logger's ``column_map`` and ``sample_rate`` where given; ``expected``: the rig's
-    channels and their units (a known channel must be of its dimension)."""
+    channels and their units (a known channel must be of its dimension); ``filename``
+    names a record without a ``record`` column."""
     check_file(content, MAX_SERIES_BYTES, field=field)
     return read_series(content, column_map=column_map, sample_rate=sample_rate,
-                       expected=expected)
+                       expected=expected,
+                       name=filename.removesuffix(".gz") if filename else None)
 
 
 def plan_discrepancy(session: Session, rigs: RigCache, form: DiscrepancyForm,
-                     content: bytes | None) -> DiscrepancyPlan:
-    """Resolve the rig version and read the file, or the stored series ``form.series_ids``
-    (one of the two); raises before anything is stored."""
+                     content: bytes | None, filename: str | None = None) -> DiscrepancyPlan:
+    """Resolve the rig version and read the file (``filename`` names a record without a
+    ``record`` column), or the stored series ``form.series_ids`` (one of the two); raises
+    before anything is stored.  ``POST /discrepancy`` and ``hydrodiag discover`` both plan
+    here."""
     if (content is None) == (form.series_ids is None):
         raise InputError("give a file or series_ids (stored records of the rig), one of them",
                          field="file" if content is None else "series_ids")
@@ -123,11 +128,9 @@ def plan_discrepancy(session: Session, rigs: RigCache, form: DiscrepancyForm,
         require_rows(bench)
         return DiscrepancyPlan(resolved.rig_id, resolved.version, dict(resolved.document), [],
                                form.refit, form.store, bench)
-    model = resolved.rig.model   # a channel of the rig must be of its dimension
     records = read_records(content, column_map=parse_column_map(form.column_map),
-                           sample_rate=form.sample_rate,
-                           expected=dict(zip(model.output_names, model.output_units,
-                                             strict=True)))
+                           sample_rate=form.sample_rate, filename=filename,
+                           expected=resolved.rig.channels())  # a rig's channel: its dimension
     check_records(resolved.document, records)  # a 422 now, not a job that fails
     return DiscrepancyPlan(resolved.rig_id, resolved.version, dict(resolved.document), records,
                            form.refit, form.store)

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from datetime import datetime, timedelta
 
 import numpy as np
@@ -38,8 +39,8 @@ from sim.rigs import load_rig
 
 __all__ = [
     "MAX_SERIES_BYTES",
+    "RigChannels",
     "as_record",
-    "channel_notes",
     "check_source",
     "delete_series",
     "get_series",
@@ -163,17 +164,19 @@ def import_series(session: Session, rig_id: int, name: str, content: bytes, *,
                   sample_rate: float | None = None, fmt: str | None = None,
                   started_at: datetime | None = None, filename: str | None = None,
                   time_in_name: str | None = None, zone: str | None = None
-                  ) -> list[MeasuredSeries]:
-    """Read a CSV/Parquet file and store its records (errors name ``file.<column>``);
+                  ) -> tuple[list[MeasuredSeries], list[str]]:
+    """Read a CSV/Parquet file and store its records (errors name ``file.<column>``), and
+    say which channels the rig does not know (:meth:`RigChannels.notes`);
     ``started_at``: the clock time at which the file's ``t`` reads 0 [UTC] (or read from
     ``filename`` by ``time_in_name`` and ``zone``: :func:`upload_start`), else the file
     header's (:mod:`diagnostics.timeseries`); ``filename`` names a record without a
     ``record`` column."""
-    known = rig_channels(session, rig_id)
+    channels = rig_channels(session, rig_id)
     started_at = upload_start(filename, started_at, time_in_name, zone)
     check_file(content, MAX_SERIES_BYTES, field="file")
     try:
-        records = read_series(content, format=fmt, column_map=column_map, expected=known,
+        records = read_series(content, format=fmt, column_map=column_map,
+                              expected=channels.units,
                               sample_rate=sample_rate, started_at=started_at,
                               name=filename.removesuffix(".gz") if filename else None,
                               max_bytes=MAX_SERIES_BYTES)
@@ -181,35 +184,41 @@ def import_series(session: Session, rig_id: int, name: str, content: bytes, *,
         where = exc.field if exc.field in ("column_map", "sample_rate") else (
             f"file.{exc.field}" if exc.field and exc.field != "file" else "file")
         raise type(exc)(exc.message, field=where) from None
-    return store_records(session, rig_id, name, records)
+    rows = store_records(session, rig_id, name, records)
+    return rows, channels.notes(rows)
 
 
-def rig_channels(session: Session, rig_id: int) -> dict[str, str]:
-    """The channels of rig ``rig_id``'s model (its latest version) and their SI units: a
-    channel of an import with one of these names must be of that dimension (a pressure in
-    L/min was stored, and the workflow then read P1 985,787,553,649 σ off)."""
-    model = load_rig(latest_version(session, get_rig(session, rig_id, field="rig_id"))
-                     .document).model
-    return dict(zip(model.output_names, model.output_units, strict=True))
+@dataclass(frozen=True)
+class RigChannels:
+    """The channels of a rig's model (its latest version) and their SI units, and whether
+    its circuit has the working/return cycle whose readings use them."""
+
+    units: dict[str, str]
+    cycle: bool
+
+    def notes(self, rows: Sequence[MeasuredSeries]) -> list[str]:
+        """What an import stored for a rig with a cycle that neither its model nor a cycle's
+        readings know (a misspelt name in a column map, ``P9`` for ``P1``): stored as
+        given, but nothing compares with it.  A rig without a cycle (the ZeMA rig) is read
+        by its plateau channels (``p_pump``, ``q_work``: :mod:`diagnostics.real.profile`),
+        not by its model's outputs, and gets no note."""
+        if not self.cycle:
+            return []
+        names = {c for r in rows for c in r.units}
+        unknown = sorted(names - set(self.units) - set(CONDITION_CHANNELS) - set(READ_CHANNELS))
+        if not unknown:
+            return []
+        return [f"channel(s) {', '.join(unknown)} are not channels of the rig's model "
+                f"({', '.join(self.units)}): stored as given, but no comparison or diagnosis "
+                "reads them; a misspelt name is imported again with the column map corrected"]
 
 
-def channel_notes(session: Session, rig_id: int, rows: Sequence[MeasuredSeries]
-                  ) -> list[str]:
-    """What an import stored for a rig with a working/return cycle that its model has no
-    channel for (a misspelt name in a column map, ``P9`` for ``P1``): stored as given, but
-    nothing compares with it.  A rig without a cycle (the ZeMA rig) is read by its
-    plateau channels (``p_pump``, ``q_work``: :mod:`diagnostics.real.profile`), not by
-    its model's outputs, and gets no note."""
-    if not has_cycle(latest_version(session, get_rig(session, rig_id, field="rig_id"))):
-        return []
-    known = rig_channels(session, rig_id)
-    names = {c for r in rows for c in r.units}
-    unknown = sorted(names - set(known) - set(CONDITION_CHANNELS) - set(READ_CHANNELS))
-    if not unknown:
-        return []
-    return [f"channel(s) {', '.join(unknown)} are not channels of the rig's model "
-            f"({', '.join(known)}): stored as given, but no comparison or diagnosis reads "
-            "them; a misspelt name is imported again with the column map corrected"]
+def rig_channels(session: Session, rig_id: int) -> RigChannels:
+    """Rig ``rig_id``'s channels (its latest version): a channel of an import with one of
+    these names must be of that dimension (a pressure in L/min was stored, and the
+    workflow then read P1 985,787,553,649 σ off)."""
+    version = latest_version(session, get_rig(session, rig_id, field="rig_id"))
+    return RigChannels(load_rig(version.document).channels(), has_cycle(version))
 
 
 def list_series(session: Session, rig_id: int, *, limit: int, offset: int

@@ -29,6 +29,7 @@ from diagnostics.measurement import MIN_GAUGE_PRESSURE
 from diagnostics.table_files import PARQUET_METADATA_KEY  # the import reads it back
 from diagnostics.timeseries import CONDITION_CHANNELS
 from sim.cycle import CycleResult, run_cycle
+from sim.cycle_result import SUMMARY_UNITS
 from sim.errors import InputError, ParameterError
 from sim.rigs import Condition, Rig
 from sim.scenarios import fault_overrides
@@ -129,21 +130,14 @@ def physics_notes(result: CycleResult) -> list[str]:
             "its averages are the settled state (the last half of the phase)")
     lows: dict[str, float] = {}
     for phase in phases:
-        for name, value in phase.lowest.items():
-            key = f"{name} [Pa]"
+        # a transient's lowest pressures (every point the series has, and the solver's
+        # steps when none was asked for); the steady path's phase averages
+        found = ({f"{name} [Pa]": v for name, v in phase.lowest.items()} if phase.lowest else
+                 {f"{phase.phase}.{k} [Pa]": v for k, v in phase.values.items()
+                  if SUMMARY_UNITS.get(k) == "Pa"})
+        for key, value in found.items():
             if math.isfinite(value) and value < MIN_GAUGE_PRESSURE:
                 lows[key] = min(value, lows.get(key, value))
-    for key, value in result.summary().items():
-        if key.endswith("[Pa]") and math.isfinite(value) and value < MIN_GAUGE_PRESSURE:
-            lows[key] = value
-    frame = result.timeseries
-    if frame is not None:
-        for column in frame.columns:
-            if str(column).endswith("[Pa]"):
-                low = float(frame[column].min())
-                if math.isfinite(low) and low < MIN_GAUGE_PRESSURE:
-                    key = str(column)
-                    lows[key] = min(low, lows.get(key, low))
     if lows:
         notes.append("below vacuum (-1 bar gauge), where the model has no cavitation and the "
                      "oil's pressure is not physical: " + ", ".join(

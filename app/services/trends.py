@@ -29,6 +29,7 @@ from diagnostics.slip import rig_slip_coefficient
 from diagnostics.trends import TrendSeries, forecast_threshold
 from sim.errors import InputError
 from sim.rigs import Rig, validate_rig_document
+from sim.units import unit_suffix
 
 __all__ = ["COMPONENTS", "ComponentTrendOut", "TrendPointOut", "component_trends",
            "default_threshold"]
@@ -197,8 +198,7 @@ def _trend(component: str, rig_id: int, points: list[TrendPointOut], threshold: 
             message = f"{message}; {since}"
     if points and status != "crossed" and points[-1].value > threshold:
         last = points[-1]
-        shown = "" if unit in ("1", "-") else f" {unit}"
-        message = (f"{message}; the latest estimate, {last.value:.4g}{shown} "
+        message = (f"{message}; the latest estimate, {last.value:.4g}{unit_suffix(unit)} "
                    f"({last.measured_at:%Y-%m-%d}), is past the threshold (one point: the "
                    "robust trend weighs it as one of many){_if_blamed(component, last)}")
     elif points and status == "crossed":

@@ -342,7 +342,7 @@ def _hose_noise(s: Signals) -> float:
     the RMS is σ_dp·h·‖box(n) ∗ box(51)‖/51 (the largest σ_dp of the records)."""
     if s.t.size == 0:
         return 0.0
-    h = float(np.max(s.values["hose.h"]))
-    n = max(round(HOSE_WINDOW / h), 1) if h > 0 else 1
+    h = 1.0 / s.rate
+    n = max(round(HOSE_WINDOW / h), 1)
     weights = np.convolve(np.ones(n), np.ones(STRUCTURE_SMOOTH)) / STRUCTURE_SMOOTH
     return float(np.max(s.values["hose.sigma_dp"]) * h * np.sqrt(np.sum(weights ** 2)))

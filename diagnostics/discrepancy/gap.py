@@ -9,7 +9,6 @@ test (statsmodels ``acorr_ljungbox``) on the residual sampled every 20 ms.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -18,6 +17,7 @@ import numpy.typing as npt
 import pandas as pd
 from statsmodels.stats.diagnostic import acorr_ljungbox
 
+from diagnostics.discrepancy.signals import noise_sigma
 from diagnostics.discrepancy.simulate import on_grid
 from diagnostics.timeseries import SeriesRecord
 
@@ -37,14 +37,6 @@ class GapRow:
     region: str
     rmse: float
     max_abs: float
-
-
-def noise_sigma(x: Arr) -> float:
-    """Noise σ of a smooth signal plus white noise, from the MAD of second differences."""
-    d2 = np.diff(np.asarray(x, dtype=float), 2)
-    if d2.size == 0:
-        return 0.0
-    return float(np.median(np.abs(d2 - np.median(d2))) / 0.6745 / math.sqrt(6.0))
 
 
 def aligned_residuals(record: SeriesRecord, table: pd.DataFrame, channels: Sequence[str]

@@ -78,14 +78,21 @@ def stored_fit(values: Mapping[str, float], s: Signals, names: list[str]
     """Coefficients of ``names`` [SI] and their errors, fitted with corrections of the
     stored pump's laminar slip and displacement (:data:`BASE`, in :func:`model_flow`'s form)
     to the residual of the stored pump (OLS, White errors)."""
+    coef, se = _residual_fit(values, s, names)
+    return ({n: float(coef[2 + i]) for i, n in enumerate(names)},
+            {n: float(se[2 + i]) for i, n in enumerate(names)},
+            dict(zip(BASE, (float(coef[0]), float(coef[1])), strict=True)))
+
+
+def _residual_fit(values: Mapping[str, float], s: Signals, names: list[str]
+                  ) -> tuple[Arr, Arr]:
+    """OLS coefficients and White errors of the stored pump's flow residual on the base
+    corrections (1/Rlp: column P, Vp: column ω) and the effects ``names`` [SI]."""
     c = s.values
     r = c["speed"] * c["Vp"] - c["Q_meter_B"] - c["P_pump"] / values["pump.Rlp"]
     X = np.column_stack([c["P_pump"], c["speed"]]
                         + [EFFECTS[n].entry.regressor(c) for n in names])
-    coef, se = robust_ols(X, r)
-    return ({n: float(coef[2 + i]) for i, n in enumerate(names)},
-            {n: float(se[2 + i]) for i, n in enumerate(names)},
-            dict(zip(BASE, (float(coef[0]), float(coef[1])), strict=True)))
+    return robust_ols(X, r)
 
 
 def refitted_pump(values: Mapping[str, float], base: Mapping[str, float]) -> dict[str, float]:
@@ -161,9 +168,7 @@ def bench_drift(values: Mapping[str, float], s: Signals, gap_after: list[GapRow]
     with its White error carried through ``1/Rlp + c`` and ``Vp − c`` [SI], and the
     held-out flow gap with them.  The cycle path reported this in ``base_drift``; a bench
     table's "base drift" once said it only in its message."""
-    c = s.values
-    r = c["speed"] * c["Vp"] - c["Q_meter_B"] - c["P_pump"] / values["pump.Rlp"]
-    coef, se = robust_ols(np.column_stack([c["P_pump"], c["speed"]]), r)
+    coef, se = _residual_fit(values, s, [])
     new = refitted_pump(values, dict(zip(BASE, (float(coef[0]), float(coef[1])), strict=True)))
     rlp_error = new["pump.Rlp"] ** 2 * float(se[0])   # |∂Rlp/∂c| = Rlp²
     parameters = [

@@ -20,8 +20,8 @@ from diagnostics.timeseries import SeriesRecord
 from sim.errors import InputError
 from sim.rigs.assembly import Condition, Rig
 
-__all__ = ["DERIVED", "HOSE", "HOSE_WINDOW", "Signals", "condition_of", "hose_integrals",
-           "prepare", "stated_coefficients"]
+__all__ = ["DERIVED", "HOSE", "HOSE_WINDOW", "Signals", "condition_of",
+           "hose_integrals", "noise_sigma", "prepare", "stated_coefficients"]
 
 Arr = npt.NDArray[np.float64]
 
@@ -51,6 +51,8 @@ class Signals:
         Time of each sample within its record [s].
     names
         Record names.
+    rate
+        Uniform sampling rate of the records [Hz] (:func:`prepare`'s).
     """
 
     values: dict[str, Arr]
@@ -58,6 +60,7 @@ class Signals:
     phase: npt.NDArray[np.str_]
     t: Arr
     names: list[str]
+    rate: float = 1000.0
 
     def has(self, *channels: str) -> bool:
         """Whether every channel is present."""
@@ -76,7 +79,7 @@ class Signals:
     def subset(self, mask: npt.NDArray[np.bool_]) -> Signals:
         """The samples where ``mask`` holds."""
         return Signals({k: v[mask] for k, v in self.values.items()}, self.record[mask],
-                       self.phase[mask], self.t[mask], self.names)
+                       self.phase[mask], self.t[mask], self.names, self.rate)
 
 
 def condition_of(record: SeriesRecord, rig: Rig) -> Condition:
@@ -122,6 +125,14 @@ def stated_coefficients(values: Mapping[str, float]) -> dict[str, float]:
     return out
 
 
+def noise_sigma(x: Arr) -> float:
+    """Noise σ of a smooth signal plus white noise, from the MAD of second differences."""
+    d2 = np.diff(np.asarray(x, dtype=float), 2)
+    if d2.size == 0:
+        return 0.0
+    return float(np.median(np.abs(d2 - np.median(d2))) / 0.6745 / math.sqrt(6.0))
+
+
 def hose_integrals(t: Arr, p2: Arr, p_b: Arr, q_c: Arr, window: float = HOSE_WINDOW
                    ) -> dict[str, Arr]:
     """Running integrals of hose B's effort balance over the last ``window`` [s].
@@ -137,11 +148,11 @@ def hose_integrals(t: Arr, p2: Arr, p_b: Arr, q_c: Arr, window: float = HOSE_WIN
     logger resolves); the integrals are taken on the raw samples (trapezoid with the
     Euler-Maclaurin end correction −h²/12·Δf′), not on smoothed ones, which such a
     transient would not survive.  Returns ``hose.int_dp`` [Pa·s], ``hose.int_q`` [m³],
-    ``hose.dq`` [m³/s], ``hose.ok`` (1 where a whole window lies in the record, else 0) and
+    ``hose.dq`` [m³/s], ``hose.ok`` (1 where a whole window lies in the record, else 0),
     ``hose.hf`` [Pa·s], a bound of the trapezoid error over the window, Σ|Δ²(P2 − P_B)|·h/12
-    (large where the transient is not resolved: the balance leaves those windows out),
-    ``hose.sigma_dp`` [Pa], the white noise σ of P2 − P_B per sample (constant over the
-    record), and ``hose.h`` [s], the sampling step.
+    (large where the transient is not resolved: the balance leaves those windows out), and
+    ``hose.sigma_dp`` [Pa], the white noise σ of P2 − P_B per sample (:func:`noise_sigma`,
+    constant over the record).
     """
     # a uniform grid (prepare's): the window is a whole number of samples
     h = float(np.median(np.diff(t))) if t.size > 1 else 0.0
@@ -158,14 +169,12 @@ def hose_integrals(t: Arr, p2: Arr, p_b: Arr, q_c: Arr, window: float = HOSE_WIN
     d2 = np.zeros_like(dp)
     d2[1:-1] = np.abs(dp[2:] - 2.0 * dp[1:-1] + dp[:-2])
     cum_d2 = np.cumsum(d2) * h / 12.0
-    # the sensors' white noise in P2 − P_B (MAD of second differences, robust to the
-    # transients): what the windowed integral carries even where the model is exact
-    raw = dp[2:] - 2.0 * dp[1:-1] + dp[:-2]
-    sigma_dp = (float(np.median(np.abs(raw - np.median(raw))) / 0.6745 / math.sqrt(6.0))
-                if raw.size else 0.0)
+    # the sensors' white noise in P2 − P_B (robust to the transients): what the windowed
+    # integral carries even where the model is exact; per sample, as the balance keeps a
+    # subset of the records' stacked samples
     return {"hose.int_dp": cum_dp - cum_dp[j] + corr, "hose.int_q": cum_q - cum_q[j],
             "hose.dq": q_c - q_c[j], "hose.ok": ok.astype(float), "hose.hf": cum_d2 - cum_d2[j],
-            "hose.sigma_dp": np.full(t.size, sigma_dp), "hose.h": np.full(t.size, h)}
+            "hose.sigma_dp": np.full(t.size, noise_sigma(dp))}
 
 
 def _uniform(record: SeriesRecord, rate: float) -> tuple[Arr, dict[str, Arr], npt.NDArray[np.str_]]:
@@ -255,4 +264,5 @@ def prepare(records: Sequence[SeriesRecord], rig: Rig, *, rate: float = 1000.0,
         phases.append(phase)
         times.append(t - t[0])
     return Signals({k: np.concatenate(v) for k, v in parts.items()}, np.concatenate(rec_idx),
-                   np.concatenate(phases), np.concatenate(times), [r.name for r in records])
+                   np.concatenate(phases), np.concatenate(times), [r.name for r in records],
+                   rate)

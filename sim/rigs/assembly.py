@@ -117,6 +117,11 @@ class Rig:
                 raise ParameterError(f"{broken.text} (with the overrides given)",
                                      field=f"overrides.{key}")
 
+    def channels(self) -> dict[str, str]:
+        """The model's outputs, the channels a measured series of the rig may carry, and
+        their SI units (``P1`` → ``Pa``)."""
+        return dict(zip(self.model.output_names, self.model.output_units, strict=True))
+
     def check_condition(self, cond: Condition) -> None:
         """Refuse a condition outside the range the circuit is modelled for.
 

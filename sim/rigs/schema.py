@@ -28,7 +28,7 @@ from sim.errors import ParameterError, RigFileError
 from sim.fluid import FLUID_PARAMETERS, Fluid
 from sim.params import Param, broken_relation
 from sim.rigs.circuits import CIRCUITS, COMPONENT_TYPES, DEFAULT_CIRCUIT, Circuit, get_circuit
-from sim.units import to_si
+from sim.units import to_si, unit_suffix
 
 __all__ = ["CIRCUITS", "COMPONENT_TYPES", "SCHEMA", "RigSpec", "validate_rig_document"]
 
@@ -124,7 +124,7 @@ def _quantity(raw: Any, decl: Param, field_path: str) -> Quantity:
 def check_bounds(value: float, decl: Param, field_path: str) -> None:
     """Raise :class:`RigFileError` if ``value`` [SI] is outside ``decl``'s bounds."""
     lo, hi = decl.lower, decl.upper
-    unit = "" if decl.unit in ("1", "-", "") else f" {decl.unit}"  # "≤ 2.0 1" read as a typo
+    unit = unit_suffix(decl.unit)
     if lo is not None and (value < lo or (value == lo and not decl.lower_inclusive)):
         rel = "≥" if decl.lower_inclusive else ">"
         raise RigFileError(f"{decl.description} must be {rel} {lo:g}{unit}, got {value:g}",

@@ -114,3 +114,15 @@ def test_read_back_errors(server: LiveServer, stored: dict[str, Any]) -> None:
     assert server.anon.get("/diagnoses").status_code == 401
     assert server.anon.get(f"/measurements/{stored['single'][0][1]['measurement_ids'][0]}"
                            ).status_code == 401
+
+
+def test_the_component_filter_names_what_the_fault_library_can_blame() -> None:
+    """The filter's closed list is written out for the OpenAPI document; it must be the
+    fault library's components and pairs, with healthy and unexplained."""
+    from typing import get_args
+
+    from app.schemas.history import BlamedComponent
+    from diagnostics.hypotheses import HYPOTHESES
+
+    blamed = {"+".join(h.components) or "healthy" for h in HYPOTHESES} | {"unexplained"}
+    assert set(get_args(BlamedComponent)) == blamed

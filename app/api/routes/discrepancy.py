@@ -110,7 +110,8 @@ async def start_discrepancy(
     explanations) and ``new_rig_version``; ``/jobs/{job_id}?format=html`` gives the page.
     """
     content = None if file is None else await file.read(MAX_SERIES_BYTES + 1)
-    plan = await run_in_threadpool(plan_discrepancy, session, rigs, form, content)
+    plan = await run_in_threadpool(plan_discrepancy, session, rigs, form, content,
+                                   file.filename if file is not None else None)
     job = submit_discrepancy(request.app.state.jobs, request.app.state.sessions, form, plan)
     response.headers["Location"] = f"/jobs/{job.id}"
     return DiscrepancyAccepted(job_id=job.id, status=job.status, records=plan.names,

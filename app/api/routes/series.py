@@ -47,13 +47,12 @@ def import_series(
     """Read every record of the file (diagnostics.timeseries) and store each one; a bad
     column refuses the whole file (422 naming it) and stores nothing."""
     content = file.file.read(service.MAX_SERIES_BYTES + 1)
-    rows = service.import_series(session, rig_id, form.name, content,
+    rows, notes = service.import_series(session, rig_id, form.name, content,
                                  column_map=service.parse_column_map(form.column_map),
                                  sample_rate=form.sample_rate, started_at=form.started_at,
                                  filename=file.filename, time_in_name=form.time_in_name,
                                  zone=form.zone)
     response.headers["Location"] = f"/rigs/{rig_id}/series"
-    notes = service.channel_notes(session, rig_id, rows)
     return SeriesList(items=[SeriesPublic.model_validate(r) for r in rows], total=len(rows),
                       limit=max(1, len(rows)), offset=0, notes=notes)
 
