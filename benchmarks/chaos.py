@@ -88,7 +88,8 @@ def fuzz(work: Path) -> dict[str, Any]:
     server_errors = sum(n for k, n in failures.items() if "Server error" in k)
     schema_violations = sum(n for k, n in failures.items()
                             if "schema" in k.lower() and "request" not in k.lower())
-    if failures:
+    errors = [f"{e['title']} ({e['count']})" for e in data["errors"]]
+    if failures or errors:
         print(run.stdout[-6000:])
     return {
         "examples_per_operation": FUZZ_EXAMPLES,
@@ -99,6 +100,7 @@ def fuzz(work: Path) -> dict[str, Any]:
         "server_errors": server_errors,
         "schema_violations": schema_violations,
         "errors": len(data["errors"]),
+        "error_titles": errors,
         "seconds": round(seconds, 1),
         "server_up_after": alive,
     }
