@@ -1,20 +1,21 @@
 """Hidden-effect cases for chosen library entries, with what the workflow reported.
 
-Run: ``python -m benchmarks.discrepancy_effects`` (``make discrepancy-effects``).
-The cases are the hidden-effect bench's own (:func:`benchmarks.discrepancy_study._case`:
+Run: ``python -m benchmarks.discrepancy_effects`` (``make discrepancy-effects``). The
+cases are the hidden-effect bench's own (:func:`benchmarks.discrepancy_study._case`:
 three cycles at 2.1/4.2/6.3 kN, 40/50/60 °C, 80/90/100 % pump speed, the 6.3 kN record
 held out; sizes from :func:`~benchmarks.discrepancy_study.calibrate`), for a few effects
 instead of the whole library, reporting per case the named effects, the competing and
-ambiguous ones, each balance's choice before the output-error confirmation, and the
-fitted strength.  ``HYDRODIAG_EFFECTS`` (comma list; default the rig-wide entries:
-viscosity law, entrained air, relief override, unsteady line friction),
-``HYDRODIAG_SEEDS`` (default 5), ``HYDRODIAG_SIZES`` (σ, default 4,8,16; unsteady line
-friction's size is the peak difference at valve port B, switch transients included,
-where 1000 σ ≈ k3 = 0.1, so its sizes are better given as 250,500,1000,2000);
-a case whose simulation fails (solver limit) is counted as ``failed``, as in the bench;
-``HYDRODIAG_LIGHT=1``: the viscosity law at 16σ, one seed.  Seeds are 1..N (case seed
-1000·s + 7, as the bench).  Everything is SIMULATED.  Prints a table and, as its last
-line, one JSON object.
+ambiguous ones, each balance's choice before the output-error confirmation, the fitted
+strength, and whether the named effect's stated 95 % interval holds the hidden value
+(``interval_coverage``: the fraction of the cases naming it). ``HYDRODIAG_EFFECTS``
+(comma list; default the rig-wide entries: viscosity law, entrained air, relief
+override, unsteady line friction), ``HYDRODIAG_SEEDS`` (default 5), ``HYDRODIAG_SIZES``
+(σ, default 4,8,16; unsteady line friction's size is the peak difference at valve port
+B, switch transients included, where 1000 σ ≈ k3 = 0.1, so its sizes are better given as
+250,500,1000,2000); a case whose simulation fails (solver limit) is counted as
+``failed``, as in the bench; ``HYDRODIAG_LIGHT=1``: the viscosity law at 16σ, one seed.
+Seeds are 1..N (case seed 1000·s + 7, as the bench). Everything is SIMULATED. Prints a
+table and, as its last line, one JSON object.
 """
 
 from __future__ import annotations
@@ -60,6 +61,7 @@ def case(effect: str, size: float, strength: float, seed: int) -> dict[str, Any]
         "effect": effect, "size": size, "seed": seed, "strength": strength,
         "outcome": score(d, effect), "named": [n.name for n in d.named],
         "fitted": {n.name: n.value for n in d.named},
+        "intervals": {n.name: list(n.interval) for n in d.named},
         "competing": sorted({m for n in d.named for g in n.competing for m in g}),
         "ambiguity": sorted({m for n in d.named for g in n.ambiguity for m in g}),
         "chosen": {s.balance: [t.effect for t in s.chosen.terms]
@@ -95,6 +97,9 @@ def main() -> None:
             chosen = sum(effect in [e for v in c["chosen"].values() for e in v] for c in done)
             fit = [abs(c["fitted"][effect] / strength - 1) for c in done
                    if effect in c["fitted"]]
+            # does the stated 95 % interval of the named effect hold the hidden value?
+            held = [c["intervals"][effect][0] <= strength <= c["intervals"][effect][1]
+                    for c in done if effect in c["intervals"]]
             rows.append({
                 "effect": effect, "size_sigma": size, "strength": strength, "n": n,
                 "exact": counts["exact"] / n, "group": counts["group"] / n,
@@ -102,13 +107,15 @@ def main() -> None:
                 "failed": counts["failed"] / n,
                 "chosen_by_a_balance": chosen / n,
                 "median_fit_error": _median(fit),
+                "interval_coverage": sum(held) / len(held) if held else None,
                 "median_rmse_ratio": _median([c.get("rmse_ratio", math.nan) for c in done]),
                 "named_instead": sorted({m for c in done for m in c["named"]} - {effect}),
                 "median_seconds": _median([c["seconds"] for c in done]),
                 "time_vs_null_case": (_median([c["seconds"] for c in done]) or 0.0)
                 / null_seconds})
     print(f"{'effect':24s} {'σ':>4s} {'n':>3s} {'exact':>6s} {'group':>6s} {'wrong':>6s} "
-          f"{'none':>5s} {'fail':>5s} {'chosen':>7s} {'fit err':>8s} {'RMSE ×':>7s} "
+          f"{'none':>5s} {'fail':>5s} {'chosen':>7s} {'fit err':>8s} {'in 95%':>6s} "
+          f"{'RMSE ×':>7s} "
           f"{'t/null':>7s}  other names")
     for r in rows:
         if r["n"] == 0:
@@ -121,6 +128,7 @@ def main() -> None:
         print(f"{r['effect']:24s} {r['size_sigma']:4.0f} {r['n']:3d} {r['exact']:6.2f} "
               f"{r['group']:6.2f} {r['wrong']:6.2f} {r['none']:5.2f} {r['failed']:5.2f} "
               f"{r['chosen_by_a_balance']:7.2f} {f(r['median_fit_error'], '8.3f')} "
+              f"{f(r['interval_coverage'], '6.2f')} "
               f"{f(r['median_rmse_ratio'], '7.2f')} {r['time_vs_null_case']:7.2f}  "
               f"{', '.join(r['named_instead']) or '—'}")
     load = os.getloadavg()[0]

@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from app.services.trends import ComponentTrendOut
+from app.services.trends import UNLIKELY, ComponentTrendOut
 from diagnostics.plots import Bar, Chart, Series, bar_chart, line_chart
 from diagnostics.timeseries import SeriesRecord
 
@@ -181,14 +181,28 @@ def _nominals(result: Mapping[str, Any]) -> dict[str, float]:
 
 
 def trend_chart(trend: ComponentTrendOut) -> Chart:
-    """A component's estimates over time [day] with intervals, Theil–Sen line, threshold."""
+    """A component's estimates over time [day] with intervals, Theil–Sen line, threshold.
+
+    An estimate whose diagnosis gave the component a probability below
+    :data:`~app.services.trends.UNLIKELY` is drawn apart, in grey: it holds only if this
+    component is the worn one, which that diagnosis thought unlikely (the status text says
+    so too, :func:`app.services.trends._if_blamed`).
+    """
     pts = trend.points
     t0 = pts[0].measured_at.timestamp() if pts else 0.0
     days = np.array([(p.measured_at.timestamp() - t0) / 86400.0 for p in pts])
     y = np.array([p.value for p in pts])
     low = np.array([p.low if p.low is not None else p.value for p in pts])
     high = np.array([p.high if p.high is not None else p.value for p in pts])
-    series = [Series(days, y, "estimate (95 %)", kind="errorbars", low=low, high=high)]
+    unlikely = np.array([p.probability is not None and p.probability < UNLIKELY for p in pts],
+                        dtype=bool)
+    series = []
+    for part, label, color in ((~unlikely, "estimate (95 %)", None),
+                               (unlikely, f"if the {trend.component} is the worn one "
+                                f"(p < {UNLIKELY:g})", "#999999")):
+        if part.any() or (color is None and not pts):  # an empty chart keeps its legend
+            series.append(Series(days[part], y[part], label, kind="errorbars",
+                                 low=low[part], high=high[part], color=color))
     if trend.slope is not None and len(pts) >= 2:
         # Theil-Sen line: the slope with the intercept median(y - slope·t); its band pivots
         # on the middle of the data with the slope's 95 % interval

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import io
 import re
+from dataclasses import replace
 from datetime import UTC, datetime, timedelta
 
 import matplotlib.image as mpimg
@@ -77,6 +78,19 @@ def test_the_theil_sen_line_passes_through_exact_linear_data() -> None:
     assert line.y[-1] == pytest.approx(values[-1], rel=1e-9)
     assert chart.hlines == ((54e-6, "threshold"),)
     assert chart.points == 5 + 50
+
+
+def test_estimates_of_a_component_its_diagnosis_thought_unlikely_are_drawn_apart() -> None:
+    values = [34e-6 + 2e-6 * day for day in range(5)]
+    trend = _trend(values)
+    trend.points[3] = replace(trend.points[3], probability=0.2)  # another component named
+    chart = trend_chart(trend)
+    likely, unlikely, line = chart.series
+    assert list(likely.y) == pytest.approx(values[:3] + values[4:])
+    assert list(unlikely.y) == pytest.approx([values[3]])
+    assert unlikely.label == "if the valve is the worn one (p < 0.5)" and unlikely.color == "#999999"
+    # the Theil–Sen line still fits every point
+    assert line.y[0] == pytest.approx(values[0], rel=1e-9)
 
 
 def test_estimates_are_drawn_as_multiples_of_nominal_with_the_severity_bands() -> None:
