@@ -16,8 +16,8 @@ from sqlalchemy.orm import Session
 
 from app.api.deps import RigsDep, SessionDep
 from app.console.pages_series import stated_condition
-from app.console.routing import ConsoleKeyDep, new_router, write_refusal
-from app.console.views import diagnosis_view, history_page, trend_views
+from app.console.routing import ConsoleKeyDep, filter_error, new_router, write_refusal
+from app.console.views import HistoryPage, diagnosis_view, history_page, trend_views
 from app.console.web import page, redirect
 from app.db.base import utcnow
 from app.errors import ServiceUnavailableError, first_problem, status_for
@@ -221,10 +221,21 @@ def history(request: Request, session: SessionDep, _key: ConsoleKeyDep,
             since: Annotated[str, Query(max_length=64)] = "",
             until: Annotated[str, Query(max_length=64)] = "",
             page_number: Annotated[int, Query(alias="page", ge=1, le=MAX_ID)] = 1) -> Response:
-    """Every stored diagnosis, newest first, filtered by rig and time (blank: any), paginated."""
-    rig_id, start, end = _rig(rig), _time(since, "since"), _time(until, "until")
-    found = history_page(session, rig_id=rig_id, since=start, until=end, page=page_number)
+    """Every stored diagnosis, newest first, filtered by rig and time (blank: any), paginated.
+
+    A filter that cannot be read (a time without its zone, ``since`` after ``until``) is
+    named above the form, which keeps what was typed (422), instead of replacing the page.
+    """
     rows, _ = rig_service.list_rigs(session, limit=500, offset=0)
+    try:
+        rig_id, start, end = _rig(rig), _time(since, "since"), _time(until, "until")
+        found = history_page(session, rig_id=rig_id, since=start, until=end,
+                             page=page_number)
+    except InputError as exc:
+        typed = {"rig": int(rig) if rig.strip().isdigit() else "", "since": since,
+                 "until": until}
+        return page(request, "history.html", status_code=422, error=filter_error(exc),
+                    found=HistoryPage([], 0, 1, 1), rigs=rows, query=typed)
     query = {"rig": "" if rig_id is None else rig_id, "since": _stamp(start),
              "until": _stamp(end)}
     return page(request, "history.html", found=found, rigs=rows, query=query)
@@ -235,9 +246,14 @@ def trends(request: Request, session: SessionDep, rigs: RigsDep, _key: ConsoleKe
            rig: Annotated[int, Query(ge=1, le=MAX_ID)] = 1,
            since: Annotated[str, Query(max_length=64)] = "",
            until: Annotated[str, Query(max_length=64)] = "") -> Response:
-    """Per component: estimates over time, Theil–Sen line and band, threshold, time left."""
-    start, end = _time(since, "since"), _time(until, "until")
-    views = trend_views(session, rigs, rig, since=start, until=end)
+    """Per component: estimates over time, Theil–Sen line and band, threshold, time left
+    (a filter that cannot be read is named above the form, as on the history page)."""
     rows, _ = rig_service.list_rigs(session, limit=500, offset=0)
+    try:
+        start, end = _time(since, "since"), _time(until, "until")
+        views = trend_views(session, rigs, rig, since=start, until=end)
+    except InputError as exc:
+        return page(request, "trends.html", status_code=422, error=filter_error(exc),
+                    views=[], rigs=rows, rig_id=rig, query={"since": since, "until": until})
     return page(request, "trends.html", views=views, rigs=rows, rig_id=rig,
                 query={"since": _stamp(start), "until": _stamp(end)})

@@ -23,7 +23,8 @@ from app.errors import first_problem, status_for
 from app.security import Scope
 from sim.errors import AuthError, HydrodiagError, InputError
 
-__all__ = ["ConsoleKeyDep", "ConsoleRoute", "error_of", "new_router", "write_refusal"]
+__all__ = ["ConsoleKeyDep", "ConsoleRoute", "error_of", "filter_error", "new_router",
+           "write_refusal"]
 
 
 def error_of(exc: Exception) -> dict[str, Any]:
@@ -42,6 +43,12 @@ def write_refusal(key: ApiKey, what: str) -> dict[str, Any] | None:
     return {"type": "ScopeError", "field": "api_key",
             "message": f"{what} needs a key of scope 'write' or above; this console is "
                        f"logged in with a {key.scope!r} key"}
+
+
+def filter_error(exc: HydrodiagError) -> dict[str, Any]:
+    """The error a list page shows above its filter form (:func:`error_of`, saying the
+    page lists nothing until the filter is corrected, rather than "nothing was stored")."""
+    return error_of(exc) | {"note": "Nothing is listed until the filter is corrected."}
 
 
 class ConsoleRoute(APIRoute):

@@ -81,11 +81,20 @@ def test_the_history_filters_by_time_and_rig(full: tuple[LiveServer, httpx.Clien
     # a date alone is its 00:00 UTC (it was refused, the page replaced by the error page)
     dated = client.get("/console/history?rig=1&since=2025-01-01&until=2025-01-10")
     assert dated.status_code == 200 and 'value="2025-01-01T00:00:00+00:00"' in dated.text
-    bad = client.get("/console/history?since=yesterday")
+    # a filter that cannot be read is named above the form, which keeps what was typed
+    # (it replaced the whole page with an error page)
+    bad = client.get("/console/history?rig=1&since=yesterday")
     assert bad.status_code == 422 and 'data-field="since"' in bad.text
+    assert 'class="filters"' in bad.text and 'value="yesterday"' in bad.text
+    assert "Nothing is listed until the filter is corrected." in bad.text
+    assert '<option value="1" selected>' in bad.text and "(0 diagnoses)" in bad.text
     reversed_ = client.get("/console/history?since=2025-02-01T00:00:00Z"
                            "&until=2025-01-01T00:00:00Z")
     assert reversed_.status_code == 422 and 'data-field="since"' in reversed_.text
+    assert 'value="2025-02-01T00:00:00Z"' in reversed_.text
+    trends = client.get("/console/trends?rig=1&since=2025-01-01T06:00&until=")
+    assert trends.status_code == 422 and 'data-field="since"' in trends.text
+    assert 'value="2025-01-01T06:00"' in trends.text and "No estimates stored" not in trends.text
 
 
 def test_trends_and_a_diagnosis_page_of_the_full_rig_render(
