@@ -20,14 +20,15 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from sim.bondgraph.elements import LawCall, R
+from sim.bondgraph.elements import LawCall, One, R, call
 from sim.bondgraph.graph import BondGraph
 from sim.bondgraph.laws import law
 from sim.components.base import declare
+from sim.errors import ModelStructureError
 from sim.params import Param
 
-__all__ = ["FIELD_CIRCUIT", "PUMP_CIRCUITS", "EffectEntry", "Regressor", "leak_to_tank",
-           "signed_sqrt", "signed_sqrt_array"]
+__all__ = ["FIELD_CIRCUIT", "LEAKAGE_OUTPUTS", "PUMP_CIRCUITS", "EffectEntry", "Regressor",
+           "flow_sum", "leak_across", "leak_to_tank", "signed_sqrt", "signed_sqrt_array"]
 
 #: the paper-000 field duty cycle (gear pump of Figure 7, hoses, relief, measured pressure;
 #: :mod:`sim.duty_cycle`): the circuit of the pump-slip dynamics entries
@@ -112,14 +113,68 @@ class EffectEntry:
 BuildEffect = Callable[[BondGraph, str], None]
 
 
+#: the component output that states the leakage leaving each 0-junction a leak path of the
+#: library starts from (the pump's slip, the piston's 1 → 2 leak, the spool's P → T leak)
+LEAKAGE_OUTPUTS = {"pump.out": "Q_pump_leak", "cylinder.c1": "Q_cyl_leak",
+                   "valve.P": "Q_valve_leak"}
+
+
+@law
+def flow_sum(*q: float) -> float:
+    """Σq [m³/s]: a component's leakage with the paths effects add beside its own."""
+    total = 0.0
+    for v in q:
+        total += v
+    return total
+
+
+def _count_as_leakage(g: BondGraph, node: str, name: str) -> None:
+    """Add the flow of the effect's R ``{name}.R`` from ``node`` to the component output
+    that states the leakage there (:data:`LEAKAGE_OUTPUTS`): a worn piston that leaks
+    through an orifice beside its gap leaks the sum, and a diagnosis that compares a
+    measured leakage with ``Q_cyl_leak`` must see both."""
+    output = g.outputs.get(LEAKAGE_OUTPUTS.get(node, ""))
+    if output is None:
+        return
+    refs = (output.expr.args if isinstance(output.expr, LawCall)
+            and output.expr.func is flow_sum else (output.expr,))
+    if not all(isinstance(r, str) for r in refs):
+        raise ModelStructureError(f"output {output.name!r} is no flow reference to add to",
+                                  elements=(f"{name}.R",))
+    g.output(output.name, call(flow_sum, *(str(r) for r in refs), f"f:{name}.R"),
+             output.unit, output.description)
+
+
 def leak_to_tank(g: BondGraph, name: str, node: str, parameters: tuple[Param, ...],
-                 values: Mapping[str, float] | None, flow: LawCall, description: str) -> None:
+                 values: Mapping[str, float] | None, flow: LawCall, description: str, *,
+                 leakage: bool = True) -> None:
     """Declare the effect's ``parameters`` and add its R ``{name}.R`` from the 0-junction
     ``node`` to the tank (gauge pressure 0, so the R's effort is the node's pressure) with
-    the flow law ``flow``: the bond-graph change of every leak to tank in the library."""
+    the flow law ``flow``: the bond-graph change of every leak to tank in the library.
+    Its flow counts in the leakage output of ``node`` (:data:`LEAKAGE_OUTPUTS`) unless
+    ``leakage`` is false (a flow lost that no drain line carries: the pump's
+    compressibility loss, paper 000 eq. 6)."""
     declare(g, name, parameters, values)
     g.add(R(f"{name}.R", flow=flow, description=description))
     g.connect(node, f"{name}.R", label=f"{name}.R")
+    if leakage:
+        _count_as_leakage(g, node, name)
+
+
+def leak_across(g: BondGraph, name: str, high: str, low: str, parameters: tuple[Param, ...],
+                values: Mapping[str, float] | None, flow: LawCall, description: str) -> None:
+    """Declare the effect's ``parameters`` and add its R ``{name}.R`` on a new 1-junction
+    ``{name}.path`` from 0-junction ``high`` to 0-junction ``low`` (the R's effort is the
+    pressure difference, its flow positive from ``high`` to ``low``): every leak path
+    across a gap in the library.  Its flow counts in the leakage output of ``high``."""
+    declare(g, name, parameters, values)
+    path = f"{name}.path"
+    g.add(One(path, description=description))
+    g.add(R(f"{name}.R", flow=flow, description=description))
+    g.connect(high, path)
+    g.connect(path, f"{name}.R", label=f"{name}.R")
+    g.connect(path, low)
+    _count_as_leakage(g, high, name)
 
 
 @law

@@ -49,7 +49,7 @@ def build(g: BondGraph, name: str = NAME, values: Mapping[str, float] | None = N
     """Add the compressibility-loss R on ``pump.out`` (module docstring)."""
     leak_to_tank(g, name, "pump.out", PARAMETERS, values,
                  call(compression_flow, "e", f"p:{name}.k_b", "p:pump.Vp", "p:pump.speed"),
-                 "Q_c = k_b·P·Vp·ω")
+                 "Q_c = k_b·P·Vp·ω", leakage=False)
 
 
 def _regressor(s: Mapping[str, Arr]) -> Arr:

@@ -19,10 +19,15 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from sim.bondgraph import BondGraph, One, R, call
+from sim.bondgraph import BondGraph, call
 from sim.bondgraph.laws import law
-from sim.components.base import declare
-from sim.components.effects.base import PUMP_CIRCUITS, Arr, EffectEntry, leak_to_tank
+from sim.components.effects.base import (
+    PUMP_CIRCUITS,
+    Arr,
+    EffectEntry,
+    leak_across,
+    leak_to_tank,
+)
 from sim.params import Param
 
 __all__ = ["PARAMETERS", "build_across", "build_to_tank", "clearance_flow", "entries"]
@@ -43,14 +48,8 @@ def clearance_flow(dp: float, k_c: float, mu: float) -> float:
 def build_across(g: BondGraph, name: str, high: str, low: str,
                  values: Mapping[str, float] | None = None) -> None:
     """Add the deforming-gap path from 0-junction ``high`` to 0-junction ``low``."""
-    declare(g, name, PARAMETERS, values)
-    path = f"{name}.path"
-    g.add(One(path, description="deforming-gap excess leakage"))
-    g.add(R(f"{name}.R", flow=call(clearance_flow, "e", f"p:{name}.k_c", "p:fluid.mu"),
-            description="Q = k_c·Δp·|Δp|/μ"))
-    g.connect(high, path)
-    g.connect(path, f"{name}.R", label=f"{name}.R")
-    g.connect(path, low)
+    leak_across(g, name, high, low, PARAMETERS, values,
+                call(clearance_flow, "e", f"p:{name}.k_c", "p:fluid.mu"), "Q = k_c·Δp·|Δp|/μ")
 
 
 def build_to_tank(g: BondGraph, name: str, high: str,

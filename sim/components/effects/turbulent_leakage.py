@@ -17,13 +17,13 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 
-from sim.bondgraph import BondGraph, One, R, call
+from sim.bondgraph import BondGraph, call
 from sim.bondgraph.laws import law
-from sim.components.base import declare
 from sim.components.effects.base import (
     PUMP_CIRCUITS,
     Arr,
     EffectEntry,
+    leak_across,
     leak_to_tank,
     signed_sqrt,
     signed_sqrt_array,
@@ -50,14 +50,9 @@ def turbulent_flow(dp: float, K_t: float, p_t: float) -> float:
 def build_across(g: BondGraph, name: str, high: str, low: str,
                  values: Mapping[str, float] | None = None) -> None:
     """Add the √Δp path from 0-junction ``high`` to 0-junction ``low``."""
-    declare(g, name, PARAMETERS, values)
-    path = f"{name}.path"
-    g.add(One(path, description="turbulent leakage path"))
-    g.add(R(f"{name}.R", flow=call(turbulent_flow, "e", f"p:{name}.K_t", f"p:{name}.p_t"),
-            description="Q = K_t·sgn(Δp)·√|Δp|"))
-    g.connect(high, path)
-    g.connect(path, f"{name}.R", label=f"{name}.R")
-    g.connect(path, low)
+    leak_across(g, name, high, low, PARAMETERS, values,
+                call(turbulent_flow, "e", f"p:{name}.K_t", f"p:{name}.p_t"),
+                "Q = K_t·sgn(Δp)·√|Δp|")
 
 
 def build_to_tank(g: BondGraph, name: str, high: str,

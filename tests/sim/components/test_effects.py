@@ -119,6 +119,46 @@ def test_effect_laws_match_hand_calculations_at_a_state(full_rig):
                                                                     rel=1e-12)
 
 
+def test_leakage_outputs_count_the_leak_paths_effects_add(full_rig):
+    # a worn piston leaking through an orifice beside its gap leaks the sum: Q_cyl_leak
+    # read the laminar gap alone, so a diagnosis comparing a measured leakage with it (and
+    # /simulate's table) missed the effect's flow
+    m = full_rig.model
+    g = m.system.graph
+    p = full_rig.params(graph_values={"valve.N": 1.0})
+    y = m.initial_state(p)
+    for name, value in (("cylinder.C1", 6.0e6), ("cylinder.C2", 1.5e6),
+                        ("cylinder.mass", 0.05), ("pump.Cp", 7.0e6)):
+        y[m.state_names.index(name)] = value
+    y[m.state_index("cylinder.x")] = 0.2
+    _, f = m.bond_values(y, p)
+    out = dict(zip(m.output_names, m.outputs(np.zeros(1), y[None, :], p)[0], strict=True))
+
+    def flow(el: str) -> float:
+        (b,) = g.bonds_of(el)
+        return float(f[b.index])
+
+    paths = {"Q_cyl_leak": ["turbulent_piston_leakage.R", "piston_clearance_pressure.R"],
+             "Q_valve_leak": ["turbulent_spool_leakage.R"],
+             "Q_pump_leak": ["turbulent_pump_slip.R", "pump_clearance_pressure.R",
+                             "viscous_pump_slip.R"]}
+    base = {"Q_cyl_leak": flow("cylinder.Rlc"), "Q_valve_leak": flow("valve.Rlv"),
+            "Q_pump_leak": flow("pump.leak")}
+    for output, rs in paths.items():
+        added = [flow(r) for r in rs]
+        assert all(q > 0 for q in added), output  # each path leaks at this state
+        assert out[output] == pytest.approx(base[output] + sum(added), rel=1e-12), output
+    # and the base rig's outputs stay its own elements' flows
+    plain = reference_rig()
+    pm = plain.model
+    pp = plain.params(graph_values={"valve.N": 1.0})
+    y0 = pm.initial_state(pp)
+    (b,) = pm.system.graph.bonds_of("cylinder.Rlc")
+    _, f0 = pm.bond_values(y0, pp)
+    q0 = dict(zip(pm.output_names, pm.outputs(np.zeros(1), y0[None, :], pp)[0], strict=True))
+    assert q0["Q_cyl_leak"] == f0[b.index]
+
+
 def test_zero_strength_gives_the_base_rig_exactly():
     base = run_cycle(reference_rig(), rtol=1e-3).timeseries
     zero = run_cycle(load_rig(_doc({n: None for n in STRENGTHS})), rtol=1e-3).timeseries
