@@ -55,7 +55,7 @@ otherwise its candidate column is zero.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -64,7 +64,7 @@ import numpy.typing as npt
 from diagnostics.discrepancy.signals import HOSE_WINDOW, Signals
 from sim.components.effects import EFFECTS, Effect
 
-__all__ = ["BALANCES", "Balance", "BalanceData", "balance_data"]
+__all__ = ["BALANCES", "Balance", "BalanceData", "balance_data", "carried", "effects_of"]
 
 Arr = npt.NDArray[np.float64]
 
@@ -282,6 +282,24 @@ def effects_of(balance: str) -> list[Effect]:
     return [e for e in EFFECTS.values() if e.entry.balance == balance]
 
 
+def carried(values: Mapping[str, float], balance: str) -> dict[str, float]:
+    """The effects of ``balance`` the rig already carries, with their coefficients [SI]
+    (the non-zero ones; ``values``: :meth:`sim.rigs.assembly.Rig.values`).
+
+    They are part of the model the data are checked against: their term ``k·x`` moves to
+    the target and they are no candidates.  A rig that ``hydrodiag discover`` augmented
+    was once checked as if it had none: the same data then named the stored effect again,
+    and a new one would have been fitted beside a residual that still held the old one
+    (s41 real-data pass, on a pump bench table).
+    """
+    out: dict[str, float] = {}
+    for e in effects_of(balance):
+        k = values.get(f"{e.name}.{e.entry.coefficient}", 0.0)
+        if k != 0.0:
+            out[e.name] = float(k)
+    return out
+
+
 def balance_data(s: Signals, values: dict[str, float]) -> list[BalanceData]:
     """Every balance the measured channels allow, evaluated on the kept samples.
 
@@ -321,7 +339,11 @@ def balance_data(s: Signals, values: dict[str, float]) -> list[BalanceData]:
             mask &= np.abs(s.values["v"]) > MOVING
         sub = s.subset(mask)
         y, base = b.build(sub, values)
-        cands = {e.name: e.entry.regressor(sub.values) for e in effects_of(b.name)}
+        stored = carried(values, b.name)
+        for name, k in stored.items():
+            y = y - k * np.asarray(EFFECTS[name].entry.regressor(sub.values), dtype=float)
+        cands = {e.name: e.entry.regressor(sub.values) for e in effects_of(b.name)
+                 if e.name not in stored}
         out.append(BalanceData(b, y, base, cands, mask, b.full_scale(values),
                                {k: v for k, v in BASE_SIGNS.items() if k in base},
                                held[mask] if held[mask].any() else None,

@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from diagnostics.discrepancy.balances import carried
 from diagnostics.discrepancy.drift import BaseDrift, Drift
 from diagnostics.discrepancy.gap import GapRow
 from diagnostics.discrepancy.selection import hac_cov
@@ -29,24 +30,51 @@ from diagnostics.discrepancy.signals import Signals
 from diagnostics.discrepancy.verdict import OUTPUT_GAP
 from sim.components.effects import EFFECTS
 
-__all__ = ["BASE", "base_change", "bench_drift", "drifted", "model_flow", "on_refitted", "refitted_pump",
-           "robust_ols", "stored_fit", "with_base"]
+__all__ = ["BASE", "base_change", "bench_drift", "combined", "drifted", "effect_flow",
+           "model_flow",
+           "on_refitted", "refitted_pump", "robust_ols", "stored_effects", "stored_fit",
+           "with_base"]
 
 Arr = npt.NDArray[np.float64]
 
 
+def stored_effects(values: Mapping[str, float]) -> dict[str, float]:
+    """The pump-outlet effects the stored rig already carries (effect → its coefficient
+    [SI]): part of the stored pump a bench table is checked against
+    (:func:`~diagnostics.discrepancy.balances.carried`)."""
+    return carried(values, "pump_flow")
+
+
+def effect_flow(s: Signals, coefs: Mapping[str, float]) -> Arr:
+    """Σ k·x_k over ``coefs`` (effect → coefficient) [m³/s] at the rows of ``s``."""
+    c = s.values
+    q = np.zeros_like(c["speed"], dtype=float)
+    for name, k in coefs.items():
+        q = q + k * np.asarray(EFFECTS[name].entry.regressor(c), dtype=float)
+    return q
+
+
 def model_flow(values: Mapping[str, float], s: Signals, coefs: Mapping[str, float],
                base: Mapping[str, float] | None = None) -> Arr:
-    """Flow of the stored pump plus effects ``coefs`` (effect → coefficient) [m³/s], with
-    the corrections ``base`` of its own parameters (:data:`BASE`: a laminar conductance
-    added to 1/Rlp [m³/(s·Pa)], a displacement taken off Vp [m³/rad]) where given."""
+    """Flow of the stored pump (its own slip and displacement and the effects it carries,
+    :func:`stored_effects`) plus effects ``coefs`` (effect → coefficient added) [m³/s],
+    with the corrections ``base`` of its own parameters (:data:`BASE`: a laminar
+    conductance added to 1/Rlp [m³/(s·Pa)], a displacement taken off Vp [m³/rad]) where
+    given."""
     c = s.values
     b = base or {}
     q = (c["speed"] * (c["Vp"] - b.get("pump.Vp", 0.0))
          - c["P_pump"] * (1.0 / values["pump.Rlp"] + b.get("pump.Rlp", 0.0)))
+    return np.asarray(q - effect_flow(s, combined(values, coefs)), dtype=float)
+
+
+def combined(values: Mapping[str, float], coefs: Mapping[str, float]) -> dict[str, float]:
+    """The stored effects' coefficients with ``coefs`` added (effect → coefficient [SI]):
+    what a rig augmented by ``coefs`` carries at the stored displacement."""
+    out = stored_effects(values)
     for name, k in coefs.items():
-        q = q - k * np.asarray(EFFECTS[name].entry.regressor(c), dtype=float)
-    return np.asarray(q, dtype=float)
+        out[name] = out.get(name, 0.0) + k
+    return out
 
 
 def robust_ols(X: Arr, y: Arr) -> tuple[Arr, Arr]:
@@ -89,7 +117,8 @@ def _residual_fit(values: Mapping[str, float], s: Signals, names: list[str]
     """OLS coefficients and White errors of the stored pump's flow residual on the base
     corrections (1/Rlp: column P, Vp: column ω) and the effects ``names`` [SI]."""
     c = s.values
-    r = c["speed"] * c["Vp"] - c["Q_meter_B"] - c["P_pump"] / values["pump.Rlp"]
+    r = (c["speed"] * c["Vp"] - c["Q_meter_B"] - c["P_pump"] / values["pump.Rlp"]
+         - effect_flow(s, stored_effects(values)))
     X = np.column_stack([c["P_pump"], c["speed"]]
                         + [EFFECTS[n].entry.regressor(c) for n in names])
     return robust_ols(X, r)

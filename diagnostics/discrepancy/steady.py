@@ -61,10 +61,13 @@ from diagnostics.discrepancy.pump_refit import (
     BASE,
     base_change,
     bench_drift,
+    combined,
     drifted,
+    effect_flow,
     model_flow,
     on_refitted,
     refitted_pump,
+    stored_effects,
     stored_fit,
     with_base,
 )
@@ -114,15 +117,17 @@ def _signals(bench: BenchData, rig: Rig, rows: npt.NDArray[np.int64]) -> Signals
 def _balance(s: Signals, values: Mapping[str, float], circuit: str
              ) -> tuple[BalanceData, list[str]]:
     """The pump-outlet balance on steady rows, with the library's entries that apply to
-    ``circuit``; candidates that need signals a steady table has not are listed as
-    skipped."""
+    ``circuit`` and that the rig does not carry already (those are part of the stored pump,
+    :func:`~diagnostics.discrepancy.balances.carried`); candidates that need signals a
+    steady table has not are listed as skipped."""
     c = s.values
-    y = c["speed"] * c["Vp"] - c["Q_meter_B"]
+    stored = stored_effects(values)
+    y = c["speed"] * c["Vp"] - c["Q_meter_B"] - effect_flow(s, stored)
     base = {"pump.Rlp": c["P_pump"], "pump.Vp": c["speed"]}
     cands: dict[str, Arr] = {}
     skipped: list[str] = []
     for e in effects_of("pump_flow"):
-        if not e.entry.applies_to(circuit):
+        if not e.entry.applies_to(circuit) or e.name in stored:
             continue
         try:
             cands[e.name] = np.asarray(e.entry.regressor(c), dtype=float)
@@ -237,6 +242,7 @@ def discover_steady(rig_document: Mapping[str, Any], bench: BenchData, *,
     fitted: dict[str, float] = {}
     refitted: dict[str, float] = {}
     rejected: list[str] = []
+    not_beating = ""
     gap_after: list[GapRow] = []
     # the stored pump's own laminar slip and displacement re-fitted alone (reported)
     _, _, alone = stored_fit(values, train, [])
@@ -250,8 +256,18 @@ def discover_steady(rig_document: Mapping[str, Any], bench: BenchData, *,
         valid = all(abs(coefs[n]) >= 2.576 * errs[n]
                     and EFFECTS[n].entry.sign * coefs[n] >= 0.0 for n in names) \
             and all(v > 0.0 for v in refitted_pump(values, base).values())
-        if valid and excess_ratio(gap_before, trial, sigma) >= CONFIRM_RATIO:
-            coefs, errs = on_refitted(values, base, train, coefs, errs)
+        # and, where the pump's own slip and displacement re-fitted alone leave a held-out
+        # gap above OUTPUT_GAP σ, shrinking that too (a warm-up slice of the ZeMA data named
+        # a viscous slip at 3.6 σ held out against 3.7 σ for the pump re-fitted alone, and
+        # stored it); where the re-fit alone already reaches the scatter, the held-out rows
+        # cannot tell the two apart and the in-sample significance decides
+        beats_alone = (gap_alone[0].rmse <= OUTPUT_GAP * sigma[FLOW]
+                       or excess_ratio(gap_alone, trial, sigma) >= CONFIRM_RATIO)
+        if valid and beats_alone and excess_ratio(gap_before, trial, sigma) >= CONFIRM_RATIO:
+            # the augmented rig carries every pump-outlet effect: those it had, with a
+            # named one's fitted increment added, restated for the re-fitted Vp
+            errs = {n: errs.get(n, 0.0) for n in combined(values, coefs)}
+            coefs, errs = on_refitted(values, base, train, combined(values, coefs), errs)
             fitted, refitted, gap_after = coefs, base, trial
             for t in sel.chosen.terms:
                 e = EFFECTS[t.effect]
@@ -267,6 +283,10 @@ def discover_steady(rig_document: Mapping[str, Any], bench: BenchData, *,
                     [g for g in sel.ambiguity if t.effect in g]))
         else:
             rejected = names
+            if valid and not beats_alone:
+                not_beating = (f"held out it leaves {trial[0].rmse / sigma[FLOW]:.1f} σ "
+                               f"against {gap_alone[0].rmse / sigma[FLOW]:.1f} σ for the "
+                               "pump re-fitted alone")
     report(0.9, "held-out check")
     lof_after = lack_of_fit(sel.residual, groups,
                             len(data.base) + len(fitted)) if named else None
@@ -316,7 +336,10 @@ def discover_steady(rig_document: Mapping[str, Any], bench: BenchData, *,
     if not named and off and outcome != "base drift":
         message += (f"; the pump's own parameters re-fitted alone ({base_change(values, alone)}) "
                     f"leave a held-out flow RMSE of {gap_alone[0].rmse / sigma[FLOW]:.1f} σ")
-    if rejected:
+    if rejected and not_beating:
+        message += (f"; not confirmed: {', '.join(rejected)} (no better than the pump's own "
+                    f"parameters re-fitted: {not_beating})")
+    elif rejected:
         message += ("; not confirmed (coefficient not significant or of the wrong sign, or the "
                     "re-fitted pump leaking negatively, or the held-out gap not shrinking): "
                     f"{', '.join(rejected)}")

@@ -69,3 +69,23 @@ def test_spool_leakage_at_4_sigma_is_named_with_its_size() -> None:
     n = d.named[0]
     assert n.equation_error == pytest.approx(K_4SIGMA, rel=0.2)
     assert n.value == pytest.approx(K_4SIGMA, rel=0.2)
+
+
+def test_a_rig_that_carries_the_spool_leak_is_checked_with_it() -> None:
+    # the rig an earlier discover augmented: its stored leak is part of the model the data
+    # are checked against, not a candidate to name again (the balances once left it out)
+    rig = load_rig(_doc(K_4SIGMA))
+    zero = dict.fromkeys(NOISE, 0.0)
+    data = {d.balance.name: d
+            for d in balance_data(prepare(_records(K_4SIGMA, 0, zero), rig), rig.values())}
+    valve = data["valve_flow"]
+    assert "turbulent_spool_leakage" not in valve.candidates
+    plain = {d.balance.name: d for d in balance_data(prepare(_records(K_4SIGMA, 0, zero),
+                                                             reference_rig()),
+                                                     reference_rig().values())}["valve_flow"]
+    # the target lost exactly the stored leak's term, K_t·√(P_P − PRvt)
+    x = plain.candidates["turbulent_spool_leakage"]
+    assert np.allclose(valve.y, plain.y - K_4SIGMA * x, rtol=0.0,
+                       atol=1e-9 * float(np.max(np.abs(plain.y))))
+    d = discover(_doc(K_4SIGMA), _records(K_4SIGMA, 7), bootstrap=10)
+    assert not d.named and d.verdict == "no effect", d.message

@@ -158,7 +158,7 @@ def test_the_augmented_rig_delivers_the_fitted_flow_when_the_stored_pump_is_off(
     assert pump["Vp"]["value"] == pytest.approx(1.15 * reference_rig_document()[
         "components"]["pump"]["parameters"]["Vp"]["value"], rel=1e-4)
     # the augmented rig, read back from its document, gives every row's flow
-    q = predict_flow(d.rig_document, clean, {effect: k})
+    q = predict_flow(d.rig_document, clean)  # the document carries the effect
     assert np.max(np.abs(q - clean.q)) < 1e-3 * NOISE["Q_meter_B"]
 
 
@@ -253,3 +253,45 @@ def test_robust_ols_keeps_the_errors_of_columns_of_very_different_size() -> None
     assert coef == pytest.approx(ref.params * 1e-6 / scale, rel=1e-6)
     assert se == pytest.approx(ref.bse * 1e-6 / scale, rel=1e-6)
     assert np.all(se > 0)
+
+
+def test_a_rig_that_carries_a_pump_effect_is_checked_with_it() -> None:
+    # a rig augmented by an earlier discover (viscous slip stored) checked against a table
+    # of the same pump: nothing is missing.  The stored effect was left out of the stored
+    # pump, so the same table read 19.8 σ off and named the effect again (s41 pass)
+    from diagnostics.discrepancy.refit import with_effects
+
+    doc = with_effects(reference_rig_document(), {"viscous_pump_slip.C_s": 1e-8})
+    clean = synthesize_bench(reference_rig(), rng=np.random.default_rng(0),
+                             effects={"viscous_pump_slip": 1e-8}, sigma_q=0.0, sigma_p=0.0)
+    assert np.allclose(predict_flow(doc, clean), clean.q, rtol=1e-12, atol=0.0)
+    for seed in range(3):
+        bench = synthesize_bench(reference_rig(), rng=np.random.default_rng(seed),
+                                 effects={"viscous_pump_slip": 1e-8})
+        d = discover_steady(doc, bench, bootstrap=0)
+        assert d.verdict == "no effect", d.message
+        assert d.gap_before[0].rmse < 1.5 * NOISE["Q_meter_B"]
+
+
+def test_a_new_effect_on_an_augmented_rig_is_stored_beside_the_one_it_had() -> None:
+    from diagnostics.discrepancy.refit import with_effects
+
+    doc = with_effects(reference_rig_document(), {"viscous_pump_slip.C_s": 1e-8})
+    bench = synthesize_bench(reference_rig(), rng=np.random.default_rng(1),
+                             effects={"viscous_pump_slip": 1e-8, "turbulent_pump_slip": 3e-9})
+    d = discover_steady(doc, bench, bootstrap=0)
+    assert d.verdict == "named" and [n.name for n in d.named] == ["turbulent_pump_slip"], \
+        d.message
+    effects = d.rig_document["effects"]
+    assert set(effects) == {"viscous_pump_slip", "turbulent_pump_slip"}
+    # the stored slip is kept (restated for the re-fitted displacement, within 1 %) and
+    # the new one is near its truth; the augmented rig delivers the table's flow
+    assert effects["viscous_pump_slip"]["parameters"]["C_s"]["value"] == pytest.approx(
+        1e-8, rel=0.01)
+    half = (d.named[0].interval[1] - d.named[0].interval[0]) / 2
+    assert abs(d.named[0].value - 3e-9) <= 3 * half / 1.96
+    clean = synthesize_bench(reference_rig(), rng=np.random.default_rng(1),
+                             effects={"viscous_pump_slip": 1e-8, "turbulent_pump_slip": 3e-9},
+                             sigma_q=0.0, sigma_p=0.0)
+    assert np.sqrt(np.mean((predict_flow(d.rig_document, clean) - clean.q) ** 2)) \
+        < NOISE["Q_meter_B"]
