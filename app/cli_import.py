@@ -25,7 +25,7 @@ from app.cli_support import (
 )
 from app.schemas.common import MAX_ID
 from diagnostics.real.relaxation import MAX_RELAXATION, ZEMA_RELAXATION
-from sim.errors import InputError
+from sim.errors import CircuitError, InputError
 
 if TYPE_CHECKING:
     from sqlalchemy.orm import Session
@@ -179,14 +179,27 @@ def import_zema(
 
 
 def _pump_speed(session: Session, rig_id: int) -> float:
-    """The stored rig's pump shaft speed [rad/s] (what the bench table records)."""
+    """The stored rig's pump shaft speed [rad/s] (what the bench table records), once the
+    rig is checked to be of the ZeMA circuit (:data:`diagnostics.real.zema.CIRCUIT`).
+
+    Raises
+    ------
+    CircuitError
+        A rig of another circuit (``field="--rig"``): ZeMA cycles stored on the paper-002
+        rig, and a bench table written at its 1600 rpm, were once accepted silently.
+    """
     from app.services.rigs import get_rig, latest_version
     from diagnostics.real.profile import stated_pump_speed
+    from diagnostics.real.zema import CIRCUIT
     from sim.rigs import load_rig
 
-    values = load_rig(latest_version(session, get_rig(session, rig_id, field="--rig"))
-                      .document).values()
-    return stated_pump_speed(values, field="--rig")
+    rig = load_rig(latest_version(session, get_rig(session, rig_id, field="--rig")).document)
+    if rig.circuit.name != CIRCUIT:
+        raise CircuitError(
+            f"ZeMA cycles belong to a rig of the {CIRCUIT!r} circuit; rig {rig_id} "
+            f"({rig.spec.name!r}) is a {rig.circuit.name!r} circuit (register the ZeMA rig: "
+            "hydrodiag rigs add sim/rigs/zema.yaml, and give its id)", field="--rig")
+    return stated_pump_speed(rig.values(), field="--rig")
 
 
 def _write_bench(records: list[SeriesRecord], speed: float, relaxation: float, path: Path,

@@ -54,8 +54,10 @@ def _tables(file: Path, theta: float) -> list[tuple[float, bytes, int, int]]:
         part = data.subset(label == i)
         speeds = cluster_levels(part.omega, field="Speed")[1].size
         cm3 = float(level) * CM3_REV
+        drain = ("; its case-drain flow QDr is not carried (the bench format has none: q is "
+                 "the delivered flow QOut)" if part.q_drain is not None else "")
         head = (f"# efficiency map {file.name}, displacement setting {cm3:.1f} cm3/rev; "
-                f"oil temperature {theta:g} degC assumed (the map records none)\n")
+                f"oil temperature {theta:g} degC assumed (the map records none){drain}\n")
         body = bench_frame(part, theta).to_csv(index=False)
         out.append((cm3, (head + body).encode(), len(part), speeds))
     return out

@@ -202,6 +202,13 @@ def _groups(request: DiagnoseRequest) -> list[list[tuple[str, MeasurementIn]]]:
     return [items]
 
 
+def _diagnosable(resolved: ResolvedRig, path: str) -> None:
+    try:
+        resolved.rig.require_cycle("a diagnosis")
+    except InputError as exc:
+        raise type(exc)(exc.message, field=f"{path}.rig_id") from None
+
+
 def joint_rig(session: Session, rigs: RigCache, rig_id: int,
               versions: Sequence[tuple[str, int | None]]) -> ResolvedRig:
     """The rig version of a group of records (``versions``: each record's path and stated
@@ -210,18 +217,25 @@ def joint_rig(session: Session, rigs: RigCache, rig_id: int,
     record (it means another version); one stating version 1 beside one stating none, both
     meaning version 1, was refused before.
 
+    A rig that cannot be diagnosed at all (no cylinder cycle) says so here, before its
+    records are read: a ZeMA rig's record was first asked for a load force it has not.
+
     Raises
     ------
-    NotFoundError, InputError
-        An unknown rig or version; a record meaning another version.
+    NotFoundError, CircuitError, InputError
+        An unknown rig or version; a rig without a cylinder cycle; a record meaning
+        another version.
     """
     path0 = versions[0][0]
     stated = next(((p, v) for p, v in versions if v is not None), None)
     if stated is None:
-        return rigs.get(session, rig_id, None, rig_field=f"{path0}.rig_id",
-                        version_field=f"{path0}.rig_version")
+        resolved = rigs.get(session, rig_id, None, rig_field=f"{path0}.rig_id",
+                            version_field=f"{path0}.rig_version")
+        _diagnosable(resolved, path0)
+        return resolved
     resolved = rigs.get(session, rig_id, stated[1], rig_field=f"{path0}.rig_id",
                         version_field=f"{stated[0]}.rig_version")
+    _diagnosable(resolved, path0)
     unstated = [p for p, v in versions if v is None]
     if unstated:
         latest = rigs.get(session, rig_id, None, rig_field=f"{path0}.rig_id").version

@@ -44,6 +44,9 @@ _NAMES = {"p_in": "p_in", "p_out": "p_out", "n": "n", "omega": "n", "theta": "th
           "q": "q", "T": "T", "replicate": "replicate"}
 _TORQUE = {"N*m": 1.0, "N m": 1.0, "Nm": 1.0, "N·m": 1.0, "kN*m": 1e3}
 _REQUIRED = ("p_in", "p_out", "n", "theta", "q")
+#: the columns of an efficiency map (:func:`diagnostics.pump.piston.read_efficiency_map`),
+#: named in the error when such a file is given as a bench table
+MAP_LAYOUT = frozenset({"Speed", "Deltap", "QOut", "Displacement"})
 
 
 def _factor(quantity: str, unit: str, column: str) -> tuple[float, float]:
@@ -105,7 +108,13 @@ def bench_from_frame(frame: pd.DataFrame, *, simulated: bool = False,
         found[quantity] = (str(col), scale, offset)
     for req in _REQUIRED:
         if req not in found:
-            raise InputError(f"missing column {req!r} (with its unit in brackets)", field=req)
+            names = {str(c).strip() for c in frame.columns}
+            hint = ("; this is an efficiency map in the V32HL56 layout (Speed, Deltap, QOut, "
+                    "Displacement): 'hydrodiag calibrate pump-map FILE' reads it, and its "
+                    "--bench-dir writes each displacement setting as a bench CSV"
+                    if names >= MAP_LAYOUT else "")
+            raise InputError(f"missing column {req!r} (with its unit in brackets){hint}",
+                             field=req)
 
     def get(quantity: str) -> np.ndarray:
         col, scale, offset = found[quantity]

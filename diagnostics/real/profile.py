@@ -154,7 +154,9 @@ def plateau_table(records: Sequence[SeriesRecord], *, plateaus: int = 5,
     ------
     InputError
         ``plateaus`` < 1, ``precharge`` not one finite value per record
-        (``field="precharge"``), or a record without a working plateau (``field=pressure``).
+        (``field="precharge"``), a record without a working plateau (``field=pressure``),
+        or without its oil temperature, neither a channel nor a stated condition
+        (``field=temperature``).
     """
     if plateaus < 1:
         raise InputError(f"plateaus must be ≥ 1, got {plateaus}", field="plateaus")
@@ -168,8 +170,14 @@ def plateau_table(records: Sequence[SeriesRecord], *, plateaus: int = 5,
     im = None if pre is None else np.full((n, plateaus), math.nan)
     for i, r in enumerate(records):
         p, q = r.channel(pressure), r.channel(flow)
-        temp = (r.channel(temperature) if temperature in r.channels
-                else np.full(p.size, r.condition.get("oil_temperature", math.nan)))
+        if temperature in r.channels:
+            temp = r.channel(temperature)
+        elif math.isfinite(r.condition.get("oil_temperature", math.nan)):
+            temp = np.full(p.size, r.condition["oil_temperature"])
+        else:  # it was a NaN that the bench table refused as "theta: row 0"
+            raise InputError(f"record {r.name!r} has no channel {temperature!r} and states no "
+                             "oil temperature (a constant 'oil_temperature [degC]' column): "
+                             "the plateaus need the oil temperature", field=temperature)
         means = [(a, b, float(q[a:b].mean())) for a, b in record_plateaus(r, pressure=pressure)]
         top = max((m for *_, m in means), default=0.0)
         kept: list[tuple[int, int]] = []

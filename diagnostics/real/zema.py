@@ -43,7 +43,7 @@ import pandas as pd
 from diagnostics.timeseries import SeriesRecord, series_from_frame
 from sim.errors import InputError
 
-__all__ = ["COLUMN_MAP", "DEFAULT_SENSORS", "FULLRES_CYCLES", "NATIVE_RATES",
+__all__ = ["CIRCUIT", "COLUMN_MAP", "DEFAULT_SENSORS", "FULLRES_CYCLES", "NATIVE_RATES",
            "OTHER_TEMPERATURES", "SENSOR_FILES", "ZemaCycles",
            "ZemaLabels", "cycles_frame", "find_shared", "load_1hz", "read_fullres",
            "read_records", "zema_root"]
@@ -77,6 +77,10 @@ SENSOR_FILES: dict[str, str] = {
     "TS3": "TS3.txt",
     "TS4": "TS4.txt",
 }
+
+#: The circuit of the rig the cycles belong to (``sim/rigs/zema.yaml``): pump, relief,
+#: the working line's orifice and accumulator; its records carry the channels above.
+CIRCUIT = "pump-relief-orifice"
 
 #: Sensors read by default: the working circuit's pressures, flow, motor power, TS1.
 DEFAULT_SENSORS: tuple[str, ...] = ("PS1", "PS2", "FS1", "EPS1", "TS1")

@@ -57,6 +57,12 @@ def test_what_needs_a_cylinder_cycle_is_a_clear_422_and_stores_nothing(
                                 headers=server.auth), "a sweep")
     _refused(server.client.post("/diagnose", json={"record": RECORD | {"rig_id": rig_id}},
                                 headers=server.auth), "a diagnosis")
+    # said before the record is read: without a load force (this rig has none) it asked
+    # for one first
+    bare = {"rig_id": rig_id, "condition": {"oil_temperature": 54.3},
+            "pump_pressure": 14.6e6}
+    _refused(server.client.post("/diagnose", json={"record": bare}, headers=server.auth),
+             "a diagnosis")
     _refused(server.client.post(f"/rigs/{rig_id}/commission",
                                 json={"records": [RECORD | {"rig_id": rig_id}]},
                                 headers=server.auth), "commissioning")

@@ -191,7 +191,15 @@ def test_import_zema_cycles_and_a_series_file(runner: CliRunner, tmp_path: Path)
     from app.db.models import MeasuredSeries
 
     root = zema_slice()
-    result = runner.invoke(cli, ["import", "zema", "--rig", "1", "--root", str(root),
+    # ZeMA cycles onto the paper-002 rig: refused, naming the rig option (they were stored,
+    # and a bench table written at that rig's 1600 rpm)
+    wrong = runner.invoke(cli, ["import", "zema", "--rig", "1", "--root", str(root),
+                                "--first", "2", "--last", "5"])
+    assert wrong.exit_code != 0 and getattr(wrong.exception, "field", None) == "--rig"
+    assert "'pump-relief-orifice'" in str(wrong.exception)
+    assert store_count(MeasuredSeries) == 0
+    assert runner.invoke(cli, ["rigs", "add", str(ZEMA_RIG)]).exit_code == 0
+    result = runner.invoke(cli, ["import", "zema", "--rig", "2", "--root", str(root),
                                  "--first", "2", "--last", "5"])
     assert result.exit_code == 0, result.output
     assert "4 ZeMA cycles stored" in result.stdout and store_count(MeasuredSeries) == 4

@@ -97,6 +97,21 @@ def test_missing_file_is_an_input_error(tmp_path: Path) -> None:
     assert e.value.field == "path"
 
 
+def test_an_efficiency_map_given_as_a_bench_table_is_pointed_to_its_reader(
+        tmp_path: Path) -> None:
+    path = tmp_path / "map.csv"
+    path.write_text("SpeedTheo,Speed,Torque,pLow,pHigh,Deltap,QOut,QDr,Displacement\n"
+                    "500,500,22,0.1013,5.01,4.9087,10.8,1.83,23.3\n")
+    with pytest.raises(InputError, match="hydrodiag calibrate pump-map FILE") as e:
+        read_bench_csv(path)
+    assert e.value.field == "p_in"
+    other = tmp_path / "other.csv"
+    other.write_text("p_out [Pa],n [rev/s],theta [degC],q [m^3/s]\n1e6,25,40,1e-4\n")
+    with pytest.raises(InputError) as e:
+        read_bench_csv(other)
+    assert "pump-map" not in str(e.value)
+
+
 @pytest.mark.parametrize("text", ['"', 'p_in [Pa],p_out [Pa]\n"1,2\n', "# only provenance\n\n"])
 def test_a_file_that_is_not_a_csv_table_is_an_input_error(tmp_path, text):
     # found by the fuzzer: a file holding one double quote answered 500 through the upload

@@ -49,6 +49,15 @@ def test_plateau_table_numbers_the_working_plateaus_up_to_the_relief() -> None:
         plateau_table([on], plateaus=0)
     with pytest.raises(InputError):
         plateau_table([_record("dead", [190.0, 189.0], [0.0, 0.0], 40.0)])
+    # a record without its oil temperature is named as such (it was a NaN that the bench
+    # table refused as "theta: value is NaN (row 0)"); a stated condition stands in for it
+    bare = _record("bare", [190.0, 146.0], [0.0, 7.9], 40.0)
+    del bare.channels["oil_temperature"]
+    with pytest.raises(InputError, match="'bare' has no channel 'oil_temperature'") as exc:
+        plateau_table([bare])
+    assert exc.value.field == "oil_temperature"
+    bare.condition["oil_temperature"] = 47.0
+    assert plateau_table([bare]).theta == pytest.approx([47.0])
 
 
 def test_a_plateau_table_is_a_bench_table_row_by_plateau() -> None:
