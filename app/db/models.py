@@ -291,6 +291,11 @@ class Job(Base):
     #: when a cancel was asked of the job while it ran (it stops at its next progress
     #: report, :class:`app.services.jobs.Progress`)
     cancel_requested_at: Mapped[datetime | None] = mapped_column(UTCDateTime())
+    #: the process running the job (host:pid:token of its :class:`app.services.jobs.JobRunner`)
+    #: and until when it holds the job: it renews the lease while the job is queued or
+    #: running; another process fails the job only once the lease has run out (revision 0009)
+    owner: Mapped[str | None] = mapped_column(String(64))
+    lease_until: Mapped[datetime | None] = mapped_column(UTCDateTime())
 
 
 class ApiKey(Base):

@@ -52,6 +52,14 @@ class JobPublic(PublicModel):
         description="When a cancel was asked of the job while it ran; it stops at its next "
         "progress report [UTC]", examples=[None]
     )
+    owner: str | None = Field(
+        default=None, description="The server process that runs the job, "
+        "host:pid:token [-] (none for jobs stored before revision 0009)",
+        examples=["hd-1:4711:9f3c2a1b"])
+    lease_until: datetime | None = Field(
+        default=None, description="Until when that process holds the job; it renews the "
+        "lease while the job is queued or running, and a job whose lease ran out is marked "
+        "failed by any process of the store [UTC]", examples=["2026-11-22T08:31:01Z"])
 
 
 class JobList(Page[JobPublic]):

@@ -21,18 +21,31 @@ the store, which every server process shares — and stops at its next progress 
 after the last look), where :class:`Progress` raises :class:`JobCancelledError` (a job
 function that fans work out cancels what has not started on its way out).  A job that
 finishes before it looks keeps its result.
+
+Each job is owned by the :class:`JobRunner` (one per server process) that runs it and held
+by a lease (``owner``, ``lease_until``) that the runner renews every :data:`RENEW_S` while
+the job is queued or running.  A job whose lease has run out (its process stopped or was
+killed) is marked failed by :func:`fail_interrupted_jobs`, which every runner calls at its
+start and with each renewal: within :data:`LEASE_S` of the stop when another process
+serves the store, or when the service starts again.  Until revision 0009 a starting
+process failed every unfinished job of the store, so a second instance on one database
+failed the jobs of the first while they ran and threw away their results.
 """
 
 from __future__ import annotations
 
 import logging
+import os
+import socket
+import threading
 import time
 import uuid
+from datetime import timedelta
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
 from typing import Any
 
-from sqlalchemy import select, update
+from sqlalchemy import or_, select, update
 from sqlalchemy.orm import Session
 
 from app.db.base import utcnow
@@ -42,8 +55,8 @@ from app.schemas.jobs import JobStatus
 from app.services.common import get_or_raise, paginate
 from sim.errors import ConflictError, HydrodiagError
 
-__all__ = ["JobCancelledError", "JobFunction", "JobRunner", "Progress", "cancel_job",
-           "fail_interrupted_jobs", "get_job", "list_jobs"]
+__all__ = ["LEASE_S", "RENEW_S", "JobCancelledError", "JobFunction", "JobRunner", "Progress",
+           "cancel_job", "fail_interrupted_jobs", "get_job", "list_jobs"]
 
 logger = logging.getLogger("hydrodiag.jobs")
 
@@ -51,6 +64,10 @@ logger = logging.getLogger("hydrodiag.jobs")
 PROGRESS_STEP = 0.01
 #: Longest time between two looks for a cancel while a job reports [s].
 CANCEL_LOOK_S = 0.5
+#: How long a job's lease lasts after its runner last renewed it [s].
+LEASE_S = 60.0
+#: How often a runner renews the leases of its jobs (and fails those whose lease ran out) [s].
+RENEW_S = 15.0
 
 
 class JobCancelledError(Exception):
@@ -121,9 +138,38 @@ class JobRunner:
         Number of jobs that run at the same time.
     """
 
-    def __init__(self, sessions: SessionFactory, *, workers: int) -> None:
+    def __init__(self, sessions: SessionFactory, *, workers: int,
+                 renew_s: float = RENEW_S) -> None:
         self._sessions = sessions
         self._executor = ThreadPoolExecutor(max_workers=workers, thread_name_prefix="job")
+        #: who runs this runner's jobs: host, process and a token (a respawned worker may
+        #: reuse a pid)
+        self.owner = f"{socket.gethostname()[:32]}:{os.getpid()}:{uuid.uuid4().hex[:8]}"
+        self._stop = threading.Event()
+        self._renewer = threading.Thread(target=self._renew_loop, args=(renew_s,),
+                                         name="job-leases", daemon=True)
+        self._renewer.start()
+
+    def renew(self) -> int:
+        """Extend the lease of this runner's queued and running jobs by :data:`LEASE_S`
+        and fail the jobs of the store whose lease ran out; return how many were failed."""
+        with self._sessions() as session:
+            session.execute(
+                update(Job)
+                .where(Job.owner == self.owner, Job.status.in_(("queued", "running")))
+                .values(lease_until=utcnow() + timedelta(seconds=LEASE_S)))
+            session.commit()
+            return fail_interrupted_jobs(session)
+
+    def _renew_loop(self, every: float) -> None:
+        while not self._stop.wait(every):
+            try:
+                failed = self.renew()
+            except Exception as exc:  # the store unreachable for a while: try again
+                logger.warning("could not renew the job leases: %s", type(exc).__name__)
+                continue
+            if failed:
+                logger.warning("%d job(s) whose process stopped marked failed", failed)
 
     def submit(self, kind: str, params: Mapping[str, Any], function: JobFunction) -> Job:
         """Store a queued job and schedule ``function(params, progress)``.
@@ -135,7 +181,8 @@ class JobRunner:
         """
         job = Job(
             id=str(uuid.uuid4()), kind=kind, status="queued", progress=0.0,
-            params=dict(params),
+            params=dict(params), owner=self.owner,
+            lease_until=utcnow() + timedelta(seconds=LEASE_S),
         )
         with self._sessions() as session:
             session.add(job)
@@ -174,8 +221,10 @@ class JobRunner:
                   finished_at=utcnow())
 
     def shutdown(self, *, wait: bool = True) -> None:
-        """Stop taking jobs; with ``wait``, let the running ones finish."""
+        """Stop taking jobs; with ``wait``, let the running ones finish (their leases
+        renewed meanwhile)."""
         self._executor.shutdown(wait=wait, cancel_futures=True)
+        self._stop.set()
 
 
 def _log_crash(future: Future[None]) -> None:
@@ -242,23 +291,26 @@ def list_jobs(
 
 
 def fail_interrupted_jobs(session: Session) -> int:
-    """Mark jobs left queued or running by a stopped service as failed (those asked to
-    stop as cancelled); return how many."""
+    """Mark jobs left queued or running by a stopped process as failed (those asked to
+    stop as cancelled): those whose lease ran out, or that have none (stored before
+    revision 0009); return how many.  A job another live process runs keeps its lease."""
     now = utcnow()
+    lapsed = or_(Job.lease_until.is_(None), Job.lease_until < now)
     cancelled = session.execute(
         update(Job)
-        .where(Job.status == "running", Job.cancel_requested_at.is_not(None))
+        .where(Job.status == "running", Job.cancel_requested_at.is_not(None), lapsed)
         .values(status="cancelled", finished_at=now, updated_at=now, error=_CANCELLED)
     )
     result = session.execute(
         update(Job)
-        .where(Job.status.in_(("queued", "running")))
+        .where(Job.status.in_(("queued", "running")), lapsed)
         .values(
             status="failed",
             finished_at=now,
             updated_at=now,
             error={"type": "ServiceUnavailableError",
-                   "message": "the service stopped before the job finished; start it again",
+                   "message": "the process running the job stopped before it finished "
+                              "(its lease ran out); submit it again",
                    "field": None},
         )
     )
