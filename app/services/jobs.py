@@ -40,9 +40,9 @@ import socket
 import threading
 import time
 import uuid
-from datetime import timedelta
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
+from datetime import timedelta
 from typing import Any
 
 from sqlalchemy import or_, select, update
