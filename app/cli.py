@@ -72,7 +72,12 @@ def serve(
     from app.logs import configure_logging
     from app.main import create_app
     from app.nodelay import NoDelayHttpToolsProtocol
-    from app.services.bootstrap import ensure_first_key, ensure_reference_data, upgrade_database
+    from app.services.bootstrap import (
+        bootstrap_lock,
+        ensure_first_key,
+        ensure_reference_data,
+        upgrade_database,
+    )
     from app.services.throttle_estimator import ThrottleClearanceEstimator
 
     settings = _settings(host=host, port=port)
@@ -80,7 +85,7 @@ def serve(
     estimator = ThrottleClearanceEstimator()
     engine = _engine(settings)
     sessions = make_session_factory(engine)
-    with _steps() as progress:
+    with _steps() as progress, bootstrap_lock(engine):  # one replica at a time
         task = progress.add_task("migrating the store", total=3)
         revision = upgrade_database(engine)
         progress.update(task, advance=1, description="preloading the reference rig")

@@ -47,10 +47,11 @@ def settings_from_env(**overrides: object) -> Settings:
 
 def migrated_engine() -> Engine:
     """Engine of the configured store, migrated to the newest revision first."""
-    from app.services.bootstrap import upgrade_database
+    from app.services.bootstrap import bootstrap_lock, upgrade_database
 
     engine = make_engine(settings_from_env().url)
-    upgrade_database(engine)
+    with bootstrap_lock(engine):
+        upgrade_database(engine)
     return engine
 
 
@@ -58,13 +59,14 @@ def migrated_engine() -> Engine:
 def store_session() -> Iterator[Session]:
     """A session of the configured store, migrated and with the reference rig and tables
     preloaded as ``serve`` does; the engine is disposed after."""
-    from app.services.bootstrap import ensure_reference_data
+    from app.services.bootstrap import bootstrap_lock, ensure_reference_data
     from app.services.throttle_estimator import ThrottleClearanceEstimator
 
     engine = migrated_engine()
     try:
         with make_session_factory(engine)() as session:
-            ensure_reference_data(session, estimator=ThrottleClearanceEstimator())
+            with bootstrap_lock(engine):
+                ensure_reference_data(session, estimator=ThrottleClearanceEstimator())
             yield session
     finally:
         engine.dispose()

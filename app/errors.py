@@ -19,9 +19,15 @@ class                          status  when
 ``RateLimitError``             429     the key's requests per minute are spent
 ``InputError`` and subclasses  422     invalid input, names the field
 ``SimulationError``            500     the solver failed
-``ServiceUnavailableError``    503     the database is unreachable or not migrated
+``ServiceUnavailableError``    503     the database is unreachable or not migrated (an
+                                       ``OperationalError`` of the driver too, with
+                                       ``Retry-After``: nothing of the request stored)
 ``ServiceBusyError``           503     too many diagnoses queued (with ``Retry-After``)
 =============================  ======  =======================================
+
+Any other exception is a 500 ``InternalError`` whose body names the ``request_id`` under
+which the service log holds its traceback (:class:`CatchAllMiddleware`: once only, and as a
+JSON line where the log is JSON).
 
 Request validation by pydantic is reported as ``InputError`` with the same body; the first
 problem is in ``field``/``message`` and all of them are listed in ``details``.  A body that
@@ -40,9 +46,11 @@ from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
 from fastapi.routing import iter_route_contexts
+from sqlalchemy.exc import InterfaceError, OperationalError
 from sqlalchemy.orm.exc import StaleDataError
 from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.routing import Match
+from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from app.logs import request_id_of
 from sim.errors import (
@@ -55,6 +63,7 @@ from sim.errors import (
 )
 
 __all__ = [
+    "CatchAllMiddleware",
     "PayloadTooLargeError",
     "RateLimitError",
     "ScopeError",
@@ -170,7 +179,9 @@ def error_response(
 async def _hydrodiag_error(request: Request, exc: Exception) -> JSONResponse:
     assert isinstance(exc, HydrodiagError)
     status = status_for(exc)
-    if status >= 500:
+    if status == 503:  # expected while starting or under load: /ready probes hit it often
+        logger.warning("%s: %s", type(exc).__name__, exc)
+    elif status >= 500:
         logger.error("%s: %s", type(exc).__name__, exc)
     headers = {"WWW-Authenticate": "APIKey"} if status == 401 else None
     if isinstance(exc, RateLimitError | ServiceBusyError):
@@ -265,11 +276,65 @@ async def _stale_row(request: Request, exc: Exception) -> JSONResponse:
                           request=request)
 
 
-async def _unexpected_error(request: Request, exc: Exception) -> JSONResponse:
-    logger.exception("unexpected error", exc_info=exc)
+#: seconds a client is asked to wait when the database did not answer
+DATABASE_RETRY_S = 5
+
+
+async def _database_unavailable(request: Request, exc: Exception) -> JSONResponse:
+    # the driver lost the database (stopped, restarting, unreachable): the transaction was
+    # not committed, so a retry is safe — a 500 told clients and balancers it was a bug
+    logger.warning("database unavailable: %s", type(exc).__name__,
+                   extra={"request_id": request_id_of(request.scope)})
+    return error_response(503, ServiceUnavailableError.__name__,
+                          f"the database did not answer ({type(exc).__name__}); nothing of "
+                          "this request was stored: retry shortly",
+                          headers={"Retry-After": str(DATABASE_RETRY_S)}, request=request)
+
+
+def _internal_error(request: Request, exc: BaseException) -> JSONResponse:
+    logger.error("unexpected error", exc_info=exc,
+                 extra={"request_id": request_id_of(request.scope)})
     return error_response(500, "InternalError",
                           "internal error; see the service log under this request_id",
                           request=request)
+
+
+async def _unexpected_error(request: Request, exc: Exception) -> JSONResponse:
+    return _internal_error(request, exc)
+
+
+class CatchAllMiddleware:
+    """Answer an unexpected exception with the 500 body inside the middleware stack.
+
+    Starlette sends the ``Exception`` handler's answer from its outermost middleware and
+    then re-raises, so uvicorn logged every traceback a second time, as plain text in a
+    JSON log, and the handler's own line had no ``request_id`` (the request's context was
+    gone by then).  Added first, this middleware sits inside the request log and metrics
+    middlewares: the line carries the id and the exception goes no further.  An exception
+    after the response started is re-raised (the connection is broken off).
+    """
+
+    def __init__(self, app: ASGIApp) -> None:
+        self.app = app
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] != "http":
+            await self.app(scope, receive, send)
+            return
+        started = False
+
+        async def watch(message: Message) -> None:
+            nonlocal started
+            if message["type"] == "http.response.start":
+                started = True
+            await send(message)
+
+        try:
+            await self.app(scope, receive, watch)
+        except Exception as exc:
+            if started:
+                raise
+            await _internal_error(Request(scope), exc)(scope, receive, send)
 
 
 def install_error_handlers(app: FastAPI) -> None:
@@ -279,4 +344,6 @@ def install_error_handlers(app: FastAPI) -> None:
     app.add_exception_handler(StarletteHTTPException, _http_error)
     app.add_exception_handler(OverflowError, _overflow_error)
     app.add_exception_handler(StaleDataError, _stale_row)
+    app.add_exception_handler(OperationalError, _database_unavailable)
+    app.add_exception_handler(InterfaceError, _database_unavailable)
     app.add_exception_handler(Exception, _unexpected_error)

@@ -164,7 +164,7 @@ class JsonFormatter(logging.Formatter):
 class _TextFormatter(logging.Formatter):
     def format(self, record: logging.LogRecord) -> str:
         line = super().format(record)
-        request_id = current_request_id()
+        request_id = getattr(record, "request_id", None) or current_request_id()
         if request_id is not None and "request_id=" not in line:
             line = f"{line} request_id={request_id}"
         return line

@@ -25,14 +25,14 @@ from app.api.deps import OPEN_READ_ACCESS, SCOPE_OF
 from app.api.router import api_router
 from app.console import router as console_router
 from app.db.engine import make_engine, make_session_factory
-from app.errors import install_error_handlers
+from app.errors import CatchAllMiddleware, install_error_handlers
 from app.lifeline import exit_with_parent
 from app.limits import BodyLimitMiddleware
 from app.logs import RequestLogMiddleware, configure_logging
 from app.metrics import HttpMetrics, MetricsMiddleware
 from app.ratelimit import KeyRateLimiter
 from app.security import Scope
-from app.services.bootstrap import ensure_reference_data, upgrade_database
+from app.services.bootstrap import bootstrap_lock, ensure_reference_data, upgrade_database
 from app.services.clearance import ClearanceEstimator
 from app.services.diagnosis_pool import DiagnosisPool
 from app.services.executors import SweepExecutors
@@ -158,9 +158,10 @@ def create_app(
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         if prepare_store:
-            upgrade_database(engine)
-            with sessions() as session:
-                ensure_reference_data(session, estimator=clearance_estimator)
+            with bootstrap_lock(engine):
+                upgrade_database(engine)
+                with sessions() as session:
+                    ensure_reference_data(session, estimator=clearance_estimator)
         with sessions() as session:
             interrupted = fail_interrupted_jobs(session)
         if interrupted:
@@ -201,6 +202,7 @@ def create_app(
                                                dask_scheduler=settings.dask_scheduler)
     app.state.rate_limiter = (KeyRateLimiter(settings.rate_limit_per_minute)
                               if settings.rate_limit_per_minute else None)
+    app.add_middleware(CatchAllMiddleware)  # innermost: a 500 logged once, with its id
     app.add_middleware(BodyLimitMiddleware, limit=settings.max_body_bytes,
                        upload_limit=settings.max_upload_bytes)
     app.add_middleware(MetricsMiddleware, metrics=app.state.metrics)

@@ -3,9 +3,12 @@
 from __future__ import annotations
 
 import logging
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
+from pathlib import Path
 
-from sqlalchemy import Engine, select
+from sqlalchemy import Engine, select, text
 from sqlalchemy.orm import Session
 
 from app.db import migrate
@@ -19,8 +22,8 @@ from app.services.rigs import create_rig, find_rig
 from sim.errors import InputError
 from sim.rigs import reference_rig_document
 
-__all__ = ["LOCAL_KEY_NAME", "Preloaded", "ensure_first_key", "ensure_reference_data",
-           "upgrade_database"]
+__all__ = ["LOCAL_KEY_NAME", "Preloaded", "bootstrap_lock", "ensure_first_key",
+           "ensure_reference_data", "upgrade_database"]
 
 logger = logging.getLogger("hydrodiag.app")
 
@@ -34,6 +37,48 @@ class Preloaded:
 
     rig_created: bool
     calibrations_created: int
+
+
+#: PostgreSQL advisory-lock key of the bootstrap (any constant; "hydrodiag" in ASCII, cut)
+_LOCK_KEY = 0x687964726F646961
+
+
+@contextmanager
+def bootstrap_lock(engine: Engine) -> Iterator[None]:
+    """Hold the store's bootstrap lock for the block: one process at a time migrates,
+    preloads and makes the first key.
+
+    Two replicas started together on an empty PostgreSQL database both preloaded the
+    reference rig, and the slower one exited with "ConflictError: throttle: a table for
+    this throttle and condition exists" (an operator pass).  On PostgreSQL this is a
+    session advisory lock on its own connection; on an SQLite file an exclusive
+    ``flock`` of ``<database>.bootstrap-lock`` beside it; an in-memory store has nothing
+    to share.
+    """
+    url = engine.url
+    if url.get_backend_name() == "postgresql":
+        with engine.connect() as connection:
+            connection.execute(text("SELECT pg_advisory_lock(:k)"), {"k": _LOCK_KEY})
+            try:
+                yield
+            finally:
+                connection.execute(text("SELECT pg_advisory_unlock(:k)"), {"k": _LOCK_KEY})
+                connection.commit()
+        return
+    database = url.database
+    if not database or database == ":memory:" or database.startswith("file::memory:"):
+        yield
+        return
+    import fcntl
+
+    lock_path = Path(database).with_name(Path(database).name + ".bootstrap-lock")
+    lock_path.parent.mkdir(parents=True, exist_ok=True)
+    with lock_path.open("a") as handle:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)
 
 
 def upgrade_database(engine: Engine) -> str:

@@ -87,3 +87,57 @@ def test_a_row_changed_under_a_write_is_a_409_not_a_500() -> None:
     assert response.status_code == 409
     assert response.json()["error"]["type"] == "ConflictError"
     assert "retry" in response.json()["error"]["message"]
+
+
+def test_an_unexpected_error_is_logged_once_with_its_request_id_and_not_raised_further(
+        caplog: pytest.LogCaptureFixture) -> None:
+    # an operator pass: the 500's body named a request_id the log line lacked, and uvicorn
+    # logged the traceback a second time, as plain text (the handler ran outermost, then
+    # Starlette re-raised)
+    from app.errors import CatchAllMiddleware
+    from app.logs import RequestLogMiddleware
+
+    app = FastAPI()
+    install_error_handlers(app)
+    app.add_middleware(CatchAllMiddleware)
+    app.add_middleware(RequestLogMiddleware, log=False)
+
+    @app.get("/bug")
+    def bug() -> None:
+        raise RuntimeError("secret internals")
+
+    async def ask() -> httpx.Response:
+        # raise_app_exceptions=True: an exception that left the app would fail the call
+        transport = httpx.ASGITransport(app=app)
+        async with httpx.AsyncClient(transport=transport, base_url="http://t") as client:
+            return await client.get("/bug", headers={"X-Request-ID": "abc-123"})
+
+    with caplog.at_level("ERROR", logger="hydrodiag.app"):
+        response = asyncio.run(ask())
+    assert response.status_code == 500
+    assert response.json()["error"]["request_id"] == "abc-123"
+    lines = [r for r in caplog.records if r.levelname == "ERROR"]
+    assert len(lines) == 1 and getattr(lines[0], "request_id", None) == "abc-123"
+    assert lines[0].exc_info is not None
+
+
+def test_a_database_that_does_not_answer_is_a_503_with_retry_after() -> None:
+    from sqlalchemy.exc import OperationalError
+
+    app = FastAPI()
+    install_error_handlers(app)
+
+    @app.get("/store")
+    def store() -> None:
+        raise OperationalError("INSERT ...", {}, ConnectionError("server closed the connection"))
+
+    async def ask() -> httpx.Response:
+        transport = httpx.ASGITransport(app=app)
+        async with httpx.AsyncClient(transport=transport, base_url="http://t") as client:
+            return await client.get("/store")
+
+    response = asyncio.run(ask())
+    assert response.status_code == 503 and response.headers["Retry-After"] == "5"
+    error = response.json()["error"]
+    assert error["type"] == "ServiceUnavailableError" and "nothing of this request" in \
+        error["message"] and "INSERT" not in error["message"]

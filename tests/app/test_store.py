@@ -278,3 +278,64 @@ def test_diagnoses_stored_before_0008_are_linked_to_their_own_record(tmp_path: P
                                         "FROM diagnosis_records")).all()
     assert [tuple(row) for row in links] == [(7, 2)]
     engine.dispose()
+
+
+def _bootstrap_together(url: str, n: int = 3) -> list[str]:
+    """``n`` processes' bootstrap (migrate, preload, first key) at once on one empty store,
+    as replicas started together do; returns the first keys made."""
+    import threading
+
+    from app.services.bootstrap import bootstrap_lock, upgrade_database
+
+    keys: list[str] = []
+    errors: list[BaseException] = []
+    barrier = threading.Barrier(n)
+
+    def one() -> None:
+        engine = make_engine(make_url(url))
+        try:
+            barrier.wait()
+            with bootstrap_lock(engine):
+                upgrade_database(engine)
+                sessions = make_session_factory(engine)
+                with sessions() as session:
+                    ensure_reference_data(session)
+                with sessions() as session:
+                    key = ensure_first_key(session)
+                    if key is not None:
+                        keys.append(key)
+        except BaseException as exc:  # noqa: BLE001 - reported below
+            errors.append(exc)
+        finally:
+            engine.dispose()
+
+    threads = [threading.Thread(target=one) for _ in range(n)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join(120)
+    assert not errors, errors
+    return keys
+
+
+def test_replicas_bootstrapping_one_empty_store_together_make_it_once(tmp_path: Path) -> None:
+    # an operator pass: two replicas started together on an empty PostgreSQL database, and
+    # one exited with "ConflictError: throttle: a table for this throttle and condition
+    # exists" (both preloaded)
+    url = f"sqlite:///{tmp_path / 'together.db'}"
+    assert len(_bootstrap_together(url)) == 1
+    engine = make_engine(make_url(url))
+    with make_session_factory(engine)() as session:
+        rig = find_rig(session, "paper002-reference")
+        assert rig is not None
+        assert list_calibrations(session, rig.id, limit=100, offset=0)[1] == len(
+            REFERENCE_CALIBRATIONS)
+    engine.dispose()
+    if postgres.unavailable_reason() is None:
+        with postgres.postgres_url() as pg:
+            assert len(_bootstrap_together(pg)) == 1
+            engine = make_engine(make_url(pg))
+            try:
+                migrate.downgrade(engine, "base")
+            finally:
+                engine.dispose()
