@@ -304,7 +304,7 @@ def _bootstrap_together(url: str, n: int = 3) -> list[str]:
                     key = ensure_first_key(session)
                     if key is not None:
                         keys.append(key)
-        except BaseException as exc:  # noqa: BLE001 - reported below
+        except BaseException as exc:  # reported below
             errors.append(exc)
         finally:
             engine.dispose()
