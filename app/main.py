@@ -26,6 +26,7 @@ from app.api.router import api_router
 from app.console import router as console_router
 from app.db.engine import make_engine, make_session_factory
 from app.errors import CatchAllMiddleware, install_error_handlers
+from app.idempotency import IdempotencyMiddleware
 from app.lifeline import exit_with_parent
 from app.limits import BodyLimitMiddleware
 from app.logs import RequestLogMiddleware, configure_logging
@@ -66,6 +67,12 @@ includes the ones before it.  `x-hydrodiag-scope` on each operation names the sc
 needs: `read` for the reads, `/simulate` and `/diagnose` (`write` with `"store": true`,
 stated as `x-hydrodiag-scope-store`), `write` for whatever stores or changes data, `admin`
 for deletions.  A valid key below the needed scope is answered 403 (`ScopeError`).
+
+**Retries.** A write may carry `Idempotency-Key` (1-255 visible ASCII characters): its first
+success is kept 24 h, and the same request sent again with the same key gets that answer
+(`Idempotent-Replayed: true`) without being run or stored twice; sent while the first still
+runs, 409 with `Retry-After`; the key on another request, 422.  Without it, a resent write is
+a new one.  A database that does not answer gives 503 with `Retry-After`, nothing stored.
 """
 
 #: Value of ``x-hydrodiag-access`` on each operation, by how it is guarded.
@@ -203,6 +210,7 @@ def create_app(
     app.state.rate_limiter = (KeyRateLimiter(settings.rate_limit_per_minute)
                               if settings.rate_limit_per_minute else None)
     app.add_middleware(CatchAllMiddleware)  # innermost: a 500 logged once, with its id
+    app.add_middleware(IdempotencyMiddleware, sessions=sessions)  # after the body limit
     app.add_middleware(BodyLimitMiddleware, limit=settings.max_body_bytes,
                        upload_limit=settings.max_upload_bytes)
     app.add_middleware(MetricsMiddleware, metrics=app.state.metrics)

@@ -16,6 +16,7 @@ from sqlalchemy import (
     ForeignKey,
     Index,
     Integer,
+    LargeBinary,
     String,
     Text,
     UniqueConstraint,
@@ -315,3 +316,30 @@ class ApiKey(Base):
     #: When the key stops working: the moment of revocation, or the end of the grace
     #: period of a rotated key (in the future until then).
     revoked_at: Mapped[datetime | None] = mapped_column(UTCDateTime())
+
+
+class IdempotentRequest(Base):
+    """A write sent with an ``Idempotency-Key`` header and, once it succeeded, its answer
+    (:mod:`app.idempotency`; revision 0010).
+
+    ``owner`` is a digest of the API key that sent it (keys of different clients never
+    share a row); ``digest`` one of the request (method, path, query, content type, body),
+    so that the same key on another request is refused; ``status`` is ``None`` while the
+    first request is being processed.  Rows expire (``expires_at``) and are removed.
+    """
+
+    __tablename__ = "idempotent_requests"
+    __table_args__ = (UniqueConstraint("owner", "idempotency_key"), Index(None, "expires_at"))
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    owner: Mapped[str] = mapped_column(String(64))
+    idempotency_key: Mapped[str] = mapped_column(String(255))
+    method: Mapped[str] = mapped_column(String(8))
+    path: Mapped[str] = mapped_column(String(500))
+    digest: Mapped[str] = mapped_column(String(64))
+    status: Mapped[int | None] = mapped_column(Integer)
+    content_type: Mapped[str | None] = mapped_column(String(200))
+    location: Mapped[str | None] = mapped_column(String(500))
+    body: Mapped[bytes | None] = mapped_column(LargeBinary)
+    created_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=utcnow)
+    expires_at: Mapped[datetime] = mapped_column(UTCDateTime())

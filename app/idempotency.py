@@ -1,0 +1,260 @@
+"""``Idempotency-Key``: a write sent again after a timeout is answered, not done twice.
+
+A client whose read timed out does not know whether its ``POST`` was stored, and sends it
+again: without a key, a 40-record ``POST /diagnose`` left 80 rows, a resent series import
+two series, a resent commissioning a second rig version fitted from the same records (an
+operator pass).  A write (``POST``, ``PUT``, ``PATCH``, ``DELETE`` of the API, not the
+console's forms) that carries ``Idempotency-Key: <1-255 visible ASCII characters>`` is
+kept in the store under that key and the API key that sent it
+(:class:`app.db.models.IdempotentRequest`, for :data:`KEEP_HOURS`):
+
+* the first request runs; once it succeeded (2xx) its status, content type, ``Location``
+  and body are kept before the answer is sent, so an acknowledged answer is replayable;
+* the same request again (same method, path, query, content type and body) gets that
+  answer, with ``Idempotent-Replayed: true``, and nothing runs or is stored;
+* the same request while the first still runs: 409 ``ConflictError`` with ``Retry-After``
+  (the usual case of a client that timed out); a first request that has not finished in
+  :data:`STALE_MINUTES` (its process died) no longer blocks the key;
+* another request under a used key: 422 ``InputError`` on ``Idempotency-Key``;
+* a first request that failed (4xx, 5xx, an exception) leaves the key free: the retry runs.
+
+A process killed after it stored the work but before it kept the answer leaves the key
+blocked for :data:`STALE_MINUTES`, after which a retry runs again: the one window in which
+a retried write can still be done twice.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import logging
+import re
+from collections.abc import Callable
+from datetime import timedelta
+from typing import Any
+
+import anyio
+from sqlalchemy import delete, select
+from sqlalchemy.exc import IntegrityError
+from sqlalchemy.orm import Session
+from starlette.requests import Request
+from starlette.types import ASGIApp, Message, Receive, Scope, Send
+
+from app.db.base import utcnow
+from app.db.models import IdempotentRequest
+from app.errors import error_response
+from sim.errors import ConflictError, InputError
+
+__all__ = ["HEADER", "KEEP_HOURS", "STALE_MINUTES", "IdempotencyMiddleware"]
+
+logger = logging.getLogger("hydrodiag.app")
+
+#: the request header
+HEADER = "Idempotency-Key"
+#: how long a key and its answer are kept [h]
+KEEP_HOURS = 24
+#: after how long a first request that never finished no longer blocks its key [min]
+STALE_MINUTES = 10
+#: seconds a retry of a request still running is asked to wait
+RETRY_S = 2
+
+_WRITES = frozenset({"POST", "PUT", "PATCH", "DELETE"})
+_VALID = re.compile(r"[\x21-\x7e]{1,255}")
+
+
+def _header(scope: Scope, name: bytes) -> str | None:
+    for k, v in scope.get("headers", []):
+        if k.lower() == name:
+            return bytes(v).decode("latin-1")
+    return None
+
+
+def _digest(*parts: bytes) -> str:
+    h = hashlib.sha256()
+    for part in parts:
+        h.update(len(part).to_bytes(8, "big"))
+        h.update(part)
+    return h.hexdigest()
+
+
+def _canonical(content_type: str, body: bytes) -> tuple[str, bytes]:
+    """The content type and body a retry must repeat: a multipart form's boundary left
+    out (clients draw a new one for each send of the same form)."""
+    media, _, params = content_type.partition(";")
+    match = re.search(r'boundary="?([^";]+)"?', params)
+    if not media.strip().lower().startswith("multipart/") or match is None:
+        return content_type, body
+    return media.strip().lower(), body.replace(match.group(1).encode("latin-1"), b"-")
+
+
+class _Outcome:
+    """What the store says about a key: run it (``row_id``), or answer ``response``."""
+
+    def __init__(self, row_id: int | None = None, response: Any = None) -> None:
+        self.row_id = row_id
+        self.response = response
+
+
+class IdempotencyMiddleware:
+    """The ``Idempotency-Key`` handling of the API (module docstring).
+
+    Parameters
+    ----------
+    app
+        The application inside.
+    sessions
+        Session factory of the store.
+    """
+
+    def __init__(self, app: ASGIApp, sessions: Callable[[], Session]) -> None:
+        self.app = app
+        self.sessions = sessions
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        key = _header(scope, b"idempotency-key") if scope["type"] == "http" else None
+        path = str(scope.get("path", ""))
+        if (key is None or scope.get("method") not in _WRITES
+                or path.startswith("/console")):
+            await self.app(scope, receive, send)
+            return
+        if not _VALID.fullmatch(key):
+            await error_response(422, InputError.__name__, f"the {HEADER} header must be 1 to "
+                                 "255 visible ASCII characters", HEADER,
+                                 request=Request(scope))(scope, receive, send)
+            return
+        chunks: list[bytes] = []
+        while True:
+            message = await receive()
+            if message["type"] == "http.disconnect":
+                return
+            chunks.append(message.get("body", b""))
+            if not message.get("more_body", False):
+                break
+        body = b"".join(chunks)
+        owner = _digest((_header(scope, b"x-api-key") or "").encode())[:64]
+        content_type, same_body = _canonical(_header(scope, b"content-type") or "", body)
+        digest = _digest(str(scope["method"]).encode(), path.encode(),
+                         bytes(scope.get("query_string", b"")), content_type.encode(),
+                         same_body)
+        outcome = await anyio.to_thread.run_sync(self._claim, owner, key, str(scope["method"]),
+                                                 path, digest, Request(scope))
+        if outcome.response is not None:
+            await outcome.response(scope, receive, send)
+            return
+        sent = False
+
+        async def replay() -> Message:
+            nonlocal sent
+            if not sent:
+                sent = True
+                return {"type": "http.request", "body": body, "more_body": False}
+            return await receive()
+
+        start: Message | None = None
+        parts: list[bytes] = []
+
+        async def capture(message: Message) -> None:
+            nonlocal start
+            if message["type"] == "http.response.start":
+                start = message
+            elif message["type"] == "http.response.body":
+                parts.append(message.get("body", b""))
+            if start is not None and start["status"] // 100 != 2:
+                await send(message)   # not kept: passed on as it comes
+
+        try:
+            await self.app(scope, replay, capture)
+        except BaseException:
+            await anyio.to_thread.run_sync(self._release, outcome.row_id)
+            raise
+        assert start is not None
+        if start["status"] // 100 != 2:
+            await anyio.to_thread.run_sync(self._release, outcome.row_id)
+            return
+        content = b"".join(parts)
+        headers = {k.lower(): v for k, v in start.get("headers", [])}
+        await anyio.to_thread.run_sync(
+            self._keep, outcome.row_id, int(start["status"]),
+            headers.get(b"content-type", b"").decode("latin-1") or None,
+            headers.get(b"location", b"").decode("latin-1") or None, content)
+        await send(start)
+        await send({"type": "http.response.body", "body": content, "more_body": False})
+
+    # -- the store (run in a worker thread) --------------------------------------------
+    def _claim(self, owner: str, key: str, method: str, path: str, digest: str,
+               request: Request) -> _Outcome:
+        now = utcnow()
+        with self.sessions() as session:
+            session.execute(delete(IdempotentRequest)
+                            .where(IdempotentRequest.expires_at < now))
+            session.commit()
+            row = IdempotentRequest(owner=owner, idempotency_key=key, method=method,
+                                    path=path, digest=digest, created_at=now,
+                                    expires_at=now + timedelta(hours=KEEP_HOURS))
+            session.add(row)
+            try:
+                session.commit()
+                return _Outcome(row_id=row.id)
+            except IntegrityError:
+                session.rollback()
+            found = session.scalar(select(IdempotentRequest).where(
+                IdempotentRequest.owner == owner, IdempotentRequest.idempotency_key == key))
+            if found is None:  # released meanwhile: try once more
+                return self._claim(owner, key, method, path, digest, request)
+            if found.digest != digest:
+                return _Outcome(response=error_response(
+                    422, InputError.__name__,
+                    f"this {HEADER} was used for another request ({found.method} "
+                    f"{found.path}, or other content) in the last {KEEP_HOURS} h: a retry "
+                    "must send the same request; a new request needs a new key", HEADER,
+                    request=request))
+            if found.status is not None:
+                logger.info("replayed the answer of %s %s under an %s", method, path, HEADER)
+                headers = {"Idempotent-Replayed": "true"}
+                if found.location:
+                    headers["Location"] = found.location
+                return _Outcome(response=_Stored(found.status, found.content_type,
+                                                 found.body or b"", headers))
+            if found.created_at > now - timedelta(minutes=STALE_MINUTES):
+                return _Outcome(response=error_response(
+                    409, ConflictError.__name__,
+                    f"the first request with this {HEADER} is still being processed; "
+                    f"retry in {RETRY_S} s to get its answer", HEADER,
+                    headers={"Retry-After": str(RETRY_S)}, request=request))
+            # its process never finished it: the key is taken over
+            found.created_at = now
+            found.expires_at = now + timedelta(hours=KEEP_HOURS)
+            session.commit()
+            return _Outcome(row_id=found.id)
+
+    def _release(self, row_id: int | None) -> None:
+        with self.sessions() as session:
+            session.execute(delete(IdempotentRequest).where(IdempotentRequest.id == row_id))
+            session.commit()
+
+    def _keep(self, row_id: int | None, status: int, content_type: str | None,
+              location: str | None, body: bytes) -> None:
+        with self.sessions() as session:
+            row = session.get(IdempotentRequest, row_id)
+            if row is None:  # pragma: no cover - expired under a request of a day
+                return
+            row.status, row.content_type, row.location, row.body = (
+                status, content_type, location, body)
+            session.commit()
+
+
+class _Stored:
+    """A kept answer, sent again (an ASGI app)."""
+
+    def __init__(self, status: int, content_type: str | None, body: bytes,
+                 headers: dict[str, str]) -> None:
+        self.status, self.body = status, body
+        self.headers = [(k.lower().encode("latin-1"), v.encode("latin-1"))
+                        for k, v in headers.items()]
+        if content_type:
+            self.headers.append((b"content-type", content_type.encode("latin-1")))
+        self.headers.append((b"content-length", str(len(body)).encode()))
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        await send({"type": "http.response.start", "status": self.status,
+                    "headers": self.headers})
+        await send({"type": "http.response.body", "body": self.body, "more_body": False})

@@ -1,0 +1,146 @@
+"""``Idempotency-Key``: a write resent after a timeout is answered once and stored once."""
+
+from __future__ import annotations
+
+import asyncio
+import threading
+from datetime import timedelta
+from pathlib import Path
+from typing import Any
+
+import httpx
+from fastapi import FastAPI
+from sqlalchemy import update
+from sqlalchemy.engine import make_url
+
+from app.db import migrate
+from app.db.base import utcnow
+from app.db.engine import make_engine, make_session_factory
+from app.db.models import IdempotentRequest
+from app.idempotency import STALE_MINUTES, IdempotencyMiddleware, _digest
+from tests.app.conftest import simulated_record
+from tests.app.live import LiveServer
+
+SERIES = b"t [s],phase,P1 [bar],x [m]\n0,working,10,0\n0.5,working,12,0.1\n1,working,12,0.2\n"
+
+
+def _post_diagnose(server: LiveServer, record: dict[str, Any], key: str) -> httpx.Response:
+    return server.client.post("/diagnose", json={"record": record},
+                              headers=server.auth | {"Idempotency-Key": key})
+
+
+def test_a_resent_diagnosis_is_answered_again_and_stored_once(server: LiveServer) -> None:
+    record = simulated_record(server, {"valve.cv": 4.5e-5},
+                              measured_at="2026-11-28T08:00:00Z")
+    before = server.row_counts()
+    first = _post_diagnose(server, record, "visit-2026-11-28-rig1")
+    assert first.status_code == 200, first.text
+    added = server.row_counts()
+    assert added["diagnoses"] == before["diagnoses"] + 1
+    again = _post_diagnose(server, record, "visit-2026-11-28-rig1")
+    assert again.status_code == 200 and again.headers["Idempotent-Replayed"] == "true"
+    assert again.json() == first.json()          # the same ids: nothing ran again
+    assert server.row_counts() == added
+    # the key on another request is refused, naming the header; nothing stored
+    other = _post_diagnose(server, record | {"measured_at": "2026-11-28T09:00:00Z"},
+                           "visit-2026-11-28-rig1")
+    assert other.status_code == 422
+    assert other.json()["error"]["field"] == "Idempotency-Key"
+    assert server.row_counts() == added
+    # a key of other than 1-255 visible ASCII characters is refused
+    bad = server.client.post("/diagnose", json={"record": record},
+                             headers=server.auth | {"Idempotency-Key": "x y"})
+    assert bad.status_code == 422 and bad.json()["error"]["field"] == "Idempotency-Key"
+
+
+def test_a_failed_first_request_leaves_its_key_free(server: LiveServer) -> None:
+    record = simulated_record(server)
+    broken = record | {"pump_presure": 1.0e6}   # a misspelt field: 422
+    refused = _post_diagnose(server, broken, "retry-after-fix")
+    assert refused.status_code == 422
+    fixed = _post_diagnose(server, record, "retry-after-fix")
+    assert fixed.status_code == 200 and "Idempotent-Replayed" not in fixed.headers
+
+
+def test_a_resent_series_import_is_stored_once(server: LiveServer) -> None:
+    def send() -> httpx.Response:
+        return server.client.post(
+            "/rigs/1/series", data={"name": "resent", "started_at": "2026-11-20T08:00:00Z"},
+            files={"file": ("cycle.csv", SERIES, "text/csv")},
+            headers=server.auth | {"Idempotency-Key": "import-cycle-7"})
+
+    first = send()
+    assert first.status_code == 201, first.text
+    counts = server.row_counts()
+    again = send()
+    assert again.status_code == 201 and again.json() == first.json()
+    assert server.row_counts() == counts
+
+
+def _app(tmp_path: Path, release: threading.Event) -> tuple[FastAPI, Any, list[int]]:
+    engine = make_engine(make_url(f"sqlite:///{tmp_path / 'idem.db'}"))
+    migrate.upgrade(engine)
+    sessions = make_session_factory(engine)
+    app = FastAPI()
+    runs: list[int] = []
+
+    @app.post("/slow", status_code=201)
+    def slow() -> dict[str, int]:
+        runs.append(1)
+        assert release.wait(30)
+        return {"run": len(runs)}
+
+    app.add_middleware(IdempotencyMiddleware, sessions=sessions)
+    return app, sessions, runs
+
+
+def test_a_retry_while_the_first_request_runs_is_asked_to_wait(tmp_path: Path) -> None:
+    release = threading.Event()
+    app, _, runs = _app(tmp_path, release)
+    headers = {"Idempotency-Key": "k1", "X-API-Key": "client-a"}
+
+    async def scenario() -> tuple[httpx.Response, httpx.Response, httpx.Response]:
+        transport = httpx.ASGITransport(app=app)
+        async with httpx.AsyncClient(transport=transport, base_url="http://t") as client:
+            first = asyncio.create_task(client.post("/slow", json={}, headers=headers))
+            while not runs:
+                await asyncio.sleep(0.01)
+            waiting = await client.post("/slow", json={}, headers=headers)
+            release.set()
+            done = await first
+            replay = await client.post("/slow", json={}, headers=headers)
+            return waiting, done, replay
+
+    waiting, done, replay = asyncio.run(scenario())
+    assert waiting.status_code == 409 and waiting.headers["Retry-After"] == "2"
+    assert done.status_code == 201 and replay.status_code == 201
+    assert replay.json() == done.json() == {"run": 1} and len(runs) == 1
+
+
+def test_a_first_request_whose_process_died_no_longer_blocks_its_key(tmp_path: Path) -> None:
+    release = threading.Event()
+    release.set()
+    app, sessions, runs = _app(tmp_path, release)
+    now = utcnow()
+    with sessions() as session:   # what a process killed mid-request leaves
+        session.add(IdempotentRequest(owner="?", idempotency_key="k2", method="POST",
+                                      path="/slow", digest="?", created_at=now,
+                                      expires_at=now + timedelta(hours=1)))
+        session.commit()
+
+    async def post() -> httpx.Response:
+        transport = httpx.ASGITransport(app=app)
+        async with httpx.AsyncClient(transport=transport, base_url="http://t") as client:
+            return await client.post("/slow", json={}, headers={"Idempotency-Key": "k2"})
+
+    with sessions() as session:   # the owner of a request without an API key
+        session.execute(update(IdempotentRequest).values(owner=_digest(b"")[:64]))
+        session.commit()
+    assert asyncio.run(post()).status_code == 422      # another request's digest
+    same = _digest(b"POST", b"/slow", b"", b"application/json", b"{}")
+    with sessions() as session:
+        session.execute(update(IdempotentRequest).values(
+            digest=same, created_at=now - timedelta(minutes=STALE_MINUTES + 1)))
+        session.commit()
+    taken = asyncio.run(post())
+    assert taken.status_code == 201 and len(runs) == 1
