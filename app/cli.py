@@ -224,10 +224,18 @@ unwrap_help(cli)
 
 def main() -> None:
     """Entry point of the ``hydrodiag`` command."""
+    from sqlalchemy.exc import InterfaceError, OperationalError
+
     try:
         cli()
     except HydrodiagError as exc:
         console.print(f"[red]{type(exc).__name__}:[/red] {escape(str(exc))}")
+        sys.exit(1)
+    except (OperationalError, InterfaceError) as exc:
+        # an unreachable database or a wrong password: one line, not 500 of traceback
+        reason = str(exc.orig).strip().splitlines()[0] if exc.orig is not None else str(exc)
+        console.print(f"[red]the database did not answer ({type(exc).__name__}):[/red] "
+                      f"{escape(reason)} (HYDRODIAG_DATABASE_URL)")
         sys.exit(1)
 
 

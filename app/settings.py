@@ -178,6 +178,9 @@ class Settings(BaseSettings):
         except ArgumentError as exc:
             raise ValueError(f"not a database URL: {exc}") from exc
         backend = url.get_backend_name()
+        if backend == "postgres":  # libpq's and Heroku's spelling
+            raise ValueError("write the scheme as postgresql+psycopg:// (SQLAlchemy does not "
+                             "take postgres://)")
         if backend not in {"sqlite", "postgresql"}:
             raise ValueError(f"unsupported database {backend!r}; use sqlite or postgresql")
         if backend == "sqlite" and url.database in (None, "", ":memory:"):

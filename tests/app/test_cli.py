@@ -127,7 +127,13 @@ def test_bad_configuration_exits_with_a_message(runner: CliRunner,
     monkeypatch.setenv("HYDRODIAG_DATABASE_URL", "postgresql://u:password@db/x")
     result = runner.invoke(cli, ["db", "current"])
     assert result.exit_code == 2
-    assert "well-known default" in result.output
+    assert "HYDRODIAG_DATABASE_URL: the database password is a well-known default" \
+        in result.output
+    # the message never shows the URL: it holds the password (it printed the whole input)
+    monkeypatch.setenv("HYDRODIAG_DATABASE_URL", "postgres://hd:Hd-op-pw-7731@db/hd")
+    result = runner.invoke(cli, ["db", "current"])
+    assert result.exit_code == 2 and "Hd-op-pw-7731" not in result.output
+    assert "postgresql+psycopg://" in result.output and "Value error" not in result.output
 
 
 def test_main_reports_hydrodiag_errors_without_a_traceback(tmp_path: Path) -> None:
@@ -141,6 +147,24 @@ def test_main_reports_hydrodiag_errors_without_a_traceback(tmp_path: Path) -> No
                              "--relaxation", "-1", "--bench", str(tmp_path / "b.csv")],
                             env=env, capture_output=True, text=True, check=False)
     assert result.returncode == 1 and "must be 0 to 60 [s]" in result.stderr, result.stderr
+
+
+def test_an_unreachable_database_is_one_line_not_a_traceback(tmp_path: Path) -> None:
+    # an operator pass: a database nobody listens on, or a wrong password, printed ~500
+    # lines of traceback from every command
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]   # free, and nobody listens once it is closed
+    env = os.environ | {"HYDRODIAG_DATA_DIR": str(tmp_path),
+                        "HYDRODIAG_DATABASE_URL":
+                            f"postgresql+psycopg://hd:Str0ng-pw-x@127.0.0.1:{port}/hd"}
+    result = subprocess.run([sys.executable, "-m", "app.cli", "keys", "list"], env=env,
+                            capture_output=True, text=True, check=False, timeout=120)
+    out = result.stdout + result.stderr
+    assert result.returncode == 1 and "Traceback" not in out and len(out.splitlines()) < 6
+    assert "the database did not answer" in out and "Str0ng-pw-x" not in out
 
 
 def _diagnose_burst(base_url: str, key: str, n: int) -> list[httpx.Response]:
