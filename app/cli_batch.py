@@ -90,7 +90,11 @@ def diagnose_batch(
                    ] = None,
     full: Annotated[bool, typer.Option(help="Whole diagnoses instead of summaries.")] = False,
 ) -> None:
-    """Diagnose every record of FILE on its own against its stored rig, with progress."""
+    """Diagnose every record of FILE on its own against its stored rig, with progress.
+
+    Nothing is stored: the results go to --out and the summary table (POST /diagnose keeps
+    diagnoses in the history).
+    """
     from app.services.executors import SweepExecutors
     from app.services.measurements import to_record
     from app.services.rig_cache import RigCache
@@ -143,6 +147,9 @@ def diagnose_batch(
     for name, n in counts.most_common():
         table.add_row(escape(name), str(n))
     console.print(table)
+    console.print("not stored in the history" + (f"; results in {out}" if out is not None
+                                                 else " (--out FILE keeps the results)"),
+                  markup=False)
 
 
 def register(cli: typer.Typer) -> None:

@@ -39,13 +39,16 @@ def _finite(x: float) -> float | None:
 
 def summary(d: Diagnosis) -> dict[str, Any]:
     """The compact result of one diagnosis: the named fault (``"unexplained"`` when the
-    goodness-of-fit test fails), the best fit, its probability and estimates [SI], the χ²
-    p-value and the probabilities of all observable hypotheses."""
+    goodness-of-fit test fails), its probability (0 when unexplained, as ``POST /diagnose``
+    states it: a batch line read "unexplained" with probability 1.0), the best fit and its
+    probability and estimates [SI], the χ² p-value and the probabilities of all observable
+    hypotheses."""
     top = d.top
     return {
         "top": top.name if d.explained else "unexplained",
+        "probability": top.probability if d.explained else 0.0,
         "best_fit": top.name,
-        "probability": top.probability,
+        "best_fit_probability": top.probability,
         "explained": d.explained,
         "p_value": None if d.fit is None else d.fit.p_value,
         "parameters": [{"name": p.name, "unit": p.unit, "value": p.value, "low": p.low,
