@@ -34,7 +34,7 @@ from diagnostics.timeseries import (
     column_entry,
     read_series,
 )
-from sim.errors import InputError
+from sim.errors import ConflictError, InputError
 from sim.rigs import load_rig
 
 __all__ = [
@@ -88,6 +88,33 @@ def parse_column_map(text: str | None, *, field: str = "column_map"
     return out
 
 
+def _refuse_stored_twice(session: Session, rig_id: int, name: str,
+                        rows: Sequence[MeasuredSeries]) -> None:
+    """Raise :class:`ConflictError` if a row of ``rows`` is stored already for the rig
+    under ``name``: the same record (name, clock time, samples) with the same data — the
+    same import run twice, after which a discrepancy check of the campaign counted each
+    cycle twice, and as a repeat in its lack-of-fit test.  A logger that writes each day's
+    file under one name is no duplicate: its data differ."""
+    found: list[tuple[int, str]] = []
+    for row in rows:
+        same_time = (MeasuredSeries.measured_at.is_(None) if row.measured_at is None
+                     else MeasuredSeries.measured_at == row.measured_at)
+        for stored in session.scalars(
+                select(MeasuredSeries).where(
+                    MeasuredSeries.rig_id == rig_id, MeasuredSeries.name == name,
+                    MeasuredSeries.record == row.record,
+                    MeasuredSeries.n_samples == row.n_samples, same_time)):
+            if stored.data == row.data:
+                found.append((stored.id, stored.record))
+    if found:
+        ids = ", ".join(str(i) for i, _ in found[:5]) + (" …" if len(found) > 5 else "")
+        raise ConflictError(
+            f"{len(found)} of these records are stored already for rig {rig_id} under the "
+            f"name {name!r}, the same data (record {found[0][1]!r}; series {ids}): imported "
+            "twice, a cycle counts twice in a discrepancy check. Import under another name, "
+            "or delete those series first (DELETE /series/{id})", field="name")
+
+
 def store_records(session: Session, rig_id: int, name: str, records: Sequence[SeriesRecord],
                   progress: Callable[[int, int], None] | None = None) -> list[MeasuredSeries]:
     """Store ``records`` as measurements of rig ``rig_id`` (one transaction).
@@ -98,6 +125,8 @@ def store_records(session: Session, rig_id: int, name: str, records: Sequence[Se
         No rig ``rig_id``.
     InputError
         No records.
+    ConflictError
+        A record stored already for the rig under ``name`` (``field="name"``).
     """
     get_rig(session, rig_id, field="rig_id")
     problem = import_name_problem(name)
@@ -124,6 +153,7 @@ def store_records(session: Session, rig_id: int, name: str, records: Sequence[Se
         ))
         if progress is not None:
             progress(k + 1, len(records))
+    _refuse_stored_twice(session, rig_id, name, rows)
     session.add_all(rows)
     commit(session, conflict="the series could not be stored")
     return rows

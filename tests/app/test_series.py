@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 from typing import Any
 
+import httpx
 import pytest
 
 from diagnostics.real.zema import COLUMN_MAP, cycles_frame, load_1hz
@@ -272,3 +273,24 @@ def test_a_channel_of_the_rig_in_a_unit_of_another_quantity_is_refused(
                                                    "PB": ["P2", "bar"]})},
         files={"file": ("log.csv", content, "text/csv")}, headers=server.auth)
     assert metered.status_code == 201 and metered.json()["notes"] == []
+
+
+def test_the_same_import_twice_is_refused_and_a_days_new_file_is_not(
+        server: LiveServer) -> None:
+    # a real-data pass: importing the same cycles under the same name twice stored them
+    # twice, and a discrepancy check of the campaign counted each twice
+    day1 = b"t [s],P1 [bar]\n0,10\n1,11\n"
+    day2 = b"t [s],P1 [bar]\n0,12\n1,13\n"
+
+    def send(content: bytes) -> httpx.Response:
+        return server.client.post("/rigs/1/series", data={"name": "daily-log"},
+                                  files={"file": ("log.csv", content, "text/csv")},
+                                  headers=server.auth)
+
+    assert send(day1).status_code == 201
+    before = server.row_counts()
+    again = send(day1)
+    assert again.status_code == 409 and again.json()["error"]["field"] == "name"
+    assert "stored already" in again.json()["error"]["message"]
+    assert server.row_counts() == before
+    assert send(day2).status_code == 201   # the logger's next file, same name: new data

@@ -23,8 +23,8 @@ def _simulated_cycle(server: LiveServer, fault: str, load: float) -> bytes:
     return r.content
 
 
-def _import(server: LiveServer, content: bytes, rig: int = 1) -> int:
-    r = server.client.post(f"/rigs/{rig}/series", data={"name": "cycle"},
+def _import(server: LiveServer, content: bytes, rig: int = 1, name: str = "cycle") -> int:
+    r = server.client.post(f"/rigs/{rig}/series", data={"name": name},
                            files={"file": ("cycle.csv", content, "text/csv")},
                            headers=server.auth)
     assert r.status_code == 201, r.text
@@ -127,7 +127,7 @@ def test_a_cycle_stored_with_its_clock_time_is_diagnosed_at_that_time(
     assert [i["measured_at"] for i in r.json()["items"]] == [
         "2026-11-21T10:00:00Z", "2026-11-21T10:01:30.500000Z"]
     # without a start a series has no time, and neither has the record read from it
-    plain = _import(server, exported)
+    plain = _import(server, exported, name="plain")  # the fixture's cycle, stored apart
     assert server.client.get(f"/series/{plain}").json()["measured_at"] is None
     assert "measured_at" not in server.client.get(f"/series/{plain}/record").json()["record"]
 
