@@ -33,6 +33,7 @@ from app.services.rig_cache import RigCache
 from app.services.rigs import get_rig, latest_version, update_rig
 from app.services.series import parse_column_map, stored_records
 from diagnostics.discrepancy import Discovery, discover
+from diagnostics.discrepancy.pump_refit import MAX_DISPLACEMENT_CHANGE
 from diagnostics.discrepancy.report import html_page
 from diagnostics.discrepancy.steady import (
     discover_steady,
@@ -182,12 +183,6 @@ def run_discrepancy(plan: DiscrepancyPlan, sessions: SessionFactory | None,
                 session, plan.rig_id, plan.version, d)
     result["html"] = html_page(d)
     return result
-
-
-#: a re-fit that moves a pump's displacement by more than this share is neither wear nor
-#: drift: the data come from another pump (a V32HL56 bench checked against rig 1 stored
-#: its 17.5 cm³/rev pump as 57) [-]
-MAX_DISPLACEMENT_CHANGE = 0.10
 
 
 def store_discovery(session: Session, rig_id: int, from_version: int, d: Discovery

@@ -16,6 +16,7 @@ with the re-fitted pump, and the ``base drift`` test of the pump re-fitted alone
 from __future__ import annotations
 
 import copy
+import math
 from collections.abc import Mapping
 from typing import Any
 
@@ -30,8 +31,8 @@ from diagnostics.discrepancy.signals import Signals
 from diagnostics.discrepancy.verdict import OUTPUT_GAP
 from sim.components.effects import EFFECTS
 
-__all__ = ["BASE", "base_change", "bench_drift", "combined", "drifted", "effect_flow",
-           "model_flow",
+__all__ = ["BASE", "MAX_DISPLACEMENT_CHANGE", "base_change", "bench_drift", "combined", "drifted",
+           "effect_flow", "model_flow",
            "on_refitted", "refitted_pump", "robust_ols", "stored_effects", "stored_fit",
            "with_base"]
 
@@ -183,11 +184,29 @@ def drifted(values: Mapping[str, float], alone: Mapping[str, float], rmse_alone:
             and rmse_alone <= OUTPUT_GAP * sigma)
 
 
+#: a re-fit that moves a pump's displacement by more than this share is neither wear nor
+#: drift: the data come from another pump (a V32HL56 bench checked against rig 1 stored
+#: its 17.5 cm³/rev pump as 57) [-]
+MAX_DISPLACEMENT_CHANGE = 0.10
+
+#: m³/rad → cm³/rev
+_CM3_REV = 2.0 * math.pi * 1e6
+
+
 def base_change(values: Mapping[str, float], base: Mapping[str, float]) -> str:
-    """``Rlp 6e+11 → 5.8e+11 Pa·s/m³, Vp … m³/rad``: the pump re-fitted by ``base``."""
+    """``pump re-fitted: Rlp 6e+11 → 5.8e+11 Pa·s/m³, Vp 17.50 → 17.62 cm³/rev``: the pump
+    re-fitted by ``base``, the displacement per revolution as datasheets state it; a
+    displacement moved by more than :data:`MAX_DISPLACEMENT_CHANGE` is flagged (it does not
+    wear: the data are of another pump, or the rig is the wrong one)."""
     new = refitted_pump(values, base)
-    return (f"pump re-fitted: Rlp {values['pump.Rlp']:.4g} → {new['pump.Rlp']:.4g} Pa·s/m³, "
-            f"Vp {values['pump.Vp']:.5g} → {new['pump.Vp']:.5g} m³/rad")
+    vp0, vp1 = values["pump.Vp"], new["pump.Vp"]
+    text = (f"pump re-fitted: Rlp {values['pump.Rlp']:.4g} → {new['pump.Rlp']:.4g} Pa·s/m³, "
+            f"Vp {vp0 * _CM3_REV:.4g} → {vp1 * _CM3_REV:.4g} cm³/rev")
+    change = vp1 / vp0 - 1.0
+    if abs(change) > MAX_DISPLACEMENT_CHANGE:
+        text += (f" (the displacement moved {100 * change:+.0f} %: a displacement does not "
+                 "wear, so the data come from another pump, or the rig is the wrong one)")
+    return text
 
 
 def bench_drift(values: Mapping[str, float], s: Signals, gap_after: list[GapRow],

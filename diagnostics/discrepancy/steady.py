@@ -15,6 +15,11 @@ ordinary (block length 1) bootstrap.  Several speeds separate a speed-reading of
 (constant) from a displacement error (∝ ω); several temperatures separate slip ∝ Δp/μ from
 slip ∝ √Δp.
 
+The stored pump is the rig's pump with the pump-outlet effects the rig already carries (an
+earlier ``discover`` stored them): their flow is part of the model the rows are checked
+against, they are no candidates, and a new effect is stored beside them, all restated for
+the re-fitted displacement (:func:`~diagnostics.discrepancy.balances.carried`).
+
 The rows at the edge of the operating range are held out: the highest temperature when
 there are two to :data:`LEVELS` of them, the top fifth of the temperatures when they spread
 over a range (monitoring data: the ZeMA plateaus, 35-58 °C), else the top fifth of the
@@ -28,7 +33,9 @@ White errors on columns scaled to unit RMS:
 :func:`~diagnostics.discrepancy.pump_refit.robust_ols`), of the entry's sign, with
 a re-fitted pump that is still a pump (1/Rlp and Vp positive), and the held-out gap in
 excess of the scatter shrinks at least
-:data:`~diagnostics.discrepancy.workflow.CONFIRM_RATIO`-fold against the stored pump.  The
+:data:`~diagnostics.discrepancy.workflow.CONFIRM_RATIO`-fold against the stored pump — and
+as much against the pump's own Rlp and Vp re-fitted alone, where that re-fit leaves more
+than :data:`~diagnostics.discrepancy.verdict.OUTPUT_GAP` σ held out.  The
 augmented rig carries the effect *and* the re-fitted Rlp and Vp (a bench table is the
 pump's characterisation, not field data of a worn rig), the coefficient restated for the
 re-fitted Vp where the element reads it (:mod:`~diagnostics.discrepancy.pump_refit`, which
@@ -319,10 +326,13 @@ def discover_steady(rig_document: Mapping[str, Any], bench: BenchData, *,
                    f"({gap_before[0].rmse / sigma[FLOW]:.1f} σ) and the pump's own laminar "
                    f"slip and displacement, re-fitted alone, close the gap "
                    f"({gap_alone[0].rmse / sigma[FLOW]:.1f} σ; {base_change(values, alone)}). "
-                   "A pump leakage that moved in service is wear (POST /diagnose sizes it "
-                   "against the stored rig); a stored pump that never matched this bench is "
-                   "re-characterised (hydrodiag calibrate pump; hydrodiag rigs update). The "
-                   "stored rig is left as it is")
+                   + ("A pump leakage that moved in service is wear (POST /diagnose sizes it "
+                      "against the stored rig)" if rig.circuit.cycle else
+                      "A pump leakage that moved in service is wear (this rig has no cylinder "
+                      "cycle to diagnose: the re-fitted Rlp above is its size)")
+                   + "; a stored pump that never matched this bench is re-characterised "
+                   "(hydrodiag calibrate pump; hydrodiag rigs update). The stored rig is "
+                   "left as it is")
     elif misfit or off:
         outcome = "unexplained"
         message = ("model and data differ (lack of fit against the repeats"

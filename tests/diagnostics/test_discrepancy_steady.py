@@ -172,7 +172,8 @@ def test_a_bench_pump_unlike_the_stored_one_without_an_effect_is_base_drift() ->
         assert d.rig_document == reference_rig_document()   # left as it is
         assert d.gap_before[0].rmse > 20 * NOISE["Q_meter_B"]
         assert d.gap_after[0].rmse < 1.5 * NOISE["Q_meter_B"]
-        assert "Rlp 6e+11 → " in d.message and "Vp 2.7852e-06 → " in d.message
+        assert "Rlp 6e+11 → " in d.message and "Vp 17.5 → " in d.message  # cm³/rev
+        assert "the displacement moved +15 %" in d.message  # another pump: flagged
 
 
 def test_a_bench_tables_base_drift_is_reported_as_the_cycles_is() -> None:
