@@ -58,9 +58,19 @@ def migrated_engine() -> Engine:
     """Engine of the configured store, migrated to the newest revision first."""
     from app.services.bootstrap import bootstrap_lock, upgrade_database
 
-    engine = make_engine(settings_from_env().url)
+    url = settings_from_env().url
+    fresh = (url.get_backend_name() == "sqlite" and url.database is not None
+             and not Path(url.database).exists())
+    engine = make_engine(url)
     with bootstrap_lock(engine):
         upgrade_database(engine)
+    if fresh:
+        # a command run from another folder used that folder's ./data: a key made there
+        # worked on no running service (an operator pass)
+        console.print(f"[yellow]a new, empty store was made at {escape(str(url.database))}"
+                      "[/yellow] (HYDRODIAG_DATA_DIR, default ./data of the current folder; "
+                      "the service's store is where it was started, or its "
+                      "HYDRODIAG_DATA_DIR)")
     return engine
 
 

@@ -111,7 +111,7 @@ def test_db_upgrade_and_current(runner: CliRunner) -> None:
 def test_keys_create_list_revoke(runner: CliRunner) -> None:
     created = runner.invoke(cli, ["keys", "create", "--name", "lab-pc", "--scope", "write"])
     assert created.exit_code == 0, created.output
-    key = created.output.strip()
+    key = created.stdout.strip()   # the key alone on stdout (the new-store note: stderr)
     assert key.startswith("hd_")
     listed = runner.invoke(cli, ["keys", "list"]).output
     assert "lab-pc" in listed and key not in listed and key.split("_")[1] in listed
@@ -218,3 +218,13 @@ def test_the_uvicorn_factory_starts_on_a_fresh_folder(tmp_path: Path) -> None:
         process.terminate()
         _, stderr = process.communicate(timeout=30)
     assert "Traceback" not in stderr, stderr
+
+
+def test_a_command_that_makes_a_new_store_says_so(runner: CliRunner, tmp_path: Path) -> None:
+    # an operator pass: run from another folder, 'keys create' made a key in a new, empty
+    # ./data store that no running service used, and said nothing
+    first = runner.invoke(cli, ["keys", "list"])
+    assert first.exit_code == 0 and "a new, empty store was made at" in first.output
+    assert str(tmp_path) in first.output.replace("\n", "")
+    again = runner.invoke(cli, ["keys", "list"])
+    assert again.exit_code == 0 and "new, empty store" not in again.output
