@@ -210,7 +210,9 @@ def _location(err: Mapping[str, Any]) -> str | None:
 
 
 def _message(err: Mapping[str, Any]) -> str:
-    message = str(err.get("msg", ""))
+    # a validator's sentence as it wrote it, without pydantic's "Value error, " (a fault
+    # name refused by POST /scenarios kept it)
+    message = str(err.get("msg", "")).removeprefix("Value error, ")
     loc = tuple(err.get("loc", ()))
     if err.get("type") == "json_invalid" and loc and isinstance(loc[-1], int):
         message = f"{message} at character {loc[-1]}"

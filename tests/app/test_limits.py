@@ -89,6 +89,16 @@ def test_misspelt_fields_are_refused_with_the_close_name(server: LiveServer) -> 
     assert server.row_counts() == before
 
 
+def test_a_validators_sentence_reads_as_written(server: LiveServer) -> None:
+    # an operator pass: a refused fault name read "Value error, unknown fault ..."
+    response = server.client.post("/scenarios", json={"rig_id": 1,
+                                                      "faults": ["worn_piston_seal"]},
+                                  headers=server.auth)
+    assert response.status_code == 422, response.text
+    message = response.json()["error"]["message"]
+    assert message.startswith("unknown fault 'worn_piston_seal'"), message
+
+
 @pytest.mark.parametrize(("path", "body", "field", "hint"), [
     ("/scenarios", {"rig_id": 1, "parameter": [{"name": "valve.cv", "low": 3e-5,
                                                   "high": 8e-5}]}, "parameter", "parameters"),
