@@ -18,6 +18,11 @@ Slices (chosen without looking at any estimate):
   flag 0 — three each of valve 73/80/90 % (accumulator 130 bar) and of accumulator
   130/115/100/90 bar (valve 100 %) — in the same layout, for the valve-lag and accumulator
   estimates.
+* ZeMA temperature span (``zema_span_slice``): 18 cycles each of pump-leakage class 0 and 2,
+  evenly spaced in record order over the whole campaign (so 35-57 °C of oil), in the same
+  layout: the discrepancy workflow's held-out hottest fifth needs the span; the 18-cycle
+  slice's healthy cycles cover 35-46 °C only, where a leak growing as the oil thins and a
+  re-fit of the pump's own leak are not told apart out of sample.
 * V32HL56: the header and every row whose displacement rounds to 23 or 57 cm³/rev.
 * Rotary actuators (``vtnsi_slice``): the header and first 400 samples of the first
   recording (by name) of ``Act_1`` (baseline) and of ``Act_4 (Seal Defect)``, decompressed,
@@ -36,12 +41,18 @@ import pytest
 
 from diagnostics.real.zema import find_shared
 
-__all__ = ["ZEMA_CYCLES", "ZEMA_PROGRAM_CYCLES", "v32hl56_slice", "vtnsi_slice",
-           "zema_program_slice", "zema_slice"]
+__all__ = ["ZEMA_CYCLES", "ZEMA_PROGRAM_CYCLES", "ZEMA_SPAN_CYCLES", "v32hl56_slice",
+           "vtnsi_slice", "zema_program_slice", "zema_slice", "zema_span_slice"]
 
 #: original 1-based cycle numbers of the ZeMA slice, in row order
 ZEMA_CYCLES = (974, 1015, 1056, 1110, 1151, 1192, 1246, 1287, 1328, 1706, 1747, 1788, 1842,
                1883, 1927, 1978, 2019, 2189)
+#: original cycle numbers of the temperature-span slice, in row order: 18 each of leakage
+#: class 0 and 2, at evenly spaced positions of each class's cycles in record order
+ZEMA_SPAN_CYCLES = tuple(sorted((
+    1, 73, 145, 298, 452, 606, 760, 831, 903, 1057, 1293, 1446, 1518, 1590, 1662, 1897, 2051,
+    2205, 211, 240, 361, 482, 511, 631, 952, 981, 1102, 1223, 1344, 1373, 1694, 1814, 1843,
+    1964, 2085, 2114)))
 #: original cycle numbers of the load-program slice, in row order
 ZEMA_PROGRAM_CYCLES = (1760, 1763, 1766, 1770, 1773, 1776, 1780, 1783, 1786, 1790, 1793, 1796,
                        1922, 1925, 1928, 2055, 2058, 2061, 2188, 2191, 2194)
@@ -97,21 +108,32 @@ def zema_slice() -> Path:
         return dst
 
 
-def zema_program_slice() -> Path:
-    """Folder with the load-program slice (module docstring), in the shared folder's layout."""
+def _zema_rows(key: str, cycles: tuple[int, ...]) -> Path:
+    """Folder with the ZeMA 1 Hz rows of ``cycles`` in the shared folder's layout."""
     with _LOCK:
-        if "program" in _MADE:
-            return _MADE["program"]
+        if key in _MADE:
+            return _MADE[key]
         src = _shared_real() / "uci-hydraulic-zema"
-        dst = _workdir() / "zema-program"
+        dst = _workdir() / key
         (dst / "data_compressed_1hz").mkdir(parents=True)
         for name in _ZEMA_FILES:
             lines = (src / name).read_text(encoding="utf-8").splitlines()
-            (dst / name).write_text("\n".join(lines[c - 1] for c in ZEMA_PROGRAM_CYCLES)
-                                    + "\n", encoding="utf-8")
-        (dst / "cycles.txt").write_text("\n".join(map(str, ZEMA_PROGRAM_CYCLES)) + "\n")
-        _MADE["program"] = dst
+            (dst / name).write_text("\n".join(lines[c - 1] for c in cycles) + "\n",
+                                    encoding="utf-8")
+        (dst / "cycles.txt").write_text("\n".join(map(str, cycles)) + "\n")
+        _MADE[key] = dst
         return dst
+
+
+def zema_program_slice() -> Path:
+    """Folder with the load-program slice (module docstring), in the shared folder's layout."""
+    return _zema_rows("zema-program", ZEMA_PROGRAM_CYCLES)
+
+
+def zema_span_slice() -> Path:
+    """Folder with the temperature-span slice (module docstring), in the shared folder's
+    layout."""
+    return _zema_rows("zema-span", ZEMA_SPAN_CYCLES)
 
 
 def v32hl56_slice() -> Path:

@@ -24,7 +24,7 @@ from diagnostics.real.relaxation import ZEMA_RELAXATION
 from diagnostics.real.zema import load_1hz, read_records
 from sim.rigs import load_rig, load_rig_document
 from tests.app.live import LiveServer
-from tests.real_slices import zema_slice
+from tests.real_slices import zema_span_slice
 
 ZEMA = Path(__file__).resolve().parents[2] / "sim" / "rigs" / "zema.yaml"
 RECORD = {"measured_at": "2026-11-22T08:30:00Z",
@@ -82,11 +82,11 @@ def test_what_needs_a_cylinder_cycle_is_a_clear_422_and_stores_nothing(
 
 def test_measured_zema_plateaus_go_through_the_workflow_and_the_augmented_rig_is_stored(
         server: LiveServer, rig_id: int) -> None:
-    """The slice's healthy-pump cycles (labels choose the rows, nothing is fitted to them)
-    as a bench table over HTTP: the leak growing as the oil thins is named and the rig's
-    new version — the circuit without a cylinder, now with the library's pump entry —
-    loads and carries the fitted coefficient."""
-    data, labels = load_1hz(zema_slice(), None)
+    """The span slice's healthy-pump cycles (labels choose the rows, nothing is fitted to
+    them; 35-57 °C of oil) as a bench table over HTTP: the leak growing as the oil thins is
+    named and the rig's new version — the circuit without a cylinder, now with the
+    library's pump entry — loads and carries the fitted coefficient."""
+    data, labels = load_1hz(zema_span_slice(), None)
     table = plateau_table(read_records(data), relaxation=ZEMA_RELAXATION)
     bench = table.bench(1500.0 * math.pi / 30.0, np.asarray(labels.leakage) == 0.0)
     content = bench_to_frame(bench).to_csv(index=False).encode()

@@ -208,7 +208,7 @@ def test_cli_creates_lists_rotates_and_revokes_scoped_keys(runner: CliRunner,
                                                            tmp_path: Path) -> None:
     created = runner.invoke(cli, ["keys", "create", "--name", "plant", "--scope", "READ"])
     assert created.exit_code == 0, created.output
-    key = created.output.strip()
+    key = created.stdout.strip()   # the key alone on stdout
     listed = runner.invoke(cli, ["keys", "list"]).output
     assert "plant" in listed and "read" in listed and key not in listed
     rotated = runner.invoke(cli, ["keys", "rotate", "1", "--grace", "60"])
