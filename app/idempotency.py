@@ -6,7 +6,8 @@ two series, a resent commissioning a second rig version fitted from the same rec
 operator pass).  A write (``POST``, ``PUT``, ``PATCH``, ``DELETE`` of the API, not the
 console's forms) that carries ``Idempotency-Key: <1-255 visible ASCII characters>`` is
 kept in the store under that key and the API key that sent it
-(:class:`app.db.models.IdempotentRequest`, for :data:`KEEP_HOURS`):
+(:class:`app.db.models.IdempotentRequest`, for :data:`KEEP_HOURS`; a request without an API
+key stores nothing, and its header is ignored):
 
 * the first request runs; once it succeeded (2xx) its status, content type, ``Location``
   and body are kept before the answer is sent, so an acknowledged answer is replayable;
@@ -111,8 +112,11 @@ class IdempotencyMiddleware:
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         key = _header(scope, b"idempotency-key") if scope["type"] == "http" else None
+        api_key = _header(scope, b"x-api-key") if key is not None else None
         path = str(scope.get("path", ""))
-        if (key is None or scope.get("method") not in _WRITES
+        # a request without an API key stores nothing (open reads), and anonymous clients
+        # would share one owner: their keys are not kept
+        if (key is None or not api_key or scope.get("method") not in _WRITES
                 or path.startswith("/console")):
             await self.app(scope, receive, send)
             return
@@ -130,7 +134,7 @@ class IdempotencyMiddleware:
             if not message.get("more_body", False):
                 break
         body = b"".join(chunks)
-        owner = _digest((_header(scope, b"x-api-key") or "").encode())[:64]
+        owner = _digest(api_key.encode())[:64]
         content_type, same_body = _canonical(_header(scope, b"content-type") or "", body)
         digest = _digest(str(scope["method"]).encode(), path.encode(),
                          bytes(scope.get("query_string", b"")), content_type.encode(),

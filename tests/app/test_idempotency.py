@@ -131,10 +131,11 @@ def test_a_first_request_whose_process_died_no_longer_blocks_its_key(tmp_path: P
     async def post() -> httpx.Response:
         transport = httpx.ASGITransport(app=app)
         async with httpx.AsyncClient(transport=transport, base_url="http://t") as client:
-            return await client.post("/slow", json={}, headers={"Idempotency-Key": "k2"})
+            return await client.post("/slow", json={}, headers={"Idempotency-Key": "k2",
+                                                                "X-API-Key": "client-b"})
 
-    with sessions() as session:   # the owner of a request without an API key
-        session.execute(update(IdempotentRequest).values(owner=_digest(b"")[:64]))
+    with sessions() as session:   # the owner: a digest of the sender's API key
+        session.execute(update(IdempotentRequest).values(owner=_digest(b"client-b")[:64]))
         session.commit()
     assert asyncio.run(post()).status_code == 422      # another request's digest
     same = _digest(b"POST", b"/slow", b"", b"application/json", b"{}")
@@ -144,3 +145,21 @@ def test_a_first_request_whose_process_died_no_longer_blocks_its_key(tmp_path: P
         session.commit()
     taken = asyncio.run(post())
     assert taken.status_code == 201 and len(runs) == 1
+
+
+def test_without_an_api_key_the_header_is_not_kept(tmp_path: Path) -> None:
+    # anonymous clients (open reads store nothing) would share one owner: one's key could
+    # replay another's answer
+    release = threading.Event()
+    release.set()
+    app, sessions, _ = _app(tmp_path, release)
+
+    async def twice() -> list[int]:
+        transport = httpx.ASGITransport(app=app)
+        async with httpx.AsyncClient(transport=transport, base_url="http://t") as client:
+            return [(await client.post("/slow", json={}, headers={"Idempotency-Key": "k3"})
+                     ).json()["run"] for _ in range(2)]
+
+    assert asyncio.run(twice()) == [1, 2]
+    with sessions() as session:
+        assert session.query(IdempotentRequest).count() == 0
