@@ -436,11 +436,22 @@ def calibrate_pump(
         pump_set = store_bench_parameters(session, form, content)
     table = Table("quantity", "value", "unit",
                   title=escape(f"pump set {pump_set.id}: {pump_set.name}"))
+    models = []
     for key, quantity in pump_set.quantities.items():
         value = quantity["value"]
-        shown = f"{value:.6g}" if isinstance(value, float) else f"array {len(value)} rows"
+        if isinstance(value, float):
+            shown = f"{value:.6g}"
+        elif key.endswith("_coef") and len(value) <= 8:
+            # a loss model's coefficients, named below by its terms (they were "array 6
+            # rows", the term names only in the JSON description)
+            shown = ", ".join(f"{v:.4g}" for v in value)
+            models.append(f"{key}: {quantity.get('description', '')}")
+        else:
+            shown = f"array {len(value)} rows"
         table.add_row(escape(key), shown, escape(quantity["unit"]))
     _out.print(table)
+    for line in models:
+        _out.print(line, markup=False)
     if pump_set.source:
         _out.print(pump_set.source, markup=False)
 

@@ -68,6 +68,15 @@ def test_calibrate_pump_map_stores_one_checked_set_per_setting(runner: CliRunner
         assert bench.q.size == len(mine) == q["n_points"]["value"]
         assert np.allclose(np.sort(bench.q), np.sort(mine["QOut"].to_numpy()) / 6e4)
         assert np.all(bench.theta == 50.0)
+        assert "case-drain flow QDr is not carried" in bench.provenance
+    # a setting's table through calibrate pump: the loss models' coefficients with their
+    # terms (they were "array 6 rows")
+    one_setting = runner.invoke(cli, ["calibrate", "pump", str(out / "V32HL56-slice-56.9cm3.csv"),
+                                      "--name", "setting-57", "--pump", "V32HL56 at 56.9"],
+                                env={"COLUMNS": "200"})
+    assert one_setting.exit_code == 0, one_setting.output
+    assert "array 6 rows" not in one_setting.stdout
+    assert "loss0_flow_coef: " in one_setting.stdout and "terms dp" in one_setting.stdout
     # the table goes to discover as written; against the reference rig (a pump 3.3× smaller)
     # the compression loss comes out as against a pump made from the bench (2.39e-9 1/Pa,
     # make real-data): the stored pump is re-fitted and the coefficient restated for it
