@@ -14,19 +14,25 @@ key stores nothing, and its header is ignored):
 * the same request again (same method, path, query, content type and body) gets that
   answer, with ``Idempotent-Replayed: true``, and nothing runs or is stored;
 * the same request while the first still runs: 409 ``ConflictError`` with ``Retry-After``
-  (the usual case of a client that timed out); a first request that has not finished in
-  :data:`STALE_MINUTES` (its process died) no longer blocks the key;
+  (the usual case of a client that timed out); the first request marks its key every
+  :data:`HEARTBEAT_S` while it runs, and one unmarked for :data:`STALE_S` (its process died,
+  or the store was unreachable when it ended) no longer blocks the key;
+* an answer is replayed only to a key that is still valid (a revoked one was answered for
+  24 h), and the same JSON written otherwise (spacing, key order) is the same request;
+* the store unreachable: 503 with ``Retry-After``, as any request then;
 * another request under a used key: 422 ``InputError`` on ``Idempotency-Key``;
 * a first request that failed (4xx, 5xx, an exception) leaves the key free: the retry runs.
 
-A process killed after it stored the work but before it kept the answer leaves the key
-blocked for :data:`STALE_MINUTES`, after which a retry runs again: the one window in which
-a retried write can still be done twice.
+A process killed after it stored the work but before it kept the answer (or a store that
+stopped answering just then) leaves the key blocked for :data:`STALE_S`, after which a retry
+runs again: the one window in which a retried write can still be done twice.
 """
 
 from __future__ import annotations
 
+import asyncio
 import hashlib
+import json
 import logging
 import re
 from collections.abc import Callable
@@ -34,18 +40,19 @@ from datetime import timedelta
 from typing import Any
 
 import anyio
-from sqlalchemy import delete, select
-from sqlalchemy.exc import IntegrityError
+from sqlalchemy import delete, select, update
+from sqlalchemy.exc import IntegrityError, InterfaceError, OperationalError
 from sqlalchemy.orm import Session
 from starlette.requests import Request
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from app.db.base import utcnow
 from app.db.models import IdempotentRequest
-from app.errors import error_response
-from sim.errors import ConflictError, InputError
+from app.errors import DATABASE_RETRY_S, ServiceUnavailableError, error_response
+from app.services.keys import authenticate
+from sim.errors import AuthError, ConflictError, InputError
 
-__all__ = ["HEADER", "KEEP_HOURS", "STALE_MINUTES", "IdempotencyMiddleware"]
+__all__ = ["HEADER", "HEARTBEAT_S", "KEEP_HOURS", "STALE_S", "IdempotencyMiddleware"]
 
 logger = logging.getLogger("hydrodiag.app")
 
@@ -53,8 +60,11 @@ logger = logging.getLogger("hydrodiag.app")
 HEADER = "Idempotency-Key"
 #: how long a key and its answer are kept [h]
 KEEP_HOURS = 24
-#: after how long a first request that never finished no longer blocks its key [min]
-STALE_MINUTES = 10
+#: how often a running first request marks its key as still in hand [s]
+HEARTBEAT_S = 10.0
+#: after how long without that mark a first request no longer blocks its key (its process
+#: died, or the store was unreachable when it failed) [s]
+STALE_S = 30.0
 #: seconds a retry of a request still running is asked to wait
 RETRY_S = 2
 
@@ -79,16 +89,34 @@ def _digest(*parts: bytes) -> str:
 
 def _canonical(content_type: str, body: bytes) -> tuple[str, bytes]:
     """The content type and body a retry must repeat: a multipart form's boundary left
-    out (clients draw a new one for each send of the same form)."""
+    out (clients draw a new one for each send of the same form), a JSON body as its
+    document (spacing and key order are the serialiser's)."""
     media, _, params = content_type.partition(";")
+    if media.strip().lower() == "application/json":
+        try:
+            document = json.loads(body)
+        except ValueError:   # not JSON: the route answers that, the bytes stand
+            return content_type, body
+        return "application/json", json.dumps(document, sort_keys=True,
+                                              separators=(",", ":")).encode()
     match = re.search(r'boundary="?([^";]+)"?', params)
     if not media.strip().lower().startswith("multipart/") or match is None:
         return content_type, body
     return media.strip().lower(), body.replace(match.group(1).encode("latin-1"), b"-")
 
 
+def _unavailable(scope: Scope, exc: Exception) -> Any:
+    logger.warning("database unavailable: %s", type(exc).__name__)
+    return error_response(503, ServiceUnavailableError.__name__,
+                          f"the database did not answer ({type(exc).__name__}); nothing of "
+                          "this request was stored: retry shortly", HEADER,
+                          headers={"Retry-After": str(DATABASE_RETRY_S)},
+                          request=Request(scope))
+
+
 class _Outcome:
-    """What the store says about a key: run it (``row_id``), or answer ``response``."""
+    """What the store says about a key: run it and keep the answer (``row_id``), answer
+    ``response``, or neither (run it as a request without the header)."""
 
     def __init__(self, row_id: int | None = None, response: Any = None) -> None:
         self.row_id = row_id
@@ -139,11 +167,48 @@ class IdempotencyMiddleware:
         digest = _digest(str(scope["method"]).encode(), path.encode(),
                          bytes(scope.get("query_string", b"")), content_type.encode(),
                          same_body)
-        outcome = await anyio.to_thread.run_sync(self._claim, owner, key, str(scope["method"]),
-                                                 path, digest, Request(scope))
+        try:
+            outcome = await anyio.to_thread.run_sync(self._claim, owner, key,
+                                                     str(scope["method"]), path, digest,
+                                                     Request(scope), api_key)
+        except (OperationalError, InterfaceError) as exc:   # the store does not answer
+            await _unavailable(scope, exc)(scope, receive, send)
+            return
         if outcome.response is not None:
             await outcome.response(scope, receive, send)
             return
+        if outcome.row_id is None:   # not kept (a key no longer valid): as without header
+            await self._app_with_body(scope, receive, send, body)
+            return
+        beat = asyncio.ensure_future(self._heartbeat(outcome.row_id))
+        try:
+            await self._run(scope, receive, send, body, outcome.row_id)
+        finally:
+            beat.cancel()
+
+    async def _app_with_body(self, scope: Scope, receive: Receive, send: Send,
+                             body: bytes) -> None:
+        sent = False
+
+        async def replay() -> Message:
+            nonlocal sent
+            if not sent:
+                sent = True
+                return {"type": "http.request", "body": body, "more_body": False}
+            return await receive()
+
+        await self.app(scope, replay, send)
+
+    async def _heartbeat(self, row_id: int) -> None:
+        while True:
+            await asyncio.sleep(HEARTBEAT_S)
+            try:
+                await anyio.to_thread.run_sync(self._touch, row_id)
+            except Exception as exc:  # the store away for a while: the key goes stale
+                logger.warning("could not mark an %s in hand: %s", HEADER, type(exc).__name__)
+
+    async def _run(self, scope: Scope, receive: Receive, send: Send, body: bytes,
+                   row_id: int) -> None:
         sent = False
 
         async def replay() -> Message:
@@ -168,31 +233,39 @@ class IdempotencyMiddleware:
         try:
             await self.app(scope, replay, capture)
         except BaseException:
-            await anyio.to_thread.run_sync(self._release, outcome.row_id)
+            await self._settle(self._release, row_id)
             raise
         assert start is not None
         if start["status"] // 100 != 2:
-            await anyio.to_thread.run_sync(self._release, outcome.row_id)
+            await self._settle(self._release, row_id)
             return
         content = b"".join(parts)
         headers = {k.lower(): v for k, v in start.get("headers", [])}
-        await anyio.to_thread.run_sync(
-            self._keep, outcome.row_id, int(start["status"]),
-            headers.get(b"content-type", b"").decode("latin-1") or None,
-            headers.get(b"location", b"").decode("latin-1") or None, content)
+        await self._settle(self._keep, row_id, int(start["status"]),
+                           headers.get(b"content-type", b"").decode("latin-1") or None,
+                           headers.get(b"location", b"").decode("latin-1") or None, content)
         await send(start)
         await send({"type": "http.response.body", "body": content, "more_body": False})
 
+    async def _settle(self, step: Callable[..., None], *args: Any) -> None:
+        """Release or keep a key; a store that does not answer leaves it to go stale
+        (:data:`STALE_S`) rather than turning the answer into an error."""
+        try:
+            await anyio.to_thread.run_sync(step, *args)
+        except (OperationalError, InterfaceError) as exc:
+            logger.warning("could not settle an %s (%s): it frees itself in %.0f s", HEADER,
+                           type(exc).__name__, STALE_S)
+
     # -- the store (run in a worker thread) --------------------------------------------
     def _claim(self, owner: str, key: str, method: str, path: str, digest: str,
-               request: Request) -> _Outcome:
+               request: Request, api_key: str) -> _Outcome:
         now = utcnow()
         with self.sessions() as session:
             session.execute(delete(IdempotentRequest)
                             .where(IdempotentRequest.expires_at < now))
             session.commit()
             row = IdempotentRequest(owner=owner, idempotency_key=key, method=method,
-                                    path=path, digest=digest, created_at=now,
+                                    path=path, digest=digest, created_at=now, touched_at=now,
                                     expires_at=now + timedelta(hours=KEEP_HOURS))
             session.add(row)
             try:
@@ -203,7 +276,7 @@ class IdempotencyMiddleware:
             found = session.scalar(select(IdempotentRequest).where(
                 IdempotentRequest.owner == owner, IdempotentRequest.idempotency_key == key))
             if found is None:  # released meanwhile: try once more
-                return self._claim(owner, key, method, path, digest, request)
+                return self._claim(owner, key, method, path, digest, request, api_key)
             if found.digest != digest:
                 return _Outcome(response=error_response(
                     422, InputError.__name__,
@@ -212,23 +285,33 @@ class IdempotencyMiddleware:
                     "must send the same request; a new request needs a new key", HEADER,
                     request=request))
             if found.status is not None:
+                try:   # an answer only to a key still valid (routes check theirs later)
+                    authenticate(session, api_key)
+                except AuthError:
+                    return _Outcome()
                 logger.info("replayed the answer of %s %s under an %s", method, path, HEADER)
                 headers = {"Idempotent-Replayed": "true"}
                 if found.location:
                     headers["Location"] = found.location
                 return _Outcome(response=_Stored(found.status, found.content_type,
                                                  found.body or b"", headers))
-            if found.created_at > now - timedelta(minutes=STALE_MINUTES):
+            if found.touched_at > now - timedelta(seconds=STALE_S):
                 return _Outcome(response=error_response(
                     409, ConflictError.__name__,
                     f"the first request with this {HEADER} is still being processed; "
                     f"retry in {RETRY_S} s to get its answer", HEADER,
                     headers={"Retry-After": str(RETRY_S)}, request=request))
             # its process never finished it: the key is taken over
-            found.created_at = now
+            found.created_at = found.touched_at = now
             found.expires_at = now + timedelta(hours=KEEP_HOURS)
             session.commit()
             return _Outcome(row_id=found.id)
+
+    def _touch(self, row_id: int) -> None:
+        with self.sessions() as session:
+            session.execute(update(IdempotentRequest).where(IdempotentRequest.id == row_id)
+                            .values(touched_at=utcnow()))
+            session.commit()
 
     def _release(self, row_id: int | None) -> None:
         with self.sessions() as session:

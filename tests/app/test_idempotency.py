@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import json
 import threading
 from datetime import timedelta
 from pathlib import Path
@@ -17,7 +18,7 @@ from app.db import migrate
 from app.db.base import utcnow
 from app.db.engine import make_engine, make_session_factory
 from app.db.models import IdempotentRequest
-from app.idempotency import STALE_MINUTES, IdempotencyMiddleware, _digest
+from app.idempotency import STALE_S, IdempotencyMiddleware, _digest
 from tests.app.conftest import simulated_record
 from tests.app.live import LiveServer
 
@@ -78,9 +79,15 @@ def test_a_resent_series_import_is_stored_once(server: LiveServer) -> None:
 
 
 def _app(tmp_path: Path, release: threading.Event) -> tuple[FastAPI, Any, list[int]]:
+    """A slow endpoint behind the middleware on a store of its own, with a key whose
+    plaintext is ``_app.key`` (a replay needs a valid key)."""
+    from app.services.keys import create_api_key
+
     engine = make_engine(make_url(f"sqlite:///{tmp_path / 'idem.db'}"))
     migrate.upgrade(engine)
     sessions = make_session_factory(engine)
+    with sessions() as session:
+        _app.key = create_api_key(session, "client")[1]  # type: ignore[attr-defined]
     app = FastAPI()
     runs: list[int] = []
 
@@ -97,7 +104,7 @@ def _app(tmp_path: Path, release: threading.Event) -> tuple[FastAPI, Any, list[i
 def test_a_retry_while_the_first_request_runs_is_asked_to_wait(tmp_path: Path) -> None:
     release = threading.Event()
     app, _, runs = _app(tmp_path, release)
-    headers = {"Idempotency-Key": "k1", "X-API-Key": "client-a"}
+    headers = {"Idempotency-Key": "k1", "X-API-Key": _app.key}  # type: ignore[attr-defined]
 
     async def scenario() -> tuple[httpx.Response, httpx.Response, httpx.Response]:
         transport = httpx.ASGITransport(app=app)
@@ -125,7 +132,7 @@ def test_a_first_request_whose_process_died_no_longer_blocks_its_key(tmp_path: P
     with sessions() as session:   # what a process killed mid-request leaves
         session.add(IdempotentRequest(owner="?", idempotency_key="k2", method="POST",
                                       path="/slow", digest="?", created_at=now,
-                                      expires_at=now + timedelta(hours=1)))
+                                      touched_at=now, expires_at=now + timedelta(hours=1)))
         session.commit()
 
     async def post() -> httpx.Response:
@@ -138,10 +145,10 @@ def test_a_first_request_whose_process_died_no_longer_blocks_its_key(tmp_path: P
         session.execute(update(IdempotentRequest).values(owner=_digest(b"client-b")[:64]))
         session.commit()
     assert asyncio.run(post()).status_code == 422      # another request's digest
-    same = _digest(b"POST", b"/slow", b"", b"application/json", b"{}")
+    same = _digest(b"POST", b"/slow", b"", b"application/json", b"{}")  # canonical JSON
     with sessions() as session:
         session.execute(update(IdempotentRequest).values(
-            digest=same, created_at=now - timedelta(minutes=STALE_MINUTES + 1)))
+            digest=same, touched_at=now - timedelta(seconds=STALE_S + 1)))
         session.commit()
     taken = asyncio.run(post())
     assert taken.status_code == 201 and len(runs) == 1
@@ -163,3 +170,52 @@ def test_without_an_api_key_the_header_is_not_kept(tmp_path: Path) -> None:
     assert asyncio.run(twice()) == [1, 2]
     with sessions() as session:
         assert session.query(IdempotentRequest).count() == 0
+
+
+def test_a_replay_needs_a_valid_key_and_json_written_otherwise_is_the_same_request(
+        server: LiveServer) -> None:
+    from app.services.keys import create_api_key, revoke_api_key
+
+    with server.sessions() as session:
+        row, plaintext = create_api_key(session, "short-lived", "write")
+    record = simulated_record(server, measured_at="2026-11-28T10:00:00Z")
+    headers = {"X-API-Key": plaintext, "Idempotency-Key": "visit-10h",
+               "Content-Type": "application/json"}
+    first = server.client.post("/diagnose", content=json.dumps({"record": record}),
+                               headers=headers)
+    assert first.status_code == 200, first.text
+    # the same document, spaced and ordered otherwise: the same request, replayed
+    other_spelling = json.dumps({"record": dict(reversed(list(record.items())))}, indent=2)
+    again = server.client.post("/diagnose", content=other_spelling, headers=headers)
+    assert again.status_code == 200 and again.headers["Idempotent-Replayed"] == "true"
+    # a revoked key gets no answer from the store of kept answers (it got them 24 h)
+    with server.sessions() as session:
+        revoke_api_key(session, row.id)
+    gone = server.client.post("/diagnose", content=json.dumps({"record": record}),
+                              headers=headers)
+    assert gone.status_code == 401 and "Idempotent-Replayed" not in gone.headers
+
+
+def test_a_store_that_does_not_answer_is_a_503_for_a_keyed_write(tmp_path: Path) -> None:
+    from sqlalchemy.exc import OperationalError
+
+    release = threading.Event()
+    release.set()
+    app, _, runs = _app(tmp_path, release)
+
+    def down() -> Any:
+        raise OperationalError("SELECT 1", {}, ConnectionError("server closed the connection"))
+
+    for m in app.user_middleware:   # the store goes away under the middleware
+        if m.cls is IdempotencyMiddleware:
+            m.kwargs["sessions"] = down
+
+    async def post() -> httpx.Response:
+        transport = httpx.ASGITransport(app=app)
+        async with httpx.AsyncClient(transport=transport, base_url="http://t") as client:
+            return await client.post("/slow", json={}, headers={"Idempotency-Key": "k4",
+                                                                "X-API-Key": "client-c"})
+
+    response = asyncio.run(post())
+    assert response.status_code == 503 and response.headers["Retry-After"] == "5"
+    assert response.json()["error"]["type"] == "ServiceUnavailableError" and runs == []
