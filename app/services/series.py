@@ -110,9 +110,10 @@ def _refuse_stored_twice(session: Session, rig_id: int, name: str,
         ids = ", ".join(str(i) for i, _ in found[:5]) + (" …" if len(found) > 5 else "")
         raise ConflictError(
             f"{len(found)} of these records are stored already for rig {rig_id} under the "
-            f"name {name!r}, the same data (record {found[0][1]!r}; series {ids}): imported "
-            "twice, a cycle counts twice in a discrepancy check. Import under another name, "
-            "or delete those series first (DELETE /series/{id})", field="name")
+            f"name {name!r}, the same data (record {found[0][1]!r}; series {ids}): nothing "
+            "to import (stored twice, a cycle would count twice in a discrepancy check); to "
+            "import them again, delete those series first (DELETE /series/{id})",
+            field="name")
 
 
 def store_records(session: Session, rig_id: int, name: str, records: Sequence[SeriesRecord],
