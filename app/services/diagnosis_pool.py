@@ -33,6 +33,7 @@ from __future__ import annotations
 import asyncio
 import collections
 import contextlib
+import contextvars
 import logging
 import multiprocessing
 import os
@@ -238,7 +239,7 @@ class DiagnosisPool:
         with self._lock:
             self._loop = loop
             for worker in self._workers:
-                loop.add_reader(worker.connection.fileno(), self._on_answer, worker)
+                self._read(worker)
 
     def _on_answer(self, worker: Process) -> None:
         """Read what the pipe holds (never blocking: uvloop makes the descriptor
@@ -294,7 +295,15 @@ class DiagnosisPool:
         with self._lock:
             index = self._workers.index(gone)
             self._workers[index] = worker = self._spawn()
-        self._loop.add_reader(worker.connection.fileno(), self._on_answer, worker)
+        self._read(worker)
+
+    def _read(self, worker: Process) -> None:
+        """Read ``worker``'s pipe from the loop, in a context of its own: the reader took
+        the context of the request that first reached the pool, and its log lines (a
+        process that stopped) named that request's id, minutes later."""
+        assert self._loop is not None
+        contextvars.Context().run(self._loop.add_reader, worker.connection.fileno(),
+                                  self._on_answer, worker)
 
     def _dispatch(self) -> None:
         for worker in self._workers:

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import asyncio
 import json
+import logging
 import os
 import signal
 import subprocess
@@ -206,3 +207,44 @@ def test_the_warm_up_request_runs_whole_through_the_store(server: LiveServer) ->
     (diagnosis,) = json.loads(answer.body())["diagnoses"]
     assert diagnosis["top"] == "healthy" and diagnosis["id"] is None
     assert answer.rows == [] and server.row_counts() == before
+
+
+def test_a_stopped_worker_is_logged_without_the_id_of_the_request_that_woke_the_pool(
+        server: LiveServer, caplog: pytest.LogCaptureFixture) -> None:
+    """The pipe reader took the context of the request that first reached the pool, so the
+    line "a diagnosis process stopped" named that request's id, minutes later."""
+    from app.logs import _current, current_request_id
+
+    body = {"record": simulated_record(server, WORN_VALVE)}
+    request = DiagnoseRequest.model_validate(body)
+    with server.session() as session:
+        (plan,) = plan_groups(session, RigCache(2), request, utcnow())
+    pool = DiagnosisPool(1)
+    seen: list[str | None] = []
+
+    class Spy(logging.Handler):
+        def emit(self, record: logging.LogRecord) -> None:
+            if "stopped; starting another" in record.getMessage():
+                seen.append(current_request_id())
+
+    spy = Spy()
+    logging.getLogger("hydrodiag").addHandler(spy)
+
+    async def scenario() -> None:
+        token = _current.set("first-request")   # the request that wakes the pool
+        try:
+            await pool.compute(plan)
+        finally:
+            _current.reset(token)
+        os.kill(pool.worker_pids()[0], signal.SIGKILL)
+        deadline = time.monotonic() + 30
+        while not seen and time.monotonic() < deadline:
+            await asyncio.sleep(0.05)
+
+    try:
+        pool.warm([])
+        asyncio.run(scenario())
+    finally:
+        logging.getLogger("hydrodiag").removeHandler(spy)
+        pool.shutdown()
+    assert seen == [None]
