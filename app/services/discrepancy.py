@@ -198,26 +198,25 @@ def store_discovery(session: Session, rig_id: int, from_version: int, d: Discove
     """
     if not d.named:
         return None, None
-    implausible = [f"{n.name} ({n.parameter} = {n.value:.4g} {n.unit}, plausible "
-                   f"{n.plausible_range[0]:.3g} to {n.plausible_range[1]:.3g})"
-                   for n in d.named if not n.plausible]
-    if implausible:
-        return None, ("not stored: outside its plausible range: " + "; ".join(implausible)
-                      + " — the data may not come from this rig, or the effect stands for "
-                      "another")
+    reasons = [f"outside its plausible range: {n.name} ({n.parameter} = {n.value:.4g} "
+               f"{n.unit}, plausible {n.plausible_range[0]:.3g} to "
+               f"{n.plausible_range[1]:.3g}) — the data may not come from this rig, or the "
+               "effect stands for another" for n in d.named if not n.plausible]
     rig = get_rig(session, rig_id, field="rig_id")
     if rig.latest_version != from_version:
-        return None, (f"not stored: the workflow ran on version {from_version} and the "
-                      f"rig's latest is {rig.latest_version}, whose changes a version built "
-                      f"on {from_version} would drop; run it on the latest version to store")
+        reasons.append(f"the workflow ran on version {from_version} and the rig's latest is "
+                       f"{rig.latest_version}, whose changes a version built on "
+                       f"{from_version} would drop; run it on the latest version to store")
     before = load_rig(latest_version(session, rig).document).values()
     after = load_rig(d.rig_document).values()
     for key in (k for k in before if k.endswith(".Vp") and k in after):
         change = after[key] / before[key] - 1.0
         if abs(change) > MAX_DISPLACEMENT_CHANGE:
-            return None, (f"not stored: the re-fit moves {key} by {100 * change:+.0f} %: a "
-                          "displacement does not wear by that much, so the data come from "
-                          "another pump (hydrodiag calibrate pump characterises it)")
+            reasons.append(f"the re-fit moves {key} by {100 * change:+.0f} %: a displacement "
+                           "does not wear by that much, so the data come from another pump "
+                           "(hydrodiag calibrate pump characterises it)")
+    if reasons:  # every reason, not the first (an operator fixing one met the next)
+        return None, "not stored: " + "; ".join(reasons)
     names = ", ".join(n.name for n in d.named)
     _, version = update_rig(session, rig_id, d.rig_document,
                             comment=f"hydrodiag discover: added {names} (from version "
