@@ -105,11 +105,25 @@ def _canonical(content_type: str, body: bytes) -> tuple[str, bytes]:
     return media.strip().lower(), body.replace(match.group(1).encode("latin-1"), b"-")
 
 
+def _replaying(body: bytes, receive: Receive) -> Receive:
+    """A ``receive`` that gives the body read already, then what ``receive`` gives."""
+    sent = False
+
+    async def replay() -> Message:
+        nonlocal sent
+        if not sent:
+            sent = True
+            return {"type": "http.request", "body": body, "more_body": False}
+        return await receive()
+
+    return replay
+
+
 def _unavailable(scope: Scope, exc: Exception) -> Any:
     logger.warning("database unavailable: %s", type(exc).__name__)
     return error_response(503, ServiceUnavailableError.__name__,
                           f"the database did not answer ({type(exc).__name__}); nothing of "
-                          "this request was stored: retry shortly", HEADER,
+                          "this request was stored: retry shortly",
                           headers={"Retry-After": str(DATABASE_RETRY_S)},
                           request=Request(scope))
 
@@ -188,16 +202,7 @@ class IdempotencyMiddleware:
 
     async def _app_with_body(self, scope: Scope, receive: Receive, send: Send,
                              body: bytes) -> None:
-        sent = False
-
-        async def replay() -> Message:
-            nonlocal sent
-            if not sent:
-                sent = True
-                return {"type": "http.request", "body": body, "more_body": False}
-            return await receive()
-
-        await self.app(scope, replay, send)
+        await self.app(scope, _replaying(body, receive), send)
 
     async def _heartbeat(self, row_id: int) -> None:
         while True:
@@ -209,15 +214,6 @@ class IdempotencyMiddleware:
 
     async def _run(self, scope: Scope, receive: Receive, send: Send, body: bytes,
                    row_id: int) -> None:
-        sent = False
-
-        async def replay() -> Message:
-            nonlocal sent
-            if not sent:
-                sent = True
-                return {"type": "http.request", "body": body, "more_body": False}
-            return await receive()
-
         start: Message | None = None
         parts: list[bytes] = []
 
@@ -231,7 +227,7 @@ class IdempotencyMiddleware:
                 await send(message)   # not kept: passed on as it comes
 
         try:
-            await self.app(scope, replay, capture)
+            await self.app(scope, _replaying(body, receive), capture)
         except BaseException:
             await self._settle(self._release, row_id)
             raise
