@@ -441,7 +441,8 @@ def calibrate_pump(
         value = quantity["value"]
         if isinstance(value, float):
             shown = f"{value:.6g}"
-        elif key.endswith("_coef") and len(value) <= 8:
+        elif (key.endswith("_coef") and len(value) <= 8
+              and all(isinstance(v, float | int) for v in value)):
             # a loss model's coefficients, named below by its terms (they were "array 6
             # rows", the term names only in the JSON description)
             shown = ", ".join(f"{v:.4g}" for v in value)
