@@ -10,7 +10,8 @@ kept in the store under that key and the API key that sent it
 key stores nothing, and its header is ignored):
 
 * the first request runs; once it succeeded (2xx) its status, content type, ``Location``
-  and body are kept before the answer is sent, so an acknowledged answer is replayable;
+  and body are kept before the answer is sent, so an acknowledged answer is replayable
+  (and a failed one frees its key before it is sent);
 * the same request again (same method, path, query, content type and body) gets that
   answer, with ``Idempotent-Replayed: true``, and nothing runs or is stored;
 * the same request while the first still runs: 409 ``ConflictError`` with ``Retry-After``
@@ -218,13 +219,13 @@ class IdempotencyMiddleware:
         parts: list[bytes] = []
 
         async def capture(message: Message) -> None:
+            # every answer is held until the key is settled: a failure passed on as it came
+            # let the client's retry arrive before its key was freed (422, another request)
             nonlocal start
             if message["type"] == "http.response.start":
                 start = message
             elif message["type"] == "http.response.body":
                 parts.append(message.get("body", b""))
-            if start is not None and start["status"] // 100 != 2:
-                await send(message)   # not kept: passed on as it comes
 
         try:
             await self.app(scope, _replaying(body, receive), capture)
@@ -232,10 +233,12 @@ class IdempotencyMiddleware:
             await self._settle(self._release, row_id)
             raise
         assert start is not None
+        content = b"".join(parts)
         if start["status"] // 100 != 2:
             await self._settle(self._release, row_id)
+            await send(start)
+            await send({"type": "http.response.body", "body": content, "more_body": False})
             return
-        content = b"".join(parts)
         headers = {k.lower(): v for k, v in start.get("headers", [])}
         await self._settle(self._keep, row_id, int(start["status"]),
                            headers.get(b"content-type", b"").decode("latin-1") or None,
