@@ -15,7 +15,7 @@ import numpy as np
 import pandas as pd
 
 from app.services.trends import UNLIKELY, ComponentTrendOut
-from diagnostics.plots import Bar, Chart, Series, bar_chart, line_chart
+from diagnostics.plots import PALETTE, Bar, Chart, Series, bar_chart, line_chart
 from diagnostics.timeseries import SeriesRecord
 
 __all__ = [
@@ -197,10 +197,10 @@ def trend_chart(trend: ComponentTrendOut) -> Chart:
     unlikely = np.array([p.probability is not None and p.probability < UNLIKELY for p in pts],
                         dtype=bool)
     series = []
-    for part, label, color in ((~unlikely, "estimate (95 %)", None),
+    for part, label, color in ((~unlikely, "estimate (95 %)", PALETTE[0]),
                                (unlikely, f"if the {trend.component} is the worn one "
                                 f"(p < {UNLIKELY:g})", "#999999")):
-        if part.any() or (color is None and not pts):  # an empty chart keeps its legend
+        if part.any() or (color == PALETTE[0] and not pts):  # an empty chart keeps its legend
             series.append(Series(days[part], y[part], label, kind="errorbars",
                                  low=low[part], high=high[part], color=color))
     if trend.slope is not None and len(pts) >= 2:
@@ -218,7 +218,7 @@ def trend_chart(trend: ComponentTrendOut) -> Chart:
         hi = at_xm + (trend.slope_high if trend.slope_high is not None else trend.slope) \
             * per_day * (span - xm)
         series.append(Series(span, line, "Theil–Sen", low=np.minimum(lo, hi),
-                             high=np.maximum(lo, hi), dashed=True))
+                             high=np.maximum(lo, hi), dashed=True, color=PALETTE[1]))
     return line_chart(f"{trend.component}: {trend.quantity} over time",
                       "days since the first diagnosis [day]",
                       f"{trend.quantity} [{trend.unit}]", series,
