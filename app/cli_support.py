@@ -40,18 +40,15 @@ def settings_from_env(**overrides: object) -> Settings:
         changes = {k: v for k, v in overrides.items() if v is not None}
         return Settings.model_validate(settings.model_dump() | changes) if changes else settings
     except ValidationError as exc:
+        from app.errors import plain_message
+
         # each problem by its variable, without the value: a database URL holds a password
         lines = [f"HYDRODIAG_{'_'.join(str(p) for p in e['loc']).upper() or 'SETTINGS'}: "
-                 f"{_plain(e['msg'])}" for e in exc.errors(include_input=False,
+                 f"{plain_message(e['msg'])}" for e in exc.errors(include_input=False,
                                                            include_url=False)]
         console.print("[red]invalid configuration (HYDRODIAG_* variables):[/red]\n"
                       + escape("\n".join(lines)))
         raise typer.Exit(code=2) from None
-
-
-def _plain(message: str) -> str:
-    """A validator's message without pydantic's ``Value error, `` prefix."""
-    return message.removeprefix("Value error, ")
 
 
 def migrated_engine() -> Engine:

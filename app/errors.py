@@ -69,10 +69,12 @@ __all__ = [
     "ScopeError",
     "ServiceBusyError",
     "ServiceUnavailableError",
+    "database_unavailable",
     "error_response",
     "first_problem",
     "format_location",
     "install_error_handlers",
+    "plain_message",
     "status_for",
 ]
 
@@ -209,10 +211,14 @@ def _location(err: Mapping[str, Any]) -> str | None:
     return format_location(loc)
 
 
+def plain_message(message: str) -> str:
+    """A validator's sentence as it wrote it, without pydantic's ``Value error, `` (a fault
+    name refused by POST /scenarios kept it; so did an invalid configuration)."""
+    return message.removeprefix("Value error, ")
+
+
 def _message(err: Mapping[str, Any]) -> str:
-    # a validator's sentence as it wrote it, without pydantic's "Value error, " (a fault
-    # name refused by POST /scenarios kept it)
-    message = str(err.get("msg", "")).removeprefix("Value error, ")
+    message = plain_message(str(err.get("msg", "")))
     loc = tuple(err.get("loc", ()))
     if err.get("type") == "json_invalid" and loc and isinstance(loc[-1], int):
         message = f"{message} at character {loc[-1]}"
@@ -282,15 +288,20 @@ async def _stale_row(request: Request, exc: Exception) -> JSONResponse:
 DATABASE_RETRY_S = 5
 
 
-async def _database_unavailable(request: Request, exc: Exception) -> JSONResponse:
-    # the driver lost the database (stopped, restarting, unreachable): the transaction was
-    # not committed, so a retry is safe — a 500 told clients and balancers it was a bug
+def database_unavailable(request: Request, exc: Exception) -> JSONResponse:
+    """The 503 of a store that does not answer (``exc``: the driver's error), with
+    ``Retry-After``: the transaction was not committed, so a retry is safe — a 500 told
+    clients and balancers it was a bug."""
     logger.warning("database unavailable: %s", type(exc).__name__,
                    extra={"request_id": request_id_of(request.scope)})
     return error_response(503, ServiceUnavailableError.__name__,
                           f"the database did not answer ({type(exc).__name__}); nothing of "
                           "this request was stored: retry shortly",
                           headers={"Retry-After": str(DATABASE_RETRY_S)}, request=request)
+
+
+async def _database_unavailable(request: Request, exc: Exception) -> JSONResponse:
+    return database_unavailable(request, exc)
 
 
 def _internal_error(request: Request, exc: BaseException) -> JSONResponse:

@@ -49,7 +49,7 @@ from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from app.db.base import utcnow
 from app.db.models import IdempotentRequest
-from app.errors import DATABASE_RETRY_S, ServiceUnavailableError, error_response
+from app.errors import database_unavailable, error_response
 from app.services.keys import authenticate
 from sim.errors import AuthError, ConflictError, InputError
 
@@ -120,15 +120,6 @@ def _replaying(body: bytes, receive: Receive) -> Receive:
     return replay
 
 
-def _unavailable(scope: Scope, exc: Exception) -> Any:
-    logger.warning("database unavailable: %s", type(exc).__name__)
-    return error_response(503, ServiceUnavailableError.__name__,
-                          f"the database did not answer ({type(exc).__name__}); nothing of "
-                          "this request was stored: retry shortly",
-                          headers={"Retry-After": str(DATABASE_RETRY_S)},
-                          request=Request(scope))
-
-
 class _Outcome:
     """What the store says about a key: run it and keep the answer (``row_id``), answer
     ``response``, or neither (run it as a request without the header)."""
@@ -187,7 +178,7 @@ class IdempotencyMiddleware:
                                                      str(scope["method"]), path, digest,
                                                      Request(scope), api_key)
         except (OperationalError, InterfaceError) as exc:   # the store does not answer
-            await _unavailable(scope, exc)(scope, receive, send)
+            await database_unavailable(Request(scope), exc)(scope, receive, send)
             return
         if outcome.response is not None:
             await outcome.response(scope, receive, send)

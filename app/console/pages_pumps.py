@@ -10,7 +10,6 @@ in m³/rad.
 
 from __future__ import annotations
 
-import math
 from typing import Annotated, Any
 
 from fastapi import File, Form, Query, Request, Response, UploadFile
@@ -29,14 +28,11 @@ from app.services import pumps as pump_service
 from app.services.pump_bench import MAX_CSV_BYTES, store_bench_parameters
 from diagnostics.plots import Chart
 from sim.errors import HydrodiagError, InputError
+from sim.units import to_si
 
 __all__ = ["router"]
 
 router = new_router()
-
-#: cm³/rev → m³/rad [m³/rad per cm³/rev]
-_CM3_PER_REV = 1e-6 / (2.0 * math.pi)
-
 
 def _page(request: Request, session: Any, set_id: int | None, *, status_code: int = 200,
           error: dict[str, Any] | None = None, entered: dict[str, str] | None = None
@@ -74,7 +70,8 @@ def _form(name: str, pump: str, rig: str, source: str, displacement: str) -> Pum
                               "rig_id": rig.strip() or None, "source": source.strip() or None}
     if displacement.strip():
         try:
-            fields["displacement_m3_rad"] = float(displacement) * _CM3_PER_REV
+            fields["displacement_m3_rad"] = to_si(float(displacement), "cm^3/rev", "m^3/rad",
+                                                  field="displacement")
         except ValueError:
             raise InputError(f"not a number: {displacement!r}", field="displacement") from None
     try:

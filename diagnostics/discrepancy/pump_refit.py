@@ -16,7 +16,6 @@ with the re-fitted pump, and the ``base drift`` test of the pump re-fitted alone
 from __future__ import annotations
 
 import copy
-import math
 from collections.abc import Mapping
 from typing import Any
 
@@ -30,6 +29,7 @@ from diagnostics.discrepancy.selection import hac_cov
 from diagnostics.discrepancy.signals import Signals
 from diagnostics.discrepancy.verdict import OUTPUT_GAP
 from sim.components.effects import EFFECTS
+from sim.units import from_si
 
 __all__ = ["BASE", "MAX_DISPLACEMENT_CHANGE", "base_change", "bench_drift", "combined", "drifted",
            "effect_flow", "model_flow",
@@ -189,10 +189,6 @@ def drifted(values: Mapping[str, float], alone: Mapping[str, float], rmse_alone:
 #: its 17.5 cm³/rev pump as 57) [-]
 MAX_DISPLACEMENT_CHANGE = 0.10
 
-#: m³/rad → cm³/rev
-_CM3_REV = 2.0 * math.pi * 1e6
-
-
 def base_change(values: Mapping[str, float], base: Mapping[str, float]) -> str:
     """``pump re-fitted: Rlp 6e+11 → 5.8e+11 Pa·s/m³, Vp 17.50 → 17.62 cm³/rev``: the pump
     re-fitted by ``base``, the displacement per revolution as datasheets state it; a
@@ -201,7 +197,8 @@ def base_change(values: Mapping[str, float], base: Mapping[str, float]) -> str:
     new = refitted_pump(values, base)
     vp0, vp1 = values["pump.Vp"], new["pump.Vp"]
     text = (f"pump re-fitted: Rlp {values['pump.Rlp']:.4g} → {new['pump.Rlp']:.4g} Pa·s/m³, "
-            f"Vp {vp0 * _CM3_REV:.4g} → {vp1 * _CM3_REV:.4g} cm³/rev")
+            f"Vp {from_si(vp0, 'cm^3/rev', 'm^3/rad'):.4g} → "
+            f"{from_si(vp1, 'cm^3/rev', 'm^3/rad'):.4g} cm³/rev")
     change = vp1 / vp0 - 1.0
     if abs(change) > MAX_DISPLACEMENT_CHANGE:
         text += (f" (the displacement moved {100 * change:+.0f} %: a displacement does not "
