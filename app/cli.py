@@ -119,17 +119,26 @@ def serve(
 @keys_cli.command("create")
 def keys_create(
     name: Annotated[str, typer.Option(help="Unique name of the key (who or what uses it).")],
-    scope: Annotated[Scope, typer.Option(
-        case_sensitive=False,
+    scope: Annotated[str, typer.Option(
+        metavar="read|write|admin",
         help="What the key may do: read (reads, /simulate, unstored /diagnose), write "
              "(also store and change), admin (also delete).")],
 ) -> None:
     """Create an API key and print it (only now: the store keeps its hash)."""
     from app.services.keys import create_api_key
 
+    # parsed here, not by typer: its enum check came out as "Value error, 'x' is not one
+    # of …" (pydantic's prefix) in the usage error
+    choices = ", ".join(repr(s.value) for s in Scope)
+    try:
+        chosen = Scope(scope.strip().lower())
+    except ValueError:
+        raise typer.BadParameter(f"{scope!r} is not one of {choices}.",
+                                 param_hint="'--scope'") from None
+
     engine = _migrated_engine()
     with make_session_factory(engine)() as session:
-        _, plaintext = create_api_key(session, name, scope)
+        _, plaintext = create_api_key(session, name, chosen)
     engine.dispose()
     typer.echo(plaintext)
 

@@ -28,6 +28,7 @@ from rich.table import Table
 from app.cli_support import steps, store_session, validation_error
 from app.schemas.common import MAX_ID
 from sim.errors import InputError
+from sim.units import from_si
 
 if TYPE_CHECKING:
     from app.schemas.pumps import PumpSetCreate
@@ -35,10 +36,6 @@ if TYPE_CHECKING:
 __all__ = ["calibrate_pump_map"]
 
 _out = Console()
-
-#: cm³/rev per m³/rad
-CM3_REV = 2.0 * math.pi * 1e6
-
 
 def _tables(file: Path, theta: float) -> list[tuple[float, bytes, int, int]]:
     """(setting [cm³/rev], bench CSV bytes, points, speeds) of every displacement setting."""
@@ -53,7 +50,7 @@ def _tables(file: Path, theta: float) -> list[tuple[float, bytes, int, int]]:
     for i, level in enumerate(levels):
         part = data.subset(label == i)
         speeds = cluster_levels(part.omega, field="Speed")[1].size
-        cm3 = float(level) * CM3_REV
+        cm3 = from_si(float(level), "cm^3/rev", "m^3/rad")
         drain = ("; its case-drain flow QDr is not carried (the bench format has none: q is "
                  "the delivered flow QOut)" if part.q_drain is not None else "")
         head = (f"# efficiency map {file.name}, displacement setting {cm3:.1f} cm3/rev; "
@@ -146,7 +143,7 @@ def calibrate_pump_map(
                   title=escape(f"{file.name}: {len(sets)} displacement settings, θ "
                                f"{theta:g} °C assumed"))
     for (cm3, _, n, speeds), s, sid in zip(tables, sets, ids, strict=True):
-        table.add_row(f"{cm3:.1f}", str(n), str(speeds), _shown(s, "D", CM3_REV),
+        table.add_row(f"{cm3:.1f}", str(n), str(speeds), _shown(s, "D", from_si(1.0, "cm^3/rev", "m^3/rad")),
                       _shown(s, "check_flow_S"), _shown(s, "check_torque_S"), sid)
     _out.print(table)
     _out.print("S: RMS error with one speed left out at a time, % of the setting's largest "
