@@ -71,6 +71,7 @@ def serve(
 
     from app.logs import configure_logging
     from app.main import create_app
+    from app.metrics import shared_metrics
     from app.nodelay import NoDelayHttpToolsProtocol
     from app.services.bootstrap import (
         bootstrap_lock,
@@ -105,10 +106,12 @@ def serve(
                       "send it in the X-API-Key header.[/bold]")
         typer.echo(f"API key: {first_key}")
     if settings.workers > 1:  # each worker builds the app from the environment
-        uvicorn.run("app.main:create_service_app", factory=True, workers=settings.workers,
-                    host=settings.host, port=settings.port, log_level=settings.log_level,
-                    http=NoDelayHttpToolsProtocol,  # no Nagle delay on kept-alive connections
-                    access_log=False)  # the service logs each request itself
+        with shared_metrics():  # /metrics sums every worker's counters
+            uvicorn.run("app.main:create_service_app", factory=True,
+                        workers=settings.workers, host=settings.host, port=settings.port,
+                        log_level=settings.log_level,
+                        http=NoDelayHttpToolsProtocol,  # no Nagle delay on kept-alive
+                        access_log=False)  # the service logs each request itself
     else:
         uvicorn.run(create_app(settings, clearance_estimator=estimator, prepare_store=False),
                     host=settings.host, port=settings.port, log_level=settings.log_level,

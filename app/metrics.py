@@ -4,17 +4,66 @@ of ``POST /diagnose``.
 The route label is the path *template* (``/rigs/{rig_id}``), so the number of series stays
 bounded whatever ids clients use; requests that match no route count as ``<unmatched>``.
 Each application has its own registry, so several can live in one process (tests).
+
+``hydrodiag serve`` with several worker processes (:func:`shared_metrics`) runs
+prometheus_client's multiprocess mode: each worker writes its values to files in one
+folder (``PROMETHEUS_MULTIPROC_DIR``), and a scrape, whichever worker answers it, reads the
+sum of all (:func:`exposition`).  Before, a scrape showed the counters of the one worker
+that answered it, so a counter went up and down from scrape to scrape (an operator pass).
 """
 
 from __future__ import annotations
 
+import os
+import shutil
+import tempfile
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from typing import Any
 
-from prometheus_client import CollectorRegistry, Counter, Histogram
+from prometheus_client import CollectorRegistry, Counter, Histogram, generate_latest
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
-__all__ = ["STARTED", "HttpMetrics", "MetricsMiddleware"]
+__all__ = ["MULTIPROCESS_DIR", "STARTED", "HttpMetrics", "MetricsMiddleware", "exposition",
+           "shared_metrics"]
+
+#: prometheus_client's variable: the folder where every process writes its values
+MULTIPROCESS_DIR = "PROMETHEUS_MULTIPROC_DIR"
+
+
+@contextmanager
+def shared_metrics() -> Iterator[str]:
+    """Run the worker processes started inside in multiprocess mode, in a new folder
+    removed after (an operator's own ``PROMETHEUS_MULTIPROC_DIR`` is used and kept).
+
+    prometheus_client chooses where values live when it is first imported, so the folder
+    must be in the environment before the workers start (they are spawned, and import it
+    afresh); this process itself answers no scrape.
+    """
+    own = os.environ.get(MULTIPROCESS_DIR)
+    if own:
+        yield own
+        return
+    folder = tempfile.mkdtemp(prefix="hydrodiag-metrics-")
+    os.environ[MULTIPROCESS_DIR] = folder
+    try:
+        yield folder
+    finally:
+        os.environ.pop(MULTIPROCESS_DIR, None)
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+def exposition(registry: CollectorRegistry) -> bytes:
+    """The Prometheus text of ``registry``, or of every worker's values in multiprocess
+    mode (:func:`shared_metrics`)."""
+    if os.environ.get(MULTIPROCESS_DIR):
+        from prometheus_client.multiprocess import MultiProcessCollector
+
+        merged = CollectorRegistry()
+        MultiProcessCollector(merged)
+        return generate_latest(merged)
+    return generate_latest(registry)
 
 #: Key in ``request.state`` of the time the request arrived [s, ``time.perf_counter``].
 STARTED = "hydrodiag_started"

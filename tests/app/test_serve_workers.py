@@ -1,5 +1,6 @@
 """``hydrodiag serve`` with several workers: a ``kill -9`` of the supervisor leaves no orphan
-behind (server workers and their diagnosis workers end themselves)."""
+behind (server workers and their diagnosis workers end themselves); ``/metrics`` counts the
+requests of every worker, whichever answers the scrape."""
 
 from __future__ import annotations
 
@@ -12,6 +13,7 @@ import time
 from pathlib import Path
 
 import httpx
+import pytest
 
 STARTUP_TIMEOUT_S = 240.0
 
@@ -43,28 +45,67 @@ def _alive(pid: int) -> bool:
     return fields[0] != "Z"
 
 
-def test_a_killed_supervisor_takes_its_workers_with_it(tmp_path: Path) -> None:
+def _serve(tmp_path: Path) -> tuple[subprocess.Popen[bytes], int]:
+    """``hydrodiag serve`` with 2 workers on a free port, once it is ready."""
     with socket.socket() as sock:
         sock.bind(("127.0.0.1", 0))
         port = sock.getsockname()[1]
     env = os.environ | {"HYDRODIAG_DATA_DIR": str(tmp_path), "HYDRODIAG_WORKERS": "2",
                         "HYDRODIAG_ACCESS_LOG": "false", "HYDRODIAG_LOG_LEVEL": "warning"}
-    log = (tmp_path / "service.log").open("w")
-    supervisor = subprocess.Popen(
-        [sys.executable, "-m", "app.cli", "serve", "--host", "127.0.0.1", "--port", str(port)],
-        env=env, stdout=log, stderr=log)
+    env.pop("PROMETHEUS_MULTIPROC_DIR", None)
+    (tmp_path / "tmp").mkdir()
+    env["TMPDIR"] = str(tmp_path / "tmp")  # where the metrics folder goes
+    with (tmp_path / "service.log").open("w") as log:
+        supervisor = subprocess.Popen(
+            [sys.executable, "-m", "app.cli", "serve", "--host", "127.0.0.1", "--port",
+             str(port)], env=env, stdout=log, stderr=log)
+    deadline = time.monotonic() + STARTUP_TIMEOUT_S
+    while True:
+        try:
+            if httpx.get(f"http://127.0.0.1:{port}/ready", timeout=5).status_code == 200:
+                return supervisor, port
+        except httpx.TransportError:
+            pass
+        if supervisor.poll() is not None or time.monotonic() > deadline:
+            supervisor.kill()
+            pytest.fail("the service did not become ready:\n"
+                        + (tmp_path / "service.log").read_text())
+        time.sleep(0.2)
+
+
+def _health_count(port: int) -> float:
+    """``GET /health 200`` as one scrape of ``/metrics`` counts it."""
+    text = httpx.get(f"http://127.0.0.1:{port}/metrics", timeout=10).text
+    for line in text.splitlines():
+        if line.startswith("hydrodiag_http_requests_total{") and 'route="/health"' in line \
+                and 'status="200"' in line:
+            return float(line.rsplit(" ", 1)[1])
+    return 0.0
+
+
+def test_metrics_sum_every_worker(tmp_path: Path) -> None:
+    supervisor, port = _serve(tmp_path)
+    try:
+        before = _health_count(port)  # the readiness probes do not count; /health is new
+        n = 40
+        for _ in range(n):  # a new connection each: the kernel spreads them over workers
+            assert httpx.get(f"http://127.0.0.1:{port}/health", timeout=10).status_code == 200
+        # whichever worker answers a scrape, it reports all 40 (one worker's own counter
+        # would read about half, and differ from scrape to scrape)
+        assert [_health_count(port) - before for _ in range(6)] == [n] * 6
+        assert len(list((tmp_path / "tmp").glob("hydrodiag-metrics-*/*.db"))) >= 2
+    finally:
+        supervisor.send_signal(signal.SIGTERM)
+        supervisor.wait(timeout=60)
+    # the workers' value files lived in a folder of their own, removed on a clean stop
+    assert not list((tmp_path / "tmp").glob("hydrodiag-metrics-*"))
+
+
+def test_a_killed_supervisor_takes_its_workers_with_it(tmp_path: Path) -> None:
+    supervisor, _ = _serve(tmp_path)
     descendants: set[int] = set()
     try:
         deadline = time.monotonic() + STARTUP_TIMEOUT_S
-        while True:
-            try:
-                if httpx.get(f"http://127.0.0.1:{port}/ready", timeout=5).status_code == 200:
-                    break
-            except httpx.TransportError:
-                pass
-            assert supervisor.poll() is None, (tmp_path / "service.log").read_text()
-            assert time.monotonic() < deadline, "the service did not become ready"
-            time.sleep(0.2)
         # 2 server workers, each with its diagnosis worker (and spawn's resource trackers)
         while len(descendants) < 4 and time.monotonic() < deadline:
             descendants = _children(supervisor.pid)
@@ -82,4 +123,3 @@ def test_a_killed_supervisor_takes_its_workers_with_it(tmp_path: Path) -> None:
         for pid in descendants:
             if _alive(pid):
                 os.kill(pid, signal.SIGKILL)
-        log.close()

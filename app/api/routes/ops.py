@@ -9,7 +9,7 @@ from __future__ import annotations
 from typing import Literal
 
 from fastapi import APIRouter, Request, Response
-from prometheus_client import CONTENT_TYPE_LATEST, generate_latest
+from prometheus_client import CONTENT_TYPE_LATEST
 from pydantic import BaseModel, Field
 from sqlalchemy.exc import SQLAlchemyError
 
@@ -17,6 +17,7 @@ from app import __version__
 from app.db import migrate
 from app.db.engine import ping
 from app.errors import ServiceUnavailableError
+from app.metrics import exposition
 from app.schemas.common import error_doc
 
 __all__ = ["Health", "Readiness", "router"]
@@ -77,6 +78,6 @@ def ready(request: Request) -> Readiness:
     responses={200: {"content": {CONTENT_TYPE_LATEST: {}}, "description": "Prometheus text"}},
 )
 def metrics(request: Request) -> Response:
-    """Expose the counters in the Prometheus text format."""
-    data = generate_latest(request.app.state.metrics.registry)
+    """Expose the counters in the Prometheus text format (every server worker's, summed)."""
+    data = exposition(request.app.state.metrics.registry)
     return Response(content=data, media_type=CONTENT_TYPE_LATEST)
