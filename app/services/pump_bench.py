@@ -28,6 +28,8 @@ from app.services.pump_check import check_quantities
 from app.services.pumps import create_pump_set
 from app.services.rigs import get_rig
 from diagnostics.pump import BenchData, PumpParameterisation, parameterise, read_bench_csv
+from diagnostics.pump.capacity import THETA_GAP
+from diagnostics.pump.levels import cluster_levels
 from sim.errors import InputError
 
 __all__ = ["MAX_CSV_BYTES", "bench_pump_set", "parameterise_csv", "read_bench_bytes",
@@ -66,6 +68,8 @@ def parameterise_csv(content: bytes, *, displacement: float | None = None,
     try:
         result = parameterise(data, D=displacement, D_std=displacement_std)
     except InputError as exc:
+        if exc.field == "D" and displacement is not None:  # the form's field, not the file's
+            raise type(exc)(exc.message, field="displacement_m3_rad") from None
         raise type(exc)(exc.message, field=prefixed("file", exc.field)) from None
     return data, result
 
@@ -126,6 +130,23 @@ def store_bench_parameters(session: Session, form: PumpBenchForm, content: bytes
     return create_pump_set(session, bench_pump_set(form, content))
 
 
+def _oil_note(data: BenchData, result: PumpParameterisation) -> str | None:
+    """How the two-temperature coefficients were made: which runs, which oil's μ(θ)
+    (a user pass: neither was said, and Cs, Cv scale with the viscosity assumed)."""
+    if not result.fits:
+        return None
+    _, levels = cluster_levels(data.theta, rel_gap=0.0, abs_gap=THETA_GAP, field="theta")
+    fl = result.fluid
+    text = (f"Cs, Cst, Cv, Cf from the runs at {float(levels[0]):.1f} and "
+            f"{float(levels[-1]):.1f} °C with μ(θ) of the default oil (ISO VG 46: "
+            f"{fl.nu1 * 1e6:g} cSt at {fl.T1:g} °C, {fl.nu2 * 1e6:g} cSt at {fl.T2:g} °C, "
+            "Walther; D per radian)")
+    if levels.size > 2:
+        middle = ", ".join(f"{float(t):.1f}" for t in levels[1:-1])
+        text += f"; the runs at {middle} °C are not used by them (eqs. 7 and 17 take two)"
+    return text
+
+
 def bench_pump_set(form: PumpBenchForm, content: bytes) -> PumpSetCreate:
     """The pump set of a bench CSV, validated and not stored (:func:`store_bench_parameters`
     less the rig check and the store: several sets checked before any is stored).
@@ -140,7 +161,7 @@ def bench_pump_set(form: PumpBenchForm, content: bytes) -> PumpSetCreate:
     checked, check_note = check_quantities(data, result.D)
     notes = [n for n in (_SIMULATED if data.simulated else None, form.source,
                          data.provenance or None, result.not_identifiable or None,
-                         check_note) if n]
+                         _oil_note(data, result), check_note) if n]
     return PumpSetCreate.model_validate({
         "name": form.name, "kind": "parameters", "rig_id": form.rig_id, "pump": form.pump,
         "source": "; ".join(notes)[:2000] or None,

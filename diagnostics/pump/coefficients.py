@@ -42,6 +42,7 @@ from diagnostics.pump.bench import InstrumentNoise
 from diagnostics.pump.capacity import THETA_GAP, CapacityEstimate, derived_capacity_toet
 from diagnostics.pump.data import BenchData
 from diagnostics.pump.levels import cluster_levels, group_keys
+from diagnostics.pump.plausibility import check_displacement, check_torque
 from diagnostics.pump.surfaces import SurfaceFit, fit_surface
 from sim.components.gear_pump import GearPump, dynamic_viscosity
 from sim.errors import InputError
@@ -325,7 +326,9 @@ def parameterise(data: BenchData, *, D: float | None = None, D_std: float = 0.0,
     ------
     InputError
         Degenerate data: the readings at the two temperatures are identical (one data
-        set labelled twice, ``field="theta"``), or too few levels for the capacity.
+        set labelled twice, ``field="theta"``), or too few levels for the capacity;
+        impossible data: a given ``D`` the flows contradict (``field="D"``) or torque
+        below the ideal Δp·D (``field="T"``), :mod:`diagnostics.pump.plausibility`.
     """
     fl = fluid if fluid is not None else Fluid()
     _, t_lev = cluster_levels(data.theta, rel_gap=0.0, abs_gap=THETA_GAP, field="theta")
@@ -335,8 +338,12 @@ def parameterise(data: BenchData, *, D: float | None = None, D_std: float = 0.0,
         D, D_std = capacity.D, capacity.std if math.isfinite(capacity.std) else 0.0
     if not (D > 0 and D_std >= 0):
         raise InputError("D must be > 0 and D_std ≥ 0", field="D")
+    if capacity is None:
+        check_displacement(data, D)
+    check_torque(data, D, given=capacity is None)
     if t_lev.size < 2:
-        reason = (f"Cs, Cst (eq. 7, 17) and Cv, Cf need data at two oil temperatures; the data "
+        reason = (f"Cs, Cst (eqs. 7-9) and Cv, Cf (eqs. 17-19) need data at two oil "
+                  f"temperatures; the data "
                   f"have one level ({float(t_lev[0]):.1f} °C): not identifiable, only the "
                   "derived capacity is given")
         return PumpParameterisation(D=D, D_std=D_std, capacity=capacity, points=None, fits={},

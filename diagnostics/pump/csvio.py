@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from diagnostics.pump.data import BenchData
+from diagnostics.pump.data import MAX_REPLICATE, BenchData
 from diagnostics.table_files import MAX_DECOMPRESSED_BYTES, dialect, gunzipped
 from sim.errors import InputError
 from sim.units import to_si
@@ -124,13 +124,30 @@ def bench_from_frame(frame: pd.DataFrame, *, simulated: bool = False,
             raise InputError(f"empty or non-numeric value (data row {row + 1})", field=col)
         return values * scale + offset
 
-    return BenchData(
-        p_in=get("p_in"), p_out=get("p_out"), omega=get("n"), theta=get("theta"), q=get("q"),
-        torque=get("T") if "T" in found else None,
-        replicate=get("replicate").astype(np.int64) if "replicate" in found
-        else np.zeros(len(frame), dtype=np.int64),
-        simulated=simulated, provenance=provenance,
-    )
+    def replicates() -> np.ndarray:
+        values = get("replicate")
+        if np.any(bad := (values != np.round(values)) | (values < 0)
+                  | (values > MAX_REPLICATE)):
+            row = int(np.flatnonzero(bad)[0])
+            raise InputError(f"data row {row + 1}: replicate number {values[row]:g} is not a "
+                             f"whole number 0 to {MAX_REPLICATE}", field=found["replicate"][0])
+        return values.astype(np.int64)
+
+    # BenchData's own checks name its fields; the user knows the columns
+    columns = {"omega": "n", "torque": "T"}
+    try:
+        return BenchData(
+            p_in=get("p_in"), p_out=get("p_out"), omega=get("n"), theta=get("theta"),
+            q=get("q"), torque=get("T") if "T" in found else None,
+            replicate=replicates() if "replicate" in found
+            else np.zeros(len(frame), dtype=np.int64),
+            simulated=simulated, provenance=provenance,
+        )
+    except InputError as exc:
+        quantity = columns.get(exc.field or "", exc.field or "")
+        if quantity not in found:
+            raise
+        raise type(exc)(exc.message, field=found[quantity][0]) from None
 
 
 def bench_to_frame(data: BenchData) -> pd.DataFrame:

@@ -29,7 +29,10 @@ _PLAUSIBLE = (("p_in", MIN_GAUGE_PRESSURE, MAX_GAUGE_PRESSURE, "Pa"),
               ("theta", *OIL_TEMPERATURE_RANGE, "degC"),
               ("q", 0.0, 1.0, "m^3/s"))
 
-__all__ = ["BenchData"]
+__all__ = ["MAX_REPLICATE", "BenchData"]
+
+#: largest replicate number a table may carry [-]
+MAX_REPLICATE = 10_000
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -41,7 +44,7 @@ def _column(name: str, values: npt.ArrayLike, n: int | None) -> FloatArray:
         raise InputError(f"{arr.size} values, expected {n}", field=name)
     if not np.all(np.isfinite(arr)):
         bad = int(np.flatnonzero(~np.isfinite(arr))[0])
-        raise MeasurementError(f"value is NaN or infinite (row {bad})", field=name)
+        raise MeasurementError(f"value is NaN or infinite (data row {bad + 1})", field=name)
     return arr
 
 
@@ -108,10 +111,17 @@ class BenchData:
         elif rep.size != n:
             raise InputError(f"{rep.size} values, expected {n}", field="replicate")
         object.__setattr__(self, "replicate", rep)
-        if np.any(cols["omega"] <= 0):
-            raise MeasurementError("shaft speed must be positive", field="omega")
-        if np.any(cols["q"] <= 0):
-            raise MeasurementError("delivered flow must be positive", field="q")
+        for name, what in (("omega", "shaft speed"), ("q", "delivered flow"),
+                           ("torque", "shaft torque")):
+            reading: FloatArray | None = cols.get(name, self.torque)
+            if reading is not None and np.any(reading <= 0):
+                row = int(np.flatnonzero(reading <= 0)[0])
+                raise MeasurementError(f"data row {row + 1}: {what} must be positive, got "
+                                       f"{reading[row]:g}", field=name)
+        if np.any((rep < 0) | (rep > MAX_REPLICATE)):
+            row = int(np.flatnonzero((rep < 0) | (rep > MAX_REPLICATE))[0])
+            raise MeasurementError(f"data row {row + 1}: replicate number {rep[row]} is not "
+                                   f"0 to {MAX_REPLICATE}", field="replicate")
         for name, low, high, unit in _PLAUSIBLE:
             arr = cols[name]
             if np.any(bad := (arr < low) | (arr > high)):

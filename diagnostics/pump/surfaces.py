@@ -47,7 +47,8 @@ class SurfaceFit:
     residual_rms, residual_max
         RMS and largest absolute residual of the point estimates [-].
     r2
-        Weighted coefficient of determination [-].
+        Weighted coefficient of determination [-]; NaN where the values do not vary
+        beyond round-off (nothing for a surface to explain).
     chi2_red
         Reduced χ² of the weighted residuals [-] (≈ 1 when the noise model is right).
     """
@@ -138,7 +139,11 @@ def fit_surface(name: str, dp: npt.ArrayLike, omega: npt.ArrayLike, values: npt.
         cov *= max(1.0, chi2_red)
     wmean = float(np.sum(v * w**2) / np.sum(w**2))
     ss_tot = float(np.sum(((v - wmean) * w) ** 2))
-    r2 = 1.0 - float(np.sum((res * w) ** 2)) / ss_tot if ss_tot > 0 else math.nan
+    # values constant to round-off (noise-free data of constant coefficients): R² would
+    # compare round-off with round-off (a perfect fit read −85 in a user pass), so none
+    constant = float(np.max(np.abs(v - wmean))) <= 1e-9 * abs(wmean)
+    r2 = 1.0 - float(np.sum((res * w) ** 2)) / ss_tot if ss_tot > 0 and not constant \
+        else math.nan
     surface = CoefficientSurface(coef.reshape(dp_deg + 1, n_deg + 1), p_ref, omega_ref)
     return SurfaceFit(
         name=name, surface=surface, cov=cov, dp=x * p_ref, omega=y * omega_ref, values=v,

@@ -85,11 +85,13 @@ def test_the_capacity_comes_from_the_data_when_not_given(server: LiveServer,
          "file.p_out [psi]"),
         # a pressure beyond any bench (was stored, its check S printed to 45 digits)
         (b"p_in [Pa],p_out [Pa],n [rev/s],theta [degC],q [m^3/s]\n0,1e30,20,40,1e-4\n", {},
-         "file.p_out"),
+         "file.p_out [Pa]"),
         (b"p_in [bar],p_out [bar],n [rpm],theta [degC],q [l/min]\n0,100,1e6,40,10\n", {},
-         "file.omega"),
+         "file.n [rpm]"),
         (None, {"name": "bad name!"}, "name"),
         (None, {"displacement_m3_rad": "-1"}, "displacement_m3_rad"),
+        # cm³/rev typed where m³/rad is asked (was stored: D 9e7 cm³/rev, torque S 9e7 %)
+        (None, {"displacement_m3_rad": "14.7"}, "displacement_m3_rad"),
     ],
 )
 def test_bad_uploads_are_422_and_store_nothing(server: LiveServer, bench_csv: bytes,
@@ -101,6 +103,20 @@ def test_bad_uploads_are_422_and_store_nothing(server: LiveServer, bench_csv: by
     assert response.status_code == 422, response.text
     assert response.json()["error"]["field"] == field
     assert server.row_counts() == before
+
+
+def test_three_temperatures_say_which_runs_and_which_oil_made_the_coefficients(
+        server: LiveServer, tmp_path: Path) -> None:
+    dp, w = iso4409_grid(*default_levels())
+    data = run_virtual_bench(stand_in_pump(), dp, w, (22.0, 40.0, 60.0),
+                             noise=InstrumentNoise.none())
+    write_bench_csv(data, tmp_path / "three.csv")
+    response = _upload(server, (tmp_path / "three.csv").read_bytes(),
+                       FORM | {"name": "three-t"})
+    assert response.status_code == 201, response.text
+    source = response.json()["source"]
+    assert "from the runs at 22.0 and 60.0 °C with μ(θ) of the default oil (ISO VG 46" in source
+    assert "the runs at 40.0 °C are not used by them" in source
 
 
 def test_one_temperature_gives_the_capacity_and_says_what_is_not_identifiable(

@@ -134,3 +134,11 @@ def test_surface_fit_standard_error_matches_monte_carlo() -> None:
     predicted = fit_surface("C", P, W, truth.ravel(), sd, degrees=(2, 2)).std_at(1e7, 150.0)
     assert float(np.std(fits)) == pytest.approx(float(predicted), rel=0.1)
     assert math.isfinite(float(predicted))
+
+
+def test_surface_r2_is_none_for_values_that_do_not_vary() -> None:
+    P, W = np.meshgrid(np.linspace(2e6, 2e7, 5), np.linspace(100.0, 250.0, 5))
+    flat = 3e-9 * (1.0 + 1e-13 * np.sin(np.arange(P.size)))  # constant to round-off
+    assert math.isnan(fit_surface("Cs", P.ravel(), W.ravel(), flat).r2)
+    sloped = 3e-9 * (1.0 + 0.1 * P.ravel() / 2e7)
+    assert fit_surface("Cs", P.ravel(), W.ravel(), sloped).r2 == pytest.approx(1.0)

@@ -85,7 +85,7 @@ def test_impossible_values_are_measurement_errors() -> None:
     cols["p_out [Pa]"] = [-1.0]
     with pytest.raises(MeasurementError) as e:
         bench_from_frame(pd.DataFrame(cols))
-    assert e.value.field == "p_out"
+    assert e.value.field == "p_out [Pa]"  # the column, as the user wrote it
     with pytest.raises(MeasurementError):
         BenchData(p_in=np.zeros(1), p_out=np.full(1, 1e7), omega=np.zeros(1),
                   theta=np.full(1, 40.0), q=np.full(1, 1e-4))

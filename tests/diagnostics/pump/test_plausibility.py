@@ -1,0 +1,72 @@
+"""A bench table must be possible with its displacement (:mod:`diagnostics.pump.plausibility`):
+η_v = q/(D·ω) ≤ 1 and η_hm = Δp·D/T ≤ 1 (paper 000 eqs. 1 and 13), checked before a fit."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import re
+
+import numpy as np
+import pytest
+
+from diagnostics.pump import InstrumentNoise, iso4409_grid, parameterise, run_virtual_bench
+from diagnostics.pump.bench import default_levels
+from diagnostics.pump.data import BenchData
+from sim.components.gear_pump_map import stand_in_pump
+from sim.errors import InputError, MeasurementError
+
+
+@pytest.fixture(scope="module")
+def bench() -> BenchData:
+    dp, w = iso4409_grid(*default_levels())
+    return run_virtual_bench(stand_in_pump(), dp, w, (22.0, 60.0), noise=InstrumentNoise.none())
+
+
+def test_the_true_displacement_and_the_data_pass(bench: BenchData) -> None:
+    D = stand_in_pump().D
+    eta_v = bench.q / (D * bench.omega)
+    assert eta_v.max() <= 1.0  # the virtual pump only loses flow
+    assert bench.torque is not None
+    assert np.all(bench.dp * D / bench.torque <= 1.0)  # ... and only needs torque
+    fitted = parameterise(bench, D=D)
+    assert fitted.D == D
+    assert float(np.min(fitted.fits["Cst"].values)) >= 0.0  # a leak, not a source
+
+
+def test_a_displacement_in_the_wrong_unit_is_refused(bench: BenchData) -> None:
+    cm3_rev = stand_in_pump().D * 2.0 * math.pi * 1e6  # the number a data sheet gives
+    with pytest.raises(InputError) as e:
+        parameterise(bench, D=cm3_rev)
+    assert e.value.field == "D"
+    assert "far larger than the pump delivers" in e.value.message
+    toet = re.search(r"\(Toet\) is ([0-9.]+) cm³/rev", e.value.message)  # the way out
+    assert toet is not None and float(toet.group(1)) == pytest.approx(cm3_rev, rel=0.01)
+
+
+def test_a_displacement_the_flows_exceed_is_refused(bench: BenchData) -> None:
+    D = stand_in_pump().D
+    with pytest.raises(InputError) as e:  # every point would read η_v ≈ 1.1
+        parameterise(bench, D=0.88 * D)
+    assert e.value.field == "D"
+    assert "smaller than the pump delivers" in e.value.message
+    parameterise(bench, D=1.01 * D)  # a data-sheet value a little high is a fit's business
+
+
+def test_torque_below_the_ideal_torque_is_refused(bench: BenchData) -> None:
+    assert bench.torque is not None
+    half = dataclasses.replace(bench, torque=0.5 * bench.torque)
+    with pytest.raises(InputError) as e:  # Toet's D from the flows, then Δp·D/T ≈ 1.9
+        parameterise(half)
+    assert e.value.field == "T"
+    assert "below the ideal torque" in e.value.message
+
+
+def test_a_negative_torque_reading_names_its_row(bench: BenchData) -> None:
+    assert bench.torque is not None
+    torque = bench.torque.copy()
+    torque[3] = -5.0
+    with pytest.raises(MeasurementError) as e:
+        dataclasses.replace(bench, torque=torque)
+    assert e.value.field == "torque"
+    assert e.value.message.startswith("data row 4: shaft torque must be positive")
