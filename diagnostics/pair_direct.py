@@ -77,7 +77,17 @@ def levenberg_marquardt(models: Sequence[RecordModel], params: tuple[FaultParame
         h = jac.T @ jac
         improved = False
         while lam < 1e8:
-            step = -np.linalg.solve(h + lam * np.diag(np.diag(h) + 1e-30), g)
+            damped = h + lam * np.diag(np.diag(h) + 1e-30)
+            step = -np.linalg.solve(damped, g)
+            # a coordinate on its bound that the step pushes outward stays there, and the
+            # other takes its own damped step (projected Levenberg-Marquardt): the clipped
+            # full step stalled fits on a bound (a user pass: χ² 11 where 0.1 was a step
+            # of the free coordinate away)
+            out = ((z <= zl) & (step < 0)) | ((z >= zu) & (step > 0))
+            if out.sum() == 1:
+                free = int(np.flatnonzero(~out)[0])
+                step = np.zeros(2)
+                step[free] = -g[free] / damped[free, free]
             zn = np.clip(z + step, zl, zu)
             rn, fn = residuals(models, params, zn)
             cn = float(rn @ rn)

@@ -227,6 +227,18 @@ def pair_fit(z0, zl, zu, prob, masked, jac, r, fulls):  # type: ignore[no-untype
             det = a00 * a11 - a01 * a10
             s0 = -(a11 * g[0] - a01 * g[1]) / det
             s1 = -(a00 * g[1] - a10 * g[0]) / det
+            # a coordinate on its bound that the step pushes outward stays there, and the
+            # other takes its own damped step (projected Levenberg-Marquardt, as
+            # pair_direct.levenberg_marquardt): the clipped full step stalled fits on a
+            # bound at χ² 11 where the free coordinate alone reached 0.1 (a user pass)
+            out0 = (z[0] <= zl[0] and s0 < 0.0) or (z[0] >= zu[0] and s0 > 0.0)
+            out1 = (z[1] <= zl[1] and s1 < 0.0) or (z[1] >= zu[1] and s1 > 0.0)
+            if out1 and not out0:
+                s0 = -g[0] / a00
+                s1 = 0.0
+            elif out0 and not out1:
+                s0 = 0.0
+                s1 = -g[1] / a11
             zn0 = min(max(z[0] + s0, zl[0]), zu[0])
             zn1 = min(max(z[1] + s1, zl[1]), zu[1])
             zj[0] = zn0
