@@ -106,7 +106,11 @@ def check_against_rig(record: MeasurementRecord, limits: RigLimits) -> None:
         if not agree(cond.load_force, implied):
             raise MeasurementError(
                 f"load {cond.load_force.value:.4g} N contradicts back-pressure × A2 = "
-                f"{implied.value:.4g} N", field="condition.load_force")
+                f"{implied.value:.4g} N: a record states one load two ways, as a force or "
+                "as the load valve's back-pressure that makes it (paper 002 §2.7); a force "
+                "and a separate back-pressure valve acting together (which /simulate adds) "
+                "cannot be stated in a record: state the one that loads the rig",
+                field="condition.load_force")
 
 
 def _check_meter_c(record: MeasurementRecord, limits: RigLimits) -> None:

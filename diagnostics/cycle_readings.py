@@ -318,5 +318,7 @@ def _condition(series: SeriesRecord, labels: npt.NDArray[np.str_], work: PhaseRe
     if "load_force" in out and "back_pressure" in out:
         raise InputError("a record states the load force or the back-pressure, not both: "
                          f"the cycle has load {out['load_force']:g} N and back-pressure "
-                         f"{out['back_pressure']:g} Pa", field="condition.back_pressure")
+                         f"{out['back_pressure']:g} Pa acting together, which a record "
+                         "cannot state (its two fields are two ways of stating one load, "
+                         "paper 002 §2.7)", field="condition.back_pressure")
     return out

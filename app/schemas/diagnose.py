@@ -120,7 +120,9 @@ def _reading(unit: str, meaning: str, example: float, *, required: bool = False)
 
 
 class ConditionIn(RequestModel):
-    """Operating condition of a record; state the load force or the back-pressure."""
+    """Operating condition of a record; state the load force or the back-pressure (two
+    ways of stating one load, F = p·A2, paper 002 §2.7: both stated must agree; a force
+    and a separate back-pressure valve acting together cannot be stated)."""
 
     synonyms: ClassVar[Mapping[str, str]] = {"load": "load_force"}
 
