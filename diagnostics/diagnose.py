@@ -169,6 +169,10 @@ class Diagnosis:
         }
 
 
+#: oil temperatures at which the diagnosis is checked by the accuracy study (its records
+#: span 20-70 °C, the property test over random rigs 20-80 °C) [°C]
+CHECKED_TEMPERATURES = (20.0, 80.0)
+
 #: the field names of each dataclass :func:`plain` has met
 _FIELDS: dict[type, tuple[str, ...]] = {}
 
@@ -270,6 +274,7 @@ def diagnose(rig: Rig, records: Sequence[MeasurementRecord], *, model_rel: float
         slip = tuple(rig_slip_coefficient(rig, obs[0].condition.oil_temperature, k)
                      for k in (est.value, est.low, est.high))
     n = sum(len(o.names) for o in obs)
+    notes.extend(_temperature_notes(rig, records))
     if not math.isfinite(fits[0].log_evidence):
         notes.append("no hypothesis explains the records")
     if not gof.confident:
@@ -279,6 +284,25 @@ def diagnose(rig: Rig, records: Sequence[MeasurementRecord], *, model_rel: float
                      notes, gof, regime_notes(ranker), profiled,
                      _reading_sigma(ranker, fits[0].name,
                                     {**single_sigma, **at_fit.pair_reading_sigma}))
+
+
+def _temperature_notes(rig: Rig, records: Sequence[MeasurementRecord]) -> list[str]:
+    """A note for each oil temperature outside :data:`CHECKED_TEMPERATURES` (a user pass:
+    −10 °C and 95 °C were answered without a word)."""
+    lo, hi = CHECKED_TEMPERATURES
+    fl = rig.fluid
+    out = []
+    for theta in sorted({float(r.condition.oil_temperature.value) for r in records}):
+        if not lo <= theta <= hi:
+            inside = min(fl.T1, fl.T2) <= theta <= max(fl.T1, fl.T2)
+            out.append(
+                f"oil temperature {theta:g} °C is outside {lo:g}-{hi:g} °C, where the "
+                "diagnosis is checked (make accuracy)"
+                + ("" if inside else
+                   "; the oil's viscosity law (ASTM D341 through "
+                   f"{fl.nu1 * 1e6:g} cSt at {fl.T1:g} °C and {fl.nu2 * 1e6:g} cSt at "
+                   f"{fl.T2:g} °C) is extrapolated there"))
+    return out
 
 
 def _reading_sigma(ranker: Ranker, top: str, at_estimate: dict[str, list[npt.NDArray[np.float64]]]

@@ -26,9 +26,12 @@ from sim.params import Param
 __all__ = ["PARAMETERS", "build", "hose_coefficients"]
 
 PARAMETERS: tuple[Param, ...] = (
+    # upper bounds: hydraulic hoses and tubes reach a few inches of bore (ISO 18752: 51 mm)
+    # and tens of metres; a bore of 12.7 typed in metres for millimetres was stored and
+    # simulated as a 150 m³ hose (a user pass)
     Param("d", "m", 0.0127, "chosen: ½-inch (12.7 mm) bore hose; paper 002 gives no hose data",
-          "inner diameter"),
-    Param("L", "m", 0.5, "chosen: 0.5 m between valve and cylinder", "length"),
+          "inner diameter", upper=0.2),
+    Param("L", "m", 0.5, "chosen: 0.5 m between valve and cylinder", "length", upper=200.0),
 )
 
 

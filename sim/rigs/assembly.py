@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import threading
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -22,8 +23,10 @@ from sim.rigs.schema import RigSpec, check_bounds
 #: hydraulic pumps (chosen; a rig simulated beyond it would report pressures no relief
 #: valve of the circuit allows, and a reading beyond it is taken to be an error).
 MAX_PUMP_SPEED = 2000.0
+#: most a condition's pump speed may exceed the rig's stated one [-]
+OVERSPEED = 3.0
 
-__all__ = ["MAX_PUMP_SPEED", "Condition", "Rig", "build_graph", "build_graph_with_effects"]
+__all__ = ["MAX_PUMP_SPEED", "OVERSPEED", "Condition", "Rig", "build_graph", "build_graph_with_effects"]
 
 Arr = npt.NDArray[np.float64]
 
@@ -165,6 +168,15 @@ class Rig:
                 raise ParameterError(f"pump speed must be > 0 and ≤ {MAX_PUMP_SPEED:g} rad/s "
                                      f"(~19,000 rpm), got {cond.pump_speed:g}",
                                      field="condition.pump_speed")
+            stated = v.get("pump.speed")
+            if stated is not None and cond.pump_speed > OVERSPEED * stated:
+                # rpm typed where rad/s is asked passed the 2000 rad/s ceiling unnoticed
+                # (a user pass: 1450 "rpm" ran the pump at 13,850 rpm, 221 L/min)
+                raise ParameterError(
+                    f"pump speed {cond.pump_speed:g} rad/s ({cond.pump_speed * 30 / math.pi:.0f}"
+                    f" rpm) is more than {OVERSPEED:g} times the rig's {stated:.4g} rad/s "
+                    f"({stated * 30 / math.pi:.0f} rpm): pump_speed is in rad/s (1 rpm = "
+                    "π/30 rad/s)", field="condition.pump_speed")
             v["pump.speed"] = cond.pump_speed
         for attribute, target in circuit.condition_targets.items():
             v[target] = getattr(cond, attribute)

@@ -209,6 +209,11 @@ def validate_rig_document(doc: Mapping[str, Any], *, strict: bool = False) -> Ri
     circuit = get_circuit(doc.get("circuit", DEFAULT_CIRCUIT))
     fluid = _parameter_block(doc.get("fluid", {}), FLUID_PARAMETERS, "fluid", partial=False,
                              strict=strict)
+    if strict:  # the oil's own checks, which every simulation of the rig would fail on
+        try:
+            Fluid(**{k: q.value for k, q in fluid.items()})
+        except ParameterError as exc:
+            raise RigFileError(exc.message, field=exc.field) from None
     comps_raw = doc.get("components")
     if not isinstance(comps_raw, Mapping):
         raise RigFileError("a mapping of components is required", field="components")

@@ -89,6 +89,14 @@ def test_invalid_document_is_422_naming_the_field_and_stores_nothing(
      "document.components.valve.parameters.cv", "less than the spool's radius"),
     (lambda d: d["components"]["cylinder"]["parameters"]["rod1"].update(value=70.0, unit="mm"),
      "document.components.cylinder.parameters.rod1", "thinner than the bore"),
+    # stored, then refused by every simulation (a user pass)
+    (lambda d: d["fluid"]["T2"].update(value=40.0, unit="degC"), "document.fluid.T2",
+     "reference temperatures must differ"),
+    (lambda d: d["fluid"]["nu2"].update(value=1e-3, unit="m^2/s"), "document.fluid.nu2",
+     "viscosity must fall"),
+    # millimetres typed as metres: a 150 m³ hose, simulated as a stalled piston
+    (lambda d: d["components"]["hose_A"]["parameters"]["d"].update(value=12.7, unit="m"),
+     "document.components.hose_A.parameters.d", "≤ 0.2"),
 ])
 def test_unknown_keys_and_impossible_geometry_are_refused(
         server: LiveServer, rig_document: dict, mutate: Any, field: str, words: str) -> None:

@@ -172,3 +172,17 @@ def test_a_pair_whose_ridge_crosses_both_axes_has_the_evidence_of_its_quadrature
     wt[[0, -1]] = 0.5
     exact = top + math.log(float(wt @ np.exp(logl - top) @ wt) / (n - 1) ** 2)
     assert abs(fit.log_evidence - exact) < 0.5, (fit.log_evidence, exact)
+
+
+@pytest.mark.parametrize(("theta", "says"), [
+    (-10.0, ("outside 20-80 °C", "is extrapolated there")),
+    (95.0, ("outside 20-80 °C",)),  # inside the oil's reference points: no extrapolation
+    (40.0, ()),
+])
+def test_an_oil_temperature_beyond_the_checked_range_is_noted(
+        rig, theta: float, says: tuple[str, ...]) -> None:
+    rec = record(rig, {}, temperature=theta)
+    notes = " ".join(diagnose(rig, [rec]).notes)
+    assert all(s in notes for s in says)
+    assert bool(says) == ("outside" in notes)
+    assert ("extrapolated" in notes) == (len(says) == 2)

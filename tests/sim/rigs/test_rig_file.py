@@ -7,8 +7,15 @@ import json
 
 import pytest
 
-from sim.errors import RigFileError
-from sim.rigs import load_rig, load_rig_document, reference_rig_document, validate_rig_document
+from sim.errors import ParameterError, RigFileError
+from sim.rigs import (
+    Condition,
+    load_rig,
+    load_rig_document,
+    reference_rig,
+    reference_rig_document,
+    validate_rig_document,
+)
 from sim.rigs.circuits import CIRCUITS
 
 
@@ -111,3 +118,16 @@ def test_a_strict_document_knows_every_key_and_keeps_its_geometry():
         for role in circuit.roles:
             for relation in circuit.relations(role):  # each relation holds on its defaults
                 assert circuit.parameter(role, relation.name) is not None
+
+
+def test_a_pump_speed_in_rpm_is_refused_with_the_unit_named() -> None:
+    """condition.pump_speed is in rad/s; 1450 meant as rpm passed the 2000 rad/s ceiling
+    and ran the paper-002 pump 9 times too fast (a user pass)."""
+    rig = reference_rig()
+    stated = rig.values()["pump.speed"]  # 1600 rpm
+    rig.values(condition=Condition(load=2100.0, oil_temperature=40.0,
+                                   pump_speed=2.0 * stated))  # an overspeed test: allowed
+    with pytest.raises(ParameterError) as e:
+        rig.values(condition=Condition(load=2100.0, oil_temperature=40.0, pump_speed=1450.0))
+    assert e.value.field == "condition.pump_speed"
+    assert "is in rad/s" in e.value.message and "(1600 rpm)" in e.value.message
