@@ -56,7 +56,7 @@ otherwise its candidate column is zero.
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import numpy.typing as npt
@@ -130,6 +130,9 @@ class BalanceData:
     #: practical size (every balance but the hose's, whose windowed integral of a pressure
     #: difference carries 18 Pa·s of 0.05 bar noise against a practical size of 3.2 Pa·s)
     noise_floor: float = 0.0
+    #: the effects the rig carries (:func:`carried`): name → (stored coefficient [SI],
+    #: its column on the kept samples), whose term ``k·x`` is moved into ``y``
+    carried: dict[str, tuple[float, Arr]] = field(default_factory=dict)
 
 
 def _inside(s: Signals, v: dict[str, float]) -> npt.NDArray[np.bool_]:
@@ -340,14 +343,18 @@ def balance_data(s: Signals, values: dict[str, float]) -> list[BalanceData]:
         sub = s.subset(mask)
         y, base = b.build(sub, values)
         stored = carried(values, b.name)
+        columns: dict[str, tuple[float, Arr]] = {}
         for name, k in stored.items():
-            y = y - k * np.asarray(EFFECTS[name].entry.regressor(sub.values), dtype=float)
+            x = np.asarray(EFFECTS[name].entry.regressor(sub.values), dtype=float)
+            y = y - k * x
+            columns[name] = (k, x)
         cands = {e.name: e.entry.regressor(sub.values) for e in effects_of(b.name)
                  if e.name not in stored}
         out.append(BalanceData(b, y, base, cands, mask, b.full_scale(values),
                                {k: v for k, v in BASE_SIGNS.items() if k in base},
                                held[mask] if held[mask].any() else None,
-                               _hose_noise(sub) if b.name == "hose_pressure" else 0.0))
+                               _hose_noise(sub) if b.name == "hose_pressure" else 0.0,
+                               columns))
     return out
 
 

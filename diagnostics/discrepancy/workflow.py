@@ -49,6 +49,7 @@ import numpy.typing as npt
 import pandas as pd
 
 from diagnostics.discrepancy.balances import BalanceData, balance_data
+from diagnostics.discrepancy.carried_check import CarriedCheck, carried_statement, check_carried
 from diagnostics.discrepancy.confirm import Small, confirm_chosen, confirm_small
 from diagnostics.discrepancy.drift import Drift, refit_base
 from diagnostics.discrepancy.gap import GapRow, gap_table
@@ -143,6 +144,9 @@ class Discovery:
     lack_of_fit: dict[str, Any] = field(default_factory=dict)
     #: the base re-fit of step 6 where it ran (accepted or not), else None
     base_drift: Drift | None = None
+    #: each effect the rig carries, fitted again on the data (:mod:`~diagnostics.
+    #: discrepancy.carried_check`)
+    carried: list[CarriedCheck] = field(default_factory=list)
 
     def to_dict(self) -> dict[str, Any]:
         """The report as JSON-able data (units in the keys' descriptions)."""
@@ -181,6 +185,7 @@ class Discovery:
             "rig_document": self.rig_document, "solver": self.solver,
             "lack_of_fit": self.lack_of_fit,
             "base_drift": self.base_drift.to_dict() if self.base_drift is not None else None,
+            "carried": [c.to_dict() for c in self.carried],
         }
 
 
@@ -399,6 +404,13 @@ def _discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], 
     lof = repeats_lack_of_fit(records, rig, new_doc if named else None, channels, sig)
     outcome, message = verdict([n.name for n in named], selections, gap_before, gap_after,
                                white_after, sig, drift)
+    checks = check_carried(data)
+    if statement := carried_statement(checks):
+        # an effect the rig carries and the data contradict is not "no effect"
+        if outcome == "no effect":
+            outcome, message = "unexplained", f"{statement} (no missing effect found)"
+        else:
+            message += f"; {statement}"
     if lof.get("before") is not None:
         message += (f"; lack of fit against repeated records p = {lof['before']['p']:.2g} "
                     "before" + (f", {lof['after']['p']:.2g} after" if lof.get("after")
@@ -441,7 +453,8 @@ def _discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], 
     result = Discovery(outcome, message, named, selections, [r.name for r in train],
                        [r.name for r in records] and [records[i].name for i in held_i],
                        gap_before, gap_after, white_before, white_after, new_doc,
-                       _solver_statement(base_tables), detectable, traces, lof, drift)
+                       _solver_statement(base_tables), detectable, traces, lof, drift,
+                       checks)
     if (refit and not named and conf.rejected and drift is not None
             and not drift.accepted and drift.wear is not None):
         report(0.9, "the workflow again from the rig with its wear re-fitted")
