@@ -163,15 +163,19 @@ def html_page(d: Discovery, title: str = "hydrodiag discrepancy report") -> str:
                      f"[{e(b['unit'])}]</td><td>{_fmt(b['practical_size'])}</td>"
                      f"<td>{e(_groups(b['ambiguity']))}</td><td>{e(mds)}</td></tr>")
     parts.append("</table>")
-    parts.append("<h2>Held-out gap (model − measurement)</h2><table><tr><th>output</th>"
+    parts.append("<h2>Held-out gap (model − measurement)</h2><p>Timing floor: the RMSE "
+                 "between the model and itself read half a sample period later — a logged "
+                 "switch is placed to within a sample, so after a step this much of a gap "
+                 "is the logging's, not the model's.</p><table><tr><th>output</th>"
                  "<th>region</th><th>RMSE before</th><th>RMSE after</th><th>max before</th>"
-                 "<th>max after</th></tr>")
+                 "<th>max after</th><th>timing floor</th></tr>")
     after = {(r.channel, r.region): r for r in d.gap_after}
     for r in d.gap_before:
         a = after.get((r.channel, r.region))
         parts.append(f"<tr><td>{e(r.channel)} [{e(r.unit)}]</td><td>{e(r.region)}</td>"
                      f"<td>{_fmt(r.rmse)}</td><td>{_fmt(a.rmse) if a else '—'}</td>"
-                     f"<td>{_fmt(r.max_abs)}</td><td>{_fmt(a.max_abs) if a else '—'}</td></tr>")
+                     f"<td>{_fmt(r.max_abs)}</td><td>{_fmt(a.max_abs) if a else '—'}</td>"
+                     f"<td>{_fmt(r.timing_floor)}</td></tr>")
     parts.append("</table><h2>Whiteness (Ljung-Box p, held-out, steady part)</h2><table>"
                  "<tr><th>output</th><th>before</th><th>after</th></tr>")
     for c, p in d.whiteness_before.items():

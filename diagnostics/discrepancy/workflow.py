@@ -169,7 +169,7 @@ class Discovery:
 
         def gap(rows: list[GapRow]) -> list[dict[str, Any]]:
             return [{"channel": r.channel, "unit": r.unit, "region": r.region, "rmse": r.rmse,
-                     "max_abs": r.max_abs} for r in rows]
+                     "max_abs": r.max_abs, "timing_floor": r.timing_floor} for r in rows]
 
         return {
             "verdict": self.verdict, "message": self.message,
