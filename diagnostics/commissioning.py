@@ -268,6 +268,8 @@ def commission(rig: Rig, records: Sequence[MeasurementRecord],
         except MeasurementError as exc:
             raise MeasurementError(exc.message, field=".".join(
                 x for x in (f"records[{i}]", exc.field or "") if x)) from None
+    # every record with both flow meters: advice to fit them would be empty (a user pass)
+    metered = all(rec.flow_B is not None and rec.flow_C is not None for rec in records)
     try:
         problem = _Problem(rig, obs, names, model_rel)
         z, r, jac, its = _fit(problem, np.array([PRIOR_SD[n] for n in names]), max_iterations)
@@ -302,8 +304,8 @@ def commission(rig: Rig, records: Sequence[MeasurementRecord],
             statements.append(
                 f"{n} ({COMMISSIONED[n]}): not pinned down by these records — its uncertainty "
                 f"shrank only from ±{s[j]:.2f} to ±{sd[j]:.2f} in ln θ; {why}. The document's "
-                "value is kept; records at other loads and oil temperatures, or with the flow "
-                "meters, would help")
+                "value is kept; records at other loads and oil temperatures"
+                + ("" if metered else ", or with the flow meters,") + " would help")
     chi2 = float(r @ r)
     # degrees of freedom: the readings less the parameters the records determine, each
     # counting 1 − posterior/prior variance — their sum, tr(JᵀJ·C), is MacKay's number of

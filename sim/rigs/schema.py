@@ -117,7 +117,15 @@ def _quantity(raw: Any, decl: Param, field_path: str) -> Quantity:
         si = to_si(float(value), str(raw["unit"]), decl.unit, field=f"{field_path}.unit")
     except ParameterError as exc:
         raise RigFileError(exc.message, field=exc.field) from None
-    check_bounds(si, decl, field_path)
+    try:
+        check_bounds(si, decl, field_path)
+    except RigFileError as exc:
+        if str(raw["unit"]) == decl.unit:
+            raise
+        # the bound is in SI; say the value as the document wrote it too (a user pass
+        # read "> 0 m^3/rad" for a Vp their file states in m³/rev)
+        raise RigFileError(f"{exc.message} (written {float(value):g} {raw['unit']})",
+                           field=exc.field) from None
     return Quantity(si, str(raw["unit"]), str(raw.get("source", "")))
 
 

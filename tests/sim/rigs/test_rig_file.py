@@ -131,3 +131,12 @@ def test_a_pump_speed_in_rpm_is_refused_with_the_unit_named() -> None:
         rig.values(condition=Condition(load=2100.0, oil_temperature=40.0, pump_speed=1450.0))
     assert e.value.field == "condition.pump_speed"
     assert "is in rad/s" in e.value.message and "(1600 rpm)" in e.value.message
+
+
+def test_a_bound_broken_in_another_unit_is_said_as_written() -> None:
+    doc = reference_rig_document()
+    doc["components"]["pump"]["parameters"]["Vp"]["value"] = 0.0  # the file's m³/rev
+    with pytest.raises(RigFileError) as e:
+        load_rig(doc)
+    assert e.value.field == "components.pump.parameters.Vp"
+    assert "> 0 m^3/rad" in e.value.message and "(written 0 m^3/rev)" in e.value.message
