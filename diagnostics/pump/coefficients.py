@@ -18,6 +18,12 @@ and the hottest θ₂ (μ₂) give, with the derived capacity D [m³/rad]:
   θ₂.  The copy's eq. 18 reads ``Tf = T − Tv``; the ideal torque Δp·D (eq. 13) must also be
   removed, or Cf would be 1 + the friction coefficient.
 
+The formulas above are those of equal readings at both temperatures.  The code solves each
+pair's two runs together instead — ``L − Δp·D·ω/β = Cs·Δp·D/μ + Cst·√(2Δp·D^(4/3)/ρ)`` and
+``TL = D·(Cv·μ·ω + Cf·Δp)`` at θ₁ and θ₂, two linear equations in two unknowns each — which
+gives the same numbers at equal readings and stays exact when a run's pressure or speed
+differs a little (a hot run 0.5 % off in pressure put Cf·D·(Δp₁ − Δp₂) into eq. 17's Cv).
+
 β_ef and ρ are inputs: steady flow data cannot separate compressibility (Δp·ω) from a
 speed-dependent slip (DISCREPANCY.md: identical columns on steady data), so β_ef is taken
 from the oil, as paper 000 does.
@@ -156,22 +162,28 @@ def _coefficients(x: Mapping[str, FloatArray], D: float, fluid: Fluid, rho: floa
     mu1 = dynamic_viscosity(fluid, x["th1"])
     mu2 = dynamic_viscosity(fluid, x["th2"])
     out: dict[str, FloatArray] = {}
-    loss1 = D * x["w1"] - x["q1"]
-    loss2 = D * x["w2"] - x["q2"]
-    cs = (loss2 - loss1) / (D * (x["dp2"] / mu2 - x["dp1"] / mu1))
-    cst = []
-    for loss, dp, w, mu in ((loss1, x["dp1"], x["w1"], mu1), (loss2, x["dp2"], x["w2"], mu2)):
-        q_st = loss - cs * dp * D / mu - dp * D * w / beta_ef                 # eq. 8
-        cst.append(q_st / np.sqrt(2.0 * dp * D ** (4.0 / 3.0) / rho))       # eq. 9
-    out["Cs"] = cs
-    out["Cst"] = 0.5 * (cst[0] + cst[1])
+    # each run's loss less its compression (eq. 8's Δp·D·ω/β) is Cs·a + Cst·b (eqs. 6, 9),
+    # two equations in two unknowns; solved as such, the runs' pressures and speeds need
+    # not be equal (a bench never holds them exactly).  At equal readings this is eq. 7
+    # and eq. 9 at each temperature, as the paper writes them
+    r1 = D * x["w1"] - x["q1"] - x["dp1"] * D * x["w1"] / beta_ef
+    r2 = D * x["w2"] - x["q2"] - x["dp2"] * D * x["w2"] / beta_ef
+    a1, a2 = x["dp1"] * D / mu1, x["dp2"] * D / mu2
+    b1 = np.sqrt(2.0 * x["dp1"] * D ** (4.0 / 3.0) / rho)
+    b2 = np.sqrt(2.0 * x["dp2"] * D ** (4.0 / 3.0) / rho)
+    det = a1 * b2 - a2 * b1
+    out["Cs"] = (r1 * b2 - r2 * b1) / det                                   # eq. 7
+    out["Cst"] = (a1 * r2 - a2 * r1) / det                                  # eqs. 8-9
+    # likewise each run's torque loss T − Δp·D is D·(Cv·μ·ω + Cf·Δp) (eqs. 16-19): with
+    # the cold run's pressure 0.5 % off the hot one's, eq. 17 alone put 3 % of Cf·Δp into
+    # Cv at low speed (a user pass, by hand ≈ 920 of 3e4)
     tl1 = x["t1"] - x["dp1"] * D
     tl2 = x["t2"] - x["dp2"] * D
-    cv = (tl1 - tl2) / (D * (mu1 * x["w1"] - mu2 * x["w2"]))                # eq. 17
-    cf1 = (tl1 - cv * mu1 * x["w1"] * D) / (x["dp1"] * D)                   # eqs. 18-19
-    cf2 = (tl2 - cv * mu2 * x["w2"] * D) / (x["dp2"] * D)
-    out["Cv"] = cv
-    out["Cf"] = 0.5 * (cf1 + cf2)
+    c1, c2 = mu1 * x["w1"] * D, mu2 * x["w2"] * D
+    e1, e2 = x["dp1"] * D, x["dp2"] * D
+    det_t = c1 * e2 - c2 * e1
+    out["Cv"] = (tl1 * e2 - tl2 * e1) / det_t                               # eq. 17
+    out["Cf"] = (c1 * tl2 - c2 * tl1) / det_t                               # eqs. 18-19
     return out
 
 

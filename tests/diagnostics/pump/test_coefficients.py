@@ -20,9 +20,10 @@ from diagnostics.pump import (
     run_virtual_bench,
     write_bench_csv,
 )
-from sim.components.gear_pump import GearPump
+from sim.components.gear_pump import GearPump, dynamic_viscosity
 from sim.components.gear_pump_map import MAP_OMEGA_RANGE, MAP_P_RANGE
 from sim.errors import InputError
+from sim.fluid import Fluid
 
 COEFS = ("Cs", "Cst", "Cv", "Cf")
 #: Recovery tolerance: every point of a 10 x 10 check grid within 4 standard errors of the
@@ -142,3 +143,28 @@ def test_surface_r2_is_none_for_values_that_do_not_vary() -> None:
     assert math.isnan(fit_surface("Cs", P.ravel(), W.ravel(), flat).r2)
     sloped = 3e-9 * (1.0 + 0.1 * P.ravel() / 2e7)
     assert fit_surface("Cs", P.ravel(), W.ravel(), sloped).r2 == pytest.approx(1.0)
+
+
+def test_runs_at_slightly_different_pressures_and_speeds_give_the_coefficients() -> None:
+    """A bench never holds the hot run at the cold run's readings: here 0.5 % faster and
+    at 0.5 % more pressure.  Each coefficient pair comes from its two runs' equations
+    solved together (paper 000 eqs. 6-9, 16-19 written out here); eq. 17 alone put
+    Cf·D·(Δp₁ − Δp₂) into Cv, 3 % at the lowest speed (a user pass)."""
+    D, cs, cst, cv, cf, beta, rho = 14.7e-6 / (2 * math.pi), 3e-9, 4e-5, 3e4, 0.05, 1.5e9, 865.0
+    fluid = Fluid()
+    rows = []
+    for theta, fw, fp in ((22.0, 1.0, 1.0), (60.0, 0.995, 1.005)):
+        mu = float(dynamic_viscosity(fluid, theta))
+        for rpm in (600, 1000, 1400, 1800, 2200):
+            w = rpm * 2 * math.pi / 60 * fw
+            for bar in (20, 50, 80, 110, 140, 170, 200):
+                dp = bar * 1e5 * fp
+                q = (D * w - cs * dp * D / mu - cst * math.sqrt(2 * dp * D ** (4 / 3) / rho)
+                     - dp * D * w / beta)
+                rows.append((dp, w, theta, q, dp * D + cv * mu * w * D + cf * dp * D))
+    p, w, th, q, t = (np.array(c) for c in zip(*rows, strict=True))
+    data = BenchData(p_in=np.zeros_like(p), p_out=p, omega=w, theta=th, q=q, torque=t)
+    fitted = parameterise(data, D=D, rho=rho, beta_ef=beta)
+    for name, truth in (("Cs", cs), ("Cst", cst), ("Cv", cv), ("Cf", cf)):
+        values = fitted.fits[name].values
+        assert np.max(np.abs(values / truth - 1.0)) < 2e-3, (name, values)
