@@ -121,6 +121,26 @@ PumpLabel = Annotated[str, StringConstraints(min_length=1, max_length=200)]
 SourceNote = Annotated[str, StringConstraints(max_length=2000)]
 
 
+#: quantities that are a size of something: a displacement, a density, a bulk modulus must
+#: be positive, a standard error not negative (PATCH stored a negative D: a user pass)
+_POSITIVE = ("D", "D_per_rev", "displacement", "rho", "beta_ef")
+_NOT_NEGATIVE = ("D_std",)
+
+
+def _check_physical(quantities: dict[str, Quantity] | None) -> dict[str, Quantity] | None:
+    for name, q in (quantities or {}).items():
+        value = q.value
+        if not isinstance(value, int | float):
+            continue
+        if name in _POSITIVE and not value > 0:
+            raise PydanticCustomError("not_positive", "quantities.{name}: must be > 0, got "
+                                      "{value}", {"name": name, "value": value})
+        if name in _NOT_NEGATIVE and value < 0:
+            raise PydanticCustomError("negative", "quantities.{name}: must be ≥ 0, got "
+                                      "{value}", {"name": name, "value": value})
+    return quantities
+
+
 class PumpSetCreate(RequestModel):
     """A new pump parameter set or loss map."""
 
@@ -131,8 +151,11 @@ class PumpSetCreate(RequestModel):
     source: SourceNote | None = _source(default=None)
     quantities: dict[QuantityName, Quantity] = _quantities()
 
+    _physical = field_validator("quantities")(_check_physical)
+
 
 _NOT_NULL = ("name", "kind", "pump", "quantities")
+
 
 
 class PumpSetUpdate(RequestModel):
@@ -151,6 +174,7 @@ class PumpSetUpdate(RequestModel):
     model_config = ConfigDict(json_schema_extra=not_nullable(*_NOT_NULL))
 
     _not_null = field_validator(*_NOT_NULL)(reject_null)
+    _physical = field_validator("quantities")(_check_physical)
 
 
 class StoredQuantity(PublicModel):

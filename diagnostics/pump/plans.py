@@ -96,6 +96,8 @@ def latin_hypercube_plan(n: int, p_range: tuple[float, float],
     """
     if n < 2:
         raise InputError("a Latin hypercube needs ≥ 2 points", field="n")
+    if corner_points < 0:
+        raise InputError("corner_points must be ≥ 0", field="corner_points")
     _check_range(p_range, "p_range")
     _check_range(omega_range, "omega_range")
     sampler = qmc.LatinHypercube(d=2, rng=seed)

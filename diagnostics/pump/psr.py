@@ -104,8 +104,17 @@ def progressive_regression(columns: Mapping[str, npt.ArrayLike], y: npt.ArrayLik
     n = yy.size
     if idx.size != n or np.unique(idx).size != n:
         raise InputError("order must be a permutation of the points", field="order")
-    X = np.column_stack([np.ones(n)] + [np.asarray(columns[t], dtype=np.float64).ravel()
-                                        for t in terms])
+    for t in terms:
+        if t not in columns:
+            raise InputError(f"unknown term {t!r} (known: {', '.join(columns)})", field="terms")
+    cols = [np.asarray(columns[t], dtype=np.float64).ravel() for t in terms]
+    for t, c in zip(terms, cols, strict=True):
+        if c.size != n:
+            raise InputError(f"{c.size} values, expected {n}", field=f"columns.{t}")
+    X = np.column_stack([np.ones(n), *cols])
+    if not (np.all(np.isfinite(X)) and np.all(np.isfinite(yy))):
+        # a NaN made every S NaN, and the trace read "never saturates" (a user pass)
+        raise InputError("non-finite values in the regression", field="y")
     k = X.shape[1]
     if n < k + 3:
         raise InputError(f"PSR needs at least {k + 3} points", field="y")

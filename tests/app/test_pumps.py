@@ -108,6 +108,12 @@ def test_patch_and_delete(server: LiveServer) -> None:
     assert server.client.patch(url, json={"rig_id": 999999},
                                headers=server.auth).status_code == 404
     assert server.anon.patch(url, json={"name": "x"}).status_code == 401
+    # a negative displacement was stored (a user pass)
+    negative = server.client.patch(url, json={"quantities": {"D": {"value": -1.0,
+                                                                   "unit": "m^3/rad"}}},
+                                   headers=server.auth)
+    assert negative.status_code == 422
+    assert "quantities.D: must be > 0" in negative.json()["error"]["message"]
     assert server.client.get(url).json() == renamed
     # new quantities without a new source: the old source is kept, marked as describing the
     # set as it was (a bench set's "loss model checked" would otherwise vouch for them)

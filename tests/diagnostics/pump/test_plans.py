@@ -65,3 +65,9 @@ def test_lhs_gives_a_lower_mean_standard_error_than_orthogonal(pump: GearPump) -
     d = np.asarray(diffs)
     # paired over seeds: LHS lower, by more than two standard errors of the mean difference
     assert d.mean() < -2 * d.std(ddof=1) / np.sqrt(seeds)
+
+
+def test_a_negative_corner_count_is_refused() -> None:
+    with pytest.raises(InputError) as e:
+        latin_hypercube_plan(10, (2e6, 2e7), (60.0, 250.0), corner_points=-3)
+    assert e.value.field == "corner_points"

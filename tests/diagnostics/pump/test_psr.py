@@ -45,3 +45,17 @@ def test_order_must_be_a_permutation() -> None:
     with pytest.raises(InputError) as e:
         progressive_regression(cols, y, ("x",), np.zeros(50))
     assert e.value.field == "order"
+
+
+def test_bad_regressions_are_refused_with_the_field() -> None:
+    x = np.linspace(0.0, 1.0, 40)
+    y = 2.0 + 3.0 * x
+    order = np.arange(40)
+    bad_y = y.copy()
+    bad_y[7] = np.nan  # was a trace of NaN S reading "never saturates"
+    for columns, yy, terms, field in (({"x": x}, bad_y, ["x"], "y"),
+                                      ({"x": x}, y, ["nope"], "terms"),  # was a KeyError
+                                      ({"x": x[:30]}, y, ["x"], "columns.x")):
+        with pytest.raises(InputError) as e:
+            progressive_regression(columns, yy, terms, order)
+        assert e.value.field == field
