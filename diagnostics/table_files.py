@@ -25,8 +25,8 @@ import pandas as pd
 
 from sim.errors import InputError
 
-__all__ = ["MAX_DECOMPRESSED_BYTES", "PARQUET_METADATA_KEY", "dialect", "gunzipped",
-           "read_table", "time_in_name"]
+__all__ = ["MAX_DECOMPRESSED_BYTES", "PARQUET_METADATA_KEY", "check_table", "check_text", "dialect",
+           "gunzipped", "read_table", "time_in_name"]
 
 #: Largest gzip-compressed file's size once decompressed, unless the caller says [byte].
 MAX_DECOMPRESSED_BYTES = 64 * 1024 * 1024
@@ -136,6 +136,7 @@ def read_table(source: str | Path | bytes | pd.DataFrame, fmt: str | None = None
         text = raw.decode("utf-8-sig")
     except UnicodeDecodeError:
         raise InputError("the CSV file is not UTF-8 text", field="file") from None
+    check_text(text, "file")
     meta, skip = _header_lines(text)
     sep, decimal = dialect([ln.rstrip("\r\n")
                             for ln in itertools.islice(io.StringIO(text), skip, skip + 6)])
@@ -144,7 +145,26 @@ def read_table(source: str | Path | bytes | pd.DataFrame, fmt: str | None = None
                             decimal=decimal)
     except (pd.errors.ParserError, pd.errors.EmptyDataError) as exc:
         raise InputError(f"not a readable CSV table: {exc}", field="file") from None
+    check_table(frame, "file")
     return frame, meta, name
+
+
+def check_table(frame: pd.DataFrame, field: str) -> None:
+    """Refuse a table pandas read with its leading columns as the index: rows with more
+    fields than the header, as decimal commas in a comma-separated file give (a user pass:
+    "7.7e13 °C is outside …" was the first sign)."""
+    if not isinstance(frame.index, pd.RangeIndex):
+        extra = frame.index.nlevels
+        raise InputError(f"the rows have {extra} more field(s) than the header's "
+                         f"{len(frame.columns)}: decimal commas in a comma-separated file? "
+                         "separate the fields with ';' or write decimals with '.'",
+                         field=field)
+
+
+def check_text(text: str, field: str) -> None:
+    """Refuse text with NUL characters: a binary file, not a table."""
+    if "\x00" in text:
+        raise InputError("the file is binary, not a text table", field=field)
 
 
 _DECIMAL_COMMA = re.compile(r"^\s*[-+]?\d+,\d+([eE][-+]?\d+)?\s*$")

@@ -32,7 +32,13 @@ import numpy as np
 import pandas as pd
 
 from diagnostics.pump.data import MAX_REPLICATE, BenchData
-from diagnostics.table_files import MAX_DECOMPRESSED_BYTES, dialect, gunzipped
+from diagnostics.table_files import (
+    MAX_DECOMPRESSED_BYTES,
+    check_table,
+    check_text,
+    dialect,
+    gunzipped,
+)
 from sim.errors import InputError
 from sim.units import to_si
 
@@ -208,6 +214,7 @@ def read_bench_csv(source: str | Path | bytes, *, field: str = "path") -> BenchD
         raise InputError(exc.message, field=field) from None
     except UnicodeDecodeError:
         raise InputError("the file is not UTF-8 text", field=field) from None
+    check_text(text, field)
     lines = text.splitlines()
     header: list[str] = []
     while lines and lines[0].lstrip().startswith("#"):
@@ -220,6 +227,7 @@ def read_bench_csv(source: str | Path | bytes, *, field: str = "path") -> BenchD
         frame = pd.read_csv(io.StringIO("\n".join(lines)), sep=sep, decimal=decimal)
     except (pd.errors.ParserError, pd.errors.EmptyDataError) as exc:
         raise InputError(f"not a readable CSV table: {exc}", field=field) from None
+    check_table(frame, field)
     if frame.empty:
         raise InputError("the bench table has no rows", field=field)
     simulated = any("SIMULATED" in h for h in header)

@@ -133,9 +133,19 @@ def read_efficiency_map(path: str | Path) -> PistonMap:
         raise InputError(f"cannot read {path}: {exc}", field="file") from None
     frame.columns = [str(c).strip() for c in frame.columns]
 
+    try:
+        with open(path, encoding="utf-8", errors="replace") as fh:
+            head = [fh.readline() for _ in range(20)]
+    except OSError:
+        head = []
+    bench = any("p_out [" in ln and "q [" in ln for ln in head)
+
     def col(name: str, scale: float, positive: bool = True) -> Arr:
         if name not in frame.columns:
-            raise InputError("column missing", field=name)
+            # the reverse of the bench reader's hint (a user pass gave a bench CSV here)
+            raise InputError("column missing" + (
+                "; this is a pump-bench CSV (p_out, q with units): 'hydrodiag calibrate "
+                "pump FILE' reads it" if bench else ""), field=name)
         try:
             v = pd.to_numeric(frame[name], errors="raise").to_numpy(dtype=float)
         except (ValueError, TypeError):

@@ -87,3 +87,13 @@ def test_a_loggers_time_is_read_from_the_file_name():
         with pytest.raises(InputError) as err:
             time_in_name(*args)
         assert err.value.field == field, args
+
+
+@pytest.mark.parametrize(("content", "says"), [
+    (b"\x00\x01\x02PK\x03", "binary, not a text table"),
+    (b"t [s],P1 [bar]\n0,1,5\n0.001,2,5\n", "more field(s) than the header"),
+])
+def test_a_series_file_that_is_no_table_says_why(content: bytes, says: str) -> None:
+    with pytest.raises(InputError) as e:
+        read_series(content, format="csv")
+    assert e.value.field == "file" and says in e.value.message

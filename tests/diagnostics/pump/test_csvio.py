@@ -145,3 +145,15 @@ def test_a_table_is_read_as_the_series_import_reads_it(grid_bench: BenchData,
         np.testing.assert_allclose(back.p_out, grid_bench.p_out, rtol=1e-12)
         np.testing.assert_allclose(back.q, grid_bench.q, rtol=1e-12)
     assert not is_bench_table(b"t [s],p_out [Pa],q [m^3/s]\n0,1,2\n")
+
+
+@pytest.mark.parametrize(("content", "says"), [
+    (b"\x00\x01\x02PK\x03", "binary, not a text table"),  # was "no rows"
+    # decimal commas in a comma-separated file: was "7.7e13 degC is outside ..."
+    (b"p_in [Pa],p_out [bar],n [rpm],theta [degC],q [l/min]\n0,100,5,1500,40,10,5\n",
+     "more field(s) than the header"),
+])
+def test_a_file_that_is_no_table_says_why(content: bytes, says: str) -> None:
+    with pytest.raises(InputError) as e:
+        read_bench_csv(content)
+    assert says in e.value.message

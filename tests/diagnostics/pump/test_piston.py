@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -151,3 +152,10 @@ def test_spring_loaded_film_friction_comes_back_from_a_synthetic_map() -> None:
     assert coef["sqrt(omega)"] == pytest.approx(0.4, rel=0.1)
     # the fitted loss reproduces the known one within the noise
     assert np.max(np.abs(fit.loss(dp, w) - loss)) < 0.02
+
+
+def test_a_bench_csv_given_as_a_map_is_pointed_to_the_bench_reader() -> None:
+    sample = Path(__file__).resolve().parents[3] / "docs" / "samples" / "bench_sample.csv"
+    with pytest.raises(InputError) as e:
+        read_efficiency_map(sample)
+    assert "hydrodiag calibrate pump FILE" in e.value.message
