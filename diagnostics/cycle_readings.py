@@ -20,8 +20,8 @@ as the simulator reads its own phases (:mod:`sim.phase_reading`):
   working stroke (it starts where the piston stalled: no stroke).
 
 Working-phase pressures and flows are the record's (:data:`CHANNELS`: ``P_pump``, ``P1``,
-``P2``, ``Q_meter_B``, ``Q_meter_C``; the pump's flow from a ``Q_pump`` channel, else
-``Q_meter_B`` + ``Q_relief`` where both are logged); each phase's speed is a reading and the
+``P2``, ``Q_meter_B``, ``Q_meter_C``; the pump's flow from a ``Q_pump`` channel only: meter
+B plus a relief flow would count meter B twice); each phase's speed is a reading and the
 velocity ratio follows from them (:meth:`diagnostics.measurement.MeasurementRecord.ratio`).
 A channel the series lacks is a reading the record lacks; a series without a ``phase``
 column has its phases read off the position (working up to the piston's reversal, a note
@@ -275,10 +275,11 @@ def cycle_readings(series: SeriesRecord, stroke: float,
     work = by_name.get("working")
     if work is not None:
         readings.update({f: work.averages[c] for f, c in CHANNELS.items() if c in work.averages})
+        # a pump flow only from its own meter: meter B + the relief's flow was once added,
+        # and with the relief shut that is meter B counted twice (a user pass: valve p
+        # 0.89 → 0.93 on the README's simulate → series → record path)
         if "Q_pump" in work.averages:
             readings["pump_flow"] = work.averages["Q_pump"]
-        elif "Q_meter_B" in work.averages and "Q_relief" in work.averages:
-            readings["pump_flow"] = work.averages["Q_meter_B"] + work.averages["Q_relief"]
     for p in phases:
         if not p.completed:
             notes.append(f"the {p.phase} stroke stalled or crept ({1e3 * p.travel:.1f} mm of "
