@@ -59,6 +59,11 @@ class RigLimits:
         return omega * self.Vp
 
 
+#: fraction of F/A1 below which a pressure cannot hold a stated load [-] (generous: a
+#: pressure in bar typed as Pa is 1e-5 of it)
+LOAD_FRACTION = 0.2
+
+
 def _exceeds(q: Quantity, limit: float) -> bool:
     return q.value - CONSISTENCY_K * q.u > limit
 
@@ -74,7 +79,12 @@ def check_against_rig(record: MeasurementRecord, limits: RigLimits) -> None:
     * meter C above what meter B feeds: in the working phase
       ``Q_C = Q_B − Q_lv − (A1 − A2)·ẋ`` with ``Q_lv ≥ 0`` (paper 002 eqs. 10, 25-26);
     * the record's stroke against the rig's;
-    * load force against back-pressure: ``F = p_back·A2`` (paper 002 §2.7: 10 bar ↔ 2.1 kN).
+    * load force against back-pressure: ``F = p_back·A2`` (paper 002 §2.7: 10 bar ↔ 2.1 kN);
+    * the pressures that push a stated load: while the piston moves in the working phase
+      ``P1·A1 ≥ F`` (paper 002 eq. 33), and the pump's pressure is above P1's, so
+      ``p1`` or ``pump_pressure`` below :data:`LOAD_FRACTION` of ``F/A1`` is a reading in
+      the wrong unit (bar typed as Pa: a first-day user pass got a 2,000-character
+      "unexplained" instead of this).
     """
     q_max = limits.max_pump_flow(record)
     rig_stroke = None if limits.stroke is None else Quantity(limits.stroke)
@@ -101,6 +111,20 @@ def check_against_rig(record: MeasurementRecord, limits: RigLimits) -> None:
             f"stroke {record.stroke.value:.4g} m differs from the rig's {rig_stroke.value:.4g} m",
             field="stroke")
     cond = record.condition
+    moving = record.speed("work", stroke=rig_stroke)
+    if cond.load_force is not None and cond.load_force.value > 0 and moving is not None \
+            and moving.value > 0:
+        # only while the piston moves the load: held at a low relief setting (a stuck-open
+        # relief) the chamber holds less than F/A1, and that is a fault, not a unit
+        needed = cond.load_force.value / limits.A1
+        for name in ("p1", "pump_pressure"):
+            p = getattr(record, name)
+            if p is not None and p.value + CONSISTENCY_K * p.u < LOAD_FRACTION * needed:
+                raise MeasurementError(
+                    f"{name} {p.value:.4g} Pa cannot push the stated load of "
+                    f"{cond.load_force.value:.4g} N: that takes about F/A1 = "
+                    f"{needed / 1e5:.3g} bar ({needed:.4g} Pa); readings are in Pa (1 bar "
+                    "= 1e5 Pa): are these bar?", field=name)
     if cond.load_force is not None and cond.back_pressure is not None:
         implied = Quantity(cond.back_pressure.value * limits.A2, cond.back_pressure.u * limits.A2)
         if not agree(cond.load_force, implied):

@@ -239,6 +239,21 @@ def test_load_and_back_pressure_must_agree() -> None:
     assert err.value.field == "condition.load_force"
 
 
+def test_pressures_that_cannot_push_the_stated_load_are_refused_as_a_unit_slip() -> None:
+    loaded = OperatingCondition.from_readings({"oil_temperature": 40.0, "load_force": 2100.0})
+    moving = {"speed_work": 0.18}
+    ok = MeasurementRecord.from_readings("rig-1", loaded, {"p1": 11.88e5, **moving})
+    check_against_rig(ok, LIMITS)  # 11.9 bar × A1 = 2.35 kN ≥ 2.1 kN
+    for name in ("p1", "pump_pressure"):  # bar typed where Pa is asked
+        bar = MeasurementRecord.from_readings("rig-1", loaded, {name: 11.88, **moving})
+        with pytest.raises(MeasurementError) as err:
+            check_against_rig(bar, LIMITS)
+        assert err.value.field == name and "are these bar?" in err.value.message
+    # a piston that does not move may be held by a relief stuck open: a fault, not a unit
+    held = MeasurementRecord.from_readings("rig-1", loaded, {"p1": 2.0e5})
+    check_against_rig(held, LIMITS)
+
+
 def test_stroke_against_rig() -> None:
     with pytest.raises(MeasurementError) as err:
         check_against_rig(record(stroke=0.4), LIMITS)
