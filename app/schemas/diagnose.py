@@ -246,7 +246,9 @@ class EstimatePublic(BaseModel):
     low: float = Field(description="Lower end of the 95 % interval [unit]", examples=[5.6e-5])
     high: float = Field(description="Upper end of the 95 % interval [unit]", examples=[6.2e-5])
     probability: float = Field(
-        ge=0, le=1, description="Probability that this component alone is at fault [1]",
+        ge=0, le=1, description="Probability that this component is worn, alone or in a "
+        "pair: the sum over the hypotheses that name it (diagnoses stored before 2026-11-28: "
+        "its single-fault hypothesis's alone) [1]",
         examples=[0.75],
     )
     source: Literal["direct", "hypothesis", "profile"] = Field(

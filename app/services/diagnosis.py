@@ -144,14 +144,21 @@ def estimates_of(diagnosis: Diagnosis) -> list[EstimateOut]:
     the profile passes the goodness-of-fit test whether or not the worn range's fit did:
     a seal wearing from its document's value toward the worn range is stored where it is,
     neither at the range's start with an interval that excludes it nor left out.
-    ``probability`` is always that of the component's single-fault hypothesis.
+    ``probability`` is the probability that the component is worn, alone or in a pair: the
+    sum over the hypotheses that name it.  Until 2026-11-28 it was its single-fault
+    hypothesis's alone, so a valve in a near-certain valve+pump pair read p = 1e-12 and
+    the trends drew its estimate as "if the valve is the worn one" (a first-day user pass);
+    rows stored before then keep that meaning.
     """
     fits = {f.name: f for f in diagnosis.hypotheses}
     plausible = set(diagnosis.isolability.ambiguity_set)
+    worn = {c: sum(f.probability for f in diagnosis.hypotheses
+                   if c in f.name.split("+") and math.isfinite(f.probability))
+            for c in (*CLEARANCES, "pump")}
     out: list[EstimateOut] = []
     for component, quantity in CLEARANCES.items():
         fit = fits.get(component)
-        probability = fit.probability if fit is not None else 0.0
+        probability = min(worn[component], 1.0)
         direct = diagnosis.direct.get(quantity)
         if direct is not None:
             out.append(EstimateOut(component, quantity, direct.unit, direct.value, direct.low,
@@ -169,7 +176,7 @@ def estimates_of(diagnosis: Diagnosis) -> list[EstimateOut]:
             "pump" in plausible or "pump" in diagnosis.healthy_end):
         value, low, high = diagnosis.pump_slip
         out.append(EstimateOut("pump", "Cs", "1", value, min(low, high), max(low, high),
-                               pump.probability,
+                               min(worn["pump"], 1.0),
                                "profile" if "pump" in diagnosis.healthy_end else "hypothesis"))
     return [e for e in out if all(math.isfinite(x) for x in (e.value, e.low, e.high))]
 

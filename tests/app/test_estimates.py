@@ -1,0 +1,24 @@
+"""What the history keeps of a diagnosis (:func:`app.services.diagnosis.estimates_of`): a
+component's probability is that it is worn, alone or in a pair."""
+
+from __future__ import annotations
+
+import pytest
+
+from app.services.diagnosis import estimates_of
+from diagnostics.diagnose import diagnose
+from sim.rigs import reference_rig
+from tests.diagnostics.synth import record
+
+
+def test_a_component_in_a_likely_pair_is_likely_worn() -> None:
+    rig = reference_rig()
+    d = diagnose(rig, [record(rig, {"cylinder.cc": 110e-6, "valve.cv": 50e-6})])
+    assert d.top.name == "cylinder+valve" and d.top.probability > 0.9
+    single = {h.name: h.probability for h in d.hypotheses}
+    estimates = {e.component: e for e in estimates_of(d)}
+    for component in ("cylinder", "valve"):
+        worn = sum(p for name, p in single.items() if component in name.split("+"))
+        assert estimates[component].probability == pytest.approx(min(worn, 1.0), abs=1e-12)
+        # the single fault alone is unlikely; the component is not (was p ≈ 1e-12)
+        assert single[component] < 0.1 < 0.9 < estimates[component].probability
