@@ -19,6 +19,7 @@ from fastapi import FastAPI
 from fastapi.dependencies.models import Dependant
 from fastapi.openapi.utils import get_openapi
 from fastapi.routing import APIRoute, iter_route_contexts
+from fastapi_offline import FastAPIOffline
 
 from app import __version__
 from app.api.deps import OPEN_READ_ACCESS, SCOPE_OF
@@ -43,7 +44,10 @@ from app.services.rig_cache import RigCache
 from app.services.warmup import Warmup
 from app.settings import Settings
 
-__all__ = ["create_app", "create_service_app"]
+__all__ = ["DOCS_STATIC", "create_app", "create_service_app"]
+
+#: where the documentation pages' script and style files are served (no key needed)
+DOCS_STATIC = "/docs-static"
 
 logger = logging.getLogger("hydrodiag.app")
 
@@ -186,11 +190,14 @@ def create_app(
             app.state.sweep_executors.shutdown()
             engine.dispose()
 
-    app = FastAPI(
+    # /docs and /redoc from files shipped with fastapi-offline, not a CDN: on a plant
+    # network without the internet they were blank pages (a first-day user pass)
+    app = FastAPIOffline(
         title="hydrodiag",
         version=__version__,
         description=_DESCRIPTION,
         lifespan=lifespan,
+        static_url=DOCS_STATIC,
     )
     app.state.settings = settings
     app.state.engine = engine

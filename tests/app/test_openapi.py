@@ -79,3 +79,16 @@ def test_the_routes_of_the_service_are_there(spec: dict[str, Any]) -> None:
         "/measurements/{measurement_id}", "/diagnoses", "/diagnoses/{diagnosis_id}",
         "/discrepancy",
     }
+
+
+@pytest.mark.parametrize("page", ["/docs", "/redoc"])
+def test_the_documentation_pages_need_no_internet(server: LiveServer, page: str) -> None:
+    """Swagger UI and ReDoc came from cdn.jsdelivr.net: blank pages on a plant network
+    without the internet (a first-day user pass); now every file is the service's own."""
+    html = server.anon.get(page)
+    assert html.status_code == 200
+    links = re.findall(r'(?:src|href)="([^"]+)"', html.text)
+    assert links and not [u for u in links if "://" in u or u.startswith("//")], links
+    for url in links:  # served without a key, each a real file
+        got = server.anon.get(url)
+        assert got.status_code == 200 and len(got.content) > 1000, url
