@@ -340,7 +340,8 @@ def commission(
         return
     table = Table("parameter", "before", "fitted", "95 % interval", "pinned down",
                   title=f"rig {response.rig_id}: version {response.from_version} → "
-                  f"{response.version} (χ² = {response.chi2:.3g} on {response.n_observations} "
+                  + (f"{response.version}" if response.stored else "nothing stored")
+                  + f" (χ² = {response.chi2:.3g} on {response.n_observations} "
                   f"readings, {response.dof:.1f} degrees of freedom, limit "
                   f"{'none' if response.chi2_limit is None else f'{response.chi2_limit:.3g}'})")
     for p in response.parameters:

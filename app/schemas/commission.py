@@ -79,8 +79,13 @@ class CommissionResponse(BaseModel):
     rig_id: int = Field(ge=1, description="Rig identifier [-]", examples=[1])
     from_version: int = Field(ge=1, description="Version that was commissioned [-]",
                               examples=[1])
-    version: int = Field(ge=1, description="New version holding the fitted values [-]",
-                         examples=[2])
+    version: int = Field(ge=1, description="New version holding the fitted values; the "
+                         "commissioned one when nothing was stored [-]", examples=[2])
+    stored: bool = Field(description="Whether a new version was stored: not when every "
+                         "pinned-down parameter's 95 % interval holds the document's value "
+                         "(the records confirm it; a version that changes nothing the records "
+                         "can tell would split the rig's history and trends) [-]",
+                         examples=[True])
     parameters: list[CommissionedParameterPublic] = Field(
         description="Every fitted parameter, pinned down or not [-]", examples=[[]])
     chi2: float = Field(description="χ² of the readings at the estimate [-]", examples=[27.0])

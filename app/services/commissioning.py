@@ -5,7 +5,8 @@ Used by ``POST /rigs/{rig_id}/commission`` and ``hydrodiag commission``.  The fi
 the records pin down are written into a copy of that version's document (value in SI, with
 a source naming the fit and its interval), stored through :func:`app.services.rigs.update_rig`.
 Nothing is stored when any record is invalid, the fit fails, or the fitted rig does not
-explain the records (χ² test at 1 %: a record of a worn rig among them).
+explain the records (χ² test at 1 %: a record of a worn rig among them); nor when every
+pinned-down parameter's 95 % interval holds the document's value (the records confirm it).
 """
 
 from __future__ import annotations
@@ -92,14 +93,28 @@ def commission_rig(session: Session, rigs: RigCache, rig_id: int, request: Commi
         role, name = p.name.split(".")
         decl = circuit.parameter(role, name)
         units[p.name] = decl.unit if decl is not None else ""
-    document = commissioned_document(dict(resolved.document), fit, units)
-    comment = request.comment or (f"commissioned from {fit.n_records} healthy records "
-                                  f"(version {resolved.version})")
-    rig, version = rig_service.update_rig(session, rig_id, document, comment=comment)
+    statements = list(fit.statements)
+    pinned = [p for p in fit.parameters if p.identifiable]
+    if all(p.low <= p.before <= p.high for p in pinned):
+        # nothing the records can tell apart from the document: a version of it would only
+        # split the rig's history (the /docs example, one record, stored Lc +0.36 % inside
+        # a ±28 % interval, and both trends lost their 9 points; a first-day user pass)
+        held = ", ".join(p.name for p in pinned) or "no parameter pinned down"
+        statements.insert(0, f"the records confirm the document: each pinned-down "
+                             f"parameter's 95 % interval holds its value ({held}); nothing "
+                             f"stored, version {resolved.version} kept")
+        version_number, stored = resolved.version, False
+    else:
+        document = commissioned_document(dict(resolved.document), fit, units)
+        comment = request.comment or (f"commissioned from {fit.n_records} healthy records "
+                                      f"(version {resolved.version})")
+        _, version = rig_service.update_rig(session, rig_id, document, comment=comment)
+        version_number, stored = version.version, True
     return CommissionResponse.model_validate({
-        "rig_id": rig.id, "from_version": resolved.version, "version": version.version,
+        "rig_id": rig_id, "from_version": resolved.version, "version": version_number,
+        "stored": stored,
         "parameters": [asdict(p) | {"unit": units[p.name]} for p in fit.parameters],
         "chi2": fit.chi2, "dof": fit.dof,
         "chi2_limit": fit.limit if math.isfinite(fit.limit) else None,
         "n_observations": fit.n_observations, "n_records": fit.n_records,
-        "statements": fit.statements})
+        "statements": statements})

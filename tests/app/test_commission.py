@@ -153,3 +153,32 @@ def test_a_worn_record_is_not_absorbed_into_the_document(server: LiveServer) -> 
     assert stored.status_code == 201, stored.text
     ls = next(p for p in stored.json()["parameters"] if p["name"] == "valve.Ls")
     assert ls["prior_shift"] < -3.0 and ls["value"] < 0.3 * ls["before"]
+
+
+def test_records_that_confirm_the_document_store_no_version(server: LiveServer) -> None:
+    """A rig as documented: each pinned-down interval holds the document's value, and a
+    new version would only split the history and trends (the /docs example stored one
+    from a single record; a first-day user pass)."""
+    rig = new_rig(server, "as-documented")
+    rig_id = rig["id"]
+    documented = reference_rig()
+    rng = np.random.default_rng(5)
+    records = []
+    for load in (2100.0, 4200.0, 6300.0):
+        for temperature in (35.0, 55.0):
+            vals = readings(documented, {}, load, temperature)
+            records.append({"rig_id": rig_id, "condition": {"oil_temperature": temperature,
+                                                            "load_force": load},
+                            **{f: vals[f] * (1.0 + rng.uniform(-0.002, 0.002))
+                               for f in FIELDS}})
+    before = server.row_counts()
+    response = server.client.post(f"/rigs/{rig_id}/commission", json={"records": records},
+                                  headers=server.auth)
+    assert response.status_code == 200, response.text
+    body = response.json()
+    assert body["stored"] is False and body["version"] == body["from_version"] == 1
+    assert body["statements"][0].startswith("the records confirm the document")
+    assert all(p["low"] <= p["before"] <= p["high"]
+               for p in body["parameters"] if p["identifiable"])
+    assert server.row_counts() == before
+    assert server.client.get(f"/rigs/{rig_id}").json()["latest_version"] == 1

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from fastapi import APIRouter, status
+from fastapi import APIRouter, Response, status
 
 from app.api.deps import ReadAccess, RigsDep, SessionDep, WriteKeyDep
 from app.api.routes.rigs import RigId
@@ -18,8 +18,12 @@ router = APIRouter(tags=["rigs"], dependencies=[ReadAccess], responses=ERROR_RES
 @router.post("/rigs/{rig_id}/commission", status_code=status.HTTP_201_CREATED,
              summary="Fit a rig's uncertain parameters to healthy records; store a version")
 def commission(rig_id: RigId, body: CommissionRequest, session: SessionDep, rigs: RigsDep,
-               _key: WriteKeyDep) -> CommissionResponse:
+               _key: WriteKeyDep, response: Response) -> CommissionResponse:
     """Fit seal and land lengths, valve coefficient, friction and pump leakage to records
     of the healthy rig, with 95 % intervals and what the records could not pin down; the
-    pinned-down values are stored as the rig's next version."""
-    return commission_rig(session, rigs, rig_id, body)
+    pinned-down values are stored as the rig's next version (201), unless every interval
+    holds the document's value: then nothing is stored (200, ``stored: false``)."""
+    answer = commission_rig(session, rigs, rig_id, body)
+    if not answer.stored:
+        response.status_code = status.HTTP_200_OK
+    return answer
