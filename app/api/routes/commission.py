@@ -16,7 +16,10 @@ router = APIRouter(tags=["rigs"], dependencies=[ReadAccess], responses=ERROR_RES
 
 
 @router.post("/rigs/{rig_id}/commission", status_code=status.HTTP_201_CREATED,
-             summary="Fit a rig's uncertain parameters to healthy records; store a version")
+             summary="Fit a rig's uncertain parameters to healthy records; store a version",
+             responses={200: {"model": CommissionResponse,
+                              "description": "The records confirm the document: every "
+                              "pinned-down interval holds its value; nothing stored"}})
 def commission(rig_id: RigId, body: CommissionRequest, session: SessionDep, rigs: RigsDep,
                _key: WriteKeyDep, response: Response) -> CommissionResponse:
     """Fit seal and land lengths, valve coefficient, friction and pump leakage to records
