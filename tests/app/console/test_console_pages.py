@@ -179,6 +179,11 @@ def test_a_diagnosis_through_the_form_is_stored_and_shown(
     row = re.search(r"<code>cylinder\.cc</code>.*?leakage ×([^<]+)<", fitted)
     assert row is not None and float(row.group(1)) == pytest.approx((100 / 83) ** 3, rel=0.02)
     assert re.search(r"<code>relief\.Pset</code>.*?setting \d+ % low<", fitted)
+    # a hypothesis the readings all but exclude gets no red badge: "severe if it held"
+    # (a relief setting 70 % low read as a finding; a first-day user pass)
+    pset = re.search(r"<code>relief\.Pset</code>.*?</tr>", fitted)
+    assert pset is not None and "if it held" in pset.group(0)
+    assert "tag sev-" not in pset.group(0)
 
 
 def test_a_path_the_console_lacks_and_an_unreadable_form_get_its_pages(
