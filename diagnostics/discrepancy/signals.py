@@ -190,6 +190,21 @@ def _uniform(record: SeriesRecord, rate: float) -> tuple[Arr, dict[str, Arr], np
     return t, chans, np.asarray(phase, dtype=str)
 
 
+def same_channels(records: Sequence[SeriesRecord]) -> None:
+    """Refuse records whose channels differ (``field="file"``): the workflow compares
+    every record on the same outputs."""
+    common = set(records[0].channels)
+    for r in records[1:]:
+        if set(r.channels) != common:
+            missing, extra = sorted(common - set(r.channels)), sorted(set(r.channels) - common)
+            raise InputError(
+                f"record {r.name!r} has channels {sorted(r.channels)}, the first "
+                f"({records[0].name!r}) has {sorted(common)}"
+                + (f"; it lacks {', '.join(missing)}" if missing else "")
+                + (f"; it adds {', '.join(extra)}" if extra else "")
+                + ": give records with the same measured channels", field="file")
+
+
 def prepare(records: Sequence[SeriesRecord], rig: Rig, *, rate: float = 1000.0,
             window: float = 0.041) -> Signals:
     """Resample ``records`` to ``rate`` [Hz], smooth, add derivatives and conditions.
@@ -215,11 +230,7 @@ def prepare(records: Sequence[SeriesRecord], rig: Rig, *, rate: float = 1000.0,
     """
     if not records:
         raise InputError("no records to analyse", field="file")
-    common = set(records[0].channels)
-    for r in records[1:]:
-        if set(r.channels) != common:
-            raise InputError(f"record {r.name!r} has channels {sorted(r.channels)}, the first "
-                             f"has {sorted(common)}", field="file")
+    same_channels(records)
     parts: dict[str, list[Arr]] = {}
     rec_idx: list[npt.NDArray[np.int64]] = []
     phases: list[npt.NDArray[np.str_]] = []

@@ -57,7 +57,7 @@ from diagnostics.discrepancy.lof import repeats_lack_of_fit
 from diagnostics.discrepancy.records import require_cycle_records, with_phases
 from diagnostics.discrepancy.refit import with_effects
 from diagnostics.discrepancy.selection import PRACTICAL, Selection, require_samples, select
-from diagnostics.discrepancy.signals import Signals, condition_of, prepare
+from diagnostics.discrepancy.signals import Signals, condition_of, prepare, same_channels
 from diagnostics.discrepancy.simulate import (
     SOLVER,
     simulate_record,
@@ -286,6 +286,9 @@ def _first_step(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord]
     if not records:
         raise InputError("no records to analyse", field="file")
     labelled, notes = with_phases(records, rig.values()["cylinder.stroke"])
+    # every record, not only the training ones prepare() sees: a held-out record without
+    # 'v' failed the job later with KeyError (a fleet integrator's pass)
+    same_channels(labelled)
     require_cycle_records(labelled)
     train_i, held_i = _split(labelled, rig)
     signals = prepare([labelled[i] for i in train_i], rig)

@@ -5,6 +5,8 @@ a rig without it, got "no effect: the gap is within the noise")."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -13,6 +15,8 @@ from diagnostics.discrepancy.balances import balance_data
 from diagnostics.discrepancy.carried_check import check_carried
 from diagnostics.discrepancy.signals import prepare
 from diagnostics.discrepancy.synthetic import NOISE, synthesize
+from diagnostics.discrepancy.workflow import check_records
+from sim.errors import InputError
 from sim.rigs import load_rig, reference_rig_document
 from sim.rigs.assembly import Condition
 
@@ -64,3 +68,15 @@ def test_a_stored_effect_the_data_hold_stays_no_effect() -> None:
     d = discover(_doc(K_P), _records(K_P, 7), bootstrap=10)
     assert d.verdict == "no effect", d.message
     assert [c.outcome for c in d.carried] == ["held"]
+
+
+def test_records_with_other_channels_are_refused_before_any_job() -> None:
+    """A held-out record without 'v' beside one with it made the job fail with an internal
+    KeyError after its 202 (a fleet integrator's pass); check_records, which the HTTP
+    route runs before it accepts a job, now refuses it."""
+    a, b = _records(0.0, 1)[:2]
+    b = replace(b, channels={k: v for k, v in b.channels.items() if k != "v"},
+                units={k: u for k, u in b.units.items() if k != "v"})
+    with pytest.raises(InputError) as e:
+        check_records(_doc(0.0), [a, b])
+    assert e.value.field == "file" and "it lacks v" in e.value.message
