@@ -141,8 +141,8 @@ def physics_notes(result: CycleResult) -> list[str]:
     if lows:
         notes.append("below vacuum (-1 bar gauge), where the model has no cavitation and the "
                      "oil's pressure is not physical: " + ", ".join(
-                         f"{name} reaches {value / 1e5:.4g} bar gauge"
-                         for name, value in lows.items()))
+                         f"{name.removesuffix(' [Pa]')} reaches {value / 1e5:.4g} bar "
+                         f"gauge ({value:.4g} Pa)" for name, value in lows.items()))
     return notes
 
 

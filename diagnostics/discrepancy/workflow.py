@@ -449,6 +449,9 @@ def _discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], 
         message += ("; not confirmed: the re-fitted rig could not be simulated: "
                     + "; ".join(conf.unsimulable))
     if not held_i:
+        # the verdicts' "held-out" would name a record there is none of (a first-day
+        # user pass read "held-out RMSE … one record only" in one message)
+        message = message.replace("held-out", "in-sample")
         message += ("; one record only: every gap above is measured on the record the "
                     "parameters were fitted to, not on a held-out one (give records at two "
                     "or more loads or temperatures)")

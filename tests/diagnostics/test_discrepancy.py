@@ -138,6 +138,7 @@ def test_one_record_says_that_its_gap_is_not_held_out():
     assert d.verdict == "no effect"
     assert d.held_out == [] and d.training == ["L2100"]
     assert "one record only" in d.message
+    assert "held-out RMSE" not in d.message and "held-out steady" not in d.message
 
 
 def test_a_gap_outside_the_library_is_unexplained_not_misnamed():
