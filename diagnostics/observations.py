@@ -119,8 +119,10 @@ def observe(record: MeasurementRecord, rig: Rig, *, check: bool = True) -> Recor
     """Observation vector of ``record`` on ``rig`` (checked against the rig's limits and
     its circuit's range of conditions)."""
     if check:
-        check_against_rig(record, rig_limits(rig))
+        # the condition's range first: a load past it is the error to name, not the
+        # pressures that cannot push it (check_against_rig's unit-slip test)
         check_condition(record, rig)
+        check_against_rig(record, rig_limits(rig))
     stroke = Quantity(rig.base["cylinder.stroke"])
     items: list[tuple[str, Quantity]] = []
     for name in ("pump_pressure", "p1", "p2", "flow_B", "flow_C", "pump_flow"):

@@ -9,7 +9,7 @@ Golay, *Anal. Chem.* 36, 1964) taken per record and phase on a uniform grid.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -190,15 +190,19 @@ def _uniform(record: SeriesRecord, rate: float) -> tuple[Arr, dict[str, Arr], np
     return t, chans, np.asarray(phase, dtype=str)
 
 
-def same_channels(records: Sequence[SeriesRecord]) -> None:
-    """Refuse records whose channels differ (``field="file"``): the workflow compares
-    every record on the same outputs."""
-    common = set(records[0].channels)
+def same_channels(records: Sequence[SeriesRecord], only: Collection[str] | None = None
+                  ) -> None:
+    """Refuse records whose channels (of ``only``, when given) differ (``field="file"``):
+    the workflow compares every record on the same outputs."""
+    def chosen(r: SeriesRecord) -> set[str]:
+        return {c for c in r.channels if only is None or c in only}
+
+    common = chosen(records[0])
     for r in records[1:]:
-        if set(r.channels) != common:
-            missing, extra = sorted(common - set(r.channels)), sorted(set(r.channels) - common)
+        if chosen(r) != common:
+            missing, extra = sorted(common - chosen(r)), sorted(chosen(r) - common)
             raise InputError(
-                f"record {r.name!r} has channels {sorted(r.channels)}, the first "
+                f"record {r.name!r} has channels {sorted(chosen(r))}, the first "
                 f"({records[0].name!r}) has {sorted(common)}"
                 + (f"; it lacks {', '.join(missing)}" if missing else "")
                 + (f"; it adds {', '.join(extra)}" if extra else "")

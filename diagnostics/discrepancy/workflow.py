@@ -286,9 +286,9 @@ def _first_step(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord]
     if not records:
         raise InputError("no records to analyse", field="file")
     labelled, notes = with_phases(records, rig.values()["cylinder.stroke"])
-    # every record, not only the training ones prepare() sees: a held-out record without
-    # 'v' failed the job later with KeyError (a fleet integrator's pass)
-    same_channels(labelled)
+    # every record's outputs, not only the training ones prepare() sees: a held-out record
+    # without 'v' failed the job later with KeyError (a fleet integrator's pass)
+    same_channels(labelled, OUTPUTS)
     require_cycle_records(labelled)
     train_i, held_i = _split(labelled, rig)
     signals = prepare([labelled[i] for i in train_i], rig)

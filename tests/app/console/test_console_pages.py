@@ -308,7 +308,7 @@ def test_the_simulate_page_says_what_the_numbers_do_not(browser_client: httpx.Cl
     assert dips.status_code == 200
     assert "Simulated at load 4200 N, oil 40 °C, back-pressure 0 bar" in dips.text
     notes = re.findall(r"<li>([^<]*)</li>", dips.text.split('id="notes"')[1].split("</ul>")[0])
-    assert len(notes) == 1 and notes[0].startswith("below vacuum") and "P_pump [Pa]" in notes[0]
+    assert len(notes) == 1 and notes[0].startswith("below vacuum") and "P_pump reaches" in notes[0]
     stall = browser_client.get("/console/simulate?run=true&fault=worn_piston&load=20000")
     assert "the working stroke did not reach its end" in stall.text
 
