@@ -139,8 +139,14 @@ def diagnose_batch(
     elapsed = time.perf_counter() - started
     if out is not None:
         with out.open("w", encoding="utf-8") as fh:
-            for r in results:
-                fh.write(json.dumps(r, default=str) + "\n")
+            # each line says which record it answers (the input's 1-based record number, as
+            # the errors count them, its rig and stated time): lines joined to their inputs
+            # by order alone (a fleet integrator's pass)
+            for n, (item, r) in enumerate(zip(items, results, strict=True), start=1):
+                line = {"record": n, "rig_id": item.rig_id,
+                        "measured_at": None if item.measured_at is None
+                        else item.measured_at.isoformat()} | r
+                fh.write(json.dumps(line, default=str) + "\n")
     counts = Counter(r.get("top", "error") for r in results)
     table = Table("top", "records", title=f"{counted(len(results), 'record')} in {elapsed:.1f} s "
                   f"({len(results) / elapsed:.0f} records/s)")

@@ -39,6 +39,9 @@ def test_a_csv_batch_names_each_fault_and_writes_a_result_per_row(
     assert result.exit_code == 0, result.output
     results = [json.loads(line) for line in out.read_text().splitlines()]
     assert [r["top"] for r in results] == ["valve", "cylinder", "healthy"]
+    # each line names the record it answers: 1-based as the errors count, its rig, its time
+    assert [(r["record"], r["rig_id"], r["measured_at"]) for r in results] == [
+        (1, 1, None), (2, 1, None), (3, 1, None)]
     (cv,) = results[0]["parameters"]
     assert cv["name"] == "cv" and abs(cv["value"] - 60e-6) < 0.03 * 60e-6
     assert cv["low"] <= 60e-6 <= cv["high"]
