@@ -29,7 +29,7 @@ import numpy as np
 from scipy import stats
 
 from diagnostics.discrepancy.balances import BalanceData
-from diagnostics.discrepancy.selection import ALPHA, HAC_LAGS, hac_cov
+from diagnostics.discrepancy.selection import ALPHA, HAC_LAGS, _scaled, hac_cov
 from sim.components.effects import EFFECTS
 
 __all__ = ["HELD_ABOVE", "HELD_BELOW", "CarriedCheck", "carried_statement", "check_carried"]
@@ -85,17 +85,13 @@ def check_carried(data: list[BalanceData]) -> list[CarriedCheck]:
     for d in data:
         if not d.carried or d.y.size < 3:
             continue
-        names = list(d.base)
-        Xb = np.column_stack([d.base[n] for n in names]) if names else np.zeros((d.y.size, 0))
         for effect, (k, x) in d.carried.items():
-            X = np.column_stack([Xb, x])
-            scale = np.sqrt(np.mean(X * X, axis=0))
-            scale[scale == 0] = 1.0
-            Xs = X / scale
+            # the selection's scaled columns, the carried effect's last
+            _, Xs, scale = _scaled({**d.base, effect: x})
             coef, *_ = np.linalg.lstsq(Xs, d.y, rcond=None)
             resid = d.y - Xs @ coef
             cov = hac_cov(Xs, resid, HAC_LAGS)
-            j = X.shape[1] - 1
+            j = Xs.shape[1] - 1
             change = float(coef[j] / scale[j])
             se = math.sqrt(max(float(cov[j, j]), 1e-300)) / float(scale[j])
             half = 1.96 * se / abs(k)
