@@ -24,9 +24,18 @@ key stores nothing, and its header is ignored):
 * another request under a used key: 422 ``InputError`` on ``Idempotency-Key``;
 * a first request that failed (4xx, 5xx, an exception) leaves the key free: the retry runs.
 
-A process killed after it stored the work but before it kept the answer (or a store that
-stopped answering just then) leaves the key blocked for :data:`STALE_S`, after which a retry
-runs again: the one window in which a retried write can still be done twice.
+The work and the key are marked in one transaction (:mod:`app.services.idempotent_work`):
+``POST /diagnose`` keeps its whole answer in the transaction that stores its rows, so a
+retry after the process died is replayed; any other write marks its key stored when it
+commits, and a retry of a write stored whose answer was never kept (its process killed in
+between) is refused, 409 ``ConflictError`` *without* ``Retry-After``, saying when it was
+stored and to read the result back, instead of being done twice (an operator's kill -9
+under load doubled 2 of ~4 requests in flight).  A key that died before its work was
+stored blocks for :data:`STALE_S`, after which a retry runs.
+
+The owner of a key is the API key's rotation chain (``api_keys.lineage_id``): a retry sent
+with the key that replaced a rotated one (``hydrodiag keys rotate --grace``) is the same
+client's retry.
 """
 
 from __future__ import annotations
@@ -50,10 +59,12 @@ from starlette.types import ASGIApp, Message, Receive, Scope, Send
 from app.db.base import utcnow
 from app.db.models import IdempotentRequest
 from app.errors import database_unavailable, error_response
+from app.services.idempotent_work import CURRENT, KeyedWrite
 from app.services.keys import authenticate
 from sim.errors import AuthError, ConflictError, InputError
 
-__all__ = ["HEADER", "HEARTBEAT_S", "KEEP_HOURS", "STALE_S", "IdempotencyMiddleware"]
+__all__ = ["HEADER", "HEARTBEAT_S", "KEEP_HOURS", "STALE_S", "IdempotencyMiddleware",
+           "owner_of"]
 
 logger = logging.getLogger("hydrodiag.app")
 
@@ -86,6 +97,12 @@ def _digest(*parts: bytes) -> str:
         h.update(len(part).to_bytes(8, "big"))
         h.update(part)
     return h.hexdigest()
+
+
+def owner_of(lineage_id: int) -> str:
+    """The owner of the ``Idempotency-Key`` rows of the API keys of rotation chain
+    ``lineage_id`` (the id of its first key)."""
+    return _digest(f"key-lineage:{lineage_id}".encode())[:64]
 
 
 def _canonical(content_type: str, body: bytes) -> tuple[str, bytes]:
@@ -168,15 +185,13 @@ class IdempotencyMiddleware:
             if not message.get("more_body", False):
                 break
         body = b"".join(chunks)
-        owner = _digest(api_key.encode())[:64]
         content_type, same_body = _canonical(_header(scope, b"content-type") or "", body)
         digest = _digest(str(scope["method"]).encode(), path.encode(),
                          bytes(scope.get("query_string", b"")), content_type.encode(),
                          same_body)
         try:
-            outcome = await anyio.to_thread.run_sync(self._claim, owner, key,
-                                                     str(scope["method"]), path, digest,
-                                                     Request(scope), api_key)
+            outcome = await anyio.to_thread.run_sync(self._claim, key, str(scope["method"]),
+                                                     path, digest, Request(scope), api_key)
         except (OperationalError, InterfaceError) as exc:   # the store does not answer
             await database_unavailable(Request(scope), exc)(scope, receive, send)
             return
@@ -208,6 +223,8 @@ class IdempotencyMiddleware:
                    row_id: int) -> None:
         start: Message | None = None
         parts: list[bytes] = []
+        keyed = KeyedWrite(row_id)
+        token = CURRENT.set(keyed)   # the work marks its key in its own transaction
 
         async def capture(message: Message) -> None:
             # every answer is held until the key is settled: a failure passed on as it came
@@ -223,6 +240,8 @@ class IdempotencyMiddleware:
         except BaseException:
             await self._settle(self._release, row_id)
             raise
+        finally:
+            CURRENT.reset(token)
         assert start is not None
         content = b"".join(parts)
         if start["status"] // 100 != 2:
@@ -231,9 +250,11 @@ class IdempotencyMiddleware:
             await send({"type": "http.response.body", "body": content, "more_body": False})
             return
         headers = {k.lower(): v for k, v in start.get("headers", [])}
-        await self._settle(self._keep, row_id, int(start["status"]),
-                           headers.get(b"content-type", b"").decode("latin-1") or None,
-                           headers.get(b"location", b"").decode("latin-1") or None, content)
+        if not keyed.kept:   # POST /diagnose kept it with its rows
+            await self._settle(self._keep, row_id, int(start["status"]),
+                               headers.get(b"content-type", b"").decode("latin-1") or None,
+                               headers.get(b"location", b"").decode("latin-1") or None,
+                               content)
         await send(start)
         await send({"type": "http.response.body", "body": content, "more_body": False})
 
@@ -247,10 +268,15 @@ class IdempotencyMiddleware:
                            type(exc).__name__, STALE_S)
 
     # -- the store (run in a worker thread) --------------------------------------------
-    def _claim(self, owner: str, key: str, method: str, path: str, digest: str,
-               request: Request, api_key: str) -> _Outcome:
+    def _claim(self, key: str, method: str, path: str, digest: str, request: Request,
+               api_key: str) -> _Outcome:
         now = utcnow()
         with self.sessions() as session:
+            try:   # the owner: the key's rotation chain (module docstring)
+                sender = authenticate(session, api_key)
+            except AuthError:   # the route answers 401; nothing kept
+                return _Outcome()
+            owner = owner_of(sender.lineage_id or sender.id)
             session.execute(delete(IdempotentRequest)
                             .where(IdempotentRequest.expires_at < now))
             session.commit()
@@ -266,7 +292,7 @@ class IdempotencyMiddleware:
             found = session.scalar(select(IdempotentRequest).where(
                 IdempotentRequest.owner == owner, IdempotentRequest.idempotency_key == key))
             if found is None:  # released meanwhile: try once more
-                return self._claim(owner, key, method, path, digest, request, api_key)
+                return self._claim(key, method, path, digest, request, api_key)
             if found.digest != digest:
                 return _Outcome(response=error_response(
                     422, InputError.__name__,
@@ -274,17 +300,23 @@ class IdempotencyMiddleware:
                     f"{found.path}, or other content) in the last {KEEP_HOURS} h: a retry "
                     "must send the same request; a new request needs a new key", HEADER,
                     request=request))
-            if found.status is not None:
-                try:   # an answer only to a key still valid (routes check theirs later)
-                    authenticate(session, api_key)
-                except AuthError:
-                    return _Outcome()
+            if found.status is not None:   # (to a key still valid: checked above)
                 logger.info("replayed the answer of %s %s under an %s", method, path, HEADER)
                 headers = {"Idempotent-Replayed": "true"}
                 if found.location:
                     headers["Location"] = found.location
                 return _Outcome(response=_Stored(found.status, found.content_type,
                                                  found.body or b"", headers))
+            if found.stored_at is not None and found.touched_at <= now - timedelta(
+                    seconds=STALE_S):
+                # stored, and its process died before the answer was kept: not run again
+                return _Outcome(response=error_response(
+                    409, ConflictError.__name__,
+                    f"the first request with this {HEADER} was done and stored at "
+                    f"{found.stored_at.isoformat().replace('+00:00', 'Z')}, but the service "
+                    "stopped before its answer was kept; it is not done again: read what it "
+                    f"stored back ({found.method} {found.path}: the listing of what it "
+                    "writes)", HEADER, request=request))
             if found.touched_at > now - timedelta(seconds=STALE_S):
                 return _Outcome(response=error_response(
                     409, ConflictError.__name__,

@@ -316,16 +316,24 @@ class ApiKey(Base):
     #: When the key stops working: the moment of revocation, or the end of the grace
     #: period of a rotated key (in the future until then).
     revoked_at: Mapped[datetime | None] = mapped_column(UTCDateTime())
+    #: The first key of its rotation chain (``None``: this key is), which owns the chain's
+    #: ``Idempotency-Key`` rows, so that a retry across a rotation is the same client's
+    #: (revision 0011).
+    lineage_id: Mapped[int | None] = mapped_column(Integer)
 
 
 class IdempotentRequest(Base):
     """A write sent with an ``Idempotency-Key`` header and, once it succeeded, its answer
     (:mod:`app.idempotency`; revision 0010).
 
-    ``owner`` is a digest of the API key that sent it (keys of different clients never
-    share a row); ``digest`` one of the request (method, path, query, content type, body),
-    so that the same key on another request is refused; ``status`` is ``None`` while the
-    first request is being processed.  Rows expire (``expires_at``) and are removed.
+    ``owner`` is a digest of the rotation chain of the API key that sent it (keys of
+    different clients never share a row; a key and the key that replaced it do, revision
+    0011); ``digest`` one of the request (method, path, query, content type, body), so
+    that the same key on another request is refused; ``status`` is ``None`` while the
+    first request is being processed.  ``stored_at`` is set in the transaction that stored
+    the request's work (revision 0011), so a retry after a process died between that
+    commit and keeping the answer is not run again.  Rows expire (``expires_at``) and are
+    removed.
     """
 
     __tablename__ = "idempotent_requests"
@@ -345,3 +353,5 @@ class IdempotentRequest(Base):
     #: last time the process running the first request marked it as in hand
     touched_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=utcnow)
     expires_at: Mapped[datetime] = mapped_column(UTCDateTime())
+    #: when the transaction that stored the request's work committed (``None``: not yet)
+    stored_at: Mapped[datetime | None] = mapped_column(UTCDateTime())

@@ -9,6 +9,7 @@ from sqlalchemy import Select, func, select
 from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
 
+from app.services.idempotent_work import mark_stored
 from sim.errors import ConflictError, NotFoundError
 
 __all__ = ["commit", "get_or_raise", "paginate", "prefixed"]
@@ -51,9 +52,12 @@ def commit(session: Session, *, conflict: str, field: str | None = None) -> None
     """Commit, turning a constraint violation into :class:`ConflictError`.
 
     The explicit checks in the services catch the usual conflicts with a precise message;
-    this is the backstop for two writers racing past those checks.
+    this is the backstop for two writers racing past those checks.  In a write sent with an
+    ``Idempotency-Key`` the key is marked stored in the same transaction
+    (:func:`app.services.idempotent_work.mark_stored`).
     """
     try:
+        mark_stored(session)
         session.commit()
     except IntegrityError as exc:
         session.rollback()

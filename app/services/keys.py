@@ -231,7 +231,9 @@ def rotate_api_key(session: Session, key_id: int, *,
     """Replace key ``key_id`` by a new key with the same name and scope.
 
     The old row is renamed ``<name>.rotated-<id>`` and stops working after ``grace_s``
-    (at once for 0, the default); the new key takes the name.
+    (at once for 0, the default); the new key takes the name and the old key's rotation
+    chain (``lineage_id``), which owns the ``Idempotency-Key`` answers of both: a retry
+    sent with the new key is replayed, not run again.
 
     Parameters
     ----------
@@ -268,7 +270,7 @@ def rotate_api_key(session: Session, key_id: int, *,
         raise ConflictError(f"a key named {old.name!r} exists", field="key_id") from exc
     generated = generate_key()
     new = ApiKey(name=name, prefix=generated.prefix, key_hash=generated.key_hash,
-                 scope=old.scope)
+                 scope=old.scope, lineage_id=old.lineage_id or old.id)  # the same client
     session.add(new)
     commit(session, conflict=f"key {key_id} changed concurrently", field="key_id")
     return old, new, generated.plaintext

@@ -10,6 +10,7 @@ from pathlib import Path
 from typing import Any
 
 import httpx
+import pytest
 from fastapi import FastAPI
 from sqlalchemy import update
 from sqlalchemy.engine import make_url
@@ -18,7 +19,7 @@ from app.db import migrate
 from app.db.base import utcnow
 from app.db.engine import make_engine, make_session_factory
 from app.db.models import IdempotentRequest
-from app.idempotency import STALE_S, IdempotencyMiddleware, _digest
+from app.idempotency import STALE_S, IdempotencyMiddleware, _digest, owner_of
 from tests.app.conftest import simulated_record
 from tests.app.live import LiveServer
 
@@ -138,11 +139,11 @@ def test_a_first_request_whose_process_died_no_longer_blocks_its_key(tmp_path: P
     async def post() -> httpx.Response:
         transport = httpx.ASGITransport(app=app)
         async with httpx.AsyncClient(transport=transport, base_url="http://t") as client:
-            return await client.post("/slow", json={}, headers={"Idempotency-Key": "k2",
-                                                                "X-API-Key": "client-b"})
+            return await client.post("/slow", json={}, headers={
+                "Idempotency-Key": "k2", "X-API-Key": _app.key})  # type: ignore[attr-defined]
 
-    with sessions() as session:   # the owner: a digest of the sender's API key
-        session.execute(update(IdempotentRequest).values(owner=_digest(b"client-b")[:64]))
+    with sessions() as session:   # the owner: the sender's key's rotation chain
+        session.execute(update(IdempotentRequest).values(owner=owner_of(1)))
         session.commit()
     assert asyncio.run(post()).status_code == 422      # another request's digest
     same = _digest(b"POST", b"/slow", b"", b"application/json", b"{}")  # canonical JSON
@@ -219,3 +220,99 @@ def test_a_store_that_does_not_answer_is_a_503_for_a_keyed_write(tmp_path: Path)
     response = asyncio.run(post())
     assert response.status_code == 503 and response.headers["Retry-After"] == "5"
     assert response.json()["error"]["type"] == "ServiceUnavailableError" and runs == []
+
+
+def test_a_write_stored_whose_answer_was_lost_is_not_done_again(tmp_path: Path) -> None:
+    # the process died after the work's transaction (which marked the key stored) and
+    # before the answer was kept: the retry is refused, without Retry-After, not run again
+    release = threading.Event()
+    release.set()
+    app, sessions, runs = _app(tmp_path, release)
+    now = utcnow()
+    same = _digest(b"POST", b"/slow", b"", b"application/json", b"{}")
+    with sessions() as session:
+        session.add(IdempotentRequest(
+            owner=owner_of(1), idempotency_key="k5", method="POST", path="/slow",
+            digest=same, created_at=now, touched_at=now - timedelta(seconds=STALE_S + 1),
+            expires_at=now + timedelta(hours=1), stored_at=now - timedelta(seconds=40)))
+        session.commit()
+
+    async def post() -> httpx.Response:
+        transport = httpx.ASGITransport(app=app)
+        async with httpx.AsyncClient(transport=transport, base_url="http://t") as client:
+            return await client.post("/slow", json={}, headers={
+                "Idempotency-Key": "k5", "X-API-Key": _app.key})  # type: ignore[attr-defined]
+
+    refused = asyncio.run(post())
+    assert refused.status_code == 409 and "Retry-After" not in refused.headers
+    error = refused.json()["error"]
+    assert error["field"] == "Idempotency-Key" and "stored at" in error["message"]
+    assert runs == []
+
+
+def _keeping_nothing(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The middleware's own keeping of answers as a process killed before it: nothing."""
+    monkeypatch.setattr(IdempotencyMiddleware, "_keep", lambda self, *args: None)
+
+
+def test_a_diagnosis_keeps_its_answer_with_its_rows(server: LiveServer,
+                                                    monkeypatch: pytest.MonkeyPatch) -> None:
+    # the answer is kept in the group transaction that stores the rows: a process killed
+    # between that commit and the answer leaves a replayable key, not a doubled batch
+    _keeping_nothing(monkeypatch)
+    record = simulated_record(server, {"cylinder.cc": 1.2e-4},
+                              measured_at="2026-11-29T06:00:00Z")
+    first = _post_diagnose(server, record, "killed-after-commit")
+    assert first.status_code == 200, first.text
+    counts = server.row_counts()
+    again = _post_diagnose(server, record, "killed-after-commit")
+    assert again.status_code == 200 and again.headers["Idempotent-Replayed"] == "true"
+    assert again.content == first.content and server.row_counts() == counts
+
+
+def test_a_series_import_stored_before_a_crash_is_not_stored_again(
+        server: LiveServer, monkeypatch: pytest.MonkeyPatch) -> None:
+    _keeping_nothing(monkeypatch)
+    headers = server.auth | {"Idempotency-Key": "import-killed"}
+
+    def send() -> httpx.Response:
+        return server.client.post(
+            "/rigs/1/series", data={"name": "killed", "started_at": "2026-11-29T07:00:00Z"},
+            files={"file": ("cycle.csv", SERIES, "text/csv")}, headers=headers)
+
+    assert send().status_code == 201
+    counts = server.row_counts()
+    with server.sessions() as session:
+        row = session.query(IdempotentRequest).filter_by(idempotency_key="import-killed").one()
+        assert row.stored_at is not None and row.status is None
+        row.touched_at = utcnow() - timedelta(seconds=STALE_S + 1)   # its process died
+        session.commit()
+    again = send()
+    assert again.status_code == 409 and "Retry-After" not in again.headers
+    assert server.row_counts() == counts
+
+
+def test_a_retry_with_the_key_that_replaced_a_rotated_one_is_replayed(
+        server: LiveServer) -> None:
+    from app.services.keys import create_api_key, rotate_api_key
+
+    with server.sessions() as session:
+        row, old_key = create_api_key(session, "fleet-gateway", "write")
+    record = simulated_record(server, measured_at="2026-11-29T08:00:00Z")
+    body = {"record": record}
+    first = server.client.post("/diagnose", json=body, headers={
+        "X-API-Key": old_key, "Idempotency-Key": "gw-0800"})
+    assert first.status_code == 200, first.text
+    with server.sessions() as session:
+        _, _, new_key = rotate_api_key(session, row.id, grace_s=60)
+    counts = server.row_counts()
+    again = server.client.post("/diagnose", json=body, headers={
+        "X-API-Key": new_key, "Idempotency-Key": "gw-0800"})
+    assert again.status_code == 200 and again.headers["Idempotent-Replayed"] == "true"
+    assert again.content == first.content and server.row_counts() == counts
+    # another client's key does not see it: its own request, run
+    with server.sessions() as session:
+        _, other_key = create_api_key(session, "other-client", "write")
+    other = server.client.post("/diagnose", json=body, headers={
+        "X-API-Key": other_key, "Idempotency-Key": "gw-0800"})
+    assert other.status_code == 200 and "Idempotent-Replayed" not in other.headers

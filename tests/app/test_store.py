@@ -234,7 +234,10 @@ def test_a_deleted_rows_id_is_never_given_again_and_the_migration_keeps_every_ro
     factory = make_session_factory(engine)
     with factory() as session:
         ensure_reference_data(session)
-        ensure_first_key(session)
+        # a key as revision 0006 stores it (the model has columns later revisions add)
+        session.execute(text("INSERT INTO api_keys (name, prefix, key_hash, scope, created_at) "
+                             "VALUES ('first', 'hd_0006', 'x', 'admin', '2026-11-01')"))
+        session.commit()
         rig = find_rig(session, "paper002-reference")
         assert rig is not None
         update_rig(session, rig.id, reference_rig_document() | {"title": "second version"})

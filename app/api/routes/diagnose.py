@@ -32,12 +32,13 @@ from app.schemas.common import ERROR_RESPONSES, error_doc
 from app.schemas.diagnose import DiagnoseRequest, DiagnoseResponse
 from app.security import Scope
 from app.services.diagnosis import STORE_CONFLICT
-from app.services.diagnosis_answer import StoredRows
+from app.services.diagnosis_answer import DiagnoseAnswer
 from app.services.diagnosis_form import request_form
 from app.services.diagnosis_pool import DiagnosisPool
 from app.services.diagnosis_rows import insert_rows
 from app.services.diagnosis_task import DiagnoseTask
 from app.services.group_commit import GroupCommitter
+from app.services.idempotent_work import CURRENT, keep_answer
 
 __all__ = ["router"]
 
@@ -55,14 +56,21 @@ router = APIRouter(tags=["diagnosis"],
 
 
 class _Rows:
-    """A repeatable write of a request's rows (the group committer may run it twice)."""
+    """A repeatable write of a request's rows (the group committer may run it twice); with
+    ``keyed`` (the request's ``Idempotency-Key`` row), the answer is kept in the same
+    transaction, so a retry after the process died between commit and answer is replayed
+    (:mod:`app.services.idempotent_work`)."""
 
-    def __init__(self, rows: list[StoredRows]) -> None:
-        self.rows = rows
+    def __init__(self, answer: DiagnoseAnswer, keyed: int | None) -> None:
+        self.answer, self.keyed = answer, keyed
         self.ids: list[tuple[int, list[int]]] = []
+        self.body = b""
 
     def __call__(self, session: Session) -> None:
-        self.ids = insert_rows(session, self.rows)
+        self.ids = insert_rows(session, self.answer.rows)
+        self.body = self.answer.body(self.ids)
+        if self.keyed is not None:
+            keep_answer(session, self.keyed, 200, self.body)
 
 
 @router.post("/diagnose", summary="Diagnose one record or a batch, and store them",
@@ -90,7 +98,8 @@ async def diagnose(body: DiagnoseRequest, request: Request, key: KeyHeaderDep,
     if not body.store:
         return Response(answer.body(), media_type="application/json")
     # answered once the group transaction holding its rows has committed
-    write = _Rows(answer.rows)
+    keyed = CURRENT.get()
+    write = _Rows(answer, None if keyed is None else keyed.row_id)
     writer: GroupCommitter = request.app.state.diagnosis_writer
     handed = time.perf_counter()
     await writer.write(write, conflict=STORE_CONFLICT)
@@ -98,4 +107,6 @@ async def diagnose(body: DiagnoseRequest, request: Request, key: KeyHeaderDep,
     stages = request.app.state.metrics.diagnosis_stage
     stages.labels("commit").observe(done - handed)
     stages.labels("request").observe(done - getattr(request.state, STARTED, done))
-    return Response(answer.body(write.ids), media_type="application/json")
+    if keyed is not None:
+        keyed.kept = True
+    return Response(write.body, media_type="application/json")
