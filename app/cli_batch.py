@@ -2,8 +2,12 @@
 
 FILE is a CSV (one record per row; ``condition.oil_temperature`` style column names nest,
 as the console's CSV upload) or JSON Lines (one record, as in ``POST /diagnose``, per
-line).  Every record is validated as the API validates it (a bad one is reported with its
-line and field, and the batch is refused before anything runs), then all go through
+line).  Every record is validated as the API validates it: records the API would refuse
+are all reported with their line and field (up to :data:`LISTED`), and the batch is refused
+before anything runs, or with ``--skip-invalid`` the others are diagnosed and each refused
+record gets its error line in ``--out`` (one bad logger row threw a night's batch away: a
+fleet integrator's pass).  A file that is not a readable table stays refused whole.  Then
+all go through
 :func:`diagnostics.batch.diagnose_many` — in this process, on a local process pool
 (``--workers N``) or on a Dask cluster (``--dask tcp://host:8786``, the executor sweeps
 use) — with a progress bar.  The results are not stored in the history (use
@@ -15,6 +19,7 @@ from __future__ import annotations
 import json
 import time
 from collections import Counter
+from collections.abc import Sequence
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Annotated, Any
@@ -27,20 +32,26 @@ from rich.table import Table
 from app.cli_support import console, counted, steps, store_session, writable
 from app.schemas.common import MAX_ID
 from app.schemas.record_csv import record_rows
-from sim.errors import InputError
+from sim.errors import HydrodiagError, InputError, MeasurementError
 
-__all__ = ["diagnose_batch", "read_batch", "register"]
+__all__ = ["LISTED", "diagnose_batch", "read_batch", "register"]
 
 
-def read_batch(path: Path, rig_id: int) -> list[Any]:
-    """The records of ``path`` (CSV or JSON Lines) as validated ``MeasurementIn``; a
-    record without ``rig_id`` gets ``rig_id``.
+#: How many refused records an error message lists.
+LISTED = 10
+
+
+def read_batch(path: Path, rig_id: int
+               ) -> tuple[list[tuple[int, Any]], list[tuple[int, InputError]], str]:
+    """The records of ``path`` (CSV or JSON Lines) as validated ``MeasurementIn``, each
+    with its 1-based number, the error of each record the API would refuse (``field``
+    names the line or row and the field), and what a record is called (``row`` of a CSV,
+    ``line`` of JSON Lines); a record without ``rig_id`` gets ``rig_id``.
 
     Raises
     ------
     InputError
-        Unreadable file, no records, or a record the API would refuse (``field`` names
-        the line or row and the field).
+        Unreadable file, not a table (CSV) or a line not JSON (JSON Lines), no records.
     """
     from app.cli_support import validation_error
     from app.schemas.diagnose import MeasurementIn
@@ -64,18 +75,29 @@ def read_batch(path: Path, rig_id: int) -> list[Any]:
         where = "row"
     if not rows:
         raise InputError("the file holds no records", field="FILE")
-    records = []
+    records, errors = [], []
     for n, row in enumerate(rows, start=1):
         if not isinstance(row, dict):
-            raise InputError(f"{where} {n} is not a record (a mapping)", field=f"{where} {n}")
+            errors.append((n, InputError(f"{where} {n} is not a record (a mapping)",
+                                         field=f"{where} {n}")))
+            continue
         row.setdefault("rig_id", rig_id)
         try:
-            records.append(MeasurementIn.model_validate(row))
+            records.append((n, MeasurementIn.model_validate(row)))
         except ValidationError as exc:
             err = validation_error(exc)
             inner = f": {err.field}" if err.field else ""
-            raise InputError(err.message, field=f"{where} {n}{inner}") from None
-    return records
+            errors.append((n, InputError(err.message, field=f"{where} {n}{inner}")))
+    return records, errors, where
+
+
+def _refused(errors: Sequence[tuple[int, HydrodiagError]], total: int) -> InputError:
+    """One error listing the refused records (the first :data:`LISTED`)."""
+    listed = "; ".join(f"{e.field}: {e.message}" for _, e in errors[:LISTED])
+    more = f"; and {len(errors) - LISTED} more" if len(errors) > LISTED else ""
+    return InputError(f"{counted(len(errors), 'record')} of {total} would be refused by the "
+                      f"API: {listed}{more} (--skip-invalid diagnoses the others)",
+                      field=errors[0][1].field)
 
 
 def diagnose_batch(
@@ -89,6 +111,9 @@ def diagnose_batch(
     out: Annotated[Path | None, typer.Option(help="Write one JSON result per line here.")
                    ] = None,
     full: Annotated[bool, typer.Option(help="Whole diagnoses instead of summaries.")] = False,
+    skip_invalid: Annotated[bool, typer.Option(
+        "--skip-invalid", help="Diagnose the valid records when some would be refused; each "
+        "refused record gets its error line in --out.")] = False,
 ) -> None:
     """Diagnose every record of FILE on its own against its stored rig, with progress.
 
@@ -102,7 +127,12 @@ def diagnose_batch(
 
     if out is not None:
         writable(out, "--out")
-    items = read_batch(file, rig_id)
+    numbered, errors, where = read_batch(file, rig_id)
+    total = len(numbered) + len(errors)
+    if errors and (not skip_invalid or not numbered):
+        raise _refused(errors, total)
+    numbers = [n for n, _ in numbered]
+    items = [item for _, item in numbered]
     rig_ids = {item.rig_id for item in items}
     if len(rig_ids) > 1:
         raise InputError(f"one rig per batch; the file names rigs {sorted(rig_ids)}",
@@ -110,9 +140,20 @@ def diagnose_batch(
     with store_session() as session:
         resolved = RigCache(1).get(session, rig_ids.pop(), None)
     now = datetime.now(UTC)
-    records = [to_record(item, path=f"record {n}", rig_name=resolved.name,
-                         measured_at=item.measured_at or now)
-               for n, item in enumerate(items, start=1)]
+    records, kept = [], []
+    for n, item in zip(numbers, items, strict=True):
+        try:   # the checks on the rig's physics (a pressure below vacuum, ...)
+            records.append(to_record(item, path=f"{where} {n}", rig_name=resolved.name,
+                                     measured_at=item.measured_at or now))
+            kept.append((n, item))
+        except MeasurementError as exc:
+            inner = str(exc.field or "").removeprefix(f"{where} {n}").lstrip(".")
+            errors.append((n, MeasurementError(
+                exc.message, field=f"{where} {n}" + (f": {inner}" if inner else ""))))
+    errors.sort(key=lambda ne: ne[0])
+    if errors and (not skip_invalid or not records):
+        raise _refused(errors, total)
+    numbers, items = [n for n, _ in kept], [item for _, item in kept]
     executors = SweepExecutors(workers=workers or 1, dask_scheduler=dask) \
         if workers or dask else None
     executor = None
@@ -142,17 +183,28 @@ def diagnose_batch(
             # each line says which record it answers (the input's 1-based record number, as
             # the errors count them, its rig and stated time): lines joined to their inputs
             # by order alone (a fleet integrator's pass)
-            for n, (item, r) in enumerate(zip(items, results, strict=True), start=1):
-                line = {"record": n, "rig_id": item.rig_id,
-                        "measured_at": None if item.measured_at is None
-                        else item.measured_at.isoformat()} | r
+            lines = [(n, {"record": n, "rig_id": item.rig_id,
+                          "measured_at": None if item.measured_at is None
+                          else item.measured_at.isoformat()} | r)
+                     for n, item, r in zip(numbers, items, results, strict=True)]
+            lines += [(n, {"record": n, "error": {
+                "type": type(e).__name__, "field": e.field, "message": e.message}})
+                for n, e in errors]
+            for _, line in sorted(lines, key=lambda nl: nl[0]):
                 fh.write(json.dumps(line, default=str) + "\n")
     counts = Counter(r.get("top", "error") for r in results)
     table = Table("top", "records", title=f"{counted(len(results), 'record')} in {elapsed:.1f} s "
                   f"({len(results) / elapsed:.0f} records/s)")
     for name, n in counts.most_common():
         table.add_row(escape(name), str(n))
+    if errors:
+        table.add_row("refused (invalid record)", str(len(errors)))
     console.print(table)
+    for _, e in errors[:LISTED]:
+        console.print(f"refused {e.field}: {e.message}", markup=False)
+    if len(errors) > LISTED:
+        console.print(f"… and {len(errors) - LISTED} more refused records"
+                      + (f" (all in {out})" if out is not None else ""), markup=False)
     console.print("not stored in the history" + (f"; results in {out}" if out is not None
                                                  else " (--out FILE keeps the results)"),
                   markup=False)

@@ -228,6 +228,7 @@ def diagnose(
     A logger's file is read through --column-map (and --sample-rate, --started-at) as
     'import series' reads it.
     """
+    from app.db.base import utcnow
     from app.schemas.diagnose import DiagnoseRequest
     from app.services.diagnosis import diagnose_request, response_of
     from app.services.rig_cache import RigCache
@@ -264,7 +265,8 @@ def diagnose(
         request = _validated(DiagnoseRequest,
                              _diagnose_body(document, joint=joint, store=store))
         task = progress.add_task("diagnosing", total=None)
-        response = response_of(request, diagnose_request(session, rigs, request))
+        now = utcnow()
+        response = response_of(request, diagnose_request(session, rigs, request, now), now)
         progress.update(task, description="done")
     if as_json:
         _print_json(response.model_dump(mode="json"))
@@ -295,6 +297,8 @@ def diagnose(
                        f"{escape(item.goodness_of_fit.statement)}")
         for note in item.regime_notes:
             _out.print(f"note: {note}", markup=False)
+    for note in response.notes:
+        _out.print(f"note: {note}", markup=False)
 
 
 def commission(

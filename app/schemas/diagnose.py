@@ -415,5 +415,8 @@ class DiagnoseResponse(BaseModel):
     compact: bool = Field(
         default=False, description="Whether each `result` leaves out the hypotheses' "
         "predicted readings (request option `compact`) [-]", examples=[False])
+    notes: list[str] = Field(
+        default_factory=list, description="What the service filled in: stored records "
+        "without `measured_at` are kept at the request's time [-]", examples=[[]])
     diagnoses: list[DiagnosisPublic] = Field(description="The diagnoses, in request order [-]",
                                              examples=[[]])

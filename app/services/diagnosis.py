@@ -44,8 +44,7 @@ from sim.rigs import Rig
 __all__ = ["DIAGNOSIS_LOCK", "STORE_CONFLICT", "UNEXPLAINED", "DiagnosisOutcome", "EstimateOut",
            "GroupPlan", "GroupResult", "add_outcomes", "compact_result", "compute_group",
            "diagnose_request", "estimates_of", "json_ready", "outcome_of", "plan_groups",
-           "request_error", "response_json",
-           "response_of", "store_outcomes"]
+           "request_error", "response_json", "response_of", "store_outcomes", "time_notes"]
 
 #: Serialises calls into ``diagnostics`` within one process (module docstring).
 DIAGNOSIS_LOCK = threading.Lock()
@@ -401,8 +400,8 @@ def add_outcomes(session: Session, request: DiagnoseRequest,
         outcome.measurement_ids = [row.id for row in rows]
 
 
-def diagnose_request(session: Session, rigs: RigCache, request: DiagnoseRequest
-                     ) -> list[DiagnosisOutcome]:
+def diagnose_request(session: Session, rigs: RigCache, request: DiagnoseRequest,
+                     now: datetime | None = None) -> list[DiagnosisOutcome]:
     """Diagnose the records of ``request`` and store them unless ``request.store`` is false.
 
     Parameters
@@ -413,6 +412,8 @@ def diagnose_request(session: Session, rigs: RigCache, request: DiagnoseRequest
         The compiled rigs of the service (or of the command line).
     request
         One record or a batch, each diagnosed alone or all jointly.
+    now
+        The time of the request, that of records without one [UTC] (default: now).
 
     Returns
     -------
@@ -426,7 +427,7 @@ def diagnose_request(session: Session, rigs: RigCache, request: DiagnoseRequest
     MeasurementError
         A record is invalid or impossible on its rig (``field`` is its path).
     """
-    now = utcnow()
+    now = now or utcnow()
     outcomes = [_compute_locked(plan) for plan in plan_groups(session, rigs, request, now)]
     if request.store:
         store_outcomes(session, request, outcomes, now)
@@ -475,16 +476,35 @@ def _public(outcome: DiagnosisOutcome, compact: bool) -> DiagnosisPublic:
     )
 
 
-def response_of(request: DiagnoseRequest, outcomes: Sequence[DiagnosisOutcome]
-                ) -> DiagnoseResponse:
-    """The answer to ``request`` (the body of ``POST /diagnose``); with ``compact``, each
-    ``result`` leaves out the hypotheses' predictions (the stored result keeps them)."""
+def time_notes(untimed: Sequence[str], store: bool, now: datetime) -> list[str]:
+    """A note naming the stored records that state no ``measured_at`` (``untimed``, their
+    paths): they are kept at the request's time ``now`` [UTC], where the history and trends
+    place them (a fleet pass back-filling logs without times got a wrong time axis without
+    a word)."""
+    if not store or not untimed:
+        return []
+    named = ", ".join(untimed[:5]) + (f" and {len(untimed) - 5} more" if len(untimed) > 5
+                                      else "")
+    return [f"{named} state no measured_at: stored at the time of this request "
+            f"({now.astimezone(UTC).isoformat().replace('+00:00', 'Z')}), where the history and trends place "
+            f"{'them' if len(untimed) > 1 else 'it'}; send the time the readings were taken "
+            "(measured_at, ISO 8601) with logged data"]
+
+
+def response_of(request: DiagnoseRequest, outcomes: Sequence[DiagnosisOutcome],
+                now: datetime) -> DiagnoseResponse:
+    """The answer to ``request`` (the body of ``POST /diagnose``) made at ``now`` [UTC];
+    with ``compact``, each ``result`` leaves out the hypotheses' predictions (the stored
+    result keeps them)."""
     mode: Literal["single", "each", "joint"] = (
         "single" if request.record is not None else "joint" if request.joint else "each")
+    untimed = [path for path, record in request.items() if record.measured_at is None]
     return DiagnoseResponse(mode=mode, stored=request.store, compact=request.compact,
+                            notes=time_notes(untimed, request.store, now),
                             diagnoses=[_public(o, request.compact) for o in outcomes])
 
 
-def response_json(request: DiagnoseRequest, outcomes: Sequence[DiagnosisOutcome]) -> bytes:
+def response_json(request: DiagnoseRequest, outcomes: Sequence[DiagnosisOutcome],
+                  now: datetime) -> bytes:
     """:func:`response_of` serialised as JSON (pydantic's compiled serialiser)."""
-    return response_of(request, outcomes).model_dump_json().encode("utf-8")
+    return response_of(request, outcomes, now).model_dump_json().encode("utf-8")

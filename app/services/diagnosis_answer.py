@@ -25,7 +25,7 @@ from typing import Any
 import orjson
 
 from app.schemas.diagnose import DisagreementPublic, EstimatePublic, GoodnessOfFitPublic
-from app.services.diagnosis import DiagnosisOutcome, compact_result
+from app.services.diagnosis import DiagnosisOutcome, compact_result, time_notes
 from app.services.diagnosis_form import RecordForm, RequestForm, stored_document
 
 __all__ = ["UNSTORED_PREFIX", "DiagnoseAnswer", "StoredRows", "answer_of", "iso_utc"]
@@ -164,7 +164,9 @@ def answer_of(form: RequestForm, outcomes: list[DiagnosisOutcome], now: datetime
     ``now`` is the time of the request (that of records without one) [UTC].
     """
     head = orjson.dumps({"mode": form.mode, "stored": form.store, "compact": form.compact,
-                         "diagnoses": []})
+                         "notes": time_notes(
+                             [r.path for r in form.records if r.measured_at is None],
+                             form.store, now), "diagnoses": []})
     assert head.endswith(b"[]}")
     records = {r.path: r for r in form.records}
     diagnoses, rows = [], []

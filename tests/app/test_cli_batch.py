@@ -64,6 +64,31 @@ def test_a_jsonl_batch_with_a_bad_record_is_refused_naming_the_line(
     assert getattr(bad.exception, "field", "").startswith("line 2")
 
 
+def test_every_refused_record_is_listed_and_the_others_can_be_diagnosed(
+        runner: CliRunner, tmp_path: Path) -> None:
+    # one bad logger row threw the whole batch away, naming only the first (a fleet pass)
+    rows = _rows()
+    rows[0]["p1"] = -1.188e6            # below vacuum
+    rows[2]["condition.oil_temperature"] = 400.0
+    path = tmp_path / "night.csv"
+    pd.DataFrame(rows).to_csv(path, index=False)
+    refused = runner.invoke(cli, ["diagnose-batch", str(path), "--rig", "1"])
+    assert refused.exit_code != 0
+    message = getattr(refused.exception, "message", "")
+    assert message.startswith("2 records of 3 would be refused")
+    assert "row 1: p1" in message and "row 3: condition.oil_temperature" in message
+    out = tmp_path / "results.jsonl"
+    done = runner.invoke(cli, ["diagnose-batch", str(path), "--rig", "1", "--skip-invalid",
+                               "--out", str(out)])
+    assert done.exit_code == 0, done.output
+    assert "refused (invalid record)" in done.output
+    lines = [json.loads(line) for line in out.read_text().splitlines()]
+    assert [line["record"] for line in lines] == [1, 2, 3]   # in the file's order
+    assert lines[0]["error"]["field"] == "row 1: p1" and "top" not in lines[0]
+    assert lines[1]["top"] == "cylinder" and "error" not in lines[1]
+    assert lines[2]["error"]["field"].startswith("row 3: condition.oil_temperature")
+
+
 def test_diagnose_many_on_a_process_pool_and_a_dask_cluster_equals_in_process() -> None:
     """The same records give the same results in-process, on 2 processes and on a
     2-worker Dask LocalCluster (through SweepExecutors, as sweeps use it)."""

@@ -37,7 +37,22 @@ def test_a_worn_valve_record_ranks_the_valve_first_and_is_stored(server: LiveSer
     assert after["diagnosis_estimates"] == before["diagnosis_estimates"] + len(
         diagnosis["estimates"])
     assert diagnosis["id"] is not None and len(diagnosis["measurement_ids"]) == 1
-    assert diagnosis["measured_at"] == "2026-03-01T08:00:00Z"
+    assert diagnosis["measured_at"] == "2026-03-01T08:00:00Z" and body["notes"] == []
+
+
+def test_a_stored_record_without_its_time_is_kept_at_the_requests_time_and_says_so(
+        server: LiveServer) -> None:
+    record = simulated_record(server, WORN_VALVE)
+    record.pop("measured_at", None)
+    body = server.client.post("/diagnose", json={"records": [record, record]},
+                              headers=server.auth).json()
+    (note,) = body["notes"]
+    assert note.startswith("records[0], records[1] state no measured_at: stored at")
+    stated = body["diagnoses"][0]["measured_at"]
+    assert stated in note          # the time it was stored at, as the history shows it
+    # not stored: nothing filled in, nothing to say
+    assert server.client.post("/diagnose", json={"record": record, "store": False}
+                              ).json()["notes"] == []
 
 
 def test_a_healthy_record_is_healthy(server: LiveServer) -> None:

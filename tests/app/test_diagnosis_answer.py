@@ -79,7 +79,7 @@ def test_the_answer_is_the_schema_serialisation_and_the_rows_are_what_was_given(
         outcomes = _outcomes(request, resolved)
         seen_unexplained |= any(o.top == "unexplained" for o in outcomes)
         answer = pickle.loads(pickle.dumps(answer_of(request_form(request), outcomes, NOW)))
-        reference = json.loads(response_json(request, outcomes))
+        reference = json.loads(response_json(request, outcomes, NOW))
         sent = json.loads(answer.body())
         assert sent == reference
         DiagnoseResponse.model_validate(sent)
@@ -90,7 +90,8 @@ def test_the_answer_is_the_schema_serialisation_and_the_rows_are_what_was_given(
                for i, o in enumerate(outcomes)]
         for outcome, (diagnosis_id, measurement_ids) in zip(outcomes, ids, strict=True):
             outcome.diagnosis_id, outcome.measurement_ids = diagnosis_id, measurement_ids
-        assert json.loads(answer.body(ids)) == json.loads(response_json(request, outcomes))
+        assert json.loads(answer.body(ids)) == json.loads(response_json(request, outcomes,
+                                                                         NOW))
         items = dict(request.items())
         for outcome, row in zip(outcomes, answer.rows, strict=True):
             assert json.loads(row.result) == outcome.result  # the full result is stored
