@@ -50,6 +50,10 @@ class StoredMeasurementPublic(PublicModel):
 class StoredMeasurementList(Page[StoredMeasurementPublic]):
     """A page of stored measurement records."""
 
+    next_after_id: int | None = Field(
+        default=None, description="With `after_id`: the cursor to read on from (this page's "
+        "last id, or `after_id` when none is new); null without it [-]", examples=[None])
+
 
 class StoredEstimatePublic(PublicModel):
     """A stored per-component estimate of a diagnosis (the trend series)."""
@@ -102,3 +106,7 @@ class StoredDiagnosisPublic(PublicModel):
 
 class StoredDiagnosisList(Page[StoredDiagnosisPublic]):
     """A page of stored diagnoses."""
+
+    next_after_id: int | None = Field(
+        default=None, description="With `after_id`: the cursor to read on from (this page's "
+        "last id, or `after_id` when none is new); null without it [-]", examples=[None])

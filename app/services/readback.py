@@ -28,11 +28,19 @@ def _page(session: Session, statement: Select[Any], *, limit: int, offset: int,
     return list(rows), int(total or 0)
 
 
+def _cursor(after_id: int | None, offset: int) -> None:
+    if after_id is not None and offset:
+        raise InputError("after_id reads on from an id (in storing order): it goes without "
+                         "offset", field="offset")
+
+
 def list_measurements(session: Session, *, limit: int, offset: int, rig_id: int | None = None,
                       since: datetime | None = None, until: datetime | None = None,
-                      ) -> tuple[list[Measurement], int]:
-    """Return a page of stored records, newest measurement first, and their total."""
+                      after_id: int | None = None) -> tuple[list[Measurement], int]:
+    """Return a page of stored records, newest measurement first (with ``after_id``: those
+    stored after record ``after_id``, in storing order), and their total."""
     _window(since, until)
+    _cursor(after_id, offset)
     statement = select(Measurement).options(
         selectinload(Measurement.diagnosed_in).load_only(Diagnosis.id))
     if rig_id is not None:
@@ -41,6 +49,9 @@ def list_measurements(session: Session, *, limit: int, offset: int, rig_id: int 
         statement = statement.where(Measurement.measured_at >= since)
     if until is not None:
         statement = statement.where(Measurement.measured_at <= until)
+    if after_id is not None:
+        return _page(session, statement.where(Measurement.id > after_id), limit=limit,
+                     offset=0, order=(Measurement.id.asc(),))
     return _page(session, statement, limit=limit, offset=offset,
                  order=(Measurement.measured_at.desc(), Measurement.id.desc()))
 
@@ -54,9 +65,12 @@ def get_measurement(session: Session, measurement_id: int) -> Measurement:
 
 def list_diagnoses(session: Session, *, limit: int, offset: int, rig_id: int | None = None,
                    since: datetime | None = None, until: datetime | None = None,
-                   component: str | None = None) -> tuple[list[Diagnosis], int]:
-    """Return a page of stored diagnoses, newest record first, and their total."""
+                   component: str | None = None, after_id: int | None = None
+                   ) -> tuple[list[Diagnosis], int]:
+    """Return a page of stored diagnoses, newest record first (with ``after_id``: those
+    stored after diagnosis ``after_id``, in storing order), and their total."""
     _window(since, until)
+    _cursor(after_id, offset)
     statement = (select(Diagnosis).join(Diagnosis.measurement)
                  .options(selectinload(Diagnosis.estimates),
                           selectinload(Diagnosis.measurement),
@@ -74,6 +88,9 @@ def list_diagnoses(session: Session, *, limit: int, offset: int, rig_id: int | N
             blamed = or_(blamed, Diagnosis.component.like(f"{component}+%"),
                          Diagnosis.component.like(f"%+{component}"))
         statement = statement.where(blamed)
+    if after_id is not None:
+        return _page(session, statement.where(Diagnosis.id > after_id), limit=limit,
+                     offset=0, order=(Diagnosis.id.asc(),))
     return _page(session, statement, limit=limit, offset=offset,
                  order=(Measurement.measured_at.desc(), Diagnosis.id.desc()))
 

@@ -34,6 +34,16 @@ Since = Annotated[IsoDatetime | None, Query(
 Until = Annotated[IsoDatetime | None, Query(
     description="Only records taken at or before this time, ISO 8601 with zone [UTC]",
     examples=["2026-12-31T23:59:59Z"])]
+AfterId = Annotated[int | None, Query(
+    ge=0, le=MAX_ID, description="A cursor: only items stored after the one with this id, "
+    "in storing order (oldest stored first), without offset; pass each page's "
+    "`next_after_id` to read on or to poll what is new (0: from the first) [-]",
+    examples=[0])]
+
+
+def _next(after_id: int | None, ids: list[int]) -> int | None:
+    """The cursor after a page read with ``after_id`` (``None`` without one)."""
+    return None if after_id is None else (ids[-1] if ids else after_id)
 
 
 def _measurement(row: Measurement) -> StoredMeasurementPublic:
@@ -55,12 +65,16 @@ def _diagnosis(row: Diagnosis) -> StoredDiagnosisPublic:
 
 @router.get("/measurements", summary="List stored measurement records")
 def list_measurements(session: SessionDep, page: PageDep, rig_id: RigFilter = None,
-                      since: Since = None, until: Until = None) -> StoredMeasurementList:
-    """Return a page of the records stored by ``/diagnose``, newest measurement first."""
+                      since: Since = None, until: Until = None, after_id: AfterId = None
+                      ) -> StoredMeasurementList:
+    """Return a page of the records stored by ``/diagnose``, newest measurement first, or
+    with ``after_id`` those stored after it, in storing order."""
     rows, total = service.list_measurements(session, limit=page.limit, offset=page.offset,
-                                            rig_id=rig_id, since=since, until=until)
+                                            rig_id=rig_id, since=since, until=until,
+                                            after_id=after_id)
     return StoredMeasurementList(items=[_measurement(r) for r in rows], total=total,
-                                 limit=page.limit, offset=page.offset)
+                                 limit=page.limit, offset=page.offset,
+                                 next_after_id=_next(after_id, [r.id for r in rows]))
 
 
 @router.get("/measurements/{measurement_id}", summary="Get a stored measurement record")
@@ -82,13 +96,16 @@ def list_diagnoses(
         "component also finds the pairs that blame it ('valve' finds 'valve+pump'); a pair, "
         "'healthy' or 'unexplained' only itself [-]",
         examples=["valve"])] = None,
+    after_id: AfterId = None,
 ) -> StoredDiagnosisList:
-    """Return a page of stored diagnoses, newest record first."""
+    """Return a page of stored diagnoses, newest record first, or with ``after_id`` those
+    stored after it, in storing order."""
     rows, total = service.list_diagnoses(session, limit=page.limit, offset=page.offset,
                                          rig_id=rig_id, since=since, until=until,
-                                         component=component)
+                                         component=component, after_id=after_id)
     return StoredDiagnosisList(items=[_diagnosis(r) for r in rows], total=total,
-                               limit=page.limit, offset=page.offset)
+                               limit=page.limit, offset=page.offset,
+                               next_after_id=_next(after_id, [r.id for r in rows]))
 
 
 @router.get("/diagnoses/{diagnosis_id}", summary="Get a stored diagnosis")
