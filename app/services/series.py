@@ -90,30 +90,32 @@ def parse_column_map(text: str | None, *, field: str = "column_map"
 
 def _refuse_stored_twice(session: Session, rig_id: int, name: str,
                         rows: Sequence[MeasuredSeries]) -> None:
-    """Raise :class:`ConflictError` if a row of ``rows`` is stored already for the rig
-    under ``name``: the same record (name, clock time, samples) with the same data — the
-    same import run twice, after which a discrepancy check of the campaign counted each
-    cycle twice, and as a repeat in its lack-of-fit test.  A logger that writes each day's
-    file under one name is no duplicate: its data differ."""
-    found: list[tuple[int, str]] = []
+    """Raise :class:`ConflictError` if a row of ``rows`` is stored already for the rig: the
+    same samples from the same start time (or both without one), under whatever name or
+    file name — the same import run twice, after which a discrepancy check of the campaign
+    counted each cycle twice, and as a repeat in its lack-of-fit test.  (The check keyed on
+    the name and the record's label, which comes from the file's name: the same file copied
+    or uploaded under another name was stored twice; a fleet pass.)  A logger that writes
+    each day's file under one name is no duplicate: its data differ."""
+    found: list[tuple[int, str, str]] = []
     for row in rows:
         same_time = (MeasuredSeries.measured_at.is_(None) if row.measured_at is None
                      else MeasuredSeries.measured_at == row.measured_at)
         for stored in session.scalars(
                 select(MeasuredSeries).where(
-                    MeasuredSeries.rig_id == rig_id, MeasuredSeries.name == name,
-                    MeasuredSeries.record == row.record,
+                    MeasuredSeries.rig_id == rig_id,
                     MeasuredSeries.n_samples == row.n_samples, same_time)):
             if stored.data == row.data:
-                found.append((stored.id, stored.record))
+                found.append((stored.id, stored.name, stored.record))
     if found:
-        ids = ", ".join(str(i) for i, _ in found[:5]) + (" …" if len(found) > 5 else "")
+        ids = ", ".join(str(i) for i, _, _ in found[:5]) + (" …" if len(found) > 5 else "")
+        first = found[0]
         raise ConflictError(
-            f"{len(found)} of these records are stored already for rig {rig_id} under the "
-            f"name {name!r}, the same data (record {found[0][1]!r}; series {ids}): nothing "
-            "to import (stored twice, a cycle would count twice in a discrepancy check); to "
-            "import them again, delete those series first (DELETE /series/{id})",
-            field="name")
+            f"{len(found)} of these records are stored already for rig {rig_id}, the same "
+            f"samples from the same start (series {ids}; the first as {first[1]!r}, record "
+            f"{first[2]!r}): nothing to import under {name!r} (stored twice, a cycle would "
+            "count twice in a discrepancy check); to import them again, delete those series "
+            "first (DELETE /series/{id})", field="name")
 
 
 def store_records(session: Session, rig_id: int, name: str, records: Sequence[SeriesRecord],

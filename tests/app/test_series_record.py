@@ -127,8 +127,15 @@ def test_a_cycle_stored_with_its_clock_time_is_diagnosed_at_that_time(
     assert r.status_code == 201, r.text
     assert [i["measured_at"] for i in r.json()["items"]] == [
         "2026-11-21T10:00:00Z", "2026-11-21T10:01:30.500000Z"]
+    # the fixture's cycle again, under another name and file name: the same samples from
+    # the same (no) start are refused, naming the series that holds them
+    again = server.client.post("/rigs/1/series", data={"name": "plain"},
+                               files={"file": ("copy.csv", exported, "text/csv")},
+                               headers=server.auth)
+    assert again.status_code == 409 and "the first as 'cycle'" in again.text
     # without a start a series has no time, and neither has the record read from it
-    plain = _import(server, exported, name="plain")  # the fixture's cycle, stored apart
+    shorter = exported[:exported.rstrip(b"\n").rfind(b"\n") + 1]   # one sample less
+    plain = _import(server, shorter, name="plain")
     assert server.client.get(f"/series/{plain}").json()["measured_at"] is None
     assert "measured_at" not in server.client.get(f"/series/{plain}/record").json()["record"]
 
