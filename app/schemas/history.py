@@ -56,11 +56,28 @@ class StoredMeasurementList(Page[StoredMeasurementPublic]):
 
 
 class StoredEstimatePublic(PublicModel):
-    """A stored per-component estimate of a diagnosis (the trend series)."""
+    """A stored per-component estimate of a diagnosis (the trend series): the fields of the
+    ``POST /diagnose`` answer's estimate, and the trend's value columns."""
 
     component: str = Field(description="Component [-]", examples=["valve"])
+    quantity: str | None = Field(
+        default=None, description="'cc' or 'cv' (equivalent clearance), 'Cs' (pump slip "
+        "coefficient); null for diagnoses stored before the answer's estimates were kept [-]",
+        examples=["cv"])
+    unit: str | None = Field(default=None, description="Unit of value, low and high [-]",
+                             examples=["m"])
+    value: float | None = Field(default=None, description="Estimate [unit]",
+                                examples=[5.9e-5])
+    low: float | None = Field(default=None, description="Lower end of the 95 % interval "
+                              "[unit]", examples=[5.6e-5])
+    high: float | None = Field(default=None, description="Upper end of the 95 % interval "
+                               "[unit]", examples=[6.2e-5])
+    source: str | None = Field(
+        default=None, description="'direct', 'hypothesis' or 'profile', as in the answer of "
+        "POST /diagnose [-]", examples=["direct"])
     probability: float | None = Field(
-        description="Probability that this component alone is at fault [1]",
+        description="Probability that this component is worn, alone or in a pair "
+        "(diagnoses stored before 2026-11-28: its single-fault hypothesis's alone) [1]",
         examples=[0.75])
     clearance_m: float | None = Field(
         description="Estimated equivalent clearance; null for the pump [m]", examples=[5.9e-5])

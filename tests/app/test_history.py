@@ -42,6 +42,10 @@ def test_a_stored_diagnosis_reads_back_as_answered(server: LiveServer,
     assert body["rig_id"] == 1 and body["rig_version"] == answer["rig_version"]
     assert {e["component"] for e in body["estimates"]} == {
         e["component"] for e in answer["estimates"]}
+    # one shape: each estimate read back carries the answer's fields and values
+    read = {e["component"]: e for e in body["estimates"]}
+    for sent in answer["estimates"]:
+        assert {k: read[sent["component"]][k] for k in sent} == pytest.approx(sent)
     measurement = server.client.get(f"/measurements/{body['measurement_id']}").json()
     assert measurement["diagnosis_ids"] == [answer["id"]]
     assert measurement["record"]["p1"] == {"value": record["p1"]}

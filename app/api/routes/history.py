@@ -5,12 +5,12 @@ A client that lost an answer (a timeout, a crash) checks here what was stored.
 
 from __future__ import annotations
 
-from typing import Annotated
+from typing import Annotated, Any
 
 from fastapi import APIRouter, Path, Query
 
 from app.api.deps import PageDep, ReadAccess, SessionDep
-from app.db.models import Diagnosis, Measurement
+from app.db.models import Diagnosis, DiagnosisEstimate, Measurement
 from app.schemas.common import ERROR_RESPONSES, MAX_ID, IsoDatetime
 from app.schemas.history import (
     BlamedComponent,
@@ -23,6 +23,9 @@ from app.schemas.history import (
 from app.services import readback as service
 
 __all__ = ["router"]
+
+#: The fields of an answer's estimate that a stored result keeps beside the trend columns.
+_ANSWER_FIELDS = ("quantity", "unit", "value", "low", "high", "source")
 
 router = APIRouter(tags=["history"], dependencies=[ReadAccess], responses=ERROR_RESPONSES)
 
@@ -52,6 +55,16 @@ def _measurement(row: Measurement) -> StoredMeasurementPublic:
         diagnosis_ids=sorted(d.id for d in row.diagnosed_in), created_at=row.created_at)
 
 
+def _estimate(row: DiagnosisEstimate, result: dict[str, Any]) -> StoredEstimatePublic:
+    """A stored estimate with the answer's fields kept in the stored result (its interval,
+    unit and source), so that both read backs have one shape (a fleet pass)."""
+    kept = (result.get("estimates") or {}).get(row.component) or {}
+    answer = {name: kept.get(name) for name in _ANSWER_FIELDS}
+    return StoredEstimatePublic(
+        component=row.component, probability=row.probability, clearance_m=row.clearance_m,
+        slip_coefficient=row.slip_coefficient, **answer)
+
+
 def _diagnosis(row: Diagnosis) -> StoredDiagnosisPublic:
     return StoredDiagnosisPublic(
         id=row.id, measurement_id=row.measurement_id,
@@ -59,7 +72,7 @@ def _diagnosis(row: Diagnosis) -> StoredDiagnosisPublic:
         rig_version=row.rig_version.version, measured_at=row.measurement.measured_at,
         top=row.result.get("top"), explained=row.result.get("explained"),
         component=row.component, probability=row.probability,
-        estimates=[StoredEstimatePublic.model_validate(e) for e in row.estimates],
+        estimates=[_estimate(e, row.result) for e in row.estimates],
         result=row.result, created_at=row.created_at)
 
 
