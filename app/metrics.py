@@ -2,7 +2,9 @@
 of ``POST /diagnose``.
 
 The route label is the path *template* (``/rigs/{rig_id}``), so the number of series stays
-bounded whatever ids clients use; requests that match no route count as ``<unmatched>``.
+bounded whatever ids clients use (a request answered before routing, such as an
+``Idempotency-Key`` replay, is matched to its template afterwards); requests that match no
+route count as ``<unmatched>``.
 Each application has its own registry, so several can live in one process (tests).
 
 ``hydrodiag serve`` with several worker processes (:func:`shared_metrics`) runs
@@ -18,11 +20,13 @@ import os
 import shutil
 import tempfile
 import time
-from collections.abc import Iterator
+import weakref
+from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
 from typing import Any
 
 from prometheus_client import CollectorRegistry, Counter, Histogram, generate_latest
+from starlette.routing import BaseRoute, Match, Route
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 __all__ = ["MULTIPROCESS_DIR", "STARTED", "HttpMetrics", "MetricsMiddleware", "exposition",
@@ -103,11 +107,41 @@ class HttpMetrics:
         )
 
 
+#: Per application, its routes with a path template, nested routers flattened.
+_ROUTES: weakref.WeakKeyDictionary[Any, list[BaseRoute]] = weakref.WeakKeyDictionary()
+
+
+def _flat(routes: Iterable[Any]) -> Iterator[BaseRoute]:
+    for route in routes:
+        inner = getattr(route, "original_router", None)   # an included router (FastAPI)
+        if inner is not None:
+            yield from _flat(inner.routes)
+        elif isinstance(route, Route):
+            yield route
+
+
+def _template(scope: Scope) -> str | None:
+    """The template of the route ``scope`` goes to, for a request answered before routing
+    (an ``Idempotency-Key`` replay, its 409 and 422, a body over the limit): those counted
+    as ``<unmatched>``, so an operator saw no retries per route (a fleet pass)."""
+    app = scope.get("app")
+    if app is None or not hasattr(app, "router"):
+        return None
+    routes = _ROUTES.get(app)
+    if routes is None:
+        routes = _ROUTES.setdefault(app, list(_flat(app.router.routes)))
+    for route in routes:
+        match, _ = route.matches(scope)
+        if match is Match.FULL:
+            return str(getattr(route, "path_format", None) or getattr(route, "path", ""))
+    return None
+
+
 def _route_of(scope: Scope) -> str:
     route: Any = scope.get("route")
     # the template without converters: /pump-sets/{pump_set_id}, not {pump_set_id:int}
     path = getattr(route, "path_format", None) or getattr(route, "path", None)
-    return str(path) if path else "<unmatched>"
+    return str(path) if path else _template(scope) or "<unmatched>"
 
 
 class MetricsMiddleware:

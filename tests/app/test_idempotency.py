@@ -53,6 +53,10 @@ def test_a_resent_diagnosis_is_answered_again_and_stored_once(server: LiveServer
     bad = server.client.post("/diagnose", json={"record": record},
                              headers=server.auth | {"Idempotency-Key": "x y"})
     assert bad.status_code == 422 and bad.json()["error"]["field"] == "Idempotency-Key"
+    # answered before routing, counted under their route all the same (were <unmatched>)
+    metrics = server.client.get("/metrics").text
+    assert 'method="POST",route="<unmatched>"' not in metrics
+    assert 'method="POST",route="/diagnose",status="422"' in metrics
 
 
 def test_a_failed_first_request_leaves_its_key_free(server: LiveServer) -> None:
