@@ -193,14 +193,19 @@ def _days(seconds: float | None) -> float | None:
     return None if seconds is None else seconds / 86400.0
 
 
+#: Most points of a trend chart (the fit uses them all): thinned evenly, as the API does.
+CHART_POINTS = 2000
+
+
 def trend_views(session: Session, rigs: RigCache, rig_id: int, *,
                 since: datetime | None = None, until: datetime | None = None
                 ) -> list[TrendView]:
     """Every component trend of rig ``rig_id`` (:func:`app.services.trends.component_trends`)."""
     out = []
-    for t in component_trends(session, rigs, rig_id, since=since, until=until):
+    for t in component_trends(session, rigs, rig_id, since=since, until=until,
+                              max_points=CHART_POINTS):
         out.append(TrendView(
-            t.component, t.quantity, t.unit, len(t.points), t.slope, t.slope_low,
+            t.component, t.quantity, t.unit, t.points_total, t.slope, t.slope_low,
             t.slope_high, t.threshold, t.threshold_source, t.status, _days(t.time_left_s),
             _days(t.time_left_low_s), _days(t.time_left_high_s), t.crossing_at, t.message,
             trend_chart(t)))

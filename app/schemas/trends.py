@@ -38,7 +38,11 @@ class ComponentTrend(BaseModel):
     unit: str = Field(description="Unit of the series [-]", examples=["m"])
     points: list[TrendPoint] = Field(
         description="The series, oldest first: the points made with the latest version's "
-        "parameters [-]", examples=[[]])
+        "parameters, thinned evenly to at most `max_points` (the first and the latest kept; "
+        "the slope and forecast use every point) [-]", examples=[[]])
+    points_total: int = Field(
+        ge=0, description="How many points the series has, all used by the slope and the "
+        "forecast (more than `points` holds when thinned) [-]", examples=[0])
     slope: float | None = Field(
         description="Theil-Sen slope; null with fewer than 3 visit times [unit/s]",
         examples=[1.2e-12])

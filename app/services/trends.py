@@ -18,6 +18,7 @@ import math
 from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime, timedelta
 
+import numpy as np
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
@@ -89,6 +90,7 @@ class ComponentTrendOut:
     crossing_at: datetime | None
     message: str
     later_diagnoses: int = 0
+    points_total: int = 0
     left_out: int = 0
     left_out_versions: list[int] = field(default_factory=list)
     unexplained: int = 0
@@ -224,8 +226,11 @@ def component_trends(
     threshold: float | None = None,
     since: datetime | None = None,
     until: datetime | None = None,
+    max_points: int | None = None,
 ) -> list[ComponentTrendOut]:
-    """Trends of rig ``rig_id``: of ``component``, or of every component with history.
+    """Trends of rig ``rig_id``: of ``component``, or of every component with history;
+    each trend's ``points`` thinned to at most ``max_points`` (:func:`thinned`; the fit
+    uses them all, ``points_total`` counts them).
 
     Raises
     ------
@@ -240,6 +245,9 @@ def component_trends(
         raise InputError("the threshold must be finite and > 0", field="threshold")
     if since is not None and until is not None and until < since:  # as /diagnoses answers
         raise InputError("`until` is before `since`", field="until")
+    if max_points is not None and max_points < 2:
+        raise InputError("max_points must be at least 2 (the first and the latest point)",
+                         field="max_points")
     resolved = rigs.get(session, rig_id, rig_field="rig_id")
     if component is not None:
         names = [component]
@@ -284,8 +292,20 @@ def component_trends(
                     "with)")
             trend = replace(trend, message=f"{trend.message}; {note}",
                             unexplained=n_unexplained)
-        out.append(trend)
+        out.append(replace(trend, points=thinned(trend.points, max_points),
+                           points_total=len(trend.points)))
     return out
+
+
+def thinned(points: list[TrendPointOut], max_points: int | None) -> list[TrendPointOut]:
+    """At most ``max_points`` of ``points``, evenly spaced in order, the first and the
+    latest kept (``None``: all).  A rig diagnosed every cycle has tens of thousands: 35k
+    points of each component made a 13.7 MB answer (a fleet pass), more than a chart or a
+    client needs; the fit is made before, from all of them."""
+    if max_points is None or len(points) <= max_points:
+        return points
+    keep = np.unique(np.round(np.linspace(0, len(points) - 1, max_points)).astype(int))
+    return [points[i] for i in keep]
 
 
 def _comparable(session: Session, latest: ResolvedRig, versions: set[int]

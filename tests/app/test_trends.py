@@ -59,6 +59,31 @@ def test_three_diagnoses_of_a_wearing_valve_give_a_positive_slope(
     assert cylinder["status"] != "crossed"
 
 
+def test_a_long_series_is_thinned_in_the_answer_and_fitted_whole(
+        server: LiveServer, wearing_rig: int) -> None:
+    whole = server.client.get(f"/rigs/{wearing_rig}/trends", params={"component": "valve"}
+                              ).json()["components"][0]
+    thin = server.client.get(f"/rigs/{wearing_rig}/trends",
+                             params={"component": "valve", "max_points": 2}
+                             ).json()["components"][0]
+    assert whole["points_total"] == thin["points_total"] == len(whole["points"]) == 3
+    # the first and the latest kept; the fit and the forecast are those of all the points
+    assert thin["points"] == [whole["points"][0], whole["points"][-1]]
+    assert {k: thin[k] for k in ("slope", "time_left_s", "status")} == {
+        k: whole[k] for k in ("slope", "time_left_s", "status")}
+
+
+def test_thinning_keeps_the_ends_and_spaces_the_rest_evenly() -> None:
+    from app.services.trends import thinned
+
+    points = list(range(35_000))
+    kept = thinned(points, 2000)  # type: ignore[arg-type]
+    assert len(kept) == 2000 and kept[0] == 0 and kept[-1] == 34_999
+    steps = np.diff(kept)
+    assert steps.min() >= 17 and steps.max() <= 18
+    assert thinned(points[:5], 2000) == points[:5]  # type: ignore[arg-type]
+
+
 def test_one_component_with_a_given_threshold(server: LiveServer, wearing_rig: int) -> None:
     body = server.client.get(f"/rigs/{wearing_rig}/trends",
                              params={"component": "valve", "threshold": 42e-6}).json()
@@ -85,7 +110,7 @@ def test_a_rig_without_history_has_no_trends(server: LiveServer) -> None:
     ("params", "field"),
     [({"threshold": 5e-5}, "threshold"), ({"component": "hose"}, "component"),
      ({"component": "valve", "threshold": -1.0}, "threshold"),
-     ({"since": "2026-01-01T00:00:00"}, "since")],
+     ({"since": "2026-01-01T00:00:00"}, "since"), ({"max_points": 1}, "max_points")],
 )
 def test_bad_queries_are_422(server: LiveServer, wearing_rig: int, params: dict[str, object],
                              field: str) -> None:

@@ -14,6 +14,10 @@ from app.services.trends import ComponentTrendOut, component_trends
 
 __all__ = ["router"]
 
+#: Points of each series in an answer unless asked otherwise, and the most one may ask for.
+DEFAULT_TREND_POINTS = 2000
+MAX_TREND_POINTS = 100_000
+
 router = APIRouter(tags=["trends"], dependencies=[ReadAccess], responses=ERROR_RESPONSES)
 
 
@@ -30,6 +34,7 @@ def _public(trend: ComponentTrendOut) -> ComponentTrend:
         time_left_s=trend.time_left_s, time_left_low_s=trend.time_left_low_s,
         time_left_high_s=trend.time_left_high_s, crossing_at=trend.crossing_at,
         message=trend.message, later_diagnoses=trend.later_diagnoses,
+        points_total=trend.points_total,
         left_out=trend.left_out, left_out_versions=trend.left_out_versions,
         unexplained=trend.unexplained,
     )
@@ -51,9 +56,13 @@ def trends(
     until: Annotated[IsoDatetime | None, Query(
         description="Only diagnoses of records taken at or before this time [UTC]",
         examples=["2026-12-31T23:59:59Z"])] = None,
+    max_points: Annotated[int, Query(
+        ge=2, le=MAX_TREND_POINTS, description="Most points of each series in the answer, "
+        "thinned evenly (the first and the latest kept); the slope and forecast use every "
+        "point [-]", examples=[DEFAULT_TREND_POINTS])] = DEFAULT_TREND_POINTS,
 ) -> TrendsPublic:
     """Per component: the series of estimates, the Theil-Sen slope with its interval, and
     the time left until the threshold with its interval (``diagnostics.trends``)."""
     found = component_trends(session, rigs, rig_id, component=component, threshold=threshold,
-                             since=since, until=until)
+                             since=since, until=until, max_points=max_points)
     return TrendsPublic(rig_id=rig_id, components=[_public(t) for t in found])
