@@ -71,6 +71,9 @@ logger = logging.getLogger("hydrodiag.app")
 #: Longest wait for every process to start and warm [s].
 _WARM_TIMEOUT_S = 300.0
 
+#: Starts of a diagnosis process that dies before it is ready, in a row, before giving up.
+_START_TRIES = 3
+
 #: Threads of a server process that read and write the store for the console at once.
 STORE_THREADS = 4
 
@@ -202,15 +205,35 @@ class DiagnosisPool:
                 self._workers.append(self._spawn())
 
     def _wait_ready(self, timeout: float = _WARM_TIMEOUT_S) -> None:
-        """Read each process's ``ready`` (before the event loop reads their pipes)."""
+        """Read each process's ``ready`` (before the event loop reads their pipes); one
+        that dies before it is ready is replaced, :data:`_START_TRIES` times in a row at
+        most.  (One killed while warming (out of memory, a crash) left a pipe whose read
+        raised ``EOFError`` on every later request: 500 for every ``/diagnose``, for
+        ever, with ``/ready`` at 200 — an operator pass.)"""
         deadline = time.monotonic() + timeout
         with self._lock:
-            for worker in self._workers:
+            for index, worker in enumerate(self._workers):
                 if worker.ready or self._loop is not None:
                     continue
-                if not worker.connection.poll(max(deadline - time.monotonic(), 0.0)):
-                    raise ServiceUnavailableError("a diagnosis process did not start in time")
-                worker.ready, worker.pid = True, pickle.loads(worker.connection.recv_bytes())[1]
+                for _ in range(_START_TRIES):
+                    if not worker.connection.poll(max(deadline - time.monotonic(), 0.0)):
+                        raise ServiceUnavailableError(
+                            "a diagnosis process did not start in time")
+                    try:
+                        ready = pickle.loads(worker.connection.recv_bytes())
+                    except (EOFError, OSError):   # it died before it was ready
+                        logger.error("a diagnosis process (pid %s) stopped while starting; "
+                                     "starting another", worker.process.pid)
+                        worker.connection.close()
+                        worker.process.join(timeout=5.0)   # no zombie left behind
+                        worker = self._workers[index] = self._spawn()
+                        continue
+                    worker.ready, worker.pid = True, ready[1]
+                    break
+                else:
+                    raise ServiceUnavailableError(
+                        f"the diagnosis processes stopped while starting, {_START_TRIES} "
+                        "times in a row: see the service log")
 
     def warm(self, rigs: Sequence[ResolvedRig]) -> None:
         """Start every process and warm ``rigs`` in each (blocks until all are warm; not

@@ -104,6 +104,27 @@ class CompiledModel:
             :func:`fit_table` describes (copied, padded with its last point, or resampled
             to the declared size).  Tables not given hold their declared constant.
         """
+        p = self._default_params().copy()
+        if overrides:
+            pidx = self._pidx
+            try:
+                where = [pidx[name] for name in overrides]
+            except KeyError:
+                name = next(n for n in overrides if n not in pidx)
+                raise ParameterError(f"unknown parameter {name!r}", field=name) from None
+            # one assignment for all: a rig sets every parameter (~100) for each phase, and
+            # a Python loop of item assignments was the most of a steady cycle's time
+            p[where] = np.fromiter(overrides.values(), dtype=float, count=len(where))
+        for name, (times, values) in (tables or {}).items():
+            self.set_table(p, name, times, values)
+        return p
+
+    def _default_params(self) -> Arr:
+        """The graph's own parameter vector (its values and tables), built once: a compiled
+        model's graph is not changed after compilation."""
+        cached: Arr | None = getattr(self, "_defaults", None)
+        if cached is not None:
+            return cached
         named = [self.system.graph.parameters[n].value for n in self.param_names]
         size = len(named) + sum(2 * n for _, n in self.system.tables.values())
         p = np.empty(size)
@@ -111,12 +132,8 @@ class CompiledModel:
         for name, (offset, n) in self.system.tables.items():
             p[offset: offset + n] = 0.0
             p[offset + n: offset + 2 * n] = self.system.graph.tables[name].value
-        for name, value in (overrides or {}).items():
-            if name not in self._pidx:
-                raise ParameterError(f"unknown parameter {name!r}", field=name)
-            p[self._pidx[name]] = float(value)
-        for name, (times, values) in (tables or {}).items():
-            self.set_table(p, name, times, values)
+        p.flags.writeable = False
+        self._defaults = p
         return p
 
     def table_block(self, name: str) -> tuple[int, int]:

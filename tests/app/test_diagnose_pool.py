@@ -120,6 +120,25 @@ def test_a_worker_without_the_rig_is_sent_its_document_once(server: LiveServer) 
         assert result.probability == pytest.approx(in_thread.probability, rel=1e-6)
 
 
+def test_a_process_killed_while_it_starts_is_replaced(server: LiveServer) -> None:
+    # killed before it said ready (out of memory while warming): its pipe's EOF made every
+    # later /diagnose a 500, for ever, with /ready at 200 (an operator pass)
+    body = {"record": simulated_record(server, WORN_VALVE)}
+    request = DiagnoseRequest.model_validate(body)
+    with server.session() as session:
+        (plan,) = plan_groups(session, RigCache(2), request, utcnow())
+    pool = DiagnosisPool(1)
+    try:
+        pool._start()
+        first = pool._workers[0].process
+        os.kill(first.pid, signal.SIGKILL)     # before it is ready: it imports for seconds
+        (pid,) = pool.worker_pids()
+        assert pid != first.pid and _alive(pid) and not _alive(first.pid)
+        assert asyncio.run(pool.compute(plan)).top == "valve"
+    finally:
+        pool.shutdown()
+
+
 _KILLED_SERVER = textwrap.dedent("""
     import os, sys, time
     from app.services.diagnosis_pool import DiagnosisPool
