@@ -113,10 +113,12 @@ def _canonical(content_type: str, body: bytes) -> tuple[str, bytes]:
     if media.strip().lower() == "application/json":
         try:
             document = json.loads(body)
-        except ValueError:   # not JSON: the route answers that, the bytes stand
+            canonical = json.dumps(document, sort_keys=True, separators=(",", ":")).encode()
+        except (ValueError, RecursionError):
+            # not JSON, or nested deeper than a parser goes (a 2 KB body 1,000 levels deep
+            # was a 500 here): the route answers that, the bytes stand
             return content_type, body
-        return "application/json", json.dumps(document, sort_keys=True,
-                                              separators=(",", ":")).encode()
+        return "application/json", canonical
     match = re.search(r'boundary="?([^";]+)"?', params)
     if not media.strip().lower().startswith("multipart/") or match is None:
         return content_type, body

@@ -320,3 +320,13 @@ def test_a_retry_with_the_key_that_replaced_a_rotated_one_is_replayed(
     other = server.client.post("/diagnose", json=body, headers={
         "X-API-Key": other_key, "Idempotency-Key": "gw-0800"})
     assert other.status_code == 200 and "Idempotent-Replayed" not in other.headers
+
+
+def test_a_deeply_nested_body_with_a_key_is_refused_as_without_one(server: LiveServer) -> None:
+    # 2 KB, 1,000 levels deep: the key's canonical form hit the recursion limit, a 500
+    deep = b'{"record": ' + b"[" * 1000 + b"]" * 1000 + b"}"
+    headers = server.auth | {"Content-Type": "application/json"}
+    plain = server.client.post("/diagnose", content=deep, headers=headers)
+    keyed = server.client.post("/diagnose", content=deep,
+                               headers=headers | {"Idempotency-Key": "deep-1"})
+    assert plain.status_code == keyed.status_code == 422, keyed.text
