@@ -12,7 +12,11 @@ from diagnostics.cycle_readings import phases_from_position, position
 from diagnostics.timeseries import SeriesRecord
 from sim.errors import InputError
 
-__all__ = ["STATED", "require_cycle_records", "with_phases"]
+__all__ = ["MAX_RECORD_S", "STATED", "require_cycle_records", "with_phases"]
+
+#: Longest record the workflow analyses [s]: records are resampled to 1 kHz, and a rig's
+#: cycle lasts seconds to a minute; ten minutes bounds the memory of a record.
+MAX_RECORD_S = 600.0
 
 #: condition entries every measured cycle must state, with the column that states them
 STATED: dict[str, str] = {"load": "load [N]", "oil_temperature": "oil_temperature [degC]"}
@@ -21,6 +25,8 @@ STATED: dict[str, str] = {"load": "load [N]", "oil_temperature": "oil_temperatur
 def require_cycle_records(records: Sequence[SeriesRecord]) -> None:
     """Raise :class:`InputError` for a record the workflow cannot compare with the rig.
 
+    * ``field="t"``: the record lasts longer than :data:`MAX_RECORD_S` (time in ms under
+      ``t [s]``).
     * ``field="phase"``: no ``phase`` column labelling its working or return stroke — the
       workflow averages, splits and re-simulates by stroke, and without the labels it
       compared the whole record to one stroke (every channel hundreds of σ off,
@@ -36,10 +42,24 @@ def require_cycle_records(records: Sequence[SeriesRecord]) -> None:
       50 ms means).
     """
     for r in records:
-        if r.phase is None or not np.isin(r.phase, ("working", "return")).any():
+        span = float(r.t[-1] - r.t[0]) if len(r.t) else 0.0
+        if span > MAX_RECORD_S:
+            # a time column in ms under 't [s]' was accepted, then resampled to 4.7 million
+            # samples a record at 1 kHz: the server grew to 15 GB (a modelling engineer's pass)
+            raise InputError(
+                f"record {r.name!r} lasts {span:,.0f} s (its time runs from {r.t[0]:.6g} to "
+                f"{r.t[-1]:.6g} s), longer than the {MAX_RECORD_S:.0f} s a record of one rig "
+                "cycle may last here: is the time in ms under 't [s]'? (a long log is split "
+                "into cycles by a 'record' column)", field="t")
+        if r.phase is None:
             raise InputError(f"record {r.name!r} has no 'phase' column labelling its "
                              "'working' and 'return' strokes (the /simulate export has one)",
                              field="phase")
+        if not np.isin(r.phase, ("working", "return")).any():
+            found = ", ".join(repr(str(p)) for p in np.unique(r.phase)[:5])
+            raise InputError(f"the 'phase' column of record {r.name!r} holds {found}, not "
+                             "'working' and 'return' (the /simulate export's labels): "
+                             "relabel the strokes", field="phase")
         if "load" not in r.condition and "load" in r.channels:
             lo, hi = float(np.min(r.channels["load"])), float(np.max(r.channels["load"]))
             raise InputError(f"the load of record {r.name!r} varies ({lo:.4g} to {hi:.4g} N); "

@@ -132,6 +132,28 @@ def test_records_that_do_not_state_their_load_or_temperature_are_refused():
     assert cond.load == 4200.0 and cond.oil_temperature == pytest.approx(50.0)
 
 
+def test_time_in_ms_and_strange_stroke_labels_are_refused_before_any_work():
+    """A modelling engineer's pass: a time column in ms under 't [s]' (a 4.7 s cycle read
+    as 4,700 s) was resampled to 4.7 million samples a record and the server grew to
+    15 GB; 'extend'/'retract' labels were answered "has no 'phase' column"."""
+    import dataclasses
+
+    from sim.errors import InputError
+
+    recs = _records(reference_rig_document(), 5)
+    in_ms = [dataclasses.replace(r, t=r.t * 1000.0) for r in recs]
+    with pytest.raises(InputError, match="is the time in ms") as err:
+        discover(reference_rig_document(), in_ms, bootstrap=0)
+    assert err.value.field == "t"
+    named = {"working": "extend", "return": "retract"}
+    relabelled = [dataclasses.replace(r, phase=np.array([named.get(str(p), str(p))
+                                                         for p in r.phase]))
+                  for r in recs]
+    with pytest.raises(InputError, match="holds 'extend', 'retract'") as err:
+        discover(reference_rig_document(), relabelled, bootstrap=0)
+    assert err.value.field == "phase"
+
+
 def test_one_record_says_that_its_gap_is_not_held_out():
     d = discover(reference_rig_document(), _records(reference_rig_document(), 3)[:1],
                  bootstrap=0)
