@@ -36,6 +36,12 @@ class RigLimits:
         Effective piston areas of chambers 1 and 2 [m²].
     stroke
         Cylinder stroke [m]; ``None`` skips the stroke check.
+    speed_offset
+        The rig's speed-reading offset Δω (true − stated) [rad/s], from its
+        ``speed_offset`` effect (:mod:`sim.components.effects.speed_offset`): the pump
+        turns at ω + Δω.  A rig version that the discrepancy workflow stored with the
+        offset refused the very cycles it was fitted to ("exceeds the pump's theoretical
+        maximum"; a modelling engineer's pass).
     """
 
     Vp: float
@@ -43,6 +49,7 @@ class RigLimits:
     A1: float
     A2: float
     stroke: float | None = None
+    speed_offset: float = 0.0
 
     def __post_init__(self) -> None:
         for name in ("Vp", "speed", "A1", "A2"):
@@ -53,10 +60,11 @@ class RigLimits:
             raise ParameterError(f"must be finite and > 0, got {self.stroke}", field="stroke")
 
     def max_pump_flow(self, record: MeasurementRecord) -> float:
-        """Geometric pump flow ω·Vp [m³/s] at the record's speed (+k·u), else the nominal."""
+        """Geometric pump flow (ω + Δω)·Vp [m³/s] at the record's speed (+k·u), else the
+        nominal, with the rig's speed offset where it adds."""
         w = record.condition.pump_speed
         omega = self.speed if w is None else w.value + CONSISTENCY_K * w.u
-        return omega * self.Vp
+        return (omega + max(self.speed_offset, 0.0)) * self.Vp
 
 
 #: fraction of F/A1 below which a pressure cannot hold a stated load [-] (generous: a

@@ -73,7 +73,8 @@ def rig_limits(rig: Rig) -> RigLimits:
     """The limits a record is checked against, from the rig's parameters."""
     b = rig.values()
     return RigLimits(Vp=b["pump.Vp"], speed=b["pump.speed"], A1=b["cylinder.A1"],
-                     A2=b["cylinder.A2"], stroke=b["cylinder.stroke"])
+                     A2=b["cylinder.A2"], stroke=b["cylinder.stroke"],
+                     speed_offset=b.get("speed_offset.d_speed", 0.0))
 
 
 def sim_condition(record: MeasurementRecord) -> Condition:

@@ -209,6 +209,27 @@ def test_speed_above_pump_maximum_is_refused() -> None:
     assert err.value.field == "duration_return"
 
 
+def test_a_rig_whose_pump_turns_faster_than_stated_allows_the_faster_piston() -> None:
+    # the discrepancy workflow stores a speed-reading offset Δω as an effect of the rig; its
+    # limits are those of ω + Δω, or the cycles it was fitted to are refused
+    import dataclasses
+
+    from diagnostics.diagnose import diagnose
+    from sim.rigs import load_rig, reference_rig_document
+    from tests.diagnostics.synth import record as synthetic
+
+    fast = dataclasses.replace(LIMITS, speed_offset=0.1 * PUMP["speed"])
+    check_against_rig(record(speed_work=1.05 * V_MAX), fast)
+    with pytest.raises(MeasurementError):
+        check_against_rig(record(speed_work=1.05 * V_MAX), LIMITS)
+    doc = reference_rig_document()
+    doc["effects"] = {"speed_offset": {"parameters": {"d_speed": {"value": 8.0,
+                                                                  "unit": "rad/s"}}}}
+    rig = load_rig(doc)
+    cycles = synthetic(rig, {}, load=1000.0)   # its own healthy cycle
+    assert diagnose(rig, [cycles]).top.name == "healthy"
+
+
 def test_speed_limit_follows_the_measured_pump_speed() -> None:
     slow = OperatingCondition.from_readings({"oil_temperature": 40.0, "back_pressure": 10e5,
                                              "pump_speed": 0.5 * PUMP["speed"]})
