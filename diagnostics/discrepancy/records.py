@@ -8,11 +8,14 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from diagnostics.consistency import LOAD_FRACTION
 from diagnostics.cycle_readings import phases_from_position, position
+from diagnostics.measurement import MAX_GAUGE_PRESSURE
 from diagnostics.timeseries import SeriesRecord
 from sim.errors import InputError
 
-__all__ = ["MAX_RECORD_S", "STATED", "require_cycle_records", "with_phases"]
+__all__ = ["MAX_RECORD_S", "STATED", "check_pressure_units", "require_cycle_records",
+           "with_phases"]
 
 #: Longest record the workflow analyses [s]: records are resampled to 1 kHz, and a rig's
 #: cycle lasts seconds to a minute; ten minutes bounds the memory of a record.
@@ -74,6 +77,39 @@ def require_cycle_records(records: Sequence[SeriesRecord]) -> None:
                     "or keep the '# condition = ...' header of a single-record /simulate "
                     "export; the rig's nominal condition is not assumed for measured data",
                     field=key)
+
+
+def check_pressure_units(records: Sequence[SeriesRecord], area: float) -> None:
+    """Raise :class:`InputError` naming a pressure channel logged in another unit than its
+    column says, as ``/diagnose`` refuses such a record: one beyond any instrument of a
+    hydraulic rig (:data:`~diagnostics.measurement.MAX_GAUGE_PRESSURE`: Pa under a
+    ``[bar]`` label), or a working stroke's P1 below :data:`LOAD_FRACTION` of the
+    pressure ``F/A1`` its stated load needs (``area``: A1 [m²]; bar under ``[Pa]``).  The
+    workflow answered such files "unexplained … re-commission the rig" at 29,947,394 σ
+    (a modelling engineer's pass)."""
+    for r in records:
+        for name, unit in r.units.items():
+            values = r.channels.get(name)
+            if unit != "Pa" or values is None or not len(values):
+                continue
+            top = float(np.max(np.abs(values)))
+            if top > MAX_GAUGE_PRESSURE:
+                raise InputError(
+                    f"{name} of record {r.name!r} reaches {top:.4g} Pa, beyond any instrument "
+                    "of a hydraulic rig: is it in Pa (or kPa) under a [bar] label?", field=name)
+        load = r.condition.get("load")
+        if not load or load <= 0 or "P1" not in r.channels or r.phase is None:
+            continue
+        working = r.phase == "working"
+        if not working.any():
+            continue
+        p1 = float(np.median(r.channels["P1"][working]))
+        needed = load / area
+        if p1 < LOAD_FRACTION * needed:
+            raise InputError(
+                f"P1 of record {r.name!r} reads {p1:.4g} Pa over its working stroke (median), "
+                f"less than {LOAD_FRACTION:g} × the {needed:.4g} Pa that push its {load:.4g} N "
+                "load (F/A1): is it in bar (or another unit) under a [Pa] label?", field="P1")
 
 
 def with_phases(records: Sequence[SeriesRecord], stroke: float

@@ -54,7 +54,11 @@ from diagnostics.discrepancy.confirm import Small, confirm_chosen, confirm_small
 from diagnostics.discrepancy.drift import Drift, refit_base
 from diagnostics.discrepancy.gap import GapRow, gap_table
 from diagnostics.discrepancy.lof import repeats_lack_of_fit
-from diagnostics.discrepancy.records import require_cycle_records, with_phases
+from diagnostics.discrepancy.records import (
+    check_pressure_units,
+    require_cycle_records,
+    with_phases,
+)
 from diagnostics.discrepancy.refit import with_effects
 from diagnostics.discrepancy.selection import PRACTICAL, Selection, require_samples, select
 from diagnostics.discrepancy.signals import Signals, condition_of, prepare, same_channels
@@ -290,6 +294,7 @@ def _first_step(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord]
     # without 'v' failed the job later with KeyError (a fleet integrator's pass)
     same_channels(labelled, OUTPUTS)
     require_cycle_records(labelled)
+    check_pressure_units(labelled, rig.values()["cylinder.A1"])
     train_i, held_i = _split(labelled, rig)
     signals = prepare([labelled[i] for i in train_i], rig)
     data = balance_data(signals, rig.values())

@@ -152,6 +152,14 @@ def test_time_in_ms_and_strange_stroke_labels_are_refused_before_any_work():
     with pytest.raises(InputError, match="holds 'extend', 'retract'") as err:
         discover(reference_rig_document(), relabelled, bootstrap=0)
     assert err.value.field == "phase"
+    # a pressure in another unit than its column says: named, as /diagnose names it (the
+    # workflow said "unexplained … re-commission" at 29,947,394 σ)
+    for factor, words in ((1e-5, "is it in bar"), (1e5, "is it in Pa")):
+        scaled = [dataclasses.replace(r, channels=r.channels | {"P1": r.channels["P1"] * factor})
+                  for r in recs]
+        with pytest.raises(InputError, match=words) as err:
+            discover(reference_rig_document(), scaled, bootstrap=0)
+        assert err.value.field == "P1"
 
 
 def test_one_record_says_that_its_gap_is_not_held_out():
