@@ -61,7 +61,9 @@ def list_jobs(
                                        "first.")] = 50,
     as_json: JsonOption = False,
 ) -> None:
-    """List the jobs, newest first: kind, state, progress and the last message."""
+    """List the jobs, newest first: kind, state, progress and the last message (results:
+    jobs show ID --json)."""
+    from app.schemas.jobs import job_summary
     from app.services.jobs import list_jobs as list_stored
 
     if status is not None and status not in _STATUSES:
@@ -69,8 +71,9 @@ def list_jobs(
                          field="--status")
     with store_session() as session:
         jobs, total = list_stored(session, limit=limit, offset=0,
-                                  status=cast("JobStatus | None", status), kind=kind)
-        items = [_public(j) for j in jobs]
+                                  status=cast("JobStatus | None", status), kind=kind,
+                                  results=False)
+        items = [job_summary(j).model_dump(mode="json") for j in jobs]
     if as_json:
         typer.echo(json.dumps({"items": items, "total": total}, indent=2))
         return

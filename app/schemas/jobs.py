@@ -64,3 +64,14 @@ class JobPublic(PublicModel):
 
 class JobList(Page[JobPublic]):
     """A page of jobs, newest first."""
+
+    results: bool = Field(
+        default=False, description="Whether each item's `result` is given (query `results`); "
+        "false: null, read it from GET /jobs/{id} [-]", examples=[False])
+
+
+def job_summary(job: Any) -> JobPublic:
+    """``job`` as :class:`JobPublic` without its result (``result`` null; the column is not
+    read)."""
+    fields = {name: getattr(job, name) for name in JobPublic.model_fields if name != "result"}
+    return JobPublic.model_validate(fields | {"result": None})

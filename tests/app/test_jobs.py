@@ -94,6 +94,12 @@ def test_list_and_unknown(server: LiveServer) -> None:
     listed = server.client.get("/jobs", params={"kind": "listed", "status": "succeeded"}).json()
     assert listed["total"] == 3
     assert sorted(j["id"] for j in listed["items"]) == sorted(ids)
+    # a listing leaves the results out (a sweep's is megabytes) unless asked for them
+    assert not listed["results"] and all(j["result"] is None for j in listed["items"])
+    full = server.client.get("/jobs", params={"kind": "listed", "results": "true"}).json()
+    one = server.client.get(f"/jobs/{ids[0]}").json()
+    assert full["results"] and {j["id"]: j["result"] for j in full["items"]}[ids[0]] == \
+        one["result"] is not None
     assert server.client.get("/jobs", params={"status": "lost"}).status_code == 422
     missing = server.client.get("/jobs/00000000-0000-0000-0000-000000000000")
     assert missing.status_code == 404

@@ -9,7 +9,7 @@ from fastapi.responses import HTMLResponse
 
 from app.api.deps import PageDep, ReadAccess, SessionDep, WriteKeyDep
 from app.schemas.common import ERROR_RESPONSES
-from app.schemas.jobs import JobList, JobPublic, JobStatus
+from app.schemas.jobs import JobList, JobPublic, JobStatus, job_summary
 from app.services import jobs as service
 from sim.errors import InputError
 
@@ -27,12 +27,16 @@ def list_jobs(
                                               examples=["running"])] = None,
     kind: Annotated[str | None, Query(max_length=64, description="Only jobs of this kind [-]",
                                       examples=["sweep"])] = None,
+    results: Annotated[bool, Query(
+        description="Give each job's result (a sweep's can be megabytes); by default null, "
+        "read from GET /jobs/{id} [-]", examples=[False])] = False,
 ) -> JobList:
-    """Return a page of jobs, newest first."""
+    """Return a page of jobs, newest first, without their results unless asked."""
     rows, total = service.list_jobs(session, limit=page.limit, offset=page.offset,
-                                    status=status, kind=kind)
-    return JobList(items=[JobPublic.model_validate(j) for j in rows], total=total,
-                   limit=page.limit, offset=page.offset)
+                                    status=status, kind=kind, results=results)
+    items = [JobPublic.model_validate(j) if results else job_summary(j) for j in rows]
+    return JobList(items=items, total=total, limit=page.limit, offset=page.offset,
+                   results=results)
 
 
 @router.get("/{job_id}", summary="Get a job's status, progress and outcome",
