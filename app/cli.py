@@ -20,6 +20,7 @@ from rich.table import Table
 from sqlalchemy import Engine
 
 from app.cli_batch import register as register_batch
+from app.cli_db import db_cli
 from app.cli_discover import register as register_discover
 from app.cli_jobs import jobs_cli
 from app.cli_report import report_cli
@@ -39,7 +40,6 @@ cli = typer.Typer(
     no_args_is_help=True, add_completion=False,
 )
 keys_cli = typer.Typer(help="API keys (only salted hashes are stored).", no_args_is_help=True)
-db_cli = typer.Typer(help="The store's schema.", no_args_is_help=True)
 cli.add_typer(keys_cli, name="keys")
 cli.add_typer(db_cli, name="db")
 cli.add_typer(rigs_cli, name="rigs")
@@ -68,6 +68,7 @@ def serve(
 ) -> None:
     """Migrate, preload the reference rig, make the first key, then serve HTTP."""
     import uvicorn
+    from sqlalchemy.exc import DatabaseError
 
     from app.logs import configure_logging
     from app.main import create_app
@@ -77,6 +78,7 @@ def serve(
         bootstrap_lock,
         ensure_first_key,
         ensure_reference_data,
+        store_problem,
         upgrade_database,
     )
     from app.services.throttle_estimator import ThrottleClearanceEstimator
@@ -86,17 +88,24 @@ def serve(
     estimator = ThrottleClearanceEstimator()
     engine = _engine(settings)
     sessions = make_session_factory(engine)
-    with _steps() as progress, bootstrap_lock(engine):  # one replica at a time
-        task = progress.add_task("migrating the store", total=3)
-        revision = upgrade_database(engine)
-        progress.update(task, advance=1, description="preloading the reference rig")
-        with sessions() as session:
-            preloaded = ensure_reference_data(session, estimator=estimator)
-        progress.update(task, advance=1, description="checking API keys")
-        with sessions() as session:
-            first_key = ensure_first_key(session)
-        progress.update(task, advance=1, description="store ready")
-    engine.dispose()
+    try:
+        with _steps() as progress, bootstrap_lock(engine):  # one replica at a time
+            task = progress.add_task("migrating the store", total=3)
+            revision = upgrade_database(engine)
+            progress.update(task, advance=1, description="preloading the reference rig")
+            with sessions() as session:
+                preloaded = ensure_reference_data(session, estimator=estimator)
+            progress.update(task, advance=1, description="checking API keys")
+            with sessions() as session:
+                first_key = ensure_first_key(session)
+            progress.update(task, advance=1, description="store ready")
+    except (OSError, DatabaseError) as exc:   # one line naming the store, not a traceback
+        problem = store_problem(engine, exc)
+        if problem is None:
+            raise
+        raise problem from None
+    finally:
+        engine.dispose()
     console.print(f"store at revision {revision}: {settings.url.render_as_string()}")
     if preloaded.rig_created or preloaded.calibrations_created:
         console.print(f"preloaded the reference rig and {preloaded.calibrations_created} "
@@ -199,32 +208,6 @@ def keys_rotate(
     typer.echo(f"key {old_id} replaced by key {new_id}; the old key stops working {when}",
                err=True)
     typer.echo(plaintext)
-
-
-@db_cli.command("upgrade")
-def db_upgrade(
-    revision: Annotated[str, typer.Option(help="Target revision.")] = "head",
-) -> None:
-    """Migrate the store (default: to the newest revision)."""
-    from app.db import migrate
-
-    engine = _engine(_settings())
-    with _steps() as progress:
-        task = progress.add_task(f"migrating to {revision}", total=1)
-        migrate.upgrade(engine, revision)
-        progress.update(task, advance=1)
-    console.print(f"store at revision {migrate.current_revision(engine)}")
-    engine.dispose()
-
-
-@db_cli.command("current")
-def db_current() -> None:
-    """Print the store's schema revision (empty for an unmigrated store)."""
-    from app.db import migrate
-
-    engine = _engine(_settings())
-    typer.echo(migrate.current_revision(engine) or "")
-    engine.dispose()
 
 
 register(cli)

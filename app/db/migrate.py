@@ -60,6 +60,13 @@ def current_revision(engine: Engine) -> str | None:
 
 
 @functools.cache
+def known_revisions() -> frozenset[str]:
+    """Every revision shipped with the package."""
+    return frozenset(s.revision for s in ScriptDirectory.from_config(alembic_config())
+                     .walk_revisions())
+
+
+@functools.cache
 def head_revision() -> str:
     """Return the newest revision shipped with the package (read once per process)."""
     head = ScriptDirectory.from_config(alembic_config()).get_current_head()

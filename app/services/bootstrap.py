@@ -9,6 +9,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from sqlalchemy import Engine, select, text
+from sqlalchemy.exc import DatabaseError, OperationalError
 from sqlalchemy.orm import Session
 
 from app.db import migrate
@@ -82,9 +83,61 @@ def bootstrap_lock(engine: Engine) -> Iterator[None]:
 
 
 def upgrade_database(engine: Engine) -> str:
-    """Migrate the store to the newest revision; return that revision."""
+    """Migrate the store to the newest revision; return that revision.
+
+    Raises
+    ------
+    InputError
+        The store is at a revision this release does not know (a newer release migrated
+        it), or it cannot be written (read-only file or folder), naming the store.
+    """
+    current = migrate.current_revision(engine)
+    if current is not None and current not in migrate.known_revisions():
+        raise InputError(
+            f"the store {_where(engine)} is at revision {current}, which this release does "
+            f"not know (its newest is {migrate.head_revision()}): a newer hydrodiag migrated "
+            "it; run that release, or a backup made before", field="HYDRODIAG_DATABASE_URL")
     migrate.upgrade(engine)
+    _check_writable(engine)
     return migrate.head_revision()
+
+
+def _where(engine: Engine) -> str:
+    """The store's URL without its password."""
+    return engine.url.render_as_string(hide_password=True)
+
+
+def _check_writable(engine: Engine) -> None:
+    """A write that changes nothing, rolled back: a read-only store answered "store ready"
+    and then a 70-line traceback from the first write of the service (an operator pass)."""
+    try:
+        with engine.connect() as connection:
+            connection.execute(text("UPDATE alembic_version SET version_num = version_num"))
+            connection.rollback()
+    except OperationalError as exc:
+        if "readonly" not in str(exc).lower() and "read-only" not in str(exc).lower():
+            raise
+        raise InputError(f"the store {_where(engine)} is read-only: the service writes its "
+                         "history there (file and folder permissions, or the database "
+                         "user's rights)", field="HYDRODIAG_DATABASE_URL") from None
+
+
+def store_problem(engine: Engine, exc: BaseException) -> InputError | None:
+    """What an operator reads, in one line, for an error of the store at start-up: a data
+    folder that cannot be written, a damaged file; ``None`` for another error.  These gave
+    49- to 461-line tracebacks without the file's name (an operator pass)."""
+    where = _where(engine)
+    if isinstance(exc, PermissionError | IsADirectoryError):
+        return InputError(f"cannot write {exc.filename or where} ({exc.strerror}): the service "
+                          "keeps its store and a lock file beside it there (HYDRODIAG_DATA_DIR, "
+                          "HYDRODIAG_DATABASE_URL)", field="HYDRODIAG_DATA_DIR")
+    text_of = str(getattr(exc, "orig", None) or exc).strip().splitlines()[0] if str(exc) else ""
+    if isinstance(exc, DatabaseError) and any(
+            w in text_of.lower() for w in ("malformed", "not a database", "file is encrypted")):
+        return InputError(f"the store {where} is damaged ({text_of}): restore it from a backup "
+                          "(hydrodiag db backup FILE makes one)",
+                          field="HYDRODIAG_DATABASE_URL")
+    return None
 
 
 def ensure_reference_data(

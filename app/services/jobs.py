@@ -30,6 +30,10 @@ start and with each renewal: within :data:`LEASE_S` of the stop when another pro
 serves the store, or when the service starts again.  Until revision 0009 a starting
 process failed every unfinished job of the store, so a second instance on one database
 failed the jobs of the first while they ran and threw away their results.
+
+A stopping service (:meth:`JobRunner.shutdown`) fails its queued jobs at once, saying they
+never started, gives its running ones :data:`SHUTDOWN_GRACE_S` to finish, and fails those
+still running (asked to stop at their next progress report); either is submitted again.
 """
 
 from __future__ import annotations
@@ -42,6 +46,7 @@ import time
 import uuid
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
+from concurrent.futures import wait as futures_wait
 from datetime import timedelta
 from typing import Any
 
@@ -64,6 +69,10 @@ logger = logging.getLogger("hydrodiag.jobs")
 PROGRESS_STEP = 0.01
 #: Longest time between two looks for a cancel while a job reports [s].
 CANCEL_LOOK_S = 0.5
+#: How long a stopping service lets its running jobs finish before failing them [s]
+#: (docker stop's default is 10 s, after which the process is killed).
+SHUTDOWN_GRACE_S = 5.0
+
 #: How long a job's lease lasts after its runner last renewed it [s].
 LEASE_S = 60.0
 #: How often a runner renews the leases of its jobs (and fails those whose lease ran out) [s].
@@ -146,6 +155,8 @@ class JobRunner:
         #: reuse a pid)
         self.owner = f"{socket.gethostname()[:32]}:{os.getpid()}:{uuid.uuid4().hex[:8]}"
         self._stop = threading.Event()
+        self._lock = threading.Lock()
+        self._futures: list[Future[None]] = []
         self._renewer = threading.Thread(target=self._renew_loop, args=(renew_s,),
                                          name="job-leases", daemon=True)
         self._renewer.start()
@@ -189,6 +200,8 @@ class JobRunner:
             session.commit()
         future: Future[None] = self._executor.submit(self._run, job.id, dict(params), function)
         future.add_done_callback(_log_crash)
+        with self._lock:
+            self._futures = [f for f in self._futures if not f.done()] + [future]
         return job
 
     def _set(self, job_id: str, *, when: str | None = None, **values: Any) -> bool:
@@ -220,11 +233,44 @@ class JobRunner:
         self._set(job_id, when="running", status="succeeded", progress=1.0, result=result,
                   finished_at=utcnow())
 
-    def shutdown(self, *, wait: bool = True) -> None:
-        """Stop taking jobs; with ``wait``, let the running ones finish (their leases
-        renewed meanwhile)."""
-        self._executor.shutdown(wait=wait, cancel_futures=True)
+    def shutdown(self, *, wait: bool = True, grace_s: float = SHUTDOWN_GRACE_S) -> None:
+        """Stop taking jobs.  This runner's queued jobs, which will not run, are failed at
+        once saying so (they sat ``queued`` for a lease and then read "its lease ran
+        out"; an operator pass); with ``wait``, the running ones get ``grace_s`` [s] to
+        finish, and those still running are failed and asked to stop at their next progress
+        report (a stop waited 22 s for two discrepancy jobs, past docker's 10 s)."""
+        self._executor.shutdown(wait=False, cancel_futures=True)
+        self._fail_mine("queued", "the service stopped before this job started; submit it "
+                        "again")
+        if wait:
+            with self._lock:
+                running = [f for f in self._futures if not f.done()]
+            _, late = futures_wait(running, timeout=grace_s)
+            if late:
+                self._fail_mine("running", f"the service stopped while this job ran (it "
+                                f"was given {grace_s:g} s to finish); submit it again",
+                                cancel=True)
         self._stop.set()
+
+    def _fail_mine(self, status: str, message: str, *, cancel: bool = False) -> None:
+        """Fail this runner's jobs in ``status`` with ``message``; with ``cancel``, ask them
+        to stop too."""
+        now = utcnow()
+        extra = {"cancel_requested_at": now} if cancel else {}
+        try:
+            with self._sessions() as session:
+                done = session.execute(
+                    update(Job).where(Job.owner == self.owner, Job.status == status)
+                    .values(status="failed", finished_at=now, updated_at=now, **extra,
+                            error={"type": "ServiceStoppedError", "message": message,
+                                   "field": None}))
+                session.commit()
+        except Exception as exc:  # the store away: the leases run out instead
+            logger.warning("could not mark the %s jobs at shutdown: %s", status,
+                           type(exc).__name__)
+            return
+        if count := getattr(done, "rowcount", 0):
+            logger.warning("%d %s job(s) failed at shutdown: %s", count, status, message)
 
 
 def _log_crash(future: Future[None]) -> None:

@@ -103,3 +103,34 @@ def test_jobs_of_a_stopped_process_are_failed_once_their_lease_ran_out(
         session.commit()
         assert fail_interrupted_jobs(session) == 1
     assert _job(sessions, "held").status == "failed"
+
+
+def test_a_stopping_service_fails_its_queued_jobs_and_the_ones_that_outlast_the_grace(
+        runner: CliRunner) -> None:
+    # a clean stop left its queued jobs "queued" for a lease, then "its lease ran out", and
+    # waited 22 s for two running ones (an operator pass)
+    assert runner.invoke(cli, ["db", "upgrade"]).exit_code == 0
+    sessions = make_session_factory(make_engine(Settings().url))
+    jobs = JobRunner(sessions, workers=1)
+    started, stop = threading.Event(), threading.Event()
+
+    def endless(params: dict[str, Any], progress: Any) -> dict[str, Any]:
+        started.set()
+        for _ in range(3000):
+            if stop.wait(0.01):
+                break
+            progress(0.5, "working")
+        return {}
+
+    running = jobs.submit("demo", {}, endless)
+    queued = jobs.submit("demo", {}, endless)
+    assert started.wait(30.0)
+    began = time.monotonic()
+    jobs.shutdown(wait=True, grace_s=0.3)
+    assert time.monotonic() - began < 10.0
+    never, cut = _job(sessions, queued.id), _job(sessions, running.id)
+    assert never.status == cut.status == "failed"
+    assert never.error is not None and "before this job started" in never.error["message"]
+    assert cut.error is not None and "while this job ran" in cut.error["message"]
+    assert cut.cancel_requested_at is not None   # it stops at its next progress report
+    stop.set()

@@ -344,3 +344,39 @@ def test_replicas_bootstrapping_one_empty_store_together_make_it_once(tmp_path: 
                 migrate.downgrade(engine, "base")
             finally:
                 engine.dispose()
+
+
+def test_a_store_that_cannot_serve_is_named_in_one_line_at_start(tmp_path: Path,
+                                                                  monkeypatch: Any) -> None:
+    """An operator pass: a damaged file, a store migrated by a newer release and a
+    read-only store gave 49- to 461-line tracebacks (the read-only one after "store
+    ready"); each is now one line naming the store and what to do, and serve exits 1."""
+    import sqlite3
+
+    from typer.testing import CliRunner
+
+    from app.cli import cli
+    from app.services.bootstrap import upgrade_database
+
+    monkeypatch.setenv("HYDRODIAG_DATA_DIR", str(tmp_path))
+    monkeypatch.delenv("HYDRODIAG_DATABASE_URL", raising=False)
+    store = tmp_path / "hydrodiag.db"
+    assert CliRunner().invoke(cli, ["db", "upgrade"]).exit_code == 0
+    with sqlite3.connect(store) as connection:   # as a newer release leaves it
+        connection.execute("UPDATE alembic_version SET version_num = '0099'")
+    newer = CliRunner().invoke(cli, ["serve", "--port", "1"])
+    assert newer.exit_code != 0 and isinstance(newer.exception, InputError)
+    assert "revision 0099, which this release does not know" in newer.exception.message
+    store.write_bytes(b"SQLite format 3\x00" + b"\xff" * 8000)   # a damaged file
+    damaged = CliRunner().invoke(cli, ["serve", "--port", "1"])
+    assert isinstance(damaged.exception, InputError)
+    assert "is damaged" in damaged.exception.message and "backup" in damaged.exception.message
+    # read-only (as root the file mode does not stop a write: the driver's read-only mode)
+    fresh = tmp_path / "ro.db"
+    engine = make_engine(make_url(f"sqlite:///{fresh}"))
+    migrate.upgrade(engine)
+    engine.dispose()
+    read_only = make_engine(make_url(f"sqlite:///file:{fresh}?mode=ro&uri=true"))
+    with pytest.raises(InputError, match="is read-only"):
+        upgrade_database(read_only)
+    read_only.dispose()

@@ -1,0 +1,129 @@
+"""``hydrodiag db``: the store's schema (upgrade, downgrade, current) and its backup."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from app.cli_support import console, settings_from_env, steps
+from app.db.engine import make_engine
+from sim.errors import InputError
+
+__all__ = ["db_cli"]
+
+db_cli = typer.Typer(help="The store's schema and its backup.", no_args_is_help=True)
+
+
+def _revision(revision: str) -> str:
+    """``revision`` if this release ships it (or ``head``/``base``), else an InputError."""
+    from app.db import migrate
+
+    if revision in ("head", "base") or revision in migrate.known_revisions():
+        return revision
+    raise InputError(f"unknown revision {revision!r}: this release ships "
+                     f"{', '.join(sorted(migrate.known_revisions()))}", field="--revision")
+
+
+@db_cli.command("upgrade")
+def db_upgrade(
+    revision: Annotated[str, typer.Option(help="Target revision.")] = "head",
+) -> None:
+    """Migrate the store forward (default: to the newest revision)."""
+    from app.db import migrate
+
+    engine = make_engine(settings_from_env().url)
+    try:
+        target = _revision(revision)
+        current = migrate.current_revision(engine)
+        if target != "head" and current is not None and current > target:
+            # Alembic's upgrade to an older revision does nothing, silently (an operator pass)
+            raise InputError(f"the store is at revision {current}, past {target}: upgrade only "
+                             "moves forward (db downgrade --revision goes back, dropping what "
+                             "the later revisions added)", field="--revision")
+        with steps() as progress:
+            task = progress.add_task(f"migrating to {target}", total=1)
+            migrate.upgrade(engine, target)
+            progress.update(task, advance=1)
+        console.print(f"store at revision {migrate.current_revision(engine)}")
+    finally:
+        engine.dispose()
+
+
+@db_cli.command("downgrade")
+def db_downgrade(
+    revision: Annotated[str, typer.Option(help="Target revision (an older one).")],
+    yes: Annotated[bool, typer.Option("--yes", help="Drop what the later revisions added.")
+                   ] = False,
+) -> None:
+    """Migrate the store back to an older revision (to run an older release on it): the
+    tables and columns that later revisions added are dropped with what they hold.  Back
+    the store up first (db backup)."""
+    from app.db import migrate
+
+    engine = make_engine(settings_from_env().url)
+    try:
+        target = _revision(revision)
+        current = migrate.current_revision(engine)
+        if current is None or (target != "base" and target >= current):
+            raise InputError(f"the store is at revision {current}, not past {target}: nothing "
+                             "to take back", field="--revision")
+        if not yes:
+            raise InputError(f"going back from {current} to {target} drops what the later "
+                             "revisions added and what it holds: back the store up (db backup "
+                             "FILE) and say --yes", field="--yes")
+        migrate.downgrade(engine, target)
+        console.print(f"store at revision {migrate.current_revision(engine)}")
+    finally:
+        engine.dispose()
+
+
+@db_cli.command("current")
+def db_current() -> None:
+    """Print the store's schema revision (empty for an unmigrated store)."""
+    from app.db import migrate
+
+    engine = make_engine(settings_from_env().url)
+    try:
+        typer.echo(migrate.current_revision(engine) or "")
+    finally:
+        engine.dispose()
+
+
+@db_cli.command("backup")
+def db_backup(
+    file: Annotated[Path, typer.Argument(help="The copy to write (must not exist).")],
+) -> None:
+    """Copy an SQLite store to FILE, consistent, while the service runs and writes.
+
+    SQLite's ``VACUUM INTO`` copies one snapshot in one read transaction: 0.7 s for a
+    115 MB store under 45 writes/s, where the sqlite3 shell's ``.backup`` restarts at each
+    write and did not finish until the writes stopped (18 s; an operator pass).  A
+    PostgreSQL store is backed up with ``pg_dump``.
+    """
+    from sqlalchemy import text
+
+    url = settings_from_env().url
+    if url.get_backend_name() != "sqlite" or not url.database or url.database == ":memory:":
+        raise InputError("db backup copies an SQLite file; back a PostgreSQL store up with "
+                         "pg_dump", field="HYDRODIAG_DATABASE_URL")
+    if file.exists():
+        raise InputError(f"{file} exists: a backup is written to a new file", field="FILE")
+    if not file.parent.is_dir():
+        raise InputError(f"no folder {file.parent}", field="FILE")
+    engine = make_engine(url)
+    try:
+        with engine.connect() as connection:
+            connection.exec_driver_sql("VACUUM INTO ?", (str(file),))
+        copied = make_engine(url.set(database=str(file)))
+        try:
+            with copied.connect() as copy:
+                ok = copy.execute(text("PRAGMA integrity_check")).scalar()
+        finally:
+            copied.dispose()
+        if ok != "ok":   # pragma: no cover - a copy SQLite just wrote
+            raise InputError(f"the copy {file} failed its integrity check: {ok}", field="FILE")
+    finally:
+        engine.dispose()
+    console.print(f"store copied to {file} ({file.stat().st_size / 1e6:.1f} MB, integrity ok)")

@@ -1,0 +1,71 @@
+"""``hydrodiag db``: upgrade only forward, downgrade on request, backup of a live store."""
+
+from __future__ import annotations
+
+import threading
+from pathlib import Path
+
+from sqlalchemy import text
+from typer.testing import CliRunner
+
+from app.cli import cli
+from app.db import migrate
+from app.db.engine import make_engine, make_session_factory
+from app.services.bootstrap import ensure_reference_data
+from app.settings import Settings
+from sim.errors import InputError
+
+
+def test_upgrade_goes_forward_only_and_downgrade_asks_first(runner: CliRunner) -> None:
+    assert runner.invoke(cli, ["db", "upgrade"]).exit_code == 0
+    head = migrate.head_revision()
+    # an older target did nothing, silently (an operator pass)
+    back = runner.invoke(cli, ["db", "upgrade", "--revision", "0010"])
+    assert isinstance(back.exception, InputError) and back.exception.field == "--revision"
+    assert f"at revision {head}, past 0010" in back.exception.message
+    unknown = runner.invoke(cli, ["db", "upgrade", "--revision", "9999"])
+    assert isinstance(unknown.exception, InputError) and "unknown revision" in str(
+        unknown.exception)
+    unasked = runner.invoke(cli, ["db", "downgrade", "--revision", "0010"])
+    assert isinstance(unasked.exception, InputError) and unasked.exception.field == "--yes"
+    done = runner.invoke(cli, ["db", "downgrade", "--revision", "0010", "--yes"])
+    assert done.exit_code == 0, done.output
+    assert runner.invoke(cli, ["db", "current"]).output.strip() == "0010"
+    assert runner.invoke(cli, ["db", "upgrade"]).exit_code == 0
+    assert runner.invoke(cli, ["db", "current"]).output.strip() == head
+
+
+def test_a_backup_is_a_whole_copy_made_while_another_connection_writes(
+        runner: CliRunner, tmp_path: Path) -> None:
+    assert runner.invoke(cli, ["db", "upgrade"]).exit_code == 0
+    engine = make_engine(Settings().url)
+    with make_session_factory(engine)() as session:
+        ensure_reference_data(session)
+    stop = threading.Event()
+
+    def writer() -> None:   # a service taking writes meanwhile
+        with engine.connect() as connection:
+            while not stop.is_set():
+                connection.execute(text("UPDATE rigs SET name = name"))
+                connection.commit()
+
+    thread = threading.Thread(target=writer)
+    thread.start()
+    try:
+        copy = tmp_path / "copy.db"
+        made = runner.invoke(cli, ["db", "backup", str(copy)])
+        assert made.exit_code == 0, made.output
+        assert "integrity ok" in made.output
+    finally:
+        stop.set()
+        thread.join()
+    copied = make_engine(Settings().url.set(database=str(copy)))
+    with copied.connect() as c, engine.connect() as live:
+        for table in ("rigs", "rig_versions", "calibration_points"):
+            assert c.execute(text(f"SELECT count(*) FROM {table}")).scalar() == \
+                live.execute(text(f"SELECT count(*) FROM {table}")).scalar() > 0
+        assert migrate.current_revision(copied) == migrate.head_revision()
+    copied.dispose()
+    engine.dispose()
+    again = runner.invoke(cli, ["db", "backup", str(copy)])   # never over a file
+    assert isinstance(again.exception, InputError) and again.exception.field == "FILE"
