@@ -15,6 +15,7 @@ at the rig's default oil temperature.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime, timedelta
 
@@ -110,20 +111,22 @@ def _finite(x: float) -> float | None:
     return x if math.isfinite(x) else None
 
 
-def _intervals(session: Session, ids: list[int]
+def _intervals(session: Session, ids: list[int], names: Sequence[str]
                ) -> dict[int, dict[str, tuple[float | None, float | None]]]:
-    """The 95 % interval (low, high) each diagnosis stated, by diagnosis id then component.
+    """The 95 % interval (low, high) each diagnosis stated, by diagnosis id then component
+    of ``names``.
 
-    One query for every component, reading only the six numbers from each stored result
-    (not its ``estimates`` documents, one query per component, as it once did).
+    One query for the components asked for (those with history: half of the JSON reads of
+    every component, which were half of a trends request at 12,600 points; an operator
+    pass), reading only their numbers from each stored result.
     """
-    if not ids:
+    if not ids or not names:
         return {}
     columns = [Diagnosis.result[("estimates", c, bound)].as_float()
-               for c in COMPONENTS for bound in ("low", "high")]
+               for c in names for bound in ("low", "high")]
     rows = session.execute(select(Diagnosis.id, *columns).where(Diagnosis.id.in_(ids)))
-    names = list(COMPONENTS)
-    return {int(row[0]): {c: (row[1 + 2 * k], row[2 + 2 * k]) for k, c in enumerate(names)}
+    pairs = list(enumerate(names))
+    return {int(row[0]): {c: (row[1 + 2 * k], row[2 + 2 * k]) for k, c in pairs}
             for row in rows}
 
 
@@ -262,7 +265,8 @@ def component_trends(
     histories = {name: component_history(session, rig_id, name, since=since, until=until)
                  for name in names}
     intervals = _intervals(session, sorted({h.diagnosis_id for hs in histories.values()
-                                            for h in hs}))
+                                            for h in hs}),
+                           [name for name, hs in histories.items() if hs])
     comparable = _comparable(session, resolved, {h.rig_version for hs in
                                                  histories.values() for h in hs})
     out = []
