@@ -230,11 +230,13 @@ async def _validation_error(request: Request, exc: Exception) -> JSONResponse:
     problems = [(_location(err), _message(err)) for err in exc.errors()]
     field, message = problems[0] if problems else (None, "invalid request")
     kind = request.headers.get("content-type", "").split(";", 1)[0].strip().lower()
-    if field == "body" and kind not in ("application/json", "multipart/form-data",
-                                        "application/x-www-form-urlencoded"):
-        # FastAPI reads a body of another type as text: "should be a valid dictionary"
+    if field == "body" and kind not in ("application/json", "multipart/form-data"):
+        # FastAPI reads a body of another type as text: "should be a valid dictionary"; a
+        # form route names its missing fields, so "body" is a route that wanted JSON
+        hint = (": curl -d sends a form, add -H 'Content-Type: application/json'"
+                if kind == "application/x-www-form-urlencoded" else "")
         message = (f"the body must be JSON, sent with Content-Type: application/json (it "
-                   f"came as {kind or 'no content type'!r})")
+                   f"came as {kind or 'no content type'!r}{hint})")
         problems[0] = (field, message)
     details: list[dict[str, Any]] = [{"field": f, "message": m} for f, m in problems]
     return error_response(422, InputError.__name__, message, field, details=details,

@@ -44,6 +44,7 @@ import asyncio
 import hashlib
 import json
 import logging
+import math
 import re
 from collections.abc import Callable
 from datetime import timedelta
@@ -320,11 +321,25 @@ class IdempotencyMiddleware:
                     f"stored back ({found.method} {found.path}: the listing of what it "
                     "writes)", HEADER, request=request))
             if found.touched_at > now - timedelta(seconds=STALE_S):
+                quiet = (now - found.touched_at).total_seconds()
+                if quiet <= HEARTBEAT_S + RETRY_S:
+                    return _Outcome(response=error_response(
+                        409, ConflictError.__name__,
+                        f"the first request with this {HEADER} is still being processed; "
+                        f"retry in {RETRY_S} s to get its answer", HEADER,
+                        headers={"Retry-After": str(RETRY_S)}, request=request))
+                # no mark for longer than a heartbeat: its process has most likely
+                # stopped (a restart); the key frees itself when it goes stale (a client
+                # told "still being processed, retry in 2 s" retried 15 times; an
+                # operator pass)
+                left = max(math.ceil(STALE_S - quiet), 1)
                 return _Outcome(response=error_response(
                     409, ConflictError.__name__,
-                    f"the first request with this {HEADER} is still being processed; "
-                    f"retry in {RETRY_S} s to get its answer", HEADER,
-                    headers={"Retry-After": str(RETRY_S)}, request=request))
+                    f"the first request with this {HEADER} was not marked in hand for "
+                    f"{quiet:.0f} s: the process running it has most likely stopped; the key "
+                    f"frees itself {STALE_S:.0f} s after its last mark, in {left} s, and a "
+                    "retry then runs it (unless its work was stored)", HEADER,
+                    headers={"Retry-After": str(left)}, request=request))
             # its process never finished it: the key is taken over
             found.created_at = found.touched_at = now
             found.expires_at = now + timedelta(hours=KEEP_HOURS)

@@ -330,3 +330,31 @@ def test_a_deeply_nested_body_with_a_key_is_refused_as_without_one(server: LiveS
     keyed = server.client.post("/diagnose", content=deep,
                                headers=headers | {"Idempotency-Key": "deep-1"})
     assert plain.status_code == keyed.status_code == 422, keyed.text
+
+
+def test_a_key_whose_process_stopped_marking_it_says_when_it_frees_itself(
+        tmp_path: Path) -> None:
+    # after a kill -9 and a restart the retry was told "still being processed, retry in
+    # 2 s" for 30 s (an operator pass)
+    release = threading.Event()
+    release.set()
+    app, sessions, runs = _app(tmp_path, release)
+    now = utcnow()
+    same = _digest(b"POST", b"/slow", b"", b"application/json", b"{}")
+    with sessions() as session:
+        session.add(IdempotentRequest(
+            owner=owner_of(1), idempotency_key="k6", method="POST", path="/slow",
+            digest=same, created_at=now, touched_at=now - timedelta(seconds=20),
+            expires_at=now + timedelta(hours=1)))
+        session.commit()
+
+    async def post() -> httpx.Response:
+        transport = httpx.ASGITransport(app=app)
+        async with httpx.AsyncClient(transport=transport, base_url="http://t") as client:
+            return await client.post("/slow", json={}, headers={
+                "Idempotency-Key": "k6", "X-API-Key": _app.key})  # type: ignore[attr-defined]
+
+    held = asyncio.run(post())
+    assert held.status_code == 409 and runs == []
+    assert 8 <= int(held.headers["Retry-After"]) <= 10     # STALE_S 30 − 20 quiet
+    assert "has most likely stopped" in held.json()["error"]["message"]

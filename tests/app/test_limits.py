@@ -323,6 +323,11 @@ def test_a_body_of_another_type_is_told_to_be_json(server: LiveServer) -> None:
     assert response.status_code == 422
     error = response.json()["error"]
     assert error["field"] == "body" and "Content-Type: application/json" in error["message"]
+    # curl -d's own default, a form: told the same, with the curl fix (was "Input should
+    # be a valid dictionary or object to extract fields from"; an operator pass)
+    form = server.client.post("/diagnose", content=b'{"record": {}}', headers={
+        **server.auth, "Content-Type": "application/x-www-form-urlencoded"})
+    assert form.status_code == 422 and "curl -d sends a form" in form.json()["error"]["message"]
     assert server.row_counts() == before
 
 
