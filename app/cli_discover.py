@@ -80,7 +80,7 @@ def discover(
     from app.services.discrepancy import data_field, plan_discrepancy, store_discovery
     from app.services.rig_cache import RigCache
     from diagnostics.discrepancy import discover as run
-    from diagnostics.discrepancy.report import write_report
+    from diagnostics.discrepancy.report import stored_line, write_report
     from diagnostics.discrepancy.steady import discover_steady
 
     if (data is None) == (series is None):
@@ -130,11 +130,14 @@ def discover(
         if store:
             new_version, not_stored = store_discovery(session, rig_id, resolved.version, d)
     if report is not None:
-        written = write_report(d, report)
+        written = write_report(d, report, stored=stored_line(rig_id, resolved.version,
+                                                             new_version, not_stored))
         console.print(f"report written to {written['html']} (+ {len(written['png'])} PNG, "
                       f"{len(written['svg'])} SVG)")
     if as_json:
-        typer.echo(json.dumps(d.to_dict() | {"new_rig_version": new_version,
+        typer.echo(json.dumps(d.to_dict() | {"rig_id": rig_id,
+                                             "rig_version": resolved.version,
+                                             "new_rig_version": new_version,
                                              "not_stored": not_stored}, indent=2, default=str))
         return
     # the message of a named effect starts with the verdict ("named coulomb …")

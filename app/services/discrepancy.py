@@ -34,7 +34,7 @@ from app.services.rigs import get_rig, latest_version, update_rig
 from app.services.series import parse_column_map, stored_records
 from diagnostics.discrepancy import Discovery, discover
 from diagnostics.discrepancy.pump_refit import MAX_DISPLACEMENT_CHANGE
-from diagnostics.discrepancy.report import html_page
+from diagnostics.discrepancy.report import html_page, stored_line
 from diagnostics.discrepancy.steady import (
     discover_steady,
     is_bench_table,
@@ -181,7 +181,8 @@ def run_discrepancy(plan: DiscrepancyPlan, sessions: SessionFactory | None,
         with sessions() as session:
             result["new_rig_version"], result["not_stored"] = store_discovery(
                 session, plan.rig_id, plan.version, d)
-    result["html"] = html_page(d)
+    result["html"] = html_page(d, stored=stored_line(
+        plan.rig_id, plan.version, result["new_rig_version"], result["not_stored"]))
     return result
 
 

@@ -107,14 +107,32 @@ def _fmt(x: float) -> str:
     return "—" if x is None or (isinstance(x, float) and not math.isfinite(x)) else f"{x:.4g}"
 
 
-def html_page(d: Discovery, title: str = "hydrodiag discrepancy report") -> str:
-    """A self-contained HTML page of the report (inline SVG, no scripts, no external links)."""
+def stored_line(rig_id: int | None, version: int | None, new_version: int | None,
+                not_stored: str | None) -> str:
+    """What a run was checked against and what it stored, in one sentence ("" without a
+    rig): a report page said neither, so a reader could not tell that version 2 had been
+    stored, or why not (a modelling engineer's pass)."""
+    if rig_id is None:
+        return ""
+    what = f"Checked against rig {rig_id} version {version}"
+    if new_version is not None:
+        return f"{what}; the named effect is stored as version {new_version} of the rig."
+    if not_stored:
+        return f"{what}; {not_stored}."
+    return f"{what}; nothing was stored."
+
+
+def html_page(d: Discovery, title: str = "hydrodiag discrepancy report", *,
+              stored: str = "") -> str:
+    """A self-contained HTML page of the report (inline SVG, no scripts, no external
+    links); ``stored``: :func:`stored_line` of the run."""
     e = html.escape
     rep = d.to_dict()
     # an empty inline icon: a browser would otherwise ask the service for /favicon.ico
     parts = [f"<!doctype html><html lang='en'><head><meta charset='utf-8'><title>{e(title)}"
              "</title><link rel='icon' href='data:,'></head><body>", f"<h1>{e(title)}</h1>",
              f"<p><strong>Verdict: {e(d.verdict)}</strong> — {e(d.message)}</p>",
+             *([f"<p>{e(stored)}</p>"] if stored else []),
              f"<p>Training records: {e(', '.join(d.training))}; held out (edge of the operating "
              f"range): {e(', '.join(d.held_out) or 'none')}. Solver: {e(d.solver)}.</p>"]
     if d.named:
@@ -188,13 +206,14 @@ def html_page(d: Discovery, title: str = "hydrodiag discrepancy report") -> str:
     return "\n".join(parts)
 
 
-def write_report(d: Discovery, path: str | Path) -> dict[str, Any]:
-    """Write the HTML page to ``path`` and each chart as PNG and SVG beside it.
+def write_report(d: Discovery, path: str | Path, *, stored: str = "") -> dict[str, Any]:
+    """Write the HTML page to ``path`` (``stored``: :func:`stored_line` of the run) and each
+    chart as PNG and SVG beside it.
 
     Returns the written paths by kind.
     """
     p = Path(path)
-    p.write_text(html_page(d), encoding="utf-8")
+    p.write_text(html_page(d, stored=stored), encoding="utf-8")
     written: dict[str, Any] = {"html": str(p), "png": [], "svg": []}
     for stem, chart in charts(d).items():
         png = p.with_name(f"{p.stem}_{stem}.png")

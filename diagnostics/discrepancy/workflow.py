@@ -460,6 +460,13 @@ def _discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], 
         message += ("; one record only: every gap above is measured on the record the "
                     "parameters were fitted to, not on a held-out one (give records at two "
                     "or more loads or temperatures)")
+    strokes = {str(p) for r in records if r.phase is not None for p in np.unique(r.phase)}
+    missing = [p for p in ("working", "return") if p not in strokes]
+    if missing:
+        # a plain "no effect" on working strokes alone read as a clean bill for the whole
+        # cycle (a modelling engineer's pass)
+        message += (f"; no record has a {missing[0]} stroke: what acts only there (the "
+                    f"{missing[0]} stroke's friction, leakage and build-up) was not tested")
     detectable = {s.balance: s.detectable for s in selections}
     result = Discovery(outcome, message, named, selections, [r.name for r in train],
                        [r.name for r in records] and [records[i].name for i in held_i],

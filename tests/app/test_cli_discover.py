@@ -45,8 +45,10 @@ def test_discover_names_the_effect_stores_a_version_and_writes_the_report(
     body = json.loads(result.output[result.output.index("{"):])
     assert [n["name"] for n in body["named"]] == ["seal_friction_pressure"]
     assert body["new_rig_version"] == 2
+    assert (body["rig_id"], body["rig_version"]) == (1, 1)   # were null (a modelling pass)
     page = out.read_text()
     assert "seal_friction_pressure" in page and "<svg" in page
+    assert "Checked against rig 1 version 1; the named effect is stored as version 2" in page
     assert (tmp_path / "report_residual_vs_time.png").read_bytes()[:4] == b"\x89PNG"
     assert (tmp_path / "report_model_vs_measurement.svg").exists()
     bad = tmp_path / "bad.csv"

@@ -101,6 +101,7 @@ def test_hidden_friction_is_named_stored_and_the_new_version_matches_the_data(
     assert named["interval"][0] <= HIDDEN_KP <= named["interval"][1]
     assert result["held_out_records"] == ["load-6300"]
     assert result["new_rig_version"] == 2
+    assert "stored as version 2 of the rig" in result["html"]
     # the stored version has the element with its fitted parameter
     versions = server.client.get(f"/rigs/{rig_id}/versions").json()["items"]
     doc = next(v for v in versions if v["version"] == 2)["document"]

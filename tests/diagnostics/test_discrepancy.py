@@ -162,6 +162,19 @@ def test_time_in_ms_and_strange_stroke_labels_are_refused_before_any_work():
         assert err.value.field == "P1"
 
 
+def test_records_of_the_working_stroke_alone_say_the_return_was_not_tested():
+    import dataclasses
+
+    def working(r):
+        keep = r.phase == "working"
+        return dataclasses.replace(r, t=r.t[keep], phase=r.phase[keep],
+                                   channels={c: v[keep] for c, v in r.channels.items()})
+
+    recs = [working(r) for r in _records(reference_rig_document(), 8)]
+    d = discover(reference_rig_document(), recs, bootstrap=0)
+    assert "no record has a return stroke" in d.message
+
+
 def test_one_record_says_that_its_gap_is_not_held_out():
     d = discover(reference_rig_document(), _records(reference_rig_document(), 3)[:1],
                  bootstrap=0)
