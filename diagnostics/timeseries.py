@@ -392,6 +392,8 @@ def series_from_frame(frame: pd.DataFrame, *, name: str = "table",
                 raise InputError(f"NaN or infinite value in record {label!r} at its sample "
                                  f"{row + 1} (counting from 1)", field=raw)
             values[chan] = data * scale + offset
+            if columns[raw][1] == "degC":
+                _check_temperature(values[chan], raw, label)
         if time_col is None:
             assert sample_rate is not None
             t = np.arange(len(group), dtype=float) / sample_rate
@@ -429,6 +431,23 @@ def series_from_frame(frame: pd.DataFrame, *, name: str = "table",
         records.append(SeriesRecord(label, t, values, units, phase, condition, meta, measured,
                                     start))
     return records
+
+
+#: temperatures a hydraulic rig's channels can read [°C]: beyond them the column's unit is
+#: the other one (40 under ``[K]`` read −233 °C, and was refused later with two different
+#: bounds, naming neither the column nor the unit; a modelling engineer's pass)
+TEMPERATURE_RANGE_C = (-60.0, 250.0)
+
+
+def _check_temperature(values: Arr, column: str, label: str) -> None:
+    lo, hi = float(np.min(values)), float(np.max(values))
+    if lo < TEMPERATURE_RANGE_C[0] or hi > TEMPERATURE_RANGE_C[1]:
+        bad = lo if lo < TEMPERATURE_RANGE_C[0] else hi
+        other = "°C under a [K] label" if bad < 0 else "K (or °F) under a [degC] label"
+        raise InputError(
+            f"record {label!r} reads {bad:.4g} °C, outside the {TEMPERATURE_RANGE_C[0]:g} to "
+            f"{TEMPERATURE_RANGE_C[1]:g} °C a rig's temperature can have: is it in {other}?",
+            field=column)
 
 
 #: a logged spool command read as the phase it commands (paper 002 §3: N = +1 working,

@@ -127,6 +127,13 @@ def test_a_loggers_own_record_and_stroke_columns_map_to_the_labels():
         (pd.DataFrame({"t [s]": [0.0, 1.0], "P1 [Pa]": [1.0, np.nan]}), "P1 [Pa]", "NaN"),
         (pd.DataFrame({"P1 [Pa]": [1.0, 2.0]}), "t", "no time column"),
         (pd.DataFrame({"t [s]": [0.0, 1.0], "v [m/s]": [1.0, 2.0]}), "P1", "missing"),
+        # 40 °C written under [K] read −233 °C (a modelling engineer's pass)
+        (pd.DataFrame({"t [s]": [0.0, 1.0], "P1 [Pa]": [1.0, 2.0],
+                       "oil_temperature [K]": [40.0, 40.0]}), "oil_temperature [K]",
+         "is it in °C under a [K] label"),
+        (pd.DataFrame({"t [s]": [0.0, 1.0], "P1 [Pa]": [1.0, 2.0],
+                       "oil_temperature [degC]": [313.0, 313.0]}), "oil_temperature [degC]",
+         "K (or °F) under a [degC] label"),
     ],
 )
 def test_bad_tables_name_the_column(frame, field, words):
