@@ -57,6 +57,17 @@ def test_metrics_count_requests_per_route_template(server: LiveServer) -> None:
     count_line = next(line for line in text.splitlines() if line.startswith(
         'hydrodiag_http_request_duration_seconds_count{method="GET",route="/rigs/{rig_id}"}'))
     assert float(count_line.split()[-1]) >= 3
+    # the store's jobs by status, as one gauge line each (stuck jobs showed nowhere)
+    with server.session() as session:
+        from sqlalchemy import func, select
+
+        from app.db.models import Job
+        queued = session.scalar(select(func.count()).select_from(Job)
+                                .where(Job.status == "queued"))
+    assert f'hydrodiag_jobs{{status="queued"}} {queued}' in text
+    assert 'hydrodiag_jobs{status="succeeded"}' in text
+    from prometheus_client.parser import text_string_to_metric_families
+    assert "hydrodiag_jobs" in {f.name for f in text_string_to_metric_families(text)}
 
 
 @pytest.mark.parametrize(("method", "path", "status"), [

@@ -6,19 +6,22 @@ answers while every worker thread is busy with diagnoses (it never queues behind
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import Literal, get_args
 
 from fastapi import APIRouter, Request, Response
 from prometheus_client import CONTENT_TYPE_LATEST
 from pydantic import BaseModel, Field
-from sqlalchemy.exc import SQLAlchemyError
+from sqlalchemy import func, select
+from sqlalchemy.exc import InterfaceError, OperationalError, SQLAlchemyError
 
 from app import __version__
 from app.db import migrate
 from app.db.engine import ping
+from app.db.models import Job
 from app.errors import ServiceUnavailableError
 from app.metrics import exposition
 from app.schemas.common import error_doc
+from app.schemas.jobs import JobStatus
 
 __all__ = ["Health", "Readiness", "router"]
 
@@ -78,6 +81,20 @@ def ready(request: Request) -> Readiness:
     responses={200: {"content": {CONTENT_TYPE_LATEST: {}}, "description": "Prometheus text"}},
 )
 def metrics(request: Request) -> Response:
-    """Expose the counters in the Prometheus text format (every server worker's, summed)."""
+    """Expose the counters in the Prometheus text format (every server worker's, summed),
+    and the store's jobs by status (``hydrodiag_jobs``; read from the store, which every
+    worker and instance shares: stuck ``queued`` jobs showed nowhere, an operator pass)."""
     data = exposition(request.app.state.metrics.registry)
+    try:
+        with request.app.state.sessions() as session:
+            counts = {str(status): int(n) for status, n in session.execute(
+                select(Job.status, func.count()).group_by(Job.status))}
+    except (OperationalError, InterfaceError):   # the store away: the counters still
+        counts = None
+    if counts is not None:
+        lines = ["# HELP hydrodiag_jobs Jobs in the store by status",
+                 "# TYPE hydrodiag_jobs gauge"]
+        lines += [f'hydrodiag_jobs{{status="{status}"}} {counts.get(status, 0)}'
+                  for status in get_args(JobStatus)]
+        data += ("\n".join(lines) + "\n").encode()
     return Response(content=data, media_type=CONTENT_TYPE_LATEST)
