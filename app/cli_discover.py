@@ -80,7 +80,7 @@ def discover(
     from app.services.discrepancy import data_field, plan_discrepancy, store_discovery
     from app.services.rig_cache import RigCache
     from diagnostics.discrepancy import discover as run
-    from diagnostics.discrepancy.report import stored_line, write_report
+    from diagnostics.discrepancy.report import DRIFT_INTERVALS, stored_line, write_report
     from diagnostics.discrepancy.steady import discover_steady
 
     if (data is None) == (series is None):
@@ -165,6 +165,7 @@ def discover(
         for k in d.base_drift.kept:
             table.add_row(k, "", "kept as stored", "", "")
         _out.print(table)
+        _out.print(DRIFT_INTERVALS, markup=False)
 
 
 #: form fields of POST /discrepancy → the options that fill them here

@@ -229,6 +229,7 @@ def test_a_drifted_rig_is_base_drift_not_a_new_effect():
     assert d.to_dict()["base_drift"]["parameters"][0]["unit"]
     page = html_page(d)
     assert "they close the gap: base drift" in page and "with base drift" in page
+    assert "narrower than the spread of the estimates" in page   # what the intervals are
     assert "[[" not in page and "[&#x27;" not in page   # groups as words, not Python's lists
 
 
