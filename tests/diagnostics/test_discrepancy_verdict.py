@@ -44,3 +44,19 @@ def test_no_effect_cycles_stay_no_effect() -> None:
     # within 3× the noise when the floor is below it: not a gap either
     noisy = {c: 2.5 * SIGMA[c] for c in SIGMA}
     assert build_up_gaps(_rows(noisy, {c: 0.1 * SIGMA[c] for c in SIGMA}), SIGMA) == []
+
+
+def test_an_unexplained_verdict_names_what_the_design_cannot_tell_from_the_base() -> None:
+    # a speed offset logged at one pump speed: its constant flow is the displacement's on
+    # this design, and the answer said "possibly outside the library" (a modelling pass)
+    from types import SimpleNamespace
+
+    from diagnostics.discrepancy.verdict import _hidden_in_base
+
+    pump = SimpleNamespace(balance="pump_flow", ambiguity=[
+        ["base", "speed_offset"], ["base", "pump_compressibility_loss"]])
+    force = SimpleNamespace(balance="piston_force", ambiguity=[["stribeck", "couette"]])
+    text = _hidden_in_base([pump, force])  # type: ignore[list-item]
+    assert "pump_compressibility_loss, speed_offset (pump_flow balance)" in text
+    assert "piston_force" not in text and "pump speed for a speed offset" in text
+    assert _hidden_in_base([force]) == ""  # type: ignore[list-item]
