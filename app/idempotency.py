@@ -274,6 +274,10 @@ class IdempotencyMiddleware:
     def _claim(self, key: str, method: str, path: str, digest: str, request: Request,
                api_key: str) -> _Outcome:
         now = utcnow()
+        limiter = getattr(request.app.state, "failed_keys", None)
+        client = request.client.host if request.client is not None else "-"
+        if limiter is not None and limiter.wait_for(client) > 0:
+            return _Outcome()   # too many wrong keys from there: the route answers 429
         with self.sessions() as session:
             try:   # the owner: the key's rotation chain (module docstring)
                 sender = authenticate(session, api_key)

@@ -32,7 +32,7 @@ from app.lifeline import exit_with_parent
 from app.limits import BodyLimitMiddleware
 from app.logs import RequestLogMiddleware, configure_logging
 from app.metrics import HttpMetrics, MetricsMiddleware
-from app.ratelimit import KeyRateLimiter
+from app.ratelimit import FAILED_KEYS_PER_MINUTE, KeyRateLimiter
 from app.security import Scope
 from app.services.bootstrap import bootstrap_lock, ensure_reference_data, upgrade_database
 from app.services.clearance import ClearanceEstimator
@@ -214,6 +214,7 @@ def create_app(
     app.state.diagnosis_writer = GroupCommitter(sessions)
     app.state.sweep_executors = SweepExecutors(workers=settings.sweep_workers,
                                                dask_scheduler=settings.dask_scheduler)
+    app.state.failed_keys = KeyRateLimiter(FAILED_KEYS_PER_MINUTE)
     app.state.rate_limiter = (KeyRateLimiter(settings.rate_limit_per_minute)
                               if settings.rate_limit_per_minute else None)
     app.add_middleware(CatchAllMiddleware)  # innermost: a 500 logged once, with its id

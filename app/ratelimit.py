@@ -1,5 +1,11 @@
 """Requests per API key and minute: a token bucket per key, in each server process.
 
+The same buckets, per client address, bound the wrong API keys a client may try
+(:data:`FAILED_KEYS_PER_MINUTE`): each costs a key derivation (scrypt, ~13 ms of CPU), and
+a client sending wrong secrets could keep both cores of a small server busy (an operator
+pass); over the bound, a key this process has not verified before is answered 429
+without being checked.
+
 With ``HYDRODIAG_RATE_LIMIT_PER_MINUTE=N`` (default 0: no limit) each key may send ``N``
 requests in a burst and then ``N`` per minute; a request over that is answered 429 with
 ``Retry-After`` (whole seconds until a request would be accepted).  Each worker process
@@ -13,7 +19,11 @@ import threading
 import time
 from collections import OrderedDict
 
-__all__ = ["KeyRateLimiter"]
+__all__ = ["FAILED_KEYS_PER_MINUTE", "KeyRateLimiter"]
+
+#: Wrong API keys a client address may send per minute (and in a burst) before the keys it
+#: sends that this process has not verified before are refused unchecked [1/min].
+FAILED_KEYS_PER_MINUTE = 30
 
 
 class KeyRateLimiter:
@@ -51,6 +61,14 @@ class KeyRateLimiter:
             while len(self._buckets) > self._max_keys:
                 self._buckets.popitem(last=False)
             return wait
+
+    def wait_for(self, key: str, now: float | None = None) -> float:
+        """The wait [s] before ``key`` has a token, without taking one (0: it has)."""
+        now = time.monotonic() if now is None else now
+        with self._lock:
+            tokens, stamp = self._buckets.get(key, (self.capacity, now))
+            tokens = min(self.capacity, tokens + (now - stamp) * self.rate)
+            return 0.0 if tokens >= 1.0 else (1.0 - tokens) / self.rate
 
     @staticmethod
     def retry_after(wait: float) -> int:

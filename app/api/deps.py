@@ -10,7 +10,8 @@ key.  A valid key without the scope an operation needs is answered 403 (``ScopeE
 
 from __future__ import annotations
 
-from collections.abc import AsyncIterator
+from collections.abc import AsyncIterator, Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Annotated, Any
 
@@ -29,6 +30,7 @@ from app.services.executors import SweepExecutors
 from app.services.keys import API_KEY_HEADER, authenticate, authenticate_on_loop
 from app.services.rig_cache import RigCache
 from app.settings import Settings
+from sim.errors import AuthError
 
 __all__ = [
     "OPEN_READ_ACCESS",
@@ -126,10 +128,41 @@ def require_key(
     request)."""
     cached: ApiKey | None = getattr(request.state, "api_key", None)
     if cached is None:
-        cached = authenticate(session, key)
+        with _failures_counted(request, key):
+            cached = authenticate(session, key, before_check=_guard(request))
         _count_rate(request, cached.prefix)
         request.state.api_key = cached
     return cached
+
+
+def _client(request: Request) -> str:
+    return request.client.host if request.client is not None else "-"
+
+
+def _guard(request: Request) -> Callable[[], None]:
+    """What runs before a key is derived (scrypt): 429 when the client's address has sent
+    more wrong keys than :data:`~app.ratelimit.FAILED_KEYS_PER_MINUTE` allows."""
+    def check() -> None:
+        limiter: KeyRateLimiter = request.app.state.failed_keys
+        wait = limiter.wait_for(_client(request))
+        if wait > 0:
+            raise RateLimitError(
+                f"more than {int(limiter.capacity)} wrong API keys a minute came from this "
+                f"address; a key not checked before is checked again in "
+                f"{limiter.retry_after(wait)} s", retry_after=limiter.retry_after(wait),
+                field=API_KEY_HEADER)
+    return check
+
+
+@contextmanager
+def _failures_counted(request: Request, key: str | None) -> Iterator[None]:
+    """Count a wrong key (one sent, not a missing one) against its client's address."""
+    try:
+        yield
+    except AuthError:
+        if key:
+            request.app.state.failed_keys.acquire(_client(request))
+        raise
 
 
 def _count_rate(request: Request, prefix: str) -> None:
@@ -156,7 +189,9 @@ async def require_key_on_loop(request: Request, key: str | None, needed: Scope) 
     """
     row: Any = getattr(request.state, "api_key", None)
     if row is None:
-        row = await authenticate_on_loop(request.app.state.engine, key)
+        with _failures_counted(request, key):
+            row = await authenticate_on_loop(request.app.state.engine, key,
+                                             before_check=_guard(request))
         _count_rate(request, row.prefix)
         request.state.api_key = row
     if not Scope(row.scope).allows(needed):
