@@ -237,13 +237,25 @@ class RigChannels:
         not by its model's outputs, and gets no note."""
         if not self.cycle:
             return []
+        notes = []
         names = {c for r in rows for c in r.units}
         unknown = sorted(names - set(self.units) - set(CONDITION_CHANNELS) - set(READ_CHANNELS))
-        if not unknown:
-            return []
-        return [f"channel(s) {', '.join(unknown)} are not channels of the rig's model "
-                f"({', '.join(self.units)}): stored as given, but no comparison or diagnosis "
-                "reads them; a misspelt name is imported again with the column map corrected"]
+        if unknown:
+            notes.append(f"channel(s) {', '.join(unknown)} are not channels of the rig's model "
+                         f"({', '.join(self.units)}): stored as given, but no comparison or "
+                         "diagnosis reads them; a misspelt name is imported again with the "
+                         "column map corrected")
+        for key, column in (("load", "load [N]"), ("oil_temperature", "oil_temperature [degC]")):
+            # stored, then refused by every reader (a modelling engineer's pass): said now
+            silent = [r.record for r in rows if key not in (r.condition or {})
+                      and key not in r.units]
+            if silent:
+                shown = ", ".join(repr(n) for n in silent[:3]) + (" …" if len(silent) > 3
+                                                                   else "")
+                notes.append(f"record(s) {shown} state no {key.replace('_', ' ')}: the "
+                             "discrepancy workflow refuses them and GET /series/{id}/record "
+                             f"needs it in its query; a constant '{column}' column states it")
+        return notes
 
 
 def rig_channels(session: Session, rig_id: int) -> RigChannels:

@@ -263,8 +263,11 @@ def test_a_channel_of_the_rig_in_a_unit_of_another_quantity_is_refused(
                                                    "PB": ["P2", "bar"]})},
         files={"file": ("log.csv", content, "text/csv")}, headers=server.auth)
     assert typo.status_code == 201, typo.text
-    (note,) = typo.json()["notes"]
+    note, load, temperature = typo.json()["notes"]
     assert note.startswith("channel(s) P9 are not channels of the rig's model")
+    # stored without a load or temperature: said now, not only when a reader refuses it
+    assert "state no load" in load and "'load [N]' column" in load
+    assert "state no oil temperature" in temperature
     listed = server.client.get("/rigs/1/series").json()
     assert listed["notes"] == []
     # a pump flow meter is no output of the model, yet a cycle's readings use it: no note
@@ -272,7 +275,8 @@ def test_a_channel_of_the_rig_in_a_unit_of_another_quantity_is_refused(
         "name": "units", "column_map": json.dumps({"time": ["t", "s"], "PA": ["Q_pump", "L/min"],
                                                    "PB": ["P2", "bar"]})},
         files={"file": ("log.csv", content, "text/csv")}, headers=server.auth)
-    assert metered.status_code == 201 and metered.json()["notes"] == []
+    assert metered.status_code == 201
+    assert not any("not channels" in n for n in metered.json()["notes"])
 
 
 def test_the_same_import_twice_is_refused_and_a_days_new_file_is_not(
