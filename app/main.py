@@ -9,6 +9,7 @@ that factory itself for several workers.  Every process warms the stored rigs at
 
 from __future__ import annotations
 
+import gc
 import logging
 import multiprocessing
 from collections.abc import AsyncIterator
@@ -189,6 +190,7 @@ def create_app(
             app.state.diagnosis_writer.shutdown()
             app.state.sweep_executors.shutdown()
             engine.dispose()
+            gc.unfreeze()   # what start-up froze is collectable again (several apps: tests)
 
     # /docs and /redoc from files shipped with fastapi-offline, not a CDN: on a plant
     # network without the internet they were blank pages (a first-day user pass)

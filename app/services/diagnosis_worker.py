@@ -42,6 +42,7 @@ from app.services.diagnosis import compute_group
 from app.services.diagnosis_form import RecordForm, RequestForm
 from app.services.diagnosis_task import DiagnoseTask, TaskFailure, run_task
 from app.services.rig_cache import RigCache, RigKey
+from app.services.warmup import settle_heap
 from diagnostics.measurement import MeasurementRecord, OperatingCondition
 from sim.errors import HydrodiagError
 from sim.rigs import Rig
@@ -164,6 +165,7 @@ def serve_pipe(connection: Connection, url: str | None, cache_size: int, parent:
         task = None if rig is None or url is None else warm_task(key, rig)
         if task is not None and isinstance(worker.handle("request", task), TaskFailure):
             logger.warning("the warm-up request of rig %s failed", key[0])
+    settle_heap()   # the warm heap out of the collector's sight (app.services.warmup)
     connection.send_bytes(pickle.dumps(("ready", os.getpid())))
     while True:
         try:

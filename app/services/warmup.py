@@ -13,6 +13,7 @@ worker that is still loading.
 
 from __future__ import annotations
 
+import gc
 import logging
 import threading
 import time
@@ -112,4 +113,15 @@ class Warmup:
         finally:
             self.seconds = time.perf_counter() - started
             logger.info("rigs loaded: %d in %.1f s", len(self.loaded), self.seconds)
+            settle_heap()
             self._done.set()
+
+
+def settle_heap() -> None:
+    """Move what start-up made (modules, compiled rigs, the app) out of the garbage
+    collector's sight (``gc.freeze``): a full collection traversed all of it, holding the
+    interpreter for ~170 ms while a trends request allocated its rows, and ``/health`` p99
+    rose to ~200 ms under two readers of trends (30 ms with the collector off; an operator
+    pass).  Objects made later are collected as before."""
+    gc.collect()
+    gc.freeze()

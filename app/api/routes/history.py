@@ -7,9 +7,10 @@ from __future__ import annotations
 
 from typing import Annotated, Any
 
-from fastapi import APIRouter, Path, Query
+from fastapi import APIRouter, Path, Query, Response
 
 from app.api.deps import PageDep, ReadAccess, SessionDep
+from app.api.rendered import rendered
 from app.db.models import Diagnosis, DiagnosisEstimate, Measurement
 from app.schemas.common import ERROR_RESPONSES, MAX_ID, IsoDatetime
 from app.schemas.history import (
@@ -76,18 +77,19 @@ def _diagnosis(row: Diagnosis) -> StoredDiagnosisPublic:
         result=row.result, created_at=row.created_at)
 
 
-@router.get("/measurements", summary="List stored measurement records")
+@router.get("/measurements", summary="List stored measurement records",
+            response_model=StoredMeasurementList)
 def list_measurements(session: SessionDep, page: PageDep, rig_id: RigFilter = None,
                       since: Since = None, until: Until = None, after_id: AfterId = None
-                      ) -> StoredMeasurementList:
+                      ) -> Response:
     """Return a page of the records stored by ``/diagnose``, newest measurement first, or
     with ``after_id`` those stored after it, in storing order."""
     rows, total = service.list_measurements(session, limit=page.limit, offset=page.offset,
                                             rig_id=rig_id, since=since, until=until,
                                             after_id=after_id)
-    return StoredMeasurementList(items=[_measurement(r) for r in rows], total=total,
-                                 limit=page.limit, offset=page.offset,
-                                 next_after_id=_next(after_id, [r.id for r in rows]))
+    return rendered(StoredMeasurementList(
+        items=[_measurement(r) for r in rows], total=total, limit=page.limit,
+        offset=page.offset, next_after_id=_next(after_id, [r.id for r in rows])))
 
 
 @router.get("/measurements/{measurement_id}", summary="Get a stored measurement record")
@@ -100,7 +102,7 @@ def get_measurement(
     return _measurement(service.get_measurement(session, measurement_id))
 
 
-@router.get("/diagnoses", summary="List stored diagnoses")
+@router.get("/diagnoses", summary="List stored diagnoses", response_model=StoredDiagnosisList)
 def list_diagnoses(
     session: SessionDep, page: PageDep, rig_id: RigFilter = None, since: Since = None,
     until: Until = None,
@@ -110,15 +112,15 @@ def list_diagnoses(
         "'healthy' or 'unexplained' only itself [-]",
         examples=["valve"])] = None,
     after_id: AfterId = None,
-) -> StoredDiagnosisList:
+) -> Response:
     """Return a page of stored diagnoses, newest record first, or with ``after_id`` those
     stored after it, in storing order."""
     rows, total = service.list_diagnoses(session, limit=page.limit, offset=page.offset,
                                          rig_id=rig_id, since=since, until=until,
                                          component=component, after_id=after_id)
-    return StoredDiagnosisList(items=[_diagnosis(r) for r in rows], total=total,
-                               limit=page.limit, offset=page.offset,
-                               next_after_id=_next(after_id, [r.id for r in rows]))
+    return rendered(StoredDiagnosisList(
+        items=[_diagnosis(r) for r in rows], total=total, limit=page.limit,
+        offset=page.offset, next_after_id=_next(after_id, [r.id for r in rows])))
 
 
 @router.get("/diagnoses/{diagnosis_id}", summary="Get a stored diagnosis")

@@ -4,10 +4,11 @@ from __future__ import annotations
 
 from typing import Annotated, Any, Literal
 
-from fastapi import APIRouter, Path, Query
+from fastapi import APIRouter, Path, Query, Response
 from fastapi.responses import HTMLResponse
 
 from app.api.deps import PageDep, ReadAccess, SessionDep, WriteKeyDep
+from app.api.rendered import rendered
 from app.schemas.common import ERROR_RESPONSES
 from app.schemas.jobs import JobList, JobPublic, JobStatus, job_summary
 from app.services import jobs as service
@@ -19,7 +20,7 @@ router = APIRouter(prefix="/jobs", tags=["jobs"], dependencies=[ReadAccess],
                    responses=ERROR_RESPONSES)
 
 
-@router.get("", summary="List jobs")
+@router.get("", summary="List jobs", response_model=JobList)
 def list_jobs(
     session: SessionDep,
     page: PageDep,
@@ -30,13 +31,13 @@ def list_jobs(
     results: Annotated[bool, Query(
         description="Give each job's result (a sweep's can be megabytes); by default null, "
         "read from GET /jobs/{id} [-]", examples=[False])] = False,
-) -> JobList:
+) -> Response:
     """Return a page of jobs, newest first, without their results unless asked."""
     rows, total = service.list_jobs(session, limit=page.limit, offset=page.offset,
                                     status=status, kind=kind, results=results)
     items = [JobPublic.model_validate(j) if results else job_summary(j) for j in rows]
-    return JobList(items=items, total=total, limit=page.limit, offset=page.offset,
-                   results=results)
+    return rendered(JobList(items=items, total=total, limit=page.limit, offset=page.offset,
+                            results=results))
 
 
 @router.get("/{job_id}", summary="Get a job's status, progress and outcome",
@@ -60,7 +61,7 @@ def get_job(
             raise InputError(f"job {job_id} has no HTML report (status {job.status!r}, kind "
                              f"{job.kind!r})", field="format")
         return HTMLResponse(page)
-    return JobPublic.model_validate(job)
+    return rendered(JobPublic.model_validate(job))
 
 
 @router.post("/{job_id}/cancel", summary="Cancel a job", response_model=JobPublic,

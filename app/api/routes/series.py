@@ -7,6 +7,7 @@ from typing import Annotated
 from fastapi import APIRouter, File, Form, Path, Query, Response, UploadFile, status
 
 from app.api.deps import AdminKeyDep, PageDep, ReadAccess, RigsDep, SessionDep, WriteKeyDep
+from app.api.rendered import rendered
 from app.schemas.common import ERROR_RESPONSES, MAX_ID
 from app.schemas.series import (
     CYCLE_EXAMPLE,
@@ -65,10 +66,11 @@ def list_series(rig_id: RigId, session: SessionDep, page: PageDep) -> SeriesList
                       limit=page.limit, offset=page.offset)
 
 
-@router.get("/series/{series_id}", summary="Get a measured record with its samples")
-def get_series(series_id: SeriesId, session: SessionDep) -> SeriesData:
+@router.get("/series/{series_id}", summary="Get a measured record with its samples",
+            response_model=SeriesData)
+def get_series(series_id: SeriesId, session: SessionDep) -> Response:
     """Return the record with its samples in SI units."""
-    return SeriesData.of(service.get_series(session, series_id))
+    return rendered(SeriesData.of(service.get_series(session, series_id)))
 
 
 @router.delete("/series/{series_id}", status_code=status.HTTP_204_NO_CONTENT,

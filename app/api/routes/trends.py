@@ -4,9 +4,10 @@ from __future__ import annotations
 
 from typing import Annotated
 
-from fastapi import APIRouter, Query
+from fastapi import APIRouter, Query, Response
 
 from app.api.deps import ReadAccess, RigsDep, SessionDep
+from app.api.rendered import rendered
 from app.api.routes.rigs import RigId
 from app.schemas.common import ERROR_RESPONSES, IsoDatetime
 from app.schemas.trends import ComponentTrend, TrendComponent, TrendPoint, TrendsPublic
@@ -40,7 +41,8 @@ def _public(trend: ComponentTrendOut) -> ComponentTrend:
     )
 
 
-@router.get("/rigs/{rig_id}/trends", summary="Trends of a rig's components from its history")
+@router.get("/rigs/{rig_id}/trends", summary="Trends of a rig's components from its history",
+            response_model=TrendsPublic)
 def trends(
     rig_id: RigId,
     session: SessionDep,
@@ -60,9 +62,9 @@ def trends(
         ge=2, le=MAX_TREND_POINTS, description="Most points of each series in the answer, "
         "thinned evenly (the first and the latest kept); the slope and forecast use every "
         "point [-]", examples=[DEFAULT_TREND_POINTS])] = DEFAULT_TREND_POINTS,
-) -> TrendsPublic:
+) -> Response:
     """Per component: the series of estimates, the Theil-Sen slope with its interval, and
     the time left until the threshold with its interval (``diagnostics.trends``)."""
     found = component_trends(session, rigs, rig_id, component=component, threshold=threshold,
                              since=since, until=until, max_points=max_points)
-    return TrendsPublic(rig_id=rig_id, components=[_public(t) for t in found])
+    return rendered(TrendsPublic(rig_id=rig_id, components=[_public(t) for t in found]))
