@@ -106,6 +106,19 @@ def _app(tmp_path: Path, release: threading.Event) -> tuple[FastAPI, Any, list[i
     return app, sessions, runs
 
 
+def _post_slow(app: FastAPI, key: str, api_key: str | None = None) -> httpx.Response:
+    """``POST /slow`` with ``Idempotency-Key: key`` and the app's own API key (or
+    ``api_key``), through the ASGI transport."""
+    async def post() -> httpx.Response:
+        transport = httpx.ASGITransport(app=app)
+        async with httpx.AsyncClient(transport=transport, base_url="http://t") as client:
+            return await client.post("/slow", json={}, headers={
+                "Idempotency-Key": key,
+                "X-API-Key": api_key or _app.key})  # type: ignore[attr-defined]
+
+    return asyncio.run(post())
+
+
 def test_a_retry_while_the_first_request_runs_is_asked_to_wait(tmp_path: Path) -> None:
     release = threading.Event()
     app, _, runs = _app(tmp_path, release)
@@ -140,22 +153,16 @@ def test_a_first_request_whose_process_died_no_longer_blocks_its_key(tmp_path: P
                                       touched_at=now, expires_at=now + timedelta(hours=1)))
         session.commit()
 
-    async def post() -> httpx.Response:
-        transport = httpx.ASGITransport(app=app)
-        async with httpx.AsyncClient(transport=transport, base_url="http://t") as client:
-            return await client.post("/slow", json={}, headers={
-                "Idempotency-Key": "k2", "X-API-Key": _app.key})  # type: ignore[attr-defined]
-
     with sessions() as session:   # the owner: the sender's key's rotation chain
         session.execute(update(IdempotentRequest).values(owner=owner_of(1)))
         session.commit()
-    assert asyncio.run(post()).status_code == 422      # another request's digest
+    assert _post_slow(app, "k2").status_code == 422      # another request's digest
     same = _digest(b"POST", b"/slow", b"", b"application/json", b"{}")  # canonical JSON
     with sessions() as session:
         session.execute(update(IdempotentRequest).values(
             digest=same, touched_at=now - timedelta(seconds=STALE_S + 1)))
         session.commit()
-    taken = asyncio.run(post())
+    taken = _post_slow(app, "k2")
     assert taken.status_code == 201 and len(runs) == 1
 
 
@@ -241,13 +248,7 @@ def test_a_write_stored_whose_answer_was_lost_is_not_done_again(tmp_path: Path) 
             expires_at=now + timedelta(hours=1), stored_at=now - timedelta(seconds=40)))
         session.commit()
 
-    async def post() -> httpx.Response:
-        transport = httpx.ASGITransport(app=app)
-        async with httpx.AsyncClient(transport=transport, base_url="http://t") as client:
-            return await client.post("/slow", json={}, headers={
-                "Idempotency-Key": "k5", "X-API-Key": _app.key})  # type: ignore[attr-defined]
-
-    refused = asyncio.run(post())
+    refused = _post_slow(app, "k5")
     assert refused.status_code == 409 and "Retry-After" not in refused.headers
     error = refused.json()["error"]
     assert error["field"] == "Idempotency-Key" and "stored at" in error["message"]
@@ -348,13 +349,7 @@ def test_a_key_whose_process_stopped_marking_it_says_when_it_frees_itself(
             expires_at=now + timedelta(hours=1)))
         session.commit()
 
-    async def post() -> httpx.Response:
-        transport = httpx.ASGITransport(app=app)
-        async with httpx.AsyncClient(transport=transport, base_url="http://t") as client:
-            return await client.post("/slow", json={}, headers={
-                "Idempotency-Key": "k6", "X-API-Key": _app.key})  # type: ignore[attr-defined]
-
-    held = asyncio.run(post())
+    held = _post_slow(app, "k6")
     assert held.status_code == 409 and runs == []
     assert 8 <= int(held.headers["Retry-After"]) <= 10     # STALE_S 30 − 20 quiet
     assert "has most likely stopped" in held.json()["error"]["message"]
