@@ -140,6 +140,11 @@ def _replaying(body: bytes, receive: Receive) -> Receive:
     return replay
 
 
+class _UncheckedKeyError(Exception):
+    """A key left unchecked: its client's address sent too many wrong keys
+    (:data:`app.ratelimit.FAILED_KEYS_PER_MINUTE`); the route refuses it the same way."""
+
+
 class _Outcome:
     """What the store says about a key: run it and keep the answer (``row_id``), answer
     ``response``, or neither (run it as a request without the header)."""
@@ -276,12 +281,15 @@ class IdempotencyMiddleware:
         now = utcnow()
         limiter = getattr(request.app.state, "failed_keys", None)
         client = request.client.host if request.client is not None else "-"
-        if limiter is not None and limiter.wait_for(client) > 0:
-            return _Outcome()   # too many wrong keys from there: the route answers 429
+
+        def guard() -> None:   # a key not verified before, from an address over its bound
+            if limiter is not None and limiter.wait_for(client) > 0:
+                raise _UncheckedKeyError
+
         with self.sessions() as session:
             try:   # the owner: the key's rotation chain (module docstring)
-                sender = authenticate(session, api_key)
-            except AuthError:   # the route answers 401; nothing kept
+                sender = authenticate(session, api_key, before_check=guard)
+            except (AuthError, _UncheckedKeyError):   # the route answers 401 (429); nothing kept
                 return _Outcome()
             owner = owner_of(sender.lineage_id or sender.id)
             session.execute(delete(IdempotentRequest)
