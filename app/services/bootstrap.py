@@ -9,7 +9,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from sqlalchemy import Engine, select, text
-from sqlalchemy.exc import DatabaseError, OperationalError
+from sqlalchemy.exc import DatabaseError
 from sqlalchemy.orm import Session
 
 from app.db import migrate
@@ -114,8 +114,9 @@ def _check_writable(engine: Engine) -> None:
         with engine.connect() as connection:
             connection.execute(text("UPDATE alembic_version SET version_num = version_num"))
             connection.rollback()
-    except OperationalError as exc:
-        if "readonly" not in str(exc).lower() and "read-only" not in str(exc).lower():
+    except DatabaseError as exc:
+        said = str(exc).lower()
+        if not any(w in said for w in ("readonly", "read-only", "permission denied")):
             raise
         raise InputError(f"the store {_where(engine)} is read-only: the service writes its "
                          "history there (file and folder permissions, or the database "

@@ -329,8 +329,8 @@ def list_jobs(
     results: bool = True,
 ) -> tuple[Sequence[Job], int]:
     """Return a page of jobs, newest first; without ``results`` their ``result`` is not
-    read (:func:`without_result`: a 5,000-point sweep's is 3 MB, and a listing of seven
-    jobs was 3.35 MB; an operator pass)."""
+    read (:func:`app.schemas.jobs.job_summary` shows them without: a 5,000-point sweep's
+    is 3 MB, and a listing of seven jobs was 3.35 MB; an operator pass)."""
     statement = select(Job).order_by(Job.created_at.desc(), Job.id)
     if not results:
         statement = statement.options(defer(Job.result, raiseload=True))
