@@ -103,6 +103,23 @@ class Rig:
             oil_temperature=c["oil_temperature"].value if "oil_temperature" in c else 40.0,
         )
 
+    @staticmethod
+    def _check_speed(speed: float, stated: float | None, field: str) -> None:
+        """Refuse a pump speed [rad/s] beyond :data:`MAX_PUMP_SPEED` or more than
+        :data:`OVERSPEED` times the rig's ``stated`` one, naming ``field``: rpm typed where
+        rad/s is asked passed the 2000 rad/s ceiling unnoticed (a user pass: 1450 "rpm" ran
+        the pump at 13,850 rpm, 221 L/min), as a condition and, until now, as an override
+        of ``pump.speed``."""
+        if not 0 < speed <= MAX_PUMP_SPEED:
+            raise ParameterError(f"pump speed must be > 0 and ≤ {MAX_PUMP_SPEED:g} rad/s "
+                                 f"(~19,000 rpm), got {speed:g}", field=field)
+        if stated is not None and speed > OVERSPEED * stated:
+            raise ParameterError(
+                f"pump speed {speed:g} rad/s ({speed * 30 / math.pi:.0f} rpm) is more than "
+                f"{OVERSPEED:g} times the rig's {stated:.4g} rad/s "
+                f"({stated * 30 / math.pi:.0f} rpm): pump speeds are in rad/s (1 rpm = "
+                "π/30 rad/s)", field=field)
+
     def _check_relations(self, v: Mapping[str, float], overrides: Mapping[str, float]) -> None:
         """Refuse overrides that break their component's geometry (a rod thicker than the
         bore, a clearance wider than the radius), naming the override."""
@@ -162,21 +179,12 @@ class Rig:
             v[key] = float(value)
         if overrides:
             self._check_relations(v, overrides)
+            if "pump.speed" in overrides:
+                self._check_speed(float(overrides["pump.speed"]), self.base.get("pump.speed"),
+                                  "overrides.pump.speed")
         self.check_condition(cond)
         if cond.pump_speed is not None:
-            if not 0 < cond.pump_speed <= MAX_PUMP_SPEED:
-                raise ParameterError(f"pump speed must be > 0 and ≤ {MAX_PUMP_SPEED:g} rad/s "
-                                     f"(~19,000 rpm), got {cond.pump_speed:g}",
-                                     field="condition.pump_speed")
-            stated = v.get("pump.speed")
-            if stated is not None and cond.pump_speed > OVERSPEED * stated:
-                # rpm typed where rad/s is asked passed the 2000 rad/s ceiling unnoticed
-                # (a user pass: 1450 "rpm" ran the pump at 13,850 rpm, 221 L/min)
-                raise ParameterError(
-                    f"pump speed {cond.pump_speed:g} rad/s ({cond.pump_speed * 30 / math.pi:.0f}"
-                    f" rpm) is more than {OVERSPEED:g} times the rig's {stated:.4g} rad/s "
-                    f"({stated * 30 / math.pi:.0f} rpm): pump_speed is in rad/s (1 rpm = "
-                    "π/30 rad/s)", field="condition.pump_speed")
+            self._check_speed(cond.pump_speed, v.get("pump.speed"), "condition.pump_speed")
             v["pump.speed"] = cond.pump_speed
         for attribute, target in circuit.condition_targets.items():
             v[target] = getattr(cond, attribute)

@@ -130,7 +130,12 @@ def test_a_pump_speed_in_rpm_is_refused_with_the_unit_named() -> None:
     with pytest.raises(ParameterError) as e:
         rig.values(condition=Condition(load=2100.0, oil_temperature=40.0, pump_speed=1450.0))
     assert e.value.field == "condition.pump_speed"
-    assert "is in rad/s" in e.value.message and "(1600 rpm)" in e.value.message
+    assert "in rad/s" in e.value.message and "(1600 rpm)" in e.value.message
+    # the same number as an override of the pump's own speed passed unchecked
+    rig.values({"pump.speed": 2.0 * stated})
+    with pytest.raises(ParameterError) as e:
+        rig.values({"pump.speed": 1450.0})
+    assert e.value.field == "overrides.pump.speed" and "(1600 rpm)" in e.value.message
 
 
 def test_a_bound_broken_in_another_unit_is_said_as_written() -> None:
