@@ -49,13 +49,42 @@ def shared_metrics() -> Iterator[str]:
     if own:
         yield own
         return
-    folder = tempfile.mkdtemp(prefix="hydrodiag-metrics-")
+    _remove_orphans()
+    folder = tempfile.mkdtemp(prefix=f"{_PREFIX}{os.getpid()}-")
     os.environ[MULTIPROCESS_DIR] = folder
     try:
         yield folder
     finally:
         os.environ.pop(MULTIPROCESS_DIR, None)
         shutil.rmtree(folder, ignore_errors=True)
+
+
+#: Name of a metrics folder: the prefix, the serving process's id, a random part.
+_PREFIX = "hydrodiag-metrics-"
+
+
+def _remove_orphans() -> None:
+    """Remove the metrics folders of ``serve`` processes that no longer run: a kill -9
+    left its folder in the temporary directory, and a crash loop piles them up (an operator
+    pass found 20)."""
+    root = tempfile.gettempdir()
+    for name in os.listdir(root):
+        if not name.startswith(_PREFIX):
+            continue
+        pid = name[len(_PREFIX):].split("-", 1)[0]
+        if not pid.isdigit() or _alive(int(pid)):
+            continue
+        shutil.rmtree(os.path.join(root, name), ignore_errors=True)
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:   # another user's process: alive
+        return True
+    return True
 
 
 def exposition(registry: CollectorRegistry) -> bytes:

@@ -123,3 +123,25 @@ def test_a_killed_supervisor_takes_its_workers_with_it(tmp_path: Path) -> None:
         for pid in descendants:
             if _alive(pid):
                 os.kill(pid, signal.SIGKILL)
+
+
+def test_the_metrics_folder_of_a_dead_serve_is_removed_at_the_next_start(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # kill -9 of serve left its folder in /tmp; a crash loop piled them up (an operator pass)
+    import tempfile
+
+    from app.metrics import MULTIPROCESS_DIR, shared_metrics
+
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+    monkeypatch.delenv(MULTIPROCESS_DIR, raising=False)
+    dead = subprocess.Popen(["true"])
+    dead.wait()
+    orphan = tmp_path / f"hydrodiag-metrics-{dead.pid}-abc"
+    living = tmp_path / f"hydrodiag-metrics-{os.getpid()}-def"
+    other = tmp_path / "hydrodiag-metrics-notapid"
+    for folder in (orphan, living, other):
+        folder.mkdir()
+    with shared_metrics() as folder:
+        assert folder.startswith(str(tmp_path / f"hydrodiag-metrics-{os.getpid()}-"))
+        assert not orphan.exists() and living.exists() and other.exists()
+    assert not os.path.exists(folder)
