@@ -212,7 +212,8 @@ def create_app(
         settings.diagnosis_processes, settings.rig_cache_size, settings.diagnosis_queue,
         url=settings.url.render_as_string(hide_password=False), sessions=sessions,
         rigs=app.state.rigs, wait_budget_s=settings.diagnosis_wait_ms / 1e3,
-        observe=lambda stage, seconds: stages.labels(stage).observe(seconds))
+        observe=lambda stage, seconds: stages.labels(stage).observe(seconds),
+        on_restart=app.state.metrics.process_restarts.inc)
     app.state.diagnosis_writer = GroupCommitter(sessions)
     app.state.sweep_executors = SweepExecutors(workers=settings.sweep_workers,
                                                dask_scheduler=settings.dask_scheduler)

@@ -125,6 +125,13 @@ class HttpMetrics:
         #: the wake-ups of both ends), ``commit`` from handing its rows to the group commit
         #: to that transaction's commit; ``request`` the whole of a stored diagnosis's
         #: request, from its arrival to its answer.
+        #: Diagnosis processes that stopped and were replaced (an operator pass: one
+        #: killed while it warmed left every /diagnose failing, and nothing showed it).
+        self.process_restarts = Counter(
+            "hydrodiag_diagnosis_process_restarts",
+            "Diagnosis processes that stopped (killed, out of memory) and were replaced",
+            registry=self.registry,
+        )
         self.diagnosis_stage = Histogram(
             "hydrodiag_diagnosis_stage_seconds",
             "Time a POST /diagnose spends in each stage [s]: queue (for a diagnosis "

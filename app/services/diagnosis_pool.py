@@ -116,7 +116,8 @@ class DiagnosisPool:
     def __init__(self, processes: int, cache_size: int = 16, queue: int = 32, *,
                  url: str | None = None, sessions: SessionFactory | None = None,
                  rigs: RigCache | None = None, wait_budget_s: float | None = None,
-                 observe: Callable[[str, float], None] | None = None) -> None:
+                 observe: Callable[[str, float], None] | None = None,
+                 on_restart: Callable[[], None] | None = None) -> None:
         if processes < 0 or queue < 1:
             raise ValueError("processes must be 0 or more, queue 1 or more")
         self.processes = processes
@@ -140,6 +141,8 @@ class DiagnosisPool:
         self._lock = threading.Lock()
         self._limiter: anyio.CapacityLimiter | None = None
         self._observe = observe
+        #: Called when a diagnosis process that stopped is replaced (a metrics counter).
+        self._on_restart = on_restart
 
     # --- admission ---------------------------------------------------------------------
 
@@ -227,6 +230,8 @@ class DiagnosisPool:
                         worker.connection.close()
                         worker.process.join(timeout=5.0)   # no zombie left behind
                         worker = self._workers[index] = self._spawn()
+                        if self._on_restart is not None:
+                            self._on_restart()
                         continue
                     worker.ready, worker.pid = True, ready[1]
                     break
@@ -318,6 +323,8 @@ class DiagnosisPool:
         with self._lock:
             index = self._workers.index(gone)
             self._workers[index] = worker = self._spawn()
+        if self._on_restart is not None:
+            self._on_restart()
         self._read(worker)
 
     def _read(self, worker: Process) -> None:

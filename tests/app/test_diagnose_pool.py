@@ -127,13 +127,15 @@ def test_a_process_killed_while_it_starts_is_replaced(server: LiveServer) -> Non
     request = DiagnoseRequest.model_validate(body)
     with server.session() as session:
         (plan,) = plan_groups(session, RigCache(2), request, utcnow())
-    pool = DiagnosisPool(1)
+    restarts: list[int] = []
+    pool = DiagnosisPool(1, on_restart=lambda: restarts.append(1))
     try:
         pool._start()
         first = pool._workers[0].process
         os.kill(first.pid, signal.SIGKILL)     # before it is ready: it imports for seconds
         (pid,) = pool.worker_pids()
         assert pid != first.pid and _alive(pid) and not _alive(first.pid)
+        assert restarts == [1]   # counted (hydrodiag_diagnosis_process_restarts_total)
         assert asyncio.run(pool.compute(plan)).top == "valve"
     finally:
         pool.shutdown()
