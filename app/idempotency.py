@@ -60,6 +60,7 @@ from starlette.types import ASGIApp, Message, Receive, Scope, Send
 from app.db.base import utcnow
 from app.db.models import IdempotentRequest
 from app.errors import database_unavailable, error_response
+from app.ratelimit import client_address
 from app.services.idempotent_work import CURRENT, KeyedWrite
 from app.services.keys import authenticate
 from sim.errors import AuthError, ConflictError, InputError
@@ -280,7 +281,7 @@ class IdempotencyMiddleware:
                api_key: str) -> _Outcome:
         now = utcnow()
         limiter = getattr(request.app.state, "failed_keys", None)
-        client = request.client.host if request.client is not None else "-"
+        client = client_address(request)
 
         def guard() -> None:   # a key not verified before, from an address over its bound
             if limiter is not None and limiter.wait_for(client) > 0:

@@ -19,11 +19,18 @@ import threading
 import time
 from collections import OrderedDict
 
-__all__ = ["FAILED_KEYS_PER_MINUTE", "KeyRateLimiter"]
+from starlette.requests import Request
+
+__all__ = ["FAILED_KEYS_PER_MINUTE", "KeyRateLimiter", "client_address"]
 
 #: Wrong API keys a client address may send per minute (and in a burst) before the keys it
 #: sends that this process has not verified before are refused unchecked [1/min].
 FAILED_KEYS_PER_MINUTE = 30
+
+
+def client_address(request: Request) -> str:
+    """The address whose wrong keys are counted ("-" when the server does not know it)."""
+    return request.client.host if request.client is not None else "-"
 
 
 class KeyRateLimiter:

@@ -60,8 +60,9 @@ class RigLimits:
             raise ParameterError(f"must be finite and > 0, got {self.stroke}", field="stroke")
 
     def max_pump_flow(self, record: MeasurementRecord) -> float:
-        """Geometric pump flow (ω + Δω)·Vp [m³/s] at the record's speed (+k·u), else the
-        nominal, with the rig's speed offset where it adds."""
+        """Geometric pump flow (ω + Δω)·Vp [m³/s] (paper 002 eqs. 1-2; Δω the speed-reading
+        offset, paper 000 §5) at the record's speed (+k·u), else the nominal, with the rig's
+        speed offset where it adds."""
         w = record.condition.pump_speed
         omega = self.speed if w is None else w.value + CONSISTENCY_K * w.u
         return (omega + max(self.speed_offset, 0.0)) * self.Vp

@@ -22,7 +22,7 @@ from starlette.concurrency import run_in_threadpool
 
 from app.db.models import ApiKey
 from app.errors import RateLimitError, ScopeError
-from app.ratelimit import KeyRateLimiter
+from app.ratelimit import KeyRateLimiter, client_address
 from app.schemas.common import MAX_OFFSET
 from app.security import Scope
 from app.services.clearance import ClearanceEstimator
@@ -135,16 +135,12 @@ def require_key(
     return cached
 
 
-def _client(request: Request) -> str:
-    return request.client.host if request.client is not None else "-"
-
-
 def _guard(request: Request) -> Callable[[], None]:
     """What runs before a key is derived (scrypt): 429 when the client's address has sent
     more wrong keys than :data:`~app.ratelimit.FAILED_KEYS_PER_MINUTE` allows."""
     def check() -> None:
         limiter: KeyRateLimiter = request.app.state.failed_keys
-        wait = limiter.wait_for(_client(request))
+        wait = limiter.wait_for(client_address(request))
         if wait > 0:
             raise RateLimitError(
                 f"more than {int(limiter.capacity)} wrong API keys a minute came from this "
@@ -161,7 +157,7 @@ def _failures_counted(request: Request, key: str | None) -> Iterator[None]:
         yield
     except AuthError:
         if key:
-            request.app.state.failed_keys.acquire(_client(request))
+            request.app.state.failed_keys.acquire(client_address(request))
         raise
 
 

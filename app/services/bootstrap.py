@@ -132,7 +132,7 @@ def store_problem(engine: Engine, exc: BaseException) -> InputError | None:
         return InputError(f"cannot write {exc.filename or where} ({exc.strerror}): the service "
                           "keeps its store and a lock file beside it there (HYDRODIAG_DATA_DIR, "
                           "HYDRODIAG_DATABASE_URL)", field="HYDRODIAG_DATA_DIR")
-    text_of = str(getattr(exc, "orig", None) or exc).strip().splitlines()[0] if str(exc) else ""
+    text_of = (str(getattr(exc, "orig", None) or exc).strip().splitlines() or [""])[0]
     if isinstance(exc, DatabaseError) and any(
             w in text_of.lower() for w in ("malformed", "not a database", "file is encrypted")):
         return InputError(f"the store {where} is damaged ({text_of}): restore it from a backup "

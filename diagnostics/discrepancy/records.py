@@ -84,7 +84,8 @@ def check_pressure_units(records: Sequence[SeriesRecord], area: float) -> None:
     column says, as ``/diagnose`` refuses such a record: one beyond any instrument of a
     hydraulic rig (:data:`~diagnostics.measurement.MAX_GAUGE_PRESSURE`: Pa under a
     ``[bar]`` label), or a working stroke's P1 below :data:`LOAD_FRACTION` of the
-    pressure ``F/A1`` its stated load needs (``area``: A1 [m²]; bar under ``[Pa]``).  The
+    pressure ``F/A1`` its stated load needs (the piston's force balance, paper 002 eq. 33:
+    ``P1·A1 ≥ F`` while it moves; ``area``: A1 [m²]; bar under ``[Pa]``).  The
     workflow answered such files "unexplained … re-commission the rig" at 29,947,394 σ
     (a modelling engineer's pass)."""
     for r in records:

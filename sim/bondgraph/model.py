@@ -89,6 +89,7 @@ class CompiledModel:
         self.scale = np.array([s.scale for s in self.system.states], dtype=float)
         self._pidx = {n: i for i, n in enumerate(self.param_names)}
         self._sidx = {n: i for i, n in enumerate(self.state_names)}
+        self._defaults: Arr | None = None   # the graph's parameter vector, built once
 
     # -- vectors ----------------------------------------------------------------------
     def params(self, overrides: Mapping[str, float] | None = None,
@@ -122,9 +123,8 @@ class CompiledModel:
     def _default_params(self) -> Arr:
         """The graph's own parameter vector (its values and tables), built once: a compiled
         model's graph is not changed after compilation."""
-        cached: Arr | None = getattr(self, "_defaults", None)
-        if cached is not None:
-            return cached
+        if self._defaults is not None:
+            return self._defaults
         named = [self.system.graph.parameters[n].value for n in self.param_names]
         size = len(named) + sum(2 * n for _, n in self.system.tables.values())
         p = np.empty(size)

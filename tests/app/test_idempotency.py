@@ -119,6 +119,21 @@ def _post_slow(app: FastAPI, key: str, api_key: str | None = None) -> httpx.Resp
     return asyncio.run(post())
 
 
+def _held_key(sessions: Any, key: str, *, quiet_s: float,
+              stored_ago_s: float | None = None) -> None:
+    """What a process killed while it ran ``POST /slow`` under ``key`` leaves: its row, last
+    marked ``quiet_s`` ago, its work stored ``stored_ago_s`` ago (``None``: not stored)."""
+    now = utcnow()
+    with sessions() as session:
+        session.add(IdempotentRequest(
+            owner=owner_of(1), idempotency_key=key, method="POST", path="/slow",
+            digest=_digest(b"POST", b"/slow", b"", b"application/json", b"{}"),
+            created_at=now, touched_at=now - timedelta(seconds=quiet_s),
+            expires_at=now + timedelta(hours=1),
+            stored_at=None if stored_ago_s is None else now - timedelta(seconds=stored_ago_s)))
+        session.commit()
+
+
 def test_a_retry_while_the_first_request_runs_is_asked_to_wait(tmp_path: Path) -> None:
     release = threading.Event()
     app, _, runs = _app(tmp_path, release)
@@ -239,14 +254,7 @@ def test_a_write_stored_whose_answer_was_lost_is_not_done_again(tmp_path: Path) 
     release = threading.Event()
     release.set()
     app, sessions, runs = _app(tmp_path, release)
-    now = utcnow()
-    same = _digest(b"POST", b"/slow", b"", b"application/json", b"{}")
-    with sessions() as session:
-        session.add(IdempotentRequest(
-            owner=owner_of(1), idempotency_key="k5", method="POST", path="/slow",
-            digest=same, created_at=now, touched_at=now - timedelta(seconds=STALE_S + 1),
-            expires_at=now + timedelta(hours=1), stored_at=now - timedelta(seconds=40)))
-        session.commit()
+    _held_key(sessions, "k5", quiet_s=STALE_S + 1, stored_ago_s=40.0)
 
     refused = _post_slow(app, "k5")
     assert refused.status_code == 409 and "Retry-After" not in refused.headers
@@ -340,14 +348,7 @@ def test_a_key_whose_process_stopped_marking_it_says_when_it_frees_itself(
     release = threading.Event()
     release.set()
     app, sessions, runs = _app(tmp_path, release)
-    now = utcnow()
-    same = _digest(b"POST", b"/slow", b"", b"application/json", b"{}")
-    with sessions() as session:
-        session.add(IdempotentRequest(
-            owner=owner_of(1), idempotency_key="k6", method="POST", path="/slow",
-            digest=same, created_at=now, touched_at=now - timedelta(seconds=20),
-            expires_at=now + timedelta(hours=1)))
-        session.commit()
+    _held_key(sessions, "k6", quiet_s=20.0)
 
     held = _post_slow(app, "k6")
     assert held.status_code == 409 and runs == []
