@@ -2,8 +2,10 @@
 
 Run: ``python -m benchmarks.discrepancy_study`` (``make discrepancy-study``).
 ``HYDRODIAG_LIGHT=1`` runs a small subset (CI); ``HYDRODIAG_SEEDS=N`` sets the seeds per
-(effect, size) (default 30) and scales the no-effect (5N/3 per noise × drift cell, 300 at
+(effect, size) (default 30) and scales the no-effect (5N/3 per noise × drift cell, 400 at
 N = 30) and out-of-library (5N/6 per kind, 50 at N = 30 with two kinds) counts;
+``HYDRODIAG_NOISE`` (default ``gaussian``; ``coloured`` …, the kinds of
+:mod:`diagnostics.discrepancy.synthetic`) is the noise of the hidden-effect cases;
 ``HYDRODIAG_WORKERS`` sets the process pool (default 2); ``HYDRODIAG_KINDS`` (comma-separated
 of ``steady,hidden,null,outside``, default all) runs only those kinds of case, at the counts
 ``HYDRODIAG_SEEDS`` gives them (``HYDRODIAG_KINDS=outside`` with 30 seeds: the 50
@@ -49,8 +51,9 @@ little; both are printed.
   (exactly the true effect named), ``group`` (the true effect named or reported together
   with the named ones: in their ambiguity group or as a competing explanation, but not alone),
   ``wrong`` (something named, the true effect not among what was reported) and ``none``;
-* no effect: Gaussian, reading-proportional and heavy-tailed (t₃) noise, each with and
-  without a ±20 % drift of base parameters (Fu, Kf, cc, Rlp, cv); a discovery is a named
+* no effect: Gaussian, reading-proportional, heavy-tailed (t₃) and coloured (AR(1),
+  φ = 0.9, with 50 Hz hum on the pressures) noise, each with and without a ±20 % drift of
+  base parameters (Fu, Kf, cc, Rlp, cv); a discovery is a named
   effect; the verdicts are counted too (``no effect``; ``base drift``, the right answer for
   a drifted rig, :mod:`diagnostics.discrepancy.drift`; ``unexplained``);
 * outside the library: both hoses narrowed to half their bore (a turbulent line loss
@@ -94,6 +97,9 @@ WORKERS = int(os.environ.get("HYDRODIAG_WORKERS", "2"))
 KINDS = {"steady", "hidden", "null", "outside"}
 CHOSEN = set(os.environ.get("HYDRODIAG_KINDS", ",".join(sorted(KINDS))).split(","))
 SIZES = (8.0, 16.0) if LIGHT else (4.0, 8.0, 16.0)
+#: sensor noise of the hidden-effect cases (a kind of :func:`synthesize`)
+HIDDEN_NOISE = os.environ.get("HYDRODIAG_NOISE", "gaussian")
+NOISE_KINDS = ("gaussian", "proportional", "heavy", "coloured")
 LIGHT_EFFECTS = ("seal_friction_pressure", "piston_clearance_pressure",
                  "turbulent_pump_slip", "speed_offset")
 #: stated pump speed of the reference rig [rad/s]
@@ -204,7 +210,7 @@ def score(d: Discovery, truth: str) -> str:
 def _hidden(task: tuple[str, float, float, int]) -> dict[str, Any]:
     effect, size, strength, seed = task
     try:
-        d = _case(_doc_with(effect, strength), 1000 * seed + 7)
+        d = _case(_doc_with(effect, strength), 1000 * seed + 7, noise=HIDDEN_NOISE)
     except (SimulationError, SolverLimitError):
         return {"effect": effect, "size": size, "outcome": "failed"}
     outcome = score(d, effect)
@@ -280,12 +286,15 @@ def _median(xs: list[float]) -> float | None:
 def main() -> None:
     if not CHOSEN <= KINDS:
         sys.exit(f"HYDRODIAG_KINDS: unknown {sorted(CHOSEN - KINDS)}; known {sorted(KINDS)}")
+    if HIDDEN_NOISE not in NOISE_KINDS:
+        sys.exit(f"HYDRODIAG_NOISE: unknown {HIDDEN_NOISE!r}; known {list(NOISE_KINDS)}")
     t_start = time.perf_counter()
     rig_effects = effects_for(reference_rig().circuit.name)
     effects = ([e for e in LIGHT_EFFECTS if e in rig_effects] if LIGHT else list(rig_effects)
                ) if "hidden" in CHOSEN else []
     print(f"discrepancy study: {'LIGHT' if LIGHT else 'full'}, {SEEDS} seed(s) per cell, "
-          f"sizes {SIZES} σ, {WORKERS} worker(s), design (load N, °C, rad/s) {DESIGN}")
+          f"sizes {SIZES} σ, {HIDDEN_NOISE} noise on the hidden effects, {WORKERS} worker(s), "
+          f"design (load N, °C, rad/s) {DESIGN}")
     # the steady pump-bench cases first: cheap, and a failure there shows at once
     steady = steady_study(SEEDS, SIZES, LIGHT) if "steady" in CHOSEN else {}
     rows: list[dict[str, Any]] = []
@@ -305,7 +314,7 @@ def main() -> None:
             rows.append({"effect": effect, "balance": EFFECTS[effect].entry.balance,
                          "size_sigma": size, "strength": strength, "n": SEEDS})
     n_null = 0 if "null" not in CHOSEN else 1 if LIGHT else max(1, round(SEEDS * 5 / 3))
-    cells = [(noise, drift) for noise in ("gaussian", "proportional", "heavy")
+    cells = [(noise, drift) for noise in NOISE_KINDS
              for drift in (False, True)]
     n_out = 0 if "outside" not in CHOSEN else 1 if LIGHT else max(1, round(SEEDS * 5 / 6))
     # seed-major order: a run stopped early has results for every cell
@@ -389,6 +398,7 @@ def main() -> None:
 
     summary = {
         "light": LIGHT, "seeds_per_cell": SEEDS, "workers": WORKERS, "kinds": sorted(CHOSEN),
+        "hidden_noise": HIDDEN_NOISE,
         "effects": effects,
         "sizes_sigma": list(SIZES), "design": [list(c) for c in DESIGN],
         "cases_hidden": len(tasks),

@@ -2,8 +2,11 @@
 
 Used by the hidden-effect bench and the tests: the data come from a rig *with* an effect,
 the workflow starts from the rig *without* it.  Noise kinds: ``gaussian`` (σ per
-channel), ``proportional`` (σ × |reading| / full scale + a floor of σ/4) and
-``heavy`` (Student t with 3 degrees of freedom scaled to the same σ).
+channel), ``proportional`` (σ × |reading| / full scale + a floor of σ/4),
+``heavy`` (Student t with 3 degrees of freedom scaled to the same σ) and ``coloured``
+(what a logger's anti-alias filter or a transmitter's damping gives: first-order AR(1)
+noise, φ = :data:`COLOURED_PHI` per sample, of marginal σ, and on the pressures 50 Hz
+mains hum of :data:`HUM` σ amplitude at a random phase).
 """
 
 from __future__ import annotations
@@ -13,6 +16,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
+from scipy.signal import lfilter
 
 from diagnostics.discrepancy.simulate import on_grid, phase_segments, simulate
 from diagnostics.timeseries import SeriesRecord
@@ -21,8 +25,8 @@ from sim.rigs.assembly import Condition, Rig
 if TYPE_CHECKING:
     from diagnostics.pump.data import BenchData
 
-__all__ = ["CHANNELS", "DWELLS", "NOISE", "SENSORS", "UNITS", "channels_for", "effect_peak",
-           "synthesize", "synthesize_bench"]
+__all__ = ["CHANNELS", "COLOURED_PHI", "DWELLS", "HUM", "NOISE", "SENSORS", "UNITS",
+           "channels_for", "effect_peak", "synthesize", "synthesize_bench"]
 
 Arr = npt.NDArray[np.float64]
 
@@ -40,6 +44,12 @@ SENSORS: dict[str, tuple[str, ...]] = {"line_unsteady_friction": ("P_valve_B",)}
 NOISE: dict[str, float] = {"x": 1e-4, "v": 1e-3, "P1": 5e3, "P2": 5e3, "P_pump": 5e3,
                            "P_valve_P": 5e3, "Q_meter_B": 8.3e-7, "Q_meter_C": 8.3e-7,
                            "P_valve_B": 5e3}
+
+
+#: AR(1) coefficient per sample of the ``coloured`` noise (a 9.5 ms time constant at 1 kHz)
+COLOURED_PHI = 0.9
+#: amplitude of the ``coloured`` noise's 50 Hz hum on the pressures, in units of σ [-]
+HUM = 0.6
 
 
 def channels_for(effects: Sequence[str] = ()) -> tuple[str, ...]:
@@ -86,6 +96,12 @@ def synthesize(rig: Rig, condition: Condition, *, rng: np.random.Generator,
             e = rng.normal(0.0, 1.0, v.size) * (s * np.abs(v) / fs + s / 4)
         elif noise == "heavy":
             e = rng.standard_t(3, v.size) * s / np.sqrt(3.0)
+        elif noise == "coloured":
+            w = rng.normal(0.0, s * np.sqrt(1.0 - COLOURED_PHI ** 2), v.size)
+            e = lfilter([1.0], [1.0, -COLOURED_PHI], w,
+                        zi=np.array([COLOURED_PHI * rng.normal(0.0, s)]))[0]
+            if UNITS[c] == "Pa":
+                e = e + HUM * s * np.sin(2.0 * np.pi * 50.0 * t + rng.uniform(0.0, 2.0 * np.pi))
         else:
             raise ValueError(f"unknown noise kind {noise!r}")
         chans[c] = v + e

@@ -54,6 +54,14 @@ from diagnostics.discrepancy.confirm import Small, confirm_chosen, confirm_small
 from diagnostics.discrepancy.drift import Drift, refit_base
 from diagnostics.discrepancy.gap import GapRow, gap_table
 from diagnostics.discrepancy.lof import repeats_lack_of_fit
+from diagnostics.discrepancy.noise import (
+    Noise,
+    coloured_note,
+    noise_models,
+    propagated_floors,
+    sigmas,
+    with_noise,
+)
 from diagnostics.discrepancy.records import (
     check_pressure_units,
     require_cycle_records,
@@ -151,6 +159,9 @@ class Discovery:
     #: each effect the rig carries, fitted again on the data (:mod:`~diagnostics.
     #: discrepancy.carried_check`)
     carried: list[CarriedCheck] = field(default_factory=list)
+    #: each output channel's noise as the records show it (:mod:`~diagnostics.discrepancy.
+    #: noise`), against which the gaps are judged
+    noise: dict[str, Noise] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
         """The report as JSON-able data (units in the keys' descriptions)."""
@@ -190,6 +201,9 @@ class Discovery:
             "lack_of_fit": self.lack_of_fit,
             "base_drift": self.base_drift.to_dict() if self.base_drift is not None else None,
             "carried": [c.to_dict() for c in self.carried],
+            # σ [SI unit of the channel], AR(1) φ per sample [-], the sample-to-sample σ
+            "noise": {c: {"sigma": n.sigma, "ar1_phi": n.phi, "sample_to_sample_sigma": n.white,
+                          "coloured": n.coloured} for c, n in self.noise.items()},
         }
 
 
@@ -215,15 +229,19 @@ def _channels(records: Sequence[SeriesRecord]) -> list[str]:
     return [c for c in OUTPUTS if c in records[0].channels]
 
 
-def _sigmas(records: Sequence[SeriesRecord], channels: Sequence[str]) -> dict[str, float]:
-    from diagnostics.discrepancy.gap import noise_sigma
-
-    out = {}
-    for c in channels:
-        s = float(np.median([noise_sigma(r.channels[c]) for r in records]))
-        scale = float(np.max([np.max(np.abs(r.channels[c])) for r in records]))
-        out[c] = max(s, 1e-4 * scale, 1e-30)
-    return out
+def _noise(first: _FirstStep, channels: Sequence[str]) -> tuple[dict[str, Noise], str]:
+    """Each channel's noise (:mod:`~diagnostics.discrepancy.noise`); where any is
+    coloured, the balances' noise floors from a surrogate of it (set on ``first.data``)
+    and the note saying so, else ''."""
+    models = noise_models(first.records, channels)
+    if not any(n.coloured for n in models.values()):
+        return models, ""
+    train = [first.records[i] for i in first.train_i]
+    noisy = prepare(with_noise(train, models), first.rig)
+    floors = propagated_floors(first.data, first.signals, noisy, first.rig.values())
+    for d in first.data:
+        d.noise_floor = max(d.noise_floor, floors.get(d.balance.name, 0.0))
+    return models, coloured_note(models)
 
 
 def discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], *,
@@ -324,12 +342,13 @@ def _discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], 
     signals, data = first.signals, first.data
     train = [records[i] for i in train_i]
     held = [records[i] for i in held_i] or train
+    channels = _channels(records)
+    noise, noise_note = _noise(first, channels)
     selections = [select(d, bootstrap=bootstrap, seed=seed) for d in data]
     report(0.3, "selection done")
     rate = 1000.0
     named: list[NamedEffect] = []
-    channels = _channels(records)
-    sig = _sigmas(records, channels)
+    sig = sigmas(records, channels, noise)
     base_tables = [simulate_record(rig, r) for r in held]
     gap_before = [row for r, t in zip(held, base_tables, strict=True)
                   for row in gap_table(r, t, channels)]
@@ -472,7 +491,7 @@ def _discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], 
                        [r.name for r in records] and [records[i].name for i in held_i],
                        gap_before, gap_after, white_before, white_after, new_doc,
                        _solver_statement(base_tables), detectable, traces, lof, drift,
-                       checks)
+                       checks, noise)
     if (refit and not named and conf.rejected and drift is not None
             and not drift.accepted and drift.wear is not None):
         report(0.9, "the workflow again from the rig with its wear re-fitted")
@@ -482,6 +501,8 @@ def _discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], 
             result = named_after_wear(result, again, doc, drift.wear)
     if first.notes:  # phases read off the position
         result.message += "; " + "; ".join(first.notes)
+    if noise_note:
+        result.message += "; " + noise_note
     report(1.0, result.verdict)
     return result
 

@@ -7,9 +7,10 @@ import pytest
 
 from benchmarks.discrepancy_study import SLOW, SLOW_SWITCH, SPEED, _doc_with
 from diagnostics.discrepancy import discover
+from diagnostics.discrepancy.noise import sigmas
 from diagnostics.discrepancy.slow import is_slow, slow_chi2, slow_records
 from diagnostics.discrepancy.synthetic import synthesize
-from diagnostics.discrepancy.workflow import _channels, _sigmas
+from diagnostics.discrepancy.workflow import _channels
 from sim.rigs import load_rig, reference_rig, reference_rig_document
 from sim.rigs.assembly import Condition
 
@@ -46,7 +47,7 @@ def test_slow_statistics_separate_the_effect_from_its_absence() -> None:
     slow = slow_records(recs, reference_rig())
     assert len(slow) == 2
     channels = _channels(recs)
-    sig = _sigmas(recs, channels)
+    sig = sigmas(recs, channels)
     with_effect, dof = slow_chi2(load_rig(_doc_with("stribeck_friction", 50.0)), slow,
                                  channels, sig)
     without, _ = slow_chi2(reference_rig(), slow, channels, sig)
