@@ -1,4 +1,5 @@
-"""``hydrodiag db``: the store's schema (upgrade, downgrade, current) and its backup."""
+"""``hydrodiag db``: the store's schema (upgrade, downgrade, current), its backup and its copy
+into another database."""
 
 from __future__ import annotations
 
@@ -127,3 +128,40 @@ def db_backup(
     finally:
         engine.dispose()
     console.print(f"store copied to {file} ({file.stat().st_size / 1e6:.1f} MB, integrity ok)")
+
+
+@db_cli.command("copy")
+def db_copy(
+    target: Annotated[str, typer.Argument(
+        help="The empty store to copy into, as a URL: postgresql+psycopg://user:password@host/db "
+             "or sqlite:///path/file.db.")],
+) -> None:
+    """Copy the whole store (HYDRODIAG_DATABASE_URL, by default the embedded SQLite file)
+    into an empty one, e.g. to move to PostgreSQL: one consistent snapshot, every id kept,
+    the target migrated first and its id sequences set after; the service may keep running
+    (what it writes after the snapshot is not copied).  Then point HYDRODIAG_DATABASE_URL
+    at the target."""
+    from rich.table import Table
+    from sqlalchemy.engine import make_url
+    from sqlalchemy.exc import ArgumentError
+
+    from app.db.copy import copy_store
+
+    try:
+        target_url = make_url(target)
+    except ArgumentError as exc:
+        raise InputError(f"not a database URL: {target!r} ({exc})", field="TARGET") from exc
+    source_url = settings_from_env().url
+    with steps() as progress:
+        task = progress.add_task("copying", total=None)
+
+        def advance(table: str, rows: int) -> None:
+            progress.update(task, description=f"copying {table}: {rows} rows")
+
+        copied = copy_store(source_url, target_url, advance)
+    out = Table("table", "rows", title=f"revision {copied.revision}, counts checked")
+    for name, rows in copied.rows.items():
+        out.add_row(name, str(rows))
+    console.print(out)
+    console.print(f"{sum(copied.rows.values())} rows copied to "
+                  f"{target_url.render_as_string(hide_password=True)}")

@@ -1,0 +1,204 @@
+"""Copy a whole store into an empty one: SQLite → PostgreSQL (or any way round).
+
+The source is read in one consistent snapshot: an SQLite store through a ``VACUUM INTO``
+copy made first (what ``hydrodiag db backup`` makes), a PostgreSQL one in a
+``REPEATABLE READ`` transaction, so the service may keep running and writing while it
+copies; what it writes after the snapshot is not in the copy (stop it, or take its writes
+away from the old store, for the cut-over).  The target is migrated to the newest revision
+and must hold no rows; every table of the store's schema is copied through the models'
+own column types (timestamps stay aware UTC, JSON documents stay documents on JSONB), in
+foreign-key order and by primary key, with every id kept, in one transaction: a copy that
+fails leaves the target's tables empty.  PostgreSQL's id sequences are then set past the
+largest copied id, so new rows do not collide, and the row counts of both sides are
+compared.  API keys are copied with their hashes: the clients' keys keep working.
+"""
+
+from __future__ import annotations
+
+import tempfile
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+from sqlalchemy import Connection, Engine, Table, func, inspect, select, text
+from sqlalchemy.engine import URL
+from sqlalchemy.exc import InterfaceError, OperationalError, SQLAlchemyError
+
+from app.db import migrate
+from app.db.base import Base
+from app.db.engine import make_engine
+from sim.errors import InputError
+
+__all__ = ["BATCH", "Copied", "copy_store"]
+
+#: rows read and written at a time
+BATCH = 500
+
+Progress = Callable[[str, int], None]
+
+
+@dataclass(frozen=True)
+class Copied:
+    """What :func:`copy_store` copied: rows per table (equal on both sides) and the
+    schema revision both are at."""
+
+    rows: dict[str, int]
+    revision: str
+
+
+def _tables() -> list[Table]:
+    # the model metadata's tables, parents before children
+    import app.db.models  # noqa: F401 - registers the tables
+
+    return list(Base.metadata.sorted_tables)
+
+
+def _counts(connection: Connection, tables: list[Table]) -> dict[str, int]:
+    return {t.name: int(connection.execute(select(func.count()).select_from(t)).scalar_one())
+            for t in tables}
+
+
+def _check_source(engine: Engine, tables: list[Table]) -> str:
+    head = migrate.head_revision()
+    current = migrate.current_revision(engine)
+    if current != head:
+        raise InputError(f"the store is at revision {current or 'none'}, not {head}: run "
+                         "hydrodiag db upgrade on it first", field="HYDRODIAG_DATABASE_URL")
+    have = set(inspect(engine).get_table_names()) - {"alembic_version"}
+    unknown = sorted(have - {t.name for t in tables})
+    if unknown:
+        raise InputError(f"the store has tables this release does not know ({', '.join(unknown)})"
+                         ": copy it with the release that made them",
+                         field="HYDRODIAG_DATABASE_URL")
+    return head
+
+
+def _prepare_target(engine: Engine, tables: list[Table]) -> None:
+    """Migrate the target to the newest revision; refuse one that holds any row."""
+    names = set(inspect(engine).get_table_names())
+    current = migrate.current_revision(engine) if "alembic_version" in names else None
+    if names and current is None:
+        raise InputError("the target holds tables but no hydrodiag schema: copy into an empty "
+                         "database", field="TARGET")
+    if current is not None and current > migrate.head_revision():
+        raise InputError(f"the target is at revision {current}, newer than this release's "
+                         f"{migrate.head_revision()}", field="TARGET")
+    migrate.upgrade(engine, "head")
+    with engine.connect() as connection:
+        full = {k: v for k, v in _counts(connection, tables).items() if v}
+    if full:
+        held = ", ".join(f"{n} {k}" for k, n in full.items())
+        raise InputError(f"the target holds data ({held}): copy into an empty store (a "
+                         "service started on it preloads the reference rig)", field="TARGET")
+
+
+def _reason(exc: SQLAlchemyError) -> str:
+    orig = getattr(exc, "orig", None)
+    return (str(orig) if orig is not None else str(exc)).strip().splitlines()[0]
+
+
+def _same(a: URL, b: URL) -> bool:
+    return a.render_as_string(hide_password=False) == b.render_as_string(hide_password=False)
+
+
+def _copy_tables(source: Connection, target: Connection, tables: list[Table],
+                 progress: Progress | None) -> None:
+    for table in tables:
+        order = list(table.primary_key.columns) or list(table.columns)
+        rows = source.execution_options(yield_per=BATCH).execute(
+            select(table).order_by(*order))
+        done = 0
+        for part in rows.partitions(BATCH):
+            target.execute(table.insert(), [dict(r._mapping) for r in part])
+            done += len(part)
+            if progress is not None:
+                progress(table.name, done)
+
+
+def _reset_sequences(target: Connection, tables: list[Table]) -> None:
+    """PostgreSQL: each integer id's sequence past the largest copied id."""
+    if target.dialect.name != "postgresql":
+        return
+    for table in tables:
+        pk = list(table.primary_key.columns)
+        if len(pk) != 1 or pk[0].type.python_type is not int:
+            continue
+        col = pk[0].name
+        seq = target.execute(text("SELECT pg_get_serial_sequence(:t, :c)"),
+                             {"t": table.name, "c": col}).scalar()
+        if seq is None:
+            continue
+        target.execute(text(f'SELECT setval(:s, COALESCE((SELECT MAX("{col}") FROM '
+                            f'"{table.name}"), 1), (SELECT COUNT(*) > 0 FROM "{table.name}"))'),
+                       {"s": seq})
+
+
+def copy_store(source_url: URL, target_url: URL, progress: Progress | None = None) -> Copied:
+    """Copy every row of the store at ``source_url`` into the empty store at
+    ``target_url`` (module docstring).
+
+    Parameters
+    ----------
+    source_url, target_url
+        SQLAlchemy URLs (SQLite file or PostgreSQL).
+    progress
+        Called with (table, rows copied so far) as batches are written.
+
+    Raises
+    ------
+    InputError
+        The two are the same store, the source is not at this release's revision, or the
+        target holds data (``field`` ``HYDRODIAG_DATABASE_URL`` or ``TARGET``); nothing is
+        written to a target that holds data.
+    """
+    if _same(source_url, target_url):
+        raise InputError("the target is the store itself", field="TARGET")
+    if source_url.get_backend_name() == "sqlite" and source_url.database in (None, "", ":memory:"):
+        raise InputError("an in-memory store cannot be copied", field="HYDRODIAG_DATABASE_URL")
+    tables = _tables()
+    engine = make_engine(source_url)
+    try:
+        revision = _check_source(engine, tables)
+    finally:
+        engine.dispose()
+    target = make_engine(target_url)
+    try:
+        try:
+            _prepare_target(target, tables)
+        except (OperationalError, InterfaceError) as exc:
+            raise InputError(f"the target did not answer: {_reason(exc)}", field="TARGET"
+                             ) from exc
+        with tempfile.TemporaryDirectory(prefix="hydrodiag-copy-") as folder:
+            snapshot_url = source_url
+            if source_url.get_backend_name() == "sqlite":
+                snapshot = Path(folder) / "snapshot.db"
+                engine = make_engine(source_url)
+                try:
+                    with engine.connect() as connection:
+                        connection.exec_driver_sql("VACUUM INTO ?", (str(snapshot),))
+                finally:
+                    engine.dispose()
+                snapshot_url = source_url.set(database=str(snapshot))
+            engine = make_engine(snapshot_url)
+            try:
+                options = ({"isolation_level": "REPEATABLE READ"}
+                           if engine.dialect.name == "postgresql" else {})
+                with engine.connect().execution_options(**options) as src, src.begin():
+                    expected = _counts(src, tables)
+                    try:
+                        with target.begin() as dst:
+                            _copy_tables(src, dst, tables, progress)
+                            _reset_sequences(dst, tables)
+                            got = _counts(dst, tables)
+                            if got != expected:  # pragma: no cover - rows lost in flight
+                                raise InputError(f"the copy's row counts {got} differ from "
+                                                 f"the store's {expected}; nothing was kept",
+                                                 field="TARGET")
+                    except SQLAlchemyError as exc:
+                        raise InputError(f"the target refused a row, and its tables were left "
+                                         f"empty: {_reason(exc)}", field="TARGET") from exc
+            finally:
+                engine.dispose()
+    finally:
+        target.dispose()
+    return Copied(expected, revision)

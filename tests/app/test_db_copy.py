@@ -1,0 +1,153 @@
+"""``hydrodiag db copy``: the whole store into an empty one (SQLite → PostgreSQL; an
+operator pass found no way to move to PostgreSQL but a table copy "with a tool of your
+choice").  The copy serves what the original served, ids and API keys included, and takes
+new rows without colliding."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import pytest
+from sqlalchemy import func, select, text
+from sqlalchemy.engine import make_url
+from typer.testing import CliRunner
+
+from app.cli import cli
+from app.db import migrate
+from app.db.base import Base
+from app.db.copy import copy_store
+from app.db.engine import make_engine
+from app.settings import Settings
+from sim.errors import InputError
+from tests.app import postgres
+from tests.app.conftest import simulated_record
+from tests.app.live import LiveServer, live_server, sqlite_settings
+
+
+def _fill(server: LiveServer) -> dict[str, Any]:
+    """A diagnosis with its record and estimates, a calibration table and a job: what a
+    store in service holds; returns what was read back over HTTP."""
+    record = simulated_record(server, {"cylinder.cc": 4e-5}, measured_at="2026-11-20T10:00:00Z")
+    stored = server.client.post("/diagnose", json={"record": record}, headers=server.auth)
+    assert stored.status_code == 200, stored.text
+    cal = server.client.post(
+        "/rigs/1/calibrations", headers=server.auth,
+        json={"throttle": "X", "component": "cylinder", "back_pressure_pa": 1.0e6,
+              "temperature_c": 55.0,
+              "points": [{"opening_turns": 0, "bypass_flow_m3s": 1e-6},
+                         {"opening_turns": 1, "bypass_flow_m3s": 3e-6}]})
+    assert cal.status_code == 201, cal.text
+    return {"diagnoses": server.client.get("/diagnoses").json(),
+            "rigs": server.client.get("/rigs").json(),
+            "calibrations": server.client.get("/rigs/1/calibrations").json()}
+
+
+def _counts(url: str) -> dict[str, int]:
+    engine = make_engine(make_url(url))
+    try:
+        with engine.connect() as c:
+            return {t.name: int(c.execute(select(func.count()).select_from(t)).scalar_one())
+                    for t in Base.metadata.sorted_tables}
+    finally:
+        engine.dispose()
+
+
+def _copy_and_serve(tmp_path: Path, target_url: str, target_settings: Settings) -> None:
+    source = sqlite_settings(tmp_path / "old")
+    with live_server(source) as server:
+        before = _fill(server)
+        key = dict(server.auth)
+        counts = server.row_counts()
+        # copied while the service runs: one snapshot
+        copied = copy_store(source.url, make_url(target_url))
+    assert copied.rows == counts and copied.revision == migrate.head_revision()
+    assert _counts(target_url) == counts
+    with live_server(target_settings) as server:
+        # what the old store served, the new one serves, under the same ids
+        assert server.client.get("/diagnoses").json() == before["diagnoses"]
+        assert server.client.get("/rigs").json() == before["rigs"]
+        assert server.client.get("/rigs/1/calibrations").json() == before["calibrations"]
+        # the clients' API key still works, and a new diagnosis takes the next id
+        record = simulated_record(server, measured_at="2026-11-21T10:00:00Z")
+        again = server.client.post("/diagnose", json={"record": record}, headers=key)
+        assert again.status_code == 200, again.text
+        ids = [d["id"] for d in server.client.get("/diagnoses").json()["items"]]
+        assert max(ids) == max(d["id"] for d in before["diagnoses"]["items"]) + 1
+
+
+def test_an_sqlite_store_copied_into_an_empty_sqlite_file_serves_the_same(tmp_path: Path
+                                                                          ) -> None:
+    target = tmp_path / "new" / "hydrodiag.db"
+    target.parent.mkdir()
+    _copy_and_serve(tmp_path, f"sqlite:///{target}",
+                    sqlite_settings(tmp_path / "new", database_url=f"sqlite:///{target}"))
+
+
+@pytest.mark.skipif(postgres.unavailable_reason() is not None,
+                    reason=str(postgres.unavailable_reason()))
+def test_an_sqlite_store_copied_into_postgresql_serves_the_same(tmp_path: Path) -> None:
+    with postgres.postgres_url() as url:
+        try:
+            _copy_and_serve(tmp_path, url, Settings(data_dir=tmp_path / "pg", database_url=url))
+        finally:
+            engine = make_engine(make_url(url))
+            try:
+                migrate.downgrade(engine, "base")
+            finally:
+                engine.dispose()
+
+
+def test_a_target_that_holds_data_or_is_the_store_is_refused_and_left_as_it_was(
+        runner: CliRunner, tmp_path: Path) -> None:
+    assert runner.invoke(cli, ["db", "upgrade"]).exit_code == 0
+    source = Settings().url
+    same = runner.invoke(cli, ["db", "copy", source.render_as_string(hide_password=False)])
+    assert isinstance(same.exception, InputError) and same.exception.field == "TARGET"
+    # a store a service already started on (the reference rig preloaded)
+    used = tmp_path / "used"
+    with live_server(sqlite_settings(used)):
+        pass
+    used_url = f"sqlite:///{used / 'hydrodiag.db'}"
+    before = _counts(used_url)
+    assert before["rigs"] >= 1
+    refused = runner.invoke(cli, ["db", "copy", used_url])
+    assert isinstance(refused.exception, InputError) and refused.exception.field == "TARGET"
+    assert "holds data" in refused.exception.message and "rigs" in refused.exception.message
+    assert _counts(used_url) == before
+    bad = runner.invoke(cli, ["db", "copy", "not a url"])
+    assert isinstance(bad.exception, InputError) and "not a database URL" in str(bad.exception)
+
+
+def test_a_store_behind_this_release_is_refused_until_upgraded(runner: CliRunner,
+                                                               tmp_path: Path) -> None:
+    assert runner.invoke(cli, ["db", "upgrade", "--revision", "0010"]).exit_code == 0
+    target = f"sqlite:///{tmp_path / 'copy.db'}"
+    behind = runner.invoke(cli, ["db", "copy", target])
+    assert isinstance(behind.exception, InputError)
+    assert "db upgrade" in behind.exception.message
+    assert not (tmp_path / "copy.db").exists() or _counts(target) == {}
+    assert runner.invoke(cli, ["db", "upgrade"]).exit_code == 0
+    done = runner.invoke(cli, ["db", "copy", target])
+    assert done.exit_code == 0, done.output
+    said = " ".join(done.output.split())
+    assert "counts checked" in said and "0 rows copied" in said
+
+
+def test_a_row_the_target_refuses_leaves_its_tables_empty(tmp_path: Path) -> None:
+    """A target whose rigs table refuses one row (a CHECK added by hand): nothing kept."""
+    source = sqlite_settings(tmp_path / "old")
+    with live_server(source) as server:
+        _fill(server)
+    target = tmp_path / "t.db"
+    engine = make_engine(make_url(f"sqlite:///{target}"))
+    try:
+        migrate.upgrade(engine)
+        with engine.begin() as c:
+            c.execute(text("CREATE TRIGGER no_cylinder BEFORE INSERT ON throttle_calibrations "
+                           "BEGIN SELECT RAISE(ABORT, 'no cylinder tables here'); END"))
+    finally:
+        engine.dispose()
+    with pytest.raises(InputError, match="left empty: no cylinder tables here"):
+        copy_store(source.url, make_url(f"sqlite:///{target}"))
+    assert set(_counts(f"sqlite:///{target}").values()) == {0}
