@@ -260,6 +260,9 @@ class DiagnosisEstimate(Base):
     probability: Mapped[float | None] = mapped_column(Float)
     clearance_m: Mapped[float | None] = mapped_column(Float)
     slip_coefficient: Mapped[float | None] = mapped_column(Float)
+    #: the 95 % interval the diagnosis stated for the estimate [m, or 1 for Cs]
+    low: Mapped[float | None] = mapped_column(Float)
+    high: Mapped[float | None] = mapped_column(Float)
 
     diagnosis: Mapped[Diagnosis] = relationship(back_populates="estimates")
 

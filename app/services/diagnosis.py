@@ -76,8 +76,9 @@ class EstimateOut:
         """The estimate as the history keeps it (one trend point)."""
         if self.quantity == "Cs":
             return ComponentEstimate(self.component, self.probability,
-                                     slip_coefficient=self.value)
-        return ComponentEstimate(self.component, self.probability, clearance_m=self.value)
+                                     slip_coefficient=self.value, low=self.low, high=self.high)
+        return ComponentEstimate(self.component, self.probability, clearance_m=self.value,
+                                 low=self.low, high=self.high)
 
 
 @dataclass

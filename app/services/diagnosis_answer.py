@@ -55,7 +55,8 @@ class StoredRows:
     result
         The full result (JSON, UTF-8).
     estimates
-        Per component: name, probability [1], clearance [m], slip coefficient [-].
+        Per component: name, probability [1], clearance [m], slip coefficient [-], and
+        the 95 % interval's low and high [m, or 1 for Cs].
     """
 
     rig_id: int
@@ -65,7 +66,8 @@ class StoredRows:
     component: str
     probability: float
     result: bytes
-    estimates: list[tuple[str, float | None, float | None, float | None]]
+    estimates: list[tuple[str, float | None, float | None, float | None, float | None,
+                          float | None]]
 
 
 @dataclass(frozen=True, slots=True)
@@ -151,7 +153,7 @@ def _rows(outcome: DiagnosisOutcome, records: Mapping[str, RecordForm], now: dat
     latest = max(range(len(times)), key=lambda i: (times[i], i))
     stored = [(t, orjson.dumps(stored_document(records[p], t)))
               for p, t in zip(outcome.paths, times, strict=True)]
-    estimates = [(h.component, h.probability, h.clearance_m, h.slip_coefficient)
+    estimates = [(h.component, h.probability, h.clearance_m, h.slip_coefficient, h.low, h.high)
                  for h in (e.history() for e in outcome.estimates)]
     return StoredRows(outcome.resolved.rig_id, outcome.resolved.version_id, stored, latest,
                       outcome.component, outcome.probability, result, estimates)

@@ -98,7 +98,7 @@ def insert_rows(session: Session, rows: Sequence[StoredRows]) -> list[tuple[int,
             connection.execute(add_estimates, [
                 {"diagnosis_id": diagnosis_id, "component": component,
                  "probability": probability, "clearance_m": clearance,
-                 "slip_coefficient": slip}
-                for component, probability, clearance, slip in item.estimates])
+                 "slip_coefficient": slip, "low": low, "high": high}
+                for component, probability, clearance, slip, low, high in item.estimates])
         ids.append((diagnosis_id, measurement_ids))
     return ids

@@ -21,7 +21,7 @@ from app.services.rigs import get_rig, get_version
 from sim.errors import InputError
 
 __all__ = ["ComponentEstimate", "HistoryPoint", "add_diagnosis", "add_measurement",
-           "component_history", "record_diagnosis"]
+           "component_history", "record_diagnosis", "stated_bound"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -38,15 +38,20 @@ class ComponentEstimate:
         Equivalent internal clearance [m] (cylinder cc, valve cv).
     slip_coefficient
         Pump slip coefficient Cs [1] (paper 000, eq. 6).
+    low, high
+        The 95 % interval of the estimate [m, or 1 for Cs]; ``None``: read from the
+        result's ``estimates`` when it has them.
     """
 
     component: str
     probability: float | None = None
     clearance_m: float | None = None
     slip_coefficient: float | None = None
+    low: float | None = None
+    high: float | None = None
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)  # not frozen: a frozen one costs 5× to build, per row of a history
 class HistoryPoint:
     """One point of a component's series: when, with which rig version, what estimate."""
 
@@ -58,6 +63,17 @@ class HistoryPoint:
     slip_coefficient: float | None
     #: what the diagnosis named (``"valve"``, ``"healthy"``, ``"unexplained"``)
     verdict: str | None = None
+    #: the 95 % interval the diagnosis stated [unit of the estimate]
+    low: float | None = None
+    high: float | None = None
+
+
+def stated_bound(result: Mapping[str, Any], component: str, bound: str) -> float | None:
+    """``result["estimates"][component][bound]`` when it is a number, else ``None``."""
+    estimates = result.get("estimates")
+    entry = estimates.get(component) if isinstance(estimates, Mapping) else None
+    value = entry.get(bound) if isinstance(entry, Mapping) else None
+    return float(value) if isinstance(value, int | float) and not isinstance(value, bool) else None
 
 
 def add_measurement(
@@ -118,6 +134,8 @@ def add_diagnosis(
                 probability=e.probability,
                 clearance_m=e.clearance_m,
                 slip_coefficient=e.slip_coefficient,
+                low=e.low if e.low is not None else stated_bound(result, e.component, "low"),
+                high=e.high if e.high is not None else stated_bound(result, e.component, "high"),
             )
             for e in estimates
         ],
@@ -177,7 +195,8 @@ def component_history(
     statement = (
         select(Diagnosis.id, Measurement.measured_at, RigVersion.version,
                DiagnosisEstimate.probability, DiagnosisEstimate.clearance_m,
-               DiagnosisEstimate.slip_coefficient, Diagnosis.component)
+               DiagnosisEstimate.slip_coefficient, Diagnosis.component,
+               DiagnosisEstimate.low, DiagnosisEstimate.high)
         .join(Diagnosis, DiagnosisEstimate.diagnosis_id == Diagnosis.id)
         .join(Measurement, Diagnosis.measurement_id == Measurement.id)
         .join(RigVersion, Diagnosis.rig_version_id == RigVersion.id)

@@ -15,7 +15,6 @@ at the rig's default oil temperature.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime, timedelta
 
@@ -48,7 +47,7 @@ _Z95 = 1.959963984540054
 STALE_AFTER = 3
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)  # not frozen: a frozen one costs 5× to build, per point of a trend
 class TrendPointOut:
     """One point: diagnosis, time, rig version, estimate and its interval."""
 
@@ -111,36 +110,14 @@ def _finite(x: float) -> float | None:
     return x if math.isfinite(x) else None
 
 
-def _intervals(session: Session, ids: list[int], names: Sequence[str]
-               ) -> dict[int, dict[str, tuple[float | None, float | None]]]:
-    """The 95 % interval (low, high) each diagnosis stated, by diagnosis id then component
-    of ``names``.
-
-    One query for the components asked for (those with history: half of the JSON reads of
-    every component, which were half of a trends request at 12,600 points; an operator
-    pass), reading only their numbers from each stored result.
-    """
-    if not ids or not names:
-        return {}
-    columns = [Diagnosis.result[("estimates", c, bound)].as_float()
-               for c in names for bound in ("low", "high")]
-    rows = session.execute(select(Diagnosis.id, *columns).where(Diagnosis.id.in_(ids)))
-    pairs = list(enumerate(names))
-    return {int(row[0]): {c: (row[1 + 2 * k], row[2 + 2 * k]) for k, c in pairs}
-            for row in rows}
-
-
-def _points(component: str, history: list[HistoryPoint],
-            intervals: dict[int, dict[str, tuple[float | None, float | None]]]
-            ) -> list[TrendPointOut]:
+def _points(component: str, history: list[HistoryPoint]) -> list[TrendPointOut]:
     out = []
     for h in history:
         value = h.slip_coefficient if component == "pump" else h.clearance_m
         if value is None or not math.isfinite(value):
             continue
-        low, high = intervals.get(h.diagnosis_id, {}).get(component, (None, None))
         out.append(TrendPointOut(h.diagnosis_id, h.measured_at, h.rig_version, value,
-                                 low, high, h.probability))
+                                 h.low, h.high, h.probability))
     return out
 
 
@@ -264,9 +241,6 @@ def component_trends(
         names = [c for c in COMPONENTS if c in set(present)]
     histories = {name: component_history(session, rig_id, name, since=since, until=until)
                  for name in names}
-    intervals = _intervals(session, sorted({h.diagnosis_id for hs in histories.values()
-                                            for h in hs}),
-                           [name for name, hs in histories.items() if hs])
     comparable = _comparable(session, resolved, {h.rig_version for hs in
                                                  histories.values() for h in hs})
     out = []
@@ -275,7 +249,7 @@ def component_trends(
             limit, source = threshold, "given"
         else:
             limit, source = default_threshold(resolved.rig, name)
-        estimated = _points(name, history, intervals)
+        estimated = _points(name, history)
         unexplained = {h.diagnosis_id for h in history if h.verdict == UNEXPLAINED}
         every = [p for p in estimated if p.diagnosis_id not in unexplained]
         points = [p for p in every if comparable[p.rig_version]]

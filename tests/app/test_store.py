@@ -285,6 +285,45 @@ def test_diagnoses_stored_before_0008_are_linked_to_their_own_record(tmp_path: P
     engine.dispose()
 
 
+def test_estimates_stored_before_0012_get_the_interval_their_result_stated(tmp_path: Path
+                                                                           ) -> None:
+    """Revision 0012 fills ``diagnosis_estimates.low/high`` from each stored result (a
+    trend read them out of every result's JSON before); a result without them leaves
+    ``NULL``, and the trend reads the intervals from the columns."""
+    from app.services.rig_cache import RigCache
+    from app.services.trends import component_trends
+
+    engine = make_engine(make_url(f"sqlite:///{tmp_path / 'intervals.db'}"))
+    migrate.upgrade(engine, "0011")
+    with make_session_factory(engine)() as session:
+        ensure_reference_data(session)
+    stated = '{"estimates": {"valve": {"value": 4.1e-05, "low": 3.9e-05, "high": 4.3e-05}}}'
+    with engine.begin() as connection:
+        version = connection.execute(text("SELECT id FROM rig_versions")).scalar_one()
+        for k, result in ((1, stated), (2, "{}")):
+            connection.execute(text(
+                "INSERT INTO measurements (id, rig_id, measured_at, record, created_at) "
+                "VALUES (:k, 1, :at, '{}', :at)"), {"k": k, "at": f"2026-01-0{k} 00:00:00"})
+            connection.execute(text(
+                "INSERT INTO diagnoses (id, measurement_id, rig_version_id, component, result, "
+                "created_at) VALUES (:k, :k, :v, 'valve', :r, '2026-01-01 00:00:00')"),
+                {"k": k, "v": version, "r": result})
+            connection.execute(text(
+                "INSERT INTO diagnosis_estimates (diagnosis_id, component, probability, "
+                "clearance_m) VALUES (:k, 'valve', 0.9, :c)"), {"k": k, "c": 4.1e-5 + k * 1e-7})
+    migrate.upgrade(engine)
+    with engine.connect() as connection:
+        rows = connection.execute(text("SELECT diagnosis_id, low, high FROM diagnosis_estimates "
+                                       "ORDER BY diagnosis_id")).all()
+    assert [tuple(r) for r in rows] == [(1, 3.9e-5, 4.3e-5), (2, None, None)]
+    with make_session_factory(engine)() as session:
+        (valve,) = component_trends(session, RigCache(), 1, component="valve")
+    assert [(p.low, p.high) for p in valve.points] == [(3.9e-5, 4.3e-5), (None, None)]
+    migrate.downgrade(engine, "0011")
+    assert "low" not in {c["name"] for c in inspect(engine).get_columns("diagnosis_estimates")}
+    engine.dispose()
+
+
 def _bootstrap_together(url: str, n: int = 3) -> list[str]:
     """``n`` processes' bootstrap (migrate, preload, first key) at once on one empty store,
     as replicas started together do; returns the first keys made."""
