@@ -285,3 +285,29 @@ def test_missing_fields_and_contradictions_raise_measurement_error() -> None:
     with pytest.raises(MeasurementError) as err:
         valve_clearance(negative_valve, GEOM)
     assert err.value.field == "flow_C"
+
+
+def test_a_bypass_within_noise_of_zero_has_an_upper_bound_even_by_the_delta_method() -> None:
+    """The diagnosis inverts by the delta method; at a valve bypass a quarter of its
+    uncertainty below zero the law's clip made its derivative 0 and the interval [0, 0]
+    (an engineer's pass: a zero-width "no clearance" point stored in the valve trend).
+    Now [0, the clearance of the bypass's upper bound], the same on every call."""
+    clean = simulated_record(cc=83e-6, cv=1e-9, T=40.0, v=0.2, p1=12.5e5, p2=10e5, pp=16.5e5)
+    u_q = math.hypot(clean.flow_B.u, clean.flow_C.u)  # type: ignore[union-attr]
+    flow_b = clean.flow_B
+    assert flow_b is not None
+    rec = replace(clean, flow_B=Quantity(flow_b.value - 0.25 * u_q, flow_b.u))
+    est = valve_clearance(rec, GEOM, method="delta")
+    assert est.value == 0.0 and est.low == 0.0
+    mu = FLUID.dynamic_viscosity(40.0)
+    dp = 16.5e5 - GEOM.PRpv - GEOM.PRvt
+    q_hi = (1.96 - 0.25) * u_q  # the bypass's upper bound, its own uncertainty dominating
+    assert est.high == pytest.approx(spool_clearance(q_hi, dp, GEOM.Dv, GEOM.Ls, mu), rel=0.15)
+    again = valve_clearance(rec, GEOM, method="delta")
+    assert (again.low, again.high) == (est.low, est.high)
+    # away from the bound the delta method is kept
+    assert valve_clearance(clean_with(cv=40e-6), GEOM, method="delta").method == "delta"
+
+
+def clean_with(*, cv: float) -> MeasurementRecord:
+    return simulated_record(cc=83e-6, cv=cv, T=40.0, v=0.2, p1=12.5e5, p2=10e5, pp=16.5e5)
