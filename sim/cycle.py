@@ -282,8 +282,14 @@ def run_cycle(rig: Rig, overrides: Mapping[str, float] | None = None,
     if sample_rate is not None:
         span = sum(_phase_limit(rig, p, t_max) for p in params)
         if span > lim.max_sim_time:
-            raise SolverLimitError(f"simulated time {span:.4g} s exceeds the limit "
-                                   f"{lim.max_sim_time:.4g} s", field="sample_rate")
+            # the phases' time limits (a stroke at the pump's flow and then some): a rig
+            # whose bore was stored in the wrong unit read "field sample_rate" when no
+            # sample rate was given (an engineer's pass)
+            raise SolverLimitError(f"simulated time: a cycle of this rig at this condition "
+                                   f"may last {span:.4g} s (each phase's time limit, from its "
+                                   f"stroke and the pump's flow), more than the limit "
+                                   f"{lim.max_sim_time:.4g} s: check the rig's stroke, bore "
+                                   "and pump (their units)", field=None)
         grid = np.arange(0.0, span, 1.0 / sample_rate)
     if method == "ros2":
         r = 1e-3 if rtol is None else rtol

@@ -69,6 +69,17 @@ class Relation:
     holds: Callable[[Mapping[str, float]], bool]
 
 
+def at_most(name: str, limit: float, unit: str, what: str) -> Relation:
+    """The plausibility bound ``name ≤ limit`` [``unit``]: ``what`` says past which built
+    thing it lies.  Checked when a document is stored and on overrides, like a geometric
+    relation, not on stored documents read back (one stored before the bound still
+    loads).  A value past it is a unit slip: a bore of 63 "m" was stored and made
+    ``/simulate`` fail with a 500 (an engineer's pass)."""
+    return Relation(name, f"{name} must be at most {limit:g} {unit} ({what}; a larger value "
+                    "is likely a unit slip, e.g. mm written as m)",
+                    lambda p: p[name] <= limit)
+
+
 def broken_relation(relations: Iterable[Relation], values: Mapping[str, float]
                     ) -> Relation | None:
     """The first of ``relations`` that ``values`` [SI, by parameter name] break, or None."""

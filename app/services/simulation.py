@@ -30,7 +30,7 @@ from diagnostics.table_files import PARQUET_METADATA_KEY  # the import reads it 
 from diagnostics.timeseries import CONDITION_CHANNELS
 from sim.cycle import CycleResult, run_cycle
 from sim.cycle_result import SUMMARY_UNITS
-from sim.errors import InputError, ParameterError
+from sim.errors import InputError, ParameterError, SimulationError
 from sim.rigs import Condition, Rig
 from sim.scenarios import fault_overrides
 from sim.solver.limits import SolverLimits
@@ -167,12 +167,22 @@ def run_scenario(rig: Rig, overrides: dict[str, float], condition: Condition, *,
         An override or the condition is out of bounds (``field`` as in the request).
     SolverLimitError
         The transient needs more than ``limits`` allow.
+    InputError
+        The steady path finds no operating point (``field`` ``method``).
     SimulationError
         The solver failed.
     """
     try:
         if method == "steady":
-            return steady_cycle(rig, overrides, condition)
+            try:
+                return steady_cycle(rig, overrides, condition)
+            except SimulationError as exc:
+                # a property of the rig and the condition, not a failure of the service: a
+                # rig stored with a 63 "m" bore answered 500 (an engineer's pass)
+                raise InputError(f"{exc.message}: the steady path finds no operating point "
+                                 "of this rig at this condition; method 'transient' shows "
+                                 "what it does, and the rig's parameters (units) are worth a "
+                                 "check", field="method") from None
         return run_cycle(rig, overrides, condition, rtol=rtol, method=solver,
                          accuracy=accuracy, sample_rate=sample_rate, timeseries=timeseries,
                          limits=limits)

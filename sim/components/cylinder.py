@@ -35,7 +35,7 @@ from collections.abc import Mapping
 from sim.bondgraph import TF, BondGraph, C, I, MSe, One, R, Zero, call
 from sim.bondgraph.laws import constant, law, quotient
 from sim.components.base import Fragment, declare
-from sim.params import Param, Relation
+from sim.params import Param, Relation, at_most
 
 __all__ = [
     "PARAMETERS",
@@ -86,6 +86,10 @@ RELATIONS: tuple[Relation, ...] = (
              lambda p: p["rod2"] < p["bore"]),
     Relation("cc", "the radial clearance must be less than the bore's radius",
              lambda p: p["cc"] < 0.5 * p["bore"]),
+    at_most("bore", 2.0, "m", "the largest press cylinders' bores are ~1.5 m"),
+    at_most("stroke", 30.0, "m", "the longest cylinders' strokes are ~20 m"),
+    at_most("cc", 2e-3, "m", "24× the paper-002 piston's 83 µm: a seal gone is ~0.3 mm"),
+    at_most("Lc", 1.0, "m", "piston seal lands are millimetres to centimetres long"),
 )
 
 

@@ -20,7 +20,7 @@ from collections.abc import Mapping
 from sim.bondgraph import BondGraph, One, R, Se, Zero, call
 from sim.bondgraph.laws import constant, law
 from sim.components.base import Fragment, declare
-from sim.params import Param, Relation
+from sim.params import Param, Relation, at_most
 
 __all__ = ["PARAMETERS", "RELATIONS", "build", "path_flow", "spool_leakage_flow"]
 
@@ -47,6 +47,9 @@ PARAMETERS: tuple[Param, ...] = (
 RELATIONS: tuple[Relation, ...] = (
     Relation("cv", "the radial clearance must be less than the spool's radius",
              lambda p: p["cv"] < 0.5 * p["Dv"]),
+    at_most("Dv", 0.5, "m", "the largest cartridge valves' spools are ~0.1 m"),
+    at_most("cv", 2e-3, "m", "60× the paper-002 spool's 34 µm"),
+    at_most("Ls", 0.5, "m", "spool lands are millimetres long"),
 )
 
 

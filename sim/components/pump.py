@@ -18,9 +18,9 @@ from collections.abc import Mapping
 from sim.bondgraph import TF, BondGraph, C, R, Sf, Zero, call
 from sim.bondgraph.laws import constant, linear_effort, linear_flow
 from sim.components.base import Fragment, declare
-from sim.params import Param
+from sim.params import Param, Relation, at_most
 
-__all__ = ["PARAMETERS", "build"]
+__all__ = ["PARAMETERS", "RELATIONS", "build"]
 
 PARAMETERS: tuple[Param, ...] = (
     Param("speed", "rad/s", 1600 * 2 * 3.141592653589793 / 60, "paper 002 §2.6 ω = 1600 rpm "
@@ -33,6 +33,12 @@ PARAMETERS: tuple[Param, ...] = (
     Param("Rlp", "Pa*s/m^3", 6.0e11, "paper 002 §2.6 '6e 2' illegible; 6e11 gives a volumetric "
           "efficiency of 97.5 % at the 70 bar relief setting, plausible for a vane pump "
           "(6e12 would give 99.75 %)", "internal leakage resistance"),
+)
+
+#: Plausibility: displacement and speed within what pumps are built with.
+RELATIONS: tuple[Relation, ...] = (
+    at_most("Vp", 1e-3, "m^3/rad", "6.3 L/rev; the largest hydrostatic pumps displace ~1 L/rev"),
+    at_most("speed", 2000.0, "rad/s", "19,000 rpm"),
 )
 
 

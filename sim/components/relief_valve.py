@@ -16,15 +16,20 @@ from collections.abc import Mapping
 from sim.bondgraph import BondGraph, R, call
 from sim.bondgraph.laws import law
 from sim.components.base import Fragment, declare
-from sim.params import Param
+from sim.params import Param, Relation, at_most
 
-__all__ = ["PARAMETERS", "build", "relief_flow"]
+__all__ = ["PARAMETERS", "RELATIONS", "build", "relief_flow"]
 
 PARAMETERS: tuple[Param, ...] = (
     Param("Pset", "Pa", 7.0e6, "paper 002 §2.6 Pset = 7.0e6 Pa", "opening pressure"),
     Param("Rrv", "Pa*s/m^3", 2.5e9, "paper 002 §2.6 Rrv = 2.5e9 Pa·s/m³", "resistance above opening"),
     Param("Gseat", "m^3/(s*Pa)", 0.0, "chosen: a healthy seat does not leak",
           "seat-leakage conductance", lower_inclusive=True),
+)
+
+#: Plausibility: a setting within what hydraulic valves are built for.
+RELATIONS: tuple[Relation, ...] = (
+    at_most("Pset", 1.5e8, "Pa", "1500 bar; ultra-high-pressure tools work at 700-1000 bar"),
 )
 
 

@@ -190,3 +190,21 @@ def test_a_stalled_stroke_is_read_in_its_settled_state_and_says_so(server: LiveS
         steady["summary"]["working.P1 [Pa]"], rel=0.01)
     assert any(n.startswith("the working stroke did not reach its end") for n in
                stalled["notes"])
+
+
+def test_a_stored_rig_without_a_steady_operating_point_is_a_422_naming_the_method() -> None:
+    """A rig stored with its bore in the wrong unit (63 "m"; refused since, but a stored
+    document still loads) answered the steady path with 500 (an engineer's pass)."""
+    import copy
+
+    from app.services.simulation import run_scenario
+    from sim.errors import InputError
+    from sim.rigs import load_rig, reference_rig_document
+
+    doc = copy.deepcopy(reference_rig_document())
+    doc["components"]["cylinder"]["parameters"]["bore"]["value"] = 63.0
+    rig = load_rig(doc)
+    with pytest.raises(InputError) as exc:
+        run_scenario(rig, {}, rig.default_condition(), method="steady")
+    assert exc.value.field == "method" and "no steady operating point" in exc.value.message
+    assert "transient" in exc.value.message

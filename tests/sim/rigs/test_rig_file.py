@@ -145,3 +145,23 @@ def test_a_bound_broken_in_another_unit_is_said_as_written() -> None:
         load_rig(doc)
     assert e.value.field == "components.pump.parameters.Vp"
     assert "> 0 m^3/rad" in e.value.message and "(written 0 m^3/rev)" in e.value.message
+
+
+@pytest.mark.parametrize(("role", "name", "value"), [
+    ("double_acting_cylinder", "bore", 63.0), ("double_acting_cylinder", "stroke", 400.0),
+    ("double_acting_cylinder", "cc", 0.01), ("directional_valve_4_2", "Dv", 12.5),
+    ("fixed_displacement_pump", "Vp", 0.0175), ("relief_valve", "Pset", 1e9)])
+def test_a_value_past_anything_built_is_refused_when_stored_and_still_read_back(
+        role: str, name: str, value: float) -> None:
+    """A bore of 63 "m", a 10 mm clearance, a 10,000 bar relief were stored, and the bore
+    made /simulate answer 500 (an engineer's pass); a stored document read back keeps
+    loading."""
+    doc = copy.deepcopy(reference_rig_document())
+    comps = doc["components"]
+    key = next(k for k, c in comps.items() if c["type"] == role)
+    comps[key]["parameters"][name]["value"] = value
+    with pytest.raises(RigFileError) as exc:
+        validate_rig_document(doc, strict=True)
+    assert exc.value.field == f"components.{key}.parameters.{name}"
+    assert "unit slip" in exc.value.message
+    validate_rig_document(doc)
