@@ -63,6 +63,7 @@ from scipy.special import chdtrc, gammaincinv
 from diagnostics.hypotheses import PARAMETERS
 from diagnostics.range_test import RangeTest, pinned, range_test, range_tests
 from diagnostics.ranking import HypothesisFit, Ranker
+from sim.units import unit_suffix
 
 __all__ = ["TEST_LEVEL", "Disagreement", "GoodnessOfFit", "chi2_limit", "goodness_of_fit",
            "stall_limit"]
@@ -277,7 +278,13 @@ def goodness_of_fit(ranker: Ranker, fits: list[HypothesisFit], level: float = TE
         testable, p, _, best, dof = max(scored, key=lambda s: (s[0], s[1], -s[2]))
         chi2 = best.chi2
     limit = chi2_limit(level, dof) if dof >= 1 else math.inf
-    beyond = _beyond_range(ranker, cands, tests, level)
+    # a relief setting that cannot open anywhere in its prior is unobservable, yet one
+    # below the prior's lowest can: readings nothing explains are tested for it too (a
+    # relief at 0.2 × nominal read "relief_setting: not observable" and nothing beyond
+    # range; an engineer's pass)
+    below = [] if explained else [f for f in fits if not f.observable
+                                  and f.name == "relief_setting"]
+    beyond = _beyond_range(ranker, cands + below, tests, level)
     dis = _disagreements(ranker, best, (at_fit_sigma or {}).get(best.name)
                          if best.name in used else None)
     if explained and testable:
@@ -303,15 +310,16 @@ def goodness_of_fit(ranker: Ranker, fits: list[HypothesisFit], level: float = TE
     if beyond:
         statement += (
             (" " if statement.endswith(".") else ". ")
-            + "The readings are explained as well by a fault beyond the library's prior "
-            "range: " + "; ".join(
-                f"{t.hypothesis} at " + ", ".join(f"{k} = {v:.4g}" for k, v in
-                                                    t.extended.items())
+            + ("The readings are explained as well by a fault beyond the library's prior "
+               "range: " if explained else "A fault beyond the library's prior range "
+               "explains them: ") + "; ".join(
+                f"{t.hypothesis} at " + ", ".join(f"{k} = {v:.4g}{unit_suffix(PARAMETERS[k].unit)}"
+                                                    for k, v in t.extended.items())
                 + f" (χ² = {t.chi2_extended:.3g})" for t in beyond)
             + (f"; {max(cands, key=lambda f: f.probability).name} is not a confident "
-               "answer: check "
-               + " and ".join(sorted({c for t in beyond for c in _components(t)}))
-               + " directly" if explained else "") + ".")
+               "answer" if explained else "") + ": check "
+            + " and ".join(sorted({c for t in beyond for c in _components(t)}))
+            + " directly.")
     return GoodnessOfFit(best.name, float(chi2), max(dof, 0), level, limit, p,
                          explained, dis, statement, bool(testable or not explained), tests,
                          beyond, incipient)

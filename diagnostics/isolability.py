@@ -157,12 +157,20 @@ def isolability(ranker: Ranker, fits: list[HypothesisFit], model_rel: float = 0.
             p_max = max(pred["pump_pressure"] for pred in f.predicted)
             pset = PARAMETERS["Pset"].nominal_value(ranker.rig)
             lo = PARAMETERS["Pset"].low
+            # the model's pressure, not a reading: it was quoted as "the pump pressure"
+            # beside a measured one 3 bar lower, and for records without one (an
+            # engineer's pass)
+            measured = [float(m.obs.values[list(m.obs.names).index("pump_pressure")])
+                        for m in ranker.models if "pump_pressure" in m.obs.names]
+            read = (f"; measured {max(measured) / 1e5:.1f} bar" if measured else "")
             statements.append(
-                f"relief_setting: not observable here — the pump pressure ({p_max / 1e5:.1f} bar)"
-                f" stays below even a setting drifted to {lo:.0%} of its {pset / 1e5:.0f} bar; "
-                "check the "
-                "setting by reading the pump pressure with the piston held on its end stop, or "
-                "at a load that brings the pressure near the setting")
+                f"relief_setting: not observable within its prior here — the model's pump "
+                f"pressure at this condition ({p_max / 1e5:.1f} bar{read}) stays below even a "
+                f"setting drifted to {lo:.0%} of its {pset / 1e5:.0f} bar, so no setting in "
+                "that range opens (a lower one is tested when nothing else explains the "
+                "readings: goodness_of_fit.beyond_range); check the setting by reading the "
+                "pump pressure with the piston held on its end stop, or at a load that "
+                "brings the pressure near the setting")
         else:
             statements.append(f"{f.name}: not observable with these sensors at these conditions "
                               f"(its largest effect is {f.detectability:.2f} σ)")

@@ -75,6 +75,23 @@ def test_a_held_relief_setting_below_its_prior_is_stated_as_an_alternative(rig):
     assert d.to_dict()["confident"] is False
 
 
+def test_a_relief_setting_that_no_prior_value_opens_is_still_found_below_the_prior(rig):
+    """Relief at 0.19 × nominal at 2.1 kN, where the healthy pump pressure (14.6 bar)
+    lies below the prior's lowest setting (0.3 × 70 bar): no setting in the prior opens,
+    so relief_setting is unobservable, yet the readings are the relief's; they were
+    "unexplained" with nothing beyond range and "relief_setting: not observable" quoting
+    the model's pressure as the pump's (an engineer's pass).  Full sensors, noise-free."""
+    pset = 0.19 * rig.base["relief.Pset"]
+    rec = record(rig, {"relief.Pset": pset}, load=2100.0)
+    d = diagnose(rig, [rec])
+    assert d.fit is not None and not d.confident
+    (alt,) = [t for t in d.fit.beyond_range if t.hypothesis == "relief_setting"]
+    assert alt.extended["Pset"] == pytest.approx(pset, rel=0.01)
+    assert "check relief directly" in d.fit.statement
+    relief = next(s for s in d.isolability.statements if s.startswith("relief_setting"))
+    assert "model's pump pressure" in relief and "measured" in relief
+
+
 def test_ratio_alone_states_that_a_misfit_cannot_be_detected(rig):
     """One reading and one-parameter hypotheses: no degree of freedom is left, so a
     passing single fault is no χ² test; the result says so (dof 0, testable false)."""
