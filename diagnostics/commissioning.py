@@ -193,6 +193,17 @@ class _Problem:
         self.model_rel = model_rel
         self.weights = [self._whitening(rig, ev, o, idx)
                         for ev, o, idx in zip(self.evs, obs, self.idx, strict=True)]
+        for i, (o, (sigma, _)) in enumerate(zip(obs, self.weights, strict=True)):
+            for name, value, sig in zip(o.names, o.values, sigma, strict=True):
+                if not sig > 0.0:
+                    # as /diagnose says it (record_model): a stalled stroke's speed stated
+                    # with u = 0 read "χ² = nan … speed_work by +inf σ — a record of a worn
+                    # component" (an engineer's pass)
+                    raise MeasurementError(
+                        f"the reading {float(value):g} has zero standard uncertainty (its "
+                        "stated u is 0 and nothing else is uncertain here); a stroke that "
+                        "does not move has no speed or velocity ratio to read: leave the "
+                        "reading out, or state its uncertainty", field=f"records[{i}].{name}")
 
     def _whitening(self, rig: Rig, ev: SteadyEvaluator, o: RecordObservations, idx: Arr
                    ) -> tuple[Arr, Arr]:

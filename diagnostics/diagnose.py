@@ -28,7 +28,7 @@ from diagnostics.inversion import LeakageGeometry, cylinder_clearance, valve_cle
 from diagnostics.isolability import Isolability, isolability
 from diagnostics.measurement import MeasurementRecord
 from diagnostics.observations import OBSERVABLE_UNITS, observe
-from diagnostics.ranking import HypothesisFit, Method, ParameterEstimate, Ranker
+from diagnostics.ranking import MULTIPLE_OF, HypothesisFit, Method, ParameterEstimate, Ranker
 from diagnostics.ratio_index import RatioIndex, ratio_index
 from diagnostics.signatures import OBSERVABLES, SignatureMaps
 from diagnostics.slip import rig_slip_coefficient
@@ -134,7 +134,8 @@ class Diagnosis:
                 "probability": f.probability, "observable": f.observable,
                 "chi2": f.chi2, "chi2_at_estimate": f.chi2_at_estimate,
                 "log_evidence": f.log_evidence,
-                "parameters": [plain(p) for p in f.parameters],
+                "parameters": [plain(p) | {"multiple_of": MULTIPLE_OF.get(p.name, "")}
+                               for p in f.parameters],
                 "predicted": f.predicted,
             }
         iso = self.isolability

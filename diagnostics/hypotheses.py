@@ -152,11 +152,13 @@ PARAMETERS: dict[str, FaultParameter] = {
         FaultParameter("cv", "valve", "valve.cv", "m", 1.0, 4.0, True,
                        "radial clearance spool-body"),
         FaultParameter("pump_leak", "pump", "pump.Rlp", "1", 1.0, 20.0, True,
-                       "internal leakage of the pump, multiple of nominal"),
+                       "internal leakage of the pump, multiple of nominal (its flow: "
+                       "value × Δp / Rlp of the rig document)"),
         FaultParameter("Pset", "relief", "relief.Pset", "Pa", 0.3, 1.0, False,
                        "relief valve opening pressure"),
         FaultParameter("seat_leak", "relief", "relief.Gseat", "1", 0.01, 20.0, True,
-                       "relief seat leakage, multiple of the nominal pump leakage"),
+                       "relief seat leakage, multiple of the nominal pump leakage (its "
+                       "flow: value × Δp / Rlp of the rig document)"),
     )
 }
 

@@ -62,7 +62,7 @@ from diagnostics.record_model import RecordModel
 from sim.errors import SimulationError
 from sim.rigs import Rig
 
-__all__ = ["DEFAULT_METHOD", "HypothesisFit", "Method", "ParameterEstimate", "Ranker",
+__all__ = ["DEFAULT_METHOD", "MULTIPLE_OF", "HypothesisFit", "Method", "ParameterEstimate", "Ranker",
            "laplace_evidence", "profile_evidence", "rank_order", "severity"]
 
 Arr = npt.NDArray[np.float64]
@@ -76,6 +76,18 @@ _REFIT_GAIN = 0.5
 #: "direct" (a Python call per model evaluation; the reference of the equivalence test)
 Method = Literal["fast", "direct"]
 DEFAULT_METHOD: Method = "fast"
+
+
+#: what :attr:`ParameterEstimate.multiple` is, per parameter, as the JSON says it beside it
+#: (``multiple_of``): three meanings under one name read as "0.65 × nominal" for a relief
+#: setting 65 % low (an engineer's pass)
+MULTIPLE_OF: dict[str, str] = {
+    "cc": "laminar leakage past the piston, (c/c0)^3 [-]",
+    "cv": "laminar leakage through the spool, (c/c0)^3 [-]",
+    "pump_leak": "the pump's internal leakage, the value itself (leak = value·Δp/Rlp) [-]",
+    "seat_leak": "1 + the seat's leakage in units of the pump's nominal leakage [-]",
+    "Pset": "drift of the setting, 1 − value/nominal (0.65: 65 % low) [-]",
+}
 
 
 def severity(param: FaultParameter, value: float, nominal: float) -> tuple[float, str]:

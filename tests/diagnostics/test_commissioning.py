@@ -82,6 +82,24 @@ def test_bad_requests_name_the_field() -> None:
     assert exc.value.field == "parameters[0]"
 
 
+def test_a_reading_stated_with_zero_uncertainty_is_named_as_diagnose_names_it() -> None:
+    """A stalled stroke's speed stated as {0, u 0}: "χ² = nan … by +inf σ — a record of a
+    worn component" before (an engineer's pass); now the reading, as /diagnose says it."""
+    from dataclasses import replace
+
+    from diagnostics.quantity import Quantity
+
+    rig = reference_rig()
+    recs = healthy_records(rig, 0)
+    # 16 kN: past what 70 bar on the annulus pushes (14.8 kN), the piston stalls
+    stalled = record(rig, {}, load=16000.0, temperature=40.0, fields=FULL)
+    recs.append(replace(stalled, speed_work=Quantity(0.0, 0.0)))
+    with pytest.raises(MeasurementError) as exc:
+        commission(rig, recs)
+    assert exc.value.field == f"records[{len(recs) - 1}].speed_work"
+    assert "zero standard uncertainty" in exc.value.message
+
+
 def test_a_stated_condition_is_weighed_with_its_instruments_error() -> None:
     """Records whose stated oil temperature and load are each off by up to their
     instruments' class bound (thermometer ±1 K, load cell ±1 %, signs differing from
