@@ -71,6 +71,12 @@ class RigLimits:
 #: fraction of F/A1 below which a pressure cannot hold a stated load [-] (generous: a
 #: pressure in bar typed as Pa is 1e-5 of it)
 LOAD_FRACTION = 0.2
+#: the chambers' net force P1·A1 − P2·A2 at least this many times a stated load, and at
+#: least :data:`UNIT_SLIP_FORCE`, reads as a load in kN typed as N [-] (friction alone
+#: gives the paper-002 piston ~170 N, so a stated load of a few newtons at rest is not it)
+LOAD_MULTIPLE = 500.0
+#: least net force [N] for :data:`LOAD_MULTIPLE` to say a unit slip
+UNIT_SLIP_FORCE = 1000.0
 
 
 def _exceeds(q: Quantity, limit: float) -> bool:
@@ -134,6 +140,17 @@ def check_against_rig(record: MeasurementRecord, limits: RigLimits) -> None:
                     f"{cond.load_force.value:.4g} N: that takes about F/A1 = "
                     f"{needed / 1e5:.3g} bar ({needed:.4g} Pa); readings are in Pa (1 bar "
                     "= 1e5 Pa): are these bar?", field=name)
+        p1, p2 = record.p1, record.p2
+        if p1 is not None:
+            # the other way round: a load in kN typed as N (5 for 5000) read "unexplained,
+            # p1 by +178.6 σ" (an engineer's pass)
+            net = p1.value * limits.A1 - (p2.value * limits.A2 if p2 is not None else 0.0)
+            if net >= UNIT_SLIP_FORCE and net >= LOAD_MULTIPLE * cond.load_force.value:
+                raise MeasurementError(
+                    f"the stated load of {cond.load_force.value:.4g} N is "
+                    f"1/{net / cond.load_force.value:.0f} of what the chambers push while "
+                    f"the piston moves (P1·A1 − P2·A2 = {net:.4g} N): loads are in N "
+                    "(1 kN = 1000 N): is this kN?", field="condition.load_force")
     if cond.load_force is not None and cond.back_pressure is not None:
         implied = Quantity(cond.back_pressure.value * limits.A2, cond.back_pressure.u * limits.A2)
         if not agree(cond.load_force, implied):

@@ -275,6 +275,23 @@ def test_pressures_that_cannot_push_the_stated_load_are_refused_as_a_unit_slip()
     check_against_rig(held, LIMITS)
 
 
+def test_a_load_in_kn_typed_as_newtons_is_refused_as_a_unit_slip() -> None:
+    """2.1 for 2.1 kN: the chambers push ~2.35 kN while the piston moves (an engineer's
+    pass read "unexplained, p1 by +178.6 σ"); a small real load, or none, is kept."""
+    moving = {"p1": 11.88e5, "p2": 0.5e5, "speed_work": 0.18}
+    kn = OperatingCondition.from_readings({"oil_temperature": 40.0, "load_force": 2.1})
+    with pytest.raises(MeasurementError) as err:
+        check_against_rig(MeasurementRecord.from_readings("rig-1", kn, moving), LIMITS)
+    assert err.value.field == "condition.load_force" and "is this kN?" in err.value.message
+    for load in (0.0, 2100.0):
+        ok = OperatingCondition.from_readings({"oil_temperature": 40.0, "load_force": load})
+        check_against_rig(MeasurementRecord.from_readings("rig-1", ok, moving), LIMITS)
+    # friction alone at no load: ~0.8 bar on the annulus, far below the 1 kN floor
+    light = OperatingCondition.from_readings({"oil_temperature": 40.0, "load_force": 1.0})
+    check_against_rig(MeasurementRecord.from_readings(
+        "rig-1", light, {"p1": 0.8e5, "p2": 0.0, "speed_work": 0.2}), LIMITS)
+
+
 def test_stroke_against_rig() -> None:
     with pytest.raises(MeasurementError) as err:
         check_against_rig(record(stroke=0.4), LIMITS)
