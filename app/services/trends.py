@@ -139,7 +139,8 @@ def _if_blamed(component: str, point: TrendPointOut) -> str:
 
 
 def _trend(component: str, rig_id: int, points: list[TrendPointOut], threshold: float,
-           source: str, later: tuple[int, datetime | None] = (0, None)) -> ComponentTrendOut:
+           source: str, later: tuple[int, datetime | None, dict[str, int]] = (0, None, {})
+           ) -> ComponentTrendOut:
     """The trend of ``points``; ``later``: the rig's diagnoses after the last point (how
     many, and the last one's time), :func:`_later`."""
     quantity, unit = COMPONENTS[component]
@@ -165,10 +166,14 @@ def _trend(component: str, rig_id: int, points: list[TrendPointOut], threshold: 
     status: str = forecast.status
     message = forecast.message
     if later[0] and points:
+        # what they named: "stale" on a healthy pump read like a fault (an engineer's pass)
+        said = ", ".join(f"{name} {n}" for name, n in sorted(
+            later[2].items(), key=lambda kv: (-kv[1], kv[0])))
         since = (f"no {quantity} estimate in the {later[0]} later diagnosis(es) of this rig "
-                 f"(since {points[-1].measured_at:%Y-%m-%d}, to {later[1]:%Y-%m-%d}): the "
-                 f"{component} alone did not fit their readings, could not be observed, or "
-                 "the rig model explained none of them")
+                 f"(since {points[-1].measured_at:%Y-%m-%d}, to {later[1]:%Y-%m-%d}"
+                 + (f"; they named {said}" if said else "") + f"): the {component} alone "
+                 "did not fit their readings, could not be observed, or the rig model "
+                 "explained none of them")
         if later[0] >= STALE_AFTER:
             status = "stale"
             message = (f"{since}; the trend of the {len(points)} earlier point(s) forecasts "
@@ -254,7 +259,8 @@ def component_trends(
         every = [p for p in estimated if p.diagnosis_id not in unexplained]
         points = [p for p in every if comparable[p.rig_version]]
         left = sorted({p.rig_version for p in every if not comparable[p.rig_version]})
-        later = _later(session, rig_id, points[-1].measured_at, until) if points else (0, None)
+        later = (_later(session, rig_id, points[-1].measured_at, until) if points
+                 else (0, None, {}))
         trend = _trend(name, rig_id, points, limit, source, later)
         if left:
             n_left = len(every) - len(points)
@@ -310,14 +316,19 @@ def _comparable(session: Session, latest: ResolvedRig, versions: set[int]
 
 
 def _later(session: Session, rig_id: int, after: datetime, until: datetime | None
-           ) -> tuple[int, datetime | None]:
+           ) -> tuple[int, datetime | None, dict[str, int]]:
     """How many diagnoses of rig ``rig_id`` were made of records taken after ``after``
-    (up to ``until``), and when the last of those records was taken."""
+    (up to ``until``), when the last of those records was taken, and what they named
+    (component or verdict → count)."""
     where = [Measurement.rig_id == rig_id, Measurement.measured_at > after]
     if until is not None:
         where.append(Measurement.measured_at <= until)
     joined = select(Measurement.measured_at).join(
         Diagnosis, Diagnosis.measurement_id == Measurement.id).where(*where)
-    count = session.scalar(select(func.count()).select_from(joined.subquery())) or 0
+    named = session.execute(
+        select(Diagnosis.component, func.count()).join(
+            Measurement, Diagnosis.measurement_id == Measurement.id).where(*where)
+        .group_by(Diagnosis.component)).all()
     last = session.scalar(joined.order_by(Measurement.measured_at.desc()).limit(1))
-    return int(count), last
+    counts = {str(c or "healthy"): int(n) for c, n in named}
+    return sum(counts.values()), last, counts

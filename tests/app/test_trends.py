@@ -200,6 +200,8 @@ def test_a_component_no_later_diagnosis_estimates_is_stale(server: LiveServer,
         assert t["later_diagnoses"] == 3 and t["status"] == "stale"
         assert t["time_left_s"] is None and t["crossing_at"] is None
         assert "no " in t["message"] and "3 later diagnosis(es)" in t["message"]
+        # what those diagnoses named: "stale" alone read like a fault of a healthy pump
+        assert "they named cylinder 3" in t["message"]
     assert {t["component"] for t in trends if t["later_diagnoses"] == 0} == {"cylinder",
                                                                              "valve"}
 
