@@ -18,7 +18,7 @@ import typer
 from pydantic import ValidationError
 from rich.console import Console
 from rich.markup import escape
-from rich.table import Table
+from rich.table import Column, Table
 
 from app.cli_import import import_cli
 from app.cli_pump_map import calibrate_pump_map
@@ -342,14 +342,16 @@ def commission(
     if as_json:
         _print_json(response.model_dump(mode="json"))
         return
-    table = Table("parameter", "before", "fitted", "95 % interval", "pinned down",
+    table = Table("parameter", Column("unit", overflow="fold"), "before", "fitted",
+                  "95 % interval", "pinned down",
                   title=f"rig {response.rig_id}: version {response.from_version} → "
                   + (f"{response.version}" if response.stored else "nothing stored")
                   + f" (χ² = {response.chi2:.3g} on {response.n_observations} "
                   f"readings, {response.dof:.1f} degrees of freedom, limit "
                   f"{'none' if response.chi2_limit is None else f'{response.chi2_limit:.3g}'})")
     for p in response.parameters:
-        table.add_row(escape(p.name), escape(f"{p.before:.4g} {p.unit}"), f"{p.value:.4g}",
+        # one unit column for before, fitted and interval (the fitted had none)
+        table.add_row(escape(p.name), escape(p.unit), f"{p.before:.4g}", f"{p.value:.4g}",
                       f"{p.low:.4g} … {p.high:.4g}", "yes" if p.identifiable else "no")
     _out.print(table)
     for s in response.statements:

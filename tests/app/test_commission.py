@@ -122,6 +122,10 @@ def test_cli_commission(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None
                                 "valve.K"])
     assert table.exit_code == 0, table.output
     assert "valve.K" in table.output
+    # the fitted value and its interval carry the unit, as the value before does
+    # one unit column serves before, fitted and interval (the fitted had none)
+    assert "unit" in table.output and "m^3/(s*Pa^" in table.output and "…" not in (
+        next(line for line in table.output.splitlines() if "valve.K" in line).split("│")[2])
     bad = runner.invoke(cli, ["commission", str(path), "--rig", "1", "--parameter", "x.y"])
     # main() prints the error and exits 1; the runner keeps the exception
     assert bad.exit_code != 0 and getattr(bad.exception, "field", None) == "--parameter"
