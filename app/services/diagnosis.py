@@ -390,6 +390,7 @@ def add_outcomes(session: Session, request: DiagnoseRequest,
                     probability=outcome.probability,
                     estimates=[e.history() for e in outcome.estimates],
                     rig_version_id=outcome.resolved.version_id,
+                    stated=records[path].measured_at is not None,
                 )
                 rows.append(diagnosis.measurement)
             else:

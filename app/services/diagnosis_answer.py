@@ -57,6 +57,9 @@ class StoredRows:
     estimates
         Per component: name, probability [1], clearance [m], slip coefficient [-], and
         the 95 % interval's low and high [m, or 1 for Cs].
+    stated
+        Whether the record carrying the diagnosis stated its ``measured_at`` (one that
+        did not is stored at the request's time, and is no twin of a stored one).
     """
 
     rig_id: int
@@ -68,6 +71,7 @@ class StoredRows:
     result: bytes
     estimates: list[tuple[str, float | None, float | None, float | None, float | None,
                           float | None]]
+    stated: bool = True
 
 
 @dataclass(frozen=True, slots=True)
@@ -156,7 +160,8 @@ def _rows(outcome: DiagnosisOutcome, records: Mapping[str, RecordForm], now: dat
     estimates = [(h.component, h.probability, h.clearance_m, h.slip_coefficient, h.low, h.high)
                  for h in (e.history() for e in outcome.estimates)]
     return StoredRows(outcome.resolved.rig_id, outcome.resolved.version_id, stored, latest,
-                      outcome.component, outcome.probability, result, estimates)
+                      outcome.component, outcome.probability, result, estimates,
+                      records[outcome.paths[latest]].measured_at is not None)
 
 
 def answer_of(form: RequestForm, outcomes: list[DiagnosisOutcome], now: datetime

@@ -22,6 +22,7 @@ from sqlalchemy.orm import Session
 from app.db.base import utcnow
 from app.db.models import Diagnosis, DiagnosisEstimate, DiagnosisRecord, Measurement
 from app.services.diagnosis_answer import StoredRows
+from app.services.history import stored_twin
 
 __all__ = ["insert_rows"]
 
@@ -73,6 +74,9 @@ def insert_rows(session: Session, rows: Sequence[StoredRows]) -> list[tuple[int,
     ------
     IntegrityError
         A constraint refused a row (a rig or version deleted meanwhile).
+    ConflictError
+        A record stored already with a diagnosis against the same rig version
+        (:func:`~app.services.history.stored_twin`).
     """
     connection = session.connection()  # Core statements on the session's transaction
     add_measurement, add_diagnosis, add_estimates, add_records = _statements(
@@ -80,6 +84,9 @@ def insert_rows(session: Session, rows: Sequence[StoredRows]) -> list[tuple[int,
     now = utcnow()
     ids: list[tuple[int, list[int]]] = []
     for item in rows:
+        if item.stated:
+            measured_at, record = item.measurements[item.latest]
+            stored_twin(connection, item.rig_id, item.rig_version_id, measured_at, record)
         measurement_ids = [
             int(connection.execute(add_measurement, {
                 "rig_id": item.rig_id, "measured_at": measured_at,

@@ -12,16 +12,17 @@ from dataclasses import dataclass
 from datetime import datetime
 from typing import Any
 
-from sqlalchemy import select
+from sqlalchemy import Connection, select
 from sqlalchemy.orm import Session
 
+from app.db.engine import loads_json
 from app.db.models import Diagnosis, DiagnosisEstimate, Measurement, RigVersion
 from app.services.common import commit
 from app.services.rigs import get_rig, get_version
-from sim.errors import InputError
+from sim.errors import ConflictError, InputError
 
 __all__ = ["ComponentEstimate", "HistoryPoint", "add_diagnosis", "add_measurement",
-           "component_history", "record_diagnosis", "stated_bound"]
+           "component_history", "record_diagnosis", "stated_bound", "stored_twin"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -76,6 +77,36 @@ def stated_bound(result: Mapping[str, Any], component: str, bound: str) -> float
     return float(value) if isinstance(value, int | float) and not isinstance(value, bool) else None
 
 
+def stored_twin(connection: Connection, rig_id: int, rig_version_id: int,
+                measured_at: datetime, record: Mapping[str, Any] | bytes) -> None:
+    """Refuse a diagnosis of a record that is stored already with a diagnosis against the
+    same rig version: same rig, same ``measured_at``, the same document (``record`` as the
+    history keeps it, or its JSON).  A double submit without an ``Idempotency-Key``
+    stored it twice and the trend fitted both points (an engineer's pass); the same
+    record against another version (after commissioning) is a new diagnosis.
+
+    Raises
+    ------
+    ConflictError
+        Naming the stored diagnosis (``field`` ``measured_at``).
+    """
+    rows = connection.execute(
+        select(Diagnosis.id, Measurement.record)
+        .join(Measurement, Diagnosis.measurement_id == Measurement.id)
+        .where(Measurement.rig_id == rig_id, Measurement.measured_at == measured_at,
+               Diagnosis.rig_version_id == rig_version_id)).all()
+    if not rows:
+        return
+    document = loads_json(record) if isinstance(record, bytes) else record
+    for diagnosis_id, stored in rows:
+        if stored == document:
+            raise ConflictError(
+                f"this record (rig {rig_id}, measured {measured_at.isoformat()}) is stored "
+                f"already, diagnosed against the same rig version as diagnosis "
+                f"{diagnosis_id}: send it with store false to diagnose it again, or with its "
+                "own measured_at", field="measured_at")
+
+
 def add_measurement(
     session: Session, *, rig_id: int, measured_at: datetime, record: Mapping[str, Any]
 ) -> Measurement:
@@ -104,13 +135,15 @@ def add_diagnosis(
     estimates: Sequence[ComponentEstimate] = (),
     rig_version: int | None = None,
     rig_version_id: int | None = None,
+    stated: bool = True,
 ) -> Diagnosis:
     """Add a measurement and its diagnosis to the session without committing.
 
     Parameters are those of :func:`record_diagnosis`; the caller commits (several
     diagnoses of one request go in one transaction, so that a failure stores none).
     ``rig_version_id``, the row id of the rig version, spares the look-ups of a caller
-    that has just resolved it (``rig_version`` is then ignored).
+    that has just resolved it (``rig_version`` is then ignored).  ``stated``: the record
+    stated its ``measured_at``, so a stored twin is refused (:func:`stored_twin`).
     """
     if rig_version_id is None:
         rig = get_rig(session, rig_id, field="rig_id")
@@ -119,6 +152,8 @@ def add_diagnosis(
     names = [e.component for e in estimates]
     if len(set(names)) != len(names):
         raise InputError("one estimate per component", field="estimates")
+    if stated:
+        stored_twin(session.connection(), rig_id, rig_version_id, measured_at, record)
     measurement = add_measurement(session, rig_id=rig_id, measured_at=measured_at,
                                   record=record)
     diagnosis = Diagnosis(

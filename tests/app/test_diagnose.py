@@ -223,10 +223,33 @@ def test_a_record_impossible_on_its_rig_is_422(server: LiveServer) -> None:
 def test_the_answer_gives_the_time_in_utc_as_it_is_read_back(server: LiveServer) -> None:
     """A record stated at 10:00+02:00 was echoed with +02:00 while GET /diagnoses read it
     back as 08:00Z: one diagnosis, two spellings of its time."""
-    record = simulated_record(server, WORN_VALVE, measured_at="2026-11-23T10:00:00+02:00")
-    for compact in (False, True):
+    for compact, hour in ((False, 10), (True, 11)):
+        record = simulated_record(server, WORN_VALVE,
+                                  measured_at=f"2026-11-23T{hour}:00:00+02:00")
         answer = server.client.post("/diagnose", json={"record": record, "compact": compact},
                                     headers=server.auth).json()["diagnoses"][0]
-        assert answer["measured_at"] == "2026-11-23T08:00:00Z"
+        assert answer["measured_at"] == f"2026-11-23T{hour - 2:02d}:00:00Z"
         stored = server.client.get(f"/diagnoses/{answer['id']}").json()
         assert stored["measured_at"] == answer["measured_at"]
+
+
+def test_the_same_record_stored_twice_is_a_409_naming_the_first_and_stores_nothing(
+        server: LiveServer) -> None:
+    """A double submit without an Idempotency-Key stored the record twice and the trend
+    fitted both points (an engineer's pass).  The same record at another time, or not
+    stored, is diagnosed; so is the same record against another rig version."""
+    record = simulated_record(server, WORN_VALVE, measured_at="2026-05-07T08:00:00Z")
+    first = server.client.post("/diagnose", json={"record": record}, headers=server.auth)
+    assert first.status_code == 200, first.text
+    first_id = first.json()["diagnoses"][0]["id"]
+    before = server.row_counts()
+    again = server.client.post("/diagnose", json={"record": record}, headers=server.auth)
+    assert again.status_code == 409, again.text
+    error = again.json()["error"]
+    assert error["field"] == "measured_at" and f"diagnosis {first_id}" in error["message"]
+    assert server.row_counts() == before
+    assert server.client.post("/diagnose", json={"record": record, "store": False},
+                              headers=server.auth).status_code == 200
+    later = record | {"measured_at": "2026-05-07T08:00:01Z"}
+    assert server.client.post("/diagnose", json={"record": later},
+                              headers=server.auth).status_code == 200
