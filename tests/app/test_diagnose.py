@@ -117,6 +117,11 @@ def test_a_joint_diagnosis_keeps_every_record_and_one_result(server: LiveServer)
     # other record's readings beside them without a word)
     assert [n for n in diagnosis["result"]["notes"] if n.startswith(
         "the direct inversion of cv (paper 002 §2.7) is that of record 1 of the 2")]
+    # the history keeps the fit to both records, not the first record's closed form
+    valve = next(e for e in diagnosis["estimates"] if e["component"] == "valve")
+    direct = diagnosis["result"]["direct_inversions"]["cv"]
+    assert valve["source"] == "hypothesis" and valve["low"] <= 60e-6 <= valve["high"]
+    assert valve["high"] - valve["low"] < direct["high"] - direct["low"]
 
 
 def test_a_record_without_a_version_means_the_latest_in_a_joint_visit(
