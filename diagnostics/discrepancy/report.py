@@ -206,6 +206,19 @@ def html_page(d: Discovery, title: str = "hydrodiag discrepancy report", *,
                      f"<td>{_fmt(r.rmse)}</td><td>{_fmt(a.rmse) if a else '—'}</td>"
                      f"<td>{_fmt(r.max_abs)}</td><td>{_fmt(a.max_abs) if a else '—'}</td>"
                      f"<td>{_fmt(r.timing_floor)}</td></tr>")
+    if d.noise:
+        # the σ every gap is judged against, and whether the records' noise is coloured
+        # (a logger's filter): the whiteness below is then not expected of any model
+        parts.append("</table><h2>Sensor noise (read from the records)</h2><table><tr>"
+                     "<th>output</th><th>σ</th><th>sample-to-sample σ</th><th>AR(1) φ</th>"
+                     "<th>noise</th></tr>")
+        units = {r.channel: r.unit for r in d.gap_before}
+        for c, noise in d.noise.items():
+            label = f"{c} [{units[c]}]" if c in units else c
+            parts.append(f"<tr><td>{e(label)}</td><td>{_fmt(noise.sigma)}</td>"
+                         f"<td>{_fmt(noise.white)}</td>"
+                         f"<td>{_fmt(noise.phi)}</td>"
+                         f"<td>{'coloured' if noise.coloured else 'white'}</td></tr>")
     parts.append("</table><h2>Whiteness (Ljung-Box p, held-out, steady part)</h2><table>"
                  "<tr><th>output</th><th>before</th><th>after</th></tr>")
     for c, p in d.whiteness_before.items():

@@ -129,6 +129,11 @@ def test_no_effect_cycles_with_coloured_noise_give_no_effect(phi: float, hum: fl
     assert d.verdict == "no effect", d.message
     assert d.named == []
     assert "sensor noise coloured on" in d.message and "P1" in d.message
+    assert d.to_dict()["noise"]["P1"]["coloured"] is True
+    from diagnostics.discrepancy.report import html_page
+
+    page = html_page(d)
+    assert "Sensor noise (read from the records)" in page and "coloured" in page
 
 
 def test_a_hidden_effect_still_stands_out_of_coloured_noise() -> None:
