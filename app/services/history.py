@@ -10,9 +10,10 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from datetime import datetime
+from functools import cache
 from typing import Any
 
-from sqlalchemy import Connection, select
+from sqlalchemy import Connection, Select, bindparam, select
 from sqlalchemy.orm import Session
 
 from app.db.engine import loads_json
@@ -77,6 +78,19 @@ def stated_bound(result: Mapping[str, Any], component: str, bound: str) -> float
     return float(value) if isinstance(value, int | float) and not isinstance(value, bool) else None
 
 
+@cache
+def _twins() -> Select[tuple[int, int, Any]]:
+    """The diagnoses of the records of one rig at one time, built once (a statement built
+    per call cost ~0.3 ms of its stored diagnosis's commit).  The version is compared in
+    Python: with it in the query SQLite searched every diagnosis of the version (16 ms at
+    12,600) instead of the records' (rig, time) index."""
+    return (select(Diagnosis.id, Diagnosis.rig_version_id, Measurement.record)
+            .select_from(Measurement)
+            .join(Diagnosis, Diagnosis.measurement_id == Measurement.id)
+            .where(Measurement.rig_id == bindparam("rig_id"),
+                   Measurement.measured_at == bindparam("measured_at")))
+
+
 def stored_twin(connection: Connection, rig_id: int, rig_version_id: int,
                 measured_at: datetime, record: Mapping[str, Any] | bytes) -> None:
     """Refuse a diagnosis of a record that is stored already with a diagnosis against the
@@ -90,11 +104,9 @@ def stored_twin(connection: Connection, rig_id: int, rig_version_id: int,
     ConflictError
         Naming the stored diagnosis (``field`` ``measured_at``).
     """
-    rows = connection.execute(
-        select(Diagnosis.id, Measurement.record)
-        .join(Measurement, Diagnosis.measurement_id == Measurement.id)
-        .where(Measurement.rig_id == rig_id, Measurement.measured_at == measured_at,
-               Diagnosis.rig_version_id == rig_version_id)).all()
+    rows = [(i, stored) for i, version, stored in connection.execute(
+        _twins(), {"rig_id": rig_id, "measured_at": measured_at})
+        if version == rig_version_id]
     if not rows:
         return
     document = loads_json(record) if isinstance(record, bytes) else record
@@ -152,7 +164,7 @@ def add_diagnosis(
     names = [e.component for e in estimates]
     if len(set(names)) != len(names):
         raise InputError("one estimate per component", field="estimates")
-    if stated:
+    if stated and measured_at.tzinfo is not None:  # a naive time: add_measurement says so
         stored_twin(session.connection(), rig_id, rig_version_id, measured_at, record)
     measurement = add_measurement(session, rig_id=rig_id, measured_at=measured_at,
                                   record=record)
