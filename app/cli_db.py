@@ -84,8 +84,11 @@ def db_downgrade(
 def db_current() -> None:
     """Print the store's schema revision (empty for an unmigrated store)."""
     from app.db import migrate
+    from app.db.copy import existing_store
 
-    engine = make_engine(settings_from_env().url)
+    url = settings_from_env().url
+    existing_store(url)
+    engine = make_engine(url)
     try:
         typer.echo(migrate.current_revision(engine) or "")
     finally:
@@ -105,10 +108,13 @@ def db_backup(
     """
     from sqlalchemy import text
 
+    from app.db.copy import existing_store
+
     url = settings_from_env().url
     if url.get_backend_name() != "sqlite" or not url.database or url.database == ":memory:":
         raise InputError("db backup copies an SQLite file; back a PostgreSQL store up with "
                          "pg_dump", field="HYDRODIAG_DATABASE_URL")
+    existing_store(url)  # not a new, empty store made and backed up
     if file.exists():
         raise InputError(f"{file} exists: a backup is written to a new file", field="FILE")
     if not file.parent.is_dir():

@@ -8,9 +8,12 @@ away from the old store, for the cut-over).  The target is migrated to the newes
 and must hold no rows; every table of the store's schema is copied through the models'
 own column types (timestamps stay aware UTC, JSON documents stay documents on JSONB), in
 foreign-key order and by primary key, with every id kept, in one transaction: a copy that
-fails leaves the target's tables empty.  PostgreSQL's id sequences are then set past the
-largest copied id, so new rows do not collide, and the row counts of both sides are
-compared.  API keys are copied with their hashes: the clients' keys keep working.
+fails leaves the target's tables empty (a target that holds rows is refused before anything
+is written to it, migration included).  The target's id counters are then set past the
+largest id the source ever gave out (SQLite's ``sqlite_sequence``, PostgreSQL's
+sequences), deleted rows' included, so an id is never given twice, and the row counts of
+both sides are compared.  A source SQLite file that does not exist, or holds no row, is
+refused (never created).  API keys are copied with their hashes: the clients' keys keep working.
 """
 
 from __future__ import annotations
@@ -29,7 +32,7 @@ from app.db.base import Base
 from app.db.engine import make_engine
 from sim.errors import InputError
 
-__all__ = ["BATCH", "Copied", "copy_store"]
+__all__ = ["BATCH", "Copied", "copy_store", "existing_store"]
 
 #: rows read and written at a time
 BATCH = 500
@@ -83,18 +86,28 @@ def _prepare_target(engine: Engine, tables: list[Table]) -> None:
     if current is not None and current > migrate.head_revision():
         raise InputError(f"the target is at revision {current}, newer than this release's "
                          f"{migrate.head_revision()}", field="TARGET")
-    migrate.upgrade(engine, "head")
+    # counted before anything is written: a refused target (another installation behind a
+    # mistyped URL) was migrated first and then refused (an operator pass)
+    present = [t for t in tables if t.name in names]
     with engine.connect() as connection:
-        full = {k: v for k, v in _counts(connection, tables).items() if v}
+        full = {t.name: n for t in present if (n := int(connection.execute(
+            text(f'SELECT COUNT(*) FROM "{t.name}"')).scalar_one()))}
     if full:
         held = ", ".join(f"{n} {k}" for k, n in full.items())
         raise InputError(f"the target holds data ({held}): copy into an empty store (a "
-                         "service started on it preloads the reference rig)", field="TARGET")
+                         "service started on it preloads the reference rig); nothing was "
+                         "written to it", field="TARGET")
+    migrate.upgrade(engine, "head")
 
 
 def _reason(exc: SQLAlchemyError) -> str:
     orig = getattr(exc, "orig", None)
     return (str(orig) if orig is not None else str(exc)).strip().splitlines()[0]
+
+
+def _where(url: URL) -> str:
+    return (str(Path(url.database).resolve()) if url.get_backend_name() == "sqlite"
+            and url.database else url.render_as_string(hide_password=True))
 
 
 def _same(a: URL, b: URL) -> bool:
@@ -115,10 +128,62 @@ def _copy_tables(source: Connection, target: Connection, tables: list[Table],
                 progress(table.name, done)
 
 
-def _reset_sequences(target: Connection, tables: list[Table]) -> None:
-    """PostgreSQL: each integer id's sequence past the largest copied id."""
+def _high_water(source: Connection, tables: list[Table]) -> dict[str, int]:
+    """The largest id each table has given out, deleted rows' included: SQLite's
+    ``sqlite_sequence`` (the tables keep AUTOINCREMENT, revision 0007), PostgreSQL's
+    sequences.  Setting the target past only the copied rows' largest id handed a deleted
+    series' id out again, and a stored record that named it pointed at an unrelated cycle
+    (an operator pass)."""
+    if source.dialect.name == "sqlite":
+        if not source.execute(text("SELECT 1 FROM sqlite_master WHERE type = 'table' AND "
+                                   "name = 'sqlite_sequence'")).first():
+            return {}
+        rows = source.execute(text("SELECT name, seq FROM sqlite_sequence")).all()
+        return {str(name): int(seq) for name, seq in rows}
+    out: dict[str, int] = {}
+    if source.dialect.name == "postgresql":
+        for table, col in _serials(tables):
+            seq = source.execute(text("SELECT pg_get_serial_sequence(:t, :c)"),
+                                 {"t": table.name, "c": col}).scalar()
+            if seq is not None:
+                last, called = source.execute(
+                    text(f"SELECT last_value, is_called FROM {seq}")).one()
+                out[table.name] = int(last) if called else int(last) - 1
+    return out
+
+
+def _serials(tables: list[Table]) -> list[tuple[Table, str]]:
+    """The tables with one integer primary key, and its column."""
+    out = []
+    for table in tables:
+        pk = list(table.primary_key.columns)
+        if len(pk) == 1 and pk[0].type.python_type is int:
+            out.append((table, pk[0].name))
+    return out
+
+
+def _set_high_water(target: Connection, tables: list[Table], high: dict[str, int]) -> None:
+    """The target's id counters past the source's high-water marks (and the copied ids)."""
+    if target.dialect.name == "sqlite":
+        for table, col in _serials(tables):
+            top = max(high.get(table.name, 0), int(target.execute(
+                text(f'SELECT COALESCE(MAX("{col}"), 0) FROM "{table.name}"')).scalar_one()))
+            if top <= 0:
+                continue
+            target.execute(text("DELETE FROM sqlite_sequence WHERE name = :t"),
+                           {"t": table.name})
+            target.execute(text("INSERT INTO sqlite_sequence (name, seq) VALUES (:t, :s)"),
+                           {"t": table.name, "s": top})
+        return
+    _reset_sequences(target, tables, high)
+
+
+def _reset_sequences(target: Connection, tables: list[Table],
+                     high: dict[str, int] | None = None) -> None:
+    """PostgreSQL: each integer id's sequence past the largest id given out."""
     if target.dialect.name != "postgresql":
         return
+    high = high or {}
     for table in tables:
         pk = list(table.primary_key.columns)
         if len(pk) != 1 or pk[0].type.python_type is not int:
@@ -128,9 +193,26 @@ def _reset_sequences(target: Connection, tables: list[Table]) -> None:
                              {"t": table.name, "c": col}).scalar()
         if seq is None:
             continue
-        target.execute(text(f'SELECT setval(:s, COALESCE((SELECT MAX("{col}") FROM '
-                            f'"{table.name}"), 1), (SELECT COUNT(*) > 0 FROM "{table.name}"))'),
-                       {"s": seq})
+        top = max(high.get(table.name, 0), int(target.execute(
+            text(f'SELECT COALESCE(MAX("{col}"), 0) FROM "{table.name}"')).scalar_one()))
+        # setval(s, n, true): the next id is n + 1; an untouched table starts at 1
+        target.execute(text("SELECT setval(:s, :n, :called)"),
+                       {"s": seq, "n": max(top, 1), "called": top > 0})
+
+
+def existing_store(url: URL, field: str = "HYDRODIAG_DATABASE_URL") -> None:
+    """Refuse an SQLite store file that does not exist, naming the path: opening it would
+    make a new, empty one (a copy or backup run from the wrong folder made one and then
+    "copied 0 rows", exit 0; an operator pass)."""
+    if url.get_backend_name() != "sqlite":
+        return
+    if url.database in (None, "", ":memory:"):
+        raise InputError("an in-memory store cannot be copied or backed up", field=field)
+    path = Path(url.database).resolve()
+    if not path.is_file():
+        raise InputError(f"no store at {path}: set HYDRODIAG_DATA_DIR to the service's data "
+                         "folder (default ./data of the current folder) or "
+                         "HYDRODIAG_DATABASE_URL", field=field)
 
 
 def copy_store(source_url: URL, target_url: URL, progress: Progress | None = None) -> Copied:
@@ -153,12 +235,16 @@ def copy_store(source_url: URL, target_url: URL, progress: Progress | None = Non
     """
     if _same(source_url, target_url):
         raise InputError("the target is the store itself", field="TARGET")
-    if source_url.get_backend_name() == "sqlite" and source_url.database in (None, "", ":memory:"):
-        raise InputError("an in-memory store cannot be copied", field="HYDRODIAG_DATABASE_URL")
+    existing_store(source_url)
     tables = _tables()
     engine = make_engine(source_url)
     try:
         revision = _check_source(engine, tables)
+        with engine.connect() as connection:
+            if not any(_counts(connection, tables).values()):
+                raise InputError(f"the store at {_where(source_url)} holds no rows: nothing to "
+                                 "copy (is HYDRODIAG_DATA_DIR the service's data folder?)",
+                                 field="HYDRODIAG_DATABASE_URL")
     finally:
         engine.dispose()
     target = make_engine(target_url)
@@ -186,9 +272,10 @@ def copy_store(source_url: URL, target_url: URL, progress: Progress | None = Non
                 with engine.connect().execution_options(**options) as src, src.begin():
                     expected = _counts(src, tables)
                     try:
+                        high = _high_water(src, tables)
                         with target.begin() as dst:
                             _copy_tables(src, dst, tables, progress)
-                            _reset_sequences(dst, tables)
+                            _set_high_water(dst, tables, high)
                             got = _counts(dst, tables)
                             if got != expected:  # pragma: no cover - rows lost in flight
                                 raise InputError(f"the copy's row counts {got} differ from "

@@ -17,7 +17,7 @@ from app.cli import cli
 from app.db import migrate
 from app.db.base import Base
 from app.db.copy import copy_store
-from app.db.engine import make_engine
+from app.db.engine import make_engine, make_session_factory
 from app.settings import Settings
 from sim.errors import InputError
 from tests.app import postgres
@@ -98,9 +98,22 @@ def test_an_sqlite_store_copied_into_postgresql_serves_the_same(tmp_path: Path) 
                 engine.dispose()
 
 
+def _preload(runner: CliRunner) -> None:
+    """The runner's store migrated and holding the reference rig."""
+    from app.services.bootstrap import ensure_reference_data
+
+    assert runner.invoke(cli, ["db", "upgrade"]).exit_code == 0
+    engine = make_engine(Settings().url)
+    try:
+        with make_session_factory(engine)() as session:
+            ensure_reference_data(session)
+    finally:
+        engine.dispose()
+
+
 def test_a_target_that_holds_data_or_is_the_store_is_refused_and_left_as_it_was(
         runner: CliRunner, tmp_path: Path) -> None:
-    assert runner.invoke(cli, ["db", "upgrade"]).exit_code == 0
+    _preload(runner)
     source = Settings().url
     same = runner.invoke(cli, ["db", "copy", source.render_as_string(hide_password=False)])
     assert isinstance(same.exception, InputError) and same.exception.field == "TARGET"
@@ -127,11 +140,11 @@ def test_a_store_behind_this_release_is_refused_until_upgraded(runner: CliRunner
     assert isinstance(behind.exception, InputError)
     assert "db upgrade" in behind.exception.message
     assert not (tmp_path / "copy.db").exists() or _counts(target) == {}
-    assert runner.invoke(cli, ["db", "upgrade"]).exit_code == 0
+    _preload(runner)
     done = runner.invoke(cli, ["db", "copy", target])
     assert done.exit_code == 0, done.output
     said = " ".join(done.output.split())
-    assert "counts checked" in said and "0 rows copied" in said
+    assert "counts checked" in said and "rows copied" in said and " 0 rows" not in said
 
 
 def test_a_row_the_target_refuses_leaves_its_tables_empty(tmp_path: Path) -> None:
@@ -151,3 +164,100 @@ def test_a_row_the_target_refuses_leaves_its_tables_empty(tmp_path: Path) -> Non
     with pytest.raises(InputError, match="left empty: no cylinder tables here"):
         copy_store(source.url, make_url(f"sqlite:///{target}"))
     assert set(_counts(f"sqlite:///{target}").values()) == {0}
+
+
+def _rig_deleted_at_the_top(url: str) -> int:
+    """A store with the reference rig and a rig made and deleted after it: the deleted
+    rig's id, which no later rig may take."""
+    from app.services.bootstrap import ensure_reference_data
+    from app.services.rigs import create_rig, delete_rig
+    from sim.rigs import reference_rig_document
+
+    engine = make_engine(make_url(url))
+    try:
+        migrate.upgrade(engine)
+        with make_session_factory(engine)() as session:
+            ensure_reference_data(session)
+            made, _ = create_rig(session, reference_rig_document() | {"name": "short-lived"})
+            delete_rig(session, made.id)
+            return int(made.id)
+    finally:
+        engine.dispose()
+
+
+def _next_rig_id(url: str) -> int:
+    from app.services.rigs import create_rig
+    from sim.rigs import reference_rig_document
+
+    engine = make_engine(make_url(url))
+    try:
+        with make_session_factory(engine)() as session:
+            made, _ = create_rig(session, reference_rig_document() | {"name": "after-copy"})
+            return int(made.id)
+    finally:
+        engine.dispose()
+
+
+def test_an_id_deleted_before_the_copy_is_never_given_again(tmp_path: Path) -> None:
+    """The target's counters were set past the copied rows' largest id only, so a deleted
+    series' id was handed out again and a stored record that named it pointed at an
+    unrelated cycle (an operator pass).  SQLite → SQLite → PostgreSQL → SQLite."""
+    source = f"sqlite:///{tmp_path / 'a.db'}"
+    gone = _rig_deleted_at_the_top(source)
+    middle = f"sqlite:///{tmp_path / 'b.db'}"
+    copy_store(make_url(source), make_url(middle))
+    chain = [middle]
+    if postgres.unavailable_reason() is None:
+        with postgres.postgres_url() as pg:
+            try:
+                copy_store(make_url(middle), make_url(pg))
+                back = f"sqlite:///{tmp_path / 'c.db'}"
+                copy_store(make_url(pg), make_url(back))
+                assert _next_rig_id(pg) > gone
+                chain.append(back)
+            finally:
+                engine = make_engine(make_url(pg))
+                try:
+                    migrate.downgrade(engine, "base")
+                finally:
+                    engine.dispose()
+    for url in chain:
+        assert _next_rig_id(url) > gone, url
+
+
+def test_a_refused_target_is_left_as_it_was_and_a_missing_or_empty_store_is_not_copied(
+        runner: CliRunner, tmp_path: Path) -> None:
+    """A target at an older revision holding rows was migrated and then refused; a copy or
+    backup run from the wrong folder made a new, empty store and "copied 0 rows" (an
+    operator pass)."""
+    old = f"sqlite:///{tmp_path / 'old.db'}"
+    engine = make_engine(make_url(old))
+    try:
+        migrate.upgrade(engine, "0011")
+        with engine.begin() as c:
+            c.execute(text("INSERT INTO rigs (name, title, latest_version, created_at, "
+                           "updated_at) VALUES ('elsewhere', '', 1, '2026-01-01', "
+                           "'2026-01-01')"))
+    finally:
+        engine.dispose()
+    with live_server(sqlite_settings(tmp_path / "store")):
+        pass
+    source = sqlite_settings(tmp_path / "store").url
+    with pytest.raises(InputError, match="nothing was written"):
+        copy_store(source, make_url(old))
+    engine = make_engine(make_url(old))
+    try:
+        assert migrate.current_revision(engine) == "0011"
+    finally:
+        engine.dispose()
+    # the CLI run from a folder without a store: refused, nothing made
+    for args in (["db", "copy", f"sqlite:///{tmp_path / 'x.db'}"],
+                 ["db", "backup", str(tmp_path / "b.db")], ["db", "current"]):
+        missing = runner.invoke(cli, args)
+        assert isinstance(missing.exception, InputError), args
+        assert "no store at" in missing.exception.message
+    assert not (tmp_path / "hydrodiag.db").exists() and not (tmp_path / "x.db").exists()
+    # a store with its schema but no row: nothing to copy
+    assert runner.invoke(cli, ["db", "upgrade"]).exit_code == 0
+    empty = runner.invoke(cli, ["db", "copy", f"sqlite:///{tmp_path / 'x.db'}"])
+    assert isinstance(empty.exception, InputError) and "holds no rows" in str(empty.exception)
