@@ -219,7 +219,7 @@ unwrap_help(cli)
 
 def main() -> None:
     """Entry point of the ``hydrodiag`` command."""
-    from sqlalchemy.exc import InterfaceError, OperationalError
+    from sqlalchemy.exc import DatabaseError, InterfaceError, OperationalError
 
     try:
         cli()
@@ -231,6 +231,15 @@ def main() -> None:
         reason = str(exc.orig).strip().splitlines()[0] if exc.orig is not None else str(exc)
         console.print(f"[red]the database did not answer ({type(exc).__name__}):[/red] "
                       f"{escape(reason)} (HYDRODIAG_DATABASE_URL)")
+        sys.exit(1)
+    except DatabaseError as exc:
+        # a role that may not create tables (PostgreSQL 15's "public"), a file that is not
+        # a database: 341-line tracebacks from db upgrade (an operator pass)
+        reason = str(exc.orig).strip().splitlines()[0] if exc.orig is not None else str(exc)
+        advice = (": make the role the database's owner, or GRANT CREATE ON SCHEMA public to "
+                  "it" if "permission denied" in reason.lower() else "")
+        console.print(f"[red]the database refused ({type(exc).__name__}):[/red] "
+                      f"{escape(reason)}{advice} (HYDRODIAG_DATABASE_URL)")
         sys.exit(1)
 
 

@@ -149,14 +149,30 @@ def db_copy(
     at the target."""
     from rich.table import Table
     from sqlalchemy.engine import make_url
-    from sqlalchemy.exc import ArgumentError
 
     from app.db.copy import copy_store
+    from app.settings import Settings
 
     try:
-        target_url = make_url(target)
-    except ArgumentError as exc:
-        raise InputError(f"not a database URL: {target!r} ({exc})", field="TARGET") from exc
+        # the checks a service applies to its own URL (a weak password was copied into, and
+        # serve then refused it); the URL is not echoed: it holds a password (an operator pass)
+        Settings._check_url(target)
+    except ValueError as exc:
+        raise InputError(f"{exc} (give postgresql+psycopg://user:password@host/db or "
+                         "sqlite:///path/file.db)", field="TARGET") from None
+    target_url = make_url(target)
+    if target_url.get_backend_name() == "postgresql" and target_url.get_driver_name() != "psycopg":
+        raise InputError("write the scheme as postgresql+psycopg:// (the psycopg driver is the "
+                         "one installed)", field="TARGET")
+    import signal
+
+    def stop(signum: int, _frame: object) -> None:
+        # as Ctrl-C: the snapshot of the store in the temporary folder is removed (a
+        # dropped SSH session left a 192 MB copy of every diagnosis and key hash in /tmp)
+        raise KeyboardInterrupt(f"signal {signum}")
+
+    for sig in (signal.SIGTERM, signal.SIGHUP):
+        signal.signal(sig, stop)
     source_url = settings_from_env().url
     with steps() as progress:
         task = progress.add_task("copying", total=None)

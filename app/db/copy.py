@@ -25,7 +25,7 @@ from pathlib import Path
 
 from sqlalchemy import Connection, Engine, Table, func, inspect, select, text
 from sqlalchemy.engine import URL
-from sqlalchemy.exc import InterfaceError, OperationalError, SQLAlchemyError
+from sqlalchemy.exc import DatabaseError, InterfaceError, OperationalError, SQLAlchemyError
 
 from app.db import migrate
 from app.db.base import Base
@@ -114,6 +114,18 @@ def _same(a: URL, b: URL) -> bool:
     return a.render_as_string(hide_password=False) == b.render_as_string(hide_password=False)
 
 
+class _RowRefusedError(SQLAlchemyError):
+    """A batch the target refused, with its table and its rows' first and last id."""
+
+    def __init__(self, where: str, cause: SQLAlchemyError) -> None:
+        super().__init__(str(cause))
+        self.where, self.orig = where, getattr(cause, "orig", cause)
+
+
+def _table_of(exc: SQLAlchemyError) -> str:
+    return exc.where if isinstance(exc, _RowRefusedError) else "a table"
+
+
 def _copy_tables(source: Connection, target: Connection, tables: list[Table],
                  progress: Progress | None) -> None:
     for table in tables:
@@ -122,7 +134,15 @@ def _copy_tables(source: Connection, target: Connection, tables: list[Table],
             select(table).order_by(*order))
         done = 0
         for part in rows.partitions(BATCH):
-            target.execute(table.insert(), [dict(r._mapping) for r in part])
+            batch = [dict(r._mapping) for r in part]
+            try:  # the whole copy's transaction is rolled back on the way out
+                target.execute(table.insert(), batch)
+            except SQLAlchemyError as exc:
+                # which table and rows (a U+0000 in a rig document read "unsupported
+                # Unicode escape sequence" and nothing else; an operator pass)
+                key = order[0].name
+                raise _RowRefusedError(f"{table.name} ({key} {batch[0].get(key)}…"
+                                  f"{batch[-1].get(key)})", exc) from exc
             done += len(part)
             if progress is not None:
                 progress(table.name, done)
@@ -254,6 +274,16 @@ def copy_store(source_url: URL, target_url: URL, progress: Progress | None = Non
         except (OperationalError, InterfaceError) as exc:
             raise InputError(f"the target did not answer: {_reason(exc)}", field="TARGET"
                              ) from exc
+        except DatabaseError as exc:
+            # a role without CREATE on "public" (PostgreSQL 15), a file that is not a
+            # database: 363- and 495-line tracebacks (an operator pass)
+            reason = _reason(exc)
+            advice = (": make the role the database's owner, or GRANT CREATE ON SCHEMA public "
+                      "to it" if "permission denied" in reason.lower() else "")
+            raise InputError(f"the target refused: {reason}{advice}", field="TARGET") from exc
+        except OSError as exc:
+            raise InputError(f"the target cannot be made: {exc.strerror or exc} "
+                             f"({exc.filename or _where(target_url)})", field="TARGET") from exc
         with tempfile.TemporaryDirectory(prefix="hydrodiag-copy-") as folder:
             snapshot_url = source_url
             if source_url.get_backend_name() == "sqlite":
@@ -282,8 +312,9 @@ def copy_store(source_url: URL, target_url: URL, progress: Progress | None = Non
                                                  f"the store's {expected}; nothing was kept",
                                                  field="TARGET")
                     except SQLAlchemyError as exc:
-                        raise InputError(f"the target refused a row, and its tables were left "
-                                         f"empty: {_reason(exc)}", field="TARGET") from exc
+                        raise InputError(f"the target refused a row of {_table_of(exc)}, and "
+                                         f"its tables were left empty: {_reason(exc)}",
+                                         field="TARGET") from exc
             finally:
                 engine.dispose()
     finally:

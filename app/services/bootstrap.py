@@ -138,6 +138,12 @@ def store_problem(engine: Engine, exc: BaseException) -> InputError | None:
         return InputError(f"the store {where} is damaged ({text_of}): restore it from a backup "
                           "(hydrodiag db backup FILE makes one)",
                           field="HYDRODIAG_DATABASE_URL")
+    if isinstance(exc, DatabaseError) and "permission denied" in text_of.lower():
+        # PostgreSQL 15: a role that does not own the database cannot create in "public"
+        # (341-line tracebacks from db upgrade and serve; an operator pass)
+        return InputError(f"the database role may not change {where} ({text_of}): make the "
+                          "role the database's owner, or GRANT CREATE ON SCHEMA public to it",
+                          field="HYDRODIAG_DATABASE_URL")
     return None
 
 

@@ -261,3 +261,41 @@ def test_a_refused_target_is_left_as_it_was_and_a_missing_or_empty_store_is_not_
     assert runner.invoke(cli, ["db", "upgrade"]).exit_code == 0
     empty = runner.invoke(cli, ["db", "copy", f"sqlite:///{tmp_path / 'x.db'}"])
     assert isinstance(empty.exception, InputError) and "holds no rows" in str(empty.exception)
+
+
+def test_target_mistakes_are_one_line_naming_what_to_fix(runner: CliRunner, tmp_path: Path
+                                                         ) -> None:
+    """A URL with a typo echoed its password; a weak password was copied into and serve
+    then refused it; a file that is not a database and an uninstalled driver were
+    tracebacks (an operator pass)."""
+    _preload(runner)
+    typo = runner.invoke(cli, ["db", "copy", "postgresql+psycopg//hd:S3cure-pw-44@h/db"])
+    assert isinstance(typo.exception, InputError) and "S3cure" not in str(typo.exception)
+    weak = runner.invoke(cli, ["db", "copy", "postgresql+psycopg://hd:changeme@h/db"])
+    assert isinstance(weak.exception, InputError) and "well-known" in str(weak.exception)
+    driver = runner.invoke(cli, ["db", "copy", "postgresql+asyncpg://hd:S3cure-pw-44@h/db"])
+    assert isinstance(driver.exception, InputError) and "+psycopg" in str(driver.exception)
+    other = runner.invoke(cli, ["db", "copy", "mysql://hd:S3cure-pw-44@h/db"])
+    assert isinstance(other.exception, InputError) and "unsupported" in str(other.exception)
+    junk = tmp_path / "notadb.db"
+    junk.write_bytes(b"this is not a database file at all, just some text" * 100)
+    refused = runner.invoke(cli, ["db", "copy", f"sqlite:///{junk}"])
+    assert isinstance(refused.exception, InputError) and refused.exception.field == "TARGET"
+    assert "not a database" in refused.exception.message
+
+
+def test_a_row_the_target_refuses_is_named_by_table_and_ids(tmp_path: Path) -> None:
+    source = sqlite_settings(tmp_path / "old")
+    with live_server(source) as server:
+        _fill(server)
+    target = tmp_path / "t.db"
+    engine = make_engine(make_url(f"sqlite:///{target}"))
+    try:
+        migrate.upgrade(engine)
+        with engine.begin() as c:
+            c.execute(text("CREATE TRIGGER no_points BEFORE INSERT ON calibration_points "
+                           "BEGIN SELECT RAISE(ABORT, 'refused'); END"))
+    finally:
+        engine.dispose()
+    with pytest.raises(InputError, match=r"row of calibration_points \(id 1…"):
+        copy_store(source.url, make_url(f"sqlite:///{target}"))

@@ -321,6 +321,10 @@ def test_estimates_stored_before_0012_get_the_interval_their_result_stated(tmp_p
     assert [(p.low, p.high) for p in valve.points] == [(3.9e-5, 4.3e-5), (None, None)]
     migrate.downgrade(engine, "0011")
     assert "low" not in {c["name"] for c in inspect(engine).get_columns("diagnosis_estimates")}
+    with engine.connect() as connection:  # the rebuilt table keeps revision 0007's rule
+        sql = connection.execute(text("SELECT sql FROM sqlite_master WHERE name = "
+                                      "'diagnosis_estimates'")).scalar_one()
+    assert "AUTOINCREMENT" in sql
     engine.dispose()
 
 

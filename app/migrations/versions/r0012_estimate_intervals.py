@@ -67,7 +67,9 @@ def upgrade() -> None:
 
 
 def downgrade() -> None:
-    """Drop the two columns."""
-    with op.batch_alter_table("diagnosis_estimates") as batch:
+    """Drop the two columns (SQLite rebuilds the table: with AUTOINCREMENT kept, revision
+    0007's no-id-reuse, which a plain rebuild dropped; an operator pass)."""
+    with op.batch_alter_table("diagnosis_estimates",
+                              table_kwargs={"sqlite_autoincrement": True}) as batch:
         batch.drop_column("high")
         batch.drop_column("low")
