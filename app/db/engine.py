@@ -36,6 +36,10 @@ SQLITE_POOL_SIZE, SQLITE_POOL_OVERFLOW = 16, 48
 _ORJSON = orjson.OPT_NON_STR_KEYS | orjson.OPT_SERIALIZE_NUMPY
 
 
+#: how long a new PostgreSQL connection may take [s] (libpq ``connect_timeout``)
+PG_CONNECT_TIMEOUT_S = 10
+
+
 def dumps_json(value: Any) -> str:
     """A JSON column's text: orjson's, which holds the values the standard library's would
     (shortest round-trip floats; non-string keys as strings; numpy numbers as numbers), or
@@ -89,8 +93,11 @@ def make_engine(url: URL) -> Engine:
                                json_serializer=dumps_json, json_deserializer=loads_json)
         event.listen(engine, "connect", _sqlite_pragmas)
         return engine
+    # a server that accepts but does not answer (frozen, partitioned) held a new
+    # connection for minutes (an operator pass); libpq's own setting in the URL wins
+    connect = {} if "connect_timeout" in url.query else {"connect_timeout": PG_CONNECT_TIMEOUT_S}
     return create_engine(url, pool_pre_ping=True, json_serializer=dumps_json,
-                         json_deserializer=loads_json)
+                         json_deserializer=loads_json, connect_args=connect)
 
 
 def make_session_factory(engine: Engine) -> SessionFactory:

@@ -423,3 +423,43 @@ def test_a_store_that_cannot_serve_is_named_in_one_line_at_start(tmp_path: Path,
     with pytest.raises(InputError, match="is read-only"):
         upgrade_database(read_only)
     read_only.dispose()
+
+
+@pytest.mark.skipif(postgres.unavailable_reason() is not None,
+                    reason=str(postgres.unavailable_reason()))
+def test_ready_answers_503_when_the_database_does_not_answer(tmp_path: Path) -> None:
+    """A PostgreSQL that accepts but answers nothing held /ready for 100 s and more (an
+    operator pass): here a lock another session holds on the schema's revision table
+    stalls the readiness query; /ready answers 503 within its timeout, then 200 again."""
+    import time
+
+    from app.api.routes.ops import READY_TIMEOUT_S
+    from app.settings import Settings
+    from tests.app.live import live_server
+
+    with postgres.postgres_url() as url:
+        settings = Settings(data_dir=tmp_path / "data", database_url=url)
+        try:
+            with live_server(settings) as server:
+                assert server.client.get("/ready").status_code == 200
+                engine = make_engine(make_url(url))
+                try:
+                    with engine.connect() as holder:
+                        holder.execute(text("LOCK TABLE alembic_version IN ACCESS EXCLUSIVE "
+                                            "MODE"))
+                        start = time.monotonic()
+                        stalled = server.client.get("/ready", timeout=30)
+                        waited = time.monotonic() - start
+                        holder.rollback()
+                    assert stalled.status_code == 503, stalled.text
+                    assert "did not answer" in stalled.json()["error"]["message"]
+                    assert waited < READY_TIMEOUT_S + 3
+                    assert server.client.get("/ready").status_code == 200
+                finally:
+                    engine.dispose()
+        finally:
+            engine = make_engine(make_url(url))
+            try:
+                migrate.downgrade(engine, "base")
+            finally:
+                engine.dispose()

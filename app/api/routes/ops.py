@@ -6,6 +6,7 @@ answers while every worker thread is busy with diagnoses (it never queues behind
 
 from __future__ import annotations
 
+import asyncio
 from typing import Literal, get_args
 
 from fastapi import APIRouter, Request, Response
@@ -24,6 +25,9 @@ from app.schemas.common import error_doc
 from app.schemas.jobs import JobStatus
 
 __all__ = ["Health", "Readiness", "router"]
+
+#: how long /ready waits for the database [s]
+READY_TIMEOUT_S = 5.0
 
 router = APIRouter(tags=["operations"])
 
@@ -56,15 +60,25 @@ async def health() -> Health:
     summary="Readiness: the database is reachable and migrated, the rigs are loaded",
     responses={503: error_doc("Database unreachable or not migrated, or rigs still loading")},
 )
-def ready(request: Request) -> Readiness:
+async def ready(request: Request) -> Readiness:
     """Query the database, compare its schema revision with the package's newest, and
-    check that the start-up warming of the stored rigs has finished."""
+    check that the start-up warming of the stored rigs has finished.  A database that
+    does not answer within :data:`READY_TIMEOUT_S` is unreachable: a frozen PostgreSQL
+    (accepting connections, answering nothing) held /ready for 100 s and more (an
+    operator pass)."""
     engine = request.app.state.engine
-    try:
+
+    def check() -> str | None:
         ping(engine)
-        revision = migrate.current_revision(engine)
+        return migrate.current_revision(engine)
+
+    try:
+        revision = await asyncio.wait_for(asyncio.to_thread(check), READY_TIMEOUT_S)
     except SQLAlchemyError as exc:
         raise ServiceUnavailableError(f"database unreachable: {type(exc).__name__}") from exc
+    except TimeoutError as exc:
+        raise ServiceUnavailableError(f"the database did not answer within "
+                                      f"{READY_TIMEOUT_S:g} s") from exc
     head = migrate.head_revision()
     if revision != head:
         raise ServiceUnavailableError(f"database at revision {revision}, service needs {head}")
