@@ -84,7 +84,12 @@ def _route_of(scope: Scope) -> str:
 def _key_id_of(scope: Scope) -> int | None:
     state = scope.get("state") or {}
     key = state.get("api_key") if isinstance(state, dict) else None
-    key_id = getattr(key, "id", None)
+    try:
+        key_id = getattr(key, "id", None)
+    except Exception:
+        # a key object whose session is gone (DetachedInstanceError) took the access line
+        # of a 500 with it (an operator pass)
+        return None
     return key_id if isinstance(key_id, int) else None
 
 

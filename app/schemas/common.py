@@ -267,6 +267,27 @@ def _plan(cls: type[RequestModel]) -> tuple[
     return plan
 
 
+def _nul_at(value: Any, path: str) -> str | None:
+    """The path of the first text (key or value) in ``value`` holding U+0000, or None.  A
+    rig description holding it was stored on SQLite, a 500 on PostgreSQL, and then the
+    SQLite store could not be copied to PostgreSQL at all (an operator pass)."""
+    if isinstance(value, str):
+        return path if "\x00" in value else None
+    if isinstance(value, dict):
+        for k, v in value.items():
+            here = f"{path}.{k}" if path else str(k)
+            if isinstance(k, str) and "\x00" in k:
+                return path or "a key"
+            if isinstance(v, str | dict | list) and (found := _nul_at(v, here)) is not None:
+                return found
+    elif isinstance(value, list):
+        for i, v in enumerate(value):
+            if isinstance(v, str | dict | list) and (
+                    found := _nul_at(v, f"{path}[{i}]")) is not None:
+                return found
+    return None
+
+
 class RequestModel(BaseModel):
     """Base of every request model: unknown fields are refused, never silently ignored.
 
@@ -299,6 +320,10 @@ class RequestModel(BaseModel):
                 "extra_forbidden", _unknown_field_message(unknown, known, cls.synonyms),
                 {"unknown_field": unknown[0][:100]},
             )
+        if (where := _nul_at(data, "")) is not None:
+            raise PydanticCustomError(
+                "string_nul", f"{where or 'a key'}: the text holds the NUL character (U+0000), "
+                "which the store cannot keep (PostgreSQL refuses it)", {"unknown_field": where})
         if cls.json_kinds:
             for name, alias, check in checks:
                 key = alias if alias in data else name

@@ -230,3 +230,16 @@ def test_delete_rig_with_and_without_history(server: LiveServer) -> None:
     assert refused.status_code == 409
     assert refused.json()["error"]["type"] == "ConflictError"
     assert server.row_counts() == before
+
+
+def test_a_text_holding_the_nul_character_is_refused_naming_where(server: LiveServer) -> None:
+    """A rig description holding U+0000 was stored on SQLite, a 500 on PostgreSQL, and the
+    SQLite store could not then be copied to PostgreSQL (an operator pass)."""
+    from sim.rigs import reference_rig_document
+
+    document = reference_rig_document() | {"name": "nul-rig", "description": "bad\u0000text"}
+    before = server.row_counts()
+    response = server.client.post("/rigs", json={"document": document}, headers=server.auth)
+    assert response.status_code == 422, response.text
+    assert "document.description" in response.text and "U+0000" in response.text
+    assert server.row_counts() == before
