@@ -166,7 +166,10 @@ def serve_pipe(connection: Connection, url: str | None, cache_size: int, parent:
         if task is not None and isinstance(worker.handle("request", task), TaskFailure):
             logger.warning("the warm-up request of rig %s failed", key[0])
     settle_heap()   # the warm heap out of the collector's sight (app.services.warmup)
-    connection.send_bytes(pickle.dumps(("ready", os.getpid())))
+    try:
+        connection.send_bytes(pickle.dumps(("ready", os.getpid())))
+    except (EOFError, OSError):  # the server stopped while this process warmed: every
+        return                   # stop logged a BrokenPipeError traceback (an operator pass)
     while True:
         try:
             message = connection.recv_bytes()
