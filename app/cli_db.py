@@ -187,3 +187,9 @@ def db_copy(
     console.print(out)
     console.print(f"{sum(copied.rows.values())} rows copied to "
                   f"{target_url.render_as_string(hide_password=True)}")
+    ends = ", ".join(f"{name} {copied.last_ids[name]}" for name in
+                     ("rigs", "rig_versions", "diagnoses", "measurements", "measured_series")
+                     if copied.last_ids.get(name))
+    if ends:
+        console.print(f"the copy ends at the largest ids {ends}: what the store took after "
+                      "them is not in the copy")

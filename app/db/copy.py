@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import tempfile
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from sqlalchemy import Connection, Engine, Table, func, inspect, select, text
@@ -47,6 +47,9 @@ class Copied:
 
     rows: dict[str, int]
     revision: str
+    #: the largest id of each table in the snapshot: where the copy ends (writes after it
+    #: are not in it; an operator pass could not see the cut-over gap)
+    last_ids: dict[str, int] = field(default_factory=dict)
 
 
 def _tables() -> list[Table]:
@@ -301,6 +304,9 @@ def copy_store(source_url: URL, target_url: URL, progress: Progress | None = Non
                            if engine.dialect.name == "postgresql" else {})
                 with engine.connect().execution_options(**options) as src, src.begin():
                     expected = _counts(src, tables)
+                    last = {t.name: int(src.execute(text(
+                        f'SELECT COALESCE(MAX("{col}"), 0) FROM "{t.name}"')).scalar_one())
+                        for t, col in _serials(tables)}
                     try:
                         high = _high_water(src, tables)
                         with target.begin() as dst:
@@ -319,4 +325,4 @@ def copy_store(source_url: URL, target_url: URL, progress: Progress | None = Non
                 engine.dispose()
     finally:
         target.dispose()
-    return Copied(expected, revision)
+    return Copied(expected, revision, last)

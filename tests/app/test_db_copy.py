@@ -145,6 +145,7 @@ def test_a_store_behind_this_release_is_refused_until_upgraded(runner: CliRunner
     assert done.exit_code == 0, done.output
     said = " ".join(done.output.split())
     assert "counts checked" in said and "rows copied" in said and " 0 rows" not in said
+    assert "the copy ends at the largest ids" in said  # where writes after it begin
 
 
 def test_a_row_the_target_refuses_leaves_its_tables_empty(tmp_path: Path) -> None:
