@@ -94,3 +94,23 @@ def postgres_url() -> Iterator[str]:
                            check=False, capture_output=True)
     finally:
         shutil.rmtree(folder, ignore_errors=True)
+
+
+@contextmanager
+def emptied_postgres_url() -> Iterator[str]:
+    """:func:`postgres_url`, its schema taken back to empty afterwards (a database given by
+    ``HYDRODIAG_TEST_POSTGRES_URL`` outlives the test)."""
+    from sqlalchemy.engine import make_url
+
+    from app.db import migrate
+    from app.db.engine import make_engine
+
+    with postgres_url() as url:
+        try:
+            yield url
+        finally:
+            engine = make_engine(make_url(url))
+            try:
+                migrate.downgrade(engine, "base")
+            finally:
+                engine.dispose()

@@ -437,29 +437,20 @@ def test_ready_answers_503_when_the_database_does_not_answer(tmp_path: Path) -> 
     from app.settings import Settings
     from tests.app.live import live_server
 
-    with postgres.postgres_url() as url:
-        settings = Settings(data_dir=tmp_path / "data", database_url=url)
+    with postgres.emptied_postgres_url() as url, live_server(
+            Settings(data_dir=tmp_path / "data", database_url=url)) as server:
+        assert server.client.get("/ready").status_code == 200
+        engine = make_engine(make_url(url))
         try:
-            with live_server(settings) as server:
-                assert server.client.get("/ready").status_code == 200
-                engine = make_engine(make_url(url))
-                try:
-                    with engine.connect() as holder:
-                        holder.execute(text("LOCK TABLE alembic_version IN ACCESS EXCLUSIVE "
-                                            "MODE"))
-                        start = time.monotonic()
-                        stalled = server.client.get("/ready", timeout=30)
-                        waited = time.monotonic() - start
-                        holder.rollback()
-                    assert stalled.status_code == 503, stalled.text
-                    assert "did not answer" in stalled.json()["error"]["message"]
-                    assert waited < READY_TIMEOUT_S + 3
-                    assert server.client.get("/ready").status_code == 200
-                finally:
-                    engine.dispose()
+            with engine.connect() as holder:
+                holder.execute(text("LOCK TABLE alembic_version IN ACCESS EXCLUSIVE MODE"))
+                start = time.monotonic()
+                stalled = server.client.get("/ready", timeout=30)
+                waited = time.monotonic() - start
+                holder.rollback()
+            assert stalled.status_code == 503, stalled.text
+            assert "did not answer" in stalled.json()["error"]["message"]
+            assert waited < READY_TIMEOUT_S + 3
+            assert server.client.get("/ready").status_code == 200
         finally:
-            engine = make_engine(make_url(url))
-            try:
-                migrate.downgrade(engine, "base")
-            finally:
-                engine.dispose()
+            engine.dispose()
