@@ -198,20 +198,9 @@ def _set_high_water(target: Connection, tables: list[Table], high: dict[str, int
             target.execute(text("INSERT INTO sqlite_sequence (name, seq) VALUES (:t, :s)"),
                            {"t": table.name, "s": top})
         return
-    _reset_sequences(target, tables, high)
-
-
-def _reset_sequences(target: Connection, tables: list[Table],
-                     high: dict[str, int] | None = None) -> None:
-    """PostgreSQL: each integer id's sequence past the largest id given out."""
     if target.dialect.name != "postgresql":
         return
-    high = high or {}
-    for table in tables:
-        pk = list(table.primary_key.columns)
-        if len(pk) != 1 or pk[0].type.python_type is not int:
-            continue
-        col = pk[0].name
+    for table, col in _serials(tables):
         seq = target.execute(text("SELECT pg_get_serial_sequence(:t, :c)"),
                              {"t": table.name, "c": col}).scalar()
         if seq is None:
@@ -252,9 +241,10 @@ def copy_store(source_url: URL, target_url: URL, progress: Progress | None = Non
     Raises
     ------
     InputError
-        The two are the same store, the source is not at this release's revision, or the
-        target holds data (``field`` ``HYDRODIAG_DATABASE_URL`` or ``TARGET``); nothing is
-        written to a target that holds data.
+        The two are the same store; the source is missing, empty or not at this
+        release's revision (``field`` ``HYDRODIAG_DATABASE_URL``); the target holds data,
+        cannot be reached or made, or refuses a row (``TARGET``).  Nothing is written to a
+        target that holds data, and a refused copy leaves its tables empty.
     """
     if _same(source_url, target_url):
         raise InputError("the target is the store itself", field="TARGET")
