@@ -64,7 +64,9 @@ def test_diagnose_a_yaml_file_of_records(runner: CliRunner, tmp_path: Path) -> N
               "flow_C": s["working.Q_meter_C [m^3/s]"], "speed_work": s["working.speed [m/s]"],
               "speed_return": s["return.speed [m/s]"]}
     path = tmp_path / "records.yaml"
-    path.write_text(yaml.safe_dump([record, record]))
+    # two readings of the same state a minute apart (the same record twice is one
+    # measurement: stored once, the second refused)
+    path.write_text(yaml.safe_dump([record, record | {"measured_at": "2026-05-01T10:01:00Z"}]))
     result = runner.invoke(cli, ["diagnose", str(path), "--json"])
     assert result.exit_code == 0, result.output
     body = json.loads(result.stdout)

@@ -323,12 +323,14 @@ def test_a_retry_with_the_key_that_replaced_a_rotated_one_is_replayed(
         "X-API-Key": new_key, "Idempotency-Key": "gw-0800"})
     assert again.status_code == 200 and again.headers["Idempotent-Replayed"] == "true"
     assert again.content == first.content and server.row_counts() == counts
-    # another client's key does not see it: its own request, run
+    # another client's key does not see it: its own request, run — and, the same record
+    # stored already, refused as a twin (409) rather than replayed
     with server.sessions() as session:
         _, other_key = create_api_key(session, "other-client", "write")
     other = server.client.post("/diagnose", json=body, headers={
         "X-API-Key": other_key, "Idempotency-Key": "gw-0800"})
-    assert other.status_code == 200 and "Idempotent-Replayed" not in other.headers
+    assert other.status_code == 409 and "Idempotent-Replayed" not in other.headers
+    assert "stored already" in other.json()["error"]["message"]
 
 
 def test_a_deeply_nested_body_with_a_key_is_refused_as_without_one(server: LiveServer) -> None:
