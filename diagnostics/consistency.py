@@ -99,7 +99,11 @@ def check_against_rig(record: MeasurementRecord, limits: RigLimits) -> None:
       ``P1·A1 ≥ F`` (paper 002 eq. 33), and the pump's pressure is above P1's, so
       ``p1`` or ``pump_pressure`` below :data:`LOAD_FRACTION` of ``F/A1`` is a reading in
       the wrong unit (bar typed as Pa: a first-day user pass got a 2,000-character
-      "unexplained" instead of this).
+      "unexplained" instead of this);
+    * the other way round, the piston's force balance while it moves (paper 002 eq. 33,
+      ``A1·P1 − A2·P2 = F + friction + m·ẍ``): a net chamber force of at least
+      :data:`UNIT_SLIP_FORCE` and :data:`LOAD_MULTIPLE` × the stated load is a load in kN
+      typed as N.
     """
     q_max = limits.max_pump_flow(record)
     rig_stroke = None if limits.stroke is None else Quantity(limits.stroke)

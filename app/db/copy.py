@@ -91,10 +91,9 @@ def _prepare_target(engine: Engine, tables: list[Table]) -> None:
                          f"{migrate.head_revision()}", field="TARGET")
     # counted before anything is written: a refused target (another installation behind a
     # mistyped URL) was migrated first and then refused (an operator pass)
-    present = [t for t in tables if t.name in names]
     with engine.connect() as connection:
-        full = {t.name: n for t in present if (n := int(connection.execute(
-            text(f'SELECT COUNT(*) FROM "{t.name}"')).scalar_one()))}
+        full = {k: n for k, n in _counts(connection, [t for t in tables if t.name in names]
+                                         ).items() if n}
     if full:
         held = ", ".join(f"{n} {k}" for k, n in full.items())
         raise InputError(f"the target holds data ({held}): copy into an empty store (a "
@@ -185,12 +184,13 @@ def _serials(tables: list[Table]) -> list[tuple[Table, str]]:
     return out
 
 
-def _set_high_water(target: Connection, tables: list[Table], high: dict[str, int]) -> None:
-    """The target's id counters past the source's high-water marks (and the copied ids)."""
+def _set_high_water(target: Connection, tables: list[Table], high: dict[str, int],
+                    last: dict[str, int]) -> None:
+    """The target's id counters past the source's high-water marks ``high`` and the copied
+    rows' largest ids ``last`` (by table)."""
     if target.dialect.name == "sqlite":
-        for table, col in _serials(tables):
-            top = max(high.get(table.name, 0), int(target.execute(
-                text(f'SELECT COALESCE(MAX("{col}"), 0) FROM "{table.name}"')).scalar_one()))
+        for table, _ in _serials(tables):
+            top = max(high.get(table.name, 0), last.get(table.name, 0))
             if top <= 0:
                 continue
             target.execute(text("DELETE FROM sqlite_sequence WHERE name = :t"),
@@ -205,8 +205,7 @@ def _set_high_water(target: Connection, tables: list[Table], high: dict[str, int
                              {"t": table.name, "c": col}).scalar()
         if seq is None:
             continue
-        top = max(high.get(table.name, 0), int(target.execute(
-            text(f'SELECT COALESCE(MAX("{col}"), 0) FROM "{table.name}"')).scalar_one()))
+        top = max(high.get(table.name, 0), last.get(table.name, 0))
         # setval(s, n, true): the next id is n + 1; an untouched table starts at 1
         target.execute(text("SELECT setval(:s, :n, :called)"),
                        {"s": seq, "n": max(top, 1), "called": top > 0})
@@ -301,7 +300,7 @@ def copy_store(source_url: URL, target_url: URL, progress: Progress | None = Non
                         high = _high_water(src, tables)
                         with target.begin() as dst:
                             _copy_tables(src, dst, tables, progress)
-                            _set_high_water(dst, tables, high)
+                            _set_high_water(dst, tables, high, last)
                             got = _counts(dst, tables)
                             if got != expected:  # pragma: no cover - rows lost in flight
                                 raise InputError(f"the copy's row counts {got} differ from "

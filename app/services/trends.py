@@ -323,12 +323,10 @@ def _later(session: Session, rig_id: int, after: datetime, until: datetime | Non
     where = [Measurement.rig_id == rig_id, Measurement.measured_at > after]
     if until is not None:
         where.append(Measurement.measured_at <= until)
-    joined = select(Measurement.measured_at).join(
-        Diagnosis, Diagnosis.measurement_id == Measurement.id).where(*where)
     named = session.execute(
-        select(Diagnosis.component, func.count()).join(
+        select(Diagnosis.component, func.count(), func.max(Measurement.measured_at)).join(
             Measurement, Diagnosis.measurement_id == Measurement.id).where(*where)
         .group_by(Diagnosis.component)).all()
-    last = session.scalar(joined.order_by(Measurement.measured_at.desc()).limit(1))
-    counts = {str(c or "healthy"): int(n) for c, n in named}
+    counts = {str(c or "healthy"): int(n) for c, n, _ in named}
+    last = max((t for _, _, t in named if t is not None), default=None)
     return sum(counts.values()), last, counts

@@ -46,7 +46,7 @@ from diagnostics.discrepancy.balances import STRUCTURE_SMOOTH, BalanceData
 from diagnostics.discrepancy.signals import Signals, noise_sigma
 from diagnostics.timeseries import SeriesRecord
 
-__all__ = ["COLOURED", "LAGS", "Noise", "coloured_note", "noise_models", "propagated_floors",
+__all__ = ["COLOURED", "LAGS", "Noise", "ar1_noise", "coloured_note", "noise_models", "propagated_floors",
            "sigmas", "with_noise"]
 
 Arr = npt.NDArray[np.float64]
@@ -140,6 +140,16 @@ def sigmas(records: Sequence[SeriesRecord], channels: Sequence[str],
     return out
 
 
+def ar1_noise(rng: np.random.Generator, size: int, sigma: float, phi: float) -> Arr:
+    """Stationary first-order noise ``x[t] = φ·x[t−1] + e[t]``, ``e ~ N(0, σ²(1 − φ²))``,
+    started from ``x ~ N(0, σ²)``: marginal σ [unit of ``sigma``], lag-k autocorrelation
+    φᵏ; white for φ = 0 (the surrogate of :func:`with_noise`, the synthetic logger's
+    ``coloured`` kind)."""
+    e = rng.normal(0.0, sigma * math.sqrt(1.0 - phi ** 2), size)
+    x0 = rng.normal(0.0, sigma)
+    return np.asarray(lfilter([1.0], [1.0, -phi], e, zi=np.array([phi * x0]))[0], dtype=float)
+
+
 def with_noise(records: Sequence[SeriesRecord], models: Mapping[str, Noise], seed: int = 0
                ) -> list[SeriesRecord]:
     """The records with a surrogate of their noise added: stationary AR(1) noise with each
@@ -151,11 +161,8 @@ def with_noise(records: Sequence[SeriesRecord], models: Mapping[str, Noise], see
         for c, n in models.items():
             if c not in ch or n.sigma <= 0:
                 continue
-            size = ch[c].size
-            e = rng.normal(0.0, n.sigma * math.sqrt(1.0 - n.phi ** 2), size)
-            x0 = rng.normal(0.0, n.sigma)
-            ar = lfilter([1.0], [1.0, -n.phi], e, zi=np.array([n.phi * x0]))[0]
-            ch[c] = np.asarray(ch[c], dtype=float) + ar
+            ch[c] = np.asarray(ch[c], dtype=float) + ar1_noise(rng, ch[c].size, n.sigma,
+                                                                n.phi)
         out.append(replace(r, channels=ch))
     return out
 

@@ -16,8 +16,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
-from scipy.signal import lfilter
 
+from diagnostics.discrepancy.noise import ar1_noise
 from diagnostics.discrepancy.simulate import on_grid, phase_segments, simulate
 from diagnostics.timeseries import SeriesRecord
 from sim.rigs.assembly import Condition, Rig
@@ -97,9 +97,7 @@ def synthesize(rig: Rig, condition: Condition, *, rng: np.random.Generator,
         elif noise == "heavy":
             e = rng.standard_t(3, v.size) * s / np.sqrt(3.0)
         elif noise == "coloured":
-            w = rng.normal(0.0, s * np.sqrt(1.0 - COLOURED_PHI ** 2), v.size)
-            e = lfilter([1.0], [1.0, -COLOURED_PHI], w,
-                        zi=np.array([COLOURED_PHI * rng.normal(0.0, s)]))[0]
+            e = ar1_noise(rng, v.size, s, COLOURED_PHI)
             if UNITS[c] == "Pa":
                 e = e + HUM * s * np.sin(2.0 * np.pi * 50.0 * t + rng.uniform(0.0, 2.0 * np.pi))
         else:

@@ -15,6 +15,7 @@ from scipy.signal import lfilter
 from diagnostics.discrepancy import discover
 from diagnostics.discrepancy.noise import (
     Noise,
+    ar1_noise,
     coloured_sigma,
     noise_model,
     noise_models,
@@ -30,9 +31,6 @@ from sim.rigs.assembly import Condition
 RATE = 1000.0
 
 
-def _ar1(rng: np.random.Generator, n: int, sigma: float, phi: float) -> np.ndarray:
-    e = rng.normal(0.0, sigma * math.sqrt(1.0 - phi ** 2), n)
-    return lfilter([1.0], [1.0, -phi], e, zi=np.array([phi * rng.normal(0.0, sigma)]))[0]
 
 
 def _record(x: np.ndarray) -> SeriesRecord:
@@ -54,7 +52,7 @@ def test_coloured_noise_reads_its_own_sigma(phi: float) -> None:
     """AR(1) noise of σ = 5 kPa on a stepping pressure: σ within 20 %, where the
     sample-to-sample estimate reads √((6 − 8φ + 2φ²)/6) of it (0.26 at φ = 0.9)."""
     rng = np.random.default_rng(1)
-    x = _smooth_signal(16000) + _ar1(rng, 16000, 5e3, phi)
+    x = _smooth_signal(16000) + ar1_noise(rng, 16000, 5e3, phi)
     m = noise_model(_record(x), "P1")
     assert m.coloured
     assert m.sigma == pytest.approx(5e3, rel=0.2)
@@ -76,7 +74,7 @@ def test_mains_hum_counts_at_its_own_rms() -> None:
     """50 Hz hum of 3 kPa amplitude on 2 kPa AR(1) noise (φ = 0.9): σ² = 2² + 3²/2 kPa²."""
     rng = np.random.default_rng(3)
     t = np.arange(16000) / RATE
-    x = _smooth_signal(16000) + _ar1(rng, 16000, 2e3, 0.9) + 3e3 * np.sin(2 * np.pi * 50 * t + 1.0)
+    x = _smooth_signal(16000) + ar1_noise(rng, 16000, 2e3, 0.9) + 3e3 * np.sin(2 * np.pi * 50 * t + 1.0)
     assert noise_model(_record(x), "P1").sigma == pytest.approx(math.hypot(2e3, 3e3 / math.sqrt(2)),
                                                                 rel=0.2)
 
@@ -114,7 +112,7 @@ def _coloured_cycles(seed: int, phi: float, hum: float = 0.0) -> list[SeriesReco
     for load, temp in ((2100.0, 40.0), (4200.0, 50.0), (6300.0, 60.0)):
         r = synthesize(rig, Condition(load=load, oil_temperature=temp), rng=rng,
                        name=f"L{load:.0f}", sigma=dict.fromkeys(NOISE, 0.0))
-        ch = {c: x + _ar1(rng, x.size, NOISE[c], phi) if c in NOISE else x
+        ch = {c: x + ar1_noise(rng, x.size, NOISE[c], phi) if c in NOISE else x
               for c, x in r.channels.items()}
         if hum:
             ch = {c: x + hum * np.sin(2 * np.pi * 50 * r.t + rng.uniform(0, 2 * np.pi))
@@ -150,7 +148,7 @@ def test_a_hidden_effect_still_stands_out_of_coloured_noise() -> None:
     for load, temp in ((2100.0, 40.0), (4200.0, 50.0), (6300.0, 60.0)):
         r = synthesize(rig, Condition(load=load, oil_temperature=temp), rng=rng,
                        name=f"L{load:.0f}", sigma=dict.fromkeys(NOISE, 0.0))
-        recs.append(replace(r, channels={c: x + _ar1(rng, x.size, NOISE[c], 0.9)
+        recs.append(replace(r, channels={c: x + ar1_noise(rng, x.size, NOISE[c], 0.9)
                                          if c in NOISE else x for c, x in r.channels.items()}))
     d = discover(reference_rig_document(), recs, bootstrap=10)
     assert [n.name for n in d.named] == ["seal_friction_pressure"], d.message
