@@ -295,6 +295,12 @@ def diagnose(
             # well, the fit lies below its worn range (incipient), or no χ² test is possible
             _out.print("[bold yellow]caution:[/] "
                        f"{escape(item.goodness_of_fit.statement)}")
+        elif item.result.get("isolated") is False:
+            # explained and confident, but the name's components do not hold 95 % alone
+            cred = item.result["isolability"]["credible_set"]
+            _out.print(f"not isolated: {', '.join(cred)} share 95 % of the probability; "
+                       "the isolability statements name the sensor that would separate "
+                       "them", markup=False)
         for note in item.regime_notes:
             _out.print(f"note: {note}", markup=False)
     for note in response.notes:

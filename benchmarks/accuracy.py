@@ -179,7 +179,15 @@ def score(case: Case, d: Diagnosis) -> dict[str, Any]:
     testable = float(fit.testable) if fit is not None else 1.0
     flagged = float(not explained or (fit is not None and fit.testable and (
         bool(fit.beyond_range) or fit.incipient is not None)))
+    # isolated: the components a client would act on (`isolated` in the result); right
+    # when they are faulty in the truth (all of them; a healthy answer on a healthy rig)
+    comps = {f.name: set(f.hypothesis.components) for f in d.hypotheses}
+    named, truth_comps = comps[d.top.name], comps.get(case.truth)
+    isolated = float(d.isolated)
+    isolated_right = (float("nan") if not isolated or truth_comps is None else
+                      float(named <= truth_comps and (bool(named) or not truth_comps)))
     return {"top": top, "top1": hit, "top1_grouped": hit_g, "explained": float(explained),
+            "isolated": isolated, "isolated_right": isolated_right,
             "flagged": flagged, "testable": testable, "detail": detail,
             "in_set": float(case.truth in d.isolability.ambiguity_set),
             "set_size": len(d.isolability.ambiguity_set), "brier": brier,

@@ -49,7 +49,12 @@ def summarise(rows: list[dict[str, Any]]) -> dict[str, Any]:
             "brier_expected_grouped": _mean(rows, "brier_expected_grouped"),
             "not_explained": 1.0 - _mean(rows, "explained"),
             "flagged": _mean(rows, "flagged"),
-            "untestable": 1.0 - _mean(rows, "testable")}
+            "untestable": 1.0 - _mean(rows, "testable"),
+            "isolated": _mean(rows, "isolated")}
+    right = [r["isolated_right"] for r in ok if r.get("isolated_right") is not None
+             and not np.isnan(r["isolated_right"])]
+    if right:  # of the answers stated `isolated`, the share whose components are faulty
+        out |= {"isolated_right": float(np.mean(right))}
     stored = [r["stored"] for r in ok if r.get("stored") is not None]
     if stored:  # single leakage faults: the history's estimate of the truth's component
         held = [x["held"] for x in stored if x["stored"]]
@@ -92,8 +97,8 @@ def headline(rows: dict[str, list[dict[str, Any]]]) -> dict[str, Any]:
     out: dict[str, Any] = {}
     print("\nin-library cases (preset and differential rigs), per sensor set:")
     print(f"{'sensor set':16s} {'cases':>10s} {'top-1':>6s} {'top-1*':>6s} {'in amb':>6s} "
-          f"{'Brier*':>6s} {'E[B*]':>6s} {'misfit':>6s} {'flagged':>7s} {'ECE':>6s}  "
-          "misses by reason")
+          f"{'Brier*':>6s} {'E[B*]':>6s} {'misfit':>6s} {'flagged':>7s} {'isol':>5s} "
+          f"{'right':>5s} {'ECE':>6s}  misses by reason")
     for sname, rs in rows.items():
         sel = [r for r in rs if r["in_library"]]
         ece = calibration_error(reliability(sel))
@@ -110,7 +115,8 @@ def headline(rows: dict[str, list[dict[str, Any]]]) -> dict[str, Any]:
                 f"{f[k]:6.3f}" for k in ("top1", "top1_grouped", "truth_in_ambiguity_set",
                                          "brier_grouped", "brier_expected_grouped",
                                          "not_explained"))
-                + f" {f['flagged']:7.3f}"
+                + f" {f['flagged']:7.3f} {f['isolated']:5.2f} "
+                  f"{f.get('isolated_right', float('nan')):5.3f}"
                   + (f" {ece:6.3f}  " + ", ".join(f"{k} {v}" for k, v in reasons.items())
                      if part == "all" else ""))
     return out

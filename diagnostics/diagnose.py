@@ -125,6 +125,23 @@ class Diagnosis:
         (:attr:`diagnostics.goodness.GoodnessOfFit.confident`)."""
         return self.fit is None or self.fit.confident
 
+    @property
+    def isolated(self) -> bool:
+        """Whether the name's components can be acted on: a confident answer whose faulty
+        components are in every hypothesis of the 95 % credible set (so they are implicated
+        with at least 95 % probability: a worn spool's ``valve`` with ``valve+pump`` beside
+        it); a healthy answer only when it holds 95 % alone.  ``confident`` does not say the
+        name is certain: a worn spool read by the three pressures alone came out ``pump``
+        p = 0.30, confident, six hypotheses in the ambiguity set (an engineer's pass)."""
+        if not self.confident:
+            return False
+        named = set(self.top.hypothesis.components)
+        by_name = {f.name: set(f.hypothesis.components) for f in self.hypotheses}
+        cred = self.isolability.credible_set
+        if not named:
+            return cred == [self.top.name]
+        return bool(cred) and all(named <= by_name[n] for n in cred)
+
     def to_dict(self) -> dict[str, Any]:
         """Plain JSON-able form (SI units, stated per field)."""
         def fit(f: HypothesisFit) -> dict[str, Any]:
@@ -162,6 +179,7 @@ class Diagnosis:
             "notes": self.notes,
             "explained": self.explained,
             "confident": self.confident,
+            "isolated": self.isolated,
             "goodness_of_fit": None if self.fit is None else plain(self.fit),
             "misfit": None if self.explained or self.fit is None else self.fit.statement,
             "regime_notes": self.regime_notes,

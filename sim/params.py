@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 
-__all__ = ["Param", "Relation", "broken_relation", "param_table"]
+__all__ = ["Param", "Relation", "at_least", "at_most", "broken_relation", "param_table"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -78,6 +78,16 @@ def at_most(name: str, limit: float, unit: str, what: str) -> Relation:
     return Relation(name, f"{name} must be at most {limit:g} {unit} ({what}; a larger value "
                     "is likely a unit slip, e.g. mm written as m)",
                     lambda p: p[name] <= limit)
+
+
+def at_least(name: str, limit: float, unit: str, what: str) -> Relation:
+    """The plausibility bound ``name ≥ limit`` [``unit``], checked like :func:`at_most`:
+    ``what`` says why a smaller value is not the built thing.  A relief set at 0.5 bar
+    (below the supply line's drop) was stored and its rig could not extend (an engineer's
+    pass)."""
+    return Relation(name, f"{name} must be at least {limit:g} {unit} ({what}; a smaller "
+                    "value is likely a unit slip, e.g. kPa or bar written as Pa)",
+                    lambda p: p[name] >= limit)
 
 
 def broken_relation(relations: Iterable[Relation], values: Mapping[str, float]

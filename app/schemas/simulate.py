@@ -187,7 +187,9 @@ class SimulationPublic(BaseModel):
     method: str = Field(description="'transient' or 'steady' [-]", examples=["transient"])
     summary: dict[str, float | None] = Field(
         description="Phase averages 'phase.quantity [unit]' and 'velocity_ratio [-]'; null "
-        "where undefined (a stalled phase) [unit in each key]",
+        "where undefined: a stalled phase's duration, and the ratio when the return stroke "
+        "stalls (working speed over zero); a stalled working stroke with a moving return "
+        "gives ratio 0 [unit in each key]",
         examples=[{"working.speed [m/s]": 0.170, "velocity_ratio [-]": 0.80}],
     )
     completed: dict[str, bool] = Field(

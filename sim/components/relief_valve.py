@@ -16,7 +16,7 @@ from collections.abc import Mapping
 from sim.bondgraph import BondGraph, R, call
 from sim.bondgraph.laws import law
 from sim.components.base import Fragment, declare
-from sim.params import Param, Relation, at_most
+from sim.params import Param, Relation, at_least, at_most
 
 __all__ = ["PARAMETERS", "RELATIONS", "build", "relief_flow"]
 
@@ -30,6 +30,8 @@ PARAMETERS: tuple[Param, ...] = (
 #: Plausibility: a setting within what hydraulic valves are built for.
 RELATIONS: tuple[Relation, ...] = (
     at_most("Pset", 1.5e8, "Pa", "1500 bar; ultra-high-pressure tools work at 700-1000 bar"),
+    at_least("Pset", 1.0e5, "Pa", "1 bar; a relief below a supply line's own drop protects "
+             "nothing and stops the actuator"),
 )
 
 

@@ -117,6 +117,29 @@ def test_diagnose_says_when_the_name_is_not_a_confident_one(runner: CliRunner,
     assert "caution:" in text and "incipient wear of the cylinder" in text
 
 
+def test_diagnose_says_when_the_name_is_not_isolated(runner: CliRunner,
+                                                     tmp_path: Path) -> None:
+    """A worn spool read by the three pressures alone: explained and confident, but six
+    hypotheses share the probability (an engineer read `pump` p = 0.30 as the answer); the
+    table is followed by the credible set, and the JSON says `isolated: false`."""
+    from sim.rigs import reference_rig
+    from tests.diagnostics.synth import readings
+
+    v = readings(reference_rig(), {"valve.cv": 59e-6}, 4200.0, 45.0)
+    record = {"rig_id": 1, "condition": {"oil_temperature": 45.0, "load_force": 4200.0},
+              **{f: float(v[f]) for f in ("pump_pressure", "p1", "p2")}}
+    path = tmp_path / "record.yaml"
+    path.write_text(yaml.safe_dump(record))
+    result = runner.invoke(cli, ["diagnose", str(path), "--no-store"])
+    assert result.exit_code == 0, result.output
+    text = " ".join(result.stdout.split())
+    body = json.loads(runner.invoke(cli, ["diagnose", str(path), "--no-store",
+                                          "--json"]).stdout)["diagnoses"][0]["result"]
+    assert body["confident"] is True and body["isolated"] is False
+    cred = body["isolability"]["credible_set"]
+    assert len(cred) > 1 and f"not isolated: {', '.join(cred)} share 95 %" in text
+
+
 def test_sweep_writes_the_results_table(runner: CliRunner, tmp_path: Path) -> None:
     spec = tmp_path / "sweep.json"
     spec.write_text(json.dumps({

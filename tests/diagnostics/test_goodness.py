@@ -142,3 +142,20 @@ def test_the_statement_says_how_the_most_probable_fit_fares_when_it_names_anothe
         chi2 = min(top.chi2, retest) if np.isfinite(retest) else top.chi2
         assert clause.startswith("passes it too" if chi2 <= limit else "does not pass it")
         assert f"on {dof} degrees of freedom, limit {limit:.3g})" in clause
+
+
+def test_isolated_is_a_confident_name_that_holds_the_probability_alone(rig):
+    """`confident` is not certainty: a worn spool read by the three pressures alone was
+    `pump` p = 0.30, confident (an engineer's pass); `isolated` says whether the name can be
+    acted on alone."""
+    spool = {"valve.cv": 59e-6}
+    pressures = diagnose(rig, [record(rig, spool, load=4200.0, temperature=45.0,
+                                      fields=("pump_pressure", "p1", "p2"))])
+    out = pressures.to_dict()
+    assert out["confident"] is True and out["isolated"] is False
+    assert pressures.top.probability < 0.95 and len(pressures.isolability.credible_set) > 1
+    full = diagnose(rig, [record(rig, spool, load=4200.0, temperature=45.0)])
+    out = full.to_dict()
+    assert out["top"] == "valve" and out["isolated"] is True
+    # the nested pair shares the probability; the valve is in both
+    assert set(full.isolability.credible_set) == {"valve", "valve+pump"}

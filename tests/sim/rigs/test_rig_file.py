@@ -150,12 +150,13 @@ def test_a_bound_broken_in_another_unit_is_said_as_written() -> None:
 @pytest.mark.parametrize(("role", "name", "value"), [
     ("double_acting_cylinder", "bore", 63.0), ("double_acting_cylinder", "stroke", 400.0),
     ("double_acting_cylinder", "cc", 0.01), ("directional_valve_4_2", "Dv", 12.5),
-    ("fixed_displacement_pump", "Vp", 0.0175), ("relief_valve", "Pset", 1e9)])
+    ("fixed_displacement_pump", "Vp", 0.0175), ("relief_valve", "Pset", 1e9),
+    ("relief_valve", "Pset", 5e4)])
 def test_a_value_past_anything_built_is_refused_when_stored_and_still_read_back(
         role: str, name: str, value: float) -> None:
-    """A bore of 63 "m", a 10 mm clearance, a 10,000 bar relief were stored, and the bore
-    made /simulate answer 500 (an engineer's pass); a stored document read back keeps
-    loading."""
+    """A bore of 63 "m", a 10 mm clearance, a 10,000 bar relief, a 0.5 bar relief (below the
+    supply line's drop: the rig could not extend) were stored, and the bore made /simulate
+    answer 500 (an engineer's pass); a stored document read back keeps loading."""
     doc = copy.deepcopy(reference_rig_document())
     comps = doc["components"]
     key = next(k for k, c in comps.items() if c["type"] == role)
