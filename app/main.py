@@ -164,7 +164,7 @@ def create_app(
         The application; its store and job threads live from start-up to shutdown.
     """
     settings = settings or Settings()
-    engine = make_engine(settings.url)
+    engine = make_engine(settings.url, lock_timeout_s=settings.db_lock_timeout)
     sessions = make_session_factory(engine)
 
     @asynccontextmanager

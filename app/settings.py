@@ -161,6 +161,10 @@ class Settings(BaseSettings):
         default=DEFAULT_SWEEP_POINTS["transient"], ge=1,
         le=SWEEP_POINTS_CEILING["transient"],
         description="Most points of one transient sweep.")
+    db_lock_timeout: float = Field(
+        default=10.0, gt=0, le=3600,
+        description="How long a request waits for a PostgreSQL lock another session holds "
+        "before its 503 [s]; statements are cut at 60 s or this, the larger.")
     sim_max_steps: int = Field(default=2_000_000, ge=100, le=100_000_000,
                                description="Most solver steps of one /simulate integration.")
     sim_max_time: float = Field(default=600.0, gt=0, le=1e6,

@@ -1,7 +1,12 @@
 """Engine and session factory of the store.
 
 SQLite files get write-ahead logging, foreign-key enforcement and a busy timeout on every
-connection; PostgreSQL needs nothing special.  JSON columns are written and read with
+connection; PostgreSQL connections give up connecting after ``connect_timeout``, and the
+service's own (``make_engine(..., lock_timeout_s=...)``) wait at most that long for a lock
+and cut a statement at :data:`PG_STATEMENT_TIMEOUT_S`, so a request stalled by another
+session's lock is a 503 (:func:`app.errors.database_unavailable`), not a thread held for as
+long as the lock (an operator pass); the bootstrap and the migrations lift both
+(:func:`lift_timeouts`).  JSON columns are written and read with
 orjson (:func:`dumps_json`, :func:`loads_json`): a measured series of 10⁵ samples × 7
 channels is 11 MB of JSON, which the standard library took 0.55 s to write (holding the
 interpreter lock, so that ``/health`` waited) and orjson 0.03 s; the values are the same,
@@ -16,12 +21,12 @@ from pathlib import Path
 from typing import Any
 
 import orjson
-from sqlalchemy import Engine, create_engine, event, text
+from sqlalchemy import Connection, Engine, create_engine, event, text
 from sqlalchemy.engine import URL
 from sqlalchemy.orm import Session, sessionmaker
 
-__all__ = ["SessionFactory", "dumps_json", "loads_json", "make_engine", "make_session_factory",
-           "ping"]
+__all__ = ["SessionFactory", "dumps_json", "lift_timeouts", "loads_json", "make_engine",
+           "make_session_factory", "ping"]
 
 SessionFactory = sessionmaker[Session]
 
@@ -38,6 +43,9 @@ _ORJSON = orjson.OPT_NON_STR_KEYS | orjson.OPT_SERIALIZE_NUMPY
 
 #: how long a new PostgreSQL connection may take [s] (libpq ``connect_timeout``)
 PG_CONNECT_TIMEOUT_S = 10
+#: the longest statement of a served request on PostgreSQL [s] (``statement_timeout``;
+#: the longest the service runs, a trend over 12,600 diagnoses, takes under a second)
+PG_STATEMENT_TIMEOUT_S = 60.0
 
 
 def dumps_json(value: Any) -> str:
@@ -72,13 +80,18 @@ def _sqlite_pragmas(dbapi_connection: Any, _record: Any) -> None:
         cursor.close()
 
 
-def make_engine(url: URL) -> Engine:
+def make_engine(url: URL, *, lock_timeout_s: float | None = None) -> Engine:
     """Create the engine for ``url``.
 
     Parameters
     ----------
     url
         Database URL; for SQLite the file's folder is created when missing.
+    lock_timeout_s
+        On PostgreSQL, how long a statement waits for a lock [s] (``lock_timeout``), with
+        statements cut at the larger of :data:`PG_STATEMENT_TIMEOUT_S` and it
+        (``statement_timeout``): the service's requests; None (the CLI, copies,
+        migrations run by hand): no limit.  An ``options`` parameter in the URL wins.
 
     Returns
     -------
@@ -95,7 +108,12 @@ def make_engine(url: URL) -> Engine:
         return engine
     # a server that accepts but does not answer (frozen, partitioned) held a new
     # connection for minutes (an operator pass); libpq's own setting in the URL wins
-    connect = {} if "connect_timeout" in url.query else {"connect_timeout": PG_CONNECT_TIMEOUT_S}
+    connect: dict[str, Any] = ({} if "connect_timeout" in url.query
+                               else {"connect_timeout": PG_CONNECT_TIMEOUT_S})
+    if lock_timeout_s is not None and "options" not in url.query:
+        statement_s = max(PG_STATEMENT_TIMEOUT_S, lock_timeout_s)
+        connect["options"] = (f"-c lock_timeout={round(lock_timeout_s * 1000)} "
+                              f"-c statement_timeout={round(statement_s * 1000)}")
     return create_engine(url, pool_pre_ping=True, json_serializer=dumps_json,
                          json_deserializer=loads_json, connect_args=connect)
 
@@ -109,3 +127,13 @@ def ping(engine: Engine) -> None:
     """Run a trivial query; raises the driver's error when the database is unreachable."""
     with engine.connect() as connection:
         connection.execute(text("SELECT 1"))
+
+
+
+def lift_timeouts(connection: Connection) -> None:
+    """Lift the service's lock and statement timeouts on a PostgreSQL ``connection`` for
+    its current transaction (``SET LOCAL``: the bootstrap's advisory lock waits for another
+    replica's migration, a migration may run for minutes); nothing on SQLite."""
+    if connection.dialect.name == "postgresql":
+        connection.exec_driver_sql("SET LOCAL lock_timeout = 0")
+        connection.exec_driver_sql("SET LOCAL statement_timeout = 0")

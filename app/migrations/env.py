@@ -10,7 +10,7 @@ from __future__ import annotations
 from alembic import context
 from sqlalchemy import Engine
 
-from app.db.engine import make_engine
+from app.db.engine import lift_timeouts, make_engine
 from app.db.models import Base
 
 config = context.config
@@ -62,6 +62,7 @@ def run_migrations_online() -> None:
                 compare_type=True,
             )
             with context.begin_transaction():
+                lift_timeouts(connection)   # the service's engine cuts long statements
                 context.run_migrations()
                 if sqlite and (broken := connection.exec_driver_sql(
                         "PRAGMA foreign_key_check").fetchall()):

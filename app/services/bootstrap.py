@@ -13,6 +13,7 @@ from sqlalchemy.exc import DatabaseError
 from sqlalchemy.orm import Session
 
 from app.db import migrate
+from app.db.engine import lift_timeouts
 from app.db.models import ThrottleCalibration
 from app.reference_data import REFERENCE_CALIBRATIONS, REFERENCE_RIG_NAME
 from app.schemas.calibrations import CalibrationCreate, CalibrationPointIn
@@ -59,6 +60,9 @@ def bootstrap_lock(engine: Engine) -> Iterator[None]:
     url = engine.url
     if url.get_backend_name() == "postgresql":
         with engine.connect() as connection:
+            # the lock is the session's; the transaction it opens stays open to the end,
+            # and the service's lock timeout would cut the wait for a replica's migration
+            lift_timeouts(connection)
             connection.execute(text("SELECT pg_advisory_lock(:k)"), {"k": _LOCK_KEY})
             try:
                 yield

@@ -454,3 +454,48 @@ def test_ready_answers_503_when_the_database_does_not_answer(tmp_path: Path) -> 
             assert server.client.get("/ready").status_code == 200
         finally:
             engine.dispose()
+
+
+@pytest.mark.skipif(postgres.unavailable_reason() is not None,
+                    reason=str(postgres.unavailable_reason()))
+def test_a_request_stalled_by_another_sessions_lock_is_a_503(tmp_path: Path) -> None:
+    """Requests on connections already open waited as long as a lock another session held
+    (an operator pass: only /ready gave up): now they wait ``db_lock_timeout`` and answer
+    503 with Retry-After, nothing stored; the bootstrap and the migrations, on the same
+    engine, lift the limit for their own transaction."""
+    import time
+
+    from app.db.engine import lift_timeouts
+    from app.settings import Settings
+    from tests.app.live import live_server
+
+    with postgres.emptied_postgres_url() as url, live_server(
+            Settings(data_dir=tmp_path / "data", database_url=url,
+                     db_lock_timeout=1.5)) as server:
+        assert server.client.get("/rigs/1").status_code == 200
+        engine = make_engine(make_url(url))
+        try:
+            with engine.connect() as holder:
+                holder.execute(text("LOCK TABLE rigs IN ACCESS EXCLUSIVE MODE"))
+                start = time.monotonic()
+                stalled = server.client.get("/rigs/1", timeout=30)
+                waited = time.monotonic() - start
+                holder.rollback()
+            assert stalled.status_code == 503, stalled.text
+            assert stalled.headers["Retry-After"] == "5"
+            assert "nothing of this request was stored" in stalled.json()["error"]["message"]
+            assert 1.5 <= waited < 1.5 + 3
+            assert server.client.get("/rigs/1").status_code == 200
+        finally:
+            engine.dispose()
+        served = make_engine(make_url(url), lock_timeout_s=1.5)
+        try:
+            with served.connect() as connection:
+                assert connection.exec_driver_sql("SHOW lock_timeout").scalar() == "1500ms"
+                assert connection.exec_driver_sql("SHOW statement_timeout").scalar() == "1min"
+                lift_timeouts(connection)
+                assert connection.exec_driver_sql("SHOW lock_timeout").scalar() == "0"
+                connection.commit()   # SET LOCAL: the transaction's own
+                assert connection.exec_driver_sql("SHOW lock_timeout").scalar() == "1500ms"
+        finally:
+            served.dispose()
