@@ -5,7 +5,7 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed-stamp
 export HYDRODIAG_CACHE_DIR ?= $(CURDIR)/.hydrodiag-cache
 
-.PHONY: run test lint bench accuracy pump-study load-bench console-bench screenshots real-data chaos discrepancy-study discrepancy-effects discrepancy-paper000 diagnose-bench diagnose-ab clean
+.PHONY: run test lint bench accuracy pump-study trend-study load-bench console-bench screenshots real-data chaos discrepancy-study discrepancy-effects discrepancy-paper000 diagnose-bench diagnose-ab clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -37,6 +37,10 @@ pump-study: $(STAMP)
 
 real-data: $(STAMP)
 	$(PY) -m benchmarks.real_data
+
+# the trends' time-left coverage and the level-shift test's false alarms and power
+trend-study: $(STAMP)
+	$(PY) -m benchmarks.trend_study
 
 load-bench: $(STAMP)
 	$(PY) -m benchmarks.load_bench

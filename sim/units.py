@@ -12,7 +12,7 @@ import math
 
 from sim.errors import ParameterError
 
-__all__ = ["UNITS", "from_si", "to_si", "unit_suffix"]
+__all__ = ["UNITS", "from_si", "quantity_text", "to_si", "unit_suffix"]
 
 _RPM = 2.0 * math.pi / 60.0
 
@@ -95,3 +95,12 @@ def unit_suffix(unit: str) -> str:
     """What follows a number: `` Pa`` for a unit, nothing for a dimensionless one (``1``,
     ``-``: "≤ 0.2 1" and "1.1e-07 1" read as typos)."""
     return "" if unit in ("1", "-", "") else f" {unit}"
+
+
+def quantity_text(value: float, unit: str, digits: int = 4) -> str:
+    """A value as an engineer reads it in a sentence: a length below a centimetre in µm
+    (a clearance "5.442e-05 m" read as a typo of a planner's 54.42 µm), a rate of length
+    per day likewise; else ``value`` with ``digits`` significant digits and its unit."""
+    if unit in ("m", "m/day") and value != 0.0 and abs(value) < 1e-2:
+        return f"{value * 1e6:.{digits}g} µ{unit}"
+    return f"{value:.{digits}g}{unit_suffix(unit)}"

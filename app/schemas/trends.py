@@ -63,12 +63,14 @@ class ComponentTrend(BaseModel):
         examples=["worsening"])
     time_left_s: float | None = Field(
         description="Time from the last visit to the crossing on the fitted line; null when "
-        "never or unknown [s]", examples=[3.1e7])
+        "never or unknown (also when the slope's 95 % interval reaches 'not worsening') [s]",
+        examples=[3.1e7])
     time_left_low_s: float | None = Field(
-        description="Earliest crossing the slope interval allows, from the last visit; null "
-        "when never or unknown [s]", examples=[1.9e7])
+        description="Earliest crossing the slope and level intervals allow, from the last "
+        "visit; null when never or unknown [s]", examples=[1.9e7])
     time_left_high_s: float | None = Field(
-        description="Latest crossing the slope interval allows; null when never or unknown [s]",
+        description="Latest crossing the slope and level intervals allow, from the last "
+        "visit; null when never or unknown [s]",
         examples=[9.3e7])
     crossing_at: datetime | None = Field(
         description="Date of the crossing on the fitted line; for 'crossed', when the line "
@@ -87,8 +89,18 @@ class ComponentTrend(BaseModel):
         "its fault library did not explain (top 'unexplained'), left out of `points` and the "
         "fit: an estimate through a model the readings contradict estimates nothing [-]",
         examples=[0])
+    step_at: datetime | None = Field(
+        default=None, description="When the level stepped last (a contamination event, a "
+        "part changed, wear that sped up: a straight line read such a step as steady wear); "
+        "null when no step was found. With one, the slope and forecast use the points "
+        "after it [UTC]", examples=[None])
+    step_size: float | None = Field(
+        default=None, description="That step [unit of the series]", examples=[None])
+    points_fitted: int = Field(
+        default=0, ge=0, description="Points the slope and the forecast were fitted to: "
+        "all of `points_total`, or those after the step [-]", examples=[3])
     message: str = Field(description="One sentence for the report [-]",
-                         examples=["cv reaches 5.44e-05 m in 3.1e+07 s"])
+                         examples=["cv reaches 54.42 µm in 360 days"])
 
 
 class TrendsPublic(BaseModel):

@@ -30,7 +30,7 @@ from diagnostics.slip import rig_slip_coefficient
 from diagnostics.trends import TrendSeries, forecast_threshold
 from sim.errors import InputError
 from sim.rigs import Rig, validate_rig_document
-from sim.units import unit_suffix
+from sim.units import quantity_text
 
 __all__ = ["COMPONENTS", "ComponentTrendOut", "TrendPointOut", "component_trends",
            "default_threshold"]
@@ -45,6 +45,8 @@ SLIP_MULTIPLE = 4.1
 _Z95 = 1.959963984540054
 #: later diagnoses without an estimate of a component from which its trend is stale [-]
 STALE_AFTER = 3
+#: largest clearance threshold [m]: the rig documents' plausibility bound of a clearance
+MAX_CLEARANCE_THRESHOLD = 2e-3
 
 
 @dataclass(slots=True)  # not frozen: a frozen one costs 5× to build, per point of a trend
@@ -72,6 +74,9 @@ class ComponentTrendOut:
     ``points``.  ``unexplained``: points of diagnoses whose readings the rig model and its
     fault library did not explain, left out (an inversion through a model the readings
     contradict estimates nothing: a stalled piston read as a 230 µm seal gap).
+    ``step_at``/``step_size``: the latest step in the level
+    (:func:`diagnostics.trends.latest_step`); the fit and the forecast then use the
+    ``points_fitted`` points after it.
     """
 
     component: str
@@ -94,6 +99,9 @@ class ComponentTrendOut:
     left_out: int = 0
     left_out_versions: list[int] = field(default_factory=list)
     unexplained: int = 0
+    step_at: datetime | None = None
+    step_size: float | None = None
+    points_fitted: int = 0
 
 
 def default_threshold(rig: Rig, component: str) -> tuple[float, str]:
@@ -165,15 +173,35 @@ def _trend(component: str, rig_id: int, points: list[TrendPointOut], threshold: 
             crossing = None
     status: str = forecast.status
     message = forecast.message
+    step_at = (datetime.fromtimestamp(forecast.step.time, UTC) if forecast.step is not None
+               else None)
+    if step_at is not None:
+        message = message.replace(" before the reference time (a contamination",
+                                  f" before the last visit, around {step_at:%Y-%m-%d} (a "
+                                  "contamination", 1)
+    if points and crossing is not None and status == "worsening" \
+            and crossing < datetime.now(UTC):
+        # counted from the last visit: "13.6 days left" read on a page 48 days later (a
+        # maintenance planner's pass)
+        message += (f"; counted from the last visit ({points[-1].measured_at:%Y-%m-%d}), "
+                    f"the forecast date {crossing:%Y-%m-%d} is already past: diagnose the "
+                    "rig again")
     if later[0] and points:
         # what they named: "stale" on a healthy pump read like a fault (an engineer's pass)
         said = ", ".join(f"{name} {n}" for name, n in sorted(
             later[2].items(), key=lambda kv: (-kv[1], kv[0])))
-        since = (f"no {quantity} estimate in the {later[0]} later diagnosis(es) of this rig "
-                 f"(since {points[-1].measured_at:%Y-%m-%d}, to {later[1]:%Y-%m-%d}"
-                 + (f"; they named {said}" if said else "") + f"): the {component} alone "
-                 "did not fit their readings, could not be observed, or the rig model "
-                 "explained none of them")
+        window = (f"since {points[-1].measured_at:%Y-%m-%d}, to {later[1]:%Y-%m-%d}")
+        if later[2].get(UNEXPLAINED, 0) == later[0]:
+            # their estimates exist but are left out: "no estimate" was untrue (a planner)
+            since = (f"the {later[0]} later diagnosis(es) of this rig ({window}) were not "
+                     "explained by the rig model (no hypothesis fits their readings: a rig "
+                     "that changed, a sensor fault or a wrongly entered record; check them), "
+                     "so their estimates are left out")
+        else:
+            since = (f"no {quantity} estimate in the {later[0]} later diagnosis(es) of this "
+                     f"rig ({window}" + (f"; they named {said}" if said else "")
+                     + f"): the {component} alone did not fit their readings, could not be "
+                     "observed, or the rig model explained none of them")
         if later[0] >= STALE_AFTER:
             status = "stale"
             message = (f"{since}; the trend of the {len(points)} earlier point(s) forecasts "
@@ -185,9 +213,9 @@ def _trend(component: str, rig_id: int, points: list[TrendPointOut], threshold: 
             message = f"{message}; {since}"
     if points and status != "crossed" and points[-1].value > threshold:
         last = points[-1]
-        message = (f"{message}; the latest estimate, {last.value:.4g}{unit_suffix(unit)} "
+        message = (f"{message}; the latest estimate, {quantity_text(last.value, unit)} "
                    f"({last.measured_at:%Y-%m-%d}), is past the threshold (one point: the "
-                   "robust trend weighs it as one of many){_if_blamed(component, last)}")
+                   f"robust trend weighs it as one of many){_if_blamed(component, last)}")
     elif points and status == "crossed":
         message += _if_blamed(component, points[-1])
     return ComponentTrendOut(
@@ -198,7 +226,9 @@ def _trend(component: str, rig_id: int, points: list[TrendPointOut], threshold: 
         threshold=threshold, threshold_source=source, status=status,
         time_left_s=_finite(forecast.time_left), time_left_low_s=_finite(forecast.time_left_low),
         time_left_high_s=_finite(forecast.time_left_high), crossing_at=crossing,
-        message=message, later_diagnoses=later[0],
+        message=message, later_diagnoses=later[0], step_at=step_at,
+        step_size=None if forecast.step is None else forecast.step.size,
+        points_fitted=forecast.n_used,
     )
 
 
@@ -228,6 +258,12 @@ def component_trends(
         raise InputError("a threshold belongs to one component; name it", field="threshold")
     if threshold is not None and not (math.isfinite(threshold) and threshold > 0):
         raise InputError("the threshold must be finite and > 0", field="threshold")
+    if threshold is not None and component in ("cylinder", "valve") \
+            and threshold > MAX_CLEARANCE_THRESHOLD:
+        # "threshold=130" meant µm: "reaches 130 m in 7.29e+08 days" (a planner's pass)
+        raise InputError(f"a clearance threshold is in m: {threshold:g} m is more than "
+                         f"{MAX_CLEARANCE_THRESHOLD:g} m, the largest clearance a rig document "
+                         "holds (a unit slip? 130 µm is 1.3e-4)", field="threshold")
     if since is not None and until is not None and until < since:  # as /diagnoses answers
         raise InputError("`until` is before `since`", field="until")
     if max_points is not None and max_points < 2:

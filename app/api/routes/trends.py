@@ -37,7 +37,8 @@ def _public(trend: ComponentTrendOut) -> ComponentTrend:
         message=trend.message, later_diagnoses=trend.later_diagnoses,
         points_total=trend.points_total,
         left_out=trend.left_out, left_out_versions=trend.left_out_versions,
-        unexplained=trend.unexplained,
+        unexplained=trend.unexplained, step_at=trend.step_at, step_size=trend.step_size,
+        points_fitted=trend.points_fitted,
     )
 
 
