@@ -203,21 +203,27 @@ def trend_chart(trend: ComponentTrendOut) -> Chart:
         if part.any() or (color == PALETTE[0] and not pts):  # an empty chart keeps its legend
             series.append(Series(days[part], y[part], label, kind="errorbars",
                                  low=low[part], high=high[part], color=color))
-    if trend.slope is not None and len(pts) >= 2:
+    fitted = (days > (trend.step_at.timestamp() - t0) / 86400.0 if trend.step_at is not None
+              else np.ones(days.size, dtype=bool))
+    if trend.slope is not None and int(fitted.sum()) >= 2:
         # Theil-Sen line: the slope with the intercept median(y - slope·t); its band pivots
-        # on the middle of the data with the slope's 95 % interval
+        # on the middle of the data with the slope's 95 % interval; after a step in the
+        # level, over the points after it (those the trend was fitted to)
         per_day = 86400.0
         slope = trend.slope * per_day
-        intercept = float(np.median(y - slope * days))
-        xm = float(np.median(days))
-        span = np.linspace(0.0, float(days.max()), 50)
+        intercept = float(np.median(y[fitted] - slope * days[fitted]))
+        xm = float(np.median(days[fitted]))
+        span = np.linspace(float(days[fitted].min()) if trend.step_at is not None else 0.0,
+                           float(days.max()), 50)
         line = intercept + slope * span
         at_xm = intercept + slope * xm
         lo = at_xm + (trend.slope_low if trend.slope_low is not None else trend.slope) \
             * per_day * (span - xm)
         hi = at_xm + (trend.slope_high if trend.slope_high is not None else trend.slope) \
             * per_day * (span - xm)
-        series.append(Series(span, line, "Theil–Sen", low=np.minimum(lo, hi),
+        label = "Theil–Sen" if trend.step_at is None else \
+            f"Theil–Sen since the step of {trend.step_at:%Y-%m-%d}"
+        series.append(Series(span, line, label, low=np.minimum(lo, hi),
                              high=np.maximum(lo, hi), dashed=True, color=PALETTE[1]))
     return line_chart(f"{trend.component}: {trend.quantity} over time",
                       "days since the first diagnosis [day]",

@@ -80,6 +80,19 @@ def test_the_theil_sen_line_passes_through_exact_linear_data() -> None:
     assert chart.points == 5 + 50
 
 
+def test_after_a_step_the_line_is_drawn_over_the_points_after_it() -> None:
+    """The trend of a stepped spool is fitted to the visits after the step; a line over
+    every point read the step as wear on the page."""
+    values = [34e-6] * 5 + [46e-6 + 1e-6 * day for day in range(5)]
+    trend = replace(_trend(values), slope=1e-6 / 86400.0,
+                    step_at=datetime(2026, 1, 5, 12, tzinfo=UTC), step_size=12e-6)
+    chart = trend_chart(trend)
+    line = chart.series[1]
+    assert line.x[0] == pytest.approx(5.0) and line.x[-1] == pytest.approx(9.0)
+    assert line.y[0] == pytest.approx(46e-6, rel=1e-9)
+    assert line.label == "Theil–Sen since the step of 2026-01-05"
+
+
 def test_estimates_of_a_component_its_diagnosis_thought_unlikely_are_drawn_apart() -> None:
     values = [34e-6 + 2e-6 * day for day in range(5)]
     trend = _trend(values)
