@@ -488,12 +488,15 @@ def calibrate_throttle(
                                          estimator=ThrottleClearanceEstimator())
         rows = [(p.opening_turns, p.bypass_flow_m3s, p.clearance_m, p.clearance_origin)
                 for p in calibration.points]
-    table = Table("opening \\[turn]", "bypass flow \\[m³/s]", "clearance \\[m]", "origin",
+    # flows and clearances as the store keeps them (SI) and as a technician reads them
+    table = Table("opening \\[turn]", "bypass flow \\[m³/s]", "\\[l/min]", "clearance \\[m]",
+                  "\\[µm]", "origin",
                   title=f"calibration {calibration.id}: throttle {calibration.throttle}, "
                   f"{calibration.component}")
     for opening, flow, clearance, origin in rows:
-        table.add_row(f"{opening:g}", f"{flow:.4g}",
-                      "—" if clearance is None else f"{clearance:.4g}", origin or "")
+        table.add_row(f"{opening:g}", f"{flow:.4g}", f"{flow * 6e4:.4g}",
+                      "—" if clearance is None else f"{clearance:.4g}",
+                      "—" if clearance is None else f"{clearance * 1e6:.1f}", origin or "")
     _out.print(table)
 
 

@@ -119,7 +119,11 @@ class OperatingCondition:
     load_force
         Load on the piston [N] (paper 002: 2.1, 4.2, 6.3 kN).
     back_pressure
-        Back-pressure set by the load control valve [Pa] (10, 20, 30 bar); at least one of
+        Back-pressure the load control valve holds in the cylinder's outlet line [Pa];
+        stated alone it is simulated there (:func:`diagnostics.observations.sim_condition`:
+        P2 sees it, the piston's pressure difference is friction only), stated with
+        ``load_force`` it must agree with it as F = p·A2 (paper 002's equivalent loads,
+        10/20/30 bar ≙ 2.1/4.2/6.3 kN) and the force is simulated; at least one of
         ``load_force`` and ``back_pressure`` must be given.
     pump_speed
         Pump shaft speed [rad/s]; optional (the rig's nominal speed is used where needed).

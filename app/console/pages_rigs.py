@@ -147,6 +147,8 @@ def rig(request: Request, session: SessionDep, _key: ConsoleKeyDep,
     return page(request, "rig.html", rig=row, version=version, versions=versions,
                 parameters=_parameters(version.document),
                 calibrations=[(c, _calibration_chart(c)) for c in calibrations],
+                stale={c.id for c in calibrations
+                       if calibration_service.is_stale(c, row.latest_version)},
                 equations=derive_equations(graph).describe(), dot=dot, dot_svg=_dot_svg(dot))
 
 

@@ -105,6 +105,9 @@ class ThrottleCalibration(Base):
     back_pressure_pa: Mapped[float] = mapped_column(Float)
     temperature_c: Mapped[float] = mapped_column(Float)
     source: Mapped[str | None] = mapped_column(Text)
+    #: the rig version whose document computed the clearances; null: none computed (or
+    #: not known, for a table stored before revision 0013 on a rig with several versions)
+    rig_version: Mapped[int | None] = mapped_column(Integer)
     created_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=utcnow)
     updated_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=utcnow, onupdate=utcnow)
 

@@ -38,8 +38,10 @@ __all__ = [
 
 #: Where a table's clearance came from: given by the caller, or computed from the flow.
 ClearanceOrigin = Literal["given", "computed"]
-#: Largest equivalent clearance the store accepts, given or computed [m].
-MAX_CLEARANCE_M = 0.01
+#: Largest equivalent clearance the store accepts, given or computed [m]: the rig
+#: documents' plausibility bound of a clearance (a seal gone is ~0.3 mm); 7.3 "mm" typed
+#: as metres' thousandths was stored under the former 10 mm (a technician's pass)
+MAX_CLEARANCE_M = 2e-3
 ThrottleLabel = Annotated[
     str, StringConstraints(min_length=1, max_length=16, pattern=r"^[A-Za-z0-9_-]+$")
 ]
@@ -62,7 +64,11 @@ _component = partial(
     examples=["valve", "cylinder"],
 )
 _back_pressure = partial(
-    Field, description="Back-pressure during the calibration [Pa]", examples=[1.0e6]
+    Field, description="Back-pressure of the load control valve during the calibration, "
+    "read as paper 002 states its loads: the equivalent load F = p·A2 on the piston (10 bar "
+    "≙ 2.1 kN), the operating point the clearance is computed at; a record diagnosed at this "
+    "condition states load_force = p·A2 (a record's back_pressure alone is a pressure in "
+    "the outlet line, another operating point) [Pa]", examples=[1.0e6]
 )
 _temperature = partial(
     Field, description="Oil temperature during the calibration [°C]", examples=[40.0]
@@ -74,11 +80,17 @@ _source = partial(
 )
 _opening = partial(Field, description="Throttle opening from closed [turn]", examples=[1.5])
 _flow = partial(
-    Field, description="Measured bypass flow at this opening [m³/s]", examples=[5.4e-5]
+    Field, description="Measured equivalent leakage at this opening: the throttle's flow plus "
+    "the component's own leak (meter C − A·ẋ for the cylinder, meter B − meter C for the "
+    "valve, paper 002 §2.7), so the closed row is the existing clearance's leak; below the "
+    "pump's delivery [m³/s] (l/min ÷ 60,000)", examples=[5.4e-5]
 )
 _clearance = partial(
     Field,
-    description="Equivalent internal clearance; null when not known yet [m]",
+    description="Equivalent internal clearance: the concentric annular gap that passes the "
+    "flow by the component's leakage law at the table's condition (a throttle is an "
+    "orifice, so the equivalence holds at that load and temperature, not at others); null "
+    "when not known yet, then computed from the flow; at most 2 mm [m]",
     examples=[62e-6],
 )
 _points = partial(
@@ -171,6 +183,14 @@ class CalibrationPublic(PublicModel):
 
     id: int = Field(description="Calibration identifier [-]", examples=[1])
     rig_id: int = Field(description="Rig identifier [-]", examples=[1])
+    rig_version: int | None = Field(
+        default=None, description="The rig version whose document computed the table's "
+        "clearances; null when none was computed (or not known: a table stored before "
+        "revision 0013 on a rig with several versions) [-]", examples=[1])
+    stale: bool = Field(
+        default=False, description="Whether the computed clearances come from another "
+        "rig version than the latest (a new seal length or oil moves them); an update, "
+        "even an empty PATCH, computes them again with the latest [-]", examples=[False])
     throttle: str = _throttle()
     component: str = _component()
     back_pressure_pa: float = _back_pressure()

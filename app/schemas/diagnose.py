@@ -120,15 +120,24 @@ def _reading(unit: str, meaning: str, example: float, *, required: bool = False)
 
 
 class ConditionIn(RequestModel):
-    """Operating condition of a record; state the load force or the back-pressure (two
-    ways of stating one load, F = p·A2, paper 002 §2.7: both stated must agree; a force
-    and a separate back-pressure valve acting together cannot be stated)."""
+    """Operating condition of a record: the load force, or the back-pressure.
+
+    ``load_force`` is a force on the piston (paper 002's model: its 10/20/30 bar
+    "back-pressure" loads are equivalent loads F = p·A2, 2.1/4.2/6.3 kN, and a throttle
+    table's ``back_pressure_pa`` means that).  ``back_pressure`` stated alone is a pressure
+    the load valve holds in the cylinder's outlet line: chamber 2 and P2 see it and the
+    piston's pressure difference is friction only, another operating point (a record at a
+    throttle table's condition states ``load_force`` = p·A2).  Both stated must agree as
+    F = p·A2 and are read as the force; a force and a separate back-pressure valve acting
+    together cannot be stated."""
 
     synonyms: ClassVar[Mapping[str, str]] = {"load": "load_force"}
 
     oil_temperature: Reading = _reading("°C", "Oil temperature", 40.0, required=True)
     load_force: Reading | None = _reading("N", "Load on the piston, working phase", 2100.0)
-    back_pressure: Reading | None = _reading("Pa", "Back-pressure of the load valve", 1.0e6)
+    back_pressure: Reading | None = _reading(
+        "Pa", "Back-pressure the load valve holds in the outlet line (alone: chamber 2 sees "
+        "it; with load_force, the same load as F = p·A2)", 1.0e6)
     pump_speed: Reading | None = _reading("rad/s", "Pump shaft speed", 150.0)
 
 

@@ -33,6 +33,7 @@ __all__ = [
     "curve_of",
     "delete_calibration",
     "get_calibration",
+    "is_stale",
     "list_calibrations",
     "update_calibration",
 ]
@@ -65,6 +66,14 @@ def list_calibrations(
                     offset=offset)
 
 
+def is_stale(calibration: ThrottleCalibration, latest_version: int) -> bool:
+    """Whether the table's computed clearances were computed with another rig version than
+    ``latest_version`` (or one not known: a table stored before revision 0013 on a rig
+    with several versions); a table of given clearances only is never stale."""
+    computed = any(p.clearance_origin == "computed" for p in calibration.points)
+    return computed and calibration.rig_version != latest_version
+
+
 def curve_of(calibration: ThrottleCalibration) -> ClearanceCurveFit | None:
     """Return the monotone opening → clearance curve of a stored table, if it has one."""
     return ClearanceCurveFit.of([_table_point(p) for p in calibration.points])
@@ -91,13 +100,18 @@ def _estimate(
     for index, point in enumerate(points):
         if point.clearance_m is not None:
             continue
-        clearance = estimator(
-            rig_document=document,
-            component=calibration.component,
-            bypass_flow_m3s=point.bypass_flow_m3s,
-            back_pressure_pa=calibration.back_pressure_pa,
-            temperature_c=calibration.temperature_c,
-        )
+        try:
+            clearance = estimator(
+                rig_document=document,
+                component=calibration.component,
+                bypass_flow_m3s=point.bypass_flow_m3s,
+                back_pressure_pa=calibration.back_pressure_pa,
+                temperature_c=calibration.temperature_c,
+            )
+        except InputError as exc:
+            if exc.field != "bypass_flow_m3s":
+                raise
+            raise InputError(exc.message, field=f"points[{index}].bypass_flow_m3s") from None
         if not (math.isfinite(clearance) and 0 < clearance < MAX_CLEARANCE_M):
             raise InputError(
                 f"the computed clearance {clearance:g} m is not a plausible clearance",
@@ -114,11 +128,18 @@ def _rows(
     points: Sequence[TablePoint],
     estimator: ClearanceEstimator | None,
 ) -> list[CalibrationPoint]:
-    """Check ``points``, fill missing clearances, return the rows in order of opening."""
+    """Check ``points``, fill missing clearances, return the rows in order of opening; the
+    table's ``rig_version`` becomes the latest version when any clearance is computed."""
     order = check_table(points)
     if estimator is not None and any(p.clearance_m is None for p in points):
         points = _estimate(session, calibration, points, estimator)
         check_table(points)
+    if any(p.clearance_origin == "computed" for p in points):
+        calibration.rig_version = get_rig(session, calibration.rig_id).latest_version
+    elif calibration.rig_version is not None:
+        # set only when it changes: a table of given rows leaves the column out of its
+        # INSERT (a store at a revision before 0013 takes it, as the migration tests do)
+        calibration.rig_version = None
     return [
         CalibrationPoint(
             opening_turns=points[i].opening_turns,
@@ -204,7 +225,13 @@ def update_calibration(
     """Change a table; given ``points`` replace all rows.
 
     Without ``points``, the stored rows stay; if the component, back-pressure or
-    temperature changed, their computed clearances are computed again.  Missing clearances
+    temperature changed, or the rig has a newer version than the one that computed them
+    (:func:`is_stale`: an empty update refreshes them), their computed clearances are
+    computed again.  A condition
+    changed this way *corrects* what the table is: clearances given by the caller stay as
+    given (they are the caller's numbers for the table's real condition); a table moved to
+    another condition needs its ``points`` sent again (a technician read 57.7 µm given at
+    40 °C kept beside rows computed at 60 °C).  Missing clearances
     are computed whenever the service has an estimator, so an empty update fills in what
     it can.
     """
@@ -220,8 +247,9 @@ def update_calibration(
         else:
             points = [_table_point(p) for p in calibration.points]
             recompute = condition != (calibration.component, calibration.back_pressure_pa,
-                                      calibration.temperature_c)
-            if recompute:  # computed clearances belong to the old condition
+                                      calibration.temperature_c) or is_stale(
+                calibration, get_rig(session, rig_id).latest_version)
+            if recompute:  # computed clearances belong to the old condition or document
                 points = [p if p.clearance_origin != "computed" else
                           TablePoint(p.opening_turns, p.bypass_flow_m3s, None)
                           for p in points]

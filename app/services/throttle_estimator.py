@@ -51,11 +51,14 @@ class ThrottleClearanceEstimator:
 
     def __init__(self, rigs: DocumentRigs | None = None) -> None:
         self._rigs = rigs if rigs is not None else DocumentRigs()
-        self._points: OrderedDict[tuple[str, str, float, float], dict[str, float]] = OrderedDict()
+        self._points: OrderedDict[tuple[str, str, float, float],
+                                  tuple[dict[str, float], float]] = OrderedDict()
         self._lock = threading.Lock()
 
     def _law_inputs(self, document: Mapping[str, Any], component: str, back_pressure_pa: float,
-                    temperature_c: float) -> dict[str, float]:
+                    temperature_c: float) -> tuple[dict[str, float], float]:
+        """The leakage law's inputs at the condition's operating point, and the pump's
+        delivery ω·Vp [m³/s]."""
         key = (document_digest(document), component, back_pressure_pa, temperature_c)
         with self._lock:
             cached = self._points.get(key)
@@ -71,6 +74,15 @@ class ThrottleClearanceEstimator:
         except SimulationError as exc:
             raise InputError(f"no operating point of the rig at this condition: {exc.message}",
                              field="back_pressure_pa") from None
+        if not working["speed"] > 0.0:
+            # a stalled piston (the relief valve open) stored clearances from a leak
+            # law at an operating point the calibration cannot have had (a technician)
+            raise InputError(
+                f"at {back_pressure_pa / 1e5:g} bar (a load of "
+                f"{condition.load / 1e3:.3g} kN on the annulus) the rig's piston does not "
+                "move in the working phase (the relief valve opens first): a throttle table "
+                "is taken with the piston moving (paper 002 §2.7)", field="back_pressure_pa")
+        delivery = values["pump.speed"] * values["pump.Vp"]
         mu = rig.fluid.dynamic_viscosity(temperature_c)
         if component == "cylinder":
             inputs = {"dp": working["P1"] - working["P2"], "mu": mu, "D": values["cylinder.bore"],
@@ -79,10 +91,10 @@ class ThrottleClearanceEstimator:
             inputs = {"dp": working["P_valve_P"] - values["valve.PRvt"], "mu": mu,
                       "D": values["valve.Dv"], "L": values["valve.Ls"], "velocity": 0.0}
         with self._lock:
-            self._points[key] = inputs
+            self._points[key] = (inputs, delivery)
             while len(self._points) > 64:
                 self._points.popitem(last=False)
-        return inputs
+        return inputs, delivery
 
     def __call__(
         self,
@@ -99,12 +111,21 @@ class ThrottleClearanceEstimator:
         Raises
         ------
         InputError
-            A component other than ``cylinder`` or ``valve``, or no operating point.
+            A component other than ``cylinder`` or ``valve``, no operating point, a piston
+            that does not move at the condition, or a flow above the pump's delivery.
         """
         if component not in _COMPONENTS:
             raise InputError(f"no leakage law for component {component!r} (known: "
                              f"{', '.join(_COMPONENTS)})", field="component")
-        inputs = self._law_inputs(rig_document, component, back_pressure_pa, temperature_c)
+        inputs, delivery = self._law_inputs(rig_document, component, back_pressure_pa,
+                                            temperature_c)
+        if bypass_flow_m3s >= delivery:
+            # flows typed in l/min or l/s were stored as 1.3-1.6 mm clearances (a technician)
+            raise InputError(
+                f"a bypass flow of {bypass_flow_m3s:g} m³/s ({bypass_flow_m3s * 6e4:.4g} l/min) "
+                f"is more than the rig's pump delivers ({delivery:.3g} m³/s, "
+                f"{delivery * 6e4:.3g} l/min): flows are in m³/s (l/min ÷ 60,000)",
+                field="bypass_flow_m3s")
         table = CalibrationTable(component,  # type: ignore[arg-type]
                                  (CalibrationRow("row", 0.0, bypass_flow_m3s),),
                                  back_pressure_pa, temperature_c)

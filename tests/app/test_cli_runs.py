@@ -173,6 +173,19 @@ def test_calibrate_pump_and_throttle(runner: CliRunner, tmp_path: Path) -> None:
     throttle = runner.invoke(cli, ["calibrate", "throttle", str(table)])
     assert throttle.exit_code == 0, throttle.output
     assert "computed" in throttle.stdout and "clearance [m]" in throttle.stdout
+    # the flow in l/min beside m³/s (1e-5 m³/s = 0.6 l/min) and the clearance in µm
+    assert "[l/min]" in throttle.stdout and "[µm]" in throttle.stdout
+    assert re.search(r"\b1e-05\s+│\s+0\.6\s+│", throttle.stdout), throttle.stdout
+    assert store_count(ThrottleCalibration) == before + 1
+    # flows typed in l/min: refused with the field and the pump's delivery, nothing stored
+    table.write_text(yaml.safe_dump({
+        "throttle": "J", "component": "valve", "back_pressure_pa": 1.0e6,
+        "temperature_c": 40.0,
+        "points": [{"opening_turns": 0.0, "bypass_flow_m3s": 0.52},
+                   {"opening_turns": 1.0, "bypass_flow_m3s": 0.745}]}))
+    slip = runner.invoke(cli, ["calibrate", "throttle", str(table)])
+    assert slip.exit_code != 0
+    assert getattr(slip.exception, "field", None) == "points[0].bypass_flow_m3s"
     assert store_count(ThrottleCalibration) == before + 1
 
 

@@ -230,10 +230,14 @@ def test_a_deleted_rows_id_is_never_given_again_and_the_migration_keeps_every_ro
     and after it a new rig never takes the id of the newest deleted one (before, SQLite
     handed the highest freed id out again)."""
     engine = make_engine(make_url(f"sqlite:///{tmp_path / 'ids.db'}"))
-    migrate.upgrade(engine, "0006")
+    # the reference rows are made by today's model (it has columns later revisions add,
+    # which its INSERTs name) and taken down to 0006 with them
+    migrate.upgrade(engine)
     factory = make_session_factory(engine)
     with factory() as session:
         ensure_reference_data(session)
+    migrate.downgrade(engine, "0006")
+    with factory() as session:
         # a key as revision 0006 stores it (the model has columns later revisions add)
         session.execute(text("INSERT INTO api_keys (name, prefix, key_hash, scope, created_at) "
                              "VALUES ('first', 'hd_0006', 'x', 'admin', '2026-11-01')"))
@@ -265,9 +269,10 @@ def test_a_deleted_rows_id_is_never_given_again_and_the_migration_keeps_every_ro
 
 def test_diagnoses_stored_before_0008_are_linked_to_their_own_record(tmp_path: Path) -> None:
     engine = make_engine(make_url(f"sqlite:///{tmp_path / 'links.db'}"))
-    migrate.upgrade(engine, "0007")
+    migrate.upgrade(engine)   # today's model names later revisions' columns: fill, go down
     with make_session_factory(engine)() as session:
         ensure_reference_data(session)
+    migrate.downgrade(engine, "0007")
     with engine.begin() as connection:
         version = connection.execute(text("SELECT id FROM rig_versions")).scalar_one()
         for k in (1, 2):
@@ -294,9 +299,10 @@ def test_estimates_stored_before_0012_get_the_interval_their_result_stated(tmp_p
     from app.services.trends import component_trends
 
     engine = make_engine(make_url(f"sqlite:///{tmp_path / 'intervals.db'}"))
-    migrate.upgrade(engine, "0011")
+    migrate.upgrade(engine)   # today's model names later revisions' columns: fill, go down
     with make_session_factory(engine)() as session:
         ensure_reference_data(session)
+    migrate.downgrade(engine, "0011")
     stated = '{"estimates": {"valve": {"value": 4.1e-05, "low": 3.9e-05, "high": 4.3e-05}}}'
     with engine.begin() as connection:
         version = connection.execute(text("SELECT id FROM rig_versions")).scalar_one()
@@ -499,3 +505,29 @@ def test_a_request_stalled_by_another_sessions_lock_is_a_503(tmp_path: Path) -> 
                 assert connection.exec_driver_sql("SHOW lock_timeout").scalar() == "1500ms"
         finally:
             served.dispose()
+
+
+def test_a_tables_computed_clearances_keep_their_rig_version_through_0013(tmp_path: Path
+                                                                           ) -> None:
+    """Revision 0013 sets ``throttle_calibrations.rig_version`` for the tables of a rig
+    with one version that hold a computed clearance (the only document that can have
+    computed them), leaves it null elsewhere, and its downgrade keeps AUTOINCREMENT."""
+    from app.services.throttle_estimator import ThrottleClearanceEstimator
+
+    engine = make_engine(make_url(f"sqlite:///{tmp_path / 'cal.db'}"))
+    migrate.upgrade(engine)
+    with make_session_factory(engine)() as session:
+        ensure_reference_data(session, estimator=ThrottleClearanceEstimator())
+    migrate.downgrade(engine, "0012")
+    migrate.upgrade(engine)
+    with engine.connect() as connection:
+        rows = dict(connection.execute(text(
+            "SELECT throttle, rig_version FROM throttle_calibrations")).all())
+    # throttle H's fifth row is computed; throttle I's are all published
+    assert rows == {"H": 1, "I": None}
+    migrate.downgrade(engine, "0012")
+    with engine.connect() as connection:
+        sql = connection.execute(text("SELECT sql FROM sqlite_master WHERE name = "
+                                      "'throttle_calibrations'")).scalar_one()
+    assert "AUTOINCREMENT" in sql and "rig_version" not in sql
+    engine.dispose()

@@ -90,3 +90,78 @@ def test_a_table_for_a_component_without_a_law_stores_nothing(
     assert response.status_code == 422
     assert response.json()["error"]["field"] == "component"
     assert estimating_server.row_counts() == before
+
+
+def _count(server: LiveServer) -> int:
+    return int(server.client.get("/rigs/1/calibrations").json()["total"])
+
+
+def test_unit_slips_and_a_stalled_piston_are_refused_and_store_nothing(
+        estimating_server: LiveServer) -> None:
+    """A technician's pass stored flows typed in l/min (1.3-1.6 mm "clearances" on a rig
+    whose pump delivers 28 l/min), a 7.3 mm clearance, and a table at 80 bar, where the
+    piston stalls with the relief open."""
+    before = _count(estimating_server)
+    table = {"throttle": "X", "component": "valve", "back_pressure_pa": 1.0e6,
+             "temperature_c": 40.0}
+    lpm = [{"opening_turns": 0.0, "bypass_flow_m3s": 0.520},
+           {"opening_turns": 1.0, "bypass_flow_m3s": 0.745}]
+    refused = estimating_server.client.post("/rigs/1/calibrations", json=table | {
+        "points": lpm}, headers=estimating_server.auth)
+    assert refused.status_code == 422, refused.text
+    error = refused.json()["error"]
+    assert error["field"] == "points[0].bypass_flow_m3s"
+    assert "more than the rig's pump delivers" in error["message"]
+    assert "28 l/min)" in error["message"] and "(3.12e+04 l/min)" in error["message"]
+    wide = [{"opening_turns": 0.0, "bypass_flow_m3s": 8.6e-6, "clearance_m": 34e-6},
+            {"opening_turns": 1.0, "bypass_flow_m3s": 2.7e-5, "clearance_m": 7.3e-3}]
+    refused = estimating_server.client.post("/rigs/1/calibrations", json=table | {
+        "points": wide}, headers=estimating_server.auth)
+    assert refused.status_code == 422
+    assert refused.json()["error"]["field"] == "points[1].clearance_m"
+    stalled = estimating_server.client.post("/rigs/1/calibrations", json=table | {
+        "component": "cylinder", "back_pressure_pa": 8.0e6,
+        "points": [{"opening_turns": 0.0, "bypass_flow_m3s": 1.8e-5},
+                   {"opening_turns": 1.0, "bypass_flow_m3s": 7.0e-5}]},
+        headers=estimating_server.auth)
+    assert stalled.status_code == 422
+    error = stalled.json()["error"]
+    assert error["field"] == "back_pressure_pa" and "does not move" in error["message"]
+    assert _count(estimating_server) == before
+
+
+def test_computed_clearances_of_an_older_rig_version_are_stale_until_updated(
+        estimating_server: LiveServer) -> None:
+    """A new rig version with a 15 % shorter seal left a table's computed clearances at the
+    old document's values (5 % high) and an empty PATCH changed nothing (a technician's
+    pass): the table says it is stale and an empty PATCH computes it again, by the
+    laminar law about (L'/L)^(1/3) lower."""
+    import copy
+
+    from sim.rigs import reference_rig_document
+
+    server = estimating_server
+    document = reference_rig_document() | {"name": "throttled-rig"}
+    rig = server.client.post("/rigs", json={"document": document}, headers=server.auth).json()
+    url = f"/rigs/{rig['id']}/calibrations"
+    table = {"throttle": "H", "component": "cylinder", "back_pressure_pa": 1.0e6,
+             "temperature_c": 40.0,
+             "points": [{"opening_turns": 0.0, "bypass_flow_m3s": 1.8e-5},
+                        {"opening_turns": 1.0, "bypass_flow_m3s": 7.0e-5}]}
+    created = server.client.post(url, json=table, headers=server.auth).json()
+    assert created["rig_version"] == 1 and created["stale"] is False
+    shorter = copy.deepcopy(document)
+    shorter["components"]["cylinder"]["parameters"]["Lc"]["value"] = 0.0105   # was 0.01231
+    assert server.client.put(f"/rigs/{rig['id']}", json={"document": shorter},
+                             headers=server.auth).status_code == 200
+    read = server.client.get(f"{url}/{created['id']}").json()
+    assert read["stale"] is True and read["rig_version"] == 1
+    assert read["points"] == created["points"]
+    listed = server.client.get(url).json()["items"]
+    assert [t["stale"] for t in listed] == [True]
+    fresh = server.client.patch(f"{url}/{created['id']}", json={},
+                                headers=server.auth).json()
+    assert fresh["stale"] is False and fresh["rig_version"] == 2
+    for old, new in zip(created["points"], fresh["points"], strict=True):
+        assert new["clearance_m"] / old["clearance_m"] == pytest.approx(
+            (0.0105 / 0.01231) ** (1 / 3), rel=0.01)

@@ -28,6 +28,7 @@ from app.schemas.calibrations import (
 )
 from app.schemas.common import ERROR_RESPONSES, MAX_ID, FiniteFloat
 from app.services import calibrations as service
+from app.services.rigs import get_rig
 from sim.errors import InputError
 
 __all__ = ["router"]
@@ -40,11 +41,13 @@ CalibrationId = Annotated[int, Path(ge=1, le=MAX_ID,
                                     examples=[1])]
 
 
-def _public(calibration: ThrottleCalibration) -> CalibrationPublic:
+def _public(calibration: ThrottleCalibration, latest_version: int) -> CalibrationPublic:
     curve = service.curve_of(calibration)
     return CalibrationPublic(
         id=calibration.id,
         rig_id=calibration.rig_id,
+        rig_version=calibration.rig_version,
+        stale=service.is_stale(calibration, latest_version),
         throttle=calibration.throttle,
         component=calibration.component,
         back_pressure_pa=calibration.back_pressure_pa,
@@ -70,8 +73,9 @@ def list_calibrations(
     """Return a page of the rig's tables, in order of creation."""
     rows, total = service.list_calibrations(session, rig_id, limit=page.limit,
                                             offset=page.offset, throttle=throttle)
-    return CalibrationList(items=[_public(c) for c in rows], total=total, limit=page.limit,
-                           offset=page.offset)
+    latest = get_rig(session, rig_id).latest_version
+    return CalibrationList(items=[_public(c, latest) for c in rows], total=total,
+                           limit=page.limit, offset=page.offset)
 
 
 @router.post("", status_code=status.HTTP_201_CREATED,
@@ -82,24 +86,28 @@ def create_calibration(rig_id: RigId, body: CalibrationCreate, session: SessionD
     """Store the table; rows without a clearance get one computed when the service can."""
     calibration = service.create_calibration(session, rig_id, body, estimator=estimator)
     response.headers["Location"] = f"/rigs/{rig_id}/calibrations/{calibration.id}"
-    return _public(calibration)
+    return _public(calibration, get_rig(session, rig_id).latest_version)
 
 
 @router.get("/{calibration_id}", summary="Get a throttle equivalence table")
 def get_calibration(rig_id: RigId, calibration_id: CalibrationId,
                     session: SessionDep) -> CalibrationPublic:
     """Return the table with its interpolation curve."""
-    return _public(service.get_calibration(session, rig_id, calibration_id))
+    return _public(service.get_calibration(session, rig_id, calibration_id),
+                   get_rig(session, rig_id).latest_version)
 
 
 @router.patch("/{calibration_id}", summary="Change a throttle equivalence table")
 def update_calibration(rig_id: RigId, calibration_id: CalibrationId, body: CalibrationUpdate,
                        session: SessionDep, _key: WriteKeyDep,
                        estimator: EstimatorDep) -> CalibrationPublic:
-    """Change the given fields; ``points`` replace every row."""
+    """Change the given fields; ``points`` replace every row.  A changed condition
+    (component, back-pressure, temperature) without ``points`` corrects the table's
+    condition: computed clearances are computed again, given ones stay as given; to move a
+    table to another condition, send its points too."""
     calibration = service.update_calibration(session, rig_id, calibration_id, body,
                                              estimator=estimator)
-    return _public(calibration)
+    return _public(calibration, get_rig(session, rig_id).latest_version)
 
 
 @router.delete("/{calibration_id}", status_code=status.HTTP_204_NO_CONTENT,

@@ -122,6 +122,11 @@ def test_rig_page_lists_parameters_with_units_sources_and_chosen_flags(
     assert "bond graph &#39;pump-valve-cylinder&#39;" in html or \
         "bond graph 'pump-valve-cylinder'" in html
     assert "Throttle I" in html
+    # a technician's pass: flows in l/min beside m³/s, and where an equivalence holds
+    assert "<th class=\"num\">[l/min]</th>" in html
+    assert "hold at this table&#39;s load and oil temperature" in html or \
+        "hold at this table's load and oil temperature" in html
+    assert "class=\"warn\"" not in html   # the preloaded tables are of the latest version
 
 
 def test_the_form_diagnoses_in_the_diagnosis_processes_and_the_group_commit(
