@@ -10,7 +10,7 @@ from sqlalchemy import Select, func, or_, select
 from sqlalchemy.orm import Session, selectinload
 
 from app.db.models import Diagnosis, Measurement, RigVersion
-from app.services.common import get_or_raise
+from app.services.common import commit, get_or_raise
 from sim.errors import InputError
 
 __all__ = ["get_diagnosis", "get_measurement", "list_diagnoses", "list_measurements"]
@@ -61,6 +61,21 @@ def get_measurement(session: Session, measurement_id: int) -> Measurement:
     measurement: Measurement = get_or_raise(session, Measurement, measurement_id,
                                             what="measurement")
     return measurement
+
+
+def delete_measurement(session: Session, measurement_id: int) -> list[int]:
+    """Delete stored record ``measurement_id`` and every diagnosis made from it — its own
+    and the joint ones it took part in (their other records stay) — with their estimates;
+    return those diagnoses' ids.  A record entered wrongly could not be removed: a corrected
+    one was stored beside it and both moved the trend (a maintenance planner's pass)."""
+    measurement = get_measurement(session, measurement_id)
+    ids = sorted({d.id for d in measurement.diagnosed_in} | {d.id for d in measurement.diagnoses})
+    for diagnosis in session.scalars(select(Diagnosis).where(Diagnosis.id.in_(ids))):
+        session.delete(diagnosis)
+    session.delete(measurement)
+    commit(session, conflict=f"measurement {measurement_id} could not be deleted",
+           field="measurement_id")
+    return ids
 
 
 def list_diagnoses(session: Session, *, limit: int, offset: int, rig_id: int | None = None,

@@ -166,3 +166,52 @@ def test_a_cursor_reads_everything_stored_once_while_late_logs_arrive(
     assert server.client.get("/diagnoses").json()["next_after_id"] is None
     both = server.client.get("/diagnoses", params={"after_id": 0, "offset": 5})
     assert both.status_code == 422 and both.json()["error"]["field"] == "offset"
+
+
+def test_a_wrong_record_is_deleted_with_every_diagnosis_made_from_it(
+        server: LiveServer) -> None:
+    """A record entered wrongly could not be removed, and a corrected one was stored beside
+    it (a maintenance planner's pass): DELETE /measurements/{id} (admin) removes it, its
+    diagnosis and the joint diagnosis it took part in; the joint's other record stays, the
+    trend forgets the estimates, and the corrected record at the same time is then stored."""
+    from app.db.models import Diagnosis, DiagnosisEstimate, Measurement
+    from app.security import Scope
+    from app.services.keys import create_api_key
+    from tests.app.conftest import new_rig
+
+    rig_id = int(new_rig(server, "wrong-record-rig")["id"])
+    wrong = simulated_record(server, {"valve.cv": 80e-6}, rig_id=rig_id,
+                             measured_at="2026-05-01T10:00:00Z")
+    single = server.client.post("/diagnose", json={"record": wrong}).json()["diagnoses"][0]
+    other = simulated_record(server, {}, rig_id=rig_id, load=4200.0,
+                             measured_at="2026-05-01T11:00:00Z")
+    joint = server.client.post("/diagnose", json={"records": [wrong | {
+        "measured_at": "2026-05-01T10:30:00Z"}, other], "joint": True}).json()["diagnoses"][0]
+    (measurement_id,) = single["measurement_ids"]
+    kept = joint["measurement_ids"][1]
+    with server.session() as session:
+        before = (session.query(Diagnosis).count(), session.query(DiagnosisEstimate).count())
+        _, write_key = create_api_key(session, "writer", Scope.WRITE)
+    refused = server.anon.delete(f"/measurements/{measurement_id}",
+                                 headers={"X-API-Key": write_key})
+    assert refused.status_code == 403
+    # the joint diagnosis was made from the wrong record's twin at 10:30: delete that one
+    twin = joint["measurement_ids"][0]
+    for gone in (measurement_id, twin):
+        response = server.client.delete(f"/measurements/{gone}", headers=server.auth)
+        assert response.status_code == 204, response.text
+        assert server.client.get(f"/measurements/{gone}").status_code == 404
+    assert server.client.get(f"/diagnoses/{single['id']}").status_code == 404
+    assert server.client.get(f"/diagnoses/{joint['id']}").status_code == 404
+    assert server.client.get(f"/measurements/{kept}").json()["diagnosis_ids"] == []
+    with server.session() as session:
+        assert session.get(Measurement, kept) is not None
+        after = (session.query(Diagnosis).count(), session.query(DiagnosisEstimate).count())
+    assert after[0] == before[0] - 2 and after[1] < before[1]
+    listed = server.client.get("/diagnoses", params={"rig_id": rig_id}).json()
+    assert listed["total"] == 0
+    again = server.client.delete(f"/measurements/{measurement_id}", headers=server.auth)
+    assert again.status_code == 404
+    corrected = simulated_record(server, {}, rig_id=rig_id, measured_at="2026-05-01T10:00:00Z")
+    stored = server.client.post("/diagnose", json={"record": corrected})
+    assert stored.status_code == 200, stored.text

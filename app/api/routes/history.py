@@ -5,11 +5,12 @@ A client that lost an answer (a timeout, a crash) checks here what was stored.
 
 from __future__ import annotations
 
+import logging
 from typing import Annotated, Any
 
-from fastapi import APIRouter, Path, Query, Response
+from fastapi import APIRouter, Path, Query, Response, status
 
-from app.api.deps import PageDep, ReadAccess, SessionDep
+from app.api.deps import AdminKeyDep, PageDep, ReadAccess, SessionDep
 from app.api.rendered import rendered
 from app.db.models import Diagnosis, DiagnosisEstimate, Measurement
 from app.schemas.common import ERROR_RESPONSES, MAX_ID, IsoDatetime
@@ -24,6 +25,8 @@ from app.schemas.history import (
 from app.services import readback as service
 
 __all__ = ["router"]
+
+logger = logging.getLogger("hydrodiag.app")
 
 #: The fields of an answer's estimate that a stored result keeps beside the trend columns.
 _ANSWER_FIELDS = ("quantity", "unit", "value", "low", "high", "source")
@@ -100,6 +103,22 @@ def get_measurement(
 ) -> StoredMeasurementPublic:
     """Return the record as posted, with the ids of its diagnoses."""
     return _measurement(service.get_measurement(session, measurement_id))
+
+
+@router.delete("/measurements/{measurement_id}", status_code=status.HTTP_204_NO_CONTENT,
+               response_class=Response, summary="Delete a stored measurement record")
+def delete_measurement(
+    measurement_id: Annotated[int, Path(ge=1, le=MAX_ID, description="Measurement "
+                                        "identifier [-]", examples=[1])],
+    session: SessionDep, key: AdminKeyDep,
+) -> None:
+    """Delete the record and every diagnosis made from it (its own, and the joint ones it
+    took part in: their other records stay), with their estimates, so that trends forget
+    it — a record entered wrongly; post the corrected one after (a key of scope
+    ``admin``).  The deletion is logged with the key and the diagnoses' ids."""
+    ids = service.delete_measurement(session, measurement_id)
+    logger.info("measurement %d deleted with diagnoses %s by key %s", measurement_id, ids,
+                key.id)
 
 
 @router.get("/diagnoses", summary="List stored diagnoses", response_model=StoredDiagnosisList)
