@@ -215,3 +215,21 @@ def test_a_wrong_record_is_deleted_with_every_diagnosis_made_from_it(
     corrected = simulated_record(server, {}, rig_id=rig_id, measured_at="2026-05-01T10:00:00Z")
     stored = server.client.post("/diagnose", json={"record": corrected})
     assert stored.status_code == 200, stored.text
+
+
+def test_a_compact_page_leaves_out_the_predictions(server: LiveServer,
+                                                  stored: dict[str, Any]) -> None:
+    """500 full history items were 7 MB (a planner's pass): `compact` drops each
+    hypothesis's predicted readings, as /diagnose's compact answer does (here 23 % of the
+    page)."""
+    full = server.client.get("/diagnoses", params={"rig_id": 1, "limit": 3})
+    compact = server.client.get("/diagnoses", params={"rig_id": 1, "limit": 3,
+                                                      "compact": True})
+    assert compact.status_code == 200
+    assert len(compact.content) < 0.85 * len(full.content)
+    for a, b in zip(full.json()["items"], compact.json()["items"], strict=True):
+        assert all("predicted" in h for h in a["result"]["hypotheses"])
+        assert not any("predicted" in h for h in b["result"]["hypotheses"])
+        assert [h["probability"] for h in a["result"]["hypotheses"]] == \
+            [h["probability"] for h in b["result"]["hypotheses"]]
+        assert a["estimates"] == b["estimates"]
