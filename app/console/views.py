@@ -23,7 +23,7 @@ from app.console.charts import (
     sigma_for,
     trend_chart,
 )
-from app.db.models import Diagnosis, MeasuredSeries, Measurement, Rig
+from app.db.models import Diagnosis, DiagnosisEstimate, MeasuredSeries, Measurement, Rig
 from app.schemas.diagnose import MeasurementIn
 from app.services.common import get_or_raise
 from app.services.measurements import to_record
@@ -31,6 +31,7 @@ from app.services.rig_cache import RigCache
 from app.services.trends import component_trends
 from diagnostics.plots import Chart
 from sim.errors import InputError
+from sim.units import quantity_text
 
 __all__ = ["HISTORY_PAGE", "DiagnosisView", "HistoryPage", "TrendView", "diagnosis_view",
            "history_page", "measured_readings", "trend_views"]
@@ -129,6 +130,34 @@ class HistoryPage:
     pages: int
 
 
+#: what a history row shows of an estimate: its quantity and its value in words
+_QUANTITY = {"cylinder": "cc", "valve": "cv", "pump": "Cs"}
+
+
+def _estimates_of(session: Session, rows: list[dict[str, Any]]) -> None:
+    """Each row's estimates of the components its top hypothesis blames ("cv 46.1 µm"), in
+    ``rows[i]["estimates"]``: a planner read the history page for clearances and found
+    only names (a maintenance planner's pass); one query for the page."""
+    ids = [r["id"] for r in rows]
+    if not ids:
+        return
+    found: dict[int, dict[str, str]] = {}
+    for diagnosis_id, component, clearance, slip in session.execute(
+            select(DiagnosisEstimate.diagnosis_id, DiagnosisEstimate.component,
+                   DiagnosisEstimate.clearance_m, DiagnosisEstimate.slip_coefficient)
+            .where(DiagnosisEstimate.diagnosis_id.in_(ids))):
+        value = clearance if clearance is not None else slip
+        if value is None:
+            continue
+        unit = "m" if clearance is not None else "1"
+        found.setdefault(diagnosis_id, {})[component] = \
+            f"{_QUANTITY.get(component, component)} {quantity_text(value, unit)}"
+    for row in rows:
+        blamed = str(row["component"] or "").split("+")
+        row["estimates"] = ", ".join(found.get(row["id"], {}).get(c, "") for c in blamed
+                                     if c in found.get(row["id"], {}))
+
+
 def history_page(session: Session, *, rig_id: int | None = None,
                  since: datetime | None = None, until: datetime | None = None,
                  page: int = 1) -> HistoryPage:
@@ -162,7 +191,8 @@ def history_page(session: Session, *, rig_id: int | None = None,
         .limit(HISTORY_PAGE).offset((page - 1) * HISTORY_PAGE)
     )
     rows = [{"id": i, "rig_id": r, "rig": n, "measured_at": t, "component": c,
-             "probability": p} for i, r, n, t, c, p in session.execute(statement)]
+             "probability": p, "estimates": ""} for i, r, n, t, c, p in session.execute(statement)]
+    _estimates_of(session, rows)
     count = int(total or 0)
     return HistoryPage(rows, count, page, max(1, math.ceil(count / HISTORY_PAGE)))
 

@@ -274,6 +274,12 @@ def test_a_csv_of_records_is_diagnosed_row_by_row(
     assert response.status_code == 303
     assert response.headers["location"] == "/console/history?rig=1"
     assert console_server.row_counts()["diagnoses"] == before + 2
+    # the history page shows each diagnosis's estimate of what it blamed, in µm (a
+    # planner found only names there)
+    history = browser_client.get("/console/history?rig=1&since=2026-04-01T00:00:00Z"
+                                 "&until=2026-04-02T23:00:00Z").text
+    shown = [float(v) for v in re.findall(r"<td>cv ([0-9.]+) µm</td>", history)]
+    assert shown == pytest.approx([40.0], rel=0.02)   # 36 µm reads healthy: nothing blamed
 
 
 def test_trends_page_shows_the_wear_rate_and_the_time_left(
