@@ -189,6 +189,23 @@ def test_a_diagnosis_through_the_form_is_stored_and_shown(
     pset = re.search(r"<code>relief\.Pset</code>.*?</tr>", fitted)
     assert pset is not None and "if it held" in pset.group(0)
     assert "tag sev-" not in pset.group(0)
+    # a worn spool read by the three pressures alone: explained, but not isolated — the
+    # page says so (the console showed neither a misfit nor this)
+    spool = simulated_record(console_server, {"valve.cv": 59e-6}, load=4200.0,
+                             measured_at="2026-03-12T08:00:00Z")
+    spool = {k: v for k, v in spool.items()
+             if k not in ("flow_B", "flow_C", "speed_work", "speed_return", "durations")}
+    response = browser_client.post("/console/diagnose", data={"document": json.dumps(spool)})
+    assert response.status_code == 303, response.text
+    shown = browser_client.get(response.headers["location"]).text
+    assert 'id="not-isolated"' in shown and "share 95 % of the probability" in shown
+    assert 'id="not-isolated"' not in page.text   # the worn seal, every reading: isolated
+    # readings no hypothesis explains (a gauge 5 % high): the misfit statement is shown
+    biased = record | {"p1": record["p1"] * 1.05, "measured_at": "2026-03-13T08:00:00Z"}
+    response = browser_client.post("/console/diagnose", data={"document": json.dumps(biased)})
+    assert response.status_code == 303, response.text
+    shown = browser_client.get(response.headers["location"]).text
+    assert "<strong>Not explained:</strong>" in shown and "p1" in shown
 
 
 def test_a_path_the_console_lacks_and_an_unreadable_form_get_its_pages(
