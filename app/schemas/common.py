@@ -38,7 +38,9 @@ __all__ = [
     "Page",
     "PublicModel",
     "RequestModel",
+    "SinceTime",
     "Timestamp",
+    "UntilTime",
     "UploadForm",
     "error_doc",
     "measurement_time_problem",
@@ -77,6 +79,27 @@ def iso_only(value: Any) -> Any:
 
 #: A time with its zone, as ISO 8601 only (query parameters and body fields).
 IsoDatetime = Annotated[AwareDatetime, BeforeValidator(iso_only)]
+
+_DAY_ONLY = re.compile(r"^\d{4}-\d{2}-\d{2}$")
+
+
+def _day_start(value: Any) -> Any:
+    """A date alone (``2026-05-16``) as the start of that day, UTC."""
+    return f"{value}T00:00:00Z" if isinstance(value, str) and _DAY_ONLY.match(value) else value
+
+
+def _day_end(value: Any) -> Any:
+    """A date alone as the end of that day, UTC (a filter "until 2026-05-16" takes it in)."""
+    return (f"{value}T23:59:59.999999Z" if isinstance(value, str) and _DAY_ONLY.match(value)
+            else value)
+
+
+#: The start of a time window of a query: ISO 8601 with its zone, or a date alone, read as
+#: the start of that day in UTC (the console took a date, the API refused it: a planner)
+SinceTime = Annotated[AwareDatetime, BeforeValidator(iso_only), BeforeValidator(_day_start)]
+#: The end of a time window of a query: as :data:`SinceTime`, a date alone read as the end
+#: of that day in UTC
+UntilTime = Annotated[AwareDatetime, BeforeValidator(iso_only), BeforeValidator(_day_end)]
 
 #: Earliest time a measurement may be stored with (digital records; a 1900 date is a
 #: logger's unset clock) [UTC].

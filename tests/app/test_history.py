@@ -233,3 +233,18 @@ def test_a_compact_page_leaves_out_the_predictions(server: LiveServer,
         assert [h["probability"] for h in a["result"]["hypotheses"]] == \
             [h["probability"] for h in b["result"]["hypotheses"]]
         assert a["estimates"] == b["estimates"]
+
+
+def test_a_window_given_as_dates_takes_whole_days(server: LiveServer,
+                                                  stored: dict[str, Any]) -> None:
+    """The console took `since=2026-03-02`, the API refused it (a planner's pass): a date
+    alone is the start of that day for `since`, its end for `until`, in UTC."""
+    by_day = server.client.get("/diagnoses", params={"rig_id": 1, "since": "2026-03-02",
+                                                     "until": "2026-03-03"})
+    assert by_day.status_code == 200, by_day.text
+    days = sorted(d["measured_at"][:10] for d in by_day.json()["items"])
+    assert days == ["2026-03-02", "2026-03-03"]
+    trend = server.client.get("/rigs/1/trends", params={"since": "2026-03-02",
+                                                        "until": "2026-03-03"})
+    assert trend.status_code == 200
+    assert server.client.get("/diagnoses", params={"since": "2026-3-2"}).status_code == 422

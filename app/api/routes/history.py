@@ -13,7 +13,7 @@ from fastapi import APIRouter, Path, Query, Response, status
 from app.api.deps import AdminKeyDep, PageDep, ReadAccess, SessionDep
 from app.api.rendered import rendered
 from app.db.models import Diagnosis, DiagnosisEstimate, Measurement
-from app.schemas.common import ERROR_RESPONSES, MAX_ID, IsoDatetime
+from app.schemas.common import ERROR_RESPONSES, MAX_ID, SinceTime, UntilTime
 from app.schemas.history import (
     BlamedComponent,
     StoredDiagnosisList,
@@ -36,11 +36,13 @@ router = APIRouter(tags=["history"], dependencies=[ReadAccess], responses=ERROR_
 
 RigFilter = Annotated[int | None, Query(ge=1, le=MAX_ID, description="Only this rig [-]",
                                         examples=[1])]
-Since = Annotated[IsoDatetime | None, Query(
-    description="Only records taken at or after this time, ISO 8601 with zone [UTC]",
+Since = Annotated[SinceTime | None, Query(
+    description="Only records taken at or after this time, ISO 8601 with zone, or a date "
+    "alone (the start of that day) [UTC]",
     examples=["2026-01-01T00:00:00Z"])]
-Until = Annotated[IsoDatetime | None, Query(
-    description="Only records taken at or before this time, ISO 8601 with zone [UTC]",
+Until = Annotated[UntilTime | None, Query(
+    description="Only records taken at or before this time, ISO 8601 with zone, or a date "
+    "alone (the end of that day) [UTC]",
     examples=["2026-12-31T23:59:59Z"])]
 AfterId = Annotated[int | None, Query(
     ge=0, le=MAX_ID, description="A cursor: only items stored after the one with this id, "

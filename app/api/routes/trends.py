@@ -9,7 +9,7 @@ from fastapi import APIRouter, Query, Response
 from app.api.deps import ReadAccess, RigsDep, SessionDep
 from app.api.rendered import rendered
 from app.api.routes.rigs import RigId
-from app.schemas.common import ERROR_RESPONSES, IsoDatetime
+from app.schemas.common import ERROR_RESPONSES, SinceTime, UntilTime
 from app.schemas.trends import ComponentTrend, TrendComponent, TrendPoint, TrendsPublic
 from app.services.trends import ComponentTrendOut, component_trends
 
@@ -53,11 +53,13 @@ def trends(
     threshold: Annotated[float | None, Query(
         description="Threshold for `component`, in its unit; a default derived from the rig "
         "when left out [m or 1]", examples=[6.0e-5])] = None,
-    since: Annotated[IsoDatetime | None, Query(
-        description="Only diagnoses of records taken at or after this time [UTC]",
+    since: Annotated[SinceTime | None, Query(
+        description="Only diagnoses of records taken at or after this time (a date alone: "
+        "the start of that day) [UTC]",
         examples=["2026-01-01T00:00:00Z"])] = None,
-    until: Annotated[IsoDatetime | None, Query(
-        description="Only diagnoses of records taken at or before this time [UTC]",
+    until: Annotated[UntilTime | None, Query(
+        description="Only diagnoses of records taken at or before this time (a date alone: "
+        "the end of that day) [UTC]",
         examples=["2026-12-31T23:59:59Z"])] = None,
     max_points: Annotated[int, Query(
         ge=2, le=MAX_TREND_POINTS, description="Most points of each series in the answer, "
