@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from datetime import UTC, datetime, timedelta
 from pathlib import Path
 from typing import Any
@@ -437,8 +438,6 @@ def test_ready_answers_503_when_the_database_does_not_answer(tmp_path: Path) -> 
     """A PostgreSQL that accepts but answers nothing held /ready for 100 s and more (an
     operator pass): here a lock another session holds on the schema's revision table
     stalls the readiness query; /ready answers 503 within its timeout, then 200 again."""
-    import time
-
     from app.api.routes.ops import READY_TIMEOUT_S
     from app.settings import Settings
     from tests.app.live import live_server
@@ -446,20 +445,30 @@ def test_ready_answers_503_when_the_database_does_not_answer(tmp_path: Path) -> 
     with postgres.emptied_postgres_url() as url, live_server(
             Settings(data_dir=tmp_path / "data", database_url=url)) as server:
         assert server.client.get("/ready").status_code == 200
-        engine = make_engine(make_url(url))
-        try:
-            with engine.connect() as holder:
-                holder.execute(text("LOCK TABLE alembic_version IN ACCESS EXCLUSIVE MODE"))
-                start = time.monotonic()
-                stalled = server.client.get("/ready", timeout=30)
-                waited = time.monotonic() - start
-                holder.rollback()
-            assert stalled.status_code == 503, stalled.text
-            assert "did not answer" in stalled.json()["error"]["message"]
-            assert waited < READY_TIMEOUT_S + 3
-            assert server.client.get("/ready").status_code == 200
-        finally:
-            engine.dispose()
+        stalled, waited = _while_locked(url, "alembic_version",
+                                        lambda: server.client.get("/ready", timeout=30))
+        assert stalled.status_code == 503, stalled.text
+        assert "did not answer" in stalled.json()["error"]["message"]
+        assert waited < READY_TIMEOUT_S + 3
+        assert server.client.get("/ready").status_code == 200
+
+
+def _while_locked(url: str, table: str, call: Callable[[], Any]) -> tuple[Any, float]:
+    """What ``call`` answers while another session holds an exclusive lock on ``table``
+    of the PostgreSQL store ``url``, and how long it took [s]."""
+    import time
+
+    engine = make_engine(make_url(url))
+    try:
+        with engine.connect() as holder:
+            holder.execute(text(f"LOCK TABLE {table} IN ACCESS EXCLUSIVE MODE"))
+            start = time.monotonic()
+            answer = call()
+            waited = time.monotonic() - start
+            holder.rollback()
+    finally:
+        engine.dispose()
+    return answer, waited
 
 
 @pytest.mark.skipif(postgres.unavailable_reason() is not None,
@@ -469,8 +478,6 @@ def test_a_request_stalled_by_another_sessions_lock_is_a_503(tmp_path: Path) -> 
     (an operator pass: only /ready gave up): now they wait ``db_lock_timeout`` and answer
     503 with Retry-After, nothing stored; the bootstrap and the migrations, on the same
     engine, lift the limit for their own transaction."""
-    import time
-
     from app.db.engine import lift_timeouts
     from app.settings import Settings
     from tests.app.live import live_server
@@ -479,21 +486,13 @@ def test_a_request_stalled_by_another_sessions_lock_is_a_503(tmp_path: Path) -> 
             Settings(data_dir=tmp_path / "data", database_url=url,
                      db_lock_timeout=1.5)) as server:
         assert server.client.get("/rigs/1").status_code == 200
-        engine = make_engine(make_url(url))
-        try:
-            with engine.connect() as holder:
-                holder.execute(text("LOCK TABLE rigs IN ACCESS EXCLUSIVE MODE"))
-                start = time.monotonic()
-                stalled = server.client.get("/rigs/1", timeout=30)
-                waited = time.monotonic() - start
-                holder.rollback()
-            assert stalled.status_code == 503, stalled.text
-            assert stalled.headers["Retry-After"] == "5"
-            assert "nothing of this request was stored" in stalled.json()["error"]["message"]
-            assert 1.5 <= waited < 1.5 + 3
-            assert server.client.get("/rigs/1").status_code == 200
-        finally:
-            engine.dispose()
+        stalled, waited = _while_locked(url, "rigs",
+                                        lambda: server.client.get("/rigs/1", timeout=30))
+        assert stalled.status_code == 503, stalled.text
+        assert stalled.headers["Retry-After"] == "5"
+        assert "nothing of this request was stored" in stalled.json()["error"]["message"]
+        assert 1.5 <= waited < 1.5 + 3
+        assert server.client.get("/rigs/1").status_code == 200
         served = make_engine(make_url(url), lock_timeout_s=1.5)
         try:
             with served.connect() as connection:
