@@ -9,11 +9,11 @@ each side: the largest F statistic of the step (Andrews 1993's sup-F, one break,
 trimming 0.15) against its 1 % point at the history's number of visits
 (:data:`CRITICAL_F`, found by simulating straight lines with Gaussian scatter).  Every
 split's F comes from running sums (O(n) for the 35,000 visits of a rig diagnosed every
-cycle).  Before the test, each
-residual from the robust (Theil–Sen) line is clipped at 3 robust σ, so one record with a
-wrong date is not a step; a step must also be larger than :data:`PRACTICAL` times the
-visits' typical stated uncertainty (hundreds of visits make a quarter-σ step significant,
-and the estimates' own level-dependent biases are of that size).
+cycle).  Before the test, each residual from the robust (Theil–Sen) line is clipped at 3
+robust σ, so one record with a wrong date is not a step; a step must also be larger than
+:data:`PRACTICAL` times the visits' typical stated uncertainty (hundreds of visits make a
+quarter-σ step significant, and the estimates' own level-dependent biases are of that
+size).
 """
 
 from __future__ import annotations
@@ -34,10 +34,10 @@ MIN_VISITS = 10
 #: trimming: each side keeps at least this share of the visits
 TRIM = 0.15
 #: 1 % critical values of the sup-F statistic (one break, trimming as above) by number of
-#: visits: the larger 99th percentile of two runs of 2,000 straight lines with Gaussian
-#: scatter each (600 at 400 visits; ``make trend-study`` repeats it, the percentile moves
-#: by about 10 % between runs), residuals clipped as the test clips them; Andrews (1993)
-#: Table I gives 12.35 for many visits
+#: visits: the 99th percentile of 2,000 straight lines with Gaussian scatter (600 at 400
+#: visits), the larger of two runs where both ran (``make trend-study`` repeats it; the
+#: percentile moves by about 10 % between runs), residuals clipped as the test clips
+#: them; Andrews (1993) Table I gives 12.35 for many visits
 CRITICAL_F: tuple[tuple[int, float], ...] = (
     (10, 22.2), (15, 16.8), (25, 16.3), (40, 15.1), (100, 13.5), (400, 14.0))
 #: a step smaller than this many typical standard uncertainties of one visit is not
