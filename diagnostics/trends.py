@@ -49,7 +49,7 @@ Time left (:func:`forecast_threshold`)
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from typing import Literal
 
@@ -338,7 +338,8 @@ def span(seconds: float) -> str:
 
 def forecast_threshold(series: TrendSeries, threshold: float, *,
                        direction: Direction = "increasing", now: float | None = None,
-                       confidence: float = 0.95, steps: bool = True) -> ThresholdForecast:
+                       confidence: float = 0.95, steps: bool = True,
+                       when: Callable[[float], str] | None = None) -> ThresholdForecast:
     """Time left until ``threshold`` is crossed, with its interval (module docstring).
 
     Parameters
@@ -356,6 +357,9 @@ def forecast_threshold(series: TrendSeries, threshold: float, *,
     steps
         Whether to look for a step in the level first (:func:`latest_step`) and forecast
         from the visits after it.
+    when
+        How the message says a time of the series [s] (the service: a date); default how
+        long before the reference time.
     """
     if direction not in ("increasing", "decreasing"):
         raise InputError(f"unknown direction {direction!r}", field="direction")
@@ -371,10 +375,11 @@ def forecast_threshold(series: TrendSeries, threshold: float, *,
     used = series.after(step.time)
     out = _forecast(used, threshold, direction, t_ref, confidence)
     sign = "+" if step.size > 0 else ""
+    at = when(step.time) if when is not None else \
+        f"{span(t_ref - step.time)} before the reference time"
     note = (f"a step of {sign}{quantity_text(step.size, series.unit, 3)} in "
-            f"{series.quantity} {span(t_ref - step.time)} before the reference time (a "
-            "contamination event, a part changed, or wear that sped up): the trend uses "
-            f"the {len(used.times)} visit(s) after it; ")
+            f"{series.quantity} {at} (a contamination event, a part changed, or wear that "
+            f"sped up): the trend uses the {len(used.times)} visit(s) after it; ")
     return replace(out, step=step, n_used=len(used.times), message=note + out.message)
 
 

@@ -159,7 +159,9 @@ def _trend(component: str, rig_id: int, points: list[TrendPointOut], threshold: 
     series = TrendSeries(str(rig_id), component, quantity, unit,
                          tuple(p.measured_at.timestamp() for p in points),
                          tuple(p.value for p in points), uncertainties)
-    forecast = forecast_threshold(series, threshold, direction="increasing")
+    forecast = forecast_threshold(
+        series, threshold, direction="increasing",
+        when=lambda t: f"around {datetime.fromtimestamp(t, UTC):%Y-%m-%d}")
     fit = forecast.fit
     crossing = None
     if fit is not None and forecast.status == "crossed":  # when the fitted line crossed it
@@ -175,10 +177,6 @@ def _trend(component: str, rig_id: int, points: list[TrendPointOut], threshold: 
     message = forecast.message
     step_at = (datetime.fromtimestamp(forecast.step.time, UTC) if forecast.step is not None
                else None)
-    if step_at is not None:
-        message = message.replace(" before the reference time (a contamination",
-                                  f" before the last visit, around {step_at:%Y-%m-%d} (a "
-                                  "contamination", 1)
     if points and crossing is not None and status == "worsening" \
             and crossing < datetime.now(UTC):
         # counted from the last visit: "13.6 days left" read on a page 48 days later (a
