@@ -225,6 +225,9 @@ class ClearanceSamples(BaseModel):
 
     calibration_id: int = Field(description="Calibration identifier [-]", examples=[1])
     component: str = _component()
+    stale: bool = Field(
+        default=False, description="Whether the table's computed clearances come from "
+        "another rig version than the latest (its `stale`) [-]", examples=[False])
     samples: list[ClearanceAt] = Field(
         description="One sample per requested opening, in the order asked [-]",
         examples=[[{"opening_turns": 1.25, "clearance_m": 55.2e-6}]],

@@ -253,7 +253,19 @@ def update_calibration(
                 points = [p if p.clearance_origin != "computed" else
                           TablePoint(p.opening_turns, p.bypass_flow_m3s, None)
                           for p in points]
-        rows = _rows(session, calibration, points, estimator)
+        try:
+            rows = _rows(session, calibration, points, estimator)
+        except InputError as exc:
+            if data.points is not None or not any(p.clearance_m is None for p in points):
+                raise
+            # rows the caller did not send: computed again (a new rig version, another
+            # condition), they no longer rise beside the given ones (the preloaded paper
+            # table after a shorter seal length: a check of the technician's fix)
+            raise InputError(
+                f"computed again, the table's clearances no longer rise with the opening "
+                f"beside its given rows ({exc.message}); the given clearances belong to the "
+                "condition or rig document they were measured with: send `points` again "
+                "(leave a row's clearance out to compute it)", field="points") from None
     calibration.points.clear()
     session.flush()  # delete the old rows before inserting rows with the same openings
     calibration.points.extend(rows)

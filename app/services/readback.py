@@ -63,19 +63,30 @@ def get_measurement(session: Session, measurement_id: int) -> Measurement:
     return measurement
 
 
-def delete_measurement(session: Session, measurement_id: int) -> list[int]:
-    """Delete stored record ``measurement_id`` and every diagnosis made from it — its own
-    and the joint ones it took part in (their other records stay) — with their estimates;
-    return those diagnoses' ids.  A record entered wrongly could not be removed: a corrected
-    one was stored beside it and both moved the trend (a maintenance planner's pass)."""
+def delete_measurement(session: Session, measurement_id: int) -> tuple[list[int], list[int]]:
+    """Delete stored record ``measurement_id``, every diagnosis made from it — its own and
+    the joint ones it took part in — with their estimates, and the other records of those
+    joint visits that no other diagnosis keeps (a visit is posted again whole, and a record
+    left without a diagnosis was stored twice beside the re-post: a check of the planner's
+    fix); return the deleted diagnoses' and records' ids.  A record entered wrongly could
+    not be removed: a corrected one was stored beside it and both moved the trend (a
+    maintenance planner's pass)."""
     measurement = get_measurement(session, measurement_id)
-    ids = sorted({d.id for d in measurement.diagnosed_in} | {d.id for d in measurement.diagnoses})
-    for diagnosis in session.scalars(select(Diagnosis).where(Diagnosis.id.in_(ids))):
+    diagnoses = {d.id: d for d in (*measurement.diagnosed_in, *measurement.diagnoses)}
+    records = {measurement.id: measurement}
+    for diagnosis in diagnoses.values():
+        for other in diagnosis.records:
+            if all(d.id in diagnoses for d in (*other.diagnosed_in, *other.diagnoses)):
+                records[other.id] = other
+    for diagnosis in diagnoses.values():
         session.delete(diagnosis)
-    session.delete(measurement)
+    session.flush()
+    for record in records.values():
+        session.expire(record, ["diagnoses", "diagnosed_in"])   # emptied by the flush
+        session.delete(record)
     commit(session, conflict=f"measurement {measurement_id} could not be deleted",
            field="measurement_id")
-    return ids
+    return sorted(diagnoses), sorted(records)
 
 
 def list_diagnoses(session: Session, *, limit: int, offset: int, rig_id: int | None = None,

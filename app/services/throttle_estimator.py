@@ -35,6 +35,9 @@ from sim.steady import steady_cycle
 __all__ = ["ThrottleClearanceEstimator"]
 
 _COMPONENTS = ("cylinder", "valve")
+#: smallest back-pressure of a table other than 0 [Pa]: 0.1 bar, below what a load control
+#: valve is set to; a smaller one is a unit slip (bar typed as Pa)
+MIN_BACK_PRESSURE_PA = 1.0e4
 
 
 class ThrottleClearanceEstimator:
@@ -64,6 +67,13 @@ class ThrottleClearanceEstimator:
             cached = self._points.get(key)
         if cached is not None:
             return cached
+        if 0.0 < back_pressure_pa < MIN_BACK_PRESSURE_PA:
+            # 10 "Pa" meant 10 bar: a closed row of 56.7 µm on a 34 µm spool was stored
+            # (a check of the technician's fix); 0 stays: a table taken without a load
+            raise InputError(
+                f"a back-pressure of {back_pressure_pa:g} Pa ({back_pressure_pa / 1e5:g} bar) "
+                "is no load a rig applies: it is in Pa (bar × 100,000); 0 for no load",
+                field="back_pressure_pa")
         rig = self._rigs.get(document)
         rig.require_cycle("the equivalent clearance of a throttle table (paper 002 §2.7)")
         values = rig.values()

@@ -147,9 +147,11 @@ def _if_blamed(component: str, point: TrendPointOut) -> str:
 
 
 def _trend(component: str, rig_id: int, points: list[TrendPointOut], threshold: float,
-           source: str, later: tuple[int, datetime | None, dict[str, int]] = (0, None, {})
-           ) -> ComponentTrendOut:
-    """The trend of ``points``; ``later``: the rig's diagnoses after the last point (how
+           source: str, later: tuple[int, datetime | None, dict[str, int]] = (0, None, {}),
+           current: bool = True) -> ComponentTrendOut:
+    """The trend of ``points``; ``current``: the window reaches today (not a view ``until``
+    an earlier time, where "diagnose the rig again" was said with 43 later diagnoses
+    outside it); ``later``: the rig's diagnoses after the last point (how
     many, and the last one's time), :func:`_later`."""
     quantity, unit = COMPONENTS[component]
     uncertainties: tuple[float, ...] | None = None
@@ -177,7 +179,7 @@ def _trend(component: str, rig_id: int, points: list[TrendPointOut], threshold: 
     message = forecast.message
     step_at = (datetime.fromtimestamp(forecast.step.time, UTC) if forecast.step is not None
                else None)
-    if points and crossing is not None and status == "worsening" \
+    if points and current and crossing is not None and status == "worsening" \
             and crossing < datetime.now(UTC):
         # counted from the last visit: "13.6 days left" read on a page 48 days later (a
         # maintenance planner's pass)
@@ -259,9 +261,11 @@ def component_trends(
     if threshold is not None and component in ("cylinder", "valve") \
             and threshold > MAX_CLEARANCE_THRESHOLD:
         # "threshold=130" meant µm: "reaches 130 m in 7.29e+08 days" (a planner's pass)
+        meant = (f"{threshold:g} µm is {threshold * 1e-6:g}" if threshold >= 1.0
+                 else f"{threshold:g} mm is {threshold * 1e-3:g}")
         raise InputError(f"a clearance threshold is in m: {threshold:g} m is more than "
                          f"{MAX_CLEARANCE_THRESHOLD:g} m, the largest clearance a rig document "
-                         "holds (a unit slip? 130 µm is 1.3e-4)", field="threshold")
+                         f"holds (a unit slip? {meant})", field="threshold")
     if since is not None and until is not None and until < since:  # as /diagnoses answers
         raise InputError("`until` is before `since`", field="until")
     if max_points is not None and max_points < 2:
@@ -295,7 +299,8 @@ def component_trends(
         left = sorted({p.rig_version for p in every if not comparable[p.rig_version]})
         later = (_later(session, rig_id, points[-1].measured_at, until) if points
                  else (0, None, {}))
-        trend = _trend(name, rig_id, points, limit, source, later)
+        trend = _trend(name, rig_id, points, limit, source, later,
+                       current=until is None or until >= datetime.now(UTC))
         if left:
             n_left = len(every) - len(points)
             note = (f"{n_left} point(s) of version(s) {', '.join(map(str, left))} left out: "

@@ -127,6 +127,12 @@ def test_unit_slips_and_a_stalled_piston_are_refused_and_store_nothing(
     assert stalled.status_code == 422
     error = stalled.json()["error"]
     assert error["field"] == "back_pressure_pa" and "does not move" in error["message"]
+    bar_as_pa = estimating_server.client.post("/rigs/1/calibrations", json=table | {
+        "back_pressure_pa": 10.0, "points": [{"opening_turns": 0.0, "bypass_flow_m3s": 8.6e-6},
+                                             {"opening_turns": 1.0, "bypass_flow_m3s": 2.7e-5}]},
+        headers=estimating_server.auth)
+    assert bar_as_pa.status_code == 422
+    assert bar_as_pa.json()["error"]["field"] == "back_pressure_pa"
     assert _count(estimating_server) == before
 
 
@@ -159,9 +165,43 @@ def test_computed_clearances_of_an_older_rig_version_are_stale_until_updated(
     assert read["points"] == created["points"]
     listed = server.client.get(url).json()["items"]
     assert [t["stale"] for t in listed] == [True]
+    assert server.client.get(f"{url}/{created['id']}/clearance",
+                             params={"opening_turns": 0.5}).json()["stale"] is True
     fresh = server.client.patch(f"{url}/{created['id']}", json={},
                                 headers=server.auth).json()
     assert fresh["stale"] is False and fresh["rig_version"] == 2
     for old, new in zip(created["points"], fresh["points"], strict=True):
         assert new["clearance_m"] / old["clearance_m"] == pytest.approx(
             (0.0105 / 0.01231) ** (1 / 3), rel=0.01)
+
+
+def test_a_stale_table_whose_recomputed_rows_fall_below_its_given_ones_says_why(
+        estimating_server: LiveServer) -> None:
+    """The preloaded paper table (four given rows, one computed) after a version with a
+    shorter seal: its empty PATCH was refused naming `points[4].clearance_m`, a row the
+    user never sent (a check of the technician's fix); now the refusal says what happened
+    and what to send."""
+    import copy
+
+    from sim.rigs import reference_rig_document
+
+    server = estimating_server
+    document = reference_rig_document() | {"name": "paper-table-rig"}
+    rig = server.client.post("/rigs", json={"document": document}, headers=server.auth).json()
+    url = f"/rigs/{rig['id']}/calibrations"
+    paper = {"throttle": "H", "component": "cylinder", "back_pressure_pa": 1.0e6,
+             "temperature_c": 40.0,
+             "points": [{"opening_turns": 0.0, "bypass_flow_m3s": 1.8e-5, "clearance_m": 83e-6},
+                        {"opening_turns": 0.5, "bypass_flow_m3s": 3.5e-5, "clearance_m": 103e-6},
+                        {"opening_turns": 1.0, "bypass_flow_m3s": 7.0e-5, "clearance_m": 123e-6},
+                        {"opening_turns": 1.5, "bypass_flow_m3s": 8.2e-5, "clearance_m": 139e-6},
+                        {"opening_turns": 2.0, "bypass_flow_m3s": 1.05e-4}]}
+    table = server.client.post(url, json=paper, headers=server.auth).json()
+    shorter = copy.deepcopy(document)
+    shorter["components"]["cylinder"]["parameters"]["Lc"]["value"] = 0.0105
+    server.client.put(f"/rigs/{rig['id']}", json={"document": shorter}, headers=server.auth)
+    refused = server.client.patch(f"{url}/{table['id']}", json={}, headers=server.auth)
+    assert refused.status_code == 422
+    error = refused.json()["error"]
+    assert error["field"] == "points" and "send `points` again" in error["message"]
+    assert server.client.get(f"{url}/{table['id']}").json()["points"] == table["points"]

@@ -411,6 +411,9 @@ def test_a_forecast_date_already_past_is_said() -> None:
     assert trend.status == "worsening" and trend.crossing_at is not None
     assert "is already past: diagnose the rig again" in trend.message
     assert f"counted from the last visit ({points[-1].measured_at:%Y-%m-%d})" in trend.message
+    # a view `until` an earlier time says nothing of it (later diagnoses lie outside)
+    past = _trend("cylinder", 1, points, 132.8e-6, "default", current=False)
+    assert "diagnose the rig again" not in past.message
 
 
 def test_a_clearance_threshold_in_micrometres_is_refused(server: LiveServer) -> None:
@@ -419,4 +422,6 @@ def test_a_clearance_threshold_in_micrometres_is_refused(server: LiveServer) -> 
                                  params={"component": "cylinder", "threshold": 130})
     assert response.status_code == 422
     error = response.json()["error"]
-    assert error["field"] == "threshold" and "unit slip" in error["message"]
+    assert error["field"] == "threshold" and "unit slip? 130 µm is 0.00013" in error["message"]
+    mm = server.client.get("/rigs/1/trends", params={"component": "valve", "threshold": 0.06})
+    assert "0.06 mm is 6e-05" in mm.json()["error"]["message"]

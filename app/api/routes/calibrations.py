@@ -142,6 +142,7 @@ def clearance_at(
     return ClearanceSamples(
         calibration_id=calibration.id,
         component=calibration.component,
+        stale=service.is_stale(calibration, get_rig(session, rig_id).latest_version),
         samples=[ClearanceAt(opening_turns=x, clearance_m=c)
                  for x, c in zip(opening_turns, values, strict=True)],
     )

@@ -117,12 +117,13 @@ def delete_measurement(
     session: SessionDep, key: AdminKeyDep,
 ) -> None:
     """Delete the record and every diagnosis made from it (its own, and the joint ones it
-    took part in: their other records stay), with their estimates, so that trends forget
-    it — a record entered wrongly; post the corrected one after (a key of scope
-    ``admin``).  The deletion is logged with the key and the diagnoses' ids."""
-    ids = service.delete_measurement(session, measurement_id)
-    logger.info("measurement %d deleted with diagnoses %s by key %s", measurement_id, ids,
-                key.id)
+    took part in, with the other records of such a visit that no other diagnosis keeps),
+    with their estimates, so that trends forget it — a record entered wrongly; post the
+    corrected record, or visit, after (a key of scope ``admin``).  The deletion is logged
+    with the key and the ids."""
+    diagnoses, records = service.delete_measurement(session, measurement_id)
+    logger.info("measurement %d deleted: records %s, diagnoses %s, by key %s", measurement_id,
+                records, diagnoses, key.id)
 
 
 @router.get("/diagnoses", summary="List stored diagnoses", response_model=StoredDiagnosisList)

@@ -306,8 +306,9 @@ def test_trends_page_shows_the_wear_rate_and_the_time_left(
     section = html[html.index("valve · <code>cv</code>"):]
     assert f"{len(WEAR_SERIES_M)} diagnoses" in section[:200]
     # the valve opens 4 µm a day: Theil-Sen recovers it from the direct inversions
-    slope = re.search(r"<dd>([^ ]+) \[m/day\]", section)
-    assert slope is not None and float(slope.group(1)) == pytest.approx(4e-6, rel=0.01)
+    # in µm/day, as a planner reads it (it was m/day)
+    slope = re.search(r"<dd>([^ ]+) \[µm/day\]", section)
+    assert slope is not None and float(slope.group(1)) == pytest.approx(4.0, rel=0.01)
     # the threshold, 1.6 × 34 µm, is reached (54.4 − 46) µm / (4 µm/day) = 2.1 days later
     left = re.search(r"<dt>time left</dt><dd>([^ ]+) days", section)
     expected = (CLEARANCE_MULTIPLE * 34e-6 - WEAR_SERIES_M[-1]) / 4e-6
