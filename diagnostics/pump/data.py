@@ -29,7 +29,11 @@ _PLAUSIBLE = (("p_in", MIN_GAUGE_PRESSURE, MAX_GAUGE_PRESSURE, "Pa"),
               ("theta", *OIL_TEMPERATURE_RANGE, "degC"),
               ("q", 0.0, 1.0, "m^3/s"))
 
-__all__ = ["MAX_REPLICATE", "BenchData"]
+__all__ = ["MAX_REPLICATE", "MIN_PRESSURE_RISE", "BenchData"]
+
+#: smallest highest pressure rise of a bench table [Pa]: 0.1 bar; below it the pressures
+#: are in another unit than their header says
+MIN_PRESSURE_RISE = 1.0e4
 
 #: largest replicate number a table may carry [-]
 MAX_REPLICATE = 10_000
@@ -132,6 +136,14 @@ class BenchData:
         if np.any(p_out - cols["p_in"] < 0):
             raise MeasurementError("outlet pressure below inlet pressure: not pumping",
                                    field="p_out")
+        rise = float(np.max(p_out - cols["p_in"]))
+        if rise < MIN_PRESSURE_RISE:
+            # 20-200 written under "[Pa]" was refused for "too few pressure levels" (a pump
+            # field engineer's pass)
+            raise MeasurementError(
+                f"the outlet pressure rises at most {rise:g} Pa above the inlet: a pump bench "
+                f"tests from bars to hundreds of bars; are these bar under a [Pa] header? "
+                f"(write the unit the column holds, e.g. 'p_out [bar]')", field="p_out")
 
     def __len__(self) -> int:
         return int(self.p_out.size)

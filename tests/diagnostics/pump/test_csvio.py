@@ -89,6 +89,13 @@ def test_impossible_values_are_measurement_errors() -> None:
     with pytest.raises(MeasurementError):
         BenchData(p_in=np.zeros(1), p_out=np.full(1, 1e7), omega=np.zeros(1),
                   theta=np.full(1, 40.0), q=np.full(1, 1e-4))
+    # 20-200 bar written under "[Pa]": named as the unit slip it is (it was refused for
+    # "too few pressure levels", a pump field engineer's pass)
+    cols = _frame()
+    cols["p_out [Pa]"] = [200.0]
+    with pytest.raises(MeasurementError) as e:
+        bench_from_frame(pd.DataFrame(cols))
+    assert e.value.field == "p_out [Pa]" and "are these bar" in e.value.message
 
 
 def test_missing_file_is_an_input_error(tmp_path: Path) -> None:
