@@ -110,8 +110,14 @@ def default_threshold(rig: Rig, component: str) -> tuple[float, str]:
         nominal = rig.base["cylinder.cc" if component == "cylinder" else "valve.cv"]
         return (CLEARANCE_MULTIPLE * nominal,
                 "default: 1.6 × nominal clearance (leakage ×4.1, 'severe')")
-    healthy = rig_slip_coefficient(rig, rig.default_condition().oil_temperature)
-    return SLIP_MULTIPLE * healthy, "default: 4.1 × the healthy pump's Cs"
+    theta = rig.default_condition().oil_temperature
+    healthy = rig_slip_coefficient(rig, theta)
+    # what the number is: paper 000's Cs with D per radian, and the temperature it is
+    # taken at (the rig's pump leaks alike at every temperature, so Cs = μ(T)·k/(D·Rlp)
+    # moves with the oil: a pump field engineer's pass)
+    return SLIP_MULTIPLE * healthy, (
+        f"default: 4.1 × the healthy pump's Cs at {theta:g} °C (paper 000 eq. 6, D per "
+        "radian; each point's Cs is at its record's oil temperature)")
 
 
 def _finite(x: float) -> float | None:
