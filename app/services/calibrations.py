@@ -227,13 +227,12 @@ def update_calibration(
     Without ``points``, the stored rows stay; if the component, back-pressure or
     temperature changed, or the rig has a newer version than the one that computed them
     (:func:`is_stale`: an empty update refreshes them), their computed clearances are
-    computed again.  A condition
-    changed this way *corrects* what the table is: clearances given by the caller stay as
-    given (they are the caller's numbers for the table's real condition); a table moved to
-    another condition needs its ``points`` sent again (a technician read 57.7 µm given at
-    40 °C kept beside rows computed at 60 °C).  Missing clearances
-    are computed whenever the service has an estimator, so an empty update fills in what
-    it can.
+    computed again.  A condition changed this way *corrects* what the table is: clearances
+    given by the caller stay as given (they are the caller's numbers for the table's real
+    condition); a table moved to another condition needs its ``points`` sent again (a
+    technician read 57.7 µm given at 40 °C kept beside rows computed at 60 °C).  Missing
+    clearances are computed whenever the service has an estimator, so an empty update
+    fills in what it can.
     """
     calibration = get_calibration(session, rig_id, calibration_id)
     changes = data.model_dump(exclude_unset=True, exclude={"points"})

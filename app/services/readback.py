@@ -13,7 +13,8 @@ from app.db.models import Diagnosis, Measurement, RigVersion
 from app.services.common import commit, get_or_raise
 from sim.errors import InputError
 
-__all__ = ["get_diagnosis", "get_measurement", "list_diagnoses", "list_measurements"]
+__all__ = ["delete_measurement", "get_diagnosis", "get_measurement", "list_diagnoses",
+           "list_measurements"]
 
 
 def _window(since: datetime | None, until: datetime | None) -> None:
