@@ -28,11 +28,11 @@ Time left (:func:`forecast_threshold`)
     the lines with the slope's interval bounds (each with its own joint intercept: the
     steepest worsening slope gives the earliest crossing, the shallowest the latest,
     infinite when the interval reaches "not worsening") and the level's uncertainty
-    (±1.96 u_level / slope).  On simulated straight-line wear (40-400 visits, Gaussian
-    scatter) this interval holds the true crossing 94-96 % of the time, where the lines
-    through the median value's pivot held it 60-82 %
-    (``/work/notes/s45/trends/coverage.py``).  Never an exception for a short or
-    improving series: the result's ``status`` says which case applies —
+    (±1.96 u_level / slope).  On simulated straight-line wear (10-400 visits, Gaussian
+    scatter) this interval holds the true crossing in 95-97.5 % of campaigns, where the
+    lines through the median value's pivot held it in 63-91 % (``make trend-study``).
+    Never an exception for a short or improving series: the result's ``status`` says
+    which case applies —
 
     ``"worsening"``          the whole slope interval worsening: ``time_left`` finite,
                              interval given;
