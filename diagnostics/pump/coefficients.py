@@ -49,7 +49,7 @@ from diagnostics.pump.capacity import THETA_GAP, CapacityEstimate, derived_capac
 from diagnostics.pump.data import BenchData
 from diagnostics.pump.levels import cluster_levels, group_keys
 from diagnostics.pump.plausibility import check_displacement, check_torque
-from diagnostics.pump.surfaces import SurfaceFit, fit_surface
+from diagnostics.pump.surfaces import SurfaceFit, default_degrees, fit_surface
 from sim.components.gear_pump import GearPump, dynamic_viscosity
 from sim.errors import InputError
 from sim.fluid import Fluid
@@ -296,7 +296,8 @@ def _fit_all(points: PointEstimates, degrees: Mapping[str, tuple[int, int]]
     for k, v in points.values.items():
         sd = points.std[k]
         out[k] = fit_surface(k, points.dp, points.omega, v, sd if np.any(sd > 0) else None,
-                             degrees=degrees.get(k, (3, 3)))
+                             degrees=degrees.get(k) or default_degrees(points.dp,
+                                                                       points.omega))
     return out
 
 
@@ -322,7 +323,8 @@ def parameterise(data: BenchData, *, D: float | None = None, D_std: float = 0.0,
         :data:`sim.components.gear_pump.PARAMETERS`).
     degrees
         Surface degrees (pressure, speed) per coefficient; default (3, 3) for each, the cubic
-        surface of paper 000 §6.
+        surface of paper 000 §6, lowered where the set points cannot carry it
+        (:func:`~diagnostics.pump.surfaces.default_degrees`).
     noise
         Instrument accuracies for the standard errors (default :class:`InstrumentNoise`).
 

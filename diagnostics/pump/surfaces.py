@@ -24,7 +24,7 @@ from numpy.polynomial import polynomial as npoly
 from sim.components.gear_pump import OMEGA_REF, P_REF, CoefficientSurface
 from sim.errors import InputError
 
-__all__ = ["SurfaceFit", "fit_surface"]
+__all__ = ["SurfaceFit", "default_degrees", "fit_surface"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -77,6 +77,25 @@ class SurfaceFit:
         V = self._basis(dp, omega)
         var = np.einsum("ij,jk,ik->i", V, self.cov, V)
         return np.sqrt(np.maximum(var, 0.0)).reshape(shape)
+
+
+def default_degrees(dp: npt.ArrayLike, omega: npt.ArrayLike, *, p_ref: float = P_REF,
+                    omega_ref: float = OMEGA_REF, most: int = 3) -> tuple[int, int]:
+    """Surface degrees (pressure, speed) a bench's set points can carry: at most ``most``
+    (the cubic of paper 000 §3), below the number of levels of each variable, and lowered
+    (the higher first) until the points outnumber the coefficients.  A common 3-speed ×
+    5-pressure bench was refused for 16 cubic coefficients with 15 points, with no way to
+    ask for less (a pump field engineer's pass)."""
+    x = np.unique(np.round(np.asarray(dp, dtype=np.float64).ravel() / p_ref, 3))
+    y = np.unique(np.round(np.asarray(omega, dtype=np.float64).ravel() / omega_ref, 3))
+    n = int(np.asarray(dp).size)
+    dp_deg, n_deg = max(min(most, x.size - 1), 0), max(min(most, y.size - 1), 0)
+    while (dp_deg + 1) * (n_deg + 1) >= n and (dp_deg or n_deg):
+        if dp_deg >= n_deg:
+            dp_deg -= 1
+        else:
+            n_deg -= 1
+    return dp_deg, n_deg
 
 
 def fit_surface(name: str, dp: npt.ArrayLike, omega: npt.ArrayLike, values: npt.ArrayLike,

@@ -168,3 +168,23 @@ def test_runs_at_slightly_different_pressures_and_speeds_give_the_coefficients()
     for name, truth in (("Cs", cs), ("Cst", cst), ("Cv", cv), ("Cf", cf)):
         values = fitted.fits[name].values
         assert np.max(np.abs(values / truth - 1.0)) < 2e-3, (name, values)
+
+
+def test_a_three_speed_bench_gets_surfaces_its_set_points_can_carry(pump: GearPump) -> None:
+    """3 speeds × 5 pressures at two temperatures (15 set points) was refused: "15 point
+    estimates cannot fit 16 polynomial coefficients (degrees (3, 3))", with no way to ask
+    for less (a pump field engineer's pass).  The default now lowers the speed degree to
+    what three speed levels carry."""
+    from diagnostics.pump import iso4409_grid, run_virtual_bench
+    from diagnostics.pump.surfaces import default_degrees
+
+    pressures = np.array([20, 60, 100, 150, 200], dtype=np.float64) * 1e5
+    speeds = np.array([1000, 1500, 2000], dtype=np.float64) * 2 * np.pi / 60
+    dp, w = iso4409_grid(pressures, speeds)
+    bench = run_virtual_bench(pump, dp, w, (22.0, 60.0), replicates=2, seed=3)
+    assert default_degrees(dp, w) == (3, 2)
+    fit = parameterise(bench)
+    for name, surface in fit.fits.items():
+        assert surface.surface.coef.size == 4 * 3, name
+    # the demonstration grid (8 × 7) keeps the cubic
+    assert default_degrees(*iso4409_grid(*default_levels())) == (3, 3)
