@@ -25,11 +25,11 @@ report_cli = typer.Typer(help="Reports with plots: HTML (as the console shows) o
 _CSS = Path(__file__).parent / "console" / "static" / "console.css"
 
 
-def _suffix(output: Path) -> str:
+def _suffix(output: Path, allowed: tuple[str, ...] = (".html", ".png")) -> str:
     suffix = output.suffix.lower()
-    if suffix not in (".html", ".png"):
-        raise InputError(f"the output must end in .html or .png, not {suffix or 'nothing'!r}",
-                         field="--output")
+    if suffix not in allowed:
+        raise InputError(f"the output must end in {' or '.join(allowed)}, not "
+                         f"{suffix or 'nothing'!r}", field="--output")
     writable(output, "--output")
     return suffix
 
@@ -75,16 +75,64 @@ def report_diagnosis(
 @report_cli.command("trends")
 def report_trends(
     rig: Annotated[int, typer.Option(min=1, max=MAX_ID, help="Rig id.")] = 1,
-    output: Annotated[Path, typer.Option(help="trends.html or trends.png")] = Path("trends.html"),
+    output: Annotated[Path, typer.Option(
+        help="trends.html, trends.png, or trends.csv (every point, for a spreadsheet)")] = Path(
+        "trends.html"),
 ) -> None:
-    """A rig's component trends: estimates over time, Theil–Sen line, threshold, time left."""
+    """A rig's component trends: estimates over time, Theil–Sen line, threshold, time left;
+    a summary table is printed either way."""
     from app.console.views import trend_views
     from app.services.rig_cache import RigCache
+    from app.services.trends import component_trends
 
-    suffix = _suffix(output)
+    suffix = _suffix(output, (".html", ".png", ".csv"))
     with store_session() as session:
-        views = trend_views(session, RigCache(1), rig)
-        content = render_report(f"Trends of rig {rig}", [v.chart for v in views], suffix,
-                                views=views, rig_id=rig)
+        if suffix == ".csv":
+            trends = component_trends(session, RigCache(1), rig)
+            content = _points_csv(trends)
+        else:
+            views = trend_views(session, RigCache(1), rig)
+            trends = [v.trend for v in views if v.trend is not None]
+            content = render_report(f"Trends of rig {rig}", [v.chart for v in views], suffix,
+                                    views=views, rig_id=rig)
     output.write_bytes(content)
+    _summary(rig, trends)
     console.print(f"wrote {output} ({len(content)} bytes)")
+
+
+def _points_csv(trends: list[Any]) -> bytes:
+    """Every point of every component: what a planner's spreadsheet takes (a planner found
+    no export of the history or the trends)."""
+    import csv
+    import io
+
+    buffer = io.StringIO()
+    writer = csv.writer(buffer, lineterminator="\n")
+    writer.writerow(["component", "quantity", "unit", "measured_at", "value", "low_95",
+                     "high_95", "probability", "diagnosis_id", "rig_version"])
+    for t in trends:
+        for p in t.points:
+            writer.writerow([t.component, t.quantity, t.unit, p.measured_at.isoformat(),
+                             repr(p.value), "" if p.low is None else repr(p.low),
+                             "" if p.high is None else repr(p.high),
+                             "" if p.probability is None else repr(p.probability),
+                             p.diagnosis_id, p.rig_version])
+    return buffer.getvalue().encode("utf-8")
+
+
+def _summary(rig: int, trends: list[Any]) -> None:
+    """Status, wear rate, time left and any step of each component, as a table."""
+    from rich.table import Table
+
+    from sim.units import quantity_text
+
+    table = Table("component", "points", "status", "rate \\[per day]", "time left \\[day]",
+                  "step", title=f"trends of rig {rig}")
+    for t in trends:
+        rate = "—" if t.slope is None else quantity_text(t.slope * 86400.0, f"{t.unit}/day"
+                                                         if t.unit == "m" else "1", 3)
+        left = "—" if t.time_left_s is None else f"{t.time_left_s / 86400.0:.3g}"
+        step = "" if t.step_at is None else (
+            f"{quantity_text(t.step_size, t.unit, 3)} around {t.step_at:%Y-%m-%d}")
+        table.add_row(t.component, str(t.points_total), t.status, rate, left, step)
+    console.print(table)

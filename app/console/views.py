@@ -28,7 +28,7 @@ from app.schemas.diagnose import MeasurementIn
 from app.services.common import get_or_raise
 from app.services.measurements import to_record
 from app.services.rig_cache import RigCache
-from app.services.trends import component_trends
+from app.services.trends import ComponentTrendOut, component_trends
 from diagnostics.plots import Chart
 from sim.errors import InputError
 from sim.units import quantity_text
@@ -217,6 +217,8 @@ class TrendView:
     crossing_at: datetime | None
     message: str
     chart: Chart
+    #: the service's trend it shows (the CLI report prints its summary from it)
+    trend: ComponentTrendOut | None = None
 
 
 def _days(seconds: float | None) -> float | None:
@@ -238,5 +240,5 @@ def trend_views(session: Session, rigs: RigCache, rig_id: int, *,
             t.component, t.quantity, t.unit, t.points_total, t.slope, t.slope_low,
             t.slope_high, t.threshold, t.threshold_source, t.status, _days(t.time_left_s),
             _days(t.time_left_low_s), _days(t.time_left_high_s), t.crossing_at, t.message,
-            trend_chart(t)))
+            trend_chart(t), t))
     return out

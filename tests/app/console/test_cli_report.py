@@ -51,6 +51,19 @@ def test_trends_report_and_refusals(store: Path) -> None:
     assert runner.invoke(cli, ["report", "trends", "--rig", "1", "--output",
                                str(out)]).exit_code == 0
     assert "Trends of rig 1" in out.read_text() and "valve" in out.read_text()
+    # every point as CSV for a spreadsheet, and the summary printed (a planner found no
+    # export of the trends)
+    csv_path = store / "trends.csv"
+    done = runner.invoke(cli, ["report", "trends", "--rig", "1", "--output", str(csv_path)])
+    assert done.exit_code == 0, done.output
+    import pandas as pd
+
+    frame = pd.read_csv(csv_path)
+    assert list(frame.columns[:5]) == ["component", "quantity", "unit", "measured_at", "value"]
+    valve = frame[frame["component"] == "valve"]
+    assert len(valve) == 1 and valve["unit"].iloc[0] == "m"
+    assert valve["value"].iloc[0] == pytest.approx(54.3e-6, rel=0.1)
+    assert "trends of rig 1" in done.output and "valve" in done.output
     wrong = runner.invoke(cli, ["report", "diagnosis", "1", "--output", str(store / "r.pdf")])
     assert isinstance(wrong.exception, InputError) and wrong.exception.field == "--output"
     missing = runner.invoke(cli, ["report", "diagnosis", "7", "--output", str(store / "r.html")])
