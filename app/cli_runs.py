@@ -10,21 +10,21 @@ documents as the API bodies: ``diagnose`` a record, a list of records or a whole
 from __future__ import annotations
 
 import json
-import math
 from pathlib import Path
 from typing import Annotated, Any
 
 import typer
-from pydantic import ValidationError
 from rich.console import Console
 from rich.markup import escape
 from rich.table import Column, Table
 
+from app.cli_calibrate import calibrate_cli
 from app.cli_import import import_cli
 from app.cli_pump_map import calibrate_pump_map
 from app.cli_support import (
     ColumnMapOption,
     SampleRateOption,
+    as_option,
     console,
     estimate_text,
     load_document,
@@ -33,6 +33,7 @@ from app.cli_support import (
     settings_from_env,
     steps,
     store_session,
+    validated,
     writable,
 )
 from app.schemas.common import MAX_ID
@@ -43,27 +44,6 @@ from sim.units import unit_suffix
 __all__ = ["register"]
 
 _out = Console()
-
-
-def _validated(model: Any, document: Any, options: dict[str, str] | None = None) -> Any:
-    """``document`` validated as ``model``; an error names the option the user typed where
-    ``options`` maps the model's field to it (``displacement_m3_rad`` → ``--displacement``)."""
-    try:
-        return model.model_validate(document)
-    except ValidationError as exc:
-        from app.cli_support import validation_error
-
-        raise _as_option(validation_error(exc), options) from None
-
-
-def _as_option(exc: HydrodiagError, options: dict[str, str] | None) -> HydrodiagError:
-    """``exc`` with its field renamed to the command's option when ``options`` maps it, or
-    maps the list the field is an item of (``parameters[0]`` → ``--parameter``)."""
-    field = exc.field or ""
-    for name, option in (options or {}).items():
-        if field == name or field.startswith(f"{name}["):
-            return type(exc)(exc.message, field=option)
-    return exc
 
 
 #: simulate: the request's fields → the options that fill them
@@ -135,7 +115,7 @@ def simulate(
         raise InputError("the output must end in .csv, .parquet or .json", field="--output")
     if output is not None:
         writable(output, "--output")
-    request = _validated(SimulateRequest, {
+    request = validated(SimulateRequest, {
         "rig_id": rig_id, "fault": fault, "overrides": _overrides(set_ or []),
         "condition": {"load": load, "back_pressure": back_pressure,
                       "oil_temperature": oil_temperature, "pump_speed": pump_speed},
@@ -148,7 +128,7 @@ def simulate(
         try:
             outcome = run(session, RigCache(1), request)
         except HydrodiagError as exc:
-            raise _as_option(exc, _SIMULATE_OPTIONS) from None
+            raise as_option(exc, _SIMULATE_OPTIONS) from None
     if output is not None:
         kind = formats[output.suffix.lower()]
         if kind == "csv":
@@ -262,7 +242,7 @@ def diagnose(
                                       started_at=start)
         document = load_document(str(file)) if not cycles else (
             [r.body for r in read] if joint or len(read) > 1 else read[0].body)
-        request = _validated(DiagnoseRequest,
+        request = validated(DiagnoseRequest,
                              _diagnose_body(document, joint=joint, store=store))
         task = progress.add_task("diagnosing", total=None)
         now = utcnow()
@@ -337,13 +317,13 @@ def commission(
         body["parameters"] = parameter
     if beyond_prior:
         body["beyond_prior"] = True
-    request = _validated(CommissionRequest, body, _COMMISSION_OPTIONS)
+    request = validated(CommissionRequest, body, _COMMISSION_OPTIONS)
     with store_session() as session, steps() as progress:
         task = progress.add_task("commissioning", total=None)
         try:
             response = commission_rig(session, RigCache(4), rig, request)
         except HydrodiagError as exc:
-            raise _as_option(exc, _COMMISSION_OPTIONS) from None
+            raise as_option(exc, _COMMISSION_OPTIONS) from None
         progress.update(task, description="done")
     if as_json:
         _print_json(response.model_dump(mode="json"))
@@ -377,7 +357,7 @@ def sweep(
     if output.suffix.lower() not in (".csv", ".json"):
         raise InputError("the output must end in .csv or .json", field="--output")
     writable(output, "--output")
-    request = _validated(SweepRequest, load_document(file))
+    request = validated(SweepRequest, load_document(file))
     settings = settings_from_env()
     with store_session() as session:
         plan = plan_sweep(session, RigCache(1), request, settings.sweep_points)
@@ -398,106 +378,6 @@ def sweep(
 
         pd.DataFrame(result["rows"], columns=result["columns"]).to_csv(output, index=False)
     console.print(f"{result['n_points']} scenarios, {result['n_failed']} failed: {output}")
-
-
-calibrate_cli = typer.Typer(help="Pump parameterisation and throttle equivalence tables.",
-                            no_args_is_help=True)
-
-
-@calibrate_cli.command("pump")
-def calibrate_pump(
-    file: Annotated[Path, typer.Argument(help="Bench CSV, units in the column names.")],
-    name: Annotated[str, typer.Option(help="Unique name of the pump set.")],
-    pump: Annotated[str, typer.Option(help="Pump model and size.")],
-    rig_id: Annotated[int | None, typer.Option("--rig", min=1, max=MAX_ID,
-                                               help="Rig of the pump.")] = None,
-    displacement: Annotated[float | None, typer.Option(
-        help="Derived capacity D \\[m³/rad]; from the data when left out.")] = None,
-    displacement_cm3_rev: Annotated[float | None, typer.Option(
-        "--displacement-cm3-rev",
-        help="Derived capacity as displacement per revolution \\[cm³/rev] (instead of "
-             "--displacement).")] = None,
-) -> None:
-    """Parameterise a pump from a bench CSV and store it, as POST /pump-sets/bench does.
-
-    The CSV has one row per steady point with the unit in every column name: p_in, p_out
-    \\[Pa, kPa, bar, MPa], n \\[rev/s, rpm, rad/s], theta \\[degC, K], q \\[m^3/s, l/min],
-    optional T \\[N*m].  Data at one oil temperature give the derived capacity only (the loss
-    coefficients of paper 000 eqs. 7-9, 17-19 need two temperatures).  With torque and three
-    speeds or more, the sign-checked loss model is fitted at each oil temperature and checked
-    with one speed left out; the set keeps it, its test points and its held-out error
-    (check_flow_S, check_torque_S \\[%]).
-    """
-    from app.schemas.pumps import PumpBenchForm
-    from app.services.pump_bench import store_bench_parameters
-
-    if displacement is not None and displacement_cm3_rev is not None:
-        raise InputError("give --displacement or --displacement-cm3-rev, not both",
-                         field="--displacement-cm3-rev")
-    if displacement_cm3_rev is not None:
-        displacement = displacement_cm3_rev * 1e-6 / (2.0 * math.pi)
-    form = _validated(PumpBenchForm, {"name": name, "pump": pump, "rig_id": rig_id,
-                                      "displacement_m3_rad": displacement},
-                      {"name": "--name", "pump": "--pump", "rig_id": "--rig",
-                       "displacement_m3_rad": "--displacement"})
-    try:
-        content = file.read_bytes()
-    except OSError as exc:
-        raise InputError(f"cannot read {file}: {exc.strerror}", field="FILE") from None
-    with store_session() as session, steps() as progress:
-        progress.add_task("parameterising", total=None)
-        pump_set = store_bench_parameters(session, form, content)
-    table = Table("quantity", "value", "unit",
-                  title=escape(f"pump set {pump_set.id}: {pump_set.name}"))
-    models = []
-    for key, quantity in pump_set.quantities.items():
-        value = quantity["value"]
-        if isinstance(value, float):
-            shown = f"{value:.6g}"
-        elif (key.endswith("_coef") and len(value) <= 8
-              and all(isinstance(v, float | int) for v in value)):
-            # a loss model's coefficients, named below by its terms (they were "array 6
-            # rows", the term names only in the JSON description)
-            shown = ", ".join(f"{v:.4g}" for v in value)
-            models.append(f"{key}: {quantity.get('description', '')}")
-        else:
-            shown = f"array {len(value)} rows"
-        table.add_row(escape(key), shown, escape(quantity["unit"]))
-    _out.print(table)
-    for line in models:
-        _out.print(line, markup=False)
-    if pump_set.source:
-        _out.print(pump_set.source, markup=False)
-
-
-@calibrate_cli.command("throttle")
-def calibrate_throttle(
-    file: Annotated[str, typer.Argument(help="Table: the body of POST /rigs/{id}/calibrations.")],
-    rig_id: Annotated[int, typer.Option("--rig", min=1, max=MAX_ID,
-                                        help="Rig id in the store.")] = 1,
-) -> None:
-    """Store a throttle equivalence table; clearances not given are computed from the flows."""
-    from app.schemas.calibrations import CalibrationCreate
-    from app.services.calibrations import create_calibration
-    from app.services.throttle_estimator import ThrottleClearanceEstimator
-
-    data = _validated(CalibrationCreate, load_document(file))
-    with store_session() as session, steps() as progress:
-        progress.add_task("computing clearances", total=None)
-        calibration = create_calibration(session, rig_id, data,
-                                         estimator=ThrottleClearanceEstimator())
-        rows = [(p.opening_turns, p.bypass_flow_m3s, p.clearance_m, p.clearance_origin)
-                for p in calibration.points]
-    # flows and clearances as the store keeps them (SI) and as a technician reads them
-    table = Table("opening \\[turn]", "bypass flow \\[m³/s]", "\\[l/min]", "clearance \\[m]",
-                  "\\[µm]", "origin",
-                  title=f"calibration {calibration.id}: throttle {calibration.throttle}, "
-                  f"{calibration.component}")
-    for opening, flow, clearance, origin in rows:
-        table.add_row(f"{opening:g}", f"{flow:.4g}", f"{flow * 6e4:.4g}",
-                      "—" if clearance is None else f"{clearance:.4g}",
-                      "—" if clearance is None else f"{clearance * 1e6:.1f}", origin or "")
-    _out.print(table)
 
 
 def register(cli: typer.Typer) -> None:

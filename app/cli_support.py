@@ -21,14 +21,15 @@ from sqlalchemy.orm import Session
 from app.db.engine import make_engine, make_session_factory
 from app.schemas.common import MAX_ID
 from app.settings import Settings
-from sim.errors import InputError
+from sim.errors import HydrodiagError, InputError
 
 if TYPE_CHECKING:
     from diagnostics.timeseries import ColumnEntry
 
-__all__ = ["ColumnMapOption", "SampleRateOption", "console", "estimate_text", "load_document",
-           "migrated_engine", "reading_options", "series_ids", "settings_from_env", "steps",
-           "store_session", "unwrap_help", "validation_error", "writable"]
+__all__ = ["ColumnMapOption", "SampleRateOption", "as_option", "console", "estimate_text",
+           "load_document", "migrated_engine", "reading_options", "series_ids",
+           "settings_from_env", "steps", "store_session", "unwrap_help", "validated",
+           "validation_error", "writable"]
 
 console = Console(stderr=True)
 
@@ -209,3 +210,22 @@ def unwrap_help(app: typer.Typer) -> None:
     for group in app.registered_groups:
         if group.typer_instance is not None:
             unwrap_help(group.typer_instance)
+
+
+def validated(model: Any, document: Any, options: dict[str, str] | None = None) -> Any:
+    """``document`` validated as ``model``; an error names the option the user typed where
+    ``options`` maps the model's field to it (``displacement_m3_rad`` → ``--displacement``)."""
+    try:
+        return model.model_validate(document)
+    except ValidationError as exc:
+        raise as_option(validation_error(exc), options) from None
+
+
+def as_option(exc: HydrodiagError, options: dict[str, str] | None) -> HydrodiagError:
+    """``exc`` with its field renamed to the command's option when ``options`` maps it, or
+    maps the list the field is an item of (``parameters[0]`` → ``--parameter``)."""
+    field = exc.field or ""
+    for name, option in (options or {}).items():
+        if field == name or field.startswith(f"{name}["):
+            return type(exc)(exc.message, field=option)
+    return exc

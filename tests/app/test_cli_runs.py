@@ -187,6 +187,13 @@ def test_calibrate_pump_and_throttle(runner: CliRunner, tmp_path: Path) -> None:
     assert slip.exit_code != 0
     assert getattr(slip.exception, "field", None) == "points[0].bypass_flow_m3s"
     assert store_count(ThrottleCalibration) == before + 1
+    # the tables read back from the CLI too, with their clearances in µm and what
+    # computed them (the CLI could only create them: a technician's pass)
+    listed = runner.invoke(cli, ["calibrate", "tables", "--rig", "1"])
+    assert listed.exit_code == 0, listed.output
+    flat = " ".join(listed.stdout.split())
+    assert "throttle tables of rig 1" in flat and "34.0," in flat and "26.0, 52.1" in flat
+    assert "version 1" in flat and "stale" not in flat
 
 
 def test_calibrate_pump_on_a_real_single_temperature_map(runner: CliRunner, tmp_path: Path,

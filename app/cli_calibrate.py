@@ -1,0 +1,149 @@
+"""``hydrodiag calibrate``: pump parameterisation from a bench CSV, throttle equivalence
+tables (stored and listed); the commands of :mod:`app.cli_runs`' ``calibrate`` group."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.console import Console
+from rich.markup import escape
+from rich.table import Table
+
+from app.cli_support import load_document, steps, store_session, validated
+from app.schemas.common import MAX_ID
+from sim.errors import InputError
+
+__all__ = ["calibrate_cli"]
+
+_out = Console()
+
+calibrate_cli = typer.Typer(help="Pump parameterisation and throttle equivalence tables.",
+                            no_args_is_help=True)
+
+
+@calibrate_cli.command("pump")
+def calibrate_pump(
+    file: Annotated[Path, typer.Argument(help="Bench CSV, units in the column names.")],
+    name: Annotated[str, typer.Option(help="Unique name of the pump set.")],
+    pump: Annotated[str, typer.Option(help="Pump model and size.")],
+    rig_id: Annotated[int | None, typer.Option("--rig", min=1, max=MAX_ID,
+                                               help="Rig of the pump.")] = None,
+    displacement: Annotated[float | None, typer.Option(
+        help="Derived capacity D \\[m³/rad]; from the data when left out.")] = None,
+    displacement_cm3_rev: Annotated[float | None, typer.Option(
+        "--displacement-cm3-rev",
+        help="Derived capacity as displacement per revolution \\[cm³/rev] (instead of "
+             "--displacement).")] = None,
+) -> None:
+    """Parameterise a pump from a bench CSV and store it, as POST /pump-sets/bench does.
+
+    The CSV has one row per steady point with the unit in every column name: p_in, p_out
+    \\[Pa, kPa, bar, MPa], n \\[rev/s, rpm, rad/s], theta \\[degC, K], q \\[m^3/s, l/min],
+    optional T \\[N*m].  Data at one oil temperature give the derived capacity only (the loss
+    coefficients of paper 000 eqs. 7-9, 17-19 need two temperatures).  With torque and three
+    speeds or more, the sign-checked loss model is fitted at each oil temperature and checked
+    with one speed left out; the set keeps it, its test points and its held-out error
+    (check_flow_S, check_torque_S \\[%]).
+    """
+    from app.schemas.pumps import PumpBenchForm
+    from app.services.pump_bench import store_bench_parameters
+
+    if displacement is not None and displacement_cm3_rev is not None:
+        raise InputError("give --displacement or --displacement-cm3-rev, not both",
+                         field="--displacement-cm3-rev")
+    if displacement_cm3_rev is not None:
+        displacement = displacement_cm3_rev * 1e-6 / (2.0 * math.pi)
+    form = validated(PumpBenchForm, {"name": name, "pump": pump, "rig_id": rig_id,
+                                      "displacement_m3_rad": displacement},
+                      {"name": "--name", "pump": "--pump", "rig_id": "--rig",
+                       "displacement_m3_rad": "--displacement"})
+    try:
+        content = file.read_bytes()
+    except OSError as exc:
+        raise InputError(f"cannot read {file}: {exc.strerror}", field="FILE") from None
+    with store_session() as session, steps() as progress:
+        progress.add_task("parameterising", total=None)
+        pump_set = store_bench_parameters(session, form, content)
+    table = Table("quantity", "value", "unit",
+                  title=escape(f"pump set {pump_set.id}: {pump_set.name}"))
+    models = []
+    for key, quantity in pump_set.quantities.items():
+        value = quantity["value"]
+        if isinstance(value, float):
+            shown = f"{value:.6g}"
+        elif (key.endswith("_coef") and len(value) <= 8
+              and all(isinstance(v, float | int) for v in value)):
+            # a loss model's coefficients, named below by its terms (they were "array 6
+            # rows", the term names only in the JSON description)
+            shown = ", ".join(f"{v:.4g}" for v in value)
+            models.append(f"{key}: {quantity.get('description', '')}")
+        else:
+            shown = f"array {len(value)} rows"
+        table.add_row(escape(key), shown, escape(quantity["unit"]))
+    _out.print(table)
+    for line in models:
+        _out.print(line, markup=False)
+    if pump_set.source:
+        _out.print(pump_set.source, markup=False)
+
+
+@calibrate_cli.command("throttle")
+def calibrate_throttle(
+    file: Annotated[str, typer.Argument(help="Table: the body of POST /rigs/{id}/calibrations.")],
+    rig_id: Annotated[int, typer.Option("--rig", min=1, max=MAX_ID,
+                                        help="Rig id in the store.")] = 1,
+) -> None:
+    """Store a throttle equivalence table; clearances not given are computed from the flows."""
+    from app.schemas.calibrations import CalibrationCreate
+    from app.services.calibrations import create_calibration
+    from app.services.throttle_estimator import ThrottleClearanceEstimator
+
+    data = validated(CalibrationCreate, load_document(file))
+    with store_session() as session, steps() as progress:
+        progress.add_task("computing clearances", total=None)
+        calibration = create_calibration(session, rig_id, data,
+                                         estimator=ThrottleClearanceEstimator())
+        rows = [(p.opening_turns, p.bypass_flow_m3s, p.clearance_m, p.clearance_origin)
+                for p in calibration.points]
+    # flows and clearances as the store keeps them (SI) and as a technician reads them
+    table = Table("opening \\[turn]", "bypass flow \\[m³/s]", "\\[l/min]", "clearance \\[m]",
+                  "\\[µm]", "origin",
+                  title=f"calibration {calibration.id}: throttle {calibration.throttle}, "
+                  f"{calibration.component}")
+    for opening, flow, clearance, origin in rows:
+        table.add_row(f"{opening:g}", f"{flow:.4g}", f"{flow * 6e4:.4g}",
+                      "—" if clearance is None else f"{clearance:.4g}",
+                      "—" if clearance is None else f"{clearance * 1e6:.1f}", origin or "")
+    _out.print(table)
+
+
+@calibrate_cli.command("tables")
+def calibrate_tables(
+    rig_id: Annotated[int, typer.Option("--rig", min=1, max=MAX_ID,
+                                        help="Rig id in the store.")] = 1,
+) -> None:
+    """List a rig's throttle equivalence tables: condition, rows, clearances in µm, and
+    whether their computed clearances are stale (from an older rig version; an update,
+    PATCH /rigs/{id}/calibrations/{table} with {}, computes them again)."""
+    from app.services.calibrations import is_stale, list_calibrations
+    from app.services.rigs import get_rig
+
+    with store_session() as session:
+        latest = get_rig(session, rig_id).latest_version
+        tables, _ = list_calibrations(session, rig_id, limit=1000, offset=0)
+        rows = [(c.id, c.throttle, c.component, c.back_pressure_pa, c.temperature_c,
+                 [p.clearance_m for p in c.points], c.rig_version, is_stale(c, latest))
+                for c in tables]
+    table = Table("id", "throttle", "component", "back-pressure \\[bar]", "θ \\[°C]",
+                  "clearances \\[µm]", "computed with", title=f"throttle tables of rig {rig_id} "
+                  f"(latest version {latest})")
+    for key, throttle, component, bp, theta, clearances, version, stale in rows:
+        shown = ", ".join("—" if c is None else f"{c * 1e6:.1f}" for c in clearances)
+        made = "—" if version is None and not stale else (
+            f"version {version if version is not None else '?'}" + (" (stale)" if stale else ""))
+        table.add_row(str(key), escape(throttle), escape(component), f"{bp / 1e5:g}",
+                      f"{theta:g}", shown, made)
+    _out.print(table)
