@@ -149,10 +149,14 @@ def observe(record: MeasurementRecord, rig: Rig, *, check: bool = True) -> Recor
     return RecordObservations(record, sim_condition(record), names, values, u)
 
 
-def condition_sigma(record: MeasurementRecord) -> tuple[float, float]:
-    """Standard uncertainties of oil temperature [K] and load [N or Pa] of a record."""
+def condition_sigma(record: MeasurementRecord) -> tuple[float, float, float]:
+    """Standard uncertainties of oil temperature [K], load [N or Pa] and, when stated, pump
+    speed [rad/s] of a record (0 when not stated: the rig's speed is taken as exact).  The
+    speed's was left out, and a pump's Cs intervals held the truth in 86 % of 1,169 noisy
+    field visits where 95 % was due (a pump field engineer's pass)."""
     c = record.condition
     u_t = c.oil_temperature.u
     load = c.load_force if c.load_force is not None else c.back_pressure
     u_f = load.u if load is not None else 0.0
-    return u_t, u_f if math.isfinite(u_f) else 0.0
+    u_s = c.pump_speed.u if c.pump_speed is not None else 0.0
+    return (u_t, u_f if math.isfinite(u_f) else 0.0, u_s if math.isfinite(u_s) else 0.0)

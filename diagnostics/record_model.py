@@ -49,8 +49,8 @@ def condition_moves(obs: RecordObservations
     """For each stated condition of ``obs`` that is uncertain: its standard uncertainty
     [K or N/Pa] and the moved conditions of a one-sided difference, with their steps
     (±1 K of oil temperature; ±1 % of the load, or of the back pressure of a rig without
-    a load)."""
-    u_t, u_f = condition_sigma(obs.record)
+    a load; ±1 % of a stated pump speed)."""
+    u_t, u_f, u_s = condition_sigma(obs.record)
     cond = obs.condition
     out: list[tuple[float, list[tuple[Condition, float]]]] = []
     if u_t > 0:
@@ -64,6 +64,10 @@ def condition_moves(obs: RecordObservations
             step = 0.01 * max(cond.back_pressure, 1e5)
             out.append((u_f, [(replace(cond, back_pressure=cond.back_pressure + s), s)
                               for s in (step, -step)]))
+    if u_s > 0 and cond.pump_speed is not None and cond.pump_speed > 0:
+        step = 0.01 * cond.pump_speed
+        out.append((u_s, [(replace(cond, pump_speed=cond.pump_speed + s), s)
+                          for s in (step, -step)]))
     return out
 
 
