@@ -122,17 +122,19 @@ def _points_csv(trends: list[Any]) -> bytes:
 
 def _summary(rig: int, trends: list[Any]) -> None:
     """Status, wear rate, time left and any step of each component, as a table."""
-    from rich.table import Table
+    from rich.table import Column, Table
 
     from sim.units import quantity_text
 
-    table = Table("component", "points", "status", "rate \\[per day]", "time left \\[day]",
-                  "step", title=f"trends of rig {rig}")
+    table = Table("component", "points", Column("status", no_wrap=True), "rate \\[per day]",
+                  "time left \\[day]", "step", title=f"trends of rig {rig}")
     for t in trends:
-        rate = "—" if t.slope is None else quantity_text(t.slope * 86400.0, f"{t.unit}/day"
-                                                         if t.unit == "m" else "1", 3)
+        # a stale trend forecasts nothing: no rate either
+        rate = "—" if t.slope is None or t.status == "stale" else quantity_text(
+            t.slope * 86400.0, f"{t.unit}/day" if t.unit == "m" else "1", 3)
         left = "—" if t.time_left_s is None else f"{t.time_left_s / 86400.0:.3g}"
-        step = "" if t.step_at is None else (
-            f"{quantity_text(t.step_size, t.unit, 3)} around {t.step_at:%Y-%m-%d}")
+        step = "" if t.step_at is None or t.step_size is None else (
+            f"{'+' if t.step_size > 0 else ''}{quantity_text(t.step_size, t.unit, 3)} "
+            f"around {t.step_at:%Y-%m-%d}")
         table.add_row(t.component, str(t.points_total), t.status, rate, left, step)
     console.print(table)

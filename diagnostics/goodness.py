@@ -440,7 +440,9 @@ def _misfit_statement(ranker: Ranker, cands: list[HypothesisFit], best: Hypothes
         f"{fit_clause}; disagreeing readings: {worst}.")
     rejected = [t for t in tests if t.rejected]
     if rejected:
-        statement += " Fits that pass the χ² test only on a bound of their prior: " + "; ".join(
+        statement += (" Fits pinned on a bound of their prior whose likelihood still rises "
+                      "past it (a fault beyond the prior, but none explains the readings "
+                      "either): ") + "; ".join(
             t.describe() for t in rejected) + "."
     statement += (
         " No fault is named. Possible causes: a fault outside the library or beyond its "

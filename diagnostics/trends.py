@@ -309,7 +309,10 @@ def _crossing_interval(f: TrendFit, thr: float, now: float, z: float) -> tuple[f
     """Earliest and latest crossing from ``now`` [s] (module docstring), in the frame where
     worse is larger; never negative."""
     hi, lo = f.slope_high, f.slope_low
-    if f.slope <= 0.0:
+    if not (f.slope > 0.0 and lo > 0.0):
+        # not worsening: the earliest crossing of the steepest line with its level raised;
+        # the quadrature about the central line divided the level's uncertainty by a slope
+        # near zero (a flat history's 1e-25) and read "could already be past" (a check)
         early = _time_to(f, thr, hi, f.level_high, now) - (z * f.level_u / hi if hi > 0 else 0)
         return max(early, 0.0), math.inf
     central = _time_to(f, thr, f.slope, f.pivot_value, now)

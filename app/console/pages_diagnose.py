@@ -192,17 +192,19 @@ _TIME = TypeAdapter(AwareDatetime)
 
 
 def _time(text: str, field: str) -> datetime | None:
-    """A filter's time: blank for none, else ISO 8601 with its zone, or a date alone
-    (``2026-10-05``: its 00:00 UTC)."""
+    """A filter's time: blank for none, else ISO 8601 with its zone, or a date alone — the
+    start of that day (UTC) for ``since``, its end for ``until``, as the API reads them
+    (the console read ``until=2026-10-02`` as that day's 00:00 and found nothing of it)."""
     if not text.strip():
         return None
     if re.fullmatch(r"\d{4}-\d{2}-\d{2}", text.strip()):
-        text = f"{text.strip()}T00:00:00Z"
+        clock = "23:59:59.999999" if field == "until" else "00:00:00"
+        text = f"{text.strip()}T{clock}Z"
     try:
         return _TIME.validate_python(text.strip())
     except ValidationError:
         raise InputError("give the time as ISO 8601 with its zone, e.g. 2026-01-01T00:00:00Z, "
-                         "or a date alone, 2026-01-01 (its 00:00 UTC)",
+                         "or a date alone, 2026-01-01 (the whole day, UTC)",
                          field=field) from None
 
 

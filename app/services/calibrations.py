@@ -255,8 +255,10 @@ def update_calibration(
         try:
             rows = _rows(session, calibration, points, estimator)
         except InputError as exc:
-            if data.points is not None or not any(p.clearance_m is None for p in points):
-                raise
+            given = any(p.clearance_origin == "given" for p in points)
+            if (data.points is not None or not given or not (exc.field or "").startswith(
+                    "points[") or not any(p.clearance_m is None for p in points)):
+                raise   # a refusal of its own (a unit slip, a stall): as it is
             # rows the caller did not send: computed again (a new rig version, another
             # condition), they no longer rise beside the given ones (the preloaded paper
             # table after a shorter seal length: a check of the technician's fix)

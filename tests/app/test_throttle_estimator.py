@@ -205,3 +205,7 @@ def test_a_stale_table_whose_recomputed_rows_fall_below_its_given_ones_says_why(
     error = refused.json()["error"]
     assert error["field"] == "points" and "send `points` again" in error["message"]
     assert server.client.get(f"{url}/{table['id']}").json()["points"] == table["points"]
+    # a refusal of its own (bar typed as Pa) keeps its field and message
+    slip = server.client.patch(f"{url}/{table['id']}", json={"back_pressure_pa": 10.0},
+                               headers=server.auth)
+    assert slip.status_code == 422 and slip.json()["error"]["field"] == "back_pressure_pa"

@@ -287,3 +287,17 @@ def test_one_record_with_a_wrong_date_hardly_moves_the_forecast() -> None:
                              now=base.now)
     assert bad.step is None
     assert bad.time_left == pytest.approx(base.time_left, rel=0.15)
+
+
+def test_a_flat_history_with_round_off_is_not_already_past() -> None:
+    """A valve stored at 34 µm at every visit (round-off of 1e-20 m on some) read "it could
+    already be past 54.42 µm": the quadrature divided the level's uncertainty by a slope of
+    1e-25 (a check of the new-features)."""
+    t = np.arange(20.0)
+    values = 34e-6 + np.where(t % 3 == 0, 1e-20, 0.0)
+    for sign in (1.0, -1.0):
+        fc = forecast_threshold(series(t, 34e-6 + sign * (values - 34e-6), [1e-6] * 20),
+                                54.42e-6)
+        assert fc.status == "not_worsening"
+        assert "already be past" not in fc.message
+        assert fc.time_left_low > 60 * DAY

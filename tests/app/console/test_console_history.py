@@ -78,9 +78,13 @@ def test_the_history_filters_by_time_and_rig(full: tuple[LiveServer, httpx.Clien
     # the filter form sends blank fields for "any": the whole history
     assert f"({N} diagnoses)" in client.get("/console/history?rig=&since=&until=").text
     assert client.get("/console/trends?rig=1&since=&until=").status_code == 200
-    # a date alone is its 00:00 UTC (it was refused, the page replaced by the error page)
+    # a date alone is the whole day, UTC, as the API reads it: `since` its start, `until`
+    # its end (it was refused, then read as 00:00 for both, which missed the last day)
     dated = client.get("/console/history?rig=1&since=2025-01-01&until=2025-01-10")
     assert dated.status_code == 200 and 'value="2025-01-01T00:00:00+00:00"' in dated.text
+    assert 'value="2025-01-10T23:59:59.999999+00:00"' in dated.text
+    one_day = client.get("/console/history?rig=1&since=2025-01-02&until=2025-01-02").text
+    assert "(4 diagnoses)" in one_day
     # a filter that cannot be read is named above the form, which keeps what was typed
     # (it replaced the whole page with an error page)
     bad = client.get("/console/history?rig=1&since=yesterday")
