@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from typing import Any
 
 import pytest
@@ -136,30 +136,41 @@ def test_unit_slips_and_a_stalled_piston_are_refused_and_store_nothing(
     assert _count(estimating_server) == before
 
 
+def _rig_whose_seal_will_shorten(server: LiveServer, name: str
+                                 ) -> tuple[str, Callable[[], None]]:
+    """A new copy of the reference rig: its tables' URL, and a call that stores a second
+    version with the piston seal length 0.0105 m (the document's 0.01231)."""
+    import copy
+
+    from sim.rigs import reference_rig_document
+
+    document = reference_rig_document() | {"name": name}
+    rig = server.client.post("/rigs", json={"document": document}, headers=server.auth).json()
+
+    def shorten() -> None:
+        shorter = copy.deepcopy(document)
+        shorter["components"]["cylinder"]["parameters"]["Lc"]["value"] = 0.0105
+        assert server.client.put(f"/rigs/{rig['id']}", json={"document": shorter},
+                                 headers=server.auth).status_code == 200
+
+    return f"/rigs/{rig['id']}/calibrations", shorten
+
+
 def test_computed_clearances_of_an_older_rig_version_are_stale_until_updated(
         estimating_server: LiveServer) -> None:
     """A new rig version with a 15 % shorter seal left a table's computed clearances at the
     old document's values (5 % high) and an empty PATCH changed nothing (a technician's
     pass): the table says it is stale and an empty PATCH computes it again, by the
     laminar law about (L'/L)^(1/3) lower."""
-    import copy
-
-    from sim.rigs import reference_rig_document
-
     server = estimating_server
-    document = reference_rig_document() | {"name": "throttled-rig"}
-    rig = server.client.post("/rigs", json={"document": document}, headers=server.auth).json()
-    url = f"/rigs/{rig['id']}/calibrations"
+    url, shorten = _rig_whose_seal_will_shorten(server, "throttled-rig")
     table = {"throttle": "H", "component": "cylinder", "back_pressure_pa": 1.0e6,
              "temperature_c": 40.0,
              "points": [{"opening_turns": 0.0, "bypass_flow_m3s": 1.8e-5},
                         {"opening_turns": 1.0, "bypass_flow_m3s": 7.0e-5}]}
     created = server.client.post(url, json=table, headers=server.auth).json()
     assert created["rig_version"] == 1 and created["stale"] is False
-    shorter = copy.deepcopy(document)
-    shorter["components"]["cylinder"]["parameters"]["Lc"]["value"] = 0.0105   # was 0.01231
-    assert server.client.put(f"/rigs/{rig['id']}", json={"document": shorter},
-                             headers=server.auth).status_code == 200
+    shorten()
     read = server.client.get(f"{url}/{created['id']}").json()
     assert read["stale"] is True and read["rig_version"] == 1
     assert read["points"] == created["points"]
@@ -181,14 +192,8 @@ def test_a_stale_table_whose_recomputed_rows_fall_below_its_given_ones_says_why(
     shorter seal: its empty PATCH was refused naming `points[4].clearance_m`, a row the
     user never sent (a check of the technician's fix); now the refusal says what happened
     and what to send."""
-    import copy
-
-    from sim.rigs import reference_rig_document
-
     server = estimating_server
-    document = reference_rig_document() | {"name": "paper-table-rig"}
-    rig = server.client.post("/rigs", json={"document": document}, headers=server.auth).json()
-    url = f"/rigs/{rig['id']}/calibrations"
+    url, shorten = _rig_whose_seal_will_shorten(server, "paper-table-rig")
     paper = {"throttle": "H", "component": "cylinder", "back_pressure_pa": 1.0e6,
              "temperature_c": 40.0,
              "points": [{"opening_turns": 0.0, "bypass_flow_m3s": 1.8e-5, "clearance_m": 83e-6},
@@ -197,9 +202,7 @@ def test_a_stale_table_whose_recomputed_rows_fall_below_its_given_ones_says_why(
                         {"opening_turns": 1.5, "bypass_flow_m3s": 8.2e-5, "clearance_m": 139e-6},
                         {"opening_turns": 2.0, "bypass_flow_m3s": 1.05e-4}]}
     table = server.client.post(url, json=paper, headers=server.auth).json()
-    shorter = copy.deepcopy(document)
-    shorter["components"]["cylinder"]["parameters"]["Lc"]["value"] = 0.0105
-    server.client.put(f"/rigs/{rig['id']}", json={"document": shorter}, headers=server.auth)
+    shorten()
     refused = server.client.patch(f"{url}/{table['id']}", json={}, headers=server.auth)
     assert refused.status_code == 422
     error = refused.json()["error"]
