@@ -51,8 +51,6 @@ class LevelShift:
 
     Attributes
     ----------
-    index
-        Index of the first visit after the step (in time order).
     time
         Midpoint between the last visit before and the first after it [s].
     size
@@ -61,7 +59,6 @@ class LevelShift:
         Its F statistic [-].
     """
 
-    index: int
     time: float
     size: float
     f_stat: float
@@ -113,14 +110,14 @@ def level_shift(times: npt.ArrayLike, values: npt.ArrayLike, slope: float,
     hi = n - lo
     if n < MIN_VISITS or hi < lo:
         return None
-    scale = max(float(t[-1] - t[0]), 1.0)
-    tc = (t - float(np.median(t))) / scale
-    res = y - slope * (t - float(np.median(t)))
+    dt = t - float(np.median(t))
+    res = y - slope * dt
     res = res - float(np.median(res))
     sigma = 1.4826 * float(np.median(np.abs(res)))
     if sigma > 0:   # one wrong record is not a step
         res = np.clip(res, -3 * sigma, 3 * sigma)
-    yc = res + slope * (t - float(np.median(t)))
+    yc = res + slope * dt
+    tc = dt / max(float(t[-1] - t[0]), 1.0)
     tc = tc - tc.mean()
     yc = yc - yc.mean()
     if float(tc @ tc) <= 0.0:
@@ -131,4 +128,4 @@ def level_shift(times: npt.ArrayLike, values: npt.ArrayLike, slope: float,
     floor = PRACTICAL * (typical_u if typical_u is not None and typical_u > 0 else sigma)
     if abs(size) < floor:
         return None
-    return LevelShift(k, 0.5 * float(t[k - 1] + t[k]), size, f)
+    return LevelShift(0.5 * float(t[k - 1] + t[k]), size, f)

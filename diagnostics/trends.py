@@ -20,8 +20,9 @@ Slope (:func:`fit_trend`)
     the middle of a rising series, so the level carried that reading's noise and one
     wrong record moved a forecast from 13.6 to 7.3 days while the slope hardly moved (a
     maintenance planner's pass).  The level's standard uncertainty is that of a median of
-    the residuals, 1.2533 σ/√n, with σ their robust (MAD) scatter or the stated
-    uncertainties, the larger.
+    the residuals, √(π/2)·σ/√n = 1.2533 σ/√n (the sample median's asymptotic variance
+    πσ²/(2n) for normal errors, Laplace; Kendall & Stuart), with σ their robust (MAD,
+    1.4826 × median |r|) scatter or the stated uncertainties, the larger.
 
 Time left (:func:`forecast_threshold`)
     The fitted line gives the crossing time; its interval joins two parts in quadrature:

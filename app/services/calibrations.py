@@ -134,12 +134,9 @@ def _rows(
     if estimator is not None and any(p.clearance_m is None for p in points):
         points = _estimate(session, calibration, points, estimator)
         check_table(points)
-    if any(p.clearance_origin == "computed" for p in points):
-        calibration.rig_version = get_rig(session, calibration.rig_id).latest_version
-    elif calibration.rig_version is not None:
-        # set only when it changes: a table of given rows leaves the column out of its
-        # INSERT (a store at a revision before 0013 takes it, as the migration tests do)
-        calibration.rig_version = None
+    computed = any(p.clearance_origin == "computed" for p in points)
+    calibration.rig_version = (get_rig(session, calibration.rig_id).latest_version
+                               if computed else None)
     return [
         CalibrationPoint(
             opening_turns=points[i].opening_turns,
