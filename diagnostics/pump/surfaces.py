@@ -82,7 +82,7 @@ class SurfaceFit:
 def default_degrees(dp: npt.ArrayLike, omega: npt.ArrayLike, *, p_ref: float = P_REF,
                     omega_ref: float = OMEGA_REF, most: int = 3) -> tuple[int, int]:
     """Surface degrees (pressure, speed) a bench's set points can carry: at most ``most``
-    (the cubic of paper 000 §3), below the number of levels of each variable, and lowered
+    (the cubic surface of paper 000 §6), below the number of levels of each variable, and lowered
     (the higher first) until the points outnumber the coefficients.  A common 3-speed ×
     5-pressure bench was refused for 16 cubic coefficients with 15 points, with no way to
     ask for less (a pump field engineer's pass)."""
