@@ -6,6 +6,7 @@ A rig file is the YAML (or JSON) that ``sim`` reads, e.g. ``sim/rigs/zema.yaml``
 
     hydrodiag rigs add sim/rigs/zema.yaml        # → rig 2
     hydrodiag import zema --rig 2 --first 1 --last 200
+    hydrodiag rigs rediagnose 1                  # history against the latest version
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
-from app.cli_support import load_document, store_session
+from app.cli_support import load_document, steps, store_session
 from app.schemas.common import MAX_ID
 from sim.errors import InputError
 
@@ -105,3 +106,51 @@ def show(
         doc = dict(row.document)
     typer.echo(json.dumps(doc, indent=2) if as_json
                else yaml.safe_dump(doc, sort_keys=False, allow_unicode=True), nl=as_json)
+
+
+@rigs_cli.command("rediagnose")
+def rediagnose(
+    rig_id: Annotated[int, typer.Argument(min=1, max=MAX_ID, help="Rig id in the store.")],
+    version: Annotated[list[int] | None, typer.Option(
+        min=1, max=MAX_ID, help="An older version whose diagnoses are done again (repeat); "
+        "default: every version whose parameters differ from the latest's.")] = None,
+) -> None:
+    """Diagnose rig RIG_ID's stored records again against its latest version, as POST
+    /rigs/{id}/rediagnose does: each old diagnosis is marked superseded by the new one."""
+    from sqlalchemy import Engine
+
+    from app.db.engine import make_session_factory
+    from app.services.rediagnosis import plan_rediagnosis, run_rediagnosis
+    from app.services.rig_cache import RigCache
+
+    with store_session() as session:
+        try:
+            plan = plan_rediagnosis(session, RigCache(1), rig_id, version or None)
+        except InputError as exc:
+            raise InputError(exc.message, field="--version" if exc.field and exc.field
+                             .startswith("versions") else "RIG_ID") from None
+        bind = session.get_bind()
+        assert isinstance(bind, Engine)
+        if not plan.stale:
+            _out.print(f"rig {rig_id}: nothing to do again — every current diagnosis was made "
+                       f"with version {plan.resolved.version} or one with its parameters",
+                       markup=False)
+            return
+        with steps() as progress:
+            task = progress.add_task(f"{len(plan.stale)} diagnoses of version(s) "
+                                     f"{', '.join(map(str, plan.versions))}", total=1.0)
+            result = run_rediagnosis(plan, make_session_factory(bind), None,
+                                     lambda done, _note: progress.update(task, completed=done))
+    _out.print(f"rig {rig_id}: {result['rediagnosed']} of {result['n_diagnoses']} diagnoses "
+               f"done again against version {result['rig_version']}, {result['changed']} "
+               f"name another fault, {len(result['errors'])} could not be done",
+               markup=False)
+    changed = [r for r in result["replaced"] if r["before"] != r["after"]]
+    for r in changed[:20]:
+        _out.print(f"  diagnosis {r['diagnosis_id']} → {r['by']}: {r['before']} → "
+                   f"{r['after']}", markup=False)
+    for e in result["errors"][:20]:
+        _out.print(f"  diagnosis {e['diagnosis_id']} kept: {e['message']}", markup=False)
+    if len(changed) > 20 or len(result["errors"]) > 20:
+        _out.print("  (the first 20 of each; every one: GET /diagnoses?superseded=true)",
+                   markup=False)

@@ -3,6 +3,8 @@
 * ``ops`` — ``/health``, ``/ready``, ``/metrics``;
 * ``rigs``, ``calibrations`` — rig documents and their throttle equivalence tables;
 * ``commission`` — ``POST /rigs/{rig_id}/commission``: fit a rig to healthy records;
+* ``rediagnose`` — ``POST /rigs/{rig_id}/rediagnose``: stored records diagnosed again
+  against the latest version, as a job (:mod:`app.services.rediagnosis`);
 * ``pumps`` — pump parameter sets, loss maps and parameterisation from a bench CSV;
 * ``diagnose`` — ``POST /diagnose`` over :mod:`app.services.diagnosis`;
 * ``simulate`` — ``POST /simulate`` over :mod:`app.services.simulation`;
@@ -31,6 +33,7 @@ from app.api.routes import (
     jobs,
     ops,
     pumps,
+    rediagnose,
     rigs,
     scenarios,
     series,
@@ -42,6 +45,6 @@ __all__ = ["api_router"]
 
 api_router = APIRouter()
 api_router.include_router(ops.router)  # no parameters, and /health must cost nothing
-for _module in (rigs, commission, calibrations, trends, pumps, series, diagnose, simulate,
+for _module in (rigs, commission, rediagnose, calibrations, trends, pumps, series, diagnose, simulate,
                 scenarios, discrepancy, jobs, history):
     api_router.include_router(_module.router, dependencies=[Depends(known_query)])

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 from datetime import datetime
 from typing import Any
 
-from sqlalchemy import func, select
+from sqlalchemy import ColumnElement, func, select
 from sqlalchemy.orm import Session
 
 from app.console.charts import (
@@ -63,6 +63,8 @@ class DiagnosisView:
     #: whether the stored series the record was read from (``record.series_id``) is still
     #: stored (a deleted one's id is never given again, so its link would be a 404)
     series_stored: bool = False
+    #: the diagnosis that replaced this one (a re-diagnosis against a later rig version)
+    superseded_by: int | None = None
 
     @property
     def charts(self) -> list[Chart]:
@@ -117,7 +119,7 @@ def diagnosis_view(session: Session, diagnosis_id: int) -> DiagnosisView:
                          measurement.measured_at, row.component, row.probability, result,
                          dict(measurement.record), readings, probability_chart(result),
                          reading_chart(result, measured), estimate_charts(result),
-                         series_stored=stored)
+                         series_stored=stored, superseded_by=row.superseded_by)
 
 
 @dataclass
@@ -172,7 +174,7 @@ def history_page(session: Session, *, rig_id: int | None = None,
         raise InputError("the page number must be ≥ 1", field="page")
     if since is not None and until is not None and since > until:
         raise InputError("'since' must not be after 'until'", field="since")
-    conditions = []
+    conditions: list[ColumnElement[bool]] = [Diagnosis.superseded_by.is_(None)]  # current
     if rig_id is not None:
         conditions.append(Measurement.rig_id == rig_id)
     if since is not None:

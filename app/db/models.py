@@ -222,6 +222,12 @@ class Diagnosis(Base):
     probability: Mapped[float | None] = mapped_column(Float)
     result: Mapped[dict[str, Any]] = mapped_column(JSONDocument)
     created_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=utcnow)
+    #: the diagnosis of the same records against a later rig version that replaced this one
+    #: (``POST /rigs/{id}/rediagnose``, revision 0014); null while this one is current.  The
+    #: key is checked at commit: a store copied in id order writes the old row first
+    superseded_by: Mapped[int | None] = mapped_column(
+        ForeignKey("diagnoses.id", ondelete="SET NULL", deferrable=True, initially="DEFERRED"),
+        index=True)
 
     measurement: Mapped[Measurement] = relationship(back_populates="diagnoses")
     #: every record the diagnosis was made from (a joint one has several; its result is

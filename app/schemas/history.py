@@ -119,6 +119,13 @@ class StoredDiagnosisPublic(PublicModel):
         "field [-]", examples=[{"top": "valve", "hypotheses": []}])
     created_at: AwareDatetime = Field(description="When it was stored [UTC]",
                                       examples=["2026-11-22T08:31:02Z"])
+    superseded_by: int | None = Field(
+        default=None, description="The diagnosis of the same records against a later rig "
+        "version that replaced this one (POST /rigs/{id}/rediagnose); null while this one "
+        "is current. Listings and trends read current diagnoses [-]", examples=[None])
+    supersedes: int | None = Field(
+        default=None, description="The diagnosis this one replaced, when it was made by a "
+        "re-diagnosis; null otherwise [-]", examples=[None])
 
 
 class StoredDiagnosisList(Page[StoredDiagnosisPublic]):

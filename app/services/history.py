@@ -23,7 +23,7 @@ from app.services.rigs import get_rig, get_version
 from sim.errors import ConflictError, InputError
 
 __all__ = ["ComponentEstimate", "HistoryPoint", "add_diagnosis", "add_measurement",
-           "component_history", "record_diagnosis", "stated_bound", "stored_twin"]
+           "component_history", "estimate_row", "record_diagnosis", "stated_bound", "stored_twin"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -175,20 +175,19 @@ def add_diagnosis(
         component=component,
         probability=probability,
         result=dict(result),
-        estimates=[
-            DiagnosisEstimate(
-                component=e.component,
-                probability=e.probability,
-                clearance_m=e.clearance_m,
-                slip_coefficient=e.slip_coefficient,
-                low=e.low if e.low is not None else stated_bound(result, e.component, "low"),
-                high=e.high if e.high is not None else stated_bound(result, e.component, "high"),
-            )
-            for e in estimates
-        ],
+        estimates=[estimate_row(e, result) for e in estimates],
     )
     session.add(diagnosis)
     return diagnosis
+
+
+def estimate_row(e: ComponentEstimate, result: Mapping[str, Any]) -> DiagnosisEstimate:
+    """The stored row of one estimate; an interval not given is read from ``result``."""
+    return DiagnosisEstimate(
+        component=e.component, probability=e.probability, clearance_m=e.clearance_m,
+        slip_coefficient=e.slip_coefficient,
+        low=e.low if e.low is not None else stated_bound(result, e.component, "low"),
+        high=e.high if e.high is not None else stated_bound(result, e.component, "high"))
 
 
 def record_diagnosis(
@@ -247,7 +246,8 @@ def component_history(
         .join(Diagnosis, DiagnosisEstimate.diagnosis_id == Diagnosis.id)
         .join(Measurement, Diagnosis.measurement_id == Measurement.id)
         .join(RigVersion, Diagnosis.rig_version_id == RigVersion.id)
-        .where(Measurement.rig_id == rig_id, DiagnosisEstimate.component == component)
+        .where(Measurement.rig_id == rig_id, DiagnosisEstimate.component == component,
+               Diagnosis.superseded_by.is_(None))
         .order_by(Measurement.measured_at, Diagnosis.id)
     )
     if since is not None:

@@ -92,10 +92,11 @@ def delete_measurement(session: Session, measurement_id: int) -> tuple[list[int]
 
 def list_diagnoses(session: Session, *, limit: int, offset: int, rig_id: int | None = None,
                    since: datetime | None = None, until: datetime | None = None,
-                   component: str | None = None, after_id: int | None = None
-                   ) -> tuple[list[Diagnosis], int]:
+                   component: str | None = None, after_id: int | None = None,
+                   superseded: bool = False) -> tuple[list[Diagnosis], int]:
     """Return a page of stored diagnoses, newest record first (with ``after_id``: those
-    stored after diagnosis ``after_id``, in storing order), and their total."""
+    stored after diagnosis ``after_id``, in storing order), and their total; only the
+    current ones unless ``superseded`` (those a re-diagnosis replaced too)."""
     _window(since, until)
     _cursor(after_id, offset)
     statement = (select(Diagnosis).join(Diagnosis.measurement)
@@ -103,6 +104,8 @@ def list_diagnoses(session: Session, *, limit: int, offset: int, rig_id: int | N
                           selectinload(Diagnosis.measurement),
                           selectinload(Diagnosis.records).load_only(Measurement.id),
                           selectinload(Diagnosis.rig_version).load_only(RigVersion.version)))
+    if not superseded:
+        statement = statement.where(Diagnosis.superseded_by.is_(None))
     if rig_id is not None:
         statement = statement.where(Measurement.rig_id == rig_id)
     if since is not None:

@@ -32,8 +32,8 @@ from sim.errors import InputError
 from sim.rigs import Rig, validate_rig_document
 from sim.units import quantity_text
 
-__all__ = ["COMPONENTS", "ComponentTrendOut", "TrendPointOut", "component_trends",
-           "default_threshold"]
+__all__ = ["COMPONENTS", "ComponentTrendOut", "TrendPointOut", "comparable_versions",
+           "component_trends", "default_threshold"]
 
 #: Components with a trend → (quantity, unit).
 COMPONENTS: dict[str, tuple[str, str]] = {"cylinder": ("cc", "m"), "valve": ("cv", "m"),
@@ -285,12 +285,12 @@ def component_trends(
             select(DiagnosisEstimate.component).distinct()
             .join(Diagnosis, DiagnosisEstimate.diagnosis_id == Diagnosis.id)
             .join(Measurement, Diagnosis.measurement_id == Measurement.id)
-            .where(Measurement.rig_id == rig_id)
+            .where(Measurement.rig_id == rig_id, Diagnosis.superseded_by.is_(None))
         ).all()
         names = [c for c in COMPONENTS if c in set(present)]
     histories = {name: component_history(session, rig_id, name, since=since, until=until)
                  for name in names}
-    comparable = _comparable(session, resolved, {h.rig_version for hs in
+    comparable = comparable_versions(session, resolved, {h.rig_version for hs in
                                                  histories.values() for h in hs})
     out = []
     for name, history in histories.items():
@@ -312,7 +312,9 @@ def component_trends(
             note = (f"{n_left} point(s) of version(s) {', '.join(map(str, left))} left out: "
                     f"the rig document's parameters changed in version {resolved.version} "
                     "(commissioning, a rebuild), so estimates made against the older "
-                    "document are not comparable")
+                    "document are not comparable; diagnose their records again against "
+                    f"version {resolved.version}: POST /rigs/{rig_id}/rediagnose "
+                    f"(hydrodiag rigs rediagnose {rig_id})")
             trend = replace(trend, message=f"{trend.message}; {note}", left_out=n_left,
                             left_out_versions=left)
         if n_unexplained := len(estimated) - len(every):
@@ -337,7 +339,7 @@ def thinned(points: list[TrendPointOut], max_points: int | None) -> list[TrendPo
     return [points[i] for i in keep]
 
 
-def _comparable(session: Session, latest: ResolvedRig, versions: set[int]
+def comparable_versions(session: Session, latest: ResolvedRig, versions: set[int]
                 ) -> dict[int, bool]:
     """Whether each of ``versions`` of the rig has the latest version's parameters and
     fluid: a trend joins only estimates made against the same physics (a commissioned
@@ -365,7 +367,8 @@ def _later(session: Session, rig_id: int, after: datetime, until: datetime | Non
     """How many diagnoses of rig ``rig_id`` were made of records taken after ``after``
     (up to ``until``), when the last of those records was taken, and what they named
     (component or verdict → count)."""
-    where = [Measurement.rig_id == rig_id, Measurement.measured_at > after]
+    where = [Measurement.rig_id == rig_id, Measurement.measured_at > after,
+             Diagnosis.superseded_by.is_(None)]
     if until is not None:
         where.append(Measurement.measured_at <= until)
     named = session.execute(

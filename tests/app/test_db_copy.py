@@ -26,11 +26,20 @@ from tests.app.live import LiveServer, live_server, sqlite_settings
 
 
 def _fill(server: LiveServer) -> dict[str, Any]:
-    """A diagnosis with its record and estimates, a calibration table and a job: what a
-    store in service holds; returns what was read back over HTTP."""
+    """A diagnosis with its record and estimates, re-diagnosed against a second version of
+    the rig (a diagnosis superseded by a later one: the copy writes rows in id order, and
+    the old row names the new), a calibration table and jobs: what a store in service
+    holds; returns what was read back over HTTP."""
+    from tests.app.test_rediagnosis import follow, shorter_seal
+
     record = simulated_record(server, {"cylinder.cc": 4e-5}, measured_at="2026-11-20T10:00:00Z")
     stored = server.client.post("/diagnose", json={"record": record}, headers=server.auth)
     assert stored.status_code == 200, stored.text
+    name = server.client.get("/rigs/1").json()["name"]
+    assert server.client.put("/rigs/1", json={"document": shorter_seal(name)},
+                             headers=server.auth).status_code == 200
+    job = server.client.post("/rigs/1/rediagnose", headers=server.auth).json()["job_id"]
+    assert follow(server, job)["result"]["rediagnosed"] == 1
     cal = server.client.post(
         "/rigs/1/calibrations", headers=server.auth,
         json={"throttle": "X", "component": "cylinder", "back_pressure_pa": 1.0e6,
@@ -38,7 +47,7 @@ def _fill(server: LiveServer) -> dict[str, Any]:
               "points": [{"opening_turns": 0, "bypass_flow_m3s": 1e-6},
                          {"opening_turns": 1, "bypass_flow_m3s": 3e-6}]})
     assert cal.status_code == 201, cal.text
-    return {"diagnoses": server.client.get("/diagnoses").json(),
+    return {"diagnoses": server.client.get("/diagnoses", params={"superseded": True}).json(),
             "rigs": server.client.get("/rigs").json(),
             "calibrations": server.client.get("/rigs/1/calibrations").json()}
 
@@ -65,7 +74,11 @@ def _copy_and_serve(tmp_path: Path, target_url: str, target_settings: Settings) 
     assert _counts(target_url) == counts
     with live_server(target_settings) as server:
         # what the old store served, the new one serves, under the same ids
-        assert server.client.get("/diagnoses").json() == before["diagnoses"]
+        assert server.client.get("/diagnoses", params={"superseded": True}
+                                 ).json() == before["diagnoses"]
+        # the new diagnosis first (the same record, the larger id), the old naming it
+        assert [d["superseded_by"] for d in before["diagnoses"]["items"]] == [
+            None, before["diagnoses"]["items"][0]["id"]]
         assert server.client.get("/rigs").json() == before["rigs"]
         assert server.client.get("/rigs/1/calibrations").json() == before["calibrations"]
         # the clients' API key still works, and a new diagnosis takes the next id

@@ -74,6 +74,7 @@ def test_the_routes_of_the_service_are_there(spec: dict[str, Any]) -> None:
         "/pump-sets/{pump_set_id}", "/jobs", "/jobs/{job_id}", "/jobs/{job_id}/cancel",
         "/rigs/{rig_id}/trends",
         "/pump-sets/bench", "/diagnose", "/simulate", "/scenarios", "/rigs/{rig_id}/commission",
+        "/rigs/{rig_id}/rediagnose",
         "/rigs/{rig_id}/series", "/series/{series_id}", "/series/{series_id}/record",
         "/measurements",
         "/measurements/{measurement_id}", "/diagnoses", "/diagnoses/{diagnosis_id}",

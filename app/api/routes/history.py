@@ -81,7 +81,8 @@ def _diagnosis(row: Diagnosis, compact: bool = False) -> StoredDiagnosisPublic:
         top=row.result.get("top"), explained=row.result.get("explained"),
         component=row.component, probability=row.probability,
         estimates=[_estimate(e, row.result) for e in row.estimates],
-        result=result, created_at=row.created_at)
+        result=result, created_at=row.created_at, superseded_by=row.superseded_by,
+        supersedes=row.result.get("rediagnosis_of"))
 
 
 @router.get("/measurements", summary="List stored measurement records",
@@ -140,12 +141,17 @@ def list_diagnoses(
         description="Each `result` without the hypotheses' predicted readings (a page about "
         "a quarter smaller: 500 full items were 7 MB, a planner's pass; GET /diagnoses/{id} "
         "keeps them) [-]", examples=[False])] = False,
+    superseded: Annotated[bool, Query(
+        description="Also the diagnoses a re-diagnosis against a later rig version replaced "
+        "(each with `superseded_by`); by default only the current ones [-]",
+        examples=[False])] = False,
 ) -> Response:
     """Return a page of stored diagnoses, newest record first, or with ``after_id`` those
     stored after it, in storing order."""
     rows, total = service.list_diagnoses(session, limit=page.limit, offset=page.offset,
                                          rig_id=rig_id, since=since, until=until,
-                                         component=component, after_id=after_id)
+                                         component=component, after_id=after_id,
+                                         superseded=superseded)
     return rendered(StoredDiagnosisList(
         items=[_diagnosis(r, compact) for r in rows], total=total, limit=page.limit,
         offset=page.offset, next_after_id=_next(after_id, [r.id for r in rows])))
