@@ -9,6 +9,9 @@ from diagnostics.real.leakage import CyclePoint, cycle_point
 from diagnostics.real.relaxation import settled_flow
 from diagnostics.real.scoring import score_classes
 from diagnostics.real.shunt import (
+    MIN_SEPARATION,
+    HealthyBaseline,
+    ShuntEstimate,
     fit_relaxation,
     fit_shunt,
     leak_threshold,
@@ -167,3 +170,62 @@ def test_relaxation_time_is_found_without_labels_on_the_slice() -> None:
     assert score_classes(est.size, labels.leakage, {}).worst_auroc == 1.0
     with pytest.raises(InputError):
         fit_relaxation(recs, mu_of, taus=())
+
+
+def _span() -> tuple[list[SeriesRecord], list[CyclePoint], np.ndarray, np.ndarray]:
+    """The temperature-span slice: 18 healthy and 18 severely leaking cycles, 35-58 °C."""
+    from tests.real_slices import zema_span_slice
+
+    data, labels = load_1hz(zema_span_slice())
+    recs = read_records(data)
+    pts = [cycle_point(r) for r in recs]
+    mu = np.asarray(dynamic_viscosity(Fluid(), np.array([c.theta for c in pts])))
+    return recs, pts, mu, np.asarray(labels.leakage).astype(int)
+
+
+def test_a_batch_of_one_class_is_refused_without_a_baseline_and_read_with_one() -> None:
+    """A batch of healthy cycles alone (or leaking ones alone) cannot be its own healthy
+    reference (a real-data analyst's pass: 11 of 100 healthy cycles flagged; a severe leak
+    read at 15 % of its size).  Against a baseline of cycles known healthy, each cycle's
+    leak size is its own: the same whatever other cycles the batch holds."""
+    recs, pts, mu, lab = _span()
+    healthy = np.flatnonzero(lab == 0)
+    leaking = np.flatnonzero(lab == 2)
+    with pytest.raises(InputError) as refused:
+        shunt_estimates([recs[i] for i in healthy], [pts[i] for i in healthy], mu[healthy])
+    assert refused.value.field == "baseline"
+    assert "no separate leaking group" in refused.value.message
+    # (leaking cycles alone split at their own widest gap, which no check on the batch can
+    # tell from a healthy/leaking split: that is what the baseline is for)
+    # the baseline: two healthy cycles in three; the batches below never hold them
+    base_i, rest_h = healthy[np.arange(healthy.size) % 3 != 2], healthy[2::3]
+    base = HealthyBaseline([recs[i] for i in base_i], [pts[i] for i in base_i])
+
+    def read(idx: np.ndarray, shunt: float | None = None) -> ShuntEstimate:
+        return shunt_estimates([recs[i] for i in idx], [pts[i] for i in idx], mu[idx],
+                               baseline=base, shunt=shunt)
+
+    mixed = read(np.concatenate([rest_h, leaking]))
+    assert mixed.reference == "baseline"
+    # a cycle with no baseline cycle within ±1 °C has no reference: no size, not leaking
+    covered = np.isfinite(mixed.deficit)
+    assert covered.sum() >= 20 and np.isnan(mixed.size[~covered]).all()
+    assert not mixed.leaking[: rest_h.size].any()
+    assert np.array_equal(mixed.leaking[rest_h.size:], covered[rest_h.size:])
+    # leaking cycles alone, with the shunt the mixed batch found: the same sizes
+    alone = read(leaking, shunt=mixed.shunt)
+    np.testing.assert_array_equal(alone.leaking, mixed.leaking[rest_h.size:])
+    np.testing.assert_allclose(alone.size, mixed.size[rest_h.size:], rtol=1e-12)
+    # healthy cycles alone: none leaks, their sizes those of the mixed batch (≈ 0)
+    quiet = read(rest_h)
+    assert not quiet.leaking.any() and quiet.shunt == 0.0
+    np.testing.assert_allclose(quiet.size, mixed.size[: rest_h.size], rtol=1e-12)
+    assert np.nanmax(np.abs(quiet.size)) < 0.1 * np.nanmedian(alone.size)
+    # the severe leak, as the whole slice read without a baseline
+    whole = shunt_estimates(recs, pts, mu)
+    assert whole.reference == "batch" and whole.separation >= MIN_SEPARATION
+    assert np.nanmedian(alone.size) == pytest.approx(np.median(whole.size[leaking]), rel=0.15)
+    with pytest.raises(InputError) as small:
+        shunt_estimates(recs, pts, mu, baseline=HealthyBaseline(base.records[:5],
+                                                                 base.points[:5]))
+    assert small.value.field == "baseline"
