@@ -25,7 +25,7 @@ from app.cli_support import (
 )
 from app.schemas.common import MAX_ID
 from diagnostics.real.relaxation import MAX_RELAXATION, ZEMA_RELAXATION
-from sim.errors import CircuitError, InputError
+from sim.errors import CircuitError, ConflictError, InputError
 
 if TYPE_CHECKING:
     from sqlalchemy.orm import Session
@@ -148,12 +148,20 @@ def import_zema(
 
     if last < first:
         raise InputError("last must not be before first", field="--last")
+    if first < 1:
+        raise InputError("cycles are numbered from 1", field="--first")
     if not 0 <= relaxation <= MAX_RELAXATION:  # NaN too
         raise InputError(f"the settling time must be 0 to {MAX_RELAXATION:g} [s], as discover "
                          "takes it", field="--relaxation")
     if not store and bench is None:
         raise InputError("nothing to do: --no-store without --bench", field="--no-store")
-    data, _ = load_1hz(root, cycles=list(range(first, last + 1)))
+    try:
+        data, _ = load_1hz(root, cycles=list(range(first, last + 1)))
+    except InputError as exc:
+        if exc.field != "cycles":
+            raise
+        # the adapter's 'cycles' is no option of this command: name the one out of range
+        raise InputError(exc.message, field="--last") from None
     with store_session() as session, steps() as progress:
         speed = _pump_speed(session, rig_id)
         task = progress.add_task("reading cycles", total=data.cycles.size)
@@ -166,8 +174,14 @@ def import_zema(
             progress.update(plateaus, total=1, completed=1)
         if store:
             job = progress.add_task("storing", total=len(records))
-            rows = store_records(session, rig_id, name, records,
-                                 lambda done, total: progress.update(job, completed=done))
+            try:
+                rows = store_records(session, rig_id, name, records,
+                                     lambda done, total: progress.update(job, completed=done))
+            except ConflictError as exc:  # the range overlaps cycles stored before
+                raise ConflictError(
+                    f"{exc.message}; the range {first}-{last} is refused whole, so import "
+                    "only the cycles not stored yet (--first after the last one stored: "
+                    "GET /rigs/{id}/series lists them)", field="--first") from None
     if store:
         _out.print(f"{counted(len(rows), 'ZeMA cycle')} stored for rig {rig_id} as {name!r} "
                    f"(series {rows[0].id}..{rows[-1].id})", markup=False)

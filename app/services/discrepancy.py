@@ -192,10 +192,13 @@ def store_discovery(session: Session, rig_id: int, from_version: int, d: Discove
     new version of rig ``rig_id``: (the new version, None), or (None, why it was not
     stored), or (None, None) when nothing was named.
 
-    Not stored: a named effect outside its plausible range (the report names it, as
-    evidence that the data may not be this rig's); a version that is no longer the latest
-    (its successors' changes, an effect added since, would be dropped); a pump
-    displacement re-fitted by more than :data:`MAX_DISPLACEMENT_CHANGE` (another pump).
+    Not stored: a ``partially explained`` verdict (the effects did not close the gap, so
+    they may stand for a cause outside the library: a thermometer 3 K low was "explained"
+    by two piston-leak laws, stored as a version that every later diagnosis used — a
+    simulation engineer's pass); a named effect outside its plausible range (the report
+    names it, as evidence that the data may not be this rig's); a version that is no
+    longer the latest (its successors' changes, an effect added since, would be dropped); a
+    pump displacement re-fitted by more than :data:`MAX_DISPLACEMENT_CHANGE` (another pump).
     """
     if not d.named:
         return None, None
@@ -203,6 +206,11 @@ def store_discovery(session: Session, rig_id: int, from_version: int, d: Discove
                f"{n.unit}, plausible {n.plausible_range[0]:.3g} to "
                f"{n.plausible_range[1]:.3g}) — the data may not come from this rig, or the "
                "effect stands for another" for n in d.named if not n.plausible]
+    if d.verdict == "partially explained":
+        reasons.append("partially explained: the named effects leave a gap, so they may "
+                       "stand for a cause outside the library (a stated oil temperature or "
+                       "load that is off, a transducer's zero); a version is stored only "
+                       "for effects that explain the data")
     rig = get_rig(session, rig_id, field="rig_id")
     if rig.latest_version != from_version:
         reasons.append(f"the workflow ran on version {from_version} and the rig's latest is "

@@ -14,6 +14,7 @@ import json
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from datetime import datetime, timedelta
+from typing import Any
 
 import numpy as np
 from sqlalchemy import select
@@ -88,6 +89,23 @@ def parse_column_map(text: str | None, *, field: str = "column_map"
     return out
 
 
+def _same_samples(a: dict[str, Any], b: dict[str, Any]) -> bool:
+    """Whether two stored records hold the same samples: the same times and the same
+    channels' values, whatever the channels are named (the same cycles imported again with
+    the map's names changed were stored four times; a real-data analyst's pass)."""
+    if a.get("t") != b.get("t"):
+        return False
+    ca, cb = a.get("channels") or {}, b.get("channels") or {}
+    if ca == cb:
+        return True
+    if len(ca) != len(cb):
+        return False
+    # the channels' first samples first: a campaign's cycles share their times, and a
+    # whole comparison of every pair cost O(channels²·samples) each
+    head = sorted(list(v[:4]) for v in ca.values()) == sorted(list(v[:4]) for v in cb.values())
+    return head and sorted(list(v) for v in ca.values()) == sorted(list(v) for v in cb.values())
+
+
 def _refuse_stored_twice(session: Session, rig_id: int, name: str,
                         rows: Sequence[MeasuredSeries]) -> None:
     """Raise :class:`ConflictError` if a row of ``rows`` is stored already for the rig: the
@@ -95,7 +113,8 @@ def _refuse_stored_twice(session: Session, rig_id: int, name: str,
     file name — the same import run twice, after which a discrepancy check of the campaign
     counted each cycle twice, and as a repeat in its lack-of-fit test.  (The check keyed on
     the name and the record's label, which comes from the file's name: the same file copied
-    or uploaded under another name was stored twice; a fleet pass.)  A logger that writes
+    or uploaded under another name was stored twice; a fleet pass.  Then on the channels'
+    names: :func:`_same_samples`.)  A logger that writes
     each day's file under one name is no duplicate: its data differ."""
     found: list[tuple[int, str, str]] = []
     for row in rows:
@@ -105,7 +124,7 @@ def _refuse_stored_twice(session: Session, rig_id: int, name: str,
                 select(MeasuredSeries).where(
                     MeasuredSeries.rig_id == rig_id,
                     MeasuredSeries.n_samples == row.n_samples, same_time)):
-            if stored.data == row.data:
+            if _same_samples(stored.data, row.data):
                 found.append((stored.id, stored.name, stored.record))
     if found:
         ids = ", ".join(str(i) for i, _, _ in found[:5]) + (" …" if len(found) > 5 else "")
@@ -217,6 +236,11 @@ def import_series(session: Session, rig_id: int, name: str, content: bytes, *,
         where = exc.field if exc.field in ("column_map", "sample_rate") else (
             f"file.{exc.field}" if exc.field and exc.field != "file" else "file")
         raise type(exc)(exc.message, field=where) from None
+    if not channels.cycle:
+        try:
+            check_plateau_channels(records)
+        except InputError as exc:
+            raise InputError(exc.message, field=f"file.{exc.field}") from None
     rows = store_records(session, rig_id, name, records)
     return rows, channels.notes(rows)
 
@@ -233,10 +257,10 @@ class RigChannels:
         """What an import stored for a rig with a cycle that neither its model nor a cycle's
         readings know (a misspelt name in a column map, ``P9`` for ``P1``): stored as
         given, but nothing compares with it.  A rig without a cycle (the ZeMA rig) is read
-        by its plateau channels (``p_pump``, ``q_work``: :mod:`diagnostics.real.profile`),
-        not by its model's outputs, and gets no note."""
+        by its plateau channels (:data:`PLATEAU_CHANNELS`: :mod:`diagnostics.real.profile`),
+        not by its model's outputs: the note names those it lacks."""
         if not self.cycle:
-            return []
+            return _plateau_notes(rows)
         notes = []
         names = {c for r in rows for c in r.units}
         unknown = sorted(names - set(self.units) - set(CONDITION_CHANNELS) - set(READ_CHANNELS))
@@ -258,12 +282,57 @@ class RigChannels:
         return notes
 
 
+#: The channels a rig without a cycle is read by (its plateaus: pump pressure and working
+#: flow, :func:`diagnostics.real.profile.settled_bench`) and their SI units.
+PLATEAU_CHANNELS: dict[str, str] = {"p_pump": "Pa", "q_work": "m^3/s"}
+#: A plateau pressure that never reaches this is bar typed as Pa [Pa] (0.1 bar).
+MIN_PLATEAU_PRESSURE = 1.0e4
+#: A working flow beyond this is another unit typed as m³/s [m³/s] (as bench tables).
+MAX_PLATEAU_FLOW = 1.0
+
+
+def _plateau_notes(rows: Sequence[MeasuredSeries]) -> list[str]:
+    names = {c for r in rows for c in r.units}
+    lacking = [c for c in PLATEAU_CHANNELS if c not in names]
+    if not lacking:
+        return []
+    near = [n for n in sorted(names) if n.lower() in lacking]
+    hint = (f" ({', '.join(near)} is another name: channel names are case-sensitive)"
+            if near else "")
+    return [f"no channel {', '.join(lacking)}: a rig without a cycle is read by its "
+            f"plateaus, from {' and '.join(PLATEAU_CHANNELS)} (and oil_temperature), so the "
+            f"discrepancy workflow cannot read these records{hint}; map the columns to "
+            "those names"]
+
+
+def check_plateau_channels(records: Sequence[SeriesRecord]) -> None:
+    """Refuse a plateau channel that its own column contradicts (the records of a rig
+    without a cycle): a pump pressure that never reaches 0.1 bar (bar under ``[Pa]``: 150
+    Pa stored), a working flow beyond 1 m³/s (l/min under ``[m^3/s]``: 7.7 m³/s stored);
+    a real-data analyst's pass found both stored without a word."""
+    for r in records:
+        p = r.channels.get("p_pump")
+        if p is not None and len(p) and float(np.nanmax(p)) < MIN_PLATEAU_PRESSURE:
+            raise InputError(f"p_pump of record {r.name!r} never reaches 0.1 bar (at most "
+                             f"{float(np.nanmax(p)):.4g} Pa): is it in bar under a [Pa] "
+                             "label?", field="p_pump")
+        q = r.channels.get("q_work")
+        if q is not None and len(q) and float(np.nanmax(np.abs(q))) > MAX_PLATEAU_FLOW:
+            raise InputError(f"q_work of record {r.name!r} reaches "
+                             f"{float(np.nanmax(np.abs(q))):.4g} m³/s, beyond any pump of a "
+                             "test rig: is it in l/min (or another unit) under an [m^3/s] "
+                             "label?", field="q_work")
+
+
 def rig_channels(session: Session, rig_id: int) -> RigChannels:
     """Rig ``rig_id``'s channels (its latest version): a channel of an import with one of
     these names must be of that dimension (a pressure in L/min was stored, and the
-    workflow then read P1 985,787,553,649 σ off)."""
+    workflow then read P1 985,787,553,649 σ off) — for a rig without a cycle its plateau
+    channels too (:data:`PLATEAU_CHANNELS`)."""
     version = latest_version(session, get_rig(session, rig_id, field="rig_id"))
-    return RigChannels(load_rig(version.document).channels(), has_cycle(version))
+    cycle = has_cycle(version)
+    units = load_rig(version.document).channels()
+    return RigChannels(units if cycle else units | PLATEAU_CHANNELS, cycle)
 
 
 def list_series(session: Session, rig_id: int, *, limit: int, offset: int

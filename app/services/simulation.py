@@ -16,6 +16,7 @@ from __future__ import annotations
 import io
 import json
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -40,6 +41,7 @@ from sim.steady import steady_cycle
 __all__ = [
     "PARQUET_METADATA_KEY",
     "SimulationOutcome",
+    "condition_notes",
     "condition_of",
     "limits_of",
     "physics_notes",
@@ -77,8 +79,33 @@ class SimulationOutcome:
             "rig": self.resolved.name, "fault": self.fault, "overrides": self.overrides,
             "condition": condition_dict(self.condition), "method": self.method,
             "summary": summary_of(self.result), "solver": _solver_public(self.result),
-            "notes": physics_notes(self.result),
+            "notes": self.notes(),
         }
+
+    def notes(self) -> list[str]:
+        """The result's physics notes, then the condition's (:func:`condition_notes`)."""
+        return [*physics_notes(self.result),
+                *condition_notes(self.condition, self.resolved.rig.values())]
+
+
+#: A back-pressure below this reads as bar typed in Pa [Pa] (0.1 bar; as throttle tables).
+SLIP_BACK_PRESSURE = 1.0e4
+
+
+def condition_notes(condition: Condition, values: Mapping[str, float]) -> list[str]:
+    """Notes on a condition that looks like a unit slip, run as given: a load above zero
+    but below the seal's Coulomb friction ``cylinder.Fu`` (kN typed as N: a 4.2 N load ran
+    without a word), a back-pressure above zero but below 0.1 bar (bar typed as Pa); a
+    simulation engineer's pass."""
+    notes = []
+    friction = values.get("cylinder.Fu")
+    if friction is not None and 0.0 < condition.load < friction:
+        notes.append(f"a load of {condition.load:.4g} N is below the seal's Coulomb friction "
+                     f"({friction:.4g} N): if it is in kN, give {condition.load * 1e3:.4g} N")
+    if 0.0 < condition.back_pressure < SLIP_BACK_PRESSURE:
+        notes.append(f"a back-pressure of {condition.back_pressure:.4g} Pa is below 0.1 bar: "
+                     f"if it is in bar, give {condition.back_pressure * 1e5:.4g} Pa")
+    return notes
 
 
 def condition_of(rig: Rig, spec: ConditionSpec) -> Condition:
@@ -316,5 +343,5 @@ def public_of(outcome: SimulationOutcome, *, table: bool = False) -> SimulationP
         "steps": dict(result.steps),
         "solver": _solver_public(result),
         "timeseries": timeseries_table(outcome) if table else None,
-        "notes": physics_notes(result),
+        "notes": outcome.notes(),
     })

@@ -179,6 +179,22 @@ def _hidden_in_base(selections: Sequence[Selection]) -> str:
             "term) tell them apart")
 
 
+def _traded(drift: Drift) -> str:
+    """A caution when the Coulomb and viscous friction both moved "significantly": on
+    strokes at nearly one speed only Fu + Kf·v is fixed by the data, and the re-fit's
+    intervals (samples taken as independent) do not show the trade — Fu alone × 1.5 read
+    Fu +43 % and Kf +29 %, both intervals excluding the truth (a simulation engineer's
+    pass; the CLI's table said so, the JSON answer did not)."""
+    moved = {d.parameter for d in drift.parameters if d.significant}
+    if not {"cylinder.Fu", "cylinder.Kf"} <= moved:
+        return ""
+    return (". Fu and Kf trade against each other on strokes at nearly one speed (the data "
+            "fix the friction Fu + Kf·v at the speeds run): a change shown in each may be "
+            "one of them alone, and their intervals (from the re-fit's Jacobian, samples "
+            "taken as independent) do not show that; records at other speeds (a slow "
+            "stroke) separate them")
+
+
 def verdict(named: Sequence[str], selections: list[Selection], before: list[GapRow],
             after: list[GapRow], white_after: dict[str, float],
             sigma: Mapping[str, float], drift: Drift | None = None) -> tuple[str, str]:
@@ -214,7 +230,9 @@ def verdict(named: Sequence[str], selections: list[Selection], before: list[GapR
                 ["two or more effects needed"] if len(named) > 1 else [])
             return ("partially explained",
                     f"named {names}; partially explained — possibly outside the library "
-                    f"({'; '.join(why)}){shrink}")
+                    f"({'; '.join(why)}){shrink}; the workflow takes the stated oil "
+                    "temperature, load and every transducer's zero as exact, and one that "
+                    "is off makes such gaps too (check them before the model)")
         return "named", f"named {names}{shrink}"
     where = ", ".join([f"balance {b}" for b in left] + off)
     if (left or off) and drift is not None and drift.accepted:
@@ -227,7 +245,7 @@ def verdict(named: Sequence[str], selections: list[Selection], before: list[GapR
                 "A clearance or pump leakage that moved is wear: POST /diagnose sizes it "
                 "against the stored rig; friction that moved is re-commissioning "
                 "(POST /rigs/{id}/commission, hydrodiag commission). The stored rig is "
-                "left as it is")
+                "left as it is" + _traded(drift))
     if (left or off) and drift is not None and drift.unchanged:
         return ("no effect", f"no effect found: the held-out steady RMSE on the phase's clock "
                 f"is above the noise ({where}), but {drift.reason}")
@@ -235,7 +253,10 @@ def verdict(named: Sequence[str], selections: list[Selection], before: list[GapR
         tried = f"; {drift.reason}" if drift is not None and drift.reason else ""
         return ("unexplained",
                 f"model and data differ ({where}, held-out RMSE) but no library "
-                "effect explains it: possibly outside the library, or a drift of base "
+                "effect explains it: a stated condition that is off (the oil temperature, "
+                "the load) or a transducer's zero (the workflow takes them as exact; a "
+                "gap on one channel alone points to its transducer), possibly outside the "
+                "library, or a drift of base "
                 "parameters that the stored rig does not have (re-commission the rig from "
                 "healthy records: POST /rigs/{id}/commission, hydrodiag commission)" + tried
                 + _hidden_in_base(selections))

@@ -17,7 +17,11 @@ readings near η = 1 (low pressure, an instrument's 1 %) do not trip them:
 * a given displacement is refused when the median η_v exceeds :data:`ETA_LIMIT`, or when
   even the best point delivers less than :data:`ETA_V_FLOOR` of it (a unit slip);
 * torque readings are refused when the median η_hm over the points above a fifth of the
-  highest pressure (where the ideal torque dominates) exceeds :data:`ETA_LIMIT`.
+  highest pressure (where the ideal torque dominates) exceeds :data:`ETA_LIMIT`, or falls
+  below :data:`ETA_HM_FLOOR`: no pump turns at 2-9 % hydro-mechanical efficiency, which is
+  what l/min under a ``[cm^3/s]`` header (a displacement 16× small), the case-drain flow
+  taken as the delivered one, or MPa under ``[bar]`` make of a sound file (a real-data
+  analyst's pass: all three were stored).
 """
 
 from __future__ import annotations
@@ -29,13 +33,16 @@ from diagnostics.pump.data import BenchData
 from sim.errors import InputError
 from sim.units import from_si
 
-__all__ = ["ETA_LIMIT", "ETA_V_FLOOR", "check_displacement", "check_torque"]
+__all__ = ["ETA_HM_FLOOR", "ETA_LIMIT", "ETA_V_FLOOR", "check_displacement", "check_torque"]
 
 #: median efficiency above which the data contradict their displacement [-]: 1 + twice a
 #: bench flowmeter's or torque meter's accuracy (ISO 4409 class B, ±1 %)
 ETA_LIMIT = 1.02
 #: best volumetric efficiency below which a given displacement is taken for a unit slip [-]
 ETA_V_FLOOR = 0.5
+#: median hydro-mechanical efficiency above a fifth of the highest pressure below which the
+#: torque contradicts the displacement and pressures [-] (pumps: 0.8-0.95 there)
+ETA_HM_FLOOR = 0.5
 
 
 def _cm3(D: float) -> str:
@@ -80,8 +87,9 @@ def check_torque(data: BenchData, D: float, *, given: bool) -> None:
     Raises
     ------
     InputError
-        ``field="T"``: the median η_hm above a fifth of the highest pressure exceeds
-        :data:`ETA_LIMIT`.
+        ``field="T"`` (the column the others contradict; the message names the
+        slips that make it): the median η_hm above a fifth of the highest pressure exceeds
+        :data:`ETA_LIMIT`, or is below :data:`ETA_HM_FLOOR`.
     """
     if data.torque is None:
         return
@@ -99,3 +107,14 @@ def check_torque(data: BenchData, D: float, *, given: bool) -> None:
             " bar (a pump needs more torque than Δp·D, paper 000 eq. 13; the friction "
             "coefficient would come out negative): check the torque column's unit and sign",
             field="T")
+    if median < ETA_HM_FLOOR:
+        origin = "the given" if given else "the derived"
+        slips = ("the delivered flow's unit (l/min under a [cm^3/s] header makes D 16× "
+                 "small) or column (the case drain is not the delivered flow), "
+                 if not given else "")
+        raise InputError(
+            f"the torque readings are {1 / median:.3g} × the ideal torque Δp·D ({origin} "
+            f"D = {_cm3(D)}) at the median point above {0.2 * float(dp.max()) / 1e5:.3g} bar: "
+            f"a hydro-mechanical efficiency of {median:.3g}, where pumps reach 0.8-0.95 "
+            f"(at least {ETA_HM_FLOOR:g} taken): check {slips}the pressures' unit (MPa "
+            "under [bar]) and the torque's", field="T")

@@ -9,6 +9,7 @@ stores the augmented rig, here on measured ZeMA plateaus.
 
 from __future__ import annotations
 
+import json
 import math
 import time
 from pathlib import Path
@@ -174,3 +175,43 @@ def test_start_up_loads_a_rig_without_a_cycle_without_a_warning(
     # it was warned of as "not warmed: … needs the working/return cycle" at every start
     assert rig_id in warm.loaded and warm.failed == {}
     assert not [r for r in caplog.records if "not warmed" in r.getMessage()]
+
+
+@pytest.mark.parametrize(("column_map", "field", "said"), [
+    ({"PS1": ["p_pump", "Pa"], "FS1": ["q_work", "l/min"]}, "file.p_pump",
+     "never reaches 0.1 bar"),
+    ({"PS1": ["p_pump", "bar"], "FS1": ["q_work", "m^3/s"]}, "file.q_work", "l/min"),
+    ({"PS1": ["p_pump", "l/min"], "FS1": ["q_work", "l/min"]}, "file.PS1", "")])
+def test_plateau_channels_their_columns_contradict_are_refused(
+        server: LiveServer, rig_id: int, column_map: dict[str, list[str]], field: str,
+        said: str) -> None:
+    """ZeMA cycles imported to the ZeMA rig with bar under [Pa] (150 Pa stored), l/min
+    under [m^3/s] (7.7 m³/s stored) or a flow unit on the pump pressure were stored
+    without a word (a real-data analyst's pass): each is a 422 naming the column, and
+    nothing is stored."""
+    content = b"record,PS1,FS1,TS1\n" + b"".join(
+        f"c,{150 + i % 3},{7.7 + 0.01 * i},45\n".encode() for i in range(20))
+    before = server.row_counts()
+    r = server.client.post(f"/rigs/{rig_id}/series", headers=server.auth, data={
+        "name": "slip", "sample_rate": "1", "column_map": json.dumps(
+            column_map | {"TS1": ["oil_temperature", "degC"], "record": ["record", "-"]})},
+        files={"file": ("cycles.csv", content, "text/csv")})
+    assert r.status_code == 422, r.text
+    assert r.json()["error"]["field"] == field and said in r.json()["error"]["message"]
+    assert server.row_counts() == before
+
+
+def test_the_models_channel_names_get_a_note_naming_the_plateau_channels(
+        server: LiveServer, rig_id: int) -> None:
+    """Following the README's example names (P_pump, Q_work) stored series the plateau
+    reader then refused; the import now says which names it reads."""
+    content = b"record,PS1,FS1,TS1\n" + b"".join(
+        f"n,{150 + i % 3},{7.7 + 0.01 * i},45\n".encode() for i in range(20))
+    r = server.client.post(f"/rigs/{rig_id}/series", headers=server.auth, data={
+        "name": "model-names", "sample_rate": "1", "column_map": json.dumps({
+            "PS1": ["P_pump", "bar"], "FS1": ["Q_work", "l/min"],
+            "TS1": ["oil_temperature", "degC"], "record": ["record", "-"]})},
+        files={"file": ("cycles.csv", content, "text/csv")})
+    assert r.status_code == 201, r.text
+    (note,) = r.json()["notes"]
+    assert "no channel p_pump, q_work" in note and "P_pump, Q_work is another name" in note

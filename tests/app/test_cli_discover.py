@@ -180,3 +180,30 @@ def test_discover_reads_a_loggers_layout_through_a_column_map(runner: CliRunner,
     assert wrong.exit_code != 0 and getattr(wrong.exception, "field", None) == "PA"
     stored = runner.invoke(cli, ["discover", "--series", "1", "--rig", "1", "--column-map", cmap])
     assert getattr(stored.exception, "field", None) == "--column-map"
+
+
+def test_a_partially_explained_discovery_is_not_stored(runner: CliRunner) -> None:
+    """Effects that leave a gap may stand for a cause outside the library: a thermometer
+    3 K low was "explained" by two piston-leak laws and stored as the rig's next version,
+    which every later diagnosis used (a simulation engineer's pass)."""
+    import dataclasses
+
+    from app.cli_support import store_session
+    from app.services.discrepancy import store_discovery
+    from app.services.rigs import get_rig, latest_version
+    from diagnostics.discrepancy.steady import discover_steady
+    from diagnostics.discrepancy.synthetic import synthesize_bench
+    from sim.rigs import reference_rig
+
+    bench = synthesize_bench(reference_rig(), rng=np.random.default_rng(8),
+                             effects={"speed_offset": 1.0})
+    with store_session() as session:
+        document = dict(latest_version(session, get_rig(session, 1)).document)
+        found = discover_steady(document, bench, bootstrap=5)
+        assert found.verdict == "named" and found.named
+        partial = dataclasses.replace(found, verdict="partially explained")
+        version, why = store_discovery(session, 1, 1, partial)
+        assert version is None and why is not None
+        assert "partially explained: the named effects leave a gap" in why
+        assert "stated oil temperature" in why
+        assert get_rig(session, 1).latest_version == 1

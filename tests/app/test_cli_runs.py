@@ -248,6 +248,16 @@ def test_import_zema_cycles_and_a_series_file(runner: CliRunner, tmp_path: Path)
                                  "--first", "2", "--last", "5"])
     assert result.exit_code == 0, result.output
     assert "4 ZeMA cycles stored" in result.stdout and store_count(MeasuredSeries) == 4
+    # a range overlapping the stored one: refused whole, naming --first, with the way on;
+    # one past the data set's end names --last (both read 'cycles', 'name' before)
+    overlap = runner.invoke(cli, ["import", "zema", "--rig", "2", "--root", str(root),
+                                  "--first", "4", "--last", "6"])
+    assert getattr(overlap.exception, "field", None) == "--first"
+    assert "import only the cycles not stored yet" in str(overlap.exception)
+    beyond = runner.invoke(cli, ["import", "zema", "--rig", "2", "--root", str(root),
+                                 "--first", "6", "--last", "99999"])
+    assert getattr(beyond.exception, "field", None) == "--last"
+    assert store_count(MeasuredSeries) == 4
     csv = tmp_path / "s.csv"
     csv.write_text("record,t [s],p_pump [bar],q_work [l/min]\na,0,150,7.9\na,1,151,7.8\n"
                    "b,0,160,7.7\nb,0.5,161,7.6\n")

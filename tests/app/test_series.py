@@ -298,3 +298,9 @@ def test_the_same_import_twice_is_refused_and_a_days_new_file_is_not(
     assert "stored already" in again.json()["error"]["message"]
     assert server.row_counts() == before
     assert send(day2).status_code == 201   # the logger's next file, same name: new data
+    # the same samples under another channel name (a column map changed): the same data,
+    # stored four times over in a real-data analyst's pass
+    renamed = send(day1.replace(b"P1 [bar]", b"P2 [bar]"))
+    assert renamed.status_code == 409 and "stored already" in renamed.text
+    # other values under the same names: new data
+    assert send(b"t [s],P1 [bar],P2 [bar]\n0,10,11\n1,11,10\n").status_code == 201

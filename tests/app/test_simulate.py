@@ -147,6 +147,20 @@ def test_pressures_below_vacuum_are_named_as_beyond_the_model(server: LiveServer
     assert resisting.json()["notes"] == []
 
 
+@pytest.mark.parametrize(("condition", "said"), [
+    ({"load": 4.2}, "a load of 4.2 N is below the seal's Coulomb friction (136.2 N): if it "
+                    "is in kN, give 4200 N"),
+    ({"load": 4200, "back_pressure": 20}, "a back-pressure of 20 Pa is below 0.1 bar: if it "
+                                          "is in bar, give 2e+06 Pa")])
+def test_a_condition_that_looks_like_a_unit_slip_runs_with_a_note(
+        server: LiveServer, condition: dict[str, float], said: str) -> None:
+    """A load of 4.2 N (kN typed as N) and a back-pressure of 20 Pa (bar typed as Pa) ran
+    without a word (a simulation engineer's pass): they run as given, and say so."""
+    body = server.client.post("/simulate", json={
+        "rig_id": 1, "method": "steady", "condition": condition}).json()
+    assert said in body["notes"]
+
+
 def test_a_transients_notes_do_not_depend_on_asking_for_its_time_series(
         server: LiveServer) -> None:
     """The switch-over of the worn-spool cycle dips below vacuum for a few ms; the note

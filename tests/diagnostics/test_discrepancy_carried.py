@@ -75,8 +75,9 @@ def test_records_with_other_channels_are_refused_before_any_job() -> None:
     KeyError after its 202 (a fleet integrator's pass); check_records, which the HTTP
     route runs before it accepts a job, now refuses it."""
     a, b = _records(0.0, 1)[:2]
-    b = replace(b, channels={k: v for k, v in b.channels.items() if k != "v"},
-                units={k: u for k, u in b.units.items() if k != "v"})
+    # (a record with the position alone now has its speed derived from it: the flow)
+    b = replace(b, channels={k: v for k, v in b.channels.items() if k != "Q_meter_C"},
+                units={k: u for k, u in b.units.items() if k != "Q_meter_C"})
     with pytest.raises(InputError) as e:
         check_records(_doc(0.0), [a, b])
-    assert e.value.field == "file" and "it lacks v" in e.value.message
+    assert e.value.field == "file" and "it lacks Q_meter_C" in e.value.message

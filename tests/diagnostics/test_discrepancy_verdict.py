@@ -60,3 +60,27 @@ def test_an_unexplained_verdict_names_what_the_design_cannot_tell_from_the_base(
     assert "pump_compressibility_loss, speed_offset (pump_flow balance)" in text
     assert "piston_force" not in text and "pump speed for a speed offset" in text
     assert _hidden_in_base([force]) == ""  # type: ignore[list-item]
+
+
+def test_a_base_drift_moving_both_frictions_says_they_trade() -> None:
+    """Fu alone × 1.5 read Fu +43 % and Kf +29 %, both "significant" with intervals that
+    excluded the truth, and the JSON answer said nothing of the trade (a simulation
+    engineer's pass): the base-drift message now says it when both moved; one alone does
+    not get it."""
+    from diagnostics.discrepancy.drift import BaseDrift, Drift
+    from diagnostics.discrepancy.verdict import verdict
+
+    def drift(kf: float) -> Drift:
+        return Drift([BaseDrift("cylinder.Fu", "N", "friction", 136.2, 195.1, 0.5),
+                      BaseDrift("cylinder.Kf", "N*s/m", "friction", 149.0, kf, 2.3)],
+                     [], [], {"v": 0.9}, True, "")
+
+    from diagnostics.discrepancy.gap import GapRow
+
+    sigma = {"v": 1e-3}
+    gap = [GapRow("v", "m/s", "steady", 6.6e-3, 1e-2)]   # 6.6 σ before the re-fit
+    both = verdict([], [], gap, [], {}, sigma, drift(192.1))
+    alone = verdict([], [], gap, [], {}, sigma, drift(149.2))
+    assert both[0] == alone[0] == "base drift"
+    assert "Fu and Kf trade against each other" in both[1]
+    assert "trade against each other" not in alone[1]

@@ -62,6 +62,26 @@ def test_torque_below_the_ideal_torque_is_refused(bench: BenchData) -> None:
     assert "below the ideal torque" in e.value.message
 
 
+@pytest.mark.parametrize(("slip", "change"), [
+    ("l/min under [cm^3/s]", {"q": 1e-6 / 60e-6}),   # the flows (and Toet's D) ÷ 16.7
+    ("MPa under [bar]", {"p_in": 0.1, "p_out": 0.1})])  # the pressures ÷ 10
+def test_torque_far_above_the_ideal_torque_is_refused(bench: BenchData, slip: str,
+                                                      change: dict[str, float]) -> None:
+    """A real-data analyst's pass stored D = 2.06 cm³/rev for 34.35 (l/min under
+    [cm^3/s]) and Δp ten times too small (MPa under [bar]): the file's own torque then
+    reads a hydro-mechanical efficiency of 2-9 %, which no pump has."""
+    assert bench.torque is not None
+    D = stand_in_pump().D
+    eta = float(np.median((bench.dp * D / bench.torque)[bench.dp >= 0.2 * bench.dp.max()]))
+    assert 0.8 < eta <= 1.0   # the sound file: what pumps reach
+    scaled = dataclasses.replace(bench, **{k: getattr(bench, k) * f for k, f in change.items()})
+    with pytest.raises(InputError) as e:
+        parameterise(scaled)
+    assert e.value.field == "T", slip
+    assert "hydro-mechanical efficiency of 0.0" in e.value.message
+    assert "MPa under [bar]" in e.value.message
+
+
 def test_a_negative_torque_reading_names_its_row(bench: BenchData) -> None:
     assert bench.torque is not None
     torque = bench.torque.copy()

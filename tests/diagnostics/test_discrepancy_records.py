@@ -1,0 +1,92 @@
+"""The workflow's reading of records: a speed derived from a position-only logger, and
+notes on what the channels do not allow (a simulation engineer's pass)."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from diagnostics.discrepancy.records import with_velocity
+from diagnostics.discrepancy.synthetic import synthesize
+from diagnostics.discrepancy.workflow import check_records, unread_notes
+from diagnostics.timeseries import SeriesRecord
+from sim.rigs import reference_rig, reference_rig_document
+from sim.rigs.assembly import Condition
+
+
+def _without(record: SeriesRecord, *names: str) -> SeriesRecord:
+    keep = {k: v for k, v in record.channels.items() if k not in names}
+    return dataclasses.replace(record, channels=keep,
+                               units={k: u for k, u in record.units.items() if k in keep})
+
+
+def test_a_position_only_loggers_speed_is_the_positions_derivative() -> None:
+    """A linear encoder (0.1 mm noise at 1 kHz) without a speed channel: ``v`` is the
+    cubic Savitzky-Golay derivative of ``x`` within each phase.  Its noise is the filter's
+    gain on the position noise — for a cubic first derivative over 2m+1 = 41 samples
+    √(75(3m⁴+6m³−3m+1)/((2m−1)(2m+1)(2m+3)(m−1)m(m+1)(m+2))) = 0.057, so 0.1 mm / 1 ms ×
+    0.057 = 5.7 mm/s — and the mean speed of a stroke is unbiased."""
+    rig = reference_rig()
+    cond = Condition(load=2100.0, oil_temperature=40.0)
+    truth = synthesize(rig, cond, rng=np.random.default_rng(0),
+                       sigma=dict.fromkeys(("x", "v"), 1e-12))
+    noisy = _without(synthesize(rig, cond, rng=np.random.default_rng(1)), "v")
+    (derived,), notes = with_velocity([noisy])
+    assert "v" in derived.channels and derived.units["v"] == "m/s"
+    assert "derived from the position x" in notes[0]
+    v, true_v = derived.channels["v"], truth.channels["v"]
+    assert v.shape == true_v.shape
+    steady = (np.abs(true_v) > 0.1) & (np.abs(np.gradient(true_v, truth.t)) < 0.05)
+    assert steady.sum() > 1000
+    error = v[steady] - true_v[steady]
+    assert float(np.sqrt(np.mean(error ** 2))) < 5.7e-3
+    # the working stroke's mean speed: the hand value of 0.2064 m/s at 2.1 kN, 40 °C
+    working = steady & (derived.phase == "working")
+    assert float(np.mean(v[working])) == pytest.approx(float(np.mean(true_v[working])),
+                                                       rel=2e-3)
+    # a record with its own speed is left as it is
+    (kept,), none = with_velocity([truth])
+    assert kept is truth and none == []
+
+
+def test_missing_and_unread_channels_are_named_not_dropped_silently() -> None:
+    """A file whose P1 column is named 'P_A' was checked on the pump balance alone and
+    answered "no effect"; now the answer says which balances were not evaluated, for want
+    of which channel, and which columns it did not read."""
+    rig = reference_rig()
+    record = synthesize(rig, Condition(load=2100.0, oil_temperature=40.0),
+                        rng=np.random.default_rng(2))
+    renamed = dataclasses.replace(
+        _without(record, "P1"), channels=_without(record, "P1").channels
+        | {"P_A": record.channels["P1"]}, units=_without(record, "P1").units | {"P_A": "Pa"})
+    notes = unread_notes([renamed], ["pump_flow"])
+    text = " ".join(notes)
+    assert "piston_force (no P1)" in text and "chamber_flow (no P1)" in text
+    assert "'P_A' not read" in text
+    assert "covers only the balances evaluated" in text
+    # a position-only record passes the first step with the piston balances evaluated
+    check_records(reference_rig_document(), [_without(record, "v")])
+
+
+@pytest.mark.parametrize(("channel", "scale", "why"), [
+    ("Q_meter_C", 60000.0, "l/min"), ("Q_meter_B", 60000.0, "l/min"),
+    ("x", 1000.0, "mm under an [m] label"), ("v", -1.0, "sign flipped")])
+def test_a_flow_position_or_speed_its_column_contradicts_is_refused(
+        channel: str, scale: float, why: str) -> None:
+    """l/min under ``[m^3/s]`` (60,000× the pump's flow), mm under ``[m]`` and a flipped
+    speed were run and answered "unexplained … re-commission" at 10⁵-10⁶ σ (a simulation
+    engineer's pass): each is refused naming its column, and the record as exported
+    passes (its first sample's flow transient, ~3× the pump's, included)."""
+    from sim.errors import InputError
+
+    rig = reference_rig()
+    record = synthesize(rig, Condition(load=2100.0, oil_temperature=40.0),
+                        rng=np.random.default_rng(3))
+    check_records(reference_rig_document(), [record])
+    bad = dataclasses.replace(record, channels=record.channels
+                              | {channel: record.channels[channel] * scale})
+    with pytest.raises(InputError) as refused:
+        check_records(reference_rig_document(), [bad])
+    assert refused.value.field == channel and why in refused.value.message
