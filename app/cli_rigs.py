@@ -23,7 +23,7 @@ from rich.table import Table
 
 from app.cli_support import load_document, steps, store_session
 from app.schemas.common import MAX_ID
-from sim.errors import InputError
+from sim.errors import HydrodiagError, InputError
 
 __all__ = ["rigs_cli"]
 
@@ -117,22 +117,27 @@ def rediagnose(
 ) -> None:
     """Diagnose rig RIG_ID's stored records again against its latest version, as POST
     /rigs/{id}/rediagnose does: each old diagnosis is marked superseded by the new one."""
-    from sqlalchemy import Engine
+    from sqlalchemy import Engine, func, select
 
     from app.db.engine import make_session_factory
+    from app.db.models import Diagnosis, Measurement
     from app.services.rediagnosis import plan_rediagnosis, run_rediagnosis
     from app.services.rig_cache import RigCache
 
     with store_session() as session:
         try:
             plan = plan_rediagnosis(session, RigCache(1), rig_id, version or None)
-        except InputError as exc:
-            raise InputError(exc.message, field="--version" if exc.field and exc.field
-                             .startswith("versions") else "RIG_ID") from None
+        except HydrodiagError as exc:  # named as this command's argument and option
+            raise type(exc)(exc.message, field="--version" if exc.field and exc.field
+                            .startswith("versions") else "RIG_ID") from None
         bind = session.get_bind()
         assert isinstance(bind, Engine)
         if not plan.stale:
-            _out.print(f"rig {rig_id}: nothing to do again — every current diagnosis was made "
+            held = session.scalar(select(func.count()).select_from(Diagnosis).join(
+                Measurement, Diagnosis.measurement_id == Measurement.id).where(
+                Measurement.rig_id == rig_id))
+            _out.print(f"rig {rig_id}: no stored diagnoses" if not held else
+                       f"rig {rig_id}: nothing to do again — every current diagnosis was made "
                        f"with version {plan.resolved.version} or one with its parameters",
                        markup=False)
             return
@@ -141,9 +146,11 @@ def rediagnose(
                                      f"{', '.join(map(str, plan.versions))}", total=1.0)
             result = run_rediagnosis(plan, make_session_factory(bind), None,
                                      lambda done, _note: progress.update(task, completed=done))
+    taken = (f", {result['skipped']} taken by another run meanwhile" if result["skipped"]
+             else "")
     _out.print(f"rig {rig_id}: {result['rediagnosed']} of {result['n_diagnoses']} diagnoses "
                f"done again against version {result['rig_version']}, {result['changed']} "
-               f"name another fault, {len(result['errors'])} could not be done",
+               f"name another fault, {len(result['errors'])} could not be done{taken}",
                markup=False)
     changed = [r for r in result["replaced"] if r["before"] != r["after"]]
     for r in changed[:20]:

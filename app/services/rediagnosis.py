@@ -131,8 +131,8 @@ def plan_rediagnosis(session: Session, rigs: RigCache, rig_id: int,
     resolved = rigs.get(session, rig_id, None, rig_field="rig_id")
     try:
         resolved.rig.require_cycle("a diagnosis")
-    except InputError as exc:
-        raise InputError(exc.message, field="rig_id") from None
+    except InputError as exc:  # a CircuitError: no cylinder cycle to diagnose
+        raise type(exc)(exc.message, field="rig_id") from None
     chosen = _chosen(session, resolved, versions)
     if not chosen:
         return RediagnosisPlan(resolved, (), ())

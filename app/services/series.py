@@ -27,6 +27,7 @@ from app.schemas.series import import_name_problem
 from app.services.common import commit, get_or_raise, paginate
 from app.services.rigs import get_rig, has_cycle, latest_version
 from diagnostics.cycle_readings import READ_CHANNELS
+from diagnostics.measurement import MAX_GAUGE_PRESSURE
 from diagnostics.table_files import time_in_name as time_in_name_of
 from diagnostics.timeseries import (
     CONDITION_CHANNELS,
@@ -238,7 +239,7 @@ def import_series(session: Session, rig_id: int, name: str, content: bytes, *,
         raise type(exc)(exc.message, field=where) from None
     if not channels.cycle:
         try:
-            check_plateau_channels(records)
+            check_plateau_channels(records, channels.delivery, channels.relief)
         except InputError as exc:
             raise InputError(exc.message, field=f"file.{exc.field}") from None
     rows = store_records(session, rig_id, name, records)
@@ -252,6 +253,10 @@ class RigChannels:
 
     units: dict[str, str]
     cycle: bool
+    #: the pump's geometric delivery ω·Vp at its stated speed [m³/s]; None without a pump
+    delivery: float | None = None
+    #: the relief valve's setting [Pa]; None without one
+    relief: float | None = None
 
     def notes(self, rows: Sequence[MeasuredSeries]) -> list[str]:
         """What an import stored for a rig with a cycle that neither its model nor a cycle's
@@ -289,6 +294,10 @@ PLATEAU_CHANNELS: dict[str, str] = {"p_pump": "Pa", "q_work": "m^3/s"}
 MIN_PLATEAU_PRESSURE = 1.0e4
 #: A working flow beyond this is another unit typed as m³/s [m³/s] (as bench tables).
 MAX_PLATEAU_FLOW = 1.0
+#: A working flow beyond this many times the pump's geometric delivery is a slip [-].
+DELIVERY_FACTOR = 10.0
+#: A pump pressure beyond this many times the relief setting is a slip [-].
+PRESSURE_FACTOR = 2.0
 
 
 def _plateau_notes(rows: Sequence[MeasuredSeries]) -> list[str]:
@@ -305,23 +314,44 @@ def _plateau_notes(rows: Sequence[MeasuredSeries]) -> list[str]:
             "those names"]
 
 
-def check_plateau_channels(records: Sequence[SeriesRecord]) -> None:
+def check_plateau_channels(records: Sequence[SeriesRecord], delivery: float | None = None,
+                           relief: float | None = None) -> None:
     """Refuse a plateau channel that its own column contradicts (the records of a rig
     without a cycle): a pump pressure that never reaches 0.1 bar (bar under ``[Pa]``: 150
-    Pa stored), a working flow beyond 1 m³/s (l/min under ``[m^3/s]``: 7.7 m³/s stored);
-    a real-data analyst's pass found both stored without a word."""
+    Pa stored) or twice the relief setting ``relief`` [Pa] (bar under ``[MPa]``: 1,900
+    bar stored), a
+    working flow beyond 1 m³/s (l/min under ``[m^3/s]``: 7.7 m³/s stored) or beyond ten
+    times the pump's geometric delivery ``delivery`` [m³/s] (the pressure and flow
+    columns swapped: 150 l/min from a pump of 8); a real-data analyst's pass found each
+    stored without a word."""
     for r in records:
         p = r.channels.get("p_pump")
         if p is not None and len(p) and float(np.nanmax(p)) < MIN_PLATEAU_PRESSURE:
             raise InputError(f"p_pump of record {r.name!r} never reaches 0.1 bar (at most "
                              f"{float(np.nanmax(p)):.4g} Pa): is it in bar under a [Pa] "
                              "label?", field="p_pump")
+        ceiling = min(MAX_GAUGE_PRESSURE, PRESSURE_FACTOR * relief) if relief else \
+            MAX_GAUGE_PRESSURE
+        if p is not None and len(p) and float(np.nanmax(p)) > ceiling:
+            raise InputError(f"p_pump of record {r.name!r} reaches {float(np.nanmax(p)):.4g} "
+                             "Pa, beyond " + (f"{PRESSURE_FACTOR:g} × the rig's relief "
+                                              f"setting ({relief:.4g} Pa)" if relief else
+                                              "any instrument of a hydraulic rig")
+                             + ": is it in bar (or Pa) under an [MPa] (or [bar]) label?",
+                             field="p_pump")
         q = r.channels.get("q_work")
-        if q is not None and len(q) and float(np.nanmax(np.abs(q))) > MAX_PLATEAU_FLOW:
-            raise InputError(f"q_work of record {r.name!r} reaches "
-                             f"{float(np.nanmax(np.abs(q))):.4g} m³/s, beyond any pump of a "
-                             "test rig: is it in l/min (or another unit) under an [m^3/s] "
-                             "label?", field="q_work")
+        if q is None or not len(q):
+            continue
+        top = float(np.nanmax(np.abs(q)))
+        if top > MAX_PLATEAU_FLOW:
+            raise InputError(f"q_work of record {r.name!r} reaches {top:.4g} m³/s, beyond any "
+                             "pump of a test rig: is it in l/min (or another unit) under an "
+                             "[m^3/s] label?", field="q_work")
+        if delivery and top > DELIVERY_FACTOR * delivery:
+            raise InputError(f"q_work of record {r.name!r} reaches {top:.4g} m³/s, "
+                             f"{top / delivery:.3g} × the rig's pump delivers ({delivery:.4g} "
+                             "m³/s at its stated speed): are the pressure and flow columns "
+                             "swapped, or the flow in another unit?", field="q_work")
 
 
 def rig_channels(session: Session, rig_id: int) -> RigChannels:
@@ -331,8 +361,13 @@ def rig_channels(session: Session, rig_id: int) -> RigChannels:
     channels too (:data:`PLATEAU_CHANNELS`)."""
     version = latest_version(session, get_rig(session, rig_id, field="rig_id"))
     cycle = has_cycle(version)
-    units = load_rig(version.document).channels()
-    return RigChannels(units if cycle else units | PLATEAU_CHANNELS, cycle)
+    rig = load_rig(version.document)
+    units = rig.channels()
+    base = rig.base
+    delivery = (base["pump.speed"] * base["pump.Vp"] if "pump.speed" in base
+                and "pump.Vp" in base else None)
+    return RigChannels(units if cycle else units | PLATEAU_CHANNELS, cycle, delivery,
+                       base.get("relief.Pset"))
 
 
 def list_series(session: Session, rig_id: int, *, limit: int, offset: int

@@ -94,14 +94,16 @@ SLIP_BACK_PRESSURE = 1.0e4
 
 def condition_notes(condition: Condition, values: Mapping[str, float]) -> list[str]:
     """Notes on a condition that looks like a unit slip, run as given: a load above zero
-    but below the seal's Coulomb friction ``cylinder.Fu`` (kN typed as N: a 4.2 N load ran
-    without a word), a back-pressure above zero but below 0.1 bar (bar typed as Pa); a
+    but below a tenth of the seal's Coulomb friction ``cylinder.Fu`` (kN typed as N: a 4.2
+    N load ran without a word; a load of 100 N beside 136 N of friction is a light load,
+    not a slip), a back-pressure above zero but below 0.1 bar (bar typed as Pa); a
     simulation engineer's pass."""
     notes = []
     friction = values.get("cylinder.Fu")
-    if friction is not None and 0.0 < condition.load < friction:
-        notes.append(f"a load of {condition.load:.4g} N is below the seal's Coulomb friction "
-                     f"({friction:.4g} N): if it is in kN, give {condition.load * 1e3:.4g} N")
+    if friction is not None and 0.0 < condition.load < 0.1 * friction:
+        notes.append(f"a load of {condition.load:.4g} N is below a tenth of the seal's Coulomb "
+                     f"friction ({friction:.4g} N): if it is in kN, give "
+                     f"{condition.load * 1e3:.4g} N")
     if 0.0 < condition.back_pressure < SLIP_BACK_PRESSURE:
         notes.append(f"a back-pressure of {condition.back_pressure:.4g} Pa is below 0.1 bar: "
                      f"if it is in bar, give {condition.back_pressure * 1e5:.4g} Pa")

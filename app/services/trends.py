@@ -15,6 +15,7 @@ at the rig's default oil temperature.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime, timedelta
 
@@ -290,8 +291,16 @@ def component_trends(
         names = [c for c in COMPONENTS if c in set(present)]
     histories = {name: component_history(session, rig_id, name, since=since, until=until)
                  for name in names}
-    comparable = comparable_versions(session, resolved, {h.rig_version for hs in
-                                                 histories.values() for h in hs})
+    # every version with a current diagnosis: the later diagnoses a trend counts are of
+    # versions comparable with the latest (a re-diagnosis cancelled half-way left later
+    # diagnoses of the old version, and the trend read "stale … they named cylinder 75")
+    diagnosed = set(session.scalars(
+        select(RigVersion.version).distinct()
+        .join(Diagnosis, Diagnosis.rig_version_id == RigVersion.id)
+        .where(RigVersion.rig_id == rig_id, Diagnosis.superseded_by.is_(None))))
+    comparable = comparable_versions(session, resolved, diagnosed | {
+        h.rig_version for hs in histories.values() for h in hs})
+    same = sorted(v for v, ok in comparable.items() if ok)
     out = []
     for name, history in histories.items():
         if threshold is not None:
@@ -303,7 +312,7 @@ def component_trends(
         every = [p for p in estimated if p.diagnosis_id not in unexplained]
         points = [p for p in every if comparable[p.rig_version]]
         left = sorted({p.rig_version for p in every if not comparable[p.rig_version]})
-        later = (_later(session, rig_id, points[-1].measured_at, until) if points
+        later = (_later(session, rig_id, points[-1].measured_at, until, same) if points
                  else (0, None, {}))
         trend = _trend(name, rig_id, points, limit, source, later,
                        current=until is None or until >= datetime.now(UTC))
@@ -362,18 +371,21 @@ def comparable_versions(session: Session, latest: ResolvedRig, versions: set[int
     return out
 
 
-def _later(session: Session, rig_id: int, after: datetime, until: datetime | None
-           ) -> tuple[int, datetime | None, dict[str, int]]:
-    """How many diagnoses of rig ``rig_id`` were made of records taken after ``after``
-    (up to ``until``), when the last of those records was taken, and what they named
-    (component or verdict → count)."""
+def _later(session: Session, rig_id: int, after: datetime, until: datetime | None,
+           versions: Sequence[int]) -> tuple[int, datetime | None, dict[str, int]]:
+    """How many current diagnoses of rig ``rig_id`` with one of ``versions`` (those
+    comparable with the latest) were made of records taken after ``after`` (up to
+    ``until``), when the last of those records was taken, and what they named (component
+    or verdict → count)."""
     where = [Measurement.rig_id == rig_id, Measurement.measured_at > after,
-             Diagnosis.superseded_by.is_(None)]
+             Diagnosis.superseded_by.is_(None), RigVersion.rig_id == rig_id,
+             RigVersion.version.in_(list(versions))]
     if until is not None:
         where.append(Measurement.measured_at <= until)
     named = session.execute(
         select(Diagnosis.component, func.count(), func.max(Measurement.measured_at)).join(
-            Measurement, Diagnosis.measurement_id == Measurement.id).where(*where)
+            Measurement, Diagnosis.measurement_id == Measurement.id)
+        .join(RigVersion, Diagnosis.rig_version_id == RigVersion.id).where(*where)
         .group_by(Diagnosis.component)).all()
     counts = {str(c or "healthy"): int(n) for c, n, _ in named}
     last = max((t for _, _, t in named if t is not None), default=None)

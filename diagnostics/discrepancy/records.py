@@ -88,7 +88,15 @@ def require_cycle_records(records: Sequence[SeriesRecord]) -> None:
                     field=key)
 
 
-def check_pressure_units(records: Sequence[SeriesRecord], area: float) -> None:
+#: Every pressure of a cycle reaches this somewhere [Pa] (0.1 bar).
+MIN_CYCLE_PRESSURE = 1.0e4
+#: A working stroke's P1·A1 beyond this many times the stated load and the seal friction
+#: is a load in another unit [-] (the back-pressure and the line losses add tens of %).
+LOAD_EXCESS = 5.0
+
+
+def check_pressure_units(records: Sequence[SeriesRecord], area: float,
+                         friction: float | None = None) -> None:
     """Raise :class:`InputError` naming a pressure channel logged in another unit than its
     column says, as ``/diagnose`` refuses such a record: one beyond any instrument of a
     hydraulic rig (:data:`~diagnostics.measurement.MAX_GAUGE_PRESSURE`: Pa under a
@@ -107,6 +115,13 @@ def check_pressure_units(records: Sequence[SeriesRecord], area: float) -> None:
                 raise InputError(
                     f"{name} of record {r.name!r} reaches {top:.4g} Pa, beyond any instrument "
                     "of a hydraulic rig: is it in Pa (or kPa) under a [bar] label?", field=name)
+            if top < MIN_CYCLE_PRESSURE:
+                # every pressure of a cycle passes 0.1 bar somewhere: P2 drives the return
+                # stroke (P2 in bar under [Pa] ran to "unexplained" at 2.9e6 σ)
+                raise InputError(
+                    f"{name} of record {r.name!r} never reaches 0.1 bar over the cycle (at "
+                    f"most {top:.4g} Pa): is it in bar (or another unit) under a [Pa] label?",
+                    field=name)
         load = r.condition.get("load")
         if not load or load <= 0 or "P1" not in r.channels or r.phase is None:
             continue
@@ -120,6 +135,21 @@ def check_pressure_units(records: Sequence[SeriesRecord], area: float) -> None:
                 f"P1 of record {r.name!r} reads {p1:.4g} Pa over its working stroke (median), "
                 f"less than {LOAD_FRACTION:g} × the {needed:.4g} Pa that push its {load:.4g} N "
                 "load (F/A1): is it in bar (or another unit) under a [Pa] label?", field="P1")
+        v = r.channels.get("v")
+        if friction is None or v is None:
+            continue
+        # while the piston moves (a dwell at the stop holds P1 at the relief setting)
+        moving = working & (np.abs(v) > 1e-3)
+        if moving.sum() < 10:
+            continue
+        push = float(np.median(r.channels["P1"][moving])) * area
+        if push > LOAD_EXCESS * (load + friction):
+            # a load in kN under [N]: 2.1 "N" beside a P1 that pushes 2.2 kN
+            raise InputError(
+                f"the stated load of record {r.name!r}, {load:.4g} N, is far below what its "
+                f"P1 pushes while the piston extends ({push:.4g} N = P1·A1, median; the "
+                f"seal's friction is {friction:.4g} N): is the load in kN (or another unit) "
+                "under [N]?", field="load")
 
 
 def with_phases(records: Sequence[SeriesRecord], stroke: float
@@ -186,7 +216,8 @@ def with_velocity(records: Sequence[SeriesRecord]) -> tuple[list[SeriesRecord], 
             elif b - a >= 2:
                 v[a:b] = np.gradient(x[a:b], r.t[a:b])
         out.append(dataclasses.replace(r, channels=r.channels | {"v": v},
-                                       units=r.units | {"v": "m/s"}))
+                                       units=r.units | {"v": "m/s"},
+                                       metadata=dict(r.metadata or {}) | {"derived": ["v"]}))
         made.append(r.name)
     notes = ([f"no piston speed 'v' in {', '.join(repr(n) for n in made)}: derived from the "
               f"position x (cubic Savitzky-Golay derivative over {VELOCITY_WINDOW * 1e3:.0f} ms "
@@ -236,7 +267,12 @@ def check_motion_and_flow_units(records: Sequence[SeriesRecord], *, stroke: floa
             working = v[r.phase == "working"]
             moving = working[np.abs(working) > 1e-3]
             if moving.size >= 10 and float(np.median(moving)) < 0:
+                derived = "v" in (r.metadata or {}).get("derived", ())
+                what = ("x of record {!r} falls through its working stroke (its derived "
+                        "speed's median {:.4g} m/s)" if derived else
+                        "v of record {!r} is negative through its working stroke (median "
+                        "{:.4g} m/s)").format(r.name, float(np.median(moving)))
                 raise InputError(
-                    f"v of record {r.name!r} is negative through its working stroke "
-                    f"(median {float(np.median(moving)):.4g} m/s), which extends the piston: "
-                    "is the speed's sign flipped (or the phases swapped)?", field="v")
+                    f"{what}, which extends the piston: is the "
+                    f"{'position' if derived else 'speed'}'s sign flipped (or the phases "
+                    "swapped)?", field="x" if derived else "v")

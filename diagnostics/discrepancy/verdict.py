@@ -251,12 +251,16 @@ def verdict(named: Sequence[str], selections: list[Selection], before: list[GapR
                 f"is above the noise ({where}), but {drift.reason}")
     if left or off:
         tried = f"; {drift.reason}" if drift is not None and drift.reason else ""
+        alone = sorted({r.channel for r in before if r.region == "steady"
+                        and r.rmse > OUTPUT_GAP * sigma[r.channel]})
+        sensor = (f"only {alone[0]} disagrees, so check that transducer's zero and gain "
+                  "first; " if len(alone) == 1 and not left else "")
         return ("unexplained",
                 f"model and data differ ({where}, held-out RMSE) but no library "
-                "effect explains it: a stated condition that is off (the oil temperature, "
-                "the load) or a transducer's zero (the workflow takes them as exact; a "
-                "gap on one channel alone points to its transducer), possibly outside the "
-                "library, or a drift of base "
+                f"effect explains it: {sensor}a stated condition that is off (the oil "
+                "temperature, the load) or a transducer's zero (the workflow takes them as "
+                "exact; a gap on one channel alone points to its transducer), possibly "
+                "outside the library, or a drift of base "
                 "parameters that the stored rig does not have (re-commission the rig from "
                 "healthy records: POST /rigs/{id}/commission, hydrodiag commission)" + tried
                 + _hidden_in_base(selections))

@@ -316,8 +316,8 @@ def _first_step(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord]
     # without 'v' failed the job later with KeyError (a fleet integrator's pass)
     same_channels(labelled, OUTPUTS)
     require_cycle_records(labelled)
-    check_pressure_units(labelled, rig.values()["cylinder.A1"])
     values = rig.values()
+    check_pressure_units(labelled, values["cylinder.A1"], values.get("cylinder.Fu"))
     check_motion_and_flow_units(labelled, stroke=values["cylinder.stroke"],
                                 delivery=values["pump.speed"] * values["pump.Vp"])
     train_i, held_i = _split(labelled, rig)

@@ -117,4 +117,5 @@ def check_torque(data: BenchData, D: float, *, given: bool) -> None:
             f"D = {_cm3(D)}) at the median point above {0.2 * float(dp.max()) / 1e5:.3g} bar: "
             f"a hydro-mechanical efficiency of {median:.3g}, where pumps reach 0.8-0.95 "
             f"(at least {ETA_HM_FLOOR:g} taken): check {slips}the pressures' unit (MPa "
-            "under [bar]) and the torque's", field="T")
+            "under [bar]) and the torque's, or whether the table mixes displacement "
+            "settings (one table per setting: hydrodiag calibrate pump-map)", field="T")

@@ -36,8 +36,14 @@ the two sides of the widest gap less than :data:`MIN_SEPARATION` pooled robust �
 :data:`MIN_LEAK_FRACTION` of the flow — is refused, and
 :class:`HealthyBaseline` (cycles known healthy: those after commissioning or an overhaul)
 makes ``K`` absolute: the reference flows and the slope come from the baseline, and a cycle
-leaks when its deficit is more than :data:`BASELINE_Z` robust σ above the baseline's own.
-A batch of leaking cycles only is told from a healthy one by a baseline alone.
+leaks when its deficit is more than :data:`BASELINE_Z` robust σ above the baseline's own
+(each baseline cycle read against the others) and at least :data:`MIN_LEAK_FRACTION` of
+the flow.  With the shunt ``λ`` given too (``shunt=``, fitted once on a campaign that spans
+the oil temperatures) a cycle's ``K`` depends on nothing else in the batch; ``λ`` fitted per
+batch follows the batch's temperatures (the same severe cycles read 1.15 or 1.74 ×10⁻⁹ with
+it; 1.347 with the campaign's, a checker's pass).  A batch of leaking cycles only is told
+from a healthy one by a baseline alone: without one, cycles 211-292 (no healthy cycle) still
+read the weak leak as the batch's healthy reference.
 """
 
 from __future__ import annotations
@@ -263,7 +269,8 @@ def shunt_estimates(records: Sequence[SeriesRecord], points: Sequence[CyclePoint
         (e.g. found on other plateaus of the same cycles) instead of finding them here.
     baseline
         Cycles known healthy to read the batch against (module docstring, "What K is
-        relative to"); without one the healthy cycles are the batch's lower group.
+        relative to"; give ``shunt`` with it for sizes that do not depend on the batch);
+        without one the healthy cycles are the batch's lower group.
 
     Raises
     ------

@@ -67,6 +67,8 @@ def test_what_needs_a_cylinder_cycle_is_a_clear_422_and_stores_nothing(
     _refused(server.client.post(f"/rigs/{rig_id}/commission",
                                 json={"records": [RECORD | {"rig_id": rig_id}]},
                                 headers=server.auth), "commissioning")
+    _refused(server.client.post(f"/rigs/{rig_id}/rediagnose", headers=server.auth),
+             "a diagnosis")
     table = {"throttle": "I", "component": "valve", "back_pressure_pa": 1e6,
              "temperature_c": 40.0, "source": "test", "points": [
                  {"opening_turns": 0.0, "bypass_flow_m3s": 8.6e-6},
@@ -181,14 +183,17 @@ def test_start_up_loads_a_rig_without_a_cycle_without_a_warning(
     ({"PS1": ["p_pump", "Pa"], "FS1": ["q_work", "l/min"]}, "file.p_pump",
      "never reaches 0.1 bar"),
     ({"PS1": ["p_pump", "bar"], "FS1": ["q_work", "m^3/s"]}, "file.q_work", "l/min"),
-    ({"PS1": ["p_pump", "l/min"], "FS1": ["q_work", "l/min"]}, "file.PS1", "")])
+    ({"PS1": ["p_pump", "l/min"], "FS1": ["q_work", "l/min"]}, "file.PS1", ""),
+    ({"PS1": ["p_pump", "MPa"], "FS1": ["q_work", "l/min"]}, "file.p_pump", "[MPa]"),
+    ({"PS1": ["q_work", "l/min"], "FS1": ["p_pump", "bar"]}, "file.q_work", "swapped")])
 def test_plateau_channels_their_columns_contradict_are_refused(
         server: LiveServer, rig_id: int, column_map: dict[str, list[str]], field: str,
         said: str) -> None:
     """ZeMA cycles imported to the ZeMA rig with bar under [Pa] (150 Pa stored), l/min
-    under [m^3/s] (7.7 m³/s stored) or a flow unit on the pump pressure were stored
-    without a word (a real-data analyst's pass): each is a 422 naming the column, and
-    nothing is stored."""
+    under [m^3/s] (7.7 m³/s stored), bar under [MPa], the pressure and flow columns
+    swapped (150 l/min from an 8 l/min pump) or a flow unit on the pump pressure were
+    stored without a word (a real-data analyst's pass and its check): each is a 422
+    naming the column, and nothing is stored."""
     content = b"record,PS1,FS1,TS1\n" + b"".join(
         f"c,{150 + i % 3},{7.7 + 0.01 * i},45\n".encode() for i in range(20))
     before = server.row_counts()

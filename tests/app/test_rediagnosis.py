@@ -14,6 +14,7 @@ import pytest
 from typer.testing import CliRunner
 
 from app.cli import cli
+from app.services.rediagnosis import RediagnosisPlan
 from sim.errors import InputError
 from sim.rigs import reference_rig_document
 from tests.app.conftest import new_rig, simulated_record
@@ -205,6 +206,12 @@ def test_the_command_line_does_the_same_in_its_own_process(runner: CliRunner,
     bad = runner.invoke(cli, ["rigs", "rediagnose", "1", "--version", "2"])
     assert bad.exit_code != 0
     assert isinstance(bad.exception, InputError) and "is the latest" in bad.exception.message
+    assert bad.exception.field == "--version"
+    unknown = runner.invoke(cli, ["rigs", "rediagnose", "77"])
+    assert getattr(unknown.exception, "field", None) == "RIG_ID"
+    assert runner.invoke(cli, ["rigs", "add", str(_zema())]).exit_code == 0
+    circuit = runner.invoke(cli, ["rigs", "rediagnose", "2"])
+    assert type(circuit.exception).__name__ == "CircuitError"
     with store_session() as session:
         rows = session.query(Diagnosis).order_by(Diagnosis.id).all()
         assert [r.superseded_by for r in rows] == [rows[1].id, None]
@@ -231,3 +238,35 @@ def test_the_console_reads_the_current_diagnoses_and_names_the_replacement(
         replacement = client.get(f"/console/diagnoses/{new}").text
         assert 'id="supersedes"' in replacement
         assert f"records of diagnosis {old[0]['id']}" in replacement
+
+
+def test_a_partial_re_diagnosis_leaves_a_trend_of_the_new_points_not_a_stale_one(
+        server: LiveServer) -> None:
+    """A re-diagnosis cancelled half-way leaves the later visits' diagnoses on the old
+    version; the trend counted them as later diagnoses that estimated nothing and read
+    "stale … they named cylinder" (a checker's pass).  Diagnoses of a version the trend
+    leaves out are not counted."""
+    from app.services.rediagnosis import plan_rediagnosis, run_rediagnosis
+    from app.services.rig_cache import RigCache
+
+    rig_id = int(new_rig(server, "rediagnose-partial")["id"])
+    for month in range(1, 7):
+        post(server, {"record": simulated_record(
+            server, {"cylinder.cc": (100 + 2 * month) * 1e-6}, rig_id=rig_id,
+            measured_at=f"2026-{month:02d}-01T08:00:00Z")})
+    assert server.client.put(f"/rigs/{rig_id}", json={"document": shorter_seal(
+        "rediagnose-partial")}, headers=server.auth).status_code == 200
+    with server.session() as session:
+        plan = plan_rediagnosis(session, RigCache(1), rig_id)
+    first_three = RediagnosisPlan(plan.resolved, plan.versions, plan.stale[:3])
+    done = run_rediagnosis(first_three, server.app.state.sessions)
+    assert done["rediagnosed"] == 3
+    cyl = server.client.get(f"/rigs/{rig_id}/trends", params={"component": "cylinder"}
+                            ).json()["components"][0]
+    assert [p["rig_version"] for p in cyl["points"]] == [2, 2, 2]
+    assert cyl["left_out"] == 3 and cyl["status"] != "stale"
+    assert cyl["later_diagnoses"] == 0 and "they named" not in cyl["message"]
+
+
+def _zema() -> Path:
+    return Path(__file__).resolve().parents[2] / "sim" / "rigs" / "zema.yaml"

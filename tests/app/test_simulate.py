@@ -148,8 +148,8 @@ def test_pressures_below_vacuum_are_named_as_beyond_the_model(server: LiveServer
 
 
 @pytest.mark.parametrize(("condition", "said"), [
-    ({"load": 4.2}, "a load of 4.2 N is below the seal's Coulomb friction (136.2 N): if it "
-                    "is in kN, give 4200 N"),
+    ({"load": 4.2}, "a load of 4.2 N is below a tenth of the seal's Coulomb friction "
+                    "(136.2 N): if it is in kN, give 4200 N"),
     ({"load": 4200, "back_pressure": 20}, "a back-pressure of 20 Pa is below 0.1 bar: if it "
                                           "is in bar, give 2e+06 Pa")])
 def test_a_condition_that_looks_like_a_unit_slip_runs_with_a_note(
@@ -159,6 +159,9 @@ def test_a_condition_that_looks_like_a_unit_slip_runs_with_a_note(
     body = server.client.post("/simulate", json={
         "rig_id": 1, "method": "steady", "condition": condition}).json()
     assert said in body["notes"]
+    light = server.client.post("/simulate", json={   # a light load, not a slip
+        "rig_id": 1, "method": "steady", "condition": {"load": 100.0}}).json()
+    assert light["notes"] == []
 
 
 def test_a_transients_notes_do_not_depend_on_asking_for_its_time_series(

@@ -84,3 +84,19 @@ def test_a_base_drift_moving_both_frictions_says_they_trade() -> None:
     assert both[0] == alone[0] == "base drift"
     assert "Fu and Kf trade against each other" in both[1]
     assert "trade against each other" not in alone[1]
+
+
+def test_a_gap_on_one_channel_alone_names_its_transducer() -> None:
+    """A pump-pressure transducer 0.3 bar off answered "unexplained … outside the library"
+    without naming the one channel that disagreed (a simulation engineer's pass)."""
+    from diagnostics.discrepancy.gap import GapRow
+    from diagnostics.discrepancy.verdict import verdict
+
+    sigma = {"P_pump": 5e3, "P1": 5e3}
+    one = [GapRow("P_pump", "Pa", "steady", 2.9e4, 3.2e4), GapRow("P1", "Pa", "steady", 4e3,
+                                                                   9e3)]
+    outcome, message = verdict([], [], one, [], {}, sigma)
+    assert outcome == "unexplained"
+    assert "only P_pump disagrees, so check that transducer's zero and gain" in message
+    two = [one[0], GapRow("P1", "Pa", "steady", 2.9e4, 3.2e4)]
+    assert "only" not in verdict([], [], two, [], {}, sigma)[1].split("explains it:")[1][:5]
