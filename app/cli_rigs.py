@@ -147,7 +147,8 @@ def rediagnose(
             result = run_rediagnosis(plan, make_session_factory(bind), None,
                                      lambda done, _note: progress.update(task, completed=done))
     taken = (f", {result['skipped']} taken by another run meanwhile" if result["skipped"]
-             else "")
+             else "") + (f"; {result['remaining']} more remain: run it again"
+                         if result["remaining"] else "")
     _out.print(f"rig {rig_id}: {result['rediagnosed']} of {result['n_diagnoses']} diagnoses "
                f"done again against version {result['rig_version']}, {result['changed']} "
                f"name another fault, {len(result['errors'])} could not be done{taken}",

@@ -30,6 +30,10 @@ class RediagnoseAccepted(BaseModel):
                              "against [-]", examples=[2])
     versions: list[int] = Field(description="The versions whose diagnoses are done again "
                                 "(empty: nothing to do) [-]", examples=[[1]])
-    n_diagnoses: int = Field(ge=0, description="Diagnoses to do again [-]", examples=[39])
+    n_diagnoses: int = Field(ge=0, description="Diagnoses to do again in this run [-]",
+                             examples=[39])
+    remaining: int = Field(ge=0, description="Diagnoses of those versions beyond this run's "
+                           "50,000 (the oldest go first): run again for them [-]",
+                           examples=[0])
     executor: str = Field(description="Where they run: 'processes' or 'dask' [-]",
                           examples=["processes"])

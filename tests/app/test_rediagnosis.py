@@ -14,7 +14,6 @@ import pytest
 from typer.testing import CliRunner
 
 from app.cli import cli
-from app.services.rediagnosis import RediagnosisPlan
 from sim.errors import InputError
 from sim.rigs import reference_rig_document
 from tests.app.conftest import new_rig, simulated_record
@@ -242,10 +241,10 @@ def test_the_console_reads_the_current_diagnoses_and_names_the_replacement(
 
 def test_a_partial_re_diagnosis_leaves_a_trend_of_the_new_points_not_a_stale_one(
         server: LiveServer) -> None:
-    """A re-diagnosis cancelled half-way leaves the later visits' diagnoses on the old
-    version; the trend counted them as later diagnoses that estimated nothing and read
-    "stale … they named cylinder" (a checker's pass).  Diagnoses of a version the trend
-    leaves out are not counted."""
+    """A re-diagnosis cancelled half-way (or limited: the oldest go first) leaves the later
+    visits' diagnoses on the old version; the trend counted them as later diagnoses that
+    estimated nothing and read "stale … they named cylinder" (a checker's pass).
+    Diagnoses of a version the trend leaves out are not counted."""
     from app.services.rediagnosis import plan_rediagnosis, run_rediagnosis
     from app.services.rig_cache import RigCache
 
@@ -256,11 +255,11 @@ def test_a_partial_re_diagnosis_leaves_a_trend_of_the_new_points_not_a_stale_one
             measured_at=f"2026-{month:02d}-01T08:00:00Z")})
     assert server.client.put(f"/rigs/{rig_id}", json={"document": shorter_seal(
         "rediagnose-partial")}, headers=server.auth).status_code == 200
-    with server.session() as session:
-        plan = plan_rediagnosis(session, RigCache(1), rig_id)
-    first_three = RediagnosisPlan(plan.resolved, plan.versions, plan.stale[:3])
+    with server.session() as session:   # a run limited to three: the oldest go first
+        first_three = plan_rediagnosis(session, RigCache(1), rig_id, max_diagnoses=3)
+    assert first_three.remaining == 3
     done = run_rediagnosis(first_three, server.app.state.sessions)
-    assert done["rediagnosed"] == 3
+    assert (done["rediagnosed"], done["remaining"]) == (3, 3)
     cyl = server.client.get(f"/rigs/{rig_id}/trends", params={"component": "cylinder"}
                             ).json()["components"][0]
     assert [p["rig_version"] for p in cyl["points"]] == [2, 2, 2]

@@ -50,4 +50,5 @@ def rediagnose(rig_id: RigId, request: Request, session: SessionDep, rigs: RigsD
     response.headers["Location"] = f"/jobs/{job.id}"
     return RediagnoseAccepted(job_id=job.id, status=job.status, rig_id=rig_id,
                               rig_version=plan.resolved.version, versions=list(plan.versions),
-                              n_diagnoses=len(plan.stale), executor=executors.kind)
+                              n_diagnoses=len(plan.stale), remaining=plan.remaining,
+                              executor=executors.kind)
