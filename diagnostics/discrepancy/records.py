@@ -1,5 +1,8 @@
 """What a measured cycle must carry for the discrepancy workflow: stroke labels, and the
-load and oil temperature it ran at (:func:`require_cycle_records`)."""
+load and oil temperature it ran at (:func:`require_cycle_records`); channels whose values
+contradict their column's unit (:func:`check_pressure_units`,
+:func:`check_motion_and_flow_units`); the piston speed of a position-only logger
+(:func:`with_velocity`); what the channels leave unevaluated (:func:`unread_notes`)."""
 
 from __future__ import annotations
 
@@ -12,19 +15,14 @@ from scipy.signal import savgol_filter
 
 from diagnostics.consistency import LOAD_FRACTION
 from diagnostics.cycle_readings import phases_from_position, position
+from diagnostics.discrepancy.balances import BALANCES
 from diagnostics.measurement import MAX_GAUGE_PRESSURE
-from diagnostics.timeseries import SeriesRecord
+from diagnostics.timeseries import CONDITION_CHANNELS, SeriesRecord
 from sim.errors import InputError
 
-__all__ = [
-    "MAX_RECORD_S",
-    "STATED",
-    "VELOCITY_WINDOW",
-    "check_pressure_units",
-    "require_cycle_records",
-    "with_phases",
-    "with_velocity",
-]
+__all__ = ["LOAD_EXCESS", "MAX_RECORD_S", "MIN_CYCLE_PRESSURE", "STATED", "VELOCITY_WINDOW",
+           "check_motion_and_flow_units", "check_pressure_units", "require_cycle_records",
+           "unread_notes", "with_phases", "with_velocity"]
 
 #: Longest record the workflow analyses [s]: records are resampled to 1 kHz, and a rig's
 #: cycle lasts seconds to a minute; ten minutes bounds the memory of a record.
@@ -276,3 +274,30 @@ def check_motion_and_flow_units(records: Sequence[SeriesRecord], *, stroke: floa
                     f"{what}, which extends the piston: is the "
                     f"{'position' if derived else 'speed'}'s sign flipped (or the phases "
                     "swapped)?", field="x" if derived else "v")
+
+
+def unread_notes(records: Sequence[SeriesRecord], evaluated: Sequence[str],
+                 outputs: Sequence[str]) -> list[str]:
+    """Notes naming the balances the records' channels do not allow (and the channels they
+    lack) and the channels the workflow does not read (``evaluated``: the balances it
+    evaluated; ``outputs``: the channels it compares with the simulation).  A healthy file whose P1 column was
+    named 'P_A' was checked on the pump balance alone and answered "no effect" without a
+    word (a simulation engineer's pass)."""
+    have = set(records[0].channels)
+    notes = []
+    # the hose balance needs a pressure at the valve's B port that few rigs log: not named
+    lacking = {b.name: [c for c in b.channels if c not in have and "." not in c]
+               for b in BALANCES if b.name not in evaluated and b.name != "hose_pressure"}
+    missing = {name: cs for name, cs in lacking.items() if cs}
+    if missing:
+        notes.append("not evaluated for want of a channel: " + "; ".join(
+            f"{name} (no {', '.join(cs)})" for name, cs in missing.items())
+            + " — an answer of no effect covers only the balances evaluated")
+    known = set(outputs) | {"x", *(c for b in BALANCES for c in b.channels)}
+    have -= set(CONDITION_CHANNELS)  # the stated condition, read as such
+    unread = sorted(have - known)
+    if unread:
+        notes.append(f"channel(s) {', '.join(repr(c) for c in unread)} not read: the workflow "
+                     f"reads {', '.join(sorted(known - {'hose.int_dp'}))} (name a column so, "
+                     "or map it with a column map)")
+    return notes

@@ -48,7 +48,7 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
-from diagnostics.discrepancy.balances import BALANCES, BalanceData, balance_data
+from diagnostics.discrepancy.balances import BalanceData, balance_data
 from diagnostics.discrepancy.carried_check import CarriedCheck, carried_statement, check_carried
 from diagnostics.discrepancy.confirm import Small, confirm_chosen, confirm_small
 from diagnostics.discrepancy.drift import Drift, refit_base
@@ -66,6 +66,7 @@ from diagnostics.discrepancy.records import (
     check_motion_and_flow_units,
     check_pressure_units,
     require_cycle_records,
+    unread_notes,
     with_phases,
     with_velocity,
 )
@@ -92,7 +93,7 @@ from diagnostics.discrepancy.verdict import (
     whiteness,
 )
 from diagnostics.discrepancy.worn import named_after_wear, worn_document
-from diagnostics.timeseries import CONDITION_CHANNELS, SeriesRecord
+from diagnostics.timeseries import SeriesRecord
 from sim.components.effects import EFFECTS
 from sim.errors import InputError
 from sim.rigs.assembly import Rig
@@ -322,40 +323,15 @@ def _first_step(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord]
                                 delivery=values["pump.speed"] * values["pump.Vp"])
     train_i, held_i = _split(labelled, rig)
     signals = prepare([labelled[i] for i in train_i], rig)
-    data = balance_data(signals, rig.values())
+    data = balance_data(signals, values)
     if not data:
         raise InputError("the records lack the channels of every balance (need e.g. P1, P2, v "
                          "for the piston force, or Q_meter_B, P_pump for the pump)",
                          field="file")
     for d in data:
         require_samples(d)
-    notes += unread_notes(labelled, [d.balance.name for d in data])
+    notes += unread_notes(labelled, [d.balance.name for d in data], OUTPUTS)
     return _FirstStep(rig, labelled, notes, train_i, held_i, signals, data)
-
-
-def unread_notes(records: Sequence[SeriesRecord], evaluated: Sequence[str]) -> list[str]:
-    """Notes naming the balances the records' channels do not allow (and the channels they
-    lack) and the channels the workflow does not read.  A healthy file whose P1 column was
-    named 'P_A' was checked on the pump balance alone and answered "no effect" without a
-    word (a simulation engineer's pass)."""
-    have = set(records[0].channels)
-    notes = []
-    # the hose balance needs a pressure at the valve's B port that few rigs log: not named
-    lacking = {b.name: [c for c in b.channels if c not in have and "." not in c]
-               for b in BALANCES if b.name not in evaluated and b.name != "hose_pressure"}
-    missing = {name: cs for name, cs in lacking.items() if cs}
-    if missing:
-        notes.append("not evaluated for want of a channel: " + "; ".join(
-            f"{name} (no {', '.join(cs)})" for name, cs in missing.items())
-            + " — an answer of no effect covers only the balances evaluated")
-    known = set(OUTPUTS) | {"x", *(c for b in BALANCES for c in b.channels)}
-    have -= set(CONDITION_CHANNELS)  # the stated condition, read as such
-    unread = sorted(have - known)
-    if unread:
-        notes.append(f"channel(s) {', '.join(repr(c) for c in unread)} not read: the workflow "
-                     f"reads {', '.join(sorted(known - {'hose.int_dp'}))} (name a column so, "
-                     "or map it with a column map)")
-    return notes
 
 
 def _discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], *,

@@ -8,9 +8,9 @@ import dataclasses
 import numpy as np
 import pytest
 
-from diagnostics.discrepancy.records import with_velocity
+from diagnostics.discrepancy.records import unread_notes, with_velocity
 from diagnostics.discrepancy.synthetic import synthesize
-from diagnostics.discrepancy.workflow import check_records, unread_notes
+from diagnostics.discrepancy.workflow import OUTPUTS, check_records
 from diagnostics.timeseries import SeriesRecord
 from sim.rigs import reference_rig, reference_rig_document
 from sim.rigs.assembly import Condition
@@ -61,7 +61,7 @@ def test_missing_and_unread_channels_are_named_not_dropped_silently() -> None:
     renamed = dataclasses.replace(
         _without(record, "P1"), channels=_without(record, "P1").channels
         | {"P_A": record.channels["P1"]}, units=_without(record, "P1").units | {"P_A": "Pa"})
-    notes = unread_notes([renamed], ["pump_flow"])
+    notes = unread_notes([renamed], ["pump_flow"], OUTPUTS)
     text = " ".join(notes)
     assert "piston_force (no P1)" in text and "chamber_flow (no P1)" in text
     assert "'P_A' not read" in text

@@ -1,0 +1,89 @@
+"""The channels a rig without a working/return cycle is read by — its pressure plateaus,
+from the pump pressure ``p_pump`` and the working flow ``q_work``
+(:func:`diagnostics.real.profile.settled_bench`) — and the checks an import of such a rig's
+series gets: the unit slips their values reveal, and a note when they are missing.  Used by
+:func:`app.services.series.import_series`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from app.db.models import MeasuredSeries
+from diagnostics.measurement import MAX_GAUGE_PRESSURE
+from diagnostics.timeseries import SeriesRecord
+from sim.errors import InputError
+
+__all__ = ["DELIVERY_FACTOR", "MAX_PLATEAU_FLOW", "MIN_PLATEAU_PRESSURE", "PLATEAU_CHANNELS",
+           "PRESSURE_FACTOR", "check_plateau_channels", "plateau_notes"]
+
+#: The channels a rig without a cycle is read by (its plateaus: pump pressure and working
+#: flow, :func:`diagnostics.real.profile.settled_bench`) and their SI units.
+PLATEAU_CHANNELS: dict[str, str] = {"p_pump": "Pa", "q_work": "m^3/s"}
+#: A plateau pressure that never reaches this is bar typed as Pa [Pa] (0.1 bar).
+MIN_PLATEAU_PRESSURE = 1.0e4
+#: A working flow beyond this is another unit typed as m³/s [m³/s] (as bench tables).
+MAX_PLATEAU_FLOW = 1.0
+#: A working flow beyond this many times the pump's geometric delivery is a slip [-].
+DELIVERY_FACTOR = 10.0
+#: A pump pressure beyond this many times the relief setting is a slip [-].
+PRESSURE_FACTOR = 2.0
+
+
+def plateau_notes(rows: Sequence[MeasuredSeries]) -> list[str]:
+    """A note naming the plateau channels an import to a rig without a cycle lacks, and a
+    name that differs from one only in case (the model's ``P_pump`` for ``p_pump``: the
+    README's own example stored series the plateau reader refused)."""
+    names = {c for r in rows for c in r.units}
+    lacking = [c for c in PLATEAU_CHANNELS if c not in names]
+    if not lacking:
+        return []
+    near = [n for n in sorted(names) if n.lower() in lacking]
+    hint = (f" ({', '.join(near)} is another name: channel names are case-sensitive)"
+            if near else "")
+    return [f"no channel {', '.join(lacking)}: a rig without a cycle is read by its "
+            f"plateaus, from {' and '.join(PLATEAU_CHANNELS)} (and oil_temperature), so the "
+            f"discrepancy workflow cannot read these records{hint}; map the columns to "
+            "those names"]
+
+
+def check_plateau_channels(records: Sequence[SeriesRecord], delivery: float | None = None,
+                           relief: float | None = None) -> None:
+    """Refuse a plateau channel that its own column contradicts (the records of a rig
+    without a cycle): a pump pressure that never reaches 0.1 bar (bar under ``[Pa]``: 150
+    Pa stored) or twice the relief setting ``relief`` [Pa] (bar under ``[MPa]``: 1,900
+    bar stored), a
+    working flow beyond 1 m³/s (l/min under ``[m^3/s]``: 7.7 m³/s stored) or beyond ten
+    times the pump's geometric delivery ``delivery`` [m³/s] (the pressure and flow
+    columns swapped: 150 l/min from a pump of 8); a real-data analyst's pass found each
+    stored without a word."""
+    for r in records:
+        p = r.channels.get("p_pump")
+        if p is not None and len(p) and float(np.nanmax(p)) < MIN_PLATEAU_PRESSURE:
+            raise InputError(f"p_pump of record {r.name!r} never reaches 0.1 bar (at most "
+                             f"{float(np.nanmax(p)):.4g} Pa): is it in bar under a [Pa] "
+                             "label?", field="p_pump")
+        ceiling = min(MAX_GAUGE_PRESSURE, PRESSURE_FACTOR * relief) if relief else \
+            MAX_GAUGE_PRESSURE
+        if p is not None and len(p) and float(np.nanmax(p)) > ceiling:
+            raise InputError(f"p_pump of record {r.name!r} reaches {float(np.nanmax(p)):.4g} "
+                             "Pa, beyond " + (f"{PRESSURE_FACTOR:g} × the rig's relief "
+                                              f"setting ({relief:.4g} Pa)" if relief else
+                                              "any instrument of a hydraulic rig")
+                             + ": is it in bar (or Pa) under an [MPa] (or [bar]) label?",
+                             field="p_pump")
+        q = r.channels.get("q_work")
+        if q is None or not len(q):
+            continue
+        top = float(np.nanmax(np.abs(q)))
+        if top > MAX_PLATEAU_FLOW:
+            raise InputError(f"q_work of record {r.name!r} reaches {top:.4g} m³/s, beyond any "
+                             "pump of a test rig: is it in l/min (or another unit) under an "
+                             "[m^3/s] label?", field="q_work")
+        if delivery and top > DELIVERY_FACTOR * delivery:
+            raise InputError(f"q_work of record {r.name!r} reaches {top:.4g} m³/s, "
+                             f"{top / delivery:.3g} × the rig's pump delivers ({delivery:.4g} "
+                             "m³/s at its stated speed): are the pressure and flow columns "
+                             "swapped, or the flow in another unit?", field="q_work")
