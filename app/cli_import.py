@@ -141,10 +141,18 @@ def import_zema(
              "labels).")] = ZEMA_RELAXATION,
     store: Annotated[bool, typer.Option(help="Store the cycles as series of the rig.")
                      ] = True,
+    started_at: Annotated[str | None, typer.Option(
+        help="Clock time at which cycle 1 started, ISO 8601 with zone (e.g. "
+             "2026-11-20T08:00:00Z): cycle k is stored as measured (k − 1) × 60 s later, "
+             "the data set's cycles following one another; default: no time.")] = None,
 ) -> None:
     """Import ZeMA load cycles (1 Hz: PS1, PS2, FS1, EPS1, TS1) through the adapter."""
+    import dataclasses
+    from datetime import timedelta
+
     from app.services.series import store_records
-    from diagnostics.real.zema import load_1hz, read_records
+    from diagnostics.real.zema import CYCLE_S, load_1hz, read_records
+    from diagnostics.timeseries import clock_time
 
     if last < first:
         raise InputError("last must not be before first", field="--last")
@@ -155,6 +163,7 @@ def import_zema(
                          "takes it", field="--relaxation")
     if not store and bench is None:
         raise InputError("nothing to do: --no-store without --bench", field="--no-store")
+    start = None if started_at is None else clock_time(started_at, field="--started-at")
     try:
         data, _ = load_1hz(root, cycles=list(range(first, last + 1)))
     except InputError as exc:
@@ -167,6 +176,10 @@ def import_zema(
         task = progress.add_task("reading cycles", total=data.cycles.size)
         records = read_records(data, lambda done, total: progress.update(task,
                                                                           completed=done))
+        if start is not None:  # consecutive cycles: a time axis for the trends of a campaign
+            records = [dataclasses.replace(r, started_at=start + timedelta(
+                seconds=CYCLE_S * (int(k) - 1))) for r, k in zip(records, data.cycles,
+                                                                  strict=True)]
         if bench is not None:
             plateaus = progress.add_task("plateaus", total=None)
             rows_written = _write_bench(records, speed, relaxation, bench,

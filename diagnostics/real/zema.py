@@ -43,7 +43,7 @@ import pandas as pd
 from diagnostics.timeseries import SeriesRecord, series_from_frame
 from sim.errors import InputError
 
-__all__ = ["CIRCUIT", "COLUMN_MAP", "DEFAULT_SENSORS", "FULLRES_CYCLES", "NATIVE_RATES",
+__all__ = ["CIRCUIT", "COLUMN_MAP", "CYCLE_S", "DEFAULT_SENSORS", "FULLRES_CYCLES", "NATIVE_RATES",
            "OTHER_TEMPERATURES", "SENSOR_FILES", "ZemaCycles",
            "ZemaLabels", "cycles_frame", "find_shared", "load_1hz", "read_fullres",
            "read_records", "zema_root"]
@@ -87,6 +87,8 @@ DEFAULT_SENSORS: tuple[str, ...] = ("PS1", "PS2", "FS1", "EPS1", "TS1")
 
 #: Samples per cycle in the 1 Hz files [-] (60 s cycles at 1 Hz).
 SAMPLES_1HZ = 60
+#: Length of one load cycle [s]; the data set's cycles follow one another.
+CYCLE_S = 60.0
 
 
 def find_shared() -> Path:

@@ -258,12 +258,24 @@ def test_import_zema_cycles_and_a_series_file(runner: CliRunner, tmp_path: Path)
                                  "--first", "6", "--last", "99999"])
     assert getattr(beyond.exception, "field", None) == "--last"
     assert store_count(MeasuredSeries) == 4
+    # consecutive 60 s cycles on a clock: cycle k stored (k − 1) minutes after cycle 1's
+    # start (every ZeMA cycle was stored without a time; a real-data analyst's pass)
+    timed_cycles = runner.invoke(cli, ["import", "zema", "--rig", "2", "--root", str(root),
+                                       "--first", "6", "--last", "7", "--name", "timed",
+                                       "--started-at", "2026-11-20T08:00:00Z"])
+    assert timed_cycles.exit_code == 0, timed_cycles.output
+    with store_session() as session:
+        times = {r.record: r.measured_at for r in session.query(MeasuredSeries)
+                 .filter(MeasuredSeries.name == "timed")}
+    assert {k: t.isoformat() for k, t in times.items()} == {
+        "cycle-6": "2026-11-20T08:05:00+00:00", "cycle-7": "2026-11-20T08:06:00+00:00"}
+    assert store_count(MeasuredSeries) == 6
     csv = tmp_path / "s.csv"
     csv.write_text("record,t [s],p_pump [bar],q_work [l/min]\na,0,150,7.9\na,1,151,7.8\n"
                    "b,0,160,7.7\nb,0.5,161,7.6\n")
     result = runner.invoke(cli, ["import", "series", str(csv), "--rig", "1", "--name", "s"])
     assert result.exit_code == 0, result.output
-    assert store_count(MeasuredSeries) == 6 and "p_pump [Pa]" in result.stdout
+    assert store_count(MeasuredSeries) == 8 and "p_pump [Pa]" in result.stdout
     timed = runner.invoke(cli, ["import", "series", str(csv), "--rig", "1", "--name", "t",
                                 "--started-at", "2026-11-20T08:00:00Z"])
     assert timed.exit_code == 0, timed.output
@@ -275,10 +287,10 @@ def test_import_zema_cycles_and_a_series_file(runner: CliRunner, tmp_path: Path)
     naive = runner.invoke(cli, ["import", "series", str(csv), "--rig", "1", "--name", "u",
                                 "--started-at", "2026-11-20T08:00:00"])
     assert naive.exit_code != 0 and getattr(naive.exception, "field", None) == "--started-at"
-    assert store_count(MeasuredSeries) == 8
+    assert store_count(MeasuredSeries) == 10
     csv.write_text("t [s],p_pump [psi]\n0,1\n1,2\n")
     bad = runner.invoke(cli, ["import", "series", str(csv), "--rig", "1", "--name", "bad"])
-    assert bad.exit_code != 0 and store_count(MeasuredSeries) == 8
+    assert bad.exit_code != 0 and store_count(MeasuredSeries) == 10
     assert "[Hz]" in runner.invoke(cli, ["import", "series", "--help"]).stdout
 
 
