@@ -33,18 +33,24 @@ PRESSURE_FACTOR = 2.0
 
 
 def plateau_notes(rows: Sequence[MeasuredSeries]) -> list[str]:
-    """A note naming the plateau channels an import to a rig without a cycle lacks, and a
-    name that differs from one only in case (the model's ``P_pump`` for ``p_pump``: the
-    README's own example stored series the plateau reader refused)."""
+    """A note naming the plateau channels an import to a rig without a cycle lacks (the
+    oil temperature too, unless stated as the record's condition), and a name that differs
+    from one only in case (the model's ``P_pump`` for ``p_pump``: the README's own example
+    stored series the plateau reader refused) or a usual name for the temperature."""
     names = {c for r in rows for c in r.units}
     lacking = [c for c in PLATEAU_CHANNELS if c not in names]
+    # the plateaus are read at the cycle's oil temperature: a channel or a stated condition
+    if any("oil_temperature" not in r.units and "oil_temperature" not in (r.condition or {})
+           for r in rows):
+        lacking.append("oil_temperature")
     if not lacking:
         return []
-    near = [n for n in sorted(names) if n.lower() in lacking]
-    hint = (f" ({', '.join(near)} is another name: channel names are case-sensitive)"
-            if near else "")
+    near = [n for n in sorted(names) if n.lower() in lacking
+            or (n.lower() in ("temperature", "oil_temp", "t_oil") and "oil_temperature" in lacking)]
+    hint = (f" ({', '.join(near)} is another name: channel names are case-sensitive and "
+            "exact)" if near else "")
     return [f"no channel {', '.join(lacking)}: a rig without a cycle is read by its "
-            f"plateaus, from {' and '.join(PLATEAU_CHANNELS)} (and oil_temperature), so the "
+            f"plateaus, from {' and '.join(PLATEAU_CHANNELS)} at the oil_temperature, so the "
             f"discrepancy workflow cannot read these records{hint}; map the columns to "
             "those names"]
 

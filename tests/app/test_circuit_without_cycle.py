@@ -220,3 +220,12 @@ def test_the_models_channel_names_get_a_note_naming_the_plateau_channels(
     assert r.status_code == 201, r.text
     (note,) = r.json()["notes"]
     assert "no channel p_pump, q_work" in note and "P_pump, Q_work is another name" in note
+    # the temperature under another name is named as well
+    r = server.client.post(f"/rigs/{rig_id}/series", headers=server.auth, data={
+        "name": "temperature", "sample_rate": "1", "column_map": json.dumps({
+            "PS1": ["p_pump", "bar"], "FS1": ["q_work", "l/min"],
+            "TS1": ["temperature", "degC"], "record": ["record", "-"]})},
+        files={"file": ("cycles.csv", content.replace(b",45\n", b",46\n"), "text/csv")})
+    assert r.status_code == 201, r.text
+    (note,) = r.json()["notes"]
+    assert "no channel oil_temperature" in note and "temperature is another name" in note
