@@ -37,10 +37,12 @@ from sim.rigs.assembly import MAX_PUMP_SPEED
 __all__ = [
     "CONSISTENCY_K",
     "DEFAULT_INSTRUMENTS",
+    "MAX_FLOW_READING",
     "MAX_GAUGE_PRESSURE",
     "MAX_MAGNITUDE",
     "MAX_PUMP_SPEED",
     "MIN_GAUGE_PRESSURE",
+    "MIN_PRESSURE_READING",
     "OIL_TEMPERATURE_RANGE",
     "InstrumentClass",
     "MeasurementRecord",
@@ -54,6 +56,13 @@ MIN_GAUGE_PRESSURE = -1.0e5
 #: Highest accepted gauge pressure [Pa]: 10 kbar, beyond the range of hydraulic pressure
 #: transducers (industrial ones end at 1-7 kbar); above it a reading is taken to be an error.
 MAX_GAUGE_PRESSURE = 1.0e9
+#: Least pressure [Pa] a reading that must carry pressure reaches (0.1 bar): a cycle's
+#: chamber, a pump's delivery, a load valve's setting, a bench table's highest rise.  One
+#: that stays below is taken for bar (or another unit) written under a ``[Pa]`` label.
+MIN_PRESSURE_READING = 1.0e4
+#: Largest flow [m³/s] of any pump of a test rig (60,000 l/min); beyond it a flow reading
+#: is taken for another unit written under ``[m^3/s]``.
+MAX_FLOW_READING = 1.0
 #: Largest magnitude of any value or standard uncertainty [SI]: beyond it the squares the
 #: diagnosis weighs readings by overflow; an uncertainty that large states nothing (leave
 #: the reading out instead).

@@ -12,20 +12,16 @@ from collections.abc import Sequence
 import numpy as np
 
 from app.db.models import MeasuredSeries
-from diagnostics.measurement import MAX_GAUGE_PRESSURE
+from diagnostics.measurement import MAX_FLOW_READING, MAX_GAUGE_PRESSURE, MIN_PRESSURE_READING
 from diagnostics.timeseries import SeriesRecord
 from sim.errors import InputError
 
-__all__ = ["DELIVERY_FACTOR", "MAX_PLATEAU_FLOW", "MIN_PLATEAU_PRESSURE", "PLATEAU_CHANNELS",
+__all__ = ["DELIVERY_FACTOR", "PLATEAU_CHANNELS",
            "PRESSURE_FACTOR", "check_plateau_channels", "plateau_notes"]
 
 #: The channels a rig without a cycle is read by (its plateaus: pump pressure and working
 #: flow, :func:`diagnostics.real.profile.settled_bench`) and their SI units.
 PLATEAU_CHANNELS: dict[str, str] = {"p_pump": "Pa", "q_work": "m^3/s"}
-#: A plateau pressure that never reaches this is bar typed as Pa [Pa] (0.1 bar).
-MIN_PLATEAU_PRESSURE = 1.0e4
-#: A working flow beyond this is another unit typed as m³/s [m³/s] (as bench tables).
-MAX_PLATEAU_FLOW = 1.0
 #: A working flow beyond this many times the pump's geometric delivery is a slip [-].
 DELIVERY_FACTOR = 10.0
 #: A pump pressure beyond this many times the relief setting is a slip [-].
@@ -62,12 +58,13 @@ def check_plateau_channels(records: Sequence[SeriesRecord], delivery: float | No
     Pa stored) or twice the relief setting ``relief`` [Pa] (bar under ``[MPa]``: 1,900
     bar stored), a
     working flow beyond 1 m³/s (l/min under ``[m^3/s]``: 7.7 m³/s stored) or beyond ten
-    times the pump's geometric delivery ``delivery`` [m³/s] (the pressure and flow
+    times the pump's geometric delivery ``delivery`` = ω·Vp [m³/s] (paper 002 eq. 2; the
+    pressure and flow
     columns swapped: 150 l/min from a pump of 8); a real-data analyst's pass found each
     stored without a word."""
     for r in records:
         p = r.channels.get("p_pump")
-        if p is not None and len(p) and float(np.nanmax(p)) < MIN_PLATEAU_PRESSURE:
+        if p is not None and len(p) and float(np.nanmax(p)) < MIN_PRESSURE_READING:
             raise InputError(f"p_pump of record {r.name!r} never reaches 0.1 bar (at most "
                              f"{float(np.nanmax(p)):.4g} Pa): is it in bar under a [Pa] "
                              "label?", field="p_pump")
@@ -84,7 +81,7 @@ def check_plateau_channels(records: Sequence[SeriesRecord], delivery: float | No
         if q is None or not len(q):
             continue
         top = float(np.nanmax(np.abs(q)))
-        if top > MAX_PLATEAU_FLOW:
+        if top > MAX_FLOW_READING:
             raise InputError(f"q_work of record {r.name!r} reaches {top:.4g} m³/s, beyond any "
                              "pump of a test rig: is it in l/min (or another unit) under an "
                              "[m^3/s] label?", field="q_work")

@@ -26,7 +26,7 @@ from sqlalchemy.orm import Session
 from app.schemas.simulate import ConditionSpec, SimulateRequest, SimulationPublic
 from app.services.rig_cache import ResolvedRig, RigCache
 from app.settings import Settings
-from diagnostics.measurement import MIN_GAUGE_PRESSURE
+from diagnostics.measurement import MIN_GAUGE_PRESSURE, MIN_PRESSURE_READING
 from diagnostics.table_files import PARQUET_METADATA_KEY  # the import reads it back
 from diagnostics.timeseries import CONDITION_CHANNELS
 from sim.cycle import CycleResult, run_cycle
@@ -88,13 +88,10 @@ class SimulationOutcome:
                 *condition_notes(self.condition, self.resolved.rig.values())]
 
 
-#: A back-pressure below this reads as bar typed in Pa [Pa] (0.1 bar; as throttle tables).
-SLIP_BACK_PRESSURE = 1.0e4
-
-
 def condition_notes(condition: Condition, values: Mapping[str, float]) -> list[str]:
     """Notes on a condition that looks like a unit slip, run as given: a load above zero
-    but below a tenth of the seal's Coulomb friction ``cylinder.Fu`` (kN typed as N: a 4.2
+    but below a tenth of the seal's Coulomb friction ``cylinder.Fu`` [N] (paper 002 eqs.
+    37, 51; kN typed as N: a 4.2
     N load ran without a word; a load of 100 N beside 136 N of friction is a light load,
     not a slip), a back-pressure above zero but below 0.1 bar (bar typed as Pa); a
     simulation engineer's pass."""
@@ -104,7 +101,7 @@ def condition_notes(condition: Condition, values: Mapping[str, float]) -> list[s
         notes.append(f"a load of {condition.load:.4g} N is below a tenth of the seal's Coulomb "
                      f"friction ({friction:.4g} N): if it is in kN, give "
                      f"{condition.load * 1e3:.4g} N")
-    if 0.0 < condition.back_pressure < SLIP_BACK_PRESSURE:
+    if 0.0 < condition.back_pressure < MIN_PRESSURE_READING:
         notes.append(f"a back-pressure of {condition.back_pressure:.4g} Pa is below 0.1 bar: "
                      f"if it is in bar, give {condition.back_pressure * 1e5:.4g} Pa")
     return notes

@@ -27,6 +27,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from app.services.rig_cache import DocumentRigs, document_digest
+from diagnostics.measurement import MIN_PRESSURE_READING
 from diagnostics.throttle import CalibrationRow, CalibrationTable, clearances_from_law
 from sim.errors import InputError, SimulationError
 from sim.rigs import Condition
@@ -37,7 +38,7 @@ __all__ = ["ThrottleClearanceEstimator"]
 _COMPONENTS = ("cylinder", "valve")
 #: smallest back-pressure of a table other than 0 [Pa]: 0.1 bar, below what a load control
 #: valve is set to; a smaller one is a unit slip (bar typed as Pa)
-MIN_BACK_PRESSURE_PA = 1.0e4
+MIN_BACK_PRESSURE_PA = MIN_PRESSURE_READING
 
 
 class ThrottleClearanceEstimator:

@@ -16,11 +16,11 @@ from scipy.signal import savgol_filter
 from diagnostics.consistency import LOAD_FRACTION
 from diagnostics.cycle_readings import phases_from_position, position
 from diagnostics.discrepancy.balances import BALANCES
-from diagnostics.measurement import MAX_GAUGE_PRESSURE
+from diagnostics.measurement import MAX_GAUGE_PRESSURE, MIN_PRESSURE_READING
 from diagnostics.timeseries import CONDITION_CHANNELS, SeriesRecord
 from sim.errors import InputError
 
-__all__ = ["LOAD_EXCESS", "MAX_RECORD_S", "MIN_CYCLE_PRESSURE", "STATED", "VELOCITY_WINDOW",
+__all__ = ["LOAD_EXCESS", "MAX_RECORD_S", "STATED", "VELOCITY_WINDOW",
            "check_motion_and_flow_units", "check_pressure_units", "require_cycle_records",
            "unread_notes", "with_phases", "with_velocity"]
 
@@ -86,8 +86,6 @@ def require_cycle_records(records: Sequence[SeriesRecord]) -> None:
                     field=key)
 
 
-#: Every pressure of a cycle reaches this somewhere [Pa] (0.1 bar).
-MIN_CYCLE_PRESSURE = 1.0e4
 #: A working stroke's P1·A1 beyond this many times the stated load and the seal friction
 #: is a load in another unit [-] (the back-pressure and the line losses add tens of %).
 LOAD_EXCESS = 5.0
@@ -113,7 +111,7 @@ def check_pressure_units(records: Sequence[SeriesRecord], area: float,
                 raise InputError(
                     f"{name} of record {r.name!r} reaches {top:.4g} Pa, beyond any instrument "
                     "of a hydraulic rig: is it in Pa (or kPa) under a [bar] label?", field=name)
-            if top < MIN_CYCLE_PRESSURE:
+            if top < MIN_PRESSURE_READING:
                 # every pressure of a cycle passes 0.1 bar somewhere: P2 drives the return
                 # stroke (P2 in bar under [Pa] ran to "unexplained" at 2.9e6 σ)
                 raise InputError(
@@ -142,7 +140,8 @@ def check_pressure_units(records: Sequence[SeriesRecord], area: float,
             continue
         push = float(np.median(r.channels["P1"][moving])) * area
         if push > LOAD_EXCESS * (load + friction):
-            # a load in kN under [N]: 2.1 "N" beside a P1 that pushes 2.2 kN
+            # a load in kN under [N]: 2.1 "N" beside a P1 that pushes 2.2 kN (the piston's
+            # force balance, paper 002 eq. 33: P1·A1 − P2·A2 = F + Ffc + m·ẍ)
             raise InputError(
                 f"the stated load of record {r.name!r}, {load:.4g} N, is far below what its "
                 f"P1 pushes while the piston extends ({push:.4g} N = P1·A1, median; the "
@@ -235,7 +234,8 @@ def check_motion_and_flow_units(records: Sequence[SeriesRecord], *, stroke: floa
                                 delivery: float) -> None:
     """Raise :class:`InputError` naming a flow, position or speed channel that its own
     column contradicts: a flow meter beyond :data:`FLOW_SLIP_FACTOR` × the pump's
-    geometric delivery ``delivery`` [m³/s] (l/min under ``[m^3/s]``: 60,000×), a position
+    geometric delivery ``delivery`` = ω·Vp [m³/s] (paper 002 eq. 2; l/min under
+    ``[m^3/s]``: 60,000×), a position
     beyond :data:`POSITION_SLIP_FACTOR` strokes ``stroke`` [m] (mm under ``[m]``), a
     working stroke whose piston speed is mostly negative (the sign flipped: the working
     stroke extends the piston).  The workflow ran such files and answered "unexplained …

@@ -181,7 +181,8 @@ def _hidden_in_base(selections: Sequence[Selection]) -> str:
 
 def _traded(drift: Drift) -> str:
     """A caution when the Coulomb and viscous friction both moved "significantly": on
-    strokes at nearly one speed only Fu + Kf·v is fixed by the data, and the re-fit's
+    strokes at nearly one speed only the friction Fu + Kf·ẋ (paper 002 eqs. 37, 51) at that
+    speed is fixed by the data, and the re-fit's
     intervals (samples taken as independent) do not show the trade — Fu alone × 1.5 read
     Fu +43 % and Kf +29 %, both intervals excluding the truth (a simulation engineer's
     pass; the CLI's table said so, the JSON answer did not)."""

@@ -16,7 +16,13 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
-from diagnostics.measurement import MAX_GAUGE_PRESSURE, MIN_GAUGE_PRESSURE, OIL_TEMPERATURE_RANGE
+from diagnostics.measurement import (
+    MAX_FLOW_READING,
+    MAX_GAUGE_PRESSURE,
+    MIN_GAUGE_PRESSURE,
+    MIN_PRESSURE_READING,
+    OIL_TEMPERATURE_RANGE,
+)
 from sim.errors import InputError, MeasurementError
 from sim.rigs.assembly import MAX_PUMP_SPEED
 
@@ -27,13 +33,13 @@ _PLAUSIBLE = (("p_in", MIN_GAUGE_PRESSURE, MAX_GAUGE_PRESSURE, "Pa"),
               ("p_out", MIN_GAUGE_PRESSURE, MAX_GAUGE_PRESSURE, "Pa"),
               ("omega", 0.0, MAX_PUMP_SPEED, "rad/s"),
               ("theta", *OIL_TEMPERATURE_RANGE, "degC"),
-              ("q", 0.0, 1.0, "m^3/s"))
+              ("q", 0.0, MAX_FLOW_READING, "m^3/s"))
 
 __all__ = ["MAX_REPLICATE", "MIN_PRESSURE_RISE", "BenchData"]
 
 #: smallest highest pressure rise of a bench table [Pa]: 0.1 bar; below it the pressures
 #: are in another unit than their header says
-MIN_PRESSURE_RISE = 1.0e4
+MIN_PRESSURE_RISE = MIN_PRESSURE_READING
 
 #: largest replicate number a table may carry [-]
 MAX_REPLICATE = 10_000

@@ -110,7 +110,7 @@ def test_the_history_is_diagnosed_again_and_the_old_diagnoses_superseded(
             ids = server.client.get(f"/measurements/{m}").json()["diagnosis_ids"]
             assert {d["id"], new["id"]} <= set(ids)
         # physics: the same leak through a seal 15 % shorter.  Laminar annulus flow
-        # Q = π·d·c³·Δp/(12·μ·L) (paper 002 eq. 12) keeps c³/L, so the clearance shrinks by
+        # Q = π·d·c³·Δp/(12·μ·L) (paper 002 eqs. 36, 50) keeps c³/L, so the clearance shrinks by
         # 0.85^(1/3) = 0.9473; the Couette term (∝ c·v, independent of L) keeps it within
         # 1 % of that
         was = next(e for e in stored["estimates"] if e["component"] == "cylinder")
