@@ -101,7 +101,7 @@ SIZES = (8.0, 16.0) if LIGHT else (4.0, 8.0, 16.0)
 HIDDEN_NOISE = os.environ.get("HYDRODIAG_NOISE", "gaussian")
 NOISE_KINDS = ("gaussian", "proportional", "heavy", "coloured")
 LIGHT_EFFECTS = ("seal_friction_pressure", "piston_clearance_pressure",
-                 "turbulent_pump_slip", "speed_offset")
+                 "turbulent_pump_slip", "speed_offset", "load_scale")
 #: stated pump speed of the reference rig [rad/s]
 SPEED = 1600.0 * 2.0 * math.pi / 60.0
 #: slow-motion strokes: pump speed [fraction of the stated] and phase switch time [s]

@@ -51,9 +51,9 @@ from diagnostics.timeseries import SeriesRecord
 from sim.errors import InputError
 from sim.phase_reading import settled_window, steady_slope, steady_window, time_average
 
-__all__ = ["CHANNELS", "COMPLETED_SHARE", "HELD_SHARE", "READ_CHANNELS", "CycleReadings",
-           "PhaseReading", "cycle_readings", "phase_reading", "phases_from_position",
-           "position"]
+__all__ = ["CHANNELS", "COMPLETED_SHARE", "HELD_SHARE", "PHASE_SOURCE", "READ_CHANNELS",
+           "CycleReadings", "PhaseReading", "cycle_readings", "phase_reading",
+           "phases_from_position", "position", "reversal_delay"]
 
 Arr = npt.NDArray[np.float64]
 
@@ -66,6 +66,9 @@ SAMPLED_SHARE = 0.9
 #: is held on its stop (0.05 mm on a 0.5 m stroke: a linear encoder's resolution, well
 #: above a logged position's noise, below any creep the model predicts over seconds) [-]
 HELD_SHARE = 1e-4
+#: metadata key of a record whose phases were read off the position (value ``"position"``,
+#: :func:`phases_from_position`): its return starts :func:`reversal_delay` after the valve's
+PHASE_SOURCE = "phase_source"
 #: record field → channel of the working phase it is read from
 CHANNELS: dict[str, str] = {"pump_pressure": "P_pump", "p1": "P1", "p2": "P2",
                             "flow_B": "Q_meter_B", "flow_C": "Q_meter_C"}
@@ -207,10 +210,31 @@ def phases_from_position(series: SeriesRecord, x: Arr, stroke: float) -> npt.NDA
         raise InputError(f"cycle {series.name!r} has no 'phase' column and holds more than "
                          "one out-and-back of the piston: separate the cycles with a "
                          "'record' column, or give the phases", field="phase")
-    far = int(np.flatnonzero(away >= float(np.max(away)) - tol)[-1])
     labels = np.full(x.size, "return", dtype="<U7")
-    labels[: far + 1] = "working"
+    labels[: _last_far(x, stroke) + 1] = "working"
     return labels
+
+
+def _last_far(x: Arr, stroke: float) -> int:
+    """Index of the last sample within :data:`HELD_SHARE` × ``stroke`` of the piston's
+    farthest point from where it started: the end of the working phase read off the
+    position (:func:`phases_from_position`)."""
+    away = np.abs(x - x[0])
+    return int(np.flatnonzero(away >= float(np.max(away)) - HELD_SHARE * stroke)[-1])
+
+
+def reversal_delay(t: Arr, x: Arr, phase: npt.NDArray[np.str_], stroke: float) -> float:
+    """How long after its valve switch a cycle's return phase starts when read off the
+    position [s]: the time from the first ``"return"`` sample of ``phase`` (the spool
+    command) to the first sample :func:`phases_from_position` labels return.  A model's
+    cycle gives it for a record whose phases were read off the position, so that the
+    record's return is compared with the model's from the same instant (0 when ``phase``
+    has no return)."""
+    ret = np.flatnonzero(phase == "return")
+    if ret.size == 0:
+        return 0.0
+    read = min(_last_far(x, stroke) + 1, t.size - 1)
+    return float(t[read] - t[ret[0]])
 
 
 def position(series: SeriesRecord) -> Arr:

@@ -1,8 +1,10 @@
 """Gap between model and measurement, per output and region, and whiteness of residuals.
 
 Model and measurement are compared phase by phase on the time since the phase start (a
-different stroke time must not count as a huge error at the phase switch), over the
-shorter of the two phase durations, in two regions: ``after step`` (the first 10 % of the
+different stroke time must not count as a huge error at the phase switch; a return whose
+phases were read off the position from the model's own reversal,
+:func:`~diagnostics.discrepancy.simulate.model_origin`), over the shorter of the two phase
+durations, in two regions: ``after step`` (the first 10 % of the
 phase, after the valve switched) and ``steady`` (10-90 %).  Whiteness is the Ljung-Box
 test (statsmodels ``acorr_ljungbox``) on the residual sampled every 20 ms.
 """
@@ -18,7 +20,7 @@ import pandas as pd
 from statsmodels.stats.diagnostic import acorr_ljungbox
 
 from diagnostics.discrepancy.signals import noise_sigma
-from diagnostics.discrepancy.simulate import on_grid
+from diagnostics.discrepancy.simulate import model_origin, on_grid
 from diagnostics.timeseries import SeriesRecord
 
 __all__ = ["GapRow", "aligned_residuals", "gap_table", "ljung_box_p", "noise_sigma"]
@@ -59,8 +61,9 @@ def aligned_residuals(record: SeriesRecord, table: pd.DataFrame, channels: Seque
         tm = record.t[sel] - record.t[sel][0]
         ts = tab["t [s]"].to_numpy(dtype=float)
         tab = tab.assign(**{"t [s]": ts - ts[0]})
-        keep = tm <= ts[-1] - ts[0]
-        model = on_grid(tab, tm[keep] + shift, list(channels))
+        origin = model_origin(record, table, ph)
+        keep = tm + origin <= ts[-1] - ts[0]
+        model = on_grid(tab, tm[keep] + origin + shift, list(channels))
         for c in channels:
             meas = record.channels[c][sel][keep]
             out[c][ph] = (tm[keep], model[c] - meas, meas)

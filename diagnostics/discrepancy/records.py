@@ -14,7 +14,7 @@ import numpy as np
 from scipy.signal import savgol_filter
 
 from diagnostics.consistency import LOAD_FRACTION
-from diagnostics.cycle_readings import phases_from_position, position
+from diagnostics.cycle_readings import PHASE_SOURCE, phases_from_position, position
 from diagnostics.discrepancy.balances import BALANCES
 from diagnostics.measurement import MAX_GAUGE_PRESSURE, MIN_PRESSURE_READING
 from diagnostics.timeseries import CONDITION_CHANNELS, SeriesRecord
@@ -164,15 +164,17 @@ def with_phases(records: Sequence[SeriesRecord], stroke: float
     for r in records:
         if r.phase is None and ("x" in r.channels or "v" in r.channels):
             labels = phases_from_position(r, position(r), stroke)
-            out.append(dataclasses.replace(r, phase=labels))
+            out.append(dataclasses.replace(r, phase=labels,
+                                           metadata={**r.metadata, PHASE_SOURCE: "position"}))
             read.append(r.name)
         else:
             out.append(r)
     notes = ([f"no phase column in {', '.join(repr(n) for n in read)}: phases read off the "
-              "position (working up to the piston's reversal, the valve taken to switch "
-              "there: a few ms after it did, which biases what the build-up after the "
-              "switch shows — a pressure-dependent seal friction came out 8 % low where the "
-              "labels gave it 1.4 % low; log the spool command where you can)"]
+              "position (working up to the piston's reversal, a few ms after the valve "
+              "switched: the model's return is compared from its own reversal on, and the "
+              "pressure build-up between switch and reversal counts as working stroke, so "
+              "an effect that shows there is seen less well; log the spool command where "
+              "you can)"]
              if read else [])
     return out, notes
 

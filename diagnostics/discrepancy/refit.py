@@ -27,6 +27,7 @@ from scipy.optimize import least_squares, minimize_scalar
 from diagnostics.discrepancy.simulate import (
     AT_STOP,
     despiked,
+    model_origin,
     on_grid,
     phase_segments,
     record_kind,
@@ -140,7 +141,8 @@ def residual_parts(rig: Rig, records: Sequence[SeriesRecord], channels: Sequence
                 tm = r.t[seg] - r.t[seg][0]
                 keep = (tm >= start * tm[-1]) & (tm <= 0.9 * tm[-1])
                 idx = seg[keep][::10]
-                model = on_grid(model_tab, tm[keep][::10], list(channels))
+                model = on_grid(model_tab, tm[keep][::10] + model_origin(r, table, ph),
+                                list(channels))
                 for c in channels:
                     parts.append((c, (model[c] - r.channels[c][idx]) / sig[c]))
     return parts

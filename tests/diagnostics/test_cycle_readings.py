@@ -12,7 +12,12 @@ import pandas as pd
 import pytest
 
 from benchmarks.accuracy_cases import transient_readings
-from diagnostics.cycle_readings import COMPLETED_SHARE, cycle_readings
+from diagnostics.cycle_readings import (
+    COMPLETED_SHARE,
+    cycle_readings,
+    phases_from_position,
+    reversal_delay,
+)
 from diagnostics.diagnose import diagnose
 from diagnostics.quantity import DEFAULT_INSTRUMENTS
 from diagnostics.signatures import evaluator
@@ -261,3 +266,20 @@ def test_a_cycle_logged_without_phases_reads_them_off_the_position(extra: dict[s
     [note] = unlabelled.notes
     switch = float(frame[frame["phase"] == "working"]["t [s]"].iloc[-1])
     assert "no phase column" in note and abs(float(note.split("t = ")[1].split()[0]) - switch) < 0.005
+
+
+def test_the_reversal_delay_is_where_the_position_starts_the_return() -> None:
+    """The return read off the position starts at the piston's reversal: on the model's
+    cycle, the delay after the valve's switch is the time to the first sample
+    :func:`phases_from_position` labels return — a few ms, the chambers reversing the force
+    before the piston turns — and a cycle without a return has none."""
+    frame, _ = _export(WORN_SPOOL, LOAD, TEMP)
+    t = frame["t [s]"].to_numpy(dtype=float)
+    x = frame["x [m]"].to_numpy(dtype=float)
+    phase = frame["phase"].to_numpy(dtype=str)
+    delay = reversal_delay(t, x, phase, STROKE)
+    read = phases_from_position(_series(frame.drop(columns=["phase"])), x, STROKE)
+    switch = t[np.flatnonzero(phase == "return")[0]]
+    assert t[np.flatnonzero(read == "return")[0]] == pytest.approx(switch + delay, abs=1e-12)
+    assert 0.0 < delay < 0.02
+    assert reversal_delay(t, x, np.full(t.size, "working"), STROKE) == 0.0

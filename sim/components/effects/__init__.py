@@ -15,6 +15,8 @@ effect                          balance          bond-graph change
 ``stribeck_friction``           piston force     R on ``cylinder.rod``
 ``seal_friction_pressure``      piston force     R on ``cylinder.rod`` reading P1, P2
 ``couette_drag``                piston force     R on ``cylinder.rod`` reading μ(T)
+``load_scale``                  piston force     Se on ``cylinder.rod`` reading the
+                                                 stated load (a stated-condition error)
 ``turbulent_piston_leakage``    chamber flow     1-junction + R across ``cylinder.c1/c2``
 ``piston_clearance_pressure``   chamber flow     1-junction + R across ``cylinder.c1/c2``
 ``turbulent_spool_leakage``     valve flow       1-junction + R across ``valve.P/T``
@@ -70,6 +72,7 @@ from sim.components.effects import (
     couette_drag,
     entrained_air,
     line_unsteady_friction,
+    load_scale,
     pressure_clearance,
     relief_override,
     seal_friction_pressure,
@@ -155,7 +158,8 @@ def _paths(module: object) -> dict[str, Effect]:
 _REGISTRY: dict[str, Effect] = {}
 for _m in (stribeck_friction, seal_friction_pressure, couette_drag, speed_offset,
            compressibility_loss, side_plate_lag, slip_hysteresis, viscosity_law,
-           relief_override, entrained_air, line_unsteady_friction, viscous_pump_slip):
+           relief_override, entrained_air, line_unsteady_friction, viscous_pump_slip,
+           load_scale):
     _e = _single(_m)
     _REGISTRY[_e.name] = _e
 for _m in (turbulent_leakage, pressure_clearance):

@@ -33,6 +33,7 @@ STRENGTHS = {
     "relief_override": ("k_ov", 4e12),
     "entrained_air": ("alpha", 1e-3),
     "line_unsteady_friction": ("k3", 0.05),
+    "load_scale": ("k_F", 0.05),
 }
 
 
@@ -112,6 +113,9 @@ def test_effect_laws_match_hand_calculations_at_a_state(full_rig):
         300.0 * math.exp(-(v / 0.02) ** 2) * math.tanh(v / vals["cylinder.v_s"]), rel=1e-12)
     assert port("seal_friction_pressure.R")[0] == pytest.approx(2e-5 * (P1 + P2), rel=1e-9)
     assert port("couette_drag.R")[0] == pytest.approx(2e4 * mu * v, rel=1e-12)
+    # the stated-load error: a source of −k_F·F_load, the sign of SeF_load (eq. 38)
+    assert port("load_scale.Se")[0] == pytest.approx(-0.05 * vals["load.force"], rel=1e-12)
+    assert port("load.F")[0] == pytest.approx(-vals["load.force"], rel=1e-12)
     dp = P1 - P2
     assert port("turbulent_piston_leakage.R")[1] == pytest.approx(
         1e-8 * dp / (dp * dp + 1e8) ** 0.25, rel=1e-12)
@@ -175,6 +179,20 @@ def test_seal_friction_raises_the_working_pressure_by_the_hand_computed_force():
     a1 = rig.values()["cylinder.A1"]
     extra = a1 * ((out["P1"] - base["P1"]) - (out["P2"] - base["P2"]))
     assert extra == pytest.approx(2e-5 * (out["P1"] + out["P2"]), rel=0.02)
+
+
+def test_load_scale_raises_the_working_pressure_by_k_times_the_stated_load_only():
+    rig = load_rig(_doc({"load_scale": 0.03}))
+    v = rig.values()
+    for phase, extra_force in (("working", 0.03 * v["load.force"]), ("return", 0.0)):
+        base = steady_phase(reference_rig(), phase).outputs
+        out = steady_phase(rig, phase).outputs
+        # force balance at the piston: A1·ΔP1 − A2·ΔP2 = k_F·F_load (zero in the return
+        # stroke, where paper 002 eq. 52 sets the load to zero); the speed, and with it the
+        # viscous friction Kf·ẋ, moves by the extra leak at the higher pressure (< 0.1 %)
+        extra = v["cylinder.A1"] * (out["P1"] - base["P1"]) - v["cylinder.A2"] * (
+            out["P2"] - base["P2"])
+        assert extra == pytest.approx(extra_force, rel=2e-3, abs=1e-9)
 
 
 def test_speed_offset_adds_vp_times_domega_to_the_delivered_flow():
