@@ -35,6 +35,7 @@ from diagnostics.real.zema import (
     read_records,
     zema_root,
 )
+from diagnostics.robust import mad_sigma
 from diagnostics.timeseries import SeriesRecord
 
 __all__ = ["accumulator", "valve_lag"]
@@ -58,8 +59,8 @@ def _separation(v: Arr, labels: Arr, a: float, b: float) -> dict[str, float]:
     """
     xa, xb = v[(labels == a) & np.isfinite(v)], v[(labels == b) & np.isfinite(v)]
     ma, mb = float(np.median(xa)), float(np.median(xb))
-    sa = 1.4826 * float(np.median(np.abs(xa - ma)))
-    sb = 1.4826 * float(np.median(np.abs(xb - mb)))
+    sa = mad_sigma(xa)
+    sb = mad_sigma(xb)
     sig = math.sqrt(0.5 * (sa * sa + sb * sb))
     d = (mb - ma) / sig
     return {"measured_ratio": mb / ma, "expected_ratio": (b / a) ** (1.0 / 1.4),

@@ -24,6 +24,8 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from diagnostics.robust import mad_sigma
+
 __all__ = ["CRITICAL_F", "MIN_SIDE", "MIN_VISITS", "PRACTICAL", "LevelShift", "critical_f",
            "level_shift"]
 
@@ -113,7 +115,7 @@ def level_shift(times: npt.ArrayLike, values: npt.ArrayLike, slope: float,
     dt = t - float(np.median(t))
     res = y - slope * dt
     res = res - float(np.median(res))
-    sigma = 1.4826 * float(np.median(np.abs(res)))
+    sigma = mad_sigma(res)
     if sigma > 0:   # one wrong record is not a step
         res = np.clip(res, -3 * sigma, 3 * sigma)
     yc = res + slope * dt

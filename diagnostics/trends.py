@@ -58,6 +58,7 @@ import numpy as np
 from scipy import stats
 
 from diagnostics.level_shift import LevelShift, level_shift
+from diagnostics.robust import mad_sigma
 from diagnostics.theil_sen import EXACT_PAIRS, SAMPLED_PAIRS, theil_sen
 from diagnostics.uncertainty import Estimate
 from sim.errors import InputError
@@ -234,7 +235,7 @@ def fit_trend(series: TrendSeries, *, confidence: float = 0.95) -> TrendFit:
     t_p = float(np.median(t))
     dt = t - t_p
     level = float(np.median(y - slope * dt))
-    sigma = 1.4826 * float(np.median(np.abs(y - slope * dt - level)))
+    sigma = mad_sigma(y - slope * dt)
     if series.uncertainties is not None and min(series.uncertainties) > 0.0:
         w = 1.0 / np.asarray(series.uncertainties, dtype=np.float64) ** 2
         t_bar = float(np.sum(w * t) / np.sum(w))

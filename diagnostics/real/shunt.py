@@ -61,6 +61,7 @@ from diagnostics.real.leakage import (
     leakage_estimates,
     record_plateaus,
 )
+from diagnostics.robust import mad_sigma
 from diagnostics.timeseries import SeriesRecord
 from sim.errors import InputError
 
@@ -83,13 +84,6 @@ MIN_LEAK_FRACTION = 0.005
 #: A cycle leaks when its deficit is this many robust σ above a baseline's [-].
 BASELINE_Z = 5.0
 #: Robust σ of a normal sample from its median absolute deviation [-].
-_MAD_SIGMA = 1.4826
-
-
-def _robust_sigma(x: Arr) -> float:
-    return float(_MAD_SIGMA * np.median(np.abs(x - np.median(x)))) if x.size else 0.0
-
-
 @dataclass(frozen=True)
 class HealthyBaseline:
     """Cycles known healthy (after commissioning or an overhaul) that a batch is read
@@ -148,7 +142,7 @@ def separation(deficit: npt.ArrayLike, threshold: float) -> float:
     lo, hi = d[d <= threshold], d[d > threshold]
     if lo.size == 0 or hi.size == 0:
         return 0.0
-    pooled = np.sqrt((_robust_sigma(lo) ** 2 * lo.size + _robust_sigma(hi) ** 2 * hi.size)
+    pooled = np.sqrt((mad_sigma(lo) ** 2 * lo.size + mad_sigma(hi) ** 2 * hi.size)
                      / d.size)
     gap = float(np.median(hi) - np.median(lo))
     return gap / float(pooled) if pooled > 0 else float("inf")
@@ -335,7 +329,7 @@ def _against_baseline(records: Sequence[SeriesRecord], points: Sequence[CyclePoi
     # at least the practical size: a baseline of few cycles (pairs at one temperature) can
     # state a scatter of 1e-7 l/min
     flow = float(np.median([c.flow for c in baseline.points]))
-    thr = float(np.median(own) + max(BASELINE_Z * _robust_sigma(own), MIN_LEAK_FRACTION * flow))
+    thr = float(np.median(own) + max(BASELINE_Z * mad_sigma(own), MIN_LEAK_FRACTION * flow))
     p = np.array([c.pressure for c in points])
     th = np.array([c.theta for c in points])
     q = np.array([c.flow for c in points])
