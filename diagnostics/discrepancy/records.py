@@ -11,6 +11,7 @@ import itertools
 from collections.abc import Sequence
 
 import numpy as np
+import numpy.typing as npt
 from scipy.signal import savgol_filter
 
 from diagnostics.consistency import LOAD_FRACTION
@@ -23,6 +24,8 @@ from sim.errors import InputError
 __all__ = ["LOAD_EXCESS", "MAX_RECORD_S", "STATED", "VELOCITY_WINDOW",
            "check_motion_and_flow_units", "check_pressure_units", "require_cycle_records",
            "unread_notes", "with_phases", "with_velocity"]
+
+Arr = npt.NDArray[np.float64]
 
 #: Longest record the workflow analyses [s]: records are resampled to 1 kHz, and a rig's
 #: cycle lasts seconds to a minute; ten minutes bounds the memory of a record.
@@ -237,12 +240,12 @@ def check_motion_and_flow_units(records: Sequence[SeriesRecord], *, stroke: floa
     """Raise :class:`InputError` naming a flow, position or speed channel that its own
     column contradicts: a flow meter beyond :data:`FLOW_SLIP_FACTOR` × the pump's
     geometric delivery ``delivery`` = ω·Vp [m³/s] (paper 002 eq. 2; l/min under
-    ``[m^3/s]``: 60,000×), a position
-    beyond :data:`POSITION_SLIP_FACTOR` strokes ``stroke`` [m] (mm under ``[m]``), a
-    working stroke whose piston speed is mostly negative (the sign flipped: the working
-    stroke extends the piston).  The workflow ran such files and answered "unexplained …
-    re-commission the rig" at 10⁵-10⁶ σ, or re-fitted the clearances first (a simulation
-    engineer's pass)."""
+    ``[m^3/s]``: 60,000×), a position beyond :data:`POSITION_SLIP_FACTOR` strokes
+    ``stroke`` [m] (mm under ``[m]``), a working stroke whose piston speed is mostly
+    negative (the sign flipped: the working stroke extends the piston), a flow meter of the
+    wrong sign (:func:`_check_flow_signs`).  The workflow ran such files and answered
+    "unexplained … re-commission the rig" at 10⁵-10⁶ σ, or re-fitted the clearances first
+    (a simulation engineer's pass)."""
     for r in records:
         for name in ("Q_meter_B", "Q_meter_C"):
             q = r.channels.get(name)
@@ -276,6 +279,32 @@ def check_motion_and_flow_units(records: Sequence[SeriesRecord], *, stroke: floa
                     f"{what}, which extends the piston: is the "
                     f"{'position' if derived else 'speed'}'s sign flipped (or the phases "
                     "swapped)?", field="x" if derived else "v")
+        if v is not None:
+            _check_flow_signs(r, v)
+
+
+def _check_flow_signs(r: SeriesRecord, v: Arr) -> None:
+    """Refuse a flow meter whose sign its own column contradicts while the piston moves:
+    meter B carries the pump's delivery to the valve (ω·Vp less the leaks, paper 002 eq. 2:
+    positive in both strokes), meter C the oil chamber 2 exchanges with the valve (A2·ẋ,
+    eq. 34: the piston speed's sign).  A flipped meter C was run and answered "unexplained"
+    at 960 σ (a simulation engineer's pass)."""
+    moving = np.abs(v) > 1e-3
+    if int(moving.sum()) < 10:
+        return
+    for name, sign, says in (
+            ("Q_meter_B", np.ones_like(v), "is negative while the piston moves, where it "
+             "carries the pump's delivery to the valve"),
+            ("Q_meter_C", np.sign(v), "flows against the piston's motion, where it carries "
+             "the oil chamber 2 exchanges with the valve (A2·ẋ)")):
+        q = r.channels.get(name)
+        if q is None:
+            continue
+        along = q[moving] * sign[moving]
+        if float(np.median(along)) < 0:
+            raise InputError(f"{name} of record {r.name!r} {says} (median "
+                             f"{float(np.median(q[moving])):.4g} m³/s): is its sign flipped?",
+                             field=name)
 
 
 def unread_notes(records: Sequence[SeriesRecord], evaluated: Sequence[str],

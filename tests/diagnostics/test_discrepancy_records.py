@@ -72,12 +72,14 @@ def test_missing_and_unread_channels_are_named_not_dropped_silently() -> None:
 
 @pytest.mark.parametrize(("channel", "scale", "why"), [
     ("Q_meter_C", 60000.0, "l/min"), ("Q_meter_B", 60000.0, "l/min"),
-    ("x", 1000.0, "mm under an [m] label"), ("v", -1.0, "sign flipped")])
+    ("x", 1000.0, "mm under an [m] label"), ("v", -1.0, "sign flipped"),
+    ("Q_meter_C", -1.0, "against the piston's motion"),
+    ("Q_meter_B", -1.0, "negative while the piston moves")])
 def test_a_flow_position_or_speed_its_column_contradicts_is_refused(
         channel: str, scale: float, why: str) -> None:
-    """l/min under ``[m^3/s]`` (60,000× the pump's flow), mm under ``[m]`` and a flipped
-    speed were run and answered "unexplained … re-commission" at 10⁵-10⁶ σ (a simulation
-    engineer's pass): each is refused naming its column, and the record as exported
+    """l/min under ``[m^3/s]`` (60,000× the pump's flow), mm under ``[m]``, a flipped
+    speed and a flipped flow meter were run and answered "unexplained … re-commission" at
+    10²-10⁶ σ (a simulation engineer's pass): each is refused naming its column, and the record as exported
     passes (its first sample's flow transient, ~3× the pump's, included)."""
     from sim.errors import InputError
 
