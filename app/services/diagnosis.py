@@ -32,7 +32,12 @@ from app.schemas.diagnose import (
     MeasurementIn,
 )
 from app.services.common import commit, prefixed
-from app.services.history import ComponentEstimate, add_diagnosis, add_measurement
+from app.services.history import (
+    ComponentEstimate,
+    add_diagnosis,
+    add_measurement,
+    stored_series_twin,
+)
 from app.services.measurements import stored_record, to_record
 from app.services.rig_cache import ResolvedRig, RigCache
 from app.services.series import check_source
@@ -401,6 +406,8 @@ def add_outcomes(session: Session, request: DiagnoseRequest,
                 )
                 rows.append(diagnosis.measurement)
             else:
+                stored_series_twin(session.connection(), outcome.resolved.rig_id,
+                                   outcome.resolved.version_id, [record])
                 rows.append(add_measurement(session, rig_id=outcome.resolved.rig_id,
                                             measured_at=times[i], record=record))
         diagnosis.records = rows  # a joint diagnosis is linked to each of its records

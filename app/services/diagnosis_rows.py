@@ -22,7 +22,7 @@ from sqlalchemy.orm import Session
 from app.db.base import utcnow
 from app.db.models import Diagnosis, DiagnosisEstimate, DiagnosisRecord, Measurement
 from app.services.diagnosis_answer import StoredRows
-from app.services.history import stored_twin
+from app.services.history import stored_series_twin, stored_twin
 
 __all__ = ["insert_rows"]
 
@@ -76,7 +76,8 @@ def insert_rows(session: Session, rows: Sequence[StoredRows]) -> list[tuple[int,
         A constraint refused a row (a rig or version deleted meanwhile).
     ConflictError
         A record stored already with a diagnosis against the same rig version
-        (:func:`~app.services.history.stored_twin`).
+        (:func:`~app.services.history.stored_twin`, and a record read from a stored
+        series: :func:`~app.services.history.stored_series_twin`).
     """
     connection = session.connection()  # Core statements on the session's transaction
     add_measurement, add_diagnosis, add_estimates, add_records = _statements(
@@ -87,6 +88,8 @@ def insert_rows(session: Session, rows: Sequence[StoredRows]) -> list[tuple[int,
         if item.stated:
             measured_at, record = item.measurements[item.latest]
             stored_twin(connection, item.rig_id, item.rig_version_id, measured_at, record)
+        stored_series_twin(connection, item.rig_id, item.rig_version_id,
+                           [record for _, record in item.measurements])
         measurement_ids = [
             int(connection.execute(add_measurement, {
                 "rig_id": item.rig_id, "measured_at": measured_at,

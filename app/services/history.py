@@ -17,13 +17,20 @@ from sqlalchemy import Connection, Select, bindparam, select
 from sqlalchemy.orm import Session
 
 from app.db.engine import loads_json
-from app.db.models import Diagnosis, DiagnosisEstimate, Measurement, RigVersion
+from app.db.models import (
+    Diagnosis,
+    DiagnosisEstimate,
+    DiagnosisRecord,
+    Measurement,
+    RigVersion,
+)
 from app.services.common import commit
 from app.services.rigs import get_rig, get_version
 from sim.errors import ConflictError, InputError
 
 __all__ = ["ComponentEstimate", "HistoryPoint", "add_diagnosis", "add_measurement",
-           "component_history", "estimate_row", "record_diagnosis", "stated_bound", "stored_twin"]
+           "component_history", "estimate_row", "record_diagnosis", "stated_bound",
+           "stored_series_twin", "stored_twin"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -119,6 +126,51 @@ def stored_twin(connection: Connection, rig_id: int, rig_version_id: int,
                 "own measured_at", field="measured_at")
 
 
+@cache
+def _series_diagnoses() -> Select[int, int]:
+    """The diagnoses of a rig made from a record read from one stored series (the record's
+    ``series_id``, which ``GET /series/{id}/record`` writes)."""
+    return (select(Diagnosis.id, Diagnosis.rig_version_id)
+            .select_from(Measurement)
+            .join(DiagnosisRecord, DiagnosisRecord.measurement_id == Measurement.id)
+            .join(Diagnosis, Diagnosis.id == DiagnosisRecord.diagnosis_id)
+            .where(Measurement.rig_id == bindparam("rig_id"),
+                   Measurement.record["series_id"].as_integer() == bindparam("series_id")))
+
+
+def stored_series_twin(connection: Connection, rig_id: int, rig_version_id: int,
+                       records: Sequence[Mapping[str, Any] | bytes]) -> None:
+    """Refuse a diagnosis of a record read from a stored series (its ``series_id``) that a
+    stored diagnosis against the same rig version was made from already, whatever its
+    ``measured_at``: a series holds one measured cycle.  A series imported without its
+    start gives records without a time, each stored at the time of its request, so
+    :func:`stored_twin` never saw the repeat: following the README's walk-through stored
+    one cycle four times and the trend counted each (a new engineer's pass).  Against a
+    newer version (after commissioning) it is a new diagnosis.
+
+    Raises
+    ------
+    ConflictError
+        Naming the stored diagnosis (``field`` ``series_id``).
+    """
+    for record in records:
+        if isinstance(record, bytes):
+            if b'"series_id"' not in record:
+                continue
+            record = loads_json(record)
+        series_id = record.get("series_id")
+        if not isinstance(series_id, int):
+            continue
+        for diagnosis_id, version in connection.execute(
+                _series_diagnoses(), {"rig_id": rig_id, "series_id": series_id}):
+            if version == rig_version_id:
+                raise ConflictError(
+                    f"the cycle of series {series_id} is stored already, diagnosed against "
+                    f"the same rig version as diagnosis {diagnosis_id}: send it with store "
+                    "false to diagnose it again (GET /diagnoses/{id} reads the stored one)",
+                    field="series_id")
+
+
 def add_measurement(
     session: Session, *, rig_id: int, measured_at: datetime, record: Mapping[str, Any]
 ) -> Measurement:
@@ -166,6 +218,7 @@ def add_diagnosis(
         raise InputError("one estimate per component", field="estimates")
     if stated and measured_at.tzinfo is not None:  # a naive time: add_measurement says so
         stored_twin(session.connection(), rig_id, rig_version_id, measured_at, record)
+    stored_series_twin(session.connection(), rig_id, rig_version_id, [record])
     measurement = add_measurement(session, rig_id=rig_id, measured_at=measured_at,
                                   record=record)
     diagnosis = Diagnosis(

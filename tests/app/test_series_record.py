@@ -59,6 +59,17 @@ def test_a_stored_cycle_is_read_as_a_record_and_diagnosed(server: LiveServer,
     [answer] = d.json()["diagnoses"]
     assert answer["top"] == "valve" and answer["id"] is not None
     assert server.row_counts()["diagnoses"] == before + 1
+    # the series has no start, so the record no time: posted again as it is, it was stored
+    # again at the request's time (a cycle counted four times in a trend, a new engineer's
+    # pass); it is refused naming the stored diagnosis, and store false still answers
+    again = server.client.post("/diagnose", json={"record": record}, headers=server.auth)
+    assert again.status_code == 409, again.text
+    error = again.json()["error"]
+    assert error["field"] == "series_id" and f"diagnosis {answer['id']}" in error["message"]
+    assert server.row_counts()["diagnoses"] == before + 1
+    dry = server.client.post("/diagnose", json={"record": record, "store": False},
+                             headers=server.auth)
+    assert dry.status_code == 200 and dry.json()["diagnoses"][0]["top"] == "valve"
     # the condition given in the query overrides the series'
     hot = server.client.get(f"/series/{worn_spool_series}/record",
                             params={"oil_temperature": 45.0}).json()

@@ -100,3 +100,24 @@ def test_a_gap_on_one_channel_alone_names_its_transducer() -> None:
     assert "only P_pump disagrees, so check that transducer's zero and gain" in message
     two = [one[0], GapRow("P1", "Pa", "steady", 2.9e4, 3.2e4)]
     assert "only" not in verdict([], [], two, [], {}, sigma)[1].split("explains it:")[1][:5]
+
+
+def test_a_named_effect_that_leaves_a_channel_as_it_was_is_partially_explained() -> None:
+    """A thermometer 3 K low was named piston_clearance_pressure and stored: the speed's
+    gap closed (4.8 σ → 1.9 σ), meter C's stayed at 3.4 σ (a simulation engineer's pass).
+    An effect that leaves a held-out channel above 3 σ with more than half its gap is not
+    the explanation of that channel: "partially explained", which is not stored."""
+    sigma = {"v": 1e-3, "Q_meter_C": 1e-6}
+    before = [GapRow("v", "m/s", "steady", 4.8e-3, 9e-3),
+              GapRow("Q_meter_C", "m^3/s", "steady", 3.4e-6, 7e-6)]
+    stuck = [GapRow("v", "m/s", "steady", 1.9e-3, 5e-3),
+             GapRow("Q_meter_C", "m^3/s", "steady", 3.4e-6, 7e-6)]
+    outcome, message = verdict(["piston_clearance_pressure"], [], before, stuck, {}, sigma)
+    assert outcome == "partially explained"
+    assert "held-out Q_meter_C 3.4 σ → 3.4 σ not closed" in message
+    # closed to the noise, or shrunk by more than half: named
+    closed = [stuck[0], GapRow("Q_meter_C", "m^3/s", "steady", 1.0e-6, 3e-6)]
+    assert verdict(["piston_clearance_pressure"], [], before, closed, {}, sigma)[0] == "named"
+    big = [GapRow("Q_meter_C", "m^3/s", "steady", 12e-6, 2e-5)]
+    halved = [GapRow("Q_meter_C", "m^3/s", "steady", 4e-6, 9e-6)]
+    assert verdict(["x"], [], big, halved, {}, sigma)[0] == "named"
