@@ -501,7 +501,8 @@ def time_notes(untimed: Sequence[str], store: bool, now: datetime) -> list[str]:
         return []
     named = ", ".join(untimed[:5]) + (f" and {len(untimed) - 5} more" if len(untimed) > 5
                                       else "")
-    return [f"{named} state no measured_at: stored at the time of this request "
+    verb = "state" if len(untimed) > 1 else "states"
+    return [f"{named} {verb} no measured_at: stored at the time of this request "
             f"({now.astimezone(UTC).isoformat().replace('+00:00', 'Z')}), where the history and trends place "
             f"{'them' if len(untimed) > 1 else 'it'}; send the time the readings were taken "
             "(measured_at, ISO 8601) with logged data"]

@@ -214,6 +214,31 @@ def _traded(drift: Drift) -> str:
             "stroke) separate them")
 
 
+#: the two laminar clearances' changes count as "together" within this ratio of each other
+TOGETHER = 1.6
+
+
+def _thermometer(drift: Drift) -> str:
+    """A caution when the piston's and the spool's clearances moved significantly, the same
+    way and by nearly the same share: every laminar leak goes as c³/μ(T) (paper 002 eqs.
+    23, 36), so a stated oil temperature off by ΔT moves each clearance the re-fit reads by
+    −(1/3)·(d ln μ/dT)·ΔT alike — about 1.5 % per K for an ISO VG 46 oil at 40 °C.  A
+    thermometer 3 K low was answered "base drift, cc +4.2 %, cv +3.9 %" as wear (a
+    simulation engineer's pass); two components wearing by the same share is rarer than one
+    thermometer."""
+    moved = {d.parameter: d.change for d in drift.parameters if d.significant}
+    cc, cv = moved.get("cylinder.cc"), moved.get("valve.cv")
+    if cc is None or cv is None or cc * cv <= 0:
+        return ""
+    if max(abs(cc), abs(cv)) > TOGETHER * min(abs(cc), abs(cv)):
+        return ""
+    return (". The piston's and the spool's clearances moved together (cc "
+            f"{cc:+.1%}, cv {cv:+.1%}): a stated oil temperature that is off does the same — "
+            "every laminar leak goes as c³/μ(T), so each 1 K of error moves both by about "
+            "1.5 % on an ISO VG 46 oil at 40 °C — check the thermometer before taking it for "
+            "wear")
+
+
 def verdict(named: Sequence[str], selections: list[Selection], before: list[GapRow],
             after: list[GapRow], white_after: dict[str, float],
             sigma: Mapping[str, float], drift: Drift | None = None) -> tuple[str, str]:
@@ -266,7 +291,7 @@ def verdict(named: Sequence[str], selections: list[Selection], before: list[GapR
                 "A clearance or pump leakage that moved is wear: POST /diagnose sizes it "
                 "against the stored rig; friction that moved is re-commissioning "
                 "(POST /rigs/{id}/commission, hydrodiag commission). The stored rig is "
-                "left as it is" + _traded(drift))
+                "left as it is" + _traded(drift) + _thermometer(drift))
     if (left or off) and drift is not None and drift.unchanged:
         return ("no effect", f"no effect found: the held-out steady RMSE on the phase's clock "
                 f"is above the noise ({where}), but {drift.reason}")

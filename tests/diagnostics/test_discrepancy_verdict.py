@@ -121,3 +121,23 @@ def test_a_named_effect_that_leaves_a_channel_as_it_was_is_partially_explained()
     big = [GapRow("Q_meter_C", "m^3/s", "steady", 12e-6, 2e-5)]
     halved = [GapRow("Q_meter_C", "m^3/s", "steady", 4e-6, 9e-6)]
     assert verdict(["x"], [], big, halved, {}, sigma)[0] == "named"
+
+
+def test_both_laminar_clearances_moving_together_point_at_the_thermometer() -> None:
+    """A thermometer 3 K low read "base drift, cc +4.2 %, cv +3.9 %" as wear (a simulation
+    engineer's pass): both clearances moving the same way by nearly the same share is what
+    a wrong oil temperature does to c³/μ(T); one alone, or the two apart, is not."""
+    from diagnostics.discrepancy.drift import BaseDrift, Drift
+
+    def drift(cc: float, cv: float) -> Drift:
+        return Drift([BaseDrift("cylinder.cc", "m", "wear", 83e-6, 83e-6 * (1 + cc), 0.1e-6),
+                      BaseDrift("valve.cv", "m", "wear", 50e-6, 50e-6 * (1 + cv), 0.05e-6)],
+                     [], [], {"v": 0.9}, True, "")
+
+    sigma = {"v": 1e-3}
+    gap = [GapRow("v", "m/s", "steady", 6.9e-3, 1e-2)]
+    together = verdict([], [], gap, [], {}, sigma, drift(0.042, 0.039))[1]
+    assert "moved together (cc +4.2%, cv +3.9%)" in together
+    assert "check the thermometer" in together
+    for cc, cv in ((0.20, 0.0), (0.20, 0.04), (0.05, -0.05)):
+        assert "thermometer" not in verdict([], [], gap, [], {}, sigma, drift(cc, cv))[1]

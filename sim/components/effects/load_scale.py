@@ -11,7 +11,10 @@ more or less than their nominal back-pressure, an added fixture mass — the tru
 ``(1 + k_F)·F_load``; the source adds the difference.  ``k_F`` [-] may have either sign.
 Like the speed offset (paper 000 §5: an offset traced to a wrong speed reading) this is an
 error of a stated condition, not of the rig: a rig version that carries it applies the
-correction to every condition it is given.
+correction to every condition it is given.  It scales the load stated as a force, the way
+paper 002 models its load valve; a rig loaded through ``load.back_pressure`` (the valve as a
+pressure in the outlet line, :mod:`sim.components.load`) has a zero force column, and an
+error in that back-pressure is no case of this entry (the workflow answers "unexplained").
 
 Signature in the piston force balance: ``A1·P1 − A2·P2 − F_load`` exceeds the friction
 by ``k_F·F_load`` — the stated load itself, at every load of the records and zero in the
