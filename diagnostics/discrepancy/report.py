@@ -188,7 +188,11 @@ def html_page(d: Discovery, title: str = "hydrodiag discrepancy report", *,
     for b in rep["balances"]:
         mds = ", ".join(f"{k}: {_fmt(v) if v is not None else 'not identifiable'}"
                         for k, v in b["minimum_detectable_rms"].items())
-        parts.append(f"<tr><td>{e(b['balance'])}</td><td>{e(', '.join(b['chosen']) or '—')}</td>"
+        chosen = ", ".join(b["chosen"]) or "—"
+        kept = b.get("picked_by_resimulation", b["chosen"])   # absent in older reports
+        if kept != b["chosen"]:
+            chosen += f" (re-simulation kept {', '.join(kept)})"
+        parts.append(f"<tr><td>{e(b['balance'])}</td><td>{e(chosen)}</td>"
                      f"<td>{_fmt(b['bic_gain'])}</td><td>{_fmt(b['residual_rms'])} "
                      f"[{e(b['unit'])}]</td><td>{_fmt(b['practical_size'])}</td>"
                      f"<td>{e(_groups(b['ambiguity']))}</td><td>{e(mds)}</td></tr>")

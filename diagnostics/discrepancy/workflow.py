@@ -165,6 +165,9 @@ class Discovery:
     #: each output channel's noise as the records show it (:mod:`~diagnostics.discrepancy.
     #: noise`), against which the gaps are judged
     noise: dict[str, Noise] = field(default_factory=dict)
+    #: per balance, the explanation re-simulation kept where it told the equation error's
+    #: near alternatives apart (:func:`~diagnostics.discrepancy.refit.tell_apart`)
+    picked: dict[str, list[str]] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
         """The report as JSON-able data (units in the keys' descriptions)."""
@@ -172,6 +175,10 @@ class Discovery:
             return {
                 "balance": s.balance, "unit": s.unit,
                 "chosen": [t.effect for t in s.chosen.terms] if s.chosen else [],
+                # what re-simulation kept among the near alternatives: the equation error's
+                # choice and the named effect disagreed without a word (a stated-load pass)
+                "picked_by_resimulation": self.picked.get(
+                    s.balance, [t.effect for t in s.chosen.terms] if s.chosen else []),
                 "bic_gain": s.bic_gain, "competing": s.competing, "ambiguity": s.ambiguity,
                 "inclusion": s.inclusion,
                 "base_coefficients": s.base_coefficients,
@@ -500,7 +507,7 @@ def _discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], 
                        [r.name for r in records] and [records[i].name for i in held_i],
                        gap_before, gap_after, white_before, white_after, new_doc,
                        _solver_statement(base_tables), detectable, traces, lof, drift,
-                       checks, noise)
+                       checks, noise, {b: [t.effect for t in f.terms] for b, f in picked.items()})
     if (refit and not named and conf.rejected and drift is not None
             and not drift.accepted and drift.wear is not None):
         report(0.9, "the workflow again from the rig with its wear re-fitted")

@@ -100,6 +100,9 @@ def test_a_load_cell_reading_3_percent_low_is_named_the_stated_load_not_seal_fri
     d = discover(reference_rig_document(), recs, bootstrap=10)
     assert d.verdict == "named"
     assert [n.name for n in d.named] == ["load_scale"]
+    # the JSON says what re-simulation kept, beside the equation error's choice
+    (piston,) = [b for b in d.to_dict()["balances"] if b["balance"] == "piston_force"]
+    assert piston["picked_by_resimulation"] == ["load_scale"]
     n = d.named[0]
     assert n.interval[0] <= 0.03 <= n.interval[1]
     assert n.value == pytest.approx(0.03, rel=0.03)
