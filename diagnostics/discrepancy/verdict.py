@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from scipy.ndimage import uniform_filter1d
 
-from diagnostics.discrepancy.balances import STRUCTURE_SMOOTH
+from diagnostics.discrepancy.balances import BALANCES, STRUCTURE_SMOOTH
 from diagnostics.discrepancy.gap import GapRow, aligned_residuals, ljung_box_p
 from diagnostics.discrepancy.selection import PRACTICAL, Selection
 from diagnostics.timeseries import SeriesRecord
@@ -299,8 +299,13 @@ def verdict(named: Sequence[str], selections: list[Selection], before: list[GapR
         tried = f"; {drift.reason}" if drift is not None and drift.reason else ""
         alone = sorted({r.channel for r in before if r.region == "steady"
                         and r.rmse > OUTPUT_GAP * sigma[r.channel]})
+        # one channel off, and every balance left above the noise reads it: its transducer
+        # first (a P1 zero 0.5 bar off also leaves the piston force balance, which reads P1,
+        # and got only the generic hint: a stated-condition pass)
+        reads = {b.name: b.channels for b in BALANCES}
         sensor = (f"only {alone[0]} disagrees, so check that transducer's zero and gain "
-                  "first; " if len(alone) == 1 and not left else "")
+                  "first; " if len(alone) == 1 and all(alone[0] in reads.get(b, ())
+                                                       for b in left) else "")
         return ("unexplained",
                 f"model and data differ ({where}, held-out RMSE) but no library "
                 f"effect explains it: {sensor}a stated condition that is off (the oil "

@@ -141,3 +141,28 @@ def test_both_laminar_clearances_moving_together_point_at_the_thermometer() -> N
     assert "check the thermometer" in together
     for cc, cv in ((0.20, 0.0), (0.20, 0.04), (0.05, -0.05)):
         assert "thermometer" not in verdict([], [], gap, [], {}, sigma, drift(cc, cv))[1]
+
+
+def test_one_channel_off_names_its_transducer_when_the_balances_left_read_it() -> None:
+    """A P1 zero 0.5 bar off leaves the piston force balance above the noise too, and got
+    only the generic hint (a stated-condition pass): every balance left reads P1, so the
+    transducer is named; a balance left that does not read it (the pump's) keeps the
+    generic answer."""
+    import numpy as np
+
+    from diagnostics.discrepancy.selection import Selection
+
+    t = np.arange(4000) / 1000.0
+    wavy = 500.0 * np.sin(2 * np.pi * 0.5 * t)      # structured: slow, far above the size
+
+    def left(balance: str) -> Selection:
+        return Selection(balance, "N", None, 0.0, 0.0, [], [], {}, {}, {}, {}, wavy, wavy,
+                         1.5e4)
+
+    sigma = {"P1": 5e3, "P_pump": 5e3}
+    gap = [GapRow("P1", "Pa", "steady", 4.8e4, 6e4), GapRow("P_pump", "Pa", "steady", 4e3,
+                                                            9e3)]
+    force = verdict([], [left("piston_force")], gap, [], {}, sigma)
+    assert force[0] == "unexplained" and "only P1 disagrees" in force[1]
+    pump = verdict([], [left("pump_flow")], gap, [], {}, sigma)
+    assert "only P1 disagrees" not in pump[1]
