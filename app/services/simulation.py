@@ -104,6 +104,14 @@ def condition_notes(condition: Condition, values: Mapping[str, float]) -> list[s
     if 0.0 < condition.back_pressure < MIN_PRESSURE_READING:
         notes.append(f"a back-pressure of {condition.back_pressure:.4g} Pa is below 0.1 bar: "
                      f"if it is in bar, give {condition.back_pressure * 1e5:.4g} Pa")
+    # a rig version carrying a stated-condition correction (the discrepancy workflow's
+    # load_scale) runs the condition corrected: say so, or the echoed load reads as the
+    # one applied (a stated-condition pass)
+    k_f = values.get("load_scale.k_F", 0.0)
+    if k_f and condition.load:
+        notes.append(f"this rig version carries a stated-load correction (load_scale, k_F = "
+                     f"{k_f:.4g}): the piston works against {(1 + k_f) * condition.load:.5g} N "
+                     f"for the {condition.load:.5g} N stated")
     return notes
 
 

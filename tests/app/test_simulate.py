@@ -225,3 +225,17 @@ def test_a_stored_rig_without_a_steady_operating_point_is_a_422_naming_the_metho
         run_scenario(rig, {}, rig.default_condition(), method="steady")
     assert exc.value.field == "method" and "no steady operating point" in exc.value.message
     assert "transient" in exc.value.message
+
+
+def test_a_rig_carrying_a_stated_load_correction_says_what_load_it_applies() -> None:
+    """A version the discrepancy workflow stored with load_scale runs 1.03× the stated
+    load, while /simulate echoed the stated one without a word (a stated-condition pass)."""
+    from app.services.simulation import condition_notes
+    from sim.rigs import Condition, load_rig, reference_rig, reference_rig_document
+
+    doc = reference_rig_document()
+    doc["effects"] = {"load_scale": {"parameters": {"k_F": {"value": 0.03, "unit": "1"}}}}
+    notes = condition_notes(Condition(load=4200.0), load_rig(doc).values())
+    assert notes == ["this rig version carries a stated-load correction (load_scale, k_F = "
+                     "0.03): the piston works against 4326 N for the 4200 N stated"]
+    assert condition_notes(Condition(load=4200.0), reference_rig().values()) == []
