@@ -202,8 +202,8 @@ def store_discovery(session: Session, rig_id: int, from_version: int, d: Discove
     """
     if not d.named:
         return None, None
-    reasons = [f"outside its plausible range: {n.name} ({n.parameter} = {n.value:.4g} "
-               f"{n.unit}, plausible {n.plausible_range[0]:.3g} to "
+    reasons = [f"outside its plausible range: {n.name} ({n.parameter} = {n.value:.4g}"
+               f"{'' if n.unit == '1' else ' ' + n.unit}, plausible {n.plausible_range[0]:.3g} to "
                f"{n.plausible_range[1]:.3g}) — the data may not come from this rig, or the "
                "effect stands for another" for n in d.named if not n.plausible]
     if d.verdict == "partially explained":
