@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import copy
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -269,7 +269,8 @@ APART = 10.0
 
 def tell_apart(doc: dict[str, Any], options: Sequence[Mapping[str, float]],
                records: Sequence[SeriesRecord], channels: Sequence[str],
-               sig: Mapping[str, float], max_nfev: int
+               sig: Mapping[str, float], max_nfev: int,
+               admissible: Callable[[Mapping[str, float]], bool] | None = None
                ) -> tuple[int, list[int], list[tuple[dict[str, float], dict[str, float]]]]:
     """Re-fit each alternative explanation in output-error form and compare them.
 
@@ -278,6 +279,9 @@ def tell_apart(doc: dict[str, Any], options: Sequence[Mapping[str, float]],
     viscous element, a pressure-dependent piston clearance only the piston gap).  Each
     option (``effect.param`` → start value) is re-fitted (:func:`refit`) and scored by
     BIC = Σ((model − data)/σ)² + k·ln(n) over the compared samples.
+
+    ``admissible`` (re-fitted values → bool) leaves out of ``best`` and ``group`` the
+    options whose re-fitted values it refuses (all kept when it refuses every one).
 
     Returns
     -------
@@ -291,6 +295,9 @@ def tell_apart(doc: dict[str, Any], options: Sequence[Mapping[str, float]],
                          {}).size
     bic = [output_cost(doc, values, records, channels, sig) + len(start) * math.log(max(n, 2))
            for (values, _), start in zip(fits, options, strict=True)]
-    best = int(np.argmin(bic))
-    group = [i for i, b in enumerate(bic) if b - bic[best] < APART]
+    ok = [admissible is None or admissible(values) for values, _ in fits]
+    if not any(ok):
+        ok = [True] * len(fits)
+    best = min((i for i in range(len(bic)) if ok[i]), key=bic.__getitem__)
+    group = [i for i, b in enumerate(bic) if ok[i] and b - bic[best] < APART]
     return best, group, fits
