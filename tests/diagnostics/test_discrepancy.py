@@ -35,6 +35,19 @@ def _with(effect: str, pname: str, value: float, unit: str) -> dict:
     return doc
 
 
+def _stated_low(doc: dict, seed: int) -> list:
+    """The rig of ``doc`` run at 1.03× each load of the design, the records stating the
+    nominal load: a load cell reading 3 % low."""
+    rig = load_rig(doc)
+    rng = np.random.default_rng(seed)
+    out = []
+    for L, T in CONDITIONS:
+        r = synthesize(rig, Condition(load=1.03 * L, oil_temperature=T), rng=rng,
+                       name=f"L{L:.0f}")
+        out.append(dataclasses.replace(r, condition={**r.condition, "load": L}))
+    return out
+
+
 def test_force_balance_refits_the_base_friction_and_mass_of_the_rig():
     """Equation error on noise-free data: the re-fitted base columns are the rig's Fu, Kf."""
     rig = reference_rig()
@@ -90,14 +103,8 @@ def test_a_load_cell_reading_3_percent_low_is_named_the_stated_load_not_seal_fri
     3 % low): the extra force 0.03·F_load is the stated-load entry's column, not the seal
     friction's (P1 + P2)·sgn ẋ, which would also act in the return stroke (before the
     entry it was named seal_friction_pressure with no competitor)."""
-    rig = reference_rig()
-    rng = np.random.default_rng(4)
-    recs = []
-    for L, T in CONDITIONS:
-        r = synthesize(rig, Condition(load=1.03 * L, oil_temperature=T), rng=rng,
-                       name=f"L{L:.0f}")
-        recs.append(dataclasses.replace(r, condition={**r.condition, "load": L}))
-    d = discover(reference_rig_document(), recs, bootstrap=10)
+    d = discover(reference_rig_document(), _stated_low(reference_rig_document(), 4),
+                 bootstrap=10)
     assert d.verdict == "named"
     assert [n.name for n in d.named] == ["load_scale"]
     # the JSON says what re-simulation kept, beside the equation error's choice
@@ -115,13 +122,7 @@ def test_seal_friction_with_a_load_cell_3_percent_low_names_both_and_stores_neit
     of k_p/A1 ≈ 0.7 %: with a load cell 3 % low as well, the stated-load entry alone fitted
     k_F 0.0386 and was stored (a simulation engineer's pass).  Re-simulated, the two
     together give back both; two effects are "partially explained", not stored."""
-    rig = load_rig(_with("seal_friction_pressure", "k_p", 1.5e-5, "m^2"))
-    rng = np.random.default_rng(6)
-    recs = []
-    for L, T in CONDITIONS:
-        r = synthesize(rig, Condition(load=1.03 * L, oil_temperature=T), rng=rng,
-                       name=f"L{L:.0f}")
-        recs.append(dataclasses.replace(r, condition={**r.condition, "load": L}))
+    recs = _stated_low(_with("seal_friction_pressure", "k_p", 1.5e-5, "m^2"), 6)
     d = discover(reference_rig_document(), recs, bootstrap=10)
     assert d.verdict == "partially explained"
     fitted = {n.name: n for n in d.named}
