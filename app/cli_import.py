@@ -1,8 +1,10 @@
 """``hydrodiag import series FILE`` and ``hydrodiag import zema``: measured time series into the store.
 
 Both call the services of ``POST /rigs/{rig_id}/series`` (:mod:`app.services.series`) on the
-configured store and show a progress bar; ``zema`` reads the ZeMA rig's 1 Hz files through
-the documented adapter (:mod:`diagnostics.real.zema`).
+configured store and show a progress bar; ``zema`` reads the ZeMA rig's 1 Hz files (or, with
+``--native``, its few raw cycles at their native rates) through the documented adapter
+(:mod:`diagnostics.real.zema`), and can write them as one series file in the import format
+(``--table``: what ``POST /rigs/{id}/series`` takes over HTTP).
 """
 
 from __future__ import annotations
@@ -139,6 +141,17 @@ def import_zema(
     relaxation: Annotated[float, typer.Option(
         help="Plateau settling time of --bench \\[s] (found on the ZeMA cycles without "
              "labels).")] = ZEMA_RELAXATION,
+    native: Annotated[bool, typer.Option(
+        help="Read the raw cycles at their native rates (PS1, PS2, EPS1 at 100 Hz; FS1 at "
+             "10 Hz and TS1 at 1 Hz held between readings) from the data set's "
+             "fullres_samples/ (cycles 1967, 1092, 1469, 439, 1791, 1954, 753, 409, 1478, "
+             "2038: those of --first..--last), instead of the 1 Hz means of every cycle.")
+                      ] = False,
+    table: Annotated[Path | None, typer.Option(
+        help="Also write the cycles as one series file in the import format (.csv, .csv.gz "
+             "or .parquet: a record column, t and every channel with its SI unit in the "
+             "column name, the clock time of --started-at kept) that POST "
+             "/rigs/{id}/series and 'hydrodiag import series' read as it is.")] = None,
     store: Annotated[bool, typer.Option(help="Store the cycles as series of the rig.")
                      ] = True,
     started_at: Annotated[str | None, typer.Option(
@@ -146,12 +159,21 @@ def import_zema(
              "2026-11-20T08:00:00Z): cycle k is stored as measured (k − 1) × 60 s later, "
              "the data set's cycles following one another; default: no time.")] = None,
 ) -> None:
-    """Import ZeMA load cycles (1 Hz: PS1, PS2, FS1, EPS1, TS1) through the adapter."""
+    """Import ZeMA load cycles (PS1, PS2, FS1, EPS1, TS1; 1 Hz, or the raw few at their
+    native rates with --native) through the adapter."""
     import dataclasses
     from datetime import timedelta
 
     from app.services.series import store_records
-    from diagnostics.real.zema import CYCLE_S, load_1hz, read_records
+    from diagnostics.real.zema import (
+        CYCLE_S,
+        FULLRES_FILE,
+        load_1hz,
+        load_fullres,
+        read_records,
+        zema_root,
+    )
+    from diagnostics.series_writer import write_series
     from diagnostics.timeseries import clock_time
 
     if last < first:
@@ -161,16 +183,25 @@ def import_zema(
     if not 0 <= relaxation <= MAX_RELAXATION:  # NaN too
         raise InputError(f"the settling time must be 0 to {MAX_RELAXATION:g} [s], as discover "
                          "takes it", field="--relaxation")
-    if not store and bench is None:
-        raise InputError("nothing to do: --no-store without --bench", field="--no-store")
+    if not store and bench is None and table is None:
+        raise InputError("nothing to do: --no-store without --bench or --table",
+                         field="--no-store")
     start = None if started_at is None else clock_time(started_at, field="--started-at")
-    try:
-        data, _ = load_1hz(root, cycles=list(range(first, last + 1)))
-    except InputError as exc:
-        if exc.field != "cycles":
-            raise
-        # the adapter's 'cycles' is no option of this command: name the one out of range
-        raise InputError(exc.message, field="--last") from None
+    if native:
+        every = load_fullres((root or zema_root()) / FULLRES_FILE)
+        data = every.between(first, last)
+        if not data.cycles.size:
+            raise InputError(f"no cycle at the native rate in {first}-{last} (the data set "
+                             f"has {', '.join(map(str, sorted(every.cycles)))})",
+                             field="--first")
+    else:
+        try:
+            data, _ = load_1hz(root, cycles=list(range(first, last + 1)))
+        except InputError as exc:
+            if exc.field != "cycles":
+                raise
+            # the adapter's 'cycles' is no option of this command: name the one out of range
+            raise InputError(exc.message, field="--last") from None
     with store_session() as session, steps() as progress:
         speed = _pump_speed(session, rig_id)
         task = progress.add_task("reading cycles", total=data.cycles.size)
@@ -180,6 +211,11 @@ def import_zema(
             records = [dataclasses.replace(r, started_at=start + timedelta(
                 seconds=CYCLE_S * (int(k) - 1))) for r, k in zip(records, data.cycles,
                                                                   strict=True)]
+        if table is not None:
+            try:
+                rows_tabled = write_series(records, table)
+            except InputError as exc:
+                raise InputError(exc.message, field="--table") from None
         if bench is not None:
             plateaus = progress.add_task("plateaus", total=None)
             rows_written = _write_bench(records, speed, relaxation, bench,
@@ -198,6 +234,9 @@ def import_zema(
     if store:
         _out.print(f"{counted(len(rows), 'ZeMA cycle')} stored for rig {rig_id} as {name!r} "
                    f"(series {rows[0].id}..{rows[-1].id})", markup=False)
+    if table is not None:
+        _out.print(f"{counted(len(records), 'cycle')} ({counted(rows_tabled, 'sample')} at "
+                   f"{data.sample_rate:g} Hz) written to {table}", markup=False)
     if bench is not None:
         _out.print(f"{counted(rows_written, 'settled plateau')} of "
                    f"{counted(len(records), 'cycle')} written to "

@@ -14,6 +14,10 @@ Slices (chosen without looking at any estimate):
   EPS1}_normalized.csv``.  ``fullres_cycle1092.csv``: the first 30 s of cycle 1092 at the
   native rates (PS1, PS2 100 Hz, FS1 10 Hz, TS1 1 Hz) from row 2 of
   ``fullres_samples/jeremiafourie/testing_sample.csv``.
+* ZeMA native rates (``zema_native_slice``): the 1 Hz rows of the ten raw cycles of
+  ``fullres_samples/jeremiafourie/testing_sample.csv`` (cycles 1967, 1092, … in its row
+  order) and that file itself cut to the first 20 s of PS1, PS2, EPS1, FS1 and TS1, in the
+  shared folder's layout.
 * ZeMA load program (``zema_program_slice``): 21 cycles of cooler 100 %, leakage 0, stable
   flag 0 — three each of valve 73/80/90 % (accumulator 130 bar) and of accumulator
   130/115/100/90 bar (valve 100 %) — in the same layout, for the valve-lag and accumulator
@@ -39,10 +43,11 @@ from pathlib import Path
 
 import pytest
 
-from diagnostics.real.zema import find_shared
+from diagnostics.real.zema import FULLRES_CYCLES, FULLRES_FILE, find_shared
 
-__all__ = ["ZEMA_CYCLES", "ZEMA_PROGRAM_CYCLES", "ZEMA_SPAN_CYCLES", "v32hl56_slice",
-           "vtnsi_slice", "zema_program_slice", "zema_slice", "zema_span_slice"]
+__all__ = ["NATIVE_SLICE_S", "ZEMA_CYCLES", "ZEMA_PROGRAM_CYCLES", "ZEMA_SPAN_CYCLES",
+           "v32hl56_slice", "vtnsi_slice", "zema_native_slice", "zema_program_slice",
+           "zema_slice", "zema_span_slice"]
 
 #: original 1-based cycle numbers of the ZeMA slice, in row order
 ZEMA_CYCLES = (974, 1015, 1056, 1110, 1151, 1192, 1246, 1287, 1328, 1706, 1747, 1788, 1842,
@@ -53,6 +58,8 @@ ZEMA_SPAN_CYCLES = tuple(sorted((
     1, 73, 145, 298, 452, 606, 760, 831, 903, 1057, 1293, 1446, 1518, 1590, 1662, 1897, 2051,
     2205, 211, 240, 361, 482, 511, 631, 952, 981, 1102, 1223, 1344, 1373, 1694, 1814, 1843,
     1964, 2085, 2114)))
+#: seconds of each raw cycle in the native-rate slice [s]
+NATIVE_SLICE_S = 20
 #: original cycle numbers of the load-program slice, in row order
 ZEMA_PROGRAM_CYCLES = (1760, 1763, 1766, 1770, 1773, 1776, 1780, 1783, 1786, 1790, 1793, 1796,
                        1922, 1925, 1928, 2055, 2058, 2061, 2188, 2191, 2194)
@@ -134,6 +141,27 @@ def zema_span_slice() -> Path:
     """Folder with the temperature-span slice (module docstring), in the shared folder's
     layout."""
     return _zema_rows("zema-span", ZEMA_SPAN_CYCLES)
+
+
+def zema_native_slice() -> Path:
+    """Folder with the native-rate slice (module docstring), in the shared folder's layout."""
+    with _LOCK:
+        if "zema-native" in _MADE:
+            return _MADE["zema-native"]
+    dst = _zema_rows("zema-native-1hz", FULLRES_CYCLES)
+    with _LOCK:
+        src = _shared_real() / "uci-hydraulic-zema" / FULLRES_FILE
+        with src.open(newline="") as fh:
+            rows = list(csv.reader(fh))
+        rates = {"PS1": 100, "PS2": 100, "EPS1": 100, "FS1": 10, "TS1": 1}
+        keep = [i for i, col in enumerate(rows[0]) if col.split("_")[0] in rates
+                and int(col.split("_")[1]) < NATIVE_SLICE_S * rates[col.split("_")[0]]]
+        out = dst / FULLRES_FILE
+        out.parent.mkdir(parents=True)
+        with out.open("w", newline="") as fh:
+            csv.writer(fh).writerows([row[i] for i in keep] for row in rows)
+        _MADE["zema-native"] = dst
+        return dst
 
 
 def v32hl56_slice() -> Path:

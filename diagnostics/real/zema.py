@@ -43,9 +43,10 @@ import pandas as pd
 from diagnostics.timeseries import SeriesRecord, series_from_frame
 from sim.errors import InputError
 
-__all__ = ["CIRCUIT", "COLUMN_MAP", "CYCLE_S", "DEFAULT_SENSORS", "FULLRES_CYCLES", "NATIVE_RATES",
+__all__ = ["CIRCUIT", "COLUMN_MAP", "CYCLE_S", "DEFAULT_SENSORS", "FULLRES_CYCLES", "FULLRES_FILE",
+           "NATIVE_RATES",
            "OTHER_TEMPERATURES", "SENSOR_FILES", "ZemaCycles",
-           "ZemaLabels", "cycles_frame", "find_shared", "load_1hz", "read_fullres",
+           "ZemaLabels", "cycles_frame", "find_shared", "load_1hz", "load_fullres", "read_fullres",
            "read_records", "zema_root"]
 
 Arr = npt.NDArray[np.float64]
@@ -156,6 +157,12 @@ class ZemaCycles:
     sensors: dict[str, Arr]
     sample_rate: float
 
+    def between(self, first: int, last: int) -> ZemaCycles:
+        """The cycles numbered ``first`` to ``last`` (1-based, both included)."""
+        keep = (self.cycles >= first) & (self.cycles <= last)
+        return ZemaCycles(self.cycles[keep], {k: v[keep] for k, v in self.sensors.items()},
+                          self.sample_rate)
+
 
 def _read_wide(path: Path, rows: npt.NDArray[np.int64] | None) -> Arr:
     try:
@@ -241,12 +248,22 @@ NATIVE_RATES: dict[str, float] = {"PS1": 100.0, "PS2": 100.0, "EPS1": 100.0, "FS
 #: Cycle numbers (1-based) of the rows of ``fullres_samples/jeremiafourie/testing_sample.csv``
 #: (identified by exact match against the 1 Hz files, ``SOURCE.md``).
 FULLRES_CYCLES: tuple[int, ...] = (1967, 1092, 1469, 439, 1791, 1954, 753, 409, 1478, 2038)
+#: The raw cycles at the native rates, relative to the data set's folder (``SOURCE.md``).
+FULLRES_FILE = "fullres_samples/jeremiafourie/testing_sample.csv"
 
 
-def read_fullres(path: Path, cycles: Sequence[int],
-                 sensors: Sequence[str] = ("PS1", "FS1", "TS1"),
-                 duration: float = 60.0) -> list[SeriesRecord]:
-    """Records at the native rate from the wide full-resolution layout (``<SENSOR>_<k>`` columns).
+def read_fullres(path: Path, cycles: Sequence[int] | None = None,
+                 sensors: Sequence[str] | None = None,
+                 duration: float | None = None) -> list[SeriesRecord]:
+    """Records at the native rate from the wide full-resolution layout: :func:`load_fullres`
+    (its parameters and errors) through :func:`read_records`."""
+    return read_records(load_fullres(path, cycles, sensors, duration))
+
+
+def load_fullres(path: Path, cycles: Sequence[int] | None = None,
+                 sensors: Sequence[str] | None = None,
+                 duration: float | None = None) -> ZemaCycles:
+    """Cycles at the native rate from the wide full-resolution layout (``<SENSOR>_<k>`` columns).
 
     The record's time base is that of the fastest sensor given (100 Hz with PS1); slower
     sensors are held between their samples (zero-order hold: a 10 Hz flowmeter reading is
@@ -257,34 +274,58 @@ def read_fullres(path: Path, cycles: Sequence[int],
     path
         CSV with a header ``PS1_0 … PS1_5999, …`` and one row per cycle.
     cycles
-        Cycle number (1-based) of each row, for the record names.
+        Cycle number (1-based) of each row, for the record names; None: the data set's
+        own file's rows (:data:`FULLRES_CYCLES`), for a file of that many rows.
     sensors
-        Sensors to read (keys of :data:`NATIVE_RATES`).
+        Sensors to read (keys of :data:`NATIVE_RATES`); None: those of
+        :data:`DEFAULT_SENSORS` that the file has (a ``<SENSOR>_0`` column).
     duration
-        Seconds of each cycle to read from its start [s] (60: the whole cycle).
+        Seconds of each cycle to read from its start [s]; None: all that the fastest sensor
+        holds (60 s in the data set's file).
 
     Raises
     ------
     InputError
         Missing columns (the error names the first), a row count that differs from
-        ``cycles``, or a sensor whose samples do not span ``duration``.
+        ``cycles`` (or, without them, from :data:`FULLRES_CYCLES`), no known sensor, or a
+        sensor whose samples do not span ``duration``.
     """
     try:
         frame = pd.read_csv(path)
     except (OSError, ValueError) as exc:
         raise InputError(f"cannot read {Path(path).name}: {exc}", field="file") from None
+    if cycles is None:
+        if len(frame) != len(FULLRES_CYCLES):
+            raise InputError(f"{len(frame)} rows: give each row's cycle number (the data "
+                             f"set's own file has {len(FULLRES_CYCLES)}, cycles "
+                             f"{', '.join(map(str, FULLRES_CYCLES))})", field="cycles")
+        cycles = FULLRES_CYCLES
     if len(frame) != len(cycles):
         raise InputError(f"{len(frame)} rows but {len(cycles)} cycle numbers", field="cycles")
+    if sensors is None:
+        sensors = [s for s in DEFAULT_SENSORS if f"{s}_0" in frame.columns]
+        if not sensors:
+            raise InputError(f"no sensor column of {', '.join(DEFAULT_SENSORS)} (PS1_0 ...)",
+                             field="file")
+    unknown = [s for s in sensors if s not in NATIVE_RATES]
+    if unknown:
+        raise InputError(f"unknown sensor {unknown[0]!r} (known: {', '.join(NATIVE_RATES)})",
+                         field="sensors")
     rate = max(NATIVE_RATES[s] for s in sensors)
+    if duration is None:
+        fastest = max(sensors, key=NATIVE_RATES.__getitem__)
+        held = sum(1 for c in frame.columns if str(c).startswith(f"{fastest}_"))
+        duration = held / rate
     n = round(duration * rate)
     wide: dict[str, Arr] = {}
     for s in sensors:
         k = round(duration * NATIVE_RATES[s])
         cols = [f"{s}_{i}" for i in range(k)]
         missing = [c for c in cols if c not in frame.columns]
-        if missing:
-            raise InputError(f"column missing ({len(missing)} of {k} for {s})", field=missing[0])
+        if missing or k == 0 or n % k:
+            raise InputError(f"column missing ({len(missing)} of {k} for {s}: the sensors "
+                             f"must span the same {duration:g} s)",
+                             field=missing[0] if missing else f"{s}_0")
         arr = frame[cols].to_numpy(dtype=np.float64)
         wide[s] = np.repeat(arr, n // k, axis=1)
-    data = ZemaCycles(np.asarray(cycles, dtype=np.int64), wide, rate)
-    return read_records(data)
+    return ZemaCycles(np.asarray(cycles, dtype=np.int64), wide, rate)

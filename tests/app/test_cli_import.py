@@ -1,0 +1,107 @@
+"""``hydrodiag import zema --native`` and ``--table``: the data set's raw cycles at their
+native rates into the store, and the adapter's cycles as one series file that the HTTP
+import reads as it is (``app/cli_import.py``)."""
+
+from __future__ import annotations
+
+from datetime import UTC, datetime, timedelta
+from pathlib import Path
+
+import numpy as np
+import pytest
+from sqlalchemy import select
+from typer.testing import CliRunner
+
+from app.cli import cli
+from app.cli_support import store_session
+from app.db.models import MeasuredSeries
+from app.services.series import as_record
+from diagnostics.real.zema import FULLRES_CYCLES, load_1hz
+from tests.app.conftest import store_count
+from tests.real_slices import NATIVE_SLICE_S, zema_native_slice
+
+ZEMA_RIG = Path(__file__).resolve().parents[2] / "sim" / "rigs" / "zema.yaml"
+#: the slice's cycles numbered 400-800: rows 8, 4 and 7 of the raw file
+IN_RANGE = (409, 439, 753)
+START = datetime(2026, 11, 20, 8, tzinfo=UTC)
+
+
+def _stored(name: str) -> dict[str, MeasuredSeries]:
+    with store_session() as session:
+        rows = session.scalars(select(MeasuredSeries).where(MeasuredSeries.name == name)).all()
+        session.expunge_all()
+    return {r.record: r for r in rows}
+
+
+def test_native_rate_cycles_are_stored_at_their_rate_and_average_to_the_1hz_files(
+        runner: CliRunner, tmp_path: Path) -> None:
+    root = zema_native_slice()
+    assert runner.invoke(cli, ["rigs", "add", str(ZEMA_RIG)]).exit_code == 0
+    table = tmp_path / "native.csv.gz"
+    result = runner.invoke(cli, ["import", "zema", "--rig", "2", "--root", str(root),
+                                 "--native", "--first", "400", "--last", "800",
+                                 "--name", "native", "--table", str(table),
+                                 "--started-at", "2026-11-20T08:00:00Z"])
+    assert result.exit_code == 0, result.output
+    assert "3 ZeMA cycles stored" in result.stdout
+    assert f"({3 * NATIVE_SLICE_S * 100} samples at 100 Hz) written" in result.stdout
+    rows = _stored("native")
+    assert sorted(rows) == [f"cycle-{c}" for c in sorted(IN_RANGE)]
+    # the 1 Hz files of the data set are the 1-second block means of the raw samples
+    # (SOURCE.md): the stored 100 Hz cycles give them back, unit for unit
+    data, _ = load_1hz(root, [FULLRES_CYCLES.index(c) + 1 for c in IN_RANGE])
+    for k, cycle in enumerate(IN_RANGE):
+        row = rows[f"cycle-{cycle}"]
+        assert row.sample_rate == pytest.approx(100.0)
+        assert row.n_samples == NATIVE_SLICE_S * 100
+        # cycle k measured (k − 1) minutes after cycle 1's start, as for the 1 Hz cycles
+        assert row.measured_at == START + timedelta(minutes=cycle - 1)
+        record = as_record(row)
+        for sensor, channel, unit in (("PS1", "p_pump", 1e5), ("PS2", "p_work", 1e5),
+                                      ("FS1", "q_work", 1.0 / 60000.0),
+                                      ("EPS1", "motor_power", 1.0),
+                                      ("TS1", "oil_temperature", 1.0)):
+            blocks = record.channel(channel).reshape(NATIVE_SLICE_S, 100).mean(axis=1)
+            expected = data.sensors[sensor][k, :NATIVE_SLICE_S] * unit
+            np.testing.assert_allclose(blocks, expected, rtol=1e-12, err_msg=channel)
+    # the written table is what the HTTP import reads: the same samples from the same
+    # starts, so it is refused as stored already — and nothing more is stored
+    again = runner.invoke(cli, ["import", "series", str(table), "--rig", "2", "--name",
+                                "again"])
+    assert again.exit_code != 0 and "stored" in str(again.exception)
+    assert store_count(MeasuredSeries) == 3
+    # a cycle not stored yet, written as Parquet and imported through the series path,
+    # keeps its rate, values and clock time
+    parquet = tmp_path / "one.parquet"
+    written = runner.invoke(cli, ["import", "zema", "--rig", "2", "--root", str(root),
+                                  "--native", "--first", "1000", "--last", "1100",
+                                  "--no-store", "--table", str(parquet),
+                                  "--started-at", "2026-11-20T08:00:00Z"])
+    assert written.exit_code == 0, written.output
+    assert store_count(MeasuredSeries) == 3
+    imported = runner.invoke(cli, ["import", "series", str(parquet), "--rig", "2", "--name",
+                                   "from-table"])
+    assert imported.exit_code == 0, imported.output
+    (row,) = _stored("from-table").values()
+    assert row.record == "cycle-1092" and row.sample_rate == pytest.approx(100.0)
+    assert row.measured_at == START + timedelta(minutes=1091)
+    data, _ = load_1hz(root, [FULLRES_CYCLES.index(1092) + 1])
+    blocks = as_record(row).channel("p_pump").reshape(NATIVE_SLICE_S, 100).mean(axis=1)
+    np.testing.assert_allclose(blocks, data.sensors["PS1"][0, :NATIVE_SLICE_S] * 1e5,
+                               rtol=1e-12)
+
+
+def test_native_import_refuses_a_range_without_raw_cycles(runner: CliRunner,
+                                                          tmp_path: Path) -> None:
+    root = zema_native_slice()
+    assert runner.invoke(cli, ["rigs", "add", str(ZEMA_RIG)]).exit_code == 0
+    none = runner.invoke(cli, ["import", "zema", "--rig", "2", "--root", str(root),
+                               "--native", "--first", "1", "--last", "5"])
+    assert none.exit_code != 0 and getattr(none.exception, "field", None) == "--first"
+    assert "409, 439" in str(none.exception)
+    unwritable = runner.invoke(cli, ["import", "zema", "--rig", "2", "--root", str(root),
+                                     "--native", "--no-store", "--table",
+                                     str(tmp_path / "no" / "such" / "dir.csv")])
+    assert unwritable.exit_code != 0
+    assert getattr(unwritable.exception, "field", None) == "--table"
+    assert store_count(MeasuredSeries) == 0
