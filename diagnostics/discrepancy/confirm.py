@@ -49,7 +49,8 @@ from sim.errors import InputError, SimulationError
 from sim.rigs.assembly import Rig
 from sim.rigs.schema import validate_rig_document
 
-__all__ = ["Confirmed", "Small", "confirm_chosen", "confirm_small", "start_of", "with_pair"]
+__all__ = ["Confirmed", "Small", "confirm_chosen", "confirm_small", "nested_pick", "start_of",
+           "with_pair"]
 
 Progress = Callable[[float, str], None]
 
@@ -106,6 +107,27 @@ def with_pair(options: Sequence[Fit]) -> list[Fit]:
     return out
 
 
+def nested_pick(best: int, group: Sequence[int], starts: Sequence[Mapping[str, float]]
+                ) -> tuple[int, list[int]]:
+    """The option taken among re-fitted fits that the data cannot separate, and its rivals.
+
+    Nested fits alike (``group``, within :data:`~diagnostics.discrepancy.refit.APART` of
+    the ``best``, by rising BIC): the extra term is not needed, so the smaller fit of the
+    lowest BIC is taken (before, the first by the equation error's order), and a larger
+    fit that contains it is no rival of it.
+
+    Parameters
+    ----------
+    best, group
+        As :func:`~diagnostics.discrepancy.refit.tell_apart` returns them.
+    starts
+        Each option's ``effect.param`` keys (its terms).
+    """
+    smaller = [i for i in group if set(starts[i]) < set(starts[best])]
+    pick = smaller[0] if smaller else best
+    return pick, [i for i in group if i == pick or not set(starts[pick]) < set(starts[i])]
+
+
 def _of_practical_size(s: Selection) -> Callable[[Mapping[str, float]], bool]:
     """Whether each term of a re-simulated fit of several terms is of practical size in
     the balance of ``s`` — its re-fitted coefficient times its column's RMS (the
@@ -153,11 +175,7 @@ def confirm_chosen(doc: dict[str, Any], rig: Rig, selections: Sequence[Selection
             elif len(options) > 1:
                 best, group, fits = tell_apart(doc, starts, train, channels, sig, max_nfev,
                                                admissible=_of_practical_size(s))
-                # nested fits alike (within APART): the extra term is not needed, so the
-                # smaller one is taken, and the larger is no rival of it
-                smaller = [i for i in group if set(starts[i]) < set(starts[best])]
-                best = smaller[0] if smaller else best
-                group = [i for i in group if i == best or not set(starts[best]) < set(starts[i])]
+                best, group = nested_pick(best, group, starts)
                 (fitted, fit_err), start = fits[best], starts[best]
                 out.picked[s.balance] = options[best]
                 if len(group) > 1:

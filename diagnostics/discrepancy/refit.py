@@ -286,8 +286,9 @@ def tell_apart(doc: dict[str, Any], options: Sequence[Mapping[str, float]],
     Returns
     -------
     best, group, fits
-        Index of the lowest BIC; indices of the options within :data:`APART` of it (the
-        best included: the data cannot separate them); (values, 1-σ errors) per option.
+        Index of the lowest BIC; indices of the options within :data:`APART` of it, by
+        rising BIC (the best first: the data cannot separate them); (values, 1-σ errors)
+        per option.
     """
     fits = [refit(doc, start, records, channels, sig, max_nfev) for start in options]
     # the compared samples are fixed by the records (stacked_residual), whatever the model
@@ -299,5 +300,6 @@ def tell_apart(doc: dict[str, Any], options: Sequence[Mapping[str, float]],
     if not any(ok):
         ok = [True] * len(fits)
     best = min((i for i in range(len(bic)) if ok[i]), key=bic.__getitem__)
-    group = [i for i, b in enumerate(bic) if ok[i] and b - bic[best] < APART]
+    group = sorted((i for i, b in enumerate(bic) if ok[i] and b - bic[best] < APART),
+                   key=bic.__getitem__)
     return best, group, fits

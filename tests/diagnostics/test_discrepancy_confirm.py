@@ -68,3 +68,35 @@ def test_a_re_fitted_coefficient_is_significant_only_with_an_error_the_fit_could
     assert not is_significant(5.0, math.inf)
     assert is_significant(-5.0, 5.0 / (SIGNIFICANT_T + 0.1))
     assert not is_significant(5.0, 5.0 / (SIGNIFICANT_T - 0.1))
+
+
+def test_nested_fits_alike_take_the_smaller_of_lowest_bic() -> None:
+    """Re-fitted options the data cannot separate (``group`` by rising BIC, as
+    :func:`~diagnostics.discrepancy.refit.tell_apart` returns it): a pair and its two
+    singles alike take the single of the lower BIC — whatever the equation error's order
+    of the options — and the pair that contains it is no rival."""
+    from diagnostics.discrepancy.confirm import nested_pick
+
+    pair = {"seal_friction_pressure.k_p": 1e-5, "load_scale.k_F": 0.03}
+    seal, load = {"seal_friction_pressure.k_p": 1e-5}, {"load_scale.k_F": 0.03}
+    starts = [seal, load, pair]  # the equation error's order: seal friction first
+    # the pair best by BIC, then the stated-load single, then seal friction
+    assert nested_pick(2, [2, 1, 0], starts) == (1, [1, 0])
+    assert nested_pick(2, [2, 0, 1], starts) == (0, [0, 1])
+    # a single that is not nested in the best stays the best's rival
+    assert nested_pick(1, [1, 0], starts) == (1, [1, 0])
+    # the pair alone within reach: taken
+    assert nested_pick(2, [2], starts) == (2, [2])
+
+
+def test_the_two_nearest_singles_are_re_fitted_together_too() -> None:
+    from diagnostics.discrepancy.confirm import with_pair
+    from diagnostics.discrepancy.selection import Fit, Term
+
+    def single(effect: str) -> Fit:
+        return Fit([Term(effect, 1.0, 0.1, 10.0, 1e-6, 1.0, True)], 0.0, 0.0, True)
+
+    options = with_pair([single("a"), single("b"), single("c")])
+    assert [{t.effect for t in f.terms} for f in options] == [{"a"}, {"b"}, {"c"}, {"a", "b"}]
+    assert with_pair(options) == options  # the pair is there already
+    assert with_pair([single("a")]) == [single("a")]
