@@ -29,6 +29,7 @@ from app.settings import Settings
 from diagnostics.measurement import MIN_GAUGE_PRESSURE, MIN_PRESSURE_READING
 from diagnostics.table_files import PARQUET_METADATA_KEY  # the import reads it back
 from diagnostics.timeseries import CONDITION_CHANNELS
+from sim.components.effects import EFFECTS
 from sim.cycle import CycleResult, run_cycle
 from sim.cycle_result import SUMMARY_UNITS
 from sim.errors import InputError, ParameterError, SimulationError
@@ -105,13 +106,14 @@ def condition_notes(condition: Condition, values: Mapping[str, float]) -> list[s
         notes.append(f"a back-pressure of {condition.back_pressure:.4g} Pa is below 0.1 bar: "
                      f"if it is in bar, give {condition.back_pressure * 1e5:.4g} Pa")
     # a rig version carrying a stated-condition correction (the discrepancy workflow's
-    # load_scale) runs the condition corrected: say so, or the echoed load reads as the
-    # one applied (a stated-condition pass)
-    k_f = values.get("load_scale.k_F", 0.0)
-    if k_f and condition.load:
-        notes.append(f"this rig version carries a stated-load correction (load_scale, k_F = "
-                     f"{k_f:.4g}): the piston works against {(1 + k_f) * condition.load:.5g} N "
-                     f"for the {condition.load:.5g} N stated")
+    # load_scale, speed_offset) runs the condition corrected: say so, or the echoed
+    # condition reads as the one applied (a stated-condition pass)
+    stated = condition_dict(condition)
+    for name, effect in EFFECTS.items():
+        if effect.entry.stated is not None and any(k.startswith(f"{name}.") for k in values):
+            note = effect.entry.stated(stated, values)
+            if note is not None:
+                notes.append(note)
     return notes
 
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import io
 import json
+import math
 from typing import Any
 
 import pandas as pd
@@ -239,3 +240,22 @@ def test_a_rig_carrying_a_stated_load_correction_says_what_load_it_applies() -> 
     assert notes == ["this rig version carries a stated-load correction (load_scale, k_F = "
                      "0.03): the piston works against 4326 N for the 4200 N stated"]
     assert condition_notes(Condition(load=4200.0), reference_rig().values()) == []
+
+
+def test_a_rig_carrying_a_speed_reading_correction_says_what_speed_it_delivers_as() -> None:
+    """Every stated-condition entry of the library says what it applies: a speed-reading
+    offset of 80 rpm on the rig's stated 1600 rpm, or on a condition's own pump speed."""
+    from app.services.simulation import condition_notes
+    from sim.rigs import Condition, load_rig, reference_rig_document
+
+    doc = reference_rig_document()
+    d_speed = 80.0 * math.pi / 30.0
+    doc["effects"] = {"speed_offset": {"parameters": {
+        "d_speed": {"value": d_speed, "unit": "rad/s"}}}}
+    values = load_rig(doc).values()
+    assert condition_notes(Condition(load=4200.0), values) == [
+        f"this rig version carries a speed-reading correction (speed_offset, Δω = "
+        f"{d_speed:.4g} rad/s): the pump delivers as at 1680 rpm for the 1600 rpm stated"]
+    (note,) = condition_notes(Condition(load=4200.0, pump_speed=1500.0 * math.pi / 30.0),
+                              values)
+    assert note.endswith("at 1580 rpm for the 1500 rpm stated")

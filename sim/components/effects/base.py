@@ -42,6 +42,10 @@ Arr = npt.NDArray[np.float64]
 #: builds the regressor column [unit of the balance per unit of the coefficient] from
 #: measured signals in SI (``P1``, ``P2``, ``v``, ``mu`` ...)
 Regressor = Callable[[Mapping[str, Arr]], Arr]
+#: (the stated condition — ``load`` [N], ``back_pressure`` [Pa], ``oil_temperature``
+#: [°C], ``pump_speed`` [rad/s] or None — and the rig version's parameter values) → what
+#: a version carrying a stated-condition correction applies instead, or None
+StatedNote = Callable[[Mapping[str, float | None], Mapping[str, float]], str | None]
 
 
 @dataclass(frozen=True)
@@ -90,6 +94,10 @@ class EffectEntry:
         valve switch included, for an effect whose signature is there) or ``"slow"``
         (statistics of the timed slow strokes, where the piston stick-slips:
         :mod:`diagnostics.discrepancy.slow`).
+    stated
+        For an error of a stated condition (a load cell's gain, a speed reading): the note
+        a simulation of a rig version carrying the effect adds, saying what it applies for
+        the condition stated (the echoed condition would read as the one applied).
     """
 
     name: str
@@ -104,6 +112,7 @@ class EffectEntry:
     plausible: tuple[float, float]
     window: str = "steady"
     also: tuple[str, ...] = ()
+    stated: StatedNote | None = None
 
     def applies_to(self, circuit: str) -> bool:
         """Whether the bond-graph change finds its junctions in ``circuit``."""

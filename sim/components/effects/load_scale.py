@@ -53,6 +53,15 @@ def load_excess(force: float, k_F: float) -> float:
     return -k_F * force
 
 
+def _stated(condition: Mapping[str, float | None], values: Mapping[str, float]) -> str | None:
+    """The load the piston works against for the one stated (:attr:`EffectEntry.stated`)."""
+    k_f, load = values.get(f"{NAME}.k_F", 0.0), condition.get("load")
+    if not k_f or not load:
+        return None
+    return (f"this rig version carries a stated-load correction ({NAME}, k_F = {k_f:.4g}): "
+            f"the piston works against {(1 + k_f) * load:.5g} N for the {load:.5g} N stated")
+
+
 def _regressor(s: Mapping[str, Arr]) -> Arr:
     return np.asarray(s["load"], dtype=float)
 
@@ -65,7 +74,7 @@ ENTRY = EffectEntry(
               "(load set as a 10/20/30 bar back-pressure)",
     circuit="pump-valve-cylinder", balance="piston_force", coefficient="k_F",
     signature="F_load (stated; 0 in the return stroke)", regressor=_regressor, sign=0.0,
-    plausible=(-0.1, 0.1))
+    plausible=(-0.1, 0.1), stated=_stated)
 
 
 def build(g: BondGraph, name: str = NAME, values: Mapping[str, float] | None = None) -> None:

@@ -11,6 +11,7 @@ Paper 000 §5 reports a flow offset traced to a wrong speed reading; a constant 
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 
 import numpy as np
@@ -32,6 +33,19 @@ PARAMETERS: tuple[Param, ...] = (
 )
 
 
+def _stated(condition: Mapping[str, float | None], values: Mapping[str, float]) -> str | None:
+    """The speed the pump delivers as, for the one stated (:attr:`EffectEntry.stated`): the
+    condition's pump speed, else the rig's ``pump.speed``."""
+    d_speed = values.get(f"{NAME}.d_speed", 0.0)
+    speed = condition.get("pump_speed") or values.get("pump.speed")
+    if not d_speed or not speed:
+        return None
+    rpm = 30.0 / math.pi
+    return (f"this rig version carries a speed-reading correction ({NAME}, Δω = "
+            f"{d_speed:.4g} rad/s): the pump delivers as at {(speed + d_speed) * rpm:.5g} rpm "
+            f"for the {speed * rpm:.5g} rpm stated")
+
+
 def _regressor(s: Mapping[str, Arr]) -> Arr:
     return np.asarray(-s["Vp"] * np.ones_like(s["P_pump"]), dtype=float)
 
@@ -42,7 +56,7 @@ ENTRY = EffectEntry(
     reference="paper 000 §5 (offset from a wrong speed reading); paper 002 eqs. 1-2",
     circuit="pump-valve-cylinder", balance="pump_flow", coefficient="d_speed",
     signature="−Vp (constant)", regressor=_regressor, sign=0.0, plausible=(-20.0, 20.0),
-    also=PUMP_CIRCUITS)
+    also=PUMP_CIRCUITS, stated=_stated)
 
 
 def build(g: BondGraph, name: str = NAME, values: Mapping[str, float] | None = None) -> None:
