@@ -205,9 +205,12 @@ def _figure(chart: Chart) -> Any:
     ax.grid(True, color="#e5e5e5", lw=0.6)
     ax.set_axisbelow(True)
     handles, _ = ax.get_legend_handles_labels()
-    if handles:
-        ax.legend(fontsize=8, frameon=False, loc="best")
     fig.tight_layout()
+    if handles:
+        # below the axes, never over a point (``loc="best"`` once hid error bars): the
+        # figure grows to hold it when saved (``bbox_inches="tight"``)
+        ax.legend(fontsize=8, frameon=False, loc="upper center", ncol=min(len(handles), 3),
+                  bbox_to_anchor=(0.5, -0.14 if not chart.xticks else -0.3))
     return fig
 
 
@@ -229,7 +232,7 @@ def render_png(chart: Chart, *, dpi: int = 110) -> bytes:
     with _RENDER_LOCK:
         fig = _figure(chart)
         buf = io.BytesIO()
-        fig.savefig(buf, format="png", dpi=dpi)
+        fig.savefig(buf, format="png", dpi=dpi, bbox_inches="tight", pad_inches=0.08)
         plt.close(fig)
     return buf.getvalue()
 

@@ -141,21 +141,40 @@ def _text(x: float, y: float, text: str, *, size: int = 11, anchor: str = "middl
             f'{_FONT} fill="#222222"{extra}>{escape(text)}</text>')
 
 
-def _legend(entries: Sequence[tuple[str, str, bool]], frame: _Frame) -> str:
+#: height of one legend row and the gap above the legend [px]
+_LEGEND_ROW, _LEGEND_GAP = 14.0, 4.0
+
+
+def _legend_layout(entries: Sequence[tuple[str, str, bool]], width: float
+                   ) -> list[tuple[float, int]]:
+    """Each legend entry's x [px] and row: left to right, wrapping within ``width``."""
+    out: list[tuple[float, int]] = []
+    x, row = 8.0, 0
+    for text, _, _ in entries:
+        w = 30.0 + 6.2 * len(text) + 12.0
+        if x > 8.0 and x + w > width - 8.0:
+            x, row = 8.0, row + 1
+        out.append((x, row))
+        x += w
+    return out
+
+
+def _legend(entries: Sequence[tuple[str, str, bool]], width: float, top: float
+            ) -> tuple[str, float]:
+    """The legend below the plot, from ``top`` [px] down, and its height [px]: outside the
+    axes, so that it never covers a point (it once hid error bars and a throttle point)."""
     if not entries:
-        return ""
-    width = 16 + 6.2 * max(len(t) for t, _, _ in entries) + 22
-    x = frame.x1 - width - 4
-    y = frame.y1 + 4
-    out = [f'<rect x="{x:.1f}" y="{y:.1f}" width="{width:.1f}" height="{14 * len(entries) + 6}" '
-           'fill="#ffffff" fill-opacity="0.85" stroke="#dddddd"/>']
-    for i, (text, color, dashed) in enumerate(entries):
-        yy = y + 12 + 14 * i
+        return "", 0.0
+    layout = _legend_layout(entries, width)
+    out = []
+    for (text, color, dashed), (x, row) in zip(entries, layout, strict=True):
+        yy = top + _LEGEND_GAP + 11 + _LEGEND_ROW * row
         dash = ' stroke-dasharray="5 3"' if dashed else ""
-        out.append(f'<line x1="{x + 6:.1f}" y1="{yy - 4:.1f}" x2="{x + 24:.1f}" y2="{yy - 4:.1f}" '
+        out.append(f'<line x1="{x:.1f}" y1="{yy - 4:.1f}" x2="{x + 24:.1f}" y2="{yy - 4:.1f}" '
                    f'stroke="{color}" stroke-width="2"{dash}/>')
         out.append(_text(x + 30, yy, text, size=10, anchor="start"))
-    return "".join(out)
+    rows = layout[-1][1] + 1
+    return "".join(out), _LEGEND_GAP + _LEGEND_ROW * rows + 4
 
 
 def _axes(frame: _Frame, chart: Chart, xticks: list[tuple[float, str]],
@@ -273,16 +292,16 @@ def _lines(chart: Chart, width: float, height: float) -> tuple[str, str, list[tu
 def render_svg_native(chart: Chart) -> str:
     """The chart as an SVG element, written directly (module docstring)."""
     width, height = chart.size[0] * 100.0, chart.size[1] * 100.0
+    legend, extra = "", 0.0
     if chart.bars:
         axes, body = _bars(chart, width, height)
-        legend = ""
     else:
         axes, body, entries = _lines(chart, width, height)
-        frame = _Frame(width, height, (0, 1), (0, 1), left=72, bottom=40, logy=False)
-        legend = _legend(entries, frame)
+        legend, extra = _legend(entries, width, height)
     title = escape(chart.title, quote=True)
+    total = height + extra
     return (f'<svg class="hd-plot" role="img" aria-label="{title}" '
             f'data-points="{chart.points}" xmlns="http://www.w3.org/2000/svg" '
-            f'width="{width:.0f}" height="{height:.0f}" viewBox="0 0 {width:.0f} {height:.0f}">'
+            f'width="{width:.0f}" height="{total:.0f}" viewBox="0 0 {width:.0f} {total:.0f}">'
             f'<rect width="100%" height="100%" fill="#ffffff"/>'
             f'{_text(width / 2, 18, chart.title, size=12)}{axes}{body}{legend}</svg>')

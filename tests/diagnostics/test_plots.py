@@ -43,3 +43,31 @@ def test_bars_and_png():
     assert 'data-points="3"' in svg and "valve" in svg
     png = render_png(chart)
     assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 2000
+
+
+def test_the_legend_is_below_the_plot_and_covers_no_point():
+    """Legend entries sit under the axes (the svg grows to hold them, wrapping into rows),
+    never over a point: the legend box once hid error bars and a throttle point."""
+    names = [f"hypothesis number {k}" for k in range(7)]
+    x = np.arange(5.0)
+    chart = line_chart("Measured vs predicted", "", "reading [σ]",
+                       [Series(x, x * 0.1 * k, name, kind="points") for k, name in
+                        enumerate(names)], hlines=[(0.0, "nominal")])
+    root = ET.fromstring(render_svg(chart))
+    frame = next(e for e in root.iter() if e.tag.endswith("rect")
+                 and e.attrib.get("stroke") == "#333333")
+    bottom = float(frame.attrib["y"]) + float(frame.attrib["height"])
+    circles = [float(e.attrib["cy"]) for e in root.iter() if e.tag.endswith("circle")]
+    assert circles and max(circles) <= bottom
+    texts = {e.text: e for e in root.iter() if e.tag.endswith("text")}
+    rows = set()
+    for name in [*names, "nominal"]:
+        y = float(texts[name].attrib["y"])
+        assert bottom < y <= float(root.attrib["height"]), name
+        assert float(texts[name].attrib["x"]) < float(root.attrib["width"])
+        rows.add(y)
+    assert len(rows) >= 2  # eight entries do not fit in one row of 700 px
+    assert float(root.attrib["height"]) > 320.0
+    # no legend, no extra height
+    bare = line_chart("Speed", "t [s]", "v [m/s]", [Series(x, x)])
+    assert ET.fromstring(render_svg(bare)).attrib["height"] == "320"
