@@ -1,6 +1,8 @@
 """Gap between model and measurement, per output and region, and whiteness of residuals.
 
-Model and measurement are compared phase by phase on the time since the phase start (a
+Model and measurement are compared phase by phase on the time since the phase start (the
+record's midway between its first sample and the one before, the model's at its switch
+event: :func:`~diagnostics.discrepancy.simulate.phase_start`; a
 different stroke time must not count as a huge error at the phase switch; a return whose
 phases were read off the position from the model's own reversal,
 :func:`~diagnostics.discrepancy.simulate.model_origin`), over the shorter of the two phase
@@ -20,7 +22,12 @@ import pandas as pd
 from statsmodels.stats.diagnostic import acorr_ljungbox
 
 from diagnostics.discrepancy.signals import noise_sigma
-from diagnostics.discrepancy.simulate import model_origin, on_grid
+from diagnostics.discrepancy.simulate import (
+    model_origin,
+    model_phase_start,
+    on_grid,
+    phase_start,
+)
 from diagnostics.timeseries import SeriesRecord
 
 __all__ = ["GapRow", "aligned_residuals", "gap_table", "ljung_box_p", "noise_sigma"]
@@ -58,11 +65,11 @@ def aligned_residuals(record: SeriesRecord, table: pd.DataFrame, channels: Seque
         tab = table[table["phase"] == ph]
         if sel.sum() < 3 or len(tab) < 3:
             continue
-        tm = record.t[sel] - record.t[sel][0]
-        ts = tab["t [s]"].to_numpy(dtype=float)
-        tab = tab.assign(**{"t [s]": ts - ts[0]})
+        tm = record.t[sel] - phase_start(record.t, int(np.flatnonzero(sel)[0]))
+        ts = tab["t [s]"].to_numpy(dtype=float) - model_phase_start(table, ph)
+        tab = tab.assign(**{"t [s]": ts})
         origin = model_origin(record, table, ph)
-        keep = tm + origin <= ts[-1] - ts[0]
+        keep = tm + origin <= ts[-1]
         model = on_grid(tab, tm[keep] + origin + shift, list(channels))
         for c in channels:
             meas = record.channels[c][sel][keep]

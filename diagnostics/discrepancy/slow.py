@@ -27,7 +27,13 @@ from scipy import stats
 from scipy.optimize import minimize_scalar
 
 from diagnostics.discrepancy.refit import with_effects
-from diagnostics.discrepancy.simulate import on_grid, simulate_record, timed_switch
+from diagnostics.discrepancy.simulate import (
+    model_phase_start,
+    on_grid,
+    phase_start,
+    simulate_record,
+    timed_switch,
+)
 from diagnostics.timeseries import SeriesRecord
 from sim.components.effects import EFFECTS, parameter_bounds
 from sim.errors import InputError, SimulationError
@@ -85,10 +91,10 @@ def slow_chi2(rig: Rig, records: Sequence[SeriesRecord], channels: Sequence[str]
             tab = table[table["phase"] == ph]
             if sel.size < 20 * BLOCKS or len(tab) < 3:
                 continue
-            tm = r.t[sel] - r.t[sel][0]
+            tm = r.t[sel] - phase_start(r.t, int(sel[0]))
             keep = (tm >= 0.1 * tm[-1]) & (tm <= 0.9 * tm[-1])
-            ts = tab["t [s]"].to_numpy(dtype=float)
-            model = on_grid(tab.assign(**{"t [s]": ts - ts[0]}), tm[keep], list(channels))
+            ts = tab["t [s]"].to_numpy(dtype=float) - model_phase_start(table, ph)
+            model = on_grid(tab.assign(**{"t [s]": ts}), tm[keep], list(channels))
             for c in channels:
                 m_mean, m_std = _blocks(r.channels[c][sel][keep])
                 s_mean, s_std = _blocks(model[c])

@@ -22,7 +22,7 @@ def test_a_start_the_solver_cannot_simulate_raises_the_solver_error_not_a_key_er
     def fails(*args: Any, **kwargs: Any) -> Any:
         raise SolverLimitError("rtol: working phase: the step size fell below round-off")
 
-    monkeypatch.setattr(refit_module, "stacked_residual", fails)
+    monkeypatch.setattr(refit_module, "residual_parts", fails)
     with pytest.raises(SolverLimitError):
         refit_module.refit(reference_rig_document(), {"entrained_air.alpha": 2.5e-4}, [],
                            ["P1"], {"P1": 1e4}, max_nfev=5)
