@@ -145,12 +145,15 @@ def _text(x: float, y: float, text: str, *, size: int = 11, anchor: str = "middl
 _LEGEND_ROW, _LEGEND_GAP = 14.0, 4.0
 
 
-def _legend_layout(entries: Sequence[tuple[str, str, bool]], width: float
-                   ) -> list[tuple[float, int]]:
+#: a legend entry: label, colour, dashed line, drawn as a dot (a series of points)
+_Entry = tuple[str, str, bool, bool]
+
+
+def _legend_layout(entries: Sequence[_Entry], width: float) -> list[tuple[float, int]]:
     """Each legend entry's x [px] and row: left to right, wrapping within ``width``."""
     out: list[tuple[float, int]] = []
     x, row = 8.0, 0
-    for text, _, _ in entries:
+    for text, *_ in entries:
         w = 30.0 + 6.2 * len(text) + 12.0
         if x > 8.0 and x + w > width - 8.0:
             x, row = 8.0, row + 1
@@ -159,19 +162,21 @@ def _legend_layout(entries: Sequence[tuple[str, str, bool]], width: float
     return out
 
 
-def _legend(entries: Sequence[tuple[str, str, bool]], width: float, top: float
-            ) -> tuple[str, float]:
+def _legend(entries: Sequence[_Entry], width: float, top: float) -> tuple[str, float]:
     """The legend below the plot, from ``top`` [px] down, and its height [px]: outside the
     axes, so that it never covers a point (it once hid error bars and a throttle point)."""
     if not entries:
         return "", 0.0
     layout = _legend_layout(entries, width)
     out = []
-    for (text, color, dashed), (x, row) in zip(entries, layout, strict=True):
+    for (text, color, dashed, dot), (x, row) in zip(entries, layout, strict=True):
         yy = top + _LEGEND_GAP + 11 + _LEGEND_ROW * row
         dash = ' stroke-dasharray="5 3"' if dashed else ""
-        out.append(f'<line x1="{x:.1f}" y1="{yy - 4:.1f}" x2="{x + 24:.1f}" y2="{yy - 4:.1f}" '
-                   f'stroke="{color}" stroke-width="2"{dash}/>')
+        if dot:
+            out.append(f'<circle cx="{x + 12:.1f}" cy="{yy - 4:.1f}" r="3" fill="{color}"/>')
+        else:
+            out.append(f'<line x1="{x:.1f}" y1="{yy - 4:.1f}" x2="{x + 24:.1f}" '
+                       f'y2="{yy - 4:.1f}" stroke="{color}" stroke-width="2"{dash}/>')
         out.append(_text(x + 30, yy, text, size=10, anchor="start"))
     rows = layout[-1][1] + 1
     return "".join(out), _LEGEND_GAP + _LEGEND_ROW * rows + 4
@@ -250,7 +255,7 @@ def _bars(chart: Chart, width: float, height: float) -> tuple[str, str]:
     return axes, "".join(body)
 
 
-def _lines(chart: Chart, width: float, height: float) -> tuple[str, str, list[tuple[str, str, bool]]]:
+def _lines(chart: Chart, width: float, height: float) -> tuple[str, str, list[_Entry]]:
     xs = _finite(*[s.x for s in chart.series], [p for p, _ in chart.vlines])
     ys = _finite(*[s.y for s in chart.series], *[s.low for s in chart.series if s.low is not None],
                  *[s.high for s in chart.series if s.high is not None],
@@ -269,23 +274,23 @@ def _lines(chart: Chart, width: float, height: float) -> tuple[str, str, list[tu
         yticks = [(t, _label(t)) for t in nice_ticks(*yr)]
     axes = _axes(frame, chart, xticks, yticks, height)
     body = []
-    legend: list[tuple[str, str, bool]] = []
+    legend: list[_Entry] = []
     for i, s in enumerate(chart.series):
         color = s.color if s.color is not None else PALETTE[i % len(PALETTE)]
         body.append(_series(frame, s, color))
-        if s.label:
-            legend.append((s.label, color, s.dashed))
+        if s.label:  # a dotted series gets a dot in the legend, a line a line
+            legend.append((s.label, color, s.dashed, s.kind in ("points", "errorbars")))
     for p, text in chart.hlines:
         if not chart.logy or p > 0:
             body.append(f'<line x1="{frame.x0:.1f}" y1="{frame.y(p):.1f}" x2="{frame.x1:.1f}" '
                         f'y2="{frame.y(p):.1f}" stroke="{_GREY}" stroke-dasharray="2 2"/>')
             if text:
-                legend.append((text, _GREY, True))
+                legend.append((text, _GREY, True, False))
     for p, text in chart.vlines:
         body.append(f'<line x1="{frame.x(p):.1f}" y1="{frame.y1:.1f}" x2="{frame.x(p):.1f}" '
                     f'y2="{frame.y0:.1f}" stroke="{_GREY}" stroke-dasharray="2 2"/>')
         if text:
-            legend.append((text, _GREY, True))
+            legend.append((text, _GREY, True, False))
     return axes, "".join(body), legend
 
 

@@ -26,7 +26,10 @@ from diagnostics.table_files import PARQUET_METADATA_KEY
 from diagnostics.timeseries import SeriesRecord
 from sim.errors import InputError
 
-__all__ = ["series_table", "write_series"]
+__all__ = ["SUFFIXES", "series_table", "write_series"]
+
+#: the file names :func:`write_series` writes (and the import reads by them)
+SUFFIXES = (".csv", ".csv.gz", ".parquet")
 
 
 def series_table(records: Sequence[SeriesRecord]) -> tuple[pd.DataFrame, dict[str, str]]:
@@ -62,14 +65,18 @@ def series_table(records: Sequence[SeriesRecord]) -> tuple[pd.DataFrame, dict[st
 
 
 def write_series(records: Sequence[SeriesRecord], path: Path) -> int:
-    """Write the records to ``path`` — Parquet for a ``.parquet`` name, else CSV (gzip for
-    ``.gz``) — and return the rows written.
+    """Write the records to ``path`` — Parquet for a ``.parquet`` name, CSV for ``.csv``,
+    gzip-compressed CSV for ``.csv.gz`` — and return the rows written.
 
     Raises
     ------
     InputError
-        As :func:`series_table`, or the file cannot be written (``field="file"``).
+        As :func:`series_table`, a name not ending in one of :data:`SUFFIXES`, or the file
+        cannot be written (``field="file"``).
     """
+    if not path.name.endswith(SUFFIXES):
+        raise InputError(f"{path.name}: a series file is {', '.join(SUFFIXES)} (the import "
+                         "reads it by its name)", field="file")
     table, header = series_table(records)
     try:
         if path.suffix == ".parquet":

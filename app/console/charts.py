@@ -122,7 +122,7 @@ def reading_chart(result: Mapping[str, Any], measured: Mapping[str, tuple[float,
         keep = np.isfinite(rel)
         if keep.any():
             series.append(Series(x[keep] + 0.12 * (i + 1), rel[keep],
-                                 f"{fit['name']} (p = {fit.get('probability') or 0:.2f})",
+                                 f"{fit['name']} (p = {fit.get('probability') or 0:.2g})",
                                  kind="points"))
     return line_chart("Measured vs predicted, relative to the measurement", "reading",
                       "predicted / measured − 1 [1]", series, hlines=[(0.0, "")],

@@ -73,3 +73,7 @@ def test_what_the_import_could_not_read_back_is_refused(tmp_path: Path) -> None:
     with pytest.raises(InputError) as err:
         write_series([one], tmp_path / "missing" / "runs.csv")
     assert err.value.field == "file"
+    with pytest.raises(InputError) as err:  # written as CSV, it would be read as nothing
+        write_series([one], tmp_path / "runs.txt")
+    assert err.value.field == "file" and ".parquet" in err.value.message
+    assert not (tmp_path / "runs.txt").exists()
