@@ -38,18 +38,14 @@ the wear re-fitted first (:func:`refit_base`), ``HYDRODIAG_SEEDS=3`` of the same
 15/15 drifted cycles ``base drift``, 15/15 undrifted "no effect", 4/4 out of library
 unexplained, none put down to drift.
 
-Errors: the widest of three, each parameter's own.  The Jacobian's (JᵀJ)⁻¹·s² counts every
-compared sample as an independent reading; the cluster-robust sandwich takes each record's
-phase segment and channel as one block (:func:`diagnostics.robust.cluster_cov`: a misfit
-left by a re-fit is smooth over a phase); and the solver's resolution, (JᵀJ)⁻¹·ε²·n with
-ε = :data:`~diagnostics.discrepancy.refit.NUMERICAL`, is the parameter change that moves
-the compared outputs by ε σ RMS —
-the accuracy the workflow's simulations are run to, below which a change of the re-fit
-cannot be told from the solver's own error (:func:`~diagnostics.discrepancy.refit.fit_cov`,
-as for the effects' re-fits).  Over thousands of samples the first is far
-narrower than the third: on a piston worn to cc +20 % alone (1 kHz, two training records),
-the re-fit's cost at the truth was 10 χ² below where the optimiser stopped (cc +19.92 %,
-cv +0.27 %, with 1-σ errors of 0.003 % and 0.037 % from the Jacobian alone), and the s47
+Errors: the widest of three, each parameter's own
+(:func:`~diagnostics.discrepancy.refit.fit_cov`, as for the effects' re-fits): the
+Jacobian's (JᵀJ)⁻¹·s², which counts every compared sample as an independent reading; the
+cluster-robust sandwich with each record's phase segment and channel one block (a misfit
+left by a re-fit is smooth over a phase); and the largest change the simulation's own
+error, at most 0.1 σ at every sample, could cause.  Over thousands of samples the first is
+far the narrowest: on a piston worn to cc +20 % alone (1 kHz, two training records) it
+stated cv to ±0.037 % where the optimiser stopped at +0.27 %, and the s47
 stated-condition pass saw Rlp "significant" at −7.2 % ± 0.44 % on such records, before the
 phase switch was placed within its sample (:mod:`~diagnostics.discrepancy.refit`).
 

@@ -58,8 +58,8 @@ def test_a_noise_free_record_matches_its_own_model_to_the_solver_accuracy() -> N
 
 def test_a_re_fit_error_is_never_finer_than_the_solver_resolution() -> None:
     """Residuals of pure noise over 4,000 samples: the Jacobian alone states 1/√n of a
-    parameter that moves the outputs 1 σ per unit; the solver's resolution, the change that
-    moves them by NUMERICAL σ RMS, is wider and is what is stated."""
+    parameter that moves the outputs 1 σ per unit; the largest change an error of the
+    solver of NUMERICAL σ at every sample could cause is wider and is what is stated."""
     rng = np.random.default_rng(3)
     n = 4000
     J = np.ones((n, 1))
@@ -67,3 +67,9 @@ def test_a_re_fit_error_is_never_finer_than_the_solver_resolution() -> None:
     var = fit_cov(J, r, [n // 4] * 4)[0, 0]
     assert math.sqrt(var) == pytest.approx(NUMERICAL, rel=1e-9)
     assert math.sqrt(var) > 5.0 / math.sqrt(n)
+    # a signature in 400 of the samples, 2 σ per unit there: an error of NUMERICAL σ at
+    # each of them moves the parameter by at most NUMERICAL / 2
+    J = np.zeros((n, 1))
+    J[:400] = 2.0
+    var = fit_cov(J, r, [n // 4] * 4)[0, 0]
+    assert math.sqrt(var) == pytest.approx(NUMERICAL / 2.0, rel=1e-9)
