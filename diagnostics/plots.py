@@ -209,8 +209,9 @@ def _figure(chart: Chart) -> Any:
     if handles:
         # below the axes, never over a point (``loc="best"`` once hid error bars): the
         # figure grows to hold it when saved (``bbox_inches="tight"``)
+        below = -0.32 if chart.xticks else (-0.2 if chart.xlabel else -0.1)  # under the labels
         ax.legend(fontsize=8, frameon=False, loc="upper center", ncol=min(len(handles), 3),
-                  bbox_to_anchor=(0.5, -0.14 if not chart.xticks else -0.3))
+                  bbox_to_anchor=(0.5, below))
     return fig
 
 
