@@ -56,7 +56,8 @@ def migrated_engine() -> Engine:
     """Engine of the configured store, migrated to the newest revision first."""
     from app.services.bootstrap import bootstrap_lock, upgrade_database
 
-    url = settings_from_env().url
+    settings = settings_from_env()
+    url = settings.url
     fresh = (url.get_backend_name() == "sqlite" and url.database is not None
              and not Path(url.database).exists())
     engine = make_engine(url)
@@ -65,10 +66,11 @@ def migrated_engine() -> Engine:
     if fresh:
         # a command run from another folder used that folder's ./data: a key made there
         # worked on no running service (an operator pass)
+        where = ("HYDRODIAG_DATABASE_URL" if settings.database_url is not None else
+                 "HYDRODIAG_DATA_DIR, default ./data of the current folder")
         console.print(f"[yellow]a new, empty store was made at {escape(str(url.database))}"
-                      "[/yellow] (HYDRODIAG_DATA_DIR, default ./data of the current folder; "
-                      "the service's store is where it was started, or its "
-                      "HYDRODIAG_DATA_DIR)")
+                      f"[/yellow] ({where}; the service's store is where it was started, or "
+                      "its HYDRODIAG_DATA_DIR / HYDRODIAG_DATABASE_URL)")
     return engine
 
 
