@@ -41,7 +41,8 @@ def test_svg_obeys_the_plot_contract_and_places_points_linearly() -> None:
     assert np.diff(xy[:, 0]) == pytest.approx([np.diff(xy[:, 0])[0]] * 2, abs=0.11)
     assert np.diff(xy[:, 1]) == pytest.approx([np.diff(xy[:, 1])[0]] * 2, abs=0.11)
     assert np.diff(xy[:, 1])[0] < 0  # larger y is higher on the page
-    assert svg.count("<circle") == 2 and "limit" in svg
+    # the two points, and the legend's dot for their series (below the axes)
+    assert svg.count("<circle") == 3 and "limit" in svg
 
 
 def test_bars_are_as_long_as_their_values() -> None:
