@@ -43,7 +43,7 @@ from pathlib import Path
 
 import pytest
 
-from diagnostics.real.zema import FULLRES_CYCLES, FULLRES_FILE, find_shared
+from diagnostics.real.zema import FULLRES_CYCLES, FULLRES_FILE, NATIVE_RATES, find_shared
 
 __all__ = ["NATIVE_SLICE_S", "ZEMA_CYCLES", "ZEMA_PROGRAM_CYCLES", "ZEMA_SPAN_CYCLES",
            "v32hl56_slice", "vtnsi_slice", "zema_native_slice", "zema_program_slice",
@@ -153,9 +153,8 @@ def zema_native_slice() -> Path:
         src = _shared_real() / "uci-hydraulic-zema" / FULLRES_FILE
         with src.open(newline="") as fh:
             rows = list(csv.reader(fh))
-        rates = {"PS1": 100, "PS2": 100, "EPS1": 100, "FS1": 10, "TS1": 1}
-        keep = [i for i, col in enumerate(rows[0]) if col.split("_")[0] in rates
-                and int(col.split("_")[1]) < NATIVE_SLICE_S * rates[col.split("_")[0]]]
+        keep = [i for i, col in enumerate(rows[0]) if col.split("_")[0] in NATIVE_RATES
+                and int(col.split("_")[1]) < NATIVE_SLICE_S * NATIVE_RATES[col.split("_")[0]]]
         out = dst / FULLRES_FILE
         out.parent.mkdir(parents=True)
         with out.open("w", newline="") as fh:
