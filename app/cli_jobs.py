@@ -125,8 +125,11 @@ def cancel(job_id: JobArg) -> None:
 
     with store_session() as session:
         job = cancel_job(session, job_id)
-        status = job.status
-    if status == "cancelled":
+        status, asked = job.status, job.cancel_requested_at is not None
+    if status == "cancelled" and asked:
+        # it ran, was asked to stop and stopped before the answer was read back
+        _out.print(f"job {job_id} asked to stop: it stopped (cancelled)", markup=False)
+    elif status == "cancelled":
         _out.print(f"job {job_id} cancelled", markup=False)
     else:
         _out.print(f"job {job_id} asked to stop: it stops at its next progress report "
