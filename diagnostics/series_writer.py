@@ -16,13 +16,12 @@ have a start or none.
 from __future__ import annotations
 
 import gzip
-import json
 from collections.abc import Sequence
 from pathlib import Path
 
 import pandas as pd
 
-from diagnostics.table_files import PARQUET_METADATA_KEY
+from diagnostics.table_files import table_bytes
 from diagnostics.timeseries import SeriesRecord
 from sim.errors import InputError
 
@@ -78,21 +77,9 @@ def write_series(records: Sequence[SeriesRecord], path: Path) -> int:
         raise InputError(f"{path.name}: a series file is {', '.join(SUFFIXES)} (the import "
                          "reads it by its name)", field="file")
     table, header = series_table(records)
+    data = table_bytes(table, header, "parquet" if path.suffix == ".parquet" else "csv")
     try:
-        if path.suffix == ".parquet":
-            import pyarrow as pa
-            import pyarrow.parquet as pq
-
-            arrow = pa.Table.from_pandas(table, preserve_index=False)
-            meta = dict(arrow.schema.metadata or {})
-            meta[PARQUET_METADATA_KEY.encode()] = json.dumps(header).encode("utf-8")
-            pq.write_table(arrow.replace_schema_metadata(meta), path)
-        else:
-            lines = "".join(f"# {k} = {json.dumps(v)}\n" for k, v in header.items())
-            opener = gzip.open if path.suffix == ".gz" else open
-            with opener(path, "wt", encoding="utf-8", newline="") as fh:
-                fh.write(lines)
-                table.to_csv(fh, index=False)
+        path.write_bytes(gzip.compress(data, mtime=0) if path.suffix == ".gz" else data)
     except OSError as exc:
         raise InputError(f"cannot write {path}: {exc.strerror}", field="file") from None
     return len(table)

@@ -7,7 +7,8 @@ export's: rig, condition, summary, ``started_at``), Parquet files carry the same
 JSON in their key-value metadata under :data:`PARQUET_METADATA_KEY`.  A CSV file's
 separator (comma, semicolon or tab) and decimal mark are found from its first lines
 (:func:`dialect`).  Errors are :class:`~sim.errors.InputError` naming ``file`` or
-``format``.
+``format``.  :func:`table_bytes` writes a table and its header in the same layout, so
+that what an export or an adapter writes reads back here as it was.
 """
 
 from __future__ import annotations
@@ -17,16 +18,17 @@ import itertools
 import json
 import re
 import zlib
+from collections.abc import Mapping
 from datetime import UTC, datetime, timedelta, timezone
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import pandas as pd
 
 from sim.errors import InputError
 
 __all__ = ["MAX_DECOMPRESSED_BYTES", "PARQUET_METADATA_KEY", "check_table", "check_text", "dialect",
-           "gunzipped", "read_table", "time_in_name"]
+           "gunzipped", "read_table", "table_bytes", "time_in_name"]
 
 #: Largest gzip-compressed file's size once decompressed, unless the caller says [byte].
 MAX_DECOMPRESSED_BYTES = 64 * 1024 * 1024
@@ -34,6 +36,41 @@ MAX_DECOMPRESSED_BYTES = 64 * 1024 * 1024
 PARQUET_METADATA_KEY = "hydrodiag"
 
 _META = re.compile(r"^#\s*([A-Za-z_][A-Za-z0-9_]*)\s*=\s*(.*)$")
+
+
+def table_bytes(frame: pd.DataFrame, header: Mapping[str, Any],
+                fmt: Literal["csv", "parquet"]) -> bytes:
+    """``frame`` and its ``header`` as a file :func:`read_table` reads back to both.
+
+    CSV: each header entry a ``# key = <json>`` line, then the column names, then the rows
+    by Arrow's writer (numbers as the shortest text that reads back to the same double;
+    ~10x faster than pandas'), a text value quoted only where the file has one that holds
+    a separator, quote or line break.  Parquet: the header as JSON in the file's metadata
+    under :data:`PARQUET_METADATA_KEY`.
+    """
+    import pyarrow as pa
+
+    table = pa.Table.from_pandas(frame, preserve_index=False)
+    buffer = io.BytesIO()
+    if fmt == "parquet":
+        import pyarrow.parquet as pq
+
+        metadata = dict(table.schema.metadata or {})
+        metadata[PARQUET_METADATA_KEY.encode()] = json.dumps(dict(header)).encode("utf-8")
+        pq.write_table(table.replace_schema_metadata(metadata), buffer)
+        return buffer.getvalue()
+    import pyarrow.csv as pcsv
+
+    structural = re.compile(r'[,"\r\n]')
+    texts = [frame[c] for c in frame.columns if not pd.api.types.is_numeric_dtype(frame[c])]
+    quoted = any(s.astype(str).str.contains(structural).any() for s in texts)
+    names = [f'"{n}"' if structural.search(str(n)) else str(n)
+             for n in (str(c).replace('"', '""') for c in frame.columns)]
+    lines = [f"# {key} = {json.dumps(value)}" for key, value in header.items()]
+    buffer.write(("\n".join([*lines, ",".join(names)]) + "\n").encode("utf-8"))
+    pcsv.write_csv(table, buffer, pcsv.WriteOptions(
+        include_header=False, quoting_style="needed" if quoted else "none"))
+    return buffer.getvalue()
 
 
 def _header_lines(text: str) -> tuple[dict[str, Any], int]:

@@ -67,7 +67,7 @@ import pandas as pd
 from scipy.optimize import least_squares
 
 from diagnostics.discrepancy.gap import GapRow, gap_table
-from diagnostics.discrepancy.refit import fit_cov, residual_parts
+from diagnostics.discrepancy.refit import fit_cov, residual_parts, stacked
 from diagnostics.discrepancy.simulate import simulate_record
 from diagnostics.discrepancy.transient import is_significant
 from diagnostics.discrepancy.verdict import OUTPUT_GAP
@@ -275,10 +275,10 @@ def _refit(rig: Rig, keys: Sequence[str], train: Sequence[SeriesRecord],
             if not n:  # the first call is the stored rig: nothing to re-fit from
                 raise
             return np.full(n[0], 1e3)  # a trial the solver cannot run is a bad trial
-        r = np.concatenate([p for _, p in parts]) if parts else np.zeros(1)
+        r, part_sizes = stacked(parts)
         if not n:
             n.append(r.size)
-            sizes.extend(p.size for _, p in parts)
+            sizes.extend(part_sizes)
         return r
 
     n: list[int] = []

@@ -52,7 +52,7 @@ from sim.rigs.assembly import Rig
 from sim.rigs.schema import validate_rig_document
 
 __all__ = ["APART", "NUMERICAL", "compare_from", "fit_cov", "output_cost", "refit",
-           "residual_parts", "stacked_residual", "tell_apart", "with_effects"]
+           "residual_parts", "stacked", "stacked_residual", "tell_apart", "with_effects"]
 
 Arr = npt.NDArray[np.float64]
 
@@ -105,8 +105,15 @@ def stacked_residual(rig: Rig, records: Sequence[SeriesRecord], channels: Sequen
                       start: float = 0.1) -> Arr:
     """Model − measurement / σ over ``start``-90 % of each measured phase, stacked
     (:func:`residual_parts`)."""
-    parts = residual_parts(rig, records, channels, sig, overrides, start)
-    return np.concatenate([p for _, p in parts]) if parts else np.zeros(1)
+    return stacked(residual_parts(rig, records, channels, sig, overrides, start))[0]
+
+
+def stacked(parts: Sequence[tuple[object, Arr]]) -> tuple[Arr, list[int]]:
+    """The parts of :func:`residual_parts` as one vector (one zero when there are none)
+    and each part's length: the samples of one record's phase segment and channel, the
+    clusters of :func:`fit_cov`."""
+    sizes = [p.size for _, p in parts]
+    return (np.concatenate([p for _, p in parts]) if parts else np.zeros(1)), sizes
 
 
 def residual_parts(rig: Rig, records: Sequence[SeriesRecord], channels: Sequence[str],
@@ -208,9 +215,10 @@ def refit(doc: dict[str, Any], start: Mapping[str, float], records: Sequence[Ser
             if start not in _n:  # the start itself cannot be simulated: say so
                 raise
             return np.full(_n[start], 1e3)
+        r, part_sizes = stacked(parts)
         if start == 0.1 and not sizes:
-            sizes.extend(p.size for _, p in parts)
-        return np.concatenate([p for _, p in parts]) if parts else np.zeros(1)
+            sizes.extend(part_sizes)
+        return r
 
     _n: dict[float, int] = {}
     sizes: list[int] = []  # samples per record, phase segment and channel

@@ -5,7 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from diagnostics.table_files import dialect, read_table
+import pandas as pd
+
+from diagnostics.table_files import dialect, read_table, table_bytes
 from diagnostics.timeseries import read_series
 from sim.errors import InputError
 
@@ -21,6 +23,22 @@ def test_the_dialect_is_found_from_the_first_lines():
     frame, meta, name = read_table(b"# rig = \"x\"\nt [s];P1 [bar]\n0;1,5\n")
     assert meta == {"rig": "x"} and name == "upload"
     assert frame.to_dict("list") == {"t [s]": [0], "P1 [bar]": [1.5]}
+
+
+@pytest.mark.parametrize("fmt", ["csv", "parquet"])
+def test_a_written_table_reads_back_with_its_header(fmt):
+    """What an export or an adapter writes (table_bytes) reads back to the same doubles,
+    texts and header; a text holding a separator or quote is quoted, and only then."""
+    values = np.array([0.1, 1 / 3, 2.5e-7, -1e6])
+    header = {"rig": "preset", "condition": {"load": 4200.0}, "started_at": None}
+    for names in (["r1", "r2", "r3", "r4"], ["a,b", 'say "x"', "c", "d"]):
+        frame = pd.DataFrame({"record": names, "t [s]": values, "P1 [Pa]": values * 7})
+        back, meta, _ = read_table(table_bytes(frame, header, fmt), fmt)
+        assert meta == header
+        assert back["record"].tolist() == names
+        np.testing.assert_array_equal(back["P1 [Pa]"].to_numpy(), values * 7)  # every bit
+    plain = table_bytes(frame.assign(record=["r1", "r2", "r3", "r4"]), {}, "csv")
+    assert b'"' not in plain
 
 
 def test_semicolons_and_decimal_commas_and_tabs_are_read():
