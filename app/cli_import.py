@@ -78,7 +78,7 @@ def import_series(
     sample_rate: SampleRateOption = None,
     started_at: Annotated[str | None, typer.Option(
         help="Clock time at which the file's t reads 0, ISO 8601 with zone (e.g. "
-             "2026-11-20T08:00:00Z): each record is stored as measured then plus its first "
+             "2026-11-20T08:00Z): each record is stored as measured then plus its first "
              "sample's t \\[UTC]; default: the file header's started_at, else none. One "
              "file only: several take theirs from their headers or names.")] = None,
     time_in_name: Annotated[str | None, typer.Option(
@@ -132,7 +132,7 @@ def import_zema(
     first: Annotated[int, typer.Option(help="First cycle (1-based).")] = 1,
     last: Annotated[int, typer.Option(help="Last cycle (1-based, included).")] = 2205,
     root: Annotated[Path | None, typer.Option(
-        help="Folder of the ZeMA data set; default: data/real/uci-hydraulic-zema of "
+        help="Folder of the ZeMA data set; default: the folder uci-hydraulic-zema in data/real of "
              "HYDRODIAG_SHARED, ../shared or /work/shared.")] = None,
     bench: Annotated[Path | None, typer.Option(
         help="Also write the cycles' settled working plateaus here as a pump-bench CSV "
@@ -156,7 +156,7 @@ def import_zema(
                      ] = True,
     started_at: Annotated[str | None, typer.Option(
         help="Clock time at which cycle 1 started, ISO 8601 with zone (e.g. "
-             "2026-11-20T08:00:00Z): cycle k is stored as measured (k − 1) × 60 s later, "
+             "2026-11-20T08:00Z): cycle k is stored as measured (k − 1) × 60 s later, "
              "the data set's cycles following one another; default: no time.")] = None,
 ) -> None:
     """Import ZeMA load cycles (PS1, PS2, FS1, EPS1, TS1; 1 Hz, or the raw few at their

@@ -106,3 +106,17 @@ def test_native_import_refuses_a_range_without_raw_cycles(runner: CliRunner,
     assert unwritable.exit_code != 0
     assert getattr(unwritable.exception, "field", None) == "--table"
     assert store_count(MeasuredSeries) == 0
+
+
+@pytest.mark.parametrize("command", ["zema", "series"])
+def test_the_import_help_is_whole_at_80_columns(command: str) -> None:
+    """An example or a default path too long for typer's help column was cut with '…'
+    (a user pass: the data set's default folder and the ISO example of --started-at)."""
+    shown = CliRunner().invoke(cli, ["import", command, "--help"], env={"COLUMNS": "80"},
+                               terminal_width=80)
+    assert shown.exit_code == 0, shown.output
+    assert max(len(line) for line in shown.output.splitlines()) <= 80
+    text = "".join(shown.output.split())
+    assert "2026-11-20T08:00Z" in text
+    if command == "zema":
+        assert "uci-hydraulic-zema" in text
