@@ -3,9 +3,8 @@
 from __future__ import annotations
 
 import numpy as np
-import pytest
-
 import pandas as pd
+import pytest
 
 from diagnostics.table_files import dialect, read_table, table_bytes
 from diagnostics.timeseries import read_series
