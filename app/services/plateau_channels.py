@@ -31,8 +31,9 @@ PRESSURE_FACTOR = 2.0
 def plateau_notes(rows: Sequence[MeasuredSeries]) -> list[str]:
     """A note naming the plateau channels an import to a rig without a cycle lacks (the
     oil temperature too, unless stated as the record's condition), and a name that differs
-    from one only in case (the model's ``P_pump`` for ``p_pump``: the README's own example
-    stored series the plateau reader refused) or a usual name for the temperature."""
+    from one only in case (the model's ``P_pump`` for ``p_pump``: the column-map example of
+    docs/real-data.md, then in the README, stored series the plateau reader refused) or a
+    usual name for the temperature."""
     names = {c for r in rows for c in r.units}
     lacking = [c for c in PLATEAU_CHANNELS if c not in names]
     # the plateaus are read at the cycle's oil temperature: a channel or a stated condition

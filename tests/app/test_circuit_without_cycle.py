@@ -208,8 +208,8 @@ def test_plateau_channels_their_columns_contradict_are_refused(
 
 def test_the_models_channel_names_get_a_note_naming_the_plateau_channels(
         server: LiveServer, rig_id: int) -> None:
-    """Following the README's example names (P_pump, Q_work) stored series the plateau
-    reader then refused; the import now says which names it reads."""
+    """Following the example names of docs/real-data.md (then in the README: P_pump, Q_work)
+    stored series the plateau reader then refused; the import now says which names it reads."""
     content = b"record,PS1,FS1,TS1\n" + b"".join(
         f"n,{150 + i % 3},{7.7 + 0.01 * i},45\n".encode() for i in range(20))
     r = server.client.post(f"/rigs/{rig_id}/series", headers=server.auth, data={

@@ -60,7 +60,8 @@ def test_calibrate_pump_map_stores_one_checked_set_per_setting(runner: CliRunner
     assert sorted(sets) == ["map-23.2cm3", "map-56.9cm3"]
     for name, stated in (("map-23.2cm3", 23.2), ("map-56.9cm3", 56.9)):
         q = sets[name]
-        # Toet's derived capacity a little above the stated displacement (README: 0.3-0.8 %)
+        # Toet's derived capacity a little above the stated displacement
+        # (docs/real-data.md: 0.3-0.8 %)
         assert 1.0 < q["D_per_rev"]["value"] * 1e6 / stated < 1.01
         assert 0.0 < q["check_flow_S"]["value"] < 1.0      # held out one speed at a time [%]
         bench = read_bench_csv(out / f"V32HL56-slice-{stated}cm3.csv")
