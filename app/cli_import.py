@@ -118,7 +118,7 @@ def import_series(
                         total=len(records), completed=0)
         rows = store_records(session, rig_id, name, records,
                              lambda done, total: progress.update(task, completed=done))
-        notes = channels.notes(rows)
+        notes = channels.notes(rows) + channels.time_notes(records)
     what = _shown(files[0].name) if len(files) == 1 else f"{len(files)} files"
     _summary(list(rows), f"{counted(len(rows), 'record')} of {what} stored for rig {rig_id}")
     for note in notes:

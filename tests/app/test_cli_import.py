@@ -120,3 +120,23 @@ def test_the_import_help_is_whole_at_80_columns(command: str) -> None:
     assert "2026-11-20T08:00Z" in text
     if command == "zema":
         assert "uci-hydraulic-zema" in text
+
+
+def test_a_stroke_imported_at_a_wrong_rate_is_noted_by_the_cli(
+        runner: CliRunner, tmp_path: Path) -> None:
+    """``hydrodiag import series --sample-rate`` prints the note the HTTP import answers:
+    a 100 Hz stroke stated as 1 Hz crosses its travel ~140× slower than the pump drives."""
+    t = np.arange(0.0, 6.0, 0.01)
+    x = np.clip((t - 0.5) * 0.16, 0.0, 0.5)
+    data = tmp_path / "stroke.csv"
+    data.write_text("x [m],load [N],oil_temperature [degC]\n"
+                    + "".join(f"{float(v)!r},4200,40\n" for v in x))
+    assert runner.invoke(cli, ["db", "upgrade"]).exit_code == 0
+    said = runner.invoke(cli, ["import", "series", str(data), "--rig", "1", "--name", "s",
+                               "--sample-rate", "1"])
+    assert said.exit_code == 0, said.output
+    text = "".join(said.output.split())
+    assert "crossesitstravel138×slower" in text and "toolong" in text
+    quiet = runner.invoke(cli, ["import", "series", str(data), "--rig", "1", "--name", "q",
+                                "--sample-rate", "100"])
+    assert quiet.exit_code == 0 and "crosses" not in quiet.output

@@ -6,6 +6,7 @@ import json
 from typing import Any
 
 import httpx
+import numpy as np
 import pytest
 
 from diagnostics.real.zema import COLUMN_MAP, cycles_frame, load_1hz
@@ -304,3 +305,24 @@ def test_the_same_import_twice_is_refused_and_a_days_new_file_is_not(
     assert renamed.status_code == 409 and "stored already" in renamed.text
     # other values under the same names: new data
     assert send(b"t [s],P1 [bar],P2 [bar]\n0,10,11\n1,11,10\n").status_code == 201
+
+
+def test_a_cycle_imported_at_a_wrong_sample_rate_is_said(server: LiveServer) -> None:
+    """A 100 Hz logger's stroke imported as '1 Hz' was stored without a word: the piston
+    then crosses its travel ~140× slower than the pump can drive it (a note naming the
+    factor; stored, since a throttled piston can be that slow); at its rate, no note."""
+    t = np.arange(0.0, 6.0, 0.01)
+    x = np.clip((t - 0.5) * 0.16, 0.0, 0.5)                 # 0.16 m/s out over 0.5 m
+    body = "x [m],load [N],oil_temperature [degC]\n" + "".join(
+        f"{float(xi)!r},4200,40\n" for xi in x)
+    for rate, said in ((1.0, True), (100.0, False)):
+        answer = server.client.post("/rigs/1/series", data={
+            "name": f"rate-{rate:g}", "sample_rate": str(rate)},
+            files={"file": ("stroke.csv", body.encode(), "text/csv")}, headers=server.auth)
+        assert answer.status_code == 201, answer.text
+        notes = [n for n in answer.json()["notes"] if "crosses its travel" in n]
+        if said:
+            (note,) = notes
+            assert f"{100 * 0.2200660941517565 / 0.16:.3g}×" in note and "too long" in note
+        else:
+            assert notes == []
