@@ -26,7 +26,7 @@ import sys
 import time
 from contextvars import ContextVar
 from datetime import UTC, datetime
-from typing import Any, Literal
+from typing import Any, Literal, TextIO
 
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
@@ -178,6 +178,21 @@ class _TextFormatter(logging.Formatter):
 _HANDLER_NAME = "hydrodiag-service"
 
 
+class _StandardError(logging.StreamHandler):
+    """A handler that writes to whatever ``sys.stderr`` is when a record is emitted, not
+    the stream it was when logging was configured: a server thread that outlives a
+    replaced (and closed) stream — a test's captured output — then
+    neither fails with "I/O operation on closed file" nor loses the line."""
+
+    @property
+    def stream(self) -> TextIO:
+        return sys.stderr
+
+    @stream.setter
+    def stream(self, _: object) -> None:  # set by StreamHandler.__init__; always stderr
+        pass
+
+
 def configure_logging(log_format: Literal["json", "text"], level: str) -> None:
     """Send the ``hydrodiag`` loggers to standard error in ``log_format`` at ``level``.
 
@@ -187,7 +202,7 @@ def configure_logging(log_format: Literal["json", "text"], level: str) -> None:
     for handler in list(root.handlers):
         if handler.get_name() == _HANDLER_NAME:
             root.removeHandler(handler)
-    handler = logging.StreamHandler(sys.stderr)
+    handler = _StandardError()
     handler.set_name(_HANDLER_NAME)
     handler.setFormatter(JsonFormatter() if log_format == "json" else _TextFormatter(
         "%(asctime)s %(levelname)s %(name)s: %(message)s"))

@@ -156,3 +156,28 @@ def test_serve_writes_json_lines_without_secrets(tmp_path: Path) -> None:
                 "key_id"} <= set(r) for r in access)
     for secret_text in (SECRET_IN_BODY, SECRET_IN_HEADER, key):
         assert secret_text not in stderr
+
+
+def test_the_service_log_follows_standard_error_when_it_is_replaced(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """A server thread logging after the standard error it started with was closed (a
+    test's captured output) printed "--- Logging error --- ... I/O operation on closed
+    file" with a traceback into CI's log; the line now goes to standard error as it is."""
+    from app.logs import configure_logging
+
+    logger = logging.getLogger("hydrodiag")
+    saved = (list(logger.handlers), logger.level, logger.propagate)
+    first, second = io.StringIO(), io.StringIO()
+    try:
+        monkeypatch.setattr(sys, "stderr", first)
+        configure_logging("text", "info")
+        logging.getLogger("hydrodiag.test").info("to the first")
+        first.close()
+        monkeypatch.setattr(sys, "stderr", second)
+        logging.getLogger("hydrodiag.test").info("to the second")
+        assert "to the second" in second.getvalue()
+        assert "Logging error" not in second.getvalue()
+    finally:
+        logger.handlers[:] = saved[0]
+        logger.setLevel(saved[1])
+        logger.propagate = saved[2]
