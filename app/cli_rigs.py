@@ -63,12 +63,18 @@ def update(
     comment: CommentOption = None,
 ) -> None:
     """Validate FILE and store it as the next version of rig RIG_ID (same name)."""
-    from app.services.rigs import update_rig
+    from app.services.rigs import get_rig, update_rig
 
     doc = _document(file)
     with store_session() as session:
+        before = get_rig(session, rig_id).latest_version
         rig, version = update_rig(session, rig_id, doc, comment=comment)
-        _out.print(f"rig {rig.id} {rig.name!r}: version {version.version} stored", markup=False)
+        if version.version == before:  # the latest version's document: nothing stored
+            _out.print(f"rig {rig.id} {rig.name!r}: the document is version {before}'s; "
+                       "nothing stored", markup=False)
+        else:
+            _out.print(f"rig {rig.id} {rig.name!r}: version {version.version} stored",
+                       markup=False)
 
 
 @rigs_cli.command("list")

@@ -330,6 +330,10 @@ class RequestModel(BaseModel):
     #: Names other operations give a field of this model (``load_force`` of a diagnosis
     #: record for the ``load`` of a simulation): the 422 of such a key names this one.
     synonyms: ClassVar[Mapping[str, str]] = {}
+    #: A field that wraps a document (``document`` of a rig) and the keys that document
+    #: holds: a body of those keys sent bare is told to wrap them, not "did you mean
+    #: 'comment'?" (a user pass sent a rig file as the body of ``POST /rigs``).
+    wraps: ClassVar[tuple[str, frozenset[str]] | None] = None
 
     @model_validator(mode="before")
     @classmethod
@@ -338,6 +342,13 @@ class RequestModel(BaseModel):
             return data
         known, allowed, checks = _plan(cls)
         unknown = [str(k) for k in data if k not in allowed]
+        if unknown and cls.wraps is not None and cls.wraps[0] not in data \
+                and set(unknown) & cls.wraps[1]:
+            raise PydanticCustomError(
+                "extra_forbidden", f"unknown fields {', '.join(map(repr, unknown[:10]))}: "
+                f"these are the fields of a {cls.wraps[0]} itself; send it inside the "
+                f"body's {cls.wraps[0]!r} field ({{\"{cls.wraps[0]}\": {{...}}}}; known "
+                f"fields: {', '.join(known)})", {"unknown_field": unknown[0][:100]})
         if unknown:
             raise PydanticCustomError(
                 "extra_forbidden", _unknown_field_message(unknown, known, cls.synonyms),

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from functools import partial
-from typing import Any
+from typing import Any, ClassVar
 
 from pydantic import Field
 
@@ -34,11 +34,18 @@ _comment = partial(
 )
 
 
+#: the top-level keys of a rig document (:mod:`sim.rigs.schema`)
+_RIG_DOCUMENT = ("document", frozenset({"schema", "name", "title", "circuit", "description",
+                                        "fluid", "components", "condition"}))
+
+
 class RigCreate(RequestModel):
     """A new rig: its first description document."""
 
     document: dict[str, Any] = _document(examples=[_CREATE_EXAMPLE])
     comment: str | None = _comment()
+
+    wraps: ClassVar[tuple[str, frozenset[str]] | None] = _RIG_DOCUMENT
 
 
 class RigUpdate(RequestModel):
@@ -46,6 +53,8 @@ class RigUpdate(RequestModel):
 
     document: dict[str, Any] = _document(examples=[_UPDATE_EXAMPLE])
     comment: str | None = _comment()
+
+    wraps: ClassVar[tuple[str, frozenset[str]] | None] = _RIG_DOCUMENT
 
 
 class RigVersionPublic(PublicModel):

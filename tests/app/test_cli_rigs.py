@@ -29,6 +29,12 @@ def test_a_rig_file_is_added_listed_shown_and_versioned(runner: CliRunner,
     (tmp_path / "worn.yaml").write_text(yaml.safe_dump(doc, allow_unicode=True))
     updated = runner.invoke(cli, ["rigs", "update", "2", str(tmp_path / "worn.yaml")])
     assert "version 2 stored" in updated.stdout, updated.output
+    # the same document again stores nothing and says so (it said "version 2 stored")
+    same = runner.invoke(cli, ["rigs", "update", "2", str(tmp_path / "worn.yaml")])
+    assert same.exit_code == 0 and "the document is version 2's; nothing stored" in \
+        " ".join(same.stdout.split())
+    versions = runner.invoke(cli, ["rigs", "show", "2", "--version", "3"])
+    assert versions.exit_code != 0
     latest = yaml.safe_load(runner.invoke(cli, ["rigs", "show", "2"]).stdout)
     first = yaml.safe_load(runner.invoke(cli, ["rigs", "show", "2", "--version", "1",
                                                "--json"]).stdout)

@@ -112,6 +112,21 @@ def test_unknown_keys_and_impossible_geometry_are_refused(
     assert server.row_counts() == before
 
 
+def test_a_rig_file_sent_bare_is_told_to_wrap_it(server: LiveServer, rig_document: dict
+                                                 ) -> None:
+    """A rig file posted as the body itself was answered "'schema' (did you mean
+    'comment'?)" (a user pass); the answer says to send it inside ``document``."""
+    before = server.row_counts()
+    rig_document["name"] = "bare"
+    for send in (server.client.post, lambda url, **kw: server.client.put(url + "/1", **kw)):
+        response = send("/rigs", json=rig_document, headers=server.auth)
+        assert response.status_code == 422, response.text
+        message = response.json()["error"]["message"]
+        assert "fields of a document itself" in message and "'document' field" in message
+        assert "did you mean" not in message
+    assert server.row_counts() == before
+
+
 def test_failed_update_leaves_the_rig_unchanged(server: LiveServer, rig_document: dict) -> None:
     rig = new_rig(server, "stays-put")
     before = server.row_counts()
