@@ -260,7 +260,10 @@ def diagnose(
                       title=f"{', '.join(item.records)}: {item.top} "
                       f"(p = {item.probability:.3f}), diagnosis {item.id or 'not stored'}")
         for fit in item.result["hypotheses"]:
-            params = ", ".join(_parameter_text(p) for p in fit["parameters"])
+            # a value the readings do not feel is no finding (a relief "at 21 bar" on a 70
+            # bar valve read as one: a user pass); the isolability statements say why
+            params = ", ".join(_parameter_text(p) for p in fit["parameters"]) if \
+                fit["observable"] else "— (these readings do not feel it)"
             probability = "not observable" if not fit["observable"] else \
                 f"{fit['probability']:.4f}"
             table.add_row(escape(fit["name"]), probability, escape(params))
@@ -278,9 +281,11 @@ def diagnose(
         elif item.result.get("isolated") is False:
             # explained and confident, but the name's components do not hold 95 % alone
             cred = item.result["isolability"]["credible_set"]
-            _out.print(f"not isolated: {', '.join(cred)} share 95 % of the probability; "
-                       "the isolability statements name the sensor that would separate "
-                       "them", markup=False)
+            _out.print(f"not isolated: {', '.join(cred)} share 95 % of the probability",
+                       markup=False)
+            for statement in item.result["isolability"].get("statements", []):
+                if " vs " in statement:  # the sensor (or test) that would separate them
+                    _out.print(f"  {statement}", markup=False)
         for note in item.regime_notes:
             _out.print(f"note: {note}", markup=False)
     for note in response.notes:
@@ -296,6 +301,7 @@ def commission(
         help="A parameter to fit (repeat); all six by default.")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print the API's JSON answer.")] = False,
     beyond_prior: Annotated[bool, typer.Option(
+        "--beyond-prior",
         help="Store a fit that moves a parameter more than 3 prior σ from the document's "
         "value (refused otherwise: the records may hold wear the fit would absorb).")] = False,
 ) -> None:

@@ -19,7 +19,7 @@ from diagnostics.measurement import MeasurementRecord
 from diagnostics.quantity import CONSISTENCY_K, Quantity, agree
 from sim.errors import MeasurementError, ParameterError
 
-__all__ = ["RigLimits", "check_against_rig"]
+__all__ = ["SLOW_FACTOR", "RigLimits", "check_against_rig", "slow_stroke_notes"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -77,6 +77,9 @@ LOAD_FRACTION = 0.2
 LOAD_MULTIPLE = 500.0
 #: least net force [N] for :data:`LOAD_MULTIPLE` to say a unit slip
 UNIT_SLIP_FORCE = 1000.0
+#: a phase's piston speed below the pump's ω·Vp/A by this factor is noted [-] (and a
+#: measured series' crossing, :mod:`diagnostics.time_scale`)
+SLOW_FACTOR = 30.0
 
 
 def _exceeds(q: Quantity, limit: float) -> bool:
@@ -120,9 +123,12 @@ def check_against_rig(record: MeasurementRecord, limits: RigLimits) -> None:
     for name in ("flow_B", "pump_flow"):
         q = getattr(record, name)
         if q is not None and _exceeds(q, q_max):
+            # l/min typed as m³/s is refused like this; say so as bar and kN are (a user pass)
+            lpm = ("; readings are in m³/s (1 l/min = 1.667e-5 m³/s): are these l/min?"
+                   if 100.0 * q_max < q.value <= 3.0 * q_max * 60000.0 else "")
             raise MeasurementError(
-                f"flow {q.value:.4g} m³/s exceeds the pump's geometric flow {q_max:.4g} m³/s",
-                field=name)
+                f"flow {q.value:.4g} m³/s exceeds the pump's geometric flow {q_max:.4g} "
+                f"m³/s{lpm}", field=name)
     _check_meter_c(record, limits)
     if record.stroke is not None and rig_stroke is not None and not agree(record.stroke,
                                                                           rig_stroke):
@@ -182,5 +188,36 @@ def _check_meter_c(record: MeasurementRecord, limits: RigLimits) -> None:
     if excess > CONSISTENCY_K * math.sqrt(qb.u**2 + qc.u**2 + u_area**2):
         raise MeasurementError(
             f"meter C ({qc.value:.4g} m³/s) exceeds the flow meter B feeds to the cylinder "
-            f"({qb.value - area_term:.4g} m³/s): the valve leakage would be negative",
+            f"({qb.value - area_term:.4g} m³/s"
+            + (f": meter B's {qb.value:.4g} less (A1 − A2)·ẋ = {area_term:.4g} m³/s that "
+               "the larger chamber keeps" if area_term else "")
+            + "): the valve leakage would be negative",
             field="flow_C")
+
+
+def slow_stroke_notes(record: MeasurementRecord, limits: RigLimits) -> list[str]:
+    """A note for each phase whose piston speed (stated, or stroke/duration) is
+    :data:`SLOW_FACTOR` × or more below what the pump drives, ω·Vp/A (paper 002 eq. 2):
+    a nearly stalled piston — or a duration in ms typed as s, which a user pass had
+    answered "cylinder+valve, p = 1.00, severe" without a word.  Possible physics, so a
+    note, not a refusal."""
+    notes = []
+    rig_stroke = None if limits.stroke is None else Quantity(limits.stroke)
+    q_max = limits.max_pump_flow(record)
+    phases: tuple[tuple[Literal["work", "return"], float], ...] = (("work", limits.A1),
+                                                                  ("return", limits.A2))
+    for phase, area in phases:
+        v = record.speed(phase, stroke=rig_stroke)
+        bound = q_max / area
+        if v is None or not 0.0 < v.value * SLOW_FACTOR <= bound:
+            continue
+        duration = getattr(record, f"duration_{phase}")
+        typed = (f" (from the stroke over duration_{phase} = {duration.value:.4g} s: if that "
+                 f"was in ms, {duration.value / 1000:.4g} s)" if duration is not None
+                 and getattr(record, f"speed_{phase}") is None else "")
+        notes.append(
+            f"the {'working' if phase == 'work' else 'return'} stroke's piston speed "
+            f"{v.value:.3g} m/s{typed} is {bound / v.value:.0f}× below the {bound:.3g} m/s "
+            "the pump's delivery drives (ω·Vp/A): a nearly stalled piston, or a reading "
+            "in the wrong unit")
+    return notes

@@ -20,6 +20,7 @@ import numpy as np
 import numpy.typing as npt
 
 from diagnostics.condition_interval import check_singles, widen
+from diagnostics.consistency import slow_stroke_notes
 from diagnostics.evidence_at_fit import evidence_at_fit
 from diagnostics.goodness import GoodnessOfFit, goodness_of_fit
 from diagnostics.healthy_end import healthy_end_estimates
@@ -27,7 +28,7 @@ from diagnostics.hypotheses import PARAMETERS
 from diagnostics.inversion import LeakageGeometry, cylinder_clearance, valve_clearance
 from diagnostics.isolability import Isolability, isolability
 from diagnostics.measurement import MeasurementRecord
-from diagnostics.observations import OBSERVABLE_UNITS, observe
+from diagnostics.observations import OBSERVABLE_UNITS, observe, rig_limits
 from diagnostics.ranking import MULTIPLE_OF, HypothesisFit, Method, ParameterEstimate, Ranker
 from diagnostics.ratio_index import RatioIndex, ratio_index
 from diagnostics.signatures import OBSERVABLES, SignatureMaps
@@ -258,8 +259,9 @@ def diagnose(rig: Rig, records: Sequence[MeasurementRecord], *, model_rel: float
             obs.append(observe(rec, rig))
         except MeasurementError as exc:
             prefix = f"records[{i}]" if len(records) > 1 else ""
+            # an error of the record as a whole names the record (``records`` when alone)
             field_path = ".".join(x for x in (prefix, exc.field or "") if x)
-            raise MeasurementError(exc.message, field=field_path or None) from None
+            raise MeasurementError(exc.message, field=field_path or "records") from None
     try:
         ranker = Ranker(rig, obs, model_rel, method)
     except SimulationError as exc:
@@ -294,6 +296,8 @@ def diagnose(rig: Rig, records: Sequence[MeasurementRecord], *, model_rel: float
                      for k in (est.value, est.low, est.high))
     n = sum(len(o.names) for o in obs)
     notes.extend(_temperature_notes(rig, records))
+    limits = rig_limits(rig)
+    notes.extend(n for r in records for n in slow_stroke_notes(r, limits))
     if not math.isfinite(fits[0].log_evidence):
         notes.append("no hypothesis explains the records")
     if not gof.confident:

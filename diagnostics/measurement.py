@@ -114,7 +114,9 @@ def _check_quantity(path: str, q: Quantity, *, lower: float | None = None,
                                field=f"{path}.distribution")
     if lower is not None and (q.value <= lower if strict else q.value < lower):
         rel = ">" if strict else "≥"
-        raise MeasurementError(f"{what} must be {rel} {lower:g}, got {q.value:g}", field=path)
+        u = f" {unit}" if unit else ""  # "must be ≥ -40, got -300" named no °C (a user pass)
+        raise MeasurementError(f"{what} must be {rel} {lower:g}{u}, got {q.value:g}{u}",
+                               field=path)
 
 
 @dataclass(frozen=True, slots=True)
@@ -145,7 +147,8 @@ class OperatingCondition:
 
     def __post_init__(self) -> None:
         lo, hi = OIL_TEMPERATURE_RANGE
-        _check_quantity("condition.oil_temperature", self.oil_temperature, lower=lo)
+        _check_quantity("condition.oil_temperature", self.oil_temperature, lower=lo,
+                        what="oil temperature", unit="°C")
         if self.oil_temperature.value > hi:
             raise MeasurementError(f"oil temperature above {hi:g} °C is not a plausible reading",
                                    field="condition.oil_temperature")
@@ -252,11 +255,12 @@ class MeasurementRecord:
             self._check(name, lower=MIN_GAUGE_PRESSURE, what="gauge pressure",
                         upper=MAX_GAUGE_PRESSURE, unit="Pa")
         for name in _FLOW_FIELDS:
-            self._check(name, lower=0.0, what="flow")
+            self._check(name, lower=0.0, what="flow", unit="m³/s")
         for name in _SPEED_FIELDS:
-            self._check(name, lower=0.0, what="speed magnitude")
+            self._check(name, lower=0.0, what="speed magnitude", unit="m/s")
         for name in _POSITIVE_FIELDS:
-            self._check(name, lower=0.0, strict=True)
+            self._check(name, lower=0.0, strict=True,
+                        unit={"stroke": "m", "velocity_ratio": ""}.get(name, "s"))
         self._check_ratio_sources()
         for phase in ("work", "return"):
             self._check_speed_vs_duration(phase)

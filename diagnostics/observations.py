@@ -142,7 +142,7 @@ def observe(record: MeasurementRecord, rig: Rig, *, check: bool = True) -> Recor
     if not items:
         raise MeasurementError("the record has no quantity a diagnosis can use "
                                "(pressures, flows, speeds, durations or the velocity ratio)",
-                               field="record")
+                               field=None)  # the record as a whole ("record.record" once)
     names = [n for n, _ in items]
     values = np.array([q.value for _, q in items])
     u = np.array([max(q.u, 1e-300) for _, q in items])

@@ -100,18 +100,25 @@ def severity(param: FaultParameter, value: float, nominal: float) -> tuple[float
     """
     if param.name == "Pset":
         drift = 1.0 - value / nominal
-        label = "none" if drift < 0.05 else "mild" if drift < 0.10 else \
-            "moderate" if drift < 0.20 else "severe"
-        return drift, label
+        return drift, _label(drift, (0.05, 0.10, 0.20))
     if param.name in ("cc", "cv"):
         mult = (value / nominal) ** 3
     elif param.name == "seat_leak":
         mult = 1.0 + value
     else:
         mult = value
-    label = "none" if mult < 1.33 else "mild" if mult < 2.2 else \
-        "moderate" if mult < 4.1 else "severe"
-    return mult, label
+    return mult, _label(mult, (1.33, 2.2, 4.1))
+
+
+def _label(x: float, edges: tuple[float, float, float]) -> str:
+    """``none``, ``mild``, ``moderate`` or ``severe`` by the ``edges``; a value on an edge
+    to round-off (1e-9 relative: a worn range starts on the ``mild`` edge, and a clearance
+    there read 1.3299999999999983 and ``none`` where another read 1.3300000000000032 and
+    ``mild``; a user pass) takes the label above it."""
+    for edge, label in zip(edges, ("none", "mild", "moderate"), strict=True):
+        if x < edge - 1e-9 * abs(edge):
+            return label
+    return "severe"
 
 
 @dataclass

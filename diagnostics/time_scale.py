@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from diagnostics.consistency import SLOW_FACTOR  # a crossing slower than bound ÷ this: noted
 from diagnostics.timeseries import SeriesRecord
 
 __all__ = ["FAST_FACTOR", "MIN_TRAVEL", "SLOW_FACTOR", "CylinderDrive", "crossing_speed", "time_scale_notes"]
@@ -36,8 +37,6 @@ Arr = npt.NDArray[np.float64]
 
 #: a crossing faster than this × the pump's bound is impossible: the clock runs fast [-]
 FAST_FACTOR = 1.5
-#: a crossing slower than the bound ÷ this is noted as a possible wrong rate [-]
-SLOW_FACTOR = 30.0
 #: least travel a judged crossing spans, as a fraction of the stroke [-]
 MIN_TRAVEL = 0.2
 

@@ -138,6 +138,35 @@ def test_diagnose_says_when_the_name_is_not_isolated(runner: CliRunner,
     assert body["confident"] is True and body["isolated"] is False
     cred = body["isolability"]["credible_set"]
     assert len(cred) > 1 and f"not isolated: {', '.join(cred)} share 95 %" in text
+    # and the statements that name what would separate them are printed, not pointed to
+    # (a user pass: the line referred to statements only --json showed)
+    separating = [s for s in body["isolability"]["statements"] if " vs " in s]
+    assert separating and all(" ".join(s.split()) in text for s in separating)
+
+
+def test_diagnose_shows_no_value_for_a_hypothesis_the_readings_do_not_feel(
+        runner: CliRunner, tmp_path: Path) -> None:
+    """At 2.1 kN the pump pressure stays far below any relief setting of the prior: its
+    row showed `Pset = 2.1e+06 Pa`, read by an engineer as "relief found at 21 bar" on a
+    70 bar valve (a user pass); it now shows no value."""
+    from sim.rigs import reference_rig
+    from tests.diagnostics.synth import readings
+
+    v = readings(reference_rig(), {"valve.cv": 59e-6}, 2100.0, 45.0)
+    record = {"rig_id": 1, "condition": {"oil_temperature": 45.0, "load_force": 2100.0},
+              **{f: float(v[f]) for f in ("pump_pressure", "p1", "p2", "speed_work",
+                                          "speed_return")}}
+    path = tmp_path / "record.yaml"
+    path.write_text(yaml.safe_dump(record))
+    body = json.loads(runner.invoke(cli, ["diagnose", str(path), "--no-store",
+                                          "--json"]).stdout)["diagnoses"][0]["result"]
+    unfelt = [f["name"] for f in body["hypotheses"] if not f["observable"]]
+    assert unfelt == ["relief_setting"]
+    shown = runner.invoke(cli, ["diagnose", str(path), "--no-store"], terminal_width=200)
+    assert shown.exit_code == 0, shown.output
+    row = next(line for line in shown.stdout.splitlines() if "relief_setting " in line)
+    assert "not observable" in row and "these readings do not feel it" in row
+    assert "Pset" not in row
 
 
 def test_sweep_writes_the_results_table(runner: CliRunner, tmp_path: Path) -> None:
@@ -501,3 +530,15 @@ def test_diagnose_a_file_of_several_cycles_each_or_jointly(runner: CliRunner,
     assert joint.exit_code == 0, joint.output
     [answer] = json.loads(joint.stdout)["diagnoses"]
     assert answer["top"] == "valve" and len(answer["records"]) == 2
+
+
+def test_a_record_without_readings_is_refused_naming_the_record(runner: CliRunner,
+                                                                tmp_path: Path) -> None:
+    """Its field read `record.record` (a user pass): the record itself is at fault."""
+    path = tmp_path / "empty.json"
+    path.write_text(json.dumps({"rig_id": 1, "condition": {"oil_temperature": 40.0,
+                                                           "load_force": 4200.0}}))
+    refused = runner.invoke(cli, ["diagnose", str(path), "--no-store"])
+    assert refused.exit_code != 0
+    assert getattr(refused.exception, "field", None) == "record"   # the request's path
+    assert "no quantity a diagnosis can use" in str(refused.exception)

@@ -129,6 +129,9 @@ def test_condition_validation() -> None:
     with pytest.raises(MeasurementError) as err:
         OperatingCondition.from_readings({"back_pressure": 1e6})
     assert err.value.field == "condition.oil_temperature"
+    with pytest.raises(MeasurementError) as err:  # the bound with its unit (a user pass)
+        OperatingCondition.from_readings({"oil_temperature": -300.0, "load_force": 2.1e3})
+    assert err.value.message == "oil temperature must be ≥ -40 °C, got -300 °C"
     with pytest.raises(MeasurementError) as err:
         OperatingCondition.from_readings({"oil_temperature": 40.0, "load_force": 2.1e3,
                                           "pump_speed": -1.0})
@@ -207,6 +210,18 @@ def test_speed_above_pump_maximum_is_refused() -> None:
     with pytest.raises(MeasurementError) as err:  # too short a stroke time, rig's stroke
         check_against_rig(record(duration_return=0.5 * CYL["stroke"] / V_MAX), LIMITS)
     assert err.value.field == "duration_return"
+
+
+def test_a_flow_in_l_per_min_is_refused_saying_so() -> None:
+    """28 (l/min) typed as m³/s was refused without the hint bar and kN get (a user
+    pass); a flow a little beyond the pump's is refused without it."""
+    q_max = PUMP["Vp"] * PUMP["speed"]
+    with pytest.raises(MeasurementError) as err:
+        check_against_rig(record(flow_B=0.9 * q_max * 60000.0), LIMITS)
+    assert err.value.field == "flow_B" and "are these l/min?" in err.value.message
+    with pytest.raises(MeasurementError) as err:
+        check_against_rig(record(pump_flow=1.5 * q_max), LIMITS)
+    assert "l/min" not in err.value.message
 
 
 def test_a_rig_whose_pump_turns_faster_than_stated_allows_the_faster_piston() -> None:
@@ -309,3 +324,20 @@ def test_a_quotient_by_a_reading_near_the_smallest_float_has_an_uncertainty() ->
     assert q.value == 0.0 and q.u == 0.0
     q = quotient(Quantity(2.0, 0.02), Quantity(4.0, 0.04))
     assert q.value == 0.5 and math.isclose(q.u, 0.5 * math.hypot(0.01, 0.01))
+
+
+def test_meter_c_beyond_meter_b_names_the_area_term_it_quoted() -> None:
+    """On a differential cylinder the message quoted meter B less (A1 − A2)·ẋ as "the flow
+    meter B feeds" without saying so (a user pass); it now names both parts."""
+    a1 = AREA
+    a2 = 0.75 * AREA
+    diff = RigLimits(Vp=PUMP["Vp"], speed=PUMP["speed"], A1=a1, A2=a2, stroke=CYL["stroke"])
+    v = 0.1
+    with pytest.raises(MeasurementError) as err:
+        check_against_rig(record(flow_B=4.0e-4, flow_C=4.0e-4, speed_work=v), diff)
+    assert err.value.field == "flow_C"
+    kept = (a1 - a2) * v
+    assert f"meter B's {4.0e-4:.4g} less (A1 − A2)·ẋ = {kept:.4g} m³/s" in err.value.message
+    with pytest.raises(MeasurementError) as err:   # equal areas: nothing to name
+        check_against_rig(record(flow_B=4.0e-4, flow_C=4.5e-4, speed_work=v), LIMITS)
+    assert "(A1 − A2)" not in err.value.message

@@ -186,3 +186,48 @@ def test_an_oil_temperature_beyond_the_checked_range_is_noted(
     assert all(s in notes for s in says)
     assert bool(says) == ("outside" in notes)
     assert ("extrapolated" in notes) == (len(says) == 2)
+
+
+def test_a_fit_on_the_worn_edge_is_mild_whatever_the_round_off():
+    """Each worn range starts on the ``mild`` edge (leakage × 1.33, a setting 5 % down):
+    a spool there read 1.3299999999999983 and ``none`` beside a seal at 1.3300000000000032
+    and ``mild``, so "seal and spool wear" said the spool was not worn (a user pass)."""
+    from diagnostics.hypotheses import PARAMETERS
+    from diagnostics.ranking import severity
+
+    rig = reference_rig()
+    for name in ("cc", "cv", "pump_leak", "seat_leak", "Pset"):
+        p = PARAMETERS[name]
+        lo, hi = p.worn_bounds(rig)
+        edge = hi if name == "Pset" else lo
+        nominal = p.nominal_value(rig)
+        for x in (edge * (1 - 1e-15), edge, edge * (1 + 1e-15)):
+            assert severity(p, x, nominal)[1] == "mild", (name, x)
+        assert severity(p, nominal, nominal)[1] == "none"
+    assert severity(PARAMETERS["cv"], 34e-6 * 1.05, 34e-6)[1] == "none"   # 1.158×: none
+
+
+def test_a_stroke_far_slower_than_the_pump_drives_is_noted():
+    """A healthy record with duration_work typed in ms (3230 for 3.23 s) was answered
+    "cylinder+valve, p = 1.00, severe" without a word (a user pass): a phase ≥ 30× slower
+    than ω·Vp/A is possible (a nearly stalled piston) and is said, naming the ms reading;
+    the same record in s says nothing of it."""
+    from diagnostics.consistency import slow_stroke_notes
+    from diagnostics.observations import rig_limits
+
+    rig = reference_rig()
+    limits = rig_limits(rig)
+    bound = limits.Vp * limits.speed / limits.A1          # 0.2201 m/s on the preset
+    cond = OperatingCondition.from_readings({"oil_temperature": 45.0, "load_force": 4200.0})
+    base = {"pump_pressure": 24.4e5, "p1": 21.8e5, "p2": 1.2e5}
+    typed = MeasurementRecord.from_readings("rig-1", cond, {**base, "duration_work": 3230.0})
+    (note,) = slow_stroke_notes(typed, limits)
+    assert "duration_work = 3230 s: if that was in ms, 3.23 s" in note
+    assert f"{bound * 3230.0 / 0.5:.0f}× below" in note
+    right = MeasurementRecord.from_readings("rig-1", cond, {**base, "duration_work": 3.23})
+    assert slow_stroke_notes(right, limits) == []
+    assert any("if that was in ms" in n for n in diagnose(rig, [typed]).notes)
+    # a stated speed that slow is noted without the ms guess
+    (creep,) = slow_stroke_notes(MeasurementRecord.from_readings(
+        "rig-1", cond, {**base, "speed_work": 1e-3}), limits)
+    assert "if that was in ms" not in creep and "nearly stalled" in creep
