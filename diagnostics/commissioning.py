@@ -310,8 +310,13 @@ def commission(rig: Rig, records: Sequence[MeasurementRecord],
                 "(a worn valve's leak read as a short land; diagnose them first), or the "
                 "document's value is wrong")
         if not pinned:
+            # "hardly depend on it" beside ±0.70 → ±0.36 read as a contradiction (a user
+            # pass): said only where the records left most of the prior's uncertainty
             why = (f"it trades off against {', '.join(partners)}" if partners else
-                   "the readings hardly depend on it at these conditions")
+                   "the readings hardly depend on it at these conditions"
+                   if sd[j] > 0.8 * s[j] else
+                   f"the readings feel it, but not enough to bring its uncertainty to "
+                   f"{PINNED:.0%} of the document's")
             statements.append(
                 f"{n} ({COMMISSIONED[n]}): not pinned down by these records — its uncertainty "
                 f"shrank only from ±{s[j]:.2f} to ±{sd[j]:.2f} in ln θ; {why}. The document's "
