@@ -93,6 +93,7 @@ from diagnostics.discrepancy.verdict import (
     whiteness,
 )
 from diagnostics.discrepancy.worn import named_after_wear, worn_document
+from diagnostics.time_scale import CylinderDrive, time_scale_notes
 from diagnostics.timeseries import SeriesRecord
 from sim.components.effects import EFFECTS
 from sim.errors import InputError
@@ -328,6 +329,8 @@ def _first_step(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord]
     check_pressure_units(labelled, values["cylinder.A1"], values.get("cylinder.Fu"))
     check_motion_and_flow_units(labelled, stroke=values["cylinder.stroke"],
                                 delivery=values["pump.speed"] * values["pump.Vp"])
+    # a clock that cannot be right (a wrong sample rate): said as the import says it
+    notes += time_scale_notes(records, CylinderDrive.of(values))
     train_i, held_i = _split(labelled, rig)
     signals = prepare([labelled[i] for i in train_i], rig)
     data = balance_data(signals, values)
