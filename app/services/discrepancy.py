@@ -33,6 +33,7 @@ from app.services.rig_cache import RigCache
 from app.services.rigs import get_rig, latest_version, update_rig
 from app.services.series import parse_column_map, stored_records
 from diagnostics.discrepancy import Discovery, discover
+from diagnostics.discrepancy.first_step import check_records
 from diagnostics.discrepancy.pump_refit import MAX_DISPLACEMENT_CHANGE
 from diagnostics.discrepancy.report import html_page, stored_line
 from diagnostics.discrepancy.steady import (
@@ -41,7 +42,6 @@ from diagnostics.discrepancy.steady import (
     read_bench_bytes,
     require_rows,
 )
-from diagnostics.discrepancy.workflow import check_records
 from diagnostics.pump.data import BenchData
 from diagnostics.real.profile import settled_bench, stated_pump_speed
 from diagnostics.timeseries import ColumnEntry, SeriesRecord, read_series

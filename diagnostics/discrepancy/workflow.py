@@ -3,10 +3,10 @@ add it to the rig, and show the gap shrink on held-out data (issue 8).
 
 Steps (DISCREPANCY.md):
 
-1. split the records: the record at the *edge* of the operating range (highest load, then
-   highest temperature) of each kind of stroke with at least two records (full strokes;
-   timed slow-motion strokes, :func:`~diagnostics.discrepancy.simulate.timed_switch`) is
-   held out;
+1. check and split the records (:mod:`~diagnostics.discrepancy.first_step`): the record at
+   the *edge* of the operating range (highest load, then highest temperature) of each kind
+   of stroke with at least two records (full strokes; timed slow-motion strokes,
+   :func:`~diagnostics.discrepancy.simulate.timed_switch`) is held out;
 2. equation-error residuals of the rig's junction balances on the training records, base
    parameters re-fitted unpenalised (:mod:`~diagnostics.discrepancy.balances`);
 3. selection per balance (:mod:`~diagnostics.discrepancy.selection`);
@@ -48,36 +48,26 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
-from diagnostics.discrepancy.balances import BalanceData, balance_data
 from diagnostics.discrepancy.carried_check import CarriedCheck, carried_statement, check_carried
 from diagnostics.discrepancy.confirm import Small, confirm_chosen, confirm_small
 from diagnostics.discrepancy.drift import Drift, refit_base
+from diagnostics.discrepancy.first_step import (
+    OUTPUTS,
+    first_step,
+    step_noise,
+)
 from diagnostics.discrepancy.gap import GapRow, gap_table
 from diagnostics.discrepancy.lof import repeats_lack_of_fit
 from diagnostics.discrepancy.noise import (
     Noise,
-    coloured_note,
-    noise_models,
-    propagated_floors,
     sigmas,
-    with_noise,
-)
-from diagnostics.discrepancy.records import (
-    check_motion_and_flow_units,
-    check_pressure_units,
-    require_cycle_records,
-    unread_notes,
-    with_phases,
-    with_velocity,
 )
 from diagnostics.discrepancy.refit import with_effects
-from diagnostics.discrepancy.selection import PRACTICAL, Selection, require_samples, select
-from diagnostics.discrepancy.signals import Signals, condition_of, prepare, same_channels
+from diagnostics.discrepancy.selection import PRACTICAL, Selection, select
 from diagnostics.discrepancy.simulate import (
     SOLVER,
     simulate_record,
     solver_error,
-    timed_switch,
 )
 from diagnostics.discrepancy.transient import (
     Screened,
@@ -93,14 +83,12 @@ from diagnostics.discrepancy.verdict import (
     whiteness,
 )
 from diagnostics.discrepancy.worn import named_after_wear, worn_document
-from diagnostics.time_scale import CylinderDrive, time_scale_notes
 from diagnostics.timeseries import SeriesRecord
 from sim.components.effects import EFFECTS
-from sim.errors import InputError
 from sim.rigs.assembly import Rig
 from sim.rigs.schema import validate_rig_document
 
-__all__ = ["Discovery", "NamedEffect", "check_records", "discover", "excess_ratio",
+__all__ = ["Discovery", "NamedEffect", "discover", "excess_ratio",
            "gap_ratio"]
 
 Arr = npt.NDArray[np.float64]
@@ -108,8 +96,6 @@ Progress = Callable[[float, str], None]
 
 #: held-out excess-gap ratio an added effect must reach to be kept
 CONFIRM_RATIO = 1.5
-#: measured channels compared in output-error form, when present
-OUTPUTS = ("P1", "P2", "v", "P_pump", "P_valve_P", "Q_meter_B", "Q_meter_C")
 
 
 @dataclass
@@ -218,41 +204,8 @@ class Discovery:
         }
 
 
-def _split(records: Sequence[SeriesRecord], rig: Rig) -> tuple[list[int], list[int]]:
-    """Training and held-out record indices: the edge record (highest load, then highest
-    temperature) of each kind of stroke (full strokes, timed slow strokes) that has at
-    least two records."""
-    if len(records) < 2:
-        return [0], []
-    key = [(c.load, c.oil_temperature) for c in (condition_of(r, rig) for r in records)]
-    timed = [timed_switch(r, rig) is not None for r in records]
-    held: list[int] = []
-    for kind in (False, True):
-        mine = [i for i in range(len(records)) if timed[i] == kind]
-        if len(mine) >= 2:
-            held.append(max(mine, key=lambda i: key[i]))
-    if not held:
-        held = [max(range(len(records)), key=lambda i: key[i])]
-    return [i for i in range(len(records)) if i not in held], sorted(held)
-
-
 def _channels(records: Sequence[SeriesRecord]) -> list[str]:
     return [c for c in OUTPUTS if c in records[0].channels]
-
-
-def _noise(first: _FirstStep, channels: Sequence[str]) -> tuple[dict[str, Noise], str]:
-    """Each channel's noise (:mod:`~diagnostics.discrepancy.noise`); where any is
-    coloured, the balances' noise floors from a surrogate of it (set on ``first.data``)
-    and the note saying so, else ''."""
-    models = noise_models(first.records, channels)
-    if not any(n.coloured for n in models.values()):
-        return models, ""
-    train = [first.records[i] for i in first.train_i]
-    noisy = prepare(with_noise(train, models), first.rig)
-    floors = propagated_floors(first.data, first.signals, noisy, first.rig.values())
-    for d in first.data:
-        d.noise_floor = max(d.noise_floor, floors.get(d.balance.name, 0.0))
-    return models, coloured_note(models)
 
 
 def discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], *,
@@ -288,62 +241,6 @@ def discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], *
                      max_nfev=max_nfev, bootstrap=bootstrap, seed=seed, worn_pass=False)
 
 
-def check_records(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord]) -> None:
-    """Raise what the workflow's first step would raise on these records (no phases and no
-    position to read them off, an unstated condition, no balance computable, too few
-    usable samples), in ~0.1 s per 15,000 samples and before any simulation:
-    ``POST /discrepancy`` answers 422 instead of accepting a job that fails."""
-    _first_step(rig_document, records)
-
-
-@dataclass
-class _FirstStep:
-    """The workflow's first step: the rig, the records (phases read off the position
-    where they had none, and the notes saying so), the training/held-out split, the
-    training records' prepared signals and the balances evaluated on them."""
-
-    rig: Rig
-    records: list[SeriesRecord]
-    notes: list[str]
-    train_i: list[int]
-    held_i: list[int]
-    signals: Signals
-    data: list[BalanceData]
-
-
-def _first_step(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord]
-                ) -> _FirstStep:
-    """:class:`_FirstStep` of the records, each balance with enough usable samples."""
-    rig = Rig.from_spec(validate_rig_document(dict(rig_document)))
-    rig.require_cycle("the discrepancy workflow on measured cycles")
-    if not records:
-        raise InputError("no records to analyse", field="file")
-    labelled, notes = with_phases(records, rig.values()["cylinder.stroke"])
-    labelled, derived = with_velocity(labelled)
-    notes += derived
-    # every record's outputs, not only the training ones prepare() sees: a held-out record
-    # without 'v' failed the job later with KeyError (a fleet integrator's pass)
-    same_channels(labelled, OUTPUTS)
-    require_cycle_records(labelled)
-    values = rig.values()
-    check_pressure_units(labelled, values["cylinder.A1"], values.get("cylinder.Fu"))
-    check_motion_and_flow_units(labelled, stroke=values["cylinder.stroke"],
-                                delivery=values["pump.speed"] * values["pump.Vp"])
-    # a clock that cannot be right (a wrong sample rate): said as the import says it
-    notes += time_scale_notes(records, CylinderDrive.of(values))
-    train_i, held_i = _split(labelled, rig)
-    signals = prepare([labelled[i] for i in train_i], rig)
-    data = balance_data(signals, values)
-    if not data:
-        raise InputError("the records lack the channels of every balance (need e.g. P1, P2, v "
-                         "for the piston force, or Q_meter_B, P_pump for the pump)",
-                         field="file")
-    for d in data:
-        require_samples(d)
-    notes += unread_notes(labelled, [d.balance.name for d in data], OUTPUTS)
-    return _FirstStep(rig, labelled, notes, train_i, held_i, signals, data)
-
-
 def _discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], *,
               progress: Progress | None, refit: bool, max_nfev: int, bootstrap: int,
               seed: int, worn_pass: bool) -> Discovery:
@@ -356,13 +253,13 @@ def _discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], 
 
     doc = dict(rig_document)
     report(0.05, "equation-error residuals")
-    first = _first_step(doc, records)
+    first = first_step(doc, records)
     rig, records, train_i, held_i = first.rig, first.records, first.train_i, first.held_i
     signals, data = first.signals, first.data
     train = [records[i] for i in train_i]
     held = [records[i] for i in held_i] or train
     channels = _channels(records)
-    noise, noise_note = _noise(first, channels)
+    noise, noise_note = step_noise(first, channels)
     selections = [select(d, bootstrap=bootstrap, seed=seed) for d in data]
     report(0.3, "selection done")
     rate = 1000.0

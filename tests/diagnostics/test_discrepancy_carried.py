@@ -13,9 +13,9 @@ import pytest
 from diagnostics.discrepancy import discover
 from diagnostics.discrepancy.balances import balance_data
 from diagnostics.discrepancy.carried_check import check_carried
+from diagnostics.discrepancy.first_step import check_records
 from diagnostics.discrepancy.signals import prepare
 from diagnostics.discrepancy.synthetic import NOISE, synthesize
-from diagnostics.discrepancy.workflow import check_records
 from sim.errors import InputError
 from sim.rigs import load_rig, reference_rig_document
 from sim.rigs.assembly import Condition

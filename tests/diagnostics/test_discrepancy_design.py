@@ -8,12 +8,12 @@ import math
 import numpy as np
 import pytest
 
+from diagnostics.discrepancy.first_step import split
 from diagnostics.discrepancy.gap import GapRow
 from diagnostics.discrepancy.simulate import simulate_record, timed_switch
 from diagnostics.discrepancy.steady import predict_flow
 from diagnostics.discrepancy.synthetic import NOISE, synthesize, synthesize_bench
 from diagnostics.discrepancy.verdict import gap_ratio
-from diagnostics.discrepancy.workflow import _split
 from diagnostics.timeseries import SeriesRecord
 from sim.components.effects import EFFECTS
 from sim.rigs import reference_rig, reference_rig_document
@@ -68,11 +68,11 @@ def test_the_edge_record_of_each_kind_of_stroke_is_held_out() -> None:
     rig = reference_rig()
     records = [_full(2100.0, 40.0), _full(6300.0, 60.0), _full(4200.0, 50.0),
                _slow(2100.0, 40.0, 0.5), _slow(2100.0, 60.0, 0.5)]
-    train, held = _split(records, rig)
+    train, held = split(records, rig)
     assert held == [1, 4]
     assert train == [0, 2, 3]
     # one full stroke and one slow stroke: only the full-speed edge can be held out
-    train, held = _split([records[0], records[1], records[3]], rig)
+    train, held = split([records[0], records[1], records[3]], rig)
     assert held == [1] and train == [0, 2]
 
 

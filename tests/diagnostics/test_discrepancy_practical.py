@@ -16,10 +16,10 @@ import pytest
 
 from benchmarks.discrepancy_study import _conditions, _doc_with
 from diagnostics.discrepancy.balances import BalanceData, balance_data
+from diagnostics.discrepancy.first_step import split
 from diagnostics.discrepancy.selection import PRACTICAL, select
 from diagnostics.discrepancy.signals import prepare
 from diagnostics.discrepancy.synthetic import synthesize
-from diagnostics.discrepancy.workflow import _split
 from sim.rigs import load_rig, reference_rig
 
 #: the bench's 4σ strength of pump_clearance_pressure [m³/Pa] (Q = k_c·P·|P|/μ): 4 × the
@@ -34,7 +34,7 @@ def bench_balance(doc: dict[str, Any], seed: int, balance: str) -> BalanceData:
     rng = np.random.default_rng(seed)
     records = [synthesize(rig, c, rng=rng, name=n, t_max=sw) for n, c, sw in _conditions()]
     base = reference_rig()
-    train, _ = _split(records, base)
+    train, _ = split(records, base)
     data = balance_data(prepare([records[i] for i in train], base), base.values())
     return next(d for d in data if d.balance.name == balance)
 

@@ -8,9 +8,9 @@ import dataclasses
 import numpy as np
 import pytest
 
+from diagnostics.discrepancy.first_step import OUTPUTS, check_records
 from diagnostics.discrepancy.records import unread_notes, with_velocity
 from diagnostics.discrepancy.synthetic import synthesize
-from diagnostics.discrepancy.workflow import OUTPUTS, check_records
 from diagnostics.timeseries import SeriesRecord
 from sim.rigs import reference_rig, reference_rig_document
 from sim.rigs.assembly import Condition
@@ -141,13 +141,13 @@ def test_a_cycle_on_a_wrong_clock_is_said_in_the_workflows_notes() -> None:
     """A 1 kHz cycle uploaded as 100 Hz (its times ×10) moves its piston at a tenth of the
     speed its own v channel reads: the workflow's notes say so (diagnostics.time_scale),
     as the import does; the record at its own clock adds no such note."""
-    from diagnostics.discrepancy.workflow import _first_step
+    from diagnostics.discrepancy.first_step import first_step
 
     rig = reference_rig()
     record = synthesize(rig, Condition(load=2100.0, oil_temperature=40.0),
                         rng=np.random.default_rng(2))
-    right = _first_step(reference_rig_document(), [record]).notes
+    right = first_step(reference_rig_document(), [record]).notes
     assert not any("crosses its travel" in n or "speed channel v" in n for n in right)
     slow = dataclasses.replace(record, t=record.t * 10.0)
-    notes = " ".join(_first_step(reference_rig_document(), [slow]).notes)
+    notes = " ".join(first_step(reference_rig_document(), [slow]).notes)
     assert "speed channel v" in notes and "0.1×" in notes

@@ -114,8 +114,8 @@ def test_a_near_twin_of_the_equation_error_choice_is_told_apart_by_re_simulation
     changes the valve, pump and friction — which the data do not show — and the
     pressure-dependent clearance wins, at its true size (the study's 16σ size, seed 1007)."""
     from benchmarks.discrepancy_study import _conditions, _doc_with
+    from diagnostics.discrepancy.first_step import OUTPUTS
     from diagnostics.discrepancy.refit import tell_apart
-    from diagnostics.discrepancy.workflow import OUTPUTS
 
     truth = 2.436e-20
     rig = load_rig(_doc_with("piston_clearance_pressure", truth))
