@@ -189,11 +189,14 @@ def trend_chart(trend: ComponentTrendOut) -> Chart:
     so too, :func:`app.services.trends._if_blamed`).
     """
     pts = trend.points
+    # a clearance in µm, as the status text and the history say it (its axis read
+    # "cc [m]" with ticks 8e-05 … beside a slope in µm/day; a console pass)
+    scale, unit = (1e6, "µm") if trend.unit == "m" else (1.0, trend.unit)
     t0 = pts[0].measured_at.timestamp() if pts else 0.0
     days = np.array([(p.measured_at.timestamp() - t0) / 86400.0 for p in pts])
-    y = np.array([p.value for p in pts])
-    low = np.array([p.low if p.low is not None else p.value for p in pts])
-    high = np.array([p.high if p.high is not None else p.value for p in pts])
+    y = np.array([p.value for p in pts]) * scale
+    low = np.array([p.low if p.low is not None else p.value for p in pts]) * scale
+    high = np.array([p.high if p.high is not None else p.value for p in pts]) * scale
     unlikely = np.array([p.probability is not None and p.probability < UNLIKELY for p in pts],
                         dtype=bool)
     series = []
@@ -209,7 +212,7 @@ def trend_chart(trend: ComponentTrendOut) -> Chart:
         # Theil-Sen line: the slope with the intercept median(y - slope·t); its band pivots
         # on the middle of the data with the slope's 95 % interval; after a step in the
         # level, over the points after it (those the trend was fitted to)
-        per_day = 86400.0
+        per_day = 86400.0 * scale
         slope = trend.slope * per_day
         intercept = float(np.median(y[fitted] - slope * days[fitted]))
         xm = float(np.median(days[fitted]))
@@ -223,12 +226,20 @@ def trend_chart(trend: ComponentTrendOut) -> Chart:
             * per_day * (span - xm)
         label = "Theil–Sen" if trend.step_at is None else \
             f"Theil–Sen since the step of {trend.step_at:%Y-%m-%d}"
-        series.append(Series(span, line, label, low=np.minimum(lo, hi),
-                             high=np.maximum(lo, hi), dashed=True, color=PALETTE[1]))
+        # the band within the points' and the threshold's range and half as much again
+        # either side: a slope interval of −7.6e4 … 0.13 µm/day from visits seconds apart
+        # drew ±1 m and flattened every point onto one line (a console pass)
+        seen = np.concatenate([low, high, [trend.threshold * scale]])
+        reach = float(np.ptp(seen)) or abs(float(seen.max())) or 1.0
+        floor, ceiling = float(seen.min()) - 0.5 * reach, float(seen.max()) + 0.5 * reach
+        band_lo = np.clip(np.minimum(lo, hi), floor, ceiling)
+        band_hi = np.clip(np.maximum(lo, hi), floor, ceiling)
+        series.append(Series(span, np.clip(line, floor, ceiling), label, low=band_lo,
+                             high=band_hi, dashed=True, color=PALETTE[1]))
     return line_chart(f"{trend.component}: {trend.quantity} over time",
                       "days since the first diagnosis [day]",
-                      f"{trend.quantity} [{trend.unit}]", series,
-                      hlines=[(trend.threshold, "threshold")])
+                      f"{trend.quantity} [{unit}]", series,
+                      hlines=[(trend.threshold * scale, "threshold")])
 
 
 def calibration_chart(title: str, opening: Sequence[float], clearance: Sequence[float | None],

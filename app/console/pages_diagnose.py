@@ -231,6 +231,8 @@ def history(request: Request, session: SessionDep, _key: ConsoleKeyDep,
     rows, _ = rig_service.list_rigs(session, limit=500, offset=0)
     try:
         rig_id, start, end = _rig(rig), _time(since, "since"), _time(until, "until")
+        if rig_id is not None:  # an unknown rig is a 404, as on the series and trends pages
+            rig_service.get_rig(session, rig_id)  # (it showed an empty list: a console pass)
         found = history_page(session, rig_id=rig_id, since=start, until=end,
                              page=page_number)
     except InputError as exc:

@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 import pathlib
+import re
 import shutil
 import subprocess
 from typing import Annotated, Any
 from urllib.parse import unquote
 
 import numpy as np
-from fastapi import Form, Path, Request, Response
+from fastapi import Form, Path, Query, Request, Response
 from fastapi.responses import FileResponse
 
 from app.api.deps import SessionDep
@@ -101,9 +102,11 @@ def _parameters(document: dict[str, Any]) -> list[dict[str, Any]]:
         for name, p in params.items():
             if isinstance(p, dict) and "value" in p:
                 source = str(p.get("source", ""))
+                chosen = "chosen" in source.lower()
+                if chosen:  # the badge says it: "chosen chosen: …" read twice (a console pass)
+                    source = re.sub(r"^\s*chosen\s*:\s*", "", source, flags=re.IGNORECASE)
                 rows.append({"component": component, "name": name, "value": p["value"],
-                             "unit": p.get("unit", ""), "source": source,
-                             "chosen": "chosen" in source.lower()})
+                             "unit": p.get("unit", ""), "source": source, "chosen": chosen})
     return rows
 
 
@@ -134,10 +137,15 @@ def _dot_svg(dot: str) -> str | None:
 
 @router.get("/rigs/{rig_id}")
 def rig(request: Request, session: SessionDep, _key: ConsoleKeyDep,
-        rig_id: Annotated[int, Path(ge=1, le=MAX_ID)]) -> Response:
-    """One rig: parameters, versions, throttle tables with their curves, bond graph."""
+        rig_id: Annotated[int, Path(ge=1, le=MAX_ID)],
+        version_no: Annotated[int | None, Query(alias="version", ge=1, le=MAX_ID)] = None
+        ) -> Response:
+    """One rig: parameters, versions, throttle tables with their curves, bond graph;
+    ``?version=N`` shows that version's document (a job's "stored as version N" links
+    here; the page showed the latest whatever the link said: a console pass)."""
     row = rig_service.get_rig(session, rig_id)
-    version = rig_service.latest_version(session, row)
+    version = (rig_service.latest_version(session, row) if version_no is None
+               else rig_service.get_version(session, rig_id, version_no))
     versions, _ = rig_service.list_versions(session, rig_id, limit=500, offset=0)
     calibrations, _ = calibration_service.list_calibrations(session, rig_id, limit=100,
                                                             offset=0)

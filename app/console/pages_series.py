@@ -233,9 +233,16 @@ def cancel_job(request: Request, session: SessionDep, _key: ConsoleKeyDep,
 def job_report(session: SessionDep, _key: ConsoleKeyDep,
                job_id: Annotated[str, Path(max_length=36)]) -> Response:
     """The finished job's self-contained report page (inline SVG, no script, no style
-    element: it keeps the console's Content-Security-Policy)."""
+    element: it keeps the console's Content-Security-Policy), here with the console's
+    style sheet and a way back to the job (it rendered in the browser's default serif
+    with no rules and no links: a console pass)."""
     job = job_service.get_job(session, job_id)
     html = (job.result or {}).get("html") if job.status == "succeeded" else None
     if not isinstance(html, str):
         raise InputError(f"job {job_id} has no report (status {job.status!r})", field="job_id")
+    html = html.replace("</head>", "<link rel='stylesheet' href='/console/static/console.css'>"
+                        "</head>", 1)
+    html = html.replace("<body>", f"<body><main><p class='muted'><a href='/console/jobs/"
+                        f"{job.id}'>← the job</a> · <a href='/console'>console</a></p>", 1)
+    html = html.replace("</body>", "</main></body>", 1)
     return HTMLResponse(html, headers=SECURITY_HEADERS)

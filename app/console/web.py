@@ -35,6 +35,7 @@ from app.db.models import ApiKey
 from app.services.keys import is_revoked
 from app.settings import Settings
 from diagnostics.plots import Chart, render_svg
+from diagnostics.timeseries import CONDITION_CHANNELS
 from sim.errors import AuthError
 
 __all__ = ["COOKIE", "SECURITY_HEADERS", "SESSION_LIFETIME_S", "console_key", "issue_cookie",
@@ -67,6 +68,19 @@ def _si(value: Any, digits: int = 4) -> str:
     return f"{value:.{digits}g}"
 
 
+def _interval(bounds: Any, digits: int = 3) -> str:
+    """An interval ``(low, high)`` as "low … high" with ``digits`` significant digits, or
+    more (up to 7) where fewer would print its ends alike: "6e-05 … 6e-05" stood for
+    5.997e-05 … 6.002e-05 (a console pass)."""
+    if not bounds:
+        return "—"
+    low, high = bounds[0], bounds[1]
+    n = digits
+    while n < 7 and _si(low, n) == _si(high, n) and low != high:
+        n += 1
+    return f"{_si(low, n)} … {_si(high, n)}"
+
+
 def _svg(chart: Chart | None) -> Markup:
     """A chart as inline SVG (CSP-safe, written directly: :func:`diagnostics.plots.render_svg`)."""
     return Markup("") if chart is None else Markup(render_svg(chart))
@@ -76,6 +90,11 @@ templates = Environment(loader=FileSystemLoader(_HERE / "templates"),
                         autoescape=select_autoescape(["html"]), trim_blocks=True,
                         lstrip_blocks=True)
 templates.filters["si"] = _si
+#: a record's stated condition, each with its unit (a console pass: "load 2100,
+#: back_pressure 0, oil_temperature 40" under "condition [SI]")
+templates.globals["condition_units"] = {k: u.replace("degC", "°C")
+                                        for k, u in CONDITION_CHANNELS.items()}
+templates.filters["interval"] = _interval
 templates.filters["svg"] = _svg
 
 

@@ -224,7 +224,14 @@ def _trend(component: str, rig_id: int, points: list[TrendPointOut], threshold: 
                    f"({last.measured_at:%Y-%m-%d}), is past the threshold (one point: the "
                    f"robust trend weighs it as one of many){_if_blamed(component, last)}")
     elif points and status == "crossed":
-        message += _if_blamed(component, points[-1])
+        last = points[-1]
+        if last.value <= threshold:
+            # the fitted line past the threshold, the latest visit well below it: said,
+            # as the reverse is ("crossed" beside a healthy last diagnosis; a console pass)
+            message = (f"{message}; the latest estimate, {quantity_text(last.value, unit)} "
+                       f"({last.measured_at:%Y-%m-%d}), is below the threshold (one point: "
+                       "the robust trend weighs it as one of many)")
+        message += _if_blamed(component, last)
     return ComponentTrendOut(
         component, quantity, unit, points,
         slope=None if fit is None else fit.slope,

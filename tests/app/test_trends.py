@@ -324,6 +324,25 @@ def test_a_latest_estimate_past_the_threshold_is_named() -> None:
     assert "latest estimate" not in below.message
 
 
+def test_a_crossed_trend_whose_latest_estimate_is_below_the_threshold_says_so() -> None:
+    """Four visits at 60 µm and a fifth at 34 µm against a 50 µm threshold: the robust
+    line stays past the threshold ("crossed"), and the message now names the healthy last
+    estimate beside it (the status alone read "past the threshold" over a healthy visit;
+    a console pass)."""
+    from datetime import UTC, timedelta
+
+    from app.services.trends import TrendPointOut, _trend
+
+    start = datetime(2026, 1, 5, 9, tzinfo=UTC)
+    points = [TrendPointOut(k + 1, start + timedelta(days=30 * k), 1, value, None, None, 0.9)
+              for k, value in enumerate([60e-6, 60e-6, 60e-6, 60e-6, 34e-6])]
+    trend = _trend("valve", 1, points, 50e-6, "given")
+    assert trend.status == "crossed"
+    assert "the latest estimate, 34 µm (2026-05-05), is below the threshold" in trend.message
+    past = _trend("valve", 1, points[:4], 50e-6, "given")
+    assert past.status == "crossed" and "latest estimate" not in past.message
+
+
 def test_a_status_leaning_on_an_unlikely_components_estimate_says_so() -> None:
     """A pump Cs stored from a diagnosis that gave the pump p = 0.002 (the valve explained
     the readings) read "the latest estimate … is past the threshold" as a plain fact."""

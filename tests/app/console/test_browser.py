@@ -211,6 +211,9 @@ def test_ticked_records_are_checked_and_the_page_follows_the_job(
     page.click("#report")
     page.wait_for_url("**/report")
     assert page.inner_text("h1") == "hydrodiag discrepancy report"
+    # styled by the console's sheet (it rendered in the browser's default serif)
+    assert "Times" not in page.evaluate("getComputedStyle(document.body).fontFamily")
+    page.screenshot(path=str(shots / "console-report.png"), full_page=True)
     assert page.problems == [], page.problems
 
 

@@ -74,11 +74,26 @@ def test_the_theil_sen_line_passes_through_exact_linear_data() -> None:
     values = [34e-6 + 2e-6 * day for day in range(5)]
     chart = trend_chart(_trend(values))
     line = chart.series[1]
-    # the line at day 0 and at the last day is the data there: intercept median(y − s·t)
-    assert line.y[0] == pytest.approx(values[0], rel=1e-9)
-    assert line.y[-1] == pytest.approx(values[-1], rel=1e-9)
-    assert chart.hlines == ((54e-6, "threshold"),)
+    # the line at day 0 and at the last day is the data there: intercept median(y − s·t);
+    # a clearance drawn in µm, as the status text and the history say it
+    assert line.y[0] == pytest.approx(values[0] * 1e6, rel=1e-9)
+    assert line.y[-1] == pytest.approx(values[-1] * 1e6, rel=1e-9)
+    assert chart.hlines == ((pytest.approx(54.0), "threshold"),)
+    assert chart.ylabel == "cv [µm]"
     assert chart.points == 5 + 50
+
+
+def test_a_slope_interval_wider_than_the_data_is_drawn_within_it() -> None:
+    """Visits seconds apart gave a slope interval of −7.6e4 … 0.13 µm/day, whose band
+    drew ±1 m and flattened the points onto one line (a console pass): the band stays
+    within the points' and the threshold's range and half as much again either side."""
+    values = [34e-6 + 2e-6 * day for day in range(5)]
+    trend = replace(_trend(values), slope_low=-1.0, slope_high=1.0)   # ±86 km/day
+    line = trend_chart(trend).series[1]
+    span = 54.0 - (34.0 - 1.0)                 # threshold to the lowest interval [µm]
+    assert float(np.min(line.low)) == pytest.approx(33.0 - 0.5 * span)
+    assert float(np.max(line.high)) == pytest.approx(54.0 + 0.5 * span)
+    assert line.y[0] == pytest.approx(34.0, rel=1e-9)      # the line itself is inside
 
 
 def test_after_a_step_the_line_is_drawn_over_the_points_after_it() -> None:
@@ -90,7 +105,7 @@ def test_after_a_step_the_line_is_drawn_over_the_points_after_it() -> None:
     chart = trend_chart(trend)
     line = chart.series[1]
     assert line.x[0] == pytest.approx(5.0) and line.x[-1] == pytest.approx(9.0)
-    assert line.y[0] == pytest.approx(46e-6, rel=1e-9)
+    assert line.y[0] == pytest.approx(46.0, rel=1e-9)
     assert line.label == "Theil–Sen since the step of 2026-01-05"
 
 
@@ -100,11 +115,11 @@ def test_estimates_of_a_component_its_diagnosis_thought_unlikely_are_drawn_apart
     trend.points[3] = replace(trend.points[3], probability=0.2)  # another component named
     chart = trend_chart(trend)
     likely, unlikely, line = chart.series
-    assert list(likely.y) == pytest.approx(values[:3] + values[4:])
-    assert list(unlikely.y) == pytest.approx([values[3]])
+    assert list(likely.y) == pytest.approx([v * 1e6 for v in values[:3] + values[4:]])
+    assert list(unlikely.y) == pytest.approx([values[3] * 1e6])
     assert unlikely.label == "if the valve is the worn one (p < 0.5)" and unlikely.color == "#999999"
     # the Theil–Sen line still fits every point
-    assert line.y[0] == pytest.approx(values[0], rel=1e-9)
+    assert line.y[0] == pytest.approx(values[0] * 1e6, rel=1e-9)
 
 
 def test_estimates_are_drawn_as_multiples_of_nominal_with_the_severity_bands() -> None:

@@ -127,6 +127,23 @@ def test_rig_page_lists_parameters_with_units_sources_and_chosen_flags(
     assert "hold at this table&#39;s load and oil temperature" in html or \
         "hold at this table's load and oil temperature" in html
     assert "class=\"warn\"" not in html   # the preloaded tables are of the latest version
+    # the badge says "chosen" once: the source's own "chosen:" is not repeated after it
+    row = re.search(r"<td><code>Gseat</code>.*?</tr>", html, re.S)
+    assert row is not None and "chosen</span> a healthy seat does not leak" in row.group(0)
+
+
+def test_a_rig_version_is_shown_as_asked_and_an_unknown_one_is_404(
+        browser_client: httpx.Client) -> None:
+    """A job's "stored as version N" links to ?version=N, which showed the latest version
+    whatever it said, and ?version=7 of a one-version rig showed version 1 (a console
+    pass)."""
+    shown = browser_client.get("/console/rigs/1?version=1")
+    assert shown.status_code == 200 and "version 1" in shown.text
+    assert "an older version" not in shown.text
+    missing = browser_client.get("/console/rigs/1?version=7")
+    assert missing.status_code == 404 and error_box(missing.text)[0] == "version"
+    assert "Nothing was stored" not in missing.text           # a read stores nothing anyway
+    assert browser_client.get("/console/history?rig=999").status_code == 404
 
 
 def test_the_form_diagnoses_in_the_diagnosis_processes_and_the_group_commit(
@@ -183,12 +200,16 @@ def test_a_diagnosis_through_the_form_is_stored_and_shown(
     fitted = page.text.split("Fitted fault parameters")[1]
     row = re.search(r"<code>cylinder\.cc</code>.*?leakage ×([^<]+)<", fitted)
     assert row is not None and float(row.group(1)) == pytest.approx((100 / 83) ** 3, rel=0.02)
-    assert re.search(r"<code>relief\.Pset</code>.*?setting \d+ % low<", fitted)
-    # a hypothesis the readings all but exclude gets no red badge: "severe if it held"
-    # (a relief setting 70 % low read as a finding; a first-day user pass)
-    pset = re.search(r"<code>relief\.Pset</code>.*?</tr>", fitted)
-    assert pset is not None and "if it held" in pset.group(0)
-    assert "tag sev-" not in pset.group(0)
+    # a hypothesis the readings do not feel shows no value (its fitted "2.1e+06 Pa, setting
+    # 70 % low" was read as a finding: a first-day user pass, then a console pass) ...
+    pset = re.search(r"<code>relief\.Pset</code>.*?</tr>", fitted, re.S)
+    assert pset is not None and "not observable: these readings do not feel it" in pset.group(0)
+    assert "tag sev-" not in pset.group(0) and "% low" not in pset.group(0)
+    # ... and one they all but exclude gets no red badge: "… if it held"
+    rows = re.findall(r"<tr><td>[a-z_+]+</td><td class=\"num\">([^<]+)</td>(.*?)</tr>",
+                      fitted)
+    unlikely = [r for p, r in rows if float(p) < 0.01 and "not observable" not in r]
+    assert unlikely and all("if it held" in r and "tag sev-" not in r for r in unlikely)
     # a worn spool read by the three pressures alone: explained, but not isolated — the
     # page says so (the console showed neither a misfit nor this)
     spool = simulated_record(console_server, {"valve.cv": 59e-6}, load=4200.0,
@@ -400,3 +421,13 @@ def test_a_bench_csv_is_made_a_pump_set_from_the_page(
         refused = client.post("/console/pumps/bench", data={"name": "r", "pump": "gear"},
                               files={"file": ("b.csv", sample, "text/csv")})
     assert refused.status_code == 403 and error_box(refused.text)[0] == "api_key"
+
+
+def test_an_interval_is_printed_with_the_digits_that_tell_its_ends_apart() -> None:
+    """"6e-05 … 6e-05" stood for 5.997e-05 … 6.002e-05 on a job's page (a console pass)."""
+    from app.console.web import templates
+
+    interval = templates.filters["interval"]
+    assert interval((5.997e-05, 6.002e-05)) == "5.997e-05 … 6.002e-05"
+    assert interval((33.0, 54.0)) == "33 … 54"
+    assert interval((1.0, 1.0)) == "1 … 1" and interval(None) == "—"

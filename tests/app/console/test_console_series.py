@@ -69,6 +69,9 @@ def test_ticked_records_are_checked_and_the_report_is_shown(console_server: Live
     for name, value in SECURITY_HEADERS.items():
         assert report.headers[name] == value
     assert "<script" not in report.text and "<style" not in report.text
+    # the console's style sheet (its policy allows it) and a way back to the job
+    assert "href='/console/static/console.css'" in report.text
+    assert f"href='{job_url}'" in report.text
     assert console_server.row_counts()["rig_versions"] == versions   # not asked to store
     listed = browser_client.get("/console/series?rig=1")
     assert job_url in listed.text                  # the rig's recent checks
