@@ -193,7 +193,15 @@ def test_a_diagnosis_through_the_form_is_stored_and_shown(
     assert "cylinder cc" in page.text
     estimate = re.search(r"<td>cylinder</td><td><code>cc</code></td><td class=\"num\">([^<]+)<",
                          page.text)
-    assert estimate is not None and float(estimate.group(1)) == pytest.approx(100e-6, rel=1e-3)
+    assert estimate is not None and float(estimate.group(1)) == pytest.approx(100.0, rel=1e-3)
+    # in µm, as the history says it; the readings' pressures in bar, flows in l/min (the
+    # page said "cv 6e-05 m" and "1.4499e+06 Pa" beside charts in bar: a console pass)
+    unit = re.search(r"<td>cylinder</td><td><code>cc</code></td>(?:<td[^>]*>[^<]*</td>){3}"
+                     r"<td>([^<]+)</td>", page.text)
+    assert unit is not None and unit.group(1) == "µm"
+    p1 = re.search(r"<tr><td><code>p1</code></td><td class=\"num\">([^<]+)</td>.*?"
+                   r"<td>([^<]+)</td></tr>", page.text, re.S)
+    assert p1 is not None and p1.group(2) == "bar" and 1.0 < float(p1.group(1)) < 300.0
     # the fitted-parameter table says what its measure is: the cylinder's leakage multiple
     # (c/c0)³ = 1.75 (it read "multiple 1.75" beside a clearance 1.2 × nominal), and the
     # relief setting's drift below nominal
