@@ -149,6 +149,29 @@ def test_a_diagnosis_from_the_form_reaches_history_and_trends(
     assert page.problems == [], page.problems
 
 
+def test_charts_keep_their_size_and_a_narrow_window_does_not_scroll_sideways(
+        console_server: LiveServer, page: Any, shots: Path) -> None:
+    """At 1280 px two charts side by side shrank to 519 px (tick text ~7 px); at 800 px
+    the diagnosis and measured-series tables were 854-922 px wide and the page scrolled
+    sideways (a console pass)."""
+    for width, url in ((1280, "/console/series/{first}"), (800, "/console/diagnoses/1"),
+                       (800, "/console/series")):
+        page.set_viewport_size({"width": width, "height": 900})
+        first = console_server.series[0]  # type: ignore[attr-defined]
+        page.goto(f"{console_server.base_url}{url.format(first=first)}?rig=1"
+                  if url == "/console/series" else f"{console_server.base_url}"
+                  f"{url.format(first=first)}")
+        page.wait_for_load_state("networkidle")
+        wide = page.evaluate("document.scrollingElement.scrollWidth")
+        assert wide <= width, (url, width, wide)
+        if width == 1280:
+            sizes = page.eval_on_selector_all(
+                ".grid svg.hd-plot", "els => els.map(e => e.getBoundingClientRect().width)")
+            assert sizes and min(sizes) >= 650, sizes
+    page.screenshot(path=str(shots / "console-narrow.png"), full_page=True)
+    page.set_viewport_size({"width": 1200, "height": 900})
+
+
 def _trend_points(server: LiveServer, tab: Page) -> int:
     """Diagnoses in the valve's trend, as its section states."""
     tab.goto(f"{server.base_url}/console/trends?rig=1")
