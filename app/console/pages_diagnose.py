@@ -54,6 +54,13 @@ def _csv_records(content: bytes) -> list[dict[str, Any]]:
     records = record_rows(content, field="file")
     if not records:
         raise InputError("the CSV has no rows", field="file")
+    if any(key.startswith("t [") for key in records[0]):
+        # a logged cycle (a /simulate export): "unknown fields 'record', 't [s]' …" told
+        # nothing of where it goes (a console pass)
+        raise InputError("this is a measured time series (a 't [...]' column), not a table "
+                         "of records: import it on the Measured page (/console/series), "
+                         "then diagnose the stored cycle from its page — or "
+                         "`hydrodiag diagnose FILE --rig ID` reads it as it is", field="file")
     return records
 
 

@@ -301,6 +301,13 @@ def test_bad_form_input_names_the_field_and_stores_nothing(
             ({}, {"file": ("r.csv", b"", "text/csv")}, "file")]:   # was "paste a record"
         response = browser_client.post("/console/diagnose", data=data, files=files)
         assert response.status_code == 422 and error_box(response.text)[0] == field, field
+    # a logged cycle posted as a batch is pointed to where it goes (it read "unknown
+    # fields 'record', 't [s]' …": a console pass)
+    cycle = b"t [s],phase,P1 [Pa]\n0,working,1e6\n0.001,working,1.1e6\n"
+    response = browser_client.post("/console/diagnose",
+                                   files={"file": ("cycle.csv", cycle, "text/csv")})
+    assert response.status_code == 422 and error_box(response.text)[0] == "file"
+    assert "measured time series" in response.text and "/console/series" in response.text
     simulate = browser_client.get("/console/simulate?run=true&load=heavy")
     assert simulate.status_code == 422
     assert error_box(simulate.text)[0] == "condition.load"
