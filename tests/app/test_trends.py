@@ -306,17 +306,24 @@ def test_points_of_unexplained_diagnoses_are_left_out(server: LiveServer) -> Non
     assert "1 point(s) of diagnoses the rig model did not explain left out" in cyl["message"]
 
 
+def _monthly(values: list[float]) -> list:
+    """Visits 30 days apart from 2026-01-05, without intervals, p = 0.9 [m]."""
+    from datetime import UTC, timedelta
+
+    from app.services.trends import TrendPointOut
+
+    start = datetime(2026, 1, 5, 9, tzinfo=UTC)
+    return [TrendPointOut(k + 1, start + timedelta(days=30 * k), 1, value, None, None, 0.9)
+            for k, value in enumerate(values)]
+
+
 def test_a_latest_estimate_past_the_threshold_is_named() -> None:
     """Four visits at 40 µm and a fifth at 60 µm against a 50 µm threshold: the robust
     line stays at 40 µm (not crossed, not worsening), and the message names the last
     estimate past the threshold instead of staying silent about it."""
-    from datetime import UTC, timedelta
+    from app.services.trends import _trend
 
-    from app.services.trends import TrendPointOut, _trend
-
-    start = datetime(2026, 1, 5, 9, tzinfo=UTC)
-    points = [TrendPointOut(k + 1, start + timedelta(days=30 * k), 1, value, None, None, 0.9)
-              for k, value in enumerate([40e-6, 40e-6, 40e-6, 40e-6, 60e-6])]
+    points = _monthly([40e-6, 40e-6, 40e-6, 40e-6, 60e-6])
     trend = _trend("valve", 1, points, 50e-6, "given")
     assert trend.status == "not_worsening"
     assert "the latest estimate, 60 µm (2026-05-05), is past the threshold" in trend.message
@@ -329,13 +336,9 @@ def test_a_crossed_trend_whose_latest_estimate_is_below_the_threshold_says_so() 
     line stays past the threshold ("crossed"), and the message now names the healthy last
     estimate beside it (the status alone read "past the threshold" over a healthy visit;
     a console pass)."""
-    from datetime import UTC, timedelta
+    from app.services.trends import _trend
 
-    from app.services.trends import TrendPointOut, _trend
-
-    start = datetime(2026, 1, 5, 9, tzinfo=UTC)
-    points = [TrendPointOut(k + 1, start + timedelta(days=30 * k), 1, value, None, None, 0.9)
-              for k, value in enumerate([60e-6, 60e-6, 60e-6, 60e-6, 34e-6])]
+    points = _monthly([60e-6, 60e-6, 60e-6, 60e-6, 34e-6])
     trend = _trend("valve", 1, points, 50e-6, "given")
     assert trend.status == "crossed"
     assert "the latest estimate, 34 µm (2026-05-05), is below the threshold" in trend.message
