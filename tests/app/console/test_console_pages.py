@@ -374,6 +374,11 @@ def test_the_simulate_page_says_what_the_numbers_do_not(browser_client: httpx.Cl
     assert "Simulated at load 4200 N, oil 40 °C, back-pressure 0 bar" in dips.text
     notes = re.findall(r"<li>([^<]*)</li>", dips.text.split('id="notes"')[1].split("</ul>")[0])
     assert len(notes) == 1 and notes[0].startswith("below vacuum") and "P_pump reaches" in notes[0]
+    # the phase averages in bar and l/min, as the charts above them (they were in Pa and
+    # m³/s: a console pass)
+    p1 = re.search(r"<code>working\.P1</code></td><td class=\"num\">([^<]+)</td><td>([^<]+)<",
+                   dips.text)
+    assert p1 is not None and p1.group(2) == "bar" and 5.0 < float(p1.group(1)) < 100.0
     stall = browser_client.get("/console/simulate?run=true&fault=worn_piston&load=20000")
     assert "the working stroke did not reach its end" in stall.text
 
@@ -392,6 +397,13 @@ def test_pumps_page_shows_measured_against_model_from_the_stored_points(
     assert int(plots[flow]) == 2 * n and int(plots[torque]) == 2 * n
     assert int(plots["Held-out flow residual, measured − model"]) == n
     assert "check_flow_S" in html
+    # the derived capacity in cm³/rev, as the form asks it and a data sheet states it (it
+    # read 1.75e-05 m³/rev: a console pass)
+    row = re.search(r"<code>D_per_rev</code></td><td class=\"num\">([^<]+)</td><td>([^<]+)<",
+                    html)
+    assert row is not None and row.group(2) == "cm³/rev"
+    per_rev = chosen["quantities"]["D_per_rev"]["value"] * 1e6
+    assert float(row.group(1)) == pytest.approx(per_rev, rel=1e-4)
 
 
 def test_a_bench_csv_is_made_a_pump_set_from_the_page(
