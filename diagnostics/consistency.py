@@ -59,13 +59,22 @@ class RigLimits:
         if self.stroke is not None and not (math.isfinite(self.stroke) and self.stroke > 0.0):
             raise ParameterError(f"must be finite and > 0, got {self.stroke}", field="stroke")
 
-    def max_pump_flow(self, record: MeasurementRecord) -> float:
+    def delivery(self, omega: float | None = None) -> float:
         """Geometric pump flow (ω + Δω)·Vp [m³/s] (paper 002 eqs. 1-2; Δω the speed-reading
-        offset, paper 000 §5) at the record's speed (+k·u), else the nominal, with the rig's
-        speed offset where it adds."""
+        offset, paper 000 §5, where it adds) at pump speed ``omega`` [rad/s], else the
+        nominal."""
+        return ((self.speed if omega is None else omega) + max(self.speed_offset, 0.0)) \
+            * self.Vp
+
+    def max_pump_flow(self, record: MeasurementRecord) -> float:
+        """:meth:`delivery` at the record's speed (+k·u), else the nominal [m³/s]."""
         w = record.condition.pump_speed
-        omega = self.speed if w is None else w.value + CONSISTENCY_K * w.u
-        return (omega + max(self.speed_offset, 0.0)) * self.Vp
+        return self.delivery(None if w is None else w.value + CONSISTENCY_K * w.u)
+
+    def max_piston_speed(self, omega: float | None = None) -> float:
+        """Fastest piston speed the pump can drive, :meth:`delivery` over the smaller
+        chamber area, min(A1, A2) [m/s] (no accumulator adds flow)."""
+        return self.delivery(omega) / min(self.A1, self.A2)
 
 
 #: fraction of F/A1 below which a pressure cannot hold a stated load [-] (generous: a

@@ -254,9 +254,10 @@ def diagnose(rig: Rig, records: Sequence[MeasurementRecord], *, model_rel: float
         raise MeasurementError("at least one record is needed", field="records")
     rig.require_cycle("a diagnosis")
     obs = []
+    limits = rig_limits(rig)  # once: the records' checks and the slow-stroke notes
     for i, rec in enumerate(records):
         try:
-            obs.append(observe(rec, rig))
+            obs.append(observe(rec, rig, limits=limits))
         except MeasurementError as exc:
             prefix = f"records[{i}]" if len(records) > 1 else ""
             # an error of the record as a whole names the record (``records`` when alone)
@@ -296,7 +297,6 @@ def diagnose(rig: Rig, records: Sequence[MeasurementRecord], *, model_rel: float
                      for k in (est.value, est.low, est.high))
     n = sum(len(o.names) for o in obs)
     notes.extend(_temperature_notes(rig, records))
-    limits = rig_limits(rig)
     notes.extend(n for r in records for n in slow_stroke_notes(r, limits))
     if not math.isfinite(fits[0].log_evidence):
         notes.append("no hypothesis explains the records")

@@ -116,14 +116,15 @@ def check_condition(record: MeasurementRecord, rig: Rig) -> None:
                                field=_RECORD_CONDITION.get(field, field)) from None
 
 
-def observe(record: MeasurementRecord, rig: Rig, *, check: bool = True) -> RecordObservations:
-    """Observation vector of ``record`` on ``rig`` (checked against the rig's limits and
-    its circuit's range of conditions)."""
+def observe(record: MeasurementRecord, rig: Rig, *, check: bool = True,
+            limits: RigLimits | None = None) -> RecordObservations:
+    """Observation vector of ``record`` on ``rig`` (checked against the rig's limits,
+    ``limits`` when the caller has them already, and its circuit's range of conditions)."""
     if check:
         # the condition's range first: a load past it is the error to name, not the
         # pressures that cannot push it (check_against_rig's unit-slip test)
         check_condition(record, rig)
-        check_against_rig(record, rig_limits(rig))
+        check_against_rig(record, limits if limits is not None else rig_limits(rig))
     stroke = Quantity(rig.base["cylinder.stroke"])
     items: list[tuple[str, Quantity]] = []
     for name in ("pump_pressure", "p1", "p2", "flow_B", "flow_C", "pump_flow"):

@@ -27,14 +27,33 @@ from typing import Any, Literal
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["Bar", "Chart", "Series", "bar_chart", "line_chart", "render_png", "render_png_stack",
-           "render_svg"]
+__all__ = ["SHOWN_UNITS", "Bar", "Chart", "Series", "bar_chart", "line_chart", "render_png",
+           "render_png_stack", "render_svg", "shown_unit"]
 
 Arr = npt.NDArray[np.float64]
 
 #: colours of successive series (colour-blind safe, Okabe-Ito)
 PALETTE = ("#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#000000",
            "#F0E442")
+
+#: SI unit → (the unit charts and pages show it in, the factor to it): pressures in bar,
+#: flows in l/min, positions in mm, …; SI stays inside, in the API and in its files
+SHOWN_UNITS: dict[str, tuple[str, float]] = {
+    "Pa": ("bar", 1e-5), "m^3/s": ("l/min", 6e4), "m/s": ("m/s", 1.0), "m": ("mm", 1e3),
+    "degC": ("°C", 1.0), "W": ("kW", 1e-3), "N": ("kN", 1e-3), "N*m": ("N·m", 1.0),
+    "m^3/rev": ("cm³/rev", 1e6),
+}
+
+
+def shown_unit(unit: str, *, clearance: bool = False) -> tuple[float, str]:
+    """(factor, unit) in which a quantity of SI ``unit`` is shown (:data:`SHOWN_UNITS`;
+    value × factor is in the returned unit); ``clearance``: a length in µm, as the
+    history and the status texts say a clearance (:func:`sim.units.quantity_text`)."""
+    if clearance and unit == "m":
+        return 1e6, "µm"
+    shown, factor = SHOWN_UNITS.get(unit, (unit, 1.0))
+    return factor, shown
+
 
 #: matplotlib's global state is not thread-safe: one render at a time per process
 _RENDER_LOCK = threading.Lock()

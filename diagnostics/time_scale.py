@@ -9,29 +9,33 @@ geometric delivery fills its smaller chamber,
     |ẋ| ≤ Qp / A_min,   Qp = ω·Vp   (paper 002 eq. 2; the chamber volumes V0 + A·x of
                                    eqs. 33-34 grow no faster than the flow into them),
 
-with no accumulator in the circuit to add flow.  A record whose piston crosses the middle
-80 % of its travel faster than 1.5× that bound runs on a clock too fast (the rate stated too
-high); one that crosses it more than 30× slower than the bound is possible (a throttled or
-nearly stalled piston) but is also what a rate stated 30× or more too low looks like: a note
-says so and names the factor.  A record with a speed channel ``v`` beside its position is
-also judged against itself: ``x`` must cross its travel at the speed ``v`` integrated over
-the record's times says, whatever the rig.  Only records whose position shows a full
-crossing of at least a fifth of the stroke are judged.
+with no accumulator in the circuit to add flow (ω + Δω where the rig carries a
+speed-reading offset Δω, paper 000 §5: :meth:`~diagnostics.consistency.RigLimits.delivery`).
+A record whose piston crosses the middle 80 % of its travel faster than 1.5× that bound
+runs on a clock too fast (the rate stated too high); one that crosses it more than 30×
+slower than the bound is possible (a throttled or nearly stalled piston) but is also what a
+rate stated 30× or more too low looks like: a note says so and names the factor.  A record
+with a speed channel ``v`` beside its position is also judged against itself: ``x`` must
+cross its travel at the speed ``v`` integrated over the record's times says, whatever the
+rig.  Only records whose position shows a full crossing of at least a fifth of the stroke
+are judged.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
 
-from diagnostics.consistency import SLOW_FACTOR  # a crossing slower than bound ÷ this: noted
+from diagnostics.consistency import (  # a crossing slower than the bound ÷ SLOW_FACTOR: noted
+    SLOW_FACTOR,
+    RigLimits,
+)
 from diagnostics.timeseries import SeriesRecord
 
-__all__ = ["FAST_FACTOR", "MIN_TRAVEL", "SLOW_FACTOR", "CylinderDrive", "crossing_speed", "time_scale_notes"]
+__all__ = ["FAST_FACTOR", "MIN_TRAVEL", "SLOW_FACTOR", "crossing_speed", "time_scale_notes"]
 
 Arr = npt.NDArray[np.float64]
 
@@ -39,48 +43,6 @@ Arr = npt.NDArray[np.float64]
 FAST_FACTOR = 1.5
 #: least travel a judged crossing spans, as a fraction of the stroke [-]
 MIN_TRAVEL = 0.2
-
-
-@dataclass(frozen=True)
-class CylinderDrive:
-    """What bounds the piston's speed on a rig.
-
-    Attributes
-    ----------
-    displacement
-        Pump displacement Vp [m³/rad] (paper 002 eq. 2).
-    speed
-        Pump speed ω stated for the rig [rad/s]; a record's ``pump_speed`` condition
-        replaces it.
-    area
-        The smaller of the cylinder's two effective areas [m²] (bore less rod, each side).
-    stroke
-        The cylinder's stroke [m]: a crossing judged spans at least :data:`MIN_TRAVEL` of
-        it (a dwell's position noise crosses its own range in a sample).
-    """
-
-    displacement: float
-    speed: float
-    area: float
-    stroke: float
-
-    def bound(self, speed: float | None = None) -> float:
-        """Fastest piston speed the pump can drive, ω·Vp / A_min [m/s]."""
-        return (self.speed if speed is None else speed) * self.displacement / self.area
-
-    @classmethod
-    def of(cls, base: dict[str, float]) -> CylinderDrive | None:
-        """From a rig's parameters (``pump.Vp``, ``pump.speed``, ``cylinder.bore``,
-        ``cylinder.rod1``, ``cylinder.rod2``, ``cylinder.stroke`` [m]); None when one is missing or the
-        area is not positive."""
-        try:
-            bore, rods = base["cylinder.bore"], (base["cylinder.rod1"], base["cylinder.rod2"])
-            area = math.pi / 4.0 * (bore**2 - max(rods) ** 2)
-            drive = cls(base["pump.Vp"], base["pump.speed"], area, base["cylinder.stroke"])
-        except KeyError:
-            return None
-        ok = area > 0 and drive.displacement > 0 and drive.speed > 0 and drive.stroke > 0
-        return drive if ok else None
 
 
 def crossing_speed(t: Arr, x: Arr, min_span: float = 0.0) -> float | None:
@@ -115,25 +77,27 @@ def crossing_speed(t: Arr, x: Arr, min_span: float = 0.0) -> float | None:
     return 0.8 * span / best
 
 
-def time_scale_notes(records: Sequence[SeriesRecord], drive: CylinderDrive | None) -> list[str]:
+def time_scale_notes(records: Sequence[SeriesRecord], limits: RigLimits | None) -> list[str]:
     """Notes on the records whose piston crosses its travel faster than the pump can drive
     it or ≥ :data:`SLOW_FACTOR` × slower (module docstring), by the position ``x``, and
     those whose ``x`` moves more than :data:`FAST_FACTOR` × faster or slower than their
     speed channel ``v`` integrated says (a speed reading alone does not depend on the
-    clock).  Nothing without a drive, a position or a full crossing."""
-    if drive is None:
+    clock).  ``limits``: the rig's (:func:`diagnostics.observations.rig_limits`: the pump's
+    delivery with any speed offset, the chambers' areas, the stroke).  Nothing without
+    them, a position or a full crossing."""
+    if limits is None or limits.stroke is None:
         return []
     fast: list[tuple[str, float]] = []
     slow: list[tuple[str, float]] = []
     apart: list[tuple[str, float]] = []
+    least = MIN_TRAVEL * limits.stroke
     for r in records:
         if "x" not in r.channels:
             continue  # a speed reading alone is a speed whatever the clock says
-        least = MIN_TRAVEL * drive.stroke
         speed = crossing_speed(r.t, r.channels["x"], least)
         if speed is None:
             continue
-        ratio = speed / drive.bound(r.condition.get("pump_speed"))
+        ratio = speed / limits.max_piston_speed(r.condition.get("pump_speed"))
         if ratio > FAST_FACTOR:
             fast.append((r.name, ratio))
         elif ratio < 1.0 / SLOW_FACTOR:

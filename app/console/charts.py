@@ -15,7 +15,16 @@ import numpy as np
 import pandas as pd
 
 from app.services.trends import UNLIKELY, ComponentTrendOut
-from diagnostics.plots import PALETTE, Bar, Chart, Series, bar_chart, line_chart
+from diagnostics.plots import (
+    PALETTE,
+    SHOWN_UNITS,
+    Bar,
+    Chart,
+    Series,
+    bar_chart,
+    line_chart,
+    shown_unit,
+)
 from diagnostics.timeseries import SeriesRecord
 
 __all__ = [
@@ -191,7 +200,7 @@ def trend_chart(trend: ComponentTrendOut) -> Chart:
     pts = trend.points
     # a clearance in µm, as the status text and the history say it (its axis read
     # "cc [m]" with ticks 8e-05 … beside a slope in µm/day; a console pass)
-    scale, unit = (1e6, "µm") if trend.unit == "m" else (1.0, trend.unit)
+    scale, unit = shown_unit(trend.unit, clearance=True)
     t0 = pts[0].measured_at.timestamp() if pts else 0.0
     days = np.array([(p.measured_at.timestamp() - t0) / 86400.0 for p in pts])
     y = np.array([p.value for p in pts]) * scale
@@ -307,10 +316,10 @@ def surface_chart(name: str, coef: Sequence[Sequence[float]], p_ref: float, omeg
 
 
 #: SI unit of a stored channel → (axis label, factor to the axis unit), for the series page
-_AXES = {"Pa": ("pressure [bar]", 1e-5), "m^3/s": ("flow [l/min]", 6e4),
-         "m/s": ("speed [m/s]", 1.0), "m": ("position [mm]", 1e3),
-         "degC": ("temperature [°C]", 1.0), "W": ("power [kW]", 1e-3),
-         "N": ("force [kN]", 1e-3), "N*m": ("torque [N·m]", 1.0)}
+_AXES = {unit: (f"{quantity} [{SHOWN_UNITS[unit][0]}]", SHOWN_UNITS[unit][1])
+         for unit, quantity in (("Pa", "pressure"), ("m^3/s", "flow"), ("m/s", "speed"),
+                                ("m", "position"), ("degC", "temperature"), ("W", "power"),
+                                ("N", "force"), ("N*m", "torque"))}
 
 
 def series_charts(record: SeriesRecord, *, most: int = 600) -> list[Chart]:

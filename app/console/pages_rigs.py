@@ -65,7 +65,8 @@ def login(request: Request, session: SessionDep,
     try:
         key = authenticate(session, api_key.strip() or None)
     except AuthError as exc:
-        error = {"type": "AuthError", "message": exc.message, "field": "api_key"}
+        error = {"type": "AuthError", "message": exc.message, "field": "api_key",
+                 "note": "Log in with a key this service issued (hydrodiag keys create)."}
         return page(request, "login.html", status_code=401, next=_safe_next(next), error=error)
     response = redirect(_safe_next(next))
     issue_cookie(response, request, key)

@@ -34,7 +34,7 @@ from sqlalchemy.orm import Session
 from app.db.models import ApiKey
 from app.services.keys import is_revoked
 from app.settings import Settings
-from diagnostics.plots import Chart, render_svg
+from diagnostics.plots import Chart, render_svg, shown_unit
 from diagnostics.timeseries import CONDITION_CHANNELS
 from sim.errors import AuthError
 
@@ -81,20 +81,6 @@ def _interval(bounds: Any, digits: int = 3) -> str:
     return f"{_si(low, n)} … {_si(high, n)}"
 
 
-#: how a page shows a quantity stored in SI: a pressure in bar, a flow in l/min, a
-#: clearance in µm (SI inside; "cv 6e-05 m" beside "cv 60 µm" in the history and
-#: "1.4499e+06 Pa" beside charts in bar read as two different things: a console pass)
-_SHOWN = {"Pa": (1e-5, "bar"), "m^3/s": (6e4, "l/min")}
-
-
-def _display(unit: str, clearance: bool = False) -> tuple[float, str]:
-    """(scale, unit) in which a page shows a quantity of SI ``unit``: value × scale is in
-    the returned unit; ``clearance``: a length in µm."""
-    if clearance and unit == "m":
-        return 1e6, "µm"
-    return _SHOWN.get(unit, (1.0, unit))
-
-
 def _svg(chart: Chart | None) -> Markup:
     """A chart as inline SVG (CSP-safe, written directly: :func:`diagnostics.plots.render_svg`)."""
     return Markup("") if chart is None else Markup(render_svg(chart))
@@ -109,7 +95,7 @@ templates.filters["si"] = _si
 templates.globals["condition_units"] = {k: u.replace("degC", "°C")
                                         for k, u in CONDITION_CHANNELS.items()}
 templates.filters["interval"] = _interval
-templates.globals["display"] = _display
+templates.globals["display"] = shown_unit  # pressures in bar, flows in l/min, …
 templates.filters["svg"] = _svg
 
 

@@ -31,9 +31,11 @@ from app.services.plateau_channels import (
     plateau_notes,
 )
 from app.services.rigs import get_rig, has_cycle, latest_version
+from diagnostics.consistency import RigLimits
 from diagnostics.cycle_readings import READ_CHANNELS
+from diagnostics.observations import rig_limits
 from diagnostics.table_files import time_in_name as time_in_name_of
-from diagnostics.time_scale import CylinderDrive, time_scale_notes
+from diagnostics.time_scale import time_scale_notes
 from diagnostics.timeseries import (
     CONDITION_CHANNELS,
     ColumnEntry,
@@ -278,13 +280,13 @@ class RigChannels:
     delivery: float | None = None
     #: the relief valve's setting [Pa]; None without one
     relief: float | None = None
-    #: what bounds the piston's speed; None without a pump and a cylinder
-    drive: CylinderDrive | None = None
+    #: what bounds the piston's speed (pump, chambers, stroke); None without a cycle
+    limits: RigLimits | None = None
 
     def time_notes(self, records: Sequence[SeriesRecord]) -> list[str]:
         """Records whose piston moves faster than the pump can drive it, or ≥ 30× slower:
         a wrong sample rate or time unit (:func:`diagnostics.time_scale.time_scale_notes`)."""
-        return time_scale_notes(records, self.drive)
+        return time_scale_notes(records, self.limits)
 
     def notes(self, rows: Sequence[MeasuredSeries]) -> list[str]:
         """What an import stored for a rig with a cycle that neither its model nor a cycle's
@@ -328,7 +330,7 @@ def rig_channels(session: Session, rig_id: int) -> RigChannels:
     delivery = (base["pump.speed"] * base["pump.Vp"] if "pump.speed" in base
                 and "pump.Vp" in base else None)
     return RigChannels(units if cycle else units | PLATEAU_CHANNELS, cycle, delivery,
-                       base.get("relief.Pset"), CylinderDrive.of(base) if cycle else None)
+                       base.get("relief.Pset"), rig_limits(rig) if cycle else None)
 
 
 def list_series(session: Session, rig_id: int, *, limit: int, offset: int

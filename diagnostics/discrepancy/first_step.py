@@ -36,7 +36,8 @@ from diagnostics.discrepancy.records import (
 from diagnostics.discrepancy.selection import require_samples
 from diagnostics.discrepancy.signals import Signals, condition_of, prepare, same_channels
 from diagnostics.discrepancy.simulate import timed_switch
-from diagnostics.time_scale import CylinderDrive, time_scale_notes
+from diagnostics.observations import rig_limits
+from diagnostics.time_scale import time_scale_notes
 from diagnostics.timeseries import SeriesRecord
 from sim.errors import InputError
 from sim.rigs.assembly import Rig
@@ -108,7 +109,7 @@ def first_step(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord]
     check_motion_and_flow_units(labelled, stroke=values["cylinder.stroke"],
                                 delivery=values["pump.speed"] * values["pump.Vp"])
     # a clock that cannot be right (a wrong sample rate): said as the import says it
-    notes += time_scale_notes(records, CylinderDrive.of(values))
+    notes += time_scale_notes(records, rig_limits(rig))
     train_i, held_i = split(labelled, rig)
     signals = prepare([labelled[i] for i in train_i], rig)
     data = balance_data(signals, values)

@@ -9,7 +9,8 @@ import math
 import numpy as np
 import pytest
 
-from diagnostics.time_scale import CylinderDrive, crossing_speed, time_scale_notes
+from diagnostics.observations import rig_limits
+from diagnostics.time_scale import crossing_speed, time_scale_notes
 from diagnostics.timeseries import SeriesRecord
 from sim.rigs import reference_rig
 
@@ -29,11 +30,12 @@ def _stroke(speed: float, rate: float = 1000.0, noise: float = 0.0, seed: int = 
 
 
 def test_the_bound_is_the_pumps_delivery_over_the_smaller_chamber():
-    drive = CylinderDrive.of(reference_rig().base)
-    assert drive is not None
-    assert drive.bound() == pytest.approx(BOUND, rel=1e-12)        # 0.2201 m/s
-    assert drive.bound(2 * drive.speed) == pytest.approx(2 * BOUND, rel=1e-12)
-    assert CylinderDrive.of({"pump.Vp": 1e-6, "pump.speed": 150.0}) is None  # no cylinder
+    drive = rig_limits(reference_rig())
+    assert drive.max_piston_speed() == pytest.approx(BOUND, rel=1e-12)        # 0.2201 m/s
+    assert drive.max_piston_speed(2 * drive.speed) == pytest.approx(2 * BOUND, rel=1e-12)
+    # a rig without a cylinder has no limits to judge by: nothing is said
+    t, x, _ = _stroke(0.16)
+    assert time_scale_notes([SeriesRecord("r", t / 10, {"x": x}, {"x": "m"})], None) == []
 
 
 @pytest.mark.parametrize("noise", [0.0, 0.005])   # 5 mm of position noise: 1 % of travel
@@ -43,13 +45,13 @@ def test_a_crossing_reads_the_pistons_speed(noise):
     assert crossing_speed(t, x) == pytest.approx(0.16, rel=0.05 if noise else 0.005)
     assert crossing_speed(t, np.full(t.size, 0.3)) is None            # no travel
     assert crossing_speed(t[:300], x[:300], 0.1) is None              # 16 mm of 0.5 m
-    drive = CylinderDrive.of(reference_rig().base)
+    drive = rig_limits(reference_rig())
     dwell = SeriesRecord("dwell", t[:300], {"x": 0.5 + x[:300] - x[0]}, {"x": "m"})
     assert time_scale_notes([dwell], drive) == []   # noise at a stop crosses in a sample
 
 
 def test_a_wrong_rate_is_named_and_a_right_one_is_silent():
-    drive = CylinderDrive.of(reference_rig().base)
+    drive = rig_limits(reference_rig())
     t, x, _ = _stroke(0.16)
     right = SeriesRecord("right", t, {"x": x}, {"x": "m"})
     assert time_scale_notes([right], drive) == []
@@ -68,7 +70,7 @@ def test_a_wrong_rate_is_named_and_a_right_one_is_silent():
 
 
 def test_a_position_and_its_speed_channel_must_share_the_clock():
-    drive = CylinderDrive.of(reference_rig().base)
+    drive = rig_limits(reference_rig())
     t, x, v = _stroke(0.16)
     both = SeriesRecord("both", t, {"x": x, "v": v}, {"x": "m", "v": "m/s"})
     assert time_scale_notes([both], drive) == []

@@ -76,6 +76,10 @@ def test_a_forged_or_revoked_login_is_refused(console_server: LiveServer) -> Non
     with console_server.session() as session:
         row, plaintext = create_api_key(session, "console-revoked")
     with httpx.Client(base_url=console_server.base_url) as client:
+        # a wrong key says what to log in with, not "Nothing was stored." (a console pass)
+        wrong = client.post("/console/login", data={"api_key": "hd_nope", "next": ""})
+        assert wrong.status_code == 401 and "hydrodiag keys create" in wrong.text
+        assert "Nothing was stored" not in wrong.text
         assert client.post("/console/login",
                            data={"api_key": plaintext, "next": ""}).status_code == 303
         key_id, issued, signature = client.cookies[COOKIE].split(".")
