@@ -15,6 +15,7 @@ message naming the column.
 from __future__ import annotations
 
 import json
+from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
 
@@ -28,9 +29,9 @@ from app.cli_support import (
     ColumnMapOption,
     SampleRateOption,
     console,
-    estimate_text,
     reading_options,
     series_ids,
+    shown_estimate,
     steps,
     store_session,
     validation_error,
@@ -41,9 +42,9 @@ from diagnostics.real.relaxation import ZEMA_RELAXATION
 from sim.errors import HydrodiagError, InputError
 
 if TYPE_CHECKING:
-    pass
+    from diagnostics.discrepancy.drift import BaseDrift
 
-__all__ = ["discover", "register"]
+__all__ = ["discover", "drift_table", "register"]
 
 #: the verdict and its tables (the result) go to stdout; progress and notes to stderr
 _out = Console()
@@ -148,23 +149,14 @@ def discover(
                       title=f"rig {rig_id}: new version {new_version}" if new_version
                       else f"rig {rig_id} (not stored)")
         for n in d.named:
-            value, interval = estimate_text(n.value, *n.interval)
-            table.add_row(n.name, f"{n.parameter} \\[{n.unit}]", value, interval,
+            value, interval, unit = shown_estimate(n.value, *n.interval, n.unit)
+            table.add_row(n.name, f"{n.parameter} \\[{unit}]", value, interval,
                           "yes" if n.plausible else "NO")
         _out.print(table)
     if not_stored:
         _out.print(not_stored, markup=False)
     if d.base_drift is not None and d.base_drift.accepted:
-        table = Table("parameter", "stored", "re-fitted", "change", "95 % interval",
-                      title="base drift (reported, not stored)")
-        for b in d.base_drift.parameters:
-            value, ci = estimate_text(b.value, *b.interval) if b.interval else (
-                f"{b.value:.4g}", "—")
-            table.add_row(f"{b.parameter} \\[{b.unit}]", f"{b.stored:.4g}", value,
-                          f"{100 * b.change:+.3g} %" + ("" if b.significant else " n.s."), ci)
-        for k in d.base_drift.kept:
-            table.add_row(k, "", "kept as stored", "", "")
-        _out.print(table)
+        _out.print(drift_table(d.base_drift.parameters, d.base_drift.kept))
         _out.print(DRIFT_INTERVALS, markup=False)
 
 
@@ -172,6 +164,25 @@ def discover(
 _OPTIONS = {"series_ids": "--series", "relaxation": "--relaxation", "rig_id": "--rig",
             "rig_version": "--version", "column_map": "--column-map",
             "sample_rate": "--sample-rate"}
+
+
+def drift_table(parameters: Sequence[BaseDrift], kept: Sequence[str]) -> Table:
+    """The re-fitted base parameters as a table: stored, re-fitted, change and interval,
+    a clearance in µm (:func:`~app.cli_support.shown_estimate`); ``kept``: those kept as
+    stored."""
+    table = Table("parameter", "stored", "re-fitted", "change", "95 % interval",
+                  title="base drift (reported, not stored)")
+    for b in parameters:
+        lo, hi = b.interval if b.interval else (0.99 * b.value, 1.01 * b.value)
+        value, ci, unit = shown_estimate(b.value, lo, hi, b.unit)
+        factor = 1e6 if unit != b.unit else 1.0  # the stored value in the unit shown
+        table.add_row(f"{b.parameter} \\[{unit}]", f"{b.stored * factor:.4g}",
+                      value if b.interval else f"{b.value * factor:.4g}",
+                      f"{100 * b.change:+.3g} %" + ("" if b.significant else " n.s."),
+                      ci if b.interval else "—")
+    for k in kept:
+        table.add_row(k, "", "kept as stored", "", "")
+    return table
 
 
 def _as_option(exc: HydrodiagError) -> HydrodiagError:

@@ -26,11 +26,11 @@ from app.cli_support import (
     SampleRateOption,
     as_option,
     console,
-    estimate_text,
     load_document,
     reading_options,
     series_ids,
     settings_from_env,
+    shown_estimate,
     steps,
     store_session,
     validated,
@@ -38,7 +38,7 @@ from app.cli_support import (
 )
 from app.schemas.common import MAX_ID
 from sim.errors import HydrodiagError, InputError
-from sim.scenarios import FAULTS
+from sim.scenarios import fault_help
 from sim.units import unit_suffix
 
 __all__ = ["register"]
@@ -78,7 +78,7 @@ def _overrides(items: list[str], *, field: str = "--set", form: str = "role.name
 def simulate(
     rig_id: Annotated[int, typer.Option("--rig", min=1, max=MAX_ID,
                                         help="Rig id in the store.")] = 1,
-    fault: Annotated[str | None, typer.Option(help=f"Named fault: {', '.join(FAULTS)}.")] = None,
+    fault: Annotated[str | None, typer.Option(help=f"Named fault: {fault_help()}.")] = None,
     set_: Annotated[list[str] | None, typer.Option(
         "--set", help="Override role.name=value in SI units (repeat), e.g. valve.cv=60e-6.")
     ] = None,
@@ -401,7 +401,6 @@ def _parameter_text(p: dict[str, Any]) -> str:
     """``name = value (low … high) unit`` of a fitted parameter (no unit for a factor,
     whose unit is 1), and whether the fit sits on the healthy end of the hypothesis's worn
     range (the records show no more wear than the hypothesis must assume)."""
-    unit = unit_suffix(p["unit"])
-    value, interval = estimate_text(p["value"], p["low"], p["high"])
+    value, interval, unit = shown_estimate(p["value"], p["low"], p["high"], p["unit"])
     bound = ", at bound" if p.get("at_bound") else ""
-    return f"{p['name']} = {value} ({interval}){unit}{bound}"
+    return f"{p['name']} = {value} ({interval}){unit_suffix(unit)}{bound}"

@@ -28,7 +28,7 @@ if TYPE_CHECKING:
 
 __all__ = ["ColumnMapOption", "SampleRateOption", "as_option", "console", "estimate_text",
            "load_document", "migrated_engine", "reading_options", "series_ids",
-           "settings_from_env", "steps", "store_session", "unwrap_help", "validated",
+           "settings_from_env", "shown_estimate", "steps", "store_session", "unwrap_help", "validated",
            "validation_error", "writable"]
 
 console = Console(stderr=True)
@@ -146,6 +146,17 @@ def estimate_text(value: float, low: float, high: float) -> tuple[str, str]:
     while digits < 10 and f"{low:.{digits}g}" == f"{high:.{digits}g}":
         digits += 1
     return f"{value:.{digits}g}", f"{low:.{digits}g} … {high:.{digits}g}"
+
+
+def shown_estimate(value: float, low: float, high: float, unit: str
+                   ) -> tuple[str, str, str]:
+    """:func:`estimate_text` in the unit an engineer reads, and that unit: a length below a
+    centimetre (a clearance) in µm, as :func:`sim.units.quantity_text` says it in a
+    sentence ("6.007e-05 (5.844e-05 … 6.174e-05) m" is "60.07 (58.44 … 61.74) µm")."""
+    if unit == "m" and 0.0 < max(abs(value), abs(low), abs(high)) < 1e-2:
+        value, low, high, unit = value * 1e6, low * 1e6, high * 1e6, "µm"
+    shown, interval = estimate_text(value, low, high)
+    return shown, interval, unit
 
 
 def series_ids(text: str, *, field: str = "--series") -> list[int]:

@@ -24,7 +24,7 @@ from diagnostics.consistency import slow_stroke_notes
 from diagnostics.evidence_at_fit import evidence_at_fit
 from diagnostics.goodness import GoodnessOfFit, goodness_of_fit
 from diagnostics.healthy_end import healthy_end_estimates
-from diagnostics.hypotheses import PARAMETERS
+from diagnostics.hypotheses import PARAMETERS, FaultParameter
 from diagnostics.inversion import LeakageGeometry, cylinder_clearance, valve_clearance
 from diagnostics.isolability import Isolability, isolability
 from diagnostics.measurement import MeasurementRecord
@@ -36,6 +36,7 @@ from diagnostics.slip import rig_slip_coefficient
 from diagnostics.uncertainty import Estimate
 from sim.errors import MeasurementError, SimulationError
 from sim.rigs import Rig
+from sim.units import quantity_text
 
 __all__ = ["CLEARANCES", "Diagnosis", "diagnose", "leakage_geometry", "plain", "regime_notes"]
 
@@ -397,6 +398,13 @@ _NOTES: WeakKeyDictionary[SignatureMaps, dict[tuple[int, ...], list[str]]] = (
     WeakKeyDictionary())
 
 
+def _span(p: FaultParameter, z: npt.NDArray[np.float64]) -> str:
+    """``"244.3 µm to 332 µm"``: the span of fitting coordinates ``z`` in ``p``'s values
+    (:func:`~sim.units.quantity_text`: a clearance in µm)."""
+    return (f"{quantity_text(p.from_z(float(z.min())), p.unit)} to "
+            f"{quantity_text(p.from_z(float(z.max())), p.unit)}")
+
+
 def _map_notes(maps: SignatureMaps, idx: npt.NDArray[np.int64]) -> list[str]:
     """:func:`regime_notes` of one condition's maps for readings of columns ``idx``."""
     out: list[str] = []
@@ -422,8 +430,7 @@ def _map_notes(maps: SignatureMaps, idx: npt.NDArray[np.int64]) -> list[str]:
             if held.any() and (phase == "working" or reads_return):
                 z = hm.axes[0][held]  # from_z increases with z
                 out.append(
-                    f"{name}: for {p.name} from {p.from_z(float(z.min())):.4g} to "
-                    f"{p.from_z(float(z.max())):.4g} {p.unit} ({held.mean():.0%} of its prior "
+                    f"{name}: for {p.name} from {_span(p, z)} ({held.mean():.0%} of its prior "
                     f"range) the {phase} piston sits on its end stop (stalled); predicted in "
                     "that state (speed 0, the pump's flow through the leakage paths and "
                     "over the relief valve)")
@@ -432,8 +439,7 @@ def _map_notes(maps: SignatureMaps, idx: npt.NDArray[np.int64]) -> list[str]:
             continue
         z = hm.axes[0][bad]
         out.append(
-            f"{name}: for {p.name} from {p.from_z(float(z.min())):.4g} to "
-            f"{p.from_z(float(z.max())):.4g} {p.unit} ({bad.mean():.0%} of its prior range) "
+            f"{name}: for {p.name} from {_span(p, z)} ({bad.mean():.0%} of its prior range) "
             "these readings have no prediction (a velocity ratio with the return stroke on "
             "its end stop, or no steady operating point); those values are masked "
             "(excluded) in the fit")

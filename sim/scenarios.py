@@ -19,9 +19,24 @@ from __future__ import annotations
 from sim.errors import InputError
 from sim.rigs.assembly import Rig
 
-__all__ = ["FAULTS", "fault_overrides"]
+__all__ = ["FAULTS", "FAULT_SUMMARY", "fault_help", "fault_overrides"]
 
 FAULTS: tuple[str, ...] = ("healthy", "worn_piston", "worn_spool", "worn_pump", "relief_drift")
+
+#: what each named fault sets, in the words of the table above (help texts)
+FAULT_SUMMARY: dict[str, str] = {
+    "healthy": "no override",
+    "worn_piston": "cylinder.cc = 120 µm",
+    "worn_spool": "valve.cv = 60 µm",
+    "worn_pump": "pump.Rlp ÷ 3, leakage ×3",
+    "relief_drift": "relief.Pset × 0.9",
+}
+
+
+def fault_help() -> str:
+    """The named faults with what each sets, for a help text:
+    ``"healthy (no override), worn_piston (cylinder.cc = 120 µm), …"``."""
+    return ", ".join(f"{name} ({FAULT_SUMMARY[name]})" for name in FAULTS)
 
 
 def fault_overrides(rig: Rig, fault: str) -> dict[str, float]:

@@ -10,7 +10,7 @@ from pydantic import BaseModel, Field, PositiveFloat, field_validator
 
 from app.schemas.common import MAX_ID, FiniteFloat, RequestModel
 from sim.rigs.assembly import MAX_PUMP_SPEED
-from sim.scenarios import FAULTS
+from sim.scenarios import FAULTS, fault_help
 
 __all__ = [
     "ConditionSpec",
@@ -31,7 +31,7 @@ _rig_version = partial(
 )
 _fault = partial(
     Field,
-    description=f"Named fault scenario of sim.scenarios ({', '.join(FAULTS)}); its overrides "
+    description=f"Named fault scenario of sim.scenarios ({fault_help()}); its overrides "
     "come first, `overrides` are applied over them [-]",
     examples=["worn_spool"],
 )

@@ -19,7 +19,7 @@ import numpy as np
 from diagnostics.discrepancy.drift import DRIFTING
 from diagnostics.discrepancy.gap import aligned_residuals
 from diagnostics.discrepancy.workflow import Discovery
-from diagnostics.plots import Chart, Series, line_chart, render_png, render_svg
+from diagnostics.plots import Chart, Series, line_chart, render_png, render_svg, shown_unit
 
 __all__ = ["DRIFT_INTERVALS", "charts", "html_page", "stored_line", "write_report"]
 
@@ -173,8 +173,11 @@ def html_page(d: Discovery, title: str = "hydrodiag discrepancy report", *,
                      "<th>re-fitted</th><th>change</th><th>95 % interval</th></tr>")
         for b in d.base_drift.parameters:
             lo, hi = b.interval or (math.nan, math.nan)
-            parts.append(f"<tr><td>{e(b.parameter)} [{e(b.unit)}]</td><td>{e(b.why)}</td>"
-                         f"<td>{_fmt(b.stored)}</td><td>{_fmt(b.value)}</td>"
+            # a clearance in µm, as the console and the CLI show it
+            f, unit = shown_unit(b.unit, clearance=True) if b.unit == "m" else (1.0, b.unit)
+            lo, hi = f * lo, f * hi
+            parts.append(f"<tr><td>{e(b.parameter)} [{e(unit)}]</td><td>{e(b.why)}</td>"
+                         f"<td>{_fmt(f * b.stored)}</td><td>{_fmt(f * b.value)}</td>"
                          f"<td>{100 * b.change:+.1f} %{'' if b.significant else ' (n.s.)'}"
                          f"</td><td>{_fmt(lo)} … {_fmt(hi)}</td></tr>")
         for k in d.base_drift.kept:

@@ -207,3 +207,25 @@ def test_a_partially_explained_discovery_is_not_stored(runner: CliRunner) -> Non
         assert "partially explained: the named effects leave a gap" in why
         assert "stated oil temperature" in why
         assert get_rig(session, 1).latest_version == 1
+
+
+def test_the_base_drift_table_shows_a_clearance_in_micrometres() -> None:
+    """A worn piston's re-fitted clearance reads "83 → 119.7 µm", not "8.3e-05 m"; a
+    resistance stays in its SI unit; a parameter without an error shows no interval."""
+    import re
+
+    from rich.console import Console
+
+    from app.cli_discover import drift_table
+    from diagnostics.discrepancy.drift import BaseDrift
+
+    rows = [BaseDrift("cylinder.cc", "m", "seal wear", 83e-6, 119.7e-6, 1.2e-6),
+            BaseDrift("pump.Rlp", "Pa*s/m^3", "pump wear", 3.0e11, 1.0e11, float("nan"))]
+    out = Console(width=200, record=True)
+    out.print(drift_table(rows, ["friction.Fu"]))
+    text = re.sub(r"\s+", " ", out.export_text())
+    assert re.search(r"cylinder\.cc \[µm\] │ 83 │ 119\.7 │ \+44\.2 % │ "
+                     r"117\.3(\d*) … 122\.(\d*)", text), text
+    assert re.search(r"pump\.Rlp \[Pa\*s/m\^3\] │ 3e\+11 │ 1e\+11 │ -66\.7 % n\.s\. │ —",
+                     text), text
+    assert "friction.Fu" in text and "kept as stored" in text

@@ -80,8 +80,9 @@ def test_diagnose_a_yaml_file_of_records(runner: CliRunner, tmp_path: Path) -> N
                                            "--json"]).stdout)["diagnoses"][0]["result"]
     (cv,) = next(f for f in joint["hypotheses"] if f["name"] == "valve")["parameters"]
     flat = " ".join(table.stdout.split())
-    value, interval = estimate_text(cv["value"], cv["low"], cv["high"])
-    assert f"cv = {value} ({interval}) m" in flat
+    # a clearance in µm, as an engineer reads it (was "cv = 6.007e-05 (5.844e-05 … ) m")
+    value, interval = estimate_text(1e6 * cv["value"], 1e6 * cv["low"], 1e6 * cv["high"])
+    assert f"cv = {value} ({interval}) µm" in flat and 50.0 < float(value) < 70.0
     # a hypothesis that the records push to the healthy end of its worn range says so
     bound = [p for f in joint["hypotheses"] for p in f["parameters"] if p["at_bound"]]
     assert bound and flat.count("at bound") == len(bound) + 1   # each, and the footnote

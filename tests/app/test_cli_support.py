@@ -120,6 +120,19 @@ def test_an_estimate_is_shown_with_the_digits_its_interval_needs() -> None:
     assert estimate_text(0.5, 0.25, 0.75) == ("0.5", "0.25 … 0.75")
 
 
+def test_a_clearance_is_shown_in_micrometres_and_other_quantities_as_they_are() -> None:
+    from app.cli_support import shown_estimate
+
+    assert shown_estimate(6.007e-05, 5.844e-05, 6.174e-05, "m") == (
+        "60.07", "58.44 … 61.74", "µm")
+    assert shown_estimate(5.99925e-05, 5.9989e-05, 5.9996e-05, "m") == (
+        "59.99", "59.99 … 60", "µm")
+    # a stroke or a length of a centimetre or more stays in m; other units as they are
+    assert shown_estimate(0.2, 0.19, 0.21, "m") == ("0.2", "0.19 … 0.21", "m")
+    assert shown_estimate(2.1e6, 2.0e6, 2.2e6, "Pa") == ("2.1e+06", "2e+06 … 2.2e+06", "Pa")
+    assert shown_estimate(1.33, 1.33, 7.2, "1") == ("1.33", "1.33 … 7.2", "1")
+
+
 def test_import_names_are_checked_and_a_non_utf8_file_name_is_kept_readable(
         runner: CliRunner, tmp_path: Path) -> None:
     """``--name $'x\\xff'`` failed at the commit with a UnicodeEncodeError traceback; a

@@ -6,6 +6,8 @@ end-stop state, names the fault and brackets its size.
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -40,6 +42,9 @@ def test_a_stalled_stroke_is_explained_and_its_leak_sized(graph: str, value: flo
     (est,) = d.top.parameters
     assert est.low <= value <= est.high
     assert any("end stop" in n for n in d.regime_notes)
+    # the held span of a clearance in µm, as an engineer reads it (was "0.0002443 … m")
+    spans = [re.search(r"from ([\d.]+) µm to ([\d.]+) µm", n) for n in d.regime_notes]
+    assert any(m and 30.0 < float(m.group(1)) < float(m.group(2)) < 1000.0 for m in spans)
     assert "Model limit" not in (d.fit.statement if d.fit else "")
 
 

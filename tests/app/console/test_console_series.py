@@ -64,8 +64,13 @@ def test_ticked_records_are_checked_and_the_report_is_shown(console_server: Live
     # the re-fitted parameters as a table: the spool clearance up by 76 % (60/34 µm)
     row = re.search(r"<code>valve.cv</code>.*?</tr>", page.text, re.S)
     assert row is not None and "+76." in row.group(0)
+    # in µm, as an engineer reads a clearance (was "3.4e-05" and "5.99e-05" [m])
+    cells = re.findall(r'<td class="num">([^<]*)</td>', row.group(0))
+    assert "[µm]" in row.group(0) and float(cells[0]) == 34.0
+    assert 58.0 < float(cells[1]) < 62.0
     report = browser_client.get(f"{job_url}/report")
     assert report.status_code == 200 and "hydrodiag discrepancy report" in report.text
+    assert "valve.cv [µm]" in report.text
     for name, value in SECURITY_HEADERS.items():
         assert report.headers[name] == value
     assert "<script" not in report.text and "<style" not in report.text
