@@ -180,9 +180,9 @@ class SimulationPublic(BaseModel):
     overrides: dict[str, float] = _overrides()
     condition: dict[str, float | None] = Field(
         description="Condition used: load [N], back_pressure [Pa], oil_temperature [°C], "
-        "pump_speed [rad/s] (null: the rig's) [-]",
+        "pump_speed [rad/s] (the rig's where the request gave none) [-]",
         examples=[{"load": 4200.0, "back_pressure": 0.0, "oil_temperature": 40.0,
-                   "pump_speed": None}],
+                   "pump_speed": 167.55}],
     )
     method: str = Field(description="'transient' or 'steady' [-]", examples=["transient"])
     summary: dict[str, float | None] = Field(

@@ -81,6 +81,15 @@ class SimulationOutcome:
             "notes": self.notes(),
         }
 
+    def condition_used(self) -> dict[str, float | None]:
+        """The condition as run (:func:`condition_dict`), the pump speed the rig's or an
+        override's where the condition gave none: the JSON answer's echo.  A file's
+        header and condition columns keep the condition as given: a record read from it
+        states a pump speed only where one was stated (a stated speed is a reading the
+        diagnosis takes as measured)."""
+        speed = self.overrides.get("pump.speed", self.resolved.rig.values().get("pump.speed"))
+        return condition_dict(self.condition, speed)
+
     def notes(self) -> list[str]:
         """The result's physics notes, then the condition's (:func:`condition_notes`)."""
         return [*physics_notes(self.result),
@@ -127,11 +136,14 @@ def condition_of(rig: Rig, spec: ConditionSpec) -> Condition:
     )
 
 
-def condition_dict(condition: Condition) -> dict[str, float | None]:
+def condition_dict(condition: Condition, speed: float | None = None
+                   ) -> dict[str, float | None]:
     """A condition as JSON: load [N], back_pressure [Pa], oil_temperature [°C],
-    pump_speed [rad/s]."""
+    pump_speed [rad/s]; ``speed``: the pump speed it ran at where the condition left it to
+    the rig (an answer's echo said "pump_speed": null; a user pass)."""
     return {"load": condition.load, "back_pressure": condition.back_pressure,
-            "oil_temperature": condition.oil_temperature, "pump_speed": condition.pump_speed}
+            "oil_temperature": condition.oil_temperature,
+            "pump_speed": speed if condition.pump_speed is None else condition.pump_speed}
 
 
 def physics_notes(result: CycleResult) -> list[str]:
@@ -325,7 +337,7 @@ def public_of(outcome: SimulationOutcome, *, table: bool = False) -> SimulationP
     return SimulationPublic.model_validate({
         "rig_id": outcome.resolved.rig_id, "rig_version": outcome.resolved.version,
         "fault": outcome.fault, "overrides": outcome.overrides,
-        "condition": condition_dict(outcome.condition), "method": outcome.method,
+        "condition": outcome.condition_used(), "method": outcome.method,
         "summary": summary_of(result),
         "completed": {"working": result.working.completed, "return": result.return_.completed},
         "steps": dict(result.steps),

@@ -44,6 +44,18 @@ def test_overrides_apply_over_the_named_fault(server: LiveServer) -> None:
     assert body["steps"] == {}
 
 
+def test_the_answer_states_the_pump_speed_it_ran_at(server: LiveServer) -> None:
+    """"pump_speed": null read as "no pump"; the answer says the speed used: the rig's
+    (1600 rpm), an override's, or the condition's; the pump delivers in proportion."""
+    answers = [server.client.post("/simulate", json=WORN_VALVE | {"method": "steady"} | ask
+                                  ).json() for ask in (
+        {}, {"overrides": {"pump.speed": 120.0}}, {"condition": {"pump_speed": 150.0}})]
+    speeds = [a["condition"]["pump_speed"] for a in answers]
+    assert speeds == [pytest.approx(1600.0 * math.pi / 30.0), 120.0, 150.0]
+    flows = [a["summary"]["working.Q_meter_B [m^3/s]"] for a in answers]
+    assert flows[0] > flows[2] > flows[1]
+
+
 @pytest.mark.parametrize(("overrides", "field"), [
     ({"valve.cv": 1.0}, "overrides.valve.cv"),  # was 500: no start-up transient
     ({"valve.cv": 1e300}, "overrides.valve.cv"),  # was 200 with a NaN leak flow
