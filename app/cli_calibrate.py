@@ -14,6 +14,7 @@ from rich.table import Table
 
 from app.cli_support import load_document, steps, store_session, validated
 from app.schemas.common import MAX_ID
+from diagnostics.plots import shown_unit
 from sim.errors import InputError
 
 __all__ = ["calibrate_cli"]
@@ -41,8 +42,9 @@ def calibrate_pump(
     """Parameterise a pump from a bench CSV and store it, as POST /pump-sets/bench does.
 
     The CSV has one row per steady point with the unit in every column name: p_in, p_out
-    \\[Pa, kPa, bar, MPa], n \\[rev/s, rpm, rad/s], theta \\[degC, K], q \\[m^3/s, l/min],
-    optional T \\[N*m].  Data at one oil temperature give the derived capacity only (the loss
+    \\[Pa, kPa, bar, MPa], n \\[rev/s, Hz, rpm, rad/s], theta \\[degC, K], q \\[m^3/s,
+    l/min, L/min, cm^3/s], optional T \\[N*m] and replicate \\[-] (repeated runs of a set
+    point).  Data at one oil temperature give the derived capacity only (the loss
     coefficients of paper 000 eqs. 7-9, 17-19 need two temperatures).  With torque and three
     speeds or more, the sign-checked loss model is fitted at each oil temperature and checked
     with one speed left out; the set keeps it, its test points and its held-out error
@@ -54,26 +56,39 @@ def calibrate_pump(
     if displacement is not None and displacement_cm3_rev is not None:
         raise InputError("give --displacement or --displacement-cm3-rev, not both",
                          field="--displacement-cm3-rev")
+    # errors name the option typed (they named --displacement for a --displacement-cm3-rev
+    # and the form's displacement_m3_rad: a pump maker's pass)
+    option = "--displacement"
     if displacement_cm3_rev is not None:
         displacement = displacement_cm3_rev * 1e-6 / (2.0 * math.pi)
+        option = "--displacement-cm3-rev"
     form = validated(PumpBenchForm, {"name": name, "pump": pump, "rig_id": rig_id,
                                       "displacement_m3_rad": displacement},
                       {"name": "--name", "pump": "--pump", "rig_id": "--rig",
-                       "displacement_m3_rad": "--displacement"})
+                       "displacement_m3_rad": option})
     try:
         content = file.read_bytes()
     except OSError as exc:
         raise InputError(f"cannot read {file}: {exc.strerror}", field="FILE") from None
     with store_session() as session, steps() as progress:
         progress.add_task("parameterising", total=None)
-        pump_set = store_bench_parameters(session, form, content)
+        try:
+            pump_set = store_bench_parameters(session, form, content)
+        except InputError as exc:
+            if exc.field != "displacement_m3_rad":
+                raise
+            raise type(exc)(exc.message, field=option) from None
     table = Table("quantity", "value", "unit",
                   title=escape(f"pump set {pump_set.id}: {pump_set.name}"))
     models = []
     for key, quantity in pump_set.quantities.items():
-        value = quantity["value"]
+        value, unit = quantity["value"], quantity["unit"]
+        # in the units an engineer reads (cm³/rev, bar, …: the console's); SI is stored
+        factor, shown_as = shown_unit(unit)
         if isinstance(value, float):
-            shown = f"{value:.6g}"
+            shown, unit = f"{value * factor:.6g}", shown_as
+        elif key.endswith("_range") and len(value) == 2:
+            shown, unit = f"{value[0] * factor:.4g} … {value[1] * factor:.4g}", shown_as
         elif (key.endswith("_coef") and len(value) <= 8
               and all(isinstance(v, float | int) for v in value)):
             # a loss model's coefficients, named below by its terms (they were "array 6
@@ -82,7 +97,7 @@ def calibrate_pump(
             models.append(f"{key}: {quantity.get('description', '')}")
         else:
             shown = f"array {len(value)} rows"
-        table.add_row(escape(key), shown, escape(quantity["unit"]))
+        table.add_row(escape(key), shown, escape(unit))
     _out.print(table)
     for line in models:
         _out.print(line, markup=False)

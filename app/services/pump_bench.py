@@ -110,6 +110,15 @@ def _quantities(data: BenchData, result: PumpParameterisation) -> dict[str, dict
                                                 f"reduced χ² of the {name} surface")
         entries[f"{name}_residual_rms"] = _quantity(fit.residual_rms, "1",
                                                     f"RMS residual of {name}")
+        entries[f"{name}_constant"] = _quantity(
+            fit.constant, "1", f"{name} as one number: the weighted mean of its point "
+            "estimates over the tested pressures and speeds")
+        entries[f"{name}_constant_std"] = _quantity(fit.constant_std, "1",
+                                                    f"standard error of {name}_constant")
+        entries[f"{name}_varies_p"] = _quantity(
+            fit.varies_p, "1", f"p-value of the F-test of the {name} surface against "
+            f"{name}_constant: small where {name} changes with pressure and speed beyond "
+            "the noise")
     return {k: v for k, v in entries.items() if v is not None}
 
 
@@ -147,6 +156,43 @@ def _oil_note(data: BenchData, result: PumpParameterisation) -> str | None:
     return text
 
 
+#: below this p-value a surface's change over pressure and speed is beyond the noise
+VARIES_P = 0.05
+
+
+def _surface_note(result: PumpParameterisation) -> str | None:
+    """What the coefficient surfaces say beyond their numbers: which do not change with
+    pressure and speed beyond the noise (read them as one number), and any that go below
+    zero at a set point (a pump maker's pass: a 16-term surface through the noise of a
+    constant Cs swung ±100 % and went negative, without a word)."""
+    flat = [f"{k} {f.constant:.3g} ± {f.constant_std:.2g} (p = {f.varies_p:.2f})"
+            for k, f in result.fits.items()
+            if not f.varies_p < VARIES_P and math.isfinite(f.constant)]
+    notes = [f"surfaces that do not change with pressure and speed beyond the noise "
+             f"(F-test against a constant): read as one number: {', '.join(flat)}"] \
+        if flat else []
+    notes += [n for f in result.fits.values() if (n := f.negative()) is not None]
+    return "; ".join(notes) or None
+
+
+def _duplicate_note(data: BenchData) -> str | None:
+    """Rows that repeat another row in every reading (a copy-paste, as a rule: two real
+    readings agree to the last digit in every column only by mistake), or ``None``; they
+    were taken as repeated measurements without a word (a pump maker's pass)."""
+    cols = [data.p_in, data.p_out, data.omega, data.theta, data.q, data.replicate]
+    if data.torque is not None:
+        cols.append(data.torque)
+    rows = np.column_stack(cols)
+    _, first = np.unique(rows, axis=0, return_index=True)
+    repeats = len(data) - first.size
+    if not repeats:
+        return None
+    dup = sorted(set(range(len(data))) - {int(i) for i in first})
+    return (f"{repeats} data row{'s' if repeats > 1 else ''} (from row {dup[0] + 1}) repeat "
+            "another row in every reading: taken as repeated measurements, weighing their "
+            "set points twice; if they were copied by mistake, remove them")
+
+
 def bench_pump_set(form: PumpBenchForm, content: bytes) -> PumpSetCreate:
     """The pump set of a bench CSV, validated and not stored (:func:`store_bench_parameters`
     less the rig check and the store: several sets checked before any is stored).
@@ -161,7 +207,8 @@ def bench_pump_set(form: PumpBenchForm, content: bytes) -> PumpSetCreate:
     checked, check_note = check_quantities(data, result.D)
     notes = [n for n in (_SIMULATED if data.simulated else None, form.source,
                          data.provenance or None, result.not_identifiable or None,
-                         _oil_note(data, result), check_note) if n]
+                         _duplicate_note(data), _oil_note(data, result),
+                         _surface_note(result), check_note) if n]
     return PumpSetCreate.model_validate({
         "name": form.name, "kind": "parameters", "rig_id": form.rig_id, "pump": form.pump,
         "source": "; ".join(notes)[:2000] or None,

@@ -192,9 +192,16 @@ def derived_capacity_toet(data: BenchData, *, min_speeds: int = 3,
             ps.append(float(np.mean(sub.dp[m])))
             slopes.append(b)
         if len(ps) < 3:
+            levels = int(p_idx.max()) + 1
+            _, speeds = cluster_levels(sub.omega, field="n")
             raise InputError(
                 f"Toet method at {theta:.1f} °C needs ≥ 3 pressure levels with ≥ {min_speeds} "
-                f"speeds each; found {len(ps)} (is the plan a grid?)", field="n")
+                f"speeds each; the data have {levels} pressure level"
+                f"{'s' if levels != 1 else ''} and {speeds.size} speed level"
+                f"{'s' if speeds.size != 1 else ''} in all, {len(ps)} pressure level"
+                f"{'s' if len(ps) != 1 else ''} with ≥ {min_speeds} speeds: a plan that is "
+                "not such a grid (a Latin hypercube, paper 001) needs the displacement "
+                "given (displacement_m3_rad; --displacement-cm3-rev)", field="n")
         a, _, se_a, _ = _line(np.asarray(ps), np.asarray(slopes))
         vals.append(a)
         stds.append(se_a)

@@ -350,6 +350,12 @@ def parameterise(data: BenchData, *, D: float | None = None, D_std: float = 0.0,
     if D is None:
         capacity = derived_capacity_toet(data)
         D, D_std = capacity.D, capacity.std if math.isfinite(capacity.std) else 0.0
+        if not D > 0:
+            raise InputError(
+                f"the derived capacity (Toet, ISO 8426) comes out {D * 2e6 * math.pi:.4g} "
+                "cm³/rev: the flow does not rise with speed as a pump's delivery does; is "
+                "the flow column the case drain (the leakage) instead of the delivered "
+                "flow, or its sign reversed?", field="q")
     if not (D > 0 and D_std >= 0):
         raise InputError("D must be > 0 and D_std ≥ 0", field="D")
     if capacity is None:
@@ -374,8 +380,7 @@ def parameterise(data: BenchData, *, D: float | None = None, D_std: float = 0.0,
                                          beta_ef=beta_ef), deg)
         for k, f in fits.items():
             g = 0.5 * (hi[k].surface.coef - lo[k].surface.coef).ravel()
-            fits[k] = SurfaceFit(f.name, f.surface, f.cov + np.outer(g, g), f.dp, f.omega,
-                                 f.values, f.std, f.residual_rms, f.residual_max, f.r2,
-                                 f.chi2_red)
+            g0 = 0.5 * (hi[k].constant - lo[k].constant)
+            fits[k] = f.with_cov(f.cov + np.outer(g, g), f.constant_std**2 + g0**2)
     return PumpParameterisation(D=D, D_std=D_std, capacity=capacity, points=points, fits=fits,
                                 rho=rho, beta_ef=beta_ef, fluid=fl)

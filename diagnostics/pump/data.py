@@ -11,6 +11,7 @@ never mistaken for measurements.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -121,13 +122,18 @@ class BenchData:
         elif rep.size != n:
             raise InputError(f"{rep.size} values, expected {n}", field="replicate")
         object.__setattr__(self, "replicate", rep)
+        # the value in SI and as a bench states it (−52.35 alone read as a typo of the
+        # file's −499.9 rpm; a pump maker's pass)
+        shown = {"omega": lambda v: f"{v:g} rad/s ({v * 30.0 / math.pi:.4g} rpm)",
+                 "q": lambda v: f"{v:g} m³/s ({v * 6e4:.4g} l/min)",
+                 "torque": lambda v: f"{v:g} N·m"}
         for name, what in (("omega", "shaft speed"), ("q", "delivered flow"),
                            ("torque", "shaft torque")):
             reading: FloatArray | None = cols.get(name, self.torque)
             if reading is not None and np.any(reading <= 0):
                 row = int(np.flatnonzero(reading <= 0)[0])
                 raise MeasurementError(f"data row {row + 1}: {what} must be positive, got "
-                                       f"{reading[row]:g}", field=name)
+                                       f"{shown[name](float(reading[row]))}", field=name)
         if np.any((rep < 0) | (rep > MAX_REPLICATE)):
             row = int(np.flatnonzero((rep < 0) | (rep > MAX_REPLICATE))[0])
             raise MeasurementError(f"data row {row + 1}: replicate number {rep[row]} is not "
@@ -139,9 +145,11 @@ class BenchData:
                 raise MeasurementError(
                     f"data row {row + 1}: {arr[row]:g} {unit} is outside {low:g} to {high:g} "
                     f"{unit}, beyond any instrument of a pump bench", field=name)
-        if np.any(p_out - cols["p_in"] < 0):
-            raise MeasurementError("outlet pressure below inlet pressure: not pumping",
-                                   field="p_out")
+        if np.any(below := p_out - cols["p_in"] < 0):
+            row = int(np.flatnonzero(below)[0])
+            raise MeasurementError(
+                f"data row {row + 1}: outlet pressure {p_out[row] / 1e5:.4g} bar below the "
+                f"inlet's {cols['p_in'][row] / 1e5:.4g} bar: not pumping", field="p_out")
         rise = float(np.max(p_out - cols["p_in"]))
         if rise < MIN_PRESSURE_RISE:
             # 20-200 written under "[Pa]" was refused for "too few pressure levels" (a pump

@@ -54,6 +54,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import re
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -65,6 +66,7 @@ import pandas as pd
 
 from diagnostics.pump.levels import cluster_levels
 from sim.errors import InputError
+from sim.units import to_si
 
 __all__ = ["FLOW_LOSS_TERMS", "TORQUE_LOSS_TERMS", "HeldOut", "LossFit", "LossTerm",
            "PistonMap", "bench_frame", "fit_losses", "held_out_speed", "read_efficiency_map"]
@@ -114,12 +116,18 @@ class PistonMap:
         return [float(v) for v in lev]
 
 
+#: the quantity (canonical SI unit, :data:`sim.units.UNITS`) of each column of a map
+_MAP_UNITS = {"Deltap": "Pa", "Speed": "rad/s", "QOut": "m^3/s", "QDr": "m^3/s",
+              "Torque": "N*m", "Displacement": "m^3/rad"}
+
+
 def read_efficiency_map(path: str | Path) -> PistonMap:
     """Read an efficiency map in the V32HL56 layout (``../shared/data/real/pump-efficiency-V32HL56``).
 
     Columns used: ``Speed`` [rpm], ``Torque`` [N·m], ``Deltap`` [MPa], ``QOut`` [l/min],
     ``QDr`` [l/min] (optional), ``Displacement`` [cm³/rev].  The units are those the
-    source's ``SOURCE.md`` infers from the file's own identities (PowerIn, PowerOut, Etav).
+    source's ``SOURCE.md`` infers from the file's own identities (PowerIn, PowerOut, Etav);
+    a header that states its unit (``Deltap [bar]``) is read in that unit.
 
     Raises
     ------
@@ -132,6 +140,13 @@ def read_efficiency_map(path: str | Path) -> PistonMap:
     except (OSError, ValueError) as exc:
         raise InputError(f"cannot read {path}: {exc}", field="file") from None
     frame.columns = [str(c).strip() for c in frame.columns]
+    # a header may state its unit, "Deltap [MPa]" or "Deltap [bar]" (the help shows the
+    # columns so, and a map with those headers was refused: a pump maker's pass)
+    stated: dict[str, str] = {}
+    for c in list(frame.columns):
+        if (m := re.fullmatch(r"(\w+)\s*\[(.+)\]", c)) is not None:
+            stated[m.group(1)] = m.group(2).strip()
+            frame = frame.rename(columns={c: m.group(1)})
 
     try:
         with open(path, encoding="utf-8", errors="replace") as fh:
@@ -141,6 +156,9 @@ def read_efficiency_map(path: str | Path) -> PistonMap:
     bench = any("p_out [" in ln and "q [" in ln for ln in head)
 
     def col(name: str, scale: float, positive: bool = True) -> Arr:
+        if name in stated:  # the header's unit instead of the layout's
+            canonical = _MAP_UNITS[name]
+            scale = to_si(1.0, stated[name], canonical, field=name)
         if name not in frame.columns:
             # the reverse of the bench reader's hint (a user pass gave a bench CSV here)
             raise InputError("column missing" + (

@@ -105,8 +105,11 @@ def check_torque(data: BenchData, D: float, *, given: bool) -> None:
             f"the torque readings are below the ideal torque Δp·D ({origin} D = {_cm3(D)}): "
             f"Δp·D/T is {median:.3g} at the median point above {0.2 * float(dp.max()) / 1e5:.3g}"
             " bar (a pump needs more torque than Δp·D, paper 000 eq. 13; the friction "
-            "coefficient would come out negative): check the torque column's unit and sign",
-            field="T")
+            "coefficient would come out negative): check the torque column's unit and sign"
+            + (", and the given displacement (too large for this torque)"
+               + _toet_hint(data) if given else
+               ", the speed column's unit (rev/s under an [rpm] header makes the derived D "
+               "60× large) and the pressures' (bar under [MPa])"), field="T")
     if median < ETA_HM_FLOOR:
         origin = "the given" if given else "the derived"
         slips = ("the delivered flow's unit (l/min under a [cm^3/s] header makes D 16× "

@@ -14,12 +14,14 @@ the same readings and are correlated; each surface's covariance ignores that.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
 from numpy.polynomial import polynomial as npoly
+from scipy import stats
 
 from sim.components.gear_pump import OMEGA_REF, P_REF, CoefficientSurface
 from sim.errors import InputError
@@ -51,6 +53,15 @@ class SurfaceFit:
         beyond round-off (nothing for a surface to explain).
     chi2_red
         Reduced χ² of the weighted residuals [-] (≈ 1 when the noise model is right).
+    constant, constant_std
+        The weighted mean of the point estimates and its standard error [-]: the
+        coefficient read as one number, as an engineer quotes it.
+    varies_p
+        p-value of the F-test of the surface against that constant [-]: small where the
+        coefficient changes with pressure and speed beyond the noise; NaN for a constant
+        surface.  A cubic surface through the noise of a constant coefficient swings by
+        its standard errors (a pump maker's pass: Cs from 0.6 to 2.1 × its true
+        constant); this says whether the swing is more than that.
     """
 
     name: str
@@ -64,6 +75,33 @@ class SurfaceFit:
     residual_max: float
     r2: float
     chi2_red: float
+    constant: float = math.nan
+    constant_std: float = math.nan
+    varies_p: float = math.nan
+
+    def with_cov(self, cov: FloatArray, constant_var: float) -> SurfaceFit:
+        """This fit with ``cov`` and the constant's variance ``constant_var`` [-²]
+        (a systematic error added: the derived capacity's)."""
+        return dataclasses.replace(self, cov=cov, constant_std=math.sqrt(constant_var))
+
+    def negative(self) -> str | None:
+        """Where the surface is below zero at the fitted points (a slip, leakage or
+        friction coefficient cannot be), or ``None``: how many, the lowest value and
+        where, and whether it is beyond twice its standard error."""
+        values = np.asarray(self.surface(self.dp, self.omega), dtype=np.float64)
+        below = values < 0.0
+        if not below.any():
+            return None
+        k = int(np.argmin(values))
+        se = float(self.std_at(self.dp[k], self.omega[k]))
+        beyond = values[k] + 2.0 * se < 0.0
+        return (f"{self.name} surface below zero at {int(below.sum())} of {values.size} set "
+                f"points (down to {values[k]:.3g} at {self.dp[k] / 1e5:.4g} bar, "
+                f"{self.omega[k] * 30.0 / math.pi:.4g} rpm, standard error {se:.2g}): "
+                + ("beyond twice its standard error, which the model cannot explain (check "
+                   "the readings there)" if beyond else
+                   "within twice its standard error, i.e. zero within the noise; a negative "
+                   "coefficient is not physical"))
 
     def _basis(self, dp: npt.ArrayLike, omega: npt.ArrayLike) -> FloatArray:
         s = self.surface
@@ -164,8 +202,17 @@ def fit_surface(name: str, dp: npt.ArrayLike, omega: npt.ArrayLike, values: npt.
     r2 = 1.0 - float(np.sum((res * w) ** 2)) / ss_tot if ss_tot > 0 and not constant \
         else math.nan
     surface = CoefficientSurface(coef.reshape(dp_deg + 1, n_deg + 1), p_ref, omega_ref)
+    # the coefficient as one number: the weighted mean, its error scaled as the surface's
+    chi2_red0 = ss_tot / (v.size - 1)
+    constant_var = (chi2_red0 if std is None else max(1.0, chi2_red0)) / float(np.sum(w**2))
+    rss = float(np.sum((res * w) ** 2))
+    varies_p = math.nan
+    if m > 1 and rss > 0 and not constant:
+        F = ((ss_tot - rss) / (m - 1)) / (rss / (v.size - m))
+        varies_p = float(stats.f.sf(F, m - 1, v.size - m))
     return SurfaceFit(
         name=name, surface=surface, cov=cov, dp=x * p_ref, omega=y * omega_ref, values=v,
         std=s, residual_rms=float(np.sqrt(np.mean(res**2))),
         residual_max=float(np.max(np.abs(res))), r2=r2, chi2_red=chi2_red,
+        constant=wmean, constant_std=math.sqrt(constant_var), varies_p=varies_p,
     )

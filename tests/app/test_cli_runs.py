@@ -193,6 +193,12 @@ def test_calibrate_pump_and_throttle(runner: CliRunner, tmp_path: Path) -> None:
                                "--name", "cli-pump", "--pump", "stand-in gear pump"])
     assert pump.exit_code == 0, pump.output
     assert "Cs_coef" in pump.stdout and store_count(PumpSet) == 1
+    # the capacity in cm³/rev and the pressures in bar, as an engineer reads them (the
+    # stand-in is a 14.7 cm³/rev pump; D_per_rev was "1.47e-05 m^3/rev")
+    flat = " ".join(pump.stdout.split())
+    m = re.search(r"D_per_rev │ ([\d.]+) │ cm³/rev", flat)
+    assert m and float(m.group(1)) == pytest.approx(14.7, rel=5e-3), flat
+    assert re.search(r"dp_range │ [\d.]+ … [\d.]+ │ bar", flat)
     table = tmp_path / "table.yaml"
     table.write_text(yaml.safe_dump({
         "throttle": "I", "component": "valve", "back_pressure_pa": 3.0e6,
@@ -252,13 +258,26 @@ def test_calibrate_pump_on_a_real_single_temperature_map(runner: CliRunner, tmp_
                                "--pump", "x", "--displacement", "1e-6",
                                "--displacement-cm3-rev", "57"])
     assert both.exit_code != 0 and store_count(PumpSet) == 1
+    # an error names the option typed (was --displacement, and displacement_m3_rad)
+    for value in ("-16", "1.6e-5"):
+        wrong = runner.invoke(cli, ["calibrate", "pump", str(tmp_path / "map.csv"), "--name",
+                                    "v34", "--pump", "x", "--displacement-cm3-rev", value])
+        assert wrong.exit_code != 0
+        assert getattr(wrong.exception, "field", None) == "--displacement-cm3-rev", value
+    assert store_count(PumpSet) == 1
     monkeypatch.setenv("COLUMNS", "200")
     help_text = runner.invoke(cli, ["calibrate", "pump", "--help"]).stdout
     for unit in ("[m³/rad]", "[cm³/rev]", "[Pa, kPa, bar, MPa]"):
         assert unit in help_text
     # a paragraph of the docstring is one paragraph of help, wrapped by rich, not at the
     # docstring's own line breaks (typer 0.29 kept them: 'p_in, p_out' / '[Pa, kPa, …')
-    assert "p_in, p_out [Pa, kPa, bar, MPa], n [rev/s, rpm, rad/s]" in help_text
+    assert "p_in, p_out [Pa, kPa, bar, MPa], n [rev/s, Hz, rpm, rad/s]" in help_text
+    # every unit the reader takes for speed and flow is in the help (Hz, L/min and
+    # cm^3/s were accepted but not listed: a pump maker's pass)
+    from sim.units import UNITS
+    flat = " ".join(help_text.replace("│", " ").split())
+    for canonical in ("rad/s", "m^3/s"):
+        assert all(spelling in flat for spelling in UNITS[canonical]), canonical
     assert "[rad/s]" in runner.invoke(cli, ["simulate", "--help"]).stdout
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 from typing import Any
 
@@ -64,7 +65,37 @@ def test_a_bench_csv_becomes_a_parameter_set(server: LiveServer, bench_csv: byte
     fitted = sum(coef[i, j] * x**i * y**j for i in range(coef.shape[0])
                  for j in range(coef.shape[1]))
     assert fitted == pytest.approx(float(pump.Cs(1.2e7, 160.0)), rel=1e-6)
+    # each coefficient also as one number; the stand-in's change with pressure and speed
+    # is far beyond round-off, so none is to be read as one
+    for name in ("Cs", "Cst", "Cv", "Cf"):
+        assert q[f"{name}_constant_std"]["value"] > 0 and q[f"{name}_varies_p"]["value"] < 1e-6
+    assert "read as one number" not in body["source"]
     assert server.client.get(f"/pump-sets/{body['id']}").json() == body
+
+
+def test_coefficients_that_do_not_change_are_said_to_be_one_number(
+        server: LiveServer, tmp_path: Path) -> None:
+    """A pump maker's pass: a gear pump of constant Cs, Cst, Cv, Cf was stored as four
+    16-term surfaces through the noise, swinging ±100 %, without a word."""
+    from sim.components.gear_pump import CoefficientSurface, GearPump
+    from sim.fluid import Fluid
+
+    truth = {"Cs": 1e-8, "Cst": 2e-4, "Cv": 5e4, "Cf": 0.05}
+    flat = GearPump(**{k: CoefficientSurface(np.array([[v]])) for k, v in truth.items()},
+                    D=16e-6 / (2 * math.pi), fluid=Fluid())
+    dp, w = iso4409_grid(*default_levels())
+    path = tmp_path / "flat.csv"
+    write_bench_csv(run_virtual_bench(flat, dp, w, (40.0, 60.0), seed=4), path)
+    response = _upload(server, path.read_bytes(), {"name": "flat-gear", "pump": "GP-16"})
+    assert response.status_code == 201, response.text
+    body = response.json()
+    note = body["source"].split("read as one number: ")[1]
+    for name, value in truth.items():
+        m = re.search(rf"\b{name} ([-\d.e+]+) ± ([\d.e+-]+) \(p = ([\d.]+)\)", note)
+        assert m, (name, note)
+        assert abs(float(m.group(1)) - value) < 3 * float(m.group(2)), name
+        assert body["quantities"][f"{name}_constant"]["value"] == pytest.approx(
+            float(m.group(1)), rel=5e-3)
 
 
 def test_the_capacity_comes_from_the_data_when_not_given(server: LiveServer,
@@ -241,3 +272,18 @@ def test_a_map_with_two_speeds_is_stored_unchecked_and_says_why(server: LiveServ
     q = body["quantities"]
     assert len(q["points_q"]["value"]) == 24
     assert not any(k.endswith("held_out") or k.startswith(("check_", "loss0")) for k in q)
+
+
+def test_rows_repeated_to_the_last_digit_are_said(server: LiveServer, bench_csv: bytes) -> None:
+    """A pump maker's pass: ten rows pasted twice were stored as repeated measurements
+    without a word (and moved the derived capacity's error)."""
+    lines = bench_csv.decode().splitlines(keepends=True)
+    data_start = next(i for i, line in enumerate(lines)
+                      if line.strip() and not line.startswith("#")) + 1   # past the header
+    doubled = "".join(lines + lines[data_start:data_start + 10]).encode()
+    response = _upload(server, doubled, {"name": "doubled", "pump": "x"})
+    assert response.status_code == 201, response.text
+    assert "10 data rows (from row " in response.json()["source"]
+    assert "repeat another row in every reading" in response.json()["source"]
+    once = _upload(server, bench_csv, {"name": "once", "pump": "x"}).json()
+    assert "repeat another row" not in once["source"]

@@ -188,3 +188,43 @@ def test_a_three_speed_bench_gets_surfaces_its_set_points_can_carry(pump: GearPu
         assert surface.surface.coef.size == 4 * 3, name
     # the demonstration grid (8 × 7) keeps the cubic
     assert default_degrees(*iso4409_grid(*default_levels())) == (3, 3)
+
+
+def test_a_constant_coefficient_is_read_as_one_number_and_a_varying_one_is_not(
+        pump: GearPump, grid_bench: BenchData) -> None:
+    """A pump whose Cs, Cst, Cv, Cf do not change with pressure and speed got a 16-term
+    surface through the noise that swung ±100 % (a pump maker's pass); the fit now also
+    gives each coefficient as one number with its error, and an F-test says whether the
+    surface is more than that number.  The stand-in map's coefficients do vary."""
+    from sim.components.gear_pump import CoefficientSurface
+
+    truth = {"Cs": 1e-8, "Cst": 2e-4, "Cv": 5e4, "Cf": 0.05}
+    flat = GearPump(**{k: CoefficientSurface(np.array([[v]])) for k, v in truth.items()},
+                    D=pump.D, fluid=Fluid())
+    dp, w = iso4409_grid(*default_levels())
+    r = parameterise(run_virtual_bench(flat, dp, w, (22.0, 60.0), replicates=2, seed=11),
+                     D=pump.D)
+    for k, v in truth.items():
+        f = r.fits[k]
+        assert abs(f.constant - v) < 3.0 * f.constant_std, k
+        assert f.constant_std < 0.1 * v, k                # one number, well determined
+        assert f.varies_p > 0.01, k                       # the surface adds only noise
+    varied = parameterise(grid_bench, D=pump.D)
+    # the stand-in's friction coefficients vary far beyond the noise (its slip ones less)
+    assert all(varied.fits[k].varies_p < 1e-6 for k in ("Cv", "Cf")), {
+        k: f.varies_p for k, f in varied.fits.items()}
+
+
+def test_a_surface_below_zero_at_a_set_point_is_said() -> None:
+    P, W = np.meshgrid(np.array([20, 60, 100, 150, 200]) * 1e5, np.linspace(80, 250, 5))
+    sd = np.full(P.size, 1e-9)
+    rng = np.random.default_rng(5)
+    hovering = 1e-9 * (P.ravel() / 2e7) + rng.normal(0.0, 1e-9, P.size)  # zero within noise
+    note = fit_surface("Cs", P.ravel(), W.ravel(), hovering, sd, degrees=(2, 2)).negative()
+    assert note is not None and note.startswith("Cs surface below zero at ")
+    assert "within twice its standard error" in note
+    clearly = np.where(P.ravel() < 3e6, -2e-8, 1e-8)                     # beyond the noise
+    note = fit_surface("Cs", P.ravel(), W.ravel(), clearly, sd, degrees=(3, 0)).negative()
+    assert note is not None and "beyond twice its standard error" in note and "20 bar" in note
+    assert fit_surface("Cs", P.ravel(), W.ravel(), 1e-8 + 0 * hovering, sd,
+                       degrees=(1, 1)).negative() is None

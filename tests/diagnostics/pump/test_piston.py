@@ -159,3 +159,24 @@ def test_a_bench_csv_given_as_a_map_is_pointed_to_the_bench_reader() -> None:
     with pytest.raises(InputError) as e:
         read_efficiency_map(sample)
     assert "hydrodiag calibrate pump FILE" in e.value.message
+
+
+def test_headers_that_state_their_units_are_read_in_them(tmp_path: Path) -> None:
+    """``Deltap [MPa]`` as the help shows the columns was refused "Deltap: column missing"
+    (a pump maker's pass); a header's unit is now read, and converted where it differs
+    from the layout's; a unit of another quantity names the column."""
+    frame = pd.read_csv(SLICE)
+    bare = read_efficiency_map(SLICE)
+    stated = frame.rename(columns={"Speed": "Speed [rpm]", "Deltap": "Deltap [bar]",
+                                   "QOut": "QOut [l/min]", "Torque": "Torque [N*m]",
+                                   "Displacement": "Displacement [cm³/rev]"})
+    stated["Deltap [bar]"] = frame["Deltap"] * 10.0
+    path = tmp_path / "stated.csv"
+    stated.to_csv(path, index=False)
+    read = read_efficiency_map(path)
+    for name in ("dp", "omega", "q", "torque", "D"):
+        np.testing.assert_allclose(getattr(read, name), getattr(bare, name), rtol=1e-12)
+    stated.rename(columns={"Deltap [bar]": "Deltap [l/min]"}).to_csv(path, index=False)
+    with pytest.raises(InputError) as e:
+        read_efficiency_map(path)
+    assert e.value.field == "Deltap" and "not a unit of this quantity" in e.value.message

@@ -90,3 +90,60 @@ def test_a_negative_torque_reading_names_its_row(bench: BenchData) -> None:
         dataclasses.replace(bench, torque=torque)
     assert e.value.field == "torque"
     assert e.value.message.startswith("data row 4: shaft torque must be positive")
+
+
+def test_torque_below_the_ideal_torque_names_what_else_makes_it(bench: BenchData) -> None:
+    """A pump maker's pass: speeds in rev/s under [rpm] (the derived D 60× large) and a
+    catalogue displacement 9 % high were both answered "check the torque column"."""
+    slow = dataclasses.replace(bench, omega=bench.omega / 60.0)
+    with pytest.raises(InputError) as e:
+        parameterise(slow)
+    assert e.value.field == "T" and "rev/s under an [rpm] header" in e.value.message
+    D = stand_in_pump().D
+    with pytest.raises(InputError) as e:
+        parameterise(bench, D=1.09 * D)
+    assert e.value.field == "T" and "the given displacement (too large" in e.value.message
+    toet = re.search(r"\(Toet\) is ([0-9.]+) cm³/rev", e.value.message)
+    assert toet is not None and float(toet.group(1)) == pytest.approx(D * 2e6 * math.pi,
+                                                                      rel=0.01)
+
+
+def test_the_case_drain_taken_as_the_delivered_flow_is_named(bench: BenchData) -> None:
+    """Was "file.D: D must be > 0 and D_std ≥ 0": the leakage falls with speed where a
+    delivery rises, so Toet's capacity comes out negative."""
+    D = stand_in_pump().D
+    drain = dataclasses.replace(bench, q=D * bench.omega - bench.q)
+    with pytest.raises(InputError) as e:
+        parameterise(drain)
+    assert e.value.field == "q" and "case drain" in e.value.message
+
+
+def test_a_plan_that_is_not_a_grid_is_told_to_give_its_displacement() -> None:
+    """A Latin-hypercube bench (paper 001) was refused with "found 1 (is the plan a
+    grid?)"; the message now counts what the data have and names the way through."""
+    from diagnostics.pump import latin_hypercube_plan
+
+    pump = stand_in_pump()
+    dp, w = latin_hypercube_plan(30, (10e5, 250e5), (52.4, 261.8), seed=1, corner_points=4)
+    lhs = run_virtual_bench(pump, dp, w, (40.0, 60.0), seed=2)
+    with pytest.raises(InputError) as e:
+        parameterise(lhs)
+    assert e.value.field == "n" and "needs the displacement given" in e.value.message
+    assert re.search(r"the data have \d+ pressure levels and \d+ speed levels", e.value.message)
+    assert parameterise(lhs, D=pump.D).fits          # and with it, the coefficients
+
+
+def test_outlet_below_inlet_names_its_row(bench: BenchData) -> None:
+    p_out = bench.p_out.copy()
+    p_out[5] = bench.p_in[5] - 1e4
+    with pytest.raises(MeasurementError) as e:
+        dataclasses.replace(bench, p_out=p_out)
+    assert e.value.field == "p_out" and e.value.message.startswith("data row 6: outlet")
+
+
+def test_a_negative_speed_is_quoted_in_rpm_too(bench: BenchData) -> None:
+    omega = bench.omega.copy()
+    omega[2] = -500.0 * math.pi / 30.0
+    with pytest.raises(MeasurementError) as e:
+        dataclasses.replace(bench, omega=omega)
+    assert "(-500 rpm)" in e.value.message
