@@ -19,6 +19,7 @@ that a plot holds data.
 from __future__ import annotations
 
 import io
+import math
 import threading
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -41,7 +42,7 @@ PALETTE = ("#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#0
 SHOWN_UNITS: dict[str, tuple[str, float]] = {
     "Pa": ("bar", 1e-5), "m^3/s": ("l/min", 6e4), "m/s": ("m/s", 1.0), "m": ("mm", 1e3),
     "degC": ("°C", 1.0), "W": ("kW", 1e-3), "N": ("kN", 1e-3), "N*m": ("N·m", 1.0),
-    "m^3/rev": ("cm³/rev", 1e6),
+    "m^3/rev": ("cm³/rev", 1e6), "rad/s": ("rpm", 30.0 / math.pi),
 }
 
 

@@ -311,7 +311,7 @@ def surface_chart(name: str, coef: Sequence[Sequence[float]], p_ref: float, omeg
         j = np.arange(c.shape[1])[None, :, None]
         value = (c[:, :, None] * (dp / p_ref)[None, None, :] ** i
                  * (omega / omega_ref) ** j).sum(axis=(0, 1))
-        series.append(Series(dp * 1e-5, value, f"ω = {omega:.0f} rad/s"))
+        series.append(Series(dp * 1e-5, value, f"n = {omega * 30.0 / math.pi:.0f} rpm"))
     return line_chart(f"{name} over pressure rise", "Δp [bar]", f"{name} [1]", series)
 
 

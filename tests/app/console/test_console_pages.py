@@ -4,11 +4,13 @@ from __future__ import annotations
 
 import io
 import json
+import math
 import re
 import time
 from datetime import UTC, datetime
 
 import httpx
+import numpy as np
 import pandas as pd
 import pyarrow.parquet as pq
 import pytest
@@ -445,6 +447,19 @@ def test_a_bench_csv_is_made_a_pump_set_from_the_page(
         "name": "bench-from-api", "pump": "stand-in gear pump"},
         files={"file": ("bench_sample.csv", sample, "text/csv")}).json()
     assert stored["quantities"]["D"]["value"] == pytest.approx(api["quantities"]["D"]["value"])
+    # the ranges in bar and rpm, a matrix by its shape (a pump maker's pass: "[998300.0,
+    # 25073000.0] Pa", rad/s, and "4 values" for a 4 × 4 surface)
+    shown = browser_client.get(f"/console/pumps?set_id={set_id}").text
+    q = stored["quantities"]
+    for key, factor, unit in (("dp_range", 1e-5, "bar"), ("omega_range", 30 / math.pi, "rpm")):
+        row = re.search(rf"<code>{key}</code></td><td class=\"num\">([^<]*)</td><td>([^<]*)<",
+                        shown)
+        assert row is not None and row.group(2) == unit, key
+        low, high = (float(v) for v in row.group(1).split(" … "))
+        assert low == pytest.approx(q[key]["value"][0] * factor, rel=1e-3), key
+        assert high == pytest.approx(q[key]["value"][1] * factor, rel=1e-3), key
+    rows, cols = np.shape(q["Cs_coef"]["value"])
+    assert f"<summary>{rows} × {cols} values</summary>" in shown
     with console_server.session() as session:
         _, plaintext = create_api_key(session, "console-pumps-read", Scope.READ)
     with httpx.Client(base_url=console_server.base_url, timeout=60.0) as client:
