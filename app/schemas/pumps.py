@@ -124,7 +124,10 @@ SourceNote = Annotated[str, StringConstraints(max_length=2000)]
 #: quantities that are a size of something: a displacement, a density, a bulk modulus must
 #: be positive, a standard error not negative (PATCH stored a negative D: a user pass)
 _POSITIVE = ("D", "D_per_rev", "displacement", "rho", "beta_ef")
-_NOT_NEGATIVE = ("D_std",)
+#: paper 000's loss coefficients given as one number (eqs. 6, 16: a slip or friction
+#: coefficient below zero makes the pump deliver or turn for nothing; a pump maker's pass
+#: stored Cs = −5)
+_NOT_NEGATIVE = ("D_std", "Cs", "Cst", "Cv", "Cf")
 
 
 def _check_physical(quantities: dict[str, Quantity] | None) -> dict[str, Quantity] | None:

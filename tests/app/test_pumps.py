@@ -114,6 +114,11 @@ def test_patch_and_delete(server: LiveServer) -> None:
                                    headers=server.auth)
     assert negative.status_code == 422
     assert "quantities.D: must be > 0" in negative.json()["error"]["message"]
+    # ... and a negative slip coefficient (a pump maker's pass: Cs = −5 stored)
+    slip = server.client.patch(url, json={"quantities": {"Cs": {"value": -5.0, "unit": "1"}}},
+                               headers=server.auth)
+    assert slip.status_code == 422
+    assert "quantities.Cs: must be ≥ 0" in slip.json()["error"]["message"]
     assert server.client.get(url).json() == renamed
     # new quantities without a new source: the old source is kept, marked as describing the
     # set as it was (a bench set's "loss model checked" would otherwise vouch for them)
