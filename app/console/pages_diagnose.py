@@ -5,6 +5,7 @@ from __future__ import annotations
 import asyncio
 import json
 import re
+from collections.abc import Sequence
 from datetime import datetime
 from functools import partial
 from typing import Annotated, Any
@@ -48,10 +49,11 @@ router = new_router()
 MAX_INPUT_BYTES = 1024 * 1024
 
 
-def _csv_records(content: bytes) -> list[dict[str, Any]]:
-    """Records from a CSV: one per row; ``condition.load_force`` style names nest."""
+def _csv_records(content: bytes, lines: list[int]) -> list[dict[str, Any]]:
+    """Records from a CSV: one per row; ``condition.load_force`` style names nest;
+    ``lines`` gets each row's line in the file."""
     check_file(content, MAX_INPUT_BYTES)
-    records = record_rows(content, field="file")
+    records = record_rows(content, field="file", lines=lines)
     if not records:
         raise InputError("the CSV has no rows", field="file")
     if any(key.startswith("t [") for key in records[0]):
@@ -64,7 +66,19 @@ def _csv_records(content: bytes) -> list[dict[str, Any]]:
     return records
 
 
-def parse_records(text: str, content: bytes | None) -> DiagnoseRequest:
+def _in_file(exc: HydrodiagError, lines: Sequence[int]) -> HydrodiagError:
+    """``exc`` on a record of an uploaded CSV named by the row's line in the file and its
+    column ("records[3].p1" named no place in it: a console pass); else ``exc``."""
+    where = re.fullmatch(r"records\[(\d+)\]\.?(.*)", exc.field or "")
+    if where is None or int(where.group(1)) >= len(lines):
+        return exc
+    column = f", column {where.group(2)}" if where.group(2) else ""
+    return type(exc)(f"line {lines[int(where.group(1))]}{column}: {exc.message}",
+                     field="file")
+
+
+def parse_records(text: str, content: bytes | None, lines: list[int] | None = None
+                  ) -> DiagnoseRequest:
     """The diagnose request of a pasted JSON/YAML document or an uploaded CSV.
 
     A pasted document is a record, or a request body of ``POST /diagnose`` (``record`` or
@@ -79,10 +93,11 @@ def parse_records(text: str, content: bytes | None) -> DiagnoseRequest:
     if content is not None and text.strip():
         raise InputError("give a pasted record or a CSV file, not both (the file would be "
                          "diagnosed and the text left out)", field="document")
+    lines = [] if lines is None else lines  # each CSV row's line in the file
     if content is not None:
         if not content.strip():
             raise InputError("the file is empty", field="file")
-        document: Any = {"records": _csv_records(content)}
+        document: Any = {"records": _csv_records(content, lines)}
     elif text.strip():
         if len(text) > MAX_INPUT_BYTES:
             raise InputError(f"at most {MAX_INPUT_BYTES} characters", field="document")
@@ -106,7 +121,7 @@ def parse_records(text: str, content: bytes | None) -> DiagnoseRequest:
     try:
         return DiagnoseRequest.model_validate(json.loads(json.dumps(document, default=str)))
     except ValidationError as exc:
-        raise first_problem(exc.errors()) from None
+        raise _in_file(first_problem(exc.errors()), lines) from None
 
 
 def _form(request: Request, session: Any, *, status_code: int = 200, text: str = "",
@@ -137,11 +152,12 @@ def diagnose_form(request: Request, session: SessionDep, rigs: RigsDep, _key: Co
     return _form(request, session, text=json.dumps(body, indent=2))
 
 
-def _plan(request: Request, session: Session, text: str, content: bytes | None
-          ) -> tuple[DiagnoseRequest, list[GroupPlan], datetime]:
+def _plan(request: Request, session: Session, text: str, content: bytes | None,
+          lines: list[int]) -> tuple[DiagnoseRequest, list[GroupPlan], datetime]:
     """Parse the pasted document or CSV and resolve its rigs (in a thread: it reads the
-    store); ``now`` is the time of records that give none."""
-    body, now = parse_records(text, content), utcnow()
+    store); ``now`` is the time of records that give none; ``lines`` gets a CSV's rows'
+    lines."""
+    body, now = parse_records(text, content, lines), utcnow()
     return body, plan_groups(session, request.app.state.rigs, body, now), now
 
 
@@ -163,10 +179,11 @@ async def diagnose(request: Request, session: SessionDep, _key: ConsoleKeyDep,
                                              text=document, error=refusal))
     content = (await file.read(MAX_INPUT_BYTES + 1)
                if file is not None and file.filename else None)
+    lines: list[int] = []
     try:
         with pool.admit():
             body, plans, now = await pool.in_thread(partial(_plan, request, session, document,
-                                                       content))
+                                                       content, lines))
             computed = await asyncio.gather(*(pool.compute(plan) for plan in plans))
             outcomes = [outcome_of(plan, result)
                         for plan, result in zip(plans, computed, strict=True)]
@@ -175,7 +192,8 @@ async def diagnose(request: Request, session: SessionDep, _key: ConsoleKeyDep,
                                conflict=STORE_CONFLICT)
     except ServiceUnavailableError:  # busy or not ready: the console's 503 page
         raise
-    except HydrodiagError as exc:
+    except HydrodiagError as raised:
+        exc = _in_file(raised, lines)
         error = {"type": type(exc).__name__, "message": exc.message, "field": exc.field}
         return await pool.in_thread(partial(_form, request, session, status_code=422,
                                             text=document, error=error))

@@ -41,8 +41,10 @@ def _value(cell: str, *, line: int, column: str, field: str) -> Any:
     return number
 
 
-def record_rows(content: bytes, *, field: str) -> list[dict[str, Any]]:
-    """The rows of the CSV ``content`` as nested record dictionaries.
+def record_rows(content: bytes, *, field: str, lines: list[int] | None = None
+                ) -> list[dict[str, Any]]:
+    """The rows of the CSV ``content`` as nested record dictionaries; ``lines``, where
+    given, gets the file's line of each row (to name it in a record's error).
 
     Raises
     ------
@@ -86,4 +88,6 @@ def record_rows(content: bytes, *, field: str) -> list[dict[str, Any]]:
                 target = target.setdefault(part, {})
             target[leaf] = _value(cell, line=number, column=column, field=field)
         rows.append(record)
+        if lines is not None:
+            lines.append(number)
     return rows

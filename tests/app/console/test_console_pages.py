@@ -339,6 +339,22 @@ def test_a_csv_of_records_is_diagnosed_row_by_row(
                                  "&until=2026-04-02T23:00:00Z").text
     shown = [float(v) for v in re.findall(r"<td>cv ([0-9.]+) µm</td>", history)]
     assert shown == pytest.approx([40.0], rel=0.02)   # 36 µm reads healthy: nothing blamed
+    # a refused row is named by its line in the file and its column (it was
+    # "records[1].p1"); a comment line counts, nothing is stored
+    text = "# logger export\n" + frame.assign(p1=[rows[0]["p1"], -3.0]).to_csv(index=False)
+    bad = browser_client.post("/console/diagnose", data={"document": ""},
+                              files={"file": ("records.csv", text.encode(), "text/csv")})
+    assert bad.status_code == 422
+    field, message = error_box(bad.text)
+    assert field == "file" and "in file: line 4, column p1: p1 -3 Pa" in message, message
+    # a refusal by the schema (a negative flow), named the same way
+    text = frame.assign(flow_B=[rows[0]["flow_B"], -1e-4]).to_csv(index=False)
+    schema = browser_client.post("/console/diagnose", data={"document": ""},
+                                 files={"file": ("records.csv", text.encode(), "text/csv")})
+    assert schema.status_code == 422
+    field, message = error_box(schema.text)
+    assert field == "file" and "line 3, column flow_B" in message, message
+    assert console_server.row_counts()["diagnoses"] == before + 2
 
 
 def test_trends_page_shows_the_wear_rate_and_the_time_left(
