@@ -219,6 +219,11 @@ def test_a_diagnosis_through_the_form_is_stored_and_shown(
     pset = re.search(r"<code>relief\.Pset</code>.*?</tr>", fitted, re.S)
     assert pset is not None and "not observable: these readings do not feel it" in pset.group(0)
     assert "tag sev-" not in pset.group(0) and "% low" not in pset.group(0)
+    # a seat leak, whose healthy value is 0, says what its number counts (it read
+    # "nominal 0, unit —, leakage ×12.7": a console pass)
+    seat = re.search(r"<code>relief\.seat_leak</code>.*?</tr>", fitted, re.S)
+    assert seat is not None and "× pump leak</span>" in seat.group(0)
+    assert re.search(r"seat [\d.]+ × pump leak</td>", seat.group(0)), seat.group(0)
     # ... and one they all but exclude gets no red badge: "… if it held"
     rows = re.findall(r"<tr><td>[a-z_+]+</td><td class=\"num\">([^<]+)</td>(.*?)</tr>",
                       fitted)
