@@ -7,6 +7,8 @@ console's pumps page draws measured against model from them):
 
 * ``points_dp`` [Pa], ``points_omega`` [rad/s], ``points_theta`` [degC], ``points_q``
   [m^3/s], ``points_T`` [N*m]: the test points the model was checked on;
+* ``points_eta_v``, ``points_eta_hm`` [1]: each test point's volumetric and
+  hydro-mechanical efficiency at the set's derived capacity;
 * ``points_q_held_out`` [m^3/s], ``points_T_held_out`` [N*m]: each point predicted by the
   model fitted without that point's speed;
 * ``check_flow_S``, ``check_torque_S`` [%]: their RMS error over the largest measured flow
@@ -42,9 +44,26 @@ def _q(value: Any, unit: str, description: str) -> dict[str, Any]:
             "description": description}
 
 
-def _model(fit: LossFit, what: str, theta: float) -> dict[str, Any]:
-    return _q(fit.coef, "SI", f"{what} at θ = {theta:.1f} °C; terms {', '.join(fit.terms)} "
+def _model(fit: LossFit, what: str, theta: float, unit: str) -> dict[str, Any]:
+    """A loss model's coefficients, unit "SI" (the store's word for a fit's coefficients):
+    the description says each is in ``unit`` (the loss's) per its term's unit (a pump
+    maker's pass read "SI" for coefficients of six different units)."""
+    return _q(fit.coef, "SI", f"{what} at θ = {theta:.1f} °C; terms "
+              f"{', '.join(fit.terms)}, each coefficient in [{unit}] per its term's unit "
               "(sign-checked, chosen by AIC; diagnostics.pump.piston)")
+
+
+def _efficiencies(data: BenchData, D: float, m: Any) -> dict[str, dict[str, Any]]:
+    """Volumetric and hydro-mechanical efficiency of each test point ``m`` at the set's
+    derived capacity (paper 000 eqs. 1 and 13: ηv = q/(D·ω), ηhm = Δp·D/T): what a pump
+    maker reads first from an ISO 4409 run (a pump maker's pass found them only as a
+    console chart)."""
+    out = {"points_eta_v": _q(data.q[m] / (D * data.omega[m]), "1",
+                              "volumetric efficiency q/(D·ω) of each test point")}
+    if data.torque is not None:
+        out["points_eta_hm"] = _q(data.dp[m] * D / data.torque[m], "1",
+                                  "hydro-mechanical efficiency Δp·D/T of each test point")
+    return out
 
 
 def check_quantities(data: BenchData, D: float) -> tuple[dict[str, dict[str, Any]], str]:
@@ -65,7 +84,7 @@ def check_quantities(data: BenchData, D: float) -> tuple[dict[str, dict[str, Any
                "points_q": _q(data.q, "m^3/s", "measured flow of each test point")}
         if data.torque is not None:
             out["points_T"] = _q(data.torque, "N*m", "measured torque of each test point")
-        return out, note
+        return out | _efficiencies(data, D, slice(None)), note
     out = {}
     m = check.mask
     torque = data.torque
@@ -83,7 +102,7 @@ def check_quantities(data: BenchData, D: float) -> tuple[dict[str, dict[str, Any
             "points_T_held_out": _q(check.torque_held_out, "N*m",
                                     "torque predicted with the point's speed left out of the "
                                     "fit"),
-        })
+        } | _efficiencies(data, D, m))
     out["check_flow_S"] = _q(check.flow_S, "%", "RMS held-out flow error over the largest "
                              "measured flow, one speed left out at a time")
     out["check_torque_S"] = _q(check.torque_S, "%", "RMS held-out torque error over the "
@@ -91,8 +110,8 @@ def check_quantities(data: BenchData, D: float) -> tuple[dict[str, dict[str, Any
     for k, level in enumerate(check.levels):
         h = level.held_out
         out[f"loss{k}_theta"] = _q(level.theta, "degC", "oil temperature of the level")
-        out[f"loss{k}_flow_coef"] = _model(h.flow, _FLOW, level.theta)
-        out[f"loss{k}_torque_coef"] = _model(h.torque, _TORQUE, level.theta)
+        out[f"loss{k}_flow_coef"] = _model(h.flow, _FLOW, level.theta, "m^3/s")
+        out[f"loss{k}_torque_coef"] = _model(h.torque, _TORQUE, level.theta, "N*m")
         for key, value, what in (
                 ("flow_S", h.flow_S, "held-out flow error of the loss model"),
                 ("flow_S_quadratic", h.flow_S_quadratic,

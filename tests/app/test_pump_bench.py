@@ -70,6 +70,15 @@ def test_a_bench_csv_becomes_a_parameter_set(server: LiveServer, bench_csv: byte
     for name in ("Cs", "Cst", "Cv", "Cf"):
         assert q[f"{name}_constant_std"]["value"] > 0 and q[f"{name}_varies_p"]["value"] < 1e-6
     assert "read as one number" not in body["source"]
+    # each test point's efficiencies at the set's capacity (paper 000 eqs. 1, 13)
+    eta_v = np.asarray(q["points_eta_v"]["value"])
+    np.testing.assert_allclose(eta_v, np.asarray(q["points_q"]["value"]) / (
+        pump.D * np.asarray(q["points_omega"]["value"])), rtol=1e-12)
+    eta_hm = np.asarray(q["points_eta_hm"]["value"])
+    assert 0.5 < eta_v.min() and eta_v.max() <= 1.0 and 0.5 < eta_hm.min() <= 1.0
+    assert eta_hm.max() <= 1.0 and q["points_eta_hm"]["unit"] == "1"
+    assert "each coefficient in [m^3/s] per its term's unit" in q["loss0_flow_coef"][
+        "description"]
     assert server.client.get(f"/pump-sets/{body['id']}").json() == body
 
 
