@@ -75,7 +75,7 @@ def test_a_bench_csv_becomes_a_parameter_set(server: LiveServer, bench_csv: byte
     np.testing.assert_allclose(eta_v, np.asarray(q["points_q"]["value"]) / (
         pump.D * np.asarray(q["points_omega"]["value"])), rtol=1e-12)
     eta_hm = np.asarray(q["points_eta_hm"]["value"])
-    assert 0.5 < eta_v.min() and eta_v.max() <= 1.0 and 0.5 < eta_hm.min() <= 1.0
+    assert eta_v.min() > 0.5 and eta_v.max() <= 1.0 and 0.5 < eta_hm.min() <= 1.0
     assert eta_hm.max() <= 1.0 and q["points_eta_hm"]["unit"] == "1"
     assert "each coefficient in [m^3/s] per its term's unit" in q["loss0_flow_coef"][
         "description"]
