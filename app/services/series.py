@@ -17,7 +17,7 @@ from datetime import datetime, timedelta
 from typing import Any
 
 import numpy as np
-from sqlalchemy import select
+from sqlalchemy import or_, select, true
 from sqlalchemy.orm import Session
 
 from app.db.models import MeasuredSeries
@@ -140,25 +140,38 @@ def _refuse_stored_twice(session: Session, rig_id: int, name: str,
     or uploaded under another name was stored twice; a fleet pass.  Then on the channels'
     names: :func:`_same_samples`.)  A logger that writes
     each day's file under one name is no duplicate: its data differ."""
-    found: list[tuple[int, str, str]] = []
+    found: list[tuple[MeasuredSeries, MeasuredSeries]] = []
     for row in rows:
-        same_time = (MeasuredSeries.measured_at.is_(None) if row.measured_at is None
-                     else MeasuredSeries.measured_at == row.measured_at)
+        # a start stated on one import and not on the other is no other measurement (the
+        # same file imported with and without --started-at was stored twice, and a check
+        # held out a record it had trained on: a discrepancy pass)
+        same_time = (true() if row.measured_at is None
+                     else or_(MeasuredSeries.measured_at.is_(None),
+                              MeasuredSeries.measured_at == row.measured_at))
         for stored in session.scalars(
                 select(MeasuredSeries).where(
                     MeasuredSeries.rig_id == rig_id,
                     MeasuredSeries.n_samples == row.n_samples, same_time)):
             if _same_samples(stored.data, row.data):
-                found.append((stored.id, stored.name, stored.record))
-    if found:
-        ids = ", ".join(str(i) for i, _, _ in found[:5]) + (" …" if len(found) > 5 else "")
-        first = found[0]
+                found.append((stored, row))
+    if found:  # the twins from the same start first, then those with a start on one side
+        found.sort(key=lambda pair: (pair[0].measured_at != pair[1].measured_at, pair[0].id))
+        ids = ", ".join(str(s.id) for s, _ in found[:5]) + (" …" if len(found) > 5 else "")
+        first, new = found[0]
+        restated = ""
+        if dict(first.condition or {}) != dict(new.condition or {}):
+            # a stated condition corrected (kN typed under [N]) is refused as the same
+            # samples; say so, and how to replace it (a discrepancy pass)
+            restated = (f"; series {first.id} states the condition {dict(first.condition)}, "
+                        f"this import {dict(new.condition)}: to correct a stated condition, "
+                        f"delete series {first.id} (DELETE /series/{first.id}) and import "
+                        "again")
         raise ConflictError(
             f"{len(found)} of these records are stored already for rig {rig_id}, the same "
-            f"samples from the same start (series {ids}; the first as {first[1]!r}, record "
-            f"{first[2]!r}): nothing to import under {name!r} (stored twice, a cycle would "
-            "count twice in a discrepancy check); to import them again, delete those series "
-            "first (DELETE /series/{id})", field="name")
+            f"samples (series {ids}; the first as {first.name!r}, record {first.record!r}): "
+            f"nothing to import under {name!r} (stored twice, a cycle would count twice in a "
+            "discrepancy check); to import them again, delete those series first (DELETE "
+            "/series/{id})" + restated, field="file")
 
 
 def store_records(session: Session, rig_id: int, name: str, records: Sequence[SeriesRecord],
@@ -172,7 +185,7 @@ def store_records(session: Session, rig_id: int, name: str, records: Sequence[Se
     InputError
         No records.
     ConflictError
-        A record stored already for the rig under ``name`` (``field="name"``).
+        A record's samples stored already for the rig, under any name (``field="file"``).
     """
     get_rig(session, rig_id, field="rig_id")
     problem = import_name_problem(name)

@@ -284,8 +284,8 @@ def test_the_same_import_twice_is_refused_and_a_days_new_file_is_not(
         server: LiveServer) -> None:
     # a real-data pass: importing the same cycles under the same name twice stored them
     # twice, and a discrepancy check of the campaign counted each twice
-    day1 = b"t [s],P1 [bar]\n0,10\n1,11\n"
-    day2 = b"t [s],P1 [bar]\n0,12\n1,13\n"
+    day1 = b"t [s],P1 [bar]\n0,10.25\n1,11.25\n"    # samples no other test stores
+    day2 = b"t [s],P1 [bar]\n0,12.25\n1,13.25\n"
 
     def send(content: bytes) -> httpx.Response:
         return server.client.post("/rigs/1/series", data={"name": "daily-log"},
@@ -295,16 +295,31 @@ def test_the_same_import_twice_is_refused_and_a_days_new_file_is_not(
     assert send(day1).status_code == 201
     before = server.row_counts()
     again = send(day1)
-    assert again.status_code == 409 and again.json()["error"]["field"] == "name"
+    assert again.status_code == 409 and again.json()["error"]["field"] == "file"
     assert "stored already" in again.json()["error"]["message"]
     assert server.row_counts() == before
+    # with a start stated on one import and not the other: the same samples (a
+    # discrepancy pass stored them twice, then held out a record it had trained on)
+    started = server.client.post("/rigs/1/series", data={
+        "name": "daily-log-2", "started_at": "2026-11-20T08:00:00Z"},
+        files={"file": ("log.csv", day1, "text/csv")}, headers=server.auth)
+    assert started.status_code == 409 and "stored already" in started.text
+    # a corrected stated condition: refused as the same samples, and told how to replace
+    first = send(b"t [s],P1 [bar],load [N]\n0,20,2.1\n1,21,2.1\n")      # kN under [N]
+    assert first.status_code == 201, first.text
+    fixed = send(b"t [s],P1 [bar],load [N]\n0,20,2100\n1,21,2100\n")
+    assert fixed.status_code == 409
+    message = fixed.json()["error"]["message"]
+    assert f"delete series {first.json()['items'][0]['id']}" in message
+    assert "to correct a stated condition" in message
+    assert server.row_counts() == before | {"measured_series": before["measured_series"] + 1}
     assert send(day2).status_code == 201   # the logger's next file, same name: new data
     # the same samples under another channel name (a column map changed): the same data,
     # stored four times over in a real-data analyst's pass
     renamed = send(day1.replace(b"P1 [bar]", b"P2 [bar]"))
     assert renamed.status_code == 409 and "stored already" in renamed.text
     # other values under the same names: new data
-    assert send(b"t [s],P1 [bar],P2 [bar]\n0,10,11\n1,11,10\n").status_code == 201
+    assert send(b"t [s],P1 [bar],P2 [bar]\n0,10.25,11\n1,11.25,10\n").status_code == 201
 
 
 def test_a_cycle_imported_at_a_wrong_sample_rate_is_said(server: LiveServer) -> None:

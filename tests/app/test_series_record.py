@@ -3,6 +3,7 @@ POST /diagnose takes, and diagnosed; bad reads are 422s naming the field, nothin
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from typing import Any
 
@@ -111,7 +112,8 @@ def test_a_cycle_stored_with_its_clock_time_is_diagnosed_at_that_time(
     """The import's start (here the file header's, then the form's) puts each record at its
     first sample's time; the record read from the series carries it, and the history stores
     the diagnosis there, not at the time of the request."""
-    exported = _simulated_cycle(server, "worn_spool", 4200.0)
+    # a cycle no other test stores (the same samples without a start are the fixture's)
+    exported = _simulated_cycle(server, "worn_spool", 4150.0)
     headed = b'# started_at = "2026-11-20T08:00:00+01:00"\n' + exported
     r = server.client.post("/rigs/1/series", data={"name": "visit"},
                            files={"file": ("cycle.csv", headed, "text/csv")},
@@ -138,12 +140,14 @@ def test_a_cycle_stored_with_its_clock_time_is_diagnosed_at_that_time(
     assert r.status_code == 201, r.text
     assert [i["measured_at"] for i in r.json()["items"]] == [
         "2026-11-21T10:00:00Z", "2026-11-21T10:01:30.500000Z"]
-    # the fixture's cycle again, under another name and file name: the same samples from
-    # the same (no) start are refused, naming the series that holds them
+    # the same cycle again, under another name and file name and without a start: the
+    # same samples are refused, naming the series that holds them
     again = server.client.post("/rigs/1/series", data={"name": "plain"},
                                files={"file": ("copy.csv", exported, "text/csv")},
                                headers=server.auth)
-    assert again.status_code == 409 and "the first as 'cycle'" in again.text
+    assert again.status_code == 409 and "stored already" in again.text
+    assert re.search(rf"samples \(series [\d, ]*\b{item['id']}\b", again.json()["error"][
+        "message"]), again.text
     # without a start a series has no time, and neither has the record read from it
     shorter = exported[:exported.rstrip(b"\n").rfind(b"\n") + 1]   # one sample less
     plain = _import(server, shorter, name="plain")

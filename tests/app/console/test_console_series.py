@@ -218,7 +218,8 @@ def test_a_loggers_file_is_imported_from_the_page(console_server: LiveServer,
     assert listed.count('name="series" value=') == 3
     named = browser_client.post("/console/series/import", data={
         "rig": str(rig), "time_in_name": "%Y%m%d-%H%M%S", "zone": "+01:00"},
-        files={"file": ("log_20261120-093000.csv", b"t [s],P1 [bar]\n2,1\n3,2\n", "text/csv")})
+        files={"file": ("log_20261120-093000.csv", b"t [s],P1 [bar]\n2,1.5\n3,2.5\n",
+                        "text/csv")})
     assert named.status_code == 303, named.text
     stored = console_server.client.get(named.headers["location"].replace("/console", "")).json()
     assert stored["measured_at"] == "2026-11-20T08:30:02Z"
