@@ -35,7 +35,8 @@ from diagnostics.consistency import (  # a crossing slower than the bound ÷ SLO
 )
 from diagnostics.timeseries import SeriesRecord
 
-__all__ = ["FAST_FACTOR", "MIN_TRAVEL", "SLOW_FACTOR", "crossing_speed", "time_scale_notes"]
+__all__ = ["FAST_FACTOR", "MIN_STROKE_SAMPLES", "MIN_TRAVEL", "SLOW_FACTOR", "coarse_notes",
+           "crossing_speed", "time_scale_notes"]
 
 Arr = npt.NDArray[np.float64]
 
@@ -43,6 +44,8 @@ Arr = npt.NDArray[np.float64]
 FAST_FACTOR = 1.5
 #: least travel a judged crossing spans, as a fraction of the stroke [-]
 MIN_TRAVEL = 0.2
+#: fewest samples that place a stroke (its start, its speed, its end) [-]
+MIN_STROKE_SAMPLES = 20
 
 
 def crossing_speed(t: Arr, x: Arr, min_span: float = 0.0) -> float | None:
@@ -139,3 +142,31 @@ def _factor(items: list[tuple[str, float]], power: int = 0) -> str:
     f = sorted(r if power == 0 else 1.0 / r for _, r in items)
     lo, hi = f[0], f[-1]
     return f"{lo:.3g}×" if hi < 1.05 * lo else f"{lo:.3g}-{hi:.3g}×"
+
+
+def coarse_notes(records: Sequence[SeriesRecord], limits: RigLimits | None) -> list[str]:
+    """Notes on the records too short or too coarsely sampled to hold a stroke: fewer than
+    :data:`MIN_STROKE_SAMPLES` samples, or samples further apart than the fastest stroke
+    the pump can drive (stroke over :meth:`~RigLimits.max_piston_speed`) divided by that
+    number.  A 5-sample record and a 5 Hz one were stored without a word and read back as
+    a stalled or crept stroke, which an engineer takes for a mechanical fault (a
+    discrepancy pass).  Nothing without the rig's limits or stroke."""
+    if limits is None or limits.stroke is None:
+        return []
+    notes = []
+    for r in records:
+        fastest = limits.stroke / limits.max_piston_speed(r.condition.get("pump_speed"))
+        if len(r) < MIN_STROKE_SAMPLES:
+            notes.append(f"record {r.name!r} holds {len(r)} sample(s), too few to hold a "
+                         f"stroke (≥ {MIN_STROKE_SAMPLES}): read as a record it shows no "
+                         "stroke, or a stalled one, which is no finding")
+            continue
+        step = float(np.median(np.diff(r.t)))
+        if step > fastest / MIN_STROKE_SAMPLES:
+            notes.append(
+                f"record {r.name!r} is sampled every {step * 1e3:.4g} ms ({1.0 / step:.3g} "
+                f"Hz): a stroke at the pump's full delivery lasts {fastest:.3g} s, "
+                f"{fastest / step:.3g} samples, too few to place its start, speed and end; a "
+                "stroke read from it (stalled, crept) is no finding: log at ≥ "
+                f"{math.ceil(MIN_STROKE_SAMPLES / fastest)} Hz")
+    return notes

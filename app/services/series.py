@@ -33,9 +33,10 @@ from app.services.plateau_channels import (
 from app.services.rigs import get_rig, has_cycle, latest_version
 from diagnostics.consistency import RigLimits
 from diagnostics.cycle_readings import READ_CHANNELS
+from diagnostics.discrepancy.records import import_notes
 from diagnostics.observations import rig_limits
 from diagnostics.table_files import time_in_name as time_in_name_of
-from diagnostics.time_scale import time_scale_notes
+from diagnostics.time_scale import coarse_notes, time_scale_notes
 from diagnostics.timeseries import (
     CONDITION_CHANNELS,
     ColumnEntry,
@@ -296,10 +297,18 @@ class RigChannels:
     #: what bounds the piston's speed (pump, chambers, stroke); None without a cycle
     limits: RigLimits | None = None
 
+    #: the rig's parameter values (the unit checks of a cycle); None without a cycle
+    values: dict[str, float] | None = None
+
     def time_notes(self, records: Sequence[SeriesRecord]) -> list[str]:
         """Records whose piston moves faster than the pump can drive it, or ≥ 30× slower:
-        a wrong sample rate or time unit (:func:`diagnostics.time_scale.time_scale_notes`)."""
-        return time_scale_notes(records, self.limits)
+        a wrong sample rate or time unit (:func:`diagnostics.time_scale.time_scale_notes`);
+        records too short or too coarse to hold a stroke (:func:`~diagnostics.time_scale.
+        coarse_notes`); channels their own values contradict (a unit slip, a flipped sign:
+        :func:`diagnostics.discrepancy.records.import_notes`)."""
+        units = [] if self.values is None else import_notes(records, self.values)
+        return (time_scale_notes(records, self.limits) + coarse_notes(records, self.limits)
+                + units)
 
     def notes(self, rows: Sequence[MeasuredSeries]) -> list[str]:
         """What an import stored for a rig with a cycle that neither its model nor a cycle's
@@ -343,7 +352,8 @@ def rig_channels(session: Session, rig_id: int) -> RigChannels:
     delivery = (base["pump.speed"] * base["pump.Vp"] if "pump.speed" in base
                 and "pump.Vp" in base else None)
     return RigChannels(units if cycle else units | PLATEAU_CHANNELS, cycle, delivery,
-                       base.get("relief.Pset"), rig_limits(rig) if cycle else None)
+                       base.get("relief.Pset"), rig_limits(rig) if cycle else None,
+                       dict(rig.values()) if cycle else None)
 
 
 def list_series(session: Session, rig_id: int, *, limit: int, offset: int

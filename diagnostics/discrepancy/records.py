@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 import numpy.typing as npt
@@ -22,7 +22,8 @@ from diagnostics.timeseries import CONDITION_CHANNELS, SeriesRecord
 from sim.errors import InputError
 
 __all__ = ["LOAD_EXCESS", "MAX_RECORD_S", "STATED", "VELOCITY_WINDOW",
-           "check_motion_and_flow_units", "check_pressure_units", "require_cycle_records",
+           "check_motion_and_flow_units", "check_pressure_units", "import_notes",
+           "require_cycle_records",
            "unread_notes", "with_phases", "with_velocity"]
 
 Arr = npt.NDArray[np.float64]
@@ -331,4 +332,33 @@ def unread_notes(records: Sequence[SeriesRecord], evaluated: Sequence[str],
         notes.append(f"channel(s) {', '.join(repr(c) for c in unread)} not read: the workflow "
                      f"reads {', '.join(sorted(known - {'hose.int_dp'}))} (name a column so, "
                      "or map it with a column map)")
+    return notes
+
+
+def import_notes(records: Sequence[SeriesRecord], values: Mapping[str, float]) -> list[str]:
+    """The unit and sign checks the workflow refuses a cycle by (:func:`check_pressure_units`,
+    :func:`check_motion_and_flow_units`, a load that varies), as notes on an import: the
+    import stored bar under ``[Pa]``, l/min under ``[m^3/s]``, kN under ``[N]``, a flipped
+    meter or a ramping load without a word, and the cycle read back as a record with
+    p1 = 12.7 Pa (a discrepancy pass).  ``values``: the rig's (``cylinder.A1``,
+    ``cylinder.Fu``, ``cylinder.stroke``, ``pump.speed``, ``pump.Vp``)."""
+    try:
+        labelled, _ = with_phases(records, values["cylinder.stroke"])
+        labelled, _ = with_velocity(labelled)
+    except InputError:  # records too short for a derived speed: the clock's notes say so
+        labelled = list(records)
+    notes = []
+    for r in labelled:
+        try:
+            if "load" not in r.condition and "load" in r.channels:
+                lo, hi = float(np.min(r.channels["load"])), float(np.max(r.channels["load"]))
+                raise InputError(f"the load of record {r.name!r} varies ({lo:.4g} to {hi:.4g} "
+                                 "N); a cycle is read at one stated load: give it as a "
+                                 "constant 'load [N]' column", field="load")
+            check_pressure_units([r], values["cylinder.A1"], values.get("cylinder.Fu"))
+            check_motion_and_flow_units([r], stroke=values["cylinder.stroke"],
+                                        delivery=values["pump.speed"] * values["pump.Vp"])
+        except InputError as exc:
+            notes.append(f"{exc.message} (stored as given: the discrepancy workflow and "
+                         "/diagnose refuse the record until it is imported corrected)")
     return notes

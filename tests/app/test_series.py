@@ -264,7 +264,9 @@ def test_a_channel_of_the_rig_in_a_unit_of_another_quantity_is_refused(
                                                    "PB": ["P2", "bar"]})},
         files={"file": ("log.csv", content, "text/csv")}, headers=server.auth)
     assert typo.status_code == 201, typo.text
-    note, load, temperature = typo.json()["notes"]
+    # (and a 2-sample file holds no stroke: said last, with its own note)
+    note, load, temperature, short = typo.json()["notes"]
+    assert "holds 2 sample(s), too few to hold a stroke" in short
     assert note.startswith("channel(s) P9 are not channels of the rig's model")
     # stored without a load or temperature: said now, not only when a reader refuses it
     assert "state no load" in load and "'load [N]' column" in load
@@ -341,3 +343,40 @@ def test_a_cycle_imported_at_a_wrong_sample_rate_is_said(server: LiveServer) -> 
             assert f"{100 * 0.2200660941517565 / 0.16:.3g}×" in note and "too long" in note
         else:
             assert notes == []
+
+
+def test_a_cycle_whose_own_values_contradict_its_units_is_stored_with_a_note(
+        server: LiveServer) -> None:
+    """A discrepancy pass: bar under [Pa], l/min under [m^3/s], kN under [N], and records too
+    short or too coarse to hold a stroke were stored without a word (and read back as a
+    record with p1 = 12.7 Pa, or as a stalled stroke); the import now says what the
+    discrepancy workflow and /diagnose would refuse, and a sound cycle gets none of it."""
+    import io
+
+    import pandas as pd
+
+    r = server.client.post("/simulate", json={
+        "rig_id": 1, "fault": "worn_spool", "condition": {"load": 3300.0, "oil_temperature": 45.0},
+        "timeseries": "csv", "sample_rate": 1000.0}, headers=server.auth)
+    assert r.status_code == 200, r.text
+    frame = pd.read_csv(io.BytesIO(r.content), comment="#")
+
+    def notes(table: pd.DataFrame, name: str) -> list[str]:
+        answer = server.client.post("/rigs/1/series", data={"name": name},
+                                    files={"file": (f"{name}.csv", table.to_csv(index=False),
+                                                    "text/csv")}, headers=server.auth)
+        assert answer.status_code == 201, answer.text
+        return list(answer.json()["notes"])
+
+    slips = ("is it in bar", "is it in l/min", "is the load in kN", "too few", "sampled every")
+    assert not [n for n in notes(frame, "sound") for s in slips if s in n]
+    bar = frame.assign(**{c: frame[c] / 1e5 for c in frame.columns if c.endswith("[Pa]")})
+    assert any("is it in bar" in n and "stored as given" in n for n in notes(bar, "bar"))
+    lpm = frame.assign(**{"Q_meter_B [m^3/s]": frame["Q_meter_B [m^3/s]"] * 6e4})
+    assert any("is it in l/min" in n for n in notes(lpm, "lpm"))
+    # (a sample less: the same samples at another stated load are the sound cycle's twin)
+    kn = frame.iloc[1:].assign(**{"load [N]": frame["load [N]"].iloc[1:] / 1e3})
+    assert any("is the load in kN" in n for n in notes(kn, "kn"))
+    assert any("holds 5 sample(s), too few" in n for n in notes(frame.iloc[:5], "five"))
+    coarse = notes(frame.iloc[::200], "coarse")           # 5 Hz
+    assert any("sampled every 200 ms (5 Hz)" in n for n in coarse), coarse
