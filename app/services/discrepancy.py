@@ -117,8 +117,10 @@ def plan_discrepancy(session: Session, rigs: RigCache, form: DiscrepancyForm,
                 require_rows(bench)
             return DiscrepancyPlan(resolved.rig_id, resolved.version, document, [],
                                    form.refit, form.store, bench, "series_ids")
-        with data_field("series_ids"):
+        try:
             check_records(document, records)
+        except InputError as exc:
+            raise _on_series(document, records, exc) from None
         return DiscrepancyPlan(resolved.rig_id, resolved.version, document, records,
                                form.refit, form.store, source="series_ids")
     if len(content) <= MAX_SERIES_BYTES and is_bench_table(content):
@@ -135,6 +137,24 @@ def plan_discrepancy(session: Session, rigs: RigCache, form: DiscrepancyForm,
     check_records(resolved.document, records)  # a 422 now, not a job that fails
     return DiscrepancyPlan(resolved.rig_id, resolved.version, dict(resolved.document), records,
                            form.refit, form.store)
+
+
+def _on_series(document: Mapping[str, Any], records: list[SeriesRecord],
+               exc: InputError) -> InputError:
+    """``exc`` on stored records named by the series id that fails it alone, on the field
+    ``series_ids``: an error naming a record ("the load of record 'couette-2100N-40C'
+    varies") and the channel ``load`` left a user to find which of their ids it was, among
+    many series of that record name (a discrepancy pass)."""
+    for r in records:
+        try:
+            check_records(document, [r])
+        except InputError as alone:
+            if alone.message == exc.message:
+                return type(exc)(f"series {r.metadata.get('series_id')} (record "
+                                 f"{r.name!r}): {exc.message}", field="series_ids")
+        except HydrodiagError:
+            continue
+    return type(exc)(exc.message, field="series_ids")
 
 
 def _plateaus(records: list[SeriesRecord], values: Mapping[str, float],

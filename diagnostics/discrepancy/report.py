@@ -161,6 +161,20 @@ def html_page(d: Discovery, title: str = "hydrodiag discrepancy report", *,
                 f"<td>{_fmt(n.t)}</td><td>{_fmt(n.inclusion)}</td>"
                 f"<td>{e(_groups(n.competing))}</td><td>{e(_groups(n.ambiguity))}</td></tr>")
         parts.append("</table>")
+    if d.carried:
+        # the effects the rig version already carries, checked on these data (a "no effect"
+        # page said nothing of the Couette drag the data confirmed: a discrepancy pass)
+        parts.append("<h2>Effects the rig already carries, checked on these data</h2><table>"
+                     "<tr><th>effect</th><th>balance</th><th>stored coefficient</th>"
+                     "<th>share the data hold (95 % interval)</th><th>|t| of the change</th>"
+                     "<th>outcome</th></tr>")
+        for check in d.carried:
+            lo, hi = check.held_interval
+            parts.append(f"<tr><td>{e(check.effect)}</td><td>{e(check.balance)}</td>"
+                         f"<td>{_fmt(check.stored)}</td><td>{check.held:.2f} [{lo:.2f}, "
+                         f"{hi:.2f}]</td><td>{_fmt(abs(check.t))}</td>"
+                         f"<td>{e(check.outcome)}</td></tr>")
+        parts.append("</table>")
     if d.base_drift is not None:
         accepted = d.base_drift.accepted
         state = ("they close the gap: base drift" if accepted

@@ -26,8 +26,9 @@ from diagnostics.timeseries import SeriesRecord
 if TYPE_CHECKING:  # drift imports this module
     from diagnostics.discrepancy.drift import Drift
 
-__all__ = ["OUTPUT_GAP", "STEADY_SLACK", "build_up_gaps", "excess", "excess_ratio", "gap_ratio",
-           "structured", "verdict", "whiteness"]
+__all__ = ["BALANCE_MIN_RATE", "OUTPUT_GAP", "STEADY_SLACK", "build_up_gaps", "excess",
+           "excess_ratio", "gap_ratio", "logged_rate", "sparse_note", "structured", "verdict",
+           "whiteness"]
 
 #: held-out steady RMSE, in units of the channel's noise σ, above which an unnamed gap is
 #: reported as unexplained rather than "no effect"
@@ -239,10 +240,49 @@ def _thermometer(drift: Drift) -> str:
             "wear")
 
 
+#: below this sample rate [Hz] a balance's equation-error residual alone does not make a
+#: gap: its derivatives come through samples more than 5 ms apart, resampled to the
+#: analysis's 1 kHz, and the interpolation leaves structure of its own (healthy
+#: noise-only cycles at 100 and 20 Hz were answered "unexplained" with every held-out
+#: output within 1.1 σ, and right at 250 Hz and above; a discrepancy pass)
+BALANCE_MIN_RATE = 200.0
+
+
+def logged_rate(records: Sequence[SeriesRecord]) -> float:
+    """The lowest sample rate among ``records`` (median step of each) [Hz]; inf for
+    records of fewer than two samples."""
+    steps = [float(np.median(np.diff(r.t))) for r in records if r.t.size > 1]
+    return 1.0 / max(steps) if steps and max(steps) > 0 else math.inf
+
+
+def sparse_note(selections: Sequence[Selection], gaps: Sequence[GapRow],
+                sigma: Mapping[str, float], rate: float) -> str:
+    """Why the balances with structure are not judged alone at ``rate`` [Hz] (below
+    :data:`BALANCE_MIN_RATE`, while no held-out output of ``gaps`` is off), or ''."""
+    left = [s.balance for s in selections if structured(s)]
+    if rate >= BALANCE_MIN_RATE or not left or _off(gaps, sigma):
+        return ""
+    return (f"; the balance(s) {', '.join(left)} read above their practical size, but the "
+            f"records are logged at {rate:.3g} Hz: below {BALANCE_MIN_RATE:.0f} Hz the "
+            f"equation-error balances (derivatives through samples {1e3 / rate:.3g} ms "
+            "apart) are not judged on their own, and every held-out output is within the "
+            "noise; log at ≥ 1 kHz for them")
+
+
+def _off(before: Sequence[GapRow], sigma: Mapping[str, float]) -> list[str]:
+    """The held-out output gaps above the noise: steady motion beyond :data:`OUTPUT_GAP` σ,
+    and after a switch beyond the timing floor (:func:`build_up_gaps`)."""
+    off = [f"{r.channel} ({r.rmse / sigma[r.channel]:.1f} σ)" for r in before
+           if r.region == "steady" and r.rmse > OUTPUT_GAP * sigma[r.channel]]
+    return off + build_up_gaps(before, sigma)
+
+
 def verdict(named: Sequence[str], selections: list[Selection], before: list[GapRow],
             after: list[GapRow], white_after: dict[str, float],
-            sigma: Mapping[str, float], drift: Drift | None = None) -> tuple[str, str]:
-    """The verdict and its message from what was named and what is left.
+            sigma: Mapping[str, float], drift: Drift | None = None,
+            rate: float = math.inf) -> tuple[str, str]:
+    """The verdict and its message from what was named and what is left; ``rate``: the
+    records' lowest sample rate [Hz] (:func:`sparse_note`).
 
     Parameters
     ----------
@@ -260,11 +300,21 @@ def verdict(named: Sequence[str], selections: list[Selection], before: list[GapR
         The base re-fit when nothing was named and the gap is above the noise
         (:func:`~diagnostics.discrepancy.drift.refit_base`), else None.
     """
-    left = [s.balance for s in selections if structured(s)]
     # output-error gap on the held-out record, steady motion, in units of the noise
-    off = [f"{r.channel} ({r.rmse / sigma[r.channel]:.1f} σ)" for r in before
-           if r.region == "steady" and r.rmse > OUTPUT_GAP * sigma[r.channel]]
-    off += build_up_gaps(before, sigma)
+    off = _off(before, sigma)
+    # with an effect named, what is left is judged on the held-out outputs after it
+    sparse = sparse_note(selections, after if named else before, sigma, rate)
+    outcome, message = _verdict(named, [] if sparse else [
+        s.balance for s in selections if structured(s)], off, selections, before, after,
+        sigma, drift)
+    return outcome, message + sparse
+
+
+def _verdict(named: Sequence[str], left: list[str], off: list[str],
+             selections: list[Selection], before: list[GapRow], after: list[GapRow],
+             sigma: Mapping[str, float], drift: Drift | None) -> tuple[str, str]:
+    """:func:`verdict` from the balances with structure ``left`` and the output gaps
+    ``off``."""
     if named:
         names = ", ".join(named)
         shrink = _shrink(before, after, sigma)

@@ -76,8 +76,10 @@ from diagnostics.discrepancy.transient import (
     screen_build_up,
 )
 from diagnostics.discrepancy.verdict import (
+    BALANCE_MIN_RATE,
     excess_ratio,
     gap_ratio,
+    logged_rate,
     structured,
     verdict,
     whiteness,
@@ -335,8 +337,9 @@ def _discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], 
     else:
         gap_after, white_after = [], {}
     drift: Drift | None = None
-    if refit and not worn_pass and not named and not any(structured(s) for s in selections) \
-            and above_noise(gap_before, sig):
+    logged = logged_rate(records)
+    judged = logged >= BALANCE_MIN_RATE and any(structured(s) for s in selections)
+    if refit and not worn_pass and not named and not judged and above_noise(gap_before, sig):
         report(0.85, "re-fit of the base parameters that drift in service")
         drift = refit_base(rig, train, held, channels, sig, max_nfev)
         if drift is not None and drift.accepted:
@@ -346,7 +349,7 @@ def _discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], 
             traces["after_all"] = drift.tables
     lof = repeats_lack_of_fit(records, rig, new_doc if named else None, channels, sig)
     outcome, message = verdict([n.name for n in named], selections, gap_before, gap_after,
-                               white_after, sig, drift)
+                               white_after, sig, drift, rate=logged)
     checks = check_carried(data)
     if statement := carried_statement(checks):
         # an effect the rig carries and the data contradict is not "no effect"

@@ -154,12 +154,30 @@ def test_records_stored_with_the_rig_are_checked_by_id(server: LiveServer,
     r = server.client.post("/discrepancy", data={"rig_id": str(rig_id), "series_ids": "1"},
                            files={"file": ("x.csv", measured)}, headers=server.auth)
     assert r.status_code == 422 and "series_ids" in r.text
+    # a stored record the workflow refuses is named by its series id (the error named the
+    # record, which many series share, and the channel 'load': a discrepancy pass)
+    ramp = pd.read_csv(io.BytesIO(measured), comment="#")
+    ramp = ramp[ramp["record"] == "load-4200"].assign(
+        **{"load [N]": lambda f: np.linspace(4200.0, 4250.0, len(f))})
+    bad = server.client.post(f"/rigs/{rig_id}/series", data={"name": "ramp"},
+                             files={"file": ("ramp.csv", ramp.to_csv(index=False), "text/csv")},
+                             headers=server.auth)
+    assert bad.status_code == 201, bad.text
+    bad_id = bad.json()["items"][0]["id"]
+    before = server.row_counts()
+    r = server.client.post("/discrepancy", data={
+        "rig_id": str(rig_id), "series_ids": f"{ids[0]},{bad_id},{ids[2]}"}, headers=server.auth)
+    assert r.status_code == 422 and r.json()["error"]["field"] == "series_ids"
+    assert r.json()["error"]["message"].startswith(f"series {bad_id} (record 'load-4200'): ")
     assert server.row_counts() == before
     r = server.client.post("/discrepancy", data={
         "rig_id": str(rig_id), "store": "false", "series_ids": ",".join(map(str, ids))},
         headers=server.auth)
     assert r.status_code == 202, r.text
     assert r.json()["records"] == ["load-2100", "load-4200", "load-6300"]
+    # its page asked for before it is there: a 409, not a 422 on a valid format
+    early = server.client.get(f"/jobs/{r.json()['job_id']}", params={"format": "html"})
+    assert early.status_code == 409 or (early.status_code == 200 and "<html" in early.text)
     job = _follow(server, r.json()["job_id"])
     assert job["status"] == "succeeded", job["error"]
     result = job["result"]

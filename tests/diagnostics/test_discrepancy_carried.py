@@ -68,6 +68,12 @@ def test_a_stored_effect_the_data_hold_stays_no_effect() -> None:
     d = discover(_doc(K_P), _records(K_P, 7), bootstrap=10)
     assert d.verdict == "no effect", d.message
     assert [c.outcome for c in d.carried] == ["held"]
+    # the report page says so (it said only "no effect": a discrepancy pass)
+    from diagnostics.discrepancy.report import html_page
+
+    page = html_page(d)
+    assert "Effects the rig already carries, checked on these data" in page
+    assert "<td>seal_friction_pressure</td>" in page and "<td>held</td>" in page
 
 
 def test_records_with_other_channels_are_refused_before_any_job() -> None:

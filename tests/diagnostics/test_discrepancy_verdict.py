@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import pytest
+
 from diagnostics.discrepancy.gap import GapRow
 from diagnostics.discrepancy.verdict import build_up_gaps, verdict
 
@@ -166,3 +168,36 @@ def test_one_channel_off_names_its_transducer_when_the_balances_left_read_it() -
     assert force[0] == "unexplained" and "only P1 disagrees" in force[1]
     pump = verdict([], [left("pump_flow")], gap, [], {}, sigma)
     assert "only P1 disagrees" not in pump[1]
+
+
+def test_at_a_low_sample_rate_a_balance_alone_makes_no_gap() -> None:
+    """Healthy noise-only cycles at 100 and 20 Hz were answered "unexplained" (the
+    derivative balances' interpolation structure) with every held-out output within
+    1.1 σ (a discrepancy pass): below 200 Hz a balance alone is not judged, and the answer
+    says why; at 1 kHz, or with an output off, it is."""
+    import dataclasses
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from diagnostics.discrepancy.selection import PRACTICAL
+    from diagnostics.discrepancy.verdict import BALANCE_MIN_RATE, logged_rate
+    from diagnostics.timeseries import SeriesRecord
+
+    t = np.arange(2000) / 1000.0
+    balance = SimpleNamespace(balance="chamber_flow", ambiguity=[], full_scale=1e-4,
+                              noise_floor=1e-8, residual=50 * PRACTICAL * 1e-4
+                              * np.sin(2 * np.pi * 3 * t))
+    rows = _rows({c: 0.8 * f for c, f in FLOOR.items()}, FLOOR)   # outputs within the noise
+    assert verdict([], [balance], rows, [], {}, SIGMA)[0] == "unexplained"  # type: ignore[list-item]
+    outcome, message = verdict([], [balance], rows, [], {}, SIGMA,  # type: ignore[list-item]
+                               rate=100.0)
+    assert outcome == "no effect" and "logged at 100 Hz" in message
+    assert f"below {BALANCE_MIN_RATE:.0f} Hz" in message and "10 ms apart" in message
+    off = [dataclasses.replace(r, rmse=5 * SIGMA[r.channel])
+           if r.region == "steady" and r.channel == "P1" else r for r in rows]
+    assert verdict([], [balance], off, [], {}, SIGMA,  # type: ignore[list-item]
+                   rate=100.0)[0] == "unexplained"
+    records = [SeriesRecord(n, np.arange(0.0, 1.0, 1.0 / f), {"P1": np.zeros(int(f))},
+                            {"P1": "Pa"}) for n, f in (("a", 1000), ("b", 100))]
+    assert logged_rate(records) == pytest.approx(100.0)

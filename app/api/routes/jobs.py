@@ -12,7 +12,7 @@ from app.api.rendered import rendered
 from app.schemas.common import ERROR_RESPONSES
 from app.schemas.jobs import JobList, JobPublic, JobStatus, job_summary
 from app.services import jobs as service
-from sim.errors import InputError
+from sim.errors import ConflictError, InputError
 
 __all__ = ["router"]
 
@@ -57,6 +57,10 @@ def get_job(
     job = service.get_job(session, job_id)
     if format == "html":
         page = (job.result or {}).get("html") if job.status == "succeeded" else None
+        if job.status in ("queued", "running") and job.kind == "discrepancy":
+            # a valid request, early: not a 422 on the format (a discrepancy pass)
+            raise ConflictError(f"job {job_id} is {job.status}: its report is there when it "
+                                "has succeeded (poll GET /jobs/{id})", field="format")
         if not isinstance(page, str):
             raise InputError(f"job {job_id} has no HTML report (status {job.status!r}, kind "
                              f"{job.kind!r})", field="format")
