@@ -52,7 +52,8 @@ def shown_unit(unit: str, *, clearance: bool = False) -> tuple[float, str]:
     history and the status texts say a clearance (:func:`sim.units.quantity_text`)."""
     if clearance and unit == "m":
         return 1e6, "µm"
-    shown, factor = SHOWN_UNITS.get(unit, (unit, 1.0))
+    # a unit written with superscripts (the schema's "m³/s") is the same unit
+    shown, factor = SHOWN_UNITS.get(unit.replace("³", "^3").replace("²", "^2"), (unit, 1.0))
     return factor, shown
 
 

@@ -47,22 +47,26 @@ def charts(d: Discovery) -> dict[str, Chart]:
         s, bd = sels[pick], data[pick]
         sub = signals.subset(bd.mask)
         t = np.arange(s.base_residual.size) / 1000.0
-        series = [Series(_thin(t), _thin(s.base_residual), "base model (re-fitted)")]
+        # the charts in the units an engineer reads (bar, l/min, kN): a 0.2 bar gap drawn
+        # in Pa under a 1e6 axis offset could not be seen (a discrepancy pass)
+        k_res, res_unit = shown_unit(s.unit)
+        series = [Series(_thin(t), _thin(k_res * s.base_residual), "base model (re-fitted)")]
         if s.chosen is not None:
-            series.append(Series(_thin(t), _thin(s.residual), "with the named effect"))
+            series.append(Series(_thin(t), _thin(k_res * s.residual), "with the named effect"))
         out["residual_vs_time"] = line_chart(
             f"Equation-error residual, {s.balance}", "sample time, records stacked [s]",
-            f"residual [{s.unit}]", series)
+            f"residual [{res_unit}]", series)
         pname = _PRESSURE.get(s.balance, "P1")
         if pname in sub.values:
             p = sub.values[pname] / 1e5
-            pts = [Series(_thin(p), _thin(s.base_residual), "base model", kind="points")]
+            pts = [Series(_thin(p), _thin(k_res * s.base_residual), "base model",
+                          kind="points")]
             if s.chosen is not None:
-                pts.append(Series(_thin(p), _thin(s.residual), "with the named effect",
+                pts.append(Series(_thin(p), _thin(k_res * s.residual), "with the named effect",
                                   kind="points"))
             out["residual_vs_pressure"] = line_chart(
-                f"Residual vs {pname}, {s.balance}", f"{pname} [bar]", f"residual [{s.unit}]",
-                pts)
+                f"Residual vs {pname}, {s.balance}", f"{pname} [bar]",
+                f"residual [{res_unit}]", pts)
     held = d.traces.get("held")
     before = d.traces.get("before")
     if held is not None and before is not None:
@@ -77,7 +81,7 @@ def charts(d: Discovery) -> dict[str, Chart]:
             return r.rmse / max(float(np.std(held.channels[r.channel])), 1e-30)
 
         worst = max(d.gap_before, key=gain).channel if d.gap_before else chans[0]
-        unit = held.units[worst]
+        k_out, unit = shown_unit(held.units[worst])
         res_b = aligned_residuals(held, before, [worst])[worst]
         series = []
 
@@ -86,16 +90,16 @@ def charts(d: Discovery) -> dict[str, Chart]:
 
         for ph, (tt, e, meas) in res_b.items():
             k = steady(tt)
-            series.append(Series(_thin(tt[k]), _thin(meas[k]), f"measured ({ph})",
+            series.append(Series(_thin(tt[k]), _thin(k_out * meas[k]), f"measured ({ph})",
                                  kind="points"))
-            series.append(Series(_thin(tt[k]), _thin(meas[k] + e[k]), f"base model ({ph})",
-                                 dashed=True))
+            series.append(Series(_thin(tt[k]), _thin(k_out * (meas[k] + e[k])),
+                                 f"base model ({ph})", dashed=True))
         after = d.traces.get("after")
         label = "with base drift" if d.verdict == "base drift" else "with effect"
         if after is not None:
             for ph, (tt, e, meas) in aligned_residuals(held, after, [worst])[worst].items():
                 k = steady(tt)
-                series.append(Series(_thin(tt[k]), _thin(meas[k] + e[k]),
+                series.append(Series(_thin(tt[k]), _thin(k_out * (meas[k] + e[k])),
                                      f"{label} ({ph})"))
         out["model_vs_measurement"] = line_chart(
             f"Held-out record {held.name}: {worst} (steady part)", "time since phase start [s]",
@@ -203,15 +207,19 @@ def html_page(d: Discovery, title: str = "hydrodiag discrepancy report", *,
                  "<th>practical size</th><th>ambiguity groups</th>"
                  "<th>minimum detectable RMS per candidate</th></tr>")
     for b in rep["balances"]:
-        mds = ", ".join(f"{k}: {_fmt(v) if v is not None else 'not identifiable'}"
-                        for k, v in b["minimum_detectable_rms"].items())
+        # in the units an engineer reads (bar, l/min, kN), every size with its unit (the
+        # practical size and the detectable RMS had none: a discrepancy pass)
+        scale, unit = shown_unit(b["unit"])
+        mds = ", ".join(f"{name}: {_fmt(scale * v)} {unit}" if v is not None
+                        else f"{name}: not identifiable"
+                        for name, v in b["minimum_detectable_rms"].items())
         chosen = ", ".join(b["chosen"]) or "—"
         kept = b.get("picked_by_resimulation", b["chosen"])   # absent in older reports
         if kept != b["chosen"]:
             chosen += f" (re-simulation kept {', '.join(kept)})"
         parts.append(f"<tr><td>{e(b['balance'])}</td><td>{e(chosen)}</td>"
-                     f"<td>{_fmt(b['bic_gain'])}</td><td>{_fmt(b['residual_rms'])} "
-                     f"[{e(b['unit'])}]</td><td>{_fmt(b['practical_size'])}</td>"
+                     f"<td>{_fmt(b['bic_gain'])}</td><td>{_fmt(scale * b['residual_rms'])} "
+                     f"[{e(unit)}]</td><td>{_fmt(scale * b['practical_size'])} [{e(unit)}]</td>"
                      f"<td>{e(_groups(b['ambiguity']))}</td><td>{e(mds)}</td></tr>")
     parts.append("</table>")
     parts.append("<h2>Held-out gap (model − measurement)</h2><p>Timing floor: the RMSE "
@@ -223,10 +231,12 @@ def html_page(d: Discovery, title: str = "hydrodiag discrepancy report", *,
     after = {(r.channel, r.region): r for r in d.gap_after}
     for r in d.gap_before:
         a = after.get((r.channel, r.region))
-        parts.append(f"<tr><td>{e(r.channel)} [{e(r.unit)}]</td><td>{e(r.region)}</td>"
-                     f"<td>{_fmt(r.rmse)}</td><td>{_fmt(a.rmse) if a else '—'}</td>"
-                     f"<td>{_fmt(r.max_abs)}</td><td>{_fmt(a.max_abs) if a else '—'}</td>"
-                     f"<td>{_fmt(r.timing_floor)}</td></tr>")
+        f, shown = shown_unit(r.unit)  # bar, l/min, mm (SI in the JSON)
+        parts.append(f"<tr><td>{e(r.channel)} [{e(shown)}]</td><td>{e(r.region)}</td>"
+                     f"<td>{_fmt(f * r.rmse)}</td><td>{_fmt(f * a.rmse) if a else '—'}</td>"
+                     f"<td>{_fmt(f * r.max_abs)}</td>"
+                     f"<td>{_fmt(f * a.max_abs) if a else '—'}</td>"
+                     f"<td>{_fmt(f * r.timing_floor)}</td></tr>")
     if d.noise:
         # the σ every gap is judged against, and whether the records' noise is coloured
         # (a logger's filter): the whiteness below is then not expected of any model
@@ -235,9 +245,10 @@ def html_page(d: Discovery, title: str = "hydrodiag discrepancy report", *,
                      "<th>noise</th></tr>")
         units = {r.channel: r.unit for r in d.gap_before}
         for c, noise in d.noise.items():
-            label = f"{c} [{units[c]}]" if c in units else c
-            parts.append(f"<tr><td>{e(label)}</td><td>{_fmt(noise.sigma)}</td>"
-                         f"<td>{_fmt(noise.white)}</td>"
+            f, shown = shown_unit(units[c]) if c in units else (1.0, "")
+            label = f"{c} [{shown}]" if c in units else c
+            parts.append(f"<tr><td>{e(label)}</td><td>{_fmt(f * noise.sigma)}</td>"
+                         f"<td>{_fmt(f * noise.white)}</td>"
                          f"<td>{_fmt(noise.phi)}</td>"
                          f"<td>{'coloured' if noise.coloured else 'white'}</td></tr>")
     parts.append("</table><h2>Whiteness (Ljung-Box p, held-out, steady part)</h2><table>"

@@ -280,6 +280,11 @@ def test_a_drifted_rig_is_base_drift_not_a_new_effect():
     assert "they close the gap: base drift" in page and "with base drift" in page
     assert "narrower than the spread of the estimates" in page   # what the intervals are
     assert "[[" not in page and "[&#x27;" not in page   # groups as words, not Python's lists
+    # the gaps and the balances' sizes in bar and l/min, each with its unit (the tables
+    # read Pa and m³/s, the practical size none: a discrepancy pass)
+    assert "<td>P1 [bar]</td>" in page and "<td>Q_meter_B [l/min]</td>" in page
+    assert "[Pa]" not in page and "[m^3/s]" not in page
+    assert re.search(r"<td>[\d.e+-]+ \[l/min\]</td><td>[\d.e+-]+ \[l/min\]</td>", page)
 
 
 def test_a_worn_pump_is_base_drift_sized_as_the_scenario_and_friction_is_kept():

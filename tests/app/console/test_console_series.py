@@ -11,6 +11,7 @@ import threading
 import time
 
 import httpx
+import pytest
 from markupsafe import escape
 
 from app.console.web import SECURITY_HEADERS
@@ -160,6 +161,14 @@ def test_a_cycle_is_shown_as_a_record_and_fills_the_diagnose_form(
     assert 'id="record-readings"' in one.text and f'/console/diagnose?series={first}' in one.text
     api = console_server.client.get(f"/series/{first}/record").json()["record"]
     assert "<td>speed_work</td>" in one.text and "<td>m/s</td>" in one.text
+    # pressures in bar, flows in l/min, as the charts beside them (they read 1.533e+06 Pa
+    # and 0.00046412 m³/s: a discrepancy pass)
+    p1 = re.search(r"<td>p1</td><td>([^<]+)</td><td>([^<]+)</td>", one.text)
+    assert p1 is not None and p1.group(2) == "bar"
+    assert float(p1.group(1)) == pytest.approx(api["p1"] / 1e5, rel=1e-4)
+    flow = re.search(r"<td>flow_B</td><td>([^<]+)</td><td>([^<]+)</td>", one.text)
+    assert flow is not None and flow.group(2) == "l/min"
+    assert float(flow.group(1)) == pytest.approx(api["flow_B"] * 6e4, rel=1e-4)
     form = browser_client.get(f"/console/diagnose?series={first}")
     assert form.status_code == 200
     filled = re.search(r'<textarea id="document"[^>]*>(.*?)</textarea>', form.text, re.S)
