@@ -25,6 +25,8 @@ import threading
 from concurrent.futures import Executor, ProcessPoolExecutor
 from typing import Any, Literal
 
+from app.lifeline import exit_with_parent
+
 __all__ = ["ExecutorKind", "SweepExecutors", "dask_available"]
 
 logger = logging.getLogger("hydrodiag.app")
@@ -74,9 +76,13 @@ class SweepExecutors:
                     self._client = Client(self._scheduler)
                     self._executor = self._client.get_executor()
                 else:
+                    # each pool process ends itself once this process is gone: after a
+                    # kill -9 of the service, the four sweep processes (~350 MB each) and
+                    # their resource tracker lived on as orphans (an operator's pass)
                     self._executor = ProcessPoolExecutor(
                         max_workers=self._workers,
                         mp_context=multiprocessing.get_context("spawn"),
+                        initializer=exit_with_parent, initargs=(os.getpid(),),
                     )
             return self._executor
 
@@ -87,5 +93,13 @@ class SweepExecutors:
             self._executor, self._client = None, None
         if client is not None:
             client.close()
-        elif executor is not None:
-            executor.shutdown(wait=True, cancel_futures=True)
+        elif isinstance(executor, ProcessPoolExecutor):
+            # the jobs were failed already: stop the processes rather than wait for the
+            # points they compute (a SIGTERM with sweeps running took 11-13 s, past the
+            # 10 s docker stop gives; an operator's pass)
+            processes = list(getattr(executor, "_processes", {}).values())
+            executor.shutdown(wait=False, cancel_futures=True)
+            for p in processes:
+                p.terminate()
+            for p in processes:
+                p.join(timeout=2.0)
