@@ -9,10 +9,12 @@ that factory itself for several workers.  Every process warms the stored rigs at
 
 from __future__ import annotations
 
+import asyncio
+import contextlib
 import gc
 import logging
 import multiprocessing
-from collections.abc import AsyncIterator
+from collections.abc import AsyncIterator, Sequence
 from contextlib import asynccontextmanager
 from typing import Any
 
@@ -41,7 +43,7 @@ from app.services.diagnosis_pool import DiagnosisPool
 from app.services.executors import SweepExecutors
 from app.services.group_commit import GroupCommitter
 from app.services.jobs import JobRunner, fail_interrupted_jobs
-from app.services.rig_cache import RigCache
+from app.services.rig_cache import ResolvedRig, RigCache
 from app.services.warmup import Warmup
 from app.settings import Settings
 
@@ -179,8 +181,15 @@ def create_app(
         if interrupted:
             logger.warning("%d job(s) of an earlier run marked failed", interrupted)
         app.state.jobs = JobRunner(sessions, workers=settings.job_workers)
+        loop, pool = asyncio.get_running_loop(), app.state.diagnosis_pool
+
+        def warm(rigs: Sequence[ResolvedRig]) -> None:  # then watch the processes from the loop
+            pool.warm(rigs)
+            with contextlib.suppress(RuntimeError):  # the loop closed: the service stopped
+                loop.call_soon_threadsafe(pool.attach)
+
         app.state.warmup = Warmup(sessions, app.state.rigs, settings.rig_cache_size,
-                                  then=app.state.diagnosis_pool.warm)
+                                  then=warm)
         app.state.warmup.start()
         try:
             yield

@@ -259,6 +259,13 @@ class DiagnosisPool:
         self._wait_ready()
         return [w.pid for w in self._workers if w.pid is not None]
 
+    def attach(self) -> None:
+        """Read the pipes from the running event loop now, not at the first request: a
+        process that dies before then is replaced when it dies (it was found by that
+        request, answered 500; /ready said 200 meanwhile: an operator's pass)."""
+        if self.processes:
+            self._attach()
+
     def _attach(self) -> None:
         """Read the pipes from the running event loop (again after a new loop: tests)."""
         loop = asyncio.get_running_loop()
@@ -341,10 +348,18 @@ class DiagnosisPool:
                 return
             if worker.ready and worker.waiter is None:
                 queued = self._pending.popleft()
+                try:
+                    send_whole(worker.connection, queued.message)
+                except OSError:
+                    # the process died while idle (its pipe broken before its end was read):
+                    # the request, not started, waits for another process; the dead one is
+                    # replaced (it was a 500 BrokenPipeError: an operator's pass)
+                    self._pending.appendleft(queued)
+                    self._replace(worker)
+                    continue
                 worker.waiter, worker.sent_at = queued.future, time.perf_counter()
                 if self._observe is not None:
                     self._observe("queue", worker.sent_at - queued.queued_at)
-                send_whole(worker.connection, queued.message)
 
     async def _call(self, kind: str, payload: Any) -> Any:
         if not self._workers or (self._loop is None

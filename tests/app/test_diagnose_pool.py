@@ -269,3 +269,37 @@ def test_a_stopped_worker_is_logged_without_the_id_of_the_request_that_woke_the_
         logging.getLogger("hydrodiag").removeHandler(spy)
         pool.shutdown()
     assert seen == [None]
+
+
+def test_a_process_that_died_idle_before_the_loop_watched_it_serves_the_next_request(
+        server: LiveServer, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A diagnosis process killed while idle, before the pool's pipes were read from the
+    loop, was found by the next request's write: a 500 BrokenPipeError (an operator's
+    pass).  The request, not started, now waits for the replacement and is answered.  The
+    kernel's answer to that write is made certain here (a copy of the pipe's far end held
+    elsewhere for a moment, as under the test server, lets one write through)."""
+    import app.services.diagnosis_pool as pool_module
+
+    body = {"record": simulated_record(server, WORN_VALVE)}
+    request = DiagnoseRequest.model_validate(body)
+    with server.session() as session:
+        (plan,) = plan_groups(session, RigCache(2), request, utcnow())
+    restarts: list[int] = []
+    pool = DiagnosisPool(1, on_restart=lambda: restarts.append(1))
+    try:
+        pool.warm([])                           # started and ready, not yet read by a loop
+        (first,) = pool.worker_pids()
+        dead = pool._workers[0].connection
+        os.kill(first, signal.SIGKILL)
+        send = pool_module.send_whole
+
+        def broken(connection: Any, message: bytes) -> None:
+            if connection is dead:
+                raise BrokenPipeError(32, "Broken pipe")
+            send(connection, message)
+
+        monkeypatch.setattr(pool_module, "send_whole", broken)
+        assert asyncio.run(pool.compute(plan)).top == "valve"
+        assert restarts == [1] and pool.worker_pids()[0] != first
+    finally:
+        pool.shutdown()
