@@ -9,6 +9,7 @@ runs the HTTP server.
 
 from __future__ import annotations
 
+import socket
 import sys
 from typing import Annotated
 
@@ -31,7 +32,7 @@ from app.db.engine import make_engine, make_session_factory
 from app.schemas.common import MAX_ID
 from app.security import Scope
 from app.settings import Settings
-from sim.errors import HydrodiagError
+from sim.errors import HydrodiagError, InputError
 
 __all__ = ["cli", "main"]
 
@@ -61,6 +62,23 @@ def _steps() -> Progress:
     return steps()
 
 
+def _check_port(host: str, port: int) -> None:
+    """Refuse a port another process listens on, before the store is migrated and the
+    first key made: a busy port was found after both, the key printed by a start that
+    failed and never again, and with several workers the error named no port (an
+    operator's pass).  Bound as uvicorn binds (``SO_REUSEADDR``), then released."""
+    try:
+        family, kind, proto, _, address = socket.getaddrinfo(
+            host, port, type=socket.SOCK_STREAM)[0]
+        with socket.socket(family, kind, proto) as probe:
+            probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+            probe.bind(address)
+    except OSError as exc:
+        raise InputError(f"cannot listen on {host}:{port} ({exc.strerror or exc}): is another "
+                         "service there? give another port (--port, HYDRODIAG_PORT) or "
+                         "interface (--host, HYDRODIAG_HOST)", field="HYDRODIAG_PORT") from None
+
+
 @cli.command()
 def serve(
     host: Annotated[str | None, typer.Option(help="Interface to bind [HYDRODIAG_HOST].")] = None,
@@ -85,6 +103,7 @@ def serve(
 
     settings = _settings(host=host, port=port)
     configure_logging(settings.log_format, settings.log_level)
+    _check_port(settings.host, settings.port)   # before anything is written
     estimator = ThrottleClearanceEstimator()
     engine = _engine(settings)
     sessions = make_session_factory(engine)

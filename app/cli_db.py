@@ -33,11 +33,12 @@ def db_upgrade(
 ) -> None:
     """Migrate the store forward (default: to the newest revision)."""
     from app.db import migrate
+    from app.services.bootstrap import require_known_revision
 
     engine = make_engine(settings_from_env().url)
     try:
         target = _revision(revision)
-        current = migrate.current_revision(engine)
+        current = require_known_revision(engine)
         if target != "head" and current is not None and current > target:
             # Alembic's upgrade to an older revision does nothing, silently (an operator pass)
             raise InputError(f"the store is at revision {current}, past {target}: upgrade only "
@@ -62,11 +63,12 @@ def db_downgrade(
     tables and columns that later revisions added are dropped with what they hold.  Back
     the store up first (db backup)."""
     from app.db import migrate
+    from app.services.bootstrap import require_known_revision
 
     engine = make_engine(settings_from_env().url)
     try:
         target = _revision(revision)
-        current = migrate.current_revision(engine)
+        current = require_known_revision(engine)
         if current is None or (target != "base" and target >= current):
             raise InputError(f"the store is at revision {current}, not past {target}: nothing "
                              "to take back", field="--revision")

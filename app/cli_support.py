@@ -54,15 +54,23 @@ def settings_from_env(**overrides: object) -> Settings:
 
 def migrated_engine() -> Engine:
     """Engine of the configured store, migrated to the newest revision first."""
-    from app.services.bootstrap import bootstrap_lock, upgrade_database
+    from sqlalchemy.exc import DatabaseError
+
+    from app.services.bootstrap import bootstrap_lock, store_problem, upgrade_database
 
     settings = settings_from_env()
     url = settings.url
     fresh = (url.get_backend_name() == "sqlite" and url.database is not None
              and not Path(url.database).exists())
     engine = make_engine(url)
-    with bootstrap_lock(engine):
-        upgrade_database(engine)
+    try:
+        with bootstrap_lock(engine):
+            upgrade_database(engine)
+    except (OSError, DatabaseError) as exc:  # one line naming the store, as serve says it
+        problem = store_problem(engine, exc)
+        if problem is None:
+            raise
+        raise problem from None
     if fresh:
         # a command run from another folder used that folder's ./data: a key made there
         # worked on no running service (an operator pass)

@@ -25,6 +25,8 @@ from sqlalchemy import Connection, Engine, create_engine, event, text
 from sqlalchemy.engine import URL
 from sqlalchemy.orm import Session, sessionmaker
 
+from sim.errors import InputError
+
 __all__ = ["SessionFactory", "dumps_json", "lift_timeouts", "loads_json", "make_engine",
            "make_session_factory", "ping"]
 
@@ -100,7 +102,13 @@ def make_engine(url: URL, *, lock_timeout_s: float | None = None) -> Engine:
     """
     if url.get_backend_name() == "sqlite":
         if url.database:
-            Path(url.database).parent.mkdir(parents=True, exist_ok=True)
+            folder = Path(url.database).parent
+            try:
+                folder.mkdir(parents=True, exist_ok=True)
+            except OSError as exc:  # a 101-line traceback (an operator's pass)
+                raise InputError(f"cannot make the data folder {folder} ({exc.strerror}): "
+                                 "set HYDRODIAG_DATA_DIR to a folder this user can write",
+                                 field="HYDRODIAG_DATA_DIR") from None
         engine = create_engine(url, connect_args={"check_same_thread": False},
                                pool_size=SQLITE_POOL_SIZE, max_overflow=SQLITE_POOL_OVERFLOW,
                                json_serializer=dumps_json, json_deserializer=loads_json)

@@ -114,13 +114,16 @@ def measurement_time_problem(value: dt.datetime) -> str | None:
     :data:`EARLIEST_MEASUREMENT` or more than :data:`FUTURE_ALLOWANCE_S` ahead of now.  A
     record dated 2999 went to the top of the history and stretched every trend's axis to
     4e5 days."""
-    latest = dt.datetime.now(dt.UTC) + dt.timedelta(seconds=FUTURE_ALLOWANCE_S)
+    now = dt.datetime.now(dt.UTC)
+    latest = now + dt.timedelta(seconds=FUTURE_ALLOWANCE_S)
     if value < EARLIEST_MEASUREMENT:
         return (f"{value.isoformat()} is before {EARLIEST_MEASUREMENT.date()}: not a time a "
                 "measurement was taken (a logger's unset clock?)")
     if value > latest:
+        # the clock itself, not the clock plus the allowance it named as the clock (an
+        # operator's pass)
         return (f"{value.isoformat()} is in the future (more than a day after the service's "
-                f"clock, {latest.replace(microsecond=0).isoformat()})")
+                f"clock, {now.replace(microsecond=0).isoformat()})")
     return None
 
 

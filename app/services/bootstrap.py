@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import errno
 import logging
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -25,7 +26,8 @@ from sim.errors import InputError
 from sim.rigs import reference_rig_document
 
 __all__ = ["LOCAL_KEY_NAME", "Preloaded", "bootstrap_lock", "ensure_first_key",
-           "ensure_reference_data", "upgrade_database"]
+           "ensure_reference_data", "require_known_revision", "store_problem",
+           "upgrade_database"]
 
 logger = logging.getLogger("hydrodiag.app")
 
@@ -95,15 +97,29 @@ def upgrade_database(engine: Engine) -> str:
         The store is at a revision this release does not know (a newer release migrated
         it), or it cannot be written (read-only file or folder), naming the store.
     """
+    require_known_revision(engine)
+    migrate.upgrade(engine)
+    _check_writable(engine)
+    return migrate.head_revision()
+
+
+def require_known_revision(engine: Engine) -> str | None:
+    """The store's revision (None: an empty store), refused where this release does not
+    know it: a newer release migrated it.  ``db upgrade`` and ``db downgrade`` printed a
+    270-line traceback for it where ``serve`` said this line (an operator's pass).
+
+    Raises
+    ------
+    InputError
+        An unknown revision, naming the store, its revision and this release's newest.
+    """
     current = migrate.current_revision(engine)
     if current is not None and current not in migrate.known_revisions():
         raise InputError(
             f"the store {_where(engine)} is at revision {current}, which this release does "
             f"not know (its newest is {migrate.head_revision()}): a newer hydrodiag migrated "
             "it; run that release, or a backup made before", field="HYDRODIAG_DATABASE_URL")
-    migrate.upgrade(engine)
-    _check_writable(engine)
-    return migrate.head_revision()
+    return current
 
 
 def _where(engine: Engine) -> str:
@@ -132,7 +148,10 @@ def store_problem(engine: Engine, exc: BaseException) -> InputError | None:
     folder that cannot be written, a damaged file; ``None`` for another error.  These gave
     49- to 461-line tracebacks without the file's name (an operator pass)."""
     where = _where(engine)
-    if isinstance(exc, PermissionError | IsADirectoryError):
+    if isinstance(exc, PermissionError | IsADirectoryError) or (
+            isinstance(exc, OSError) and exc.errno in (errno.EROFS, errno.EACCES)):
+        # a read-only file system too: its lock file gave a 50-line traceback (an
+        # operator's pass)
         return InputError(f"cannot write {exc.filename or where} ({exc.strerror}): the service "
                           "keeps its store and a lock file beside it there (HYDRODIAG_DATA_DIR, "
                           "HYDRODIAG_DATABASE_URL)", field="HYDRODIAG_DATA_DIR")

@@ -241,3 +241,44 @@ def test_a_new_store_by_url_names_the_url_variable(runner: CliRunner, tmp_path: 
     text = "".join(first.output.split())  # rich wraps a long path anywhere
     assert first.exit_code == 0 and "by-url.db" in text
     assert "(HYDRODIAG_DATABASE_URL;" in text
+
+
+def test_start_up_problems_are_one_line_and_write_nothing(tmp_path: Path) -> None:
+    """An operator's pass: a busy port was found after the store was made and the first
+    key printed (and, with several workers, named no port); a data folder that cannot be
+    made, and db upgrade/downgrade on a store from a newer release, gave 100-281 lines of
+    traceback.  Each is now one line naming what to change, with nothing written."""
+    def run(args: list[str], **env: str) -> subprocess.CompletedProcess[str]:
+        return subprocess.run([sys.executable, "-m", "app.cli", *args],
+                              env=os.environ | env, capture_output=True, text=True,
+                              check=False, timeout=120)
+
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen()
+        port = busy.getsockname()[1]
+        data = tmp_path / "busy"
+        result = run(["serve", "--host", "127.0.0.1", "--port", str(port)],
+                     HYDRODIAG_DATA_DIR=str(data), HYDRODIAG_WORKERS="2")
+    out = result.stdout + result.stderr
+    assert result.returncode == 1 and "Traceback" not in out, out
+    assert f"cannot listen on 127.0.0.1:{port}" in out and "HYDRODIAG_PORT" in out
+    assert "API key" not in out and not (data / "hydrodiag.db").exists()
+    blocked = tmp_path / "file"
+    blocked.write_text("not a folder")
+    result = run(["keys", "list"], HYDRODIAG_DATA_DIR=str(blocked / "data"))
+    out = result.stdout + result.stderr
+    assert result.returncode == 1 and "Traceback" not in out and len(out.splitlines()) < 4
+    assert "cannot make the data folder" in out and "HYDRODIAG_DATA_DIR" in out
+    # a store a newer release migrated: the line serve says, from db upgrade and downgrade
+    newer = tmp_path / "newer"
+    assert run(["db", "upgrade"], HYDRODIAG_DATA_DIR=str(newer)).returncode == 0
+    import sqlite3
+
+    with sqlite3.connect(newer / "hydrodiag.db") as db:
+        db.execute("UPDATE alembic_version SET version_num = '0099'")
+    for args in (["db", "upgrade"], ["db", "downgrade", "--revision", "0013", "--yes"]):
+        result = run(args, HYDRODIAG_DATA_DIR=str(newer))
+        out = result.stdout + result.stderr
+        assert result.returncode == 1 and "Traceback" not in out, (args, out)
+        assert "is at revision 0099, which this release does not know" in out

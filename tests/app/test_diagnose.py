@@ -258,3 +258,20 @@ def test_the_same_record_stored_twice_is_a_409_naming_the_first_and_stores_nothi
     later = record | {"measured_at": "2026-05-07T08:00:01Z"}
     assert server.client.post("/diagnose", json={"record": later},
                               headers=server.auth).status_code == 200
+
+
+def test_a_time_in_the_future_is_told_against_the_clock_itself() -> None:
+    """It named the clock plus the day's allowance as "the service's clock" (an operator's
+    pass)."""
+    import datetime as dt
+    import re
+
+    from app.schemas.common import measurement_time_problem
+
+    now = dt.datetime.now(dt.UTC)
+    problem = measurement_time_problem(now + dt.timedelta(days=3))
+    assert problem is not None and "more than a day after the service's clock" in problem
+    said = re.search(r"clock, ([^)]+)\)", problem)
+    assert said is not None
+    assert abs(dt.datetime.fromisoformat(said.group(1)) - now) < dt.timedelta(minutes=1)
+    assert measurement_time_problem(now + dt.timedelta(hours=23)) is None
