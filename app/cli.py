@@ -9,6 +9,7 @@ runs the HTTP server.
 
 from __future__ import annotations
 
+import logging
 import socket
 import sys
 from typing import Annotated
@@ -100,9 +101,14 @@ def serve(
         upgrade_database,
     )
     from app.services.throttle_estimator import ThrottleClearanceEstimator
+    from app.settings import settings_line, unknown_variables
 
     settings = _settings(host=host, port=port)
     configure_logging(settings.log_format, settings.log_level)
+    log = logging.getLogger("hydrodiag.app")
+    for name in unknown_variables():
+        log.warning("environment variable %s is no setting of hydrodiag: ignored", name)
+    log.info(settings_line(settings))
     _check_port(settings.host, settings.port)   # before anything is written
     estimator = ThrottleClearanceEstimator()
     engine = _engine(settings)

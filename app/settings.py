@@ -9,7 +9,9 @@ in-memory SQLite database that would lose every write).
 
 from __future__ import annotations
 
+import difflib
 import os
+from collections.abc import Mapping
 from functools import cached_property
 from pathlib import Path
 from typing import Literal
@@ -21,7 +23,8 @@ from sqlalchemy.exc import ArgumentError
 
 from app.limits import BATCH_RECORDS_CEILING, DEFAULT_SWEEP_POINTS, SWEEP_POINTS_CEILING
 
-__all__ = ["WEAK_PASSWORDS", "Settings", "usable_cores"]
+__all__ = ["OTHER_VARIABLES", "WEAK_PASSWORDS", "Settings", "settings_line", "unknown_variables",
+           "usable_cores"]
 
 #: Passwords that appear in tutorials and default images; refused in a database URL.
 WEAK_PASSWORDS = frozenset(
@@ -217,3 +220,40 @@ class Settings(BaseSettings):
     def is_sqlite(self) -> bool:
         """Whether the store is an SQLite file."""
         return self.url.get_backend_name() == "sqlite"
+
+
+#: ``HYDRODIAG_`` variables read elsewhere than :class:`Settings` (the compiled models'
+#: cache, the console's secret, the README's key for curl, the tests' and studies' knobs)
+OTHER_VARIABLES = frozenset(f"HYDRODIAG_{name}" for name in (
+    "CACHE_DIR", "CONSOLE_SECRET", "KEY", "CHROMIUM", "SHARED", "TEST_POSTGRES_URL",
+    "FUZZ_EXAMPLES", "SCREENSHOTS", "ACCURACY_SEED", "ACCURACY_DUMP", "LIGHT", "SEEDS",
+    "KINDS", "NOISE", "EFFECTS", "SIZES", "DWELL", "SLOW"))
+
+
+def unknown_variables(environ: Mapping[str, str] | None = None) -> list[str]:
+    """``HYDRODIAG_`` variables of ``environ`` (default the process's) that nothing reads,
+    each with the setting it may have meant: a misspelt ``HYDRODIAG_OPENREADS=true`` left
+    open reads off without a word (an operator's pass)."""
+    env = os.environ if environ is None else environ
+    known = {f"HYDRODIAG_{name.upper()}" for name in Settings.model_fields} | OTHER_VARIABLES
+    out = []
+    prefix = len("HYDRODIAG_")  # compared without it: every name shares it
+    for name in sorted(k for k in env if k.startswith("HYDRODIAG_") and k not in known):
+        close = difflib.get_close_matches(name[prefix:], sorted(k[prefix:] for k in known),
+                                          n=1, cutoff=0.6)
+        out.append(f"{name} (did you mean HYDRODIAG_{close[0]}?)" if close else name)
+    return out
+
+
+def settings_line(settings: Settings) -> str:
+    """The settings in effect that decide how the service answers, in one line for the
+    start-up log (the log said none of them: an operator's pass); the database URL
+    without its password."""
+    return (f"settings: store {settings.url.render_as_string(hide_password=True)}, host "
+            f"{settings.host}, port {settings.port}, workers {settings.workers}, open reads "
+            f"{'on' if settings.open_reads else 'off'}, rate limit "
+            f"{settings.rate_limit_per_minute or 'none'}"
+            f"{' per key and minute' if settings.rate_limit_per_minute else ''}, "
+            f"largest body {settings.max_body_bytes} B, largest upload "
+            f"{settings.max_upload_bytes} B, log {settings.log_format} at "
+            f"{settings.log_level}")

@@ -53,3 +53,21 @@ def test_serve_runs_one_worker_per_usable_core_unless_told(
     monkeypatch.setenv("HYDRODIAG_WORKERS", "3")
     assert Settings().workers == 3
     assert Settings().diagnosis_processes == 1 and Settings().diagnosis_queue == 32
+
+
+def test_a_misspelt_variable_is_named_with_the_setting_it_may_mean() -> None:
+    """``HYDRODIAG_OPENREADS=true`` left open reads off without a word, and the start-up
+    log stated no setting (an operator's pass)."""
+    from app.settings import Settings, settings_line, unknown_variables
+
+    env = {"HYDRODIAG_OPENREADS": "true", "HYDRODIAG_RATE_LIMIT": "5", "HYDRODIAG_PORT": "9",
+           "HYDRODIAG_CACHE_DIR": "/tmp", "HYDRODIAG_SEEDS": "3", "HYDRODIAG_ZZZ": "1",
+           "PATH": "/bin"}
+    assert unknown_variables(env) == [
+        "HYDRODIAG_OPENREADS (did you mean HYDRODIAG_OPEN_READS?)",
+        "HYDRODIAG_RATE_LIMIT (did you mean HYDRODIAG_RATE_LIMIT_PER_MINUTE?)",
+        "HYDRODIAG_ZZZ"]
+    line = settings_line(Settings(database_url="postgresql+psycopg://hd:S3cret-pw@db/hd",
+                                  open_reads=True, rate_limit_per_minute=60))
+    assert "open reads on" in line and "rate limit 60 per key and minute" in line
+    assert "S3cret-pw" not in line and "postgresql+psycopg://hd:***@db/hd" in line
