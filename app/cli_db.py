@@ -9,7 +9,7 @@ from typing import Annotated
 import typer
 
 from app.cli_support import console, settings_from_env, steps
-from app.db.engine import make_engine
+from app.db.engine import make_engine, private_file
 from sim.errors import InputError
 
 __all__ = ["db_cli"]
@@ -122,6 +122,8 @@ def db_backup(
     if not file.parent.is_dir():
         raise InputError(f"no folder {file.parent}", field="FILE")
     engine = make_engine(url)
+    # the backup as private as the store (it was world-readable: an operator's pass)
+    private_file(file, Path(str(url.database)).stat().st_mode & 0o666)
     try:
         with engine.connect() as connection:
             connection.exec_driver_sql("VACUUM INTO ?", (str(file),))

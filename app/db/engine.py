@@ -17,6 +17,7 @@ standard library writes ``1e-06``).
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 from typing import Any
 
@@ -28,7 +29,7 @@ from sqlalchemy.orm import Session, sessionmaker
 from sim.errors import InputError
 
 __all__ = ["SessionFactory", "dumps_json", "lift_timeouts", "loads_json", "make_engine",
-           "make_session_factory", "ping"]
+           "make_session_factory", "ping", "private_file"]
 
 SessionFactory = sessionmaker[Session]
 
@@ -82,6 +83,21 @@ def _sqlite_pragmas(dbapi_connection: Any, _record: Any) -> None:
         cursor.close()
 
 
+def private_file(path: Path, mode: int = 0o600) -> None:
+    """Create ``path`` empty with ``mode`` where it does not exist (SQLite takes an empty
+    file as a new database, and its -wal and -shm files take the database file's mode): a
+    new store, and a backup, were world-readable (key hashes and every record; an
+    operator's pass), where the console's secret beside them is 0600.  A file that exists
+    keeps the mode its operator gave it; a folder it cannot write is left to the caller's
+    error."""
+    try:
+        os.close(os.open(path, os.O_CREAT | os.O_EXCL | os.O_WRONLY, mode))
+    except FileExistsError:
+        pass
+    except OSError:
+        return
+
+
 def make_engine(url: URL, *, lock_timeout_s: float | None = None) -> Engine:
     """Create the engine for ``url``.
 
@@ -109,6 +125,7 @@ def make_engine(url: URL, *, lock_timeout_s: float | None = None) -> Engine:
                 raise InputError(f"cannot make the data folder {folder} ({exc.strerror}): "
                                  "set HYDRODIAG_DATA_DIR to a folder this user can write",
                                  field="HYDRODIAG_DATA_DIR") from None
+            private_file(Path(url.database))
         engine = create_engine(url, connect_args={"check_same_thread": False},
                                pool_size=SQLITE_POOL_SIZE, max_overflow=SQLITE_POOL_OVERFLOW,
                                json_serializer=dumps_json, json_deserializer=loads_json)

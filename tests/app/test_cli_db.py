@@ -69,3 +69,23 @@ def test_a_backup_is_a_whole_copy_made_while_another_connection_writes(
     engine.dispose()
     again = runner.invoke(cli, ["db", "backup", str(copy)])   # never over a file
     assert isinstance(again.exception, InputError) and again.exception.field == "FILE"
+
+
+def test_a_new_store_and_its_backup_are_readable_by_their_owner_only(
+        runner: CliRunner, tmp_path: Path) -> None:
+    """The store (key hashes, every record) and its backups were created world-readable,
+    the console's secret beside them 0600 (an operator's pass); a store whose operator set
+    its mode keeps it, and its backup takes it."""
+    import stat
+
+    assert runner.invoke(cli, ["db", "upgrade"]).exit_code == 0
+    store = Path(str(Settings().url.database))
+    assert stat.S_IMODE(store.stat().st_mode) == 0o600
+    backup = tmp_path / "backup.db"
+    assert runner.invoke(cli, ["db", "backup", str(backup)]).exit_code == 0
+    assert stat.S_IMODE(backup.stat().st_mode) == 0o600
+    store.chmod(0o640)                                     # a backup agent's group may read
+    shared = tmp_path / "shared.db"
+    assert runner.invoke(cli, ["db", "backup", str(shared)]).exit_code == 0
+    assert stat.S_IMODE(shared.stat().st_mode) == 0o640
+    assert stat.S_IMODE(store.stat().st_mode) == 0o640      # left as its operator set it
