@@ -55,8 +55,8 @@ def _engine(settings: Settings) -> Engine:
     return make_engine(settings.url)
 
 
-def _migrated_engine() -> Engine:
-    return migrated_engine()
+def _migrated_engine(*, existing: bool = False) -> Engine:
+    return migrated_engine(existing=existing)
 
 
 def _steps() -> Progress:
@@ -185,7 +185,7 @@ def keys_list() -> None:
     """List the keys (names, prefixes and scopes; the keys themselves are not stored)."""
     from app.services.keys import list_api_keys
 
-    engine = _migrated_engine()
+    engine = _migrated_engine(existing=True)   # a listing makes no store
     table = Table("id", "name", "prefix", "scope", "created", "revoked")
     with make_session_factory(engine)() as session:
         for row in list_api_keys(session):

@@ -82,7 +82,7 @@ def list_all() -> None:
     """List the stored rigs with their latest version."""
     from app.services.rigs import list_rigs
 
-    with store_session() as session:
+    with store_session(existing=True) as session:
         rows, total = list_rigs(session, limit=10_000, offset=0)
         table = Table(title=f"{total} rigs")
         for column in ("id", "name", "version", "circuit"):
@@ -106,7 +106,7 @@ def show(
     read back."""
     from app.services.rigs import get_rig, get_version, latest_version
 
-    with store_session() as session:
+    with store_session(existing=True) as session:
         row = (latest_version(session, get_rig(session, rig_id)) if version is None
                else get_version(session, rig_id, version))
         doc = dict(row.document)

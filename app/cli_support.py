@@ -52,14 +52,22 @@ def settings_from_env(**overrides: object) -> Settings:
         raise typer.Exit(code=2) from None
 
 
-def migrated_engine() -> Engine:
-    """Engine of the configured store, migrated to the newest revision first."""
+def migrated_engine(*, existing: bool = False) -> Engine:
+    """Engine of the configured store, migrated to the newest revision first; with
+    ``existing`` (a command that only reads) a missing SQLite store is refused, not made
+    empty: ``jobs list`` run from the wrong folder made one and exited 0, and a ``db
+    backup`` there then "succeeded" on it (an operator's pass)."""
     from sqlalchemy.exc import DatabaseError
 
     from app.services.bootstrap import bootstrap_lock, store_problem, upgrade_database
 
     settings = settings_from_env()
     url = settings.url
+    if existing:
+        from app.db.copy import existing_store
+
+        existing_store(url, field="HYDRODIAG_DATA_DIR" if settings.database_url is None
+                       else "HYDRODIAG_DATABASE_URL")
     fresh = (url.get_backend_name() == "sqlite" and url.database is not None
              and not Path(url.database).exists())
     engine = make_engine(url)
@@ -83,13 +91,14 @@ def migrated_engine() -> Engine:
 
 
 @contextmanager
-def store_session() -> Iterator[Session]:
+def store_session(*, existing: bool = False) -> Iterator[Session]:
     """A session of the configured store, migrated and with the reference rig and tables
-    preloaded as ``serve`` does; the engine is disposed after."""
+    preloaded as ``serve`` does; the engine is disposed after.  ``existing``: a command
+    that only reads refuses a missing store (:func:`migrated_engine`)."""
     from app.services.bootstrap import bootstrap_lock, ensure_reference_data
     from app.services.throttle_estimator import ThrottleClearanceEstimator
 
-    engine = migrated_engine()
+    engine = migrated_engine(existing=existing)
     try:
         with make_session_factory(engine)() as session:
             with bootstrap_lock(engine):

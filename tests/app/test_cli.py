@@ -223,7 +223,15 @@ def test_the_uvicorn_factory_starts_on_a_fresh_folder(tmp_path: Path) -> None:
 def test_a_command_that_makes_a_new_store_says_so(runner: CliRunner, tmp_path: Path) -> None:
     # an operator pass: run from another folder, 'keys create' made a key in a new, empty
     # ./data store that no running service used, and said nothing
-    first = runner.invoke(cli, ["keys", "list"])
+    # a command that only reads makes none: it says where it looked (jobs list made an
+    # empty store and exited 0, and a db backup there "succeeded": an operator's pass)
+    for args in (["keys", "list"], ["jobs", "list"], ["rigs", "list"], ["rigs", "show", "1"]):
+        looked = runner.invoke(cli, args)
+        assert looked.exit_code != 0, args
+        assert getattr(looked.exception, "field", None) == "HYDRODIAG_DATA_DIR", args
+        assert "no store at" in looked.exception.message  # type: ignore[union-attr]
+    assert not (tmp_path / "data").exists()
+    first = runner.invoke(cli, ["keys", "create", "--name", "here", "--scope", "read"])
     assert first.exit_code == 0 and "a new, empty store was made at" in first.output
     assert str(tmp_path) in first.output.replace("\n", "")
     again = runner.invoke(cli, ["keys", "list"])
@@ -237,7 +245,7 @@ def test_a_new_store_by_url_names_the_url_variable(runner: CliRunner, tmp_path: 
     """The store came from HYDRODIAG_DATABASE_URL: the note named HYDRODIAG_DATA_DIR (a
     user pass)."""
     monkeypatch.setenv("HYDRODIAG_DATABASE_URL", f"sqlite:///{tmp_path / 'by-url.db'}")
-    first = runner.invoke(cli, ["keys", "list"])
+    first = runner.invoke(cli, ["keys", "create", "--name", "here", "--scope", "read"])
     text = "".join(first.output.split())  # rich wraps a long path anywhere
     assert first.exit_code == 0 and "by-url.db" in text
     assert "(HYDRODIAG_DATABASE_URL;" in text
@@ -266,7 +274,8 @@ def test_start_up_problems_are_one_line_and_write_nothing(tmp_path: Path) -> Non
     assert "API key" not in out and not (data / "hydrodiag.db").exists()
     blocked = tmp_path / "file"
     blocked.write_text("not a folder")
-    result = run(["keys", "list"], HYDRODIAG_DATA_DIR=str(blocked / "data"))
+    result = run(["keys", "create", "--name", "x", "--scope", "read"],
+                 HYDRODIAG_DATA_DIR=str(blocked / "data"))
     out = result.stdout + result.stderr
     assert result.returncode == 1 and "Traceback" not in out and len(out.splitlines()) < 4
     assert "cannot make the data folder" in out and "HYDRODIAG_DATA_DIR" in out
