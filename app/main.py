@@ -179,7 +179,8 @@ def create_app(
         with sessions() as session:
             interrupted = fail_interrupted_jobs(session)
         if interrupted:
-            logger.warning("%d job(s) of an earlier run marked failed", interrupted)
+            logger.warning("%d job(s) of an earlier run marked failed (cancelled, those asked "
+                           "to stop)", interrupted)
         app.state.jobs = JobRunner(sessions, workers=settings.job_workers)
         loop, pool = asyncio.get_running_loop(), app.state.diagnosis_pool
 

@@ -341,12 +341,39 @@ def list_jobs(
     return paginate(session, statement, limit=limit, offset=offset)
 
 
+def _dead_owners(session: Session) -> list[str]:
+    """Owners of unfinished jobs that were processes of this host and are gone (an owner is
+    ``host:pid:tag``): after a ``kill -9`` their jobs read "running" for the lease's
+    minute, and a cancel of one said "asked to stop" though nothing ran it (an operator's
+    pass).  A pid that is alive keeps its lease (another service's, one of this service's
+    processes — several apps share a process in the tests — or reused)."""
+    host = socket.gethostname()[:32]
+    owners = session.scalars(select(Job.owner).distinct().where(
+        Job.status.in_(("queued", "running")), Job.owner.like(f"{host}:%"))).all()
+    dead = []
+    for owner in owners:
+        try:
+            pid = int(str(owner).split(":")[1])
+        except (IndexError, ValueError):
+            continue
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            dead.append(str(owner))
+        except PermissionError:  # alive, another user's
+            continue
+    return dead
+
+
 def fail_interrupted_jobs(session: Session) -> int:
     """Mark jobs left queued or running by a stopped process as failed (those asked to
     stop as cancelled): those whose lease ran out, or that have none (stored before
     revision 0009); return how many.  A job another live process runs keeps its lease."""
     now = utcnow()
     lapsed = or_(Job.lease_until.is_(None), Job.lease_until < now)
+    dead = _dead_owners(session)
+    if dead:  # this host's processes that are gone: their leases need not run out first
+        lapsed = or_(lapsed, Job.owner.in_(dead))
     cancelled = session.execute(
         update(Job)
         .where(Job.status == "running", Job.cancel_requested_at.is_not(None), lapsed)
@@ -361,7 +388,7 @@ def fail_interrupted_jobs(session: Session) -> int:
             updated_at=now,
             error={"type": "ServiceUnavailableError",
                    "message": "the process running the job stopped before it finished "
-                              "(its lease ran out); submit it again",
+                              "(it is gone, or its lease ran out); submit it again",
                    "field": None},
         )
     )

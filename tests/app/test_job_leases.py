@@ -134,3 +134,37 @@ def test_a_stopping_service_fails_its_queued_jobs_and_the_ones_that_outlast_the_
     assert cut.error is not None and "while this job ran" in cut.error["message"]
     assert cut.cancel_requested_at is not None   # it stops at its next progress report
     stop.set()
+
+
+def test_jobs_of_a_process_of_this_host_that_is_gone_fail_at_once(runner: CliRunner) -> None:
+    """After a kill -9 and a restart, the killed process's jobs read "running" for their
+    lease's minute, and a cancel of one said "asked to stop" though nothing ran it (an
+    operator's pass): a process of this host that is gone holds no lease; a live one
+    (here this test's own process) keeps it, as does another host's."""
+    import os
+    import socket
+    import subprocess
+    import sys
+
+    assert runner.invoke(cli, ["db", "upgrade"]).exit_code == 0
+    sessions = make_session_factory(make_engine(Settings().url))
+    gone = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
+                          capture_output=True, text=True, check=True)
+    dead_pid = int(gone.stdout)                       # a pid that has ended
+    host = socket.gethostname()[:32]
+    later = utcnow() + timedelta(seconds=LEASE_S)
+    with sessions() as session:
+        session.add_all([
+            Job(id="orphan", kind="demo", status="running", progress=0.4, params={},
+                owner=f"{host}:{dead_pid}:aa", lease_until=later),
+            Job(id="mine", kind="demo", status="running", progress=0.4, params={},
+                owner=f"{host}:{os.getpid()}:bb", lease_until=later),
+            Job(id="elsewhere", kind="demo", status="running", progress=0.4, params={},
+                owner=f"another-host:{dead_pid}:cc", lease_until=later)])
+        session.commit()
+        assert fail_interrupted_jobs(session) == 1
+    orphan = _job(sessions, "orphan")
+    assert orphan.status == "failed" and orphan.error is not None
+    assert "it is gone" in orphan.error["message"]
+    assert _job(sessions, "mine").status == "running"
+    assert _job(sessions, "elsewhere").status == "running"
