@@ -325,6 +325,9 @@ def test_import_zema_cycles_and_a_series_file(runner: CliRunner, tmp_path: Path)
     result = runner.invoke(cli, ["import", "series", str(csv), "--rig", "1", "--name", "s"])
     assert result.exit_code == 0, result.output
     assert store_count(MeasuredSeries) == 8 and "p_pump [Pa]" in result.stdout
+    # other samples (the same ones without a start are the same measurement: refused)
+    csv.write_text("record,t [s],p_pump [bar],q_work [l/min]\na,0,152,7.9\na,1,153,7.8\n"
+                   "b,0,162,7.7\nb,0.5,163,7.6\n")
     timed = runner.invoke(cli, ["import", "series", str(csv), "--rig", "1", "--name", "t",
                                 "--started-at", "2026-11-20T08:00:00Z"])
     assert timed.exit_code == 0, timed.output
@@ -381,7 +384,12 @@ def test_a_loggers_folder_of_compressed_files_is_imported_together(
                                .order_by(MeasuredSeries.id)).all()
         assert [r.record for r in rows] == [p.name.removesuffix(".gz") for p in paths]
         assert all(r.n_samples == 400 and r.sample_rate == pytest.approx(250.0) for r in rows)
-    # each file's start as the logger wrote it into the name (the data set's local time)
+    # each file's start as the logger wrote it into the name (the data set's local time);
+    # the same samples stored without a start are the same measurement: deleted first
+    with store_session() as session:
+        for row in rows:
+            session.delete(session.get(MeasuredSeries, row.id))
+        session.commit()
     timed = runner.invoke(cli, [*args[:7], "vtnsi-timed", *args[8:], "--time-in-name",
                                 "%m-%d-%Y-%I-%M-%S %p", "--zone", "-04:00"])
     assert timed.exit_code == 0, timed.output
@@ -396,7 +404,7 @@ def test_a_loggers_folder_of_compressed_files_is_imported_together(
                          (["--time-in-name", "%Y", "--zone", "CET"], "--zone")):
         bad = runner.invoke(cli, [*args, *extra])
         assert bad.exit_code != 0 and getattr(bad.exception, "field", None) == field, extra
-    assert store_count(MeasuredSeries) == 4
+    assert store_count(MeasuredSeries) == 2
 
 
 def test_zema_plateaus_become_a_bench_table_the_workflow_reads(runner: CliRunner,
