@@ -19,7 +19,7 @@ import pytest
 from app.db.base import utcnow
 from app.errors import ServiceBusyError
 from app.schemas.diagnose import DiagnoseRequest
-from app.services.diagnosis import plan_groups
+from app.services.diagnosis import GroupPlan, plan_groups
 from app.services.diagnosis_pool import DiagnosisPool
 from app.services.diagnosis_task import TaskFailure
 from app.services.rig_cache import RigCache
@@ -120,13 +120,18 @@ def test_a_worker_without_the_rig_is_sent_its_document_once(server: LiveServer) 
         assert result.probability == pytest.approx(in_thread.probability, rel=1e-6)
 
 
+def _worn_valve_plan(server: LiveServer) -> GroupPlan:
+    """The planned group of one worn-valve record, as a pool computes it."""
+    request = DiagnoseRequest.model_validate({"record": simulated_record(server, WORN_VALVE)})
+    with server.session() as session:
+        (plan,) = plan_groups(session, RigCache(2), request, utcnow())
+    return plan
+
+
 def test_a_process_killed_while_it_starts_is_replaced(server: LiveServer) -> None:
     # killed before it said ready (out of memory while warming): its pipe's EOF made every
     # later /diagnose a 500, for ever, with /ready at 200 (an operator pass)
-    body = {"record": simulated_record(server, WORN_VALVE)}
-    request = DiagnoseRequest.model_validate(body)
-    with server.session() as session:
-        (plan,) = plan_groups(session, RigCache(2), request, utcnow())
+    plan = _worn_valve_plan(server)
     restarts: list[int] = []
     pool = DiagnosisPool(1, on_restart=lambda: restarts.append(1))
     try:
@@ -236,10 +241,7 @@ def test_a_stopped_worker_is_logged_without_the_id_of_the_request_that_woke_the_
     line "a diagnosis process stopped" named that request's id, minutes later."""
     from app.logs import _current, current_request_id
 
-    body = {"record": simulated_record(server, WORN_VALVE)}
-    request = DiagnoseRequest.model_validate(body)
-    with server.session() as session:
-        (plan,) = plan_groups(session, RigCache(2), request, utcnow())
+    plan = _worn_valve_plan(server)
     pool = DiagnosisPool(1)
     seen: list[str | None] = []
 
@@ -280,10 +282,7 @@ def test_a_process_that_died_idle_before_the_loop_watched_it_serves_the_next_req
     elsewhere for a moment, as under the test server, lets one write through)."""
     import app.services.diagnosis_pool as pool_module
 
-    body = {"record": simulated_record(server, WORN_VALVE)}
-    request = DiagnoseRequest.model_validate(body)
-    with server.session() as session:
-        (plan,) = plan_groups(session, RigCache(2), request, utcnow())
+    plan = _worn_valve_plan(server)
     restarts: list[int] = []
     pool = DiagnosisPool(1, on_restart=lambda: restarts.append(1))
     try:
