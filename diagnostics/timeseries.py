@@ -367,13 +367,6 @@ def series_from_frame(frame: pd.DataFrame, *, name: str = "table",
     elif time_col is None:
         raise InputError("no time column: name it 't [s]' (or map one to 't'), or give the "
                          "sample rate", field="t")
-    elif sample_rate is not None:
-        # a rate beside a time column was ignored without a word (a discrepancy pass):
-        # which of the two is the clock?
-        raise InputError(f"the file has a time column ({time_col!r}) and a sample rate was "
-                         "given too: leave the sample rate out (the times are read from the "
-                         "column), or the column, to count the samples at the rate",
-                         field="sample_rate")
     elif columns[time_col][1] != "s":
         raise InputError("the time column must be in a unit of time (s, ms, min, h)",
                          field=time_col)

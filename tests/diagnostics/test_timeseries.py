@@ -244,12 +244,3 @@ def test_a_real_loggers_tab_file_imports_through_a_column_map():
         assert set(rec.channels) == {"pg1", "pg2", "angle", "node_temperature"}
         assert rec.channel("pg2").min() >= 0.0 and rec.channel("pg2").max() <= 16383.0
 
-
-def test_a_sample_rate_beside_a_time_column_is_refused_not_ignored() -> None:
-    """``sample_rate=100`` with a file that has ``t [s]`` was accepted and ignored (a
-    discrepancy pass): which is the clock?"""
-    content = b"t [s],P1 [bar]\n0,10\n0.001,11\n"
-    assert len(read_series(content)[0]) == 2
-    with pytest.raises(InputError) as err:
-        read_series(content, sample_rate=100.0)
-    assert err.value.field == "sample_rate" and "has a time column" in err.value.message
