@@ -29,9 +29,11 @@ from app.cli_support import (
     ColumnMapOption,
     SampleRateOption,
     console,
+    estimate_text,
     reading_options,
     series_ids,
     shown_estimate,
+    shown_scale,
     steps,
     store_session,
     validation_error,
@@ -173,13 +175,11 @@ def drift_table(parameters: Sequence[BaseDrift], kept: Sequence[str]) -> Table:
     table = Table("parameter", "stored", "re-fitted", "change", "95 % interval",
                   title="base drift (reported, not stored)")
     for b in parameters:
-        lo, hi = b.interval if b.interval else (0.99 * b.value, 1.01 * b.value)
-        value, ci, unit = shown_estimate(b.value, lo, hi, b.unit)
-        factor = 1e6 if unit != b.unit else 1.0  # the stored value in the unit shown
-        table.add_row(f"{b.parameter} \\[{unit}]", f"{b.stored * factor:.4g}",
-                      value if b.interval else f"{b.value * factor:.4g}",
-                      f"{100 * b.change:+.3g} %" + ("" if b.significant else " n.s."),
-                      ci if b.interval else "—")
+        factor, unit = shown_scale(b.unit, b.stored, b.value)
+        value, ci = estimate_text(factor * b.value, *(factor * x for x in b.interval)) \
+            if b.interval else (f"{factor * b.value:.4g}", "—")
+        table.add_row(f"{b.parameter} \\[{unit}]", f"{factor * b.stored:.4g}", value,
+                      f"{100 * b.change:+.3g} %" + ("" if b.significant else " n.s."), ci)
     for k in kept:
         table.add_row(k, "", "kept as stored", "", "")
     return table

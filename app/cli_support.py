@@ -28,8 +28,8 @@ if TYPE_CHECKING:
 
 __all__ = ["ColumnMapOption", "SampleRateOption", "as_option", "console", "estimate_text",
            "load_document", "migrated_engine", "reading_options", "series_ids",
-           "settings_from_env", "shown_estimate", "steps", "store_session", "unwrap_help", "validated",
-           "validation_error", "writable"]
+           "settings_from_env", "shown_estimate", "shown_scale", "steps", "store_session",
+           "unwrap_help", "validated", "validation_error", "writable"]
 
 console = Console(stderr=True)
 
@@ -170,10 +170,17 @@ def shown_estimate(value: float, low: float, high: float, unit: str
     """:func:`estimate_text` in the unit an engineer reads, and that unit: a length below a
     centimetre (a clearance) in µm, as :func:`sim.units.quantity_text` says it in a
     sentence ("6.007e-05 (5.844e-05 … 6.174e-05) m" is "60.07 (58.44 … 61.74) µm")."""
-    if unit == "m" and 0.0 < max(abs(value), abs(low), abs(high)) < 1e-2:
-        value, low, high, unit = value * 1e6, low * 1e6, high * 1e6, "µm"
-    shown, interval = estimate_text(value, low, high)
+    factor, unit = shown_scale(unit, value, low, high)
+    shown, interval = estimate_text(factor * value, factor * low, factor * high)
     return shown, interval, unit
+
+
+def shown_scale(unit: str, *values: float) -> tuple[float, str]:
+    """(factor, unit) in which ``values`` of SI ``unit`` are shown together: lengths below
+    a centimetre (clearances) in µm, else as they are (:func:`shown_estimate`)."""
+    if unit == "m" and 0.0 < max(abs(v) for v in values) < 1e-2:
+        return 1e6, "µm"
+    return 1.0, unit
 
 
 def series_ids(text: str, *, field: str = "--series") -> list[int]:

@@ -255,11 +255,11 @@ def logged_rate(records: Sequence[SeriesRecord]) -> float:
     return 1.0 / max(steps) if steps and max(steps) > 0 else math.inf
 
 
-def sparse_note(selections: Sequence[Selection], gaps: Sequence[GapRow],
-                sigma: Mapping[str, float], rate: float) -> str:
-    """Why the balances with structure are not judged alone at ``rate`` [Hz] (below
-    :data:`BALANCE_MIN_RATE`, while no held-out output of ``gaps`` is off), or ''."""
-    left = [s.balance for s in selections if structured(s)]
+def sparse_note(left: Sequence[str], gaps: Sequence[GapRow], sigma: Mapping[str, float],
+                rate: float) -> str:
+    """Why the balances with structure ``left`` (:func:`structured`) are not judged alone
+    at ``rate`` [Hz] (below :data:`BALANCE_MIN_RATE`, while no held-out output of ``gaps``
+    is off), or ''."""
     if rate >= BALANCE_MIN_RATE or not left or _off(gaps, sigma):
         return ""
     return (f"; the balance(s) {', '.join(left)} read above their practical size, but the "
@@ -303,10 +303,10 @@ def verdict(named: Sequence[str], selections: list[Selection], before: list[GapR
     # output-error gap on the held-out record, steady motion, in units of the noise
     off = _off(before, sigma)
     # with an effect named, what is left is judged on the held-out outputs after it
-    sparse = sparse_note(selections, after if named else before, sigma, rate)
-    outcome, message = _verdict(named, [] if sparse else [
-        s.balance for s in selections if structured(s)], off, selections, before, after,
-        sigma, drift)
+    left = [s.balance for s in selections if structured(s)]   # a Ljung-Box test each
+    sparse = sparse_note(left, after if named else before, sigma, rate)
+    outcome, message = _verdict(named, [] if sparse else left, off, selections, before, after,
+                                sigma, drift)
     return outcome, message + sparse
 
 
