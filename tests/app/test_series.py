@@ -380,3 +380,12 @@ def test_a_cycle_whose_own_values_contradict_its_units_is_stored_with_a_note(
     assert any("holds 5 sample(s), too few" in n for n in notes(frame.iloc[:5], "five"))
     coarse = notes(frame.iloc[::200], "coarse")           # 5 Hz
     assert any("sampled every 200 ms (5 Hz)" in n for n in coarse), coarse
+    # a logger dropout and a stated rate the times contradict: stored, with a note each
+    dropout = notes(frame.drop(index=range(700, 900)), "dropout")
+    assert any("1 gap(s) in its time, about 200 sample(s) missing" in n for n in dropout)
+    answer = server.client.post("/rigs/1/series", data={"name": "rate", "sample_rate": "100"},
+                                files={"file": ("rate.csv", frame.iloc[2:].to_csv(index=False),
+                                                "text/csv")}, headers=server.auth)
+    assert answer.status_code == 201, answer.text
+    assert any("the sample rate given, 100 Hz" in n and "(1000 Hz)" in n
+               for n in answer.json()["notes"]), answer.json()["notes"]
