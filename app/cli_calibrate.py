@@ -8,18 +8,17 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
-from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
-from app.cli_support import load_document, steps, store_session, validated
+from app.cli_support import WideWhenPiped, load_document, steps, store_session, validated
 from app.schemas.common import MAX_ID
 from diagnostics.plots import shown_unit
 from sim.errors import InputError
 
 __all__ = ["calibrate_cli"]
 
-_out = Console()
+_out = WideWhenPiped()
 
 calibrate_cli = typer.Typer(help="Pump parameterisation and throttle equivalence tables.",
                             no_args_is_help=True)

@@ -21,13 +21,13 @@ from typing import TYPE_CHECKING, Annotated
 
 import typer
 from pydantic import ValidationError
-from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
 from app.cli_support import (
     ColumnMapOption,
     SampleRateOption,
+    WideWhenPiped,
     console,
     estimate_text,
     reading_options,
@@ -49,7 +49,7 @@ if TYPE_CHECKING:
 __all__ = ["discover", "drift_table", "register"]
 
 #: the verdict and its tables (the result) go to stdout; progress and notes to stderr
-_out = Console()
+_out = WideWhenPiped()
 
 
 def discover(

@@ -14,12 +14,12 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
 
 import typer
-from rich.console import Console
 from rich.table import Table
 
 from app.cli_support import (
     ColumnMapOption,
     SampleRateOption,
+    WideWhenPiped,
     counted,
     reading_options,
     steps,
@@ -36,7 +36,7 @@ if TYPE_CHECKING:
 
 __all__ = ["import_cli"]
 
-_out = Console()
+_out = WideWhenPiped()
 
 import_cli = typer.Typer(help="Import measured time series as measurements of a rig.",
                          no_args_is_help=True)

@@ -16,11 +16,10 @@ import json
 from typing import TYPE_CHECKING, Annotated, Any, cast
 
 import typer
-from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
-from app.cli_support import store_session
+from app.cli_support import WideWhenPiped, store_session
 from sim.errors import InputError
 
 if TYPE_CHECKING:
@@ -28,7 +27,7 @@ if TYPE_CHECKING:
 
 __all__ = ["jobs_cli"]
 
-_out = Console()
+_out = WideWhenPiped()
 
 jobs_cli = typer.Typer(help="The service's jobs: list, show, cancel (as /jobs over HTTP).",
                        no_args_is_help=True)

@@ -21,11 +21,10 @@ from typing import TYPE_CHECKING, Annotated
 
 import typer
 from pydantic import ValidationError
-from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
-from app.cli_support import steps, store_session, validation_error
+from app.cli_support import WideWhenPiped, steps, store_session, validation_error
 from app.schemas.common import MAX_ID
 from sim.errors import InputError
 from sim.units import from_si
@@ -35,7 +34,7 @@ if TYPE_CHECKING:
 
 __all__ = ["calibrate_pump_map"]
 
-_out = Console()
+_out = WideWhenPiped()
 
 def _tables(file: Path, theta: float) -> list[tuple[float, bytes, int, int]]:
     """(setting [cm³/rev], bench CSV bytes, points, speeds) of every displacement setting."""

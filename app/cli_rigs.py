@@ -17,17 +17,16 @@ from typing import Annotated
 
 import typer
 import yaml
-from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
-from app.cli_support import load_document, steps, store_session
+from app.cli_support import WideWhenPiped, load_document, steps, store_session
 from app.schemas.common import MAX_ID
 from sim.errors import HydrodiagError, InputError
 
 __all__ = ["rigs_cli"]
 
-_out = Console()
+_out = WideWhenPiped()
 
 rigs_cli = typer.Typer(help="Rig descriptions in the store (as /rigs over HTTP).",
                        no_args_is_help=True)

@@ -14,7 +14,6 @@ from pathlib import Path
 from typing import Annotated, Any
 
 import typer
-from rich.console import Console
 from rich.markup import escape
 from rich.table import Column, Table
 
@@ -24,6 +23,7 @@ from app.cli_pump_map import calibrate_pump_map
 from app.cli_support import (
     ColumnMapOption,
     SampleRateOption,
+    WideWhenPiped,
     as_option,
     console,
     load_document,
@@ -43,7 +43,7 @@ from sim.units import unit_suffix
 
 __all__ = ["register"]
 
-_out = Console()
+_out = WideWhenPiped()
 
 
 #: simulate: the request's fields → the options that fill them

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 from pydantic import ValidationError
-from rich.console import Console
+from rich.console import Console, ConsoleDimensions
 from rich.markup import escape
 from rich.progress import BarColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 from sqlalchemy import Engine
@@ -26,12 +26,33 @@ from sim.errors import HydrodiagError, InputError
 if TYPE_CHECKING:
     from diagnostics.timeseries import ColumnEntry
 
-__all__ = ["ColumnMapOption", "SampleRateOption", "as_option", "console", "estimate_text",
+__all__ = ["PIPE_WIDTH", "ColumnMapOption", "SampleRateOption", "WideWhenPiped", "as_option",
+           "console", "estimate_text",
            "load_document", "migrated_engine", "reading_options", "series_ids",
            "settings_from_env", "shown_estimate", "shown_scale", "steps", "store_session",
            "unwrap_help", "validated", "validation_error", "writable"]
 
-console = Console(stderr=True)
+#: columns of a table or message written to a pipe or a file [characters]
+PIPE_WIDTH = 240
+
+
+class WideWhenPiped(Console):
+    """A console that lays out in the terminal's width, and in :data:`PIPE_WIDTH` columns
+    when its output is not a terminal: rich's 80-column default cut a piped ``jobs list``'s
+    status to "runn…" and wrapped each row over three lines (an operator pass)."""
+
+    @property
+    def size(self) -> ConsoleDimensions:
+        """Columns and lines of the layout [characters]."""
+        own = super().size
+        return own if self.is_terminal else ConsoleDimensions(PIPE_WIDTH, own.height)
+
+    @size.setter
+    def size(self, new_size: tuple[int, int]) -> None:
+        Console.size.fset(self, new_size)  # type: ignore[attr-defined]
+
+
+console = WideWhenPiped(stderr=True)
 
 
 def settings_from_env(**overrides: object) -> Settings:

@@ -17,15 +17,15 @@ __all__ = ["commit", "get_or_raise", "paginate", "prefixed"]
 T = TypeVar("T")
 
 
-def get_or_raise(
-    session: Session, model: type[T], ident: Any, *, what: str, field: str | None = None
-) -> T:
+def get_or_raise(session: Session, model: type[T], ident: Any, *, what: str, field: str) -> T:
     """Return the row of ``model`` with primary key ``ident``.
 
     Raises
     ------
     NotFoundError
-        No such row; the message says ``what`` was looked for.
+        No such row; the message says ``what`` was looked for, ``field`` names the
+        parameter that gave ``ident`` (every 404 names it: a second DELETE of a measurement
+        answered without one, an operator pass).
     """
     row = session.get(model, ident)
     if row is None:

@@ -222,7 +222,7 @@ class JobRunner:
             result = dict(function(params, Progress(self._sessions, job_id)))
         except JobCancelledError:
             self._set(job_id, when="running", status="cancelled", finished_at=utcnow(),
-                      error=_CANCELLED)
+                      error=_CANCELLED, message=_CANCELLED["message"])
             return
         except Exception as exc:
             if not isinstance(exc, HydrodiagError):
@@ -262,6 +262,7 @@ class JobRunner:
                 done = session.execute(
                     update(Job).where(Job.owner == self.owner, Job.status == status)
                     .values(status="failed", finished_at=now, updated_at=now, **extra,
+                            message=message[:500],
                             error={"type": "ServiceStoppedError", "message": message,
                                    "field": None}))
                 session.commit()
@@ -300,7 +301,8 @@ def cancel_job(session: Session, job_id: str) -> Job:
         now = utcnow()
         queued = session.execute(
             update(Job).where(Job.id == job_id, Job.status == "queued")
-            .values(status="cancelled", finished_at=now, updated_at=now, error=_CANCELLED))
+            .values(status="cancelled", finished_at=now, updated_at=now, error=_CANCELLED,
+                    message=_CANCELLED["message"]))
         if not getattr(queued, "rowcount", 0):
             session.execute(
                 update(Job).where(Job.id == job_id, Job.status == "running",

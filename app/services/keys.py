@@ -226,7 +226,7 @@ def count_active_keys(session: Session) -> int:
 def revoke_api_key(session: Session, key_id: int) -> ApiKey:
     """Revoke key ``key_id``; it stops working at once (a grace period ends now) and stays
     listed."""
-    row = get_or_raise(session, ApiKey, key_id, what="API key")
+    row = get_or_raise(session, ApiKey, key_id, what="API key", field="key_id")
     if not is_revoked(row):
         row.revoked_at = utcnow()
         commit(session, conflict=f"key {key_id} changed concurrently")
@@ -262,7 +262,7 @@ def rotate_api_key(session: Session, key_id: int, *,
     if not 0 <= grace_s <= MAX_GRACE_S:
         raise InputError(f"the grace period must be 0 to {MAX_GRACE_S} s, not {grace_s}",
                          field="grace")
-    old = get_or_raise(session, ApiKey, key_id, what="API key")
+    old = get_or_raise(session, ApiKey, key_id, what="API key", field="key_id")
     now = utcnow()
     if is_revoked(old, now):
         raise InputError(f"key {key_id} is revoked; create a new key instead", field="key_id")

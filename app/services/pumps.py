@@ -25,7 +25,7 @@ __all__ = [
 
 def get_pump_set(session: Session, pump_set_id: int) -> PumpSet:
     """Return pump set ``pump_set_id`` or raise :class:`~sim.errors.NotFoundError`."""
-    return get_or_raise(session, PumpSet, pump_set_id, what="pump set")
+    return get_or_raise(session, PumpSet, pump_set_id, what="pump set", field="pump_set_id")
 
 
 def list_pump_sets(

@@ -60,7 +60,7 @@ def list_measurements(session: Session, *, limit: int, offset: int, rig_id: int 
 def get_measurement(session: Session, measurement_id: int) -> Measurement:
     """Return stored record ``measurement_id`` (404 when unknown)."""
     measurement: Measurement = get_or_raise(session, Measurement, measurement_id,
-                                            what="measurement")
+                                            what="measurement", field="measurement_id")
     return measurement
 
 
@@ -127,5 +127,6 @@ def list_diagnoses(session: Session, *, limit: int, offset: int, rig_id: int | N
 
 def get_diagnosis(session: Session, diagnosis_id: int) -> Diagnosis:
     """Return stored diagnosis ``diagnosis_id`` (404 when unknown)."""
-    diagnosis: Diagnosis = get_or_raise(session, Diagnosis, diagnosis_id, what="diagnosis")
+    diagnosis: Diagnosis = get_or_raise(session, Diagnosis, diagnosis_id, what="diagnosis",
+                                        field="diagnosis_id")
     return diagnosis

@@ -44,7 +44,7 @@ def _canonical(document: Mapping[str, Any]) -> tuple[str, str, dict[str, Any]]:
     return spec.name, str(title) if title else spec.name, canonical
 
 
-def get_rig(session: Session, rig_id: int, *, field: str | None = None) -> Rig:
+def get_rig(session: Session, rig_id: int, *, field: str = "rig_id") -> Rig:
     """Return the rig ``rig_id`` or raise :class:`NotFoundError`."""
     return get_or_raise(session, Rig, rig_id, what="rig", field=field)
 

@@ -47,6 +47,9 @@ def test_jobs_are_listed_shown_and_cancelled_from_the_shell(runner: CliRunner) -
         assert by_id[queued.id]["status"] == "queued"
         table = runner.invoke(cli, ["jobs", "list", "--status", "running"])
         assert running.id in table.stdout and queued.id not in table.stdout
+        # piped, each job stays on one line with its status whole (was "runn…" in 80 columns)
+        (row,) = [line for line in table.stdout.splitlines() if running.id in line]
+        assert " running " in row and "step " in row, table.stdout
         # a queued job is cancelled at once and never starts
         gone = runner.invoke(cli, ["jobs", "cancel", queued.id])
         assert gone.exit_code == 0 and "cancelled" in gone.stdout

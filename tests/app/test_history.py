@@ -214,6 +214,7 @@ def test_a_wrong_record_is_deleted_with_every_diagnosis_made_from_it(
     assert listed["total"] == 0
     again = server.client.delete(f"/measurements/{measurement_id}", headers=server.auth)
     assert again.status_code == 404
+    assert again.json()["error"]["field"] == "measurement_id"     # every 404 names its field
     corrected = simulated_record(server, {}, rig_id=rig_id, measured_at="2026-05-01T10:00:00Z")
     stored = server.client.post("/diagnose", json={"record": corrected})
     assert stored.status_code == 200, stored.text

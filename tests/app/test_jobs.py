@@ -146,6 +146,8 @@ def test_a_running_job_stops_at_its_next_progress_report(server: LiveServer) -> 
     assert done["error"] == {"type": "JobCancelledError", "message": "cancelled on request",
                              "field": None}
     assert done["result"] is None
+    # its last stage is no longer its message (an operator read "case 3 of 10" on it)
+    assert done["message"] == "cancelled on request"
     assert done["cancel_requested_at"] <= done["finished_at"]
     # it stopped where it was: the progress stored is the last written before the cancel
     # (writes come every 1 %: 0 when the cancel came before the first)
@@ -181,7 +183,7 @@ def test_a_queued_job_is_cancelled_before_it_starts(server: LiveServer) -> None:
     body = cancelled.json()
     assert (body["status"], body["started_at"], body["cancel_requested_at"]) == (
         "cancelled", None, None)
-    assert body["finished_at"] is not None
+    assert body["finished_at"] is not None and body["message"] == "cancelled on request"
     release.set()
     for b in blockers:
         assert _wait_for(server, b.id, {"succeeded", "failed"})["status"] == "succeeded"
