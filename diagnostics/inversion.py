@@ -292,13 +292,16 @@ def _speed(record: MeasurementRecord, geometry: LeakageGeometry) -> Quantity:
 
 
 def cylinder_clearance(record: MeasurementRecord, geometry: LeakageGeometry, *,
-                       fluid: Fluid | None = None, method: Method = "auto",
+                       fluid: Fluid, method: Method = "auto",
                        n: int = 20_000, rng: np.random.Generator | None = None) -> Estimate:
     """Equivalent piston clearance ``cc`` [m] from a working-phase record (paper 002 §2.7).
 
     Needs ``flow_C``, ``p1``, ``p2``, the working speed (stated, or stroke/duration) and the
     oil temperature.  ``derived`` holds the bypass flow ``Q_lc`` [m³/s], ``dp`` [Pa], ``mu``
     [Pa·s] and the least-leakage clearance ``c_star`` [m] (see :func:`leakage_root`).
+    ``fluid`` is the rig's oil (:meth:`sim.rigs.schema.RigSpec.fluid_model`); it has no
+    default, since the clearance scales with μ^(1/3) and another oil's μ is another rig's
+    clearance.
 
     Raises
     ------
@@ -306,21 +309,20 @@ def cylinder_clearance(record: MeasurementRecord, geometry: LeakageGeometry, *,
         A needed field is missing; P1 ≤ P2; or the bypass lies below the law's minimum by
         more than ``CONSISTENCY_K`` standard uncertainties.
     """
-    fl = Fluid() if fluid is None else fluid
     inputs = {"flow_C": _require(record, "flow_C"), "speed_work": _speed(record, geometry),
               "p1": _require(record, "p1"), "p2": _require(record, "p2"),
               "oil_temperature": record.condition.oil_temperature}
     a_unit, b_unit = piston_law_coefficients(geometry.bore, geometry.Lc)
 
     def model(x: Mapping[str, FloatArray]) -> FloatArray:
-        mu = dynamic_viscosity(fl, x["oil_temperature"])
+        mu = dynamic_viscosity(fluid, x["oil_temperature"])
         q = x["flow_C"] - geometry.A2 * x["speed_work"]
         return leakage_root(a_unit * (x["p1"] - x["p2"]) / mu, b_unit * x["speed_work"], q)
 
     v, dp = inputs["speed_work"], inputs["p1"].value - inputs["p2"].value
     if dp <= 0.0:
         raise MeasurementError("P1 must exceed P2 in the working phase", field="p1")
-    mu = fl.dynamic_viscosity(inputs["oil_temperature"].value)
+    mu = fluid.dynamic_viscosity(inputs["oil_temperature"].value)
     q = inputs["flow_C"].value - geometry.A2 * v.value
     u_q = math.hypot(inputs["flow_C"].u, geometry.A2 * v.u)
     a, b = a_unit * dp / mu, b_unit * v.value
@@ -350,16 +352,16 @@ def cylinder_clearance(record: MeasurementRecord, geometry: LeakageGeometry, *,
 
 
 def valve_clearance(record: MeasurementRecord, geometry: LeakageGeometry, *,
-                    fluid: Fluid | None = None, method: Method = "auto",
+                    fluid: Fluid, method: Method = "auto",
                     n: int = 20_000, rng: np.random.Generator | None = None) -> Estimate:
     """Equivalent spool clearance ``cv`` [m] from a working-phase record (paper 002 §2.7).
 
     Needs ``flow_B``, ``flow_C``, ``pump_pressure``, the oil temperature and, for an
     unequal-area cylinder, the working speed.  ``derived`` holds the bypass ``Q_lv``
     [m³/s], ``dp`` = P_pump − PRpv − PRvt [Pa] and ``mu`` [Pa·s].  A bypass below zero
-    within its uncertainty gives ``cv = 0`` (no detectable leak).
+    within its uncertainty gives ``cv = 0`` (no detectable leak).  ``fluid``: the rig's oil,
+    as for :func:`cylinder_clearance`.
     """
-    fl = Fluid() if fluid is None else fluid
     inputs = {"flow_B": _require(record, "flow_B"), "flow_C": _require(record, "flow_C"),
               "pump_pressure": _require(record, "pump_pressure"),
               "oil_temperature": record.condition.oil_temperature}
@@ -374,7 +376,7 @@ def valve_clearance(record: MeasurementRecord, geometry: LeakageGeometry, *,
         return np.asarray(x["flow_B"] - x["flow_C"] - area * v, dtype=np.float64)
 
     def model(x: Mapping[str, FloatArray]) -> FloatArray:
-        mu = dynamic_viscosity(fl, x["oil_temperature"])
+        mu = dynamic_viscosity(fluid, x["oil_temperature"])
         dp = x["pump_pressure"] - drop
         with np.errstate(divide="ignore", invalid="ignore"):
             c = np.cbrt(np.maximum(bypass(x), 0.0) * mu / (k_unit * dp))
@@ -399,6 +401,6 @@ def valve_clearance(record: MeasurementRecord, geometry: LeakageGeometry, *,
                     rng=rng, nonlinear=near_bound)
     if near_bound and method == "delta":
         est = _at_bound(est, model, inputs, "flow_B", u_q)
-    mu = fl.dynamic_viscosity(inputs["oil_temperature"].value)
+    mu = fluid.dynamic_viscosity(inputs["oil_temperature"].value)
     derived = {"Q_lv": q, "u_Q_lv": u_q, "dp": dp, "mu": mu}
     return replace(est, derived=derived, notes=est.notes + tuple(notes))

@@ -111,3 +111,21 @@ def test_the_interval_covers_the_truth_under_instrument_noise(rig):
         held += est.low <= cc <= est.high
     assert profiled >= 12
     assert held >= profiled - 3
+
+
+def test_the_closed_form_reads_the_rig_s_own_oil() -> None:
+    """A rig on ISO VG 32 (26 cSt at 45 °C, not VG 46's 37): the closed-form clearances of
+    a healthy, noise-free record are the document's. With VG 46's viscosity they read 14 %
+    high (30 → 34 µm on a rig author's rig), and the history and trends kept that."""
+    import copy
+
+    from sim.rigs import load_rig, reference_rig_document
+
+    doc = copy.deepcopy(reference_rig_document())
+    doc["name"] = "vg32"
+    doc["fluid"]["nu1"] = {"value": 32.0, "unit": "cSt", "source": "ISO VG 32"}
+    doc["fluid"]["nu2"] = {"value": 5.4, "unit": "cSt", "source": "ISO VG 32 data sheet"}
+    vg32 = load_rig(doc)
+    d = diagnose(vg32, [record(vg32, {}, load=4200.0, temperature=45.0)])
+    for key, name in (("cc", "cylinder.cc"), ("cv", "valve.cv")):
+        assert d.direct[key].value == pytest.approx(vg32.base[name], rel=1e-6), key

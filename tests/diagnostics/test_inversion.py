@@ -131,8 +131,8 @@ def test_spool_clearance_is_the_inverse_of_the_sim_law() -> None:
 def test_round_trip_recovers_clearances(T: float, cc: float, cv: float, v: float,
                                         dp: float) -> None:
     rec = simulated_record(cc=cc, cv=cv, T=T, v=v, p1=10e5 + dp, p2=10e5, pp=10e5 + dp + 4e5)
-    est_c = cylinder_clearance(rec, GEOM)
-    est_v = valve_clearance(rec, GEOM)
+    est_c = cylinder_clearance(rec, GEOM, fluid=FLUID)
+    est_v = valve_clearance(rec, GEOM, fluid=FLUID)
     assert est_c.value == pytest.approx(cc, rel=1e-9)
     assert est_v.value == pytest.approx(cv, rel=1e-9)
     assert est_c.low <= est_c.value <= est_c.high
@@ -143,8 +143,8 @@ def test_round_trip_with_unequal_areas_uses_the_area_flow() -> None:
     geom = replace(GEOM, A1=math.pi * GEOM.bore**2 / 4)  # single-rod cylinder, rod side 2
     rec = simulated_record(cc=90e-6, cv=40e-6, T=40.0, v=0.1, p1=13e5, p2=10e5, pp=17e5,
                            geom=geom)
-    assert valve_clearance(rec, geom).value == pytest.approx(40e-6, rel=1e-9)
-    assert cylinder_clearance(rec, geom).value == pytest.approx(90e-6, rel=1e-9)
+    assert valve_clearance(rec, geom, fluid=FLUID).value == pytest.approx(40e-6, rel=1e-9)
+    assert cylinder_clearance(rec, geom, fluid=FLUID).value == pytest.approx(90e-6, rel=1e-9)
 
 
 def test_negative_bypass_on_rising_branch_is_recovered_and_flagged() -> None:
@@ -154,7 +154,7 @@ def test_negative_bypass_on_rising_branch_is_recovered_and_flagged() -> None:
     c_star = math.sqrt(2 * FLUID.dynamic_viscosity(T) * GEOM.Lc * v / dp)
     cc = 1.3 * c_star
     rec = simulated_record(cc=cc, cv=34e-6, T=T, v=v, p1=10e5 + dp, p2=10e5, pp=15e5)
-    est = cylinder_clearance(rec, GEOM)
+    est = cylinder_clearance(rec, GEOM, fluid=FLUID)
     assert est.derived["Q_lc"] < 0.0
     assert est.derived["c_star"] == pytest.approx(c_star, rel=1e-12)
     assert est.value == pytest.approx(cc, rel=1e-9)
@@ -171,7 +171,8 @@ def test_warmer_oil_means_smaller_clearance_for_the_same_flows() -> None:
         rec = MeasurementRecord(**{**{f: getattr(base, f) for f in
                                       ("rig_id", "flow_B", "flow_C", "p1", "p2",
                                        "pump_pressure", "speed_work")}, "condition": cond})
-        values.append((cylinder_clearance(rec, GEOM).value, valve_clearance(rec, GEOM).value))
+        values.append((cylinder_clearance(rec, GEOM, fluid=FLUID).value,
+                       valve_clearance(rec, GEOM, fluid=FLUID).value))
     cc, cv = zip(*values, strict=True)
     assert cc[0] > cc[1] > cc[2] and cv[0] > cv[1] > cv[2]
     # spool law: cv ∝ μ^(1/3)
@@ -181,12 +182,12 @@ def test_warmer_oil_means_smaller_clearance_for_the_same_flows() -> None:
 
 def test_sensitivities_have_physical_signs_and_contributions_sum_to_one() -> None:
     rec = simulated_record(cc=150e-6, cv=60e-6, T=40.0, v=0.1, p1=30e5, p2=10e5, pp=35e5)
-    est = cylinder_clearance(rec, GEOM)
+    est = cylinder_clearance(rec, GEOM, fluid=FLUID)
     s = est.sensitivities
     assert s["flow_C"] > 0 and s["speed_work"] < 0 and s["p1"] < 0 and s["p2"] > 0
     assert s["oil_temperature"] < 0  # warmer oil, thinner: the same flow needs less clearance
     assert sum(est.contributions.values()) == pytest.approx(1.0)
-    val = valve_clearance(rec, GEOM)
+    val = valve_clearance(rec, GEOM, fluid=FLUID)
     assert val.sensitivities["flow_B"] > 0 and val.sensitivities["flow_C"] < 0
     # delta method for the cube root: u(cv)/cv = u(Q)/(3Q) when flows dominate
     rel_q = val.derived["u_Q_lv"] / val.derived["Q_lv"]
@@ -199,8 +200,8 @@ def test_sensitivities_have_physical_signs_and_contributions_sum_to_one() -> Non
 def test_delta_method_agrees_with_monte_carlo_where_linear() -> None:
     rec = simulated_record(cc=200e-6, cv=73e-6, T=40.0, v=0.05, p1=30e5, p2=10e5, pp=36e5)
     for invert in (cylinder_clearance, valve_clearance):
-        d = invert(rec, GEOM, method="delta")
-        m = invert(rec, GEOM, method="monte-carlo", n=40_000, rng=np.random.default_rng(3))
+        d = invert(rec, GEOM, fluid=FLUID, method="delta")
+        m = invert(rec, GEOM, fluid=FLUID, method="monte-carlo", n=40_000, rng=np.random.default_rng(3))
         assert d.value == m.value
         assert m.u == pytest.approx(d.u, rel=0.05)
         assert m.low == pytest.approx(d.low, rel=0.02)
@@ -226,7 +227,7 @@ def test_delta_intervals_cover_the_truth_about_95_percent() -> None:
         rec = simulated_record(cc=truth["cc"], cv=truth["cv"], T=40.0, v=0.05, p1=30e5, p2=10e5,
                                pp=36e5, noise=rng)
         for name, invert in (("cc", cylinder_clearance), ("cv", valve_clearance)):
-            est = invert(rec, GEOM, method="delta")
+            est = invert(rec, GEOM, fluid=FLUID, method="delta")
             hits[name] += est.low <= truth[name] <= est.high
     # ≥ 95 % nominal; rectangular inputs make ±1.96·u conservative (about 99 % for cc)
     for name in hits:
@@ -237,7 +238,7 @@ def test_auto_switches_to_monte_carlo_where_nonlinear_and_covers() -> None:
     # the nominal rig: the piston bypass is about the flowmeter's uncertainty (nonlinear)
     nominal: dict[str, Any] = dict(cc=83e-6, cv=34e-6, T=40.0, v=0.2, p1=12.5e5, p2=10e5,
                                    pp=20e5)
-    est = cylinder_clearance(simulated_record(**nominal), GEOM)
+    est = cylinder_clearance(simulated_record(**nominal), GEOM, fluid=FLUID)
     assert est.method == "monte-carlo"
     assert est.contributions  # the delta method's ranking of the sensors is kept
     # skewed: near c* (flat bottom of the law) small bypass errors move cc a lot
@@ -245,11 +246,11 @@ def test_auto_switches_to_monte_carlo_where_nonlinear_and_covers() -> None:
     rng = np.random.default_rng(6)
     hits, n = 0, 150
     for _ in range(n):
-        est = cylinder_clearance(simulated_record(**nominal, noise=rng), GEOM, n=2000, rng=rng)
+        est = cylinder_clearance(simulated_record(**nominal, noise=rng), GEOM, fluid=FLUID, n=2000, rng=rng)
         hits += est.low <= 83e-6 <= est.high
     assert 0.9 <= hits / n <= 0.99
     clear = simulated_record(cc=200e-6, cv=73e-6, T=40.0, v=0.05, p1=30e5, p2=10e5, pp=36e5)
-    assert cylinder_clearance(clear, GEOM).method == "delta"
+    assert cylinder_clearance(clear, GEOM, fluid=FLUID).method == "delta"
 
 
 # --- refused inputs --------------------------------------------------------------------------
@@ -259,31 +260,31 @@ def test_missing_fields_and_contradictions_raise_measurement_error() -> None:
     no_p1 = MeasurementRecord(rig_id="r", condition=rec.condition, flow_C=rec.flow_C,
                               p2=rec.p2, speed_work=rec.speed_work)
     with pytest.raises(MeasurementError) as err:
-        cylinder_clearance(no_p1, GEOM)
+        cylinder_clearance(no_p1, GEOM, fluid=FLUID)
     assert err.value.field == "p1"
     no_speed = MeasurementRecord(rig_id="r", condition=rec.condition, flow_C=rec.flow_C,
                                  p1=rec.p1, p2=rec.p2)
     with pytest.raises(MeasurementError) as err:
-        cylinder_clearance(no_speed, GEOM)
+        cylinder_clearance(no_speed, GEOM, fluid=FLUID)
     assert err.value.field == "speed_work"
     reversed_dp = MeasurementRecord(rig_id="r", condition=rec.condition, flow_C=rec.flow_C,
                                     p1=rec.p2, p2=rec.p1, speed_work=rec.speed_work)
     with pytest.raises(MeasurementError) as err:
-        cylinder_clearance(reversed_dp, GEOM)
+        cylinder_clearance(reversed_dp, GEOM, fluid=FLUID)
     assert err.value.field == "p1"
     assert rec.flow_C is not None and rec.flow_B is not None
     starved = MeasurementRecord(rig_id="r", condition=rec.condition,
                                 flow_C=Quantity(0.9 * rec.flow_C.value, rec.flow_C.u),
                                 p1=rec.p1, p2=rec.p2, speed_work=rec.speed_work)
     with pytest.raises(MeasurementError) as err:
-        cylinder_clearance(starved, GEOM)
+        cylinder_clearance(starved, GEOM, fluid=FLUID)
     assert err.value.field == "flow_C"
     negative_valve = MeasurementRecord(rig_id="r", condition=rec.condition,
                                        flow_B=Quantity(0.9 * rec.flow_C.value, 1e-7),
                                        flow_C=Quantity(rec.flow_C.value, 1e-7),
                                        pump_pressure=rec.pump_pressure)
     with pytest.raises(MeasurementError) as err:
-        valve_clearance(negative_valve, GEOM)
+        valve_clearance(negative_valve, GEOM, fluid=FLUID)
     assert err.value.field == "flow_C"
 
 
@@ -297,16 +298,16 @@ def test_a_bypass_within_noise_of_zero_has_an_upper_bound_even_by_the_delta_meth
     flow_b = clean.flow_B
     assert flow_b is not None
     rec = replace(clean, flow_B=Quantity(flow_b.value - 0.25 * u_q, flow_b.u))
-    est = valve_clearance(rec, GEOM, method="delta")
+    est = valve_clearance(rec, GEOM, fluid=FLUID, method="delta")
     assert est.value == 0.0 and est.low == 0.0
     mu = FLUID.dynamic_viscosity(40.0)
     dp = 16.5e5 - GEOM.PRpv - GEOM.PRvt
     q_hi = (1.96 - 0.25) * u_q  # the bypass's upper bound, its own uncertainty dominating
     assert est.high == pytest.approx(spool_clearance(q_hi, dp, GEOM.Dv, GEOM.Ls, mu), rel=0.15)
-    again = valve_clearance(rec, GEOM, method="delta")
+    again = valve_clearance(rec, GEOM, fluid=FLUID, method="delta")
     assert (again.low, again.high) == (est.low, est.high)
     # away from the bound the delta method is kept
-    assert valve_clearance(clean_with(cv=40e-6), GEOM, method="delta").method == "delta"
+    assert valve_clearance(clean_with(cv=40e-6), GEOM, fluid=FLUID, method="delta").method == "delta"
 
 
 def clean_with(*, cv: float) -> MeasurementRecord:
