@@ -108,7 +108,8 @@ def calibrate_pump(
 def calibrate_throttle(
     file: Annotated[str, typer.Argument(help="Table: the body of POST /rigs/{id}/calibrations.")],
     rig_id: Annotated[int, typer.Option("--rig", min=1, max=MAX_ID,
-                                        help="Rig id in the store.")] = 1,
+                                        help="Rig id in the store (required: a table stored "
+                                             "on another rig's geometry is wrong).")],
 ) -> None:
     """Store a throttle equivalence table; clearances not given are computed from the flows."""
     from app.schemas.calibrations import CalibrationCreate
@@ -125,8 +126,8 @@ def calibrate_throttle(
     # flows and clearances as the store keeps them (SI) and as a technician reads them
     table = Table("opening \\[turn]", "bypass flow \\[m³/s]", "\\[l/min]", "clearance \\[m]",
                   "\\[µm]", "origin",
-                  title=f"calibration {calibration.id}: throttle {calibration.throttle}, "
-                  f"{calibration.component}")
+                  title=f"calibration {calibration.id} of rig {rig_id}: throttle "
+                  f"{calibration.throttle}, {calibration.component}")
     for opening, flow, clearance, origin in rows:
         table.add_row(f"{opening:g}", f"{flow:.4g}", f"{flow * 6e4:.4g}",
                       "—" if clearance is None else f"{clearance:.4g}",

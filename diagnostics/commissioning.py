@@ -61,6 +61,20 @@ COMMISSIONED: dict[str, str] = {
     "pump.Rlp": "internal leakage resistance of the pump",
 }
 
+#: which records separate a parameter from the others: the friction Fu + Kf·v only through
+#: the piston's speed, the open paths' Δp ∝ Q²/K² through the flow (both set by the pump's
+#: speed, not by the load or the oil: "other loads and oil temperatures" was advised for
+#: Fu and Kf, a rig author's pass); the leaks, ∝ Δp/μ (paper 002 eqs. 19, 29), through
+#: the load and the oil temperature
+HELPS: dict[str, str] = {
+    "cylinder.Fu": "at other pump speeds (friction Fu + Kf·v separates through the piston "
+                   "speed only)",
+    "cylinder.Kf": "at other pump speeds (friction Fu + Kf·v separates through the piston "
+                   "speed only)",
+    "valve.K": "at other pump speeds (the open paths' pressure drop grows with the flow)",
+}
+HELPS_LEAK = "at other loads and oil temperatures (the leaks grow with Δp/μ)"
+
 #: prior standard deviation of ln(θ/θ₀) [-]: how far an unmeasured value may be off
 #: (0.5 ≈ a factor 1.65 at 1 σ: values chosen or read from damaged figures)
 PRIOR_SD: dict[str, float] = {"cylinder.Lc": 0.5, "valve.Ls": 0.5, "valve.K": 0.7,
@@ -320,7 +334,7 @@ def commission(rig: Rig, records: Sequence[MeasurementRecord],
             statements.append(
                 f"{n} ({COMMISSIONED[n]}): not pinned down by these records — its uncertainty "
                 f"shrank only from ±{s[j]:.2f} to ±{sd[j]:.2f} in ln θ; {why}. The document's "
-                "value is kept; records at other loads and oil temperatures"
+                f"value is kept; records {HELPS.get(n, HELPS_LEAK)}"
                 + ("" if metered else ", or with the flow meters,") + " would help")
     chi2 = float(r @ r)
     # degrees of freedom: the readings less the parameters the records determine, each

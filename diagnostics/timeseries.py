@@ -59,7 +59,7 @@ import pandas as pd
 
 from diagnostics.table_files import MAX_DECOMPRESSED_BYTES, PARQUET_METADATA_KEY, read_table
 from sim.errors import InputError
-from sim.units import UNITS
+from sim.units import UNITS, spelled
 
 __all__ = [
     "CONDITION_CHANNELS",
@@ -105,7 +105,7 @@ def si_factor(unit: str, *, column: str, expected: str | None = None) -> tuple[s
     InputError
         ``unit`` is unknown, or not of the ``expected`` dimension (``field=column``).
     """
-    u = unit.strip()
+    u = spelled(unit)
     if u == "K" and expected in (None, "degC"):
         return "degC", 1.0, -273.15
     candidates = [expected] if expected is not None else list(UNITS)

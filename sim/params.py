@@ -62,11 +62,15 @@ class Relation:
         The bound in words, for the error (``"the rod must be thinner than the bore"``).
     holds
         Whether the component's values [SI, by parameter name] keep it.
+    bound
+        A plausibility bound of the parameter alone (:func:`at_most`, :func:`at_least`),
+        checked before the relations between parameters.
     """
 
     name: str
     text: str
     holds: Callable[[Mapping[str, float]], bool]
+    bound: bool = False
 
 
 def at_most(name: str, limit: float, unit: str, what: str) -> Relation:
@@ -77,7 +81,7 @@ def at_most(name: str, limit: float, unit: str, what: str) -> Relation:
     ``/simulate`` fail with a 500 (an engineer's pass)."""
     return Relation(name, f"{name} must be at most {limit:g} {unit} ({what}; a larger value "
                     "is likely a unit slip, e.g. mm written as m)",
-                    lambda p: p[name] <= limit)
+                    lambda p: p[name] <= limit, bound=True)
 
 
 def at_least(name: str, limit: float, unit: str, what: str) -> Relation:
@@ -87,10 +91,14 @@ def at_least(name: str, limit: float, unit: str, what: str) -> Relation:
     pass)."""
     return Relation(name, f"{name} must be at least {limit:g} {unit} ({what}; a smaller "
                     "value is likely a unit slip, e.g. kPa or bar written as Pa)",
-                    lambda p: p[name] >= limit)
+                    lambda p: p[name] >= limit, bound=True)
 
 
 def broken_relation(relations: Iterable[Relation], values: Mapping[str, float]
                     ) -> Relation | None:
-    """The first of ``relations`` that ``values`` [SI, by parameter name] break, or None."""
-    return next((r for r in relations if not r.holds(values)), None)
+    """The first of ``relations`` that ``values`` [SI, by parameter name] break, or None:
+    the plausibility bounds first, so that a unit slip is named as one (a clearance of 30
+    "m" read "must be less than the bore's radius", not "likely a unit slip": a rig
+    author's pass)."""
+    ordered = sorted(relations, key=lambda r: not r.bound)
+    return next((r for r in ordered if not r.holds(values)), None)

@@ -12,7 +12,7 @@ import math
 
 from sim.errors import ParameterError
 
-__all__ = ["UNITS", "from_si", "quantity_text", "to_si", "unit_suffix"]
+__all__ = ["UNITS", "from_si", "quantity_text", "spelled", "to_si", "unit_suffix"]
 
 _RPM = 2.0 * math.pi / 60.0
 
@@ -50,6 +50,13 @@ UNITS: dict[str, dict[str, float]] = {
 }
 
 
+def spelled(unit: str) -> str:
+    """``unit`` as the tables spell it: stripped, the Greek small mu (U+03BC, what a Greek
+    keyboard or a word processor's autocorrect writes) as the micro sign (U+00B5).  "30 μm"
+    was refused with a list holding a "µm" that looks the same (a rig author's pass)."""
+    return unit.strip().replace("\u03bc", "\u00b5")
+
+
 def to_si(value: float, unit: str, expected: str, *, field: str | None = None) -> float:
     """Convert ``value`` given in ``unit`` to the canonical SI unit ``expected``.
 
@@ -77,7 +84,7 @@ def to_si(value: float, unit: str, expected: str, *, field: str | None = None) -
     table = UNITS.get(expected)
     if table is None:
         raise ParameterError(f"unknown canonical unit {expected!r}", field=field)
-    factor = table.get(unit.strip())
+    factor = table.get(spelled(unit))
     if factor is None:
         accepted = ", ".join(sorted(table))
         raise ParameterError(

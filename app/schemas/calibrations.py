@@ -81,8 +81,10 @@ _source = partial(
 _opening = partial(Field, description="Throttle opening from closed [turn]", examples=[1.5])
 _flow = partial(
     Field, description="Measured equivalent leakage at this opening: the throttle's flow plus "
-    "the component's own leak (meter C − A·ẋ for the cylinder, meter B − meter C for the "
-    "valve, paper 002 §2.7), so the closed row is the existing clearance's leak; below the "
+    "the component's own leak (meter C − A2·ẋ for the cylinder; meter B − meter C − "
+    "(A1 − A2)·ẋ for the valve, the last term the area-difference flow of an unequal-area "
+    "cylinder, zero on paper 002's; paper 002 §2.7, eqs. 10, 25-26), so the closed row is "
+    "the existing clearance's leak; below the "
     "pump's delivery [m³/s] (l/min ÷ 60,000)", examples=[5.4e-5]
 )
 _clearance = partial(

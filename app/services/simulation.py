@@ -96,6 +96,12 @@ class SimulationOutcome:
                 *condition_notes(self.condition, self.resolved.rig.values())]
 
 
+def _within(duration: float) -> str:
+    """" in 2.5 s" for a transient's phase; nothing for the steady path's stalled stroke,
+    whose duration is infinite (it read "in inf s": a rig author's pass)."""
+    return f" in {duration:.4g} s" if math.isfinite(duration) else ""
+
+
 def condition_notes(condition: Condition, values: Mapping[str, float]) -> list[str]:
     """Notes on a condition that looks like a unit slip, run as given: a load above zero
     but below a tenth of the seal's Coulomb friction ``cylinder.Fu`` [N] (paper 002 eqs.
@@ -164,14 +170,14 @@ def physics_notes(result: CycleResult) -> list[str]:
     phases = (result.working, result.return_)
     if not result.working.completed:
         notes.append(
-            f"the working stroke did not reach its end in {result.working['duration']:.4g} s "
+            f"the working stroke did not reach its end{_within(result.working['duration'])} "
             f"(creep speed {result.working['speed']:.3g} m/s): the piston stalled on a load "
             "it cannot push, or crept; its averages are the settled state (the last half of "
             "the phase), and the return stroke starts where the piston stopped, so its "
             "averages and the velocity ratio are not those of a stroke")
     if not result.return_.completed:
         notes.append(
-            f"the return stroke did not reach its end in {result.return_['duration']:.4g} s "
+            f"the return stroke did not reach its end{_within(result.return_['duration'])} "
             f"(creep speed {result.return_['speed']:.3g} m/s): the piston stalled or crept; "
             "its averages are the settled state (the last half of the phase)")
     lows: dict[str, float] = {}

@@ -206,8 +206,14 @@ def test_calibrate_pump_and_throttle(runner: CliRunner, tmp_path: Path) -> None:
         "points": [{"opening_turns": 0.0, "bypass_flow_m3s": 1.0e-5},
                    {"opening_turns": 1.0, "bypass_flow_m3s": 8.0e-5}]}))
     before = store_count(ThrottleCalibration)
-    throttle = runner.invoke(cli, ["calibrate", "throttle", str(table)])
+    # the rig is asked for: its default, rig 1, stored a user's table on the paper rig
+    # without a word (a rig author's pass)
+    unnamed = runner.invoke(cli, ["calibrate", "throttle", str(table)])
+    assert unnamed.exit_code != 0 and "--rig" in unnamed.output
+    assert store_count(ThrottleCalibration) == before
+    throttle = runner.invoke(cli, ["calibrate", "throttle", str(table), "--rig", "1"])
     assert throttle.exit_code == 0, throttle.output
+    assert "calibration" in throttle.stdout and "of rig 1" in throttle.stdout
     assert "computed" in throttle.stdout and "clearance [m]" in throttle.stdout
     # the flow in l/min beside m³/s (1e-5 m³/s = 0.6 l/min) and the clearance in µm
     assert "[l/min]" in throttle.stdout and "[µm]" in throttle.stdout
@@ -219,7 +225,7 @@ def test_calibrate_pump_and_throttle(runner: CliRunner, tmp_path: Path) -> None:
         "temperature_c": 40.0,
         "points": [{"opening_turns": 0.0, "bypass_flow_m3s": 0.52},
                    {"opening_turns": 1.0, "bypass_flow_m3s": 0.745}]}))
-    slip = runner.invoke(cli, ["calibrate", "throttle", str(table)])
+    slip = runner.invoke(cli, ["calibrate", "throttle", str(table), "--rig", "1"])
     assert slip.exit_code != 0
     assert getattr(slip.exception, "field", None) == "points[0].bypass_flow_m3s"
     assert store_count(ThrottleCalibration) == before + 1

@@ -50,7 +50,12 @@ def test_identifiable_parameters_are_recovered_within_their_intervals(seed: int)
     # records have both flow meters, so the advice does not ask for them (a user pass)
     for p in c.parameters:
         if not p.identifiable:
-            assert any(p.name in s for s in c.statements)
+            (said,) = [s for s in c.statements if s.startswith(p.name)]
+            # friction separates through the piston's speed, not the load or the oil (a
+            # rig author's pass): the advice names what would help this parameter
+            helps = "other pump speeds" if p.name in ("cylinder.Fu", "cylinder.Kf") else \
+                "other loads and oil temperatures"
+            assert helps in said, said
     assert not any("with the flow meters" in s for s in c.statements)
     assert set(c.values()) == pinned
 

@@ -166,3 +166,15 @@ def test_a_value_past_anything_built_is_refused_when_stored_and_still_read_back(
     assert exc.value.field == f"components.{key}.parameters.{name}"
     assert "unit slip" in exc.value.message
     validate_rig_document(doc)
+
+
+def test_a_clearance_in_m_for_um_is_named_a_unit_slip_before_the_geometry() -> None:
+    """``cylinder.cc = 30`` (µm typed as m) broke the geometric relation first ("less than
+    the bore's radius") and never reached the bound that names the unit slip."""
+    from sim.errors import ParameterError
+    from sim.rigs import reference_rig
+    from sim.steady import steady_cycle
+
+    with pytest.raises(ParameterError) as exc:
+        steady_cycle(reference_rig(), {"cylinder.cc": 30.0})
+    assert "likely a unit slip" in exc.value.message and exc.value.field == "overrides.cylinder.cc"
