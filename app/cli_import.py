@@ -91,6 +91,7 @@ def import_series(
 ) -> None:
     """Read time-series files and store each record, as POST /rigs/{id}/series does."""
     from app.services.series import rig_channels, store_records, upload_start
+    from diagnostics.map_notes import unmatched_map_notes
     from diagnostics.sampling import sampling_notes
     from diagnostics.timeseries import read_series
 
@@ -119,8 +120,8 @@ def import_series(
                         total=len(records), completed=0)
         rows = store_records(session, rig_id, name, records,
                              lambda done, total: progress.update(task, completed=done))
-        notes = (channels.notes(rows) + channels.time_notes(records)
-                 + sampling_notes(records, sample_rate))
+        notes = (unmatched_map_notes(cmap, records) + channels.notes(rows)
+                 + channels.time_notes(records) + sampling_notes(records, sample_rate))
     what = _shown(files[0].name) if len(files) == 1 else f"{len(files)} files"
     _summary(list(rows), f"{counted(len(rows), 'record')} of {what} stored for rig {rig_id}")
     for note in notes:

@@ -171,19 +171,56 @@ def read_table(source: str | Path | bytes | pd.DataFrame, fmt: str | None = None
         raise InputError(f"unknown format {fmt!r} (csv or parquet)", field="format")
     try:
         text = raw.decode("utf-8-sig")
-    except UnicodeDecodeError:
-        raise InputError("the CSV file is not UTF-8 text", field="file") from None
+    except UnicodeDecodeError as exc:
+        raise InputError(f"the CSV file is not UTF-8 text (byte {exc.start + 1} reads "
+                         f"{raw[exc.start:exc.start + 1]!r}: a Windows code page such as "
+                         "cp1252?); save it as UTF-8 (Excel: 'CSV UTF-8')", field="file") from None
     check_text(text, "file")
     meta, skip = _header_lines(text)
-    sep, decimal = dialect([ln.rstrip("\r\n")
-                            for ln in itertools.islice(io.StringIO(text), skip, skip + 6)])
+    lines = [ln.rstrip("\r\n") for ln in itertools.islice(io.StringIO(text), skip, skip + 7)]
+    stated = _EXCEL_SEP.match(lines[0]) if lines else None
+    if stated is not None:  # Excel's "sep=;" line (a tokenizer error: an analyst's pass)
+        skip, lines = skip + 1, lines[1:]
+    sep, decimal = dialect(lines[:6])
+    if stated is not None:
+        sep = stated.group(1)
+        decimal = "," if sep != "," and dialect(lines[:6])[1] == "," else "."
     try:
         frame = pd.read_csv(io.StringIO(text), skiprows=skip, comment=None, sep=sep,
                             decimal=decimal)
     except (pd.errors.ParserError, pd.errors.EmptyDataError) as exc:
         raise InputError(f"not a readable CSV table: {exc}", field="file") from None
     check_table(frame, "file")
-    return frame, meta, name
+    return _named_columns(frame, lines[0].split(sep) if lines else []), meta, name
+
+
+#: Excel's first line stating the separator of a CSV file
+_EXCEL_SEP = re.compile(r"^\ufeff?sep=(.)$")
+
+
+def _named_columns(frame: pd.DataFrame, header: list[str]) -> pd.DataFrame:
+    """``frame`` with its header checked as written: a name given twice refused naming it
+    and its columns (pandas read the second as ``name.1``, then refused for a unit missing
+    from brackets), a column without a name refused by its position (``Unnamed: 7``), and
+    an unnamed column that is empty throughout — a trailing delimiter on every line, as
+    loggers write — left out."""
+    names = [h.strip().strip('"') for h in header]
+    if len(names) != len(frame.columns):  # quoted separators in the header: as pandas read it
+        return frame
+    seen: dict[str, int] = {}
+    for k, h in enumerate(names):
+        if h and h in seen:
+            raise InputError(f"the header names {h!r} twice (columns {seen[h] + 1} and "
+                             f"{k + 1}): rename or remove one", field=h)
+        seen.setdefault(h, k)
+    for k, col in enumerate(list(frame.columns)):
+        if str(col).startswith("Unnamed: ") and k < len(names) and not names[k]:
+            if frame[col].isna().all():
+                frame = frame.drop(columns=col)
+                continue
+            raise InputError(f"column {k + 1} has no name in the header: give it one "
+                             "('name [unit]') or remove it", field=f"column {k + 1}")
+    return frame
 
 
 def check_table(frame: pd.DataFrame, field: str) -> None:

@@ -384,13 +384,14 @@ def series_from_frame(frame: pd.DataFrame, *, name: str = "table",
             try:
                 data = pd.to_numeric(group[raw], errors="raise").to_numpy(dtype=float)
             except (ValueError, TypeError):
-                raise InputError("a value is not a number (a column of labels? map it to "
-                                 "['record', '-'] or ['phase', '-'])", field=raw) from None
+                raise InputError(_not_numbers(group[raw]), field=raw) from None
             bad = ~np.isfinite(data)
             if bad.any():
                 row = int(np.argmax(bad))
-                raise InputError(f"NaN or infinite value in record {label!r} at its sample "
-                                 f"{row + 1} (counting from 1)", field=raw)
+                raise InputError(f"an empty cell, NaN or infinite value in record {label!r} at "
+                                 f"its sample {row + 1} (counting from 1); a logger that writes "
+                                 "its channels at different rates leaves cells empty: fill "
+                                 "them forward or resample onto one rate", field=raw)
             values[chan] = data * scale + offset
             if columns[raw][1] == "degC":
                 _check_temperature(values[chan], raw, label)
@@ -431,6 +432,18 @@ def series_from_frame(frame: pd.DataFrame, *, name: str = "table",
         records.append(SeriesRecord(label, t, values, units, phase, condition, meta, measured,
                                     start))
     return records
+
+
+def _not_numbers(column: pd.Series) -> str:
+    """Why a column that is not numbers is refused: date-times (a logger's wall clock) are
+    not a time column here, labels go to the record or phase column."""
+    stamps = pd.to_datetime(column.astype(str), errors="coerce", format="mixed")
+    if stamps.notna().all():  # "a column of labels?" was the hint (an analyst's pass)
+        return ("the column holds date-times, which are not read as time: map it to "
+                "['skip', '-'] and give the sample rate and the start (started_at), or add "
+                "a 't [s]' column of seconds")
+    return ("a value is not a number (a column of labels? map it to ['record', '-'] or "
+            "['phase', '-'])")
 
 
 #: temperatures a hydraulic rig's channels can read [°C]: beyond them the column's unit is

@@ -34,6 +34,7 @@ from app.services.rigs import get_rig, has_cycle, latest_version
 from diagnostics.consistency import RigLimits
 from diagnostics.cycle_readings import READ_CHANNELS
 from diagnostics.discrepancy.records import import_notes
+from diagnostics.map_notes import unmatched_map_notes
 from diagnostics.observations import rig_limits
 from diagnostics.sampling import sampling_notes
 from diagnostics.table_files import time_in_name as time_in_name_of
@@ -281,8 +282,8 @@ def import_series(session: Session, rig_id: int, name: str, content: bytes, *,
         except InputError as exc:
             raise InputError(exc.message, field=f"file.{exc.field}") from None
     rows = store_records(session, rig_id, name, records)
-    return rows, (channels.notes(rows) + channels.time_notes(records)
-                  + sampling_notes(records, sample_rate))
+    return rows, (unmatched_map_notes(column_map, records) + channels.notes(rows)
+                  + channels.time_notes(records) + sampling_notes(records, sample_rate))
 
 
 @dataclass(frozen=True)

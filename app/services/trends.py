@@ -29,7 +29,7 @@ from app.services.history import HistoryPoint, component_history
 from app.services.rig_cache import ResolvedRig, RigCache
 from diagnostics.slip import rig_slip_coefficient
 from diagnostics.trends import TrendSeries, forecast_threshold
-from sim.errors import InputError
+from sim.errors import CircuitError, InputError
 from sim.rigs import Rig, validate_rig_document
 from sim.units import quantity_text
 
@@ -286,6 +286,13 @@ def component_trends(
         raise InputError("max_points must be at least 2 (the first and the latest point)",
                          field="max_points")
     resolved = rigs.get(session, rig_id, rig_field="rig_id")
+    try:  # "0 distinct visit(s): a trend needs 3" on a rig that can never have one (an
+        resolved.rig.require_cycle("a trend")  # analyst's pass, 500 series stored)
+    except CircuitError as exc:
+        raise CircuitError(f"{exc.message} It has no diagnosis history to trend: its pump's "
+                           "leak per cycle is estimated from its plateaus by "
+                           "diagnostics.real.shunt (docs/real-data.md)",
+                           field=exc.field) from None
     if component is not None:
         names = [component]
     else:

@@ -39,7 +39,7 @@ from diagnostics.discrepancy.simulate import timed_switch
 from diagnostics.observations import rig_limits
 from diagnostics.time_scale import time_scale_notes
 from diagnostics.timeseries import SeriesRecord
-from sim.errors import InputError
+from sim.errors import CircuitError, InputError
 from sim.rigs.assembly import Rig
 from sim.rigs.schema import validate_rig_document
 
@@ -94,7 +94,13 @@ def first_step(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord]
                 ) -> FirstStep:
     """:class:`FirstStep` of the records, each balance with enough usable samples."""
     rig = Rig.from_spec(validate_rig_document(dict(rig_document)))
-    rig.require_cycle("the discrepancy workflow on measured cycles")
+    try:
+        rig.require_cycle("the discrepancy workflow on measured cycles")
+    except CircuitError as exc:  # the same file, once imported, is read (an analyst's pass)
+        raise CircuitError(f"{exc.message} A time series of it is read by its pump's "
+                           "plateaus once stored: import it (hydrodiag import series, POST "
+                           "/rigs/{id}/series) and run the workflow on the stored series "
+                           "(--series, series_ids)", field=exc.field) from None
     if not records:
         raise InputError("no records to analyse", field="file")
     labelled, notes = with_phases(records, rig.values()["cylinder.stroke"])

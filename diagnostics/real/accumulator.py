@@ -69,6 +69,7 @@ import numpy.typing as npt
 
 from diagnostics.real.leakage import record_plateaus
 from diagnostics.real.relaxation import settled_flow
+from diagnostics.sampling import uniform_rate
 from diagnostics.timeseries import SeriesRecord
 from sim.errors import InputError, MeasurementError
 
@@ -131,9 +132,7 @@ def step_volumes(record: SeriesRecord, *, pressure: str = "p_pump", flow: str = 
     plateau_options
         Passed to :func:`~diagnostics.real.leakage.record_plateaus`.
     """
-    rate = record.sample_rate
-    if rate is None:
-        raise InputError(f"record {record.name!r} is not uniformly sampled", field="t")
+    rate = uniform_rate(record)
     plats = record_plateaus(record, pressure=pressure, **plateau_options)
     p, q = record.channel(pressure), record.channel(flow)
     means = [(a, b, float(p[a:b].mean()), float(q[a:b].mean())) for a, b in plats]

@@ -44,6 +44,7 @@ from scipy.ndimage import uniform_filter1d
 from scipy.stats import mannwhitneyu, rankdata, spearmanr
 
 from diagnostics.real.relaxation import settled_flow
+from diagnostics.sampling import uniform_rate
 from diagnostics.timeseries import SeriesRecord
 from sim.errors import InputError, MeasurementError
 
@@ -91,9 +92,7 @@ def record_plateaus(record: SeriesRecord, *, pressure: str = "p_pump",
     InputError
         The record is not uniformly sampled, or is shorter than ``min_duration``.
     """
-    rate = record.sample_rate
-    if rate is None:
-        raise InputError(f"record {record.name!r} is not uniformly sampled", field="t")
+    rate = uniform_rate(record)
     p = record.channel(pressure)
     if record.duration < min_duration:
         raise InputError(f"record {record.name!r} is shorter than a plateau "

@@ -228,6 +228,9 @@ class ShuntEstimate:
         ``"batch"`` (the leak beyond the batch's lower group) or ``"baseline"`` [-].
     separation
         The split's separation [robust σ] without a baseline; NaN with one.
+    notes
+        What the estimate could not do: cycles a baseline does not cover (their size NaN,
+        not judged).
     """
 
     size: Arr
@@ -238,6 +241,7 @@ class ShuntEstimate:
     shunt: float
     reference: str = "batch"
     separation: float = float("nan")
+    notes: tuple[str, ...] = ()
 
 
 def shunt_estimates(records: Sequence[SeriesRecord], points: Sequence[CyclePoint], mu: Arr,
@@ -334,8 +338,20 @@ def _against_baseline(records: Sequence[SeriesRecord], points: Sequence[CyclePoi
     th = np.array([c.theta for c in points])
     q = np.array([c.flow for c in points])
     deficit = reference_flows(points, every, slope, window=window, pool=baseline.points) - q
-    leak = (np.nan_to_num(deficit, nan=-np.inf) > thr if leaking is None
-            else np.asarray(leaking, dtype=bool))
+    uncovered = ~np.isfinite(deficit)
+    notes: tuple[str, ...] = ()
+    if uncovered.any():  # read "not leaking" with a NaN size, without a word (an analyst's pass)
+        have = np.array([c.theta for c in baseline.points])
+        said = (f"{int(uncovered.sum())} of {len(points)} cycles ({th[uncovered].min():.4g} to "
+                f"{th[uncovered].max():.4g} °C) have no baseline cycle within ±{window:g} °C "
+                f"of their oil temperature (the baseline's cycles: {have.min():.4g} to "
+                f"{have.max():.4g} °C)")
+        if uncovered.all():
+            raise InputError(f"{said}: give a baseline that covers them, or read the batch "
+                             "without a baseline", field="baseline")
+        notes = (f"{said}: their size is NaN and they are not judged (leaking False there "
+                 "means not judged); a baseline that covers them judges them",)
+    leak = deficit > thr if leaking is None else np.asarray(leaking, dtype=bool)
     use = np.ones(len(points), dtype=bool) if fit_on is None else np.asarray(fit_on, dtype=bool)
     m = np.asarray(mu, dtype=np.float64)
     if shunt is not None:
@@ -343,7 +359,7 @@ def _against_baseline(records: Sequence[SeriesRecord], points: Sequence[CyclePoi
     else:  # no leaking cycle: the shunt carries nothing here
         lam = fit_shunt(deficit, p, m, th, leak & use) if leak.any() else 0.0
     size = _size(deficit, p, m, leak, lam)
-    return ShuntEstimate(size, deficit, leak, thr, slope, lam, "baseline")
+    return ShuntEstimate(size, deficit, leak, thr, slope, lam, "baseline", notes=notes)
 
 
 def fit_relaxation(records: Sequence[SeriesRecord], mu_of: Callable[[Arr], Arr], *,

@@ -33,6 +33,7 @@ from collections.abc import Sequence
 import numpy as np
 import numpy.typing as npt
 
+from diagnostics.sampling import uniform_rate
 from diagnostics.timeseries import SeriesRecord
 from sim.errors import InputError, MeasurementError
 
@@ -81,9 +82,7 @@ def step_time(record: SeriesRecord, *, channel: str = "p_pump",
         A window without samples, or no step of at least ``min_step``
         (``field=channel``).
     """
-    rate = record.sample_rate
-    if rate is None:
-        raise InputError(f"record {record.name!r} is not uniformly sampled", field="t")
+    rate = uniform_rate(record)
     p = record.channel(channel)
     sel = _select(record, during, "during")
     hi = float(p[_select(record, before, "before")].mean())

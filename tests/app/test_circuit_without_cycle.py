@@ -77,9 +77,17 @@ def test_what_needs_a_cylinder_cycle_is_a_clear_422_and_stores_nothing(
                                 headers=server.auth), "throttle")
     # measured cycles (a /simulate-format time series) for it: refused before a job starts
     cycles = b"t [s],phase,P1 [Pa],v [m/s]\n0,working,1e5,0.1\n0.001,working,1e5,0.1\n"
-    _refused(server.client.post("/discrepancy", data={"rig_id": str(rig_id)},
-                                files={"file": ("cycles.csv", cycles, "text/csv")},
-                                headers=server.auth), "the discrepancy workflow")
+    file_refused = server.client.post("/discrepancy", data={"rig_id": str(rig_id)},
+                                      files={"file": ("cycles.csv", cycles, "text/csv")},
+                                      headers=server.auth)
+    _refused(file_refused, "the discrepancy workflow")
+    # the same file, imported, is read by its plateaus: said (an analyst's pass)
+    assert "series_ids" in file_refused.json()["error"]["message"]
+    # its trends: "0 distinct visit(s): a trend needs 3" however many series it had (an
+    # analyst's pass); now why, and where its pump's leak is estimated
+    trends = server.client.get(f"/rigs/{rig_id}/trends", params={"component": "pump"})
+    _refused(trends, "a trend")
+    assert "diagnostics.real.shunt" in trends.json()["error"]["message"]
     assert server.row_counts() == before
 
 

@@ -389,3 +389,20 @@ def test_a_cycle_whose_own_values_contradict_its_units_is_stored_with_a_note(
     assert answer.status_code == 201, answer.text
     assert any("the sample rate given, 100 Hz" in n and "(1000 Hz)" in n
                for n in answer.json()["notes"]), answer.json()["notes"]
+
+
+def test_a_column_map_entry_the_file_lacks_is_named_in_a_note(server: LiveServer) -> None:
+    """A map naming 'Durchfluss' for a file without it stored the records with a note that
+    sent the analyst back to a map that was right (an analyst's pass)."""
+    content = b"Zeit;PA;PB\n0;31.5;1.25\n1;31.7;1.25\n2;31.6;1.25\n"
+    cmap = {"Zeit": ["t", "s"], "PA": ["P1", "bar"], "PB": ["P2", "bar"],
+            "Durchfluss": ["Q_meter_C", "l/min"], "Spule": ["phase", "-"]}
+    answer = server.client.post("/rigs/1/series", data={"name": "lacks",
+                                                        "column_map": json.dumps(cmap)},
+                                files={"file": ("lacks.csv", content, "text/csv")},
+                                headers=server.auth)
+    assert answer.status_code == 201, answer.text
+    (first, *_) = answer.json()["notes"]
+    assert first.startswith("the column map names 'Durchfluss' (as Q_meter_C), which the file "
+                            "does not have"), first
+    assert not any("'Spule'" in n for n in answer.json()["notes"])   # labels are not channels

@@ -40,3 +40,24 @@ def test_a_stated_rate_is_checked_against_the_times() -> None:
     assert note is not None and "100 Hz" in note and "(1000 Hz)" in note
     assert "the times were used" in note
     assert sampling_notes([r], None) == []
+
+
+def test_one_missing_sample_is_a_gap() -> None:
+    """A single dropped sample (a 2× step) was stored without a note, and the plateau reader
+    then refused the batch (an analyst's pass)."""
+    note = gap_note(record(np.delete(np.arange(60.0), 30), "Z510"))
+    assert note is not None and "1 gap(s)" in note and "about 1 sample(s) missing" in note
+    assert "after t = 29 s" in note and "refuse it" in note
+
+
+def test_a_reader_that_needs_uniform_samples_says_where_they_stop() -> None:
+    import pytest
+
+    from diagnostics.sampling import uniform_rate
+    from sim.errors import InputError
+
+    assert uniform_rate(record(np.arange(60.0))) == 1.0
+    with pytest.raises(InputError) as exc:
+        uniform_rate(record(np.delete(np.arange(60.0), 30), "Z510"))
+    assert exc.value.field == "t"
+    assert "'Z510' is not uniformly sampled: its step after t = 29 s is 2 s" in exc.value.message

@@ -114,3 +114,25 @@ def test_a_series_file_that_is_no_table_says_why(content: bytes, says: str) -> N
     with pytest.raises(InputError) as e:
         read_series(content, format="csv")
     assert e.value.field == "file" and says in e.value.message
+
+
+@pytest.mark.parametrize(("content", "field", "says"), [
+    # pandas read the second as "P1 [bar].1" and asked for its unit in brackets
+    (b"t [s],P1 [bar],P1 [bar]\n0,1,2\n1,1,2\n", "P1 [bar]", "names 'P1 [bar]' twice (columns 2 and 3)"),
+    (b"t [s],,P1 [bar]\n0,3,1\n1,3,2\n", "column 2", "column 2 has no name"),
+    ("t [s];Öl [degC]\n0;40\n".encode("cp1252"), "file", "cp1252?); save it as UTF-8"),
+])
+def test_a_header_as_written_is_named_in_the_refusal(content: bytes, field: str,
+                                                      says: str) -> None:
+    """An analyst's pass: the duplicate reported as 'P1 [bar].1' with a wrong reason, a
+    column without a name as 'Unnamed: 1', a cp1252 file as "not UTF-8" alone."""
+    with pytest.raises(InputError) as exc:
+        read_table(content)
+    assert exc.value.field == field and says in exc.value.message, exc.value.message
+
+
+def test_excels_separator_line_and_a_trailing_delimiter_are_read() -> None:
+    for content in (b"sep=;\nt [s];P1 [bar]\n0;1,5\n1;1,6\n", b"t [s];P1 [bar];\n0;1,5;\n1;1,6;\n"):
+        frame, _, _ = read_table(content)
+        assert list(frame.columns) == ["t [s]", "P1 [bar]"]
+        assert frame["P1 [bar]"].tolist() == [1.5, 1.6]

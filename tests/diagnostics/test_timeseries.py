@@ -244,3 +244,16 @@ def test_a_real_loggers_tab_file_imports_through_a_column_map():
         assert set(rec.channels) == {"pg1", "pg2", "angle", "node_temperature"}
         assert rec.channel("pg2").min() >= 0.0 and rec.channel("pg2").max() <= 16383.0
 
+
+
+def test_date_times_and_empty_cells_are_refused_with_what_to_do() -> None:
+    """An analyst's pass: a logger's wall-clock column was "a column of labels?", an empty
+    cell of a mixed-rate logger "NaN or infinite"."""
+    stamps = b"stamp;P1 [bar]\n2026-11-20 14:40:00;1\n2026-11-20 14:40:01;2\n"
+    with pytest.raises(InputError) as exc:
+        read_series(stamps, column_map={"stamp": ("t", "s")})
+    assert exc.value.field == "stamp" and "date-times" in exc.value.message
+    with pytest.raises(InputError) as exc:
+        read_series(b"t [s];P1 [bar];Q [l/min]\n0;1;\n1;2;3\n")
+    assert exc.value.field == "Q [l/min]" and "an empty cell" in exc.value.message
+    assert "fill them forward" in exc.value.message

@@ -212,6 +212,17 @@ def test_a_batch_of_one_class_is_refused_without_a_baseline_and_read_with_one() 
     assert covered.sum() >= 20 and np.isnan(mixed.size[~covered]).all()
     assert not mixed.leaking[: rest_h.size].any()
     assert np.array_equal(mixed.leaking[rest_h.size:], covered[rest_h.size:])
+    # ... and it is said (an analyst's pass: 169 of 200 cycles NaN and "not leaking", silent)
+    (note,) = mixed.notes
+    assert f"{int((~covered).sum())} of {covered.size} cycles" in note and "not judged" in note
+    # a baseline that covers none of the batch is refused, naming both ranges
+    cold = np.array([p.theta for p in pts]) < np.median([p.theta for p in pts]) - 3.0
+    with pytest.raises(InputError) as uncovered:
+        shunt_estimates([recs[i] for i in np.flatnonzero(~cold)],
+                        [pts[i] for i in np.flatnonzero(~cold)], mu[~cold],
+                        baseline=HealthyBaseline([recs[i] for i in np.flatnonzero(cold)],
+                                                 [pts[i] for i in np.flatnonzero(cold)]))
+    assert uncovered.value.field == "baseline" and "°C" in uncovered.value.message
     # leaking cycles alone, with the shunt the mixed batch found: the same sizes
     alone = read(leaking, shunt=mixed.shunt)
     np.testing.assert_array_equal(alone.leaking, mixed.leaking[rest_h.size:])
