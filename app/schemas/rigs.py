@@ -22,7 +22,8 @@ _document = partial(
     Field,
     description=(
         "Rig description document (schema hydrodiag.rig/1): components and parameters, each "
-        "value with its SI unit inside the document [-]; validated by sim.rigs"
+        "value with its unit inside the document (SI or a spelling an engineer writes: bar, "
+        "rpm, cm³/rev, µm … ; docs/rig-files.md) [-]; validated by sim.rigs"
     ),
 )
 _comment = partial(

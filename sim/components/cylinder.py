@@ -56,9 +56,9 @@ PARAMETERS: tuple[Param, ...] = (
     Param("rod2", "m", 0.030, "as rod1", "rod diameter on the chamber-2 side"),
     Param("stroke", "m", 0.5, "paper 002 §2.6 chamber capacitances (0.5 − x)", "stroke"),
     Param("V01", "m^3", 5.0e-5, "paper 002 §2.6 Cc1 = (5.0e-5 + A·x)/β (legible mantissa)",
-          "dead volume of chamber 1 (incl. its hose)"),
+          "dead volume of chamber 1 up to its port (the hose's oil is the hose's own)"),
     Param("V02", "m^3", 5.85e-5, "paper 002 §2.6 Cc2 = (5.85e-5 + A·(0.5 − x))/β",
-          "dead volume of chamber 2 (incl. its hose)"),
+          "dead volume of chamber 2 up to its port (the hose's oil is the hose's own)"),
     Param("cc", "m", 83e-6, "paper 002 Table 2 closed row / §2.6 ('8 μm' → 83 µm)",
           "radial clearance piston-bore (equivalent clearance)"),
     Param("Lc", "m", 0.01231, "chosen: calibrated so the nominal rig leaks 1.8e-5 m³/s past the "
