@@ -26,22 +26,34 @@ from app.services.measurements import to_record
 from app.services.rig_cache import RigCache
 from diagnostics.commissioning import Commissioning, commission
 from sim.errors import InputError, MeasurementError
+from sim.units import from_si, spelled
 
 __all__ = ["commission_rig", "commissioned_document"]
 
 
 def commissioned_document(document: dict[str, Any], fit: Commissioning, units: dict[str, str]
                           ) -> dict[str, Any]:
-    """A copy of ``document`` with the pinned-down parameters of ``fit`` [SI, with units]."""
+    """A copy of ``document`` with the pinned-down parameters of ``fit``, each in the unit
+    the document wrote it in (``units``: their SI units), its source saying what it was and
+    keeping the old source: a commissioned version rewrote an author's 10 mm as
+    0.01035064160016852 m and dropped "seal land" (a rig author's pass)."""
     out = copy.deepcopy(document)
     for p in fit.parameters:
         if not p.identifiable:
             continue
         role, name = p.name.split(".")
+        old = out["components"][role]["parameters"][name]
+        written = spelled(str(old.get("unit", units[p.name])))
+
+        def shown(x: float, unit: str = written, canonical: str = units[p.name]) -> float:
+            return from_si(x, unit, canonical)
+
+        said = f" ({old['source']})" if old.get("source") else ""
         out["components"][role]["parameters"][name] = {
-            "value": p.value, "unit": units[p.name],
-            "source": f"commissioned from {fit.n_records} healthy records: {p.value:.6g} "
-                      f"(95 % interval {p.low:.6g} … {p.high:.6g}), was {p.before:.6g}"}
+            "value": shown(p.value), "unit": written,
+            "source": f"commissioned from {fit.n_records} healthy records: "
+                      f"{shown(p.value):.6g} {written} (95 % interval {shown(p.low):.6g} … "
+                      f"{shown(p.high):.6g}); was {shown(p.before):.6g} {written}{said}"}
     return out
 
 

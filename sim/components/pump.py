@@ -38,7 +38,9 @@ PARAMETERS: tuple[Param, ...] = (
 #: Plausibility: displacement and speed within what pumps are built with.
 RELATIONS: tuple[Relation, ...] = (
     at_most("Vp", 1e-3, "m^3/rad", "6.3 L/rev; the largest hydrostatic pumps displace ~1 L/rev"),
-    at_most("speed", 2000.0, "rad/s", "19,000 rpm"),
+    # 1450 "rad/s" (an rpm slip, 13,846 rpm) passed 2000 rad/s (a rig author's pass)
+    at_most("speed", 1100.0, "rad/s", "10,500 rpm; the fastest hydraulic pumps, aircraft "
+            "engine-driven ones, turn ~10,000 rpm"),
 )
 
 

@@ -178,10 +178,10 @@ class Rig:
                 raise ParameterError(exc.message, field=exc.field) from None
             v[key] = float(value)
         if overrides:
-            self._check_relations(v, overrides)
-            if "pump.speed" in overrides:
+            if "pump.speed" in overrides:  # against the rig's own speed first: the sharper note
                 self._check_speed(float(overrides["pump.speed"]), self.base.get("pump.speed"),
                                   "overrides.pump.speed")
+            self._check_relations(v, overrides)
         self.check_condition(cond)
         if cond.pump_speed is not None:
             self._check_speed(cond.pump_speed, v.get("pump.speed"), "condition.pump_speed")

@@ -186,3 +186,33 @@ def test_records_that_confirm_the_document_store_no_version(server: LiveServer) 
                for p in body["parameters"] if p["identifiable"])
     assert server.row_counts() == before
     assert server.client.get(f"/rigs/{rig_id}").json()["latest_version"] == 1
+
+
+def test_a_commissioned_version_keeps_the_authors_units_and_sources() -> None:
+    """A commissioned version rewrote an author's 10 mm seal land as 0.01035064160016852 m
+    and dropped its source (a rig author's pass): the fitted value is written in the unit
+    the document used, its source says what it was and keeps the old one."""
+    import copy
+
+    from app.services.commissioning import commissioned_document
+    from diagnostics.commissioning import commission
+    from sim.rigs import load_rig, reference_rig_document
+    from tests.diagnostics.test_commissioning import healthy_records
+
+    doc = copy.deepcopy(reference_rig_document())
+    doc["components"]["cylinder"]["parameters"]["Lc"] = {
+        "value": 12.31, "unit": "mm", "source": "seal land, drawing 4711"}
+    rig = load_rig(doc)
+    fit = commission(rig, healthy_records(true_rig(), 0))
+    (lc_fit,) = [p for p in fit.parameters if p.name == "cylinder.Lc"]
+    assert lc_fit.identifiable
+    units = {}
+    for p in fit.parameters:
+        decl = rig.circuit.parameter(*p.name.split("."))
+        assert decl is not None
+        units[p.name] = decl.unit
+    out = commissioned_document(doc, fit, units)
+    lc = out["components"]["cylinder"]["parameters"]["Lc"]
+    assert lc["unit"] == "mm" and lc["value"] == pytest.approx(lc_fit.value * 1e3, rel=1e-12)
+    assert "was 12.31 mm (seal land, drawing 4711)" in lc["source"]
+    assert load_rig(out).base["cylinder.Lc"] == pytest.approx(lc_fit.value, rel=1e-12)
