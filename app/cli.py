@@ -250,6 +250,8 @@ def main() -> None:
         cli()
     except HydrodiagError as exc:
         console.print(f"[red]{type(exc).__name__}:[/red] {escape(str(exc))}")
+        for more in (exc.details or [])[1:]:  # a batch's other refused records, each
+            console.print(f"  {escape(str(more['field']))}: {escape(str(more['message']))}")
         sys.exit(1)
     except (OperationalError, InterfaceError) as exc:
         # an unreachable database or a wrong password: one line, not 500 of traceback

@@ -2,11 +2,14 @@
 
 FILE is a CSV (one record per row; ``condition.oil_temperature`` style column names nest,
 as the console's CSV upload) or JSON Lines (one record, as in ``POST /diagnose``, per
-line).  Every record is validated as the API validates it: records the API would refuse
-are all reported with their line and field (up to :data:`LISTED`), and the batch is refused
-before anything runs, or with ``--skip-invalid`` the others are diagnosed and each refused
+line), each against its own rig (``rig_id``; ``--rig`` for records that name none).
+Every record is validated as the API validates a record before its diagnosis: records it
+would refuse are all reported with their line and field (up to :data:`LISTED`), and the
+batch is refused before anything runs, or with ``--skip-invalid`` the others are diagnosed and each refused
 record gets its error line in ``--out`` (one bad logger row threw a night's batch away: a
-fleet integrator's pass).  A file that is not a readable table stays refused whole.  Then
+fleet integrator's pass); a record the diagnosis itself refuses (readings impossible on its
+rig: p1 in bar cannot push the load) gets its error line in ``--out``, in the same shape.
+A file that is not a readable table stays refused whole.  Then
 all go through
 :func:`diagnostics.batch.diagnose_many` — in this process, on a local process pool
 (``--workers N``) or on a Dask cluster (``--dask tcp://host:8786``, the executor sweeps
@@ -22,7 +25,7 @@ from collections import Counter
 from collections.abc import Sequence
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 from pydantic import ValidationError
@@ -30,9 +33,12 @@ from rich.markup import escape
 from rich.table import Table
 
 from app.cli_support import console, counted, steps, store_session, writable
-from app.schemas.common import MAX_ID
+from app.schemas.common import MAX_ID, iso_utc
 from app.schemas.record_csv import record_rows
 from sim.errors import HydrodiagError, InputError, MeasurementError
+
+if TYPE_CHECKING:
+    from diagnostics.measurement import MeasurementRecord
 
 __all__ = ["LISTED", "diagnose_batch", "read_batch", "register"]
 
@@ -103,7 +109,8 @@ def _refused(errors: Sequence[tuple[int, HydrodiagError]], total: int) -> InputE
 def diagnose_batch(
     file: Annotated[Path, typer.Argument(help="Records: CSV (a row each) or JSON Lines.")],
     rig_id: Annotated[int, typer.Option("--rig", min=1, max=MAX_ID, help="Rig id in the store "
-                                        "(for records that name none).")] = 1,
+                                        "for records that name none (each record that names "
+                                        "its rig_id is diagnosed against that rig).")] = 1,
     workers: Annotated[int, typer.Option(min=0, max=256, help="Local worker processes; 0 runs "
                                          "in this process.")] = 0,
     dask: Annotated[str | None, typer.Option(help="Dask scheduler address (tcp://host:8786)."
@@ -131,29 +138,27 @@ def diagnose_batch(
     total = len(numbered) + len(errors)
     if errors and (not skip_invalid or not numbered):
         raise _refused(errors, total)
-    numbers = [n for n, _ in numbered]
-    items = [item for _, item in numbered]
-    rig_ids = {item.rig_id for item in items}
-    if len(rig_ids) > 1:
-        raise InputError(f"one rig per batch; the file names rigs {sorted(rig_ids)}",
-                         field="rig_id")
+    # each record against its own rig: a fleet's file names many (one rig per file made an
+    # integrator split the fleet's export by rig: a fleet integrator's pass)
+    rig_ids = sorted({item.rig_id for _, item in numbered})
+    cache = RigCache(len(rig_ids))
     with store_session() as session:
-        resolved = RigCache(1).get(session, rig_ids.pop(), None)
+        resolved = {r: cache.get(session, r, None) for r in rig_ids}
     now = datetime.now(UTC)
-    records, kept = [], []
-    for n, item in zip(numbers, items, strict=True):
+    kept: dict[int, list[tuple[int, Any, MeasurementRecord]]] = {r: [] for r in rig_ids}
+    for n, item in numbered:
         try:   # the checks on the rig's physics (a pressure below vacuum, ...)
-            records.append(to_record(item, path=f"{where} {n}", rig_name=resolved.name,
-                                     measured_at=item.measured_at or now))
-            kept.append((n, item))
+            kept[item.rig_id].append((n, item, to_record(
+                item, path=f"{where} {n}", rig_name=resolved[item.rig_id].name,
+                measured_at=item.measured_at or now)))
         except MeasurementError as exc:
             inner = str(exc.field or "").removeprefix(f"{where} {n}").lstrip(".")
             errors.append((n, MeasurementError(
                 exc.message, field=f"{where} {n}" + (f": {inner}" if inner else ""))))
     errors.sort(key=lambda ne: ne[0])
-    if errors and (not skip_invalid or not records):
+    n_records = sum(len(group) for group in kept.values())
+    if errors and (not skip_invalid or not n_records):
         raise _refused(errors, total)
-    numbers, items = [n for n, _ in kept], [item for _, item in kept]
     executors = SweepExecutors(workers=workers or 1, dask_scheduler=dask) \
         if workers or dask else None
     executor = None
@@ -164,29 +169,37 @@ def diagnose_batch(
             raise InputError(f"cannot use the Dask scheduler {dask!r}: {exc}",
                              field="--dask") from None
     started = time.perf_counter()
+    answered: list[tuple[int, Any, dict[str, Any]]] = []
     try:
         with steps() as progress:
-            task = progress.add_task(f"diagnosing {counted(len(records), 'record')}",
-                                     total=len(records))
+            task = progress.add_task(f"diagnosing {counted(n_records, 'record')}",
+                                     total=n_records)
+            for rig_id_, group in ((r, g) for r, g in kept.items() if g):
+                before = len(answered)
 
-            def tick(done: int, total: int) -> None:
-                progress.update(task, completed=done)
+                def tick(done: int, total: int, before: int = before) -> None:
+                    progress.update(task, completed=before + done)
 
-            results = diagnose_many(resolved.rig, records, progress=tick, full=full,
-                                    executor=executor)
+                results = diagnose_many(resolved[rig_id_].rig, [r for _, _, r in group],
+                                        progress=tick, full=full, executor=executor)
+                answered += [(n, item, r) for (n, item, _), r
+                             in zip(group, results, strict=True)]
     finally:
         if executors is not None:
             executors.shutdown()
     elapsed = time.perf_counter() - started
+    results = [r for _, _, r in answered]
     if out is not None:
         with out.open("w", encoding="utf-8") as fh:
             # each line says which record it answers (the input's 1-based record number, as
             # the errors count them, its rig and stated time): lines joined to their inputs
             # by order alone (a fleet integrator's pass)
+            # (one shape for a failed record, refused before it ran or by the diagnosis,
+            # its field naming the line: two shapes broke a parser, a fleet integrator's pass)
             lines = [(n, {"record": n, "rig_id": item.rig_id,
                           "measured_at": None if item.measured_at is None
-                          else item.measured_at.isoformat()} | r)
-                     for n, item, r in zip(numbers, items, results, strict=True)]
+                          else iso_utc(item.measured_at)} | _lined(r, f"{where} {n}"))
+                     for n, item, r in answered]
             lines += [(n, {"record": n, "error": {
                 "type": type(e).__name__, "field": e.field, "message": e.message}})
                 for n, e in errors]
@@ -208,6 +221,16 @@ def diagnose_batch(
     console.print("not stored in the history" + (f"; results in {out}" if out is not None
                                                  else " (--out FILE keeps the results)"),
                   markup=False)
+
+
+def _lined(result: dict[str, Any], where: str) -> dict[str, Any]:
+    """``result`` with the field of its error (a diagnosis that refused the record) named
+    from its line or row, as a refusal before the run names it."""
+    error = result.get("error")
+    if not isinstance(error, dict):
+        return result
+    inner = error.get("field")
+    return result | {"error": error | {"field": where + (f": {inner}" if inner else "")}}
 
 
 def register(cli: typer.Typer) -> None:

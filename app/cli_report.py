@@ -14,7 +14,7 @@ from typing import Annotated, Any
 import typer
 
 from app.cli_support import console, store_session, writable
-from app.schemas.common import MAX_ID
+from app.schemas.common import MAX_ID, iso_utc
 from sim.errors import InputError
 
 __all__ = ["render_report", "report_cli"]
@@ -112,7 +112,7 @@ def _points_csv(trends: list[Any]) -> bytes:
                      "high_95", "probability", "diagnosis_id", "rig_version"])
     for t in trends:
         for p in t.points:
-            writer.writerow([t.component, t.quantity, t.unit, p.measured_at.isoformat(),
+            writer.writerow([t.component, t.quantity, t.unit, iso_utc(p.measured_at),
                              repr(p.value), "" if p.low is None else repr(p.low),
                              "" if p.high is None else repr(p.high),
                              "" if p.probability is None else repr(p.probability),

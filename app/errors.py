@@ -189,7 +189,7 @@ async def _hydrodiag_error(request: Request, exc: Exception) -> JSONResponse:
     if isinstance(exc, RateLimitError | ServiceBusyError):
         headers = {"Retry-After": str(exc.retry_after)}
     return error_response(status, type(exc).__name__, exc.message, exc.field, headers=headers,
-                          request=request)
+                          details=exc.details, request=request)
 
 
 def first_problem(errors: Sequence[Mapping[str, Any]]) -> InputError:

@@ -62,8 +62,9 @@ def _one(rig: Rig, record: MeasurementRecord, full: bool, method: Method | None
          ) -> dict[str, Any]:
     try:
         d = diagnose(rig, [record], method=method)
-    except HydrodiagError as exc:
-        return {"error": exc.message, "field": exc.field}
+    except HydrodiagError as exc:  # the shape of a record refused before it ran
+        return {"error": {"type": type(exc).__name__, "field": exc.field,
+                          "message": exc.message}}
     return d.to_dict() if full else summary(d)
 
 
@@ -75,7 +76,7 @@ def diagnose_chunk(document: Mapping[str, Any], records: Sequence[MeasurementRec
     -------
     list of dict
         Per record :func:`summary` (``full``: :meth:`Diagnosis.to_dict`), or
-        ``{"error": message, "field": field}``.
+        ``{"error": {"type": ..., "field": ..., "message": ...}}``.
     """
     rig = rig_of_document(document)
     return [_one(rig, r, full, method) for r in records]
@@ -129,4 +130,5 @@ def diagnose_many(rig: Rig, records: Sequence[MeasurementRecord], *,
         done += len(chunk)
         if progress is not None:
             progress(done, total)
-    return [r if r is not None else {"error": "lost", "field": None} for r in results]
+    return [r if r is not None else {"error": {"type": "HydrodiagError", "field": None,
+                                               "message": "lost"}} for r in results]

@@ -57,6 +57,10 @@ class HydrodiagError(Exception):
         (``"components.cylinder.cc"``, ``"records[2].flow_B"``).
     """
 
+    #: every problem when the error stands for several (a batch's refused records), each
+    #: ``{"field": ..., "message": ...}``, the first of them the error's own; None for one
+    details: list[dict[str, str | None]] | None = None
+
     def __init__(self, message: str, *, field: str | None = None) -> None:
         super().__init__(message)
         self.message = message

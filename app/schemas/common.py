@@ -43,6 +43,7 @@ __all__ = [
     "UntilTime",
     "UploadForm",
     "error_doc",
+    "iso_utc",
     "measurement_time_problem",
     "not_nullable",
     "reject_null",
@@ -484,3 +485,11 @@ ERROR_RESPONSES: dict[int | str, dict[str, Any]] = {
     429: error_doc("Too many requests for this API key (HYDRODIAG_RATE_LIMIT_PER_MINUTE); "
                    "see Retry-After"),
 }
+
+
+def iso_utc(moment: datetime) -> str:
+    """``moment`` in ISO 8601 as pydantic writes an aware time (UTC as ``Z``): one form on
+    every interface (the CLI's CSV and JSON Lines and the 409 messages wrote ``+00:00``
+    where HTTP wrote ``Z``, and a join on the text failed: a fleet integrator's pass)."""
+    text = moment.isoformat()
+    return text[:-6] + "Z" if text.endswith("+00:00") else text

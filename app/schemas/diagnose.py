@@ -219,7 +219,8 @@ class DiagnoseRequest(RequestModel):
     compact: bool = Field(
         default=False,
         description="Answer with each diagnosis's summary: `result` without every "
-        "hypothesis's predicted readings (about half the size; the stored result keeps them) "
+        "hypothesis's predicted readings (about a fifth smaller: 14.3 → 11.6 kB for the "
+        "README's record; the stored result keeps them) "
         "[-]",
         examples=[False],
     )

@@ -26,7 +26,9 @@ class TrendPoint(BaseModel):
     high: float | None = Field(description="Upper end of its 95 % interval [unit of the series]",
                                examples=[6.2e-5])
     probability: float | None = Field(
-        description="Probability that this component alone was at fault [1]", examples=[0.75])
+        description="Probability that this component is worn, alone or in a pair: the sum "
+        "over the hypotheses that name it (a valve at 0.82 beside valve+pump at 0.18 is 1.0) "
+        "[1]", examples=[0.75])
 
 
 class ComponentTrend(BaseModel):

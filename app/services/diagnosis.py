@@ -16,10 +16,11 @@ from __future__ import annotations
 import math
 import re
 import threading
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from datetime import UTC, datetime
-from typing import Any, Literal
+from functools import partial
+from typing import Any, Literal, TypeVar
 
 from sqlalchemy.orm import Session
 
@@ -48,7 +49,8 @@ from sim.rigs import Rig
 
 __all__ = ["DIAGNOSIS_LOCK", "STORE_CONFLICT", "UNEXPLAINED", "DiagnosisOutcome", "EstimateOut",
            "GroupPlan", "GroupResult", "add_outcomes", "compact_result", "compute_group",
-           "diagnose_request", "estimates_of", "json_ready", "outcome_of", "plan_groups",
+           "diagnose_request", "each_or_refused", "each_refused", "estimates_of", "json_ready",
+           "outcome_of", "plan_groups", "raise_refused",
            "request_error", "response_json", "response_of", "store_outcomes", "time_notes"]
 
 #: Serialises calls into ``diagnostics`` within one process (module docstring).
@@ -205,6 +207,51 @@ def _request_field(field: str | None, group: Sequence[tuple[str, object]]) -> st
     return prefixed(group[0][0], field)
 
 
+T = TypeVar("T")
+R = TypeVar("R")
+
+
+def each_refused(items: Sequence[T], work: Callable[[T], R]
+                 ) -> tuple[list[R], list[InputError]]:
+    """``work`` of every item, and the refusals (an :class:`InputError`: an invalid record,
+    one impossible on its rig) of those it refused, instead of stopping at the first."""
+    done: list[R] = []
+    refused: list[InputError] = []
+    for item in items:
+        try:
+            done.append(work(item))
+        except InputError as exc:
+            refused.append(exc)
+    return done, refused
+
+
+def _index(exc: InputError) -> int:
+    match = re.match(r"^records\[(\d+)\]", exc.field or "")
+    return int(match.group(1)) if match is not None else -1
+
+
+def raise_refused(refused: Sequence[InputError]) -> None:
+    """Nothing without refusals; else the first in request order raised, every one in its
+    ``details`` and its message saying how many: a batch named one bad record, not the
+    first, and the next only once that was fixed (a fleet integrator's pass)."""
+    if not refused:
+        return
+    ordered = sorted(refused, key=_index)
+    first = ordered[0]
+    if len(ordered) > 1:
+        first = type(first)(f"{first.message} (and {len(ordered) - 1} more refused: every one "
+                            "is in details)", field=first.field)
+        first.details = [{"field": e.field, "message": e.message} for e in ordered]
+    raise first
+
+
+def each_or_refused(items: Sequence[T], work: Callable[[T], R]) -> list[R]:
+    """:func:`each_refused`, its refusals raised together (:func:`raise_refused`)."""
+    done, refused = each_refused(items, work)
+    raise_refused(refused)
+    return done
+
+
 def _groups(request: DiagnoseRequest) -> list[list[tuple[str, MeasurementIn]]]:
     items = request.items()
     if not request.joint:
@@ -334,19 +381,20 @@ def plan_groups(session: Session, rigs: RigCache, request: DiagnoseRequest, now:
     NotFoundError, MeasurementError, InputError
         An unknown rig or version, or an invalid record (``field`` is its path).
     """
-    plans = []
-    for group in _groups(request):
-        resolved = joint_rig(session, rigs, group[0][1].rig_id,
-                             [(path, record.rig_version) for path, record in group])
-        for path, record in group:
-            if record.series_id is not None:
-                check_source(session, record.series_id, record.rig_id,
-                             field=f"{path}.series_id")
-        times = [record.measured_at or now for _, record in group]
-        records = [to_record(record, path=path, rig_name=resolved.name, measured_at=t)
-                   for (path, record), t in zip(group, times, strict=True)]
-        plans.append(GroupPlan(group, resolved, times, records))
-    return plans
+    return each_or_refused(_groups(request), partial(_plan, session, rigs, now))
+
+
+def _plan(session: Session, rigs: RigCache, now: datetime,
+          group: list[tuple[str, MeasurementIn]]) -> GroupPlan:
+    resolved = joint_rig(session, rigs, group[0][1].rig_id,
+                         [(path, record.rig_version) for path, record in group])
+    for path, record in group:
+        if record.series_id is not None:
+            check_source(session, record.series_id, record.rig_id, field=f"{path}.series_id")
+    times = [record.measured_at or now for _, record in group]
+    records = [to_record(record, path=path, rig_name=resolved.name, measured_at=t)
+               for (path, record), t in zip(group, times, strict=True)]
+    return GroupPlan(group, resolved, times, records)
 
 
 def request_error(exc: InputError, plan: GroupPlan) -> InputError:
@@ -444,7 +492,9 @@ def diagnose_request(session: Session, rigs: RigCache, request: DiagnoseRequest,
         A record is invalid or impossible on its rig (``field`` is its path).
     """
     now = now or utcnow()
-    outcomes = [_compute_locked(plan) for plan in plan_groups(session, rigs, request, now)]
+    plans, refused = each_refused(_groups(request), partial(_plan, session, rigs, now))
+    outcomes, impossible = each_refused(plans, _compute_locked)
+    raise_refused([*refused, *impossible])
     if request.store:
         store_outcomes(session, request, outcomes, now)
     return outcomes

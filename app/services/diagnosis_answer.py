@@ -24,11 +24,12 @@ from typing import Any
 
 import orjson
 
+from app.schemas.common import iso_utc
 from app.schemas.diagnose import DisagreementPublic, EstimatePublic, GoodnessOfFitPublic
 from app.services.diagnosis import DiagnosisOutcome, compact_result, time_notes
 from app.services.diagnosis_form import RecordForm, RequestForm, stored_document
 
-__all__ = ["UNSTORED_PREFIX", "DiagnoseAnswer", "StoredRows", "answer_of", "iso_utc"]
+__all__ = ["UNSTORED_PREFIX", "DiagnoseAnswer", "StoredRows", "answer_of"]
 
 #: How each diagnosis's head begins before it is stored (``id`` is its first field).
 UNSTORED_PREFIX = b'{"id":null,"measurement_ids":[]'
@@ -60,6 +61,9 @@ class StoredRows:
     stated
         Whether the record carrying the diagnosis stated its ``measured_at`` (one that
         did not is stored at the request's time, and is no twin of a stored one).
+    path
+        Where that record is in the request (``record``, ``records[3]``): a conflict
+        names it.
     """
 
     rig_id: int
@@ -72,6 +76,7 @@ class StoredRows:
     estimates: list[tuple[str, float | None, float | None, float | None, float | None,
                           float | None]]
     stated: bool = True
+    path: str = "record"
 
 
 @dataclass(frozen=True, slots=True)
@@ -115,10 +120,6 @@ class DiagnoseAnswer:
         return b"".join(parts)
 
 
-def iso_utc(moment: datetime) -> str:
-    """``moment`` in ISO 8601 as pydantic writes an aware time (UTC as ``Z``)."""
-    text = moment.isoformat()
-    return text[:-6] + "Z" if text.endswith("+00:00") else text
 
 
 def _fit_public(fit: Any) -> Any:
@@ -161,7 +162,8 @@ def _rows(outcome: DiagnosisOutcome, records: Mapping[str, RecordForm], now: dat
                  for h in (e.history() for e in outcome.estimates)]
     return StoredRows(outcome.resolved.rig_id, outcome.resolved.version_id, stored, latest,
                       outcome.component, outcome.probability, result, estimates,
-                      records[outcome.paths[latest]].measured_at is not None)
+                      records[outcome.paths[latest]].measured_at is not None,
+                      outcome.paths[latest])
 
 
 def answer_of(form: RequestForm, outcomes: list[DiagnosisOutcome], now: datetime

@@ -20,6 +20,7 @@ from collections.abc import Mapping
 from datetime import datetime
 from typing import Any, Literal, NamedTuple
 
+from app.schemas.common import iso_utc
 from app.schemas.diagnose import MEASURED_FIELDS, ConditionIn, DiagnoseRequest, MeasurementIn
 from app.services.common import prefixed
 from diagnostics.measurement import MeasurementRecord, OperatingCondition
@@ -180,5 +181,5 @@ def stored_document(form: RecordForm, measured_at: datetime) -> Mapping[str, Any
     document["condition"] = {name: _reading_document(r) for name, r in form.condition.items()}
     for name, reading in form.readings.items():
         document[name] = _reading_document(reading)
-    document["measured_at"] = measured_at.isoformat()
+    document["measured_at"] = iso_utc(measured_at)
     return document

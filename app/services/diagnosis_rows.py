@@ -11,6 +11,7 @@ read back through the same models.
 
 from __future__ import annotations
 
+import json
 from collections.abc import Sequence
 from functools import cache
 from typing import Any
@@ -20,9 +21,11 @@ from sqlalchemy.dialects.postgresql import JSONB
 from sqlalchemy.orm import Session
 
 from app.db.base import utcnow
+from app.db.engine import loads_json
 from app.db.models import Diagnosis, DiagnosisEstimate, DiagnosisRecord, Measurement
 from app.services.diagnosis_answer import StoredRows
-from app.services.history import stored_series_twin, stored_twin
+from app.services.history import stored_series_twin, stored_twin, timeless
+from sim.errors import ConflictError
 
 __all__ = ["insert_rows"]
 
@@ -84,10 +87,17 @@ def insert_rows(session: Session, rows: Sequence[StoredRows]) -> list[tuple[int,
         connection.dialect.name)
     now = utcnow()
     ids: list[tuple[int, list[int]]] = []
+    _request_twins(rows)
     for item in rows:
         if item.stated:
             measured_at, record = item.measurements[item.latest]
-            stored_twin(connection, item.rig_id, item.rig_version_id, measured_at, record)
+            try:
+                stored_twin(connection, item.rig_id, item.rig_version_id, measured_at, record)
+            except ConflictError as exc:  # which of a batch's records (a fleet integrator's
+                if item.path == "record":  # pass: a bare measured_at in a 100-record batch)
+                    raise
+                raise ConflictError(f"{item.path}: {exc.message}",
+                                    field=f"{item.path}.measured_at") from None
         stored_series_twin(connection, item.rig_id, item.rig_version_id,
                            [record for _, record in item.measurements])
         measurement_ids = [
@@ -112,3 +122,21 @@ def insert_rows(session: Session, rows: Sequence[StoredRows]) -> list[tuple[int,
                 for component, probability, clearance, slip, low, high in item.estimates])
         ids.append((diagnosis_id, measurement_ids))
     return ids
+
+
+def _request_twins(rows: Sequence[StoredRows]) -> None:
+    """Refuse a request that holds the same record twice (same rig, version, instant and
+    readings): the second was refused as the twin of the first's diagnosis, an id of the
+    transaction that was then rolled back and later given to another diagnosis (a fleet
+    integrator's pass)."""
+    seen: dict[tuple[Any, ...], str] = {}
+    for item in rows:
+        if not item.stated:
+            continue
+        measured_at, record = item.measurements[item.latest]
+        key = (item.rig_id, item.rig_version_id, measured_at,
+               json.dumps(timeless(loads_json(record)), sort_keys=True))
+        if key in seen:
+            raise ConflictError(f"{item.path} repeats {seen[key]} (the same rig, time and "
+                                "readings): send it once", field=item.path)
+        seen[key] = item.path

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from datetime import datetime
+from functools import partial
 
 from sqlalchemy.orm import Session
 
@@ -27,8 +28,11 @@ from app.services.diagnosis import (
     GroupPlan,
     GroupResult,
     compute_group,
+    each_or_refused,
+    each_refused,
     joint_rig,
     outcome_of,
+    raise_refused,
     request_error,
 )
 from app.services.diagnosis_answer import DiagnoseAnswer, StoredRows, answer_of
@@ -64,10 +68,18 @@ class TaskFailure:
     kind: type[HydrodiagError]
     message: str
     field: str | None
+    details: list[dict[str, str | None]] | None = None
+
+    @classmethod
+    def of(cls, exc: HydrodiagError) -> TaskFailure:
+        """The failure that carries ``exc``."""
+        return cls(type(exc), exc.message, exc.field, exc.details)
 
     def error(self) -> HydrodiagError:
         """The error to raise in the server process."""
-        return self.kind(self.message, field=self.field)
+        exc = self.kind(self.message, field=self.field)
+        exc.details = self.details
+        return exc
 
 
 def _groups(form: RequestForm) -> list[list[RecordForm]]:
@@ -96,19 +108,21 @@ def plan_forms(session: Session, rigs: RigCache, form: RequestForm, now: datetim
     NotFoundError, MeasurementError, InputError
         An unknown rig or version, or an invalid record (``field`` is its path).
     """
-    plans = []
-    for group in _groups(form):
-        resolved = joint_rig(session, rigs, group[0].rig_id,
-                             [(record.path, record.rig_version) for record in group])
-        for record in group:
-            if record.series_id is not None:
-                check_source(session, record.series_id, record.rig_id,
-                             field=f"{record.path}.series_id")
-        times = [record.measured_at or now for record in group]
-        records = [measurement_record(record, rig_name=resolved.name, measured_at=t)
-                   for record, t in zip(group, times, strict=True)]
-        plans.append(GroupPlan([(r.path, r) for r in group], resolved, times, records))
-    return plans
+    return each_or_refused(_groups(form), partial(_plan, session, rigs, now))
+
+
+def _plan(session: Session, rigs: RigCache, now: datetime, group: list[RecordForm]
+          ) -> GroupPlan:
+    resolved = joint_rig(session, rigs, group[0].rig_id,
+                         [(record.path, record.rig_version) for record in group])
+    for record in group:
+        if record.series_id is not None:
+            check_source(session, record.series_id, record.rig_id,
+                         field=f"{record.path}.series_id")
+    times = [record.measured_at or now for record in group]
+    records = [measurement_record(record, rig_name=resolved.name, measured_at=t)
+               for record, t in zip(group, times, strict=True)]
+    return GroupPlan([(r.path, r) for r in group], resolved, times, records)
 
 
 def run_task(sessions: SessionFactory, rigs: RigCache, task: DiagnoseTask
@@ -132,11 +146,13 @@ def run_task(sessions: SessionFactory, rigs: RigCache, task: DiagnoseTask
     """
     try:
         with sessions() as session:
-            plans = plan_forms(session, rigs, task.form, task.now)
-        outcomes = [outcome_of(plan, _computed(plan)) for plan in plans]
+            plans, refused = each_refused(_groups(task.form),
+                                          partial(_plan, session, rigs, task.now))
+        outcomes, impossible = each_refused(plans, lambda p: outcome_of(p, _computed(p)))
+        raise_refused([*refused, *impossible])
         return answer_of(task.form, outcomes, task.now)
     except HydrodiagError as exc:
-        return TaskFailure(type(exc), exc.message, exc.field)
+        return TaskFailure.of(exc)
 
 
 def _computed(plan: GroupPlan) -> GroupResult:

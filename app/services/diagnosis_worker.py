@@ -139,7 +139,7 @@ class _Worker:
                 return os.getpid()
             raise ValueError(f"unknown task kind {kind!r}")
         except HydrodiagError as exc:
-            return TaskFailure(type(exc), exc.message, exc.field)
+            return TaskFailure.of(exc)
         except Exception as exc:  # never leave the server waiting for an answer
             logger.exception("a diagnosis task failed")
             return TaskFailure(HydrodiagError, f"internal error in a diagnosis process: "

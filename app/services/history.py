@@ -24,13 +24,14 @@ from app.db.models import (
     Measurement,
     RigVersion,
 )
+from app.schemas.common import iso_utc
 from app.services.common import commit
 from app.services.rigs import get_rig, get_version
 from sim.errors import ConflictError, InputError
 
 __all__ = ["ComponentEstimate", "HistoryPoint", "add_diagnosis", "add_measurement",
            "component_history", "estimate_row", "record_diagnosis", "stated_bound",
-           "stored_series_twin", "stored_twin"]
+           "stored_series_twin", "stored_twin", "timeless"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -116,14 +117,24 @@ def stored_twin(connection: Connection, rig_id: int, rig_version_id: int,
         if version == rig_version_id]
     if not rows:
         return
-    document = loads_json(record) if isinstance(record, bytes) else record
+    document = timeless(loads_json(record) if isinstance(record, bytes) else record)
     for diagnosis_id, stored in rows:
-        if stored == document:
+        if timeless(stored) == document:
             raise ConflictError(
-                f"this record (rig {rig_id}, measured {measured_at.isoformat()}) is stored "
+                f"this record (rig {rig_id}, measured {iso_utc(measured_at)}) is stored "
                 f"already, diagnosed against the same rig version as diagnosis "
                 f"{diagnosis_id}: send it with store false to diagnose it again, or with its "
                 "own measured_at", field="measured_at")
+
+
+def timeless(document: Any) -> Any:
+    """A stored record's document without its ``measured_at``: the query matched the
+    instant already, and the same instant written with another offset (``08:00+02:00`` for
+    ``06:00Z``, a gateway's local time) stored the record twice (a fleet integrator's
+    pass)."""
+    if isinstance(document, Mapping):
+        return {k: v for k, v in document.items() if k != "measured_at"}
+    return document
 
 
 @cache

@@ -87,6 +87,16 @@ def test_every_refused_record_is_listed_and_the_others_can_be_diagnosed(
     assert lines[0]["error"]["field"] == "row 1: p1" and "top" not in lines[0]
     assert lines[1]["top"] == "cylinder" and "error" not in lines[1]
     assert lines[2]["error"]["field"].startswith("row 3: condition.oil_temperature")
+    # a record the diagnosis refuses (p1 in bar: it cannot push the load) has the same
+    # shape, its field named from its row (two shapes broke a parser: a fleet pass)
+    rows.append(dict(rows[1], p1=rows[1]["p1"] / 1e5))
+    pd.DataFrame(rows).to_csv(path, index=False)
+    again = runner.invoke(cli, ["diagnose-batch", str(path), "--rig", "1", "--skip-invalid",
+                                "--out", str(out)])
+    assert again.exit_code == 0, again.output
+    last = json.loads(out.read_text().splitlines()[3])
+    assert last["record"] == 4 and last["error"]["field"] == "row 4: p1", last
+    assert set(last["error"]) == {"type", "field", "message"} and "bar" in last["error"]["message"]
 
 
 def test_diagnose_many_on_a_process_pool_and_a_dask_cluster_equals_in_process() -> None:
@@ -160,3 +170,33 @@ def test_a_quoted_cell_may_span_lines_and_a_broken_quote_is_refused() -> None:
         with pytest.raises(InputError) as err:
             record_rows(broken, field="file")
         assert err.value.field == "file" and "not a readable CSV" in err.value.message
+
+
+def test_a_fleet_file_diagnoses_each_record_against_its_own_rig(
+        runner: CliRunner, tmp_path: Path) -> None:
+    """A file naming two rigs was refused ("one rig per batch"), where POST /diagnose takes
+    mixed rigs (a fleet integrator's pass): the same readings of a spool at 60 µm are a
+    worn valve on the paper rig and a healthy one on a rig whose document has that spool."""
+    import copy
+
+    import yaml
+
+    from sim.rigs import reference_rig_document
+
+    doc = copy.deepcopy(reference_rig_document())
+    doc["name"] = "loose-spool-rig"
+    doc["components"]["valve"]["parameters"]["cv"] = {"value": 60.0, "unit": "µm"}
+    (tmp_path / "loose.yaml").write_text(yaml.safe_dump(doc, allow_unicode=True))
+    added = runner.invoke(cli, ["rigs", "add", str(tmp_path / "loose.yaml")])
+    assert added.exit_code == 0, added.output
+    loose = int(added.stdout.split()[1])                 # "rig 2 'loose-spool-rig' stored"
+    worn = _rows()[0]                                    # cv 60 µm, on rig 1's document
+    rows = [dict(worn, rig_id=1), dict(worn, rig_id=loose)]
+    pd.DataFrame(rows).to_csv(tmp_path / "fleet.csv", index=False)
+    out = tmp_path / "fleet.jsonl"
+    result = runner.invoke(cli, ["diagnose-batch", str(tmp_path / "fleet.csv"),
+                                 "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    results = [json.loads(line) for line in out.read_text().splitlines()]
+    assert [(r["record"], r["rig_id"], r["top"]) for r in results] == [
+        (1, 1, "valve"), (2, loose, "healthy")]

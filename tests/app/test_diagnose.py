@@ -218,6 +218,24 @@ def test_unknown_rig_and_version_are_404(server: LiveServer) -> None:
     assert server.row_counts() == before
 
 
+def test_every_refused_record_of_a_batch_is_named_first_to_last(server: LiveServer) -> None:
+    """A batch with p1 in bar (record 1), flow_B in l/min (2) and 400 °C (3) named only
+    records[3], then records[1] once that was fixed, then records[2] (a fleet integrator's
+    pass): every refusal now, in request order, and nothing stored."""
+    good = simulated_record(server, WORN_VALVE, measured_at="2026-05-08T08:00:00Z")
+    hot = dict(good["condition"], oil_temperature=400.0)
+    batch = [good, good | {"p1": good["p1"] / 1e5}, good | {"flow_B": good["flow_B"] * 6e4},
+             good | {"condition": hot}]
+    before = server.row_counts()
+    response = server.client.post("/diagnose", json={"records": batch}, headers=server.auth)
+    assert response.status_code == 422, response.text
+    error = response.json()["error"]
+    assert error["field"] == "records[1].p1" and "2 more refused" in error["message"]
+    assert [d["field"] for d in error["details"]] == [
+        "records[1].p1", "records[2].flow_B", "records[3].condition.oil_temperature"]
+    assert server.row_counts() == before
+
+
 def test_a_record_impossible_on_its_rig_is_422(server: LiveServer) -> None:
     record = simulated_record(server) | {"speed_work": 5.0, "speed_return": 6.0}
     response = server.client.post("/diagnose", json={"record": record, "store": False})
@@ -258,6 +276,23 @@ def test_the_same_record_stored_twice_is_a_409_naming_the_first_and_stores_nothi
     later = record | {"measured_at": "2026-05-07T08:00:01Z"}
     assert server.client.post("/diagnose", json={"record": later},
                               headers=server.auth).status_code == 200
+    # the same instant in another offset is the same record (a fleet integrator's pass:
+    # a gateway's local time stored it twice)
+    local = record | {"measured_at": "2026-05-07T10:00:00+02:00"}
+    assert server.client.post("/diagnose", json={"record": local},
+                              headers=server.auth).status_code == 409
+    # in a batch: which record, and a record twice in one request is said as such (it
+    # named a diagnosis id of the rolled-back transaction, given later to another)
+    new = record | {"measured_at": "2026-05-07T09:00:00Z"}
+    before = server.row_counts()
+    batch = server.client.post("/diagnose", json={"records": [new, record]},
+                               headers=server.auth)
+    assert batch.status_code == 409 and batch.json()["error"]["field"] == "records[1].measured_at"
+    twice = server.client.post("/diagnose", json={"records": [new, new]}, headers=server.auth)
+    assert twice.status_code == 409, twice.text
+    assert twice.json()["error"]["field"] == "records[1]"
+    assert "records[1] repeats records[0]" in twice.json()["error"]["message"]
+    assert server.row_counts() == before
 
 
 def test_a_time_in_the_future_is_told_against_the_clock_itself() -> None:

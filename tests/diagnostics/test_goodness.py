@@ -159,3 +159,14 @@ def test_isolated_is_a_confident_name_that_holds_the_probability_alone(rig):
     assert out["top"] == "valve" and out["isolated"] is True
     # the nested pair shares the probability; the valve is in both
     assert set(full.isolability.credible_set) == {"valve", "valve+pump"}
+
+
+def test_an_oil_temperature_stated_in_fahrenheit_is_named_among_the_causes(rig):
+    """Readings taken at 20 °C stated as 68 (°F): not explained, and the stated condition,
+    the likeliest cause in a fleet's data, was not among the causes named (a fleet
+    integrator's pass)."""
+    vals = readings(rig, {}, 2100.0, 20.0)
+    d = diagnose(rig, [record(rig, {}, temperature=68.0, values=vals)])
+    assert not d.explained
+    text = d.to_dict()["misfit"]
+    assert "a stated condition that is wrong (an oil temperature in °F" in text
