@@ -7,11 +7,17 @@ project brief, with the nominal values they start from:
 name                override                              physical meaning
 ==================  ====================================  =====================================
 ``healthy``         none                                  nominal clearances
-``worn_piston``     ``cylinder.cc`` = 120 µm (83 nominal)  worn piston seal (paper 002 Table 2)
-``worn_spool``      ``valve.cv`` = 60 µm (34 nominal)      worn valve spool (paper 002 Table 3)
+``worn_piston``     ``cylinder.cc`` × 120/83               worn piston seal (paper 002 Table 2)
+``worn_spool``      ``valve.cv`` × 60/34                   worn valve spool (paper 002 Table 3)
 ``worn_pump``       ``pump.Rlp`` ÷ 3                       pump internal leakage ×3
 ``relief_drift``    ``relief.Pset`` × 0.9                  relief setting −10 %
 ==================  ====================================  =====================================
+
+Every fault is a wear of the rig it is run on: the clearances grow by the paper's ratios
+(83 → 120 µm, 34 → 60 µm on the paper-002 rig, whose values they are exactly; leakage
+×3.0 and ×5.5 at a given Δp, eqs. 19, 23), as the pump and relief faults scale theirs.
+Absolute clearances set a "worn piston" of 64× the leakage on a rig with a 30 µm seal and
+a tighter one, less leakage, on a rig of 130 µm (a rig author's pass).
 """
 
 from __future__ import annotations
@@ -26,8 +32,8 @@ FAULTS: tuple[str, ...] = ("healthy", "worn_piston", "worn_spool", "worn_pump", 
 #: what each named fault sets, in the words of the table above (help texts)
 FAULT_SUMMARY: dict[str, str] = {
     "healthy": "no override",
-    "worn_piston": "cylinder.cc = 120 µm",
-    "worn_spool": "valve.cv = 60 µm",
+    "worn_piston": "cylinder.cc × 120/83, 120 µm on the paper rig",
+    "worn_spool": "valve.cv × 60/34, 60 µm on the paper rig",
     "worn_pump": "pump.Rlp ÷ 3, leakage ×3",
     "relief_drift": "relief.Pset × 0.9",
 }
@@ -44,8 +50,8 @@ def fault_overrides(rig: Rig, fault: str) -> dict[str, float]:
     base = rig.base
     table = {
         "healthy": {},
-        "worn_piston": {"cylinder.cc": 120e-6},
-        "worn_spool": {"valve.cv": 60e-6},
+        "worn_piston": {"cylinder.cc": 120e-6 * (base["cylinder.cc"] / 83e-6)},
+        "worn_spool": {"valve.cv": 60e-6 * (base["valve.cv"] / 34e-6)},
         "worn_pump": {"pump.Rlp": base["pump.Rlp"] / 3.0},
         "relief_drift": {"relief.Pset": base["relief.Pset"] * 0.9},
     }
