@@ -178,3 +178,22 @@ def test_a_clearance_in_m_for_um_is_named_a_unit_slip_before_the_geometry() -> N
     with pytest.raises(ParameterError) as exc:
         steady_cycle(reference_rig(), {"cylinder.cc": 30.0})
     assert "likely a unit slip" in exc.value.message and exc.value.field == "overrides.cylinder.cc"
+
+
+def test_a_file_is_loaded_with_the_checks_of_storing_it(tmp_path) -> None:
+    """load_rig(path), the validator the reference file names, took a 70 mm rod in a 63 mm
+    bore that rigs add refuses, and simulated it with a negative annulus (a rig author's
+    pass); a document (a stored one) still loads without the storing checks."""
+    import yaml
+
+    from sim.rigs import load_rig
+
+    doc = copy.deepcopy(reference_rig_document())
+    doc["components"]["cylinder"]["parameters"]["rod2"] = {"value": 70.0, "unit": "mm"}
+    doc["components"]["cylinder"]["parameters"]["bore"] = {"value": 63.0, "unit": "mm"}
+    path = tmp_path / "rod.yaml"
+    path.write_text(yaml.safe_dump(doc, allow_unicode=True))
+    with pytest.raises(RigFileError) as exc:
+        load_rig(path)
+    assert exc.value.field == "components.cylinder.parameters.rod2"
+    load_rig(doc)  # a stored document is read back as it is
