@@ -111,8 +111,10 @@ def import_series(
             progress.update(task, description=f"reading {_shown(file.name)}", completed=k)
             try:
                 own = upload_start(file.name, start, time_in_name, zone, names=options)
-                records.extend(read_series(file, column_map=cmap, sample_rate=sample_rate,
-                                           started_at=own, expected=channels.units))
+                read = read_series(file, column_map=cmap, sample_rate=sample_rate,
+                                   started_at=own, expected=channels.units)
+                channels.check_plateaus(read)   # as the HTTP import (it stored bar as Pa)
+                records.extend(read)
             except InputError as exc:  # which of the files, and its column
                 raise type(exc)(f"{file}: {exc.message}",
                                 field="FILE" if exc.field == "file" else exc.field) from None

@@ -16,8 +16,8 @@ from diagnostics.measurement import MAX_FLOW_READING, MAX_GAUGE_PRESSURE, MIN_PR
 from diagnostics.timeseries import SeriesRecord
 from sim.errors import InputError
 
-__all__ = ["DELIVERY_FACTOR", "PLATEAU_CHANNELS",
-           "PRESSURE_FACTOR", "check_plateau_channels", "plateau_notes"]
+__all__ = ["DELIVERY_FACTOR", "LOW_DELIVERY", "LOW_PRESSURE", "PLATEAU_CHANNELS",
+           "PRESSURE_FACTOR", "check_plateau_channels", "plateau_notes", "plateau_scale_notes"]
 
 #: The channels a rig without a cycle is read by (its plateaus: pump pressure and working
 #: flow, :func:`diagnostics.real.profile.settled_bench`) and their SI units.
@@ -26,6 +26,12 @@ PLATEAU_CHANNELS: dict[str, str] = {"p_pump": "Pa", "q_work": "m^3/s"}
 DELIVERY_FACTOR = 10.0
 #: A pump pressure beyond this many times the relief setting is a slip [-].
 PRESSURE_FACTOR = 2.0
+#: A working flow that never reaches this share of the pump's delivery is noted [-]: l/min
+#: written as cm³/s reads 1/60 of it (a real-data analyst's pass)
+LOW_DELIVERY = 0.2
+#: A pump pressure that never reaches this share of the relief setting is noted [-]: bar
+#: written as kPa reads 1/100 of it
+LOW_PRESSURE = 0.02
 
 
 def plateau_notes(rows: Sequence[MeasuredSeries]) -> list[str]:
@@ -91,3 +97,37 @@ def check_plateau_channels(records: Sequence[SeriesRecord], delivery: float | No
                              f"{top / delivery:.3g} × the rig's pump delivers ({delivery:.4g} "
                              "m³/s at its stated speed): are the pressure and flow columns "
                              "swapped, or the flow in another unit?", field="q_work")
+
+
+def plateau_scale_notes(records: Sequence[SeriesRecord], delivery: float | None,
+                        relief: float | None, min_duration: float = 3.0) -> list[str]:
+    """Notes on records of a rig without a cycle whose plateau channels stay far below
+    what the rig does — a working flow under :data:`LOW_DELIVERY` of the pump's delivery
+    [m³/s], a pump pressure under :data:`LOW_PRESSURE` of the relief setting [Pa], the
+    unit slips that read too small (l/min as cm³/s, bar as kPa), which
+    :func:`check_plateau_channels` does not refuse since a rig may run so — and records
+    shorter than a plateau (``min_duration`` [s]: a 1 Hz file imported at 100 Hz), which
+    the plateau reader refuses later.  Each was stored without a word (a real-data
+    analyst's pass)."""
+    notes = []
+    for r in records:
+        q, p = r.channels.get("q_work"), r.channels.get("p_pump")
+        if delivery and q is not None and len(q):
+            top = float(np.nanmax(np.abs(q)))
+            if top < LOW_DELIVERY * delivery:
+                notes.append(f"q_work of record {r.name!r} reaches at most {top:.4g} m³/s "
+                             f"({top * 6e4:.4g} l/min), {top / delivery:.2g} × the pump's "
+                             f"delivery ({delivery * 6e4:.4g} l/min): is it in a smaller unit "
+                             "than written (l/min under [cm^3/s])? Stored as given")
+        if relief and p is not None and len(p):
+            top = float(np.nanmax(p))
+            if top < LOW_PRESSURE * relief:
+                notes.append(f"p_pump of record {r.name!r} reaches at most {top / 1e5:.4g} "
+                             f"bar, {top / relief:.2g} × the relief setting "
+                             f"({relief / 1e5:.4g} bar): is it in a smaller unit than "
+                             "written (bar under [kPa])? Stored as given")
+        if r.duration < min_duration:
+            notes.append(f"record {r.name!r} lasts {r.duration:.3g} s, shorter than a "
+                         f"plateau ({min_duration:g} s): the plateau reader refuses it (a "
+                         "sample rate stated too high?)")
+    return notes

@@ -29,6 +29,7 @@ from app.services.plateau_channels import (
     PLATEAU_CHANNELS,
     check_plateau_channels,
     plateau_notes,
+    plateau_scale_notes,
 )
 from app.services.rigs import get_rig, has_cycle, latest_version
 from diagnostics.consistency import RigLimits
@@ -276,11 +277,10 @@ def import_series(session: Session, rig_id: int, name: str, content: bytes, *,
         where = exc.field if exc.field in ("column_map", "sample_rate") else (
             f"file.{exc.field}" if exc.field and exc.field != "file" else "file")
         raise type(exc)(exc.message, field=where) from None
-    if not channels.cycle:
-        try:
-            check_plateau_channels(records, channels.delivery, channels.relief)
-        except InputError as exc:
-            raise InputError(exc.message, field=f"file.{exc.field}") from None
+    try:
+        channels.check_plateaus(records)
+    except InputError as exc:
+        raise InputError(exc.message, field=f"file.{exc.field}") from None
     rows = store_records(session, rig_id, name, records)
     return rows, (unmatched_map_notes(column_map, records) + channels.notes(rows)
                   + channels.time_notes(records) + sampling_notes(records, sample_rate))
@@ -303,6 +303,13 @@ class RigChannels:
     #: the rig's parameter values (the unit checks of a cycle); None without a cycle
     values: dict[str, float] | None = None
 
+    def check_plateaus(self, records: Sequence[SeriesRecord]) -> None:
+        """On a rig without a cycle, refuse the unit slips its plateau channels reveal
+        (:func:`~app.services.plateau_channels.check_plateau_channels`): the HTTP import
+        and the CLI's alike (the CLI stored bar under [Pa])."""
+        if not self.cycle:
+            check_plateau_channels(records, self.delivery, self.relief)
+
     def time_notes(self, records: Sequence[SeriesRecord]) -> list[str]:
         """Records whose piston moves faster than the pump can drive it, or ≥ 30× slower:
         a wrong sample rate or time unit (:func:`diagnostics.time_scale.time_scale_notes`);
@@ -310,8 +317,10 @@ class RigChannels:
         coarse_notes`); channels their own values contradict (a unit slip, a flipped sign:
         :func:`diagnostics.discrepancy.records.import_notes`)."""
         units = [] if self.values is None else import_notes(records, self.values)
+        plateaus = [] if self.cycle else plateau_scale_notes(records, self.delivery,
+                                                             self.relief)
         return (time_scale_notes(records, self.limits) + coarse_notes(records, self.limits)
-                + units)
+                + units + plateaus)
 
     def notes(self, rows: Sequence[MeasuredSeries]) -> list[str]:
         """What an import stored for a rig with a cycle that neither its model nor a cycle's
