@@ -11,6 +11,7 @@ from collections.abc import Mapping
 from datetime import datetime
 from typing import Any
 
+from app.schemas.common import iso_utc
 from app.schemas.diagnose import MEASURED_FIELDS, ConditionIn, MeasurementIn, ReadingIn
 from app.services.common import prefixed
 from diagnostics.measurement import MeasurementRecord, OperatingCondition
@@ -76,5 +77,5 @@ def to_record(data: MeasurementIn, *, path: str, rig_name: str,
 def stored_record(data: MeasurementIn, measured_at: datetime) -> Mapping[str, Any]:
     """The record as kept in the history: as given, JSON-ready, with its time filled in."""
     document = data.model_dump(mode="json", exclude_none=True)
-    document["measured_at"] = measured_at.isoformat()
+    document["measured_at"] = iso_utc(measured_at)
     return document
