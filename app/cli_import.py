@@ -90,7 +90,7 @@ def import_series(
              "-0400.")] = None,
 ) -> None:
     """Read time-series files and store each record, as POST /rigs/{id}/series does."""
-    from app.services.series import rig_channels, store_records, upload_start
+    from app.services.series import column_of, rig_channels, store_records, upload_start
     from diagnostics.map_notes import unmatched_map_notes
     from diagnostics.sampling import sampling_notes
     from diagnostics.timeseries import read_series
@@ -113,7 +113,10 @@ def import_series(
                 own = upload_start(file.name, start, time_in_name, zone, names=options)
                 read = read_series(file, column_map=cmap, sample_rate=sample_rate,
                                    started_at=own, expected=channels.units)
-                channels.check_plateaus(read)   # as the HTTP import (it stored bar as Pa)
+                try:
+                    channels.check_plateaus(read)   # as the HTTP import (it stored bar as Pa)
+                except InputError as exc:
+                    raise InputError(exc.message, field=column_of(exc.field, cmap)) from None
                 records.extend(read)
             except InputError as exc:  # which of the files, and its column
                 raise type(exc)(f"{file}: {exc.message}",

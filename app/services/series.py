@@ -11,7 +11,7 @@ refused whole: nothing is stored.
 from __future__ import annotations
 
 import json
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from datetime import datetime, timedelta
 from typing import Any
@@ -55,6 +55,7 @@ __all__ = [
     "RigChannels",
     "as_record",
     "check_source",
+    "column_of",
     "delete_series",
     "get_series",
     "import_series",
@@ -279,11 +280,21 @@ def import_series(session: Session, rig_id: int, name: str, content: bytes, *,
         raise type(exc)(exc.message, field=where) from None
     try:
         channels.check_plateaus(records)
-    except InputError as exc:
-        raise InputError(exc.message, field=f"file.{exc.field}") from None
+    except InputError as exc:  # the user's column, as every other error of a file names it
+        raise InputError(exc.message, field=f"file.{column_of(exc.field, column_map)}") from None
     rows = store_records(session, rig_id, name, records)
     return rows, (unmatched_map_notes(column_map, records) + channels.notes(rows)
                   + channels.time_notes(records) + sampling_notes(records, sample_rate))
+
+
+def column_of(channel: str | None, column_map: Mapping[str, ColumnEntry] | None) -> str | None:
+    """The file's column that ``column_map`` maps to ``channel`` (the channel itself when
+    none does): a unit slip named ``file.q_work`` where the file's column is
+    ``Durchfluss`` (a real-data analyst's pass)."""
+    for raw, entry in (column_map or {}).items():
+        if entry[0] == channel:
+            return raw
+    return channel
 
 
 @dataclass(frozen=True)
