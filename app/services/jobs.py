@@ -50,7 +50,7 @@ from concurrent.futures import wait as futures_wait
 from datetime import timedelta
 from typing import Any
 
-from sqlalchemy import or_, select, update
+from sqlalchemy import func, literal, or_, select, update
 from sqlalchemy.orm import Session, defer
 
 from app.db.base import utcnow
@@ -221,8 +221,12 @@ class JobRunner:
         try:
             result = dict(function(params, Progress(self._sessions, job_id)))
         except JobCancelledError:
+            # its last stage said as where it stopped ("point 57 of 200" alone read as a
+            # job still at work: an operator pass)
             self._set(job_id, when="running", status="cancelled", finished_at=utcnow(),
-                      error=_CANCELLED, message=_CANCELLED["message"])
+                      error=_CANCELLED, message=func.substr(
+                          literal("cancelled on request at ")
+                          + func.coalesce(Job.message, "its start"), 1, 500))
             return
         except Exception as exc:
             if not isinstance(exc, HydrodiagError):

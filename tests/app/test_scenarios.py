@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import importlib.util
+import re
 import time
 from collections.abc import Iterator
 from typing import Any
@@ -90,7 +91,9 @@ def test_a_cancelled_sweep_stops_without_its_remaining_points(server: LiveServer
         time.sleep(0.05)
     assert job["status"] == "cancelled", job
     assert job["result"] is None and job["error"]["type"] == "JobCancelledError"
-    done = int(job["message"].split()[1])  # "point k of 200"
+    found = re.fullmatch(r"cancelled on request at point (\d+) of 200", job["message"])
+    assert found is not None, job["message"]
+    done = int(found.group(1))
     assert 0 < done < 200 and job["progress"] == pytest.approx(done / 200)
 
 
