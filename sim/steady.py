@@ -44,7 +44,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from sim.cycle import PHASES, SUMMARY_UNITS, CycleResult, PhaseSummary, phase_params
+from sim.cycle import PHASES, SUMMARY_UNITS, CycleResult, PhaseSummary, phase_params, stroke_of
 from sim.errors import SimulationError
 from sim.rigs.assembly import Condition, Rig
 
@@ -110,12 +110,12 @@ def stop_force(rig: Rig, phase: str, y: Arr, p: Arr) -> float:
     return float(-DIRECTION[phase] * mass * f[m.state_index("cylinder.mass")])
 
 
-def _stop_start(rig: Rig, phase: str, y: Arr) -> Arr:
+def _stop_start(rig: Rig, phase: str, y: Arr, p: Arr) -> Arr:
     """``y`` with the piston held on the phase's end stop (the start of the end-stop solve)."""
     m = rig.model
     out = y.copy()
     out[m.state_index("cylinder.mass")] = 0.0
-    out[m.state_index("cylinder.x")] = 0.0 if phase == "working" else rig.base["cylinder.stroke"]
+    out[m.state_index("cylinder.x")] = 0.0 if phase == "working" else stroke_of(rig, p)
     return out
 
 
@@ -126,7 +126,7 @@ def _end_stop(rig: Rig, phase: str, p: Arr, guesses: list[Arr], tol: float
     m = rig.model
     for g in guesses:
         try:
-            y = m.steady(_stop_start(rig, phase, g), p, frozen=_STOP_FROZEN, tol=tol)
+            y = m.steady(_stop_start(rig, phase, g, p), p, frozen=_STOP_FROZEN, tol=tol)
         except SimulationError:
             continue
         reaction = stop_force(rig, phase, y, p)
@@ -153,7 +153,7 @@ def steady_phase(rig: Rig, phase: str, overrides: Mapping[str, float] | None = N
     p = phase_params(rig, phase, overrides, cond)
     ix = m.state_index("cylinder.x")
     iv = m.output_names.index("v")
-    mid = 0.5 * rig.base["cylinder.stroke"]
+    mid = 0.5 * stroke_of(rig, p)
     key = (id(rig), phase)
     hit = _GUESS.get(key)
     guess = hit[1] if hit is not None and hit[0] is rig else None
@@ -201,7 +201,7 @@ def steady_cycle(rig: Rig, overrides: Mapping[str, float] | None = None,
     Durations are ``stroke / speed`` (start-up transients neglected).
     """
     rig.require_cycle("a steady cycle")
-    stroke = rig.base["cylinder.stroke"]
+    stroke = (overrides or {}).get("cylinder.stroke", rig.base["cylinder.stroke"])
     summaries = []
     for phase in PHASES:
         sp = steady_phase(rig, phase, overrides, condition)

@@ -107,3 +107,40 @@ def test_the_summary_speed_is_the_encoders_reading_and_the_steady_speed() -> Non
             assert ph["speed"] == pytest.approx(model["speed"], rel=1e-5)
             travel = rig.base["cylinder.stroke"]
             assert travel / ph["duration"] != pytest.approx(model["speed"], rel=4e-4)
+
+
+@pytest.mark.parametrize("stroke", [0.25, 0.8])
+def test_a_stroke_override_is_the_stroke_the_cycle_runs(stroke: float) -> None:
+    """A 0.25 m stroke override ran to 45 s of "stall" on the piston's stop (the end event
+    at the stored 0.5 m), a 0.8 m one stopped at 0.5 m, and the steady path kept the stored
+    stroke's duration (a modelling engineer's pass): the stroke is the override's."""
+    rig = reference_rig()
+    overrides = {"cylinder.stroke": stroke}
+    res = run_cycle(rig, overrides, method="rodas4", sample_rate=200.0)
+    steady = steady_cycle(rig, overrides)
+    assert res.working.completed and res.return_.completed
+    assert res.timeseries is not None
+    assert res.timeseries["x [m]"].max() == pytest.approx(stroke, abs=2e-3)
+    for ph, model in ((res.working, steady.working), (res.return_, steady.return_)):
+        assert model["duration"] == pytest.approx(stroke / model["speed"])
+        assert ph["duration"] == pytest.approx(model["duration"], rel=0.01)
+        assert ph["speed"] == pytest.approx(model["speed"], rel=1e-4)
+
+
+def test_the_summary_does_not_depend_on_the_tables_sample_rate() -> None:
+    """At 1 Hz the phase averages were those of five samples (meter B 140 σ off, the
+    return's four times the pump's flow) and the error estimate 3e-5 σ (a modelling
+    engineer's pass): the summary is averaged on at least 1 kHz, the table keeps its rate."""
+    rig = reference_rig()
+    cond = Condition(load=4200.0, oil_temperature=40.0)
+    overrides = fault_overrides(rig, "worn_spool")
+    coarse = run_cycle(rig, overrides, cond, method="rodas4", sample_rate=1.0)
+    fine = run_cycle(rig, overrides, cond, method="rodas4", sample_rate=1000.0)
+    for a, b in ((coarse.working, fine.working), (coarse.return_, fine.return_)):
+        for key in ("P_pump", "Q_meter_B", "Q_meter_C", "speed", "duration"):
+            assert a[key] == pytest.approx(b[key], rel=1e-6), key
+    assert coarse.timeseries is not None
+    steps = np.diff(coarse.timeseries["t [s]"].to_numpy())
+    assert np.allclose(steps, 1.0)                      # the table at the rate asked for
+    assert max(coarse.solver.error_sigma.values()) == pytest.approx(
+        max(fine.solver.error_sigma.values()), rel=0.5)

@@ -143,7 +143,7 @@ def test_a_held_piston_pulled_off_its_stop_is_no_end_stop_state() -> None:
     cond = rig.default_condition()
     p = phase_params(rig, "working", None, cond)
     moving = steady_phase(rig, "working", None, cond)
-    held = rig.model.steady(_stop_start(rig, "working", moving.state), p,
+    held = rig.model.steady(_stop_start(rig, "working", moving.state, p), p,
                             frozen=("cylinder.x", "cylinder.mass"))
     assert stop_force(rig, "working", held, p) < -100.0  # pulls off by > 100 N
     assert _end_stop(rig, "working", p, [moving.state], 1e-10) is None
