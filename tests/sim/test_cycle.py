@@ -144,3 +144,15 @@ def test_the_summary_does_not_depend_on_the_tables_sample_rate() -> None:
     assert np.allclose(steps, 1.0)                      # the table at the rate asked for
     assert max(coarse.solver.error_sigma.values()) == pytest.approx(
         max(fine.solver.error_sigma.values()), rel=0.5)
+
+
+def test_a_long_stroke_runs_though_its_stall_guard_passes_the_time_limit() -> None:
+    """A 3 m press with an 80 s cycle was refused whole: its stall guard, 20× each stroke's
+    time at the pump's flow (1,248 s), counted as the cycle's length against the 600 s
+    limit (a modelling engineer's pass).  The guard stops at the limit instead."""
+    rig = reference_rig()
+    overrides = {"cylinder.stroke": 20.0}                  # ~97 s a stroke, guard ~1,940 s
+    res = run_cycle(rig, overrides, method="rodas4", sample_rate=10.0)
+    steady = steady_cycle(rig, overrides)
+    assert res.working.completed and res.return_.completed
+    assert res.working["duration"] == pytest.approx(steady.working["duration"], rel=0.01)
