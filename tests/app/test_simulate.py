@@ -274,3 +274,22 @@ def test_a_rig_carrying_a_speed_reading_correction_says_what_speed_it_delivers_a
     (note,) = condition_notes(Condition(load=4200.0, pump_speed=1500.0 * math.pi / 30.0),
                               values)
     assert note.endswith("at 1580 rpm for the 1500 rpm stated")
+
+
+def test_a_tolerance_given_is_estimated_and_a_misspelt_target_refused(
+        server: LiveServer) -> None:
+    """A modelling engineer's pass: rtol 1e-3 came back without an error estimate (the
+    schema says it is estimated), and at that tolerance the estimate is optimistic; a
+    misspelt noise target ('vv') ran at the defaults without a word."""
+    loose = server.client.post("/simulate", json={"rig_id": 1, "rtol": 1e-3})
+    assert loose.status_code == 200, loose.text
+    body = loose.json()
+    assert body["solver"]["rtol"] == 1e-3 and body["solver"]["error_sigma"] is not None
+    assert any("error estimate at rtol 0.001 is optimistic" in n for n in body["notes"])
+    default = server.client.post("/simulate", json={"rig_id": 1}).json()
+    assert not any("optimistic" in n for n in default["notes"])
+    for field in ("noise", "noise_fraction"):
+        wrong = server.client.post("/simulate", json={"rig_id": 1, field: {"vv": 0.01}})
+        assert wrong.status_code == 422, wrong.text
+        error = wrong.json()["error"]
+        assert error["field"] == f"{field}.vv" and "did you mean 'v'?" in error["message"]
