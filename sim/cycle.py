@@ -33,8 +33,8 @@ from sim.solver.limits import SolverLimits
 from sim.solver.noise import NoiseAccuracy, error_estimate
 
 __all__ = ["METHODS", "PHASES", "SUMMARY_UNITS", "CycleResult", "PhaseRun", "PhaseSummary",
-           "SolverReport", "integrate_phases", "phase_params", "phase_settings", "run_cycle",
-           "sampled_outputs", "stroke_of"]
+           "SolverReport", "integrate_phases", "phase_limit", "phase_params", "phase_settings",
+           "run_cycle", "sampled_outputs", "stall_guard", "stroke_of"]
 
 #: integration methods of :func:`run_cycle`
 METHODS = ("rodas4", "ros2")
@@ -132,18 +132,24 @@ def _averages(rig: Rig, t: Arr, y: Arr, p: Arr, completed: bool
     return res, lowest
 
 
-def _phase_limit(rig: Rig, p: Arr, t_max: float | None, limits: SolverLimits) -> float:
+def phase_limit(rig: Rig, p: Arr, t_max: float | None, limits: SolverLimits) -> float:
     """A phase's longest simulated time [s]: ``t_max``, else 20× its stroke at the pump's
     geometric flow — the guard that ends a stall — but no longer than the simulated-time
     limit: a 3 m press whose 80 s cycle has a 1,248 s guard was refused whole (a modelling
     engineer's pass); a stroke still short of its end then is reported as not completed."""
+    return min(stall_guard(rig, p, t_max), limits.max_sim_time)
+
+
+def stall_guard(rig: Rig, p: Arr, t_max: float | None = None) -> float:
+    """``t_max``, else 20× the phase's stroke time at the pump's geometric flow [s]: a stroke
+    that has not ended by then is a stall or a creep (the transient's phase ends there)."""
     m = rig.model
     if t_max is not None:
         return t_max
     stroke = stroke_of(rig, p)
     qp = p[m.param_index("pump.speed")] * p[m.param_index("pump.Vp")]
     area = min(p[m.param_index("cylinder.A1")], p[m.param_index("cylinder.A2")])
-    return float(min(20.0 * stroke * area / qp, limits.max_sim_time))
+    return float(20.0 * stroke * area / qp)
 
 
 @dataclass
@@ -176,7 +182,7 @@ def integrate_phases(rig: Rig, params: list[Arr], *, method: str, rtol: float,
     for k, (phase, p) in enumerate(zip(PHASES, params, strict=True)):
         if y is None:
             y = m.initial_state(p)
-        t_lim = _phase_limit(rig, p, t_max, limits)
+        t_lim = phase_limit(rig, p, t_max, limits)
         direction = 1.0 if phase == "working" else -1.0
         level = stroke_of(rig, p) if phase == "working" else 0.0
         sample = times[k] if times is not None else grid
@@ -190,6 +196,13 @@ def integrate_phases(rig: Rig, params: list[Arr], *, method: str, rtol: float,
                 f"{phase} phase: the step size fell below round-off at t = "
                 f"{res.t_final:.6g} s with rtol {rtol:.3g}; loosen the tolerance",
                 field="rtol")
+        if res.status != 1 and not held and t_lim < stall_guard(rig, p, t_max):
+            # cut by the limit before its own stall guard: no stall can be told
+            raise SolverLimitError(
+                f"simulated time: the {phase} stroke had not reached its end after "
+                f"{t_lim:.4g} s, the simulated-time limit (its stall guard, 20× the stroke's "
+                f"time at the pump's flow, is {stall_guard(rig, p, t_max):.4g} s); raise "
+                "the limit (HYDRODIAG_SIM_MAX_TIME, or SolverLimits.max_sim_time)")
         runs.append(PhaseRun(phase, p, t0, y, res))
         y = res.y_final.copy()
         t0 = float(res.t_final)
@@ -314,7 +327,7 @@ def run_cycle(rig: Rig, overrides: Mapping[str, float] | None = None,
     params = [phase_params(rig, phase, overrides, cond) for phase in PHASES]
     grid = shown = None   # the solver's grid, and the table's where it is coarser
     if sample_rate is not None:
-        span = sum(_phase_limit(rig, p, t_max, lim) for p in params)
+        span = sum(phase_limit(rig, p, t_max, lim) for p in params)
         grid = np.arange(0.0, span, 1.0 / sample_rate)
         if sample_rate < AVERAGE_RATE:  # the averages and the error on a finer grid
             shown = grid

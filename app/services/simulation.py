@@ -117,10 +117,12 @@ def estimate_note(result: CycleResult) -> list[str]:
             "read a pressure's error 2.6× too small); leave rtol out for a noise-accurate run"]
 
 
-def _within(duration: float) -> str:
-    """" in 2.5 s" for a transient's phase; nothing for the steady path's stalled stroke,
-    whose duration is infinite (it read "in inf s": a rig author's pass)."""
-    return f" in {duration:.4g} s" if math.isfinite(duration) else ""
+def _within(result: CycleResult, duration: float) -> str:
+    """" in 2.5 s" for a transient's phase (the time it ran); nothing for the steady path,
+    whose duration is the whole stroke's time at its creep, infinite for a stall (it read
+    "in inf s": a rig author's pass)."""
+    return f" in {duration:.4g} s" if result.solver is not None and math.isfinite(duration) \
+        else ""
 
 
 def condition_notes(condition: Condition, values: Mapping[str, float]) -> list[str]:
@@ -191,14 +193,16 @@ def physics_notes(result: CycleResult) -> list[str]:
     phases = (result.working, result.return_)
     if not result.working.completed:
         notes.append(
-            f"the working stroke did not reach its end{_within(result.working['duration'])} "
+            "the working stroke did not reach its end"
+            f"{_within(result, result.working['duration'])} "
             f"(creep speed {result.working['speed']:.3g} m/s): the piston stalled on a load "
             "it cannot push, or crept; its averages are the settled state (the last half of "
             "the phase), and the return stroke starts where the piston stopped, so its "
             "averages and the velocity ratio are not those of a stroke")
     if not result.return_.completed:
         notes.append(
-            f"the return stroke did not reach its end{_within(result.return_['duration'])} "
+            "the return stroke did not reach its end"
+            f"{_within(result, result.return_['duration'])} "
             f"(creep speed {result.return_['speed']:.3g} m/s): the piston stalled or crept; "
             "its averages are the settled state (the last half of the phase)")
     lows: dict[str, float] = {}

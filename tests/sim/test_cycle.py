@@ -156,3 +156,16 @@ def test_a_long_stroke_runs_though_its_stall_guard_passes_the_time_limit() -> No
     steady = steady_cycle(rig, overrides)
     assert res.working.completed and res.return_.completed
     assert res.working["duration"] == pytest.approx(steady.working["duration"], rel=0.01)
+
+
+def test_a_creep_slower_than_the_stall_guard_is_no_completed_stroke_on_either_path() -> None:
+    """At 150 °C the 83 µm piston leaks most of the pump's flow: a 2.9 h creep, called a
+    stall by the transient and a completed stroke by the steady path (a modelling
+    engineer's pass)."""
+    rig = reference_rig()
+    cond = Condition(load=2100.0, oil_temperature=150.0)
+    steady = steady_cycle(rig, {}, cond)
+    transient = run_cycle(rig, {}, cond, method="rodas4", timeseries=False)
+    assert not steady.working.completed and not transient.working.completed
+    assert steady.working["speed"] == pytest.approx(transient.working["speed"], rel=0.1)
+    assert steady_cycle(rig, {}, Condition(load=2100.0, oil_temperature=40.0)).working.completed
