@@ -43,6 +43,7 @@ SHOWN_UNITS: dict[str, tuple[str, float]] = {
     "Pa": ("bar", 1e-5), "m^3/s": ("l/min", 6e4), "m/s": ("m/s", 1.0), "m": ("mm", 1e3),
     "degC": ("°C", 1.0), "W": ("kW", 1e-3), "N": ("kN", 1e-3), "N*m": ("N·m", 1.0),
     "m^3/rev": ("cm³/rev", 1e6), "rad/s": ("rpm", 30.0 / math.pi),
+    "m^2/s": ("cSt", 1e6), "m^3": ("L", 1e3),
 }
 
 

@@ -21,7 +21,7 @@ from app.schemas.common import MAX_ID
 from app.services import calibrations as calibration_service
 from app.services import rigs as rig_service
 from app.services.keys import authenticate
-from diagnostics.plots import Chart
+from diagnostics.plots import Chart, shown_unit
 from sim.bondgraph.equations import derive_equations
 from sim.bondgraph.export import to_dot
 from sim.errors import AuthError, NotFoundError
@@ -106,9 +106,23 @@ def _parameters(document: dict[str, Any]) -> list[dict[str, Any]]:
                 chosen = "chosen" in source.lower()
                 if chosen:  # the badge says it: "chosen chosen: …" read twice (a console pass)
                     source = re.sub(r"^\s*chosen\s*:\s*", "", source, flags=re.IGNORECASE)
-                rows.append({"component": component, "name": name, "value": p["value"],
-                             "unit": p.get("unit", ""), "source": source, "chosen": chosen})
+                unit = str(p.get("unit", ""))
+                # as an engineer reads it (the README's promise): 3.4e-05 m was a spool's
+                # 34 µm, 7e+06 Pa a relief's 70 bar (a maintenance planner's pass); the
+                # document's own value and unit stay in the cell's title
+                factor, shown = shown_unit(unit, clearance=name in CLEARANCES)
+                value = p["value"]
+                if isinstance(value, int | float) and shown != unit:
+                    value = float(value) * factor
+                rows.append({"component": component, "name": name, "value": value,
+                             "unit": shown if value is not p["value"] else unit,
+                             "stored": f"{p['value']} {unit}", "source": source,
+                             "chosen": chosen})
     return rows
+
+
+#: the parameters that are clearances (shown in µm)
+CLEARANCES = ("cc", "cv")
 
 
 def _calibration_chart(calibration: Any) -> Chart:

@@ -19,6 +19,7 @@ import math
 import re
 from typing import Any
 
+from diagnostics.table_files import dialect
 from sim.errors import InputError
 
 __all__ = ["record_rows"]
@@ -26,9 +27,16 @@ __all__ = ["record_rows"]
 _INTEGER = re.compile(r"^[+-]?[0-9]+$")
 
 
-def _value(cell: str, *, line: int, column: str, field: str) -> Any:
-    """A cell as JSON would carry it: an integer, a finite number or text."""
+#: a number written with a decimal comma (``1,5``, ``-2,3e5``)
+_COMMA_NUMBER = re.compile(r"^[+-]?\d*,\d+(?:[eE][+-]?\d+)?$")
+
+
+def _value(cell: str, *, line: int, column: str, field: str, decimal: str = ".") -> Any:
+    """A cell as JSON would carry it: an integer, a finite number or text (``decimal``:
+    the file's decimal mark)."""
     text = cell.strip()
+    if decimal == "," and _COMMA_NUMBER.match(text):
+        text = text.replace(",", ".")
     if _INTEGER.match(text):
         return int(text)
     try:
@@ -61,7 +69,15 @@ def record_rows(content: bytes, *, field: str, lines: list[int] | None = None
             if line.strip() and not line.lstrip().startswith("#")]
     if not kept:
         return []
-    reader = csv.reader((line + "\n" for _, line in kept), strict=True)
+    # the dialects the series import reads: a semicolon file of a European spreadsheet was
+    # read as one column named "rig_id;measured_at;condition" (a maintenance planner's pass)
+    stated = re.match(r"^sep=(.)$", kept[0][1].strip())
+    if stated is not None:
+        kept = kept[1:]
+    sep, decimal = dialect([line for _, line in kept[:6]])
+    if stated is not None:
+        sep = stated.group(1)
+    reader = csv.reader((line + "\n" for _, line in kept), strict=True, delimiter=sep)
     table: list[tuple[int, list[str]]] = []  # (the file's line a row ends on, its cells)
     try:
         for cells in reader:  # a quoted cell may span lines: count rows by the reader
@@ -86,7 +102,8 @@ def record_rows(content: bytes, *, field: str, lines: list[int] | None = None
             *parents, leaf = column.split(".")
             for part in parents:
                 target = target.setdefault(part, {})
-            target[leaf] = _value(cell, line=number, column=column, field=field)
+            target[leaf] = _value(cell, line=number, column=column, field=field,
+                                  decimal=decimal)
         rows.append(record)
         if lines is not None:
             lines.append(number)

@@ -172,6 +172,18 @@ def test_a_quoted_cell_may_span_lines_and_a_broken_quote_is_refused() -> None:
         assert err.value.field == "file" and "not a readable CSV" in err.value.message
 
 
+def test_a_european_spreadsheets_records_are_read_as_the_series_import_reads() -> None:
+    """A semicolon file with decimal commas was one column named 'rig_id;measured_at;…' (a
+    maintenance planner's pass, on the console's upload); Excel's sep= line as well."""
+    from app.schemas.record_csv import record_rows
+
+    expected = [{"rig_id": 1, "condition": {"oil_temperature": 40.5}, "p1": 1188000}]
+    for content in (b"rig_id;condition.oil_temperature;p1\n1;40,5;1188000\n",
+                    b"sep=;\nrig_id;condition.oil_temperature;p1\n1;40,5;1188000\n",
+                    b"rig_id\tcondition.oil_temperature\tp1\n1\t40.5\t1188000\n"):
+        assert record_rows(content, field="file") == expected, content
+
+
 def test_a_fleet_file_diagnoses_each_record_against_its_own_rig(
         runner: CliRunner, tmp_path: Path) -> None:
     """A file naming two rigs was refused ("one rig per batch"), where POST /diagnose takes

@@ -120,7 +120,13 @@ def test_every_page_renders_with_its_plots_and_the_policy(
 def test_rig_page_lists_parameters_with_units_sources_and_chosen_flags(
         browser_client: httpx.Client) -> None:
     html = browser_client.get("/console/rigs/1").text
-    assert "<code>Vp</code></td><td class=\"num\">1.75e-05</td><td>m^3/rev</td>" in html
+    # as an engineer reads them, the stored value in the title (a maintenance planner read
+    # 3.4e-05 m for a 34 µm spool, 7e+06 Pa for a 70 bar relief)
+    assert ("<code>Vp</code></td><td class=\"num\" title=\"as stored: 1.75e-05 m^3/rev\">17.5"
+            "</td><td>cm³/rev</td>") in html
+    assert ("<code>cv</code></td><td class=\"num\" title=\"as stored: 3.4e-05 m\">34</td>"
+            "<td>µm</td>") in html
+    assert re.search(r"<code>Pset</code></td><td class=\"num\"[^>]*>70</td><td>bar</td>", html)
     # Cp is marked chosen in the reference document (its exponent is illegible in paper 002)
     row = re.search(r"<tr class=\"chosen-row\"><td>pump</td><td><code>Cp</code>.*?</tr>", html,
                     re.S)
@@ -193,6 +199,10 @@ def test_a_diagnosis_through_the_form_is_stored_and_shown(
     page = browser_client.get(f"/console/diagnoses/{diagnosis_id}")
     assert page.status_code == 200
     assert f"Diagnosis {diagnosis_id}: cylinder" in page.text
+    # the stated condition beside the readings (a maintenance planner found neither the
+    # oil temperature nor the load on the page)
+    said = re.search(r'<p class="muted" id="condition">([^<]+)</p>', page.text)
+    assert said is not None and "oil 40 °C" in said.group(1) and "load 2.1 kN" in said.group(1)
     points = plot_points(page.text)
     assert len(points) >= 3 and min(points) > 0  # probabilities, readings, estimates
     # the cylinder's direct inversion recovers the simulated clearance: 100 µm / 83 µm
@@ -368,6 +378,7 @@ def test_trends_page_shows_the_wear_rate_and_the_time_left(
     html = browser_client.get(f"/console/trends?rig=1&until={until}").text
     section = html[html.index("valve · <code>cv</code>"):]
     assert f"{len(WEAR_SERIES_M)} diagnoses" in section[:200]
+    assert "[µm]," in section[:200]   # the heading's unit is its values' (it said [m])
     # the valve opens 4 µm a day: Theil-Sen recovers it from the direct inversions
     # in µm/day, as a planner reads it (it was m/day)
     slope = re.search(r"<dd>([^ ]+) \[µm/day\]", section)
