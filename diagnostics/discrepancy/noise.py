@@ -21,7 +21,8 @@ sample-to-sample one by :data:`COLOURED`: the white, reading-proportional and t�
 records of the hidden-effect bench read a median 1.10 and at most 1.19 (the switches'
 ringing), AR(1) noise with φ = 0.5 reads 1.55 (``/work/notes/s44/colour_ratio.py``).
 Otherwise the white estimate stands, so white-noise records are judged exactly as
-before; colour below the threshold (φ ≲ 0.4) leaves σ at most ~30 % low, which moves a
+before, and so do records not sampled uniformly (a solver's own points, whose lags in
+samples are no lags in time); colour below the threshold (φ ≲ 0.4) leaves σ at most ~30 % low, which moves a
 gap judged at 3 σ less than the noise itself does.
 
 Where noise is coloured, its averages over the 50 ms with which a balance's residual is
@@ -106,8 +107,13 @@ def noise_model(record: SeriesRecord, channel: str) -> Noise:
     """The noise of one channel of one record (module docstring)."""
     x = np.asarray(record.channels[channel], dtype=float)
     white = noise_sigma(x)
-    dt = float(np.median(np.diff(record.t))) if record.t.size > 1 else 0.0
-    col = coloured_sigma(x, dt)
+    if record.sample_rate is None:
+        # lags counted in samples are no time lags where the steps vary (a solver's own
+        # points, 0.1 ns to 50 ms apart): the 20-40 ms "lags" spanned whole strokes and a
+        # noise-free cycle read P1's noise 0.86 bar, 350× its own, and its 15 % worn
+        # spool "no effect" (a maintenance planner's pass); a logger samples uniformly
+        return Noise(white, 0.0, white)
+    col = coloured_sigma(x, 1.0 / record.sample_rate)
     if white > 0 and col > COLOURED * white:
         return Noise(col, _phi(white / col), white)
     return Noise(white, 0.0, white)

@@ -85,6 +85,23 @@ def test_a_record_too_short_for_the_lags_is_judged_white() -> None:
     assert not noise_model(_record(x), "P1").coloured
 
 
+def test_a_record_of_a_solvers_own_points_is_judged_white() -> None:
+    """A /simulate export without a sample rate (steps 1e-10 s to 50 ms apart) had its
+    20-40 ms "lags" counted in samples, spanning whole strokes: P1's noise read 0.86 bar on
+    a noise-free cycle, and a worn spool's 15 % gap "no effect" (a maintenance planner's
+    pass)."""
+    from diagnostics.timeseries import series_from_frame
+    from sim.cycle import run_cycle
+
+    res = run_cycle(reference_rig(), {"valve.cv": 60e-6}, Condition(load=2100.0),
+                    method="rodas4")
+    assert res.timeseries is not None
+    (record,) = series_from_frame(res.timeseries.drop(columns=["phase"]))
+    assert record.sample_rate is None
+    noise = noise_model(record, "P1")
+    assert noise.phi == 0.0 and noise.sigma == noise.white < 1e3   # Pa: not 0.86 bar
+
+
 def test_the_surrogate_has_the_stated_sigma_and_colour_and_is_seeded() -> None:
     rec = _record(np.zeros(40000))
     model = {"P1": Noise(5e3, 0.9, 1.3e3), "absent": Noise(1.0)}
