@@ -183,6 +183,9 @@ def history_page(session: Session, *, rig_id: int | None = None,
         conditions.append(Measurement.measured_at <= until)
     base = select(Diagnosis.id).join(Measurement, Diagnosis.measurement_id == Measurement.id)
     total = session.scalar(select(func.count()).select_from(base.where(*conditions).subquery()))
+    # a page past the last is the last ("page 99 of 3", empty, with a link to an empty
+    # page 98: a maintenance planner's pass)
+    page = min(page, max(1, math.ceil(int(total or 0) / HISTORY_PAGE)))
     statement = (
         select(Diagnosis.id, Measurement.rig_id, Rig.name, Measurement.measured_at,
                Diagnosis.component, Diagnosis.probability)
