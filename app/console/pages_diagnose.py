@@ -68,13 +68,34 @@ def _csv_records(content: bytes, lines: list[int]) -> list[dict[str, Any]]:
 
 def _in_file(exc: HydrodiagError, lines: Sequence[int]) -> HydrodiagError:
     """``exc`` on a record of an uploaded CSV named by the row's line in the file and its
-    column ("records[3].p1" named no place in it: a console pass); else ``exc``."""
-    where = re.fullmatch(r"records\[(\d+)\]\.?(.*)", exc.field or "")
-    if where is None or int(where.group(1)) >= len(lines):
-        return exc
-    column = f", column {where.group(2)}" if where.group(2) else ""
-    return type(exc)(f"line {lines[int(where.group(1))]}{column}: {exc.message}",
-                     field="file")
+    column ("records[3].p1" named no place in it: a console pass); else ``exc``.  Every
+    refused row of its ``details`` likewise (the page named the first bad row only, the
+    next after a second upload: a maintenance planner's pass)."""
+    def placed(field: str | None, message: str) -> tuple[str | None, str]:
+        where = re.fullmatch(r"records\[(\d+)\]\.?(.*)", field or "")
+        if where is None or int(where.group(1)) >= len(lines):
+            return field, message
+        column = f", column {where.group(2)}" if where.group(2) else ""
+        return "file", f"line {lines[int(where.group(1))]}{column}: {message}"
+
+    field, message = placed(exc.field, exc.message.replace("every one is in details",
+                                                           "each listed below"))
+    out = type(exc)(message, field=field)
+    if exc.details:
+        out.details = [{"field": f, "message": m} for f, m in
+                       (placed(d["field"], str(d["message"])) for d in exc.details)]
+    return out
+
+
+def _all_problems(exc: ValidationError) -> InputError:
+    """The first of pydantic's problems, every one in its ``details``."""
+    first = first_problem(exc.errors())
+    if len(exc.errors()) > 1:
+        each = [first_problem([err]) for err in exc.errors()]
+        first = InputError(f"{first.message} (and {len(each) - 1} more refused: each listed "
+                           "below)", field=first.field)
+        first.details = [{"field": e.field, "message": e.message} for e in each]
+    return first
 
 
 def parse_records(text: str, content: bytes | None, lines: list[int] | None = None
@@ -121,7 +142,7 @@ def parse_records(text: str, content: bytes | None, lines: list[int] | None = No
     try:
         return DiagnoseRequest.model_validate(json.loads(json.dumps(document, default=str)))
     except ValidationError as exc:
-        raise _in_file(first_problem(exc.errors()), lines) from None
+        raise _in_file(_all_problems(exc), lines) from None
 
 
 def _form(request: Request, session: Any, *, status_code: int = 200, text: str = "",
@@ -194,7 +215,8 @@ async def diagnose(request: Request, session: SessionDep, _key: ConsoleKeyDep,
         raise
     except HydrodiagError as raised:
         exc = _in_file(raised, lines)
-        error = {"type": type(exc).__name__, "message": exc.message, "field": exc.field}
+        error = {"type": type(exc).__name__, "message": exc.message, "field": exc.field,
+                 "details": [d["message"] for d in (exc.details or [])[1:]]}
         return await pool.in_thread(partial(_form, request, session, status_code=422,
                                             text=document, error=error))
     if len(outcomes) == 1:

@@ -369,6 +369,16 @@ def test_a_csv_of_records_is_diagnosed_row_by_row(
     assert schema.status_code == 422
     field, message = error_box(schema.text)
     assert field == "file" and "line 3, column flow_B" in message, message
+    # every refused row at once, each by its line (the page named the first only, the
+    # next after another upload: a maintenance planner's pass)
+    text = frame.assign(flow_B=[-2e-4, -1e-4]).to_csv(index=False)
+    both = browser_client.post("/console/diagnose", data={"document": ""},
+                               files={"file": ("records.csv", text.encode(), "text/csv")})
+    assert both.status_code == 422
+    field, message = error_box(both.text)
+    assert "line 2, column flow_B" in message and "1 more refused: each listed below" in message
+    listed = re.search(r'<ul id="more-refused">(.*?)</ul>', both.text, re.S)
+    assert listed is not None and "line 3, column flow_B" in listed.group(1)
     assert console_server.row_counts()["diagnoses"] == before + 2
 
 
