@@ -41,6 +41,15 @@ def rig_id(server: LiveServer) -> int:
     return int(r.json()["id"])
 
 
+def _post_cycles(server: LiveServer, rig_id: int, name: str, column_map: dict[str, Any],
+                 content: bytes, sample_rate: str = "1") -> Any:
+    """POST a cycles CSV to the rig's series with ``column_map``; the answer."""
+    return server.client.post(f"/rigs/{rig_id}/series", headers=server.auth, data={
+        "name": name, "sample_rate": sample_rate,
+        "column_map": json.dumps(column_map | {"record": ["record", "-"]})},
+        files={"file": (f"{name}.csv", content, "text/csv")})
+
+
 def _refused(r: Any, what: str) -> None:
     assert r.status_code == 422, r.text
     error = r.json()["error"]
@@ -221,20 +230,16 @@ def test_the_models_channel_names_get_a_note_naming_the_plateau_channels(
     stored series the plateau reader then refused; the import now says which names it reads."""
     content = b"record,PS1,FS1,TS1\n" + b"".join(
         f"n,{150 + i % 3},{7.7 + 0.01 * i},45\n".encode() for i in range(20))
-    r = server.client.post(f"/rigs/{rig_id}/series", headers=server.auth, data={
-        "name": "model-names", "sample_rate": "1", "column_map": json.dumps({
-            "PS1": ["P_pump", "bar"], "FS1": ["Q_work", "l/min"],
-            "TS1": ["oil_temperature", "degC"], "record": ["record", "-"]})},
-        files={"file": ("cycles.csv", content, "text/csv")})
+    r = _post_cycles(server, rig_id, "model-names", {
+        "PS1": ["P_pump", "bar"], "FS1": ["Q_work", "l/min"],
+        "TS1": ["oil_temperature", "degC"]}, content)
     assert r.status_code == 201, r.text
     (note,) = r.json()["notes"]
     assert "no channel p_pump, q_work" in note and "P_pump, Q_work is another name" in note
     # the temperature under another name is named as well
-    r = server.client.post(f"/rigs/{rig_id}/series", headers=server.auth, data={
-        "name": "temperature", "sample_rate": "1", "column_map": json.dumps({
-            "PS1": ["p_pump", "bar"], "FS1": ["q_work", "l/min"],
-            "TS1": ["temperature", "degC"], "record": ["record", "-"]})},
-        files={"file": ("cycles.csv", content.replace(b",45\n", b",46\n"), "text/csv")})
+    r = _post_cycles(server, rig_id, "temperature", {
+        "PS1": ["p_pump", "bar"], "FS1": ["q_work", "l/min"],
+        "TS1": ["temperature", "degC"]}, content.replace(b",45\n", b",46\n"))
     assert r.status_code == 201, r.text
     (note,) = r.json()["notes"]
     assert "no channel oil_temperature" in note and "temperature is another name" in note
@@ -247,11 +252,9 @@ def test_slips_that_read_too_small_and_too_short_records_get_a_note(
     plateau reader later (a real-data analyst's pass)."""
     content = b"record,PS1,FS1,TS1\n" + b"".join(
         f"s,{160 + i % 3},{7.6 + 0.01 * i},47\n".encode() for i in range(20))
-    r = server.client.post(f"/rigs/{rig_id}/series", headers=server.auth, data={
-        "name": "too-small", "sample_rate": "100", "column_map": json.dumps({
-            "PS1": ["p_pump", "kPa"], "FS1": ["q_work", "cm^3/s"],
-            "TS1": ["oil_temperature", "degC"], "record": ["record", "-"]})},
-        files={"file": ("small.csv", content, "text/csv")})
+    r = _post_cycles(server, rig_id, "too-small", {
+        "PS1": ["p_pump", "kPa"], "FS1": ["q_work", "cm^3/s"],
+        "TS1": ["oil_temperature", "degC"]}, content, sample_rate="100")
     assert r.status_code == 201, r.text
     notes = r.json()["notes"]
     assert any("q_work of record 's'" in n and "l/min under [cm^3/s]" in n for n in notes)
