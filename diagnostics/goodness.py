@@ -448,8 +448,8 @@ def _misfit_statement(ranker: Ranker, cands: list[HypothesisFit], best: Hypothes
         " No fault is named. Possible causes: a stated condition that is wrong (an oil "
         "temperature in °F or of another sensor, a load in another unit), a fault outside "
         "the library or beyond its prior ranges, a rig document that does not describe "
-        "this rig, or a faulty sensor. Next steps: the discrepancy workflow (`hydrodiag discover`, "
-        "POST /discrepancy) and commissioning the rig from healthy records "
+        "this rig, or a faulty sensor. Next steps: the discrepancy workflow (`hydrodiag "
+        "discover`, POST /discrepancy) and commissioning the rig from healthy records "
         "(`hydrodiag commission`, POST /rigs/{id}/commission).")
     stalled = stall_limit(ranker, max(cands, key=lambda f: f.probability))
     if stalled:

@@ -136,7 +136,8 @@ def phase_limit(rig: Rig, p: Arr, t_max: float | None, limits: SolverLimits) -> 
     """A phase's longest simulated time [s]: ``t_max``, else 20× its stroke at the pump's
     geometric flow — the guard that ends a stall — but no longer than the simulated-time
     limit: a 3 m press whose 80 s cycle has a 1,248 s guard was refused whole (a modelling
-    engineer's pass); a stroke still short of its end then is reported as not completed."""
+    engineer's pass); a stroke cut there, short of its end and of its guard, is a
+    :class:`~sim.errors.SolverLimitError` (:func:`integrate_phases`), not a stall."""
     return min(stall_guard(rig, p, t_max), limits.max_sim_time)
 
 

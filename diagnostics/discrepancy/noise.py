@@ -21,9 +21,9 @@ sample-to-sample one by :data:`COLOURED`: the white, reading-proportional and t�
 records of the hidden-effect bench read a median 1.10 and at most 1.19 (the switches'
 ringing), AR(1) noise with φ = 0.5 reads 1.55 (``/work/notes/s44/colour_ratio.py``).
 Otherwise the white estimate stands, so white-noise records are judged exactly as
-before, and so do records not sampled uniformly (a solver's own points, whose lags in
-samples are no lags in time); colour below the threshold (φ ≲ 0.4) leaves σ at most ~30 % low, which moves a
-gap judged at 3 σ less than the noise itself does.
+before, and so are records not sampled uniformly (a solver's own points, whose lags in
+samples are no lags in time); colour below the threshold (φ ≲ 0.4) leaves σ at most
+~30 % low, which moves a gap judged at 3 σ less than the noise itself does.
 
 Where noise is coloured, its averages over the 50 ms with which a balance's residual is
 judged (:func:`~diagnostics.discrepancy.verdict.structured`) are larger than white noise
