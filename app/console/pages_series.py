@@ -197,6 +197,19 @@ async def import_file(request: Request, session: SessionDep, _key: ConsoleKeyDep
     return redirect(f"/console/series?rig={rig}")
 
 
+@router.get("/jobs")
+def jobs_page(request: Request, session: SessionDep, _key: ConsoleKeyDep) -> Response:
+    """The latest jobs of every kind (discrepancy checks, sweeps, re-diagnoses), newest
+    first, each linked to its page: a sweep posted over HTTP could not be found from the
+    console at all (a maintenance planner's pass)."""
+    jobs, total = job_service.list_jobs(session, limit=JOBS_SHOWN, offset=0, results=False)
+    return page(request, "jobs.html", jobs=jobs, total=total)
+
+
+#: jobs the console's list shows
+JOBS_SHOWN = 100
+
+
 @router.get("/jobs/{job_id}")
 def job_page(request: Request, session: SessionDep, _key: ConsoleKeyDep,
              job_id: Annotated[str, Path(max_length=36)]) -> Response:

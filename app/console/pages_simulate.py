@@ -14,6 +14,7 @@ from pydantic import ValidationError
 
 from app.api.deps import RigsDep, SessionDep
 from app.console.charts import simulation_charts
+from app.console.pages_rigs import CLEARANCES
 from app.console.routing import ConsoleKeyDep, new_router
 from app.console.web import SECURITY_HEADERS, page
 from app.errors import first_problem
@@ -27,6 +28,7 @@ from app.services.simulation import (
     timeseries_csv,
     timeseries_parquet,
 )
+from diagnostics.plots import shown_unit
 from sim.errors import HydrodiagError, InputError
 from sim.scenarios import FAULTS
 
@@ -70,7 +72,7 @@ def simulate_page(request: Request, session: SessionDep, rigs: RigsDep, _key: Co
             "back_pressure": back_pressure}
     context: dict[str, Any] = {"rigs": rows, "faults": FAULTS, "form": form, "charts": [],
                                "summary": None, "notes": [], "condition": None, "error": None,
-                               "query": ""}
+                               "query": "", "fault_set": []}
     if run:
         try:
             body = _request(rig, fault, load, oil_temperature, back_pressure, "json")
@@ -88,6 +90,10 @@ def simulate_page(request: Request, session: SessionDep, rigs: RigsDep, _key: Co
         context["notes"] = physics_notes(outcome.result)
         context["condition"] = outcome.condition
         context["query"] = str(request.url.query)
+        # what the named fault set on this rig (a planner could not tell how worn
+        # "worn_spool" is without the CSV's header)
+        context["fault_set"] = [_as_read(k, v, _unit_of(outcome, k))
+                                for k, v in outcome.overrides.items()]
     return page(request, "simulate.html", **context)
 
 
@@ -108,3 +114,16 @@ def download(session: SessionDep, rigs: RigsDep, _key: ConsoleKeyDep,
         return Response(timeseries_csv(outcome), media_type="text/csv", headers=headers)
     return Response(timeseries_parquet(outcome), media_type="application/vnd.apache.parquet",
                     headers=headers)
+
+
+def _unit_of(outcome: Any, key: str) -> str:
+    """The SI unit of parameter ``role.name`` of the run's rig ("" when unknown)."""
+    role, name = key.split(".", 1)
+    decl = outcome.resolved.rig.circuit.parameter(role, name)
+    return decl.unit if decl is not None else ""
+
+
+def _as_read(key: str, value: float, unit: str) -> str:
+    """``role.name = value unit`` as the rig page shows it (µm, bar, …)."""
+    factor, shown = shown_unit(unit, clearance=key.split(".")[-1] in CLEARANCES)
+    return f"{key} = {value * factor:.4g} {shown}"

@@ -50,6 +50,7 @@ PAGES = {
     "/console/pumps": ("pumps", 2),
     "/console/series?rig=1": ("series", 0),
     "/console/series/1": ("series-record", 3),
+    "/console/jobs": ("jobs", 0),
 }
 
 

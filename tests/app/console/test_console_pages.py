@@ -27,7 +27,7 @@ from tests.app.live import LiveServer
 PAGES = ["/console/rigs", "/console/rigs/1", "/console/diagnose", "/console/history",
          "/console/trends?rig=1", "/console/simulate", "/console/pumps",
          "/console/simulate?run=true&fault=worn_spool&load=2100", "/console/series?rig=1",
-         "/console/series/1"]
+         "/console/series/1", "/console/jobs"]
 
 
 def plot_points(html: str) -> list[int]:
@@ -420,6 +420,8 @@ def test_the_simulate_page_says_what_the_numbers_do_not(browser_client: httpx.Cl
     dips = browser_client.get("/console/simulate?run=true&fault=worn_spool&load=4200")
     assert dips.status_code == 200
     assert "Simulated at load 4200 N, oil 40 °C, back-pressure 0 bar" in dips.text
+    # what the named fault sets (a planner could not tell how worn "worn_spool" is)
+    assert '<span id="fault-set">The fault sets valve.cv = 60 µm.</span>' in dips.text
     notes = re.findall(r"<li>([^<]*)</li>", dips.text.split('id="notes"')[1].split("</ul>")[0])
     assert len(notes) == 1 and notes[0].startswith("below vacuum") and "P_pump reaches" in notes[0]
     # the phase averages in bar and l/min, as the charts above them (they were in Pa and

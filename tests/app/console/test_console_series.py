@@ -324,3 +324,26 @@ def test_a_cycle_without_its_temperature_is_read_with_the_one_stated_on_its_page
     assert filled is not None and json.loads(html.unescape(filled.group(1))) == api
     bad = browser_client.get(f"/console/series/{series}?oil_temperature=warm")
     assert "valid number" in bad.text and "oil_temperature" in bad.text  # as the API says
+
+
+def test_every_job_is_listed_and_a_sweeps_page_shows_its_table(
+        console_server: LiveServer, browser_client: httpx.Client) -> None:
+    """A sweep posted over HTTP could not be found from the console, and its page showed
+    only its state (a maintenance planner's pass): a jobs list, and the sweep's table."""
+    body = {"rig_id": 1, "faults": ["healthy", "worn_spool"], "method": "steady"}
+    accepted = console_server.client.post("/scenarios", json=body, headers=console_server.auth)
+    assert accepted.status_code == 202, accepted.text
+    job_id = accepted.json()["job_id"]
+    deadline = time.monotonic() + 60.0
+    while console_server.client.get(f"/jobs/{job_id}").json()["status"] != "succeeded":
+        assert time.monotonic() < deadline, "the sweep never finished"
+        time.sleep(0.05)
+    listed = browser_client.get("/console/jobs")
+    assert listed.status_code == 200 and 'href="/console/jobs"' in listed.text   # in the nav
+    row = re.search(rf'<a href="/console/jobs/{job_id}"><code>{job_id[:8]}</code></a></td>'
+                    r"<td>sweep</td><td>succeeded</td>", listed.text)
+    assert row is not None, listed.text
+    shown = browser_client.get(f"/console/jobs/{job_id}").text
+    table = re.search(r'<table id="sweep-table">(.*?)</table>', shown, re.S)
+    assert table is not None and "<th>fault</th>" in table.group(1)
+    assert "worn_spool" in table.group(1) and "Result: 2 point(s)" in shown
