@@ -61,6 +61,7 @@ from app.db.base import utcnow
 from app.db.models import IdempotentRequest
 from app.errors import database_unavailable, error_response
 from app.ratelimit import client_address
+from app.schemas.common import iso_utc
 from app.services.idempotent_work import CURRENT, KeyedWrite
 from app.services.keys import authenticate
 from sim.errors import AuthError, ConflictError, InputError
@@ -329,7 +330,7 @@ class IdempotencyMiddleware:
                 return _Outcome(response=error_response(
                     409, ConflictError.__name__,
                     f"the first request with this {HEADER} was done and stored at "
-                    f"{found.stored_at.isoformat().replace('+00:00', 'Z')}, but the service "
+                    f"{iso_utc(found.stored_at)}, but the service "
                     "stopped before its answer was kept; it is not done again: read what it "
                     f"stored back ({found.method} {found.path}: the listing of what it "
                     "writes)", HEADER, request=request))

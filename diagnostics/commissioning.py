@@ -66,11 +66,11 @@ COMMISSIONED: dict[str, str] = {
 #: speed, not by the load or the oil: "other loads and oil temperatures" was advised for
 #: Fu and Kf, a rig author's pass); the leaks, ∝ Δp/μ (paper 002 eqs. 19, 29), through
 #: the load and the oil temperature
+_FRICTION_HELP = ("at other pump speeds (friction Fu + Kf·v separates through the piston "
+                  "speed only)")
 HELPS: dict[str, str] = {
-    "cylinder.Fu": "at other pump speeds (friction Fu + Kf·v separates through the piston "
-                   "speed only)",
-    "cylinder.Kf": "at other pump speeds (friction Fu + Kf·v separates through the piston "
-                   "speed only)",
+    "cylinder.Fu": _FRICTION_HELP,
+    "cylinder.Kf": _FRICTION_HELP,
     "valve.K": "at other pump speeds (the open paths' pressure drop grows with the flow)",
 }
 HELPS_LEAK = "at other loads and oil temperatures (the leaks grow with Δp/μ)"

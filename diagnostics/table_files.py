@@ -27,8 +27,9 @@ import pandas as pd
 
 from sim.errors import InputError
 
-__all__ = ["MAX_DECOMPRESSED_BYTES", "PARQUET_METADATA_KEY", "check_table", "check_text", "dialect",
-           "gunzipped", "read_table", "table_bytes", "time_in_name"]
+__all__ = ["DECIMAL_COMMA", "MAX_DECOMPRESSED_BYTES", "PARQUET_METADATA_KEY", "check_table",
+           "check_text", "dialect", "gunzipped", "read_table", "stated_dialect", "table_bytes",
+           "time_in_name"]
 
 #: Largest gzip-compressed file's size once decompressed, unless the caller says [byte].
 MAX_DECOMPRESSED_BYTES = 64 * 1024 * 1024
@@ -178,13 +179,8 @@ def read_table(source: str | Path | bytes | pd.DataFrame, fmt: str | None = None
     check_text(text, "file")
     meta, skip = _header_lines(text)
     lines = [ln.rstrip("\r\n") for ln in itertools.islice(io.StringIO(text), skip, skip + 7)]
-    stated = _EXCEL_SEP.match(lines[0]) if lines else None
-    if stated is not None:  # Excel's "sep=;" line (a tokenizer error: an analyst's pass)
-        skip, lines = skip + 1, lines[1:]
-    sep, decimal = dialect(lines[:6])
-    if stated is not None:
-        sep = stated.group(1)
-        decimal = "," if sep != "," and dialect(lines[:6])[1] == "," else "."
+    stated, sep, decimal = stated_dialect(lines)
+    skip, lines = skip + stated, lines[stated:]
     try:
         frame = pd.read_csv(io.StringIO(text), skiprows=skip, comment=None, sep=sep,
                             decimal=decimal)
@@ -196,6 +192,20 @@ def read_table(source: str | Path | bytes | pd.DataFrame, fmt: str | None = None
 
 #: Excel's first line stating the separator of a CSV file
 _EXCEL_SEP = re.compile(r"^\ufeff?sep=(.)$")
+
+
+def stated_dialect(lines: list[str]) -> tuple[int, str, str]:
+    """:func:`dialect` of a CSV table's first lines, where Excel's first line ``sep=;``
+    states the separator: ``(lines to skip, 0 or 1, separator, decimal mark)`` — the time
+    series and the record tables alike (the line was a tokenizer error: an analyst's
+    pass)."""
+    stated = _EXCEL_SEP.match(lines[0].strip()) if lines else None
+    skip = 0 if stated is None else 1
+    sep, decimal = dialect(lines[skip:skip + 6])
+    if stated is not None:
+        sep = stated.group(1)
+        decimal = decimal if sep != "," else "."
+    return skip, sep, decimal
 
 
 def _named_columns(frame: pd.DataFrame, header: list[str]) -> pd.DataFrame:
@@ -241,7 +251,7 @@ def check_text(text: str, field: str) -> None:
         raise InputError("the file is binary, not a text table", field=field)
 
 
-_DECIMAL_COMMA = re.compile(r"^\s*[-+]?\d+,\d+([eE][-+]?\d+)?\s*$")
+DECIMAL_COMMA = re.compile(r"^\s*[-+]?\d+,\d+([eE][-+]?\d+)?\s*$")
 _DECIMAL_POINT = re.compile(r"^\s*[-+]?\d*\.\d+([eE][-+]?\d+)?\s*$")
 
 
@@ -261,7 +271,7 @@ def dialect(lines: list[str]) -> tuple[str, str]:
     if sep == ",":
         return sep, "."
     cells = [c for ln in lines[1:] for c in ln.split(sep)]
-    comma = any(_DECIMAL_COMMA.match(c) for c in cells)
+    comma = any(DECIMAL_COMMA.match(c) for c in cells)
     point = any(_DECIMAL_POINT.match(c) for c in cells)
     return sep, "," if comma and not point else "."
 

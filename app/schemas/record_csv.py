@@ -19,7 +19,7 @@ import math
 import re
 from typing import Any
 
-from diagnostics.table_files import dialect
+from diagnostics.table_files import DECIMAL_COMMA, stated_dialect
 from sim.errors import InputError
 
 __all__ = ["record_rows"]
@@ -27,15 +27,11 @@ __all__ = ["record_rows"]
 _INTEGER = re.compile(r"^[+-]?[0-9]+$")
 
 
-#: a number written with a decimal comma (``1,5``, ``-2,3e5``)
-_COMMA_NUMBER = re.compile(r"^[+-]?\d*,\d+(?:[eE][+-]?\d+)?$")
-
-
 def _value(cell: str, *, line: int, column: str, field: str, decimal: str = ".") -> Any:
     """A cell as JSON would carry it: an integer, a finite number or text (``decimal``:
     the file's decimal mark)."""
     text = cell.strip()
-    if decimal == "," and _COMMA_NUMBER.match(text):
+    if decimal == "," and DECIMAL_COMMA.match(text):
         text = text.replace(",", ".")
     if _INTEGER.match(text):
         return int(text)
@@ -71,12 +67,8 @@ def record_rows(content: bytes, *, field: str, lines: list[int] | None = None
         return []
     # the dialects the series import reads: a semicolon file of a European spreadsheet was
     # read as one column named "rig_id;measured_at;condition" (a maintenance planner's pass)
-    stated = re.match(r"^sep=(.)$", kept[0][1].strip())
-    if stated is not None:
-        kept = kept[1:]
-    sep, decimal = dialect([line for _, line in kept[:6]])
-    if stated is not None:
-        sep = stated.group(1)
+    stated, sep, decimal = stated_dialect([line for _, line in kept[:7]])
+    kept = kept[stated:]
     reader = csv.reader((line + "\n" for _, line in kept), strict=True, delimiter=sep)
     table: list[tuple[int, list[str]]] = []  # (the file's line a row ends on, its cells)
     try:

@@ -25,6 +25,7 @@ from typing import Any, Literal, TypeVar
 from sqlalchemy.orm import Session
 
 from app.db.base import utcnow
+from app.schemas.common import iso_utc
 from app.schemas.diagnose import (
     DiagnoseRequest,
     DiagnoseResponse,
@@ -553,7 +554,7 @@ def time_notes(untimed: Sequence[str], store: bool, now: datetime) -> list[str]:
                                       else "")
     verb = "state" if len(untimed) > 1 else "states"
     return [f"{named} {verb} no measured_at: stored at the time of this request "
-            f"({now.astimezone(UTC).isoformat().replace('+00:00', 'Z')}), where the history and trends place "
+            f"({iso_utc(now.astimezone(UTC))}), where the history and trends place "
             f"{'them' if len(untimed) > 1 else 'it'}; send the time the readings were taken "
             "(measured_at, ISO 8601) with logged data"]
 

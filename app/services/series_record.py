@@ -18,6 +18,7 @@ from typing import Any
 
 from sqlalchemy.orm import Session
 
+from app.schemas.common import iso_utc
 from app.schemas.diagnose import MEASURED_FIELDS
 from app.services.rig_cache import ResolvedRig, RigCache
 from app.services.series import as_record, get_series
@@ -51,7 +52,7 @@ def record_body(readings: CycleReadings, rig_id: int, rig_version: int | None,
     if rig_version is not None:
         body["rig_version"] = rig_version
     if measured_at is not None:
-        body["measured_at"] = measured_at.isoformat().replace("+00:00", "Z")
+        body["measured_at"] = iso_utc(measured_at)
     if series_id is not None:
         body["series_id"] = series_id
     body["condition"] = dict(readings.condition)
