@@ -85,6 +85,9 @@ class SteadyPoint:
     end_stop: bool = False
     #: reaction of the end stop on the piston, pushing against the load [N] (0 when moving)
     stop_reaction: float = 0.0
+    #: the transient's stall guard for this phase [s] (:func:`sim.cycle.stall_guard`): a
+    #: stroke slower than it is no completed stroke
+    guard: float = float("inf")
 
     @property
     def speed(self) -> float:
@@ -187,7 +190,8 @@ def steady_phase(rig: Rig, phase: str, overrides: Mapping[str, float] | None = N
     if y is not None:
         out = m.outputs(np.zeros(1), y[None, :], p)[0]
         if DIRECTION[phase] * out[iv] >= 0.0:
-            return SteadyPoint(phase, y, dict(zip(m.output_names, map(float, out), strict=True)))
+            return SteadyPoint(phase, y, dict(zip(m.output_names, map(float, out), strict=True)),
+                               guard=stall_guard(rig, p))
     guesses = [g for g in (y, start) if g is not None]
     if start is None:
         guesses.append(_transient_start(rig, p))
@@ -199,7 +203,7 @@ def steady_phase(rig: Rig, phase: str, overrides: Mapping[str, float] | None = N
     ys, reaction = held
     out = m.outputs(np.zeros(1), ys[None, :], p)[0]
     return SteadyPoint(phase, ys, dict(zip(m.output_names, map(float, out), strict=True)),
-                       end_stop=True, stop_reaction=reaction)
+                       end_stop=True, stop_reaction=reaction, guard=stall_guard(rig, p))
 
 
 def steady_cycle(rig: Rig, overrides: Mapping[str, float] | None = None,
@@ -210,7 +214,6 @@ def steady_cycle(rig: Rig, overrides: Mapping[str, float] | None = None,
     """
     rig.require_cycle("a steady cycle")
     stroke = (overrides or {}).get("cylinder.stroke", rig.base["cylinder.stroke"])
-    cond = condition if condition is not None else rig.default_condition()
     summaries = []
     for phase in PHASES:
         sp = steady_phase(rig, phase, overrides, condition)
@@ -220,9 +223,8 @@ def steady_cycle(rig: Rig, overrides: Mapping[str, float] | None = None,
         # a creep slower than the transient's stall guard is no completed stroke there, nor
         # here (a 2.9 h creep at 150 °C read completed here, a stall there: a modelling
         # engineer's pass)
-        guard = stall_guard(rig, phase_params(rig, phase, overrides, cond))
         summaries.append(PhaseSummary(phase, vals, sp.speed > 0 and not sp.end_stop
-                                      and vals["duration"] <= guard))
+                                      and vals["duration"] <= sp.guard))
     w, r = summaries
     ratio = w["speed"] / r["speed"] if r["speed"] > 0 else float("nan")
     return CycleResult(w, r, ratio, None, {})

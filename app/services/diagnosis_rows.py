@@ -129,6 +129,8 @@ def _request_twins(rows: Sequence[StoredRows]) -> None:
     readings): the second was refused as the twin of the first's diagnosis, an id of the
     transaction that was then rolled back and later given to another diagnosis (a fleet
     integrator's pass)."""
+    if len(rows) < 2:  # one diagnosis has no twin in its request: no decoding on the hot path
+        return
     seen: dict[tuple[Any, ...], str] = {}
     for item in rows:
         if not item.stated:
