@@ -3,15 +3,17 @@ work commands ``simulate | diagnose | sweep | calibrate`` (:mod:`app.cli_runs`).
 
 ``serve`` migrates the store, preloads the paper-002 reference rig and its throttle tables
 (missing clearances computed by :class:`~app.services.throttle_estimator.
-ThrottleClearanceEstimator`), creates an API key on the first start (printed once), then
-runs the HTTP server.
+ThrottleClearanceEstimator`), creates an API key on the first start (printed on a terminal, written to
+``<data dir>/first-api-key`` where the output is a log), then runs the HTTP server.
 """
 
 from __future__ import annotations
 
 import logging
+import os
 import socket
 import sys
+from pathlib import Path
 from typing import Annotated
 
 import typer
@@ -24,6 +26,7 @@ from sqlalchemy import Engine
 from app.cli_batch import register as register_batch
 from app.cli_db import db_cli
 from app.cli_discover import register as register_discover
+from app.cli_history import history_cli
 from app.cli_jobs import jobs_cli
 from app.cli_report import report_cli
 from app.cli_rigs import rigs_cli
@@ -46,6 +49,36 @@ cli.add_typer(keys_cli, name="keys")
 cli.add_typer(db_cli, name="db")
 cli.add_typer(rigs_cli, name="rigs")
 cli.add_typer(jobs_cli, name="jobs")
+cli.add_typer(history_cli, name="history")
+
+#: where ``serve`` leaves the first API key when its output is not a terminal (a log)
+FIRST_KEY_FILE = "first-api-key"
+
+
+def _show_first_key(key: str, data_dir: Path) -> None:
+    """Show the first API key once: on a terminal, printed; otherwise (a service log under
+    systemd or docker, which keeps what it is given) written to :data:`FIRST_KEY_FILE` in
+    the data folder, readable by this user only, and only its path printed — an operator
+    pass found the admin key in the journal, where the logs promise "never keys"."""
+    console.print("[bold]First start: an API key was created; send it in the X-API-Key "
+                  "header.[/bold]")
+    if sys.stdout.isatty():
+        typer.echo(f"API key: {key} (shown only now)")
+        return
+    path = (data_dir / FIRST_KEY_FILE).resolve()
+    try:
+        descriptor = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
+        os.fchmod(descriptor, 0o600)             # a file left by an earlier store keeps none
+        with os.fdopen(descriptor, "w") as file:
+            file.write(key + "\n")
+    except OSError as exc:
+        typer.echo(f"API key: not shown in a log, and not written to {path} ({exc.strerror}):"
+                   " make one from this shell with `hydrodiag keys create --name admin "
+                   "--scope admin`")
+        return
+    typer.echo(f"API key: written to {path} (readable by this user only), not to this "
+               "log; read it, keep it, delete the file")
+
 
 def _settings(**overrides: object) -> Settings:
     return settings_from_env(**overrides)
@@ -136,9 +169,7 @@ def serve(
         console.print(f"preloaded the reference rig and {preloaded.calibrations_created} "
                       "throttle tables")
     if first_key is not None:
-        console.print("[bold]First start: an API key was created. It is shown only now; "
-                      "send it in the X-API-Key header.[/bold]")
-        typer.echo(f"API key: {first_key}")
+        _show_first_key(first_key, settings.data_dir)
     if settings.workers > 1:  # each worker builds the app from the environment
         with shared_metrics():  # /metrics sums every worker's counters
             uvicorn.run("app.main:create_service_app", factory=True,

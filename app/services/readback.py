@@ -9,12 +9,21 @@ from typing import Any
 from sqlalchemy import Select, func, or_, select
 from sqlalchemy.orm import Session, selectinload
 
-from app.db.models import Diagnosis, Measurement, RigVersion
+from app.db.models import Diagnosis, DiagnosisEstimate, Measurement, RigVersion
+from app.schemas.history import (
+    StoredDiagnosisPublic,
+    StoredEstimatePublic,
+    StoredMeasurementPublic,
+)
 from app.services.common import commit, get_or_raise
+from app.services.diagnosis import compact_result
 from sim.errors import InputError
 
 __all__ = ["delete_measurement", "get_diagnosis", "get_measurement", "list_diagnoses",
-           "list_measurements"]
+           "list_measurements", "public_diagnosis", "public_measurement"]
+
+#: The fields of an answer's estimate that a stored result keeps beside the trend columns.
+_ANSWER_FIELDS = ("quantity", "unit", "value", "low", "high", "source")
 
 
 def _window(since: datetime | None, until: datetime | None) -> None:
@@ -130,3 +139,35 @@ def get_diagnosis(session: Session, diagnosis_id: int) -> Diagnosis:
     diagnosis: Diagnosis = get_or_raise(session, Diagnosis, diagnosis_id, what="diagnosis",
                                         field="diagnosis_id")
     return diagnosis
+
+
+def public_measurement(row: Measurement) -> StoredMeasurementPublic:
+    """A stored record as ``GET /measurements`` reads it back."""
+    return StoredMeasurementPublic(
+        id=row.id, rig_id=row.rig_id, measured_at=row.measured_at, record=row.record,
+        diagnosis_ids=sorted(d.id for d in row.diagnosed_in), created_at=row.created_at)
+
+
+def _estimate(row: DiagnosisEstimate, result: dict[str, Any]) -> StoredEstimatePublic:
+    """A stored estimate with the answer's fields kept in the stored result (its interval,
+    unit and source), so that both read backs have one shape (a fleet pass)."""
+    kept = (result.get("estimates") or {}).get(row.component) or {}
+    answer = {name: kept.get(name) for name in _ANSWER_FIELDS}
+    return StoredEstimatePublic(
+        component=row.component, probability=row.probability, clearance_m=row.clearance_m,
+        slip_coefficient=row.slip_coefficient, **answer)
+
+
+def public_diagnosis(row: Diagnosis, compact: bool = False) -> StoredDiagnosisPublic:
+    """A stored diagnosis as ``GET /diagnoses`` reads it back (HTTP and ``hydrodiag
+    history``); ``compact`` drops each hypothesis's predicted readings."""
+    result = compact_result(row.result) if compact else row.result
+    return StoredDiagnosisPublic(
+        id=row.id, measurement_id=row.measurement_id,
+        measurement_ids=sorted(m.id for m in row.records), rig_id=row.measurement.rig_id,
+        rig_version=row.rig_version.version, measured_at=row.measurement.measured_at,
+        top=row.result.get("top"), explained=row.result.get("explained"),
+        component=row.component, probability=row.probability,
+        estimates=[_estimate(e, row.result) for e in row.estimates],
+        result=result, created_at=row.created_at, superseded_by=row.superseded_by,
+        supersedes=row.result.get("rediagnosis_of"))

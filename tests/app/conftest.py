@@ -13,6 +13,18 @@ from sim.rigs import reference_rig_document
 from tests.app.live import LiveServer, live_server, sqlite_settings
 
 
+def first_api_key(data_dir: Path, output: str) -> str:
+    """The first API key a piped ``serve`` left in ``data_dir``: its output names the file,
+    never the key, and the file is readable by its owner only (a log keeps what it is
+    given: an operator found the admin key in the journal)."""
+    path = (data_dir / "first-api-key").resolve()
+    assert f"API key: written to {path} " in output, output
+    assert path.stat().st_mode & 0o777 == 0o600
+    key = path.read_text().strip()
+    assert key.startswith("hd_") and key not in output
+    return key
+
+
 @pytest.fixture(scope="module")
 def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[LiveServer]:
     """A server with open reads, shared by the tests of one module."""

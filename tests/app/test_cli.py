@@ -18,6 +18,7 @@ from typer.testing import CliRunner
 
 from app.cli import cli
 from app.db.migrate import head_revision
+from tests.app.conftest import first_api_key
 
 STARTUP_TIMEOUT_S = 120.0
 
@@ -73,17 +74,18 @@ def _wait_ready(base_url: str) -> None:
         time.sleep(0.1)
 
 
-def _keys_printed(process: subprocess.Popen[str]) -> list[str]:
+def _keys_shown(process: subprocess.Popen[str], data_dir: Path) -> list[str]:
+    """The first keys ``serve`` made: one in the data folder per start that says so."""
     assert process.stdout is not None
-    return [line.split(": ", 1)[1].strip() for line in process.stdout.read().splitlines()
-            if line.startswith("API key: ")]
+    output = process.stdout.read()
+    return [first_api_key(data_dir, output)] if "API key: " in output else []
 
 
-def test_serve_migrates_preloads_and_prints_the_first_key_once(tmp_path: Path) -> None:
+def test_serve_migrates_preloads_and_shows_the_first_key_once(tmp_path: Path) -> None:
     with _serve(tmp_path) as (base_url, process):
         assert httpx.get(f"{base_url}/rigs").status_code == 401  # a key by default
         _wait_ready(base_url)
-    keys = _keys_printed(process)
+    keys = _keys_shown(process, tmp_path)
     assert len(keys) == 1
     with _serve(tmp_path) as (base_url, process):
         rigs = httpx.get(f"{base_url}/rigs", headers={"X-API-Key": keys[0]}).json()
@@ -94,7 +96,7 @@ def test_serve_migrates_preloads_and_prints_the_first_key_once(tmp_path: Path) -
         assert created.status_code == 201, created.text
         assert httpx.get(f"{base_url}/rigs", headers={"X-API-Key": keys[0]}
                          ).json()["total"] == 2
-    assert _keys_printed(process) == []
+    assert _keys_shown(process, tmp_path) == []
     assert (tmp_path / "hydrodiag.db").exists()
 
 
@@ -189,7 +191,7 @@ def test_a_restarted_service_answers_its_first_burst(tmp_path: Path) -> None:
     """
     with _serve(tmp_path) as (base_url, process):
         _wait_ready(base_url)
-    key = _keys_printed(process)[0]
+    key = _keys_shown(process, tmp_path)[0]
     for _restart in range(2):
         with _serve(tmp_path) as (base_url, process):
             responses = _diagnose_burst(base_url, key, 8)

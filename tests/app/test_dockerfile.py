@@ -41,6 +41,8 @@ from pathlib import Path, PurePosixPath
 import httpx
 import pytest
 
+from tests.app.conftest import first_api_key
+
 REPO = Path(__file__).resolve().parents[2]
 DOCKERFILE = REPO / "Dockerfile"
 SETUP_COMMANDS = {"useradd", "groupadd", "adduser", "addgroup", "mkdir", "chown", "chmod"}
@@ -242,4 +244,4 @@ def test_the_image_steps_install_and_serve(tmp_path: Path) -> None:
     finally:
         server.terminate()
         output, _ = server.communicate(timeout=30)
-    assert "API key: hd_" in output
+    first_api_key(data_dir, output)

@@ -20,6 +20,7 @@ import pytest
 
 from app.db.models import ApiKey
 from app.logs import ACCESS_LOGGER, MAX_REQUEST_ID_LENGTH, JsonFormatter
+from tests.app.conftest import first_api_key
 from tests.app.live import LiveServer, live_server, sqlite_settings
 
 SECRET_IN_BODY = "body-secret-7f3e9a"
@@ -146,8 +147,7 @@ def test_serve_writes_json_lines_without_secrets(tmp_path: Path) -> None:
     finally:
         process.terminate()
         stdout, stderr = process.communicate(timeout=30)
-    key = next(line.split(": ", 1)[1] for line in stdout.splitlines()
-               if line.startswith("API key: "))
+    key = first_api_key(tmp_path, stdout)
     records = [json.loads(line) for line in stderr.splitlines() if line.startswith("{")]
     access = [r for r in records if r["logger"] == ACCESS_LOGGER]
     assert any(r["request_id"] == "subprocess-1" and r["status"] == 401

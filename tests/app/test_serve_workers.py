@@ -5,7 +5,6 @@ requests of every worker, whichever answers the scrape."""
 from __future__ import annotations
 
 import os
-import re
 import signal
 import socket
 import subprocess
@@ -15,6 +14,8 @@ from pathlib import Path
 
 import httpx
 import pytest
+
+from tests.app.conftest import first_api_key
 
 STARTUP_TIMEOUT_S = 240.0
 
@@ -114,14 +115,13 @@ def test_a_killed_supervisor_takes_its_workers_with_it(tmp_path: Path) -> None:
         assert len(descendants) >= 4
         # a sweep starts a worker's sweep pool: its processes (and their resource tracker)
         # lived on as orphans after a kill -9, ~350 MB each (an operator's pass)
-        key = re.search(r"API key: (hd_\S+)", (tmp_path / "service.log").read_text())
-        assert key is not None
+        key = first_api_key(tmp_path, (tmp_path / "service.log").read_text())
         url = f"http://127.0.0.1:{port}"
-        job = httpx.post(f"{url}/scenarios", headers={"X-API-Key": key.group(1)}, json={
+        job = httpx.post(f"{url}/scenarios", headers={"X-API-Key": key}, json={
             "rig_id": 1, "faults": ["healthy"], "method": "transient",
             "conditions": [{"name": "load", "low": 2100, "high": 4200, "levels": 4}]},
             timeout=60).json()["job_id"]
-        while httpx.get(f"{url}/jobs/{job}", headers={"X-API-Key": key.group(1)},
+        while httpx.get(f"{url}/jobs/{job}", headers={"X-API-Key": key},
                         timeout=30).json()["status"] in ("queued", "running"):
             assert time.monotonic() < deadline
             time.sleep(0.5)

@@ -6,31 +6,25 @@ A client that lost an answer (a timeout, a crash) checks here what was stored.
 from __future__ import annotations
 
 import logging
-from typing import Annotated, Any
+from typing import Annotated
 
 from fastapi import APIRouter, Path, Query, Response, status
 
 from app.api.deps import AdminKeyDep, PageDep, ReadAccess, SessionDep
 from app.api.rendered import rendered
-from app.db.models import Diagnosis, DiagnosisEstimate, Measurement
 from app.schemas.common import ERROR_RESPONSES, MAX_ID, SinceTime, UntilTime
 from app.schemas.history import (
     BlamedComponent,
     StoredDiagnosisList,
     StoredDiagnosisPublic,
-    StoredEstimatePublic,
     StoredMeasurementList,
     StoredMeasurementPublic,
 )
 from app.services import readback as service
-from app.services.diagnosis import compact_result
 
 __all__ = ["router"]
 
 logger = logging.getLogger("hydrodiag.app")
-
-#: The fields of an answer's estimate that a stored result keeps beside the trend columns.
-_ANSWER_FIELDS = ("quantity", "unit", "value", "low", "high", "source")
 
 router = APIRouter(tags=["history"], dependencies=[ReadAccess], responses=ERROR_RESPONSES)
 
@@ -56,35 +50,6 @@ def _next(after_id: int | None, ids: list[int]) -> int | None:
     return None if after_id is None else (ids[-1] if ids else after_id)
 
 
-def _measurement(row: Measurement) -> StoredMeasurementPublic:
-    return StoredMeasurementPublic(
-        id=row.id, rig_id=row.rig_id, measured_at=row.measured_at, record=row.record,
-        diagnosis_ids=sorted(d.id for d in row.diagnosed_in), created_at=row.created_at)
-
-
-def _estimate(row: DiagnosisEstimate, result: dict[str, Any]) -> StoredEstimatePublic:
-    """A stored estimate with the answer's fields kept in the stored result (its interval,
-    unit and source), so that both read backs have one shape (a fleet pass)."""
-    kept = (result.get("estimates") or {}).get(row.component) or {}
-    answer = {name: kept.get(name) for name in _ANSWER_FIELDS}
-    return StoredEstimatePublic(
-        component=row.component, probability=row.probability, clearance_m=row.clearance_m,
-        slip_coefficient=row.slip_coefficient, **answer)
-
-
-def _diagnosis(row: Diagnosis, compact: bool = False) -> StoredDiagnosisPublic:
-    result = compact_result(row.result) if compact else row.result
-    return StoredDiagnosisPublic(
-        id=row.id, measurement_id=row.measurement_id,
-        measurement_ids=sorted(m.id for m in row.records), rig_id=row.measurement.rig_id,
-        rig_version=row.rig_version.version, measured_at=row.measurement.measured_at,
-        top=row.result.get("top"), explained=row.result.get("explained"),
-        component=row.component, probability=row.probability,
-        estimates=[_estimate(e, row.result) for e in row.estimates],
-        result=result, created_at=row.created_at, superseded_by=row.superseded_by,
-        supersedes=row.result.get("rediagnosis_of"))
-
-
 @router.get("/measurements", summary="List stored measurement records",
             response_model=StoredMeasurementList)
 def list_measurements(session: SessionDep, page: PageDep, rig_id: RigFilter = None,
@@ -96,7 +61,7 @@ def list_measurements(session: SessionDep, page: PageDep, rig_id: RigFilter = No
                                             rig_id=rig_id, since=since, until=until,
                                             after_id=after_id)
     return rendered(StoredMeasurementList(
-        items=[_measurement(r) for r in rows], total=total, limit=page.limit,
+        items=[service.public_measurement(r) for r in rows], total=total, limit=page.limit,
         offset=page.offset, next_after_id=_next(after_id, [r.id for r in rows])))
 
 
@@ -107,7 +72,7 @@ def get_measurement(
     session: SessionDep,
 ) -> StoredMeasurementPublic:
     """Return the record as posted, with the ids of its diagnoses."""
-    return _measurement(service.get_measurement(session, measurement_id))
+    return service.public_measurement(service.get_measurement(session, measurement_id))
 
 
 @router.delete("/measurements/{measurement_id}", status_code=status.HTTP_204_NO_CONTENT,
@@ -153,7 +118,7 @@ def list_diagnoses(
                                          component=component, after_id=after_id,
                                          superseded=superseded)
     return rendered(StoredDiagnosisList(
-        items=[_diagnosis(r, compact) for r in rows], total=total, limit=page.limit,
+        items=[service.public_diagnosis(r, compact) for r in rows], total=total, limit=page.limit,
         offset=page.offset, next_after_id=_next(after_id, [r.id for r in rows])))
 
 
@@ -164,4 +129,4 @@ def get_diagnosis(
     session: SessionDep,
 ) -> StoredDiagnosisPublic:
     """Return the diagnosis with its estimates and full result."""
-    return _diagnosis(service.get_diagnosis(session, diagnosis_id))
+    return service.public_diagnosis(service.get_diagnosis(session, diagnosis_id))
