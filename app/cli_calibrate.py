@@ -116,7 +116,15 @@ def calibrate_throttle(
     from app.services.calibrations import create_calibration
     from app.services.throttle_estimator import ThrottleClearanceEstimator
 
-    data = validated(CalibrationCreate, load_document(file))
+    document = load_document(file)
+    if not isinstance(document, dict):
+        # a CSV read as YAML is one string: "Input should be a valid dictionary" (a pass)
+        raise InputError(
+            "a throttle table file is the JSON or YAML body of POST /rigs/{id}/calibrations "
+            "(throttle, component, back_pressure_pa [Pa], temperature_c [°C], points: "
+            "opening_turns, bypass_flow_m3s [m³/s], clearance_m [m] optional); a CSV table "
+            "is not read: docs/diagnosis.md, 'Throttle tables'", field="FILE")
+    data = validated(CalibrationCreate, document)
     with store_session() as session, steps() as progress:
         progress.add_task("computing clearances", total=None)
         calibration = create_calibration(session, rig_id, data,

@@ -57,7 +57,7 @@ from typing import Literal
 import numpy as np
 from scipy import stats
 
-from diagnostics.level_shift import LevelShift, level_shift
+from diagnostics.level_shift import MIN_SIDE, LevelShift, level_shift
 from diagnostics.robust import mad_sigma
 from diagnostics.theil_sen import EXACT_PAIRS, SAMPLED_PAIRS, theil_sen
 from diagnostics.uncertainty import Estimate
@@ -157,10 +157,8 @@ def latest_step(series: TrendSeries, slope: float | None = None) -> LevelShift |
     while rest.n_distinct >= MIN_POINTS:
         t = np.asarray(rest.times, dtype=np.float64)
         y = np.asarray(rest.values, dtype=np.float64)
-        typical = (float(np.median(rest.uncertainties)) if rest.uncertainties is not None
-                   else None)
         b = slope if slope is not None and rest is series else theil_sen(t, y)[0]
-        found = level_shift(t, y, b, typical)
+        found = level_shift(t, y, b, rest.uncertainties)
         if found is None:
             break
         step, rest = found, rest.after(found.time)
@@ -375,8 +373,9 @@ def forecast_threshold(series: TrendSeries, threshold: float, *,
         else None
     step = latest_step(series, fit.slope) if steps and fit is not None else None
     if step is None:
-        return replace(_forecast(series, threshold, direction, t_ref, confidence, fit),
-                       n_used=len(series.times))
+        out = _forecast(series, threshold, direction, t_ref, confidence, fit)
+        return replace(out, n_used=len(series.times),
+                       message=out.message + _off_line(series, out.fit, when, t_ref))
     used = series.after(step.time)
     out = _forecast(used, threshold, direction, t_ref, confidence)
     sign = "+" if step.size > 0 else ""
@@ -385,7 +384,47 @@ def forecast_threshold(series: TrendSeries, threshold: float, *,
     note = (f"a step of {sign}{quantity_text(step.size, series.unit, 3)} in "
             f"{series.quantity} {at} (a contamination event, a part changed, or wear that "
             f"sped up): the trend uses the {len(used.times)} visit(s) after it; ")
-    return replace(out, step=step, n_used=len(used.times), message=note + out.message)
+    return replace(out, step=step, n_used=len(used.times),
+                   message=note + out.message + _off_line(used, out.fit, when, t_ref))
+
+
+#: how far off the fitted line the latest visits must each be to be said [σ]
+OFF_LINE = 3.0
+
+
+def _off_line(series: TrendSeries, fit: TrendFit | None,
+              when: Callable[[float], str] | None, t_ref: float) -> str:
+    """A note when the latest visits, fewer than a step needs (:data:`MIN_SIDE`), all sit
+    more than :data:`OFF_LINE` σ on one side of the fitted line (σ: each visit's stated
+    uncertainty or the line's robust scatter, the larger): three visits after a new seal
+    read 35 µm below a line still forecasting the old seal's "57 days to the threshold"
+    without a word (a reliability engineer's pass); the step test names it from the
+    fourth visit on."""
+    if fit is None:
+        return ""
+    order = np.argsort(np.asarray(series.times, dtype=np.float64), kind="stable")
+    t = np.asarray(series.times, dtype=np.float64)[order]
+    r = np.asarray(series.values, dtype=np.float64)[order] - (
+        fit.pivot_value + fit.slope * (t - fit.pivot_time))
+    u = (np.asarray(series.uncertainties, dtype=np.float64)[order]
+         if series.uncertainties is not None else np.zeros(t.size))
+    sigma = np.maximum(u, mad_sigma(r))
+    beyond = np.sign(r) * (np.abs(r) > OFF_LINE * sigma)
+    count = 0
+    while count < min(MIN_SIDE - 1, t.size - MIN_POINTS) and beyond[-1 - count] != 0 and \
+            beyond[-1 - count] == beyond[-1]:
+        count += 1
+    if not count or not np.all(sigma[-count:] > 0):
+        return ""
+    first = float(t[-count])
+    at = when(first) if when is not None else f"{span(t_ref - first)} before the reference time"
+    offset = float(np.mean(r[-count:]))
+    side = "below" if offset < 0 else "above"
+    return (f"; the latest {count} visit(s), from {at} on, sit "
+            f"{quantity_text(abs(offset), series.unit, 3)} {side} the fitted line (each "
+            f"beyond {OFF_LINE:g} σ): a part changed or an event, which the step test "
+            f"confirms once {MIN_SIDE} visits follow it; a part changed on a known date: "
+            "read the trend from that date on (since)")
 
 
 def _forecast(series: TrendSeries, threshold: float, direction: Direction, t_ref: float,
@@ -431,10 +470,16 @@ def _forecast(series: TrendSeries, threshold: float, direction: Direction, t_ref
         elif math.isinf(earliest):
             steepest = f"not even the steepest slope the data allow reaches {limit}"
         elif earliest > 0.0:
-            steepest = (f"at the steepest slope the data allow, {limit} would be reached in "
+            # both parts named: the steepest line's own crossing was 18.9 days, its level
+            # raised by its uncertainty 1.72 (a reliability engineer's pass)
+            steepest = (f"at the steepest slope the data allow, and the level at the top "
+                        f"of its {100 * confidence:.0f} % interval, {limit} would be "
+                        f"reached in "
                         f"{span(earliest)}")
         else:
-            steepest = f"at the steepest slope the data allow it could already be past {limit}"
+            steepest = (f"at the steepest slope the data allow, and the level at the top "
+                        f"of its {100 * confidence:.0f} % interval, it could already be "
+                        f"past {limit}")
         said = (f"{series.quantity} is not worsening (slope {rate})" if not f.slope > 0.0 else
                 f"{series.quantity} shows no significant worsening (slope {rate}, its "
                 f"{100 * confidence:.0f} % interval reaches zero)")

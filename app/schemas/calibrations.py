@@ -49,8 +49,11 @@ ComponentName = Annotated[
     str, StringConstraints(min_length=1, max_length=64, pattern=r"^[a-z][a-z0-9_]*$")
 ]
 BackPressure = Annotated[FiniteFloat, Field(ge=0, le=1e8)]
-Temperature = Annotated[FiniteFloat, Field(ge=-40, le=200)]
-Opening = Annotated[FiniteFloat, Field(ge=0, le=100)]
+#: the rig model's range of oil temperature [°C] (sim.rigs.circuits.pump_valve_cylinder)
+Temperature = Annotated[FiniteFloat, Field(ge=-30, le=150)]
+#: the rig model's range of a throttle's opening [turn] (sim.components.throttle): a table
+#: typed in degrees (0/45/90) was stored and interpolated (a technician's pass)
+Opening = Annotated[FiniteFloat, Field(ge=0, le=10)]
 BypassFlow = Annotated[FiniteFloat, Field(gt=0, lt=1)]
 Clearance = Annotated[FiniteFloat, Field(gt=0, lt=MAX_CLEARANCE_M)]
 SourceNote = Annotated[str, StringConstraints(max_length=2000)]

@@ -65,6 +65,10 @@ IdInt = Annotated[int, Field(ge=1, le=MAX_ID)]
 _ISO_DATE = re.compile(r"^\d{4}-\d{2}-\d{2}")
 
 
+#: a time whose offset's "+" a URL's query string turned into a space
+_SPACED_OFFSET = re.compile(r"T\d{2}:\d{2}(:\d{2}(\.\d+)?)? \d{2}(:?\d{2})?$")
+
+
 def iso_only(value: Any) -> Any:
     """Before-validator of a time: a datetime or an ISO 8601 string, never a number.
 
@@ -73,6 +77,11 @@ def iso_only(value: Any) -> Any:
     """
     if isinstance(value, dt.datetime):
         return value
+    if isinstance(value, str) and _SPACED_OFFSET.search(value):
+        # a query string reads "+05:00" as " 05:00": "unexpected extra characters" said
+        # nothing of it (a reliability engineer's pass)
+        raise ValueError("the '+' of the zone offset arrived as a space: in a URL write it "
+                         "%2B (…T14:00:00%2B05:00), or give the time in UTC with Z")
     if isinstance(value, str) and _ISO_DATE.match(value):
         return value
     raise ValueError("give the time as ISO 8601 with its zone, e.g. 2026-11-22T08:30:00Z")

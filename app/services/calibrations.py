@@ -94,12 +94,14 @@ def _estimate(
     points: Sequence[TablePoint],
     estimator: ClearanceEstimator,
 ) -> list[TablePoint]:
-    """Return ``points`` with each missing clearance computed by ``estimator``."""
+    """Return ``points`` with each missing clearance computed by ``estimator``; a row whose
+    clearance is given is checked by it too (its condition and flow against the rig), and
+    keeps its clearance: a table whose every row gave one skipped every check, and flows in
+    l/min, 10 "Pa" of back-pressure, a stalled load, 180 °C and component ``pump`` were
+    stored (a technician's pass)."""
     document = latest_version(session, get_rig(session, calibration.rig_id)).document
     filled = list(points)
     for index, point in enumerate(points):
-        if point.clearance_m is not None:
-            continue
         try:
             clearance = estimator(
                 rig_document=document,
@@ -112,6 +114,8 @@ def _estimate(
             if exc.field != "bypass_flow_m3s":
                 raise
             raise InputError(exc.message, field=f"points[{index}].bypass_flow_m3s") from None
+        if point.clearance_m is not None:
+            continue
         if not (math.isfinite(clearance) and 0 < clearance < MAX_CLEARANCE_M):
             raise InputError(
                 f"the computed clearance {clearance:g} m is not a plausible clearance",
@@ -131,7 +135,7 @@ def _rows(
     """Check ``points``, fill missing clearances, return the rows in order of opening; the
     table's ``rig_version`` becomes the latest version when any clearance is computed."""
     order = check_table(points)
-    if estimator is not None and any(p.clearance_m is None for p in points):
+    if estimator is not None:
         points = _estimate(session, calibration, points, estimator)
         check_table(points)
     computed = any(p.clearance_origin == "computed" for p in points)

@@ -29,7 +29,7 @@ from typing import Any
 from app.services.rig_cache import DocumentRigs, document_digest
 from diagnostics.measurement import MIN_PRESSURE_READING
 from diagnostics.throttle import CalibrationRow, CalibrationTable, clearances_from_law
-from sim.errors import InputError, SimulationError
+from sim.errors import InputError, ParameterError, SimulationError
 from sim.rigs import Condition
 from sim.steady import steady_cycle
 
@@ -85,6 +85,12 @@ class ThrottleClearanceEstimator:
         except SimulationError as exc:
             raise InputError(f"no operating point of the rig at this condition: {exc.message}",
                              field="back_pressure_pa") from None
+        except ParameterError as exc:
+            # the condition the table states, named as the table names it (a 180 °C
+            # table's 422 named condition.oil_temperature, a field it does not have)
+            field = {"condition.oil_temperature": "temperature_c",
+                     "condition.force": "back_pressure_pa"}.get(exc.field or "", exc.field)
+            raise InputError(exc.message, field=field) from None
         if not working["speed"] > 0.0:
             # a stalled piston (the relief valve open) stored clearances from a leak
             # law at an operating point the calibration cannot have had (a technician)

@@ -228,7 +228,9 @@ def discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], *
         Re-fit the named coefficients in output-error form (else keep the equation-error
         estimates).
     max_nfev
-        Simulation budget of the output-error re-fit.
+        Simulation budget of each output-error re-fit: the named effects' and the re-fit
+        of the rig's own parameters (base drift); a base re-fit that stops at it says so
+        (``base_drift.budget_exhausted``) and does not rule a drift out.
     bootstrap
         Bootstrap replicates for the inclusion frequencies.
     seed

@@ -23,7 +23,8 @@ from sim.rigs.schema import RigSpec, check_bounds
 #: hydraulic pumps (chosen; a rig simulated beyond it would report pressures no relief
 #: valve of the circuit allows, and a reading beyond it is taken to be an error).
 MAX_PUMP_SPEED = 2000.0
-#: most a condition's pump speed may exceed the rig's stated one [-]
+#: most a condition's pump speed, or an override of its displacement, may exceed the rig's
+#: stated one [-]
 OVERSPEED = 3.0
 
 __all__ = ["MAX_PUMP_SPEED", "OVERSPEED", "Condition", "Rig", "build_graph", "build_graph_with_effects"]
@@ -72,6 +73,13 @@ class Rig:
     fluid: Fluid
     base: dict[str, float] = field(default_factory=dict)
 
+    def __repr__(self) -> str:
+        """One line (the generated one printed the compiled equations: 62 kB in a notebook,
+        a library user's pass)."""
+        effects = f", effects={list(self.spec.effect_types)}" if self.spec.effect_types else ""
+        return (f"Rig(name={self.spec.name!r}, circuit={self.circuit.name!r}, "
+                f"parameters={len(self.base)}, states={len(self.model.state_names)}{effects})")
+
     @property
     def circuit(self) -> Circuit:
         """The circuit of the rig file."""
@@ -119,6 +127,18 @@ class Rig:
                 f"{OVERSPEED:g} times the rig's {stated:.4g} rad/s "
                 f"({stated * 30 / math.pi:.0f} rpm): pump speeds are in rad/s (1 rpm = "
                 "π/30 rad/s)", field=field)
+
+    @staticmethod
+    def _check_displacement(vp: float, stated: float | None) -> None:
+        """Refuse a displacement override [m³/rad] more than :data:`OVERSPEED` times the
+        rig's: the rig file and the papers state it per revolution, and 1.75e-5 "m³/rad"
+        ran the pump 2π times too large, the piston at 1.37 m/s (a library user's pass)."""
+        if stated is not None and vp > OVERSPEED * stated:
+            raise ParameterError(
+                f"displacement {vp:g} m³/rad is more than {OVERSPEED:g} times the rig's "
+                f"{stated:.4g} m³/rad ({stated * 2 * math.pi * 1e6:.4g} cm³/rev): an override "
+                f"is in m³/rad (m³/rev ÷ 2π; {vp:g} m³/rev is {vp / (2 * math.pi):.4g} "
+                "m³/rad)", field="overrides.pump.Vp")
 
     def _check_relations(self, v: Mapping[str, float], overrides: Mapping[str, float]) -> None:
         """Refuse overrides that break their component's geometry (a rod thicker than the
@@ -181,6 +201,8 @@ class Rig:
             if "pump.speed" in overrides:  # against the rig's own speed first: the sharper note
                 self._check_speed(float(overrides["pump.speed"]), self.base.get("pump.speed"),
                                   "overrides.pump.speed")
+            if "pump.Vp" in overrides:
+                self._check_displacement(float(overrides["pump.Vp"]), self.base.get("pump.Vp"))
             self._check_relations(v, overrides)
         self.check_condition(cond)
         if cond.pump_speed is not None:

@@ -133,6 +133,11 @@ def check_bounds(value: float, decl: Param, field_path: str) -> None:
     """Raise :class:`RigFileError` if ``value`` [SI] is outside ``decl``'s bounds."""
     lo, hi = decl.lower, decl.upper
     unit = unit_suffix(decl.unit)
+    if not math.isfinite(value):
+        # every comparison with NaN is false: a NaN load ran the solver from its last
+        # guess and returned that operating point (a library user's pass)
+        raise RigFileError(f"{decl.description} must be a finite number (in{unit or ' 1'}), "
+                           f"got {value}", field=field_path)
     if lo is not None and (value < lo or (value == lo and not decl.lower_inclusive)):
         rel = "≥" if decl.lower_inclusive else ">"
         raise RigFileError(f"{decl.description} must be {rel} {lo:g}{unit}, got {value:g}",

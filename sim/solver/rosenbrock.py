@@ -281,6 +281,10 @@ def steady(rhs: RHS, y0: Arr, p: Arr, mask: IArr, scale: Arr, tol: float, maxit:
         r = f[idx[a]] / scale[idx[a]]
         res += r * r
     res = math.sqrt(res)
+    if not math.isfinite(res):
+        # a NaN residual at the guess (a NaN parameter): no Newton step can be measured,
+        # and a NaN step compared as converged there (a library user's pass)
+        return 1, 0, res
     for it in range(maxit):
         for b in range(m):
             j = idx[b]

@@ -210,6 +210,12 @@ def test_calibrate_pump_and_throttle(runner: CliRunner, tmp_path: Path) -> None:
     # without a word (a rig author's pass)
     unnamed = runner.invoke(cli, ["calibrate", "throttle", str(table)])
     assert unnamed.exit_code != 0 and "--rig" in unnamed.output
+    # a CSV table is read as one YAML string: say what the file is (a technician's pass)
+    csv = tmp_path / "table.csv"
+    csv.write_text("opening_turns,bypass_flow_m3s\n0,8.6e-6\n0.5,1.3e-5\n")
+    as_csv = runner.invoke(cli, ["calibrate", "throttle", str(csv), "--rig", "1"])
+    assert as_csv.exit_code != 0 and getattr(as_csv.exception, "field", None) == "FILE"
+    assert "JSON or YAML body of POST /rigs/{id}/calibrations" in str(as_csv.exception)
     assert store_count(ThrottleCalibration) == before
     throttle = runner.invoke(cli, ["calibrate", "throttle", str(table), "--rig", "1"])
     assert throttle.exit_code == 0, throttle.output

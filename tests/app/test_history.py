@@ -115,6 +115,12 @@ def test_read_back_errors(server: LiveServer, stored: dict[str, Any]) -> None:
     assert bad.status_code == 422 and bad.json()["error"]["field"] == "until"
     naive = server.client.get("/diagnoses", params={"since": "2026-05-01T00:00:00"})
     assert naive.status_code == 422 and naive.json()["error"]["field"] == "since"
+    # an offset's "+" written into the URL as it is arrives as a space: said so
+    plus = server.client.get("/diagnoses?since=2026-05-01T14:00:00+05:00")
+    assert plus.status_code == 422 and plus.json()["error"]["field"] == "since"
+    assert "%2B" in plus.json()["error"]["message"]
+    encoded = server.client.get("/diagnoses?since=2026-05-01T14:00:00%2B05:00")
+    assert encoded.status_code == 200
     assert server.anon.get("/diagnoses").status_code == 401
     assert server.anon.get(f"/measurements/{stored['single'][0][1]['measurement_ids'][0]}"
                            ).status_code == 401

@@ -8,6 +8,7 @@ from typing import Any
 import pytest
 
 from app.services.throttle_estimator import ThrottleClearanceEstimator
+from sim.errors import InputError
 from sim.rigs import Condition, reference_rig, reference_rig_document
 from sim.steady import steady_cycle
 from tests.app.live import LiveServer, live_server, sqlite_settings
@@ -44,6 +45,15 @@ def test_an_unknown_component_is_refused() -> None:
                                      bypass_flow_m3s=1e-5, back_pressure_pa=1e6,
                                      temperature_c=40.0)
     assert getattr(info.value, "field", None) == "component"
+
+
+def test_a_temperature_the_rig_model_does_not_cover_names_the_table_s_field() -> None:
+    """The estimator's 422 named ``condition.oil_temperature``, a field a table has not."""
+    with pytest.raises(InputError, match="≤ 150") as info:
+        ThrottleClearanceEstimator()(rig_document=reference_rig_document(), component="valve",
+                                     bypass_flow_m3s=1e-5, back_pressure_pa=1e6,
+                                     temperature_c=180.0)
+    assert info.value.field == "temperature_c"
 
 
 def test_the_preloaded_tables_get_their_missing_clearance(estimating_server: LiveServer) -> None:
@@ -134,6 +144,43 @@ def test_unit_slips_and_a_stalled_piston_are_refused_and_store_nothing(
     assert bar_as_pa.status_code == 422
     assert bar_as_pa.json()["error"]["field"] == "back_pressure_pa"
     assert _count(estimating_server) == before
+
+
+@pytest.mark.parametrize(("change", "field", "words"), [
+    ({"points": [{"opening_turns": 0.0, "bypass_flow_m3s": 0.516},
+                 {"opening_turns": 1.0, "bypass_flow_m3s": 0.78}]},
+     "points[0].bypass_flow_m3s", "more than the rig's pump delivers"),
+    ({"back_pressure_pa": 10.0}, "back_pressure_pa", "it is in Pa"),
+    ({"back_pressure_pa": 1.0e8}, "back_pressure_pa", "does not move"),
+    ({"component": "pump"}, "component", "no leakage law"),
+    ({"temperature_c": 150.5}, "temperature_c", "150"),
+])
+def test_a_table_with_every_clearance_given_is_checked_as_well(
+        estimating_server: LiveServer, change: dict[str, Any], field: str, words: str) -> None:
+    """With ``clearance_m`` on every row no check ran: flows in l/min, 10 "Pa", 1000 bar,
+    component pump and 180 °C were all stored (a technician's pass); the same tables
+    without clearances were refused.  Now both are, and the temperature's 422 names the
+    table's field (it named ``condition.oil_temperature``)."""
+    before = _count(estimating_server)
+    given = [{"opening_turns": 0.0, "bypass_flow_m3s": 8.6e-6, "clearance_m": 34e-6},
+             {"opening_turns": 1.0, "bypass_flow_m3s": 1.3e-5, "clearance_m": 37e-6}]
+    table = {"throttle": "G", "component": "valve", "back_pressure_pa": 1.0e6,
+             "temperature_c": 40.0, "points": given}
+    if "points" in change:
+        change = {"points": [row | c for row, c in zip(given, change["points"], strict=True)]}
+    refused = estimating_server.client.post("/rigs/1/calibrations", json=table | change,
+                                            headers=estimating_server.auth)
+    assert refused.status_code == 422, refused.text
+    error = refused.json()["error"]
+    assert error["field"] == field and words in error["message"], error
+    assert _count(estimating_server) == before
+    # a throttle opens ten turns at most, as the rig model's throttle: degrees are refused
+    degrees = [row | {"opening_turns": turns} for row, turns in zip(given, (0.0, 45.0),
+                                                                        strict=True)]
+    refused = estimating_server.client.post("/rigs/1/calibrations", json=table | {
+        "points": degrees}, headers=estimating_server.auth)
+    assert refused.status_code == 422 and refused.json()["error"]["field"] == (
+        "points[1].opening_turns")
 
 
 def _rig_whose_seal_will_shorten(server: LiveServer, name: str

@@ -447,3 +447,20 @@ def test_a_clearance_threshold_in_micrometres_is_refused(server: LiveServer) -> 
     assert error["field"] == "threshold" and "unit slip? 130 µm is 0.00013" in error["message"]
     mm = server.client.get("/rigs/1/trends", params={"component": "valve", "threshold": 0.06})
     assert "0.06 mm is 6e-05" in mm.json()["error"]["message"]
+
+
+def test_visits_seconds_apart_forecast_nothing() -> None:
+    """26 records posted without ``measured_at`` are stamped with their requests' times:
+    the trend read "cc reaches 132.8 µm in 0.0637 s" (a reliability engineer's pass).
+    Visits spanning less than an hour give no rate; a day's span does."""
+    from app.services.trends import MIN_SPAN_S, _trend
+
+    values = [83e-6 + 1.6e-6 * k for k in range(26)]
+    seconds = _points(values, days=0.05 / 86400.0)
+    trend = _trend("cylinder", 1, seconds, 132.8e-6, "default")
+    assert trend.status == "insufficient_data" and trend.time_left_s is None
+    assert trend.slope is None and trend.crossing_at is None
+    assert "the 26 visits span 1.25 s" in trend.message
+    assert "without measured_at" in trend.message
+    hours = _points(values, days=2 * MIN_SPAN_S / 25 / 86400.0)
+    assert _trend("cylinder", 1, hours, 132.8e-6, "default").status == "worsening"

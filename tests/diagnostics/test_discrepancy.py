@@ -372,3 +372,18 @@ def test_cycles_logged_without_phases_have_them_read_off_the_position():
     assert d.named[0].value == pytest.approx(truth, rel=0.03)
     assert "no phase column in 'L2100', 'L4200', 'L6300': phases read off the position" \
         in d.message and "log the spool command" in d.message
+
+
+def test_a_re_fit_cut_by_its_budget_does_not_rule_a_drift_out():
+    """With ``max_nfev`` 4 a worn spool came out "unexplained: no drift of the rig's own
+    parameters explains it", where the default budget re-fits it to cv 60.0 µm (a library
+    user's pass): a re-fit that stopped at its budget says so and rules nothing out."""
+    rig = reference_rig()
+    recs = _records(reference_rig_document(), 8,
+                    overrides={"pump.Rlp": rig.base["pump.Rlp"] / 3.0})
+    d = discover(reference_rig_document(), recs, bootstrap=0, max_nfev=2)
+    assert d.base_drift is not None and d.base_drift.exhausted
+    assert d.base_drift.to_dict()["budget_exhausted"] is True
+    assert d.verdict == "unexplained"          # two simulations cannot size the wear
+    assert "no drift of the rig's own parameters explains" not in d.message, d.message
+    assert "stopped at its budget of 2 simulations" in d.message, d.message

@@ -200,6 +200,10 @@ def test_a_flat_trend_whose_steepest_slope_is_already_past_says_so() -> None:
     assert forecast.time_left_low == 0.0
     assert "reached in 0 s" not in forecast.message
     assert "could already be past 60 µm" in forecast.message
+    # both parts of the earliest crossing named: the steepest line's own crossing alone
+    # was 11 times later than the time said (a reliability engineer's pass)
+    assert "steepest slope the data allow, and the level at the top of its 95 % " \
+        "interval" in forecast.message
     flat = forecast_threshold(TrendSeries("r", "cylinder", "cc", "m", series.times,
                                           (40e-6,) * 5, None), 60e-6)
     assert "not even the steepest slope the data allow reaches" in flat.message

@@ -6,8 +6,9 @@ import numpy as np
 import pytest
 
 from sim import steady as steady_module
+from sim.errors import ParameterError
 from sim.rigs import Condition, load_rig, reference_rig, reference_rig_document
-from sim.steady import steady_phase
+from sim.steady import steady_cycle, steady_phase
 
 
 def test_a_guess_is_used_only_by_the_rig_that_made_it() -> None:
@@ -35,3 +36,22 @@ def test_a_rig_started_from_its_own_guess_finds_the_same_point() -> None:
     first = steady_phase(rig, "return", None, cond).state.copy()
     second = steady_phase(rig, "return", None, cond).state
     assert second == pytest.approx(first, rel=1e-9, abs=1e-12)
+
+
+@pytest.mark.parametrize(("condition", "overrides", "field"), [
+    ({"load": float("nan")}, None, "condition.force"),
+    ({"back_pressure": float("nan")}, None, "condition.back_pressure"),
+    ({"oil_temperature": float("inf")}, None, "condition.oil_temperature"),
+    ({}, {"pump.Rlp": float("nan")}, "overrides.pump.Rlp"),
+    ({}, {"cylinder.Fu": float("nan")}, "overrides.cylinder.Fu"),
+])
+def test_a_nan_is_refused_not_answered_with_the_last_point(
+        condition: dict[str, float], overrides: dict[str, float] | None, field: str) -> None:
+    """A NaN load returned, unchanged, the 6.3 kN point solved before it: every bound
+    compared false, and the solver took the NaN residual at its guess as converged (a
+    library user's pass).  Now the value is refused, naming it."""
+    rig = reference_rig()
+    steady_cycle(rig, None, Condition(load=6300.0))       # the point a NaN came back as
+    with pytest.raises(ParameterError, match="must be a finite number") as caught:
+        steady_cycle(rig, overrides, Condition(**condition))
+    assert caught.value.field == field

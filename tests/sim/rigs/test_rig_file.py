@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import copy
 import json
+import math
 
 import pytest
 
@@ -136,6 +137,26 @@ def test_a_pump_speed_in_rpm_is_refused_with_the_unit_named() -> None:
     with pytest.raises(ParameterError) as e:
         rig.values({"pump.speed": 1450.0})
     assert e.value.field == "overrides.pump.speed" and "(1600 rpm)" in e.value.message
+
+
+def test_a_displacement_per_revolution_is_refused_as_an_override() -> None:
+    """The rig file and the papers give Vp per revolution; an override is per radian, and
+    1.75e-5 ran the pump 2π times too large, the piston at 1.37 m/s (a library user's
+    pass).  A larger pump, up to three times the rig's, stays a valid question."""
+    rig = reference_rig()
+    stated = rig.values()["pump.Vp"]
+    assert pytest.approx(stated * 2 * math.pi) == 17.5e-6
+    rig.values({"pump.Vp": 2.0 * stated})
+    with pytest.raises(ParameterError) as e:
+        rig.values({"pump.Vp": 17.5e-6})
+    assert e.value.field == "overrides.pump.Vp"
+    assert "(17.5 cm³/rev)" in e.value.message and "m³/rev ÷ 2π" in e.value.message
+
+
+def test_a_rig_reads_in_one_line() -> None:
+    """The generated repr printed the compiled equations: 62 kB in a notebook."""
+    shown = repr(reference_rig())
+    assert "\n" not in shown and len(shown) < 200 and "paper002-reference" in shown
 
 
 def test_a_bound_broken_in_another_unit_is_said_as_written() -> None:

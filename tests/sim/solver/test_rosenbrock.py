@@ -75,3 +75,18 @@ def test_newton_finds_the_steady_state_and_holds_frozen_states():
                             np.array([1, 1, 0], dtype=np.int64), np.ones(3), 1e-12, 50, y)
     assert status == 0 and its < 20
     assert np.allclose(y, [2.0, 1.0, 7.0])
+
+
+def test_newton_does_not_call_a_nan_residual_converged():
+    """A NaN parameter made every step NaN; ``max(0, nan)`` kept 0, and the guess was
+    returned as converged — the last operating point solved (a library user's pass)."""
+    def f(t, y, p, dy):
+        dy[0] = p[0] * (4.0 - y[0] ** 2)
+
+    y = np.empty(1)
+    status, its, res = steady(f, np.array([1.0]), np.array([np.nan]),
+                              np.array([1], dtype=np.int64), np.ones(1), 1e-12, 50, y)
+    assert status == 1 and its == 0 and math.isnan(res)
+    status, _, _ = steady(f, np.array([1.0]), np.array([1.0]),
+                          np.array([1], dtype=np.int64), np.ones(1), 1e-12, 50, y)
+    assert status == 0 and abs(y[0] - 2.0) < 1e-12
