@@ -252,6 +252,10 @@ def diagnose(rig: Rig, records: Sequence[MeasurementRecord], *, model_rel: float
     CircuitError
         The rig's circuit has no cylinder cycle.
     """
+    if isinstance(records, MeasurementRecord):
+        # "'MeasurementRecord' object is not iterable" (a library user's pass)
+        raise MeasurementError("records is a list of records: diagnose(rig, [record])",
+                               field="records")
     if not records:
         raise MeasurementError("at least one record is needed", field="records")
     rig.require_cycle("a diagnosis")

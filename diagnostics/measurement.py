@@ -31,6 +31,7 @@ from diagnostics.quantity import (
     combine,
     quotient,
 )
+from sim.cycle_result import VACUUM_GAUGE
 from sim.errors import MeasurementError
 from sim.rigs.assembly import MAX_PUMP_SPEED
 
@@ -52,7 +53,7 @@ __all__ = [
 ]
 
 #: Lowest accepted gauge pressure [Pa]: −1 bar is vacuum; below it a reading is impossible.
-MIN_GAUGE_PRESSURE = -1.0e5
+MIN_GAUGE_PRESSURE = VACUUM_GAUGE
 #: Highest accepted gauge pressure [Pa]: 10 kbar, beyond the range of hydraulic pressure
 #: transducers (industrial ones end at 1-7 kbar); above it a reading is taken to be an error.
 MAX_GAUGE_PRESSURE = 1.0e9

@@ -28,7 +28,7 @@ from sim.bondgraph.model import IntegrationResult
 from sim.cycle_result import SUMMARY_UNITS, CycleResult, PhaseSummary, SolverReport
 from sim.errors import ParameterError, SolverLimitError
 from sim.phase_reading import settled_window, steady_slope, steady_window, time_average
-from sim.rigs.assembly import Condition, Rig
+from sim.rigs.assembly import Condition, Rig, check_overrides
 from sim.solver.limits import SolverLimits
 from sim.solver.noise import NoiseAccuracy, error_estimate
 
@@ -68,6 +68,7 @@ def phase_settings(rig: Rig, phase: str, overrides: Mapping[str, float] | None =
     """The parameters one phase sets (paper 002 §3): working, spool at N = +1 from the
     chamber-1 end stop; return, spool at N = −1 from the end of stroke (``overrides``'
     ``cylinder.stroke`` where given) with no load (eq. 52)."""
+    check_overrides(overrides)            # the first look at them on every path
     stroke = (overrides or {}).get("cylinder.stroke", rig.base["cylinder.stroke"])
     if phase == "working":
         return {"valve.N": 1.0, "cylinder.x_init": 0.0}

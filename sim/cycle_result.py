@@ -7,11 +7,16 @@ and the error it reached, and the optional time series.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import pandas as pd
 
-__all__ = ["SUMMARY_UNITS", "CycleResult", "PhaseSummary", "SolverReport"]
+__all__ = ["SUMMARY_UNITS", "VACUUM_GAUGE", "CycleResult", "PhaseSummary", "SolverReport"]
+
+#: Vacuum as a gauge pressure [Pa]: −1 bar; below it a pressure is impossible (the model
+#: has no cavitation) and a reading is refused (:mod:`diagnostics.measurement`).
+VACUUM_GAUGE = -1.0e5
 
 #: unit of each phase-summary field
 SUMMARY_UNITS: dict[str, str] = {
@@ -123,6 +128,60 @@ class CycleResult:
     timeseries: pd.DataFrame | None = None
     steps: dict[str, int] = field(default_factory=dict)
     solver: SolverReport | None = None
+
+    def notes(self) -> list[str]:
+        """What a reader of the result must know that its numbers do not say (``/simulate``
+        answers them; a library user met a chamber at −15.7 bar gauge without a word).
+
+        * A stroke that did not reach its end within the phase's time limit: the piston
+          stalled on a load it cannot push, or crept; its averages are the settled state
+          (the last half of the phase, :mod:`sim.phase_reading`), and a return stroke after
+          a stalled working stroke starts where the piston stopped: it is not a stroke.
+        * A gauge pressure below vacuum (:data:`VACUUM_GAUGE`, −1 bar) in a phase average
+          or anywhere in the phase (each phase's lowest pressure is kept whether or not the
+          time series was asked for).  The bond-graph model has no cavitation (the oil's
+          pressure may fall without bound), so an overrunning load, or the switch-over of a
+          transient, can drive a chamber to pressures oil cannot hold; the numbers there
+          are reported, not physical.
+        """
+        notes: list[str] = []
+        if not self.working.completed:
+            notes.append(
+                "the working stroke did not reach its end"
+                f"{self._within(self.working['duration'])} "
+                f"(creep speed {self.working['speed']:.3g} m/s): the piston stalled on a load "
+                "it cannot push, or crept; its averages are the settled state (the last half "
+                "of the phase), and the return stroke starts where the piston stopped, so its "
+                "averages and the velocity ratio are not those of a stroke")
+        if not self.return_.completed:
+            notes.append(
+                "the return stroke did not reach its end"
+                f"{self._within(self.return_['duration'])} "
+                f"(creep speed {self.return_['speed']:.3g} m/s): the piston stalled or crept; "
+                "its averages are the settled state (the last half of the phase)")
+        lows: dict[str, float] = {}
+        for phase in (self.working, self.return_):
+            # a transient's lowest pressures (every point the series has, and the solver's
+            # steps when none was asked for); the steady path's phase averages
+            found = ({f"{name} [Pa]": v for name, v in phase.lowest.items()} if phase.lowest
+                     else {f"{phase.phase}.{k} [Pa]": v for k, v in phase.values.items()
+                           if SUMMARY_UNITS.get(k) == "Pa"})
+            for key, value in found.items():
+                if math.isfinite(value) and value < VACUUM_GAUGE:
+                    lows[key] = min(value, lows.get(key, value))
+        if lows:
+            notes.append("below vacuum (-1 bar gauge), where the model has no cavitation and "
+                         "the oil's pressure is not physical: " + ", ".join(
+                             f"{name.removesuffix(' [Pa]')} reaches {value / 1e5:.4g} bar "
+                             f"gauge ({value:.4g} Pa)" for name, value in lows.items()))
+        return notes
+
+    def _within(self, duration: float) -> str:
+        """" in 2.5 s" for a transient's phase (the time it ran); nothing for the steady
+        path, whose duration is the whole stroke's time at its creep, infinite for a stall
+        (it read "in inf s": a rig author's pass)."""
+        return f" in {duration:.4g} s" if self.solver is not None and math.isfinite(duration) \
+            else ""
 
     def summary(self) -> dict[str, float]:
         """Flat summary, keys ``phase.quantity [unit]`` plus ``velocity_ratio [-]``."""

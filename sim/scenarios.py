@@ -41,7 +41,7 @@ FAULT_SUMMARY: dict[str, str] = {
 
 def fault_help() -> str:
     """The named faults with what each sets, for a help text:
-    ``"healthy (no override), worn_piston (cylinder.cc = 120 µm), …"``."""
+    ``"healthy (no override), worn_piston (cylinder.cc × 120/83, 120 µm on the paper rig), …"``."""
     return ", ".join(f"{name} ({FAULT_SUMMARY[name]})" for name in FAULTS)
 
 

@@ -213,10 +213,10 @@ def steady_cycle(rig: Rig, overrides: Mapping[str, float] | None = None,
     Durations are ``stroke / speed`` (start-up transients neglected).
     """
     rig.require_cycle("a steady cycle")
-    stroke = (overrides or {}).get("cylinder.stroke", rig.base["cylinder.stroke"])
     summaries = []
     for phase in PHASES:
-        sp = steady_phase(rig, phase, overrides, condition)
+        sp = steady_phase(rig, phase, overrides, condition)   # checks the overrides first
+        stroke = (overrides or {}).get("cylinder.stroke", rig.base["cylinder.stroke"])
         vals = {k: sp.outputs[k] for k in SUMMARY_UNITS if k in sp.outputs}
         vals["speed"] = sp.speed
         vals["duration"] = stroke / sp.speed if sp.speed > 0 else float("inf")

@@ -22,7 +22,6 @@ from app.schemas.common import MAX_ID
 from app.schemas.simulate import SimulateRequest
 from app.services import rigs as rig_service
 from app.services.simulation import (
-    physics_notes,
     simulate,
     summary_of,
     timeseries_csv,
@@ -87,7 +86,7 @@ def simulate_page(request: Request, session: SessionDep, rigs: RigsDep, _key: Co
         context["charts"] = [] if frame is None else simulation_charts(
             frame, nominal.result.timeseries, label)
         context["summary"] = summary_of(outcome.result)
-        context["notes"] = physics_notes(outcome.result)
+        context["notes"] = outcome.result.notes()
         context["condition"] = outcome.condition
         context["query"] = str(request.url.query)
         # what the named fault set on this rig (a planner could not tell how worn

@@ -25,12 +25,11 @@ from sqlalchemy.orm import Session
 from app.schemas.simulate import ConditionSpec, SimulateRequest, SimulationPublic
 from app.services.rig_cache import ResolvedRig, RigCache
 from app.settings import Settings
-from diagnostics.measurement import MIN_GAUGE_PRESSURE, MIN_PRESSURE_READING
+from diagnostics.measurement import MIN_PRESSURE_READING
 from diagnostics.table_files import PARQUET_METADATA_KEY, table_bytes  # read back there
 from diagnostics.timeseries import CONDITION_CHANNELS
 from sim.components.effects import EFFECTS
 from sim.cycle import CycleResult, run_cycle
-from sim.cycle_result import SUMMARY_UNITS
 from sim.errors import InputError, ParameterError, SimulationError
 from sim.rigs import Condition, Rig
 from sim.scenarios import fault_overrides
@@ -44,7 +43,6 @@ __all__ = [
     "condition_notes",
     "condition_of",
     "limits_of",
-    "physics_notes",
     "public_of",
     "run_scenario",
     "simulate",
@@ -94,7 +92,7 @@ class SimulationOutcome:
     def notes(self) -> list[str]:
         """The result's physics notes, then the condition's (:func:`condition_notes`), then
         the error estimate's reach (:func:`estimate_note`)."""
-        return [*physics_notes(self.result),
+        return [*self.result.notes(),
                 *condition_notes(self.condition, self.resolved.rig.values()),
                 *estimate_note(self.result)]
 
@@ -115,14 +113,6 @@ def estimate_note(result: CycleResult) -> list[str]:
     return [f"the error estimate at rtol {rep.rtol:.3g} is optimistic: it assumes the error "
             f"scales with the tolerance, which holds at rtol ≤ {ESTIMATE_RTOL:g} (at 1e-3 it "
             "read a pressure's error 2.6× too small); leave rtol out for a noise-accurate run"]
-
-
-def _within(result: CycleResult, duration: float) -> str:
-    """" in 2.5 s" for a transient's phase (the time it ran); nothing for the steady path,
-    whose duration is the whole stroke's time at its creep, infinite for a stall (it read
-    "in inf s": a rig author's pass)."""
-    return f" in {duration:.4g} s" if result.solver is not None and math.isfinite(duration) \
-        else ""
 
 
 def condition_notes(condition: Condition, values: Mapping[str, float]) -> list[str]:
@@ -173,54 +163,6 @@ def condition_dict(condition: Condition, speed: float | None = None
     return {"load": condition.load, "back_pressure": condition.back_pressure,
             "oil_temperature": condition.oil_temperature,
             "pump_speed": speed if condition.pump_speed is None else condition.pump_speed}
-
-
-def physics_notes(result: CycleResult) -> list[str]:
-    """What a reader of the result must know that its numbers do not say.
-
-    * A stroke that did not reach its end within the phase's time limit: the piston
-      stalled on a load it cannot push, or crept; its averages are the settled state (the
-      last half of the phase, :mod:`sim.phase_reading`), and a return stroke after a
-      stalled working stroke starts where the piston stopped: it is not a stroke.
-    * A gauge pressure below vacuum (:data:`~diagnostics.measurement.MIN_GAUGE_PRESSURE`,
-      −1 bar) in a phase average or anywhere in the phase (each phase's lowest pressure is
-      kept whether or not the time series was asked for).  The bond-graph model has no
-      cavitation (the oil's pressure may fall without bound), so an overrunning load, or
-      the switch-over of a transient, can drive a chamber to pressures oil cannot hold; the
-      numbers there are reported, not physical.
-    """
-    notes: list[str] = []
-    phases = (result.working, result.return_)
-    if not result.working.completed:
-        notes.append(
-            "the working stroke did not reach its end"
-            f"{_within(result, result.working['duration'])} "
-            f"(creep speed {result.working['speed']:.3g} m/s): the piston stalled on a load "
-            "it cannot push, or crept; its averages are the settled state (the last half of "
-            "the phase), and the return stroke starts where the piston stopped, so its "
-            "averages and the velocity ratio are not those of a stroke")
-    if not result.return_.completed:
-        notes.append(
-            "the return stroke did not reach its end"
-            f"{_within(result, result.return_['duration'])} "
-            f"(creep speed {result.return_['speed']:.3g} m/s): the piston stalled or crept; "
-            "its averages are the settled state (the last half of the phase)")
-    lows: dict[str, float] = {}
-    for phase in phases:
-        # a transient's lowest pressures (every point the series has, and the solver's
-        # steps when none was asked for); the steady path's phase averages
-        found = ({f"{name} [Pa]": v for name, v in phase.lowest.items()} if phase.lowest else
-                 {f"{phase.phase}.{k} [Pa]": v for k, v in phase.values.items()
-                  if SUMMARY_UNITS.get(k) == "Pa"})
-        for key, value in found.items():
-            if math.isfinite(value) and value < MIN_GAUGE_PRESSURE:
-                lows[key] = min(value, lows.get(key, value))
-    if lows:
-        notes.append("below vacuum (-1 bar gauge), where the model has no cavitation and the "
-                     "oil's pressure is not physical: " + ", ".join(
-                         f"{name.removesuffix(' [Pa]')} reaches {value / 1e5:.4g} bar "
-                         f"gauge ({value:.4g} Pa)" for name, value in lows.items()))
-    return notes
 
 
 def summary_of(result: CycleResult) -> dict[str, float | None]:

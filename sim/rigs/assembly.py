@@ -27,13 +27,34 @@ MAX_PUMP_SPEED = 2000.0
 #: stated one [-]
 OVERSPEED = 3.0
 
-__all__ = ["MAX_PUMP_SPEED", "OVERSPEED", "Condition", "Rig", "build_graph", "build_graph_with_effects"]
+__all__ = ["MAX_PUMP_SPEED", "OVERSPEED", "Condition", "Rig", "build_graph", "build_graph_with_effects",
+           "check_overrides"]
 
 Arr = npt.NDArray[np.float64]
 
 #: name of a ``condition:`` block entry → attribute of :class:`Condition`
 _CONDITION_ATTRIBUTES = {"force": "load", "back_pressure": "back_pressure",
                          "oil_temperature": "oil_temperature"}
+
+
+def check_overrides(overrides: object) -> None:
+    """Refuse ``overrides`` that are not a mapping ``role.name`` → value (a list of pairs
+    raised "'list' object has no attribute 'get'": a library user's pass)."""
+    if overrides is not None and not isinstance(overrides, Mapping):
+        raise ParameterError(f"overrides are a mapping 'role.name' → value [SI], e.g. "
+                             f"{{'valve.cv': 6e-5}}, not a {type(overrides).__name__}",
+                             field="overrides")
+
+
+def _number(value: object, field: str) -> float:
+    """``value`` as a float, or a :class:`ParameterError` naming ``field``: an array, None
+    or "60 um" raised a bare TypeError or ValueError (a library user's pass)."""
+    if isinstance(value, np.ndarray) and value.ndim == 0:
+        value = value.item()
+    if isinstance(value, bool) or not isinstance(value, int | float | np.floating | np.integer):
+        raise ParameterError(f"a number in SI units is expected, not {value!r}"[:200],
+                             field=field)
+    return float(value)
 
 
 @dataclass(frozen=True)
@@ -174,7 +195,8 @@ class Rig:
         for decl in self.spec.circuit.condition:
             attribute = _CONDITION_ATTRIBUTES.get(decl.name, decl.name)
             try:
-                check_bounds(getattr(cond, attribute), decl, f"condition.{decl.name}")
+                check_bounds(_number(getattr(cond, attribute), f"condition.{decl.name}"),
+                             decl, f"condition.{decl.name}")
             except ParameterError as exc:
                 raise ParameterError(exc.message, field=exc.field) from None
 
@@ -182,9 +204,16 @@ class Rig:
                condition: Condition | None = None) -> dict[str, float]:
         """All graph parameter values for ``overrides`` (``role.name`` → SI) and ``condition``."""
         cond = condition if condition is not None else self.default_condition()
+        if not isinstance(cond, Condition):
+            # a dict gave "'dict' object has no attribute 'load'" (a library user's pass)
+            raise ParameterError(f"a condition is a sim.rigs.Condition(load=…, "
+                                 f"oil_temperature=…), not a {type(cond).__name__}",
+                                 field="condition")
+        check_overrides(overrides)
         v = dict(self.base)
         circuit = self.spec.circuit
-        for key, value in (overrides or {}).items():
+        for key, raw in (overrides or {}).items():
+            value = _number(raw, f"overrides.{key}")
             role, _, pname = key.partition(".")
             decl = circuit.parameter(role, pname)
             if decl is None and role in self.spec.effects:
@@ -206,7 +235,8 @@ class Rig:
             self._check_relations(v, overrides)
         self.check_condition(cond)
         if cond.pump_speed is not None:
-            self._check_speed(cond.pump_speed, v.get("pump.speed"), "condition.pump_speed")
+            self._check_speed(_number(cond.pump_speed, "condition.pump_speed"),
+                              v.get("pump.speed"), "condition.pump_speed")
             v["pump.speed"] = cond.pump_speed
         for attribute, target in circuit.condition_targets.items():
             v[target] = getattr(cond, attribute)

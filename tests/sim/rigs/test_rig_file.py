@@ -5,7 +5,9 @@ from __future__ import annotations
 import copy
 import json
 import math
+from typing import Any
 
+import numpy as np
 import pytest
 
 from sim.errors import ParameterError, RigFileError
@@ -18,6 +20,7 @@ from sim.rigs import (
     validate_rig_document,
 )
 from sim.rigs.circuits import CIRCUITS
+from sim.steady import steady_cycle
 
 
 def test_reference_document_validates_and_converts_units():
@@ -238,3 +241,23 @@ def test_the_rig_file_pages_example_is_stored_and_runs_as_it_says() -> None:
     assert result.working["speed"] == pytest.approx(0.19, abs=0.005)
     assert result.working["P1"] / 1e5 == pytest.approx(34.0, abs=0.5)
     assert result.velocity_ratio == pytest.approx(0.66, abs=0.005)
+
+
+@pytest.mark.parametrize(("overrides", "condition", "field"), [
+    ({"valve.cv": np.array([60e-6])}, None, "overrides.valve.cv"),
+    ({"valve.cv": None}, None, "overrides.valve.cv"),
+    ({"valve.cv": "60 um"}, None, "overrides.valve.cv"),
+    (None, Condition(load=np.array([2100.0, 4200.0])), "condition.force"),  # type: ignore[arg-type]
+    (None, {"load": 4200.0}, "condition"),
+    ([("valve.cv", 6e-5)], None, "overrides"),
+])
+def test_a_value_of_the_wrong_kind_is_a_parameter_error_naming_it(
+        overrides: Any, condition: Any, field: str) -> None:
+    """An array, None, a string, a dict for the condition or a list of pairs raised bare
+    TypeError, ValueError or AttributeError naming nothing (a library user's pass)."""
+    with pytest.raises(ParameterError) as caught:
+        steady_cycle(reference_rig(), overrides, condition)
+    assert caught.value.field == field
+    # a 0-d array or a numpy float is a number
+    steady_cycle(reference_rig(), {"valve.cv": np.array(6e-5)})
+    steady_cycle(reference_rig(), {"valve.cv": np.float64(6e-5)})
