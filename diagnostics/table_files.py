@@ -31,8 +31,13 @@ __all__ = ["DECIMAL_COMMA", "MAX_DECOMPRESSED_BYTES", "PARQUET_METADATA_KEY", "c
            "check_text", "dialect", "gunzipped", "read_table", "stated_dialect", "table_bytes",
            "time_in_name"]
 
-#: Largest gzip-compressed file's size once decompressed, unless the caller says [byte].
+#: Largest gzip-compressed file's size once decompressed, unless the caller says [byte];
+#: a Parquet file's decoded size too.
 MAX_DECOMPRESSED_BYTES = 64 * 1024 * 1024
+#: Most columns of a table [-]: a rig's channels, its time, phase, record and condition
+#: columns are a few dozen; 200,000 columns held a worker for more than ten minutes (a
+#: security review's pass).
+MAX_COLUMNS = 1000
 #: Key of the JSON header in a Parquet file's metadata (as ``/simulate`` writes it).
 PARQUET_METADATA_KEY = "hydrodiag"
 
@@ -157,6 +162,7 @@ def read_table(source: str | Path | bytes | pd.DataFrame, fmt: str | None = None
         import pyarrow.parquet as pq
 
         try:
+            _check_parquet_size(pq.ParquetFile(io.BytesIO(raw)).metadata, max_bytes)
             table = pq.read_table(io.BytesIO(raw))
         except (pa.ArrowException, OSError) as exc:
             raise InputError(f"not a readable Parquet file: {exc}", field="file") from None
@@ -180,6 +186,8 @@ def read_table(source: str | Path | bytes | pd.DataFrame, fmt: str | None = None
     meta, skip = _header_lines(text)
     lines = [ln.rstrip("\r\n") for ln in itertools.islice(io.StringIO(text), skip, skip + 7)]
     stated, sep, decimal = stated_dialect(lines)
+    header = lines[stated] if len(lines) > stated else ""
+    _check_columns(header.count(sep) + 1 if header else 0)
     skip, lines = skip + stated, lines[stated:]
     try:
         frame = pd.read_csv(io.StringIO(text), skiprows=skip, comment=None, sep=sep,
@@ -188,6 +196,41 @@ def read_table(source: str | Path | bytes | pd.DataFrame, fmt: str | None = None
         raise InputError(f"not a readable CSV table: {exc}", field="file") from None
     check_table(frame, "file")
     return _named_columns(frame, lines[0].split(sep) if lines else []), meta, name
+
+
+def _check_columns(count: int) -> None:
+    """Refuse a table of more than :data:`MAX_COLUMNS` columns, before any work per column."""
+    if count > MAX_COLUMNS:
+        raise InputError(f"the table has {count:,} columns, more than the {MAX_COLUMNS:,} a "
+                         "table may have (a rig's channels with time, phase, record and "
+                         "condition columns are a few dozen)", field="file")
+
+
+#: bytes a value of a Parquet physical type takes once decoded (a run of zeros encodes to
+#: a few bytes: the file's sizes say nothing of it)
+_PARQUET_WIDTHS = {"BOOLEAN": 1, "INT32": 4, "FLOAT": 4, "INT64": 8, "DOUBLE": 8, "INT96": 12}
+
+
+def _check_parquet_size(metadata: Any, max_bytes: int) -> None:
+    """Refuse a Parquet file before it is decoded when it has more than
+    :data:`MAX_COLUMNS` columns or decodes to more than ``max_bytes`` [byte]: a 262 kB file
+    of zeros decoded to 480 MB and grew a worker by 1 GB (a security review's pass)."""
+    _check_columns(metadata.num_columns)
+    decoded = 0
+    for i in range(metadata.num_row_groups):
+        group = metadata.row_group(i)
+        for j in range(group.num_columns):
+            chunk = group.column(j)
+            width = _PARQUET_WIDTHS.get(chunk.physical_type)
+            if width is None:   # text: its longest value where the statistics give it
+                stats = chunk.statistics
+                longest = (max(len(str(stats.min)), len(str(stats.max)))
+                           if stats is not None and stats.has_min_max else 64)
+                width = longest + 8
+            decoded += chunk.num_values * width
+    if decoded > max_bytes:
+        raise InputError(f"the Parquet file decodes to {decoded / 2**20:.0f} MiB, more than the "
+                         f"{max_bytes / 2**20:.0f} MiB a table may have", field="file")
 
 
 #: Excel's first line stating the separator of a CSV file

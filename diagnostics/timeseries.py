@@ -340,6 +340,7 @@ def series_from_frame(frame: pd.DataFrame, *, name: str = "table",
              else clock_time(meta["started_at"])
              if meta.get("started_at") is not None else None)
     columns: dict[str, tuple[str, str, float, float]] = {}  # raw → (channel, unit, scale, offset)
+    seen: set[str] = set()
     for col in frame.columns:
         raw = str(col)
         if raw in _LABELS:
@@ -355,8 +356,9 @@ def series_from_frame(frame: pd.DataFrame, *, name: str = "table",
                                  "['record', '-'] or ['phase', '-'])", field=raw)
             chan, unit = m.group(1), m.group(2)
         canonical, scale, offset = si_factor(unit, column=raw, expected=exp.get(chan))
-        if chan in (c[0] for c in columns.values()):
+        if chan in seen:   # a set: a scan of the earlier columns was quadratic (a review)
             raise InputError(f"channel {chan!r} appears twice", field=raw)
+        seen.add(chan)
         # SI = (gain·raw + zero)·scale + offset
         columns[raw] = (chan, canonical, gain * scale, zero * scale + offset)
     time_col = next((raw for raw, c in columns.items() if c[0] == "t"), None)

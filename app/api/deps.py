@@ -46,6 +46,7 @@ __all__ = [
     "SessionDep",
     "SettingsDep",
     "WriteKeyDep",
+    "count_rate",
     "get_db",
     "read_access",
     "read_access_on_loop",
@@ -54,6 +55,8 @@ __all__ = [
     "require_key_on_loop",
     "require_scope",
     "require_write_key",
+    "wrong_key_guard",
+    "wrong_keys_counted",
 ]
 
 
@@ -128,14 +131,14 @@ def require_key(
     request)."""
     cached: ApiKey | None = getattr(request.state, "api_key", None)
     if cached is None:
-        with _failures_counted(request, key):
-            cached = authenticate(session, key, before_check=_guard(request))
-        _count_rate(request, cached.prefix)
+        with wrong_keys_counted(request, key):
+            cached = authenticate(session, key, before_check=wrong_key_guard(request))
+        count_rate(request, cached.prefix)
         request.state.api_key = cached
     return cached
 
 
-def _guard(request: Request) -> Callable[[], None]:
+def wrong_key_guard(request: Request) -> Callable[[], None]:
     """What runs before a key is derived (scrypt): 429 when the client's address has sent
     more wrong keys than :data:`~app.ratelimit.FAILED_KEYS_PER_MINUTE` allows."""
     def check() -> None:
@@ -151,7 +154,7 @@ def _guard(request: Request) -> Callable[[], None]:
 
 
 @contextmanager
-def _failures_counted(request: Request, key: str | None) -> Iterator[None]:
+def wrong_keys_counted(request: Request, key: str | None) -> Iterator[None]:
     """Count a wrong key (one sent, not a missing one) against its client's address."""
     try:
         yield
@@ -161,7 +164,7 @@ def _failures_counted(request: Request, key: str | None) -> Iterator[None]:
         raise
 
 
-def _count_rate(request: Request, prefix: str) -> None:
+def count_rate(request: Request, prefix: str) -> None:
     """Count the request against its key's rate (429 when spent)."""
     limiter: KeyRateLimiter | None = request.app.state.rate_limiter
     if limiter is not None:
@@ -185,10 +188,10 @@ async def require_key_on_loop(request: Request, key: str | None, needed: Scope) 
     """
     row: Any = getattr(request.state, "api_key", None)
     if row is None:
-        with _failures_counted(request, key):
+        with wrong_keys_counted(request, key):
             row = await authenticate_on_loop(request.app.state.engine, key,
-                                             before_check=_guard(request))
-        _count_rate(request, row.prefix)
+                                             before_check=wrong_key_guard(request))
+        count_rate(request, row.prefix)
         request.state.api_key = row
     if not Scope(row.scope).allows(needed):
         raise ScopeError(f"this operation needs a key of scope {needed.value!r} or above; "

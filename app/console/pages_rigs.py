@@ -13,10 +13,11 @@ import numpy as np
 from fastapi import Form, Path, Query, Request, Response
 from fastapi.responses import FileResponse
 
-from app.api.deps import SessionDep
+from app.api.deps import SessionDep, wrong_key_guard, wrong_keys_counted
 from app.console.charts import calibration_chart
 from app.console.routing import ConsoleKeyDep, new_router
 from app.console.web import COOKIE, SECURITY_HEADERS, issue_cookie, page, redirect
+from app.errors import RateLimitError
 from app.schemas.common import MAX_ID
 from app.services import calibrations as calibration_service
 from app.services import rigs as rig_service
@@ -62,12 +63,22 @@ def login(request: Request, session: SessionDep,
           api_key: Annotated[str, Form(max_length=200)] = "",
           next: Annotated[str, Form(max_length=2000)] = "") -> Response:
     """Check the key; on success set the session cookie and go on."""
+    sent = api_key.strip() or None
     try:
-        key = authenticate(session, api_key.strip() or None)
+        # bounded per address as a wrong X-API-Key is: each wrong key cost a scrypt,
+        # without limit (a security review's pass)
+        with wrong_keys_counted(request, sent):
+            key = authenticate(session, sent, before_check=wrong_key_guard(request))
     except AuthError as exc:
         error = {"type": "AuthError", "message": exc.message, "field": "api_key",
                  "note": "Log in with a key this service issued (hydrodiag keys create)."}
         return page(request, "login.html", status_code=401, next=_safe_next(next), error=error)
+    except RateLimitError as exc:
+        error = {"type": "RateLimitError", "message": exc.message, "field": "api_key"}
+        limited = page(request, "login.html", status_code=429, next=_safe_next(next),
+                       error=error)
+        limited.headers["Retry-After"] = str(exc.retry_after)
+        return limited
     response = redirect(_safe_next(next))
     issue_cookie(response, request, key)
     return response

@@ -16,7 +16,7 @@ from fastapi.exceptions import RequestValidationError
 from fastapi.routing import APIRoute
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
-from app.api.deps import SessionDep
+from app.api.deps import SessionDep, count_rate
 from app.console.web import SECURITY_HEADERS, console_key, login_url, page, redirect
 from app.db.models import ApiKey
 from app.errors import first_problem, status_for
@@ -83,7 +83,11 @@ class ConsoleRoute(APIRoute):
 
 
 def _key(request: Request, session: SessionDep) -> ApiKey:
-    return console_key(request, session)
+    """The logged-in key, counted against its rate as an API request is (the console ran
+    simulations on a key whose API quota was spent: a security review's pass)."""
+    key = console_key(request, session)
+    count_rate(request, key.prefix)
+    return key
 
 
 #: The API key of the logged-in browser (redirects to the login page without one).

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import io
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -136,3 +138,43 @@ def test_excels_separator_line_and_a_trailing_delimiter_are_read() -> None:
         frame, _, _ = read_table(content)
         assert list(frame.columns) == ["t [s]", "P1 [bar]"]
         assert frame["P1 [bar]"].tolist() == [1.5, 1.6]
+
+
+def test_a_table_of_too_many_columns_is_refused_before_any_work_per_column() -> None:
+    """200,000 columns held a worker for more than ten minutes (a security review's pass):
+    the duplicate-channel check scanned every earlier column.  A table is refused past
+    MAX_COLUMNS, in its CSV header or its Parquet metadata; within it the check is a set."""
+    import time
+
+    from diagnostics.table_files import MAX_COLUMNS
+    from diagnostics.timeseries import series_from_frame
+
+    wide = ",".join(["t [s]"] + [f"c{i} [Pa]" for i in range(MAX_COLUMNS + 5)])
+    content = (wide + "\n" + ",".join(["0"] + ["1"] * (MAX_COLUMNS + 5)) + "\n").encode()
+    with pytest.raises(InputError, match=r"1,006 columns, more than the 1,000") as caught:
+        read_table(content)
+    assert caught.value.field == "file"
+    frame = pd.DataFrame(np.zeros((3, MAX_COLUMNS + 5)),
+                         columns=["t [s]"] + [f"c{i} [Pa]" for i in range(MAX_COLUMNS + 4)])
+    frame["t [s]"] = [0.0, 0.001, 0.002]
+    with pytest.raises(InputError, match="columns, more than"):
+        read_table(table_bytes(frame, {}, "parquet"))
+    # the limit itself: as many columns as allowed read in a moment (quadratic: seconds)
+    allowed = frame.iloc[:, :MAX_COLUMNS]
+    started = time.perf_counter()
+    series_from_frame(read_table(table_bytes(allowed, {}, "parquet"))[0])
+    assert time.perf_counter() - started < 30.0   # a bound on a runaway, not a timing claim
+
+
+def test_a_parquet_file_that_decodes_beyond_the_limit_is_refused_before_decoding() -> None:
+    """262 kB of zstd-compressed zeros decoded to 480 MB and grew a worker by 1 GB."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    zeros = pa.table({"t [s]": np.zeros(2_000_000), "P1 [Pa]": np.zeros(2_000_000)})
+    buffer = io.BytesIO()
+    pq.write_table(zeros, buffer, compression="zstd")
+    assert len(buffer.getvalue()) < 200_000
+    with pytest.raises(InputError, match=r"decodes to 31 MiB, more than the 16 MiB"):
+        read_table(buffer.getvalue(), max_bytes=16 * 2**20)
+    assert read_table(buffer.getvalue())[0].shape == (2_000_000, 2)   # within 64 MiB
