@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 from rich.markup import escape
@@ -129,44 +129,61 @@ def calibrate_throttle(
         progress.add_task("computing clearances", total=None)
         calibration = create_calibration(session, rig_id, data,
                                          estimator=ThrottleClearanceEstimator())
-        rows = [(p.opening_turns, p.bypass_flow_m3s, p.clearance_m, p.clearance_origin)
-                for p in calibration.points]
-    # flows and clearances as the store keeps them (SI) and as a technician reads them
+        shown = _rows_table(calibration, rig_id)
+    _out.print(shown)
+
+
+def _rows_table(calibration: Any, rig_id: int) -> Table:
+    """A table's rows: flows and clearances as the store keeps them (SI) and as a
+    technician reads them."""
     table = Table("opening \\[turn]", "bypass flow \\[m³/s]", "\\[l/min]", "clearance \\[m]",
                   "\\[µm]", "origin",
                   title=f"calibration {calibration.id} of rig {rig_id}: throttle "
-                  f"{calibration.throttle}, {calibration.component}")
-    for opening, flow, clearance, origin in rows:
-        table.add_row(f"{opening:g}", f"{flow:.4g}", f"{flow * 6e4:.4g}",
+                  f"{escape(calibration.throttle)}, {calibration.component} at "
+                  f"{calibration.back_pressure_pa / 1e5:g} bar, {calibration.temperature_c:g} °C")
+    for p in calibration.points:
+        clearance = p.clearance_m
+        table.add_row(f"{p.opening_turns:g}", f"{p.bypass_flow_m3s:.4g}",
+                      f"{p.bypass_flow_m3s * 6e4:.4g}",
                       "—" if clearance is None else f"{clearance:.4g}",
-                      "—" if clearance is None else f"{clearance * 1e6:.1f}", origin or "")
-    _out.print(table)
+                      "—" if clearance is None else f"{clearance * 1e6:.1f}",
+                      p.clearance_origin or "")
+    return table
 
 
 @calibrate_cli.command("tables")
 def calibrate_tables(
     rig_id: Annotated[int, typer.Option("--rig", min=1, max=MAX_ID,
                                         help="Rig id in the store.")] = 1,
+    table_id: Annotated[int | None, typer.Option(
+        "--table", min=1, max=MAX_ID, help="Show this table's rows: opening, flow and "
+        "clearance, each in SI and as a technician reads it.")] = None,
 ) -> None:
     """List a rig's throttle equivalence tables: condition, rows, clearances in µm, and
     whether their computed clearances are stale (from an older rig version; an update,
-    PATCH /rigs/{id}/calibrations/{table} with {}, computes them again)."""
-    from app.services.calibrations import is_stale, list_calibrations
+    PATCH /rigs/{id}/calibrations/{table} with {}, computes them again); --table ID: one
+    table's rows."""
+    from app.services.calibrations import get_calibration, is_stale, list_calibrations
     from app.services.rigs import get_rig
 
+    if table_id is not None:   # a technician could store a table but not read its rows back
+        with store_session() as session:
+            one = _rows_table(get_calibration(session, rig_id, table_id), rig_id)
+        _out.print(one)
+        return
     with store_session() as session:
         latest = get_rig(session, rig_id).latest_version
         tables, _ = list_calibrations(session, rig_id, limit=1000, offset=0)
         rows = [(c.id, c.throttle, c.component, c.back_pressure_pa, c.temperature_c,
                  [p.clearance_m for p in c.points], c.rig_version, is_stale(c, latest))
                 for c in tables]
-    table = Table("id", "throttle", "component", "back-pressure \\[bar]", "θ \\[°C]",
+    table = Table("id", "throttle", "component", "back-pressure \\[bar]", "oil \\[°C]",
                   "clearances \\[µm]", "computed with", title=f"throttle tables of rig {rig_id} "
                   f"(latest version {latest})")
-    for key, throttle, component, bp, theta, clearances, version, stale in rows:
+    for key, throttle, component, bp, oil, clearances, version, stale in rows:
         shown = ", ".join("—" if c is None else f"{c * 1e6:.1f}" for c in clearances)
         made = "—" if version is None and not stale else (
             f"version {version if version is not None else '?'}" + (" (stale)" if stale else ""))
         table.add_row(str(key), escape(throttle), escape(component), f"{bp / 1e5:g}",
-                      f"{theta:g}", shown, made)
+                      f"{oil:g}", shown, made)
     _out.print(table)

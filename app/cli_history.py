@@ -22,7 +22,7 @@ from app.cli_support import WideWhenPiped, shown_estimate, store_session
 from app.schemas.common import MAX_ID, SinceTime, UntilTime
 from sim.errors import InputError
 
-__all__ = ["history_cli"]
+__all__ = ["history_cli", "parsed_time"]
 
 _out = WideWhenPiped()
 
@@ -32,7 +32,7 @@ history_cli = typer.Typer(help="Stored diagnoses read back (as /diagnoses over H
 JsonOption = Annotated[bool, typer.Option("--json", help="Print the API's JSON answer.")]
 
 
-def _time(text: str | None, kind: Any, field: str) -> Any:
+def parsed_time(text: str | None, kind: Any, field: str) -> Any:
     """``text`` read as the HTTP query reads it (ISO 8601 with zone, or a date alone)."""
     if text is None:
         return None
@@ -77,7 +77,7 @@ def list_history(
     from app.services.readback import list_diagnoses, public_diagnosis
 
     blamed = _component(component, BlamedComponent)
-    window = _time(since, SinceTime, "--since"), _time(until, UntilTime, "--until")
+    window = parsed_time(since, SinceTime, "--since"), parsed_time(until, UntilTime, "--until")
     with store_session(existing=True) as session:
         rows, total = list_diagnoses(session, limit=limit, offset=0, rig_id=rig,
                                      since=window[0], until=window[1], component=blamed)

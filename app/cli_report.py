@@ -78,20 +78,36 @@ def report_trends(
     output: Annotated[Path, typer.Option(
         help="trends.html, trends.png, or trends.csv (every point, for a spreadsheet)")] = Path(
         "trends.html"),
+    component: Annotated[str | None, typer.Option(
+        help="Only this component: cylinder, valve or pump.")] = None,
+    threshold: Annotated[float | None, typer.Option(
+        help="The component's threshold in SI: a clearance in m (60e-6), the pump's Cs in 1 "
+        "(default: the 'severe' wear of the rig document's value).")] = None,
+    since: Annotated[str | None, typer.Option(
+        help="Only visits at or after this time: ISO 8601 with zone, or a date (UTC) — the "
+        "day a part was changed, to trend the new part alone.")] = None,
+    until: Annotated[str | None, typer.Option(
+        help="Only visits at or before this time: ISO 8601 with zone, or a date (UTC).")
+        ] = None,
 ) -> None:
     """A rig's component trends: estimates over time, Theil–Sen line, threshold, time left;
     a summary table is printed either way."""
+    from app.cli_history import parsed_time
     from app.console.views import trend_views
+    from app.schemas.common import SinceTime, UntilTime
     from app.services.rig_cache import RigCache
     from app.services.trends import component_trends
 
     suffix = _suffix(output, (".html", ".png", ".csv"))
+    window = {"since": parsed_time(since, SinceTime, "--since"),
+              "until": parsed_time(until, UntilTime, "--until"),
+              "component": component, "threshold": threshold}
     with store_session() as session:
         if suffix == ".csv":
-            trends = component_trends(session, RigCache(1), rig)
+            trends = component_trends(session, RigCache(1), rig, **window)
             content = _points_csv(trends)
         else:
-            views = trend_views(session, RigCache(1), rig)
+            views = trend_views(session, RigCache(1), rig, **window)
             trends = [v.trend for v in views if v.trend is not None]
             content = render_report(f"Trends of rig {rig}", [v.chart for v in views], suffix,
                                     views=views, rig_id=rig)
@@ -109,14 +125,22 @@ def _points_csv(trends: list[Any]) -> bytes:
     buffer = io.StringIO()
     writer = csv.writer(buffer, lineterminator="\n")
     writer.writerow(["component", "quantity", "unit", "measured_at", "value", "low_95",
-                     "high_95", "probability", "diagnosis_id", "rig_version"])
+                     "high_95", "probability", "diagnosis_id", "rig_version",
+                     "threshold", "status", "slope_per_day", "time_left_days",
+                     "crossing_at"])
     for t in trends:
+        # each row carries its trend's forecast: the points alone made a planner redo the
+        # fit in the spreadsheet (a reliability engineer's pass)
+        forecast = [repr(t.threshold), t.status,
+                    "" if t.slope is None else repr(t.slope * 86400.0),
+                    "" if t.time_left_s is None else repr(t.time_left_s / 86400.0),
+                    "" if t.crossing_at is None else iso_utc(t.crossing_at)]
         for p in t.points:
             writer.writerow([t.component, t.quantity, t.unit, iso_utc(p.measured_at),
                              repr(p.value), "" if p.low is None else repr(p.low),
                              "" if p.high is None else repr(p.high),
                              "" if p.probability is None else repr(p.probability),
-                             p.diagnosis_id, p.rig_version])
+                             p.diagnosis_id, p.rig_version, *forecast])
     return buffer.getvalue().encode("utf-8")
 
 
@@ -127,7 +151,8 @@ def _summary(rig: int, trends: list[Any]) -> None:
     from sim.units import quantity_text
 
     table = Table("component", "points", Column("status", no_wrap=True), "rate \\[per day]",
-                  "time left \\[day]", "step", title=f"trends of rig {rig}")
+                  "threshold", "last visit \\[UTC]", "time left \\[day]", "step",
+                  title=f"trends of rig {rig} (time left counted from the last visit)")
     for t in trends:
         # a stale trend forecasts nothing: no rate either
         rate = "—" if t.slope is None or t.status == "stale" else quantity_text(
@@ -136,5 +161,8 @@ def _summary(rig: int, trends: list[Any]) -> None:
         step = "" if t.step_at is None or t.step_size is None else (
             f"{'+' if t.step_size > 0 else ''}{quantity_text(t.step_size, t.unit, 3)} "
             f"around {t.step_at:%Y-%m-%d}")
-        table.add_row(t.component, str(t.points_total), t.status, rate, left, step)
+        last = max((p.measured_at for p in t.points), default=None)
+        table.add_row(t.component, str(t.points_total), t.status, rate,
+                      quantity_text(t.threshold, t.unit if t.unit == "m" else "1", 4),
+                      "—" if last is None else f"{last:%Y-%m-%d %H:%M}", left, step)
     console.print(table)

@@ -235,11 +235,14 @@ CHART_POINTS = 2000
 
 
 def trend_views(session: Session, rigs: RigCache, rig_id: int, *,
-                since: datetime | None = None, until: datetime | None = None
+                since: datetime | None = None, until: datetime | None = None,
+                component: str | None = None, threshold: float | None = None
                 ) -> list[TrendView]:
-    """Every component trend of rig ``rig_id`` (:func:`app.services.trends.component_trends`)."""
+    """Every component trend of rig ``rig_id``, or ``component``'s with ``threshold``
+    (:func:`app.services.trends.component_trends`)."""
     out = []
     for t in component_trends(session, rigs, rig_id, since=since, until=until,
+                              component=component, threshold=threshold,
                               max_points=CHART_POINTS):
         out.append(TrendView(
             t.component, t.quantity, t.unit, t.points_total, t.slope, t.slope_low,

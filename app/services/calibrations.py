@@ -11,7 +11,7 @@ import math
 from collections.abc import Sequence
 from typing import cast
 
-from sqlalchemy import select
+from sqlalchemy import func, select
 from sqlalchemy.orm import Session, selectinload
 
 from app.db.models import CalibrationPoint, ThrottleCalibration
@@ -152,14 +152,22 @@ def _rows(
     ]
 
 
+#: back-pressures [Pa] and oil temperatures [K] closer than these are one condition
+SAME_BACK_PRESSURE_PA, SAME_TEMPERATURE_K = 1.0, 0.01
+
+
 def _check_condition_free(
     session: Session, calibration: ThrottleCalibration, *, exclude_id: int | None = None
 ) -> None:
     statement = select(ThrottleCalibration.id).where(
         ThrottleCalibration.rig_id == calibration.rig_id,
         ThrottleCalibration.throttle == calibration.throttle,
-        ThrottleCalibration.back_pressure_pa == calibration.back_pressure_pa,
-        ThrottleCalibration.temperature_c == calibration.temperature_c,
+        # within what a condition is read to: 1000000.001 Pa was stored beside 1e6 Pa and
+        # both listed as "10 bar, 40 °C" (a technician's pass)
+        func.abs(ThrottleCalibration.back_pressure_pa - calibration.back_pressure_pa)
+        <= SAME_BACK_PRESSURE_PA,
+        func.abs(ThrottleCalibration.temperature_c - calibration.temperature_c)
+        <= SAME_TEMPERATURE_K,
     )
     if exclude_id is not None:
         statement = statement.where(ThrottleCalibration.id != exclude_id)

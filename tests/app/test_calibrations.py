@@ -146,6 +146,12 @@ def test_duplicate_condition_is_409_and_stores_nothing(server: LiveServer) -> No
     # names the table in the way and how to change it (the CLI cannot update one)
     assert f"{url}/{first.json()['id']}" in response.json()["error"]["message"]
     assert server.row_counts() == before
+    # the same condition to a float's noise is the same condition (1000000.001 Pa was
+    # stored beside 1e6 Pa, both listed as "10 bar, 40 °C": a technician's pass)
+    near = server.client.post(url, json=TABLE | {
+        "back_pressure_pa": TABLE["back_pressure_pa"] + 0.001,
+        "temperature_c": TABLE["temperature_c"] + 0.001}, headers=server.auth)
+    assert near.status_code == 409 and server.row_counts() == before
     other_condition = server.client.post(url, json=TABLE | {"temperature_c": 60.0},
                                          headers=server.auth)
     assert other_condition.status_code == 201

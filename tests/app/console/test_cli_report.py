@@ -64,6 +64,22 @@ def test_trends_report_and_refusals(store: Path) -> None:
     assert len(valve) == 1 and valve["unit"].iloc[0] == "m"
     assert valve["value"].iloc[0] == pytest.approx(54.3e-6, rel=0.1)
     assert "trends of rig 1" in done.output and "valve" in done.output
+    assert "last visit [UTC]" in done.output and "2026-05-01 08:00" in done.output
+    # each row with its trend's forecast; one component, its threshold and a window (the
+    # report took a rig only, the export the points only: a reliability engineer's pass)
+    assert {"threshold", "status", "time_left_days", "crossing_at"} <= set(frame.columns)
+    assert valve["status"].iloc[0] == "insufficient_data"
+    one = runner.invoke(cli, ["report", "trends", "--rig", "1", "--output", str(csv_path),
+                              "--component", "valve", "--threshold", "80e-6",
+                              "--until", "2026-05-01"])
+    assert one.exit_code == 0, one.output
+    chosen = pd.read_csv(csv_path)
+    assert set(chosen["component"]) == {"valve"} and chosen["threshold"].iloc[0] == 8e-5
+    later = runner.invoke(cli, ["report", "trends", "--rig", "1", "--output", str(csv_path),
+                                "--since", "2026-05-02"])
+    assert later.exit_code == 0 and len(pd.read_csv(csv_path)) == 0
+    unread = runner.invoke(cli, ["report", "trends", "--since", "May 2nd"])
+    assert isinstance(unread.exception, InputError) and unread.exception.field == "--since"
     wrong = runner.invoke(cli, ["report", "diagnosis", "1", "--output", str(store / "r.pdf")])
     assert isinstance(wrong.exception, InputError) and wrong.exception.field == "--output"
     missing = runner.invoke(cli, ["report", "diagnosis", "7", "--output", str(store / "r.html")])
