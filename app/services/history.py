@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from datetime import datetime
+from datetime import datetime, timedelta
 from functools import cache
 from typing import Any
 
@@ -96,13 +96,21 @@ def _twins() -> Select[tuple[int, int, Any]]:
             .select_from(Measurement)
             .join(Diagnosis, Diagnosis.measurement_id == Measurement.id)
             .where(Measurement.rig_id == bindparam("rig_id"),
-                   Measurement.measured_at == bindparam("measured_at")))
+                   Measurement.measured_at > bindparam("earliest"),
+                   Measurement.measured_at < bindparam("latest")))
+
+
+#: two stamps of one record are less than this apart [s]: a logger's re-export cut the
+#: fractional seconds (15:45:28.070615 → 15:45:28) and the same readings were stored as a
+#: second visit (a reliability engineer's pass)
+SAME_RECORD_S = 1.0
 
 
 def stored_twin(connection: Connection, rig_id: int, rig_version_id: int,
                 measured_at: datetime, record: Mapping[str, Any] | bytes) -> None:
     """Refuse a diagnosis of a record that is stored already with a diagnosis against the
-    same rig version: same rig, same ``measured_at``, the same document (``record`` as the
+    same rig version: same rig, ``measured_at`` less than :data:`SAME_RECORD_S` apart, the same
+    document (``record`` as the
     history keeps it, or its JSON).  A double submit without an ``Idempotency-Key``
     stored it twice and the trend fitted both points (an engineer's pass); the same
     record against another version (after commissioning) is a new diagnosis.
@@ -112,8 +120,10 @@ def stored_twin(connection: Connection, rig_id: int, rig_version_id: int,
     ConflictError
         Naming the stored diagnosis (``field`` ``measured_at``).
     """
+    within = timedelta(seconds=SAME_RECORD_S)
     rows = [(i, stored) for i, version, stored in connection.execute(
-        _twins(), {"rig_id": rig_id, "measured_at": measured_at})
+        _twins(), {"rig_id": rig_id, "earliest": measured_at - within,
+                   "latest": measured_at + within})
         if version == rig_version_id]
     if not rows:
         return

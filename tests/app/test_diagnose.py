@@ -281,6 +281,11 @@ def test_the_same_record_stored_twice_is_a_409_naming_the_first_and_stores_nothi
     local = record | {"measured_at": "2026-05-07T10:00:00+02:00"}
     assert server.client.post("/diagnose", json={"record": local},
                               headers=server.auth).status_code == 409
+    # nor is its stamp with fractions of a second a re-export cut (a reliability
+    # engineer's pass: 15:45:28.070615 re-sent as 15:45:28 was a second visit)
+    cut = record | {"measured_at": "2026-05-07T07:59:59.930Z"}
+    refused = server.client.post("/diagnose", json={"record": cut}, headers=server.auth)
+    assert refused.status_code == 409 and f"diagnosis {first_id}" in refused.text
     # in a batch: which record, and a record twice in one request is said as such (it
     # named a diagnosis id of the rolled-back transaction, given later to another)
     new = record | {"measured_at": "2026-05-07T09:00:00Z"}
