@@ -5,8 +5,8 @@ as the console's CSV upload) or JSON Lines (one record, as in ``POST /diagnose``
 line), each against its own rig (``rig_id``; ``--rig`` for records that name none).
 Every record is validated as the API validates a record before its diagnosis: records it
 would refuse are all reported with their line and field (up to :data:`LISTED`), and the
-batch is refused before anything runs, or with ``--skip-invalid`` the others are diagnosed and each refused
-record gets its error line in ``--out`` (one bad logger row threw a night's batch away: a
+batch is refused before anything runs, or with ``--skip-invalid`` the others are diagnosed
+and each refused record gets its error line in ``--out`` (one bad logger row threw a night's batch away: a
 fleet integrator's pass); a record the diagnosis itself refuses (readings impossible on its
 rig: p1 in bar cannot push the load) gets its error line in ``--out``, in the same shape.
 A file that is not a readable table stays refused whole.  Then
@@ -107,7 +107,10 @@ def _refused(errors: Sequence[tuple[int, HydrodiagError]], total: int) -> InputE
 
 
 def diagnose_batch(
-    file: Annotated[Path, typer.Argument(help="Records: CSV (a row each) or JSON Lines.")],
+    file: Annotated[Path, typer.Argument(
+        help="Records: CSV (a row each; columns the fields of a POST /diagnose record in SI, "
+        "the condition's dotted: condition.oil_temperature, condition.load_force) or JSON "
+        "Lines.")],
     rig_id: Annotated[int, typer.Option("--rig", min=1, max=MAX_ID, help="Rig id in the store "
                                         "for records that name none (each record that names "
                                         "its rig_id is diagnosed against that rig).")] = 1,
@@ -207,7 +210,7 @@ def diagnose_batch(
                 fh.write(json.dumps(line, default=str) + "\n")
     counts = Counter(r.get("top", "error") for r in results)
     table = Table("top", "records", title=f"{counted(len(results), 'record')} in {elapsed:.1f} s "
-                  f"({len(results) / elapsed:.0f} records/s)")
+                  f"({len(results) / elapsed:.2g} records/s)")   # 0.22/s read "0"
     for name, n in counts.most_common():
         table.add_row(escape(name), str(n))
     if errors:

@@ -62,11 +62,12 @@ def update(
     comment: CommentOption = None,
 ) -> None:
     """Validate FILE and store it as the next version of rig RIG_ID (same name)."""
-    from app.services.rigs import get_rig, update_rig
+    from app.services.rigs import get_rig, latest_version, reverted_commissioned, update_rig
 
     doc = _document(file)
     with store_session() as session:
-        before = get_rig(session, rig_id).latest_version
+        rig = get_rig(session, rig_id)
+        before, previous = rig.latest_version, latest_version(session, rig).document
         rig, version = update_rig(session, rig_id, doc, comment=comment)
         if version.version == before:  # the latest version's document: nothing stored
             _out.print(f"rig {rig.id} {rig.name!r}: the document is version {before}'s; "
@@ -74,6 +75,8 @@ def update(
         else:
             _out.print(f"rig {rig.id} {rig.name!r}: version {version.version} stored",
                        markup=False)
+            for note in reverted_commissioned(previous, version.document):
+                _out.print(f"note: {note}", markup=False)
 
 
 @rigs_cli.command("list")
@@ -160,7 +163,9 @@ def rediagnose(
                markup=False)
     changed = [r for r in result["replaced"] if r["before"] != r["after"]]
     for r in changed[:20]:
-        _out.print(f"  diagnosis {r['diagnosis_id']} → {r['by']}: {r['before']} → "
+        # the component blamed, as the history's `component` (its `top` names the
+        # hypothesis: "relief" here is "relief_seat" there, a commissioning engineer's pass)
+        _out.print(f"  diagnosis {r['diagnosis_id']} → {r['by']}: component {r['before']} → "
                    f"{r['after']}", markup=False)
     for e in result["errors"][:20]:
         _out.print(f"  diagnosis {e['diagnosis_id']} kept: {e['message']}", markup=False)

@@ -30,8 +30,9 @@ separate them (another load or temperature, the flow meters).
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
-from dataclasses import dataclass, field
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -83,6 +84,8 @@ PRIOR_SD: dict[str, float] = {"cylinder.Lc": 0.5, "valve.Ls": 0.5, "valve.K": 0.
 #: a fitted value beyond this many prior σ of ln θ from the document's is not stored
 #: unless asked (:attr:`Commissioning.beyond_prior`) [-]
 PRIOR_LIMIT = 3.0
+#: a stored value beyond this many prior σ of ln θ from the document's is said [-]
+PRIOR_NOTE = 2.0
 #: a parameter is pinned down when the records shrink its prior σ by this factor [-]
 PINNED = 0.5
 
@@ -253,7 +256,8 @@ class _Problem:
 
 def commission(rig: Rig, records: Sequence[MeasurementRecord],
                parameters: Sequence[str] | None = None, *, model_rel: float = 0.002,
-               max_iterations: int = 30) -> Commissioning:
+               max_iterations: int = 30, origin: Mapping[str, float] | None = None
+               ) -> Commissioning:
     """Fit the uncertain parameters of ``rig`` to healthy ``records`` (module docstring).
 
     Parameters
@@ -268,6 +272,12 @@ def commission(rig: Rig, records: Sequence[MeasurementRecord],
         Relative model uncertainty added to every reading [-].
     max_iterations
         Levenberg-Marquardt iteration limit [-].
+    origin
+        Each parameter's value before any commissioning [SI] (the document as its author
+        wrote it), where ``rig`` was commissioned before: the shift the guard measures is
+        from it, not from the last fit (a second commissioning from a worn seal's records
+        took Lc 7.93 → 2.13 mm, where from the author's 10 mm it is refused: a
+        commissioning engineer's pass).
 
     Raises
     ------
@@ -286,6 +296,7 @@ def commission(rig: Rig, records: Sequence[MeasurementRecord],
                                    field=f"parameters[{i}]")
     if len(set(names)) != len(names):
         raise MeasurementError("a parameter is named twice", field="parameters")
+    _refuse_repeats(records)
     obs = []
     for i, rec in enumerate(records):
         try:
@@ -311,18 +322,30 @@ def commission(rig: Rig, records: Sequence[MeasurementRecord],
         partners = [names[k] for k in range(len(names))
                     if k != j and abs(corr[j, k]) >= 0.8]
         theta0 = float(problem.theta0[j])
-        shift = float(z[j] / s[j])
+        first = float((origin or {}).get(n, theta0))
+        moved = z[j] + math.log(theta0 / first)     # from the value before commissioning
+        shift = float(moved / s[j])
         out.append(CommissionedParameter(
             n, COMMISSIONED[n], theta0, theta0 * math.exp(z[j]),
             theta0 * math.exp(z[j] - 1.96 * sd[j]), theta0 * math.exp(z[j] + 1.96 * sd[j]),
             float(s[j]), float(sd[j]), pinned, partners, shift))
+        since = ("" if first == theta0 else
+                 f" as its author wrote it ({first:.4g}; commissioned since to {theta0:.4g})")
         if abs(shift) > PRIOR_LIMIT:
             statements.append(
-                f"{n} ({COMMISSIONED[n]}) moved {math.expm1(z[j]):+.0%} from the document's "
-                f"value, {abs(shift):.1f} prior σ: more than the document's uncertainty "
-                f"(±{s[j]:.2f} in ln θ) allows. The records may hold wear the fit absorbed "
-                "(a worn valve's leak read as a short land; diagnose them first), or the "
-                "document's value is wrong")
+                f"{n} ({COMMISSIONED[n]}) moved {math.expm1(moved):+.0%} from the document's "
+                f"value{since}, {abs(shift):.1f} prior σ: more than the document's "
+                f"uncertainty (±{s[j]:.2f} in ln θ) allows. The records may hold wear the fit "
+                "absorbed (a worn valve's leak read as a short land; diagnose them first), "
+                "or the document's value is wrong" + _as_wear(n, moved))
+        elif pinned and abs(shift) > PRIOR_NOTE:
+            # a seal worn to 1.5× its clearance was stored as Lc −74 % without a word, and
+            # the worn seal then diagnosed "healthy" (a commissioning engineer's pass)
+            statements.append(
+                f"{n} ({COMMISSIONED[n]}) moved {math.expm1(moved):+.0%} from the document's "
+                f"value{since}, {abs(shift):.1f} prior σ: stored, but check that the records "
+                "are of a healthy rig (diagnose them against the document first)"
+                + _as_wear(n, moved))
         if not pinned:
             # "hardly depend on it" beside ±0.70 → ±0.36 read as a contradiction (a user
             # pass): said only where the records left most of the prior's uncertainty
@@ -357,6 +380,37 @@ def commission(rig: Rig, records: Sequence[MeasurementRecord],
             "again"))
     return Commissioning(rig.spec.name, out, chi2, int(r.size), len(records), its, statements,
                          dof, limit, consistent, disagreements)
+
+
+def _as_wear(name: str, moved: float) -> str:
+    """The wear a leakage parameter's move ``moved`` (of ln θ) stands for: a shorter seal
+    land leaks as a wider clearance, Q ∝ c³/L (paper 002 eqs. 23, 36), a lower pump
+    resistance as a larger pump leak, Q = p/Rlp (eq. 5)."""
+    if name in ("cylinder.Lc", "valve.Ls") and moved < 0:
+        part = "seal" if name == "cylinder.Lc" else "spool"
+        return (f"; as leakage it reads as the {part} at {math.exp(-moved / 3):.2f}× its "
+                f"clearance (leak ×{math.exp(-moved):.2f}, Q ∝ c³/L)")
+    if name == "pump.Rlp" and moved < 0:
+        return f"; as leakage it reads as the pump's leak ×{math.exp(-moved):.2f} (Q = p/Rlp)"
+    return ""
+
+
+def _refuse_repeats(records: Sequence[MeasurementRecord]) -> None:
+    """Refuse a record whose condition and readings repeat an earlier one's: six copies of
+    one record fitted as six, narrowed the intervals until they missed the truth (Rlp
+    −41 %) and called Ls pinned down (a commissioning engineer's pass); real readings are
+    never equal to the last digit."""
+    seen: dict[Any, int] = {}
+    for i, rec in enumerate(records):
+        key = replace(rec, taken_at=None, rig_name=None)
+        try:
+            first = seen.setdefault(key, i)
+        except TypeError:     # unhashable: compare one by one
+            first = next((k for k, v in seen.items() if v == key), i)
+        if first != i:
+            raise MeasurementError(f"records[{i}] repeats records[{first}]'s condition and "
+                                   "readings: each record counts as new evidence, so send it "
+                                   "once", field=f"records[{i}]")
 
 
 def _disagreements(problem: _Problem, z: Arr) -> list[tuple[int, str, float]]:

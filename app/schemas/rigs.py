@@ -84,6 +84,10 @@ class RigPublic(PublicModel):
     document: dict[str, Any] = _document(examples=[_UPDATE_EXAMPLE])
     created_at: Timestamp
     updated_at: Timestamp
+    notes: list[str] = Field(
+        default_factory=list, description="What an update did that its sender may not mean: "
+        "commissioned values it replaced with others (PUT only; empty elsewhere) [-]",
+        examples=[[]])
 
 
 class RigList(Page[RigPublic]):

@@ -2,11 +2,14 @@
 
 Used by ``POST /rigs/{rig_id}/commission`` and ``hydrodiag commission``.  The fit is
 :func:`diagnostics.commissioning.commission` on the rig's latest version; the parameters
-the records pin down are written into a copy of that version's document (value in SI, with
-a source naming the fit and its interval), stored through :func:`app.services.rigs.update_rig`.
-Nothing is stored when any record is invalid, the fit fails, or the fitted rig does not
-explain the records (χ² test at 1 %: a record of a worn rig among them); nor when every
-pinned-down parameter's 95 % interval holds the document's value (the records confirm it).
+the records pin down are written into a copy of that version's document (each in the unit
+the document wrote it in, with a source naming the fit and its interval), stored through
+:func:`app.services.rigs.update_rig`.  The guard against wear absorbed by the fit measures
+each parameter's move from the value its author wrote (the newest version whose source is
+not a commissioning's), not from the last fit.  Nothing is stored when any record is
+invalid, the fit fails, or the fitted rig does not explain the records (χ² test at 1 %: a
+record of a worn rig among them); nor when every pinned-down parameter's 95 % interval
+holds the document's value (the records confirm it).
 """
 
 from __future__ import annotations
@@ -24,8 +27,9 @@ from app.services import rigs as rig_service
 from app.services.diagnosis import DIAGNOSIS_LOCK
 from app.services.measurements import to_record
 from app.services.rig_cache import RigCache
-from diagnostics.commissioning import Commissioning, commission
+from diagnostics.commissioning import COMMISSIONED, Commissioning, commission
 from sim.errors import InputError, MeasurementError
+from sim.rigs import validate_rig_document
 from sim.units import from_si, spelled
 
 __all__ = ["commission_rig", "commissioned_document"]
@@ -51,10 +55,30 @@ def commissioned_document(document: dict[str, Any], fit: Commissioning, units: d
         said = f" ({old['source']})" if old.get("source") else ""
         out["components"][role]["parameters"][name] = {
             "value": shown(p.value), "unit": written,
-            "source": f"commissioned from {fit.n_records} healthy records: "
+            "source": f"{rig_service.COMMISSIONED_SOURCE} {fit.n_records} healthy records: "
                       f"{shown(p.value):.6g} {written} (95 % interval {shown(p.low):.6g} … "
                       f"{shown(p.high):.6g}); was {shown(p.before):.6g} {written}{said}"}
     return out
+
+
+def _authored(session: Session, rig_id: int, latest: dict[str, float]) -> dict[str, float]:
+    """Each commissionable parameter's value [SI] in the newest version whose source for
+    it is not a commissioning's (the value its author wrote, or measured and stored since):
+    the guard of a second commissioning measures from it."""
+    versions, _ = rig_service.list_versions(session, rig_id, limit=10_000, offset=0)
+    out: dict[str, float] = {}
+    for name in COMMISSIONED:
+        role, key = name.split(".")
+        for version in versions:           # newest first
+            entry = (version.document.get("components", {}).get(role, {})
+                     .get("parameters", {}).get(key))
+            source = str(entry.get("source", "")) if isinstance(entry, dict) else ""
+            if not source.startswith(rig_service.COMMISSIONED_SOURCE):
+                if version is not versions[0]:
+                    out[name] = validate_rig_document(version.document).values().get(
+                        name, latest.get(name, math.nan))
+                break
+    return {k: v for k, v in out.items() if math.isfinite(v) and v > 0}
 
 
 def commission_rig(session: Session, rigs: RigCache, rig_id: int, request: CommissionRequest
@@ -85,9 +109,10 @@ def commission_rig(session: Session, rigs: RigCache, rig_id: int, request: Commi
                              f"{data.rig_version}", field=f"records[{i}].rig_version")
         records.append(to_record(data, path=f"records[{i}]", rig_name=resolved.name,
                                  measured_at=data.measured_at or now))
+    origin = _authored(session, rig_id, resolved.rig.base)
     try:
         with DIAGNOSIS_LOCK:
-            fit = commission(resolved.rig, records, request.parameters)
+            fit = commission(resolved.rig, records, request.parameters, origin=origin)
     except InputError as exc:
         raise type(exc)(exc.message, field=exc.field) from None
     if not fit.consistent:  # a version fitted to a record that is not healthy: not stored

@@ -20,6 +20,7 @@ from sim.rigs import validate_rig_document
 from sim.rigs.circuits import DEFAULT_CIRCUIT, get_circuit
 
 __all__ = [
+    "COMMISSIONED_SOURCE",
     "create_rig",
     "delete_rig",
     "find_rig",
@@ -29,6 +30,7 @@ __all__ = [
     "latest_version",
     "list_rigs",
     "list_versions",
+    "reverted_commissioned",
     "update_rig",
 ]
 
@@ -125,6 +127,35 @@ def create_rig(
     session.add_all([rig, version])
     commit(session, conflict=f"a rig named {name!r} exists", field="document.name")
     return rig, version
+
+
+#: how a commissioned value's source starts (:mod:`app.services.commissioning`)
+COMMISSIONED_SOURCE = "commissioned from"
+
+
+def reverted_commissioned(before: Mapping[str, Any], after: Mapping[str, Any]) -> list[str]:
+    """Notes on the commissioned values of ``before`` that ``after`` replaces with a value
+    that is not a commissioning's: an update from the author's original file, made for an
+    unrelated fix, put every commissioned value back to its guess without a word, and every
+    later diagnosis was unexplained (a commissioning engineer's pass)."""
+    notes = []
+    for role, component in (before.get("components") or {}).items():
+        for name, old in ((component or {}).get("parameters") or {}).items():
+            if not (isinstance(old, Mapping)
+                    and str(old.get("source", "")).startswith(COMMISSIONED_SOURCE)):
+                continue
+            new = (((after.get("components") or {}).get(role) or {})
+                   .get("parameters") or {}).get(name)
+            if isinstance(new, Mapping) and str(new.get("source", "")).startswith(
+                    COMMISSIONED_SOURCE):
+                continue
+            shown = (f"{new.get('value')} {new.get('unit', '')}".strip()
+                     if isinstance(new, Mapping) else "removed")
+            notes.append(f"{role}.{name} was commissioned ({old.get('value')} "
+                         f"{old.get('unit', '')}); this version has {shown}: the "
+                         "commissioning is undone for it (hydrodiag rigs show ID writes the "
+                         "latest version's file to edit)")
+    return notes
 
 
 def update_rig(

@@ -233,6 +233,12 @@ def _trend(component: str, rig_id: int, points: list[TrendPointOut], threshold: 
             crossing = None
         else:
             message = f"{message}; {since}"
+    if component == "pump" and status in ("worsening", "crossed"):
+        # a healthy model pump's Cs rose as the oil cooled and read "worsening, 656 days"
+        # with no word of it in the answer (a reliability engineer's pass; docs/diagnosis.md)
+        message += ("; the pump's Cs is read at each record's oil temperature, and the rig "
+                    "model's pump leak k·p/Rlp makes it rise as the oil cools: before acting, "
+                    "compare records taken at one oil temperature")
     if points and status != "crossed" and points[-1].value > threshold:
         last = points[-1]
         message = (f"{message}; the latest estimate, {quantity_text(last.value, unit)} "

@@ -159,6 +159,42 @@ def test_a_worn_record_is_not_absorbed_into_the_document(server: LiveServer) -> 
     assert ls["prior_shift"] < -3.0 and ls["value"] < 0.3 * ls["before"]
 
 
+def test_a_second_commissioning_cannot_walk_past_the_guard(server: LiveServer) -> None:
+    """A spool worn to 49 µm given as healthy reads as a land 67 % shorter (2.2 prior σ):
+    stored, and said with the wear it reads as; a worn-on spool (60 µm) then moved the
+    commissioned land only 1.1 σ more and was stored too, where from the author's value it
+    is 3.3 σ (a commissioning engineer's pass).  The guard measures from the author's."""
+    rig_id = new_rig(server, "commission-walk")["id"]
+
+    def worn(cv: float) -> dict[str, Any]:
+        vals = readings(reference_rig(), {"valve.cv": cv}, 2100.0, 40.0)
+        return {"rig_id": rig_id, "condition": {"oil_temperature": 40.0, "load_force": 2100.0},
+                **{f: vals[f] for f in FULL}}
+
+    first = server.client.post(f"/rigs/{rig_id}/commission", json={"records": [worn(49e-6)]},
+                               headers=server.auth)
+    assert first.status_code == 201, first.text
+    said = [s for s in first.json()["statements"] if s.startswith("valve.Ls (")]
+    assert said and "reads as the spool at 1.4" in said[0], said
+    second = server.client.post(f"/rigs/{rig_id}/commission", json={"records": [worn(60e-6)]},
+                                headers=server.auth)
+    assert second.status_code == 422, second.text
+    error = second.json()["error"]
+    assert error["field"] == "beyond_prior" and "as its author wrote it" in error["message"]
+    assert server.client.get(f"/rigs/{rig_id}/versions").json()["total"] == 2
+    # the author's original file stored again (for an unrelated fix) undoes the
+    # commissioning: said (it was silent, and every later diagnosis unexplained)
+    original = server.client.get(f"/rigs/{rig_id}/versions/1").json()["document"]
+    fixed = original | {"title": "hose fixed"}
+    put = server.client.put(f"/rigs/{rig_id}", json={"document": fixed}, headers=server.auth)
+    assert put.status_code == 200, put.text
+    notes = put.json()["notes"]
+    assert any(n.startswith("valve.Ls was commissioned (") and "undone" in n for n in notes)
+    assert all(n.split(" ")[0] in ("valve.Ls", "valve.K", "pump.Rlp", "cylinder.Lc",
+                                   "cylinder.Fu", "cylinder.Kf") for n in notes), notes
+    assert server.client.get(f"/rigs/{rig_id}").json()["notes"] == []
+
+
 def test_records_that_confirm_the_document_store_no_version(server: LiveServer) -> None:
     """A rig as documented: each pinned-down interval holds the document's value, and a
     new version would only split the history and trends (the /docs example stored one

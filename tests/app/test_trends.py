@@ -464,3 +464,18 @@ def test_visits_seconds_apart_forecast_nothing() -> None:
     assert "without measured_at" in trend.message
     hours = _points(values, days=2 * MIN_SPAN_S / 25 / 86400.0)
     assert _trend("cylinder", 1, hours, 132.8e-6, "default").status == "worsening"
+
+
+def test_a_worsening_pump_trend_names_the_oil_temperature() -> None:
+    """A healthy model pump's Cs rose as the oil cooled (55 → 35 °C) and read "worsening,
+    656 days" with the caveat only in the documentation (a reliability engineer's pass);
+    a clearance's trend says nothing of it."""
+    from app.services.trends import _trend
+
+    rising = [1.3e-8 * (1 + 0.05 * k) for k in range(20)]
+    pump = _trend("pump", 1, _points(rising, u=2e-10), 9.8e-8, "default")
+    assert pump.status == "worsening"
+    assert "compare records taken at one oil temperature" in pump.message
+    seal = _trend("cylinder", 1, _points([83e-6 + 1e-6 * k for k in range(20)]), 132.8e-6,
+                  "default")
+    assert seal.status == "worsening" and "oil temperature" not in seal.message

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import copy
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -151,3 +152,55 @@ def test_a_worn_record_among_the_healthy_ones_is_named_and_the_fit_said_inconsis
     healthy = commission(documented, healthy_records(actual, 3))
     assert healthy.consistent and healthy.chi2 <= healthy.limit
     assert 40.0 < healthy.dof < healthy.n_observations
+
+
+def _scaled(factors: dict[str, float], name: str = "scaled"):
+    doc = copy.deepcopy(reference_rig_document())
+    doc["name"] = name
+    for key, factor in factors.items():
+        role, pname = key.split(".")
+        doc["components"][role]["parameters"][pname]["value"] *= factor
+    return load_rig(doc)
+
+
+def test_a_worn_seal_given_as_healthy_is_said_as_the_wear_it_reads_as() -> None:
+    """Records of a seal worn to 1.5× its clearance pass the χ² test and the 3 σ guard: the
+    fit puts the wear into a seal land ~70 % shorter, which was stored without a word and
+    the worn seal diagnosed "healthy" from then on (a commissioning engineer's pass)."""
+    documented = reference_rig()
+    worn = _scaled({"cylinder.cc": 1.5}, "worn")
+    c = commission(documented, healthy_records(worn, 3))
+    lc = next(p for p in c.parameters if p.name == "cylinder.Lc")
+    assert lc.identifiable and lc.value < 0.4 * lc.before
+    assert 2.0 < abs(lc.prior_shift) <= 3.0 and "cylinder.Lc" not in c.beyond_prior
+    (said,) = [s for s in c.statements if s.startswith("cylinder.Lc (")]
+    factor = (lc.before / lc.value) ** (1 / 3)
+    assert f"reads as the seal at {factor:.2f}× its clearance" in said, said
+    assert 1.4 < factor < 1.6 and "diagnose them against the document first" in said
+
+
+def test_a_second_commissioning_measures_from_the_value_its_author_wrote() -> None:
+    """A version already commissioned to Lc × 0.35 was the prior's centre of the next: a
+    worn seal's records took it on to × 0.2 (3.2 prior σ from the author's value) without
+    the guard (a commissioning engineer's pass).  Given the author's values, the shift is
+    measured from them."""
+    documented = reference_rig()
+    commissioned = _scaled({"cylinder.Lc": 0.35}, "commissioned")
+    records = healthy_records(_scaled({"cylinder.Lc": 0.2}, "worn-on"), 4)
+    lone = commission(commissioned, records)
+    assert "cylinder.Lc" not in lone.beyond_prior          # 0.35 → 0.2: 1.1 σ
+    authored = {"cylinder.Lc": documented.base["cylinder.Lc"]}
+    guarded = commission(commissioned, records, origin=authored)
+    assert "cylinder.Lc" in guarded.beyond_prior
+    (said,) = [s for s in guarded.statements if s.startswith("cylinder.Lc (")]
+    assert "as its author wrote it" in said and "commissioned since to" in said
+
+
+def test_a_record_sent_twice_is_refused() -> None:
+    """Six copies of one record narrowed the intervals until they missed the truth."""
+    rig = reference_rig()
+    records = healthy_records(true_rig(), 6)
+    twice = [*records, replace(records[2], taken_at=None)]
+    with pytest.raises(MeasurementError, match=r"records\[6\] repeats records\[2\]") as exc:
+        commission(rig, twice)
+    assert exc.value.field == "records[6]"

@@ -21,10 +21,11 @@ RigId = Annotated[int, Path(ge=1, le=MAX_ID, description="Rig identifier [-]",
                             examples=[1])]
 
 
-def _public(rig: Rig, version: RigVersion) -> RigPublic:
+def _public(rig: Rig, version: RigVersion, notes: list[str] | None = None) -> RigPublic:
     return RigPublic(
         id=rig.id, name=rig.name, title=rig.title, latest_version=rig.latest_version,
         document=version.document, created_at=rig.created_at, updated_at=rig.updated_at,
+        notes=notes or [],
     )
 
 
@@ -60,9 +61,12 @@ def get_rig(rig_id: RigId, session: SessionDep) -> RigPublic:
 @router.put("/{rig_id}", summary="Store a new version of a rig's document")
 def update_rig(rig_id: RigId, body: RigUpdate, session: SessionDep,
                _key: WriteKeyDep) -> RigPublic:
-    """Validate the document and add it as the rig's next version; older ones stay."""
+    """Validate the document and add it as the rig's next version; older ones stay.
+    ``notes`` name the commissioned values it replaces (an update from the author's
+    original file undoes a commissioning without a word otherwise)."""
+    before = service.latest_version(session, service.get_rig(session, rig_id)).document
     rig, version = service.update_rig(session, rig_id, body.document, comment=body.comment)
-    return _public(rig, version)
+    return _public(rig, version, service.reverted_commissioned(before, version.document))
 
 
 @router.delete("/{rig_id}", status_code=status.HTTP_204_NO_CONTENT, response_class=Response,
