@@ -1,7 +1,8 @@
 # hydrodiag service.
 #   docker build -t hydrodiag .
 #   docker run -p 8000:8000 -v hydrodiag-data:/data hydrodiag
-# The first start prints an API key once (see `docker logs`); the store lives in /data.
+# The first start writes an API key to /data/first-api-key (mode 0600; `docker logs` shows
+# its path, not the key: docker exec CONTAINER cat /data/first-api-key); the store lives in /data.
 # tests/app/test_dockerfile.py follows the COPY, RUN, CMD and HEALTHCHECK steps below in a
 # fresh virtual environment: keep RUN steps to `pip install` and user/folder set-up.
 FROM python:3.11-slim

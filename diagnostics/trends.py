@@ -400,14 +400,15 @@ def _off_line(series: TrendSeries, fit: TrendFit | None,
     read 35 µm below a line still forecasting the old seal's "57 days to the threshold"
     without a word (a reliability engineer's pass); the step test names it from the
     fourth visit on."""
-    if fit is None:
+    if fit is None or series.uncertainties is None:
+        # without each visit's stated uncertainty an estimate at its bound (0 µm, its
+        # interval holding the line) read as "sits 36 µm below" (a verification pass)
         return ""
     order = np.argsort(np.asarray(series.times, dtype=np.float64), kind="stable")
     t = np.asarray(series.times, dtype=np.float64)[order]
     r = np.asarray(series.values, dtype=np.float64)[order] - (
         fit.pivot_value + fit.slope * (t - fit.pivot_time))
-    u = (np.asarray(series.uncertainties, dtype=np.float64)[order]
-         if series.uncertainties is not None else np.zeros(t.size))
+    u = np.asarray(series.uncertainties, dtype=np.float64)[order]
     sigma = np.maximum(u, mad_sigma(r))
     beyond = np.sign(r) * (np.abs(r) > OFF_LINE * sigma)
     count = 0

@@ -31,7 +31,12 @@ class YamlLoader(yaml.SafeLoader):
         :data:`MAX_NODES` nodes: a 340-byte paste of nested aliases ("billion laughs")
         took 9.7 s and 285 MB of a worker once expanded (a security review's pass); an
         anchor shared by a few hoses stays as cheap as written."""
-        node = super().get_single_node()
+        try:
+            node = super().get_single_node()
+        except RecursionError:
+            # 800 nested brackets: a 500 from the console (a verification pass)
+            raise yaml.composer.ComposerError(
+                None, None, "the document nests deeper than it can be read", None) from None
         if node is not None:
             size: dict[int, int] = {}
 
@@ -50,7 +55,12 @@ class YamlLoader(yaml.SafeLoader):
                         "values through its aliases (&anchor / *alias)", n.start_mark)
                 return total
 
-            expanded(node)
+            try:
+                expanded(node)
+            except RecursionError:
+                raise yaml.composer.ComposerError(
+                    None, None, "the document nests deeper than it can be read",
+                    None) from None
         return node
 
     def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict[Any, Any]:

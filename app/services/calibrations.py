@@ -159,7 +159,8 @@ SAME_BACK_PRESSURE_PA, SAME_TEMPERATURE_K = 1.0, 0.01
 def _check_condition_free(
     session: Session, calibration: ThrottleCalibration, *, exclude_id: int | None = None
 ) -> None:
-    statement = select(ThrottleCalibration.id).where(
+    statement = select(ThrottleCalibration.id, ThrottleCalibration.back_pressure_pa,
+                       ThrottleCalibration.temperature_c).where(
         ThrottleCalibration.rig_id == calibration.rig_id,
         ThrottleCalibration.throttle == calibration.throttle,
         # within what a condition is read to: 1000000.001 Pa was stored beside 1e6 Pa and
@@ -171,11 +172,12 @@ def _check_condition_free(
     )
     if exclude_id is not None:
         statement = statement.where(ThrottleCalibration.id != exclude_id)
-    if (existing := session.scalar(statement.limit(1))) is not None:
+    if (row := session.execute(statement.limit(1)).first()) is not None:
+        existing, back_pressure, temperature = row     # the stored table's own condition
         raise ConflictError(
             f"rig {calibration.rig_id} already has a table for throttle "
-            f"{calibration.throttle!r} at {calibration.back_pressure_pa:g} Pa and "
-            f"{calibration.temperature_c:g} °C (calibration {existing}); update that one "
+            f"{calibration.throttle!r} at {back_pressure:g} Pa and {temperature:g} °C "
+            f"(calibration {existing}); update that one "
             f"(PATCH /rigs/{calibration.rig_id}/calibrations/{existing}) or delete it first",
             field="throttle",
         )

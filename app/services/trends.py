@@ -198,7 +198,7 @@ def _trend(component: str, rig_id: int, points: list[TrendPointOut], threshold: 
                    "without measured_at are stored at the time of their request: give each "
                    "its time of measurement)")
         forecast = replace(forecast, time_left=math.nan, time_left_low=math.nan,
-                           time_left_high=math.nan)
+                           time_left_high=math.nan, step=None, n_used=len(points))
     step_at = (datetime.fromtimestamp(forecast.step.time, UTC) if forecast.step is not None
                else None)
     if points and current and crossing is not None and status == "worsening" \

@@ -152,6 +152,7 @@ def test_duplicate_condition_is_409_and_stores_nothing(server: LiveServer) -> No
         "back_pressure_pa": TABLE["back_pressure_pa"] + 0.001,
         "temperature_c": TABLE["temperature_c"] + 0.001}, headers=server.auth)
     assert near.status_code == 409 and server.row_counts() == before
+    assert f"and {TABLE['temperature_c']:g} °C (" in near.json()["error"]["message"]  # stored
     other_condition = server.client.post(url, json=TABLE | {"temperature_c": 60.0},
                                          headers=server.auth)
     assert other_condition.status_code == 201

@@ -460,6 +460,7 @@ def test_visits_seconds_apart_forecast_nothing() -> None:
     trend = _trend("cylinder", 1, seconds, 132.8e-6, "default")
     assert trend.status == "insufficient_data" and trend.time_left_s is None
     assert trend.slope is None and trend.crossing_at is None
+    assert trend.step_at is None and trend.step_size is None and trend.points_fitted == 26
     assert "the 26 visits span 1.25 s" in trend.message
     assert "without measured_at" in trend.message
     hours = _points(values, days=2 * MIN_SPAN_S / 25 / 86400.0)

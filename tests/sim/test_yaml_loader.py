@@ -35,3 +35,10 @@ def test_an_anchor_shared_by_a_few_entries_stays_as_written() -> None:
                          "Vp: 1.75e-5\n")
     assert document["hose_A"] == {"L": 1.0, "D": 0.02}
     assert document["hose_B"] == {"L": 2.0, "D": 0.02} and document["Vp"] == 1.75e-5
+
+
+def test_a_document_nested_deeper_than_it_can_be_read_is_a_yaml_error() -> None:
+    """800 nested brackets raised RecursionError: a 500 from the console (a verification
+    pass)."""
+    with pytest.raises(yaml.YAMLError, match="nests deeper than it can be read"):
+        load_yaml("a: " + "[" * 5000 + "]" * 5000)
