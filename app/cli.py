@@ -273,6 +273,17 @@ register_batch(cli)
 unwrap_help(cli)
 
 
+def _database_trouble(reason: str) -> str:
+    """What an operational error means: a server that answered and refused (a database or
+    role that does not exist, a wrong password) is not one that "did not answer" (an
+    operator pass: that pointed at the network for a misspelt database name)."""
+    refused = ("does not exist", "password authentication failed", "no pg_hba.conf entry",
+               "role ", "permission denied")
+    if any(word in reason.lower() for word in refused):
+        return "the database server refused the connection"
+    return "the database did not answer"
+
+
 def main() -> None:
     """Entry point of the ``hydrodiag`` command."""
     from sqlalchemy.exc import DatabaseError, InterfaceError, OperationalError
@@ -287,7 +298,7 @@ def main() -> None:
     except (OperationalError, InterfaceError) as exc:
         # an unreachable database or a wrong password: one line, not 500 of traceback
         reason = str(exc.orig).strip().splitlines()[0] if exc.orig is not None else str(exc)
-        console.print(f"[red]the database did not answer ({type(exc).__name__}):[/red] "
+        console.print(f"[red]{_database_trouble(reason)} ({type(exc).__name__}):[/red] "
                       f"{escape(reason)} (HYDRODIAG_DATABASE_URL)")
         sys.exit(1)
     except DatabaseError as exc:

@@ -168,6 +168,13 @@ def db_copy(
     if target_url.get_backend_name() == "postgresql" and target_url.get_driver_name() != "psycopg":
         raise InputError("write the scheme as postgresql+psycopg:// (the psycopg driver is the "
                          "one installed)", field="TARGET")
+    if target_url.get_backend_name() == "sqlite" and target_url.database:
+        # sqlite:///tmp/x.db is the relative tmp/x.db: its folders were made under the
+        # current one and the message named the URL, not the file (an operator pass)
+        folder = Path(target_url.database).resolve().parent
+        if not folder.is_dir():
+            raise InputError(f"no folder {folder} (sqlite:///relative/path, "
+                             "sqlite:////absolute/path)", field="TARGET")
     import signal
 
     def stop(signum: int, _frame: object) -> None:
@@ -189,8 +196,10 @@ def db_copy(
     for name, rows in copied.rows.items():
         out.add_row(name, str(rows))
     console.print(out)
-    console.print(f"{sum(copied.rows.values())} rows copied to "
-                  f"{target_url.render_as_string(hide_password=True)}")
+    where = (str(Path(target_url.database).resolve())
+             if target_url.get_backend_name() == "sqlite" and target_url.database
+             else target_url.render_as_string(hide_password=True))
+    console.print(f"{sum(copied.rows.values())} rows copied to {where}")
     ends = ", ".join(f"{name} {copied.last_ids[name]}" for name in
                      ("rigs", "rig_versions", "diagnoses", "measurements", "measured_series")
                      if copied.last_ids.get(name))

@@ -293,3 +293,16 @@ def test_start_up_problems_are_one_line_and_write_nothing(tmp_path: Path) -> Non
         out = result.stdout + result.stderr
         assert result.returncode == 1 and "Traceback" not in out, (args, out)
         assert "is at revision 0099, which this release does not know" in out
+
+
+def test_a_server_that_refused_is_not_said_to_have_been_silent() -> None:
+    """A misspelt database name read "the database did not answer", which pointed at the
+    network (an operator pass); libpq's own words tell the two apart."""
+    from app.cli import _database_trouble
+
+    assert _database_trouble('connection failed: FATAL:  database "nosuchdb" does not exist'
+                             ) == "the database server refused the connection"
+    assert _database_trouble("FATAL:  password authentication failed for user \"hd\""
+                             ) == "the database server refused the connection"
+    assert _database_trouble("connection failed: Connection refused") == \
+        "the database did not answer"

@@ -263,6 +263,12 @@ def test_target_mistakes_are_one_line_naming_what_to_fix(runner: CliRunner, tmp_
     refused = runner.invoke(cli, ["db", "copy", f"sqlite:///{junk}"])
     assert isinstance(refused.exception, InputError) and refused.exception.field == "TARGET"
     assert "not a database" in refused.exception.message
+    # three slashes where four were meant: a relative path whose folders were made under
+    # the current one, the message naming the URL, not the file (an operator pass)
+    relative = runner.invoke(cli, ["db", "copy", "sqlite:///nosuch-folder-x/copy.db"])
+    assert isinstance(relative.exception, InputError) and relative.exception.field == "TARGET"
+    assert f"no folder {Path('nosuch-folder-x').resolve()}" in relative.exception.message
+    assert not Path("nosuch-folder-x").exists()
 
 
 def test_a_row_the_target_refuses_is_named_and_leaves_its_tables_empty(tmp_path: Path
