@@ -22,6 +22,8 @@ from dataclasses import dataclass, fields
 from datetime import datetime
 from typing import Literal
 
+import numpy as np
+
 from diagnostics.quantity import (
     CONSISTENCY_K,
     DEFAULT_INSTRUMENTS,
@@ -79,7 +81,12 @@ def _as_quantity(path: str, item: float | Quantity,
     """A bare number becomes a reading of the field's default instrument class."""
     if isinstance(item, Quantity):
         return item
-    if isinstance(item, bool) or not isinstance(item, int | float):
+    if isinstance(item, np.ndarray) and item.ndim == 0:
+        item = item.item()
+    # numpy's scalars are numbers (a float32 reading was refused where the simulator takes
+    # it: a verification pass); a bool is not
+    if isinstance(item, bool | np.bool_) or not isinstance(item, int | float | np.integer
+                                                           | np.floating):
         raise MeasurementError(f"expected a number or a Quantity, got {type(item).__name__}",
                                field=path)
     instrument = instruments.get(path)

@@ -341,3 +341,19 @@ def test_meter_c_beyond_meter_b_names_the_area_term_it_quoted() -> None:
     with pytest.raises(MeasurementError) as err:   # equal areas: nothing to name
         check_against_rig(record(flow_B=4.0e-4, flow_C=4.5e-4, speed_work=v), LIMITS)
     assert "(A1 − A2)" not in err.value.message
+
+
+def test_numpy_scalars_are_readings_and_a_bool_is_not() -> None:
+    """A float32 or int64 reading (a column of a numpy array) was refused where the
+    simulator takes it (a verification pass)."""
+    import numpy as np
+
+    cond = OperatingCondition.from_readings({"oil_temperature": np.float32(40.0),
+                                             "load_force": np.int64(2100)})
+    rec = MeasurementRecord.from_readings("1", cond, {"p1": np.float32(11.9e5),
+                                                      "flow_B": np.array(4.4e-4)})
+    assert rec.p1 is not None and rec.p1.value == 1.19e6 and cond.load_force.value == 2100.0
+    assert rec.flow_B is not None and rec.flow_B.value == 4.4e-4
+    with pytest.raises(MeasurementError, match="got bool") as caught:
+        MeasurementRecord.from_readings("1", cond, {"p1": np.bool_(True)})
+    assert caught.value.field == "p1"
