@@ -55,6 +55,19 @@ cli.add_typer(history_cli, name="history")
 FIRST_KEY_FILE = "first-api-key"
 
 
+def first_key_shown(line: str) -> str | None:
+    """The first API key that a line of ``serve``'s output shows: printed on a terminal, or
+    read from the file it names where the output is piped; ``None`` for any other line
+    (the benchmarks and tests that start ``serve`` read its key so)."""
+    if not line.startswith("API key: "):
+        return None
+    shown = line.split(": ", 1)[1].strip()
+    if shown.startswith("written to "):
+        path = shown.removeprefix("written to ").split(" (", 1)[0]
+        return Path(path).read_text().strip()
+    return shown.split(" ", 1)[0] if shown.startswith("hd_") else None
+
+
 def _show_first_key(key: str, data_dir: Path) -> None:
     """Show the first API key once: on a terminal, printed; otherwise (a service log under
     systemd or docker, which keeps what it is given) written to :data:`FIRST_KEY_FILE` in

@@ -14,6 +14,8 @@ from pathlib import Path
 
 import httpx
 
+from app.cli import first_key_shown
+
 __all__ = ["STARTUP_TIMEOUT_S", "Server", "running", "start", "stop", "wait_ready"]
 
 STARTUP_TIMEOUT_S = 300.0  # generous: restarts share 2 cores with other work
@@ -63,8 +65,8 @@ def _start_once(data_dir: Path, key: str, database_url: str | None,
     assert process.stdout is not None
     if not key:
         for line in process.stdout:
-            if line.startswith("API key: "):
-                server.key = line.split(": ", 1)[1].strip()
+            if (shown := first_key_shown(line)) is not None:
+                server.key = shown
                 found.append(server.key)
                 break
     deadline = time.monotonic() + STARTUP_TIMEOUT_S

@@ -59,6 +59,7 @@ from typing import Any
 
 import httpx
 
+from app.cli import first_key_shown
 from benchmarks.load_clients import closed_loop, open_loop, request_bytes
 from benchmarks.load_timeline import timeline
 
@@ -116,8 +117,8 @@ def serve(data_dir: Path) -> Iterator[Service]:
         assert process.stdout is not None
         key = ""
         for line in process.stdout:
-            if line.startswith("API key: "):
-                key = line.split(": ", 1)[1].strip()
+            if (shown := first_key_shown(line)) is not None:
+                key = shown
                 break
         if not key:
             raise RuntimeError(f"the service printed no API key (see {data_dir}/service.log)")

@@ -108,7 +108,8 @@ def unit_suffix(unit: str) -> str:
 def quantity_text(value: float, unit: str, digits: int = 4) -> str:
     """A value as an engineer reads it in a sentence: a length below a centimetre in µm
     (a clearance "5.442e-05 m" read as a typo of a planner's 54.42 µm), a rate of length
-    per day likewise; else ``value`` with ``digits`` significant digits and its unit."""
-    if unit in ("m", "m/day") and value != 0.0 and abs(value) < 1e-2:
+    per day likewise (zero too: "slope 0 m/day" beside a column in µm/day, a plant
+    operator's pass); else ``value`` with ``digits`` significant digits and its unit."""
+    if unit in ("m", "m/day") and abs(value) < 1e-2:
         return f"{value * 1e6:.{digits}g} µ{unit}"
     return f"{value:.{digits}g}{unit_suffix(unit)}"

@@ -53,11 +53,17 @@ _SEVERITY_COLOURS = {"nominal": "#009E73", "mild": "#56B4E9", "moderate": "#E69F
 
 
 def probability_chart(result: Mapping[str, Any], *, top: int = 8) -> Chart:
-    """Posterior probability [1] of each hypothesis of a diagnosis, largest first."""
+    """Posterior probability [1] of each hypothesis of a diagnosis, largest first; where
+    nothing explains the readings, their relative fit, titled as such (a full bar under
+    "unexplained (p = 0)" read as the answer: a plant operator's pass), in grey."""
     fits = sorted(result.get("hypotheses", []), key=lambda f: -(f.get("probability") or 0.0))
+    explained = result.get("explained", True) is not False
     bars = [Bar(f["name"], float(f.get("probability") or 0.0),
-                color="#0072B2" if f.get("observable", True) else "#999999")
+                color="#0072B2" if explained and f.get("observable", True) else "#999999")
             for f in fits[:top]]
+    if not explained:
+        return bar_chart("Relative fit only: no hypothesis explains the readings",
+                         "share of the fit among the hypotheses [1]", bars)
     return bar_chart("Hypothesis probabilities", "probability [1]", bars)
 
 

@@ -243,6 +243,10 @@ def _stamp(value: datetime | None) -> str:
 _TIME = TypeAdapter(AwareDatetime)
 
 
+#: a date and a time of day without a zone, "2026-11-20 08:00" or "2026-11-20T08:00:00"
+_ZONELESS = r"\d{4}-\d{2}-\d{2}[ T]\d{2}:\d{2}(:\d{2}(\.\d+)?)?"
+
+
 def _time(text: str, field: str) -> datetime | None:
     """A filter's time: blank for none, else ISO 8601 with its zone, or a date alone — the
     start of that day (UTC) for ``since``, its end for ``until``, as the API reads them
@@ -252,12 +256,16 @@ def _time(text: str, field: str) -> datetime | None:
     if re.fullmatch(r"\d{4}-\d{2}-\d{2}", text.strip()):
         clock = "23:59:59.999999" if field == "until" else "00:00:00"
         text = f"{text.strip()}T{clock}Z"
+    elif re.fullmatch(_ZONELESS, text.strip()):
+        # the form's label says UTC: a time typed without its zone is read so (it was
+        # refused, and the page said "0 diagnoses": a plant operator's pass)
+        text = text.strip().replace(" ", "T") + "Z"
     try:
         return _TIME.validate_python(text.strip())
     except ValidationError:
-        raise InputError("give the time as ISO 8601 with its zone, e.g. 2026-01-01T00:00:00Z, "
-                         "or a date alone, 2026-01-01 (the whole day, UTC)",
-                         field=field) from None
+        raise InputError("give the time as 2026-01-01 08:00 (UTC), ISO 8601 with its zone, "
+                         "e.g. 2026-01-01T08:00:00+02:00, or a date alone, 2026-01-01 (the "
+                         "whole day, UTC)", field=field) from None
 
 
 def _rig(text: str) -> int | None:

@@ -98,6 +98,21 @@ templates.filters["interval"] = _interval
 templates.globals["display"] = shown_unit  # pressures in bar, flows in l/min, …
 templates.filters["svg"] = _svg
 
+#: an error's heading in words an operator reads, by the exception tree's class (the box
+#: began "AuthError in api_key", "MeasurementError in …": a plant operator's pass)
+ERROR_TITLES = {
+    "AuthError": "Not logged in", "ScopeError": "Not allowed with this key",
+    "NotFoundError": "Not found", "ConflictError": "Stored already",
+    "InputError": "Please correct", "ParameterError": "Please correct",
+    "RigFileError": "The rig description is refused", "CircuitError": "Not on this rig",
+    "MeasurementError": "These readings cannot be used",
+    "RateLimitError": "Too many requests", "ServiceBusyError": "Busy: try again shortly",
+    "ServiceUnavailableError": "Not available: try again shortly",
+    "SimulationError": "The simulation did not run", "SolverLimitError":
+    "The simulation did not finish", "PayloadTooLargeError": "Too large",
+}
+templates.globals["error_title"] = lambda kind: ERROR_TITLES.get(str(kind), "Refused")
+
 
 def page(request: Request, template: str, status_code: int = 200, **context: Any
          ) -> HTMLResponse:

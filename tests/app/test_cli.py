@@ -306,3 +306,17 @@ def test_a_server_that_refused_is_not_said_to_have_been_silent() -> None:
                              ) == "the database server refused the connection"
     assert _database_trouble("connection failed: Connection refused") == \
         "the database did not answer"
+
+
+def test_the_first_key_is_read_from_either_form_serve_shows_it_in(tmp_path: Path) -> None:
+    """The benchmarks read the key from a printed line; piped, serve prints the file's path
+    instead (the chaos run then fuzzed without a key and every operation read 401/429)."""
+    from app.cli import first_key_shown
+
+    key = "hd_0123456789ab_" + "k" * 43
+    assert first_key_shown(f"API key: {key} (shown only now)\n") == key
+    path = tmp_path / "first-api-key"
+    path.write_text(key + "\n")
+    assert first_key_shown(f"API key: written to {path} (readable by this user only), not "
+                           "to this log; read it, keep it, delete the file\n") == key
+    assert first_key_shown("store at revision 0014: sqlite:///x.db\n") is None

@@ -191,3 +191,18 @@ def test_a_joint_diagnosis_draws_its_stored_record_with_the_weighed_sigma() -> N
     assert measured.high == pytest.approx([1.96 * 5e3 / 1e6], rel=1e-3)
     assert weighed.high == pytest.approx([1.96 * 2e4 / 1e6], rel=1e-3)
     assert valve.y == pytest.approx([0.01])
+
+
+def test_an_unexplained_diagnosis_charts_relative_fit_not_probability() -> None:
+    """Under "unexplained (p = 0)" a full blue bar at 1.0 read as the answer (a plant
+    operator's pass): the chart says what its bars are."""
+    from app.console.charts import probability_chart
+
+    result = {"explained": False, "hypotheses": [
+        {"name": "cylinder+pump", "probability": 1.0}, {"name": "valve", "probability": 0.0}]}
+    chart = probability_chart(result)
+    assert chart.title.startswith("Relative fit only")
+    assert all(bar.color == "#999999" for bar in chart.bars)
+    explained = probability_chart(result | {"explained": True})
+    assert explained.title == "Hypothesis probabilities"
+    assert explained.bars[0].color == "#0072B2"

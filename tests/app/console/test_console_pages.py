@@ -55,6 +55,9 @@ def test_pages_need_a_login_and_send_the_key_nowhere_but_the_form(
         wrong = anonymous.post("/console/login", data={"api_key": "hd_wrong", "next": ""})
         assert wrong.status_code == 401
         assert error_box(wrong.text)[0] == "api_key"
+        # in words, not the exception's class name (a plant operator's pass)
+        assert error_box(wrong.text)[1].strip().startswith("Not logged in (api_key): ")
+        assert "AuthError" not in wrong.text
         assert COOKIE not in wrong.cookies
         right = anonymous.post("/console/login",
                                data={"api_key": console_server.key, "next": "/console/pumps"})
