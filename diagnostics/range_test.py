@@ -51,6 +51,7 @@ from scipy.special import gammaincinv
 from diagnostics.fastpath.maps import FastMaps
 from diagnostics.hypotheses import PARAMETERS, FaultParameter
 from diagnostics.pair_direct import MASKED, levenberg_marquardt, residuals
+from sim.units import quantity_text
 
 if TYPE_CHECKING:
     from diagnostics.ranking import HypothesisFit, Ranker
@@ -121,7 +122,7 @@ class RangeTest:
     def describe(self) -> str:
         """One clause for a reader."""
         what = ", ".join(
-            f"{p} {_SIDE_WORDS[s]} (best {self.extended.get(p, math.nan):.4g})"
+            f"{p} {_SIDE_WORDS[s]} (best {_shown(p, self.extended.get(p, math.nan))})"
             for p, s in zip(self.parameters, self.sides, strict=True))
         return (f"{self.hypothesis} sits on the bound of its prior and its likelihood still "
                 f"rises past it ({what}: χ² {self.chi2_bounded:.3g} → "
@@ -139,6 +140,15 @@ class RangeTest:
 
 
 #: how :meth:`RangeTest.describe` words each side
+def _shown(name: str, value: float) -> str:
+    """A fault parameter's value with its unit as an engineer reads it: "best 1.112e+06"
+    was a relief setting of 11.1 bar (a plant operator's pass)."""
+    unit = PARAMETERS[name].unit if name in PARAMETERS else ""
+    if unit == "Pa" and math.isfinite(value):
+        return f"{value / 1e5:.4g} bar"
+    return quantity_text(value, unit)
+
+
 _SIDE_WORDS = {"severe": "beyond its worn range",
                "healthy": "better than the rig document",
                "incipient": "below its worn range, worse than the rig document",

@@ -87,6 +87,8 @@ def test_a_relief_setting_that_no_prior_value_opens_is_still_found_below_the_pri
     assert d.fit is not None and not d.confident
     (alt,) = [t for t in d.fit.beyond_range if t.hypothesis == "relief_setting"]
     assert alt.extended["Pset"] == pytest.approx(pset, rel=0.01)
+    # the best setting in bar, as an engineer reads it ("best 1.112e+06": an operator)
+    assert f"(best {alt.extended['Pset'] / 1e5:.4g} bar)" in alt.describe()
     assert "check relief directly" in d.fit.statement
     relief = next(s for s in d.isolability.statements if s.startswith("relief_setting"))
     assert "model's pump pressure" in relief and "measured" in relief
