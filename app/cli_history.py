@@ -14,15 +14,21 @@ import json
 from typing import Annotated, Any, cast
 
 import typer
-from pydantic import TypeAdapter, ValidationError
 from rich.markup import escape
 from rich.table import Table
 
-from app.cli_support import WideWhenPiped, shown_estimate, store_session
+from app.cli_support import (
+    SinceOption,
+    UntilOption,
+    WideWhenPiped,
+    parsed_time,
+    shown_estimate,
+    store_session,
+)
 from app.schemas.common import MAX_ID, SinceTime, UntilTime
 from sim.errors import InputError
 
-__all__ = ["history_cli", "parsed_time"]
+__all__ = ["history_cli"]
 
 _out = WideWhenPiped()
 
@@ -30,17 +36,6 @@ history_cli = typer.Typer(help="Stored diagnoses read back (as /diagnoses over H
                           no_args_is_help=True)
 
 JsonOption = Annotated[bool, typer.Option("--json", help="Print the API's JSON answer.")]
-
-
-def parsed_time(text: str | None, kind: Any, field: str) -> Any:
-    """``text`` read as the HTTP query reads it (ISO 8601 with zone, or a date alone)."""
-    if text is None:
-        return None
-    try:
-        return TypeAdapter(kind).validate_python(text)
-    except ValidationError as exc:
-        reason = exc.errors()[0]["msg"]
-        raise InputError(f"{text!r} is not a time: {reason}", field=field) from None
 
 
 def _estimates(item: dict[str, Any]) -> str:
@@ -58,12 +53,8 @@ def _estimates(item: dict[str, Any]) -> str:
 @history_cli.command("list")
 def list_history(
     rig: Annotated[int | None, typer.Option(min=1, max=MAX_ID, help="Only this rig.")] = None,
-    since: Annotated[str | None, typer.Option(
-        help="Only records taken at or after this time: ISO 8601 with zone, or a date "
-        "(the start of that day, UTC).")] = None,
-    until: Annotated[str | None, typer.Option(
-        help="Only records taken at or before this time: ISO 8601 with zone, or a date "
-        "(the end of that day, UTC).")] = None,
+    since: SinceOption = None,
+    until: UntilOption = None,
     component: Annotated[str | None, typer.Option(
         help="Only diagnoses blaming this component (cylinder, valve, pump, relief, a pair "
         "such as valve+pump, healthy or unexplained).")] = None,

@@ -13,7 +13,14 @@ from typing import Annotated, Any
 
 import typer
 
-from app.cli_support import console, store_session, writable
+from app.cli_support import (
+    SinceOption,
+    UntilOption,
+    console,
+    parsed_time,
+    store_session,
+    writable,
+)
 from app.schemas.common import MAX_ID, iso_utc
 from sim.errors import InputError
 
@@ -83,16 +90,12 @@ def report_trends(
     threshold: Annotated[float | None, typer.Option(
         help="The component's threshold in SI: a clearance in m (60e-6), the pump's Cs in 1 "
         "(default: the 'severe' wear of the rig document's value).")] = None,
-    since: Annotated[str | None, typer.Option(
-        help="Only visits at or after this time: ISO 8601 with zone, or a date (UTC) — the "
-        "day a part was changed, to trend the new part alone.")] = None,
-    until: Annotated[str | None, typer.Option(
-        help="Only visits at or before this time: ISO 8601 with zone, or a date (UTC).")
-        ] = None,
+    since: SinceOption = None,
+    until: UntilOption = None,
 ) -> None:
     """A rig's component trends: estimates over time, Theil–Sen line, threshold, time left;
-    a summary table is printed either way."""
-    from app.cli_history import parsed_time
+    a summary table is printed either way.  --since the day a part was changed trends the
+    new part alone."""
     from app.console.views import trend_views
     from app.schemas.common import SinceTime, UntilTime
     from app.services.rig_cache import RigCache

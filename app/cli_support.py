@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
-from pydantic import ValidationError
+from pydantic import TypeAdapter, ValidationError
 from rich.console import Console, ConsoleDimensions
 from rich.markup import escape
 from rich.progress import BarColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
@@ -26,9 +26,11 @@ from sim.errors import HydrodiagError, InputError
 if TYPE_CHECKING:
     from diagnostics.timeseries import ColumnEntry
 
-__all__ = ["PIPE_WIDTH", "ColumnMapOption", "SampleRateOption", "WideWhenPiped", "as_option",
+__all__ = ["PIPE_WIDTH", "ColumnMapOption", "SampleRateOption", "SinceOption", "UntilOption",
+           "WideWhenPiped", "as_option",
            "console", "estimate_text",
-           "load_document", "migrated_engine", "reading_options", "series_ids",
+           "load_document", "migrated_engine", "parsed_time", "reading_options",
+           "series_ids",
            "settings_from_env", "shown_estimate", "shown_scale", "steps", "store_session",
            "unwrap_help", "validated", "validation_error", "writable"]
 
@@ -202,6 +204,29 @@ def shown_scale(unit: str, *values: float) -> tuple[float, str]:
     if unit == "m" and 0.0 < max(abs(v) for v in values) < 1e-2:
         return 1e6, "µm"
     return 1.0, unit
+
+
+def parsed_time(text: str | None, kind: Any, field: str) -> Any:
+    """``text`` read as the HTTP queries read ``since``/``until`` (``kind``:
+    :data:`~app.schemas.common.SinceTime` or :data:`~app.schemas.common.UntilTime`): ISO
+    8601 with its zone, or a date alone; an :class:`InputError` on ``field`` otherwise."""
+    if text is None:
+        return None
+    try:
+        return TypeAdapter(kind).validate_python(text)
+    except ValidationError as exc:
+        reason = exc.errors()[0]["msg"]
+        raise InputError(f"{text!r} is not a time: {reason}", field=field) from None
+
+
+#: ``--since``: the start of a window of stored records (as the HTTP ``since``)
+SinceOption = Annotated[str | None, typer.Option(
+    help="Only records taken at or after this time: ISO 8601 with zone, or a date (the "
+    "start of that day, UTC).")]
+#: ``--until``: its end (as the HTTP ``until``)
+UntilOption = Annotated[str | None, typer.Option(
+    help="Only records taken at or before this time: ISO 8601 with zone, or a date (the "
+    "end of that day, UTC).")]
 
 
 def series_ids(text: str, *, field: str = "--series") -> list[int]:
