@@ -475,8 +475,7 @@ def _forecast(series: TrendSeries, threshold: float, direction: Direction, t_ref
             # raised by its uncertainty 1.72 (a reliability engineer's pass)
             steepest = (f"at the steepest slope the data allow, and the level at the top "
                         f"of its {100 * confidence:.0f} % interval, {limit} would be "
-                        f"reached in "
-                        f"{span(earliest)}")
+                        f"reached in {span(earliest)}")
         else:
             steepest = (f"at the steepest slope the data allow, and the level at the top "
                         f"of its {100 * confidence:.0f} % interval, it could already be "
