@@ -370,7 +370,7 @@ def test_a_csv_of_records_is_diagnosed_row_by_row(
                               files={"file": ("records.csv", text.encode(), "text/csv")})
     assert bad.status_code == 422
     field, message = error_box(bad.text)
-    assert field == "file" and "in file: line 4, column p1: p1 -3 Pa" in message, message
+    assert field == "file" and "(file): line 4, column p1: p1 -3 Pa" in message, message
     # a refusal by the schema (a negative flow), named the same way
     text = frame.assign(flow_B=[rows[0]["flow_B"], -1e-4]).to_csv(index=False)
     schema = browser_client.post("/console/diagnose", data={"document": ""},
