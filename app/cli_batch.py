@@ -106,6 +106,11 @@ def _refused(errors: Sequence[tuple[int, HydrodiagError]], total: int) -> InputE
                       field=errors[0][1].field)
 
 
+def _rate(per_second: float) -> str:
+    """A rate as read: 0.22 (it read "0"), 3.4, 312 (".2g" read "3e+02")."""
+    return f"{per_second:.2g}" if per_second < 10 else f"{per_second:.0f}"
+
+
 def diagnose_batch(
     file: Annotated[Path, typer.Argument(
         help="Records: CSV (a row each; columns the fields of a POST /diagnose record in SI, "
@@ -210,7 +215,7 @@ def diagnose_batch(
                 fh.write(json.dumps(line, default=str) + "\n")
     counts = Counter(r.get("top", "error") for r in results)
     table = Table("top", "records", title=f"{counted(len(results), 'record')} in {elapsed:.1f} s "
-                  f"({len(results) / elapsed:.2g} records/s)")   # 0.22/s read "0"
+                  f"({_rate(len(results) / elapsed)} records/s)")
     for name, n in counts.most_common():
         table.add_row(escape(name), str(n))
     if errors:

@@ -19,7 +19,7 @@ from sqlalchemy import Engine
 from sqlalchemy.orm import Session
 
 from app.db.engine import make_engine, make_session_factory
-from app.schemas.common import MAX_ID
+from app.schemas.common import MAX_ID, utc_if_zoneless
 from app.settings import Settings
 from sim.errors import HydrodiagError, InputError
 
@@ -209,11 +209,12 @@ def shown_scale(unit: str, *values: float) -> tuple[float, str]:
 def parsed_time(text: str | None, kind: Any, field: str) -> Any:
     """``text`` read as the HTTP queries read ``since``/``until`` (``kind``:
     :data:`~app.schemas.common.SinceTime` or :data:`~app.schemas.common.UntilTime`): ISO
-    8601 with its zone, or a date alone; an :class:`InputError` on ``field`` otherwise."""
+    8601 with its zone, or a date alone; a date and time without a zone is UTC, as the
+    options say; an :class:`InputError` on ``field`` otherwise."""
     if text is None:
         return None
     try:
-        return TypeAdapter(kind).validate_python(text)
+        return TypeAdapter(kind).validate_python(utc_if_zoneless(text))
     except ValidationError as exc:
         reason = exc.errors()[0]["msg"]
         raise InputError(f"{text!r} is not a time: {reason}", field=field) from None
@@ -221,12 +222,12 @@ def parsed_time(text: str | None, kind: Any, field: str) -> Any:
 
 #: ``--since``: the start of a window of stored records (as the HTTP ``since``)
 SinceOption = Annotated[str | None, typer.Option(
-    help="Only records taken at or after this time: ISO 8601 with zone, or a date (the "
-    "start of that day, UTC).")]
+    help="Only records taken at or after this time: '2026-05-01 08:00' (UTC), ISO 8601 "
+    "with zone, or a date (the start of that day, UTC).")]
 #: ``--until``: its end (as the HTTP ``until``)
 UntilOption = Annotated[str | None, typer.Option(
-    help="Only records taken at or before this time: ISO 8601 with zone, or a date (the "
-    "end of that day, UTC).")]
+    help="Only records taken at or before this time: '2026-05-01 18:00' (UTC), ISO 8601 "
+    "with zone, or a date (the end of that day, UTC).")]
 
 
 def series_ids(text: str, *, field: str = "--series") -> list[int]:

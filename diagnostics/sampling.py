@@ -35,10 +35,11 @@ UNIFORM_SHARE = 0.9
 GAP_FACTOR = 1.5
 
 
-def gap_note(record: SeriesRecord) -> str | None:
+def gap_note(record: SeriesRecord, *, imported: bool = True) -> str | None:
     """A note on the gaps of a uniformly sampled record (steps over :data:`GAP_FACTOR` × its
     median step): how many, the longest and where, the samples missing; None when it has
-    none or is not uniformly sampled."""
+    none or is not uniformly sampled.  ``imported``: with what the import did with it (a
+    discrepancy answer repeated "Stored as given" for every record)."""
     dt = np.diff(record.t)
     if dt.size < 2:
         return None
@@ -50,12 +51,14 @@ def gap_note(record: SeriesRecord) -> str | None:
         return None
     longest = int(gaps[np.argmax(dt[gaps])])
     missing = int(np.sum(np.round(dt[gaps] / step) - 1))
-    return (f"record {record.name!r} is sampled every {step * 1e3:.4g} ms but has "
+    said = (f"record {record.name!r} is sampled every {step * 1e3:.4g} ms but has "
             f"{gaps.size} gap(s) in its time, about {missing} sample(s) missing; the longest "
-            f"{float(dt[longest]):.4g} s after t = {float(record.t[longest]):.6g} s: a logger "
-            "dropout? Stored as given; a stroke across a gap is read without its missing "
-            "samples, and the readers that need a uniform record (a pump's plateaus, the "
-            "accumulator and switching estimates) refuse it")
+            f"{float(dt[longest]):.4g} s after t = {float(record.t[longest]):.6g} s")
+    if not imported:
+        return said
+    return (said + ": a logger dropout? Stored as given; a stroke across a gap is read "
+            "without its missing samples, and the readers that need a uniform record (a "
+            "pump's plateaus, the accumulator and switching estimates) refuse it")
 
 
 def rate_note(record: SeriesRecord, sample_rate: float) -> str | None:

@@ -23,7 +23,7 @@ from app.console.web import page, redirect
 from app.db.base import utcnow
 from app.errors import ServiceUnavailableError, first_problem, status_for
 from app.limits import check_count, check_file
-from app.schemas.common import MAX_ID
+from app.schemas.common import MAX_ID, utc_if_zoneless
 from app.schemas.diagnose import DiagnoseRequest
 from app.schemas.record_csv import record_rows
 from app.services import rigs as rig_service
@@ -243,10 +243,6 @@ def _stamp(value: datetime | None) -> str:
 _TIME = TypeAdapter(AwareDatetime)
 
 
-#: a date and a time of day without a zone, "2026-11-20 08:00" or "2026-11-20T08:00:00"
-_ZONELESS = r"\d{4}-\d{2}-\d{2}[ T]\d{2}:\d{2}(:\d{2}(\.\d+)?)?"
-
-
 def _time(text: str, field: str) -> datetime | None:
     """A filter's time: blank for none, else ISO 8601 with its zone, or a date alone — the
     start of that day (UTC) for ``since``, its end for ``until``, as the API reads them
@@ -256,10 +252,8 @@ def _time(text: str, field: str) -> datetime | None:
     if re.fullmatch(r"\d{4}-\d{2}-\d{2}", text.strip()):
         clock = "23:59:59.999999" if field == "until" else "00:00:00"
         text = f"{text.strip()}T{clock}Z"
-    elif re.fullmatch(_ZONELESS, text.strip()):
-        # the form's label says UTC: a time typed without its zone is read so (it was
-        # refused, and the page said "0 diagnoses": a plant operator's pass)
-        text = text.strip().replace(" ", "T") + "Z"
+    else:   # the form's label says UTC: a time typed without its zone is read so
+        text = utc_if_zoneless(text)
     try:
         return _TIME.validate_python(text.strip())
     except ValidationError:

@@ -35,6 +35,11 @@ from sim.units import from_si, spelled
 __all__ = ["commission_rig", "commissioned_document"]
 
 
+#: what a value stored beyond the document's uncertainty on request says in its source: the
+#: operator has declared the author's value wrong, so it is the origin of later guards
+BEYOND_MARK = "stored beyond the document's uncertainty on request"
+
+
 def commissioned_document(document: dict[str, Any], fit: Commissioning, units: dict[str, str]
                           ) -> dict[str, Any]:
     """A copy of ``document`` with the pinned-down parameters of ``fit``, each in the unit
@@ -53,6 +58,8 @@ def commissioned_document(document: dict[str, Any], fit: Commissioning, units: d
             return from_si(x, unit, canonical)
 
         said = f" ({old['source']})" if old.get("source") else ""
+        if p.name in fit.beyond_prior:
+            said += f"; {BEYOND_MARK}"
         out["components"][role]["parameters"][name] = {
             "value": shown(p.value), "unit": written,
             "source": f"{rig_service.COMMISSIONED_SOURCE} {fit.n_records} healthy records: "
@@ -73,7 +80,10 @@ def _authored(session: Session, rig_id: int, latest: dict[str, float]) -> dict[s
             entry = (version.document.get("components", {}).get(role, {})
                      .get("parameters", {}).get(key))
             source = str(entry.get("source", "")) if isinstance(entry, dict) else ""
-            if not source.startswith(rig_service.COMMISSIONED_SOURCE):
+            # a value stored beyond the guard on request is the origin from then on: every
+            # honest re-commissioning after it was refused (a verification pass)
+            if not source.startswith(rig_service.COMMISSIONED_SOURCE) or source.endswith(
+                    BEYOND_MARK):
                 if version is not versions[0]:
                     out[name] = validate_rig_document(version.document).values().get(
                         name, latest.get(name, math.nan))

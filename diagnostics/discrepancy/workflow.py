@@ -423,7 +423,7 @@ def _discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], 
             result = named_after_wear(result, again, doc, drift.wear)
     if first.notes:  # phases read off the position
         result.message += "; " + "; ".join(first.notes)
-    gaps = [note for r in records if (note := gap_note(r)) is not None]
+    gaps = [note for r in records if (note := gap_note(r, imported=False)) is not None]
     if gaps:
         # healthy records with a 0.5 s dropout each read "unexplained" and the gap was
         # never named, though the import names it (a modelling engineer's pass)

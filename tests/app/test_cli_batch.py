@@ -212,3 +212,10 @@ def test_a_fleet_file_diagnoses_each_record_against_its_own_rig(
     results = [json.loads(line) for line in out.read_text().splitlines()]
     assert [(r["record"], r["rig_id"], r["top"]) for r in results] == [
         (1, 1, "valve"), (2, loose, "healthy")]
+
+
+def test_a_batch_rate_reads_as_a_number() -> None:
+    """0.22 records/s read "0", 312 read "3e+02" (a docs reader's and a verifier's pass)."""
+    from app.cli_batch import _rate
+
+    assert [_rate(x) for x in (0.22, 3.44, 312.4)] == ["0.22", "3.4", "312"]

@@ -56,6 +56,11 @@ def test_history_lists_and_shows_what_diagnose_stored(runner: CliRunner,
     may = json.loads(runner.invoke(cli, ["history", "list", "--since", "2026-05-01",
                                          "--until", "2026-05-01", "--json"]).stdout)
     assert [d["id"] for d in may["items"]] == [ids[0]]
+    # a date and time without its zone is UTC, as the option says (and as the console
+    # reads it; it was refused here: a verification pass)
+    zoneless = json.loads(runner.invoke(cli, ["history", "list", "--since", "2026-05-01 09:59",
+                                              "--until", "2026-05-01 10:01", "--json"]).stdout)
+    assert [d["id"] for d in zoneless["items"]] == [ids[0]]
     valve = json.loads(runner.invoke(cli, ["history", "list", "--component", "valve",
                                            "--json"]).stdout)
     assert valve["total"] == 2

@@ -157,6 +157,14 @@ def test_a_worn_record_is_not_absorbed_into_the_document(server: LiveServer) -> 
     assert stored.status_code == 201, stored.text
     ls = next(p for p in stored.json()["parameters"] if p["name"] == "valve.Ls")
     assert ls["prior_shift"] < -3.0 and ls["value"] < 0.3 * ls["before"]
+    # stored beyond the guard on request, the value is the origin from then on: the same
+    # records again confirm it, where every later commissioning was refused (a
+    # verification pass)
+    again = server.client.post(f"/rigs/{rig_id}/commission", json={"records": [record]},
+                               headers=server.auth)
+    assert again.status_code == 200, again.text     # nothing new to store
+    assert again.json()["stored"] is False and "confirm the document" in \
+        again.json()["statements"][0]
 
 
 def test_a_second_commissioning_cannot_walk_past_the_guard(server: LiveServer) -> None:

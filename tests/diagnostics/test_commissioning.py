@@ -204,3 +204,18 @@ def test_a_record_sent_twice_is_refused() -> None:
     with pytest.raises(MeasurementError, match=r"records\[6\] repeats records\[2\]") as exc:
         commission(rig, twice)
     assert exc.value.field == "records[6]"
+
+
+def test_copies_of_one_record_rounded_apart_are_said_to_fit_too_well() -> None:
+    """One record sent six times, each rounded differently, passed the repeat check and
+    fitted at χ² 1.2 on 37 (a verification pass): a χ² below its 1e-4 quantile is said;
+    six honest noisy records are not."""
+    rig = reference_rig()
+    one = healthy_records(true_rig(), 6)[0]
+    copies = [replace(one, p1=replace(one.p1, value=one.p1.value * (1 + 1e-9 * k)))
+              for k in range(6)]
+    c = commission(rig, copies)
+    assert any(s.startswith("the records fit far better than their stated uncertainties")
+               for s in c.statements), c.statements
+    honest = commission(rig, healthy_records(true_rig(), 6))
+    assert not any("fit far better" in s for s in honest.statements)

@@ -405,3 +405,4 @@ def test_a_gap_in_the_records_time_is_named_in_the_answer():
     d = discover(reference_rig_document(), recs, bootstrap=0)
     assert "the records have gaps in their time" in d.message, d.message
     assert "gap(s) in its time" in d.message
+    assert "Stored as given" not in d.message      # the import's words, not the answer's
