@@ -70,8 +70,9 @@ def commissioned_document(document: dict[str, Any], fit: Commissioning, units: d
 
 def _authored(session: Session, rig_id: int, latest: dict[str, float]) -> dict[str, float]:
     """Each commissionable parameter's value [SI] in the newest version whose source for
-    it is not a commissioning's (the value its author wrote, or measured and stored since):
-    the guard of a second commissioning measures from it."""
+    it is not a commissioning's (the value its author wrote, or measured and stored since)
+    or is one stored beyond the guard on request (:data:`BEYOND_MARK`: the author's value
+    declared wrong): the guard of a later commissioning measures from it."""
     versions, _ = rig_service.list_versions(session, rig_id, limit=10_000, offset=0)
     out: dict[str, float] = {}
     for name in COMMISSIONED:
