@@ -21,11 +21,10 @@ from app.cli_support import (
     SinceOption,
     UntilOption,
     WideWhenPiped,
-    parsed_time,
     shown_estimate,
     store_session,
 )
-from app.schemas.common import MAX_ID, SinceTime, UntilTime
+from app.schemas.common import MAX_ID, SinceTime, UntilTime, filter_time
 from sim.errors import InputError
 
 __all__ = ["history_cli"]
@@ -68,7 +67,7 @@ def list_history(
     from app.services.readback import list_diagnoses, public_diagnosis
 
     blamed = _component(component, BlamedComponent)
-    window = parsed_time(since, SinceTime, "--since"), parsed_time(until, UntilTime, "--until")
+    window = filter_time(since, SinceTime, "--since"), filter_time(until, UntilTime, "--until")
     with store_session(existing=True) as session:
         rows, total = list_diagnoses(session, limit=limit, offset=0, rig_id=rig,
                                      since=window[0], until=window[1], component=blamed)

@@ -17,7 +17,6 @@ from app.cli_support import (
     SinceOption,
     UntilOption,
     console,
-    parsed_time,
     store_session,
     writable,
 )
@@ -97,14 +96,14 @@ def report_trends(
     a summary table is printed either way.  --since the day a part was changed trends the
     new part alone."""
     from app.console.views import trend_views
-    from app.schemas.common import SinceTime, UntilTime
+    from app.schemas.common import SinceTime, UntilTime, filter_time
     from app.services.rig_cache import RigCache
     from app.services.trends import component_trends
 
     suffix = _suffix(output, (".html", ".png", ".csv"))
-    window = {"since": parsed_time(since, SinceTime, "--since"),
-              "until": parsed_time(until, UntilTime, "--until"),
-              "component": component, "threshold": threshold}
+    window: dict[str, Any] = {"since": filter_time(since, SinceTime, "--since"),
+                              "until": filter_time(until, UntilTime, "--until"),
+                              "component": component, "threshold": threshold}
     with store_session() as session:
         if suffix == ".csv":
             trends = component_trends(session, RigCache(1), rig, **window)

@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
-from pydantic import TypeAdapter, ValidationError
+from pydantic import ValidationError
 from rich.console import Console, ConsoleDimensions
 from rich.markup import escape
 from rich.progress import BarColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
@@ -19,7 +19,7 @@ from sqlalchemy import Engine
 from sqlalchemy.orm import Session
 
 from app.db.engine import make_engine, make_session_factory
-from app.schemas.common import MAX_ID, utc_if_zoneless
+from app.schemas.common import MAX_ID
 from app.settings import Settings
 from sim.errors import HydrodiagError, InputError
 
@@ -29,7 +29,7 @@ if TYPE_CHECKING:
 __all__ = ["PIPE_WIDTH", "ColumnMapOption", "SampleRateOption", "SinceOption", "UntilOption",
            "WideWhenPiped", "as_option",
            "console", "estimate_text",
-           "load_document", "migrated_engine", "parsed_time", "reading_options",
+           "load_document", "migrated_engine", "reading_options",
            "series_ids",
            "settings_from_env", "shown_estimate", "shown_scale", "steps", "store_session",
            "unwrap_help", "validated", "validation_error", "writable"]
@@ -204,20 +204,6 @@ def shown_scale(unit: str, *values: float) -> tuple[float, str]:
     if unit == "m" and 0.0 < max(abs(v) for v in values) < 1e-2:
         return 1e6, "µm"
     return 1.0, unit
-
-
-def parsed_time(text: str | None, kind: Any, field: str) -> Any:
-    """``text`` read as the HTTP queries read ``since``/``until`` (``kind``:
-    :data:`~app.schemas.common.SinceTime` or :data:`~app.schemas.common.UntilTime`): ISO
-    8601 with its zone, or a date alone; a date and time without a zone is UTC, as the
-    options say; an :class:`InputError` on ``field`` otherwise."""
-    if text is None:
-        return None
-    try:
-        return TypeAdapter(kind).validate_python(utc_if_zoneless(text))
-    except ValidationError as exc:
-        reason = exc.errors()[0]["msg"]
-        raise InputError(f"{text!r} is not a time: {reason}", field=field) from None
 
 
 #: ``--since``: the start of a window of stored records (as the HTTP ``since``)

@@ -12,7 +12,7 @@ from typing import Annotated, Any
 
 import yaml
 from fastapi import File, Form, Path, Query, Request, Response, UploadFile
-from pydantic import AwareDatetime, TypeAdapter, ValidationError
+from pydantic import ValidationError
 from sqlalchemy.orm import Session
 
 from app.api.deps import RigsDep, SessionDep
@@ -23,7 +23,7 @@ from app.console.web import page, redirect
 from app.db.base import utcnow
 from app.errors import ServiceUnavailableError, first_problem, status_for
 from app.limits import check_count, check_file
-from app.schemas.common import MAX_ID, utc_if_zoneless
+from app.schemas.common import MAX_ID, SinceTime, UntilTime, filter_time
 from app.schemas.diagnose import DiagnoseRequest
 from app.schemas.record_csv import record_rows
 from app.services import rigs as rig_service
@@ -240,26 +240,12 @@ def _stamp(value: datetime | None) -> str:
     return "" if value is None else value.isoformat()
 
 
-_TIME = TypeAdapter(AwareDatetime)
-
-
 def _time(text: str, field: str) -> datetime | None:
-    """A filter's time: blank for none, else ISO 8601 with its zone, or a date alone — the
-    start of that day (UTC) for ``since``, its end for ``until``, as the API reads them
-    (the console read ``until=2026-10-02`` as that day's 00:00 and found nothing of it)."""
-    if not text.strip():
-        return None
-    if re.fullmatch(r"\d{4}-\d{2}-\d{2}", text.strip()):
-        clock = "23:59:59.999999" if field == "until" else "00:00:00"
-        text = f"{text.strip()}T{clock}Z"
-    else:   # the form's label says UTC: a time typed without its zone is read so
-        text = utc_if_zoneless(text)
-    try:
-        return _TIME.validate_python(text.strip())
-    except ValidationError:
-        raise InputError("give the time as 2026-01-01 08:00 (UTC), ISO 8601 with its zone, "
-                         "e.g. 2026-01-01T08:00:00+02:00, or a date alone, 2026-01-01 (the "
-                         "whole day, UTC)", field=field) from None
+    """A filter's time (:func:`~app.schemas.common.filter_time`): blank for none; a date
+    alone is the start of that day (UTC) for ``since``, its end for ``until``, as the API
+    reads them (the console read ``until=2026-10-02`` as that day's 00:00 and found
+    nothing of it)."""
+    return filter_time(text, SinceTime if field == "since" else UntilTime, field)
 
 
 def _rig(text: str) -> int | None:

@@ -19,9 +19,13 @@ from pydantic import (
     BeforeValidator,
     ConfigDict,
     Field,
+    TypeAdapter,
+    ValidationError,
     model_validator,
 )
 from pydantic_core import PydanticCustomError
+
+from sim.errors import InputError
 
 __all__ = [
     "EARLIEST_MEASUREMENT",
@@ -43,6 +47,7 @@ __all__ = [
     "UntilTime",
     "UploadForm",
     "error_doc",
+    "filter_time",
     "iso_utc",
     "measurement_time_problem",
     "not_nullable",
@@ -513,3 +518,27 @@ def iso_utc(moment: datetime) -> str:
     where HTTP wrote ``Z``, and a join on the text failed: a fleet integrator's pass)."""
     text = moment.isoformat()
     return text[:-6] + "Z" if text.endswith("+00:00") else text
+
+
+def filter_time(text: str | None, kind: Any, field: str) -> datetime | None:
+    """A window's end typed by a person (the console's filters, the CLI's ``--since`` and
+    ``--until``), read as the HTTP queries read ``since``/``until`` (``kind``:
+    :data:`SinceTime` or :data:`UntilTime`: ISO 8601 with its zone, or a date alone, the
+    whole day), and a date and time without a zone as UTC, as those labels say; blank for
+    none.
+
+    Raises
+    ------
+    InputError
+        Naming ``field``, with the forms it takes.
+    """
+    if text is None or not text.strip():
+        return None
+    try:
+        value: datetime = TypeAdapter(kind).validate_python(utc_if_zoneless(text))
+    except ValidationError as exc:
+        raise InputError(f"{text!r} is not a time ({exc.errors()[0]['msg']}): give it as "
+                         "2026-01-01 08:00 (UTC), ISO 8601 with its zone, e.g. "
+                         "2026-01-01T08:00:00+02:00, or a date alone, 2026-01-01 (the whole "
+                         "day, UTC)", field=field) from None
+    return value

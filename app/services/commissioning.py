@@ -74,6 +74,7 @@ def _authored(session: Session, rig_id: int, latest: dict[str, float]) -> dict[s
     or is one stored beyond the guard on request (:data:`BEYOND_MARK`: the author's value
     declared wrong): the guard of a later commissioning measures from it."""
     versions, _ = rig_service.list_versions(session, rig_id, limit=10_000, offset=0)
+    values: dict[int, dict[str, float]] = {}    # each version validated once, if at all
     out: dict[str, float] = {}
     for name in COMMISSIONED:
         role, key = name.split(".")
@@ -86,8 +87,10 @@ def _authored(session: Session, rig_id: int, latest: dict[str, float]) -> dict[s
             if not source.startswith(rig_service.COMMISSIONED_SOURCE) or source.endswith(
                     BEYOND_MARK):
                 if version is not versions[0]:
-                    out[name] = validate_rig_document(version.document).values().get(
-                        name, latest.get(name, math.nan))
+                    if version.version not in values:
+                        values[version.version] = validate_rig_document(
+                            version.document).values()
+                    out[name] = values[version.version].get(name, latest.get(name, math.nan))
                 break
     return {k: v for k, v in out.items() if math.isfinite(v) and v > 0}
 
