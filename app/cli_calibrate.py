@@ -37,6 +37,16 @@ def calibrate_pump(
         "--displacement-cm3-rev",
         help="Derived capacity as displacement per revolution \\[cm³/rev] (instead of "
              "--displacement).")] = None,
+    oil_nu40: Annotated[float | None, typer.Option(
+        "--oil-nu40", help="The bench oil's kinematic viscosity at 40 °C from its data "
+        "sheet \\[cSt], with --oil-nu100; left out: the default ISO VG 46 HM oil (46 cSt). "
+        "Cs and Cv scale with the viscosity assumed.")] = None,
+    oil_nu100: Annotated[float | None, typer.Option(
+        "--oil-nu100", help="The bench oil's kinematic viscosity at 100 °C \\[cSt]; left "
+                            "out: the default oil's 6.8 cSt.")] = None,
+    oil_rho15: Annotated[float | None, typer.Option(
+        "--oil-rho15", help="The bench oil's density at 15 °C \\[kg/m³]; left out: "
+                            "879.")] = None,
 ) -> None:
     """Parameterise a pump from a bench CSV and store it, as POST /pump-sets/bench does.
 
@@ -61,10 +71,15 @@ def calibrate_pump(
     if displacement_cm3_rev is not None:
         displacement = displacement_cm3_rev * 1e-6 / (2.0 * math.pi)
         option = "--displacement-cm3-rev"
-    form = validated(PumpBenchForm, {"name": name, "pump": pump, "rig_id": rig_id,
-                                      "displacement_m3_rad": displacement},
-                      {"name": "--name", "pump": "--pump", "rig_id": "--rig",
-                       "displacement_m3_rad": option})
+    cst = 1e-6  # m²/s per cSt: the data sheet's unit, SI in the form
+    form = validated(PumpBenchForm, {
+        "name": name, "pump": pump, "rig_id": rig_id, "displacement_m3_rad": displacement,
+        "oil_nu40_m2_s": None if oil_nu40 is None else oil_nu40 * cst,
+        "oil_nu100_m2_s": None if oil_nu100 is None else oil_nu100 * cst,
+        "oil_rho15_kg_m3": oil_rho15},
+        {"name": "--name", "pump": "--pump", "rig_id": "--rig", "displacement_m3_rad": option,
+         "oil_nu40_m2_s": "--oil-nu40", "oil_nu100_m2_s": "--oil-nu100",
+         "oil_rho15_kg_m3": "--oil-rho15"})
     try:
         content = file.read_bytes()
     except OSError as exc:

@@ -178,6 +178,15 @@ def error_response(
     return JSONResponse({"error": error}, status_code=status, headers=headers)
 
 
+def response_for(exc: HydrodiagError, *, headers: Mapping[str, str] | None = None,
+                 request: Request | None = None) -> JSONResponse:
+    """The error response of ``exc``: its status from :func:`status_for` (the one mapping of
+    the exception tree to HTTP), its type, message, field and details; middleware that
+    answers before any route (body limits, idempotency keys) builds its refusals here too."""
+    return error_response(status_for(exc), type(exc).__name__, exc.message, exc.field,
+                          headers=headers, details=exc.details, request=request)
+
+
 async def _hydrodiag_error(request: Request, exc: Exception) -> JSONResponse:
     assert isinstance(exc, HydrodiagError)
     status = status_for(exc)
@@ -188,8 +197,7 @@ async def _hydrodiag_error(request: Request, exc: Exception) -> JSONResponse:
     headers = {"WWW-Authenticate": "APIKey"} if status == 401 else None
     if isinstance(exc, RateLimitError | ServiceBusyError):
         headers = {"Retry-After": str(exc.retry_after)}
-    return error_response(status, type(exc).__name__, exc.message, exc.field, headers=headers,
-                          details=exc.details, request=request)
+    return response_for(exc, headers=headers, request=request)
 
 
 def first_problem(errors: Sequence[Mapping[str, Any]]) -> InputError:

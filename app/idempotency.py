@@ -59,7 +59,7 @@ from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from app.db.base import utcnow
 from app.db.models import IdempotentRequest
-from app.errors import database_unavailable, error_response
+from app.errors import database_unavailable, response_for
 from app.ratelimit import client_address
 from app.schemas.common import iso_utc
 from app.services.idempotent_work import CURRENT, KeyedWrite
@@ -182,9 +182,9 @@ class IdempotencyMiddleware:
             await self.app(scope, receive, send)
             return
         if not _VALID.fullmatch(key):
-            await error_response(422, InputError.__name__, f"the {HEADER} header must be 1 to "
-                                 "255 visible ASCII characters", HEADER,
-                                 request=Request(scope))(scope, receive, send)
+            await response_for(InputError(f"the {HEADER} header must be 1 to 255 visible "
+                                          "ASCII characters", field=HEADER),
+                               request=Request(scope))(scope, receive, send)
             return
         chunks: list[bytes] = []
         while True:
@@ -311,12 +311,11 @@ class IdempotencyMiddleware:
             if found is None:  # released meanwhile: try once more
                 return self._claim(key, method, path, digest, request, api_key)
             if found.digest != digest:
-                return _Outcome(response=error_response(
-                    422, InputError.__name__,
+                return _Outcome(response=response_for(InputError(
                     f"this {HEADER} was used for another request ({found.method} "
                     f"{found.path}, or other content) in the last {KEEP_HOURS} h: a retry "
-                    "must send the same request; a new request needs a new key", HEADER,
-                    request=request))
+                    "must send the same request; a new request needs a new key",
+                    field=HEADER), request=request))
             if found.status is not None:   # (to a key still valid: checked above)
                 logger.info("replayed the answer of %s %s under an %s", method, path, HEADER)
                 headers = {"Idempotent-Replayed": "true"}
@@ -327,32 +326,29 @@ class IdempotencyMiddleware:
             if found.stored_at is not None and found.touched_at <= now - timedelta(
                     seconds=STALE_S):
                 # stored, and its process died before the answer was kept: not run again
-                return _Outcome(response=error_response(
-                    409, ConflictError.__name__,
+                return _Outcome(response=response_for(ConflictError(
                     f"the first request with this {HEADER} was done and stored at "
                     f"{iso_utc(found.stored_at)}, but the service "
                     "stopped before its answer was kept; it is not done again: read what it "
                     f"stored back ({found.method} {found.path}: the listing of what it "
-                    "writes)", HEADER, request=request))
+                    "writes)", field=HEADER), request=request))
             if found.touched_at > now - timedelta(seconds=STALE_S):
                 quiet = (now - found.touched_at).total_seconds()
                 if quiet <= HEARTBEAT_S + RETRY_S:
-                    return _Outcome(response=error_response(
-                        409, ConflictError.__name__,
+                    return _Outcome(response=response_for(ConflictError(
                         f"the first request with this {HEADER} is still being processed; "
-                        f"retry in {RETRY_S} s to get its answer", HEADER,
+                        f"retry in {RETRY_S} s to get its answer", field=HEADER),
                         headers={"Retry-After": str(RETRY_S)}, request=request))
                 # no mark for longer than a heartbeat: its process has most likely
                 # stopped (a restart); the key frees itself when it goes stale (a client
                 # told "still being processed, retry in 2 s" retried 15 times; an
                 # operator pass)
                 left = max(math.ceil(STALE_S - quiet), 1)
-                return _Outcome(response=error_response(
-                    409, ConflictError.__name__,
+                return _Outcome(response=response_for(ConflictError(
                     f"the first request with this {HEADER} was not marked in hand for "
                     f"{quiet:.0f} s: the process running it has most likely stopped; the key "
                     f"frees itself {STALE_S:.0f} s after its last mark, in {left} s, and a "
-                    "retry then runs it (unless its work was stored)", HEADER,
+                    "retry then runs it (unless its work was stored)", field=HEADER),
                     headers={"Retry-After": str(left)}, request=request))
             # its process never finished it: the key is taken over
             found.created_at = found.touched_at = now

@@ -20,13 +20,10 @@ file up to 50 MiB) and cap their file themselves.
 
 from __future__ import annotations
 
-import json
-from typing import Any
-
+from starlette.requests import Request
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
-from app.errors import PayloadTooLargeError
-from app.logs import request_id_of
+from app.errors import PayloadTooLargeError, response_for
 from sim.errors import InputError
 
 __all__ = [
@@ -126,22 +123,15 @@ class BodyLimitMiddleware:
             return self.upload_limit, "HYDRODIAG_MAX_UPLOAD_BYTES"
         return self.limit, "HYDRODIAG_MAX_BODY_BYTES"
 
-    async def _refuse(self, scope: Scope, send: Send, limit: int, setting: str) -> None:
-        error: dict[str, Any] = {
-            "type": PayloadTooLargeError.__name__,
-            "message": f"the request body is larger than the limit of {limit} bytes "
-                       f"(setting {setting})",
-            "field": "body",
-        }
-        if (request_id := request_id_of(scope)) is not None:
-            error["request_id"] = request_id
-        body = json.dumps({"error": error}, separators=(",", ":")).encode("utf-8")  # as orjson
-        await send({"type": "http.response.start", "status": 413, "headers": [
-            (b"content-type", b"application/json"),
-            (b"content-length", str(len(body)).encode("ascii")),
-            (b"connection", b"close"),
-        ]})
-        await send({"type": "http.response.body", "body": body})
+    async def _refuse(self, scope: Scope, receive: Receive, send: Send, limit: int,
+                      setting: str) -> None:
+        # the error tree's answer (app.errors.response_for), the connection closed: the
+        # rest of the body is not read
+        response = response_for(PayloadTooLargeError(
+            f"the request body is larger than the limit of {limit} bytes (setting "
+            f"{setting})", field="body"), request=Request(scope))
+        response.headers["connection"] = "close"
+        await response(scope, receive, send)
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         if scope["type"] != "http":
@@ -156,7 +146,7 @@ class BodyLimitMiddleware:
             except ValueError:
                 too_large = False  # the server refuses a malformed length itself
             if too_large:
-                await self._refuse(scope, send, limit, setting)
+                await self._refuse(scope, receive, send, limit, setting)
                 return
         if scope.get("method") in {"GET", "HEAD", "OPTIONS"} and declared is None:
             await self.app(scope, receive, send)
@@ -171,7 +161,7 @@ class BodyLimitMiddleware:
             chunk = message.get("body", b"")
             size += len(chunk)
             if size > limit:
-                await self._refuse(scope, send, limit, setting)
+                await self._refuse(scope, receive, send, limit, setting)
                 return
             chunks.append(chunk)
             if not message.get("more_body", False):

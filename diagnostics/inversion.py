@@ -241,7 +241,26 @@ def piston_clearance(q: float, dp: float, v: float, D: float, L: float, mu: floa
 
 
 def spool_clearance(q: float, dp: float, Dv: float, Ls: float, mu: float) -> float:
-    """Clearance [m] that makes :func:`spool_leakage_flow` equal ``q`` (``q``, ``dp`` > 0)."""
+    """Clearance [m] that makes :func:`spool_leakage_flow` equal ``q``: the cube root of
+    paper 002 eq. 23, ``cv = (12·μ·Ls·q/(π·Dv·ΔP))^(1/3)`` (exact inverse).
+
+    Parameters
+    ----------
+    q
+        Spool leakage P → T [m³/s], ≥ 0.
+    dp
+        Pressure difference across the lands, P_P − P_T [Pa], > 0.
+    Dv, Ls
+        Spool diameter and sealing length of the lands [m].
+    mu
+        Dynamic viscosity [Pa·s].
+
+    Raises
+    ------
+    InputError
+        A negative leakage or a pressure difference that is not positive (``field`` ``q``
+        or ``dp``).
+    """
     if not (q >= 0.0 and dp > 0.0):
         raise InputError("the spool law needs q ≥ 0 and ΔP > 0", field="q" if dp > 0 else "dp")
     return float(np.cbrt(q * mu / (spool_law_coefficient(Dv, Ls) * dp)))

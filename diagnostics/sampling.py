@@ -17,11 +17,12 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
+import numpy.typing as npt
 
 from diagnostics.timeseries import SeriesRecord
 from sim.errors import InputError
 
-__all__ = ["GAP_FACTOR", "STEP_TOLERANCE", "UNIFORM_SHARE", "gap_note", "rate_note",
+__all__ = ["GAP_FACTOR", "STEP_TOLERANCE", "UNIFORM_SHARE", "gap_note", "gap_spans", "rate_note",
            "sampling_notes", "uniform_rate"]
 
 #: relative spread of a uniform logger's steps about their median [-]
@@ -35,20 +36,36 @@ UNIFORM_SHARE = 0.9
 GAP_FACTOR = 1.5
 
 
+def _gaps(record: SeriesRecord) -> tuple[npt.NDArray[np.intp], float]:
+    """Indices ``k`` of the gaps of a uniformly sampled record (``t[k]`` → ``t[k + 1]`` a
+    step over :data:`GAP_FACTOR` × the median step) and that step [s]; none where the
+    record is not uniformly sampled."""
+    dt = np.diff(record.t)
+    none = np.zeros(0, dtype=np.intp)
+    if dt.size < 2:
+        return none, 0.0
+    step = float(np.median(dt))
+    if step <= 0.0 or np.mean(np.abs(dt - step) <= STEP_TOLERANCE * step) < UNIFORM_SHARE:
+        return none, step
+    return np.flatnonzero(dt > GAP_FACTOR * step), step
+
+
+def gap_spans(record: SeriesRecord) -> list[tuple[float, float]]:
+    """The gaps of a uniformly sampled record as (last time before, first time after) [s]
+    (:func:`gap_note`'s gaps); empty where it has none or is not uniformly sampled."""
+    gaps, _ = _gaps(record)
+    return [(float(record.t[k]), float(record.t[k + 1])) for k in gaps]
+
+
 def gap_note(record: SeriesRecord, *, imported: bool = True) -> str | None:
     """A note on the gaps of a uniformly sampled record (steps over :data:`GAP_FACTOR` × its
     median step): how many, the longest and where, the samples missing; None when it has
     none or is not uniformly sampled.  ``imported``: with what the import did with it (a
     discrepancy answer repeated "Stored as given" for every record)."""
-    dt = np.diff(record.t)
-    if dt.size < 2:
-        return None
-    step = float(np.median(dt))
-    if step <= 0.0 or np.mean(np.abs(dt - step) <= STEP_TOLERANCE * step) < UNIFORM_SHARE:
-        return None
-    gaps = np.flatnonzero(dt > GAP_FACTOR * step)
+    gaps, step = _gaps(record)
     if gaps.size == 0:
         return None
+    dt = np.diff(record.t)
     longest = int(gaps[np.argmax(dt[gaps])])
     missing = int(np.sum(np.round(dt[gaps] / step) - 1))
     said = (f"record {record.name!r} is sampled every {step * 1e3:.4g} ms but has "

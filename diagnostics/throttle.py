@@ -19,6 +19,14 @@ get the clearance column:
   this is the cube rule ``c = c_ref·(Q/Q_ref)^(1/3)``, the paper's ``Q ∝ c³``.
 
 Each row's clearance is the physical root of :func:`diagnostics.inversion.leakage_root`.
+
+The Couette sign: paper 002 eq. 36 prints ``+ π·D·c·ẋ/2``; with chamber areas taken to the
+bore and the leak counted relative to the piston the drag opposes it (the module docstring of
+:mod:`sim.components.cylinder`).  The paper's own Table 2 column follows its printed sign:
+calibrated on the closed row, eq. 36 with ``+`` gives 104.8 / 133.0 / 140.4 µm for the ½-1½
+turn rows against the table's 103 / (1)(3)2 / 139, with ``−`` 102.5 / 128.3 / 135.1 µm.  So a
+piston clearance from these functions (and from diagnosis) is the physical gap, 2-4 % below
+the paper's tabulated "equivalent clearance" at 1-2 turns (a papers pass).
 """
 
 from __future__ import annotations
@@ -215,7 +223,27 @@ def clearances_calibrated(table: CalibrationTable, reference_clearance: float, *
 def table_from_columns(component: Component, openings: Sequence[str], turns: Sequence[float],
                        flows: Sequence[float], *, back_pressure: float,
                        temperature: float | None = None, source: str = "") -> CalibrationTable:
-    """Build a :class:`CalibrationTable` from parallel columns (e.g. a stored table)."""
+    """Build a :class:`CalibrationTable` from parallel columns (e.g. a stored table).
+
+    Parameters
+    ----------
+    component
+        ``"cylinder"`` (throttle H, across the piston) or ``"valve"`` (throttle I, P → T).
+    openings, turns, flows
+        Per row: the opening as written (``"closed"``, ``"1/2 turn"`` …), the opening
+        [turns] and the measured bypass flow [m³/s].
+    back_pressure
+        Back-pressure of the calibration [Pa] (paper 002: 10 bar ≙ 2.1 kN).
+    temperature
+        Oil temperature of the calibration [°C], ``None`` where not recorded.
+    source
+        Where the table comes from.
+
+    Raises
+    ------
+    InputError
+        Columns of unequal lengths (``field="rows"``).
+    """
     if not (len(openings) == len(turns) == len(flows)):
         raise InputError("the columns must have equal lengths", field="rows")
     rows = tuple(CalibrationRow(o, float(t), float(q)) for o, t, q in

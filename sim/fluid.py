@@ -10,8 +10,13 @@ with the thermal expansion coefficient :math:`\\alpha`,
 :math:`\\rho(T) = \\rho_{15}\\,[1 - \\alpha (T - 15\\,°C)]`.  The effective bulk modulus
 is a constant of the rig (paper 002 §2.6: β = 1.5e9 Pa).
 
-Defaults describe an ISO VG 46 mineral oil (Shell Tellus S2 V46, the oil of paper 000):
-46 cSt at 40 °C, 6.8 cSt at 100 °C, 879 kg/m³ at 15 °C (typical data-sheet values).
+Defaults describe an ISO VG 46 mineral oil of the HM grade (viscosity index ≈ 98): 46 cSt
+at 40 °C, 6.8 cSt at 100 °C, 879 kg/m³ at 15 °C, the Tellus S2 M 46 data sheet's typical
+values (paper 002 names no oil; the seeds README suggests a VG 46).  Paper 000's oil, Tellus
+S2 V 46, is an HV grade (VI ≈ 150, about 8 cSt at 100 °C): at 22 °C and 60 °C, the two
+temperatures of its two-temperature method, these defaults read 14 % more and 9 % less
+viscous than an 8.2 cSt oil would, so bench data of such an oil need its own data-sheet pair
+(``Fluid(nu2=...)``).
 
 References
 ----------
@@ -31,15 +36,17 @@ __all__ = ["FLUID_PARAMETERS", "Fluid"]
 _ABS_ZERO = 273.15
 
 FLUID_PARAMETERS: tuple[Param, ...] = (
-    Param("nu1", "m^2/s", 46e-6, "ISO VG 46 data sheet (Tellus S2 V46): 46 cSt at 40 °C",
+    Param("nu1", "m^2/s", 46e-6, "ISO 3448 VG 46: 46 cSt at 40 °C",
           "kinematic viscosity at reference temperature T1"),
     Param("T1", "degC", 40.0, "ISO 3448 reference temperature", "first reference temperature",
           lower=-60.0, upper=200.0),
-    Param("nu2", "m^2/s", 6.8e-6, "Tellus S2 V46 data sheet: 6.8 cSt at 100 °C",
+    Param("nu2", "m^2/s", 6.8e-6, "chosen: an HM-grade VG 46, 6.8 cSt at 100 °C (Tellus S2 M 46 "
+          "data sheet; paper 000's S2 V 46 is an HV grade, ≈ 8 cSt)",
           "kinematic viscosity at reference temperature T2"),
     Param("T2", "degC", 100.0, "ISO 3448 reference temperature", "second reference temperature",
           lower=-60.0, upper=250.0),
-    Param("rho15", "kg/m^3", 879.0, "Tellus S2 V46 data sheet", "density at 15 °C"),
+    Param("rho15", "kg/m^3", 879.0, "chosen: HM-grade VG 46 (Tellus S2 M 46 data sheet)",
+          "density at 15 °C"),
     Param("alpha", "1/K", 6.5e-4, "typical mineral oil thermal expansion", "volumetric expansion"),
     Param("beta", "Pa", 1.5e9, "paper 002 §2.6 (repaired '.5 e9')", "effective bulk modulus"),
 )

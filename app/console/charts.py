@@ -268,12 +268,19 @@ def calibration_chart(title: str, opening: Sequence[float], clearance: Sequence[
     return line_chart(title, "throttle opening [turn]", "equivalent clearance [µm]", series)
 
 
-#: Panels of a simulated cycle: title, y label, columns and the factor to the shown unit.
+def _panel(title: str, axis: str, si: str, columns: tuple[str, ...]
+           ) -> tuple[str, str, tuple[str, ...], float]:
+    factor, unit = shown_unit(si)
+    return title, f"{axis} [{unit}]", columns, factor
+
+
+#: Panels of a simulated cycle: title, y label, columns and the factor to the shown unit
+#: (the plotting module's :func:`~diagnostics.plots.shown_unit`, as every chart's)
 _PANELS = (
-    ("Pressures", "pressure [bar]", ("P_pump [Pa]", "P1 [Pa]", "P2 [Pa]"), 1e-5),
-    ("Piston position", "x [mm]", ("x [m]",), 1e3),
-    ("Piston speed", "v [m/s]", ("v [m/s]",), 1.0),
-    ("Meter flows", "flow [L/min]", ("Q_meter_B [m^3/s]", "Q_meter_C [m^3/s]"), 6e4),
+    _panel("Pressures", "pressure", "Pa", ("P_pump [Pa]", "P1 [Pa]", "P2 [Pa]")),
+    _panel("Piston position", "x", "m", ("x [m]",)),
+    _panel("Piston speed", "v", "m/s", ("v [m/s]",)),
+    _panel("Meter flows", "flow", "m^3/s", ("Q_meter_B [m^3/s]", "Q_meter_C [m^3/s]")),
 )
 
 

@@ -222,8 +222,9 @@ async def diagnose(request: Request, session: SessionDep, _key: ConsoleKeyDep,
         exc = _in_file(raised, lines)
         error = {"type": type(exc).__name__, "message": exc.message, "field": exc.field,
                  "details": [d["message"] for d in (exc.details or [])[1:]]}
-        return await pool.in_thread(partial(_form, request, session, status_code=422,
-                                            text=document, error=error))
+        return await pool.in_thread(partial(_form, request, session,
+                                            status_code=status_for(exc), text=document,
+                                            error=error))
     if len(outcomes) == 1:
         return redirect(f"/console/diagnoses/{outcomes[0].diagnosis_id}")
     return redirect(f"/console/history?rig={outcomes[0].resolved.rig_id}")

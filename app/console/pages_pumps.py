@@ -64,23 +64,35 @@ def pumps(request: Request, session: SessionDep, _key: ConsoleKeyDep,
     return _page(request, session, set_id)
 
 
-def _form(name: str, pump: str, rig: str, source: str, displacement: str) -> PumpBenchForm:
-    """The API's form of the page's fields (the displacement from cm³/rev)."""
+#: the page's fields in the units an engineer types (cm³/rev, the data sheet's cSt, kg/m³)
+#: and the API form's SI fields they fill
+_PAGE_FIELDS = {"displacement": ("displacement_m3_rad", "cm^3/rev", "m^3/rad"),
+                "oil_nu40": ("oil_nu40_m2_s", "cSt", "m^2/s"),
+                "oil_nu100": ("oil_nu100_m2_s", "cSt", "m^2/s"),
+                "oil_rho15": ("oil_rho15_kg_m3", "kg/m^3", "kg/m^3")}
+
+
+def _form(name: str, pump: str, rig: str, source: str, numbers: dict[str, str]
+          ) -> PumpBenchForm:
+    """The API's form of the page's fields (``numbers`` by page field: the displacement in
+    cm³/rev, the oil's viscosities in cSt and density in kg/m³)."""
     fields: dict[str, Any] = {"name": name.strip(), "pump": pump.strip(),
                               "rig_id": rig.strip() or None, "source": source.strip() or None}
-    if displacement.strip():
+    for page_field, text in numbers.items():
+        if not text.strip():
+            continue
+        api_field, unit, si = _PAGE_FIELDS[page_field]
         try:
-            fields["displacement_m3_rad"] = to_si(float(displacement), "cm^3/rev", "m^3/rad",
-                                                  field="displacement")
+            fields[api_field] = to_si(float(text), unit, si, field=page_field)
         except ValueError:
-            raise InputError(f"not a number: {displacement!r}", field="displacement") from None
+            raise InputError(f"not a number: {text!r}", field=page_field) from None
     try:
         return PumpBenchForm.model_validate(fields)
     except ValidationError as exc:
         problem = first_problem(exc.errors())
-        # the page's names: the displacement in cm³/rev, the rig's id
-        problem.field = {"displacement_m3_rad": "displacement", "rig_id": "rig"}.get(
-            problem.field or "", problem.field)
+        # the page's names: the displacement in cm³/rev, the oil's, the rig's id
+        names = {api: page for page, (api, _, _) in _PAGE_FIELDS.items()} | {"rig_id": "rig"}
+        problem.field = names.get(problem.field or "", problem.field)
         raise problem from None
 
 
@@ -91,12 +103,16 @@ async def bench(request: Request, session: SessionDep, _key: ConsoleKeyDep,
                 rig: Annotated[str, Form(max_length=20)] = "",
                 source: Annotated[str, Form(max_length=2000)] = "",
                 displacement: Annotated[str, Form(max_length=40)] = "",
+                oil_nu40: Annotated[str, Form(max_length=40)] = "",
+                oil_nu100: Annotated[str, Form(max_length=40)] = "",
+                oil_rho15: Annotated[str, Form(max_length=40)] = "",
                 file: Annotated[UploadFile | None, File()] = None) -> Response:
     """Parameterise a bench CSV (ISO 4409 test points, paper 000's loss model) and store
     the set; go to it.  A refused file or field: the page again with the error, the fields
     as entered, nothing stored; a read key: 403."""
-    entered = {"name": name, "pump": pump, "rig": rig, "source": source,
-               "displacement": displacement}
+    numbers = {"displacement": displacement, "oil_nu40": oil_nu40, "oil_nu100": oil_nu100,
+               "oil_rho15": oil_rho15}
+    entered = {"name": name, "pump": pump, "rig": rig, "source": source} | numbers
     refusal = write_refusal(_key, "storing a pump set")
     if refusal is not None:
         return await run_in_threadpool(_page, request, session, None, status_code=403,
@@ -104,7 +120,7 @@ async def bench(request: Request, session: SessionDep, _key: ConsoleKeyDep,
     try:
         if file is None or not file.filename:
             raise InputError("choose a bench CSV", field="file")
-        form = _form(name, pump, rig, source, displacement)
+        form = _form(name, pump, rig, source, numbers)
         content = await file.read(MAX_CSV_BYTES + 1)
         pump_set = await run_in_threadpool(store_bench_parameters, session, form, content)
     except HydrodiagError as exc:

@@ -188,7 +188,7 @@ def rig(request: Request, session: SessionDep, _key: ConsoleKeyDep,
 
 #: The console's answer to a path it does not have (it was the API's JSON 404): included
 #: after every other console router.
-unknown = new_router()
+unknown = new_router(checked=False)
 
 
 @unknown.get("/{rest:path}")

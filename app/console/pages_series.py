@@ -26,7 +26,7 @@ from app.api.deps import RigsDep, SessionDep
 from app.console.charts import series_charts
 from app.console.routing import ConsoleKeyDep, new_router, write_refusal
 from app.console.web import SECURITY_HEADERS, page, redirect
-from app.errors import first_problem
+from app.errors import first_problem, status_for
 from app.schemas.common import MAX_ID
 from app.schemas.discrepancy import DiscrepancyForm
 from app.schemas.series import IMPORT_NAME_CHARACTER, CycleQuery, SeriesImportForm
@@ -141,7 +141,7 @@ async def check(request: Request, session: SessionDep, rigs: RigsDep, _key: Cons
         plan = await run_in_threadpool(plan_discrepancy, session, rigs, form, None)
     except HydrodiagError as exc:
         error = {"type": type(exc).__name__, "message": exc.message, "field": exc.field}
-        return await run_in_threadpool(_list, request, session, rig, 0, error, 422)
+        return await run_in_threadpool(_list, request, session, rig, 0, error, status_for(exc))
     job = submit_discrepancy(request.app.state.jobs, request.app.state.sessions, form, plan)
     return redirect(f"/console/jobs/{job.id}")
 
@@ -191,7 +191,8 @@ async def import_file(request: Request, session: SessionDep, _key: ConsoleKeyDep
             time_in_name=form.time_in_name, zone=form.zone)
     except HydrodiagError as exc:
         error = {"type": type(exc).__name__, "message": exc.message, "field": exc.field}
-        return await run_in_threadpool(_list, request, session, rig, 0, error, 422, entered)
+        return await run_in_threadpool(_list, request, session, rig, 0, error, status_for(exc),
+                                       entered)
     if len(rows) == 1:
         return redirect(f"/console/series/{rows[0].id}")
     return redirect(f"/console/series?rig={rig}")

@@ -17,7 +17,7 @@ from app.console.charts import simulation_charts
 from app.console.pages_rigs import CLEARANCES
 from app.console.routing import ConsoleKeyDep, new_router
 from app.console.web import SECURITY_HEADERS, page
-from app.errors import first_problem
+from app.errors import first_problem, status_for
 from app.schemas.common import MAX_ID
 from app.schemas.simulate import SimulateRequest
 from app.services import rigs as rig_service
@@ -80,7 +80,7 @@ def simulate_page(request: Request, session: SessionDep, rigs: RigsDep, _key: Co
         except HydrodiagError as exc:
             context["error"] = {"type": type(exc).__name__, "message": exc.message,
                                 "field": exc.field}
-            return page(request, "simulate.html", status_code=422, **context)
+            return page(request, "simulate.html", status_code=status_for(exc), **context)
         label = fault if fault not in ("", "healthy") else "healthy"
         frame = outcome.result.timeseries
         context["charts"] = [] if frame is None else simulation_charts(

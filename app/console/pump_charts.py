@@ -20,14 +20,16 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from diagnostics.plots import PALETTE, Chart, Series, line_chart
+from diagnostics.plots import PALETTE, Chart, Series, line_chart, shown_unit
 from diagnostics.pump.levels import cluster_levels, group_keys
 
 __all__ = ["pump_check_charts"]
 
-_LPM = 60e3  # (l/min) per (m³/s)
-_BAR = 1e-5  # bar per Pa
-_RPM = 60.0 / (2.0 * np.pi)  # rpm per (rad/s)
+# the plotting module's units, as every chart's: (l/min) per (m³/s), bar per Pa, rpm per
+# (rad/s)
+_LPM = shown_unit("m^3/s")[0]
+_BAR = shown_unit("Pa")[0]
+_RPM = shown_unit("rad/s")[0]
 _NEEDED = ("points_dp", "points_omega", "points_theta", "points_q", "points_T",
            "points_q_held_out", "points_T_held_out")
 

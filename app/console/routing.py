@@ -17,6 +17,7 @@ from fastapi.routing import APIRoute
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from app.api.deps import SessionDep, count_rate
+from app.api.query_check import known_form, known_query
 from app.console.web import SECURITY_HEADERS, console_key, login_url, page, redirect
 from app.db.models import ApiKey
 from app.errors import first_problem, status_for
@@ -97,6 +98,11 @@ def _key(request: Request, session: SessionDep) -> ApiKey:
 ConsoleKeyDep = Annotated[ApiKey, Depends(_key)]
 
 
-def new_router() -> APIRouter:
-    """A router for console pages (``/console``, hidden from the OpenAPI document)."""
-    return APIRouter(prefix="/console", route_class=ConsoleRoute, include_in_schema=False)
+def new_router(*, checked: bool = True) -> APIRouter:
+    """A router for console pages (``/console``, hidden from the OpenAPI document) whose
+    unknown query parameters and form fields are refused as the API's are
+    (:mod:`app.api.query_check`); ``checked=False`` for the catch-all of paths the console
+    lacks, whose answer is its "no such page"."""
+    checks = [Depends(known_query), Depends(known_form)] if checked else []
+    return APIRouter(prefix="/console", route_class=ConsoleRoute, include_in_schema=False,
+                     dependencies=checks)

@@ -31,9 +31,10 @@ from diagnostics.pump import BenchData, PumpParameterisation, parameterise, read
 from diagnostics.pump.capacity import THETA_GAP
 from diagnostics.pump.levels import cluster_levels
 from sim.errors import InputError
+from sim.fluid import Fluid
 
-__all__ = ["MAX_CSV_BYTES", "bench_pump_set", "parameterise_csv", "read_bench_bytes",
-           "store_bench_parameters"]
+__all__ = ["MAX_CSV_BYTES", "bench_oil", "bench_pump_set", "parameterise_csv",
+           "read_bench_bytes", "store_bench_parameters"]
 
 #: Largest bench CSV accepted [byte].
 MAX_CSV_BYTES = 5 * 1024 * 1024
@@ -51,8 +52,20 @@ def read_bench_bytes(content: bytes, *, field: str = "file") -> BenchData:
         raise type(exc)(exc.message, field=prefixed(field, name)) from None
 
 
+def bench_oil(form: PumpBenchForm) -> Fluid | None:
+    """The oil the form states (its data-sheet viscosities at 40 and 100 °C, its density at
+    15 °C), or ``None`` for the default ISO VG 46 HM oil of :class:`sim.fluid.Fluid`."""
+    if form.oil_nu40_m2_s is None or form.oil_nu100_m2_s is None:
+        return None
+    default = Fluid()
+    return Fluid(nu1=form.oil_nu40_m2_s, T1=40.0, nu2=form.oil_nu100_m2_s, T2=100.0,
+                 rho15=form.oil_rho15_kg_m3 or default.rho15, alpha=default.alpha,
+                 beta=default.beta)
+
+
 def parameterise_csv(content: bytes, *, displacement: float | None = None,
-                     displacement_std: float = 0.0) -> tuple[BenchData, PumpParameterisation]:
+                     displacement_std: float = 0.0, oil: Fluid | None = None
+                     ) -> tuple[BenchData, PumpParameterisation]:
     """Read and parameterise a bench CSV.
 
     Parameters
@@ -63,10 +76,15 @@ def parameterise_csv(content: bytes, *, displacement: float | None = None,
         Derived capacity D [m³/rad] when known; from the data (Toet) when ``None``.
     displacement_std
         Standard error of a given D [m³/rad].
+    oil
+        The bench's oil (:func:`bench_oil`); ``None``: the default oil, and the density
+        of eq. 9 at its 865 kg/m³ (:data:`sim.components.gear_pump.PARAMETERS`); a stated
+        oil's density is taken at 40 °C.
     """
     data = read_bench_bytes(content)
+    extra: dict[str, Any] = {} if oil is None else {"fluid": oil, "rho": oil.density(40.0)}
     try:
-        result = parameterise(data, D=displacement, D_std=displacement_std)
+        result = parameterise(data, D=displacement, D_std=displacement_std, **extra)
     except InputError as exc:
         if exc.field == "D" and displacement is not None:  # the form's field, not the file's
             raise type(exc)(exc.message, field="displacement_m3_rad") from None
@@ -90,6 +108,10 @@ def _quantities(data: BenchData, result: PumpParameterisation) -> dict[str, dict
         "D_std": _quantity(result.D_std, "m^3/rad", "standard error of D"),
         "D_per_rev": _quantity(result.D * 2.0 * math.pi, "m^3/rev", "derived capacity"),
         "rho": _quantity(result.rho, "kg/m^3", "oil density assumed in eq. 9"),
+        "oil_nu40": _quantity(result.fluid.kinematic_viscosity(40.0), "m^2/s",
+                              "oil's kinematic viscosity at 40 °C in μ(θ)"),
+        "oil_nu100": _quantity(result.fluid.kinematic_viscosity(100.0), "m^2/s",
+                               "oil's kinematic viscosity at 100 °C in μ(θ)"),
         "beta_ef": _quantity(result.beta_ef, "Pa", "effective bulk modulus assumed in eq. 8"),
         "n_points": _quantity(len(data), "1", "test points read"),
         "dp_range": _quantity([float(data.dp.min()), float(data.dp.max())], "Pa",
@@ -146,10 +168,14 @@ def _oil_note(data: BenchData, result: PumpParameterisation) -> str | None:
         return None
     _, levels = cluster_levels(data.theta, rel_gap=0.0, abs_gap=THETA_GAP, field="theta")
     fl = result.fluid
+    which = ("the default oil (ISO VG 46 HM: " if fl == Fluid() else "the oil stated (") \
+        + f"{fl.nu1 * 1e6:g} cSt at {fl.T1:g} °C, {fl.nu2 * 1e6:g} cSt at {fl.T2:g} °C, " \
+        f"Walther; ρ {result.rho:.4g} kg/m³ in eq. 9)"
     text = (f"Cs, Cst, Cv, Cf from the runs at {float(levels[0]):.1f} and "
-            f"{float(levels[-1]):.1f} °C with μ(θ) of the default oil (ISO VG 46: "
-            f"{fl.nu1 * 1e6:g} cSt at {fl.T1:g} °C, {fl.nu2 * 1e6:g} cSt at {fl.T2:g} °C, "
-            "Walther; D per radian)")
+            f"{float(levels[-1]):.1f} °C with μ(θ) of {which}; D per radian")
+    if fl == Fluid():
+        text += (" — another oil (an HV grade's 8 cSt at 100 °C) needs its data-sheet "
+                 "viscosities (oil_nu40_m2_s, oil_nu100_m2_s): Cs and Cv scale with μ")
     if levels.size > 2:
         middle = ", ".join(f"{float(t):.1f}" for t in levels[1:-1])
         text += f"; the runs at {middle} °C are not used by them (eqs. 7 and 17 take two)"
@@ -202,8 +228,9 @@ def bench_pump_set(form: PumpBenchForm, content: bytes) -> PumpSetCreate:
     InputError
         The file cannot be read or parameterised (``field`` starts with ``file``).
     """
+    oil = bench_oil(form)
     data, result = parameterise_csv(content, displacement=form.displacement_m3_rad,
-                                    displacement_std=form.displacement_std_m3_rad)
+                                    displacement_std=form.displacement_std_m3_rad, oil=oil)
     checked, check_note = check_quantities(data, result.D)
     notes = [n for n in (_SIMULATED if data.simulated else None, form.source,
                          data.provenance or None, result.not_identifiable or None,

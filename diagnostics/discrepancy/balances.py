@@ -262,6 +262,12 @@ BASE_SIGNS: dict[str, float] = {
     "cylinder.Fu": 1.0, "cylinder.Kf": 1.0, "cylinder.cc (laminar)": 1.0,
     "valve.cv (laminar)": 1.0, "pump.Rlp": 1.0,
 }
+#: the unit of each signed base column's coefficient (balance unit / column unit): friction
+#: force, viscous friction, the laminar gaps' k of Q = k·Δp/μ, the pump's leakage conductance
+BASE_UNITS: dict[str, str] = {
+    "cylinder.Fu": "N", "cylinder.Kf": "N·s/m", "cylinder.cc (laminar)": "m³",
+    "valve.cv (laminar)": "m³", "pump.Rlp": "m³/(s·Pa)",
+}
 
 BALANCES: tuple[Balance, ...] = (
     Balance("piston_force", "N", ("P1", "P2", "v"),
@@ -309,10 +315,13 @@ def balance_data(s: Signals, values: dict[str, float]) -> list[BalanceData]:
     ``values`` are the rig's parameter values (:meth:`sim.rigs.assembly.Rig.values`).
     """
     out: list[BalanceData] = []
-    # samples away from the end stops, settled after a switch (and after a dwell's switch)
-    settled = _inside(s, values) & (s.since_phase_start() >= SETTLE) & ~_after_dwell(s, values)
+    # samples away from the end stops, settled after a switch (and after a dwell's switch),
+    # and resting on measured samples (not across a logger's gap: signals._measured)
+    measured = s.values["measured"] > 0.5 if "measured" in s.values else np.ones(s.t.size, bool)
+    settled = (_inside(s, values) & (s.since_phase_start() >= SETTLE) & ~_after_dwell(s, values)
+               & measured)
     # the flow balances also keep a piston held at its stop (a dwell)
-    held = _held(s, values)
+    held = _held(s, values) & measured
     for b in BALANCES:
         if not s.has(*b.channels):
             continue
@@ -336,7 +345,7 @@ def balance_data(s: Signals, values: dict[str, float]) -> list[BalanceData]:
             opened = _relief_open(s, values)
             if opened.sum() < MIN_OPEN:
                 continue
-            mask |= opened
+            mask |= opened & measured
         if b.name == "piston_force":
             # at rest the friction is whatever holds the piston (stiction): unmeasured
             mask &= np.abs(s.values["v"]) > MOVING

@@ -69,7 +69,7 @@ from scipy.optimize import least_squares
 from diagnostics.discrepancy.gap import GapRow, gap_table
 from diagnostics.discrepancy.refit import fit_cov, residual_parts, stacked
 from diagnostics.discrepancy.simulate import simulate_record
-from diagnostics.discrepancy.transient import is_significant
+from diagnostics.discrepancy.transient import SIGNIFICANT_T, is_significant
 from diagnostics.discrepancy.verdict import OUTPUT_GAP
 from diagnostics.hypotheses import PARAMETERS, FaultParameter
 from diagnostics.timeseries import SeriesRecord
@@ -105,6 +105,8 @@ WEAR: dict[str, FaultParameter] = {p.graph_param: p for p in PARAMETERS.values()
 #: (white noise gives 1; the worn-piston cycles 0.92-1.34, a rig whose friction had
 #: moved −18 % as well 1.0-2.3)
 WHITE = 1.5
+#: the level at which a change is ``significant``, in words (its interval is 95 %)
+SIGNIFICANCE = f"two-sided 1 % (|change| ≥ {SIGNIFICANT_T} standard errors)"
 #: a value within this fraction of the log-span of a bound counts as on it [-]
 ON_BOUND = 0.01
 
@@ -178,7 +180,10 @@ class Drift:
                 "parameters": [{"parameter": d.parameter, "unit": d.unit, "why": d.why,
                                 "stored": d.stored, "value": d.value, "change": d.change,
                                 "interval": list(d.interval) if d.interval else None,
-                                "significant": d.significant} for d in self.parameters]}
+                                "significant": d.significant} for d in self.parameters],
+                #: the level of ``significant`` (the interval is 95 %): a discrepancy pass
+                #: found an n.s. change whose interval left out the stored value
+                "significance": SIGNIFICANCE}
 
     def statement(self) -> str:
         """The changes in words, the significant ones first."""

@@ -141,4 +141,5 @@ def step_noise(first: FirstStep, channels: Sequence[str]) -> tuple[dict[str, Noi
     floors = propagated_floors(first.data, first.signals, noisy, first.rig.values())
     for d in first.data:
         d.noise_floor = max(d.noise_floor, floors.get(d.balance.name, 0.0))
-    return models, coloured_note(models)
+    derived = {c for r in first.records for c in (r.metadata or {}).get("derived", [])}
+    return models, coloured_note(models, derived)

@@ -35,7 +35,7 @@ channel's σ and φ, seeded) and taking the 50 ms-averaged RMS of the difference
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -193,16 +193,24 @@ def propagated_floors(data: Sequence[BalanceData], clean: Signals, noisy: Signal
     return out
 
 
-def coloured_note(models: Mapping[str, Noise]) -> str:
+def coloured_note(models: Mapping[str, Noise], derived: Collection[str] = ()) -> str:
     """'sensor noise coloured on P1, P2 (σ 3.9-4.1× the sample-to-sample estimate): …',
-    or '' when every channel's noise is white."""
+    or '' when every channel's noise is white.  A channel in ``derived`` (the piston speed
+    the workflow derives from the position) is named apart: its colour is the derivative's
+    smoothing, not a sensor's (a discrepancy pass read "sensor noise coloured on v" for a
+    speed no sensor logged)."""
     col = [(c, n) for c, n in models.items() if n.coloured and n.white > 0]
     if not col:
         return ""
     ratios = [n.sigma / n.white for _, n in col]
     span = (f"{min(ratios):.1f}" if f"{min(ratios):.1f}" == f"{max(ratios):.1f}"
             else f"{min(ratios):.1f}-{max(ratios):.1f}")
-    return (f"sensor noise coloured on {', '.join(c for c, _ in col)} (σ {span}× the "
-            "sample-to-sample estimate): gaps are judged against the noise's own σ "
-            "(second differences at 20-40 ms lags) and the balances' noise floors against a "
-            "surrogate of that noise")
+    sensed = [c for c, _ in col if c not in derived]
+    made = [c for c, _ in col if c in derived]
+    what = " and ".join(
+        ([f"sensor noise coloured on {', '.join(sensed)}"] if sensed else [])
+        + ([f"noise coloured on {', '.join(made)}, derived from the position (the "
+            "derivative's smoothing colours it)"] if made else []))
+    return (f"{what} (σ {span}× the sample-to-sample estimate): gaps are judged against the "
+            "noise's own σ (second differences at 20-40 ms lags) and the balances' noise "
+            "floors against a surrogate of that noise")

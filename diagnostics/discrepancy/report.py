@@ -119,7 +119,9 @@ DRIFT_INTERVALS = ("Intervals from the re-fit's Jacobian with the samples taken 
                    "independent: narrower than the spread of the estimates, and parameters "
                    "that trade against each other (Fu and Kf) can show a change each that "
                    "only one of them made; read a 'significant' change as a lead, not a "
-                   "measurement.")
+                   "measurement. 'n.s.' marks a change under 2.58 standard errors (two-sided "
+                   "1 %, the level every effect's coefficient is held to), so a 95 % interval "
+                   "can leave out the stored value of a change marked n.s.")
 
 
 def stored_line(rig_id: int | None, version: int | None, new_version: int | None,

@@ -33,6 +33,7 @@ from __future__ import annotations
 import itertools
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -56,6 +57,9 @@ NEAR_BIC = 10.0
 NEAR_CORR = 0.98
 #: practical size: RMS contribution ≥ this fraction of the balance's full scale
 PRACTICAL = 0.001
+#: a candidate whose largest plausible move of the balance, anywhere on the design, is
+#: below this fraction of the practical size is not identifiable there (:func:`_reach`) [-]
+UNREACHABLE = 0.01
 #: Newey-West lag [samples at the analysis rate] (≥ the Savitzky-Golay window)
 HAC_LAGS = 60
 DEPENDENT = 1e-3
@@ -143,6 +147,54 @@ class Selection:
     small: list[Fit] = field(default_factory=list)
     #: the balance's :attr:`~diagnostics.discrepancy.balances.BalanceData.noise_floor`
     noise_floor: float = 0.0
+    #: candidates this design cannot identify, with the most their largest plausible
+    #: coefficient moves the balance anywhere [balance unit] (:func:`_reach`): their
+    #: fitted coefficient means nothing; it is not shown and they are never chosen
+    unreachable: dict[str, float] = field(default_factory=dict)
+    #: base coefficients of the chosen (or, none chosen, the base) fit re-fitted to an
+    #: unphysical sign, by column [SI, :data:`~diagnostics.discrepancy.balances.BASE_UNITS`]:
+    #: the base model absorbs what the design cannot separate (a negative viscous friction
+    #: at one load, a discrepancy pass)
+    unphysical: dict[str, float] = field(default_factory=dict)
+
+    def candidate_dicts(self) -> dict[str, dict[str, Any]]:
+        """JSON-able single-term fits by effect: coefficient and its standard error [SI of
+        the entry's parameter], t, p, RMS contribution [balance unit], plausibility; for an
+        unreachable candidate no numbers but why (``identifiable`` false, ``reach``)."""
+        out: dict[str, dict[str, Any]] = {}
+        for k, t in self.singles.items():
+            if k in self.unreachable:
+                out[k] = {"coefficient": None, "stderr": None, "t": None, "p": None,
+                          "rms_contribution": None, "plausible": None, "identifiable": False,
+                          "reach": self.unreachable[k],
+                          "why": "not identifiable on this design: at the top of its "
+                                 "plausible range it moves the balance by at most "
+                                 f"{self.unreachable[k]:.3g} {self.unit}, a hundredth "
+                                 "of the practical size"}
+            else:
+                out[k] = {"coefficient": t.coefficient, "stderr": t.stderr, "t": t.t, "p": t.p,
+                          "rms_contribution": t.rms_contribution, "plausible": t.plausible,
+                          "identifiable": True}
+        return out
+
+
+def _reach(data: BalanceData) -> dict[str, float]:
+    """Candidates whose column, at the top of the entry's plausible range, moves the balance
+    by less than :data:`UNREACHABLE` of the practical size at every sample, with that
+    largest move [balance unit].
+
+    A Stribeck column on strokes without slow motion is ~1e-40: its scaled fit reads a
+    coefficient of 1e39 with a t of 5 (a discrepancy pass), which no design of these
+    records can check; such a candidate is not identifiable here, as a column in the base
+    columns' span is not.
+    """
+    out: dict[str, float] = {}
+    for name, col in data.candidates.items():
+        lo, hi = EFFECTS[name].entry.plausible
+        most = float(np.max(np.abs(col), initial=0.0)) * max(abs(lo), abs(hi))
+        if most < UNREACHABLE * PRACTICAL * data.full_scale:
+            out[name] = most
+    return out
 
 
 def _scaled(cols: dict[str, Arr]) -> tuple[list[str], Arr, Arr]:
@@ -339,8 +391,11 @@ def select(data: BalanceData, *, bootstrap: int = 30, seed: int = 0, lags: int =
                 detectable[subset[0]] = float(max(
                     (t_crit + stats.norm.ppf(0.8)) * se_scaled * ys,
                     PRACTICAL * data.full_scale))
-    for c in dep_base:
+    unreachable = _reach(data)
+    for c in [*dep_base, *unreachable]:
         detectable[c] = math.inf
+    # a subset with a candidate the design cannot identify is never chosen
+    fits = {k: f for k, f in fits.items() if not unreachable.keys() & set(k)}
     admissible = {k: f for k, f in fits.items() if f.admissible and base_bic - f.bic >= BIC_MARGIN}
     if admissible:
         # a gap of practical size: a single below it that fits better competes (docstring)
@@ -371,12 +426,13 @@ def select(data: BalanceData, *, bootstrap: int = 30, seed: int = 0, lags: int =
         resid_si = (y - X @ coef) * ys
         base_named = {bn: float(c * ys / s) for bn, c, s in
                       zip(bnames, coef[: len(bnames)], bscale, strict=True)}
-        inclusion = _bootstrap(y, Xb, Xc_all, cnames, free, groups, chosen_key, bootstrap, seed,
-                               block)
+        inclusion = _bootstrap(y, Xb, Xc_all, cnames, [c for c in free if c not in unreachable],
+                               groups, chosen_key, bootstrap, seed, block)
+    unphysical = {bn: c for bn, c in base_named.items() if data.base_signs.get(bn, 0.0) * c < 0}
     return Selection(data.balance.name, data.balance.unit, chosen, base_bic,
                      base_bic - chosen.bic if chosen else 0.0, competing, groups, inclusion,
                      detectable, singles, base_named, resid_si, base_resid * ys,
-                     data.full_scale, near, small, data.noise_floor)
+                     data.full_scale, near, small, data.noise_floor, unreachable, unphysical)
 
 
 def _bootstrap(y: Arr, Xb: Arr, Xc: Arr, cnames: list[str], free: list[str],

@@ -16,6 +16,7 @@ import numpy as np
 import numpy.typing as npt
 from scipy.signal import savgol_filter
 
+from diagnostics.sampling import gap_spans
 from diagnostics.timeseries import SeriesRecord
 from sim.errors import InputError
 from sim.rigs.assembly import Condition, Rig
@@ -190,6 +191,18 @@ def _uniform(record: SeriesRecord, rate: float) -> tuple[Arr, dict[str, Arr], np
     return t, chans, np.asarray(phase, dtype=str)
 
 
+def _measured(record: SeriesRecord, t: Arr, margin: float) -> npt.NDArray[np.bool_]:
+    """Which samples of the uniform grid ``t`` [s] rest on measured samples: not inside a
+    gap of the record (:func:`~diagnostics.sampling.gap_spans`) nor within ``margin`` [s]
+    of one, where the smoothing window reaches the interpolation across it.  A 0.5 s
+    dropout resampled straight across made "structure" in the chamber-flow balance and
+    healthy records read "unexplained" (a discrepancy pass)."""
+    out = np.ones(t.size, dtype=bool)
+    for a, b in gap_spans(record):
+        out &= ~((t > a - margin) & (t < b + margin))
+    return out
+
+
 def same_channels(records: Sequence[SeriesRecord], only: Collection[str] | None = None
                   ) -> None:
     """Refuse records whose channels (of ``only``, when given) differ (``field="file"``):
@@ -242,6 +255,7 @@ def prepare(records: Sequence[SeriesRecord], rig: Rig, *, rate: float = 1000.0,
     w = max(5, round(window * rate) | 1)
     for i, r in enumerate(records):
         t, ch, phase = _uniform(r, rate)
+        measured = _measured(r, t, (w // 2) / rate)
         cond = condition_of(r, rig)
         derivs = {f"d{c}": np.zeros_like(t) for c in DERIVED if c in ch}
         smooth = {c: v.copy() for c, v in ch.items()}
@@ -260,12 +274,19 @@ def prepare(records: Sequence[SeriesRecord], rig: Rig, *, rate: float = 1000.0,
             # on the raw samples, across the valve switch (every term is a state of the
             # graph, continuous there)
             derivs.update(hose_integrals(t, ch["P2"], ch["P_valve_B"], ch["Q_meter_C"]))
+            # a window that reaches into a gap integrates the interpolation across it
+            lost = np.concatenate([[0], np.cumsum(~measured)])
+            n = round(HOSE_WINDOW * rate)
+            idx = np.arange(t.size)
+            derivs["hose.ok"] = derivs["hose.ok"] * (
+                lost[idx + 1] - lost[np.maximum(idx - n, 0)] == 0)
         ch = smooth
         ch.update(derivs)
         values = rig.values(condition=cond)
         # the rig's μ at this temperature, with any fluid correction it carries (a fitted
         # viscosity law of an augmented rig)
         ch["mu"] = np.full(t.size, values["fluid.mu"])
+        ch["measured"] = measured.astype(float)
         ch["T"] = np.full(t.size, cond.oil_temperature)
         ch["load"] = np.where(phase == "return", 0.0, cond.load)
         speed = cond.pump_speed if cond.pump_speed is not None else rig.base["pump.speed"]

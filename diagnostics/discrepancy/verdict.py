@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from scipy.ndimage import uniform_filter1d
 
-from diagnostics.discrepancy.balances import BALANCES, STRUCTURE_SMOOTH
+from diagnostics.discrepancy.balances import BALANCES, BASE_UNITS, STRUCTURE_SMOOTH
 from diagnostics.discrepancy.gap import GapRow, aligned_residuals, ljung_box_p
 from diagnostics.discrepancy.selection import PRACTICAL, Selection
 from diagnostics.timeseries import SeriesRecord
@@ -27,8 +27,8 @@ if TYPE_CHECKING:  # drift imports this module
     from diagnostics.discrepancy.drift import Drift
 
 __all__ = ["BALANCE_MIN_RATE", "OUTPUT_GAP", "STEADY_SLACK", "build_up_gaps", "excess",
-           "excess_ratio", "gap_ratio", "logged_rate", "sparse_note", "structured", "verdict",
-           "whiteness"]
+           "excess_ratio", "gap_ratio", "logged_rate", "sparse_note", "structured",
+           "unphysical_note", "verdict", "whiteness"]
 
 #: held-out steady RMSE, in units of the channel's noise σ, above which an unnamed gap is
 #: reported as unexplained rather than "no effect"
@@ -51,6 +51,26 @@ def whiteness(records: Sequence[SeriesRecord], tables: Sequence[Any], channels: 
         vals = [p for p in ps if math.isfinite(p)]
         out[c] = float(min(vals)) if vals else float("nan")
     return out
+
+
+def unphysical_note(selections: Sequence[Selection]) -> str | None:
+    """The balances whose base re-fit drove a coefficient that must stay ≥ 0 (friction,
+    laminar leakage) negative, in words; ``None`` where none did.
+
+    Without a named effect the base re-fit is the equation error's answer, and a negative
+    viscous friction there means the base model absorbed what the test design could not
+    separate: at one load a pressure-dependent seal friction and the stated load's scale
+    read as Fu and Kf (a discrepancy pass: Kf −2149 N·s/m, unreported).
+    """
+    parts = [f"{name} to {value:.3g} {BASE_UNITS.get(name, '')}".rstrip()
+             + f" ({s.balance} balance)"
+             for s in selections for name, value in s.unphysical.items()]
+    if not parts:
+        return None
+    return ("the base re-fit drove " + ", ".join(parts) + ", an unphysical sign: the base "
+            "model absorbs what this test design cannot separate from it, so a missing effect "
+            "there is neither named nor ruled out (records at several loads and oil "
+            "temperatures separate them)")
 
 
 def excess(rows: Sequence[GapRow], sigma: Mapping[str, float],

@@ -81,6 +81,7 @@ from diagnostics.discrepancy.verdict import (
     gap_ratio,
     logged_rate,
     structured,
+    unphysical_note,
     verdict,
     whiteness,
 )
@@ -174,9 +175,8 @@ class Discovery:
                 "base_coefficients": s.base_coefficients,
                 "residual_rms": float(np.sqrt(np.mean(s.base_residual ** 2))),
                 "practical_size": PRACTICAL * s.full_scale,
-                "candidates": {k: {"coefficient": t.coefficient, "stderr": t.stderr, "t": t.t,
-                                   "p": t.p, "rms_contribution": t.rms_contribution,
-                                   "plausible": t.plausible} for k, t in s.singles.items()},
+                "candidates": s.candidate_dicts(),
+                "unphysical_base": s.unphysical,
                 "minimum_detectable_rms": {k: (v if math.isfinite(v) else None)
                                            for k, v in s.detectable.items()},
                 "rejections": s.chosen.reasons if s.chosen else [],
@@ -401,6 +401,8 @@ def _discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], 
         message += ("; one record only: every gap above is measured on the record the "
                     "parameters were fitted to, not on a held-out one (give records at two "
                     "or more loads or temperatures)")
+    if not named and (signs := unphysical_note(selections)):
+        message += "; " + signs
     strokes = {str(p) for r in records if r.phase is not None for p in np.unique(r.phase)}
     missing = [p for p in ("working", "return") if p not in strokes]
     if missing:
@@ -426,10 +428,11 @@ def _discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], 
     gaps = [note for r in records if (note := gap_note(r, imported=False)) is not None]
     if gaps:
         # healthy records with a 0.5 s dropout each read "unexplained" and the gap was
-        # never named, though the import names it (a modelling engineer's pass)
-        result.message += ("; the records have gaps in their time, which the model runs "
-                           "across without data (a gap can be all the disagreement there "
-                           "is): " + "; ".join(gaps))
+        # never named, though the import names it (a modelling engineer's pass); the
+        # balances now leave the gaps out (signals._measured)
+        result.message += ("; the records have gaps in their time: the balances leave out "
+                           "the samples across each gap and the model's run is compared on "
+                           "the samples there are: " + "; ".join(gaps))
     if noise_note:
         result.message += "; " + noise_note
     report(1.0, result.verdict)

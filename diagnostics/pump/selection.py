@@ -11,7 +11,9 @@ Figures of merit of a fitted model (n points, k coefficients including the const
 * **VIF** of each non-constant column: 1/(1 − R²ⱼ) of column j on the others and a constant.
 
 Best subsets (paper 001 §3.1): every subset of at most ``max_terms`` candidates is fitted
-together with the forced terms; the model with the lowest AIC is chosen.  With ``signs``,
+together with the forced terms; the model with the lowest AIC is chosen — the project's
+rule: paper 001 chose its best 4- and 5-term models by R² and S, and used AIC and VIF to
+screen out collinear ones.  With ``signs``,
 a model in which a term with a definite physical sign (a loss that must reduce flow or add
 torque) gets the opposite sign is not admissible, like the sign checks of DISCREPANCY.md
 step 5; paper 001 does not say that it applied such a check.  VIF is reported

@@ -22,7 +22,9 @@ from sim.params import Param
 __all__ = ["PARAMETERS", "build", "check_valve_drop"]
 
 PARAMETERS: tuple[Param, ...] = (
-    Param("PRcv", "Pa", 1.46e5, "paper 002 §2.6 PRcv = 1.46e5 Pa (legible)", "opening drop",
+    Param("PRcv", "Pa", 1.46e5, "chosen (seeds README: illegible): paper 002 §2.6 '.46e5' "
+          "lost its leading digit, 1.46e5 or 3.46e5 Pa; 1.46e5 chosen (3.46e5 raises the spool "
+          "leak 16 % at 2.1 kN against Table 3's closed row)", "opening drop",
           lower_inclusive=True),
     Param("q_s", "m^3/s", 1e-6, "chosen: smoothing flow (≈ 0.2 % of the pump flow)",
           "flow over which the drop builds up"),

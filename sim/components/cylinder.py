@@ -55,21 +55,27 @@ PARAMETERS: tuple[Param, ...] = (
           "rod diameter on the chamber-1 side (0 for a single-rod cylinder)", lower_inclusive=True),
     Param("rod2", "m", 0.030, "as rod1", "rod diameter on the chamber-2 side"),
     Param("stroke", "m", 0.5, "paper 002 §2.6 chamber capacitances (0.5 − x)", "stroke"),
-    Param("V01", "m^3", 5.0e-5, "paper 002 §2.6 Cc1 = (5.0e-5 + A·x)/β (legible mantissa)",
+    Param("V01", "m^3", 5.0e-5, "paper 002 §2.6 Cc1 = (5.0 e… + A·x)/β: mantissa legible, "
+          "exponent lost (the copy allows e-3 or e-13, neither a plausible dead volume); e-5 "
+          "chosen",
           "dead volume of chamber 1 up to its port (the hose's oil is the hose's own)"),
-    Param("V02", "m^3", 5.85e-5, "paper 002 §2.6 Cc2 = (5.85e-5 + A·(0.5 − x))/β",
+    Param("V02", "m^3", 5.85e-5, "paper 002 §2.6 Cc2 = (5.85 e… + A·(0.5 − x))/β: mantissa "
+          "legible, exponent chosen as for V01",
           "dead volume of chamber 2 up to its port (the hose's oil is the hose's own)"),
     Param("cc", "m", 83e-6, "paper 002 Table 2 closed row / §2.6 ('8 μm' → 83 µm)",
           "radial clearance piston-bore (equivalent clearance)"),
     Param("Lc", "m", 0.01231, "chosen: calibrated so the nominal rig leaks 1.8e-5 m³/s past the "
           "piston at 2.1 kN (seeds README); paper 002 '0 mm' is illegible",
           "piston seal (land) length Lc"),
-    Param("mass", "kg", 7.2, "paper 002 §2.6 mc = 7.2 kg (legible)", "mass of moving parts mc"),
+    Param("mass", "kg", 7.2, "paper 002 §2.6 mc = 7.2 kg as printed (a leading 1 or 3 may be "
+          "lost; no steady state depends on it)", "mass of moving parts mc"),
     Param("Fu", "N", 136.2, "chosen: paper 002 §2.6 reads '6.2 N' with lost digits; 136.2 N is a "
           "plausible seal friction for a 60 mm bore", "Coulomb friction force Fu"),
-    Param("Kf", "N*s/m", 149.0, "paper 002 §2.6 '.49 e' read as 1.49e2 N·s/m (digit and "
-          "exponent lost; 1.49e3 would make the working pressure depend on the speed more "
-          "than Table 3 allows)", "viscous friction coefficient Kf"),
+    Param("Kf", "N*s/m", 149.0, "chosen (seeds README: illegible): paper 002 §2.6 '.49 e' "
+          "lost a leading digit and its whole exponent, both only 1s and 3s (1.49e1, 1.49e3, "
+          "…); 149 chosen between them (with 1.49e3 the friction is 307 N at 0.206 m/s and the "
+          "piston leak 13 % higher at 2.1 kN; sim/rigs/reference_002.yaml)",
+          "viscous friction coefficient Kf"),
     Param("v_s", "m/s", 1e-4, "chosen: regularisation speed of sgn(ẋ) (≈ 1/1600 of the "
           "working speed)", "Coulomb friction switching speed"),
     Param("k_stop", "N/m", 1e9, "chosen: stiff steel end stop", "end-stop stiffness"),

@@ -34,7 +34,9 @@ PARAMETERS: tuple[Param, ...] = (
           "radial clearance spool-body (equivalent clearance)"),
     Param("Dv", "m", 0.0125, "paper 002 §2.6 'Dv = 2.5 mm' read as 12.5 mm", "spool diameter Dv"),
     Param("Ls", "m", 4.739e-4, "chosen: sealing length of the spool lands at full shift, calibrated "
-          "so the nominal rig leaks 8.6e-6 m³/s P→T at 2.1 kN (paper 002 Table 3 closed row)",
+          "so the nominal rig leaks 8.6e-6 m³/s P→T at 2.1 kN (paper 002 Table 3 closed row); "
+          "the copy's 'Lv = 5 mm' would need μ = 3.8e-3 Pa·s to leak that at 34 µm: the "
+          "paper's valve data and Table 3 disagree, and only Dv/Ls enters eq. 23",
           "effective sealing length of eq. 23"),
     Param("W", "m", 0.02, "paper 002 §2.6 W = 0.02 m", "maximum spool displacement"),
     Param("N", "1", 1.0, "cycle: +1 working phase (P→A, B→T), −1 return phase",

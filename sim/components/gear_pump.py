@@ -78,8 +78,8 @@ PARAMETERS: tuple[Param, ...] = (
           "paper 000 §3.1: derived capacity 14.7 cm³/rev (ISO 8426), equal to the maker's value",
           "derived capacity per radian"),
     Param("rho", "kg/m^3", 865.0,
-          "sim.fluid default oil (Tellus S2 V46, 879 kg/m³ at 15 °C) at 40 °C; constant as in "
-          "paper 000 §4", "oil density in the turbulent slip term"),
+          "sim.fluid default oil (an HM-grade VG 46, 879 kg/m³ at 15 °C) at 40 °C; constant "
+          "as in paper 000 §4", "oil density in the turbulent slip term"),
     Param("beta_ef", "Pa", 1.5e9,
           "chosen: same effective bulk modulus as sim.fluid (paper 002 §2.6); paper 000 gives "
           "no value", "effective bulk modulus of the compressed oil (eq. 6)"),

@@ -27,12 +27,14 @@ PARAMETERS: tuple[Param, ...] = (
           "(repaired '600 rpm')", "shaft speed ω"),
     Param("Vp", "m^3/rad", 1.75e-5 / (2 * 3.141592653589793), "paper 002 §2.6 Vp = 1.75e-5 "
           "m³/rev", "geometric displacement per radian"),
-    Param("Cp", "m^3/Pa", 4.48e-13, "paper 002 §2.6 'Cp = 4.48' with the exponent lost; e-13 "
-          "(≈0.67 L of oil at β = 1.5e9 Pa: pump outlet and line to the valve) chosen",
+    Param("Cp", "m^3/Pa", 4.48e-13, "chosen: paper 002 §2.6 'Cp 2 m e = 4.48 Pa' keeps a 2 "
+          "near the exponent (e-12: 6.7 L of oil at β = 1.5e9 Pa); e-13 (≈0.67 L: pump outlet "
+          "and line to the valve) chosen as the plausible volume",
           "outlet capacitance"),
-    Param("Rlp", "Pa*s/m^3", 6.0e11, "paper 002 §2.6 '6e 2' illegible; 6e11 gives a volumetric "
-          "efficiency of 97.5 % at the 70 bar relief setting, plausible for a vane pump "
-          "(6e12 would give 99.75 %)", "internal leakage resistance"),
+    Param("Rlp", "Pa*s/m^3", 6.0e11, "chosen (seeds README: illegible): paper 002 §2.6 '6e 2' "
+          "reads 6e12 Pa·s/m³ or, in its conductance unit layout, 6e-12 m³/(s·Pa); 6e11 "
+          "(volumetric efficiency 97.5 % at the 70 bar setting) lies between their 99.75 % "
+          "and 91 % (sim/rigs/reference_002.yaml)", "internal leakage resistance"),
 )
 
 #: Plausibility: displacement and speed within what pumps are built with.

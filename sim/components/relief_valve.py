@@ -5,8 +5,9 @@ Bond-graph fragment: an R on a branch from the protected 0-junction to tank::
     0[Pp] ─ 1 ─ R_rv
 
 ``Qrv = 0`` for ``Pp < Pset`` and ``(Pp − Pset)/Rrv`` above (eq. 6).  A faulty valve has a
-setting that has drifted (``Pset`` lower) or a seat that leaks (``Rseat`` finite): then
-``Pp/Rseat`` flows to tank at every pressure.
+setting that has drifted (``Pset`` lower) or a seat that leaks (a seat conductance
+``Gseat`` > 0 [m³/(s·Pa)]): then ``Gseat·Pp`` flows to tank at every pressure (the
+project's addition: paper 002's valve has no seat leak).
 """
 
 from __future__ import annotations

@@ -199,6 +199,21 @@ def test_calibrate_pump_and_throttle(runner: CliRunner, tmp_path: Path) -> None:
     m = re.search(r"D_per_rev │ ([\d.]+) │ cm³/rev", flat)
     assert m and float(m.group(1)) == pytest.approx(14.7, rel=5e-3), flat
     assert re.search(r"dp_range │ [\d.]+ … [\d.]+ │ bar", flat)
+    # the bench's oil in its data sheet's unit (cSt); stored in SI with the set; half a
+    # pair refused naming the option (a papers pass: an HV VG 46 read with the default's
+    # viscosity gave Cs and Cv 14-17 % low, and no option said which oil)
+    oiled = runner.invoke(cli, ["calibrate", "pump", str(tmp_path / "bench.csv"), "--name",
+                                "cli-pump-hv", "--pump", "stand-in", "--oil-nu40", "46",
+                                "--oil-nu100", "8.2", "--oil-rho15", "872"])
+    assert oiled.exit_code == 0, oiled.output
+    with store_session() as session:
+        stored = session.scalars(select(PumpSet).where(PumpSet.name == "cli-pump-hv")).one()
+        assert stored.quantities["oil_nu100"]["value"] == pytest.approx(8.2e-6, rel=1e-12)
+        assert "the oil stated (46 cSt at 40 °C, 8.2 cSt at 100 °C" in (stored.source or "")
+    half = runner.invoke(cli, ["calibrate", "pump", str(tmp_path / "bench.csv"), "--name",
+                               "cli-pump-half", "--pump", "stand-in", "--oil-nu40", "46"])
+    assert half.exit_code != 0 and getattr(half.exception, "field", None) == "--oil-nu100"
+    assert store_count(PumpSet) == 2
     table = tmp_path / "table.yaml"
     table.write_text(yaml.safe_dump({
         "throttle": "I", "component": "valve", "back_pressure_pa": 3.0e6,

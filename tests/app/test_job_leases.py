@@ -112,7 +112,7 @@ def test_a_stopping_service_fails_its_queued_jobs_and_the_ones_that_outlast_the_
     assert runner.invoke(cli, ["db", "upgrade"]).exit_code == 0
     sessions = make_session_factory(make_engine(Settings().url))
     jobs = JobRunner(sessions, workers=1)
-    started, stop = threading.Event(), threading.Event()
+    started, stop, ended = threading.Event(), threading.Event(), threading.Event()
 
     def endless(params: dict[str, Any], progress: Any) -> dict[str, Any]:
         started.set()
@@ -120,14 +120,16 @@ def test_a_stopping_service_fails_its_queued_jobs_and_the_ones_that_outlast_the_
             if stop.wait(0.01):
                 break
             progress(0.5, "working")
+        ended.set()
         return {}
 
     running = jobs.submit("demo", {}, endless)
     queued = jobs.submit("demo", {}, endless)
     assert started.wait(30.0)
-    began = time.monotonic()
     jobs.shutdown(wait=True, grace_s=0.3)
-    assert time.monotonic() - began < 10.0
+    # the stop did not wait for the running job to end (30 s of work left; a clock bound
+    # stood here: a review)
+    assert not ended.is_set()
     never, cut = _job(sessions, queued.id), _job(sessions, running.id)
     assert never.status == cut.status == "failed"
     assert never.error is not None and "before this job started" in never.error["message"]

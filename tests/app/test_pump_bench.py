@@ -296,3 +296,51 @@ def test_rows_repeated_to_the_last_digit_are_said(server: LiveServer, bench_csv:
     assert "repeat another row in every reading" in response.json()["source"]
     once = _upload(server, bench_csv, {"name": "once", "pump": "x"}).json()
     assert "repeat another row" not in once["source"]
+
+
+def test_the_bench_oil_is_stated_and_its_viscosity_makes_the_coefficients(
+        server: LiveServer, tmp_path: Path) -> None:
+    """A papers pass: the default oil is an HM VG 46 (6.8 cSt at 100 °C) while paper
+    000's bench oil, Tellus S2 V 46, is an HV grade (≈ 8 cSt); at 22 and 60 °C the default
+    reads it 14 % too viscous and 9 % too thin, so Cs and Cv came out 14 % and 17 % low
+    and there was no way to say which oil the bench ran on."""
+    from sim.components.gear_pump import CoefficientSurface, GearPump
+    from sim.fluid import Fluid
+
+    hv = Fluid(nu1=46e-6, nu2=8.2e-6, rho15=872.0)
+    truth = {"Cs": 1e-8, "Cst": 2e-4, "Cv": 5e4, "Cf": 0.05}
+    flat = GearPump(**{k: CoefficientSurface(np.array([[v]])) for k, v in truth.items()},
+                    D=16e-6 / (2 * math.pi), fluid=hv, rho=hv.density(40.0))
+    dp, w = iso4409_grid(*default_levels())
+    path = tmp_path / "hv.csv"
+    write_bench_csv(run_virtual_bench(flat, dp, w, (22.0, 60.0),
+                                      noise=InstrumentNoise.none()), path)
+    oil = {"oil_nu40_m2_s": "46e-6", "oil_nu100_m2_s": "8.2e-6", "oil_rho15_kg_m3": "872"}
+    stated = _upload(server, path.read_bytes(), {"name": "hv-oil", "pump": "GP-16"} | oil)
+    assert stated.status_code == 201, stated.text
+    q = stated.json()["quantities"]
+    for name, value in truth.items():
+        assert q[f"{name}_constant"]["value"] == pytest.approx(value, rel=1e-6), name
+    assert q["oil_nu100"] == {"value": pytest.approx(8.2e-6, rel=1e-12), "unit": "m^2/s",
+                              "description": "oil's kinematic viscosity at 100 °C in μ(θ)"}
+    assert q["rho"]["value"] == pytest.approx(hv.density(40.0))
+    assert "μ(θ) of the oil stated (46 cSt at 40 °C, 8.2 cSt at 100 °C" in \
+        stated.json()["source"]
+    # the same runs read with the default oil: the laminar slip and the viscous torque
+    # coefficients come out low by the viscosities' ratio (14 % and 17 %)
+    default = _upload(server, path.read_bytes(), {"name": "hv-oil-default", "pump": "GP-16"})
+    assert default.status_code == 201, default.text
+    d = default.json()["quantities"]
+    assert d["Cs_constant"]["value"] / truth["Cs"] == pytest.approx(0.86, abs=0.02)
+    assert d["Cv_constant"]["value"] / truth["Cv"] == pytest.approx(0.83, abs=0.02)
+    assert d["oil_nu100"]["value"] == pytest.approx(6.8e-6, rel=1e-12)
+    assert "oil_nu40_m2_s, oil_nu100_m2_s" in default.json()["source"]
+    # the pair is given whole, and the oil thins as it warms
+    before = server.row_counts()
+    for form, field in [({"oil_nu40_m2_s": "46e-6"}, "oil_nu100_m2_s"),
+                        ({"oil_nu100_m2_s": "8.2e-6"}, "oil_nu40_m2_s"),
+                        ({"oil_nu40_m2_s": "8e-6", "oil_nu100_m2_s": "46e-6"},
+                         "oil_nu100_m2_s")]:
+        bad = _upload(server, path.read_bytes(), {"name": "bad-oil", "pump": "GP-16"} | form)
+        assert bad.status_code == 422 and bad.json()["error"]["field"] == field, bad.text
+    assert server.row_counts() == before

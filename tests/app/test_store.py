@@ -449,7 +449,9 @@ def test_ready_answers_503_when_the_database_does_not_answer(tmp_path: Path) -> 
                                         lambda: server.client.get("/ready", timeout=30))
         assert stalled.status_code == 503, stalled.text
         assert "did not answer" in stalled.json()["error"]["message"]
-        assert waited < READY_TIMEOUT_S + 3
+        # the readiness query gave up on its own timeout, not the client's 30 s one (the
+        # answer would be a client error then); no bound on the clock here (a review)
+        assert waited >= READY_TIMEOUT_S
         assert server.client.get("/ready").status_code == 200
 
 
@@ -491,7 +493,7 @@ def test_a_request_stalled_by_another_sessions_lock_is_a_503(tmp_path: Path) -> 
         assert stalled.status_code == 503, stalled.text
         assert stalled.headers["Retry-After"] == "5"
         assert "nothing of this request was stored" in stalled.json()["error"]["message"]
-        assert 1.5 <= waited < 1.5 + 3
+        assert waited >= 1.5            # the lock was waited on for db_lock_timeout
         assert server.client.get("/rigs/1").status_code == 200
         served = make_engine(make_url(url), lock_timeout_s=1.5)
         try:

@@ -389,9 +389,11 @@ def test_a_re_fit_cut_by_its_budget_does_not_rule_a_drift_out():
     assert "stopped at its budget of 2 simulations" in d.message, d.message
 
 
-def test_a_gap_in_the_records_time_is_named_in_the_answer():
+def test_a_gap_in_the_records_time_is_named_in_the_answer_and_left_out():
     """Healthy records with 0.5 s of samples missing each read "unexplained" and the gap
-    was never named, though the import names it (a modelling engineer's pass)."""
+    was never named, though the import names it (a modelling engineer's pass): the
+    balances resampled straight across the gap.  They now leave it out, and the answer on
+    healthy records is "no effect", the gap named."""
     from diagnostics.sampling import gap_note
 
     def dropped(r):
@@ -406,3 +408,5 @@ def test_a_gap_in_the_records_time_is_named_in_the_answer():
     assert "the records have gaps in their time" in d.message, d.message
     assert "gap(s) in its time" in d.message
     assert "Stored as given" not in d.message      # the import's words, not the answer's
+    assert d.verdict == "no effect", d.message
+    assert "balances leave out the samples across each gap" in d.message

@@ -9,6 +9,7 @@ import pytest
 
 from diagnostics.discrepancy.drift import BaseDrift, Drift
 from diagnostics.discrepancy.gap import GapRow
+from diagnostics.discrepancy.transient import is_significant
 from diagnostics.discrepancy.verdict import OUTPUT_GAP, verdict
 
 SIGMA = {"P1": 5e3, "v": 1e-3}
@@ -62,3 +63,14 @@ def test_without_a_re_fit_the_verdict_is_as_before() -> None:
 def test_an_error_the_fit_could_not_estimate_is_not_a_significant_change() -> None:
     p = BaseDrift("valve.cv", "m", "spool clearance", 34e-6, 40e-6, math.nan)
     assert not p.significant
+
+
+def test_a_change_inside_the_two_sided_one_percent_is_n_s_and_says_its_level() -> None:
+    # 2.2 standard errors: outside the 95 % interval (1.96) but not significant at 1 %
+    # (2.576), the level every effect's coefficient is held to; the answer says so
+    p = BaseDrift("cylinder.cc", "m", "piston clearance", 83.0e-6, 83.0e-6 - 2.2e-7, 1e-7)
+    _, hi = p.interval or (math.nan, math.nan)
+    assert hi < p.stored and not p.significant
+    d = Drift([p], [], [], {"P1": 1.0}, False, "")
+    assert "1 %" in d.to_dict()["significance"] and "2.576" in d.to_dict()["significance"]
+    assert not is_significant(2.5, 1.0) and is_significant(2.6, 1.0)

@@ -16,6 +16,7 @@ from diagnostics.discrepancy import discover
 from diagnostics.discrepancy.noise import (
     Noise,
     ar1_noise,
+    coloured_note,
     coloured_sigma,
     noise_model,
     noise_models,
@@ -183,3 +184,15 @@ def test_the_synthetic_loggers_coloured_noise_reads_as_coloured_with_its_hum() -
     assert models["P1"].sigma == pytest.approx(NOISE["P1"] * math.sqrt(1 + 0.6 ** 2 / 2), rel=0.2)
     assert models["Q_meter_B"].sigma == pytest.approx(NOISE["Q_meter_B"], rel=0.2)
     assert models["P1"].phi == pytest.approx(0.9, abs=0.1)
+
+
+def test_a_derived_speed_is_not_called_a_sensor() -> None:
+    # σ 4.8× the white estimate on a v the workflow derived from x (a discrepancy pass
+    # read "sensor noise coloured on v"); a coloured pressure stays a sensor's
+    models = {"v": Noise(4.8e-3, 0.9, 1e-3), "P1": Noise(4e4, 0.9, 1e4), "P2": Noise(8e3)}
+    note = coloured_note(models, derived={"v"})
+    assert note.startswith("sensor noise coloured on P1 and noise coloured on v, derived")
+    assert "(σ 4.0-4.8× the sample-to-sample estimate)" in note
+    alone = coloured_note({"v": models["v"]}, derived={"v"})
+    assert "sensor" not in alone and "derived from the position" in alone
+    assert coloured_note({"P2": models["P2"]}) == ""

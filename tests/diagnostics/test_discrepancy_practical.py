@@ -9,6 +9,7 @@ size competes once an admissible subset shows the gap is of practical size.
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -17,7 +18,7 @@ import pytest
 from benchmarks.discrepancy_study import _conditions, _doc_with
 from diagnostics.discrepancy.balances import BalanceData, balance_data
 from diagnostics.discrepancy.first_step import split
-from diagnostics.discrepancy.selection import PRACTICAL, select
+from diagnostics.discrepancy.selection import PRACTICAL, UNREACHABLE, select
 from diagnostics.discrepancy.signals import prepare
 from diagnostics.discrepancy.synthetic import synthesize
 from sim.rigs import load_rig, reference_rig
@@ -60,3 +61,25 @@ def test_a_better_single_below_the_practical_size_beats_a_worse_one_above_it() -
 def test_without_the_effect_the_pump_balance_chooses_nothing() -> None:
     sel = select(_pump_balance(_doc_with(None), 7), bootstrap=0)
     assert sel.chosen is None
+
+
+def test_a_candidate_the_design_cannot_move_is_not_identifiable_and_never_chosen() -> None:
+    # the bench's training strokes have no slow motion: the Stribeck column is ~0 there, so
+    # its largest plausible force (2 kN) moves the piston-force balance by 1.4e-5 N against
+    # a practical size of 15 N; its scaled fit read coefficients of 1e35-1e39 N with
+    # t = -5 (a discrepancy pass), which no record of this design can check
+    d = bench_balance(_doc_with(None), 7, "piston_force")
+    sel = select(d, bootstrap=0)
+    reach = sel.unreachable["stribeck_friction"]
+    limit = PRACTICAL * d.full_scale
+    assert 0.0 <= reach < UNREACHABLE * limit
+    assert math.isinf(sel.detectable["stribeck_friction"])
+    shown = sel.candidate_dicts()
+    assert shown["stribeck_friction"]["coefficient"] is None
+    assert shown["stribeck_friction"]["identifiable"] is False
+    assert "not identifiable" in shown["stribeck_friction"]["why"]
+    # a candidate the design does move keeps its numbers
+    assert "seal_friction_pressure" not in sel.unreachable
+    assert math.isfinite(shown["seal_friction_pressure"]["coefficient"])
+    assert shown["seal_friction_pressure"]["identifiable"] is True
+    assert sel.chosen is None or "stribeck_friction" not in [t.effect for t in sel.chosen.terms]

@@ -59,10 +59,11 @@ def test_table2_gives_rising_clearances_in_every_mode() -> None:
                                    velocity=0.2).clearances]
     for col in columns:
         assert all(np.diff(col) > 0)
-    # shape check against the legible column (less certain; seeds README): within 10 %
+    # shape check against the legible column (less certain; seeds README): within the
+    # golden file's clearance_tolerance_rel (10 %, its reason beside it)
     legible = [(c, x) for c, x in zip(columns[0], t["clearance_um"], strict=True) if x]
     for c, x in legible:
-        assert c * 1e6 == pytest.approx(x, rel=0.10)
+        assert c * 1e6 == pytest.approx(x, rel=t["clearance_tolerance_rel"])
     # the Couette term (drag against the leak) makes the column grow more slowly than ∛Q
     assert all(np.array(columns[1][1:]) < np.array(columns[0][1:]))
 

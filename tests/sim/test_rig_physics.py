@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import json
 import math
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -12,9 +15,12 @@ from sim.rigs import Condition, reference_rig
 from sim.steady import steady_cycle, steady_phase
 
 # paper 002 Table 3 (throttle I, 10 bar back-pressure) and Table 2 (throttle H), as
-# repaired in shared/seeds/README.md: (clearance [µm], bypass flow [m³/s])
-TABLE3 = [(34, 8.6e-6), (37, 1.30e-5), (49, 2.70e-5), (62, 5.40e-5), (73, 8.70e-5)]
-TABLE2_CC = [83, 103, 123, 139]
+# repaired in shared/seeds/README.md, with their source and the tolerances these tests
+# hold the rig to, each with its reason: one golden file for the tables
+GOLDEN: dict[str, Any] = json.loads(
+    (Path(__file__).parents[1] / "diagnostics" / "golden" / "throttle_tables.json")
+    .read_text(encoding="utf-8"))
+T3, T2 = GOLDEN["table3_valve"], GOLDEN["table2_cylinder"]
 
 
 @pytest.fixture(scope="module")
@@ -37,11 +43,15 @@ def test_flow_and_effort_balance_at_every_junction_at_random_states(rig):
             bonds = g.bonds_of(el.name)
             s = np.array([b.sign_at(el.name) for b in bonds], dtype=float)
             idx = [b.index for b in bonds]
+            # both halves of each junction's law: a 0-junction's flows balance and its
+            # bonds share one effort; a 1-junction's efforts balance and they share one flow
             if el.kind is Kind.ZERO:
                 assert abs(s @ f[idx]) <= 1e-12 * np.abs(f[idx]).max() + 1e-20, el.name
+                assert np.ptp(e[idx]) == 0.0, el.name
             elif el.kind is Kind.ONE:
                 assert abs(s @ e[idx]) <= 1e-12 * np.abs(e[idx]).max() + 1e-9, el.name
-            elif el.kind is Kind.TF:
+                assert np.ptp(f[idx]) == 0.0, el.name
+            elif el.kind in (Kind.TF, Kind.GY):
                 b_in, b_out = g.two_port_bonds(el.name)
                 assert e[b_in.index] * f[b_in.index] == pytest.approx(
                     e[b_out.index] * f[b_out.index], rel=1e-12, abs=1e-12)
@@ -99,14 +109,16 @@ def test_without_leakage_the_piston_speed_is_the_pump_flow_over_the_area(rig):
 
 
 def test_valve_leakage_follows_table_3(rig):
-    """Calibrated at the closed row; ≥ 1 turn within 5 %, the ½-turn row within 15 %."""
-    for (cv, q_table), tol in zip(TABLE3, (0.01, 0.15, 0.05, 0.05, 0.05), strict=True):
+    """Calibrated at the closed row; ≥ 1 turn within 5 %, the ½-turn row within 15 %
+    (the golden file's ``rig_tolerance_rel``, with its reason)."""
+    for cv, q_table, tol in zip(T3["clearance_um"], T3["bypass_flow_m3_s"],
+                                T3["rig_tolerance_rel"], strict=True):
         q = steady_phase(rig, "working", {"valve.cv": cv * 1e-6}).outputs["Q_valve_leak"]
         assert abs(q - q_table) / q_table < tol, (cv, q, q_table)
 
 
-@pytest.mark.parametrize(("turns", "q_table"), [(0.5, 1.30e-5), (1.0, 2.70e-5), (1.5, 5.40e-5),
-                                               (2.0, 8.70e-5)])
+@pytest.mark.parametrize(("turns", "q_table"), list(zip(T3["turns"][1:],
+                                                       T3["bypass_flow_m3_s"][1:], strict=True)))
 def test_throttle_i_opened_passes_table_3_s_bypass_flow(rig, turns, q_table):
     """Throttle I emulates a worn spool (paper 002 §2.7): opened at 10 bar back-pressure
     (2.12 kN on the annulus), the bypass meter B − meter C is Table 3's within 5 % (its
@@ -114,19 +126,20 @@ def test_throttle_i_opened_passes_table_3_s_bypass_flow(rig, turns, q_table):
     cond = Condition(load=1e6 * rig.values()["cylinder.A2"], oil_temperature=40.0)
     w = steady_cycle(rig, {"throttle_I.opening": turns}, cond).working
     bypass = w["Q_meter_B"] - w["Q_meter_C"]
-    assert abs(bypass - q_table) / q_table < 0.05, (turns, bypass, q_table)
+    assert abs(bypass - q_table) / q_table < T3["throttle_tolerance_rel"], (turns, bypass, q_table)
 
 
 def test_cylinder_leakage_is_monotone_and_roughly_cubic(rig):
-    cc = np.array([*TABLE2_CC, 160]) * 1e-6
+    legible = [c for c in T2["clearance_um"] if c is not None]
+    cc = np.array([*legible, 160]) * 1e-6
     q = np.array([steady_phase(rig, "working", {"cylinder.cc": c}).outputs["Q_cyl_leak"]
                   for c in cc])
     assert np.all(np.diff(q) > 0)
     slope = np.polyfit(np.log(cc), np.log(q), 1)[0]
     assert 2.7 < slope < 3.3
     # within a factor 1.5 of Table 2's flows (a check of shape, not exact targets)
-    table = np.array([1.80e-5, 3.5e-5, 7.00e-5, 8.20e-5])
-    assert np.all(np.abs(np.log(q[:4] / table)) < np.log(1.5))
+    table = np.array(T2["bypass_flow_m3_s"][: len(legible)])
+    assert np.all(np.abs(np.log(q[: len(legible)] / table)) < np.log(T2["rig_flow_factor"]))
 
 
 @pytest.mark.parametrize("key,grid", [("cylinder.cc", np.linspace(60e-6, 160e-6, 15)),
@@ -134,8 +147,15 @@ def test_cylinder_leakage_is_monotone_and_roughly_cubic(rig):
 def test_velocity_ratio_is_a_cubic_in_clearance(rig, key, grid):
     ratio = np.array([steady_cycle(rig, {key: c}).velocity_ratio for c in grid])
     assert np.all(np.diff(ratio) < 0), "more clearance, slower working phase"
-    fit = np.polyval(np.polyfit(grid * 1e6, ratio, 3), grid * 1e6)
-    assert np.corrcoef(fit, ratio)[0, 1] >= 0.99
+    # paper 002 fits the ratio by a 3rd-degree polynomial in the clearance: the cubic must
+    # follow the model to the solver's tolerance (max residual 5.7e-5 cc, 5.0e-5 cv) and
+    # its cubic term must matter (a quadratic misses by 3.1e-3 / 3.9e-3); a correlation of
+    # the fit with the ratio passed a quadratic and a non-polynomial law alike (a review)
+    x = grid * 1e6
+    cubic = np.abs(np.polyval(np.polyfit(x, ratio, 3), x) - ratio).max()
+    quadratic = np.abs(np.polyval(np.polyfit(x, ratio, 2), x) - ratio).max()
+    assert cubic < 2e-4
+    assert quadratic > 10 * cubic
 
 
 def test_heavier_load_means_higher_pressure_more_leakage_lower_ratio(rig):

@@ -6,6 +6,13 @@ valves H (across the piston) and I (valve P→T) stand for worn clearances (§2.
 (flow into the valve's P port) and C (flow out of chamber 2) are the paper's flowmeters;
 ``P_valve_B``, the pressure at port B, is an extra sensor a user may log (with P2 and
 meter C it gives hose B's effort balance).
+
+The hoses A and B are the project's addition, in the manner of paper 000 §4's hose
+sections: paper 002's equations (1-54) have no line element between valve and cylinder but
+the supply line's drop PRpv.  Their laminar resistance 128·μ·L/(π·d⁴) (3.1e7 Pa·s/m³ at
+40 °C, 0.14 bar at the pump's flow) is exact at 40 °C (Re ≈ 1,000) and reads low above
+≈ 60 °C, where the flow turns transitional (Re ≈ 2,300 at 60 °C, 4,200 at 80 °C); the
+calibrated seal and land lengths absorb it at 40 °C.
 """
 
 from __future__ import annotations

@@ -95,8 +95,14 @@ def test_csv_round_trip_gives_the_same_parameterisation(grid_bench: BenchData,
     write_bench_csv(grid_bench, path)
     a = parameterise(grid_bench, D=2.34e-6)
     b = parameterise(read_bench_csv(path), D=2.34e-6)
+    # the CSV keeps every float to round trip (17 digits); the fits' conditioning turns
+    # the last digit into ~1e-10 of a small coefficient (1.6e-10 seen under an unrelated
+    # change: a review), so each coefficient is held to 1e-8 of itself or 1e-10 of the
+    # surface's largest
     for k in COEFS:
-        np.testing.assert_allclose(b.fits[k].surface.coef, a.fits[k].surface.coef, rtol=1e-10)
+        coef = a.fits[k].surface.coef
+        np.testing.assert_allclose(b.fits[k].surface.coef, coef, rtol=1e-8,
+                                   atol=1e-10 * float(np.max(np.abs(coef))))
 
 
 def test_one_temperature_gives_no_coefficients_and_says_why(pump: GearPump) -> None:
