@@ -7,6 +7,7 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
+from sqlalchemy import Engine
 
 from app.cli_support import console, settings_from_env, steps
 from app.db.engine import make_engine, private_file
@@ -72,14 +73,71 @@ def db_downgrade(
         if current is None or (target != "base" and target >= current):
             raise InputError(f"the store is at revision {current}, not past {target}: nothing "
                              "to take back", field="--revision")
+        lost = _downgrade_losses(engine, current, target)
         if not yes:
+            backup = ("pg_dump" if engine.url.get_backend_name() == "postgresql"
+                      else "db backup FILE")
             raise InputError(f"going back from {current} to {target} drops what the later "
-                             "revisions added and what it holds: back the store up (db backup "
-                             "FILE) and say --yes", field="--yes")
+                             "revisions added and what it holds" + "".join(
+                                 f"; {line}" for line in lost)
+                             + f": back the store up ({backup}) and say --yes", field="--yes")
         migrate.downgrade(engine, target)
         console.print(f"store at revision {migrate.current_revision(engine)}")
+        for line in lost:
+            console.print(line, markup=False)
     finally:
         engine.dispose()
+
+
+def _downgrade_losses(engine: Engine, current: str, target: str) -> list[str]:
+    """What a downgrade from ``current`` to ``target`` takes that the older release's
+    history then lacks, in counts (an upgrade pass: re-diagnosed visits read twice in the
+    older release and after it, joint visits lost their records, under a generic "drops
+    what later revisions added")."""
+    from sqlalchemy import func, select
+
+    from app.db.models import Diagnosis, DiagnosisRecord
+
+    lines: list[str] = []
+    below = target == "base"
+    with engine.connect() as connection:
+        if current >= "0014" and (below or target < "0014"):
+            replaced = connection.scalar(
+                select(func.count()).where(Diagnosis.superseded_by.is_not(None))) or 0
+            if replaced:
+                lines.append(f"{replaced} diagnoses replaced by a re-diagnosis read as current "
+                             "in the older release (its history and trends show those visits "
+                             "twice); migrating up again marks them anew")
+        if current >= "0008" and (below or target < "0008"):
+            joint = connection.scalar(select(func.count()).select_from(
+                select(DiagnosisRecord.diagnosis_id).group_by(DiagnosisRecord.diagnosis_id)
+                .having(func.count() > 1).subquery())) or 0
+            if joint:
+                lines.append(f"{joint} joint diagnoses keep only the record their result is "
+                             "kept with: their links to the visit's other records are lost "
+                             "for good (deleting one of those records no longer deletes the "
+                             "diagnosis)")
+    return lines
+
+
+@db_cli.command("revisions")
+def db_revisions() -> None:
+    """List the store revisions this release ships, oldest first, each with its date and
+    what it added, and mark the store's: the revision an older release needs is the
+    newest one dated before that release (db downgrade --revision)."""
+    from app.db import migrate
+    from app.db.copy import existing_store
+
+    url = settings_from_env().url
+    existing_store(url)
+    engine = make_engine(url)
+    try:
+        current = migrate.current_revision(engine)
+    finally:
+        engine.dispose()
+    for revision, date, summary in migrate.revision_list():
+        mark = "  ← the store" if revision == current else ""
+        typer.echo(f"{revision}  {date}  {summary}{mark}")
 
 
 @db_cli.command("current")

@@ -190,8 +190,11 @@ def response_for(exc: HydrodiagError, *, headers: Mapping[str, str] | None = Non
 async def _hydrodiag_error(request: Request, exc: Exception) -> JSONResponse:
     assert isinstance(exc, HydrodiagError)
     status = status_for(exc)
-    if status == 503:  # expected while starting or under load: /ready probes hit it often
-        logger.warning("%s: %s", type(exc).__name__, exc)
+    if status == 503:
+        # expected while starting or under load, and a readiness probe meets it every few
+        # seconds of every start: a run of warnings at each restart (an upgrade pass); the
+        # metrics count them
+        logger.info("%s: %s", type(exc).__name__, exc)
     elif status >= 500:
         logger.error("%s: %s", type(exc).__name__, exc)
     headers = {"WWW-Authenticate": "APIKey"} if status == 401 else None

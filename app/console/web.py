@@ -18,6 +18,7 @@ import hashlib
 import hmac
 import math
 import os
+import re
 import secrets
 import threading
 import time
@@ -27,7 +28,8 @@ from urllib.parse import quote
 
 from fastapi import Request
 from fastapi.responses import HTMLResponse, RedirectResponse, Response
-from jinja2 import Environment, FileSystemLoader, select_autoescape
+from jinja2 import Environment, FileSystemLoader, pass_context, select_autoescape
+from jinja2.runtime import Context
 from markupsafe import Markup
 from sqlalchemy.orm import Session
 
@@ -112,6 +114,24 @@ ERROR_TITLES = {
     "The simulation did not finish", "PayloadTooLargeError": "Too large",
 }
 templates.globals["error_title"] = lambda kind: ERROR_TITLES.get(str(kind), "Refused")
+
+
+@pass_context
+def _invalid(context: Context, *names: str) -> Markup:
+    """`` aria-invalid="true" aria-describedby="form-error"`` on a control one of whose
+    ``names`` the page's error names (the field itself, or the first or last part of its
+    path: ``condition.load`` marks ``load``, ``record.p1`` the record's text), else nothing:
+    errors were in an alert box tied to no control (an accessibility pass)."""
+    error = context.get("error")
+    field = str((error or {}).get("field") or "") if isinstance(error, dict) else ""
+    if not field:
+        return Markup("")
+    parts = [p for p in re.split(r"[.\[\]]", field) if p]
+    hit = field in names or (parts and (parts[0] in names or parts[-1] in names))
+    return Markup(' aria-invalid="true" aria-describedby="form-error"') if hit else Markup("")
+
+
+templates.globals["invalid"] = _invalid
 
 
 def page(request: Request, template: str, status_code: int = 200, **context: Any

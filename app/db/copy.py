@@ -18,6 +18,7 @@ refused (never created).  API keys are copied with their hashes: the clients' ke
 
 from __future__ import annotations
 
+import os
 import tempfile
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -68,8 +69,16 @@ def _check_source(engine: Engine, tables: list[Table]) -> str:
     head = migrate.head_revision()
     current = migrate.current_revision(engine)
     if current != head:
-        raise InputError(f"the store is at revision {current or 'none'}, not {head}: run "
-                         "hydrodiag db upgrade on it first", field="HYDRODIAG_DATABASE_URL")
+        # it named HYDRODIAG_DATABASE_URL for the default file nobody set (an upgrade
+        # pass): the store by its place, the field the one it was found through
+        where = engine.url.render_as_string(hide_password=True)
+        setting = ("HYDRODIAG_DATA_DIR" if engine.url.get_backend_name() == "sqlite"
+                   and not os.environ.get("HYDRODIAG_DATABASE_URL")
+                   else "HYDRODIAG_DATABASE_URL")
+        raise InputError(f"the store {where} is at revision {current or 'none'}, not {head}: "
+                         "migrate it first (hydrodiag db upgrade with the same "
+                         "HYDRODIAG_DATA_DIR / HYDRODIAG_DATABASE_URL), then copy",
+                         field=setting)
     have = set(inspect(engine).get_table_names()) - {"alembic_version"}
     unknown = sorted(have - {t.name for t in tables})
     if unknown:

@@ -16,7 +16,7 @@ from alembic.script import ScriptDirectory
 from sqlalchemy import Engine
 
 __all__ = ["MIGRATIONS_DIR", "alembic_config", "current_revision", "downgrade", "head_revision",
-           "upgrade"]
+           "revision_list", "upgrade"]
 
 #: Folder of the migration scripts inside the installed ``app`` package.
 MIGRATIONS_DIR = Path(__file__).resolve().parent.parent / "migrations"
@@ -64,6 +64,19 @@ def known_revisions() -> frozenset[str]:
     """Every revision shipped with the package."""
     return frozenset(s.revision for s in ScriptDirectory.from_config(alembic_config())
                      .walk_revisions())
+
+
+def revision_list() -> list[tuple[str, str, str]]:
+    """Every revision shipped, oldest first: (revision, its ``Create Date``, the first line
+    of its docstring)."""
+    out: list[tuple[str, str, str]] = []
+    for script in ScriptDirectory.from_config(alembic_config()).walk_revisions():
+        doc = script.module.__doc__ or ""
+        date = next((line.split(":", 1)[1].strip() for line in doc.splitlines()
+                     if line.startswith("Create Date:")), "")
+        summary = " ".join(script.doc.split()) if script.doc else ""
+        out.append((script.revision, date, summary))
+    return out[::-1]
 
 
 @functools.cache

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import errno
 import logging
+import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -22,6 +23,7 @@ from app.services.calibrations import create_calibration
 from app.services.clearance import ClearanceEstimator
 from app.services.keys import count_active_keys, create_api_key, list_api_keys
 from app.services.rigs import create_rig, find_rig
+from app.services.store_repair import repair_store
 from sim.errors import InputError
 from sim.rigs import reference_rig_document
 
@@ -97,10 +99,44 @@ def upgrade_database(engine: Engine) -> str:
         The store is at a revision this release does not know (a newer release migrated
         it), or it cannot be written (read-only file or folder), naming the store.
     """
-    require_known_revision(engine)
+    before = require_known_revision(engine)
+    began = time.monotonic()
     migrate.upgrade(engine)
     _check_writable(engine)
-    return migrate.head_revision()
+    head = migrate.head_revision()
+    if before is not None and before != head:
+        # an operator could not tell afterwards when, or from what, the store was
+        # migrated (an upgrade pass)
+        logger.info("migrated the store %s from revision %s to %s in %.1f s",
+                    _where(engine), before, head, time.monotonic() - began)
+    repaired = repair_store(engine)
+    if repaired:
+        logger.warning(
+            "the store %s held rows an older release wrote after its migration (an older "
+            "instance still serving it?): linked %d diagnoses to their record, gave %d "
+            "estimates their interval; stop every older instance before upgrading",
+            _where(engine), repaired.links, repaired.intervals)
+    _warn_open_file(engine)
+    return head
+
+
+def _warn_open_file(engine: Engine) -> None:
+    """A warning when an SQLite store can be read by others (a group its operator chose is
+    theirs to choose, as a backup agent's: the store keeps the mode it was given): stores made
+    before this release made them 0600 stayed 0644 through the upgrade (every record and
+    the keys' hashes; an upgrade pass)."""
+    database = engine.url.database
+    if engine.url.get_backend_name() != "sqlite" or not database or database == ":memory:" \
+            or database.startswith("file:"):
+        return
+    try:
+        mode = Path(database).stat().st_mode & 0o777
+    except OSError:
+        return
+    if mode & 0o007:
+        logger.warning("the store %s can be read by others (mode %o): chmod 600 it, and its "
+                       "backups; rotate any API key an older release printed into a log",
+                       database, mode)
 
 
 def require_known_revision(engine: Engine) -> str | None:

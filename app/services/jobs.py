@@ -371,6 +371,11 @@ def _dead_owners(session: Session) -> list[str]:
     return dead
 
 
+#: why a job whose process stopped failed (its ``error.message`` and ``message``)
+_STOPPED = ("the process running the job stopped before it finished (it is gone, or its "
+            "lease ran out); submit it again")
+
+
 def fail_interrupted_jobs(session: Session) -> int:
     """Mark jobs left queued or running by a stopped process as failed (those asked to
     stop as cancelled): those whose lease ran out, or that have none (stored before
@@ -383,7 +388,8 @@ def fail_interrupted_jobs(session: Session) -> int:
     cancelled = session.execute(
         update(Job)
         .where(Job.status == "running", Job.cancel_requested_at.is_not(None), lapsed)
-        .values(status="cancelled", finished_at=now, updated_at=now, error=_CANCELLED)
+        .values(status="cancelled", finished_at=now, updated_at=now, error=_CANCELLED,
+                message=_CANCELLED["message"], lease_until=None)
     )
     result = session.execute(
         update(Job)
@@ -392,10 +398,11 @@ def fail_interrupted_jobs(session: Session) -> int:
             status="failed",
             finished_at=now,
             updated_at=now,
-            error={"type": "ServiceUnavailableError",
-                   "message": "the process running the job stopped before it finished "
-                              "(it is gone, or its lease ran out); submit it again",
-                   "field": None},
+            error={"type": "ServiceUnavailableError", "message": _STOPPED, "field": None},
+            # the list's message column showed the last progress text, or nothing, for a
+            # job failed so (an upgrade pass); a finished job holds no lease
+            message=_STOPPED,
+            lease_until=None,
         )
     )
     session.commit()

@@ -46,7 +46,6 @@ from typing import Any
 
 import numpy as np
 import numpy.typing as npt
-import pandas as pd
 
 from diagnostics.discrepancy.carried_check import CarriedCheck, carried_statement, check_carried
 from diagnostics.discrepancy.confirm import Small, confirm_chosen, confirm_small
@@ -64,11 +63,7 @@ from diagnostics.discrepancy.noise import (
 )
 from diagnostics.discrepancy.refit import with_effects
 from diagnostics.discrepancy.selection import PRACTICAL, Selection, select
-from diagnostics.discrepancy.simulate import (
-    SOLVER,
-    simulate_record,
-    solver_error,
-)
+from diagnostics.discrepancy.simulate import simulate_record, solver_statement
 from diagnostics.discrepancy.transient import (
     Screened,
     above_noise,
@@ -414,8 +409,9 @@ def _discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], 
     result = Discovery(outcome, message, named, selections, [r.name for r in train],
                        [r.name for r in records] and [records[i].name for i in held_i],
                        gap_before, gap_after, white_before, white_after, new_doc,
-                       _solver_statement(base_tables), detectable, traces, lof, drift,
-                       checks, noise, {b: [t.effect for t in f.terms] for b, f in picked.items()})
+                       solver_statement(base_tables, noise), detectable, traces, lof,
+                       drift, checks, noise,
+                       {b: [t.effect for t in f.terms] for b, f in picked.items()})
     if (refit and not named and conf.rejected and drift is not None
             and not drift.accepted and drift.wear is not None):
         report(0.9, "the workflow again from the rig with its wear re-fitted")
@@ -452,12 +448,3 @@ def _screened_effect(sc: Screened) -> NamedEffect:
                        (sc.value - 1.96 * sc.error, sc.value + 1.96 * sc.error),
                        bool(lo <= sc.value <= hi), (lo, hi), sc.value / sc.error,
                        float("nan"), [], [])
-
-
-def _solver_statement(tables: list[pd.DataFrame]) -> str:
-    """How the workflow simulated, and the largest solver error it reached, in σ."""
-    worst = solver_error(tables)
-    if not worst:
-        return SOLVER
-    errors = ", ".join(f"{k} {v:.2g} σ" for k, v in sorted(worst.items()))
-    return f"{SOLVER}; estimated solver error at most {errors} of the sensors' noise"

@@ -145,6 +145,10 @@ def test_a_store_behind_this_release_is_refused_until_upgraded(runner: CliRunner
     behind = runner.invoke(cli, ["db", "copy", target])
     assert isinstance(behind.exception, InputError)
     assert "db upgrade" in behind.exception.message
+    # the setting it was found through: the data folder, not a database URL nobody set
+    # (an upgrade pass)
+    assert behind.exception.field == "HYDRODIAG_DATA_DIR"
+    assert "hydrodiag.db is at revision 0010" in behind.exception.message
     assert not (tmp_path / "copy.db").exists() or _counts(target) == {}
     _preload(runner)
     done = runner.invoke(cli, ["db", "copy", target])

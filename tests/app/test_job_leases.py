@@ -158,7 +158,8 @@ def test_jobs_of_a_process_of_this_host_that_is_gone_fail_at_once(runner: CliRun
     with sessions() as session:
         session.add_all([
             Job(id="orphan", kind="demo", status="running", progress=0.4, params={},
-                owner=f"{host}:{dead_pid}:aa", lease_until=later),
+                owner=f"{host}:{dead_pid}:aa", lease_until=later,
+                message="output-error screen of the build-up effects"),
             Job(id="mine", kind="demo", status="running", progress=0.4, params={},
                 owner=f"{host}:{os.getpid()}:bb", lease_until=later),
             Job(id="elsewhere", kind="demo", status="running", progress=0.4, params={},
@@ -168,5 +169,8 @@ def test_jobs_of_a_process_of_this_host_that_is_gone_fail_at_once(runner: CliRun
     orphan = _job(sessions, "orphan")
     assert orphan.status == "failed" and orphan.error is not None
     assert "it is gone" in orphan.error["message"]
+    # its message says why, not its last progress text; a finished job holds no lease
+    # (an upgrade pass: the list's message column read the progress, or nothing)
+    assert orphan.message == orphan.error["message"] and orphan.lease_until is None
     assert _job(sessions, "mine").status == "running"
     assert _job(sessions, "elsewhere").status == "running"

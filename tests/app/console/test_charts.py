@@ -13,7 +13,16 @@ import pytest
 
 from app.console.charts import SEVERITY_BANDS, estimate_charts, reading_chart, trend_chart
 from app.services.trends import ComponentTrendOut, TrendPointOut
-from diagnostics.plots import Bar, Series, bar_chart, line_chart, render_png, render_png_stack
+from diagnostics.plots import (
+    MUTED,
+    PALETTE,
+    Bar,
+    Series,
+    bar_chart,
+    line_chart,
+    render_png,
+    render_png_stack,
+)
 from diagnostics.plots_svg import nice_ticks, render_svg_native
 
 
@@ -117,7 +126,7 @@ def test_estimates_of_a_component_its_diagnosis_thought_unlikely_are_drawn_apart
     likely, unlikely, line = chart.series
     assert list(likely.y) == pytest.approx([v * 1e6 for v in values[:3] + values[4:]])
     assert list(unlikely.y) == pytest.approx([values[3] * 1e6])
-    assert unlikely.label == "if the valve is the worn one (p < 0.5)" and unlikely.color == "#999999"
+    assert unlikely.label == "if the valve is the worn one (p < 0.5)" and unlikely.color == MUTED
     # the Theil–Sen line still fits every point
     assert line.y[0] == pytest.approx(values[0] * 1e6, rel=1e-9)
 
@@ -134,7 +143,7 @@ def test_estimates_are_drawn_as_multiples_of_nominal_with_the_severity_bands() -
     assert (bar.value, bar.low, bar.high) == pytest.approx((1.5, 49 / 34, 53 / 34))
     # 1.5 × nominal: leakage × 3.4, "moderate" (2.2 ≤ (c/c0)³ < 4.1)
     assert SEVERITY_BANDS[1][1] ** 3 == pytest.approx(2.2)
-    assert bar.color == "#E69F00"
+    assert bar.color == PALETTE[4]        # moderate
 
 
 def test_readings_are_drawn_relative_to_the_measurement() -> None:
@@ -202,7 +211,7 @@ def test_an_unexplained_diagnosis_charts_relative_fit_not_probability() -> None:
         {"name": "cylinder+pump", "probability": 1.0}, {"name": "valve", "probability": 0.0}]}
     chart = probability_chart(result)
     assert chart.title.startswith("Relative fit only")
-    assert all(bar.color == "#999999" for bar in chart.bars)
+    assert all(bar.color == MUTED for bar in chart.bars)
     explained = probability_chart(result | {"explained": True})
     assert explained.title == "Hypothesis probabilities"
     assert explained.bars[0].color == "#0072B2"

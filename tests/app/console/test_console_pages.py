@@ -37,7 +37,8 @@ def plot_points(html: str) -> list[int]:
 
 def error_box(html: str) -> tuple[str, str]:
     """(field, text) of the page's error message."""
-    match = re.search(r'<div class="error" role="alert" data-field="([^"]*)">(.*?)</div>', html,
+    match = re.search(r'<div class="error" role="alert" id="form-error" data-field="([^"]*)">'
+                      r'(.*?)</div>', html,
                       re.S)
     assert match is not None, "no error on the page"
     return match.group(1), re.sub(r"<[^>]+>", "", match.group(2))
@@ -357,6 +358,14 @@ def test_bad_form_input_names_the_field_and_stores_nothing(
     simulate = browser_client.get("/console/simulate?run=true&load=heavy")
     assert simulate.status_code == 422
     assert error_box(simulate.text)[0] == "condition.load"
+    # the error tied to its control, and said in the page's title (an accessibility
+    # pass: an alert box tied to nothing, the title unchanged)
+    marked = re.findall(r'<(?:input|select|textarea)[^>]*aria-invalid="true"[^>]*>',
+                        simulate.text)
+    assert len(marked) == 1 and 'id="load"' in marked[0], marked
+    assert 'aria-describedby="form-error"' in marked[0] and 'id="form-error"' in simulate.text
+    assert "<title>Error: " in simulate.text
+    assert "aria-invalid" not in browser_client.get("/console/simulate").text
     unknown_rig = browser_client.get("/console/simulate?rig=99&run=true")
     assert unknown_rig.status_code == 404 and error_box(unknown_rig.text)[0] == "rig_id"
     # a misspelt parameter or field is refused as the API refuses it (a bookmarked
@@ -466,8 +475,8 @@ def test_the_simulate_page_says_what_the_numbers_do_not(browser_client: httpx.Cl
     assert len(notes) == 1 and notes[0].startswith("below vacuum") and "P_pump reaches" in notes[0]
     # the phase averages in bar and l/min, as the charts above them (they were in Pa and
     # m³/s: a console pass)
-    p1 = re.search(r"<code>working\.P1</code></td><td class=\"num\">([^<]+)</td><td>([^<]+)<",
-                   dips.text)
+    p1 = re.search(r"<th scope=\"row\"><code>working\.P1</code></th><td class=\"num\">"
+                   r"([^<]+)</td><td>([^<]+)<", dips.text)
     assert p1 is not None and p1.group(2) == "bar" and 5.0 < float(p1.group(1)) < 100.0
     stall = browser_client.get("/console/simulate?run=true&fault=worn_piston&load=20000")
     assert "the working stroke did not reach its end" in stall.text
