@@ -210,7 +210,8 @@ def diagnose(
     """
     from app.db.base import utcnow
     from app.schemas.diagnose import DiagnoseRequest
-    from app.services.diagnosis import diagnose_request, response_of
+    from app.services.diagnosis import diagnose_request
+    from app.services.diagnosis_response import response_of
     from app.services.rig_cache import RigCache
     from app.services.series_record import file_cycle_records, stored_cycle_record
 

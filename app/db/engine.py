@@ -56,7 +56,7 @@ def dumps_json(value: Any) -> str:
     (shortest round-trip floats; non-string keys as strings; numpy numbers as numbers), or
     the standard library's where orjson refuses a value (an integer beyond 64 bits).
     Non-finite floats are never stored (PostgreSQL's JSONB has none; the services map them
-    to null first, :func:`app.services.diagnosis.json_ready`); orjson writes null for one."""
+    to null first, :func:`app.services.diagnosis_estimates.json_ready`); orjson writes null for one."""
     try:
         return orjson.dumps(value, option=_ORJSON).decode("utf-8")
     except TypeError:

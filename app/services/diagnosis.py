@@ -13,29 +13,24 @@ anyway, so nothing is lost).
 
 from __future__ import annotations
 
-import math
 import re
 import threading
-from collections.abc import Callable, Mapping, Sequence
-from dataclasses import asdict, dataclass, field
-from datetime import UTC, datetime
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from datetime import datetime
 from functools import partial
-from typing import Any, Literal, TypeVar
+from typing import Any, TypeVar
 
 from sqlalchemy.orm import Session
 
 from app.db.base import utcnow
-from app.schemas.common import iso_utc
 from app.schemas.diagnose import (
     DiagnoseRequest,
-    DiagnoseResponse,
-    DiagnosisPublic,
-    EstimatePublic,
     MeasurementIn,
 )
 from app.services.common import commit, prefixed
+from app.services.diagnosis_estimates import EstimateOut, estimates_of, json_ready
 from app.services.history import (
-    ComponentEstimate,
     add_diagnosis,
     add_measurement,
     stored_series_twin,
@@ -43,16 +38,15 @@ from app.services.history import (
 from app.services.measurements import stored_record, to_record
 from app.services.rig_cache import ResolvedRig, RigCache
 from app.services.series import check_source
-from diagnostics.diagnose import CLEARANCES, Diagnosis, diagnose
+from diagnostics.diagnose import diagnose
 from diagnostics.measurement import MeasurementRecord
 from sim.errors import InputError
 from sim.rigs import Rig
 
 __all__ = ["DIAGNOSIS_LOCK", "STORE_CONFLICT", "UNEXPLAINED", "DiagnosisOutcome", "EstimateOut",
-           "GroupPlan", "GroupResult", "add_outcomes", "compact_result", "compute_group",
-           "diagnose_request", "each_or_refused", "each_refused", "estimates_of", "json_ready",
-           "outcome_of", "plan_groups", "raise_refused",
-           "request_error", "response_json", "response_of", "store_outcomes", "time_notes"]
+           "GroupPlan", "GroupResult", "add_outcomes", "compute_group", "diagnose_request",
+           "each_or_refused", "each_refused", "estimates_of", "json_ready", "outcome_of",
+           "plan_groups", "raise_refused", "request_error", "store_outcomes"]
 
 #: Serialises calls into ``diagnostics`` within one process (module docstring).
 DIAGNOSIS_LOCK = threading.Lock()
@@ -62,31 +56,6 @@ STORE_CONFLICT = "the diagnosis could not be stored"
 
 #: ``top`` and ``component`` of a diagnosis whose readings no hypothesis explains.
 UNEXPLAINED = "unexplained"
-
-
-@dataclass(frozen=True, slots=True)
-class EstimateOut:
-    """One component's estimate: value and 95 % interval [unit], probability [1], and its
-    source: ``"direct"`` (closed-form inversion), ``"hypothesis"`` (single-fault fit) or
-    ``"profile"`` (that fit sat on the healthy end of its worn range: profiled from the
-    rig document's value up, :mod:`diagnostics.healthy_end`)."""
-
-    component: str
-    quantity: str
-    unit: str
-    value: float
-    low: float
-    high: float
-    probability: float
-    source: str
-
-    def history(self) -> ComponentEstimate:
-        """The estimate as the history keeps it (one trend point)."""
-        if self.quantity == "Cs":
-            return ComponentEstimate(self.component, self.probability,
-                                     slip_coefficient=self.value, low=self.low, high=self.high)
-        return ComponentEstimate(self.component, self.probability, clearance_m=self.value,
-                                 low=self.low, high=self.high)
 
 
 @dataclass
@@ -103,97 +72,6 @@ class DiagnosisOutcome:
     result: dict[str, Any]
     diagnosis_id: int | None = None
     measurement_ids: list[int] = field(default_factory=list)
-
-
-def json_ready(value: Any) -> Any:
-    """``value`` with every non-finite float as ``None`` and numpy scalars as Python ones.
-
-    JSON has no NaN or infinity; a diagnosis uses them for "no value" (an unobservable
-    hypothesis's evidence, an infinite duration).  The plain types are told by their exact
-    type first (a diagnosis's ~1,500 values: 0.18 → 0.05 ms, measured), the rest as
-    before.
-    """
-    kind = type(value)
-    if kind is float:
-        return value if math.isfinite(value) else None
-    if kind is dict:
-        return {k if type(k) is str else str(k): json_ready(v) for k, v in value.items()}
-    if kind is list or kind is tuple:
-        return [json_ready(v) for v in value]
-    if value is None or kind is str or kind is int or kind is bool:
-        return value
-    if isinstance(value, Mapping):
-        return {str(k): json_ready(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [json_ready(v) for v in value]
-    if isinstance(value, bool | str | int):
-        return value
-    if hasattr(value, "item"):  # numpy scalar
-        return json_ready(value.item())
-    if isinstance(value, float):
-        return value if math.isfinite(value) else None
-    return value
-
-
-def estimates_of(diagnosis: Diagnosis) -> list[EstimateOut]:
-    """Per-component estimates: what the history keeps for the trends.
-
-    Cylinder and valve: the equivalent clearance [m] of the closed-form inversion of paper
-    002 §2.7 when the record carries the flows it needs (it does not depend on which
-    hypothesis wins), else the fitted clearance of the component's single-fault hypothesis
-    when the readings cannot reject that hypothesis (its ambiguity set).  A joint visit
-    (several records) keeps that fit, made from every record, where the readings do not
-    reject it, before the closed form of its first record.  Pump: the laminar
-    slip coefficient Cs [-] of paper 000 eq. 6 under the pump hypothesis, when that is not
-    rejected.  A rejected hypothesis's fit explains the readings by the wrong component
-    and estimates nothing, so it is left out.
-
-    A fit on the healthy end of its worn range says only "no more worn than the range's
-    start"; the component's value is then the profile from the rig document's value up
-    (:attr:`~diagnostics.diagnose.Diagnosis.healthy_end`, source ``"profile"``), kept when
-    the profile passes the goodness-of-fit test whether or not the worn range's fit did:
-    a seal wearing from its document's value toward the worn range is stored where it is,
-    neither at the range's start with an interval that excludes it nor left out.
-    ``probability`` is the probability that the component is worn, alone or in a pair: the
-    sum over the hypotheses that name it.  Until 2026-11-28 it was its single-fault
-    hypothesis's alone, so a valve in a near-certain valve+pump pair read p = 1e-12 and
-    the trends drew its estimate as "if the valve is the worn one" (a first-day user pass);
-    rows stored before then keep that meaning.
-    """
-    fits = {f.name: f for f in diagnosis.hypotheses}
-    plausible = set(diagnosis.isolability.ambiguity_set)
-    worn = {c: sum(f.probability for f in diagnosis.hypotheses
-                   if c in f.name.split("+") and math.isfinite(f.probability))
-            for c in (*CLEARANCES, "pump")}
-    out: list[EstimateOut] = []
-    for component, quantity in CLEARANCES.items():
-        fit = fits.get(component)
-        probability = min(worn[component], 1.0)
-        direct = diagnosis.direct.get(quantity)
-        # a joint visit: the closed form inverts one record, the fit all of them (a worn
-        # spool's visit at three loads stored cv 56.4 [51.8, 61.0] µm from its first
-        # record beside a fit of 55.2 [54.4, 56.0]; an engineer's pass)
-        joint = (diagnosis.n_records > 1 and fit is not None and fit.observable
-                 and component in plausible and component not in diagnosis.healthy_end)
-        if direct is not None and not joint:
-            out.append(EstimateOut(component, quantity, direct.unit, direct.value, direct.low,
-                                   direct.high, probability, "direct"))
-        elif component in diagnosis.healthy_end:
-            p = diagnosis.healthy_end[component]
-            out.append(EstimateOut(component, quantity, p.unit, p.value, p.low, p.high,
-                                   probability, "profile"))
-        elif fit is not None and fit.observable and component in plausible:
-            (p,) = fit.parameters
-            out.append(EstimateOut(component, quantity, p.unit, p.value, p.low, p.high,
-                                   probability, "hypothesis"))
-    pump = fits.get("pump")
-    if pump is not None and diagnosis.pump_slip is not None and (
-            "pump" in plausible or "pump" in diagnosis.healthy_end):
-        value, low, high = diagnosis.pump_slip
-        out.append(EstimateOut("pump", "Cs", "1", value, min(low, high), max(low, high),
-                               min(worn["pump"], 1.0),
-                               "profile" if "pump" in diagnosis.healthy_end else "hypothesis"))
-    return [e for e in out if all(math.isfinite(x) for x in (e.value, e.low, e.high))]
 
 
 def _request_field(field: str | None, group: Sequence[tuple[str, object]]) -> str | None:
@@ -514,65 +392,3 @@ def store_outcomes(session: Session, request: DiagnoseRequest,
     except Exception:
         session.rollback()
         raise
-
-
-def compact_result(result: dict[str, Any]) -> dict[str, Any]:
-    """``result`` without each hypothesis's predicted readings (the bulk of its size)."""
-    hypotheses = [{k: v for k, v in h.items() if k != "predicted"}
-                  for h in result.get("hypotheses", [])]
-    return result | {"hypotheses": hypotheses}
-
-
-def _public(outcome: DiagnosisOutcome, compact: bool) -> DiagnosisPublic:
-    return DiagnosisPublic(
-        id=outcome.diagnosis_id,
-        measurement_ids=outcome.measurement_ids,
-        records=outcome.paths,
-        rig_id=outcome.resolved.rig_id,
-        rig_version=outcome.resolved.version,
-        measured_at=outcome.measured_at.astimezone(UTC),  # as GET /diagnoses reads it back
-        top=outcome.top,
-        component=outcome.component,
-        probability=outcome.probability,
-        estimates=[EstimatePublic.model_validate(asdict(e)) for e in outcome.estimates],
-        result=compact_result(outcome.result) if compact else outcome.result,
-        explained=outcome.result.get("explained", True),
-        goodness_of_fit=outcome.result.get("goodness_of_fit"),
-        misfit=outcome.result.get("misfit"),
-        regime_notes=outcome.result.get("regime_notes", []),
-    )
-
-
-def time_notes(untimed: Sequence[str], store: bool, now: datetime) -> list[str]:
-    """A note naming the stored records that state no ``measured_at`` (``untimed``, their
-    paths): they are kept at the request's time ``now`` [UTC], where the history and trends
-    place them (a fleet pass back-filling logs without times got a wrong time axis without
-    a word)."""
-    if not store or not untimed:
-        return []
-    named = ", ".join(untimed[:5]) + (f" and {len(untimed) - 5} more" if len(untimed) > 5
-                                      else "")
-    verb = "state" if len(untimed) > 1 else "states"
-    return [f"{named} {verb} no measured_at: stored at the time of this request "
-            f"({iso_utc(now.astimezone(UTC))}), where the history and trends place "
-            f"{'them' if len(untimed) > 1 else 'it'}; send the time the readings were taken "
-            "(measured_at, ISO 8601) with logged data"]
-
-
-def response_of(request: DiagnoseRequest, outcomes: Sequence[DiagnosisOutcome],
-                now: datetime) -> DiagnoseResponse:
-    """The answer to ``request`` (the body of ``POST /diagnose``) made at ``now`` [UTC];
-    with ``compact``, each ``result`` leaves out the hypotheses' predictions (the stored
-    result keeps them)."""
-    mode: Literal["single", "each", "joint"] = (
-        "single" if request.record is not None else "joint" if request.joint else "each")
-    untimed = [path for path, record in request.items() if record.measured_at is None]
-    return DiagnoseResponse(mode=mode, stored=request.store, compact=request.compact,
-                            notes=time_notes(untimed, request.store, now),
-                            diagnoses=[_public(o, request.compact) for o in outcomes])
-
-
-def response_json(request: DiagnoseRequest, outcomes: Sequence[DiagnosisOutcome],
-                  now: datetime) -> bytes:
-    """:func:`response_of` serialised as JSON (pydantic's compiled serialiser)."""
-    return response_of(request, outcomes, now).model_dump_json().encode("utf-8")

@@ -26,8 +26,9 @@ import orjson
 
 from app.schemas.common import iso_utc
 from app.schemas.diagnose import DisagreementPublic, EstimatePublic, GoodnessOfFitPublic
-from app.services.diagnosis import DiagnosisOutcome, compact_result, time_notes
+from app.services.diagnosis import DiagnosisOutcome
 from app.services.diagnosis_form import RecordForm, RequestForm, stored_document
+from app.services.diagnosis_response import compact_result, time_notes
 
 __all__ = ["UNSTORED_PREFIX", "DiagnoseAnswer", "StoredRows", "answer_of"]
 

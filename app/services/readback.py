@@ -16,7 +16,7 @@ from app.schemas.history import (
     StoredMeasurementPublic,
 )
 from app.services.common import commit, get_or_raise
-from app.services.diagnosis import compact_result
+from app.services.diagnosis_response import compact_result
 from sim.errors import InputError
 
 __all__ = ["delete_measurement", "get_diagnosis", "get_measurement", "list_diagnoses",

@@ -18,10 +18,10 @@ from app.services.diagnosis import (
     GroupPlan,
     compute_group,
     outcome_of,
-    response_json,
 )
 from app.services.diagnosis_answer import answer_of, iso_utc
 from app.services.diagnosis_form import measurement_record, request_form
+from app.services.diagnosis_response import response_json
 from app.services.measurements import stored_record
 from app.services.rig_cache import ResolvedRig
 from sim.rigs import reference_rig, reference_rig_document

@@ -1,4 +1,4 @@
-"""What the history keeps of a diagnosis (:func:`app.services.diagnosis.estimates_of`): a
+"""What the history keeps of a diagnosis (:func:`app.services.diagnosis_estimates.estimates_of`): a
 component's probability is that it is worn, alone or in a pair."""
 
 from __future__ import annotations

@@ -216,6 +216,8 @@ def test_a_diagnosis_through_the_form_is_stored_and_shown(
     page = browser_client.get(f"/console/diagnoses/{diagnosis_id}")
     assert page.status_code == 200
     assert f"Diagnosis {diagnosis_id}: cylinder" in page.text
+    # a diagnosis is part of the history: its item marked current (an accessibility pass)
+    assert '<a href="/console/history" aria-current="page">History</a>' in page.text
     # the stated condition beside the readings (a maintenance planner found neither the
     # oil temperature nor the load on the page)
     said = re.search(r'<p class="muted" id="condition">([^<]+)</p>', page.text)
