@@ -145,6 +145,7 @@ def serve(
         ensure_reference_data,
         store_problem,
         upgrade_database,
+        warn_open_file,
     )
     from app.services.throttle_estimator import ThrottleClearanceEstimator
     from app.settings import settings_line, unknown_variables
@@ -163,6 +164,7 @@ def serve(
         with _steps() as progress, bootstrap_lock(engine):  # one replica at a time
             task = progress.add_task("migrating the store", total=3)
             revision = upgrade_database(engine)
+            warn_open_file(engine)
             progress.update(task, advance=1, description="preloading the reference rig")
             with sessions() as session:
                 preloaded = ensure_reference_data(session, estimator=estimator)

@@ -59,7 +59,7 @@ def calibrate_pump(
     with one speed left out; the set keeps it, its test points and its held-out error
     (check_flow_S, check_torque_S \\[%]).
     """
-    from app.schemas.pumps import PumpBenchForm
+    from app.schemas.pumps import OIL_NU_MIN, PumpBenchForm
     from app.services.pump_bench import store_bench_parameters
 
     if displacement is not None and displacement_cm3_rev is not None:
@@ -72,6 +72,13 @@ def calibrate_pump(
         displacement = displacement_cm3_rev * 1e-6 / (2.0 * math.pi)
         option = "--displacement-cm3-rev"
     cst = 1e-6  # m²/s per cSt: the data sheet's unit, SI in the form
+    for value, typed in ((oil_nu40, "--oil-nu40"), (oil_nu100, "--oil-nu100")):
+        if value is not None and not value * cst >= OIL_NU_MIN:
+            # 4.6e-5 typed as m²/s was refused as "≥ 0.000002" in the form's SI (a
+            # verification pass): say it in the option's unit
+            raise InputError(f"{value:g} cSt is below {OIL_NU_MIN / cst:g} cSt, where ASTM "
+                             "D341's Walther law starts: the option takes cSt (46 for a VG "
+                             "46 at 40 °C), not m²/s", field=typed)
     form = validated(PumpBenchForm, {
         "name": name, "pump": pump, "rig_id": rig_id, "displacement_m3_rad": displacement,
         "oil_nu40_m2_s": None if oil_nu40 is None else oil_nu40 * cst,

@@ -96,35 +96,71 @@ def _downgrade_losses(engine: Engine, current: str, target: str) -> list[str]:
     what later revisions added")."""
     from sqlalchemy import func, select
 
-    from app.db.models import Diagnosis, DiagnosisRecord
+    from app.db.models import (
+        ApiKey,
+        Diagnosis,
+        DiagnosisRecord,
+        IdempotentRequest,
+        MeasuredSeries,
+    )
 
     lines: list[str] = []
     below = target == "base"
+
+    def crosses(revision: str) -> bool:
+        return current >= revision and (below or target < revision)
+
     with engine.connect() as connection:
-        if current >= "0014" and (below or target < "0014"):
+        # whole tables a crossed revision drops (a verification pass: the measured series
+        # went unnamed), and the keys' scopes
+        for revision, model, what in (("0003", MeasuredSeries, "measured series"),
+                                      ("0010", IdempotentRequest, "kept Idempotency-Key "
+                                                                  "answers")):
+            if not crosses(revision):
+                continue
+            rows = connection.scalar(select(func.count()).select_from(model)) or 0
+            if rows:
+                lines.append(f"{rows} {what} are deleted (revision {revision} added them)")
+        if crosses("0004"):
+            scoped = connection.scalar(select(func.count()).where(
+                ApiKey.scope != "admin", ApiKey.revoked_at.is_(None))) or 0
+            if scoped:
+                lines.append(f"{scoped} read or write API keys can do everything below 0004 "
+                             "(scopes came with it): revoke them first where that matters")
+        if crosses("0012"):
+            lines.append("the estimates' stored intervals are dropped (migrating up again "
+                         "fills them from the diagnoses' results)")
+        if crosses("0014"):
             replaced = connection.scalar(
                 select(func.count()).where(Diagnosis.superseded_by.is_not(None))) or 0
             if replaced:
-                lines.append(f"{replaced} diagnoses replaced by a re-diagnosis read as current "
+                lines.append(f"{replaced} {_plural(replaced, 'diagnosis', 'diagnoses')} "
+                             "replaced by a re-diagnosis read as current "
                              "in the older release (its history and trends show those visits "
                              "twice); migrating up again marks them anew")
-        if current >= "0008" and (below or target < "0008"):
+        if crosses("0008"):
             joint = connection.scalar(select(func.count()).select_from(
                 select(DiagnosisRecord.diagnosis_id).group_by(DiagnosisRecord.diagnosis_id)
                 .having(func.count() > 1).subquery())) or 0
             if joint:
-                lines.append(f"{joint} joint diagnoses keep only the record their result is "
-                             "kept with: their links to the visit's other records are lost "
-                             "for good (deleting one of those records no longer deletes the "
-                             "diagnosis)")
+                lines.append(f"{joint} joint {_plural(joint, 'diagnosis keeps', 'diagnoses keep')}"
+                             " only the record the result is kept with: the links to the "
+                             "visit's other records are lost for good (deleting one of those "
+                             "records no longer deletes the diagnosis)")
     return lines
+
+
+def _plural(n: int, one: str, more: str) -> str:
+    return one if n == 1 else more
 
 
 @db_cli.command("revisions")
 def db_revisions() -> None:
     """List the store revisions this release ships, oldest first, each with its date and
-    what it added, and mark the store's: the revision an older release needs is the
-    newest one dated before that release (db downgrade --revision)."""
+    what it added, and mark the store's.  An older release needs the newest revision it
+    ships itself: the highest ``rNNNN`` in its ``app/migrations/versions/`` (the dates have
+    no time of day, and two revisions of one day straddled a release: a verification
+    pass); take the store there with db downgrade --revision NNNN."""
     from app.db import migrate
     from app.db.copy import existing_store
 

@@ -82,7 +82,12 @@ def migrated_engine(*, existing: bool = False) -> Engine:
     backup`` there then "succeeded" on it (an operator's pass)."""
     from sqlalchemy.exc import DatabaseError
 
-    from app.services.bootstrap import bootstrap_lock, store_problem, upgrade_database
+    from app.services.bootstrap import (
+        bootstrap_lock,
+        store_problem,
+        upgrade_database,
+        warn_open_file,
+    )
 
     settings = settings_from_env()
     url = settings.url
@@ -97,6 +102,7 @@ def migrated_engine(*, existing: bool = False) -> Engine:
     try:
         with bootstrap_lock(engine):
             upgrade_database(engine)
+            warn_open_file(engine)
     except (OSError, DatabaseError) as exc:  # one line naming the store, as serve says it
         problem = store_problem(engine, exc)
         if problem is None:

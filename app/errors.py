@@ -23,6 +23,7 @@ class                          status  when
                                        ``OperationalError`` of the driver too, with
                                        ``Retry-After``: nothing of the request stored)
 ``ServiceBusyError``           503     too many diagnoses queued (with ``Retry-After``)
+``WarmingUpError``             503     starting: the stored rigs are still loading
 =============================  ======  =======================================
 
 Any other exception is a 500 ``InternalError`` whose body names the ``request_id`` under
@@ -69,6 +70,7 @@ __all__ = [
     "ScopeError",
     "ServiceBusyError",
     "ServiceUnavailableError",
+    "WarmingUpError",
     "database_unavailable",
     "error_response",
     "first_problem",
@@ -83,6 +85,11 @@ logger = logging.getLogger("hydrodiag.app")
 
 class ServiceUnavailableError(HydrodiagError):
     """The service cannot answer now: the database is unreachable or not migrated."""
+
+
+class WarmingUpError(ServiceUnavailableError):
+    """The service is starting: its stored rigs are still loading (503; logged at info,
+    as every readiness probe of a start meets it)."""
 
 
 class ServiceBusyError(ServiceUnavailableError):
@@ -190,11 +197,14 @@ def response_for(exc: HydrodiagError, *, headers: Mapping[str, str] | None = Non
 async def _hydrodiag_error(request: Request, exc: Exception) -> JSONResponse:
     assert isinstance(exc, HydrodiagError)
     status = status_for(exc)
-    if status == 503:
+    if isinstance(exc, ServiceBusyError | WarmingUpError):
         # expected while starting or under load, and a readiness probe meets it every few
         # seconds of every start: a run of warnings at each restart (an upgrade pass); the
-        # metrics count them
+        # metrics count them.  A store that does not answer stays a warning (a
+        # verification pass found it demoted with them)
         logger.info("%s: %s", type(exc).__name__, exc)
+    elif status == 503:
+        logger.warning("%s: %s", type(exc).__name__, exc)
     elif status >= 500:
         logger.error("%s: %s", type(exc).__name__, exc)
     headers = {"WWW-Authenticate": "APIKey"} if status == 401 else None

@@ -66,7 +66,8 @@ from app.services.idempotent_work import CURRENT, KeyedWrite
 from app.services.keys import authenticate
 from sim.errors import AuthError, ConflictError, InputError
 
-__all__ = ["HEADER", "HEARTBEAT_S", "KEEP_HOURS", "STALE_S", "IdempotencyMiddleware",
+__all__ = ["HEADER", "HEARTBEAT_S", "IDEMPOTENT_METHODS", "KEEP_HOURS", "STALE_S",
+           "IdempotencyMiddleware",
            "owner_of"]
 
 logger = logging.getLogger("hydrodiag.app")
@@ -84,6 +85,9 @@ STALE_S = 30.0
 RETRY_S = 2
 
 _WRITES = frozenset({"POST", "PUT", "PATCH", "DELETE"})
+#: the methods whose requests the header makes safe to retry (the document lists it on
+#: each such operation)
+IDEMPOTENT_METHODS = _WRITES
 _VALID = re.compile(r"[\x21-\x7e]{1,255}")
 
 

@@ -30,7 +30,8 @@ from app.api.router import api_router
 from app.console import router as console_router
 from app.db.engine import make_engine, make_session_factory
 from app.errors import CatchAllMiddleware, install_error_handlers
-from app.idempotency import IdempotencyMiddleware
+from app.idempotency import HEADER as IDEMPOTENCY_HEADER
+from app.idempotency import IDEMPOTENT_METHODS, KEEP_HOURS, IdempotencyMiddleware
 from app.lifeline import exit_with_parent
 from app.limits import BodyLimitMiddleware
 from app.logs import RequestLogMiddleware, configure_logging
@@ -105,6 +106,18 @@ def _access_of(route: APIRoute) -> tuple[str, Scope | None]:
     return ACCESS_OPEN, None
 
 
+#: the ``Idempotency-Key`` header of every keyed write, as an OpenAPI parameter
+IDEMPOTENCY_PARAMETER: dict[str, Any] = {
+    "name": IDEMPOTENCY_HEADER, "in": "header", "required": False,
+    "description": "A key of 1-255 visible ASCII characters that makes a retry of this "
+                   f"write safe: the same key with the same request within {KEEP_HOURS} h "
+                   "replays the "
+                   "first answer (Idempotent-Replayed: true) instead of doing it again [-]",
+    "schema": {"type": "string", "minLength": 1, "maxLength": 255},
+    "examples": {"a retry key": {"value": "7d2c41e0-rig-1-visit-2026-11-30"}},
+}
+
+
 def _documented_openapi(app: FastAPI, open_reads: bool) -> dict[str, Any]:
     """The OpenAPI document with each operation's access stated under this setting.
 
@@ -134,6 +147,11 @@ def _documented_openapi(app: FastAPI, open_reads: bool) -> dict[str, Any]:
                     operation.pop("security", None)
                     for status in ("401", "403"):
                         operation.get("responses", {}).pop(status, None)
+                elif method.upper() in IDEMPOTENT_METHODS:
+                    # the header every keyed write takes, as a parameter a generated client
+                    # offers (it was only in the document's introduction: an API client's
+                    # pass)
+                    operation.setdefault("parameters", []).append(IDEMPOTENCY_PARAMETER)
                 elif access == ACCESS_OPEN_READS and open_reads:
                     operation["security"] = [{}, {"APIKeyHeader": []}]
         app.openapi_schema = schema

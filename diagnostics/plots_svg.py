@@ -325,10 +325,15 @@ def describe(chart: Chart) -> str:
         xs = [np.asarray(s.x, dtype=float) for s in chart.series]
         if xs:
             parts.append(f"{chart.xlabel or 'x'} {_span(np.concatenate(xs))}")
+        named = ""
         for i, s in enumerate(chart.series[:DESCRIBED]):
             y = np.asarray(s.y, dtype=float)
-            parts.append(f"{s.label or f'series {i + 1}'}: {y.size} points, "
-                         f"{chart.ylabel or 'y'} {_span(y)}")
+            # a line drawn without a legend entry goes with the series before it (a pump
+            # chart's model beside its points read "series 2": a verification pass)
+            name = s.label or (f"{named}, {'dashed ' if s.dashed else ''}line" if named
+                               else f"series {i + 1}")
+            named = s.label or named
+            parts.append(f"{name}: {y.size} points, {chart.ylabel or 'y'} {_span(y)}")
     left = len(chart.bars or chart.series) - DESCRIBED
     if left > 0:
         parts.append(f"and {left} more")

@@ -34,6 +34,8 @@ from sim.params import Param
 __all__ = ["FLUID_PARAMETERS", "Fluid"]
 
 _ABS_ZERO = 273.15
+#: below this kinematic viscosity [m²/s] (0.3 cSt) the Walther law has no value
+WALTHER_MIN = 0.3e-6
 
 FLUID_PARAMETERS: tuple[Param, ...] = (
     Param("nu1", "m^2/s", 46e-6, "ISO 3448 VG 46: 46 cSt at 40 °C",
@@ -79,8 +81,13 @@ class Fluid:
     beta: float = 1.5e9
 
     def __post_init__(self) -> None:
-        if not (self.nu1 > 0 and self.nu2 > 0):
-            raise ParameterError("viscosities must be positive", field="fluid.nu1")
+        if not (self.nu1 > WALTHER_MIN and self.nu2 > WALTHER_MIN):
+            # Walther's log10 log10(ν + 0.7) has no value at or below 0.3 cSt: a viscosity
+            # typed in m²/s where cSt was asked crashed the law (a verification pass)
+            raise ParameterError(
+                f"viscosities must be above {WALTHER_MIN * 1e6:g} cSt (ASTM D341's Walther "
+                f"law), got {self.nu1:g} and {self.nu2:g} m²/s",
+                field="fluid.nu1" if not self.nu1 > WALTHER_MIN else "fluid.nu2")
         if self.T1 == self.T2:
             raise ParameterError("the two reference temperatures must differ", field="fluid.T2")
         if (self.nu1 - self.nu2) * (self.T1 - self.T2) >= 0:

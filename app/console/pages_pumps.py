@@ -23,7 +23,7 @@ from app.console.routing import ConsoleKeyDep, new_router, write_refusal
 from app.console.web import page, redirect
 from app.errors import first_problem, status_for
 from app.schemas.common import MAX_ID
-from app.schemas.pumps import PumpBenchForm
+from app.schemas.pumps import OIL_NU_MIN, PumpBenchForm
 from app.services import pumps as pump_service
 from app.services.pump_bench import MAX_CSV_BYTES, store_bench_parameters
 from diagnostics.plots import Chart
@@ -86,6 +86,11 @@ def _form(name: str, pump: str, rig: str, source: str, numbers: dict[str, str]
             fields[api_field] = to_si(float(text), unit, si, field=page_field)
         except ValueError:
             raise InputError(f"not a number: {text!r}", field=page_field) from None
+        if unit == "cSt" and not fields[api_field] >= OIL_NU_MIN:
+            # said in the field's unit, not the form's SI (a verification pass)
+            raise InputError(f"{text.strip()} cSt is below {OIL_NU_MIN * 1e6:g} cSt, where "
+                             "ASTM D341's Walther law starts: the field takes cSt (46 for a "
+                             "VG 46 at 40 °C)", field=page_field)
     try:
         return PumpBenchForm.model_validate(fields)
     except ValidationError as exc:

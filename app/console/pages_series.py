@@ -253,7 +253,8 @@ def cancel_job(request: Request, session: SessionDep, _key: ConsoleKeyDep,
     except ConflictError as exc:
         error = {"type": type(exc).__name__, "message": exc.message, "field": exc.field}
         return _job_page(request, session, job_id, error, 409)
-    return redirect(f"/console/jobs/{job_id}")
+    # followed until it stops at its next progress report
+    return redirect(f"/console/jobs/{job_id}?follow=true")
 
 
 @router.get("/jobs/{job_id}/report")

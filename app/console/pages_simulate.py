@@ -8,6 +8,7 @@ gets the API's field-naming error on the page.
 from __future__ import annotations
 
 from typing import Annotated, Any, Literal
+from urllib.parse import urlencode
 
 from fastapi import Query, Request, Response
 from pydantic import ValidationError
@@ -88,7 +89,11 @@ def simulate_page(request: Request, session: SessionDep, rigs: RigsDep, _key: Co
         context["summary"] = summary_of(outcome.result)
         context["notes"] = outcome.result.notes()
         context["condition"] = outcome.condition
-        context["query"] = str(request.url.query)
+        # the scenario's own fields: the page's query carries its form's run=true, which
+        # the download does not read and refused as unknown (a verification pass)
+        context["query"] = urlencode({"rig": rig, "fault": fault, "load": load,
+                                      "oil_temperature": oil_temperature,
+                                      "back_pressure": back_pressure})
         # what the named fault set on this rig (a planner could not tell how worn
         # "worn_spool" is without the CSV's header)
         context["fault_set"] = [_as_read(k, v, _unit_of(outcome, k))

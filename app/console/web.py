@@ -110,6 +110,7 @@ ERROR_TITLES = {
     "MeasurementError": "These readings cannot be used",
     "RateLimitError": "Too many requests", "ServiceBusyError": "Busy: try again shortly",
     "ServiceUnavailableError": "Not available: try again shortly",
+    "WarmingUpError": "Starting: try again shortly",
     "SimulationError": "The simulation did not run", "SolverLimitError":
     "The simulation did not finish", "PayloadTooLargeError": "Too large",
 }

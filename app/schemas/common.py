@@ -509,6 +509,12 @@ ERROR_RESPONSES: dict[int | str, dict[str, Any]] = {
                    "names it"),
     429: error_doc("Too many requests for this API key (HYDRODIAG_RATE_LIMIT_PER_MINUTE); "
                    "see Retry-After"),
+    # every operation reaches the store: a locked or unreachable one answers 503 with
+    # Retry-After on any of them, where only /diagnose and /ready listed it (an API
+    # client's pass)
+    503: error_doc("The store does not answer now (locked past HYDRODIAG_DB_LOCK_TIMEOUT, "
+                   "unreachable, or not migrated); nothing of the request was stored; "
+                   "retry after Retry-After"),
 }
 
 

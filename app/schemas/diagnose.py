@@ -13,8 +13,17 @@ from collections.abc import Mapping
 from functools import partial
 from typing import Annotated, Any, ClassVar, Literal
 
-from pydantic import AwareDatetime, BaseModel, BeforeValidator, ConfigDict, Field, model_validator
-from pydantic_core import PydanticCustomError
+from pydantic import (
+    AwareDatetime,
+    BaseModel,
+    BeforeValidator,
+    ConfigDict,
+    Field,
+    GetJsonSchemaHandler,
+    model_validator,
+)
+from pydantic.json_schema import JsonSchemaValue
+from pydantic_core import CoreSchema, PydanticCustomError
 
 from app.limits import BATCH_RECORDS_CEILING
 from app.schemas.common import MAX_ID, FiniteFloat, MeasurementTime, RequestModel
@@ -106,8 +115,19 @@ def _number_to_reading(value: Any) -> Any:
     return value
 
 
+class _NumberOrReading:
+    """The schema of a reading as the service takes it: a bare number or a
+    :class:`ReadingIn` object.  The document offered the object only, so 23 of its own
+    examples (bare numbers, as the README and ``GET /series/{id}/record`` write them) failed
+    their schema and a generated client refused them (an API client's pass)."""
+
+    def __get_pydantic_json_schema__(self, core: CoreSchema,
+                                     handler: GetJsonSchemaHandler) -> JsonSchemaValue:
+        return {"anyOf": [{"type": "number"}, handler(core)]}
+
+
 #: A reading: ``12.5`` is short for ``{"value": 12.5}`` (default instrument class).
-Reading = Annotated[ReadingIn, BeforeValidator(_number_to_reading)]
+Reading = Annotated[ReadingIn, BeforeValidator(_number_to_reading), _NumberOrReading()]
 
 
 def _reading(unit: str, meaning: str, example: float, *, required: bool = False) -> Any:

@@ -216,6 +216,12 @@ class PumpSetList(Page[PumpSetPublic]):
     """A page of pump sets."""
 
 
+#: the lowest oil viscosity a bench form takes [m²/s]: 2 cSt, where ASTM D341's Walther law
+#: starts to hold (a hydraulic oil's data sheet gives 2-700 cSt); 4.6e-11 typed as "46 cSt
+#: in m²/s" crashed the law (a verification pass)
+OIL_NU_MIN = 2e-6
+
+
 class PumpBenchForm(UploadForm):
     """Form fields sent with a bench CSV (``POST /pump-sets/bench``).
 
@@ -239,7 +245,7 @@ class PumpBenchForm(UploadForm):
         default=0.0, ge=0, description="Standard error of a given D [m³/rad]", examples=[0.0],
     )
     oil_nu40_m2_s: FiniteFloat | None = Field(
-        default=None, gt=0, le=1e-2,
+        default=None, ge=OIL_NU_MIN, le=1e-2,
         description="Kinematic viscosity of the bench's oil at 40 °C, from its data sheet, "
         "with oil_nu100_m2_s; left out: the default ISO VG 46 HM oil (46 cSt) [m²/s]. Cs and "
         "Cv scale with the viscosity assumed: an HV VG 46 (≈ 8 cSt at 100 °C) read with the "
@@ -247,7 +253,7 @@ class PumpBenchForm(UploadForm):
         examples=[4.6e-5],
     )
     oil_nu100_m2_s: FiniteFloat | None = Field(
-        default=None, gt=0, le=1e-2,
+        default=None, ge=OIL_NU_MIN, le=1e-2,
         description="Kinematic viscosity of the bench's oil at 100 °C, with oil_nu40_m2_s; "
         "left out: the default oil's 6.8 cSt [m²/s]",
         examples=[8.2e-6],

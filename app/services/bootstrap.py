@@ -29,7 +29,7 @@ from sim.rigs import reference_rig_document
 
 __all__ = ["LOCAL_KEY_NAME", "Preloaded", "bootstrap_lock", "ensure_first_key",
            "ensure_reference_data", "require_known_revision", "store_problem",
-           "upgrade_database"]
+           "upgrade_database", "warn_open_file"]
 
 logger = logging.getLogger("hydrodiag.app")
 
@@ -109,22 +109,22 @@ def upgrade_database(engine: Engine) -> str:
         # migrated (an upgrade pass)
         logger.info("migrated the store %s from revision %s to %s in %.1f s",
                     _where(engine), before, head, time.monotonic() - began)
-    repaired = repair_store(engine)
+    repaired = repair_store(engine)   # the first process to start mends; the rest find none
     if repaired:
         logger.warning(
             "the store %s held rows an older release wrote after its migration (an older "
             "instance still serving it?): linked %d diagnoses to their record, gave %d "
             "estimates their interval; stop every older instance before upgrading",
             _where(engine), repaired.links, repaired.intervals)
-    _warn_open_file(engine)
     return head
 
 
-def _warn_open_file(engine: Engine) -> None:
+def warn_open_file(engine: Engine) -> None:
     """A warning when an SQLite store can be read by others (a group its operator chose is
     theirs to choose, as a backup agent's: the store keeps the mode it was given): stores made
     before this release made them 0600 stayed 0644 through the upgrade (every record and
-    the keys' hashes; an upgrade pass)."""
+    the keys' hashes; an upgrade pass).  Called once per start by ``serve`` (not by each
+    worker: it was logged three times, a verification pass) and by the CLI's commands."""
     database = engine.url.database
     if engine.url.get_backend_name() != "sqlite" or not database or database == ":memory:" \
             or database.startswith("file:"):

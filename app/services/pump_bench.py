@@ -100,6 +100,16 @@ def _quantity(value: Any, unit: str, description: str) -> dict[str, Any] | None:
             "description": description}
 
 
+def _nu_at(fluid: Fluid, theta: float) -> float:
+    """The oil's kinematic viscosity at ``theta`` [°C] [m²/s]: a reference point as given
+    (the law's round trip stored 46 cSt as 4.6000000000000054e-05: a verification pass),
+    else the Walther law's."""
+    for t, nu in ((fluid.T1, fluid.nu1), (fluid.T2, fluid.nu2)):
+        if t == theta:
+            return nu
+    return fluid.kinematic_viscosity(theta)
+
+
 def _quantities(data: BenchData, result: PumpParameterisation) -> dict[str, dict[str, Any]]:
     origin = ("derived capacity, Toet method at the coldest oil" if result.capacity is not None
               else "derived capacity, given")
@@ -108,9 +118,9 @@ def _quantities(data: BenchData, result: PumpParameterisation) -> dict[str, dict
         "D_std": _quantity(result.D_std, "m^3/rad", "standard error of D"),
         "D_per_rev": _quantity(result.D * 2.0 * math.pi, "m^3/rev", "derived capacity"),
         "rho": _quantity(result.rho, "kg/m^3", "oil density assumed in eq. 9"),
-        "oil_nu40": _quantity(result.fluid.kinematic_viscosity(40.0), "m^2/s",
+        "oil_nu40": _quantity(_nu_at(result.fluid, 40.0), "m^2/s",
                               "oil's kinematic viscosity at 40 °C in μ(θ)"),
-        "oil_nu100": _quantity(result.fluid.kinematic_viscosity(100.0), "m^2/s",
+        "oil_nu100": _quantity(_nu_at(result.fluid, 100.0), "m^2/s",
                                "oil's kinematic viscosity at 100 °C in μ(θ)"),
         "beta_ef": _quantity(result.beta_ef, "Pa", "effective bulk modulus assumed in eq. 8"),
         "n_points": _quantity(len(data), "1", "test points read"),

@@ -213,6 +213,11 @@ def test_calibrate_pump_and_throttle(runner: CliRunner, tmp_path: Path) -> None:
     half = runner.invoke(cli, ["calibrate", "pump", str(tmp_path / "bench.csv"), "--name",
                                "cli-pump-half", "--pump", "stand-in", "--oil-nu40", "46"])
     assert half.exit_code != 0 and getattr(half.exception, "field", None) == "--oil-nu100"
+    in_si = runner.invoke(cli, ["calibrate", "pump", str(tmp_path / "bench.csv"), "--name",
+                                "cli-pump-si", "--pump", "stand-in", "--oil-nu40", "4.6e-5",
+                                "--oil-nu100", "8.2e-6"])
+    assert getattr(in_si.exception, "field", None) == "--oil-nu40"
+    assert "the option takes cSt" in str(in_si.exception)
     assert store_count(PumpSet) == 2
     table = tmp_path / "table.yaml"
     table.write_text(yaml.safe_dump({

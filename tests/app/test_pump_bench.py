@@ -337,7 +337,12 @@ def test_the_bench_oil_is_stated_and_its_viscosity_makes_the_coefficients(
     assert "oil_nu40_m2_s, oil_nu100_m2_s" in default.json()["source"]
     # the pair is given whole, and the oil thins as it warms
     before = server.row_counts()
+    assert q["oil_nu40"]["value"] == 46e-6      # as given, not through the law's round trip
     for form, field in [({"oil_nu40_m2_s": "46e-6"}, "oil_nu100_m2_s"),
+                        # cSt typed where m²/s is asked, or the reverse: below the law's
+                        # 2 cSt (it crashed the Walther law with a 500: a verification pass)
+                        ({"oil_nu40_m2_s": "4.6e-11", "oil_nu100_m2_s": "8.2e-12"},
+                         "oil_nu40_m2_s"),
                         ({"oil_nu100_m2_s": "8.2e-6"}, "oil_nu40_m2_s"),
                         ({"oil_nu40_m2_s": "8e-6", "oil_nu100_m2_s": "46e-6"},
                          "oil_nu100_m2_s")]:

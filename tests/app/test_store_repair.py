@@ -20,7 +20,7 @@ from typer.testing import CliRunner
 from app.cli import cli
 from app.db import migrate
 from app.db.engine import make_engine
-from app.services.bootstrap import upgrade_database
+from app.services.bootstrap import upgrade_database, warn_open_file
 from sim.errors import InputError
 from tests.app.conftest import simulated_record
 from tests.app.live import live_server, sqlite_settings
@@ -88,7 +88,12 @@ def test_a_downgrade_says_what_it_loses_and_a_new_migration_marks_replaced_diagn
     runner = CliRunner()
     asked = runner.invoke(cli, ["db", "downgrade", "--revision", "0013"])
     assert isinstance(asked.exception, InputError) and asked.exception.field == "--yes"
-    assert "1 diagnoses replaced by a re-diagnosis read as current" in asked.exception.message
+    assert "1 diagnosis replaced by a re-diagnosis read as current" in asked.exception.message
+    assert "intervals are dropped" not in asked.exception.message   # 0012 is not crossed
+    from app.cli_db import _downgrade_losses
+
+    deeper = _downgrade_losses(engine, "0014", "0011")
+    assert any("intervals are dropped" in line for line in deeper)
     assert "db backup FILE" in asked.exception.message
     done = runner.invoke(cli, ["db", "downgrade", "--revision", "0013", "--yes"])
     assert done.exit_code == 0, done.output
@@ -115,7 +120,7 @@ def test_a_store_others_can_read_is_said_at_start(
         store.chmod(mode)
         caplog.clear()
         with caplog.at_level(logging.WARNING, logger="hydrodiag.app"):
-            upgrade_database(engine)
+            warn_open_file(engine)      # once per start: serve's and a command's
         text_of = " ".join(r.getMessage() for r in caplog.records)
         assert ("can be read by others (mode 644): chmod 600" in text_of) is said, oct(mode)
     engine.dispose()

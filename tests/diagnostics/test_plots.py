@@ -78,3 +78,17 @@ def test_the_legend_is_below_the_plot_and_covers_no_point():
     # no legend, no extra height
     bare = line_chart("Speed", "t [s]", "v [m/s]", [Series(x, x)])
     assert ET.fromstring(render_svg(bare)).attrib["height"] == "320"
+
+
+def test_a_line_without_a_legend_entry_is_described_with_the_series_before_it():
+    # a pump chart's model line beside its points read "series 2" (a verification pass)
+    from diagnostics.plots_svg import describe
+
+    x = np.arange(3.0)
+    chart = line_chart("Flow: measured and model", "Δp [bar]", "q [l/min]", [
+        Series(x, x, "1450 rpm", kind="points"), Series(x, 1.1 * x, "", dashed=True)])
+    assert describe(chart) == ("Flow: measured and model. Δp [bar] 0 to 2. 1450 rpm: 3 points, "
+                               "q [l/min] 0 to 2. 1450 rpm, dashed line: 3 points, q [l/min] "
+                               "0 to 2.2")
+    bars = bar_chart("Hypotheses", "probability [-]", [Bar("valve", 0.7, 0.6, 0.8)])
+    assert describe(bars) == "Hypotheses. probability [-]: valve 0.7 (0.6 to 0.8)"

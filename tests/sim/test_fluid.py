@@ -38,5 +38,10 @@ def test_density_and_dynamic_viscosity():
 def test_bad_fluid_and_temperature():
     with pytest.raises(ParameterError):
         Fluid(nu1=5e-6, nu2=50e-6)  # viscosity rising with temperature
+    # at or below 0.3 cSt the Walther law has no value (a viscosity given in the wrong
+    # unit crashed it: a verification pass)
+    with pytest.raises(ParameterError, match=r"above 0\.3 cSt") as refused:
+        Fluid(nu1=46e-6, nu2=0.25e-6)
+    assert refused.value.field == "fluid.nu2"
     with pytest.raises(ParameterError):
         Fluid().kinematic_viscosity(400.0)

@@ -19,7 +19,7 @@ from app import __version__
 from app.db import migrate
 from app.db.engine import ping
 from app.db.models import Job
-from app.errors import ServiceUnavailableError
+from app.errors import ServiceUnavailableError, WarmingUpError
 from app.metrics import exposition
 from app.schemas.common import error_doc
 from app.schemas.jobs import JobStatus
@@ -84,7 +84,7 @@ async def ready(request: Request) -> Readiness:
         raise ServiceUnavailableError(f"database at revision {revision}, service needs {head}")
     warmup = getattr(request.app.state, "warmup", None)
     if warmup is None or not warmup.done:
-        raise ServiceUnavailableError("the stored rigs are still loading")
+        raise WarmingUpError("the stored rigs are still loading")
     return Readiness(status="ready", database=engine.dialect.name, revision=revision)
 
 

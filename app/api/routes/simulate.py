@@ -27,7 +27,10 @@ _FILE_RESPONSES: dict[int | str, dict[str, Any]] = {
     200: {
         "description": "The summary as JSON, or with `timeseries` 'csv'/'parquet' the time "
         "series as a file (summary in its '# key = value' header lines or Parquet metadata)",
-        "content": {"text/csv": {}, PARQUET_MEDIA_TYPE: {}},
+        # the files as strings and bytes, so a generated client reads them as what they
+        # are rather than as JSON (it crashed on the CSV: an API client's pass)
+        "content": {"text/csv": {"schema": {"type": "string"}},
+                    PARQUET_MEDIA_TYPE: {"schema": {"type": "string", "format": "binary"}}},
     },
 }
 

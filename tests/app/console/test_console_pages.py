@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import html
 import io
 import json
 import math
 import re
 import time
+import urllib.parse
 from datetime import UTC, datetime
 
 import httpx
@@ -451,6 +453,15 @@ def test_trends_page_shows_the_wear_rate_and_the_time_left(
 
 
 def test_simulation_downloads_are_the_apis_files(browser_client: httpx.Client) -> None:
+    # the links as the page writes them (they carried the form's run=true, which the
+    # download refused as unknown: a verification pass; this test built its own)
+    shown = browser_client.get("/console/simulate?run=true&rig=1&fault=worn_piston&load=2100")
+    links = [html.unescape(h) for h in
+             re.findall(r'href="(/console/simulate/download\?[^"]+)"', shown.text)]
+    assert [urllib.parse.parse_qs(urllib.parse.urlsplit(h).query)["format"] for h in links] \
+        == [["csv"], ["parquet"]]
+    for link in links:
+        assert browser_client.get(link).status_code == 200, link
     query = "rig=1&fault=worn_piston&load=2100"
     csv = browser_client.get(f"/console/simulate/download?format=csv&{query}")
     assert csv.status_code == 200 and csv.headers["content-type"].startswith("text/csv")

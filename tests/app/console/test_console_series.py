@@ -128,8 +128,8 @@ def test_a_job_is_cancelled_from_its_page(console_server: LiveServer,
     followed = browser_client.get(f"{url}?follow=true")
     assert '<meta http-equiv="refresh" content="5">' in followed.text
     assert 'id="stop-following"' in followed.text
-    asked = browser_client.post(f"{url}/cancel")
-    assert asked.status_code == 303 and asked.headers["location"] == url
+    asked = browser_client.post(f"{url}/cancel")   # then followed until it stops
+    assert asked.status_code == 303 and asked.headers["location"] == f"{url}?follow=true"
     deadline = time.monotonic() + 60.0
     while 'id="job-cancelled"' not in (shown := browser_client.get(f"{url}?follow=true")).text:
         assert time.monotonic() < deadline, shown.text
@@ -324,6 +324,13 @@ def test_a_cycle_without_its_temperature_is_read_with_the_one_stated_on_its_page
     series = stored.json()["items"][0]["id"]
     bare = browser_client.get(f"/console/series/{series}")
     assert 'id="record-unread"' in bare.text and 'id="state-condition"' in bare.text
+    # a condition typed wrong is an alert tied to its field (it was a grey note: an
+    # accessibility pass); a series that lacks one is not
+    assert '<p class="muted" id="record-unread">' in bare.text
+    typo = browser_client.get(f"/console/series/{series}?oil_temperature=warm")
+    assert '<p class="error" role="alert" id="record-unread">' in typo.text
+    assert re.search(r'id="stated-oil_temperature"[^>]*aria-invalid="true" '
+                     r'aria-describedby="record-unread"', typo.text)
     stated = browser_client.get(f"/console/series/{series}?oil_temperature=40")
     assert 'id="record-readings"' in stated.text
     assert f"/console/diagnose?series={series}&amp;oil_temperature=40" in stated.text
