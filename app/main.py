@@ -111,8 +111,8 @@ IDEMPOTENCY_PARAMETER: dict[str, Any] = {
     "name": IDEMPOTENCY_HEADER, "in": "header", "required": False,
     "description": "A key of 1-255 visible ASCII characters that makes a retry of this "
                    f"write safe: the same key with the same request within {KEEP_HOURS} h "
-                   "replays the "
-                   "first answer (Idempotent-Replayed: true) instead of doing it again [-]",
+                   "replays the first answer (Idempotent-Replayed: true) instead of doing it "
+                   "again [-]",
     "schema": {"type": "string", "minLength": 1, "maxLength": 255},
     "examples": {"a retry key": {"value": "7d2c41e0-rig-1-visit-2026-11-30"}},
 }

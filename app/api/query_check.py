@@ -12,6 +12,7 @@ the fields of a console form (``/console/simulate?lod=4200`` simulated at the de
 from __future__ import annotations
 
 import difflib
+from collections.abc import Callable
 from typing import Any
 
 from fastapi import Request
@@ -63,6 +64,20 @@ def form_names(dependant: Dependant) -> frozenset[str]:
     return frozenset(names)
 
 
+def _route_names(request: Request, cache: dict[int, frozenset[str]],
+                 read: Callable[[Dependant], frozenset[str]]) -> frozenset[str] | None:
+    """The names ``read`` finds in the request's operation, cached by route; ``None`` for
+    a request no operation answers."""
+    route = request.scope.get("route")
+    dependant = getattr(route, "dependant", None)
+    if dependant is None:
+        return None
+    names = cache.get(id(route))
+    if names is None:
+        names = cache[id(route)] = read(dependant)
+    return names
+
+
 def _unknown(key: str, names: frozenset[str], what: str) -> InputError:
     close = difflib.get_close_matches(key, sorted(names), n=1)
     known = ", ".join(sorted(names)) or "none"
@@ -82,13 +97,9 @@ async def known_form(request: Request) -> None:
     kind = request.headers.get("content-type", "").split(";")[0].strip().lower()
     if request.method not in ("POST", "PUT", "PATCH") or kind not in _FORM_TYPES:
         return
-    route = request.scope.get("route")
-    dependant = getattr(route, "dependant", None)
-    if dependant is None:
-        return
-    names = _FORM_NAMES.get(id(route))
+    names = _route_names(request, _FORM_NAMES, form_names)
     if names is None:
-        names = _FORM_NAMES[id(route)] = form_names(dependant)
+        return
     # the operation parsed the form already (FastAPI reads the body before the
     # dependencies): this is the request's cached copy
     for key in await request.form():
@@ -106,13 +117,9 @@ async def known_query(request: Request) -> None:
     """
     if not request.query_params:
         return
-    route = request.scope.get("route")
-    dependant = getattr(route, "dependant", None)
-    if dependant is None:
-        return
-    names = _NAMES.get(id(route))
+    names = _route_names(request, _NAMES, query_names)
     if names is None:
-        names = _NAMES[id(route)] = query_names(dependant)
+        return
     for key in request.query_params:
         if key not in names:
             raise _unknown(key, names, "query parameter")

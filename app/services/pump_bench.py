@@ -54,11 +54,13 @@ def read_bench_bytes(content: bytes, *, field: str = "file") -> BenchData:
 
 def bench_oil(form: PumpBenchForm) -> Fluid | None:
     """The oil the form states (its data-sheet viscosities at 40 and 100 °C, its density at
-    15 °C), or ``None`` for the default ISO VG 46 HM oil of :class:`sim.fluid.Fluid`."""
-    if form.oil_nu40_m2_s is None or form.oil_nu100_m2_s is None:
+    15 °C; what it leaves out, the default's), or ``None`` for the default ISO VG 46 HM oil
+    of :class:`sim.fluid.Fluid`."""
+    if form.oil_nu40_m2_s is None and form.oil_rho15_kg_m3 is None:
         return None
     default = Fluid()
-    return Fluid(nu1=form.oil_nu40_m2_s, T1=40.0, nu2=form.oil_nu100_m2_s, T2=100.0,
+    return Fluid(nu1=form.oil_nu40_m2_s or default.nu1, T1=40.0,
+                 nu2=form.oil_nu100_m2_s or default.nu2, T2=100.0,
                  rho15=form.oil_rho15_kg_m3 or default.rho15, alpha=default.alpha,
                  beta=default.beta)
 

@@ -169,7 +169,7 @@ class Selection:
                           "reach": self.unreachable[k],
                           "why": "not identifiable on this design: at the top of its "
                                  "plausible range it moves the balance by at most "
-                                 f"{self.unreachable[k]:.3g} {self.unit}, a hundredth "
+                                 f"{self.unreachable[k]:.3g} {self.unit}, under a hundredth "
                                  "of the practical size"}
             else:
                 out[k] = {"coefficient": t.coefficient, "stderr": t.stderr, "t": t.t, "p": t.p,

@@ -334,6 +334,12 @@ def test_the_bench_oil_is_stated_and_its_viscosity_makes_the_coefficients(
     assert d["Cs_constant"]["value"] / truth["Cs"] == pytest.approx(0.86, abs=0.02)
     assert d["Cv_constant"]["value"] / truth["Cv"] == pytest.approx(0.83, abs=0.02)
     assert d["oil_nu100"]["value"] == pytest.approx(6.8e-6, rel=1e-12)
+    # a density alone is the default oil at that density (it was dropped without a word)
+    dense = _upload(server, path.read_bytes(), {"name": "hv-oil-rho", "pump": "GP-16",
+                                                "oil_rho15_kg_m3": "872"})
+    assert dense.status_code == 201, dense.text
+    assert dense.json()["quantities"]["rho"]["value"] == pytest.approx(
+        Fluid(rho15=872.0).density(40.0))
     assert "oil_nu40_m2_s, oil_nu100_m2_s" in default.json()["source"]
     # the pair is given whole, and the oil thins as it warms
     before = server.row_counts()
