@@ -46,7 +46,7 @@ import json
 import logging
 import math
 import re
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from datetime import timedelta
 from typing import Any
 
@@ -55,6 +55,7 @@ from sqlalchemy import delete, select, update
 from sqlalchemy.exc import IntegrityError, InterfaceError, OperationalError
 from sqlalchemy.orm import Session
 from starlette.requests import Request
+from starlette.routing import BaseRoute, Match
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from app.db.base import utcnow
@@ -169,11 +170,25 @@ class IdempotencyMiddleware:
         The application inside.
     sessions
         Session factory of the store.
+    routes
+        The application's routes: a key is handled only for a path and method an operation
+        answers.
     """
 
-    def __init__(self, app: ASGIApp, sessions: Callable[[], Session]) -> None:
+    def __init__(self, app: ASGIApp, sessions: Callable[[], Session],
+                 routes: Sequence[BaseRoute] = ()) -> None:
         self.app = app
         self.sessions = sessions
+        self.routes = routes
+
+    def _answered_by_an_operation(self, scope: Scope) -> bool:
+        """Whether an operation of ``routes`` answers this path and method (every request,
+        where no routes were given): a method the path does not take is the router's 405,
+        not a key's 422 ("used for another request"; a fuzzer's PUT on POST /scenarios
+        with a reused key)."""
+        if not self.routes:
+            return True
+        return any(route.matches(scope)[0] == Match.FULL for route in self.routes)
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         key = _header(scope, b"idempotency-key") if scope["type"] == "http" else None
@@ -182,7 +197,7 @@ class IdempotencyMiddleware:
         # a request without an API key stores nothing (open reads), and anonymous clients
         # would share one owner: their keys are not kept
         if (key is None or not api_key or scope.get("method") not in _WRITES
-                or path.startswith("/console")):
+                or path.startswith("/console") or not self._answered_by_an_operation(scope)):
             await self.app(scope, receive, send)
             return
         if not _VALID.fullmatch(key):

@@ -147,13 +147,13 @@ def _documented_openapi(app: FastAPI, open_reads: bool) -> dict[str, Any]:
                     operation.pop("security", None)
                     for status in ("401", "403"):
                         operation.get("responses", {}).pop(status, None)
-                elif method.upper() in IDEMPOTENT_METHODS:
+                elif access == ACCESS_OPEN_READS and open_reads:
+                    operation["security"] = [{}, {"APIKeyHeader": []}]
+                if access != ACCESS_OPEN and method.upper() in IDEMPOTENT_METHODS:
                     # the header every keyed write takes, as a parameter a generated client
                     # offers (it was only in the document's introduction: an API client's
                     # pass)
                     operation.setdefault("parameters", []).append(IDEMPOTENCY_PARAMETER)
-                elif access == ACCESS_OPEN_READS and open_reads:
-                    operation["security"] = [{}, {"APIKeyHeader": []}]
         app.openapi_schema = schema
     return app.openapi_schema
 
@@ -249,7 +249,8 @@ def create_app(
     app.state.rate_limiter = (KeyRateLimiter(settings.rate_limit_per_minute)
                               if settings.rate_limit_per_minute else None)
     app.add_middleware(CatchAllMiddleware)  # innermost: a 500 logged once, with its id
-    app.add_middleware(IdempotencyMiddleware, sessions=sessions)  # after the body limit
+    app.add_middleware(IdempotencyMiddleware, sessions=sessions,   # after the body limit
+                       routes=app.router.routes)
     app.add_middleware(BodyLimitMiddleware, limit=settings.max_body_bytes,
                        upload_limit=settings.max_upload_bytes)
     app.add_middleware(MetricsMiddleware, metrics=app.state.metrics)

@@ -49,6 +49,12 @@ def test_a_resent_diagnosis_is_answered_again_and_stored_once(server: LiveServer
     assert other.status_code == 422
     assert other.json()["error"]["field"] == "Idempotency-Key"
     assert server.row_counts() == added
+    # a method the path does not take is the router's 405, whatever the key (it was the
+    # key's 422: a fuzzer's PUT on /diagnose with a key used before)
+    wrong_method = server.client.put("/diagnose", json={"record": record},
+                                     headers=server.auth | {"Idempotency-Key":
+                                                            "visit-2026-11-28-rig1"})
+    assert wrong_method.status_code == 405, wrong_method.text
     # a key of other than 1-255 visible ASCII characters is refused
     bad = server.client.post("/diagnose", json={"record": record},
                              headers=server.auth | {"Idempotency-Key": "x y"})
