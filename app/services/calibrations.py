@@ -216,10 +216,11 @@ def create_calibration(
         source=data.source,
     )
     with session.no_autoflush:
+        # the rows first: an invalid table for a throttle that has one was answered 409
+        # "update that one", and the update then failed on the rows (an API client's pass)
+        points = _rows(session, calibration, [_table_point(p) for p in data.points], estimator)
         _check_condition_free(session, calibration)
-        calibration.points = _rows(
-            session, calibration, [_table_point(p) for p in data.points], estimator
-        )
+        calibration.points = points
     session.add(calibration)
     commit(session, conflict="a table for this throttle and condition exists", field="throttle")
     return calibration

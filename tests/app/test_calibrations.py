@@ -153,6 +153,15 @@ def test_duplicate_condition_is_409_and_stores_nothing(server: LiveServer) -> No
         "temperature_c": TABLE["temperature_c"] + 0.001}, headers=server.auth)
     assert near.status_code == 409 and server.row_counts() == before
     assert f"and {TABLE['temperature_c']:g} °C (" in near.json()["error"]["message"]  # stored
+    # an invalid table at a taken condition names its bad row, not the table in the way
+    # (it was 409 "update that one", and the update then failed on the rows: an API
+    # client's pass)
+    falling = [dict(p) for p in TABLE["points"]]
+    falling[2]["bypass_flow_m3s"] = 1.0e-5          # 2 turns below 1 turn's 3e-5
+    invalid = server.client.post(url, json=TABLE | {"points": falling}, headers=server.auth)
+    assert invalid.status_code == 422, invalid.text
+    assert invalid.json()["error"]["field"].startswith("points[")
+    assert server.row_counts() == before
     other_condition = server.client.post(url, json=TABLE | {"temperature_c": 60.0},
                                          headers=server.auth)
     assert other_condition.status_code == 201
