@@ -33,8 +33,9 @@ from rich.markup import escape
 from rich.table import Table
 
 from app.cli_support import console, counted, steps, store_session, writable
-from app.schemas.common import MAX_ID, iso_utc
+from app.schemas.common import MAX_ID
 from app.schemas.record_csv import record_rows
+from app.schemas.times import iso_utc
 from sim.errors import HydrodiagError, InputError, MeasurementError
 
 if TYPE_CHECKING:

@@ -24,7 +24,8 @@ from app.cli_support import (
     shown_estimate,
     store_session,
 )
-from app.schemas.common import MAX_ID, SinceTime, UntilTime, filter_time
+from app.schemas.common import MAX_ID
+from app.schemas.times import SinceTime, UntilTime, filter_time
 from sim.errors import InputError
 
 __all__ = ["history_cli"]

@@ -90,7 +90,8 @@ def import_series(
              "-0400.")] = None,
 ) -> None:
     """Read time-series files and store each record, as POST /rigs/{id}/series does."""
-    from app.services.series import column_of, rig_channels, store_records, upload_start
+    from app.services.rig_channels import column_of, rig_channels
+    from app.services.series import store_records, upload_start
     from diagnostics.map_notes import unmatched_map_notes
     from diagnostics.sampling import sampling_notes
     from diagnostics.timeseries import read_series

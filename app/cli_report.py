@@ -20,7 +20,8 @@ from app.cli_support import (
     store_session,
     writable,
 )
-from app.schemas.common import MAX_ID, iso_utc
+from app.schemas.common import MAX_ID
+from app.schemas.times import iso_utc
 from sim.errors import InputError
 
 __all__ = ["render_report", "report_cli"]
@@ -96,7 +97,7 @@ def report_trends(
     a summary table is printed either way.  --since the day a part was changed trends the
     new part alone."""
     from app.console.views import trend_views
-    from app.schemas.common import SinceTime, UntilTime, filter_time
+    from app.schemas.times import SinceTime, UntilTime, filter_time
     from app.services.rig_cache import RigCache
     from app.services.trends import component_trends
 

@@ -63,7 +63,7 @@ from app.db.base import utcnow
 from app.db.models import IdempotentRequest
 from app.errors import database_unavailable, response_for
 from app.ratelimit import client_address
-from app.schemas.common import iso_utc
+from app.schemas.times import iso_utc
 from app.services.idempotent_work import CURRENT, KeyedWrite
 from app.services.keys import authenticate
 from sim.errors import AuthError, ConflictError, InputError

@@ -23,9 +23,10 @@ from app.console.web import page, redirect
 from app.db.base import utcnow
 from app.errors import ServiceUnavailableError, first_problem, status_for
 from app.limits import check_count, check_file
-from app.schemas.common import MAX_ID, SinceTime, UntilTime, filter_time
+from app.schemas.common import MAX_ID
 from app.schemas.diagnose import DiagnoseRequest
 from app.schemas.record_csv import record_rows
+from app.schemas.times import SinceTime, UntilTime, filter_time
 from app.services import rigs as rig_service
 from app.services.diagnosis import (
     STORE_CONFLICT,
@@ -242,7 +243,7 @@ def _stamp(value: datetime | None) -> str:
 
 
 def _time(text: str, field: str) -> datetime | None:
-    """A filter's time (:func:`~app.schemas.common.filter_time`): blank for none; a date
+    """A filter's time (:func:`~app.schemas.times.filter_time`): blank for none; a date
     alone is the start of that day (UTC) for ``since``, its end for ``until``, as the API
     reads them (the console read ``until=2026-10-02`` as that day's 00:00 and found
     nothing of it)."""

@@ -12,15 +12,8 @@ from typing import Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, StringConstraints, field_validator
 
-from app.schemas.common import (
-    FiniteFloat,
-    Page,
-    PublicModel,
-    RequestModel,
-    Timestamp,
-    not_nullable,
-    reject_null,
-)
+from app.schemas.common import FiniteFloat, Page, PublicModel, RequestModel, not_nullable, reject_null
+from app.schemas.times import Timestamp
 
 __all__ = [
     "MAX_CLEARANCE_M",

@@ -26,7 +26,8 @@ from pydantic.json_schema import JsonSchemaValue
 from pydantic_core import CoreSchema, PydanticCustomError
 
 from app.limits import BATCH_RECORDS_CEILING
-from app.schemas.common import MAX_ID, FiniteFloat, MeasurementTime, RequestModel
+from app.schemas.common import MAX_ID, FiniteFloat, RequestModel
+from app.schemas.times import MeasurementTime
 from sim.errors import InputError
 
 __all__ = [

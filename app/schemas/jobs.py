@@ -7,7 +7,8 @@ from typing import Any, Literal
 
 from pydantic import Field
 
-from app.schemas.common import Page, PublicModel, Timestamp
+from app.schemas.common import Page, PublicModel
+from app.schemas.times import Timestamp
 
 __all__ = ["JobList", "JobPublic", "JobStatus"]
 

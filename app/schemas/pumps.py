@@ -26,11 +26,11 @@ from app.schemas.common import (
     Page,
     PublicModel,
     RequestModel,
-    Timestamp,
     UploadForm,
     not_nullable,
     reject_null,
 )
+from app.schemas.times import Timestamp
 from sim.units import UNITS
 
 __all__ = [

@@ -7,7 +7,8 @@ from typing import Any, ClassVar
 
 from pydantic import Field
 
-from app.schemas.common import Page, PublicModel, RequestModel, Timestamp
+from app.schemas.common import Page, PublicModel, RequestModel
+from app.schemas.times import Timestamp
 from sim.rigs import reference_rig_document
 
 __all__ = ["RigCreate", "RigList", "RigPublic", "RigUpdate", "RigVersionList", "RigVersionPublic"]

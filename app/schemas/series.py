@@ -8,15 +8,8 @@ from typing import Annotated, Any
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field
 from pydantic_core import PydanticCustomError
 
-from app.schemas.common import (
-    MAX_ID,
-    FiniteFloat,
-    MeasurementTime,
-    Page,
-    PublicModel,
-    Timestamp,
-    UploadForm,
-)
+from app.schemas.common import MAX_ID, FiniteFloat, Page, PublicModel, UploadForm
+from app.schemas.times import MeasurementTime, Timestamp
 from diagnostics.timeseries import MAX_SAMPLE_RATE
 
 __all__ = [

@@ -24,8 +24,8 @@ from typing import Any
 
 import orjson
 
-from app.schemas.common import iso_utc
 from app.schemas.diagnose import DisagreementPublic, EstimatePublic, GoodnessOfFitPublic
+from app.schemas.times import iso_utc
 from app.services.diagnosis import DiagnosisOutcome
 from app.services.diagnosis_form import RecordForm, RequestForm, stored_document
 from app.services.diagnosis_response import compact_result, time_notes

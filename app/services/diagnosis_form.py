@@ -20,8 +20,8 @@ from collections.abc import Mapping
 from datetime import datetime
 from typing import Any, Literal, NamedTuple
 
-from app.schemas.common import iso_utc
 from app.schemas.diagnose import MEASURED_FIELDS, ConditionIn, DiagnoseRequest, MeasurementIn
+from app.schemas.times import iso_utc
 from app.services.common import prefixed
 from diagnostics.measurement import MeasurementRecord, OperatingCondition
 from diagnostics.quantity import Quantity

@@ -12,13 +12,13 @@ from dataclasses import asdict
 from datetime import UTC, datetime
 from typing import Any, Literal
 
-from app.schemas.common import iso_utc
 from app.schemas.diagnose import (
     DiagnoseRequest,
     DiagnoseResponse,
     DiagnosisPublic,
     EstimatePublic,
 )
+from app.schemas.times import iso_utc
 from app.services.diagnosis import DiagnosisOutcome
 
 __all__ = ["compact_result", "response_json", "response_of", "time_notes"]

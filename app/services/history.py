@@ -24,7 +24,7 @@ from app.db.models import (
     Measurement,
     RigVersion,
 )
-from app.schemas.common import iso_utc
+from app.schemas.times import iso_utc
 from app.services.common import commit
 from app.services.rigs import get_rig, get_version
 from sim.errors import ConflictError, InputError

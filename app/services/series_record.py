@@ -18,8 +18,8 @@ from typing import Any
 
 from sqlalchemy.orm import Session
 
-from app.schemas.common import iso_utc
 from app.schemas.diagnose import MEASURED_FIELDS
+from app.schemas.times import iso_utc
 from app.services.rig_cache import ResolvedRig, RigCache
 from app.services.series import as_record, get_series
 from diagnostics.cycle_readings import CycleReadings, cycle_readings

@@ -306,7 +306,7 @@ def test_a_time_in_the_future_is_told_against_the_clock_itself() -> None:
     import datetime as dt
     import re
 
-    from app.schemas.common import measurement_time_problem
+    from app.schemas.times import measurement_time_problem
 
     now = dt.datetime.now(dt.UTC)
     problem = measurement_time_problem(now + dt.timedelta(days=3))

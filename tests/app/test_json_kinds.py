@@ -1,4 +1,4 @@
-"""The JSON-kind check of request models (:func:`app.schemas.common._json_type_problem`),
+"""The JSON-kind check of request models (:func:`app.schemas.json_kinds.json_type_problem`),
 built once per annotation: what it refuses and what it leaves to pydantic."""
 
 from __future__ import annotations
@@ -9,7 +9,8 @@ from typing import Annotated
 import pytest
 from pydantic import Field
 
-from app.schemas.common import FiniteFloat, _json_type_problem
+from app.schemas.common import FiniteFloat
+from app.schemas.json_kinds import json_type_problem
 
 
 @pytest.mark.parametrize(("annotation", "value", "problem"), [
@@ -31,5 +32,5 @@ from app.schemas.common import FiniteFloat, _json_type_problem
     (dt.datetime, "2026-11-22T08:30:00Z", None),
 ])
 def test_json_kinds(annotation: object, value: object, problem: str | None) -> None:
-    assert _json_type_problem(annotation, value) == problem
-    assert _json_type_problem(annotation, value) == problem  # the cached check agrees
+    assert json_type_problem(annotation, value) == problem
+    assert json_type_problem(annotation, value) == problem  # the cached check agrees

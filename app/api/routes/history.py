@@ -12,7 +12,7 @@ from fastapi import APIRouter, Path, Query, Response, status
 
 from app.api.deps import AdminKeyDep, PageDep, ReadAccess, SessionDep
 from app.api.rendered import rendered
-from app.schemas.common import ERROR_RESPONSES, MAX_ID, SinceTime, UntilTime
+from app.schemas.common import ERROR_RESPONSES, MAX_ID
 from app.schemas.history import (
     BlamedComponent,
     StoredDiagnosisList,
@@ -20,6 +20,7 @@ from app.schemas.history import (
     StoredMeasurementList,
     StoredMeasurementPublic,
 )
+from app.schemas.times import SinceTime, UntilTime
 from app.services import readback as service
 
 __all__ = ["router"]

@@ -9,7 +9,8 @@ from fastapi import APIRouter, Query, Response
 from app.api.deps import ReadAccess, RigsDep, SessionDep
 from app.api.rendered import rendered
 from app.api.routes.rigs import RigId
-from app.schemas.common import ERROR_RESPONSES, SinceTime, UntilTime
+from app.schemas.common import ERROR_RESPONSES
+from app.schemas.times import SinceTime, UntilTime
 from app.schemas.trends import ComponentTrend, TrendComponent, TrendPoint, TrendsPublic
 from app.services.trends import ComponentTrendOut, component_trends
 
