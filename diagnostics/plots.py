@@ -28,8 +28,9 @@ from typing import Any, Literal
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["MUTED", "SHOWN_UNITS", "Bar", "Chart", "Series", "bar_chart", "line_chart", "render_png",
-           "render_png_stack", "render_svg", "shown_unit"]
+__all__ = ["MARKERS", "MUTED", "SHOWN_UNITS", "Bar", "Chart", "Series", "bar_chart", "line_chart",
+           "line_marks", "mark_indices", "render_png", "render_png_stack", "render_svg",
+           "shown_unit"]
 
 Arr = npt.NDArray[np.float64]
 
@@ -40,6 +41,13 @@ PALETTE = ("#0072B2", "#D55E00", "#009E73", "#CC79A7", "#B26B00", "#2C88C4", "#0
            "#8C7B00")
 #: a muted series (a hypothesis that cannot be told, an unlikely point): 4.5:1 on white
 MUTED = "#767676"
+#: shapes that tell a chart's lines apart beside their colour, as matplotlib's marker codes
+#: and the names a chart's description says: P_pump, P1 and P2 were told apart by colour
+#: alone (WCAG 1.4.1, use of colour: an accessibility pass)
+MARKERS = (("s", "square"), ("^", "triangle"), ("D", "diamond"), ("v", "inverted triangle"),
+           ("P", "plus"), ("X", "cross"), ("o", "circle"), ("*", "star"))
+#: marks along each line of a chart with several lines [-]
+MARKS_PER_LINE = 6
 
 #: SI unit → (the unit charts and pages show it in, the factor to it): pressures in bar,
 #: flows in l/min, positions in mm, …; SI stays inside, in the API and in its files
@@ -170,6 +178,32 @@ def bar_chart(title: str, label: str, bars: Sequence[Bar], *, horizontal: bool =
     return Chart(title, "", label, (), tuple(bars), False, tuple(reference), (), False, dims)
 
 
+def line_marks(chart: Chart) -> dict[int, int]:
+    """Index of each labelled line (and step) series of ``chart`` → index of its shape in
+    :data:`MARKERS`, where the chart has two such lines or more (one line needs no mark:
+    points and bars differ from it by form already; an unlabelled line goes with the series
+    before it in its colour, a pump map's model beside its points, and has no legend entry
+    to show a mark in)."""
+    lines = [i for i, s in enumerate(chart.series) if s.kind in ("line", "step") and s.label]
+    return {i: k % len(MARKERS) for k, i in enumerate(lines)} if len(lines) >= 2 else {}
+
+
+def mark_indices(x: Sequence[float] | Arr, y: Sequence[float] | Arr, shape: int, *,
+                 logy: bool = False) -> list[int]:
+    """Indices of the :data:`MARKS_PER_LINE` points of a line that carry its mark: spread
+    evenly over its drawable points, each shape ``shape`` shifted along the line so that two
+    lines on top of each other still show both marks."""
+    xa, ya = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+    ok = np.isfinite(xa) & np.isfinite(ya) & ((ya > 0) if logy else True)
+    drawable = np.flatnonzero(ok)
+    if drawable.size == 0:
+        return []
+    m = min(MARKS_PER_LINE, drawable.size)
+    offset = (0.5 + 0.37 * shape) % 1.0
+    at = np.floor((np.arange(m) + offset) / m * drawable.size).astype(int)
+    return sorted({int(drawable[min(j, drawable.size - 1)]) for j in at})
+
+
 def _color(i: int, given: str | None) -> str:
     return given if given is not None else PALETTE[i % len(PALETTE)]
 
@@ -197,15 +231,20 @@ def _figure(chart: Chart) -> Any:
         else:
             ax.bar(pos, values, color=colors, yerr=err, capsize=3)
             ax.set_xticks(pos, labels)
+    marks = line_marks(chart)
     for i, s in enumerate(chart.series):
         x = np.asarray(s.x, dtype=float)
         y = np.asarray(s.y, dtype=float)
         c = _color(i, s.color)
         ls = "--" if s.dashed else "-"
+        shape: dict[str, Any] = {}
+        if i in marks:
+            shape = {"marker": MARKERS[marks[i]][0], "ms": 5,
+                     "markevery": mark_indices(x, y, marks[i], logy=chart.logy)}
         if s.kind == "points":
             ax.plot(x, y, "o", ms=3.5, color=c, label=s.label or None)
         elif s.kind == "step":
-            ax.step(x, y, where="post", color=c, ls=ls, lw=1.4, label=s.label or None)
+            ax.step(x, y, where="post", color=c, ls=ls, lw=1.4, label=s.label or None, **shape)
         elif s.kind == "errorbars":
             lo = y - np.asarray(s.low, dtype=float) if s.low is not None else None
             hi = np.asarray(s.high, dtype=float) - y if s.high is not None else None
@@ -213,7 +252,7 @@ def _figure(chart: Chart) -> Any:
             ax.errorbar(x, y, yerr=yerr, fmt="o", ms=3.5, color=c, capsize=2,
                         label=s.label or None)
         else:
-            ax.plot(x, y, color=c, ls=ls, lw=1.4, label=s.label or None)
+            ax.plot(x, y, color=c, ls=ls, lw=1.4, label=s.label or None, **shape)
         if s.low is not None and s.high is not None and s.kind != "errorbars":
             ax.fill_between(x, np.asarray(s.low, dtype=float), np.asarray(s.high, dtype=float),
                             color=c, alpha=0.18, lw=0)

@@ -20,7 +20,7 @@ from html import escape
 
 import numpy as np
 
-from diagnostics.plots import PALETTE, Chart, Series
+from diagnostics.plots import MARKERS, PALETTE, Chart, Series, line_marks, mark_indices
 
 __all__ = ["nice_ticks", "render_svg_native"]
 
@@ -106,7 +106,48 @@ def _polyline(frame: _Frame, x: np.ndarray, y: np.ndarray, color: str, dashed: b
                    f'stroke-width="1.5"{dash}/>' for r in runs if len(r) > 1)
 
 
-def _series(frame: _Frame, s: Series, color: str) -> str:
+#: half the size of a line's mark [px]
+_MARK_R = 3.5
+
+
+def _mark(shape: int, cx: float, cy: float) -> str:
+    """Path data of mark ``shape`` (:data:`~diagnostics.plots.MARKERS`) centred on
+    (``cx``, ``cy``) [px]: closed outlines, filled, except the plus and the cross, stroked."""
+    r = _MARK_R
+    code = MARKERS[shape][0]
+    if code == "s":
+        return f"M{cx - r:.1f} {cy - r:.1f}h{2 * r:.1f}v{2 * r:.1f}h{-2 * r:.1f}Z"
+    if code == "^":
+        return f"M{cx:.1f} {cy - r:.1f}L{cx + r:.1f} {cy + r:.1f}L{cx - r:.1f} {cy + r:.1f}Z"
+    if code == "v":
+        return f"M{cx:.1f} {cy + r:.1f}L{cx + r:.1f} {cy - r:.1f}L{cx - r:.1f} {cy - r:.1f}Z"
+    if code == "D":
+        return (f"M{cx:.1f} {cy - r:.1f}L{cx + r:.1f} {cy:.1f}L{cx:.1f} {cy + r:.1f}"
+                f"L{cx - r:.1f} {cy:.1f}Z")
+    if code == "P":
+        return f"M{cx - r:.1f} {cy:.1f}h{2 * r:.1f}M{cx:.1f} {cy - r:.1f}v{2 * r:.1f}"
+    if code == "X":
+        return (f"M{cx - r:.1f} {cy - r:.1f}l{2 * r:.1f} {2 * r:.1f}"
+                f"M{cx - r:.1f} {cy + r:.1f}l{2 * r:.1f} {-2 * r:.1f}")
+    if code == "o":
+        return (f"M{cx - r:.1f} {cy:.1f}a{r:.1f} {r:.1f} 0 1 0 {2 * r:.1f} 0"
+                f"a{r:.1f} {r:.1f} 0 1 0 {-2 * r:.1f} 0Z")
+    points = [(cx + (r if k % 2 == 0 else r / 2.2) * math.sin(k * math.pi / 5),
+               cy - (r if k % 2 == 0 else r / 2.2) * math.cos(k * math.pi / 5)) for k in range(10)]
+    return "M" + "L".join(f"{a:.1f} {b:.1f}" for a, b in points) + "Z"
+
+
+def _marks(shape: int, centres: Iterable[tuple[float, float]], color: str) -> str:
+    """One ``<path>`` holding mark ``shape`` at every centre [px]."""
+    d = "".join(_mark(shape, cx, cy) for cx, cy in centres)
+    if not d:
+        return ""
+    stroked = MARKERS[shape][0] in ("P", "X")
+    return (f'<path d="{d}" fill="none" stroke="{color}" stroke-width="1.6"/>' if stroked
+            else f'<path d="{d}" fill="{color}" stroke="none"/>')
+
+
+def _series(frame: _Frame, s: Series, color: str, shape: int | None = None) -> str:
     x = np.asarray(s.x, dtype=float)
     y = np.asarray(s.y, dtype=float)
     parts = []
@@ -133,6 +174,9 @@ def _series(frame: _Frame, s: Series, color: str) -> str:
                              if math.isfinite(a) and math.isfinite(b)))
     else:
         parts.append(_polyline(frame, x, y, color, s.dashed, step=s.kind == "step"))
+        if shape is not None:
+            parts.append(_marks(shape, ((frame.x(x[j]), frame.y(y[j])) for j in
+                                        mark_indices(x, y, shape, logy=frame.logy)), color))
     return "".join(parts)
 
 
@@ -146,8 +190,9 @@ def _text(x: float, y: float, text: str, *, size: int = 11, anchor: str = "middl
 _LEGEND_ROW, _LEGEND_GAP = 14.0, 4.0
 
 
-#: a legend entry: label, colour, dashed line, drawn as a dot (a series of points)
-_Entry = tuple[str, str, bool, bool]
+#: a legend entry: label, colour, dashed line, drawn as a dot (a series of points), the
+#: line's mark (:data:`~diagnostics.plots.MARKERS`; None for none)
+_Entry = tuple[str, str, bool, bool, int | None]
 
 
 def _legend_layout(entries: Sequence[_Entry], width: float) -> list[tuple[float, int]]:
@@ -170,7 +215,7 @@ def _legend(entries: Sequence[_Entry], width: float, top: float) -> tuple[str, f
         return "", 0.0
     layout = _legend_layout(entries, width)
     out = []
-    for (text, color, dashed, dot), (x, row) in zip(entries, layout, strict=True):
+    for (text, color, dashed, dot, shape), (x, row) in zip(entries, layout, strict=True):
         yy = top + _LEGEND_GAP + 11 + _LEGEND_ROW * row
         dash = ' stroke-dasharray="5 3"' if dashed else ""
         if dot:
@@ -178,6 +223,8 @@ def _legend(entries: Sequence[_Entry], width: float, top: float) -> tuple[str, f
         else:
             out.append(f'<line x1="{x:.1f}" y1="{yy - 4:.1f}" x2="{x + 24:.1f}" '
                        f'y2="{yy - 4:.1f}" stroke="{color}" stroke-width="2"{dash}/>')
+            if shape is not None:
+                out.append(_marks(shape, [(x + 12, yy - 4)], color))
         out.append(_text(x + 30, yy, text, size=10, anchor="start"))
     rows = layout[-1][1] + 1
     return "".join(out), _LEGEND_GAP + _LEGEND_ROW * rows + 4
@@ -276,22 +323,24 @@ def _lines(chart: Chart, width: float, height: float) -> tuple[str, str, list[_E
     axes = _axes(frame, chart, xticks, yticks, height)
     body = []
     legend: list[_Entry] = []
+    marks = line_marks(chart)
     for i, s in enumerate(chart.series):
         color = s.color if s.color is not None else PALETTE[i % len(PALETTE)]
-        body.append(_series(frame, s, color))
-        if s.label:  # a dotted series gets a dot in the legend, a line a line
-            legend.append((s.label, color, s.dashed, s.kind in ("points", "errorbars")))
+        body.append(_series(frame, s, color, marks.get(i)))
+        if s.label:  # a dotted series gets a dot in the legend, a line a line (and its mark)
+            legend.append((s.label, color, s.dashed, s.kind in ("points", "errorbars"),
+                           marks.get(i)))
     for p, text in chart.hlines:
         if not chart.logy or p > 0:
             body.append(f'<line x1="{frame.x0:.1f}" y1="{frame.y(p):.1f}" x2="{frame.x1:.1f}" '
                         f'y2="{frame.y(p):.1f}" stroke="{_GREY}" stroke-dasharray="2 2"/>')
             if text:
-                legend.append((text, _GREY, True, False))
+                legend.append((text, _GREY, True, False, None))
     for p, text in chart.vlines:
         body.append(f'<line x1="{frame.x(p):.1f}" y1="{frame.y1:.1f}" x2="{frame.x(p):.1f}" '
                     f'y2="{frame.y0:.1f}" stroke="{_GREY}" stroke-dasharray="2 2"/>')
         if text:
-            legend.append((text, _GREY, True, False))
+            legend.append((text, _GREY, True, False, None))
     return axes, "".join(body), legend
 
 
@@ -326,6 +375,7 @@ def describe(chart: Chart) -> str:
         if xs:
             parts.append(f"{chart.xlabel or 'x'} {_span(np.concatenate(xs))}")
         named = ""
+        marks = line_marks(chart)
         for i, s in enumerate(chart.series[:DESCRIBED]):
             y = np.asarray(s.y, dtype=float)
             # a line drawn without a legend entry goes with the series before it (a pump
@@ -333,6 +383,8 @@ def describe(chart: Chart) -> str:
             name = s.label or (f"{named}, {'dashed ' if s.dashed else ''}line" if named
                                else f"series {i + 1}")
             named = s.label or named
+            if i in marks:  # the shape that tells it apart on the chart
+                name += f" ({MARKERS[marks[i]][1]} marks)"
             parts.append(f"{name}: {y.size} points, {chart.ylabel or 'y'} {_span(y)}")
     left = len(chart.bars or chart.series) - DESCRIBED
     if left > 0:

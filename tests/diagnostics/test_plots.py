@@ -92,3 +92,40 @@ def test_a_line_without_a_legend_entry_is_described_with_the_series_before_it():
                                "0 to 2.2")
     bars = bar_chart("Hypotheses", "probability [-]", [Bar("valve", 0.7, 0.6, 0.8)])
     assert describe(bars) == "Hypotheses. probability [-]: valve 0.7 (0.6 to 0.8)"
+
+
+def test_lines_are_told_apart_by_shape_as_well_as_colour():
+    """Two or more labelled lines each carry their own mark along the line and in the
+    legend, in the SVG and in the PNG's figure, and the description names it (P_pump, P1
+    and P2 were told apart by colour alone: an accessibility pass, WCAG 1.4.1)."""
+    from diagnostics.plots import MARKERS, MARKS_PER_LINE, PALETTE, _figure, line_marks
+    from diagnostics.plots_svg import describe
+
+    t = np.linspace(0.0, 2.0, 300)
+    lines = [Series(t, 100.0 + k * 10.0 + np.sin(t), name) for k, name in
+             enumerate(("P_pump", "P1", "P2"))]
+    chart = line_chart("Pressures", "t [s]", "p [bar]",
+                       [*lines, Series(t[::30], 90.0 + t[::30], "measured", kind="points")])
+    assert line_marks(chart) == {0: 0, 1: 1, 2: 2}
+    root = ET.fromstring(render_svg(chart))
+    frame = next(e for e in root.iter() if e.tag.endswith("rect")
+                 and e.attrib.get("stroke") == "#333333")
+    bottom = float(frame.attrib["y"]) + float(frame.attrib["height"])
+    marks = [e for e in root.iter() if e.tag.endswith("path") and e.attrib.get("fill") != "none"]
+    # per line one path of marks on the plot and one in the legend, in the line's colour
+    colours = [m.attrib["fill"] for m in marks]
+    assert colours == [PALETTE[0], PALETTE[1], PALETTE[2]] * 2
+    for m in marks[:3]:  # six closed outlines each, every vertex inside the axes
+        assert m.attrib["d"].count("Z") == MARKS_PER_LINE
+        ys = [float(v) for v in re.findall(r"[ML][\d.]+ ([\d.]+)", m.attrib["d"])]
+        assert ys and max(ys) < bottom
+    assert len({m.attrib["d"][:1] + str(m.attrib["d"].count("L")) for m in marks[:3]}) == 3
+    assert describe(chart).startswith(
+        f"Pressures. t [s] 0 to 2. P_pump ({MARKERS[0][1]} marks): 300 points")
+    axes = _figure(chart).axes[0]
+    assert [ln.get_marker() for ln in axes.get_lines()[:4]] == ["s", "^", "D", "o"]
+    assert len(axes.get_lines()[0].get_markevery()) == MARKS_PER_LINE
+    # one labelled line, or unlabelled lines beside points: nothing to tell apart by shape
+    single = line_chart("Speed", "t [s]", "v [m/s]", [lines[0], Series(t, t, "", dashed=True)])
+    assert line_marks(single) == {}
+    assert "<path" not in render_svg(single) and "marks" not in describe(single)
