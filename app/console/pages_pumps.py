@@ -18,6 +18,7 @@ from starlette.concurrency import run_in_threadpool
 
 from app.api.deps import SessionDep
 from app.console.charts import surface_chart
+from app.console.numbers import form_number
 from app.console.pump_charts import pump_check_charts
 from app.console.routing import ConsoleKeyDep, new_router, write_refusal
 from app.console.web import page, redirect
@@ -82,10 +83,7 @@ def _form(name: str, pump: str, rig: str, source: str, numbers: dict[str, str]
         if not text.strip():
             continue
         api_field, unit, si = _PAGE_FIELDS[page_field]
-        try:
-            fields[api_field] = to_si(float(text), unit, si, field=page_field)
-        except ValueError:
-            raise InputError(f"not a number: {text!r}", field=page_field) from None
+        fields[api_field] = to_si(form_number(text, field=page_field), unit, si, field=page_field)
         if unit == "cSt" and not fields[api_field] >= OIL_NU_MIN:
             # said in the field's unit, not the form's SI (a verification pass)
             raise InputError(f"{text.strip()} cSt is below {OIL_NU_MIN * 1e6:g} cSt, where "

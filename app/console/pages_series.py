@@ -24,6 +24,7 @@ from starlette.concurrency import run_in_threadpool
 
 from app.api.deps import RigsDep, SessionDep
 from app.console.charts import series_charts
+from app.console.numbers import decimal_text
 from app.console.routing import ConsoleKeyDep, new_router, write_refusal
 from app.console.web import SECURITY_HEADERS, page, redirect
 from app.errors import first_problem, status_for
@@ -88,8 +89,8 @@ def stated_condition(oil_temperature: str, load_force: str) -> dict[str, float]:
     ``GET /series/{id}/record`` reads its query (:class:`~app.schemas.series.CycleQuery`):
     a logger file without an oil-temperature column could be imported but never read as
     a record from the console."""
-    given = {k: v.strip() for k, v in (("oil_temperature", oil_temperature),
-                                       ("load_force", load_force)) if v.strip()}
+    given = {k: decimal_text(v, field=k) for k, v in (("oil_temperature", oil_temperature),
+                                                      ("load_force", load_force)) if v.strip()}
     try:
         return CycleQuery.model_validate(given).condition()
     except ValidationError as exc:
@@ -178,7 +179,7 @@ async def import_file(request: Request, session: SessionDep, _key: ConsoleKeyDep
         try:
             form = SeriesImportForm.model_validate({
                 "name": _import_name(name, file.filename), "column_map": column_map or None,
-                "sample_rate": sample_rate.strip() or None,
+                "sample_rate": decimal_text(sample_rate, field="sample_rate") or None,
                 "started_at": started_at.strip() or None,
                 "time_in_name": time_in_name.strip() or None, "zone": zone.strip() or None})
         except ValidationError as exc:

@@ -15,6 +15,7 @@ from pydantic import ValidationError
 
 from app.api.deps import RigsDep, SessionDep
 from app.console.charts import simulation_charts
+from app.console.numbers import form_number
 from app.console.pages_rigs import CLEARANCES
 from app.console.routing import ConsoleKeyDep, new_router
 from app.console.web import SECURITY_HEADERS, page
@@ -29,7 +30,7 @@ from app.services.simulation import (
     timeseries_parquet,
 )
 from diagnostics.plots import shown_unit
-from sim.errors import HydrodiagError, InputError
+from sim.errors import HydrodiagError
 from sim.scenarios import FAULTS
 
 __all__ = ["router"]
@@ -44,11 +45,7 @@ def _request(rig: int, fault: str, load: str, oil_temperature: str, back_pressur
     for name, text in (("load", load), ("oil_temperature", oil_temperature),
                        ("back_pressure", back_pressure)):
         if text.strip():
-            try:
-                condition[name] = float(text.strip())
-            except ValueError:
-                raise InputError(f"not a number: {text.strip()!r}",
-                                 field=f"condition.{name}") from None
+            condition[name] = form_number(text, field=f"condition.{name}")
     try:
         return SimulateRequest.model_validate({
             "rig_id": rig, "fault": None if fault in ("", "healthy") else fault,

@@ -547,10 +547,17 @@ def test_a_bench_csv_is_made_a_pump_set_from_the_page(
         files={"file": ("b.csv", sample, "text/csv")})
     assert half_oil.status_code == 422 and error_box(half_oil.text)[0] == "oil_nu100"
     assert 'value="46"' in half_oil.text
+    # 1,500 cm³/rev is 1.5 in Germany and 1500 in England: the page asks which
+    either = browser_client.post("/console/pumps/bench", data={
+        "name": "x", "pump": "gear", "displacement": "1,500"},
+        files={"file": ("b.csv", sample, "text/csv")})
+    assert either.status_code == 422 and error_box(either.text)[0] == "displacement"
+    assert "1.500" in either.text and "1500" in either.text
     assert console_server.row_counts() == before
-    # the bench's oil in cSt, as the data sheet gives it; stored in SI
+    # the bench's oil in cSt, as the data sheet gives it (a decimal comma, as a German
+    # keyboard and the decimal keypad of a tablet in that locale write it); stored in SI
     oiled = browser_client.post("/console/pumps/bench", data={
-        "name": "bench-hv-oil", "pump": "gear", "oil_nu40": "46", "oil_nu100": "8.2",
+        "name": "bench-hv-oil", "pump": "gear", "oil_nu40": "46", "oil_nu100": "8,2",
         "oil_rho15": "872"}, files={"file": ("b.csv", sample, "text/csv")})
     assert oiled.status_code == 303, oiled.text
     oil_set = console_server.client.get(

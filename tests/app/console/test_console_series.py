@@ -339,6 +339,14 @@ def test_a_cycle_without_its_temperature_is_read_with_the_one_stated_on_its_page
     form = browser_client.get(f"/console/diagnose?series={series}&oil_temperature=40")
     filled = re.search(r'<textarea id="document"[^>]*>(.*?)</textarea>', form.text, re.S)
     assert filled is not None and json.loads(html.unescape(filled.group(1))) == api
+    # a decimal comma, as a German keyboard (or a tablet's decimal keypad) types it, reads
+    # as the API's point
+    halves = console_server.client.get(f"/series/{series}/record",
+                                       params={"oil_temperature": 40.5}).json()["record"]
+    comma = browser_client.get(f"/console/diagnose?series={series}&oil_temperature=40,5")
+    filled = re.search(r'<textarea id="document"[^>]*>(.*?)</textarea>', comma.text, re.S)
+    assert filled is not None and json.loads(html.unescape(filled.group(1))) == halves
+    assert halves != api
     bad = browser_client.get(f"/console/series/{series}?oil_temperature=warm")
     assert "valid number" in bad.text and "oil_temperature" in bad.text  # as the API says
 
