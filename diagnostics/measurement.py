@@ -22,8 +22,6 @@ from dataclasses import dataclass, fields
 from datetime import datetime
 from typing import Literal
 
-import numpy as np
-
 from diagnostics.quantity import (
     CONSISTENCY_K,
     DEFAULT_INSTRUMENTS,
@@ -35,6 +33,7 @@ from diagnostics.quantity import (
 )
 from sim.cycle_result import VACUUM_GAUGE
 from sim.errors import MeasurementError
+from sim.numbers import real_number
 from sim.rigs.assembly import MAX_PUMP_SPEED
 
 __all__ = [
@@ -81,18 +80,16 @@ def _as_quantity(path: str, item: float | Quantity,
     """A bare number becomes a reading of the field's default instrument class."""
     if isinstance(item, Quantity):
         return item
-    if isinstance(item, np.ndarray) and item.ndim == 0:
-        item = item.item()
     # numpy's scalars are numbers (a float32 reading was refused where the simulator takes
     # it: a verification pass); a bool is not
-    if isinstance(item, bool | np.bool_) or not isinstance(item, int | float | np.integer
-                                                           | np.floating):
+    number = real_number(item)
+    if number is None:
         raise MeasurementError(f"expected a number or a Quantity, got {type(item).__name__}",
                                field=path)
     instrument = instruments.get(path)
     if instrument is None:
         raise MeasurementError("no default instrument class: state the uncertainty", field=path)
-    return instrument.reading(float(item))
+    return instrument.reading(number)
 
 
 def _check_quantity(path: str, q: Quantity, *, lower: float | None = None,

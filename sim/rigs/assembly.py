@@ -15,6 +15,7 @@ from sim.components.base import Derivation
 from sim.components.effects import get_effect
 from sim.errors import ParameterError
 from sim.fluid import Fluid
+from sim.numbers import real_number
 from sim.params import broken_relation
 from sim.rigs.circuits import DEFAULT_CIRCUIT, Circuit, get_circuit, require_cycle
 from sim.rigs.schema import RigSpec, check_bounds
@@ -49,12 +50,11 @@ def check_overrides(overrides: object) -> None:
 def _number(value: object, field: str) -> float:
     """``value`` as a float, or a :class:`ParameterError` naming ``field``: an array, None
     or "60 um" raised a bare TypeError or ValueError (a library user's pass)."""
-    if isinstance(value, np.ndarray) and value.ndim == 0:
-        value = value.item()
-    if isinstance(value, bool) or not isinstance(value, int | float | np.floating | np.integer):
+    number = real_number(value)
+    if number is None:
         raise ParameterError(f"a number in SI units is expected, not {value!r}"[:200],
                              field=field)
-    return float(value)
+    return number
 
 
 @dataclass(frozen=True)
