@@ -16,20 +16,23 @@ from functools import cached_property
 from pathlib import Path
 from typing import Literal
 
-from pydantic import Field, field_validator, model_validator
+from pydantic import Field, SecretStr, field_validator, model_validator
 from pydantic_settings import BaseSettings, SettingsConfigDict
 from sqlalchemy.engine import URL, make_url
 from sqlalchemy.exc import ArgumentError
 
 from app.limits import BATCH_RECORDS_CEILING, DEFAULT_SWEEP_POINTS, SWEEP_POINTS_CEILING
 
-__all__ = ["OTHER_VARIABLES", "WEAK_PASSWORDS", "Settings", "settings_line", "unknown_variables",
-           "usable_cores"]
+__all__ = ["CONSOLE_SECRET_MIN", "OTHER_VARIABLES", "WEAK_PASSWORDS", "Settings", "settings_line",
+           "unknown_variables", "usable_cores"]
 
 #: Passwords that appear in tutorials and default images; refused in a database URL.
 WEAK_PASSWORDS = frozenset(
     {"", "admin", "changeme", "changethis", "hydrodiag", "password", "postgres", "secret", "root"}
 )
+
+#: Fewest characters of ``HYDRODIAG_CONSOLE_SECRET`` (the random default has 64 hex ones).
+CONSOLE_SECRET_MIN = 32
 
 
 def usable_cores() -> int:
@@ -119,6 +122,11 @@ class Settings(BaseSettings):
         Wall-clock budget of one ``/simulate`` run, companion runs included [s]; default
         10.  Checked between chunks of 5,000 compiled steps, so a run overshoots it by at
         most one chunk (a few tens of ms).
+    console_secret
+        Secret that signs the console's login cookies, at least
+        :data:`CONSOLE_SECRET_MIN` characters and no well-known default; set the same on
+        every host that serves one console (a login then holds across them).  Default: a
+        random one, kept in ``<data_dir>/console-secret``.
     """
 
     model_config = SettingsConfigDict(env_prefix="HYDRODIAG_", extra="ignore")
@@ -174,6 +182,26 @@ class Settings(BaseSettings):
                                 description="Longest simulated span of /simulate [s].")
     sim_wall_clock: float = Field(default=10.0, gt=0, le=3600,
                                   description="Wall-clock budget of one /simulate run [s].")
+    console_secret: SecretStr | None = Field(
+        default=None, description="Signing secret of the console's login cookies (≥ 32 "
+        "characters); default a random one in <data_dir>/console-secret.")
+
+    @field_validator("console_secret", mode="before")
+    @classmethod
+    def _check_console_secret(cls, value: object) -> object:
+        # it was read beside the settings and any value taken: "secret" signed logins that
+        # anyone who guessed it could forge (a design pass)
+        text = value.get_secret_value() if isinstance(value, SecretStr) else value
+        if text is None or (isinstance(text, str) and not text.strip()):
+            return None
+        if not isinstance(text, str):
+            return value
+        if text.strip().lower() in WEAK_PASSWORDS or len(text.strip()) < CONSOLE_SECRET_MIN:
+            raise ValueError(
+                f"the console secret must be at least {CONSOLE_SECRET_MIN} characters and not "
+                "a well-known default (make one: python3 -c 'import secrets; "
+                "print(secrets.token_hex(32))')")
+        return text.strip()
 
     @field_validator("database_url")
     @classmethod
@@ -223,9 +251,9 @@ class Settings(BaseSettings):
 
 
 #: ``HYDRODIAG_`` variables read elsewhere than :class:`Settings` (the compiled models'
-#: cache, the console's secret, the README's key for curl, the tests' and studies' knobs)
+#: cache, the README's key for curl, the tests' and studies' knobs)
 OTHER_VARIABLES = frozenset(f"HYDRODIAG_{name}" for name in (
-    "CACHE_DIR", "CONSOLE_SECRET", "KEY", "CHROMIUM", "SHARED", "TEST_POSTGRES_URL",
+    "CACHE_DIR", "KEY", "CHROMIUM", "SHARED", "TEST_POSTGRES_URL",
     "FUZZ_EXAMPLES", "SCREENSHOTS", "ACCURACY_SEED", "ACCURACY_DUMP", "LIGHT", "SEEDS",
     "KINDS", "NOISE", "EFFECTS", "SIZES", "DWELL", "SLOW"))
 

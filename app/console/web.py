@@ -5,7 +5,8 @@ sets a cookie ``hd_console = <key id>.<issued at>.<HMAC-SHA256>`` (HttpOnly,
 SameSite=Strict, Secure when served over HTTPS; no Max-Age, so it ends with the browser
 session, and refused after :data:`SESSION_LIFETIME_S`).  The key itself is never stored in
 the cookie or put in a URL; each request checks that the key still exists and is not
-revoked.  The signing secret is ``HYDRODIAG_CONSOLE_SECRET`` or, without it, a random one
+revoked.  The signing secret is the ``console_secret`` setting (``HYDRODIAG_CONSOLE_SECRET``,
+≥ 32 characters, no well-known default) or, without it, a random one
 kept in ``<data_dir>/console-secret`` (so every worker process of one service shares it).
 
 Every console response carries :data:`SECURITY_HEADERS`: a Content-Security-Policy that
@@ -148,9 +149,8 @@ def redirect(url: str) -> RedirectResponse:
 
 
 def _secret(settings: Settings) -> bytes:
-    given = os.environ.get("HYDRODIAG_CONSOLE_SECRET")
-    if given:
-        return given.encode()
+    if settings.console_secret is not None:
+        return settings.console_secret.get_secret_value().encode()
     path = Path(settings.data_dir) / "console-secret"
     with _SECRET_LOCK:
         if not path.exists():

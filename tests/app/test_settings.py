@@ -71,3 +71,32 @@ def test_a_misspelt_variable_is_named_with_the_setting_it_may_mean() -> None:
                                   open_reads=True, rate_limit_per_minute=60))
     assert "open reads on" in line and "rate limit 60 per key and minute" in line
     assert "S3cret-pw" not in line and "postgresql+psycopg://hd:***@db/hd" in line
+
+
+@pytest.mark.parametrize("secret", ["secret", "changethis", "a", "x" * 31])
+def test_a_weak_console_secret_is_refused(monkeypatch: pytest.MonkeyPatch, secret: str) -> None:
+    """The console's login cookies are signed with it: "secret" was taken, and anyone who
+    guessed it could forge a login (a design pass)."""
+    monkeypatch.setenv("HYDRODIAG_CONSOLE_SECRET", secret)
+    with pytest.raises(ValidationError, match="at least 32 characters"):
+        Settings()
+
+
+def test_the_console_secret_signs_the_console_cookie(monkeypatch: pytest.MonkeyPatch,
+                                                     tmp_path: Path) -> None:
+    """Set, it signs the cookie (two hosts with one secret share logins) and never shows in
+    the settings' text; blank, a random one is kept in the data folder."""
+    from app.console.web import _secret
+
+    good = "k3Y-" + "9f" * 20
+    monkeypatch.setenv("HYDRODIAG_CONSOLE_SECRET", f" {good} ")
+    settings = Settings(data_dir=tmp_path)
+    assert _secret(settings) == good.encode()
+    assert good not in repr(settings) and good not in str(settings.model_dump())
+    assert not (tmp_path / "console-secret").exists()
+    monkeypatch.setenv("HYDRODIAG_CONSOLE_SECRET", "")
+    blank = Settings(data_dir=tmp_path)
+    assert blank.console_secret is None
+    kept = _secret(blank)
+    assert len(kept) == 64 and (tmp_path / "console-secret").read_bytes().strip() == kept
+    assert _secret(Settings(data_dir=tmp_path)) == kept
