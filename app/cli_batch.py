@@ -189,8 +189,10 @@ def diagnose_batch(
                 def tick(done: int, total: int, before: int = before) -> None:
                     progress.update(task, completed=before + done)
 
-                results = diagnose_many(resolved[rig_id_].rig, [r for _, _, r in group],
-                                        progress=tick, full=full, executor=executor)
+                results = diagnose_many(
+                    resolved[rig_id_].rig, [r for _, _, r in group], progress=tick, full=full,
+                    executor=executor,
+                    workers=None if executors is None else executors.capacity())
                 answered += [(n, item, r) for (n, item, _), r
                              in zip(group, results, strict=True)]
     finally:

@@ -85,7 +85,8 @@ def diagnose_chunk(document: Mapping[str, Any], records: Sequence[MeasurementRec
 def diagnose_many(rig: Rig, records: Sequence[MeasurementRecord], *,
                   executor: Executor | None = None, progress: Progress | None = None,
                   chunk_size: int | None = None, full: bool = False,
-                  method: Method | None = None) -> list[dict[str, Any]]:
+                  method: Method | None = None, workers: int | None = None
+                  ) -> list[dict[str, Any]]:
     """Diagnose each record on its own; results in the order of ``records``.
 
     Parameters
@@ -100,6 +101,10 @@ def diagnose_many(rig: Rig, records: Sequence[MeasurementRecord], *,
         Called with (done, total) after each record (in-process) or chunk.
     chunk_size
         Records per submitted task (default: about 8 tasks per worker, at most 250).
+    workers
+        Workers behind ``executor``, for the default chunk size (a Dask executor does not
+        say: :meth:`app.services.executors.SweepExecutors.capacity`); default that of a
+        standard library pool, else 2.
     full
         Whole :meth:`Diagnosis.to_dict` results instead of :func:`summary`.
     method
@@ -113,7 +118,8 @@ def diagnose_many(rig: Rig, records: Sequence[MeasurementRecord], *,
             if progress is not None:
                 progress(i + 1, total)
         return out
-    workers = int(getattr(executor, "_max_workers", 0) or 2)
+    if workers is None:  # a Dask executor has no such attribute: it planned for 2 workers
+        workers = int(getattr(executor, "_max_workers", 0) or 2)
     size = chunk_size or max(1, min(250, math.ceil(total / (8 * workers))))
     document = rig.spec.to_document()
     futures: dict[Future[list[dict[str, Any]]], int] = {}

@@ -86,6 +86,15 @@ class SweepExecutors:
                     )
             return self._executor
 
+    def capacity(self) -> int:
+        """Tasks the executor runs at once: the local pool's processes, or the threads of
+        the Dask cluster's workers (:meth:`distributed.Client.nthreads`) once connected."""
+        with self._lock:
+            client = self._client
+        if client is not None:
+            return max(1, sum(client.nthreads().values()))
+        return self._workers
+
     def shutdown(self) -> None:
         """Stop the local pool or close the Dask client (a later :meth:`get` starts anew)."""
         with self._lock:
