@@ -122,6 +122,11 @@ class Settings(BaseSettings):
         Wall-clock budget of one ``/simulate`` run, companion runs included [s]; default
         10.  Checked between chunks of 5,000 compiled steps, so a run overshoots it by at
         most one chunk (a few tens of ms).
+    sim_max_rows
+        Most rows of one ``/simulate`` time series on a sampling grid (a CSV or Parquet
+        export, or the grid its summary is read from) [-]; default 1,000,000 (1,000 s at
+        1 kHz).  A JSON time series holds at most 100,000.  Past it a 422 on
+        ``sample_rate`` says how many rows the run would have.
     console_secret
         Secret that signs the console's login cookies, at least
         :data:`CONSOLE_SECRET_MIN` characters and no well-known default; set the same on
@@ -182,6 +187,8 @@ class Settings(BaseSettings):
                                 description="Longest simulated span of /simulate [s].")
     sim_wall_clock: float = Field(default=10.0, gt=0, le=3600,
                                   description="Wall-clock budget of one /simulate run [s].")
+    sim_max_rows: int = Field(default=1_000_000, ge=1_000, le=100_000_000,
+                              description="Most rows of one /simulate time series [-].")
     console_secret: SecretStr | None = Field(
         default=None, description="Signing secret of the console's login cookies (≥ 32 "
         "characters); default a random one in <data_dir>/console-secret.")

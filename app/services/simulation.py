@@ -54,6 +54,13 @@ __all__ = [
 
 #: grid of a RODAS4 run whose time series is not asked for [Hz]
 SUMMARY_SAMPLE_RATE = 1000.0
+#: most rows of a time series answered as JSON [-]: encoding 200,000 rows held the server's
+#: interpreter ~4 s on 2 busy cores, and at 2.9 M rows the worker was killed mid-answer,
+#: the connection dropped without a word (an edge pass); CSV and Parquet take up to the
+#: ``sim_max_rows`` setting
+JSON_MAX_ROWS = 100_000
+#: the default of the ``sim_max_rows`` setting [-]
+DEFAULT_MAX_ROWS = 1_000_000
 
 #: sim's name of each condition field in error paths → the request's.
 _CONDITION_FIELDS = {"condition.force": "condition.load"}
@@ -217,8 +224,45 @@ def limits_of(settings: Settings) -> SolverLimits:
                         wall_clock=settings.sim_wall_clock)
 
 
+def _row_cap(request: SimulateRequest, max_rows: int) -> int:
+    return min(max_rows, JSON_MAX_ROWS) if request.timeseries == "json" else max_rows
+
+
+def _too_many_rows(rows: float, request: SimulateRequest, max_rows: int, *,
+                   expected: bool) -> InputError:
+    cap = _row_cap(request, max_rows)
+    where = ("a JSON time series holds at most "
+             f"{JSON_MAX_ROWS:,}; CSV or Parquet up to {max_rows:,} (HYDRODIAG_SIM_MAX_ROWS)"
+             if request.timeseries == "json" and cap < max_rows
+             else f"the service's limit is {cap:,} (HYDRODIAG_SIM_MAX_ROWS)")
+    return InputError(f"this run's time series {'would have' if expected else 'has'} about "
+                      f"{rows:,.0f} rows at {request.sample_rate:g} Hz: {where}; a lower "
+                      "sample_rate takes fewer", field="sample_rate")
+
+
+def _check_grid(rig: Rig, overrides: Mapping[str, float], condition: Condition,
+                request: SimulateRequest, max_rows: int, limits: SolverLimits | None) -> None:
+    """Refuse, before the run, a sampling grid with more rows than the cap: the steady
+    path's stroke times (milliseconds to find) give the rows; a stalled stroke runs until
+    the simulated-time limit.  A rig the steady path cannot solve is checked after the run.
+    """
+    if request.sample_rate is None or request.method != "transient":
+        return
+    try:
+        steady = steady_cycle(rig, dict(overrides), condition)
+    except (SimulationError, ParameterError):
+        return
+    longest = (limits or SolverLimits()).max_sim_time
+    span = sum(min(float(phase["duration"]), longest) if math.isfinite(phase["duration"])
+               else longest for phase in (steady.working, steady.return_))
+    rows = request.sample_rate * span
+    if rows > _row_cap(request, max_rows):
+        raise _too_many_rows(rows, request, max_rows, expected=True)
+
+
 def simulate(session: Session, rigs: RigCache, request: SimulateRequest,
-             limits: SolverLimits | None = None) -> SimulationOutcome:
+             limits: SolverLimits | None = None, *,
+             max_rows: int = DEFAULT_MAX_ROWS) -> SimulationOutcome:
     """Run the scenario of ``request`` on its stored rig, within ``limits``.
 
     Raises
@@ -227,7 +271,8 @@ def simulate(session: Session, rigs: RigCache, request: SimulateRequest,
         Unknown rig or version.
     InputError
         A time series asked of the steady path, an unknown parameter, a value out of bounds,
-        sampling asked of ROS2; :class:`~sim.errors.SolverLimitError` when the run needs
+        sampling asked of ROS2, a sampling grid of more than ``max_rows`` rows (JSON:
+        :data:`JSON_MAX_ROWS`); :class:`~sim.errors.SolverLimitError` when the run needs
         more than ``limits`` allow.
     SimulationError
         The solver failed.
@@ -263,10 +308,14 @@ def simulate(session: Session, rigs: RigCache, request: SimulateRequest,
         # no rows asked for: the summary and the error estimate come from a data logger's
         # grid (the step rows right after the valve switch would only cost time)
         sample_rate = SUMMARY_SAMPLE_RATE
+    _check_grid(rig, overrides, condition, request, max_rows, limits)
     result = run_scenario(rig, overrides, condition, method=request.method,
                           timeseries=request.timeseries is not None, rtol=request.rtol,
                           solver=request.solver, sample_rate=sample_rate,
                           accuracy=accuracy, limits=limits)
+    if (result.timeseries is not None and request.sample_rate is not None
+            and len(result.timeseries) > _row_cap(request, max_rows)):
+        raise _too_many_rows(len(result.timeseries), request, max_rows, expected=False)
     return SimulationOutcome(resolved, request.fault, overrides, condition, request.method,
                              result)
 

@@ -74,7 +74,7 @@ def test_noise_fields_are_validated(server: LiveServer) -> None:
 @pytest.fixture(scope="module")
 def limited(tmp_path_factory: pytest.TempPathFactory) -> Iterator[LiveServer]:
     settings = sqlite_settings(Path(tmp_path_factory.mktemp("limited")), sim_max_steps=3000,
-                               sim_wall_clock=5.0)
+                               sim_wall_clock=5.0, sim_max_rows=2000)
     with live_server(settings) as live:
         yield live
 
@@ -97,6 +97,31 @@ def test_the_settings_document_their_solver_limits() -> None:
     settings = Settings(data_dir=Path("unused"))
     assert settings.sim_max_steps == 2_000_000
     assert settings.sim_max_time == 600.0 and settings.sim_wall_clock == 10.0
+    assert settings.sim_max_rows == 1_000_000
+
+
+def test_a_time_series_past_the_row_limit_is_422_before_the_run(
+        server: LiveServer, limited: LiveServer) -> None:
+    """2.9 M rows of JSON killed the worker mid-answer, the connection dropped without a
+    word (an edge pass): the rows a grid would have (the steady path's stroke times × the
+    rate) are checked before the run, a JSON series at most 100,000 of them."""
+    steady = server.client.post("/simulate", json=SCENARIO | {"method": "steady"}).json()
+    span = steady["summary"]["working.duration [s]"] + steady["summary"]["return.duration [s]"]
+    refused = server.client.post("/simulate", json=SCENARIO | {
+        "sample_rate": 100_000.0, "timeseries": "json"})
+    assert refused.status_code == 422, refused.text
+    error = refused.json()["error"]
+    assert error["field"] == "sample_rate" and "at most 100,000" in error["message"]
+    said = float(error["message"].split("about ")[1].split(" rows")[0].replace(",", ""))
+    assert said == pytest.approx(span * 100_000.0, rel=1e-6)
+    # the setting bounds CSV and Parquet: 1 kHz is ~4,400 rows, past 2,000
+    csv = limited.client.post("/simulate", json=SCENARIO | {"sample_rate": 1000.0,
+                                                            "timeseries": "csv"})
+    assert csv.status_code == 422 and "HYDRODIAG_SIM_MAX_ROWS" in csv.text
+    fine = limited.client.post("/simulate", json=SCENARIO | {"sample_rate": 200.0,
+                                                             "timeseries": "csv"})
+    assert fine.status_code == 200, fine.text
+    assert 2 < fine.text.count("\n") < 2000
 
 
 def test_a_sample_rate_below_one_hertz_is_refused_naming_it(server: LiveServer) -> None:

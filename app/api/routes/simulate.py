@@ -44,7 +44,7 @@ def simulate_scenario(body: SimulateRequest, session: SessionDep, rigs: RigsDep,
     A transient that needs more than the configured solver limits (steps, simulated time,
     wall clock) is answered 422 with the reason.
     """
-    outcome = simulate(session, rigs, body, limits_of(settings))
+    outcome = simulate(session, rigs, body, limits_of(settings), max_rows=settings.sim_max_rows)
     if body.timeseries == "csv":
         return Response(timeseries_csv(outcome), media_type="text/csv",
                         headers={"Content-Disposition": 'attachment; filename="simulation.csv"'})
