@@ -49,22 +49,50 @@ __all__ = ["OUTPUTS", "FirstStep", "check_records", "first_step", "split", "step
 OUTPUTS = ("P1", "P2", "v", "P_pump", "P_valve_P", "Q_meter_B", "Q_meter_C")
 
 
-def split(records: Sequence[SeriesRecord], rig: Rig) -> tuple[list[int], list[int]]:
-    """Training and held-out record indices: the edge record (highest load, then highest
-    temperature) of each kind of stroke (full strokes, timed slow strokes) that has at
-    least two records."""
+#: records of a kind within these of its edge record's load [-, relative] and oil
+#: temperature [K] repeat the edge condition and are held out with it
+EDGE_LOAD_REL, EDGE_TEMPERATURE_K = 0.05, 2.0
+
+
+def split(records: Sequence[SeriesRecord], rig: Rig) -> tuple[list[int], list[int], list[str]]:
+    """Training and held-out record indices, and notes: per kind of stroke (full strokes,
+    timed slow strokes) that has at least two records, the edge record (highest load, then
+    highest temperature) and every repeat of its condition (within :data:`EDGE_LOAD_REL`
+    of its load and :data:`EDGE_TEMPERATURE_K` of its temperature).
+
+    The check on held-out records is then an extrapolation to the edge of the operating
+    range, which is what exposes an effect from outside the library named with confidence
+    (design notes, "hold out the edge of the operating range"); a repeat of the edge left in
+    training made it an interpolation (a design pass).  Where every record of a kind repeats
+    one condition, one of them is held out and a note says the check interpolates.
+    """
     if len(records) < 2:
-        return [0], []
-    key = [(c.load, c.oil_temperature) for c in (condition_of(r, rig) for r in records)]
+        return [0], [], []
+    conditions = [condition_of(r, rig) for r in records]
+    key = [(c.load, c.oil_temperature) for c in conditions]
     timed = [timed_switch(r, rig) is not None for r in records]
     held: list[int] = []
+    notes: list[str] = []
     for kind in (False, True):
         mine = [i for i in range(len(records)) if timed[i] == kind]
-        if len(mine) >= 2:
-            held.append(max(mine, key=lambda i: key[i]))
+        if len(mine) < 2:
+            continue
+        edge = max(mine, key=lambda i: key[i])
+        load, temperature = key[edge]
+        repeats = [i for i in mine if abs(key[i][0] - load) <= EDGE_LOAD_REL * abs(load)
+                   and abs(key[i][1] - temperature) <= EDGE_TEMPERATURE_K]
+        if len(repeats) == len(mine):
+            held.append(edge)
+            notes.append(f"every {'timed' if kind else 'full'}-stroke record is at one "
+                         f"condition ({load:g} N, {temperature:g} °C): record "
+                         f"{records[edge].name!r} is held out, so the held-out check "
+                         "interpolates; records at another load or temperature make it an "
+                         "extrapolation to the edge of the operating range")
+        else:
+            held += repeats
     if not held:
         held = [max(range(len(records)), key=lambda i: key[i])]
-    return [i for i in range(len(records)) if i not in held], sorted(held)
+    return [i for i in range(len(records)) if i not in held], sorted(held), notes
 
 
 def check_records(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord]) -> None:
@@ -116,7 +144,8 @@ def first_step(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord]
                                 delivery=values["pump.speed"] * values["pump.Vp"])
     # a clock that cannot be right (a wrong sample rate): said as the import says it
     notes += time_scale_notes(records, rig_limits(rig))
-    train_i, held_i = split(labelled, rig)
+    train_i, held_i, held_notes = split(labelled, rig)
+    notes += held_notes
     signals = prepare([labelled[i] for i in train_i], rig)
     data = balance_data(signals, values)
     if not data:

@@ -26,13 +26,31 @@ from diagnostics.timeseries import SeriesRecord
 if TYPE_CHECKING:  # drift imports this module
     from diagnostics.discrepancy.drift import Drift
 
-__all__ = ["BALANCE_MIN_RATE", "OUTPUT_GAP", "STEADY_SLACK", "build_up_gaps", "excess",
-           "excess_ratio", "gap_ratio", "logged_rate", "sparse_note", "structured",
-           "unphysical_note", "verdict", "whiteness"]
+__all__ = [
+    "BALANCE_MIN_RATE",
+    "HELD_OUT_MIN_EXCESS",
+    "OUTPUT_GAP",
+    "STEADY_SLACK",
+    "build_up_gaps",
+    "excess",
+    "excess_ratio",
+    "gap_ratio",
+    "logged_rate",
+    "sparse_note",
+    "structured",
+    "unphysical_note",
+    "verdict",
+    "whiteness",
+]
 
 #: held-out steady RMSE, in units of the channel's noise σ, above which an unnamed gap is
 #: reported as unexplained rather than "no effect"
 OUTPUT_GAP = 3.0
+#: held-out excess gap before any effect (:func:`excess`, in units of the noise σ) below
+#: which the held-out records show no gap to shrink: an effect the balances name is then
+#: confirmed by the in-sample tests alone (t, BIC margin, bootstrap), and the verdict says
+#: so.  1.0 is a held-out RMSE of √2 σ in one channel of one record [-]
+HELD_OUT_MIN_EXCESS = 1.0
 #: how much an effect judged in the build-up after a switch may add to the held-out steady
 #: excess gap, in units of the noise σ (pooled over channels), and still be confirmed [-]
 STEADY_SLACK = 0.5

@@ -72,6 +72,8 @@ from diagnostics.discrepancy.transient import (
 )
 from diagnostics.discrepancy.verdict import (
     BALANCE_MIN_RATE,
+    HELD_OUT_MIN_EXCESS,
+    excess,
     excess_ratio,
     gap_ratio,
     logged_rate,
@@ -362,6 +364,13 @@ def _discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], 
     for balance, names in conf.apart.items():
         message += (f"; {' and '.join(names)} explain the {balance} gap alike, in re-simulation "
                     "too (ΔBIC < 10): an ambiguity group on this test design")
+    untested = [n.name for n in named if n.name in conf.untested]
+    if untested and held_i:
+        message += (f"; the held-out records show no gap above the noise to shrink (excess "
+                    f"{excess(gap_before, sig):.2g} σ, below {HELD_OUT_MIN_EXCESS:g}): "
+                    f"{', '.join(untested)} rest on the in-sample tests alone (|t|, the BIC "
+                    "margin, the bootstrap), not on a held-out check; records further out in "
+                    "load or temperature test it")
     rejected = [e for e in conf.rejected if screened is None or e != screened.effect.name]
     if rejected:
         message += ("; not confirmed by re-simulation (output-error coefficient not "

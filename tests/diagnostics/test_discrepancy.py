@@ -96,6 +96,27 @@ def test_hidden_seal_friction_is_named_fitted_and_the_held_out_gap_shrinks():
     assert float(shrink[1]) == pytest.approx(before[("P1", "steady")] / 5e3, rel=0.15)
     spec = validate_rig_document(d.rig_document)
     assert spec.effects["seal_friction_pressure"]["k_p"].value == pytest.approx(n.value)
+    assert "no gap above the noise" not in d.message  # the held-out check decided
+
+
+def test_an_effect_the_held_out_records_cannot_test_is_said_to_rest_on_the_in_sample_tests(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """Where the held-out gap before any effect is at the noise, its ratio after/before
+    says nothing (1.05 σ → 0.99 σ was an infinite ratio: a design pass): the effect is kept
+    on the in-sample tests and the verdict says so.  Here every held-out gap counts as at
+    the noise (the threshold raised past any gap)."""
+    from diagnostics.discrepancy import confirm, workflow
+
+    monkeypatch.setattr(confirm, "HELD_OUT_MIN_EXCESS", 1e9)
+    monkeypatch.setattr(workflow, "HELD_OUT_MIN_EXCESS", 1e9)
+    recs = _records(_with("seal_friction_pressure", "k_p", 1.5e-5, "m^2"), 2)
+    d = discover(reference_rig_document(), recs, bootstrap=10)
+    assert [n.name for n in d.named] == ["seal_friction_pressure"]
+    note = re.search(r"the held-out records show no gap above the noise to shrink \(excess "
+                     r"([\d.e+]+) σ, below 1e\+09\): seal_friction_pressure rest on the "
+                     r"in-sample tests alone", d.message)
+    assert note is not None, d.message
+    assert float(note[1]) > 1.0  # the real gap was there: the threshold made it "untested"
 
 
 def test_a_load_cell_reading_3_percent_low_is_named_the_stated_load_not_seal_friction():

@@ -68,12 +68,33 @@ def test_the_edge_record_of_each_kind_of_stroke_is_held_out() -> None:
     rig = reference_rig()
     records = [_full(2100.0, 40.0), _full(6300.0, 60.0), _full(4200.0, 50.0),
                _slow(2100.0, 40.0, 0.5), _slow(2100.0, 60.0, 0.5)]
-    train, held = split(records, rig)
+    train, held, notes = split(records, rig)
     assert held == [1, 4]
-    assert train == [0, 2, 3]
+    assert train == [0, 2, 3] and notes == []
     # one full stroke and one slow stroke: only the full-speed edge can be held out
-    train, held = split([records[0], records[1], records[3]], rig)
+    train, held, _ = split([records[0], records[1], records[3]], rig)
     assert held == [1] and train == [0, 2]
+
+
+def test_every_repeat_of_the_edge_condition_is_held_out_with_it() -> None:
+    """The held-out check extrapolates to the edge: a repeat of the edge record's condition
+    left in training made it an interpolation (a design pass: loads 2.1/2.1/4.2/4.2/6.3/6.3
+    kN held out one 6.3 kN record and trained on its twin); a design of one condition,
+    repeated, holds one record out and says the check interpolates."""
+    rig = reference_rig()
+    loads = (2100.0, 2100.0, 4200.0, 4200.0, 6300.0, 6250.0)
+    records = [_full(load, 50.0 + 0.5 * (i % 2)) for i, load in enumerate(loads)]
+    train, held, notes = split(records, rig)
+    assert held == [4, 5] and train == [0, 1, 2, 3] and notes == []
+    # at the top load, 60 °C repeats the 61 °C edge; 50 °C is another condition
+    records = [_full(2100.0, 40.0), _full(6300.0, 50.0), _full(6300.0, 60.0),
+               _full(6300.0, 61.0)]
+    train, held, notes = split(records, rig)
+    assert held == [2, 3] and train == [0, 1]
+    same = [_full(4200.0, 50.0), _full(4200.0, 50.0), _full(4200.0, 50.5)]
+    train, held, notes = split(same, rig)
+    assert held == [2] and train == [0, 1]
+    assert len(notes) == 1 and "interpolates" in notes[0] and "4200 N" in notes[0]
 
 
 def _row(channel: str, rmse: float, region: str = "steady") -> GapRow:

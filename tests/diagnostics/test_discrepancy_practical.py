@@ -35,7 +35,7 @@ def bench_balance(doc: dict[str, Any], seed: int, balance: str) -> BalanceData:
     rng = np.random.default_rng(seed)
     records = [synthesize(rig, c, rng=rng, name=n, t_max=sw) for n, c, sw in _conditions()]
     base = reference_rig()
-    train, _ = split(records, base)
+    train, _, _ = split(records, base)
     data = balance_data(prepare([records[i] for i in train], base), base.values())
     return next(d for d in data if d.balance.name == balance)
 

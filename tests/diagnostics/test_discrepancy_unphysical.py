@@ -29,7 +29,7 @@ def _piston_selection(doc: dict[str, Any], loads: list[float], seed: int) -> Sel
     recs = [synthesize(rig, Condition(load=f, oil_temperature=40.0), rng=rng, name=f"r{i}")
             for i, f in enumerate(loads)]
     base = reference_rig()
-    train, _ = split(recs, base)
+    train, _, _ = split(recs, base)
     data = balance_data(prepare([recs[i] for i in train], base), base.values())
     return select(next(d for d in data if d.balance.name == "piston_force"), bootstrap=0)
 
