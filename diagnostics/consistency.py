@@ -101,7 +101,8 @@ def check_against_rig(record: MeasurementRecord, limits: RigLimits) -> None:
     Checks, each beyond ``CONSISTENCY_K`` standard uncertainties:
 
     * piston speeds (stated or from stroke/duration) above ``ω·Vp/A1`` (working phase) or
-      ``ω·Vp/A2`` (return phase);
+      ``ω·Vp/A2`` (return phase), and a phase's duration below the stroke's time at that
+      speed (checked on the duration: the derived speed's uncertainty grows as 1/t²);
     * flows at meter B and at the pump outlet above ``ω·Vp``;
     * meter C above what meter B feeds: in the working phase
       ``Q_C = Q_B − Q_lv − (A1 − A2)·ẋ`` with ``Q_lv ≥ 0`` (paper 002 eqs. 10, 25-26);
@@ -122,6 +123,18 @@ def check_against_rig(record: MeasurementRecord, limits: RigLimits) -> None:
     phases: tuple[tuple[Literal["work", "return"], float], ...] = (("work", limits.A1),
                                                                   ("return", limits.A2))
     for phase, area in phases:
+        t = getattr(record, f"duration_{phase}")
+        s = record.stroke if record.stroke is not None else rig_stroke
+        if t is not None and s is not None:
+            # the stroke's shortest time, on the duration itself: its speed's linear
+            # uncertainty s·u_t/t² grows without bound as t nears u_t, so 0.01 s for a
+            # 0.5 m stroke (50 m/s) passed the speed check and read as healthy (an edge pass)
+            shortest = (s.value - CONSISTENCY_K * s.u) * area / q_max
+            if t.value + CONSISTENCY_K * t.u < shortest:
+                raise MeasurementError(
+                    f"a {phase} stroke of {t.value:.4g} s is shorter than the {shortest:.4g} s "
+                    f"the pump's theoretical flow needs to move the piston {s.value:.4g} m "
+                    "(ω·Vp/A)", field=f"duration_{phase}")
         v = record.speed(phase, stroke=rig_stroke)
         if v is not None and _exceeds(v, q_max / area):
             stated = getattr(record, f"speed_{phase}") is not None

@@ -212,6 +212,19 @@ def test_speed_above_pump_maximum_is_refused() -> None:
     assert err.value.field == "duration_return"
 
 
+@pytest.mark.parametrize("fraction", [0.5, 0.1, 0.02, 0.002])
+def test_a_stroke_time_too_short_is_refused_however_short(fraction: float) -> None:
+    """The speed from stroke/duration has an uncertainty s·u_t/t² that grows without bound
+    as t nears the timer's: 0.01 s for the 0.5 m stroke (50 m/s) passed the speed check and
+    read as healthy, p = 1, where 0.1 s was refused (an edge pass).  The duration itself is
+    held against the stroke's shortest time."""
+    shortest = CYL["stroke"] / V_MAX
+    with pytest.raises(MeasurementError) as err:
+        check_against_rig(record(duration_work=fraction * shortest), LIMITS)
+    assert err.value.field == "duration_work" and "shorter than" in err.value.message
+    check_against_rig(record(duration_work=1.02 * shortest), LIMITS)
+
+
 def test_a_flow_in_l_per_min_is_refused_saying_so() -> None:
     """28 (l/min) typed as m³/s was refused without the hint bar and kN get (a user
     pass); a flow a little beyond the pump's is refused without it."""
