@@ -11,7 +11,7 @@ import math
 from collections.abc import Sequence
 from typing import cast
 
-from sqlalchemy import func, select
+from sqlalchemy import delete, func, select
 from sqlalchemy.orm import Session, selectinload
 
 from app.db.models import CalibrationPoint, ThrottleCalibration
@@ -23,7 +23,7 @@ from app.schemas.calibrations import (
     ClearanceOrigin,
 )
 from app.services.clearance import ClearanceCurveFit, ClearanceEstimator, TablePoint, check_table
-from app.services.common import commit, paginate
+from app.services.common import commit, flush, paginate
 from app.services.rigs import get_rig, latest_version
 from sim.errors import ConflictError, InputError, NotFoundError
 from sim.rigs.circuits import DEFAULT_CIRCUIT, get_circuit, require_cycle
@@ -247,6 +247,9 @@ def update_calibration(
     fills in what it can.
     """
     calibration = get_calibration(session, rig_id, calibration_id)
+    # one writer of a table at a time on PostgreSQL (SQLite has one writer anyway)
+    session.execute(select(ThrottleCalibration.id).where(
+        ThrottleCalibration.id == calibration.id).with_for_update())
     changes = data.model_dump(exclude_unset=True, exclude={"points"})
     condition = (calibration.component, calibration.back_pressure_pa, calibration.temperature_c)
     with session.no_autoflush:
@@ -279,10 +282,17 @@ def update_calibration(
                 f"beside its given rows ({exc.message}); the given clearances belong to the "
                 "condition or rig document they were measured with: send `points` again "
                 "(leave a row's clearance out to compute it)", field="points") from None
-    calibration.points.clear()
-    session.flush()  # delete the old rows before inserting rows with the same openings
+    conflict = "a table for this throttle and condition exists"
+    flush(session, conflict=conflict, field="throttle")  # the table's own changes
+    # every row of the table, not those this session loaded: a PATCH racing another deleted
+    # rows the other had replaced already (0 matched) and inserted its own beside the
+    # other's, a union of both tables that nobody sent (an SRE pass); the last writer wins
+    session.execute(delete(CalibrationPoint).where(
+        CalibrationPoint.calibration_id == calibration.id),
+        execution_options={"synchronize_session": False})
+    session.expire(calibration, ["points"])
     calibration.points.extend(rows)
-    commit(session, conflict="a table for this throttle and condition exists", field="throttle")
+    commit(session, conflict=conflict, field="throttle")
     return calibration
 
 

@@ -12,7 +12,7 @@ from sqlalchemy.orm import Session
 from app.services.idempotent_work import mark_stored
 from sim.errors import ConflictError, NotFoundError
 
-__all__ = ["commit", "get_or_raise", "paginate", "prefixed"]
+__all__ = ["commit", "flush", "get_or_raise", "paginate", "prefixed"]
 
 T = TypeVar("T")
 
@@ -59,6 +59,17 @@ def commit(session: Session, *, conflict: str, field: str | None = None) -> None
     try:
         mark_stored(session)
         session.commit()
+    except IntegrityError as exc:
+        session.rollback()
+        raise ConflictError(conflict, field=field) from exc
+
+
+def flush(session: Session, *, conflict: str, field: str | None = None) -> None:
+    """Flush, turning a constraint violation into :class:`ConflictError`, as
+    :func:`commit` does: a flush before the commit was a 500 where two writers raced past
+    the services' checks (two tables PATCHed onto one condition at once: an SRE pass)."""
+    try:
+        session.flush()
     except IntegrityError as exc:
         session.rollback()
         raise ConflictError(conflict, field=field) from exc

@@ -193,6 +193,56 @@ def test_patch_replaces_rows_and_keeps_the_rest(server: LiveServer) -> None:
     assert server.client.get(f"{url}/{created['id']}").json() == patched
 
 
+def test_a_patch_racing_another_leaves_one_table_not_both(server: LiveServer) -> None:
+    """Two PATCHes of one table's rows at once stored the union of both tables, a
+    calibration nobody sent (an SRE pass: 6 of 16 rounds): the writer that had loaded the
+    rows deleted those (already replaced, 0 matched) and inserted its own beside the
+    other's.  Raced here in order: one writer loads the table, the other PATCHes it over
+    HTTP, then the first stores its rows; the last writer's table is the table."""
+    from app.schemas.calibrations import CalibrationUpdate
+    from app.services.calibrations import get_calibration, update_calibration
+
+    rig = new_rig(server, "cal-race")
+    url = f"/rigs/{rig['id']}/calibrations"
+    created = server.client.post(url, json=TABLE, headers=server.auth).json()
+    mine = [{"opening_turns": 0.5, "bypass_flow_m3s": 9.0e-6, "clearance_m": 35e-6},
+            {"opening_turns": 1.5, "bypass_flow_m3s": 3.0e-5, "clearance_m": 50e-6}]
+    theirs = [{"opening_turns": 0.0, "bypass_flow_m3s": 8.0e-6, "clearance_m": 33e-6},
+              {"opening_turns": 2.0, "bypass_flow_m3s": 4.0e-5, "clearance_m": 60e-6}]
+    with server.sessions() as session:
+        loaded = get_calibration(session, rig["id"], created["id"])
+        assert len(loaded.points) == len(TABLE["points"])  # the rows this writer holds
+        other = server.client.patch(f"{url}/{created['id']}", json={"points": theirs},
+                                    headers=server.auth)
+        assert other.status_code == 200, other.text
+        update_calibration(session, rig["id"], created["id"],
+                           CalibrationUpdate.model_validate({"points": mine}))
+    stored = server.client.get(f"{url}/{created['id']}").json()
+    assert [p["opening_turns"] for p in stored["points"]] == [0.5, 1.5]
+
+
+def test_a_flush_that_breaks_a_constraint_is_a_conflict_not_a_500(server: LiveServer) -> None:
+    """Two tables PATCHed onto one condition at once: the loser's flush broke the unique
+    condition outside the commit's mapping and answered 500 (an SRE pass, 8 of 10)."""
+    from app.db.models import CalibrationPoint
+    from app.services.common import flush
+    from sim.errors import ConflictError
+
+    rig = new_rig(server, "cal-flush")
+    created = server.client.post(f"/rigs/{rig['id']}/calibrations", json=TABLE,
+                                 headers=server.auth).json()
+    before = server.row_counts()
+    with server.sessions() as session:
+        session.add(CalibrationPoint(calibration_id=created["id"], opening_turns=0.0,
+                                     bypass_flow_m3s=1e-6, clearance_m=None,
+                                     clearance_origin=None))
+        with pytest.raises(ConflictError) as caught:
+            flush(session, conflict="a table for this throttle and condition exists",
+                  field="throttle")
+        assert caught.value.field == "throttle"
+    assert server.row_counts() == before
+
+
 def test_unknown_ids_and_other_rigs_tables_are_404(server: LiveServer) -> None:
     rig_a, rig_b = new_rig(server, "cal-owner-a"), new_rig(server, "cal-owner-b")
     table = server.client.post(f"/rigs/{rig_a['id']}/calibrations", json=TABLE,
