@@ -38,7 +38,7 @@ from sim.errors import MeasurementError, SimulationError
 from sim.rigs import Rig
 from sim.units import quantity_text
 
-__all__ = ["CLEARANCES", "Diagnosis", "diagnose", "leakage_geometry", "plain", "regime_notes"]
+__all__ = ["BLIND_NOTE", "CLEARANCES", "Diagnosis", "diagnose", "leakage_geometry", "plain", "regime_notes"]
 
 
 def leakage_geometry(rig: Rig) -> LeakageGeometry:
@@ -122,10 +122,18 @@ class Diagnosis:
 
     @property
     def confident(self) -> bool:
-        """Whether the name is a confident answer: explained by a χ² test, and no fault
+        """Whether the name is a confident answer: explained by a χ² test, no fault
         beyond the prior ranges explains the readings as well
-        (:attr:`diagnostics.goodness.GoodnessOfFit.confident`)."""
-        return self.fit is None or self.fit.confident
+        (:attr:`diagnostics.goodness.GoodnessOfFit.confident`), and some fault could have
+        been seen (not :attr:`blind`)."""
+        return (self.fit is None or self.fit.confident) and not self.blind
+
+    @property
+    def blind(self) -> bool:
+        """Whether no fault hypothesis is observable with these readings (each one's most
+        severe value moves them by less than one standard uncertainty): healthy is then the
+        only name left, and it says that nothing was seen, not that the rig is healthy."""
+        return not any(f.observable for f in self.hypotheses if f.hypothesis.components)
 
     @property
     def isolated(self) -> bool:
@@ -190,6 +198,14 @@ class Diagnosis:
         }
 
 
+#: the note of a diagnosis whose readings can see no fault (:attr:`Diagnosis.blind`): huge
+#: stated uncertainties, or one weak reading, came back "healthy, p = 1.000, isolated"
+#: (an edge pass)
+BLIND_NOTE = ("no fault hypothesis is observable with these readings (the most severe wear "
+              "of each moves them by less than one standard uncertainty): 'healthy' says that "
+              "nothing was seen, not that the rig is healthy; readings with smaller "
+              "uncertainties, or more of them, can see faults")
+
 #: oil temperatures at which the diagnosis is checked by the accuracy study (its records
 #: span 20-70 °C, the property test over random rigs 20-80 °C) [°C]
 CHECKED_TEMPERATURES = (20.0, 80.0)
@@ -227,7 +243,9 @@ def _direct(rig: Rig, records: Sequence[MeasurementRecord], notes: list[str]
             if key in out or any(getattr(rec, n) is None for n in needs):
                 continue
             try:
-                out[key] = fn(rec, geom, fluid=fluid, method="delta")
+                out[key] = (cylinder_clearance(rec, geom, fluid=fluid, method="delta",
+                                               reference=rig.values()["cylinder.cc"])
+                            if key == "cc" else fn(rec, geom, fluid=fluid, method="delta"))
             except MeasurementError as exc:
                 notes.append(f"direct inversion of {key} not possible: {exc}")
                 continue
@@ -308,6 +326,8 @@ def diagnose(rig: Rig, records: Sequence[MeasurementRecord], *, model_rel: float
         notes.append("no hypothesis explains the records")
     if not gof.confident:
         notes.append(gof.statement)
+    if not any(f.observable for f in fits if f.hypothesis.components):
+        notes.append(BLIND_NOTE)
     return Diagnosis(rig.spec.name, fits, iso, direct, ratio,
                      slip if slip is None else (slip[0], slip[1], slip[2]), len(records), n,
                      notes, gof, regime_notes(ranker), profiled,

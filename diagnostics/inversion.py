@@ -36,6 +36,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, replace
+from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -119,7 +120,8 @@ class LeakageGeometry:
                          stroke=self.stroke)
 
 
-def leakage_root(a: ArrayLike, b: ArrayLike, q: ArrayLike) -> FloatArray:
+def leakage_root(a: ArrayLike, b: ArrayLike, q: ArrayLike,
+                 branch: Literal["rising", "falling"] = "rising") -> FloatArray:
     """Physical root ``c ≥ 0`` of ``a·c³ − b·c = q`` (vectorised), for ``a > 0``.
 
     Parameters
@@ -130,6 +132,10 @@ def leakage_root(a: ArrayLike, b: ArrayLike, q: ArrayLike) -> FloatArray:
         Couette coefficient [m³/s per m], any sign.
     q
         Leakage flow [m³/s].
+    branch
+        Where two roots exist (``b > 0``, ``f_min ≤ q ≤ 0``, below): ``"rising"`` (default)
+        the one at ``c ≥ c*``, ``"falling"`` the one below it,
+        ``2c*·cos(⅓·acos z − 2π/3)``; elsewhere the one root either way.
 
     Returns
     -------
@@ -174,10 +180,14 @@ def leakage_root(a: ArrayLike, b: ArrayLike, q: ArrayLike) -> FloatArray:
         c = np.where(hi, 2.0 * cs * np.cosh(np.arccosh(np.maximum(z, 1.0)) / 3.0), c)
         mid = pos & (z < 1.0) & (z >= -1.0)
         c = np.where(mid, 2.0 * cs * np.cos(np.arccos(np.clip(z, -1.0, 1.0)) / 3.0), c)
+        if branch == "falling":
+            low = pos & (z <= 0.0) & (z >= -1.0)
+            c = np.where(low, 2.0 * cs * np.cos(np.arccos(np.clip(z, -1.0, 1.0)) / 3.0
+                                                - 2.0 * np.pi / 3.0), c)
         c = np.where(pos & (z < -1.0), cs, c)
-        # Newton polish where the rising branch is well conditioned
+        # Newton polish where the branch is well conditioned (away from c*)
         slope = 3.0 * a_ * c**2 - b_
-        good = ok & (c > 0.0) & (slope > 1e-3 * (3.0 * a_ * c**2 + np.abs(b_)))
+        good = ok & (c > 0.0) & (np.abs(slope) > 1e-3 * (3.0 * a_ * c**2 + np.abs(b_)))
         c = np.where(good, c - (a_ * c**3 - b_ * c - q_) / slope, c)
     return np.asarray(c, dtype=np.float64)
 
@@ -312,7 +322,8 @@ def _speed(record: MeasurementRecord, geometry: LeakageGeometry) -> Quantity:
 
 def cylinder_clearance(record: MeasurementRecord, geometry: LeakageGeometry, *,
                        fluid: Fluid, method: Method = "auto",
-                       n: int = 20_000, rng: np.random.Generator | None = None) -> Estimate:
+                       n: int = 20_000, rng: np.random.Generator | None = None,
+                       reference: float | None = None) -> Estimate:
     """Equivalent piston clearance ``cc`` [m] from a working-phase record (paper 002 §2.7).
 
     Needs ``flow_C``, ``p1``, ``p2``, the working speed (stated, or stroke/duration) and the
@@ -321,6 +332,14 @@ def cylinder_clearance(record: MeasurementRecord, geometry: LeakageGeometry, *,
     ``fluid`` is the rig's oil (:meth:`sim.rigs.schema.RigSpec.fluid_model`); it has no
     default, since the clearance scales with μ^(1/3) and another oil's μ is another rig's
     clearance.
+
+    Where the moving piston's Couette drag outweighs the Poiseuille leak (the bypass
+    ``Q_C − A2·ẋ ≤ 0``: cold oil, a low pressure difference, a tight seal), two clearances
+    give the same bypass, one on each side of ``c*``, and the bypass cannot tell them apart.
+    With ``reference`` (the rig document's clearance [m]) the one nearer it is the value, the
+    interval spans both roots' 95 % bounds, ``derived`` holds the other as ``other_root``,
+    and a note names both; without it the rising-branch root is reported (as before: the
+    healthy reference rig at −30 °C read 309 µm [207, 434] for its 83 µm, an edge pass).
 
     Raises
     ------
@@ -332,12 +351,6 @@ def cylinder_clearance(record: MeasurementRecord, geometry: LeakageGeometry, *,
               "p1": _require(record, "p1"), "p2": _require(record, "p2"),
               "oil_temperature": record.condition.oil_temperature}
     a_unit, b_unit = piston_law_coefficients(geometry.bore, geometry.Lc)
-
-    def model(x: Mapping[str, FloatArray]) -> FloatArray:
-        mu = dynamic_viscosity(fluid, x["oil_temperature"])
-        q = x["flow_C"] - geometry.A2 * x["speed_work"]
-        return leakage_root(a_unit * (x["p1"] - x["p2"]) / mu, b_unit * x["speed_work"], q)
-
     v, dp = inputs["speed_work"], inputs["p1"].value - inputs["p2"].value
     if dp <= 0.0:
         raise MeasurementError("P1 must exceed P2 in the working phase", field="p1")
@@ -353,21 +366,45 @@ def cylinder_clearance(record: MeasurementRecord, geometry: LeakageGeometry, *,
             f"({q_min:.4g} m³/s) by more than {CONSISTENCY_K:g} standard uncertainties",
             field="flow_C")
     notes: list[str] = []
+    two_roots = b > 0.0 and q_min <= q <= 0.0
     if q < q_min:
         notes.append("bypass below the law's minimum: the least-residual clearance is reported")
-    elif q <= 0.0:
+    elif q <= 0.0 and reference is None:
         notes.append("bypass ≤ 0: a second, smaller root exists on the falling branch; the "
                      "rising-branch root is reported")
-    if q - q_min < 2.0 * u_q:
+    if q - q_min < 2.0 * u_q and not (two_roots and reference is not None):
         notes.append("the bypass flow is within 2 standard uncertainties of the smallest the law "
                      "allows: the lower bound is the physical limit, not a measurement")
     near_bound = q - q_min < CONSISTENCY_K * u_q  # first-order sensitivities mislead there
-    est = propagate(model, inputs, quantity="cc", unit="m", method=method, lower=0.0, n=n,
-                    rng=rng, nonlinear=near_bound)
-    if near_bound and method == "delta":
-        est = _at_bound(est, model, inputs, "flow_C", u_q)
+
+    def on(branch: Literal["rising", "falling"]) -> Estimate:
+        def law(x: Mapping[str, FloatArray]) -> FloatArray:
+            mu_x = dynamic_viscosity(fluid, x["oil_temperature"])
+            q_x = x["flow_C"] - geometry.A2 * x["speed_work"]
+            return leakage_root(a_unit * (x["p1"] - x["p2"]) / mu_x,
+                                b_unit * x["speed_work"], q_x, branch)
+        found = propagate(law, inputs, quantity="cc", unit="m", method=method, lower=0.0, n=n,
+                          rng=rng, nonlinear=near_bound)
+        return _at_bound(found, law, inputs, "flow_C", u_q) \
+            if near_bound and method == "delta" else found
+
     derived = {"Q_lc": q, "u_Q_lc": u_q, "dp": dp, "mu": mu, "c_star": c_star}
-    return replace(est, derived=derived, notes=est.notes + tuple(notes))
+    if not (two_roots and reference is not None):
+        est = on("rising")
+        return replace(est, derived=derived, notes=est.notes + tuple(notes))
+    rising, falling = on("rising"), on("falling")
+    chosen, other = ((falling, rising) if abs(falling.value - reference)
+                     < abs(rising.value - reference) else (rising, falling))
+    notes.append(
+        f"two clearances give this bypass ({q:.3g} m³/s, the piston's drag outweighing its "
+        f"leak): {falling.value * 1e6:.4g} µm and {rising.value * 1e6:.4g} µm, either side of "
+        f"{c_star * 1e6:.4g} µm; the one nearer the rig's {reference * 1e6:.4g} µm is the "
+        "value, the interval spans both (a higher pressure difference or warmer oil "
+        "separates them)")
+    low, high = min(falling.low, rising.low), max(falling.high, rising.high)
+    return replace(chosen, low=low, high=high, u=max(chosen.u, (high - low) / (2.0 * _Z95)),
+                   derived=derived | {"other_root": other.value},
+                   notes=chosen.notes + tuple(notes))
 
 
 def valve_clearance(record: MeasurementRecord, geometry: LeakageGeometry, *,

@@ -161,6 +161,28 @@ def test_isolated_is_a_confident_name_that_holds_the_probability_alone(rig):
     assert set(full.isolability.credible_set) == {"valve", "valve+pump"}
 
 
+def test_readings_that_can_see_no_fault_are_not_a_confident_healthy(rig):
+    """Huge stated uncertainties, or one weak reading, left every fault below one σ of
+    effect, out of the probabilities, and healthy alone came back p = 1.000, confident,
+    isolated (an edge pass): it is neither, and a note says nothing was seen."""
+    from diagnostics.diagnose import BLIND_NOTE
+    from diagnostics.quantity import Quantity
+
+    vals = readings(rig, {}, 2100.0, 40.0)
+    cond = OperatingCondition.from_readings({"oil_temperature": 40.0, "load_force": 2100.0})
+    for k in (10.0, 1e6):
+        vague = MeasurementRecord.from_readings(
+            "rig-1", cond, {f: Quantity(vals[f], k * abs(vals[f])) for f in FULL})
+        d = diagnose(rig, [vague])
+        out = d.to_dict()
+        assert d.blind and out["top"] == "healthy"
+        assert out["confident"] is False and out["isolated"] is False
+        assert BLIND_NOTE in d.notes
+    # sharp readings of the same rig see the faults: no such note
+    sharp = diagnose(rig, [record(rig, {}, values=vals)])
+    assert not sharp.blind and BLIND_NOTE not in sharp.notes
+
+
 def test_an_oil_temperature_stated_in_fahrenheit_is_named_among_the_causes(rig):
     """Readings taken at 20 °C stated as 68 (°F): not explained, and the stated condition,
     the likeliest cause in a fleet's data, was not among the causes named (a fleet

@@ -14,6 +14,7 @@ from diagnostics.inversion import (
     cylinder_clearance,
     leakage_root,
     piston_clearance,
+    piston_law_coefficients,
     spool_clearance,
     valve_clearance,
 )
@@ -145,6 +146,34 @@ def test_round_trip_with_unequal_areas_uses_the_area_flow() -> None:
                            geom=geom)
     assert valve_clearance(rec, geom, fluid=FLUID).value == pytest.approx(40e-6, rel=1e-9)
     assert cylinder_clearance(rec, geom, fluid=FLUID).value == pytest.approx(90e-6, rel=1e-9)
+
+
+@pytest.mark.parametrize("ratio", [0.3, 0.6, 0.9, 1.2, 1.5])
+def test_both_roots_of_a_negative_bypass_are_given_and_the_one_nearer_the_rig_is_the_value(
+        ratio: float) -> None:
+    """Where the piston's drag outweighs its leak two clearances give one bypass, either
+    side of c*: the healthy reference rig at −30 °C read 309 µm [207, 434] for its 83 µm,
+    from the rising root alone (an edge pass).  With the rig's own clearance the nearer root
+    is the value, the interval holds both, and the note names both."""
+    T, v, dp = 22.0, 0.2, 0.5e5
+    c_star = math.sqrt(2 * FLUID.dynamic_viscosity(T) * GEOM.Lc * v / dp)
+    cc = ratio * c_star
+    rec = simulated_record(cc=cc, cv=34e-6, T=T, v=v, p1=10e5 + dp, p2=10e5, pp=15e5)
+    est = cylinder_clearance(rec, GEOM, fluid=FLUID, reference=cc, method="delta")
+    assert est.derived["Q_lc"] < 0.0
+    assert est.value == pytest.approx(cc, rel=1e-6)
+    other = est.derived["other_root"]
+    assert (other - c_star) * (cc - c_star) < 0  # the other side of c*
+    a_unit, b_unit = piston_law_coefficients(GEOM.bore, GEOM.Lc)
+    mu = FLUID.dynamic_viscosity(T)
+    for c in (cc, other):  # both give the bypass
+        law = a_unit * dp / mu * c**3 - b_unit * v * c
+        assert law == pytest.approx(est.derived["Q_lc"], rel=1e-6, abs=1e-15)
+    assert est.low <= min(cc, other) and est.high >= max(cc, other)
+    assert any("two clearances give this bypass" in n for n in est.notes)
+    # without the rig's clearance, the rising root as before
+    assert cylinder_clearance(rec, GEOM, fluid=FLUID).value == pytest.approx(max(cc, other),
+                                                                            rel=1e-6)
 
 
 def test_negative_bypass_on_rising_branch_is_recovered_and_flagged() -> None:
