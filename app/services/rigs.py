@@ -10,7 +10,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from sqlalchemy import exists, func, select, true
+from sqlalchemy import exists, func, select, true, update
 from sqlalchemy.orm import Session
 
 from app.db.models import MeasuredSeries, Measurement, Rig, RigVersion
@@ -30,6 +30,7 @@ __all__ = [
     "latest_version",
     "list_rigs",
     "list_versions",
+    "lock_rig",
     "reverted_commissioned",
     "update_rig",
 ]
@@ -49,6 +50,14 @@ def _canonical(document: Mapping[str, Any]) -> tuple[str, str, dict[str, Any]]:
 def get_rig(session: Session, rig_id: int, *, field: str = "rig_id") -> Rig:
     """Return the rig ``rig_id`` or raise :class:`NotFoundError`."""
     return get_or_raise(session, Rig, rig_id, what="rig", field=field)
+
+
+def lock_rig(session: Session, rig_id: int) -> None:
+    """Make the rest of this transaction the only writer of rig ``rig_id``'s data: a no-op
+    update of its row takes SQLite's write lock (PostgreSQL's row lock) before the caller's
+    checks, which then see every write committed before, and a second writer waits for
+    this one's commit (``HYDRODIAG_DB_LOCK_TIMEOUT``).  Nothing of the row changes."""
+    session.execute(update(Rig).where(Rig.id == rig_id).values(updated_at=Rig.updated_at))
 
 
 def find_rig(session: Session, name: str) -> Rig | None:

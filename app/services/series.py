@@ -25,7 +25,7 @@ from app.schemas.series import import_name_problem
 from app.schemas.times import measurement_time_problem
 from app.services.common import commit, get_or_raise, paginate
 from app.services.rig_channels import column_of, rig_channels
-from app.services.rigs import get_rig
+from app.services.rigs import get_rig, lock_rig
 from diagnostics.map_notes import unmatched_map_notes
 from diagnostics.sampling import sampling_notes
 from diagnostics.table_files import time_in_name as time_in_name_of
@@ -201,6 +201,9 @@ def store_records(session: Session, rig_id: int, name: str, records: Sequence[Se
         ))
         if progress is not None:
             progress(k + 1, len(records))
+    # the check and the insert in one write transaction: the same file sent by ten clients
+    # at once was stored 2-4 times, each check before any insert (an SRE pass)
+    lock_rig(session, rig_id)
     _refuse_stored_twice(session, rig_id, name, rows)
     session.add_all(rows)
     commit(session, conflict="the series could not be stored")
