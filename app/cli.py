@@ -53,6 +53,11 @@ cli.add_typer(history_cli, name="history")
 
 #: where ``serve`` leaves the first API key when its output is not a terminal (a log)
 FIRST_KEY_FILE = "first-api-key"
+#: how long a stopping ``serve`` waits for open requests before it cuts them off [s]: a
+#: client uploading a body at 1 byte/s kept a SIGTERMed service running past 45 s, its
+#: /health unanswered, until the client went away (an SRE pass); running jobs then get
+#: their own 5 s (:data:`app.services.jobs.SHUTDOWN_GRACE_S`), within docker stop's 10 s
+CONNECTIONS_GRACE_S = 3
 
 
 def first_key_shown(line: str) -> str | None:
@@ -191,11 +196,13 @@ def serve(
                         workers=settings.workers, host=settings.host, port=settings.port,
                         log_level=settings.log_level,
                         http=NoDelayHttpToolsProtocol,  # no Nagle delay on kept-alive
+                        timeout_graceful_shutdown=CONNECTIONS_GRACE_S,
                         access_log=False)  # the service logs each request itself
     else:
         uvicorn.run(create_app(settings, clearance_estimator=estimator, prepare_store=False),
                     host=settings.host, port=settings.port, log_level=settings.log_level,
                     http=NoDelayHttpToolsProtocol,  # no Nagle delay on kept-alive connections
+                    timeout_graceful_shutdown=CONNECTIONS_GRACE_S,
                     access_log=False)  # the service logs each request itself
 
 

@@ -20,7 +20,13 @@ import socket
 from uvicorn.protocols.http.h11_impl import H11Protocol
 from uvicorn.protocols.http.httptools_impl import HttpToolsProtocol
 
-__all__ = ["NoDelayH11Protocol", "NoDelayHttpToolsProtocol", "set_nodelay"]
+__all__ = ["FIRST_REQUEST_S", "NoDelayH11Protocol", "NoDelayHttpToolsProtocol", "set_nodelay"]
+
+#: a connection that sends nothing this long after it opens is closed [s]: uvicorn closes an
+#: idle kept-alive connection after ``timeout_keep_alive``, but one that never sends a
+#: request held its file descriptor for ever, and 600 of them left /health unanswered at
+#: the open-file limit, no key needed (an SRE pass)
+FIRST_REQUEST_S = 10.0
 
 
 def set_nodelay(transport: asyncio.BaseTransport) -> bool:
@@ -35,18 +41,29 @@ def set_nodelay(transport: asyncio.BaseTransport) -> bool:
     return True
 
 
+def _first_request_timer(protocol: H11Protocol | HttpToolsProtocol) -> None:
+    """Close the connection unless its first bytes come within :data:`FIRST_REQUEST_S`:
+    uvicorn's keep-alive timer, which its ``data_received`` cancels, started at once."""
+    protocol.timeout_keep_alive_task = protocol.loop.call_later(
+        FIRST_REQUEST_S, protocol.timeout_keep_alive_handler)
+
+
 class NoDelayH11Protocol(H11Protocol):
-    """:class:`~uvicorn.protocols.http.h11_impl.H11Protocol` with ``TCP_NODELAY`` set."""
+    """:class:`~uvicorn.protocols.http.h11_impl.H11Protocol` with ``TCP_NODELAY`` set and
+    a silent connection closed (:data:`FIRST_REQUEST_S`)."""
 
     def connection_made(self, transport: asyncio.BaseTransport) -> None:
         set_nodelay(transport)
         super().connection_made(transport)  # type: ignore[arg-type]
+        _first_request_timer(self)
 
 
 
 class NoDelayHttpToolsProtocol(HttpToolsProtocol):
-    """uvicorn's ``httptools`` protocol (its parser in C) with ``TCP_NODELAY`` set."""
+    """uvicorn's ``httptools`` protocol (its parser in C) with ``TCP_NODELAY`` set and a
+    silent connection closed (:data:`FIRST_REQUEST_S`)."""
 
     def connection_made(self, transport: asyncio.BaseTransport) -> None:
         set_nodelay(transport)
         super().connection_made(transport)  # type: ignore[arg-type]
+        _first_request_timer(self)

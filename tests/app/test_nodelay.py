@@ -5,6 +5,8 @@ from __future__ import annotations
 import asyncio
 import socket
 
+import pytest
+
 from app.nodelay import set_nodelay
 
 
@@ -42,3 +44,49 @@ async def _accepted_nodelay(fix: bool) -> int:
 def test_accepted_socket_of_a_proto0_listener_lacks_nodelay_unless_set() -> None:
     assert asyncio.run(_accepted_nodelay(fix=False)) == 0  # what uvicorn's workers got
     assert asyncio.run(_accepted_nodelay(fix=True)) != 0
+
+
+def test_a_connection_that_sends_nothing_is_closed(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A connection that never sent a request held its descriptor for ever, and 600 of
+    them left /health unanswered at the open-file limit, no key needed (an SRE pass): it is
+    closed after FIRST_REQUEST_S; one that asks in time is answered."""
+    import threading
+    import time
+
+    import uvicorn
+
+    from app import nodelay
+
+    monkeypatch.setattr(nodelay, "FIRST_REQUEST_S", 0.3)
+
+    async def app(scope: dict, receive: object, send: object) -> None:  # type: ignore[type-arg]
+        if scope["type"] != "http":
+            return
+        await send({"type": "http.response.start", "status": 200, "headers": []})  # type: ignore[operator]
+        await send({"type": "http.response.body", "body": b"ok"})  # type: ignore[operator]
+
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    server = uvicorn.Server(uvicorn.Config(app, host="127.0.0.1", port=port, lifespan="off",
+                                           http=nodelay.NoDelayHttpToolsProtocol,
+                                           log_level="warning"))
+    thread = threading.Thread(target=server.run, daemon=True)
+    thread.start()
+    try:
+        for _ in range(200):
+            if server.started:
+                break
+            time.sleep(0.02)
+        silent = socket.create_connection(("127.0.0.1", port))
+        silent.settimeout(5.0)
+        assert silent.recv(1) == b""  # closed by the server, not by the timeout above
+        silent.close()
+        asking = socket.create_connection(("127.0.0.1", port))
+        asking.settimeout(5.0)
+        asking.sendall(b"GET / HTTP/1.1\r\nHost: x\r\n\r\n")
+        assert asking.recv(1024).startswith(b"HTTP/1.1 200")
+        asking.close()
+    finally:
+        server.should_exit = True
+        thread.join(timeout=10)

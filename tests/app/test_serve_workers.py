@@ -96,9 +96,19 @@ def test_metrics_sum_every_worker(tmp_path: Path) -> None:
         # would read about half, and differ from scrape to scrape)
         assert [_health_count(port) - before for _ in range(6)] == [n] * 6
         assert len(list((tmp_path / "tmp").glob("hydrodiag-metrics-*/*.db"))) >= 2
-    finally:
+        # a client uploading a body a byte at a time kept a SIGTERMed service running past
+        # 45 s (an SRE pass): open requests are now cut off after CONNECTIONS_GRACE_S
+        slow = socket.create_connection(("127.0.0.1", port))
+        slow.sendall(b"POST /diagnose HTTP/1.1\r\nHost: x\r\nContent-Type: application/json"
+                     b"\r\nContent-Length: 1000\r\n\r\n{")
+        time.sleep(0.5)
         supervisor.send_signal(signal.SIGTERM)
-        supervisor.wait(timeout=60)
+        supervisor.wait(timeout=30)  # it waited for ever; 3 s of grace, 5 s for jobs
+        slow.close()
+    finally:
+        if supervisor.poll() is None:
+            supervisor.send_signal(signal.SIGTERM)
+            supervisor.wait(timeout=60)
     # the workers' value files lived in a folder of their own, removed on a clean stop
     assert not list((tmp_path / "tmp").glob("hydrodiag-metrics-*"))
 
