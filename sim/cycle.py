@@ -133,24 +133,32 @@ def _averages(rig: Rig, t: Arr, y: Arr, p: Arr, completed: bool
     return res, lowest
 
 
-def phase_limit(rig: Rig, p: Arr, t_max: float | None, limits: SolverLimits) -> float:
+def phase_limit(rig: Rig, p: Arr, t_max: float | None, limits: SolverLimits,
+                phase: str | None = None) -> float:
     """A phase's longest simulated time [s]: ``t_max``, else 20× its stroke at the pump's
     geometric flow — the guard that ends a stall — but no longer than the simulated-time
     limit: a 3 m press whose 80 s cycle has a 1,248 s guard was refused whole (a modelling
     engineer's pass); a stroke cut there, short of its end and of its guard, is a
     :class:`~sim.errors.SolverLimitError` (:func:`integrate_phases`), not a stall."""
-    return min(stall_guard(rig, p, t_max), limits.max_sim_time)
+    return min(stall_guard(rig, p, t_max, phase), limits.max_sim_time)
 
 
-def stall_guard(rig: Rig, p: Arr, t_max: float | None = None) -> float:
+def stall_guard(rig: Rig, p: Arr, t_max: float | None = None, phase: str | None = None
+                ) -> float:
     """``t_max``, else 20× the phase's stroke time at the pump's geometric flow [s]: a stroke
-    that has not ended by then is a stall or a creep (the transient's phase ends there)."""
+    that has not ended by then is a stall or a creep (the transient's phase ends there).
+
+    The stroke time is that of the chamber the pump fills: A1 in the working phase, A2 in
+    the return (the smaller of the two when ``phase`` is not given).  With min(A1, A2) in
+    both, a differential cylinder's working stroke at 22 % of its geometric speed (a 100/90
+    cylinder, 5.3:1) was cut as "stalled" 0.42 m into its 0.5 m (an edge pass)."""
     m = rig.model
     if t_max is not None:
         return t_max
     stroke = stroke_of(rig, p)
     qp = p[m.param_index("pump.speed")] * p[m.param_index("pump.Vp")]
-    area = min(p[m.param_index("cylinder.A1")], p[m.param_index("cylinder.A2")])
+    a1, a2 = p[m.param_index("cylinder.A1")], p[m.param_index("cylinder.A2")]
+    area = a1 if phase == "working" else a2 if phase == "return" else min(a1, a2)
     return float(20.0 * stroke * area / qp)
 
 
@@ -184,7 +192,7 @@ def integrate_phases(rig: Rig, params: list[Arr], *, method: str, rtol: float,
     for k, (phase, p) in enumerate(zip(PHASES, params, strict=True)):
         if y is None:
             y = m.initial_state(p)
-        t_lim = phase_limit(rig, p, t_max, limits)
+        t_lim = phase_limit(rig, p, t_max, limits, phase)
         direction = 1.0 if phase == "working" else -1.0
         level = stroke_of(rig, p) if phase == "working" else 0.0
         sample = times[k] if times is not None else grid
@@ -198,12 +206,12 @@ def integrate_phases(rig: Rig, params: list[Arr], *, method: str, rtol: float,
                 f"{phase} phase: the step size fell below round-off at t = "
                 f"{res.t_final:.6g} s with rtol {rtol:.3g}; loosen the tolerance",
                 field="rtol")
-        if res.status != 1 and not held and t_lim < stall_guard(rig, p, t_max):
+        if res.status != 1 and not held and t_lim < stall_guard(rig, p, t_max, phase):
             # cut by the limit before its own stall guard: no stall can be told
             raise SolverLimitError(
                 f"simulated time: the {phase} stroke had not reached its end after "
                 f"{t_lim:.4g} s, the simulated-time limit (its stall guard, 20× the stroke's "
-                f"time at the pump's flow, is {stall_guard(rig, p, t_max):.4g} s); raise "
+                f"time at the pump's flow, is {stall_guard(rig, p, t_max, phase):.4g} s); raise "
                 "the limit (HYDRODIAG_SIM_MAX_TIME, or SolverLimits.max_sim_time)")
         runs.append(PhaseRun(phase, p, t0, y, res))
         y = res.y_final.copy()
@@ -329,7 +337,8 @@ def run_cycle(rig: Rig, overrides: Mapping[str, float] | None = None,
     params = [phase_params(rig, phase, overrides, cond) for phase in PHASES]
     grid = shown = None   # the solver's grid, and the table's where it is coarser
     if sample_rate is not None:
-        span = sum(phase_limit(rig, p, t_max, lim) for p in params)
+        span = sum(phase_limit(rig, p, t_max, lim, phase)
+                   for phase, p in zip(PHASES, params, strict=True))
         grid = np.arange(0.0, span, 1.0 / sample_rate)
         if sample_rate < AVERAGE_RATE:  # the averages and the error on a finer grid
             shown = grid

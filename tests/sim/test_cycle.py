@@ -169,3 +169,42 @@ def test_a_creep_slower_than_the_stall_guard_is_no_completed_stroke_on_either_pa
     assert not steady.working.completed and not transient.working.completed
     assert steady.working["speed"] == pytest.approx(transient.working["speed"], rel=0.1)
     assert steady_cycle(rig, {}, Condition(load=2100.0, oil_temperature=40.0)).working.completed
+
+
+def test_a_differential_cylinders_stall_guard_is_the_stroke_time_of_the_chamber_filled() -> None:
+    """The guard took min(A1, A2) in both phases: a 100/90 cylinder (5.3:1) working at 22 %
+    of its geometric speed was cut as "stalled" 0.42 m into its 0.5 m stroke (an edge
+    pass).  Working, A1 is filled; returning, A2; on either path the stroke completes."""
+    from sim.cycle import phase_params, stall_guard
+
+    rig = reference_rig()
+    overrides = {"cylinder.bore": 0.1, "cylinder.rod1": 0.0, "cylinder.rod2": 0.09}
+    cond = Condition(load=54500.0, oil_temperature=40.0)
+    work, back = (phase_params(rig, phase, overrides, cond) for phase in ("working", "return"))
+    v = rig.values()
+    q = v["pump.speed"] * v["pump.Vp"]
+    a1, a2 = np.pi * 0.1**2 / 4, np.pi * (0.1**2 - 0.09**2) / 4
+    assert stall_guard(rig, work, phase="working") == pytest.approx(20 * 0.5 * a1 / q, rel=1e-9)
+    assert stall_guard(rig, back, phase="return") == pytest.approx(20 * 0.5 * a2 / q, rel=1e-9)
+    steady = steady_cycle(rig, overrides, cond)
+    assert steady.working["speed"] < 0.25 * q / a1  # a slow stroke, well past min(A1, A2)'s
+    transient = run_cycle(rig, overrides, cond, method="rodas4", timeseries=False)
+    assert steady.working.completed and transient.working.completed
+    assert transient.working["speed"] == pytest.approx(steady.working["speed"], rel=0.05)
+
+
+@pytest.mark.parametrize("stroke", [0.2, 0.1, 0.05])
+def test_a_short_stroke_after_the_nominal_one_has_its_steady_point(stroke: float) -> None:
+    """The cached operating point of the rig kept the nominal stroke's mid position
+    (0.25 m): a 0.2 m stroke after it met its own end stop there and had "no steady
+    operating point", where it ran first (an edge pass)."""
+    rig = reference_rig()
+    nominal = steady_cycle(rig)
+    short = steady_cycle(rig, {"cylinder.stroke": stroke})
+    assert short.working.completed and short.return_.completed
+    assert short.working["speed"] == pytest.approx(nominal.working["speed"], rel=1e-6)
+    assert short.working["duration"] == pytest.approx(
+        nominal.working["duration"] * stroke / 0.5, rel=1e-6)
+    # and back: the long stroke after the short one
+    assert steady_cycle(rig).working["speed"] == pytest.approx(nominal.working["speed"],
+                                                              rel=1e-9)
