@@ -7,7 +7,7 @@ from datetime import datetime
 from typing import Any
 
 from sqlalchemy import Select, func, or_, select
-from sqlalchemy.orm import Session, selectinload
+from sqlalchemy.orm import Session, joinedload, selectinload
 
 from app.db.models import Diagnosis, DiagnosisEstimate, Measurement, RigVersion
 from app.schemas.history import (
@@ -17,7 +17,7 @@ from app.schemas.history import (
 )
 from app.services.common import commit, get_or_raise
 from app.services.diagnosis_response import compact_result
-from sim.errors import InputError
+from sim.errors import InputError, NotFoundError
 
 __all__ = ["delete_measurement", "get_diagnosis", "get_measurement", "list_diagnoses",
            "list_measurements", "public_diagnosis", "public_measurement"]
@@ -135,9 +135,17 @@ def list_diagnoses(session: Session, *, limit: int, offset: int, rig_id: int | N
 
 
 def get_diagnosis(session: Session, diagnosis_id: int) -> Diagnosis:
-    """Return stored diagnosis ``diagnosis_id`` (404 when unknown)."""
-    diagnosis: Diagnosis = get_or_raise(session, Diagnosis, diagnosis_id, what="diagnosis",
-                                        field="diagnosis_id")
+    """Return stored diagnosis ``diagnosis_id`` with what its read-back shows (404 when
+    unknown, or deleted with its record while it was read: its record and rig version came
+    back None from their own statements, a 500 on ``row.measurement.rig_id``; an SRE
+    pass)."""
+    diagnosis = session.execute(
+        select(Diagnosis).where(Diagnosis.id == diagnosis_id).options(
+            joinedload(Diagnosis.measurement), joinedload(Diagnosis.rig_version),
+            selectinload(Diagnosis.records), selectinload(Diagnosis.estimates))
+    ).unique().scalar_one_or_none()
+    if diagnosis is None or diagnosis.measurement is None or diagnosis.rig_version is None:
+        raise NotFoundError(f"no diagnosis with id {diagnosis_id}", field="diagnosis_id")
     return diagnosis
 
 
