@@ -22,3 +22,20 @@ def test_a_component_in_a_likely_pair_is_likely_worn() -> None:
         assert estimates[component].probability == pytest.approx(min(worn, 1.0), abs=1e-12)
         # the single fault alone is unlikely; the component is not (was p ≈ 1e-12)
         assert single[component] < 0.1 < 0.9 < estimates[component].probability
+
+
+def test_a_joint_healthy_visit_keeps_each_clearance_where_the_readings_put_it() -> None:
+    """A healthy visit at three loads stored its valve at the worn range's healthy end,
+    37.39 µm [37.39, 38.60] for the document's 34 (an edge pass): a joint visit keeps the
+    fits of all its records, and those pinned on the healthy end are profiled down to the
+    document's value, as a single record's are."""
+    rig = reference_rig()
+    records = [record(rig, {}, load=load, temperature=40.0) for load in (2100.0, 4200.0, 6300.0)]
+    d = diagnose(rig, records)
+    assert d.top.name == "healthy"
+    values = rig.values()
+    for e in estimates_of(d):
+        if e.quantity in ("cc", "cv"):
+            truth = values[f"{e.component}.{e.quantity}"]
+            assert e.low <= truth <= e.high, (e, truth)
+            assert e.value == pytest.approx(truth, rel=0.02), (e, truth)
