@@ -5,7 +5,7 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed-stamp
 export HYDRODIAG_CACHE_DIR ?= $(CURDIR)/.hydrodiag-cache
 
-.PHONY: run test lint bench accuracy pump-study trend-study load-bench console-bench screenshots real-data chaos discrepancy-study discrepancy-effects discrepancy-paper000 diagnose-bench diagnose-ab clean
+.PHONY: run test lint bench accuracy pump-study trend-study load-bench console-bench screenshots real-data chaos discrepancy-study discrepancy-effects discrepancy-paper000 diagnose-bench diagnose-ab job-stall clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -56,6 +56,10 @@ diagnose-ab: $(STAMP)
 
 console-bench: $(STAMP)
 	$(PY) -m benchmarks.console_bench
+
+# how long a discrepancy run in a server thread keeps the other threads (/health) waiting
+job-stall: $(STAMP)
+	$(PY) -m benchmarks.job_stall
 
 # screenshots of every console page, taken by the browser tests in a real Chromium
 screenshots: $(STAMP)

@@ -199,7 +199,8 @@ def create_app(
         if interrupted:
             logger.warning("%d job(s) of an earlier run marked failed (cancelled, those asked "
                            "to stop)", interrupted)
-        app.state.jobs = JobRunner(sessions, workers=settings.job_workers)
+        app.state.jobs = JobRunner(sessions, workers=settings.job_workers,
+                                   max_queued=settings.max_queued_jobs)
         loop, pool = asyncio.get_running_loop(), app.state.diagnosis_pool
 
         def warm(rigs: Sequence[ResolvedRig]) -> None:  # then watch the processes from the loop

@@ -74,6 +74,11 @@ class Settings(BaseSettings):
         Where ``hydrodiag serve`` listens.
     job_workers
         Threads that run long jobs (sweeps, maps) in the service process.
+    max_queued_jobs
+        Jobs (sweeps, re-diagnoses, discrepancy checks) a server process keeps
+        waiting beside its ``job_workers`` running ones [-]; default 16.  One more is
+        answered 503 with ``Retry-After``, nothing stored: 100 sweeps of 200 transient
+        points were all accepted at once, ~5 MiB of server memory each (an SRE pass).
     sweep_workers
         Processes of the local pool that sweeps fan out to; one per core when unset.
     dask_scheduler
@@ -149,6 +154,8 @@ class Settings(BaseSettings):
     host: str = Field(default="127.0.0.1", description="Interface `serve` binds.")
     port: int = Field(default=8000, ge=1, le=65535, description="TCP port `serve` binds.")
     job_workers: int = Field(default=2, ge=1, le=64, description="Job worker threads.")
+    max_queued_jobs: int = Field(default=16, ge=0, le=10_000,
+                                 description="Jobs a server process keeps waiting [-].")
     sweep_workers: int | None = Field(default=None, ge=1, le=256,
                                       description="Sweep worker processes.")
     dask_scheduler: str | None = Field(default=None, description="Dask scheduler address.")

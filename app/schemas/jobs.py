@@ -7,10 +7,10 @@ from typing import Any, Literal
 
 from pydantic import Field
 
-from app.schemas.common import Page, PublicModel
+from app.schemas.common import Page, PublicModel, error_doc
 from app.schemas.times import Timestamp
 
-__all__ = ["JobList", "JobPublic", "JobStatus"]
+__all__ = ["QUEUE_FULL", "JobList", "JobPublic", "JobStatus"]
 
 JobStatus = Literal["queued", "running", "succeeded", "failed", "cancelled"]
 
@@ -76,3 +76,10 @@ def job_summary(job: Any) -> JobPublic:
     read)."""
     fields = {name: getattr(job, name) for name in JobPublic.model_fields if name != "result"}
     return JobPublic.model_validate(fields | {"result": None})
+
+
+#: the 503 of an operation that starts a job: the server process has as many as it takes
+QUEUE_FULL = error_doc(
+    "As many jobs running and waiting in this server process as it takes "
+    "(HYDRODIAG_JOB_WORKERS running, HYDRODIAG_MAX_QUEUED_JOBS waiting), or the store does "
+    "not answer now; nothing was stored; retry after Retry-After")

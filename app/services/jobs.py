@@ -11,8 +11,15 @@ JSON-ready result::
 
     job = runner.submit("sweep", params, sweep)   # returns at once; GET /jobs/{id} follows it
 
-The threads only orchestrate: CPU-heavy work inside a job fans out to processes (or a Dask
-cluster) through the executor that ``diagnostics`` chooses.
+Sweeps and re-diagnoses fan their CPU-heavy work out to processes (or a Dask cluster)
+through :class:`~app.services.executors.SweepExecutors`; a discrepancy job runs in its
+thread, in compiled simulations and numpy that hold the interpreter lock for a few
+milliseconds at a time: another thread of the process (``/health``) waits at most about
+Python's 5 ms switch interval beside it (``make job-stall``: p99 5.0-5.2 ms on a quiet
+machine, against the 20 ms /health target).  Compiled code that releases the lock
+(``nogil``) took that p99 to 1.7-2.3 ms in the same runs, but is not used: the compiled
+code was written for one thread at a time, and what its callers share between threads has
+not been audited.
 
 A job can be cancelled (:func:`cancel_job`, ``POST /jobs/{id}/cancel``): a queued one at
 once (it never starts); a running one is asked to stop — ``cancel_requested_at`` is set in
@@ -56,6 +63,7 @@ from sqlalchemy.orm import Session, defer
 from app.db.base import utcnow
 from app.db.engine import SessionFactory
 from app.db.models import Job
+from app.errors import ServiceBusyError
 from app.schemas.jobs import JobStatus
 from app.services.common import get_or_raise, paginate
 from sim.errors import ConflictError, HydrodiagError
@@ -72,6 +80,8 @@ CANCEL_LOOK_S = 0.5
 #: How long a stopping service lets its running jobs finish before failing them [s]
 #: (docker stop's default is 10 s, after which the process is killed).
 SHUTDOWN_GRACE_S = 5.0
+#: Retry-After of a job refused because the process has as many as it takes [s]
+JOB_RETRY_AFTER_S = 30
 
 #: How long a job's lease lasts after its runner last renewed it [s].
 LEASE_S = 60.0
@@ -106,12 +116,7 @@ class Progress:
         now = time.monotonic()
         if fraction - self._written < PROGRESS_STEP and fraction < 1.0:
             if now - self._looked >= CANCEL_LOOK_S:
-                self._looked = now
-                with self._sessions() as session:
-                    asked = session.scalar(select(Job.cancel_requested_at)
-                                           .where(Job.id == self._job_id))
-                if asked is not None:
-                    raise JobCancelledError(self._job_id)
+                self.check()
             return
         self._written = fraction
         self._looked = now
@@ -123,6 +128,17 @@ class Progress:
             )
             session.commit()
         if not getattr(written, "rowcount", 1):
+            raise JobCancelledError(self._job_id)
+
+    def check(self) -> None:
+        """Look for a cancel asked of the job now (a stopping service asks its late jobs):
+        raise :class:`JobCancelledError` if there is one.  Before a job's last write (a
+        discrepancy job's new rig version), so a job failed at a stop stores nothing."""
+        self._looked = time.monotonic()
+        with self._sessions() as session:
+            asked = session.scalar(select(Job.cancel_requested_at)
+                                   .where(Job.id == self._job_id))
+        if asked is not None:
             raise JobCancelledError(self._job_id)
 
 
@@ -148,8 +164,11 @@ class JobRunner:
     """
 
     def __init__(self, sessions: SessionFactory, *, workers: int,
-                 renew_s: float = RENEW_S) -> None:
+                 renew_s: float = RENEW_S, max_queued: int | None = None) -> None:
         self._sessions = sessions
+        self._workers = workers
+        #: jobs kept waiting beside the running ones (None: no bound)
+        self._max_queued = max_queued
         self._executor = ThreadPoolExecutor(max_workers=workers, thread_name_prefix="job")
         #: who runs this runner's jobs: host, process and a token (a respawned worker may
         #: reuse a pid)
@@ -189,7 +208,23 @@ class JobRunner:
         -------
         Job
             The stored row (status ``queued``); follow it with :func:`get_job`.
+
+        Raises
+        ------
+        ServiceBusyError
+            As many jobs running and waiting in this process as it takes (``workers`` and
+            ``max_queued``); nothing is stored.
         """
+        if self._max_queued is not None:
+            with self._lock:
+                pending = sum(1 for f in self._futures if not f.done())
+            if pending >= self._workers + self._max_queued:
+                raise ServiceBusyError(
+                    f"{pending} jobs are running or waiting in this server process, as many "
+                    f"as it takes ({self._workers} running, HYDRODIAG_MAX_QUEUED_JOBS "
+                    f"{self._max_queued} waiting); nothing was stored: retry after "
+                    "Retry-After, or cancel a job (POST /jobs/{id}/cancel)",
+                    retry_after=JOB_RETRY_AFTER_S)
         job = Job(
             id=str(uuid.uuid4()), kind=kind, status="queued", progress=0.0,
             params=dict(params), owner=self.owner,

@@ -229,3 +229,63 @@ def test_a_job_whose_progress_grows_slowly_still_stops(server: LiveServer) -> No
     done = _wait_for(server, job.id, {"succeeded", "failed", "cancelled"})
     assert (done["status"], done["result"]) == ("cancelled", None)
     assert done["progress"] == 0.0
+
+
+def test_past_the_jobs_a_process_takes_a_job_is_503_and_nothing_is_stored(
+        tmp_path_factory: pytest.TempPathFactory) -> None:
+    """100 sweeps of 200 transient points were all accepted at once, each holding server
+    memory while it waited (an SRE pass): past ``job_workers`` running and
+    ``max_queued_jobs`` waiting, a job is a 503 with Retry-After and nothing is stored."""
+    from app.errors import ServiceBusyError
+    from tests.app.test_scenarios import SWEEP
+
+    settings = sqlite_settings(tmp_path_factory.mktemp("queue"), job_workers=1,
+                               max_queued_jobs=1)
+    release = threading.Event()
+
+    def blocks(params: dict[str, Any], progress: Progress) -> dict[str, Any]:
+        release.wait(POLL_TIMEOUT_S)
+        return {}
+
+    with live_server(settings) as server:
+        runner: JobRunner = server.app.state.jobs
+        running = runner.submit("blocker", {}, blocks)
+        _wait_for(server, running.id, {"running"})
+        waiting = runner.submit("blocker", {}, blocks)
+        before = server.row_counts()
+        with pytest.raises(ServiceBusyError) as busy:
+            runner.submit("blocker", {}, blocks)
+        assert "HYDRODIAG_MAX_QUEUED_JOBS 1" in busy.value.message
+        refused = server.client.post("/scenarios", json=SWEEP, headers=server.auth)
+        assert refused.status_code == 503, refused.text
+        assert int(refused.headers["retry-after"]) > 0
+        assert server.row_counts() == before
+        release.set()
+        for job in (running, waiting):
+            assert _wait_for(server, job.id, {"succeeded", "failed"})["status"] == "succeeded"
+        assert server.client.post("/scenarios", json=SWEEP,
+                                  headers=server.auth).status_code == 202
+
+
+def test_a_last_look_before_a_jobs_final_write_finds_a_cancel(server: LiveServer) -> None:
+    """A discrepancy job failed at a stop with "submit it again" had stored its rig version
+    all the same (an SRE pass): nothing looked for a cancel between its last progress
+    report and its store.  ``check`` looks, and the job stores nothing."""
+    release = threading.Event()
+    stored: list[str] = []
+
+    def slow_then_stores(params: dict[str, Any], progress: Progress) -> dict[str, Any]:
+        progress(0.5, "working")
+        release.wait(POLL_TIMEOUT_S)
+        progress.check()  # no report between: only this look can find the cancel
+        stored.append("version")
+        return {}
+
+    runner: JobRunner = server.app.state.jobs
+    job = runner.submit("stores", {}, slow_then_stores)
+    _wait_for(server, job.id, {"running"})
+    assert server.client.post(f"/jobs/{job.id}/cancel").status_code == 202
+    release.set()
+    assert _wait_for(server, job.id, {"cancelled", "succeeded", "failed"})["status"] == \
+        "cancelled"
+    assert stored == []

@@ -10,6 +10,7 @@ from starlette.concurrency import run_in_threadpool
 from app.api.deps import ReadAccess, RigsDep, SessionDep, WriteKeyDep
 from app.schemas.common import ERROR_RESPONSES
 from app.schemas.discrepancy import DiscrepancyAccepted, DiscrepancyForm
+from app.schemas.jobs import QUEUE_FULL
 from app.services.discrepancy import (
     MAX_SERIES_BYTES,
     plan_discrepancy,
@@ -85,7 +86,8 @@ router = APIRouter(tags=["discrepancy"], dependencies=[ReadAccess], responses=ER
 
 
 @router.post("/discrepancy", status_code=status.HTTP_202_ACCEPTED,
-             summary="Find what the rig model misses in measured data (a job)")
+             summary="Find what the rig model misses in measured data (a job)",
+             responses={503: QUEUE_FULL})
 async def start_discrepancy(
     form: Annotated[DiscrepancyForm, Form()],
     request: Request, session: SessionDep, rigs: RigsDep, _key: WriteKeyDep,

@@ -9,6 +9,7 @@ from fastapi import APIRouter, Request, Response, status
 from app.api.deps import ExecutorsDep, ReadAccess, RigsDep, SessionDep, WriteKeyDep
 from app.api.routes.rigs import RigId
 from app.schemas.common import ERROR_RESPONSES
+from app.schemas.jobs import QUEUE_FULL
 from app.schemas.rediagnose import RediagnoseAccepted, RediagnoseRequest
 from app.services.executors import SweepExecutors
 from app.services.jobs import JobRunner, Progress
@@ -30,7 +31,8 @@ def _job(plan: RediagnosisPlan, request: Request, executors: SweepExecutors) -> 
 
 
 @router.post("/rigs/{rig_id}/rediagnose", status_code=status.HTTP_202_ACCEPTED,
-             summary="Diagnose stored records again against the rig's latest version (a job)")
+             summary="Diagnose stored records again against the rig's latest version (a job)",
+             responses={503: QUEUE_FULL})
 def rediagnose(rig_id: RigId, request: Request, session: SessionDep, rigs: RigsDep,
                executors: ExecutorsDep, _key: WriteKeyDep, response: Response,
                body: RediagnoseRequest | None = None) -> RediagnoseAccepted:

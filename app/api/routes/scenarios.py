@@ -8,6 +8,7 @@ from fastapi import APIRouter, Request, Response, status
 
 from app.api.deps import ExecutorsDep, ReadAccess, RigsDep, SessionDep, WriteKeyDep
 from app.schemas.common import ERROR_RESPONSES
+from app.schemas.jobs import QUEUE_FULL
 from app.schemas.sweeps import SweepAccepted, SweepRequest
 from app.services.executors import SweepExecutors
 from app.services.jobs import JobRunner, Progress
@@ -26,7 +27,8 @@ def _job(plan: SweepPlan, executors: SweepExecutors) -> Any:
 
 
 @router.post("/scenarios", status_code=status.HTTP_202_ACCEPTED,
-             summary="Start a sweep over fault scenarios (a job)")
+             summary="Start a sweep over fault scenarios (a job)",
+             responses={503: QUEUE_FULL})
 def start_sweep(body: SweepRequest, request: Request, session: SessionDep, rigs: RigsDep,
                 executors: ExecutorsDep, _key: WriteKeyDep, response: Response) -> SweepAccepted:
     """Check the sweep, lay out its points and start it as a job.
