@@ -9,6 +9,7 @@ ThrottleClearanceEstimator`), creates an API key on the first start (printed on 
 
 from __future__ import annotations
 
+import io
 import logging
 import os
 import socket
@@ -69,7 +70,7 @@ def first_key_shown(line: str) -> str | None:
     shown = line.split(": ", 1)[1].strip()
     if shown.startswith("written to "):
         path = shown.removeprefix("written to ").split(" (", 1)[0]
-        return Path(path).read_text().strip()
+        return Path(path).read_text(encoding="utf-8").strip()
     return shown.split(" ", 1)[0] if shown.startswith("hd_") else None
 
 
@@ -87,7 +88,7 @@ def _show_first_key(key: str, data_dir: Path) -> None:
     try:
         descriptor = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
         os.fchmod(descriptor, 0o600)             # a file left by an earlier store keeps none
-        with os.fdopen(descriptor, "w") as file:
+        with os.fdopen(descriptor, "w", encoding="utf-8") as file:
             file.write(key + "\n")
     except OSError as exc:
         typer.echo(f"API key: not shown in a log, and not written to {path} ({exc.strerror}):"
@@ -310,6 +311,12 @@ def main() -> None:
     """Entry point of the ``hydrodiag`` command."""
     from sqlalchemy.exc import DatabaseError, InterfaceError, OperationalError
 
+    for stream in (sys.stdout, sys.stderr):
+        # a terminal in ISO-8859-1 or ASCII cannot show σ, µ, ≈ or …: shown as "?" there
+        # rather than a UnicodeEncodeError traceback from every command (a CLI pass)
+        if "utf" not in (getattr(stream, "encoding", None) or "utf").lower() \
+                and isinstance(stream, io.TextIOWrapper):
+            stream.reconfigure(errors="replace")
     try:
         cli()
     except HydrodiagError as exc:

@@ -58,8 +58,8 @@ def render_report(title: str, charts: list[Any], suffix: str, **context: Any) ->
     from app.console.web import templates
 
     html = templates.get_template("report.html").render(
-        title=title, css=_CSS.read_text(), made_at=datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC"),
-        **context)
+        title=title, css=_CSS.read_text(encoding="utf-8"),
+        made_at=datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC"), **context)
     return html.encode("utf-8")
 
 

@@ -136,7 +136,8 @@ def simulate(
         elif kind == "parquet":
             output.write_bytes(timeseries_parquet(outcome))
         else:
-            output.write_text(public_of(outcome, table=True).model_dump_json(indent=2))
+            output.write_text(public_of(outcome, table=True).model_dump_json(indent=2),
+                              encoding="utf-8")
         console.print(f"time series written to {output}")
     public = public_of(outcome)
     if as_json:
@@ -379,7 +380,7 @@ def sweep(
     finally:
         executors.shutdown()
     if output.suffix.lower() == ".json":
-        output.write_text(json.dumps(result, indent=1))
+        output.write_text(json.dumps(result, indent=1), encoding="utf-8")
     else:
         import pandas as pd
 

@@ -36,7 +36,7 @@ class Server:
 
     def rss_mb(self) -> float:
         """Resident memory of the server process [MiB]."""
-        for line in Path(f"/proc/{self.process.pid}/status").read_text().splitlines():
+        for line in Path(f"/proc/{self.process.pid}/status").read_text(encoding="utf-8").splitlines():
             if line.startswith("VmRSS:"):
                 return int(line.split()[1]) / 1024
         return float("nan")

@@ -207,7 +207,7 @@ def _processes(root: int) -> list[int]:
     """``root`` and every process below it."""
     found = [root]
     try:
-        children = (Path(f"/proc/{root}/task/{root}/children").read_text().split())
+        children = (Path(f"/proc/{root}/task/{root}/children").read_text(encoding="utf-8").split())
     except OSError:
         return found
     for child in children:
@@ -218,7 +218,7 @@ def _processes(root: int) -> list[int]:
 def _cpu_s(pid: int) -> float:
     """CPU time (user + system) of process ``pid`` so far [s]; 0 when it is gone."""
     try:
-        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+        fields = Path(f"/proc/{pid}/stat").read_text(encoding="utf-8").rsplit(")", 1)[1].split()
     except OSError:
         return 0.0
     return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
@@ -228,7 +228,7 @@ def _is_diagnosis_process(pid: int) -> bool:
     """A leaf process started by ``multiprocessing`` spawn: a diagnosis worker."""
     try:
         cmdline = Path(f"/proc/{pid}/cmdline").read_bytes()
-        children = Path(f"/proc/{pid}/task/{pid}/children").read_text().split()
+        children = Path(f"/proc/{pid}/task/{pid}/children").read_text(encoding="utf-8").split()
     except OSError:
         return False
     return b"spawn_main" in cmdline and not children

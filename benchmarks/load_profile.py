@@ -66,7 +66,7 @@ PARTS: dict[str, tuple[str, ...]] = {
 
 def _collapse(path: Path) -> list[tuple[list[str], int]]:
     stacks = []
-    for line in path.read_text().splitlines():
+    for line in path.read_text(encoding="utf-8").splitlines():
         stack, _, count = line.rpartition(" ")
         stacks.append((stack.split(";"), int(count)))
     return stacks

@@ -160,9 +160,9 @@ def _secret(settings: Settings) -> bytes:
             except FileExistsError:  # another worker made it first
                 pass
             else:
-                with os.fdopen(fd, "w") as f:
+                with os.fdopen(fd, "w", encoding="utf-8") as f:
                     f.write(secrets.token_hex(32))
-        return path.read_text().strip().encode()
+        return path.read_text(encoding="utf-8").strip().encode()
 
 
 def _signature(secret: bytes, key_id: int, issued: int, prefix: str) -> str:

@@ -139,11 +139,18 @@ def load_module(source: str) -> ModuleType:
         if loaded is not None:
             return loaded
         path = cache_dir() / f"{modname}.py"
-        if not path.exists() or path.read_text() != source:
+        # UTF-8 whatever the locale: the source holds ∂ and ·, and under ISO-8859-1 or an
+        # ASCII locale every command failed reading or writing it, and left its .tmp file
+        # behind (a CLI pass)
+        if not path.exists() or path.read_text(encoding="utf-8") != source:
             fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
-            with os.fdopen(fd, "w") as fh:
-                fh.write(source)
-            os.replace(tmp, path)
+            try:
+                with os.fdopen(fd, "w", encoding="utf-8") as fh:
+                    fh.write(source)
+                os.replace(tmp, path)
+            except BaseException:
+                Path(tmp).unlink(missing_ok=True)
+                raise
         spec = importlib.util.spec_from_file_location(modname, path)
         assert spec is not None and spec.loader is not None
         module = importlib.util.module_from_spec(spec)

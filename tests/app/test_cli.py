@@ -320,3 +320,22 @@ def test_the_first_key_is_read_from_either_form_serve_shows_it_in(tmp_path: Path
     assert first_key_shown(f"API key: written to {path} (readable by this user only), not "
                            "to this log; read it, keep it, delete the file\n") == key
     assert first_key_shown("store at revision 0014: sqlite:///x.db\n") is None
+
+
+@pytest.mark.parametrize("encoding", ["latin-1", "ascii"])
+def test_commands_run_in_a_terminal_that_is_not_utf8(tmp_path: Path, encoding: str) -> None:
+    """In an ISO-8859-1 or ASCII locale every command ended in a UnicodeEncodeError (σ, …,
+    ≈ on the terminal) or UnicodeDecodeError (the compiled models' cache read in the
+    locale's encoding), and left .tmp files in the cache (a CLI pass)."""
+    env = os.environ | {"HYDRODIAG_DATA_DIR": str(tmp_path / "data"), "LC_ALL": "C",
+                        "LANG": "C", "PYTHONUTF8": "0", "PYTHONCOERCECLOCALE": "0",
+                        "PYTHONIOENCODING": encoding}
+    cache = Path(os.environ.get("HYDRODIAG_CACHE_DIR", ".hydrodiag-cache"))
+    before = set(cache.glob("*.tmp")) if cache.exists() else set()
+    for args in (["simulate", "--help"], ["simulate", "--steady", "--load", "2100"],
+                 ["rigs", "show", "1"]):
+        done = subprocess.run([sys.executable, "-m", "app.cli", *args], env=env,
+                              capture_output=True, timeout=300)
+        assert done.returncode == 0, (args, done.stderr.decode(encoding, "replace")[-2000:])
+        assert b"Traceback" not in done.stderr and b"UnicodeEncodeError" not in done.stdout
+    assert (set(cache.glob("*.tmp")) if cache.exists() else set()) == before
