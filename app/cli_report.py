@@ -106,14 +106,19 @@ def report_trends(
                               "until": filter_time(until, UntilTime, "--until"),
                               "component": component, "threshold": threshold}
     with store_session() as session:
-        if suffix == ".csv":
-            trends = component_trends(session, RigCache(1), rig, **window)
-            content = _points_csv(trends)
-        else:
-            views = trend_views(session, RigCache(1), rig, **window)
-            trends = [v.trend for v in views if v.trend is not None]
-            content = render_report(f"Trends of rig {rig}", [v.chart for v in views], suffix,
-                                    views=views, rig_id=rig)
+        try:
+            if suffix == ".csv":
+                trends = component_trends(session, RigCache(1), rig, **window)
+                content = _points_csv(trends)
+            else:
+                views = trend_views(session, RigCache(1), rig, **window)
+                trends = [v.trend for v in views if v.trend is not None]
+                content = render_report(f"Trends of rig {rig}", [v.chart for v in views],
+                                        suffix, views=views, rig_id=rig)
+        except InputError as exc:  # the options by their names on the command line
+            if exc.field in ("component", "threshold"):
+                exc.field = f"--{exc.field}"
+            raise
     output.write_bytes(content)
     _summary(rig, trends)
     console.print(f"wrote {output} ({len(content)} bytes)")
@@ -151,6 +156,7 @@ def _summary(rig: int, trends: list[Any]) -> None:
     """Status, wear rate, time left and any step of each component, as a table."""
     from rich.table import Column, Table
 
+    from app.services.trends import status_text
     from sim.units import quantity_text
 
     table = Table("component", "points", Column("status", no_wrap=True), "rate \\[per day]",
@@ -165,7 +171,7 @@ def _summary(rig: int, trends: list[Any]) -> None:
             f"{'+' if t.step_size > 0 else ''}{quantity_text(t.step_size, t.unit, 3)} "
             f"around {t.step_at:%Y-%m-%d}")
         last = max((p.measured_at for p in t.points), default=None)
-        table.add_row(t.component, str(t.points_total), t.status, rate,
+        table.add_row(t.component, str(t.points_total), status_text(t), rate,
                       quantity_text(t.threshold, t.unit if t.unit == "m" else "1", 4),
                       "—" if last is None else f"{last:%Y-%m-%d %H:%M}", left, step)
     console.print(table)

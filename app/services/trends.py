@@ -34,7 +34,7 @@ from sim.rigs import Rig, validate_rig_document
 from sim.units import quantity_text
 
 __all__ = ["COMPONENTS", "ComponentTrendOut", "TrendPointOut", "comparable_versions",
-           "component_trends", "default_threshold"]
+           "component_trends", "default_threshold", "status_text"]
 
 #: Components with a trend → (quantity, unit).
 COMPONENTS: dict[str, tuple[str, str]] = {"cylinder": ("cc", "m"), "valve": ("cv", "m"),
@@ -155,6 +155,19 @@ def _if_blamed(component: str, point: TrendPointOut) -> str:
     return (f"; that estimate holds if the {component} is the worn component, and its "
             f"diagnosis ({point.diagnosis_id}) gave it probability {p:.2g}: another "
             "component explains the readings better")
+
+
+def status_text(trend: ComponentTrendOut) -> str:
+    """The trend's status as a table shows it: qualified where its last point's diagnosis
+    gave the component a probability below :data:`UNLIKELY` ("crossed if it is the worn
+    one, p 0.2"): the CLI's summary read a healthy pump "crossed", 0 days left, from
+    estimates of diagnoses that named the valve, where the trend's message says so (a CLI
+    pass)."""
+    last = max(trend.points, key=lambda p: p.measured_at, default=None)
+    p = None if last is None else last.probability
+    if p is None or p >= UNLIKELY or trend.status in ("stale", "insufficient_data"):
+        return trend.status
+    return f"{trend.status} if it is the worn one (p {p:.2g})"
 
 
 def _trend(component: str, rig_id: int, points: list[TrendPointOut], threshold: float,
@@ -287,8 +300,14 @@ def component_trends(
     NotFoundError
         No such rig.
     InputError
-        A threshold without a component, or a threshold that is not positive.
+        A component that has no trend, a threshold without a component, or a threshold
+        that is not positive.
     """
+    if component is not None and component not in COMPONENTS:
+        # the CLI's --component was passed on unchecked: "Valve" or "relief" (which the
+        # history's filter takes) raised a KeyError traceback (a CLI pass)
+        raise InputError(f"no trend of {component!r}: the components with a trend are "
+                         f"{', '.join(COMPONENTS)}", field="component")
     if threshold is not None and component is None:
         raise InputError("a threshold belongs to one component; name it", field="threshold")
     if threshold is not None and not (math.isfinite(threshold) and threshold > 0):

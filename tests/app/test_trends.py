@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from datetime import datetime
 
@@ -361,6 +362,21 @@ def test_a_status_leaning_on_an_unlikely_components_estimate_says_so() -> None:
     likely = TrendPointOut(64, when, 1, 1.1e-7, 1.0e-7, 1.2e-7, UNLIKELY)
     assert _if_blamed("pump", likely) == ""
     assert _if_blamed("pump", TrendPointOut(65, when, 1, 1.1e-7, None, None, None)) == ""
+
+
+def test_a_summary_table_qualifies_a_status_that_leans_on_an_unlikely_estimate() -> None:
+    """The CLI's summary read a healthy pump "crossed", 0 days left, from Cs estimates of
+    diagnoses that named the valve (p 0.16-0.33), where only the HTML said so (a CLI
+    pass): the status is qualified with the last point's probability."""
+    from app.services.trends import _trend, status_text
+
+    points = _monthly([2e-8, 4e-8, 6e-8, 8e-8, 1e-7])
+    crossed = _trend("pump", 1, points, 9e-8, "given")
+    assert crossed.status == "crossed" and status_text(crossed) == "crossed"  # p 0.9
+    unlikely = [dataclasses.replace(p, probability=0.2) for p in points]
+    blamed = _trend("pump", 1, unlikely, 9e-8, "given")
+    assert blamed.status == "crossed"
+    assert status_text(blamed) == "crossed if it is the worn one (p 0.2)"
 
 
 def _points(values: list[float], *, u: float = 1e-6, probability: float = 0.9,

@@ -78,6 +78,15 @@ def test_trends_report_and_refusals(store: Path) -> None:
     later = runner.invoke(cli, ["report", "trends", "--rig", "1", "--output", str(csv_path),
                                 "--since", "2026-05-02"])
     assert later.exit_code == 0 and len(pd.read_csv(csv_path)) == 0
+    # a component with no trend is refused by its option's name (a KeyError traceback: a
+    # CLI pass), and nothing is written
+    for typo in ("gearbox", "Valve", "relief"):
+        refused = runner.invoke(cli, ["report", "trends", "--rig", "1", "--output",
+                                      str(store / "typo.csv"), "--component", typo])
+        assert isinstance(refused.exception, InputError), refused.output
+        assert refused.exception.field == "--component"
+        assert "cylinder, valve, pump" in refused.exception.message
+    assert not (store / "typo.csv").exists()
     unread = runner.invoke(cli, ["report", "trends", "--since", "May 2nd"])
     assert isinstance(unread.exception, InputError) and unread.exception.field == "--since"
     wrong = runner.invoke(cli, ["report", "diagnosis", "1", "--output", str(store / "r.pdf")])
