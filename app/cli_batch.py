@@ -32,7 +32,7 @@ from pydantic import ValidationError
 from rich.markup import escape
 from rich.table import Table
 
-from app.cli_support import console, counted, steps, store_session, writable
+from app.cli_support import WideWhenPiped, console, counted, steps, store_session, writable
 from app.schemas.common import MAX_ID
 from app.schemas.record_csv import record_rows
 from app.schemas.times import iso_utc
@@ -46,6 +46,8 @@ __all__ = ["LISTED", "diagnose_batch", "read_batch", "register"]
 
 #: How many refused records an error message lists.
 LISTED = 10
+
+_out = WideWhenPiped()
 
 
 def read_batch(path: Path, rig_id: int
@@ -223,7 +225,7 @@ def diagnose_batch(
         table.add_row(escape(name), str(n))
     if errors:
         table.add_row("refused (invalid record)", str(len(errors)))
-    console.print(table)
+    _out.print(table)  # the command's answer: on stdout, as other commands' tables (a CLI pass)
     for _, e in errors[:LISTED]:
         console.print(f"refused {e.field}: {e.message}", markup=False)
     if len(errors) > LISTED:

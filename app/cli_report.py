@@ -16,6 +16,7 @@ import typer
 from app.cli_support import (
     SinceOption,
     UntilOption,
+    WideWhenPiped,
     console,
     store_session,
     writable,
@@ -30,6 +31,8 @@ report_cli = typer.Typer(help="Reports with plots: HTML (as the console shows) o
                          no_args_is_help=True)
 
 _CSS = Path(__file__).parent / "console" / "static" / "console.css"
+
+_out = WideWhenPiped()
 
 
 def _suffix(output: Path, allowed: tuple[str, ...] = (".html", ".png")) -> str:
@@ -174,4 +177,4 @@ def _summary(rig: int, trends: list[Any]) -> None:
         table.add_row(t.component, str(t.points_total), status_text(t), rate,
                       quantity_text(t.threshold, t.unit if t.unit == "m" else "1", 4),
                       "—" if last is None else f"{last:%Y-%m-%d %H:%M}", left, step)
-    console.print(table)
+    _out.print(table)  # the command's answer: on stdout, as other commands' tables (a CLI pass)
