@@ -36,7 +36,7 @@ from app.cli_support import WideWhenPiped, console, counted, steps, store_sessio
 from app.schemas.common import MAX_ID
 from app.schemas.record_csv import record_rows
 from app.schemas.times import iso_utc
-from sim.errors import HydrodiagError, InputError, MeasurementError
+from sim.errors import HydrodiagError, InputError, MeasurementError, NotFoundError
 
 if TYPE_CHECKING:
     from diagnostics.measurement import MeasurementRecord
@@ -80,12 +80,15 @@ def read_batch(path: Path, rig_id: int
                 raise InputError(f"line {n} is not JSON: {exc.msg}", field=f"line {n}") from None
         where = "line"
     else:
-        rows = record_rows(text.encode(), field="FILE")
+        rows = record_rows(text.encode(), field="FILE", per_row=True)
         where = "row"
     if not rows:
         raise InputError("the file holds no records", field="FILE")
     records, errors = [], []
     for n, row in enumerate(rows, start=1):
+        if isinstance(row, InputError):  # its cells (a nan): refused alone
+            errors.append((n, InputError(row.message, field=f"{where} {n}")))
+            continue
         if not isinstance(row, dict):
             errors.append((n, InputError(f"{where} {n} is not a record (a mapping)",
                                          field=f"{where} {n}")))
@@ -145,16 +148,24 @@ def diagnose_batch(
 
     if out is not None:
         writable(out, "--out")
-    numbered, errors, where = read_batch(file, rig_id)
+    numbered, refused, where = read_batch(file, rig_id)
+    errors: list[tuple[int, HydrodiagError]] = list(refused)
     total = len(numbered) + len(errors)
     if errors and (not skip_invalid or not numbered):
         raise _refused(errors, total)
     # each record against its own rig: a fleet's file names many (one rig per file made an
     # integrator split the fleet's export by rig: a fleet integrator's pass)
-    rig_ids = sorted({item.rig_id for _, item in numbered})
-    cache = RigCache(len(rig_ids))
+    cache = RigCache(max(1, len({item.rig_id for _, item in numbered})))
+    resolved: dict[int, Any] = {}
     with store_session() as session:
-        resolved = {r: cache.get(session, r, None) for r in rig_ids}
+        for r in sorted({item.rig_id for _, item in numbered}):
+            try:
+                resolved[r] = cache.get(session, r, None)
+            except NotFoundError as exc:  # its records refused, the others go on
+                errors += [(n, NotFoundError(exc.message, field=f"{where} {n}: rig_id"))
+                           for n, item in numbered if item.rig_id == r]
+    numbered = [(n, item) for n, item in numbered if item.rig_id in resolved]
+    rig_ids = sorted(resolved)
     now = datetime.now(UTC)
     kept: dict[int, list[tuple[int, Any, MeasurementRecord]]] = {r: [] for r in rig_ids}
     for n, item in numbered:

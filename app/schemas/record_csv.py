@@ -17,7 +17,7 @@ from __future__ import annotations
 import csv
 import math
 import re
-from typing import Any
+from typing import Any, Literal, overload
 
 from diagnostics.table_files import DECIMAL_COMMA, stated_dialect
 from sim.errors import InputError
@@ -45,10 +45,23 @@ def _value(cell: str, *, line: int, column: str, field: str, decimal: str = ".")
     return number
 
 
-def record_rows(content: bytes, *, field: str, lines: list[int] | None = None
-                ) -> list[dict[str, Any]]:
+@overload
+def record_rows(content: bytes, *, field: str, lines: list[int] | None = None,
+                per_row: Literal[False] = False) -> list[dict[str, Any]]: ...
+
+
+@overload
+def record_rows(content: bytes, *, field: str, lines: list[int] | None = None,
+                per_row: Literal[True]) -> list[dict[str, Any] | InputError]: ...
+
+
+def record_rows(content: bytes, *, field: str, lines: list[int] | None = None,
+                per_row: bool = False) -> list[dict[str, Any]] | list[dict[str, Any] | InputError]:
     """The rows of the CSV ``content`` as nested record dictionaries; ``lines``, where
-    given, gets the file's line of each row (to name it in a record's error).
+    given, gets the file's line of each row (to name it in a record's error).  With
+    ``per_row`` a row refused for its cells (below) is its :class:`InputError` in its place
+    instead of an error for the whole file (``diagnose-batch --skip-invalid`` diagnoses
+    the others: a ``nan`` cell refused the whole batch, a CLI pass).
 
     Raises
     ------
@@ -81,22 +94,32 @@ def record_rows(content: bytes, *, field: str, lines: list[int] | None = None
         header.pop()
     if not header or any(not name for name in header):
         raise InputError(f"line {table[0][0]}: every column needs a name", field=field)
-    rows = []
+    rows: list[dict[str, Any] | InputError] = []
     for number, cells in table[1:]:
-        if len(cells) < len(header) or any(c.strip() for c in cells[len(header):]):
-            raise InputError(f"line {number} has {len(cells)} cells for the header's "
-                             f"{len(header)} columns", field=field)
-        record: dict[str, Any] = {}
-        for column, cell in zip(header, cells, strict=False):
-            if not cell.strip():
-                continue
-            target = record
-            *parents, leaf = column.split(".")
-            for part in parents:
-                target = target.setdefault(part, {})
-            target[leaf] = _value(cell, line=number, column=column, field=field,
-                                  decimal=decimal)
-        rows.append(record)
+        try:
+            rows.append(_record(header, cells, number, field, decimal))
+        except InputError as exc:
+            if not per_row:
+                raise
+            rows.append(exc)
         if lines is not None:
             lines.append(number)
     return rows
+
+
+def _record(header: list[str], cells: list[str], number: int, field: str, decimal: str
+            ) -> dict[str, Any]:
+    """The nested record of one row (file line ``number``) under ``header``."""
+    if len(cells) < len(header) or any(c.strip() for c in cells[len(header):]):
+        raise InputError(f"line {number} has {len(cells)} cells for the header's "
+                         f"{len(header)} columns", field=field)
+    record: dict[str, Any] = {}
+    for column, cell in zip(header, cells, strict=False):
+        if not cell.strip():
+            continue
+        target = record
+        *parents, leaf = column.split(".")
+        for part in parents:
+            target = target.setdefault(part, {})
+        target[leaf] = _value(cell, line=number, column=column, field=field, decimal=decimal)
+    return record

@@ -97,6 +97,20 @@ def test_every_refused_record_is_listed_and_the_others_can_be_diagnosed(
     last = json.loads(out.read_text().splitlines()[3])
     assert last["record"] == 4 and last["error"]["field"] == "row 4: p1", last
     assert set(last["error"]) == {"type", "field", "message"} and "bar" in last["error"]["message"]
+    # a nan cell and a rig the store lacks are refused alone too (each refused the whole
+    # batch: a CLI pass)
+    rows.append(dict(rows[1], p1="nan"))
+    rows.append(dict(rows[1], rig_id=99))
+    pd.DataFrame(rows).to_csv(path, index=False)
+    third = runner.invoke(cli, ["diagnose-batch", str(path), "--rig", "1", "--skip-invalid",
+                                "--out", str(out)])
+    assert third.exit_code == 0, third.output
+    kept = [json.loads(line) for line in out.read_text().splitlines()]
+    assert [line["record"] for line in kept] == [1, 2, 3, 4, 5, 6]
+    assert kept[4]["error"]["field"] == "row 5" and "empty cell" in kept[4]["error"]["message"]
+    assert kept[5]["error"] == {"type": "NotFoundError", "field": "row 6: rig_id",
+                                "message": "no rig with id 99"}
+    assert kept[1]["top"] == "cylinder"
 
 
 def test_diagnose_many_on_a_process_pool_and_a_dask_cluster_equals_in_process() -> None:
