@@ -232,6 +232,7 @@ def diagnose(
     stated = _overrides(condition or [], field="--condition", form="name=value")
     with store_session() as session, steps() as progress:
         rigs = RigCache(4)
+        file_notes: list[str] = []
         if series is not None:
             read = [stored_cycle_record(session, rigs, i, condition=stated)
                     for i in series_ids(series)]
@@ -239,9 +240,9 @@ def diagnose(
             if rig is None:
                 raise InputError("a measured cycle needs the rig it was measured on (--rig ID)",
                                  field="--rig")
-            read = file_cycle_records(session, rigs, Path(str(file)), rig, condition=stated,
-                                      column_map=cmap, sample_rate=sample_rate,
-                                      started_at=start)
+            read, file_notes = file_cycle_records(
+                session, rigs, Path(str(file)), rig, condition=stated, column_map=cmap,
+                sample_rate=sample_rate, started_at=start)
         document = load_document(str(file)) if not cycles else (
             [r.body for r in read] if joint or len(read) > 1 else read[0].body)
         request = validated(DiagnoseRequest,
@@ -254,6 +255,8 @@ def diagnose(
         _print_json(response.model_dump(mode="json"))
         return
     if cycles:
+        for note in file_notes:
+            _out.print(f"{file}: {note}", markup=False)
         for k, r in enumerate(read):
             for note in r.readings.notes:
                 _out.print(f"cycle {r.readings.name} (record {k}): {note}", markup=False)

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 from sqlalchemy.orm import Session
 
@@ -81,18 +82,39 @@ class RigChannels:
         not by its model's outputs: the note names those it lacks."""
         if not self.cycle:
             return plateau_notes(rows)
+        return self._cycle_notes([(r.record, r.units, r.condition) for r in rows], stored=True)
+
+    def read_notes(self, records: Sequence[SeriesRecord]) -> list[str]:
+        """:meth:`notes` of records read, not stored (``hydrodiag diagnose FILE``, which
+        dropped a misspelt channel without a word where the import said so: a CLI pass);
+        none for a rig without a cycle, which no cycle is read against."""
+        if not self.cycle:
+            return []
+        return self._cycle_notes([(r.name, r.units, r.condition) for r in records],
+                                 stored=False)
+
+    def _cycle_notes(self, records: Sequence[tuple[str, Mapping[str, str],
+                                                   Mapping[str, Any] | None]], *,
+                     stored: bool) -> list[str]:
+        """The notes of :meth:`notes` for a rig with a cycle, of (name, units, condition):
+        records ``stored``, or read for a diagnosis (the unknown channels only: the
+        diagnosis says itself what condition it lacks)."""
         notes = []
-        names = {c for r in rows for c in r.units}
+        names = {c for _, units, _ in records for c in units}
         unknown = sorted(names - set(self.units) - set(CONDITION_CHANNELS) - set(READ_CHANNELS))
         if unknown:
             notes.append(f"channel(s) {', '.join(unknown)} are not channels of the rig's model "
-                         f"({', '.join(self.units)}): stored as given, but no comparison or "
-                         "diagnosis reads them; a misspelt name is imported again with the "
-                         "column map corrected")
+                         f"({', '.join(self.units)}): "
+                         + ("stored as given, but no comparison or diagnosis reads them; a "
+                            "misspelt name is imported again with the column map corrected"
+                            if stored else "read, but the diagnosis does not use them; a "
+                            "misspelt name is read again with the column map corrected"))
+        if not stored:
+            return notes
         for key, column in (("load", "load [N]"), ("oil_temperature", "oil_temperature [degC]")):
             # stored, then refused by every reader (a modelling engineer's pass): said now
-            silent = [r.record for r in rows if key not in (r.condition or {})
-                      and key not in r.units]
+            silent = [name for name, units, condition in records
+                      if key not in (condition or {}) and key not in units]
             if silent:
                 shown = ", ".join(repr(n) for n in silent[:3]) + (" …" if len(silent) > 3
                                                                    else "")

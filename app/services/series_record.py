@@ -21,8 +21,11 @@ from sqlalchemy.orm import Session
 from app.schemas.diagnose import MEASURED_FIELDS
 from app.schemas.times import iso_utc
 from app.services.rig_cache import ResolvedRig, RigCache
+from app.services.rig_channels import rig_channels
 from app.services.series import as_record, get_series
 from diagnostics.cycle_readings import CycleReadings, cycle_readings
+from diagnostics.map_notes import unmatched_map_notes
+from diagnostics.sampling import sampling_notes
 from diagnostics.timeseries import ColumnEntry, SeriesRecord, read_series
 
 __all__ = ["READING_UNITS", "CycleRecord", "cycle_record", "file_cycle_records", "record_body",
@@ -99,11 +102,20 @@ def file_cycle_records(session: Session, rigs: RigCache, path: Path, rig_id: int
                        condition: Mapping[str, float] | None = None,
                        column_map: Mapping[str, ColumnEntry] | None = None,
                        sample_rate: float | None = None,
-                       started_at: datetime | None = None) -> list[CycleRecord]:
+                       started_at: datetime | None = None
+                       ) -> tuple[list[CycleRecord], list[str]]:
     """Every cycle of a CSV or Parquet file (its ``record`` column separates them) read
     against rig ``rig_id`` (``rig_version``, else the latest), through ``column_map``,
     ``sample_rate`` and ``started_at`` as :func:`diagnostics.timeseries.read_series` takes
-    them; errors name ``--rig`` and the file's column."""
+    them, with the notes the import of the file would give (the channels, the clock, the
+    rate); errors name ``--rig`` and the file's column."""
     rig = rigs.get(session, rig_id, rig_version, rig_field="--rig", version_field="--version")
-    return [cycle_record(s, rig, condition) for s in read_series(
-        path, column_map=column_map, sample_rate=sample_rate, started_at=started_at)]
+    # the checks of the import of the same file and map (a CLI pass: a misspelt channel
+    # dropped without a word, bar on a flow column converted, ms read as s, a rate that
+    # contradicts the time column, all silent here and said there)
+    channels = rig_channels(session, rig_id)
+    series = read_series(path, column_map=column_map, sample_rate=sample_rate,
+                         started_at=started_at, expected=channels.units)
+    notes = (unmatched_map_notes(column_map, series) + channels.read_notes(series)
+             + channels.time_notes(series) + sampling_notes(series, sample_rate))
+    return [cycle_record(s, rig, condition) for s in series], notes

@@ -573,6 +573,22 @@ def test_diagnose_a_measured_cycle_file_and_a_stored_one(runner: CliRunner,
                          "--column-map")):
         bad = runner.invoke(cli, args)
         assert bad.exit_code != 0 and getattr(bad.exception, "field", None) == field, args
+    # the import's checks of the same file and map (a CLI pass): a misspelt channel is
+    # named, bar on a flow is refused, a rate the time column contradicts is said
+    typo = runner.invoke(cli, ["diagnose", str(logged), "--rig", "1", "--column-map",
+                               cmap.replace('"P1"', '"Pressure1"'), "--condition",
+                               "oil_temperature=40", "--condition", "load_force=4200",
+                               "--no-store"])
+    assert typo.exit_code == 0, typo.output
+    assert "channel(s) Pressure1 are not channels of the rig's model" in typo.stdout
+    unit = runner.invoke(cli, ["diagnose", str(logged), "--rig", "1", "--column-map",
+                               cmap.replace('["Q_meter_B", "l/min"]', '["Q_meter_B", "bar"]'),
+                               "--condition", "oil_temperature=40", "--no-store"])
+    assert unit.exit_code != 0 and "not a unit of this channel" in str(unit.exception)
+    rate = runner.invoke(cli, ["diagnose", str(cycle), "--rig", "1", "--sample-rate", "100",
+                               "--condition", "oil_temperature=40", "--no-store"])
+    assert rate.exit_code == 0, rate.output
+    assert "is not what its time column reads" in rate.stdout
     assert store_count(Diagnosis) == 1
 
 
