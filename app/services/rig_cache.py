@@ -164,7 +164,8 @@ class RigCache:
         cached: tuple[Rig, Mapping[str, Any]] | None = self._rigs.get(key)
         if cached is None:  # the document is read only when the rig is compiled
             stored = session.get(RigVersion, version_id)
-            assert stored is not None
+            if stored is None:  # deleted since the statement above (an SRE pass: a 500)
+                raise NotFoundError(f"no rig with id {rig_id}", field=rig_field)
             cached = self._rigs.put(key, (load_rig(stored.document), stored.document))
         rig, document = cached
         return ResolvedRig(rig_id, number, version_id, row.name, document, rig, created_at)
