@@ -30,7 +30,7 @@ from diagnostics.table_files import PARQUET_METADATA_KEY, table_bytes  # read ba
 from diagnostics.timeseries import CONDITION_CHANNELS
 from sim.components.effects import EFFECTS
 from sim.cycle import CycleResult, run_cycle
-from sim.errors import InputError, ParameterError, SimulationError
+from sim.errors import InputError, ParameterError, SimulationError, SolverLimitError
 from sim.rigs import Condition, Rig
 from sim.scenarios import fault_overrides
 from sim.solver.limits import SolverLimits
@@ -260,6 +260,27 @@ def _check_grid(rig: Rig, overrides: Mapping[str, float], condition: Condition,
         raise _too_many_rows(rows, request, max_rows, expected=True)
 
 
+def _blamed_right(exc: InputError, request: SimulateRequest, from_fault: set[str]
+                  ) -> InputError:
+    """``exc`` naming what the request sent: a bound broken by the named fault's scaling is
+    the ``fault``'s (it named ``overrides.cylinder.cc`` "with the overrides given" where none
+    was sent), and a step below round-off under the tolerance chosen for a noise target is
+    that target's (it named ``rtol``, not sent either; an edge pass)."""
+    key = (exc.field or "").removeprefix("overrides.")
+    if exc.field and exc.field.startswith("overrides.") and key in from_fault:
+        return type(exc)(f"the fault {request.fault!r} scales {key} past its bounds on this "
+                         f"rig: {exc.message.removesuffix(' (with the overrides given)')}",
+                         field="fault")
+    if isinstance(exc, SolverLimitError) and exc.field == "rtol" and request.rtol is None:
+        targets = ([f"noise.{k}" for k in request.noise]
+                   + [f"noise_fraction.{k}" for k in request.noise_fraction])
+        if targets:
+            return SolverLimitError(f"{exc.message}: the tolerance was chosen to meet "
+                                    f"{', '.join(targets)}, which asks more than the solver "
+                                    "can give; a looser target runs", field=targets[0])
+    return exc
+
+
 def simulate(session: Session, rigs: RigCache, request: SimulateRequest,
              limits: SolverLimits | None = None, *,
              max_rows: int = DEFAULT_MAX_ROWS) -> SimulationOutcome:
@@ -308,11 +329,14 @@ def simulate(session: Session, rigs: RigCache, request: SimulateRequest,
         # no rows asked for: the summary and the error estimate come from a data logger's
         # grid (the step rows right after the valve switch would only cost time)
         sample_rate = SUMMARY_SAMPLE_RATE
-    _check_grid(rig, overrides, condition, request, max_rows, limits)
-    result = run_scenario(rig, overrides, condition, method=request.method,
-                          timeseries=request.timeseries is not None, rtol=request.rtol,
-                          solver=request.solver, sample_rate=sample_rate,
-                          accuracy=accuracy, limits=limits)
+    try:
+        _check_grid(rig, overrides, condition, request, max_rows, limits)
+        result = run_scenario(rig, overrides, condition, method=request.method,
+                              timeseries=request.timeseries is not None, rtol=request.rtol,
+                              solver=request.solver, sample_rate=sample_rate,
+                              accuracy=accuracy, limits=limits)
+    except InputError as exc:  # ParameterError, SolverLimitError: named as sent
+        raise _blamed_right(exc, request, set(overrides) - set(request.overrides)) from None
     if (result.timeseries is not None and request.sample_rate is not None
             and len(result.timeseries) > _row_cap(request, max_rows)):
         raise _too_many_rows(len(result.timeseries), request, max_rows, expected=False)

@@ -133,3 +133,26 @@ def test_a_sample_rate_below_one_hertz_is_refused_naming_it(server: LiveServer) 
     with pytest.raises(ParameterError) as exc:
         run_cycle(reference_rig(), method="rodas4", sample_rate=0.5)
     assert exc.value.field == "sample_rate"
+
+
+def test_errors_name_what_the_request_sent(server: LiveServer) -> None:
+    """A noise target too tight was blamed on ``rtol`` and a named fault scaled past a
+    bound on ``overrides.cylinder.cc`` "with the overrides given", neither sent (an edge
+    pass): the target and the fault are named."""
+    tight = server.client.post("/simulate", json=SCENARIO | {"noise": {"v": 1e-12}})
+    assert tight.status_code == 422, tight.text
+    error = tight.json()["error"]
+    assert error["field"] == "noise.v" and "noise.v" in error["message"]
+    from sim.rigs import reference_rig_document
+
+    document = reference_rig_document() | {"name": "edge-max-clear-cc"}
+    document["components"]["cylinder"]["parameters"]["cc"]["value"] = 2e-3  # its bound
+    rig = server.client.post("/rigs", json={"document": document}, headers=server.auth)
+    assert rig.status_code == 201, rig.text
+    rig_id = rig.json()["id"]
+    scaled = server.client.post("/simulate", json={"rig_id": rig_id, "fault": "worn_piston",
+                                                   "method": "steady"})
+    assert scaled.status_code == 422, scaled.text
+    error = scaled.json()["error"]
+    assert error["field"] == "fault" and "worn_piston" in error["message"]
+    assert "with the overrides given" not in error["message"]
