@@ -43,6 +43,7 @@ __all__ = [
     "MAX_GAUGE_PRESSURE",
     "MAX_MAGNITUDE",
     "MAX_PUMP_SPEED",
+    "MAX_TEMPERATURE_U",
     "MIN_GAUGE_PRESSURE",
     "MIN_PRESSURE_READING",
     "OIL_TEMPERATURE_RANGE",
@@ -73,6 +74,9 @@ MAX_MAGNITUDE = 1.0e100
 #: Accepted oil temperature range [°C] of a mineral-oil circuit; outside it the reading is
 #: taken to be an error rather than a condition.
 OIL_TEMPERATURE_RANGE = (-40.0, 150.0)
+#: Largest standard uncertainty of a stated oil temperature [K]: beyond the span of
+#: :data:`OIL_TEMPERATURE_RANGE` it says nothing of the temperature.
+MAX_TEMPERATURE_U = OIL_TEMPERATURE_RANGE[1] - OIL_TEMPERATURE_RANGE[0]
 
 
 def _as_quantity(path: str, item: float | Quantity,
@@ -157,6 +161,15 @@ class OperatingCondition:
         if self.oil_temperature.value > hi:
             raise MeasurementError(f"oil temperature above {hi:g} °C is not a plausible reading",
                                    field="condition.oil_temperature")
+        if self.oil_temperature.u > MAX_TEMPERATURE_U:
+            # a 1e9 K uncertainty was stepped through the viscosity law and refused as "oil
+            # temperature 100040 °C", a value never sent, on a field not in the request
+            # (an edge pass)
+            raise MeasurementError(
+                f"standard uncertainty {self.oil_temperature.u:g} K states nothing of the oil "
+                f"temperature (above {MAX_TEMPERATURE_U:g} K, the span of oil temperatures a "
+                "mineral-oil circuit runs at); give the thermometer's uncertainty, or leave "
+                "it out for its class", field="condition.oil_temperature.u")
         if self.load_force is None and self.back_pressure is None:
             raise MeasurementError("state the load force or the back-pressure",
                                    field="condition.load_force")

@@ -370,3 +370,18 @@ def test_numpy_scalars_are_readings_and_a_bool_is_not() -> None:
     with pytest.raises(MeasurementError, match="got bool") as caught:
         MeasurementRecord.from_readings("1", cond, {"p1": np.bool_(True)})
     assert caught.value.field == "p1"
+
+
+def test_an_oil_temperature_uncertainty_that_states_nothing_is_refused_naming_it() -> None:
+    """u = 1e9 K was stepped through the viscosity law and refused as "oil temperature
+    100040 °C" on field ``record.T``, neither sent (an edge pass)."""
+    from diagnostics.measurement import MAX_TEMPERATURE_U
+
+    with pytest.raises(MeasurementError) as err:
+        OperatingCondition.from_readings({"oil_temperature": Quantity(40.0, 1e9),
+                                          "load_force": 2100.0})
+    assert err.value.field == "condition.oil_temperature.u"
+    assert "1e+09 K" in err.value.message
+    kept = OperatingCondition.from_readings({"oil_temperature": Quantity(40.0, 20.0),
+                                             "load_force": 2100.0})
+    assert kept.oil_temperature.u == 20.0 < MAX_TEMPERATURE_U
