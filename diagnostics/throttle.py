@@ -39,7 +39,10 @@ from typing import Literal
 import numpy as np
 
 from diagnostics.inversion import leakage_root, piston_law_coefficients, spool_law_coefficient
-from sim.errors import InputError
+from diagnostics.measurement import MIN_PRESSURE_READING
+from sim.errors import InputError, ParameterError, SimulationError
+from sim.rigs import Condition, Rig
+from sim.steady import steady_cycle
 
 __all__ = [
     "CalibrationRow",
@@ -48,8 +51,13 @@ __all__ = [
     "EquivalenceTable",
     "clearances_calibrated",
     "clearances_from_law",
+    "law_inputs",
     "table_from_columns",
 ]
+
+#: smallest back-pressure of a table other than 0 [Pa]: 0.1 bar, below what a load control
+#: valve is set to; a smaller one is a unit slip (bar typed as Pa)
+MIN_BACK_PRESSURE_PA = MIN_PRESSURE_READING
 
 Component = Literal["cylinder", "valve"]
 
@@ -249,3 +257,63 @@ def table_from_columns(component: Component, openings: Sequence[str], turns: Seq
     rows = tuple(CalibrationRow(o, float(t), float(q)) for o, t, q in
                  zip(openings, turns, flows, strict=True))
     return CalibrationTable(component, rows, back_pressure, temperature, source)
+
+
+def law_inputs(rig: Rig, component: Component, back_pressure_pa: float, temperature_c: float
+               ) -> tuple[dict[str, float], float]:
+    """The leakage law's inputs (:func:`clearances_from_law`'s ``dp`` [Pa], ``mu`` [Pa·s],
+    ``D`` [m], ``L`` [m], ``velocity`` [m/s]) at the rig's operating point of a table's
+    condition, and the pump's delivery ω·Vp [m³/s].
+
+    The operating point is the nominal rig's working phase on the steady path
+    (:func:`sim.steady.steady_cycle`), the load being the back-pressure on the annulus,
+    ``F = p_back · A2`` (paper 002 §3: 10 bar ≙ 2.1 kN); the piston's ΔP is P1 − P2 with
+    its speed (the Couette term), bore and seal length Lc; the spool's ΔP is
+    P_valve_P − PRvt (valve inlet to its T port) with Dv and Ls; μ from the rig's oil at
+    the table's temperature.  (It was computed in the service alone, so a Python user of
+    :mod:`diagnostics` could not get a row's clearance from a rig: a design pass.)
+
+    Raises
+    ------
+    InputError
+        A back-pressure below :data:`MIN_BACK_PRESSURE_PA` but not 0 (bar typed as Pa), no
+        operating point, or a piston that does not move there (the relief open), naming
+        ``back_pressure_pa`` or ``temperature_c``.
+    """
+    if 0.0 < back_pressure_pa < MIN_BACK_PRESSURE_PA:
+        # 10 "Pa" meant 10 bar: a closed row of 56.7 µm on a 34 µm spool was stored (a
+        # check of the technician's fix); 0 stays: a table taken without a load
+        raise InputError(
+            f"a back-pressure of {back_pressure_pa:g} Pa ({back_pressure_pa / 1e5:g} bar) "
+            "is no load a rig applies: it is in Pa (bar × 100,000); 0 for no load",
+            field="back_pressure_pa")
+    rig.require_cycle("the equivalent clearance of a throttle table (paper 002 §2.7)")
+    values = rig.values()
+    condition = Condition(load=back_pressure_pa * values["cylinder.A2"], back_pressure=0.0,
+                          oil_temperature=temperature_c)
+    try:
+        working = steady_cycle(rig, None, condition).working
+    except SimulationError as exc:
+        raise InputError(f"no operating point of the rig at this condition: {exc.message}",
+                         field="back_pressure_pa") from None
+    except ParameterError as exc:
+        # the condition the table states, named as the table names it (a 180 °C table's
+        # 422 named condition.oil_temperature, a field it does not have)
+        field = {"condition.oil_temperature": "temperature_c",
+                 "condition.force": "back_pressure_pa"}.get(exc.field or "", exc.field)
+        raise InputError(exc.message, field=field) from None
+    if not working["speed"] > 0.0:
+        # a stalled piston (the relief valve open) stored clearances from a leak law at an
+        # operating point the calibration cannot have had (a technician)
+        raise InputError(
+            f"at {back_pressure_pa / 1e5:g} bar (a load of {condition.load / 1e3:.3g} kN on "
+            "the annulus) the rig's piston does not move in the working phase (the relief "
+            "valve opens first): a throttle table is taken with the piston moving (paper 002 "
+            "§2.7)", field="back_pressure_pa")
+    delivery = values["pump.speed"] * values["pump.Vp"]
+    mu = rig.fluid.dynamic_viscosity(temperature_c)
+    if component == "cylinder":
+        return ({"dp": working["P1"] - working["P2"], "mu": mu, "D": values["cylinder.bore"],
+                 "L": values["cylinder.Lc"], "velocity": working["speed"]}, delivery)
+    return ({"dp": working["P_valve_P"] - values["valve.PRvt"], "mu": mu,
+             "D": values["valve.Dv"], "L": values["valve.Ls"], "velocity": 0.0}, delivery)

@@ -124,3 +124,33 @@ def test_invalid_tables_and_options() -> None:
     with pytest.raises(InputError) as err:
         clearances_from_law(tab, dp=0.0, mu=MU, D=VAL["Dv"], L=VAL["Ls"])
     assert err.value.field == "dp"
+
+
+@pytest.mark.parametrize(("component", "leak", "param"), [
+    ("cylinder", "Q_cyl_leak", "cylinder.cc"), ("valve", "Q_valve_leak", "valve.cv")])
+def test_a_rows_clearance_comes_from_a_rig_in_python_alone(component: str, leak: str,
+                                                           param: str) -> None:
+    """The operating point of a table's condition was computed in the service alone, so a
+    Python user of ``diagnostics`` could not get a row's clearance from a rig (a design
+    pass): the rig's own leak at that point gives back the rig's own clearance."""
+    from diagnostics.throttle import (
+        CalibrationRow,
+        CalibrationTable,
+        clearances_from_law,
+        law_inputs,
+    )
+    from sim.rigs import Condition, reference_rig
+    from sim.steady import steady_cycle
+
+    rig = reference_rig()
+    values = rig.values()
+    back, temperature = 10e5, 40.0
+    working = steady_cycle(rig, None, Condition(load=back * values["cylinder.A2"],
+                                                back_pressure=0.0,
+                                                oil_temperature=temperature)).working
+    inputs, delivery = law_inputs(rig, component, back, temperature)  # type: ignore[arg-type]
+    assert 0.0 < working[leak] < delivery
+    table = CalibrationTable(component, (CalibrationRow("closed", 0.0, working[leak]),),  # type: ignore[arg-type]
+                             back, temperature)
+    assert clearances_from_law(table, **inputs).clearances[0] == pytest.approx(
+        values[param], rel=1e-6)
