@@ -157,12 +157,12 @@ def _points_csv(trends: list[Any]) -> bytes:
 
 def _summary(rig: int, trends: list[Any]) -> None:
     """Status, wear rate, time left and any step of each component, as a table."""
-    from rich.table import Column, Table
+    from rich.table import Table
 
     from app.services.trends import status_text
     from sim.units import quantity_text
 
-    table = Table("component", "points", Column("status", no_wrap=True), "rate \\[per day]",
+    table = Table("component", "points", "status", "rate \\[per day]",
                   "threshold", "last visit \\[UTC]", "time left \\[day]", "step",
                   title=f"trends of rig {rig} (time left counted from the last visit)")
     for t in trends:

@@ -15,6 +15,7 @@ from pydantic import ValidationError
 from rich.console import Console, ConsoleDimensions
 from rich.markup import escape
 from rich.progress import BarColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
+from rich.table import Table
 from sqlalchemy import Engine
 from sqlalchemy.orm import Session
 
@@ -52,6 +53,18 @@ class WideWhenPiped(Console):
     @size.setter
     def size(self, new_size: tuple[int, int]) -> None:
         Console.size.fset(self, new_size)  # type: ignore[attr-defined]
+
+    def print(self, *objects: Any, **kwargs: Any) -> None:
+        """Print as rich does, a table's cells folded onto more lines where the terminal is
+        narrow rather than cut with "…": at 40 columns ``cylinder+valve`` and
+        ``cylinder+pump`` both read ``cylinder+…`` and intervals lost their digits (a CLI
+        pass)."""
+        for item in objects:
+            if isinstance(item, Table):
+                for column in item.columns:
+                    if column.overflow == "ellipsis":
+                        column.overflow = "fold"
+        super().print(*objects, **kwargs)
 
 
 console = WideWhenPiped(stderr=True)

@@ -163,3 +163,28 @@ def test_errors_name_the_option_typed(runner: CliRunner, tmp_path: Path) -> None
         result = runner.invoke(cli, args)
         assert result.exit_code != 0, args
         assert getattr(result.exception, "field", None) == option, (args, result.exception)
+
+
+def test_a_narrow_terminal_folds_table_cells_instead_of_cutting_them() -> None:
+    """At 40 columns ``cylinder+valve`` and ``cylinder+pump`` both read ``cylinder+…`` and
+    intervals lost their digits (a CLI pass): the cells fold onto more lines, every
+    character kept."""
+    import io
+
+    from rich.table import Table
+
+    from app.cli_support import WideWhenPiped
+
+    table = Table("hypothesis", "probability", "parameters (95 % interval)")
+    for name in ("cylinder+valve", "cylinder+pump"):
+        table.add_row(name, "0.4812", "cc = 91.28 µm (87.41 to 95.20), cv = 41.07 µm (39.8 to 42.3)")
+    out = io.StringIO()
+    narrow = WideWhenPiped(file=out, width=40, force_terminal=True, color_system=None)
+    narrow.print(table)
+    text = out.getvalue()
+    assert "…" not in text
+    cells = [line.split("│")[1:-1] for line in text.splitlines() if line.startswith("│")]
+    column = ["".join(c[k].strip() for c in cells) for k in range(3)]
+    assert column[0] == "cylinder+valvecylinder+pump"
+    assert column[1] == "0.48120.4812"
+    assert column[2].count("95.20") == 2 and column[2].count("42.3)") == 2
