@@ -1,7 +1,8 @@
 """The one place where hydrodiag's exception tree becomes HTTP.
 
-The tree is :mod:`sim.errors`; the service adds only :class:`ServiceUnavailableError`,
-a subclass of its root.  Every error response has the same body::
+The tree is :mod:`sim.errors`; the service adds :class:`ServiceUnavailableError` (and its
+``ServiceBusyError`` and ``WarmingUpError``), ``PayloadTooLargeError``, ``ScopeError`` and
+``RateLimitError``, all under its root.  Every error response has the same body::
 
     {"error": {"type": "InputError", "message": "must be > 0", "field": "points[2].bypass_flow_m3s",
                "request_id": "3f2a..."}}
@@ -22,7 +23,8 @@ class                          status  when
 ``ServiceUnavailableError``    503     the database is unreachable or not migrated (an
                                        ``OperationalError`` of the driver too, with
                                        ``Retry-After``: nothing of the request stored)
-``ServiceBusyError``           503     too many diagnoses queued (with ``Retry-After``)
+``ServiceBusyError``           503     too many diagnoses or jobs queued (with
+                                       ``Retry-After``)
 ``WarmingUpError``             503     starting: the stored rigs are still loading
 =============================  ======  =======================================
 

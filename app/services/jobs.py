@@ -90,7 +90,10 @@ RENEW_S = 15.0
 
 
 class JobCancelledError(Exception):
-    """Raised in a running job by :class:`Progress` once a cancel was asked of it."""
+    """Raised in a running job by :class:`Progress` once a cancel was asked of it.
+
+    Outside the :mod:`sim.errors` tree on purpose: it is the job runner's own signal to
+    stop, caught by :meth:`JobRunner._run`, never an answer of the service."""
 
 
 class Progress:
