@@ -34,7 +34,7 @@ from diagnostics.ratio_index import RatioIndex, ratio_index
 from diagnostics.signatures import OBSERVABLES, SignatureMaps
 from diagnostics.slip import rig_slip_coefficient
 from diagnostics.uncertainty import Estimate
-from sim.errors import MeasurementError, SimulationError
+from sim.errors import MeasurementError, ParameterError, SimulationError
 from sim.rigs import Rig
 from sim.units import quantity_text
 
@@ -153,7 +153,10 @@ class Diagnosis:
         return bool(cred) and all(named <= by_name[n] for n in cred)
 
     def to_dict(self) -> dict[str, Any]:
-        """Plain JSON-able form (SI units, stated per field)."""
+        """Plain Python form (SI units, stated per field): dicts, lists, strings and
+        numbers, with ``nan`` where a value is not defined (``chi2_at_estimate`` of a
+        hypothesis without a parameter); strict JSON needs those as null, as the service's
+        answers write them (:func:`app.services.diagnosis_estimates.json_ready`)."""
         def fit(f: HypothesisFit) -> dict[str, Any]:
             return {
                 "name": f.name, "components": list(f.hypothesis.components),
@@ -276,6 +279,10 @@ def diagnose(rig: Rig, records: Sequence[MeasurementRecord], *, model_rel: float
                                field="records")
     if not records:
         raise MeasurementError("at least one record is needed", field="records")
+    if not (isinstance(model_rel, int | float) and 0.0 <= model_rel < 1.0):
+        # unchecked, −1, inf or 5 turned a worn spool into "healthy" (a library user's pass)
+        raise ParameterError(f"model_rel is the model's relative error, in [0, 1), not "
+                             f"{model_rel!r}", field="model_rel")
     rig.require_cycle("a diagnosis")
     obs = []
     limits = rig_limits(rig)  # once: the records' checks and the slow-stroke notes

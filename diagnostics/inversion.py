@@ -217,7 +217,10 @@ def spool_law_coefficient(Dv: float, Ls: float) -> float:
 
 
 def piston_clearance(q: float, dp: float, v: float, D: float, L: float, mu: float) -> float:
-    """Clearance [m] that makes :func:`piston_leakage_flow` equal ``q`` (exact inverse).
+    """Clearance [m] that makes :func:`piston_leakage_flow` equal ``q``: the exact inverse on
+    the rising branch of the law (:func:`leakage_root`); where the piston's drag outweighs
+    its leak two clearances give ``q``, and this is the larger
+    (:func:`cylinder_clearance` gives both).
 
     Parameters
     ----------

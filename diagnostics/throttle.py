@@ -280,6 +280,9 @@ def law_inputs(rig: Rig, component: Component, back_pressure_pa: float, temperat
         operating point, or a piston that does not move there (the relief open), naming
         ``back_pressure_pa`` or ``temperature_c``.
     """
+    if component not in ("cylinder", "valve"):  # "pump" read the valve's (a library pass)
+        raise InputError(f"no leakage law for component {component!r} (known: cylinder, "
+                         "valve)", field="component")
     if 0.0 < back_pressure_pa < MIN_BACK_PRESSURE_PA:
         # 10 "Pa" meant 10 bar: a closed row of 56.7 µm on a 34 µm spool was stored (a
         # check of the technician's fix); 0 stays: a table taken without a load

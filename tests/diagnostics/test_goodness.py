@@ -192,3 +192,13 @@ def test_an_oil_temperature_stated_in_fahrenheit_is_named_among_the_causes(rig):
     assert not d.explained
     text = d.to_dict()["misfit"]
     assert "a stated condition that is wrong (an oil temperature in °F" in text
+
+
+@pytest.mark.parametrize("model_rel", [-1.0, float("inf"), 5.0, float("nan")])
+def test_a_model_error_that_means_nothing_is_refused(rig, model_rel: float) -> None:
+    """−1, inf or 5 turned a worn spool into "healthy" (a library user's pass)."""
+    from sim.errors import ParameterError
+
+    with pytest.raises(ParameterError) as caught:
+        diagnose(rig, [record(rig, {"valve.cv": 59e-6})], model_rel=model_rel)
+    assert caught.value.field == "model_rel"

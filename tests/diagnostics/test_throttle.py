@@ -154,3 +154,14 @@ def test_a_rows_clearance_comes_from_a_rig_in_python_alone(component: str, leak:
                              back, temperature)
     assert clearances_from_law(table, **inputs).clearances[0] == pytest.approx(
         values[param], rel=1e-6)
+
+
+def test_law_inputs_of_a_component_without_a_leakage_law_is_refused() -> None:
+    """"pump" read the valve's inputs (a library user's pass)."""
+    from diagnostics.throttle import law_inputs
+    from sim.errors import InputError
+    from sim.rigs import reference_rig
+
+    with pytest.raises(InputError) as caught:
+        law_inputs(reference_rig(), "pump", 10e5, 40.0)  # type: ignore[arg-type]
+    assert caught.value.field == "component"

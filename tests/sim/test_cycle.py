@@ -208,3 +208,33 @@ def test_a_short_stroke_after_the_nominal_one_has_its_steady_point(stroke: float
     # and back: the long stroke after the short one
     assert steady_cycle(rig).working["speed"] == pytest.approx(nominal.working["speed"],
                                                               rel=1e-9)
+
+
+def test_a_stroke_held_at_its_stop_is_a_completed_stroke() -> None:
+    """With ``hold`` the working phase ends at ``t_max`` only: a stroke that reached its
+    stop in 2.42 s, held to 5 s, read as a stall at 0.100 m/s with a velocity ratio of
+    0.456 for 0.940 (a library user's pass).  It is the same stroke as the one switched at
+    its stop, its dwell the phase's duration."""
+    rig = reference_rig()
+    switched = run_cycle(rig, method="rodas4", timeseries=False)
+    held = run_cycle(rig, method="rodas4", timeseries=False, t_max=5.0, hold=True)
+    assert held.working.completed and held.return_.completed
+    assert held.working["speed"] == pytest.approx(switched.working["speed"], rel=1e-4)
+    assert held.velocity_ratio == pytest.approx(switched.velocity_ratio, rel=1e-4)
+    assert held.working["duration"] == pytest.approx(5.0)
+    assert not any("did not reach its end" in n for n in held.notes())
+    # a piston that cannot reach its stop within t_max is no completed stroke, held or not
+    short = run_cycle(rig, method="rodas4", timeseries=False, t_max=1.0, hold=True)
+    assert not short.working.completed
+
+
+@pytest.mark.parametrize(("kwargs", "field"), [
+    ({"rtol": 1.0}, "rtol"), ({"rtol": -1e-3}, "rtol"), ({"rtol": float("nan")}, "rtol"),
+    ({"t_max": 0.0}, "t_max"), ({"t_max": -1.0}, "t_max"), ({"t_max": float("nan")}, "t_max")])
+def test_a_tolerance_or_time_limit_that_means_nothing_is_refused(kwargs: dict, field: str
+                                                                 ) -> None:
+    """rtol 1 returned a return speed of 8.5 m/s and P1 483 bar, t_max 0 or NaN an all-zero
+    cycle (a library user's pass)."""
+    with pytest.raises(ParameterError) as caught:
+        run_cycle(reference_rig(), method="rodas4", timeseries=False, **kwargs)
+    assert caught.value.field == field
