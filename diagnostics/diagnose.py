@@ -112,8 +112,17 @@ class Diagnosis:
 
     @property
     def top(self) -> HypothesisFit:
-        """The most probable hypothesis."""
+        """The most probable hypothesis, whether or not it explains the readings: read
+        :attr:`explained` (or :attr:`answer`) before acting on its name (readings in bar
+        typed as Pa gave ``top.name == "healthy"`` p 1.0 where the answer is "unexplained":
+        a library user's pass)."""
         return self.hypotheses[0]
+
+    @property
+    def answer(self) -> str:
+        """The name the diagnosis gives: the top hypothesis's where some hypothesis
+        explains the readings, else ``"unexplained"`` (``to_dict()["top"]``)."""
+        return self.top.name if self.explained else "unexplained"
 
     @property
     def explained(self) -> bool:
@@ -171,7 +180,7 @@ class Diagnosis:
         iso = self.isolability
         return {
             "rig": self.rig,
-            "top": self.top.name if self.explained else "unexplained",
+            "top": self.answer,
             "best_fit": self.top.name,
             "hypotheses": [fit(f) for f in self.hypotheses],
             "isolability": {

@@ -36,6 +36,9 @@ def test_a_biased_sensor_is_not_explained_and_named_with_its_sigma(rig):
     biased = dict(vals, p1=vals["p1"] * 1.05)  # 5 % on a 0.25 % class gauge
     d = diagnose(rig, [record(rig, {}, values=biased)])
     assert not d.explained
+    # the name to act on says so, whatever the most probable hypothesis is (top.name read
+    # "healthy" p 1.0 for pressures in bar typed as Pa: a library user's pass)
+    assert d.answer == "unexplained" == d.to_dict()["top"] and d.top.name != "unexplained"
     assert d.isolability.ambiguity_set == []
     assert d.fit is not None
     worst = d.fit.disagreements[0]
@@ -202,3 +205,15 @@ def test_a_model_error_that_means_nothing_is_refused(rig, model_rel: float) -> N
     with pytest.raises(ParameterError) as caught:
         diagnose(rig, [record(rig, {"valve.cv": 59e-6})], model_rel=model_rel)
     assert caught.value.field == "model_rel"
+
+
+def test_the_readmes_python_example_answers_valve(rig):
+    """The README's record of a worn spool, diagnosed as its Python example does."""
+    cond = OperatingCondition.from_readings({"oil_temperature": 40.0, "load_force": 2100.0})
+    rec = MeasurementRecord.from_readings("rig-1", cond, {
+        "pump_pressure": 14.50e5, "p1": 11.88e5, "p2": 1.202e5, "flow_B": 4.643e-4,
+        "flow_C": 4.172e-4, "speed_work": 0.1881, "speed_return": 0.2177})
+    d = diagnose(rig, [rec])
+    assert d.answer == "valve" == d.top.name
+    (cv,) = d.top.parameters
+    assert cv.value == pytest.approx(60e-6, rel=0.05)
