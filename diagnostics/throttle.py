@@ -187,8 +187,12 @@ def clearances_from_law(table: CalibrationTable, *, dp: float, mu: float, D: flo
     velocity
         Piston speed of the working phase [m/s] (cylinder only; Couette term).
     """
-    if not (dp > 0.0 and mu > 0.0 and D > 0.0 and L > 0.0):
-        raise InputError("dp, mu, D and L must be > 0", field="dp")
+    for name, value in (("dp", dp), ("mu", mu), ("D", D), ("L", L)):
+        # finite too: mu = inf gave all-NaN clearances (a library user's pass)
+        if not (math.isfinite(value) and value > 0.0):
+            raise InputError(f"{name} must be finite and > 0, not {value!r}", field=name)
+    if not math.isfinite(velocity):  # NaN dropped the Couette term without a word
+        raise InputError(f"velocity must be finite, not {velocity!r}", field="velocity")
     if table.component == "valve" and velocity != 0.0:
         raise InputError("the spool law has no Couette term", field="velocity")
     if table.component == "valve":
@@ -219,6 +223,8 @@ def clearances_calibrated(table: CalibrationTable, reference_clearance: float, *
         raise InputError(f"no row {reference_row}", field="reference_row")
     if not (math.isfinite(reference_clearance) and reference_clearance > 0.0):
         raise InputError("the reference clearance must be > 0", field="reference_clearance")
+    if not math.isfinite(couette):  # NaN gave all-NaN clearances (a library user's pass)
+        raise InputError(f"couette must be finite, not {couette!r}", field="couette")
     if table.component == "valve" and couette != 0.0:
         raise InputError("the spool law has no Couette term", field="couette")
     c0, q0 = reference_clearance, table.rows[reference_row].bypass_flow

@@ -165,3 +165,19 @@ def test_law_inputs_of_a_component_without_a_leakage_law_is_refused() -> None:
     with pytest.raises(InputError) as caught:
         law_inputs(reference_rig(), "pump", 10e5, 40.0)  # type: ignore[arg-type]
     assert caught.value.field == "component"
+
+
+@pytest.mark.parametrize(("kwargs", "field"), [
+    ({"mu": float("inf")}, "mu"), ({"dp": float("nan")}, "dp"), ({"velocity": float("nan")},
+                                                                   "velocity")])
+def test_a_law_input_that_is_no_number_is_refused(kwargs: dict, field: str) -> None:
+    """mu = inf gave all-NaN clearances and velocity NaN dropped the Couette term without a
+    word (a library user's pass)."""
+    from diagnostics.throttle import CalibrationRow, CalibrationTable, clearances_from_law
+    from sim.errors import InputError
+
+    table = CalibrationTable("cylinder", (CalibrationRow("closed", 0.0, 1.8e-5),), 10e5, 40.0)
+    inputs = {"dp": 1e6, "mu": 0.04, "D": 0.06, "L": 0.0123, "velocity": 0.2} | kwargs
+    with pytest.raises(InputError) as caught:
+        clearances_from_law(table, **inputs)
+    assert caught.value.field == field
