@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field, fields, is_dataclass
+from dataclasses import dataclass, field, fields, is_dataclass, replace
 from typing import Any
 from weakref import WeakKeyDictionary
 
@@ -318,6 +318,7 @@ def diagnose(rig: Rig, records: Sequence[MeasurementRecord], *, model_rel: float
     gof = goodness_of_fit(ranker, fits, at_fit=checks.chi2, at_fit_sigma=single_sigma)
     notes: list[str] = []
     direct = _direct(rig, records, notes)
+    _root_for_the_answer(direct, fits, rig)
     ratio = None
     for o in obs:
         if "velocity_ratio" in o.names:
@@ -409,6 +410,31 @@ def _widen(ranker: Ranker, fits: list[HypothesisFit], profiled: dict[str, Parame
 #: single-fault hypotheses whose parameter is a component's equivalent clearance, by the
 #: key of its closed-form inversion in :attr:`Diagnosis.direct` (paper 002 §2.7) [m]
 CLEARANCES = {"cylinder": "cc", "valve": "cv"}
+
+
+def _root_for_the_answer(direct: dict[str, Estimate], fits: list[HypothesisFit], rig: Rig
+                         ) -> None:
+    """Where two seal clearances give the record's bypass (:func:`~diagnostics.inversion.
+    cylinder_clearance`: the root nearer the rig's clearance first), the one in the
+    cylinder's worn range when the diagnosis finds the cylinder likely worn (p ≥ 0.5, alone
+    or in a pair): the nearer root read a 200 µm seal at −20 °C as 75.8 µm while the
+    diagnosis named the cylinder (a verification pass).  The interval spans both either
+    way."""
+    est = direct.get("cc")
+    other = None if est is None else est.derived.get("other_root")
+    if est is None or other is None:
+        return
+    worn = sum(f.probability for f in fits if "cylinder" in f.hypothesis.components
+               and math.isfinite(f.probability))
+    start = PARAMETERS["cc"].worn_bounds(rig)[0]
+    if worn >= 0.5 and est.value < start <= other:
+        notes = tuple(n.replace("the one nearer the rig's", "the one in the worn range, the "
+                                "diagnosis finding the cylinder worn (rather than nearer the "
+                                "rig's")
+                      .replace(" µm is the value,", " µm) is the value,")
+                      for n in est.notes)
+        direct["cc"] = replace(est, value=other, notes=notes,
+                               derived={**est.derived, "other_root": est.value})
 
 
 def _healthy_end(ranker: Ranker, fits: list[HypothesisFit], direct: dict[str, Estimate], *,

@@ -217,3 +217,18 @@ def test_the_readmes_python_example_answers_valve(rig):
     assert d.answer == "valve" == d.top.name
     (cv,) = d.top.parameters
     assert cv.value == pytest.approx(60e-6, rel=0.05)
+
+
+def test_a_worn_seal_in_cold_oil_is_stored_at_its_worn_root(rig):
+    """In cold oil two seal clearances give one bypass; the root nearer the rig's read a
+    200 µm seal at −20 °C as 75.8 µm while the diagnosis named the cylinder (a
+    verification pass).  A healthy seal keeps its own root; both intervals hold both."""
+    worn = diagnose(rig, [record(rig, {"cylinder.cc": 200e-6}, load=2100.0,
+                                 temperature=-20.0)])
+    assert "cylinder" in worn.answer
+    cc = worn.direct["cc"]
+    assert cc.value == pytest.approx(200e-6, rel=1e-3)
+    assert cc.low < cc.derived["other_root"] < cc.value <= cc.high
+    healthy = diagnose(rig, [record(rig, {}, load=2100.0, temperature=-30.0)])
+    assert healthy.answer == "healthy"
+    assert healthy.direct["cc"].value == pytest.approx(83e-6, rel=1e-3)

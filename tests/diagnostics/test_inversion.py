@@ -170,6 +170,7 @@ def test_both_roots_of_a_negative_bypass_are_given_and_the_one_nearer_the_rig_is
         law = a_unit * dp / mu * c**3 - b_unit * v * c
         assert law == pytest.approx(est.derived["Q_lc"], rel=1e-6, abs=1e-15)
     assert est.low <= min(cc, other) and est.high >= max(cc, other)
+    assert est.low < est.value  # not collapsed on the value (a verification pass)
     assert any("two clearances give this bypass" in n for n in est.notes)
     # without the rig's clearance, the rising root as before
     assert cylinder_clearance(rec, GEOM, fluid=FLUID).value == pytest.approx(max(cc, other),
