@@ -219,6 +219,18 @@ def test_a_patch_racing_another_leaves_one_table_not_both(server: LiveServer) ->
                            CalibrationUpdate.model_validate({"points": mine}))
     stored = server.client.get(f"{url}/{created['id']}").json()
     assert [p["opening_turns"] for p in stored["points"]] == [0.5, 1.5]
+    # a PATCH of the condition alone, raced by a PATCH of the rows, keeps the new rows: it
+    # wrote back the rows it had read before (a verification pass, 8 of 12 rounds)
+    with server.sessions() as session:
+        get_calibration(session, rig["id"], created["id"])  # holds the rows 0.5, 1.5
+        other = server.client.patch(f"{url}/{created['id']}", json={"points": theirs},
+                                    headers=server.auth)
+        assert other.status_code == 200, other.text
+        update_calibration(session, rig["id"], created["id"],
+                           CalibrationUpdate.model_validate({"source": "re-read"}))
+    stored = server.client.get(f"{url}/{created['id']}").json()
+    assert [p["opening_turns"] for p in stored["points"]] == [0.0, 2.0]
+    assert stored["source"] == "re-read"
 
 
 def test_a_flush_that_breaks_a_constraint_is_a_conflict_not_a_500(server: LiveServer) -> None:
