@@ -60,10 +60,41 @@ class NoDelayH11Protocol(H11Protocol):
 
 
 class NoDelayHttpToolsProtocol(HttpToolsProtocol):
-    """uvicorn's ``httptools`` protocol (its parser in C) with ``TCP_NODELAY`` set and a
-    silent connection closed (:data:`FIRST_REQUEST_S`)."""
+    """uvicorn's ``httptools`` protocol (its parser in C) with ``TCP_NODELAY`` set, and a
+    connection closed whose request's head (its line and headers) has not all come
+    :data:`FIRST_REQUEST_S` after the connection opened or the request began: a silent
+    connection, and one that sent a byte or half a header and stopped (600 of those still
+    held every descriptor until /health failed: a verification pass)."""
+
+    _head_due: asyncio.TimerHandle | None = None
 
     def connection_made(self, transport: asyncio.BaseTransport) -> None:
         set_nodelay(transport)
         super().connection_made(transport)  # type: ignore[arg-type]
-        _first_request_timer(self)
+        self._await_head()
+
+    def _await_head(self) -> None:
+        if self._head_due is not None:
+            self._head_due.cancel()
+        self._head_due = self.loop.call_later(FIRST_REQUEST_S, self._head_late)
+
+    def _head_late(self) -> None:
+        self._head_due = None
+        if not self.transport.is_closing():
+            self.transport.close()
+
+    def on_message_begin(self) -> None:
+        super().on_message_begin()
+        self._await_head()
+
+    def on_headers_complete(self) -> None:
+        if self._head_due is not None:
+            self._head_due.cancel()
+            self._head_due = None
+        super().on_headers_complete()
+
+    def connection_lost(self, exc: Exception | None) -> None:
+        if self._head_due is not None:
+            self._head_due.cancel()
+            self._head_due = None
+        super().connection_lost(exc)

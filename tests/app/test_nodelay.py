@@ -49,7 +49,8 @@ def test_accepted_socket_of_a_proto0_listener_lacks_nodelay_unless_set() -> None
 def test_a_connection_that_sends_nothing_is_closed(monkeypatch: pytest.MonkeyPatch) -> None:
     """A connection that never sent a request held its descriptor for ever, and 600 of
     them left /health unanswered at the open-file limit, no key needed (an SRE pass): it is
-    closed after FIRST_REQUEST_S; one that asks in time is answered."""
+    closed after FIRST_REQUEST_S, as is one whose request head stops half way; one that
+    asks in time is answered."""
     import threading
     import time
 
@@ -82,6 +83,14 @@ def test_a_connection_that_sends_nothing_is_closed(monkeypatch: pytest.MonkeyPat
         silent.settimeout(5.0)
         assert silent.recv(1) == b""  # closed by the server, not by the timeout above
         silent.close()
+        # one that sends a byte, or half a head, and stops is closed too (a verification
+        # pass: it stayed open)
+        for sent in (b"G", b"GET / HTTP/1.1\r\nHost: x\r\n"):
+            partial = socket.create_connection(("127.0.0.1", port))
+            partial.settimeout(5.0)
+            partial.sendall(sent)
+            assert partial.recv(1) == b"", sent
+            partial.close()
         asking = socket.create_connection(("127.0.0.1", port))
         asking.settimeout(5.0)
         asking.sendall(b"GET / HTTP/1.1\r\nHost: x\r\n\r\n")
