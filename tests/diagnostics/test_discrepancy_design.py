@@ -95,6 +95,12 @@ def test_every_repeat_of_the_edge_condition_is_held_out_with_it() -> None:
     train, held, notes = split(same, rig)
     assert held == [2] and train == [0, 1]
     assert len(notes) == 1 and "interpolates" in notes[0] and "4200 N" in notes[0]
+    # three repeats of four: all out would leave one record to train on (a verification
+    # pass: a hidden seal friction went unnamed), so the edge alone is held out
+    most = [_full(2100.0, 40.0), _full(6300.0, 60.0), _full(6300.0, 60.0), _full(6300.0, 60.5)]
+    train, held, notes = split(most, rig)
+    assert held == [3] and train == [0, 1, 2]
+    assert len(notes) == 1 and "3 of the 4" in notes[0] and "interpolates" in notes[0]
 
 
 def _row(channel: str, rmse: float, region: str = "steady") -> GapRow:
