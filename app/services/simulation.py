@@ -29,7 +29,7 @@ from diagnostics.measurement import MIN_PRESSURE_READING
 from diagnostics.table_files import PARQUET_METADATA_KEY, table_bytes  # read back there
 from diagnostics.timeseries import CONDITION_CHANNELS
 from sim.components.effects import EFFECTS
-from sim.cycle import CycleResult, run_cycle
+from sim.cycle import CycleResult, phase_params, run_cycle, stall_guard
 from sim.errors import InputError, ParameterError, SimulationError, SolverLimitError
 from sim.rigs import Condition, Rig
 from sim.scenarios import fault_overrides
@@ -253,8 +253,13 @@ def _check_grid(rig: Rig, overrides: Mapping[str, float], condition: Condition,
     except (SimulationError, ParameterError):
         return
     longest = (limits or SolverLimits()).max_sim_time
-    span = sum(min(float(phase["duration"]), longest) if math.isfinite(phase["duration"])
-               else longest for phase in (steady.working, steady.return_))
+    # a stalled or creeping stroke runs to its stall guard (20× its stroke time at the
+    # pump's flow), not to the simulated-time limit: a stall counted 600 s and refused a
+    # 2 kHz run as 1.2 M rows where it has 91 k (a verification pass)
+    span = sum(min(float(phase["duration"]),
+                   stall_guard(rig, phase_params(rig, name, overrides, condition),
+                               phase=name), longest)
+               for name, phase in (("working", steady.working), ("return", steady.return_)))
     rows = request.sample_rate * span
     if rows > _row_cap(request, max_rows):
         raise _too_many_rows(rows, request, max_rows, expected=True)

@@ -15,7 +15,7 @@ import pytest
 
 from app.settings import Settings
 from sim.cycle import run_cycle
-from sim.errors import ParameterError
+from sim.errors import InputError, ParameterError
 from sim.rigs import reference_rig
 from tests.app.live import LiveServer, live_server, sqlite_settings
 
@@ -156,3 +156,29 @@ def test_errors_name_what_the_request_sent(server: LiveServer) -> None:
     error = scaled.json()["error"]
     assert error["field"] == "fault" and "worn_piston" in error["message"]
     assert "with the overrides given" not in error["message"]
+
+
+def test_a_stalled_strokes_rows_are_counted_to_its_stall_guard() -> None:
+    """A stalled stroke runs to its stall guard (20× its stroke time at the pump's flow),
+    not to the 600 s time limit: counted to the limit, a 2 kHz run was refused as 1.2 M rows
+    where it has 91 k (a verification pass)."""
+    from app.schemas.simulate import SimulateRequest
+    from app.services.simulation import _check_grid
+    from sim.cycle import phase_params, stall_guard
+    from sim.rigs import Condition, reference_rig
+    from sim.steady import steady_cycle
+
+    rig = reference_rig()
+    stalled = Condition(load=20_000.0, oil_temperature=40.0)  # past the relief's 14.7 kN
+    steady = steady_cycle(rig, {}, stalled)
+    assert not steady.working.completed
+    guard = stall_guard(rig, phase_params(rig, "working", {}, stalled), phase="working")
+    request = SimulateRequest.model_validate({"rig_id": 1, "sample_rate": 1000.0,
+                                              "timeseries": "json"})
+    _check_grid(rig, {}, stalled, request, 1_000_000, None)  # ~50 k rows: allowed
+    fast = request.model_copy(update={"sample_rate": 100_000.0})
+    with pytest.raises(InputError) as caught:
+        _check_grid(rig, {}, stalled, fast, 1_000_000, None)
+    said = float(caught.value.message.split("about ")[1].split(" rows")[0].replace(",", ""))
+    expected = 1e5 * (guard + min(steady.return_["duration"], 600.0))
+    assert said == pytest.approx(expected, rel=1e-6) and said < 600 * 1e5
