@@ -215,6 +215,7 @@ def diagnose(
     from app.services.diagnosis_response import response_of
     from app.services.rig_cache import RigCache
     from app.services.series_record import file_cycle_records, stored_cycle_record
+    from diagnostics.diagnose import BLIND_NOTE
 
     if (file is None) == (series is None):
         raise InputError("give FILE or --series (stored cycles), one of them", field="FILE")
@@ -252,6 +253,8 @@ def diagnose(
         response = response_of(request, diagnose_request(session, rigs, request, now), now)
         progress.update(task, description="done")
     if as_json:
+        for note in file_notes:  # beside the JSON, which holds the diagnoses alone
+            console.print(f"{file}: {note}", markup=False)
         _print_json(response.model_dump(mode="json"))
         return
     if cycles:
@@ -276,8 +279,14 @@ def diagnose(
         if any(p.get("at_bound") for f in item.result["hypotheses"] for p in f["parameters"]):
             _out.print("at bound: the fit sits on the healthy end of the hypothesis's worn "
                        "range (the records show no more wear than it must assume)", markup=False)
+        notes = list(item.result.get("notes") or [])
         if item.misfit:
             _out.print(f"[bold red]not explained:[/] {escape(item.misfit)}")
+        elif BLIND_NOTE in notes:
+            # "healthy (p = 1.000)" and "consistent with healthy" where nothing could be
+            # seen (a verification pass)
+            _out.print(f"[bold yellow]caution:[/] {escape(BLIND_NOTE)}")
+            notes.remove(BLIND_NOTE)
         elif item.result.get("confident") is False and item.goodness_of_fit is not None:
             # explained, but not a confident name: a fault beyond the prior ranges fits as
             # well, the fit lies below its worn range (incipient), or no χ² test is possible
@@ -291,7 +300,7 @@ def diagnose(
             for statement in item.result["isolability"].get("statements", []):
                 if " vs " in statement:  # the sensor (or test) that would separate them
                     _out.print(f"  {statement}", markup=False)
-        for note in item.regime_notes:
+        for note in [*notes, *item.regime_notes]:  # the diagnosis's own notes were not shown
             _out.print(f"note: {note}", markup=False)
     for note in response.notes:
         _out.print(f"note: {note}", markup=False)

@@ -343,7 +343,9 @@ def diagnose(rig: Rig, records: Sequence[MeasurementRecord], *, model_rel: float
         notes.append("no hypothesis explains the records")
     if not gof.confident:
         notes.append(gof.statement)
-    if not any(f.observable for f in fits if f.hypothesis.components):
+    if not any(f.observable for f in fits if f.hypothesis.components) and gof.explained:
+        # not where nothing fits: "smaller uncertainties" is no advice to readings that
+        # contradict the model (a verification pass)
         notes.append(BLIND_NOTE)
     return Diagnosis(rig.spec.name, fits, iso, direct, ratio,
                      slip if slip is None else (slip[0], slip[1], slip[2]), len(records), n,

@@ -165,7 +165,8 @@ def status_text(trend: ComponentTrendOut) -> str:
     pass)."""
     last = max(trend.points, key=lambda p: p.measured_at, default=None)
     p = None if last is None else last.probability
-    if p is None or p >= UNLIKELY or trend.status in ("stale", "insufficient_data"):
+    if p is None or p >= UNLIKELY or trend.status not in ("worsening", "crossed"):
+        # "not_worsening if it is the worn one" read oddly (a verification pass)
         return trend.status
     return f"{trend.status} if it is the worn one (p {p:.2g})"
 

@@ -589,6 +589,13 @@ def test_diagnose_a_measured_cycle_file_and_a_stored_one(runner: CliRunner,
                                "--condition", "oil_temperature=40", "--no-store"])
     assert rate.exit_code == 0, rate.output
     assert "is not what its time column reads" in rate.stdout
+    # with --json the notes go beside it, the JSON stays parseable (a verification pass)
+    as_json = runner.invoke(cli, ["diagnose", str(cycle), "--rig", "1", "--sample-rate",
+                                  "100", "--condition", "oil_temperature=40", "--no-store",
+                                  "--json"])
+    assert as_json.exit_code == 0, as_json.output
+    assert "is not what its time column reads" in as_json.stderr
+    json.loads(as_json.stdout)
     assert store_count(Diagnosis) == 1
 
 
@@ -626,3 +633,18 @@ def test_a_record_without_readings_is_refused_naming_the_record(runner: CliRunne
     assert refused.exit_code != 0
     assert getattr(refused.exception, "field", None) == "record"   # the request's path
     assert "no quantity a diagnosis can use" in str(refused.exception)
+
+
+def test_a_record_that_can_see_no_fault_is_said_so(runner: CliRunner, tmp_path: Path) -> None:
+    """The CLI headlined such a record "healthy (p = 1.000)" with a caution that the
+    readings are "consistent with healthy", and never printed that nothing was seen (a
+    verification pass)."""
+    from diagnostics.diagnose import BLIND_NOTE
+
+    path = tmp_path / "vague.yaml"
+    path.write_text("rig_id: 1\ncondition: {oil_temperature: 40.0, load_force: 2100.0}\n"
+                    "speed_work: {value: 0.2064, u: 0.3}\n")
+    done = runner.invoke(cli, ["diagnose", str(path), "--no-store"])
+    assert done.exit_code == 0, done.output
+    assert "caution:" in done.stdout
+    assert " ".join(BLIND_NOTE.split()) in " ".join(done.stdout.split())
