@@ -11,13 +11,15 @@ from __future__ import annotations
 
 import re
 
+from diagnostics.table_files import DECIMAL_COMMA
 from sim.errors import InputError
 
 __all__ = ["decimal_text", "form_number"]
 
-#: spaces written between digit groups: space, no-break space, narrow no-break space, thin
-#: space, and the apostrophe of Swiss usage (1'500)
-_GROUP = re.compile(r"(?<=\d)[ \u00a0\u202f\u2009'](?=\d)")
+#: spaces written between digit groups of three: space, no-break space, narrow no-break
+#: space, thin space, and the apostrophe of Swiss usage (1'500); "2 1" is no group (it read
+#: as 21: a verification pass)
+_GROUP = re.compile(r"(?<=\d)[ \u00a0\u202f\u2009'](?=\d{3}(?!\d))")
 #: a comma between digits with exactly three after it and a nonzero whole part: 1,500 is
 #: 1.5 in Germany and 1500 in England
 _AMBIGUOUS = re.compile(r"^[+-]?[1-9]\d{0,2},\d{3}$")
@@ -35,7 +37,7 @@ def decimal_text(text: str, *, field: str) -> str:
         writer's country, so the field (``field``) is asked to say which.
     """
     stripped = _GROUP.sub("", text.strip())
-    if "," not in stripped or "." in stripped or stripped.count(",") != 1:
+    if not DECIMAL_COMMA.match(stripped):  # the CSV reader's own test of a decimal comma
         return stripped
     if _AMBIGUOUS.match(stripped):
         whole, part = stripped.split(",")

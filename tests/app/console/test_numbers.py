@@ -29,7 +29,8 @@ def test_a_comma_before_three_digits_is_asked_about(typed: str) -> None:
     assert f"{whole}.{part}" in caught.value.message and f"{whole}{part}" in caught.value.message
 
 
-@pytest.mark.parametrize("typed", ["1,2,3", "1,500.5", "four", "4 ,2", "nan", "inf", "1e999"])
+@pytest.mark.parametrize("typed", ["1,2,3", "1,500.5", "four", "4 ,2", "nan", "inf", "1e999",
+                                   "2 1", "1'5"])
 def test_what_is_not_one_number_is_refused_naming_the_field(typed: str) -> None:
     with pytest.raises(InputError) as caught:
         form_number(typed, field="condition.load")
