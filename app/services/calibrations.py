@@ -11,7 +11,7 @@ import math
 from collections.abc import Sequence
 from typing import cast
 
-from sqlalchemy import delete, func, select, update
+from sqlalchemy import delete, func, select
 from sqlalchemy.orm import Session, selectinload
 
 from app.db.models import CalibrationPoint, ThrottleCalibration
@@ -23,7 +23,7 @@ from app.schemas.calibrations import (
     ClearanceOrigin,
 )
 from app.services.clearance import ClearanceCurveFit, ClearanceEstimator, TablePoint, check_table
-from app.services.common import commit, flush, paginate
+from app.services.common import commit, flush, lock_row, paginate
 from app.services.rigs import get_rig, latest_version
 from sim.errors import ConflictError, InputError, NotFoundError
 from sim.rigs.circuits import DEFAULT_CIRCUIT, get_circuit, require_cycle
@@ -251,9 +251,7 @@ def update_calibration(
     # no-op update takes the write lock (SQLite's, or PostgreSQL's row lock) and the rows
     # are read again under it (a condition-only PATCH racing a PATCH of the points wrote
     # back the rows it had read before, 8 of 12 rounds: a verification pass)
-    session.execute(update(ThrottleCalibration).where(
-        ThrottleCalibration.id == calibration.id).values(
-        temperature_c=ThrottleCalibration.temperature_c))
+    lock_row(session, ThrottleCalibration.temperature_c, calibration.id)
     session.refresh(calibration)
     changes = data.model_dump(exclude_unset=True, exclude={"points"})
     condition = (calibration.component, calibration.back_pressure_pa, calibration.temperature_c)

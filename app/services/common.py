@@ -5,14 +5,14 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any, TypeVar
 
-from sqlalchemy import Select, func, select
+from sqlalchemy import Select, func, select, update
 from sqlalchemy.exc import IntegrityError
-from sqlalchemy.orm import Session
+from sqlalchemy.orm import InstrumentedAttribute, Session
 
 from app.services.idempotent_work import mark_stored
 from sim.errors import ConflictError, NotFoundError
 
-__all__ = ["commit", "flush", "get_or_raise", "paginate", "prefixed"]
+__all__ = ["commit", "flush", "get_or_raise", "lock_row", "paginate", "prefixed"]
 
 T = TypeVar("T")
 
@@ -73,6 +73,17 @@ def flush(session: Session, *, conflict: str, field: str | None = None) -> None:
     except IntegrityError as exc:
         session.rollback()
         raise ConflictError(conflict, field=field) from exc
+
+
+def lock_row(session: Session, column: InstrumentedAttribute[Any], row_id: int) -> None:
+    """Make the rest of this transaction the only writer of the row ``row_id`` of
+    ``column``'s table: a no-op update of ``column`` (set to itself) takes SQLite's write
+    lock, or PostgreSQL's row lock, before the caller's checks, which then see every write
+    committed before, and a second writer waits for this one's commit
+    (``HYDRODIAG_DB_LOCK_TIMEOUT``).  A column with an ``onupdate`` of its own (``updated_at``)
+    keeps its value only where it is the column given."""
+    table = column.class_
+    session.execute(update(table).where(table.id == row_id).values({column.key: column}))
 
 
 def prefixed(prefix: str, field: str | None) -> str:

@@ -10,11 +10,11 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from sqlalchemy import exists, func, select, true, update
+from sqlalchemy import exists, func, select, true
 from sqlalchemy.orm import Session
 
 from app.db.models import MeasuredSeries, Measurement, Rig, RigVersion
-from app.services.common import commit, get_or_raise, paginate, prefixed
+from app.services.common import commit, get_or_raise, lock_row, paginate, prefixed
 from sim.errors import ConflictError, NotFoundError, ParameterError
 from sim.rigs import validate_rig_document
 from sim.rigs.circuits import DEFAULT_CIRCUIT, get_circuit
@@ -53,11 +53,9 @@ def get_rig(session: Session, rig_id: int, *, field: str = "rig_id") -> Rig:
 
 
 def lock_rig(session: Session, rig_id: int) -> None:
-    """Make the rest of this transaction the only writer of rig ``rig_id``'s data: a no-op
-    update of its row takes SQLite's write lock (PostgreSQL's row lock) before the caller's
-    checks, which then see every write committed before, and a second writer waits for
-    this one's commit (``HYDRODIAG_DB_LOCK_TIMEOUT``).  Nothing of the row changes."""
-    session.execute(update(Rig).where(Rig.id == rig_id).values(updated_at=Rig.updated_at))
+    """Make the rest of this transaction the only writer of rig ``rig_id``'s data
+    (:func:`~app.services.common.lock_row`); nothing of the row changes."""
+    lock_row(session, Rig.updated_at, rig_id)
 
 
 def find_rig(session: Session, name: str) -> Rig | None:
