@@ -147,6 +147,16 @@ def test_diagnose_many_on_a_process_pool_and_a_dask_cluster_equals_in_process() 
         assert a["top"] == b["top"] == c["top"]
         assert abs(a["probability"] - b["probability"]) < 1e-6
         assert abs(a["probability"] - c["probability"]) < 1e-6
+    # a cluster of another size than the local pool's default (2 on a 2-core machine):
+    # the chunks are planned for its 3 threads, not for the fallback
+    with LocalCluster(n_workers=1, threads_per_worker=3, processes=False,
+                      dashboard_address=None) as cluster:
+        three = SweepExecutors(dask_scheduler=cluster.scheduler_address)
+        try:
+            three.get()
+            assert three.capacity() == 3
+        finally:
+            three.shutdown()
 
 
 def test_a_row_is_read_as_written_or_refused_naming_its_line(runner: CliRunner,
