@@ -32,9 +32,8 @@ from app.cli_jobs import jobs_cli
 from app.cli_report import report_cli
 from app.cli_rigs import rigs_cli
 from app.cli_runs import register
-from app.cli_support import console, migrated_engine, settings_from_env, steps, unwrap_help
+from app.cli_support import console, migrated_engine, settings_from_env, steps, store_id, unwrap_help
 from app.db.engine import make_engine, make_session_factory
-from app.schemas.common import MAX_ID
 from app.security import Scope
 from app.settings import Settings
 from sim.errors import HydrodiagError, InputError
@@ -251,7 +250,7 @@ def keys_list() -> None:
 
 
 @keys_cli.command("revoke")
-def keys_revoke(key_id: Annotated[int, typer.Argument(min=1, max=MAX_ID,
+def keys_revoke(key_id: Annotated[int, typer.Argument(parser=store_id,
                                                      help="Id shown by `keys list`.")]) -> None:
     """Revoke a key: it stops working at once (a rotated key's grace period ends)."""
     from app.services.keys import revoke_api_key
@@ -267,7 +266,7 @@ def keys_revoke(key_id: Annotated[int, typer.Argument(min=1, max=MAX_ID,
 
 @keys_cli.command("rotate")
 def keys_rotate(
-    key_id: Annotated[int, typer.Argument(min=1, max=MAX_ID, help="Id shown by `keys list`.")],
+    key_id: Annotated[int, typer.Argument(parser=store_id, help="Id shown by `keys list`.")],
     grace: Annotated[float, typer.Option(
         help="Seconds the old key keeps working, 0 (default: revoked at once) to 604800 "
              "(7 days).")] = 0.0,

@@ -32,8 +32,7 @@ from pydantic import ValidationError
 from rich.markup import escape
 from rich.table import Table
 
-from app.cli_support import WideWhenPiped, console, counted, steps, store_session, writable
-from app.schemas.common import MAX_ID
+from app.cli_support import WideWhenPiped, console, counted, steps, store_id, store_session, writable
 from app.schemas.record_csv import record_rows
 from app.schemas.times import iso_utc
 from sim.errors import HydrodiagError, InputError, MeasurementError, NotFoundError
@@ -122,7 +121,7 @@ def diagnose_batch(
         help="Records: CSV (a row each; columns the fields of a POST /diagnose record in SI, "
         "the condition's dotted: condition.oil_temperature, condition.load_force) or JSON "
         "Lines.")],
-    rig_id: Annotated[int, typer.Option("--rig", min=1, max=MAX_ID, help="Rig id in the store "
+    rig_id: Annotated[int, typer.Option("--rig", parser=store_id, help="Rig id in the store "
                                         "for records that name none (each record that names "
                                         "its rig_id is diagnosed against that rig).")] = 1,
     workers: Annotated[int, typer.Option(min=0, max=256, help="Local worker processes; 0 runs "

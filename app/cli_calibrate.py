@@ -11,8 +11,7 @@ import typer
 from rich.markup import escape
 from rich.table import Table
 
-from app.cli_support import WideWhenPiped, load_document, steps, store_session, validated
-from app.schemas.common import MAX_ID
+from app.cli_support import WideWhenPiped, load_document, steps, store_id, store_session, validated
 from diagnostics.plots import shown_unit
 from sim.errors import InputError
 
@@ -29,7 +28,7 @@ def calibrate_pump(
     file: Annotated[Path, typer.Argument(help="Bench CSV, units in the column names.")],
     name: Annotated[str, typer.Option(help="Unique name of the pump set.")],
     pump: Annotated[str, typer.Option(help="Pump model and size.")],
-    rig_id: Annotated[int | None, typer.Option("--rig", min=1, max=MAX_ID,
+    rig_id: Annotated[int | None, typer.Option("--rig", parser=store_id,
                                                help="Rig of the pump.")] = None,
     displacement: Annotated[float | None, typer.Option(
         help="Derived capacity D \\[m³/rad]; from the data when left out.")] = None,
@@ -129,7 +128,7 @@ def calibrate_pump(
 @calibrate_cli.command("throttle")
 def calibrate_throttle(
     file: Annotated[str, typer.Argument(help="Table: the body of POST /rigs/{id}/calibrations.")],
-    rig_id: Annotated[int, typer.Option("--rig", min=1, max=MAX_ID,
+    rig_id: Annotated[int, typer.Option("--rig", parser=store_id,
                                         help="Rig id in the store (required: a table stored "
                                              "on another rig's geometry is wrong).")],
 ) -> None:
@@ -175,10 +174,10 @@ def _rows_table(calibration: Any, rig_id: int) -> Table:
 
 @calibrate_cli.command("tables")
 def calibrate_tables(
-    rig_id: Annotated[int, typer.Option("--rig", min=1, max=MAX_ID,
+    rig_id: Annotated[int, typer.Option("--rig", parser=store_id,
                                         help="Rig id in the store.")] = 1,
     table_id: Annotated[int | None, typer.Option(
-        "--table", min=1, max=MAX_ID, help="Show this table's rows: opening, flow and "
+        "--table", parser=store_id, help="Show this table's rows: opening, flow and "
         "clearance, each in SI and as a technician reads it.")] = None,
 ) -> None:
     """List a rig's throttle equivalence tables: condition, rows, clearances in µm, and

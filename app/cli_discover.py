@@ -35,11 +35,11 @@ from app.cli_support import (
     shown_estimate,
     shown_scale,
     steps,
+    store_id,
     store_session,
     validation_error,
     writable,
 )
-from app.schemas.common import MAX_ID
 from diagnostics.real.relaxation import ZEMA_RELAXATION
 from sim.errors import HydrodiagError, InputError
 
@@ -58,9 +58,9 @@ def discover(
                                                 "'load \\[N]' and 'oil_temperature \\[degC]' "
                                                 "columns (or the export's header), or steady "
                                                 "points in the pump-bench CSV format.")] = None,
-    rig_id: Annotated[int, typer.Option("--rig", min=1, max=MAX_ID,
+    rig_id: Annotated[int, typer.Option("--rig", parser=store_id,
                                         help="Rig id in the store.")] = 1,
-    version: Annotated[int | None, typer.Option(min=1, max=MAX_ID,
+    version: Annotated[int | None, typer.Option(parser=store_id,
                                                 help="Rig version (default: latest).")] = None,
     report: Annotated[Path | None, typer.Option(help="Write the HTML report here "
                                                 "(charts as PNG/SVG beside it).")] = None,

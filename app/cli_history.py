@@ -22,9 +22,9 @@ from app.cli_support import (
     UntilOption,
     WideWhenPiped,
     shown_estimate,
+    store_id,
     store_session,
 )
-from app.schemas.common import MAX_ID
 from app.schemas.times import SinceTime, UntilTime, filter_time
 from sim.errors import InputError
 
@@ -52,7 +52,7 @@ def _estimates(item: dict[str, Any]) -> str:
 
 @history_cli.command("list")
 def list_history(
-    rig: Annotated[int | None, typer.Option(min=1, max=MAX_ID, help="Only this rig.")] = None,
+    rig: Annotated[int | None, typer.Option(parser=store_id, help="Only this rig.")] = None,
     since: SinceOption = None,
     until: UntilOption = None,
     component: Annotated[str | None, typer.Option(
@@ -102,7 +102,7 @@ def _component(text: str | None, kind: Any) -> str | None:
 
 @history_cli.command("show")
 def show(
-    diagnosis_id: Annotated[int, typer.Argument(min=1, max=MAX_ID, help="Stored diagnosis "
+    diagnosis_id: Annotated[int, typer.Argument(parser=store_id, help="Stored diagnosis "
                                                 "id (history list names them).")],
     as_json: JsonOption = False,
 ) -> None:

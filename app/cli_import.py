@@ -23,9 +23,9 @@ from app.cli_support import (
     counted,
     reading_options,
     steps,
+    store_id,
     store_session,
 )
-from app.schemas.common import MAX_ID
 from diagnostics.real.relaxation import MAX_RELAXATION, ZEMA_RELAXATION
 from sim.errors import CircuitError, ConflictError, InputError
 
@@ -41,7 +41,7 @@ _out = WideWhenPiped()
 import_cli = typer.Typer(help="Import measured time series as measurements of a rig.",
                          no_args_is_help=True)
 
-RigOption = Annotated[int, typer.Option("--rig", min=1, max=MAX_ID, help="Rig id in the store.")]
+RigOption = Annotated[int, typer.Option("--rig", parser=store_id, help="Rig id in the store.")]
 NameOption = Annotated[str, typer.Option(help="Name of the import (file or campaign): 1 to 200 "
                                                   "letters, digits and _ . : -.")]
 

@@ -24,8 +24,7 @@ from pydantic import ValidationError
 from rich.markup import escape
 from rich.table import Table
 
-from app.cli_support import WideWhenPiped, steps, store_session, validation_error
-from app.schemas.common import MAX_ID
+from app.cli_support import WideWhenPiped, steps, store_id, store_session, validation_error
 from sim.errors import InputError
 from sim.units import from_si
 
@@ -90,7 +89,7 @@ def calibrate_pump_map(
     theta: Annotated[float, typer.Option(help="Oil temperature \\[°C] assumed for the "
                                          "whole map (the file records none).",
                                          min=-40.0, max=150.0)],
-    rig_id: Annotated[int | None, typer.Option("--rig", min=1, max=MAX_ID,
+    rig_id: Annotated[int | None, typer.Option("--rig", parser=store_id,
                                                help="Rig of the pump.")] = None,
     bench_dir: Annotated[Path | None, typer.Option(
         help="Write each setting's bench table (pump-bench CSV) into this folder.")] = None,

@@ -18,10 +18,10 @@ from app.cli_support import (
     UntilOption,
     WideWhenPiped,
     console,
+    store_id,
     store_session,
     writable,
 )
-from app.schemas.common import MAX_ID
 from app.schemas.times import iso_utc
 from sim.errors import InputError
 
@@ -68,7 +68,7 @@ def render_report(title: str, charts: list[Any], suffix: str, **context: Any) ->
 
 @report_cli.command("diagnosis")
 def report_diagnosis(
-    diagnosis_id: Annotated[int, typer.Argument(min=1, max=MAX_ID, help="Stored diagnosis id.")],
+    diagnosis_id: Annotated[int, typer.Argument(parser=store_id, help="Stored diagnosis id.")],
     output: Annotated[Path, typer.Option(help="report.html or report.png")] = Path("report.html"),
 ) -> None:
     """A stored diagnosis: probabilities, measured vs predicted, estimates, isolability."""
@@ -84,7 +84,7 @@ def report_diagnosis(
 
 @report_cli.command("trends")
 def report_trends(
-    rig: Annotated[int, typer.Option(min=1, max=MAX_ID, help="Rig id.")] = 1,
+    rig: Annotated[int, typer.Option(parser=store_id, help="Rig id.")] = 1,
     output: Annotated[Path, typer.Option(
         help="trends.html, trends.png, or trends.csv (every point, for a spreadsheet)")] = Path(
         "trends.html"),

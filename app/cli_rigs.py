@@ -20,8 +20,7 @@ import yaml
 from rich.markup import escape
 from rich.table import Table
 
-from app.cli_support import WideWhenPiped, load_document, steps, store_session
-from app.schemas.common import MAX_ID
+from app.cli_support import WideWhenPiped, load_document, steps, store_id, store_session
 from sim.errors import HydrodiagError, InputError
 
 __all__ = ["rigs_cli"]
@@ -57,7 +56,7 @@ def add(file: FileArg, comment: CommentOption = None) -> None:
 
 @rigs_cli.command("update")
 def update(
-    rig_id: Annotated[int, typer.Argument(min=1, max=MAX_ID, help="Rig id in the store.")],
+    rig_id: Annotated[int, typer.Argument(parser=store_id, help="Rig id in the store.")],
     file: FileArg,
     comment: CommentOption = None,
 ) -> None:
@@ -98,8 +97,8 @@ def list_all() -> None:
 
 @rigs_cli.command("show")
 def show(
-    rig_id: Annotated[int, typer.Argument(min=1, max=MAX_ID, help="Rig id in the store.")],
-    version: Annotated[int | None, typer.Option(min=1, max=MAX_ID,
+    rig_id: Annotated[int, typer.Argument(parser=store_id, help="Rig id in the store.")],
+    version: Annotated[int | None, typer.Option(parser=store_id,
                                                 help="Version (default: latest).")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="JSON instead of YAML.")] = False,
 ) -> None:
@@ -118,9 +117,9 @@ def show(
 
 @rigs_cli.command("rediagnose")
 def rediagnose(
-    rig_id: Annotated[int, typer.Argument(min=1, max=MAX_ID, help="Rig id in the store.")],
+    rig_id: Annotated[int, typer.Argument(parser=store_id, help="Rig id in the store.")],
     version: Annotated[list[int] | None, typer.Option(
-        min=1, max=MAX_ID, help="An older version whose diagnoses are done again (repeat); "
+        parser=store_id, help="An older version whose diagnoses are done again (repeat); "
         "default: every version whose parameters differ from the latest's.")] = None,
 ) -> None:
     """Diagnose rig RIG_ID's stored records again against its latest version, as POST

@@ -32,11 +32,11 @@ from app.cli_support import (
     settings_from_env,
     shown_estimate,
     steps,
+    store_id,
     store_session,
     validated,
     writable,
 )
-from app.schemas.common import MAX_ID
 from sim.errors import HydrodiagError, InputError
 from sim.scenarios import fault_help
 from sim.units import unit_suffix
@@ -76,7 +76,7 @@ def _overrides(items: list[str], *, field: str = "--set", form: str = "role.name
 
 
 def simulate(
-    rig_id: Annotated[int, typer.Option("--rig", min=1, max=MAX_ID,
+    rig_id: Annotated[int, typer.Option("--rig", parser=store_id,
                                         help="Rig id in the store.")] = 1,
     fault: Annotated[str | None, typer.Option(help=f"Named fault: {fault_help()}.")] = None,
     set_: Annotated[list[str] | None, typer.Option(
@@ -183,7 +183,7 @@ def diagnose(
     series: Annotated[str | None, typer.Option(
         help="Stored measured cycles (POST /rigs/{id}/series) instead of FILE: ids, "
         "comma-separated, e.g. 3,4.")] = None,
-    rig: Annotated[int | None, typer.Option(min=1, max=MAX_ID,
+    rig: Annotated[int | None, typer.Option(parser=store_id,
                                             help="The rig a cycle FILE was measured on.")
                    ] = None,
     condition: Annotated[list[str] | None, typer.Option(
@@ -309,7 +309,7 @@ def diagnose(
 def commission(
     file: Annotated[str, typer.Argument(help="Healthy records: a list, or {records: [...]}, "
                                         "JSON or YAML.")],
-    rig: Annotated[int, typer.Option(min=1, max=MAX_ID,
+    rig: Annotated[int, typer.Option(parser=store_id,
                                      help="Rig to commission (its latest version).")],
     parameter: Annotated[list[str] | None, typer.Option(
         help="A parameter to fit (repeat); all six by default.")] = None,

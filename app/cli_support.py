@@ -32,7 +32,8 @@ __all__ = ["PIPE_WIDTH", "ColumnMapOption", "SampleRateOption", "SinceOption", "
            "console", "estimate_text",
            "load_document", "migrated_engine", "reading_options",
            "series_ids",
-           "settings_from_env", "shown_estimate", "shown_scale", "steps", "store_session",
+           "settings_from_env", "shown_estimate", "shown_scale", "steps", "store_id",
+           "store_session",
            "unwrap_help", "validated", "validation_error", "writable"]
 
 #: columns of a table or message written to a pipe or a file [characters]
@@ -245,6 +246,21 @@ def series_ids(text: str, *, field: str = "--series") -> list[int]:
     if any(not 1 <= i <= MAX_ID for i in ids):
         raise InputError(f"series ids are 1 to {MAX_ID}", field=field)
     return ids
+
+
+def store_id(text: str) -> int:
+    """A stored thing's id on the command line (``--rig 3``, ``RIG_ID``): a whole number
+    from 1 to :data:`~app.schemas.common.MAX_ID`, as the API takes it.  A parser, not
+    ``min``/``max``: the range ``[1<=x<=2147483647]`` that those print in every help
+    widened the types column until an 80-column help cut option names
+    (``--displacement-cm3-r…``; a CLI pass)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise typer.BadParameter(f"{text!r} is not an id (a whole number from 1)") from None
+    if not 1 <= value <= MAX_ID:
+        raise typer.BadParameter(f"{value} is not an id: ids run from 1 to {MAX_ID}")
+    return value
 
 
 #: ``--column-map`` of the commands that read a logger's file (``import series``, ``diagnose``)

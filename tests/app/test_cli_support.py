@@ -188,3 +188,41 @@ def test_a_narrow_terminal_folds_table_cells_instead_of_cutting_them() -> None:
     assert column[0] == "cylinder+valvecylinder+pump"
     assert column[1] == "0.48120.4812"
     assert column[2].count("95.20") == 2 and column[2].count("42.3)") == 2
+
+
+def test_every_option_name_is_shown_whole_in_an_80_column_help(runner: CliRunner) -> None:
+    """An 80-column ``calibrate pump --help`` cut ``--displacement-cm3-rev`` to
+    ``--displacement-cm3-r…`` (a CLI pass): the ids' range ``[1<=x<=2147483647]`` widened
+    the types column.  Every option of every command is in its help whole."""
+    from typer.main import get_command
+
+    def commands(cmd: Any, path: list[str]) -> Iterator[tuple[list[str], Any]]:
+        if hasattr(cmd, "commands"):
+            for name, sub in cmd.commands.items():
+                yield from commands(sub, [*path, name])
+        else:
+            yield path, cmd
+
+    checked = 0
+    for path, cmd in commands(get_command(cli), []):
+        shown = runner.invoke(cli, [*path, "--help"], terminal_width=80).stdout
+        for param in cmd.params:
+            for name in param.opts:
+                if name.startswith("--"):
+                    assert name in shown, (path, name)
+                    checked += 1
+        assert "2147483647" not in shown, path
+    assert checked > 100
+
+
+@pytest.mark.parametrize(("args", "says"), [
+    (["history", "show", "0"], "0 is not an id: ids run from 1 to 2147483647"),
+    (["rigs", "rediagnose", "1", "--version", "x"], "'x' is not an id (a whole number from 1)"),
+    (["simulate", "--steady", "--rig", "-3"], "-3 is not an id"),
+])
+def test_an_id_that_no_store_can_hold_is_refused_before_the_store_is_opened(
+        runner: CliRunner, tmp_path: Path, args: list[str], says: str) -> None:
+    result = runner.invoke(cli, args, terminal_width=200)
+    assert result.exit_code == 2, result.output
+    assert says in " ".join(result.output.replace("│", " ").split())
+    assert not any(tmp_path.iterdir())   # no store made
