@@ -278,8 +278,9 @@ class EstimatePublic(BaseModel):
     high: float = Field(description="Upper end of the 95 % interval [unit]", examples=[6.2e-5])
     probability: float = Field(
         ge=0, le=1, description="Probability that this component is worn, alone or in a "
-        "pair: the sum over the hypotheses that name it (diagnoses stored before 2026-11-28: "
-        "its single-fault hypothesis's alone) [1]",
+        "pair: the sum over the hypotheses that name it; 0 when the readings are unexplained, "
+        "as the answer's probability (diagnoses stored before 2026-11-28: its single-fault "
+        "hypothesis's alone; until 2026-11-30 an unexplained one's sum as well) [1]",
         examples=[0.75],
     )
     source: Literal["direct", "hypothesis", "profile"] = Field(

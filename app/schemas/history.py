@@ -76,8 +76,9 @@ class StoredEstimatePublic(PublicModel):
         default=None, description="'direct', 'hypothesis' or 'profile', as in the answer of "
         "POST /diagnose [-]", examples=["direct"])
     probability: float | None = Field(
-        description="Probability that this component is worn, alone or in a pair "
-        "(diagnoses stored before 2026-11-28: its single-fault hypothesis's alone) [1]",
+        description="Probability that this component is worn, alone or in a pair; 0 when "
+        "the readings were unexplained (diagnoses stored before 2026-11-28: its single-fault "
+        "hypothesis's alone; until 2026-11-30 an unexplained one's sum as well) [1]",
         examples=[0.75])
     clearance_m: float | None = Field(
         description="Estimated equivalent clearance; null for the pump [m]", examples=[5.9e-5])

@@ -98,12 +98,16 @@ def estimates_of(diagnosis: Diagnosis) -> list[EstimateOut]:
     sum over the hypotheses that name it.  Until 2026-11-28 it was its single-fault
     hypothesis's alone, so a valve in a near-certain valve+pump pair read p = 1e-12 and
     the trends drew its estimate as "if the valve is the worn one" (a first-day user pass);
-    rows stored before then keep that meaning.
+    rows stored before then keep that meaning.  When no hypothesis explains the readings
+    it is 0, as the answer's own probability is: the hypotheses' probabilities are then
+    relative among themselves only, and an unexplained record's estimate read "worn,
+    p = 1.0" (an edge pass).
     """
     fits = {f.name: f for f in diagnosis.hypotheses}
     plausible = set(diagnosis.isolability.ambiguity_set)
     worn = {c: sum(f.probability for f in diagnosis.hypotheses
                    if c in f.name.split("+") and math.isfinite(f.probability))
+            if diagnosis.explained else 0.0
             for c in (*CLEARANCES, "pump")}
     out: list[EstimateOut] = []
     for component, quantity in CLEARANCES.items():

@@ -8,7 +8,7 @@ import pytest
 from app.services.diagnosis import estimates_of
 from diagnostics.diagnose import diagnose
 from sim.rigs import reference_rig
-from tests.diagnostics.synth import record
+from tests.diagnostics.synth import readings, record
 
 
 def test_a_component_in_a_likely_pair_is_likely_worn() -> None:
@@ -39,3 +39,20 @@ def test_a_joint_healthy_visit_keeps_each_clearance_where_the_readings_put_it() 
             truth = values[f"{e.component}.{e.quantity}"]
             assert e.low <= truth <= e.high, (e, truth)
             assert e.value == pytest.approx(truth, rel=0.02), (e, truth)
+
+
+def test_an_unexplained_record_states_no_component_worn() -> None:
+    """Healthy pressures and flows with the working stroke read as standing still: no
+    hypothesis explains them, the answer's probability is 0, and so is every estimate's
+    (it read "cylinder 237 µm, p = 1.0": an edge pass).  The hypotheses' own
+    probabilities stay relative among themselves."""
+    rig = reference_rig()
+    values = readings(rig, {}, 2100.0, 40.0) | {"speed_work": 0.0}
+    d = diagnose(rig, [record(rig, {}, values=values)])
+    assert not d.explained and d.answer == "unexplained"
+    assert sum(h.probability for h in d.hypotheses) == pytest.approx(1.0)
+    estimates = estimates_of(d)
+    assert estimates and all(e.probability == 0.0 for e in estimates)
+    explained = diagnose(rig, [record(rig, {"valve.cv": 60e-6})])
+    assert explained.explained
+    assert max(e.probability for e in estimates_of(explained)) > 0.9
