@@ -20,13 +20,22 @@ import socket
 from uvicorn.protocols.http.h11_impl import H11Protocol
 from uvicorn.protocols.http.httptools_impl import HttpToolsProtocol
 
-__all__ = ["FIRST_REQUEST_S", "NoDelayH11Protocol", "NoDelayHttpToolsProtocol", "set_nodelay"]
+__all__ = ["BODY_GRACE_S", "FIRST_REQUEST_S", "MIN_BODY_RATE", "NoDelayH11Protocol",
+           "NoDelayHttpToolsProtocol", "set_nodelay"]
 
 #: a connection that sends nothing this long after it opens is closed [s]: uvicorn closes an
 #: idle kept-alive connection after ``timeout_keep_alive``, but one that never sends a
 #: request held its file descriptor for ever, and 600 of them left /health unanswered at
 #: the open-file limit, no key needed (an SRE pass)
 FIRST_REQUEST_S = 10.0
+#: a request's body may take this long [s] ...
+BODY_GRACE_S = 10.0
+#: ... plus its length at this rate [bytes/s] (a 1 MiB upload over a 32 kbit/s field link
+#: has 256 s more); past that the connection is closed: a body sent a byte a second held
+#: its connection and worker task for as long as the client liked (an SRE pass left it to
+#: a proxy).  The time the service itself does not read (its buffer full, a ``100
+#: Continue`` not yet sent) does not count.
+MIN_BODY_RATE = 4096.0
 
 
 def set_nodelay(transport: asyncio.BaseTransport) -> bool:
@@ -64,9 +73,16 @@ class NoDelayHttpToolsProtocol(HttpToolsProtocol):
     connection closed whose request's head (its line and headers) has not all come
     :data:`FIRST_REQUEST_S` after the connection opened or the request began: a silent
     connection, and one that sent a byte or half a header and stopped (600 of those still
-    held every descriptor until /health failed: a verification pass)."""
+    held every descriptor until /health failed: a verification pass); and one whose body
+    comes slower than :data:`BODY_GRACE_S` plus its length at :data:`MIN_BODY_RATE`."""
 
     _head_due: asyncio.TimerHandle | None = None
+    _body_due: asyncio.TimerHandle | None = None
+    #: loop time the body's clock started (moved on by the waits that are the service's)
+    _body_started = 0.0
+    _body_checked = 0.0
+    _body_length = 0
+    _body_received = 0
 
     def connection_made(self, transport: asyncio.BaseTransport) -> None:
         set_nodelay(transport)
@@ -92,9 +108,58 @@ class NoDelayHttpToolsProtocol(HttpToolsProtocol):
             self._head_due.cancel()
             self._head_due = None
         super().on_headers_complete()
+        # a request without a body completes at once and cancels this (on_message_complete)
+        self._stop_body_clock()
+        if self.transport.is_closing() or self.parser.should_upgrade():
+            return
+        length = dict(self.headers).get(b"content-length", b"0")
+        self._body_length = int(length) if length.isdigit() else 0
+        self._body_received = 0
+        self._body_started = self._body_checked = self.loop.time()
+        self._body_due = self.loop.call_at(self._body_deadline(), self._body_check)
+
+    def on_body(self, body: bytes) -> None:
+        self._body_received += len(body)
+        super().on_body(body)
+
+    def on_message_complete(self) -> None:
+        self._stop_body_clock()
+        super().on_message_complete()
+
+    def _body_deadline(self) -> float:
+        """When the body must be in [loop time]: a chunked body's length is what came."""
+        return (self._body_started + BODY_GRACE_S
+                + max(self._body_length, self._body_received) / MIN_BODY_RATE)
+
+    def _body_check(self) -> None:
+        self._body_due = None
+        now = self.loop.time()
+        cycle = self.cycle
+        if self.flow.read_paused or (cycle is not None and cycle.waiting_for_100_continue):
+            # the service is not reading: its wait is not the client's
+            self._body_started += now - self._body_checked
+            self._body_checked = now
+            self._body_due = self.loop.call_at(now + 1.0, self._body_check)
+            return
+        self._body_checked = now
+        due = self._body_deadline()
+        if now < due:
+            self._body_due = self.loop.call_at(due, self._body_check)
+        elif not self.transport.is_closing():
+            self.logger.warning(
+                "closed a connection whose request body came too slowly: %d of %s bytes "
+                "in %.0f s", self._body_received, self._body_length or "?",
+                now - self._body_started)
+            self.transport.close()
+
+    def _stop_body_clock(self) -> None:
+        if self._body_due is not None:
+            self._body_due.cancel()
+            self._body_due = None
 
     def connection_lost(self, exc: Exception | None) -> None:
         if self._head_due is not None:
             self._head_due.cancel()
             self._head_due = None
+        self._stop_body_clock()
         super().connection_lost(exc)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import asyncio
 import socket
+from typing import Any
 
 import pytest
 
@@ -96,6 +97,80 @@ def test_a_connection_that_sends_nothing_is_closed(monkeypatch: pytest.MonkeyPat
         asking.sendall(b"GET / HTTP/1.1\r\nHost: x\r\n\r\n")
         assert asking.recv(1024).startswith(b"HTTP/1.1 200")
         asking.close()
+    finally:
+        server.should_exit = True
+        thread.join(timeout=10)
+
+
+def test_a_body_that_comes_too_slowly_is_cut_and_one_in_time_is_read(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """A body sent a byte at a time held its connection for as long as its client liked
+    (an SRE pass left it to a proxy): past BODY_GRACE_S plus its length at MIN_BODY_RATE
+    the connection is closed; a whole body sent in time, and one the service is slow to
+    read (it waits before reading), are answered."""
+    import threading
+    import time
+
+    import uvicorn
+
+    from app import nodelay
+
+    monkeypatch.setattr(nodelay, "BODY_GRACE_S", 0.4)
+    monkeypatch.setattr(nodelay, "MIN_BODY_RATE", 1e6)
+
+    async def app(scope: dict, receive: Any, send: Any) -> None:  # type: ignore[type-arg]
+        if scope["type"] != "http":
+            return
+        if scope["path"] == "/late":   # the service waits before it reads
+            await asyncio.sleep(1.5)
+        body = b""
+        while True:
+            message = await receive()
+            if message["type"] == "http.disconnect":
+                return
+            body += message.get("body", b"")
+            if not message.get("more_body"):
+                break
+        await send({"type": "http.response.start", "status": 200, "headers": []})
+        await send({"type": "http.response.body", "body": str(len(body)).encode()})
+
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    server = uvicorn.Server(uvicorn.Config(app, host="127.0.0.1", port=port, lifespan="off",
+                                           http=nodelay.NoDelayHttpToolsProtocol,
+                                           log_level="error"))
+    thread = threading.Thread(target=server.run, daemon=True)
+    thread.start()
+    head = b"POST /%s HTTP/1.1\r\nHost: x\r\nContent-Length: %d\r\n\r\n"
+    try:
+        for _ in range(200):
+            if server.started:
+                break
+            time.sleep(0.02)
+        slow = socket.create_connection(("127.0.0.1", port))
+        slow.settimeout(5.0)
+        slow.sendall(head % (b"slow", 100) + b"x")
+        started = time.perf_counter()
+        assert slow.recv(1) == b""   # closed by the server after 0.4 s
+        assert time.perf_counter() - started < 3.0
+        slow.close()
+        # in time; and 200 kB the service leaves unread for 1.5 s (its buffer fills and
+        # it stops reading: that wait is not the client's)
+        for path, size in ((b"whole", 100), (b"late", 200_000)):
+            whole = socket.create_connection(("127.0.0.1", port))
+            whole.settimeout(5.0)
+            whole.sendall(head % (path, size) + b"y" * (size - 40))
+            time.sleep(0.2)
+            whole.sendall(b"y" * 40)
+            answer = b""
+            while not answer.endswith(b"0\r\n\r\n"):
+                chunk = whole.recv(4096)
+                assert chunk, (path, answer)
+                answer += chunk
+            assert answer.startswith(b"HTTP/1.1 200"), path
+            assert f"\r\n{size}\r\n".encode() in answer, (path, answer)
+            whole.close()
     finally:
         server.should_exit = True
         thread.join(timeout=10)
