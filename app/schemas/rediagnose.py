@@ -8,6 +8,8 @@ from pydantic import BaseModel, Field
 
 from app.schemas.common import MAX_ID, RequestModel
 
+__all__ = ["RediagnoseAccepted", "RediagnoseRequest"]
+
 
 class RediagnoseRequest(RequestModel):
     """Which stored diagnoses to do again against the rig's latest version."""

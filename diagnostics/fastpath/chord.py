@@ -38,6 +38,9 @@ if TYPE_CHECKING:  # bound in the generated module (see the module docstring)
     from diagnostics.fastpath.phase import drive, held_mask, phase_solve
     from diagnostics.fastpath.rig_interface import lu_factor, lu_solve, outputs, rhs
 
+__all__ = ["CHORD_TOL", "CONSTANTS", "CONTRACTION", "FIRST_STEP", "FIT_TOL", "KERNELS",
+           "MAX_CHORD", "REFRESH", "chord", "newton_matrix", "solve_grid"]
+
 #: names copied into the generated module, in dependency order
 KERNELS = ("newton_matrix", "chord", "solve_grid")
 #: module constants copied into the generated module

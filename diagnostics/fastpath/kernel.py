@@ -46,6 +46,9 @@ if TYPE_CHECKING:  # bound in the generated module (see the module docstring)
     from diagnostics.fastpath.phase import held_mask, phase_solve
     from diagnostics.fastpath.rig_interface import outputs
 
+__all__ = ["KERNELS", "graph_values", "observables", "pair_fit", "profile_points", "residuals",
+           "solve_point"]
+
 #: names copied into the generated module, in dependency order
 KERNELS = ("observables", "solve_point", "graph_values",
            "residuals", "pair_fit", "profile_points")

@@ -13,6 +13,8 @@ import math
 
 import numpy as np
 
+__all__ = ["KERNELS", "pchip_columns", "pchip_slopes"]
+
 #: names copied into the generated module, in dependency order
 KERNELS = ("pchip_slopes", "pchip_columns")
 

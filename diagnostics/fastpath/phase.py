@@ -35,6 +35,9 @@ if TYPE_CHECKING:  # bound in the generated module (see the module docstring)
     from diagnostics.fastpath.chord import CHORD_TOL, REFRESH, chord, newton_matrix
     from diagnostics.fastpath.rig_interface import rhs, steady
 
+__all__ = ["KERNELS", "drive", "end_stop", "held_grid", "held_mask", "phase_solve",
+           "stop_index"]
+
 #: names copied into the generated module, in dependency order
 KERNELS = ("stop_index", "end_stop", "held_mask", "phase_solve", "drive", "held_grid")
 

@@ -23,6 +23,9 @@ import math
 
 import numpy as np
 
+__all__ = ["CONSTANTS", "KERNELS", "LAPLACE_SPACINGS", "interp_monotone", "posterior_interval",
+           "single_scan"]
+
 #: names copied into the generated module, in dependency order
 KERNELS = ("interp_monotone", "posterior_interval", "single_scan")
 #: module constants copied into the generated module (:mod:`diagnostics.fastpath.compiled`)
