@@ -6,15 +6,15 @@ line), each against its own rig (``rig_id``; ``--rig`` for records that name non
 Every record is validated as the API validates a record before its diagnosis: records it
 would refuse are all reported with their line and field (up to :data:`LISTED`), and the
 batch is refused before anything runs, or with ``--skip-invalid`` the others are diagnosed
-and each refused record gets its error line in ``--out`` (one bad logger row threw a night's batch away: a
+and each refused record gets its error line in ``--output`` (one bad logger row threw a night's batch away: a
 fleet integrator's pass); a record the diagnosis itself refuses (readings impossible on its
-rig: p1 in bar cannot push the load) gets its error line in ``--out``, in the same shape.
+rig: p1 in bar cannot push the load) gets its error line in ``--output``, in the same shape.
 A file that is not a readable table stays refused whole.  Then
 all go through
 :func:`diagnostics.batch.diagnose_many` — in this process, on a local process pool
 (``--workers N``) or on a Dask cluster (``--dask tcp://host:8786``, the executor sweeps
 use) — with a progress bar.  The results are not stored in the history (use
-``POST /diagnose`` for that); ``--out`` writes one JSON line per record.
+``POST /diagnose`` for that); ``--output`` writes one JSON line per record.
 """
 
 from __future__ import annotations
@@ -128,16 +128,17 @@ def diagnose_batch(
                                          "in this process.")] = 0,
     dask: Annotated[str | None, typer.Option(help="Dask scheduler address (tcp://host:8786)."
                                              )] = None,
-    out: Annotated[Path | None, typer.Option(help="Write one JSON result per line here.")
-                   ] = None,
+    out: Annotated[Path | None, typer.Option(
+        "--output", "--out", help="Write one JSON result per line here (--out: the older "
+        "name, as every other command says --output).")] = None,
     full: Annotated[bool, typer.Option(help="Whole diagnoses instead of summaries.")] = False,
     skip_invalid: Annotated[bool, typer.Option(
         "--skip-invalid", help="Diagnose the valid records when some would be refused; each "
-        "refused record gets its error line in --out.")] = False,
+        "refused record gets its error line in --output.")] = False,
 ) -> None:
     """Diagnose every record of FILE on its own against its stored rig, with progress.
 
-    Nothing is stored: the results go to --out and the summary table (POST /diagnose keeps
+    Nothing is stored: the results go to --output and the summary table (POST /diagnose keeps
     diagnoses in the history).
     """
     from app.services.executors import SweepExecutors
@@ -146,7 +147,7 @@ def diagnose_batch(
     from diagnostics.batch import diagnose_many
 
     if out is not None:
-        writable(out, "--out")
+        writable(out, "--output")
     numbered, refused, where = read_batch(file, rig_id)
     errors: list[tuple[int, HydrodiagError]] = list(refused)
     total = len(numbered) + len(errors)
@@ -242,7 +243,7 @@ def diagnose_batch(
         console.print(f"… and {len(errors) - LISTED} more refused records"
                       + (f" (all in {out})" if out is not None else ""), markup=False)
     console.print("not stored in the history" + (f"; results in {out}" if out is not None
-                                                 else " (--out FILE keeps the results)"),
+                                                 else " (--output FILE keeps the results)"),
                   markup=False)
 
 

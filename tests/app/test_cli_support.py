@@ -33,7 +33,7 @@ speed_return: 0.2177
     ["sweep", "{doc}", "--output", "{missing}/sweep.csv"],
     ["report", "diagnosis", "1", "--output", "{missing}/report.html"],
     ["report", "trends", "--output", "{folder}"],
-    ["diagnose-batch", "{doc}", "--out", "{missing}/results.jsonl"],
+    ["diagnose-batch", "{doc}", "--output", "{missing}/results.jsonl"],
     ["discover", "--series", "1", "--rig", "1", "--report", "{missing}/report.html"],
 ])
 def test_an_output_that_cannot_be_written_is_refused_before_the_work(
