@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 from rich.markup import escape
@@ -40,6 +40,9 @@ from app.cli_support import (
 from sim.errors import HydrodiagError, InputError
 from sim.scenarios import fault_help
 from sim.units import unit_suffix
+
+if TYPE_CHECKING:
+    from app.services.sweeps import SweepPlan
 
 __all__ = ["register"]
 
@@ -396,8 +399,26 @@ def sweep(
     else:
         import pandas as pd
 
-        pd.DataFrame(result["rows"], columns=result["columns"]).to_csv(output, index=False)
+        pd.DataFrame(result["rows"], columns=_with_units(result["columns"], plan)
+                     ).to_csv(output, index=False)
     console.print(f"{result['n_points']} scenarios, {result['n_failed']} failed: {output}")
+
+
+def _with_units(columns: list[str], plan: SweepPlan) -> list[str]:
+    """The sweep's columns with each factor's SI unit, as its summary columns have theirs
+    (``cylinder.cc [m]``, ``condition.load [N]``; the factors had none: a CLI pass)."""
+    from app.schemas.sweeps import CONDITION_NAMES
+
+    declared = plan.resolved.rig.model.system.graph.parameters
+    out = []
+    for c in columns:
+        if c in plan.factors:
+            role, _, name = c.partition(".")
+            unit = (CONDITION_NAMES.get(name) if role == "condition" else
+                    getattr(declared.get(c), "unit", None))
+            c = f"{c} [{unit}]" if unit else c
+        out.append(c)
+    return out
 
 
 def register(cli: typer.Typer) -> None:

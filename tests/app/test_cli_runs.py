@@ -174,12 +174,14 @@ def test_sweep_writes_the_results_table(runner: CliRunner, tmp_path: Path) -> No
     spec = tmp_path / "sweep.json"
     spec.write_text(json.dumps({
         "rig_id": 1, "faults": ["healthy", "worn_piston"],
+        "parameters": [{"name": "valve.cv", "low": 34e-6, "high": 34e-6, "levels": 1}],
         "conditions": [{"name": "load", "low": 2100.0, "high": 6300.0, "levels": 3}]}))
     result = runner.invoke(cli, ["sweep", str(spec), "--output", str(tmp_path / "out.csv")])
     assert result.exit_code == 0, result.output
     frame = pd.read_csv(tmp_path / "out.csv")
     assert len(frame) == 6
-    assert list(frame.columns[:2]) == ["fault", "condition.load"]
+    # every factor with its unit, as the summary columns (they had none: a CLI pass)
+    assert list(frame.columns[:3]) == ["fault", "valve.cv [m]", "condition.load [N]"]
     worn = frame[frame["fault"] == "worn_piston"]["working.Q_cyl_leak [m^3/s]"].to_numpy()
     healthy = frame[frame["fault"] == "healthy"]["working.Q_cyl_leak [m^3/s]"].to_numpy()
     assert (worn > 2 * healthy).all()
