@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import inspect
 import os
+import re
 from collections.abc import Iterator
 from contextlib import contextmanager
 from datetime import datetime
@@ -307,10 +308,12 @@ def unwrap_help(app: typer.Typer) -> None:
     """Give every command of ``app`` (and of its sub-apps) its docstring as help with each
     paragraph on one line: typer 0.29 prints the single line breaks of a docstring's later
     paragraphs as they are, which at 80 columns left every other line a word or two long.
-    Paragraphs stay apart; rich wraps each to the terminal."""
+    Paragraphs stay apart; rich wraps each to the terminal.  Literals written for the
+    API documentation (````VACUUM INTO````) are shown as 'VACUUM INTO' (the backquotes were
+    printed as they are: a CLI pass)."""
     for info in app.registered_commands:
         if info.help is None and info.callback is not None and info.callback.__doc__:
-            doc = inspect.cleandoc(info.callback.__doc__)
+            doc = re.sub(r"``([^`]+)``", r"'\1'", inspect.cleandoc(info.callback.__doc__))
             info.help = "\n\n".join(" ".join(p.split()) for p in doc.split("\n\n"))
     for group in app.registered_groups:
         if group.typer_instance is not None:

@@ -193,7 +193,8 @@ def test_a_narrow_terminal_folds_table_cells_instead_of_cutting_them() -> None:
 def test_every_option_name_is_shown_whole_in_an_80_column_help(runner: CliRunner) -> None:
     """An 80-column ``calibrate pump --help`` cut ``--displacement-cm3-rev`` to
     ``--displacement-cm3-r…`` (a CLI pass): the ids' range ``[1<=x<=2147483647]`` widened
-    the types column.  Every option of every command is in its help whole."""
+    the types column.  Every option of every command is in its help whole, and no help
+    shows reST's double backquotes."""
     from typer.main import get_command
 
     def commands(cmd: Any, path: list[str]) -> Iterator[tuple[list[str], Any]]:
@@ -212,6 +213,7 @@ def test_every_option_name_is_shown_whole_in_an_80_column_help(runner: CliRunner
                     assert name in shown, (path, name)
                     checked += 1
         assert "2147483647" not in shown, path
+        assert "``" not in shown, path   # reST literals ('VACUUM INTO', not ``VACUUM INTO``)
     assert checked > 100
 
 
