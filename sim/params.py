@@ -80,8 +80,14 @@ def at_most(name: str, limit: float, unit: str, what: str) -> Relation:
     loads).  A value past it is a unit slip: a bore of 63 "m" was stored and made
     ``/simulate`` fail with a 500 (an engineer's pass)."""
     return Relation(name, f"{name} must be at most {limit:g} {unit} ({what}; a larger value "
-                    "is likely a unit slip, e.g. mm written as m)",
+                    f"is likely a unit slip, e.g. {_LARGER_SLIPS.get(unit, f'a smaller unit as {unit}')})",
                     lambda p: p[name] <= limit, bound=True)
+
+
+#: the likely slip behind a value too large for its SI unit (a speed in rpm was said to be
+#: "mm written as m": a CLI pass)
+_LARGER_SLIPS = {"m": "mm written as m", "rad/s": "rpm written as rad/s",
+                 "m^3/rad": "cm³/rev or L/rev written as m³/rad"}
 
 
 def at_least(name: str, limit: float, unit: str, what: str) -> Relation:

@@ -175,20 +175,26 @@ def test_a_bound_broken_in_another_unit_is_said_as_written() -> None:
     ("double_acting_cylinder", "bore", 63.0), ("double_acting_cylinder", "stroke", 400.0),
     ("double_acting_cylinder", "cc", 0.01), ("directional_valve_4_2", "Dv", 12.5),
     ("fixed_displacement_pump", "Vp", 0.0175), ("relief_valve", "Pset", 1e9),
-    ("relief_valve", "Pset", 5e4)])
+    ("relief_valve", "Pset", 5e4), ("fixed_displacement_pump", "speed", 1600.0)])
 def test_a_value_past_anything_built_is_refused_when_stored_and_still_read_back(
         role: str, name: str, value: float) -> None:
     """A bore of 63 "m", a 10 mm clearance, a 10,000 bar relief, a 0.5 bar relief (below the
     supply line's drop: the rig could not extend) were stored, and the bore made /simulate
-    answer 500 (an engineer's pass); a stored document read back keeps loading."""
+    answer 500 (an engineer's pass); a stored document read back keeps loading.  The slip
+    named is one of the parameter's unit (a speed's is rpm, not "mm written as m")."""
     doc = copy.deepcopy(reference_rig_document())
     comps = doc["components"]
     key = next(k for k, c in comps.items() if c["type"] == role)
     comps[key]["parameters"][name]["value"] = value
+    if name == "speed":   # the document states it in rpm: 1600 rpm typed as rad/s
+        comps[key]["parameters"][name]["unit"] = "rad/s"
     with pytest.raises(RigFileError) as exc:
         validate_rig_document(doc, strict=True)
     assert exc.value.field == f"components.{key}.parameters.{name}"
     assert "unit slip" in exc.value.message
+    slip = {"speed": "rpm written as rad/s", "Vp": "written as m³/rad",
+            "bore": "mm written as m"}.get(name)
+    assert slip is None or slip in exc.value.message, exc.value.message
     validate_rig_document(doc)
 
 
