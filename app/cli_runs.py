@@ -234,6 +234,13 @@ def diagnose(
                              "cycles were read at import", field=option)
     cmap, sample_rate, start = reading_options(column_map, sample_rate, started_at)
     stated = _overrides(condition or [], field="--condition", form="name=value")
+    # the file is read and checked before the store is opened: a missing or bad file made
+    # a new store in the current folder first, then was refused (a CLI pass)
+    if not cycles:
+        request = validated(DiagnoseRequest, _diagnose_body(load_document(str(file)),
+                                                            joint=joint, store=store))
+    elif file is not None and not Path(file).is_file():
+        raise InputError(f"cannot read {file}: no such file", field="FILE")
     with store_session() as session, steps() as progress:
         rigs = RigCache(4)
         file_notes: list[str] = []
@@ -247,10 +254,10 @@ def diagnose(
             read, file_notes = file_cycle_records(
                 session, rigs, Path(str(file)), rig, condition=stated, column_map=cmap,
                 sample_rate=sample_rate, started_at=start)
-        document = load_document(str(file)) if not cycles else (
-            [r.body for r in read] if joint or len(read) > 1 else read[0].body)
-        request = validated(DiagnoseRequest,
-                             _diagnose_body(document, joint=joint, store=store))
+        if cycles:
+            request = validated(DiagnoseRequest, _diagnose_body(
+                [r.body for r in read] if joint or len(read) > 1 else read[0].body,
+                joint=joint, store=store))
         task = progress.add_task("diagnosing", total=None)
         now = utcnow()
         response = response_of(request, diagnose_request(session, rigs, request, now), now)

@@ -228,3 +228,21 @@ def test_an_id_that_no_store_can_hold_is_refused_before_the_store_is_opened(
     assert result.exit_code == 2, result.output
     assert says in " ".join(result.output.replace("│", " ").split())
     assert not any(tmp_path.iterdir())   # no store made
+
+
+@pytest.mark.parametrize("args", [
+    ["diagnose", "missing.yaml"], ["diagnose", "missing.csv", "--rig", "1"],
+    ["diagnose", "{bad}"]])
+def test_a_record_file_is_read_before_a_store_is_made(runner: CliRunner, tmp_path: Path,
+                                                      args: list[str]) -> None:
+    """``diagnose missing.yaml`` made a new store in the current folder, then said the file
+    was missing (a CLI pass): the file is read and checked first."""
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("rig_id: 1\nmeasured_at: yesterday\n", encoding="utf-8")
+    data = tmp_path / "store"
+    runner.env = {"HYDRODIAG_DATA_DIR": str(data)}
+    result = runner.invoke(cli, [a.replace("{bad}", str(bad)) for a in args])
+    assert result.exit_code != 0
+    assert getattr(result.exception, "field", "").split(".")[0] in ("FILE", "record"), \
+        result.output
+    assert not data.exists()
