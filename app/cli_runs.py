@@ -37,7 +37,7 @@ from app.cli_support import (
     validated,
     writable,
 )
-from sim.errors import HydrodiagError, InputError
+from sim.errors import HydrodiagError, InputError, NotFoundError
 from sim.scenarios import fault_help
 from sim.units import unit_suffix
 
@@ -217,7 +217,7 @@ def diagnose(
     from app.services.diagnosis import diagnose_request
     from app.services.diagnosis_response import response_of
     from app.services.rig_cache import RigCache
-    from app.services.series_record import file_cycle_records, stored_cycle_record
+    from app.services.series_record import file_cycle_records
     from diagnostics.diagnose import BLIND_NOTE
 
     if (file is None) == (series is None):
@@ -245,8 +245,7 @@ def diagnose(
         rigs = RigCache(4)
         file_notes: list[str] = []
         if series is not None:
-            read = [stored_cycle_record(session, rigs, i, condition=stated)
-                    for i in series_ids(series)]
+            read = [_series_read(session, rigs, i, stated) for i in series_ids(series)]
         elif cycles:
             if rig is None:
                 raise InputError("a measured cycle needs the rig it was measured on (--rig ID)",
@@ -409,6 +408,20 @@ def sweep(
         pd.DataFrame(result["rows"], columns=_with_units(result["columns"], plan)
                      ).to_csv(output, index=False)
     console.print(f"{result['n_points']} scenarios, {result['n_failed']} failed: {output}")
+
+
+def _series_read(session: Any, rigs: Any, series_id: int, condition: dict[str, float]) -> Any:
+    """Stored cycle ``series_id`` read as a record; a refusal says which of the series it
+    was (``diagnose --series 1,2`` said "p1: gauge pressure 2.2e11 Pa" of series 2 alone:
+    a CLI pass)."""
+    from app.services.series_record import stored_cycle_record
+
+    try:
+        return stored_cycle_record(session, rigs, series_id, condition=condition)
+    except NotFoundError:
+        raise   # "no series with id 99" says it
+    except HydrodiagError as exc:
+        raise type(exc)(f"series {series_id}: {exc.message}", field=exc.field) from None
 
 
 def _with_units(columns: list[str], plan: SweepPlan) -> list[str]:

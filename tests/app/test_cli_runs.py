@@ -543,6 +543,8 @@ def test_diagnose_a_measured_cycle_file_and_a_stored_one(runner: CliRunner,
                         (["diagnose", "--series", "99"], "series_id")):
         bad = runner.invoke(cli, args)
         assert bad.exit_code != 0 and getattr(bad.exception, "field", None) == field, args
+        if field == "condition.oil":   # which of the series (a CLI pass: it was not said)
+            assert bad.exception.message.startswith("series 1: "), bad.exception.message
     assert store_count(Diagnosis) == 1
     # the same cycle as a logger writes it: its own names and units, ';' and decimal
     # commas, the spool command for the phase, time in ms, no header: read through a
