@@ -114,7 +114,7 @@ def _steps() -> Progress:
     return steps()
 
 
-def _check_port(host: str, port: int) -> None:
+def _check_port(host: str, port: int, *, host_field: str = "HYDRODIAG_HOST") -> None:
     """Refuse a port another process listens on, before the store is migrated and the
     first key made: a busy port was found after both, the key printed by a start that
     failed and never again, and with several workers the error named no port (an
@@ -125,6 +125,9 @@ def _check_port(host: str, port: int) -> None:
         with socket.socket(family, kind, proto) as probe:
             probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
             probe.bind(address)
+    except socket.gaierror as exc:   # a host that names no interface, not a busy port
+        raise InputError(f"cannot listen on {host}: no such interface ({exc.strerror or exc})",
+                         field=host_field) from None
     except OSError as exc:
         raise InputError(f"cannot listen on {host}:{port} ({exc.strerror or exc}): is another "
                          "service there? give another port (--port, HYDRODIAG_PORT) or "
@@ -161,7 +164,8 @@ def serve(
     for name in unknown_variables():
         log.warning("environment variable %s is no setting of hydrodiag: ignored", name)
     log.info(settings_line(settings))
-    _check_port(settings.host, settings.port)   # before anything is written
+    _check_port(settings.host, settings.port,   # before anything is written
+                host_field="HYDRODIAG_HOST" if host is None else "--host")
     estimator = ThrottleClearanceEstimator()
     engine = _engine(settings)
     sessions = make_session_factory(engine)

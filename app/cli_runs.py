@@ -54,7 +54,7 @@ _SIMULATE_OPTIONS = {"rig_id": "--rig", "fault": "--fault", "sample_rate": "--sa
                      "timeseries": "--output", "rtol": "--rtol", "solver": "--solver",
                      "condition.load": "--load", "condition.back_pressure": "--back-pressure",
                      "condition.oil_temperature": "--oil-temperature",
-                     "condition.pump_speed": "--pump-speed"}
+                     "condition.pump_speed": "--pump-speed", "overrides": "--set *"}
 
 
 #: commission: the request's fields → the options that fill them

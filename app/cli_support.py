@@ -81,11 +81,18 @@ def settings_from_env(**overrides: object) -> Settings:
     except ValidationError as exc:
         from app.errors import plain_message
 
-        # each problem by its variable, without the value: a database URL holds a password
-        lines = [f"HYDRODIAG_{'_'.join(str(p) for p in e['loc']).upper() or 'SETTINGS'}: "
-                 f"{plain_message(e['msg'])}" for e in exc.errors(include_input=False,
-                                                           include_url=False)]
-        console.print("[red]invalid configuration (HYDRODIAG_* variables):[/red]\n"
+        # each problem by its option when one gave it (serve --port 0 was said to be
+        # HYDRODIAG_PORT's: a CLI pass), else by its variable; never the value: a database
+        # URL holds a password
+        def named(loc: tuple[int | str, ...]) -> str:
+            key = "_".join(str(p) for p in loc)
+            variable = f"HYDRODIAG_{key.upper() or 'SETTINGS'}"
+            given = overrides.get(key) is not None
+            return f"--{key.replace('_', '-')}" if given else variable
+
+        lines = [f"{named(e['loc'])}: {plain_message(e['msg'])}"
+                 for e in exc.errors(include_input=False, include_url=False)]
+        console.print("[red]invalid configuration (options or HYDRODIAG_* variables):[/red]\n"
                       + escape("\n".join(lines)))
         raise typer.Exit(code=2) from None
 
@@ -331,9 +338,14 @@ def validated(model: Any, document: Any, options: dict[str, str] | None = None) 
 
 def as_option(exc: HydrodiagError, options: dict[str, str] | None) -> HydrodiagError:
     """``exc`` with its field renamed to the command's option when ``options`` maps it, or
-    maps the list the field is an item of (``parameters[0]`` → ``--parameter``)."""
+    maps the list the field is an item of (``parameters[0]`` → ``--parameter``), or maps
+    to ``"--set *"`` the mapping the field is a key of (``overrides.valve.cv`` → ``--set
+    valve.cv``; it was named as the API names it: a CLI pass)."""
     field = exc.field or ""
     for name, option in (options or {}).items():
         if field == name or field.startswith(f"{name}["):
             return type(exc)(exc.message, field=option)
+        if field.startswith(f"{name}.") and option.endswith(" *"):
+            # a mapping's key given as an option's value (overrides.valve.cv → --set valve.cv)
+            return type(exc)(exc.message, field=f"{option[:-2]} {field[len(name) + 1:]}")
     return exc

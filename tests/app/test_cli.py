@@ -274,6 +274,15 @@ def test_start_up_problems_are_one_line_and_write_nothing(tmp_path: Path) -> Non
     assert result.returncode == 1 and "Traceback" not in out, out
     assert f"cannot listen on 127.0.0.1:{port}" in out and "HYDRODIAG_PORT" in out
     assert "API key" not in out and not (data / "hydrodiag.db").exists()
+    # an option's bad value is the option's, a host that names no interface the host's
+    # (both were said to be HYDRODIAG_PORT's: a CLI pass)
+    for args, said in ((["--port", "0"], "--port: Input should be greater than or equal to 1"),
+                       (["--host", "no-such-host.invalid", "--port", str(port)],
+                        "--host: cannot listen on no-such-host.invalid: no such interface")):
+        result = run(["serve", *args], HYDRODIAG_DATA_DIR=str(data))
+        out = " ".join((result.stdout + result.stderr).split())
+        assert result.returncode != 0 and said in out, out
+        assert not (data / "hydrodiag.db").exists()
     blocked = tmp_path / "file"
     blocked.write_text("not a folder")
     result = run(["keys", "create", "--name", "x", "--scope", "read"],
