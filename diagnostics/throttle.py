@@ -32,7 +32,7 @@ the paper's tabulated "equivalent clearance" at 1-2 turns (a papers pass).
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Literal
 
@@ -280,7 +280,8 @@ def table_from_columns(component: Component, openings: Sequence[str], turns: Seq
     """
     columns = {"openings": openings, "turns": turns, "flows": flows}
     for name, column in columns.items():
-        if isinstance(column, str | bytes) or not isinstance(column, Sequence | np.ndarray):
+        # a list, an array, a pandas column: sized and iterable, neither text nor a mapping
+        if isinstance(column, str | bytes | Mapping) or not isinstance(column, Collection):
             raise InputError(f"{name} is a column (a list), not a {type(column).__name__}",
                              field=name)
     if not (len(openings) == len(turns) == len(flows)):

@@ -240,3 +240,16 @@ def test_a_calibrated_table_refuses_a_couette_factor_that_is_no_number() -> None
         assert caught.value.field == "couette"
     assert clearances_calibrated(tab, 83e-6, reference_row=np.int64(0)).clearances[0] == \
         pytest.approx(83e-6)
+
+
+def test_columns_may_be_any_sized_sequence_but_not_text() -> None:
+    """A pandas column or an array stays a column (as before the checks); text is none."""
+    import pandas as pd
+
+    frame = pd.DataFrame({"o": OPENINGS, "t": TURNS, "q": [1e-5] * 5})
+    tab = table_from_columns("valve", frame["o"], np.asarray(frame["t"]), frame["q"],
+                             back_pressure=np.float64(1e6), temperature=np.int64(40))
+    assert [r.turns for r in tab.rows] == TURNS
+    with pytest.raises(InputError) as caught:
+        table_from_columns("valve", "closed", [0.0], [1e-5], back_pressure=1e6)
+    assert caught.value.field == "openings"
