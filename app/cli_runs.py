@@ -270,7 +270,8 @@ def diagnose(
         for note in file_notes:
             _out.print(f"{file}: {note}", markup=False)
         for k, r in enumerate(read):
-            for note in r.readings.notes:
+            # a channel the cycles do not read is said once, for the file
+            for note in (n for n in r.readings.notes if n not in file_notes):
                 _out.print(f"cycle {r.readings.name} (record {k}): {note}", markup=False)
     for item in response.diagnoses:
         table = Table("hypothesis", "probability", "parameters (95 % interval)",

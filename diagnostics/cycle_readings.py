@@ -35,12 +35,18 @@ working stroke's window.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Collection, Iterable, Mapping
 from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
 
+from diagnostics.channel_names import (
+    PUMP_FLOW_CHANNEL,
+    cycle_model_channels,
+    unknown_channel_note,
+    unknown_channels,
+)
 from diagnostics.measurement import (
     DEFAULT_INSTRUMENTS,
     InstrumentClass,
@@ -53,7 +59,7 @@ from sim.phase_reading import settled_window, steady_slope, steady_window, time_
 
 __all__ = ["CHANNELS", "COMPLETED_SHARE", "HELD_SHARE", "PHASE_SOURCE", "READ_CHANNELS",
            "CycleReadings", "PhaseReading", "cycle_readings", "phase_reading",
-           "phases_from_position", "position", "reversal_delay"]
+           "phases_from_position", "position", "reversal_delay", "unread_channel_note"]
 
 Arr = npt.NDArray[np.float64]
 
@@ -73,7 +79,7 @@ PHASE_SOURCE = "phase_source"
 CHANNELS: dict[str, str] = {"pump_pressure": "P_pump", "p1": "P1", "p2": "P2",
                             "flow_B": "Q_meter_B", "flow_C": "Q_meter_C"}
 #: channels averaged in each phase's window (those the record or the pump's flow needs)
-_AVERAGED = (*CHANNELS.values(), "Q_pump", "Q_relief")
+_AVERAGED = (*CHANNELS.values(), PUMP_FLOW_CHANNEL, "Q_relief")
 #: every channel a cycle's readings are taken from (a pump flow meter ``Q_pump`` is no
 #: output of the rig's model, yet read)
 READ_CHANNELS: tuple[str, ...] = (*_AVERAGED, "x", "v")
@@ -249,8 +255,25 @@ def position(series: SeriesRecord) -> Arr:
                      "'v [m/s]': the steady stroke cannot be found without one", field="x")
 
 
+def unread_channel_note(channels: Iterable[str],
+                        model_channels: Collection[str] | None = None) -> str | None:
+    """The note on ``channels`` a cycle's readings do not read because they are none of
+    the rig's ``model_channels`` (default: the cylinder-cycle circuit's), none of
+    :data:`READ_CHANNELS` and no condition, with the nearest channel for each; None when
+    there are none.  :func:`cycle_readings` adds it; the CLI says it once per file."""
+    model = tuple(cycle_model_channels() if model_channels is None else model_channels)
+    unknown = unknown_channels(channels, (*model, *READ_CHANNELS))
+    if not unknown:
+        return None
+    return unknown_channel_note(
+        unknown, model, f"not read (a cycle's readings are taken from "
+        f"{', '.join(READ_CHANNELS)}), so the record lacks what they hold; a misspelt name "
+        "is read again with the column map corrected", also=READ_CHANNELS)
+
+
 def cycle_readings(series: SeriesRecord, stroke: float,
-                   condition: Mapping[str, float] | None = None) -> CycleReadings:
+                   condition: Mapping[str, float] | None = None, *,
+                   model_channels: Collection[str] | None = None) -> CycleReadings:
     """The record of one cycle (module docstring).
 
     Parameters
@@ -263,6 +286,13 @@ def cycle_readings(series: SeriesRecord, stroke: float,
     condition
         Condition fields (``oil_temperature`` [°C], ``load_force`` [N], ``back_pressure``
         [Pa], ``pump_speed`` [rad/s]) that override the series'.
+    model_channels
+        The rig model's channels (:meth:`sim.rigs.Rig.channels`); default: those of the
+        cylinder-cycle circuit.  A channel of the series that is none of these, none of
+        :data:`READ_CHANNELS` and no condition is not read, and a note names it with the
+        nearest channel read (a column map's ``P_pmup`` dropped the pump pressure without
+        a word: a library user's pass); the model's other outputs, which a simulated
+        export carries, are not read either, by design, and not noted.
 
     Raises
     ------
@@ -275,6 +305,8 @@ def cycle_readings(series: SeriesRecord, stroke: float,
     x = position(series)
     phases: list[PhaseReading] = []
     notes: list[str] = []
+    if (unread := unread_channel_note(series.channels, model_channels)) is not None:
+        notes.append(unread)
     labels = series.phase
     if labels is None:
         labels = phases_from_position(series, x, stroke)

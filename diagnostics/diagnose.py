@@ -21,6 +21,7 @@ import numpy.typing as npt
 
 from diagnostics.condition_interval import check_singles, widen
 from diagnostics.consistency import slow_stroke_notes
+from diagnostics.diagnose_args import check_arguments
 from diagnostics.evidence_at_fit import evidence_at_fit
 from diagnostics.goodness import GoodnessOfFit, goodness_of_fit
 from diagnostics.healthy_end import healthy_end_estimates
@@ -34,7 +35,7 @@ from diagnostics.ratio_index import RatioIndex, ratio_index
 from diagnostics.signatures import OBSERVABLES, SignatureMaps
 from diagnostics.slip import rig_slip_coefficient
 from diagnostics.uncertainty import Estimate
-from sim.errors import MeasurementError, ParameterError, SimulationError
+from sim.errors import MeasurementError, SimulationError
 from sim.rigs import Rig
 from sim.units import quantity_text
 
@@ -277,21 +278,16 @@ def diagnose(rig: Rig, records: Sequence[MeasurementRecord], *, model_rel: float
 
     Raises
     ------
+    InputError
+        ``rig`` is no compiled rig (``field="rig"``), an unknown ``method``
+        (``field="method"``, naming the known ones).
     MeasurementError
-        A record is impossible on this rig, or carries nothing usable.
+        A record is impossible on this rig, carries nothing usable, or is no
+        :class:`MeasurementRecord` (``field="records[i]"``).
     CircuitError
         The rig's circuit has no cylinder cycle.
     """
-    if isinstance(records, MeasurementRecord):
-        # "'MeasurementRecord' object is not iterable" (a library user's pass)
-        raise MeasurementError("records is a list of records: diagnose(rig, [record])",
-                               field="records")
-    if not records:
-        raise MeasurementError("at least one record is needed", field="records")
-    if not (isinstance(model_rel, int | float) and 0.0 <= model_rel < 1.0):
-        # unchecked, −1, inf or 5 turned a worn spool into "healthy" (a library user's pass)
-        raise ParameterError(f"model_rel is the model's relative error, in [0, 1), not "
-                             f"{model_rel!r}", field="model_rel")
+    method = check_arguments(rig, records, model_rel, method)
     rig.require_cycle("a diagnosis")
     obs = []
     limits = rig_limits(rig)  # once: the records' checks and the slow-stroke notes

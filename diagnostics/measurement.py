@@ -33,7 +33,7 @@ from diagnostics.quantity import (
 )
 from sim.cycle_result import VACUUM_GAUGE
 from sim.errors import MeasurementError
-from sim.numbers import real_number
+from sim.numbers import field_number
 from sim.rigs.assembly import MAX_PUMP_SPEED
 
 __all__ = [
@@ -79,21 +79,36 @@ OIL_TEMPERATURE_RANGE = (-40.0, 150.0)
 MAX_TEMPERATURE_U = OIL_TEMPERATURE_RANGE[1] - OIL_TEMPERATURE_RANGE[0]
 
 
-def _as_quantity(path: str, item: float | Quantity,
+def _as_quantity(path: str, item: object,
                  instruments: Mapping[str, InstrumentClass]) -> Quantity:
     """A bare number becomes a reading of the field's default instrument class."""
     if isinstance(item, Quantity):
         return item
     # numpy's scalars are numbers (a float32 reading was refused where the simulator takes
-    # it: a verification pass); a bool is not
-    number = real_number(item)
-    if number is None:
-        raise MeasurementError(f"expected a number or a Quantity, got {type(item).__name__}",
-                               field=path)
+    # it: a verification pass); a bool is not, nor an int beyond the float range (10**400
+    # raised a bare OverflowError: a verification pass)
+    number = field_number(item, path, error=MeasurementError,
+                          expected="a number [SI] or a Quantity")
     instrument = instruments.get(path)
     if instrument is None:
         raise MeasurementError("no default instrument class: state the uncertainty", field=path)
     return instrument.reading(number)
+
+
+def _readings(readings: object, field: str) -> Mapping[str, object]:
+    """``readings`` when it is a mapping of field names, else a :class:`MeasurementError`
+    naming ``field``: a list of pairs raised "'list' object has no attribute 'items'" (a
+    library user's pass).  A list of pairs is refused rather than read as a mapping: a
+    repeated name in it would have to be dropped or chosen without a word."""
+    if not isinstance(readings, Mapping):
+        raise MeasurementError(f"readings are a mapping of field name → number or Quantity "
+                               f"(e.g. {{'p1': 11.9e5}}; dict(pairs) for a list of pairs), "
+                               f"not a {type(readings).__name__}", field=field)
+    for name in readings:
+        if not isinstance(name, str):
+            raise MeasurementError(f"a reading is named by its field (e.g. 'p1'), not "
+                                   f"{name!r}", field=field)
+    return readings
 
 
 def _check_quantity(path: str, q: Quantity, *, lower: float | None = None,
@@ -103,6 +118,10 @@ def _check_quantity(path: str, q: Quantity, *, lower: float | None = None,
     on the value (``lower``, strict or not; ``upper`` in ``unit``)."""
     if not isinstance(q, Quantity):
         raise MeasurementError(f"expected a Quantity, got {type(q).__name__}", field=path)
+    # Quantity("11.88e5", …) raised "TypeError: must be real number" (a library user's pass)
+    field_number(q.value, path, error=MeasurementError, expected=f"a {what} [SI]")
+    field_number(q.u, f"{path}.u", error=MeasurementError,
+                 expected="a standard uncertainty [SI]")
     if not math.isfinite(q.value):
         raise MeasurementError(f"{what} must be finite, got {q.value}", field=path)
     if abs(q.value) > MAX_MAGNITUDE:
@@ -190,11 +209,13 @@ class OperatingCondition:
         """Build from ``{"oil_temperature": 40.0, "back_pressure": Quantity(...)}``.
 
         Bare numbers are readings of the default instrument class of
-        ``"condition.<name>"``; unknown names raise :class:`MeasurementError`.
+        ``"condition.<name>"``; unknown names, and ``readings`` that are not a mapping (a
+        list of pairs: ``dict(pairs)`` first), raise :class:`MeasurementError`
+        (``field="condition"``).
         """
         names = {f.name for f in fields(cls)}
         kwargs: dict[str, Quantity] = {}
-        for name, item in readings.items():
+        for name, item in _readings(readings, "condition").items():
             if name not in names:
                 raise MeasurementError("unknown operating-condition field",
                                        field=f"condition.{name}")
@@ -333,10 +354,12 @@ class MeasurementRecord:
         """Build a record from ``{"flow_C": 4.6e-4, "p1": Quantity(12e5, 2e3), ...}``.
 
         Bare numbers become readings of the field's instrument class (``instruments``,
-        default :data:`DEFAULT_INSTRUMENTS`); unknown names raise :class:`MeasurementError`.
+        default :data:`DEFAULT_INSTRUMENTS`); unknown names, and ``readings`` that are not a
+        mapping (a list of pairs: ``dict(pairs)`` first), raise :class:`MeasurementError`
+        (``field="readings"``).
         """
         kwargs: dict[str, Quantity] = {}
-        for name, item in readings.items():
+        for name, item in _readings(readings, "readings").items():
             if name not in _MEASURED:
                 raise MeasurementError("unknown measurement field", field=name)
             kwargs[name] = _as_quantity(name, item, instruments)

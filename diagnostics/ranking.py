@@ -46,7 +46,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Literal, get_args
 
 import numpy as np
 import numpy.typing as npt
@@ -59,11 +59,11 @@ from diagnostics.observations import RecordObservations
 from diagnostics.pair_direct import MASKED, levenberg_marquardt, profile_points
 from diagnostics.pair_evidence import laplace_evidence, profile_evidence
 from diagnostics.record_model import RecordModel
-from sim.errors import SimulationError
+from sim.errors import InputError, SimulationError
 from sim.rigs import Rig
 
 __all__ = ["DEFAULT_METHOD", "MULTIPLE_OF", "HypothesisFit", "Method", "ParameterEstimate", "Ranker",
-           "laplace_evidence", "profile_evidence", "rank_order", "severity"]
+           "check_method", "laplace_evidence", "profile_evidence", "rank_order", "severity"]
 
 Arr = npt.NDArray[np.float64]
 
@@ -76,6 +76,20 @@ _REFIT_GAIN = 0.5
 #: "direct" (a Python call per model evaluation; the reference of the equivalence test)
 Method = Literal["fast", "direct"]
 DEFAULT_METHOD: Method = "fast"
+
+
+def check_method(method: object) -> Method:
+    """``method`` as a :data:`Method` (None: :data:`DEFAULT_METHOD`), else an
+    :class:`~sim.errors.InputError` naming ``method`` and the methods known ("fastest"
+    raised a bare ValueError: a library user's pass)."""
+    if method is None:
+        return DEFAULT_METHOD
+    known: tuple[Method, ...] = get_args(Method)
+    for m in known:
+        if method == m:
+            return m
+    raise InputError(f"unknown ranking method {method!r} (one of: {', '.join(known)})",
+                     field="method")
 
 
 #: what :attr:`ParameterEstimate.multiple` is, per parameter, as the JSON says it beside it
@@ -217,9 +231,7 @@ class Ranker:
     def __init__(self, rig: Rig, observations: list[RecordObservations],
                  model_rel: float = 0.002, method: Method | None = None) -> None:
         self.rig = rig
-        self.method: Method = method or DEFAULT_METHOD
-        if self.method not in ("fast", "direct"):
-            raise ValueError(f"unknown ranking method {self.method!r}")
+        self.method: Method = check_method(method)
         fast = self.method == "fast"
         self.models = [RecordModel(rig, o, model_rel, fast) for o in observations]
         self._pack: RecordPack | None = None

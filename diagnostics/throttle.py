@@ -32,19 +32,28 @@ the paper's tabulated "equivalent clearance" at 1-2 turns (a papers pass).
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
 
 from diagnostics.inversion import leakage_root, piston_law_coefficients, spool_law_coefficient
-from diagnostics.measurement import MIN_PRESSURE_READING
+from diagnostics.throttle_limits import (
+    MIN_BACK_PRESSURE_PA,
+    check_back_pressure,
+    check_bypass_flow,
+    check_opening,
+    check_temperature,
+)
 from sim.errors import InputError, ParameterError, SimulationError
+from sim.numbers import field_number
 from sim.rigs import Condition, Rig
+from sim.rigs.assembly import require_rig
 from sim.steady import steady_cycle
 
 __all__ = [
+    "MIN_BACK_PRESSURE_PA",
     "CalibrationRow",
     "CalibrationTable",
     "Component",
@@ -54,10 +63,6 @@ __all__ = [
     "law_inputs",
     "table_from_columns",
 ]
-
-#: smallest back-pressure of a table other than 0 [Pa]: 0.1 bar, below what a load control
-#: valve is set to; a smaller one is a unit slip (bar typed as Pa)
-MIN_BACK_PRESSURE_PA = MIN_PRESSURE_READING
 
 Component = Literal["cylinder", "valve"]
 
@@ -92,11 +97,20 @@ class CalibrationTable:
     rows
         The openings, in any order.
     back_pressure
-        Back-pressure of the load control valve during the calibration [Pa].
+        Back-pressure of the load control valve during the calibration [Pa]: 0 (no load)
+        or 0.1 bar to 1000 bar.
     temperature
-        Oil temperature during the calibration [°C], if known.
+        Oil temperature during the calibration [°C], if known: within the rig model's
+        −30…150 °C.
     source
         Where the table comes from.
+
+    Raises
+    ------
+    InputError
+        A value outside the limits the HTTP service refuses too
+        (:mod:`diagnostics.throttle_limits`), naming the field (``rows[1].turns``,
+        ``temperature``, ``back_pressure``).
     """
 
     component: Component
@@ -111,14 +125,16 @@ class CalibrationTable:
         if not self.rows:
             raise InputError("a calibration table needs at least one row", field="rows")
         for i, row in enumerate(self.rows):
-            if not (math.isfinite(row.bypass_flow) and row.bypass_flow > 0.0):
-                raise InputError(f"bypass flow must be finite and > 0, got {row.bypass_flow}",
-                                 field=f"rows[{i}].bypass_flow")
-            if not (math.isfinite(row.turns) and row.turns >= 0.0):
-                raise InputError(f"opening must be finite and ≥ 0, got {row.turns}",
-                                 field=f"rows[{i}].turns")
-        if not math.isfinite(self.back_pressure):
-            raise InputError("back-pressure must be finite", field="back_pressure")
+            if not isinstance(row, CalibrationRow):
+                raise InputError(f"a row is a CalibrationRow, not a {type(row).__name__}",
+                                 field=f"rows[{i}]")
+            check_bypass_flow(row.bypass_flow, f"rows[{i}].bypass_flow")
+            # 50 turns was accepted where the service refuses beyond 10 (a library pass)
+            check_opening(row.turns, f"rows[{i}].turns")
+        # NaN or 500 °C and a negative back-pressure too
+        check_back_pressure(self.back_pressure)
+        if self.temperature is not None:
+            check_temperature(self.temperature)
 
     @property
     def flows(self) -> np.ndarray:
@@ -189,10 +205,10 @@ def clearances_from_law(table: CalibrationTable, *, dp: float, mu: float, D: flo
     """
     for name, value in (("dp", dp), ("mu", mu), ("D", D), ("L", L)):
         # finite too: mu = inf gave all-NaN clearances (a library user's pass)
-        if not (math.isfinite(value) and value > 0.0):
+        if not (math.isfinite(number := field_number(value, name)) and number > 0.0):
             raise InputError(f"{name} must be finite and > 0, not {value!r}", field=name)
-    if not math.isfinite(velocity):  # NaN dropped the Couette term without a word
-        raise InputError(f"velocity must be finite, not {velocity!r}", field="velocity")
+    # NaN dropped the Couette term without a word
+    velocity = field_number(velocity, "velocity", expected="a speed [m/s]", finite=True)
     if table.component == "valve" and velocity != 0.0:
         raise InputError("the spool law has no Couette term", field="velocity")
     if table.component == "valve":
@@ -219,15 +235,17 @@ def clearances_calibrated(table: CalibrationTable, reference_clearance: float, *
         Couette factor ``b = π·D·ẋ/2`` [m²/s] of the piston law at the calibration speed
         (0 for the valve, or to use the paper's plain cube rule).
     """
-    if not (0 <= reference_row < len(table.rows)):
-        raise InputError(f"no row {reference_row}", field="reference_row")
-    if not (math.isfinite(reference_clearance) and reference_clearance > 0.0):
+    if not (isinstance(reference_row, int | np.integer) and not isinstance(reference_row, bool)
+            and 0 <= reference_row < len(table.rows)):
+        raise InputError(f"no row {reference_row!r}", field="reference_row")
+    if not (math.isfinite(c0 := field_number(reference_clearance, "reference_clearance"))
+            and c0 > 0.0):
         raise InputError("the reference clearance must be > 0", field="reference_clearance")
-    if not math.isfinite(couette):  # NaN gave all-NaN clearances (a library user's pass)
-        raise InputError(f"couette must be finite, not {couette!r}", field="couette")
+    # NaN gave all-NaN clearances (a library user's pass)
+    couette = field_number(couette, "couette", expected="a Couette factor [m²/s]", finite=True)
     if table.component == "valve" and couette != 0.0:
         raise InputError("the spool law has no Couette term", field="couette")
-    c0, q0 = reference_clearance, table.rows[reference_row].bypass_flow
+    q0 = table.rows[reference_row].bypass_flow
     # Q_ref > 0 puts c_ref above √(b/a), on the rising branch: every row has a unique root
     a = (q0 + couette * c0) / c0**3
     return EquivalenceTable(table, _solve(table, a, couette), a, couette, "calibrated",
@@ -256,12 +274,21 @@ def table_from_columns(component: Component, openings: Sequence[str], turns: Seq
     Raises
     ------
     InputError
-        Columns of unequal lengths (``field="rows"``).
+        Columns of unequal lengths (``field="rows"``); a value no number or outside the
+        limits of :class:`CalibrationTable` (naming it: ``rows[2].turns``,
+        ``temperature``).
     """
+    columns = {"openings": openings, "turns": turns, "flows": flows}
+    for name, column in columns.items():
+        # a list, an array, a pandas column: sized and iterable, neither text nor a mapping
+        if isinstance(column, str | bytes | Mapping) or not isinstance(column, Collection):
+            raise InputError(f"{name} is a column (a list), not a {type(column).__name__}",
+                             field=name)
     if not (len(openings) == len(turns) == len(flows)):
         raise InputError("the columns must have equal lengths", field="rows")
-    rows = tuple(CalibrationRow(o, float(t), float(q)) for o, t, q in
-                 zip(openings, turns, flows, strict=True))
+    rows = tuple(CalibrationRow(str(o), field_number(t, f"rows[{i}].turns", finite=True),
+                                field_number(q, f"rows[{i}].bypass_flow", finite=True))
+                 for i, (o, t, q) in enumerate(zip(openings, turns, flows, strict=True)))
     return CalibrationTable(component, rows, back_pressure, temperature, source)
 
 
@@ -282,20 +309,19 @@ def law_inputs(rig: Rig, component: Component, back_pressure_pa: float, temperat
     Raises
     ------
     InputError
-        A back-pressure below :data:`MIN_BACK_PRESSURE_PA` but not 0 (bar typed as Pa), no
-        operating point, or a piston that does not move there (the relief open), naming
-        ``back_pressure_pa`` or ``temperature_c``.
+        ``rig`` no compiled rig, a component without a leakage law (``field="component"``),
+        a back-pressure or temperature no number or outside the limits of
+        :class:`CalibrationTable` (below :data:`MIN_BACK_PRESSURE_PA` but not 0: bar typed as
+        Pa), no operating point, or a piston that does not move there (the relief open),
+        naming ``back_pressure_pa`` or ``temperature_c``.
     """
+    require_rig(rig)
     if component not in ("cylinder", "valve"):  # "pump" read the valve's (a library pass)
         raise InputError(f"no leakage law for component {component!r} (known: cylinder, "
                          "valve)", field="component")
-    if 0.0 < back_pressure_pa < MIN_BACK_PRESSURE_PA:
-        # 10 "Pa" meant 10 bar: a closed row of 56.7 µm on a 34 µm spool was stored (a
-        # check of the technician's fix); 0 stays: a table taken without a load
-        raise InputError(
-            f"a back-pressure of {back_pressure_pa:g} Pa ({back_pressure_pa / 1e5:g} bar) "
-            "is no load a rig applies: it is in Pa (bar × 100,000); 0 for no load",
-            field="back_pressure_pa")
+    # "1e6" raised a bare TypeError (a library user's pass)
+    back_pressure_pa = check_back_pressure(back_pressure_pa, "back_pressure_pa")
+    temperature_c = check_temperature(temperature_c, "temperature_c")
     rig.require_cycle("the equivalent clearance of a throttle table (paper 002 §2.7)")
     values = rig.values()
     condition = Condition(load=back_pressure_pa * values["cylinder.A2"], back_pressure=0.0,

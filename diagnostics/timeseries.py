@@ -57,6 +57,13 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
+from diagnostics.channel_names import (
+    CONDITION_CHANNELS,
+    PUMP_FLOW_CHANNEL,
+    unknown_channel_note,
+    unknown_channels,
+)
+from diagnostics.column_map import SKIP, ColumnEntry, column_entry, read_column_map
 from diagnostics.table_files import MAX_DECOMPRESSED_BYTES, PARQUET_METADATA_KEY, read_table
 from sim.errors import InputError
 from sim.units import UNITS, spelled
@@ -81,18 +88,10 @@ MAX_SAMPLE_RATE = 1.0e7
 
 Arr = npt.NDArray[np.float64]
 
-#: Condition channels and their SI unit (°C for temperature, as everywhere in hydrodiag).
-CONDITION_CHANNELS: dict[str, str] = {
-    "load": "N", "back_pressure": "Pa", "oil_temperature": "degC", "pump_speed": "rad/s",
-}
 
 _COLUMN = re.compile(r"^\s*(.+?)\s*\[(.*)\]\s*$")
 #: columns that are labels, not channels
 _LABELS = ("phase", "record")
-#: the column map's channel name that leaves a column out
-SKIP = "skip"
-#: one column map entry: (channel, unit) or (channel, unit, gain, offset)
-ColumnEntry = tuple[str, str] | tuple[str, str, float, float]
 
 
 def si_factor(unit: str, *, column: str, expected: str | None = None) -> tuple[str, float, float]:
@@ -147,6 +146,9 @@ class SeriesRecord:
         True for data read from a file (the default); generated data sets it False.
     started_at
         Clock time at which ``t`` reads 0 [UTC], None when the source does not say.
+    notes
+        What the reading found that a user must know: channels that are not the rig's
+        (read with the rig's channels, ``expected``), with the nearest known name.
     """
 
     name: str
@@ -158,6 +160,7 @@ class SeriesRecord:
     metadata: dict[str, Any] = field(default_factory=dict)
     measured: bool = True
     started_at: datetime | None = None
+    notes: tuple[str, ...] = ()
 
     def __len__(self) -> int:
         return int(self.t.size)
@@ -202,7 +205,7 @@ class SeriesRecord:
         return SeriesRecord(self.name, self.t[sel], {k: v[sel] for k, v in self.channels.items()},
                             dict(self.units), None if self.phase is None else self.phase[sel],
                             dict(self.condition), dict(self.metadata), self.measured,
-                            self.started_at)
+                            self.started_at, self.notes)
 
     def frame(self) -> pd.DataFrame:
         """The record as a table in the import format (units in the column names); its
@@ -244,27 +247,6 @@ def clock_time(value: object, *, field: str = "started_at") -> datetime:
     return when.astimezone(UTC)
 
 
-def column_entry(raw: str, entry: ColumnEntry) -> tuple[str, str, float, float]:
-    """A column map entry as ``(channel, unit, gain, offset)`` (gain 1, offset 0 when not
-    given).
-
-    Raises
-    ------
-    InputError
-        Not 2 or 4 items, a gain that is 0 or not finite, an offset not finite (``raw``).
-    """
-    if len(entry) == 2:
-        return entry[0], entry[1], 1.0, 0.0
-    if len(entry) == 4:
-        gain, offset = float(entry[2]), float(entry[3])
-        if not (math.isfinite(gain) and gain != 0.0 and math.isfinite(offset)):
-            raise InputError(f"the calibration of {raw!r} needs a finite, non-zero gain and a "
-                             f"finite offset, got {entry[2]!r}, {entry[3]!r}", field=raw)
-        return entry[0], entry[1], gain, offset
-    raise InputError("a column map entry is [channel, unit] or [channel, unit, gain, offset]",
-                     field=raw)
-
-
 def _record_groups(frame: pd.DataFrame) -> list[tuple[str, pd.DataFrame]]:
     if "record" not in frame.columns:
         return [("", frame)]
@@ -291,10 +273,15 @@ def series_from_frame(frame: pd.DataFrame, *, name: str = "table",
         Raw column → ``(channel, unit)`` for columns without units in their names, or
         ``(channel, unit, gain, offset)`` for a raw signal (``gain·raw + offset`` in
         ``unit``); a column of labels maps to ``("record", "-")`` or ``("phase", "-")``,
-        a column to leave out to ``("skip", "-")``.
+        a column to leave out to ``("skip", "-")``.  A mapping: a list of pairs is
+        refused (``dict(pairs)`` first).
     expected
-        Channel → SI unit it must have (a rig's outputs); other channels take the SI unit
-        of whatever unit they are written in.
+        Channel → SI unit it must have (a rig's outputs, :meth:`sim.rigs.Rig.channels`);
+        other channels take the SI unit of whatever unit they are written in.  Given, a
+        channel that is none of these, no condition channel and no pump flow meter
+        (``Q_pump``) is kept and noted in each record's :attr:`SeriesRecord.notes`, with
+        the nearest known name (a misspelt column map or header: :mod:`diagnostics.
+        channel_names`).
     required
         Channels every record must have.
     metadata
@@ -315,7 +302,7 @@ def series_from_frame(frame: pd.DataFrame, *, name: str = "table",
         non-increasing time, a required channel missing, a record of < 2 samples; a start
         without its zone (``started_at``).
     """
-    cmap = {raw: column_entry(raw, entry) for raw, entry in (column_map or {}).items()}
+    cmap = read_column_map(column_map)
     labels: dict[str, str] = {}  # a logger's own record or phase column → the label
     for raw, (label, unit, gain, off) in [(r, c) for r, c in cmap.items()
                                           if c[0] in (*_LABELS, SKIP)]:
@@ -375,6 +362,16 @@ def series_from_frame(frame: pd.DataFrame, *, name: str = "table",
     for chan in required:
         if chan not in (c[0] for c in columns.values()):
             raise InputError(f"required channel {chan!r} is missing", field=chan)
+    notes: tuple[str, ...] = ()
+    if expected:
+        model = [c for c in expected if c not in CONDITION_CHANNELS]
+        unknown = unknown_channels((c[0] for c in columns.values() if c[0] != "t"),
+                                   (*model, PUMP_FLOW_CHANNEL))
+        if unknown:
+            notes = (unknown_channel_note(
+                unknown, model, "read as given, but no reader of the rig compares with them; "
+                "a misspelt name is read again with the column map or the column's name "
+                "corrected", also=(PUMP_FLOW_CHANNEL,)),)
     found = meta.get("condition")
     header_condition: dict[str, Any] = dict(found) if isinstance(found, dict) else {}
     records: list[SeriesRecord] = []
@@ -432,7 +429,7 @@ def series_from_frame(frame: pd.DataFrame, *, name: str = "table",
                         del values[chan]
                         del units[chan]
         records.append(SeriesRecord(label, t, values, units, phase, condition, meta, measured,
-                                    start))
+                                    start, notes))
     return records
 
 

@@ -27,8 +27,9 @@ import pandas as pd
 from sim.bondgraph.model import IntegrationResult
 from sim.cycle_result import SUMMARY_UNITS, CycleResult, PhaseSummary, SolverReport
 from sim.errors import ParameterError, SolverLimitError
+from sim.numbers import field_number
 from sim.phase_reading import settled_window, steady_slope, steady_window, time_average
-from sim.rigs.assembly import Condition, Rig, check_overrides
+from sim.rigs.assembly import Condition, Rig, check_overrides, require_rig
 from sim.solver.limits import SolverLimits
 from sim.solver.noise import NoiseAccuracy, error_estimate
 
@@ -316,7 +317,8 @@ def run_cycle(rig: Rig, overrides: Mapping[str, float] | None = None,
     Raises
     ------
     ParameterError
-        Unknown method, sampling asked of ROS2, a non-positive sample rate.
+        Unknown method, sampling asked of ROS2, a non-positive sample rate, a sample rate,
+        ``rtol`` or ``t_max`` that is no number (``field`` names it).
     SolverLimitError
         A limit of ``limits`` was reached, or the tolerance is below round-off.
     SimulationError
@@ -324,7 +326,11 @@ def run_cycle(rig: Rig, overrides: Mapping[str, float] | None = None,
     CircuitError
         The rig's circuit has no cylinder cycle.
     """
-    rig.require_cycle("a cycle simulation")
+    require_rig(rig).require_cycle("a cycle simulation")
+    # a sample rate "1000" raised a bare TypeError (a library user's pass)
+    sample_rate, rtol, t_max = (None if x is None else field_number(x, name, error=ParameterError)
+                                for x, name in ((sample_rate, "sample_rate"), (rtol, "rtol"),
+                                                (t_max, "t_max")))
     if method not in METHODS:
         raise ParameterError(f"unknown method {method!r} (known: {', '.join(METHODS)})",
                              field="method")

@@ -54,8 +54,8 @@ from sim.cycle import (
     stall_guard,
     stroke_of,
 )
-from sim.errors import SimulationError
-from sim.rigs.assembly import Condition, Rig
+from sim.errors import InputError, SimulationError
+from sim.rigs.assembly import Condition, Rig, require_rig
 
 __all__ = ["DIRECTION", "OBSERVABLES", "SteadyEvaluator", "SteadyPoint", "steady_cycle",
            "steady_phase", "stop_force"]
@@ -154,11 +154,16 @@ def steady_phase(rig: Rig, phase: str, overrides: Mapping[str, float] | None = N
 
     Raises
     ------
+    InputError
+        ``rig`` is no compiled rig, ``phase`` none of "working", "return" (``field``
+        names the argument); a parameter error naming an override or the condition.
     SimulationError
         If neither a moving steady point nor a consistent end-stop state is found.
     """
-    if phase not in PHASES:
-        raise ValueError(f"unknown phase {phase!r}")
+    require_rig(rig)
+    if not (isinstance(phase, str) and phase in PHASES):  # "work" raised a bare ValueError
+        raise InputError(f"unknown phase {phase!r} (one of: {', '.join(PHASES)})",
+                         field="phase")
     rig.require_cycle("a steady phase")
     cond = condition if condition is not None else rig.default_condition()
     m = rig.model
@@ -218,7 +223,16 @@ def steady_cycle(rig: Rig, overrides: Mapping[str, float] | None = None,
     """Both phases' operating points, in the shape of :func:`sim.cycle.run_cycle`'s result.
 
     Durations are ``stroke / speed`` (start-up transients neglected).
+
+    Raises
+    ------
+    InputError
+        ``rig`` is no compiled rig (``field="rig"``); a parameter error naming an override
+        or the condition.
+    SimulationError
+        If a phase has no steady point (:func:`steady_phase`).
     """
+    require_rig(rig)
     rig.require_cycle("a steady cycle")
     summaries = []
     for phase in PHASES:

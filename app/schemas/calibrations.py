@@ -14,6 +14,12 @@ from pydantic import BaseModel, ConfigDict, Field, StringConstraints, field_vali
 
 from app.schemas.common import FiniteFloat, Page, PublicModel, RequestModel, not_nullable, reject_null
 from app.schemas.times import Timestamp
+from diagnostics.throttle_limits import (
+    MAX_BACK_PRESSURE_PA,
+    MAX_BYPASS_FLOW,
+    MAX_OPENING_TURNS,
+    TEMPERATURE_RANGE_C,
+)
 
 __all__ = [
     "MAX_CLEARANCE_M",
@@ -41,13 +47,15 @@ ThrottleLabel = Annotated[
 ComponentName = Annotated[
     str, StringConstraints(min_length=1, max_length=64, pattern=r"^[a-z][a-z0-9_]*$")
 ]
-BackPressure = Annotated[FiniteFloat, Field(ge=0, le=1e8)]
+#: the limits are the library's (diagnostics.throttle_limits), which a CalibrationTable in
+#: Python refuses too: one definition (a library user's pass found them in the schema alone)
+BackPressure = Annotated[FiniteFloat, Field(ge=0, le=MAX_BACK_PRESSURE_PA)]
 #: the rig model's range of oil temperature [°C] (sim.rigs.circuits.pump_valve_cylinder)
-Temperature = Annotated[FiniteFloat, Field(ge=-30, le=150)]
+Temperature = Annotated[FiniteFloat, Field(ge=TEMPERATURE_RANGE_C[0], le=TEMPERATURE_RANGE_C[1])]
 #: the rig model's range of a throttle's opening [turn] (sim.components.throttle): a table
 #: typed in degrees (0/45/90) was stored and interpolated (a technician's pass)
-Opening = Annotated[FiniteFloat, Field(ge=0, le=10)]
-BypassFlow = Annotated[FiniteFloat, Field(gt=0, lt=1)]
+Opening = Annotated[FiniteFloat, Field(ge=0, le=MAX_OPENING_TURNS)]
+BypassFlow = Annotated[FiniteFloat, Field(gt=0, lt=MAX_BYPASS_FLOW)]
 Clearance = Annotated[FiniteFloat, Field(gt=0, lt=MAX_CLEARANCE_M)]
 SourceNote = Annotated[str, StringConstraints(max_length=2000)]
 

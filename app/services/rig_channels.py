@@ -18,12 +18,13 @@ from app.services.plateau_channels import (
     plateau_scale_notes,
 )
 from app.services.rigs import get_rig, has_cycle, latest_version
+from diagnostics.channel_names import unknown_channel_note, unknown_channels
 from diagnostics.consistency import RigLimits
-from diagnostics.cycle_readings import READ_CHANNELS
+from diagnostics.cycle_readings import READ_CHANNELS, unread_channel_note
 from diagnostics.discrepancy.records import import_notes
 from diagnostics.observations import rig_limits
 from diagnostics.time_scale import coarse_notes, time_scale_notes
-from diagnostics.timeseries import CONDITION_CHANNELS, ColumnEntry, SeriesRecord
+from diagnostics.timeseries import ColumnEntry, SeriesRecord
 from sim.rigs import load_rig
 
 __all__ = ["RigChannels", "column_of", "rig_channels"]
@@ -82,35 +83,32 @@ class RigChannels:
         not by its model's outputs: the note names those it lacks."""
         if not self.cycle:
             return plateau_notes(rows)
-        return self._cycle_notes([(r.record, r.units, r.condition) for r in rows], stored=True)
+        return self._cycle_notes([(r.record, r.units, r.condition) for r in rows])
 
     def read_notes(self, records: Sequence[SeriesRecord]) -> list[str]:
         """:meth:`notes` of records read, not stored (``hydrodiag diagnose FILE``, which
-        dropped a misspelt channel without a word where the import said so: a CLI pass);
-        none for a rig without a cycle, which no cycle is read against."""
+        dropped a misspelt channel without a word where the import said so: a CLI pass):
+        the note each cycle's readings carry (:func:`diagnostics.cycle_readings.
+        unread_channel_note`), once for the file; none for a rig without a cycle, which no
+        cycle is read against."""
         if not self.cycle:
             return []
-        return self._cycle_notes([(r.name, r.units, r.condition) for r in records],
-                                 stored=False)
+        note = unread_channel_note({c for r in records for c in r.channels}, list(self.units))
+        return [] if note is None else [note]
 
     def _cycle_notes(self, records: Sequence[tuple[str, Mapping[str, str],
-                                                   Mapping[str, Any] | None]], *,
-                     stored: bool) -> list[str]:
-        """The notes of :meth:`notes` for a rig with a cycle, of (name, units, condition):
-        records ``stored``, or read for a diagnosis (the unknown channels only: the
-        diagnosis says itself what condition it lacks)."""
+                                                   Mapping[str, Any] | None]]) -> list[str]:
+        """The notes of :meth:`notes` for a rig with a cycle, of stored records' (name,
+        units, condition)."""
         notes = []
-        names = {c for _, units, _ in records for c in units}
-        unknown = sorted(names - set(self.units) - set(CONDITION_CHANNELS) - set(READ_CHANNELS))
+        # the library's rule and note (diagnostics.channel_names), with its "did you mean"
+        unknown = unknown_channels((c for _, units, _ in records for c in units),
+                                   (*self.units, *READ_CHANNELS))
         if unknown:
-            notes.append(f"channel(s) {', '.join(unknown)} are not channels of the rig's model "
-                         f"({', '.join(self.units)}): "
-                         + ("stored as given, but no comparison or diagnosis reads them; a "
-                            "misspelt name is imported again with the column map corrected"
-                            if stored else "read, but the diagnosis does not use them; a "
-                            "misspelt name is read again with the column map corrected"))
-        if not stored:
-            return notes
+            notes.append(unknown_channel_note(
+                unknown, list(self.units),
+                "stored as given, but no comparison or diagnosis reads them; a misspelt name "
+                "is imported again with the column map corrected", also=READ_CHANNELS))
         for key, column in (("load", "load [N]"), ("oil_temperature", "oil_temperature [degC]")):
             # stored, then refused by every reader (a modelling engineer's pass): said now
             silent = [name for name, units, condition in records

@@ -71,7 +71,8 @@ def cycle_record(series: SeriesRecord, rig: ResolvedRig,
     the clock time of the cycle's first sample when the series has one, and the stored
     series ``series_id`` it came from."""
     rig.rig.require_cycle("reading a cycle as a record")
-    readings = cycle_readings(series, rig.rig.base["cylinder.stroke"], condition)
+    readings = cycle_readings(series, rig.rig.base["cylinder.stroke"], condition,
+                              model_channels=list(rig.rig.channels()))
     body = record_body(readings, rig.rig_id, rig.version, series.measured_at, series_id)
     return CycleRecord(rig, readings, body)
 

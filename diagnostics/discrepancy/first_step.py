@@ -15,6 +15,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 from diagnostics.discrepancy.balances import BalanceData, balance_data
@@ -43,7 +44,8 @@ from sim.errors import CircuitError, InputError
 from sim.rigs.assembly import Rig
 from sim.rigs.schema import validate_rig_document
 
-__all__ = ["OUTPUTS", "FirstStep", "check_records", "first_step", "split", "step_noise"]
+__all__ = ["OUTPUTS", "FirstStep", "check_arguments", "check_document", "check_records",
+           "first_step", "split", "step_noise"]
 
 #: measured channels compared in output-error form, when present
 OUTPUTS = ("P1", "P2", "v", "P_pump", "P_valve_P", "Q_meter_B", "Q_meter_C")
@@ -109,6 +111,41 @@ def split(records: Sequence[SeriesRecord], rig: Rig) -> tuple[list[int], list[in
     return [i for i in range(len(records)) if i not in held], sorted(held), notes
 
 
+def check_document(rig_document: object) -> None:
+    """Refuse a ``rig_document`` that is no mapping, naming ``rig_document``: a compiled
+    :class:`~sim.rigs.Rig` raised "'Rig' object is not iterable" and a file's path
+    "dictionary update sequence element #0 …" (a library user's pass)."""
+    if isinstance(rig_document, Rig):
+        hint = "its compiled Rig: pass rig.spec.to_document()"
+    elif isinstance(rig_document, str | Path):
+        hint = "a path: read it with sim.rigs.load_rig_document(path)"
+    elif not isinstance(rig_document, Mapping):
+        hint = f"a {type(rig_document).__name__}"
+    else:
+        return
+    raise InputError(f"the workflow starts from the rig's document (a mapping), not {hint}",
+                     field="rig_document")
+
+
+def check_arguments(rig_document: object, records: object) -> None:
+    """:func:`check_document`, and refuse ``records`` that are not a list of
+    :class:`~diagnostics.timeseries.SeriesRecord` (one record alone raised "'SeriesRecord'
+    object is not iterable", where ``diagnose`` said what to pass: a library user's pass),
+    naming ``records`` or ``records[i]``."""
+    check_document(rig_document)
+    if isinstance(records, SeriesRecord):
+        raise InputError("records is a list of records: discover(rig_document, [record])",
+                         field="records")
+    if not isinstance(records, Sequence) or isinstance(records, str | bytes):
+        raise InputError(f"records is a list of SeriesRecord (diagnostics.timeseries."
+                         f"read_series), not a {type(records).__name__}", field="records")
+    for i, record in enumerate(records):
+        if not isinstance(record, SeriesRecord):
+            raise InputError(f"records are SeriesRecord objects (diagnostics.timeseries."
+                             f"read_series), not a {type(record).__name__}",
+                             field=f"records[{i}]")
+
+
 def check_records(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord]) -> None:
     """Raise what the workflow's first step would raise on these records (no phases and no
     position to read them off, an unstated condition, no balance computable, too few
@@ -135,6 +172,7 @@ class FirstStep:
 def first_step(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord]
                 ) -> FirstStep:
     """:class:`FirstStep` of the records, each balance with enough usable samples."""
+    check_arguments(rig_document, records)
     rig = Rig.from_spec(validate_rig_document(dict(rig_document)))
     try:
         rig.require_cycle("the discrepancy workflow on measured cycles")

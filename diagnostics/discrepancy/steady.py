@@ -62,6 +62,7 @@ import numpy.typing as npt
 
 from diagnostics.discrepancy.balances import BALANCES, BASE_SIGNS, BalanceData, effects_of
 from diagnostics.discrepancy.drift import Drift
+from diagnostics.discrepancy.first_step import check_document
 from diagnostics.discrepancy.gap import GapRow
 from diagnostics.discrepancy.lof import lack_of_fit, permutation_p
 from diagnostics.discrepancy.pump_refit import (
@@ -228,6 +229,7 @@ def discover_steady(rig_document: Mapping[str, Any], bench: BenchData, *,
         if progress is not None:
             progress(frac, what)
 
+    check_document(rig_document)
     require_rows(bench)
     doc = dict(rig_document)
     rig = Rig.from_spec(validate_rig_document(doc))

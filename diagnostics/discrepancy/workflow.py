@@ -52,6 +52,7 @@ from diagnostics.discrepancy.confirm import Small, confirm_chosen, confirm_small
 from diagnostics.discrepancy.drift import Drift, refit_base
 from diagnostics.discrepancy.first_step import (
     OUTPUTS,
+    check_arguments,
     first_step,
     step_noise,
 )
@@ -237,8 +238,11 @@ def discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], *
     Raises
     ------
     InputError
-        No records, channels that differ between records, none of the balances computable.
+        No records, channels that differ between records, none of the balances computable;
+        a ``rig_document`` that is no mapping (a compiled Rig, a path) or ``records`` that
+        are not a list of records (``field`` names the argument).
     """
+    check_arguments(rig_document, records)
     return _discover(rig_document, records, progress=progress, refit=refit,
                      max_nfev=max_nfev, bootstrap=bootstrap, seed=seed, worn_pass=False)
 

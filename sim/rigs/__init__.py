@@ -58,11 +58,18 @@ def reference_rig_document() -> dict[str, Any]:
 def load_rig(source: str | Path | Mapping[str, Any], *, strict: bool | None = None) -> Rig:
     """Validate a rig (file path or document) and compile it.
 
-    ``strict`` (:func:`validate_rig_document`: unknown keys, the geometric relations and
-    plausibility bounds that ``rigs add`` checks) defaults to True for a file and False
-    for a document (a stored one keeps loading when a bound came after it): a file passed
-    here with a 70 mm rod in a 63 mm bore, then simulated with a negative annulus flow,
-    though the reference file names this function as its validator (a rig author's pass).
+    ``strict`` (:func:`validate_rig_document`: unknown keys and the plausibility bounds
+    that ``rigs add`` checks) defaults to True for a file and False for a document (a
+    stored one keeps loading when a bound came after it).  The geometric relations (a rod
+    thinner than the bore, a clearance less than the radius) are checked either way, with
+    the message an override breaking them gets: a 70 mm rod in a 63 mm bore compiled from a
+    document with A1 < 0, and ``run_cycle`` answered a "stall" (a library user's pass).
+
+    Raises
+    ------
+    RigFileError
+        The document does not validate, naming the field
+        (``components.cylinder.parameters.rod1``).
     """
     doc = source if isinstance(source, Mapping) else load_rig_document(source)
     check = not isinstance(source, Mapping) if strict is None else strict

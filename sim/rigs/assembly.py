@@ -13,9 +13,9 @@ import numpy.typing as npt
 from sim.bondgraph import BondGraph, CompiledModel, compile_graph
 from sim.components.base import Derivation
 from sim.components.effects import get_effect
-from sim.errors import ParameterError
+from sim.errors import InputError, ParameterError
 from sim.fluid import Fluid
-from sim.numbers import real_number
+from sim.numbers import field_number
 from sim.params import broken_relation
 from sim.rigs.circuits import DEFAULT_CIRCUIT, Circuit, get_circuit, require_cycle
 from sim.rigs.schema import RigSpec, check_bounds
@@ -29,7 +29,7 @@ MAX_PUMP_SPEED = 2000.0
 OVERSPEED = 3.0
 
 __all__ = ["MAX_PUMP_SPEED", "OVERSPEED", "Condition", "Rig", "build_graph", "build_graph_with_effects",
-           "check_overrides"]
+           "check_overrides", "require_rig"]
 
 Arr = npt.NDArray[np.float64]
 
@@ -40,21 +40,24 @@ _CONDITION_ATTRIBUTES = {"force": "load", "back_pressure": "back_pressure",
 
 def check_overrides(overrides: object) -> None:
     """Refuse ``overrides`` that are not a mapping ``role.name`` → value (a list of pairs
-    raised "'list' object has no attribute 'get'": a library user's pass)."""
+    raised "'list' object has no attribute 'get'", a key ``1`` "'int' object has no
+    attribute 'partition'": a library user's pass)."""
     if overrides is not None and not isinstance(overrides, Mapping):
         raise ParameterError(f"overrides are a mapping 'role.name' → value [SI], e.g. "
                              f"{{'valve.cv': 6e-5}}, not a {type(overrides).__name__}",
                              field="overrides")
+    for key in overrides or {}:
+        if not isinstance(key, str):
+            raise ParameterError(f"an override's key is its parameter's name 'role.name' "
+                                 f"(e.g. 'valve.cv'), not {key!r} ({type(key).__name__})",
+                                 field="overrides")
 
 
 def _number(value: object, field: str) -> float:
-    """``value`` as a float, or a :class:`ParameterError` naming ``field``: an array, None
-    or "60 um" raised a bare TypeError or ValueError (a library user's pass)."""
-    number = real_number(value)
-    if number is None:
-        raise ParameterError(f"a number in SI units is expected, not {value!r}"[:200],
-                             field=field)
-    return number
+    """``value`` as a float, or a :class:`ParameterError` naming ``field``: an array, None,
+    "60 um" or 10**400 raised a bare TypeError, ValueError or OverflowError (a library
+    user's pass)."""
+    return field_number(value, field, error=ParameterError, expected="a number in SI units")
 
 
 @dataclass(frozen=True)
@@ -262,6 +265,18 @@ class Rig:
         v = self.values(overrides, condition)
         v.update(graph_values or {})
         return self.model.params(v)
+
+
+def require_rig(rig: object, field: str = "rig") -> Rig:
+    """``rig`` when it is a compiled :class:`Rig`, else an :class:`~sim.errors.InputError`
+    naming ``field``: None or a rig document raised "'NoneType' object has no attribute
+    'require_cycle'" (a library user's pass)."""
+    if not isinstance(rig, Rig):
+        hint = (": compile a document with sim.rigs.load_rig(document)"
+                if isinstance(rig, Mapping | str) else "")
+        raise InputError(f"a compiled rig (sim.rigs.load_rig, reference_rig) is expected, not "
+                         f"a {type(rig).__name__}{hint}", field=field)
+    return rig
 
 
 #: cache key: (circuit name, sorted effect names)

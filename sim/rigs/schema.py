@@ -191,11 +191,13 @@ def _known_keys(raw: Mapping[str, Any], known: tuple[str, ...], path: str) -> No
 def validate_rig_document(doc: Mapping[str, Any], *, strict: bool = False) -> RigSpec:
     """Validate a rig document and convert it to SI.
 
-    ``strict`` (a document being stored: ``POST``/``PUT /rigs``, ``hydrodiag rigs add``)
-    also refuses keys the schema does not know (at the top, in a component, in a
-    parameter) and parameters that break their component's geometry (a rod thicker than
-    the bore, a clearance wider than the radius: :attr:`Circuit.relations`).  Documents
-    already stored are read without it, so that one stored before these checks still loads.
+    Parameters that break their component's geometry (a rod thicker than the bore, a
+    clearance wider than the radius: :attr:`Circuit.relations`) are refused on every read:
+    no model of them can be simulated (a negative annulus).  ``strict`` (a document being
+    stored: ``POST``/``PUT /rigs``, ``hydrodiag rigs add``) also refuses keys the schema
+    does not know (at the top, in a component, in a parameter) and values past a
+    plausibility bound (:func:`sim.params.at_most`: a bore of 63 "m").  Documents already
+    stored are read without it, so that one stored before a bound still loads.
 
     Raises
     ------
@@ -249,8 +251,12 @@ def validate_rig_document(doc: Mapping[str, Any], *, strict: bool = False) -> Ri
             _known_keys(raw, COMPONENT_KEYS, path)
         params = _parameter_block(raw.get("parameters", {}), COMPONENT_TYPES[ctype].PARAMETERS,
                                   f"{path}.parameters", partial=False, strict=strict)
-        if strict and (broken := broken_relation(
-                circuit.relations(role), {k: q.value for k, q in params.items()})):
+        # the geometry (a rod thicker than the bore: a negative annulus) on every read, the
+        # plausibility bounds only strictly: a 70 mm rod in a 63 mm bore compiled non-strict
+        # and ran a "stall" with A1 < 0 (a library user's pass), where no stored document
+        # can have been simulated right; a bound newer than a stored document is no such case
+        relations = [r for r in circuit.relations(role) if strict or not r.bound]
+        if broken := broken_relation(relations, {k: q.value for k, q in params.items()}):
             raise RigFileError(broken.text, field=f"{path}.parameters.{broken.name}")
         components[role] = (ctype, params)
     condition = _parameter_block(doc.get("condition", {}), circuit.condition, "condition",

@@ -389,3 +389,24 @@ def test_implausible_computed_clearances_are_422(tmp_path: Path) -> None:
                                       json=TABLE | {"points": points}, headers=server.auth)
         assert response.status_code == 422
         assert response.json()["error"]["field"] == "points[1].clearance_m"
+
+
+def test_the_http_schema_takes_the_librarys_limits() -> None:
+    """One definition of a table's limits (diagnostics.throttle_limits): the schema's bounds
+    are the library's, which a CalibrationTable in Python refuses too (a library user's
+    pass: 500 °C and 50 turns were refused over HTTP alone)."""
+    from app.schemas import calibrations as schema
+    from diagnostics import throttle_limits as limits
+
+    def bounds(annotated: Any) -> dict[str, float]:
+        return {k: getattr(c, k) for m in annotated.__metadata__
+                for c in getattr(m, "metadata", []) for k in ("ge", "le", "gt", "lt")
+                if hasattr(c, k)}
+
+    assert bounds(schema.Temperature) == {"ge": limits.TEMPERATURE_RANGE_C[0],
+                                          "le": limits.TEMPERATURE_RANGE_C[1]} == {
+        "ge": -30.0, "le": 150.0}
+    assert bounds(schema.Opening) == {"ge": 0, "le": limits.MAX_OPENING_TURNS} == {
+        "ge": 0, "le": 10.0}
+    assert bounds(schema.BackPressure)["le"] == limits.MAX_BACK_PRESSURE_PA
+    assert bounds(schema.BypassFlow)["lt"] == limits.MAX_BYPASS_FLOW

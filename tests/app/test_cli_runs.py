@@ -586,6 +586,9 @@ def test_diagnose_a_measured_cycle_file_and_a_stored_one(runner: CliRunner,
                                "--no-store"])
     assert typo.exit_code == 0, typo.output
     assert "channel(s) Pressure1 are not channels of the rig's model" in typo.stdout
+    # said once, for the file, though each cycle's readings carry it too (a library pass)
+    assert typo.stdout.count("Pressure1 are not channels") == 1, typo.stdout
+    assert "not read (a cycle's readings are taken from" in " ".join(typo.stdout.split())
     unit = runner.invoke(cli, ["diagnose", str(logged), "--rig", "1", "--column-map",
                                cmap.replace('["Q_meter_B", "l/min"]', '["Q_meter_B", "bar"]'),
                                "--condition", "oil_temperature=40", "--no-store"])

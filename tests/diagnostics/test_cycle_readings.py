@@ -286,3 +286,23 @@ def test_the_reversal_delay_is_where_the_position_starts_the_return() -> None:
     assert t[np.flatnonzero(read == "return")[0]] == pytest.approx(switch + delay, abs=1e-12)
     assert 0.0 < delay < 0.02
     assert reversal_delay(t, x, np.full(t.size, "working"), STROKE) == 0.0
+
+
+def test_a_channel_the_cycle_does_not_read_is_noted_with_the_nearest_name(worn_spool: Any
+                                                                         ) -> None:
+    """A column map's ``P_pmup`` and ``Q_meter_b`` dropped the pump pressure and meter B
+    without a word, and the worn spool's diagnosis fell from p 0.89 to 0.54 (a library
+    user's pass): the readings say which channels they did not read, and the names meant.
+    The model's other outputs, which the export carries, are no note."""
+    frame, _ = worn_spool
+    typo = frame.rename(columns={"P_pump [Pa]": "P_pmup [Pa]",
+                                 "Q_meter_B [m^3/s]": "Q_meter_b [m^3/s]"})
+    read = cycle_readings(_series(typo), STROKE)
+    assert "pump_pressure" not in read.readings and "flow_B" not in read.readings
+    [note] = [n for n in read.notes if "not channels" in n]
+    assert note.startswith("channel(s) P_pmup, Q_meter_b are not channels of the rig's model")
+    assert "did you mean 'P_pump' for 'P_pmup', 'Q_meter_B' for 'Q_meter_b'?" in note
+    assert cycle_readings(_series(frame), STROKE).notes == ()
+    # the rig's own channels, given: an effect's output is known, an unknown one still noted
+    known = cycle_readings(_series(typo), STROKE, model_channels=[*RIG.channels(), "P_pmup"])
+    assert any("Q_meter_b" in n and "P_pmup," not in n for n in known.notes)

@@ -151,3 +151,25 @@ def test_a_cycle_on_a_wrong_clock_is_said_in_the_workflows_notes() -> None:
     slow = dataclasses.replace(record, t=record.t * 10.0)
     notes = " ".join(first_step(reference_rig_document(), [slow]).notes)
     assert "speed channel v" in notes and "0.1×" in notes
+
+
+def test_discover_names_an_argument_of_the_wrong_type() -> None:
+    """A compiled Rig, a file's path or one record alone raised a bare TypeError or
+    ValueError (a library user's pass): the tree's error, naming the argument."""
+    from diagnostics.discrepancy import discover
+    from diagnostics.discrepancy.steady import discover_steady
+    from sim.errors import InputError
+
+    one = SeriesRecord("c", np.array([0.0, 1.0]), {"P1": np.array([1e6, 1e6])}, {"P1": "Pa"})
+    doc = reference_rig_document()
+    for rig_document, records, field, words in (
+            (reference_rig(), [one], "rig_document", "rig.spec.to_document()"),
+            ("press.yaml", [one], "rig_document", "load_rig_document(path)"),
+            (doc, one, "records", "[record]"),
+            (doc, [{"P1": 1e6}], "records[0]", "SeriesRecord")):
+        with pytest.raises(InputError) as caught:
+            discover(rig_document, records)  # type: ignore[arg-type]
+        assert caught.value.field == field and words in caught.value.message
+    with pytest.raises(InputError) as caught:
+        discover_steady(reference_rig(), None)  # type: ignore[arg-type]
+    assert caught.value.field == "rig_document"

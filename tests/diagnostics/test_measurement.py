@@ -385,3 +385,29 @@ def test_an_oil_temperature_uncertainty_that_states_nothing_is_refused_naming_it
     kept = OperatingCondition.from_readings({"oil_temperature": Quantity(40.0, 20.0),
                                              "load_force": 2100.0})
     assert kept.oil_temperature.u == 20.0 < MAX_TEMPERATURE_U
+
+
+@pytest.mark.parametrize(("build", "field"), [
+    (lambda: OperatingCondition.from_readings([("oil_temperature", 40.0)]), "condition"),
+    (lambda: MeasurementRecord.from_readings("r", cond(), [("p1", 1e6)]), "readings"),
+    (lambda: MeasurementRecord.from_readings("r", cond(), {"p1": Quantity("11.88e5", 1e3)}),
+     "p1"),
+    (lambda: MeasurementRecord.from_readings("r", cond(), {"p1": Quantity(11.88e5, "1e3")}),
+     "p1.u"),
+    (lambda: MeasurementRecord.from_readings("r", cond(), {"p1": 10**400}), "p1"),
+    (lambda: MeasurementRecord.from_readings("r", cond(), {"p1": Quantity(10**400, 1.0)}),
+     "p1"),
+    (lambda: OperatingCondition.from_readings({"oil_temperature": 10**400}),
+     "condition.oil_temperature"),
+])
+def test_a_reading_of_the_wrong_type_is_a_measurement_error_naming_it(build, field: str
+                                                                     ) -> None:
+    """A list of pairs raised "'list' object has no attribute 'items'", a string in a
+    Quantity "must be real number", an int too large for a float a bare OverflowError (a
+    library user's pass, a verification pass).  A list of pairs is refused, not read: the
+    message says to pass ``dict(pairs)``."""
+    with pytest.raises(MeasurementError) as caught:
+        build()
+    assert caught.value.field == field
+    if field in ("condition", "readings"):
+        assert "dict(pairs)" in caught.value.message

@@ -181,3 +181,75 @@ def test_a_law_input_that_is_no_number_is_refused(kwargs: dict, field: str) -> N
     with pytest.raises(InputError) as caught:
         clearances_from_law(table, **inputs)
     assert caught.value.field == field
+
+
+OPENINGS, TURNS = ["closed", "1/2", "1", "1 1/2", "2"], [0.0, 0.5, 1.0, 1.5, 2.0]
+
+
+@pytest.mark.parametrize(("kwargs", "field", "words"), [
+    ({"temperature": float("nan")}, "temperature", "finite"),
+    ({"temperature": 500.0}, "temperature", "≤ 150 °C"),
+    ({"temperature": -31.0}, "temperature", "≥ -30 °C"),
+    ({"back_pressure": -1e6}, "back_pressure", "0 (no load)"),
+    ({"back_pressure": 10.0}, "back_pressure", "bar × 100,000"),
+    ({"back_pressure": "1e6"}, "back_pressure", "got str"),
+    ({"turns": [0.0, 1.0, 2.0, 3.0, 50.0]}, "rows[4].turns", "10 turns"),
+    ({"turns": [0.0, 1.0, 2.0, 3.0, "x"]}, "rows[4].turns", "got str"),
+    ({"flows": [1e-5, 1e-5, 1e-5, 1e-5, 6.0]}, "rows[4].bypass_flow", "below 1 m³/s"),
+])
+def test_a_table_outside_the_services_limits_is_refused_naming_the_field(
+        kwargs: dict, field: str, words: str) -> None:
+    """A table at NaN or 500 °C, 50 turns or a negative back-pressure was accepted in
+    Python where the service refuses it (docs/diagnosis.md; a library user's pass): one
+    definition of the limits (diagnostics.throttle_limits), the HTTP schema's too."""
+    columns = {"turns": TURNS, "flows": [1e-5] * 5, "back_pressure": 1e6,
+               "temperature": 40.0} | kwargs
+    with pytest.raises(InputError) as caught:
+        table_from_columns("valve", OPENINGS, columns.pop("turns"), columns.pop("flows"),
+                           **columns)
+    assert caught.value.field == field and words in caught.value.message
+    if field in ("temperature", "back_pressure"):
+        with pytest.raises(InputError) as caught:
+            CalibrationTable("valve", (CalibrationRow("closed", 0.0, 1e-5),),
+                             **{"back_pressure": 1e6, "temperature": 40.0} | kwargs)
+        assert caught.value.field == field
+
+
+@pytest.mark.parametrize(("args", "field"), [
+    (("1e6", 40.0), "back_pressure_pa"), ((-1e6, 40.0), "back_pressure_pa"),
+    ((1e6, 500.0), "temperature_c"), ((1e6, float("nan")), "temperature_c")])
+def test_law_inputs_refuse_a_condition_that_is_no_number_or_out_of_range(args: tuple,
+                                                                        field: str) -> None:
+    """``law_inputs(rig, "valve", "1e6", 40)`` raised a bare TypeError (a library user's
+    pass)."""
+    from diagnostics.throttle import law_inputs
+    from sim.rigs import reference_rig
+
+    with pytest.raises(InputError) as caught:
+        law_inputs(reference_rig(), "valve", *args)
+    assert caught.value.field == field
+
+
+def test_a_calibrated_table_refuses_a_couette_factor_that_is_no_number() -> None:
+    """couette NaN gave all-NaN clearances (a library user's pass)."""
+    tab = table_from_columns("cylinder", OPENINGS, TURNS, [1.8e-5, 3.5e-5, 7e-5, 8.2e-5, 1e-4],
+                             back_pressure=1e6, temperature=40.0)
+    for couette in (float("nan"), "0.1"):
+        with pytest.raises(InputError) as caught:
+            clearances_calibrated(tab, 83e-6, couette=couette)  # type: ignore[arg-type]
+        assert caught.value.field == "couette"
+    assert clearances_calibrated(tab, 83e-6, reference_row=np.int64(0)).clearances[0] == \
+        pytest.approx(83e-6)
+
+
+def test_columns_may_be_any_sized_sequence_but_not_text() -> None:
+    """A pandas column or an array stays a column (as before the checks); text is none."""
+    import pandas as pd
+
+    frame = pd.DataFrame({"o": OPENINGS, "t": TURNS, "q": [1e-5] * 5})
+    tab = table_from_columns("valve", frame["o"], np.asarray(frame["t"]), frame["q"],
+                             back_pressure=np.float64(1e6), temperature=np.int64(40))
+    assert [r.turns for r in tab.rows] == TURNS
+    with pytest.raises(InputError) as caught:
+        table_from_columns("valve", "closed", [0.0], [1e-5], back_pressure=1e6)
+    assert caught.value.field == "openings"

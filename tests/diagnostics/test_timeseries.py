@@ -257,3 +257,37 @@ def test_date_times_and_empty_cells_are_refused_with_what_to_do() -> None:
         read_series(b"t [s];P1 [bar];Q [l/min]\n0;1;\n1;2;3\n")
     assert exc.value.field == "Q [l/min]" and "an empty cell" in exc.value.message
     assert "fill them forward" in exc.value.message
+
+
+def test_a_column_map_that_is_no_mapping_is_refused_naming_it():
+    """A list of pairs raised "'list' object has no attribute 'items'" (a library user's
+    pass): refused, not read, since a column named twice in it would be chosen silently."""
+    frame = pd.DataFrame({"time": [0.0, 1.0, 2.0], "PS1": [150.0, 151.0, 152.0]})
+    for cmap, field in (([("time", ("t", "s"))], "column_map"), ({"time": "t"}, "time"),
+                        ({"PS1": ("P_pump", "bar", "x", 0.0)}, "PS1")):
+        with pytest.raises(InputError) as caught:
+            series_from_frame(frame, column_map=cmap)  # type: ignore[arg-type]
+        assert caught.value.field == field
+    with pytest.raises(InputError, match=r"dict\(pairs\)"):
+        read_series(frame, column_map=[("time", ("t", "s"))])  # type: ignore[arg-type]
+
+
+def test_a_channel_the_rig_does_not_know_is_noted_with_the_nearest_name():
+    """A misspelt column map (``P_pmup``, ``Q_meter_b``) kept the channel under its wrong
+    name without a word (a library user's pass): read with the rig's channels, each record
+    says so and names the channel meant; the right names, a condition and a pump flow
+    meter give no note."""
+    frame = pd.DataFrame({"time": [0.0, 1.0, 2.0], "pp": [150.0, 151.0, 152.0],
+                          "qb": [30.0, 30.0, 30.0], "qp": [31.0, 31.0, 31.0],
+                          "T": [40.0, 40.0, 40.0]})
+    cmap = {"time": ("t", "s"), "pp": ("P_pmup", "bar"), "qb": ("Q_meter_b", "l/min"),
+            "qp": ("Q_pump", "l/min"), "T": ("oil_temperature", "degC")}
+    channels = reference_rig().channels()
+    (rec,) = series_from_frame(frame, column_map=cmap, expected=channels)
+    [note] = rec.notes
+    assert note.startswith("channel(s) P_pmup, Q_meter_b are not channels of the rig's model")
+    assert "did you mean 'P_pump' for 'P_pmup', 'Q_meter_B' for 'Q_meter_b'?" in note
+    assert rec.window(0.0, 1.0).notes == rec.notes
+    right = cmap | {"pp": ("P_pump", "bar"), "qb": ("Q_meter_B", "l/min")}
+    assert series_from_frame(frame, column_map=right, expected=channels)[0].notes == ()
+    assert series_from_frame(frame, column_map=cmap)[0].notes == ()  # no rig: no note

@@ -238,3 +238,35 @@ def test_a_tolerance_or_time_limit_that_means_nothing_is_refused(kwargs: dict, f
     with pytest.raises(ParameterError) as caught:
         run_cycle(reference_rig(), method="rodas4", timeseries=False, **kwargs)
     assert caught.value.field == field
+
+
+@pytest.mark.parametrize(("call", "error", "field"), [
+    (lambda rig: run_cycle(rig, method="rodas4", sample_rate="1000"), ParameterError,
+     "sample_rate"),
+    (lambda rig: run_cycle(rig, rtol="1e-3"), ParameterError, "rtol"),
+    (lambda rig: run_cycle(None), InputError, "rig"),
+    (lambda rig: steady_cycle(rig, {1: 6e-5}), ParameterError, "overrides"),
+    (lambda rig: steady_cycle(rig, {"cylinder.cc": 10**400}), ParameterError,
+     "overrides.cylinder.cc"),
+    (lambda rig: steady_cycle(rig, None, Condition(load=10**400)), ParameterError,
+     "condition.force"),
+    (lambda rig: steady_cycle({"name": "press"}), InputError, "rig"),
+])
+def test_an_argument_of_the_wrong_type_is_the_trees_error_naming_it(rig, call, error,
+                                                                   field: str) -> None:
+    """A string sample rate, a key 1 in the overrides or an int too large for a float
+    raised a bare TypeError, AttributeError or OverflowError (a library user's pass, a
+    verification pass)."""
+    with pytest.raises(error) as caught:
+        call(rig)
+    assert caught.value.field == field
+    assert field.rpartition(".")[2] in str(caught.value)
+
+
+def test_an_unknown_steady_phase_names_the_phases(rig) -> None:
+    """"work" raised a bare ValueError (a library user's pass)."""
+    from sim.steady import steady_phase
+
+    with pytest.raises(InputError) as caught:
+        steady_phase(rig, "work")
+    assert caught.value.field == "phase" and "working, return" in caught.value.message

@@ -36,3 +36,30 @@ def test_overrides_and_readings_take_and_refuse_the_same() -> None:
             _number(bad, "valve.cv")
         with pytest.raises(MeasurementError):
             _as_quantity("p1", bad, instrument)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize(("value", "words"), [
+    ("60 um", "got str '60 um'"), (None, "got NoneType None"), ([1.0], "got list [1.0]"),
+    (10**400, "too large for a float"), (-(10**400), "too large for a float")])
+def test_field_number_refuses_with_the_fields_error(value: object, words: str) -> None:
+    """A string, a list or an int beyond the float range raised a bare TypeError or
+    OverflowError (a library user's pass, a verification pass): now the given error class,
+    naming the field."""
+    from sim.errors import MeasurementError
+    from sim.numbers import field_number
+
+    with pytest.raises(MeasurementError) as caught:
+        field_number(value, "records[0].p1", error=MeasurementError)
+    assert caught.value.field == "records[0].p1" and words in caught.value.message
+    assert real_number(value) is None
+
+
+def test_field_number_keeps_numbers_and_refuses_non_finite_on_request() -> None:
+    from sim.errors import InputError
+    from sim.numbers import field_number
+
+    assert field_number(np.float32(2.5), "x") == 2.5 and field_number(10**300, "x") == 1e300
+    assert np.isnan(field_number(float("nan"), "x"))
+    with pytest.raises(InputError) as caught:
+        field_number(float("inf"), "t_max", finite=True)
+    assert caught.value.field == "t_max" and "finite" in caught.value.message

@@ -99,17 +99,16 @@ def test_an_unknown_circuit_is_named():
     assert "pump-valve-cylinder" in exc.value.message
 
 
-def test_a_strict_document_knows_every_key_and_keeps_its_geometry():
+def test_a_strict_document_knows_every_key_and_keeps_its_bounds():
     """``strict`` (a document being stored) refuses keys the schema does not know and
-    parameters that break their component's geometry; without it (a stored document read
-    back) the same document loads, so one stored before these checks still works."""
+    values past a plausibility bound; without it (a stored document read back) the same
+    document loads, so one stored before these checks still works."""
     for mutate, field in [
         (lambda d: d.update(colour="red"), "colour"),
         (lambda d: d["fluid"]["beta"].update(note="x"), "fluid.beta.note"),
-        (lambda d: d["components"]["cylinder"]["parameters"]["cc"].update(value=0.031),
+        # 3 mm: within the bore's radius, past the 2 mm plausibility bound
+        (lambda d: d["components"]["cylinder"]["parameters"]["cc"].update(value=0.003),
          "components.cylinder.parameters.cc"),
-        (lambda d: d["components"]["cylinder"]["parameters"]["rod2"].update(value=0.06),
-         "components.cylinder.parameters.rod2"),
     ]:
         doc = copy.deepcopy(reference_rig_document())
         mutate(doc)
@@ -117,11 +116,35 @@ def test_a_strict_document_knows_every_key_and_keeps_its_geometry():
             validate_rig_document(doc, strict=True)
         assert exc.value.field == field
         validate_rig_document(doc)
+        load_rig(doc)
     validate_rig_document(reference_rig_document(), strict=True)
     for circuit in CIRCUITS.values():
         for role in circuit.roles:
             for relation in circuit.relations(role):  # each relation holds on its defaults
                 assert circuit.parameter(role, relation.name) is not None
+
+
+@pytest.mark.parametrize(("name", "value", "text"), [
+    ("cc", 0.031, "the radial clearance must be less than the bore's radius"),
+    ("rod2", 0.06, "the chamber-2 rod must be thinner than the bore"),
+    ("rod1", 0.07, "the chamber-1 rod must be thinner than the bore")])
+def test_a_broken_geometry_is_refused_on_every_read(name: str, value: float, text: str) -> None:
+    """A 70 mm rod in the bore compiled from a document (``load_rig(doc)``, non-strict)
+    with A1 < 0, and ``run_cycle`` answered a "stall" (a library user's pass): the
+    geometric relations are checked strict or not, with the message an override gets."""
+    doc = copy.deepcopy(reference_rig_document())
+    doc["components"]["cylinder"]["parameters"][name].update(value=value)
+    for strict in (False, True):  # strictly, a plausibility bound may be named first
+        with pytest.raises(RigFileError) as exc:
+            load_rig(doc, strict=strict)
+        assert exc.value.field == f"components.cylinder.parameters.{name}"
+    with pytest.raises(RigFileError) as exc:
+        load_rig(doc)
+    assert exc.value.message == text
+    if name != "cc":  # 31 mm is past the clearance's 2 mm bound too, named first there
+        with pytest.raises(ParameterError) as exc:
+            reference_rig().values({f"cylinder.{name}": value})
+        assert exc.value.message == f"{text} (with the overrides given)"
 
 
 def test_a_pump_speed_in_rpm_is_refused_with_the_unit_named() -> None:
@@ -213,7 +236,8 @@ def test_a_clearance_in_m_for_um_is_named_a_unit_slip_before_the_geometry() -> N
 def test_a_file_is_loaded_with_the_checks_of_storing_it(tmp_path) -> None:
     """load_rig(path), the validator the reference file names, took a 70 mm rod in a 63 mm
     bore that rigs add refuses, and simulated it with a negative annulus (a rig author's
-    pass); a document (a stored one) still loads without the storing checks."""
+    pass); a document (a stored one) still loads without the storing checks, though not
+    with a broken geometry, which no model of it can simulate (a library user's pass)."""
     import yaml
 
     from sim.rigs import load_rig
@@ -226,7 +250,15 @@ def test_a_file_is_loaded_with_the_checks_of_storing_it(tmp_path) -> None:
     with pytest.raises(RigFileError) as exc:
         load_rig(path)
     assert exc.value.field == "components.cylinder.parameters.rod2"
-    load_rig(doc)  # a stored document is read back as it is
+    with pytest.raises(RigFileError) as exc:
+        load_rig(doc)  # the geometry on every read
+    assert exc.value.field == "components.cylinder.parameters.rod2"
+    doc = copy.deepcopy(reference_rig_document()) | {"colour": "red"}
+    path.write_text(yaml.safe_dump(doc, allow_unicode=True))
+    with pytest.raises(RigFileError) as exc:
+        load_rig(path)
+    assert exc.value.field == "colour"
+    load_rig(doc)  # a stored document is read back without the storing checks
 
 
 def test_the_rig_file_pages_example_is_stored_and_runs_as_it_says() -> None:
