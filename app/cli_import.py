@@ -195,6 +195,10 @@ def import_zema(
     if not store and bench is None and table is None:
         raise InputError("nothing to do: --no-store without --bench or --table",
                          field="--no-store")
+    if bench is not None and bench.suffix.lower() not in (".csv", ".txt"):
+        # a bench table is CSV text: pb.xlsx was "written" as CSV (a CLI pass)
+        raise InputError(f"the bench table is written as CSV: give a .csv name, not "
+                         f"{bench.name!r}", field="--bench")
     start = None if started_at is None else clock_time(started_at, field="--started-at")
     if native:
         every = load_fullres((root or zema_root()) / FULLRES_FILE)

@@ -147,7 +147,7 @@ def simulate(
         _print_json(public.model_dump(mode="json"))
         return
     table = Table("quantity", "value", title=f"rig {public.rig_id} v{public.rig_version}, "
-                  f"{public.fault or 'overrides only'}, {public.method}")
+                  f"{public.fault or ('overrides only' if set_ else 'nominal')}, {public.method}")
     for key, value in public.summary.items():
         table.add_row(escape(key), "—" if value is None else f"{value:.6g}")
     if public.solver is not None:

@@ -105,6 +105,11 @@ def test_native_import_refuses_a_range_without_raw_cycles(runner: CliRunner,
                                      str(tmp_path / "no" / "such" / "dir.csv")])
     assert unwritable.exit_code != 0
     assert getattr(unwritable.exception, "field", None) == "--table"
+    # a bench table is CSV text: pb.xlsx was "written" as CSV (a CLI pass)
+    xlsx = runner.invoke(cli, ["import", "zema", "--rig", "2", "--root", str(root),
+                               "--native", "--no-store", "--bench", str(tmp_path / "pb.xlsx")])
+    assert getattr(xlsx.exception, "field", None) == "--bench", xlsx.output
+    assert not (tmp_path / "pb.xlsx").exists()
     assert store_count(MeasuredSeries) == 0
 
 

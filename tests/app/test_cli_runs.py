@@ -51,6 +51,9 @@ def test_simulate_prints_the_summary_and_writes_the_series(runner: CliRunner,
     worn = _simulated_summary(runner, "--set", "valve.cv=60e-6")
     nominal = _simulated_summary(runner)
     assert worn["working.Q_valve_leak [m^3/s]"] > 3 * nominal["working.Q_valve_leak [m^3/s]"]
+    # no fault and no --set is the nominal rig (it was titled "overrides only": a CLI pass)
+    plain = runner.invoke(cli, ["simulate", "--steady"], terminal_width=200)
+    assert plain.exit_code == 0 and "rig 1 v1, nominal, steady" in plain.stdout, plain.stdout
     bad = runner.invoke(cli, ["simulate", "--set", "valve.cv=-1"])
     # named as the option gave it, not as the API names it (a CLI pass)
     assert bad.exit_code != 0 and bad.exception.field == "--set valve.cv", bad.output
