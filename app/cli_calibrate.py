@@ -179,17 +179,45 @@ def calibrate_tables(
     table_id: Annotated[int | None, typer.Option(
         "--table", parser=store_id, help="Show this table's rows: opening, flow and "
         "clearance, each in SI and as a technician reads it.")] = None,
+    refresh: Annotated[bool, typer.Option(
+        "--refresh", help="With --table: compute its computed clearances again against the "
+        "rig's latest version (a stale table), as PATCH with {} does.")] = False,
+    delete: Annotated[bool, typer.Option(
+        "--delete", help="With --table: delete the table and its rows.")] = False,
 ) -> None:
     """List a rig's throttle equivalence tables: condition, rows, clearances in µm, and
-    whether their computed clearances are stale (from an older rig version; an update,
-    PATCH /rigs/{id}/calibrations/{table} with {}, computes them again); --table ID: one
-    table's rows."""
-    from app.services.calibrations import get_calibration, is_stale, list_calibrations
+    whether their computed clearances are stale (from an older rig version; --table ID
+    --refresh computes them again); --table ID: one table's rows."""
+    from app.schemas.calibrations import CalibrationUpdate
+    from app.services.calibrations import (
+        delete_calibration,
+        get_calibration,
+        is_stale,
+        list_calibrations,
+        update_calibration,
+    )
     from app.services.rigs import get_rig
+    from app.services.throttle_estimator import ThrottleClearanceEstimator
 
+    if (refresh or delete) and table_id is None:
+        raise InputError("name the table: --table ID", field="--refresh" if refresh
+                         else "--delete")
+    if refresh and delete:
+        raise InputError("--refresh or --delete, one of them", field="--delete")
+    if delete:   # the refusals of a duplicate table said to delete it over HTTP alone
+        with store_session() as session:
+            delete_calibration(session, rig_id, int(table_id or 0))
+        _out.print(f"deleted throttle table {table_id} of rig {rig_id}")
+        return
     if table_id is not None:   # a technician could store a table but not read its rows back
         with store_session() as session:
-            one = _rows_table(get_calibration(session, rig_id, table_id), rig_id)
+            if refresh:
+                calibration = update_calibration(session, rig_id, table_id,
+                                                 CalibrationUpdate.model_validate({}),
+                                                 estimator=ThrottleClearanceEstimator())
+            else:
+                calibration = get_calibration(session, rig_id, table_id)
+            one = _rows_table(calibration, rig_id)
         _out.print(one)
         return
     with store_session() as session:

@@ -115,6 +115,46 @@ def show(
                else yaml.safe_dump(doc, sort_keys=False, allow_unicode=True), nl=as_json)
 
 
+@rigs_cli.command("series")
+def series(
+    rig_id: Annotated[int, typer.Argument(parser=store_id, help="Rig id in the store.")],
+    delete: Annotated[list[int] | None, typer.Option(
+        "--delete", parser=store_id, help="Delete this stored series (repeat), e.g. to "
+        "import its cycles again with a corrected condition.")] = None,
+) -> None:
+    """List the measured series stored with a rig (GET /rigs/{id}/series): id, name,
+    record, clock time, samples and stated condition; --delete ID removes series (the
+    refusals of a repeated import asked for DELETE /series/{id}, which the command line
+    could not do)."""
+    from app.services.rigs import get_rig
+    from app.services.series import delete_series, get_series, list_series
+
+    with store_session(existing=True) as session:
+        if delete:
+            get_rig(session, rig_id)
+            for series_id in delete:   # each of this rig's, checked before any is deleted
+                if get_series(session, series_id).rig_id != rig_id:
+                    raise InputError(f"series {series_id} is not rig {rig_id}'s",
+                                     field="--delete")
+            for series_id in delete:
+                delete_series(session, series_id)
+            _out.print(f"deleted {len(delete)} series of rig {rig_id}: "
+                       f"{', '.join(map(str, delete))}", markup=False)
+            return
+        rows, total = list_series(session, rig_id, limit=100_000, offset=0)
+        table = Table(title=f"{total} measured series of rig {rig_id}")
+        for column in ("id", "name", "record", "measured at (UTC)", "samples"):
+            table.add_column(column, overflow="fold")
+        table.add_column("condition", overflow="fold")
+        for row in rows:
+            at = "—" if row.measured_at is None else row.measured_at.isoformat(
+                timespec="seconds")
+            table.add_row(str(row.id), escape(row.name), escape(row.record), at,
+                          str(row.n_samples), escape(", ".join(
+                              f"{k}={v:g}" for k, v in (row.condition or {}).items())))
+    _out.print(table)
+
+
 @rigs_cli.command("rediagnose")
 def rediagnose(
     rig_id: Annotated[int, typer.Argument(parser=store_id, help="Rig id in the store.")],

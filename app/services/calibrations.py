@@ -178,7 +178,9 @@ def _check_condition_free(
             f"rig {calibration.rig_id} already has a table for throttle "
             f"{calibration.throttle!r} at {back_pressure:g} Pa and {temperature:g} °C "
             f"(calibration {existing}); update that one "
-            f"(PATCH /rigs/{calibration.rig_id}/calibrations/{existing}) or delete it first",
+            f"(PATCH /rigs/{calibration.rig_id}/calibrations/{existing}) or delete it first "
+            f"(DELETE there; hydrodiag calibrate tables --rig {calibration.rig_id} --table "
+            f"{existing} --delete)",
             field="throttle",
         )
 

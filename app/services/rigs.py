@@ -222,6 +222,7 @@ def delete_rig(session: Session, rig_id: int) -> None:
     if series:
         raise ConflictError(
             f"rig {rig_id} has {series} measured series (GET /rigs/{rig_id}/series); delete "
-            "them first (DELETE /series/{id})", field="rig_id")
+            f"them first (DELETE /series/{{id}}; hydrodiag rigs series {rig_id} --delete ID)",
+            field="rig_id")
     session.delete(rig)
     commit(session, conflict=f"rig {rig_id} is in use")

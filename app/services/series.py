@@ -161,14 +161,15 @@ def _refuse_stored_twice(session: Session, rig_id: int, name: str,
             # samples; say so, and how to replace it (a discrepancy pass)
             restated = (f"; series {first.id} states the condition {dict(first.condition)}, "
                         f"this import {dict(new.condition)}: to correct a stated condition, "
-                        f"delete series {first.id} (DELETE /series/{first.id}) and import "
-                        "again")
+                        f"delete series {first.id} (DELETE /series/{first.id}; hydrodiag "
+                        f"rigs series {rig_id} --delete {first.id}) and import again")
         raise ConflictError(
             f"{len(found)} of these records are stored already for rig {rig_id}, the same "
             f"samples (series {ids}; the first as {first.name!r}, record {first.record!r}): "
             f"nothing to import under {name!r} (stored twice, a cycle would count twice in a "
             "discrepancy check); to import them again, delete those series first (DELETE "
-            "/series/{id})" + restated, field="file")
+            f"/series/{{id}}; hydrodiag rigs series {rig_id} --delete ID)" + restated,
+            field="file")
     return looked
 
 

@@ -70,6 +70,7 @@ def test_native_rate_cycles_are_stored_at_their_rate_and_average_to_the_1hz_file
                                 "again"])
     # (every cycle of it: the table counts them from the file's start, the store from 0)
     assert again.exit_code != 0 and "3 of these records are stored" in str(again.exception)
+    assert "hydrodiag rigs series 2 --delete" in " ".join(str(again.exception).split())
     assert store_count(MeasuredSeries) == 3
     # a cycle not stored yet, written as Parquet and imported through the series path,
     # keeps its rate, values and clock time
@@ -90,6 +91,16 @@ def test_native_rate_cycles_are_stored_at_their_rate_and_average_to_the_1hz_file
     blocks = as_record(row).channel("p_pump").reshape(NATIVE_SLICE_S, 100).mean(axis=1)
     np.testing.assert_allclose(blocks, data.sensors["PS1"][0, :NATIVE_SLICE_S] * 1e5,
                                rtol=1e-12)
+    # its remedy can be taken on the command line (it named DELETE /series/{id} alone: a
+    # CLI pass): the rig's series listed, one deleted, one of another rig refused
+    listed = runner.invoke(cli, ["rigs", "series", "2"], terminal_width=200)
+    assert listed.exit_code == 0 and "4 measured series of rig 2" in listed.stdout
+    first = min(_stored("native").values(), key=lambda r: r.id).id
+    other = runner.invoke(cli, ["rigs", "series", "1", "--delete", str(first)])
+    assert getattr(other.exception, "field", None) == "--delete"
+    assert store_count(MeasuredSeries) == 4
+    gone = runner.invoke(cli, ["rigs", "series", "2", "--delete", str(first)])
+    assert gone.exit_code == 0 and store_count(MeasuredSeries) == 3, gone.output
 
 
 def test_native_import_refuses_a_range_without_raw_cycles(runner: CliRunner,

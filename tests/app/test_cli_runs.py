@@ -251,6 +251,7 @@ def test_calibrate_pump_and_throttle(runner: CliRunner, tmp_path: Path) -> None:
     assert "[l/min]" in throttle.stdout and "[µm]" in throttle.stdout
     assert re.search(r"\b1e-05\s+│\s+0\.6\s+│", throttle.stdout), throttle.stdout
     assert store_count(ThrottleCalibration) == before + 1
+    original = table.read_text()
     # flows typed in l/min: refused with the field and the pump's delivery, nothing stored
     table.write_text(yaml.safe_dump({
         "throttle": "J", "component": "valve", "back_pressure_pa": 1.0e6,
@@ -276,6 +277,21 @@ def test_calibrate_pump_and_throttle(runner: CliRunner, tmp_path: Path) -> None:
     assert rows.stdout == throttle.stdout          # the table the store command printed
     missing = runner.invoke(cli, ["calibrate", "tables", "--rig", "1", "--table", "999"])
     assert missing.exit_code != 0
+    # a duplicate's refusal names the command line's remedy too, which now exists (it
+    # named PATCH and DELETE alone: a CLI pass); --refresh computes the rows again
+    table.write_text(original)
+    twice = runner.invoke(cli, ["calibrate", "throttle", str(table), "--rig", "1"])
+    assert twice.exit_code != 0
+    assert f"--table {stored} --delete" in " ".join(str(twice.exception).split())
+    refreshed = runner.invoke(cli, ["calibrate", "tables", "--rig", "1", "--table",
+                                    str(stored), "--refresh"])
+    assert refreshed.exit_code == 0 and refreshed.stdout == throttle.stdout, refreshed.output
+    alone = runner.invoke(cli, ["calibrate", "tables", "--rig", "1", "--delete"])
+    assert getattr(alone.exception, "field", None) == "--delete"
+    deleted = runner.invoke(cli, ["calibrate", "tables", "--rig", "1", "--table",
+                                  str(stored), "--delete"])
+    assert deleted.exit_code == 0, deleted.output
+    assert store_count(ThrottleCalibration) == before
 
 
 def test_calibrate_pump_on_a_real_single_temperature_map(runner: CliRunner, tmp_path: Path,
