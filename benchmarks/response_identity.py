@@ -8,7 +8,8 @@ numbers, ``{value, u}`` and ``{value, bound}`` readings), stored and not, ``comp
 single records, ``records`` batches each and joint, with and without ``measured_at``,
 ``rig_version`` stated, ``Idempotency-Key`` (first and replayed), and refused ones (a twin
 of a stored record, an unknown rig, a malformed body, a joint batch of two rigs, a record
-no rig can have), then reads ``/openapi.json`` and ``/health`` — and pickles each answer's
+no rig can have), then ``GET`` and ``PUT /diagnose`` (405),
+``/openapi.json`` and ``/health`` — and pickles each answer's
 status, content type, replay header and body, and a dump of every table the requests
 write (``measurements``, ``diagnoses``, ``diagnosis_records``, ``diagnosis_estimates``,
 ``idempotent_requests``);
@@ -180,9 +181,10 @@ def outputs() -> dict[str, Any]:
             answers.append((r.status_code, r.headers.get("content-type"),
                             r.headers.get("idempotent-replayed"),
                             _normal_bytes(r.content, now)))
-        for path in ("/openapi.json", "/health"):  # the routes' table: the same document
-            r = http.get(path)
-            answers.append((r.status_code, r.headers.get("content-type"), None,
+        for method, path in (("GET", "/diagnose"), ("PUT", "/diagnose"),  # 405, its Allow
+                             ("GET", "/openapi.json"), ("GET", "/health")):
+            r = http.request(method, path)
+            answers.append((r.status_code, r.headers.get("content-type"), r.headers.get("allow"),
                             _normal_bytes(r.content, now)))
         tables = _dump(Path(folder), now)
     return {"answers": answers, "tables": tables}
