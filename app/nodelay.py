@@ -30,11 +30,13 @@ __all__ = ["BODY_GRACE_S", "FIRST_REQUEST_S", "MIN_BODY_RATE", "NoDelayH11Protoc
 FIRST_REQUEST_S = 10.0
 #: a request's body may take this long [s] ...
 BODY_GRACE_S = 10.0
-#: ... plus its length at this rate [bytes/s] (a 1 MiB upload over a 32 kbit/s field link
-#: has 256 s more); past that the connection is closed: a body sent a byte a second held
-#: its connection and worker task for as long as the client liked (an SRE pass left it to
-#: a proxy).  The time the service itself does not read (its buffer full, a ``100
-#: Continue`` not yet sent) does not count.
+#: ... plus what of it has come at this rate [bytes/s]: past that the connection is closed,
+#: so a body must keep coming at 4 KiB/s on average after its first 10 s (a 32 kbit/s field
+#: link does).  A body sent a byte a second held its connection and worker task for as long
+#: as the client liked (an SRE pass left it to a proxy); counting the length it declared
+#: instead of what came still let one hold it 34 min on an 8 MB Content-Length (a
+#: verification pass).  The time the service itself does not read (its buffer full, a
+#: ``100 Continue`` not yet sent) does not count.
 MIN_BODY_RATE = 4096.0
 
 
@@ -74,7 +76,7 @@ class NoDelayHttpToolsProtocol(HttpToolsProtocol):
     :data:`FIRST_REQUEST_S` after the connection opened or the request began: a silent
     connection, and one that sent a byte or half a header and stopped (600 of those still
     held every descriptor until /health failed: a verification pass); and one whose body
-    comes slower than :data:`BODY_GRACE_S` plus its length at :data:`MIN_BODY_RATE`."""
+    comes slower than :data:`MIN_BODY_RATE` on average after :data:`BODY_GRACE_S`."""
 
     _head_due: asyncio.TimerHandle | None = None
     _body_due: asyncio.TimerHandle | None = None
@@ -127,9 +129,9 @@ class NoDelayHttpToolsProtocol(HttpToolsProtocol):
         super().on_message_complete()
 
     def _body_deadline(self) -> float:
-        """When the body must be in [loop time]: a chunked body's length is what came."""
-        return (self._body_started + BODY_GRACE_S
-                + max(self._body_length, self._body_received) / MIN_BODY_RATE)
+        """When more of the body must have come [loop time]: what came buys time at
+        :data:`MIN_BODY_RATE`, what was declared does not."""
+        return self._body_started + BODY_GRACE_S + self._body_received / MIN_BODY_RATE
 
     def _body_check(self) -> None:
         self._body_due = None
