@@ -12,6 +12,7 @@ from collections.abc import Sequence
 from diagnostics.measurement import MeasurementRecord
 from diagnostics.ranking import Method, check_method
 from sim.errors import MeasurementError, ParameterError
+from sim.numbers import field_number
 from sim.rigs.assembly import require_rig
 
 __all__ = ["check_arguments"]
@@ -60,7 +61,11 @@ def check_arguments(rig: object, records: object, model_rel: object, method: obj
                 f"records are MeasurementRecord objects (MeasurementRecord.from_readings("
                 f"rig_id, condition, readings)), not a {type(rec).__name__}",
                 field=f"records[{i}]")
-    if not (isinstance(model_rel, int | float) and 0.0 <= model_rel < 1.0):
+    # the numbers every other argument takes (a numpy float; not a bool: a verification
+    # pass found np.float32(0.02) refused and False taken)
+    rel = field_number(model_rel, "model_rel", error=ParameterError,
+                       expected="the model's relative error, in [0, 1),")
+    if not 0.0 <= rel < 1.0:
         # unchecked, −1, inf or 5 turned a worn spool into "healthy" (a library user's pass)
         raise ParameterError(f"model_rel is the model's relative error, in [0, 1), not "
                              f"{model_rel!r}", field="model_rel")

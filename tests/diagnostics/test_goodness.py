@@ -197,14 +197,24 @@ def test_an_oil_temperature_stated_in_fahrenheit_is_named_among_the_causes(rig):
     assert "a stated condition that is wrong (an oil temperature in °F" in text
 
 
-@pytest.mark.parametrize("model_rel", [-1.0, float("inf"), 5.0, float("nan")])
+@pytest.mark.parametrize("model_rel", [-1.0, float("inf"), 5.0, float("nan"), False, "0.02"])
 def test_a_model_error_that_means_nothing_is_refused(rig, model_rel: float) -> None:
-    """−1, inf or 5 turned a worn spool into "healthy" (a library user's pass)."""
+    """−1, inf or 5 turned a worn spool into "healthy" (a library user's pass); a bool or
+    a string is no number (False was taken: a verification pass)."""
     from sim.errors import ParameterError
 
     with pytest.raises(ParameterError) as caught:
         diagnose(rig, [record(rig, {"valve.cv": 59e-6})], model_rel=model_rel)
     assert caught.value.field == "model_rel"
+
+
+def test_a_model_error_given_as_a_numpy_number_is_taken(rig) -> None:
+    """``np.float32(0.02)`` was refused where every other argument takes numpy numbers."""
+    import numpy as np
+
+    worn = [record(rig, {"valve.cv": 59e-6})]
+    assert diagnose(rig, worn, model_rel=np.float32(0.02)).answer == \
+        diagnose(rig, worn, model_rel=0.02).answer
 
 
 def test_the_readmes_python_example_answers_valve(rig):
