@@ -20,7 +20,7 @@ from rich.table import Table
 from sqlalchemy import Engine
 from sqlalchemy.orm import Session
 
-from app.db.engine import make_engine, make_session_factory
+from app.db.engine import make_engine, make_session_factory, sqlite_path
 from app.schemas.common import MAX_ID
 from app.settings import Settings
 from sim.errors import HydrodiagError, InputError
@@ -118,8 +118,8 @@ def migrated_engine(*, existing: bool = False) -> Engine:
 
         existing_store(url, field="HYDRODIAG_DATA_DIR" if settings.database_url is None
                        else "HYDRODIAG_DATABASE_URL")
-    fresh = (url.get_backend_name() == "sqlite" and url.database is not None
-             and not Path(url.database).exists())
+    file = sqlite_path(url) if url.get_backend_name() == "sqlite" else None
+    fresh = file is not None and not file.exists()
     engine = make_engine(url)
     try:
         with bootstrap_lock(engine):

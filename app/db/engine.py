@@ -29,7 +29,7 @@ from sqlalchemy.orm import Session, sessionmaker
 from sim.errors import InputError
 
 __all__ = ["SessionFactory", "dumps_json", "lift_timeouts", "loads_json", "make_engine",
-           "make_session_factory", "ping", "private_file"]
+           "make_session_factory", "ping", "private_file", "sqlite_path"]
 
 SessionFactory = sessionmaker[Session]
 
@@ -98,6 +98,22 @@ def private_file(path: Path, mode: int = 0o600) -> None:
         return
 
 
+def sqlite_path(url: URL) -> Path | None:
+    """The file of an SQLite store's ``url``: None for an in-memory store, the path of a
+    URI filename (``sqlite:///file:/srv/h.db?mode=ro&uri=true``).  Taken as a plain path,
+    ``file:/srv/h.db`` made a folder ``file:`` in the current one and an empty ``:memory:``
+    file there (a verification pass found one in the repository after the tests)."""
+    database = url.database
+    if not database or database == ":memory:" or url.query.get("mode") == "memory" \
+            or database.startswith("file::memory:"):
+        return None
+    if database.startswith("file:"):
+        from urllib.parse import unquote, urlsplit
+
+        return Path(unquote(urlsplit(database).path))
+    return Path(database)
+
+
 def make_engine(url: URL, *, lock_timeout_s: float | None = None) -> Engine:
     """Create the engine for ``url``.
 
@@ -117,15 +133,15 @@ def make_engine(url: URL, *, lock_timeout_s: float | None = None) -> Engine:
         An engine whose connections are configured for the service (see module docstring).
     """
     if url.get_backend_name() == "sqlite":
-        if url.database:
-            folder = Path(url.database).parent
+        if (path := sqlite_path(url)) is not None:
+            folder = path.parent
             try:
                 folder.mkdir(parents=True, exist_ok=True)
             except OSError as exc:  # a 101-line traceback (an operator's pass)
                 raise InputError(f"cannot make the data folder {folder} ({exc.strerror}): "
                                  "set HYDRODIAG_DATA_DIR to a folder this user can write",
                                  field="HYDRODIAG_DATA_DIR") from None
-            private_file(Path(url.database))
+            private_file(path)
         engine = create_engine(url, connect_args={"check_same_thread": False},
                                pool_size=SQLITE_POOL_SIZE, max_overflow=SQLITE_POOL_OVERFLOW,
                                json_serializer=dumps_json, json_deserializer=loads_json)

@@ -15,7 +15,7 @@ from sqlalchemy.exc import DatabaseError
 from sqlalchemy.orm import Session
 
 from app.db import migrate
-from app.db.engine import lift_timeouts
+from app.db.engine import lift_timeouts, sqlite_path
 from app.db.models import ThrottleCalibration
 from app.reference_data import REFERENCE_CALIBRATIONS, REFERENCE_RIG_NAME
 from app.schemas.calibrations import CalibrationCreate, CalibrationPointIn
@@ -74,13 +74,13 @@ def bootstrap_lock(engine: Engine) -> Iterator[None]:
                 connection.execute(text("SELECT pg_advisory_unlock(:k)"), {"k": _LOCK_KEY})
                 connection.commit()
         return
-    database = url.database
-    if not database or database == ":memory:" or database.startswith("file::memory:"):
+    database = sqlite_path(url)
+    if database is None:
         yield
         return
     import fcntl
 
-    lock_path = Path(database).with_name(Path(database).name + ".bootstrap-lock")
+    lock_path = database.with_name(database.name + ".bootstrap-lock")
     lock_path.parent.mkdir(parents=True, exist_ok=True)
     with lock_path.open("a") as handle:
         fcntl.flock(handle, fcntl.LOCK_EX)

@@ -426,10 +426,19 @@ def test_a_store_that_cannot_serve_is_named_in_one_line_at_start(tmp_path: Path,
     engine = make_engine(make_url(f"sqlite:///{fresh}"))
     migrate.upgrade(engine)
     engine.dispose()
+    elsewhere = tmp_path / "cwd"
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)   # a URI filename was read as a relative path: "file:/…"
     read_only = make_engine(make_url(f"sqlite:///file:{fresh}?mode=ro&uri=true"))
     with pytest.raises(InputError, match="is read-only"):
         upgrade_database(read_only)
     read_only.dispose()
+    assert list(elsewhere.iterdir()) == []
+    from app.db.engine import sqlite_path
+
+    assert sqlite_path(make_url(f"sqlite:///file:{fresh}?mode=ro&uri=true")) == fresh
+    assert sqlite_path(make_url("sqlite:///file::memory:?uri=true")) is None
+    assert sqlite_path(make_url("sqlite:///:memory:")) is None
 
 
 @pytest.mark.skipif(postgres.unavailable_reason() is not None,
