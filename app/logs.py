@@ -32,8 +32,10 @@ from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 __all__ = [
     "ACCESS_LOGGER",
+    "CLIENT_CLOSED",
     "MAX_REQUEST_ID_LENGTH",
     "REQUEST_ID_HEADER",
+    "AnswerWatch",
     "JsonFormatter",
     "RequestLogMiddleware",
     "configure_logging",
@@ -93,6 +95,40 @@ def _key_id_of(scope: Scope) -> int | None:
     return key_id if isinstance(key_id, int) else None
 
 
+#: the status logged and counted for a request whose client went away before its answer
+#: began (nginx's "client closed request"): a body cut off as too slow (app.nodelay) was
+#: logged as the 422 the app then tried to send, with no key (a verification pass)
+CLIENT_CLOSED = 499
+
+
+class AnswerWatch:
+    """What a request's client got: :attr:`status` is the answer's status, or
+    :data:`CLIENT_CLOSED` when the client had gone before the answer began (its
+    ``http.disconnect`` came while the app read the body); the wrapped :meth:`receive` and
+    :meth:`send` are handed to the app."""
+
+    def __init__(self, receive: Receive, send: Send) -> None:
+        self._receive = receive
+        self._send = send
+        self.status = 500
+        self._gone = False
+        self._started = False
+
+    async def receive(self) -> Message:
+        """The client's next message, noting a disconnect before the answer."""
+        message = await self._receive()
+        if message["type"] == "http.disconnect" and not self._started:
+            self._gone = True
+        return message
+
+    async def send(self, message: Message) -> None:
+        """Pass ``message`` on, noting the answer's status."""
+        if message["type"] == "http.response.start":
+            self._started = True
+            self.status = CLIENT_CLOSED if self._gone else int(message["status"])
+        await self._send(message)
+
+
 class RequestLogMiddleware:
     """ASGI middleware: request id in, request id out, one access line per request.
 
@@ -116,22 +152,21 @@ class RequestLogMiddleware:
         request_id = _accepted_id(scope)
         scope.setdefault("state", {})["request_id"] = request_id
         token = _current.set(request_id)
-        status = 500
         start = time.perf_counter()
 
         async def send_with_id(message: Message) -> None:
-            nonlocal status
             if message["type"] == "http.response.start":
-                status = int(message["status"])
                 headers = [(k, v) for k, v in message.get("headers", []) if k.lower() != _HEADER]
                 headers.append((_HEADER, request_id.encode("ascii")))
                 message = {**message, "headers": headers}
             await send(message)
 
+        watch = AnswerWatch(receive, send_with_id)
         try:
-            await self.app(scope, receive, send_with_id)
+            await self.app(scope, watch.receive, watch.send)
         finally:
             _current.reset(token)
+            status = watch.status
             if self.log:
                 duration_ms = (time.perf_counter() - start) * 1e3
                 method, route = str(scope.get("method", "")), _route_of(scope)

@@ -27,7 +27,9 @@ from typing import Any
 
 from prometheus_client import CollectorRegistry, Counter, Histogram, generate_latest
 from starlette.routing import BaseRoute, Match, Route
-from starlette.types import ASGIApp, Message, Receive, Scope, Send
+from starlette.types import ASGIApp, Receive, Scope, Send
+
+from app.logs import AnswerWatch
 
 __all__ = ["MULTIPROCESS_DIR", "STARTED", "HttpMetrics", "MetricsMiddleware", "exposition",
            "shared_metrics"]
@@ -191,19 +193,12 @@ class MetricsMiddleware:
         if scope["type"] != "http":
             await self.app(scope, receive, send)
             return
-        status = 500
         start = time.perf_counter()
         scope.setdefault("state", {})[STARTED] = start  # request.state.<STARTED>
-
-        async def send_and_watch(message: Message) -> None:
-            nonlocal status
-            if message["type"] == "http.response.start":
-                status = int(message["status"])
-            await send(message)
-
+        watch = AnswerWatch(receive, send)   # a client gone before its answer: 499
         try:
-            await self.app(scope, receive, send_and_watch)
+            await self.app(scope, watch.receive, watch.send)
         finally:
             route, method = _route_of(scope), str(scope.get("method", ""))
             self.metrics.latency.labels(method, route).observe(time.perf_counter() - start)
-            self.metrics.requests.labels(method, route, str(status)).inc()
+            self.metrics.requests.labels(method, route, str(watch.status)).inc()

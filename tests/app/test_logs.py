@@ -181,3 +181,47 @@ def test_the_service_log_follows_standard_error_when_it_is_replaced(
         logger.handlers[:] = saved[0]
         logger.setLevel(saved[1])
         logger.propagate = saved[2]
+
+
+def test_a_client_gone_before_its_answer_is_logged_and_counted_as_499(
+        caplog: pytest.LogCaptureFixture) -> None:
+    """A body cut off as too slow (app.nodelay) was logged and counted as the 422 the app
+    then tried to send, with no key (a verification pass): a client that went away while
+    its body was read is 499, nginx's "client closed request"; one that stayed gets the
+    app's status."""
+    import asyncio
+
+    from app.logs import ACCESS_LOGGER, CLIENT_CLOSED, RequestLogMiddleware
+    from app.metrics import HttpMetrics, MetricsMiddleware
+
+    async def app(scope: Any, receive: Any, send: Any) -> None:   # reads, then refuses
+        while (await receive()).get("more_body"):
+            pass
+        await send({"type": "http.response.start", "status": 422, "headers": []})
+        await send({"type": "http.response.body", "body": b"{}"})
+
+    metrics = HttpMetrics()
+    stack = RequestLogMiddleware(MetricsMiddleware(app, metrics))
+
+    def run(messages: list[dict[str, Any]]) -> None:
+        queue = list(messages)
+
+        async def receive() -> dict[str, Any]:
+            return queue.pop(0)
+
+        async def send(message: dict[str, Any]) -> None:
+            pass
+
+        scope = {"type": "http", "method": "POST", "path": "/diagnose", "headers": [],
+                 "query_string": b""}
+        asyncio.run(stack(scope, receive, send))
+
+    with caplog.at_level("INFO", logger=ACCESS_LOGGER):
+        run([{"type": "http.request", "body": b"{", "more_body": True},
+             {"type": "http.disconnect"}])
+        run([{"type": "http.request", "body": b"{}", "more_body": False}])
+    statuses = [r.status for r in caplog.records if r.name == ACCESS_LOGGER]  # type: ignore[attr-defined]
+    assert statuses == [CLIENT_CLOSED, 422]
+    counted = {s.labels["status"]: s.value for m in metrics.registry.collect()
+               for s in m.samples if s.name.endswith("requests_total")}
+    assert counted == {"499": 1.0, "422": 1.0}
