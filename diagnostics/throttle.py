@@ -122,6 +122,11 @@ class CalibrationTable:
     def __post_init__(self) -> None:
         if self.component not in ("cylinder", "valve"):
             raise InputError(f"unknown component {self.component!r}", field="component")
+        if isinstance(self.rows, str) or not hasattr(self.rows, "__iter__"):
+            raise InputError("rows are a sequence of CalibrationRow", field="rows")
+        # kept as a tuple: a generator was used up by these checks and left no rows, a
+        # list made the frozen table unhashable (a verification pass)
+        object.__setattr__(self, "rows", tuple(self.rows))
         if not self.rows:
             raise InputError("a calibration table needs at least one row", field="rows")
         for i, row in enumerate(self.rows):

@@ -253,3 +253,18 @@ def test_columns_may_be_any_sized_sequence_but_not_text() -> None:
     with pytest.raises(InputError) as caught:
         table_from_columns("valve", "closed", [0.0], [1e-5], back_pressure=1e6)
     assert caught.value.field == "openings"
+
+
+def test_a_table_keeps_its_rows_however_they_are_given() -> None:
+    """A generator of rows was used up by the table's own checks and left it empty; a list
+    made the frozen table unhashable (a verification pass): the rows are kept as a tuple."""
+    from diagnostics.throttle import CalibrationRow, CalibrationTable
+
+    rows = [CalibrationRow("H", 0.5 * k, 1e-5 * (k + 1)) for k in range(3)]
+    for given in (iter(rows), list(rows), tuple(rows)):
+        table = CalibrationTable("valve", given, 1.0e6, 40.0)  # type: ignore[arg-type]
+        assert table.rows == tuple(rows)
+        hash(table)
+    with pytest.raises(InputError) as refused:
+        CalibrationTable("valve", 5, 1.0e6, 40.0)  # type: ignore[arg-type]
+    assert refused.value.field == "rows"
