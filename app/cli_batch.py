@@ -205,7 +205,8 @@ def diagnose_batch(
                 results = diagnose_many(
                     resolved[rig_id_].rig, [r for _, _, r in group], progress=tick, full=full,
                     executor=executor,
-                    workers=None if executors is None else executors.capacity())
+                    workers=None if executors is None else executors.capacity(),
+                    waiting=None if executors is None else executors.waiting())
                 answered += [(n, item, r) for (n, item, _), r
                              in zip(group, results, strict=True)]
     finally:

@@ -398,7 +398,8 @@ def sweep(
             task = progress.add_task(f"{len(plan.points)} scenarios on {executors.kind}",
                                      total=1.0)
             result = run_sweep(plan, executors.get(),
-                               lambda done, note: progress.update(task, completed=done))
+                               lambda done, note: progress.update(task, completed=done),
+                               executors.waiting())
     finally:
         executors.shutdown()
     if output.suffix.lower() == ".json":

@@ -16,9 +16,9 @@ This module imports only :mod:`diagnostics` and :mod:`sim`: a worker loads no se
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping, Sequence
-from concurrent.futures import Executor, Future, as_completed
-from typing import Any
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from concurrent.futures import FIRST_COMPLETED, Executor, Future, wait
+from typing import Any, TypeVar
 
 from diagnostics.diagnose import Diagnosis, diagnose
 from diagnostics.measurement import MeasurementRecord
@@ -27,7 +27,26 @@ from sim.errors import HydrodiagError
 from sim.rigs import Rig
 from sim.rigs.process_cache import rig_of_document
 
-__all__ = ["diagnose_chunk", "diagnose_many", "summary"]
+__all__ = ["WAIT_S", "as_done", "diagnose_chunk", "diagnose_many", "summary"]
+
+#: how often :func:`as_done` calls its ``waiting`` while no future completes [s]
+WAIT_S = 1.0
+
+_T = TypeVar("_T")
+
+
+def as_done(futures: Iterable[Future[_T]], waiting: Callable[[], None] | None = None
+            ) -> Iterator[Future[_T]]:
+    """The futures as they complete (:func:`concurrent.futures.as_completed`), calling
+    ``waiting`` every :data:`WAIT_S` while none does: a cancel asked of a job, or a Dask
+    cluster left without a worker, raises there.  A sweep whose workers had all gone
+    waited at 0 % for ever, and its cancel did nothing (a Dask pass)."""
+    pending = set(futures)
+    while pending:
+        done, pending = wait(pending, timeout=WAIT_S, return_when=FIRST_COMPLETED)
+        if not done and waiting is not None:
+            waiting()
+        yield from done
 
 #: progress callback: (records done, records in all)
 Progress = Callable[[int, int], None]
@@ -85,8 +104,8 @@ def diagnose_chunk(document: Mapping[str, Any], records: Sequence[MeasurementRec
 def diagnose_many(rig: Rig, records: Sequence[MeasurementRecord], *,
                   executor: Executor | None = None, progress: Progress | None = None,
                   chunk_size: int | None = None, full: bool = False,
-                  method: Method | None = None, workers: int | None = None
-                  ) -> list[dict[str, Any]]:
+                  method: Method | None = None, workers: int | None = None,
+                  waiting: Callable[[], None] | None = None) -> list[dict[str, Any]]:
     """Diagnose each record on its own; results in the order of ``records``.
 
     Parameters
@@ -109,6 +128,9 @@ def diagnose_many(rig: Rig, records: Sequence[MeasurementRecord], *,
         Whole :meth:`Diagnosis.to_dict` results instead of :func:`summary`.
     method
         ``"fast"`` (default) or ``"direct"`` (:class:`~diagnostics.ranking.Ranker`).
+    waiting
+        With an executor, called every second while no chunk completes; what it raises
+        ends the wait (:func:`as_done`).
     """
     total = len(records)
     if executor is None:
@@ -129,7 +151,7 @@ def diagnose_many(rig: Rig, records: Sequence[MeasurementRecord], *,
         futures[fut] = start
     results: list[dict[str, Any] | None] = [None] * total
     done = 0
-    for fut in as_completed(futures):
+    for fut in as_done(futures, waiting):
         start = futures[fut]
         chunk = fut.result()
         results[start:start + len(chunk)] = chunk

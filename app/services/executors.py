@@ -10,9 +10,13 @@ so one code path serves both kinds:
 * **Dask** — when ``HYDRODIAG_DASK_SCHEDULER`` names a scheduler (``tcp://host:8786``) and
   ``dask.distributed`` is importable, a :class:`distributed.Client` connects to it and its
   ``get_executor()`` is used: a genuine ``concurrent.futures.Executor`` whose futures work
-  with ``as_completed``.  The workers need hydrodiag installed (they import
-  :mod:`app.services.sweep_worker`, which loads only ``sim``).  Without the package the
-  setting is ignored with a warning and the local pool is used.
+  with ``as_completed``.  The workers need this hydrodiag installed (they import
+  :mod:`app.services.sweep_worker`, which loads only ``sim``): at connection each worker's
+  code fingerprint is compared with the service's and a cluster without a worker refused
+  (:func:`_checked_workers`); a client the scheduler's absence closed is connected again
+  (:meth:`SweepExecutors.get`); while results do not come, :meth:`SweepExecutors.check`
+  fails work whose cluster has lost every worker.  Without the package the setting is
+  ignored with a warning and the local pool is used.
 """
 
 from __future__ import annotations
@@ -22,14 +26,70 @@ import logging
 import multiprocessing
 import os
 import threading
+import time
+from collections.abc import Callable
 from concurrent.futures import Executor, ProcessPoolExecutor
 from typing import Any, Literal
 
+from app.errors import ServiceUnavailableError
 from app.lifeline import exit_with_parent
 
-__all__ = ["ExecutorKind", "SweepExecutors", "dask_available"]
+__all__ = ["CONNECT_TIMEOUT_S", "NO_WORKER_S", "ExecutorKind", "SweepExecutors",
+           "dask_available"]
 
 logger = logging.getLogger("hydrodiag.app")
+
+#: how long a connection to the Dask scheduler may take [s] (Dask's default 30 s held
+#: each job, one after the other, and a SIGTERM past docker's 10 s: a Dask pass)
+CONNECT_TIMEOUT_S = 5.0
+#: how long work waits on a cluster without a worker before it fails [s]
+NO_WORKER_S = 30.0
+
+
+def _connected(scheduler: str) -> Any:
+    """A client of the Dask scheduler at ``scheduler`` whose workers run this code."""
+    from distributed import Client
+
+    try:
+        client = Client(scheduler, timeout=CONNECT_TIMEOUT_S)
+    except (OSError, TimeoutError) as exc:   # "internal error; see the service log" before
+        raise ServiceUnavailableError(
+            f"the Dask scheduler {scheduler} does not answer ({exc}); start it or correct "
+            "HYDRODIAG_DASK_SCHEDULER", field="HYDRODIAG_DASK_SCHEDULER") from None
+    try:
+        _checked_workers(client, scheduler)
+    except BaseException:
+        client.close()
+        raise
+    return client
+
+
+def _checked_workers(client: Any, scheduler: str) -> None:
+    """Refuse a cluster without a worker, one whose workers cannot import hydrodiag, or
+    one whose workers run other hydrodiag code (:func:`~app.services.code_version.
+    code_fingerprint`): such a worker died on its first task and the work waited for
+    ever, or answered other numbers without a word (a Dask pass)."""
+    from app.services.code_version import code_fingerprint
+
+    if not client.nthreads():
+        raise ServiceUnavailableError(
+            f"the Dask cluster at {scheduler} has no worker: start workers (dask worker "
+            f"{scheduler}) where this hydrodiag is installed", field="HYDRODIAG_DASK_SCHEDULER")
+    try:
+        theirs: dict[str, str] = client.run(code_fingerprint)
+    except Exception as exc:  # a worker's failure, whatever it raised
+        raise ServiceUnavailableError(
+            f"a worker of the Dask cluster at {scheduler} cannot run hydrodiag "
+            f"({type(exc).__name__}: {exc}); install this hydrodiag on every worker",
+            field="HYDRODIAG_DASK_SCHEDULER") from None
+    ours = code_fingerprint()
+    other = sorted(worker for worker, print_ in theirs.items() if print_ != ours)
+    if other:
+        raise ServiceUnavailableError(
+            f"{len(other)} of {len(theirs)} workers of the Dask cluster at {scheduler} run "
+            f"other hydrodiag code than this service ({', '.join(other[:3])}): their "
+            "results would differ; install the same version on every worker",
+            field="HYDRODIAG_DASK_SCHEDULER")
 
 ExecutorKind = Literal["processes", "dask"]
 
@@ -60,6 +120,7 @@ class SweepExecutors:
         self._lock = threading.Lock()
         self._executor: Executor | None = None
         self._client: Any = None
+        self._empty_since: float | None = None
 
     @property
     def kind(self) -> ExecutorKind:
@@ -67,14 +128,28 @@ class SweepExecutors:
         return "dask" if self._scheduler is not None else "processes"
 
     def get(self) -> Executor:
-        """Return the executor, starting the pool or connecting to Dask the first time."""
+        """Return the executor, starting the pool or connecting to Dask the first time.
+
+        Raises
+        ------
+        ServiceUnavailableError
+            The Dask scheduler does not answer, its cluster has no worker, or a worker
+            cannot run this hydrodiag code or runs other code (:func:`_checked_workers`).
+        """
         with self._lock:
+            if self._client is not None and self._client.status not in ("running",
+                                                                        "connecting"):
+                # a scheduler away past the client's reconnect window closed the client
+                # for good: every later sweep failed at once as "internal error" until a
+                # restart (a Dask pass); connect again
+                logger.warning("the Dask client to %s had closed; connecting again",
+                               self._scheduler)
+                self._client, self._executor = None, None
             if self._executor is None:
                 if self._scheduler is not None:
-                    from distributed import Client
-
-                    self._client = Client(self._scheduler)
+                    self._client = _connected(self._scheduler)
                     self._executor = self._client.get_executor()
+                    self._empty_since = None
                 else:
                     # each pool process ends itself once this process is gone: after a
                     # kill -9 of the service, the four sweep processes (~350 MB each) and
@@ -85,6 +160,41 @@ class SweepExecutors:
                         initializer=exit_with_parent, initargs=(os.getpid(),),
                     )
             return self._executor
+
+    def check(self) -> None:
+        """Raise when work sent to the Dask cluster cannot finish: its client closed, or no
+        worker for :data:`NO_WORKER_S` (a sweep whose workers had all gone waited at 0 %
+        for ever: a Dask pass).  Called while waiting for results; nothing for a local
+        pool."""
+        with self._lock:
+            client = self._client
+        if client is None:
+            return
+        if client.status not in ("running", "connecting"):
+            raise ServiceUnavailableError(
+                f"lost the Dask scheduler {self._scheduler} while the work ran; submit it "
+                "again", field="HYDRODIAG_DASK_SCHEDULER")
+        now = time.monotonic()
+        if client.nthreads():
+            self._empty_since = None
+        elif self._empty_since is None:
+            self._empty_since = now
+        elif now - self._empty_since > NO_WORKER_S:
+            raise ServiceUnavailableError(
+                f"the Dask cluster at {self._scheduler} has had no worker for "
+                f"{NO_WORKER_S:g} s (do its workers have this hydrodiag installed?); "
+                "submit the work again once workers run", field="HYDRODIAG_DASK_SCHEDULER")
+
+    def waiting(self, progress: Any = None) -> Callable[[], None]:
+        """What to call while results do not come: :meth:`check`, and a job's
+        ``progress.check`` (a cancel asked of it) where it has one."""
+        def look() -> None:
+            self.check()
+            check = getattr(progress, "check", None)
+            if check is not None:
+                check()
+
+        return look
 
     def capacity(self) -> int:
         """Tasks the executor runs at once: the local pool's processes, or the threads of

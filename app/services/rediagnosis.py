@@ -25,7 +25,7 @@ them in its own process.
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
-from concurrent.futures import Executor, Future, as_completed
+from concurrent.futures import Executor, Future
 from dataclasses import dataclass
 from datetime import datetime
 from typing import Any
@@ -41,6 +41,7 @@ from app.services.history import estimate_row
 from app.services.measurements import to_record
 from app.services.rig_cache import ResolvedRig, RigCache
 from app.services.trends import comparable_versions
+from diagnostics.batch import as_done
 from diagnostics.measurement import MeasurementRecord
 from sim.errors import HydrodiagError, InputError
 from sim.rigs import Rig
@@ -255,7 +256,8 @@ def _save(sessions: SessionFactory, plan: RediagnosisPlan,
 
 def run_rediagnosis(plan: RediagnosisPlan, sessions: SessionFactory,
                     executor: Executor | None = None,
-                    progress: ProgressFn | None = None) -> dict[str, Any]:
+                    progress: ProgressFn | None = None,
+                    waiting: Callable[[], None] | None = None) -> dict[str, Any]:
     """Diagnose every group of ``plan`` again and store the results chunk by chunk.
 
     Parameters
@@ -270,6 +272,9 @@ def run_rediagnosis(plan: RediagnosisPlan, sessions: SessionFactory,
     progress
         Called with the fraction done [1] and a note after each chunk; when it raises (a
         cancelled job) the chunks not started are cancelled and the exception goes on.
+    waiting
+        With an executor, called every second while no chunk completes, and the same when
+        it raises (:func:`diagnostics.batch.as_done`).
 
     Returns
     -------
@@ -313,7 +318,7 @@ def run_rediagnosis(plan: RediagnosisPlan, sessions: SessionFactory,
             executor.submit(rediagnose_chunk, document, resolved.version, groups): chunk
             for chunk, groups in chunks}
         try:
-            for future in as_completed(futures):
+            for future in as_done(futures, waiting):
                 chunk = futures[future]
                 _save(sessions, plan, chunk, future.result(), tally)
                 done += len(chunk)

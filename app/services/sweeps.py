@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import itertools
 from collections.abc import Callable, Mapping, Sequence
-from concurrent.futures import Executor, Future, as_completed
+from concurrent.futures import Executor, Future
 from dataclasses import dataclass
 from typing import Any
 
@@ -27,6 +27,7 @@ from app.schemas.sweeps import RangeSpec, SweepRequest
 from app.services.rig_cache import ResolvedRig, RigCache
 from app.services.simulation import condition_dict, condition_of
 from app.services.sweep_worker import SUMMARY_COLUMNS, evaluate_chunk
+from diagnostics.batch import as_done
 from sim.errors import InputError, ParameterError
 from sim.scenarios import fault_overrides
 
@@ -147,7 +148,8 @@ def plan_sweep(session: Session, rigs: RigCache, request: SweepRequest,
 
 
 def run_sweep(plan: SweepPlan, executor: Executor,
-              progress: ProgressFn | None = None) -> dict[str, Any]:
+              progress: ProgressFn | None = None,
+              waiting: Callable[[], None] | None = None) -> dict[str, Any]:
     """Run every point of ``plan`` on ``executor``; return the table of results.
 
     Parameters
@@ -160,6 +162,9 @@ def run_sweep(plan: SweepPlan, executor: Executor,
         Called with the fraction done [1] and a note after each chunk; when it raises (a
         cancelled job, :class:`app.services.jobs.JobCancelledError`) the chunks not started are
         cancelled and the exception goes on.
+    waiting
+        Called every second while no chunk completes, and the same when it raises (a
+        cancel asked, a Dask cluster without a worker: :func:`diagnostics.batch.as_done`).
 
     Returns
     -------
@@ -180,7 +185,7 @@ def run_sweep(plan: SweepPlan, executor: Executor,
     outcomes: list[Mapping[str, Any] | None] = [None] * len(points)
     done = 0
     try:
-        for future in as_completed(futures):
+        for future in as_done(futures, waiting):
             start = futures[future]
             chunk_result: Sequence[Mapping[str, Any]] = future.result()
             for offset, outcome in enumerate(chunk_result):

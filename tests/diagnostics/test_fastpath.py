@@ -151,9 +151,8 @@ def test_the_kernels_parameter_laws_are_the_hypotheses_own() -> None:
 def test_an_unknown_ranking_method_is_refused() -> None:
     from diagnostics.observations import observe
     from diagnostics.ranking import Ranker
-    from tests.diagnostics.synth import record
-
     from sim.errors import InputError
+    from tests.diagnostics.synth import record
 
     rig = reference_rig()
     # the tree's error naming the argument and the methods known (a bare ValueError before)

@@ -25,7 +25,7 @@ def _job(plan: RediagnosisPlan, request: Request, executors: SweepExecutors) -> 
 
     def rediagnose(_params: dict[str, Any], progress: Progress) -> dict[str, Any]:
         return run_rediagnosis(plan, sessions, executors.get() if plan.stale else None,
-                               progress)
+                               progress, executors.waiting(progress))
 
     return rediagnose
 

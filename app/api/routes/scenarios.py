@@ -21,7 +21,7 @@ router = APIRouter(tags=["scenarios"], dependencies=[ReadAccess], responses=ERRO
 
 def _job(plan: SweepPlan, executors: SweepExecutors) -> Any:
     def sweep(_params: dict[str, Any], progress: Progress) -> dict[str, Any]:
-        return run_sweep(plan, executors.get(), progress)
+        return run_sweep(plan, executors.get(), progress, executors.waiting(progress))
 
     return sweep
 
