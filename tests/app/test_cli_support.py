@@ -82,22 +82,27 @@ def test_a_file_that_is_not_utf8_and_ids_beyond_the_store_are_refused(
         assert not isinstance(result.exception, OverflowError), args
 
 
+def _commands() -> Iterator[tuple[list[str], Any]]:
+    """Every command of ``hydrodiag`` with its path (``["calibrate", "pump"]``)."""
+    from typer.main import get_command
+
+    def walk(cmd: Any, path: list[str]) -> Iterator[tuple[list[str], Any]]:
+        if hasattr(cmd, "commands"):  # a group (typer's own click, not click's classes)
+            for name, sub in cmd.commands.items():
+                yield from walk(sub, [*path, name])
+        else:
+            yield path, cmd
+
+    return walk(get_command(cli), [])
+
+
 def test_every_unit_written_in_a_help_text_is_shown(runner: CliRunner) -> None:
     """Rich reads ``[degC]`` as markup and drops it (issue 12: units lost from the help);
     every bracketed unit a command's help text holds must be in what ``--help`` prints."""
     import re
 
-    from typer.main import get_command
-
-    def commands(cmd: Any, path: list[str]) -> Iterator[tuple[list[str], Any]]:
-        if hasattr(cmd, "commands"):  # a group (typer's own click, not click's classes)
-            for name, sub in cmd.commands.items():
-                yield from commands(sub, [*path, name])
-        else:
-            yield path, cmd
-
     checked = 0
-    for path, cmd in commands(get_command(cli), []):
+    for path, cmd in _commands():
         texts = [cmd.help or ""] + [getattr(p, "help", None) or "" for p in cmd.params]
         units = {u for t in texts for u in re.findall(r"\[([^\[\]\s]{1,16})\]", t)}
         if not units:
@@ -195,17 +200,8 @@ def test_every_option_name_is_shown_whole_in_an_80_column_help(runner: CliRunner
     ``--displacement-cm3-r…`` (a CLI pass): the ids' range ``[1<=x<=2147483647]`` widened
     the types column.  Every option of every command is in its help whole, and no help
     shows reST's double backquotes."""
-    from typer.main import get_command
-
-    def commands(cmd: Any, path: list[str]) -> Iterator[tuple[list[str], Any]]:
-        if hasattr(cmd, "commands"):
-            for name, sub in cmd.commands.items():
-                yield from commands(sub, [*path, name])
-        else:
-            yield path, cmd
-
     checked = 0
-    for path, cmd in commands(get_command(cli), []):
+    for path, cmd in _commands():
         shown = runner.invoke(cli, [*path, "--help"], terminal_width=80).stdout
         for param in cmd.params:
             for name in param.opts:

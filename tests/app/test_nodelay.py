@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import asyncio
 import socket
+from collections.abc import Iterator
+from contextlib import contextmanager
 from typing import Any
 
 import pytest
@@ -47,16 +49,41 @@ def test_accepted_socket_of_a_proto0_listener_lacks_nodelay_unless_set() -> None
     assert asyncio.run(_accepted_nodelay(fix=True)) != 0
 
 
-def test_a_connection_that_sends_nothing_is_closed(monkeypatch: pytest.MonkeyPatch) -> None:
-    """A connection that never sent a request held its descriptor for ever, and 600 of
-    them left /health unanswered at the open-file limit, no key needed (an SRE pass): it is
-    closed after FIRST_REQUEST_S, as is one whose request head stops half way; one that
-    asks in time is answered."""
+@contextmanager
+def _serving(app: Any) -> Iterator[int]:
+    """``app`` served by uvicorn with :class:`app.nodelay.NoDelayHttpToolsProtocol` on a
+    free local port, in a thread; the port."""
     import threading
     import time
 
     import uvicorn
 
+    from app import nodelay
+
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    server = uvicorn.Server(uvicorn.Config(app, host="127.0.0.1", port=port, lifespan="off",
+                                           http=nodelay.NoDelayHttpToolsProtocol,
+                                           log_level="error"))
+    thread = threading.Thread(target=server.run, daemon=True)
+    thread.start()
+    try:
+        for _ in range(200):
+            if server.started:
+                break
+            time.sleep(0.02)
+        yield port
+    finally:
+        server.should_exit = True
+        thread.join(timeout=10)
+
+
+def test_a_connection_that_sends_nothing_is_closed(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A connection that never sent a request held its descriptor for ever, and 600 of
+    them left /health unanswered at the open-file limit, no key needed (an SRE pass): it is
+    closed after FIRST_REQUEST_S, as is one whose request head stops half way; one that
+    asks in time is answered."""
     from app import nodelay
 
     monkeypatch.setattr(nodelay, "FIRST_REQUEST_S", 0.3)
@@ -67,19 +94,7 @@ def test_a_connection_that_sends_nothing_is_closed(monkeypatch: pytest.MonkeyPat
         await send({"type": "http.response.start", "status": 200, "headers": []})  # type: ignore[operator]
         await send({"type": "http.response.body", "body": b"ok"})  # type: ignore[operator]
 
-    with socket.socket() as probe:
-        probe.bind(("127.0.0.1", 0))
-        port = probe.getsockname()[1]
-    server = uvicorn.Server(uvicorn.Config(app, host="127.0.0.1", port=port, lifespan="off",
-                                           http=nodelay.NoDelayHttpToolsProtocol,
-                                           log_level="warning"))
-    thread = threading.Thread(target=server.run, daemon=True)
-    thread.start()
-    try:
-        for _ in range(200):
-            if server.started:
-                break
-            time.sleep(0.02)
+    with _serving(app) as port:
         silent = socket.create_connection(("127.0.0.1", port))
         silent.settimeout(5.0)
         assert silent.recv(1) == b""  # closed by the server, not by the timeout above
@@ -97,9 +112,6 @@ def test_a_connection_that_sends_nothing_is_closed(monkeypatch: pytest.MonkeyPat
         asking.sendall(b"GET / HTTP/1.1\r\nHost: x\r\n\r\n")
         assert asking.recv(1024).startswith(b"HTTP/1.1 200")
         asking.close()
-    finally:
-        server.should_exit = True
-        thread.join(timeout=10)
 
 
 def test_a_body_that_comes_too_slowly_is_cut_and_one_in_time_is_read(
@@ -108,10 +120,7 @@ def test_a_body_that_comes_too_slowly_is_cut_and_one_in_time_is_read(
     (an SRE pass left it to a proxy): past BODY_GRACE_S plus what came at MIN_BODY_RATE
     the connection is closed; a whole body sent in time, and one the service is slow to
     read (it waits before reading), are answered."""
-    import threading
     import time
-
-    import uvicorn
 
     from app import nodelay
 
@@ -134,20 +143,8 @@ def test_a_body_that_comes_too_slowly_is_cut_and_one_in_time_is_read(
         await send({"type": "http.response.start", "status": 200, "headers": []})
         await send({"type": "http.response.body", "body": str(len(body)).encode()})
 
-    with socket.socket() as probe:
-        probe.bind(("127.0.0.1", 0))
-        port = probe.getsockname()[1]
-    server = uvicorn.Server(uvicorn.Config(app, host="127.0.0.1", port=port, lifespan="off",
-                                           http=nodelay.NoDelayHttpToolsProtocol,
-                                           log_level="error"))
-    thread = threading.Thread(target=server.run, daemon=True)
-    thread.start()
     head = b"POST /%s HTTP/1.1\r\nHost: x\r\nContent-Length: %d\r\n\r\n"
-    try:
-        for _ in range(200):
-            if server.started:
-                break
-            time.sleep(0.02)
+    with _serving(app) as port:
         # what came buys time, what was declared does not: a 10 MB Content-Length bought
         # 34 min at 4 KiB/s (a verification pass)
         for declared in (100, 10_000_000):
@@ -174,6 +171,3 @@ def test_a_body_that_comes_too_slowly_is_cut_and_one_in_time_is_read(
             assert answer.startswith(b"HTTP/1.1 200"), path
             assert f"\r\n{size}\r\n".encode() in answer, (path, answer)
             whole.close()
-    finally:
-        server.should_exit = True
-        thread.join(timeout=10)
