@@ -15,6 +15,7 @@ This module imports only :mod:`diagnostics` and :mod:`sim`: a worker loads no se
 
 from __future__ import annotations
 
+import asyncio
 import math
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from concurrent.futures import FIRST_COMPLETED, Executor, Future, wait
@@ -33,6 +34,28 @@ __all__ = ["WAIT_S", "as_done", "diagnose_chunk", "diagnose_many", "summary"]
 WAIT_S = 1.0
 
 _T = TypeVar("_T")
+
+
+def _workers_of(executor: Executor) -> int:
+    """Tasks ``executor`` runs at once: a standard library pool's workers, a Dask
+    executor's cluster threads (it planned for 2 whatever the cluster: a Dask pass), else
+    2."""
+    pool = int(getattr(executor, "_max_workers", 0) or 0)
+    if pool:
+        return pool
+    client = getattr(executor, "_client", None)   # distributed's ClientExecutor
+    try:
+        threads = sum(client.nthreads().values()) if client is not None else 0
+    except Exception:  # a client that cannot say: the default below
+        threads = 0
+    return int(threads) or 2
+
+
+def _lost(exc: BaseException) -> dict[str, Any]:
+    """The error line of a record whose chunk the executor lost."""
+    return {"error": {"type": "HydrodiagError", "field": None,
+                      "message": f"not diagnosed: the executor lost its chunk "
+                                 f"({type(exc).__name__}: {exc})"[:300]}}
 
 
 def as_done(futures: Iterable[Future[_T]], waiting: Callable[[], None] | None = None
@@ -106,7 +129,9 @@ def diagnose_many(rig: Rig, records: Sequence[MeasurementRecord], *,
                   chunk_size: int | None = None, full: bool = False,
                   method: Method | None = None, workers: int | None = None,
                   waiting: Callable[[], None] | None = None) -> list[dict[str, Any]]:
-    """Diagnose each record on its own; results in the order of ``records``.
+    """Diagnose each record on its own; results in the order of ``records`` (a record the
+    executor lost with its chunk — a Dask scheduler gone, a pool process killed — is an
+    error line saying so, the others kept).
 
     Parameters
     ----------
@@ -121,9 +146,8 @@ def diagnose_many(rig: Rig, records: Sequence[MeasurementRecord], *,
     chunk_size
         Records per submitted task (default: about 8 tasks per worker, at most 250).
     workers
-        Workers behind ``executor``, for the default chunk size (a Dask executor does not
-        say: :meth:`app.services.executors.SweepExecutors.capacity`); default that of a
-        standard library pool, else 2.
+        Workers behind ``executor``, for the default chunk size; default that of a
+        standard library pool, a Dask executor's cluster threads, else 2.
     full
         Whole :meth:`Diagnosis.to_dict` results instead of :func:`summary`.
     method
@@ -140,20 +164,28 @@ def diagnose_many(rig: Rig, records: Sequence[MeasurementRecord], *,
             if progress is not None:
                 progress(i + 1, total)
         return out
-    if workers is None:  # a Dask executor has no such attribute: it planned for 2 workers
-        workers = int(getattr(executor, "_max_workers", 0) or 2)
+    if workers is None:
+        workers = _workers_of(executor)
     size = chunk_size or max(1, min(250, math.ceil(total / (8 * workers))))
     document = rig.spec.to_document()
     futures: dict[Future[list[dict[str, Any]]], int] = {}
+    futures_records: dict[Future[list[dict[str, Any]]], list[MeasurementRecord]] = {}
     for start in range(0, total, size):
-        fut = executor.submit(diagnose_chunk, document, list(records[start:start + size]),
-                              full, method)
+        chunk_records = list(records[start:start + size])
+        fut = executor.submit(diagnose_chunk, document, chunk_records, full, method)
         futures[fut] = start
+        futures_records[fut] = chunk_records
     results: list[dict[str, Any] | None] = [None] * total
     done = 0
     for fut in as_done(futures, waiting):
         start = futures[fut]
-        chunk = fut.result()
+        try:
+            chunk = fut.result()
+        except (Exception, asyncio.CancelledError) as exc:
+            # a chunk the executor lost (a Dask scheduler gone, a pool process killed) is
+            # an error line for each of its records, the others kept: a batch whose
+            # scheduler died threw every finished record away (a Dask pass)
+            chunk = [_lost(exc)] * len(futures_records[fut])
         results[start:start + len(chunk)] = chunk
         done += len(chunk)
         if progress is not None:
