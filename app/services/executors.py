@@ -175,7 +175,11 @@ class SweepExecutors:
                 f"lost the Dask scheduler {self._scheduler} while the work ran; submit it "
                 "again", field="HYDRODIAG_DASK_SCHEDULER")
         now = time.monotonic()
-        if client.nthreads():
+        try:
+            threads = client.nthreads()
+        except Exception:  # a scheduler that does not answer now: no worker to count
+            threads = {}
+        if threads:
             self._empty_since = None
         elif self._empty_since is None:
             self._empty_since = now
