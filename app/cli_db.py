@@ -10,7 +10,7 @@ import typer
 from sqlalchemy import Engine
 
 from app.cli_support import console, settings_from_env, steps
-from app.db.engine import make_engine, private_file
+from app.db.engine import make_engine, private_file, sqlite_path
 from sim.errors import InputError
 
 __all__ = ["db_cli"]
@@ -207,7 +207,7 @@ def db_backup(
     from app.db.copy import existing_store
 
     url = settings_from_env().url
-    if url.get_backend_name() != "sqlite" or not url.database or url.database == ":memory:":
+    if (store := sqlite_path(url)) is None:
         raise InputError("db backup copies an SQLite file; back a PostgreSQL store up with "
                          "pg_dump", field="HYDRODIAG_DATABASE_URL")
     existing_store(url)  # not a new, empty store made and backed up
@@ -217,7 +217,7 @@ def db_backup(
         raise InputError(f"no folder {file.parent}", field="FILE")
     engine = make_engine(url)
     # the backup as private as the store (it was world-readable: an operator's pass)
-    private_file(file, Path(str(url.database)).stat().st_mode & 0o666)
+    private_file(file, store.stat().st_mode & 0o666)
     try:
         with engine.connect() as connection:
             connection.exec_driver_sql("VACUUM INTO ?", (str(file),))
@@ -262,10 +262,10 @@ def db_copy(
     if target_url.get_backend_name() == "postgresql" and target_url.get_driver_name() != "psycopg":
         raise InputError("write the scheme as postgresql+psycopg:// (the psycopg driver is the "
                          "one installed)", field="TARGET")
-    if target_url.get_backend_name() == "sqlite" and target_url.database:
+    if (target_file := sqlite_path(target_url)) is not None:
         # sqlite:///tmp/x.db is the relative tmp/x.db: its folders were made under the
         # current one and the message named the URL, not the file (an operator pass)
-        folder = Path(target_url.database).resolve().parent
+        folder = target_file.resolve().parent
         if not folder.is_dir():
             raise InputError(f"no folder {folder} (sqlite:///relative/path, "
                              "sqlite:////absolute/path)", field="TARGET")
@@ -290,8 +290,7 @@ def db_copy(
     for name, rows in copied.rows.items():
         out.add_row(name, str(rows))
     console.print(out)
-    where = (str(Path(target_url.database).resolve())
-             if target_url.get_backend_name() == "sqlite" and target_url.database
+    where = (str(target_file.resolve()) if target_file is not None
              else target_url.render_as_string(hide_password=True))
     console.print(f"{sum(copied.rows.values())} rows copied to {where}")
     ends = ", ".join(f"{name} {copied.last_ids[name]}" for name in

@@ -118,7 +118,7 @@ def migrated_engine(*, existing: bool = False) -> Engine:
 
         existing_store(url, field="HYDRODIAG_DATA_DIR" if settings.database_url is None
                        else "HYDRODIAG_DATABASE_URL")
-    file = sqlite_path(url) if url.get_backend_name() == "sqlite" else None
+    file = sqlite_path(url)
     fresh = file is not None and not file.exists()
     engine = make_engine(url)
     try:
@@ -135,7 +135,7 @@ def migrated_engine(*, existing: bool = False) -> Engine:
         # worked on no running service (an operator pass)
         where = ("HYDRODIAG_DATABASE_URL" if settings.database_url is not None else
                  "HYDRODIAG_DATA_DIR, default ./data of the current folder")
-        console.print(f"[yellow]a new, empty store was made at {escape(str(url.database))}"
+        console.print(f"[yellow]a new, empty store was made at {escape(str(file))}"
                       f"[/yellow] ({where}; the service's store is where it was started, or "
                       "its HYDRODIAG_DATA_DIR / HYDRODIAG_DATABASE_URL)")
     return engine

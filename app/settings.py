@@ -21,6 +21,7 @@ from pydantic_settings import BaseSettings, SettingsConfigDict
 from sqlalchemy.engine import URL, make_url
 from sqlalchemy.exc import ArgumentError
 
+from app.db.engine import sqlite_path
 from app.limits import BATCH_RECORDS_CEILING, DEFAULT_SWEEP_POINTS, SWEEP_POINTS_CEILING
 
 __all__ = ["CONSOLE_SECRET_MIN", "OTHER_VARIABLES", "WEAK_PASSWORDS", "Settings", "settings_line",
@@ -232,7 +233,7 @@ class Settings(BaseSettings):
                              "take postgres://)")
         if backend not in {"sqlite", "postgresql"}:
             raise ValueError(f"unsupported database {backend!r}; use sqlite or postgresql")
-        if backend == "sqlite" and url.database in (None, "", ":memory:"):
+        if backend == "sqlite" and sqlite_path(url) is None:   # file::memory: as well
             raise ValueError("an in-memory SQLite database would lose every write; give a file")
         if url.password is not None and url.password.lower() in WEAK_PASSWORDS:
             raise ValueError("the database password is a well-known default; set a real one")

@@ -30,7 +30,7 @@ from sqlalchemy.exc import DatabaseError, InterfaceError, OperationalError, SQLA
 
 from app.db import migrate
 from app.db.base import Base
-from app.db.engine import make_engine
+from app.db.engine import make_engine, sqlite_path
 from sim.errors import InputError
 
 __all__ = ["BATCH", "Copied", "copy_store", "existing_store"]
@@ -117,8 +117,8 @@ def _reason(exc: SQLAlchemyError) -> str:
 
 
 def _where(url: URL) -> str:
-    return (str(Path(url.database).resolve()) if url.get_backend_name() == "sqlite"
-            and url.database else url.render_as_string(hide_password=True))
+    path = sqlite_path(url)
+    return str(path.resolve()) if path is not None else url.render_as_string(hide_password=True)
 
 
 def _same(a: URL, b: URL) -> bool:
@@ -226,9 +226,9 @@ def existing_store(url: URL, field: str = "HYDRODIAG_DATABASE_URL") -> None:
     "copied 0 rows", exit 0; an operator pass)."""
     if url.get_backend_name() != "sqlite":
         return
-    if url.database in (None, "", ":memory:"):
+    if (file := sqlite_path(url)) is None:
         raise InputError("an in-memory store cannot be copied or backed up", field=field)
-    path = Path(url.database).resolve()
+    path = file.resolve()
     if not path.is_file():
         raise InputError(f"no store at {path}: set HYDRODIAG_DATA_DIR to the service's data "
                          "folder (default ./data of the current folder) or "

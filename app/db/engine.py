@@ -99,13 +99,14 @@ def private_file(path: Path, mode: int = 0o600) -> None:
 
 
 def sqlite_path(url: URL) -> Path | None:
-    """The file of an SQLite store's ``url``: None for an in-memory store, the path of a
-    URI filename (``sqlite:///file:/srv/h.db?mode=ro&uri=true``).  Taken as a plain path,
-    ``file:/srv/h.db`` made a folder ``file:`` in the current one and an empty ``:memory:``
-    file there (a verification pass found one in the repository after the tests)."""
+    """The file of an SQLite store's ``url``: None for an in-memory store or another
+    backend, the path of a URI filename (``sqlite:///file:/srv/h.db?mode=ro&uri=true``).
+    Every question of the store's file asks here: taken as a plain path, ``file:/srv/h.db``
+    made a folder ``file:`` in the current one (a verification pass found one in the
+    repository after the tests)."""
     database = url.database
-    if not database or database == ":memory:" or url.query.get("mode") == "memory" \
-            or database.startswith("file::memory:"):
+    if url.get_backend_name() != "sqlite" or not database or database == ":memory:" \
+            or url.query.get("mode") == "memory" or database.startswith("file::memory:"):
         return None
     if database.startswith("file:"):
         from urllib.parse import unquote, urlsplit

@@ -8,7 +8,6 @@ import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
-from pathlib import Path
 
 from sqlalchemy import Engine, select, text
 from sqlalchemy.exc import DatabaseError
@@ -125,12 +124,11 @@ def warn_open_file(engine: Engine) -> None:
     before this release made them 0600 stayed 0644 through the upgrade (every record and
     the keys' hashes; an upgrade pass).  Called once per start by ``serve`` (not by each
     worker: it was logged three times, a verification pass) and by the CLI's commands."""
-    database = engine.url.database
-    if engine.url.get_backend_name() != "sqlite" or not database or database == ":memory:" \
-            or database.startswith("file:"):
+    database = sqlite_path(engine.url)
+    if database is None:
         return
     try:
-        mode = Path(database).stat().st_mode & 0o777
+        mode = database.stat().st_mode & 0o777
     except OSError:
         return
     if mode & 0o007:

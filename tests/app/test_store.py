@@ -439,6 +439,11 @@ def test_a_store_that_cannot_serve_is_named_in_one_line_at_start(tmp_path: Path,
     assert sqlite_path(make_url(f"sqlite:///file:{fresh}?mode=ro&uri=true")) == fresh
     assert sqlite_path(make_url("sqlite:///file::memory:?uri=true")) is None
     assert sqlite_path(make_url("sqlite:///:memory:")) is None
+    # every question of the store's file asks there: a copy or backup of a URI store found
+    # "no store at …/file:/…" (the same plain-path reading, in five more places)
+    from app.db.copy import existing_store
+
+    existing_store(make_url(f"sqlite:///file:{fresh}?mode=ro&uri=true"))
 
 
 @pytest.mark.skipif(postgres.unavailable_reason() is not None,
