@@ -28,7 +28,7 @@ from sim.errors import HydrodiagError
 from sim.rigs import Rig
 from sim.rigs.process_cache import rig_of_document
 
-__all__ = ["WAIT_S", "as_done", "diagnose_chunk", "diagnose_many", "summary"]
+__all__ = ["WAIT_S", "as_done", "diagnose_chunk", "diagnose_many", "executor_workers", "summary"]
 
 #: how often :func:`as_done` calls its ``waiting`` while no future completes [s]
 WAIT_S = 1.0
@@ -36,7 +36,7 @@ WAIT_S = 1.0
 _T = TypeVar("_T")
 
 
-def _workers_of(executor: Executor) -> int:
+def executor_workers(executor: Executor) -> int:
     """Tasks ``executor`` runs at once: a standard library pool's workers, a Dask
     executor's cluster threads (it planned for 2 whatever the cluster: a Dask pass), else
     2."""
@@ -170,7 +170,7 @@ def diagnose_many(rig: Rig, records: Sequence[MeasurementRecord], *,
                 progress(i + 1, total)
         return out
     if workers is None:
-        workers = _workers_of(executor)
+        workers = executor_workers(executor)
     size = chunk_size or max(1, min(250, math.ceil(total / (8 * workers))))
     document = rig.spec.to_document()
     futures: dict[Future[list[dict[str, Any]]], int] = {}

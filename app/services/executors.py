@@ -33,6 +33,7 @@ from typing import Any, Literal
 
 from app.errors import ServiceUnavailableError
 from app.lifeline import exit_with_parent
+from diagnostics.batch import executor_workers
 
 __all__ = ["CONNECT_TIMEOUT_S", "NO_WORKER_S", "ExecutorKind", "SweepExecutors",
            "dask_available"]
@@ -202,12 +203,11 @@ class SweepExecutors:
 
     def capacity(self) -> int:
         """Tasks the executor runs at once: the local pool's processes, or the threads of
-        the Dask cluster's workers (:meth:`distributed.Client.nthreads`) once connected."""
+        the Dask cluster's workers once connected (:func:`diagnostics.batch.
+        executor_workers`, the batches' own rule)."""
         with self._lock:
-            client = self._client
-        if client is not None:
-            return max(1, sum(client.nthreads().values()))
-        return self._workers
+            executor = self._executor
+        return executor_workers(executor) if executor is not None else self._workers
 
     def shutdown(self) -> None:
         """Stop the local pool or close the Dask client (a later :meth:`get` starts anew)."""

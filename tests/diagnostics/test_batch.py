@@ -7,7 +7,7 @@ from collections.abc import Callable
 from concurrent.futures import Executor, Future, ThreadPoolExecutor
 from typing import Any
 
-from diagnostics.batch import _workers_of, diagnose_many
+from diagnostics.batch import diagnose_many, executor_workers
 from sim.rigs import reference_rig
 from tests.diagnostics.synth import record
 
@@ -58,9 +58,9 @@ def test_chunks_are_planned_for_the_executors_workers() -> None:
     import pytest
 
     with ThreadPoolExecutor(3) as pool:
-        assert _workers_of(pool) == 3
+        assert executor_workers(pool) == 3
     distributed = pytest.importorskip("distributed")
     with distributed.LocalCluster(n_workers=1, threads_per_worker=3, processes=False,
                                   dashboard_address=None) as cluster, \
             distributed.Client(cluster) as client:
-        assert _workers_of(client.get_executor()) == 3
+        assert executor_workers(client.get_executor()) == 3
