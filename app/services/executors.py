@@ -29,14 +29,15 @@ import threading
 import time
 from collections.abc import Callable
 from concurrent.futures import Executor, ProcessPoolExecutor
+from dataclasses import dataclass
 from typing import Any, Literal
 
 from app.errors import ServiceUnavailableError
 from app.lifeline import exit_with_parent
 from diagnostics.batch import executor_workers
 
-__all__ = ["CONNECT_TIMEOUT_S", "NO_WORKER_S", "ExecutorKind", "SweepExecutors",
-           "dask_available"]
+__all__ = ["CONNECT_TIMEOUT_S", "NO_WORKER_S", "Connection", "ExecutorKind", "ExecutorState",
+           "SweepExecutors", "dask_available"]
 
 logger = logging.getLogger("hydrodiag.app")
 
@@ -93,6 +94,38 @@ def _checked_workers(client: Any, scheduler: str) -> None:
             field="HYDRODIAG_DASK_SCHEDULER")
 
 ExecutorKind = Literal["processes", "dask"]
+#: where the executor stands: ``local`` (a process pool), ``idle`` (a Dask scheduler set,
+#: no connection yet: the first sweep connects), ``connected``, ``reconnecting`` (the
+#: client lost the scheduler and tries again), ``closed`` (the next sweep connects again),
+#: ``not answering`` (connected, but the scheduler did not answer the question in time)
+Connection = Literal["local", "idle", "connected", "reconnecting", "closed", "not answering"]
+
+
+@dataclass(frozen=True)
+class ExecutorState:
+    """What an operator asks of the sweeps' executor (``/ready``, ``/metrics``).
+
+    Attributes
+    ----------
+    kind
+        ``processes`` or ``dask``.
+    scheduler
+        The Dask scheduler's address, or None for the local pool.
+    connection
+        :data:`Connection`.
+    workers
+        Processes of the local pool (whether started or not), or the Dask cluster's
+        workers when connected and answering; None when not known [-].
+    threads
+        Tasks run at once: the pool's processes or the cluster's worker threads; None when
+        not known [-].
+    """
+
+    kind: ExecutorKind
+    scheduler: str | None
+    connection: Connection
+    workers: int | None
+    threads: int | None
 
 
 def dask_available() -> bool:
@@ -208,6 +241,48 @@ class SweepExecutors:
         with self._lock:
             executor = self._executor
         return executor_workers(executor) if executor is not None else self._workers
+
+    def state(self) -> ExecutorState:
+        """Where the executor stands (:class:`ExecutorState`); connects to nothing.
+
+        For a connected Dask client this asks the scheduler for its workers (a round trip:
+        call it off the event loop, with a time limit); a scheduler set but not yet used
+        stays ``idle`` — connecting checks every worker's code, work for a sweep.
+        """
+        if self._scheduler is None:
+            return ExecutorState("processes", None, "local", self._workers, self._workers)
+        with self._lock:
+            client = self._client
+        if client is None:
+            return ExecutorState("dask", self._scheduler, "idle", None, None)
+        status = str(client.status)
+        if status == "connecting":
+            return ExecutorState("dask", self._scheduler, "reconnecting", None, None)
+        if status != "running":
+            return ExecutorState("dask", self._scheduler, "closed", None, None)
+        threads: dict[str, int] = client.nthreads()
+        return ExecutorState("dask", self._scheduler, "connected", len(threads),
+                             sum(threads.values()))
+
+    def state_within(self, timeout: float) -> ExecutorState:
+        """:meth:`state`, or ``not answering`` when the scheduler has not answered within
+        ``timeout`` [s] (the question goes on in a daemon thread, ended by Dask's own
+        time-outs; the caller does not wait for it)."""
+        answer: list[ExecutorState] = []
+
+        def ask() -> None:
+            try:
+                answer.append(self.state())
+            except Exception:  # a scheduler failing the question: not answering either
+                logger.debug("the Dask scheduler %s failed a state question",
+                             self._scheduler, exc_info=True)
+
+        asking = threading.Thread(target=ask, name="hydrodiag-executor-state", daemon=True)
+        asking.start()
+        asking.join(timeout)
+        if answer:
+            return answer[0]
+        return ExecutorState(self.kind, self._scheduler, "not answering", None, None)
 
     def shutdown(self) -> None:
         """Stop the local pool or close the Dask client (a later :meth:`get` starts anew)."""

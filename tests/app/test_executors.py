@@ -128,3 +128,38 @@ def test_waiting_is_called_while_nothing_completes_and_what_it_raises_ends_the_w
                 got.append(future.result())
         never.set()
     assert got == [1] and len(looks) == 3
+
+
+def test_the_state_names_the_scheduler_and_its_workers_and_never_waits_long() -> None:
+    """Nothing in /ready or /metrics named the scheduler or its reachability (a Dask
+    pass): the state says the pool, an idle scheduler, a connected cluster's workers and
+    threads, a closed client, and a question the scheduler does not answer in time."""
+    local = SweepExecutors(workers=3)
+    assert local.state() == module.ExecutorState("processes", None, "local", 3, 3)
+    with _cluster(2) as cluster:
+        executors = SweepExecutors(dask_scheduler=cluster.scheduler_address)
+        try:
+            idle = executors.state()
+            assert (idle.kind, idle.scheduler, idle.connection) == (
+                "dask", cluster.scheduler_address, "idle")
+            executors.get()
+            assert executors.state_within(10.0) == module.ExecutorState(
+                "dask", cluster.scheduler_address, "connected", 2, 2)
+            executors._client.close()
+            assert executors.state().connection == "closed"
+        finally:
+            executors.shutdown()
+    stuck = threading.Event()
+
+    class _Stuck(SweepExecutors):
+        def state(self) -> module.ExecutorState:
+            stuck.wait(30.0)
+            raise AssertionError("not waited for")
+
+    slow = _Stuck(dask_scheduler="tcp://127.0.0.1:9")
+    started = time.monotonic()
+    answer = slow.state_within(0.2)
+    assert time.monotonic() - started < 5.0
+    stuck.set()
+    assert answer == module.ExecutorState("dask", "tcp://127.0.0.1:9", "not answering",
+                                          None, None)

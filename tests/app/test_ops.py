@@ -33,8 +33,17 @@ def test_ready_reports_the_migrated_store(server: LiveServer) -> None:
     assert response.status_code == 200
     from app.db.migrate import head_revision
 
-    assert response.json() == {"status": "ready", "database": "sqlite",
-                               "revision": head_revision()}
+    body = response.json()
+    sweeps = body.pop("sweeps")
+    assert body == {"status": "ready", "database": "sqlite", "revision": head_revision()}
+    # the sweeps' executor is named (a Dask pass: nothing named the scheduler): the test
+    # server's local pool, whose processes are the sweep workers it was given
+    assert sweeps["kind"] == "processes" and sweeps["scheduler"] is None
+    assert sweeps["connection"] == "local"
+    assert sweeps["workers"] == sweeps["threads"] == server.app.state.sweep_executors.capacity()
+    text = server.client.get("/metrics").text
+    assert 'hydrodiag_executor{kind="processes",scheduler="",connection="local"} 1' in text
+    assert f'hydrodiag_executor_threads{{kind="processes"}} {sweeps["threads"]}' in text
 
 
 def test_ready_is_503_while_the_store_is_behind(tmp_path: Path) -> None:
