@@ -96,8 +96,10 @@ def _downgrade_losses(engine: Engine, current: str, target: str) -> list[str]:
     what later revisions added")."""
     from sqlalchemy import func, select
 
+    from app.db.base import utcnow
     from app.db.models import (
         ApiKey,
+        ConsoleLogout,
         Diagnosis,
         DiagnosisRecord,
         IdempotentRequest,
@@ -138,6 +140,14 @@ def _downgrade_losses(engine: Engine, current: str, target: str) -> list[str]:
                              "replaced by a re-diagnosis read as current "
                              "in the older release (its history and trends show those visits "
                              "twice); migrating up again marks them anew")
+        if crosses("0015"):
+            ended = connection.scalar(select(func.count()).select_from(ConsoleLogout).where(
+                ConsoleLogout.expires_at >= utcnow())) or 0
+            if ended:
+                lines.append(f"{ended} console "
+                             f"{_plural(ended, 'session logged out works', 'sessions logged out work')}"
+                             " again below 0015 until they expire (12 h "
+                             "after login): revoke the key where a copied cookie matters")
         if crosses("0008"):
             joint = connection.scalar(select(func.count()).select_from(
                 select(DiagnosisRecord.diagnosis_id).group_by(DiagnosisRecord.diagnosis_id)

@@ -16,7 +16,14 @@ from fastapi.responses import FileResponse
 from app.api.deps import SessionDep, wrong_key_guard, wrong_keys_counted
 from app.console.charts import calibration_chart
 from app.console.routing import ConsoleKeyDep, new_router
-from app.console.web import COOKIE, SECURITY_HEADERS, issue_cookie, page, redirect
+from app.console.web import (
+    COOKIE,
+    SECURITY_HEADERS,
+    end_console_session,
+    issue_cookie,
+    page,
+    redirect,
+)
 from app.errors import RateLimitError
 from app.schemas.common import MAX_ID
 from app.services import calibrations as calibration_service
@@ -85,8 +92,10 @@ def login(request: Request, session: SessionDep,
 
 
 @router.post("/logout")
-def logout() -> Response:
-    """Forget the login."""
+def logout(request: Request, session: SessionDep) -> Response:
+    """Forget the login, in the browser and on the server (a copy of the cookie is
+    refused from now on)."""
+    end_console_session(request, session)
     response = redirect("/console/login")
     response.delete_cookie(COOKIE, path="/console")
     return response

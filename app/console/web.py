@@ -5,9 +5,11 @@ sets a cookie ``hd_console = <key id>.<issued at>.<HMAC-SHA256>`` (HttpOnly,
 SameSite=Strict, Secure when served over HTTPS; no Max-Age, so it ends with the browser
 session, and refused after :data:`SESSION_LIFETIME_S`).  The key itself is never stored in
 the cookie or put in a URL; each request checks that the key still exists and is not
-revoked.  The signing secret is the ``console_secret`` setting (``HYDRODIAG_CONSOLE_SECRET``,
-≥ 32 characters, no well-known default) or, without it, a random one
-kept in ``<data_dir>/console-secret`` (so every worker process of one service shares it).
+revoked, and that the session was not logged out (logout keeps the cookie's digest on the
+server until it would have expired, so a copy of it is refused too).  The signing secret
+is the ``console_secret`` setting (``HYDRODIAG_CONSOLE_SECRET``, ≥ 32 characters, no
+well-known default) or, without it, a random one kept in ``<data_dir>/console-secret`` (so
+every worker process of one service shares it).
 
 Every console response carries :data:`SECURITY_HEADERS`: a Content-Security-Policy that
 allows only the service's own origin (no inline script or style), no framing, no sniffing.
@@ -23,6 +25,7 @@ import re
 import secrets
 import threading
 import time
+from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 from urllib.parse import quote
@@ -35,14 +38,15 @@ from markupsafe import Markup
 from sqlalchemy.orm import Session
 
 from app.db.models import ApiKey
+from app.services.console_logouts import end_session, is_ended
 from app.services.keys import is_revoked
 from app.settings import Settings
 from diagnostics.plots import Chart, render_svg, shown_unit
 from diagnostics.timeseries import CONDITION_CHANNELS
 from sim.errors import AuthError
 
-__all__ = ["COOKIE", "SECURITY_HEADERS", "SESSION_LIFETIME_S", "console_key", "issue_cookie",
-           "page", "redirect", "templates"]
+__all__ = ["COOKIE", "SECURITY_HEADERS", "SESSION_LIFETIME_S", "console_key",
+           "end_console_session", "issue_cookie", "page", "redirect", "templates"]
 
 COOKIE = "hd_console"
 #: Longest a login lasts, even in a browser session that stays open [s].
@@ -200,7 +204,22 @@ def console_key(request: Request, session: Session) -> ApiKey:
         raise AuthError("log in with an API key", field="api_key")
     if is_revoked(key):
         raise AuthError("this API key has been revoked", field="api_key")
+    if is_ended(session, value):
+        raise AuthError("this console session was logged out; log in again", field="api_key")
     return key
+
+
+def end_console_session(request: Request, session: Session) -> None:
+    """End the session of the request's cookie on the server as well (a copy of it is
+    refused from now on: :mod:`app.services.console_logouts`); a missing, forged or
+    expired cookie has no session to end."""
+    try:
+        console_key(request, session)
+    except AuthError:
+        return
+    value = request.cookies.get(COOKIE, "")
+    issued = int(value.split(".")[1])
+    end_session(session, value, datetime.fromtimestamp(issued + SESSION_LIFETIME_S, UTC))
 
 
 def login_url(request: Request) -> str:

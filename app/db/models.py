@@ -30,6 +30,7 @@ __all__ = [
     "PUMP_SET_KINDS",
     "ApiKey",
     "CalibrationPoint",
+    "ConsoleLogout",
     "Diagnosis",
     "DiagnosisEstimate",
     "DiagnosisRecord",
@@ -332,6 +333,20 @@ class ApiKey(Base):
     #: ``Idempotency-Key`` rows, so that a retry across a rotation is the same client's
     #: (revision 0011).
     lineage_id: Mapped[int | None] = mapped_column(Integer)
+
+
+class ConsoleLogout(Base):
+    """A console session its logout ended (revision 0015): the digest (SHA-256) of the
+    session cookie, refused until the cookie would have expired anyway (``expires_at``,
+    then the row is removed).  The cookie is signed and stateless, so deleting it in the
+    browser did not end a copy of it (a security review)."""
+
+    __tablename__ = "console_logouts"
+    __table_args__ = (UniqueConstraint("digest"), Index(None, "expires_at"))
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    digest: Mapped[str] = mapped_column(String(64))
+    expires_at: Mapped[datetime] = mapped_column(UTCDateTime())
 
 
 class IdempotentRequest(Base):

@@ -94,6 +94,15 @@ def test_a_downgrade_says_what_it_loses_and_a_new_migration_marks_replaced_diagn
 
     deeper = _downgrade_losses(engine, "0014", "0011")
     assert any("intervals are dropped" in line for line in deeper)
+    # a console session logged out works again below 0015 (its cookie's digest is dropped)
+    from datetime import UTC, datetime, timedelta
+
+    with engine.begin() as c:
+        c.execute(text("INSERT INTO console_logouts (digest, expires_at) VALUES (:d, :e)"),
+                  {"d": "a" * 64, "e": datetime.now(UTC) + timedelta(hours=1)})
+    assert any("1 console session logged out works again" in line
+               for line in _downgrade_losses(engine, "0015", "0014"))
+    assert not any("console" in line for line in _downgrade_losses(engine, "0014", "0013"))
     assert "db backup FILE" in asked.exception.message
     done = runner.invoke(cli, ["db", "downgrade", "--revision", "0013", "--yes"])
     assert done.exit_code == 0, done.output

@@ -105,6 +105,55 @@ def test_a_forged_or_revoked_login_is_refused(console_server: LiveServer) -> Non
         assert client.get("/console/rigs").status_code == 303
 
 
+def test_logout_ends_the_session_on_the_server_so_a_copied_cookie_is_refused(
+        console_server: LiveServer) -> None:
+    """The cookie is signed and stateless: logout deleted it in the browser and a copy of
+    it worked on until it expired (a security review, open since stop 50)."""
+    from datetime import UTC, datetime, timedelta
+
+    from sqlalchemy import func, select
+
+    from app.db.models import ConsoleLogout
+    from app.services.console_logouts import digest
+
+    with console_server.session() as session:
+        _row, plaintext = create_api_key(session, "console-logout")
+        # a session that expired long ago is removed by the next logout
+        session.add(ConsoleLogout(digest="0" * 64,
+                                  expires_at=datetime.now(UTC) - timedelta(hours=1)))
+        session.commit()
+    with httpx.Client(base_url=console_server.base_url) as browser, \
+            httpx.Client(base_url=console_server.base_url) as thief:
+        assert browser.post("/console/login",
+                            data={"api_key": plaintext, "next": ""}).status_code == 303
+        copied = browser.cookies[COOKIE]
+        thief.cookies.set(COOKIE, copied, path="/console")
+        assert thief.get("/console/rigs").status_code == 200
+        assert browser.post("/console/logout").status_code == 303
+        refused = thief.get("/console/rigs")
+        assert refused.status_code == 303
+        assert refused.headers["location"].startswith("/console/login")
+        assert thief.post("/console/logout").status_code == 303   # twice: no error
+        with console_server.session() as session:
+            kept = {r.digest: r for r in session.scalars(select(ConsoleLogout))}
+            assert "0" * 64 not in kept and copied not in kept   # the digest, not the cookie
+            _key, issued, _sig = copied.split(".")
+            assert abs(kept[digest(copied)].expires_at.timestamp()
+                       - (int(issued) + SESSION_LIFETIME_S)) < 1.0
+        # the same key logs in again with a new session
+        time.sleep(1.0)   # the cookie counts whole seconds
+        assert browser.post("/console/login",
+                            data={"api_key": plaintext, "next": ""}).status_code == 303
+        assert browser.get("/console/rigs").status_code == 200
+    # a logout without a session stores nothing
+    with console_server.session() as session:
+        before = session.scalar(select(func.count()).select_from(ConsoleLogout))
+    with httpx.Client(base_url=console_server.base_url) as anonymous:
+        assert anonymous.post("/console/logout").status_code == 303
+    with console_server.session() as session:
+        assert session.scalar(select(func.count()).select_from(ConsoleLogout)) == before
+
+
 def test_every_page_renders_with_its_plots_and_the_policy(
         console_server: LiveServer, browser_client: httpx.Client) -> None:
     expect_plots = {"/console/rigs/1": 1, "/console/trends?rig=1": 2,
