@@ -165,10 +165,19 @@ def full_scale() -> float:
 
 
 def pump_effects() -> list[str]:
-    """The registry's ``pump_flow`` entries that apply to the reference rig's circuit."""
+    """The registry's ``pump_flow`` entries that apply to the reference rig's circuit and
+    whose regressor a steady table gives (``discover_steady`` skips the others too)."""
     circuit = _rig().circuit.name
-    return [e.name for e in EFFECTS.values()
-            if e.entry.balance == "pump_flow" and e.entry.applies_to(circuit)]
+    out = []
+    for e in EFFECTS.values():
+        if e.entry.balance != "pump_flow" or not e.entry.applies_to(circuit):
+            continue
+        try:
+            bench(np.random.default_rng(0), {e.name: 0.0})
+        except KeyError:
+            continue
+        out.append(e.name)
+    return out
 
 
 def bench(rng: np.random.Generator, effects: dict[str, float] | None = None, *,
