@@ -28,6 +28,7 @@ from app.cli_batch import register as register_batch
 from app.cli_db import db_cli
 from app.cli_discover import register as register_discover
 from app.cli_history import history_cli
+from app.cli_ids import negative_ids_refused
 from app.cli_jobs import jobs_cli
 from app.cli_report import report_cli
 from app.cli_rigs import rigs_cli
@@ -297,6 +298,7 @@ cli.add_typer(report_cli, name="report")
 register_discover(cli)
 register_batch(cli)
 unwrap_help(cli)
+negative_ids_refused(cli)
 
 
 def _database_trouble(reason: str) -> str:
