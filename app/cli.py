@@ -25,6 +25,7 @@ from rich.table import Table
 from sqlalchemy import Engine
 
 from app.cli_batch import register as register_batch
+from app.cli_command import use_command_class
 from app.cli_db import db_cli
 from app.cli_discover import register as register_discover
 from app.cli_history import history_cli
@@ -106,8 +107,8 @@ def _engine(settings: Settings) -> Engine:
     return make_engine(settings.url)
 
 
-def _migrated_engine(*, existing: bool = False) -> Engine:
-    return migrated_engine(existing=existing)
+def _migrated_engine() -> Engine:
+    return migrated_engine()
 
 
 def _steps() -> Progress:
@@ -242,7 +243,7 @@ def keys_list() -> None:
     """List the keys (names, prefixes and scopes; the keys themselves are not stored)."""
     from app.services.keys import list_api_keys
 
-    engine = _migrated_engine(existing=True)   # a listing makes no store
+    engine = _migrated_engine()   # a listing makes no store (EXISTING_STORE_COMMANDS)
     table = Table("id", "name", "prefix", "scope", "created", "revoked")
     with make_session_factory(engine)() as session:
         for row in list_api_keys(session):
@@ -297,6 +298,7 @@ cli.add_typer(report_cli, name="report")
 register_discover(cli)
 register_batch(cli)
 unwrap_help(cli)
+use_command_class(cli)
 
 
 def _database_trouble(reason: str) -> str:

@@ -181,7 +181,7 @@ def diagnose_batch(
     n_records = sum(len(group) for group in kept.values())
     if errors and (not skip_invalid or not n_records):
         raise _refused(errors, total)
-    executors = SweepExecutors(workers=workers or 1, dask_scheduler=dask) \
+    executors = SweepExecutors(workers=workers or 1, dask_scheduler=dask, setting="--dask") \
         if workers or dask else None
     executor = None
     if executors is not None:

@@ -112,7 +112,8 @@ def discover(
         rigs = RigCache(1)   # the plan resolves the same version from it
         resolved = rigs.get(session, rig_id, version)
         try:
-            with data_field("data" if data is not None else "--series", ("file", "series_ids")):
+            with data_field("data" if data is not None else "--series",
+                            ("file", "records", "series_ids")):
                 plan = plan_discrepancy(session, rigs, form, content,
                                         data.name if data is not None else None)
         except HydrodiagError as exc:

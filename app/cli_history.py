@@ -69,7 +69,7 @@ def list_history(
 
     blamed = _component(component, BlamedComponent)
     window = filter_time(since, SinceTime, "--since"), filter_time(until, UntilTime, "--until")
-    with store_session(existing=True) as session:
+    with store_session() as session:
         rows, total = list_diagnoses(session, limit=limit, offset=0, rig_id=rig,
                                      since=window[0], until=window[1], component=blamed)
         items = [public_diagnosis(r, compact=True).model_dump(mode="json", exclude={"result"})
@@ -110,7 +110,7 @@ def show(
     result as GET /diagnoses/{id} answers it; report diagnosis ID: the page with charts)."""
     from app.services.readback import get_diagnosis, public_diagnosis
 
-    with store_session(existing=True) as session:
+    with store_session() as session:
         public = public_diagnosis(get_diagnosis(session, diagnosis_id)).model_dump(mode="json")
     if as_json:
         typer.echo(json.dumps(public, indent=2))

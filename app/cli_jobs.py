@@ -68,7 +68,7 @@ def list_jobs(
     if status is not None and status not in _STATUSES:
         raise InputError(f"unknown status {status!r} (one of {', '.join(_STATUSES)})",
                          field="--status")
-    with store_session(existing=True) as session:
+    with store_session() as session:
         jobs, total = list_stored(session, limit=limit, offset=0,
                                   status=cast("JobStatus | None", status), kind=kind,
                                   results=False)
@@ -91,7 +91,7 @@ def show(job_id: JobArg, as_json: JsonOption = False) -> None:
     """A job's state, times, parameters and its error or the keys of its result."""
     from app.services.jobs import get_job
 
-    with store_session(existing=True) as session:
+    with store_session() as session:
         job = get_job(session, job_id)
         public = _public(job)
     if as_json:
@@ -122,7 +122,7 @@ def cancel(job_id: JobArg) -> None:
     a job that already succeeded or failed is refused (exit code 1)."""
     from app.services.jobs import cancel_job
 
-    with store_session(existing=True) as session:
+    with store_session() as session:
         job = cancel_job(session, job_id)
         status, asked = job.status, job.cancel_requested_at is not None
     if status == "cancelled" and asked:

@@ -83,7 +83,7 @@ def list_all() -> None:
     """List the stored rigs with their latest version."""
     from app.services.rigs import list_rigs
 
-    with store_session(existing=True) as session:
+    with store_session() as session:
         rows, total = list_rigs(session, limit=10_000, offset=0)
         table = Table(title=f"{total} rigs")
         for column in ("id", "name", "version", "circuit"):
@@ -107,7 +107,7 @@ def show(
     read back."""
     from app.services.rigs import get_rig, get_version, latest_version
 
-    with store_session(existing=True) as session:
+    with store_session() as session:
         row = (latest_version(session, get_rig(session, rig_id)) if version is None
                else get_version(session, rig_id, version))
         doc = dict(row.document)
@@ -129,7 +129,7 @@ def series(
     from app.services.rigs import get_rig
     from app.services.series import delete_series, get_series, list_series
 
-    with store_session(existing=True) as session:
+    with store_session() as session:
         if delete:
             get_rig(session, rig_id)
             for series_id in delete:   # each of this rig's, checked before any is deleted

@@ -7,6 +7,7 @@ import os
 import re
 from collections.abc import Iterator
 from contextlib import contextmanager
+from contextvars import ContextVar
 from datetime import datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
@@ -28,14 +29,12 @@ from sim.errors import HydrodiagError, InputError
 if TYPE_CHECKING:
     from diagnostics.timeseries import ColumnEntry
 
-__all__ = ["PIPE_WIDTH", "ColumnMapOption", "SampleRateOption", "SinceOption", "UntilOption",
-           "WideWhenPiped", "as_option",
-           "console", "estimate_text",
-           "load_document", "migrated_engine", "reading_options",
-           "series_ids",
-           "settings_from_env", "shown_estimate", "shown_scale", "steps", "store_id",
-           "store_session",
-           "unwrap_help", "validated", "validation_error", "writable"]
+__all__ = ["EXISTING_STORE_COMMANDS", "PIPE_WIDTH", "ColumnMapOption", "SampleRateOption",
+           "SinceOption", "UntilOption", "WideWhenPiped", "as_option", "console",
+           "estimate_text", "load_document", "migrated_engine", "reading_options",
+           "running_command", "series_ids", "settings_from_env", "shown_estimate",
+           "shown_scale", "steps", "store_id", "store_session", "unwrap_help", "validated",
+           "validation_error", "writable"]
 
 #: columns of a table or message written to a pipe or a file [characters]
 PIPE_WIDTH = 240
@@ -97,11 +96,33 @@ def settings_from_env(**overrides: object) -> Settings:
         raise typer.Exit(code=2) from None
 
 
-def migrated_engine(*, existing: bool = False) -> Engine:
-    """Engine of the configured store, migrated to the newest revision first; with
-    ``existing`` (a command that only reads) a missing SQLite store is refused, not made
-    empty: ``jobs list`` run from the wrong folder made one and exited 0, and a ``db
-    backup`` there then "succeeded" on it (an operator's pass)."""
+#: the commands (their paths) that read the store or change only what it holds already:
+#: where there is none they say so and make none (:func:`migrated_engine`); ``jobs list``
+#: run from the wrong folder made an empty store and exited 0, and a ``db backup`` there
+#: then "succeeded" on it (an operator's pass); ``calibrate tables`` and ``report`` still
+#: made one (a review's leftover).  Every other command makes the store it opens,
+#: preloaded as ``serve`` makes it, and says so (the README's ``simulate`` and ``diagnose``
+#: run on the reference rig of a new store).
+EXISTING_STORE_COMMANDS = frozenset({
+    "calibrate tables", "history list", "history show", "jobs cancel", "jobs list",
+    "jobs show", "keys list", "keys revoke", "keys rotate", "report diagnosis",
+    "report trends", "rigs list", "rigs rediagnose", "rigs series", "rigs show"})
+#: the path of the command running (``"history list"``), set by the commands' class
+#: (:class:`app.cli_command.HydrodiagCommand`); empty outside a command
+running_command: ContextVar[str] = ContextVar("running_command", default="")
+
+
+def migrated_engine(*, existing: bool | None = None) -> Engine:
+    """Engine of the configured store, migrated to the newest revision first.  With
+    ``existing`` — by default, for the :data:`EXISTING_STORE_COMMANDS` — a missing SQLite
+    store is refused, naming its path and the variables that point at one, and none is
+    made; otherwise a missing store is made and a line on stderr says so.
+
+    Raises
+    ------
+    InputError
+        No store at the configured path (``field``: the variable that set it).
+    """
     from sqlalchemy.exc import DatabaseError
 
     from app.services.bootstrap import (
@@ -113,6 +134,8 @@ def migrated_engine(*, existing: bool = False) -> Engine:
 
     settings = settings_from_env()
     url = settings.url
+    if existing is None:
+        existing = running_command.get() in EXISTING_STORE_COMMANDS
     if existing:
         from app.db.copy import existing_store
 
@@ -142,10 +165,11 @@ def migrated_engine(*, existing: bool = False) -> Engine:
 
 
 @contextmanager
-def store_session(*, existing: bool = False) -> Iterator[Session]:
+def store_session(*, existing: bool | None = None) -> Iterator[Session]:
     """A session of the configured store, migrated and with the reference rig and tables
-    preloaded as ``serve`` does; the engine is disposed after.  ``existing``: a command
-    that only reads refuses a missing store (:func:`migrated_engine`)."""
+    preloaded as ``serve`` does; the engine is disposed after.  ``existing``: a missing
+    store is refused, not made (default: for the :data:`EXISTING_STORE_COMMANDS`,
+    :func:`migrated_engine`)."""
     from app.services.bootstrap import bootstrap_lock, ensure_reference_data
     from app.services.throttle_estimator import ThrottleClearanceEstimator
 

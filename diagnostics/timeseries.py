@@ -57,12 +57,7 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
-from diagnostics.channel_names import (
-    CONDITION_CHANNELS,
-    PUMP_FLOW_CHANNEL,
-    unknown_channel_note,
-    unknown_channels,
-)
+from diagnostics.channel_names import CONDITION_CHANNELS, series_channel_notes
 from diagnostics.column_map import SKIP, ColumnEntry, column_entry, read_column_map
 from diagnostics.table_files import MAX_DECOMPRESSED_BYTES, PARQUET_METADATA_KEY, read_table
 from sim.errors import InputError
@@ -148,7 +143,8 @@ class SeriesRecord:
         Clock time at which ``t`` reads 0 [UTC], None when the source does not say.
     notes
         What the reading found that a user must know: channels that are not the rig's
-        (read with the rig's channels, ``expected``), with the nearest known name.
+        (read with the rig's channels, ``expected``; without them, no rig model's), with
+        the nearest known name.
     """
 
     name: str
@@ -277,11 +273,14 @@ def series_from_frame(frame: pd.DataFrame, *, name: str = "table",
         refused (``dict(pairs)`` first).
     expected
         Channel → SI unit it must have (a rig's outputs, :meth:`sim.rigs.Rig.channels`);
-        other channels take the SI unit of whatever unit they are written in.  Given, a
-        channel that is none of these, no condition channel and no pump flow meter
-        (``Q_pump``) is kept and noted in each record's :attr:`SeriesRecord.notes`, with
-        the nearest known name (a misspelt column map or header: :mod:`diagnostics.
-        channel_names`).
+        other channels take the SI unit of whatever unit they are written in.  A channel
+        that is none of these, no condition channel and no pump flow meter (``Q_pump``)
+        is kept and noted in each record's :attr:`SeriesRecord.notes`, with the nearest
+        known name (a misspelt column map or header: :mod:`diagnostics.channel_names`).
+        Not given, the channels are checked against those of every rig model hydrodiag
+        builds (:func:`~diagnostics.channel_names.any_model_channels`): a name none has
+        is noted, one that only another rig's model has is not (give the rig's channels
+        for that).
     required
         Channels every record must have.
     metadata
@@ -362,16 +361,7 @@ def series_from_frame(frame: pd.DataFrame, *, name: str = "table",
     for chan in required:
         if chan not in (c[0] for c in columns.values()):
             raise InputError(f"required channel {chan!r} is missing", field=chan)
-    notes: tuple[str, ...] = ()
-    if expected:
-        model = [c for c in expected if c not in CONDITION_CHANNELS]
-        unknown = unknown_channels((c[0] for c in columns.values() if c[0] != "t"),
-                                   (*model, PUMP_FLOW_CHANNEL))
-        if unknown:
-            notes = (unknown_channel_note(
-                unknown, model, "read as given, but no reader of the rig compares with them; "
-                "a misspelt name is read again with the column map or the column's name "
-                "corrected", also=(PUMP_FLOW_CHANNEL,)),)
+    notes = series_channel_notes([c[0] for c in columns.values() if c[0] != "t"], expected)
     found = meta.get("condition")
     header_condition: dict[str, Any] = dict(found) if isinstance(found, dict) else {}
     records: list[SeriesRecord] = []

@@ -170,10 +170,10 @@ def _plateaus(records: list[SeriesRecord], values: Mapping[str, float],
 
 
 @contextmanager
-def data_field(name: str, fields: tuple[str, ...] = ("file",)) -> Iterator[None]:
+def data_field(name: str, fields: tuple[str, ...] = ("file", "records")) -> Iterator[None]:
     """Errors of the workflow about its data (``field`` one of ``fields``: ``file``, as the
-    upload is called) name ``name`` instead: ``series_ids`` for stored records, an option
-    on the command line."""
+    upload is called, or the library's argument ``records``) name ``name`` instead:
+    ``series_ids`` for stored records, an option on the command line."""
     try:
         yield
     except HydrodiagError as exc:

@@ -36,8 +36,8 @@ from app.errors import ServiceUnavailableError
 from app.lifeline import exit_with_parent
 from diagnostics.batch import executor_workers
 
-__all__ = ["CONNECT_TIMEOUT_S", "NO_WORKER_S", "Connection", "ExecutorKind", "ExecutorState",
-           "SweepExecutors", "dask_available"]
+__all__ = ["CONNECT_TIMEOUT_S", "NO_WORKER_S", "SETTING", "Connection", "ExecutorKind",
+           "ExecutorState", "SweepExecutors", "dask_available"]
 
 logger = logging.getLogger("hydrodiag.app")
 
@@ -46,10 +46,13 @@ logger = logging.getLogger("hydrodiag.app")
 CONNECT_TIMEOUT_S = 5.0
 #: how long work waits on a cluster without a worker before it fails [s]
 NO_WORKER_S = 30.0
+#: the service's setting of the scheduler's address, named by its errors by default
+SETTING = "HYDRODIAG_DASK_SCHEDULER"
 
 
-def _connected(scheduler: str) -> Any:
-    """A client of the Dask scheduler at ``scheduler`` whose workers run this code."""
+def _connected(scheduler: str, setting: str = SETTING) -> Any:
+    """A client of the Dask scheduler at ``scheduler`` whose workers run this code;
+    errors name ``setting``, where the address came from."""
     from distributed import Client
 
     try:
@@ -57,33 +60,34 @@ def _connected(scheduler: str) -> Any:
     except (OSError, TimeoutError) as exc:   # "internal error; see the service log" before
         raise ServiceUnavailableError(
             f"the Dask scheduler {scheduler} does not answer ({exc}); start it or correct "
-            "HYDRODIAG_DASK_SCHEDULER", field="HYDRODIAG_DASK_SCHEDULER") from None
+            f"{setting}", field=setting) from None
     try:
-        _checked_workers(client, scheduler)
+        _checked_workers(client, scheduler, setting)
     except BaseException:
         client.close()
         raise
     return client
 
 
-def _checked_workers(client: Any, scheduler: str) -> None:
+def _checked_workers(client: Any, scheduler: str, setting: str = SETTING) -> None:
     """Refuse a cluster without a worker, one whose workers cannot import hydrodiag, or
     one whose workers run other hydrodiag code (:func:`~app.services.code_version.
     code_fingerprint`): such a worker died on its first task and the work waited for
-    ever, or answered other numbers without a word (a Dask pass)."""
+    ever, or answered other numbers without a word (a Dask pass).  The errors name
+    ``setting``."""
     from app.services.code_version import code_fingerprint
 
     if not client.nthreads():
         raise ServiceUnavailableError(
             f"the Dask cluster at {scheduler} has no worker: start workers (dask worker "
-            f"{scheduler}) where this hydrodiag is installed", field="HYDRODIAG_DASK_SCHEDULER")
+            f"{scheduler}) where this hydrodiag is installed", field=setting)
     try:
         theirs: dict[str, str] = client.run(code_fingerprint)
     except Exception as exc:  # a worker's failure, whatever it raised
         raise ServiceUnavailableError(
             f"a worker of the Dask cluster at {scheduler} cannot run hydrodiag "
             f"({type(exc).__name__}: {exc}); install this hydrodiag on every worker",
-            field="HYDRODIAG_DASK_SCHEDULER") from None
+            field=setting) from None
     ours = code_fingerprint()
     other = sorted(worker for worker, print_ in theirs.items() if print_ != ours)
     if other:
@@ -91,7 +95,7 @@ def _checked_workers(client: Any, scheduler: str) -> None:
             f"{len(other)} of {len(theirs)} workers of the Dask cluster at {scheduler} run "
             f"other hydrodiag code than this service ({', '.join(other[:3])}): their "
             "results would differ; install the same version on every worker",
-            field="HYDRODIAG_DASK_SCHEDULER")
+            field=setting)
 
 ExecutorKind = Literal["processes", "dask"]
 #: where the executor stands: ``local`` (a process pool), ``idle`` (a Dask scheduler set,
@@ -142,14 +146,20 @@ class SweepExecutors:
         Processes of the local pool; ``None``: one per core.
     dask_scheduler
         Address of a Dask scheduler; ``None`` for the local pool.
+    setting
+        Where the address came from, named by the errors about the scheduler: the
+        service's variable (:data:`SETTING`) or a command's option (``diagnose-batch
+        --dask`` was told to correct the variable it had not used: a review's leftover).
     """
 
-    def __init__(self, *, workers: int | None = None, dask_scheduler: str | None = None) -> None:
+    def __init__(self, *, workers: int | None = None, dask_scheduler: str | None = None,
+                 setting: str = SETTING) -> None:
         self._workers = workers or os.cpu_count() or 1
         self._scheduler = dask_scheduler if dask_scheduler else None
+        self._setting = setting
         if self._scheduler is not None and not dask_available():
-            logger.warning("HYDRODIAG_DASK_SCHEDULER is set but dask.distributed is not "
-                           "installed; sweeps run on local processes")
+            logger.warning("%s is set but dask.distributed is not installed; sweeps run on "
+                           "local processes", setting)
             self._scheduler = None
         self._lock = threading.Lock()
         self._executor: Executor | None = None
@@ -181,7 +191,7 @@ class SweepExecutors:
                 self._client, self._executor = None, None
             if self._executor is None:
                 if self._scheduler is not None:
-                    self._client = _connected(self._scheduler)
+                    self._client = _connected(self._scheduler, self._setting)
                     self._executor = self._client.get_executor()
                     self._empty_since = None
                 else:
@@ -207,7 +217,7 @@ class SweepExecutors:
         if client.status not in ("running", "connecting"):
             raise ServiceUnavailableError(
                 f"lost the Dask scheduler {self._scheduler} while the work ran; submit it "
-                "again", field="HYDRODIAG_DASK_SCHEDULER")
+                "again", field=self._setting)
         now = time.monotonic()
         try:
             threads = client.nthreads()
@@ -221,7 +231,7 @@ class SweepExecutors:
             raise ServiceUnavailableError(
                 f"the Dask cluster at {self._scheduler} has had no worker for "
                 f"{NO_WORKER_S:g} s (do its workers have this hydrodiag installed?); "
-                "submit the work again once workers run", field="HYDRODIAG_DASK_SCHEDULER")
+                "submit the work again once workers run", field=self._setting)
 
     def waiting(self, progress: Any = None) -> Callable[[], None]:
         """What to call while results do not come: :meth:`check`, and a job's

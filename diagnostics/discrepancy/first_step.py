@@ -131,7 +131,7 @@ def check_arguments(rig_document: object, records: object) -> None:
     """:func:`check_document`, and refuse ``records`` that are not a list of
     :class:`~diagnostics.timeseries.SeriesRecord` (one record alone raised "'SeriesRecord'
     object is not iterable", where ``diagnose`` said what to pass: a library user's pass),
-    naming ``records`` or ``records[i]``."""
+    naming ``records`` (also when empty) or ``records[i]``."""
     check_document(rig_document)
     if isinstance(records, SeriesRecord):
         raise InputError("records is a list of records: discover(rig_document, [record])",
@@ -139,6 +139,9 @@ def check_arguments(rig_document: object, records: object) -> None:
     if not isinstance(records, Sequence) or isinstance(records, str | bytes):
         raise InputError(f"records is a list of SeriesRecord (diagnostics.timeseries."
                          f"read_series), not a {type(records).__name__}", field="records")
+    if not records:   # named "file" (the upload's field) in the library, not the argument
+        raise InputError("no records to analyse: give at least one measured cycle "
+                         "(diagnostics.timeseries.read_series)", field="records")
     for i, record in enumerate(records):
         if not isinstance(record, SeriesRecord):
             raise InputError(f"records are SeriesRecord objects (diagnostics.timeseries."
@@ -181,8 +184,6 @@ def first_step(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord]
                            "plateaus once stored: import it (hydrodiag import series, POST "
                            "/rigs/{id}/series) and run the workflow on the stored series "
                            "(--series, series_ids)", field=exc.field) from None
-    if not records:
-        raise InputError("no records to analyse", field="file")
     labelled, notes = with_phases(records, rig.values()["cylinder.stroke"])
     labelled, derived = with_velocity(labelled)
     notes += derived

@@ -238,9 +238,9 @@ def discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], *
     Raises
     ------
     InputError
-        No records, channels that differ between records, none of the balances computable;
-        a ``rig_document`` that is no mapping (a compiled Rig, a path) or ``records`` that
-        are not a list of records (``field`` names the argument).
+        Channels that differ between records, none of the balances computable; a
+        ``rig_document`` that is no mapping (a compiled Rig, a path), or ``records`` empty
+        or not a list of records (``field`` names the argument: ``records``).
     """
     check_arguments(rig_document, records)
     return _discover(rig_document, records, progress=progress, refit=refit,

@@ -11,6 +11,7 @@ from collections.abc import Iterator
 from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
 from pathlib import Path
+from typing import Any
 
 import httpx
 import pytest
@@ -138,8 +139,14 @@ def test_bad_configuration_exits_with_a_message(runner: CliRunner,
     assert "postgresql+psycopg://" in result.output and "Value error" not in result.output
 
 
-def test_main_reports_hydrodiag_errors_without_a_traceback(tmp_path: Path) -> None:
+def test_main_reports_hydrodiag_errors_without_a_traceback(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from app.cli_support import store_session
+
     env = os.environ | {"HYDRODIAG_DATA_DIR": str(tmp_path)}
+    monkeypatch.setenv("HYDRODIAG_DATA_DIR", str(tmp_path))
+    with store_session():   # the store (keys revoke makes none: it holds no key 7)
+        pass
     result = subprocess.run([sys.executable, "-m", "app.cli", "keys", "revoke", "7"],
                             env=env, capture_output=True, text=True, check=False)
     assert result.returncode == 1
@@ -240,6 +247,53 @@ def test_a_command_that_makes_a_new_store_says_so(runner: CliRunner, tmp_path: P
     assert again.exit_code == 0 and "new, empty store" not in again.output
     # rich wraps a long path anywhere: compare without the white space
     assert "HYDRODIAG_DATA_DIR,default./data" in "".join(first.output.split())
+
+
+#: every command that reads the store or changes only what it holds, with the arguments
+#: it needs (``{out}``: a folder that exists)
+_ON_AN_EXISTING_STORE = {
+    "calibrate tables": ["--rig", "1"], "history list": [], "history show": ["1"],
+    "jobs cancel": ["3f2a"], "jobs list": [], "jobs show": ["3f2a"], "keys list": [],
+    "keys revoke": ["1"], "keys rotate": ["1"],
+    "report diagnosis": ["1", "--output", "{out}/r.html"],
+    "report trends": ["--rig", "1", "--output", "{out}/t.csv"], "rigs list": [],
+    "rigs rediagnose": ["1"], "rigs series": ["1"], "rigs show": ["1"]}
+
+
+@pytest.mark.parametrize("command", sorted(_ON_AN_EXISTING_STORE))
+def test_a_command_on_what_a_store_holds_makes_no_store(runner: CliRunner, tmp_path: Path,
+                                                        command: str) -> None:
+    """``calibrate tables``, ``report diagnosis`` and ``report trends`` run where there was
+    no store made one (one stderr line said so) and listed the preloaded tables or said
+    "no diagnosis with id 1" (a review's leftover): every command that only reads (or
+    changes only what the store holds) says where it looked, exits 1 and makes none."""
+    out = tmp_path / "out"
+    out.mkdir()
+    args = [a.format(out=out) for a in _ON_AN_EXISTING_STORE[command]]
+    looked = runner.invoke(cli, [*command.split(), *args])
+    assert looked.exit_code == 1, looked.output
+    assert getattr(looked.exception, "field", None) == "HYDRODIAG_DATA_DIR", looked.output
+    said = " ".join(looked.exception.message.split())  # type: ignore[union-attr]
+    assert f"no store at {tmp_path.resolve() / 'hydrodiag.db'}: set HYDRODIAG_DATA_DIR" in said
+    assert "HYDRODIAG_DATABASE_URL" in said
+    assert list(tmp_path.iterdir()) == [out]     # nothing made
+
+
+def test_the_commands_on_an_existing_store_are_commands_and_all_tested() -> None:
+    """The CLI's one list of them (app.cli_support) names real commands, each tested
+    above; a command that adds to the store still makes one (as simulate and diagnose,
+    the README's first commands, do)."""
+    from typer.main import get_command
+
+    from app.cli_support import EXISTING_STORE_COMMANDS
+
+    root: Any = get_command(cli)
+    for path in EXISTING_STORE_COMMANDS:
+        group, name = path.split()
+        assert name in root.commands[group].commands, path
+    assert set(_ON_AN_EXISTING_STORE) == EXISTING_STORE_COMMANDS
+    assert not {"simulate", "diagnose", "rigs add", "rigs update", "keys create",
+                "import series", "calibrate throttle"} & EXISTING_STORE_COMMANDS
 
 
 def test_a_new_store_by_url_names_the_url_variable(runner: CliRunner, tmp_path: Path,

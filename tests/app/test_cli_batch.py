@@ -6,6 +6,7 @@ import json
 from pathlib import Path
 
 import pandas as pd
+import pytest
 from typer.testing import CliRunner
 
 from app.cli import cli
@@ -111,6 +112,23 @@ def test_every_refused_record_is_listed_and_the_others_can_be_diagnosed(
     assert kept[5]["error"] == {"type": "NotFoundError", "field": "row 6: rig_id",
                                 "message": "no rig with id 99"}
     assert kept[1]["top"] == "cylinder"
+
+
+def test_an_unreachable_dask_scheduler_is_named_by_the_option_that_gave_it(
+        runner: CliRunner, tmp_path: Path) -> None:
+    """``--dask tcp://…`` that does not answer was refused as HYDRODIAG_DASK_SCHEDULER's,
+    "correct HYDRODIAG_DASK_SCHEDULER", a variable not set (a review's leftover): the
+    option is named, as ``serve --port`` names ``--port``."""
+    pytest.importorskip("distributed")
+    pd.DataFrame(_rows()[:1]).to_csv(tmp_path / "records.csv", index=False)
+    refused = runner.invoke(cli, ["diagnose-batch", str(tmp_path / "records.csv"),
+                                  "--dask", "tcp://127.0.0.1:9"])
+    assert refused.exit_code == 1, refused.output
+    assert getattr(refused.exception, "field", None) == "--dask"
+    message = refused.exception.message  # type: ignore[union-attr]
+    assert "tcp://127.0.0.1:9 does not answer" in message
+    assert message.endswith("start it or correct --dask")
+    assert "HYDRODIAG_DASK_SCHEDULER" not in message
 
 
 def test_diagnose_many_on_a_process_pool_and_a_dask_cluster_equals_in_process() -> None:

@@ -166,7 +166,11 @@ def test_discover_names_an_argument_of_the_wrong_type() -> None:
             (reference_rig(), [one], "rig_document", "rig.spec.to_document()"),
             ("press.yaml", [one], "rig_document", "load_rig_document(path)"),
             (doc, one, "records", "[record]"),
-            (doc, [{"P1": 1e6}], "records[0]", "SeriesRecord")):
+            (doc, [{"P1": 1e6}], "records[0]", "SeriesRecord"),
+            # no record: named "file", the upload's field, not the argument (a review's
+            # leftover), as diagnose(rig, []) names "records"
+            (doc, [], "records", "at least one measured cycle"),
+            (doc, (), "records", "no records to analyse")):
         with pytest.raises(InputError) as caught:
             discover(rig_document, records)  # type: ignore[arg-type]
         assert caught.value.field == field and words in caught.value.message

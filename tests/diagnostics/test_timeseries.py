@@ -290,4 +290,30 @@ def test_a_channel_the_rig_does_not_know_is_noted_with_the_nearest_name():
     assert rec.window(0.0, 1.0).notes == rec.notes
     right = cmap | {"pp": ("P_pump", "bar"), "qb": ("Q_meter_B", "l/min")}
     assert series_from_frame(frame, column_map=right, expected=channels)[0].notes == ()
-    assert series_from_frame(frame, column_map=cmap)[0].notes == ()  # no rig: no note
+
+
+def test_without_the_rig_a_channel_of_no_rig_model_is_noted_too():
+    """Without the rig's channels ``read_series`` kept ``P_pmup`` without a word (a
+    review's leftover): every rig model's channels are known, and a name none of them has
+    is noted with the nearest; a channel of another circuit's model (the ZeMA rig's
+    ``Q_work``) and the right names give none; the values are those read with the rig."""
+    frame = pd.DataFrame({"time": [0.0, 1.0, 2.0], "pp": [150.0, 151.0, 152.0],
+                          "qb": [30.0, 30.0, 30.0], "qw": [29.0, 29.0, 29.0],
+                          "T": [40.0, 40.0, 40.0]})
+    cmap = {"time": ("t", "s"), "pp": ("P_pmup", "bar"), "qb": ("Q_meter_b", "l/min"),
+            "qw": ("Q_work", "l/min"), "T": ("oil_temperature", "degC")}
+    (rec,) = read_series(frame, column_map=cmap)
+    [note] = rec.notes
+    assert note.startswith("channel(s) P_pmup, Q_meter_b are not channels of any rig model "
+                           "hydrodiag builds (F_friction, P1, ")
+    assert "Q_work" in note.split(":")[0]          # among the known, not the unknown
+    assert "(expected=rig.channels() checks against the rig's own)" in note
+    assert note.endswith("did you mean 'P_pump' for 'P_pmup', 'Q_meter_B' for 'Q_meter_b'?")
+    (with_rig,) = series_from_frame(frame, column_map=cmap,
+                                    expected=reference_rig().channels())
+    assert with_rig.notes != rec.notes and rec.channels.keys() == with_rig.channels.keys()
+    for name, values in rec.channels.items():
+        np.testing.assert_array_equal(values, with_rig.channels[name])
+    assert (rec.units, rec.condition) == (with_rig.units, with_rig.condition)
+    right = cmap | {"pp": ("P_pump", "bar"), "qb": ("Q_meter_B", "l/min")}
+    assert series_from_frame(frame, column_map=right)[0].notes == ()

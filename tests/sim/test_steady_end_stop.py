@@ -17,15 +17,9 @@ import numpy as np
 import pytest
 
 from sim.cycle import phase_params, run_cycle
+from sim.end_stop import held_state, stop_start
 from sim.rigs import Condition, reference_rig
-from sim.steady import (
-    SteadyEvaluator,
-    _end_stop,
-    _stop_start,
-    steady_cycle,
-    steady_phase,
-    stop_force,
-)
+from sim.steady import SteadyEvaluator, steady_cycle, steady_phase, stop_force
 
 #: a hot, worn seal at the paper's middle load: the working stroke stalls
 STALLED = ({"cylinder.cc": 250e-6}, Condition(load=4200.0, oil_temperature=55.0))
@@ -143,8 +137,8 @@ def test_a_held_piston_pulled_off_its_stop_is_no_end_stop_state() -> None:
     cond = rig.default_condition()
     p = phase_params(rig, "working", None, cond)
     moving = steady_phase(rig, "working", None, cond)
-    held = rig.model.steady(_stop_start(rig, "working", moving.state, p), p,
+    held = rig.model.steady(stop_start(rig, "working", moving.state, p), p,
                             frozen=("cylinder.x", "cylinder.mass"))
     assert stop_force(rig, "working", held, p) < -100.0  # pulls off by > 100 N
-    assert _end_stop(rig, "working", p, [moving.state], 1e-10) is None
+    assert held_state(rig, "working", p, [moving.state], 1e-10) is None
 
