@@ -33,7 +33,15 @@ from app.cli_jobs import jobs_cli
 from app.cli_report import report_cli
 from app.cli_rigs import rigs_cli
 from app.cli_runs import register
-from app.cli_support import console, migrated_engine, settings_from_env, steps, store_id, unwrap_help
+from app.cli_support import (
+    as_option,
+    console,
+    migrated_engine,
+    settings_from_env,
+    steps,
+    store_id,
+    unwrap_help,
+)
 from app.db.engine import make_engine, make_session_factory
 from app.security import Scope
 from app.settings import Settings
@@ -284,7 +292,10 @@ def keys_rotate(
 
     engine = _migrated_engine()
     with make_session_factory(engine)() as session:
-        old, new, plaintext = rotate_api_key(session, key_id, grace_s=grace)
+        try:
+            old, new, plaintext = rotate_api_key(session, key_id, grace_s=grace)
+        except InputError as exc:   # named "grace", the API's field (a review's leftover)
+            raise as_option(exc, {"grace": "--grace"}) from None
         old_id, new_id, ends = old.id, new.id, old.revoked_at
     engine.dispose()
     when = "now" if not grace else f"at {ends:%Y-%m-%d %H:%M:%S} UTC"

@@ -141,11 +141,15 @@ def diagnose_batch(
     Nothing is stored: the results go to --output and the summary table (POST /diagnose keeps
     diagnoses in the history).
     """
-    from app.services.executors import SweepExecutors
+    from app.services.executors import SweepExecutors, dask_available
     from app.services.measurements import to_record
     from app.services.rig_cache import RigCache
     from diagnostics.batch import diagnose_many
 
+    if dask and not dask_available():
+        # asked for by name: running on local processes instead said nothing (a review)
+        raise InputError("--dask needs dask.distributed, which is not installed here "
+                         "(pip install -e '.[dask]')", field="--dask")
     if out is not None:
         writable(out, "--output")
     numbered, refused, where = read_batch(file, rig_id)

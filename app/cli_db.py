@@ -9,7 +9,7 @@ from typing import Annotated
 import typer
 from sqlalchemy import Engine
 
-from app.cli_support import console, settings_from_env, steps
+from app.cli_support import console, settings_from_env, steps, store_setting
 from app.db.engine import make_engine, private_file, sqlite_path
 from sim.errors import InputError
 
@@ -174,8 +174,9 @@ def db_revisions() -> None:
     from app.db import migrate
     from app.db.copy import existing_store
 
-    url = settings_from_env().url
-    existing_store(url)
+    settings = settings_from_env()
+    url = settings.url
+    existing_store(url, field=store_setting(settings))
     engine = make_engine(url)
     try:
         current = migrate.current_revision(engine)
@@ -192,8 +193,9 @@ def db_current() -> None:
     from app.db import migrate
     from app.db.copy import existing_store
 
-    url = settings_from_env().url
-    existing_store(url)
+    settings = settings_from_env()
+    url = settings.url
+    existing_store(url, field=store_setting(settings))
     engine = make_engine(url)
     try:
         typer.echo(migrate.current_revision(engine) or "")
@@ -216,11 +218,12 @@ def db_backup(
 
     from app.db.copy import existing_store
 
-    url = settings_from_env().url
+    settings = settings_from_env()
+    url = settings.url
     if (store := sqlite_path(url)) is None:
         raise InputError("db backup copies an SQLite file; back a PostgreSQL store up with "
                          "pg_dump", field="HYDRODIAG_DATABASE_URL")
-    existing_store(url)  # not a new, empty store made and backed up
+    existing_store(url, field=store_setting(settings))  # not a new, empty store backed up
     if file.exists():
         raise InputError(f"{file} exists: a backup is written to a new file", field="FILE")
     if not file.parent.is_dir():
@@ -288,7 +291,11 @@ def db_copy(
 
     for sig in (signal.SIGTERM, signal.SIGHUP):
         signal.signal(sig, stop)
-    source_url = settings_from_env().url
+    from app.db.copy import existing_store
+
+    settings = settings_from_env()
+    source_url = settings.url
+    existing_store(source_url, field=store_setting(settings))
     with steps() as progress:
         task = progress.add_task("copying", total=None)
 

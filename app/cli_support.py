@@ -33,8 +33,8 @@ __all__ = ["EXISTING_STORE_COMMANDS", "PIPE_WIDTH", "ColumnMapOption", "SampleRa
            "SinceOption", "UntilOption", "WideWhenPiped", "as_option", "console",
            "estimate_text", "load_document", "migrated_engine", "reading_options",
            "running_command", "series_ids", "settings_from_env", "shown_estimate",
-           "shown_scale", "steps", "store_id", "store_session", "unwrap_help", "validated",
-           "validation_error", "writable"]
+           "shown_scale", "steps", "store_id", "store_session", "store_setting",
+           "unwrap_help", "validated", "validation_error", "writable"]
 
 #: columns of a table or message written to a pipe or a file [characters]
 PIPE_WIDTH = 240
@@ -112,6 +112,12 @@ EXISTING_STORE_COMMANDS = frozenset({
 running_command: ContextVar[str] = ContextVar("running_command", default="")
 
 
+def store_setting(settings: Settings) -> str:
+    """The variable that chose the store: ``HYDRODIAG_DATABASE_URL`` when set, else
+    ``HYDRODIAG_DATA_DIR`` (the embedded file in its folder), for messages about it."""
+    return "HYDRODIAG_DATA_DIR" if settings.database_url is None else "HYDRODIAG_DATABASE_URL"
+
+
 def migrated_engine(*, existing: bool | None = None) -> Engine:
     """Engine of the configured store, migrated to the newest revision first.  With
     ``existing`` — by default, for the :data:`EXISTING_STORE_COMMANDS` — a missing SQLite
@@ -139,8 +145,7 @@ def migrated_engine(*, existing: bool | None = None) -> Engine:
     if existing:
         from app.db.copy import existing_store
 
-        existing_store(url, field="HYDRODIAG_DATA_DIR" if settings.database_url is None
-                       else "HYDRODIAG_DATABASE_URL")
+        existing_store(url, field=store_setting(settings))
     file = sqlite_path(url)
     fresh = file is not None and not file.exists()
     engine = make_engine(url)

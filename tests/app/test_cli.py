@@ -123,6 +123,10 @@ def test_keys_create_list_revoke(runner: CliRunner) -> None:
     revoked = runner.invoke(cli, ["keys", "revoke", "1"])
     assert revoked.exit_code == 0, revoked.output
     assert "revoked" in revoked.output
+    # a grace out of range names the option, not the API's field "grace" (a review)
+    negative = runner.invoke(cli, ["keys", "rotate", "2", "--grace", "-5"])
+    assert negative.exit_code == 1
+    assert getattr(negative.exception, "field", None) == "--grace", negative.output
 
 
 def test_bad_configuration_exits_with_a_message(runner: CliRunner,

@@ -237,10 +237,13 @@ def test_a_refused_target_is_left_as_it_was_and_a_missing_or_empty_store_is_not_
         engine.dispose()
     # the CLI run from a folder without a store: refused, nothing made
     for args in (["db", "copy", f"sqlite:///{tmp_path / 'x.db'}"],
-                 ["db", "backup", str(tmp_path / "b.db")], ["db", "current"]):
+                 ["db", "backup", str(tmp_path / "b.db")], ["db", "current"],
+                 ["db", "revisions"]):
         missing = runner.invoke(cli, args)
         assert isinstance(missing.exception, InputError), args
         assert "no store at" in missing.exception.message
+        # the folder's variable chose the store, not HYDRODIAG_DATABASE_URL (a review)
+        assert missing.exception.field == "HYDRODIAG_DATA_DIR", args
     assert not (tmp_path / "hydrodiag.db").exists() and not (tmp_path / "x.db").exists()
     # a store with its schema but no row: nothing to copy
     assert runner.invoke(cli, ["db", "upgrade"]).exit_code == 0
