@@ -7,7 +7,8 @@ pump-bench CSV format) or the rig's stored records named by ``--series``, runs
 :func:`~diagnostics.discrepancy.steady.discover_steady`) against the stored rig, stores the
 augmented rig as a new version when an effect is named (``--no-store`` to keep the store
 unchanged),
-prints the verdict and named effects, and writes the report (HTML page, and the charts as
+prints the verdict, the named effects and each balance's candidates (minimum detectable
+size and VIF), and writes the report (HTML page, and the charts as
 PNG and SVG beside it).  Exit code 0 on any verdict; a bad file is exit code 1 with a
 message naming the column.
 """
@@ -15,6 +16,7 @@ message naming the column.
 from __future__ import annotations
 
 import json
+import math
 from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
@@ -45,8 +47,9 @@ from sim.errors import HydrodiagError, InputError
 
 if TYPE_CHECKING:
     from diagnostics.discrepancy.drift import BaseDrift
+    from diagnostics.discrepancy.selection import Selection
 
-__all__ = ["discover", "drift_table", "register"]
+__all__ = ["candidate_table", "discover", "drift_table", "register"]
 
 #: the verdict and its tables (the result) go to stdout; progress and notes to stderr
 _out = WideWhenPiped()
@@ -158,6 +161,8 @@ def discover(
         _out.print(table)
     if not_stored:
         _out.print(not_stored, markup=False)
+    if any(sel.vif for sel in d.selections):
+        _out.print(candidate_table(d.selections))
     if d.base_drift is not None and d.base_drift.accepted:
         _out.print(drift_table(d.base_drift.parameters, d.base_drift.kept))
         _out.print(DRIFT_INTERVALS, markup=False)
@@ -167,6 +172,26 @@ def discover(
 _OPTIONS = {"series_ids": "--series", "relaxation": "--relaxation", "rig_id": "--rig",
             "rig_version": "--version", "column_map": "--column-map",
             "sample_rate": "--sample-rate"}
+
+
+def candidate_table(selections: Sequence[Selection]) -> Table:
+    """Every balance's candidates: whether chosen, the minimum detectable RMS on this design
+    (in the unit an engineer reads) and the VIF beside the base columns — reported, not
+    filtered on (DISCREPANCY.md, "Pitfalls"); ``∞``: in the base columns' span."""
+    from diagnostics.plots import shown_unit
+
+    table = Table("balance", "candidate", "chosen", "minimum detectable RMS", "VIF",
+                  title="candidates on this test design (VIF: reported, not filtered on)")
+    for sel in selections:
+        factor, unit = shown_unit(sel.unit)
+        chosen = {t.effect for t in sel.chosen.terms} if sel.chosen else set()
+        for name, v in sel.vif.items():
+            md = sel.detectable.get(name, math.inf)
+            table.add_row(sel.balance, name, "yes" if name in chosen else "",
+                          f"{factor * md:.3g} {escape(unit)}" if math.isfinite(md)
+                          else "not identifiable",
+                          f"{v:.3g}" if math.isfinite(v) else "∞")
+    return table
 
 
 def drift_table(parameters: Sequence[BaseDrift], kept: Sequence[str]) -> Table:

@@ -28,6 +28,8 @@ UNITS: dict[str, dict[str, float]] = {
     "m^3/rad": {"m^3/rad": 1.0, "m^3/rev": 1.0 / (2 * math.pi), "cm^3/rev": 1e-6 / (2 * math.pi),
                 "cm³/rev": 1e-6 / (2 * math.pi), "cm3/rev": 1e-6 / (2 * math.pi)},
     "rad/s": {"rad/s": 1.0, "rpm": _RPM, "rev/s": 2.0 * math.pi, "Hz": 2.0 * math.pi},
+    # per unit of shaft speed (the pump-filling loss's share of the displacement per rad/s)
+    "s/rad": {"s/rad": 1.0, "1/rpm": 1.0 / _RPM},
     "m/s": {"m/s": 1.0, "mm/s": 1e-3},
     "N": {"N": 1.0, "kN": 1e3},
     "kg": {"kg": 1.0, "g": 1e-3},

@@ -207,7 +207,9 @@ def html_page(d: Discovery, title: str = "hydrodiag discrepancy report", *,
     parts.append("<h2>Balances (equation error, base parameters re-fitted)</h2><table><tr>"
                  "<th>balance</th><th>chosen</th><th>ΔBIC</th><th>residual RMS</th>"
                  "<th>practical size</th><th>ambiguity groups</th>"
-                 "<th>minimum detectable RMS per candidate</th></tr>")
+                 "<th>minimum detectable RMS per candidate</th>"
+                 "<th>VIF per candidate (beside the base columns; reported, not filtered on)"
+                 "</th></tr>")
     for b in rep["balances"]:
         # in the units an engineer reads (bar, l/min, kN), every size with its unit (the
         # practical size and the detectable RMS had none: a discrepancy pass)
@@ -215,6 +217,8 @@ def html_page(d: Discovery, title: str = "hydrodiag discrepancy report", *,
         mds = ", ".join(f"{name}: {_fmt(scale * v)} {unit}" if v is not None
                         else f"{name}: not identifiable"
                         for name, v in b["minimum_detectable_rms"].items())
+        vifs = ", ".join(f"{name}: {_fmt(v)}" if v is not None else f"{name}: ∞ (in the "
+                         "base columns' span)" for name, v in b.get("vif", {}).items()) or "—"
         chosen = ", ".join(b["chosen"]) or "—"
         kept = b.get("picked_by_resimulation", b["chosen"])   # absent in older reports
         if kept != b["chosen"]:
@@ -222,7 +226,8 @@ def html_page(d: Discovery, title: str = "hydrodiag discrepancy report", *,
         parts.append(f"<tr><td>{e(b['balance'])}</td><td>{e(chosen)}</td>"
                      f"<td>{_fmt(b['bic_gain'])}</td><td>{_fmt(scale * b['residual_rms'])} "
                      f"[{e(unit)}]</td><td>{_fmt(scale * b['practical_size'])} [{e(unit)}]</td>"
-                     f"<td>{e(_groups(b['ambiguity']))}</td><td>{e(mds)}</td></tr>")
+                     f"<td>{e(_groups(b['ambiguity']))}</td><td>{e(mds)}</td>"
+                     f"<td>{e(vifs)}</td></tr>")
     parts.append("</table>")
     parts.append("<h2>Held-out gap (model − measurement)</h2><p>Timing floor: the RMSE "
                  "between the model and itself read half a sample period later — a logged "

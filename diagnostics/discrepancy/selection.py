@@ -25,7 +25,9 @@ alternatives, which the workflow re-fits in output-error form to tell apart
 (:mod:`~diagnostics.discrepancy.workflow`). Candidates whose columns are linearly
 dependent on the base columns or on each other on this test design (relative residual
 norm < 1e-3 after projection) form *ambiguity groups*, reported together. A moving-block
-bootstrap gives each chosen term's inclusion frequency.
+bootstrap gives each chosen term's inclusion frequency. Each candidate's variance inflation
+factor beside the base columns (:mod:`~diagnostics.discrepancy.vif`) is reported with its
+minimum detectable size; nothing is filtered on it (DISCREPANCY.md, "Pitfalls").
 """
 
 from __future__ import annotations
@@ -40,6 +42,7 @@ import numpy.typing as npt
 from scipy import stats
 
 from diagnostics.discrepancy.balances import BalanceData
+from diagnostics.discrepancy.vif import candidate_vif
 from sim.components.effects import EFFECTS
 from sim.errors import MeasurementError
 
@@ -156,11 +159,16 @@ class Selection:
     #: the base model absorbs what the design cannot separate (a negative viscous friction
     #: at one load, a discrepancy pass)
     unphysical: dict[str, float] = field(default_factory=dict)
+    #: variance inflation factor of each candidate's column beside the base columns on this
+    #: design (:func:`~diagnostics.discrepancy.vif.candidate_vif`; ``inf`` in their span):
+    #: reported, never filtered on
+    vif: dict[str, float] = field(default_factory=dict)
 
     def candidate_dicts(self) -> dict[str, dict[str, Any]]:
         """JSON-able single-term fits by effect: coefficient and its standard error [SI of
         the entry's parameter], t, p, RMS contribution [balance unit], plausibility; for an
-        unreachable candidate no numbers but why (``identifiable`` false, ``reach``)."""
+        unreachable candidate no numbers but why (``identifiable`` false, ``reach``); for
+        every candidate its VIF (:attr:`vif`, null where infinite)."""
         out: dict[str, dict[str, Any]] = {}
         for k, t in self.singles.items():
             if k in self.unreachable:
@@ -175,7 +183,16 @@ class Selection:
                 out[k] = {"coefficient": t.coefficient, "stderr": t.stderr, "t": t.t, "p": t.p,
                           "rms_contribution": t.rms_contribution, "plausible": t.plausible,
                           "identifiable": True}
+            out[k]["vif"] = _finite(self.vif.get(k, math.nan))
         return out
+
+    def vif_dict(self) -> dict[str, float | None]:
+        """:attr:`vif` as JSON-able data: every candidate, null where infinite."""
+        return {k: _finite(v) for k, v in self.vif.items()}
+
+
+def _finite(v: float) -> float | None:
+    return v if math.isfinite(v) else None
 
 
 def _reach(data: BalanceData) -> dict[str, float]:
@@ -432,7 +449,8 @@ def select(data: BalanceData, *, bootstrap: int = 30, seed: int = 0, lags: int =
     return Selection(data.balance.name, data.balance.unit, chosen, base_bic,
                      base_bic - chosen.bic if chosen else 0.0, competing, groups, inclusion,
                      detectable, singles, base_named, resid_si, base_resid * ys,
-                     data.full_scale, near, small, data.noise_floor, unreachable, unphysical)
+                     data.full_scale, near, small, data.noise_floor, unreachable, unphysical,
+                     candidate_vif(data.base, data.candidates))
 
 
 def _bootstrap(y: Arr, Xb: Arr, Xc: Arr, cnames: list[str], free: list[str],

@@ -177,6 +177,9 @@ class Discovery:
                 "unphysical_base": s.unphysical,
                 "minimum_detectable_rms": {k: (v if math.isfinite(v) else None)
                                            for k, v in s.detectable.items()},
+                # each candidate's variance inflation factor beside the base columns
+                # (reported, not filtered on: DISCREPANCY.md "Pitfalls"); null = infinite
+                "vif": s.vif_dict(),
                 "rejections": s.chosen.reasons if s.chosen else [],
             }
 

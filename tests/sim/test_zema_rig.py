@@ -56,7 +56,7 @@ def test_more_internal_leakage_lowers_the_working_flow() -> None:
 #: a strength of each pump-outlet entry that takes 1-10 % of the working flow [SI]
 PUMP_EFFECTS = {"turbulent_pump_slip": ("K_t", 5e-10), "pump_clearance_pressure": ("k_c", 3e-22),
                 "speed_offset": ("d_speed", -5.0), "pump_compressibility_loss": ("k_b", 2e-9),
-                "viscous_pump_slip": ("C_s", 1e-8)}
+                "viscous_pump_slip": ("C_s", 1e-8), "pump_filling": ("k_f", 2e-4)}
 
 
 def test_the_pump_entries_of_the_library_apply_to_this_circuit_and_leave_their_signature(

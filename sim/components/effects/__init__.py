@@ -25,6 +25,8 @@ effect                          balance          bond-graph change
 ``speed_offset``                pump flow        Sf on ``pump.out``
 ``pump_compressibility_loss``   pump flow        R on ``pump.out`` reading Vp, ω
 ``viscous_pump_slip``           pump flow        R on ``pump.out`` reading Vp, μ(T)
+``pump_filling``                pump flow        MSf on ``pump.out`` reading Vp and the
+                                                 shaft's ω (flow drawn: k_f·Vp·ω²)
 ``viscosity_law``               chamber flow     ``fluid.mu`` × exp(−λ(T − T_ref)) for
                                                  every viscous R (a fluid correction)
 ``entrained_air``               chamber flow     law of C ``cylinder.C1/C2``: + air
@@ -74,6 +76,7 @@ from sim.components.effects import (
     line_unsteady_friction,
     load_scale,
     pressure_clearance,
+    pump_filling,
     relief_override,
     seal_friction_pressure,
     side_plate_lag,
@@ -159,7 +162,7 @@ _REGISTRY: dict[str, Effect] = {}
 for _m in (stribeck_friction, seal_friction_pressure, couette_drag, speed_offset,
            compressibility_loss, side_plate_lag, slip_hysteresis, viscosity_law,
            relief_override, entrained_air, line_unsteady_friction, viscous_pump_slip,
-           load_scale):
+           load_scale, pump_filling):
     _e = _single(_m)
     _REGISTRY[_e.name] = _e
 for _m in (turbulent_leakage, pressure_clearance):

@@ -29,6 +29,7 @@ STRENGTHS = {
     "speed_offset": ("d_speed", 5.0),
     "pump_compressibility_loss": ("k_b", 6.7e-10),
     "viscous_pump_slip": ("C_s", 1e-8),
+    "pump_filling": ("k_f", 1e-4),
     "viscosity_law": ("lam", 0.01),
     "relief_override": ("k_ov", 4e12),
     "entrained_air": ("alpha", 1e-3),
@@ -71,7 +72,9 @@ def test_junction_balances_and_effect_dissipation_at_random_states(full_rig):
     p = full_rig.params(graph_values={"valve.N": 1.0})
     effect_rs = [el for el in g.elements.values()
                  if el.kind is Kind.R and el.name.split(".")[0] in EFFECTS]
-    assert len(effect_rs) == 10  # every effect but the speed offset is an R
+    # every effect but the speed offset, the stated load and the filling loss (sources) is
+    # an R
+    assert len(effect_rs) == 10
     for _ in range(25):
         y = m.initial_state(p)
         for i in range(len(m.state_names)):
@@ -229,6 +232,46 @@ def test_viscous_pump_slip_takes_c_s_p_vp_over_mu_from_the_delivered_flow():
     ratio = lost[60.0][0] / lost[40.0][0]
     assert ratio > 1.8
     assert ratio == pytest.approx(lost[40.0][1] / lost[60.0][1], rel=0.05)
+
+
+def test_pump_filling_draws_k_f_vp_omega_squared_from_the_outlet_junction():
+    """At the steady working point the filling loss's source carries exactly k_f·Vp·ω² out
+    of the pump-outlet 0-junction, at each shaft speed (the flow of the shaft bond), and the
+    junction balances: ω·Vp = P/Rlp + Q_f + Q_B (Ṗ = 0, the relief closed)."""
+    from sim.cycle import phase_params
+
+    k_f = 1e-4
+    rig = load_rig(_doc({"pump_filling": k_f}))
+    m = rig.model
+    g = m.system.graph
+    lost = {}
+    for frac in (0.8, 1.0):
+        cond = replace(rig.default_condition(),
+                       pump_speed=frac * reference_rig().values()["pump.speed"])
+        point = steady_phase(rig, "working", condition=cond)
+        v = rig.values(condition=cond)
+        p = phase_params(rig, "working", None, cond)
+        _, f = m.bond_values(point.state, p)
+        (b,) = g.bonds_of("pump_filling.MSf")
+        omega = v["pump.speed"]
+        q_f = -b.sign_at("pump.out") * f[b.index]   # flow out of the junction
+        assert q_f == pytest.approx(k_f * v["pump.Vp"] * omega ** 2, rel=1e-12)
+        out = point.outputs
+        assert out["Q_relief"] == pytest.approx(0.0, abs=1e-12)
+        assert omega * v["pump.Vp"] == pytest.approx(
+            out["P_pump"] / v["pump.Rlp"] + q_f + out["Q_meter_B"], rel=1e-9)
+        # every bond of the outlet junction: the flows sum to zero
+        bonds = g.bonds_of("pump.out")
+        signs = np.array([x.sign_at("pump.out") for x in bonds], dtype=float)
+        flows = f[[x.index for x in bonds]]
+        assert abs(signs @ flows) <= 1e-12 * np.abs(flows).max()
+        # the loss is no leak to a drain line: Q_pump_leak stays the pump's own P/Rlp
+        assert out["Q_pump_leak"] == pytest.approx(out["P_pump"] / v["pump.Rlp"], rel=1e-9)
+        base = steady_phase(reference_rig(), "working", condition=cond).outputs
+        assert base["Q_meter_B"] - out["Q_meter_B"] == pytest.approx(q_f, rel=0.01)
+        lost[frac] = q_f
+    # ∝ ω²: 0.8² of the full-speed loss at 80 % speed
+    assert lost[0.8] / lost[1.0] == pytest.approx(0.64, rel=1e-9)
 
 
 def test_effects_section_errors_name_the_field():
