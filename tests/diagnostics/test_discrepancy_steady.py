@@ -211,6 +211,38 @@ def test_no_effect_bench_tables_give_no_effect(noise: str) -> None:
         assert d.named == [], d.message
 
 
+def test_a_flow_outside_the_library_enters_a_synthetic_table_through_extra_flow() -> None:
+    """``extra_flow`` takes a flow off every point as a function of the regressors' signals
+    (an effect the registry does not hold): given a library entry's own law it makes the
+    table that entry makes, noise draws included; left out, the table is as before."""
+    from sim.components.effects import EFFECTS
+
+    rig = reference_rig()
+    k = 3e-9
+    law = EFFECTS["turbulent_pump_slip"].entry.regressor
+    by_entry = synthesize_bench(rig, rng=np.random.default_rng(5),
+                                effects={"turbulent_pump_slip": k})
+    by_extra = synthesize_bench(rig, rng=np.random.default_rng(5),
+                                extra_flow=lambda s: k * np.asarray(law(s)))
+    assert np.array_equal(by_entry.q, by_extra.q)
+    assert np.array_equal(by_entry.p_out, by_extra.p_out)
+    plain = synthesize_bench(rig, rng=np.random.default_rng(5))
+    none = synthesize_bench(rig, rng=np.random.default_rng(5), extra_flow=None)
+    assert np.array_equal(plain.q, none.q)
+    # the signals it is given: the grid's noise-free Δp, speed and viscosity (SI)
+    seen: dict[str, np.ndarray] = {}
+
+    def spy(s: dict[str, np.ndarray]) -> np.ndarray:
+        seen.update(s)
+        return np.zeros(s["P_pump"].size)
+
+    clean = synthesize_bench(rig, rng=np.random.default_rng(5), sigma_q=0.0, sigma_p=0.0,
+                             extra_flow=spy)
+    assert np.array_equal(seen["P_pump"], clean.p_out - clean.p_in)
+    assert np.array_equal(seen["speed"], clean.omega)
+    assert np.all(seen["mu"] > 0) and seen["mu"][np.argmax(clean.theta)] == seen["mu"].min()
+
+
 def _csv(frame: pd.DataFrame) -> bytes:
     return frame.to_csv(index=False).encode()
 
