@@ -11,7 +11,7 @@ mains hum of :data:`HUM` σ amplitude at a random phase).
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -158,7 +158,9 @@ def synthesize_bench(rig: Rig, *, rng: np.random.Generator,
                      temperatures: Sequence[float] = (40.0, 50.0, 60.0), repeats: int = 2,
                      noise: str = "gaussian", sigma_q: float = NOISE["Q_meter_B"],
                      sigma_p: float = NOISE["P_pump"],
-                     overrides: Mapping[str, float] | None = None) -> BenchData:
+                     overrides: Mapping[str, float] | None = None,
+                     extra_flow: Callable[[Mapping[str, Arr]], Arr] | None = None
+                     ) -> BenchData:
     """Steady pump test points of the rig's pump, as a pump bench records them.
 
     The flow is the pump-outlet 0-junction at steady state (paper 002 eqs. 1-5, Ṗ = 0),
@@ -168,6 +170,11 @@ def synthesize_bench(rig: Rig, *, rng: np.random.Generator,
     stated speed) × ``pressures`` [Pa] × ``temperatures`` [°C] × ``repeats``; the logged
     pressure has noise ``sigma_p`` [Pa], the flow ``sigma_q`` [m³/s] (kinds as
     :func:`synthesize`).  ``overrides`` change the truth's base parameters (drift).
+    ``extra_flow`` is a flow [m³/s] taken off the delivered one at every point, a function of
+    the grid's noise-free signals — the mapping a library entry's regressor reads
+    (``P_pump``, ``speed``, ``Vp``, ``mu``, ``T``, ``dP_pump``; SI) — for an effect that is
+    not in the library (the design notes' Δp^1.5·ω^0.5/μ^0.3 term,
+    :mod:`benchmarks.discrepancy_prototype`).
     """
     from diagnostics.pump.data import BenchData
     from sim.components.effects import EFFECTS
@@ -184,6 +191,8 @@ def synthesize_bench(rig: Rig, *, rng: np.random.Generator,
     q = omega * v["pump.Vp"] - dp / v["pump.Rlp"]
     for name, k in (effects or {}).items():
         q = q - k * np.asarray(EFFECTS[name].entry.regressor(sig), dtype=float)
+    if extra_flow is not None:
+        q = q - np.asarray(extra_flow(sig), dtype=float)
 
     def draw(s: float, x: Arr) -> Arr:
         if noise == "gaussian":
