@@ -291,18 +291,16 @@ def db_copy(
 
     for sig in (signal.SIGTERM, signal.SIGHUP):
         signal.signal(sig, stop)
-    from app.db.copy import existing_store
-
     settings = settings_from_env()
     source_url = settings.url
-    existing_store(source_url, field=store_setting(settings))
     with steps() as progress:
         task = progress.add_task("copying", total=None)
 
         def advance(table: str, rows: int) -> None:
             progress.update(task, description=f"copying {table}: {rows} rows")
 
-        copied = copy_store(source_url, target_url, advance)
+        copied = copy_store(source_url, target_url, advance,
+                            source_field=store_setting(settings))
     out = Table("table", "rows", title=f"revision {copied.revision}, counts checked")
     for name, rows in copied.rows.items():
         out.add_row(name, str(rows))

@@ -111,6 +111,7 @@ from typing import Any
 
 import numpy as np
 
+from benchmarks.discrepancy_study import score
 from diagnostics.discrepancy.selection import select
 from diagnostics.discrepancy.steady import _balance, _signals, discover_steady, predict_flow
 from diagnostics.discrepancy.synthetic import NOISE, synthesize_bench
@@ -261,17 +262,6 @@ def truth_ratios(d: Any, truth: dict[str, float], outside: float = 0.0
     return out[0], out[1]
 
 
-def _single_score(d: Any, truth: str) -> str:
-    named = {m.name for m in d.named}
-    if not named:
-        return "none"
-    if named == {truth}:
-        return "exact"
-    together = [{m.name} | {x for g in [*m.ambiguity, *m.competing] for x in g}
-                for m in d.named]
-    return "group" if all(truth in g for g in together) else "wrong"
-
-
 def _pair_score(named: set[str], pair: tuple[str, ...]) -> str:
     if not named:
         return "none"
@@ -314,7 +304,7 @@ def _one(task: tuple[Any, ...]) -> dict[str, Any]:
                            "verdict": d.verdict, "named": named, "chosen": chosen}
     out["all_rows"] = selection_all_rows(table)
     if kind == "single":
-        out["outcome"] = _single_score(d, what)
+        out["outcome"] = score(d, what)
         if out["outcome"] in ("exact", "group"):
             out["ratio_train"], out["ratio_held"] = truth_ratios(d, truth)
     elif kind == "pair":

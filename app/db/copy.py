@@ -18,7 +18,6 @@ refused (never created).  API keys are copied with their hashes: the clients' ke
 
 from __future__ import annotations
 
-import os
 import tempfile
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -65,16 +64,13 @@ def _counts(connection: Connection, tables: list[Table]) -> dict[str, int]:
             for t in tables}
 
 
-def _check_source(engine: Engine, tables: list[Table]) -> str:
+def _check_source(engine: Engine, tables: list[Table], setting: str) -> str:
     head = migrate.head_revision()
     current = migrate.current_revision(engine)
     if current != head:
         # it named HYDRODIAG_DATABASE_URL for the default file nobody set (an upgrade
-        # pass): the store by its place, the field the one it was found through
+        # pass): the store by its place, the field the setting it was found through
         where = engine.url.render_as_string(hide_password=True)
-        setting = ("HYDRODIAG_DATA_DIR" if engine.url.get_backend_name() == "sqlite"
-                   and not os.environ.get("HYDRODIAG_DATABASE_URL")
-                   else "HYDRODIAG_DATABASE_URL")
         raise InputError(f"the store {where} is at revision {current or 'none'}, not {head}: "
                          "migrate it first (hydrodiag db upgrade with the same "
                          "HYDRODIAG_DATA_DIR / HYDRODIAG_DATABASE_URL), then copy",
@@ -235,7 +231,8 @@ def existing_store(url: URL, field: str = "HYDRODIAG_DATABASE_URL") -> None:
                          "HYDRODIAG_DATABASE_URL", field=field)
 
 
-def copy_store(source_url: URL, target_url: URL, progress: Progress | None = None) -> Copied:
+def copy_store(source_url: URL, target_url: URL, progress: Progress | None = None, *,
+               source_field: str = "HYDRODIAG_DATABASE_URL") -> Copied:
     """Copy every row of the store at ``source_url`` into the empty store at
     ``target_url`` (module docstring).
 
@@ -245,22 +242,26 @@ def copy_store(source_url: URL, target_url: URL, progress: Progress | None = Non
         SQLAlchemy URLs (SQLite file or PostgreSQL).
     progress
         Called with (table, rows copied so far) as batches are written.
+    source_field
+        The setting that chose the source, named by the refusals about it (the CLI's
+        :func:`app.cli_support.store_setting`: ``HYDRODIAG_DATA_DIR`` for the folder's
+        file).
 
     Raises
     ------
     InputError
         The two are the same store; the source is missing, empty or not at this
-        release's revision (``field`` ``HYDRODIAG_DATABASE_URL``); the target holds data,
+        release's revision (``field`` ``source_field``); the target holds data,
         cannot be reached or made, or refuses a row (``TARGET``).  Nothing is written to a
         target that holds data, and a refused copy leaves its tables empty.
     """
     if _same(source_url, target_url):
         raise InputError("the target is the store itself", field="TARGET")
-    existing_store(source_url)
+    existing_store(source_url, field=source_field)
     tables = _tables()
     engine = make_engine(source_url)
     try:
-        revision = _check_source(engine, tables)
+        revision = _check_source(engine, tables, source_field)
         with engine.connect() as connection:
             if not any(_counts(connection, tables).values()):
                 raise InputError(f"the store at {_where(source_url)} holds no rows: nothing to "

@@ -277,7 +277,12 @@ class SweepExecutors:
     def state_within(self, timeout: float) -> ExecutorState:
         """:meth:`state`, or ``not answering`` when the scheduler has not answered within
         ``timeout`` [s] (the question goes on in a daemon thread, ended by Dask's own
-        time-outs; the caller does not wait for it)."""
+        time-outs; the caller does not wait for it).  Only a running client's state asks
+        the scheduler: the others are answered here, without a thread."""
+        with self._lock:
+            client = self._client
+        if client is None or str(client.status) != "running":
+            return self.state()
         answer: list[ExecutorState] = []
 
         def ask() -> None:
