@@ -80,6 +80,9 @@ __all__ = [
 
 #: Fewest distinct visit times for a trend (two points give a slope but no interval).
 MIN_POINTS = 3
+#: A slope whose change over the series' span is at most this many units in the last place
+#: of its largest value is read as 0 [-] (float rounding of re-diagnosed records, not wear).
+RESOLUTION_ULPS = 64
 
 Direction = Literal["increasing", "decreasing"]
 Status = Literal["worsening", "not_worsening", "crossed", "insufficient_data"]
@@ -227,6 +230,13 @@ def fit_trend(series: TrendSeries, *, confidence: float = 0.95) -> TrendFit:
     t = np.asarray(series.times, dtype=np.float64)
     y = np.asarray(series.values, dtype=np.float64)
     slope, rank_low, rank_high = theil_sen(t, y, confidence=confidence)
+    # a change over the whole span below the values' float resolution is no slope: the
+    # same record diagnosed again reads the last bit differently, and a trend of such
+    # visits showed "6e-15 µm/day" (a CLI pass)
+    resolution = RESOLUTION_ULPS * np.finfo(np.float64).eps * float(np.max(np.abs(y)))
+    span = float(t.max() - t.min())
+    slope, rank_low, rank_high = (0.0 if abs(b) * span <= resolution else b
+                                  for b in (slope, rank_low, rank_high))
     low, high = rank_low, rank_high
     u_meas = math.nan
     # the level's scatter: the residuals' robust σ, or the stated uncertainties

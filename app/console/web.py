@@ -1,12 +1,14 @@
 """What every console page shares: templates, the security headers, the login cookie.
 
 Login: the API key is posted once per browser session to ``/console/login``; the answer
-sets a cookie ``hd_console = <key id>.<issued at>.<HMAC-SHA256>`` (HttpOnly,
+sets a cookie ``hd_console = <key id>.<issued at>.<nonce>.<HMAC-SHA256>`` (HttpOnly,
 SameSite=Strict, Secure when served over HTTPS; no Max-Age, so it ends with the browser
 session, and refused after :data:`SESSION_LIFETIME_S`).  The key itself is never stored in
 the cookie or put in a URL; each request checks that the key still exists and is not
 revoked, and that the session was not logged out (logout keeps the cookie's digest on the
-server until it would have expired, so a copy of it is refused too).  The signing secret
+server until it would have expired, so a copy of it is refused too).  The random nonce
+makes every login's cookie its own: two logins with one key in the same second had the
+same cookie, and one logout ended both.  The signing secret
 is the ``console_secret`` setting (``HYDRODIAG_CONSOLE_SECRET``, ≥ 32 characters, no
 well-known default) or, without it, a random one kept in ``<data_dir>/console-secret`` (so
 every worker process of one service shares it).
@@ -51,6 +53,9 @@ __all__ = ["COOKIE", "SECURITY_HEADERS", "SESSION_LIFETIME_S", "console_key",
 COOKIE = "hd_console"
 #: Longest a login lasts, even in a browser session that stays open [s].
 SESSION_LIFETIME_S = 12 * 3600
+#: Random bytes in each login cookie [-]: every login its own session (hex in the cookie).
+NONCE_BYTES = 8
+_NONCE = re.compile(f"[0-9a-f]{{{2 * NONCE_BYTES}}}")
 SECURITY_HEADERS = {
     "Content-Security-Policy": "default-src 'self'; script-src 'self'; style-src 'self'; "
     "img-src 'self' data:; form-action 'self'; frame-ancestors 'none'; base-uri 'self'; "
@@ -169,15 +174,18 @@ def _secret(settings: Settings) -> bytes:
         return path.read_text(encoding="utf-8").strip().encode()
 
 
-def _signature(secret: bytes, key_id: int, issued: int, prefix: str) -> str:
-    message = f"{key_id}.{issued}.{prefix}".encode()
+def _signature(secret: bytes, key_id: int, issued: int, nonce: str, prefix: str) -> str:
+    message = f"{key_id}.{issued}.{nonce}.{prefix}".encode()
     return hmac.new(secret, message, hashlib.sha256).hexdigest()
 
 
 def issue_cookie(response: Response, request: Request, key: ApiKey) -> None:
     """Set the login cookie for ``key`` on ``response``."""
     issued = int(time.time())
-    value = f"{key.id}.{issued}.{_signature(_secret(request.app.state.settings), key.id, issued, key.prefix)}"
+    nonce = secrets.token_hex(NONCE_BYTES)
+    signature = _signature(_secret(request.app.state.settings), key.id, issued, nonce,
+                           key.prefix)
+    value = f"{key.id}.{issued}.{nonce}.{signature}"
     response.set_cookie(COOKIE, value, httponly=True, samesite="strict", path="/console",
                         secure=request.url.scheme == "https")
 
@@ -192,7 +200,8 @@ def console_key(request: Request, session: Session) -> ApiKey:
     """
     value = request.cookies.get(COOKIE, "")
     parts = value.split(".")
-    if len(parts) != 3 or not parts[0].isdigit() or not parts[1].isdigit():
+    if (len(parts) != 4 or not parts[0].isdigit() or not parts[1].isdigit()
+            or not _NONCE.fullmatch(parts[2])):
         raise AuthError("log in with an API key", field="api_key")
     key_id, issued = int(parts[0]), int(parts[1])
     if time.time() - issued > SESSION_LIFETIME_S:
@@ -200,7 +209,7 @@ def console_key(request: Request, session: Session) -> ApiKey:
     key = session.get(ApiKey, key_id)
     secret = _secret(request.app.state.settings)
     if key is None or not hmac.compare_digest(
-            parts[2], _signature(secret, key_id, issued, key.prefix)):
+            parts[3], _signature(secret, key_id, issued, parts[2], key.prefix)):
         raise AuthError("log in with an API key", field="api_key")
     if is_revoked(key):
         raise AuthError("this API key has been revoked", field="api_key")

@@ -305,3 +305,16 @@ def test_a_flat_history_with_round_off_is_not_already_past() -> None:
         assert fc.status == "not_worsening"
         assert "already be past" not in fc.message
         assert fc.time_left_low > 60 * DAY
+
+
+def test_a_slope_below_the_values_float_resolution_is_zero() -> None:
+    """The same record diagnosed at each visit reads its last bit differently; the trend
+    table showed a rate of "6e-15 µm/day" (a CLI pass). Such a slope is 0 exactly, while a
+    real one a million times smaller than the wear rates of interest is kept."""
+    t = np.arange(12.0)
+    ulp = np.spacing(83e-6)
+    noisy = 83e-6 + ulp * np.array([0, 1, 0, 2, 1, 3, 2, 4, 3, 5, 4, 6], dtype=float)
+    fit = fit_trend(series(t, noisy))
+    assert fit.slope == 0.0 and fit.slope_low <= 0.0 <= fit.slope_high
+    real = 83e-6 + 1e-15 * t  # 1e-15 m/day: 1e-8 of the clearance over the span
+    assert fit_trend(series(t, real)).slope * DAY == pytest.approx(1e-15, rel=1e-3)

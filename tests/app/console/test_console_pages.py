@@ -90,15 +90,18 @@ def test_a_forged_or_revoked_login_is_refused(console_server: LiveServer) -> Non
         assert "Nothing was stored" not in wrong.text
         assert client.post("/console/login",
                            data={"api_key": plaintext, "next": ""}).status_code == 303
-        key_id, issued, signature = client.cookies[COOKIE].split(".")
+        key_id, issued, nonce, signature = client.cookies[COOKIE].split(".")
         assert client.get("/console/rigs").status_code == 200
-        forged = f"{key_id}.{int(issued) + 1}.{signature}"  # a later time, old signature
-        client.cookies.set(COOKIE, forged, path="/console")
-        assert client.get("/console/rigs").status_code == 303
+        # a later time, another nonce, the form before nonces: each with the old signature
+        for forged in (f"{key_id}.{int(issued) + 1}.{nonce}.{signature}",
+                       f"{key_id}.{issued}.{'0' * len(nonce)}.{signature}",
+                       f"{key_id}.{issued}.{signature}"):
+            client.cookies.set(COOKIE, forged, path="/console")
+            assert client.get("/console/rigs").status_code == 303, forged
         stale = int(time.time()) - SESSION_LIFETIME_S - 10
-        client.cookies.set(COOKIE, f"{key_id}.{stale}.{signature}", path="/console")
+        client.cookies.set(COOKIE, f"{key_id}.{stale}.{nonce}.{signature}", path="/console")
         assert client.get("/console/rigs").status_code == 303
-        client.cookies.set(COOKIE, f"{key_id}.{issued}.{signature}", path="/console")
+        client.cookies.set(COOKIE, f"{key_id}.{issued}.{nonce}.{signature}", path="/console")
         assert client.get("/console/rigs").status_code == 200
         with console_server.session() as session:
             revoke_api_key(session, row.id)
@@ -137,14 +140,18 @@ def test_logout_ends_the_session_on_the_server_so_a_copied_cookie_is_refused(
         with console_server.session() as session:
             kept = {r.digest: r for r in session.scalars(select(ConsoleLogout))}
             assert "0" * 64 not in kept and copied not in kept   # the digest, not the cookie
-            _key, issued, _sig = copied.split(".")
+            _key, issued, _nonce, _sig = copied.split(".")
             assert abs(kept[digest(copied)].expires_at.timestamp()
                        - (int(issued) + SESSION_LIFETIME_S)) < 1.0
-        # the same key logs in again with a new session
-        time.sleep(1.0)   # the cookie counts whole seconds
-        assert browser.post("/console/login",
-                            data={"api_key": plaintext, "next": ""}).status_code == 303
-        assert browser.get("/console/rigs").status_code == 200
+        # the same key logs in again with a new session, at once: two logins with one key
+        # in the same second had one cookie, and one logout ended both (a reread)
+        with httpx.Client(base_url=console_server.base_url) as other:
+            for client in (browser, other):
+                assert client.post("/console/login",
+                                   data={"api_key": plaintext, "next": ""}).status_code == 303
+            assert browser.cookies[COOKIE] != other.cookies[COOKIE]
+            assert browser.post("/console/logout").status_code == 303
+            assert other.get("/console/rigs").status_code == 200
     # a logout without a session stores nothing
     with console_server.session() as session:
         before = session.scalar(select(func.count()).select_from(ConsoleLogout))
