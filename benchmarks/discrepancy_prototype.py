@@ -111,7 +111,7 @@ from typing import Any
 
 import numpy as np
 
-from benchmarks.discrepancy_study import score
+from benchmarks.discrepancy_steady import score
 from diagnostics.discrepancy.selection import select
 from diagnostics.discrepancy.steady import _balance, _signals, discover_steady, predict_flow
 from diagnostics.discrepancy.synthetic import NOISE, synthesize_bench

@@ -15,7 +15,8 @@ it could not exceed √(gap² + σ²)/σ).
 
 from __future__ import annotations
 
-from typing import Any
+from collections.abc import Sequence
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -65,11 +66,28 @@ def _truth_ratio(doc: dict[str, Any], d: Any, effect: str, strength: float) -> f
     return rb / ra if ra > 0 else float("inf")
 
 
-def _score(named: set[str], together: list[set[str]], truth: str) -> str:
-    if not named:
+class _Named(Protocol):
+    name: str
+    ambiguity: Any
+    competing: Any
+
+
+class _Found(Protocol):
+    @property
+    def named(self) -> Sequence[_Named]: ...
+
+
+def score(d: _Found, truth: str) -> str:
+    """``exact`` (the true effect named alone), ``group`` (named or reported together with
+    each named one: in its ambiguity group or as a competing explanation), ``wrong``
+    (something named, the truth not among what was reported) or ``none``; the one rule of
+    every discrepancy benchmark, for the cycles' ``Discovery`` and the tables' alike."""
+    names = {n.name for n in d.named}
+    if not names:
         return "none"
-    if named == {truth}:
+    if names == {truth}:
         return "exact"
+    together = [{n.name} | {m for g in [*n.ambiguity, *n.competing] for m in g} for n in d.named]
     return "group" if all(truth in g for g in together) else "wrong"
 
 
@@ -93,9 +111,7 @@ def steady_study(seeds: int, sizes: tuple[float, ...], light: bool) -> dict[str,
                 bench = synthesize_bench(rig, rng=np.random.default_rng(7000 + s),
                                          effects={effect: size * unit})
                 d = discover_steady(doc, bench, bootstrap=0 if light else 10, seed=s)
-                together = [{m.name} | {x for g in [*m.ambiguity, *m.competing] for x in g}
-                            for m in d.named]
-                outcome = _score({m.name for m in d.named}, together, effect)
+                outcome = score(d, effect)
                 counts[outcome] += 1
                 if outcome in ("exact", "group") and d.gap_after:
                     ratios.append(_truth_ratio(doc, d, effect, size * unit))

@@ -80,7 +80,7 @@ from typing import Any
 
 import numpy as np
 
-from benchmarks.discrepancy_steady import steady_study
+from benchmarks.discrepancy_steady import score, steady_study
 from diagnostics.discrepancy import Discovery, discover
 from diagnostics.discrepancy.gap import GapRow, gap_table
 from diagnostics.discrepancy.simulate import SOLVER, simulate
@@ -193,18 +193,6 @@ def truth_ratio(d: Discovery, truth_doc: dict[str, Any]) -> float:
         before += gap_table(clean, b, channels)
         after += gap_table(clean, a, channels)
     return gap_ratio(before, after, NOISE)
-
-
-def score(d: Discovery, truth: str) -> str:
-    """``exact``, ``group``, ``wrong`` or ``none`` (module docstring)."""
-    names = {n.name for n in d.named}
-    if not names:
-        return "none"
-    if names == {truth}:
-        return "exact"
-    # each named effect with what was reported alongside it (ambiguity group, competing)
-    together = [{n.name} | {m for g in [*n.ambiguity, *n.competing] for m in g} for n in d.named]
-    return "group" if all(truth in g for g in together) else "wrong"
 
 
 def _hidden(task: tuple[str, float, float, int]) -> dict[str, Any]:
