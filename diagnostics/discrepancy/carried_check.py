@@ -29,7 +29,8 @@ import numpy as np
 from scipy import stats
 
 from diagnostics.discrepancy.balances import BalanceData
-from diagnostics.discrepancy.selection import ALPHA, HAC_LAGS, _scaled, hac_cov
+from diagnostics.discrepancy.regression import hac_cov, scaled_columns
+from diagnostics.discrepancy.selection import ALPHA, HAC_LAGS
 from sim.components.effects import EFFECTS
 
 __all__ = ["HELD_ABOVE", "HELD_BELOW", "CarriedCheck", "carried_statement", "check_carried"]
@@ -87,7 +88,7 @@ def check_carried(data: list[BalanceData]) -> list[CarriedCheck]:
             continue
         for effect, (k, x) in d.carried.items():
             # the selection's scaled columns, the carried effect's last
-            _, Xs, scale = _scaled({**d.base, effect: x})
+            _, Xs, scale = scaled_columns({**d.base, effect: x})
             coef, *_ = np.linalg.lstsq(Xs, d.y, rcond=None)
             resid = d.y - Xs @ coef
             cov = hac_cov(Xs, resid, HAC_LAGS)

@@ -25,7 +25,7 @@ import numpy.typing as npt
 from diagnostics.discrepancy.balances import carried
 from diagnostics.discrepancy.drift import BaseDrift, Drift
 from diagnostics.discrepancy.gap import GapRow
-from diagnostics.discrepancy.selection import hac_cov
+from diagnostics.discrepancy.regression import hac_cov
 from diagnostics.discrepancy.signals import Signals
 from diagnostics.discrepancy.verdict import OUTPUT_GAP
 from sim.components.effects import EFFECTS

@@ -34,19 +34,26 @@ from __future__ import annotations
 
 import itertools
 import math
-from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 from scipy import stats
 
 from diagnostics.discrepancy.balances import BalanceData
+from diagnostics.discrepancy.regression import (
+    bic,
+    hac_cov,
+    in_span,
+    moving_blocks,
+    scaled_columns,
+    unique_rms,
+)
+from diagnostics.discrepancy.selection_result import Fit, Selection, Term
 from diagnostics.discrepancy.vif import candidate_vif
 from sim.components.effects import EFFECTS
 from sim.errors import MeasurementError
 
-__all__ = ["ALPHA", "BIC_MARGIN", "NEAR_BIC", "PRACTICAL", "Fit", "Selection", "Term", "hac_cov",
+__all__ = ["ALPHA", "BIC_MARGIN", "NEAR_BIC", "PRACTICAL", "Fit", "Selection", "Term",
            "require_samples", "select"]
 
 Arr = npt.NDArray[np.float64]
@@ -65,134 +72,6 @@ PRACTICAL = 0.001
 UNREACHABLE = 0.01
 #: Newey-West lag [samples at the analysis rate] (≥ the Savitzky-Golay window)
 HAC_LAGS = 60
-DEPENDENT = 1e-3
-
-
-@dataclass
-class Term:
-    """One candidate term in a fitted subset."""
-
-    effect: str
-    coefficient: float
-    stderr: float
-    t: float
-    p: float
-    rms_contribution: float
-    plausible: bool
-
-
-@dataclass
-class Fit:
-    """A fitted subset."""
-
-    terms: list[Term]
-    bic: float
-    rss: float
-    admissible: bool
-    reasons: list[str] = field(default_factory=list)
-    #: fails only the practical-size check (every term significant, signs physical)
-    small: bool = False
-
-
-@dataclass
-class Selection:
-    """Outcome of the selection in one balance.
-
-    Attributes
-    ----------
-    balance
-        Balance name.
-    chosen
-        The chosen subset, or ``None`` (no effect / no admissible explanation).
-    base_bic, bic_gain
-        BIC of the re-fitted base model and the chosen subset's improvement on it.
-    competing
-        Other admissible subsets within ΔBIC < 2 (effect names).
-    ambiguity
-        Groups of candidates that this test design cannot tell apart (each group includes
-        ``"base"`` when the column lies in the base columns' span).
-    inclusion
-        Bootstrap inclusion frequency of each chosen effect.
-    detectable
-        Minimum detectable RMS contribution of each candidate [balance unit].
-    singles
-        The single-term fits by effect (t, p, coefficient) for the report.
-    base_coefficients
-        Re-fitted base coefficients by column name [SI].
-    residual
-        Residual of the chosen (or base) fit at the kept samples [balance unit].
-    near
-        Admissible subsets other than the chosen one within ΔBIC < :data:`NEAR_BIC`, and
-        admissible singles whose column correlates with a chosen term's at ≥
-        :data:`NEAR_CORR` once the base columns are projected out, best first (the
-        competing ones included): explanations the equation error hardly separates
-        (piston clearance vs viscosity law: 0.991 on the study's design).
-    """
-
-    balance: str
-    unit: str
-    chosen: Fit | None
-    base_bic: float
-    bic_gain: float
-    competing: list[list[str]]
-    ambiguity: list[list[str]]
-    inclusion: dict[str, float]
-    detectable: dict[str, float]
-    singles: dict[str, Term]
-    base_coefficients: dict[str, float]
-    residual: Arr
-    base_residual: Arr
-    full_scale: float
-    near: list[Fit] = field(default_factory=list)
-    #: singles that fail only the practical size, with the BIC margin, best first: tried
-    #: in output-error form when nothing else explains a held-out gap above the noise
-    #: (:mod:`~diagnostics.discrepancy.confirm`)
-    small: list[Fit] = field(default_factory=list)
-    #: the balance's :attr:`~diagnostics.discrepancy.balances.BalanceData.noise_floor`
-    noise_floor: float = 0.0
-    #: candidates this design cannot identify, with the most their largest plausible
-    #: coefficient moves the balance anywhere [balance unit] (:func:`_reach`): their
-    #: fitted coefficient means nothing; it is not shown and they are never chosen
-    unreachable: dict[str, float] = field(default_factory=dict)
-    #: base coefficients of the chosen (or, none chosen, the base) fit re-fitted to an
-    #: unphysical sign, by column [SI, :data:`~diagnostics.discrepancy.balances.BASE_UNITS`]:
-    #: the base model absorbs what the design cannot separate (a negative viscous friction
-    #: at one load, a discrepancy pass)
-    unphysical: dict[str, float] = field(default_factory=dict)
-    #: variance inflation factor of each candidate's column beside the base columns on this
-    #: design (:func:`~diagnostics.discrepancy.vif.candidate_vif`; ``inf`` in their span):
-    #: reported, never filtered on
-    vif: dict[str, float] = field(default_factory=dict)
-
-    def candidate_dicts(self) -> dict[str, dict[str, Any]]:
-        """JSON-able single-term fits by effect: coefficient and its standard error [SI of
-        the entry's parameter], t, p, RMS contribution [balance unit], plausibility; for an
-        unreachable candidate no numbers but why (``identifiable`` false, ``reach``); for
-        every candidate its VIF (:attr:`vif`, null where infinite)."""
-        out: dict[str, dict[str, Any]] = {}
-        for k, t in self.singles.items():
-            if k in self.unreachable:
-                out[k] = {"coefficient": None, "stderr": None, "t": None, "p": None,
-                          "rms_contribution": None, "plausible": None, "identifiable": False,
-                          "reach": self.unreachable[k],
-                          "why": "not identifiable on this design: at the top of its "
-                                 "plausible range it moves the balance by at most "
-                                 f"{self.unreachable[k]:.3g} {self.unit}, under a hundredth "
-                                 "of the practical size"}
-            else:
-                out[k] = {"coefficient": t.coefficient, "stderr": t.stderr, "t": t.t, "p": t.p,
-                          "rms_contribution": t.rms_contribution, "plausible": t.plausible,
-                          "identifiable": True}
-            out[k]["vif"] = _finite(self.vif.get(k, math.nan))
-        return out
-
-    def vif_dict(self) -> dict[str, float | None]:
-        """:attr:`vif` as JSON-able data: every candidate, null where infinite."""
-        return {k: _finite(v) for k, v in self.vif.items()}
-
-
-def _finite(v: float) -> float | None:
-    return v if math.isfinite(v) else None
 
 
 def _reach(data: BalanceData) -> dict[str, float]:
@@ -214,44 +93,8 @@ def _reach(data: BalanceData) -> dict[str, float]:
     return out
 
 
-def _scaled(cols: dict[str, Arr]) -> tuple[list[str], Arr, Arr]:
-    names = list(cols)
-    if not names:
-        return [], np.zeros((0, 0)), np.zeros(0)
-    X = np.column_stack([cols[n] for n in names])
-    scale = np.sqrt(np.mean(X * X, axis=0))
-    scale[scale == 0] = 1.0
-    return names, X / scale, scale
-
-
-def hac_cov(X: Arr, resid: Arr, lags: int) -> Arr:
-    """Newey-West covariance of OLS coefficients (Bartlett kernel); ``lags`` = 0 gives
-    White's (HC0)."""
-    n = X.shape[0]
-    xtx_inv = np.linalg.pinv(X.T @ X)
-    u = X * resid[:, None]
-    S = u.T @ u
-    for lag in range(1, min(lags, n - 1) + 1):
-        w = 1.0 - lag / (lags + 1.0)
-        G = u[lag:].T @ u[:-lag]
-        S += w * (G + G.T)
-    return np.asarray(xtx_inv @ S @ xtx_inv, dtype=float)
-
-
 #: Fewest samples per fitted term a balance must hold for the selection [-].
 MIN_SAMPLES_PER_TERM = 5
-
-
-def _bic(rss: float, n: int, k: int) -> float:
-    return n * math.log(max(rss, 1e-300) / n) + k * math.log(n)
-
-
-def _dependent(B: Arr, c: Arr) -> bool:
-    """Whether column ``c`` lies (to :data:`DEPENDENT`) in the span of ``B``'s columns."""
-    if B.shape[1] == 0:
-        return bool(np.linalg.norm(c) == 0)
-    coef, *_ = np.linalg.lstsq(B, c, rcond=None)
-    return bool(np.linalg.norm(c - B @ coef) < DEPENDENT * np.linalg.norm(c))
 
 
 def _fit(y: Arr, Xb: Arr, Xc: Arr, names: list[str], scale: Arr, data: BalanceData,
@@ -288,7 +131,7 @@ def _fit(y: Arr, Xb: Arr, Xc: Arr, names: list[str], scale: Arr, data: BalanceDa
         if len(names) > 1:
             # in a pair, what the term adds beyond the other columns: two nearly collinear
             # columns can cancel each other at sizes far above the practical one
-            contrib = min(contrib, _unique_rms(X, k, coef[k]) * ys)
+            contrib = min(contrib, unique_rms(X, k, coef[k]) * ys)
         lo, hi = entry.plausible
         span = hi - lo
         plausible = (lo - 10 * span) <= c_si <= (hi + 10 * span) if entry.sign == 0 else \
@@ -308,18 +151,8 @@ def _fit(y: Arr, Xb: Arr, Xc: Arr, names: list[str], scale: Arr, data: BalanceDa
             reasons.append(f"base parameter {bname} re-fitted to an unphysical sign: the "
                            "terms trade off against the base model")
     only_small = small and all("below the practical size" in r for r in reasons)
-    fit = Fit(terms, _bic(rss, n, X.shape[1]), rss, not reasons, reasons, only_small)
+    fit = Fit(terms, bic(rss, n, X.shape[1]), rss, not reasons, reasons, only_small)
     return fit, np.asarray(coef, dtype=float), resid
-
-
-def _unique_rms(X: Arr, k: int, coef: float) -> float:
-    """RMS of what column ``k`` of ``X`` adds to the fit beyond the other columns,
-    ``|coef|·‖M x_k‖/√n`` with ``M`` the projection off them (the RMS of the RSS increase
-    when the term is dropped and the rest re-fitted) [units of ``X @ coef``]."""
-    others = np.delete(X, k, axis=1)
-    proj, *_ = np.linalg.lstsq(others, X[:, k], rcond=None)
-    rest = X[:, k] - others @ proj
-    return abs(coef) * float(np.sqrt(np.mean(rest * rest)))
 
 
 def _twins(Xb: Arr, Xc: Arr, cnames: list[str], chosen: tuple[str, ...]) -> set[str]:
@@ -335,11 +168,6 @@ def _twins(Xb: Arr, Xc: Arr, cnames: list[str], chosen: tuple[str, ...]) -> set[
         r = R.T @ R[:, cnames.index(c)]
         out |= {n for n, v in zip(cnames, r, strict=True) if n != c and abs(v) >= NEAR_CORR}
     return out
-
-
-def _blocks(n: int, size: int, rng: np.random.Generator) -> npt.NDArray[np.int64]:
-    starts = rng.integers(0, max(n - size, 1), size=math.ceil(n / size))
-    return np.concatenate([np.arange(s, min(s + size, n)) for s in starts])[:n]
 
 
 def require_samples(data: BalanceData) -> None:
@@ -375,19 +203,19 @@ def select(data: BalanceData, *, bootstrap: int = 30, seed: int = 0, lags: int =
     n = y_si.size
     ys = float(np.sqrt(np.mean(y_si * y_si))) or 1.0
     y = y_si / ys
-    bnames, Xb, bscale = _scaled(data.base)
-    cnames, Xc_all, cscale = _scaled(data.candidates)
+    bnames, Xb, bscale = scaled_columns(data.base)
+    cnames, Xc_all, cscale = scaled_columns(data.candidates)
     m = len(cnames)
     base_coef, *_ = np.linalg.lstsq(Xb, y, rcond=None)
     base_resid = y - Xb @ base_coef
-    base_bic = _bic(float(base_resid @ base_resid), n, Xb.shape[1])
+    base_bic = bic(float(base_resid @ base_resid), n, Xb.shape[1])
     # ambiguity groups on this design
-    dep_base = [c for j, c in enumerate(cnames) if _dependent(Xb, Xc_all[:, j])]
+    dep_base = [c for j, c in enumerate(cnames) if in_span(Xb, Xc_all[:, j])]
     groups: list[list[str]] = [["base", c] for c in dep_base]
     free = [c for c in cnames if c not in dep_base]
     for a, b in itertools.combinations(free, 2):
         ja, jb = cnames.index(a), cnames.index(b)
-        if _dependent(np.hstack([Xb, Xc_all[:, [ja]]]), Xc_all[:, jb]):
+        if in_span(np.hstack([Xb, Xc_all[:, [ja]]]), Xc_all[:, jb]):
             groups.append([a, b])
     fits: dict[tuple[str, ...], Fit] = {}
     singles: dict[str, Term] = {}
@@ -470,7 +298,7 @@ def _bootstrap(y: Arr, Xb: Arr, Xc: Arr, cnames: list[str], free: list[str],
     index = {s: [cnames.index(c) for c in s] for s in subsets}
     kb = Xb.shape[1]
     for _ in range(reps):
-        rows = _blocks(n, block, rng)
+        rows = moving_blocks(n, block, rng)
         yb, Xbb, Xcb = y[rows], Xb[rows], Xc[rows]
         q, r_ = np.linalg.qr(Xbb)
         d = np.abs(np.diag(r_))
@@ -481,12 +309,12 @@ def _bootstrap(y: Arr, Xb: Arr, Xc: Arr, cnames: list[str], free: list[str],
             ry = yb - Xbb @ np.linalg.lstsq(Xbb, yb, rcond=None)[0]
             rc = Xcb - Xbb @ np.linalg.lstsq(Xbb, Xcb, rcond=None)[0]
         best_key: tuple[str, ...] = ()
-        best = _bic(float(ry @ ry), n, kb) - BIC_MARGIN
+        best = bic(float(ry @ ry), n, kb) - BIC_MARGIN
         for s in subsets:
             a = rc[:, index[s]]
             c, *_ = np.linalg.lstsq(a, ry, rcond=None)
             r = ry - a @ c
-            b = _bic(float(r @ r), n, kb + len(s))
+            b = bic(float(r @ r), n, kb + len(s))
             if b < best:
                 best, best_key = b, s
         for name in chosen:

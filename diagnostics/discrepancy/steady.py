@@ -23,50 +23,35 @@ the re-fitted displacement (:func:`~diagnostics.discrepancy.balances.carried`).
 **Select on every row, confirm on the held-out edge** (DISCREPANCY.md, items 5 and 6).
 The rows at the edge of the operating range are held out: the highest temperature when
 there are two to :data:`LEVELS` of them, the top fifth of the temperatures when they spread
-over a range (monitoring data: the ZeMA plateaus, 35-58 °C), else the top fifth of the
-pressures.  The equation-error selection (base re-fit, tests, BIC margin, practical size)
-reads every row, the edge included, where an effect ∝ 1/μ is largest.  Held out before
-selection, the hottest level cost the power: on the design notes' prototype grid a 2 % FS
-effect under 1 % FS flow noise was named 5 times in 100 (viscous slip; the prototype 97),
-3 (pressure-dependent clearance; 87) and 23 (compressibility; 48); selecting on every row,
-86, 79 and 45, with 1 false discovery on 9,000 no-effect tables (``make
-discrepancy-prototype``).  What the selection names is then confirmed: the named terms are
+over a range (monitoring data), else the top fifth of the pressures.  The equation-error
+selection (base re-fit, tests, BIC margin, practical size) reads every row, the edge
+included, where an effect ∝ 1/μ is largest (held out before selection, the hottest level
+cost such effects their power).  What it names is then confirmed: the named terms are
 re-fitted on the training rows alone to the residual of the *stored* pump together with
 corrections of the pump's own laminar slip and displacement (DISCREPANCY.md, item 3: a
 stored pump is never exact, and an effect fitted against a fixed one takes up the pump's
-error and reports an interval as if the pump were known — 95 % half-widths of 2-8 % of the
-value on synthetic tables whose stored pump is the truth, against 5-29 % with the pump
-re-fitted), and kept when each is of its entry's sign, the re-fitted pump is still a pump
-(1/Rlp and Vp positive), and the held-out gap in excess of the scatter shrinks at least
+error and reports an interval as if the pump were known), and kept when each is of its
+entry's sign, the re-fitted pump is still a pump (1/Rlp and Vp positive), and the held-out
+gap in excess of the scatter shrinks at least
 :data:`~diagnostics.discrepancy.workflow.CONFIRM_RATIO`-fold against the stored pump — and
 as much against the pump's own Rlp and Vp re-fitted alone, where that re-fit leaves more
 than :data:`~diagnostics.discrepancy.verdict.OUTPUT_GAP` σ held out.  The significance is
-the selection's, on every row: asking |t| ≥ 2.576 of the training rows' re-fit as well
-named that viscous slip 43 times in 100 (54 chosen and then not confirmed).  Once confirmed,
-the terms and the pump are fitted again on every row (each term significant there, |t| ≥
-2.576, White errors on columns scaled to unit RMS:
-:func:`~diagnostics.discrepancy.pump_refit.robust_ols`), and that fit is stored: the
-augmented rig carries the effect *and* the re-fitted Rlp and Vp (a bench table is the
+the selection's, on every row.  Once confirmed, the terms and the pump are fitted again on
+every row (each term significant there, |t| ≥ 2.576, White errors on columns scaled to
+unit RMS: :func:`~diagnostics.discrepancy.pump_refit.robust_ols`), and that fit is stored:
+the augmented rig carries the effect *and* the re-fitted Rlp and Vp (a bench table is the
 pump's characterisation, not field data of a worn rig), the coefficient restated for the
-re-fitted Vp where the element reads it (:mod:`~diagnostics.discrepancy.pump_refit`, which
-holds the pump's re-fit); the message gives the held-out gap before, after (the training
-rows' re-fit, kept as ``traces["confirmation"]``: its coefficients and pump corrections,
-:func:`predict_flow`'s ``effects`` and ``base``), and with the pump re-fitted alone.  The
-held-out temperature does not expose every effect outside the library: the notes'
-Δp^1.5·ω^0.5/μ^0.3 leak of 2 % FS is answered "partially explained" (clearance +
-compressibility, not stored) on 100 of 100 tables at 0.3 % FS noise (selecting on the
-training rows: 74, and 25 named a single term), and at 1 % FS named on 17 of 100
-(selecting on the training rows: 2), mostly as pressure-dependent clearance.  When no
-effect is named and the pump re-fitted alone brings the held-out gap within
+re-fitted Vp where the element reads it (:mod:`~diagnostics.discrepancy.pump_refit`); the
+message gives the held-out gap before, after (the training rows' re-fit, kept as
+``traces["confirmation"]``: its coefficients and pump corrections, :func:`predict_flow`'s
+``effects`` and ``base``), and with the pump re-fitted alone.  When no effect is named and
+the pump re-fitted alone brings the held-out gap within
 :data:`~diagnostics.discrepancy.verdict.OUTPUT_GAP` σ, the verdict is ``base drift`` (the
 stored rig left as it is), as in the transient workflow.  Replicated points give the
 lack-of-fit F-test (:mod:`~diagnostics.discrepancy.lof`) before and after, on every row,
-and the scatter σ the held-out gaps are read in.
-
-On measured data (the V32HL56 piston-pump map, :mod:`benchmarks.real_discrepancy`)
-the effect-only fit against the stored pump gave zero-width intervals (the unscaled normal
-matrix) and a second term of the wrong sign, both passed as confirmed, and its answer
-depended on how the stored pump had been calibrated; with the pump re-fitted it does not.
+and the scatter σ the held-out gaps are read in.  What each of these choices moved, on the
+study's and the design notes' prototype tables and on the V32HL56 map, is in
+``docs/discrepancy.md`` ("Steady pump-bench tables") and ``docs/real-data.md``.
 """
 
 from __future__ import annotations
