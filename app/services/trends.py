@@ -80,7 +80,7 @@ class ComponentTrendOut:
     fault library did not explain, left out (an inversion through a model the readings
     contradict estimates nothing: a stalled piston read as a 230 µm seal gap).
     ``step_at``/``step_size``: the latest step in the level
-    (:func:`diagnostics.trends.latest_step`); the fit and the forecast then use the
+    (:func:`diagnostics.trend_fit.latest_step`); the fit and the forecast then use the
     ``points_fitted`` points after it.
     """
 
