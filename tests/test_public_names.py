@@ -70,7 +70,8 @@ def test_a_module_split_in_two_keeps_its_names_where_they_were() -> None:
     review's leftover): the end-stop state went to :mod:`sim.end_stop`, the fits' results
     to :mod:`diagnostics.hypothesis_fit`; then the discrepancy selection's results to
     :mod:`diagnostics.discrepancy.selection_result` and a trend's series and slope to
-    :mod:`diagnostics.trend_fit`; every name either exported is still exported from where
+    :mod:`diagnostics.trend_fit`, and the diagnosis's result to
+    :mod:`diagnostics.diagnosis_result`; every name either exported is still exported from where
     it was, as the same object."""
     import importlib
 
@@ -78,14 +79,16 @@ def test_a_module_split_in_two_keeps_its_names_where_they_were() -> None:
                      ("diagnostics.ranking", "diagnostics.hypothesis_fit"),
                      ("diagnostics.discrepancy.selection",
                       "diagnostics.discrepancy.selection_result"),
-                     ("diagnostics.trends", "diagnostics.trend_fit")):
+                     ("diagnostics.trends", "diagnostics.trend_fit"),
+                     ("diagnostics.diagnose", "diagnostics.diagnosis_result")):
         before, after = importlib.import_module(old), importlib.import_module(new)
         kept = {"sim.steady": ("DIRECTION", "stop_force"),
                 "diagnostics.ranking": ("MULTIPLE_OF", "HypothesisFit", "ParameterEstimate",
                                         "severity"),
                 "diagnostics.discrepancy.selection": ("Fit", "Selection", "Term"),
                 "diagnostics.trends": ("MIN_POINTS", "TrendFit", "TrendSeries",
-                                       "fit_trend")}[old]
+                                       "fit_trend"),
+                "diagnostics.diagnose": ("BLIND_NOTE", "Diagnosis", "plain")}[old]
         for name in kept:
             assert name in before.__all__ and name in after.__all__, (old, name)
             assert getattr(before, name) is getattr(after, name), (old, name)
