@@ -16,7 +16,7 @@ coordinates from the document's value z_d to z_l + (z_l − z_d), z_l the worn r
 start (twice the gap; fixed by the rig, not by the readings, so a record at a condition
 seen before reuses the grid's predictions, :func:`~diagnostics.range_test.grid_chi2`).
 The estimate is the grid's minimum refined by the parabola through it and its neighbours
-(:func:`~diagnostics.range_test.parabola_vertex`); the 95 % interval is the profile
+(:func:`~diagnostics.grid_vertex.parabola_vertex`); the 95 % interval is the profile
 likelihood's, where χ²(z) − χ²_min ≤ 1.96² (Wilks; the χ²₁ quantile), its ends
 interpolated linearly between grid points and clipped at the document's value (below it
 the component would be better than built: :mod:`diagnostics.range_test` says whether the

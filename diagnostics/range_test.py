@@ -41,7 +41,7 @@ Levenberg-Marquardt always); the two agree to the solver's tolerance
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -49,9 +49,10 @@ import numpy.typing as npt
 from scipy.special import gammaincinv
 
 from diagnostics.fastpath.maps import FastMaps
+from diagnostics.grid_vertex import bracket, parabola_vertex
 from diagnostics.hypotheses import PARAMETERS, FaultParameter
 from diagnostics.pair_direct import MASKED, levenberg_marquardt, residuals
-from sim.units import quantity_text
+from diagnostics.range_test_result import RangeTest
 
 if TYPE_CHECKING:
     from diagnostics.ranking import HypothesisFit, Ranker
@@ -67,92 +68,6 @@ PIN_TOL = 1.0e-3
 
 #: grid points of the one-parameter search beyond a bound, and of its refinement [-]
 SCAN_POINTS = 24
-
-
-@dataclass
-class RangeTest:
-    """Likelihood-ratio test of a hypothesis's prior range (module docstring).
-
-    Attributes
-    ----------
-    hypothesis
-        Hypothesis tested.
-    parameters
-        Its parameters pinned at a bound.
-    sides
-        For each: ``"severe"`` (the fault would be larger than the range allows),
-        ``"healthy"`` (the component would be better than the rig document says),
-        ``"incipient"`` (between the rig document's value and the start of the worn
-        range: wear too small for the library's worn range, or a document off by that
-        much) or ``"document"`` (at the document's value: not worn; :func:`_incipient`).
-    chi2_bounded, chi2_extended
-        χ² at the bounded estimate and at the best fit with the ranges extended [-].
-    statistic
-        Λ = χ²_b − χ²_e [-].
-    dof
-        Number of pinned parameters m [-].
-    limit
-        χ²_{1-α}(m) [-].
-    rejected
-        Λ > limit: the readings ask for a value beyond the range (for ``"incipient"``
-        parameters the range extended to the rig document's value holds, so the test
-        does not reject).
-    extended
-        The best values beyond the range, by parameter [unit of the parameter]; with
-        ``"incipient"`` parameters, the best values with the range extended to the rig
-        document's value.
-    chi2_document
-        Best χ² with the healthy-side ranges extended only to the rig document's value
-        (:func:`_incipient`; NaN where that test was not needed) [-]: the hypothesis's χ²
-        with its ``"incipient"`` values.
-    """
-
-    hypothesis: str
-    parameters: list[str]
-    sides: list[str]
-    chi2_bounded: float
-    chi2_extended: float
-    statistic: float
-    dof: int
-    limit: float
-    rejected: bool
-    extended: dict[str, float] = field(default_factory=dict)
-    chi2_document: float = math.nan
-
-    def describe(self) -> str:
-        """One clause for a reader."""
-        what = ", ".join(
-            f"{p} {_SIDE_WORDS[s]} (best {_shown(p, self.extended.get(p, math.nan))})"
-            for p, s in zip(self.parameters, self.sides, strict=True))
-        return (f"{self.hypothesis} sits on the bound of its prior and its likelihood still "
-                f"rises past it ({what}: χ² {self.chi2_bounded:.3g} → "
-                f"{self.chi2_extended:.3g}, Λ = {self.statistic:.3g} > {self.limit:.3g})")
-
-    @property
-    def incipient(self) -> dict[str, float]:
-        """The parameters the readings place between the rig document's value and the
-        start of the worn range (incipient wear), with those values [unit]; empty when
-        the test rejects the range."""
-        if self.rejected:
-            return {}
-        return {p: self.extended[p] for p, s in zip(self.parameters, self.sides, strict=True)
-                if s == "incipient"}
-
-
-#: how :meth:`RangeTest.describe` words each side
-def _shown(name: str, value: float) -> str:
-    """A fault parameter's value with its unit as an engineer reads it: "best 1.112e+06"
-    was a relief setting of 11.1 bar (a plant operator's pass)."""
-    unit = PARAMETERS[name].unit if name in PARAMETERS else ""
-    if unit == "Pa" and math.isfinite(value):
-        return f"{value / 1e5:.4g} bar"
-    return quantity_text(value, unit)
-
-
-_SIDE_WORDS = {"severe": "beyond its worn range",
-               "healthy": "better than the rig document",
-               "incipient": "below its worn range, worse than the rig document",
-               "document": "at the rig document's value, not worn"}
 
 
 def _bounds(ranker: Ranker, p: FaultParameter) -> tuple[float, float, float, float]:
@@ -426,7 +341,7 @@ def _search_1d(ranker: Ranker, plans: list[_Plan]) -> list[tuple[float, float, f
                                  known))[:, 0]
     xs, ys = grids, _finite(first)
     for _ in range(REFINE_LEVELS):  # each level: a grid between the best point's neighbours
-        fine = np.array([np.linspace(*_bracket(x, y), REFINE_POINTS)
+        fine = np.array([np.linspace(*bracket(x, y), REFINE_POINTS)
                          for x, y in zip(xs, ys, strict=True)])
         xs = np.concatenate([xs, fine], axis=1)
         ys = np.concatenate([ys, _finite(_points_near(ranker, ps, fine, known))], axis=1)
@@ -458,34 +373,6 @@ def _points(ranker: Ranker, ps: list[FaultParameter], zs: Arr) -> Arr:
     rows, cols = zs.shape
     flat = chi2_points(ranker, [p for p in ps for _ in range(cols)], zs.reshape(-1))
     return flat.reshape(rows, cols)
-
-
-def _bracket(x: Arr, y: Arr) -> tuple[float, float]:
-    """The nearest points on each side of the best of points ``(x, y)`` (the best point
-    itself at an end)."""
-    x, first = np.unique(x, return_index=True)  # sorted, each point once
-    k = int(np.argmin(y[first]))
-    return float(x[max(k - 1, 0)]), float(x[min(k + 1, x.size - 1)])
-
-
-def parabola_vertex(x: Arr, y: Arr) -> float:
-    """The vertex of the parabola through the best of points ``(x, y)`` and its nearest
-    neighbour on each side (the best point itself when it has none or the parabola
-    opens downward)."""
-    x, first = np.unique(x, return_index=True)  # sorted, each point once
-    y = y[first]
-    j = int(np.argmin(y))
-    if not 0 < j < x.size - 1 or not math.isfinite(float(y[j - 1] + y[j + 1])):
-        return float(x[j])
-    (x0, x1, x2), (y0, y1, y2) = x[j - 1:j + 2], y[j - 1:j + 2]
-    den = (x0 - x1) * (x0 - x2) * (x1 - x2)
-    if den == 0.0:
-        return float(x1)
-    ca = (x2 * (y1 - y0) + x1 * (y0 - y2) + x0 * (y2 - y1)) / den
-    cb = (x2 ** 2 * (y0 - y1) + x1 ** 2 * (y2 - y0) + x0 ** 2 * (y1 - y2)) / den
-    if ca <= 0.0:
-        return float(x1)
-    return float(np.clip(-cb / (2.0 * ca), x0, x2))
 
 
 def _finite(chi: Arr) -> Arr:

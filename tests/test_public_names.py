@@ -72,7 +72,8 @@ def test_a_module_split_in_two_keeps_its_names_where_they_were() -> None:
     :mod:`diagnostics.discrepancy.selection_result` and a trend's series and slope to
     :mod:`diagnostics.trend_fit`, and the diagnosis's result to
     :mod:`diagnostics.diagnosis_result`, a measured record to
-    :mod:`diagnostics.series_record`; every name either exported is still exported from where
+    :mod:`diagnostics.series_record`, a range test's result to
+    :mod:`diagnostics.range_test_result`; every name either exported is still exported from where
     it was, as the same object."""
     import importlib
 
@@ -82,7 +83,8 @@ def test_a_module_split_in_two_keeps_its_names_where_they_were() -> None:
                       "diagnostics.discrepancy.selection_result"),
                      ("diagnostics.trends", "diagnostics.trend_fit"),
                      ("diagnostics.diagnose", "diagnostics.diagnosis_result"),
-                     ("diagnostics.timeseries", "diagnostics.series_record")):
+                     ("diagnostics.timeseries", "diagnostics.series_record"),
+                     ("diagnostics.range_test", "diagnostics.range_test_result")):
         before, after = importlib.import_module(old), importlib.import_module(new)
         kept = {"sim.steady": ("DIRECTION", "stop_force"),
                 "diagnostics.ranking": ("MULTIPLE_OF", "HypothesisFit", "ParameterEstimate",
@@ -91,7 +93,8 @@ def test_a_module_split_in_two_keeps_its_names_where_they_were() -> None:
                 "diagnostics.trends": ("MIN_POINTS", "TrendFit", "TrendSeries",
                                        "fit_trend"),
                 "diagnostics.diagnose": ("BLIND_NOTE", "Diagnosis", "plain"),
-                "diagnostics.timeseries": ("SeriesRecord", "clock_time", "si_factor")}[old]
+                "diagnostics.timeseries": ("SeriesRecord", "clock_time", "si_factor"),
+                "diagnostics.range_test": ("RangeTest",)}[old]
         for name in kept:
             assert name in before.__all__ and name in after.__all__, (old, name)
             assert getattr(before, name) is getattr(after, name), (old, name)
