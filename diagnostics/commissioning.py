@@ -31,12 +31,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
+from diagnostics.commissioning_result import PRIOR_LIMIT, CommissionedParameter, Commissioning
 from diagnostics.evidence import whitening
 from diagnostics.goodness import DISAGREE_SIGMA, TEST_LEVEL, chi2_limit
 from diagnostics.measurement import MeasurementRecord
@@ -82,9 +83,6 @@ HELPS_LEAK = "at other loads and oil temperatures (the leaks grow with Δp/μ)"
 PRIOR_SD: dict[str, float] = {"cylinder.Lc": 0.5, "valve.Ls": 0.5, "valve.K": 0.7,
                               "cylinder.Fu": 0.5, "cylinder.Kf": 0.7, "pump.Rlp": 0.7}
 
-#: a fitted value beyond this many prior σ of ln θ from the document's is not stored
-#: unless asked (:attr:`Commissioning.beyond_prior`) [-]
-PRIOR_LIMIT = 3.0
 #: a fit's χ² below its quantile at this level is said: records fitting better than their
 #: noise allows (copies of one record) [-]
 TOO_GOOD = 1e-4
@@ -92,102 +90,6 @@ TOO_GOOD = 1e-4
 PRIOR_NOTE = 2.0
 #: a parameter is pinned down when the records shrink its prior σ by this factor [-]
 PINNED = 0.5
-
-
-@dataclass
-class CommissionedParameter:
-    """One fitted parameter.
-
-    Attributes
-    ----------
-    name
-        Graph parameter (``"cylinder.Lc"``).
-    description
-        What it is.
-    before
-        Value in the document [SI].
-    value, low, high
-        Estimate and 95 % interval [SI].
-    prior_sd, posterior_sd
-        Standard deviations of ln θ before and after the records [-].
-    identifiable
-        Whether the records pinned it down (posterior σ ≤ half the prior σ).
-    correlated_with
-        Parameters whose posterior correlation with this one is ≥ 0.8 in magnitude.
-    prior_shift
-        How far the estimate moved from the document's value, in prior standard deviations
-        of ln θ [-]; beyond :data:`PRIOR_LIMIT` the document's uncertainty does not allow
-        it (:attr:`Commissioning.beyond_prior`).
-    """
-
-    name: str
-    description: str
-    before: float
-    value: float
-    low: float
-    high: float
-    prior_sd: float
-    posterior_sd: float
-    identifiable: bool
-    correlated_with: list[str] = field(default_factory=list)
-    prior_shift: float = 0.0
-
-
-@dataclass
-class Commissioning:
-    """Result of :func:`commission`.
-
-    Attributes
-    ----------
-    rig
-        Rig name.
-    parameters
-        The fitted parameters, in :data:`COMMISSIONED` order (those asked for).
-    chi2
-        χ² of the readings at the estimate [-].
-    n_observations
-        Number of readings [-].
-    n_records
-        Number of records [-].
-    iterations
-        Levenberg-Marquardt iterations [-].
-    statements
-        What a reader must know (what could not be pinned down and why; first, when the
-        fit does not explain the records, that and the readings that disagree most).
-    dof
-        Degrees of freedom of the χ² test: readings less the effective number of fitted
-        parameters (Σ 1 − posterior/prior variance) [-].
-    limit
-        χ²_{1-α}(dof) at the goodness-of-fit test's level
-        (:data:`diagnostics.goodness.TEST_LEVEL`) [-].
-    consistent
-        Whether χ² ≤ ``limit``: the records are those of one healthy rig of the
-        document's family.  When not, the service stores nothing.
-    disagreements
-        (record index, reading, deviation [σ]) beyond 3 σ at the fit, worst first.
-    """
-
-    rig: str
-    parameters: list[CommissionedParameter]
-    chi2: float
-    n_observations: int
-    n_records: int
-    iterations: int
-    statements: list[str] = field(default_factory=list)
-    dof: float = math.nan
-    limit: float = math.inf
-    consistent: bool = True
-    disagreements: list[tuple[int, str, float]] = field(default_factory=list)
-
-    def values(self) -> dict[str, float]:
-        """Fitted values of the parameters the records pinned down [SI]."""
-        return {p.name: p.value for p in self.parameters if p.identifiable}
-
-    @property
-    def beyond_prior(self) -> list[str]:
-        """The pinned-down parameters that moved more than :data:`PRIOR_LIMIT` prior σ."""
-        return [p.name for p in self.parameters
-                if p.identifiable and abs(p.prior_shift) > PRIOR_LIMIT]
 
 
 class _Problem:

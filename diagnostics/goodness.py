@@ -54,12 +54,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
 
 import numpy as np
 import numpy.typing as npt
 from scipy.special import chdtrc, gammaincinv
 
+from diagnostics.goodness_result import Disagreement, GoodnessOfFit
 from diagnostics.hypotheses import PARAMETERS
 from diagnostics.range_test import RangeTest, pinned, range_test, range_tests
 from diagnostics.ranking import HypothesisFit, Ranker
@@ -73,100 +73,6 @@ TEST_LEVEL = 0.01
 
 #: a reading is named as disagreeing beyond this many standard uncertainties [σ]
 DISAGREE_SIGMA = 3.0
-
-
-@dataclass
-class Disagreement:
-    """One reading against the best fit.
-
-    Attributes
-    ----------
-    record
-        Index of the record in the request [-].
-    reading
-        Observable name (a :class:`~diagnostics.measurement.MeasurementRecord` field).
-    measured, predicted
-        Reading and the best fit's prediction [SI unit of the reading]; ``predicted`` is
-        NaN where the model has no prediction (a stalled stroke).
-    sigma
-        Standard uncertainty used in the likelihood [SI unit of the reading].
-    deviation
-        (measured − predicted) / σ [σ].
-    """
-
-    record: int
-    reading: str
-    measured: float
-    predicted: float
-    sigma: float
-    deviation: float
-
-
-@dataclass
-class GoodnessOfFit:
-    """χ² test of the best-fitting observable hypothesis.
-
-    Attributes
-    ----------
-    hypothesis
-        The hypothesis reported: the first that passes (in the order of the module
-        docstring), else the observable one with the highest p-value.
-    chi2
-        Its χ² at the estimate [-].
-    dof
-        Degrees of freedom ν = n − k, 0 when k ≥ n (no χ² test) [-].
-    level
-        Test level α [-].
-    limit
-        χ²_{1-α}(ν) [-]; infinite when ν = 0.
-    p_value
-        P(χ²_ν ≥ χ²) [-]; 1 when ν = 0.
-    explained
-        Whether some observable hypothesis passes the test.
-    testable
-        Whether the conclusion rests on a χ² test: false when the readings are explained
-        only by hypotheses with as many parameters as readings (a misfit cannot be
-        detected with these readings; the statement says so).
-    range_tests
-        The range tests run (:mod:`diagnostics.range_test`), in the order tried.
-    beyond_range
-        Single-fault hypotheses pinned on the severe bound of their prior whose range
-        test rejects the range and whose fit beyond it passes the χ² test: explanations
-        outside the library's ranges that the readings allow as well (a relief setting
-        below 0.3 × nominal on a held piston reads as a worn spool without flow meters).
-        When there is one, the name is not a confident answer: the statement says so.
-    incipient
-        The range test of the explaining hypothesis when the readings place one of its
-        parameters between the rig document's value and the start of its worn range
-        (:func:`diagnostics.range_test._incipient`): wear too small for the worn range,
-        or a rig document off by that much.  ``chi2`` is then the χ² at those values;
-        the name is not a confident answer and the statement says why.
-    disagreements
-        Readings of the tested fit beyond 3 σ, worst first (the worst three when none is).
-    statement
-        One sentence for a reader.
-    """
-
-    hypothesis: str
-    chi2: float
-    dof: int
-    level: float
-    limit: float
-    p_value: float
-    explained: bool
-    disagreements: list[Disagreement] = field(default_factory=list)
-    statement: str = ""
-    testable: bool = True
-    range_tests: list[RangeTest] = field(default_factory=list)
-    beyond_range: list[RangeTest] = field(default_factory=list)
-    incipient: RangeTest | None = None
-
-    @property
-    def confident(self) -> bool:
-        """Explained, by a χ² test, with no explanation beyond the prior ranges as good
-        and no value of the explaining fit below its worn range."""
-        return (self.explained and self.testable and not self.beyond_range
-                and self.incipient is None)
 
 
 def _p_value(chi2: float, dof: int) -> float:
