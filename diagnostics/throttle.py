@@ -18,7 +18,7 @@ get the clearance column:
   ``a = (Q_ref + b·c_ref)/c_ref³``, and the other rows follow at equal ΔP.  With ``b = 0``
   this is the cube rule ``c = c_ref·(Q/Q_ref)^(1/3)``, the paper's ``Q ∝ c³``.
 
-Each row's clearance is the physical root of :func:`diagnostics.inversion.leakage_root`.
+Each row's clearance is the physical root of :func:`diagnostics.leakage_laws.leakage_root`.
 
 The Couette sign: paper 002 eq. 36 prints ``+ π·D·c·ẋ/2``; with chamber areas taken to the
 bore and the leak counted relative to the piston the drag opposes it (the module docstring of
