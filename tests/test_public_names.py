@@ -68,11 +68,11 @@ def test_every_module_lists_what_it_exports_and_defines_it() -> None:
 def test_a_module_split_in_two_keeps_its_names_where_they_were() -> None:
     """Modules grown past 400 lines (a review's leftover) were split: the end-stop state
     out of ``sim/steady.py``, the fits' results out of ``diagnostics/ranking.py``, and
-    since stop 57 the results of the discrepancy selection and workflow, the diagnosis, the range test,
-    the goodness of fit and commissioning, a trend's series and slope, a measured
-    record, and the leakage laws inverted on plain numbers; every name either exported is
-    still exported from where it was, as the same object, and the old module is under 400
-    lines."""
+    since stop 57 the results of the discrepancy selection and workflow, the diagnosis,
+    the range test, the goodness of fit and commissioning, a trend's series and slope, a
+    measured record, the leakage laws on plain numbers and the answer of /diagnose; every
+    name either exported is still exported from where it was, as the same object, and the
+    old module is under 400 lines."""
     import importlib
 
     for old, new in (("sim.steady", "sim.end_stop"),
@@ -86,7 +86,8 @@ def test_a_module_split_in_two_keeps_its_names_where_they_were() -> None:
                      ("diagnostics.goodness", "diagnostics.goodness_result"),
                      ("diagnostics.commissioning", "diagnostics.commissioning_result"),
                      ("diagnostics.inversion", "diagnostics.leakage_laws"),
-                     ("diagnostics.discrepancy.workflow", "diagnostics.discrepancy.discovery")):
+                     ("diagnostics.discrepancy.workflow", "diagnostics.discrepancy.discovery"),
+                     ("app.schemas.diagnose", "app.schemas.diagnosis_public")):
         before, after = importlib.import_module(old), importlib.import_module(new)
         kept = {"sim.steady": ("DIRECTION", "stop_force"),
                 "diagnostics.ranking": ("MULTIPLE_OF", "HypothesisFit", "ParameterEstimate",
@@ -103,7 +104,10 @@ def test_a_module_split_in_two_keeps_its_names_where_they_were() -> None:
                 "diagnostics.inversion": ("leakage_root", "piston_clearance",
                                           "piston_law_coefficients", "spool_clearance",
                                           "spool_law_coefficient"),
-                "diagnostics.discrepancy.workflow": ("Discovery", "NamedEffect")}[old]
+                "diagnostics.discrepancy.workflow": ("Discovery", "NamedEffect"),
+                "app.schemas.diagnose": ("DiagnoseResponse", "DiagnosisPublic",
+                                         "DisagreementPublic", "EstimatePublic",
+                                         "GoodnessOfFitPublic")}[old]
         for name in kept:
             assert name in before.__all__ and name in after.__all__, (old, name)
             assert getattr(before, name) is getattr(after, name), (old, name)
