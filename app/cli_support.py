@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import inspect
+import json
 import os
 import re
 from collections.abc import Iterator
@@ -31,7 +32,8 @@ if TYPE_CHECKING:
 
 __all__ = ["EXISTING_STORE_COMMANDS", "PIPE_WIDTH", "ColumnMapOption", "SampleRateOption",
            "SinceOption", "UntilOption", "WideWhenPiped", "as_option", "console",
-           "estimate_text", "load_document", "migrated_engine", "reading_options",
+           "estimate_text", "load_document", "migrated_engine", "name_values", "print_json",
+           "reading_options",
            "running_command", "series_ids", "settings_from_env", "shown_estimate",
            "shown_scale", "steps", "store_id", "store_session", "store_setting",
            "unwrap_help", "validated", "validation_error", "writable"]
@@ -378,3 +380,22 @@ def as_option(exc: HydrodiagError, options: dict[str, str] | None) -> HydrodiagE
             # a mapping's key given as an option's value (overrides.valve.cv → --set valve.cv)
             return type(exc)(exc.message, field=f"{option[:-2]} {field[len(name) + 1:]}")
     return exc
+
+
+def print_json(payload: Any) -> None:
+    """``payload`` as indented JSON on stdout (the API's answer, ``--json``)."""
+    typer.echo(json.dumps(payload, indent=2, default=str))
+
+
+def name_values(items: list[str], *, field: str = "--set", form: str = "role.name=value"
+                ) -> dict[str, float]:
+    """``name=value`` options as numbers by name; :class:`InputError` naming ``field``
+    where one is not of that ``form``."""
+    out: dict[str, float] = {}
+    for item in items:
+        name, _, value = item.partition("=")
+        try:
+            out[name.strip()] = float(value)
+        except ValueError:
+            raise InputError(f"expected {form}, got {item!r}", field=field) from None
+    return out
