@@ -1,5 +1,6 @@
 """Command line of the service: ``hydrodiag serve | keys ... | db ... | jobs ...`` and the
-work commands ``simulate | diagnose | sweep | calibrate`` (:mod:`app.cli_runs`).
+work commands ``simulate | diagnose | sweep | calibrate`` (:mod:`app.cli_runs`, ``diagnose`` in
+:mod:`app.cli_diagnose`).
 
 ``serve`` migrates the store, preloads the paper-002 reference rig and its throttle tables
 (missing clearances computed by :class:`~app.services.throttle_estimator.
