@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 from datetime import UTC, datetime, timedelta
 
 import numpy as np
@@ -27,6 +27,7 @@ from app.db.models import Diagnosis, DiagnosisEstimate, Measurement, RigVersion
 from app.services.diagnosis import UNEXPLAINED
 from app.services.history import HistoryPoint, component_history
 from app.services.rig_cache import ResolvedRig, RigCache
+from app.services.trend_out import UNLIKELY, ComponentTrendOut, TrendPointOut, status_text
 from diagnostics.slip import rig_slip_coefficient
 from diagnostics.trends import TrendSeries, forecast_threshold
 from sim.errors import CircuitError, InputError
@@ -52,61 +53,6 @@ STALE_AFTER = 3
 MIN_SPAN_S = 3600.0
 #: largest clearance threshold [m]: the rig documents' plausibility bound of a clearance
 MAX_CLEARANCE_THRESHOLD = 2e-3
-
-
-@dataclass(slots=True)  # not frozen: a frozen one costs 5× to build, per point of a trend
-class TrendPointOut:
-    """One point: diagnosis, time, rig version, estimate and its interval."""
-
-    diagnosis_id: int
-    measured_at: datetime
-    rig_version: int
-    value: float
-    low: float | None
-    high: float | None
-    probability: float | None
-
-
-@dataclass(frozen=True, slots=True)
-class ComponentTrendOut:
-    """A component's trend; times in seconds, values in ``unit`` (``None``: not defined).
-
-    ``crossing_at``: when the fitted line reaches the threshold, or, ``"crossed"``, when it
-    did.  ``later_diagnoses``: diagnoses of the rig (in the window) after the last point,
-    which gave no estimate of this component; from :data:`STALE_AFTER` of them the status
-    is ``"stale"`` and nothing is forecast.  ``left_out``: points of older rig versions
-    whose parameters differ from the latest version's (``left_out_versions``), not in
-    ``points``.  ``unexplained``: points of diagnoses whose readings the rig model and its
-    fault library did not explain, left out (an inversion through a model the readings
-    contradict estimates nothing: a stalled piston read as a 230 µm seal gap).
-    ``step_at``/``step_size``: the latest step in the level
-    (:func:`diagnostics.trend_fit.latest_step`); the fit and the forecast then use the
-    ``points_fitted`` points after it.
-    """
-
-    component: str
-    quantity: str
-    unit: str
-    points: list[TrendPointOut]
-    slope: float | None
-    slope_low: float | None
-    slope_high: float | None
-    threshold: float
-    threshold_source: str
-    status: str
-    time_left_s: float | None
-    time_left_low_s: float | None
-    time_left_high_s: float | None
-    crossing_at: datetime | None
-    message: str
-    later_diagnoses: int = 0
-    points_total: int = 0
-    left_out: int = 0
-    left_out_versions: list[int] = field(default_factory=list)
-    unexplained: int = 0
-    step_at: datetime | None = None
-    step_size: float | None = None
-    points_fitted: int = 0
 
 
 def default_threshold(rig: Rig, component: str) -> tuple[float, str]:
@@ -140,11 +86,6 @@ def _points(component: str, history: list[HistoryPoint]) -> list[TrendPointOut]:
     return out
 
 
-#: below this probability of its component, a point is an estimate "if it were this
-#: component", and a status that leans on it says so [-]
-UNLIKELY = 0.5
-
-
 def _if_blamed(component: str, point: TrendPointOut) -> str:
     """'; if the pump is the worn one: …' when ``point``'s diagnosis gave its component a
     probability below :data:`UNLIKELY` (a pump estimate from a diagnosis that named the
@@ -155,20 +96,6 @@ def _if_blamed(component: str, point: TrendPointOut) -> str:
     return (f"; that estimate holds if the {component} is the worn component, and its "
             f"diagnosis ({point.diagnosis_id}) gave it probability {p:.2g}: another "
             "component explains the readings better")
-
-
-def status_text(trend: ComponentTrendOut) -> str:
-    """The trend's status as a table shows it: qualified where its last point's diagnosis
-    gave the component a probability below :data:`UNLIKELY` ("crossed if it is the worn
-    one, p 0.2"): the CLI's summary read a healthy pump "crossed", 0 days left, from
-    estimates of diagnoses that named the valve, where the trend's message says so (a CLI
-    pass)."""
-    last = max(trend.points, key=lambda p: p.measured_at, default=None)
-    p = None if last is None else last.probability
-    if p is None or p >= UNLIKELY or trend.status not in ("worsening", "crossed"):
-        # "not_worsening if it is the worn one" read oddly (a verification pass)
-        return trend.status
-    return f"{trend.status} if it is the worn one (p {p:.2g})"
 
 
 def _trend(component: str, rig_id: int, points: list[TrendPointOut], threshold: float,
