@@ -145,7 +145,10 @@ def grid_chi2(ranker: Ranker, ps: list[FaultParameter], grids: Arr) -> tuple[Arr
         keys = [("range grid", p.name, g.tobytes()) for p, g in zip(ps, grids, strict=True)]
         missing = [i for i, k in enumerate(keys) if k not in maps.kept]
         if missing:
-            out, ys, _, ok = maps.probe_moving(
+            # solved from where every diagnosis at this condition starts, what the
+            # solvers carry left as it was: the kept rows, and the fits after them, do not
+            # depend on which record came first (a determinism pass)
+            out, ys, _, ok = maps.probe_fresh(
                 [ps[i] for i in missing for _ in range(grids.shape[1])],
                 [grids[missing].reshape(-1)], [None])
             for j, i in enumerate(missing):

@@ -123,8 +123,13 @@ class RecordModel:
         self.fast = fast
         if fast:
             self.maps: SignatureMaps = fast_maps(rig, obs.condition)
+            assert isinstance(self.maps, FastMaps)
+            # the solvers start where they did after the maps were built, whatever ran at
+            # this condition before: the same record gives the same answer
+            self.maps.rewind()
         else:
             self.maps = signature_maps(rig, obs.condition)
+            evaluator(rig, obs.condition).rewind()
         self.idx = np.array([OBSERVABLES.index(n) for n in obs.names], dtype=np.int64)
         pred = self.maps.nominal[self.idx]
         # a reading the healthy rig cannot produce (a stalled return stroke has no velocity
@@ -153,7 +158,9 @@ class RecordModel:
             moved = self.maps.moved_nominal(cond) if isinstance(self.maps, FastMaps) else \
                 nominal_observables(rig, cond)
             return np.asarray(moved[self.idx])
-        return self._vec(evaluator(rig, cond).nominal())
+        ev = evaluator(rig, cond)
+        ev.rewind()  # shared: from the healthy points, whatever was solved there before
+        return self._vec(ev.nominal())
 
     def _vec(self, pred: dict[str, float]) -> Arr:
         return np.array([pred[n] for n in self.obs.names])

@@ -169,6 +169,9 @@ class SignatureMaps:
         self.rig = rig
         self.condition = condition
         self.ev = evaluator(rig, condition)
+        # shared: from the healthy points, not from what another user solved last (the
+        # ratio index's healthy ratio differed in its last digit between processes)
+        self.ev.rewind()
         self._base = np.array([rig.base[n] for n in GRAPH_PARAMETERS])
         try:
             self.nominal = self.ev.vector(self._base, OBSERVABLES)
@@ -204,8 +207,11 @@ class SignatureMaps:
         """:meth:`observables_at` with several parameters per row: row ``i`` with the
         parameters of ``points[i]`` at its fitting coordinates (a pair hypothesis's
         estimate)."""
-        ev = self.ev if condition is None or condition == self.condition else \
-            evaluator(self.rig, condition)
+        if condition is None or condition == self.condition:
+            ev = self.ev
+        else:  # a moved condition's: from its healthy points, whatever solved there before
+            ev = evaluator(self.rig, condition)
+            ev.rewind()
         out = np.full((len(points), len(OBSERVABLES)), np.nan)
         for i, (ps, zs) in enumerate(points):
             values = np.array([p.from_z(z) for p, z in zip(ps, zs, strict=True)])

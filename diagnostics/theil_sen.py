@@ -35,7 +35,8 @@ def theil_sen(t: npt.ArrayLike, y: npt.ArrayLike, *, confidence: float = 0.95
     The numbers of ``scipy.stats.theilslopes(y, t, alpha=confidence)`` (slope: median of
     the slopes ``(yⱼ − yᵢ)/(tⱼ − tᵢ)`` over the pairs with ``tⱼ > tᵢ``; interval: the order
     statistics of the slopes at ``(N ∓ z·σ)/2``, σ² from Sen 1968 eq. 2.6 with ties in t
-    and y), computed from the pairs of the time-sorted series and a partial partition.
+    and y), computed from the pairs of the series sorted by time (ties by value: the
+    answer does not depend on the order of the points) and a partial partition.
 
     Raises
     ------
@@ -44,7 +45,10 @@ def theil_sen(t: npt.ArrayLike, y: npt.ArrayLike, *, confidence: float = 0.95
     """
     tt = np.asarray(t, dtype=np.float64).ravel()
     yy = np.asarray(y, dtype=np.float64).ravel()
-    order = np.argsort(tt, kind="stable")
+    # by time, ties by value: the sampled pairs of a long series index this order, and
+    # estimates at one time in the order they came (the store's rows) moved the slope by
+    # 1.3 % (2,600 points, two per time; a determinism pass)
+    order = np.lexsort((yy, tt))
     ts, ys = tt[order], yy[order]
     n = ts.size
     alpha = 1.0 - confidence if confidence > 0.5 else confidence

@@ -53,9 +53,13 @@ __all__ = ["DIRECTION", "OBSERVABLES", "SteadyEvaluator", "SteadyPoint", "steady
 
 Arr = npt.NDArray[np.float64]
 
-#: nominal operating point per (rig, phase), the first guess of later solves (bounded);
-#: the rig is kept with it, so a new rig that reuses a collected rig's ``id`` does not start
-#: from that rig's point
+#: nominal operating point per (rig, phase) — the moving piston's at the rig's default
+#: condition, without overrides (:func:`_nominal_guess`) —, the first guess of every solve
+#: (bounded); the rig is kept with it, so a new rig that reuses a collected rig's ``id``
+#: does not start from that rig's point.  Until a determinism pass it was the first point
+#: any caller asked for, so every later answer depended, to the solver's tolerance, on
+#: what a process had solved first (1e-7 relative in a diagnosis: a batch on a process
+#: pool against the same batch in the process that had made the records)
 _GUESS: OrderedDict[tuple[int, str], tuple[Rig, Arr]] = OrderedDict()
 _GUESS_SIZE = 128
 _T0 = np.zeros(1)
@@ -91,6 +95,30 @@ def _transient_start(rig: Rig, p: Arr) -> Arr:
     return res.y[-1].copy()
 
 
+def _nominal_guess(rig: Rig, phase: str) -> Arr | None:
+    """The moving piston's steady state of ``phase`` at the rig's default condition, no
+    overrides, from the start-up transient (cached per rig, :data:`_GUESS`); None where
+    there is none (every solve then starts from its own transient).  A function of the
+    rig alone, so that a solve started from it does not depend on what was solved
+    before."""
+    key = (id(rig), phase)
+    hit = _GUESS.get(key)
+    if hit is not None and hit[0] is rig:
+        return hit[1]
+    m = rig.model
+    p = phase_params(rig, phase, None, rig.default_condition())
+    try:
+        start = _transient_start(rig, p)
+        start[m.state_index("cylinder.x")] = 0.5 * stroke_of(rig, p)
+        y = m.steady(start, p, frozen=("cylinder.x",), tol=1e-10)
+    except SimulationError:
+        return None
+    _GUESS[key] = (rig, y.copy())
+    while len(_GUESS) > _GUESS_SIZE:
+        _GUESS.popitem(last=False)
+    return y
+
+
 def steady_phase(rig: Rig, phase: str, overrides: Mapping[str, float] | None = None,
                  condition: Condition | None = None, *, tol: float = 1e-10) -> SteadyPoint:
     """Steady operating point of ``phase`` ("working" or "return"): the moving piston's,
@@ -116,9 +144,7 @@ def steady_phase(rig: Rig, phase: str, overrides: Mapping[str, float] | None = N
     ix = m.state_index("cylinder.x")
     iv = m.output_names.index("v")
     mid = 0.5 * stroke_of(rig, p)
-    key = (id(rig), phase)
-    hit = _GUESS.get(key)
-    guess = hit[1] if hit is not None and hit[0] is rig else None
+    guess = _nominal_guess(rig, phase)
     y: Arr | None = None
     if guess is not None:
         # at this stroke's middle: the guess of a longer stroke left the piston beyond a
@@ -139,10 +165,6 @@ def steady_phase(rig: Rig, phase: str, overrides: Mapping[str, float] | None = N
             y = m.steady(moving, p, frozen=("cylinder.x",), tol=tol)
         except SimulationError:
             y = None
-        if guess is None and y is not None:
-            _GUESS[key] = (rig, y.copy())
-            while len(_GUESS) > _GUESS_SIZE:
-                _GUESS.popitem(last=False)
     if y is not None:
         out = m.outputs(np.zeros(1), y[None, :], p)[0]
         if DIRECTION[phase] * out[iv] >= 0.0:
@@ -250,6 +272,21 @@ class SteadyEvaluator:
         self._oidx = {n: i for i, n in enumerate(m.output_names)}
         self.stroke = rig.base["cylinder.stroke"]
         self.calls = 0
+
+    def rewind(self) -> None:
+        """Start the next solve from the healthy operating points again, as a new evaluator
+        would: each solve starts from the last one's solution (and tries a stop the piston
+        was held on last first), so without this an answer depends on what was solved
+        before."""
+        self.load(self._nominal)
+
+    def saved(self) -> dict[str, npt.NDArray[np.float64]]:
+        """Copies of the last solutions, per phase, the next solve starts from."""
+        return {ph: y.copy() for ph, y in self._last.items()}
+
+    def load(self, saved: dict[str, npt.NDArray[np.float64]]) -> None:
+        """Start the next solve from ``saved`` (:meth:`saved`)."""
+        self._last = {ph: y.copy() for ph, y in saved.items()}
 
     def nominal(self) -> dict[str, float]:
         """Observables at the rig's own parameter values."""

@@ -76,6 +76,10 @@ class Discovery:
     #: per balance, the explanation re-simulation kept where it told the equation error's
     #: near alternatives apart (:func:`~diagnostics.discrepancy.refit.tell_apart`)
     picked: dict[str, list[str]] = field(default_factory=dict)
+    #: what its random draws took: ``seed`` of the generator, ``bootstrap`` replicates of
+    #: the inclusion frequencies, ``permutations`` of the lack-of-fit p-value where it ran
+    #: (steady tables); the same data and these give the same report
+    randomness: dict[str, int] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
         """The report as JSON-able data (units in the keys' descriptions)."""
@@ -119,6 +123,9 @@ class Discovery:
             "whiteness_before": self.whiteness_before, "whiteness_after": self.whiteness_after,
             "rig_document": self.rig_document, "solver": self.solver,
             "lack_of_fit": self.lack_of_fit,
+            # the seed and the number of draws of the bootstrap (and permutation test):
+            # the inclusion frequencies depend on them (a determinism pass)
+            "randomness": self.randomness,
             "base_drift": self.base_drift.to_dict() if self.base_drift is not None else None,
             "carried": [c.to_dict() for c in self.carried],
             # σ [SI unit of the channel], AR(1) φ per sample [-], the sample-to-sample σ

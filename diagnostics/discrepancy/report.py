@@ -151,7 +151,8 @@ def html_page(d: Discovery, title: str = "hydrodiag discrepancy report", *,
              f"<p><strong>Verdict: {e(d.verdict)}</strong> — {e(d.message)}</p>",
              *([f"<p>{e(stored)}</p>"] if stored else []),
              f"<p>Training records: {e(', '.join(d.training))}; held out (edge of the operating "
-             f"range): {e(', '.join(d.held_out) or 'none')}. Solver: {e(d.solver)}.</p>"]
+             f"range): {e(', '.join(d.held_out) or 'none')}. Solver: {e(d.solver)}.</p>",
+             *([f"<p>Random draws: {e(_draws(d.randomness))}.</p>"] if d.randomness else [])]
     if d.named:
         parts.append("<h2>Named effects</h2><table><tr><th>effect</th><th>physics</th>"
                      "<th>reference</th><th>signature</th><th>parameter</th><th>value</th>"
@@ -287,6 +288,17 @@ def write_report(d: Discovery, path: str | Path, *, stored: str = "") -> dict[st
         written["png"].append(str(png))
         written["svg"].append(str(svg))
     return written
+
+
+def _draws(randomness: dict[str, int]) -> str:
+    """``seed 0, 30 bootstrap replicates, 999 permutations``: what the report's random
+    draws took (the same data and these give the same report)."""
+    parts = [f"seed {randomness['seed']}"] if "seed" in randomness else []
+    if "bootstrap" in randomness:
+        parts.append(f"{randomness['bootstrap']} bootstrap replicates")
+    if "permutations" in randomness:
+        parts.append(f"{randomness['permutations']} permutations")
+    return ", ".join(parts)
 
 
 def _groups(groups: Any) -> str:

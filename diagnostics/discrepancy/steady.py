@@ -103,6 +103,9 @@ Progress = Callable[[float, str], None]
 FLOW = "q"
 #: more oil temperatures than this (to 1 °C) are a spread, not a bench's levels [-]
 LEVELS = 5
+#: permutations of the lack-of-fit test's p-value (:func:`~diagnostics.discrepancy.lof.
+#: permutation_p`), drawn with the workflow's ``seed`` [-]
+PERMUTATIONS = 999
 #: the source of a coefficient fitted here, in the augmented rig document
 FITTED = ("fitted by hydrodiag discover (steady pump-bench table: least squares with the "
           "pump's Rlp and Vp)")
@@ -233,7 +236,8 @@ def discover_steady(rig_document: Mapping[str, Any], bench: BenchData, *,
     progress
         Called with (fraction done, what).
     bootstrap, seed
-        Bootstrap replicates for the inclusion frequencies and their seed.
+        Bootstrap replicates for the inclusion frequencies and their seed (also the seed
+        of the lack-of-fit permutation test); both are in the report's ``randomness``.
 
     Raises
     ------
@@ -340,7 +344,8 @@ def discover_steady(rig_document: Mapping[str, Any], bench: BenchData, *,
     # and, since bench scatter is often heavy-tailed, significant by permutation too
     misfit = (lof_before is not None and lof_before.p < 0.01
               and lof_before.rms_excess > practical
-              and permutation_p(sel.base_residual, groups) < 0.01)
+              and permutation_p(sel.base_residual, groups, permutations=PERMUTATIONS,
+                                seed=seed) < 0.01)
     off = gap_before[0].rmse > OUTPUT_GAP * sigma[FLOW]
     drift: Drift | None = None
     if named:
@@ -401,7 +406,8 @@ def discover_steady(rig_document: Mapping[str, Any], bench: BenchData, *,
         "no simulation: steady pump-outlet balance (paper 002 eqs. 1-5, Ṗ = 0)",
         {sel.balance: sel.detectable},
         {"selections": [sel], "data": [data], "signals": every, "gap_alone": gap_alone,
-         "sigma": sigma[FLOW], "confirmation": confirmation}, lof, drift)
+         "sigma": sigma[FLOW], "confirmation": confirmation}, lof, drift,
+        randomness={"seed": seed, "bootstrap": bootstrap, "permutations": PERMUTATIONS})
 
 
 def _ranges(rows: npt.NDArray[np.int64]) -> str:

@@ -127,7 +127,7 @@ def discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], *
     bootstrap
         Bootstrap replicates for the inclusion frequencies.
     seed
-        Seed of the bootstrap.
+        Seed of the bootstrap (stated in the report's ``randomness`` with ``bootstrap``).
 
     Raises
     ------
@@ -318,7 +318,8 @@ def _discover(rig_document: Mapping[str, Any], records: Sequence[SeriesRecord], 
                        gap_before, gap_after, white_before, white_after, new_doc,
                        solver_statement(base_tables, noise), detectable, traces, lof,
                        drift, checks, noise,
-                       {b: [t.effect for t in f.terms] for b, f in picked.items()})
+                       {b: [t.effect for t in f.terms] for b, f in picked.items()},
+                       {"seed": seed, "bootstrap": bootstrap})
     if (refit and not named and conf.rejected and drift is not None
             and not drift.accepted and drift.wear is not None):
         report(0.9, "the workflow again from the rig with its wear re-fitted")

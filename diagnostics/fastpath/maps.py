@@ -213,6 +213,20 @@ class FastMaps(SignatureMaps):
                 self.ctx.kernels.pchip_columns(zc, np.ascontiguousarray(coarse), zf[a:b],
                                                fine[a:b])
             self.maps[hyp.name] = HypothesisMap(hyp, (p,), [zf], fine)
+        self.ctx.mark()  # where every diagnosis at this condition starts (:meth:`rewind`)
+
+    def rewind(self) -> None:
+        """Every context of these maps back to where it was marked (built, and the maps
+        solved; a moved condition's: its healthy point solved), and the direct
+        evaluator's last solutions to the healthy ones: a diagnosis starts here, so that
+        its answer depends on its records alone, not on what was diagnosed before at this
+        condition (:meth:`Context.rewind`)."""
+        self.ctx.rewind()
+        for moved in self._moved.values():
+            if moved is not None:
+                moved[0].rewind()
+        if self._ev is not None:
+            self._ev.rewind()
 
     def _split(self, pieces: list[Piece], cuts: list[list[Cut]]) -> list[list[tuple[Arr, Arr]]]:
         """Each piece's segments (nodes, observables): the piece itself where it has no
@@ -300,6 +314,29 @@ class FastMaps(SignatureMaps):
         for i in np.flatnonzero(~ok):
             out[i] = self._solve_or_nan((params[i],), params[i].from_z(float(flat[i])))
         return out, ys, drv, ok
+
+    def probe_fresh(self, params: list[FaultParameter], zs: list[Arr],
+                    starts: list[Arr | None]) -> tuple[Arr, Arr, Arr, npt.NDArray[np.bool_]]:
+        """:meth:`probe_moving` from where every diagnosis at this condition starts
+        (:meth:`rewind`), everything the solvers carry left as it was: what it returns
+        does not depend on what was solved before, and what is solved after it does not
+        depend on whether it ran (predictions kept across records, :attr:`kept`)."""
+        saved = self.ctx.saved()
+        # the direct evaluator (retries of failed rows) is built only if a row fails: then
+        # from its healthy points (:attr:`ev`), and left there as a new one would be
+        direct = None if self._ev is None else self._ev.saved()
+        self.ctx.rewind()
+        if self._ev is not None:
+            self._ev.rewind()
+        try:
+            return self.probe_moving(params, zs, starts)
+        finally:
+            self.ctx.load(saved)
+            if self._ev is not None:
+                if direct is None:
+                    self._ev.rewind()
+                else:
+                    self._ev.load(direct)
 
     def probe_held(self, params: list[FaultParameter], phases: IArr, zs: list[Arr],
                    starts: list[Arr | None]) -> tuple[Arr, Arr, npt.NDArray[np.bool_]]:
@@ -405,6 +442,7 @@ class FastMaps(SignatureMaps):
         """The direct evaluator (built on first use: retries and the direct path)."""
         if self._ev is None:
             self._ev = evaluator(self.rig, self.condition)
+            self._ev.rewind()  # shared: another user may have moved its last solutions
         return self._ev
 
     def _build(self, hyp: Hypothesis) -> HypothesisMap:  # pragma: no cover - not used
