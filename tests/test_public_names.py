@@ -71,8 +71,9 @@ def test_a_module_split_in_two_keeps_its_names_where_they_were() -> None:
     since stop 57 the results of the discrepancy selection and workflow, the diagnosis,
     the range test, the goodness of fit and commissioning, a trend's series and slope, a
     measured record, the leakage laws on plain numbers, the answers of /diagnose and
-    /trends, and the stored job rows; every name either exported is still exported from where it was, as
-    the same object, and the old module is under 400 lines."""
+    /trends, the stored job rows and the fast path's parameter rows; every name either
+    exported is still exported from where it was, as the same object, and the old module
+    is under 400 lines."""
     import importlib
 
     for old, new in (("sim.steady", "sim.end_stop"),
@@ -89,7 +90,8 @@ def test_a_module_split_in_two_keeps_its_names_where_they_were() -> None:
                      ("diagnostics.discrepancy.workflow", "diagnostics.discrepancy.discovery"),
                      ("app.schemas.diagnose", "app.schemas.diagnosis_public"),
                      ("app.services.jobs", "app.services.job_rows"),
-                     ("app.services.trends", "app.services.trend_out")):
+                     ("app.services.trends", "app.services.trend_out"),
+                     ("diagnostics.fastpath.maps", "diagnostics.fastpath.rows")):
         before, after = importlib.import_module(old), importlib.import_module(new)
         kept = {"sim.steady": ("DIRECTION", "stop_force"),
                 "diagnostics.ranking": ("MULTIPLE_OF", "HypothesisFit", "ParameterEstimate",
@@ -113,7 +115,8 @@ def test_a_module_split_in_two_keeps_its_names_where_they_were() -> None:
                 "app.services.jobs": ("cancel_job", "fail_interrupted_jobs", "get_job",
                                       "list_jobs"),
                 "app.services.trends": ("ComponentTrendOut", "TrendPointOut",
-                                        "status_text")}[old]
+                                        "status_text"),
+                "diagnostics.fastpath.maps": ("Transform", "transform")}[old]
         for name in kept:
             assert name in before.__all__ and name in after.__all__, (old, name)
             assert getattr(before, name) is getattr(after, name), (old, name)

@@ -17,11 +17,9 @@ states, which the compiled pair fits (:mod:`diagnostics.fastpath.fits`) continue
 
 from __future__ import annotations
 
-import math
 import threading
 from collections import OrderedDict
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
 from functools import partial
 from typing import TypeVar, cast
 
@@ -30,6 +28,7 @@ import numpy.typing as npt
 
 from diagnostics.fastpath.context import Context, nominal_observables, phase_vectors
 from diagnostics.fastpath.ridges import Cut, Piece, locate
+from diagnostics.fastpath.rows import Transform, piece_rows, set_rows, transform
 from diagnostics.hypotheses import HYPOTHESES, PARAMETERS, FaultParameter, Hypothesis
 from diagnostics.signatures import (
     FINE_1D,
@@ -55,50 +54,8 @@ IArr = npt.NDArray[np.int64]
 _MAPS: OrderedDict[tuple[int, Condition], FastMaps] = OrderedDict()
 #: per rig, the parts of the maps that do not depend on the condition (:func:`_memo`)
 _PIECES: OrderedDict[tuple[object, ...], tuple[Rig, object]] = OrderedDict()
-#: per rig and fault parameter, its :class:`Transform`
-_TRANSFORMS: dict[tuple[int, str], tuple[Rig, Transform | None]] = {}
 _T = TypeVar("_T")
 _LOCK = threading.RLock()
-
-
-@dataclass(frozen=True)
-class Transform:
-    """Fitting coordinate → graph parameter of a fault parameter, in numbers the kernel
-    reads: ``g = c·v`` (mode 0) or ``c/v`` (mode 1), ``v = exp(z)`` if ``log`` else ``z``."""
-
-    index: int
-    log: bool
-    mode: int
-    const: float
-
-    def graph(self, z: Arr) -> Arr:
-        """Graph values [SI] at fitting coordinates ``z``."""
-        v = np.exp(z) if self.log else np.asarray(z, dtype=np.float64)
-        return np.asarray(self.const * v if self.mode == 0 else self.const / v)
-
-
-def transform(rig: Rig, p: FaultParameter) -> Transform | None:
-    """The :class:`Transform` of ``p`` read off :meth:`FaultParameter.graph_value` (one
-    proportional or inverse law), or None when it is neither (then the direct path runs);
-    kept per rig (a plain dict: the pair fits ask for it at every fit)."""
-    key = (id(rig), p.name)
-    hit = _TRANSFORMS.get(key)
-    if hit is None or hit[0] is not rig:
-        if len(_TRANSFORMS) > 256:
-            _TRANSFORMS.clear()
-        hit = (rig, _transform(rig, p))
-        _TRANSFORMS[key] = hit
-    return hit[1]
-
-
-def _transform(rig: Rig, p: FaultParameter) -> Transform | None:
-    g1, g2 = p.graph_value(rig, 1.0), p.graph_value(rig, 2.0)
-    index = GRAPH_PARAMETERS.index(p.graph_param)
-    if g1 != 0.0 and math.isclose(g2, 2.0 * g1, rel_tol=1e-12):
-        return Transform(index, p.log, 0, g1)
-    if g1 != 0.0 and math.isclose(g2, 0.5 * g1, rel_tol=1e-12):
-        return Transform(index, p.log, 1, g1)
-    return None
 
 
 def _memo(rig: Rig, key: tuple[object, ...], make: Callable[[], _T]) -> _T:
@@ -116,31 +73,6 @@ def _memo(rig: Rig, key: tuple[object, ...], make: Callable[[], _T]) -> _T:
         while len(_PIECES) > 64:
             _PIECES.popitem(last=False)
     return value
-
-
-def _rows_at(rig: Rig, p: FaultParameter, base: Arr, zs: Arr) -> Arr:
-    """Graph values with ``p`` at fitting coordinates ``zs``, the others at ``base``."""
-    g = np.tile(base, (zs.size, 1))
-    _set_rows(rig, p, g, zs)
-    return g
-
-
-def _set_rows(rig: Rig, p: FaultParameter, g: Arr, zs: Arr) -> None:
-    """Set ``p`` at fitting coordinates ``zs`` in the graph-value rows ``g`` (in place)."""
-    tr = transform(rig, p)
-    if tr is not None:
-        g[:, tr.index] = tr.graph(zs)
-    else:
-        g[:, GRAPH_PARAMETERS.index(p.graph_param)] = [
-            p.graph_value(rig, p.from_z(float(z))) for z in zs]
-
-
-def _piece_rows(rig: Rig, p: FaultParameter, base: Arr, lo: float, hi: float, n: int
-                ) -> tuple[Arr, Arr, IArr]:
-    """A map piece's coarse nodes ``zc`` (``n`` from ``lo`` to ``hi`` in fitting
-    coordinates), the graph values of its rows and its run flags (1 at the first row)."""
-    zc = np.linspace(lo, hi, n)
-    return zc, _rows_at(rig, p, base, zc), (np.arange(n) == 0).astype(np.int64)
 
 
 class FastMaps(SignatureMaps):
@@ -176,7 +108,7 @@ class FastMaps(SignatureMaps):
             n_pieces = 0
             for lo, hi, n in self._pieces(p, float(zf[0]), float(zf[-1])):
                 zc, g, first = _memo(rig, (p.name, lo, hi, n),
-                                     partial(_piece_rows, rig, p, self._base, lo, hi, n))
+                                     partial(piece_rows, rig, p, self._base, lo, hi, n))
                 plans.append((p, zc))
                 rows.append(g)
                 starts.append(first)
@@ -281,10 +213,10 @@ class FastMaps(SignatureMaps):
             rows.setdefault(p.name, (p, []))[1].append(i)
         for p, at in rows.values():  # one call per parameter
             if len(at) == zs.size:
-                _set_rows(self.rig, p, grid, zs)
+                set_rows(self.rig, p, grid, zs)
                 continue
             sub = grid[at]
-            _set_rows(self.rig, p, sub, zs[at])
+            set_rows(self.rig, p, sub, zs[at])
             grid[at] = sub
         return grid
 
@@ -404,7 +336,7 @@ class FastMaps(SignatureMaps):
                 rows[p.name][2].append(z)
         for p, at, zvals in rows.values():  # one call per parameter
             sub = grid[at]
-            _set_rows(self.rig, p, sub, np.array(zvals))
+            set_rows(self.rig, p, sub, np.array(zvals))
             grid[at] = sub
         if len(self._point_grids) >= 4:
             self._point_grids.clear()
