@@ -54,9 +54,16 @@ def downgrade(engine: Engine, revision: str) -> None:
 
 
 def current_revision(engine: Engine) -> str | None:
-    """Return the revision the database is at, or ``None`` for an unmigrated database."""
+    """Return the revision the database is at, or ``None`` for an unmigrated database.
+
+    Read without the engine's statement cache: Alembic builds a new ``alembic_version``
+    table at each call, so each read compiled into a new cache entry — every ``/ready``
+    probe (a soak run: one in eight requests) added one, up to the cache's 500, pushing the
+    service's own compiled statements out.
+    """
     with engine.connect() as connection:
-        return MigrationContext.configure(connection).get_current_revision()
+        uncached = connection.execution_options(compiled_cache=None)
+        return MigrationContext.configure(uncached).get_current_revision()
 
 
 @functools.cache
