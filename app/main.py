@@ -200,7 +200,8 @@ def create_app(
             logger.warning("%d job(s) of an earlier run marked failed (cancelled, those asked "
                            "to stop)", interrupted)
         app.state.jobs = JobRunner(sessions, workers=settings.job_workers,
-                                   max_queued=settings.max_queued_jobs)
+                                   max_queued=settings.max_queued_jobs,
+                                   retention_days=settings.job_retention_days)
         loop, pool = asyncio.get_running_loop(), app.state.diagnosis_pool
 
         def warm(rigs: Sequence[ResolvedRig]) -> None:  # then watch the processes from the loop

@@ -23,6 +23,7 @@ from sqlalchemy.exc import ArgumentError
 
 from app.db.engine import sqlite_path
 from app.limits import BATCH_RECORDS_CEILING, DEFAULT_SWEEP_POINTS, SWEEP_POINTS_CEILING
+from app.services.job_retention import DEFAULT_RETENTION_DAYS
 
 __all__ = ["CONSOLE_SECRET_MIN", "OTHER_VARIABLES", "WEAK_PASSWORDS", "Settings", "settings_line",
            "unknown_variables", "usable_cores"]
@@ -157,6 +158,9 @@ class Settings(BaseSettings):
     job_workers: int = Field(default=2, ge=1, le=64, description="Job worker threads.")
     max_queued_jobs: int = Field(default=16, ge=0, le=10_000,
                                  description="Jobs a server process keeps waiting [-].")
+    job_retention_days: float = Field(
+        default=DEFAULT_RETENTION_DAYS, ge=0, le=36_500,
+        description="Days a finished job is kept after it finished; 0: every job kept [d].")
     sweep_workers: int | None = Field(default=None, ge=1, le=256,
                                       description="Sweep worker processes.")
     dask_scheduler: str | None = Field(default=None, description="Dask scheduler address.")

@@ -63,6 +63,8 @@ from app.db.base import utcnow
 from app.db.engine import SessionFactory
 from app.db.models import Job
 from app.errors import ServiceBusyError
+from app.services.heap import trim_heap
+from app.services.job_retention import DEFAULT_RETENTION_DAYS, prune_finished_jobs
 from app.services.job_rows import (
     CANCELLED_ERROR,
     cancel_job,
@@ -168,11 +170,17 @@ class JobRunner:
         Session factory of the store.
     workers
         Number of jobs that run at the same time.
+    retention_days
+        A finished job is deleted this long after it finished [d], when a later job is
+        submitted (:mod:`app.services.job_retention`); 0 keeps every job.
     """
 
     def __init__(self, sessions: SessionFactory, *, workers: int,
-                 renew_s: float = RENEW_S, max_queued: int | None = None) -> None:
+                 renew_s: float = RENEW_S, max_queued: int | None = None,
+                 retention_days: float = DEFAULT_RETENTION_DAYS) -> None:
         self._sessions = sessions
+        #: a finished job's row is deleted this long after it finished [d] (0: kept)
+        self._retention_days = retention_days
         self._workers = workers
         #: jobs kept waiting beside the running ones (None: no bound)
         self._max_queued = max_queued
@@ -241,11 +249,13 @@ class JobRunner:
                 lease_until=utcnow() + timedelta(seconds=LEASE_S),
             )
             with self._sessions() as session:
+                prune_finished_jobs(session, self._retention_days)
                 session.add(job)
                 session.commit()
             future: Future[None] = self._executor.submit(self._run, job.id, dict(params),
                                                          function)
             future.add_done_callback(_log_crash)
+            future.add_done_callback(trim_heap)  # what the job freed, back to the system
             with self._lock:
                 self._futures = [f for f in self._futures if not f.done()] + [future]
         return job
