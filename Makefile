@@ -5,7 +5,7 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed-stamp
 export HYDRODIAG_CACHE_DIR ?= $(CURDIR)/.hydrodiag-cache
 
-.PHONY: run test lint bench accuracy pump-study trend-study load-bench console-bench screenshots real-data chaos discrepancy-study discrepancy-effects discrepancy-paper000 discrepancy-prototype diagnose-bench diagnose-ab job-stall clean
+.PHONY: run test lint bench accuracy pump-study trend-study load-bench console-bench screenshots real-data chaos discrepancy-study discrepancy-effects discrepancy-paper000 discrepancy-prototype diagnose-bench diagnose-ab job-stall soak clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -80,3 +80,7 @@ discrepancy-paper000: $(STAMP)
 # the steady workflow on the design notes' prototype grid, like for like with its figures
 discrepancy-prototype: $(STAMP)
 	OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 $(PY) -m benchmarks.discrepancy_prototype
+
+# the service under a mixed workload for 10 min (SOAK_DURATION_S): resources over time
+soak: $(STAMP)
+	$(PY) -m benchmarks.soak

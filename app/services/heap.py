@@ -7,7 +7,7 @@ memory keeps the high-water mark of every job that ran, and one arena per job th
 keeps its own.  In a 10-minute soak run (``make soak``, 2,409 requests, 18 jobs) the
 server worker that served them grew from 396 to 614 MiB, 50 MiB per 1,000 requests over
 the run, while Python's own heap (``tracemalloc``, the same workload in one process) grew
-by under 0.5 MiB per 1,000 requests.
+by at most 1.4 MiB per 1,000 requests (the traced total, its own snapshots included).
 :func:`trim_heap` asks glibc to return the free memory at the top of each arena and the
 whole free pages inside it (``malloc_trim(0)``), which the job runner does after each
 job (:meth:`app.services.jobs.JobRunner.submit`).  Elsewhere than glibc it does nothing.
