@@ -62,6 +62,7 @@ import httpx
 from app.cli import first_key_shown
 from benchmarks.load_clients import closed_loop, open_loop, request_bytes
 from benchmarks.load_timeline import timeline
+from benchmarks.soak_probe import process_tree
 
 LIGHT = os.environ.get("HYDRODIAG_LIGHT") == "1"
 CONCURRENCY = 4
@@ -203,18 +204,6 @@ def _acknowledged_ids(bodies: list[bytes]) -> list[int]:
     return [int(d["id"]) for body in bodies for d in json.loads(body)["diagnoses"]]
 
 
-def _processes(root: int) -> list[int]:
-    """``root`` and every process below it."""
-    found = [root]
-    try:
-        children = (Path(f"/proc/{root}/task/{root}/children").read_text(encoding="utf-8").split())
-    except OSError:
-        return found
-    for child in children:
-        found += _processes(int(child))
-    return found
-
-
 def _cpu_s(pid: int) -> float:
     """CPU time (user + system) of process ``pid`` so far [s]; 0 when it is gone."""
     try:
@@ -238,7 +227,7 @@ def _is_diagnosis_process(pid: int) -> bool:
 def cpu_meter(root: int, figures: dict[str, Any]) -> Iterator[None]:
     """CPU time spent meanwhile by the service's server processes, by its diagnosis
     processes, and by this load generator (``*_cpu_s`` in ``figures``) [s]."""
-    pids = _processes(root)
+    pids = process_tree(root)
     before = {pid: _cpu_s(pid) for pid in pids}
     own = resource.getrusage(resource.RUSAGE_SELF)
     yield

@@ -34,11 +34,11 @@ from benchmarks.load_bench import (
     _base_records,
     _is_diagnosis_process,
     _per_request_ms,
-    _processes,
     cpu_meter,
     serve,
 )
 from benchmarks.load_clients import closed_loop, request_bytes
+from benchmarks.soak_probe import process_tree
 
 LIGHT = os.environ.get("HYDRODIAG_LIGHT") == "1"
 CONCURRENCY = 4
@@ -117,7 +117,7 @@ def main() -> None:
             cpu |= asyncio.run(closed_loop(service.base_url, requests, CONCURRENCY))
         out["cpu_ms_per_request"] = _per_request_ms(cpu)
         out["cpu_phase"] = cpu
-        pids = _processes(service.process.pid)
+        pids = process_tree(service.process.pid)
         worker = next(p for p in pids if _is_diagnosis_process(p))
         server = service.process.pid  # one worker: uvicorn serves in the process of serve
         files = {"server": Path(folder) / "server.txt", "diagnosis": Path(folder) / "diag.txt"}
