@@ -165,10 +165,12 @@ def serve(
         upgrade_database,
         warn_open_file,
     )
+    from app.services.heap import limit_arenas
     from app.services.throttle_estimator import ThrottleClearanceEstimator
     from app.settings import settings_line, unknown_variables
 
     settings = _settings(host=host, port=port)
+    limit_arenas()  # for every process started from here (app.services.heap)
     configure_logging(settings.log_format, settings.log_level)
     log = logging.getLogger("hydrodiag.app")
     for name in unknown_variables():
