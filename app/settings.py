@@ -23,10 +23,13 @@ from sqlalchemy.exc import ArgumentError
 
 from app.db.engine import sqlite_path
 from app.limits import BATCH_RECORDS_CEILING, DEFAULT_SWEEP_POINTS, SWEEP_POINTS_CEILING
-from app.services.job_retention import DEFAULT_RETENTION_DAYS
 
-__all__ = ["CONSOLE_SECRET_MIN", "OTHER_VARIABLES", "WEAK_PASSWORDS", "Settings", "settings_line",
-           "unknown_variables", "usable_cores"]
+__all__ = ["CONSOLE_SECRET_MIN", "DEFAULT_RETENTION_DAYS", "OTHER_VARIABLES", "WEAK_PASSWORDS",
+           "Settings", "settings_line", "unknown_variables", "usable_cores"]
+
+#: Days a finished job's row is kept after it finished (:mod:`app.services.job_retention`)
+#: [d].
+DEFAULT_RETENTION_DAYS = 30.0
 
 #: Passwords that appear in tutorials and default images; refused in a database URL.
 WEAK_PASSWORDS = frozenset(

@@ -21,11 +21,10 @@ from sqlalchemy.orm import Session
 
 from app.db.base import utcnow
 from app.db.models import Job
+from app.settings import DEFAULT_RETENTION_DAYS
 
 __all__ = ["DEFAULT_RETENTION_DAYS", "FINISHED", "prune_finished_jobs"]
 
-#: Days a finished job's row is kept after it finished [d].
-DEFAULT_RETENTION_DAYS = 30.0
 #: The statuses of a job that will not change again.
 FINISHED = ("succeeded", "failed", "cancelled")
 
