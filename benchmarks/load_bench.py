@@ -104,11 +104,16 @@ class Service:
 
 
 @contextmanager
-def serve(data_dir: Path) -> Iterator[Service]:
-    """Start the service on a free loopback port with a fresh store; stop it after."""
+def serve(data_dir: Path, *, quiet: bool = True, env: dict[str, str] | None = None
+          ) -> Iterator[Service]:
+    """Start the service on a free loopback port with a fresh store; stop it after.
+
+    ``quiet``: no access log, warnings only (the load bench's); else the service's own
+    logging (the soak's, which counts the log's growth).  ``env``: more variables."""
     port = _free_port()
-    env = os.environ | {"HYDRODIAG_DATA_DIR": str(data_dir), "HYDRODIAG_ACCESS_LOG": "false",
-                        "HYDRODIAG_LOG_LEVEL": "warning"}
+    env = (os.environ | {"HYDRODIAG_DATA_DIR": str(data_dir)}
+           | ({"HYDRODIAG_ACCESS_LOG": "false", "HYDRODIAG_LOG_LEVEL": "warning"} if quiet
+              else {}) | (env or {}))
     log = (data_dir / "service.log").open("w")
     process = subprocess.Popen(
         [sys.executable, "-m", "app.cli", "serve", "--host", "127.0.0.1", "--port", str(port)],

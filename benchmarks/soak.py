@@ -28,7 +28,6 @@ import io
 import json
 import os
 import random
-import subprocess
 import sys
 import tempfile
 import time
@@ -40,7 +39,7 @@ import httpx
 import numpy as np
 import pandas as pd
 
-from app.cli import first_key_shown
+from benchmarks.load_bench import serve
 from benchmarks.soak_probe import Sample, sample
 
 LIGHT = os.environ.get("HYDRODIAG_LIGHT") == "1"
@@ -75,40 +74,6 @@ class Counts:
     errors: int = 0
     busy: int = 0
     jobs_done: dict[str, int] = field(default_factory=dict)
-
-
-def _free_port() -> int:
-    import socket
-
-    with socket.socket() as sock:
-        sock.bind(("127.0.0.1", 0))
-        return int(sock.getsockname()[1])
-
-
-def _start(data_dir: Path) -> tuple[subprocess.Popen[str], str, str]:
-    port = _free_port()
-    tmp = data_dir / "tmp"  # the service's own temporary directory: its files counted alone
-    tmp.mkdir(exist_ok=True)
-    env = os.environ | {"HYDRODIAG_DATA_DIR": str(data_dir), "TMPDIR": str(tmp)}
-    log = (data_dir / "service.log").open("a")
-    process = subprocess.Popen(
-        [sys.executable, "-m", "app.cli", "serve", "--host", "127.0.0.1", "--port", str(port)],
-        env=env, stdout=subprocess.PIPE, stderr=log, text=True)
-    assert process.stdout is not None
-    key = next(k for line in process.stdout if (k := first_key_shown(line)) is not None)
-    base = f"http://127.0.0.1:{port}"
-    deadline = time.monotonic() + 600
-    while time.monotonic() < deadline:
-        try:
-            if httpx.get(f"{base}/ready", timeout=10).status_code == 200:
-                return process, base, key
-        except httpx.TransportError:
-            pass
-        if process.poll() is not None:
-            break
-        time.sleep(0.5)
-    process.kill()
-    raise RuntimeError(f"the service did not become ready (see {data_dir}/service.log)")
 
 
 class Workload:
@@ -282,15 +247,17 @@ def _row(s: Sample) -> str:
 
 def run(data_dir: Path) -> dict[str, Any]:
     """Serve on ``data_dir``, run the workload for :data:`DURATION_S`, sample as it goes."""
-    process, base, key = _start(data_dir)
     cache = os.environ.get("HYDRODIAG_CACHE_DIR")
-    tmp = data_dir / "tmp"
-    metrics_dir = next((tmp / n for n in os.listdir(tmp)
-                        if n.startswith(f"hydrodiag-metrics-{process.pid}-")), None)
+    tmp = data_dir / "tmp"  # the service's own temporary directory: its files counted alone
+    tmp.mkdir(exist_ok=True)
     counts, samples = Counts(), []
-    probe = dict(root=process.pid, data_dir=data_dir, metrics_dir=metrics_dir, tmp_dir=tmp,
-                 cache_dir=Path(cache) if cache else None, log=data_dir / "service.log")
-    try:
+    # with its defaults (the access log on), unlike the load bench's quiet service
+    with serve(data_dir, quiet=False, env={"TMPDIR": str(tmp)}) as service:
+        process, base, key = service.process, service.base_url, service.key
+        metrics_dir = next((tmp / n for n in os.listdir(tmp)
+                            if n.startswith(f"hydrodiag-metrics-{process.pid}-")), None)
+        probe = dict(root=process.pid, data_dir=data_dir, metrics_dir=metrics_dir, tmp_dir=tmp,
+                     cache_dir=Path(cache) if cache else None, log=data_dir / "service.log")
         with httpx.Client(base_url=base, timeout=120, headers={"X-API-Key": key}) as http:
             work = Workload(http, counts)
             work.prepare()
@@ -325,12 +292,6 @@ def run(data_dir: Path) -> dict[str, Any]:
                 time.sleep(1)
             samples.append(sample(time.monotonic() - start, counts.requests, **probe))  # type: ignore[arg-type]
             print(_row(samples[-1]), flush=True)
-    finally:
-        process.terminate()
-        try:
-            process.wait(timeout=30)
-        except subprocess.TimeoutExpired:
-            process.kill()
     return _summary(samples, counts)
 
 
