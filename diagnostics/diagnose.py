@@ -29,9 +29,9 @@ from diagnostics.hypotheses import PARAMETERS, FaultParameter
 from diagnostics.inversion import LeakageGeometry, cylinder_clearance, valve_clearance
 from diagnostics.isolability import isolability
 from diagnostics.measurement import MeasurementRecord
-from diagnostics.observations import observe, rig_limits
+from diagnostics.observations import RecordObservations, observe, rig_limits
 from diagnostics.ranking import HypothesisFit, Method, ParameterEstimate, Ranker
-from diagnostics.ratio_index import ratio_index
+from diagnostics.ratio_index import RatioIndex, ratio_index
 from diagnostics.signatures import OBSERVABLES, SignatureMaps
 from diagnostics.slip import rig_slip_coefficient
 from diagnostics.uncertainty import Estimate
@@ -57,26 +57,62 @@ CHECKED_TEMPERATURES = (20.0, 80.0)
 
 def _direct(rig: Rig, records: Sequence[MeasurementRecord], notes: list[str]
             ) -> dict[str, Estimate]:
+    """The closed-form clearances of paper 002 §2.7 (``"cc"``, ``"cv"``): on a joint visit
+    that of the record whose inversion is the most precise (least standard uncertainty;
+    the first of equals), so the answer and what the history keeps do not depend on the
+    order the records are listed in (the first record's was kept until 2026-12-01: three
+    records of different wear stored cv 60 µm forwards and 34 µm reversed)."""
     geom = leakage_geometry(rig)
     fluid = rig.spec.fluid_model()   # the rig's oil: the default VG 46 read 34 µm for 30 µm on
     out: dict[str, Estimate] = {}    # a VG 32 rig, and the trend kept it (a rig author's pass)
-    for k, rec in enumerate(records):
-        for key, needs, fn in (("cc", ("flow_C", "p1", "p2"), cylinder_clearance),
-                               ("cv", ("flow_B", "flow_C", "pump_pressure"), valve_clearance)):
-            if key in out or any(getattr(rec, n) is None for n in needs):
+    joint = len(records) > 1
+    for key, needs in (("cc", ("flow_C", "p1", "p2")), ("cv", ("flow_B", "flow_C",
+                                                               "pump_pressure"))):
+        found: list[tuple[float, int, Estimate]] = []
+        for k, rec in enumerate(records):
+            if any(getattr(rec, n) is None for n in needs):
                 continue
             try:
-                out[key] = (cylinder_clearance(rec, geom, fluid=fluid, method="delta",
-                                               reference=rig.values()["cylinder.cc"])
-                            if key == "cc" else fn(rec, geom, fluid=fluid, method="delta"))
+                est = (cylinder_clearance(rec, geom, fluid=fluid, method="delta",
+                                          reference=rig.values()["cylinder.cc"])
+                       if key == "cc" else valve_clearance(rec, geom, fluid=fluid,
+                                                           method="delta"))
             except MeasurementError as exc:
-                notes.append(f"direct inversion of {key} not possible: {exc}")
+                where = f" from record {k + 1}" if joint else ""
+                notes.append(f"direct inversion of {key}{where} not possible: {exc}")
                 continue
-            if len(records) > 1:  # a joint visit's page showed another record beside it
-                notes.append(f"the direct inversion of {key} (paper 002 §2.7) is that of "
-                             f"record {k + 1} of the {len(records)}, the first with "
-                             f"{', '.join(needs)}; the hypothesis fits use all of them")
+            found.append((est.u if math.isfinite(est.u) else math.inf, k, est))
+        if not found:
+            continue
+        _, k, out[key] = min(found, key=lambda f: (f[0], f[1]))
+        if joint:  # a joint visit's page showed another record beside it
+            notes.append(f"the direct inversion of {key} (paper 002 §2.7) is that of "
+                         f"record {k + 1} of the {len(records)}, the most precise of the "
+                         f"{len(found)} with {', '.join(needs)}; the hypothesis fits use "
+                         "all of them")
     return out
+
+
+def _ratio(rig: Rig, obs: Sequence[RecordObservations]) -> RatioIndex | None:
+    """The ratio index of the record whose velocity ratio is the most precise (least
+    relative uncertainty; the first of equals): on a joint visit, whatever the records'
+    order (the first record's until 2026-12-01)."""
+    found = []
+    for k, o in enumerate(obs):
+        q = o.record.ratio() if "velocity_ratio" in o.names else None
+        if q is not None:
+            found.append((q.u / abs(q.value) if q.value else math.inf, k, o, q))
+    if not found:
+        return None
+    _, _, o, q = min(found, key=lambda f: (f[0], f[1]))
+    return ratio_index(rig, o.condition, q)
+
+
+def _visit_temperature(records: Sequence[MeasurementRecord]) -> float:
+    """The oil temperature at which a visit's slip coefficient is stated: the mean of its
+    records' [°C] (the first record's until 2026-12-01: Cs ∝ μ(T), so a visit listed in
+    another order stored another Cs)."""
+    return float(np.mean([r.condition.oil_temperature.value for r in records]))
 
 
 def diagnose(rig: Rig, records: Sequence[MeasurementRecord], *, model_rel: float = 0.002,
@@ -125,13 +161,7 @@ def diagnose(rig: Rig, records: Sequence[MeasurementRecord], *, model_rel: float
     notes: list[str] = []
     direct = _direct(rig, records, notes)
     _root_for_the_answer(direct, fits, rig)
-    ratio = None
-    for o in obs:
-        if "velocity_ratio" in o.names:
-            q = o.record.ratio()
-            if q is not None:
-                ratio = ratio_index(rig, o.condition, q)
-                break
+    ratio = _ratio(rig, obs)
     _widen(ranker, fits, {}, {**{name: [sd] for name, sd in checks.sigma.items()},
                               **at_fit.pair_sigma})
     profiled = _healthy_end(ranker, fits, direct, joint=len(records) > 1)
@@ -140,8 +170,8 @@ def diagnose(rig: Rig, records: Sequence[MeasurementRecord], *, model_rel: float
     pump = next(f for f in fits if f.name == "pump")
     if pump.observable:
         (est,) = [profiled["pump"]] if "pump" in profiled else pump.parameters
-        slip = tuple(rig_slip_coefficient(rig, obs[0].condition.oil_temperature, k)
-                     for k in (est.value, est.low, est.high))
+        theta = _visit_temperature(records)
+        slip = tuple(rig_slip_coefficient(rig, theta, k) for k in (est.value, est.low, est.high))
     n = sum(len(o.names) for o in obs)
     notes.extend(_temperature_notes(rig, records))
     notes.extend(n for r in records for n in slow_stroke_notes(r, limits))

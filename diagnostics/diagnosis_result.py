@@ -30,13 +30,15 @@ class Diagnosis:
     isolability
         What the sensors cannot separate and what would.
     direct
-        Closed-form equivalent clearances (``"cc"``, ``"cv"``) of the first record that
-        allows them (paper 002 §2.7), with intervals.
+        Closed-form equivalent clearances (``"cc"``, ``"cv"``) of paper 002 §2.7, with
+        intervals: of the record whose inversion is the most precise (least standard
+        uncertainty) among those that allow them.
     ratio
-        Ratio index, when a record has a velocity ratio but not both speeds.
+        Ratio index, when a record has a velocity ratio but not both speeds (of the
+        record whose ratio is the most precise).
     pump_slip
         Laminar slip coefficient Cs [-] equivalent to the pump hypothesis's leakage
-        (paper 000 eq. 6: Q_slip = Cs·D·Δp/μ, D per radian) at the first record's oil
+        (paper 000 eq. 6: Q_slip = Cs·D·Δp/μ, D per radian) at the records' mean oil
         temperature, with its interval.
     notes
         Anything a reader must know (inversions that could not run, and why).

@@ -83,7 +83,7 @@ def estimates_of(diagnosis: Diagnosis) -> list[EstimateOut]:
     hypothesis wins), else the fitted clearance of the component's single-fault hypothesis
     when the readings cannot reject that hypothesis (its ambiguity set).  A joint visit
     (several records) keeps that fit, made from every record, where the readings do not
-    reject it, before the closed form of its first record.  Pump: the laminar
+    reject it, before the closed form of its most precise record.  Pump: the laminar
     slip coefficient Cs [-] of paper 000 eq. 6 under the pump hypothesis, when that is not
     rejected.  A rejected hypothesis's fit explains the readings by the wrong component
     and estimates nothing, so it is left out.

@@ -114,9 +114,10 @@ def test_a_joint_diagnosis_keeps_every_record_and_one_result(server: LiveServer)
     assert after["diagnoses"] == before["diagnoses"] + 1
     assert len(diagnosis["measurement_ids"]) == 2
     # which record the closed-form inversions come from (the console's page showed the
-    # other record's readings beside them without a word)
+    # other record's readings beside them without a word): the most precise, at 4.2 kN
     assert [n for n in diagnosis["result"]["notes"] if n.startswith(
-        "the direct inversion of cv (paper 002 §2.7) is that of record 1 of the 2")]
+        "the direct inversion of cv (paper 002 §2.7) is that of record 2 of the 2, the most "
+        "precise of the 2")]
     # the history keeps the fit to both records, not the first record's closed form
     valve = next(e for e in diagnosis["estimates"] if e["component"] == "valve")
     direct = diagnosis["result"]["direct_inversions"]["cv"]

@@ -11,11 +11,14 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pytest
 
 from diagnostics.diagnose import diagnose
 from diagnostics.measurement import MeasurementRecord, OperatingCondition
 from diagnostics.signatures import GRAPH_PARAMETERS, evaluator
+from diagnostics.slip import rig_slip_coefficient
 from sim.rigs import Condition, reference_rig
+from tests.diagnostics.synth import record
 
 ROOT = Path(__file__).resolve().parents[2]
 #: a condition no other test diagnoses at, so that the first diagnosis here finds the
@@ -84,3 +87,31 @@ def test_answers_do_not_depend_on_the_hash_seed() -> None:
         outs.append(run.stdout)
     assert outs[0] == outs[1]
     assert json.loads(outs[0])["diagnosis"]["top"] == "valve"
+
+
+def test_a_joint_visit_keeps_the_same_numbers_whatever_the_records_order() -> None:
+    """A joint visit's closed-form clearances came from its first record and its slip
+    coefficient was stated at the first record's oil temperature: three records of
+    different wear listed forwards and reversed stored cv 60 µm and 34 µm.  Now the
+    clearance is that of the most precise record's inversion (its standard uncertainty the
+    least of the records'), Cs is stated at the records' mean temperature (Cs = μ(T)·k /
+    (D·R_lp), paper 000 eq. 6 on the rig's pump), and both orders give them alike."""
+    rig = reference_rig()
+    visit = [record(rig, {"valve.cv": cv}, load=load, temperature=theta)
+             for cv, load, theta in ((60e-6, 2100.0, 35.0), (45e-6, 4200.0, 45.0),
+                                     (34e-6, 6300.0, 55.0))]
+    forwards, backwards = diagnose(rig, visit), diagnose(rig, visit[::-1])
+    alone = [diagnose(rig, [r]).direct for r in visit]
+    for key in ("cc", "cv"):
+        best = min(alone, key=lambda d: d[key].u)[key]
+        for d in (forwards, backwards):
+            assert (d.direct[key].value, d.direct[key].low, d.direct[key].high) == (
+                best.value, best.low, best.high)
+    assert forwards.pump_slip is not None and backwards.pump_slip is not None
+    np.testing.assert_allclose(forwards.pump_slip, backwards.pump_slip, rtol=1e-6)
+    (k,) = (forwards.healthy_end["pump"] if "pump" in forwards.healthy_end else
+            next(f for f in forwards.hypotheses if f.name == "pump").parameters[0],)
+    assert forwards.pump_slip[0] == pytest.approx(
+        rig_slip_coefficient(rig, 45.0, k.value), rel=1e-12)
+    said = [n for n in forwards.notes if n.startswith("the direct inversion of cv")]
+    assert said and "the most precise of the 3" in said[0]

@@ -366,7 +366,7 @@ def test_a_joint_visits_page_says_whose_readings_it_shows(
     assert response.status_code == 303
     page = browser_client.get(response.headers["location"]).text
     assert "The readings of record 2 of the visit's 2 (the latest" in page
-    assert "is that of record 1 of the 2" in page
+    assert "is that of record 2 of the 2, the most precise" in page
 
 
 def test_bad_form_input_names_the_field_and_stores_nothing(
