@@ -332,3 +332,18 @@ def test_the_real_data_example_runs_and_its_estimates_order_the_labels() -> None
     p0 = namespace["p0_20"]
     assert np.isfinite(p0).sum() >= 0.5 * p0.size
     assert spearmanr(p0, labels.accumulator, nan_policy="omit").statistic > 0.75
+
+
+# --- the settings -------------------------------------------------------------------------------
+
+
+def test_every_setting_is_documented() -> None:
+    """Each setting of :class:`app.settings.Settings` is named, as the environment variable
+    an operator sets, in the README or the docs (``HYDRODIAG_ACCESS_LOG`` and
+    ``HYDRODIAG_LOG_LEVEL`` were read but named nowhere)."""
+    from app.settings import Settings
+
+    text = "\n".join(p.read_text(encoding="utf-8") for p in (README, *DOCS))
+    missing = [f"HYDRODIAG_{name.upper()}" for name in Settings.model_fields
+               if f"HYDRODIAG_{name.upper()}" not in text]
+    assert not missing, missing
