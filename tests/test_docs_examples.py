@@ -18,7 +18,9 @@ README's own code blocks and the results written beside them (``# 0.74``, ``# â†
 * every ``hydrodiag`` command of the README and the docs names a command the CLI has, with
   options it has;
 * docs/real-data.md's Python example runs on the shared ZeMA data, and what it estimates
-  without the labels orders them.
+  without the labels orders them;
+* every setting is named as its environment variable in the README or the docs, with the
+  default the docs state.
 """
 
 from __future__ import annotations
@@ -347,3 +349,25 @@ def test_every_setting_is_documented() -> None:
     missing = [f"HYDRODIAG_{name.upper()}" for name in Settings.model_fields
                if f"HYDRODIAG_{name.upper()}" not in text]
     assert not missing, missing
+
+
+def test_the_defaults_the_docs_state_are_the_settings_defaults() -> None:
+    """Where the README or the docs write a setting with a number after it
+    (```HYDRODIAG_JOB_WORKERS` (2)``, ``(8 MiB``, ``(10 s``, ``(30 d``), that number is the
+    setting's default."""
+    from app.settings import Settings
+
+    scale = {"MiB": 2.0**20, "s": 1.0, "d": 1.0, "": 1.0}
+    text = "\n".join(p.read_text(encoding="utf-8") for p in (README, *DOCS))
+    defaults = {name: field.get_default(call_default_factory=True)
+                for name, field in Settings.model_fields.items()}
+    checked = 0
+    for name, number, unit in re.findall(
+            r"`HYDRODIAG_([A-Z_0-9]+)`,? \((\d[\d,]*(?:\.\d+)?)(?: (MiB|s|d)\b)?", text):
+        key = name.lower()
+        if key not in defaults:
+            continue  # a study's variable (HYDRODIAG_SEEDS), not a setting
+        assert float(number.replace(",", "")) * scale[unit] == pytest.approx(
+            float(defaults[key])), (name, number, unit, defaults[key])
+        checked += 1
+    assert checked >= 12, checked
