@@ -5,7 +5,7 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed-stamp
 export HYDRODIAG_CACHE_DIR ?= $(CURDIR)/.hydrodiag-cache
 
-.PHONY: run test lint bench accuracy pump-study trend-study load-bench console-bench screenshots real-data chaos discrepancy-study discrepancy-effects discrepancy-paper000 discrepancy-prototype diagnose-bench diagnose-ab job-stall soak clean
+.PHONY: run test test-postgres lint bench accuracy pump-study trend-study load-bench console-bench screenshots real-data chaos discrepancy-study discrepancy-effects discrepancy-paper000 discrepancy-prototype diagnose-bench diagnose-ab job-stall soak clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -18,6 +18,9 @@ run: $(STAMP)
 
 test: $(STAMP)
 	$(PY) -m pytest -q -n 2
+
+test-postgres: $(STAMP)
+	$(PY) -m tests.app.postgres_run
 
 lint: $(STAMP)
 	$(VENV)/bin/ruff check sim diagnostics app tests benchmarks

@@ -41,7 +41,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from tests.app.live import LiveServer, live_server, sqlite_settings
+from tests.app.live import LiveServer, live_server, store_settings
 
 README = Path(__file__).resolve().parents[1] / "README.md"
 ADDRESS = "http://127.0.0.1:8000"
@@ -160,7 +160,7 @@ def test_the_simulators_commands_run(tmp_path: Path) -> None:
 @pytest.fixture(scope="module")
 def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[LiveServer]:
     """A server on a fresh store, as ``make run`` starts one (the reference rig is rig 1)."""
-    with live_server(sqlite_settings(tmp_path_factory.mktemp("store"))) as live:
+    with live_server(store_settings(tmp_path_factory.mktemp("store"))) as live:
         yield live
 
 

@@ -10,7 +10,7 @@ import pytest
 from typer.testing import CliRunner
 
 from sim.rigs import reference_rig_document
-from tests.app.live import LiveServer, live_server, sqlite_settings
+from tests.app.live import LiveServer, live_server, store_settings
 
 
 def first_api_key(data_dir: Path, output: str) -> str:
@@ -28,7 +28,7 @@ def first_api_key(data_dir: Path, output: str) -> str:
 @pytest.fixture(scope="module")
 def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[LiveServer]:
     """A server with open reads, shared by the tests of one module."""
-    with live_server(sqlite_settings(tmp_path_factory.mktemp("store"))) as live:
+    with live_server(store_settings(tmp_path_factory.mktemp("store"))) as live:
         yield live
 
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import socket
 import threading
 import time
@@ -68,10 +69,43 @@ class LiveServer:
             }
 
 
-def sqlite_settings(data_dir: Path, **overrides: Any) -> Settings:
-    """Settings for an SQLite store in ``data_dir``, with the tests' wall-clock budget of a
+#: a PostgreSQL server (``postgresql+psycopg://user@host:port``, a throw-away one: its
+#: databases are left behind) on which every :func:`store_settings` store is a database
+#: of its own instead of an SQLite file: ``make test-postgres`` runs the service's tests so
+STORE_SERVER_ENV = "HYDRODIAG_TEST_STORE_SERVER"
+
+
+def store_settings(data_dir: Path, **overrides: Any) -> Settings:
+    """Settings for a store in ``data_dir`` — an SQLite file, or a new database on the
+    server :data:`STORE_SERVER_ENV` names — with the tests' wall-clock budget of a
     simulation (:data:`TEST_SIM_WALL_CLOCK_S`) unless ``overrides`` name one."""
-    return Settings(data_dir=data_dir, **({"sim_wall_clock": TEST_SIM_WALL_CLOCK_S} | overrides))
+    server = os.environ.get(STORE_SERVER_ENV)
+    store = {} if not server or "database_url" in overrides else {
+        "database_url": new_database(server)}
+    return Settings(data_dir=data_dir,
+                    **({"sim_wall_clock": TEST_SIM_WALL_CLOCK_S} | store | overrides))
+
+
+def sqlite_settings(data_dir: Path, **overrides: Any) -> Settings:
+    """:func:`store_settings` on an SQLite file in ``data_dir`` whatever
+    :data:`STORE_SERVER_ENV` says: for tests of the SQLite file itself (its copy, its
+    repair at start, its permissions)."""
+    return Settings(data_dir=data_dir, **({"sim_wall_clock": TEST_SIM_WALL_CLOCK_S}
+                                          | overrides))
+
+
+def new_database(server: str) -> str:
+    """The URL of a new, empty database on the PostgreSQL ``server``."""
+    from sqlalchemy import create_engine, text
+
+    name = f"hd_{uuid.uuid4().hex[:16]}"
+    engine = create_engine(f"{server.rstrip('/')}/postgres", isolation_level="AUTOCOMMIT")
+    try:
+        with engine.connect() as connection:
+            connection.execute(text(f'CREATE DATABASE "{name}"'))
+    finally:
+        engine.dispose()
+    return f"{server.rstrip('/')}/{name}"
 
 
 @contextmanager

@@ -82,8 +82,10 @@ def postgres_url() -> Iterator[str]:
     try:
         subprocess.run([*prefix, initdb, "-D", str(data), "-U", "hydrodiag", "--auth=trust",
                         "-E", "UTF8"], check=True, capture_output=True)
+        # a throw-away cluster: no fsync; room for every live server's pool of a parallel
+        # run (make test-postgres)
         options = (f"-c listen_addresses=127.0.0.1 -c port={port} "
-                   f"-c unix_socket_directories={data}")
+                   f"-c unix_socket_directories={data} -c fsync=off -c max_connections=300")
         subprocess.run([*prefix, pg_ctl, "-D", str(data), "-o", options, "-w", "-t", "60",
                         "-l", str(folder / "server.log"), "start"], check=True,
                        capture_output=True)

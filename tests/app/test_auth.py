@@ -9,7 +9,7 @@ import pytest
 from app.db.models import ApiKey
 from app.security import generate_key, hash_key, split_key, verify_key
 from app.services.keys import create_api_key, revoke_api_key
-from tests.app.live import LiveServer, live_server, sqlite_settings
+from tests.app.live import LiveServer, live_server, store_settings
 
 
 def test_hashes_are_salted_and_verify_only_the_right_key() -> None:
@@ -45,7 +45,7 @@ def closed(server: LiveServer) -> LiveServer:
 
 @pytest.fixture(scope="module")
 def open_reads(tmp_path_factory: pytest.TempPathFactory) -> Iterator[LiveServer]:
-    settings = sqlite_settings(tmp_path_factory.mktemp("open"), open_reads=True)
+    settings = store_settings(tmp_path_factory.mktemp("open"), open_reads=True)
     with live_server(settings) as live:
         yield live
 

@@ -11,7 +11,7 @@ import pytest
 
 from app.reference_data import REFERENCE_CALIBRATIONS
 from tests.app.conftest import new_rig
-from tests.app.live import LiveServer, live_server, sqlite_settings
+from tests.app.live import LiveServer, live_server, store_settings
 
 TABLE: dict[str, Any] = {
     "throttle": "I",
@@ -315,7 +315,7 @@ def estimating_server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[
         tuple[LiveServer, CubeLawEstimator]]:
     estimator = CubeLawEstimator()
     data_dir: Path = tmp_path_factory.mktemp("estimating")
-    with live_server(sqlite_settings(data_dir), estimator=estimator) as live:
+    with live_server(store_settings(data_dir), estimator=estimator) as live:
         yield live, estimator
 
 
@@ -356,7 +356,7 @@ def test_missing_clearances_are_computed_through_the_hook(
 def test_an_empty_patch_fills_in_once_an_estimator_exists_and_stale_values_go(
     tmp_path: Path,
 ) -> None:
-    settings = sqlite_settings(tmp_path)
+    settings = store_settings(tmp_path)
     with live_server(settings) as plain:  # no estimator: the published gap stays open
         rig_id = _reference_rig_id(plain)
         url = f"/rigs/{rig_id}/calibrations"
@@ -381,7 +381,7 @@ def test_implausible_computed_clearances_are_422(tmp_path: Path) -> None:
     def broken(**_: Any) -> float:
         return float("nan")
 
-    with live_server(sqlite_settings(tmp_path), estimator=broken) as server:
+    with live_server(store_settings(tmp_path), estimator=broken) as server:
         rig_id = _reference_rig_id(server)
         points = [{"opening_turns": 0.0, "bypass_flow_m3s": 8.6e-6, "clearance_m": 34e-6},
                   {"opening_turns": 1.0, "bypass_flow_m3s": 2.7e-5}]

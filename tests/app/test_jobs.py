@@ -13,7 +13,7 @@ from app.db.models import Job
 from app.services.jobs import JobRunner, Progress
 from sim.errors import SimulationError
 from tests.app.jobs_support import reports_until_cancelled
-from tests.app.live import LiveServer, live_server, sqlite_settings
+from tests.app.live import LiveServer, live_server, store_settings
 
 POLL_TIMEOUT_S = 30.0
 
@@ -122,7 +122,7 @@ def test_progress_must_be_a_fraction(server: LiveServer) -> None:
 def test_jobs_cut_off_by_a_stop_are_marked_failed_at_start(
     tmp_path_factory: pytest.TempPathFactory,
 ) -> None:
-    settings = sqlite_settings(tmp_path_factory.mktemp("restart"))
+    settings = store_settings(tmp_path_factory.mktemp("restart"))
     with live_server(settings) as first, first.session() as session:
         session.add(Job(id="11111111-1111-1111-1111-111111111111", kind="sweep",
                         status="running", progress=0.4, params={}))
@@ -239,7 +239,7 @@ def test_past_the_jobs_a_process_takes_a_job_is_503_and_nothing_is_stored(
     from app.errors import ServiceBusyError
     from tests.app.test_scenarios import SWEEP
 
-    settings = sqlite_settings(tmp_path_factory.mktemp("queue"), job_workers=1,
+    settings = store_settings(tmp_path_factory.mktemp("queue"), job_workers=1,
                                max_queued_jobs=1)
     release = threading.Event()
 

@@ -12,14 +12,14 @@ from pydantic import ValidationError
 from app.limits import BATCH_RECORDS_CEILING
 from app.settings import Settings
 from tests.app.conftest import simulated_record
-from tests.app.live import LiveServer, live_server, sqlite_settings
+from tests.app.live import LiveServer, live_server, store_settings
 from tests.app.test_scenarios import SWEEP
 
 
 @pytest.fixture(scope="module")
 def tight(tmp_path_factory: pytest.TempPathFactory) -> Iterator[LiveServer]:
     """A server with small limits: 3 records, 11 steady and 2 transient sweep points."""
-    settings = sqlite_settings(tmp_path_factory.mktemp("tight"), max_batch_records=3,
+    settings = store_settings(tmp_path_factory.mktemp("tight"), max_batch_records=3,
                                max_sweep_points_steady=11, max_sweep_points_transient=2)
     with live_server(settings) as live:
         yield live

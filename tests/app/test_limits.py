@@ -15,7 +15,7 @@ import pytest
 from app.api.routes.ops import health
 from app.schemas.common import MAX_ID
 from tests.app.conftest import simulated_record
-from tests.app.live import LiveServer, live_server, sqlite_settings
+from tests.app.live import LiveServer, live_server, store_settings
 
 HUGE = 9223372036854775808  # 2**63: past SQLite's INTEGER
 JUST_PAST = MAX_ID + 1
@@ -168,7 +168,7 @@ def test_an_unknown_form_field_is_refused(server: LiveServer) -> None:
 
 @pytest.fixture(scope="module")
 def small(tmp_path_factory: pytest.TempPathFactory) -> Iterator[LiveServer]:
-    settings = sqlite_settings(tmp_path_factory.mktemp("small"), max_body_bytes=4096,
+    settings = store_settings(tmp_path_factory.mktemp("small"), max_body_bytes=4096,
                                max_upload_bytes=64 * 1024)
     with live_server(settings) as live:
         yield live

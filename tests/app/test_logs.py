@@ -21,7 +21,7 @@ import pytest
 from app.db.models import ApiKey
 from app.logs import ACCESS_LOGGER, MAX_REQUEST_ID_LENGTH, JsonFormatter
 from tests.app.conftest import first_api_key
-from tests.app.live import LiveServer, live_server, sqlite_settings
+from tests.app.live import LiveServer, live_server, store_settings
 
 SECRET_IN_BODY = "body-secret-7f3e9a"
 SECRET_IN_HEADER = "hd_0123456789ab_headersecret5c1d"
@@ -39,7 +39,7 @@ def logged(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[LiveServe
     logger.addHandler(handler)
     logger.setLevel(logging.INFO)
     try:
-        settings = sqlite_settings(tmp_path_factory.mktemp("logs"), max_body_bytes=4096)
+        settings = store_settings(tmp_path_factory.mktemp("logs"), max_body_bytes=4096)
         with live_server(settings) as live:
             yield live, buffer
     finally:

@@ -8,7 +8,7 @@ import pytest
 
 from app import __version__
 from app.db import migrate
-from tests.app.live import LiveServer, live_server, sqlite_settings
+from tests.app.live import LiveServer, live_server, store_settings
 
 
 def test_health(server: LiveServer) -> None:
@@ -35,7 +35,9 @@ def test_ready_reports_the_migrated_store(server: LiveServer) -> None:
 
     body = response.json()
     sweeps = body.pop("sweeps")
-    assert body == {"status": "ready", "database": "sqlite", "revision": head_revision()}
+    assert body == {"status": "ready", "database": server.engine.dialect.name,
+                    "revision": head_revision()}
+    assert body["database"] in ("sqlite", "postgresql")
     # the sweeps' executor is named (a Dask pass: nothing named the scheduler): the test
     # server's local pool, whose processes are the sweep workers it was given
     assert sweeps["kind"] == "processes" and sweeps["scheduler"] is None
@@ -47,7 +49,7 @@ def test_ready_reports_the_migrated_store(server: LiveServer) -> None:
 
 
 def test_ready_is_503_while_the_store_is_behind(tmp_path: Path) -> None:
-    with live_server(sqlite_settings(tmp_path)) as live:
+    with live_server(store_settings(tmp_path)) as live:
         migrate.downgrade(live.engine, "base")
         behind = live.client.get("/ready")
         assert behind.status_code == 503

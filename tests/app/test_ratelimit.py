@@ -9,7 +9,7 @@ import pytest
 
 from app.ratelimit import KeyRateLimiter
 from app.services.keys import create_api_key
-from tests.app.live import LiveServer, live_server, sqlite_settings
+from tests.app.live import LiveServer, live_server, store_settings
 
 
 def test_the_bucket_refills_at_the_rate() -> None:
@@ -24,7 +24,7 @@ def test_the_bucket_refills_at_the_rate() -> None:
 
 @pytest.fixture(scope="module")
 def limited(tmp_path_factory: pytest.TempPathFactory) -> Iterator[LiveServer]:
-    settings = sqlite_settings(tmp_path_factory.mktemp("limited"), rate_limit_per_minute=3)
+    settings = store_settings(tmp_path_factory.mktemp("limited"), rate_limit_per_minute=3)
     with live_server(settings) as live:
         yield live
 
@@ -71,7 +71,7 @@ def test_wrong_keys_from_one_address_are_refused_unchecked_past_the_bound(
 
 @pytest.fixture(scope="module")
 def console_limited(tmp_path_factory: pytest.TempPathFactory) -> Iterator[LiveServer]:
-    settings = sqlite_settings(tmp_path_factory.mktemp("console-limited"),
+    settings = store_settings(tmp_path_factory.mktemp("console-limited"),
                                rate_limit_per_minute=3, max_batch_records=2)
     with live_server(settings) as live:
         yield live

@@ -13,7 +13,7 @@ import pytest
 from sim.rigs import Condition, reference_rig
 from sim.scenarios import fault_overrides
 from sim.steady import steady_cycle
-from tests.app.live import LiveServer, live_server, sqlite_settings
+from tests.app.live import LiveServer, live_server, store_settings
 
 POLL_TIMEOUT_S = 120.0
 
@@ -164,7 +164,7 @@ def dask_server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[LiveServer
 
     with LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
                       dashboard_address=None) as cluster:
-        settings = sqlite_settings(tmp_path_factory.mktemp("dask"),
+        settings = store_settings(tmp_path_factory.mktemp("dask"),
                                    dask_scheduler=cluster.scheduler_address)
         with live_server(settings) as live:
             yield live

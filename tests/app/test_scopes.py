@@ -28,7 +28,7 @@ from app.services.keys import (
 )
 from sim.errors import AuthError, InputError
 from sim.rigs import reference_rig_document
-from tests.app.live import LiveServer, live_server, sqlite_settings
+from tests.app.live import LiveServer, live_server, store_settings
 
 STEADY = {"rig_id": 1, "method": "steady", "condition": {"load": 2100.0}}
 RECORD = {"rig_id": 1, "condition": {"oil_temperature": 40.0, "load_force": 2100.0},
@@ -39,7 +39,7 @@ RECORD = {"rig_id": 1, "condition": {"oil_temperature": 40.0, "load_force": 2100
 @pytest.fixture(scope="module")
 def scoped(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[LiveServer, dict[str, str]]]:
     """A server (keys required) and one key of each scope."""
-    with live_server(sqlite_settings(tmp_path_factory.mktemp("scopes"))) as live:
+    with live_server(store_settings(tmp_path_factory.mktemp("scopes"))) as live:
         keys: dict[str, str] = {}
         with live.session() as session:
             for scope in Scope:

@@ -17,7 +17,7 @@ from app.settings import Settings
 from sim.cycle import run_cycle
 from sim.errors import InputError, ParameterError
 from sim.rigs import reference_rig
-from tests.app.live import LiveServer, live_server, sqlite_settings
+from tests.app.live import LiveServer, live_server, store_settings
 
 SCENARIO: dict[str, Any] = {"rig_id": 1, "condition": {"load": 6300.0, "oil_temperature": 40.0}}
 
@@ -73,7 +73,7 @@ def test_noise_fields_are_validated(server: LiveServer) -> None:
 
 @pytest.fixture(scope="module")
 def limited(tmp_path_factory: pytest.TempPathFactory) -> Iterator[LiveServer]:
-    settings = sqlite_settings(Path(tmp_path_factory.mktemp("limited")), sim_max_steps=3000,
+    settings = store_settings(Path(tmp_path_factory.mktemp("limited")), sim_max_steps=3000,
                                sim_wall_clock=5.0, sim_max_rows=2000)
     with live_server(settings) as live:
         yield live

@@ -11,12 +11,12 @@ from app.services.throttle_estimator import ThrottleClearanceEstimator
 from sim.errors import InputError
 from sim.rigs import Condition, reference_rig, reference_rig_document
 from sim.steady import steady_cycle
-from tests.app.live import LiveServer, live_server, sqlite_settings
+from tests.app.live import LiveServer, live_server, store_settings
 
 
 @pytest.fixture(scope="module")
 def estimating_server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[LiveServer]:
-    with live_server(sqlite_settings(tmp_path_factory.mktemp("estimating")),
+    with live_server(store_settings(tmp_path_factory.mktemp("estimating")),
                      estimator=ThrottleClearanceEstimator()) as live:
         yield live
 

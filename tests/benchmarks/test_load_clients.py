@@ -11,12 +11,12 @@ from pathlib import Path
 import pytest
 
 from benchmarks.load_clients import Connection, closed_loop, open_loop, request_bytes
-from tests.app.live import LiveServer, live_server, sqlite_settings
+from tests.app.live import LiveServer, live_server, store_settings
 
 
 @pytest.fixture(scope="module")
 def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[LiveServer]:
-    with live_server(sqlite_settings(Path(tmp_path_factory.mktemp("store")))) as live:
+    with live_server(store_settings(Path(tmp_path_factory.mktemp("store")))) as live:
         yield live
 
 

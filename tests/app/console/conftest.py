@@ -18,7 +18,7 @@ from diagnostics.pump import (
 )
 from sim.components.gear_pump_map import stand_in_pump
 from tests.app.conftest import simulated_record
-from tests.app.live import LiveServer, live_server, sqlite_settings
+from tests.app.live import LiveServer, live_server, store_settings
 
 #: The valve's clearance on successive days of the seeded history [m] (nominal 34 µm).
 WEAR_SERIES_M = (34e-6, 38e-6, 42e-6, 46e-6)
@@ -84,7 +84,7 @@ def login(server: LiveServer, client: httpx.Client | None = None) -> httpx.Clien
 @pytest.fixture(scope="module")
 def console_server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[LiveServer]:
     """A live service on a fresh store with :data:`WEAR_SERIES_M` diagnosed."""
-    with live_server(sqlite_settings(tmp_path_factory.mktemp("console-store"))) as live:
+    with live_server(store_settings(tmp_path_factory.mktemp("console-store"))) as live:
         live.seeded = seed_history(live)  # type: ignore[attr-defined]
         seed_pump_set(live, tmp_path_factory.mktemp("bench"))
         live.series = seed_series(live)  # type: ignore[attr-defined]

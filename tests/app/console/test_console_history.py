@@ -14,7 +14,7 @@ from app.db.models import Diagnosis
 from app.services.history import ComponentEstimate, add_diagnosis
 from tests.app.conftest import simulated_record
 from tests.app.console.conftest import login
-from tests.app.live import LiveServer, live_server, sqlite_settings
+from tests.app.live import LiveServer, live_server, store_settings
 
 N = 1000
 START = datetime(2025, 1, 1, 6, tzinfo=UTC)
@@ -23,7 +23,7 @@ START = datetime(2025, 1, 1, 6, tzinfo=UTC)
 @pytest.fixture(scope="module")
 def full(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[LiveServer, httpx.Client]]:
     """A service whose rig 1 has N diagnoses, one every 6 hours from START."""
-    with live_server(sqlite_settings(tmp_path_factory.mktemp("full-store"))) as server:
+    with live_server(store_settings(tmp_path_factory.mktemp("full-store"))) as server:
         record = simulated_record(server, {"valve.cv": 40e-6}, measured_at=START.isoformat())
         answer = server.client.post("/diagnose", json={"record": record}, headers=server.auth)
         assert answer.status_code == 200, answer.text
