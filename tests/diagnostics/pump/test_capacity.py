@@ -101,3 +101,18 @@ def test_all_levels_are_combined_by_inverse_variance() -> None:
     assert _combine([1.0, 2.0], [1.0, 2.0], [22.0, 60.0], "all") == pytest.approx(
         (1.2, 0.89443), rel=1e-5, abs=0)
     assert _combine([1.0, 2.0], [1.0, 2.0], [60.0, 22.0], "coldest") == (2.0, 2.0)
+
+
+def test_toet_slopes_weigh_each_reading_by_its_relative_error() -> None:
+    # the flowmeter's error is a fraction of its reading, so each speed line ∂q/∂ω is fitted
+    # with weights 1/q² (Σ of squared relative residuals).  At every pressure level, q =
+    # 1, 2, 4 [1e-5 m³/s] at ω = 100, 200, 300 rad/s (x = 1, 2, 3): weights 1, 1/4, 1/16,
+    # weighted means x̄ = 9/7, ȳ = 4/3, Σw·dx·dy = 1/2, Σw·dx² = 19.25/49, slope 14/11
+    # [1e-7 m³/rad]; equal slopes at every pressure make the Δp = 0 intercept 14/11·1e-7.
+    # Unweighted the slope reads 3/2 (a mutation review)
+    p = np.repeat([1e6, 2e6, 3e6], 3)
+    omega = np.tile([100.0, 200.0, 300.0], 3)
+    q = np.tile([1.0, 2.0, 4.0], 3) * 1e-5
+    data = BenchData(p_in=np.zeros(9), p_out=p, omega=omega, theta=np.full(9, 40.0), q=q)
+    capacity = derived_capacity_toet(data).D
+    assert capacity == pytest.approx(14.0 / 11.0 * 1e-7, rel=1e-9, abs=0)
