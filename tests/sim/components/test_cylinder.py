@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from sim.components.cylinder import annulus_area, piston_leakage_flow
+from sim.components.cylinder import annulus_area, end_stop_force, piston_leakage_flow
 
 
 def test_annulus_area_is_the_one_the_papers_loads_imply() -> None:
@@ -50,3 +50,17 @@ def test_piston_leakage_scales_as_the_annular_gap_laws_do() -> None:
     assert piston_leakage_flow(0.0, 0.1, 2 * 83e-6, 0.060, 0.5, 1.0) == \
         pytest.approx(2.0 * drag, rel=1e-12, abs=0)
     assert math.copysign(1.0, drag) == -1.0
+
+
+def test_end_stops_push_back_and_never_pull() -> None:
+    # inside the stroke no force; 1 mm past the chamber-1 stop, at rest, a k = 1e8 N/m stop
+    # pushes 1e5 N towards chamber 2, and 1 mm past the far stop as much back
+    k, c, stroke = 1e8, 2e5, 0.5
+    assert end_stop_force(0.25, 0.3, stroke, k, c) == 0.0
+    assert end_stop_force(-1e-3, 0.0, stroke, k, c) == pytest.approx(1e5, rel=1e-12, abs=0)
+    assert end_stop_force(stroke + 1e-3, 0.0, stroke, k, c) == pytest.approx(-1e5, rel=1e-12,
+                                                                            abs=0)
+    # leaving the stop faster than the spring unloads (c·v = 2e5·1 > k·x = 1e5): the damper
+    # would pull the piston back, but a stop is a contact and cannot pull: 0
+    assert end_stop_force(-1e-3, 1.0, stroke, k, c) == 0.0
+    assert end_stop_force(stroke + 1e-3, -1.0, stroke, k, c) == 0.0

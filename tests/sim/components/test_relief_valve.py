@@ -14,6 +14,10 @@ def test_shut_below_the_setting_and_linear_above_it() -> None:
     assert relief_flow(8e6, 7e6, 2.5e9, 0.0) == pytest.approx(4e-4, rel=1e-12, abs=0)
     assert relief_flow(6e6, 7e6, 2.5e9, 0.0) == 0.0
     assert relief_flow(7e6, 7e6, 2.5e9, 0.0) == 0.0
+    # shut all the way up to the setting: no flow (and no flow into the rig) at 65 and
+    # 69.9 bar (a mutation review: a valve cracking at 90 % of Pset passed the rig tests)
+    for p in (6.5e6, 6.99e6):
+        assert relief_flow(p, 7e6, 2.5e9, 0.0) == 0.0
     # ten bar more open it by a further 1e6/Rrv = 4e-4 m³/s
     assert relief_flow(9e6, 7e6, 2.5e9, 0.0) - relief_flow(8e6, 7e6, 2.5e9, 0.0) == \
         pytest.approx(4e-4, rel=1e-9, abs=0)
