@@ -24,7 +24,7 @@ from diagnostics.measurement import (
     OperatingCondition,
     Quantity,
 )
-from diagnostics.uncertainty import monte_carlo
+from diagnostics.uncertainty import delta_method, monte_carlo
 from sim.components import cylinder, directional_valve, pump
 from sim.components.cylinder import piston_leakage_flow
 from sim.components.directional_valve import spool_leakage_flow
@@ -342,3 +342,31 @@ def test_a_bypass_within_noise_of_zero_has_an_upper_bound_even_by_the_delta_meth
 
 def clean_with(*, cv: float) -> MeasurementRecord:
     return simulated_record(cc=83e-6, cv=cv, T=40.0, v=0.2, p1=12.5e5, p2=10e5, pp=16.5e5)
+
+
+def test_the_bypass_uncertainty_combines_the_flowmeter_and_the_speed() -> None:
+    # Q_lc = Q_C − A2·ẋ (the flow balance of chamber 2): its standard uncertainty is the
+    # GUM sum of the flowmeter's and the speed's parts, √(u(Q_C)² + (A2·u(ẋ))²); here the
+    # speed's part is half the meter's, so leaving it out (a mutation review) shows
+    rec = simulated_record(cc=90e-6, cv=40e-6, T=40.0, v=0.1, p1=13e5, p2=10e5, pp=17e5)
+    speed = rec.speed("work", stroke=Quantity(GEOM.stroke))
+    assert rec.flow_C is not None and speed is not None
+    balance = delta_method(lambda x: x["flow_C"] - GEOM.A2 * x["v"],
+                           {"flow_C": rec.flow_C, "v": speed}, quantity="Q_lc", unit="m^3/s")
+    assert GEOM.A2 * speed.u > 0.3 * rec.flow_C.u
+    est = cylinder_clearance(rec, GEOM, fluid=FLUID)
+    assert est.derived["Q_lc"] == pytest.approx(balance.value, rel=1e-12)
+    assert est.derived["u_Q_lc"] == pytest.approx(balance.u, rel=1e-6)
+
+
+def test_the_spool_sees_the_pump_pressure_less_both_line_drops() -> None:
+    # paper 002 eqs. 8, 24: ΔP across the lands = P_pump − PRpv − PRvt.  With a valve-to-tank
+    # drop as large as the pump-to-valve one (the reference geometry has none), the round
+    # trip holds only if both are taken off; with PRvt left out the 1 bar too much of a
+    # 15 bar difference reads a clearance 2 % small (a mutation review)
+    geom = replace(GEOM, PRvt=1e5)
+    rec = simulated_record(cc=90e-6, cv=40e-6, T=40.0, v=0.1, p1=13e5, p2=10e5, pp=17e5,
+                           geom=geom)
+    est = valve_clearance(rec, geom, fluid=FLUID)
+    assert est.value == pytest.approx(40e-6, rel=1e-9)
+    assert est.derived["dp"] == pytest.approx(17e5 - 9.57e4 - 1e5, rel=1e-12)

@@ -50,3 +50,27 @@ def test_the_cluster_sandwich_counts_a_misfit_shared_within_blocks() -> None:
             assert np.mean(plain) < truth / 4
         else:
             assert np.mean(plain) == pytest.approx(truth, rel=0.2)
+
+
+def test_the_cluster_sandwich_of_a_mean_by_hand() -> None:
+    """A mean (intercept-only model, J = 1) fitted to 6 samples in blocks of 2, 1 and 3
+    with residuals 1, 1 | −2 | 0.5, −0.25, −0.25 (they sum to 0, as a mean's do): the
+    block scores are the blocks' residual sums 2, −2, 0, so CR1 = G/(G − 1)·Σ s_g²/n² =
+    3/2 · 8/36 = 1/3.  Block bounds shifted by one (blocks of 3, 3, 0: scores 0, 0) gave
+    0, and without the small-sample factor it read 2/9 (a mutation review)."""
+    from diagnostics.robust import cluster_cov
+
+    J = np.ones((6, 1))
+    r = np.array([1.0, 1.0, -2.0, 0.5, -0.25, -0.25])
+    assert cluster_cov(J, r, [2, 1, 3])[0, 0] == pytest.approx(1.0 / 3.0, rel=1e-12)
+
+
+def test_single_sample_blocks_give_the_usual_variance_of_a_mean() -> None:
+    """With one sample per block the errors are taken as independent: for a mean, CR1 is
+    n/(n − 1)·Σr²/n² = s²/n, the textbook variance of a sample mean (s² with n − 1)."""
+    from diagnostics.robust import cluster_cov
+
+    y = np.random.default_rng(3).normal(2.0, 0.7, 25)
+    r = y - y.mean()
+    cov = cluster_cov(np.ones((y.size, 1)), r, [1] * y.size)
+    assert cov[0, 0] == pytest.approx(np.var(y, ddof=1) / y.size, rel=1e-12)

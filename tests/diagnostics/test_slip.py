@@ -9,10 +9,15 @@ import numpy as np
 import pytest
 
 from diagnostics.measurement import MeasurementRecord, OperatingCondition, Quantity
-from diagnostics.slip import slip_coefficient, slip_coefficient_two_temperatures
-from sim.components.gear_pump import CoefficientSurface
+from diagnostics.slip import (
+    rig_slip_coefficient,
+    slip_coefficient,
+    slip_coefficient_two_temperatures,
+)
+from sim.components.gear_pump import CoefficientSurface, flow_losses
 from sim.components.gear_pump_map import stand_in_pump
 from sim.errors import MeasurementError
+from sim.rigs import reference_rig
 
 PUMP = stand_in_pump()
 RPM = 2 * math.pi / 60
@@ -94,3 +99,54 @@ def test_missing_speed_or_pressure_is_named() -> None:
     with pytest.raises(MeasurementError) as err:
         slip_coefficient(replace(rec, pump_pressure=None), PUMP)
     assert err.value.field == "pump_pressure"
+
+
+@pytest.mark.parametrize("speed_ratio", [1.004, 0.996])
+def test_two_temperature_method_removes_a_small_speed_difference(speed_ratio: float) -> None:
+    # eq. 7 with the warm point at a slightly different speed (inside the ±1 % tachometer,
+    # so the two points still count as one condition): the flow difference then holds
+    # D·(ω₁ − ω₂) besides the viscosity term, ~40 % of it here.  Constant Cs and Cst and a
+    # stiff oil leave only the two, so the corrected difference gives Cs back exactly;
+    # without the correction, or with it added, Cs is off by about half (a mutation review)
+    dp, omega = 135e5, 1467 * RPM
+    cs = float(PUMP.Cs(dp, omega))
+    pump = replace(PUMP, Cs=CoefficientSurface.constant(cs),
+                   Cst=CoefficientSurface.constant(float(PUMP.Cst(dp, omega))), beta_ef=1e20)
+    cold = field_point(dp, omega, 22.0, pump=pump)
+    warm = field_point(dp, speed_ratio * omega, 60.0, pump=pump)
+    dq_speed = pump.D * omega * abs(speed_ratio - 1.0)
+    dq_slip = abs(float(pump.flow(dp, omega, 22.0)) - float(pump.flow(dp, omega, 60.0)))
+    assert dq_speed > 0.2 * dq_slip  # the correction matters at this speed difference
+    est = slip_coefficient_two_temperatures(cold, warm, pump.D, fluid=pump.fluid)
+    assert est.value == pytest.approx(cs, rel=1e-9)
+
+
+def test_derived_slip_flow_and_efficiency_close_the_flow_balance() -> None:
+    # eq. 6 is a balance: geometric flow D·ω = delivered flow + laminar, turbulent and
+    # compressibility losses.  The estimate's laminar slip flow must be the forward
+    # model's laminar loss, and its ηv the delivered share of D·ω, 1 − ΣQ_loss/(D·ω)
+    # (a mutation review: Q_s multiplied by μ, and ηv without ω, went unnoticed)
+    dp, omega, theta = 135e5, 1467 * RPM, 50.0
+    est = slip_coefficient(field_point(dp, omega, theta), PUMP)
+    qs, qst, qc = (float(x) for x in PUMP.losses(dp, omega, theta))
+    assert est.derived["Q_s"] == pytest.approx(qs, rel=1e-9)
+    assert est.derived["eta_v"] == pytest.approx(1.0 - (qs + qst + qc) / (PUMP.D * omega),
+                                                 rel=1e-12)
+    assert est.derived["mu"] == pytest.approx(PUMP.fluid.dynamic_viscosity(theta), rel=1e-12)
+
+
+@pytest.mark.parametrize("theta", [20.0, 50.0])
+def test_rig_slip_coefficient_gives_the_rigs_linear_leak_as_laminar_slip(theta: float) -> None:
+    # paper 002's pump leaks Δp/Rlp (eq. 5); written as paper 000's laminar slip
+    # Cs·Δp·D/μ (eq. 4) the same leak needs Cs = μ·k/(D·Rlp): the slip law of
+    # sim.components.gear_pump with that Cs must give k times the rig's leak at any Δp,
+    # and Cs must grow as the oil cools (μ rises) for the same leak
+    rig = reference_rig()
+    mu = rig.fluid.dynamic_viscosity(theta)
+    for k in (1.0, 2.5):
+        cs = rig_slip_coefficient(rig, theta, k)
+        for dp in (20e5, 70e5):
+            qs, _, _ = flow_losses(dp, 100.0, mu, D=rig.base["pump.Vp"], Cs=cs, Cst=0.0,
+                                   rho=870.0, beta_ef=1.5e9)
+            assert float(qs) == pytest.approx(k * dp / rig.base["pump.Rlp"], rel=1e-12)
+    assert rig_slip_coefficient(rig, 20.0) > rig_slip_coefficient(rig, 50.0)

@@ -330,4 +330,4 @@ def test_a_slope_below_the_values_float_resolution_is_zero() -> None:
     fit = fit_trend(series(t, noisy))
     assert fit.slope == 0.0 and fit.slope_low <= 0.0 <= fit.slope_high
     real = 83e-6 + 1e-15 * t  # 1e-15 m/day: 1e-8 of the clearance over the span
-    assert fit_trend(series(t, real)).slope * DAY == pytest.approx(1e-15, rel=1e-3)
+    assert fit_trend(series(t, real)).slope * DAY == pytest.approx(1e-15, rel=1e-3, abs=0)

@@ -45,3 +45,25 @@ def test_bad_fluid_and_temperature():
     assert refused.value.field == "fluid.nu2"
     with pytest.raises(ParameterError):
         Fluid().kinematic_viscosity(400.0)
+
+
+def test_equal_viscosities_at_two_temperatures_are_refused():
+    # an oil whose viscosity does not fall between 40 °C and 100 °C is no mineral oil, and
+    # Walther's B would be 0 (a constant viscosity at every temperature): refused, as a
+    # rising one is (a mutation review: ">= 0" read as "> 0" let it through)
+    with pytest.raises(ParameterError) as refused:
+        Fluid(nu1=46e-6, nu2=46e-6)
+    assert refused.value.field == "fluid.nu2"
+
+
+def test_the_temperature_range_is_closed_at_both_ends():
+    # -60 °C and 250 °C are the stated limits of the law (module docstring's range) and
+    # are inside it; at 250 °C a VG 46 is thinner than at 100 °C but still above the
+    # Walther floor of 0.3 cSt, at -60 °C thicker than at 0 °C
+    f = Fluid()
+    hot, cold = f.kinematic_viscosity(250.0), f.kinematic_viscosity(-60.0)
+    assert 0.3e-6 < hot < f.kinematic_viscosity(100.0)
+    assert cold > f.kinematic_viscosity(0.0)
+    for outside in (250.01, -60.01):
+        with pytest.raises(ParameterError):
+            f.kinematic_viscosity(outside)

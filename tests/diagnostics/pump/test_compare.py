@@ -63,10 +63,10 @@ def test_a_physical_quadratic_is_a_member_of_the_family() -> None:
     assert m.flow_member and m.torque_member
     assert set(m.flow_coef) == set(m.torque_coef) == QUADRATIC_TERMS
     # exact data: the quadratic's loss coefficients are the pump's
-    assert m.flow_coef["dp*omega"] == pytest.approx(2e-14, rel=1e-6)
-    assert m.flow_coef["omega"] == pytest.approx(-1e-7, rel=1e-6)
-    assert m.torque_coef["dp"] == pytest.approx(1.6e-7, rel=1e-6)
-    assert m.torque_coef["dp*omega"] == pytest.approx(-5e-10, rel=1e-6)
+    assert m.flow_coef["dp*omega"] == pytest.approx(2e-14, rel=1e-6, abs=0)
+    assert m.flow_coef["omega"] == pytest.approx(-1e-7, rel=1e-6, abs=0)
+    assert m.torque_coef["dp"] == pytest.approx(1.6e-7, rel=1e-6, abs=0)
+    assert m.torque_coef["dp*omega"] == pytest.approx(-5e-10, rel=1e-6, abs=0)
     # a negative Coulomb friction is outside the family: not a member
     bad, D = _quadratic_pump(-1.6e-7)
     assert not quadratic_in_family(bad, D).torque_member
