@@ -233,7 +233,8 @@ class Settings(BaseSettings):
         try:
             url = make_url(value)
         except ArgumentError as exc:
-            raise ValueError(f"not a database URL: {exc}") from exc
+            # not SQLAlchemy's text: before 2.0.41 it quoted the whole URL, password included
+            raise ValueError("not a database URL: SQLAlchemy could not parse it") from exc
         backend = url.get_backend_name()
         if backend == "postgres":  # libpq's and Heroku's spelling
             raise ValueError("write the scheme as postgresql+psycopg:// (SQLAlchemy does not "

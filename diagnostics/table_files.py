@@ -29,8 +29,8 @@ import pandas as pd
 from sim.errors import InputError
 
 __all__ = ["DECIMAL_COMMA", "MAX_DECOMPRESSED_BYTES", "PARQUET_METADATA_KEY", "check_table",
-           "check_text", "dialect", "gunzipped", "read_table", "stated_dialect", "table_bytes",
-           "time_in_name"]
+           "check_text", "dialect", "gunzipped", "read_csv_exact", "read_table", "stated_dialect",
+           "table_bytes", "time_in_name"]
 
 #: Largest gzip-compressed file's size once decompressed, unless the caller says [byte];
 #: a Parquet file's decoded size too.
@@ -41,6 +41,11 @@ MAX_DECOMPRESSED_BYTES = 64 * 1024 * 1024
 MAX_COLUMNS = 1000
 #: Key of the JSON header in a Parquet file's metadata (as ``/simulate`` writes it).
 PARQUET_METADATA_KEY = "hydrodiag"
+
+#: pandas before 3.1 reads some numbers written with 17 digits an ulp or so off by default;
+#: its round-trip converter reads them exactly (3.1 made exact the default and deprecated the
+#: option)
+_ROUND_TRIP = tuple(int(part) for part in pd.__version__.split(".")[:2]) < (3, 1)
 
 _META = re.compile(r"^#\s*([A-Za-z_][A-Za-z0-9_]*)\s*=\s*(.*)$")
 
@@ -193,8 +198,8 @@ def read_table(source: str | Path | bytes | pd.DataFrame, fmt: str | None = None
                        default=-1) + 1)     # line by line: no list of a 64 MiB file's lines
     skip, lines = skip + stated, lines[stated:]
     try:
-        frame = pd.read_csv(io.StringIO(text), skiprows=skip, comment=None, sep=sep,
-                            decimal=decimal)
+        frame = read_csv_exact(io.StringIO(text), skiprows=skip, comment=None, sep=sep,
+                               decimal=decimal)
     except (pd.errors.ParserError, pd.errors.EmptyDataError) as exc:
         raise InputError(f"not a readable CSV table: {exc}", field="file") from None
     check_table(frame, "file")
@@ -302,6 +307,15 @@ def check_text(text: str, field: str) -> None:
 
 DECIMAL_COMMA = re.compile(r"^\s*[-+]?\d+,\d+([eE][-+]?\d+)?\s*$")
 _DECIMAL_POINT = re.compile(r"^\s*[-+]?\d*\.\d+([eE][-+]?\d+)?\s*$")
+
+
+def read_csv_exact(text: io.StringIO, **options: Any) -> pd.DataFrame:
+    """``pandas.read_csv`` of a whole table whose numbers, written with 17 significant
+    digits, read back exactly on every pandas the project supports."""
+    if _ROUND_TRIP:
+        options["float_precision"] = "round_trip"
+    frame: pd.DataFrame = pd.read_csv(text, **options)
+    return frame
 
 
 def dialect(lines: list[str]) -> tuple[str, str]:

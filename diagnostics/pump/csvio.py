@@ -38,6 +38,7 @@ from diagnostics.table_files import (
     check_text,
     dialect,
     gunzipped,
+    read_csv_exact,
 )
 from sim.errors import InputError
 from sim.units import to_si
@@ -224,7 +225,7 @@ def read_bench_csv(source: str | Path | bytes, *, field: str = "path") -> BenchD
         raise InputError("file has no table", field=field)
     sep, decimal = dialect(lines[:6])
     try:
-        frame = pd.read_csv(io.StringIO("\n".join(lines)), sep=sep, decimal=decimal)
+        frame = read_csv_exact(io.StringIO("\n".join(lines)), sep=sep, decimal=decimal)
     except (pd.errors.ParserError, pd.errors.EmptyDataError) as exc:
         raise InputError(f"not a readable CSV table: {exc}", field=field) from None
     check_table(frame, field)
