@@ -45,7 +45,7 @@ PARQUET_METADATA_KEY = "hydrodiag"
 #: pandas before 3.1 reads some numbers written with 17 digits an ulp or so off by default;
 #: its round-trip converter reads them exactly (3.1 made exact the default and deprecated the
 #: option)
-_ROUND_TRIP = tuple(int(part) for part in pd.__version__.split(".")[:2]) < (3, 1)
+_ROUND_TRIP = tuple(int(part) for part in re.findall(r"\d+", pd.__version__)[:2]) < (3, 1)
 
 _META = re.compile(r"^#\s*([A-Za-z_][A-Za-z0-9_]*)\s*=\s*(.*)$")
 
