@@ -66,6 +66,7 @@ def _direct(rig: Rig, records: Sequence[MeasurementRecord], notes: list[str]
     fluid = rig.spec.fluid_model()   # the rig's oil: the default VG 46 read 34 µm for 30 µm on
     out: dict[str, Estimate] = {}    # a VG 32 rig, and the trend kept it (a rig author's pass)
     joint = len(records) > 1
+    reference = rig.values()["cylinder.cc"]  # the root nearer it, where two give the bypass
     for key, needs in (("cc", ("flow_C", "p1", "p2")), ("cv", ("flow_B", "flow_C",
                                                                "pump_pressure"))):
         found: list[tuple[float, int, Estimate]] = []
@@ -74,7 +75,7 @@ def _direct(rig: Rig, records: Sequence[MeasurementRecord], notes: list[str]
                 continue
             try:
                 est = (cylinder_clearance(rec, geom, fluid=fluid, method="delta",
-                                          reference=rig.values()["cylinder.cc"])
+                                          reference=reference)
                        if key == "cc" else valve_clearance(rec, geom, fluid=fluid,
                                                            method="delta"))
             except MeasurementError as exc:
