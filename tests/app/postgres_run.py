@@ -41,8 +41,8 @@ def main(argv: list[str]) -> int:
     args = argv or ["tests/app", "-q", "-n", "2"]
     with postgres.postgres_url() as url:
         env = os.environ | {STORE_SERVER_ENV: server_of(url)}
-        print(f"make test-postgres: stores on {server_of(make_url(url).render_as_string())}",
-              flush=True)
+        shown = make_url(url).set(database="").render_as_string()  # password hidden
+        print(f"make test-postgres: stores on {shown.rstrip('/')}", flush=True)
         return subprocess.run([sys.executable, "-m", "pytest", *args], env=env,
                               check=False).returncode
 
