@@ -90,8 +90,7 @@ def sqlite_settings(data_dir: Path, **overrides: Any) -> Settings:
     """:func:`store_settings` on an SQLite file in ``data_dir`` whatever
     :data:`STORE_SERVER_ENV` says: for tests of the SQLite file itself (its copy, its
     repair at start, its permissions)."""
-    return Settings(data_dir=data_dir, **({"sim_wall_clock": TEST_SIM_WALL_CLOCK_S}
-                                          | overrides))
+    return store_settings(data_dir, **({"database_url": None} | overrides))
 
 
 def new_database(server: str) -> str:
