@@ -58,7 +58,9 @@ moved and those with a stroke that stalled or crept; the in-library cases by fau
 (the fault's largest reading shift in σ of the readings,
 :func:`benchmarks.accuracy_cases.fault_size`): top-1, truth in the ambiguity set and its
 mean size per bin, so that the study says which wear sizes are named (figures in
-:mod:`benchmarks.accuracy_figures`).  Nothing here tunes anything.
+:mod:`benchmarks.accuracy_figures`); last, issue 11's targets, each with its 95 % interval
+over the drawn cases and a verdict — met, missed, or not decided where the interval
+straddles the target (:mod:`benchmarks.targets`).  Nothing here tunes anything.
 ``HYDRODIAG_ACCURACY_DUMP=cases.jsonl`` writes every (case, sensor set) with its readings,
 stated condition, answer, fitted values, χ² and degrees of freedom, one JSON line each, for
 case-by-case study.
@@ -79,6 +81,7 @@ from typing import Any
 import numpy as np
 
 from app.services.diagnosis import estimates_of
+from benchmarks import targets
 from benchmarks.accuracy_cases import (
     BEYOND,
     IN_LIBRARY,
@@ -96,6 +99,7 @@ from benchmarks.accuracy_cases import (
 from benchmarks.accuracy_figures import (
     by_size,
     headline,
+    issue_targets,
     reliability,
     summarise,
 )
@@ -487,6 +491,8 @@ def main() -> None:
           "each record's load and temperature stated with its instruments' error; "
           "benchmarks/accuracy_joint.py):")
     joint = joint_suite(n_joint, rng, stored_estimate)
+    goals = issue_targets(rows, comm)
+    targets.table("issue 11's targets", goals)
     wall = time.perf_counter() - t_start
 
     # speed: one record, warm (maps of its condition cached) and cold, vs one steady solve
@@ -513,7 +519,7 @@ def main() -> None:
           f"{t_warm / t_eval:.0f}x, {t_cold / t_eval:.0f}x); wall {wall:.0f} s; {stalled} cases "
           "had a stroke that stalled or crept (diagnosed, not skipped)")
     print(json.dumps({"cases": n, "stalled_cases": stalled, "suites": figures,
-                      "commissioning": comm, "joint": joint,
+                      "commissioning": comm, "joint": joint, "targets": targets.as_json(goals),
                       "diagnosis_warm_ms": round(1e3 * t_warm, 3),
                       "diagnosis_cold_ms": round(1e3 * t_cold, 3),
                       "steady_evaluation_us": round(1e6 * t_eval, 2),

@@ -64,7 +64,8 @@ little; both are printed.
 Steady pump-bench tables (:mod:`benchmarks.discrepancy_steady`) run before the cycles.
 
 Everything is SIMULATED (RODAS4, noise-accurate, :mod:`diagnostics.discrepancy.simulate`).
-Prints a table and, as its last line, one JSON object.
+Prints a table, issue 8's targets each with its 95 % interval over the random cases and a
+verdict (:mod:`benchmarks.discrepancy_targets`), and, as its last line, one JSON object.
 """
 
 from __future__ import annotations
@@ -80,7 +81,9 @@ from typing import Any
 
 import numpy as np
 
+from benchmarks import targets
 from benchmarks.discrepancy_steady import score, steady_study
+from benchmarks.discrepancy_targets import issue_targets
 from diagnostics.discrepancy import Discovery, discover
 from diagnostics.discrepancy.gap import GapRow, gap_table
 from diagnostics.discrepancy.simulate import SOLVER, simulate
@@ -414,8 +417,11 @@ def main() -> None:
         "rows": rows, "no_effect": null_rows, "outside": out_rows,
         "median_seconds_per_case_per_worker": per_case_s, "cases_wall_s": wall,
         "load_average_1min": os.getloadavg()[0],
-        "solver": SOLVER, **steady, "elapsed_s": time.perf_counter() - t_start,
+        "solver": SOLVER, **steady,
     }
+    goals = issue_targets(summary, results)
+    targets.table("issue 8's targets", goals)
+    summary |= {"targets": targets.as_json(goals), "elapsed_s": time.perf_counter() - t_start}
     print(json.dumps(summary))
 
 
