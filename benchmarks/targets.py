@@ -15,7 +15,12 @@ Intervals:
 
 * a share of cases (:func:`share`) — Wilson's score interval of a binomial proportion
   (Wilson, *J. Am. Stat. Assoc.* 22, 1927; Brown, Cai & DasGupta, *Statistical Science* 16,
-  2001, recommend it over the normal ("Wald") interval, which is empty at 0 of n);
+  2001, recommend it over the normal ("Wald") interval, of zero width at 0 of n);
+* a share of cases drawn in clusters that share a draw (:func:`clustered_share`: the
+  parameters of one commissioning seed) — the wider of Wilson's interval and the ratio
+  estimator's cluster-robust one, p̂ ± 1.96·SE with SE² = m/(m − 1)·Σ(kₛ − p̂·nₛ)²/(Σnₛ)²
+  over the m clusters (Cochran, *Sampling Techniques*, 1977, §6.4); pairs of one seed that
+  miss together count as fewer independent cases;
 * a mean of per-case scores such as the Brier score (:func:`mean`) — mean ± 1.96 standard
   errors (the central limit theorem; the scores are bounded);
 * a median such as the held-out RMSE reduction (:func:`median`) — the distribution-free
@@ -23,10 +28,8 @@ Intervals:
 * a count that must be zero, such as server errors (:func:`count`) — no interval: one is
   a defect, whatever the draw.
 
-The intervals take the cases as independent draws; where cases share a draw (the
-commissioning study's parameters of one seed) the interval is too narrow and the table
-says so in the target's name.  :func:`table` prints them; :func:`as_json` gives the list for
-a study's last JSON line.
+The other intervals take the cases as independent draws.  :func:`table` prints them;
+:func:`as_json` gives the list for a study's last JSON line.
 """
 
 from __future__ import annotations
@@ -38,7 +41,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.stats import binom
 
-__all__ = ["Z95", "Target", "as_json", "count", "mean", "median", "share", "table", "wilson"]
+__all__ = ["Z95", "Target", "as_json", "clustered_share", "count", "mean", "median", "share",
+           "table", "wilson"]
 
 #: the standard normal's 97.5 % quantile: two-sided 95 % intervals
 Z95 = 1.959963984540054
@@ -98,6 +102,24 @@ def share(name: str, k: int, n: int, goal: float, *, at_least: bool) -> Target:
     """A share of ``n`` cases, ``k`` of them counted, with Wilson's 95 % interval."""
     low, high = wilson(k, n)
     return Target(name, k / n if n else math.nan, low, high, goal, at_least, n, "Wilson 95 %")
+
+
+def clustered_share(name: str, clusters: Sequence[tuple[int, int]], goal: float, *,
+                    at_least: bool) -> Target:
+    """A share of cases drawn in ``clusters`` of (counted, cases), the cases of a cluster
+    sharing one draw: the wider of Wilson's and the cluster-robust interval (module)."""
+    k = sum(c[0] for c in clusters)
+    n = sum(c[1] for c in clusters)
+    m = sum(1 for c in clusters if c[1] > 0)
+    if n == 0:
+        return Target(name, math.nan, math.nan, math.nan, goal, at_least, 0, "clustered")
+    p = k / n
+    low, high = wilson(k, n)
+    if m > 1:
+        se = math.sqrt(m / (m - 1) * sum((ks - p * ns) ** 2 for ks, ns in clusters)) / n
+        low, high = min(low, max(0.0, p - Z95 * se)), max(high, min(1.0, p + Z95 * se))
+    return Target(name, p, low, high, goal, at_least, n,
+                  f"Wilson or cluster-robust 95 % ({m} clusters)")
 
 
 def mean(name: str, scores: Sequence[float], goal: float, *, at_least: bool) -> Target:

@@ -84,6 +84,22 @@ def test_a_share_is_met_missed_or_not_decided_by_its_interval(
     assert targets.share("s", k, n, goal, at_least=at_least).verdict == verdict
 
 
+def test_a_clustered_share_widens_where_a_cluster_misses_together() -> None:
+    """Nine seeds with all 5 parameters inside and one with none: p = 0.9, SE² =
+    10/9 · (9 · 0.5² + 4.5²) / 50² = 0.1², so 0.9 ± 0.196 — wider than Wilson's
+    [0.786, 0.957] for 45 of 50 independent cases."""
+    together = targets.clustered_share("c", [(5, 5)] * 9 + [(0, 5)], 0.93, at_least=True)
+    assert together.value == 0.9
+    assert together.low == pytest.approx(0.9 - targets.Z95 * 0.1, abs=1e-12)
+    assert together.high == 1.0
+    # misses spread one a seed: the clusters vary less than independent cases would
+    # (SE 1/30 against √(0.9·0.1/50) = 0.042), Wilson's lower end stays
+    spread = targets.clustered_share("c", [(4, 5)] * 5 + [(5, 5)] * 5, 0.93, at_least=True)
+    assert spread.low == targets.wilson(45, 50)[0]
+    assert spread.high == pytest.approx(0.9 + targets.Z95 / 30, abs=1e-12)
+    assert targets.clustered_share("c", [], 0.5, at_least=True).verdict == "no cases"
+
+
 def test_a_mean_and_a_count() -> None:
     brier = [0.0] * 90 + [1.0] * 10  # 0.1 ± 1.96·0.0302: [0.041, 0.159]
     t = targets.mean("Brier", brier, 0.05, at_least=False)
@@ -113,8 +129,7 @@ def test_accuracy_targets_count_the_cases_of_each_target() -> None:
             + [_row("beyond_range", flagged=1.0)] * 10
             + [_row("preset", error="server: 500")])
     nfm = [_row("differential", explained=0.0)] * 4 + [_row("differential")] * 96
-    comm = {"per_parameter": {"a": {"pinned_in_seeds": 40, "coverage": 0.95},
-                              "b": {"pinned_in_seeds": 10, "coverage": 0.9}}}
+    comm = {"per_seed": [[5, 5]] * 7 + [[4, 5]] * 3}
     got = {t.name: t for t in accuracy_targets({"full": full, "no_flow_meters": nfm}, comm)}
     assert got["server errors (every suite and sensor set)"].value == 1.0
     assert got["server errors (every suite and sensor set)"].verdict == "missed"
@@ -126,7 +141,7 @@ def test_accuracy_targets_count_the_cases_of_each_target() -> None:
     assert (mis.n, mis.value) == (32, 30 / 32)
     assert got["misfit detected, beyond_range, full"].n == 10
     assert got["misfit detected, beyond_range, no_flow_meters"].verdict == "no cases"
-    comm_t = got["commissioning coverage (pairs of one seed share its draw)"]
+    comm_t = got["commissioning coverage, (seed, parameter) pairs"]
     assert (comm_t.n, comm_t.value) == (50, 47 / 50)
 
 
