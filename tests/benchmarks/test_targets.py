@@ -129,7 +129,8 @@ def test_accuracy_targets_count_the_cases_of_each_target() -> None:
             + [_row("beyond_range", flagged=1.0)] * 10
             + [_row("preset", error="server: 500")])
     nfm = [_row("differential", explained=0.0)] * 4 + [_row("differential")] * 96
-    comm = {"per_seed": [[5, 5]] * 7 + [[4, 5]] * 3}
+    comm = {"per_seed": [[5, 5]] * 7 + [[4, 5]] * 3,
+            "per_parameter": {"cylinder.Fu": {"pinned_in_seeds": 9, "coverage": 7 / 9}}}
     got = {t.name: t for t in accuracy_targets({"full": full, "no_flow_meters": nfm}, comm)}
     assert got["server errors (every suite and sensor set)"].value == 1.0
     assert got["server errors (every suite and sensor set)"].verdict == "missed"
@@ -143,6 +144,8 @@ def test_accuracy_targets_count_the_cases_of_each_target() -> None:
     assert got["misfit detected, beyond_range, no_flow_meters"].verdict == "no cases"
     comm_t = got["commissioning coverage, (seed, parameter) pairs"]
     assert (comm_t.n, comm_t.value) == (50, 47 / 50)
+    fu = got["commissioning coverage, cylinder.Fu (seeds that pin it)"]
+    assert (fu.n, fu.value) == (9, 7 / 9)
 
 
 def test_discrepancy_targets_pool_the_sizes_and_read_the_steady_rows() -> None:
