@@ -123,8 +123,9 @@ def store_setting(settings: Settings) -> str:
 def migrated_engine(*, existing: bool | None = None) -> Engine:
     """Engine of the configured store, migrated to the newest revision first.  With
     ``existing`` — by default, for the :data:`EXISTING_STORE_COMMANDS` — a missing SQLite
-    store is refused, naming its path and the variables that point at one, and none is
-    made; otherwise a missing store is made and a line on stderr says so.
+    store (a PostgreSQL database that holds no table) is refused, naming it and the
+    variables that point at one, and none is made; otherwise a missing store is made and a
+    line on stderr says so.
 
     Raises
     ------
@@ -152,6 +153,12 @@ def migrated_engine(*, existing: bool | None = None) -> Engine:
     fresh = file is not None and not file.exists()
     engine = make_engine(url)
     try:
+        if file is None and url.get_backend_name() != "sqlite":
+            from app.db.copy import holds_no_table
+
+            # a database that holds no table is made a store as a missing file is (a key
+            # made in an empty PostgreSQL database by a mistyped URL went unremarked)
+            fresh = holds_no_table(engine)
         with bootstrap_lock(engine):
             upgrade_database(engine)
             warn_open_file(engine)
@@ -165,7 +172,8 @@ def migrated_engine(*, existing: bool | None = None) -> Engine:
         # worked on no running service (an operator pass)
         where = ("HYDRODIAG_DATABASE_URL" if settings.database_url is not None else
                  "HYDRODIAG_DATA_DIR, default ./data of the current folder")
-        console.print(f"[yellow]a new, empty store was made at {escape(str(file))}"
+        made = file if file is not None else url.render_as_string()  # password hidden
+        console.print(f"[yellow]a new, empty store was made at {escape(str(made))}"
                       f"[/yellow] ({where}; the service's store is where it was started, or "
                       "its HYDRODIAG_DATA_DIR / HYDRODIAG_DATABASE_URL)")
     return engine

@@ -12,8 +12,9 @@ fails leaves the target's tables empty (a target that holds rows is refused befo
 is written to it, migration included).  The target's id counters are then set past the
 largest id the source ever gave out (SQLite's ``sqlite_sequence``, PostgreSQL's
 sequences), deleted rows' included, so an id is never given twice, and the row counts of
-both sides are compared.  A source SQLite file that does not exist, or holds no row, is
-refused (never created).  API keys are copied with their hashes: the clients' keys keep working.
+both sides are compared.  A source SQLite file that does not exist (a PostgreSQL database
+that holds no table), or a store that holds no row, is refused (never created).  API keys
+are copied with their hashes: the clients' keys keep working.
 """
 
 from __future__ import annotations
@@ -32,7 +33,7 @@ from app.db.base import Base
 from app.db.engine import make_engine, sqlite_path
 from sim.errors import InputError
 
-__all__ = ["BATCH", "Copied", "copy_store", "existing_store"]
+__all__ = ["BATCH", "Copied", "copy_store", "existing_store", "holds_no_table"]
 
 #: rows read and written at a time
 BATCH = 500
@@ -216,11 +217,33 @@ def _set_high_water(target: Connection, tables: list[Table], high: dict[str, int
                        {"s": seq, "n": max(top, 1), "called": top > 0})
 
 
+def holds_no_table(engine: Engine) -> bool:
+    """Whether the database of ``engine`` holds no table (but Alembic's, left by a
+    downgrade to the base): a PostgreSQL database just created, where a store would be
+    made as in a missing SQLite file."""
+    with engine.connect() as connection:
+        return not set(inspect(connection).get_table_names()) - {"alembic_version"}
+
+
 def existing_store(url: URL, field: str = "HYDRODIAG_DATABASE_URL") -> None:
-    """Refuse an SQLite store file that does not exist, naming the path: opening it would
-    make a new, empty one (a copy or backup run from the wrong folder made one and then
-    "copied 0 rows", exit 0; an operator pass)."""
+    """Refuse a store that does not exist, naming it: an SQLite file that is missing, or a
+    database of another backend that holds no table; opening it would make a new, empty
+    store (a copy or backup run from the wrong folder made one and then "copied 0 rows",
+    exit 0; an operator pass; ``jobs list`` on a URL naming an empty PostgreSQL database
+    made the whole schema there and listed nothing).  A server that cannot be reached is
+    left to the caller to report, as it does without this check."""
     if url.get_backend_name() != "sqlite":
+        engine = make_engine(url)
+        try:
+            empty = holds_no_table(engine)
+        except (OperationalError, InterfaceError):
+            return
+        finally:
+            engine.dispose()
+        if empty:
+            raise InputError(f"no store at {url.render_as_string()}: the database holds no "
+                             "table; set HYDRODIAG_DATABASE_URL to the service's database (or "
+                             "HYDRODIAG_DATA_DIR to its data folder)", field=field)
         return
     if (file := sqlite_path(url)) is None:
         raise InputError("an in-memory store cannot be copied or backed up", field=field)

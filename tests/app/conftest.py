@@ -1,4 +1,5 @@
-"""Fixtures: live servers on SQLite files in temporary folders."""
+"""Fixtures: live servers and CLI runners on new stores (SQLite files in temporary folders,
+or PostgreSQL databases under ``make test-postgres``)."""
 
 from __future__ import annotations
 
@@ -10,7 +11,7 @@ import pytest
 from typer.testing import CliRunner
 
 from sim.rigs import reference_rig_document
-from tests.app.live import LiveServer, live_server, store_settings
+from tests.app.live import LiveServer, live_server, store_database_url, store_settings
 
 
 def first_api_key(data_dir: Path, output: str) -> str:
@@ -32,12 +33,36 @@ def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[LiveServer]:
         yield live
 
 
+def cli_store(monkeypatch: pytest.MonkeyPatch, data_dir: Path, *, sqlite: bool = False) -> None:
+    """Point the CLI of this test at a new store with its data folder ``data_dir`` and no
+    Dask scheduler: the SQLite file of ``data_dir``, or, when
+    :data:`~tests.app.live.STORE_SERVER_ENV` names a PostgreSQL server (``make
+    test-postgres``), a new database of its own there (:func:`~tests.app.live.store_database_url`,
+    as :func:`~tests.app.live.store_settings` chooses a live server's store).  ``sqlite``
+    keeps the SQLite file whatever that variable says, for tests of the file itself."""
+    monkeypatch.setenv("HYDRODIAG_DATA_DIR", str(data_dir))
+    url = None if sqlite else store_database_url()
+    if url is None:
+        monkeypatch.delenv("HYDRODIAG_DATABASE_URL", raising=False)
+    else:
+        monkeypatch.setenv("HYDRODIAG_DATABASE_URL", url)
+    monkeypatch.delenv("HYDRODIAG_DASK_SCHEDULER", raising=False)
+
+
 @pytest.fixture
 def runner(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> CliRunner:
-    """A CLI runner on an SQLite store in ``tmp_path`` (no database URL, no Dask scheduler)."""
-    monkeypatch.setenv("HYDRODIAG_DATA_DIR", str(tmp_path))
-    monkeypatch.delenv("HYDRODIAG_DATABASE_URL", raising=False)
-    monkeypatch.delenv("HYDRODIAG_DASK_SCHEDULER", raising=False)
+    """A CLI runner on a new store in ``tmp_path``: its SQLite file, or a new PostgreSQL
+    database under ``make test-postgres`` (:func:`cli_store`)."""
+    cli_store(monkeypatch, tmp_path)
+    return CliRunner()
+
+
+@pytest.fixture
+def sqlite_runner(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> CliRunner:
+    """:func:`runner` on the SQLite file of ``tmp_path`` whatever the test run's store
+    server: for tests of the file itself (its path, its repair, its permissions, a copy
+    from it)."""
+    cli_store(monkeypatch, tmp_path, sqlite=True)
     return CliRunner()
 
 
@@ -82,7 +107,7 @@ def simulated_record(server: LiveServer, overrides: dict[str, float] | None = No
 
 
 def store_count(model: Any) -> int:
-    """Rows of ``model`` in the store the CLI uses (``HYDRODIAG_DATA_DIR`` of :func:`runner`)."""
+    """Rows of ``model`` in the store the CLI uses (that of :func:`runner`)."""
     from sqlalchemy import func, select
 
     from app.db.engine import make_engine, make_session_factory

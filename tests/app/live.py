@@ -79,9 +79,8 @@ def store_settings(data_dir: Path, **overrides: Any) -> Settings:
     """Settings for a store in ``data_dir`` — an SQLite file, or a new database on the
     server :data:`STORE_SERVER_ENV` names — with the tests' wall-clock budget of a
     simulation (:data:`TEST_SIM_WALL_CLOCK_S`) unless ``overrides`` name one."""
-    server = os.environ.get(STORE_SERVER_ENV)
-    store = {} if not server or "database_url" in overrides else {
-        "database_url": new_database(server)}
+    url = None if "database_url" in overrides else store_database_url()
+    store = {} if url is None else {"database_url": url}
     return Settings(data_dir=data_dir,
                     **({"sim_wall_clock": TEST_SIM_WALL_CLOCK_S} | store | overrides))
 
@@ -91,6 +90,14 @@ def sqlite_settings(data_dir: Path, **overrides: Any) -> Settings:
     :data:`STORE_SERVER_ENV` says: for tests of the SQLite file itself (its copy, its
     repair at start, its permissions)."""
     return store_settings(data_dir, **({"database_url": None} | overrides))
+
+
+def store_database_url() -> str | None:
+    """The URL of a new database on the server :data:`STORE_SERVER_ENV` names, or ``None``
+    (the store is the SQLite file of its data folder) when it names none: the one choice
+    of :func:`store_settings` and of the CLI tests' ``runner`` (``tests/app/conftest.py``)."""
+    server = os.environ.get(STORE_SERVER_ENV)
+    return new_database(server) if server else None
 
 
 def new_database(server: str) -> str:

@@ -1,15 +1,16 @@
 """The service's tests on PostgreSQL: ``make test-postgres``.
 
 The service keeps its store in SQLite by default and in PostgreSQL by URL; ``make test``
-runs its HTTP tests on SQLite files, and only a few tests (migrations, copy, locks) on
-PostgreSQL.  This runs the tests of ``tests/app`` (every route, the console, jobs, the
-history) with each live server's store a new database on one throw-away PostgreSQL
-server (:data:`tests.app.live.STORE_SERVER_ENV`); the tests about the SQLite file itself
-keep theirs.  The server is :func:`tests.app.postgres.postgres_url`'s: started in a
-temporary folder where PostgreSQL's programs are installed, or the one
-``HYDRODIAG_TEST_POSTGRES_URL`` names (whose user may create databases: each store is
-one, left behind).  Where neither can be had it says why and exits 0, as the PostgreSQL
-tests of ``make test`` skip.
+runs its HTTP and command-line tests on SQLite files, and only a few tests (migrations,
+copy, locks) on PostgreSQL.  This runs the tests of ``tests/app`` (every route, the
+console, jobs, the history, the command line) with each live server's store, and each
+CLI test's (the ``runner`` fixture: :func:`tests.app.conftest.cli_store`), a new database
+on one throw-away PostgreSQL server (:data:`tests.app.live.STORE_SERVER_ENV`); the tests
+about the SQLite file itself keep theirs (``sqlite_settings``, ``sqlite_runner``).  The
+server is :func:`tests.app.postgres.postgres_url`'s: started in a temporary folder where
+PostgreSQL's programs are installed, or the one ``HYDRODIAG_TEST_POSTGRES_URL`` names
+(whose user may create databases: each store is one, left behind).  Where neither can be
+had it says why and exits 0, as the PostgreSQL tests of ``make test`` skip.
 
 ``python -m tests.app.postgres_run [pytest arguments]`` (default: ``tests/app -q -n 2``).
 """

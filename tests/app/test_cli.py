@@ -19,7 +19,9 @@ from typer.testing import CliRunner
 
 from app.cli import cli
 from app.db.migrate import head_revision
-from tests.app.conftest import first_api_key
+from sim.errors import InputError
+from tests.app import postgres
+from tests.app.conftest import cli_store, first_api_key
 
 STARTUP_TIMEOUT_S = 120.0
 
@@ -34,7 +36,8 @@ def _free_port() -> int:
 def _serve(data_dir: Path) -> Iterator[tuple[str, subprocess.Popen[str]]]:
     port = _free_port()
     # one server worker: these tests are about the store and the keys (several workers:
-    # test_serve_workers.py), and the machine running the suite has few cores
+    # test_serve_workers.py), and the machine running the suite has few cores; the store is
+    # the test's (cli_store: a database of its own under make test-postgres)
     env = os.environ | {"HYDRODIAG_DATA_DIR": str(data_dir), "HYDRODIAG_WORKERS": "1"}
     process = subprocess.Popen(
         [sys.executable, "-m", "app.cli", "serve", "--host", "127.0.0.1", "--port", str(port)],
@@ -82,7 +85,9 @@ def _keys_shown(process: subprocess.Popen[str], data_dir: Path) -> list[str]:
     return [first_api_key(data_dir, output)] if "API key: " in output else []
 
 
-def test_serve_migrates_preloads_and_shows_the_first_key_once(tmp_path: Path) -> None:
+def test_serve_migrates_preloads_and_shows_the_first_key_once(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    cli_store(monkeypatch, tmp_path)   # _serve's environment: make test-postgres's database
     with _serve(tmp_path) as (base_url, process):
         assert httpx.get(f"{base_url}/rigs").status_code == 401  # a key by default
         _wait_ready(base_url)
@@ -98,7 +103,7 @@ def test_serve_migrates_preloads_and_shows_the_first_key_once(tmp_path: Path) ->
         assert httpx.get(f"{base_url}/rigs", headers={"X-API-Key": keys[0]}
                          ).json()["total"] == 2
     assert _keys_shown(process, tmp_path) == []
-    assert (tmp_path / "hydrodiag.db").exists()
+    assert (tmp_path / "hydrodiag.db").exists() is ("HYDRODIAG_DATABASE_URL" not in os.environ)
 
 
 
@@ -147,8 +152,8 @@ def test_main_reports_hydrodiag_errors_without_a_traceback(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     from app.cli_support import store_session
 
-    env = os.environ | {"HYDRODIAG_DATA_DIR": str(tmp_path)}
-    monkeypatch.setenv("HYDRODIAG_DATA_DIR", str(tmp_path))
+    cli_store(monkeypatch, tmp_path)
+    env = dict(os.environ)
     with store_session():   # the store (keys revoke makes none: it holds no key 7)
         pass
     result = subprocess.run([sys.executable, "-m", "app.cli", "keys", "revoke", "7"],
@@ -193,13 +198,15 @@ def _diagnose_burst(base_url: str, key: str, n: int) -> list[httpx.Response]:
         return list(pool.map(one, range(n)))
 
 
-def test_a_restarted_service_answers_its_first_burst(tmp_path: Path) -> None:
+def test_a_restarted_service_answers_its_first_burst(tmp_path: Path,
+                                                      monkeypatch: pytest.MonkeyPatch) -> None:
     """Issue 16 item 1: 8 concurrent first /diagnose after a restart, none may fail.
 
     The store and the compiled-code cache have served once; each restart is a fresh
     process that loads the compiled rig modules from the cache while the burst arrives
     (the burst starts as soon as /health answers, before /ready).
     """
+    cli_store(monkeypatch, tmp_path)   # _serve's environment: make test-postgres's database
     with _serve(tmp_path) as (base_url, process):
         _wait_ready(base_url)
     key = _keys_shown(process, tmp_path)[0]
@@ -233,24 +240,57 @@ def test_the_uvicorn_factory_starts_on_a_fresh_folder(tmp_path: Path) -> None:
     assert "Traceback" not in stderr, stderr
 
 
+def _runner_store() -> tuple[str, str]:
+    """The store the :func:`runner`'s CLI uses as its messages name it (the SQLite file,
+    or the URL, password hidden, of its PostgreSQL database) and the variable that chose it."""
+    from app.cli_support import settings_from_env, store_setting
+    from app.db.engine import sqlite_path
+
+    settings = settings_from_env()
+    file = sqlite_path(settings.url)
+    return (str(file) if file is not None else settings.url.render_as_string(),
+            store_setting(settings))
+
+
+def _no_table_made() -> bool:
+    """Whether no store was made where the :func:`runner`'s CLI looked: on PostgreSQL its
+    database still holds no table (an SQLite file's folder is looked at by the caller)."""
+    from app.cli_support import settings_from_env
+    from app.db.copy import holds_no_table
+    from app.db.engine import make_engine
+
+    url = settings_from_env().url
+    if url.get_backend_name() == "sqlite":
+        return True
+    engine = make_engine(url)
+    try:
+        return holds_no_table(engine)
+    finally:
+        engine.dispose()
+
+
 def test_a_command_that_makes_a_new_store_says_so(runner: CliRunner, tmp_path: Path) -> None:
     # an operator pass: run from another folder, 'keys create' made a key in a new, empty
     # ./data store that no running service used, and said nothing
     # a command that only reads makes none: it says where it looked (jobs list made an
-    # empty store and exited 0, and a db backup there "succeeded": an operator's pass)
+    # empty store and exited 0, and a db backup there "succeeded": an operator's pass; on
+    # PostgreSQL an empty database is as a missing file: it made the schema there)
+    store, variable = _runner_store()
     for args in (["keys", "list"], ["jobs", "list"], ["rigs", "list"], ["rigs", "show", "1"]):
         looked = runner.invoke(cli, args)
         assert looked.exit_code != 0, args
-        assert getattr(looked.exception, "field", None) == "HYDRODIAG_DATA_DIR", args
+        assert getattr(looked.exception, "field", None) == variable, args
         assert "no store at" in looked.exception.message  # type: ignore[union-attr]
-    assert not (tmp_path / "data").exists()
+    assert not (tmp_path / "data").exists() and _no_table_made()
     first = runner.invoke(cli, ["keys", "create", "--name", "here", "--scope", "read"])
     assert first.exit_code == 0 and "a new, empty store was made at" in first.output
-    assert str(tmp_path) in first.output.replace("\n", "")
+    assert store in first.output.replace("\n", "")
     again = runner.invoke(cli, ["keys", "list"])
     assert again.exit_code == 0 and "new, empty store" not in again.output
     # rich wraps a long path anywhere: compare without the white space
-    assert "HYDRODIAG_DATA_DIR,default./data" in "".join(first.output.split())
+    said = "".join(first.output.split())
+    assert ("HYDRODIAG_DATA_DIR,default./data" if variable == "HYDRODIAG_DATA_DIR" else
+            f"({variable};") in said
 
 
 #: every command that reads the store or changes only what it holds, with the arguments
@@ -274,13 +314,18 @@ def test_a_command_on_what_a_store_holds_makes_no_store(runner: CliRunner, tmp_p
     out = tmp_path / "out"
     out.mkdir()
     args = [a.format(out=out) for a in _ON_AN_EXISTING_STORE[command]]
+    store, variable = _runner_store()
     looked = runner.invoke(cli, [*command.split(), *args])
     assert looked.exit_code == 1, looked.output
-    assert getattr(looked.exception, "field", None) == "HYDRODIAG_DATA_DIR", looked.output
+    assert getattr(looked.exception, "field", None) == variable, looked.output
     said = " ".join(looked.exception.message.split())  # type: ignore[union-attr]
-    assert f"no store at {tmp_path.resolve() / 'hydrodiag.db'}: set HYDRODIAG_DATA_DIR" in said
-    assert "HYDRODIAG_DATABASE_URL" in said
-    assert list(tmp_path.iterdir()) == [out]     # nothing made
+    if variable == "HYDRODIAG_DATA_DIR":
+        where = tmp_path.resolve() / "hydrodiag.db"
+        assert f"no store at {where}: set HYDRODIAG_DATA_DIR" in said
+    else:   # make test-postgres: a new, empty database
+        assert f"no store at {store}: the database holds no table" in said
+    assert "HYDRODIAG_DATABASE_URL" in said and "HYDRODIAG_DATA_DIR" in said
+    assert list(tmp_path.iterdir()) == [out] and _no_table_made()    # nothing made
 
 
 def test_the_commands_on_an_existing_store_are_commands_and_all_tested() -> None:
@@ -298,6 +343,32 @@ def test_the_commands_on_an_existing_store_are_commands_and_all_tested() -> None
     assert set(_ON_AN_EXISTING_STORE) == EXISTING_STORE_COMMANDS
     assert not {"simulate", "diagnose", "rigs add", "rigs update", "keys create",
                 "import series", "calibrate throttle"} & EXISTING_STORE_COMMANDS
+
+
+@pytest.mark.skipif(postgres.unavailable_reason() is not None,
+                    reason=str(postgres.unavailable_reason()))
+def test_an_empty_postgresql_database_is_no_store(runner: CliRunner, tmp_path: Path,
+                                                  monkeypatch: pytest.MonkeyPatch) -> None:
+    """On PostgreSQL a command on what a store holds made the whole schema in whatever
+    database the URL named (``jobs list`` exited 0 listing nothing, ``db copy`` said
+    "migrate it first"), and a command that made a store there said nothing: an empty
+    database is as a missing SQLite file (make test-postgres found it)."""
+    from sqlalchemy.engine import make_url
+
+    with postgres.emptied_postgres_url() as url:
+        monkeypatch.setenv("HYDRODIAG_DATABASE_URL", url)
+        for args in (["jobs", "list"], ["db", "current"],
+                     ["db", "copy", f"sqlite:///{tmp_path / 'copy.db'}"]):
+            looked = runner.invoke(cli, args)
+            assert isinstance(looked.exception, InputError), (args, looked.output)
+            assert looked.exception.field == "HYDRODIAG_DATABASE_URL", args
+            assert "no store at" in looked.exception.message, args
+            assert _no_table_made(), args
+        made = runner.invoke(cli, ["keys", "create", "--name", "here", "--scope", "read"])
+        said = "".join(made.output.split())
+        assert made.exit_code == 0 and "anew,emptystorewasmadeat" in said, made.output
+        assert make_url(url).render_as_string() in said and "(HYDRODIAG_DATABASE_URL;" in said
+        assert runner.invoke(cli, ["jobs", "list"]).exit_code == 0
 
 
 def test_a_new_store_by_url_names_the_url_variable(runner: CliRunner, tmp_path: Path,

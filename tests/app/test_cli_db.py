@@ -36,7 +36,9 @@ def test_upgrade_goes_forward_only_and_downgrade_asks_first(runner: CliRunner) -
 
 
 def test_a_backup_is_a_whole_copy_made_while_another_connection_writes(
-        runner: CliRunner, tmp_path: Path) -> None:
+        sqlite_runner: CliRunner, tmp_path: Path) -> None:
+    # SQLite only: db backup copies the SQLite file (PostgreSQL's is pg_dump's)
+    runner = sqlite_runner
     assert runner.invoke(cli, ["db", "upgrade"]).exit_code == 0
     engine = make_engine(Settings().url)
     with make_session_factory(engine)() as session:
@@ -72,12 +74,13 @@ def test_a_backup_is_a_whole_copy_made_while_another_connection_writes(
 
 
 def test_a_new_store_and_its_backup_are_readable_by_their_owner_only(
-        runner: CliRunner, tmp_path: Path) -> None:
+        sqlite_runner: CliRunner, tmp_path: Path) -> None:
     """The store (key hashes, every record) and its backups were created world-readable,
     the console's secret beside them 0600 (an operator's pass); a store whose operator set
     its mode keeps it, and its backup takes it."""
     import stat
 
+    runner = sqlite_runner   # SQLite only: the modes of the store's file and its backups
     assert runner.invoke(cli, ["db", "upgrade"]).exit_code == 0
     store = Path(str(Settings().url.database))
     assert stat.S_IMODE(store.stat().st_mode) == 0o600

@@ -14,7 +14,7 @@ from typer.testing import CliRunner
 
 from app.cli import cli
 from sim.rigs import reference_rig
-from tests.app.conftest import new_rig
+from tests.app.conftest import cli_store, new_rig
 from tests.app.live import LiveServer
 from tests.diagnostics.synth import FULL, readings
 from tests.diagnostics.test_commissioning import TRUTH, true_rig
@@ -107,8 +107,7 @@ def test_bad_commissioning_requests_are_422_and_store_nothing(server: LiveServer
 
 
 def test_cli_commission(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setenv("HYDRODIAG_DATA_DIR", str(tmp_path / "store"))
-    monkeypatch.delenv("HYDRODIAG_DATABASE_URL", raising=False)
+    cli_store(monkeypatch, tmp_path / "store")
     runner = CliRunner()
     path = tmp_path / "records.yaml"
     path.write_text(yaml.safe_dump(healthy_bodies(1)))

@@ -14,6 +14,7 @@ from sqlalchemy.engine import make_url
 from typer.testing import CliRunner
 
 from app.cli import cli
+from app.cli_support import store_setting
 from app.db import migrate
 from app.db.base import Base
 from app.db.copy import copy_store
@@ -146,9 +147,11 @@ def test_a_store_behind_this_release_is_refused_until_upgraded(runner: CliRunner
     assert isinstance(behind.exception, InputError)
     assert "db upgrade" in behind.exception.message
     # the setting it was found through: the data folder, not a database URL nobody set
-    # (an upgrade pass)
-    assert behind.exception.field == "HYDRODIAG_DATA_DIR"
-    assert "hydrodiag.db is at revision 0010" in behind.exception.message
+    # (an upgrade pass); the URL where one was set (make test-postgres)
+    settings = Settings()
+    assert behind.exception.field == store_setting(settings)
+    named = "hydrodiag.db" if settings.database_url is None else settings.url.database
+    assert f"{named} is at revision 0010" in behind.exception.message
     assert not (tmp_path / "copy.db").exists() or _counts(target) == {}
     _preload(runner)
     done = runner.invoke(cli, ["db", "copy", target])
@@ -211,10 +214,11 @@ def test_an_id_deleted_before_the_copy_is_never_given_again(tmp_path: Path) -> N
 
 
 def test_a_refused_target_is_left_as_it_was_and_a_missing_or_empty_store_is_not_copied(
-        runner: CliRunner, tmp_path: Path) -> None:
+        sqlite_runner: CliRunner, tmp_path: Path) -> None:
     """A target at an older revision holding rows was migrated and then refused; a copy or
     backup run from the wrong folder made a new, empty store and "copied 0 rows" (an
-    operator pass)."""
+    operator pass).  SQLite only: a missing file of the folder, and its backup."""
+    runner = sqlite_runner
     old = f"sqlite:///{tmp_path / 'old.db'}"
     engine = make_engine(make_url(old))
     try:

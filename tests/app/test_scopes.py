@@ -26,6 +26,7 @@ from app.services.keys import (
     revoke_api_key,
     rotate_api_key,
 )
+from app.settings import Settings
 from sim.errors import AuthError, InputError
 from sim.rigs import reference_rig_document
 from tests.app.live import LiveServer, live_server, store_settings
@@ -215,7 +216,7 @@ def test_cli_creates_lists_rotates_and_revokes_scoped_keys(runner: CliRunner,
     assert rotated.exit_code == 0, rotated.output
     new_key = rotated.stdout.strip().splitlines()[-1]
     assert new_key.startswith("hd_") and new_key != key
-    engine = make_engine(sa.engine.make_url(f"sqlite:///{tmp_path / 'hydrodiag.db'}"))
+    engine = make_engine(Settings().url)   # the runner's store (make test-postgres: a database)
     with make_session_factory(engine)() as session:
         assert authenticate(session, key).name == "plant.rotated-1"  # in its grace period
         assert authenticate(session, new_key).scope == "read"

@@ -16,6 +16,7 @@ import httpx
 import pytest
 
 from tests.app.conftest import first_api_key
+from tests.app.live import store_database_url
 
 STARTUP_TIMEOUT_S = 240.0
 
@@ -54,6 +55,12 @@ def _serve(tmp_path: Path) -> tuple[subprocess.Popen[bytes], int]:
         port = sock.getsockname()[1]
     env = os.environ | {"HYDRODIAG_DATA_DIR": str(tmp_path), "HYDRODIAG_WORKERS": "2",
                         "HYDRODIAG_ACCESS_LOG": "false", "HYDRODIAG_LOG_LEVEL": "warning"}
+    # the store: the folder's SQLite file, or a database of its own under make test-postgres
+    # (the workers' connections to one PostgreSQL store)
+    url = store_database_url()
+    env.pop("HYDRODIAG_DATABASE_URL", None)
+    if url is not None:
+        env["HYDRODIAG_DATABASE_URL"] = url
     env.pop("PROMETHEUS_MULTIPROC_DIR", None)
     env.pop("MALLOC_ARENA_MAX", None)  # serve sets it
     (tmp_path / "tmp").mkdir()

@@ -19,16 +19,19 @@ from typer.testing import CliRunner
 
 from app.cli import cli
 from app.db import migrate
-from app.db.engine import make_engine
+from app.db.engine import make_engine, make_session_factory
+from app.db.models import Diagnosis
 from app.services.bootstrap import upgrade_database, warn_open_file
+from app.settings import Settings
 from sim.errors import InputError
-from tests.app.conftest import simulated_record
-from tests.app.live import live_server, sqlite_settings
+from tests.app.conftest import cli_store, simulated_record
+from tests.app.live import live_server, sqlite_settings, store_settings
 
 
-def _populated(data: Path) -> list[dict[str, Any]]:
-    """Two stored diagnoses of the reference rig (a worn spool, days apart); their JSON."""
-    with live_server(sqlite_settings(data)) as server:
+def _populated(data: Path, settings: Settings | None = None) -> list[dict[str, Any]]:
+    """Two stored diagnoses of the reference rig (a worn spool, days apart); their JSON.
+    The store: ``settings``' (default: the SQLite file of ``data``)."""
+    with live_server(settings or sqlite_settings(data)) as server:
         out = []
         for day in ("2026-11-01", "2026-11-08"):
             record = simulated_record(server, {"valve.cv": 60e-6},
@@ -75,16 +78,20 @@ def test_rows_an_older_release_wrote_after_the_migration_are_mended_at_start(
 
 def test_a_downgrade_says_what_it_loses_and_a_new_migration_marks_replaced_diagnoses(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    stored = _populated(tmp_path)
+    # the CLI's store (a database of its own under make test-postgres), filled by a server
+    cli_store(monkeypatch, tmp_path)
+    settings = store_settings(tmp_path, database_url=Settings().database_url)
+    stored = _populated(tmp_path, settings)
     old, new = stored[0]["id"], stored[1]["id"]
-    engine = make_engine(sqlite_settings(tmp_path).url)
+    engine = make_engine(settings.url)
     with engine.begin() as c:   # the second a re-diagnosis of the first, as rediagnose stores
         c.execute(text("UPDATE diagnoses SET superseded_by = :n WHERE id = :o"),
                   {"n": new, "o": old})
-        c.execute(text("UPDATE diagnoses SET result = json_set(result, '$.rediagnosis_of', "
-                       ":o) WHERE id = :n"), {"n": new, "o": old})
-    monkeypatch.setenv("HYDRODIAG_DATA_DIR", str(tmp_path))
-    monkeypatch.delenv("HYDRODIAG_DATABASE_URL", raising=False)
+    with make_session_factory(engine)() as session:
+        replacing = session.get(Diagnosis, new)
+        assert replacing is not None
+        replacing.result = replacing.result | {"rediagnosis_of": old}
+        session.commit()
     runner = CliRunner()
     asked = runner.invoke(cli, ["db", "downgrade", "--revision", "0013"])
     assert isinstance(asked.exception, InputError) and asked.exception.field == "--yes"
@@ -103,7 +110,8 @@ def test_a_downgrade_says_what_it_loses_and_a_new_migration_marks_replaced_diagn
     assert any("1 console session logged out works again" in line
                for line in _downgrade_losses(engine, "0015", "0014"))
     assert not any("console" in line for line in _downgrade_losses(engine, "0014", "0013"))
-    assert "db backup FILE" in asked.exception.message
+    backup = "db backup FILE" if settings.database_url is None else "(pg_dump)"
+    assert backup in asked.exception.message    # the backup that backend's store takes
     done = runner.invoke(cli, ["db", "downgrade", "--revision", "0013", "--yes"])
     assert done.exit_code == 0, done.output
     assert "migrating up again marks them anew" in done.output

@@ -12,6 +12,7 @@ from typer.testing import CliRunner
 
 from app.cli import cli
 from sim.errors import InputError, NotFoundError
+from tests.app.conftest import cli_store
 
 RECORD = {"rig_id": 1, "condition": {"oil_temperature": 40.0, "load_force": 2100.0},
           "pump_pressure": 1453085.96, "p1": 1189895.92, "p2": 121490.42,
@@ -22,7 +23,7 @@ RECORD = {"rig_id": 1, "condition": {"oil_temperature": 40.0, "load_force": 2100
 @pytest.fixture
 def store(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     """A CLI store with one diagnosis (id 1) of a worn valve's readings."""
-    monkeypatch.setenv("HYDRODIAG_DATA_DIR", str(tmp_path / "data"))
+    cli_store(monkeypatch, tmp_path / "data")
     path = tmp_path / "record.json"
     path.write_text(json.dumps({"record": RECORD}))
     result = CliRunner().invoke(cli, ["diagnose", str(path)])
@@ -109,7 +110,7 @@ def test_a_joint_visit_is_shown_against_its_own_records_predictions(
     from sim.rigs import reference_rig
     from tests.diagnostics.synth import FULL, readings
 
-    monkeypatch.setenv("HYDRODIAG_DATA_DIR", str(tmp_path / "data"))
+    cli_store(monkeypatch, tmp_path / "data")
     rig = reference_rig()
     records = []
     for day, load in ((1, 2100.0), (2, 6300.0)):
