@@ -18,7 +18,10 @@ steady operating points (:class:`sim.steady.SteadyEvaluator`) minimises
 
 and the Laplace approximation gives the posterior covariance
 ``C = (JᵀJ + diag(1/s²))⁻¹`` (J the Jacobian of the normalised residuals in z); the 95 %
-interval of θ_j is ``θ₀·exp(ẑ_j ± 1.96·√C_jj)``.
+interval of θ_j is ``θ₀·exp(ẑ_j ± 1.96·√C_jj)`` — for a pinned parameter with the
+parameters the records leave open integrated over their posterior rather than
+linearised (:mod:`diagnostics.commissioning_nuisance`: Fu takes up the open Kf's error
+through Fu + Kf·v, and its linearised interval held the truth in 88 % of seeds).
 
 Identifiability: a parameter is *pinned down* when the records shrink its prior standard
 deviation at least by half (``√C_jj ≤ 0.5·s_j``); otherwise the result says the records
@@ -37,6 +40,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from diagnostics.commissioning_nuisance import marginal_intervals
 from diagnostics.commissioning_result import PRIOR_LIMIT, CommissionedParameter, Commissioning
 from diagnostics.evidence import whitening
 from diagnostics.goodness import DISAGREE_SIGMA, TEST_LEVEL, chi2_limit
@@ -222,9 +226,15 @@ def commission(rig: Rig, records: Sequence[MeasurementRecord],
     cov = np.linalg.inv(jac.T @ jac + np.diag(1.0 / s**2))
     sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     corr = cov / np.outer(sd, sd)
+    pins = [bool(sd[j] <= PINNED * s[j]) for j in range(len(names))]
+    try:  # the open parameters integrated into the pinned ones' intervals
+        bounds = marginal_intervals(problem.residuals, z, s, np.asarray(cov, dtype=float), pins)
+    except SimulationError:
+        bounds = {}
     out, statements = [], []
     for j, n in enumerate(names):
-        pinned = bool(sd[j] <= PINNED * s[j])
+        pinned = pins[j]
+        low, high = bounds.get(j, (z[j] - 1.96 * sd[j], z[j] + 1.96 * sd[j]))
         partners = [names[k] for k in range(len(names))
                     if k != j and abs(corr[j, k]) >= 0.8]
         theta0 = float(problem.theta0[j])
@@ -233,7 +243,7 @@ def commission(rig: Rig, records: Sequence[MeasurementRecord],
         shift = float(moved / s[j])
         out.append(CommissionedParameter(
             n, COMMISSIONED[n], theta0, theta0 * math.exp(z[j]),
-            theta0 * math.exp(z[j] - 1.96 * sd[j]), theta0 * math.exp(z[j] + 1.96 * sd[j]),
+            theta0 * math.exp(low), theta0 * math.exp(high),
             float(s[j]), float(sd[j]), pinned, partners, shift))
         role, key = n.split(".")
         decl = rig.circuit.parameter(role, key)
