@@ -43,8 +43,8 @@ __all__ = ["NODES", "marginal_intervals"]
 
 Arr = npt.NDArray[np.float64]
 
-#: Gauss-Hermite nodes on each open parameter (exact for a conditional mean polynomial of
-#: degree ≤ 5 in it) [-]
+#: Gauss-Hermite nodes on each open parameter, where the pinned ones are fitted again;
+#: between them the conditional means are their degree-4 Lagrange interpolant [-]
 NODES = 5
 #: draws of the open parameters through the interpolated conditional means [-]
 _SAMPLES = 2000

@@ -26,9 +26,11 @@ class CommissionedParameter:
     before
         Value in the document [SI].
     value, low, high
-        Estimate and 95 % interval [SI].
+        Estimate and 95 % interval [SI]; a pinned parameter's interval integrates the
+        parameters the records left open (:mod:`diagnostics.commissioning_nuisance`).
     prior_sd, posterior_sd
-        Standard deviations of ln θ before and after the records [-].
+        Standard deviations of ln θ before and after the records, the latter linearised
+        (Laplace) [-].
     identifiable
         Whether the records pinned it down (posterior σ ≤ half the prior σ).
     correlated_with

@@ -59,8 +59,11 @@ class CommissionedParameterPublic(BaseModel):
     high: float = Field(description="Upper end of the 95 % interval [unit]", examples=[0.0168])
     prior_sd: float = Field(description="Standard deviation of ln θ before the records [-]",
                             examples=[0.5])
-    posterior_sd: float = Field(description="Standard deviation of ln θ after them [-]",
-                                examples=[0.025])
+    posterior_sd: float = Field(
+        description="Standard deviation of ln θ after them, linearised (what `identifiable` "
+        "reads); a pinned parameter's 95 % interval also carries the parameters the records "
+        "left open beyond the linearisation, so it may be wider or skewed [-]",
+        examples=[0.025])
     prior_shift: float = Field(
         description="How far the fit moved it from the document's value, in prior standard "
         "deviations of ln θ; beyond 3 the fit is not stored unless `beyond_prior` [-]",
