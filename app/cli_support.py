@@ -153,11 +153,12 @@ def migrated_engine(*, existing: bool | None = None) -> Engine:
     fresh = file is not None and not file.exists()
     engine = make_engine(url)
     try:
-        if file is None and url.get_backend_name() != "sqlite":
+        if not existing and file is None and url.get_backend_name() != "sqlite":
             from app.db.copy import holds_no_table
 
             # a database that holds no table is made a store as a missing file is (a key
-            # made in an empty PostgreSQL database by a mistyped URL went unremarked)
+            # made in an empty PostgreSQL database by a mistyped URL went unremarked);
+            # with ``existing`` existing_store has just refused such a database
             fresh = holds_no_table(engine)
         with bootstrap_lock(engine):
             upgrade_database(engine)

@@ -365,9 +365,10 @@ def commissioning_suite(seeds: int, rng: np.random.Generator) -> dict[str, Any]:
         for p in fit.parameters:
             if p.identifiable:
                 truth = p.before * factors[p.name]
-                hits[p.name].append(float(p.low <= truth <= p.high))
+                inside = p.low <= truth <= p.high
+                hits[p.name].append(float(inside))
                 pinned[p.name] += 1
-                per_seed[-1][0] += int(p.low <= truth <= p.high)
+                per_seed[-1][0] += int(inside)
                 per_seed[-1][1] += 1
     all_hits = [h for v in hits.values() for h in v]
     return {"seeds": seeds, "coverage_identifiable": float(np.mean(all_hits)) if all_hits

@@ -40,6 +40,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.stats import binom
+from statsmodels.stats.proportion import proportion_confint
 
 __all__ = ["Z95", "Target", "as_json", "clustered_share", "count", "mean", "median", "share",
            "table", "wilson"]
@@ -48,19 +49,16 @@ __all__ = ["Z95", "Target", "as_json", "clustered_share", "count", "mean", "medi
 Z95 = 1.959963984540054
 
 
-def wilson(k: int, n: int, z: float = Z95) -> tuple[float, float]:
-    """Wilson's score interval of a proportion ``k``/``n`` [-]; (nan, nan) when n = 0."""
+def wilson(k: int, n: int) -> tuple[float, float]:
+    """Wilson's score interval (95 %) of a proportion ``k``/``n`` [-] (statsmodels'
+    ``proportion_confint``); (nan, nan) when n = 0."""
     if n <= 0:
         return math.nan, math.nan
     if not 0 <= k <= n:
         raise ValueError(f"{k} of {n}: a count of cases must lie in 0..n")
-    p = k / n
-    z2 = z * z
-    centre = (p + z2 / (2 * n)) / (1 + z2 / n)
-    half = z / (1 + z2 / n) * math.sqrt(p * (1 - p) / n + z2 / (4 * n * n))
-    # at k = 0 or k = n one end is exactly 0 or 1 (rounding would leave 1e-17)
-    return (0.0 if k == 0 else max(0.0, centre - half),
-            1.0 if k == n else min(1.0, centre + half))
+    low, high = proportion_confint(k, n, alpha=0.05, method="wilson")
+    # at k = 0 or k = n one end is exactly 0 or 1 (its formula leaves 1e-19)
+    return (0.0 if k == 0 else float(low)), (1.0 if k == n else float(high))
 
 
 @dataclass(frozen=True)

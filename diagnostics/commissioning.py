@@ -11,8 +11,9 @@ Gaussian prior ``z ~ N(0, s²)`` — ``s`` the stated relative uncertainty of th
 (:data:`PRIOR_SD`) — and the readings' likelihood of the diagnosis
 (:mod:`diagnostics.record_model`: ``r = W (y − ŷ(θ))``, ``WᵀW = C⁻¹``, C the instruments'
 variances, a model term ``model_rel·ŷ`` and the correlated terms of the record's stated
-oil temperature and load, taken at the document's values).  Levenberg-Marquardt on the
-steady operating points (:class:`sim.steady.SteadyEvaluator`) minimises
+oil temperature and load, taken at the document's values).  Levenberg-Marquardt
+(:func:`diagnostics.prior_fit.fit_with_prior`) on the steady operating points
+(:class:`sim.steady.SteadyEvaluator`) minimises
 
 .. math:: Φ(z) = \\sum_i r_i(z)^2 + \\sum_j (z_j / s_j)^2
 
@@ -46,6 +47,7 @@ from diagnostics.evidence import whitening
 from diagnostics.goodness import DISAGREE_SIGMA, TEST_LEVEL, chi2_limit
 from diagnostics.measurement import MeasurementRecord
 from diagnostics.observations import RecordObservations, observe
+from diagnostics.prior_fit import fit_with_prior
 from diagnostics.record_model import condition_moves, condition_terms
 from diagnostics.signatures import OBSERVABLES
 from sim.errors import MeasurementError, SimulationError
@@ -155,14 +157,6 @@ class _Problem:
                 out.append(np.where(np.isfinite(r), r, 1e3))
         return np.concatenate(out)
 
-    def jacobian(self, z: Arr, r: Arr, h: float = 1e-5) -> Arr:
-        jac = np.empty((r.size, z.size))
-        for j in range(z.size):
-            zj = z.copy()
-            zj[j] += h
-            jac[:, j] = (self.residuals(zj) - r) / h
-        return jac
-
 
 def commission(rig: Rig, records: Sequence[MeasurementRecord],
                parameters: Sequence[str] | None = None, *, model_rel: float = 0.002,
@@ -218,7 +212,8 @@ def commission(rig: Rig, records: Sequence[MeasurementRecord],
     metered = all(rec.flow_B is not None and rec.flow_C is not None for rec in records)
     try:
         problem = _Problem(rig, obs, names, model_rel)
-        z, r, jac, its = _fit(problem, np.array([PRIOR_SD[n] for n in names]), max_iterations)
+        z, r, jac, its = fit_with_prior(problem.residuals, np.array([PRIOR_SD[n] for n in names]),
+                                        np.zeros(len(names)), max_iterations=max_iterations)
     except SimulationError as exc:
         raise MeasurementError(f"the rig has no steady operating point at a record's "
                                f"condition: {exc}", field="records") from None
@@ -228,7 +223,8 @@ def commission(rig: Rig, records: Sequence[MeasurementRecord],
     corr = cov / np.outer(sd, sd)
     pins = [bool(sd[j] <= PINNED * s[j]) for j in range(len(names))]
     try:  # the open parameters integrated into the pinned ones' intervals
-        bounds = marginal_intervals(problem.residuals, z, s, np.asarray(cov, dtype=float), pins)
+        bounds = marginal_intervals(problem.residuals, z, s, np.asarray(cov, dtype=float), pins,
+                                    max_iterations=max_iterations)
     except SimulationError:
         bounds = {}
     out, statements = [], []
@@ -353,38 +349,3 @@ def _disagreements(problem: _Problem, z: Arr) -> list[tuple[int, str, float]]:
                 for name, d in zip(o.names, dev, strict=True)
                 if not abs(d) <= DISAGREE_SIGMA]
     return sorted(out, key=lambda x: -abs(x[2]))
-
-
-def _fit(problem: _Problem, s: Arr, max_iterations: int) -> tuple[Arr, Arr, Arr, int]:
-    """Levenberg-Marquardt on the data residuals plus the prior's ``z/s``."""
-    z = np.zeros(s.size)
-    r = problem.residuals(z)
-    cost = float(r @ r + np.sum((z / s) ** 2))
-    lam = 1e-3
-    jac = problem.jacobian(z, r)
-    its = 0
-    for its in range(1, max_iterations + 1):  # noqa: B007 - its reported
-        g = jac.T @ r + z / s**2
-        h = jac.T @ jac + np.diag(1.0 / s**2)
-        improved = False
-        while lam < 1e10:
-            step = -np.linalg.solve(h + lam * np.diag(np.diag(h)), g)
-            zn = np.clip(z + step, -4.0 * s, 4.0 * s)
-            try:
-                rn = problem.residuals(zn)
-            except SimulationError:
-                lam *= 10.0
-                continue
-            cn = float(rn @ rn + np.sum((zn / s) ** 2))
-            if cn < cost:
-                gain, moved = cost - cn, float(np.max(np.abs(zn - z)))
-                z, r, cost, lam = zn, rn, cn, max(lam / 10.0, 1e-9)
-                improved = True
-                break
-            lam *= 10.0
-        if not improved:
-            break
-        jac = problem.jacobian(z, r)
-        if moved < 1e-5 or gain < 1e-6 * max(cost, 1.0):
-            break
-    return z, r, jac, its

@@ -12,19 +12,20 @@ open and Fu's estimate carries ``Kf₀·(e^{z_Kf} − 1)·v``, skewed upward.  W
 Kf one prior σ off the document's, Fu's Laplace interval held the truth in 88 % of 997
 seeds where 95 % was stated (``make accuracy``'s commissioning suite).
 
-Here the open parameters ``n`` are integrated over their Laplace posterior
-``N(ẑ_n, C_nn)``: on a grid of Gauss-Hermite nodes (:data:`NODES` on each, a tensor grid
-mapped through the Cholesky factor of ``C_nn``) the pinned parameters ``p`` are fitted
-again with the open ones held there, giving a conditional mean ``m_p`` and the
-conditional covariance ``(J_pᵀJ_p + diag(1/s_p²))⁻¹``; both are interpolated between the
-nodes (Lagrange polynomials), the open parameters taken at :data:`_SAMPLES` points of
-their distribution (its quantiles for one open parameter, fixed-seed draws for more), and the
-pinned parameter's 95 % interval is the 2.5 % and 97.5 % quantiles of the resulting
-mixture.  (The nodes' mixture alone, with the quadrature weights, is a few narrow spikes
-where a pinned parameter is precise given the open ones: its tail quantile fell on one
-spike or another with the number of nodes.)  With a law linear in z the mixture is the
-Laplace Gaussian again.  Where the rig has no steady point at a node, a 3-node grid is
-tried, then the Laplace interval stands.
+Here the open parameters ``n`` are integrated over their Laplace posterior ``N(ẑ_n,
+C_nn)``: on a grid of Gauss-Hermite nodes (:data:`NODES` on each, a tensor grid mapped
+through the Cholesky factor of ``C_nn``) the pinned parameters ``p`` are fitted again with
+the open ones held there (:func:`~diagnostics.prior_fit.fit_with_prior`, the fit of
+commissioning itself, started from the linear prediction ``ẑ_p + C_pn C_nn⁻¹ Δz_n``),
+giving a conditional mean ``m_p`` and the conditional covariance ``(J_pᵀJ_p +
+diag(1/s_p²))⁻¹``; both are interpolated between the nodes (Lagrange polynomials), the
+open parameters taken at :data:`_SAMPLES` points of their distribution (its quantiles for
+one open parameter, fixed-seed draws for more), and the pinned parameter's 95 % interval
+is the 2.5 % and 97.5 % quantiles of the resulting mixture. (The nodes' mixture alone,
+with the quadrature weights, is a few narrow spikes where a pinned parameter is precise
+given the open ones: its tail quantile fell on one spike or another with the number of
+nodes.) With a law linear in z the mixture is the Laplace Gaussian again. Where the rig
+has no steady point at a node, a 3-node grid is tried, then the Laplace interval stands.
 """
 
 from __future__ import annotations
@@ -37,6 +38,7 @@ import numpy.typing as npt
 from scipy.optimize import brentq
 from scipy.special import ndtr, ndtri
 
+from diagnostics.prior_fit import fit_with_prior
 from sim.errors import SimulationError
 
 __all__ = ["NODES", "marginal_intervals"]
@@ -48,55 +50,6 @@ Arr = npt.NDArray[np.float64]
 NODES = 5
 #: draws of the open parameters through the interpolated conditional means [-]
 _SAMPLES = 2000
-#: Levenberg-Marquardt iterations of a re-fit at a node (started from the linear
-#: prediction, a few suffice) [-]
-_ITERATIONS = 10
-
-
-def _refit(residuals: Callable[[Arr], Arr], z: Arr, free: Sequence[int], s: Arr
-           ) -> tuple[Arr, Arr]:
-    """``z`` with its ``free`` entries re-fitted (data residuals plus the prior's z/s,
-    the others held); returns (z, the Jacobian of the data residuals in the free ones)."""
-    free = list(free)
-    sf = s[free]
-
-    def jacobian(zc: Arr, r: Arr) -> Arr:
-        out = np.empty((r.size, len(free)))
-        for c, j in enumerate(free):
-            zj = zc.copy()
-            zj[j] += 1e-5
-            out[:, c] = (residuals(zj) - r) / 1e-5
-        return out
-
-    z = z.copy()
-    r = residuals(z)
-    cost = float(r @ r + np.sum((z[free] / sf) ** 2))
-    jac = jacobian(z, r)
-    lam = 1e-3
-    for _ in range(_ITERATIONS):
-        g = jac.T @ r + z[free] / sf**2
-        h = jac.T @ jac + np.diag(1.0 / sf**2)
-        while lam < 1e10:
-            zn = z.copy()
-            zn[free] = np.clip(z[free] - np.linalg.solve(h + lam * np.diag(np.diag(h)), g),
-                               -4.0 * sf, 4.0 * sf)
-            try:
-                rn = residuals(zn)
-            except SimulationError:
-                lam *= 10.0
-                continue
-            cn = float(rn @ rn + np.sum((zn[free] / sf) ** 2))
-            if cn < cost:
-                moved = float(np.max(np.abs(zn[free] - z[free])))
-                z, r, cost, lam = zn, rn, cn, max(lam / 10.0, 1e-9)
-                break
-            lam *= 10.0
-        else:
-            break
-        jac = jacobian(z, r)
-        if moved < 1e-6:
-            break
-    return z, jac
 
 
 def _quantile(means: Arr, sds: Arr, q: float) -> float:
@@ -118,7 +71,7 @@ def _lagrange(nodes: Arr, x: Arr) -> Arr:
 
 
 def _conditionals(residuals: Callable[[Arr], Arr], z: Arr, s: Arr, cov: Arr,
-                  keep: list[int], open_: list[int], nodes: Arr
+                  keep: list[int], open_: list[int], nodes: Arr, max_iterations: int
                   ) -> tuple[Arr, Arr] | None:
     """Conditional means and standard deviations of the pinned parameters at every node
     of the grid (shape (nodes**len(open_), len(keep))), or None where the rig has no
@@ -133,7 +86,7 @@ def _conditionals(residuals: Callable[[Arr], Arr], z: Arr, s: Arr, cov: Arr,
         start[open_] = z[open_] + shift
         start[keep] = z[keep] + gain @ shift
         try:
-            zc, jac = _refit(residuals, start, keep, s)
+            zc, _, jac, _ = fit_with_prior(residuals, s, start, keep, max_iterations)
         except SimulationError:
             return None
         cond = np.linalg.inv(jac.T @ jac + np.diag(1.0 / s[keep] ** 2))
@@ -143,7 +96,8 @@ def _conditionals(residuals: Callable[[Arr], Arr], z: Arr, s: Arr, cov: Arr,
 
 
 def marginal_intervals(residuals: Callable[[Arr], Arr], z: Arr, s: Arr, cov: Arr,
-                       pinned: Sequence[bool]) -> dict[int, tuple[float, float]]:
+                       pinned: Sequence[bool], *, max_iterations: int = 30
+                       ) -> dict[int, tuple[float, float]]:
     """The 95 % interval in z of each pinned parameter (index → (low, high)) with the open
     parameters integrated (module docstring); empty where none is open, none pinned, or
     the rig has no steady point at a node of either grid (the Laplace intervals stand).
@@ -160,6 +114,8 @@ def marginal_intervals(residuals: Callable[[Arr], Arr], z: Arr, s: Arr, cov: Arr
         Laplace posterior covariance of z [-].
     pinned
         Whether each parameter is pinned down by the records.
+    max_iterations
+        Iteration limit of each re-fit (:func:`~diagnostics.prior_fit.fit_with_prior`) [-].
     """
     keep = [j for j, p in enumerate(pinned) if p]
     open_ = [k for k, p in enumerate(pinned) if not p]
@@ -167,7 +123,7 @@ def marginal_intervals(residuals: Callable[[Arr], Arr], z: Arr, s: Arr, cov: Arr
         return {}
     for n_nodes in (NODES, 3):
         nodes = np.polynomial.hermite_e.hermegauss(n_nodes)[0]  # N(0, 1) nodes
-        got = _conditionals(residuals, z, s, cov, keep, open_, nodes)
+        got = _conditionals(residuals, z, s, cov, keep, open_, nodes, max_iterations)
         if got is not None:
             break
     else:
