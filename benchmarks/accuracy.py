@@ -58,8 +58,10 @@ moved and those with a stroke that stalled or crept; the in-library cases by fau
 (the fault's largest reading shift in σ of the readings,
 :func:`benchmarks.accuracy_cases.fault_size`): top-1, truth in the ambiguity set and its
 mean size per bin, so that the study says which wear sizes are named (figures in
-:mod:`benchmarks.accuracy_figures`); last, issue 11's targets, each with its 95 % interval
-over the drawn cases and a verdict — met, missed, or not decided where the interval
+:mod:`benchmarks.accuracy_figures`); the instruments-as-they-are suites, on draws of their
+own after all the others (:mod:`benchmarks.accuracy_noise`: errors beyond the stated class,
+and a visit's records sharing their instruments' errors); last, issue 11's targets, each
+with its 95 % interval over the drawn cases and a verdict — met, missed, or not decided where the interval
 straddles the target (:mod:`benchmarks.targets`).  Nothing here tunes anything.
 ``HYDRODIAG_ACCURACY_DUMP=cases.jsonl`` writes every (case, sensor set) with its readings,
 stated condition, answer, fitted values, χ² and degrees of freedom, one JSON line each, for
@@ -85,10 +87,12 @@ import numpy as np
 from app.services.diagnosis import estimates_of
 from benchmarks import targets
 from benchmarks.accuracy_cases import (
+    AS_STATED,
     BEYOND,
     IN_LIBRARY,
     INCIPIENT,
     Case,
+    Noise,
     differential_document,
     draw_fault,
     draw_truth,
@@ -106,6 +110,7 @@ from benchmarks.accuracy_figures import (
     summarise,
 )
 from benchmarks.accuracy_joint import joint_suite
+from benchmarks.accuracy_noise import noise_study
 from benchmarks.accuracy_report import (
     confusions,
     hypothesis_calibration,
@@ -177,7 +182,9 @@ def score(case: Case, d: Diagnosis) -> dict[str, Any]:
               "chi2": None if fit is None else fit.chi2, "dof": None if fit is None else fit.dof,
               "gof_hypothesis": None if fit is None else fit.hypothesis,
               "incipient": [] if fit is None or fit.incipient is None else
-              sorted(PARAMETERS[p].component for p in fit.incipient.incipient)}
+              sorted(PARAMETERS[p].component for p in fit.incipient.incipient),
+              "uncertainty_factor": None if fit is None else fit.uncertainty_factor,
+              "unit_mistakes": [] if fit is None else [m.mistake for m in fit.unit_mistakes]}
     # flagged: no confident name — not explained, or a fault beyond the prior ranges stated
     # to explain the readings as well by a tested fit, or the explaining fit placed below
     # its worn range (incipient, or a document off by that much); an untestable fit (as many
@@ -230,12 +237,12 @@ def stored_estimate(case: Case, d: Diagnosis, rig: Rig, temperature: float
 
 
 def run_case(rig_model: Rig, rig_true: Rig, case: Case, rng: np.random.Generator,
-             rows: dict[str, list[dict[str, Any]]]) -> None:
+             rows: dict[str, list[dict[str, Any]]], noise: Noise = AS_STATED) -> None:
     """Diagnose ``case`` with every sensor set (a stalled or creeping stroke included: the
-    record then carries what a rig reads of it, see :func:`transient_readings`)."""
+    record then carries what a rig reads of it, see :func:`transient_readings`), the
+    instruments' errors drawn as ``noise`` says (the records state their class)."""
     tr = transient_readings(rig_true, case.overrides, case.load, case.temperature)
-    load, temp = stated_condition(case.load, case.temperature, rng)
-    cond = OperatingCondition.from_readings({"oil_temperature": temp, "load_force": load})
+    load, temp = stated_condition(case.load, case.temperature, rng, noise)
     for sname, fields in SETS.items():
         row: dict[str, Any] = {"suite": case.suite, "rig": case.rig, "truth": case.truth,
                                "in_library": case.in_library, "error": None,
@@ -251,8 +258,11 @@ def run_case(rig_model: Rig, rig_true: Rig, case: Case, rng: np.random.Generator
                                    case.load, case.temperature, fields)
                                    for name in case.params), default=0.0)}
         try:
-            readings = noisy(tr.values, fields, rng)
+            readings = noisy(tr.values, fields, rng, noise)
             row["readings"] = readings
+            # a stated condition can be refused too (158 °F is no oil temperature in °C)
+            cond = OperatingCondition.from_readings({"oil_temperature": temp,
+                                                     "load_force": load})
             rec = MeasurementRecord.from_readings("study", cond, readings)
             d = diagnose(rig_model, [rec])
             row |= score(case, d)
@@ -296,9 +306,10 @@ def healthy_pressure(rig: Rig, load: float, temp: float) -> float:
         "pump_pressure"])
 
 
-def run_suites(n: dict[str, int], rng: np.random.Generator
+def run_suites(n: dict[str, int], rng: np.random.Generator, noise: Noise = AS_STATED
                ) -> tuple[dict[str, list[dict[str, Any]]], int]:
-    """All suites; returns the rows per sensor set and the number of stalled cases."""
+    """All suites (``noise``: how the instruments' errors are drawn); returns the rows per
+    sensor set and the number of stalled cases."""
     rows: dict[str, list[dict[str, Any]]] = defaultdict(list)
     preset = reference_rig()
     diff_doc = differential_document()
@@ -330,7 +341,7 @@ def run_suites(n: dict[str, int], rng: np.random.Generator
                                     incipient=suite == "incipient")
             case = Case(suite, rname, truth, not (beyond or misspec or suite == "incipient"),
                         ov, params, load, temp)
-            run_case(model, true_rig, case, rng, rows)
+            run_case(model, true_rig, case, rng, rows, noise)
     stalled = sum(1 for r in rows["full"] if r["stalled"])
     return rows, stalled
 
@@ -461,7 +472,8 @@ def main() -> None:
         else {"preset": 400, "differential": 400, "beyond_range": 150, "misspecified": 150,
               "incipient": 160}
     seeds = int(os.environ.get("HYDRODIAG_COMMISSIONING_SEEDS", "6" if light else "40"))
-    rng = np.random.default_rng(int(os.environ.get("HYDRODIAG_ACCURACY_SEED", "20261123")))
+    seed = int(os.environ.get("HYDRODIAG_ACCURACY_SEED", "20261123"))
+    rng = np.random.default_rng(seed)
     t_start = time.perf_counter()
     print("Diagnosis accuracy study: transient readings with instrument noise; "
           + ", ".join(f"{k} {v}" for k, v in n.items()) + f" cases, {seeds} commissioning seeds")
@@ -499,6 +511,9 @@ def main() -> None:
           "each record's load and temperature stated with its instruments' error; "
           "benchmarks/accuracy_joint.py):")
     joint = joint_suite(n_joint, rng, stored_estimate)
+    # its own draws: the figures above stay those of the seed
+    noise = noise_study(40 if light else 200, 10 if light else 120,
+                        np.random.default_rng([seed, 1]), run_suites, rows, stored_estimate)
     goals = issue_targets(rows, comm)
     targets.table("issue 11's targets", goals)
     wall = time.perf_counter() - t_start
@@ -527,7 +542,8 @@ def main() -> None:
           f"{t_warm / t_eval:.0f}x, {t_cold / t_eval:.0f}x); wall {wall:.0f} s; {stalled} cases "
           "had a stroke that stalled or crept (diagnosed, not skipped)")
     print(json.dumps({"cases": n, "stalled_cases": stalled, "suites": figures,
-                      "commissioning": comm, "joint": joint, "targets": targets.as_json(goals),
+                      "commissioning": comm, "joint": joint, "noise": noise,
+                      "targets": targets.as_json(goals),
                       "diagnosis_warm_ms": round(1e3 * t_warm, 3),
                       "diagnosis_cold_ms": round(1e3 * t_cold, 3),
                       "steady_evaluation_us": round(1e6 * t_eval, 2),

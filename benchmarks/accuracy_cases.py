@@ -46,8 +46,8 @@ from sim.cycle import run_cycle
 from sim.errors import SimulationError
 from sim.rigs import Condition, Rig, load_rig, reference_rig_document
 
-__all__ = ["INCIPIENT", "IN_LIBRARY", "Case", "TransientReadings", "differential_document", "draw_fault",
-           "draw_truth", "fault_size",
+__all__ = ["AS_STATED", "INCIPIENT", "IN_LIBRARY", "Case", "Noise", "TransientReadings",
+           "differential_document", "draw_fault", "draw_truth", "fault_size",
            "misspecified_rig", "noisy", "stated_condition", "transient_readings"]
 
 IN_LIBRARY = ("healthy", "cylinder", "valve", "pump", "relief_seat", "relief_setting",
@@ -55,6 +55,41 @@ IN_LIBRARY = ("healthy", "cylinder", "valve", "pump", "relief_seat", "relief_set
 BEYOND = ("cylinder", "valve", "pump", "relief_seat", "relief_setting")
 #: leakage faults drawn between the document's value and the worn range
 INCIPIENT = ("cylinder", "valve", "pump", "relief_seat")
+
+
+@dataclass(frozen=True)
+class Noise:
+    """How an instrument's error is drawn, against the class bound ``a`` the record states
+    (the diagnosis reads it as u = a/√3).
+
+    Attributes
+    ----------
+    scale
+        The errors' spread as a multiple of the stated one [-]: uniform within ±scale·a,
+        or Gaussian of σ = scale·a/√3.
+    shape
+        ``"uniform"`` (the class read as stated) or ``"gauss"`` (the same σ at scale 1,
+        with tails beyond the bound).
+    mistake
+        A mistake in the units the readings are stated in (:mod:`diagnostics.unit_mistakes`):
+        ``"absolute_pressure"`` (every pressure reading an atmosphere high, the atmosphere
+        drawn uniform in 95-103 kPa: weather and altitudes to about 550 m),
+        ``"fahrenheit"`` (the oil temperature stated in °F), or ``""``.
+    """
+
+    scale: float = 1.0
+    shape: str = "uniform"
+    mistake: str = ""
+
+    def draw(self, rng: np.random.Generator, half: float) -> float:
+        """One error [unit of the reading] of an instrument of class bound ``half``."""
+        if self.shape == "gauss":
+            return float(rng.normal(0.0, self.scale * half / np.sqrt(3.0)))
+        return float(rng.uniform(-self.scale * half, self.scale * half))
+
+
+#: errors within the stated class (the diagnosis's own assumption)
+AS_STATED = Noise()
 
 
 @dataclass
@@ -225,31 +260,41 @@ def transient_readings(rig: Rig, ov: dict[str, float], load: float, temp: float
     return TransientReadings(values, stalled)
 
 
-def noisy(values: dict[str, float], fields: tuple[str, ...], rng: np.random.Generator
-          ) -> dict[str, float]:
-    """``fields`` of ``values`` with noise uniform within each instrument's class bound
-    (a field the readings lack, a speed of a stroke that did not move, is left out)."""
+def noisy(values: dict[str, float], fields: tuple[str, ...], rng: np.random.Generator,
+          noise: Noise = AS_STATED) -> dict[str, float]:
+    """``fields`` of ``values`` with noise uniform within each instrument's class bound,
+    or as ``noise`` draws it (a field the readings lack, a speed of a stroke that did not
+    move, is left out)."""
     out = {}
     for f in fields:
         if f not in values or (f.startswith("speed") and values[f] <= 0.0):
             continue
         inst = DEFAULT_INSTRUMENTS[f]
         half = inst.relative_bound * abs(values[f]) + inst.absolute_bound
-        out[f] = values[f] + rng.uniform(-half, half)
+        out[f] = values[f] + noise.draw(rng, half)
+    if noise.mistake == "absolute_pressure":
+        atmosphere = float(rng.uniform(95e3, 103e3))
+        out |= {f: v + atmosphere for f, v in out.items() if f in _PRESSURES}
     return out
 
 
-def stated_condition(load: float, temp: float, rng: np.random.Generator
-                     ) -> tuple[float, float]:
+_PRESSURES = ("pump_pressure", "p1", "p2")
+
+
+def stated_condition(load: float, temp: float, rng: np.random.Generator,
+                     noise: Noise = AS_STATED) -> tuple[float, float]:
     """(load [N], oil temperature [°C]) as a record states them: the true values with the
     error of the default load cell (±1 %) and thermometer (±1 °C), uniform within the class
     bound, the σ the diagnosis assumes for a stated condition
-    (:data:`diagnostics.quantity.DEFAULT_INSTRUMENTS`)."""
+    (:data:`diagnostics.quantity.DEFAULT_INSTRUMENTS`), or as ``noise`` draws it."""
     ui = DEFAULT_INSTRUMENTS["condition.load_force"]
     ti = DEFAULT_INSTRUMENTS["condition.oil_temperature"]
     half_l = ui.relative_bound * abs(load) + ui.absolute_bound
     half_t = ti.relative_bound * abs(temp) + ti.absolute_bound
-    return load + float(rng.uniform(-half_l, half_l)), temp + float(rng.uniform(-half_t, half_t))
+    stated = load + noise.draw(rng, half_l), temp + noise.draw(rng, half_t)
+    if noise.mistake == "fahrenheit":
+        return stated[0], 32.0 + 1.8 * stated[1]
+    return stated
 
 
 def fault_size(rig: Rig, ov: dict[str, float], load: float, temp: float,

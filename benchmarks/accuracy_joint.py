@@ -14,6 +14,13 @@ truth's component stored and the share of those whose 95 % interval holds the tr
 (:func:`benchmarks.accuracy.stored_estimate`).  The suite exists because a visit's three
 independent temperature statements once made worn seals "not explained" (5 of 30 without
 flow meters) where single records were not.
+
+With ``shared=True`` the visit's records share their instruments' errors: each instrument
+(every reading's, the load cell, the thermometer) is off by one gain within its class
+bound, drawn once per visit (:class:`VisitInstruments`: a calibration error, what a class
+bound mostly is), and the sensor sets read the same instruments.  The diagnosis treats a
+visit's records as independent, so this variant measures what that assumption costs
+(:mod:`benchmarks.accuracy_noise`).
 """
 
 from __future__ import annotations
@@ -33,9 +40,10 @@ from benchmarks.accuracy_cases import (
 )
 from diagnostics.diagnose import Diagnosis, diagnose
 from diagnostics.measurement import MeasurementRecord, OperatingCondition
+from diagnostics.quantity import DEFAULT_INSTRUMENTS
 from sim.rigs import Rig, load_rig, reference_rig
 
-__all__ = ["JOINT_LOADS", "JOINT_SETS", "joint_suite"]
+__all__ = ["JOINT_LOADS", "JOINT_SETS", "VisitInstruments", "joint_suite"]
 
 #: the loads of a visit [N]
 JOINT_LOADS = (2100.0, 4200.0, 6300.0)
@@ -48,9 +56,37 @@ JOINT_SETS = {"full": ("pump_pressure", "p1", "p2", "flow_B", "flow_C", "speed_w
 StoredFn = Callable[[Case, Diagnosis, Rig, float], "dict[str, Any] | None"]
 
 
-def joint_suite(n: int, rng: np.random.Generator, stored: StoredFn) -> dict[str, Any]:
+class VisitInstruments:
+    """One visit's instruments, each off by a gain within its class bound drawn once (its
+    first use) and kept for every record and sensor set of the visit."""
+
+    def __init__(self, rng: np.random.Generator) -> None:
+        self.rng = rng
+        self.gain: dict[str, float] = {}
+
+    def _error(self, key: str, value: float) -> float:
+        if key not in self.gain:
+            self.gain[key] = float(self.rng.uniform(-1.0, 1.0))
+        inst = DEFAULT_INSTRUMENTS[key]
+        return self.gain[key] * (inst.relative_bound * abs(value) + inst.absolute_bound)
+
+    def read(self, values: dict[str, float], fields: tuple[str, ...]) -> dict[str, float]:
+        """``fields`` of ``values`` as these instruments read them (the fields
+        :func:`benchmarks.accuracy_cases.noisy` leaves out, left out)."""
+        return {f: values[f] + self._error(f, values[f]) for f in fields
+                if f in values and not (f.startswith("speed") and values[f] <= 0.0)}
+
+    def stated(self, load: float, temp: float) -> tuple[float, float]:
+        """(load [N], oil temperature [°C]) as this load cell and thermometer state them."""
+        return (load + self._error("condition.load_force", load),
+                temp + self._error("condition.oil_temperature", temp))
+
+
+def joint_suite(n: int, rng: np.random.Generator, stored: StoredFn, *,
+                shared: bool = False) -> dict[str, Any]:
     """``n`` visits (module docstring); ``stored`` scores the history's estimate of a
-    case (:func:`benchmarks.accuracy.stored_estimate`).  Prints one line per sensor set."""
+    case (:func:`benchmarks.accuracy.stored_estimate`); ``shared``: the records share
+    their instruments' errors.  Prints one line per sensor set."""
     rigs = {"preset": reference_rig(), "differential": load_rig(differential_document())}
     rows: dict[str, list[dict[str, float]]] = {s: [] for s in JOINT_SETS}
     for k in range(n):
@@ -61,14 +97,17 @@ def joint_suite(n: int, rng: np.random.Generator, stored: StoredFn) -> dict[str,
         ov, params = draw_fault(rig, truth, rng, beyond=False, pump_pressure=np.inf)
         case = Case("joint", rname, truth, True, ov, params, JOINT_LOADS[0], temp)
         readings = [transient_readings(rig, ov, load, temp).values for load in JOINT_LOADS]
-        stated = [stated_condition(load, temp, rng) for load in JOINT_LOADS]
+        visit = VisitInstruments(rng) if shared else None
+        stated = [stated_condition(load, temp, rng) if visit is None else
+                  visit.stated(load, temp) for load in JOINT_LOADS]
         for sname, fields in JOINT_SETS.items():
             records = []
             for values, (sl, st) in zip(readings, stated, strict=True):
                 cond = OperatingCondition.from_readings({"oil_temperature": st,
                                                          "load_force": sl})
-                records.append(MeasurementRecord.from_readings("visit", cond,
-                                                               noisy(values, fields, rng)))
+                read = noisy(values, fields, rng) if visit is None else \
+                    visit.read(values, fields)
+                records.append(MeasurementRecord.from_readings("visit", cond, read))
             d = diagnose(rig, records)
             st = stored(case, d, rig, stated[0][1]) or {"stored": 0.0, "held": float("nan")}
             rows[sname].append({"explained": float(d.explained),

@@ -88,8 +88,9 @@ def summary(d: Diagnosis) -> dict[str, Any]:
     """The compact result of one diagnosis: the named fault (``"unexplained"`` when the
     goodness-of-fit test fails), its probability (0 when unexplained, as ``POST /diagnose``
     states it: a batch line read "unexplained" with probability 1.0), the best fit and its
-    probability and estimates [SI], the χ² p-value and the probabilities of all observable
-    hypotheses."""
+    probability and estimates [SI], the χ² p-value, the factor on the uncertainties at which
+    the tested fit would pass (:attr:`~diagnostics.goodness_result.GoodnessOfFit.
+    uncertainty_factor`) and the probabilities of all observable hypotheses."""
     top = d.top
     return {
         "top": top.name if d.explained else "unexplained",
@@ -98,6 +99,7 @@ def summary(d: Diagnosis) -> dict[str, Any]:
         "best_fit_probability": top.probability,
         "explained": d.explained,
         "p_value": None if d.fit is None else d.fit.p_value,
+        "uncertainty_factor": None if d.fit is None else d.fit.uncertainty_factor,
         "parameters": [{"name": p.name, "unit": p.unit, "value": p.value, "low": p.low,
                         "high": p.high, "severity": p.severity} for p in top.parameters],
         "probabilities": {f.name: f.probability for f in d.hypotheses if f.observable},

@@ -35,6 +35,7 @@ from diagnostics.ratio_index import RatioIndex, ratio_index
 from diagnostics.signatures import OBSERVABLES, SignatureMaps
 from diagnostics.slip import rig_slip_coefficient
 from diagnostics.uncertainty import Estimate
+from diagnostics.unit_mistakes import unit_mistakes
 from sim.errors import MeasurementError, SimulationError
 from sim.rigs import Rig
 from sim.units import quantity_text
@@ -158,7 +159,9 @@ def diagnose(rig: Rig, records: Sequence[MeasurementRecord], *, model_rel: float
     at_fit = evidence_at_fit(ranker, fits, checks)
     iso = isolability(ranker, fits, model_rel, checks.chi2)
     single_sigma = checks.reading_sigma()
-    gof = goodness_of_fit(ranker, fits, at_fit=checks.chi2, at_fit_sigma=single_sigma)
+    gof = goodness_of_fit(ranker, fits, at_fit=checks.chi2, at_fit_sigma=single_sigma,
+                          mistakes=lambda: unit_mistakes(rig, records, model_rel, method,
+                                                         limits))
     notes: list[str] = []
     direct = _direct(rig, records, notes)
     _root_for_the_answer(direct, fits, rig)

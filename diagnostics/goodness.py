@@ -53,26 +53,32 @@ lower load or oil temperature, where the piston moves.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 import numpy.typing as npt
 from scipy.special import chdtrc, gammaincinv
 
-from diagnostics.goodness_result import Disagreement, GoodnessOfFit
+from diagnostics.goodness_result import Disagreement, GoodnessOfFit, UnitMistake
 from diagnostics.hypotheses import PARAMETERS
 from diagnostics.range_test import RangeTest, pinned, range_test, range_tests
 from diagnostics.ranking import HypothesisFit, Ranker
 from sim.units import unit_suffix
 
 __all__ = ["TEST_LEVEL", "Disagreement", "GoodnessOfFit", "chi2_limit", "goodness_of_fit",
-           "stall_limit"]
+           "stall_limit", "uncertainty_factor"]
 
 #: test level α of the goodness-of-fit test [-]
 TEST_LEVEL = 0.01
 
 #: a reading is named as disagreeing beyond this many standard uncertainties [σ]
 DISAGREE_SIGMA = 3.0
+
+#: the largest uncertainty factor at which a statement offers noisier instruments than
+#: stated as a cause [-]: in ``make accuracy`` the answers not explained when every
+#: instrument scatters within 2 × its class have factors ≤ 2 in 97-100 %
+#: (:mod:`benchmarks.accuracy_noise`); a factor beyond 3 is no instrument's noise
+NOISE_FACTOR = 3.0
 
 
 def _p_value(chi2: float, dof: int) -> float:
@@ -133,13 +139,16 @@ def _dof(ranker: Ranker, f: HypothesisFit) -> int:
 
 def goodness_of_fit(ranker: Ranker, fits: list[HypothesisFit], level: float = TEST_LEVEL,
                     at_fit: Mapping[str, float] | None = None,
-                    at_fit_sigma: Mapping[str, Sequence[npt.NDArray[np.float64]]] | None = None
+                    at_fit_sigma: Mapping[str, Sequence[npt.NDArray[np.float64]]] | None = None,
+                    mistakes: Callable[[], list[UnitMistake]] | None = None
                     ) -> GoodnessOfFit:
     """χ² goodness of fit and range test of the observable hypotheses among ranked
     ``fits`` (module docstring); ``at_fit``: the χ² of one-parameter fits with the
     stated condition's sensitivity at their estimates, by name, and ``at_fit_sigma`` the
     readings' σ per record there, in which a fit explained by that χ² states its
-    disagreeing readings (:func:`diagnostics.condition_interval.check_singles`)."""
+    disagreeing readings (:func:`diagnostics.condition_interval.check_singles`);
+    ``mistakes``, called only when nothing explains the readings: the mistakes in their
+    units that, undone, would (:func:`diagnostics.unit_mistakes.unit_mistakes`)."""
     retest = at_fit or {}
     cands = [f for f in fits if f.observable] or fits[:1]
     scored = []
@@ -184,6 +193,7 @@ def goodness_of_fit(ranker: Ranker, fits: list[HypothesisFit], level: float = TE
         testable, p, _, best, dof = max(scored, key=lambda s: (s[0], s[1], -s[2]))
         chi2 = best.chi2
     limit = chi2_limit(level, dof) if dof >= 1 else math.inf
+    factor = uncertainty_factor(chi2, chi2_limit(level, dof if dof >= 1 else ranker.n_obs))
     # a relief setting that cannot open anywhere in its prior is unobservable, yet one
     # below the prior's lowest can: readings nothing explains are tested for it too (a
     # relief at 0.2 × nominal read "relief_setting: not observable" and nothing beyond
@@ -193,6 +203,7 @@ def goodness_of_fit(ranker: Ranker, fits: list[HypothesisFit], level: float = TE
     beyond = _beyond_range(ranker, cands + below, tests, level)
     dis = _disagreements(ranker, best, (at_fit_sigma or {}).get(best.name)
                          if best.name in used else None)
+    found: list[UnitMistake] = []
     if explained and testable:
         statement = (f"the readings are consistent with {best.name} (χ² = {chi2:.3g} on "
                      f"{dof} degrees of freedom, limit {limit:.3g} at the {level:.0%} level"
@@ -210,7 +221,9 @@ def goodness_of_fit(ranker: Ranker, fits: list[HypothesisFit], level: float = TE
             "or a rig document that does not describe this rig would not show — add a "
             "reading (a pressure, a flow) to test the fit")
     else:
-        statement = _misfit_statement(ranker, cands, best, dof, limit, level, dis, tests)
+        found = mistakes() if mistakes is not None else []
+        statement = _misfit_statement(ranker, cands, best, dof, limit, level, dis, tests,
+                                      factor, found)
     if incipient is not None:
         statement += _incipient_clause(ranker, incipient)
     if beyond:
@@ -228,7 +241,18 @@ def goodness_of_fit(ranker: Ranker, fits: list[HypothesisFit], level: float = TE
             + " directly.")
     return GoodnessOfFit(best.name, float(chi2), max(dof, 0), level, limit, p,
                          explained, dis, statement, bool(testable or not explained), tests,
-                         beyond, incipient)
+                         beyond, incipient, factor, found)
+
+
+def uncertainty_factor(chi2: float, limit: float) -> float | None:
+    """The common factor s on every uncertainty of the readings (instruments, stated
+    conditions, model) at which a fit's χ² reaches the test's ``limit`` [-]: √(χ²/limit)
+    (scaling the whole covariance by s² divides χ² by s² and leaves the estimate where it
+    is); None where χ² is not finite.  Above 1, how much more than stated the readings
+    would have to scatter for the fit to explain them; below 1, the fit's margin."""
+    if not (math.isfinite(chi2) and math.isfinite(limit)) or limit <= 0.0:
+        return None
+    return math.sqrt(max(chi2, 0.0) / limit)
 
 
 def _most_probable_clause(ranker: Ranker, cands: list[HypothesisFit], best: HypothesisFit,
@@ -327,9 +351,12 @@ def _beyond_range(ranker: Ranker, cands: list[HypothesisFit], tests: list[RangeT
 
 def _misfit_statement(ranker: Ranker, cands: list[HypothesisFit], best: HypothesisFit,
                       dof: int, limit: float, level: float, dis: list[Disagreement],
-                      tests: list[RangeTest]) -> str:
+                      tests: list[RangeTest], factor: float | None,
+                      mistakes: list[UnitMistake]) -> str:
     """The statement of readings not explained (names the disagreeing readings, the
-    range tests that failed, and the next steps)."""
+    mistakes in their units that, undone, explain them, the range tests that failed, the
+    common factor on the uncertainties at which the best fit would pass where noise could
+    be the cause, and the next steps)."""
     worst = ", ".join(
         (f"{d.reading}" + (f" (record {d.record})" if len(ranker.models) > 1 else "")
          + (f" by {d.deviation:+.1f} σ" if math.isfinite(d.deviation) else
@@ -344,6 +371,8 @@ def _misfit_statement(ranker: Ranker, cands: list[HypothesisFit], best: Hypothes
     statement = (
         "the readings are not explained by the rig model and its fault library: "
         f"{fit_clause}; disagreeing readings: {worst}.")
+    if mistakes:
+        statement += " Likely: " + "; ".join(m.statement for m in mistakes) + "."
     rejected = [t for t in tests if t.rejected]
     if rejected:
         statement += (" Fits pinned on a bound of their prior whose likelihood still rises "
@@ -354,7 +383,13 @@ def _misfit_statement(ranker: Ranker, cands: list[HypothesisFit], best: Hypothes
         " No fault is named. Possible causes: a stated condition that is wrong (an oil "
         "temperature in °F or of another sensor, a load in another unit), a fault outside "
         "the library or beyond its prior ranges, a rig document that does not describe "
-        "this rig, or a faulty sensor. Next steps: the discrepancy workflow (`hydrodiag "
+        "this rig, or a faulty sensor"
+        + (f"; or instruments that scatter more than their stated uncertainties: the best "
+           f"fit would pass were every uncertainty {factor:.2f}× the stated one (readings, "
+           "stated load and temperature, model) — if the instruments are that much less "
+           "precise than their class, state each reading's `u` or `bound`"
+           if factor is not None and 1.0 < factor <= NOISE_FACTOR else "")
+        + ". Next steps: the discrepancy workflow (`hydrodiag "
         "discover`, POST /discrepancy) and commissioning the rig from healthy records "
         "(`hydrodiag commission`, POST /rigs/{id}/commission).")
     stalled = stall_limit(ranker, max(cands, key=lambda f: f.probability))

@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 
 from diagnostics.range_test_result import RangeTest
 
-__all__ = ["Disagreement", "GoodnessOfFit"]
+__all__ = ["Disagreement", "GoodnessOfFit", "UnitMistake"]
 
 
 @dataclass
@@ -35,6 +35,33 @@ class Disagreement:
     predicted: float
     sigma: float
     deviation: float
+
+
+@dataclass(frozen=True)
+class UnitMistake:
+    """A mistake in the readings' units that, undone, lets the rig model explain them
+    (:mod:`diagnostics.unit_mistakes`).
+
+    Attributes
+    ----------
+    mistake
+        ``"absolute_pressure"`` or ``"fahrenheit"``.
+    hypothesis, probability
+        The most probable hypothesis on the corrected readings and its probability [-].
+    chi2, dof, limit
+        The goodness-of-fit test's χ² on the corrected readings, its degrees of freedom and
+        limit [-].
+    statement
+        One sentence for a reader.
+    """
+
+    mistake: str
+    hypothesis: str
+    probability: float
+    chi2: float
+    dof: int
+    limit: float
+    statement: str
 
 
 @dataclass
@@ -80,6 +107,16 @@ class GoodnessOfFit:
         Readings of the tested fit beyond 3 σ, worst first (the worst three when none is).
     statement
         One sentence for a reader.
+    uncertainty_factor
+        The common factor on every uncertainty (readings, stated conditions, model) at
+        which the reported fit's χ² reaches the test's limit, √(χ²/limit) with the limit
+        of ν, or of the number of readings where ν = 0 [-]; above 1, how much more than
+        stated the readings would have to scatter for the fit to pass; None where χ² is
+        not finite.
+    unit_mistakes
+        Mistakes in the readings' units (absolute pressures, a temperature in °F) that,
+        undone, let a hypothesis explain readings that are not explained
+        (:mod:`diagnostics.unit_mistakes`); empty when explained or when none does.
     """
 
     hypothesis: str
@@ -95,6 +132,8 @@ class GoodnessOfFit:
     range_tests: list[RangeTest] = field(default_factory=list)
     beyond_range: list[RangeTest] = field(default_factory=list)
     incipient: RangeTest | None = None
+    uncertainty_factor: float | None = None
+    unit_mistakes: list[UnitMistake] = field(default_factory=list)
 
     @property
     def confident(self) -> bool:

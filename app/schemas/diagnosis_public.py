@@ -10,7 +10,7 @@ from pydantic import AwareDatetime, BaseModel, Field
 from app.schemas.common import MAX_ID
 
 __all__ = ["DiagnoseResponse", "DiagnosisPublic", "DisagreementPublic", "EstimatePublic",
-           "GoodnessOfFitPublic", "RangeTestPublic"]
+           "GoodnessOfFitPublic", "RangeTestPublic", "UnitMistakePublic"]
 
 
 class EstimatePublic(BaseModel):
@@ -93,6 +93,29 @@ class RangeTestPublic(BaseModel):
         examples=[None])
 
 
+class UnitMistakePublic(BaseModel):
+    """A mistake in the readings' units that, undone, lets the rig model explain them."""
+
+    mistake: str = Field(description="'absolute_pressure' (every pressure one atmosphere, "
+                         "101 325 Pa, high: absolute where gauge is asked) or 'fahrenheit' "
+                         "(the oil temperature in °F where °C is asked) [-]",
+                         examples=["absolute_pressure"])
+    hypothesis: str = Field(description="Most probable hypothesis on the corrected readings "
+                            "[-]", examples=["valve"])
+    probability: float = Field(ge=0, le=1, description="Its probability [1]",
+                               examples=[0.81])
+    chi2: float = Field(description="The goodness-of-fit test's χ² on the corrected readings "
+                        "[-]", examples=[2.8])
+    dof: int = Field(ge=0, description="Degrees of freedom of that test [-]", examples=[6])
+    limit: float = Field(description="χ² limit at the test level [-]", examples=[16.8])
+    statement: str = Field(description="The mistake and what to send instead [-]",
+                           examples=["the pressures look absolute where gauge pressures are "
+                                     "asked: each 101325 Pa lower, the readings are explained "
+                                     "(χ² = 2.8 on 6 degrees of freedom, limit 16.8), most "
+                                     "probably valve (p = 0.81): send gauge pressures and "
+                                     "diagnose again"])
+
+
 class GoodnessOfFitPublic(BaseModel):
     """χ² goodness-of-fit test of the best-fitting hypothesis."""
 
@@ -130,6 +153,18 @@ class GoodnessOfFitPublic(BaseModel):
         "readings place a parameter between the rig document's value and the start of its "
         "worn range (incipient wear, or a document off by that much); χ² is then taken "
         "there, and the name is not a confident answer [-]", examples=[None])
+    uncertainty_factor: float | None = Field(
+        default=None, ge=0, description="Common factor on every uncertainty (readings, "
+        "stated load and temperature, model) at which the tested fit's χ² reaches `limit` "
+        "(of the number of readings where ν = 0): √(χ²/limit). Above 1, how much more than "
+        "stated the instruments would have to scatter for the fit to explain the readings "
+        "(a misfit at 1.2 may be noise; at 10 it is not); null where χ² is infinite, and in "
+        "diagnoses stored before it was reported [-]", examples=[0.49])
+    unit_mistakes: list[UnitMistakePublic] | None = Field(
+        default=None, description="When not explained: mistakes in the readings' units that, "
+        "undone, let a hypothesis explain them (tried: absolute pressures, a temperature in "
+        "°F); the answer stays not explained. Empty when explained or when none does; null "
+        "in diagnoses stored before it was reported [-]", examples=[[]])
 
 
 class DiagnosisPublic(BaseModel):
@@ -164,7 +199,8 @@ class DiagnosisPublic(BaseModel):
         default=None, description="χ² goodness-of-fit test of the best hypothesis [-]",
         examples=[{"hypothesis": "valve", "chi2": 4.1, "dof": 6, "level": 0.01, "limit": 16.8,
                    "p_value": 0.66, "explained": True, "disagreements": [],
-                   "statement": "the readings are consistent with valve"}])
+                   "statement": "the readings are consistent with valve",
+                   "uncertainty_factor": 0.49, "unit_mistakes": []}])
     misfit: str | None = Field(
         default=None, description="When unexplained: which readings disagree by how many σ, "
         "and where to go next (discrepancy workflow, commissioning); null otherwise [-]",

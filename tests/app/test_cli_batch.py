@@ -168,6 +168,10 @@ def test_diagnose_many_on_a_process_pool_and_a_dask_cluster_equals_in_process() 
     assert json.dumps(on_pool) == json.dumps(here)
     assert json.dumps(on_dask) == json.dumps(here)
     assert [a["top"] for a in here] == [a["top"] for a in on_dask]
+    # each line says how far its tested fit is from the χ² limit, as /diagnose does (the
+    # noise-free records are explained: inside the limit)
+    for line in here:
+        assert line["explained"] and 0.0 <= line["uncertainty_factor"] <= 1.0
     # a cluster of another size than the local pool's default (2 on a 2-core machine):
     # the chunks are planned for its 3 threads, not for the fallback
     with LocalCluster(n_workers=1, threads_per_worker=3, processes=False,

@@ -3,6 +3,7 @@ never a 500 from physics; an unexplained record says so instead of naming a faul
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import pytest
@@ -89,9 +90,40 @@ def test_an_unexplained_record_names_no_fault_and_is_stored_with_its_statement(
     assert worst["reading"] == "p1" and abs(worst["deviation"]) > 5
     assert d["result"]["misfit"] == d["misfit"]
     assert d["result"]["top"] == "unexplained"
+    # a 6 % gauge on a 0.25 % class is no matter of noise: the factor on the uncertainties
+    # at which the best fit would pass says so (beyond 3 the statement does not offer noisy
+    # instruments as a cause), and is stored with the result
+    gof = d["goodness_of_fit"]
+    assert gof["uncertainty_factor"] == pytest.approx(math.sqrt(gof["chi2"] / gof["limit"]))
+    assert gof["uncertainty_factor"] > 3.0
+    assert "scatter more than their stated uncertainties" not in d["misfit"]
+    stored = server.client.get(f"/diagnoses/{d['id']}").json()
+    assert stored["result"]["goodness_of_fit"]["uncertainty_factor"] == \
+        gof["uncertainty_factor"]
     assert d["result"]["best_fit"] == d["goodness_of_fit"]["hypothesis"] or d["result"][
         "best_fit"] in {h["name"] for h in d["result"]["hypotheses"]}
     assert server.row_counts()["diagnoses"] == before["diagnoses"] + 1
+
+
+def test_absolute_pressures_are_named_over_http_and_stored(server: LiveServer) -> None:
+    """A worn spool's record with its pressures absolute (+1 atm) on a differential rig: not
+    explained, the answer names the mistake and what the corrected readings say, and the
+    stored result reads it back."""
+    rig_id = register(server, (0.06, 0.0, 0.03, 0.01231), "absolute")
+    record = steady_record(server, rig_id, {"valve.cv": 45e-6}, 4200.0, 40.0)
+    assert record is not None
+    for name in ("pump_pressure", "p1", "p2"):
+        record[name] += 101_325.0
+    response = server.client.post("/diagnose", json={"record": record}, headers=server.auth)
+    assert response.status_code == 200, response.text
+    (d,) = response.json()["diagnoses"]
+    assert d["top"] == "unexplained"
+    (mistake,) = d["goodness_of_fit"]["unit_mistakes"]
+    assert mistake["mistake"] == "absolute_pressure" and mistake["hypothesis"] == "valve"
+    assert mistake["chi2"] <= mistake["limit"] and 0.0 < mistake["probability"] <= 1.0
+    assert "send gauge pressures" in d["misfit"]
+    stored = server.client.get(f"/diagnoses/{d['id']}").json()
+    assert stored["result"]["goodness_of_fit"]["unit_mistakes"] == [mistake]
 
 
 def test_a_relief_setting_below_its_prior_is_said_over_http_and_stored(

@@ -9,6 +9,7 @@ from scipy.stats import chi2 as chi2_dist
 from diagnostics.diagnose import diagnose
 from diagnostics.goodness import TEST_LEVEL
 from diagnostics.measurement import MeasurementRecord, OperatingCondition
+from diagnostics.quantity import DEFAULT_INSTRUMENTS, Quantity
 from sim.rigs import load_rig, reference_rig, reference_rig_document
 from tests.diagnostics.synth import FULL, NO_FLOW, readings, record
 
@@ -242,3 +243,54 @@ def test_a_worn_seal_in_cold_oil_is_stored_at_its_worn_root(rig):
     healthy = diagnose(rig, [record(rig, {}, load=2100.0, temperature=-30.0)])
     assert healthy.answer == "healthy"
     assert healthy.direct["cc"].value == pytest.approx(83e-6, rel=1e-3)
+
+
+def _alternating(rig, scale: float, *, shift: float = 2.4) -> MeasurementRecord:
+    """A worn spool's full readings each moved by ``shift`` of its class σ, alternately
+    up and down, every uncertainty (readings, stated load and temperature) ``scale`` × its
+    class σ."""
+    vals = readings(rig, {"valve.cv": 45e-6}, 4200.0, 45.0)
+    out = {}
+    for j, f in enumerate(FULL):
+        inst = DEFAULT_INSTRUMENTS[f]
+        u = (inst.relative_bound * abs(vals[f]) + inst.absolute_bound) / np.sqrt(3.0)
+        out[f] = Quantity(vals[f] + shift * u * (-1) ** j, scale * u)
+    ut = DEFAULT_INSTRUMENTS["condition.oil_temperature"].absolute_bound / np.sqrt(3.0)
+    ul = DEFAULT_INSTRUMENTS["condition.load_force"].relative_bound * 4200.0 / np.sqrt(3.0)
+    cond = OperatingCondition.from_readings({"oil_temperature": Quantity(45.0, scale * ut),
+                                             "load_force": Quantity(4200.0, scale * ul)})
+    return MeasurementRecord.from_readings("rig-1", cond, out)
+
+
+def test_the_uncertainty_factor_is_where_the_best_fit_would_pass(rig):
+    """Readings 2.4 σ off in alternating signs: no fault explains them at their stated
+    uncertainties.  The result's factor s = √(χ²/limit) is the common factor on every
+    uncertainty at which the same fit passes: scaling the whole covariance by c² divides χ²
+    by c² and leaves the estimate, so s·c and χ²·c² stay put, the readings are explained
+    just above s and not just below it, and the statement gives s."""
+    d = diagnose(rig, [_alternating(rig, 1.0)])
+    assert not d.explained and d.fit is not None
+    s = d.fit.uncertainty_factor
+    assert s == pytest.approx(np.sqrt(d.fit.chi2 / d.fit.limit), rel=1e-12)
+    assert 1.0 < s < 1.5
+    assert f"were every uncertainty {s:.2f}× the stated one" in d.to_dict()["misfit"]
+    for c, explained in ((0.98 * s, False), (1.02 * s, True)):
+        again = diagnose(rig, [_alternating(rig, c)], model_rel=0.002 * c)
+        assert again.explained is explained
+        assert again.fit is not None and again.fit.hypothesis == d.fit.hypothesis
+        assert again.fit.chi2 * c * c == pytest.approx(d.fit.chi2, rel=1e-6)
+        assert again.fit.uncertainty_factor * c == pytest.approx(s, rel=1e-6)
+        for e, e0 in zip(again.top.parameters, d.top.parameters, strict=True):
+            assert e.value == pytest.approx(e0.value, rel=1e-6)
+
+
+def test_an_explained_fit_states_its_margin_and_a_far_misfit_a_large_factor(rig):
+    ok = diagnose(rig, [record(rig, {"valve.cv": 45e-6}, load=4200.0, temperature=45.0)])
+    assert ok.explained and ok.fit is not None
+    assert 0.0 <= ok.fit.uncertainty_factor <= 1.0
+    assert "stated uncertainties" not in ok.fit.statement
+    vals = readings(rig, {"valve.cv": 45e-6}, 2100.0, 40.0)
+    far = diagnose(rig, [record(rig, {}, values=dict(vals, p1=vals["p1"] * 1.05))])
+    assert far.fit is not None and far.fit.uncertainty_factor > 3.0
+    # beyond 3 no instrument's noise: the statement does not offer it as a cause
+    assert "scatter more than their stated" not in far.to_dict()["misfit"]
