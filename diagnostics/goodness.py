@@ -24,7 +24,12 @@ beyond the prior ranges, a rig document that does not describe the rig, or a fau
 sensor.  The result then names the readings that disagree most with the best fit, in
 standard uncertainties, and points to the discrepancy workflow (``hydrodiag discover``,
 ``POST /discrepancy``) and to commissioning (``POST /rigs/{id}/commission``,
-``hydrodiag commission``) instead of naming a fault.
+``hydrodiag commission``) instead of naming a fault.  Two things help a reader tell the
+causes apart: the common factor on every uncertainty at which the reported fit would pass,
+√(χ²/limit) (:func:`uncertainty_factor`; offered as "instruments noisier than stated" up to
+:data:`NOISE_FACTOR`), and the mistakes in the readings' units — absolute pressures, a
+temperature in °F — that, undone, let a hypothesis explain them
+(:mod:`diagnostics.unit_mistakes`, tried only here).
 
 The covariance of the readings carries the stated load's and oil temperature's
 uncertainty with the sensitivity of the *healthy* rig's readings

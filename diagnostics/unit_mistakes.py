@@ -13,8 +13,8 @@ hypothesis without saying why:
 When the readings are not explained, each mistake the records can carry is undone and the
 same ranking and test run on the corrected records (a ranking of its own: the corrected
 ones are other readings at, for a temperature, another condition); a mistake is *named*
-when the corrected readings pass the χ² and range tests at the same level, with the
-hypothesis that then explains them.  Nothing is corrected in the answer — it stays "not
+when the corrected readings pass the χ² and range tests at the same level, with the most
+probable hypothesis on them and its probability.  Nothing is corrected in the answer — it stays "not
 explained": a named mistake is the likely cause, not a measured fact — and the statement
 says which mistake explains the readings and what to send instead.
 
