@@ -91,6 +91,9 @@ class Noise:
 #: errors within the stated class (the diagnosis's own assumption)
 AS_STATED = Noise()
 
+#: the gauge pressures a record carries (what an absolute-pressure mistake moves)
+_PRESSURES = ("pump_pressure", "p1", "p2")
+
 
 @dataclass
 class Case:
@@ -276,9 +279,6 @@ def noisy(values: dict[str, float], fields: tuple[str, ...], rng: np.random.Gene
         atmosphere = float(rng.uniform(95e3, 103e3))
         out |= {f: v + atmosphere for f, v in out.items() if f in _PRESSURES}
     return out
-
-
-_PRESSURES = ("pump_pressure", "p1", "p2")
 
 
 def stated_condition(load: float, temp: float, rng: np.random.Generator,
