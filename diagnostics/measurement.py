@@ -147,6 +147,16 @@ def _check_quantity(path: str, q: Quantity, *, lower: float | None = None,
                                field=path)
 
 
+def _other_units(value: float) -> str:
+    """What an oil temperature above the range reads as in kelvin or °F, where that lies
+    within :data:`OIL_TEMPERATURE_RANGE` ("" where neither does): the unit mistakes a
+    logger makes (313 for 40 °C; 140 for 60 °C)."""
+    lo, hi = OIL_TEMPERATURE_RANGE
+    reads = [f"{c:.1f} °C if it is in {unit}" for c, unit in
+             ((value - 273.15, "K"), ((value - 32.0) / 1.8, "°F")) if lo <= c <= hi]
+    return f" ({value:g} reads as {' or '.join(reads)}: send °C)" if reads else ""
+
+
 @dataclass(frozen=True, slots=True)
 class OperatingCondition:
     """Operating condition of a record.
@@ -178,7 +188,8 @@ class OperatingCondition:
         _check_quantity("condition.oil_temperature", self.oil_temperature, lower=lo,
                         what="oil temperature", unit="°C")
         if self.oil_temperature.value > hi:
-            raise MeasurementError(f"oil temperature above {hi:g} °C is not a plausible reading",
+            raise MeasurementError(f"oil temperature above {hi:g} °C is not a plausible reading"
+                                   + _other_units(self.oil_temperature.value),
                                    field="condition.oil_temperature")
         if self.oil_temperature.u > MAX_TEMPERATURE_U:
             # a 1e9 K uncertainty was stepped through the viscosity law and refused as "oil

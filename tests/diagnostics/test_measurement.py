@@ -126,6 +126,14 @@ def test_condition_validation() -> None:
     with pytest.raises(MeasurementError) as err:
         OperatingCondition.from_readings({"oil_temperature": 400.0, "load_force": 2.1e3})
     assert err.value.field == "condition.oil_temperature"
+    assert err.value.message == ("oil temperature above 150 °C is not a plausible reading "
+                                 "(400 reads as 126.9 °C if it is in K: send °C)")
+    with pytest.raises(MeasurementError) as err:  # 60 °C logged in °F
+        OperatingCondition.from_readings({"oil_temperature": 160.0, "load_force": 2.1e3})
+    assert err.value.message.endswith("(160 reads as 71.1 °C if it is in °F: send °C)")
+    with pytest.raises(MeasurementError) as err:  # neither
+        OperatingCondition.from_readings({"oil_temperature": 900.0, "load_force": 2.1e3})
+    assert err.value.message == "oil temperature above 150 °C is not a plausible reading"
     with pytest.raises(MeasurementError) as err:
         OperatingCondition.from_readings({"back_pressure": 1e6})
     assert err.value.field == "condition.oil_temperature"
