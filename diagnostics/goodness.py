@@ -24,12 +24,10 @@ beyond the prior ranges, a rig document that does not describe the rig, or a fau
 sensor.  The result then names the readings that disagree most with the best fit, in
 standard uncertainties, and points to the discrepancy workflow (``hydrodiag discover``,
 ``POST /discrepancy``) and to commissioning (``POST /rigs/{id}/commission``,
-``hydrodiag commission``) instead of naming a fault.  Two things help a reader tell the
-causes apart: the common factor on every uncertainty at which the reported fit would pass,
-√(χ²/limit) (:func:`uncertainty_factor`; offered as "instruments noisier than stated" up to
-:data:`NOISE_FACTOR`), and the mistakes in the readings' units — absolute pressures, a
-temperature in °F — that, undone, let a hypothesis explain them
-(:mod:`diagnostics.unit_mistakes`, tried only here).
+``hydrodiag commission``) instead of naming a fault.  It states the factor on every
+uncertainty at which the reported fit would pass (:func:`uncertainty_factor`; "noisier
+instruments" up to :data:`NOISE_FACTOR`) and the unit mistakes — absolute pressures, °F —
+that, undone, let a hypothesis explain the readings (:mod:`diagnostics.unit_mistakes`).
 
 The covariance of the readings carries the stated load's and oil temperature's
 uncertainty with the sensitivity of the *healthy* rig's readings
@@ -64,7 +62,13 @@ import numpy as np
 import numpy.typing as npt
 from scipy.special import chdtrc, gammaincinv
 
-from diagnostics.goodness_result import Disagreement, GoodnessOfFit, UnitMistake
+from diagnostics.goodness_result import (
+    NOISE_FACTOR,
+    Disagreement,
+    GoodnessOfFit,
+    UnitMistake,
+    uncertainty_factor,
+)
 from diagnostics.hypotheses import PARAMETERS
 from diagnostics.range_test import RangeTest, pinned, range_test, range_tests
 from diagnostics.ranking import HypothesisFit, Ranker
@@ -78,12 +82,6 @@ TEST_LEVEL = 0.01
 
 #: a reading is named as disagreeing beyond this many standard uncertainties [σ]
 DISAGREE_SIGMA = 3.0
-
-#: the largest uncertainty factor at which a statement offers noisier instruments than
-#: stated as a cause [-]: in ``make accuracy`` the answers not explained when every
-#: instrument scatters within 2 × its class have factors ≤ 2 in 97-100 %
-#: (:mod:`benchmarks.accuracy_noise`); a factor beyond 3 is no instrument's noise
-NOISE_FACTOR = 3.0
 
 
 def _p_value(chi2: float, dof: int) -> float:
@@ -247,17 +245,6 @@ def goodness_of_fit(ranker: Ranker, fits: list[HypothesisFit], level: float = TE
     return GoodnessOfFit(best.name, float(chi2), max(dof, 0), level, limit, p,
                          explained, dis, statement, bool(testable or not explained), tests,
                          beyond, incipient, factor, found)
-
-
-def uncertainty_factor(chi2: float, limit: float) -> float | None:
-    """The common factor s on every uncertainty of the readings (instruments, stated
-    conditions, model) at which a fit's χ² reaches the test's ``limit`` [-]: √(χ²/limit)
-    (scaling the whole covariance by s² divides χ² by s² and leaves the estimate where it
-    is); None where χ² is not finite.  Above 1, how much more than stated the readings
-    would have to scatter for the fit to explain them; below 1, the fit's margin."""
-    if not (math.isfinite(chi2) and math.isfinite(limit)) or limit <= 0.0:
-        return None
-    return math.sqrt(max(chi2, 0.0) / limit)
 
 
 def _most_probable_clause(ranker: Ranker, cands: list[HypothesisFit], best: HypothesisFit,

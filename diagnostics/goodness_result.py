@@ -3,11 +3,19 @@ best-fitting observable hypothesis, its range tests, and the readings that disag
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 from diagnostics.range_test_result import RangeTest
 
-__all__ = ["Disagreement", "GoodnessOfFit", "UnitMistake"]
+__all__ = ["NOISE_FACTOR", "Disagreement", "GoodnessOfFit", "UnitMistake",
+           "uncertainty_factor"]
+
+#: the largest uncertainty factor at which a statement offers noisier instruments than
+#: stated as a cause [-]: in ``make accuracy`` the answers not explained when every
+#: instrument scatters within 2 × its class have factors ≤ 2 in 97-100 %
+#: (:mod:`benchmarks.accuracy_noise`); a factor beyond 3 is no instrument's noise
+NOISE_FACTOR = 3.0
 
 
 @dataclass
@@ -141,3 +149,14 @@ class GoodnessOfFit:
         and no value of the explaining fit below its worn range."""
         return (self.explained and self.testable and not self.beyond_range
                 and self.incipient is None)
+
+
+def uncertainty_factor(chi2: float, limit: float) -> float | None:
+    """The common factor s on every uncertainty of the readings (instruments, stated
+    conditions, model) at which a fit's χ² reaches the test's ``limit`` [-]: √(χ²/limit)
+    (scaling the whole covariance by s² divides χ² by s² and leaves the estimate where it
+    is); None where χ² is not finite.  Above 1, how much more than stated the readings
+    would have to scatter for the fit to explain them; below 1, the fit's margin."""
+    if not (math.isfinite(chi2) and math.isfinite(limit)) or limit <= 0.0:
+        return None
+    return math.sqrt(max(chi2, 0.0) / limit)
