@@ -40,6 +40,7 @@ from diagnostics.commissioning import PRIOR_SD
 from diagnostics.cycle_readings import phase_reading
 from diagnostics.evidence import FLEET_PRIOR
 from diagnostics.hypotheses import PARAMETERS
+from diagnostics.measurement import PRESSURE_FIELDS
 from diagnostics.quantity import DEFAULT_INSTRUMENTS
 from diagnostics.signatures import evaluator
 from sim.cycle import run_cycle
@@ -90,9 +91,6 @@ class Noise:
 
 #: errors within the stated class (the diagnosis's own assumption)
 AS_STATED = Noise()
-
-#: the gauge pressures a record carries (what an absolute-pressure mistake moves)
-_PRESSURES = ("pump_pressure", "p1", "p2")
 
 
 @dataclass
@@ -277,7 +275,7 @@ def noisy(values: dict[str, float], fields: tuple[str, ...], rng: np.random.Gene
         out[f] = values[f] + noise.draw(rng, half)
     if noise.mistake == "absolute_pressure":
         atmosphere = float(rng.uniform(95e3, 103e3))
-        out |= {f: v + atmosphere for f, v in out.items() if f in _PRESSURES}
+        out |= {f: v + atmosphere for f, v in out.items() if f in PRESSURE_FIELDS}
     return out
 
 

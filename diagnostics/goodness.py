@@ -196,7 +196,7 @@ def goodness_of_fit(ranker: Ranker, fits: list[HypothesisFit], level: float = TE
         testable, p, _, best, dof = max(scored, key=lambda s: (s[0], s[1], -s[2]))
         chi2 = best.chi2
     limit = chi2_limit(level, dof) if dof >= 1 else math.inf
-    factor = uncertainty_factor(chi2, chi2_limit(level, dof if dof >= 1 else ranker.n_obs))
+    factor = uncertainty_factor(chi2, limit if dof >= 1 else chi2_limit(level, ranker.n_obs))
     # a relief setting that cannot open anywhere in its prior is unobservable, yet one
     # below the prior's lowest can: readings nothing explains are tested for it too (a
     # relief at 0.2 × nominal read "relief_setting: not observable" and nothing beyond

@@ -47,6 +47,7 @@ __all__ = [
     "MIN_GAUGE_PRESSURE",
     "MIN_PRESSURE_READING",
     "OIL_TEMPERATURE_RANGE",
+    "PRESSURE_FIELDS",
     "InstrumentClass",
     "MeasurementRecord",
     "OperatingCondition",
@@ -237,11 +238,12 @@ class OperatingCondition:
         return cls(**kwargs)
 
 
-_PRESSURE_FIELDS = ("pump_pressure", "p1", "p2")
+#: the record's gauge pressures [Pa]
+PRESSURE_FIELDS = ("pump_pressure", "p1", "p2")
 _FLOW_FIELDS = ("flow_B", "flow_C", "pump_flow")
 _SPEED_FIELDS = ("speed_work", "speed_return")
 _POSITIVE_FIELDS = ("duration_work", "duration_return", "stroke", "velocity_ratio")
-_MEASURED = _PRESSURE_FIELDS + _FLOW_FIELDS + _SPEED_FIELDS + _POSITIVE_FIELDS
+_MEASURED = PRESSURE_FIELDS + _FLOW_FIELDS + _SPEED_FIELDS + _POSITIVE_FIELDS
 
 
 @dataclass(frozen=True, slots=True)
@@ -301,7 +303,7 @@ class MeasurementRecord:
             raise MeasurementError("a record must name its rig", field="rig_id")
         if not isinstance(self.condition, OperatingCondition):
             raise MeasurementError("expected an OperatingCondition", field="condition")
-        for name in _PRESSURE_FIELDS:
+        for name in PRESSURE_FIELDS:
             self._check(name, lower=MIN_GAUGE_PRESSURE, what="gauge pressure",
                         upper=MAX_GAUGE_PRESSURE, unit="Pa")
         for name in _FLOW_FIELDS:

@@ -3,7 +3,7 @@ commissioning (:mod:`diagnostics.commissioning`) and of its conditional re-fits
 (:mod:`diagnostics.commissioning_nuisance`).
 
 Minimises ``Φ(z) = Σ r_i(z)² + Σ_j (z_j / s_j)²`` over the ``free`` coordinates of z (the
-others held), z = ln(θ/θ₀) with prior ``z_j ~ N(0, s_j²)``; each step is clipped to
+others held), z = ln(θ/θ₀) with prior ``z_j ~ N(0, s_j²)``; z is kept within
 ±4 s_j.  Forward-difference Jacobian of step 1e-5 in z; the damping divided by 10 on a
 step that lowers Φ and multiplied by 10 on one that does not (or where the rig has no
 steady point, :class:`~sim.errors.SimulationError`); converged when a step moves z by

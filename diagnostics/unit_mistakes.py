@@ -35,7 +35,7 @@ from diagnostics.condition_interval import check_singles
 from diagnostics.evidence_at_fit import evidence_at_fit
 from diagnostics.goodness import goodness_of_fit
 from diagnostics.goodness_result import UnitMistake
-from diagnostics.measurement import MeasurementRecord
+from diagnostics.measurement import PRESSURE_FIELDS, MeasurementRecord
 from diagnostics.observations import RigLimits, observe
 from diagnostics.quantity import Quantity
 from diagnostics.ranking import Method, Ranker
@@ -51,12 +51,9 @@ ATMOSPHERE_U = 10_000.0 / math.sqrt(3.0)
 #: oil temperatures a °F reading is taken for when converted [°C]
 _CELSIUS_RANGE = (0.0, 90.0)
 
-_PRESSURES = ("pump_pressure", "p1", "p2")
-
-
 def _gauge(record: MeasurementRecord) -> MeasurementRecord | None:
     changes = {}
-    for name in _PRESSURES:
+    for name in PRESSURE_FIELDS:
         q: Quantity | None = getattr(record, name)
         if q is not None:
             changes[name] = Quantity(q.value - ATMOSPHERE, math.hypot(q.u, ATMOSPHERE_U))

@@ -9,13 +9,12 @@ import pytest
 from diagnostics.condition_interval import check_singles
 from diagnostics.diagnose import diagnose
 from diagnostics.goodness import goodness_of_fit
+from diagnostics.measurement import PRESSURE_FIELDS
 from diagnostics.observations import observe, rig_limits
 from diagnostics.ranking import Ranker
 from diagnostics.unit_mistakes import ATMOSPHERE, ATMOSPHERE_U
 from sim.rigs import reference_rig
 from tests.diagnostics.synth import FULL, NO_FLOW, readings, record
-
-_PRESSURES = ("pump_pressure", "p1", "p2")
 
 
 @pytest.fixture(scope="module")
@@ -37,7 +36,7 @@ def test_absolute_pressures_are_named_with_the_fault_they_hide(rig, fields, faul
     pressure reads 2.2 bar — and the answer names the mistake, with the hypothesis that
     explains the readings once an atmosphere is taken off."""
     vals = readings(rig, faults, 4200.0, 45.0)
-    absolute = dict(vals, **{k: vals[k] + 98.7e3 for k in _PRESSURES})
+    absolute = dict(vals, **{k: vals[k] + 98.7e3 for k in PRESSURE_FIELDS})
     d = diagnose(rig, [record(rig, {}, load=4200.0, temperature=45.0, fields=fields,
                               values=absolute, rng=np.random.default_rng(2))])
     assert not d.explained and d.fit is not None
