@@ -35,13 +35,22 @@ __all__ = ["diagnose"]
 _out = WideWhenPiped()
 
 
-def _diagnose_body(document: Any, *, joint: bool, store: bool) -> dict[str, Any]:
+def _diagnose_body(document: Any, *, joint: bool, store: bool,
+                   share: float | None = None) -> dict[str, Any]:
     if isinstance(document, list):
-        return {"records": document, "joint": joint, "store": store}
-    if isinstance(document, dict) and ("record" in document or "records" in document):
-        return {**document, "store": store and document.get("store", True),
+        body = {"records": document, "joint": joint, "store": store}
+    elif isinstance(document, dict) and ("record" in document or "records" in document):
+        body = {**document, "store": store and document.get("store", True),
                 "joint": joint or document.get("joint", False)}
-    return {"record": document, "store": store}
+    else:
+        body = {"record": document, "store": store}
+    if share is not None:  # every record that states no share of its own
+        for key in ("record", "records"):
+            items = body.get(key)
+            for item in items if isinstance(items, list) else [items]:
+                if isinstance(item, dict):
+                    item.setdefault("calibration_share", share)
+    return body
 
 
 #: suffixes of a measured cycle's file, gzip-compressed or not (the import path of
@@ -75,6 +84,12 @@ def diagnose(
         help="Clock time at which a cycle FILE's t reads 0, ISO 8601 with zone \\[UTC]: the "
         "records are diagnosed as measured then.")] = None,
     joint: Annotated[bool, typer.Option(help="Diagnose all records together.")] = False,
+    calibration_share: Annotated[float | None, typer.Option(
+        min=0.0, max=1.0,
+        help="Share of each stated variance that is the instrument's calibration error, "
+        "the same in every record of a --joint visit (1: the records were read by the "
+        "same instruments; 0: independent errors) \\[-], for every record that states "
+        "none.")] = None,
     store: Annotated[bool, typer.Option(help="Keep records and results in the history.")
                      ] = True,
     as_json: Annotated[bool, typer.Option("--json", help="Print the API's JSON answer.")] = False,
@@ -113,8 +128,8 @@ def diagnose(
     # the file is read and checked before the store is opened: a missing or bad file made
     # a new store in the current folder first, then was refused (a CLI pass)
     if not cycles:
-        request = validated(DiagnoseRequest, _diagnose_body(load_document(str(file)),
-                                                            joint=joint, store=store))
+        request = validated(DiagnoseRequest, _diagnose_body(
+            load_document(str(file)), joint=joint, store=store, share=calibration_share))
     elif file is not None and not Path(file).is_file():
         raise InputError(f"cannot read {file}: no such file", field="FILE")
     with store_session() as session, steps() as progress:
@@ -132,7 +147,7 @@ def diagnose(
         if cycles:
             request = validated(DiagnoseRequest, _diagnose_body(
                 [r.body for r in read] if joint or len(read) > 1 else read[0].body,
-                joint=joint, store=store))
+                joint=joint, store=store, share=calibration_share))
         task = progress.add_task("diagnosing", total=None)
         now = utcnow()
         response = response_of(request, diagnose_request(session, rigs, request, now), now)

@@ -153,6 +153,11 @@ def commission(
         "--beyond-prior",
         help="Store a fit that moves a parameter more than 3 prior σ from the document's "
         "value (refused otherwise: the records may hold wear the fit would absorb).")] = False,
+    calibration_share: Annotated[float | None, typer.Option(
+        min=0.0, max=1.0,
+        help="Share of each stated variance that is the instrument's calibration error, "
+        "the same in every record (1: read by the same instruments; 0: independent "
+        "errors) \\[-], for every record that states none.")] = None,
 ) -> None:
     """Fit rig RIG's uncertain parameters to FILE's healthy records and store the result as
     a new rig version, as POST /rigs/{id}/commission does."""
@@ -172,6 +177,10 @@ def commission(
         body["parameters"] = parameter
     if beyond_prior:
         body["beyond_prior"] = True
+    if calibration_share is not None and isinstance(body["records"], list):
+        body["records"] = [r | {"calibration_share": r.get("calibration_share",
+                                                           calibration_share)}
+                           if isinstance(r, dict) else r for r in body["records"]]
     request = validated(CommissionRequest, body, _COMMISSION_OPTIONS)
     with store_session() as session, steps() as progress:
         task = progress.add_task("commissioning", total=None)

@@ -513,7 +513,8 @@ def main() -> None:
     joint = joint_suite(n_joint, rng, stored_estimate)
     # its own draws: the figures above stay those of the seed
     noise = noise_study(40 if light else 200, 10 if light else 120,
-                        np.random.default_rng([seed, 1]), run_suites, rows, stored_estimate)
+                        np.random.default_rng([seed, 1]), run_suites, rows, stored_estimate,
+                        n_commission=20 if light else 200)
     goals = issue_targets(rows, comm)
     targets.table("issue 11's targets", goals)
     wall = time.perf_counter() - t_start

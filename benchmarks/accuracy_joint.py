@@ -18,14 +18,19 @@ flow meters) where single records were not.
 With ``shared=True`` the visit's records share their instruments' errors: each instrument
 (every reading's, the load cell, the thermometer) is off by one gain within its class
 bound, drawn once per visit (:class:`VisitInstruments`: a calibration error, what a class
-bound mostly is), and the sensor sets read the same instruments.  The diagnosis treats a
-visit's records as independent, so this variant measures what that assumption costs
+bound mostly is), and the sensor sets read the same instruments.  Each visit is diagnosed
+twice on the same readings: as independent records (what the diagnosis assumes unless told:
+what that assumption costs) and with each record stating ``calibration_share`` 1 (its
+stated uncertainties are its instruments' calibration errors,
+:mod:`diagnostics.shared_errors`), figures under ``"stated"``
 (:mod:`benchmarks.accuracy_noise`).
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -34,16 +39,19 @@ from benchmarks.accuracy_cases import (
     Case,
     differential_document,
     draw_fault,
+    misspecified_rig,
     noisy,
     stated_condition,
     transient_readings,
 )
+from diagnostics.commissioning import commission
 from diagnostics.diagnose import Diagnosis, diagnose
 from diagnostics.measurement import MeasurementRecord, OperatingCondition
 from diagnostics.quantity import DEFAULT_INSTRUMENTS
-from sim.rigs import Rig, load_rig, reference_rig
+from sim.rigs import Rig, load_rig, reference_rig, reference_rig_document
 
-__all__ = ["JOINT_LOADS", "JOINT_SETS", "VisitInstruments", "joint_suite"]
+__all__ = ["JOINT_LOADS", "JOINT_SETS", "VisitInstruments", "joint_suite",
+           "shared_commissioning"]
 
 #: the loads of a visit [N]
 JOINT_LOADS = (2100.0, 4200.0, 6300.0)
@@ -83,12 +91,15 @@ class VisitInstruments:
 
 
 def joint_suite(n: int, rng: np.random.Generator, stored: StoredFn, *,
-                shared: bool = False) -> dict[str, Any]:
+                shared: bool = False, tell: bool | None = None) -> dict[str, Any]:
     """``n`` visits (module docstring); ``stored`` scores the history's estimate of a
     case (:func:`benchmarks.accuracy.stored_estimate`); ``shared``: the records share
-    their instruments' errors.  Prints one line per sensor set."""
+    their instruments' errors; ``tell`` (default: ``shared``): diagnose each visit again
+    with its records stating ``calibration_share`` 1.  Prints one line per sensor set."""
+    tell = shared if tell is None else tell
     rigs = {"preset": reference_rig(), "differential": load_rig(differential_document())}
     rows: dict[str, list[dict[str, float]]] = {s: [] for s in JOINT_SETS}
+    told: dict[str, list[dict[str, float]]] = {s: [] for s in JOINT_SETS}
     for k in range(n):
         rname = ("preset", "differential")[k % 2]
         rig = rigs[rname]
@@ -108,20 +119,107 @@ def joint_suite(n: int, rng: np.random.Generator, stored: StoredFn, *,
                 read = noisy(values, fields, rng) if visit is None else \
                     visit.read(values, fields)
                 records.append(MeasurementRecord.from_readings("visit", cond, read))
-            d = diagnose(rig, records)
-            st = stored(case, d, rig, stated[0][1]) or {"stored": 0.0, "held": float("nan")}
-            rows[sname].append({"explained": float(d.explained),
-                                "top1": float(d.explained and d.top.name == truth),
-                                "stored": st["stored"], "held": st["held"]})
+            shares = [records, [replace(r, calibration_share=1.0) for r in records]] \
+                if tell else [records]
+            for into, recs in zip((rows, told), shares, strict=False):
+                d = diagnose(rig, recs)
+                st = stored(case, d, rig, stated[0][1]) or {"stored": 0.0,
+                                                            "held": float("nan")}
+                into[sname].append({"explained": float(d.explained),
+                                    "top1": float(d.explained and d.top.name == truth),
+                                    "stored": st["stored"], "held": st["held"],
+                                    "width": _width(st)})
     out: dict[str, Any] = {"visits": n}
     for sname, rs in rows.items():
-        held = [r["held"] for r in rs if r["stored"]]
-        fig = {"not_explained": 1.0 - float(np.mean([r["explained"] for r in rs])),
-               "top1": float(np.mean([r["top1"] for r in rs])),
-               "stored": float(np.mean([r["stored"] for r in rs])),
-               "stored_held": float(np.mean(held)) if held else float("nan")}
-        out[sname] = fig
-        print(f"  {sname:16s} not explained {fig['not_explained']:.3f}, top-1 "
-              f"{fig['top1']:.3f}, the truth's component stored {fig['stored']:.3f}, its "
-              f"95 % interval holds the truth {fig['stored_held']:.3f}")
+        out[sname] = _figures(sname, rs)
+    if tell:
+        print("  the same visits, each record stating calibration_share 1:")
+        out["stated"] = {sname: _figures(sname, rs) for sname, rs in told.items()}
     return out
+
+
+def shared_commissioning(seeds: int, rng: np.random.Generator) -> dict[str, Any]:
+    """Commissioning from six healthy records (three loads, 35 and 55 °C) of a rig built
+    off its document (:func:`benchmarks.accuracy_cases.misspecified_rig`, as the
+    commissioning suite draws it) whose instruments share one error each per visit
+    (:class:`VisitInstruments`), commissioned as independent records and stating
+    ``calibration_share`` 1: the share of pinned parameters whose 95 % interval holds the
+    truth, and their median width in ln θ.  Prints two lines."""
+    docs = {"preset": reference_rig_document(), "differential": differential_document()}
+    rows: dict[str, list[tuple[float, float]]] = {"independent": [], "stated": []}
+    for k in range(seeds):
+        rname = ("preset", "differential")[k % 2]
+        model = load_rig(docs[rname])
+        actual, factors = misspecified_rig(docs[rname], rng)
+        visit = VisitInstruments(rng)
+        records = []
+        for load in JOINT_LOADS:
+            for temp in (35.0, 55.0):
+                tr = transient_readings(actual, {}, load, temp)
+                if tr.stalled:
+                    continue
+                sl, st = visit.stated(load, temp)
+                cond = OperatingCondition.from_readings({"oil_temperature": st,
+                                                         "load_force": sl})
+                records.append(MeasurementRecord.from_readings(
+                    "commission", cond, visit.read(tr.values, (*JOINT_SETS["full"],
+                                                               "pump_flow"))))
+        for key, share in (("independent", 0.0), ("stated", 1.0)):
+            fit = commission(model, [replace(r, calibration_share=share) for r in records])
+            rows[key] += [(float(p.low <= p.before * factors[p.name] <= p.high),
+                           math.log(p.high / p.low)) for p in fit.parameters if p.identifiable]
+    out: dict[str, Any] = {"seeds": seeds}
+    for key, rs in rows.items():
+        out[key] = {"pinned": len(rs), "held": float(np.mean([h for h, _ in rs])),
+                    "median_ln_width": float(np.median([w for _, w in rs]))}
+        print(f"  commissioning, {key:11s}: {out[key]['held']:.3f} of {len(rs)} pinned "
+              f"parameters' intervals hold the truth (median width "
+              f"{out[key]['median_ln_width']:.3f} in ln θ)")
+    return out
+
+
+def _width(st: dict[str, Any]) -> float:
+    """The stored interval's width relative to its estimate [-] (NaN where none)."""
+    if not st["stored"]:
+        return float("nan")
+    return float((st["high"] - st["low"]) / st["value"])
+
+
+def _figures(sname: str, rs: list[dict[str, float]]) -> dict[str, float]:
+    """One sensor set's figures (module docstring), printed on one line."""
+    held = [r["held"] for r in rs if r["stored"]]
+    widths = [r["width"] for r in rs if r["stored"]]
+    fig = {"not_explained": 1.0 - float(np.mean([r["explained"] for r in rs])),
+           "top1": float(np.mean([r["top1"] for r in rs])),
+           "stored": float(np.mean([r["stored"] for r in rs])),
+           "stored_held": float(np.mean(held)) if held else float("nan"),
+           "median_width": float(np.median(widths)) if widths else float("nan")}
+    print(f"  {sname:16s} not explained {fig['not_explained']:.3f}, top-1 "
+          f"{fig['top1']:.3f}, the truth's component stored {fig['stored']:.3f}, its "
+          f"95 % interval holds the truth {fig['stored_held']:.3f} (median width "
+          f"{100 * fig['median_width']:.2f} % of the estimate)")
+    return fig
+
+
+def main(argv: list[str] | None = None) -> None:
+    """``python -m benchmarks.accuracy_joint [N] [SEED] [--independent]``: N visits (default
+    120) whose records share their instruments' errors (``--independent``: do not), each
+    diagnosed as independent and stating ``calibration_share`` 1; the figures as JSON on
+    the last line."""
+    import argparse
+    import json
+
+    from benchmarks.accuracy import stored_estimate
+
+    parser = argparse.ArgumentParser(description=main.__doc__)
+    parser.add_argument("n", nargs="?", type=int, default=120)
+    parser.add_argument("seed", nargs="?", type=int, default=11)
+    parser.add_argument("--independent", action="store_true")
+    args = parser.parse_args(argv)
+    out = joint_suite(args.n, np.random.default_rng(args.seed), stored_estimate,
+                      shared=not args.independent, tell=True)
+    print(json.dumps(out))
+
+
+if __name__ == "__main__":
+    main()

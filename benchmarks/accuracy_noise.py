@@ -23,8 +23,11 @@ Here, with the records still stating the class:
   that was not made;
 * **errors shared by a visit's records**: joint visits whose three records share each
   instrument's error (a calibration error, drawn once per visit:
-  :class:`benchmarks.accuracy_joint.VisitInstruments`) next to the same visits with
-  independent errors, what the diagnosis assumes.
+  :class:`benchmarks.accuracy_joint.VisitInstruments`), diagnosed as independent records
+  and with each record stating ``calibration_share`` 1 (:mod:`diagnostics.shared_errors`),
+  next to visits with independent errors; and commissionings from records that share
+  their instruments' errors, likewise both ways
+  (:func:`benchmarks.accuracy_joint.shared_commissioning`).
 
 Figures per sensor set: cases, grouped top-1, truth in the ambiguity set, share not
 explained (all cases, and the healthy rigs), and for the answers not explained the median
@@ -41,7 +44,7 @@ import numpy as np
 
 from benchmarks.accuracy_cases import Noise
 from benchmarks.accuracy_figures import summarise
-from benchmarks.accuracy_joint import StoredFn, joint_suite
+from benchmarks.accuracy_joint import StoredFn, joint_suite, shared_commissioning
 
 __all__ = ["NOISIER", "noise_study"]
 
@@ -98,11 +101,13 @@ def _line(label: str, sname: str, f: dict[str, Any]) -> str:
 
 
 def noise_study(n: int, n_joint: int, rng: np.random.Generator, run: RunFn, main_rows: Rows,
-                stored: StoredFn) -> dict[str, Any]:
+                stored: StoredFn, n_commission: int = 0) -> dict[str, Any]:
     """The module docstring's suites: ``n`` in-library cases per error draw (``run``:
     :func:`benchmarks.accuracy.run_suites`), the main study's ``main_rows`` as the
     class's own and the misfits' reference, ``n_joint`` visits with shared and with
-    independent errors.  Prints a table; returns its figures."""
+    independent errors, ``n_commission`` commissionings from records whose instruments
+    share their errors (their own draws, after the others).  Prints a table; returns its
+    figures."""
     out: dict[str, Any] = {"cases": n, "noise_like_factor": NOISE_LIKE, "in_library": {},
                            "misfit_suites": {}}
     print(f"\ninstruments as they are ({n} in-library cases per draw, preset and differential "
@@ -138,4 +143,8 @@ def noise_study(n: int, n_joint: int, rng: np.random.Generator, run: RunFn, main
           "assumes):")
     independent = joint_suite(n_joint, rng.spawn(1)[0], stored)
     out["joint"] = {"visits": n_joint, "shared": shared, "independent": independent}
+    if n_commission:
+        print(f"{n_commission} commissionings (six healthy records of a rig built off its "
+              "document), each instrument's error shared by the records:")
+        out["commissioning_shared"] = shared_commissioning(n_commission, rng.spawn(1)[0])
     return out

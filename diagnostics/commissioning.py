@@ -49,6 +49,7 @@ from diagnostics.measurement import MeasurementRecord
 from diagnostics.observations import RecordObservations, observe
 from diagnostics.prior_fit import fit_with_prior
 from diagnostics.record_model import condition_moves, condition_terms
+from diagnostics.shared_errors import visit_covariance
 from diagnostics.signatures import OBSERVABLES
 from sim.errors import MeasurementError, SimulationError
 from sim.rigs import Rig
@@ -120,8 +121,13 @@ class _Problem:
         self.evs = [SteadyEvaluator(rig, o.condition, names) for o in obs]
         self.idx = [np.array([OBSERVABLES.index(n) for n in o.names]) for o in obs]
         self.model_rel = model_rel
-        self.weights = [self._whitening(rig, ev, o, idx)
-                        for ev, o, idx in zip(self.evs, obs, self.idx, strict=True)]
+        parts = [self._covariance(rig, ev, o, idx)
+                 for ev, o, idx in zip(self.evs, obs, self.idx, strict=True)]
+        self.weights = [whitening(diag, terms) for diag, terms in parts]
+        # records read by the same instruments: the visit's whole covariance
+        # (:mod:`diagnostics.shared_errors`), else each record's own
+        stacked = visit_covariance(obs, [d for d, _ in parts], [t for _, t in parts])
+        self.visit = None if stacked is None else whitening(*stacked)[1]
         for i, (o, (sigma, _)) in enumerate(zip(obs, self.weights, strict=True)):
             for name, value, sig in zip(o.names, o.values, sigma, strict=True):
                 if not sig > 0.0:
@@ -134,18 +140,25 @@ class _Problem:
                         "does not move has no speed or velocity ratio to read: leave the "
                         "reading out, or state its uncertainty", field=f"records[{i}].{name}")
 
-    def _whitening(self, rig: Rig, ev: SteadyEvaluator, o: RecordObservations, idx: Arr
-                   ) -> tuple[Arr, Arr]:
-        """(marginal σ, whitening matrix W) of one record (class docstring)."""
+    def _covariance(self, rig: Rig, ev: SteadyEvaluator, o: RecordObservations, idx: Arr
+                    ) -> tuple[Arr, list[Arr]]:
+        """(independent variances, condition terms) of one record's covariance (class
+        docstring) [SI², SI]."""
         pred = ev.vector(self.theta0, OBSERVABLES)[idx]
         rel = self.model_rel * pred
         diag = o.u**2 + np.where(np.isfinite(rel), rel, 0.0) ** 2
         terms = condition_terms(pred, condition_moves(o), lambda c: SteadyEvaluator(
             rig, c, self.names).vector(self.theta0, OBSERVABLES)[idx])
-        return whitening(diag, terms)
+        return diag, terms
 
     def residuals(self, z: Arr) -> Arr:
         theta = self.theta0 * np.exp(z)
+        if self.visit is not None:
+            whole = np.concatenate([o.values - ev.vector(theta, OBSERVABLES)[idx]
+                                    for ev, o, idx in zip(self.evs, self.obs, self.idx,
+                                                          strict=True)])
+            if np.all(np.isfinite(whole)):
+                return np.asarray(self.visit @ whole)
         out = []
         for ev, o, idx, (sigma, white) in zip(self.evs, self.obs, self.idx, self.weights,
                                               strict=True):

@@ -52,6 +52,7 @@ import numpy.typing as npt
 
 from diagnostics.hypotheses import PARAMETERS, FaultParameter
 from diagnostics.record_model import condition_moves
+from diagnostics.shared_errors import shared_spread
 from sim.errors import ParameterError
 
 if TYPE_CHECKING:
@@ -142,13 +143,16 @@ def condition_sigmas(ranker: Ranker, params: Sequence[FaultParameter], zs: Arr,
         parts = estimate_parts(ranker, params, zs)
     num = np.zeros(n)
     den = np.zeros(n)
+    weights: list[Arr] = []  # per record, G = C_h⁻¹ J of each estimate (0: not used)
     for m, (y0, jac, terms) in zip(ranker.models, parts, strict=True):
+        g_all = np.zeros((n, m.idx.size))
         whole = np.isfinite(jac).all(axis=1) & np.isfinite(y0).all(axis=1)
         for t in terms:
             whole &= np.isfinite(t).all(axis=1)
         if whole.any():  # every reading predicted: all estimates at once
             # rows: the estimates' weights C_h⁻¹ J, with C_h⁻¹ = WᵀW (the fit's whitening)
             w = (jac[whole] @ m.white.T) @ m.white
+            g_all[whole] = w
             num[whole] += np.sum(m.diag * w * w, axis=1) + sum(
                 np.sum(t[whole] * w, axis=1) ** 2 for t in terms)
             den[whole] += np.sum(jac[whole] * w, axis=1)
@@ -163,12 +167,18 @@ def condition_sigmas(ranker: Ranker, params: Sequence[FaultParameter], zs: Arr,
             if not ok.any():
                 continue
             j = jac[i][ok]
-            weights = np.linalg.solve(fitted[np.ix_(ok, ok)], j)
+            w_ok = np.linalg.solve(fitted[np.ix_(ok, ok)], j)
+            g_all[i, ok] = w_ok
             cov = np.diag(m.diag[ok])
             for c in cols:
                 cov += np.outer(c[ok], c[ok])
-            num[i] += float(weights @ cov @ weights)
-            den[i] += float(j @ weights)
+            num[i] += float(w_ok @ cov @ w_ok)
+            den[i] += float(j @ w_ok)
+        weights.append(g_all[:, :, None])
+    # the instrument errors a joint visit's records share (:mod:`diagnostics.shared_errors`)
+    cross = shared_spread(ranker.models, weights, [terms for _, _, terms in parts])
+    if cross is not None:
+        num = np.maximum(num + cross[:, 0, 0], 0.0)
     with np.errstate(divide="ignore", invalid="ignore"):
         return np.where(den > 0.0, np.sqrt(num) / den, math.inf)
 

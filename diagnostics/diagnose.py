@@ -178,6 +178,7 @@ def diagnose(rig: Rig, records: Sequence[MeasurementRecord], *, model_rel: float
         slip = tuple(rig_slip_coefficient(rig, theta, k) for k in (est.value, est.low, est.high))
     n = sum(len(o.names) for o in obs)
     notes.extend(_temperature_notes(rig, records))
+    notes.extend(_share_notes(records))
     notes.extend(n for r in records for n in slow_stroke_notes(r, limits))
     if not math.isfinite(fits[0].log_evidence):
         notes.append("no hypothesis explains the records")
@@ -192,6 +193,21 @@ def diagnose(rig: Rig, records: Sequence[MeasurementRecord], *, model_rel: float
                      notes, gof, regime_notes(ranker), profiled,
                      _reading_sigma(ranker, fits[0].name,
                                     {**single_sigma, **at_fit.pair_reading_sigma}))
+
+
+def _share_notes(records: Sequence[MeasurementRecord]) -> list[str]:
+    """What a stated ``calibration_share`` did (:mod:`diagnostics.shared_errors`)."""
+    shares = [r.calibration_share for r in records]
+    if not any(shares):
+        return []
+    if sum(1 for f in shares if f > 0.0) < 2:
+        return ["calibration_share counts between the records of a joint diagnosis that "
+                "state it (an instrument error they share); "
+                + ("one record has no other to share it with" if len(records) == 1 else
+                   "one record alone states it here") + ": nothing changed"]
+    return ["the intervals count the instruments' errors the records share (calibration_share "
+            + ", ".join(f"{f:g}" for f in shares) + "); the probabilities take the records "
+            "as independent"]
 
 
 def _temperature_notes(rig: Rig, records: Sequence[MeasurementRecord]) -> list[str]:

@@ -62,6 +62,7 @@ from diagnostics.evidence import map_log_evidence, map_support, posterior
 from diagnostics.hypotheses import PARAMETERS
 from diagnostics.pair_evidence import laplace_evidence
 from diagnostics.ranking import HypothesisFit, rank_order
+from diagnostics.shared_errors import shared_spread
 
 if TYPE_CHECKING:
     from diagnostics.ranking import Ranker
@@ -212,6 +213,7 @@ def pair_at_fit(ranker: Ranker, pairs: list[HypothesisFit], parts: Parts | None 
     log_det = np.zeros(n_pairs)
     ok = np.ones(n_pairs, dtype=bool)
     marginal: list[Arr] = []
+    g_records: list[Arr] = []
     for m, (y0, jac, terms) in zip(ranker.models, parts, strict=True):
         chol, formed = _factors(covariances(m, terms, n_pairs))
         r = m.obs.values - y0
@@ -221,10 +223,16 @@ def pair_at_fit(ranker: Ranker, pairs: list[HypothesisFit], parts: Parts | None 
                                       np.linalg.solve(chol, both))):
             cost[w] += np.sum(whitened[:, :, 0] ** 2, axis=1)
             jacs[w].append(whitened[:, :, 1:])
-        weights = np.swapaxes(chol, 1, 2) @ np.einsum("ji,pjk->pik", m.white, jacs[0][-1])
+        g = np.einsum("ji,pjk->pik", m.white, jacs[0][-1])  # C_h⁻¹ J
+        g_records.append(g)
+        weights = np.swapaxes(chol, 1, 2) @ g
         spread += np.swapaxes(weights, 1, 2) @ weights  # (Lᵀ C_h⁻¹ J)ᵀ (Lᵀ C_h⁻¹ J)
         marginal.append(np.sqrt(np.sum(chol * chol, axis=2)))  # √diag(L Lᵀ)
         log_det += _log_det_change(m, chol)
+    # the instrument errors a joint visit's records share (:mod:`diagnostics.shared_errors`)
+    cross = shared_spread(ranker.models, g_records, [terms for _, _, terms in parts])
+    if cross is not None:
+        spread = spread + cross
     out: list[tuple[float, Arr, list[Arr], float] | None] = []
     for j, (ps, z) in enumerate(zip(params, zs, strict=True)):
         if not ok[j]:

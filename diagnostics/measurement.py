@@ -279,6 +279,10 @@ class MeasurementRecord:
         Distance travelled in each phase [m] (the full stroke for end-to-end cycles).
     velocity_ratio
         Working-phase over return-phase average speed [-] (paper 002 §3).
+    calibration_share
+        Share of each stated variance (readings, load, oil temperature, pump speed) that is
+        the instrument's calibration error, the same in every record of a joint diagnosis
+        the instrument reads [-], 0-1 (:mod:`diagnostics.shared_errors`; 0: independent).
     """
 
     rig_id: str
@@ -297,10 +301,18 @@ class MeasurementRecord:
     duration_return: Quantity | None = None
     stroke: Quantity | None = None
     velocity_ratio: Quantity | None = None
+    calibration_share: float = 0.0
 
     def __post_init__(self) -> None:
         if not (isinstance(self.rig_id, str) and self.rig_id.strip()):
             raise MeasurementError("a record must name its rig", field="rig_id")
+        share = self.calibration_share
+        if isinstance(share, bool) or not isinstance(share, (int, float)) \
+                or not 0.0 <= float(share) <= 1.0:    # NaN fails too
+            raise MeasurementError(
+                f"the share of each stated variance that is an instrument's calibration "
+                f"error is a number from 0 to 1, got {share!r}", field="calibration_share")
+        object.__setattr__(self, "calibration_share", float(share))
         if not isinstance(self.condition, OperatingCondition):
             raise MeasurementError("expected an OperatingCondition", field="condition")
         for name in PRESSURE_FIELDS:
@@ -362,8 +374,8 @@ class MeasurementRecord:
     def from_readings(cls, rig_id: str, condition: OperatingCondition,
                       readings: Mapping[str, float | Quantity], *, rig_name: str | None = None,
                       taken_at: datetime | None = None,
-                      instruments: Mapping[str, InstrumentClass] = DEFAULT_INSTRUMENTS
-                      ) -> MeasurementRecord:
+                      instruments: Mapping[str, InstrumentClass] = DEFAULT_INSTRUMENTS,
+                      calibration_share: float = 0.0) -> MeasurementRecord:
         """Build a record from ``{"flow_C": 4.6e-4, "p1": Quantity(12e5, 2e3), ...}``.
 
         Bare numbers become readings of the field's instrument class (``instruments``,
@@ -377,7 +389,7 @@ class MeasurementRecord:
                 raise MeasurementError("unknown measurement field", field=name)
             kwargs[name] = _as_quantity(name, item, instruments)
         return cls(rig_id=rig_id, condition=condition, rig_name=rig_name, taken_at=taken_at,
-                   **kwargs)
+                   calibration_share=calibration_share, **kwargs)
 
     def speed(self, phase: Literal["work", "return"], stroke: Quantity | None = None
               ) -> Quantity | None:

@@ -36,7 +36,7 @@ from diagnostics.signatures import OBSERVABLES, SignatureMaps, evaluator, signat
 from sim.errors import MeasurementError, ParameterError, SimulationError
 from sim.rigs import Condition, Rig
 
-__all__ = ["RecordModel", "condition_moves", "condition_terms"]
+__all__ = ["RecordModel", "condition_kinds", "condition_moves", "condition_terms"]
 
 Arr = npt.NDArray[np.float64]
 
@@ -49,25 +49,39 @@ def condition_moves(obs: RecordObservations
     """For each stated condition of ``obs`` that is uncertain: its standard uncertainty
     [K or N/Pa] and the moved conditions of a one-sided difference, with their steps
     (±1 K of oil temperature; ±1 % of the load, or of the back pressure of a rig without
-    a load; ±1 % of a stated pump speed)."""
+    a load; ±1 % of a stated pump speed), in :func:`condition_kinds` order."""
+    return [(u, moved) for _, u, moved in _labelled_moves(obs)]
+
+
+def condition_kinds(obs: RecordObservations) -> list[str]:
+    """The instrument of each of :func:`condition_moves` (``"oil_temperature"``,
+    ``"load"``, ``"pump_speed"``): the thermometer, load cell or tachometer whose error a
+    joint visit's records may share (:mod:`diagnostics.shared_errors`)."""
+    return [kind for kind, _, _ in _labelled_moves(obs)]
+
+
+def _labelled_moves(obs: RecordObservations
+                    ) -> list[tuple[str, float, list[tuple[Condition, float]]]]:
     u_t, u_f, u_s = condition_sigma(obs.record)
     cond = obs.condition
-    out: list[tuple[float, list[tuple[Condition, float]]]] = []
+    out: list[tuple[str, float, list[tuple[Condition, float]]]] = []
     if u_t > 0:
-        out.append((u_t, [(replace(cond, oil_temperature=cond.oil_temperature + s), s)
-                          for s in (1.0, -1.0)]))
+        out.append(("oil_temperature", u_t,
+                    [(replace(cond, oil_temperature=cond.oil_temperature + s), s)
+                     for s in (1.0, -1.0)]))
     if u_f > 0:
         if cond.load > 0:
             step = 0.01 * cond.load
-            out.append((u_f, [(replace(cond, load=cond.load + s), s) for s in (step, -step)]))
+            out.append(("load", u_f,
+                        [(replace(cond, load=cond.load + s), s) for s in (step, -step)]))
         else:
             step = 0.01 * max(cond.back_pressure, 1e5)
-            out.append((u_f, [(replace(cond, back_pressure=cond.back_pressure + s), s)
-                              for s in (step, -step)]))
+            out.append(("load", u_f, [(replace(cond, back_pressure=cond.back_pressure + s), s)
+                                      for s in (step, -step)]))
     if u_s > 0 and cond.pump_speed is not None and cond.pump_speed > 0:
         step = 0.01 * cond.pump_speed
-        out.append((u_s, [(replace(cond, pump_speed=cond.pump_speed + s), s)
-                          for s in (step, -step)]))
+        out.append(("pump_speed", u_s, [(replace(cond, pump_speed=cond.pump_speed + s), s)
+                                        for s in (step, -step)]))
     return out
 
 

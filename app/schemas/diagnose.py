@@ -209,6 +209,15 @@ class MeasurementIn(RequestModel):
                                                2.33)
     stroke: Reading | None = _reading("m", MEASURED_FIELDS["stroke"][1], 0.5)
     velocity_ratio: Reading | None = _reading("1", MEASURED_FIELDS["velocity_ratio"][1], 0.84)
+    calibration_share: float | None = Field(
+        default=None, ge=0.0, le=1.0,
+        description="Share of each stated variance (readings, load, oil temperature, pump "
+        "speed) that is the instrument's calibration error, the same in every record of a "
+        "`joint` diagnosis that the instrument reads: the visit's intervals then count it "
+        "(1: the stated uncertainties are calibration errors, as an instrument class "
+        "mostly is); null or 0: errors independent between records [-]",
+        examples=[None],
+    )
 
     model_config = ConfigDict(json_schema_extra={"examples": [_EXAMPLE_RECORD]})
 

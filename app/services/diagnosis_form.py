@@ -57,6 +57,9 @@ class RecordForm(NamedTuple):
     condition, readings
         The operating condition's and the measured readings given, by field name in the
         schema's order (:data:`ReadingForm` each).
+    calibration_share
+        The share of each stated variance that is a calibration error shared by a joint
+        visit's records [-], or ``None`` where not given (0).
     """
 
     path: str
@@ -66,6 +69,7 @@ class RecordForm(NamedTuple):
     series_id: int | None
     condition: dict[str, ReadingForm]
     readings: dict[str, ReadingForm]
+    calibration_share: float | None = None
 
 
 class RequestForm(NamedTuple):
@@ -100,7 +104,8 @@ def _readings(model: MeasurementIn | ConditionIn, names: tuple[str, ...]
 def record_form(data: MeasurementIn, path: str) -> RecordForm:
     """The form of one validated record at ``path`` in its request."""
     return RecordForm(path, data.rig_id, data.rig_version, data.measured_at, data.series_id,
-                      _readings(data.condition, CONDITION_FIELDS), _readings(data, _MEASURED))
+                      _readings(data.condition, CONDITION_FIELDS), _readings(data, _MEASURED),
+                      data.calibration_share)
 
 
 def request_form(request: DiagnoseRequest) -> RequestForm:
@@ -153,7 +158,8 @@ def measurement_record(form: RecordForm, *, rig_name: str, measured_at: datetime
         return MeasurementRecord.from_readings(
             str(form.rig_id), condition,
             {name: _quantity(r) for name, r in form.readings.items()},
-            rig_name=rig_name, taken_at=measured_at)
+            rig_name=rig_name, taken_at=measured_at,
+            calibration_share=form.calibration_share or 0.0)
     except MeasurementError as exc:
         raise MeasurementError(exc.message, field=prefixed(form.path, exc.field)) from None
 
@@ -181,5 +187,7 @@ def stored_document(form: RecordForm, measured_at: datetime) -> Mapping[str, Any
     document["condition"] = {name: _reading_document(r) for name, r in form.condition.items()}
     for name, reading in form.readings.items():
         document[name] = _reading_document(reading)
+    if form.calibration_share is not None:
+        document["calibration_share"] = form.calibration_share
     document["measured_at"] = iso_utc(measured_at)
     return document

@@ -69,6 +69,7 @@ def to_record(data: MeasurementIn, *, path: str, rig_name: str,
         return MeasurementRecord.from_readings(
             str(data.rig_id), condition, _readings(data, tuple(MEASURED_FIELDS)),
             rig_name=rig_name, taken_at=measured_at,
+            calibration_share=data.calibration_share or 0.0,
         )
     except MeasurementError as exc:
         raise MeasurementError(exc.message, field=prefixed(path, exc.field)) from None

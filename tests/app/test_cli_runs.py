@@ -92,6 +92,16 @@ def test_diagnose_a_yaml_file_of_records(runner: CliRunner, tmp_path: Path) -> N
     assert bound and flat.count("at bound") == len(bound) + 1   # each, and the footnote
     assert "at bound: the fit sits on the healthy end of the hypothesis's worn range" in flat
     assert "pump_leak = " in flat and not re.search(r"pump_leak = [^,]*\) 1\b", flat)
+    # the two records read by the same instruments: their errors do not average out, so
+    # the interval is that of one record, √2 wider (diagnostics/shared_errors.py)
+    shared = json.loads(runner.invoke(cli, [
+        "diagnose", str(path), "--joint", "--no-store", "--json", "--calibration-share", "1"
+    ]).stdout)["diagnoses"][0]["result"]
+    (cv_shared,) = next(f for f in shared["hypotheses"] if f["name"] == "valve")["parameters"]
+    assert cv_shared["value"] == pytest.approx(cv["value"], rel=1e-12)
+    assert cv_shared["high"] - cv_shared["low"] > 1.3 * (cv["high"] - cv["low"])
+    over = runner.invoke(cli, ["diagnose", str(path), "--joint", "--calibration-share", "2"])
+    assert over.exit_code == 2 and "--calibration-share" in over.output, over.output
     assert store_count(Diagnosis) == 2
     path.write_text(yaml.safe_dump(record | {"flow_C": -1.0}))
     bad = runner.invoke(cli, ["diagnose", str(path)])

@@ -117,6 +117,22 @@ def test_cli_commission(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None
     assert body["version"] == body["from_version"] + 1
     assert {p["name"] for p in body["parameters"] if p["identifiable"]} >= {
         "cylinder.Lc", "valve.K"}
+    # the same records read by the same instruments, on a new store's rig 1 (the same
+    # document): the fit weighs the visit's whole covariance (diagnostics/shared_errors.py)
+    cli_store(monkeypatch, tmp_path / "store-shared")
+    shared = runner.invoke(cli, ["commission", str(path), "--rig", "1", "--json",
+                                 "--calibration-share", "1"])
+    assert shared.exit_code == 0, shared.output
+    for apart, told in zip(body["parameters"], json.loads(shared.stdout)["parameters"],
+                           strict=True):
+        assert told["name"] == apart["name"] and told["before"] == apart["before"]
+        if apart["identifiable"]:
+            assert (told["low"], told["high"]) != pytest.approx((apart["low"], apart["high"]),
+                                                                rel=1e-4)
+    over = runner.invoke(cli, ["commission", str(path), "--rig", "1", "--calibration-share",
+                               "-1"])
+    assert over.exit_code == 2 and "--calibration-share" in over.output, over.output
+    cli_store(monkeypatch, tmp_path / "store")
     table = runner.invoke(cli, ["commission", str(path), "--rig", "1", "--parameter",
                                 "valve.K"])
     assert table.exit_code == 0, table.output

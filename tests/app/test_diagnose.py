@@ -125,6 +125,36 @@ def test_a_joint_diagnosis_keeps_every_record_and_one_result(server: LiveServer)
     assert valve["high"] - valve["low"] < direct["high"] - direct["low"]
 
 
+def test_a_visit_whose_instruments_share_their_errors_states_wider_intervals(
+        server: LiveServer) -> None:
+    """The same two records of a worn spool, diagnosed jointly as independent and as read
+    by the same instruments (``calibration_share`` 1): the same name and estimate, the
+    valve's interval wider where the records' errors do not average out
+    (:mod:`diagnostics.shared_errors`); the history keeps each record's share."""
+    records = [simulated_record(server, WORN_VALVE, load=load) for load in (2100.0, 4200.0)]
+    answers = {}
+    for share in (None, 1.0):
+        sent = [r | ({} if share is None else {"calibration_share": share}) for r in records]
+        response = server.client.post("/diagnose", json={"records": sent, "joint": True},
+                                      headers=server.auth)
+        assert response.status_code == 200, response.text
+        (answers[share],) = response.json()["diagnoses"]
+    valves = {k: next(e for e in d["estimates"] if e["component"] == "valve")
+              for k, d in answers.items()}
+    assert answers[None]["top"] == answers[1.0]["top"] == "valve"
+    assert valves[1.0]["value"] == pytest.approx(valves[None]["value"], rel=1e-9)
+    width = {k: v["high"] - v["low"] for k, v in valves.items()}
+    assert width[1.0] > 1.2 * width[None]
+    assert valves[1.0]["low"] <= 60e-6 <= valves[1.0]["high"]
+    for mid in answers[1.0]["measurement_ids"]:
+        stored = server.client.get(f"/measurements/{mid}", headers=server.auth)
+        assert stored.status_code == 200, stored.text
+        assert stored.json()["record"]["calibration_share"] == 1.0
+    for mid in answers[None]["measurement_ids"]:
+        stored = server.client.get(f"/measurements/{mid}", headers=server.auth)
+        assert "calibration_share" not in stored.json()["record"]
+
+
 def test_a_record_without_a_version_means_the_latest_in_a_joint_visit(
         server: LiveServer) -> None:
     """One record stating version 1 and one stating none (both version 1, the latest) were
@@ -179,6 +209,9 @@ def test_a_joint_diagnosis_needs_one_rig(server: LiveServer) -> None:
         ({"speed_work": 0.18, "speed_return": 0.215, "velocity_ratio": 0.5},
          "records[1].velocity_ratio"),
         ({"rig_version": 0}, "records[1].rig_version"),
+        ({"calibration_share": 1.5}, "records[1].calibration_share"),
+        ({"calibration_share": -0.1}, "records[1].calibration_share"),
+        ({"calibration_share": "all"}, "records[1].calibration_share"),
     ],
 )
 def test_a_bad_record_is_422_naming_the_field_and_stores_nothing(

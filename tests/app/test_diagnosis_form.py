@@ -54,6 +54,8 @@ def _record(draw: st.DrawFn) -> dict[str, Any]:
             ["2026-05-01T08:00:00Z", "2026-05-01T10:00:00+02:00", "2026-05-01T08:00:00.25Z"]))
     for name in draw(st.lists(st.sampled_from(list(MEASURED_FIELDS)), unique=True)):
         record[name] = draw(_reading(name))
+    if draw(st.booleans()):
+        record["calibration_share"] = draw(st.sampled_from([0.0, 0.5, 1]))
     return record
 
 

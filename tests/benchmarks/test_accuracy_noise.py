@@ -62,10 +62,16 @@ def test_a_visits_instruments_keep_their_gain_across_records() -> None:
 
 def test_the_suites_run_end_to_end_and_report_every_draw() -> None:
     out = noise_study(2, 1, np.random.default_rng(11), run_suites,
-                      {"full": [], "no_flow_meters": [], "ratio_alone": []}, stored_estimate)
+                      {"full": [], "no_flow_meters": [], "ratio_alone": []}, stored_estimate,
+                      n_commission=1)
     assert set(out["in_library"]) == {"class, uniform (main)", *NOISIER}
     for label in NOISIER:
         for sname, fig in out["in_library"][label].items():
             assert fig["n"] == 2 and fig["server_errors"] == 0, (label, sname)
     assert out["joint"]["visits"] == 1
-    assert set(out["joint"]["shared"]) == {"visits", "full", "no_flow_meters"}
+    assert set(out["joint"]["shared"]) == {"visits", "full", "no_flow_meters", "stated"}
+    assert set(out["joint"]["shared"]["stated"]) == {"full", "no_flow_meters"}
+    assert set(out["joint"]["independent"]) == {"visits", "full", "no_flow_meters"}
+    comm = out["commissioning_shared"]
+    assert comm["seeds"] == 1 and comm["stated"]["pinned"] >= 3
+    assert 0.0 <= comm["stated"]["held"] <= 1.0
