@@ -64,17 +64,17 @@ def shares(models: Sequence[RecordModel]) -> list[float]:
 def shared_spread(models: Sequence[RecordModel], weights: Sequence[Arr],
                   terms: Sequence[Sequence[Arr]]) -> Arr | None:
     """The cross-record blocks the shared calibration errors add to the sandwich's ``B``
-    (module docstring), one ``(width, width)`` matrix per estimate [1/fitting coordinate²
-    × the weights' unit²]; None where no two records share an instrument error (fewer than
-    two records, or fewer than two that state a share).
+    (module docstring), one ``(width, width)`` matrix per estimate [1/fitting
+    coordinate²]; None where no two records share an instrument error (fewer than two
+    records, or fewer than two that state a share).
 
     Parameters
     ----------
     models
         The records (their readings' names and uncertainties ``u`` [SI], their share).
     weights
-        Per record, ``G_k`` of each estimate: ``(estimates, readings, width)`` [1/SI];
-        0 where the fit did not use a reading.
+        Per record, ``G_k`` of each estimate: ``(estimates, readings, width)`` [1/(SI ×
+        fitting coordinate)]; 0 where the fit did not use a reading.
     terms
         Per record, its condition terms ``s·u`` at each estimate ``(estimates, readings)``
         [SI] in :func:`~diagnostics.record_model.condition_kinds` order (NaN where
