@@ -9,7 +9,8 @@ leakage fault of seal, spool or pump drawn from its worn prior
 (:func:`benchmarks.accuracy_cases.draw_fault`), on the preset and the differential rig in
 turn, oil 25-60 °C.  Figures per sensor set (full, no flow meters): the share not
 explained (a single fault of the library: the right answer is a name), the share whose top
-answer is the truth, and — what the history keeps — the share with an estimate of the
+answer is the truth and the top answer's stated probability on average (above that share
+where the probabilities are over-confident), and — what the history keeps — the share with an estimate of the
 truth's component stored and the share of those whose 95 % interval holds the truth
 (:func:`benchmarks.accuracy.stored_estimate`).  The suite exists because a visit's three
 independent temperature statements once made worn seals "not explained" (5 of 30 without
@@ -127,6 +128,7 @@ def joint_suite(n: int, rng: np.random.Generator, stored: StoredFn, *,
                                                             "held": float("nan")}
                 into[sname].append({"explained": float(d.explained),
                                     "top1": float(d.explained and d.top.name == truth),
+                                    "p_top": d.top.probability if d.explained else 0.0,
                                     "stored": st["stored"], "held": st["held"],
                                     "width": _width(st)})
     out: dict[str, Any] = {"visits": n}
@@ -191,11 +193,13 @@ def _figures(sname: str, rs: list[dict[str, float]]) -> dict[str, float]:
     widths = [r["width"] for r in rs if r["stored"]]
     fig = {"not_explained": 1.0 - float(np.mean([r["explained"] for r in rs])),
            "top1": float(np.mean([r["top1"] for r in rs])),
+           "mean_p_top": float(np.mean([r["p_top"] for r in rs])),
            "stored": float(np.mean([r["stored"] for r in rs])),
            "stored_held": float(np.mean(held)) if held else float("nan"),
            "median_width": float(np.median(widths)) if widths else float("nan")}
     print(f"  {sname:16s} not explained {fig['not_explained']:.3f}, top-1 "
-          f"{fig['top1']:.3f}, the truth's component stored {fig['stored']:.3f}, its "
+          f"{fig['top1']:.3f} (its stated probability {fig['mean_p_top']:.3f} on average), "
+          f"the truth's component stored {fig['stored']:.3f}, its "
           f"95 % interval holds the truth {fig['stored_held']:.3f} (median width "
           f"{100 * fig['median_width']:.2f} % of the estimate)")
     return fig
