@@ -11,6 +11,7 @@ import typer
 from rich.markup import escape
 from rich.table import Table
 
+from app.cli_share import CalibrationShareOption, state_share
 from app.cli_support import (
     ColumnMapOption,
     SampleRateOption,
@@ -44,12 +45,8 @@ def _diagnose_body(document: Any, *, joint: bool, store: bool,
                 "joint": joint or document.get("joint", False)}
     else:
         body = {"record": document, "store": store}
-    if share is not None:  # every record that states no share of its own
-        for key in ("record", "records"):
-            items = body.get(key)
-            for item in items if isinstance(items, list) else [items]:
-                if isinstance(item, dict):
-                    item.setdefault("calibration_share", share)
+    for key in ("record", "records"):
+        state_share(body.get(key), share)
     return body
 
 
@@ -84,12 +81,7 @@ def diagnose(
         help="Clock time at which a cycle FILE's t reads 0, ISO 8601 with zone \\[UTC]: the "
         "records are diagnosed as measured then.")] = None,
     joint: Annotated[bool, typer.Option(help="Diagnose all records together.")] = False,
-    calibration_share: Annotated[float | None, typer.Option(
-        min=0.0, max=1.0,
-        help="Share of each stated variance that is the instrument's calibration error, "
-        "the same in every record of a --joint visit (1: the records were read by the "
-        "same instruments; 0: independent errors) \\[-], for every record that states "
-        "none.")] = None,
+    calibration_share: CalibrationShareOption = None,
     store: Annotated[bool, typer.Option(help="Keep records and results in the history.")
                      ] = True,
     as_json: Annotated[bool, typer.Option("--json", help="Print the API's JSON answer.")] = False,

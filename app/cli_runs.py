@@ -22,6 +22,7 @@ from app.cli_calibrate import calibrate_cli
 from app.cli_diagnose import diagnose
 from app.cli_import import import_cli
 from app.cli_pump_map import calibrate_pump_map
+from app.cli_share import CalibrationShareOption, state_share
 from app.cli_support import (
     WideWhenPiped,
     as_option,
@@ -153,11 +154,7 @@ def commission(
         "--beyond-prior",
         help="Store a fit that moves a parameter more than 3 prior σ from the document's "
         "value (refused otherwise: the records may hold wear the fit would absorb).")] = False,
-    calibration_share: Annotated[float | None, typer.Option(
-        min=0.0, max=1.0,
-        help="Share of each stated variance that is the instrument's calibration error, "
-        "the same in every record (1: read by the same instruments; 0: independent "
-        "errors) \\[-], for every record that states none.")] = None,
+    calibration_share: CalibrationShareOption = None,
 ) -> None:
     """Fit rig RIG's uncertain parameters to FILE's healthy records and store the result as
     a new rig version, as POST /rigs/{id}/commission does."""
@@ -177,10 +174,7 @@ def commission(
         body["parameters"] = parameter
     if beyond_prior:
         body["beyond_prior"] = True
-    if calibration_share is not None and isinstance(body["records"], list):
-        body["records"] = [r | {"calibration_share": r.get("calibration_share",
-                                                           calibration_share)}
-                           if isinstance(r, dict) else r for r in body["records"]]
+    state_share(body["records"], calibration_share)
     request = validated(CommissionRequest, body, _COMMISSION_OPTIONS)
     with store_session() as session, steps() as progress:
         task = progress.add_task("commissioning", total=None)
