@@ -78,6 +78,17 @@ _EXAMPLE_RECORD: dict[str, Any] = {
 }
 
 
+#: one record of a visit at two loads read by the same instruments (a spool worn to 60 µm)
+_VISIT_RECORD: dict[str, Any] = {
+    "rig_id": 1,
+    "measured_at": "2026-11-22T08:30:00Z",
+    "condition": {"oil_temperature": 40.0, "load_force": 2100.0},
+    "pump_pressure": 14.5e5, "p1": 11.9e5, "p2": 1.2e5, "flow_B": 4.64e-4, "flow_C": 4.17e-4,
+    "speed_work": 0.188, "speed_return": 0.218,
+    "calibration_share": 1.0,
+}
+
+
 class ReadingIn(RequestModel):
     """A reading with its uncertainty; give ``u`` or ``bound``, or neither for the default.
 
@@ -228,6 +239,12 @@ class DiagnoseRequest(RequestModel):
     model_config = ConfigDict(json_schema_extra={"examples": [
         {"record": _EXAMPLE_RECORD},
         {"record": _EXAMPLE_RECORD, "store": False, "compact": True},
+        {"records": [_VISIT_RECORD, _VISIT_RECORD | {
+            "measured_at": "2026-11-22T08:32:00Z",
+            "condition": {"oil_temperature": 40.0, "load_force": 4200.0},
+            "pump_pressure": 24.3e5, "p1": 21.7e5, "p2": 1.18e5, "flow_B": 4.63e-4,
+            "flow_C": 3.79e-4, "speed_work": 0.161, "speed_return": 0.218}],
+         "joint": True, "store": False},
     ]})
 
     record: MeasurementIn | None = Field(

@@ -153,6 +153,15 @@ def test_a_visit_whose_instruments_share_their_errors_states_wider_intervals(
     for mid in answers[None]["measurement_ids"]:
         stored = server.client.get(f"/measurements/{mid}", headers=server.auth)
         assert "calibration_share" not in stored.json()["record"]
+    assert [n for n in answers[1.0]["result"]["notes"] if n.startswith("the intervals count")]
+    # the schema's example of such a visit (a spool worn to 60 µm read at two loads)
+    spec = server.client.get("/openapi.json").json()
+    (example,) = [e for e in spec["components"]["schemas"]["DiagnoseRequest"]["examples"]
+                  if e.get("joint")]
+    response = server.client.post("/diagnose", json=example, headers=server.auth)
+    assert response.status_code == 200, response.text
+    (visit,) = response.json()["diagnoses"]
+    assert visit["top"] == "valve" and visit["result"]["n_records"] == 2
 
 
 def test_a_record_without_a_version_means_the_latest_in_a_joint_visit(
