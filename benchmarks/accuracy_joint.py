@@ -10,11 +10,11 @@ leakage fault of seal, spool or pump drawn from its worn prior
 turn, oil 25-60 °C.  Figures per sensor set (full, no flow meters): the share not
 explained (a single fault of the library: the right answer is a name), the share whose top
 answer is the truth and the top answer's stated probability on average (above that share
-where the probabilities are over-confident), and — what the history keeps — the share with an estimate of the
-truth's component stored and the share of those whose 95 % interval holds the truth
-(:func:`benchmarks.accuracy.stored_estimate`).  The suite exists because a visit's three
-independent temperature statements once made worn seals "not explained" (5 of 30 without
-flow meters) where single records were not.
+where the probabilities are over-confident), and — what the history keeps — the share
+with an estimate of the truth's component stored, the share of those whose 95 % interval
+holds the truth (:func:`benchmarks.accuracy.stored_estimate`) and their median width.
+The suite exists because a visit's three independent temperature statements once made
+worn seals "not explained" (5 of 30 without flow meters) where single records were not.
 
 With ``shared=True`` the visit's records share their instruments' errors: each instrument
 (every reading's, the load cell, the thermometer) is off by one gain within its class
