@@ -32,6 +32,7 @@ from diagnostics.measurement import MeasurementRecord
 from diagnostics.observations import RecordObservations, observe, rig_limits
 from diagnostics.ranking import HypothesisFit, Method, ParameterEstimate, Ranker
 from diagnostics.ratio_index import RatioIndex, ratio_index
+from diagnostics.shared_errors import sharing
 from diagnostics.signatures import OBSERVABLES, SignatureMaps
 from diagnostics.slip import rig_slip_coefficient
 from diagnostics.uncertainty import Estimate
@@ -200,7 +201,7 @@ def _share_notes(records: Sequence[MeasurementRecord]) -> list[str]:
     shares = [r.calibration_share for r in records]
     if not any(shares):
         return []
-    if sum(1 for f in shares if f > 0.0) < 2:
+    if not sharing(shares):
         return ["calibration_share counts between the records of a joint diagnosis that "
                 "state it (an instrument error they share); "
                 + ("one record has no other to share it with" if len(records) == 1 else

@@ -10,7 +10,9 @@ that the share f of each of its stated variances is such a calibration error:
 
 .. math:: e_{k,c} = \\sqrt{f_k}\\,u_{k,c}\\,b_c + \\sqrt{1 - f_k}\\,u_{k,c}\\,ε_{k,c}
 
-with ``b_c`` one standard normal per instrument for the visit and ``ε`` one per reading;
+with ``b_c`` one standard normal per instrument for the visit and ``ε`` one per reading
+(the correlation that one instrument or standard used for several input estimates brings,
+GUM, JCGM 100:2008 §5.2 and F.1.2.3);
 a record's own covariance is unchanged (f·u² + (1 − f)·u² = u²) and two records k ≠ k'
 gain the covariance ``√(f_k f_k')·u_{k,c}·u_{k',c}`` between their readings of one
 instrument.  The instrument of a reading is its quantity (``P1``, ``Q_B``, … one meter per
@@ -51,7 +53,7 @@ if TYPE_CHECKING:
     from diagnostics.observations import RecordObservations
     from diagnostics.record_model import RecordModel
 
-__all__ = ["shared_spread", "shares", "visit_covariance"]
+__all__ = ["shared_spread", "shares", "sharing", "visit_covariance"]
 
 Arr = npt.NDArray[np.float64]
 
@@ -59,6 +61,11 @@ Arr = npt.NDArray[np.float64]
 def shares(models: Sequence[RecordModel]) -> list[float]:
     """Each record's stated ``calibration_share`` [-]."""
     return [float(m.obs.record.calibration_share) for m in models]
+
+
+def sharing(f: Sequence[float]) -> bool:
+    """Whether records with shares ``f`` [-] share any error: at least two state one."""
+    return sum(1 for x in f if x > 0.0) >= 2
 
 
 def shared_spread(models: Sequence[RecordModel], weights: Sequence[Arr],
@@ -81,7 +88,7 @@ def shared_spread(models: Sequence[RecordModel], weights: Sequence[Arr],
         unknown: counted only where the weight is not 0).
     """
     f = shares(models)
-    if sum(1 for x in f if x > 0.0) < 2:
+    if not sharing(f):
         return None
     n_est, _, width = weights[0].shape
     total: dict[str, Arr] = {}
@@ -123,7 +130,7 @@ def visit_covariance(obs: Sequence[RecordObservations], diags: Sequence[Arr],
         :func:`~diagnostics.record_model.condition_kinds` order.
     """
     f = [float(o.record.calibration_share) for o in obs]
-    if sum(1 for x in f if x > 0.0) < 2:
+    if not sharing(f):
         return None
     sizes = [len(o.names) for o in obs]
     starts = np.concatenate([[0], np.cumsum(sizes)])
