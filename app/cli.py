@@ -31,6 +31,7 @@ from app.cli_db import db_cli
 from app.cli_discover import register as register_discover
 from app.cli_history import history_cli
 from app.cli_jobs import jobs_cli
+from app.cli_pump_leak import register as register_pump_leak
 from app.cli_report import report_cli
 from app.cli_rigs import rigs_cli
 from app.cli_runs import register
@@ -310,6 +311,7 @@ def keys_rotate(
 register(cli)
 cli.add_typer(report_cli, name="report")
 register_discover(cli)
+register_pump_leak(cli)
 register_batch(cli)
 unwrap_help(cli)
 use_command_class(cli)

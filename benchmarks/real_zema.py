@@ -21,6 +21,9 @@ map's, and as its last line one JSON object with every figure.
    temperature sensor of the envelope (TS1-TS4), the pressure law of the leak (G = Δq/Δp^a,
    a = 0, ½, 1), a viscosity exponent b (G·μ^b) fitted label-free inside change-point
    segments, and, as a sensitivity table only (never used to choose), G·μ^b on a grid.
+   Then the service's answer (``POST /rigs/{rig_id}/pump-leak``, ``hydrodiag pump-leak``:
+   :mod:`diagnostics.real.monitor` with its defaults), scored with its steps against the
+   label's switches (:mod:`benchmarks.real_zema_monitor`, JSON ``service_estimate``).
 3. Accumulator gas volume from the oil stored at the load steps, the steps chosen by a
    rule fixed before scoring (:mod:`benchmarks.real_zema_program`).
 4. Valve switching time from the pressure step at the valve's switching, on all cycles at
@@ -38,6 +41,7 @@ import numpy as np
 import numpy.typing as npt
 
 from benchmarks.real_zema_confound import accumulator_corrected
+from benchmarks.real_zema_monitor import service_estimate
 from benchmarks.real_zema_program import accumulator, valve_lag
 from diagnostics.real.accumulator import step_volumes
 from diagnostics.real.leakage import (
@@ -306,6 +310,7 @@ def zema(light: bool) -> dict[str, object]:
     lk = _leakage(points, labels, light, full)
     mu = dynamic_viscosity(Fluid(), np.array([p.theta for p in points]))
     shunt = _shunt(records, points, mu, labels, full)
+    service = service_estimate(records, labels, light)
     acc = accumulator(records, labels, float(shunt["relaxation_s"]))  # type: ignore[arg-type]
     valve = valve_lag(records, labels)
     sc: LeakageScore = lk["score"]  # type: ignore[assignment]
@@ -345,7 +350,7 @@ def zema(light: bool) -> dict[str, object]:
         "cooler_confound": {"deficit_by_cooler_and_class": lk["deficit_by_cooler_and_class"],
                             "variants": lk["variants"],
                             "within_segment_b": lk["within_segment_b"]},
-        "shunt_model": shunt, "accumulator": acc, "valve": valve,
+        "shunt_model": shunt, "service_estimate": service, "accumulator": acc, "valve": valve,
         "targets": _targets(hd),
         "time_ratio_estimate_to_import": t_est / t_import,
     }

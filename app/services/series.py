@@ -35,7 +35,7 @@ from diagnostics.timeseries import (
     column_entry,
     read_series,
 )
-from sim.errors import ConflictError, InputError
+from sim.errors import ConflictError, InputError, NotFoundError
 
 __all__ = [
     "MAX_SERIES_BYTES",
@@ -355,10 +355,16 @@ def stored_records(session: Session, rig_id: int, ids: Sequence[int], *,
         raise InputError("give at least one stored series id", field=field)
     if len(set(ids)) != len(ids):
         raise InputError("a series id is given twice", field=field)
-    rows = [get_or_raise(session, MeasuredSeries, i, what="series", field=field) for i in ids]
+    found = {r.id: r for r in session.scalars(  # one query: a campaign is thousands
+        select(MeasuredSeries).where(MeasuredSeries.id.in_(ids)))}
+    missing = [i for i in ids if i not in found]
+    if missing:
+        raise NotFoundError(f"no series with id {missing[0]}", field=field)
+    rows = [found[i] for i in ids]
     other = [r.id for r in rows if r.rig_id != rig_id]
     if other:
-        raise InputError(f"series {', '.join(map(str, other))} "
+        more = f" and {len(other) - 10} more" if len(other) > 10 else ""
+        raise InputError(f"series {', '.join(map(str, other[:10]))}{more} "
                          f"{'belongs' if len(other) == 1 else 'belong'} to another rig, not rig "
                          f"{rig_id}", field=field)
     return [as_record(r) for r in rows]

@@ -258,8 +258,9 @@ def component_trends(
         resolved.rig.require_cycle("a trend")  # analyst's pass, 500 series stored)
     except CircuitError as exc:
         raise CircuitError(f"{exc.message} It has no diagnosis history to trend: its pump's "
-                           "leak per cycle is estimated from its plateaus by "
-                           "diagnostics.real.shunt (docs/real-data.md)",
+                           "leak per stored cycle and the leak's shifts are estimated from "
+                           f"its plateaus by POST /rigs/{rig_id}/pump-leak (hydrodiag "
+                           "pump-leak; diagnostics.real.monitor, docs/real-data.md)",
                            field=exc.field) from None
     if component is not None:
         names = [component]

@@ -56,13 +56,15 @@ Arr = npt.NDArray[np.float64]
 
 @dataclass(frozen=True, slots=True)
 class CyclePoint:
-    """Plateau means of one cycle: pressure [Pa], flow [m³/s], oil temperature [°C], samples."""
+    """Plateau means of one cycle: pressure [Pa], flow [m³/s], oil temperature [°C], samples,
+    and the number of working plateaus pooled [-] (0 where not counted)."""
 
     name: str
     pressure: float
     flow: float
     theta: float
     n: int
+    plateaus: int = 0
 
 
 def record_plateaus(record: SeriesRecord, *, pressure: str = "p_pump",
@@ -162,7 +164,7 @@ def cycle_point(record: SeriesRecord, *, pressure: str = "p_pump", flow: str = "
     else:
         flow_mean = float(q[idx].mean())
     return CyclePoint(record.name, float(p[idx].mean()), float(flow_mean),
-                      float(theta[idx].mean()), int(idx.size))
+                      float(theta[idx].mean()), int(idx.size), len(keep))
 
 
 def leakage_estimates(points: Sequence[CyclePoint], *, window: float = 1.0,

@@ -96,7 +96,7 @@ def test_what_needs_a_cylinder_cycle_is_a_clear_422_and_stores_nothing(
     # analyst's pass); now why, and where its pump's leak is estimated
     trends = server.client.get(f"/rigs/{rig_id}/trends", params={"component": "pump"})
     _refused(trends, "a trend")
-    assert "diagnostics.real.shunt" in trends.json()["error"]["message"]
+    assert f"/rigs/{rig_id}/pump-leak" in trends.json()["error"]["message"]
     assert server.row_counts() == before
 
 

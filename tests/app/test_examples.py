@@ -81,6 +81,13 @@ def test_every_example_passes_its_operation(server: LiveServer) -> None:
     refused = []
     for method, path, kwargs in requests:
         response = server.client.request(method.upper(), path, **kwargs)
+        if (method, path) == ("post", "/rigs/1/pump-leak"):
+            # needs the stored cycles of a rig without a cylinder (the ZeMA rig), which the
+            # example store cannot hold: the reference rig's answer is the 422 that names
+            # them (tests/app/test_pump_leak.py runs the example on stored ZeMA cycles)
+            assert response.status_code == 422, response.text
+            assert response.json()["error"]["field"] == "series_ids", response.text
+            continue
         if response.status_code == 422 or response.status_code >= 500:
             refused.append(f"{method.upper()} {path}: {response.status_code} {response.text}")
     assert refused == []

@@ -86,7 +86,7 @@ def test_the_routes_of_the_service_are_there(spec: dict[str, Any]) -> None:
         "/rigs/{rig_id}/series", "/series/{series_id}", "/series/{series_id}/record",
         "/measurements",
         "/measurements/{measurement_id}", "/diagnoses", "/diagnoses/{diagnosis_id}",
-        "/discrepancy",
+        "/discrepancy", "/rigs/{rig_id}/pump-leak",
     }
 
 

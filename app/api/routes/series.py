@@ -9,6 +9,7 @@ from fastapi import APIRouter, File, Form, Path, Query, Response, UploadFile, st
 from app.api.deps import AdminKeyDep, PageDep, ReadAccess, RigsDep, SessionDep, WriteKeyDep
 from app.api.rendered import rendered
 from app.schemas.common import ERROR_RESPONSES, MAX_ID
+from app.schemas.pump_leak import PumpLeakRequest, PumpLeakResponse
 from app.schemas.series import (
     CYCLE_EXAMPLE,
     CycleQuery,
@@ -20,6 +21,7 @@ from app.schemas.series import (
     SeriesRecordPublic,
 )
 from app.services import series as service
+from app.services.pump_leak import pump_leak
 from app.services.series_record import stored_cycle_record
 
 __all__ = ["router"]
@@ -100,3 +102,17 @@ def series_record(series_id: SeriesId, query: Annotated[CycleQuery, Query()],
                                    window_start=p.window[0], window_end=p.window[1],
                                    travel=p.travel, speed=p.speed, averages=p.averages)
                 for p in read.readings.phases])
+
+
+@router.post("/rigs/{rig_id}/pump-leak",
+             summary="The pump's leak per stored cycle of a rig without a cylinder, and its "
+             "shifts")
+def estimate_pump_leak(rig_id: RigId, body: PumpLeakRequest, session: SessionDep,
+                       rigs: RigsDep, _key: WriteKeyDep) -> PumpLeakResponse:
+    """Each stored cycle's settled working plateaus against a healthy reference at its own
+    oil temperature and pressure: the orifice leak size K of Δq = K·√Δp + λ·Δp/μ (paper 000
+    eq. 6 form, diagnostics.real.monitor), whether it leaks, and the steps of K over the
+    cycles in time order.  Nothing is stored; a cycle without the pump pressure, working
+    flow and oil temperature, or without a working plateau, is a 422 naming its series.
+    A key with the write scope is needed, as for every POST but /simulate and /diagnose."""
+    return pump_leak(session, rigs, rig_id, body)
