@@ -10,10 +10,8 @@ pressure in l/min, the oil's range), each cycle with ``--cycles``, the whole ans
 
 from __future__ import annotations
 
-import itertools
 from typing import Annotated
 
-import numpy as np
 import typer
 from rich.markup import escape
 from rich.table import Table
@@ -106,23 +104,19 @@ def _summary(a: PumpLeakResponse) -> str:
 
 def segment_table(a: PumpLeakResponse) -> Table:
     """One row per segment of cycles between the steps of the leak."""
+    from app.services.pump_leak import segments
+
     table = Table("cycles", "first measured", "n", "leaking", r"median leak \[l/min]",
                   r"median K \[1e-9 m³/(s·Pa^½)]", r"oil \[°C]",
                   title="segments between the steps of the leak")
-    edges = [0, *(s.index for s in a.shifts), len(a.cycles)]
-    for lo, hi in itertools.pairwise(edges):
-        seg = a.cycles[lo:hi]
-        flows = [c.leak_flow for c in seg if c.leak_flow is not None]
-        sizes = [c.size for c in seg if c.size is not None]
-        theta = [c.oil_temperature for c in seg]
-        when = seg[0].measured_at
-        table.add_row(escape(f"{seg[0].name} … {seg[-1].name}" if len(seg) > 1
-                             else seg[0].name),
-                      "—" if when is None else when.isoformat(), str(len(seg)),
-                      str(sum(c.leaking for c in seg)),
-                      f"{np.median(flows) * _LPM:.3f}" if flows else "—",
-                      f"{np.median(sizes) * 1e9:.3f}" if sizes else "—",
-                      f"{min(theta):.1f}-{max(theta):.1f}")
+    for seg in segments(a):
+        when = seg.first.measured_at
+        table.add_row(escape(f"{seg.first.name} … {seg.last.name}" if seg.n > 1
+                             else seg.first.name),
+                      "—" if when is None else when.isoformat(), str(seg.n), str(seg.leaking),
+                      "—" if seg.leak_flow is None else f"{seg.leak_flow * _LPM:.3f}",
+                      "—" if seg.size is None else f"{seg.size * 1e9:.3f}",
+                      f"{seg.theta[0]:.1f}-{seg.theta[1]:.1f}")
     return table
 
 

@@ -14,6 +14,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from app.schemas.pump_leak import PumpLeakResponse
+from app.services.pump_leak import segments
 from app.services.trends import UNLIKELY, ComponentTrendOut
 from diagnostics.plots import (
     MUTED,
@@ -32,6 +34,7 @@ __all__ = [
     "SEVERITY_BANDS",
     "calibration_chart",
     "estimate_charts",
+    "leak_chart",
     "predicted_for",
     "probability_chart",
     "reading_chart",
@@ -358,3 +361,25 @@ def series_charts(record: SeriesRecord, *, most: int = 600) -> list[Chart]:
         title = f"{record.name}: {label.split(' [')[0]}"  # the legend names the channels
         charts.append(line_chart(title, "t [s]", label, series, vlines=marks))
     return charts
+
+
+def leak_chart(answer: PumpLeakResponse) -> Chart:
+    """The pump's leak at each cycle's plateau pressure [l/min] over the cycles in time
+    order (``POST /rigs/{id}/pump-leak``): leaking cycles and the others apart, and the
+    median of each segment between the steps as a stepped line."""
+    lpm = 6.0e4
+    x = np.arange(len(answer.cycles), dtype=float)
+    y = np.array([c.leak_flow * lpm if c.leak_flow is not None else math.nan
+                  for c in answer.cycles])
+    leaking = np.array([c.leaking for c in answer.cycles], dtype=bool)
+    series = [Series(x[~leaking], y[~leaking], "not leaking", kind="points", color=PALETTE[2]),
+              Series(x[leaking], y[leaking], "leaking", kind="points", color=PALETTE[1])]
+    sx, sy = [], []
+    for seg in segments(answer):
+        level = seg.leak_flow * lpm if seg.leak_flow is not None else math.nan
+        sx += [float(seg.start), float(seg.stop - 1)]
+        sy += [level, level]
+    series.append(Series(np.array(sx), np.array(sy), "median between steps", color=PALETTE[0]))
+    return line_chart(f"rig {answer.rig_id}: the pump's leak per cycle",
+                      "cycle, in time order [-]", "leak at the plateau pressure [l/min]",
+                      series, vlines=[(float(s.index) - 0.5, "step") for s in answer.shifts])

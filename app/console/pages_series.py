@@ -23,18 +23,20 @@ from pydantic import ValidationError
 from starlette.concurrency import run_in_threadpool
 
 from app.api.deps import RigsDep, SessionDep
-from app.console.charts import series_charts
+from app.console.charts import leak_chart, series_charts
 from app.console.numbers import decimal_text
 from app.console.routing import ConsoleKeyDep, new_router, write_refusal
 from app.console.web import SECURITY_HEADERS, page, redirect
 from app.errors import first_problem, status_for
 from app.schemas.common import MAX_ID
 from app.schemas.discrepancy import DiscrepancyForm
+from app.schemas.pump_leak import PumpLeakRequest
 from app.schemas.series import IMPORT_NAME_CHARACTER, CycleQuery, SeriesImportForm
 from app.services import jobs as job_service
 from app.services import rigs as rig_service
 from app.services import series as series_service
 from app.services.discrepancy import plan_discrepancy, submit_discrepancy
+from app.services.pump_leak import pump_leak, segments
 from app.services.series_record import READING_UNITS, stored_cycle_record
 from diagnostics.real.relaxation import ZEMA_RELAXATION
 from sim.errors import ConflictError, HydrodiagError, InputError
@@ -78,6 +80,38 @@ def series_forms(_key: ConsoleKeyDep) -> Response:
     or a bookmark, goes back to the page that holds them (it read "import" as a series id
     and answered 422)."""
     return redirect("/console/series")
+
+
+@router.get("/series/pump-leak")
+def pump_leak_page(request: Request, session: SessionDep, rigs: RigsDep, _key: ConsoleKeyDep,
+                   rig: Annotated[int, Query(ge=1, le=MAX_ID)],
+                   baseline: Annotated[str, Query(max_length=60000)] = "") -> Response:
+    """The pump's leak per stored cycle of a rig without a cylinder and where it steps
+    (``POST /rigs/{id}/pump-leak`` with its defaults, against the stated baseline's cycles
+    when given); nothing is stored, so any console key may read it.  What the estimate
+    refuses (a rig whose cycles lack the pump pressure and flow, a batch of one class
+    without a baseline) is shown with the field it names."""
+    answer, error, status_code = None, None, 200
+    try:
+        ids = None
+        if baseline.strip():
+            try:
+                ids = [int(x) for x in baseline.split(",")]
+            except ValueError:
+                raise InputError("give the baseline's series ids comma-separated, e.g. "
+                                 "3,4,5", field="baseline_series_ids") from None
+        try:
+            request_ = PumpLeakRequest(baseline_series_ids=ids)
+        except ValidationError as exc:
+            raise first_problem(exc.errors()) from None
+        answer = pump_leak(session, rigs, rig, request_)
+    except HydrodiagError as exc:
+        error = {"type": type(exc).__name__, "message": exc.message, "field": exc.field}
+        status_code = status_for(exc)
+    return page(request, "pump_leak.html", status_code=status_code, rig=rig, answer=answer,
+                error=error, baseline=baseline,
+                segments=segments(answer) if answer is not None else [],
+                chart=leak_chart(answer) if answer is not None else None)
 
 
 #: the condition a stored cycle may lack, and the page states: field → unit

@@ -7,6 +7,10 @@ CPU a cycle; the 2,205 ZeMA cycles in a few seconds with their reading from the 
 
 from __future__ import annotations
 
+import itertools
+import statistics
+from dataclasses import dataclass
+
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
@@ -23,7 +27,7 @@ from app.services.series import stored_records
 from diagnostics.real.monitor import LeakMonitor, monitor_pump_leak
 from sim.errors import InputError
 
-__all__ = ["pump_leak", "response_of"]
+__all__ = ["LeakSegment", "pump_leak", "response_of", "segments"]
 
 
 def _finite(x: float) -> float | None:
@@ -100,3 +104,54 @@ def response_of(rig_id: int, version: int, found: LeakMonitor) -> PumpLeakRespon
         slope=found.slope, shunt=found.shunt, separation=_finite(found.separation),
         relaxation=found.relaxation, fitted_on=found.fitted_on, cycles=cycles,
         shifts=shifts, notes=list(found.notes))
+
+
+@dataclass(frozen=True)
+class LeakSegment:
+    """The cycles between two steps of the leak (what the CLI's and the console's tables
+    and the console's chart show).
+
+    Attributes
+    ----------
+    start, stop
+        Positions of its first cycle and one past its last in the answer's cycles [-].
+    first, last
+        Its first and last cycle.
+    leaking
+        Its cycles above the leak threshold [-].
+    leak_flow, size
+        Medians of ``K·√Δp`` [m³/s] and ``K`` [m³/(s·Pa^½)] over its judged cycles (None
+        when none is judged).
+    theta
+        Lowest and highest oil temperature of its cycles [°C].
+    """
+
+    start: int
+    stop: int
+    first: CycleLeakPublic
+    last: CycleLeakPublic
+    leaking: int
+    leak_flow: float | None
+    size: float | None
+    theta: tuple[float, float]
+
+    @property
+    def n(self) -> int:
+        """Its number of cycles [-]."""
+        return self.stop - self.start
+
+
+def segments(answer: PumpLeakResponse) -> list[LeakSegment]:
+    """The segments of ``answer``'s cycles between its steps, in time order."""
+    edges = [0, *(s.index for s in answer.shifts), len(answer.cycles)]
+    out = []
+    for lo, hi in itertools.pairwise(edges):
+        seg = answer.cycles[lo:hi]
+        flows = [c.leak_flow for c in seg if c.leak_flow is not None]
+        sizes = [c.size for c in seg if c.size is not None]
+        theta = [c.oil_temperature for c in seg]
+        out.append(LeakSegment(lo, hi, seg[0], seg[-1], sum(c.leaking for c in seg),
+                               statistics.median(flows) if flows else None,
+                               statistics.median(sizes) if sizes else None,
+                               (min(theta), max(theta))))
+    return out

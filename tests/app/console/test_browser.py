@@ -314,3 +314,23 @@ def test_a_loggers_cycle_is_imported_from_the_measured_page(console_server: Live
     assert "2026-11-20 08:00:00" in page.inner_text("main")
     assert "p1" in page.inner_text("#record-readings")  # its pressures read as a record
     assert page.problems == [], page.problems
+
+
+def test_the_pump_leak_page_draws_in_chromium(console_server: LiveServer, page: Any,
+                                              shots: Path) -> None:
+    """A rig without a cylinder: its measured page links to its pump's leak, which draws
+    one chart of every cycle, laid out, without a console error."""
+    from tests.app.console.test_console_series import zema_cycles
+
+    rig_id, ids, _ = zema_cycles(console_server)
+    page.problems.clear()
+    page.goto(f"{console_server.base_url}/console/series?rig={rig_id}")
+    page.click("#pump-leak-link")
+    page.wait_for_url(f"**/console/series/pump-leak?rig={rig_id}")
+    page.wait_for_load_state("networkidle")
+    (points,) = _plots(page)
+    assert points >= len(ids) and _visible_plots(page) == 1
+    assert "leaking" in page.inner_text("#leak-summary")
+    assert page.locator("#leak-segments tbody tr").count() >= 1
+    assert page.problems == [], page.problems
+    page.screenshot(path=str(shots / "console-pump-leak.png"), full_page=True)

@@ -215,3 +215,30 @@ def test_an_unexplained_diagnosis_charts_relative_fit_not_probability() -> None:
     explained = probability_chart(result | {"explained": True})
     assert explained.title == "Hypothesis probabilities"
     assert explained.bars[0].color == "#0072B2"
+
+
+def test_the_leak_chart_draws_each_cycle_and_the_segments_medians() -> None:
+    """Hand-made answer: five cycles, a step at the fourth; the leaking cycles apart from
+    the others, the line at each segment's median leak (an even count averaged) [l/min],
+    a marker line half a cycle before the step; a cycle not judged (NaN) is no point."""
+    from app.console.charts import leak_chart
+    from app.schemas.pump_leak import CycleLeakPublic, LeakShiftPublic, PumpLeakResponse
+
+    flows = [1e-7, 3e-7, None, 5e-6, 7e-6]
+    cycles = [CycleLeakPublic(series_id=i + 1, name=f"c{i}", measured_at=None,
+                              oil_temperature=40.0, pressure=1.5e7, flow=1.2e-4,
+                              deficit=f or 0.0, size=None if f is None else f / 3873.0,
+                              leak_flow=f, leaking=i >= 3) for i, f in enumerate(flows)]
+    answer = PumpLeakResponse(
+        rig_id=2, rig_version=1, reference="batch", leaking=2, threshold=2e-6, slope=0.0,
+        shunt=0.0, separation=9.0, relaxation=3.5, fitted_on=5, cycles=cycles,
+        shifts=[LeakShiftPublic(index=3, series_id=4, name="c3", measured_at=None,
+                                size_before=0.0, size_after=1.5e-9)], notes=[])
+    chart = leak_chart(answer)
+    quiet, loud, line = chart.series
+    assert list(quiet.x) == [0.0, 1.0, 2.0] and list(loud.x) == [3.0, 4.0]
+    assert np.isnan(quiet.y[2]) and list(loud.y) == pytest.approx([0.3, 0.42])
+    assert list(line.x) == [0.0, 2.0, 3.0, 4.0]
+    assert list(line.y) == pytest.approx([0.012, 0.012, 0.36, 0.36])  # (0.006 + 0.018)/2
+    assert chart.vlines == ((2.5, "step"),)
+    assert chart.ylabel == "leak at the plateau pressure [l/min]"

@@ -11,6 +11,7 @@ import threading
 import time
 
 import httpx
+import numpy as np
 import pytest
 from markupsafe import escape
 
@@ -372,3 +373,71 @@ def test_every_job_is_listed_and_a_sweeps_page_shows_its_table(
     table = re.search(r'<table id="sweep-table">(.*?)</table>', shown, re.S)
     assert table is not None and "<th>fault</th>" in table.group(1)
     assert "worn_spool" in table.group(1) and "Result: 2 point(s)" in shown
+
+
+def zema_cycles(server: LiveServer) -> tuple[int, list[int], list[int]]:
+    """The ZeMA rig registered and the temperature-span slice's cycles imported (18 healthy,
+    18 severely leaking): (rig id, series ids, leakage labels), once per server."""
+    made = getattr(server, "zema_cycles", None)
+    if made is not None:
+        return made  # type: ignore[no-any-return]
+    import pandas as pd
+
+    from diagnostics.real.zema import load_1hz, read_records
+    from sim.rigs import load_rig_document
+    from tests.app.test_pump_leak import ZEMA
+    from tests.real_slices import zema_span_slice
+
+    r = server.client.post("/rigs", json={"document": load_rig_document(ZEMA)},
+                           headers=server.auth)
+    assert r.status_code == 201, r.text
+    rig_id = int(r.json()["id"])
+    data, labels = load_1hz(zema_span_slice())
+    frames = [rec.frame().assign(record=rec.name) for rec in read_records(data)]
+    r = server.client.post(f"/rigs/{rig_id}/series", data={"name": "span-cycles"},
+                           files={"file": ("cycles.csv",
+                                           pd.concat(frames).to_csv(index=False).encode())},
+                           headers=server.auth)
+    assert r.status_code == 201, r.text
+    made = (rig_id, [int(i["id"]) for i in r.json()["items"]],
+            [int(k) for k in labels.leakage])
+    server.zema_cycles = made  # type: ignore[attr-defined]
+    return made
+
+
+def test_the_pump_leak_page_shows_each_cycles_leak_and_its_steps(
+        console_server: LiveServer, browser_client: httpx.Client) -> None:
+    """The leak of a rig without a cylinder, as POST /rigs/{id}/pump-leak answers it: the
+    summary, the chart (a point a cycle and the segments' medians), the segments; a bad
+    baseline or a rig whose cycles lack the pump's channels is the field-naming error."""
+    rig_id, ids, labels = zema_cycles(console_server)
+    listed = browser_client.get(f"/console/series?rig={rig_id}")
+    assert f'href="/console/series/pump-leak?rig={rig_id}"' in listed.text
+    page = browser_client.get(f"/console/series/pump-leak?rig={rig_id}")
+    assert page.status_code == 200, page.text
+    leaking = sum(k > 0 for k in labels)
+    assert f"36 cycles, <strong>{leaking} leaking</strong>" in page.text
+    answer = console_server.client.post(f"/rigs/{rig_id}/pump-leak", json={},
+                                        headers=console_server.auth).json()
+    (points,) = plot_points(page.text)
+    assert points == 36 + 2 * (len(answer["shifts"]) + 1)  # cycles + each segment's ends
+    assert "leak at the plateau pressure [l/min]" in page.text
+    assert page.text.count("<tr><td>") == len(answer["shifts"]) + 1  # one row a segment
+    # the table's median leak is the chart's line: the segment's median (an even count's
+    # two middle cycles averaged, as the CLI's table)
+    if not answer["shifts"]:
+        flows = [c["leak_flow"] for c in answer["cycles"]]
+        assert f'{float(np.median(flows)) * 6e4:.3g}' in page.text
+    healthy = [i for i, k in zip(ids, labels, strict=True) if k == 0]
+    against = browser_client.get("/console/series/pump-leak", params={
+        "rig": rig_id, "baseline": ",".join(map(str, healthy[:12]))})
+    assert against.status_code == 200 and "cycles known healthy" in against.text
+    bad = browser_client.get("/console/series/pump-leak",
+                             params={"rig": rig_id, "baseline": "3,x"})
+    assert bad.status_code == 422 and error_box(bad.text)[0] == "baseline_series_ids"
+    few = browser_client.get("/console/series/pump-leak", params={"rig": rig_id,
+                                                                  "baseline": "3,4"})
+    assert few.status_code == 422 and error_box(few.text)[0] == "baseline_series_ids"
+    reference = browser_client.get("/console/series/pump-leak?rig=1")
+    assert reference.status_code == 422 and error_box(reference.text)[0] == "series_ids"
+    assert "p_pump" in reference.text
