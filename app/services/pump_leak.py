@@ -24,7 +24,7 @@ from app.schemas.pump_leak import (
 )
 from app.services.rig_cache import RigCache
 from app.services.series import stored_records
-from diagnostics.real.monitor import LeakMonitor, monitor_pump_leak
+from diagnostics.real.monitor import CHANNELS, LeakMonitor, monitor_pump_leak
 from sim.errors import InputError
 
 __all__ = ["LeakSegment", "pump_leak", "response_of", "segments"]
@@ -63,6 +63,22 @@ def _batch_ids(session: Session, rig_id: int, request: PumpLeakRequest) -> list[
     return ids
 
 
+def _check_channels(session: Session, ids: list[int], field: str) -> None:
+    """Refuse, before their samples are read, stored series without the pump pressure and
+    the working flow (a cylinder rig's cycles: thousands of them at 1 kHz were read whole to
+    be refused one by one)."""
+    for sid, units in session.execute(select(MeasuredSeries.id, MeasuredSeries.units)
+                                      .where(MeasuredSeries.id.in_(ids))
+                                      .order_by(MeasuredSeries.id)):
+        missing = [c for c in CHANNELS if c not in units]
+        if missing:
+            raise InputError(
+                f"series {sid} has no {', '.join(missing)} channel: the pump's leak is read "
+                "from the pump pressure p_pump [Pa], the working flow q_work [m³/s] and the "
+                "oil temperature on the plateaus of a rig without a working/return cycle "
+                f"(its channels: {', '.join(sorted(units)) or 'none'})", field=field)
+
+
 def pump_leak(session: Session, rigs: RigCache, rig_id: int, request: PumpLeakRequest
               ) -> PumpLeakResponse:
     """The leak of each stored cycle of rig ``rig_id`` (module docstring).
@@ -78,6 +94,9 @@ def pump_leak(session: Session, rigs: RigCache, rig_id: int, request: PumpLeakRe
     """
     resolved = rigs.get(session, rig_id)
     ids = _batch_ids(session, rig_id, request)
+    _check_channels(session, ids, "series_ids")
+    if request.baseline_series_ids is not None:
+        _check_channels(session, request.baseline_series_ids, "baseline_series_ids")
     records = stored_records(session, rig_id, ids, field="series_ids")
     baseline = (None if request.baseline_series_ids is None else stored_records(
         session, rig_id, request.baseline_series_ids, field="baseline_series_ids"))

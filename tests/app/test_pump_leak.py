@@ -123,6 +123,18 @@ def test_cycles_of_another_rig_or_none_are_refused(
     assert "another rig" in other.json()["error"]["message"]
     empty = _post(server, 1, {})
     assert empty.status_code == 422 and "import its cycles first" in empty.text
+    # a cylinder rig's stored cycle: refused by its channels before its samples are read
+    cycle = server.client.post("/rigs/1/series", headers=server.auth, data={"name": "stroke"},
+                               files={"file": ("stroke.csv", b"t [s],P1 [bar],v [m/s]\n"
+                                               b"0,10,0.1\n0.001,10,0.1\n0.002,10,0.1\n")})
+    assert cycle.status_code == 201, cycle.text
+    stroke = int(cycle.json()["items"][0]["id"])
+    before = server.row_counts()
+    lacking = _post(server, 1, {"series_ids": [stroke, stroke]})
+    assert lacking.status_code == 422, lacking.text  # (the id twice: refused after)
+    assert lacking.json()["error"]["field"] == "series_ids"
+    assert f"series {stroke} has no p_pump, q_work channel" in lacking.text
+    assert "P1, v" in lacking.text
     both = _post(server, rig_id, {"series_ids": ids[:20], "baseline_series_ids": ids[10:22]})
     assert both.status_code == 422
     assert both.json()["error"]["field"] == "baseline_series_ids" and "both" in both.text
