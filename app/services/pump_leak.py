@@ -63,12 +63,14 @@ def _batch_ids(session: Session, rig_id: int, request: PumpLeakRequest) -> list[
     return ids
 
 
-def _check_channels(session: Session, ids: list[int], field: str) -> None:
-    """Refuse, before their samples are read, stored series without the pump pressure and
-    the working flow (a cylinder rig's cycles: thousands of them at 1 kHz were read whole to
-    be refused one by one)."""
+def _check_channels(session: Session, rig_id: int, ids: list[int], field: str) -> None:
+    """Refuse, before their samples are read, stored series of the rig without the pump
+    pressure and the working flow (a cylinder rig's cycles: thousands of them at 1 kHz were
+    read whole to be refused one by one); those of another rig or none are refused as such
+    after (:func:`~app.services.series.stored_records`)."""
     for sid, units in session.execute(select(MeasuredSeries.id, MeasuredSeries.units)
-                                      .where(MeasuredSeries.id.in_(ids))
+                                      .where(MeasuredSeries.id.in_(ids),
+                                             MeasuredSeries.rig_id == rig_id)
                                       .order_by(MeasuredSeries.id)):
         missing = [c for c in CHANNELS if c not in units]
         if missing:
@@ -94,9 +96,9 @@ def pump_leak(session: Session, rigs: RigCache, rig_id: int, request: PumpLeakRe
     """
     resolved = rigs.get(session, rig_id)
     ids = _batch_ids(session, rig_id, request)
-    _check_channels(session, ids, "series_ids")
+    _check_channels(session, rig_id, ids, "series_ids")
     if request.baseline_series_ids is not None:
-        _check_channels(session, request.baseline_series_ids, "baseline_series_ids")
+        _check_channels(session, rig_id, request.baseline_series_ids, "baseline_series_ids")
     records = stored_records(session, rig_id, ids, field="series_ids")
     baseline = (None if request.baseline_series_ids is None else stored_records(
         session, rig_id, request.baseline_series_ids, field="baseline_series_ids"))

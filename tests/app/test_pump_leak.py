@@ -21,10 +21,9 @@ from tests.real_slices import zema_span_slice
 ZEMA = Path(__file__).resolve().parents[2] / "sim" / "rigs" / "zema.yaml"
 
 
-@pytest.fixture(scope="module")
-def stored(server: LiveServer) -> tuple[int, list[int], np.ndarray]:
-    """The ZeMA rig registered and the slice's cycles imported: (rig id, series ids in the
-    cycles' order, leakage labels)."""
+def import_span_cycles(server: LiveServer) -> tuple[int, list[int], np.ndarray]:
+    """The ZeMA rig registered on ``server`` and the slice's cycles imported over HTTP as a
+    user would: (rig id, series ids in the cycles' order, leakage labels)."""
     r = server.client.post("/rigs", json={"document": load_rig_document(ZEMA)},
                            headers=server.auth)
     assert r.status_code == 201, r.text
@@ -38,6 +37,12 @@ def stored(server: LiveServer) -> tuple[int, list[int], np.ndarray]:
     assert r.status_code == 201, r.text
     ids = [int(item["id"]) for item in r.json()["items"]]
     return rig_id, ids, np.asarray(labels.leakage).astype(int)
+
+
+@pytest.fixture(scope="module")
+def stored(server: LiveServer) -> tuple[int, list[int], np.ndarray]:
+    """The ZeMA rig and the slice's cycles on this module's server."""
+    return import_span_cycles(server)
 
 
 def _post(server: LiveServer, rig_id: int, body: dict[str, Any]) -> Any:

@@ -381,26 +381,10 @@ def zema_cycles(server: LiveServer) -> tuple[int, list[int], list[int]]:
     made = getattr(server, "zema_cycles", None)
     if made is not None:
         return made  # type: ignore[no-any-return]
-    import pandas as pd
+    from tests.app.test_pump_leak import import_span_cycles
 
-    from diagnostics.real.zema import load_1hz, read_records
-    from sim.rigs import load_rig_document
-    from tests.app.test_pump_leak import ZEMA
-    from tests.real_slices import zema_span_slice
-
-    r = server.client.post("/rigs", json={"document": load_rig_document(ZEMA)},
-                           headers=server.auth)
-    assert r.status_code == 201, r.text
-    rig_id = int(r.json()["id"])
-    data, labels = load_1hz(zema_span_slice())
-    frames = [rec.frame().assign(record=rec.name) for rec in read_records(data)]
-    r = server.client.post(f"/rigs/{rig_id}/series", data={"name": "span-cycles"},
-                           files={"file": ("cycles.csv",
-                                           pd.concat(frames).to_csv(index=False).encode())},
-                           headers=server.auth)
-    assert r.status_code == 201, r.text
-    made = (rig_id, [int(i["id"]) for i in r.json()["items"]],
-            [int(k) for k in labels.leakage])
+    rig_id, ids, labels = import_span_cycles(server)
+    made = (rig_id, ids, [int(k) for k in labels])
     server.zema_cycles = made  # type: ignore[attr-defined]
     return made
 
