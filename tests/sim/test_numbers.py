@@ -22,20 +22,20 @@ def test_others_are_not(value: object) -> None:
 
 
 def test_overrides_and_readings_take_and_refuse_the_same() -> None:
-    from diagnostics.measurement import _as_quantity
     from diagnostics.quantity import InstrumentClass
+    from diagnostics.reading_checks import as_quantity
     from sim.errors import MeasurementError, ParameterError
     from sim.rigs.assembly import _number
 
     instrument = {"p1": InstrumentClass("transducer", 0.005, 0.0, "a test")}
     for good in (np.float32(1.2e6), np.array(1.2e6), 1200000):
         assert _number(good, "valve.cv") == pytest.approx(1.2e6)
-        assert _as_quantity("p1", good, instrument).value == pytest.approx(1.2e6)  # type: ignore[arg-type]
+        assert as_quantity("p1", good, instrument).value == pytest.approx(1.2e6)  # type: ignore[arg-type]
     for bad in (True, "12 bar", np.array([1.0])):
         with pytest.raises(ParameterError):
             _number(bad, "valve.cv")
         with pytest.raises(MeasurementError):
-            _as_quantity("p1", bad, instrument)  # type: ignore[arg-type]
+            as_quantity("p1", bad, instrument)  # type: ignore[arg-type]
 
 
 @pytest.mark.parametrize(("value", "words"), [
