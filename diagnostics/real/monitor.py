@@ -248,6 +248,10 @@ def monitor_pump_leak(records: Sequence[SeriesRecord], fluid: Fluid, *,
     starts = [_start(r) for r in records]
     if all(s is not None for s in starts):
         order = sorted(range(len(records)), key=lambda i: (starts[i], i))
+        shared = len(starts) - len(set(starts))
+        if shared:  # an import whose records each restart at t = 0 gives them one start
+            notes.append(f"{shared} cycle(s) share a clock time with another: among equal "
+                         "times the cycles are taken in the order given")
     else:
         order = list(range(len(records)))
         notes.append("not every cycle has a clock time: the cycles are taken in the order "

@@ -70,6 +70,11 @@ def test_a_step_in_time_order_is_found_where_the_pump_began_to_leak(
     assert [c.measured_at for c in m.cycles] == sorted(c.measured_at for c in m.cycles)
     assert not any("order given" in n for n in m.notes)
     (step,) = m.shifts
+    # one start for every cycle (an import whose records restart at t = 0): as given, said
+    alike = monitor_pump_leak([replace(r, started_at=t0) for r in given], Fluid(),
+                              min_segment=5)
+    assert [c.name for c in alike.cycles] == [r.name for r in given]
+    assert any("35 cycle(s) share a clock time" in n for n in alike.notes)
     assert step.index == int((lab == 0).sum()) and step.name == m.cycles[step.index].name
     assert step.measured_at == t0 + timedelta(minutes=step.index)
     sizes = np.array([c.size for c in m.cycles])
