@@ -22,7 +22,7 @@ from fastapi.responses import HTMLResponse
 from pydantic import ValidationError
 from starlette.concurrency import run_in_threadpool
 
-from app.api.deps import RigsDep, SessionDep
+from app.api.deps import ExecutorsDep, RigsDep, SessionDep
 from app.console.charts import leak_chart, series_charts
 from app.console.numbers import decimal_text
 from app.console.routing import ConsoleKeyDep, new_router, write_refusal
@@ -83,7 +83,8 @@ def series_forms(_key: ConsoleKeyDep) -> Response:
 
 
 @router.get("/series/pump-leak")
-def pump_leak_page(request: Request, session: SessionDep, rigs: RigsDep, _key: ConsoleKeyDep,
+def pump_leak_page(request: Request, session: SessionDep, rigs: RigsDep,
+                   executors: ExecutorsDep, _key: ConsoleKeyDep,
                    rig: Annotated[int, Query(ge=1, le=MAX_ID)],
                    baseline: Annotated[str, Query(max_length=60000)] = "") -> Response:
     """The pump's leak per stored cycle of a rig without a cylinder and where it steps
@@ -104,7 +105,7 @@ def pump_leak_page(request: Request, session: SessionDep, rigs: RigsDep, _key: C
             request_ = PumpLeakRequest(baseline_series_ids=ids)
         except ValidationError as exc:
             raise first_problem(exc.errors()) from None
-        answer = pump_leak(session, rigs, rig, request_)
+        answer = pump_leak(session, rigs, rig, request_, executor=executors.get())
     except HydrodiagError as exc:
         error = {"type": type(exc).__name__, "message": exc.message, "field": exc.field}
         status_code = status_for(exc)

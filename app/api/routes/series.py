@@ -6,7 +6,15 @@ from typing import Annotated
 
 from fastapi import APIRouter, File, Form, Path, Query, Response, UploadFile, status
 
-from app.api.deps import AdminKeyDep, PageDep, ReadAccess, RigsDep, SessionDep, WriteKeyDep
+from app.api.deps import (
+    AdminKeyDep,
+    ExecutorsDep,
+    PageDep,
+    ReadAccess,
+    RigsDep,
+    SessionDep,
+    WriteKeyDep,
+)
 from app.api.rendered import rendered
 from app.schemas.common import ERROR_RESPONSES, MAX_ID
 from app.schemas.pump_leak import PumpLeakRequest, PumpLeakResponse
@@ -108,11 +116,13 @@ def series_record(series_id: SeriesId, query: Annotated[CycleQuery, Query()],
              summary="The pump's leak per stored cycle of a rig without a cylinder, and its "
              "shifts")
 def estimate_pump_leak(rig_id: RigId, body: PumpLeakRequest, session: SessionDep,
-                       rigs: RigsDep, _key: WriteKeyDep) -> PumpLeakResponse:
+                       rigs: RigsDep, executors: ExecutorsDep,
+                       _key: WriteKeyDep) -> PumpLeakResponse:
     """Each stored cycle's settled working plateaus against a healthy reference at its own
     oil temperature and pressure: the orifice leak size K of Δq = K·√Δp + λ·Δp/μ (paper 000
     eq. 6 form, diagnostics.real.monitor), whether it leaks, and the steps of K over the
     cycles in time order.  Nothing is stored; a cycle without the pump pressure, working
     flow and oil temperature, or without a working plateau, is a 422 naming its series.
-    A key with the write scope is needed, as for every POST but /simulate and /diagnose."""
-    return pump_leak(session, rigs, rig_id, body)
+    A key with the write scope is needed, as for every POST but /simulate and /diagnose.
+    The estimate runs on the sweeps' executor, so /health is not kept waiting."""
+    return pump_leak(session, rigs, rig_id, body, executor=executors.get())

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from diagnostics.real.leakage import cycle_point
-from diagnostics.real.monitor import monitor_pump_leak
+from diagnostics.real.monitor import monitor_packed, monitor_pump_leak, pack_cycles
 from diagnostics.real.shunt import MIN_LEAK_FRACTION
 from diagnostics.real.zema import load_1hz, read_records
 from diagnostics.timeseries import SeriesRecord
@@ -125,3 +125,29 @@ def test_what_the_estimate_cannot_read_is_refused_by_name(
     with pytest.raises(InputError) as one:
         monitor_pump_leak(recs[:1], Fluid())
     assert one.value.field == "series_ids"
+
+
+def test_packed_cycles_give_the_same_answer(span: tuple[list[SeriesRecord], np.ndarray]
+                                            ) -> None:
+    """What the service sends to its executor's process: the cycles as a few arrays, read
+    back as records with the channels the estimate reads; the answer is the same, bit for
+    bit (how long the pickling holds the interpreter lock: ``make job-stall``)."""
+    import pickle
+
+    recs, lab = span
+    t0 = datetime(2026, 11, 2, 8, 0, tzinfo=UTC)
+    recs = [replace(r, started_at=t0 + timedelta(minutes=k), metadata={"series_id": k + 1})
+            for k, r in enumerate(recs)]
+    packed = pack_cycles(recs)
+    assert monitor_packed(packed, Fluid(), min_segment=3) == monitor_pump_leak(
+        recs, Fluid(), min_segment=3)
+    base = [r for r, k in zip(recs, lab, strict=True) if k == 0][:12]
+    rest = [r for r in recs if r not in base]
+    assert monitor_packed(pack_cycles(rest), Fluid(), baseline=pack_cycles(base)) == \
+        monitor_pump_leak(rest, Fluid(), baseline=base)
+    assert pickle.loads(pickle.dumps(packed)).records()[5].channels.keys() == {
+        "p_pump", "q_work", "oil_temperature"}
+    bare = replace(recs[0], channels={"p_pump": recs[0].channels["p_pump"]})
+    with pytest.raises(InputError) as missing:
+        pack_cycles([bare, *recs[1:]], field="baseline_series_ids")
+    assert missing.value.field == "baseline_series_ids" and "q_work" in missing.value.message
