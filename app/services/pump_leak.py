@@ -8,10 +8,11 @@ In the service the estimate runs on the sweeps' executor (a process, or a Dask w
 not in the request's thread: its thousands of small numpy calls each let go of the
 interpreter lock and take it back at once, and a thread waiting for the lock only asks
 for it when nobody has taken it for 5 ms — beside the estimate of the 2,205 ZeMA cycles
-in a thread, a thread that slept 1 ms woke up to 165 ms late (p99 42 ms), and beside it
-on a process at most a few ms (``make job-stall``), where ``/health`` must answer within
-20 ms.  The cycles are sent packed in a few arrays (:class:`~diagnostics.real.monitor.
-PackedCycles`): pickled as records they held this process's lock 82 ms.
+in a thread, a thread that slept 1 ms woke up to 139-165 ms late (p99 24-42 ms, two
+measurements), and beside it on a process at most 8.6 ms (``make job-stall``), where
+``/health`` must answer within 20 ms.  The cycles are sent packed in a few arrays
+(:class:`~diagnostics.real.monitor.PackedCycles`): pickled as records they held this
+process's lock 82 ms.
 """
 
 from __future__ import annotations
