@@ -27,6 +27,7 @@ from app.cli_support import (
     validated,
 )
 from app.schemas.pump_leak import PumpLeakRequest, PumpLeakResponse
+from diagnostics.plots import shown_unit
 from diagnostics.real.relaxation import ZEMA_RELAXATION
 from sim.errors import HydrodiagError
 
@@ -39,8 +40,8 @@ _OPTIONS = {"series_ids": "--series", "baseline_series_ids": "--baseline", "shun
             "relaxation": "--relaxation", "window": "--window",
             "min_segment": "--min-segment"}
 
-#: l/min per m³/s
-_LPM = 6.0e4
+#: flows as every table and chart shows them (l/min per m³/s)
+_LPM, _FLOW = shown_unit("m^3/s")
 
 
 def pump_leak_command(
@@ -97,16 +98,16 @@ def _summary(a: PumpLeakResponse) -> str:
     against = ("cycles known healthy" if a.reference == "baseline"
                else "the batch's lower group")
     return (f"rig {a.rig_id} v{a.rig_version}: {len(a.cycles)} cycles, {a.leaking} leaking "
-            f"(against {against}; threshold {a.threshold * _LPM:.3g} l/min of deficit), "
+            f"(against {against}; threshold {a.threshold * _LPM:.3g} {_FLOW} of deficit), "
             f"{len(a.shifts)} step(s) of the leak; shunt λ = {a.shunt:.3g} m³, healthy "
-            f"dq/dp = {a.slope * _LPM * 1e5:+.3g} l/min per bar")
+            f"dq/dp = {a.slope * _LPM * 1e5:+.3g} {_FLOW} per bar")
 
 
 def segment_table(a: PumpLeakResponse) -> Table:
     """One row per segment of cycles between the steps of the leak."""
     from app.services.pump_leak import segments
 
-    table = Table("cycles", "first measured", "n", "leaking", r"median leak \[l/min]",
+    table = Table("cycles", "first measured", "n", "leaking", rf"median leak \[{_FLOW}]",
                   r"median K \[1e-9 m³/(s·Pa^½)]", r"oil \[°C]",
                   title="segments between the steps of the leak")
     for seg in segments(a):
@@ -122,8 +123,8 @@ def segment_table(a: PumpLeakResponse) -> Table:
 
 def cycle_table(a: PumpLeakResponse) -> Table:
     """Every cycle: its series, oil temperature, pressure, flow, leak and whether it leaks."""
-    table = Table("series", "name", r"oil \[°C]", r"pressure \[bar]", r"flow \[l/min]",
-                  r"deficit \[l/min]", r"leak \[l/min]", "leaking", title="cycles")
+    table = Table("series", "name", r"oil \[°C]", r"pressure \[bar]", rf"flow \[{_FLOW}]",
+                  rf"deficit \[{_FLOW}]", rf"leak \[{_FLOW}]", "leaking", title="cycles")
     for c in a.cycles:
         table.add_row("—" if c.series_id is None else str(c.series_id), escape(c.name),
                       f"{c.oil_temperature:.1f}", f"{c.pressure / 1e5:.1f}",

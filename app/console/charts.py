@@ -367,7 +367,7 @@ def leak_chart(answer: PumpLeakResponse) -> Chart:
     """The pump's leak at each cycle's plateau pressure [l/min] over the cycles in time
     order (``POST /rigs/{id}/pump-leak``): leaking cycles and the others apart, and the
     median of each segment between the steps as a stepped line."""
-    lpm = 6.0e4
+    lpm, flow = shown_unit("m^3/s")
     x = np.arange(len(answer.cycles), dtype=float)
     y = np.array([c.leak_flow * lpm if c.leak_flow is not None else math.nan
                   for c in answer.cycles])
@@ -381,5 +381,5 @@ def leak_chart(answer: PumpLeakResponse) -> Chart:
         sy += [level, level]
     series.append(Series(np.array(sx), np.array(sy), "median between steps", color=PALETTE[0]))
     return line_chart(f"rig {answer.rig_id}: the pump's leak per cycle",
-                      "cycle, in time order [-]", "leak at the plateau pressure [l/min]",
+                      "cycle, in time order [-]", f"leak at the plateau pressure [{flow}]",
                       series, vlines=[(float(s.index) - 0.5, "step") for s in answer.shifts])

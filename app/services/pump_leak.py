@@ -19,11 +19,12 @@ from __future__ import annotations
 
 import functools
 import itertools
+import math
 import statistics
 from concurrent.futures import Executor
 from dataclasses import dataclass
 
-from sqlalchemy import func, select
+from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from app.db.models import MeasuredSeries
@@ -36,14 +37,20 @@ from app.schemas.pump_leak import (
 )
 from app.services.rig_cache import RigCache
 from app.services.series import stored_records
-from diagnostics.real.monitor import CHANNELS, LeakMonitor, monitor_packed, pack_cycles
+from diagnostics.real.monitor import (
+    CHANNELS,
+    LeakMonitor,
+    missing_channels,
+    monitor_packed,
+    pack_cycles,
+)
 from sim.errors import InputError
 
 __all__ = ["LeakSegment", "pump_leak", "response_of", "segments"]
 
 
 def _finite(x: float) -> float | None:
-    return x if x == x and abs(x) != float("inf") else None
+    return x if math.isfinite(x) else None
 
 
 def _batch_ids(session: Session, rig_id: int, request: PumpLeakRequest) -> list[int]:
@@ -58,15 +65,13 @@ def _batch_ids(session: Session, rig_id: int, request: PumpLeakRequest) -> list[
                              "the baseline: a cycle is not its own healthy reference",
                              field="baseline_series_ids")
         return list(request.series_ids)
-    count = session.scalar(select(func.count()).select_from(MeasuredSeries)
-                           .where(MeasuredSeries.rig_id == rig_id)) or 0
-    if count - len(base) > MAX_CYCLES:
-        raise InputError(f"rig {rig_id} has {count} stored cycles, more than the "
-                         f"{MAX_CYCLES} one request reads: name them in series_ids",
-                         field="series_ids")
     ids = [i for i in session.scalars(select(MeasuredSeries.id)
                                       .where(MeasuredSeries.rig_id == rig_id)
                                       .order_by(MeasuredSeries.id)) if i not in base]
+    if len(ids) > MAX_CYCLES:
+        raise InputError(f"rig {rig_id} has {len(ids)} stored cycles to read, more than the "
+                         f"{MAX_CYCLES} one request reads: name them in series_ids",
+                         field="series_ids")
     if len(ids) < 2:
         raise InputError(f"rig {rig_id} has {len(ids)} stored cycle(s) to read"
                          + (" besides the baseline" if base else "")
@@ -86,11 +91,8 @@ def _check_channels(session: Session, rig_id: int, ids: list[int], field: str) -
                                       .order_by(MeasuredSeries.id)):
         missing = [c for c in CHANNELS if c not in units]
         if missing:
-            raise InputError(
-                f"series {sid} has no {', '.join(missing)} channel: the pump's leak is read "
-                "from the pump pressure p_pump [Pa], the working flow q_work [m³/s] and the "
-                "oil temperature on the plateaus of a rig without a working/return cycle "
-                f"(its channels: {', '.join(sorted(units)) or 'none'})", field=field)
+            raise InputError(f"{missing_channels(f'series {sid}', missing)} (its channels: "
+                             f"{', '.join(sorted(units)) or 'none'})", field=field)
 
 
 def pump_leak(session: Session, rigs: RigCache, rig_id: int, request: PumpLeakRequest, *,

@@ -41,7 +41,7 @@ import itertools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from datetime import datetime, timedelta
+from datetime import datetime
 from typing import Any
 
 import numpy as np
@@ -56,7 +56,7 @@ from sim.errors import InputError, MeasurementError
 from sim.fluid import Fluid
 
 __all__ = ["CHANNELS", "CycleLeak", "LeakMonitor", "LeakShift", "PackedCycles",
-           "monitor_packed", "monitor_pump_leak", "pack_cycles"]
+           "missing_channels", "monitor_packed", "monitor_pump_leak", "pack_cycles"]
 
 Arr = npt.NDArray[np.float64]
 
@@ -161,12 +161,6 @@ class LeakMonitor:
     notes: tuple[str, ...]
 
 
-def _start(record: SeriesRecord) -> datetime | None:
-    if record.started_at is None:
-        return None
-    return record.started_at + timedelta(seconds=float(record.t[0]))
-
-
 def _series_id(record: SeriesRecord) -> int | None:
     sid = record.metadata.get("series_id")
     return int(sid) if isinstance(sid, int) else None
@@ -184,11 +178,15 @@ def _check(rec: SeriesRecord, field: str) -> None:
             and not math.isfinite(rec.condition.get("oil_temperature", math.nan))):
         missing.append("oil_temperature")
     if missing:
-        raise InputError(
-            f"{_who(rec)} has no {', '.join(missing)} channel: the pump's leak is read "
-            "from the pump pressure p_pump [Pa], the working flow q_work [m³/s] and the "
-            "oil temperature (a channel or the stated condition) on the plateaus of a "
-            "rig without a working/return cycle", field=field)
+        raise InputError(missing_channels(_who(rec), missing), field=field)
+
+
+def missing_channels(who: str, missing: Sequence[str]) -> str:
+    """What a cycle without the channels the estimate reads is told (``who``: the cycle)."""
+    return (f"{who} has no {', '.join(missing)} channel: the pump's leak is read from the "
+            "pump pressure p_pump [Pa], the working flow q_work [m³/s] and the oil "
+            "temperature (a channel or the stated condition) on the plateaus of a rig "
+            "without a working/return cycle")
 
 
 def _points(records: Sequence[SeriesRecord], relaxation: float, field: str
@@ -252,7 +250,7 @@ def monitor_pump_leak(records: Sequence[SeriesRecord], fluid: Fluid, *,
     if shunt is not None and not (math.isfinite(shunt) and shunt >= 0.0):
         raise InputError("must be a non-negative volume [m³]", field="shunt")
     notes: list[str] = []
-    starts = [_start(r) for r in records]
+    starts = [r.measured_at for r in records]
     if all(s is not None for s in starts):
         order = sorted(range(len(records)), key=lambda i: (starts[i], i))
         shared = len(starts) - len(set(starts))
@@ -286,7 +284,7 @@ def monitor_pump_leak(records: Sequence[SeriesRecord], fluid: Fluid, *,
                      "plateau(s), as many as any cycle of the batch")
     p = np.array([c.pressure for c in pts])
     cycles = tuple(
-        CycleLeak(r.name, _series_id(r), _start(r), pt.theta, pt.pressure, pt.flow,
+        CycleLeak(r.name, _series_id(r), r.measured_at, pt.theta, pt.pressure, pt.flow,
                   float(d), float(k), float(k * math.sqrt(pr)), bool(lk))
         for r, pt, d, k, pr, lk in zip(recs, pts, est.deficit, est.size, p, est.leaking,
                                        strict=True))
