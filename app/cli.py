@@ -213,12 +213,14 @@ def serve(
                         workers=settings.workers, host=settings.host, port=settings.port,
                         log_level=settings.log_level,
                         http=NoDelayHttpToolsProtocol,  # no Nagle delay on kept-alive
+                        timeout_keep_alive=settings.keep_alive_s,
                         timeout_graceful_shutdown=CONNECTIONS_GRACE_S,
                         access_log=False)  # the service logs each request itself
     else:
         uvicorn.run(create_app(settings, clearance_estimator=estimator, prepare_store=False),
                     host=settings.host, port=settings.port, log_level=settings.log_level,
                     http=NoDelayHttpToolsProtocol,  # no Nagle delay on kept-alive connections
+                    timeout_keep_alive=settings.keep_alive_s,
                     timeout_graceful_shutdown=CONNECTIONS_GRACE_S,
                     access_log=False)  # the service logs each request itself
 

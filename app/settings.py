@@ -77,6 +77,13 @@ class Settings(BaseSettings):
         over it, 429 with ``Retry-After``.  0 (default) sets no limit.
     host, port
         Where ``hydrodiag serve`` listens.
+    keep_alive_s
+        How long ``serve`` keeps an idle kept-alive connection open [s] (uvicorn's
+        ``timeout_keep_alive``; default 5, uvicorn's).  Behind a proxy that keeps its
+        connections to the service alive, set it above the proxy's idle timeout (nginx's
+        upstream ``keepalive_timeout`` and an AWS load balancer's idle timeout are 60 s):
+        a request the proxy sends on a connection the service is closing fails, and nginx
+        does not send a POST again (a 502 to the client).
     job_workers
         Threads that run long jobs (sweeps, maps) in the service process.
     max_queued_jobs
@@ -158,6 +165,8 @@ class Settings(BaseSettings):
                                        description="Requests per API key and minute; 0: none.")
     host: str = Field(default="127.0.0.1", description="Interface `serve` binds.")
     port: int = Field(default=8000, ge=1, le=65535, description="TCP port `serve` binds.")
+    keep_alive_s: int = Field(default=5, ge=1, le=3600,
+                              description="Seconds `serve` keeps an idle connection open.")
     job_workers: int = Field(default=2, ge=1, le=64, description="Job worker threads.")
     max_queued_jobs: int = Field(default=16, ge=0, le=10_000,
                                  description="Jobs a server process keeps waiting [-].")

@@ -369,7 +369,8 @@ def _table(result: dict[str, Any]) -> str:
         lines.append(f"{cells[0]:<44}" + "".join(f"{c:>20}" for c in cells[1:]))
     for name, met in result["targets"].items():
         lines.append(f"target {name}: {'met' if met else 'NOT met'}")
-    lines.append(f"sustained: peak {s['peak_in_flight']:.0f} in flight, failures "
+    lines.append(f"sustained: peak {s['peak_in_flight']:.0f} in flight on "
+                 f"{s['connections']:.0f} connections opened, failures "
                  f"{s['failures'] or 'none'}; {result['acknowledged']} acknowledged "
                  f"diagnoses, {result['acknowledged_missing']} of them missing from the store; "
                  f"highest sustained rate {result['highest_sustained_rps']:g}/s")

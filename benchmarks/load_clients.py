@@ -7,6 +7,14 @@ parses each request in Python (httpx: ~1-2 ms of CPU per request) took CPU from 
 service it measured.  Answers are read by their ``Content-Length`` (the service sends no
 chunked answers); their bodies are kept for the store check after the phase.
 
+A kept-alive connection is reused as an HTTP client library would (httpx's
+``keepalive_expiry``, urllib3's dropped-connection check): not after the server closed it,
+and not once it has been idle :data:`KEEPALIVE_EXPIRY_S`, below the service's keep-alive
+(uvicorn's ``timeout_keep_alive``, 5 s), past which the server closes it and a request
+sent on it meets an empty answer.  Without that the open loop, whose idle connections are
+taken last-in first-out, reused a connection idle for longer and counted the server's
+keep-alive close as a ``ConnectionError`` (1-3 per light ``make load-bench``).
+
 Every function returns plain figures: latencies [ms] at p50/p99, errors, throughput [1/s].
 """
 
@@ -25,6 +33,8 @@ __all__ = ["Connection", "closed_loop", "open_loop", "request_bytes", "stats"]
 
 TIMEOUT_S = 10.0
 CLIENT_CONNECTIONS = 128
+#: a connection idle this long is not reused [s] (the service closes it at 5 s)
+KEEPALIVE_EXPIRY_S = 4.0
 
 
 def stats(latencies: list[float], errors: int, elapsed: float) -> dict[str, float]:
@@ -58,6 +68,8 @@ class Connection:
         self._writer = writer
         #: The server said ``Connection: close``: not to be used again.
         self.closing = False
+        #: When its last answer came, or it opened [s, monotonic clock].
+        self.idle_since = time.monotonic()
 
     @classmethod
     async def open(cls, base_url: str) -> Connection:
@@ -92,7 +104,15 @@ class Connection:
                 self.closing = True
         if length is None:
             raise ConnectionError("an answer without Content-Length")
-        return status, await self._reader.readexactly(length)
+        body = await self._reader.readexactly(length)
+        self.idle_since = time.monotonic()
+        return status, body
+
+    def reusable(self) -> bool:
+        """Whether another request may be sent on it: the server neither said nor did close
+        it, and it has been idle less than :data:`KEEPALIVE_EXPIRY_S`."""
+        return (not self.closing and not self._reader.at_eof()
+                and time.monotonic() - self.idle_since < KEEPALIVE_EXPIRY_S)
 
     def close(self) -> None:
         """Close the connection."""
@@ -113,13 +133,13 @@ async def closed_loop(base_url: str, requests: Sequence[bytes], concurrency: int
             request = queue.pop()
             start = time.perf_counter()
             try:
+                if connection is not None and not connection.reusable():
+                    connection.close()
+                    connection = None
                 if connection is None:
                     connection = await Connection.open(base_url)
                 status, _ = await asyncio.wait_for(connection.exchange(request), TIMEOUT_S)
                 ok = status == 200
-                if connection.closing:
-                    connection.close()
-                    connection = None
             except (OSError, EOFError, TimeoutError, ValueError):
                 ok = False
                 if connection is not None:
@@ -143,8 +163,9 @@ async def open_loop(base_url: str, requests: Sequence[bytes], rate: float, durat
     answers' pace, on at most :data:`CLIENT_CONNECTIONS` connections.
 
     ``"acknowledged"`` holds the bodies of the answers of 200 (to check them against the
-    store).  Needs ``rate × duration`` requests.  The liveness probe runs in a process of
-    its own (:mod:`benchmarks.load_probe`).
+    store); ``"connections"`` counts the connections opened.  Needs ``rate × duration``
+    requests.  The liveness probe runs in a process of its own
+    (:mod:`benchmarks.load_probe`).
     """
     total = round(rate * duration)
     if len(requests) < total:
@@ -152,13 +173,24 @@ async def open_loop(base_url: str, requests: Sequence[bytes], rate: float, durat
     latencies: list[float] = []
     failures: dict[str, int] = {}
     acknowledged: list[bytes] = []
-    in_flight = peak = 0
+    in_flight = peak = opened = 0
     idle: list[Connection] = []
     slots = asyncio.Semaphore(CLIENT_CONNECTIONS)
 
+    async def connect() -> Connection:
+        """The last idle connection still reusable (the others closed), or a new one."""
+        nonlocal opened
+        while idle:
+            connection = idle.pop()
+            if connection.reusable():
+                return connection
+            connection.close()
+        opened += 1
+        return await Connection.open(base_url)
+
     async def exchange(request: bytes) -> tuple[int, bytes]:
         async with slots:
-            connection = idle.pop() if idle else await Connection.open(base_url)
+            connection = await connect()
             try:
                 answer = await connection.exchange(request)
             except BaseException:
@@ -205,5 +237,6 @@ async def open_loop(base_url: str, requests: Sequence[bytes], rate: float, durat
     figures = stats(latencies, sum(failures.values()), elapsed)
     return figures | {"target_rps": rate, "duration_s": duration, "sent": float(total),
                       "send_rps": total / sending if sending > 0 else float("nan"),
-                      "peak_in_flight": float(peak), "failures": failures,
+                      "peak_in_flight": float(peak), "connections": float(opened),
+                      "failures": failures,
                       "acknowledged": acknowledged}

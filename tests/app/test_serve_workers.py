@@ -19,6 +19,8 @@ from tests.app.conftest import first_api_key
 from tests.app.live import store_database_url
 
 STARTUP_TIMEOUT_S = 240.0
+#: HYDRODIAG_KEEP_ALIVE_S of the served service [s]
+KEEP_ALIVE_S = 2
 
 
 def _children(pid: int) -> set[int]:
@@ -54,7 +56,8 @@ def _serve(tmp_path: Path) -> tuple[subprocess.Popen[bytes], int]:
         sock.bind(("127.0.0.1", 0))
         port = sock.getsockname()[1]
     env = os.environ | {"HYDRODIAG_DATA_DIR": str(tmp_path), "HYDRODIAG_WORKERS": "2",
-                        "HYDRODIAG_ACCESS_LOG": "false", "HYDRODIAG_LOG_LEVEL": "warning"}
+                        "HYDRODIAG_ACCESS_LOG": "false", "HYDRODIAG_LOG_LEVEL": "warning",
+                        "HYDRODIAG_KEEP_ALIVE_S": str(KEEP_ALIVE_S)}
     # the store: the folder's SQLite file, or a database of its own under make test-postgres
     # (the workers' connections to one PostgreSQL store)
     url = store_database_url()
@@ -83,6 +86,19 @@ def _serve(tmp_path: Path) -> tuple[subprocess.Popen[bytes], int]:
         time.sleep(0.2)
 
 
+def _answer(sock: socket.socket) -> bytes:
+    """One whole answer (its head and ``Content-Length`` bytes of body) read from ``sock``."""
+    data = b""
+    while b"\r\n\r\n" not in data:
+        data += sock.recv(65536)
+    head, _, body = data.partition(b"\r\n\r\n")
+    length = int(next(line.split(b":")[1] for line in head.split(b"\r\n")
+                      if line.lower().startswith(b"content-length:")))
+    while len(body) < length:
+        body += sock.recv(65536)
+    return data
+
+
 def _health_count(port: int) -> float:
     """``GET /health 200`` as one scrape of ``/metrics`` counts it."""
     text = httpx.get(f"http://127.0.0.1:{port}/metrics", timeout=10).text
@@ -103,6 +119,19 @@ def test_metrics_sum_every_worker(tmp_path: Path) -> None:
         # whichever worker answers a scrape, it reports all 40 (one worker's own counter
         # would read about half, and differ from scrape to scrape)
         assert [_health_count(port) - before for _ in range(6)] == [n] * 6
+        # an idle kept-alive connection is closed after HYDRODIAG_KEEP_ALIVE_S, not before
+        # (behind a proxy it is set above the proxy's idle timeout)
+        kept = socket.create_connection(("127.0.0.1", port))
+        health = b"GET /health HTTP/1.1\r\nHost: x\r\n\r\n"
+        for pause in (0.0, KEEP_ALIVE_S / 2):
+            time.sleep(pause)
+            kept.sendall(health)
+            assert _answer(kept).startswith(b"HTTP/1.1 200")
+        kept.settimeout(KEEP_ALIVE_S + 5)
+        waited = time.monotonic()
+        assert kept.recv(65536) == b""  # the service closed it
+        assert KEEP_ALIVE_S - 0.5 < time.monotonic() - waited < KEEP_ALIVE_S + 2
+        kept.close()
         assert len(list((tmp_path / "tmp").glob("hydrodiag-metrics-*/*.db"))) >= 2
         # the workers (and their diagnosis processes) start with at most two malloc
         # arenas: the busy worker of a soak grew +10.5 MiB per 1,000 requests with glibc's
