@@ -21,11 +21,12 @@ from pydantic_settings import BaseSettings, SettingsConfigDict
 from sqlalchemy.engine import URL, make_url
 from sqlalchemy.exc import ArgumentError
 
+from app.cpu_quota import usable_cores
 from app.db.engine import sqlite_path
 from app.limits import BATCH_RECORDS_CEILING, DEFAULT_SWEEP_POINTS, SWEEP_POINTS_CEILING
 
 __all__ = ["CONSOLE_SECRET_MIN", "DEFAULT_RETENTION_DAYS", "OTHER_VARIABLES", "WEAK_PASSWORDS",
-           "Settings", "settings_line", "unknown_variables", "usable_cores"]
+           "Settings", "settings_line", "unknown_variables"]
 
 #: Days a finished job's row is kept after it finished (:mod:`app.services.job_retention`)
 #: [d].
@@ -38,13 +39,6 @@ WEAK_PASSWORDS = frozenset(
 
 #: Fewest characters of ``HYDRODIAG_CONSOLE_SECRET`` (the random default has 64 hex ones).
 CONSOLE_SECRET_MIN = 32
-
-
-def usable_cores() -> int:
-    """Cores this process may run on (its CPU affinity, e.g. a container's cpuset)."""
-    if hasattr(os, "sched_getaffinity"):
-        return max(1, len(os.sched_getaffinity(0)))
-    return os.cpu_count() or 1
 
 
 class Settings(BaseSettings):
@@ -92,7 +86,8 @@ class Settings(BaseSettings):
         answered 503 with ``Retry-After``, nothing stored: 100 sweeps of 200 transient
         points were all accepted at once, ~5 MiB of server memory each (an SRE pass).
     sweep_workers
-        Processes of the local pool that sweeps fan out to; one per core when unset.
+        Processes of the local pool that sweeps fan out to; when unset, one per core this
+        process may use (:func:`app.cpu_quota.usable_cores`).
     dask_scheduler
         Address of a Dask scheduler (``tcp://host:8786``); when set and
         ``dask.distributed`` is installed, sweeps run there instead of the local pool.
@@ -106,7 +101,8 @@ class Settings(BaseSettings):
         ``json`` (default): one JSON object per log line; ``text``: plain lines.
     workers
         Server processes of ``serve`` (uvicorn workers); each has its own caches.  Default:
-        one per core this process may run on (:func:`usable_cores`).
+        one per core this process may use: its CPU affinity and its control group's CPU
+        quota, a container's ``--cpus`` (:func:`app.cpu_quota.usable_cores`).
     diagnosis_processes
         Worker processes of each server process that compute ``/diagnose``
         (:mod:`app.services.diagnosis_pool`), so that diagnoses never hold the server's

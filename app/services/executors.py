@@ -4,7 +4,8 @@ Sweeps only use ``executor.submit(fn, *args)`` and :func:`concurrent.futures.as_
 so one code path serves both kinds:
 
 * **local** (default) — a :class:`~concurrent.futures.ProcessPoolExecutor` of
-  ``HYDRODIAG_SWEEP_WORKERS`` processes (default: one per core), started with ``spawn``
+  ``HYDRODIAG_SWEEP_WORKERS`` processes (default: one per usable core,
+  :func:`app.cpu_quota.usable_cores`), started with ``spawn``
   (the service has threads; forking them is unsafe) on the first sweep and kept for the
   next ones, so the import of :mod:`sim` is paid once per worker;
 * **Dask** — when ``HYDRODIAG_DASK_SCHEDULER`` names a scheduler (``tcp://host:8786``) and
@@ -32,6 +33,7 @@ from concurrent.futures import Executor, ProcessPoolExecutor
 from dataclasses import dataclass
 from typing import Any, Literal
 
+from app.cpu_quota import usable_cores
 from app.errors import ServiceUnavailableError
 from app.lifeline import exit_with_parent
 from diagnostics.batch import executor_workers
@@ -143,7 +145,8 @@ class SweepExecutors:
     Parameters
     ----------
     workers
-        Processes of the local pool; ``None``: one per core.
+        Processes of the local pool; ``None``: one per usable core (its CPU affinity and
+        its control group's quota, :func:`app.cpu_quota.usable_cores`).
     dask_scheduler
         Address of a Dask scheduler; ``None`` for the local pool.
     setting
@@ -154,7 +157,7 @@ class SweepExecutors:
 
     def __init__(self, *, workers: int | None = None, dask_scheduler: str | None = None,
                  setting: str = SETTING) -> None:
-        self._workers = workers or os.cpu_count() or 1
+        self._workers = workers or usable_cores()
         self._scheduler = dask_scheduler if dask_scheduler else None
         self._setting = setting
         if self._scheduler is not None and not dask_available():

@@ -1,0 +1,97 @@
+"""The CPUs a process may use: its control group's CPU quota read as the kernel lays it out
+(``/proc/self/mountinfo``, ``/proc/self/cgroup`` and the quota files), here built in a
+folder: a cgroup v2 container, a v2 host hierarchy whose parent holds the limit, a v1
+container, and the unlimited and unreadable cases."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+
+from app.cpu_quota import cgroup_cpu_limit, usable_cores
+from app.settings import Settings
+
+
+def _proc(tmp_path: Path, mountinfo: str, cgroup: str) -> Path:
+    proc = tmp_path / "proc"
+    proc.mkdir()
+    (proc / "mountinfo").write_text(mountinfo)
+    (proc / "cgroup").write_text(cgroup)
+    return proc
+
+
+def _write(folder: Path, **files: str) -> None:
+    folder.mkdir(parents=True, exist_ok=True)
+    for name, text in files.items():
+        (folder / name.replace("_", ".", 1)).write_text(text + "\n")
+
+
+def _v2(tmp_path: Path, group: str = "/") -> tuple[Path, Path]:
+    mount = tmp_path / "cgroup"
+    mount.mkdir()
+    proc = _proc(tmp_path,
+                 f"25 30 0:22 / /proc rw - proc proc rw\n"
+                 f"31 23 0:28 / {mount} rw,nosuid - cgroup2 cgroup2 rw,nsdelegate\n",
+                 f"0::{group}\n")
+    return proc, mount
+
+
+@pytest.mark.parametrize(("cpu_max", "limit", "cores"), [
+    ("200000 100000", 2.0, 2), ("100000 100000", 1.0, 1), ("150000 100000", 1.5, 1),
+    ("50000 100000", 0.5, 1), ("max 100000", None, None)])
+def test_a_cgroup_v2_containers_quota(tmp_path: Path, cpu_max: str, limit: float | None,
+                                      cores: int | None) -> None:
+    proc, mount = _v2(tmp_path)
+    _write(mount, cpu_max=cpu_max)
+    assert cgroup_cpu_limit(proc) == limit
+    affinity = len(os.sched_getaffinity(0))
+    # the quota rounded down binds below the affinity; at least one core
+    assert usable_cores(proc) == (affinity if cores is None else min(affinity, cores))
+
+
+def test_a_limit_on_a_parent_group_binds_its_children(tmp_path: Path) -> None:
+    """A Kubernetes pod's limit is set on the pod's group, the container's own says max."""
+    proc, mount = _v2(tmp_path, "/kubepods/pod1/ctr")
+    _write(mount / "kubepods", cpu_max="max 100000")
+    _write(mount / "kubepods" / "pod1", cpu_max="150000 100000")
+    _write(mount / "kubepods" / "pod1" / "ctr", cpu_max="max 100000")
+    assert cgroup_cpu_limit(proc) == 1.5
+    _write(mount / "kubepods" / "pod1" / "ctr", cpu_max="50000 100000")  # the smallest
+    assert cgroup_cpu_limit(proc) == 0.5
+    assert usable_cores(proc) == 1
+
+
+def test_a_cgroup_v1_containers_quota(tmp_path: Path) -> None:
+    """Docker on cgroup v1 without a group namespace: the container's group is the mount's
+    root (``/docker/<id>``), mounted at the controller's folder."""
+    mount = tmp_path / "cpu,cpuacct"
+    proc = _proc(tmp_path,
+                 f"40 31 0:35 /docker/abc {mount} ro,nosuid - cgroup cgroup rw,cpu,cpuacct\n"
+                 f"41 31 0:36 /docker/abc {tmp_path / 'memory'} ro - cgroup cgroup rw,memory\n",
+                 "5:memory:/docker/abc\n4:cpu,cpuacct:/docker/abc\n0::/\n")
+    _write(mount, cpu_cfs_quota_us="300000", cpu_cfs_period_us="100000")
+    assert cgroup_cpu_limit(proc) == 3.0
+    _write(mount, cpu_cfs_quota_us="-1")  # no quota
+    assert cgroup_cpu_limit(proc) is None
+
+
+def test_no_quota_where_nothing_can_be_read(tmp_path: Path) -> None:
+    assert cgroup_cpu_limit(tmp_path / "nowhere") is None
+    proc, mount = _v2(tmp_path)
+    assert cgroup_cpu_limit(proc) is None  # no cpu.max: the controller is not enabled
+    _write(mount, cpu_max="two cores")
+    assert cgroup_cpu_limit(proc) is None
+    assert usable_cores(proc) == len(os.sched_getaffinity(0))
+
+
+def test_serve_and_the_sweep_pool_count_the_quota(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The defaults of ``HYDRODIAG_WORKERS`` and the sweep pool are this process's usable
+    cores (on the test machine, whatever quota its group has)."""
+    from app.services.executors import SweepExecutors
+
+    monkeypatch.delenv("HYDRODIAG_WORKERS", raising=False)
+    expected = min(usable_cores(), 64)
+    assert Settings().workers == expected
+    assert SweepExecutors().capacity() == usable_cores()  # before its pool starts
