@@ -64,11 +64,6 @@ cli.add_typer(history_cli, name="history")
 
 #: where ``serve`` leaves the first API key when its output is not a terminal (a log)
 FIRST_KEY_FILE = "first-api-key"
-#: how long a stopping ``serve`` waits for open requests before it cuts them off [s]: a
-#: client uploading a body at 1 byte/s kept a SIGTERMed service running past 45 s, its
-#: /health unanswered, until the client went away (an SRE pass); running jobs then get
-#: their own 5 s (:data:`app.services.jobs.SHUTDOWN_GRACE_S`), within docker stop's 10 s
-CONNECTIONS_GRACE_S = 3
 
 
 def first_key_shown(line: str) -> str | None:
@@ -156,7 +151,6 @@ def serve(
 
     from app.logs import configure_logging
     from app.main import create_app
-    from app.metrics import shared_metrics
     from app.nodelay import NoDelayHttpToolsProtocol
     from app.services.bootstrap import (
         bootstrap_lock,
@@ -169,6 +163,7 @@ def serve(
     from app.services.heap import limit_arenas
     from app.services.throttle_estimator import ThrottleClearanceEstimator
     from app.settings import settings_line, unknown_variables
+    from app.supervisor import CONNECTIONS_GRACE_S, exec_supervisor, supervisor_argv
 
     settings = _settings(host=host, port=port)
     limit_arenas()  # for every process started from here (app.services.heap)
@@ -207,22 +202,18 @@ def serve(
                       "throttle tables")
     if first_key is not None:
         _show_first_key(first_key, settings.data_dir)
-    if settings.workers > 1:  # each worker builds the app from the environment
-        with shared_metrics():  # /metrics sums every worker's counters
-            uvicorn.run("app.main:create_service_app", factory=True,
-                        workers=settings.workers, host=settings.host, port=settings.port,
-                        log_level=settings.log_level,
-                        http=NoDelayHttpToolsProtocol,  # no Nagle delay on kept-alive
-                        timeout_keep_alive=settings.keep_alive_s,
-                        timeout_graceful_shutdown=CONNECTIONS_GRACE_S,
-                        access_log=False)  # the service logs each request itself
-    else:
-        uvicorn.run(create_app(settings, clearance_estimator=estimator, prepare_store=False),
-                    host=settings.host, port=settings.port, log_level=settings.log_level,
-                    http=NoDelayHttpToolsProtocol,  # no Nagle delay on kept-alive connections
-                    timeout_keep_alive=settings.keep_alive_s,
-                    timeout_graceful_shutdown=CONNECTIONS_GRACE_S,
-                    access_log=False)  # the service logs each request itself
+    if settings.workers > 1:  # each worker builds the app from the environment; this
+        # process becomes uvicorn's supervisor alone, without what it imported to get here
+        exec_supervisor(supervisor_argv(
+            host=settings.host, port=settings.port, workers=settings.workers,
+            log_level=settings.log_level, log_format=settings.log_format,
+            keep_alive_s=settings.keep_alive_s))
+    uvicorn.run(create_app(settings, clearance_estimator=estimator, prepare_store=False),
+                host=settings.host, port=settings.port, log_level=settings.log_level,
+                http=NoDelayHttpToolsProtocol,  # no Nagle delay on kept-alive connections
+                timeout_keep_alive=settings.keep_alive_s,
+                timeout_graceful_shutdown=CONNECTIONS_GRACE_S,
+                access_log=False)  # the service logs each request itself
 
 
 @keys_cli.command("create")

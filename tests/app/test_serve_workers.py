@@ -86,6 +86,18 @@ def _serve(tmp_path: Path) -> tuple[subprocess.Popen[bytes], int]:
         time.sleep(0.2)
 
 
+def _parent(pid: int) -> int:
+    """The parent process id of ``pid``."""
+    return int(Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[1])
+
+
+def _rss_kib(pid: int) -> int:
+    """Resident memory of process ``pid`` [KiB]."""
+    status = Path(f"/proc/{pid}/status").read_text()
+    return int(next(line.split()[1] for line in status.splitlines()
+                    if line.startswith("VmRSS:")))
+
+
 def _answer(sock: socket.socket) -> bytes:
     """One whole answer (its head and ``Content-Length`` bytes of body) read from ``sock``."""
     data = b""
@@ -119,6 +131,15 @@ def test_metrics_sum_every_worker(tmp_path: Path) -> None:
         # whichever worker answers a scrape, it reports all 40 (one worker's own counter
         # would read about half, and differ from scrape to scrape)
         assert [_health_count(port) - before for _ in range(6)] == [n] * 6
+        # the supervisor is uvicorn's alone (app.supervisor): serve replaced itself after
+        # readying the store, so the 450 MB it had imported and loaded are not held by a
+        # process that answers no request
+        maps = Path(f"/proc/{supervisor.pid}/maps").read_text()
+        assert "numpy" not in maps and "sqlalchemy" not in maps and "numba" not in maps
+        workers = [p for p in _children(supervisor.pid) if _parent(p) == supervisor.pid
+                   and b"spawn_main" in Path(f"/proc/{p}/cmdline").read_bytes()]
+        assert len(workers) == 2
+        assert 4 * _rss_kib(supervisor.pid) < min(_rss_kib(p) for p in workers)
         # an idle kept-alive connection is closed after HYDRODIAG_KEEP_ALIVE_S, not before
         # (behind a proxy it is set above the proxy's idle timeout)
         kept = socket.create_connection(("127.0.0.1", port))
