@@ -26,7 +26,7 @@ from app.cli_support import (
     store_session,
     validated,
 )
-from app.schemas.pump_leak import PumpLeakRequest, PumpLeakResponse
+from app.schemas.pump_leak import MAX_CYCLES, PumpLeakRequest, PumpLeakResponse
 from diagnostics.plots import shown_unit
 from diagnostics.real.relaxation import ZEMA_RELAXATION
 from sim.errors import HydrodiagError
@@ -36,8 +36,8 @@ __all__ = ["pump_leak_command", "register"]
 _out = WideWhenPiped()
 
 #: fields of the request → the options that fill them
-_OPTIONS = {"series_ids": "--series", "baseline_series_ids": "--baseline", "shunt": "--shunt",
-            "relaxation": "--relaxation", "window": "--window",
+_OPTIONS = {"series_ids": "--series", "baseline_series_ids": "--baseline", "last": "--last",
+            "shunt": "--shunt", "relaxation": "--relaxation", "window": "--window",
             "min_segment": "--min-segment"}
 
 #: flows as every table and chart shows them (l/min per m³/s)
@@ -49,11 +49,14 @@ def pump_leak_command(
                                         help="Rig id in the store (a rig without a "
                                              "cylinder, e.g. the ZeMA rig).")],
     series: Annotated[str | None, typer.Option(
-        help="Stored cycles to read: ids, comma-separated (default: every stored cycle of "
-             "the rig but the baseline's).")] = None,
+        help="Stored cycles to read: ids, comma-separated (default: the rig's stored "
+             "cycles but the baseline's, the latest --last of them).")] = None,
     baseline: Annotated[str | None, typer.Option(
         help="Stored cycles known healthy to read the others against (at least 10): ids, "
              "comma-separated.")] = None,
+    last: Annotated[int | None, typer.Option(
+        help="Without --series: the rig's latest this many stored cycles, by clock time "
+             f"(default: every one, the latest {MAX_CYCLES} of more).")] = None,
     shunt: Annotated[float | None, typer.Option(
         help=r"λ of the laminar shunt as given \[m³] (default: fitted on the cycles).")
     ] = None,
@@ -76,7 +79,7 @@ def pump_leak_command(
         "series_ids": None if series is None else series_ids(series),
         "baseline_series_ids": None if baseline is None else series_ids(baseline,
                                                                           field="--baseline"),
-        "shunt": shunt, "relaxation": relaxation, "window": window,
+        "last": last, "shunt": shunt, "relaxation": relaxation, "window": window,
         "min_segment": min_segment}, _OPTIONS)
     with store_session() as session:
         try:

@@ -25,8 +25,15 @@ class PumpLeakRequest(RequestModel):
     series_ids: list[SeriesIdIn] | None = Field(
         default=None, min_length=2, max_length=MAX_CYCLES,
         description="Stored cycles of the rig (POST /rigs/{rig_id}/series, one record a "
-        f"cycle); every stored cycle of the rig when null (at most {MAX_CYCLES}) [-]",
+        "cycle); when null, the rig's stored cycles but the baseline's: the latest `last` "
+        f"of them, every one up to {MAX_CYCLES} without it [-]",
         examples=[None])
+    last: int | None = Field(
+        default=None, ge=2, le=MAX_CYCLES,
+        description="With series_ids null, read the rig's latest this many stored cycles "
+        "(by clock time, then order of import; those without a clock time count as the "
+        f"oldest); null reads every one, the latest {MAX_CYCLES} of more, said in the "
+        "answer's notes [-]", examples=[None])
     baseline_series_ids: list[SeriesIdIn] | None = Field(
         default=None, min_length=10, max_length=MAX_CYCLES,
         description="Stored cycles of the rig known healthy (after commissioning or an "

@@ -24,7 +24,7 @@ import statistics
 from concurrent.futures import Executor
 from dataclasses import dataclass
 
-from sqlalchemy import select
+from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
 from app.db.models import MeasuredSeries
@@ -53,31 +53,43 @@ def _finite(x: float) -> float | None:
     return x if math.isfinite(x) else None
 
 
-def _batch_ids(session: Session, rig_id: int, request: PumpLeakRequest) -> list[int]:
-    """The ids of the cycles to read: those given, or every stored cycle of the rig but the
-    baseline's, in order of import."""
+def _batch_ids(session: Session, rig_id: int, request: PumpLeakRequest
+               ) -> tuple[list[int], str | None]:
+    """The ids of the cycles to read, in order of import: those given, or the rig's latest
+    ``last`` (:data:`MAX_CYCLES` without it) stored cycles but the baseline's; and a note
+    when stored cycles were left out."""
     base = set(request.baseline_series_ids or ())
     if request.series_ids is not None:
+        if request.last is not None:
+            raise InputError("give series_ids or last, not both: last picks the rig's latest "
+                             "stored cycles when series_ids is null", field="last")
         both = sorted(base.intersection(request.series_ids))
         if both:
             raise InputError(f"series {', '.join(map(str, both[:10]))} "
                              f"{'is' if len(both) == 1 else 'are'} in both the batch and "
                              "the baseline: a cycle is not its own healthy reference",
                              field="baseline_series_ids")
-        return list(request.series_ids)
-    ids = [i for i in session.scalars(select(MeasuredSeries.id)
-                                      .where(MeasuredSeries.rig_id == rig_id)
-                                      .order_by(MeasuredSeries.id)) if i not in base]
-    if len(ids) > MAX_CYCLES:
-        raise InputError(f"rig {rig_id} has {len(ids)} stored cycles to read, more than the "
-                         f"{MAX_CYCLES} one request reads: name them in series_ids",
+        return list(request.series_ids), None
+    mine = [MeasuredSeries.rig_id == rig_id]
+    if base:
+        mine.append(MeasuredSeries.id.not_in(base))
+    total = session.scalar(select(func.count()).select_from(MeasuredSeries).where(*mine)) or 0
+    besides = " besides the baseline" if base else ""
+    if total < 2:
+        raise InputError(f"rig {rig_id} has {total} stored cycle(s) to read{besides}: import "
+                         "its cycles first (POST /rigs/{rig_id}/series, hydrodiag import)",
                          field="series_ids")
-    if len(ids) < 2:
-        raise InputError(f"rig {rig_id} has {len(ids)} stored cycle(s) to read"
-                         + (" besides the baseline" if base else "")
-                         + ": import its cycles first (POST /rigs/{rig_id}/series, "
-                         "hydrodiag import)", field="series_ids")
-    return ids
+    wanted = request.last or MAX_CYCLES
+    ids = sorted(session.scalars(
+        select(MeasuredSeries.id).where(*mine)
+        .order_by(MeasuredSeries.measured_at.desc().nulls_last(), MeasuredSeries.id.desc())
+        .limit(wanted)))
+    if len(ids) == total:
+        return ids, None
+    return ids, (f"read the latest {len(ids)} of the rig's {total} stored cycles{besides} (by "
+                 "clock time, then order of import"
+                 + ("" if request.last else f": at most {MAX_CYCLES} a request")
+                 + "); name others in series_ids")
 
 
 def _check_channels(session: Session, rig_id: int, ids: list[int], field: str) -> None:
@@ -110,7 +122,7 @@ def pump_leak(session: Session, rigs: RigCache, rig_id: int, request: PumpLeakRe
         (``baseline_series_ids``); too many or too few cycles.
     """
     resolved = rigs.get(session, rig_id)
-    ids = _batch_ids(session, rig_id, request)
+    ids, left_out = _batch_ids(session, rig_id, request)
     _check_channels(session, rig_id, ids, "series_ids")
     if request.baseline_series_ids is not None:
         _check_channels(session, rig_id, request.baseline_series_ids, "baseline_series_ids")
@@ -123,7 +135,10 @@ def pump_leak(session: Session, rigs: RigCache, rig_id: int, request: PumpLeakRe
                              relaxation=request.relaxation, window=request.window,
                              min_segment=request.min_segment)
     found = task() if executor is None else executor.submit(task).result()
-    return response_of(rig_id, resolved.version, found)
+    answer = response_of(rig_id, resolved.version, found)
+    if left_out is not None:
+        answer.notes.insert(0, left_out)
+    return answer
 
 
 def response_of(rig_id: int, version: int, found: LeakMonitor) -> PumpLeakResponse:

@@ -50,6 +50,18 @@ def test_the_leak_of_every_stored_cycle_and_its_steps(
     assert times == sorted(times) and times[0].startswith("2026-11-20T08:00:00")
 
 
+def test_the_latest_cycles_by_clock_time(imported: tuple[CliRunner, np.ndarray]) -> None:
+    runner, lab = imported
+    answer = runner.invoke(cli, ["pump-leak", "--rig", "2", "--json", "--last", "24"])
+    assert answer.exit_code == 0, answer.output
+    out = json.loads(answer.stdout)
+    assert [c["series_id"] for c in out["cycles"]] == list(range(13, 37))
+    assert [c["leaking"] for c in out["cycles"]] == list(lab[12:] > 0)
+    assert out["cycles"][0]["measured_at"].startswith("2026-11-20T08:12:00")  # a cycle a min
+    shown = runner.invoke(cli, ["pump-leak", "--rig", "2", "--last", "24"])
+    assert "note: read the latest 24 of the rig's 36 stored cycles" in shown.output
+
+
 def test_bad_options_are_named(imported: tuple[CliRunner, np.ndarray]) -> None:
     """Exit code 1 (the command's main) with the error naming the option the user typed."""
     runner, lab = imported
@@ -61,6 +73,7 @@ def test_bad_options_are_named(imported: tuple[CliRunner, np.ndarray]) -> None:
             (["--rig", "1", "--series", "1,2"], "--series", "another rig"),
             (["--rig", "2", "--series", healthy], "--baseline", "no separate leaking group"),
             (["--rig", "2", "--series", "1,2"], "--series", "at least 10 cycles"),
+            (["--rig", "2", "--series", "1,2", "--last", "24"], "--last", "not both"),
             (["--rig", "9"], "--rig", "no rig")):
         bad = runner.invoke(cli, ["pump-leak", *args])
         assert bad.exit_code != 0, bad.output

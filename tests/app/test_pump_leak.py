@@ -11,6 +11,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from app.services import pump_leak as pump_leak_service
 from diagnostics.real.monitor import monitor_pump_leak
 from diagnostics.real.zema import load_1hz, read_records
 from sim.rigs import load_rig, load_rig_document
@@ -145,3 +146,35 @@ def test_cycles_of_another_rig_or_none_are_refused(
     assert both.json()["error"]["field"] == "baseline_series_ids" and "both" in both.text
     assert _post(server, 10**9, {}).status_code == 404
     assert server.row_counts() == before
+
+
+def test_the_latest_cycles_are_read_when_the_rig_has_more(
+        server: LiveServer, stored: tuple[int, list[int], np.ndarray],
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """A monitored rig stores a cycle a minute, 5,000 in three and a half days: past that the
+    default request was refused ("name them in series_ids"); it reads the latest cycles and
+    says how many it left out."""
+    rig_id, ids, lab = stored
+    latest = _post(server, rig_id, {"last": 24})
+    assert latest.status_code == 200, latest.text
+    out = latest.json()
+    # no clock times in the slice: the latest by order of import
+    assert [c["series_id"] for c in out["cycles"]] == ids[-24:]
+    assert [c["leaking"] for c in out["cycles"]] == list(lab[-24:] > 0)
+    assert out["notes"][0] == (f"read the latest 24 of the rig's {len(ids)} stored cycles (by "
+                               "clock time, then order of import); name others in series_ids")
+    # more stored cycles than a request reads: the latest of them, said so
+    baseline = [i for i, k in zip(ids, lab, strict=True) if k == 0][:12]
+    rest = [i for i in ids if i not in baseline]
+    monkeypatch.setattr(pump_leak_service, "MAX_CYCLES", 18)
+    capped = _post(server, rig_id, {"baseline_series_ids": baseline})
+    assert capped.status_code == 200, capped.text
+    assert [c["series_id"] for c in capped.json()["cycles"]] == rest[-18:]
+    assert capped.json()["notes"][0] == (
+        f"read the latest 18 of the rig's {len(rest)} stored cycles besides the baseline (by "
+        "clock time, then order of import: at most 18 a request); name others in series_ids")
+    monkeypatch.undo()
+    every = _post(server, rig_id, {})
+    assert every.status_code == 200 and not any("latest" in n for n in every.json()["notes"])
+    both = _post(server, rig_id, {"series_ids": ids[:24], "last": 24})
+    assert both.status_code == 422 and both.json()["error"]["field"] == "last"
