@@ -21,7 +21,7 @@ from pydantic_settings import BaseSettings, SettingsConfigDict
 from sqlalchemy.engine import URL, make_url
 from sqlalchemy.exc import ArgumentError
 
-from app.cpu_quota import usable_cores
+from app.cgroup_limits import usable_cores
 from app.db.engine import sqlite_path
 from app.limits import BATCH_RECORDS_CEILING, DEFAULT_SWEEP_POINTS, SWEEP_POINTS_CEILING
 
@@ -87,7 +87,7 @@ class Settings(BaseSettings):
         points were all accepted at once, ~5 MiB of server memory each (an SRE pass).
     sweep_workers
         Processes of the local pool that sweeps fan out to; when unset, one per core this
-        process may use (:func:`app.cpu_quota.usable_cores`).
+        process may use (:func:`app.cgroup_limits.usable_cores`).
     dask_scheduler
         Address of a Dask scheduler (``tcp://host:8786``); when set and
         ``dask.distributed`` is installed, sweeps run there instead of the local pool.
@@ -102,7 +102,7 @@ class Settings(BaseSettings):
     workers
         Server processes of ``serve`` (uvicorn workers); each has its own caches.  Default:
         one per core this process may use: its CPU affinity and its control group's CPU
-        quota, a container's ``--cpus`` (:func:`app.cpu_quota.usable_cores`).
+        quota, a container's ``--cpus`` (:func:`app.cgroup_limits.usable_cores`).
     diagnosis_processes
         Worker processes of each server process that compute ``/diagnose``
         (:mod:`app.services.diagnosis_pool`), so that diagnoses never hold the server's

@@ -5,7 +5,7 @@ so one code path serves both kinds:
 
 * **local** (default) — a :class:`~concurrent.futures.ProcessPoolExecutor` of
   ``HYDRODIAG_SWEEP_WORKERS`` processes (default: one per usable core,
-  :func:`app.cpu_quota.usable_cores`), started with ``spawn``
+  :func:`app.cgroup_limits.usable_cores`), started with ``spawn``
   (the service has threads; forking them is unsafe) on the first sweep and kept for the
   next ones, so the import of :mod:`sim` is paid once per worker;
 * **Dask** — when ``HYDRODIAG_DASK_SCHEDULER`` names a scheduler (``tcp://host:8786``) and
@@ -33,7 +33,7 @@ from concurrent.futures import Executor, ProcessPoolExecutor
 from dataclasses import dataclass
 from typing import Any, Literal
 
-from app.cpu_quota import usable_cores
+from app.cgroup_limits import usable_cores
 from app.errors import ServiceUnavailableError
 from app.lifeline import exit_with_parent
 from diagnostics.batch import executor_workers
@@ -146,7 +146,7 @@ class SweepExecutors:
     ----------
     workers
         Processes of the local pool; ``None``: one per usable core (its CPU affinity and
-        its control group's quota, :func:`app.cpu_quota.usable_cores`).
+        its control group's quota, :func:`app.cgroup_limits.usable_cores`).
     dask_scheduler
         Address of a Dask scheduler; ``None`` for the local pool.
     setting

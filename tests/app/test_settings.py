@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 from pydantic import ValidationError
 
-from app.cpu_quota import usable_cores
+from app.cgroup_limits import usable_cores
 from app.settings import Settings
 
 
@@ -49,7 +49,7 @@ def test_a_file_as_data_dir_is_refused(tmp_path: Path) -> None:
 def test_serve_runs_one_worker_per_usable_core_unless_told(
         monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.delenv("HYDRODIAG_WORKERS", raising=False)
-    assert Settings().workers == min(usable_cores(), 64)  # tests/app/test_cpu_quota.py
+    assert Settings().workers == min(usable_cores(), 64)  # tests/app/test_cgroup_limits.py
     monkeypatch.setenv("HYDRODIAG_WORKERS", "3")
     assert Settings().workers == 3
     assert Settings().diagnosis_processes == 1 and Settings().diagnosis_queue == 32

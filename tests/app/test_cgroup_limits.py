@@ -1,7 +1,7 @@
-"""The CPUs a process may use: its control group's CPU quota read as the kernel lays it out
-(``/proc/self/mountinfo``, ``/proc/self/cgroup`` and the quota files), here built in a
-folder: a cgroup v2 container, a v2 host hierarchy whose parent holds the limit, a v1
-container, and the unlimited and unreadable cases."""
+"""What a process's control group lets it use — the CPU quota and the memory limit — read as
+the kernel lays them out (``/proc/self/mountinfo``, ``/proc/self/cgroup`` and the limits'
+files), here built in a folder: a cgroup v2 container, a v2 host hierarchy whose parent
+holds the limit, a v1 container, and the unlimited and unreadable cases."""
 
 from __future__ import annotations
 
@@ -10,7 +10,15 @@ from pathlib import Path
 
 import pytest
 
-from app.cpu_quota import cgroup_cpu_limit, usable_cores
+from app.cgroup_limits import (
+    DIAGNOSIS_MIB,
+    SUPERVISOR_MIB,
+    WORKER_MIB,
+    cgroup_cpu_limit,
+    cgroup_memory_limit,
+    memory_warning,
+    usable_cores,
+)
 from app.settings import Settings
 
 
@@ -63,18 +71,36 @@ def test_a_limit_on_a_parent_group_binds_its_children(tmp_path: Path) -> None:
     assert usable_cores(proc) == 1
 
 
-def test_a_cgroup_v1_containers_quota(tmp_path: Path) -> None:
+def test_a_cgroup_v1_containers_limits(tmp_path: Path) -> None:
     """Docker on cgroup v1 without a group namespace: the container's group is the mount's
     root (``/docker/<id>``), mounted at the controller's folder."""
-    mount = tmp_path / "cpu,cpuacct"
+    mount, memory = tmp_path / "cpu,cpuacct", tmp_path / "memory"
     proc = _proc(tmp_path,
                  f"40 31 0:35 /docker/abc {mount} ro,nosuid - cgroup cgroup rw,cpu,cpuacct\n"
-                 f"41 31 0:36 /docker/abc {tmp_path / 'memory'} ro - cgroup cgroup rw,memory\n",
+                 f"41 31 0:36 /docker/abc {memory} ro - cgroup cgroup rw,memory\n",
                  "5:memory:/docker/abc\n4:cpu,cpuacct:/docker/abc\n0::/\n")
     _write(mount, cpu_cfs_quota_us="300000", cpu_cfs_period_us="100000")
-    assert cgroup_cpu_limit(proc) == 3.0
-    _write(mount, cpu_cfs_quota_us="-1")  # no quota
-    assert cgroup_cpu_limit(proc) is None
+    _write(memory, memory_limit_in_bytes=str(2 * 2**30))
+    assert cgroup_cpu_limit(proc) == 3.0 and cgroup_memory_limit(proc) == 2 * 2**30
+    _write(mount, cpu_cfs_quota_us="-1")  # no quota; no memory limit: LONG_MAX in pages
+    _write(memory, memory_limit_in_bytes="9223372036854771712")
+    assert cgroup_cpu_limit(proc) is None and cgroup_memory_limit(proc) is None
+
+
+def test_serve_warns_when_its_processes_outgrow_the_memory_limit(tmp_path: Path) -> None:
+    """2 CPUs and 1 GiB, a common container size: 2 workers with their diagnosis processes
+    take about 1 GiB once warm, and an out-of-memory kill said nothing in the log."""
+    proc, mount = _v2(tmp_path, "/kubepods/pod1")
+    _write(mount / "kubepods", memory_max="max")
+    _write(mount / "kubepods" / "pod1", memory_max=str(2**30))
+    assert cgroup_memory_limit(proc) == 2**30
+    said = memory_warning(2, 1, proc)
+    need = SUPERVISOR_MIB + 2 * (WORKER_MIB + DIAGNOSIS_MIB)
+    assert said is not None and "is 1024 MiB, and 2 server worker(s)" in said
+    assert f"about {need} MiB once warm" in said and "HYDRODIAG_WORKERS" in said
+    assert memory_warning(1, 1, proc) is None  # one worker: about half of it
+    _write(mount / "kubepods" / "pod1", memory_max="max")
+    assert cgroup_memory_limit(proc) is None and memory_warning(64, 4, proc) is None
 
 
 def test_no_quota_where_nothing_can_be_read(tmp_path: Path) -> None:
