@@ -211,11 +211,13 @@ def serve(
         exec_supervisor(supervisor_argv(
             host=settings.host, port=settings.port, workers=settings.workers,
             log_level=settings.log_level, log_format=settings.log_format,
-            keep_alive_s=settings.keep_alive_s))
+            keep_alive_s=settings.keep_alive_s,
+            forwarded_allow_ips=settings.forwarded_allow_ips))
     uvicorn.run(create_app(settings, clearance_estimator=estimator, prepare_store=False),
                 host=settings.host, port=settings.port, log_level=settings.log_level,
                 http=NoDelayHttpToolsProtocol,  # no Nagle delay on kept-alive connections
                 timeout_keep_alive=settings.keep_alive_s,
+                forwarded_allow_ips=settings.forwarded_allow_ips,
                 timeout_graceful_shutdown=CONNECTIONS_GRACE_S,
                 access_log=False)  # the service logs each request itself
 

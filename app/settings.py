@@ -10,6 +10,7 @@ in-memory SQLite database that would lose every write).
 from __future__ import annotations
 
 import difflib
+import ipaddress
 import os
 from collections.abc import Mapping
 from functools import cached_property
@@ -71,6 +72,13 @@ class Settings(BaseSettings):
         over it, 429 with ``Retry-After``.  0 (default) sets no limit.
     host, port
         Where ``hydrodiag serve`` listens.
+    forwarded_allow_ips
+        Addresses whose ``X-Forwarded-For`` / ``X-Forwarded-Proto`` headers ``serve``
+        believes (uvicorn's ``forwarded_allow_ips``): comma-separated addresses or networks,
+        or ``*``; default ``127.0.0.1,::1``.  Behind a proxy that terminates TLS on another
+        host or container, name its address: otherwise the service takes every request
+        for plain HTTP from the proxy, and the console's login cookie is then sent without
+        ``Secure``.
     keep_alive_s
         How long ``serve`` keeps an idle kept-alive connection open [s] (uvicorn's
         ``timeout_keep_alive``; default 5, uvicorn's).  Behind a proxy that keeps its
@@ -161,6 +169,9 @@ class Settings(BaseSettings):
                                        description="Requests per API key and minute; 0: none.")
     host: str = Field(default="127.0.0.1", description="Interface `serve` binds.")
     port: int = Field(default=8000, ge=1, le=65535, description="TCP port `serve` binds.")
+    forwarded_allow_ips: str = Field(
+        default="127.0.0.1,::1", description="Proxies whose X-Forwarded-* headers `serve` "
+        "believes: addresses or networks, comma-separated, or *.")
     keep_alive_s: int = Field(default=5, ge=1, le=3600,
                               description="Seconds `serve` keeps an idle connection open.")
     job_workers: int = Field(default=2, ge=1, le=64, description="Job worker threads.")
@@ -229,6 +240,21 @@ class Settings(BaseSettings):
                 "a well-known default (make one: python3 -c 'import secrets; "
                 "print(secrets.token_hex(32))')")
         return text.strip()
+
+    @field_validator("forwarded_allow_ips")
+    @classmethod
+    def _check_proxies(cls, value: str) -> str:
+        items = [v.strip() for v in value.split(",")]
+        for item in items:
+            if item == "*":
+                continue
+            try:
+                ipaddress.ip_network(item, strict=False)
+            except ValueError:
+                raise ValueError(f"{item!r} is not an address or a network (give addresses "
+                                 "like 10.0.0.5 or 10.0.0.0/8, comma-separated, or *)"
+                                 ) from None
+        return ",".join(items)
 
     @field_validator("database_url")
     @classmethod

@@ -30,11 +30,11 @@ CONNECTIONS_GRACE_S = 3
 
 
 def supervisor_argv(*, host: str, port: int, workers: int, log_level: str,
-                    log_format: str, keep_alive_s: int) -> list[str]:
+                    log_format: str, keep_alive_s: int, forwarded_allow_ips: str) -> list[str]:
     """The command line that runs this module with ``serve``'s settings."""
     return [sys.executable, "-m", "app.supervisor", "--host", host, "--port", str(port),
             "--workers", str(workers), "--log-level", log_level, "--log-format", log_format,
-            "--keep-alive", str(keep_alive_s)]
+            "--keep-alive", str(keep_alive_s), "--forwarded-allow-ips", forwarded_allow_ips]
 
 
 def exec_supervisor(argv: Sequence[str]) -> None:
@@ -57,6 +57,7 @@ def main(argv: Sequence[str] | None = None) -> None:
                         choices=("debug", "info", "warning", "error"))
     parser.add_argument("--log-format", default="json", choices=("json", "text"))
     parser.add_argument("--keep-alive", type=int, default=5)
+    parser.add_argument("--forwarded-allow-ips", default="127.0.0.1,::1")
     args = parser.parse_args(argv)
 
     import uvicorn
@@ -71,6 +72,7 @@ def main(argv: Sequence[str] | None = None) -> None:
                     host=args.host, port=args.port, log_level=args.log_level,
                     http=NoDelayHttpToolsProtocol,  # no Nagle delay on kept-alive
                     timeout_keep_alive=args.keep_alive,
+                    forwarded_allow_ips=args.forwarded_allow_ips,
                     timeout_graceful_shutdown=CONNECTIONS_GRACE_S,
                     access_log=False)  # the service logs each request itself
 

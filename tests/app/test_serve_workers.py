@@ -50,14 +50,15 @@ def _alive(pid: int) -> bool:
     return fields[0] != "Z"
 
 
-def _serve(tmp_path: Path) -> tuple[subprocess.Popen[bytes], int]:
-    """``hydrodiag serve`` with 2 workers on a free port, once it is ready."""
+def _serve(tmp_path: Path, **settings: str) -> tuple[subprocess.Popen[bytes], int]:
+    """``hydrodiag serve`` with 2 workers on a free port, once it is ready (``settings``:
+    more variables)."""
     with socket.socket() as sock:
         sock.bind(("127.0.0.1", 0))
         port = sock.getsockname()[1]
     env = os.environ | {"HYDRODIAG_DATA_DIR": str(tmp_path), "HYDRODIAG_WORKERS": "2",
                         "HYDRODIAG_ACCESS_LOG": "false", "HYDRODIAG_LOG_LEVEL": "warning",
-                        "HYDRODIAG_KEEP_ALIVE_S": str(KEEP_ALIVE_S)}
+                        "HYDRODIAG_KEEP_ALIVE_S": str(KEEP_ALIVE_S)} | settings
     # the store: the folder's SQLite file, or a database of its own under make test-postgres
     # (the workers' connections to one PostgreSQL store)
     url = store_database_url()
@@ -91,6 +92,18 @@ def _parent(pid: int) -> int:
     return int(Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[1])
 
 
+def _login_cookie(tmp_path: Path, port: int, *, behind_tls: bool) -> str:
+    """The console's login cookie for ``serve``'s first key, as ``Set-Cookie`` says it, the
+    request sent as a TLS-terminating proxy forwards it (``X-Forwarded-Proto: https``) or
+    directly."""
+    key = first_api_key(tmp_path, (tmp_path / "service.log").read_text())
+    answer = httpx.post(f"http://127.0.0.1:{port}/console/login", data={"api_key": key},
+                        headers={"X-Forwarded-Proto": "https"} if behind_tls else {},
+                        timeout=30)
+    assert answer.status_code == 303, answer.text
+    return answer.headers["set-cookie"]
+
+
 def _rss_kib(pid: int) -> int:
     """Resident memory of process ``pid`` [KiB]."""
     status = Path(f"/proc/{pid}/status").read_text()
@@ -122,8 +135,11 @@ def _health_count(port: int) -> float:
 
 
 def test_metrics_sum_every_worker(tmp_path: Path) -> None:
-    supervisor, port = _serve(tmp_path)
+    supervisor, port = _serve(tmp_path, HYDRODIAG_FORWARDED_ALLOW_IPS="10.9.8.7")
     try:
+        # a proxy's headers are believed from the addresses named only (here another host):
+        # this request's X-Forwarded-Proto is not, so its cookie is not marked Secure
+        assert "secure" not in _login_cookie(tmp_path, port, behind_tls=True).lower()
         before = _health_count(port)  # the readiness probes do not count; /health is new
         n = 40
         for _ in range(n):  # a new connection each: the kernel spreads them over workers
@@ -181,6 +197,10 @@ def test_a_killed_supervisor_takes_its_workers_with_it(tmp_path: Path) -> None:
     supervisor, port = _serve(tmp_path)
     descendants: set[int] = set()
     try:
+        # a proxy on this host (the default trust) that terminated TLS: the console's cookie
+        # is Secure; asked directly over HTTP, it is not
+        assert "secure" in _login_cookie(tmp_path, port, behind_tls=True).lower()
+        assert "secure" not in _login_cookie(tmp_path, port, behind_tls=False).lower()
         deadline = time.monotonic() + STARTUP_TIMEOUT_S
         # 2 server workers, each with its diagnosis worker (and spawn's resource trackers)
         while len(descendants) < 4 and time.monotonic() < deadline:

@@ -100,3 +100,12 @@ def test_the_console_secret_signs_the_console_cookie(monkeypatch: pytest.MonkeyP
     kept = _secret(blank)
     assert len(kept) == 64 and (tmp_path / "console-secret").read_bytes().strip() == kept
     assert _secret(Settings(data_dir=tmp_path)) == kept
+
+
+def test_the_proxies_believed_are_addresses_or_networks(monkeypatch: pytest.MonkeyPatch) -> None:
+    assert Settings().forwarded_allow_ips == "127.0.0.1,::1"  # uvicorn's own default
+    monkeypatch.setenv("HYDRODIAG_FORWARDED_ALLOW_IPS", "10.0.0.5, 172.16.0.0/12,*")
+    assert Settings().forwarded_allow_ips == "10.0.0.5,172.16.0.0/12,*"
+    monkeypatch.setenv("HYDRODIAG_FORWARDED_ALLOW_IPS", "10.0.0.5,proxy.internal")
+    with pytest.raises(ValidationError, match="'proxy.internal' is not an address"):
+        Settings()
