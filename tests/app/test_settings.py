@@ -107,5 +107,5 @@ def test_the_proxies_believed_are_addresses_or_networks(monkeypatch: pytest.Monk
     monkeypatch.setenv("HYDRODIAG_FORWARDED_ALLOW_IPS", "10.0.0.5, 172.16.0.0/12,*")
     assert Settings().forwarded_allow_ips == "10.0.0.5,172.16.0.0/12,*"
     monkeypatch.setenv("HYDRODIAG_FORWARDED_ALLOW_IPS", "10.0.0.5,proxy.internal")
-    with pytest.raises(ValidationError, match="'proxy.internal' is not an address"):
+    with pytest.raises(ValidationError, match=r"'proxy\.internal' is not an address"):
         Settings()
