@@ -14,8 +14,8 @@ by the kernel for the rest of each 100 ms period, a latency spike no load test o
 quiet machine shows), at least 1.
 
 The memory limit (``memory.max``; v1 ``memory.limit_in_bytes``) is not divided among
-workers here: :func:`memory_warning` says, when ``serve`` starts, that the workers it
-starts need about as much as the limit or more — an out-of-memory kill of a worker
+workers here: :func:`memory_warning` says, when ``serve`` starts, that the processes it
+starts (and its sweeps start) need about as much as the limit or more — an out-of-memory kill of a worker
 restarts it without a word in the service's log, and of the whole container, with it.
 
 Limits are read along the process's own control group and each of its parents, the
@@ -31,16 +31,18 @@ import os
 from collections.abc import Callable
 from pathlib import Path
 
-__all__ = ["DIAGNOSIS_MIB", "SUPERVISOR_MIB", "WORKER_MIB", "cgroup_cpu_limit",
+__all__ = ["DIAGNOSIS_MIB", "SUPERVISOR_MIB", "SWEEP_MIB", "WORKER_MIB", "cgroup_cpu_limit",
            "cgroup_memory_limit", "memory_warning", "usable_cores"]
 
 PROC = Path("/proc/self")
-#: memory of a ready ``serve``'s processes, their proportional set size (shared pages split
-#: among the processes that share them) in a ready 2-worker service on the reference rig,
-#: measured 2026-12-01: the supervisor, a server worker, a diagnosis process [MiB]
+#: memory of ``serve``'s processes, their proportional set size (shared pages split among
+#: the processes that share them) in a ready 2-worker service on the reference rig,
+#: measured 2026-12-01: the supervisor, a server worker, a diagnosis process, and a process
+#: of a worker's sweep pool after a transient sweep [MiB]
 SUPERVISOR_MIB = 23
 WORKER_MIB = 257
 DIAGNOSIS_MIB = 234
+SWEEP_MIB = 115
 #: a v1 memory limit this large or larger is none (the kernel writes LONG_MAX rounded to a
 #: page) [byte]
 _NO_V1_LIMIT = 2**62
@@ -162,25 +164,29 @@ def cgroup_memory_limit(proc: Path = PROC) -> int | None:
     return None if limit is None else int(limit)
 
 
-def memory_warning(workers: int, diagnosis_processes: int, proc: Path = PROC) -> str | None:
-    """What ``serve`` logs when ``workers`` server workers with ``diagnosis_processes``
-    diagnosis processes each need about 90 % of the group's memory limit or more, once
-    warm (:data:`SUPERVISOR_MIB`, :data:`WORKER_MIB`, :data:`DIAGNOSIS_MIB`); None
-    otherwise, and without a limit."""
+def memory_warning(workers: int, diagnosis_processes: int, sweep_processes: int,
+                   proc: Path = PROC) -> str | None:
+    """What ``serve`` logs when ``workers`` server workers, each with
+    ``diagnosis_processes`` diagnosis processes and, while it runs a sweep, its pool of
+    ``sweep_processes`` processes, need about 90 % of the group's memory limit or more
+    (:data:`SUPERVISOR_MIB`, :data:`WORKER_MIB`, :data:`DIAGNOSIS_MIB`,
+    :data:`SWEEP_MIB`); None otherwise, and without a limit."""
     limit = cgroup_memory_limit(proc)
     if limit is None:
         return None
-    need = (SUPERVISOR_MIB if workers > 1 else 0) + workers * (
+    warm = (SUPERVISOR_MIB if workers > 1 else 0) + workers * (
         WORKER_MIB + diagnosis_processes * DIAGNOSIS_MIB)
+    sweeping = warm + workers * sweep_processes * SWEEP_MIB
     have = limit / 2**20
-    if need < 0.9 * have:
+    if sweeping < 0.9 * have:
         return None
     return (f"the memory limit of this service's control group (a container's) is "
-            f"{have:.0f} MiB, and {workers} server "
-            f"worker(s) with {diagnosis_processes} diagnosis process(es) each take about "
-            f"{need} MiB once warm (sweeps start more processes): the kernel will kill "
-            "processes of the service when they outgrow it; set HYDRODIAG_WORKERS (or "
-            "HYDRODIAG_DIAGNOSIS_PROCESSES) lower or raise the limit")
+            f"{have:.0f} MiB, and {workers} server worker(s) with {diagnosis_processes} "
+            f"diagnosis process(es) each take about {warm} MiB once warm, {sweeping} MiB "
+            f"while each runs a sweep on its {sweep_processes} process(es): the kernel will "
+            "kill processes of the service when they outgrow it; set HYDRODIAG_WORKERS (or "
+            "HYDRODIAG_DIAGNOSIS_PROCESSES, HYDRODIAG_SWEEP_WORKERS) lower or raise the "
+            "limit")
 
 
 def usable_cores(proc: Path = PROC) -> int:

@@ -149,7 +149,7 @@ def serve(
     import uvicorn
     from sqlalchemy.exc import DatabaseError
 
-    from app.cgroup_limits import memory_warning
+    from app.cgroup_limits import memory_warning, usable_cores
     from app.logs import configure_logging
     from app.main import create_app
     from app.nodelay import NoDelayHttpToolsProtocol
@@ -173,7 +173,9 @@ def serve(
     for name in unknown_variables():
         log.warning("environment variable %s is no setting of hydrodiag: ignored", name)
     log.info(settings_line(settings))
-    short = memory_warning(settings.workers, settings.diagnosis_processes)
+    short = memory_warning(settings.workers, settings.diagnosis_processes,
+                           0 if settings.dask_scheduler else
+                           settings.sweep_workers or usable_cores())
     if short is not None:
         log.warning(short)
     _check_port(settings.host, settings.port,   # before anything is written

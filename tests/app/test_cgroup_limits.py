@@ -13,6 +13,7 @@ import pytest
 from app.cgroup_limits import (
     DIAGNOSIS_MIB,
     SUPERVISOR_MIB,
+    SWEEP_MIB,
     WORKER_MIB,
     cgroup_cpu_limit,
     cgroup_memory_limit,
@@ -89,27 +90,23 @@ def test_a_cgroup_v1_containers_limits(tmp_path: Path) -> None:
 
 def test_serve_warns_when_its_processes_outgrow_the_memory_limit(tmp_path: Path) -> None:
     """2 CPUs and 1 GiB, a common container size: 2 workers with their diagnosis processes
-    take about 1 GiB once warm, and an out-of-memory kill said nothing in the log."""
+    take about 1 GiB once warm, more while they sweep, and an out-of-memory kill said
+    nothing in the log."""
     proc, mount = _v2(tmp_path, "/kubepods/pod1")
     _write(mount / "kubepods", memory_max="max")
     _write(mount / "kubepods" / "pod1", memory_max=str(2**30))
     assert cgroup_memory_limit(proc) == 2**30
-    said = memory_warning(2, 1, proc)
-    need = SUPERVISOR_MIB + 2 * (WORKER_MIB + DIAGNOSIS_MIB)
+    said = memory_warning(2, 1, 2, proc)
+    warm = SUPERVISOR_MIB + 2 * (WORKER_MIB + DIAGNOSIS_MIB)
     assert said is not None and "is 1024 MiB, and 2 server worker(s)" in said
-    assert f"about {need} MiB once warm" in said and "HYDRODIAG_WORKERS" in said
-    assert memory_warning(1, 1, proc) is None  # one worker: about half of it
+    assert f"about {warm} MiB once warm, {warm + 4 * SWEEP_MIB} MiB while each runs a " \
+        "sweep on its 2 process(es)" in said and "HYDRODIAG_WORKERS" in said
+    assert memory_warning(1, 1, 2, proc) is None  # one worker: about 70 % of it
+    _write(mount / "kubepods" / "pod1", memory_max=str(2 * 2**30))
+    assert memory_warning(2, 1, 2, proc) is None  # 2 GiB: room for the sweeps too
+    assert memory_warning(2, 1, 8, proc) is not None  # a sweep pool of 8 a worker: not
     _write(mount / "kubepods" / "pod1", memory_max="max")
-    assert cgroup_memory_limit(proc) is None and memory_warning(64, 4, proc) is None
-
-
-def test_no_quota_where_nothing_can_be_read(tmp_path: Path) -> None:
-    assert cgroup_cpu_limit(tmp_path / "nowhere") is None
-    proc, mount = _v2(tmp_path)
-    assert cgroup_cpu_limit(proc) is None  # no cpu.max: the controller is not enabled
-    _write(mount, cpu_max="two cores")
-    assert cgroup_cpu_limit(proc) is None
-    assert usable_cores(proc) == len(os.sched_getaffinity(0))
+    assert cgroup_memory_limit(proc) is None and memory_warning(64, 4, 64, proc) is None
 
 
 def test_serve_and_the_sweep_pool_count_the_quota(monkeypatch: pytest.MonkeyPatch) -> None:
