@@ -5,7 +5,7 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed-stamp
 export HYDRODIAG_CACHE_DIR ?= $(CURDIR)/.hydrodiag-cache
 
-.PHONY: run test test-postgres lint bench accuracy pump-study trend-study load-bench console-bench screenshots real-data chaos discrepancy-study discrepancy-effects discrepancy-paper000 discrepancy-prototype diagnose-bench diagnose-ab job-stall soak clean
+.PHONY: run test test-postgres lint bench accuracy pump-study trend-study load-bench console-bench screenshots real-data chaos discrepancy-study discrepancy-effects discrepancy-paper000 discrepancy-prototype diagnose-bench diagnose-ab job-stall soak serve-memory clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -63,6 +63,10 @@ console-bench: $(STAMP)
 # how long a discrepancy run in a server thread keeps the other threads (/health) waiting
 job-stall: $(STAMP)
 	$(PY) -m benchmarks.job_stall
+
+# memory of serve's processes (PSS) with 1 and 2 workers, ready and after sweeps
+serve-memory: $(STAMP)
+	$(PY) -m benchmarks.serve_memory
 
 # screenshots of every console page, taken by the browser tests in a real Chromium
 screenshots: $(STAMP)

@@ -38,7 +38,8 @@ PROC = Path("/proc/self")
 #: memory of ``serve``'s processes, their proportional set size (shared pages split among
 #: the processes that share them) in a ready 2-worker service on the reference rig,
 #: measured 2026-12-01: the supervisor, a server worker, a diagnosis process, and a process
-#: of a worker's sweep pool after a transient sweep [MiB]
+#: of a worker's sweep pool after a transient sweep [MiB] (``make serve-memory`` prints
+#: them beside what it measures)
 SUPERVISOR_MIB = 23
 WORKER_MIB = 257
 DIAGNOSIS_MIB = 234

@@ -146,13 +146,10 @@ def serve(
     port: Annotated[int | None, typer.Option(help="TCP port [HYDRODIAG_PORT].")] = None,
 ) -> None:
     """Migrate, preload the reference rig, make the first key, then serve HTTP."""
-    import uvicorn
     from sqlalchemy.exc import DatabaseError
 
     from app.cgroup_limits import memory_warning, usable_cores
     from app.logs import configure_logging
-    from app.main import create_app
-    from app.nodelay import NoDelayHttpToolsProtocol
     from app.services.bootstrap import (
         bootstrap_lock,
         ensure_first_key,
@@ -164,7 +161,7 @@ def serve(
     from app.services.heap import limit_arenas
     from app.services.throttle_estimator import ThrottleClearanceEstimator
     from app.settings import settings_line, unknown_variables
-    from app.supervisor import CONNECTIONS_GRACE_S, exec_supervisor, supervisor_argv
+    from app.supervisor import exec_supervisor, supervisor_argv
 
     settings = _settings(host=host, port=port)
     limit_arenas()  # for every process started from here (app.services.heap)
@@ -208,20 +205,13 @@ def serve(
                       "throttle tables")
     if first_key is not None:
         _show_first_key(first_key, settings.data_dir)
-    if settings.workers > 1:  # each worker builds the app from the environment; this
-        # process becomes uvicorn's supervisor alone, without what it imported to get here
-        exec_supervisor(supervisor_argv(
-            host=settings.host, port=settings.port, workers=settings.workers,
-            log_level=settings.log_level, log_format=settings.log_format,
-            keep_alive_s=settings.keep_alive_s,
-            forwarded_allow_ips=settings.forwarded_allow_ips))
-    uvicorn.run(create_app(settings, clearance_estimator=estimator, prepare_store=False),
-                host=settings.host, port=settings.port, log_level=settings.log_level,
-                http=NoDelayHttpToolsProtocol,  # no Nagle delay on kept-alive connections
-                timeout_keep_alive=settings.keep_alive_s,
-                forwarded_allow_ips=settings.forwarded_allow_ips,
-                timeout_graceful_shutdown=CONNECTIONS_GRACE_S,
-                access_log=False)  # the service logs each request itself
+    # the server builds the app from the environment: this process becomes uvicorn's alone
+    # (app.supervisor), without what it imported and loaded to ready the store
+    exec_supervisor(supervisor_argv(
+        host=settings.host, port=settings.port, workers=settings.workers,
+        log_level=settings.log_level, log_format=settings.log_format,
+        keep_alive_s=settings.keep_alive_s,
+        forwarded_allow_ips=settings.forwarded_allow_ips))
 
 
 @keys_cli.command("create")

@@ -1,20 +1,24 @@
-"""The parent process of a multi-worker ``hydrodiag serve``: uvicorn's supervisor, alone.
+"""What ``hydrodiag serve`` becomes once the store is ready: uvicorn, alone.
 
-``serve`` readies the store (migrations, the reference rig, the first key) with the whole
-application imported, then, when it runs several server workers, replaces itself with this
-module (:func:`exec_supervisor`: ``os.execv``, the same process id, so the workers'
-lifeline and a process manager's signals reach it as before).  The workers are spawned and
-import the application themselves; the parent only starts, watches and stops them, and
-answers no request.  Kept as it was, the parent held everything ``serve`` had imported and
-loaded: 450 MB of a 2-worker service's 2.2-2.6 GB (``make soak``), against ~35 MB for
-uvicorn and the three small modules imported here (:mod:`app.logs`, :mod:`app.metrics`,
-:mod:`app.nodelay`).  A single-worker ``serve`` serves in its own process and stays as it
-is.
+``serve`` readies the store (migrations, the reference rig, the first key) with what that
+needs imported, then replaces itself with this module (:func:`exec_supervisor`:
+``os.execv``, the same process id, so the workers' lifeline and a process manager's signals
+reach it as before), which runs uvicorn on ``app.main:create_service_app``: with several
+workers as their supervisor (the workers are spawned and import the application
+themselves; the parent only starts, watches and stops them), with one in this process.
+Kept as it was, a multi-worker parent held everything ``serve`` had imported and loaded:
+450 MB of a 2-worker service's 2.2-2.6 GB (``make soak``), against ~35 MB for uvicorn and
+the three small modules imported here (:mod:`app.logs`, :mod:`app.metrics`,
+:mod:`app.nodelay`); and every process spawned below it (workers, diagnosis processes,
+sweep pools) imports its parent's main module first: the whole command line, where this
+module is light (a sweep process 149 → 115 MiB).  A single worker now also starts with
+``MALLOC_ARENA_MAX`` set (:func:`app.services.heap.limit_arenas`, before the ``exec``).
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import sys
 from collections.abc import Sequence
@@ -67,7 +71,8 @@ def main(argv: Sequence[str] | None = None) -> None:
     from app.nodelay import NoDelayHttpToolsProtocol
 
     configure_logging(cast(Literal["json", "text"], args.log_format), args.log_level)
-    with shared_metrics():  # /metrics sums every worker's counters
+    with shared_metrics() if args.workers > 1 else contextlib.nullcontext():
+        # several workers: /metrics sums every worker's counters
         uvicorn.run("app.main:create_service_app", factory=True, workers=args.workers,
                     host=args.host, port=args.port, log_level=args.log_level,
                     http=NoDelayHttpToolsProtocol,  # no Nagle delay on kept-alive

@@ -64,6 +64,7 @@ def limit_arenas() -> str:
     """Set ``MALLOC_ARENA_MAX`` to :data:`MALLOC_ARENAS` for the processes started from now
     on (server workers, diagnosis processes, the sweep pool: glibc reads it when a process
     starts), unless the environment sets it; return the value in effect.  The process that
-    calls it has its arenas already: a single-worker ``serve`` keeps glibc's default in its
-    own process (the Dockerfile sets the variable for the whole container)."""
+    calls it has its arenas already; ``serve`` calls it before it replaces itself with
+    :mod:`app.supervisor`, which starts afresh with it, one worker or several (the
+    Dockerfile sets the variable for the whole container)."""
     return os.environ.setdefault("MALLOC_ARENA_MAX", str(MALLOC_ARENAS))
