@@ -35,8 +35,10 @@ CONNECTIONS_GRACE_S = 3
 
 def supervisor_argv(*, host: str, port: int, workers: int, log_level: str,
                     log_format: str, keep_alive_s: int, forwarded_allow_ips: str) -> list[str]:
-    """The command line that runs this module with ``serve``'s settings."""
-    return [sys.executable, "-m", "app.supervisor", "--host", host, "--port", str(port),
+    """The command line that runs this module with ``serve``'s settings (``-P``: the
+    working folder is not put first on the module path, so that an ``app`` package of the
+    folder ``serve`` was started in — a common name — is not the one imported)."""
+    return [sys.executable, "-P", "-m", "app.supervisor", "--host", host, "--port", str(port),
             "--workers", str(workers), "--log-level", log_level, "--log-format", log_format,
             "--keep-alive", str(keep_alive_s), "--forwarded-allow-ips", forwarded_allow_ips]
 

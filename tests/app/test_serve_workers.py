@@ -50,9 +50,10 @@ def _alive(pid: int) -> bool:
     return fields[0] != "Z"
 
 
-def _serve(tmp_path: Path, **settings: str) -> tuple[subprocess.Popen[bytes], int]:
+def _serve(tmp_path: Path, cwd: Path | None = None, **settings: str
+           ) -> tuple[subprocess.Popen[bytes], int]:
     """``hydrodiag serve`` with 2 workers on a free port, once it is ready (``settings``:
-    more variables)."""
+    more variables); ``cwd``: started there by its console script, as a user types it."""
     with socket.socket() as sock:
         sock.bind(("127.0.0.1", 0))
         port = sock.getsockname()[1]
@@ -70,9 +71,11 @@ def _serve(tmp_path: Path, **settings: str) -> tuple[subprocess.Popen[bytes], in
     (tmp_path / "tmp").mkdir()
     env["TMPDIR"] = str(tmp_path / "tmp")  # where the metrics folder goes
     with (tmp_path / "service.log").open("w") as log:
+        command = ([sys.executable, "-m", "app.cli"] if cwd is None
+                   else [str(Path(sys.executable).with_name("hydrodiag"))])
         supervisor = subprocess.Popen(
-            [sys.executable, "-m", "app.cli", "serve", "--host", "127.0.0.1", "--port",
-             str(port)], env=env, stdout=log, stderr=log)
+            [*command, "serve", "--host", "127.0.0.1", "--port", str(port)], env=env,
+            stdout=log, stderr=log, cwd=cwd)
     deadline = time.monotonic() + STARTUP_TIMEOUT_S
     while True:
         try:
@@ -194,7 +197,12 @@ def test_metrics_sum_every_worker(tmp_path: Path) -> None:
 
 
 def test_a_killed_supervisor_takes_its_workers_with_it(tmp_path: Path) -> None:
-    supervisor, port = _serve(tmp_path)
+    # started in a folder with a package of its own named app (a common name): serve
+    # replaces itself with `python -m app.supervisor`, which must not import that one
+    (tmp_path / "project" / "app").mkdir(parents=True)
+    (tmp_path / "project" / "app" / "__init__.py").write_text(
+        "raise ImportError('the project\'s own app package, not hydrodiag\'s')\n")
+    supervisor, port = _serve(tmp_path, cwd=tmp_path / "project")
     descendants: set[int] = set()
     try:
         # a proxy on this host (the default trust) that terminated TLS: the console's cookie
