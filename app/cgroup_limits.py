@@ -6,17 +6,17 @@ core of its host (its affinity is the host's) but gets only 2 cores' worth of CP
 period: the kernel's CFS quota, ``cpu.max`` (cgroup v2: ``"200000 100000"``, quota and
 period in µs, or ``"max …"``) or ``cpu.cfs_quota_us`` / ``cpu.cfs_period_us`` (cgroup v1,
 quota −1 for none).  Counting the affinity alone, ``hydrodiag serve`` in a 2-CPU container
-on a 64-core host started 64 server workers, each with its diagnosis process and its
-sweep pool of one process per core — some 200 processes of 0.4-0.5 GB each sharing two
-cores' worth of time (an operator's pass).  :func:`usable_cores` counts both: the
+on a 64-core host started 64 server workers, each with its diagnosis process (0.2-0.3 GiB
+each), and each worker's first sweep a pool of 64 processes more, all sharing two cores'
+worth of time (a deployment pass).  :func:`usable_cores` counts both: the
 affinity, and the quota rounded down (a worker more than the quota pays for is throttled
 by the kernel for the rest of each 100 ms period, a latency spike no load test on a
 quiet machine shows), at least 1.
 
 The memory limit (``memory.max``; v1 ``memory.limit_in_bytes``) is not divided among
 workers here: :func:`memory_warning` says, when ``serve`` starts, that the processes it
-starts (and its sweeps start) need about as much as the limit or more — an out-of-memory kill of a worker
-restarts it without a word in the service's log, and of the whole container, with it.
+starts (and its sweeps start) need about as much as the limit or more — an out-of-memory
+kill of a worker said nothing in the service's log.
 
 Limits are read along the process's own control group and each of its parents, the
 smallest counting (a limit set on a parent — a Kubernetes pod's — binds its children); the
