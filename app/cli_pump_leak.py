@@ -56,7 +56,7 @@ def pump_leak_command(
              "comma-separated.")] = None,
     last: Annotated[int | None, typer.Option(
         help="Without --series: the rig's latest this many stored cycles, by clock time "
-             f"(default: every one, the latest {MAX_CYCLES} of more).")] = None,
+             f"(default: every one, the latest {MAX_CYCLES} when there are more).")] = None,
     shunt: Annotated[float | None, typer.Option(
         help=r"λ of the laminar shunt as given \[m³] (default: fitted on the cycles).")
     ] = None,

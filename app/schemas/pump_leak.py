@@ -32,8 +32,8 @@ class PumpLeakRequest(RequestModel):
         default=None, ge=2, le=MAX_CYCLES,
         description="With series_ids null, read the rig's latest this many stored cycles "
         "(by clock time, then order of import; those without a clock time count as the "
-        f"oldest); null reads every one, the latest {MAX_CYCLES} of more, said in the "
-        "answer's notes [-]", examples=[None])
+        f"oldest); null reads every one, the latest {MAX_CYCLES} when there are more, "
+        "said in the answer's notes [-]", examples=[None])
     baseline_series_ids: list[SeriesIdIn] | None = Field(
         default=None, min_length=10, max_length=MAX_CYCLES,
         description="Stored cycles of the rig known healthy (after commissioning or an "
