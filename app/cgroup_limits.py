@@ -86,14 +86,6 @@ def _levels(mount_point: str, root: str, path: str) -> list[Path]:
     return levels
 
 
-def _two_numbers(path: Path) -> tuple[str, str] | None:
-    try:
-        first, second = path.read_text().split()[:2]
-    except (OSError, ValueError):
-        return None
-    return first, second
-
-
 def _number(path: Path) -> int | None:
     try:
         return int(path.read_text())
@@ -102,14 +94,13 @@ def _number(path: Path) -> int | None:
 
 
 def _cpus_v2(folder: Path) -> float | None:
-    pair = _two_numbers(folder / "cpu.max")
-    if pair is None or pair[0] == "max":
+    try:  # "quota period", the quota "max" for none
+        quota, period = (folder / "cpu.max").read_text().split()[:2]
+        q = None if quota == "max" else int(quota)
+        p = int(period)
+    except (OSError, ValueError):
         return None
-    try:
-        q, p = int(pair[0]), int(pair[1])
-    except ValueError:
-        return None
-    return q / p if q > 0 and p > 0 else None
+    return q / p if q is not None and q > 0 and p > 0 else None
 
 
 def _cpus_v1(folder: Path) -> float | None:

@@ -26,7 +26,7 @@ import httpx
 
 from app.cgroup_limits import DIAGNOSIS_MIB, SUPERVISOR_MIB, SWEEP_MIB, WORKER_MIB
 from benchmarks.load_bench import serve
-from benchmarks.soak_probe import process_tree
+from benchmarks.soak_probe import parent_of, process_tree, role
 
 #: sweeps sent at most to get every worker's pool started [-]
 MAX_SWEEPS = 12
@@ -50,25 +50,17 @@ def pss_mib(pid: int) -> float:
 
 
 def _roles(root: int, workers: int, diagnosis: set[int]) -> dict[int, str]:
-    """Each live process of the service and its role (module docstring); ``diagnosis``:
-    the processes known to be diagnosis processes (every spawned one not a worker or a
-    tracker is a sweep process otherwise)."""
+    """Each live process of the service and its role (module docstring): the soak's
+    :func:`~benchmarks.soak_probe.role`, with one worker the supervisor being the worker
+    (its spawned processes its own), and a worker's own processes told apart by
+    ``diagnosis``, those known to be diagnosis processes (the others: sweep processes)."""
     out = {}
     for pid in process_tree(root):
-        try:
-            cmdline = Path(f"/proc/{pid}/cmdline").read_bytes()
-        except OSError:
-            continue
-        if pid == root:  # one worker: the supervisor serves
-            kind = "serve" if workers > 1 else "worker"
-        elif b"resource_tracker" in cmdline:
-            kind = "tracker"
-        elif workers > 1 and _parent(pid) == root:
-            kind = "worker"
-        elif b"spawn_main" in cmdline:
+        kind = role(pid, root)
+        if workers == 1:
+            kind = {"serve": "worker", "worker": "child"}.get(kind, kind)
+        if kind == "child":
             kind = "diagnosis" if pid in diagnosis else "sweep"
-        else:
-            kind = "other"
         out[pid] = kind
     return out
 
@@ -92,8 +84,8 @@ def _sweep_until_every_pool(base_url: str, key: str, root: int, workers: int,
 
 def _parent(pid: int) -> int:
     try:
-        return int(Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[1])
-    except OSError:
+        return parent_of(pid)
+    except (OSError, ValueError):
         return 0
 
 

@@ -10,7 +10,7 @@ import sqlite3
 from dataclasses import dataclass, field
 from pathlib import Path
 
-__all__ = ["Sample", "process_tree", "role", "sample"]
+__all__ = ["Sample", "parent_of", "process_tree", "role", "sample"]
 
 #: the tables whose rows are read at each sample
 TABLES = ("measurements", "diagnoses", "measured_series", "jobs", "api_keys",
@@ -60,6 +60,12 @@ def process_tree(root: int) -> list[int]:
     return found
 
 
+def parent_of(pid: int) -> int:
+    """The parent process id of ``pid`` (``OSError`` for one gone)."""
+    return int(Path(f"/proc/{pid}/stat").read_text(encoding="utf-8")
+               .rsplit(")", 1)[1].split()[1])
+
+
 def role(pid: int, root: int) -> str:
     """``serve`` for the supervisor, ``worker`` for a server worker, ``tracker`` for spawn's
     resource tracker, ``child`` for a worker's own processes (its diagnosis processes and
@@ -68,8 +74,7 @@ def role(pid: int, root: int) -> str:
         return "serve"
     try:
         cmdline = Path(f"/proc/{pid}/cmdline").read_bytes()
-        parent = int(Path(f"/proc/{pid}/stat").read_text(encoding="utf-8")
-                     .rsplit(")", 1)[1].split()[1])
+        parent = parent_of(pid)
     except (OSError, ValueError):
         return "other"
     if b"resource_tracker" in cmdline:
