@@ -5,7 +5,7 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed-stamp
 export HYDRODIAG_CACHE_DIR ?= $(CURDIR)/.hydrodiag-cache
 
-.PHONY: run test test-postgres lint bench accuracy pump-study trend-study load-bench console-bench screenshots real-data chaos discrepancy-study discrepancy-effects discrepancy-paper000 discrepancy-prototype diagnose-bench diagnose-ab job-stall soak serve-memory clean
+.PHONY: run test test-postgres lint bench accuracy pump-study trend-study load-bench console-bench screenshots real-data chaos discrepancy-study discrepancy-effects discrepancy-paper000 discrepancy-prototype diagnose-bench diagnose-ab history-bench job-stall soak serve-memory clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -59,6 +59,10 @@ diagnose-ab: $(STAMP)
 
 console-bench: $(STAMP)
 	$(PY) -m benchmarks.console_bench
+
+# pages, trends and a stored diagnosis with 1,000-100,000 stored diagnoses of one rig
+history-bench: $(STAMP)
+	$(PY) -m benchmarks.history_bench
 
 # how long a discrepancy run in a server thread keeps the other threads (/health) waiting
 job-stall: $(STAMP)

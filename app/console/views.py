@@ -25,7 +25,7 @@ from app.console.charts import (
 )
 from app.db.models import Diagnosis, DiagnosisEstimate, MeasuredSeries, Measurement, Rig
 from app.schemas.diagnose import MeasurementIn
-from app.services.common import get_or_raise
+from app.services.common import current_diagnoses, get_or_raise
 from app.services.measurements import to_record
 from app.services.rig_cache import RigCache
 from app.services.trends import ComponentTrendOut, component_trends
@@ -174,7 +174,7 @@ def history_page(session: Session, *, rig_id: int | None = None,
         raise InputError("the page number must be ≥ 1", field="page")
     if since is not None and until is not None and since > until:
         raise InputError("'since' must not be after 'until'", field="since")
-    conditions: list[ColumnElement[bool]] = [Diagnosis.superseded_by.is_(None)]  # current
+    conditions: list[ColumnElement[bool]] = [current_diagnoses()]
     if rig_id is not None:
         conditions.append(Measurement.rig_id == rig_id)
     if since is not None:

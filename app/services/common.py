@@ -5,14 +5,16 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any, TypeVar
 
-from sqlalchemy import Select, func, select, update
+from sqlalchemy import ColumnElement, Select, func, select, update
 from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import InstrumentedAttribute, Session
 
+from app.db.models import Diagnosis
 from app.services.idempotent_work import mark_stored
 from sim.errors import ConflictError, NotFoundError
 
-__all__ = ["commit", "flush", "get_or_raise", "lock_row", "paginate", "prefixed"]
+__all__ = ["commit", "current_diagnoses", "flush", "get_or_raise", "lock_row", "paginate",
+           "prefixed"]
 
 T = TypeVar("T")
 
@@ -31,6 +33,19 @@ def get_or_raise(session: Session, model: type[T], ident: Any, *, what: str, fie
     if row is None:
         raise NotFoundError(f"no {what} with id {ident}", field=field)
     return row
+
+
+def current_diagnoses() -> ColumnElement[bool]:
+    """The diagnoses a re-diagnosis has not replaced (``superseded_by`` null).
+
+    Written ``coalesce(superseded_by, 0) = 0``, which no index serves: with ``superseded_by
+    IS NULL`` SQLite (without statistics, as a store is) walked the index on
+    ``superseded_by``, where nearly every row is current, and sorted all of a rig's
+    diagnoses to return one page — 1.1 s for the first 50 of 100,000 — where the records'
+    (rig, time) index gives the page in time order (0.2 ms; a store-scale pass,
+    ``make history-bench``).
+    """
+    return func.coalesce(Diagnosis.superseded_by, 0) == 0
 
 
 def paginate(

@@ -25,7 +25,7 @@ from app.db.models import (
     RigVersion,
 )
 from app.schemas.times import iso_utc
-from app.services.common import commit
+from app.services.common import commit, current_diagnoses
 from app.services.rigs import get_rig, get_version
 from sim.errors import ConflictError, InputError
 
@@ -321,7 +321,7 @@ def component_history(
         .join(Measurement, Diagnosis.measurement_id == Measurement.id)
         .join(RigVersion, Diagnosis.rig_version_id == RigVersion.id)
         .where(Measurement.rig_id == rig_id, DiagnosisEstimate.component == component,
-               Diagnosis.superseded_by.is_(None))
+               current_diagnoses())
         .order_by(Measurement.measured_at, Diagnosis.id)
     )
     if since is not None:

@@ -15,7 +15,7 @@ from app.schemas.history import (
     StoredEstimatePublic,
     StoredMeasurementPublic,
 )
-from app.services.common import commit, get_or_raise
+from app.services.common import commit, current_diagnoses, get_or_raise
 from app.services.diagnosis_response import compact_result
 from sim.errors import InputError, NotFoundError
 
@@ -31,10 +31,19 @@ def _window(since: datetime | None, until: datetime | None) -> None:
         raise InputError("`until` is before `since`", field="until")
 
 
-def _page(session: Session, statement: Select[Any], *, limit: int, offset: int,
-          order: Sequence[Any]) -> tuple[list[Any], int]:
-    total = session.scalar(select(func.count()).select_from(statement.subquery()))
-    rows = session.scalars(statement.order_by(*order).limit(limit).offset(offset)).all()
+def _page(session: Session, whole: Select[Any], conditions: Sequence[Any], key: Any, *,
+          limit: int, offset: int, order: Sequence[Any]) -> tuple[list[Any], int]:
+    """One page of ``whole``'s rows that meet ``conditions``, in ``order``, and their total.
+    The page's ids (``key``) are found and counted on the ids alone, and then only the
+    page's rows are read, by id: ordering the whole rows sorted every stored record and
+    result with them (a history of 100,000 diagnoses, ~14 kB each: 1.1 s for the first
+    page; a store-scale pass, ``make history-bench``)."""
+    ids = whole.with_only_columns(key).where(*conditions)
+    total = session.scalar(select(func.count()).select_from(ids.subquery()))
+    page = session.scalars(ids.order_by(*order).limit(limit).offset(offset)).all()
+    if not page:
+        return [], int(total or 0)
+    rows = session.scalars(whole.where(key.in_(page)).order_by(*order)).all()
     return list(rows), int(total or 0)
 
 
@@ -51,18 +60,19 @@ def list_measurements(session: Session, *, limit: int, offset: int, rig_id: int 
     stored after record ``after_id``, in storing order), and their total."""
     _window(since, until)
     _cursor(after_id, offset)
-    statement = select(Measurement).options(
+    whole = select(Measurement).options(
         selectinload(Measurement.diagnosed_in).load_only(Diagnosis.id))
+    conditions: list[Any] = []
     if rig_id is not None:
-        statement = statement.where(Measurement.rig_id == rig_id)
+        conditions.append(Measurement.rig_id == rig_id)
     if since is not None:
-        statement = statement.where(Measurement.measured_at >= since)
+        conditions.append(Measurement.measured_at >= since)
     if until is not None:
-        statement = statement.where(Measurement.measured_at <= until)
+        conditions.append(Measurement.measured_at <= until)
     if after_id is not None:
-        return _page(session, statement.where(Measurement.id > after_id), limit=limit,
-                     offset=0, order=(Measurement.id.asc(),))
-    return _page(session, statement, limit=limit, offset=offset,
+        return _page(session, whole, [*conditions, Measurement.id > after_id], Measurement.id,
+                     limit=limit, offset=0, order=(Measurement.id.asc(),))
+    return _page(session, whole, conditions, Measurement.id, limit=limit, offset=offset,
                  order=(Measurement.measured_at.desc(), Measurement.id.desc()))
 
 
@@ -111,29 +121,28 @@ def list_diagnoses(session: Session, *, limit: int, offset: int, rig_id: int | N
     # the record and the rig version from the page's own statement: read by statements of
     # their own, a delete between them left ``measurement`` None and the page a 500 (179
     # of them in 15 rounds of deletes: a verification pass)
-    statement = (select(Diagnosis).join(Diagnosis.measurement)
-                 .options(selectinload(Diagnosis.estimates),
-                          contains_eager(Diagnosis.measurement),
-                          selectinload(Diagnosis.records).load_only(Measurement.id),
-                          joinedload(Diagnosis.rig_version).load_only(RigVersion.version)))
-    if not superseded:
-        statement = statement.where(Diagnosis.superseded_by.is_(None))
+    whole = (select(Diagnosis).join(Diagnosis.measurement)
+             .options(selectinload(Diagnosis.estimates),
+                      contains_eager(Diagnosis.measurement),
+                      selectinload(Diagnosis.records).load_only(Measurement.id),
+                      joinedload(Diagnosis.rig_version).load_only(RigVersion.version)))
+    conditions: list[Any] = [] if superseded else [current_diagnoses()]
     if rig_id is not None:
-        statement = statement.where(Measurement.rig_id == rig_id)
+        conditions.append(Measurement.rig_id == rig_id)
     if since is not None:
-        statement = statement.where(Measurement.measured_at >= since)
+        conditions.append(Measurement.measured_at >= since)
     if until is not None:
-        statement = statement.where(Measurement.measured_at <= until)
+        conditions.append(Measurement.measured_at <= until)
     if component is not None:  # a component alone also finds the pairs that blame it
         blamed = Diagnosis.component == component
         if "+" not in component and component not in ("healthy", "unexplained"):
             blamed = or_(blamed, Diagnosis.component.like(f"{component}+%"),
                          Diagnosis.component.like(f"%+{component}"))
-        statement = statement.where(blamed)
+        conditions.append(blamed)
     if after_id is not None:
-        return _page(session, statement.where(Diagnosis.id > after_id), limit=limit,
-                     offset=0, order=(Diagnosis.id.asc(),))
-    return _page(session, statement, limit=limit, offset=offset,
+        return _page(session, whole, [*conditions, Diagnosis.id > after_id], Diagnosis.id,
+                     limit=limit, offset=0, order=(Diagnosis.id.asc(),))
+    return _page(session, whole, conditions, Diagnosis.id, limit=limit, offset=offset,
                  order=(Measurement.measured_at.desc(), Diagnosis.id.desc()))
 
 

@@ -36,6 +36,7 @@ from sqlalchemy.orm import Session, selectinload
 from app.db.engine import SessionFactory
 from app.db.models import Diagnosis, Measurement, RigVersion
 from app.schemas.diagnose import MeasurementIn
+from app.services.common import current_diagnoses
 from app.services.diagnosis import GroupResult, compute_group
 from app.services.history import estimate_row
 from app.services.measurements import to_record
@@ -92,7 +93,7 @@ def _versions_present(session: Session, rig_id: int) -> set[int]:
     rows = session.scalars(
         select(RigVersion.version).distinct()
         .join(Diagnosis, Diagnosis.rig_version_id == RigVersion.id)
-        .where(RigVersion.rig_id == rig_id, Diagnosis.superseded_by.is_(None)))
+        .where(RigVersion.rig_id == rig_id, current_diagnoses()))
     return set(rows)
 
 
@@ -140,7 +141,7 @@ def plan_rediagnosis(session: Session, rigs: RigCache, rig_id: int,
     if not chosen:
         return RediagnosisPlan(resolved, (), ())
     where = (RigVersion.rig_id == rig_id, RigVersion.version.in_(chosen),
-             Diagnosis.superseded_by.is_(None))
+             current_diagnoses())
     total = session.scalar(select(func.count()).select_from(Diagnosis).join(
         RigVersion, Diagnosis.rig_version_id == RigVersion.id).where(*where)) or 0
     rows = session.scalars(
@@ -197,7 +198,7 @@ def _store(session: Session, plan: RediagnosisPlan, stale: StaleDiagnosis,
     commit); ``None`` when the old one is no longer current (another run took it, or its
     records were deleted)."""
     current = session.scalar(select(Diagnosis.id).where(
-        Diagnosis.id == stale.diagnosis_id, Diagnosis.superseded_by.is_(None)))
+        Diagnosis.id == stale.diagnosis_id, current_diagnoses()))
     if current is None:
         return None
     measurements = {m.id: m for m in session.scalars(
@@ -216,7 +217,7 @@ def _store(session: Session, plan: RediagnosisPlan, stale: StaleDiagnosis,
     session.flush()
     marked = session.execute(
         update(Diagnosis).where(Diagnosis.id == stale.diagnosis_id,
-                                Diagnosis.superseded_by.is_(None))
+                                current_diagnoses())
         .values(superseded_by=new.id).execution_options(synchronize_session=False))
     if getattr(marked, "rowcount", 1) != 1:  # taken meanwhile by another run
         session.delete(new)

@@ -24,6 +24,7 @@ from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
 from app.db.models import Diagnosis, DiagnosisEstimate, Measurement, RigVersion
+from app.services.common import current_diagnoses
 from app.services.diagnosis import UNEXPLAINED
 from app.services.history import HistoryPoint, component_history
 from app.services.rig_cache import ResolvedRig, RigCache
@@ -269,7 +270,7 @@ def component_trends(
             select(DiagnosisEstimate.component).distinct()
             .join(Diagnosis, DiagnosisEstimate.diagnosis_id == Diagnosis.id)
             .join(Measurement, Diagnosis.measurement_id == Measurement.id)
-            .where(Measurement.rig_id == rig_id, Diagnosis.superseded_by.is_(None))
+            .where(Measurement.rig_id == rig_id, current_diagnoses())
         ).all()
         names = [c for c in COMPONENTS if c in set(present)]
     histories = {name: component_history(session, rig_id, name, since=since, until=until)
@@ -280,7 +281,7 @@ def component_trends(
     diagnosed = set(session.scalars(
         select(RigVersion.version).distinct()
         .join(Diagnosis, Diagnosis.rig_version_id == RigVersion.id)
-        .where(RigVersion.rig_id == rig_id, Diagnosis.superseded_by.is_(None))))
+        .where(RigVersion.rig_id == rig_id, current_diagnoses())))
     comparable = comparable_versions(session, resolved, diagnosed | {
         h.rig_version for hs in histories.values() for h in hs})
     same = sorted(v for v, ok in comparable.items() if ok)
@@ -361,7 +362,7 @@ def _later(session: Session, rig_id: int, after: datetime, until: datetime | Non
     ``until``), when the last of those records was taken, and what they named (component
     or verdict → count)."""
     where = [Measurement.rig_id == rig_id, Measurement.measured_at > after,
-             Diagnosis.superseded_by.is_(None), RigVersion.rig_id == rig_id,
+             current_diagnoses(), RigVersion.rig_id == rig_id,
              RigVersion.version.in_(list(versions))]
     if until is not None:
         where.append(Measurement.measured_at <= until)
