@@ -15,7 +15,10 @@ about the size ratio for one that reads it all).  Target: a page of the history 
 console) ≤ 300 ms at every size, as ``make console-bench`` asks of every console page; the
 trends, which fit every point, are reported against the same figure.
 
-``HYDRODIAG_LIGHT=1``: 1,000 and 10,000 diagnoses, 3 repeats.  Last line: one JSON object.
+``HYDRODIAG_LIGHT=1``: 1,000 and 10,000 diagnoses, 3 repeats.
+``HYDRODIAG_BENCH_POSTGRES_URL=postgresql+psycopg://USER@HOST:PORT/DB``: the stores on that
+PostgreSQL server instead, a new database for each size (its user may create databases;
+each is dropped after).  Last line: one JSON object.
 """
 
 from __future__ import annotations
@@ -26,11 +29,14 @@ import statistics
 import tempfile
 import time
 import warnings
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from datetime import UTC, datetime, timedelta
 from pathlib import Path
 from typing import Any
 
 LIGHT = os.environ.get("HYDRODIAG_LIGHT") == "1"
+POSTGRES = os.environ.get("HYDRODIAG_BENCH_POSTGRES_URL") or None
 SIZES = (1_000, 10_000) if LIGHT else (1_000, 10_000, 100_000)
 N_REAL = 5
 REPEATS = 3 if LIGHT else 5
@@ -84,7 +90,7 @@ def _real(client: Any) -> list[int]:
 def _fill(app: Any, real: list[int], size: int) -> tuple[int, dict[str, Any]]:
     """Repeat the real diagnoses' rows up to ``size`` diagnoses; the last diagnosis's id
     and a stored record to post again at a new time."""
-    from sqlalchemy import func, insert, select
+    from sqlalchemy import func, insert, select, text
 
     from app.db.models import Diagnosis, DiagnosisEstimate, DiagnosisRecord, Measurement
 
@@ -119,10 +125,15 @@ def _fill(app: Any, real: list[int], size: int) -> tuple[int, dict[str, Any]]:
                                       "component": c, "probability": p,
                                       "clearance_m": clearance, "slip_coefficient": slip,
                                       "low": low, "high": high})
-            session.execute(insert(Measurement.__table__), records)
-            session.execute(insert(Diagnosis.__table__), diagnoses)
-            session.execute(insert(DiagnosisRecord.__table__), links)
-            session.execute(insert(DiagnosisEstimate.__table__), estimates)
+            session.execute(insert(Measurement), records)
+            session.execute(insert(Diagnosis), diagnoses)
+            session.execute(insert(DiagnosisRecord), links)
+            session.execute(insert(DiagnosisEstimate), estimates)
+            session.commit()
+        if session.get_bind().dialect.name == "postgresql":   # ids written, not drawn
+            for table in ("measurements", "diagnoses", "diagnosis_estimates"):
+                session.execute(text(f"SELECT setval(pg_get_serial_sequence('{table}', 'id'), "
+                                     f"(SELECT max(id) FROM {table}))"))
             session.commit()
         return diagnosis_id, dict(template[0][0])
 
@@ -137,6 +148,33 @@ def _median_ms(client: Any, method: str, url: str, body: Any = None) -> float:
     return statistics.median(times)
 
 
+@contextmanager
+def _store(folder: str, size: int) -> Iterator[tuple[str | None, Callable[[], float]]]:
+    """The database URL of a fresh store (``None``: SQLite in ``folder``) and a function
+    that gives its size [MiB]."""
+    if POSTGRES is None:
+        yield None, lambda: sum(p.stat().st_size for p in Path(folder).glob("*.db*")) / 2**20
+        return
+    from sqlalchemy import create_engine, text
+    from sqlalchemy.engine import make_url
+
+    name = f"history_bench_{size}_{os.getpid()}"
+    server = create_engine(make_url(POSTGRES), isolation_level="AUTOCOMMIT")
+    try:
+        with server.connect() as connection:
+            connection.execute(text(f'CREATE DATABASE "{name}"'))
+
+        def mib() -> float:
+            with server.connect() as connection:
+                return float(connection.execute(text(
+                    "SELECT pg_database_size(:name)"), {"name": name}).scalar_one()) / 2**20
+        yield make_url(POSTGRES).set(database=name).render_as_string(hide_password=False), mib
+    finally:
+        with server.connect() as connection:
+            connection.execute(text(f'DROP DATABASE IF EXISTS "{name}" WITH (FORCE)'))
+        server.dispose()
+
+
 def _one_size(size: int) -> dict[str, Any]:
     from fastapi.testclient import TestClient
 
@@ -145,8 +183,9 @@ def _one_size(size: int) -> dict[str, Any]:
     from app.services.keys import create_api_key
     from app.settings import Settings
 
-    with tempfile.TemporaryDirectory(prefix="hydrodiag-history-bench-") as folder:
-        app = create_app(Settings(data_dir=Path(folder)))
+    with tempfile.TemporaryDirectory(prefix="hydrodiag-history-bench-") as folder, \
+            _store(folder, size) as (url, store_mib):
+        app = create_app(Settings(data_dir=Path(folder), database_url=url))
         with TestClient(app) as client:
             with app.state.sessions() as session:
                 key = create_api_key(session, "history-bench")[1]
@@ -154,7 +193,7 @@ def _one_size(size: int) -> dict[str, Any]:
             t0 = time.perf_counter()
             last, record = _fill(app, _real(client), size)
             fill_s = time.perf_counter() - t0
-            store_mib = sum(p.stat().st_size for p in Path(folder).glob("*.db*")) / 2**20
+            mib = store_mib()
             assert client.post("/console/login", data={"api_key": key, "next": ""},
                                follow_redirects=False).status_code == 303
             values = {"deep": max(size - 50, 0), "cursor": max(last - 50, 0), "last": last,
@@ -174,7 +213,7 @@ def _one_size(size: int) -> dict[str, Any]:
                 times.append((time.perf_counter() - t1) * 1e3)
                 assert response.status_code == 200, response.text[-300:]
             reads[STORED] = statistics.median(times[1:])
-    return {"diagnoses": size, "fill_s": round(fill_s, 1), "store_mib": round(store_mib, 1),
+    return {"diagnoses": size, "fill_s": round(fill_s, 1), "store_mib": round(mib, 1),
             "ms": {k: round(v, 1) for k, v in reads.items()}}
 
 
@@ -189,6 +228,7 @@ def run() -> dict[str, Any]:
     trends = [n for n in READS if "trends" in n]
     return {
         "benchmark": "history_reads", "light": LIGHT, "sizes": list(SIZES),
+        "store": "postgresql" if POSTGRES else "sqlite",
         "repeats": REPEATS, "runs": runs,
         "ratio_to_health_at_largest": {
             n: round(largest[n] / largest["GET /health"], 1) for n in names},
@@ -204,7 +244,8 @@ def run() -> dict[str, Any]:
 def _table(result: dict[str, Any]) -> str:
     sizes = result["sizes"]
     head = "".join(f"{f'{s:,} [ms]':>16}" for s in sizes)
-    lines = [f"history reads, rig 1, median of {result['repeats']} (in process, SQLite)",
+    lines = [f"history reads, rig 1, median of {result['repeats']} (in process, "
+             f"{'PostgreSQL' if result['store'] == 'postgresql' else 'SQLite'})",
              f"{'read':<38}{head}{'× /health':>11}{'growth':>8}{'≤ 300 ms':>10}"]
     pages = {n for n, (_, page) in READS.items() if page}
     for name in result["runs"][0]["ms"]:
