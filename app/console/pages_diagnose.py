@@ -149,8 +149,7 @@ def parse_records(text: str, content: bytes | None, lines: list[int] | None = No
 
 def _form(request: Request, session: Any, *, status_code: int = 200, text: str = "",
           error: dict[str, Any] | None = None) -> Response:
-    rows, _ = rig_service.list_rigs(session, limit=500, offset=0)
-    rows = [(r, v) for r, v in rows if rig_service.has_cycle(v)]  # what can be diagnosed
+    rows = [r for r in rig_service.rig_choices(session)[0] if r.cycle]  # can be diagnosed
     return page(request, "diagnose.html", status_code=status_code, rigs=rows, text=text,
                 error=error)
 
@@ -270,7 +269,7 @@ def history(request: Request, session: SessionDep, _key: ConsoleKeyDep,
     A filter that cannot be read (a time without its zone, ``since`` after ``until``) is
     named above the form, which keeps what was typed (422), instead of replacing the page.
     """
-    rows, _ = rig_service.list_rigs(session, limit=500, offset=0)
+    rows, _ = rig_service.rig_choices(session)
     try:
         rig_id, start, end = _rig(rig), _time(since, "since"), _time(until, "until")
         if rig_id is not None:  # an unknown rig is a 404, as on the series and trends pages
@@ -294,7 +293,7 @@ def trends(request: Request, session: SessionDep, rigs: RigsDep, _key: ConsoleKe
            until: Annotated[str, Query(max_length=64)] = "") -> Response:
     """Per component: estimates over time, Theil–Sen line and band, threshold, time left
     (a filter that cannot be read is named above the form, as on the history page)."""
-    rows, _ = rig_service.list_rigs(session, limit=500, offset=0)
+    rows, _ = rig_service.rig_choices(session)
     try:
         start, end = _time(since, "since"), _time(until, "until")
         views = trend_views(session, rigs, rig, since=start, until=end)

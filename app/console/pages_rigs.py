@@ -107,11 +107,21 @@ def home(_key: ConsoleKeyDep) -> Response:
     return redirect("/console/rigs")
 
 
+#: Rigs listed on one page of the rigs page [-].
+RIGS_PAGE = 500
+
+
 @router.get("/rigs")
-def rigs(request: Request, session: SessionDep, _key: ConsoleKeyDep) -> Response:
-    """Every rig with its latest version."""
-    rows, total = rig_service.list_rigs(session, limit=500, offset=0)
-    return page(request, "rigs.html", rows=rows, total=total)
+def rigs(request: Request, session: SessionDep, _key: ConsoleKeyDep,
+         offset: Annotated[int, Query(ge=0, le=MAX_ID)] = 0) -> Response:
+    """The rigs with their latest version, :data:`RIGS_PAGE` a page (a fleet's rigs past
+    the first 500 were counted and not listed)."""
+    rows, total = rig_service.rig_choices(session, limit=RIGS_PAGE, offset=offset)
+    if not rows and total:  # past the last page: the last page, as the history's
+        offset = (total - 1) // RIGS_PAGE * RIGS_PAGE
+        rows, total = rig_service.rig_choices(session, limit=RIGS_PAGE, offset=offset)
+    return page(request, "rigs.html", rows=rows, total=total, offset=offset,
+                page_size=RIGS_PAGE)
 
 
 def _parameters(document: dict[str, Any]) -> list[dict[str, Any]]:

@@ -52,13 +52,13 @@ PAGE = 100
 def _list(request: Request, session: Any, rig: int | None, offset: int,
           error: dict[str, Any] | None = None, status_code: int = 200,
           entered: dict[str, str] | None = None) -> Response:
-    rigs, _ = rig_service.list_rigs(session, limit=500, offset=0)
-    chosen = rig if rig is not None else (rigs[0][0].id if rigs else None)
+    rigs, _ = rig_service.rig_choices(session)
+    chosen = rig if rig is not None else (rigs[0].id if rigs else None)
     items, total = (series_service.list_series(session, chosen, limit=PAGE, offset=offset)
                     if chosen is not None else ([], 0))
     jobs, _ = job_service.list_jobs(session, limit=20, offset=0, kind="discrepancy")
     mine = [j for j in jobs if (j.params or {}).get("rig_id") == chosen]
-    cycle = next((rig_service.has_cycle(v) for r, v in rigs if r.id == chosen), True)
+    cycle = next((r.cycle for r in rigs if r.id == chosen), True)
     return page(request, "series.html", status_code=status_code, rigs=rigs, rig=chosen,
                 items=items, total=total, offset=offset, page_size=PAGE, jobs=mine,
                 error=error, cycle=cycle, relaxation=ZEMA_RELAXATION, entered=entered)

@@ -63,8 +63,7 @@ def simulate_page(request: Request, session: SessionDep, rigs: RigsDep, _key: Co
                   back_pressure: Annotated[str, Query(max_length=40)] = "",
                   run: Annotated[bool, Query()] = False) -> Response:
     """The form; with ``run``, the cycle of the scenario against the healthy rig."""
-    rows, _ = rig_service.list_rigs(session, limit=500, offset=0)
-    rows = [(r, v) for r, v in rows if rig_service.has_cycle(v)]  # what can be simulated
+    rows = [r for r in rig_service.rig_choices(session)[0] if r.cycle]  # can be simulated
     form = {"rig": rig, "fault": fault, "load": load, "oil_temperature": oil_temperature,
             "back_pressure": back_pressure}
     context: dict[str, Any] = {"rigs": rows, "faults": FAULTS, "form": form, "charts": [],
