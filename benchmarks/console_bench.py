@@ -51,26 +51,11 @@ def _fill(app: Any, client: Any, key: str) -> int:
     """Store N_DIAGNOSES diagnoses of rig 1; return the last one's id."""
     from app.db.models import Diagnosis
     from app.services.history import ComponentEstimate, add_diagnosis
+    from benchmarks.wearing_valve import diagnose_wearing_valve
 
     start = datetime(2026, 1, 1, 8, tzinfo=UTC)
-    real = []
-    for i in range(N_REAL):
-        cv = 34e-6 + 26e-6 * i / (N_REAL - 1)
-        answer = client.post("/simulate", json={
-            "rig_id": 1, "overrides": {"valve.cv": cv}, "method": "steady",
-            "condition": {"load": 2100.0, "oil_temperature": 40.0}})
-        assert answer.status_code == 200, answer.text
-        s = answer.json()["summary"]
-        record = {"rig_id": 1, "condition": {"oil_temperature": 40.0, "load_force": 2100.0},
-                  "pump_pressure": s["working.P_pump [Pa]"], "p1": s["working.P1 [Pa]"],
-                  "p2": s["working.P2 [Pa]"], "flow_B": s["working.Q_meter_B [m^3/s]"],
-                  "flow_C": s["working.Q_meter_C [m^3/s]"],
-                  "speed_work": s["working.speed [m/s]"],
-                  "speed_return": s["return.speed [m/s]"],
-                  "measured_at": (start + timedelta(days=i)).isoformat()}
-        answer = client.post("/diagnose", json={"record": record}, headers={"X-API-Key": key})
-        assert answer.status_code == 200, answer.text
-        real.append(answer.json()["diagnoses"][0]["id"])
+    real = diagnose_wearing_valve(client, [start + timedelta(days=i) for i in range(N_REAL)],
+                                  headers={"X-API-Key": key})
     with app.state.sessions() as session:
         rows = [session.get(Diagnosis, i) for i in real]
         for n in range(N_REAL, N_DIAGNOSES):

@@ -64,29 +64,6 @@ READS: dict[str, tuple[str, bool]] = {
 STORED = "POST /diagnose (stored)"
 
 
-def _real(client: Any) -> list[int]:
-    """N_REAL diagnoses made for real; their ids."""
-    ids = []
-    for i in range(N_REAL):
-        cv = 34e-6 + 26e-6 * i / (N_REAL - 1)
-        answer = client.post("/simulate", json={
-            "rig_id": 1, "overrides": {"valve.cv": cv}, "method": "steady",
-            "condition": {"load": 2100.0, "oil_temperature": 40.0}})
-        assert answer.status_code == 200, answer.text
-        s = answer.json()["summary"]
-        record = {"rig_id": 1, "condition": {"oil_temperature": 40.0, "load_force": 2100.0},
-                  "pump_pressure": s["working.P_pump [Pa]"], "p1": s["working.P1 [Pa]"],
-                  "p2": s["working.P2 [Pa]"], "flow_B": s["working.Q_meter_B [m^3/s]"],
-                  "flow_C": s["working.Q_meter_C [m^3/s]"],
-                  "speed_work": s["working.speed [m/s]"],
-                  "speed_return": s["return.speed [m/s]"],
-                  "measured_at": (START + SPACING * i).isoformat()}
-        answer = client.post("/diagnose", json={"record": record})
-        assert answer.status_code == 200, answer.text
-        ids.append(int(answer.json()["diagnoses"][0]["id"]))
-    return ids
-
-
 def _fill(app: Any, real: list[int], size: int) -> tuple[int, dict[str, Any]]:
     """Repeat the real diagnoses' rows up to ``size`` diagnoses; the last diagnosis's id
     and a stored record to post again at a new time."""
@@ -182,6 +159,7 @@ def _one_size(size: int) -> dict[str, Any]:
     from app.main import create_app
     from app.services.keys import create_api_key
     from app.settings import Settings
+    from benchmarks.wearing_valve import diagnose_wearing_valve
 
     with tempfile.TemporaryDirectory(prefix="hydrodiag-history-bench-") as folder, \
             _store(folder, size) as (url, store_mib):
@@ -191,7 +169,8 @@ def _one_size(size: int) -> dict[str, Any]:
                 key = create_api_key(session, "history-bench")[1]
             client.headers["X-API-Key"] = key
             t0 = time.perf_counter()
-            last, record = _fill(app, _real(client), size)
+            real = diagnose_wearing_valve(client, [START + SPACING * i for i in range(N_REAL)])
+            last, record = _fill(app, real, size)
             fill_s = time.perf_counter() - t0
             mib = store_mib()
             assert client.post("/console/login", data={"api_key": key, "next": ""},
