@@ -9,7 +9,6 @@ document: 520 through ``POST /rigs`` would take minutes).
 from __future__ import annotations
 
 import re
-import warnings
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -18,10 +17,13 @@ import pytest
 
 FLEET = 520
 
+#: the in-process client (the other console tests use a live server): starlette's test
+#: client warns that it will want httpx2
+pytestmark = pytest.mark.filterwarnings("ignore:Using `httpx` with `starlette.testclient`")
+
 
 @pytest.fixture(scope="module")
 def console(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Any]:
-    warnings.simplefilter("ignore", DeprecationWarning)
     from fastapi.testclient import TestClient
     from sqlalchemy import insert, select
 
